@@ -1,0 +1,38 @@
+"""The simulated machine's clock.
+
+Every simulated endpoint (motion model, gauges, thermal drift) reads one clock so
+they agree on what "now" is. ``speed`` > 1 runs simulated physics faster than
+real time (moves and settling finish sooner) while bytes on the wire keep their
+real timing.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+
+
+class SimClock:
+    """Simulated seconds since start, advancing ``speed`` times faster than real time."""
+
+    def __init__(self, speed: float = 1.0) -> None:
+        if speed <= 0:
+            raise ValueError(f"clock speed must be positive, got {speed}")
+        self.speed = speed
+        self._real_start = time.monotonic()
+        self._lock = threading.Lock()
+        self._extra_s = 0.0
+
+    def now(self) -> float:
+        """Simulated seconds since the clock started."""
+        with self._lock:
+            return (time.monotonic() - self._real_start) * self.speed + self._extra_s
+
+    def advance(self, seconds: float) -> None:
+        """Jump simulated time forward (tests use it to skip waits without sleeping)."""
+        with self._lock:
+            self._extra_s += seconds
+
+    def real_seconds(self, sim_seconds: float) -> float:
+        """How long in real time a span of simulated time takes."""
+        return sim_seconds / self.speed

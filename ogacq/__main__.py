@@ -1,0 +1,5 @@
+import sys
+
+from ogacq.cli.app import main
+
+sys.exit(main())

@@ -1,0 +1,73 @@
+"""The ``ogacq`` command: one typer app, errors turned into one line and exit 2."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ogacq import __version__
+from ogacq.io.errors import InputError
+
+app = typer.Typer(add_completion=False, no_args_is_help=True,
+                  help="Acquisition and calibration for Orthoglide-type parallel machines.")
+
+MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+class UserError(Exception):
+    """A problem the user can fix, reported in one line with exit code 2."""
+
+
+def fail(message: str) -> None:
+    typer.echo(f"ogacq: error: {message}", err=True)
+    raise typer.Exit(2)
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"ogacq {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
+                                                is_eager=True, help="Show the version.")]
+          = False) -> None:
+    pass
+
+
+def _register() -> None:
+    from ogacq.cli import plan_cmd, refit_cmd  # noqa: F401  (commands attach to app)
+
+
+def main(argv: list[str] | None = None) -> int:
+    _register()
+    try:
+        app(args=argv, prog_name="ogacq", standalone_mode=False)
+    except (InputError, UserError) as exc:
+        typer.echo(f"ogacq: error: {exc}", err=True)
+        return 2
+    except typer.Exit as exc:
+        return exc.exit_code
+    except typer.Abort:
+        typer.echo("ogacq: aborted", err=True)
+        return 130
+    except KeyboardInterrupt:
+        typer.echo("ogacq: interrupted", err=True)
+        return 130
+    except Exception as exc:  # click's usage errors arrive here in non-standalone mode
+        from click import ClickException
+
+        if isinstance(exc, ClickException):
+            exc.show()
+            return exc.exit_code
+        raise
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

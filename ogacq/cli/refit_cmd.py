@@ -1,0 +1,65 @@
+"""``ogacq refit``: identify parameters from a saved file (INTERCHANGE.md)."""
+
+from __future__ import annotations
+
+import json
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ogacq.cli.app import JsonOption, MachineOption, UserError, app
+from ogacq.identify.fit import fit
+from ogacq.io.loading import load_observations
+from ogacq.io.machine_file import read_machine
+from ogacq.model.parameters import PARAM_SETS
+
+
+class ParamSet(StrEnum):
+    offsets = "offsets"
+    lengths = "lengths"
+    both = "both"
+
+
+class Method(StrEnum):
+    auto = "auto"
+    linear = "linear"
+    exact = "exact"
+
+
+class Weighting(StrEnum):
+    ols = "ols"
+    gls = "gls"
+
+
+@app.command()
+def refit(
+    file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
+    machine: MachineOption,
+    params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
+    = ParamSet.offsets,
+    method: Annotated[Method, typer.Option(
+        help="linear: the papers' eq. 11; exact: nonlinear fit of the exact model. "
+             "auto: linear for tabulated deviations, exact for readings.")] = Method.auto,
+    weighting: Annotated[Weighting, typer.Option(
+        help="ols (the papers') or gls with the deviations' covariance (eq. 13-14).")]
+    = Weighting.ols,
+    as_json: JsonOption = False,
+) -> None:
+    """Identify joint offsets and/or leg lengths from recorded data."""
+    spec = read_machine(machine)
+    obs = load_observations(file, spec)
+    chosen = method.value
+    if chosen == "auto":
+        chosen = "linear" if obs.kind == "deviations" else "exact"
+    result = fit(obs, PARAM_SETS[params.value], method=chosen, weighting=weighting.value)
+    if not result.converged:
+        raise UserError(f"{file}: the {chosen} fit did not converge in {result.iterations} "
+                        "iterations; try --method linear or check the data")
+    if as_json:
+        typer.echo(json.dumps(result.to_json(params.value)))
+        return
+    from ogacq.cli.render import print_fit
+
+    print_fit(result, params.value)

@@ -1,0 +1,257 @@
+"""Fitting parameters of the exact model to observations, in batches.
+
+One routine serves a single refit and a Monte-Carlo of ten thousand: the
+parameters of every trial move together, the finite-difference Jacobian of all
+trials and all parameters comes from one call of the vectorised forward model,
+and the Gauss-Newton normal equations are solved as a stack.
+
+Weighting: ordinary least squares (the papers') or generalised least squares
+with the deviations' own covariance (eq. 13-14), which is the better estimator
+when Zero readings are shared. Raw readings are independent, so both coincide.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ogacq.identify.identifiability import RANK_TOLERANCE, Identifiability, assess
+from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
+from ogacq.identify.noise import NoiseEstimate, noise_for
+from ogacq.identify.observations import Observations
+from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, indices, nested
+
+MAX_ITERATIONS = 30
+# Steps below this (relative to each parameter's plausible range) are finite-
+# difference noise: the fit has converged.
+STEP_TOLERANCE = 1e-8
+
+
+def _ranges(free: np.ndarray) -> np.ndarray:
+    return np.array([effect_of(PARAM_NAMES[k]).plausible_range for k in free])
+
+
+def _fd_steps(free: np.ndarray) -> np.ndarray:
+    return _ranges(free) * 1e-6
+
+
+def jacobian(obs: Observations, theta: np.ndarray, free: np.ndarray,
+             base: np.ndarray | None = None) -> np.ndarray:
+    """(B, m, p) derivatives of the predicted observations by finite differences:
+    central, or forward from ``base`` (the prediction at ``theta``) when given,
+    which halves the cost inside iterations where the base is already known."""
+    batch, p = theta.shape[0], len(free)
+    h = _fd_steps(free)
+    signs = (1.0,) if base is not None else (1.0, -1.0)
+    probe = np.repeat(theta[:, None, :], len(signs) * p, axis=1)  # (B, s*p, N)
+    for k, idx in enumerate(free):
+        for s, sign in enumerate(signs):
+            probe[:, len(signs) * k + s, idx] += sign * h[k]
+    pred = obs.predict(probe.reshape(batch * len(signs) * p, -1))
+    pred = pred.reshape(batch, p, len(signs), -1)
+    if base is None:
+        diff = (pred[:, :, 0] - pred[:, :, 1]) / (2 * h)[None, :, None]
+    else:
+        diff = (pred[:, :, 0] - base[:, None, :]) / h[None, :, None]
+    return np.moveaxis(diff, 1, 2)
+
+
+class Weighting:
+    """Maps residuals and Jacobians into the space where the fit is ordinary least
+    squares: gauge zeros projected out, then whitened for GLS."""
+
+    def __init__(self, obs: Observations, kind: str) -> None:
+        if kind not in ("ols", "gls"):
+            raise ValueError(f"weighting must be 'ols' or 'gls', got {kind!r}")
+        self.obs = obs
+        self.kind = kind
+        self.whitener: np.ndarray | None = None
+        if kind == "gls" and not obs.raw:
+            chol = np.linalg.cholesky(obs.noise_cov)
+            self.whitener = np.linalg.inv(chol)
+
+    def residual(self, r: np.ndarray) -> np.ndarray:
+        r = self.obs.remove_zeros(r)
+        return r if self.whitener is None else r @ self.whitener.T
+
+    def jac(self, jac: np.ndarray) -> np.ndarray:
+        jac = np.swapaxes(self.obs.remove_zeros(np.swapaxes(jac, -1, -2)), -1, -2)
+        return jac if self.whitener is None else self.whitener @ jac
+
+    def noise_cov(self) -> np.ndarray | None:
+        """Noise covariance in the weighted space (units sigma^2); None is identity."""
+        if self.obs.raw:
+            return None
+        if self.whitener is None:
+            return self.obs.noise_cov
+        return None
+
+
+def design_rank(jw: np.ndarray, ranges: np.ndarray) -> int:
+    """Rank of a weighted Jacobian (m, p), columns scaled to plausible ranges."""
+    s = np.linalg.svd(jw * ranges, compute_uv=False)
+    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
+
+
+def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int) -> np.ndarray:
+    """Least-squares steps for a stack (B, m, p), truncated to ``rank`` directions so
+    that a fit never wanders along combinations the data cannot see."""
+    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False)
+    coef = np.einsum("bmk,bm->bk", u[:, :, :rank], rw) / s[:, :rank]
+    return np.einsum("bkp,bk->bp", vt[:, :rank], coef) * ranges
+
+
+def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
+                 weighting: Weighting, rank: int | None = None,
+                 max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
+                 ) -> tuple[np.ndarray, int, np.ndarray]:
+    """Fit ``free`` entries for each row of ``y`` (B, m), starting every row from the
+    full vector ``theta0`` (N,). Returns the full parameter vectors (B, N), the
+    iterations used and a converged mask. ``rank``: how many directions the data
+    determine (all, when not given); ``tolerance``: per-parameter step at which
+    to stop (default: finite-difference noise)."""
+    batch = y.shape[0]
+    ranges = _ranges(free)
+    rank = len(free) if rank is None else rank
+    tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
+        tolerance, ranges * STEP_TOLERANCE)
+    theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
+    start = obs.predict(theta[:1])
+    pred = np.repeat(start, batch, axis=0)
+    # Every row starts at the same point: one Jacobian serves them all.
+    jac = np.repeat(jacobian(obs, theta[:1], free, start), batch, axis=0)
+    cost = np.sum(weighting.residual(y - pred) ** 2, axis=1)
+    converged = np.zeros(batch, dtype=bool)
+    iterations = 0
+    for iterations in range(1, max_iterations + 1):
+        act = np.flatnonzero(~converged)
+        jac = jacobian(obs, theta[act], free, pred[act]) if iterations > 1 else jac[act]
+        step = _solve(weighting.jac(jac), weighting.residual(y[act] - pred[act]), ranges, rank)
+        # Halve the step where it made things worse: rare, the model is mildly nonlinear.
+        scale = np.ones(len(act))
+        todo = np.arange(len(act))
+        for _ in range(8):
+            trial = theta[act[todo]].copy()
+            trial[:, free] += step[todo] * scale[todo, None]
+            trial_pred = obs.predict(trial)
+            trial_cost = np.sum(weighting.residual(y[act[todo]] - trial_pred) ** 2, axis=1)
+            ok = trial_cost <= cost[act[todo]] * (1 + 1e-12) + 1e-300
+            rows = act[todo[ok]]
+            # Converged when the step is below tolerance, or when it no longer lowers
+            # the cost (ill-conditioned sets jitter along weak directions).
+            small = np.all(np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol, axis=1)
+            stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
+            theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
+            converged[rows] = small | stalled
+            todo = todo[~ok]
+            if not len(todo):
+                break
+            scale[todo] *= 0.5
+        converged[act[todo]] = True  # no step lowers the cost: at the minimum
+        if converged.all():
+            break
+    return theta, iterations, converged
+
+
+@dataclass
+class FitResult:
+    names: tuple[str, ...]
+    values: np.ndarray
+    std: np.ndarray  # NaN where a parameter is not determined by the data
+    covariance: np.ndarray  # propagated from the gauge noise
+    residuals: np.ndarray  # observed minus predicted (gauge zeros removed), mm
+    residual_rms_mm: float
+    sigma_mm: float  # sqrt(RSS / dof): the noise these residuals imply
+    dof: int
+    noise: NoiseEstimate  # the gauge noise the std are propagated from
+    identifiability: Identifiability
+    method: str
+    weighting: str
+    iterations: int
+    converged: bool
+    theta: np.ndarray  # the full parameter vector at the solution
+    observations: Observations
+
+    @property
+    def rss(self) -> float:
+        return float(np.sum(self.residuals**2))
+
+    def value(self, name: str) -> float:
+        return float(self.values[self.names.index(name)])
+
+    def to_json(self, params_label: str) -> dict:
+        """The ``ogacq refit --json`` object of INTERCHANGE.md."""
+        ident = self.identifiability
+        cond = ident.condition_number
+        return {
+            "params": params_label,
+            "parameters": nested(self.names, [round(float(v), 6) for v in self.values]),
+            "std": nested(self.names, [None if not np.isfinite(s) else round(float(s), 6)
+                                       for s in self.std]),
+            "residual_rms_mm": round(self.residual_rms_mm, 6),
+            "sigma_mm": None if not np.isfinite(self.sigma_mm) else round(self.sigma_mm, 6),
+            "dof": self.dof,
+            "condition_number": round(cond, 4) if np.isfinite(cond) else None,
+            "identifiable": ident.identifiable,
+            "correlated_pairs": [[a, b, round(c, 4)] for a, b, c in ident.correlated_pairs],
+        }
+
+
+def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
+        weighting: str = "ols", noise: NoiseEstimate | None = None,
+        theta0: np.ndarray | None = None) -> FitResult:
+    """Identify ``names`` from ``obs``.
+
+    ``method`` "linear" is one step of the linearised model from ``theta0``
+    (the papers' eq. 11 when fitting offsets and lengths to deviations);
+    "exact" iterates the exact model to convergence.
+    """
+    if method not in ("linear", "exact"):
+        raise ValueError(f"method must be 'linear' or 'exact', got {method!r}")
+    names = tuple(names)
+    free = indices(names)
+    theta0 = NOMINAL.copy() if theta0 is None else np.asarray(theta0, dtype=float)
+    w = Weighting(obs, weighting)
+    y = obs.values[None]
+    noise = noise or noise_for(obs)
+
+    ranges = _ranges(free)
+    jac = _linear_jacobian(obs, names, free, theta0)
+    rank = design_rank(w.jac(jac)[0], ranges)
+    if method == "linear":
+        base = obs.predict(theta0[None])
+        step = _solve(w.jac(jac), w.residual(y - base), ranges, rank)[0]
+        theta = theta0.copy()
+        theta[free] += step
+        residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
+        iterations, converged = 1, True
+    else:
+        th, iterations, conv = gauss_newton(obs, y, free, theta0, w, rank)
+        theta = th[0]
+        converged = bool(conv[0])
+        jac = jacobian(obs, theta[None], free)  # central differences for the covariance
+        residuals = obs.remove_zeros(y - obs.predict(theta[None]))[0]
+
+    # A set the design cannot determine is judged at the start: far along its
+    # null directions the curvature makes any Jacobian look full-rank.
+    jw = w.jac(jac if rank == len(names) else _linear_jacobian(obs, names, free, theta0))[0]
+    ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
+    dof = len(obs) - obs.n_nuisance - ident.rank
+    rss = float(np.sum(residuals**2))
+    return FitResult(
+        names=names, values=theta[free], std=np.sqrt(np.diag(cov)), covariance=cov,
+        residuals=residuals, residual_rms_mm=float(np.sqrt(np.mean(residuals**2))),
+        sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,
+        noise=noise, identifiability=ident, method=method, weighting=weighting,
+        iterations=iterations, converged=converged, theta=theta, observations=obs)
+
+
+def _linear_jacobian(obs: Observations, names: tuple[str, ...], free: np.ndarray,
+                     theta0: np.ndarray) -> np.ndarray:
+    at_nominal = np.allclose(theta0, NOMINAL)
+    if obs.kind == "deviations" and at_nominal and set(names) <= set(LINEAR_COLUMNS):
+        cols = [LINEAR_COLUMNS.index(n) for n in names]
+        return design_matrix(obs.labels, obs.machine)[:, cols][None]
+    return jacobian(obs, theta0[None], free)

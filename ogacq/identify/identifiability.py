@@ -1,0 +1,95 @@
+"""Can these data tell the parameters apart? Rank, conditioning, correlations.
+
+A parameter set is called identifiable when the design has full rank, no two
+parameters are so correlated (|r| > 0.99) that the data only fix a combination
+of them, and every parameter's std (propagated from the gauge noise) is within
+its plausible range. Columns are scaled by each parameter's plausible range so
+that mm, mrad and ppm compare fairly in the condition number.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ogacq.model.parameters import effect_of
+
+NAMED_CORRELATION = 0.95  # pairs above this are reported (INTERCHANGE.md)
+INSEPARABLE_CORRELATION = 0.99  # above this, only a combination is determined
+RANK_TOLERANCE = 1e-8
+
+
+@dataclass
+class Identifiability:
+    names: tuple[str, ...]
+    rank: int
+    condition_number: float
+    correlation: np.ndarray
+    correlated_pairs: list[tuple[str, str, float]]
+    identifiable: bool
+    reasons: list[str] = field(default_factory=list)
+    unidentified: list[str] = field(default_factory=list)
+
+
+def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
+           sigma_mm: float) -> tuple[Identifiability, np.ndarray]:
+    """Identifiability of ``names`` from a weighted Jacobian (m, p), and the parameter
+    covariance ``sigma^2 A C A'`` (eq. 12, ``A`` the pseudo-inverse) with infinite
+    variance along directions the data do not see."""
+    names = tuple(names)
+    p = len(names)
+    ranges = np.array([effect_of(n).plausible_range for n in names])
+    s = np.linalg.svd(jw * ranges, compute_uv=False) if p else np.zeros(0)
+    _, _, vt = np.linalg.svd(jw * ranges)
+    rank = int(np.sum(s > s[0] * RANK_TOLERANCE)) if p and s[0] > 0 else 0
+    cond = float(s[0] / s[-1]) if p and s[-1] > s[0] * RANK_TOLERANCE else float("inf")
+
+    a = np.linalg.pinv(jw, rcond=RANK_TOLERANCE)
+    cov = sigma_mm**2 * (a @ a.T if noise_cov is None else a @ noise_cov @ a.T)
+    reasons: list[str] = []
+    unidentified: set[str] = set()
+    if rank < p:
+        null = vt[rank:].T * ranges[:, None]  # null directions in parameter units
+        null /= np.linalg.norm(null, axis=0, keepdims=True)
+        weight = np.linalg.norm(null, axis=1)
+        loose = weight > 1e-3
+        cov[loose, :] = np.nan
+        cov[:, loose] = np.nan
+        cov[loose, loose] = np.inf
+        outer = null @ null.T
+        corr = outer / np.outer(np.maximum(weight, 1e-300), np.maximum(weight, 1e-300))
+        corr[~np.outer(loose, loose)] = 0.0
+        reasons.append(f"rank {rank} of {p}: the data fix only {rank} combinations of "
+                       f"{', '.join(n for n, lo in zip(names, loose, strict=True) if lo)}")
+        unidentified.update(n for n, lo in zip(names, loose, strict=True) if lo)
+        finite = ~loose
+        std = np.sqrt(np.diag(cov)[finite])
+        sub = cov[np.ix_(finite, finite)] / np.outer(std, std)
+        corr[np.ix_(finite, finite)] = sub
+    else:
+        std = np.sqrt(np.diag(cov))
+        corr = cov / np.outer(std, std) if np.all(std > 0) else np.eye(p)
+    np.fill_diagonal(corr, 1.0)
+
+    pairs = []
+    for i in range(p):
+        for j in range(i + 1, p):
+            if abs(corr[i, j]) > NAMED_CORRELATION:
+                pairs.append((names[i], names[j], float(corr[i, j])))
+                if abs(corr[i, j]) > INSEPARABLE_CORRELATION:
+                    unidentified.update((names[i], names[j]))
+    pairs.sort(key=lambda t: -abs(t[2]))
+    strong = [f"{a}/{b} {c:+.4f}" for a, b, c in pairs if abs(c) > INSEPARABLE_CORRELATION]
+    if strong and rank == p:
+        reasons.append("only combinations are determined: correlation " + ", ".join(strong))
+    diag = np.diag(cov)
+    for k, n in enumerate(names):
+        if rank == p and np.sqrt(diag[k]) > ranges[k]:
+            reasons.append(f"{n} std {np.sqrt(diag[k]):.3g} exceeds its plausible range "
+                           f"{ranges[k]:g} {effect_of(n).unit}")
+            unidentified.add(n)
+    ident = Identifiability(names, rank, cond, corr, pairs, not reasons, reasons,
+                            [n for n in names if n in unidentified])
+    return ident, cov

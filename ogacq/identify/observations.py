@@ -1,0 +1,160 @@
+"""What a fit is fitted to: raw gauge readings, or deviations tabulated from them.
+
+Both are linear combinations of the exact model's readings: raw readings each
+carry their gauge's unknown zero (removed by projection), deviations are
+differences in which the zeros cancel and whose errors are correlated through
+the shared Zero readings (eq. 13-14 of the 2008 paper: covariance ``sigma^2 D D'``).
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ogacq.model.kinematics import nominal_q
+from ogacq.model.machine import MachineSpec
+from ogacq.model.measurement import (
+    PlannedReading,
+    ReadingsLayout,
+    layout_of,
+    posture_tcp,
+    predict_coordinates,
+)
+from ogacq.model.parameters import AXES
+
+DEVIATION_NAME = re.compile(r"^d([xyz])_([xyz])([+-]?)$")
+# The order of eq. 11 of the 2008 paper, per leg pair (dX_Y+, dY_X+, dX_Y-, dY_X-).
+PAPER_ORDER_12 = ("dx_y+", "dy_x+", "dx_y-", "dy_x-", "dx_z+", "dz_x+", "dx_z-", "dz_x-",
+                  "dy_z+", "dz_y+", "dy_z-", "dz_y-")
+PAPER_ORDER_6 = ("dx_y", "dx_z", "dy_x", "dy_z", "dz_x", "dz_y")
+
+
+@dataclass
+class Observations:
+    """Observed values ``y = D h(theta) + zeros + noise``.
+
+    ``combination`` is D (None: the readings themselves, each gauge with its own
+    unknown zero). ``noise_cov`` is the noise covariance of ``y`` in units of
+    the gauge variance ``sigma^2``.
+    """
+
+    machine: MachineSpec
+    layout: ReadingsLayout
+    values: np.ndarray
+    labels: list[str]
+    combination: np.ndarray | None = None
+    source: str = ""
+    kind: str = "readings"  # "readings" or "deviations"
+    noise_cov: np.ndarray = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.values = np.asarray(self.values, dtype=float)
+        if self.combination is None:
+            self.noise_cov = np.eye(0)  # identity, never formed (campaigns can be long)
+        else:
+            self.noise_cov = self.combination @ self.combination.T
+
+    @property
+    def raw(self) -> bool:
+        return self.combination is None
+
+    def __len__(self) -> int:
+        return len(self.values)
+
+    @property
+    def n_nuisance(self) -> int:
+        """Unknown gauge zeros fitted alongside the parameters."""
+        return self.layout.n_gauges if self.raw else 0
+
+    def predict(self, theta: np.ndarray) -> np.ndarray:
+        """(B, m) or (m,) predicted observations, gauge zeros left out."""
+        h = predict_coordinates(theta, self.layout, self.machine)
+        return h if self.raw else h @ self.combination.T
+
+    def remove_zeros(self, x: np.ndarray) -> np.ndarray:
+        """Project out what gauge zeros can absorb: per-gauge means for raw readings."""
+        if not self.raw:
+            return x
+        onehot = np.eye(self.layout.n_gauges)[self.layout.gauge]  # (m, G)
+        means = (x @ onehot) / onehot.sum(axis=0)
+        return x - means @ onehot.T
+
+    def gauge_zeros(self, residual: np.ndarray) -> np.ndarray:
+        """Least-squares gauge zeros for a residual before projection."""
+        g = self.layout.gauge
+        return np.bincount(g, weights=residual) / np.bincount(g)
+
+
+def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values,
+                          source: str = "") -> Observations:
+    labels = [f"{n}@{k + 1}" for k, n in enumerate(
+        layout.gauge_names()[g] for g in layout.gauge)]
+    return Observations(machine, layout, values, labels, None, source, "readings")
+
+
+def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],
+                            source: str = "") -> Observations:
+    """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min).
+
+    The readings they were taken from are laid out as one cycle of the papers'
+    protocol (Zero, Max, Min for each leg involved); approach and time are
+    unknown for tabulated data and taken as neutral.
+    """
+    parsed = []
+    for name, value in named:
+        m = DEVIATION_NAME.match(name)
+        if not m or m.group(1) == m.group(2):
+            raise ValueError(f"{name!r} is not a deviation name like dx_y+, dx_y- or dx_y")
+        parsed.append((AXES.index(m.group(1)), AXES.index(m.group(2)), m.group(3), value))
+    planned: list[PlannedReading] = []
+    index: dict[tuple[int, int, str], int] = {}
+    for j, i, _, _ in parsed:
+        for posture in ("zero", "max", "min"):
+            if (j, i, posture) not in index:
+                index[(j, i, posture)] = len(planned)
+                tcp = posture_tcp(i, posture, machine)
+                planned.append(PlannedReading(i, j, 1, posture, tcp,
+                                              nominal_q(tcp, machine.leg_length_mm), 0.0))
+    layout = layout_of(planned)
+    layout = ReadingsLayout.build(layout.q_mm, layout.leg, layout.gauge_axis, layout.t_s,
+                                  layout.cycle, layout.tcp_mm,
+                                  np.zeros_like(layout.approach))
+    D = np.zeros((len(parsed), len(planned)))
+    for row, (j, i, sign, _) in enumerate(parsed):
+        first, second = {"+": ("max", "zero"), "-": ("min", "zero"), "": ("max", "min")}[sign]
+        D[row, index[(j, i, first)]] = 1.0
+        D[row, index[(j, i, second)]] = -1.0
+    labels = [name for name, _ in named]
+    return Observations(machine, layout, [v for *_, v in parsed], labels, D, source,
+                        "deviations")
+
+
+def averaged_deviations(obs: Observations, form: str = "12") -> Observations:
+    """The papers' deviations from raw readings: Max/Min relative to Zero, each
+    averaged over cycles (``form`` "12"), or Max minus Min (``form`` "6")."""
+    if not obs.raw:
+        return obs
+    lay = obs.layout
+    named = []
+    for j, i in lay.gauge_keys:
+        sel = (lay.gauge_axis == j) & (lay.leg == i)
+        s = lay.tcp_mm[sel, i]
+        mean = {}
+        for posture, target in (("zero", 0.0), ("max", obs.machine.rho_max_mm),
+                                ("min", obs.machine.rho_min_mm)):
+            hit = np.isclose(s, target, atol=1e-6)
+            if hit.any():
+                mean[posture] = float(obs.values[sel][hit].mean())
+        name = f"d{AXES[j]}_{AXES[i]}"
+        if form == "6" and {"max", "min"} <= mean.keys():
+            named.append((name, mean["max"] - mean["min"]))
+        elif form == "12" and "zero" in mean:
+            for posture, sign in (("max", "+"), ("min", "-")):
+                if posture in mean:
+                    named.append((name + sign, mean[posture] - mean["zero"]))
+    if not named:
+        raise ValueError("these readings hold no Zero/Max/Min postures to form deviations from")
+    return deviations_observations(obs.machine, named, obs.source)

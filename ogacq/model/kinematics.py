@@ -1,0 +1,135 @@
+"""Exact kinematics of an Orthoglide-type machine, vectorised over batches.
+
+Geometry (MODEL.md): actuator ``i`` moves its joint centre along a line
+``r_i = o_i + rho_i u_i``; the TCP ``p`` satisfies ``|p - r_i| = L_i``. The
+nominal machine has ``u_i = e_i``, ``o_i = 0``, ``L_i = L``. Squareness and axis
+offsets tilt and shift the lines; they enter here so that every other module
+sees one geometry.
+
+Conventions for the effects (INTERCHANGE.md vocabulary):
+- squareness ``xy`` (mrad) tilts the y axis toward +x in the xy plane, so the
+  angle between the x and y axes is 90 deg minus the value; ``xz`` and ``yz``
+  tilt the z axis toward +x and +y. The x axis defines the frame.
+- axis offset ``xy`` (mm) shifts the y axis line along z; ``xz`` shifts the z
+  line along y; ``yz`` shifts the z line along x (second line minus first).
+
+Arrays: a leading batch shape ``...`` is carried through everything, the last
+axis is the coordinate (3) and, for per-joint arrays, the one before is the
+joint (3).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ogacq.model.parameters import PARAM_INDEX
+
+_SQ = [PARAM_INDEX[f"squareness.{w}"] for w in ("xy", "xz", "yz")]
+_AO = [PARAM_INDEX[f"axis_offset.{w}"] for w in ("xy", "xz", "yz")]
+_DL = [PARAM_INDEX[f"leg_length.{a}"] for a in "xyz"]
+
+
+class NoAssembly(ValueError):
+    """The legs cannot all reach one TCP: the posture is outside the workspace."""
+
+
+def axis_lines(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit directions ``u`` and base points ``o`` of the three actuator lines.
+
+    ``theta``: (..., N) full parameter vectors. Returns two (..., 3, 3) arrays,
+    row ``i`` for actuator ``i``.
+    """
+    shape = theta.shape[:-1]
+    s_xy, s_xz, s_yz = (np.sin(theta[..., k] * 1e-3) for k in _SQ)
+    u = np.zeros(shape + (3, 3))
+    u[..., 0, 0] = 1.0
+    u[..., 1, 0] = s_xy
+    u[..., 1, 1] = np.sqrt(1.0 - s_xy**2)
+    u[..., 2, 0] = s_xz
+    u[..., 2, 1] = s_yz
+    u[..., 2, 2] = np.sqrt(1.0 - s_xz**2 - s_yz**2)
+    o = np.zeros(shape + (3, 3))
+    o[..., 1, 2] = theta[..., _AO[0]]
+    o[..., 2, 1] = theta[..., _AO[1]]
+    o[..., 2, 0] = theta[..., _AO[2]]
+    return u, o
+
+
+def leg_lengths(theta: np.ndarray, nominal_mm: float) -> np.ndarray:
+    """(..., 3) actual leg lengths."""
+    return nominal_mm + theta[..., _DL]
+
+
+def joint_centres(rho: np.ndarray, u: np.ndarray, o: np.ndarray) -> np.ndarray:
+    """(..., 3, 3) joint centres for joint positions ``rho`` (..., 3) along their lines."""
+    return o + rho[..., :, None] * u
+
+
+def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
+    """TCP from the three joint centres ``r`` (..., 3, 3) and leg lengths (..., 3).
+
+    Subtracting the sphere equations pairwise leaves a line; the TCP is where
+    it meets the first sphere, on the origin side of the plane through the
+    joint centres (the assembly mode of the papers). Returns NaN where the legs
+    cannot meet; callers decide whether that is an error.
+    """
+    # Component arithmetic on contiguous component arrays: einsum and cross over a
+    # length-3 axis cost more than the maths at the batch sizes a Monte-Carlo uses.
+    c = np.ascontiguousarray(np.moveaxis(r, (-2, -1), (0, 1)))
+    lsq = np.ascontiguousarray(np.moveaxis(np.broadcast_to(legs_mm, r.shape[:-1]), -1, 0)) ** 2
+    x1, y1, z1 = c[0, 0], c[0, 1], c[0, 2]
+    ax, ay, az = c[1, 0] - x1, c[1, 1] - y1, c[1, 2] - z1
+    bx, by, bz = c[2, 0] - x1, c[2, 1] - y1, c[2, 2] - z1
+    s1 = x1 * x1 + y1 * y1 + z1 * z1
+    l1, l2, l3 = lsq[0], lsq[1], lsq[2]
+    # a . p = ca and b . p = cb, from |p - r_k|^2 - |p - r_1|^2 = L_k^2 - L_1^2
+    ca = 0.5 * ((c[1, 0] ** 2 + c[1, 1] ** 2 + c[1, 2] ** 2) - s1 - l2 + l1)
+    cb = 0.5 * ((c[2, 0] ** 2 + c[2, 1] ** 2 + c[2, 2] ** 2) - s1 - l3 + l1)
+    gaa = ax * ax + ay * ay + az * az
+    gab = ax * bx + ay * by + az * bz
+    gbb = bx * bx + by * by + bz * bz
+    det = gaa * gbb - gab * gab
+    ka = (gbb * ca - gab * cb) / det
+    kb = (gaa * cb - gab * ca) / det
+    # nearest point of the line to the origin, relative to r1
+    dx, dy, dz = ka * ax + kb * bx - x1, ka * ay + kb * by - y1, ka * az + kb * bz - z1
+    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
+    nn = nx * nx + ny * ny + nz * nz
+    beta = nx * dx + ny * dy + nz * dz
+    disc = beta * beta - nn * (dx * dx + dy * dy + dz * dz - l1)
+    with np.errstate(invalid="ignore"):
+        root = np.sqrt(disc)
+    origin_side = np.where(nx * x1 + ny * y1 + nz * z1 > 0, -1.0, 1.0)
+    t = (-beta + origin_side * root) / nn
+    return np.stack([x1 + dx + t * nx, y1 + dy + t * ny, z1 + dz + t * nz], axis=-1)
+
+
+def inverse(p: np.ndarray, u: np.ndarray, o: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
+    """Joint positions ``rho`` (..., 3) that put the TCP at ``p`` (..., 3).
+
+    Nominal assembly mode: each joint beyond the TCP along its own axis. NaN
+    where a leg cannot reach ``p``.
+    """
+    d = p[..., None, :] - o
+    along = np.einsum("...ik,...ik->...i", d, u)
+    rest = legs_mm**2 - np.einsum("...ik,...ik->...i", d, d) + along**2
+    with np.errstate(invalid="ignore"):
+        return along + np.sqrt(rest)
+
+
+def nominal_q(p: np.ndarray, leg_length_mm: float) -> np.ndarray:
+    """Controller coordinates ``q`` (0 at mechanical zero) a nominal controller
+    commands for TCP ``p``: ``q_i = p_i + sqrt(L^2 - p_j^2 - p_k^2) - L``."""
+    p = np.asarray(p, dtype=float)
+    sq = np.sum(p**2, axis=-1, keepdims=True)
+    with np.errstate(invalid="ignore"):
+        return p + np.sqrt(leg_length_mm**2 - (sq - p**2)) - leg_length_mm
+
+
+def nominal_tcp(q: np.ndarray, leg_length_mm: float) -> np.ndarray:
+    """TCP a nominal machine reaches at controller coordinates ``q`` (..., 3)."""
+    q = np.asarray(q, dtype=float)
+    rho = leg_length_mm + q
+    eye = np.broadcast_to(np.eye(3), q.shape[:-1] + (3, 3))
+    legs = np.full(q.shape, leg_length_mm)
+    return forward(rho[..., :, None] * eye, legs)

@@ -1,0 +1,33 @@
+import numpy as np
+
+from ogacq.identify.accuracy import planned_observations, predict_accuracy
+from ogacq.model.machine import PAPER_PROTOTYPE
+from ogacq.model.parameters import PARAM_SETS
+
+
+def test_monte_carlo_of_the_nonlinear_fit_agrees_with_the_analytic_std():
+    obs = planned_observations(PAPER_PROTOTYPE, postures=("zero", "max", "min", "zero"),
+                               cycles=3)
+    truth = {"joint_offset.x": 1.5, "joint_offset.y": -0.8, "joint_offset.z": 2.0}
+    pred = predict_accuracy(obs, PARAM_SETS["offsets"], 0.01, truth=truth, trials=3000,
+                            seed=4, rounding_mm=0.001)
+    assert pred.converged_fraction == 1.0
+    assert np.allclose(pred.mc_std, pred.analytic_std, rtol=0.08)
+    assert np.all(np.abs(pred.mc_bias) < 3 * pred.analytic_std / np.sqrt(3000) + 2e-4)
+    assert pred.identifiability.identifiable
+
+
+def test_more_cycles_shrink_the_std_as_the_square_root():
+    one = predict_accuracy(planned_observations(PAPER_PROTOTYPE, postures=(
+        "zero", "max", "min", "zero"), cycles=1), PARAM_SETS["offsets"], 0.01)
+    four = predict_accuracy(planned_observations(PAPER_PROTOTYPE, postures=(
+        "zero", "max", "min", "zero"), cycles=4), PARAM_SETS["offsets"], 0.01)
+    assert np.allclose(one.analytic_std / four.analytic_std, 2.0, rtol=1e-6)
+
+
+def test_plan_says_lengths_and_offsets_cannot_be_separated():
+    obs = planned_observations(PAPER_PROTOTYPE, postures=("zero", "max", "min", "zero"),
+                               cycles=3)
+    pred = predict_accuracy(obs, PARAM_SETS["both"], 0.01)
+    assert not pred.identifiability.identifiable
+    assert len(pred.identifiability.correlated_pairs) == 3

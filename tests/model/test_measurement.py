@@ -1,0 +1,66 @@
+import numpy as np
+import pytest
+
+from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
+from ogacq.identify.observations import PAPER_ORDER_12, deviations_observations
+from ogacq.model.machine import PAPER_PROTOTYPE as M
+from ogacq.model.measurement import layout_of, predict_coordinates, protocol_readings
+from ogacq.model.parameters import PARAM_NAMES, effect_of, vector
+
+
+def deviations_at(theta):
+    obs = deviations_observations(M, [(n, 0.0) for n in PAPER_ORDER_12])
+    return obs.predict(theta)
+
+
+def test_nominal_machine_reads_constant_on_every_gauge():
+    layout = layout_of(protocol_readings(M))
+    y = predict_coordinates(vector(), layout, M)
+    for g in range(layout.n_gauges):
+        assert np.ptp(y[layout.gauge == g]) < 1e-9
+
+
+def test_exact_jacobian_at_nominal_is_the_papers_eq11():
+    J = design_matrix(PAPER_ORDER_12, M)
+    h = 1e-5
+    for k, name in enumerate(LINEAR_COLUMNS):
+        col = (deviations_at(vector({name: h})) - deviations_at(vector({name: -h}))) / (2 * h)
+        assert np.allclose(col, J[:, k], atol=1e-8), name
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_linear_model_agrees_with_exact_to_second_order(seed):
+    rng = np.random.default_rng(seed)
+    direction = rng.normal(size=6)
+    J = design_matrix(PAPER_ORDER_12, M)
+    errors = []
+    for eps in (0.4, 0.2, 0.1):
+        x = eps * direction
+        exact = deviations_at(vector(dict(zip(LINEAR_COLUMNS, x, strict=True))))
+        errors.append(np.max(np.abs(exact - J @ x)))
+    # halving the parameters quarters the linearisation error
+    assert 3.0 < errors[0] / errors[1] < 5.0
+    assert 3.0 < errors[1] / errors[2] < 5.0
+    assert errors[2] < 1e-3
+
+
+def test_every_effect_moves_some_reading():
+    layout = layout_of(protocol_readings(M))  # approach from the sequence: both sides occur
+    start = {"joint_offset.x": 1.0, "joint_offset.y": -1.0, "leg_length.z": 0.5}
+    base_theta = vector(start)
+    base = predict_coordinates(base_theta, layout, M)
+    for k, name in enumerate(PARAM_NAMES):
+        theta = base_theta.copy()
+        theta[k] += {"fraction": 0.1, "ppm": 1000.0}.get(effect_of(name).unit, 1.0)
+        changed = np.max(np.abs(predict_coordinates(theta, layout, M) - base))
+        assert changed > 1e-6, f"{name} changes nothing"
+
+
+def test_batch_prediction_equals_one_at_a_time():
+    layout = layout_of(protocol_readings(M, cycles=1))
+    rng = np.random.default_rng(3)
+    thetas = np.array([vector({"joint_offset.x": a, "squareness.xy": b, "backlash.y": c})
+                       for a, b, c in rng.normal(size=(4, 3))])
+    batch = predict_coordinates(thetas, layout, M)
+    for k in range(4):
+        assert np.allclose(batch[k], predict_coordinates(thetas[k], layout, M), atol=1e-12)
