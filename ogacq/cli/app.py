@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -22,11 +23,6 @@ class UserError(Exception):
     """A problem the user can fix, reported in one line with exit code 2."""
 
 
-def fail(message: str) -> None:
-    typer.echo(f"ogacq: error: {message}", err=True)
-    raise typer.Exit(2)
-
-
 def _version(value: bool) -> None:
     if value:
         typer.echo(f"ogacq {__version__}")
@@ -41,10 +37,11 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
 
 
 def _register() -> None:
-    from ogacq.cli import plan_cmd, refit_cmd  # noqa: F401  (commands attach to app)
+    from ogacq.cli import campaign_cmds, plan_cmd, refit_cmd, sim_cmd  # noqa: F401  (commands attach to app)
 
 
 def main(argv: list[str] | None = None) -> int:
+    logging.basicConfig(level=logging.WARNING, format="ogacq: warning: %(message)s")
     _register()
     try:
         app(args=argv, prog_name="ogacq", standalone_mode=False)

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from contextlib import contextmanager
+
 import numpy as np
 from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from ogacq.identify.fit import FitResult
@@ -81,3 +84,68 @@ def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
     if pred.mc_std is not None:
         console.print(f"Monte-Carlo: {pred.converged_fraction:.1%} of fits converged, "
                       f"{pred.mc_seconds:.2f} s")
+
+
+def print_sim(info: dict) -> None:
+    m = info["modbus"]
+    where = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
+    console.print(f"[bold]simulated controller[/] ({m['profile']}, Modbus {m['transport'].upper()})"
+                  f": {where}, device ids {m['device_ids']}")
+    table = Table(show_edge=False, header_style="bold")
+    table.add_column("gauge")
+    table.add_column("port")
+    table.add_column("protocol")
+    for key, g in info["gauges"].items():
+        table.add_row(key, g["port"], g["protocol"])
+    console.print(table)
+    console.print("running; Ctrl-C to stop")
+
+
+@contextmanager
+def campaign_progress(enabled: bool = True):
+    """An observer for the runner: a live bar on a terminal, log lines otherwise."""
+    import sys
+
+    if not enabled:
+        yield lambda progress: None
+        return
+    if not sys.stdout.isatty():
+        err = Console(stderr=True)
+
+        def log_line(progress) -> None:
+            err.print(f"[{progress.done}/{progress.total}] {progress.message}",
+                      highlight=False)
+
+        yield log_line
+        return
+    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                  TimeElapsedColumn(), TextColumn("{task.fields[last]}"),
+                  console=console, transient=False) as bar:
+        task = bar.add_task("readings", total=None, last="")
+
+        def update(progress) -> None:
+            bar.update(task, completed=progress.done, total=progress.total,
+                       last=progress.message)
+
+        yield update
+
+
+def print_outcome(outcome) -> None:
+    result = outcome.fit
+    table = Table(show_edge=False, header_style="bold",
+                  title=f"identified joint offsets ({len(result.observations)} readings)")
+    table.add_column("parameter")
+    table.add_column("identified", justify="right")
+    table.add_column("std", justify="right")
+    if outcome.hidden is not None:
+        table.add_column("hidden truth", justify="right")
+        table.add_column("error / std", justify="right")
+    for name, value, std in zip(result.names, result.values, result.std, strict=True):
+        row = [name, f"{value:+.4f}", f"{std:.4f}"]
+        if outcome.hidden is not None:
+            truth = outcome.hidden.get(name, 0.0)
+            row += [f"{truth:+.4f}", f"{(value - truth) / std:+.1f}"]
+        table.add_row(*row)
+    console.print(table)
+    console.print(f"residual rms {result.residual_rms_mm * 1000:.2f} um, gauge noise "
+                  f"{result.noise.describe()}; session {outcome.session_path}")

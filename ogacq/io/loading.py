@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 from ogacq.identify.observations import (
@@ -12,6 +13,8 @@ from ogacq.identify.observations import (
 from ogacq.io.errors import InputError
 from ogacq.io.tables import check_postures, read_deviations, read_readings, sniff
 from ogacq.model.machine import MachineSpec
+
+log = logging.getLogger(__name__)
 
 
 def load_observations(path: str | Path, machine: MachineSpec) -> Observations:
@@ -25,5 +28,10 @@ def load_observations(path: str | Path, machine: MachineSpec) -> Observations:
         table = read_readings(path)
         check_postures(table, machine, path)
         return readings_observations(machine, table.layout(), table.reading_mm, str(path))
-    raise InputError(path, "this is a campaign session; this version of ogacq reads "
-                     "readings CSV and deviations CSV only (export the session to CSV)", 1)
+    from ogacq.session.convert import session_observations
+    from ogacq.session.store import load_session
+
+    session = load_session(path)
+    for warning in session.warnings:
+        log.warning(warning)
+    return session_observations(session, machine)

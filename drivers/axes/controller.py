@@ -1,0 +1,650 @@
+"""Client for the three linear axes (x, y, z) of the machine, driven by a register-map profile.
+
+Coordinates: ``q`` is the joint coordinate in mm used by the kinematic model.
+Homing puts each axis at its home point ``p = 0`` (``p``: position from the
+home point, the simulator's ``raw_position_mm``). The joint zero offsets ``o``
+(one per axis) relate the two, the same way for every profile:
+
+    q = p - o        (a move to q goes to p = q + o)
+
+- ``offset.kind = "software"`` (IAI): the offsets live in a table in this
+  client (the tool's configuration keeps it); the controller counts ``p`` and
+  the client adds ``o`` to every commanded position and subtracts it from every
+  position read.
+- ``offset.kind = "home_offset"`` (CiA 402): ``o`` is held by the drive's home
+  offset object, which the drive applies at its next homing (its position at
+  the home point becomes ``sign × object = -o``), so the drive counts ``q``
+  itself and this client adds nothing. ``write_offsets`` writes the object
+  (read back and compared); :meth:`AxisController.home` makes it effective.
+
+Commands are the profile's step sequences (see ``profiles/iai-pcon.toml``).
+Edge-triggered writes (home, move start) are sent once and confirmed by
+reading back (moving bit, set-point acknowledge or arrival at the target);
+a missing confirmation raises rather than re-sending. Every write is logged by
+the link. The controller is not thread-safe: one caller at a time.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import time
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Literal
+
+from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.profile import Profile, Step, ValueSpec, counts_to_mm, mm_to_counts
+from drivers.errors import DeviceFault, DeviceTimeout, DriverError
+
+log = logging.getLogger(__name__)
+
+Targets = Mapping[str, float] | Sequence[float]
+
+
+@dataclass(frozen=True)
+class AxisStatus:
+    """One axis at one poll. ``position_mm`` is the joint coordinate q (offsets removed)."""
+
+    axis: str
+    position_mm: float
+    in_position: bool
+    moving: bool
+    servo_on: bool
+    homed: bool
+    alarm_code: int
+    fault: bool
+    flags: Mapping[str, bool] = field(default_factory=dict, compare=False, repr=False)
+
+
+@dataclass(frozen=True)
+class OffsetChange:
+    """What :meth:`AxisController.write_offsets` did, for the session record and undo."""
+
+    old_mm: dict[str, float]
+    new_mm: dict[str, float]
+    takes_effect: Literal["now", "at_next_homing"]
+    written_to_device: bool
+
+
+@dataclass(frozen=True)
+class _Block:
+    """One read request of contiguous holding registers and the values inside it."""
+
+    address: int
+    count: int
+    names: tuple[str, ...]
+
+
+class AxisController:
+    """Enable, home, move, poll, stop, reset alarms and handle joint offsets of three axes."""
+
+    def __init__(
+        self,
+        profile: Profile,
+        link: ModbusLink,
+        *,
+        axes: Iterable[str] | None = None,
+        software_offsets_mm: Mapping[str, float] | None = None,
+        soft_limits_mm: tuple[float, float] | None = None,
+        speed_mm_s: float | None = None,
+        poll_interval_s: float = 0.005,
+    ) -> None:
+        self.profile = profile
+        self.link = link
+        self.axes: tuple[str, ...] = tuple(axes) if axes is not None else tuple(profile.device_ids)
+        unknown = [a for a in self.axes if a not in profile.device_ids]
+        if unknown:
+            raise ValueError(f"profile {profile.name!r} has no device id for axes {unknown}")
+        low, high = soft_limits_mm or (profile.limits.min_mm, profile.limits.max_mm)
+        if not low < high:
+            raise ValueError(f"soft limits [{low}, {high}] mm are empty")
+        self.soft_limits_mm = (float(low), float(high))
+        self.speed_mm_s = speed_mm_s or profile.motion.speed_mm_s
+        self.poll_interval_s = poll_interval_s
+        self._software_offsets = {a: 0.0 for a in self.axes}
+        if software_offsets_mm:
+            if profile.offset.kind != "software":
+                raise ValueError(
+                    f"profile {profile.name!r} keeps offsets in the drive ({profile.offset.kind}); "
+                    "a software offset table does not apply"
+                )
+            self._software_offsets.update(self._per_axis(software_offsets_mm, "software offsets"))
+        # Set once this client saw a homing through; used where the profile has no homed bit.
+        self._homed_latch = {a: False for a in self.axes}
+        #: Axes whose home offset was written but not yet made effective by a homing.
+        self.rehome_required: set[str] = set()
+        self._blocks = self._plan_status_reads()
+
+    # ================================================================ status
+
+    def read_status(self, axes: Iterable[str] | None = None) -> dict[str, AxisStatus]:
+        """Status of each axis: one block read per contiguous register run and device."""
+        return {axis: self._status(axis) for axis in self._axes(axes)}
+
+    @property
+    def status_reads(self) -> tuple[tuple[int, int], ...]:
+        """(address, register count) of the holding-register reads one axis status takes."""
+        return tuple((b.address, b.count) for b in self._blocks)
+
+    def read_positions(self, axes: Iterable[str] | None = None) -> dict[str, float]:
+        """Joint coordinates q in mm (one position read per axis)."""
+        name = self.profile.status.position
+        return {
+            axis: self._counter_to_q(axis, float(self._read_value(axis, name)))
+            for axis in self._axes(axes)
+        }
+
+    def read_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
+        """Alarm / error code per axis (0 = none)."""
+        name = self.profile.status.alarm_code
+        return {axis: int(self._read_value(axis, name)) for axis in self._axes(axes)}
+
+    # ================================================================ commands
+
+    def enable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
+        """Servo on (and whatever the profile needs before: Modbus control, CiA 402 states)."""
+        self._run("enable", self._axes(axes), common={"enable_timeout_s": timeout_s})
+
+    def disable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
+        """Servo off."""
+        self._run("disable", self._axes(axes), common={"enable_timeout_s": timeout_s})
+
+    def home(
+        self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None
+    ) -> dict[str, AxisStatus]:
+        """Home the axes together and wait for the home end; applies a pending home offset."""
+        chosen = self._axes(axes)
+        params: dict[str, dict[str, Any]] = {}
+        for axis in chosen:
+            self._homed_latch[axis] = False
+            params[axis] = {
+                "home_position_mm": self._counter_at_home(axis),
+                "home_timeout_s": timeout_s,
+            }
+        self._run("home", chosen, per_axis=params)
+        for axis in chosen:
+            self._homed_latch[axis] = True
+            self.rehome_required.discard(axis)
+        log.info("homed axes %s", ", ".join(chosen))
+        return self.read_status(chosen)
+
+    def move_to(
+        self,
+        targets_mm: Targets,
+        *,
+        speed_mm_s: float | None = None,
+        wait: bool = True,
+        timeout_s: float | None = None,
+        check_limits: bool = True,
+        require_homed: bool = True,
+    ) -> dict[str, AxisStatus]:
+        """Absolute move of one or several axes to joint coordinates q (mm), together.
+
+        ``targets_mm`` is ``{"x": 60.0, ...}`` or a sequence aligned with ``axes``.
+        Targets outside the soft limits are refused before anything is sent
+        (``check_limits=False`` leaves the check to the controller's own limits).
+        With ``wait``, returns the statuses once every axis is in position at its
+        target; without, returns the statuses read just before the move started.
+        """
+        targets = self._targets(targets_mm)
+        if check_limits:
+            low, high = self.soft_limits_mm
+            for axis, q in targets.items():
+                if not low <= q <= high:
+                    raise ValueError(
+                        f"{self._where(axis)}: move {axis} to {q:.3f} mm refused: outside the "
+                        f"soft limits [{low:g}, {high:g}] mm"
+                    )
+        before = self.read_status(targets)
+        for axis, status in before.items():
+            if status.fault:
+                raise DeviceFault(
+                    f"move {axis} refused: axis in alarm {status.alarm_code:#x}; "
+                    "reset alarms first",
+                    code=status.alarm_code,
+                    where=self._where(axis),
+                )
+            if not status.servo_on:
+                raise DeviceFault(
+                    f"move {axis} refused: servo is off; enable first",
+                    code="servo_off",
+                    where=self._where(axis),
+                )
+            if require_homed and not status.homed:
+                raise DeviceFault(
+                    f"move {axis} refused: axis not homed; home first",
+                    code="not_homed",
+                    where=self._where(axis),
+                )
+        speed = speed_mm_s or self.speed_mm_s
+        params = {
+            axis: {"target_mm": self._q_to_counter(axis, q), "speed_mm_s": speed}
+            for axis, q in targets.items()
+        }
+        log.info(
+            "move %s at %.1f mm/s", ", ".join(f"{a}={q:.3f}" for a, q in targets.items()), speed
+        )
+        self._run("move", tuple(targets), per_axis=params)
+        if not wait:
+            return before
+        return self.wait_in_position(targets, timeout_s=timeout_s)
+
+    def resolved_targets_mm(self, targets_mm: Targets) -> dict[str, float]:
+        """The joint coordinates a move to ``targets_mm`` really commands: each target
+        rounded to the controller's position resolution (``codec.counts_per_mm``).
+        A calibration must record these, not the unrounded wish."""
+        counts_per_mm = self.profile.codec.counts_per_mm
+        return {axis: self._counter_to_q(axis, counts_to_mm(
+                    mm_to_counts(self._q_to_counter(axis, q), counts_per_mm), counts_per_mm))
+                for axis, q in self._targets(targets_mm).items()}
+
+    def wait_in_position(
+        self, targets_mm: Targets | Iterable[str] | None = None, *, timeout_s: float | None = None
+    ) -> dict[str, AxisStatus]:
+        """Poll until every axis is in position (and at its target, if given) and not moving."""
+        if targets_mm is None or (
+            not isinstance(targets_mm, Mapping) and all(isinstance(a, str) for a in targets_mm)
+        ):
+            axes = self._axes(targets_mm)  # type: ignore[arg-type]
+            targets: dict[str, float | None] = dict.fromkeys(axes)
+        else:
+            targets = dict(self._targets(targets_mm))  # type: ignore[arg-type]
+        timeout = timeout_s or self.profile.timing.move_timeout_s
+        tolerance = self._position_tolerance_mm()
+        deadline = time.monotonic() + timeout
+        while True:
+            statuses = self.read_status(targets)
+            pending = []
+            for axis, status in statuses.items():
+                if status.fault:
+                    raise DeviceFault(
+                        f"axis {axis} in alarm {status.alarm_code:#x} at "
+                        f"{status.position_mm:.3f} mm while waiting for in-position",
+                        code=status.alarm_code,
+                        where=self._where(axis),
+                    )
+                target = targets[axis]
+                arrived = target is None or abs(status.position_mm - target) <= tolerance
+                if not (status.in_position and not status.moving and arrived):
+                    pending.append(status)
+            if not pending:
+                return statuses
+            if time.monotonic() >= deadline:
+                detail = "; ".join(
+                    f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
+                    f"moving={s.moving}, in_position={s.in_position}"
+                    for s in pending
+                )
+                raise DeviceTimeout(
+                    f"not in position within {timeout:g} s: {detail}",
+                    where=self._where(pending[0].axis),
+                )
+            time.sleep(self.poll_interval_s)
+
+    def stop(self, axes: Iterable[str] | None = None) -> None:
+        """Stop every axis (all are tried even if one fails; the first error is raised after)."""
+        errors: list[DriverError] = []
+        chosen = self._axes(axes)
+        command = self.profile.commands["stop"]
+        for steps in (command.start, command.finish):
+            for axis in chosen:
+                try:
+                    self._run_steps("stop", steps, axis, self._params(axis, {}))
+                except DriverError as exc:
+                    log.error("stop %s failed: %s", axis, exc)
+                    errors.append(exc)
+        if errors:
+            raise errors[0]
+
+    def reset_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
+        """Reset the axes that are in alarm; returns the codes that were cleared.
+
+        On a CiA 402 drive the reset leaves the power stage off: call :meth:`enable`.
+        """
+        cleared = {a: s.alarm_code for a, s in self.read_status(axes).items() if s.fault}
+        if cleared:
+            log.info("resetting alarms %s", {a: hex(c) for a, c in cleared.items()})
+            self._run("alarm_reset", tuple(cleared))
+        return cleared
+
+    # ================================================================ offsets
+
+    @property
+    def software_offsets_mm(self) -> dict[str, float]:
+        """The software offset table (to be saved with the machine's configuration)."""
+        return dict(self._software_offsets)
+
+    def read_offsets(self, axes: Iterable[str] | None = None) -> dict[str, float]:
+        """Joint zero offsets o in mm (q = p - o); on CiA 402, those the next homing applies."""
+        chosen = self._axes(axes)
+        spec = self.profile.offset
+        if spec.kind == "software":
+            return {a: self._software_offsets[a] for a in chosen}
+        # counter at the home point = sign × home_offset = -o
+        return {a: -spec.sign * float(self._read_value(a, spec.value)) for a in chosen}
+
+    def write_offsets(
+        self, offsets_mm: Mapping[str, float], *, force: bool = False
+    ) -> OffsetChange:
+        """Set joint zero offsets o (mm). Returns old and new values (as stored).
+
+        Offsets larger than the profile's limit margin are refused unless
+        ``force``: the controller's own limits leave that much room only.
+        With a home-offset profile, each value is written, read back and
+        compared; it takes effect at the next :meth:`home` (nothing moves here).
+        Nothing is saved to non-volatile memory: see :meth:`save_to_nvm`.
+        """
+        new = self._per_axis(offsets_mm, "offsets")
+        margin = self.profile.limits.margin_mm
+        too_large = {a: o for a, o in new.items() if abs(o) > margin}
+        if too_large and not force:
+            raise ValueError(
+                f"offsets {too_large} exceed the {margin:g} mm margin of profile "
+                f"{self.profile.name!r}; pass force=True to write them anyway"
+            )
+        old = self.read_offsets(new)
+        spec = self.profile.offset
+        if spec.kind == "software":
+            self._software_offsets.update(new)
+            log.info(
+                "software offsets %s",
+                ", ".join(f"{a}: {old[a]:+.4f} -> {o:+.4f} mm" for a, o in new.items()),
+            )
+            return OffsetChange(old, new, "now", written_to_device=False)
+        if spec.write_when_disabled:
+            on = [a for a, s in self.read_status(new).items() if s.servo_on]
+            if on:
+                raise DeviceFault(
+                    f"offsets not written: servo on for {on}; disable first",
+                    code="servo_on",
+                    where=self._where(on[0]),
+                )
+        tolerance = 1.0 / self.profile.codec.counts_per_mm
+        stored: dict[str, float] = {}
+        for axis, offset in new.items():
+            register_mm = -spec.sign * offset
+            log.info(
+                "%s: home offset %s: %+.4f -> %+.4f mm (object %+.4f mm)",
+                self._where(axis),
+                axis,
+                old[axis],
+                offset,
+                register_mm,
+            )
+            self._write_value(axis, spec.value, register_mm, what=f"write_offsets {axis}")
+            back = float(self._read_value(axis, spec.value))
+            if abs(back - register_mm) > tolerance / 2:
+                raise DeviceFault(
+                    f"home offset {axis}: wrote {register_mm:+.4f} mm, read back {back:+.4f} mm",
+                    code="readback",
+                    where=self._where(axis),
+                )
+            stored[axis] = -spec.sign * back  # what the drive holds, in counts
+            self.rehome_required.add(axis)
+        return OffsetChange(old, stored, "at_next_homing", written_to_device=True)
+
+    def save_to_nvm(self, axes: Iterable[str] | None = None) -> None:
+        """Store the drive parameters in non-volatile memory (explicit request only)."""
+        spec = self.profile.nvm
+        if spec.kind == "none":
+            raise DriverError(
+                f"profile {self.profile.name!r} has nothing to save to non-volatile "
+                "memory (offsets are kept in the tool's configuration)"
+            )
+        for axis in self._axes(axes):
+            log.warning(
+                "%s: saving parameters to non-volatile memory (limited write endurance)",
+                self._where(axis),
+            )
+            self._write_value(axis, spec.value, spec.signature, what=f"save_to_nvm {axis}")
+
+    # ================================================================ internals: coordinates
+
+    def _axes(self, axes: Iterable[str] | None) -> tuple[str, ...]:
+        if axes is None:
+            return self.axes
+        chosen = tuple(axes)
+        unknown = [a for a in chosen if a not in self.axes]
+        if unknown:
+            raise ValueError(f"unknown axes {unknown}; this controller drives {list(self.axes)}")
+        return chosen
+
+    def _per_axis(self, values: Mapping[str, float], what: str) -> dict[str, float]:
+        out = {}
+        for axis, value in values.items():
+            self._axes([axis])
+            if not math.isfinite(value):
+                raise ValueError(f"{what}: {axis} = {value} is not a finite number")
+            out[axis] = float(value)
+        return out
+
+    def _targets(self, targets_mm: Targets) -> dict[str, float]:
+        if isinstance(targets_mm, Mapping):
+            return self._per_axis(targets_mm, "move targets")
+        values = list(targets_mm)
+        if len(values) != len(self.axes):
+            raise ValueError(f"move targets: {len(values)} values for axes {list(self.axes)}")
+        return self._per_axis(dict(zip(self.axes, values, strict=True)), "move targets")
+
+    def _q_to_counter(self, axis: str, q: float) -> float:
+        return q + self._software_offsets[axis]
+
+    def _counter_to_q(self, axis: str, counter: float) -> float:
+        return counter - self._software_offsets[axis]
+
+    def _counter_at_home(self, axis: str) -> float:
+        """Where the position counter will read at the home point after this homing."""
+        spec = self.profile.offset
+        if spec.kind == "software":
+            return 0.0
+        return spec.sign * float(self._read_value(axis, spec.value))
+
+    def _position_tolerance_mm(self) -> float:
+        one_count = 1.0 / self.profile.codec.counts_per_mm
+        return max(self.profile.motion.in_position_band_mm, one_count) + 1e-9
+
+    def _where(self, axis: str) -> str:
+        return f"{self.link.where(self.profile.device_ids[axis])} (axis {axis})"
+
+    # ================================================================ internals: registers
+
+    def _plan_status_reads(self) -> list[_Block]:
+        specs = sorted(
+            (self.profile.value(n) for n in self.profile.status_values()), key=lambda s: s.address
+        )
+        blocks: list[_Block] = []
+        gap = self.profile.status.max_gap_registers
+        for spec in specs:
+            if blocks and spec.address - (blocks[-1].address + blocks[-1].count) <= gap:
+                last = blocks[-1]
+                end = max(last.address + last.count, spec.address + spec.words)
+                blocks[-1] = _Block(last.address, end - last.address, (*last.names, spec.name))
+            else:
+                blocks.append(_Block(spec.address, spec.words, (spec.name,)))
+        return blocks
+
+    def _status(self, axis: str) -> AxisStatus:
+        device = self.profile.device_ids[axis]
+        values: dict[str, float | int] = {}
+        for block in self._blocks:
+            registers = self.link.read_registers(device, block.address, block.count)
+            for name in block.names:
+                spec = self.profile.value(name)
+                offset = spec.address - block.address
+                values[name] = self.profile.decode(name, registers[offset : offset + spec.words])
+        flags = {
+            name: self.profile.flag_state(name, int(values[f.value]))
+            for name, f in self.profile.flags.items()
+        }
+        fault = any(flags[f] for f in self.profile.status.fault_flags)
+        alarm_name = self.profile.status.alarm_code
+        if alarm_name in values:
+            alarm_code = int(values[alarm_name])
+        else:
+            alarm_code = int(self._read_value(axis, alarm_name)) if fault else 0
+        homed = flags["homed"] if "homed" in flags else self._homed_latch[axis]
+        return AxisStatus(
+            axis=axis,
+            position_mm=self._counter_to_q(axis, float(values[self.profile.status.position])),
+            in_position=flags["in_position"],
+            moving=flags["moving"],
+            servo_on=flags["servo_on"],
+            homed=homed,
+            alarm_code=alarm_code,
+            fault=fault,
+            flags=flags,
+        )
+
+    def _counter_position(self, status: AxisStatus) -> float:
+        return status.position_mm + self._software_offsets[status.axis]
+
+    def _read_value(self, axis: str, name: str) -> float | int | bool:
+        spec = self.profile.value(name)
+        device = self.profile.device_ids[axis]
+        if spec.function == "coil":
+            return self.link.read_coils(device, spec.address, 1)[0]
+        registers = self.link.read_registers(device, spec.address, spec.words)
+        return self.profile.decode(name, registers)
+
+    def _write_value(self, axis: str, name: str, value: Any, *, what: str) -> None:
+        spec = self.profile.value(name)
+        device = self.profile.device_ids[axis]
+        encoded = self.profile.encode(name, value)
+        label = f"{what}: {name}={value}"
+        if spec.function == "coil":
+            self.link.write_coil(device, spec.address, bool(encoded), what=label)
+        elif spec.words == 1:
+            assert isinstance(encoded, list)
+            self.link.write_register(device, spec.address, encoded[0], what=label)
+        else:
+            assert isinstance(encoded, list)
+            self.link.write_registers(device, spec.address, encoded, what=label)
+
+    def _write_block(
+        self, axis: str, names: Sequence[str], values: Sequence[Any], *, what: str
+    ) -> None:
+        specs: list[ValueSpec] = [self.profile.value(n) for n in names]
+        registers: list[int] = []
+        for name, value in zip(names, values, strict=True):
+            encoded = self.profile.encode(name, value)
+            assert isinstance(encoded, list)
+            registers += encoded
+        label = f"{what}: " + ", ".join(f"{n}={v}" for n, v in zip(names, values, strict=True))
+        self.link.write_registers(
+            self.profile.device_ids[axis], specs[0].address, registers, what=label
+        )
+
+    # ================================================================ internals: sequences
+
+    def _params(self, axis: str, given: Mapping[str, Any]) -> dict[str, Any]:
+        timing = self.profile.timing
+        params: dict[str, Any] = {
+            "band_mm": self.profile.motion.in_position_band_mm,
+            "speed_mm_s": self.speed_mm_s,
+            "ack_timeout_s": timing.ack_timeout_s,
+            "enable_timeout_s": timing.enable_timeout_s,
+            "home_timeout_s": timing.home_timeout_s,
+            "move_timeout_s": timing.move_timeout_s,
+        }
+        params.update({k: v for k, v in given.items() if v is not None})
+        return params
+
+    def _run(
+        self,
+        command: str,
+        axes: Sequence[str],
+        common: Mapping[str, Any] | None = None,
+        per_axis: Mapping[str, Mapping[str, Any]] | None = None,
+    ) -> None:
+        """Run a profile command: start steps axis after axis, then finish steps."""
+        params = {
+            axis: self._params(axis, {**(common or {}), **(per_axis or {}).get(axis, {})})
+            for axis in axes
+        }
+        spec = self.profile.commands[command]
+        for axis in axes:
+            self._run_steps(command, spec.start, axis, params[axis])
+        for axis in axes:
+            self._run_steps(command, spec.finish, axis, params[axis])
+
+    def _resolve(self, value: Any, params: Mapping[str, Any], command: str) -> Any:
+        if isinstance(value, str) and value.startswith("$"):
+            try:
+                return params[value[1:]]
+            except KeyError:
+                raise ValueError(f"command {command!r} needs {value} and none was given") from None
+        return value
+
+    def _run_steps(
+        self, command: str, steps: Sequence[Step], axis: str, params: Mapping[str, Any]
+    ) -> None:
+        what = f"{command} {axis}"
+        for step in steps:
+            if step.op == "write":
+                value = self._resolve(step.value[0], params, command)
+                self._write_value(
+                    axis, step.to[0], value, what=what + (" (edge, sent once)" if step.edge else "")
+                )
+            elif step.op == "write_block":
+                values = [self._resolve(v, params, command) for v in step.value]
+                self._write_block(
+                    axis, step.to, values, what=what + (" (edge, sent once)" if step.edge else "")
+                )
+            elif step.op == "wait":
+                timeout = float(self._resolve(step.timeout_s, params, command))
+                self._wait_flag(axis, command, step.flag, step.state, timeout)
+            else:
+                self._confirm(axis, command, step, params)
+
+    def _wait_flag(
+        self, axis: str, command: str, flag: str, state: bool, timeout_s: float
+    ) -> AxisStatus:
+        deadline = time.monotonic() + timeout_s
+        tolerate_fault = flag in self.profile.status.fault_flags
+        while True:
+            status = self._status(axis)
+            if status.flags[flag] == state:
+                return status
+            if status.fault and not tolerate_fault:
+                raise DeviceFault(
+                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting for "
+                    f"{flag}={state}",
+                    code=status.alarm_code,
+                    where=self._where(axis),
+                )
+            if time.monotonic() >= deadline:
+                raise DeviceTimeout(
+                    f"{command} {axis}: {flag} did not become {state} within {timeout_s:g} s",
+                    where=self._where(axis),
+                )
+            time.sleep(self.poll_interval_s)
+
+    def _confirm(
+        self, axis: str, command: str, step: Step, params: Mapping[str, Any]
+    ) -> AxisStatus:
+        """Read back that an edge-triggered write was taken; never re-send it."""
+        timeout_s = float(self._resolve(step.timeout_s, params, command))
+        at = float(self._resolve(step.at, params, command))
+        tolerance = self._position_tolerance_mm()
+        deadline = time.monotonic() + timeout_s
+        while True:
+            status = self._status(axis)
+            if status.fault:
+                raise DeviceFault(
+                    f"{command} {axis}: refused with alarm {status.alarm_code:#x}",
+                    code=status.alarm_code,
+                    where=self._where(axis),
+                )
+            if any(status.flags[f] for f in step.any):
+                return status
+            if status.flags[step.done] and abs(self._counter_position(status) - at) <= tolerance:
+                return status  # finished before the first poll
+            if time.monotonic() >= deadline:
+                raise DeviceTimeout(
+                    f"{command} {axis}: not acknowledged within {timeout_s:g} s "
+                    f"(none of {', '.join(step.any)} set, not at {at:.3f} mm); "
+                    "the command was not re-sent",
+                    where=self._where(axis),
+                )
+            time.sleep(self.poll_interval_s)

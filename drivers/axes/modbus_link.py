@@ -1,0 +1,321 @@
+"""The one module that talks to pymodbus on the client side.
+
+pymodbus renames its keywords between minor versions (``unit`` -> ``slave`` ->
+``device_id``) and rebuilt its internals in 3.13, so every client call is kept
+here, behind four verbs (read registers / coils, write registers / coil), and
+everything above speaks in :mod:`drivers.errors` exceptions.
+
+Timing rules:
+
+- the pymodbus client is built with ``retries=0``: a request is sent once, and
+  ``timeout_s`` bounds each attempt;
+- reads are idempotent, so :class:`ModbusLink` repeats them itself, at most
+  ``read_retries`` times, on a missing answer only; a dead device therefore
+  reports within ``timeout_s × (read_retries + 1)`` plus the connection attempt;
+- writes are never repeated: on a real controller a write may act on an edge
+  (home, start a move), so the caller reads back whether it was taken.
+
+Every write is logged at INFO with the device, address and values.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Literal
+
+from pymodbus import ModbusException
+from pymodbus.client import ModbusSerialClient, ModbusTcpClient
+from pymodbus.exceptions import ConnectionException, ModbusIOException
+from pymodbus.pdu import ExceptionResponse
+
+from drivers.axes.profile import Profile
+from drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, FrameError, LinkError
+
+log = logging.getLogger(__name__)
+# pymodbus logs failed transactions itself; with no logging configured, Python's
+# last-resort handler would print them. The errors raised here carry the same facts.
+logging.getLogger("pymodbus").addHandler(logging.NullHandler())
+
+#: Modbus exception codes, for messages.
+EXCEPTION_NAMES = {
+    1: "illegal function",
+    2: "illegal data address",
+    3: "illegal data value",
+    4: "device failure",
+    5: "acknowledge (still processing)",
+    6: "device busy",
+    8: "memory parity error",
+    10: "gateway path unavailable",
+    11: "gateway target did not respond",
+}
+
+
+@dataclass(frozen=True)
+class LinkStats:
+    """Transactions made so far (reads and writes, attempts counted once each)."""
+
+    reads: int
+    writes: int
+    read_retries: int
+
+
+class ModbusLink:
+    """A Modbus TCP or RTU client with bounded timeouts and errors that name the device."""
+
+    def __init__(
+        self,
+        *,
+        transport: Literal["tcp", "rtu"],
+        host: str = "127.0.0.1",
+        port: int = 502,
+        serial_port: str = "",
+        baudrate: int = 38400,
+        bytesize: int = 8,
+        parity: str = "N",
+        stopbits: int = 1,
+        timeout_s: float = 0.2,
+        read_retries: int = 1,
+    ) -> None:
+        if transport not in ("tcp", "rtu"):
+            raise ValueError(f"Modbus link: transport must be 'tcp' or 'rtu', got {transport!r}")
+        if not timeout_s > 0:
+            raise ValueError(f"Modbus link: timeout_s must be positive, got {timeout_s}")
+        if read_retries < 0:
+            raise ValueError(f"Modbus link: read_retries must be >= 0, got {read_retries}")
+        if transport == "rtu" and not serial_port:
+            raise ValueError("Modbus link: an RTU link needs serial_port")
+        self.transport = transport
+        self.timeout_s = timeout_s
+        self.read_retries = read_retries
+        self.baudrate = baudrate
+        self.bits_per_byte = 1 + bytesize + (0 if parity == "N" else 1) + stopbits
+        self._client: ModbusTcpClient | ModbusSerialClient
+        if transport == "tcp":
+            self.endpoint = f"modbus tcp {host}:{port}"
+            self._client = ModbusTcpClient(host, port=port, timeout=timeout_s, retries=0)
+        else:
+            self.endpoint = f"modbus rtu {serial_port} @{baudrate}"
+            self._client = ModbusSerialClient(
+                serial_port,
+                baudrate=baudrate,
+                bytesize=bytesize,
+                parity=parity,
+                stopbits=stopbits,
+                timeout=timeout_s,
+                retries=0,
+            )
+        self._lock = threading.Lock()
+        self._reads = self._writes = self._retries = 0
+
+    @classmethod
+    def for_profile(
+        cls,
+        profile: Profile,
+        *,
+        transport: Literal["tcp", "rtu"] | None = None,
+        host: str = "127.0.0.1",
+        port: int | None = None,
+        serial_port: str = "",
+        baudrate: int | None = None,
+        timeout_s: float | None = None,
+    ) -> ModbusLink:
+        """A link with the profile's transport defaults; arguments given override them."""
+        t = profile.transport
+        return cls(
+            transport=transport or t.default,
+            host=host,
+            port=t.tcp_port if port is None else port,
+            serial_port=serial_port,
+            baudrate=baudrate or t.baudrate,
+            bytesize=t.bytesize,
+            parity=t.parity,
+            stopbits=t.stopbits,
+            timeout_s=timeout_s or t.timeout_s,
+            read_retries=t.read_retries,
+        )
+
+    @classmethod
+    def tcp(cls, host: str, port: int, **kwargs: object) -> ModbusLink:
+        return cls(transport="tcp", host=host, port=port, **kwargs)  # type: ignore[arg-type]
+
+    @classmethod
+    def rtu(cls, serial_port: str, *, baudrate: int = 38400, **kwargs: object) -> ModbusLink:
+        return cls(transport="rtu", serial_port=serial_port, baudrate=baudrate, **kwargs)  # type: ignore[arg-type]
+
+    # ------------------------------------------------------------ life cycle
+
+    def connect(self) -> ModbusLink:
+        """Open the connection or port now (requests also connect on demand)."""
+        with self._lock:
+            if not self._client.connect():
+                raise LinkError(
+                    "cannot connect (refused, unreachable or port busy)", where=self.endpoint
+                )
+        log.info("%s: connected", self.endpoint)
+        return self
+
+    def close(self) -> None:
+        with self._lock:
+            self._client.close()
+
+    def __enter__(self) -> ModbusLink:
+        return self.connect()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @property
+    def stats(self) -> LinkStats:
+        return LinkStats(self._reads, self._writes, self._retries)
+
+    def where(self, device_id: int) -> str:
+        return f"{self.endpoint} device {device_id}"
+
+    # ------------------------------------------------------------ reads
+
+    def read_registers(self, device_id: int, address: int, count: int) -> list[int]:
+        """FC3 read of ``count`` holding registers."""
+        response = self._read(
+            device_id,
+            f"read {count} holding register(s) at {address:#06x}",
+            lambda: self._client.read_holding_registers(address, count=count, device_id=device_id),
+        )
+        registers = list(getattr(response, "registers", []))
+        if len(registers) != count:
+            raise FrameError(
+                f"read {count} holding register(s) at {address:#06x}: got {len(registers)}",
+                where=self.where(device_id),
+            )
+        return registers
+
+    def read_coils(self, device_id: int, address: int, count: int) -> list[bool]:
+        """FC1 read of ``count`` coils."""
+        response = self._read(
+            device_id,
+            f"read {count} coil(s) at {address:#06x}",
+            lambda: self._client.read_coils(address, count=count, device_id=device_id),
+        )
+        bits = list(getattr(response, "bits", []))
+        if len(bits) < count:
+            raise FrameError(
+                f"read {count} coil(s) at {address:#06x}: got {len(bits)}",
+                where=self.where(device_id),
+            )
+        return bits[:count]
+
+    def _read(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
+        attempts = self.read_retries + 1
+        started = time.monotonic()
+        for attempt in range(1, attempts + 1):
+            self._reads += 1
+            try:
+                return self._execute(device_id, what, call)
+            except DeviceTimeout:
+                if attempt == attempts:
+                    raise DeviceTimeout(
+                        f"{what}: no answer after {attempts} attempt(s) of {self.timeout_s:g} s "
+                        f"({time.monotonic() - started:.2f} s)",
+                        where=self.where(device_id),
+                    ) from None
+                self._retries += 1
+                log.warning(
+                    "%s: %s: no answer, retrying (%d/%d)",
+                    self.where(device_id),
+                    what,
+                    attempt,
+                    attempts - 1,
+                )
+        raise AssertionError("unreachable")
+
+    # ------------------------------------------------------------ writes (never retried)
+
+    def write_register(self, device_id: int, address: int, value: int, *, what: str) -> None:
+        """FC6 write of one register, sent once."""
+        log.info(
+            "%s: write %s: register %#06x <- %#06x", self.where(device_id), what, address, value
+        )
+        self._write(
+            device_id,
+            f"write {what} ({address:#06x})",
+            lambda: self._client.write_register(address, value, device_id=device_id),
+        )
+
+    def write_registers(
+        self, device_id: int, address: int, values: Sequence[int], *, what: str
+    ) -> None:
+        """FC16 write of consecutive registers, sent once."""
+        shown = " ".join(f"{v:#06x}" for v in values)
+        log.info(
+            "%s: write %s: registers %#06x.. <- [%s]", self.where(device_id), what, address, shown
+        )
+        self._write(
+            device_id,
+            f"write {what} ({len(values)} registers at {address:#06x})",
+            lambda: self._client.write_registers(address, list(values), device_id=device_id),
+        )
+
+    def write_coil(self, device_id: int, address: int, value: bool, *, what: str) -> None:
+        """FC5 write of one coil, sent once."""
+        log.info(
+            "%s: write %s: coil %#06x <- %s",
+            self.where(device_id),
+            what,
+            address,
+            "ON" if value else "OFF",
+        )
+        self._write(
+            device_id,
+            f"write {what} (coil {address:#06x})",
+            lambda: self._client.write_coil(address, value, device_id=device_id),
+        )
+
+    def _write(self, device_id: int, what: str, call) -> None:  # type: ignore[no-untyped-def]
+        self._writes += 1
+        try:
+            self._execute(device_id, what, call)
+        except DeviceTimeout as exc:
+            # The write may or may not have been executed: say so, the caller reads back.
+            raise DeviceTimeout(
+                f"{what}: no answer within {self.timeout_s:g} s; not re-sent, "
+                "the device may or may not have taken it",
+                where=exc.where,
+            ) from None
+
+    # ------------------------------------------------------------ error mapping
+
+    def _execute(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
+        where = self.where(device_id)
+        with self._lock:
+            try:
+                response = call()
+            except ConnectionException as exc:
+                self._client.close()
+                raise LinkError(f"{what}: connection failed or lost ({exc})", where=where) from exc
+            except ModbusIOException as exc:
+                text = str(exc)
+                if "device id" in text or "transaction id" in text:
+                    raise FrameError(
+                        f"{what}: answer does not match the request ({text})", where=where
+                    ) from exc
+                raise DeviceTimeout(
+                    f"{what}: no answer within {self.timeout_s:g} s", where=where
+                ) from exc
+            except ModbusException as exc:
+                raise FrameError(f"{what}: {exc}", where=where) from exc
+            except OSError as exc:
+                self._client.close()
+                raise LinkError(f"{what}: {exc}", where=where) from exc
+        if isinstance(response, ExceptionResponse) or response.isError():
+            code = int(getattr(response, "exception_code", 0))
+            name = EXCEPTION_NAMES.get(code, "unknown exception")
+            message = f"{what}: device answered exception {code} ({name})"
+            if code == 6:
+                raise DeviceBusy(message, code=code, where=where)
+            if code == 11:
+                raise DeviceTimeout(message, where=where)
+            raise DeviceFault(message, code=code, where=where)
+        return response

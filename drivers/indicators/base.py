@@ -1,0 +1,381 @@
+"""The one contract of indicator drivers, and what the drivers share.
+
+- :class:`Reading`: one value in mm with the raw frame it came from.
+- :class:`Indicator`: the ``typing.Protocol`` a campaign runner talks to.
+- :func:`read_stable`: flush stale input, then wait for N consecutive values
+  within a tolerance (free-running bridges buffer old frames).
+- Unit helpers that make "an inch value taken as mm" impossible: where a frame
+  has no unit field, the unit recorded at setup fixes which decimal layouts
+  are accepted, and the default layouts of mm and inch do not overlap.
+- :class:`SerialIndicator`: a base class with the shared link handling
+  (terminator-delimited reads against a deadline, flush, error mapping).
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections import deque
+from collections.abc import Iterable, Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+from decimal import Decimal
+from typing import Literal, Protocol, runtime_checkable
+
+import serial
+
+from drivers.errors import (
+    DeviceBusy,
+    DeviceTimeout,
+    DriverError,
+    FrameError,
+    LinkError,
+    UnitError,
+)
+
+try:  # termios.error is not an OSError, and pyserial lets it escape from tcflush
+    import termios
+
+    _LINK_FAILURES: tuple[type[BaseException], ...] = (OSError, termios.error)
+except ImportError:  # pragma: no cover - Windows
+    _LINK_FAILURES = (OSError,)
+
+log = logging.getLogger(__name__)
+
+Unit = Literal["mm", "inch"]
+UNITS: tuple[Unit, ...] = ("mm", "inch")
+MM_PER_INCH = Decimal("25.4")
+
+# Longest a low-level read blocks before the driver re-checks its deadline; a
+# read returns as soon as a byte arrives, so this wastes no line time.
+POLL_S = 0.02
+
+# Decimal places a gauge shows, by display unit. The sets do not overlap, so a
+# gauge switched to inch (0.0001 in / 0.00005 in) cannot pass as a mm gauge at
+# 0.001 mm or coarser. A 0.0001 mm gauge needs ``decimals=4`` spelled out.
+DEFAULT_DECIMALS: dict[str, frozenset[int]] = {
+    "mm": frozenset({1, 2, 3}),
+    "inch": frozenset({4, 5}),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """One value read from a gauge.
+
+    ``value_mm`` is always in mm; ``unit`` is the unit the gauge displayed in
+    (from the frame, or the configured unit when the frame has none); ``frame``
+    is the raw bytes as received, kept for the record.
+    """
+
+    value_mm: float
+    frame: bytes
+    time_s: float  # wall clock (time.time()) when the frame was complete
+    channel: str = ""
+    unit: Unit = "mm"
+    where: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class StableReading:
+    """N consecutive readings that agree within the tolerance."""
+
+    value_mm: float  # mean of the agreeing readings
+    spread_mm: float  # max - min of the agreeing readings
+    readings: tuple[Reading, ...]
+
+    @property
+    def where(self) -> str:
+        return self.readings[-1].where
+
+    @property
+    def channel(self) -> str:
+        return self.readings[-1].channel
+
+    @property
+    def time_s(self) -> float:
+        return self.readings[-1].time_s
+
+
+@runtime_checkable
+class Indicator(Protocol):
+    """What every indicator driver offers.
+
+    ``read`` returns one value. Request/response drivers (01A, Sylvac, polled
+    Digimatic) flush stale input before each request, so a read is always
+    fresh. Free-running sources (streaming Digimatic bridge, U-WAVE receiver)
+    return frames in arrival order, so consecutive reads see consecutive
+    frames; ``flush_input`` drops what arrived before now, and
+    :func:`read_stable` calls it first.
+    """
+
+    where: str
+
+    def read(self, timeout_s: float | None = None) -> Reading: ...
+
+    def flush_input(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+def check_unit(unit: str | None, *, where: str) -> Unit:
+    """Validate a configured unit (``"mm"`` or ``"inch"``)."""
+    if unit == "mm":
+        return "mm"
+    if unit == "inch":
+        return "inch"
+    raise UnitError(f"unit must be 'mm' or 'inch', got {unit!r}", where=where)
+
+
+def accepted_decimals(
+    unit: Unit, decimals: int | Iterable[int] | None, *, where: str
+) -> frozenset[int]:
+    """The decimal layouts accepted from a unit-less frame configured in ``unit``."""
+    if decimals is None:
+        return DEFAULT_DECIMALS[unit]
+    chosen = frozenset([decimals] if isinstance(decimals, int) else decimals)
+    if not chosen or any(not 0 <= d <= 7 for d in chosen):
+        raise UnitError(f"decimals must be between 0 and 7, got {sorted(chosen)}", where=where)
+    other: Unit = "inch" if unit == "mm" else "mm"
+    overlap = chosen & DEFAULT_DECIMALS[other]
+    if overlap:
+        log.warning(
+            "%s: configured %s with %s decimals, a layout an %s display also uses: "
+            "a gauge switched to %s would not be detected",
+            where,
+            unit,
+            sorted(overlap),
+            other,
+            other,
+        )
+    return chosen
+
+
+def check_decimals(
+    decimals: int, unit: Unit, accepted: frozenset[int], *, where: str, frame: bytes
+) -> None:
+    """Refuse a frame whose decimal layout contradicts the configured unit."""
+    if decimals in accepted:
+        return
+    looks_like: Unit = "inch" if decimals in DEFAULT_DECIMALS["inch"] else "mm"
+    raise UnitError(
+        f"frame shows {decimals} decimals but the gauge is configured in {unit} "
+        f"(expects {sorted(accepted)} decimals); the gauge display is probably in "
+        f"{looks_like}: set it back to {unit} or correct the configuration",
+        where=where,
+    )
+
+
+def to_mm(value: Decimal, unit: Unit) -> float:
+    """A displayed value in mm (exact decimal arithmetic, one rounding at the end)."""
+    mm = value * MM_PER_INCH if unit == "inch" else value
+    return float(mm) + 0.0  # + 0.0 turns -0.0 into 0.0
+
+
+class FrameReader:
+    """Reads terminator-delimited frames from a link, against a deadline.
+
+    Never a fixed-length read: bytes are read as they arrive, and bytes after a
+    terminator are kept for the next frame. Empty segments (the LF of a CR LF
+    pair) are skipped. Every transport failure becomes a :class:`LinkError`.
+    """
+
+    def __init__(
+        self,
+        link: serial.SerialBase,
+        *,
+        where: str,
+        terminators: bytes = b"\r\n",
+        max_frame_bytes: int = 64,
+    ) -> None:
+        self.link = link
+        self.where = where
+        self._terminators = frozenset(terminators)
+        self._max_frame_bytes = max_frame_bytes
+        self._buffer = bytearray()
+
+    def discard(self) -> None:
+        """Drop everything received so far (ours and the OS input queue)."""
+        self._buffer.clear()
+        with link_errors(self.where, "flushing input"):
+            self.link.reset_input_buffer()
+
+    def read_frame(self, deadline: float) -> bytes:
+        """The next frame including its terminator; DeviceTimeout at ``deadline``
+        (a ``time.monotonic()`` value)."""
+        while True:
+            frame = self._take_frame()
+            if frame is not None:
+                return frame
+            with link_errors(self.where, "reading"):
+                waiting = self.link.in_waiting
+                # Bytes already here are used even at the deadline.
+                if not waiting and time.monotonic() >= deadline:
+                    break
+                # All waiting bytes at once; otherwise block for one byte,
+                # which returns as soon as it arrives.
+                chunk = self.link.read(waiting or 1)
+            self._buffer += chunk
+        partial = bytes(self._buffer)
+        self._buffer.clear()
+        if partial:
+            raise DeviceTimeout(
+                f"incomplete frame at the deadline, got {partial!r}", where=self.where
+            )
+        raise DeviceTimeout("no reply before the deadline", where=self.where)
+
+    def _take_frame(self) -> bytes | None:
+        buffer = self._buffer
+        start = 0
+        while start < len(buffer) and buffer[start] in self._terminators:
+            start += 1
+        if start:
+            del buffer[:start]
+        for index, byte in enumerate(buffer):
+            if byte in self._terminators:
+                frame = bytes(buffer[: index + 1])
+                del buffer[: index + 1]
+                return frame
+        if len(buffer) > self._max_frame_bytes:
+            junk = bytes(buffer)
+            buffer.clear()
+            raise FrameError(
+                f"no terminator within {self._max_frame_bytes} bytes", where=self.where, frame=junk
+            )
+        return None
+
+
+@contextmanager
+def link_errors(where: str, action: str) -> Iterator[None]:
+    """Turn transport failures (pyserial, OS, termios) into :class:`LinkError`."""
+    try:
+        yield
+    except _LINK_FAILURES as exc:
+        raise LinkError(
+            f"link lost while {action} ({exc}); was the gauge or adapter unplugged?",
+            where=where,
+        ) from exc
+
+
+class SerialIndicator:
+    """Shared plumbing of the serial indicator drivers.
+
+    The driver receives an open link (it never opens one) and a ``where`` name
+    used in every error. ``owns_link`` says whether :meth:`close` closes it.
+    """
+
+    #: Reply deadline when ``read`` is given none.
+    default_timeout_s: float = 1.0
+
+    def __init__(
+        self,
+        link: serial.SerialBase,
+        *,
+        where: str,
+        timeout_s: float | None = None,
+        owns_link: bool = False,
+    ) -> None:
+        self.link = link
+        self.where = where
+        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
+        self.owns_link = owns_link
+        if link.timeout is None or link.timeout == 0 or link.timeout > 0.1:
+            # Reads block at most link.timeout between deadline checks: a
+            # blocking (or busy-polling) link would ignore our deadlines.
+            log.debug("%s: link timeout %r -> %s s", where, link.timeout, POLL_S)
+            with link_errors(where, "configuring the link"):
+                link.timeout = POLL_S
+        self._reader = FrameReader(link, where=where)
+
+    def flush_input(self) -> None:
+        """Discard whatever the gauge sent before now."""
+        self._reader.discard()
+
+    def close(self) -> None:
+        """Close the link if this driver opened it (through the factory)."""
+        if self.owns_link:
+            self.link.close()
+
+    def __enter__(self) -> SerialIndicator:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(where={self.where!r})"
+
+    def _deadline(self, timeout_s: float | None) -> float:
+        return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+
+    def _send(self, data: bytes) -> None:
+        # No flush() (tcdrain): write() already hands the bytes to the driver,
+        # and waiting for them to leave the UART would only add latency.
+        with link_errors(self.where, "writing"):
+            self.link.write(data)
+
+    def _read_frame(self, deadline: float) -> bytes:
+        return self._reader.read_frame(deadline)
+
+
+def read_stable(
+    indicator: Indicator,
+    n: int = 3,
+    tolerance_mm: float = 0.002,
+    timeout_s: float = 5.0,
+) -> StableReading:
+    """Flush stale input, then read until ``n`` consecutive values agree within
+    ``tolerance_mm`` (max - min); return their mean.
+
+    A garbled frame or a busy gauge breaks the run of consecutive values and
+    reading goes on; other device errors (fault codes, unit, link) propagate at
+    once. Raises :class:`DeviceTimeout` naming the gauge when the values never
+    settle within ``timeout_s``.
+    """
+    if n < 1:
+        raise ValueError(f"n must be at least 1, got {n}")
+    if tolerance_mm < 0:
+        raise ValueError(f"tolerance_mm must not be negative, got {tolerance_mm}")
+    deadline = time.monotonic() + timeout_s
+    indicator.flush_input()
+    window: deque[Reading] = deque(maxlen=n)
+    count = 0
+    last_error: DriverError | None = None
+    spread_mm = float("nan")
+    while True:
+        remaining = deadline - time.monotonic()
+        try:
+            if remaining <= 0:
+                raise DeviceTimeout("deadline reached", where=indicator.where)
+            reading = indicator.read(timeout_s=remaining)
+        except (FrameError, DeviceBusy) as exc:
+            log.warning(
+                "%s: discarding a reading while waiting for stability: %s", indicator.where, exc
+            )
+            last_error = exc
+            window.clear()
+            continue
+        except DeviceTimeout as exc:
+            if count == 0 and last_error is None:
+                raise
+            detail = (
+                f"last {len(window)} values spread {spread_mm:.6g} mm"
+                if window
+                else "no consecutive values"
+            )
+            if last_error is not None:
+                detail += f"; last error: {last_error}"
+            raise DeviceTimeout(
+                f"readings did not settle within {timeout_s:g} s ({count} readings, {detail}, "
+                f"needed {n} within {tolerance_mm:g} mm)",
+                where=indicator.where,
+            ) from exc
+        count += 1
+        window.append(reading)
+        values = [r.value_mm for r in window]
+        spread_mm = max(values) - min(values)
+        # The epsilon keeps quantised values (1.233, 1.235 at 0.002) from failing on float noise.
+        if len(window) == n and spread_mm <= tolerance_mm + 1e-9:
+            return StableReading(
+                value_mm=sum(values) / n, spread_mm=spread_mm, readings=tuple(window)
+            )

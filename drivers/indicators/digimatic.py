@@ -1,0 +1,178 @@
+"""Raw Digimatic frames as USB bridges emit them: 13 hex characters and CR/LF.
+
+Nibbles (one ASCII character each)::
+
+    d1-d4  FFFF      header
+    d5     0 / 8     sign + / -
+    d6-d11 ######    six BCD digits
+    d12    0-5       digits after the decimal point
+    d13    0 / 1|8   unit mm / inch (8 is the same bit read in the other order)
+
+``FFFF000012330`` = +1.233 mm; ``FFFF021076540`` = +21.0765 mm. The frame
+carries its unit, so the value is converted from it; a configured unit that
+differs is only a warning (the number stays right, in mm).
+
+Bridges either answer any byte with one frame (polled) or stream a frame every
+~10 ms (streaming, so old frames pile up unread).
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import time
+from dataclasses import dataclass
+from decimal import ROUND_HALF_EVEN, Decimal
+from typing import Literal
+
+import serial
+
+from drivers.errors import DriverError, FrameError
+from drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
+
+log = logging.getLogger(__name__)
+
+Mode = Literal["polled", "streaming"]
+POLL_REQUEST = b"\r"  # bridges answer any byte; one byte asks for exactly one frame
+DIGITS = 6
+UNIT_NIBBLES: dict[str, Unit] = {"0": "mm", "1": "inch", "8": "inch"}
+
+_FRAME = re.compile(rb"FFFF([08])([0-9]{6})([0-5])([018])(?:\r\n|\r|\n)")
+
+
+@dataclass(frozen=True, slots=True)
+class DigimaticFrame:
+    """A decoded Digimatic frame (value in the unit the frame reports)."""
+
+    value: Decimal
+    decimals: int
+    unit: Unit
+    unit_nibble: str  # "0", "1" or "8", kept to log which inch convention a bridge uses
+
+
+def encode_frame(
+    value: float | Decimal,
+    *,
+    decimals: int,
+    unit: Unit = "mm",
+    inch_nibble: str = "1",
+    terminator: bytes = b"\r\n",
+) -> bytes:
+    """The frame for ``value`` in ``unit`` with ``decimals`` places.
+
+    Raises ValueError when the value needs more than six digits.
+    """
+    if not 0 <= decimals <= 5:
+        raise ValueError(f"Digimatic decimals must be 0..5, got {decimals}")
+    if unit == "mm":
+        unit_nibble = "0"
+    elif unit == "inch" and inch_nibble in ("1", "8"):
+        unit_nibble = inch_nibble
+    else:
+        raise ValueError(
+            f"unit must be 'mm' or 'inch' (inch nibble 1 or 8), got {unit!r}/{inch_nibble!r}"
+        )
+    exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
+    shown = exact.quantize(Decimal(1).scaleb(-decimals), rounding=ROUND_HALF_EVEN)
+    digits = int(abs(shown).scaleb(decimals))
+    if digits >= 10**DIGITS:
+        raise ValueError(f"{value} does not fit six digits with {decimals} decimals")
+    sign = "8" if shown < 0 else "0"
+    return f"FFFF{sign}{digits:06d}{decimals}{unit_nibble}".encode("ascii") + terminator
+
+
+def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:
+    """Decode one frame (CR, LF or CR LF terminator included); FrameError if off grammar."""
+    match = _FRAME.fullmatch(frame)
+    if match is None:
+        raise FrameError("not a Digimatic frame", where=where, frame=frame)
+    sign, digits, point, unit_nibble = (group.decode("ascii") for group in match.groups())
+    decimals = int(point)
+    value = Decimal(int(digits)).scaleb(-decimals)
+    if sign == "8":
+        value = -value
+    return DigimaticFrame(
+        value=value, decimals=decimals, unit=UNIT_NIBBLES[unit_nibble], unit_nibble=unit_nibble
+    )
+
+
+class DigimaticBridge(SerialIndicator):
+    """A Digimatic gauge behind a USB bridge, polled or streaming.
+
+    ``unit`` is the unit the gauge is expected to display; frames carry their
+    own unit, which is what the conversion uses (a mismatch is logged).
+    """
+
+    default_timeout_s = 1.0
+
+    def __init__(
+        self,
+        link: serial.SerialBase,
+        *,
+        where: str,
+        unit: str,
+        mode: Mode = "polled",
+        channel: str = "",
+        timeout_s: float | None = None,
+        owns_link: bool = False,
+    ) -> None:
+        super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
+        if mode not in ("polled", "streaming"):
+            raise DriverError(f"mode must be 'polled' or 'streaming', got {mode!r}", where=where)
+        self.unit: Unit = check_unit(unit, where=where)
+        self.mode: Mode = mode
+        self.channel = channel
+        # Opening may have landed mid-stream, just like a flush.
+        self._just_flushed = mode == "streaming"
+        self._last_unit_nibble: str | None = None
+
+    def flush_input(self) -> None:
+        super().flush_input()
+        # The flush may cut a streamed frame: its tail is dropped, not reported.
+        self._just_flushed = self.mode == "streaming"
+
+    def read(self, timeout_s: float | None = None) -> Reading:
+        """Polled: flush, ask, decode the answer. Streaming: the next frame to arrive."""
+        deadline = self._deadline(timeout_s)
+        if self.mode == "polled":
+            self.flush_input()
+            self._send(POLL_REQUEST)
+        while True:
+            frame = self._read_frame(deadline)
+            try:
+                decoded = decode_frame(frame, where=self.where)
+            except FrameError:
+                if self._just_flushed:
+                    self._just_flushed = False
+                    log.debug("%s: dropped a partial frame after flush: %r", self.where, frame)
+                    continue
+                raise
+            self._just_flushed = False
+            self._note_unit(decoded)
+            return Reading(
+                value_mm=to_mm(decoded.value, decoded.unit),
+                frame=frame,
+                time_s=time.time(),
+                channel=self.channel,
+                unit=decoded.unit,
+                where=self.where,
+            )
+
+    def _note_unit(self, decoded: DigimaticFrame) -> None:
+        if decoded.unit_nibble == self._last_unit_nibble:
+            return
+        self._last_unit_nibble = decoded.unit_nibble
+        if decoded.unit == "inch":
+            log.info(
+                "%s: gauge reports inch (unit nibble %s); converting to mm",
+                self.where,
+                decoded.unit_nibble,
+            )
+        if decoded.unit != self.unit:
+            log.warning(
+                "%s: gauge displays %s but is configured %s; values are converted from "
+                "the unit in each frame",
+                self.where,
+                decoded.unit,
+                self.unit,
+            )

@@ -1,0 +1,210 @@
+"""Mitutoyo "01A" ASCII protocol (USB-ITN virtual COM, DMX-1, MUX-10, QM-Height).
+
+Request: the channel digit and CR (``1\\r``). Reply, 13 bytes::
+
+    0 <channel> A <sign> <8 characters, floating decimal point> CR
+    01A+0000.123\\r     01A+000.1234\\r (inch)     02A-001.2340\\r
+
+The frame has no unit: the unit is a gauge setting, recorded at setup, and the
+number of decimals must fit it (see :mod:`drivers.indicators.base`).
+Errors are ``91`` and a digit (``911`` no data from the gauge, ``918`` busy);
+they look numeric, so they are classified before any value parsing.
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from decimal import ROUND_HALF_EVEN, Decimal, InvalidOperation
+
+import serial
+
+from drivers.errors import DeviceBusy, DeviceFault, DriverError, FrameError
+from drivers.indicators.base import (
+    Reading,
+    SerialIndicator,
+    Unit,
+    accepted_decimals,
+    check_decimals,
+    check_unit,
+    to_mm,
+)
+
+log = logging.getLogger(__name__)
+
+VALUE_WIDTH = 8  # characters of value, decimal point included
+DEVICE_INFO_REQUEST = b"V\r"
+BUSY_CODE = "918"
+ERROR_MEANINGS = {
+    "911": "no data from the gauge (is it connected, switched on, cable seated?)",
+    "918": "interface busy",
+}
+
+_CHANNEL = re.compile(rb"[0-9A-Z]")
+_READING = re.compile(rb"0([0-9A-Z])A([+-])([0-9.]{8})\r")
+_VALUE_FIELD = re.compile(rb"[0-9]+\.[0-9]+")
+_ERROR = re.compile(rb"91([0-9])\r")
+_PRINTABLE = re.compile(rb"[\x20-\x7e]*\r")
+
+
+@dataclass(frozen=True, slots=True)
+class Reply01A:
+    """A decoded 01A value reply (value in the gauge's display unit)."""
+
+    channel: str
+    value: Decimal
+    decimals: int
+
+
+def encode_request(channel: str = "1") -> bytes:
+    """The request for one channel: ``b"1\\r"``."""
+    raw = channel.encode("ascii", "replace")
+    if not _CHANNEL.fullmatch(raw):
+        raise ValueError(f"01A channel must be one digit or capital letter, got {channel!r}")
+    return raw + b"\r"
+
+
+def encode_reply(value: float | Decimal, *, decimals: int, channel: str = "1") -> bytes:
+    """The reply frame for ``value`` (display unit) shown with ``decimals`` places.
+
+    Raises ValueError when the value does not fit the 8-character field.
+    """
+    if not 1 <= decimals <= VALUE_WIDTH - 2:
+        raise ValueError(f"decimals must be 1..{VALUE_WIDTH - 2}, got {decimals}")
+    quantum = Decimal(1).scaleb(-decimals)
+    exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
+    shown = exact.quantize(quantum, rounding=ROUND_HALF_EVEN)
+    sign = b"-" if shown < 0 else b"+"
+    field = f"{abs(shown):0{VALUE_WIDTH}.{decimals}f}".encode("ascii")
+    if len(field) != VALUE_WIDTH:
+        raise ValueError(f"{value} does not fit 8 characters with {decimals} decimals")
+    return b"0" + encode_request(channel)[:1] + b"A" + sign + field + b"\r"
+
+
+def encode_error(code: str | int) -> bytes:
+    """An error frame: ``encode_error("911") == b"911\\r"``."""
+    text = str(code)
+    if not re.fullmatch(r"91[0-9]", text):
+        raise ValueError(f"01A error codes are 910..919, got {code!r}")
+    return text.encode("ascii") + b"\r"
+
+
+def decode_reply(frame: bytes, *, where: str = "") -> Reply01A:
+    """Decode one reply frame (terminator included).
+
+    Raises :class:`DeviceBusy` for ``918``, :class:`DeviceFault` for other
+    ``91x`` codes and :class:`FrameError` for anything off the grammar.
+    """
+    error = _ERROR.fullmatch(frame)
+    if error is not None:
+        code = "91" + error.group(1).decode("ascii")
+        if code == BUSY_CODE:
+            raise DeviceBusy("gauge interface busy (918)", code=code, where=where)
+        meaning = ERROR_MEANINGS.get(code, "error reported by the interface")
+        raise DeviceFault(f"error {code}: {meaning}", code=code, where=where)
+    match = _READING.fullmatch(frame)
+    if match is None:
+        raise FrameError("not a 01A reply", where=where, frame=frame)
+    channel, sign, field = match.groups()
+    if not _VALUE_FIELD.fullmatch(field):
+        raise FrameError(
+            "01A value field is not digits with one decimal point", where=where, frame=frame
+        )
+    try:
+        value = Decimal(field.decode("ascii"))
+    except InvalidOperation as exc:  # unreachable after the regex; kept as a guard
+        raise FrameError("01A value not a number", where=where, frame=frame) from exc
+    if sign == b"-":
+        value = -value
+    decimals = len(field) - field.index(b".") - 1
+    return Reply01A(channel=channel.decode("ascii"), value=value, decimals=decimals)
+
+
+class Mitutoyo01A(SerialIndicator):
+    """A gauge behind a Mitutoyo 01A interface (one channel of a multiplexer).
+
+    ``unit`` is the unit the gauge displays (a gauge setting the frame does not
+    carry); ``decimals`` the decimal places it shows (default: 1-3 for mm,
+    4-5 for inch). Several drivers may share one link, one per channel, as long
+    as they are used from one thread.
+    """
+
+    default_timeout_s = 1.0
+
+    def __init__(
+        self,
+        link: serial.SerialBase,
+        *,
+        where: str,
+        unit: str,
+        channel: str = "1",
+        decimals: int | Iterable[int] | None = None,
+        timeout_s: float | None = None,
+        busy_retries: int = 5,
+        busy_retry_delay_s: float = 0.05,
+        owns_link: bool = False,
+    ) -> None:
+        super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
+        self.unit: Unit = check_unit(unit, where=where)
+        self.channel = channel
+        try:
+            self._request = encode_request(channel)
+        except ValueError as exc:
+            raise DriverError(str(exc), where=where) from None
+        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+        self.busy_retries = busy_retries
+        self.busy_retry_delay_s = busy_retry_delay_s
+
+    def read(self, timeout_s: float | None = None) -> Reading:
+        """Request and decode one value; ``918`` is retried a few times ~50 ms apart."""
+        deadline = self._deadline(timeout_s)
+        retries_left = self.busy_retries
+        while True:
+            try:
+                return self._exchange(deadline)
+            except DeviceBusy:
+                pause_s = self.busy_retry_delay_s
+                if retries_left <= 0 or time.monotonic() + pause_s >= deadline:
+                    raise
+                retries_left -= 1
+                log.debug("%s: busy (918), retrying in %.0f ms", self.where, pause_s * 1e3)
+                time.sleep(pause_s)
+
+    def device_info(self, timeout_s: float | None = None) -> str:
+        """The interface's identification (``V\\r``)."""
+        self.flush_input()
+        self._send(DEVICE_INFO_REQUEST)
+        frame = self._read_frame(self._deadline(timeout_s))
+        if _ERROR.fullmatch(frame):
+            decode_reply(frame, where=self.where)  # raises the classified error
+        if not _PRINTABLE.fullmatch(frame):
+            raise FrameError(
+                "device information is not printable text", where=self.where, frame=frame
+            )
+        return frame[:-1].decode("ascii").strip()
+
+    def _exchange(self, deadline: float) -> Reading:
+        self.flush_input()
+        self._send(self._request)
+        frame = self._read_frame(deadline)
+        reply = decode_reply(frame, where=self.where)
+        if reply.channel != self.channel:
+            raise FrameError(
+                f"reply from channel {reply.channel}, asked channel {self.channel}",
+                where=self.where,
+                frame=frame,
+            )
+        check_decimals(
+            reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
+        )
+        return Reading(
+            value_mm=to_mm(reply.value, self.unit),
+            frame=frame,
+            time_s=time.time(),
+            channel=self.channel,
+            unit=self.unit,
+            where=self.where,
+        )

@@ -1,0 +1,168 @@
+"""Sylvac Opto-RS duplex cable: 4800 baud 7E2, powered from DTR high / RTS low.
+
+Request ``?\\r``; reply ``[+|-| ]int.frac\\r`` in the unit set on the gauge
+(the ``MM`` / ``IN`` commands set it), so the unit is recorded at setup and the
+number of decimals must fit it. Errors: ``ERR0`` sensor, ``ERR1`` bad command,
+``ERR2`` parity, ``ERR3`` out of range. In tolerance mode the gauge appends
+``<``, ``=`` or ``>``; it is accepted and ignored. Some duplex instruments echo
+commands; an echoed ``?`` is skipped.
+
+The reply has no fixed width, so a lost digit still leaves a valid frame. A
+lost fractional digit is caught because the number of decimals is pinned to
+one value (default 3 in mm, 0.001 mm; 5 in inch, 0.00005 in; the gauge's
+RES2 setting). A digit lost from the integer part cannot be detected from the
+frame alone; the 7E2 line's parity is the only guard there.
+"""
+
+from __future__ import annotations
+
+import errno
+import logging
+import re
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+from decimal import ROUND_HALF_EVEN, Decimal
+
+import serial
+
+from drivers.errors import DeviceFault, FrameError
+from drivers.indicators.base import (
+    Reading,
+    SerialIndicator,
+    Unit,
+    accepted_decimals,
+    check_decimals,
+    check_unit,
+    link_errors,
+    to_mm,
+)
+
+log = logging.getLogger(__name__)
+
+REQUEST = b"?\r"
+# One layout per unit (see the module docstring): RES2 shows 0.001 mm / 0.00005 in.
+DEFAULT_DECIMALS: dict[Unit, int] = {"mm": 3, "inch": 5}
+UNIT_COMMANDS: dict[Unit, bytes] = {"mm": b"MM\r", "inch": b"IN\r"}
+ERROR_MEANINGS = {
+    "0": "sensor error (moved too fast? scale distance?)",
+    "1": "command not understood",
+    "2": "parity error on the line (check 4800 7E2)",
+    "3": "out of measuring range",
+}
+
+_VALUE = re.compile(rb"([+\- ])([0-9]{1,9})\.([0-9]{1,7})([<=>]?)\r")
+_ERROR = re.compile(rb"ERR([0-9])\r")
+
+
+@dataclass(frozen=True, slots=True)
+class SylvacReply:
+    """A decoded reply (value in the gauge's display unit)."""
+
+    value: Decimal
+    decimals: int
+    tolerance_flag: str = ""  # "<", "=" or ">" in tolerance mode
+
+
+def encode_reply(value: float | Decimal, *, decimals: int, tolerance_flag: str = "") -> bytes:
+    """The reply for ``value`` with ``decimals`` places (sign ``+``/``-``)."""
+    if not 1 <= decimals <= 7:
+        raise ValueError(f"decimals must be 1..7, got {decimals}")
+    if tolerance_flag not in ("", "<", "=", ">"):
+        raise ValueError(f"tolerance flag must be '', '<', '=' or '>', got {tolerance_flag!r}")
+    exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
+    shown = exact.quantize(Decimal(1).scaleb(-decimals), rounding=ROUND_HALF_EVEN)
+    sign = "-" if shown < 0 else "+"
+    text = f"{sign}{abs(shown):.{decimals}f}{tolerance_flag}\r"
+    if len(text) > 20:
+        raise ValueError(f"{value} is too large for a Sylvac reply")
+    return text.encode("ascii")
+
+
+def encode_error(code: int | str) -> bytes:
+    """``encode_error(3) == b"ERR3\\r"`` (also accepts ``"ERR3"``)."""
+    text = str(code).removeprefix("ERR")
+    if not re.fullmatch(r"[0-9]", text):
+        raise ValueError(f"Sylvac error codes are one digit, got {code!r}")
+    return f"ERR{text}\r".encode("ascii")
+
+
+def decode_reply(frame: bytes, *, where: str = "") -> SylvacReply:
+    """Decode a reply (CR included): DeviceFault for ``ERRn``, FrameError off grammar."""
+    error = _ERROR.fullmatch(frame)
+    if error is not None:
+        code = error.group(1).decode("ascii")
+        meaning = ERROR_MEANINGS.get(code, "unknown error")
+        raise DeviceFault(f"gauge error ERR{code}: {meaning}", code=f"ERR{code}", where=where)
+    match = _VALUE.fullmatch(frame)
+    if match is None:
+        raise FrameError("not a Sylvac reply", where=where, frame=frame)
+    sign, whole, fraction, flag = (part.decode("ascii") for part in match.groups())
+    value = Decimal(f"{whole}.{fraction}")
+    if sign == "-":
+        value = -value
+    return SylvacReply(value=value, decimals=len(fraction), tolerance_flag=flag)
+
+
+class SylvacOptoRS(SerialIndicator):
+    """A Sylvac gauge on an Opto-RS duplex cable.
+
+    ``unit`` is the unit set on the gauge (recorded at setup); ``decimals`` the
+    places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3).
+    """
+
+    default_timeout_s = 1.0
+
+    def __init__(
+        self,
+        link: serial.SerialBase,
+        *,
+        where: str,
+        unit: str,
+        decimals: int | Iterable[int] | None = None,
+        channel: str = "",
+        timeout_s: float | None = None,
+        owns_link: bool = False,
+    ) -> None:
+        super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
+        self.unit: Unit = check_unit(unit, where=where)
+        self.channel = channel
+        if decimals is None:
+            decimals = DEFAULT_DECIMALS[self.unit]
+        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+        self._power_cable()
+
+    def _power_cable(self) -> None:
+        """DTR high, RTS low: the cable takes its power from the handshake lines."""
+        try:
+            self.link.dtr = True
+            self.link.rts = False
+        except OSError as exc:
+            # A pty or a virtual port has no modem lines; pyserial itself ignores
+            # these two errors when it opens such a port.
+            if exc.errno not in (errno.ENOTTY, errno.EINVAL):
+                with link_errors(self.where, "powering the Opto-RS cable (DTR high, RTS low)"):
+                    raise
+            log.debug("%s: no modem lines to power the cable from (%s)", self.where, exc)
+
+    def read(self, timeout_s: float | None = None) -> Reading:
+        """Request and decode one value."""
+        deadline = self._deadline(timeout_s)
+        self.flush_input()
+        self._send(REQUEST)
+        frame = self._read_frame(deadline)
+        if frame == REQUEST:
+            log.debug("%s: skipping the echoed request", self.where)
+            frame = self._read_frame(deadline)
+        reply = decode_reply(frame, where=self.where)
+        check_decimals(
+            reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
+        )
+        return Reading(
+            value_mm=to_mm(reply.value, self.unit),
+            frame=frame,
+            time_s=time.time(),
+            channel=self.channel,
+            unit=self.unit,
+            where=self.where,
+        )

@@ -1,0 +1,86 @@
+"""Everything the simulator serves, started together over one simulated machine:
+the Modbus controller (TCP on loopback, or RTU on a pseudo-terminal) and one
+serial gauge per leg and direction, on pseudo-terminals or loopback sockets.
+
+Clients connect with the real drivers; only this module knows the endpoints
+are simulated.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from drivers.sim.clock import SimClock
+from drivers.sim.gauges import GaugeEndpoint
+from drivers.sim.machine import SimMachine
+from drivers.sim.modbus_server import ModbusSimServer
+from drivers.sim.motion import MotionModel
+from drivers.sim.truth import SimTruth
+from ogacq.model.machine import MachineSpec
+from ogacq.model.parameters import AXES
+
+GAUGE_KEYS = tuple(f"{AXES[j]}_{AXES[i]}" for i in range(3) for j in range(3) if j != i)
+
+
+@dataclass
+class SimulatorConfig:
+    machine: MachineSpec
+    truth: SimTruth
+    profile: str = "cia402"
+    speed: float = 20.0
+    seed: int = 0
+    gauge_protocol: str = "mitutoyo-01a"
+    gauge_transport: str = "pty"  # or "socket" (pyserial socket:// URL)
+    # protocol per gauge key, overriding gauge_protocol (a mixed station)
+    gauge_protocols: dict[str, str] = field(default_factory=dict)
+
+
+class SimulatorStack:
+    def __init__(self, config: SimulatorConfig) -> None:
+        self.config = config
+        self.clock = SimClock(config.speed)
+        m = config.machine
+        self.motion = MotionModel(self.clock, soft_min_mm=m.rho_min_mm, soft_max_mm=m.rho_max_mm)
+        self.machine = SimMachine(m, config.truth, self.motion, self.clock, seed=config.seed)
+        self.server = ModbusSimServer(config.profile, self.motion)
+        self.gauges: dict[str, GaugeEndpoint] = {}
+        for key in GAUGE_KEYS:
+            axis, leg = (AXES.index(c) for c in key.split("_"))
+            self.gauges[key] = GaugeEndpoint(
+                config.gauge_protocols.get(key, config.gauge_protocol),
+                self.machine.value_source(axis, leg),
+                resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
+                name=f"sim gauge {key}")
+        self._started = False
+
+    def start(self) -> SimulatorStack:
+        try:
+            self.server.start()
+            for endpoint in self.gauges.values():
+                endpoint.start()
+        except BaseException:
+            self.close()
+            raise
+        self._started = True
+        return self
+
+    def close(self) -> None:
+        for endpoint in self.gauges.values():
+            endpoint.close()
+        self.server.stop()
+        self._started = False
+
+    def __enter__(self) -> SimulatorStack:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def info(self) -> dict[str, Any]:
+        """Where to connect, as ``ogacq sim --json`` prints it."""
+        return {
+            "modbus": self.server.info(),
+            "gauges": {key: {"port": g.port, "protocol": g.protocol}
+                       for key, g in self.gauges.items()},
+        }

@@ -1,0 +1,123 @@
+"""The simulated machine's hidden truth: geometry, effects and gauge behaviour.
+
+An effects file (TOML) names any entries of the INTERCHANGE.md vocabulary, one
+table per effect, plus the gauges' noise and an out-of-library lead-screw error
+(so that the diagnosis can be shown an effect it does not know)::
+
+    [joint_offset]        # mm
+    x = 0.42
+    [squareness]          # mrad
+    xy = 0.5
+    [gauges]
+    noise_mm = 0.001
+    [lead_screw.x]        # periodic error of the x screw, not in the vocabulary
+    amplitude_mm = 0.01
+    pitch_mm = 10.0
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ogacq.io.errors import InputError
+from ogacq.model.parameters import AXES, EFFECT_BY_NAME, PARAM_INDEX, vector
+
+
+@dataclass(frozen=True)
+class LeadScrewError:
+    amplitude_mm: float
+    pitch_mm: float
+
+
+@dataclass
+class SimTruth:
+    theta: np.ndarray  # full parameter vector (ogacq.model.parameters order)
+    noise_mm: float = 0.001
+    lead_screw: dict[int, LeadScrewError] = field(default_factory=dict)
+
+    def hidden(self) -> dict[str, float]:
+        """The non-nominal entries: what a calibration should find."""
+        from ogacq.model.parameters import non_nominal
+
+        return non_nominal(self.theta)
+
+    def disturbed_q(self, q_mm: np.ndarray) -> np.ndarray:
+        """Joint coordinates as the physics sees them: the lead-screw error added."""
+        out = np.array(q_mm, dtype=float)
+        for axis, err in self.lead_screw.items():
+            out[..., axis] += err.amplitude_mm * np.sin(2 * np.pi * out[..., axis] / err.pitch_mm)
+        return out
+
+
+def random_truth(seed: int, offsets_mm: float = 1.5, noise_mm: float = 0.001) -> SimTruth:
+    """Hidden joint offsets drawn from the seed, everything else nominal."""
+    rng = np.random.default_rng(seed)
+    values = {f"joint_offset.{a}": float(v)
+              for a, v in zip(AXES, rng.uniform(-offsets_mm, offsets_mm, 3), strict=True)}
+    return SimTruth(vector(values), noise_mm)
+
+
+def _line_of(text: str, key: str) -> int | None:
+    for number, line in enumerate(text.splitlines(), 1):
+        if re.match(rf"\s*(\[{re.escape(key)}\]|{re.escape(key)}\s*=)", line):
+            return number
+    return None
+
+
+def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
+    """``base`` with the effects file's entries applied on top."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+        data = tomllib.loads(text)
+    except OSError as exc:
+        raise InputError(path, f"cannot read effects file: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(path, f"not valid TOML: {exc}") from None
+    theta = base.theta.copy()
+    noise = base.noise_mm
+    lead: dict[int, LeadScrewError] = dict(base.lead_screw)
+    for section, entries in data.items():
+        if not isinstance(entries, dict):
+            raise InputError(path, f"{section!r} must be a table like [{section}]",
+                             _line_of(text, section))
+        if section == "gauges":
+            for key, value in entries.items():
+                if key != "noise_mm" or not _is_number(value) or value < 0:
+                    raise InputError(path, f"[gauges] takes noise_mm = a number >= 0, got "
+                                     f"{key} = {value!r}", _line_of(text, key))
+                noise = float(value)
+            continue
+        if section == "lead_screw":
+            for axis, spec in entries.items():
+                if axis not in AXES or not isinstance(spec, dict) or \
+                        set(spec) != {"amplitude_mm", "pitch_mm"} or spec["pitch_mm"] <= 0:
+                    raise InputError(path, f"[lead_screw.{axis}] needs axis x, y or z with "
+                                     "amplitude_mm and pitch_mm > 0", _line_of(text, axis))
+                lead[AXES.index(axis)] = LeadScrewError(float(spec["amplitude_mm"]),
+                                                        float(spec["pitch_mm"]))
+            continue
+        effect = EFFECT_BY_NAME.get(section)
+        if effect is None:
+            raise InputError(path, f"unknown effect [{section}]; known: "
+                             f"{', '.join(EFFECT_BY_NAME)}, gauges, lead_screw",
+                             _line_of(text, section))
+        for where, value in entries.items():
+            name = f"{section}.{where}"
+            if name not in PARAM_INDEX:
+                raise InputError(path, f"[{section}] has no {where!r}; it takes "
+                                 f"{', '.join(effect.wheres)}", _line_of(text, where))
+            if not _is_number(value):
+                raise InputError(path, f"{name} must be a number in {effect.unit}",
+                                 _line_of(text, where))
+            theta[PARAM_INDEX[name]] = float(value)
+    return SimTruth(theta, noise, lead)
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)

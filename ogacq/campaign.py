@@ -1,0 +1,83 @@
+"""Running a campaign end to end: station, session, runner, identification.
+
+``ogacq run``, ``ogacq resume``, ``ogacq demo`` and the wizard all come here;
+they differ only in how they show progress and where the campaign comes from.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ogacq.campaign_file import Campaign, read_campaign
+from ogacq.identify.fit import FitResult, fit
+from ogacq.io.errors import InputError
+from ogacq.model.parameters import PARAM_SETS
+from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer
+from ogacq.session.convert import machine_dict, session_observations
+from ogacq.session.store import LoadedSession, SessionWriter, load_session
+from ogacq.station import open_station
+
+
+@dataclass
+class CampaignOutcome:
+    session_path: Path
+    fit: FitResult
+    hidden: dict[str, float] | None  # the simulator's truth, when simulated
+
+
+def identify_session(session: LoadedSession) -> FitResult:
+    """The joint offsets from every raw reading, by the exact nonlinear fit."""
+    return fit(session_observations(session), PARAM_SETS["offsets"])
+
+
+def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
+                 set_gauges: GaugeSetter | None = None,
+                 resume: LoadedSession | None = None) -> CampaignOutcome:
+    """Run (or resume) a campaign; raises CampaignStopped when it cannot finish."""
+    with open_station(campaign) as station:
+        station.prepare()
+        if resume is None:
+            header = {"machine": machine_dict(campaign.machine),
+                      "machine_file": str(campaign.machine_path),
+                      "campaign_file": str(campaign.path.resolve()),
+                      "station": station.description, "plan": campaign.protocol.to_dict()}
+            if station.simulator is not None:
+                header["simulator"] = {"seed": campaign.simulator.seed,
+                                       "profile": campaign.simulator.profile,
+                                       "speed": campaign.simulator.speed,
+                                       "effects": str(campaign.simulator.effects or "")}
+            writer = SessionWriter.create(campaign.session, header)
+            recorded: set[tuple[str, str]] = set()
+        else:
+            writer = SessionWriter.reopen(resume)
+            writer.append("station", **station.description)
+            recorded = resume.recorded()
+        with writer:
+            runner = CampaignRunner(station, writer, campaign.protocol, campaign.machine,
+                                    recorded=recorded, observer=observer,
+                                    set_gauges=set_gauges)
+            runner.run()
+            session = load_session(writer.path)
+            result = identify_session(session)
+            writer.append("result", params="offsets", refit=result.to_json("offsets"),
+                          noise_mm=result.noise.sigma_mm, noise_source=result.noise.source)
+        hidden = station.simulator.machine.truth.hidden() if station.simulator else None
+    return CampaignOutcome(writer.path, result, hidden)
+
+
+def resume_campaign(session_path: str | Path, **kwargs) -> CampaignOutcome:
+    session = load_session(session_path)
+    if session.finished:
+        raise InputError(session.path, "this campaign is complete; nothing to resume "
+                         "(`ogacq refit` re-identifies it)")
+    campaign_file = session.header.get("campaign_file")
+    if not campaign_file:
+        raise InputError(session.path, "this session was not recorded by a campaign "
+                         "(no campaign file): it cannot be resumed", 1)
+    campaign = read_campaign(campaign_file)
+    if campaign.protocol.to_dict() != session.header.get("plan"):
+        raise InputError(campaign.path, f"the protocol differs from the one {session.path} "
+                         "was started with; resume needs the same plan")
+    campaign.session = session.path
+    return run_campaign(campaign, resume=session, **kwargs)

@@ -1,0 +1,288 @@
+"""Campaign files (TOML) for unattended runs: machine, station, protocol, output.
+
+Everything is checked before anything moves: unknown keys, missing ports,
+postures outside the workspace, two gauges on one port channel. Errors name
+the file and the line.
+
+    machine = "machine.toml"          # relative to this file
+    session = "runs/cal-1.jsonl"      # where the session is written
+    [controller]
+    profile = "cia402"                # or "iai-pcon", or a profile file path
+    port = "127.0.0.1:502"            # host:port (TCP) or a serial device (RTU)
+    baudrate = 38400                  # RTU only
+    [[gauges]]
+    gauge = "y_x"                     # along y on the x leg
+    protocol = "mitutoyo-01a"
+    port = "/dev/ttyUSB0"
+    channel = 1                       # multiplexer channel, when there is one
+    unit = "mm"
+    serial = "SN 1234"                # recorded in the session
+    [protocol]
+    postures = ["zero", "max", "min", "zero"]
+    cycles = 3
+    approach = "sequence"             # sequence, from_below, from_above, both
+    settle_s = 1.0
+    [stability]
+    readings = 3
+    tolerance_mm = 0.002
+    timeout_s = 10
+    [simulator]                       # instead of hardware: the built-in simulator
+    seed = 3
+    effects = "effects.toml"
+    speed = 20
+"""
+
+from __future__ import annotations
+
+import re
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ogacq.io.errors import InputError
+from ogacq.io.machine_file import read_machine
+from ogacq.model.machine import MachineSpec
+from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
+
+GAUGE_KEYS = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
+PROTOCOLS = ("mitutoyo-01a", "digimatic", "uwave", "sylvac")
+
+_TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}
+_CONTROLLER = {"profile", "port", "baudrate", "timeout_s"}
+_GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
+_PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
+             "move_timeout_s"}
+_STABILITY = {"readings", "tolerance_mm", "timeout_s"}
+_SIMULATOR = {"seed", "effects", "speed", "profile", "noise_mm"}
+
+
+@dataclass(frozen=True)
+class GaugeSpec:
+    gauge: str
+    protocol: str
+    port: str
+    channel: str | None = None
+    unit: str = "mm"
+    serial: str = ""
+    baudrate: int | None = None
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    profile: str
+    port: str
+    baudrate: int | None = None
+    timeout_s: float = 1.0
+
+
+@dataclass(frozen=True)
+class SimulatorSpec:
+    seed: int = 0
+    effects: Path | None = None
+    speed: float = 20.0
+    profile: str = "cia402"
+    noise_mm: float | None = None
+
+
+@dataclass
+class Campaign:
+    path: Path
+    machine: MachineSpec
+    machine_path: Path
+    session: Path
+    protocol: ProtocolConfig
+    controller: ControllerSpec | None = None
+    gauges: list[GaugeSpec] = field(default_factory=list)
+    simulator: SimulatorSpec | None = None
+
+
+class _Source:
+    """The campaign file's text, to say on which line a key stands."""
+
+    def __init__(self, path: Path, text: str) -> None:
+        self.path = path
+        self.lines = text.splitlines()
+
+    def line(self, key: str, after: int = 0) -> int | None:
+        for number, line in enumerate(self.lines[after:], after + 1):
+            if re.match(rf"\s*(\[\[?{re.escape(key)}\]\]?|{re.escape(key)}\s*=)", line):
+                return number
+        return None
+
+    def fail(self, problem: str, key: str | None = None, after: int = 0) -> InputError:
+        return InputError(self.path, problem, self.line(key, after) if key else None)
+
+
+def _table_lines(src: _Source, name: str) -> list[int]:
+    return [n for n, line in enumerate(src.lines, 1) if re.match(rf"\s*\[\[{name}\]\]", line)]
+
+
+def _check_keys(src: _Source, table: dict, allowed: set[str], where: str, after: int = 0) -> None:
+    for key in table:
+        if key not in allowed:
+            raise src.fail(f"unknown key {key!r} in {where} (allowed: "
+                           f"{', '.join(sorted(allowed))})", key, after)
+
+
+def _typed(src: _Source, table: dict, key: str, kind: type | tuple, where: str,
+           after: int = 0) -> Any:
+    value = table[key]
+    if isinstance(value, bool) and bool not in (kind if isinstance(kind, tuple) else (kind,)):
+        raise src.fail(f"{where}.{key} must be {_kind_name(kind)}, got {value!r}", key, after)
+    if not isinstance(value, kind):
+        raise src.fail(f"{where}.{key} must be {_kind_name(kind)}, got {value!r}", key, after)
+    return value
+
+
+def _kind_name(kind: type | tuple) -> str:
+    kinds = kind if isinstance(kind, tuple) else (kind,)
+    return " or ".join({int: "a whole number", float: "a number", str: "text",
+                        list: "a list"}.get(k, k.__name__) for k in kinds)
+
+
+def read_campaign(path: str | Path) -> Campaign:
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise InputError(path, f"cannot read campaign file: {exc.strerror or exc}") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        match = re.search(r"line (\d+)", str(exc))
+        raise InputError(path, f"not valid TOML: {str(exc).split(' (at')[0]}",
+                         int(match.group(1)) if match else None) from None
+    src = _Source(path, text)
+    _check_keys(src, data, _TOP, "the campaign file")
+    base = path.parent
+
+    if "machine" not in data:
+        raise src.fail("missing key 'machine' (the machine file)")
+    machine_path = base / _typed(src, data, "machine", str, "campaign")
+    machine = read_machine(machine_path)
+    session = base / (_typed(src, data, "session", str, "campaign") if "session" in data
+                      else f"sessions/{path.stem}.jsonl")
+
+    proto = data.get("protocol", {})
+    _check_keys(src, proto, _PROTOCOL, "[protocol]", src.line("protocol") or 0)
+    stab = data.get("stability", {})
+    _check_keys(src, stab, _STABILITY, "[stability]", src.line("stability") or 0)
+    protocol = _protocol(src, proto, stab, machine)
+
+    campaign = Campaign(path, machine, machine_path, session, protocol)
+    if "simulator" in data:
+        sim = data["simulator"]
+        after = src.line("simulator") or 0
+        _check_keys(src, sim, _SIMULATOR, "[simulator]", after)
+        effects = sim.get("effects")
+        campaign.simulator = SimulatorSpec(
+            seed=int(_typed(src, sim, "seed", int, "simulator", after)) if "seed" in sim else 0,
+            effects=base / effects if effects else None,
+            speed=float(_typed(src, sim, "speed", (int, float), "simulator", after))
+            if "speed" in sim else 20.0,
+            profile=str(sim.get("profile", "cia402")),
+            noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None)
+    if "controller" in data:
+        campaign.controller = _controller(src, data["controller"])
+    elif campaign.simulator is None:
+        raise src.fail("missing [controller] (profile and port), or a [simulator] table")
+    campaign.gauges = _gauges(src, data.get("gauges", []), protocol)
+    if campaign.simulator is None:
+        wanted = {f"{a}_{leg}" for leg in protocol.legs for a in "xyz" if a != leg}
+        missing = sorted(wanted - {g.gauge for g in campaign.gauges})
+        if missing:
+            raise src.fail(f"no [[gauges]] entry for {', '.join(missing)}: an unattended "
+                           "campaign needs both gauges of every leg mounted")
+    return campaign
+
+
+def _protocol(src: _Source, proto: dict, stab: dict, machine: MachineSpec) -> ProtocolConfig:
+    after = src.line("protocol") or 0
+    kwargs: dict[str, Any] = {}
+    for key, kind in (("cycles", int), ("approach", str), ("overshoot_mm", (int, float)),
+                      ("settle_s", (int, float)), ("move_timeout_s", (int, float)),
+                      ("legs", list), ("postures", list)):
+        if key in proto:
+            kwargs[key] = _typed(src, proto, key, kind, "protocol", after)
+    if "legs" in kwargs:
+        kwargs["legs"] = tuple(kwargs["legs"])
+    if "postures" in kwargs:
+        postures = []
+        for p in kwargs["postures"]:
+            if isinstance(p, bool) or not isinstance(p, str | int | float):
+                raise src.fail(f"postures: {p!r} is not zero, max, min or a number in mm",
+                               "postures", after)
+            postures.append(p if isinstance(p, str) else float(p))
+        kwargs["postures"] = tuple(postures)
+    after_stab = src.line("stability") or 0
+    rule = {}
+    for key, kind in (("readings", int), ("tolerance_mm", (int, float)),
+                      ("timeout_s", (int, float))):
+        if key in stab:
+            rule[key] = _typed(src, stab, key, kind, "stability", after_stab)
+    try:
+        config = ProtocolConfig(stability=StabilityRule(**rule), **kwargs)
+        check_postures(config, machine)
+    except ValueError as exc:
+        key = next((k for k in ("postures", "approach", "cycles", "legs", "overshoot_mm")
+                    if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
+        raise src.fail(str(exc), key, after) from None
+    return config
+
+
+def _controller(src: _Source, table: dict) -> ControllerSpec:
+    after = src.line("controller") or 0
+    _check_keys(src, table, _CONTROLLER, "[controller]", after)
+    for key in ("profile", "port"):
+        if key not in table:
+            raise src.fail(f"[controller] needs {key!r}", "controller")
+    return ControllerSpec(
+        profile=_typed(src, table, "profile", str, "controller", after),
+        port=_typed(src, table, "port", str, "controller", after),
+        baudrate=_typed(src, table, "baudrate", int, "controller", after)
+        if "baudrate" in table else None,
+        timeout_s=float(_typed(src, table, "timeout_s", (int, float), "controller", after))
+        if "timeout_s" in table else 1.0)
+
+
+def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeSpec]:
+    lines = _table_lines(src, "gauges")
+    out: list[GaugeSpec] = []
+    seen_channel: dict[tuple[str, str | None], int] = {}
+    seen_gauge: dict[str, int] = {}
+    for k, table in enumerate(tables):
+        start = lines[k] if k < len(lines) else 0
+        after = start - 1 if start else 0
+        _check_keys(src, table, _GAUGE, "[[gauges]]", after)
+        for key in ("gauge", "protocol", "port"):
+            if key not in table:
+                raise InputError(src.path, f"[[gauges]] entry needs {key!r}", start or None)
+        gauge = _typed(src, table, "gauge", str, "gauges", after)
+        if gauge not in GAUGE_KEYS:
+            raise src.fail(f"gauge {gauge!r} is not one of {', '.join(GAUGE_KEYS)} "
+                           "(AXIS_LEG: along AXIS on that leg)", "gauge", after)
+        protocol_name = _typed(src, table, "protocol", str, "gauges", after)
+        if protocol_name not in PROTOCOLS:
+            raise src.fail(f"protocol {protocol_name!r} is not one of {', '.join(PROTOCOLS)}",
+                           "protocol", after)
+        unit = str(table.get("unit", "mm"))
+        if unit not in ("mm", "inch"):
+            raise src.fail(f"unit {unit!r} must be mm or inch (as set on the gauge)", "unit",
+                           after)
+        port = _typed(src, table, "port", str, "gauges", after)
+        channel = str(table["channel"]) if "channel" in table else None
+        if gauge in seen_gauge:
+            raise InputError(src.path, f"gauge {gauge} appears twice (first on line "
+                             f"{seen_gauge[gauge]})", start or None)
+        if (port, channel) in seen_channel:
+            where = f"port {port}" + (f" channel {channel}" if channel else "")
+            raise InputError(src.path, f"two gauges on {where} (the other on line "
+                             f"{seen_channel[(port, channel)]}): each needs its own channel",
+                             start or None)
+        seen_gauge[gauge] = start
+        seen_channel[(port, channel)] = start
+        out.append(GaugeSpec(gauge, protocol_name, port, channel, unit,
+                             str(table.get("serial", "")),
+                             int(table["baudrate"]) if "baudrate" in table else None))
+    return out

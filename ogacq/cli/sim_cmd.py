@@ -1,0 +1,72 @@
+"""``ogacq sim``: the simulated machine's controller and gauges, until interrupted."""
+
+from __future__ import annotations
+
+import json
+import signal
+import threading
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ogacq.cli.app import JsonOption, app
+from ogacq.io.machine_file import read_machine
+from ogacq.model.machine import PAPER_PROTOTYPE
+
+
+class Profile(StrEnum):
+    cia402 = "cia402"
+    iai_pcon = "iai-pcon"
+
+
+class GaugeProtocol(StrEnum):
+    mitutoyo_01a = "mitutoyo-01a"
+    digimatic = "digimatic"
+    uwave = "uwave"
+    sylvac = "sylvac"
+
+
+@app.command()
+def sim(
+    profile: Annotated[Profile, typer.Option(
+        help="Controller register map: cia402 (Modbus TCP) or iai-pcon (Modbus RTU on a "
+             "pseudo-terminal).")] = Profile.cia402,
+    effects: Annotated[Path | None, typer.Option(
+        help="TOML file of hidden effects (joint_offset, squareness, ... gauges.noise_mm).")]
+    = None,
+    seed: Annotated[int, typer.Option(help="Seed of the hidden offsets and the noise.")] = 0,
+    machine: Annotated[Path | None, typer.Option(
+        "--machine", "-m", help="Machine file (default: the papers' prototype).")] = None,
+    speed: Annotated[float, typer.Option(
+        min=0.01, help="Simulated time runs this many times faster than real time.")] = 1.0,
+    gauge_protocol: Annotated[GaugeProtocol, typer.Option(
+        help="Frame format of the simulated gauges.")] = GaugeProtocol.mitutoyo_01a,
+    as_json: JsonOption = False,
+) -> None:
+    """Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."""
+    from drivers.sim.stack import SimulatorConfig, SimulatorStack
+    from drivers.sim.truth import random_truth, read_effects
+
+    spec = read_machine(machine) if machine else PAPER_PROTOTYPE
+    truth = random_truth(seed)
+    if effects is not None:
+        truth = read_effects(effects, truth)
+    stack = SimulatorStack(SimulatorConfig(spec, truth, profile=profile.value, speed=speed,
+                                           seed=seed, gauge_protocol=gauge_protocol.value))
+    done = threading.Event()
+    signal.signal(signal.SIGTERM, lambda *_: done.set())
+    with stack:
+        info = stack.info()
+        if as_json:
+            typer.echo(json.dumps(info))
+        else:
+            from ogacq.cli.render import print_sim
+
+            print_sim(info)
+        try:
+            while not done.wait(0.5):
+                pass
+        except KeyboardInterrupt:
+            pass

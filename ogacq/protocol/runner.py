@@ -1,0 +1,210 @@
+"""The one runner that executes a campaign plan against a station.
+
+It records every reading the moment it is taken, skips what a session already
+holds (resume), reproduces the approach side of the posture it resumes at,
+retries device faults within bounds and otherwise stops safely: axes stopped,
+the stop recorded, the session resumable. It never prints: progress goes to an
+observer callback that the command line renders.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Protocol
+
+from drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from ogacq.model.machine import MachineSpec
+from ogacq.protocol.plan import (
+    Move,
+    ProtocolConfig,
+    Read,
+    SetGauges,
+    StabilityRule,
+    campaign_steps,
+)
+from ogacq.session.store import SessionWriter
+
+
+@dataclass(frozen=True)
+class GaugeValue:
+    value_mm: float
+    raw: str  # the frame as received, for the record
+    where: str  # port/channel the value came from
+
+
+class Station(Protocol):
+    """What a campaign needs from the hardware (or the simulator)."""
+
+    def move(self, q_mm: tuple[float, float, float], timeout_s: float,
+             ) -> tuple[float, float, float]:
+        """Move the three joints and return once in position (raise DriverError),
+        with the coordinates really commanded (rounded to the controller's resolution)."""
+
+    def read_gauge(self, gauge: str, rule: StabilityRule) -> GaugeValue:
+        """A stable value of gauge ``gauge`` (``y_x``: along y on the x leg)."""
+
+    def campaign_time_s(self) -> float: ...
+
+    def settle(self, seconds: float) -> None:
+        """Wait ``seconds`` of machine time."""
+
+    def stop_axes(self) -> None: ...
+
+    def recover_axes(self) -> bool:
+        """Try to clear an axis alarm; True when the axes are ready again."""
+
+
+class CampaignStopped(Exception):
+    """The campaign stopped before the end; the session says why and can be resumed."""
+
+    def __init__(self, reason: str, status: str = "stopped") -> None:
+        self.reason = reason
+        self.status = status
+        super().__init__(reason)
+
+
+@dataclass(frozen=True)
+class Progress:
+    done: int
+    total: int
+    message: str
+
+
+Observer = Callable[[Progress], None]
+GaugeSetter = Callable[[SetGauges], None]
+
+
+@dataclass(frozen=True)
+class RetryPolicy:
+    gauge_attempts: int = 3
+    move_attempts: int = 2
+    backoff_s: float = 0.05
+
+
+class CampaignRunner:
+    def __init__(self, station: Station, writer: SessionWriter, config: ProtocolConfig,
+                 machine: MachineSpec, *, recorded: set[tuple[str, str]] | None = None,
+                 observer: Observer | None = None, set_gauges: GaugeSetter | None = None,
+                 retry: RetryPolicy | None = None) -> None:
+        self.station = station
+        self.writer = writer
+        self.config = config
+        self.machine = machine
+        self.recorded = set(recorded or ())
+        self.observer = observer or (lambda progress: None)
+        self.set_gauges = set_gauges
+        self.retry = retry or RetryPolicy()
+        self._steps = list(campaign_steps(config, machine))
+        self._commanded_q: tuple[float, float, float] | None = None
+        self._total = sum(len(s.gauges) for s in self._steps if isinstance(s, Read))
+
+    @property
+    def total_readings(self) -> int:
+        return self._total
+
+    def run(self) -> None:
+        """Run to the end, or raise CampaignStopped after recording why."""
+        try:
+            self._run()
+        except CampaignStopped as stop:
+            self._stop_safely(stop.status, stop.reason)
+            raise
+        except KeyboardInterrupt:
+            self._stop_safely("interrupted", "interrupted by the operator (Ctrl-C)")
+            raise CampaignStopped("interrupted by the operator", "interrupted") from None
+        except DriverError as exc:
+            self._stop_safely("stopped", str(exc))
+            raise CampaignStopped(str(exc)) from exc
+        self.writer.append("end", status="complete", readings=len(self.recorded))
+
+    def _stop_safely(self, status: str, reason: str) -> None:
+        try:
+            self.station.stop_axes()
+            stopped = True
+        except DriverError:
+            stopped = False
+        self.writer.append("end", status=status, reason=reason, axes_stopped=stopped,
+                           readings=len(self.recorded))
+
+    def _run(self) -> None:
+        pending: list[Move] = []
+        came_from: Move | None = None  # the plan's last posture before ``pending``
+        moved = False
+        for step in self._steps:
+            if isinstance(step, Move):
+                pending.append(step)
+                continue
+            if not self._done(step):
+                moves = pending
+                if not moved and came_from is not None:
+                    # Resuming: arrive from the posture the plan came from, so that
+                    # each joint approaches from the same side as it would have.
+                    moves = [came_from, *pending]
+                self._execute_moves(moves)
+                moved = True
+                if isinstance(step, SetGauges):
+                    self._set_gauges(step)
+                else:
+                    self.station.settle(self.config.settle_s)
+                    for gauge in step.gauges:
+                        if (step.step, gauge) not in self.recorded:
+                            self._read(step, gauge)
+            came_from = next((m for m in reversed(pending) if m.purpose == "posture"),
+                             came_from)
+            pending = []
+
+    def _done(self, step: SetGauges | Read) -> bool:
+        if isinstance(step, SetGauges):  # measuring this leg began: its gauges are set
+            return any(s.startswith(f"{step.leg}/") for s, _ in self.recorded)
+        return all((step.step, g) in self.recorded for g in step.gauges)
+
+    def _set_gauges(self, step: SetGauges) -> None:
+        if self.set_gauges is not None:
+            self.set_gauges(step)
+        self.writer.append("gauges_set", leg=step.leg, gauges=list(step.gauges))
+        self.observer(Progress(len(self.recorded), self._total,
+                               f"gauges set on the {step.leg} leg"))
+
+    def _execute_moves(self, moves: list[Move]) -> None:
+        for move in moves:
+            for attempt in range(1, self.retry.move_attempts + 1):
+                try:
+                    self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+                    break
+                except (DeviceFault, DeviceTimeout) as exc:
+                    self.writer.append("fault", during="move", attempt=attempt,
+                                       error=type(exc).__name__, message=str(exc),
+                                       q_mm=list(move.q_mm))
+                    if attempt == self.retry.move_attempts or not self.station.recover_axes():
+                        raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
+                                              f"{exc}") from exc
+            self.writer.append("move", q_mm=list(self._commanded_q), purpose=move.purpose)
+
+    def _read(self, step: Read, gauge: str) -> None:
+        for attempt in range(1, self.retry.gauge_attempts + 1):
+            try:
+                value = self.station.read_gauge(gauge, self.config.stability)
+                break
+            except DriverError as exc:  # silent, 911, garbled, unplugged: all retried, bounded
+                self.writer.append("fault", during="read", step=step.step, gauge=gauge,
+                                   attempt=attempt, error=type(exc).__name__, message=str(exc))
+                if attempt == self.retry.gauge_attempts:
+                    raise CampaignStopped(f"gauge {gauge} at {step.step}: {exc} "
+                                          f"({attempt} attempts)") from exc
+                time.sleep(self.retry.backoff_s * attempt)
+        leg, axis = step.leg, gauge.split("_")[0]
+        self.writer.append(
+            "reading", step=step.step, gauge=gauge, leg=leg, gauge_axis=axis,
+            cycle=step.cycle, posture=step.posture, t_s=round(self.station.campaign_time_s(), 3),
+            q_mm=list(self._commanded_q or step.q_mm), tcp_mm=list(step.tcp_mm),
+            approach=list(step.approach),
+            reading_mm=value.value_mm, raw=value.raw, source=value.where)
+        self.recorded.add((step.step, gauge))
+        self.observer(Progress(len(self.recorded), self._total,
+                               f"{step.step} {gauge} = {value.value_mm:.4f} mm"))
+
+
+def _fmt(q: tuple[float, float, float]) -> str:
+    return "(" + ", ".join(f"{v:.3f}" for v in q) + ")"

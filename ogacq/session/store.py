@@ -1,0 +1,135 @@
+"""Campaign sessions: one append-only file of JSON records, one per line.
+
+Every reading, move, prompt answer and event is written and flushed to disk
+(fsync) as it happens, so a crash, a Ctrl-C or a killed process loses nothing
+that was measured. The first record describes the session (machine, station,
+plan, software version); the rest are appended in the order they happened. A
+record cut by a crash mid-write (a torn last line) is dropped on loading with a
+warning naming it; everything before it stands.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from ogacq import __version__
+from ogacq.io.errors import InputError
+
+FORMAT = "ogacq-session/1"
+
+
+@dataclass
+class LoadedSession:
+    path: Path
+    header: dict[str, Any]
+    records: list[dict[str, Any]]
+    warnings: list[str] = field(default_factory=list)
+
+    def of_type(self, kind: str) -> list[dict[str, Any]]:
+        return [r for r in self.records if r.get("type") == kind]
+
+    @property
+    def readings(self) -> list[dict[str, Any]]:
+        return self.of_type("reading")
+
+    def recorded(self) -> set[tuple[str, str]]:
+        """(step id, gauge) of every reading on file."""
+        return {(r["step"], r["gauge"]) for r in self.readings}
+
+    @property
+    def finished(self) -> bool:
+        return any(r.get("type") == "end" and r.get("status") == "complete"
+                   for r in self.records)
+
+
+class SessionWriter:
+    """Appends records durably. Opened on a new file (``create``) or to resume."""
+
+    def __init__(self, path: Path, handle, t0_monotonic: float) -> None:
+        self.path = path
+        self._fh = handle
+        self._t0 = t0_monotonic
+
+    @classmethod
+    def create(cls, path: str | Path, header: dict[str, Any]) -> SessionWriter:
+        path = Path(path)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        try:
+            fh = path.open("x", encoding="utf-8")
+        except FileExistsError:
+            raise InputError(path, "a session already exists here; resume it with "
+                             f"`ogacq resume {path}` or choose another name") from None
+        writer = cls(path, fh, time.monotonic())
+        writer._write({"type": "session", "format": FORMAT, "software": f"ogacq {__version__}",
+                       "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **header})
+        return writer
+
+    @classmethod
+    def reopen(cls, session: LoadedSession) -> SessionWriter:
+        """Append to an existing session, after cutting off a torn last record."""
+        raw = session.path.read_bytes()
+        keep = raw[: raw.rfind(b"\n") + 1] if not raw.endswith(b"\n") else raw
+        if keep != raw:
+            with session.path.open("r+b") as fh:
+                fh.truncate(len(keep))
+        fh = session.path.open("a", encoding="utf-8")
+        writer = cls(session.path, fh, time.monotonic())
+        writer.append("resume", software=f"ogacq {__version__}",
+                      after_records=len(session.records))
+        return writer
+
+    def append(self, kind: str, **fields: Any) -> None:
+        self._write({"type": kind, "wall": round(time.time(), 3), **fields})
+
+    def _write(self, record: dict[str, Any]) -> None:
+        self._fh.write(json.dumps(record, separators=(",", ":")) + "\n")
+        self._fh.flush()
+        os.fsync(self._fh.fileno())
+
+    def close(self) -> None:
+        if not self._fh.closed:
+            self._fh.close()
+
+    def __enter__(self) -> SessionWriter:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def load_session(path: str | Path) -> LoadedSession:
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
+    lines = raw.split(b"\n")
+    records: list[dict[str, Any]] = []
+    warnings: list[str] = []
+    for number, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            record = json.loads(line)
+            if not isinstance(record, dict) or "type" not in record:
+                raise ValueError("not a record")
+        except ValueError:
+            last = number == len(lines) or all(not rest.strip() for rest in lines[number:])
+            if last:  # a crash mid-write: drop it, keep the rest
+                warnings.append(f"{path}:{number}: dropped a torn last record "
+                                f"({len(line)} bytes: {line[:60].decode(errors='replace')!r})")
+                continue
+            raise InputError(path, "corrupt record in the middle of the session "
+                             "(not valid JSON)", number) from None
+        records.append(record)
+    if not records or records[0].get("type") != "session":
+        raise InputError(path, "not an ogacq session (no session header on line 1)", 1)
+    if records[0].get("format") != FORMAT:
+        raise InputError(path, f"session format {records[0].get('format')!r} is not "
+                         f"{FORMAT!r}", 1)
+    return LoadedSession(path, records[0], records[1:], warnings)

@@ -1,0 +1,137 @@
+"""The one place that maps a campaign's configuration to real or simulated endpoints.
+
+Either way the campaign talks to the same drivers: the indicator drivers on
+serial ports (device paths, pseudo-terminals or ``socket://`` URLs) and the
+Modbus controller client. With a ``[simulator]`` table the endpoints are the
+built-in simulator's, started here; nothing else knows the difference.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any
+
+from drivers.axes.controller import AxisController
+from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.profile import load_profile
+from drivers.errors import DriverError
+from drivers.indicators import open_indicator
+from drivers.indicators.base import read_stable
+from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.model.parameters import AXES
+from ogacq.protocol.plan import StabilityRule
+from ogacq.protocol.runner import GaugeValue
+
+
+@dataclass
+class DeviceStation:
+    """A controller and six gauges behind the runner's ``Station`` interface."""
+
+    controller: AxisController
+    indicators: dict[str, Any]
+    clock_s: Callable[[], float]  # machine time, seconds
+    speed: float = 1.0  # machine time per real time (the simulator may run faster)
+    description: dict[str, Any] = field(default_factory=dict)
+    simulator: Any = None  # the SimulatorStack when simulated
+    _t0: float = 0.0
+
+    def prepare(self) -> None:
+        """Servo on and home: every campaign starts from a known position."""
+        self.controller.enable()
+        self.controller.home()
+        self._t0 = self.clock_s()
+
+    def move(self, q_mm: tuple[float, float, float], timeout_s: float,
+             ) -> tuple[float, float, float]:
+        targets = dict(zip(AXES, q_mm, strict=True))
+        self.controller.move_to(targets, wait=True, timeout_s=timeout_s / self.speed)
+        resolved = self.controller.resolved_targets_mm(targets)
+        return tuple(resolved[a] for a in AXES)
+
+    def read_gauge(self, gauge: str, rule: StabilityRule) -> GaugeValue:
+        indicator = self.indicators[gauge]
+        stable = read_stable(indicator, rule.readings, rule.tolerance_mm, rule.timeout_s)
+        frame = stable.readings[-1].frame.decode("ascii", errors="replace").strip()
+        return GaugeValue(stable.value_mm, frame, stable.where)
+
+    def campaign_time_s(self) -> float:
+        return self.clock_s() - self._t0
+
+    def settle(self, seconds: float) -> None:
+        time.sleep(seconds / self.speed)
+
+    def stop_axes(self) -> None:
+        self.controller.stop()
+
+    def recover_axes(self) -> bool:
+        try:
+            self.controller.reset_alarms()
+            return not any(s.fault or s.alarm_code for s in self.controller.read_status().values())
+        except DriverError:
+            return False
+
+
+def _controller_link(spec: ControllerSpec, profile) -> ModbusLink:
+    host, sep, port = spec.port.rpartition(":")
+    if sep and port.isdigit() and not spec.port.startswith("/"):
+        return ModbusLink.for_profile(profile, transport="tcp", host=host, port=int(port),
+                                      timeout_s=spec.timeout_s)
+    return ModbusLink.for_profile(profile, transport="rtu", serial_port=spec.port,
+                                  baudrate=spec.baudrate, timeout_s=spec.timeout_s)
+
+
+def _simulated_specs(campaign: Campaign, sim: SimulatorSpec):
+    """Start the simulator; return it with controller and gauge specs pointing at it."""
+    from drivers.sim.stack import SimulatorConfig, SimulatorStack
+    from drivers.sim.truth import random_truth, read_effects
+
+    truth = random_truth(sim.seed)
+    if sim.effects is not None:
+        truth = read_effects(sim.effects, truth)
+    if sim.noise_mm is not None:
+        truth.noise_mm = sim.noise_mm
+    stack = SimulatorStack(SimulatorConfig(campaign.machine, truth, profile=sim.profile,
+                                           speed=sim.speed, seed=sim.seed)).start()
+    info = stack.info()
+    m = info["modbus"]
+    port = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
+    controller = ControllerSpec(sim.profile, port, m.get("baudrate"))
+    gauges = [GaugeSpec(key, g["protocol"], g["port"], serial=f"sim-{key}")
+              for key, g in info["gauges"].items()]
+    return stack, controller, gauges
+
+
+@contextlib.contextmanager
+def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
+    """Open (or start and open) everything the campaign names; close it all after."""
+    with contextlib.ExitStack() as stack:
+        simulator = None
+        controller_spec, gauge_specs = campaign.controller, campaign.gauges
+        if campaign.simulator is not None:
+            simulator, controller_spec, gauge_specs = _simulated_specs(campaign,
+                                                                       campaign.simulator)
+            stack.callback(simulator.close)
+        profile = load_profile(controller_spec.profile)
+        link = _controller_link(controller_spec, profile).connect()
+        stack.callback(link.close)
+        controller = AxisController(profile, link)
+        indicators = {}
+        for g in gauge_specs:
+            indicator = open_indicator(g.protocol, g.port, unit=g.unit, channel=g.channel,
+                                       where=f"gauge {g.gauge} ({g.port})")
+            stack.callback(indicator.close)
+            indicators[g.gauge] = indicator
+        if simulator is not None:
+            clock, speed = simulator.clock.now, simulator.clock.speed
+        else:
+            clock, speed = time.monotonic, 1.0
+        description = {
+            "controller": {"profile": controller_spec.profile, "port": controller_spec.port},
+            "gauges": {g.gauge: {"protocol": g.protocol, "port": g.port, "channel": g.channel,
+                                 "unit": g.unit, "serial": g.serial} for g in gauge_specs},
+            "simulated": simulator is not None,
+        }
+        yield DeviceStation(controller, indicators, clock, speed, description, simulator)

@@ -1,0 +1,27 @@
+from pathlib import Path
+
+import pytest
+
+MACHINE = """leg_length_mm = 310.25
+rho_min_mm = -100.0
+rho_max_mm = 60.0
+gauge_resolution_mm = 0.001
+"""
+
+
+def write_campaign(folder: Path, *, seed: int = 3, speed: float = 50, noise: float | None = None,
+                   profile: str = "cia402", extra: str = "") -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "machine.toml").write_text(MACHINE)
+    sim = f"seed = {seed}\nspeed = {speed}\nprofile = \"{profile}\"\n"
+    if noise is not None:
+        sim += f"noise_mm = {noise}\n"
+    path = folder / "campaign.toml"
+    path.write_text('machine = "machine.toml"\nsession = "session.jsonl"\n\n[simulator]\n'
+                    + sim + "\n[protocol]\nsettle_s = 0.5\n" + extra)
+    return path
+
+
+@pytest.fixture
+def campaign_dir(tmp_path):
+    return tmp_path / "campaign"

@@ -1,0 +1,47 @@
+"""Bad campaign files are refused before anything moves, naming the line."""
+
+import pytest
+
+from tests.campaign.conftest import MACHINE
+from tests.cli.helpers import run_ogacq
+
+HEAD = 'machine = "machine.toml"\nsession = "s.jsonl"\n'
+CONTROLLER = '[controller]\nprofile = "cia402"\nport = "127.0.0.1:1"\n'
+
+
+def gauge(key, port, channel=None):
+    text = f'[[gauges]]\ngauge = "{key}"\nprotocol = "mitutoyo-01a"\nport = "{port}"\n'
+    return text + (f"channel = {channel}\n" if channel is not None else "")
+
+
+ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
+                     enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"), 1))
+
+
+@pytest.mark.parametrize(("text", "line", "words"), [
+    (HEAD + "colour = 3\n" + CONTROLLER + ALL_GAUGES, 3, "unknown key 'colour'"),
+    (HEAD + CONTROLLER.replace('port = "127.0.0.1:1"\n', "") + ALL_GAUGES, 3, "needs 'port'"),
+    (HEAD + CONTROLLER + ALL_GAUGES.replace('port = "/dev/ttyUSB0"\nchannel = 4\n',
+                                            "channel = 4\n"), 21, "needs 'port'"),
+    (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\npostures = ["zero", 80.0]\n', 37,
+     "outside the workspace"),
+    (HEAD + CONTROLLER + ALL_GAUGES.replace("channel = 2", "channel = 1"), 11,
+     "two gauges on port /dev/ttyUSB0 channel 1"),
+    (HEAD + CONTROLLER + ALL_GAUGES.replace('gauge = "y_z"', 'gauge = "z_z"'), 32,
+     "is not one of"),
+    (HEAD + CONTROLLER + gauge("y_x", "/dev/ttyUSB0"), None, "no [[gauges]] entry for"),
+    (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\napproach = "sideways"\n', 37, "approach"),
+])
+def test_bad_campaign_refused_with_line(tmp_path, text, line, words):
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(text)
+    proc = run_ogacq("run", path)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    message = proc.stderr.strip()
+    assert len(message.splitlines()) == 1 and "Traceback" not in proc.stderr, message
+    assert words in message
+    if line is not None:
+        assert f"{path}:{line}:" in message
+    # refused before anything was opened, moved or recorded
+    assert not (tmp_path / "s.jsonl").exists()

@@ -1,0 +1,336 @@
+"""The axis controller against the simulated controller, through real pymodbus on the wire.
+
+Every test runs the real codec: AxisController -> ModbusLink -> pymodbus client ->
+TCP on 127.0.0.1 or RTU over the paced pty bridge (38400 baud) -> pymodbus server ->
+simulated controller -> motion model. SimClock(speed=50) makes the moves short.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import socket
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+import pytest
+from pymodbus.client import ModbusTcpClient
+
+from drivers.axes.controller import AxisController
+from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.profile import Profile, load_profile
+from drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from drivers.sim.clock import SimClock
+from drivers.sim.modbus_server import ModbusSimServer
+from drivers.sim.motion import MotionModel
+from drivers.sim.ptybridge import PtyBridge
+
+X_LEG_MAX = {"x": 60.0, "y": -5.84, "z": -5.84}  # posture of the paper (approx.)
+Y_LEG_MAX = {"x": -5.84, "y": 60.0, "z": -5.84}
+RIGS = [("iai-pcon", "rtu"), ("iai-pcon", "tcp"), ("cia402", "tcp"), ("cia402", "rtu")]
+
+
+@dataclass
+class Rig:
+    profile: Profile
+    model: MotionModel
+    server: ModbusSimServer
+    link: ModbusLink
+    controller: AxisController
+
+
+def _link_to(profile: Profile, transport: str, address) -> ModbusLink:  # type: ignore[no-untyped-def]
+    if transport == "tcp":
+        return ModbusLink.for_profile(
+            profile, transport="tcp", host=address.host, port=address.port
+        )
+    return ModbusLink.for_profile(profile, transport="rtu", serial_port=address.port)
+
+
+@contextmanager
+def rig(
+    name: str, transport: str, *, speed: float = 50.0, profile: Profile | None = None
+) -> Iterator[Rig]:
+    profile = profile or load_profile(name)
+    model = MotionModel(SimClock(speed=speed))
+    server = ModbusSimServer(profile, model, transport=transport)  # type: ignore[arg-type]
+    address = server.start()
+    link = _link_to(profile, transport, address)
+    try:
+        yield Rig(profile, model, server, link, AxisController(profile, link))
+    finally:
+        link.close()
+        server.stop()
+
+
+@pytest.fixture(params=RIGS, ids=[f"{p}-{t}" for p, t in RIGS])
+def ready(request: pytest.FixtureRequest) -> Iterator[Rig]:
+    """Enabled and homed, all three axes at q = 0."""
+    with rig(*request.param) as r:
+        r.controller.enable()
+        r.controller.home()
+        yield r
+
+
+def test_enable_home_and_move_to_paper_postures(ready: Rig) -> None:
+    c, model = ready.controller, ready.model
+    status = c.read_status()
+    assert all(s.servo_on and s.homed and s.in_position and not s.fault for s in status.values())
+    for posture in (X_LEG_MAX, Y_LEG_MAX, {"x": 0.0, "y": 0.0, "z": 0.0}):
+        reached = c.move_to(posture)
+        for axis, q in posture.items():
+            assert reached[axis].position_mm == pytest.approx(q, abs=0.011)
+            assert model.raw_position_mm(axis) == pytest.approx(q, abs=0.011)
+        assert c.read_positions() == pytest.approx(posture, abs=0.011)
+    # last moves, from Y_LEG_MAX back to 0: x and z up, y down
+    assert [model.last_direction(a) for a in "xyz"] == [1, -1, 1]
+
+
+def test_status_poll_is_one_block_per_contiguous_run(ready: Rig) -> None:
+    before = ready.link.stats.reads
+    ready.controller.read_status()
+    per_device = {"iai-pcon": 1, "cia402": 2}[ready.profile.name]
+    assert ready.link.stats.reads - before == 3 * per_device
+    if ready.profile.name == "iai-pcon":
+        assert ready.controller.status_reads == ((0x9000, 8),)
+
+
+def test_soft_limit_alarm_then_reset(ready: Rig) -> None:
+    c, model, profile = ready.controller, ready.model, ready.profile
+    writes = ready.link.stats.writes
+    with pytest.raises(ValueError, match="outside the soft limits"):
+        c.move_to({"x": 70.0})
+    assert ready.link.stats.writes == writes  # refused before anything was sent
+    with pytest.raises(DeviceFault) as caught:
+        c.move_to({"x": 70.0}, check_limits=False)  # beyond the controller's own limit + margin
+    code = profile.sim.soft_limit_alarm_code
+    assert caught.value.code == code
+    assert "device 1 (axis x)" in str(caught.value)
+    assert model.raw_position_mm("x") == 0.0  # no motion
+    assert c.read_alarms() == {"x": code, "y": 0, "z": 0}
+    assert c.read_status()["x"].fault
+    with pytest.raises(DeviceFault, match="in alarm"):
+        c.move_to({"x": 10.0})
+    assert c.reset_alarms() == {"x": code}
+    c.enable()  # a CiA 402 drive comes out of fault disabled
+    assert c.read_alarms()["x"] == 0
+    assert c.move_to({"x": 10.0})["x"].position_mm == pytest.approx(10.0)
+    assert c.reset_alarms() == {}  # nothing in alarm: nothing written
+
+
+def test_stop_interrupts_a_move(ready: Rig) -> None:
+    c, model = ready.controller, ready.model
+    # 18 s simulated, 0.36 s real: long enough to still be moving after the slowest
+    # move start (CiA 402 over paced RTU: seven transactions)
+    c.move_to({"x": -90.0}, speed_mm_s=5.0, wait=False)
+    assert c.read_status(["x"])["x"].moving
+    c.stop()
+    stopped = model.raw_position_mm("x")
+    assert -90.0 < stopped < 0.0
+    status = c.wait_in_position(["x"], timeout_s=2.0)["x"]
+    assert not status.moving and status.position_mm == pytest.approx(stopped, abs=0.011)
+    time.sleep(0.02)
+    assert model.raw_position_mm("x") == stopped
+    assert c.move_to({"x": 5.0})["x"].position_mm == pytest.approx(5.0)
+
+
+def test_offsets_shift_commanded_and_reported_positions(ready: Rig) -> None:
+    c, model = ready.controller, ready.model
+    assert c.read_offsets() == {"x": 0.0, "y": 0.0, "z": 0.0}
+    change = c.write_offsets({"x": 0.5, "y": -0.25})
+    assert change.old_mm == {"x": 0.0, "y": 0.0}
+    assert change.new_mm == {"x": 0.5, "y": -0.25}
+    assert c.read_offsets() == pytest.approx({"x": 0.5, "y": -0.25, "z": 0.0})
+    if ready.profile.offset.kind == "home_offset":
+        assert change.takes_effect == "at_next_homing" and change.written_to_device
+        assert c.rehome_required == {"x", "y"}
+        # the object is in the drive; sign -1: object = offset
+        raw_object = ready.link.read_registers(1, 0x607C, 2)
+        assert ready.profile.decode("home_offset", raw_object) == pytest.approx(0.5)
+        c.move_to({"x": 10.0})
+        assert model.raw_position_mm("x") == pytest.approx(10.0)  # not effective before homing
+        c.home()
+        assert not c.rehome_required
+        assert model.raw_position_mm("x") == 0.0  # home is the mechanical zero...
+        assert c.read_positions()["x"] == pytest.approx(-0.5)  # ...which now reads q = -o
+    else:
+        assert change.takes_effect == "now" and not change.written_to_device
+        assert c.software_offsets_mm == {"x": 0.5, "y": -0.25, "z": 0.0}
+    c.move_to({"x": 10.0, "y": 10.0, "z": 10.0})
+    assert c.read_positions() == pytest.approx({"x": 10.0, "y": 10.0, "z": 10.0}, abs=0.011)
+    raw = {a: model.raw_position_mm(a) for a in "xyz"}
+    assert raw == pytest.approx({"x": 10.5, "y": 9.75, "z": 10.0}, abs=0.011)
+
+
+def test_offsets_beyond_the_margin_need_force(ready: Rig) -> None:
+    with pytest.raises(ValueError, match="exceed the 2 mm margin"):
+        ready.controller.write_offsets({"z": 2.5})
+    assert ready.controller.write_offsets({"z": 2.5}, force=True).new_mm == {"z": 2.5}
+
+
+@pytest.mark.parametrize("name", ["iai-pcon", "cia402"])
+def test_save_to_nvm_only_where_there_is_one(name: str) -> None:
+    with rig(name, "tcp") as r:
+        if r.profile.nvm.kind == "none":
+            with pytest.raises(DriverError, match="nothing to save"):
+                r.controller.save_to_nvm()
+            return
+        assert all(d.nvm_saves == 0 for d in r.server.devices.values())  # type: ignore[attr-defined]
+        r.controller.write_offsets({"x": 0.1})
+        assert all(d.nvm_saves == 0 for d in r.server.devices.values())  # type: ignore[attr-defined]
+        r.controller.save_to_nvm(["x"])
+        assert [d.nvm_saves for d in r.server.devices.values()] == [1, 0, 0]  # type: ignore[attr-defined]
+
+
+def test_unacknowledged_move_is_not_resent() -> None:
+    profile = load_profile("iai-pcon")
+    quick = dataclasses.replace(
+        profile, timing=dataclasses.replace(profile.timing, ack_timeout_s=0.2)
+    )
+    with rig("iai-pcon", "tcp", profile=quick) as r:
+        r.controller.enable(["x"])
+        r.controller.home(["x"])
+        # someone took Modbus control away: the controller ignores the move
+        r.link.write_coil(1, profile.value("modbus_control").address, False, what="test: PMSL off")
+        writes = r.link.stats.writes
+        with pytest.raises(DeviceTimeout, match="not acknowledged.*not re-sent"):
+            r.controller.move_to({"x": 20.0})
+        assert r.link.stats.writes - writes == 2  # pause release + the move block, once
+        assert r.model.raw_position_mm("x") == 0.0
+
+
+def test_move_refused_when_servo_off_or_not_homed() -> None:
+    with rig("cia402", "tcp") as r:
+        with pytest.raises(DeviceFault, match="servo is off"):
+            r.controller.move_to({"x": 1.0})
+        r.controller.enable()
+        with pytest.raises(DeviceFault, match="not homed"):
+            r.controller.move_to({"x": 1.0})
+        r.controller.disable(["y"])
+        assert not r.controller.read_status()["y"].servo_on
+
+
+# ------------------------------------------------------------------ dead devices
+
+
+def _free_tcp_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def test_nothing_listening_on_tcp_is_a_link_error_at_once() -> None:
+    profile = load_profile("cia402")
+    link = ModbusLink.for_profile(profile, transport="tcp", port=_free_tcp_port())
+    started = time.monotonic()
+    with pytest.raises(LinkError, match=r"modbus tcp 127\.0\.0\.1:\d+ device 1"):
+        AxisController(profile, link).read_status()
+    assert time.monotonic() - started < 1.0
+
+
+@pytest.mark.parametrize("transport", ["tcp", "rtu"])
+def test_server_stopped_reports_within_bounded_time(transport: str) -> None:
+    profile = load_profile("iai-pcon")
+    bound_s = profile.transport.timeout_s * (profile.transport.read_retries + 1)
+    with PtyBridge(baudrate=profile.transport.baudrate) as bridge:
+        model = MotionModel(SimClock(speed=50.0))
+        server = ModbusSimServer(
+            profile,
+            model,
+            transport=transport,  # type: ignore[arg-type]
+            serial_port=bridge.server_path if transport == "rtu" else None,
+        )
+        address = server.start()
+        if transport == "rtu":
+            assert address.port == bridge.server_path  # the caller owns the cable here
+            link = ModbusLink.for_profile(profile, transport="rtu", serial_port=bridge.client_path)
+        else:
+            link = _link_to(profile, transport, address)
+        controller = AxisController(profile, link)
+        controller.read_status()
+        server.stop()
+        started = time.monotonic()
+        with pytest.raises((DeviceTimeout, LinkError)) as caught:
+            controller.read_status()
+        elapsed = time.monotonic() - started
+        link.close()
+    assert elapsed <= bound_s + 0.3
+    assert "device 1" in str(caught.value) and "0x9000" in str(caught.value)
+    if transport == "rtu":  # a silent line: every attempt timed out
+        assert isinstance(caught.value, DeviceTimeout)
+        assert elapsed >= bound_s * 0.9
+
+
+@pytest.mark.parametrize("transport", ["tcp", "rtu"])
+def test_absent_device_id_is_a_timeout(transport: str) -> None:
+    with rig("iai-pcon", transport) as r:
+        started = time.monotonic()
+        with pytest.raises(DeviceTimeout, match="device 9"):
+            r.link.read_registers(9, 0x9000, 8)
+        assert time.monotonic() - started < 2 * r.profile.transport.timeout_s + 0.3
+
+
+# ------------------------------------------------------------------ independent client
+
+
+def test_cia402_sim_serves_a_plain_pymodbus_client() -> None:
+    """The sequence of shared/checks/sim_contract.py, without any ogacq code on the client side."""
+    model = MotionModel(SimClock(speed=50.0))
+    with ModbusSimServer("cia402", model, transport="tcp") as server:
+        info = server.info()
+        assert set(info) == {"transport", "host", "port", "profile", "device_ids"}
+        client = ModbusTcpClient(info["host"], port=info["port"], timeout=2, retries=0)
+        assert client.connect()
+        dev = info["device_ids"]["x"]
+
+        def read(address: int, count: int = 1) -> list[int]:
+            response = client.read_holding_registers(address, count=count, device_id=dev)
+            assert not response.isError()
+            return list(response.registers)
+
+        def write(address: int, value: int) -> None:
+            assert not client.write_register(address, value, device_id=dev).isError()
+
+        def wait(bit: int) -> bool:
+            end = time.time() + 5
+            while time.time() < end:
+                if read(0x6041)[0] & (1 << bit):
+                    return True
+                time.sleep(0.01)
+            return False
+
+        def position() -> int:
+            lo, hi = read(0x6064, 2)
+            value = (hi << 16) | lo
+            return value - (1 << 32) if value & 0x80000000 else value
+
+        for cw in (0x06, 0x07, 0x0F):
+            write(0x6040, cw)
+        write(0x6060, 6)
+        write(0x6040, 0x0F)
+        write(0x6040, 0x1F)
+        assert wait(12) and wait(10)
+        write(0x6060, 1)
+        target = position() + 2000
+        assert not client.write_registers(
+            0x607A, [target & 0xFFFF, (target >> 16) & 0xFFFF], device_id=dev
+        ).isError()
+        write(0x6040, 0x0F)
+        write(0x6040, 0x1F)
+        assert wait(10)
+        write(0x6040, 0x0F)
+        assert abs(position() - target) <= 2
+        assert model.raw_position_mm("x") == pytest.approx(20.0)
+        client.close()
+
+
+def test_rtu_address_info_and_loopback_only() -> None:
+    model = MotionModel(SimClock())
+    with ModbusSimServer("iai-pcon", model) as server:
+        info = server.info()
+        assert info["transport"] == "rtu" and info["host"] is None
+        assert info["port"].startswith("/dev/") and info["baudrate"] == 38400
+        assert info["device_ids"] == {"x": 1, "y": 2, "z": 3}
+    with pytest.raises(ValueError, match="loopback only"):
+        ModbusSimServer("cia402", model, host="0.0.0.0")
