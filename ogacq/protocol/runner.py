@@ -14,6 +14,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
+import numpy as np
+
 from drivers.errors import DeviceFault, DeviceTimeout, DriverError
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import (
@@ -98,6 +100,7 @@ class CampaignRunner:
         self.retry = retry or RetryPolicy()
         self._steps = list(campaign_steps(config, machine))
         self._commanded_q: tuple[float, float, float] | None = None
+        self._planned_q: tuple[float, float, float] | None = None
         self._total = sum(len(s.gauges) for s in self._steps if isinstance(s, Read))
 
     @property
@@ -169,9 +172,13 @@ class CampaignRunner:
 
     def _execute_moves(self, moves: list[Move]) -> None:
         for move in moves:
+            if self._commanded_q is not None and np.allclose(move.q_mm, self._planned_q,
+                                                             atol=1e-9):
+                continue  # already there (Zero -> Zero between cycles): nothing to command
             for attempt in range(1, self.retry.move_attempts + 1):
                 try:
                     self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+                    self._planned_q = move.q_mm
                     break
                 except (DeviceFault, DeviceTimeout) as exc:
                     self.writer.append("fault", during="move", attempt=attempt,
