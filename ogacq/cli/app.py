@@ -37,7 +37,15 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
 
 
 def _register() -> None:
-    from ogacq.cli import campaign_cmds, plan_cmd, refit_cmd, sim_cmd  # noqa: F401  (commands attach to app)
+    from ogacq.cli import (  # noqa: F401  (commands attach to app)
+        campaign_cmds,
+        diagnose_cmd,
+        plan_cmd,
+        refit_cmd,
+        report_cmd,
+        session_cmds,
+        sim_cmd,
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -149,3 +149,35 @@ def print_outcome(outcome) -> None:
     console.print(table)
     console.print(f"residual rms {result.residual_rms_mm * 1000:.2f} um, gauge noise "
                   f"{result.noise.describe()}; session {outcome.session_path}")
+
+
+def print_session(session) -> None:
+    header = session.header
+    ends = session.of_type("end")
+    status = ends[-1]["status"] if ends else "in progress or killed"
+    console.print(f"[bold]{session.path}[/]: {header.get('software', '?')}, created "
+                  f"{header.get('created', '?')}, status [bold]{status}[/]")
+    machine = header.get("machine", {})
+    console.print(f"machine: L = {machine.get('leg_length_mm')} mm, postures "
+                  f"{machine.get('rho_min_mm')}..{machine.get('rho_max_mm')} mm, gauges "
+                  f"{machine.get('gauge_resolution_mm')} mm")
+    station = header.get("station") or {}
+    controller = station.get("controller")
+    if controller:
+        console.print(f"controller: {controller.get('profile')} at {controller.get('port')}"
+                      + (" (simulated)" if station.get("simulated") else ""))
+    faults = session.of_type("fault")
+    console.print(f"readings: {len(session.readings)}, moves: {len(session.of_type('move'))}, "
+                  f"faults: {len(faults)}, resumed: {len(session.of_type('resume'))} times")
+    for fault in faults[-3:]:
+        console.print(f"  fault during {fault.get('during')}: {fault.get('message')}",
+                      highlight=False)
+    if ends and ends[-1].get("reason"):
+        console.print(f"stopped because: {ends[-1]['reason']}", highlight=False)
+    results = session.of_type("result")
+    if results:
+        refit = results[-1]["refit"]
+        for name, where in refit["parameters"].items():
+            for axis, value in where.items():
+                std = refit["std"][name][axis]
+                console.print(f"  {name}.{axis} = {value:+.4f} +- {std:.4f} mm")

@@ -229,6 +229,15 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         iterations, converged = 1, True
     else:
         th, iterations, conv = gauss_newton(obs, y, free, theta0, w, rank)
+        if rank < len(names):
+            # Some parameters act only once others have moved the geometry (a gauge's
+            # position or gain matters only on a tilted leg): judge the rank again
+            # where the determined ones put us, and finish from there.
+            rank_there = design_rank(w.jac(jacobian(obs, th, free))[0], ranges)
+            if rank_there > rank:
+                rank = rank_there
+                th, more, conv = gauss_newton(obs, y, free, th[0], w, rank)
+                iterations += more
         theta = th[0]
         converged = bool(conv[0])
         jac = jacobian(obs, theta[None], free)  # central differences for the covariance

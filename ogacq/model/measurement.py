@@ -120,11 +120,18 @@ class ReadingsLayout:
         return unique[:, :3], unique[:, 3:].astype(int), index.ravel()
 
     def subset(self, mask: np.ndarray) -> ReadingsLayout:
-        """The readings selected by ``mask``, gauges renumbered."""
+        """The readings selected by ``mask``. Each kept gauge keeps the posture it was
+        set at, even when the reading taken there is dropped."""
         idx = np.flatnonzero(mask)
-        return ReadingsLayout.build(self.q_mm[idx], self.leg[idx], self.gauge_axis[idx],
-                                    self.t_s[idx], self.cycle[idx], self.tcp_mm[idx],
-                                    self.approach[idx])
+        kept = list(dict.fromkeys(self.gauge[idx].tolist()))  # in order of appearance
+        renumber = {old: new for new, old in enumerate(kept)}
+        return ReadingsLayout(
+            q_mm=self.q_mm[idx], leg=self.leg[idx], gauge_axis=self.gauge_axis[idx],
+            t_s=self.t_s[idx], cycle=self.cycle[idx], tcp_mm=self.tcp_mm[idx],
+            approach=self.approach[idx],
+            gauge=np.array([renumber[g] for g in self.gauge[idx]], dtype=int),
+            gauge_keys=tuple(self.gauge_keys[g] for g in kept),
+            setting_q_mm=self.setting_q_mm[kept].reshape(-1, 3))
 
 
 def _joint_positions(theta, q, t_s, approach, machine: MachineSpec):

@@ -69,3 +69,16 @@ def test_noise_from_repeats_when_the_machine_file_has_none():
     r = fit(obs, PARAM_SETS["offsets"])
     assert r.noise.source == "repeated readings"
     assert 0.002 < r.noise.sigma_mm < 0.004
+
+
+def test_parameters_that_act_only_on_a_tilted_leg_are_still_fitted():
+    """At the nominal start gauge position has no effect (every leg is parallel); the
+    fit must not leave it there once the offsets have tilted the legs."""
+    truth = {"joint_offset.x": 2.0, "joint_offset.y": 2.0, "joint_offset.z": -2.0,
+             "gauge_position.x": 0.56}
+    obs = simulate(truth, 3, noise=0.0)
+    names = (*PARAM_SETS["offsets"], "gauge_position.x")
+    r = fit(obs, names)
+    assert r.converged
+    assert np.allclose(r.values, list(truth.values()), atol=1e-6)
+    assert r.identifiability.rank == 4 and np.all(np.isfinite(r.std)) and np.all(r.std > 0)

@@ -64,3 +64,14 @@ def test_batch_prediction_equals_one_at_a_time():
     batch = predict_coordinates(thetas, layout, M)
     for k in range(4):
         assert np.allclose(batch[k], predict_coordinates(thetas[k], layout, M), atol=1e-12)
+
+
+def test_subset_keeps_each_gauges_setting_posture():
+    layout = layout_of(protocol_readings(M))
+    theta = vector({"joint_offset.x": 2.0, "joint_offset.y": -1.5, "leg_length.z": 0.8})
+    full = predict_coordinates(theta, layout, M)
+    keep = np.ones(len(layout), dtype=bool)
+    keep[:2] = False  # the Zero readings the x-leg gauges were set at
+    part = layout.subset(keep)
+    assert np.allclose(predict_coordinates(theta, part, M), full[keep], atol=1e-12)
+    assert part.n_gauges == layout.n_gauges

@@ -1,0 +1,215 @@
+"""Terminal account of a diagnosis (``ogacq diagnose`` without ``--json``)."""
+
+from __future__ import annotations
+
+import numpy as np
+from rich.table import Table
+
+from ogacq.cli.render import console
+from ogacq.diagnose.diagnosis import Diagnosis
+from ogacq.diagnose.library import BASE_MODEL, label
+from ogacq.diagnose.locate import Location, row_labels
+from ogacq.diagnose.selection import Model
+from ogacq.diagnose.verdict import ALPHA, format_p
+from ogacq.model.parameters import PARAM_INDEX, effect_of
+
+
+def _value(value: float, std: float, unit: str) -> str:
+    digits = max(0, min(6, 2 - int(np.floor(np.log10(std))))) if np.isfinite(std) and std > 0 \
+        else 4
+    std_text = f"{std:.{digits}f}" if np.isfinite(std) else "?"
+    return f"{value:+.{digits}f} ± {std_text} {unit}"
+
+
+def _verdict_line(title: str, model: Model) -> str:
+    v = model.verdict
+    colour = "green" if v.consistent else "red"
+    return f"{title}: [{colour}]{v.describe()}[/]"
+
+
+def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
+    console.print(f"[bold]{d.source or 'data'}[/]: {d.n_observations} {d.kind}; gauge noise "
+                  f"{d.noise.describe()}")
+    console.print(_verdict_line("joint offsets only", d.selection.base))
+    if d.outcome == "consistent":
+        console.print("The joint-offset model reproduces these recordings within the gauge "
+                      "noise: nothing is left to explain.")
+        _print_offsets(d)
+        return
+    console.print()
+    _print_location("Where the misfit of the joint-offset model sits", d.located)
+    _print_capability(d)
+    _print_search(d)
+    _print_outcome(d, machine_file)
+    _print_offsets(d)
+    for caveat in d.caveats():
+        console.print(f"[yellow]note[/]: {caveat}")
+
+
+def _print_location(title: str, loc: Location) -> None:
+    console.print(f"[bold]{title}[/] (share of the misfit; under noise alone each would "
+                  "carry the share in brackets)")
+    for level in ("gauge", "leg", "posture", "cycle", "approach"):
+        groups = loc.level(level)
+        if not groups:
+            continue
+        cells = ", ".join(f"{g.key} {g.share:.0%} ({g.expected_share:.0%})" for g in groups)
+        name = "approach (sides of the x, y, z drives)" if level == "approach" else level
+        console.print(f"  {name}: {cells}")
+    trends = [t for t in loc.trends if t.p_value < ALPHA]
+    for t in trends:
+        console.print(f"  trend with time on gauge {t.gauge}: {t.slope_mm_per_h * 1e3:+.1f} ± "
+                      f"{t.std_mm_per_h * 1e3:.1f} µm/h (p = {format_p(t.p_value)})")
+    if loc.trends and not trends:
+        console.print("  no gauge's residuals trend with time")
+    diffs = [a for a in loc.approach if a.p_value < ALPHA]
+    for a in diffs:
+        console.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
+                      f"{a.posture}: {a.difference_mm * 1e3:+.1f} ± {a.std_mm * 1e3:.1f} µm")
+    if not loc.approach:
+        console.print("  no posture was read from both approach sides")
+    elif not diffs:
+        console.print("  no difference between approach sides")
+    console.print()
+
+
+def _print_capability(d: Diagnosis) -> None:
+    cap = d.capability
+    console.print(f"[bold]What these data can tell beside the joint offsets[/] "
+                  f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
+                  f"offsets, {cap.effect_rank} independent effect directions)")
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
+    for col in ("effect", "std", "shows from", "unit", "offsets absorb", "aliases"):
+        table.add_column(col, justify="left" if col in ("effect", "unit", "aliases")
+                         else "right", overflow="fold")
+    for name, v in cap.visibility.items():
+        if not v.visible:
+            table.add_row(name, "-", "[red]not seen[/]", v.unit, "-", "")
+            continue
+        shows = f"{v.detectable:.3g}" if v.identifiable else f"[yellow]{v.detectable:.3g}[/]"
+        table.add_row(name, f"{v.std:.3g}", shows, v.unit, f"{v.absorbed:.0%}",
+                      ", ".join(a for a, _ in v.aliases))
+    console.print(table)
+    if cap.invisible():
+        console.print(f"  not seen at all: {', '.join(cap.invisible())}"
+                      + (" (tabulated deviations carry no approach side and no time)"
+                         if d.kind == "deviations" else ""))
+    if cap.weak():
+        console.print(f"  seen only above their plausible range: {', '.join(cap.weak())}")
+    for group in cap.alias_groups():
+        console.print(f"  cannot be told apart: {', '.join(group)}")
+    if cap.saturated:
+        console.print(f"  [yellow]{cap.dof_after_offsets} observations are left after the "
+                      f"offsets and the effects span {cap.effect_rank} directions: any "
+                      f"{cap.dof_after_offsets} independent effects reproduce these data exactly, "
+                      "so the data cannot choose among such sets[/]")
+    for option, plan in d.plans:
+        groups = plan.alias_groups()
+        console.print(f"  with '{option.key}' ({option.description}): "
+                      f"{plan.dof_after_offsets} dof after the offsets, "
+                      f"{plan.effect_rank} effect directions, "
+                      f"{len(plan.invisible())} effects unseen, "
+                      f"{len(groups)} alias groups")
+    console.print()
+
+
+def _print_search(d: Diagnosis) -> None:
+    sel = d.selection
+    console.print(f"[bold]Search[/]: {sel.candidates_fitted} candidate models fitted "
+                  "(every effect alone and in pairs, at each step)")
+    if not sel.steps:
+        console.print("  no effect or pair of effects improves the fit significantly with "
+                      "plausible values")
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
+    for col in ("step", "added", "rms before", "rms after", "chi2/dof", "p (nested)", "dBIC"):
+        table.add_column(col, justify="left" if col == "added" else "right", overflow="fold")
+    for k, step in enumerate(sel.steps, 1):
+        table.add_row(str(k), step.label, f"{step.before.verdict.rms_mm * 1e3:.2f} µm",
+                      f"{step.after.verdict.rms_mm * 1e3:.2f} µm",
+                      f"{step.before.verdict.chi2_dof:.3g} → {step.after.verdict.chi2_dof:.3g}",
+                      format_p(step.p_value), f"{step.delta_bic:+.1f}")
+    if sel.steps:
+        console.print(table)
+        _print_gauge_rms(d)
+    for name, p in sel.dropped:
+        console.print(f"  dropped {name}: no longer significant beside the others "
+                      f"(p = {format_p(p)})")
+    if sel.last_considered:
+        console.print("  closest candidates that were not taken:")
+        for c in sel.last_considered[:3]:
+            rms = np.sqrt(c.rss / max(d.capability.n_data, 1))
+            console.print(f"    {label(c.added)}: weighted rms {rms * 1e3:.2f} µm, {c.reason}")
+    console.print()
+
+
+def _print_gauge_rms(d: Diagnosis) -> None:
+    gauges = row_labels(d.base_fit.observations).gauge
+    models = [d.selection.base] + [s.after for s in d.selection.steps]
+    table = Table(title="residual rms per gauge (µm), before and after each step",
+                  show_edge=False, header_style="bold", pad_edge=False)
+    table.add_column("gauge")
+    table.add_column("offsets", justify="right")
+    for step in d.selection.steps:
+        table.add_column(f"+ {step.label}", justify="right", overflow="fold")
+    per_model = [m.rms_by_gauge(gauges) for m in models]
+    for g in per_model[0]:
+        table.add_row(g, *(f"{rms[g] * 1e3:.2f}" for rms in per_model))
+    console.print(table)
+
+
+def _print_outcome(d: Diagnosis, machine_file: str) -> None:
+    outcome = d.outcome
+    if outcome == "explained":
+        console.print(_verdict_line("[bold]with the effects found[/]", d.claimed))
+    elif outcome == "partly explained":
+        console.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
+                      f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
+                      "the noise; their std are inflated by the remaining misfit "
+                      f"(x{d.std_inflation:.2f}).")
+        console.print(_verdict_line("with them", d.claimed))
+    else:
+        console.print("[red]Unexplained[/]: nothing in the effect library brings the fit "
+                      "within the gauge noise, so no effect is named.")
+        if d.selection.final.effects:
+            console.print(f"  the best set tried, {label(d.selection.final.effects)}, removes "
+                          f"only {d.explained_share:.0%} of the misfit beyond the noise "
+                          f"({d.selection.final.verdict.describe()})")
+    for e in d.effects:
+        console.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
+        if e.model_spread > 0.2 * e.std:
+            console.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
+                          "much when another effect is swapped for its alternative)")
+        if e.local_disturbance is not None:
+            console.print(f"    [yellow]rests on one cell[/]: without {e.local_disturbance} the "
+                          "data no longer support it; a disturbance there (a knocked stand, a "
+                          "sticking spindle) explains them as well; repeat that posture")
+        if e.alternatives:
+            alts = ", ".join(f"{a.name} ({a.value:+.4g} {effect_of(a.name).unit}, chi2 "
+                             f"{a.delta_chi2:+.1f})" for a in e.alternatives)
+            console.print(f"    [yellow]explained equally well by[/]: {alts}")
+            for sep in e.separations:
+                console.print(f"    {sep.describe().replace('M.toml', machine_file)}")
+        elif d.final.consistent and e.local_disturbance is None:
+            console.print("    no other effect of the library explains these data as well")
+    if d.unexplained is not None:
+        console.print(f"  [red]unexplained[/] misfit sits mostly at [bold]{d.unexplained}[/]")
+        if d.remaining is not d.located:
+            _print_location("  where the rest sits", d.remaining)
+    console.print()
+
+
+def _print_offsets(d: Diagnosis) -> None:
+    f = d.final_fit
+    std = {n: f.std[k] * d.std_inflation for k, n in enumerate(f.names) if n in BASE_MODEL}
+    parts = [f"{n.split('.')[1]} {_value(f.value(n), std[n], 'mm')}" for n in BASE_MODEL]
+    console.print("joint offsets (final model): " + ", ".join(parts))
+    # The offsets absorb what the effects do not: with an alias in an effect's place
+    # they move, and writing them back should wait for the alias to be settled.
+    for e in d.effects:
+        for a in e.alternatives:
+            moved = [abs(a.theta[PARAM_INDEX[n]] - f.value(n)) > 3 * std[n] for n in BASE_MODEL]
+            if any(moved):
+                values = ", ".join(f"{n.split('.')[1]} {a.theta[PARAM_INDEX[n]]:+.4f}"
+                                   for n in BASE_MODEL)
+                console.print(f"  [yellow]with {a.name} in place of {e.name} they would be[/] "
+                              f"{values} mm")

@@ -1,0 +1,243 @@
+"""Where does the misfit sit? Shares per leg, gauge, posture, cycle; trends with time;
+differences between approach directions.
+
+A share alone misleads: a gauge with more readings carries more misfit even when
+all is noise, and the fit itself takes up some of each group's noise. So every
+share is set beside the share pure noise would give it (from the residual-maker
+matrix of the fit), and each group's chi-square beside its expected value.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from ogacq.diagnose.verdict import CellTest
+from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.model.kinematics import nominal_tcp
+from ogacq.model.parameters import AXES
+
+LEVELS = ("gauge", "leg", "posture", "cycle", "approach")
+
+
+@dataclass(frozen=True)
+class RowLabels:
+    """What each observation belongs to."""
+
+    leg: np.ndarray  # 0..2
+    gauge_axis: np.ndarray  # 0..2
+    posture: np.ndarray  # "zero", "max", "min", "+30 mm", "max-min"
+    cycle: np.ndarray
+    t_s: np.ndarray
+    approach: np.ndarray  # "+--" per joint, "" when unknown
+
+    @property
+    def gauge(self) -> np.ndarray:
+        return np.array([f"{AXES[j]}_{AXES[i]}" for j, i in zip(self.gauge_axis, self.leg,
+                                                                 strict=True)])
+
+
+def posture_name(position_mm: float, machine) -> str:
+    for name, value in (("zero", 0.0), ("max", machine.rho_max_mm),
+                        ("min", machine.rho_min_mm)):
+        if abs(position_mm - value) < 1e-6:
+            return name
+    return f"{position_mm:+g} mm"
+
+
+def row_labels(obs: Observations) -> RowLabels:
+    if obs.raw:
+        lay = obs.layout
+        tcp = np.where(np.isfinite(lay.tcp_mm), lay.tcp_mm,
+                       nominal_tcp(lay.q_mm, obs.machine.leg_length_mm))
+        along = tcp[np.arange(len(lay)), lay.leg]
+        signs = {-1: "-", 0: "0", 1: "+"}
+        return RowLabels(
+            lay.leg, lay.gauge_axis,
+            np.array([posture_name(s, obs.machine) for s in along]), lay.cycle, lay.t_s,
+            np.array(["".join(signs[int(v)] for v in a) for a in lay.approach]))
+    parsed = [DEVIATION_NAME.match(label) for label in obs.labels]
+    n = len(parsed)
+    return RowLabels(
+        np.array([AXES.index(m.group(2)) for m in parsed]),
+        np.array([AXES.index(m.group(1)) for m in parsed]),
+        np.array([{"+": "max", "-": "min", "": "max-min"}[m.group(3)] for m in parsed]),
+        np.ones(n, dtype=int), np.zeros(n), np.full(n, ""))
+
+
+@dataclass(frozen=True)
+class GroupShare:
+    level: str
+    key: str
+    n: int
+    share: float  # of the misfit
+    expected_share: float  # under noise alone
+    chi2: float  # the group's misfit in units of the noise variance
+    expected_chi2: float
+
+    @property
+    def excess(self) -> float:
+        return self.share - self.expected_share
+
+
+@dataclass(frozen=True)
+class TimeTrend:
+    gauge: str
+    slope_mm_per_h: float
+    std_mm_per_h: float
+
+    @property
+    def p_value(self) -> float:
+        return float(2 * stats.norm.sf(abs(self.slope_mm_per_h) / self.std_mm_per_h))
+
+
+@dataclass(frozen=True)
+class ApproachDifference:
+    gauge: str
+    posture: str
+    sides: tuple[str, str]
+    difference_mm: float  # mean residual of the first side minus the second's
+    std_mm: float
+
+    @property
+    def p_value(self) -> float:
+        return float(2 * stats.norm.sf(abs(self.difference_mm) / self.std_mm))
+
+
+@dataclass
+class Location:
+    groups: list[GroupShare]
+    trends: list[TimeTrend]
+    approach: list[ApproachDifference]
+    total_chi2: float
+
+    def level(self, level: str) -> list[GroupShare]:
+        return sorted((g for g in self.groups if g.level == level), key=lambda g: -g.share)
+
+    def where(self) -> str:
+        """The gauge, leg or posture holding the most misfit beyond its noise share:
+        ``y_x`` (a gauge), ``x`` (a leg) or ``min`` (a posture)."""
+        pool = [g for g in self.groups if g.level in ("gauge", "leg", "posture")]
+        return max(pool, key=lambda g: (g.excess, g.level == "gauge")).key
+
+    def gauges_json(self) -> list[dict]:
+        out = []
+        for g in self.level("gauge"):
+            axis, leg = g.key.split("_")
+            out.append({"leg": leg, "gauge_axis": axis, "share": round(g.share, 4)})
+        return out
+
+
+def residual_covariance(obs: Observations, jac: np.ndarray) -> np.ndarray:
+    """(m, m) covariance of the residuals of a fit with unweighted Jacobian ``jac``
+    (m, p) under noise alone, in units of the gauge variance: the residual maker
+    (gauge zeros and the fitted parameters taken out) times the noise covariance."""
+    if obs.raw:
+        onehot = np.eye(obs.layout.n_gauges)[obs.layout.gauge]
+        zeros = onehot @ np.diag(1.0 / onehot.sum(axis=0)) @ onehot.T
+        projected = obs.remove_zeros(jac.T).T
+        return np.eye(len(obs)) - zeros - projected @ np.linalg.pinv(projected)
+    cov = obs.noise_cov
+    whitened = np.linalg.solve(np.linalg.cholesky(cov), jac)
+    return cov - jac @ np.linalg.pinv(whitened.T @ whitened) @ jac.T
+
+
+def _scale(obs: Observations) -> np.ndarray:
+    """Each observation's own noise variance in units of the gauge variance."""
+    return np.ones(len(obs)) if obs.raw else np.diag(obs.noise_cov).copy()
+
+
+def cell_test(obs: Observations, residuals: np.ndarray, cov: np.ndarray,
+              sigma_mm: float) -> CellTest | None:
+    """The worst cell of one gauge at one posture. Its misfit is a quadratic form
+    ``sum(l_i chi2_1)`` of correlated normal residuals (``l_i`` the eigenvalues of
+    the cell's block of the residual covariance), bounded above by ``l_max`` times
+    a chi-square with as many dof as nonzero ``l_i``: a conservative p, multiplied
+    by the number of cells."""
+    labels = row_labels(obs)
+    keys = np.array([f"{g} at {p}" for g, p in zip(labels.gauge, labels.posture,
+                                                    strict=True)])
+    scale = _scale(obs)
+    standardised = cov / np.sqrt(np.outer(scale, scale))
+    chi2 = residuals**2 / (sigma_mm**2 * scale)
+    cells = list(dict.fromkeys(keys.tolist()))
+    worst = None
+    for key in cells:
+        sel = keys == key
+        eig = np.linalg.eigvalsh(standardised[np.ix_(sel, sel)])
+        live = eig > 1e-9
+        if not live.any():
+            continue  # the fit leaves nothing there to test
+        p = float(stats.chi2.sf(chi2[sel].sum() / eig.max(), int(live.sum())))
+        if worst is None or p < worst[1]:
+            worst = (key, p, float(chi2[sel].sum()), float(eig.sum()))
+    if worst is None:
+        return None
+    key, p, value, mean = worst
+    return CellTest(key, value, mean, min(1.0, p * len(cells)), len(cells))
+
+
+def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
+           sigma_mm: float) -> Location:
+    """Where ``residuals`` (unweighted, gauge zeros removed) of a fit with unweighted
+    Jacobian ``jac`` sit, judged against the gauge noise ``sigma_mm``."""
+    labels = row_labels(obs)
+    scale = _scale(obs)
+    chi2 = residuals**2 / (sigma_mm**2 * scale)
+    expected = np.clip(np.diag(residual_covariance(obs, jac)) / scale, 0.0, None)
+    total, total_expected = float(chi2.sum()), float(expected.sum())
+    keys = {"gauge": labels.gauge, "leg": np.array([AXES[i] for i in labels.leg]),
+            "posture": labels.posture, "cycle": labels.cycle.astype(str),
+            "approach": labels.approach}
+    groups = []
+    for level in LEVELS:
+        values = keys[level]
+        distinct = list(dict.fromkeys(values.tolist()))
+        if len(distinct) < 2:
+            continue
+        for key in distinct:
+            sel = values == key
+            groups.append(GroupShare(
+                level, key, int(sel.sum()), float(chi2[sel].sum() / total) if total else 0.0,
+                float(expected[sel].sum() / total_expected) if total_expected else 0.0,
+                float(chi2[sel].sum()), float(expected[sel].sum())))
+    return Location(groups, _trends(labels, residuals, sigma_mm),
+                    _approach_differences(labels, residuals, sigma_mm), total)
+
+
+def _trends(labels: RowLabels, residuals: np.ndarray, sigma_mm: float) -> list[TimeTrend]:
+    """Slope of each gauge's residuals with time: drift shows here first."""
+    out = []
+    gauges = labels.gauge
+    for g in dict.fromkeys(gauges.tolist()):
+        sel = gauges == g
+        t_h = labels.t_s[sel] / 3600.0
+        spread = np.sum((t_h - t_h.mean()) ** 2)
+        if sel.sum() < 3 or spread <= 0:
+            continue
+        slope = float(np.sum((t_h - t_h.mean()) * residuals[sel]) / spread)
+        out.append(TimeTrend(g, slope, float(sigma_mm / np.sqrt(spread))))
+    return out
+
+
+def _approach_differences(labels: RowLabels, residuals: np.ndarray,
+                          sigma_mm: float) -> list[ApproachDifference]:
+    """Readings of one gauge at one posture approached from different sides: lost
+    motion shows as a difference of their means."""
+    out = []
+    gauges = labels.gauge
+    for g in dict.fromkeys(gauges.tolist()):
+        for posture in dict.fromkeys(labels.posture[gauges == g].tolist()):
+            sel = (gauges == g) & (labels.posture == posture)
+            sides, counts = np.unique(labels.approach[sel], return_counts=True)
+            if len(sides) < 2 or "" in sides:
+                continue
+            first, second = sides[np.argsort(-counts)[:2]]
+            a = residuals[sel & (labels.approach == first)]
+            b = residuals[sel & (labels.approach == second)]
+            std = sigma_mm * np.sqrt(1 / len(a) + 1 / len(b))
+            out.append(ApproachDifference(g, posture, (str(first), str(second)),
+                                          float(a.mean() - b.mean()), float(std)))
+    return out

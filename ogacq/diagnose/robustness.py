@@ -1,0 +1,78 @@
+"""Does a claim rest on one cell (one gauge at one posture)?
+
+A stand knocked between two readings or a spindle that sticks once puts all its
+misfit in one cell, and with hundreds of candidate pairs some pair will absorb it.
+Such an explanation is indistinguishable from a local disturbance of that cell.
+So the cell that gains most from the claimed effects is left out and both the
+joint-offset model and the claimed model are refitted without it: if the effects
+are no longer significant (with the same correction for the candidates searched
+as when they were chosen), the data support them only through that cell, and a
+disturbance there is named as an equally good explanation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from math import comb
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem, fit_many
+from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS
+from ogacq.diagnose.locate import row_labels
+from ogacq.diagnose.selection import Model
+from ogacq.diagnose.verdict import ALPHA, NoiseBasis, nested_test
+from ogacq.identify.observations import Observations, readings_observations
+from ogacq.model.measurement import ReadingsLayout
+from ogacq.model.parameters import NOMINAL, indices
+
+
+def _cells(obs: Observations) -> np.ndarray:
+    labels = row_labels(obs)
+    return np.array([f"{g} at {p}" for g, p in zip(labels.gauge, labels.posture,
+                                                    strict=True)])
+
+
+def _subset(layout: ReadingsLayout, keep: np.ndarray) -> ReadingsLayout:
+    """The kept readings with every gauge still set where it was. (``layout.subset``
+    re-derives each gauge's setting from its first kept reading, which moves the
+    gauge plane when that reading is dropped.)"""
+    return replace(layout, q_mm=layout.q_mm[keep], leg=layout.leg[keep],
+                   gauge_axis=layout.gauge_axis[keep], t_s=layout.t_s[keep],
+                   cycle=layout.cycle[keep], tcp_mm=layout.tcp_mm[keep],
+                   approach=layout.approach[keep], gauge=layout.gauge[keep])
+
+
+def _without(obs: Observations, keep: np.ndarray) -> Observations:
+    if obs.raw:
+        return readings_observations(obs.machine, _subset(obs.layout, keep), obs.values[keep],
+                                     obs.source)
+    return Observations(obs.machine, obs.layout, obs.values[keep],
+                        [lab for lab, k in zip(obs.labels, keep, strict=True) if k],
+                        obs.combination[keep], obs.source, obs.kind)
+
+
+def resting_cell(problem: Problem, noise: NoiseBasis, base: Model, claimed: Model,
+                 alpha: float = ALPHA) -> str | None:
+    """The cell (``"y_x at max"``) without which the claimed effects lose their
+    significance, or None when they stand without any single cell."""
+    if not claimed.effects:
+        return None
+    obs = problem.obs
+    cells = _cells(obs)
+    gain = (base.residuals**2 - claimed.residuals**2) / np.diag(
+        np.eye(len(obs)) if obs.raw else obs.noise_cov)
+    top = max(dict.fromkeys(cells.tolist()), key=lambda c: gain[cells == c].sum())
+    keep = cells != top
+    rest = Problem(_without(obs, keep))
+    if rest.n_data <= len(claimed.names):
+        return top
+    start = claimed.theta.copy()
+    start[indices(claimed.effects)] = NOMINAL[indices(claimed.effects)]
+    offsets = fit_many(rest, start, BASE_MODEL, [()])
+    effects = fit_many(rest, claimed.theta, BASE_MODEL, [claimed.effects])
+    dof = rest.n_data - int(effects.rank[0])
+    _, p = nested_test(float(offsets.rss[0]), float(effects.rss[0]),
+                       int(effects.rank[0] - offsets.rank[0]), dof, noise)
+    searched = comb(len(EFFECT_PARAMETERS), len(claimed.effects))
+    return top if p * searched >= alpha else None

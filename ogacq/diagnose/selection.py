@@ -1,0 +1,246 @@
+"""Which effects to add: forward selection by nested-model tests and an information
+criterion, one effect at a time and in pairs, stopping when the fit is within the
+noise; then a backward check that every effect kept still earns its place.
+
+At each step every single effect and every pair of effects is added to the current
+model and fitted (one batched call). An addition is eligible when the data
+determine all its parameters, its values are physically plausible, the nested
+test against the current model is significant after a Bonferroni correction for
+the number of candidates of its size (the best of 351 pairs always improves the
+fit somewhat, and only an improvement beyond what the best of that many chance
+candidates would give is evidence), and the information criterion (BIC) agrees
+that it pays for its parameters.
+
+Among the eligible, parsimony first. The best pair is taken when it beats the best
+single effect by more than the best of all pairs would by chance, or the single
+plus a second effect when that beats it by more than the best of the second
+effects would; else the single when it brings the fit within the noise, or the
+pair when only the pair does (two effects acting together, neither enough
+alone); else the single, and the search goes on from there.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import CandidateFits, Problem, fit_many
+from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, label, pairs, singles
+from ogacq.diagnose.locate import cell_test, residual_covariance
+from ogacq.diagnose.verdict import (
+    ALPHA,
+    NoiseBasis,
+    Verdict,
+    information_criteria,
+    judge,
+    nested_test,
+    nested_tests,
+)
+from ogacq.model.parameters import NOMINAL, PARAM_INDEX
+
+MAX_EFFECTS = 4  # beyond this a "diagnosis" is a curve fit
+SHOWN_RUNNERS_UP = 5
+
+
+@dataclass
+class Model:
+    """The joint offsets plus ``effects``, fitted."""
+
+    effects: tuple[str, ...]
+    theta: np.ndarray
+    residuals: np.ndarray  # unweighted, gauge zeros removed, mm
+    rss: float  # weighted
+    rank: int  # parameters the data determine
+    verdict: Verdict
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return BASE_MODEL + self.effects
+
+    def rms_by_gauge(self, gauges: np.ndarray) -> dict[str, float]:
+        return {g: float(np.sqrt(np.mean(self.residuals[gauges == g] ** 2)))
+                for g in dict.fromkeys(gauges.tolist())}
+
+
+def evaluate(problem: Problem, noise: NoiseBasis, effects: tuple[str, ...],
+             theta: np.ndarray, rank: int, alpha: float = ALPHA) -> Model:
+    """The fitted model with its full verdict (overall test and worst cell)."""
+    residuals = problem.residuals(theta[None])[0]
+    rss = float(np.sum(problem.weighted(residuals[None]) ** 2))
+    rms = float(np.sqrt(np.mean(residuals**2)))
+    jac = problem.jacobian(theta, BASE_MODEL + effects, weighted=False)
+    cov = residual_covariance(problem.obs, jac)
+    worst = cell_test(problem.obs, residuals, cov, noise.sigma_mm)
+    return Model(effects, theta, residuals, rss, rank,
+                 judge(rss, problem.n_data - rank, rms, noise, alpha, worst))
+
+
+@dataclass(frozen=True)
+class Considered:
+    """One candidate addition at one step."""
+
+    added: tuple[str, ...]
+    values: tuple[float, ...]
+    rss: float
+    f_stat: float
+    p_value: float  # nested test against the current model, Bonferroni-corrected
+    bic: float
+    reason: str  # "" when eligible, else why not
+
+    @property
+    def eligible(self) -> bool:
+        return not self.reason
+
+
+@dataclass
+class Step:
+    before: Model
+    after: Model
+    added: tuple[str, ...]
+    f_stat: float
+    p_value: float
+    delta_aic: float
+    delta_bic: float
+    runners_up: list[Considered]
+
+    @property
+    def label(self) -> str:
+        return label(self.added)
+
+
+@dataclass
+class Selection:
+    base: Model
+    final: Model
+    steps: list[Step] = field(default_factory=list)
+    dropped: list[tuple[str, float]] = field(default_factory=list)  # (effect, p) removed
+    last_considered: list[Considered] = field(default_factory=list)  # when stuck
+    candidates_fitted: int = 0
+
+
+def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: NoiseBasis,
+              alpha: float) -> list[Considered]:
+    full, plausible = cands.full_rank(), cands.plausible()
+    sizes = np.array([len(e) for e in cands.extras])
+    searched = {size: int(np.sum(sizes == size)) for size in set(sizes.tolist())}
+    dof = problem.n_data - cands.rank
+    f_stat, p = nested_tests(current.rss, cands.rss, cands.rank - current.rank, dof, noise)
+    p = np.minimum(1.0, p * np.array([searched[n] for n in sizes]))
+    _, bic = information_criteria(cands.rss, cands.rank, problem.n_data, noise)
+    _, bic_now = information_criteria(current.rss, current.rank, problem.n_data, noise)
+    out = []
+    for k, added in enumerate(cands.extras):
+        if not full[k]:
+            reason = "not determined by these data beside the model"
+        elif not np.isfinite(cands.rss[k]):
+            reason = "puts a posture out of reach"
+        elif not plausible[k]:
+            reason = "needs an implausible value"
+        elif p[k] >= alpha:
+            reason = f"not significant (p = {p[k]:.2g} after {searched[len(added)]} candidates)"
+        elif bic[k] >= bic_now:
+            reason = "does not pay for its parameters (BIC)"
+        else:
+            reason = ""
+        out.append(Considered(added, tuple(map(float, cands.values(k))), float(cands.rss[k]),
+                              float(f_stat[k]), float(p[k]), float(bic[k]), reason))
+    return out
+
+
+def _best(considered: list[Considered], size: int) -> Considered | None:
+    pool = [c for c in considered if c.eligible and len(c.added) == size]
+    return min(pool, key=lambda c: c.rss) if pool else None
+
+
+def _choose(considered: list[Considered], full: Callable[[Considered], Model],
+            noise: NoiseBasis, alpha: float) -> tuple[Considered, Model] | None:
+    single, pair = _best(considered, 1), _best(considered, 2)
+    if single is None or pair is None:
+        chosen = single or pair
+        return None if chosen is None else (chosen, full(chosen))
+    # The best pair holding the best single: that single plus a second effect.
+    extension = min((c for c in considered if c.eligible and len(c.added) == 2
+                     and single.added[0] in c.added), key=lambda c: c.rss, default=None)
+    models = {single.added: full(single), pair.added: full(pair)}
+    if extension is not None:
+        models[extension.added] = full(extension)
+
+    def beats(better: Considered | None, candidates: int) -> bool:
+        """Better than ``single`` (by its one more parameter) beyond what the best of
+        that many chance candidates would give: the nested test, Bonferroni-corrected,
+        as in the backward check."""
+        if better is None:
+            return False
+        bigger = models[better.added]
+        _, p = nested_test(single.rss, better.rss, 1, bigger.verdict.dof, noise)
+        return p * candidates < alpha
+
+    n_pairs = sum(len(c.added) == 2 for c in considered)
+    n_second = sum(len(c.added) == 2 and single.added[0] in c.added for c in considered)
+    if beats(pair, n_pairs):
+        return pair, models[pair.added]
+    if extension is not None and beats(extension, n_second):
+        return extension, models[extension.added]
+    if models[single.added].verdict.consistent or not models[pair.added].verdict.consistent:
+        return single, models[single.added]
+    return pair, models[pair.added]
+
+
+def select(problem: Problem, noise: NoiseBasis, base: Model, *, alpha: float = ALPHA,
+           max_effects: int = MAX_EFFECTS) -> Selection:
+    selection = Selection(base, base)
+    current = base
+    while not current.verdict.consistent and len(current.effects) < max_effects:
+        room = max_effects - len(current.effects)
+        extras = singles(current.effects) + (pairs(current.effects) if room >= 2 else [])
+        union = current.names + tuple(n for n in EFFECT_PARAMETERS if n not in current.names)
+        jac = (union, problem.jacobian(current.theta, union))
+        cands = fit_many(problem, current.theta, current.names, extras, jac=jac)
+        selection.candidates_fitted += len(extras)
+        considered = _consider(cands, current, problem, noise, alpha)
+
+        def full(c: Considered, cands: CandidateFits = cands, current: Model = current) -> Model:
+            k = cands.extras.index(c.added)
+            return evaluate(problem, noise, current.effects + c.added, cands.theta[k],
+                            int(cands.rank[k]), alpha)
+
+        choice = _choose(considered, full, noise, alpha)
+        if choice is None:
+            selection.last_considered = sorted(considered, key=lambda c: c.rss)
+            break
+        chosen, after = choice
+        aic0, bic0 = information_criteria(current.rss, current.rank, problem.n_data, noise)
+        aic1, bic1 = information_criteria(after.rss, after.rank, problem.n_data, noise)
+        runners = sorted((c for c in considered if c.added != chosen.added and c.eligible),
+                         key=lambda c: c.rss)[:SHOWN_RUNNERS_UP]
+        selection.steps.append(Step(current, after, chosen.added, chosen.f_stat,
+                                    chosen.p_value, aic1 - aic0, bic1 - bic0, runners))
+        current = after
+    selection.final = _backward(problem, noise, current, alpha, selection)
+    return selection
+
+
+def _backward(problem: Problem, noise: NoiseBasis, model: Model, alpha: float,
+              selection: Selection) -> Model:
+    """Drop, one at a time, effects that the others have made redundant. Each effect
+    was the best of the library's, so its test is corrected for that many."""
+    while len(model.effects) > 1:
+        pool = len(EFFECT_PARAMETERS) - len(model.effects) + 1
+        fits = []
+        for name in model.effects:
+            kept = tuple(e for e in model.effects if e != name)
+            start = model.theta.copy()
+            start[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
+            cands = fit_many(problem, start, BASE_MODEL + kept, [()])
+            _, p = nested_test(float(cands.rss[0]), model.rss,
+                               model.rank - int(cands.rank[0]),
+                               problem.n_data - model.rank, noise)
+            fits.append((min(1.0, p * pool), name, kept, cands))
+        p, name, kept, cands = max(fits, key=lambda t: t[0])
+        if p < alpha:
+            break
+        selection.dropped.append((name, p))
+        model = evaluate(problem, noise, kept, cands.theta[0], int(cands.rank[0]), alpha)
+    return model

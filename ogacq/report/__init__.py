@@ -1,0 +1,94 @@
+"""The calibration report: one self-contained HTML page plus its figures as PNG files.
+
+    session (+ validation session, + diagnosis JSON)
+        -> data.collect: the numbers (the campaign's own identification)
+        -> figures: matplotlib on the Agg canvas, PNG bytes
+        -> page.render_page: HTML with the PNGs embedded as data: URIs
+
+Entry points: :func:`build_report` (in memory) and :func:`write_report` (to a folder).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from ogacq.model.parameters import AXES
+from ogacq.report.data import ReportData, collect
+from ogacq.report.diagnosis_view import DiagnosisFormatError, DiagnosisView, parse_diagnosis
+from ogacq.report.figures import (
+    FigureFile,
+    deviations_figure,
+    diagnosis_figure,
+    parameters_figure,
+    png_bytes,
+    residuals_figure,
+)
+from ogacq.report.page import render_page
+
+REPORT_NAME = "report.html"
+
+
+@dataclass(frozen=True)
+class Report:
+    data: ReportData
+    figures: tuple[FigureFile, ...]
+    html: str
+
+
+def planned_legs(data: ReportData) -> tuple[str, ...]:
+    plan = data.provenance.plan or {}
+    legs = plan.get("legs")
+    if isinstance(legs, list) and all(leg in AXES for leg in legs):
+        return tuple(legs)
+    return AXES
+
+
+def figures_for(data: ReportData) -> tuple[FigureFile, ...]:
+    out = []
+    fit = data.fit
+    if data.deviations:
+        out.append(FigureFile(
+            "deviations.png", "Deviations per leg and posture",
+            "Bar charts per leg: the measured deviations at Max and Min before calibration "
+            "in mm, and what remains after compensation in micrometres against the gauge "
+            "noise band.", png_bytes(deviations_figure(data.deviations, planned_legs(data)))))
+    if fit is not None and data.residuals is not None and len(data.residuals.number):
+        out.append(FigureFile(
+            "residuals.png", "Residuals",
+            f"Residual of every reading in the order taken, coloured by leg; rms "
+            f"{fit.residual_rms_mm * 1e3:.2f} µm against a gauge noise band of ±2σ.",
+            png_bytes(residuals_figure(data.residuals, fit.noise_mm, fit.residual_rms_mm))))
+    if fit is not None:
+        validation = data.validation.fit if data.validation else None
+        out.append(FigureFile(
+            "parameters.png", "Identified parameters",
+            "Identified joint offsets with 95 % confidence intervals, and the interval "
+            "half-widths.", png_bytes(parameters_figure(fit, validation))))
+    if data.diagnosis is not None and len(data.diagnosis_steps) > 1:
+        out.append(FigureFile(
+            "diagnosis.png", "Residuals before and after each effect",
+            "Residuals with the joint offsets only and with each effect of the diagnosis "
+            "added, on one scale.",
+            png_bytes(diagnosis_figure(data.diagnosis_steps, data.diagnosis.noise_mm))))
+    return tuple(out)
+
+
+def build_report(data: ReportData) -> Report:
+    figures = figures_for(data)
+    return Report(data, figures, render_page(data, figures))
+
+
+def write_report(report: Report, folder: str | Path) -> Path:
+    """Write ``report.html`` and the PNG figures into ``folder``; returns the HTML path."""
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    for figure in report.figures:
+        (folder / figure.name).write_bytes(figure.png)
+    path = folder / REPORT_NAME
+    path.write_text(report.html, encoding="utf-8")
+    return path
+
+
+__all__ = ["DiagnosisFormatError", "DiagnosisView", "Report", "ReportData", "build_report",
+           "collect", "parse_diagnosis", "write_report"]

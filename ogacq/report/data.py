@@ -1,0 +1,434 @@
+"""Everything the report shows, taken from a session (and optionally a validation
+session and a diagnosis), as plain values: the figures and the HTML only lay it out.
+
+The identification is the campaign's own (:func:`ogacq.campaign.identify_session`),
+so the report shows the numbers the campaign printed. "Before" deviations are the
+papers' twelve (Max/Min relative to Zero, averaged over cycles) of the readings;
+"after, predicted" are the same averages of the residuals, i.e. what remains once
+the identified offsets are compensated; "after, measured" are the deviations of a
+validation campaign run after the offsets were written back.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ogacq import __version__
+from ogacq.campaign import identify_session
+from ogacq.identify.fit import FitResult, fit
+from ogacq.identify.observations import Observations, averaged_deviations
+from ogacq.io.errors import InputError
+from ogacq.model.parameters import AXES, PARAM_INDEX, effect_of
+from ogacq.report.diagnosis_view import DiagnosisView
+from ogacq.session.convert import session_machine
+from ogacq.session.store import LoadedSession
+
+POSTURE_OF_SIGN = {"+": "max", "-": "min"}
+Z95 = 1.959964  # two-sided 95 % of the normal distribution
+
+
+@dataclass(frozen=True)
+class ParameterRow:
+    name: str
+    unit: str
+    value: float
+    std: float  # NaN or inf when the data do not determine it
+
+    @property
+    def ci95_half(self) -> float:
+        return Z95 * self.std
+
+
+@dataclass(frozen=True)
+class FitSummary:
+    """One identification of the joint offsets, as the report states it."""
+
+    parameters: tuple[ParameterRow, ...]
+    n_readings: int
+    residual_rms_mm: float
+    sigma_mm: float  # the noise the residuals imply
+    dof: int
+    noise_mm: float  # the gauge noise the std are propagated from
+    noise_source: str
+    noise_dof: int | None
+    rank: int
+    condition_number: float
+    identifiable: bool
+    reasons: tuple[str, ...]
+    correlated_pairs: tuple[tuple[str, str, float], ...]
+    method: str
+
+    @property
+    def misfit_ratio(self) -> float:
+        """Residual scatter over gauge noise: about 1 when the model explains the data."""
+        return self.sigma_mm / self.noise_mm if self.noise_mm > 0 else float("nan")
+
+    def row(self, name: str) -> ParameterRow | None:
+        return next((p for p in self.parameters if p.name == name), None)
+
+
+@dataclass(frozen=True)
+class DeviationRow:
+    name: str  # the papers' name: dy_x+ is along y on the x leg at Max
+    leg: str
+    gauge_axis: str
+    posture: str  # "max" or "min"
+    before_mm: float
+    noise_mm: float  # 1 sigma of this deviation from the gauge noise (averaging included)
+    after_predicted_mm: float
+    after_measured_mm: float | None = None
+    after_noise_mm: float | None = None
+
+
+@dataclass(frozen=True)
+class ResidualSeries:
+    """Residuals per reading, in the order taken (gauge zeros removed)."""
+
+    number: np.ndarray  # 1-based position in the session
+    residual_mm: np.ndarray
+    leg: tuple[str, ...]
+    gauge: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ModelStep:
+    """Residuals of the joint offsets plus the effects found so far (diagnosis)."""
+
+    label: str
+    names: tuple[str, ...]
+    residuals: ResidualSeries
+    rms_mm: float
+
+
+@dataclass(frozen=True)
+class CampaignStatus:
+    status: str  # "complete", "stopped", "interrupted", "incomplete"
+    readings: int
+    planned: int | None
+    reason: str | None
+    faults: tuple[str, ...]
+    torn: tuple[str, ...]  # load warnings: a record cut by a crash
+
+    @property
+    def complete(self) -> bool:
+        return self.status == "complete"
+
+
+@dataclass(frozen=True)
+class OffsetsWrite:
+    """A write-back (or restore) of joint offsets into the controller, from the audit
+    records the write-back appends to the session."""
+
+    when: str
+    action: str  # "write" or "restore"
+    status: str  # "done", "failed", "interrupted"
+    old_mm: dict[str, float]
+    new_mm: dict[str, float]  # as read back when done, else as intended
+    details: str  # controller profile, saved to non-volatile memory, operation id
+
+
+@dataclass(frozen=True)
+class Provenance:
+    session_path: str
+    software: str  # that recorded the session
+    created: str
+    machine: dict[str, Any]
+    machine_file: str | None
+    campaign_file: str | None
+    station: tuple[tuple[str, str], ...]  # (what, description)
+    simulated: bool
+    simulator: dict[str, Any] | None
+    plan: dict[str, Any] | None
+    resumes: tuple[str, ...]
+    campaign_time_s: float | None  # station clock at the last reading
+    other: tuple[tuple[str, str], ...]  # header entries of other tools (the wizard's, ...)
+    report_software: str = f"ogacq {__version__}"
+    reported: str = field(default_factory=lambda: time.strftime("%Y-%m-%dT%H:%M:%S%z"))
+
+
+@dataclass(frozen=True)
+class ValidationRun:
+    provenance: Provenance
+    status: CampaignStatus
+    fit: FitSummary | None
+    note: str | None
+
+
+@dataclass(frozen=True)
+class ReportData:
+    provenance: Provenance
+    status: CampaignStatus
+    fit: FitSummary | None
+    deviations: tuple[DeviationRow, ...]
+    residuals: ResidualSeries | None
+    validation: ValidationRun | None
+    diagnosis: DiagnosisView | None
+    diagnosis_steps: tuple[ModelStep, ...]
+    diagnosis_note: str | None
+    writes: tuple[OffsetsWrite, ...]
+    notes: tuple[str, ...]  # what a reader must know before trusting the numbers
+
+
+# --- the session as a campaign ------------------------------------------------------------
+
+def campaign_status(session: LoadedSession) -> CampaignStatus:
+    ends = session.of_type("end")
+    last = ends[-1] if ends else None
+    readings = len(session.readings)
+    if last is None:
+        status, reason = "incomplete", None
+    else:
+        status, reason = str(last.get("status", "incomplete")), last.get("reason")
+        # a resumed campaign that has not finished yet ends on its earlier stop
+        if session.records.index(last) < _last_index(session, "resume"):
+            status, reason = "incomplete", None
+    faults = tuple(_fault_text(f) for f in session.of_type("fault"))
+    return CampaignStatus(status, readings, _planned_readings(session), reason, faults,
+                          tuple(session.warnings))
+
+
+def _last_index(session: LoadedSession, kind: str) -> int:
+    found = [k for k, r in enumerate(session.records) if r.get("type") == kind]
+    return found[-1] if found else -1
+
+
+def _fault_text(fault: dict) -> str:
+    where = " ".join(str(fault[k]) for k in ("during", "step", "gauge") if fault.get(k))
+    attempt = f" (attempt {fault['attempt']})" if fault.get("attempt") else ""
+    return f"{where}{attempt}: {fault.get('message', 'fault')}"
+
+
+def _planned_readings(session: LoadedSession) -> int | None:
+    plan = session.header.get("plan")
+    if not isinstance(plan, dict):
+        return None
+    from ogacq.protocol.plan import ProtocolConfig, reading_steps
+
+    try:
+        steps = reading_steps(ProtocolConfig.from_dict(plan), session_machine(session))
+    except (ValueError, TypeError, KeyError, InputError):
+        return None
+    return sum(len(s.gauges) for s in steps)
+
+
+def provenance(session: LoadedSession) -> Provenance:
+    h = session.header
+    station = h.get("station") or {}
+    described: list[tuple[str, str]] = []
+    controller = station.get("controller")
+    if isinstance(controller, dict):
+        described.append(("axis controller", _describe(controller)))
+    gauges = station.get("gauges")
+    if isinstance(gauges, dict):
+        for name, g in gauges.items():
+            described.append((f"gauge {name}", _describe(g) if isinstance(g, dict) else str(g)))
+    for key, value in station.items():
+        if key not in ("controller", "gauges", "simulated"):
+            described.append((key.replace("_", " "), _describe(value)
+                              if isinstance(value, dict) else str(value)))
+    resumes = tuple(f"{_wall(r.get('wall'))} with {r.get('software', '?')}"
+                    for r in session.of_type("resume"))
+    times = [r["t_s"] for r in session.readings if isinstance(r.get("t_s"), int | float)]
+    simulator = h.get("simulator") if isinstance(h.get("simulator"), dict) else None
+    return Provenance(
+        session_path=str(session.path), software=str(h.get("software", "unknown")),
+        created=str(h.get("created", "unknown")),
+        machine=dict(h.get("machine") or {}), machine_file=h.get("machine_file"),
+        campaign_file=h.get("campaign_file"), station=tuple(described),
+        simulated=bool(station.get("simulated")) or simulator is not None,
+        simulator=simulator, plan=h.get("plan") if isinstance(h.get("plan"), dict) else None,
+        resumes=resumes, campaign_time_s=max(times) if times else None,
+        other=tuple((key.replace("_", " "), _describe(value) if isinstance(value, dict)
+                     else str(value)) for key, value in h.items()
+                    if key not in KNOWN_HEADER and value not in (None, "", [], {})))
+
+
+KNOWN_HEADER = frozenset({"type", "format", "software", "created", "machine", "machine_file",
+                          "campaign_file", "station", "simulator", "plan"})
+
+
+def _describe(d: dict) -> str:
+    return ", ".join(f"{str(k).replace('_', ' ')} {v}" for k, v in d.items()
+                     if v not in (None, "", [], {}))
+
+
+def _wall(wall: Any) -> str:
+    if not isinstance(wall, int | float):
+        return "?"
+    return time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(wall))
+
+
+def offsets_writes(session: LoadedSession) -> tuple[OffsetsWrite, ...]:
+    """The write-backs recorded in the session, as the write-back package reads its own
+    audit records; none when this installation has no write-back."""
+    try:
+        from ogacq.writeback.audit import operations
+    except ImportError:
+        return ()
+    out = []
+    for op in operations(session):
+        saved = ("saved to non-volatile memory" if op.nvm_saved
+                 else "not saved to non-volatile memory")
+        details = ", ".join(d for d in (f"controller {op.profile}" if op.profile else "",
+                                        saved, f"operation {op.operation}") if d)
+        out.append(OffsetsWrite(_wall(op.wall), op.action, op.status, dict(op.old_mm),
+                                dict(op.new_mm), details))
+    return tuple(out)
+
+
+# --- identification -----------------------------------------------------------------------
+
+def summarise(result: FitResult) -> FitSummary:
+    ident = result.identifiability
+    rows = tuple(ParameterRow(n, effect_of(n).unit, float(v), float(s))
+                 for n, v, s in zip(result.names, result.values, result.std, strict=True))
+    return FitSummary(
+        parameters=rows, n_readings=len(result.observations),
+        residual_rms_mm=result.residual_rms_mm, sigma_mm=result.sigma_mm, dof=result.dof,
+        noise_mm=result.noise.sigma_mm, noise_source=result.noise.source,
+        noise_dof=result.noise.dof, rank=ident.rank,
+        condition_number=ident.condition_number, identifiable=ident.identifiable,
+        reasons=tuple(ident.reasons), correlated_pairs=tuple(ident.correlated_pairs),
+        method=result.method)
+
+
+def residual_series(session: LoadedSession, residual_mm: np.ndarray) -> ResidualSeries:
+    rows = session.readings
+    return ResidualSeries(np.arange(1, len(rows) + 1), np.asarray(residual_mm, dtype=float),
+                          tuple(str(r["leg"]) for r in rows), tuple(str(r["gauge"]) for r in rows))
+
+
+def _deviation_noise(obs: Observations, sigma_mm: float) -> dict[str, float]:
+    """1-sigma noise of each averaged deviation: its Max (or Min) mean and its Zero mean
+    are averages of independent readings."""
+    lay = obs.layout
+    out = {}
+    for j, i in lay.gauge_keys:
+        sel = (lay.gauge_axis == j) & (lay.leg == i)
+        s = lay.tcp_mm[sel, i]
+        count = {p: int(np.isclose(s, target, atol=1e-6).sum()) for p, target in
+                 (("zero", 0.0), ("max", obs.machine.rho_max_mm),
+                  ("min", obs.machine.rho_min_mm))}
+        for sign, posture in POSTURE_OF_SIGN.items():
+            if count[posture] and count["zero"]:
+                out[f"d{AXES[j]}_{AXES[i]}{sign}"] = sigma_mm * float(
+                    np.sqrt(1 / count[posture] + 1 / count["zero"]))
+    return out
+
+
+def _named(obs: Observations) -> dict[str, float]:
+    try:
+        dev = averaged_deviations(obs, "12")
+    except ValueError:  # no Zero/Max/Min postures in these readings
+        return {}
+    return dict(zip(dev.labels, dev.values.tolist(), strict=True))
+
+
+def deviation_rows(result: FitResult, validation: FitResult | None) -> tuple[DeviationRow, ...]:
+    obs = result.observations
+    before = _named(obs)
+    after = _named(replace(obs, values=result.residuals))
+    noise = _deviation_noise(obs, result.noise.sigma_mm)
+    measured: dict[str, float] = {}
+    measured_noise: dict[str, float] = {}
+    if validation is not None:
+        measured = _named(validation.observations)
+        measured_noise = _deviation_noise(validation.observations, validation.noise.sigma_mm)
+    rows = []
+    for name, value in before.items():
+        gauge_axis, leg, sign = name[1], name[3], name[4]
+        rows.append(DeviationRow(name, leg, gauge_axis, POSTURE_OF_SIGN[sign], value,
+                                 noise.get(name, float("nan")), after.get(name, float("nan")),
+                                 measured.get(name), measured_noise.get(name)))
+    order = {leg: k for k, leg in enumerate(AXES)}
+    return tuple(sorted(rows, key=lambda r: (order[r.leg], r.posture != "max", r.gauge_axis)))
+
+
+def diagnosis_steps(result: FitResult, session: LoadedSession,
+                    view: DiagnosisView) -> tuple[tuple[ModelStep, ...], str | None]:
+    """Refit the joint offsets plus the diagnosis's effects one at a time, in the order
+    the diagnosis lists them, to show the residuals each one removes."""
+    steps = [ModelStep("joint offsets only", result.names, residual_series(
+        session, result.residuals), result.residual_rms_mm)]
+    names = list(result.names)
+    for effect in view.named_effects:
+        if effect.name not in PARAM_INDEX:
+            return tuple(steps), f"{effect.name} is not a parameter this version can fit"
+        names.append(effect.name)
+        step = fit(result.observations, names, noise=result.noise)
+        if not step.converged or not np.all(np.isfinite(step.residuals)):
+            return tuple(steps), f"the refit with {effect.name} did not converge"
+        steps.append(ModelStep(f"+ {effect.name}", tuple(names),
+                               residual_series(session, step.residuals), step.residual_rms_mm))
+    return tuple(steps), None
+
+
+# --- the whole report ---------------------------------------------------------------------
+
+def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
+    if not session.readings:
+        return None, "the session holds no readings: there is nothing to identify"
+    try:
+        return identify_session(session), None
+    except (ValueError, InputError) as exc:
+        return None, f"the joint offsets could not be identified: {exc}"
+
+
+def _status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
+    notes = []
+    if not status.complete:
+        planned = f" of {status.planned} planned" if status.planned else ""
+        why = f" ({status.reason})" if status.reason else ""
+        state = {"stopped": "stopped before its end", "interrupted": "was interrupted",
+                 "incomplete": "did not finish (no end record)"}.get(status.status,
+                                                                     status.status)
+        notes.append(f"This {what} {state}{why}: {status.readings} readings{planned}. "
+                     "Everything below comes from the readings on file only; legs or "
+                     "postures that were not read cannot show.")
+    notes += [f"A record cut by a crash was dropped: {w}" for w in status.torn]
+    return notes
+
+
+def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
+            diagnosis: DiagnosisView | None = None,
+            diagnosis_note: str | None = None) -> ReportData:
+    status = campaign_status(session)
+    notes = _status_notes(status)
+    result, problem = _identify(session)
+    if problem:
+        notes.append(problem)
+    elif result is not None and not result.converged:
+        notes.append(f"the fit did not converge in {result.iterations} iterations: "
+                     "treat the offsets with suspicion")
+
+    validation_run, validation_fit = None, None
+    if validation is not None:
+        v_status = campaign_status(validation)
+        validation_fit, v_problem = _identify(validation)
+        v_notes = _status_notes(v_status, "validation campaign") + ([v_problem] if v_problem
+                                                                      else [])
+        if session_machine(validation) != session_machine(session):
+            v_notes.append("the validation session was recorded with another machine "
+                           "description than the calibration session")
+        validation_run = ValidationRun(provenance(validation), v_status,
+                                       summarise(validation_fit) if validation_fit else None,
+                                       " ".join(v_notes) or None)
+
+    steps: tuple[ModelStep, ...] = ()
+    if diagnosis is not None and result is not None:
+        steps, step_note = diagnosis_steps(result, session, diagnosis)
+        if step_note:
+            diagnosis_note = "; ".join(n for n in (diagnosis_note, step_note) if n)
+
+    return ReportData(
+        provenance=provenance(session), status=status,
+        fit=summarise(result) if result is not None else None,
+        deviations=deviation_rows(result, validation_fit) if result is not None else (),
+        residuals=residual_series(session, result.residuals) if result is not None else None,
+        validation=validation_run, diagnosis=diagnosis, diagnosis_steps=steps,
+        diagnosis_note=diagnosis_note, writes=offsets_writes(session), notes=tuple(notes))
+

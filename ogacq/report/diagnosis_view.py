@@ -1,0 +1,150 @@
+"""The diagnosis JSON of INTERCHANGE.md (``ogacq diagnose --json``), checked and typed
+for the report. The report depends on that JSON only, never on the diagnosis code.
+
+Two optional keys beyond the contract are shown when present: per effect
+``separated_by`` (sentences saying which extra measurement would tell it from its
+alternatives) and top-level ``caveats``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+
+class DiagnosisFormatError(ValueError):
+    """The diagnosis JSON does not have the shape of INTERCHANGE.md."""
+
+
+@dataclass(frozen=True)
+class FitVerdict:
+    chi2_dof: float | None
+    rms_mm: float | None
+    consistent: bool
+
+
+@dataclass(frozen=True)
+class MisfitShare:
+    leg: str
+    gauge_axis: str
+    share: float
+
+    @property
+    def gauge(self) -> str:
+        return f"{self.gauge_axis}_{self.leg}"
+
+
+@dataclass(frozen=True)
+class EffectFound:
+    effect: str
+    where: str
+    value: float | None
+    std: float | None
+    unit: str
+    alternatives: tuple[str, ...] = ()
+    separated_by: tuple[str, ...] = ()
+
+    @property
+    def name(self) -> str:
+        return f"{self.effect}.{self.where}"
+
+    @property
+    def unexplained(self) -> bool:
+        return self.effect == "unexplained"
+
+
+@dataclass(frozen=True)
+class DiagnosisView:
+    noise_mm: float
+    base: FitVerdict
+    final: FitVerdict
+    located: tuple[MisfitShare, ...]
+    effects: tuple[EffectFound, ...]
+    offsets_mm: dict[str, float]  # the final model's joint offsets, by axis
+    caveats: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def named_effects(self) -> tuple[EffectFound, ...]:
+        return tuple(e for e in self.effects if not e.unexplained)
+
+    @property
+    def unexplained_where(self) -> str | None:
+        return next((e.where for e in self.effects if e.unexplained), None)
+
+    @property
+    def outcome(self) -> str:
+        """"consistent", "explained", "partly explained" or "unexplained"."""
+        if self.base.consistent:
+            return "consistent"
+        if self.final.consistent:
+            return "explained"
+        return "partly explained" if self.named_effects else "unexplained"
+
+
+def _number(d: dict, key: str, where: str, optional: bool = False) -> float | None:
+    value = d.get(key)
+    if value is None and optional:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise DiagnosisFormatError(f"{where}.{key} must be a number, got {value!r}")
+    return float(value)
+
+
+def _object(d: Any, where: str) -> dict:
+    if not isinstance(d, dict):
+        raise DiagnosisFormatError(f"{where} must be an object, got {type(d).__name__}")
+    return d
+
+
+def _verdict(d: Any, where: str) -> FitVerdict:
+    d = _object(d, where)
+    if not isinstance(d.get("consistent"), bool):
+        raise DiagnosisFormatError(f"{where}.consistent must be true or false")
+    return FitVerdict(_number(d, "chi2_dof", where, True), _number(d, "rms_mm", where, True),
+                      d["consistent"])
+
+
+def _alternative(a: Any) -> str:
+    if isinstance(a, dict) and "effect" in a:
+        return f"{a['effect']}.{a.get('where', '?')}"
+    return str(a)
+
+
+def _effect(d: Any, k: int) -> EffectFound:
+    where = f"effects[{k}]"
+    d = _object(d, where)
+    if not isinstance(d.get("effect"), str):
+        raise DiagnosisFormatError(f"{where}.effect must be a name like 'squareness'")
+    alternatives = d.get("alternatives") or []
+    separated = d.get("separated_by") or []
+    if not isinstance(alternatives, list) or not isinstance(separated, list):
+        raise DiagnosisFormatError(f"{where}.alternatives must be a list")
+    return EffectFound(d["effect"], str(d.get("where", "")),
+                       _number(d, "value", where, True), _number(d, "std", where, True),
+                       str(d.get("unit") or "-"), tuple(_alternative(a) for a in alternatives),
+                       tuple(str(s) for s in separated))
+
+
+def parse_diagnosis(data: Any) -> DiagnosisView:
+    """Check ``data`` against INTERCHANGE.md's diagnosis object; raises
+    DiagnosisFormatError naming the first key that is wrong."""
+    d = _object(data, "diagnosis")
+    for key in ("noise_mm", "base", "final"):
+        if key not in d:
+            raise DiagnosisFormatError(f"the diagnosis has no '{key}' (see `ogacq diagnose "
+                                       "--json`)")
+    located = []
+    for k, g in enumerate(d.get("located") or []):
+        g = _object(g, f"located[{k}]")
+        located.append(MisfitShare(str(g.get("leg")), str(g.get("gauge_axis")),
+                                   _number(g, "share", f"located[{k}]")))
+    offsets = _object(d.get("parameters") or {}, "parameters").get("joint_offset") or {}
+    caveats = d.get("caveats") or []
+    return DiagnosisView(
+        noise_mm=_number(d, "noise_mm", "diagnosis"),
+        base=_verdict(d["base"], "base"), final=_verdict(d["final"], "final"),
+        located=tuple(located),
+        effects=tuple(_effect(e, k) for k, e in enumerate(d.get("effects") or [])),
+        offsets_mm={str(a): float(v) for a, v in _object(offsets, "parameters.joint_offset")
+                    .items() if isinstance(v, int | float)},
+        caveats=tuple(str(c) for c in caveats) if isinstance(caveats, list) else ())

@@ -1,0 +1,66 @@
+"""Locating the misfit: shares per gauge, leg, posture and cycle against what noise
+alone would give; trends with time; differences between approach sides."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.diagnosis import diagnose
+from ogacq.diagnose.locate import locate, residual_covariance
+from tests.diagnose.campaigns import RICH, layout, simulate
+
+
+def test_shares_add_up_and_match_noise_alone_on_average():
+    shares = []
+    for seed in range(40):
+        d = diagnose(simulate({}, 300 + seed))
+        for level in ("gauge", "leg", "posture", "cycle"):
+            assert abs(sum(g.share for g in d.located.level(level)) - 1.0) < 1e-9
+        shares.append([(g.share, g.expected_share) for g in d.located.level("posture")])
+    # under noise alone each posture carries its expected share on average
+    by_key = np.array([[s for s, _ in sorted(row, key=lambda t: t[1])] for row in shares])
+    expected = np.array([[e for _, e in sorted(row, key=lambda t: t[1])] for row in shares])
+    assert np.allclose(by_key.mean(axis=0), expected.mean(axis=0), atol=0.05)
+
+
+def test_expected_residual_variance_sums_to_the_dof():
+    d = diagnose(simulate({}, 1))
+    obs = d.base_fit.observations
+    jac = Problem(obs).jacobian(d.base_fit.theta, d.base_fit.names, weighted=False)
+    cov = residual_covariance(obs, jac)
+    assert abs(np.trace(cov) - d.base.dof) < 1e-6
+    located = locate(obs, d.selection.base.residuals, jac, d.noise.sigma_mm)
+    assert abs(sum(g.expected_chi2 for g in located.level("gauge")) - d.base.dof) < 1e-6
+
+
+def test_thermal_drift_shows_as_a_trend_with_time():
+    d = diagnose(simulate({"thermal_drift.y": 0.4}, 2))
+    trends = [t for t in d.located.trends if t.p_value < 0.01]
+    assert trends, [(t.gauge, t.slope_mm_per_h, t.p_value) for t in d.located.trends]
+    # and none remains once the drift is modelled
+    assert not [t for t in d.remaining.trends if t.p_value < 0.001]
+
+
+def test_backlash_shows_between_approach_sides():
+    """Intermediate postures read from both sides: lost motion of the drive shows as a
+    difference between the two sides at the same posture."""
+    d = diagnose(simulate({"backlash.x": 0.02}, 3, lay=layout(RICH)))
+    diffs = [a for a in d.located.approach if a.p_value < 0.01]
+    # the x drive's lost motion moves the TCP along x: the y and z legs tilt along x
+    assert {a.gauge for a in diffs} <= {"x_y", "x_z"} and diffs
+    assert "backlash.x" in [e.name for e in d.effects]
+
+
+def test_papers_protocol_reads_no_posture_from_both_sides_except_the_first():
+    d = diagnose(simulate({}, 4))
+    assert all(a.posture == "zero" for a in d.located.approach)
+
+
+def test_located_json_is_sorted_gauge_shares():
+    d = diagnose(simulate({"gauge_scale.z_x": 40000.0}, 5))
+    located = d.to_json()["located"]
+    assert [set(g) for g in located] == [{"leg", "gauge_axis", "share"}] * 6
+    shares = [g["share"] for g in located]
+    assert shares == sorted(shares, reverse=True)
+    assert abs(sum(shares) - 1.0) < 1e-3

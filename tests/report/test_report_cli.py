@@ -1,0 +1,199 @@
+"""``ogacq report`` on real simulated campaigns (drivers, gauges on pseudo-terminals,
+Modbus controller): the HTML is self-contained, the figures exist, and the page
+carries the session's own numbers."""
+
+from __future__ import annotations
+
+import base64
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from ogacq.cli.app import main
+from ogacq.identify.observations import averaged_deviations
+from ogacq.session.convert import session_observations
+from ogacq.session.store import load_session
+from tests.campaign.conftest import write_campaign
+from tests.cli.helpers import run_ogacq
+
+FIGURES = ("deviations.png", "residuals.png", "parameters.png", "diagnosis.png")
+# the offsets a write-back leaves: what a validation campaign should find
+VALIDATION_EFFECTS = "[joint_offset]\nx = 0.0012\ny = -0.0008\nz = 0.0005\n"
+
+
+def _campaign(folder: Path, effects: str) -> Path:
+    path = write_campaign(folder, seed=3)
+    (folder / "effects.toml").write_text(effects)
+    text = path.read_text().replace("[simulator]\n", '[simulator]\neffects = "effects.toml"\n')
+    path.write_text(text)
+    return path
+
+
+@pytest.fixture(scope="module")
+def sessions(tmp_path_factory) -> tuple[Path, Path]:
+    """A calibration campaign on a machine with an out-of-square xy pair, and a
+    validation campaign after the write-back, run side by side."""
+    root = tmp_path_factory.mktemp("report")
+    paths = [_campaign(root / "calibration", "[squareness]\nxy = 0.5\n"),
+             _campaign(root / "validation", VALIDATION_EFFECTS)]
+    procs = [subprocess.Popen([sys.executable, "-m", "ogacq", "run", str(p), "--json"],
+                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for p in paths]
+    for proc in procs:
+        _, err = proc.communicate(timeout=120)
+        assert proc.returncode == 0, err
+    return root / "calibration" / "session.jsonl", root / "validation" / "session.jsonl"
+
+
+def _text(html: str) -> str:
+    """The page as a reader sees it: no tags, no embedded images."""
+    html = re.sub(r"data:image/png;base64,[A-Za-z0-9+/=]+", "", html)
+    html = re.sub(r"<style>.*?</style>", "", html, flags=re.S)
+    return re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", html)).replace("&gt;", ">")
+
+
+def _row_numbers(html: str, label: str) -> list[float]:
+    """The numbers of the table row that starts with ``label``."""
+    row = re.search(rf"<tr><t[dh][^>]*>{re.escape(label)}</t[dh]>(.*?)</tr>", html)
+    assert row, f"no table row {label!r}"
+    return [float(x) for x in re.findall(r"[-+]?\d+\.\d+", row.group(1))]
+
+
+def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions, tmp_path):
+    calibration, validation = sessions
+    out = tmp_path / "out"
+    proc = run_ogacq("report", calibration, "--after", validation, "--out", out)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.strip() == str(out / "report.html")
+    html = (out / "report.html").read_text(encoding="utf-8")
+
+    # self-contained: every source is a data: URI, nothing fetched, nothing run
+    sources = re.findall(r"""(?:src|href)\s*=\s*["']([^"']*)""", html, flags=re.I)
+    assert sources and all(s.startswith("data:image/png;base64,") for s in sources)
+    assert not re.search(r"https?://|<script|<link|url\(|@import", html, flags=re.I)
+
+    # the figures: valid PNGs of a legible size, each embedded in the page
+    for name in FIGURES:
+        data = (out / name).read_bytes()
+        assert data.startswith(b"\x89PNG\r\n\x1a\n"), name
+        with Image.open(out / name) as image:
+            image.verify()
+        with Image.open(out / name) as image:
+            assert image.width >= 900 and image.height >= 300, (name, image.size)
+        assert base64.b64encode(data).decode() in html, name
+
+    # the session's own numbers: the campaign's result record ...
+    session = load_session(calibration)
+    result = session.of_type("result")[-1]
+    refit = result["refit"]
+    for axis in "xyz":
+        value, std = _row_numbers(html, f"joint_offset.{axis}")[:2]
+        assert value == pytest.approx(refit["parameters"]["joint_offset"][axis], abs=1e-5)
+        assert std == pytest.approx(refit["std"]["joint_offset"][axis], abs=1e-5)
+    text = _text(html)
+    rms_um = refit["residual_rms_mm"] * 1e3
+    assert f"residual rms {rms_um:.2f} µm" in text
+    assert f"gauge noise σ {result['noise_mm'] * 1e3:.2f} µm" in text
+    # ... the deviations measured before, from the raw readings ...
+    before = averaged_deviations(session_observations(session), "12")
+    for name, value in zip(before.labels, before.values, strict=True):
+        assert _row_numbers(html, name)[0] == pytest.approx(value, abs=1e-4)
+    # ... the machine, the station and the software that recorded it
+    assert "leg length 310.25 mm" in text and "gauge resolution 0.001 mm" in text
+    assert f"recorded by {session.header['software']}" in text
+    assert "mitutoyo-01a" in text and "cia402" in text
+
+    # the validation campaign: measured deviations after write-back, small remaining offsets
+    assert "after, measured (µm)" in text and "remaining after write-back" in text
+    remaining = _row_numbers(html, "joint_offset.x")[-2]
+    assert abs(remaining) < 0.005
+    # the diagnosis ran here and names the out-of-square pair, with the fit then in noise
+    assert "explained by squareness.xy" in text
+    assert re.search(r"squareness\.xy \+0\.[45]\d* ± 0\.\d+ mrad", text)
+
+
+def _copy_records(source: Path, target: Path, keep: int, tail: str = "") -> Path:
+    lines = source.read_text().splitlines(keepends=True)
+    target.write_text("".join(lines[:keep]) + tail)
+    return target
+
+
+def _report(*args: object) -> int:
+    return main(["report", *map(str, args)])
+
+
+def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tmp_path,
+                                                                     capsys):
+    calibration, _ = sessions
+    lines = calibration.read_text().splitlines()
+    half = next(k for k, line in enumerate(lines) if '"y/c2/' in line)
+    reason = "gauge z_y: no reply within 2.0 s"
+    stopped = _copy_records(calibration, tmp_path / "stopped.jsonl", half, "\n".join([
+        json.dumps({"type": "fault", "during": "read", "step": "y/c2/p1", "gauge": "z_y",
+                    "attempt": 3, "message": reason}),
+        json.dumps({"type": "end", "status": "stopped", "reason": reason}), ""]))
+    torn = _copy_records(calibration, tmp_path / "torn.jsonl", half,
+                         lines[half][: len(lines[half]) // 2])
+
+    assert _report(stopped, "--out", tmp_path / "stopped") == 0
+    capsys.readouterr()
+    text = _text((tmp_path / "stopped" / "report.html").read_text(encoding="utf-8"))
+    n = len(load_session(stopped).readings)
+    assert "campaign stopped" in text
+    assert f"This campaign stopped before its end ({reason}): {n} readings of 72 planned" in text
+    assert "joint_offset.x" in text  # still identified from what is on file
+
+    consistent = tmp_path / "diagnosis.json"  # a given diagnosis: nothing diagnosed here
+    consistent.write_text(json.dumps({"noise_mm": 0.0006, "effects": [],
+                                      "base": {"rms_mm": 0.0006, "consistent": True},
+                                      "final": {"rms_mm": 0.0006, "consistent": True}}))
+    assert _report(torn, "--diagnosis", consistent) == 0  # default folder: by the session
+    assert capsys.readouterr().out.strip() == str(tmp_path / "torn-report" / "report.html")
+    text = _text((tmp_path / "torn-report" / "report.html").read_text(encoding="utf-8"))
+    assert "campaign incomplete" in text and "did not finish (no end record)" in text
+    assert "A record cut by a crash was dropped" in text
+    assert "consistent: the joint-offset model reproduces the readings" in text
+    assert (tmp_path / "torn-report" / "deviations.png").stat().st_size > 1000
+
+
+@pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis"])
+def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
+    calibration, _ = sessions
+    args: list[object]
+    if case == "csv":
+        path = tmp_path / "readings.csv"
+        path.write_text("t_s,cycle,leg,gauge_axis\n0,1,x,y\n")
+        args, named = [path], "not an ogacq session"
+    elif case == "no header":
+        path = tmp_path / "records.jsonl"
+        path.write_text('{"type": "reading", "reading_mm": 1.0}\n')
+        args, named = [path], "no session header"
+    elif case == "missing":
+        path = tmp_path / "nowhere.jsonl"
+        args, named = [path], "cannot read session"
+    else:
+        path = tmp_path / "diagnosis.json"
+        path.write_text(json.dumps({"noise_mm": 0.001, "final": {"consistent": True}}))
+        args, named = [calibration, "--diagnosis", path], "no 'base'"
+    assert _report(*args, "--out", tmp_path / "out") == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("ogacq: error: ") and str(path) in err and named in err
+    assert len(err.splitlines()) == 1
+    assert not (tmp_path / "out" / "report.html").exists()
+
+
+def test_the_stored_result_and_the_report_agree_on_every_offset(sessions):
+    """The report re-identifies with the campaign's own routine: same numbers."""
+    from ogacq.report import collect
+
+    session = load_session(sessions[0])
+    data = collect(session)
+    stored = session.of_type("result")[-1]["refit"]["parameters"]["joint_offset"]
+    got = {p.name.split(".")[1]: p.value for p in data.fit.parameters}
+    assert np.allclose([got[a] for a in "xyz"], [stored[a] for a in "xyz"], atol=1e-6)

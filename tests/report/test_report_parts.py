@@ -1,0 +1,140 @@
+"""The report's parts on a session made in process from the exact model (seeded noise,
+display rounding): the figures carry the session's numbers, the diagnosis JSON of
+INTERCHANGE.md is rendered faithfully, and text from the session is escaped."""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+
+import numpy as np
+import pytest
+from matplotlib.text import Text
+
+from ogacq.io.tables import write_readings
+from ogacq.report import build_report, collect, parse_diagnosis
+from ogacq.report.diagnosis_view import DiagnosisFormatError
+from ogacq.report.figures import deviations_figure, parameters_figure, residuals_figure
+from ogacq.report.formatting import measure
+from ogacq.report.page import render_page
+from ogacq.session.convert import import_readings
+from ogacq.session.store import load_session
+from tests.diagnose.campaigns import MACHINE, simulate
+
+# INTERCHANGE.md's diagnosis, with an alternative and a rest nothing explains
+DIAGNOSIS = {
+    "noise_mm": 0.002,
+    "base": {"chi2_dof": 36.6, "rms_mm": 0.0039, "consistent": False},
+    "final": {"chi2_dof": 1.9, "rms_mm": 0.0021, "consistent": False},
+    "located": [{"leg": "x", "gauge_axis": "y", "share": 0.41},
+                {"leg": "y", "gauge_axis": "x", "share": 0.30}],
+    "effects": [{"effect": "squareness", "where": "xy", "value": 0.5, "std": 0.01,
+                 "unit": "mrad", "alternatives": [{"effect": "axis_offset", "where": "xy"}]},
+                {"effect": "unexplained", "where": "z_y", "value": None, "std": None,
+                 "unit": "-", "alternatives": []}],
+    "parameters": {"joint_offset": {"x": 2.01, "y": 1.98, "z": -2.0}},
+}
+
+
+@pytest.fixture(scope="module")
+def session_path(tmp_path_factory) -> Path:
+    """Readings of the papers' protocol on a machine whose xy pair is 1 mrad out of square."""
+    folder = tmp_path_factory.mktemp("parts")
+    obs = simulate({"squareness.xy": 1.0}, seed=11)
+    write_readings(folder / "readings.csv", obs.layout, obs.values)
+    return import_readings(folder / "readings.csv", MACHINE, folder / "session.jsonl")
+
+
+def _texts(fig) -> str:
+    return " | ".join(t.get_text() for t in fig.findobj(Text))
+
+
+def test_the_figures_carry_the_numbers_of_the_session(session_path):
+    data = collect(load_session(session_path))
+    deviations = _texts(deviations_figure(data.deviations))
+    for row in data.deviations:
+        assert f"{row.before_mm:+.3f}" in deviations, row.name
+        assert f"({row.name})" in deviations
+    assert "deviation before (mm)" in deviations and "deviation after (µm)" in deviations
+
+    fit = data.fit
+    residuals = _texts(residuals_figure(data.residuals, fit.noise_mm, fit.residual_rms_mm))
+    assert f"rms {fit.residual_rms_mm * 1e3:.2f} µm" in residuals
+    assert f"σ = {fit.noise_mm * 1e3:.2f} µm" in residuals
+    assert "residual (µm)" in residuals and "reading number" in residuals
+
+    parameters = _texts(parameters_figure(fit))
+    for p in fit.parameters:
+        assert f"{p.value:+.4f} ± {p.ci95_half:.4f} mm (95 %)" in parameters
+    assert "95 % confidence" in parameters
+
+
+def test_a_diagnosis_is_shown_as_the_json_says(session_path):
+    data = collect(load_session(session_path), diagnosis=parse_diagnosis(DIAGNOSIS))
+    report = build_report(data)
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", report.html))
+    assert "partly explained by squareness.xy; the rest sits at z_y" in text
+    assert "joint offsets only 3.90 µm 36.60" in text and "2.10 µm 1.90" in text
+    assert "y_x x y 41%" in text
+    assert f"squareness.xy {measure(0.5, 0.01, 'mrad')}" in text
+    assert "explained equally well by axis_offset.xy: not separable with this campaign" in text
+    assert "what would separate them" in text
+    assert "unexplained misfit at z_y" in text
+    assert "+2.01000" in text  # the final model's offsets beside the offsets-only ones
+    # the figure of residuals before and after the effect, refitted from the readings
+    assert [f.name for f in report.figures][-1] == "diagnosis.png"
+    before, after = data.diagnosis_steps
+    assert after.label == "+ squareness.xy"
+    assert after.rms_mm < 0.6 * before.rms_mm
+    assert after.rms_mm < 1.5 * MACHINE.gauge_repeatability_mm
+
+
+def test_text_from_the_session_is_escaped(session_path, tmp_path):
+    lines = session_path.read_text().splitlines(keepends=True)
+    header = json.loads(lines[0])
+    header["station"] = {"controller": {"profile": "<img src=x onerror=alert(1)>"}}
+    header["machine_file"] = "shop & <floor>.toml"
+    path = tmp_path / "odd.jsonl"
+    path.write_text(json.dumps(header) + "\n" + "".join(lines[1:]))
+    html = render_page(collect(load_session(path)), ())
+    assert "<img src=x" not in html
+    assert "&lt;img src=x onerror=alert(1)&gt;" in html
+    assert "shop &amp; &lt;floor&gt;.toml" in html
+
+
+@pytest.mark.parametrize(("change", "message"), [
+    (lambda d: d.pop("base"), "no 'base'"),
+    (lambda d: d["final"].update(consistent="yes"), "final.consistent"),
+    (lambda d: d["effects"][0].update(value="big"), "effects[0].value"),
+    (lambda d: d.update(noise_mm=None), "diagnosis.noise_mm"),
+])
+def test_a_malformed_diagnosis_names_the_key(change, message):
+    data = json.loads(json.dumps(DIAGNOSIS))
+    change(data)
+    with pytest.raises(DiagnosisFormatError, match=re.escape(message)):
+        parse_diagnosis(data)
+
+
+def test_values_are_shown_with_the_decimals_their_std_allows():
+    assert measure(0.035860, 0.000569, "mm") == "+0.03586 ± 0.00057 mm"
+    assert measure(0.5128, 0.0108, "mrad") == "+0.513 ± 0.011 mrad"
+    assert measure(21643.4, 2394.2, "ppm") == "+21643 ± 2394 ppm"
+    assert measure(1.2, np.inf, "mm") == "not determined"
+
+
+def test_a_write_back_recorded_in_the_session_is_shown(session_path, tmp_path):
+    audit = pytest.importorskip("ogacq.writeback.audit")
+    path = tmp_path / "written.jsonl"
+    path.write_text(session_path.read_text())
+    old = {"x": 0.0, "y": 0.0, "z": 0.0}
+    new = {"x": 2.00123, "y": 1.99871, "z": -2.00042}
+    with audit.AuditLog(load_session(path)) as log:
+        log.record("intent", operation="write-1a2b3c4d", action="write", profile="cia402",
+                   old_mm=old, new_mm=new)
+        log.record("done", operation="write-1a2b3c4d", action="write", old_mm=old,
+                   new_mm=new, nvm_saved=True)
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", render_page(
+        collect(load_session(path)), ())))
+    assert "write done" in text and "controller cia402, saved to non-volatile memory" in text
+    assert "x +0.00000 +2.00123" in text and "z +0.00000 -2.00042" in text
