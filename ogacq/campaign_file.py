@@ -10,6 +10,9 @@ the file and the line.
     profile = "cia402"                # or "iai-pcon", or a profile file path
     port = "127.0.0.1:502"            # host:port (TCP) or a serial device (RTU)
     baudrate = 38400                  # RTU only
+    offsets_file = "offsets.toml"     # software offset table (profiles without an offset
+                                      # register, e.g. iai-pcon): applied to every commanded
+                                      # position, written by `ogacq offsets write`
     [[gauges]]
     gauge = "y_x"                     # along y on the x leg
     protocol = "mitutoyo-01a"
@@ -49,7 +52,7 @@ GAUGE_KEYS = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
 PROTOCOLS = ("mitutoyo-01a", "digimatic", "uwave", "sylvac")
 
 _TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}
-_CONTROLLER = {"profile", "port", "baudrate", "timeout_s"}
+_CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file"}
 _GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
 _PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
              "move_timeout_s"}
@@ -74,6 +77,9 @@ class ControllerSpec:
     port: str
     baudrate: int | None = None
     timeout_s: float = 1.0
+    # The software offset table (relative paths resolved against the campaign file);
+    # None: the profile keeps its offsets in the controller, or none are applied.
+    offsets_file: Path | None = None
 
 
 @dataclass(frozen=True)
@@ -184,7 +190,7 @@ def read_campaign(path: str | Path) -> Campaign:
             profile=str(sim.get("profile", "cia402")),
             noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None)
     if "controller" in data:
-        campaign.controller = _controller(src, data["controller"])
+        campaign.controller = _controller(src, data["controller"], base)
     elif campaign.simulator is None:
         raise src.fail("missing [controller] (profile and port), or a [simulator] table")
     campaign.gauges = _gauges(src, data.get("gauges", []), protocol)
@@ -231,19 +237,41 @@ def _protocol(src: _Source, proto: dict, stab: dict, machine: MachineSpec) -> Pr
     return config
 
 
-def _controller(src: _Source, table: dict) -> ControllerSpec:
+def _controller(src: _Source, table: dict, base: Path) -> ControllerSpec:
     after = src.line("controller") or 0
     _check_keys(src, table, _CONTROLLER, "[controller]", after)
     for key in ("profile", "port"):
         if key not in table:
             raise src.fail(f"[controller] needs {key!r}", "controller")
+    profile = _typed(src, table, "profile", str, "controller", after)
+    offsets_file = None
+    if "offsets_file" in table:
+        offsets_file = (base / _typed(src, table, "offsets_file", str, "controller", after)
+                        ).resolve()
+        kind = _offset_kind(profile)
+        if kind not in (None, "software"):
+            raise src.fail(f"offsets_file: profile {profile!r} keeps the joint offsets in the "
+                           f"controller ({kind}); a software offset table does not apply",
+                           "offsets_file", after)
     return ControllerSpec(
-        profile=_typed(src, table, "profile", str, "controller", after),
+        profile=profile,
         port=_typed(src, table, "port", str, "controller", after),
         baudrate=_typed(src, table, "baudrate", int, "controller", after)
         if "baudrate" in table else None,
         timeout_s=float(_typed(src, table, "timeout_s", (int, float), "controller", after))
-        if "timeout_s" in table else 1.0)
+        if "timeout_s" in table else 1.0,
+        offsets_file=offsets_file)
+
+
+def _offset_kind(profile: str) -> str | None:
+    """How the profile keeps joint offsets; None when it does not load (the station
+    reports that, with the profile's own error)."""
+    from drivers.axes.profile import load_profile
+
+    try:
+        return load_profile(profile).offset.kind
+    except (ValueError, OSError):
+        return None
 
 
 def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeSpec]:

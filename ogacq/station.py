@@ -4,11 +4,18 @@ Either way the campaign talks to the same drivers: the indicator drivers on
 serial ports (device paths, pseudo-terminals or ``socket://`` URLs) and the
 Modbus controller client. With a ``[simulator]`` table the endpoints are the
 built-in simulator's, started here; nothing else knows the difference.
+
+Joint offsets: a profile without an offset register (IAI) gets the software
+offset table named by ``[controller] offsets_file`` loaded into the controller
+client, so every campaign commands positions with the offsets in force; the
+offsets in force are recorded in the station description once homed, because
+an identified joint offset is only meaningful relative to them.
 """
 
 from __future__ import annotations
 
 import contextlib
+import logging
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
@@ -24,6 +31,9 @@ from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSp
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import StabilityRule
 from ogacq.protocol.runner import GaugeValue
+from ogacq.writeback.table import read_offset_table
+
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -39,9 +49,12 @@ class DeviceStation:
     _t0: float = 0.0
 
     def prepare(self) -> None:
-        """Servo on and home: every campaign starts from a known position."""
+        """Servo on and home: every campaign starts from a known position, with the
+        joint offsets in force recorded (a home offset takes effect at this homing)."""
         self.controller.enable()
         self.controller.home()
+        self.description.setdefault("controller", {})["offsets_mm"] = \
+            self.controller.read_offsets()
         self._t0 = self.clock_s()
 
     def move(self, q_mm: tuple[float, float, float], timeout_s: float,
@@ -105,6 +118,33 @@ def _simulated_specs(campaign: Campaign, sim: SimulatorSpec):
 
 
 @contextlib.contextmanager
+def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
+    """The axis controller a ``[controller]`` table names, with its software offset
+    table loaded when it has one; the link is closed on leaving."""
+    profile = load_profile(spec.profile)
+    software = None
+    if spec.offsets_file is not None:
+        table = read_offset_table(spec.offsets_file)
+        if not table.exists:
+            log.warning("offset table %s does not exist yet: software offsets are zero "
+                        "(`ogacq offsets write` creates it)", spec.offsets_file)
+        software = table.offsets_mm
+    link = _controller_link(spec, profile).connect()
+    try:
+        yield AxisController(profile, link, software_offsets_mm=software)
+    finally:
+        link.close()
+
+
+def _controller_description(spec: ControllerSpec, controller: AxisController) -> dict[str, Any]:
+    out: dict[str, Any] = {"profile": spec.profile, "port": spec.port,
+                           "offset_kind": controller.profile.offset.kind}
+    if spec.offsets_file is not None:
+        out["offsets_file"] = str(spec.offsets_file)
+    return out
+
+
+@contextlib.contextmanager
 def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
     """Open (or start and open) everything the campaign names; close it all after."""
     with contextlib.ExitStack() as stack:
@@ -114,10 +154,7 @@ def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
             simulator, controller_spec, gauge_specs = _simulated_specs(campaign,
                                                                        campaign.simulator)
             stack.callback(simulator.close)
-        profile = load_profile(controller_spec.profile)
-        link = _controller_link(controller_spec, profile).connect()
-        stack.callback(link.close)
-        controller = AxisController(profile, link)
+        controller = stack.enter_context(open_controller(controller_spec))
         indicators = {}
         for g in gauge_specs:
             indicator = open_indicator(g.protocol, g.port, unit=g.unit, channel=g.channel,
@@ -129,7 +166,7 @@ def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
         else:
             clock, speed = time.monotonic, 1.0
         description = {
-            "controller": {"profile": controller_spec.profile, "port": controller_spec.port},
+            "controller": _controller_description(controller_spec, controller),
             "gauges": {g.gauge: {"protocol": g.protocol, "port": g.port, "channel": g.channel,
                                  "unit": g.unit, "serial": g.serial} for g in gauge_specs},
             "simulated": simulator is not None,

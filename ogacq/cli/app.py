@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from typer.exceptions import TyperException
 
 from ogacq import __version__
 from ogacq.io.errors import InputError
@@ -40,6 +41,7 @@ def _register() -> None:
     from ogacq.cli import (  # noqa: F401  (commands attach to app)
         campaign_cmds,
         diagnose_cmd,
+        offsets_cmd,
         plan_cmd,
         refit_cmd,
         report_cmd,
@@ -52,7 +54,8 @@ def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="ogacq: warning: %(message)s")
     _register()
     try:
-        app(args=argv, prog_name="ogacq", standalone_mode=False)
+        # Outside standalone mode click returns typer.Exit's code instead of exiting.
+        code = app(args=argv, prog_name="ogacq", standalone_mode=False)
     except (InputError, UserError) as exc:
         typer.echo(f"ogacq: error: {exc}", err=True)
         return 2
@@ -64,14 +67,13 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         typer.echo("ogacq: interrupted", err=True)
         return 130
-    except Exception as exc:  # click's usage errors arrive here in non-standalone mode
-        from click import ClickException
-
-        if isinstance(exc, ClickException):
-            exc.show()
-            return exc.exit_code
-        raise
-    return 0
+    except TyperException as exc:  # usage errors (typer vendors its own click)
+        show = getattr(exc, "show", None)
+        if show is None:
+            raise
+        show()
+        return getattr(exc, "exit_code", 2)
+    return code if isinstance(code, int) else 0
 
 
 if __name__ == "__main__":

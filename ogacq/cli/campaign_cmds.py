@@ -113,4 +113,21 @@ def demo(
     (folder / "result.json").write_text(json.dumps(
         {**outcome.fit.to_json("offsets"), "hidden": outcome.hidden}, indent=2) + "\n")
     _finish(outcome, as_json=False)
-    typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json")
+    _diagnose_demo(session, outcome, folder)
+    from ogacq.cli.report_cmd import report_command
+
+    report_command(outcome.session_path, out=folder / "report")
+    typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
+               "report/report.html")
+
+
+def _diagnose_demo(session, outcome: CampaignOutcome, folder: Path) -> None:
+    """The rest of the story when the joint offsets alone do not fit: what the
+    diagnosis finds, beside the simulator's hidden truth."""
+    from ogacq.cli.render import print_demo_diagnosis
+    from ogacq.diagnose.diagnosis import diagnose
+    from ogacq.session.convert import session_observations
+
+    diagnosis = diagnose(session_observations(session))
+    (folder / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n")
+    print_demo_diagnosis(diagnosis.to_json(), outcome.hidden or {})

@@ -10,7 +10,6 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.app import JsonOption, MachineOption, UserError, app
-from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine
 
@@ -24,6 +23,9 @@ def diagnose_command(
     """Compare the recordings with the identified model; locate and explain a mismatch."""
     spec = read_machine(machine)
     obs = load_observations(file, spec)
+    # scipy.stats loads here, not on every ogacq start
+    from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
+
     try:
         result = diagnose(obs)
     except DiagnosisError as exc:

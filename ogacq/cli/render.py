@@ -181,3 +181,42 @@ def print_session(session) -> None:
             for axis, value in where.items():
                 std = refit["std"][name][axis]
                 console.print(f"  {name}.{axis} = {value:+.4f} +- {std:.4f} mm")
+
+
+def print_demo_diagnosis(diagnosis: dict, hidden: dict[str, float]) -> None:
+    """The diagnosis verdict and what it found, beside the simulator's hidden effects."""
+    base, final = diagnosis["base"], diagnosis["final"]
+    if base["consistent"]:
+        console.print(f"diagnosis: the joint offsets explain the readings (chi2/dof "
+                      f"{base['chi2_dof']:.2f} against gauge noise "
+                      f"{diagnosis['noise_mm'] * 1000:.2f} um): nothing left out")
+        return
+    console.print(f"[yellow]diagnosis: the joint offsets alone do not explain the readings "
+                  f"(chi2/dof {base['chi2_dof']:.1f}, rms {base['rms_mm'] * 1000:.2f} um against "
+                  f"noise {diagnosis['noise_mm'] * 1000:.2f} um)[/]")
+    table = Table(show_edge=False, header_style="bold", title="physics found by the diagnosis")
+    for column in ("effect", "found", "std", "hidden truth", "alternatives"):
+        table.add_column(column, justify="left" if column in ("effect", "alternatives")
+                         else "right")
+    found = set()
+    for e in diagnosis["effects"]:
+        name = f"{e['effect']}.{e['where']}"
+        found.add(name)
+        if e["effect"] == "unexplained":
+            table.add_row(f"unexplained at {e['where']}", "-", "-", "-", "")
+            continue
+        alternatives = ", ".join(f"{a['effect']}.{a['where']}" for a in e["alternatives"])
+        truth = hidden.get(name)
+        table.add_row(name, f"{e['value']:+.4f} {e['unit']}", f"{e['std']:.4f}",
+                      "-" if truth is None else f"{truth:+.4f}", alternatives)
+    for name, value in hidden.items():
+        if not name.startswith("joint_offset.") and name not in found:
+            table.add_row(name, "not found", "", f"{value:+.4f}", "")
+    console.print(table)
+    verdict = "within the gauge noise" if final["consistent"] else "still NOT within the noise"
+    console.print(f"with these effects the fit is {verdict} (chi2/dof {final['chi2_dof']:.2f}, "
+                  f"rms {final['rms_mm'] * 1000:.2f} um)")
+    offsets = diagnosis["parameters"]["joint_offset"]
+    console.print("joint offsets of the final model: " + ", ".join(
+        f"{a} {offsets[a]:+.4f} (truth {hidden.get(f'joint_offset.{a}', 0.0):+.4f})"
+        for a in "xyz") + " mm")

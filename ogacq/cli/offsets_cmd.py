@@ -1,0 +1,260 @@
+"""``ogacq offsets show|write|restore``: the identified joint offsets onto the controller.
+
+Each takes the campaign's session (the identified offsets, and where the audit
+records go) and the campaign file naming the controller (default: the one the
+session was run with). Exit codes: 0 done (or nothing to do), 1 declined at
+the prompt, 2 bad input, 3 the controller failed (the message says what it
+holds), 4 refused as unreliable (the reasons are printed; ``--force``
+overrides).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from drivers.axes.profile import Profile, ProfileError, load_profile
+from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
+from ogacq.cli.app import JsonOption, UserError, app
+from ogacq.session.store import LoadedSession, load_session
+from ogacq.writeback.policy import DEFAULT_MAX_CHANGE_MM
+
+EXIT_DECLINED = 1
+EXIT_DEVICE = 3
+EXIT_REFUSED = 4
+
+
+offsets_app = typer.Typer(no_args_is_help=True, help=(
+    "Joint offsets on the controller: show the identified ones against the controller's, "
+    "write them back (confirmed, read back, recorded), restore the old ones."))
+app.add_typer(offsets_app, name="offsets")
+
+SessionArgument = Annotated[Path, typer.Argument(
+    help="Session of the calibration campaign (its identified offsets; the audit goes here).")]
+CampaignOption = Annotated[Path | None, typer.Option(
+    "--campaign", "-c", help="Campaign file whose controller table names the controller; "
+                             "default: the one the session was run with.")]
+YesOption = Annotated[bool, typer.Option(
+    "--yes", "-y", help="Write without asking (scripts).")]
+ForceOption = Annotated[bool, typer.Option(
+    "--force", help="Write even a result judged unreliable (the reasons are still printed "
+                    "and recorded).")]
+SaveNvmOption = Annotated[bool, typer.Option(
+    "--save-nvm", help="Also save the drive parameters to non-volatile memory (limited write "
+                       "endurance: only when asked).")]
+NoHomeOption = Annotated[bool, typer.Option(
+    "--no-home", help="Do not re-home after writing an offset that takes effect at homing "
+                      "(it then acts at the next homing; every campaign homes first).")]
+MaxChangeOption = Annotated[float, typer.Option(
+    "--max-change-mm", min=0.0, help="Refuse a change of any axis larger than this (mm).")]
+
+
+def _campaign_for(session: LoadedSession, path: Path | None) -> tuple[Campaign, Profile]:
+    """The campaign file naming the controller, and its profile; a campaign that only
+    starts the built-in simulator names no controller that outlives the command."""
+    if path is None:
+        recorded = session.header.get("campaign_file")
+        if not recorded:
+            raise UserError(f"{session.path}: the session names no campaign file; give the "
+                            "controller's with --campaign")
+        path = Path(recorded)
+    campaign = read_campaign(path)
+    if campaign.simulator is not None or campaign.controller is None:
+        raise UserError(f"{campaign.path}: this campaign starts the built-in simulator inside "
+                        "each command, and its controller does not outlive it; serve one with "
+                        "`ogacq sim` and name it in [controller]")
+    try:
+        profile = load_profile(campaign.controller.profile)
+    except ProfileError as exc:
+        raise UserError(f"{campaign.path}: controller profile: {exc}") from None
+    return campaign, profile
+
+
+def _check_writable(campaign: Campaign, profile: Profile, save_nvm: bool) -> None:
+    """What the profile alone rules out, said before connecting to anything."""
+    spec = campaign.controller
+    if profile.offset.kind == "software" and spec.offsets_file is None:
+        raise UserError(f"{campaign.path}: profile {spec.profile!r} has no offset register; its "
+                        "offsets live in a software offset table: add offsets_file = "
+                        "\"offsets.toml\" to [controller] so that every campaign applies it")
+    if save_nvm and profile.nvm.kind == "none":
+        raise UserError(f"--save-nvm: profile {spec.profile!r} has no non-volatile memory; its "
+                        "offsets persist in the software offset table")
+
+
+@contextlib.contextmanager
+def _device_errors() -> Iterator[None]:
+    """A controller that cannot be reached or fails: one line, exit 3."""
+    from drivers.errors import DriverError
+
+    try:
+        yield
+    except DriverError as exc:
+        typer.echo(f"ogacq: error: controller: {exc}", err=True)
+        raise typer.Exit(EXIT_DEVICE) from None
+
+
+def _ask(question: str) -> bool:
+    try:
+        return typer.confirm(question, default=False)
+    except typer.Abort:  # end of input, Ctrl-C or Ctrl-D at the prompt
+        typer.echo("", err=True)
+        return False
+
+
+def _approve_and_execute(controller, plan, session: LoadedSession, campaign: Campaign, *,
+                         yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
+    """Refuse, ask, then write: the part ``write`` and ``restore`` share."""
+    from ogacq.cli import render_offsets as render
+    from ogacq.writeback.audit import AuditLog
+    from ogacq.writeback.execute import WriteBackError, WriteOptions, execute_plan
+
+    if plan.nothing_to_do:
+        typer.echo(f"the controller already holds these offsets: nothing to {plan.action}")
+        return
+    spec = campaign.controller
+    summary = {"action": plan.action, "current_mm": plan.current_mm, "new_mm": plan.new_mm}
+    with AuditLog(session) as audit:
+        if plan.refused:
+            render.print_refusals(plan, forced=force)
+        if plan.refused and not force:
+            audit.record("refused", **summary, reasons=[r.message for r in plan.refusals],
+                         codes=[r.code for r in plan.refusals])
+            raise typer.Exit(EXIT_REFUSED)
+        if not yes:
+            homing = (" and re-home the axes (the machine moves)"
+                      if rehome and plan.facts.takes_effect == "at_next_homing" else "")
+            target = ("the software offset table" if plan.facts.kind == "software"
+                      else "the controller")
+            if not _ask(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
+                audit.record("declined", **summary)
+                typer.echo("nothing written", err=True)
+                raise typer.Exit(EXIT_DECLINED)
+        options = WriteOptions(save_nvm=save_nvm, rehome=rehome,
+                               forced=tuple(r.code for r in plan.refusals),
+                               confirmed_by="--yes" if yes else "prompt", port=spec.port)
+        try:
+            outcome = execute_plan(controller, plan, audit, options,
+                                   offsets_file=spec.offsets_file)
+        except WriteBackError as exc:
+            typer.echo(f"ogacq: error: {exc}", err=True)
+            raise typer.Exit(EXIT_DEVICE) from None
+    render.print_outcome(outcome)
+
+
+@offsets_app.command("show")
+def show(
+    session_path: SessionArgument,
+    campaign_path: CampaignOption = None,
+    max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
+    as_json: JsonOption = False,
+) -> None:
+    """Show the controller's offsets, the identified ones (std, fit verdict) and the
+    proposed new ones; nothing is written.
+
+    Says whether `ogacq offsets write` would write them, and if not, why.
+    """
+    from ogacq.station import open_controller
+    from ogacq.writeback.audit import operations
+    from ogacq.writeback.evidence import evidence_from_session
+    from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
+
+    session = load_session(session_path)
+    evidence = evidence_from_session(session)
+    campaign, profile = _campaign_for(session, campaign_path)
+    spec = campaign.controller
+    with _device_errors(), open_controller(spec) as controller:
+        facts = ControllerFacts.of(controller.profile)
+        plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
+    history = operations(session)
+    if as_json:
+        typer.echo(json.dumps({
+            "evidence": evidence.to_json(), "plan": plan.to_json(),
+            "controller": {"profile": spec.profile, "port": spec.port,
+                           "offsets_file": str(spec.offsets_file) if spec.offsets_file
+                           else None},
+            "writes": [op.as_mapping() for op in history]}))
+        return
+    from ogacq.cli import render_offsets as render
+
+    render.print_evidence(evidence)
+    render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec), evidence=evidence)
+    render.print_history(history)
+    if plan.nothing_to_do:
+        typer.echo("the controller already holds these offsets")
+    elif plan.refused:
+        for refusal in plan.refusals:
+            typer.echo(f"would refuse ({refusal.code}): {refusal.message}")
+    else:
+        typer.echo("`ogacq offsets write` would write these")
+
+
+def _table_name(spec: ControllerSpec) -> str | None:
+    return str(spec.offsets_file) if spec.offsets_file else None
+
+
+@offsets_app.command("write")
+def write(
+    session_path: SessionArgument,
+    campaign_path: CampaignOption = None,
+    yes: YesOption = False,
+    force: ForceOption = False,
+    save_nvm: SaveNvmOption = False,
+    no_home: NoHomeOption = False,
+    max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
+) -> None:
+    """Write the offsets identified by a campaign: shown, confirmed, read back, recorded."""
+    from ogacq.cli import render_offsets as render
+    from ogacq.station import open_controller
+    from ogacq.writeback.evidence import evidence_from_session
+    from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
+
+    session = load_session(session_path)
+    evidence = evidence_from_session(session)
+    campaign, profile = _campaign_for(session, campaign_path)
+    spec = campaign.controller
+    _check_writable(campaign, profile, save_nvm)
+    with _device_errors(), open_controller(spec) as controller:
+        facts = ControllerFacts.of(controller.profile)
+        plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
+        render.print_evidence(evidence)
+        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec),
+                          evidence=evidence)
+        _approve_and_execute(controller, plan, session, campaign, yes=yes, force=force,
+                             save_nvm=save_nvm, rehome=not no_home)
+
+
+@offsets_app.command("restore")
+def restore(
+    session_path: SessionArgument,
+    campaign_path: CampaignOption = None,
+    yes: YesOption = False,
+    force: ForceOption = False,
+    save_nvm: SaveNvmOption = False,
+    no_home: NoHomeOption = False,
+) -> None:
+    """Put back the offsets the session's last write-back replaced."""
+    from ogacq.cli import render_offsets as render
+    from ogacq.station import open_controller
+    from ogacq.writeback.audit import last_write
+    from ogacq.writeback.policy import ControllerFacts, plan_restore
+
+    session = load_session(session_path)
+    operation = last_write(session)
+    if operation is None:
+        raise UserError(f"{session.path}: no write-back is recorded in this session: nothing "
+                        "to restore")
+    campaign, profile = _campaign_for(session, campaign_path)
+    spec = campaign.controller
+    _check_writable(campaign, profile, save_nvm)
+    with _device_errors(), open_controller(spec) as controller:
+        facts = ControllerFacts.of(controller.profile)
+        plan = plan_restore(operation, controller.read_offsets(), facts)
+        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
+        _approve_and_execute(controller, plan, session, campaign, yes=yes, force=force,
+                             save_nvm=save_nvm, rehome=not no_home)

@@ -1,0 +1,132 @@
+"""Rendering for ``ogacq offsets``: the evidence, the plan, the outcome, the history."""
+
+from __future__ import annotations
+
+import math
+import time
+
+from rich.console import Console
+from rich.table import Table
+
+from ogacq.writeback.audit import Operation
+from ogacq.writeback.evidence import Evidence
+from ogacq.writeback.execute import WriteOutcome
+from ogacq.writeback.policy import OffsetPlan
+
+console = Console()
+err_console = Console(stderr=True)
+
+
+def _mm(value: float | None, digits: int = 4) -> str:
+    if value is None or not math.isfinite(value):
+        return "-"
+    return f"{value:+.{digits}f}"
+
+
+def _where(plan: OffsetPlan, port: str, offsets_file: str | None) -> str:
+    if plan.facts.kind == "software":
+        return f"software offset table {offsets_file or '(none configured)'}"
+    return f"{plan.facts.profile} controller at {port}"
+
+
+def print_evidence(evidence: Evidence) -> None:
+    console.print(f"[bold]{evidence.session_path}[/]: {evidence.readings} readings"
+                  + ("" if evidence.finished else " [yellow](campaign not finished)[/]"),
+                  highlight=False)
+    verdict = evidence.verdict
+    colour = "green" if verdict.consistent else "red"
+    console.print(f"fit: [{colour}]{verdict.describe()}[/]", highlight=False)
+    if evidence.identifiable:
+        console.print("identifiable: every joint offset is determined by this campaign")
+    else:
+        console.print("[red]not identifiable[/]: "
+                      + ("; ".join(evidence.identifiability_reasons) or "rank deficient"),
+                      highlight=False)
+
+
+def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
+               evidence: Evidence | None = None) -> None:
+    title = (f"joint offsets o (mm, q = raw - o): {plan.action} to "
+             f"{_where(plan, port, offsets_file)}")
+    table = Table(title=title, show_edge=False, header_style="bold", title_justify="left")
+    table.add_column("axis")
+    if evidence is not None:
+        table.add_column("in force during campaign", justify="right")
+        table.add_column("identified drho", justify="right")
+        table.add_column("std", justify="right")
+    table.add_column("table now" if plan.facts.kind == "software" else "controller now",
+                     justify="right")
+    table.add_column("new", justify="right")
+    table.add_column("change", justify="right")
+    for change in plan.changes:
+        row = [change.axis]
+        if evidence is not None:
+            a = change.axis
+            row += [_mm(plan.baseline_mm.get(a)), _mm(evidence.identified_mm[a]),
+                    _mm(evidence.std_mm[a]).lstrip("+")]
+        row += [_mm(change.current_mm), _mm(change.new_mm), _mm(change.change_mm)]
+        table.add_row(*row)
+    console.print(table)
+    when = ("takes effect at the next homing (the axes are re-homed after writing)"
+            if plan.facts.takes_effect == "at_next_homing"
+            else "applied by ogacq to every commanded position from the next command on")
+    prefix = ("new offsets = in force during the campaign - identified; "
+              if plan.action == "write" else "restored offsets: ")
+    console.print(prefix + when, highlight=False)
+    for note in plan.notes:
+        console.print(f"note: {note}", highlight=False)
+    if plan.restores_operation:
+        console.print(f"restores the values write-back {plan.restores_operation} replaced",
+                      highlight=False)
+
+
+def print_refusals(plan: OffsetPlan, forced: bool) -> None:
+    if forced:
+        for refusal in plan.refusals:
+            err_console.print(f"ogacq: warning: --force writes past: {refusal.message}",
+                              highlight=False, soft_wrap=True)
+        return
+    for refusal in plan.refusals:
+        err_console.print(f"ogacq: refused ({refusal.code}): {refusal.message}",
+                          highlight=False, soft_wrap=True)
+    err_console.print(f"ogacq: nothing written; --force {plan.action}s anyway",
+                      highlight=False, soft_wrap=True)
+
+
+def print_outcome(outcome: WriteOutcome) -> None:
+    done = "restored" if outcome.action == "restore" else "written"
+    console.print(f"[green]{done}[/] and read back ({outcome.operation}): "
+                  + ", ".join(f"{a} {_mm(v)}" for a, v in outcome.new_mm.items()) + " mm",
+                  highlight=False)
+    if outcome.offsets_file is not None:
+        console.print(f"software offset table {outcome.offsets_file}: every campaign with this "
+                      "campaign file now applies it", highlight=False)
+    if outcome.rehomed and outcome.home_positions_mm is not None:
+        console.print("re-homed: at the home point the axes read "
+                      + ", ".join(f"{a} {_mm(q, 3)}" for a, q in
+                                  outcome.home_positions_mm.items()) + " mm (= -o)",
+                      highlight=False)
+    elif outcome.pending_homing:
+        console.print("[yellow]not re-homed: the new offsets take effect at the next homing "
+                      "(every campaign homes first)[/]")
+    if outcome.nvm_saved:
+        console.print("saved to non-volatile memory")
+    elif outcome.offsets_file is None:
+        console.print("not saved to non-volatile memory: a power cycle of the drive brings the "
+                      "old offsets back (--save-nvm saves them)")
+    if outcome.action == "write":
+        console.print("old and new values are recorded in the session (`ogacq offsets "
+                      "restore` puts the old ones back)")
+    else:
+        console.print("recorded in the session")
+
+
+def print_history(operations: list[Operation]) -> None:
+    if not operations:
+        return
+    console.print("[bold]write-backs recorded in this session[/]")
+    for op in operations:
+        when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(op.wall)) if op.wall else "?"
+        console.print(f"  {when} {op.operation} {op.action} [{op.status}]: "
+                      + ", ".join(f"{a} {_mm(op.old_mm[a])} -> {_mm(op.new_mm[a])}"
+                                  for a in op.old_mm), highlight=False)

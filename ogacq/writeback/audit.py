@@ -1,0 +1,106 @@
+"""Audit records of write-backs, appended to the campaign's own session.
+
+Every attempt leaves a ``type = "offsets"`` record: ``refused`` and
+``declined`` when nothing was written; otherwise ``intent`` (fsynced *before*
+the first write, with the old values, so a crash mid-write still leaves what
+to restore), then ``done`` (values as read back) or ``failed`` (the error and
+what the controller held afterwards). Records of one attempt share an
+``operation`` id; ``restore`` reads them back.
+"""
+
+from __future__ import annotations
+
+import secrets
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ogacq.session.store import LoadedSession, SessionWriter
+
+RECORD = "offsets"
+
+
+class AuditLog:
+    """Appends audit records to a session, opening it on the first record."""
+
+    def __init__(self, session: LoadedSession) -> None:
+        self.session = session
+        self._writer: SessionWriter | None = None
+
+    def record(self, stage: str, **fields: Any) -> None:
+        if self._writer is None:
+            self._writer = _append_to(self.session.path)
+        self._writer.append(RECORD, stage=stage, **fields)
+
+    def close(self) -> None:
+        if self._writer is not None:
+            self._writer.close()
+
+    def __enter__(self) -> AuditLog:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def _append_to(path: Path) -> SessionWriter:
+    """A writer at the end of the session. Not ``SessionWriter.reopen``: that records a
+    campaign resume, and a write-back is not one. A torn last record (a crash mid-write)
+    is cut off first, as a resume does, or appending after it would corrupt the file."""
+    raw = path.read_bytes()
+    if raw and not raw.endswith(b"\n"):
+        with path.open("r+b") as fh:
+            fh.truncate(raw.rfind(b"\n") + 1)
+    return SessionWriter(path, path.open("a", encoding="utf-8"), time.monotonic())
+
+
+def new_operation_id(action: str) -> str:
+    return f"{action}-{secrets.token_hex(4)}"
+
+
+@dataclass(frozen=True)
+class Operation:
+    """One write-back or restore as its records tell it."""
+
+    operation: str
+    action: str
+    status: str  # done, failed, interrupted (an intent with no outcome: the process died)
+    old_mm: dict[str, float]
+    new_mm: dict[str, float]  # as read back when done, else as intended
+    profile: str | None
+    nvm_saved: bool
+    wall: float | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return {"operation": self.operation, "action": self.action, "status": self.status,
+                "old_mm": self.old_mm, "new_mm": self.new_mm, "profile": self.profile,
+                "nvm_saved": self.nvm_saved, "wall": self.wall}
+
+
+def operations(session: LoadedSession) -> list[Operation]:
+    """Write-backs and restores recorded in the session, oldest first."""
+    intents: dict[str, dict] = {}
+    outcomes: dict[str, dict] = {}
+    for record in session.of_type(RECORD):
+        op = record.get("operation")
+        if not op:
+            continue
+        if record.get("stage") == "intent":
+            intents[op] = record
+        elif record.get("stage") in ("done", "failed"):
+            outcomes[op] = record
+    out = []
+    for op, intent in intents.items():
+        outcome = outcomes.get(op, {})
+        status = outcome.get("stage", "interrupted")
+        new = outcome.get("new_mm") if status == "done" else intent["new_mm"]
+        out.append(Operation(op, intent.get("action", "write"), status,
+                             dict(intent["old_mm"]), dict(new), intent.get("profile"),
+                             bool(outcome.get("nvm_saved", False)), intent.get("wall")))
+    return out
+
+
+def last_write(session: LoadedSession) -> Operation | None:
+    writes = [op for op in operations(session) if op.action == "write"]
+    return writes[-1] if writes else None

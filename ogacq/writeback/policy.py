@@ -1,0 +1,245 @@
+"""Deciding what to write: the plan of old -> new per axis and the reasons to refuse it.
+
+A plan is pure data built from the evidence (the campaign's identified
+offsets), what the controller holds now and what the profile allows. Every
+reason not to write is collected, not just the first, so the operator sees
+the whole case; ``--force`` writes past them and the audit record keeps them.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Literal
+
+from drivers.axes.profile import Profile
+from ogacq.model.parameters import AXES
+from ogacq.writeback.audit import Operation
+
+if TYPE_CHECKING:  # the evidence module pulls in the fit and scipy; the CLI imports this one
+    from ogacq.writeback.evidence import Evidence
+
+DEFAULT_MAX_CHANGE_MM = 2.0
+SOFTWARE_RESOLUTION_MM = 1e-6  # the software table keeps what it is given; below any physics
+
+Action = Literal["write", "restore"]
+
+
+@dataclass(frozen=True)
+class WritePolicy:
+    max_change_mm: float = DEFAULT_MAX_CHANGE_MM  # larger changes are implausible for a zero error
+
+
+@dataclass(frozen=True)
+class ControllerFacts:
+    """What the profile says about offsets: where they live and when they act."""
+
+    profile: str
+    kind: Literal["software", "home_offset"]
+    resolution_mm: float  # smallest step the offset is stored with
+    margin_mm: float  # the controller's limits leave this much room beyond the soft limits
+    takes_effect: Literal["now", "at_next_homing"]
+    write_when_disabled: bool
+    has_nvm: bool
+
+    @classmethod
+    def of(cls, profile: Profile) -> ControllerFacts:
+        software = profile.offset.kind == "software"
+        return cls(
+            profile=profile.name, kind=profile.offset.kind,
+            resolution_mm=SOFTWARE_RESOLUTION_MM if software
+            else 1.0 / profile.codec.counts_per_mm,
+            margin_mm=profile.limits.margin_mm,
+            takes_effect="now" if software else "at_next_homing",
+            write_when_disabled=profile.offset.write_when_disabled,
+            has_nvm=profile.nvm.kind != "none")
+
+    def quantize(self, value_mm: float) -> float:
+        """The value as the controller (or table) will store it."""
+        steps = round(value_mm / self.resolution_mm)
+        return round(steps * self.resolution_mm, 9)
+
+    def same(self, a_mm: float, b_mm: float) -> bool:
+        return abs(a_mm - b_mm) <= self.resolution_mm / 2 + 1e-9
+
+
+@dataclass(frozen=True)
+class Refusal:
+    """One reason not to write, with a stable code for scripts and tests."""
+
+    code: str  # inconsistent, unidentifiable, not_converged, too_large, beyond_margin,
+    #            incomplete, unknown_baseline, mixed_baseline, stale, other_profile
+    message: str
+
+
+@dataclass(frozen=True)
+class AxisChange:
+    axis: str
+    current_mm: float  # held by the controller (or the table) now
+    new_mm: float  # as it will be stored
+
+    @property
+    def change_mm(self) -> float:
+        return self.new_mm - self.current_mm
+
+
+@dataclass(frozen=True)
+class OffsetPlan:
+    action: Action
+    facts: ControllerFacts
+    changes: tuple[AxisChange, ...]
+    refusals: tuple[Refusal, ...] = ()
+    notes: tuple[str, ...] = ()  # worth saying, not a reason to refuse
+    # write: the offsets in force during the campaign the new ones are computed from
+    baseline_mm: dict[str, float] = field(default_factory=dict)
+    restores_operation: str | None = None  # restore: the write it undoes
+
+    @property
+    def current_mm(self) -> dict[str, float]:
+        return {c.axis: c.current_mm for c in self.changes}
+
+    @property
+    def new_mm(self) -> dict[str, float]:
+        return {c.axis: c.new_mm for c in self.changes}
+
+    @property
+    def refused(self) -> bool:
+        return bool(self.refusals)
+
+    @property
+    def nothing_to_do(self) -> bool:
+        """The controller already holds the new values."""
+        return all(self.facts.same(c.current_mm, c.new_mm) for c in self.changes)
+
+    def to_json(self) -> dict:
+        return {"action": self.action, "profile": self.facts.profile,
+                "offset_kind": self.facts.kind, "takes_effect": self.facts.takes_effect,
+                "resolution_mm": self.facts.resolution_mm,
+                "current_mm": self.current_mm, "new_mm": self.new_mm,
+                "change_mm": {c.axis: round(c.change_mm, 9) for c in self.changes},
+                "baseline_mm": self.baseline_mm or None,
+                "refusals": [{"code": r.code, "message": r.message} for r in self.refusals],
+                "notes": list(self.notes), "nothing_to_do": self.nothing_to_do}
+
+
+def _fmt(values: Mapping[str, float]) -> str:
+    return ", ".join(f"{a} {v:+.4f}" for a, v in values.items())
+
+
+def _margin_refusals(new_mm: Mapping[str, float], facts: ControllerFacts) -> list[Refusal]:
+    beyond = {a: v for a, v in new_mm.items() if abs(v) > facts.margin_mm}
+    if not beyond:
+        return []
+    return [Refusal("beyond_margin",
+                    f"new offsets {_fmt(beyond)} mm exceed the {facts.margin_mm:g} mm margin of "
+                    f"profile {facts.profile!r}: the controller's limits leave only that much "
+                    "room beyond the soft limits")]
+
+
+def plan_write(evidence: Evidence, current_mm: Mapping[str, float], facts: ControllerFacts,
+               policy: WritePolicy = WritePolicy()) -> OffsetPlan:
+    """Old -> new per axis (``o_new = o_campaign - drho``) and every reason not to."""
+    refusals: list[Refusal] = []
+    notes: list[str] = []
+    if not evidence.finished:
+        refusals.append(Refusal("incomplete", "the campaign did not run to its end "
+                                f"({evidence.readings} readings): resume it first"))
+    if not evidence.converged:
+        refusals.append(Refusal("not_converged", "the offsets fit did not converge"))
+    if not evidence.identifiable:
+        why = "; ".join(evidence.identifiability_reasons) or "the design is rank deficient"
+        refusals.append(Refusal("unidentifiable",
+                                f"the joint offsets are not identifiable from this campaign: "
+                                f"{why}"))
+    if not evidence.verdict.consistent:
+        refusals.append(Refusal(
+            "inconsistent",
+            f"offsets fit: {evidence.verdict.describe()}; the joint-offset model leaves "
+            "something out (run `ogacq diagnose` on the session)"))
+    if evidence.profile is not None and evidence.profile != facts.profile:
+        refusals.append(Refusal("other_profile",
+                                f"the campaign ran with controller profile {evidence.profile!r}, "
+                                f"this controller has {facts.profile!r}"))
+
+    current = {a: float(current_mm[a]) for a in AXES}
+    if evidence.in_force_mm is None:
+        baseline = current
+        refusals.append(Refusal(
+            "unknown_baseline",
+            "the session does not record the controller offsets in force during the "
+            "campaign, and the identified offsets are relative to them (with --force the "
+            "current ones are assumed)"))
+    else:
+        baseline = dict(evidence.in_force_mm)
+        if not evidence.in_force_consistent:
+            refusals.append(Refusal("mixed_baseline",
+                                    "the controller offsets changed between the starts of this "
+                                    "campaign (it was resumed after a change): its readings mix "
+                                    "two baselines"))
+
+    new = {a: facts.quantize(baseline[a] - evidence.identified_mm[a]) for a in AXES}
+    changes = tuple(AxisChange(a, current[a], new[a]) for a in AXES)
+    plan_nothing = all(facts.same(current[a], new[a]) for a in AXES)
+    if not plan_nothing and not all(facts.same(current[a], baseline[a]) for a in AXES):
+        refusals.append(Refusal(
+            "stale",
+            f"the controller's offsets changed since this campaign (then {_fmt(baseline)}, "
+            f"now {_fmt(current)} mm): a later write-back or a manual change; writing would "
+            "replace them with this campaign's result"))
+    too_large = {c.axis: c.change_mm for c in changes if abs(c.change_mm) > policy.max_change_mm}
+    if too_large:
+        refusals.append(Refusal(
+            "too_large",
+            f"changes {_fmt(too_large)} mm exceed the {policy.max_change_mm:g} mm limit "
+            "(--max-change-mm): implausible for an encoder zero error; check the set-up"))
+    refusals += _margin_refusals(new, facts)
+
+    small = [a for a in AXES if math.isfinite(evidence.std_mm[a])
+             and abs(evidence.identified_mm[a]) < 2 * evidence.std_mm[a]]
+    if small and not plan_nothing:
+        notes.append(f"the identified offsets of {', '.join(small)} are within two std of zero: "
+                     "their change is noise")
+    residue = {a: new[a] - (baseline[a] - evidence.identified_mm[a]) for a in AXES}
+    if facts.kind != "software" and any(abs(v) > 1e-9 for v in residue.values()):
+        notes.append(f"rounded to the register step {facts.resolution_mm:g} mm: up to "
+                     f"{max(abs(v) for v in residue.values()):.4f} mm remains")
+    return OffsetPlan("write", facts, changes, tuple(refusals), tuple(notes), baseline)
+
+
+def plan_restore(operation: Operation, current_mm: Mapping[str, float],
+                 facts: ControllerFacts) -> OffsetPlan:
+    """Put back the values an earlier write-back (its audit records) replaced."""
+    old = {a: float(operation.old_mm[a]) for a in AXES}
+    written = {a: float(operation.new_mm[a]) for a in AXES}
+    if not all(math.isfinite(v) for v in (*old.values(), *written.values())):
+        raise ValueError(f"write-back {operation.operation} recorded no usable values")
+    current = {a: float(current_mm[a]) for a in AXES}
+    changes = tuple(AxisChange(a, current[a], facts.quantize(old[a])) for a in AXES)
+    refusals: list[Refusal] = []
+
+    def expected(axis: str) -> bool:
+        # a write that did not finish may have changed some axes only
+        return facts.same(current[axis], written[axis]) or (
+            operation.status != "done" and facts.same(current[axis], old[axis]))
+
+    nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
+    if not nothing and not all(expected(a) for a in AXES):
+        refusals.append(Refusal(
+            "stale",
+            f"the controller no longer holds what write-back {operation.operation} wrote "
+            f"({_fmt(written)}; now {_fmt(current)} mm): restoring would undo a later change"))
+    if operation.profile not in (None, facts.profile):
+        refusals.append(Refusal("other_profile",
+                                f"write-back {operation.operation} went to a "
+                                f"{operation.profile!r} controller, this one is "
+                                f"{facts.profile!r}"))
+    refusals += _margin_refusals({c.axis: c.new_mm for c in changes}, facts)
+    notes = []
+    if operation.status != "done":
+        notes.append(f"write-back {operation.operation} did not finish ({operation.status})")
+    if operation.nvm_saved and facts.has_nvm:
+        notes.append("the write-back saved its values to non-volatile memory: save the "
+                     "restored ones too (--save-nvm), or a power cycle brings them back")
+    return OffsetPlan("restore", facts, changes, tuple(refusals), tuple(notes),
+                      restores_operation=operation.operation)

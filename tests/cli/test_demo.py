@@ -1,0 +1,38 @@
+"""The README's main job: ``ogacq demo``, with a concealed effect to find."""
+
+import json
+
+from tests.cli.helpers import run_ogacq
+
+
+def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
+    effects = tmp_path / "effects.toml"
+    effects.write_text("[squareness]\nxy = 0.5\n")
+    out = tmp_path / "demo"
+    proc = run_ogacq("demo", "--effects", effects, "--seed", "4", "--speed", "50", "--out", out,
+                     timeout=180)
+    assert proc.returncode == 0, proc.stderr
+    for name in ("session.jsonl", "readings.csv", "result.json", "diagnosis.json",
+                 "report/report.html", "report/deviations.png"):
+        assert (out / name).is_file(), name
+    result = json.loads((out / "result.json").read_text())
+    hidden = result["hidden"]
+    assert hidden["squareness.xy"] == 0.5
+    diagnosis = json.loads((out / "diagnosis.json").read_text())
+    assert not diagnosis["base"]["consistent"] and diagnosis["final"]["consistent"]
+    found = {f"{e['effect']}.{e['where']}": e for e in diagnosis["effects"]}
+    squareness = found["squareness.xy"]
+    assert abs(squareness["value"] - 0.5) < 3 * squareness["std"]
+    for axis in "xyz":  # the final model puts the offsets back where they are
+        got = diagnosis["parameters"]["joint_offset"][axis]
+        assert abs(got - hidden[f"joint_offset.{axis}"]) < 0.005
+    assert "physics found by the diagnosis" in proc.stdout
+    assert "squareness.xy" in proc.stdout
+    assert "squareness" in (out / "report" / "report.html").read_text()
+
+
+def test_demo_refuses_a_non_empty_folder(tmp_path):
+    (tmp_path / "x").write_text("keep me")
+    proc = run_ogacq("demo", "--out", tmp_path)
+    assert proc.returncode == 2 and "not empty" in proc.stderr
+    assert (tmp_path / "x").read_text() == "keep me"
