@@ -57,7 +57,7 @@ _GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
 _PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
              "move_timeout_s"}
 _STABILITY = {"readings", "tolerance_mm", "timeout_s"}
-_SIMULATOR = {"seed", "effects", "speed", "profile", "noise_mm"}
+_SIMULATOR = {"seed", "effects", "speed", "profile", "noise_mm", "gauge_layout"}
 
 
 @dataclass(frozen=True)
@@ -89,6 +89,7 @@ class SimulatorSpec:
     speed: float = 20.0
     profile: str = "cia402"
     noise_mm: float | None = None
+    gauge_layout: str = "separate"  # or "multiplexer": six channels on one port
 
 
 @dataclass
@@ -188,7 +189,9 @@ def read_campaign(path: str | Path) -> Campaign:
             speed=float(_typed(src, sim, "speed", (int, float), "simulator", after))
             if "speed" in sim else 20.0,
             profile=str(sim.get("profile", "cia402")),
-            noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None)
+            noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None,
+            gauge_layout=_choice(src, sim, "gauge_layout", ("separate", "multiplexer"),
+                                 "simulator", after))
     if "controller" in data:
         campaign.controller = _controller(src, data["controller"], base)
     elif campaign.simulator is None:
@@ -201,6 +204,17 @@ def read_campaign(path: str | Path) -> Campaign:
             raise src.fail(f"no [[gauges]] entry for {', '.join(missing)}: an unattended "
                            "campaign needs both gauges of every leg mounted")
     return campaign
+
+
+def _choice(src: _Source, table: dict, key: str, choices: tuple[str, ...], where: str,
+            after: int) -> str:
+    if key not in table:
+        return choices[0]
+    value = table[key]
+    if value not in choices:
+        raise src.fail(f"{where}.{key} must be one of {', '.join(choices)}, got {value!r}",
+                       key, after)
+    return value
 
 
 def _protocol(src: _Source, proto: dict, stab: dict, machine: MachineSpec) -> ProtocolConfig:
@@ -307,6 +321,12 @@ def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeS
             where = f"port {port}" + (f" channel {channel}" if channel else "")
             raise InputError(src.path, f"two gauges on {where} (the other on line "
                              f"{seen_channel[(port, channel)]}): each needs its own channel",
+                             start or None)
+        first_on_port = next((g for g in out if g.port == port), None)
+        if first_on_port is not None and first_on_port.protocol != protocol_name:
+            raise InputError(src.path, f"gauge {gauge} on port {port} is {protocol_name} but "
+                             f"{first_on_port.gauge} on the same port is "
+                             f"{first_on_port.protocol}: one port speaks one protocol",
                              start or None)
         seen_gauge[gauge] = start
         seen_channel[(port, channel)] = start

@@ -18,15 +18,16 @@ import contextlib
 import logging
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
 from drivers.axes.profile import load_profile
 from drivers.errors import DriverError
-from drivers.indicators import open_indicator
+from drivers.indicators import backend, open_indicator
 from drivers.indicators.base import read_stable
+from drivers.link import open_link
 from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import StabilityRule
@@ -107,13 +108,14 @@ def _simulated_specs(campaign: Campaign, sim: SimulatorSpec):
     if sim.noise_mm is not None:
         truth.noise_mm = sim.noise_mm
     stack = SimulatorStack(SimulatorConfig(campaign.machine, truth, profile=sim.profile,
-                                           speed=sim.speed, seed=sim.seed)).start()
+                                           speed=sim.speed, seed=sim.seed,
+                                           gauge_layout=sim.gauge_layout)).start()
     info = stack.info()
     m = info["modbus"]
     port = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
     controller = ControllerSpec(sim.profile, port, m.get("baudrate"))
-    gauges = [GaugeSpec(key, g["protocol"], g["port"], serial=f"sim-{key}")
-              for key, g in info["gauges"].items()]
+    gauges = [GaugeSpec(key, g["protocol"], g["port"], channel=g.get("channel"),
+                        serial=f"sim-{key}") for key, g in info["gauges"].items()]
     return stack, controller, gauges
 
 
@@ -144,6 +146,25 @@ def _controller_description(spec: ControllerSpec, controller: AxisController) ->
     return out
 
 
+def _open_gauges(specs: list[GaugeSpec], stack: contextlib.ExitStack) -> dict[str, Any]:
+    """One driver per gauge; gauges on one port (a multiplexer's channels) share one
+    open link, since a serial port can be opened only once."""
+    links: dict[str, Any] = {}
+    indicators: dict[str, Any] = {}
+    for g in specs:
+        where = f"gauge {g.gauge} ({g.port}" + (f" channel {g.channel})" if g.channel else ")")
+        if g.port not in links:
+            settings = backend(g.protocol).settings
+            if g.baudrate is not None:
+                settings = replace(settings, baudrate=g.baudrate)
+            links[g.port] = open_link(g.port, settings, where=where)
+            stack.callback(links[g.port].close)
+        indicators[g.gauge] = open_indicator(g.protocol, g.port, unit=g.unit,
+                                             channel=g.channel, where=where,
+                                             link=links[g.port])
+    return indicators
+
+
 @contextlib.contextmanager
 def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
     """Open (or start and open) everything the campaign names; close it all after."""
@@ -155,12 +176,7 @@ def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
                                                                        campaign.simulator)
             stack.callback(simulator.close)
         controller = stack.enter_context(open_controller(controller_spec))
-        indicators = {}
-        for g in gauge_specs:
-            indicator = open_indicator(g.protocol, g.port, unit=g.unit, channel=g.channel,
-                                       where=f"gauge {g.gauge} ({g.port})")
-            stack.callback(indicator.close)
-            indicators[g.gauge] = indicator
+        indicators = _open_gauges(gauge_specs, stack)
         if simulator is not None:
             clock, speed = simulator.clock.now, simulator.clock.speed
         else:

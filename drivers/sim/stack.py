@@ -34,6 +34,9 @@ class SimulatorConfig:
     gauge_transport: str = "pty"  # or "socket" (pyserial socket:// URL)
     # protocol per gauge key, overriding gauge_protocol (a mixed station)
     gauge_protocols: dict[str, str] = field(default_factory=dict)
+    # "separate": one port per gauge; "multiplexer": all six on one 01A
+    # multiplexer port, channels 1..6 (a DMX/MUX box)
+    gauge_layout: str = "separate"
 
 
 class SimulatorStack:
@@ -45,19 +48,32 @@ class SimulatorStack:
         self.machine = SimMachine(m, config.truth, self.motion, self.clock, seed=config.seed)
         self.server = ModbusSimServer(config.profile, self.motion)
         self.gauges: dict[str, GaugeEndpoint] = {}
-        for key in GAUGE_KEYS:
-            axis, leg = (AXES.index(c) for c in key.split("_"))
-            self.gauges[key] = GaugeEndpoint(
-                config.gauge_protocols.get(key, config.gauge_protocol),
-                self.machine.value_source(axis, leg),
-                resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
-                name=f"sim gauge {key}")
+        self.channels: dict[str, str | None] = {}
+        sources = {key: self.machine.value_source(*(AXES.index(c) for c in key.split("_")))
+                   for key in GAUGE_KEYS}
+        if config.gauge_layout == "multiplexer":
+            channels = {key: str(n) for n, key in enumerate(GAUGE_KEYS, 1)}
+            mux = GaugeEndpoint("mitutoyo-01a", {channels[k]: sources[k] for k in GAUGE_KEYS},
+                                resolution_mm=m.gauge_resolution_mm,
+                                transport=config.gauge_transport, name="sim multiplexer")
+            self.gauges = dict.fromkeys(GAUGE_KEYS, mux)
+            self.channels = channels
+        elif config.gauge_layout == "separate":
+            for key in GAUGE_KEYS:
+                self.gauges[key] = GaugeEndpoint(
+                    config.gauge_protocols.get(key, config.gauge_protocol), sources[key],
+                    resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
+                    name=f"sim gauge {key}")
+                self.channels[key] = None
+        else:
+            raise ValueError(f"gauge_layout must be 'separate' or 'multiplexer', "
+                             f"got {config.gauge_layout!r}")
         self._started = False
 
     def start(self) -> SimulatorStack:
         try:
             self.server.start()
-            for endpoint in self.gauges.values():
+            for endpoint in self._endpoints():
                 endpoint.start()
         except BaseException:
             self.close()
@@ -66,7 +82,7 @@ class SimulatorStack:
         return self
 
     def close(self) -> None:
-        for endpoint in self.gauges.values():
+        for endpoint in self._endpoints():
             endpoint.close()
         self.server.stop()
         self._started = False
@@ -77,10 +93,14 @@ class SimulatorStack:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def _endpoints(self) -> list[GaugeEndpoint]:
+        return list({id(g): g for g in self.gauges.values()}.values())
+
     def info(self) -> dict[str, Any]:
         """Where to connect, as ``ogacq sim --json`` prints it."""
         return {
             "modbus": self.server.info(),
             "gauges": {key: {"port": g.port, "protocol": g.protocol}
+                       | ({"channel": self.channels[key]} if self.channels[key] else {})
                        for key, g in self.gauges.items()},
         }

@@ -45,3 +45,14 @@ def test_bad_campaign_refused_with_line(tmp_path, text, line, words):
         assert f"{path}:{line}:" in message
     # refused before anything was opened, moved or recorded
     assert not (tmp_path / "s.jsonl").exists()
+
+
+def test_two_protocols_on_one_port_refused(tmp_path):
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    mixed = ALL_GAUGES.replace('gauge = "z_x"\nprotocol = "mitutoyo-01a"',
+                               'gauge = "z_x"\nprotocol = "sylvac"')
+    path.write_text(HEAD + CONTROLLER + mixed)
+    proc = run_ogacq("run", path)
+    assert proc.returncode == 2
+    assert f"{path}:11:" in proc.stderr and "one port speaks one protocol" in proc.stderr

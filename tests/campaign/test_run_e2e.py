@@ -52,3 +52,23 @@ def test_refit_reads_the_session_and_its_csv_export(campaign_dir, tmp_path):
     again = run_ogacq("refit", back, "--machine", machine, "--json", check_json=True)
     c = again["parameters"]["joint_offset"]
     assert np.allclose([a[k] for k in "xyz"], [c[k] for k in "xyz"], atol=1e-6)
+
+
+def test_six_gauges_on_one_multiplexer_port(campaign_dir):
+    """A DMX/MUX box: six channels on one serial port, opened once and shared."""
+    path = write_campaign(campaign_dir, seed=11, extra="", speed=50)
+    text = path.read_text().replace("[simulator]\n", '[simulator]\ngauge_layout = "multiplexer"\n')
+    path.write_text(text)
+    out = run_ogacq("run", path, "--json", check_json=True)
+    for axis in "xyz":
+        truth = out["hidden"][f"joint_offset.{axis}"]
+        got = out["parameters"]["joint_offset"][axis]
+        assert abs(got - truth) < 3 * out["std"]["joint_offset"][axis]
+    session = load_session(campaign_dir / "session.jsonl")
+    ports = {g["port"] for g in session.header["station"]["gauges"].values()}
+    channels = {g["channel"] for g in session.header["station"]["gauges"].values()}
+    assert len(ports) == 1 and channels == {"1", "2", "3", "4", "5", "6"}
+    # each reading came from its own channel: byte 2 of the 01A frame
+    for r in session.readings:
+        expected = session.header["station"]["gauges"][r["gauge"]]["channel"]
+        assert r["raw"][1] == expected
