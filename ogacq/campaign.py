@@ -6,17 +6,22 @@ they differ only in how they show progress and where the campaign comes from.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ogacq.campaign_file import Campaign, read_campaign
 from ogacq.identify.fit import FitResult, fit
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
-from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer
+from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
 from ogacq.session.store import LoadedSession, SessionWriter, load_session
-from ogacq.station import open_station
+from ogacq.station import DeviceStation, open_station
+
+# Adapts the opened station for one run: gets the session writer and what is on file.
+StationWrapper = Callable[[DeviceStation, SessionWriter, set[tuple[str, str]]], Station]
 
 
 @dataclass
@@ -33,20 +38,27 @@ def identify_session(session: LoadedSession) -> FitResult:
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                  set_gauges: GaugeSetter | None = None,
-                 resume: LoadedSession | None = None) -> CampaignOutcome:
-    """Run (or resume) a campaign; raises CampaignStopped when it cannot finish."""
-    with open_station(campaign) as station:
+                 resume: LoadedSession | None = None, simulator=None,
+                 wrap_station: StationWrapper | None = None,
+                 header_extra: dict[str, Any] | None = None) -> CampaignOutcome:
+    """Run (or resume) a campaign; raises CampaignStopped when it cannot finish.
+
+    ``simulator``: a running simulator to use instead of starting one;
+    ``wrap_station``: adapts the opened station for this run (the wizard's pause
+    checkpoints and gauges read by eye); ``header_extra``: more session header.
+    """
+    with open_station(campaign, simulator) as station:
         station.prepare()
         if resume is None:
             header = {"machine": machine_dict(campaign.machine),
                       "machine_file": str(campaign.machine_path),
                       "campaign_file": str(campaign.path.resolve()),
-                      "station": station.description, "plan": campaign.protocol.to_dict()}
-            if station.simulator is not None:
-                header["simulator"] = {"seed": campaign.simulator.seed,
-                                       "profile": campaign.simulator.profile,
-                                       "speed": campaign.simulator.speed,
-                                       "effects": str(campaign.simulator.effects or "")}
+                      "station": station.description, "plan": campaign.protocol.to_dict(),
+                      **(header_extra or {})}
+            if station.simulator is not None and campaign.simulator is not None:
+                sim = campaign.simulator
+                header["simulator"] = {"seed": sim.seed, "profile": sim.profile,
+                                       "speed": sim.speed, "effects": str(sim.effects or "")}
             writer = SessionWriter.create(campaign.session, header)
             recorded: set[tuple[str, str]] = set()
         else:
@@ -54,7 +66,8 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             writer.append("station", **station.description)
             recorded = resume.recorded()
         with writer:
-            runner = CampaignRunner(station, writer, campaign.protocol, campaign.machine,
+            runs_on = wrap_station(station, writer, recorded) if wrap_station else station
+            runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges)
             runner.run()

@@ -97,8 +97,9 @@ def _controller_link(spec: ControllerSpec, profile) -> ModbusLink:
                                   baudrate=spec.baudrate, timeout_s=spec.timeout_s)
 
 
-def _simulated_specs(campaign: Campaign, sim: SimulatorSpec):
-    """Start the simulator; return it with controller and gauge specs pointing at it."""
+def start_simulator(campaign: Campaign, sim: SimulatorSpec):
+    """The built-in simulator a ``[simulator]`` table describes, started: the one
+    recipe, so that a resumed campaign meets the same hidden machine."""
     from drivers.sim.stack import SimulatorConfig, SimulatorStack
     from drivers.sim.truth import random_truth, read_effects
 
@@ -107,16 +108,20 @@ def _simulated_specs(campaign: Campaign, sim: SimulatorSpec):
         truth = read_effects(sim.effects, truth)
     if sim.noise_mm is not None:
         truth.noise_mm = sim.noise_mm
-    stack = SimulatorStack(SimulatorConfig(campaign.machine, truth, profile=sim.profile,
-                                           speed=sim.speed, seed=sim.seed,
-                                           gauge_layout=sim.gauge_layout)).start()
-    info = stack.info()
+    return SimulatorStack(SimulatorConfig(campaign.machine, truth, profile=sim.profile,
+                                          speed=sim.speed, seed=sim.seed,
+                                          gauge_layout=sim.gauge_layout)).start()
+
+
+def simulator_endpoints(simulator) -> tuple[ControllerSpec, list[GaugeSpec]]:
+    """Controller and gauge specs pointing at a running simulator's endpoints."""
+    info = simulator.info()
     m = info["modbus"]
     port = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
-    controller = ControllerSpec(sim.profile, port, m.get("baudrate"))
+    controller = ControllerSpec(m["profile"], port, m.get("baudrate"))
     gauges = [GaugeSpec(key, g["protocol"], g["port"], channel=g.get("channel"),
                         serial=f"sim-{key}") for key, g in info["gauges"].items()]
-    return stack, controller, gauges
+    return controller, gauges
 
 
 @contextlib.contextmanager
@@ -166,15 +171,17 @@ def _open_gauges(specs: list[GaugeSpec], stack: contextlib.ExitStack) -> dict[st
 
 
 @contextlib.contextmanager
-def open_station(campaign: Campaign) -> Iterator[DeviceStation]:
-    """Open (or start and open) everything the campaign names; close it all after."""
+def open_station(campaign: Campaign, simulator=None) -> Iterator[DeviceStation]:
+    """Open everything the campaign names; close it all after. A ``[simulator]``
+    campaign starts the built-in simulator here, unless a running one (the wizard's
+    rehearsal) is given, which stays the caller's to close."""
     with contextlib.ExitStack() as stack:
-        simulator = None
         controller_spec, gauge_specs = campaign.controller, campaign.gauges
-        if campaign.simulator is not None:
-            simulator, controller_spec, gauge_specs = _simulated_specs(campaign,
-                                                                       campaign.simulator)
+        if simulator is None and campaign.simulator is not None:
+            simulator = start_simulator(campaign, campaign.simulator)
             stack.callback(simulator.close)
+        if simulator is not None:
+            controller_spec, gauge_specs = simulator_endpoints(simulator)
         controller = stack.enter_context(open_controller(controller_spec))
         indicators = _open_gauges(gauge_specs, stack)
         if simulator is not None:

@@ -47,6 +47,7 @@ def _register() -> None:
         report_cmd,
         session_cmds,
         sim_cmd,
+        wizard_cmd,
     )
 
 

@@ -1,0 +1,262 @@
+"""Step 1: connect the instruments.
+
+List the serial ports with their descriptions (plus the simulator's ports in
+a rehearsal; pseudo-terminals and ``socket://`` URLs are never listed, so a
+typed port or URL is always accepted), check that the axis controller
+answers, and test-read each gauge. Every check can be retried, changed, or
+skipped with a reason; a gauge can be switched to reading by eye.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from drivers.axes.profile import ProfileError, available_profiles
+from drivers.errors import DriverError
+from drivers.indicators import BACKENDS, open_indicator
+from ogacq.campaign_file import GAUGE_KEYS, ControllerSpec, GaugeSpec
+from ogacq.cli.wizard.ui import Option, Screen, detail
+from ogacq.model.parameters import AXES
+from ogacq.station import open_controller  # the campaign's own way of connecting
+
+BY_EYE = "by eye"
+
+
+@dataclass(frozen=True)
+class DetectedPort:
+    device: str
+    description: str
+    suggested_for: str = ""  # "controller" or a gauge key (the simulator knows)
+    protocol: str = ""
+
+
+@dataclass
+class StationChoice:
+    """What the technician connected: the campaign's station, and what was skipped."""
+
+    controller: ControllerSpec
+    gauges: dict[str, GaugeSpec] = field(default_factory=dict)  # read over a serial link
+    by_eye: set[str] = field(default_factory=set)  # dial indicators, values typed in
+    notes: list[dict[str, str]] = field(default_factory=list)  # skips, with their reasons
+
+
+def gauges_of(legs: Sequence[str]) -> list[str]:
+    return [g for g in GAUGE_KEYS if g.split("_")[1] in legs]
+
+
+def describe_gauge(gauge: str) -> str:
+    axis, leg = gauge.split("_")
+    return f"{gauge} (on the {leg} leg, along {axis})"
+
+
+def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
+    """Serial ports the system lists, and the simulator's endpoints when rehearsing."""
+    found: list[DetectedPort] = []
+    if simulated is not None:
+        m = simulated["modbus"]
+        where = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
+        found.append(DetectedPort(where, f"simulated axis controller ({m['profile']}, "
+                                         f"Modbus {m['transport'].upper()})",
+                                  "controller", m["profile"]))
+        for key, g in simulated["gauges"].items():
+            found.append(DetectedPort(g["port"], f"simulated gauge {key} ({g['protocol']})",
+                                      key, g["protocol"]))
+    try:
+        from serial.tools.list_ports import comports
+
+        listed = sorted(comports(), key=lambda p: p.device)
+    except Exception:  # listing is a convenience; a typed port always works
+        listed = []
+    for port in listed:
+        details = [d for d in (port.description, port.manufacturer, port.serial_number)
+                   if d and d != "n/a"]
+        hwid = port.hwid if port.hwid and port.hwid != "n/a" else ""
+        found.append(DetectedPort(port.device, ", ".join(details) or hwid or "no description"))
+    return found
+
+
+def show_ports(screen: Screen, ports: Sequence[DetectedPort]) -> None:
+    from rich.table import Table
+
+    if not ports:
+        screen.say("No serial port is listed. Type the port of each device "
+                   "(/dev/ttyUSB0, COM3, socket://host:port, or host:port for Modbus TCP).")
+        return
+    table = Table(show_edge=False, header_style="bold", title="Ports found", title_justify="left")
+    table.add_column("#", justify="right")
+    table.add_column("port")
+    table.add_column("description")
+    for number, port in enumerate(ports, 1):
+        table.add_row(str(number), port.device, port.description)
+    screen.say(table)
+    screen.note("Pseudo-terminals and network ports are not listed by the system: "
+                "type them in full.")
+
+
+def _port_answer(answer: str, ports: Sequence[DetectedPort]) -> str:
+    if answer.isdigit():
+        number = int(answer)
+        if not 1 <= number <= len(ports):
+            raise ValueError(f"there is no port number {number} in the list")
+        return ports[number - 1].device
+    if not answer:
+        raise ValueError("type a number from the list, or a port")
+    return answer
+
+
+# ------------------------------------------------------------------------ controller
+
+def check_controller(spec: ControllerSpec) -> str:
+    """One line on the axes' state; DriverError or ProfileError when it does not answer."""
+    with open_controller(spec) as controller:
+        status = controller.read_status()
+    axes = ", ".join(f"{a} at {s.position_mm:+.3f} mm" for a, s in status.items())
+    servo = "servo on" if all(s.servo_on for s in status.values()) else "servo off"
+    alarms = [f"{a}: alarm {s.alarm_code}" for a, s in status.items() if s.alarm_code or s.fault]
+    return f"{axes}; {servo}; " + ("; ".join(alarms) if alarms else "no alarm")
+
+
+def choose_controller(screen: Screen, ports: Sequence[DetectedPort],
+                      notes: list[dict[str, str]]) -> ControllerSpec:
+    suggested = next((p for p in ports if p.suggested_for == "controller"), None)
+    profiles = available_profiles()
+    default_profile = suggested.protocol if suggested else profiles[0]
+    screen.say("[bold]Axis controller[/]")
+    while True:
+        options = [Option(str(k), name) for k, name in enumerate(profiles, 1)]
+        profile_key = screen.choose("Register map of the controller", options,
+                                    default=str(profiles.index(default_profile) + 1))
+        profile = profiles[int(profile_key) - 1]
+        port = screen.ask_parsed(
+            "Controller port: a number from the list, a serial device, or host:port",
+            lambda a: _port_answer(a, ports),
+            default=suggested.device if suggested else None)
+        spec = ControllerSpec(profile, port)
+        while True:
+            screen.say(f"Checking the controller on {port} …")
+            try:
+                screen.ok(f"controller answers: {check_controller(spec)}")
+                return spec
+            except (DriverError, ProfileError, OSError) as exc:
+                screen.problem(f"the controller on {port} does not answer: {exc}")
+                screen.say("Check that it is powered, the cable or network, and the port.")
+            choice = screen.choose("What now?", [
+                Option("r", "retry"),
+                Option("c", "change the port or the register map"),
+                Option("s", "skip this check (give a reason)"),
+            ], default="r")
+            if choice == "s":
+                notes.append({"step": "controller check", "port": port,
+                              "reason": screen.reason("skip the controller check")})
+                return spec
+            if choice == "c":
+                break
+
+
+# ------------------------------------------------------------------------ gauges
+
+def test_read(spec: GaugeSpec, timeout_s: float = 1.0) -> float:
+    indicator = open_indicator(spec.protocol, spec.port, unit=spec.unit, channel=spec.channel,
+                               where=f"gauge {spec.gauge} ({spec.port})")
+    try:
+        return indicator.read(timeout_s=timeout_s).value_mm
+    finally:
+        indicator.close()
+
+
+def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],
+                  notes: list[dict[str, str]], all_by_eye: bool = False,
+                  ) -> tuple[dict[str, GaugeSpec], set[str]]:
+    keys = gauges_of(legs)
+    screen.say()
+    screen.say("[bold]Gauges[/]")
+    protocols = list(BACKENDS)
+    suggested = {p.suggested_for: p for p in ports if p.suggested_for in keys}
+    default_protocol = next(iter(suggested.values())).protocol if suggested else protocols[0]
+    options = [Option(str(k), f"{name}: {BACKENDS[name].description}")
+               for k, name in enumerate(protocols, 1)]
+    options.append(Option(str(len(protocols) + 1),
+                          "dial indicators read by eye: you type each reading"))
+    default = str(len(protocols) + 1) if all_by_eye else \
+        str(protocols.index(default_protocol) + 1)
+    answer = int(screen.choose("How are the gauges read?", options, default=default))
+    if answer == len(protocols) + 1:
+        screen.say("The wizard will ask for every reading, check it against what is "
+                   "expected, and tell you when to read.")
+        return {}, set(keys)
+    protocol = protocols[answer - 1]
+    if protocol == "uwave":
+        screen.note("U-WAVE sends a value when the transmitter's DATA button is pressed: "
+                    "press it when a gauge is tested.")
+
+    chosen: dict[str, GaugeSpec] = {}
+    by_eye: set[str] = set()
+    free = [p for p in ports if not p.suggested_for]
+    screen.say("Type each gauge's port (a number from the list, a device or a URL), or "
+               "[bold]m[/] to read that gauge by eye.")
+    for gauge in keys:
+        taken = {s.port for s in chosen.values()}
+        guess = suggested.get(gauge) or next((p for p in free if p.device not in taken), None)
+        spec = _one_gauge(screen, gauge, protocol, ports, taken,
+                          guess.device if guess else None, notes)
+        if spec is None:
+            by_eye.add(gauge)
+        else:
+            chosen[gauge] = spec
+    return chosen, by_eye
+
+
+def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[DetectedPort],
+               taken: set[str], default: str | None, notes: list[dict[str, str]],
+               ) -> GaugeSpec | None:
+    """The gauge's spec once it read (or its test was skipped); None: read by eye."""
+    while True:
+        def parse(answer: str) -> str:
+            if answer.lower() == "m":
+                return BY_EYE
+            port = _port_answer(answer, ports)
+            if port in taken:
+                raise ValueError(f"{port} is already another gauge's port: each gauge needs "
+                                 "its own port (or channel)")
+            return port
+
+        port = screen.ask_parsed(f"Gauge {describe_gauge(gauge)}", parse, default=default)
+        if port == BY_EYE:
+            return None
+        spec = GaugeSpec(gauge, protocol, port)
+        while True:
+            try:
+                value = test_read(spec)
+                screen.ok(f"{gauge} reads {value:.4f} mm on {port}")
+                return spec
+            except DriverError as exc:
+                screen.problem(f"gauge {gauge} on {port} did not give a value: {detail(exc)}")
+                screen.say("Check the cable, that the gauge is on, and its interface setting.")
+            choice = screen.choose("What now?", [
+                Option("r", "retry"),
+                Option("c", "change the port"),
+                Option("m", f"read {gauge} by eye instead (type its values)"),
+                Option("s", "skip this test (give a reason)"),
+            ], default="r")
+            if choice == "m":
+                notes.append({"step": "gauge test", "gauge": gauge, "port": port,
+                              "reason": screen.reason(f"read {gauge} by eye")})
+                return None
+            if choice == "s":
+                notes.append({"step": "gauge test", "gauge": gauge, "port": port,
+                              "reason": screen.reason(f"skip the test of {gauge}")})
+                return spec
+            if choice == "c":
+                default = None
+                break
+
+
+def connect_instruments(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str] = AXES,
+                        all_by_eye: bool = False) -> StationChoice:
+    show_ports(screen, ports)
+    notes: list[dict[str, str]] = []
+    controller = choose_controller(screen, ports, notes)
+    gauges, by_eye = choose_gauges(screen, ports, legs, notes, all_by_eye)
+    return StationChoice(controller, gauges, by_eye, notes)

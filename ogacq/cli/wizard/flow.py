@@ -1,0 +1,524 @@
+"""The wizard from start to result: connect, machine, measure, result.
+
+Each step can be retried or skipped with a reason (kept in the session);
+Ctrl-C pauses (resume or quit, the session stays resumable); a campaign that
+stops (a silent gauge, an axis fault) says what stopped it and offers retry,
+reading that gauge by eye, or quit.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import re
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from drivers.errors import DriverError
+from ogacq.campaign import CampaignOutcome, identify_session
+from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
+from ogacq.cli.wizard.connect import (
+    StationChoice,
+    check_controller,
+    connect_instruments,
+    describe_gauge,
+    detect_ports,
+    test_read,
+)
+from ogacq.cli.wizard.execution import (
+    Rehearsal,
+    campaign_file_text,
+    protocol_round_trips,
+    rehearsal_controller_file,
+    run_guided,
+    start_rehearsal,
+)
+from ogacq.cli.wizard.expected import ReadingExpectations
+from ogacq.cli.wizard.faults import FaultInjector, FaultPlan
+from ogacq.cli.wizard.gauge_setting import LegSetter, RunHandles
+from ogacq.cli.wizard.guided_station import GuidedStation
+from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
+from ogacq.cli.wizard.progress import CycleProgress
+from ogacq.cli.wizard.result import offer_writeback, show_result
+from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, times
+from ogacq.io.errors import InputError
+from ogacq.io.machine_file import read_machine
+from ogacq.model.machine import MachineSpec
+from ogacq.protocol import runner
+from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
+from ogacq.protocol.runner import CampaignStopped, GaugeValue
+from ogacq.session.convert import session_machine
+from ogacq.session.store import LoadedSession, SessionWriter, load_session
+from ogacq.station import DeviceStation
+
+EXIT_DONE = 0
+EXIT_QUIT = 130
+
+# the papers' Orthoglide prototype, for a rehearsal without a machine file
+REHEARSAL_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators
+leg_length_mm = 310.25
+rho_min_mm = -100.0
+rho_max_mm = 60.0
+gauge_resolution_mm = 0.001
+"""
+
+
+@dataclass
+class WizardOptions:
+    simulator: bool = False
+    seed: int = 0
+    speed: float = 20.0
+    profile: str = "cia402"
+    machine: Path | None = None
+    out: Path | None = None
+    cycles: int = 3
+    settle_s: float = 1.0
+    stability_timeout_s: float = 10.0
+    gauge_range_mm: float = 12.7
+    max_offset_mm: float = 2.0
+    by_eye: bool = False
+    faults: list[FaultPlan] = field(default_factory=list)
+    resume: Path | None = None
+
+
+def run_wizard(options: WizardOptions) -> int:
+    screen = Screen()
+    gate = InterruptGate()
+    gate.install()
+    try:
+        return _Wizard(screen, gate, options).run()
+    except InputClosed:
+        screen.stop_live()
+        screen.say("\nThe terminal closed: the wizard stops here.")
+        return EXIT_QUIT
+    finally:
+        screen.stop_live()
+        gate.uninstall()
+
+
+class _Wizard:
+    def __init__(self, screen: Screen, gate: InterruptGate, options: WizardOptions) -> None:
+        self.screen = screen
+        self.gate = gate
+        self.options = options
+        self.session_path: Path | None = None
+        self.by_eye: set[str] = set()
+        self.rehearsal: Rehearsal | None = None
+        self.injector: FaultInjector | None = None
+        self._notes_for_session: list[dict[str, Any]] = []  # written at the next run
+        self.resumable_by_ogacq = False  # the campaign file alone continues the session
+        self.campaign: Campaign | None = None
+
+    # ====================================================================== top level
+    def run(self) -> int:
+        with contextlib.ExitStack() as cleanup:
+            try:
+                if self.options.resume is not None:
+                    outcome = self._continue(cleanup, self.options.resume)
+                else:
+                    outcome = self._new_campaign(cleanup)
+            except OperatorQuit:
+                self._say_quit()
+                return EXIT_QUIT
+            self.screen.heading("Result", "step 4 of 4")
+            writable = show_result(self.screen, outcome)
+            controller_file = None
+            if self.rehearsal is not None and self.campaign is not None:
+                controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
+            try:
+                offer_writeback(self.screen, outcome.session_path, writable, controller_file,
+                                rehearsal=self.rehearsal is not None)
+            except (KeyboardInterrupt, OperatorQuit):
+                self.screen.say(f"\nNot written. Later: ogacq offsets write "
+                                f"{outcome.session_path}")
+            self.screen.say("[bold green]Calibration campaign complete.[/]")
+            return EXIT_DONE
+
+    def _new_campaign(self, cleanup: contextlib.ExitStack) -> CampaignOutcome:
+        opts = self.options
+        folder = _new_folder(opts.out)
+        s = self.screen
+        s.say("[bold]ogacq wizard[/]: a guided calibration of the joint offsets.")
+        s.say("Four steps: connect the instruments, confirm the machine, set the gauges and "
+              "measure each leg, then the result.")
+        s.say("[dim]Ctrl-C pauses at any time: you can then resume or quit, nothing measured "
+              "is lost.[/]")
+        machine, machine_path = self._initial_machine(folder)
+        protocol = ProtocolConfig(cycles=opts.cycles, settle_s=opts.settle_s,
+                                  stability=StabilityRule(timeout_s=opts.stability_timeout_s))
+        if opts.simulator:
+            assert machine is not None and machine_path is not None
+            sim = SimulatorSpec(seed=opts.seed, speed=opts.speed, profile=opts.profile)
+            self._start_rehearsal(cleanup, Campaign(folder / "campaign.toml", machine,
+                                                     machine_path, folder / "session.jsonl",
+                                                     protocol), sim)
+            s.say(f"[yellow]Rehearsal[/] on the built-in simulator (seed {opts.seed}): its "
+                  "ports are listed below as if they were your instruments.")
+
+        s.heading("Connect the instruments", "step 1 of 4")
+        ports = detect_ports(self.rehearsal.stack.info() if self.rehearsal else None)
+        choice: StationChoice = pausable(
+            s, "while connecting the instruments",
+            lambda: connect_instruments(s, ports, protocol.legs, opts.by_eye))
+        self.by_eye = set(choice.by_eye)
+
+        s.heading("The machine", "step 2 of 4")
+        machine, machine_path = pausable(
+            s, "while confirming the machine",
+            lambda: self._confirm_machine(machine, machine_path))
+        campaign = Campaign(folder / "campaign.toml", machine, machine_path,
+                            folder / "session.jsonl", protocol, choice.controller,
+                            list(choice.gauges.values()))
+        self.session_path = campaign.session
+        readings = sum(len(step.gauges) for step in reading_steps(protocol, machine))
+        postures = " → ".join(p.title() if isinstance(p, str) else f"{p:g} mm"
+                              for p in protocol.postures)
+        s.say(f"Plan: legs {', '.join(protocol.legs)}; on each, {postures}, "
+              f"{times(protocol.cycles)}: {readings} readings, taken automatically.")
+        s.say(f"Everything is saved as it is measured, in {folder}/.")
+        if not pausable(s, "before measuring",
+                        lambda: s.confirm("Start? The machine homes, then goes to the Zero "
+                                          "posture of the first leg")):
+            raise OperatorQuit("the operator did not start the campaign")
+        header = {"by_eye": sorted(self.by_eye), "notes": choice.notes,
+                  "gauge_range_mm": opts.gauge_range_mm, "max_offset_mm": opts.max_offset_mm}
+        return self._measure(campaign, None, header)
+
+    def _continue(self, cleanup: contextlib.ExitStack, path: Path) -> CampaignOutcome:
+        """``--resume``: a wizard (or any) session, continued with the wizard."""
+        session = load_session(path)
+        h = session.header
+        if not isinstance(h.get("plan"), dict):
+            raise InputError(path, "this session has no plan: it was not recorded by a campaign")
+        machine = session_machine(session)
+        protocol = ProtocolConfig.from_dict(h["plan"])
+        wizard = h.get("wizard") if isinstance(h.get("wizard"), dict) else {}
+        self.options.gauge_range_mm = wizard.get("gauge_range_mm", self.options.gauge_range_mm)
+        self.options.max_offset_mm = wizard.get("max_offset_mm", self.options.max_offset_mm)
+        self.by_eye = set(wizard.get("by_eye", [])) | {
+            r["gauge"] for r in session.of_type("operator") if r.get("action") == "read_by_eye"}
+        self.session_path = session.path
+        campaign_path = Path(h.get("campaign_file") or session.path.with_name("campaign.toml"))
+        campaign = Campaign(campaign_path, machine, Path(h.get("machine_file", "")),
+                            session.path, protocol)
+        s = self.screen
+        s.say("[bold]ogacq wizard[/]: continuing a campaign.")
+        s.say(f"{session.path}: {len(session.readings)} readings recorded.")
+        if session.finished:
+            return CampaignOutcome(session.path, identify_session(session), None)
+        station = (session.of_type("station") or [h.get("station") or {}])[-1]
+        sim = h.get("simulator")
+        if isinstance(sim, dict):
+            spec = SimulatorSpec(seed=int(sim.get("seed", 0)),
+                                 effects=Path(sim["effects"]) if sim.get("effects") else None,
+                                 speed=float(sim.get("speed", 20.0)),
+                                 profile=str(sim.get("profile", "cia402")))
+            self._start_rehearsal(cleanup, campaign, spec)
+            assert self.rehearsal is not None
+            campaign.controller = self.rehearsal.controller
+            campaign.gauges = list(self.rehearsal.gauges)
+        else:
+            c = station.get("controller") or {}
+            campaign.controller = ControllerSpec(c.get("profile", "cia402"), c.get("port", ""))
+            campaign.gauges = [GaugeSpec(k, g["protocol"], g["port"], g.get("channel"),
+                                         g.get("unit", "mm"), g.get("serial", ""))
+                               for k, g in (station.get("gauges") or {}).items()]
+        s.heading("Check the instruments", "step 1 of 4")
+        pausable(s, "while checking the instruments", lambda: self._recheck(campaign))
+        return self._measure(campaign, session, wizard)
+
+    # ====================================================================== helpers
+    def _start_rehearsal(self, cleanup: contextlib.ExitStack, campaign: Campaign,
+                         spec: SimulatorSpec) -> None:
+        self.rehearsal = start_rehearsal(campaign, spec)
+        cleanup.callback(self.rehearsal.stack.close)
+        if self.options.faults:
+            self.injector = FaultInjector(self.options.faults, self.rehearsal.stack)
+            self.injector.check(0)
+
+    def _initial_machine(self, folder: Path) -> tuple[MachineSpec | None, Path | None]:
+        if self.options.machine is not None:
+            return read_machine(self.options.machine), self.options.machine
+        if self.options.simulator:
+            path = folder / "machine.toml"
+            path.write_text(REHEARSAL_MACHINE)
+            return read_machine(path), path
+        return None, None
+
+    def _confirm_machine(self, machine: MachineSpec | None, path: Path | None,
+                         ) -> tuple[MachineSpec, Path]:
+        s = self.screen
+        while True:
+            if machine is None or path is None:
+                typed = Path(s.ask("Machine file (TOML: leg_length_mm, rho_min_mm, "
+                                   "rho_max_mm, gauge_resolution_mm)"))
+                try:
+                    machine, path = read_machine(typed), typed
+                except InputError as exc:
+                    s.problem(str(exc))
+                    continue
+            s.say(f"Machine file {path}:")
+            s.say(f"  legs {machine.leg_length_mm:g} mm; joints from {machine.rho_min_mm:+g} "
+                  f"to {machine.rho_max_mm:+g} mm; gauge resolution "
+                  f"{machine.gauge_resolution_mm:g} mm"
+                  + (f"; repeatability {machine.gauge_repeatability_mm:g} mm"
+                     if machine.gauge_repeatability_mm else ""))
+            if self.rehearsal is not None:
+                s.note("  (rehearsal: the simulator models this machine)")
+            if s.confirm("Is this the machine you are calibrating?"):
+                return machine, path
+            if self.rehearsal is not None:
+                s.say("The simulator models this machine; to rehearse another, start again "
+                      "with --machine FILE.")
+                continue
+            machine = path = None
+
+    def _recheck(self, campaign: Campaign) -> None:
+        """Before continuing: the controller answers and each gauge gives a value."""
+        s = self.screen
+        assert campaign.controller is not None
+        while True:
+            try:
+                s.ok(f"controller answers: {check_controller(campaign.controller)}")
+                break
+            except (DriverError, ValueError, OSError) as exc:
+                s.problem(f"the controller on {campaign.controller.port} does not answer: {exc}")
+                if s.choose("What now?", [Option("r", "retry"),
+                                          Option("q", "quit (the session stays resumable)")],
+                            default="r") == "q":
+                    raise OperatorQuit() from None
+        for spec in list(campaign.gauges):
+            if spec.gauge in self.by_eye:
+                continue
+            while True:
+                try:
+                    s.ok(f"{spec.gauge} reads {test_read(spec):.4f} mm on {spec.port}")
+                    break
+                except DriverError as exc:
+                    s.problem(f"gauge {spec.gauge} on {spec.port} did not give a value: "
+                              f"{detail(exc)}")
+                    if self._gauge_menu(spec.gauge) != "r":
+                        break
+        if self.by_eye:
+            s.say(f"Read by eye: {', '.join(sorted(self.by_eye))}.")
+
+    def _gauge_menu(self, gauge: str) -> str:
+        """After a gauge failed: "r" retry, "m" (now read by eye), or quit."""
+        choice = self.screen.choose("What now?", [
+            Option("r", "retry (after checking the cable, the power and the battery)"),
+            Option("m", f"read {gauge} by eye from now on (give a reason)"),
+            Option("q", "quit (the session stays resumable)"),
+        ], default="r")
+        if choice == "q":
+            raise OperatorQuit()
+        if choice == "m":
+            reason = self.screen.reason(f"read {gauge} by eye")
+            self.by_eye.add(gauge)
+            self._notes_for_session.append({"action": "read_by_eye", "gauge": gauge,
+                                            "reason": reason})
+        return choice
+
+    # ====================================================================== measuring
+    def _measure(self, campaign: Campaign, session: LoadedSession | None,
+                 wizard_header: dict[str, Any]) -> CampaignOutcome:
+        s, opts = self.screen, self.options
+        self.campaign = campaign
+        session_path = campaign.session
+        protocol, machine = campaign.protocol, campaign.machine
+        steps = reading_steps(protocol, machine)
+        by_id = {step.step: step for step in steps}
+        expectations = ReadingExpectations(
+            machine, max_offset_mm=opts.max_offset_mm,
+            repeat_tolerance_mm=max(0.05, 5 * machine.gauge_resolution_mm),
+            gauge_range_mm=opts.gauge_range_mm)
+        for r in session.records if session else []:
+            if r.get("type") == "reading" and r.get("step") in by_id:
+                expectations.observe(r["gauge"], by_id[r["step"]].q_mm, r["reading_mm"])
+            elif r.get("type") == "operator" and r.get("action") == "dial_set":
+                setting = next(step for step in steps if step.leg == r["leg"])
+                expectations.set_reference(r["gauge"], setting.q_mm, r["value_mm"])
+        total = sum(len(step.gauges) for step in steps)
+        counter = ReadingCounter(len(session.readings) if session else 0, total)
+        handles = RunHandles()
+        shown = self.rehearsal.shown_value if self.rehearsal else None
+
+        def pause_here(where: str) -> None:
+            handles.note("pause", where=where)
+            pause_menu(s, where, session_path)
+            handles.note("resume_after_pause")
+
+        ask_reading = ByEyeReadings(s, expectations, protocol.cycles, counter,
+                                    machine.gauge_resolution_mm,
+                                    lambda: pause_here(f"at reading {counter.done + 1} of "
+                                                       f"{counter.total}"), shown)
+        setter = LegSetter(s, protocol, steps, machine, handles, self.by_eye, expectations,
+                           opts.gauge_range_mm, opts.max_offset_mm, pause_here, shown)
+        s.heading("Set the gauges and measure, leg by leg", "step 3 of 4")
+        while True:
+            if session is not None and session.finished:  # stopped while identifying
+                return CampaignOutcome(session.path, identify_session(session),
+                                       self.rehearsal.hidden() if self.rehearsal else None)
+            recorded = session.recorded() if session else set()
+            display = CycleProgress(s, steps, protocol, counter, recorded)
+            self.gate.on_deferred = display.pausing
+            campaign.gauges = [g for g in campaign.gauges if g.gauge not in self.by_eye]
+            self._write_campaign_file(campaign)
+
+            def wrap(device: DeviceStation, writer: SessionWriter,
+                     recorded: set[tuple[str, str]]) -> GuidedStation:
+                station = GuidedStation(device, self.gate, steps=steps, recorded=recorded,
+                                        expectations=expectations, by_eye=self.by_eye,
+                                        ask_reading=self._typed(ask_reading),
+                                        on_pause=lambda: pause_here(
+                                            f"after reading {counter.done} of {counter.total}"))
+                handles.station = station
+                handles.note = lambda action, **fields: writer.append("operator",
+                                                                      action=action, **fields)
+                for note in self._notes_for_session:
+                    writer.append("operator", **note)
+                self._notes_for_session.clear()
+                return station
+
+            s.say("The machine homes and moves: keep clear of it." if session is None
+                  else "Reconnecting; the machine homes again, then continues where it "
+                       "stopped.")
+            try:
+                with self.gate.deferred():
+                    return run_guided(campaign, wrap=wrap, observer=self._observer(display),
+                                      set_gauges=self._asking(setter), resume=session,
+                                      wizard_header=wizard_header, rehearsal=self.rehearsal)
+            except OperatorQuit:
+                raise
+            except CampaignStopped as stop:
+                s.stop_live()
+                self._after_stop(stop)
+            except DriverError as exc:  # before the runner: opening a port, homing
+                s.stop_live()
+                self._after_failure(exc)
+            except KeyboardInterrupt:  # while connecting or homing
+                s.stop_live()
+                pause_menu(s, "while connecting to the machine",
+                           session_path if session_path.exists() else None)
+            finally:
+                self.gate.on_deferred = lambda: None
+                handles.station = None
+                handles.note = RunHandles().note  # the run's writer is closed
+            session = load_session(session_path) if session_path.exists() else None
+
+    def _asking(self, setter: LegSetter) -> Callable[[SetGauges], None]:
+        """The gauge setting asks the technician: Ctrl-C there pauses at once, and a
+        closed terminal stops the campaign as a quit (recorded, resumable)."""
+        def set_gauges(step: SetGauges) -> None:
+            with self.gate.immediate():
+                try:
+                    setter(step)
+                except InputClosed:
+                    raise OperatorQuit("the terminal closed") from None
+
+        return set_gauges
+
+    @staticmethod
+    def _typed(ask: ByEyeReadings) -> Callable[[str, Read], GaugeValue]:
+        def ask_reading(gauge: str, step: Read) -> GaugeValue:
+            try:
+                return ask(gauge, step)
+            except InputClosed:
+                raise OperatorQuit("the terminal closed") from None
+
+        return ask_reading
+
+    def _observer(self, display: CycleProgress) -> Callable[[runner.Progress], None]:
+        if self.injector is None:
+            return display
+        injector = self.injector
+
+        def observe(progress: runner.Progress) -> None:
+            display(progress)
+            injector.observe(progress)
+
+        return observe
+
+    def _write_campaign_file(self, campaign: Campaign) -> None:
+        campaign.path.write_text(campaign_file_text(campaign, self.by_eye, self.rehearsal))
+        self.resumable_by_ogacq = protocol_round_trips(campaign.path, campaign.protocol)
+
+    def _after_stop(self, stop: CampaignStopped) -> None:
+        """Say what stopped the campaign; return to retry, raise OperatorQuit to quit."""
+        s = self.screen
+        assert self.session_path is not None
+        if stop.status == "interrupted":
+            s.say(f"[bold yellow]Stopped at once[/] ({stop.reason}). The axes were stopped; "
+                  "every reading so far is saved.")
+            if s.choose("Resume or quit?", [Option("r", "resume where it stopped"),
+                                             Option("q", "quit (the session stays resumable)")],
+                        default="r") == "q":
+                raise OperatorQuit()
+            return
+        fault = self._last_fault()
+        if fault and fault.get("during") == "read" and fault.get("gauge"):
+            gauge = fault["gauge"]
+            s.problem(f"Gauge {describe_gauge(gauge)} stopped answering "
+                      f"({self._describe_step(fault.get('step', ''))}):")
+            s.say(f"     {fault.get('message', stop.reason)}")
+            s.say("     Check its cable, that it is switched on, and its battery.")
+            self._gauge_menu(gauge)
+            return
+        s.problem(f"The campaign stopped: {stop.reason}")
+        s.say("     The axes were stopped and every reading so far is saved. Clear the cause "
+              "(an alarm, an obstacle, the emergency stop) before retrying.")
+        if s.choose("What now?", [Option("r", "retry"),
+                                  Option("q", "quit (the session stays resumable)")],
+                    default="r") == "q":
+            raise OperatorQuit()
+
+    def _after_failure(self, exc: DriverError) -> None:
+        s = self.screen
+        match = re.search(r"gauge ([xyz]_[xyz])", str(exc))
+        s.problem(f"Could not start: {exc}")
+        if match:
+            self._gauge_menu(match.group(1))
+            return
+        s.say("     Check the controller's power and cable, and that no alarm is on.")
+        if s.choose("What now?", [Option("r", "retry"),
+                                  Option("q", "quit (the session stays resumable)")],
+                    default="r") == "q":
+            raise OperatorQuit()
+
+    def _describe_step(self, step_id: str) -> str:
+        """``x/c1/p2`` as the technician knows it: x leg, cycle 1, Max posture."""
+        if self.campaign is not None:
+            for step in reading_steps(self.campaign.protocol, self.campaign.machine):
+                if step.step == step_id:
+                    return f"{step.leg} leg, cycle {step.cycle}, {step.posture.title()} posture"
+        return f"reading {step_id}"
+
+    def _last_fault(self) -> dict[str, Any] | None:
+        assert self.session_path is not None
+        faults = load_session(self.session_path).of_type("fault")
+        return faults[-1] if faults else None
+
+    def _say_quit(self) -> None:
+        s = self.screen
+        s.stop_live()
+        path = self.session_path
+        if path is None or not path.exists():
+            s.say("\nStopped. Nothing was measured. Start again with: ogacq wizard")
+            return
+        session = load_session(path)
+        s.say(f"\nStopped after {len(session.readings)} readings. The session is saved: "
+              f"{path}")
+        s.say("Continue it later with:")
+        if not self.by_eye and self.resumable_by_ogacq:
+            s.say(f"  ogacq resume {path}            (unattended)")
+        s.say(f"  ogacq wizard --resume {path}   (guided)")
+
+
+def _new_folder(out: Path | None) -> Path:
+    folder = out or Path(f"ogacq-wizard-{time.strftime('%Y%m%d-%H%M%S')}")
+    if folder.exists() and any(folder.iterdir()):
+        raise InputError(folder, "exists and is not empty: choose another --out folder")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder

@@ -1,0 +1,105 @@
+"""The station as the wizard runs it: the campaign's own station, plus
+checkpoints for Ctrl-C (the run is inside ``InterruptGate.deferred``), gauges
+read by eye, and single reads for live values.
+
+It keeps the runner's order of readings (the plan, minus what is recorded), so
+a typed reading is asked for with its posture and cycle, and each reading
+feeds the expected ranges the next ones are checked against.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from collections.abc import Callable, Iterable
+from typing import Any
+
+from drivers.indicators.base import read_stable
+from ogacq.cli.wizard.expected import ReadingExpectations
+from ogacq.cli.wizard.pause import InterruptGate
+from ogacq.protocol.plan import Read, StabilityRule
+from ogacq.protocol.runner import GaugeValue
+from ogacq.station import DeviceStation
+
+# Asks for one reading of a gauge read by eye, at a plan step; returns its value.
+AskReading = Callable[[str, Read], GaugeValue]
+
+
+class GuidedStation:
+    """Implements the runner's ``Station`` around an open ``DeviceStation``."""
+
+    def __init__(self, device: DeviceStation, gate: InterruptGate, *, steps: Iterable[Read],
+                 recorded: set[tuple[str, str]], expectations: ReadingExpectations,
+                 by_eye: set[str], ask_reading: AskReading,
+                 on_pause: Callable[[], None]) -> None:
+        self.device = device
+        self.gate = gate
+        self.by_eye = by_eye  # shared with the wizard: a gauge can switch to by-eye mid-way
+        self.expectations = expectations
+        self._ask_reading = ask_reading
+        self._on_pause = on_pause
+        self._pending: dict[str, deque[Read]] = {}
+        for step in steps:
+            for gauge in step.gauges:
+                if (step.step, gauge) not in recorded:
+                    self._pending.setdefault(gauge, deque()).append(step)
+
+    # ------------------------------------------------------------ runner's Station
+    def move(self, q_mm: tuple[float, float, float], timeout_s: float,
+             ) -> tuple[float, float, float]:
+        self._checkpoint()
+        return self.device.move(q_mm, timeout_s)
+
+    def read_gauge(self, gauge: str, rule: StabilityRule) -> GaugeValue:
+        self._checkpoint()
+        step = self.next_step(gauge)
+        if gauge in self.by_eye:
+            with self.gate.immediate():
+                value = self._ask_reading(gauge, step)
+        else:
+            value = self.device.read_gauge(gauge, rule)
+        # The runner records a reading as soon as read_gauge returns it.
+        self._pending[gauge].popleft()
+        self.expectations.observe(gauge, step.q_mm, value.value_mm)
+        return value
+
+    def settle(self, seconds: float) -> None:
+        self._checkpoint()
+        self.device.settle(seconds)
+
+    def campaign_time_s(self) -> float:
+        return self.device.campaign_time_s()
+
+    def stop_axes(self) -> None:
+        self.device.stop_axes()
+
+    def recover_axes(self) -> bool:
+        return self.device.recover_axes()
+
+    # ------------------------------------------------------------ for the wizard
+    @property
+    def description(self) -> dict[str, Any]:
+        return self.device.description
+
+    def next_step(self, gauge: str) -> Read:
+        """The plan step the next reading of ``gauge`` belongs to."""
+        return self._pending[gauge][0]
+
+    def can_read(self, gauge: str) -> bool:
+        return gauge in self.device.indicators and gauge not in self.by_eye
+
+    def read_once(self, gauge: str, timeout_s: float = 0.5) -> float:
+        """One value, for the live display; DriverError when the gauge does not answer."""
+        with self.gate.deferred():
+            return self.device.indicators[gauge].read(timeout_s=timeout_s).value_mm
+
+    def read_steady(self, gauge: str, rule: StabilityRule) -> float:
+        with self.gate.deferred():
+            stable = read_stable(self.device.indicators[gauge], rule.readings,
+                                 rule.tolerance_mm, rule.timeout_s)
+        return stable.value_mm
+
+    def _checkpoint(self) -> None:
+        """Where a deferred Ctrl-C takes effect: between actions, axes at rest."""
+        if self.gate.take_pending():
+            with self.gate.immediate():
+                self._on_pause()

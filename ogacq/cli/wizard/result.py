@@ -1,0 +1,101 @@
+"""Step 4: the result in words a technician can act on, then the write-back."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+from rich.table import Table
+
+from ogacq.campaign import CampaignOutcome
+from ogacq.cli.wizard.ui import Screen
+
+RESIDUALS_TOO_LARGE = 3.0  # residuals this many times the gauge noise: the model misses something
+
+
+def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
+    """Print the identified offsets; True when they are fit to be written back."""
+    fit = outcome.fit
+    table = Table(show_edge=False, header_style="bold", title_justify="left",
+                  title=f"Joint offsets identified from {len(fit.observations)} readings")
+    table.add_column("joint")
+    table.add_column("offset", justify="right")
+    table.add_column("± std", justify="right")
+    if outcome.hidden is not None:
+        table.add_column("simulator's truth", justify="right")
+    for name, value, std in zip(fit.names, fit.values, fit.std, strict=True):
+        row = [name.replace("joint_offset.", ""), f"{value:+.4f} mm",
+               f"{std:.4f} mm" if np.isfinite(std) else "not determined"]
+        if outcome.hidden is not None:
+            row.append(f"{outcome.hidden.get(name, 0.0):+.4f} mm")
+        table.add_row(*row)
+    screen.say(table)
+    screen.say(f"Residual rms {fit.residual_rms_mm * 1000:.2f} µm; gauge noise "
+               f"{fit.noise.describe()}.")
+    ident = fit.identifiability
+    writable = True
+    if ident.identifiable:
+        screen.ok(f"identifiable: every offset is determined by these readings "
+                  f"(condition number {ident.condition_number:.3g})")
+    else:
+        writable = False
+        screen.problem("not identifiable: do not write these offsets")
+        for reason in ident.reasons:
+            screen.say(f"     {reason}")
+    if np.isfinite(fit.sigma_mm) and fit.noise.sigma_mm > 0:
+        ratio = fit.sigma_mm / fit.noise.sigma_mm
+        if ratio > RESIDUALS_TOO_LARGE:
+            writable = False
+            screen.problem(f"the readings scatter {ratio:.0f} times more than the gauges do: "
+                           "something the model leaves out (a loose stand, play, a bent leg). "
+                           f"Look before writing: ogacq diagnose {outcome.session_path}")
+    screen.say(f"Session: {outcome.session_path}")
+    return writable
+
+
+def _writeback_command_exists() -> bool:
+    """``ogacq offsets write`` is there (it is being built beside the wizard)."""
+    if importlib.util.find_spec("ogacq.writeback") is None:
+        return False
+    try:
+        import typer.main
+
+        from ogacq.cli.app import app
+
+        group = typer.main.get_command(app)
+        offsets = group.commands.get("offsets")  # type: ignore[attr-defined]
+        return offsets is not None and "write" in getattr(offsets, "commands", {})
+    except Exception:
+        return False
+
+
+def offer_writeback(screen: Screen, session: Path, writable: bool,
+                    campaign: Path | None = None, rehearsal: bool = False) -> None:
+    """Offer ``ogacq offsets write`` (run here, with its own confirmation), or say it.
+    ``campaign`` names the controller when the session's campaign file cannot
+    (a rehearsal: the simulator the file starts does not outlive the command)."""
+    command = ["offsets", "write", str(session)]
+    if campaign is not None:
+        command += ["--campaign", str(campaign)]
+    typed = "ogacq " + " ".join(command)
+    if not writable:
+        screen.say(f"When the cause is fixed and a new campaign is consistent, write the "
+                   f"offsets with: {typed}")
+        return
+    if not _writeback_command_exists():
+        screen.say(f"To write these offsets to the controller, run:\n  [bold]{typed}[/]")
+        return
+    if not screen.confirm("Write these offsets to the controller now? (the old and new "
+                          "values are shown before anything is written)", default=False):
+        if rehearsal:
+            screen.say("Not written (rehearsal: the simulated controller stops with the "
+                       "wizard). On the machine: [bold]ogacq offsets write SESSION[/]")
+        else:
+            screen.say(f"Not written. Later: [bold]{typed}[/]")
+        return
+    from ogacq.cli.app import main
+
+    code = main(command)
+    if code != 0:
+        screen.problem(f"the write-back stopped (exit {code}); run it again with: {typed}")

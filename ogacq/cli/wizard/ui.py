@@ -1,0 +1,202 @@
+"""What the technician sees and types: headings, menus, questions, key presses.
+
+Every question loops until the answer makes sense and says what it expects;
+nothing here raises on a typo. A live display (progress bar, gauge values)
+is stopped before any question, so prompts never fight with redraws.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import select
+import sys
+from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
+from typing import Protocol, TypeVar
+
+from rich.console import Console
+
+T = TypeVar("T")
+
+console = Console(highlight=False)
+
+
+class InputClosed(Exception):
+    """The terminal closed (end of input): nobody is there to answer."""
+
+
+@dataclass(frozen=True)
+class Option:
+    key: str
+    label: str
+
+
+class LiveDisplay(Protocol):
+    """A rich ``Live`` or ``Progress``: something redrawn in place until stopped."""
+
+    def start(self) -> None: ...
+
+    def stop(self) -> None: ...
+
+
+class Screen:
+    """The console plus the one live display that may be on it."""
+
+    def __init__(self, out: Console = console) -> None:
+        self.out = out
+        self.live: LiveDisplay | None = None
+
+    # ---------------------------------------------------------------- live display
+    def show_live(self, live: LiveDisplay) -> None:
+        self.stop_live()
+        self.live = live
+        live.start()
+
+    def stop_live(self) -> None:
+        if self.live is not None:
+            live, self.live = self.live, None
+            with contextlib.suppress(Exception):
+                live.stop()
+
+    # ---------------------------------------------------------------- text
+    def heading(self, title: str, step: str = "") -> None:
+        self.stop_live()
+        self.out.print()
+        self.out.rule(f"[bold]{title}[/]" + (f"  [dim]{step}[/]" if step else ""), align="left")
+
+    def say(self, text: str = "", **kwargs) -> None:
+        self.out.print(text, **kwargs)
+
+    def ok(self, text: str) -> None:
+        self.out.print(f"[green]OK[/]  {text}")
+
+    def problem(self, text: str) -> None:
+        self.out.print(f"[bold red]!![/]  {text}")
+
+    def note(self, text: str) -> None:
+        self.out.print(f"[dim]{text}[/]")
+
+    # ---------------------------------------------------------------- questions
+    def ask(self, question: str, default: str | None = None) -> str:
+        """One line of text; the default when the answer is empty."""
+        self.stop_live()
+        shown = f" [cyan]\\[{default}][/]" if default not in (None, "") else ""
+        end = " " if question.endswith("?") else ": "
+        try:
+            answer = self.out.input(f"{question}{shown}{end}").strip()
+        except EOFError:
+            raise InputClosed("the terminal closed") from None
+        return answer if answer or default is None else default
+
+    def ask_parsed(self, question: str, parse: Callable[[str], T], default: str | None = None,
+                   ) -> T:
+        """Ask until ``parse`` accepts the answer; its ValueError says what is wrong."""
+        while True:
+            answer = self.ask(question, default)
+            try:
+                return parse(answer)
+            except ValueError as exc:
+                self.problem(str(exc))
+
+    def choose(self, question: str, options: Sequence[Option], default: str | None = None,
+               ) -> str:
+        """One of the options' keys, typed (case does not matter)."""
+        keys = {o.key.lower(): o.key for o in options}
+        for option in options:
+            self.out.print(f"  [bold cyan]{option.key}[/]  {option.label}")
+        while True:
+            answer = self.ask(question or "Your choice", default).lower()
+            if answer in keys:
+                return keys[answer]
+            self.problem(f"type one of: {', '.join(o.key for o in options)}")
+
+    def confirm(self, question: str, default: bool = True) -> bool:
+        while True:
+            answer = self.ask(f"{question} (y/n)", "y" if default else "n").lower()
+            if answer in ("y", "yes", "o", "oui"):
+                return True
+            if answer in ("n", "no", "non"):
+                return False
+            self.problem("type y or n")
+
+    def reason(self, what: str) -> str:
+        """A reason is never empty: it is what the session will say about a skip."""
+        while True:
+            text = self.ask(f"Why {what}? (one line, kept in the session)")
+            if text:
+                return text
+            self.problem("a reason is needed, so whoever reads the session knows why")
+
+
+class Keys:
+    """Single key presses while a live display runs (cbreak: no echo, Ctrl-C still works).
+
+    ``None`` from :meth:`poll` means no key within the timeout. When the input
+    is not a terminal, :attr:`interactive` is False and callers fall back to
+    asking for a line.
+    """
+
+    def __init__(self) -> None:
+        self._fd = sys.stdin.fileno() if sys.stdin and not sys.stdin.closed else -1
+        self.interactive = self._fd >= 0 and os.isatty(self._fd)
+        self._saved: list | None = None
+
+    def __enter__(self) -> Keys:
+        if self.interactive:
+            import termios
+            import tty
+
+            self._saved = termios.tcgetattr(self._fd)
+            tty.setcbreak(self._fd)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        if self._saved is not None:
+            import termios
+
+            termios.tcsetattr(self._fd, termios.TCSADRAIN, self._saved)
+            self._saved = None
+
+    def poll(self, timeout_s: float) -> str | None:
+        if not self.interactive:
+            return None
+        ready, _, _ = select.select([self._fd], [], [], timeout_s)
+        if not ready:
+            return None
+        data = os.read(self._fd, 64)
+        if not data:
+            raise InputClosed("the terminal closed")
+        return data.decode(errors="replace")
+
+
+@contextlib.contextmanager
+def keys() -> Iterator[Keys]:
+    with Keys() as reader:
+        yield reader
+
+
+def detail(exc: Exception) -> str:
+    """A driver error's message without the device name in front, for sentences
+    that already name the device."""
+    text = str(exc)
+    where = getattr(exc, "where", "")
+    return text[len(where) + 2:] if where and text.startswith(f"{where}: ") else text
+
+
+def times(count: int, noun: str = "") -> str:
+    """``once``, ``3 times``; or ``1 cycle``, ``3 cycles`` with a noun."""
+    if noun:
+        return f"{count} {noun}" + ("" if count == 1 else "s")
+    return "once" if count == 1 else f"{count} times"
+
+
+def parse_mm(text: str) -> float:
+    """A length typed by a person: ``5.71``, ``5,71`` (decimal comma), ``-0.02``."""
+    cleaned = text.strip().lower().removesuffix("mm").strip().replace(",", ".")
+    if not cleaned:
+        raise ValueError("type the value shown, in mm (for example 5.71)")
+    try:
+        return float(cleaned)
+    except ValueError:
+        raise ValueError(f"{text!r} is not a number of mm (for example 5.71)") from None

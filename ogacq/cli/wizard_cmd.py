@@ -1,0 +1,70 @@
+"""``ogacq wizard``: the guided calibration for a technician at a terminal."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ogacq.cli.app import app
+
+
+def _faults(values: list[str] | None) -> list:
+    from ogacq.cli.wizard.faults import parse_fault
+
+    try:
+        return [parse_fault(v) for v in values or []]
+    except ValueError as exc:
+        raise typer.BadParameter(str(exc), param_hint="--simulate-fault") from None
+
+
+@app.command()
+def wizard(
+    simulator: Annotated[bool, typer.Option(
+        "--simulator", help="Rehearse on the built-in simulator: its ports are offered as "
+                            "the instruments.")] = False,
+    seed: Annotated[int, typer.Option(help="Simulator: seed of the hidden offsets.")] = 0,
+    speed: Annotated[float, typer.Option(min=1.0, help="Simulator: time speed-up.")] = 20.0,
+    profile: Annotated[str, typer.Option(help="Simulator: controller register map.")]
+    = "cia402",
+    machine: Annotated[Path | None, typer.Option(
+        "--machine", "-m", help="Machine file (asked for when not given).")] = None,
+    out: Annotated[Path | None, typer.Option(
+        help="Folder for the campaign file and the session (default: a new one named "
+             "after the time).")] = None,
+    cycles: Annotated[int, typer.Option(min=1, help="Zero/Max/Min/Zero cycles per leg.")] = 3,
+    settle_s: Annotated[float, typer.Option(min=0.0, help="Wait before each reading, s.")]
+    = 1.0,
+    stability_timeout_s: Annotated[float, typer.Option(
+        min=0.1, help="Longest wait for a gauge to give a steady value, s.")] = 10.0,
+    gauge_range_mm: Annotated[float, typer.Option(
+        min=0.1, help="Plunger travel of the gauges, mm (for the mid-range check).")] = 12.7,
+    max_offset_mm: Annotated[float, typer.Option(
+        min=0.0, help="Largest joint offset expected, mm (sets the expected reading "
+                      "ranges).")] = 2.0,
+    by_eye: Annotated[bool, typer.Option(
+        "--by-eye", help="Dial indicators: type each reading (the default answer to "
+                         "'how are the gauges read').")] = False,
+    resume: Annotated[Path | None, typer.Option(
+        help="Continue this session with the wizard.")] = None,
+    simulate_fault: Annotated[list[str] | None, typer.Option(
+        hidden=True, help="Simulator: GAUGE:KIND@N[xCOUNT], a gauge fault after N "
+                          "readings.")] = None,
+) -> None:
+    """Guided calibration: connect the instruments, set the gauges leg by leg, measure,
+    identify the joint offsets."""
+    from ogacq.cli.wizard import WizardOptions, run_wizard
+
+    faults = _faults(simulate_fault)
+    if faults and not simulator and resume is None:
+        raise typer.BadParameter("faults can only be injected into the simulator",
+                                 param_hint="--simulate-fault")
+    options = WizardOptions(simulator=simulator, seed=seed, speed=speed, profile=profile,
+                            machine=machine, out=out, cycles=cycles, settle_s=settle_s,
+                            stability_timeout_s=stability_timeout_s,
+                            gauge_range_mm=gauge_range_mm, max_offset_mm=max_offset_mm,
+                            by_eye=by_eye, faults=faults, resume=resume)
+    code = run_wizard(options)
+    if code:
+        raise typer.Exit(code)  # 130: quit, the session kept

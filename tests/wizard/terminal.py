@@ -1,0 +1,90 @@
+"""Driving the real ``ogacq wizard`` in a pseudo-terminal, as a technician would."""
+
+from __future__ import annotations
+
+import os
+import re
+import sys
+from pathlib import Path
+
+import pexpect
+
+# The simulator runs fast and reads settle quickly: a campaign takes seconds.
+FAST = ["--seed", "3", "--speed", "50", "--settle-s", "0.5", "--stability-timeout-s", "1"]
+ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
+SHOWN = r"simulated gauge(?: [xyz]_[xyz])? shows (-?\d+\.\d+)"  # a rehearsal's hint
+
+
+class Wizard:
+    """``ogacq wizard --simulator`` in a new folder, or ``resume=`` a session."""
+
+    def __init__(self, folder: Path, *args: str, resume: Path | None = None,
+                 timeout_s: float = 30) -> None:
+        self.folder = folder
+        self.session = folder / "session.jsonl"
+        env = {**os.environ, "TERM": "xterm-256color", "COLUMNS": "120", "LINES": "50"}
+        env.pop("NO_COLOR", None)
+        start = ["--resume", str(resume)] if resume else \
+            ["--simulator", *FAST, "--out", str(folder)]
+        self.child = pexpect.spawn(
+            sys.executable, ["-m", "ogacq", "wizard", *start, *args],
+            env=env, dimensions=(50, 120), encoding="utf-8", timeout=timeout_s,
+            codec_errors="replace")
+        self.transcript: list[str] = []
+
+    def expect(self, pattern: str, timeout_s: float | None = None) -> re.Match:
+        """Wait for ``pattern`` (a regex) in the output; fail with the screen so far."""
+        try:
+            self.child.expect(pattern, timeout=timeout_s if timeout_s is not None else -1)
+        except (pexpect.TIMEOUT, pexpect.EOF) as exc:
+            seen = ANSI.sub("", self.child.before or "")
+            raise AssertionError(f"waited for {pattern!r}; the screen showed:\n"
+                                 f"{seen[-3000:]}") from exc
+        self.transcript.append(ANSI.sub("", (self.child.before or "") + self.child.after))
+        return self.child.match
+
+    def answer(self, prompt: str, text: str = "") -> None:
+        self.expect(prompt)
+        self.child.sendline(text)
+
+    def ctrl_c(self) -> None:
+        self.child.sendintr()
+
+    def finish(self, timeout_s: float = 30) -> int:
+        self.child.expect(pexpect.EOF, timeout=timeout_s)
+        self.transcript.append(ANSI.sub("", self.child.before or ""))
+        self.child.close()
+        return self.child.exitstatus
+
+    def close(self) -> None:
+        if self.child.isalive():
+            self.child.terminate(force=True)
+
+    # ------------------------------------------------------------------ the usual path
+    def connect_with_defaults(self, by_eye: bool = False) -> None:
+        """Step 1 and 2 accepting what the wizard detected (the simulator's ports)."""
+        self.answer(r"Register map of the controller")
+        self.answer(r"Controller port")
+        self.expect(r"controller answers")
+        self.answer(r"How are the gauges read\?")
+        if not by_eye:
+            for gauge in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"):
+                self.answer(rf"Gauge {gauge} \(on the")
+                self.expect(rf"{gauge} reads [0-9.]+ mm")
+        self.answer(r"Is this the machine you are calibrating\?")
+        self.answer(r"Start\?")
+
+    def type_what_is_shown(self, prompt: str) -> float:
+        """Rehearsal by eye: type the value the simulated gauge shows."""
+        value = self.expect(SHOWN).group(1)
+        self.answer(prompt, value.replace(".", ","))  # a decimal comma is fine
+        return float(value)
+
+    def set_gauges(self, leg: str) -> None:
+        """Wait for the leg's instruction and live values, press Enter, see the check."""
+        self.expect(rf"Leg {leg}: set the two gauges")
+        self.expect(r"Gauge [xyz]_[xyz]: plunger square to the leg")
+        self.expect(r"mid-range")  # live values are on screen
+        self.child.send("\r")
+        self.expect(r"steady, enough travel both ways")
+        self.expect(r"steady, enough travel both ways")

@@ -1,0 +1,128 @@
+"""The wizard's parts that need no terminal: expected ranges, the campaign file it
+writes, its session header against ``run_campaign``'s, fault specs, the drawing."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from ogacq.campaign import run_campaign
+from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, read_campaign
+from ogacq.cli.wizard.drawing import leg_drawing
+from ogacq.cli.wizard.execution import campaign_file_text, run_guided
+from ogacq.cli.wizard.expected import ReadingExpectations, deviation_model, travel_needed_mm
+from ogacq.cli.wizard.faults import parse_fault
+from ogacq.cli.wizard.ui import parse_mm
+from ogacq.io.machine_file import read_machine
+from ogacq.model.machine import MachineSpec
+from ogacq.protocol.plan import ProtocolConfig, reading_steps
+from ogacq.protocol.runner import CampaignStopped
+from ogacq.session.store import load_session
+from tests.campaign.conftest import write_campaign
+
+MACHINE = MachineSpec(leg_length_mm=310.25, rho_min_mm=-100.0, rho_max_mm=60.0,
+                      gauge_resolution_mm=0.001)
+
+
+def test_model_sensitivity_is_the_papers_linear_coefficients():
+    # eq. 7: dy_x+ = (0.5 + sin a) tan a * drho_x + sin a * drho_y, a = asin(rho_max / L)
+    a = math.asin(60.0 / 310.25)
+    q_max = next(s.q_mm for s in reading_steps(ProtocolConfig(), MACHINE) if s.posture == "max")
+    nominal, slope = deviation_model(MACHINE, "y_x", (0.0, 0.0, 0.0), q_max)
+    assert nominal == pytest.approx(0.0, abs=1e-9)
+    assert slope == pytest.approx([(0.5 + math.sin(a)) * math.tan(a), math.sin(a), 0.0],
+                                  abs=1e-5)
+
+
+def test_expected_range_from_setting_value_then_model_then_earlier_readings():
+    steps = reading_steps(ProtocolConfig(cycles=2), MACHINE)
+    zero, max_, min_ = (next(s for s in steps if s.leg == "x" and s.posture == p)
+                        for p in ("zero", "max", "min"))
+    exp = ReadingExpectations(MACHINE, max_offset_mm=2.0, repeat_tolerance_mm=0.05)
+    assert exp.expected("y_x", zero.q_mm).basis.startswith("the gauge's range")
+    exp.set_reference("y_x", zero.q_mm, 6.0)
+    first = exp.expected("y_x", zero.q_mm)
+    assert (first.low_mm, first.high_mm) == pytest.approx((5.95, 6.05))
+    at_min = exp.expected("y_x", min_.q_mm)
+    half = (at_min.high_mm - at_min.low_mm) / 2
+    assert half == pytest.approx((0.0605 + 0.3223) * 2.0 + 0.05, abs=2e-3)
+    assert at_min.contains(6.5) and not at_min.contains(7.0)
+    exp.observe("y_x", zero.q_mm, 6.001)
+    exp.observe("y_x", max_.q_mm, 6.412)
+    again = exp.expected("y_x", max_.q_mm)  # a later cycle repeats the earlier reading
+    assert again.basis.startswith("1 earlier reading")
+    assert again.contains(6.45) and not again.contains(6.47)
+    need = travel_needed_mm(MACHINE, "y_x", steps, 2.0)
+    assert need == pytest.approx((0.0605 + 0.3223) * 2.0, abs=2e-3)
+
+
+def test_typed_lengths_accept_decimal_comma_and_unit():
+    assert parse_mm("5,71") == 5.71 and parse_mm(" -0.02 mm") == -0.02
+    with pytest.raises(ValueError, match="type the value"):
+        parse_mm("")
+    with pytest.raises(ValueError, match="not a number"):
+        parse_mm("five")
+
+
+def test_fault_specs():
+    plan = parse_fault("y_x:silence@10x3")
+    assert (plan.gauge, plan.kind, plan.after_readings, plan.count) == ("y_x", "silence", 10, 3)
+    assert parse_fault("z_y:unplug@0").count is None
+    for bad in ("y_y:silence@1", "y_x:melt@1", "y_x silence"):
+        with pytest.raises(ValueError):
+            parse_fault(bad)
+
+
+def test_drawing_fits_an_80_column_terminal_and_names_both_gauges():
+    for leg, gauges in (("x", ("y_x", "z_x")), ("y", ("x_y", "z_y")), ("z", ("x_z", "y_z"))):
+        text = leg_drawing(leg, 80)
+        assert max(map(len, text.splitlines())) <= 80
+        assert all(g in text for g in gauges) and f"{leg} leg" in text
+
+
+def test_campaign_file_for_hardware_reads_back_the_same(tmp_path: Path):
+    (tmp_path / "machine.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
+                                           "rho_max_mm = 60.0\ngauge_resolution_mm = 0.01\n")
+    protocol = ProtocolConfig(cycles=2, settle_s=0.5)
+    gauges = [GaugeSpec(g, "mitutoyo-01a", f"/dev/ttyUSB{k}")
+              for k, g in enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"))]
+    campaign = Campaign(tmp_path / "campaign.toml", read_machine(tmp_path / "machine.toml"),
+                        tmp_path / "machine.toml", tmp_path / "session.jsonl", protocol,
+                        ControllerSpec("cia402", "192.168.0.10:502"), gauges)
+    campaign.path.write_text(campaign_file_text(campaign, set(), None))
+    again = read_campaign(campaign.path)
+    assert again.protocol.to_dict() == protocol.to_dict()
+    assert again.controller == campaign.controller
+    assert [(g.gauge, g.port, g.protocol) for g in again.gauges] == \
+        [(g.gauge, g.port, g.protocol) for g in gauges]
+    assert again.session.resolve() == campaign.session.resolve()
+
+
+def _stop_at_first_reading(progress) -> None:
+    if progress.done:
+        raise CampaignStopped("enough for a header")
+
+
+@pytest.mark.slow
+def test_session_header_matches_run_campaign(tmp_path: Path):
+    """``run_guided`` runs through ``run_campaign``: the same header, plus the wizard's."""
+    headers = []
+    for name in ("plain", "guided"):
+        campaign = read_campaign(write_campaign(tmp_path / name))
+        kwargs = {"observer": _stop_at_first_reading}
+        with pytest.raises(CampaignStopped):
+            if name == "plain":
+                run_campaign(campaign, **kwargs)
+            else:
+                run_guided(campaign, wrap=lambda device, writer, recorded: device,
+                           set_gauges=lambda step: None, resume=None, wizard_header={},
+                           rehearsal=None, **kwargs)
+        headers.append(load_session(campaign.session).header)
+    plain, guided = headers
+    assert set(guided) - set(plain) == {"wizard"}
+    assert set(plain) <= set(guided)
+    for key in ("plan", "machine", "simulator"):
+        assert guided[key] == plain[key]
+    assert set(guided["station"]) == set(plain["station"])

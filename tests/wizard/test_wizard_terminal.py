@@ -1,0 +1,185 @@
+"""The real ``ogacq wizard --simulator`` driven in a pseudo-terminal, keys and Ctrl-C
+included: a full calibration, a gauge that goes silent, a pause then quit and
+``ogacq resume``, and dial indicators read by eye."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import pytest
+
+from ogacq.campaign_file import read_campaign
+from ogacq.session.store import load_session
+from tests.wizard.terminal import SHOWN, Wizard
+
+pytestmark = pytest.mark.slow
+
+
+@pytest.fixture
+def wizards():
+    started: list[Wizard] = []
+    yield started
+    for wizard in started:
+        wizard.close()
+
+
+def start(wizards, folder, *args: str, resume=None) -> Wizard:
+    wizard = Wizard(folder, *args, resume=resume)
+    wizards.append(wizard)
+    return wizard
+
+
+def test_full_guided_calibration_to_a_result(tmp_path, wizards):
+    w = start(wizards, tmp_path / "run")
+    w.expect(r"Ports found")
+    w.expect(r"simulated gauge y_x")
+    w.connect_with_defaults()
+    for leg in "xyz":
+        w.set_gauges(leg)
+        w.expect(rf"{leg} leg measured: 24 readings")
+    w.expect(r"Joint offsets identified from 72 readings")
+    for joint in "xyz":
+        w.expect(rf"{joint}\s+│\s+[+-]\d+\.\d+ mm\s+│\s+0\.\d+ mm\s+│\s+[+-]\d+\.\d+ mm")
+    w.expect(r"Residual rms")
+    w.expect(r"identifiable: every offset is determined")
+    w.answer(r"Write these offsets to the controller now\?", "n")
+    w.expect(r"Not written \(rehearsal")
+    w.expect(r"ogacq offsets write SESSION")
+    w.expect(r"Calibration campaign complete")
+    assert w.finish() == 0
+
+    session = load_session(w.session)
+    assert session.finished and len(session.readings) == 72
+    assert session.header["wizard"]["by_eye"] == []
+    assert [r["leg"] for r in session.of_type("operator") if r["action"] == "gauges_checked"] \
+        == ["x", "y", "z"]
+    truth = session.header["simulator"]
+    assert truth["seed"] == 3
+    # the campaign file beside the session gives back the same plan (ogacq resume needs it)
+    campaign = read_campaign(tmp_path / "run" / "campaign.toml")
+    assert campaign.protocol.to_dict() == session.header["plan"]
+    assert campaign.simulator is not None and campaign.simulator.seed == 3
+
+
+def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
+    # z_x stops answering after 5 readings, for the runner's three attempts
+    w = start(wizards, tmp_path / "run", "--cycles", "1", "--simulate-fault", "z_x:silence@5x3")
+    w.connect_with_defaults()
+    w.set_gauges("x")
+    w.expect(r"Gauge z_x \(on the x leg, along z\) stopped answering", 20)
+    w.expect(r"no reply")
+    w.expect(r"retry")
+    w.expect(r"read z_x by eye from now on")
+    w.answer(r"What now\?", "r")
+    w.expect(r"continues where it stopped")
+    w.expect(r"x leg measured: 8 readings")
+    for leg in "yz":
+        w.set_gauges(leg)
+    w.expect(r"Joint offsets identified from 24 readings")
+    w.answer(r"Write these offsets", "n")
+    assert w.finish() == 0
+    session = load_session(w.session)
+    faults = session.of_type("fault")
+    assert len(faults) == 3 and {f["gauge"] for f in faults} == {"z_x"}
+    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    assert len(keys) == len(set(keys)) == 24 and session.finished
+
+
+def test_ctrl_c_pauses_resumes_then_quits_and_ogacq_resume_completes(tmp_path, wizards):
+    w = start(wizards, tmp_path / "run", "--cycles", "1")
+    w.connect_with_defaults()
+    w.set_gauges("x")
+    w.expect(r"x leg")  # the cycles are running
+    w.ctrl_c()
+    w.expect(r"Paused")
+    w.expect(r"after reading \d+ of 24")
+    w.expect(r"The axes hold their position")
+    w.answer(r"Resume or quit\?", "r")
+    w.expect(r"Resuming")
+    w.expect(r"x leg measured: 8 readings")
+    w.expect(r"Leg y: set the two gauges")
+    w.expect(r"mid-range")
+    w.ctrl_c()
+    w.expect(r"Paused")
+    w.expect(r"while setting the gauges of the y leg")
+    w.answer(r"Resume or quit\?", "q")
+    w.expect(r"Stopped after 8 readings")
+    w.expect(r"ogacq resume ")
+    assert w.finish() == 130
+
+    session = load_session(w.session)
+    assert not session.finished and len(session.readings) == 8
+    assert session.of_type("end")[-1]["status"] == "interrupted"
+    resumed = subprocess.run([sys.executable, "-m", "ogacq", "resume", str(w.session)],
+                             capture_output=True, text=True, timeout=60)
+    assert resumed.returncode == 0, resumed.stderr
+    session = load_session(w.session)
+    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    assert session.finished and len(keys) == len(set(keys)) == 24
+
+
+def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path, wizards):
+    w = start(wizards, tmp_path / "run", "--cycles", "1", "--by-eye")
+    w.connect_with_defaults(by_eye=True)  # with --by-eye, "by eye" is the default answer
+    for leg in "xyz":
+        w.expect(rf"Leg {leg}: set the two gauges")
+        for _ in range(2):  # each gauge's value as set: the reference of its readings
+            w.type_what_is_shown(r"what does it show now \(mm\)\?")
+        for k in range(8):
+            w.expect(r"Reading \d+ of 24")
+            expected = w.expect(r"Expected (-?\d+\.\d+) … (-?\d+\.\d+) mm")
+            low, high = float(expected.group(1)), float(expected.group(2))
+            if leg == "x" and k == 2:  # a misread: refused, with the range it is outside
+                shown = w.expect(SHOWN).group(1)
+                w.answer(r"reads \(mm\)", f"{high + 0.5:.3f}")
+                w.expect(r"is outside the expected")
+                w.expect(r"the same value typed twice is kept")
+                w.answer(r"reads \(mm\)", shown)
+                assert low <= float(shown) <= high
+                continue
+            assert low <= w.type_what_is_shown(r"reads \(mm\)") <= high
+    w.expect(r"Joint offsets identified from 24 readings")
+    w.expect(r"identifiable: every offset is determined")
+    w.answer(r"Write these offsets", "n")
+    assert w.finish() == 0
+    session = load_session(w.session)
+    assert session.finished
+    assert set(session.header["wizard"]["by_eye"]) == {"y_x", "z_x", "x_y", "z_y", "x_z", "y_z"}
+    assert all(r["raw"].startswith("typed ") and "kept" not in r["raw"]
+               for r in session.readings)
+
+
+def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path, wizards):
+    w = start(wizards, tmp_path / "run", "--cycles", "1", "--by-eye")
+    w.connect_with_defaults(by_eye=True)
+    for _ in range(2):
+        w.type_what_is_shown(r"what does it show now \(mm\)\?")
+    for _ in range(3):
+        w.type_what_is_shown(r"reads \(mm\)")
+    w.expect(r"Reading 4 of 24")
+    w.expect(r"reads \(mm\)")
+    w.ctrl_c()
+    w.expect(r"at reading 4 of 24")
+    w.answer(r"Resume or quit\?", "q")
+    w.expect(r"Stopped after 3 readings")
+    w.expect(r"ogacq wizard --resume ")
+    assert w.finish() == 130
+
+    again = start(wizards, tmp_path / "run", resume=w.session)
+    again.expect(r"3 readings recorded")
+    again.expect(r"controller answers")
+    for _ in range(5):  # the x leg goes on from its 4th reading: its gauges stay set
+        again.expect(r"Reading \d+ of 24")
+        again.type_what_is_shown(r"reads \(mm\)")
+    for _ in "yz":
+        for _ in range(2):
+            again.type_what_is_shown(r"what does it show now \(mm\)\?")
+        for _ in range(8):
+            again.type_what_is_shown(r"reads \(mm\)")
+    again.expect(r"Joint offsets identified from 24 readings")
+    again.answer(r"Write these offsets", "n")
+    assert again.finish() == 0
+    session = load_session(w.session)
+    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    assert session.finished and len(keys) == len(set(keys)) == 24
