@@ -1,11 +1,14 @@
 """Benchmark: the campaign's own overhead per reading (prints figures; not a test).
 
-A simulated papers' campaign (72 readings) is run through the real drivers. From
-its wall time we subtract what the machine and the wire take by themselves:
-the simulated motion (trapezoidal moves plus settling, at the simulator's
-speed-up), the protocol's settle time, and the gauges' line time (each request
-and reply at 9600 baud). What remains, per reading, is the campaign's own
-overhead: runner, session writes (fsync), Modbus polling, parsing.
+A papers' campaign (72 readings) runs through the real drivers against
+`ogacq sim` in a separate process, as it would against a real controller and
+real gauges (an in-process simulator would bill its own physics to the
+campaign). From the campaign's wall time we subtract what the machine and the
+wire take by themselves: the simulated motion (trapezoidal moves plus
+settling, at the simulator's speed-up), the protocol's settle time, and the
+gauges' line time (each request and reply at 9600 baud). What remains, per
+reading, is the campaign's own overhead: runner, session writes (fsync),
+Modbus transactions of verified moves and status polls, frame parsing.
 Target: under 5 ms per reading on top of the wire time.
 
 Run: python bench/bench_campaign.py
@@ -13,7 +16,12 @@ Run: python bench/bench_campaign.py
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import signal
+import subprocess
+import sys
 import tempfile
 import time
 from pathlib import Path
@@ -24,53 +32,96 @@ from ogacq.protocol.runner import CampaignRunner
 from ogacq.session.store import SessionWriter
 from ogacq.station import open_station
 
+SPEED = 25.0
+SETTLE_S = 1.0  # machine time
+BAUD_BYTE_S = 10 / 9600
+# the simulator's motion model defaults (drivers/sim/motion.py)
+SPEED_MM_S, ACCEL_MM_S2, MOTION_SETTLE_S = 100.0, 2000.0, 0.02
 MACHINE = "leg_length_mm = 310.25\nrho_min_mm = -100.0\nrho_max_mm = 60.0\n" \
-          "gauge_resolution_mm = 0.001\n"
+          "gauge_resolution_mm = 0.01\n"
 
 
-def move_time_s(distance_mm: float, speed: float, accel: float) -> float:
-    if distance_mm <= speed**2 / accel:
-        return 2 * math.sqrt(distance_mm / accel) if distance_mm > 0 else 0.0
-    return distance_mm / speed + speed / accel
+def move_time_s(distance_mm: float) -> float:
+    if distance_mm <= 0:
+        return 0.0
+    if distance_mm <= SPEED_MM_S**2 / ACCEL_MM_S2:
+        return 2 * math.sqrt(distance_mm / ACCEL_MM_S2)
+    return distance_mm / SPEED_MM_S + SPEED_MM_S / ACCEL_MM_S2
+
+
+def start_simulator() -> tuple[subprocess.Popen, dict]:
+    proc = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", str(SPEED),
+                             "--seed", "1", "--json"], stdout=subprocess.PIPE,
+                            start_new_session=True, text=True)
+    return proc, json.loads(proc.stdout.readline())
+
+
+def _count_exchanges(indicators: dict) -> list[int]:
+    """Count request/reply exchanges as the campaign makes them (a stable reading
+    takes three or more, as many as it needs to agree)."""
+    counter = [0]
+    for indicator in indicators.values():
+        read = indicator.read
+
+        def counted(*args, _read=read, **kwargs):
+            counter[0] += 1
+            return _read(*args, **kwargs)
+
+        indicator.read = counted
+    return counter
+
+
+def campaign_text(info: dict) -> str:
+    m = info["modbus"]
+    lines = ['machine = "machine.toml"', 'session = "s.jsonl"', "[controller]",
+             f'profile = "{m["profile"]}"', f'port = "{m["host"]}:{m["port"]}"',
+             # the external simulator settles on its own clock: real seconds here
+             "[protocol]", f"settle_s = {SETTLE_S / SPEED}"]
+    for key, g in info["gauges"].items():
+        lines += ["[[gauges]]", f'gauge = "{key}"', f'protocol = "{g["protocol"]}"',
+                  f'port = "{g["port"]}"']
+    return "\n".join(lines) + "\n"
 
 
 def main() -> None:
     folder = Path(tempfile.mkdtemp(prefix="ogacq-bench-"))
     (folder / "machine.toml").write_text(MACHINE)
-    (folder / "campaign.toml").write_text(
-        'machine = "machine.toml"\nsession = "s.jsonl"\n[simulator]\nseed = 1\nspeed = 25\n'
-        '[protocol]\nsettle_s = 1.0\n')
-    campaign = read_campaign(folder / "campaign.toml")
-    with open_station(campaign) as station:
-        station.prepare()
-        motion = station.simulator.motion
-        speed_up = station.simulator.clock.speed
-        with SessionWriter.create(campaign.session, {"plan": None}) as writer:
-            runner = CampaignRunner(station, writer, campaign.protocol, campaign.machine)
-            start = time.perf_counter()
-            runner.run()
-            wall = time.perf_counter() - start
-        gauges = station.simulator.gauges.values()
-        exchanges = sum(g.requests_received for g in gauges)
-        line_s = sum(g.requests_received * 2 + g.frames_sent * 13 for g in gauges) \
-            * next(iter(gauges)).byte_time_s
+    proc, info = start_simulator()
+    try:
+        (folder / "campaign.toml").write_text(campaign_text(info))
+        campaign = read_campaign(folder / "campaign.toml")
+        with open_station(campaign) as station:
+            station.prepare()
+            exchanges = _count_exchanges(station.indicators)
+            with SessionWriter.create(campaign.session, {"plan": None}) as writer:
+                runner = CampaignRunner(station, writer, campaign.protocol, campaign.machine)
+                start = time.perf_counter()
+                runner.run()
+                wall = time.perf_counter() - start
+        from ogacq.session.store import load_session
 
-    motion_sim = 0.0
-    last = (0.0, 0.0, 0.0)
-    for step in campaign_steps(campaign.protocol, campaign.machine):
-        if isinstance(step, Move):
-            longest = max(abs(a - b) for a, b in zip(step.q_mm, last, strict=True))
-            motion_sim += move_time_s(longest, motion.speed_mm_s, motion.accel_mm_s2)
-            motion_sim += motion.settle_s
-            last = step.q_mm
-    motion_s = motion_sim / speed_up
-    reads = 36
-    settle_s = reads * campaign.protocol.settle_s / speed_up
+        moves = load_session(campaign.session).of_type("move")
+    finally:
+        os.killpg(proc.pid, signal.SIGINT)
+        proc.wait(10)
+
+    motion_sim, last = 0.0, (0.0, 0.0, 0.0)
+    for move in moves:
+        motion_sim += move_time_s(max(abs(a - b) for a, b in
+                                      zip(move["q_mm"], last, strict=True))) + MOTION_SETTLE_S
+        last = tuple(move["q_mm"])
+    motion_s = motion_sim / SPEED
+    reads = sum(1 for s in campaign_steps(campaign.protocol, campaign.machine)
+                if not isinstance(s, Move)) - 3
+    settle_s = reads * campaign.protocol.settle_s
     readings = runner.total_readings
+    # every request/reply exchange is 2 + 13 bytes on the line
+    line_s = exchanges[0] * 15 * BAUD_BYTE_S
     overhead = wall - motion_s - settle_s - line_s
-    print(f"campaign: {readings} readings in {wall:.2f} s wall (simulator x{speed_up:g})")
+    print(f"campaign: {readings} readings, {len(moves)} moves in {wall:.2f} s wall "
+          f"(ogacq sim in its own process, x{SPEED:g})")
     print(f"  motion {motion_s:.2f} s + settle {settle_s:.2f} s + gauge line {line_s:.2f} s "
-          f"({exchanges} exchanges at 9600 baud)")
+          f"({exchanges[0]} exchanges at 9600 baud)")
     print(f"  overhead {overhead:.2f} s = {overhead / readings * 1000:.2f} ms per reading "
           f"(target < 5 ms); wire time per reading {line_s / readings * 1000:.1f} ms, "
           f"overhead/wire ratio {overhead / line_s:.2f}")

@@ -19,7 +19,7 @@ from drivers.sim.clock import SimClock
 from drivers.sim.truth import SimTruth
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
-from ogacq.model.parameters import AXES
+from ogacq.model.parameters import AXES, PARAM_INDEX
 
 GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
 
@@ -41,6 +41,11 @@ class SimMachine:
         # Each gauge's reading at its setting posture: somewhere mid-stroke.
         self._zero_mm = {(j, i): float(self._rng.uniform(0.4, 0.6) * GAUGE_STROKE_MM)
                          for i in range(3) for j in range(3) if i != j}
+        # A gauge polled at rest asks the same pose again and again: without drift
+        # its noise-free coordinate depends on the pose only, so keep it.
+        self._drifts = bool(np.any(truth.theta[[PARAM_INDEX[f"thermal_drift.{a}"]
+                                                for a in AXES]] != 0))
+        self._pose_cache: dict[tuple, float] = {}
 
     def coordinate_mm(self, gauge_axis: int, leg: int, q_mm: np.ndarray,
                       approach: np.ndarray, t_s: float) -> float:
@@ -55,9 +60,15 @@ class SimMachine:
 
     def gauge_value_mm(self, gauge_axis: int, leg: int) -> float:
         """What the gauge along ``gauge_axis`` on ``leg`` reads now, noise included."""
-        q = np.array([self.encoders.raw_position_mm(a) for a in AXES])
-        approach = np.array([self.encoders.last_direction(a) for a in AXES])
-        coord = self.coordinate_mm(gauge_axis, leg, q, approach, self.clock.now())
+        q = tuple(self.encoders.raw_position_mm(a) for a in AXES)
+        approach = tuple(self.encoders.last_direction(a) for a in AXES)
+        key = (gauge_axis, leg, q, approach)
+        coord = None if self._drifts else self._pose_cache.get(key)
+        if coord is None:
+            coord = self.coordinate_mm(gauge_axis, leg, np.array(q), np.array(approach),
+                                       self.clock.now())
+            if not self._drifts and len(self._pose_cache) < 10_000:
+                self._pose_cache[key] = coord
         with self._lock:
             noise = self._rng.normal(0.0, self.truth.noise_mm) if self.truth.noise_mm else 0.0
         return self._zero_mm[(gauge_axis, leg)] + coord + noise

@@ -1,8 +1,10 @@
 """Campaign sessions: one append-only file of JSON records, one per line.
 
-Every reading, move, prompt answer and event is written and flushed to disk
-(fsync) as it happens, so a crash, a Ctrl-C or a killed process loses nothing
-that was measured. The first record describes the session (machine, station,
+Every reading, move, prompt answer and event is written to the operating
+system as it happens, so a crash, a Ctrl-C or a killed process loses nothing
+that was measured; a background thread then forces each record to the disk
+(fsync) within milliseconds, against a power cut, without holding the campaign
+up for the disk's latency. The first record describes the session (machine, station,
 plan, software version); the rest are appended in the order they happened. A
 record cut by a crash mid-write (a torn last line) is dropped on loading with a
 warning naming it; everything before it stands.
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import json
 import os
+import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -47,13 +50,40 @@ class LoadedSession:
                    for r in self.records)
 
 
+class _Syncer(threading.Thread):
+    """Forces written records to the disk soon after they are written."""
+
+    def __init__(self, fd: int) -> None:
+        super().__init__(name="session-fsync", daemon=True)
+        self._fd = fd
+        self._pending = threading.Event()
+        self._closing = False
+
+    def poke(self) -> None:
+        self._pending.set()
+
+    def run(self) -> None:
+        while True:
+            self._pending.wait()
+            self._pending.clear()
+            os.fsync(self._fd)
+            if self._closing:
+                return
+
+    def finish(self) -> None:
+        self._closing = True
+        self._pending.set()
+        self.join()
+
+
 class SessionWriter:
     """Appends records durably. Opened on a new file (``create``) or to resume."""
 
-    def __init__(self, path: Path, handle, t0_monotonic: float) -> None:
+    def __init__(self, path: Path, handle) -> None:
         self.path = path
         self._fh = handle
-        self._t0 = t0_monotonic
+        self._syncer = _Syncer(handle.fileno())
+        self._syncer.start()
 
     @classmethod
     def create(cls, path: str | Path, header: dict[str, Any]) -> SessionWriter:
@@ -64,7 +94,7 @@ class SessionWriter:
         except FileExistsError:
             raise InputError(path, "a session already exists here; resume it with "
                              f"`ogacq resume {path}` or choose another name") from None
-        writer = cls(path, fh, time.monotonic())
+        writer = cls(path, fh)
         writer._write({"type": "session", "format": FORMAT, "software": f"ogacq {__version__}",
                        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **header})
         return writer
@@ -77,8 +107,7 @@ class SessionWriter:
         if keep != raw:
             with session.path.open("r+b") as fh:
                 fh.truncate(len(keep))
-        fh = session.path.open("a", encoding="utf-8")
-        writer = cls(session.path, fh, time.monotonic())
+        writer = cls(session.path, session.path.open("a", encoding="utf-8"))
         writer.append("resume", software=f"ogacq {__version__}",
                       after_records=len(session.records))
         return writer
@@ -87,12 +116,16 @@ class SessionWriter:
         self._write({"type": kind, "wall": round(time.time(), 3), **fields})
 
     def _write(self, record: dict[str, Any]) -> None:
+        # One write of the whole line, then into the OS: a killed process cannot
+        # lose it after this; the syncer puts it on the disk.
         self._fh.write(json.dumps(record, separators=(",", ":")) + "\n")
         self._fh.flush()
-        os.fsync(self._fh.fileno())
+        self._syncer.poke()
 
     def close(self) -> None:
         if not self._fh.closed:
+            self._fh.flush()
+            self._syncer.finish()  # the last fsync, before the file is closed
             self._fh.close()
 
     def __enter__(self) -> SessionWriter:
