@@ -100,14 +100,20 @@ class SessionWriter:
         return writer
 
     @classmethod
+    def append_to(cls, path: str | Path) -> SessionWriter:
+        """A writer at the end of an existing session, after cutting off a torn last
+        record (appending after it would corrupt the file)."""
+        path = Path(path)
+        raw = path.read_bytes()
+        if raw and not raw.endswith(b"\n"):
+            with path.open("r+b") as fh:
+                fh.truncate(raw.rfind(b"\n") + 1)
+        return cls(path, path.open("a", encoding="utf-8"))
+
+    @classmethod
     def reopen(cls, session: LoadedSession) -> SessionWriter:
-        """Append to an existing session, after cutting off a torn last record."""
-        raw = session.path.read_bytes()
-        keep = raw[: raw.rfind(b"\n") + 1] if not raw.endswith(b"\n") else raw
-        if keep != raw:
-            with session.path.open("r+b") as fh:
-                fh.truncate(len(keep))
-        writer = cls(session.path, session.path.open("a", encoding="utf-8"))
+        """Append to a session to resume its campaign; the resume is recorded."""
+        writer = cls.append_to(session.path)
         writer.append("resume", software=f"ogacq {__version__}",
                       after_records=len(session.records))
         return writer

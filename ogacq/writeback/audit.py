@@ -11,7 +11,6 @@ what the controller held afterwards). Records of one attempt share an
 from __future__ import annotations
 
 import secrets
-import time
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -46,13 +45,8 @@ class AuditLog:
 
 def _append_to(path: Path) -> SessionWriter:
     """A writer at the end of the session. Not ``SessionWriter.reopen``: that records a
-    campaign resume, and a write-back is not one. A torn last record (a crash mid-write)
-    is cut off first, as a resume does, or appending after it would corrupt the file."""
-    raw = path.read_bytes()
-    if raw and not raw.endswith(b"\n"):
-        with path.open("r+b") as fh:
-            fh.truncate(raw.rfind(b"\n") + 1)
-    return SessionWriter(path, path.open("a", encoding="utf-8"), time.monotonic())
+    campaign resume, and a write-back is not one."""
+    return SessionWriter.append_to(path)
 
 
 def new_operation_id(action: str) -> str:
