@@ -81,9 +81,13 @@ class DeviceStation:
         self.controller.stop()
 
     def recover_axes(self) -> bool:
+        """Reset alarms and switch the drives back on (a CiA 402 fault drops the power
+        stage); True when every axis is ready to move again."""
         try:
             self.controller.reset_alarms()
-            return not any(s.fault or s.alarm_code for s in self.controller.read_status().values())
+            self.controller.enable()
+            return not any(s.fault or s.alarm_code or not s.servo_on
+                           for s in self.controller.read_status().values())
         except DriverError:
             return False
 

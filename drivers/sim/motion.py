@@ -43,6 +43,7 @@ class Alarm(enum.Enum):
     """Alarms the model raises; the server maps them to the profile's codes."""
 
     SOFT_LIMIT = "soft_limit"
+    OVERLOAD = "overload"  # injected by tests: a drive fault in the middle of a campaign
 
 
 class Outcome(enum.Enum):
@@ -311,6 +312,16 @@ class MotionModel:
             if ax.segment is not None:
                 self._halt(ax, now)
                 log.info("sim axis %s: stopped at raw %.3f mm", axis, ax.raw_mm)
+
+    def inject_alarm(self, axis: str, alarm: Alarm = Alarm.OVERLOAD) -> None:
+        """A drive fault now: the axis halts where it is and refuses to move until reset."""
+        with self._lock:
+            now = self.clock.now()
+            ax = self._update(axis, now)
+            if ax.segment is not None:
+                self._halt(ax, now)
+            ax.alarm = alarm
+            log.info("sim axis %s: alarm %s injected", axis, alarm.value)
 
     def reset_alarm(self, axis: str) -> None:
         with self._lock:

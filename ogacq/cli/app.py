@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 from typer.exceptions import TyperException
 
+from drivers.errors import DriverError
 from ogacq import __version__
 from ogacq.io.errors import InputError
 
@@ -18,6 +19,9 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
 
 MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+EXIT_DEVICE = 3  # a device fault or an unreachable device
 
 
 class UserError(Exception):
@@ -53,6 +57,8 @@ def _register() -> None:
 
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="ogacq: warning: %(message)s")
+    # pymodbus logs a refused connection too; our own one-line error names the device
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
     _register()
     try:
         # Outside standalone mode click returns typer.Exit's code instead of exiting.
@@ -60,6 +66,9 @@ def main(argv: list[str] | None = None) -> int:
     except (InputError, UserError) as exc:
         typer.echo(f"ogacq: error: {exc}", err=True)
         return 2
+    except DriverError as exc:  # a device unreachable or failing before a campaign began
+        typer.echo(f"ogacq: device error: {exc}", err=True)
+        return EXIT_DEVICE
     except typer.Exit as exc:
         return exc.exit_code
     except typer.Abort:

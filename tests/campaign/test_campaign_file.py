@@ -56,3 +56,15 @@ def test_two_protocols_on_one_port_refused(tmp_path):
     proc = run_ogacq("run", path)
     assert proc.returncode == 2
     assert f"{path}:11:" in proc.stderr and "one port speaks one protocol" in proc.stderr
+
+
+def test_unreachable_controller_is_named_and_nothing_is_written(tmp_path):
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(HEAD + CONTROLLER + ALL_GAUGES)  # nothing listens on 127.0.0.1:1
+    proc = run_ogacq("run", path)
+    assert proc.returncode == 3
+    message = proc.stderr.strip()
+    assert len(message.splitlines()) == 1 and "Traceback" not in proc.stderr, message
+    assert "127.0.0.1:1" in message and "cannot connect" in message
+    assert not (tmp_path / "s.jsonl").exists()

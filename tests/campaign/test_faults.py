@@ -73,3 +73,45 @@ def test_dead_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind):
     keys = [(r["step"], r["gauge"]) for r in session.readings]
     assert len(keys) == len(set(keys)) == 72
     assert session.finished
+
+
+def test_axis_alarm_is_reset_and_the_move_retried(campaign_dir):
+    campaign = read_campaign(write_campaign(campaign_dir, seed=7, extra=FAST))
+    with open_station(campaign) as station:
+        station.prepare()
+        fired = []
+
+        def observer(progress: Progress) -> None:
+            if progress.done == 20 and not fired:
+                station.simulator.motion.inject_alarm("y")
+                fired.append(True)
+
+        with SessionWriter.create(campaign.session, {"plan": None}) as writer:
+            runner_for(station, writer, campaign, observer=observer).run()
+    session = load_session(campaign.session)
+    assert session.finished and len(session.readings) == 72
+    faults = [f for f in session.of_type("fault") if f["during"] == "move"]
+    assert len(faults) == 1 and "alarm" in faults[0]["message"]
+
+
+def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir):
+    campaign = read_campaign(write_campaign(campaign_dir, seed=8, extra=FAST))
+    with open_station(campaign) as station:
+        station.prepare()
+        fired = []
+
+        def observer(progress: Progress) -> None:
+            if progress.done == 12 and not fired:
+                station.simulator.server.stop()  # the Modbus side goes silent
+                fired.append(True)
+
+        writer = SessionWriter.create(campaign.session, {"plan": None})
+        with pytest.raises(CampaignStopped) as stopped:
+            runner_for(station, writer, campaign, observer=observer).run()
+        writer.close()
+    assert "modbus" in stopped.value.reason.lower()
+    session = load_session(campaign.session)
+    end = session.of_type("end")[-1]
+    assert end["status"] == "stopped"
+    assert end["axes_stopped"] is False  # and the session says the stop could not be sent
+    assert len(session.readings) == 12  # nothing measured is lost
