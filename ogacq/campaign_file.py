@@ -38,13 +38,13 @@ the file and the line.
 from __future__ import annotations
 
 import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
+from ogacq.io.toml_file import line_of, read_toml
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 
@@ -109,13 +109,11 @@ class _Source:
 
     def __init__(self, path: Path, text: str) -> None:
         self.path = path
+        self.text = text
         self.lines = text.splitlines()
 
     def line(self, key: str, after: int = 0) -> int | None:
-        for number, line in enumerate(self.lines[after:], after + 1):
-            if re.match(rf"\s*(\[\[?{re.escape(key)}\]\]?|{re.escape(key)}\s*=)", line):
-                return number
-        return None
+        return line_of(self.text, key, after)
 
     def fail(self, problem: str, key: str | None = None, after: int = 0) -> InputError:
         return InputError(self.path, problem, self.line(key, after) if key else None)
@@ -151,15 +149,9 @@ def _kind_name(kind: type | tuple) -> str:
 def read_campaign(path: str | Path) -> Campaign:
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(path, f"cannot read campaign file: {exc.strerror or exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        match = re.search(r"line (\d+)", str(exc))
-        raise InputError(path, f"not valid TOML: {str(exc).split(' (at')[0]}",
-                         int(match.group(1)) if match else None) from None
+        data, text = read_toml(path, "campaign file")
+    except FileNotFoundError:
+        raise InputError(path, "no such campaign file") from None
     src = _Source(path, text)
     _check_keys(src, data, _TOP, "the campaign file")
     base = path.parent

@@ -16,11 +16,11 @@ from __future__ import annotations
 import logging
 import time
 from collections import deque
-from collections.abc import Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from decimal import Decimal
-from typing import Literal, Protocol, runtime_checkable
+from typing import Literal, Protocol, TypeVar, runtime_checkable
 
 import serial
 
@@ -41,6 +41,7 @@ except ImportError:  # pragma: no cover - Windows
     _LINK_FAILURES = (OSError,)
 
 log = logging.getLogger(__name__)
+T = TypeVar("T")
 
 Unit = Literal["mm", "inch"]
 UNITS: tuple[Unit, ...] = ("mm", "inch")
@@ -286,6 +287,7 @@ class SerialIndicator:
             with link_errors(where, "configuring the link"):
                 link.timeout = POLL_S
         self._reader = FrameReader(link, where=where)
+        self._cut_by_flush = False  # set by drivers of pushed streams when they flush
 
     def flush_input(self) -> None:
         """Discard whatever the gauge sent before now."""
@@ -316,6 +318,23 @@ class SerialIndicator:
 
     def _read_frame(self, deadline: float) -> bytes:
         return self._reader.read_frame(deadline)
+
+    def _read_decoded(self, deadline: float, decode: Callable[..., T]) -> tuple[bytes, T]:
+        """The next frame and what ``decode`` makes of it. On a line the device
+        pushes frames onto, the first frame after a flush may be the tail of one the
+        flush cut: that one is dropped, not reported as garbled."""
+        while True:
+            frame = self._read_frame(deadline)
+            try:
+                decoded = decode(frame, where=self.where)
+            except FrameError:
+                if self._cut_by_flush:
+                    self._cut_by_flush = False
+                    log.debug("%s: dropped a partial frame after flush: %r", self.where, frame)
+                    continue
+                raise
+            self._cut_by_flush = False
+            return frame, decoded
 
 
 def read_stable(

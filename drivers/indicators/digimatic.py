@@ -123,13 +123,13 @@ class DigimaticBridge(SerialIndicator):
         self.mode: Mode = mode
         self.channel = channel
         # Opening may have landed mid-stream, just like a flush.
-        self._just_flushed = mode == "streaming"
+        self._cut_by_flush = mode == "streaming"
         self._last_unit_nibble: str | None = None
 
     def flush_input(self) -> None:
         super().flush_input()
         # The flush may cut a streamed frame: its tail is dropped, not reported.
-        self._just_flushed = self.mode == "streaming"
+        self._cut_by_flush = self.mode == "streaming"
 
     def read(self, timeout_s: float | None = None) -> Reading:
         """Polled: flush, ask, decode the answer. Streaming: the next frame to arrive."""
@@ -137,26 +137,16 @@ class DigimaticBridge(SerialIndicator):
         if self.mode == "polled":
             self.flush_input()
             self._send(POLL_REQUEST)
-        while True:
-            frame = self._read_frame(deadline)
-            try:
-                decoded = decode_frame(frame, where=self.where)
-            except FrameError:
-                if self._just_flushed:
-                    self._just_flushed = False
-                    log.debug("%s: dropped a partial frame after flush: %r", self.where, frame)
-                    continue
-                raise
-            self._just_flushed = False
-            self._note_unit(decoded)
-            return Reading(
-                value_mm=to_mm(decoded.value, decoded.unit),
-                frame=frame,
-                time_s=time.time(),
-                channel=self.channel,
-                unit=decoded.unit,
-                where=self.where,
-            )
+        frame, decoded = self._read_decoded(deadline, decode_frame)
+        self._note_unit(decoded)
+        return Reading(
+            value_mm=to_mm(decoded.value, decoded.unit),
+            frame=frame,
+            time_s=time.time(),
+            channel=self.channel,
+            unit=decoded.unit,
+            where=self.where,
+        )
 
     def _note_unit(self, decoded: DigimaticFrame) -> None:
         if decoded.unit_nibble == self._last_unit_nibble:

@@ -164,12 +164,12 @@ class UWaveReceiver(SerialIndicator):
             )
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
-        self._just_flushed = True
+        self._cut_by_flush = True  # opening may land mid-frame, as a flush does
         self._last_unit: Unit | None = None
 
     def flush_input(self) -> None:
         super().flush_input()
-        self._just_flushed = True
+        self._cut_by_flush = True
 
     def read(self, timeout_s: float | None = None) -> Reading:
         """The next reading pushed for this transmitter.
@@ -179,16 +179,7 @@ class UWaveReceiver(SerialIndicator):
         """
         deadline = self._deadline(timeout_s)
         while True:
-            frame = self._read_frame(deadline)
-            try:
-                decoded = decode_frame(frame, where=self.where)
-            except FrameError:
-                if self._just_flushed:
-                    self._just_flushed = False
-                    log.debug("%s: dropped a partial frame after flush: %r", self.where, frame)
-                    continue
-                raise
-            self._just_flushed = False
+            frame, decoded = self._read_decoded(deadline, decode_frame)
             if not self._is_mine(decoded.gauge_id):
                 log.debug("%s: ignoring frame from transmitter %s", self.where, decoded.gauge_id)
                 continue

@@ -17,14 +17,13 @@ table per effect, plus the gauges' noise and an out-of-library lead-screw error
 
 from __future__ import annotations
 
-import re
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from ogacq.io.errors import InputError
+from ogacq.io.toml_file import line_of, read_toml
 from ogacq.model.parameters import AXES, EFFECT_BY_NAME, PARAM_INDEX, vector
 
 
@@ -62,35 +61,25 @@ def random_truth(seed: int, offsets_mm: float = 1.5, noise_mm: float = 0.001) ->
     return SimTruth(vector(values), noise_mm)
 
 
-def _line_of(text: str, key: str) -> int | None:
-    for number, line in enumerate(text.splitlines(), 1):
-        if re.match(rf"\s*(\[{re.escape(key)}\]|{re.escape(key)}\s*=)", line):
-            return number
-    return None
-
-
 def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
     """``base`` with the effects file's entries applied on top."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-        data = tomllib.loads(text)
-    except OSError as exc:
-        raise InputError(path, f"cannot read effects file: {exc.strerror or exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError(path, f"not valid TOML: {exc}") from None
+        data, text = read_toml(path, "effects file")
+    except FileNotFoundError:
+        raise InputError(path, "no such effects file") from None
     theta = base.theta.copy()
     noise = base.noise_mm
     lead: dict[int, LeadScrewError] = dict(base.lead_screw)
     for section, entries in data.items():
         if not isinstance(entries, dict):
             raise InputError(path, f"{section!r} must be a table like [{section}]",
-                             _line_of(text, section))
+                             line_of(text, section))
         if section == "gauges":
             for key, value in entries.items():
                 if key != "noise_mm" or not _is_number(value) or value < 0:
                     raise InputError(path, f"[gauges] takes noise_mm = a number >= 0, got "
-                                     f"{key} = {value!r}", _line_of(text, key))
+                                     f"{key} = {value!r}", line_of(text, key))
                 noise = float(value)
             continue
         if section == "lead_screw":
@@ -98,7 +87,7 @@ def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
                 if axis not in AXES or not isinstance(spec, dict) or \
                         set(spec) != {"amplitude_mm", "pitch_mm"} or spec["pitch_mm"] <= 0:
                     raise InputError(path, f"[lead_screw.{axis}] needs axis x, y or z with "
-                                     "amplitude_mm and pitch_mm > 0", _line_of(text, axis))
+                                     "amplitude_mm and pitch_mm > 0", line_of(text, axis))
                 lead[AXES.index(axis)] = LeadScrewError(float(spec["amplitude_mm"]),
                                                         float(spec["pitch_mm"]))
             continue
@@ -106,15 +95,15 @@ def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
         if effect is None:
             raise InputError(path, f"unknown effect [{section}]; known: "
                              f"{', '.join(EFFECT_BY_NAME)}, gauges, lead_screw",
-                             _line_of(text, section))
+                             line_of(text, section))
         for where, value in entries.items():
             name = f"{section}.{where}"
             if name not in PARAM_INDEX:
                 raise InputError(path, f"[{section}] has no {where!r}; it takes "
-                                 f"{', '.join(effect.wheres)}", _line_of(text, where))
+                                 f"{', '.join(effect.wheres)}", line_of(text, where))
             if not _is_number(value):
                 raise InputError(path, f"{name} must be a number in {effect.unit}",
-                                 _line_of(text, where))
+                                 line_of(text, where))
             theta[PARAM_INDEX[name]] = float(value)
     return SimTruth(theta, noise, lead)
 

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import re
-import tomllib
 from pathlib import Path
 
 from ogacq.io.errors import InputError
+from ogacq.io.toml_file import line_of, read_toml
 from ogacq.model.machine import MachineSpec
 
 REQUIRED = ("leg_length_mm", "rho_min_mm", "rho_max_mm", "gauge_resolution_mm")
@@ -14,27 +13,11 @@ OPTIONAL = ("gauge_repeatability_mm",)
 UNIT_SUFFIX = "_mm"
 
 
-def _line_of(text: str, key: str) -> int | None:
-    for number, line in enumerate(text.splitlines(), 1):
-        if re.match(rf"\s*{re.escape(key)}\s*=", line):
-            return number
-    return None
-
-
 def read_machine(path: str | Path) -> MachineSpec:
-    path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise InputError(path, f"cannot read machine file: {exc.strerror or exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        line = getattr(exc, "lineno", None)
-        if line is None:
-            match = re.search(r"line (\d+)", str(exc))
-            line = int(match.group(1)) if match else None
-        raise InputError(path, f"not valid TOML: {str(exc).split(' (at')[0]}", line) from None
+        data, text = read_toml(path, "machine file")
+    except FileNotFoundError:
+        raise InputError(path, "no such machine file") from None
     return machine_from_mapping(data, path, text)
 
 
@@ -50,7 +33,7 @@ def machine_from_mapping(data: dict, path: str | Path = "<machine>", text: str =
             hint = f"; lengths are in mm: did you mean {stem}{UNIT_SUFFIX}?"
         elif f"{key}{UNIT_SUFFIX}" in known:
             hint = f"; keys carry their unit: did you mean {key}{UNIT_SUFFIX}?"
-        raise InputError(path, f"unknown key {key!r}{hint}", _line_of(text, key))
+        raise InputError(path, f"unknown key {key!r}{hint}", line_of(text, key))
     for key in REQUIRED:
         if key not in data:
             raise InputError(path, f"missing key {key!r} (required: {', '.join(REQUIRED)})")
@@ -61,7 +44,7 @@ def machine_from_mapping(data: dict, path: str | Path = "<machine>", text: str =
         value = data[key]
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputError(path, f"{key} must be a number in mm, got {value!r}",
-                             _line_of(text, key))
+                             line_of(text, key))
         values[key] = float(value)
     try:
         return MachineSpec(
@@ -72,4 +55,4 @@ def machine_from_mapping(data: dict, path: str | Path = "<machine>", text: str =
     except ValueError as exc:
         problem = str(exc).split("; ")[0]
         key = next((k for k in (*REQUIRED, *OPTIONAL) if k in problem), "rho_max_mm")
-        raise InputError(path, f"impossible geometry: {problem}", _line_of(text, key)) from None
+        raise InputError(path, f"impossible geometry: {problem}", line_of(text, key)) from None

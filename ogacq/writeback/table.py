@@ -19,15 +19,14 @@ import contextlib
 import logging
 import math
 import os
-import re
 import tempfile
 import time
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ogacq.io.errors import InputError
+from ogacq.io.toml_file import line_of, read_toml
 from ogacq.model.parameters import AXES
 
 log = logging.getLogger(__name__)
@@ -44,41 +43,26 @@ class OffsetTable:
     about: dict[str, Any] = field(default_factory=dict)  # written, session, action
 
 
-def _line_of(text: str, key: str) -> int | None:
-    for number, line in enumerate(text.splitlines(), 1):
-        if re.match(rf"\s*(\[{re.escape(key)}\]|{re.escape(key)}\s*=)", line):
-            return number
-    return None
-
-
 def read_offset_table(path: str | Path) -> OffsetTable:
     """The table at ``path``; a missing file means no offsets yet (all zero)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        data, text = read_toml(path, "the offset table")
     except FileNotFoundError:
         return OffsetTable(path, dict.fromkeys(AXES, 0.0), exists=False)
-    except OSError as exc:
-        raise InputError(path, f"cannot read the offset table: {exc.strerror or exc}") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        match = re.search(r"line (\d+)", str(exc))
-        raise InputError(path, f"not valid TOML: {str(exc).split(' (at')[0]}",
-                         int(match.group(1)) if match else None) from None
     for key in data:
         if key not in _TOP:
             raise InputError(path, f"unknown key {key!r} in the offset table (allowed: "
-                             f"{', '.join(sorted(_TOP))})", _line_of(text, key))
+                             f"{', '.join(sorted(_TOP))})", line_of(text, key))
     if data.get("format", FORMAT) != FORMAT:
         raise InputError(path, f"offset table format {data['format']!r} is not {FORMAT!r}",
-                         _line_of(text, "format"))
+                         line_of(text, "format"))
     table = data.get("joint_offset_mm")
     if not isinstance(table, dict):
         raise InputError(path, "missing [joint_offset_mm] (x, y, z in mm)")
     offsets: dict[str, float] = {}
     for key, value in table.items():
-        line = _line_of(text, key)
+        line = line_of(text, key)
         if key not in AXES:
             raise InputError(path, f"[joint_offset_mm] has unknown axis {key!r} (x, y, z)", line)
         if isinstance(value, bool) or not isinstance(value, int | float) \
@@ -89,7 +73,7 @@ def read_offset_table(path: str | Path) -> OffsetTable:
     missing = [a for a in AXES if a not in offsets]
     if missing:
         raise InputError(path, f"[joint_offset_mm] lacks {', '.join(missing)}",
-                         _line_of(text, "joint_offset_mm"))
+                         line_of(text, "joint_offset_mm"))
     about = {k: data[k] for k in ("written", "session", "action") if k in data}
     return OffsetTable(path, offsets, exists=True, about=about)
 
