@@ -19,7 +19,7 @@ import numpy as np
 
 from ogacq.identify.identifiability import RANK_TOLERANCE, Identifiability, assess
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
-from ogacq.identify.noise import NoiseEstimate, noise_for
+from ogacq.identify.noise import NoiseEstimate, noise_for, reading_covariance
 from ogacq.identify.observations import Observations
 from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, indices, nested
 
@@ -246,7 +246,11 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
     jw = w.jac(jac if rank == len(names) else _linear_jacobian(obs, names, free, theta0))[0]
-    ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
+    correlated = reading_covariance(obs, noise)
+    if correlated is not None:
+        ident, cov = assess(jw, correlated, names, 1.0)
+    else:
+        ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
     return FitResult(

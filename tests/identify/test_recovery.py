@@ -82,3 +82,26 @@ def test_parameters_that_act_only_on_a_tilted_leg_are_still_fitted():
     assert r.converged
     assert np.allclose(r.values, list(truth.values()), atol=1e-6)
     assert r.identifiability.rank == 4 and np.all(np.isfinite(r.std)) and np.all(r.std > 0)
+
+
+def test_coverage_when_the_display_step_dominates_the_noise():
+    """10 um dials with 1 um noise: repeats read the same, the rounding error repeats
+    every cycle, and the std must say so (it does not shrink with the cycles)."""
+    machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.01)
+    layout = layout_of(protocol_readings(machine))
+    rng = np.random.default_rng(99)
+    z = []
+    for seed in range(200):
+        truth = dict(zip(PARAM_SETS["offsets"], rng.uniform(-2, 2, 3), strict=True))
+        clean = readings_observations(machine, layout, np.zeros(len(layout))).predict(
+            vector(truth))
+        noisy = clean + rng.uniform(2, 10, 6)[layout.gauge] + rng.normal(0, 0.001, len(clean))
+        values = np.round(noisy / 0.01) * 0.01
+        r = fit(readings_observations(machine, layout, values), PARAM_SETS["offsets"])
+        assert r.noise.repeated_rounding_mm == 0.01
+        z.extend((r.values - list(truth.values())) / r.std)
+    z = np.array(z)
+    inside = np.mean(np.abs(z) < 2.0)
+    # a uniform rounding error is no Gaussian, but its std must not be understated
+    assert inside > 0.93, inside
+    assert np.mean(z**2) < 1.2
