@@ -22,6 +22,7 @@ from ogacq.diagnose.alternatives import Alternative, alternatives, noise_scale
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, unit
 from ogacq.diagnose.locate import Location, locate, row_labels
+from ogacq.diagnose.outcome import outcome_label
 from ogacq.diagnose.robustness import resting_cell
 from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
 from ogacq.diagnose.separation import (
@@ -114,12 +115,7 @@ class Diagnosis:
 
     @property
     def outcome(self) -> str:
-        """"consistent", "explained", "partly explained" or "unexplained"."""
-        if self.base.consistent:
-            return "consistent"
-        if self.final.consistent:
-            return "explained"
-        return "partly explained" if self.effects else "unexplained"
+        return outcome_label(self.base.consistent, self.final.consistent, bool(self.effects))
 
     @property
     def unexplained(self) -> str | None:

@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
+from ogacq.diagnose.outcome import outcome_label
+
 
 class DiagnosisFormatError(ValueError):
     """The diagnosis JSON does not have the shape of INTERCHANGE.md."""
@@ -73,12 +75,8 @@ class DiagnosisView:
 
     @property
     def outcome(self) -> str:
-        """"consistent", "explained", "partly explained" or "unexplained"."""
-        if self.base.consistent:
-            return "consistent"
-        if self.final.consistent:
-            return "explained"
-        return "partly explained" if self.named_effects else "unexplained"
+        return outcome_label(self.base.consistent, self.final.consistent,
+                             bool(self.named_effects))
 
 
 def _number(d: dict, key: str, where: str, optional: bool = False) -> float | None:

@@ -91,7 +91,7 @@ def test_coverage_when_the_display_step_dominates_the_noise():
     layout = layout_of(protocol_readings(machine))
     rng = np.random.default_rng(99)
     z = []
-    for seed in range(200):
+    for _ in range(200):
         truth = dict(zip(PARAM_SETS["offsets"], rng.uniform(-2, 2, 3), strict=True))
         clean = readings_observations(machine, layout, np.zeros(len(layout))).predict(
             vector(truth))
