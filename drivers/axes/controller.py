@@ -21,7 +21,11 @@ Commands are the profile's step sequences (see ``profiles/iai-pcon.toml``).
 Edge-triggered writes (home, move start) are sent once and confirmed by
 reading back (moving bit, set-point acknowledge or arrival at the target);
 a missing confirmation raises rather than re-sending. Every write is logged by
-the link. The controller is not thread-safe: one caller at a time.
+the link. A step marked ``skip_unchanged`` (a mode or speed the drive keeps)
+is not re-sent when this client's last write of that object was the same
+value; that memory is dropped on any fault seen, failed transaction, alarm
+reset, enable, disable or homing, after which the device's state is not
+known. The controller is not thread-safe: one caller at a time.
 """
 
 from __future__ import annotations
@@ -68,6 +72,23 @@ class OffsetChange:
 
 
 @dataclass(frozen=True)
+class _Poll:
+    """One read of an axis's status registers: all of them, or the flag words only."""
+
+    axis: str
+    flags: Mapping[str, bool]
+    fault: bool
+    alarm_code: int
+    homed: bool
+    position_mm: float | None  # None when only the flag words were read
+
+    @property
+    def settled(self) -> bool:
+        """In position and not moving."""
+        return self.flags["in_position"] and not self.flags["moving"]
+
+
+@dataclass(frozen=True)
 class _Block:
     """One read request of contiguous holding registers and the values inside it."""
 
@@ -88,7 +109,7 @@ class AxisController:
         software_offsets_mm: Mapping[str, float] | None = None,
         soft_limits_mm: tuple[float, float] | None = None,
         speed_mm_s: float | None = None,
-        poll_interval_s: float = 0.005,
+        poll_interval_s: float = 0.002,
     ) -> None:
         self.profile = profile
         self.link = link
@@ -114,7 +135,18 @@ class AxisController:
         self._homed_latch = {a: False for a in self.axes}
         #: Axes whose home offset was written but not yet made effective by a homing.
         self.rehome_required: set[str] = set()
-        self._blocks = self._plan_status_reads()
+        self._blocks = self._plan_reads(self.profile.status_values())
+        flag_values = [v for v in self.profile.status_values() if v != profile.status.position]
+        # Polling the flags alone saves requests only when the position sits apart.
+        flag_blocks = self._plan_reads(flag_values)
+        if len(flag_blocks) < len(self._blocks):
+            self._flag_blocks = flag_blocks
+            self._position_blocks = self._plan_reads([profile.status.position])
+        else:
+            self._flag_blocks, self._position_blocks = self._blocks, []
+        # (axis, value name) -> registers (or coil state) this client last wrote there.
+        self._written: dict[tuple[str, str], tuple[int | bool, ...]] = {}
+        self._written_failures = 0
 
     # ================================================================ status
 
@@ -144,17 +176,22 @@ class AxisController:
 
     def enable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
         """Servo on (and whatever the profile needs before: Modbus control, CiA 402 states)."""
-        self._run("enable", self._axes(axes), common={"enable_timeout_s": timeout_s})
+        chosen = self._axes(axes)
+        self._forget_written(chosen)
+        self._run("enable", chosen, common={"enable_timeout_s": timeout_s})
 
     def disable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
         """Servo off."""
-        self._run("disable", self._axes(axes), common={"enable_timeout_s": timeout_s})
+        chosen = self._axes(axes)
+        self._forget_written(chosen)
+        self._run("disable", chosen, common={"enable_timeout_s": timeout_s})
 
     def home(
         self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None
     ) -> dict[str, AxisStatus]:
         """Home the axes together and wait for the home end; applies a pending home offset."""
         chosen = self._axes(axes)
+        self._forget_written(chosen)
         params: dict[str, dict[str, Any]] = {}
         for axis in chosen:
             self._homed_latch[axis] = False
@@ -196,7 +233,9 @@ class AxisController:
                         f"{self._where(axis)}: move {axis} to {q:.3f} mm refused: outside the "
                         f"soft limits [{low:g}, {high:g}] mm"
                     )
-        before = self.read_status(targets)
+        # Waiting, the positions are read on arrival: the check needs the flags only.
+        blocks = self._flag_blocks if wait else self._blocks
+        before = {axis: self._poll(axis, blocks) for axis in targets}
         for axis, status in before.items():
             if status.fault:
                 raise DeviceFault(
@@ -205,7 +244,7 @@ class AxisController:
                     code=status.alarm_code,
                     where=self._where(axis),
                 )
-            if not status.servo_on:
+            if not status.flags["servo_on"]:
                 raise DeviceFault(
                     f"move {axis} refused: servo is off; enable first",
                     code="servo_off",
@@ -225,10 +264,15 @@ class AxisController:
         log.info(
             "move %s at %.1f mm/s", ", ".join(f"{a}={q:.3f}" for a, q in targets.items()), speed
         )
-        self._run("move", tuple(targets), per_axis=params)
-        if not wait:
-            return before
-        return self.wait_in_position(targets, timeout_s=timeout_s)
+        try:
+            self._run("move", tuple(targets), per_axis=params)
+            if not wait:
+                return {axis: self._as_status(poll) for axis, poll in before.items()}
+            return self.wait_in_position(targets, timeout_s=timeout_s)
+        except DriverError:
+            # The axes start together: one failing must not leave the others going.
+            self._stop_after_failure(tuple(targets))
+            raise
 
     def resolved_targets_mm(self, targets_mm: Targets) -> dict[str, float]:
         """The joint coordinates a move to ``targets_mm`` really commands: each target
@@ -253,24 +297,31 @@ class AxisController:
         timeout = timeout_s or self.profile.timing.move_timeout_s
         tolerance = self._position_tolerance_mm()
         deadline = time.monotonic() + timeout
+        # Axes still on their way are polled by their flag words only; an axis that
+        # says it is in position has its position read, and is done once at target.
+        arrived: dict[str, AxisStatus] = {}
         while True:
-            statuses = self.read_status(targets)
-            pending = []
-            for axis, status in statuses.items():
-                if status.fault:
+            for axis in [a for a in targets if a not in arrived]:
+                values = self._read_values(axis, self._flag_blocks)
+                poll = self._make_poll(axis, values)
+                if poll.settled and poll.position_mm is None:
+                    values |= self._read_values(axis, self._position_blocks)
+                    poll = self._make_poll(axis, values)
+                if poll.fault:
+                    at = "" if poll.position_mm is None else f" at {poll.position_mm:.3f} mm"
                     raise DeviceFault(
-                        f"axis {axis} in alarm {status.alarm_code:#x} at "
-                        f"{status.position_mm:.3f} mm while waiting for in-position",
-                        code=status.alarm_code,
+                        f"axis {axis} in alarm {poll.alarm_code:#x}{at} while waiting for "
+                        "in-position",
+                        code=poll.alarm_code,
                         where=self._where(axis),
                     )
                 target = targets[axis]
-                arrived = target is None or abs(status.position_mm - target) <= tolerance
-                if not (status.in_position and not status.moving and arrived):
-                    pending.append(status)
-            if not pending:
-                return statuses
+                if poll.settled and (target is None or abs(poll.position_mm - target) <= tolerance):
+                    arrived[axis] = self._as_status(poll)
+            if len(arrived) == len(targets):
+                return {axis: arrived[axis] for axis in targets}
             if time.monotonic() >= deadline:
+                pending = [self._status(a) for a in targets if a not in arrived]
                 detail = "; ".join(
                     f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
                     f"moving={s.moving}, in_position={s.in_position}"
@@ -297,6 +348,12 @@ class AxisController:
         if errors:
             raise errors[0]
 
+    def _stop_after_failure(self, axes: Sequence[str]) -> None:
+        try:
+            self.stop(axes)
+        except DriverError as exc:  # the original failure is the one to report
+            log.error("stopping %s after a failed move: %s", ", ".join(axes), exc)
+
     def reset_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
         """Reset the axes that are in alarm; returns the codes that were cleared.
 
@@ -305,6 +362,7 @@ class AxisController:
         cleared = {a: s.alarm_code for a, s in self.read_status(axes).items() if s.fault}
         if cleared:
             log.info("resetting alarms %s", {a: hex(c) for a, c in cleared.items()})
+            self._forget_written(tuple(cleared))
             self._run("alarm_reset", tuple(cleared))
         return cleared
 
@@ -449,10 +507,9 @@ class AxisController:
 
     # ================================================================ internals: registers
 
-    def _plan_status_reads(self) -> list[_Block]:
-        specs = sorted(
-            (self.profile.value(n) for n in self.profile.status_values()), key=lambda s: s.address
-        )
+    def _plan_reads(self, names: Iterable[str]) -> list[_Block]:
+        """Contiguous read requests covering ``names`` (gaps up to the profile's limit)."""
+        specs = sorted((self.profile.value(n) for n in names), key=lambda s: s.address)
         blocks: list[_Block] = []
         gap = self.profile.status.max_gap_registers
         for spec in specs:
@@ -465,35 +522,57 @@ class AxisController:
         return blocks
 
     def _status(self, axis: str) -> AxisStatus:
+        return self._as_status(self._poll(axis, self._blocks))
+
+    def _poll(self, axis: str, blocks: Sequence[_Block]) -> _Poll:
+        return self._make_poll(axis, self._read_values(axis, blocks))
+
+    def _read_values(self, axis: str, blocks: Sequence[_Block]) -> dict[str, float | int]:
         device = self.profile.device_ids[axis]
         values: dict[str, float | int] = {}
-        for block in self._blocks:
+        for block in blocks:
             registers = self.link.read_registers(device, block.address, block.count)
             for name in block.names:
                 spec = self.profile.value(name)
                 offset = spec.address - block.address
                 values[name] = self.profile.decode(name, registers[offset : offset + spec.words])
+        return values
+
+    def _make_poll(self, axis: str, values: Mapping[str, float | int]) -> _Poll:
         flags = {
             name: self.profile.flag_state(name, int(values[f.value]))
             for name, f in self.profile.flags.items()
         }
         fault = any(flags[f] for f in self.profile.status.fault_flags)
+        if fault:
+            self._forget_written([axis])
         alarm_name = self.profile.status.alarm_code
         if alarm_name in values:
             alarm_code = int(values[alarm_name])
         else:
             alarm_code = int(self._read_value(axis, alarm_name)) if fault else 0
-        homed = flags["homed"] if "homed" in flags else self._homed_latch[axis]
-        return AxisStatus(
+        position = values.get(self.profile.status.position)
+        return _Poll(
             axis=axis,
-            position_mm=self._counter_to_q(axis, float(values[self.profile.status.position])),
-            in_position=flags["in_position"],
-            moving=flags["moving"],
-            servo_on=flags["servo_on"],
-            homed=homed,
-            alarm_code=alarm_code,
-            fault=fault,
             flags=flags,
+            fault=fault,
+            alarm_code=alarm_code,
+            homed=flags["homed"] if "homed" in flags else self._homed_latch[axis],
+            position_mm=None if position is None else self._counter_to_q(axis, float(position)),
+        )
+
+    def _as_status(self, poll: _Poll) -> AxisStatus:
+        assert poll.position_mm is not None, "a status needs the position read"
+        return AxisStatus(
+            axis=poll.axis,
+            position_mm=poll.position_mm,
+            in_position=poll.flags["in_position"],
+            moving=poll.flags["moving"],
+            servo_on=poll.flags["servo_on"],
+            homed=poll.homed,
+            alarm_code=poll.alarm_code,
+            fault=poll.fault,
+            flags=poll.flags,
         )
 
     def _counter_position(self, status: AxisStatus) -> float:
@@ -512,6 +591,7 @@ class AxisController:
         device = self.profile.device_ids[axis]
         encoded = self.profile.encode(name, value)
         label = f"{what}: {name}={value}"
+        self._written.pop((axis, name), None)  # unknown until the write succeeds
         if spec.function == "coil":
             self.link.write_coil(device, spec.address, bool(encoded), what=label)
         elif spec.words == 1:
@@ -520,6 +600,7 @@ class AxisController:
         else:
             assert isinstance(encoded, list)
             self.link.write_registers(device, spec.address, encoded, what=label)
+        self._remember_written(axis, name, encoded)
 
     def _write_block(
         self, axis: str, names: Sequence[str], values: Sequence[Any], *, what: str
@@ -531,9 +612,41 @@ class AxisController:
             assert isinstance(encoded, list)
             registers += encoded
         label = f"{what}: " + ", ".join(f"{n}={v}" for n, v in zip(names, values, strict=True))
+        for name in names:
+            self._written.pop((axis, name), None)
         self.link.write_registers(
             self.profile.device_ids[axis], specs[0].address, registers, what=label
         )
+        at = 0
+        for name, spec in zip(names, specs, strict=True):
+            self._remember_written(axis, name, registers[at : at + spec.words])
+            at += spec.words
+
+    # ================================================================ internals: written values
+
+    def _remember_written(self, axis: str, name: str, encoded: Any) -> None:
+        self._drop_written_after_failures()
+        self._written[(axis, name)] = tuple(encoded) if isinstance(encoded, list) else (encoded,)
+
+    def _unchanged(self, axis: str, name: str, value: Any) -> bool:
+        """Whether this client's last write of ``name`` on ``axis`` was ``value``."""
+        self._drop_written_after_failures()
+        encoded = self.profile.encode(name, value)
+        key = tuple(encoded) if isinstance(encoded, list) else (encoded,)
+        return self._written.get((axis, name)) == key
+
+    def _drop_written_after_failures(self) -> None:
+        # After a failed transaction (a write that may or may not have landed, a
+        # lost link, a drive that rebooted), what the device holds is unknown.
+        failures = self.link.stats.failures
+        if failures != self._written_failures:
+            self._written.clear()
+            self._written_failures = failures
+
+    def _forget_written(self, axes: Iterable[str]) -> None:
+        gone = set(axes)
+        for key in [k for k in self._written if k[0] in gone]:
+            del self._written[key]
 
     # ================================================================ internals: sequences
 
@@ -583,6 +696,8 @@ class AxisController:
         for step in steps:
             if step.op == "write":
                 value = self._resolve(step.value[0], params, command)
+                if step.skip_unchanged and self._unchanged(axis, step.to[0], value):
+                    continue
                 self._write_value(
                     axis, step.to[0], value, what=what + (" (edge, sent once)" if step.edge else "")
                 )
@@ -599,11 +714,11 @@ class AxisController:
 
     def _wait_flag(
         self, axis: str, command: str, flag: str, state: bool, timeout_s: float
-    ) -> AxisStatus:
+    ) -> _Poll:
         deadline = time.monotonic() + timeout_s
         tolerate_fault = flag in self.profile.status.fault_flags
         while True:
-            status = self._status(axis)
+            status = self._poll(axis, self._flag_blocks)
             if status.flags[flag] == state:
                 return status
             if status.fault and not tolerate_fault:

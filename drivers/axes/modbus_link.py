@@ -33,7 +33,14 @@ from pymodbus.exceptions import ConnectionException, ModbusIOException
 from pymodbus.pdu import ExceptionResponse
 
 from drivers.axes.profile import Profile
-from drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, FrameError, LinkError
+from drivers.errors import (
+    DeviceBusy,
+    DeviceFault,
+    DeviceTimeout,
+    DriverError,
+    FrameError,
+    LinkError,
+)
 
 log = logging.getLogger(__name__)
 # pymodbus logs failed transactions itself; with no logging configured, Python's
@@ -61,6 +68,8 @@ class LinkStats:
     reads: int
     writes: int
     read_retries: int
+    #: Transactions that ended in an error (timeout, exception reply, lost link).
+    failures: int = 0
 
 
 class ModbusLink:
@@ -109,7 +118,7 @@ class ModbusLink:
                 retries=0,
             )
         self._lock = threading.Lock()
-        self._reads = self._writes = self._retries = 0
+        self._reads = self._writes = self._retries = self._failures = 0
 
     @classmethod
     def for_profile(
@@ -170,7 +179,7 @@ class ModbusLink:
 
     @property
     def stats(self) -> LinkStats:
-        return LinkStats(self._reads, self._writes, self._retries)
+        return LinkStats(self._reads, self._writes, self._retries, self._failures)
 
     def where(self, device_id: int) -> str:
         return f"{self.endpoint} device {device_id}"
@@ -288,6 +297,13 @@ class ModbusLink:
     # ------------------------------------------------------------ error mapping
 
     def _execute(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
+        try:
+            return self._execute_once(device_id, what, call)
+        except DriverError:
+            self._failures += 1
+            raise
+
+    def _execute_once(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
         where = self.where(device_id)
         with self._lock:
             try:

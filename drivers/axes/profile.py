@@ -183,6 +183,9 @@ class Step:
     to: tuple[str, ...] = ()
     value: tuple[Any, ...] = ()
     edge: bool = False
+    #: Skip this write when the client's last write of the object was the same value
+    #: (see AxisController: the memory is dropped on any fault, error or alarm reset).
+    skip_unchanged: bool = False
     flag: str = ""
     state: bool = True
     timeout_s: float | str = "$ack_timeout_s"
@@ -716,6 +719,17 @@ class _Parser:
             c = self.table(spec, key, ("start",), optional=("finish",))
             start = self.steps(c["start"], f"{key}.start", values, flags)
             finish = self.steps(c.get("finish", []), f"{key}.finish", values, flags)
+            # An edge-triggered write is never re-sent, so the command must read
+            # back whether it was taken: a wait/confirm step has to follow it,
+            # later in `start` or in `finish` (after every axis has started).
+            for part, steps in (("start", start), ("finish", finish)):
+                later = steps + (finish if part == "start" else ())
+                for i, step in enumerate(steps):
+                    if step.edge and not any(s.op in ("wait", "confirm") for s in later[i + 1 :]):
+                        raise self.fail(
+                            f"{key}.{part}[{i}]",
+                            "an edge-triggered write must be followed by a wait or confirm step",
+                        )
             out[name] = Command(name, start, finish)
         return out
 
@@ -723,26 +737,22 @@ class _Parser:
         self, raw: Any, key: str, values: Mapping[str, ValueSpec], flags: Mapping[str, FlagSpec]
     ) -> tuple[Step, ...]:
         self.typed(raw, list, key)
-        steps = [self.step(item, f"{key}[{i}]", values, flags) for i, item in enumerate(raw)]
-        # An edge-triggered write is never re-sent, so the sequence must read back
-        # whether it was taken: some wait/confirm step has to follow it.
-        for i, step in enumerate(steps):
-            if step.edge and not any(s.op in ("wait", "confirm") for s in steps[i + 1 :]):
-                raise self.fail(
-                    f"{key}[{i}]",
-                    "an edge-triggered write must be followed by a wait or confirm step",
-                )
-        return tuple(steps)
+        return tuple(self.step(item, f"{key}[{i}]", values, flags) for i, item in enumerate(raw))
 
     def step(
         self, raw: Any, key: str, values: Mapping[str, ValueSpec], flags: Mapping[str, FlagSpec]
     ) -> Step:
         op = self.choice(raw.get("op") if isinstance(raw, Mapping) else None, STEP_OPS, f"{key}.op")
         if op == "write":
-            s = self.table(raw, key, ("op", "to", "value"), optional=("edge",))
+            s = self.table(raw, key, ("op", "to", "value"), optional=("edge", "skip_unchanged"))
             to = self._value_ref(s["to"], values, f"{key}.to", writable=True)
             value = self._step_value(s["value"], values[to], f"{key}.value")
-            return Step(op, to=(to,), value=(value,), edge=self._edge(s, key))
+            edge = self._edge(s, key)
+            skip = self.typed(s.get("skip_unchanged", False), bool, f"{key}.skip_unchanged")
+            if edge and skip:
+                raise self.fail(key, "an edge-triggered write is always sent: "
+                                     "edge and skip_unchanged exclude each other")
+            return Step(op, to=(to,), value=(value,), edge=edge, skip_unchanged=skip)
         if op == "write_block":
             s = self.table(raw, key, ("op", "to", "value"), optional=("edge",))
             names = self.typed(s["to"], list, f"{key}.to")

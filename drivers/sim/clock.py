@@ -36,3 +36,23 @@ class SimClock:
     def real_seconds(self, sim_seconds: float) -> float:
         """How long in real time a span of simulated time takes."""
         return sim_seconds / self.speed
+
+
+#: The last stretch before a deadline that is spun rather than slept: the OS
+#: wakes a sleeper 0.05-0.15 ms late (timer slack), which a simulated line
+#: would add to every frame it delivers.
+_SPIN_S = 0.0004
+
+
+def sleep_until(deadline: float) -> None:
+    """Return at ``deadline`` (a ``time.monotonic()`` value), a few µs late at most.
+
+    Sleeps until just before it, then spins. The spin holds the GIL for at most
+    ``_SPIN_S``, so it is kept for the moments a client waits on (the end of a
+    simulated request or frame); use plain sleeps where lateness cannot be seen.
+    """
+    remaining = deadline - time.monotonic()
+    if remaining > _SPIN_S:
+        time.sleep(remaining - _SPIN_S)
+    while time.monotonic() < deadline:
+        pass

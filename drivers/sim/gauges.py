@@ -38,6 +38,7 @@ from typing import Literal
 from drivers.indicators import BACKENDS, digimatic, mitutoyo_01a, sylvac, uwave
 from drivers.indicators.base import Unit
 from drivers.link import LinkSettings
+from drivers.sim.clock import sleep_until
 
 log = logging.getLogger(__name__)
 
@@ -470,9 +471,7 @@ class GaugeEndpoint:
         # once the last one is in.
         arrival = time.monotonic()
         self._rx_free_at = max(arrival, self._rx_free_at) + len(data) * self.byte_time_s
-        delay = self._rx_free_at - time.monotonic()
-        if delay > 0:
-            time.sleep(delay)
+        sleep_until(self._rx_free_at)
         if self.protocol == "digimatic":
             if not self.streaming:
                 for _ in data:  # a polled bridge answers every byte
@@ -651,7 +650,11 @@ class GaugeEndpoint:
                 continue
             if self._stop.is_set():
                 return
-            time.sleep(start + (sent + 1) * byte_s - now)
+            due_at = start + (sent + 1) * byte_s
+            if sent + 1 == total:
+                sleep_until(due_at)  # the byte the client waits for: on time
+            else:
+                time.sleep(due_at - now)
         self._tx_free_at = start + total * byte_s
 
     def _check_channel(self, ident: str) -> None:

@@ -22,6 +22,8 @@ from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, PARAM_INDEX
 
 GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
+#: Every gauge of the station as (gauge_axis, leg): two per leg, never along the leg's axis.
+GAUGE_KEYS = tuple((j, i) for i in range(3) for j in range(3) if j != i)
 
 
 class EncoderPositions(Protocol):
@@ -39,39 +41,43 @@ class SimMachine:
         self._rng = np.random.default_rng(seed)
         self._lock = threading.Lock()
         # Each gauge's reading at its setting posture: somewhere mid-stroke.
-        self._zero_mm = {(j, i): float(self._rng.uniform(0.4, 0.6) * GAUGE_STROKE_MM)
-                         for i in range(3) for j in range(3) if i != j}
+        self._zero_mm = {key: float(self._rng.uniform(0.4, 0.6) * GAUGE_STROKE_MM)
+                         for key in GAUGE_KEYS}
         # A gauge polled at rest asks the same pose again and again: without drift
         # its noise-free coordinate depends on the pose only, so keep it.
         self._drifts = bool(np.any(truth.theta[[PARAM_INDEX[f"thermal_drift.{a}"]
                                                 for a in AXES]] != 0))
-        self._pose_cache: dict[tuple, float] = {}
+        self._pose_cache: dict[tuple, dict[tuple[int, int], float]] = {}
 
-    def coordinate_mm(self, gauge_axis: int, leg: int, q_mm: np.ndarray,
-                      approach: np.ndarray, t_s: float) -> float:
-        """Noise-free coordinate the gauge sees with the joints at ``q_mm``."""
+    def coordinates_mm(self, q_mm: np.ndarray, approach: np.ndarray,
+                       t_s: float) -> dict[tuple[int, int], float]:
+        """Noise-free coordinate every gauge (gauge_axis, leg) sees with the joints at
+        ``q_mm``: all six in one evaluation, since the gauges are read pose by pose."""
+        n = len(GAUGE_KEYS)
         layout = ReadingsLayout(
-            q_mm=self.truth.disturbed_q(q_mm)[None], leg=np.array([leg]),
-            gauge_axis=np.array([gauge_axis]), t_s=np.array([t_s]), cycle=np.array([1]),
-            tcp_mm=np.full((1, 3), np.nan), approach=np.asarray(approach, int)[None],
-            gauge=np.array([0]), gauge_keys=((gauge_axis, leg),),
-            setting_q_mm=np.zeros((1, 3)))
-        return float(predict_coordinates(self.truth.theta, layout, self.machine)[0])
+            q_mm=np.repeat(self.truth.disturbed_q(q_mm)[None], n, axis=0),
+            leg=np.array([leg for _, leg in GAUGE_KEYS]),
+            gauge_axis=np.array([axis for axis, _ in GAUGE_KEYS]),
+            t_s=np.full(n, t_s), cycle=np.ones(n, dtype=int),
+            tcp_mm=np.full((n, 3), np.nan), approach=np.repeat(
+                np.asarray(approach, int)[None], n, axis=0),
+            gauge=np.arange(n), gauge_keys=GAUGE_KEYS, setting_q_mm=np.zeros((n, 3)))
+        values = predict_coordinates(self.truth.theta, layout, self.machine)
+        return {key: float(v) for key, v in zip(GAUGE_KEYS, values, strict=True)}
 
     def gauge_value_mm(self, gauge_axis: int, leg: int) -> float:
         """What the gauge along ``gauge_axis`` on ``leg`` reads now, noise included."""
         q = tuple(self.encoders.raw_position_mm(a) for a in AXES)
         approach = tuple(self.encoders.last_direction(a) for a in AXES)
-        key = (gauge_axis, leg, q, approach)
-        coord = None if self._drifts else self._pose_cache.get(key)
-        if coord is None:
-            coord = self.coordinate_mm(gauge_axis, leg, np.array(q), np.array(approach),
-                                       self.clock.now())
-            if not self._drifts and len(self._pose_cache) < 10_000:
-                self._pose_cache[key] = coord
+        pose = (q, approach)
+        coords = None if self._drifts else self._pose_cache.get(pose)
+        if coords is None:
+            coords = self.coordinates_mm(np.array(q), np.array(approach), self.clock.now())
+            if not self._drifts and len(self._pose_cache) < 2_000:
+                self._pose_cache[pose] = coords
         with self._lock:
             noise = self._rng.normal(0.0, self.truth.noise_mm) if self.truth.noise_mm else 0.0
-        return self._zero_mm[(gauge_axis, leg)] + coord + noise
+        return self._zero_mm[(gauge_axis, leg)] + coords[(gauge_axis, leg)] + noise
 
     def value_source(self, gauge_axis: int, leg: int) -> Callable[[], float]:
         return lambda: self.gauge_value_mm(gauge_axis, leg)

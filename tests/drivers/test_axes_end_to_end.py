@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import socket
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -193,11 +194,36 @@ def test_unacknowledged_move_is_not_resent() -> None:
         r.controller.home(["x"])
         # someone took Modbus control away: the controller ignores the move
         r.link.write_coil(1, profile.value("modbus_control").address, False, what="test: PMSL off")
-        writes = r.link.stats.writes
+        sent = _record_writes(r.link)
         with pytest.raises(DeviceTimeout, match="not acknowledged.*not re-sent"):
             r.controller.move_to({"x": 20.0})
-        assert r.link.stats.writes - writes == 2  # pause release + the move block, once
+        # the move block once (the pause release is skipped: the homing just wrote
+        # it), then the stop a failed move ends with
+        move_block = profile.value("move_target").address
+        pause = profile.value("pause_command").address
+        assert sent == [("registers", move_block), ("coil", pause, True)]
         assert r.model.raw_position_mm("x") == 0.0
+
+
+def _record_writes(link: ModbusLink) -> list[tuple]:
+    """What the controller writes from now on: (kind, address[, coil state])."""
+    sent: list[tuple] = []
+    register, registers, coil = link.write_register, link.write_registers, link.write_coil
+
+    def one(device_id, address, value, *, what):  # type: ignore[no-untyped-def]
+        sent.append(("register", address, value))
+        register(device_id, address, value, what=what)
+
+    def block(device_id, address, values, *, what):  # type: ignore[no-untyped-def]
+        sent.append(("registers", address))
+        registers(device_id, address, values, what=what)
+
+    def bit(device_id, address, value, *, what):  # type: ignore[no-untyped-def]
+        sent.append(("coil", address, value))
+        coil(device_id, address, value, what=what)
+
+    link.write_register, link.write_registers, link.write_coil = one, block, bit  # type: ignore[method-assign]
+    return sent
 
 
 def test_move_refused_when_servo_off_or_not_homed() -> None:
@@ -334,3 +360,88 @@ def test_rtu_address_info_and_loopback_only() -> None:
         assert info["device_ids"] == {"x": 1, "y": 2, "z": 3}
     with pytest.raises(ValueError, match="loopback only"):
         ModbusSimServer("cia402", model, host="0.0.0.0")
+
+
+def _written_objects(sent: list[tuple], profile: Profile) -> list[str]:
+    names = {spec.address: name for name, spec in profile.values.items()}
+    return [names[entry[1]] for entry in sent]
+
+
+def test_settings_the_drive_keeps_are_written_again_only_when_unknown() -> None:
+    with rig("cia402", "tcp") as r:
+        c, profile = r.controller, r.profile
+        c.enable()
+        c.home()  # ends with mode 1 and controlword 0x0F: both known
+        sent = _record_writes(r.link)
+        c.move_to({"x": 10.0})
+        assert _written_objects(sent, profile) == [
+            "profile_velocity", "target_position", "controlword", "controlword"]
+        sent.clear()
+        c.move_to({"x": 20.0})  # same speed: target and the set-point handshake only
+        assert _written_objects(sent, profile) == [
+            "target_position", "controlword", "controlword"]
+        sent.clear()
+        c.move_to({"x": 10.0}, speed_mm_s=50.0)  # a new speed is written
+        assert _written_objects(sent, profile)[0] == "profile_velocity"
+
+        # A failed transaction: what the drive holds is no longer known.
+        with pytest.raises(DriverError):
+            r.link.read_registers(1, 0x1234, 1)
+        sent.clear()
+        c.move_to({"x": 20.0}, speed_mm_s=50.0)
+        assert _written_objects(sent, profile) == [
+            "mode", "profile_velocity", "target_position", "controlword", "controlword",
+            "controlword"]
+
+        # A fault seen and cleared: written again too (enable rewrites the mode).
+        r.model.inject_alarm("x")
+        with pytest.raises(DeviceFault, match="in alarm"):
+            c.move_to({"x": 10.0}, speed_mm_s=50.0)
+        c.reset_alarms()
+        c.enable()
+        sent.clear()
+        c.move_to({"x": 10.0}, speed_mm_s=50.0)
+        assert _written_objects(sent, profile)[:2] == ["profile_velocity", "target_position"]
+        assert r.model.raw_position_mm("x") == pytest.approx(10.0, abs=0.011)
+
+
+@pytest.mark.parametrize("name", ["cia402", "iai-pcon"])
+def test_a_move_failing_on_one_axis_stops_the_others(name: str) -> None:
+    with rig(name, "tcp") as r:
+        c, model = r.controller, r.model
+        c.enable()
+        c.home()
+        # 18 s simulated at 5 mm/s, 0.36 s real: the alarm comes half way
+        timer = threading.Timer(0.15, model.inject_alarm, ("y",))
+        timer.start()
+        try:
+            with pytest.raises(DeviceFault, match="axis y in alarm"):
+                c.move_to({"x": -90.0, "y": -90.0, "z": -90.0}, speed_mm_s=5.0)
+        finally:
+            timer.join()
+        stopped = {a: model.raw_position_mm(a) for a in "xz"}
+        time.sleep(0.05)
+        for axis, where in stopped.items():
+            assert -90.0 < where < 0.0
+            assert model.raw_position_mm(axis) == where  # halted, not still going
+
+
+def test_arrival_is_confirmed_by_flags_then_one_position_read_per_axis() -> None:
+    with rig("cia402", "tcp") as r:
+        c, profile = r.controller, r.profile
+        c.enable()
+        c.home()
+        read_addresses: list[int] = []
+        read = r.link.read_registers
+
+        def counted(device_id, address, count):  # type: ignore[no-untyped-def]
+            read_addresses.append(address)
+            return read(device_id, address, count)
+
+        r.link.read_registers = counted  # type: ignore[method-assign]
+        reached = c.move_to({"x": -40.0, "y": 30.0, "z": -10.0})
+        assert {a: s.position_mm for a, s in reached.items()} == pytest.approx(
+            {"x": -40.0, "y": 30.0, "z": -10.0}, abs=0.011)
+        position = profile.value("position_actual").address
+        assert read_addresses.count(position) == 3  # on arrival only
+        assert read_addresses.count(profile.value("statusword").address) >= 3 + 3 + 3

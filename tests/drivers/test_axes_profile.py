@@ -79,6 +79,19 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
             "already belongs to 'position_actual'",
         ),
         ('kind = "software"', 'kind = "register"', "offset.kind", "must be one of"),
+        (
+            "value = false, skip_unchanged = true }",
+            "value = false, skip_unchanged = true, edge = true }",
+            "commands.move.start[0]",
+            "edge and skip_unchanged exclude each other",
+        ),
+        (  # the move's start is confirmed in finish: without it, refused
+            '  { op = "confirm", any = ["moving"], done = "in_position", at = "$target_mm" },'
+            "\n]\n\n[commands.stop]",
+            "]\n\n[commands.stop]",
+            "commands.move.start[1]",
+            "followed by a wait or confirm",
+        ),
         ("[limits]", "[limits]\n", "", ""),  # control: harmless edit still loads
     ],
 )
