@@ -15,6 +15,7 @@ from ogacq.campaign_file import Campaign, read_campaign
 from ogacq.identify.fit import FitResult, fit
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
+from ogacq.protocol.plan import SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
 from ogacq.session.store import LoadedSession, SessionWriter, load_session
@@ -49,6 +50,10 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     """
     with open_station(campaign, simulator) as station:
         station.prepare()
+        recorded_before = resume.recorded() if resume is not None else set()
+        if station.simulator is not None and station.simulator.moves_indicators:
+            set_gauges = _simulated_operator(station.simulator, campaign, recorded_before,
+                                             set_gauges)
         if resume is None:
             header = {"machine": machine_dict(campaign.machine),
                       "machine_file": str(campaign.machine_path),
@@ -79,8 +84,32 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     return CampaignOutcome(writer.path, result, hidden)
 
 
+def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, str]],
+                        then: GaugeSetter | None) -> GaugeSetter:
+    """With the simulator's two indicators moved leg to leg, its operator moves them
+    when the plan says so (before whoever else is told); a resumed campaign finds
+    them on the leg it stopped at."""
+    pending = next((step for step in reading_steps(campaign.protocol, campaign.machine)
+                    if any((step.step, g) not in recorded for g in step.gauges)), None)
+    if pending is not None:
+        simulator.set_gauges(pending.leg)
+
+    def set_gauges(step: SetGauges) -> None:
+        simulator.set_gauges(step.leg)
+        if then is not None:
+            then(step)
+
+    return set_gauges
+
+
 def resume_campaign(session_path: str | Path, **kwargs) -> CampaignOutcome:
     session = load_session(session_path)
+    campaign = resumable_campaign(session)
+    return run_campaign(campaign, resume=session, **kwargs)
+
+
+def resumable_campaign(session: LoadedSession) -> Campaign:
+    """The campaign an interrupted session continues with (its file, its plan)."""
     if session.finished:
         raise InputError(session.path, "this campaign is complete; nothing to resume "
                          "(`ogacq refit` re-identifies it)")
@@ -93,4 +122,4 @@ def resume_campaign(session_path: str | Path, **kwargs) -> CampaignOutcome:
         raise InputError(campaign.path, f"the protocol differs from the one {session.path} "
                          "was started with; resume needs the same plan")
     campaign.session = session.path
-    return run_campaign(campaign, resume=session, **kwargs)
+    return campaign

@@ -1,8 +1,10 @@
 """Campaign files (TOML) for unattended runs: machine, station, protocol, output.
 
 Everything is checked before anything moves: unknown keys, missing ports,
-postures outside the workspace, two gauges on one port channel. Errors name
-the file and the line.
+postures outside the workspace, two gauges of a leg on one port channel. Errors
+name the file and the line. One indicator may serve one gauge on each leg: the
+papers' two indicators, moved from leg to leg (give each of its gauges the same
+port); the campaign then waits for the operator at each leg (see `ogacq run`).
 
     machine = "machine.toml"          # relative to this file
     session = "runs/cal-1.jsonl"      # where the session is written
@@ -89,7 +91,8 @@ class SimulatorSpec:
     speed: float = 20.0
     profile: str = "cia402"
     noise_mm: float | None = None
-    gauge_layout: str = "separate"  # or "multiplexer": six channels on one port
+    gauge_layout: str = "separate"  # "multiplexer": six channels on one port; "moved":
+    # two indicators the simulated operator moves from leg to leg
 
 
 @dataclass
@@ -102,6 +105,16 @@ class Campaign:
     controller: ControllerSpec | None = None
     gauges: list[GaugeSpec] = field(default_factory=list)
     simulator: SimulatorSpec | None = None
+
+    @property
+    def moved_indicators(self) -> dict[str, list[str]]:
+        """Indicators that serve a gauge on several legs (moved from leg to leg):
+        where each is connected -> its gauges. Empty when every gauge stays put."""
+        by_link: dict[str, list[str]] = {}
+        for g in self.gauges:
+            where = g.port + (f" channel {g.channel}" if g.channel else "")
+            by_link.setdefault(where, []).append(g.gauge)
+        return {where: gauges for where, gauges in by_link.items() if len(gauges) > 1}
 
 
 class _Source:
@@ -182,7 +195,7 @@ def read_campaign(path: str | Path) -> Campaign:
             if "speed" in sim else 20.0,
             profile=str(sim.get("profile", "cia402")),
             noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None,
-            gauge_layout=_choice(src, sim, "gauge_layout", ("separate", "multiplexer"),
+            gauge_layout=_choice(src, sim, "gauge_layout", ("separate", "multiplexer", "moved"),
                                  "simulator", after))
     if "controller" in data:
         campaign.controller = _controller(src, data["controller"], base)
@@ -283,7 +296,7 @@ def _offset_kind(profile: str) -> str | None:
 def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeSpec]:
     lines = _table_lines(src, "gauges")
     out: list[GaugeSpec] = []
-    seen_channel: dict[tuple[str, str | None], int] = {}
+    on_channel: dict[tuple[str, str | None], list[tuple[str, int]]] = {}
     seen_gauge: dict[str, int] = {}
     for k, table in enumerate(tables):
         start = lines[k] if k < len(lines) else 0
@@ -309,11 +322,16 @@ def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeS
         if gauge in seen_gauge:
             raise InputError(src.path, f"gauge {gauge} appears twice (first on line "
                              f"{seen_gauge[gauge]})", start or None)
-        if (port, channel) in seen_channel:
+        leg = gauge.split("_")[1]
+        same_leg = [(g, n) for g, n in on_channel.get((port, channel), [])
+                    if g.split("_")[1] == leg]
+        if same_leg:
             where = f"port {port}" + (f" channel {channel}" if channel else "")
-            raise InputError(src.path, f"two gauges on {where} (the other on line "
-                             f"{seen_channel[(port, channel)]}): each needs its own channel",
-                             start or None)
+            other, line = same_leg[0]
+            raise InputError(src.path, f"gauges {other} (line {line}) and {gauge} of the {leg} "
+                             f"leg both on {where}: the two gauges of a leg each need their "
+                             "own port or channel (one indicator may serve one gauge per leg, "
+                             "moved from leg to leg)", start or None)
         first_on_port = next((g for g in out if g.port == port), None)
         if first_on_port is not None and first_on_port.protocol != protocol_name:
             raise InputError(src.path, f"gauge {gauge} on port {port} is {protocol_name} but "
@@ -321,7 +339,7 @@ def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeS
                              f"{first_on_port.protocol}: one port speaks one protocol",
                              start or None)
         seen_gauge[gauge] = start
-        seen_channel[(port, channel)] = start
+        on_channel.setdefault((port, channel), []).append((gauge, start))
         out.append(GaugeSpec(gauge, protocol_name, port, channel, unit,
                              str(table.get("serial", "")),
                              int(table["baudrate"]) if "baudrate" in table else None))

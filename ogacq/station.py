@@ -156,21 +156,28 @@ def _controller_description(spec: ControllerSpec, controller: AxisController) ->
 
 
 def _open_gauges(specs: list[GaugeSpec], stack: contextlib.ExitStack) -> dict[str, Any]:
-    """One driver per gauge; gauges on one port (a multiplexer's channels) share one
-    open link, since a serial port can be opened only once."""
+    """One driver per indicator; gauges on one port (a multiplexer's channels) share one
+    open link, since a serial port can be opened only once, and the gauges of one
+    indicator moved from leg to leg share its driver."""
     links: dict[str, Any] = {}
+    drivers: dict[tuple[str, str | None], Any] = {}
     indicators: dict[str, Any] = {}
     for g in specs:
+        if (g.port, g.channel) in drivers:
+            indicators[g.gauge] = drivers[(g.port, g.channel)]
+            continue
         where = f"gauge {g.gauge} ({g.port}" + (f" channel {g.channel})" if g.channel else ")")
+        if [s.gauge for s in specs if (s.port, s.channel) == (g.port, g.channel)] != [g.gauge]:
+            where = f"indicator on {g.port}" + (f" channel {g.channel}" if g.channel else "")
         if g.port not in links:
             settings = backend(g.protocol).settings
             if g.baudrate is not None:
                 settings = replace(settings, baudrate=g.baudrate)
             links[g.port] = open_link(g.port, settings, where=where)
             stack.callback(links[g.port].close)
-        indicators[g.gauge] = open_indicator(g.protocol, g.port, unit=g.unit,
-                                             channel=g.channel, where=where,
-                                             link=links[g.port])
+        indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
+            g.protocol, g.port, unit=g.unit, channel=g.channel, where=where,
+            link=links[g.port])
     return indicators
 
 

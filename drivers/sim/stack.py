@@ -8,6 +8,7 @@ are simulated.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -35,8 +36,17 @@ class SimulatorConfig:
     # protocol per gauge key, overriding gauge_protocol (a mixed station)
     gauge_protocols: dict[str, str] = field(default_factory=dict)
     # "separate": one port per gauge; "multiplexer": all six on one 01A
-    # multiplexer port, channels 1..6 (a DMX/MUX box)
+    # multiplexer port, channels 1..6 (a DMX/MUX box); "moved": two indicators,
+    # moved from leg to leg as the papers did (see SimulatorStack.set_gauges)
     gauge_layout: str = "separate"
+
+
+def moved_indicator_keys() -> tuple[tuple[str, ...], tuple[str, ...]]:
+    """The gauges each of two indicators moved leg to leg serves: the first takes
+    the first gauge of every leg (y_x, x_y, x_z), the second the other."""
+    first = tuple(GAUGE_KEYS[k] for k in range(0, len(GAUGE_KEYS), 2))
+    second = tuple(GAUGE_KEYS[k] for k in range(1, len(GAUGE_KEYS), 2))
+    return first, second
 
 
 class SimulatorStack:
@@ -65,8 +75,17 @@ class SimulatorStack:
                     resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
                     name=f"sim gauge {key}")
                 self.channels[key] = None
+        elif config.gauge_layout == "moved":
+            self._mounted_leg = AXES[0]
+            for number, keys in enumerate(moved_indicator_keys(), 1):
+                indicator = GaugeEndpoint(
+                    config.gauge_protocol, self._mounted_source(keys, sources),
+                    resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
+                    name=f"sim indicator {number}")
+                self.gauges.update(dict.fromkeys(keys, indicator))
+                self.channels.update(dict.fromkeys(keys))
         else:
-            raise ValueError(f"gauge_layout must be 'separate' or 'multiplexer', "
+            raise ValueError(f"gauge_layout must be 'separate', 'multiplexer' or 'moved', "
                              f"got {config.gauge_layout!r}")
         self._started = False
 
@@ -92,6 +111,25 @@ class SimulatorStack:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    @property
+    def moves_indicators(self) -> bool:
+        return self.config.gauge_layout == "moved"
+
+    def set_gauges(self, leg: str) -> None:
+        """The simulated operator moves the two indicators to ``leg`` and sets them
+        (each gauge's reading at the Zero posture is its own, as set on a stand)."""
+        if not self.moves_indicators:
+            raise ValueError("the simulated gauges stay in place (gauge_layout "
+                             f"{self.config.gauge_layout!r}); only 'moved' indicators move")
+        if leg not in AXES:
+            raise ValueError(f"no leg {leg!r}; legs are {', '.join(AXES)}")
+        self._mounted_leg = leg
+
+    def _mounted_source(self, keys: tuple[str, ...],
+                        sources: dict[str, Callable[[], float]]) -> Callable[[], float]:
+        by_leg = {key.split("_")[1]: sources[key] for key in keys}
+        return lambda: by_leg[self._mounted_leg]()
 
     def _endpoints(self) -> list[GaugeEndpoint]:
         return list({id(g): g for g in self.gauges.values()}.values())

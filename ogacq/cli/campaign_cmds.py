@@ -11,10 +11,12 @@ from typing import Annotated
 
 import typer
 
-from ogacq.campaign import CampaignOutcome, resume_campaign, run_campaign
+from ogacq.campaign import CampaignOutcome, resumable_campaign, resume_campaign, run_campaign
 from ogacq.campaign_file import read_campaign
 from ogacq.cli.app import app
+from ogacq.cli.leg_prompt import operator_for
 from ogacq.protocol.runner import CampaignStopped
+from ogacq.session.store import load_session
 
 EXIT_STOPPED = 3
 EXIT_INTERRUPTED = 130
@@ -51,9 +53,12 @@ def run(
     campaign_file: Annotated[Path, typer.Argument(help="Campaign file (TOML).")],
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
 ) -> None:
-    """Run a scripted campaign with no operator (gauges pre-mounted)."""
+    """Run a scripted campaign: no operator when the six gauges are mounted, or one
+    asked to set them at each leg when indicators move from leg to leg."""
     campaign = read_campaign(campaign_file)
-    outcome = _execute(lambda obs: run_campaign(campaign, observer=obs), quiet=as_json)
+    _check_operator(campaign)
+    outcome = _execute(lambda obs: run_campaign(
+        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
     _finish(outcome, as_json)
 
 
@@ -63,8 +68,16 @@ def resume(
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
 ) -> None:
     """Continue an interrupted campaign where it stopped."""
-    outcome = _execute(lambda obs: resume_campaign(session, observer=obs), quiet=as_json)
+    campaign = resumable_campaign(load_session(session))
+    _check_operator(campaign)
+    outcome = _execute(lambda obs: resume_campaign(
+        session, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
     _finish(outcome, as_json)
+
+
+def _check_operator(campaign) -> None:
+    """Refuse, before anything opens, a campaign that needs an operator and has none."""
+    operator_for(campaign)
 
 
 DEMO_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators
@@ -106,7 +119,6 @@ def demo(
     campaign = read_campaign(folder / "campaign.toml")
     outcome = _execute(lambda obs: run_campaign(campaign, observer=obs))
     from ogacq.session.convert import export_readings
-    from ogacq.session.store import load_session
 
     session = load_session(outcome.session_path)
     export_readings(session, folder / "readings.csv")

@@ -101,13 +101,36 @@ def print_sim(info: dict) -> None:
     console.print("running; Ctrl-C to stop")
 
 
+class CampaignProgress:
+    """The runner's observer as the command line shows it; ``paused()`` lifts a live
+    bar off the terminal while the operator is asked something."""
+
+    def __init__(self, show=lambda progress: None, bar: Progress | None = None) -> None:
+        self._show = show
+        self._bar = bar
+
+    def __call__(self, progress) -> None:
+        self._show(progress)
+
+    @contextmanager
+    def paused(self):
+        if self._bar is None:
+            yield
+            return
+        self._bar.stop()
+        try:
+            yield
+        finally:
+            self._bar.start()
+
+
 @contextmanager
 def campaign_progress(enabled: bool = True):
     """An observer for the runner: a live bar on a terminal, log lines otherwise."""
     import sys
 
     if not enabled:
-        yield lambda progress: None
+        yield CampaignProgress()
         return
     if not sys.stdout.isatty():
         err = Console(stderr=True)
@@ -116,7 +139,7 @@ def campaign_progress(enabled: bool = True):
             err.print(f"[{progress.done}/{progress.total}] {progress.message}",
                       highlight=False)
 
-        yield log_line
+        yield CampaignProgress(log_line)
         return
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), TextColumn("{task.fields[last]}"),
@@ -127,7 +150,7 @@ def campaign_progress(enabled: bool = True):
             bar.update(task, completed=progress.done, total=progress.total,
                        last=progress.message)
 
-        yield update
+        yield CampaignProgress(update, bar)
 
 
 def print_outcome(outcome) -> None:

@@ -8,6 +8,16 @@ rho_max_mm = 60.0
 gauge_resolution_mm = 0.001
 """
 
+# Pieces of hand-written campaign files (a controller nobody listens on).
+HEAD = 'machine = "machine.toml"\nsession = "s.jsonl"\n'
+CONTROLLER = '[controller]\nprofile = "cia402"\nport = "127.0.0.1:1"\n'
+
+
+def gauge(key: str, port: str, channel: int | None = None) -> str:
+    """One [[gauges]] entry."""
+    text = f'[[gauges]]\ngauge = "{key}"\nprotocol = "mitutoyo-01a"\nport = "{port}"\n'
+    return text + (f"channel = {channel}\n" if channel is not None else "")
+
 
 def write_campaign(folder: Path, *, seed: int = 3, speed: float = 50, noise: float | None = None,
                    profile: str = "cia402", extra: str = "") -> Path:

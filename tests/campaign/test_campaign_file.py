@@ -2,17 +2,8 @@
 
 import pytest
 
-from tests.campaign.conftest import MACHINE
+from tests.campaign.conftest import CONTROLLER, HEAD, MACHINE, gauge
 from tests.cli.helpers import run_ogacq
-
-HEAD = 'machine = "machine.toml"\nsession = "s.jsonl"\n'
-CONTROLLER = '[controller]\nprofile = "cia402"\nport = "127.0.0.1:1"\n'
-
-
-def gauge(key, port, channel=None):
-    text = f'[[gauges]]\ngauge = "{key}"\nprotocol = "mitutoyo-01a"\nport = "{port}"\n'
-    return text + (f"channel = {channel}\n" if channel is not None else "")
-
 
 ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
                      enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"), 1))
@@ -26,7 +17,7 @@ ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
     (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\npostures = ["zero", 80.0]\n', 37,
      "outside the workspace"),
     (HEAD + CONTROLLER + ALL_GAUGES.replace("channel = 2", "channel = 1"), 11,
-     "two gauges on port /dev/ttyUSB0 channel 1"),
+     "gauges y_x (line 6) and z_x of the x leg both on port /dev/ttyUSB0 channel 1"),
     (HEAD + CONTROLLER + ALL_GAUGES.replace('gauge = "y_z"', 'gauge = "z_z"'), 32,
      "is not one of"),
     (HEAD + CONTROLLER + gauge("y_x", "/dev/ttyUSB0"), None, "no [[gauges]] entry for"),
@@ -68,3 +59,16 @@ def test_unreachable_controller_is_named_and_nothing_is_written(tmp_path):
     assert len(message.splitlines()) == 1 and "Traceback" not in proc.stderr, message
     assert "127.0.0.1:1" in message and "cannot connect" in message
     assert not (tmp_path / "s.jsonl").exists()
+
+
+def test_one_indicator_may_serve_one_gauge_per_leg(tmp_path):
+    """The papers' two indicators, moved leg to leg: accepted, and known as moved."""
+    from ogacq.campaign_file import read_campaign
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(HEAD + CONTROLLER + "".join(
+        gauge(key, "/dev/ttyUSB0" if key in ("y_x", "x_y", "x_z") else "/dev/ttyUSB1")
+        for key in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")))
+    assert read_campaign(path).moved_indicators == {
+        "/dev/ttyUSB0": ["y_x", "x_y", "x_z"], "/dev/ttyUSB1": ["z_x", "z_y", "y_z"]}

@@ -72,3 +72,23 @@ def test_six_gauges_on_one_multiplexer_port(campaign_dir):
     for r in session.readings:
         expected = session.header["station"]["gauges"][r["gauge"]]["channel"]
         assert r["raw"][1] == expected
+
+
+def test_two_indicators_moved_from_leg_to_leg(campaign_dir):
+    """The papers' station: two indicators, set on each leg in turn (here by the
+    simulator's operator); each gauge of a leg is read through the indicator
+    mounted there."""
+    path = write_campaign(campaign_dir, seed=13, extra="", speed=50)
+    path.write_text(path.read_text().replace("[simulator]\n",
+                                             '[simulator]\ngauge_layout = "moved"\n'))
+    out = run_ogacq("run", path, "--json", check_json=True)
+    for axis in "xyz":
+        truth = out["hidden"][f"joint_offset.{axis}"]
+        got = out["parameters"]["joint_offset"][axis]
+        assert abs(got - truth) < 3 * out["std"]["joint_offset"][axis]
+    session = load_session(campaign_dir / "session.jsonl")
+    gauges = session.header["station"]["gauges"]
+    assert len({g["port"] for g in gauges.values()}) == 2
+    assert gauges["y_x"]["port"] == gauges["x_y"]["port"] == gauges["x_z"]["port"]
+    assert [e["leg"] for e in session.of_type("gauges_set")] == ["x", "y", "z"]
+    assert len(session.readings) == 72
