@@ -61,9 +61,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                       "station": station.description, "plan": campaign.protocol.to_dict(),
                       **(header_extra or {})}
             if station.simulator is not None and campaign.simulator is not None:
-                sim = campaign.simulator
-                header["simulator"] = {"seed": sim.seed, "profile": sim.profile,
-                                       "speed": sim.speed, "effects": str(sim.effects or "")}
+                header["simulator"] = campaign.simulator.header()
             writer = SessionWriter.create(campaign.session, header)
             recorded: set[tuple[str, str]] = set()
         else:

@@ -51,6 +51,9 @@ from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 
 GAUGE_KEYS = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
+#: Two indicators moved from leg to leg (the papers' station): the gauges each one
+#: serves, the first gauge of every leg for the first, the other for the second.
+MOVED_INDICATORS = (GAUGE_KEYS[0::2], GAUGE_KEYS[1::2])
 PROTOCOLS = ("mitutoyo-01a", "digimatic", "uwave", "sylvac")
 
 _TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}
@@ -93,6 +96,19 @@ class SimulatorSpec:
     noise_mm: float | None = None
     gauge_layout: str = "separate"  # "multiplexer": six channels on one port; "moved":
     # two indicators the simulated operator moves from leg to leg
+
+    def header(self) -> dict[str, Any]:
+        """The session header's ``simulator`` entry: what a resume restarts."""
+        return {"seed": self.seed, "profile": self.profile, "speed": self.speed,
+                "effects": str(self.effects or ""), "gauge_layout": self.gauge_layout}
+
+    @classmethod
+    def from_header(cls, entry: dict[str, Any]) -> SimulatorSpec:
+        return cls(seed=int(entry.get("seed", 0)),
+                   effects=Path(entry["effects"]) if entry.get("effects") else None,
+                   speed=float(entry.get("speed", 20.0)),
+                   profile=str(entry.get("profile", "cia402")),
+                   gauge_layout=str(entry.get("gauge_layout", "separate")))
 
 
 @dataclass

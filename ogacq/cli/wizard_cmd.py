@@ -46,6 +46,10 @@ def wizard(
     by_eye: Annotated[bool, typer.Option(
         "--by-eye", help="Dial indicators: type each reading (the default answer to "
                          "'how are the gauges read').")] = False,
+    indicators: Annotated[int | None, typer.Option(
+        min=2, max=6, help="6: two per leg, left in place; 2: moved from leg to leg, as in "
+                           "the papers (asked when not given; a rehearsal's simulator has 6 "
+                           "unless told).")] = None,
     resume: Annotated[Path | None, typer.Option(
         help="Continue this session with the wizard.")] = None,
     simulate_fault: Annotated[list[str] | None, typer.Option(
@@ -57,6 +61,9 @@ def wizard(
     from ogacq.cli.wizard import WizardOptions, run_wizard
 
     faults = _faults(simulate_fault)
+    if indicators not in (None, 2, 6):
+        raise typer.BadParameter("2 (moved from leg to leg) or 6 (left in place)",
+                                 param_hint="--indicators")
     if faults and not simulator and resume is None:
         raise typer.BadParameter("faults can only be injected into the simulator",
                                  param_hint="--simulate-fault")
@@ -64,7 +71,8 @@ def wizard(
                             machine=machine, out=out, cycles=cycles, settle_s=settle_s,
                             stability_timeout_s=stability_timeout_s,
                             gauge_range_mm=gauge_range_mm, max_offset_mm=max_offset_mm,
-                            by_eye=by_eye, faults=faults, resume=resume)
+                            by_eye=by_eye, indicators=indicators, faults=faults,
+                            resume=resume)
     code = run_wizard(options)
     if code:
         raise typer.Exit(code)  # 130: quit, the session kept

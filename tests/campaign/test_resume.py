@@ -89,3 +89,23 @@ def test_a_complete_campaign_is_not_resumed(tmp_path):
     run_ogacq("run", path, "--json", check_json=True)
     proc = run_ogacq("resume", path.parent / "session.jsonl")
     assert proc.returncode == 2 and "complete" in proc.stderr
+
+
+def test_moved_indicators_resume_on_the_leg_they_were_on(tmp_path):
+    """Killed half way through the y leg: the resumed campaign finds the indicators on
+    the y leg (where the operator left them) and ends as an uninterrupted run."""
+    def moved(folder):
+        path = write_campaign(folder, seed=17, noise=0.0)
+        path.write_text(path.read_text().replace("[simulator]\n",
+                                                 '[simulator]\ngauge_layout = "moved"\n'))
+        return path
+
+    reference = run_ogacq("run", moved(tmp_path / "ref"), "--json", check_json=True)
+    path = moved(tmp_path / "killed")
+    session = path.parent / "session.jsonl"
+    kill_after(start("run", path), session, 36)  # the y leg has readings 25..48
+    final = run_ogacq("resume", session, "--json", check_json=True)
+    loaded = load_session(session)
+    assert len({(r["step"], r["gauge"]) for r in loaded.readings}) == len(loaded.readings) == 72
+    assert [e["leg"] for e in loaded.of_type("gauges_set")] == ["x", "y", "z"]
+    assert np.allclose(offsets(final), offsets(reference), atol=2e-6)

@@ -61,16 +61,22 @@ class Wizard:
             self.child.terminate(force=True)
 
     # ------------------------------------------------------------------ the usual path
-    def connect_with_defaults(self, by_eye: bool = False) -> None:
+    def connect_with_defaults(self, by_eye: bool = False, indicators: int = 6) -> None:
         """Step 1 and 2 accepting what the wizard detected (the simulator's ports)."""
         self.answer(r"Register map of the controller")
         self.answer(r"Controller port")
         self.expect(r"controller answers")
         self.answer(r"How are the gauges read\?")
         if not by_eye:
+            self.answer(r"How many indicators\?", str(indicators))
+        if not by_eye and indicators == 6:
             for gauge in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"):
                 self.answer(rf"Gauge {gauge} \(on the")
                 self.expect(rf"{gauge} reads [0-9.]+ mm")
+        if not by_eye and indicators == 2:
+            for number in (1, 2):
+                self.answer(rf"Indicator {number} \(along")
+                self.expect(rf"indicator {number} reads [0-9.]+ mm")
         self.answer(r"Is this the machine you are calibrating\?")
         self.answer(r"Start\?")
 

@@ -4,6 +4,7 @@ included: a full calibration, a gauge that goes silent, a pause then quit and
 
 from __future__ import annotations
 
+import re
 import subprocess
 import sys
 
@@ -60,6 +61,36 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     campaign = read_campaign(tmp_path / "run" / "campaign.toml")
     assert campaign.protocol.to_dict() == session.header["plan"]
     assert campaign.simulator is not None and campaign.simulator.seed == 3
+
+
+def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
+    """The papers' station: two indicators, one port each, set on every leg in turn."""
+    w = start(wizards, tmp_path / "run", "--indicators", "2")
+    w.expect(r"simulated indicator 1, moved from leg to leg: y_x, x_y, x_z")
+    w.connect_with_defaults(indicators=2)
+    for leg in "xyz":
+        w.set_gauges(leg)
+        w.expect(rf"{leg} leg measured: 24 readings")
+    w.expect(r"Joint offsets identified from 72 readings")
+    told = re.findall(r"Gauge ([xyz]_[xyz]) is the indicator on /dev/\S+: it goes from leg",
+                      "".join(w.transcript))
+    assert told == ["y_x", "z_x", "x_y", "z_y", "x_z", "y_z"]
+    w.answer(r"Write these offsets to the controller now\?", "n")
+    assert w.finish() == 0
+
+    session = load_session(w.session)
+    assert session.finished and len(session.readings) == 72
+    gauges = session.header["station"]["gauges"]
+    assert gauges["y_x"]["port"] == gauges["x_y"]["port"] == gauges["x_z"]["port"]
+    assert gauges["z_x"]["port"] == gauges["z_y"]["port"] == gauges["y_z"]["port"]
+    assert gauges["y_x"]["port"] != gauges["z_x"]["port"]
+    assert session.header["simulator"]["gauge_layout"] == "moved"
+    campaign = read_campaign(tmp_path / "run" / "campaign.toml")  # what `ogacq resume` reads
+    assert campaign.simulator is not None and campaign.simulator.gauge_layout == "moved"
+    # each gauge was read on its own leg: the fit is consistent, the offsets sharp
+    fit = session.of_type("result")[-1]["refit"]
+    assert max(fit["std"]["joint_offset"].values()) < 0.002
+    assert fit["residual_rms_mm"] < 0.005
 
 
 def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):

@@ -3,20 +3,21 @@
 List the serial ports with their descriptions (plus the simulator's ports in
 a rehearsal; pseudo-terminals and ``socket://`` URLs are never listed, so a
 typed port or URL is always accepted), check that the axis controller
-answers, and test-read each gauge. Every check can be retried, changed, or
+answers, and test-read each gauge: six left in place, or the papers' two
+indicators moved from leg to leg. Every check can be retried, changed, or
 skipped with a reason; a gauge can be switched to reading by eye.
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from drivers.axes.profile import ProfileError, available_profiles
 from drivers.errors import DriverError
 from drivers.indicators import BACKENDS, open_indicator
-from ogacq.campaign_file import GAUGE_KEYS, ControllerSpec, GaugeSpec
+from ogacq.campaign_file import GAUGE_KEYS, MOVED_INDICATORS, ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.parameters import AXES
 from ogacq.station import open_controller  # the campaign's own way of connecting
@@ -28,7 +29,7 @@ BY_EYE = "by eye"
 class DetectedPort:
     device: str
     description: str
-    suggested_for: str = ""  # "controller" or a gauge key (the simulator knows)
+    suggested_for: str = ""  # "controller", a gauge key or "indicator N" (the simulator knows)
     protocol: str = ""
 
 
@@ -60,9 +61,18 @@ def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
         found.append(DetectedPort(where, f"simulated axis controller ({m['profile']}, "
                                          f"Modbus {m['transport'].upper()})",
                                   "controller", m["profile"]))
+        served: dict[tuple[str, str | None], list[str]] = {}
         for key, g in simulated["gauges"].items():
-            found.append(DetectedPort(g["port"], f"simulated gauge {key} ({g['protocol']})",
-                                      key, g["protocol"]))
+            served.setdefault((g["port"], g.get("channel")), []).append(key)
+        for number, ((port, _), keys) in enumerate(served.items(), 1):
+            protocol = simulated["gauges"][keys[0]]["protocol"]
+            if len(keys) == 1:
+                found.append(DetectedPort(port, f"simulated gauge {keys[0]} ({protocol})",
+                                          keys[0], protocol))
+            else:
+                found.append(DetectedPort(port, f"simulated indicator {number}, moved from leg "
+                                                f"to leg: {', '.join(keys)} ({protocol})",
+                                          f"indicator {number}", protocol))
     try:
         from serial.tools.list_ports import comports
 
@@ -168,7 +178,10 @@ def test_read(spec: GaugeSpec, timeout_s: float = 1.0) -> float:
 
 def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],
                   notes: list[dict[str, str]], all_by_eye: bool = False,
+                  indicators: int | None = None, rehearsal_indicators: int | None = None,
                   ) -> tuple[dict[str, GaugeSpec], set[str]]:
+    """The gauges' specs (by key) and the gauges read by eye. ``indicators``: 6 or 2
+    if already known (else asked); ``rehearsal_indicators``: what the simulator has."""
     keys = gauges_of(legs)
     screen.say()
     screen.say("[bold]Gauges[/]")
@@ -191,6 +204,9 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
         screen.note("U-WAVE sends a value when the transmitter's DATA button is pressed: "
                     "press it when a gauge is tested.")
 
+    if _indicator_count(screen, indicators, rehearsal_indicators) == 2:
+        return _moved_indicators(screen, ports, legs, protocol, notes)
+
     chosen: dict[str, GaugeSpec] = {}
     by_eye: set[str] = set()
     free = [p for p in ports if not p.suggested_for]
@@ -208,10 +224,55 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
     return chosen, by_eye
 
 
+def _indicator_count(screen: Screen, known: int | None, rehearsal: int | None) -> int:
+    options = [Option("6", "six, two per leg, left in place for the whole campaign"),
+               Option("2", "two, moved from leg to leg (as in the papers): you set them on "
+                           "each leg when the machine stops there")]
+    if known is not None and rehearsal is None:
+        return known
+    while True:
+        count = int(screen.choose("How many indicators?", options,
+                                  default=str(rehearsal or known or 6)))
+        if rehearsal is None or count == rehearsal:
+            return count
+        screen.problem(f"this rehearsal's simulator has {rehearsal} indicators; to rehearse "
+                       f"with {count}, start again with --indicators {count}")
+
+
+def _moved_indicators(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],
+                      protocol: str, notes: list[dict[str, str]],
+                      ) -> tuple[dict[str, GaugeSpec], set[str]]:
+    """Two indicators, each serving one gauge on every leg (same port, its own zero
+    on each leg): one port question and one test read per indicator."""
+    chosen: dict[str, GaugeSpec] = {}
+    by_eye: set[str] = set()
+    free = [p for p in ports if not p.suggested_for]
+    screen.say("Type each indicator's port (a number from the list, a device or a URL), "
+               "or [bold]m[/] to read it by eye.")
+    for number, served in enumerate(MOVED_INDICATORS, 1):
+        gauges = [g for g in served if g.split("_")[1] in legs]
+        taken = {s.port for s in chosen.values()}
+        guess = next((p for p in ports if p.suggested_for == f"indicator {number}"), None) \
+            or next((p for p in free if p.device not in taken), None)
+        label = f"Indicator {number} (" + ", ".join(
+            f"along {g.split('_')[0]} on the {g.split('_')[1]} leg" for g in gauges) + ")"
+        spec = _one_gauge(screen, gauges[0], protocol, ports, taken,
+                          guess.device if guess else None, notes, label=label,
+                          name=f"indicator {number}")
+        if spec is None:
+            by_eye.update(gauges)
+        else:
+            chosen.update({g: replace(spec, gauge=g) for g in gauges})
+    return chosen, by_eye
+
+
 def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[DetectedPort],
                taken: set[str], default: str | None, notes: list[dict[str, str]],
-               ) -> GaugeSpec | None:
-    """The gauge's spec once it read (or its test was skipped); None: read by eye."""
+               label: str | None = None, name: str | None = None) -> GaugeSpec | None:
+    """The gauge's spec once it read (or its test was skipped); None: read by eye.
+    ``label``/``name``: how the question and messages call it (default: the gauge)."""
+    label = label or f"Gauge {describe_gauge(gauge)}"
+    name = name or f"gauge {gauge}"
     while True:
         def parse(answer: str) -> str:
             if answer.lower() == "m":
@@ -222,31 +283,31 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
                                  "its own port (or channel)")
             return port
 
-        port = screen.ask_parsed(f"Gauge {describe_gauge(gauge)}", parse, default=default)
+        port = screen.ask_parsed(label, parse, default=default)
         if port == BY_EYE:
             return None
         spec = GaugeSpec(gauge, protocol, port)
         while True:
             try:
                 value = test_read(spec)
-                screen.ok(f"{gauge} reads {value:.4f} mm on {port}")
+                screen.ok(f"{name} reads {value:.4f} mm on {port}")
                 return spec
             except DriverError as exc:
-                screen.problem(f"gauge {gauge} on {port} did not give a value: {detail(exc)}")
+                screen.problem(f"{name} on {port} did not give a value: {detail(exc)}")
                 screen.say("Check the cable, that the gauge is on, and its interface setting.")
             choice = screen.choose("What now?", [
                 Option("r", "retry"),
                 Option("c", "change the port"),
-                Option("m", f"read {gauge} by eye instead (type its values)"),
+                Option("m", f"read {name} by eye instead (type its values)"),
                 Option("s", "skip this test (give a reason)"),
             ], default="r")
             if choice == "m":
                 notes.append({"step": "gauge test", "gauge": gauge, "port": port,
-                              "reason": screen.reason(f"read {gauge} by eye")})
+                              "reason": screen.reason(f"read {name} by eye")})
                 return None
             if choice == "s":
                 notes.append({"step": "gauge test", "gauge": gauge, "port": port,
-                              "reason": screen.reason(f"skip the test of {gauge}")})
+                              "reason": screen.reason(f"skip the test of {name}")})
                 return spec
             if choice == "c":
                 default = None
@@ -254,9 +315,11 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
 
 
 def connect_instruments(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str] = AXES,
-                        all_by_eye: bool = False) -> StationChoice:
+                        all_by_eye: bool = False, indicators: int | None = None,
+                        rehearsal_indicators: int | None = None) -> StationChoice:
     show_ports(screen, ports)
     notes: list[dict[str, str]] = []
     controller = choose_controller(screen, ports, notes)
-    gauges, by_eye = choose_gauges(screen, ports, legs, notes, all_by_eye)
+    gauges, by_eye = choose_gauges(screen, ports, legs, notes, all_by_eye, indicators,
+                                   rehearsal_indicators)
     return StationChoice(controller, gauges, by_eye, notes)

@@ -32,13 +32,7 @@ class Rehearsal:
     gauges: list[GaugeSpec]
 
     def header(self) -> dict[str, Any]:
-        return self.describe(self.spec)
-
-    @staticmethod
-    def describe(spec: SimulatorSpec) -> dict[str, Any]:
-        """The session header's ``simulator`` entry, as ``run_campaign`` writes it."""
-        return {"seed": spec.seed, "profile": spec.profile, "speed": spec.speed,
-                "effects": str(spec.effects or "")}
+        return self.spec.header()
 
     def hidden(self) -> dict[str, float]:
         return self.stack.machine.truth.hidden()
@@ -113,6 +107,8 @@ def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsa
                                                    ("profile", rehearsal.spec.profile))]
         if rehearsal.spec.effects:
             lines.append(f"effects = {_toml(str(rehearsal.spec.effects))}")
+        if rehearsal.spec.gauge_layout != "separate":
+            lines.append(f"gauge_layout = {_toml(rehearsal.spec.gauge_layout)}")
         lines.append("")
     else:
         assert campaign.controller is not None

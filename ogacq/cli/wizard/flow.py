@@ -80,6 +80,7 @@ class WizardOptions:
     gauge_range_mm: float = 12.7
     max_offset_mm: float = 2.0
     by_eye: bool = False
+    indicators: int | None = None  # 6 (left in place) or 2 (moved leg to leg); None: asked
     faults: list[FaultPlan] = field(default_factory=list)
     resume: Path | None = None
 
@@ -151,7 +152,8 @@ class _Wizard:
                                   stability=StabilityRule(timeout_s=opts.stability_timeout_s))
         if opts.simulator:
             assert machine is not None and machine_path is not None
-            sim = SimulatorSpec(seed=opts.seed, speed=opts.speed, profile=opts.profile)
+            sim = SimulatorSpec(seed=opts.seed, speed=opts.speed, profile=opts.profile,
+                                gauge_layout="moved" if opts.indicators == 2 else "separate")
             self._start_rehearsal(cleanup, Campaign(folder / "campaign.toml", machine,
                                                      machine_path, folder / "session.jsonl",
                                                      protocol), sim)
@@ -162,7 +164,9 @@ class _Wizard:
         ports = detect_ports(self.rehearsal.stack.info() if self.rehearsal else None)
         choice: StationChoice = pausable(
             s, "while connecting the instruments",
-            lambda: connect_instruments(s, ports, protocol.legs, opts.by_eye))
+            lambda: connect_instruments(
+                s, ports, protocol.legs, opts.by_eye, opts.indicators,
+                (opts.indicators or 6) if opts.simulator else None))
         self.by_eye = set(choice.by_eye)
 
         s.heading("The machine", "step 2 of 4")
@@ -212,11 +216,7 @@ class _Wizard:
         station = (session.of_type("station") or [h.get("station") or {}])[-1]
         sim = h.get("simulator")
         if isinstance(sim, dict):
-            spec = SimulatorSpec(seed=int(sim.get("seed", 0)),
-                                 effects=Path(sim["effects"]) if sim.get("effects") else None,
-                                 speed=float(sim.get("speed", 20.0)),
-                                 profile=str(sim.get("profile", "cia402")))
-            self._start_rehearsal(cleanup, campaign, spec)
+            self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(sim))
             assert self.rehearsal is not None
             campaign.controller = self.rehearsal.controller
             campaign.gauges = list(self.rehearsal.gauges)
@@ -290,9 +290,11 @@ class _Wizard:
                                           Option("q", "quit (the session stays resumable)")],
                             default="r") == "q":
                     raise OperatorQuit() from None
+        tested: set[tuple[str, str | None]] = set()
         for spec in list(campaign.gauges):
-            if spec.gauge in self.by_eye:
-                continue
+            if spec.gauge in self.by_eye or (spec.port, spec.channel) in tested:
+                continue  # an indicator moved leg to leg is tested once
+            tested.add((spec.port, spec.channel))
             while True:
                 try:
                     s.ok(f"{spec.gauge} reads {test_read(spec):.4f} mm on {spec.port}")

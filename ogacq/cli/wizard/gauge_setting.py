@@ -86,7 +86,7 @@ class LegSetter:
                   f"leg {legs.index(step.leg) + 1} of {len(legs)}")
         s.say(f"The machine is at the Zero posture of the {step.leg} leg. "
               "Leave it there while you set the gauges.")
-        for line in leg_instructions(step.leg):
+        for line in leg_instructions(step.leg) + self._moved_here(step):
             s.say(f"  • {line}")
         s.say()
         s.say(Text(leg_drawing(step.leg, s.out.width)))
@@ -100,6 +100,19 @@ class LegSetter:
                     return
             except KeyboardInterrupt:
                 self.pause(f"while setting the gauges of the {step.leg} leg")
+
+    def _moved_here(self, step: SetGauges) -> list[str]:
+        """Which indicator each gauge is, when indicators go from leg to leg."""
+        gauges = self._station().description.get("gauges") or {}
+        links = {key: (g.get("port"), g.get("channel")) for key, g in gauges.items()}
+        lines = []
+        for gauge in step.gauges:
+            if gauge in links and list(links.values()).count(links[gauge]) > 1:
+                port, channel = links[gauge]
+                where = f"{port}" + (f" channel {channel}" if channel else "")
+                lines.append(f"Gauge {gauge} is the indicator on {where}: it goes from leg "
+                             "to leg; set it here.")
+        return lines
 
     def _set_and_check(self, step: SetGauges) -> bool:
         """True when the leg's gauges are set (checked, or the check skipped with a reason)."""
