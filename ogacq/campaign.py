@@ -106,6 +106,16 @@ def resume_campaign(session_path: str | Path, **kwargs) -> CampaignOutcome:
     return run_campaign(campaign, resume=session, **kwargs)
 
 
+def gauges_read_by_eye(session: LoadedSession) -> set[str]:
+    """Gauges whose values the operator types (chosen at the start, or switched to
+    mid-way when a gauge failed): only the wizard can ask for them."""
+    wizard = session.header.get("wizard")
+    chosen = wizard.get("by_eye", []) if isinstance(wizard, dict) else []
+    switched = {r["gauge"] for r in session.of_type("operator")
+                if r.get("action") == "read_by_eye"}
+    return set(chosen) | switched
+
+
 def resumable_campaign(session: LoadedSession) -> Campaign:
     """The campaign an interrupted session continues with (its file, its plan)."""
     if session.finished:
@@ -115,6 +125,10 @@ def resumable_campaign(session: LoadedSession) -> Campaign:
     if not campaign_file:
         raise InputError(session.path, "this session was not recorded by a campaign "
                          "(no campaign file): it cannot be resumed", 1)
+    by_eye = gauges_read_by_eye(session)
+    if by_eye:
+        raise InputError(session.path, f"gauges {', '.join(sorted(by_eye))} are read by eye: "
+                         f"continue with `ogacq wizard --resume {session.path}`")
     campaign = read_campaign(campaign_file)
     if campaign.protocol.to_dict() != session.header.get("plan"):
         raise InputError(campaign.path, f"the protocol differs from the one {session.path} "

@@ -196,6 +196,12 @@ def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path,
     w.expect(r"Stopped after 3 readings")
     w.expect(r"ogacq wizard --resume ")
     assert w.finish() == 130
+    # `ogacq resume` cannot ask for typed values: it says which command can
+    refused = subprocess.run([sys.executable, "-m", "ogacq", "resume", str(w.session)],
+                             capture_output=True, text=True, timeout=60)
+    assert refused.returncode == 2
+    assert "read by eye: continue with `ogacq wizard --resume" in refused.stderr
+    assert len(load_session(w.session).readings) == 3  # nothing touched
 
     again = start(wizards, tmp_path / "run", resume=w.session)
     again.expect(r"3 readings recorded")

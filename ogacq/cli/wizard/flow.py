@@ -17,7 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import DriverError
-from ogacq.campaign import CampaignOutcome, identify_session
+from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
 from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
@@ -202,8 +202,7 @@ class _Wizard:
         wizard = h.get("wizard") if isinstance(h.get("wizard"), dict) else {}
         self.options.gauge_range_mm = wizard.get("gauge_range_mm", self.options.gauge_range_mm)
         self.options.max_offset_mm = wizard.get("max_offset_mm", self.options.max_offset_mm)
-        self.by_eye = set(wizard.get("by_eye", [])) | {
-            r["gauge"] for r in session.of_type("operator") if r.get("action") == "read_by_eye"}
+        self.by_eye = gauges_read_by_eye(session)
         self.session_path = session.path
         campaign_path = Path(h.get("campaign_file") or session.path.with_name("campaign.toml"))
         campaign = Campaign(campaign_path, machine, Path(h.get("machine_file", "")),
