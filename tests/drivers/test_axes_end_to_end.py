@@ -123,7 +123,7 @@ def test_soft_limit_alarm_then_reset(ready: Rig) -> None:
 def test_stop_interrupts_a_move(ready: Rig) -> None:
     c, model = ready.controller, ready.model
     # 18 s simulated, 0.36 s real: long enough to still be moving after the slowest
-    # move start (CiA 402 over paced RTU: seven transactions)
+    # move start (CiA 402 over paced RTU: a status check and the set-point handshake)
     c.move_to({"x": -90.0}, speed_mm_s=5.0, wait=False)
     assert c.read_status(["x"])["x"].moving
     c.stop()
