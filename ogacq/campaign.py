@@ -100,12 +100,6 @@ def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, 
     return set_gauges
 
 
-def resume_campaign(session_path: str | Path, **kwargs) -> CampaignOutcome:
-    session = load_session(session_path)
-    campaign = resumable_campaign(session)
-    return run_campaign(campaign, resume=session, **kwargs)
-
-
 def gauges_read_by_eye(session: LoadedSession) -> set[str]:
     """Gauges whose values the operator types (chosen at the start, or switched to
     mid-way when a gauge failed): only the wizard can ask for them."""

@@ -47,13 +47,10 @@ from typing import Any
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import line_of, read_toml
+from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 
-GAUGE_KEYS = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
-#: Two indicators moved from leg to leg (the papers' station): the gauges each one
-#: serves, the first gauge of every leg for the first, the other for the second.
-MOVED_INDICATORS = (GAUGE_KEYS[0::2], GAUGE_KEYS[1::2])
 PROTOCOLS = ("mitutoyo-01a", "digimatic", "uwave", "sylvac")
 
 _TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}

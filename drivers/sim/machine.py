@@ -17,13 +17,12 @@ import numpy as np
 
 from drivers.sim.clock import SimClock
 from drivers.sim.truth import SimTruth
+from ogacq.model.gauges import GAUGE_INDICES
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, PARAM_INDEX
 
 GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
-#: Every gauge of the station as (gauge_axis, leg): two per leg, never along the leg's axis.
-GAUGE_KEYS = tuple((j, i) for i in range(3) for j in range(3) if j != i)
 
 
 class EncoderPositions(Protocol):
@@ -42,7 +41,7 @@ class SimMachine:
         self._lock = threading.Lock()
         # Each gauge's reading at its setting posture: somewhere mid-stroke.
         self._zero_mm = {key: float(self._rng.uniform(0.4, 0.6) * GAUGE_STROKE_MM)
-                         for key in GAUGE_KEYS}
+                         for key in GAUGE_INDICES}
         # A gauge polled at rest asks the same pose again and again: without drift
         # its noise-free coordinate depends on the pose only, so keep it.
         self._drifts = bool(np.any(truth.theta[[PARAM_INDEX[f"thermal_drift.{a}"]
@@ -53,17 +52,17 @@ class SimMachine:
                        t_s: float) -> dict[tuple[int, int], float]:
         """Noise-free coordinate every gauge (gauge_axis, leg) sees with the joints at
         ``q_mm``: all six in one evaluation, since the gauges are read pose by pose."""
-        n = len(GAUGE_KEYS)
+        n = len(GAUGE_INDICES)
         layout = ReadingsLayout(
             q_mm=np.repeat(self.truth.disturbed_q(q_mm)[None], n, axis=0),
-            leg=np.array([leg for _, leg in GAUGE_KEYS]),
-            gauge_axis=np.array([axis for axis, _ in GAUGE_KEYS]),
+            leg=np.array([leg for _, leg in GAUGE_INDICES]),
+            gauge_axis=np.array([axis for axis, _ in GAUGE_INDICES]),
             t_s=np.full(n, t_s), cycle=np.ones(n, dtype=int),
             tcp_mm=np.full((n, 3), np.nan), approach=np.repeat(
                 np.asarray(approach, int)[None], n, axis=0),
-            gauge=np.arange(n), gauge_keys=GAUGE_KEYS, setting_q_mm=np.zeros((n, 3)))
+            gauge=np.arange(n), gauge_keys=GAUGE_INDICES, setting_q_mm=np.zeros((n, 3)))
         values = predict_coordinates(self.truth.theta, layout, self.machine)
-        return {key: float(v) for key, v in zip(GAUGE_KEYS, values, strict=True)}
+        return {key: float(v) for key, v in zip(GAUGE_INDICES, values, strict=True)}
 
     def gauge_value_mm(self, gauge_axis: int, leg: int) -> float:
         """What the gauge along ``gauge_axis`` on ``leg`` reads now, noise included."""

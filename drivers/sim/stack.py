@@ -18,10 +18,9 @@ from drivers.sim.machine import SimMachine
 from drivers.sim.modbus_server import ModbusSimServer
 from drivers.sim.motion import MotionModel
 from drivers.sim.truth import SimTruth
+from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
-
-GAUGE_KEYS = tuple(f"{AXES[j]}_{AXES[i]}" for i in range(3) for j in range(3) if j != i)
 
 
 @dataclass
@@ -40,13 +39,6 @@ class SimulatorConfig:
     # moved from leg to leg as the papers did (see SimulatorStack.set_gauges)
     gauge_layout: str = "separate"
 
-
-def moved_indicator_keys() -> tuple[tuple[str, ...], tuple[str, ...]]:
-    """The gauges each of two indicators moved leg to leg serves: the first takes
-    the first gauge of every leg (y_x, x_y, x_z), the second the other."""
-    first = tuple(GAUGE_KEYS[k] for k in range(0, len(GAUGE_KEYS), 2))
-    second = tuple(GAUGE_KEYS[k] for k in range(1, len(GAUGE_KEYS), 2))
-    return first, second
 
 
 class SimulatorStack:
@@ -77,7 +69,7 @@ class SimulatorStack:
                 self.channels[key] = None
         elif config.gauge_layout == "moved":
             self._mounted_leg = AXES[0]
-            for number, keys in enumerate(moved_indicator_keys(), 1):
+            for number, keys in enumerate(MOVED_INDICATORS, 1):
                 indicator = GaugeEndpoint(
                     config.gauge_protocol, self._mounted_source(keys, sources),
                     resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,

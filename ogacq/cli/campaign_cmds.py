@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from ogacq.campaign import CampaignOutcome, resumable_campaign, resume_campaign, run_campaign
+from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
 from ogacq.campaign_file import read_campaign
 from ogacq.cli.app import app
 from ogacq.cli.leg_prompt import operator_for
@@ -56,7 +56,7 @@ def run(
     """Run a scripted campaign: no operator when the six gauges are mounted, or one
     asked to set them at each leg when indicators move from leg to leg."""
     campaign = read_campaign(campaign_file)
-    _check_operator(campaign)
+    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     outcome = _execute(lambda obs: run_campaign(
         campaign, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
     _finish(outcome, as_json)
@@ -68,16 +68,13 @@ def resume(
     as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
 ) -> None:
     """Continue an interrupted campaign where it stopped."""
-    campaign = resumable_campaign(load_session(session))
-    _check_operator(campaign)
-    outcome = _execute(lambda obs: resume_campaign(
-        session, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
+    loaded = load_session(session)
+    campaign = resumable_campaign(loaded)
+    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
+    outcome = _execute(lambda obs: run_campaign(
+        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
+        quiet=as_json)
     _finish(outcome, as_json)
-
-
-def _check_operator(campaign) -> None:
-    """Refuse, before anything opens, a campaign that needs an operator and has none."""
-    operator_for(campaign)
 
 
 DEMO_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators

@@ -17,8 +17,9 @@ from typing import Any
 from drivers.axes.profile import ProfileError, available_profiles
 from drivers.errors import DriverError
 from drivers.indicators import BACKENDS, open_indicator
-from ogacq.campaign_file import GAUGE_KEYS, MOVED_INDICATORS, ControllerSpec, GaugeSpec
+from ogacq.campaign_file import ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
+from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS
 from ogacq.model.parameters import AXES
 from ogacq.station import open_controller  # the campaign's own way of connecting
 

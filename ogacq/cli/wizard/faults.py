@@ -10,7 +10,7 @@ import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from ogacq.campaign_file import GAUGE_KEYS
+from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.protocol import runner
 
 _SPEC = re.compile(r"(?P<gauge>[xyz]_[xyz]):(?P<kind>[a-z]+)@(?P<after>\d+)(x(?P<count>\d+))?")
