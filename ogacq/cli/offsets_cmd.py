@@ -50,6 +50,9 @@ SaveNvmOption = Annotated[bool, typer.Option(
 NoHomeOption = Annotated[bool, typer.Option(
     "--no-home", help="Do not re-home after writing an offset that takes effect at homing "
                       "(it then acts at the next homing; every campaign homes first).")]
+FromDiagnosisOption = Annotated[bool, typer.Option(
+    "--from-diagnosis", help="The joint offsets of the diagnosis's final model (the offsets "
+                             "with the effects it found beside them); the effects remain.")]
 MaxChangeOption = Annotated[float, typer.Option(
     "--max-change-mm", min=0.0, help="Refuse a change of any axis larger than this (mm).")]
 
@@ -152,6 +155,7 @@ def show(
     session_path: SessionArgument,
     campaign_path: CampaignOption = None,
     max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
+    from_diagnosis: FromDiagnosisOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """Show the controller's offsets, the identified ones (std, fit verdict) and the
@@ -165,7 +169,7 @@ def show(
     from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
 
     session = load_session(session_path)
-    evidence = evidence_from_session(session)
+    evidence = evidence_from_session(session, from_diagnosis)
     campaign, profile = _campaign_for(session, campaign_path)
     spec = campaign.controller
     with _device_errors(), open_controller(spec) as controller:
@@ -207,6 +211,7 @@ def write(
     save_nvm: SaveNvmOption = False,
     no_home: NoHomeOption = False,
     max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
+    from_diagnosis: FromDiagnosisOption = False,
 ) -> None:
     """Write the offsets identified by a campaign: shown, confirmed, read back, recorded."""
     from ogacq.cli import render_offsets as render
@@ -215,7 +220,7 @@ def write(
     from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
 
     session = load_session(session_path)
-    evidence = evidence_from_session(session)
+    evidence = evidence_from_session(session, from_diagnosis)
     campaign, profile = _campaign_for(session, campaign_path)
     spec = campaign.controller
     _check_writable(campaign, profile, save_nvm)

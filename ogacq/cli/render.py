@@ -53,9 +53,14 @@ def print_fit(result: FitResult, params_label: str) -> None:
             console.print(f"  - {reason}")
     for a, b, c in ident.correlated_pairs:
         console.print(f"  correlated: {a} / {b} {c:+.4f}")
-    if np.isfinite(scale) and scale > 3:
-        console.print(f"[yellow]the residuals are {scale:.0f}x the gauge noise: the model "
-                      "leaves something out; run `ogacq diagnose` on the readings[/]")
+    from ogacq.identify.consistency import fit_verdict
+
+    verdict = fit_verdict(result)
+    colour = {"consistent": "green", "inconsistent": "red"}.get(verdict.state, "yellow")
+    console.print(f"fit: [{colour}]{verdict.describe()}[/]", highlight=False)
+    if verdict.state == "inconsistent":
+        console.print("[yellow]the model leaves something out: run `ogacq diagnose` on the "
+                      "readings[/]")
 
 
 def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:

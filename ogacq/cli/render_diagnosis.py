@@ -10,7 +10,7 @@ from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.library import BASE_MODEL, label
 from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.selection import Model
-from ogacq.diagnose.verdict import ALPHA, format_p
+from ogacq.identify.consistency import LEVEL, format_p
 from ogacq.model.parameters import PARAM_INDEX, effect_of
 
 
@@ -36,6 +36,11 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
                       "noise: nothing is left to explain.")
         _print_offsets(d)
         return
+    if d.outcome == "undetermined":
+        console.print("These recordings leave nothing to judge the fit by: nothing is "
+                      "diagnosed.")
+        _print_offsets(d)
+        return
     console.print()
     _print_location("Where the misfit of the joint-offset model sits", d.located)
     _print_capability(d)
@@ -56,13 +61,13 @@ def _print_location(title: str, loc: Location) -> None:
         cells = ", ".join(f"{g.key} {g.share:.0%} ({g.expected_share:.0%})" for g in groups)
         name = "approach (sides of the x, y, z drives)" if level == "approach" else level
         console.print(f"  {name}: {cells}")
-    trends = [t for t in loc.trends if t.p_value < ALPHA]
+    trends = [t for t in loc.trends if t.p_value < LEVEL]
     for t in trends:
         console.print(f"  trend with time on gauge {t.gauge}: {t.slope_mm_per_h * 1e3:+.1f} ± "
                       f"{t.std_mm_per_h * 1e3:.1f} µm/h (p = {format_p(t.p_value)})")
     if loc.trends and not trends:
         console.print("  no gauge's residuals trend with time")
-    diffs = [a for a in loc.approach if a.p_value < ALPHA]
+    diffs = [a for a in loc.approach if a.p_value < LEVEL]
     for a in diffs:
         console.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
                       f"{a.posture}: {a.difference_mm * 1e3:+.1f} ± {a.std_mm * 1e3:.1f} µm")

@@ -35,7 +35,7 @@ def print_evidence(evidence: Evidence) -> None:
                   highlight=False)
     verdict = evidence.verdict
     colour = "green" if verdict.consistent else "red"
-    console.print(f"fit: [{colour}]{verdict.describe()}[/]", highlight=False)
+    console.print(f"{evidence.model} fit: [{colour}]{verdict.describe()}[/]", highlight=False)
     if evidence.identifiable:
         console.print("identifiable: every joint offset is determined by this campaign")
     else:

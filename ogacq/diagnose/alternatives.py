@@ -19,7 +19,7 @@ import numpy as np
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, singles
 from ogacq.diagnose.selection import Model
-from ogacq.diagnose.verdict import NoiseBasis
+from ogacq.identify.noise import GaugeNoise
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX, indices
 
 SWAP_CHI2 = 9.0
@@ -40,7 +40,7 @@ def noise_scale(model: Model) -> float:
     return max(1.0, chi2_dof) if np.isfinite(chi2_dof) else 1.0
 
 
-def alternatives(problem: Problem, noise: NoiseBasis,
+def alternatives(problem: Problem, noise: GaugeNoise,
                  model: Model) -> dict[str, list[Alternative]]:
     """For each effect of ``model``, the library effects that could take its place."""
     scale = noise.variance * noise_scale(model)

@@ -20,6 +20,7 @@ import numpy as np
 
 from ogacq.identify.fit import Weighting, jacobian
 from ogacq.identify.identifiability import RANK_TOLERANCE
+from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.parameters import AXES, PARAM_NAMES, effect_of, indices
 
@@ -31,9 +32,10 @@ class Problem:
     """A data set in the space where fitting is ordinary least squares: gauge zeros
     projected out and, for tabulated deviations, whitened by their covariance."""
 
-    def __init__(self, obs: Observations) -> None:
+    def __init__(self, obs: Observations, noise: GaugeNoise | None = None) -> None:
         self.obs = obs
-        self.weighting = Weighting(obs, "gls")
+        self.noise = noise or noise_for(obs)
+        self.weighting = Weighting(obs, "gls", self.noise)
         self.n_data = len(obs) - obs.n_nuisance  # independent observations
 
     def predict(self, theta: np.ndarray) -> np.ndarray:

@@ -32,10 +32,10 @@ from ogacq.diagnose.separation import (
     plan_capabilities,
     separation,
 )
-from ogacq.diagnose.verdict import ALPHA, NoiseBasis, Verdict, noise_basis
 from ogacq.diagnose.visibility import Capability, capability
+from ogacq.identify.consistency import LEVEL, Verdict
 from ogacq.identify.fit import FitResult, fit
-from ogacq.identify.noise import NoiseEstimate
+from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.parameters import PARAM_INDEX, nested
 
@@ -91,7 +91,7 @@ class Diagnosis:
     source: str
     kind: str  # "readings" or "deviations"
     n_observations: int
-    noise: NoiseBasis
+    noise: GaugeNoise
     capability: Capability
     selection: Selection  # the whole search, claimed or not
     claimed: Model  # the model reported as final
@@ -115,12 +115,14 @@ class Diagnosis:
 
     @property
     def outcome(self) -> str:
-        return outcome_label(self.base.consistent, self.final.consistent, bool(self.effects))
+        return outcome_label(self.base.consistent, self.final.consistent, bool(self.effects),
+                             self.base.judged)
 
     @property
     def unexplained(self) -> str | None:
         """Where the misfit no effect explains sits; None when the fit is within noise."""
-        return None if self.final.consistent else self.remaining.where()
+        return None if self.final.consistent or not self.final.judged else \
+            self.remaining.where()
 
     def confident(self) -> list[str]:
         """Effects claimed with confidence: the fit is within the noise with them and
@@ -155,16 +157,15 @@ class Diagnosis:
                 "parameters": nested(BASE_MODEL, [round(float(v), 6) for v in offsets])}
 
 
-def _refit(obs: Observations, names: tuple[str, ...], noise: NoiseBasis,
+def _refit(obs: Observations, names: tuple[str, ...], noise: GaugeNoise,
            theta0: np.ndarray | None = None) -> FitResult:
-    estimate = NoiseEstimate(noise.sigma_mm, noise.source, noise.dof)
-    result = fit(obs, names, method="exact", weighting="gls", noise=estimate, theta0=theta0)
+    result = fit(obs, names, method="exact", weighting="gls", noise=noise, theta0=theta0)
     if not result.converged or not np.all(np.isfinite(result.residuals)):
         raise DiagnosisError(f"the fit of {', '.join(names)} does not converge on these data")
     return result
 
 
-def explained_share(base: Model, model: Model, noise: NoiseBasis) -> float:
+def explained_share(base: Model, model: Model, noise: GaugeNoise) -> float:
     """Share of the base misfit beyond the noise that ``model`` removes."""
     def excess(m: Model) -> float:
         return max(m.rss / noise.variance - m.verdict.dof, 0.0)
@@ -173,12 +174,12 @@ def explained_share(base: Model, model: Model, noise: NoiseBasis) -> float:
     return 1.0 if before <= 0 else float(np.clip(1.0 - excess(model) / before, 0.0, 1.0))
 
 
-def diagnose(obs: Observations, *, alpha: float = ALPHA, max_effects: int = MAX_EFFECTS,
+def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_EFFECTS,
              separate: bool = True) -> Diagnosis:
     """Diagnose ``obs`` (raw readings or tabulated deviations). ``separate``: also
     search the plans that would tell aliased effects apart."""
-    problem = Problem(obs)
-    noise = noise_basis(obs)
+    noise = noise_for(obs)
+    problem = Problem(obs, noise)
     base_fit = _refit(obs, BASE_MODEL, noise)
     base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha)
 
@@ -222,7 +223,7 @@ def _postures_per_leg(obs: Observations) -> int:
                for leg in set(labels.leg.tolist()))
 
 
-def _effects(obs: Observations, problem: Problem, noise: NoiseBasis, final: Model,
+def _effects(obs: Observations, problem: Problem, noise: GaugeNoise, final: Model,
              final_fit: FitResult, inflation: float, separate: bool) -> list[EffectFound]:
     if not final.effects:
         return []

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from ogacq.diagnose.verdict import CellTest
+from ogacq.identify.consistency import posture_name
 from ogacq.identify.observations import DEVIATION_NAME, Observations
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.parameters import AXES
@@ -37,14 +37,6 @@ class RowLabels:
     def gauge(self) -> np.ndarray:
         return np.array([f"{AXES[j]}_{AXES[i]}" for j, i in zip(self.gauge_axis, self.leg,
                                                                  strict=True)])
-
-
-def posture_name(position_mm: float, machine) -> str:
-    for name, value in (("zero", 0.0), ("max", machine.rho_max_mm),
-                        ("min", machine.rho_min_mm)):
-        if abs(position_mm - value) < 1e-6:
-            return name
-    return f"{position_mm:+g} mm"
 
 
 def row_labels(obs: Observations) -> RowLabels:
@@ -130,53 +122,26 @@ class Location:
         return out
 
 
-def residual_covariance(obs: Observations, jac: np.ndarray) -> np.ndarray:
-    """(m, m) covariance of the residuals of a fit with unweighted Jacobian ``jac``
-    (m, p) under noise alone, in units of the gauge variance: the residual maker
-    (gauge zeros and the fitted parameters taken out) times the noise covariance."""
+def residual_variance(obs: Observations, jac: np.ndarray) -> np.ndarray:
+    """(m,) variance of each residual of a fit with unweighted Jacobian ``jac`` (m, p)
+    under independent noise, in units of the gauge variance: the diagonal of the
+    residual maker (gauge zeros and the fitted parameters taken out), for raw
+    readings without forming it (campaigns can be long)."""
     if obs.raw:
-        onehot = np.eye(obs.layout.n_gauges)[obs.layout.gauge]
-        zeros = onehot @ np.diag(1.0 / onehot.sum(axis=0)) @ onehot.T
+        gauge = obs.layout.gauge
         projected = obs.remove_zeros(jac.T).T
-        return np.eye(len(obs)) - zeros - projected @ np.linalg.pinv(projected)
+        u, s, _ = np.linalg.svd(projected, full_matrices=False)
+        live = s > (s[0] if len(s) else 0.0) * 1e-10
+        leverage = np.sum(u[:, live] ** 2, axis=1)
+        return 1.0 - 1.0 / np.bincount(gauge)[gauge] - leverage
     cov = obs.noise_cov
     whitened = np.linalg.solve(np.linalg.cholesky(cov), jac)
-    return cov - jac @ np.linalg.pinv(whitened.T @ whitened) @ jac.T
+    return np.diag(cov - jac @ np.linalg.pinv(whitened.T @ whitened) @ jac.T)
 
 
 def _scale(obs: Observations) -> np.ndarray:
     """Each observation's own noise variance in units of the gauge variance."""
     return np.ones(len(obs)) if obs.raw else np.diag(obs.noise_cov).copy()
-
-
-def cell_test(obs: Observations, residuals: np.ndarray, cov: np.ndarray,
-              sigma_mm: float) -> CellTest | None:
-    """The worst cell of one gauge at one posture. Its misfit is a quadratic form
-    ``sum(l_i chi2_1)`` of correlated normal residuals (``l_i`` the eigenvalues of
-    the cell's block of the residual covariance), bounded above by ``l_max`` times
-    a chi-square with as many dof as nonzero ``l_i``: a conservative p, multiplied
-    by the number of cells."""
-    labels = row_labels(obs)
-    keys = np.array([f"{g} at {p}" for g, p in zip(labels.gauge, labels.posture,
-                                                    strict=True)])
-    scale = _scale(obs)
-    standardised = cov / np.sqrt(np.outer(scale, scale))
-    chi2 = residuals**2 / (sigma_mm**2 * scale)
-    cells = list(dict.fromkeys(keys.tolist()))
-    worst = None
-    for key in cells:
-        sel = keys == key
-        eig = np.linalg.eigvalsh(standardised[np.ix_(sel, sel)])
-        live = eig > 1e-9
-        if not live.any():
-            continue  # the fit leaves nothing there to test
-        p = float(stats.chi2.sf(chi2[sel].sum() / eig.max(), int(live.sum())))
-        if worst is None or p < worst[1]:
-            worst = (key, p, float(chi2[sel].sum()), float(eig.sum()))
-    if worst is None:
-        return None
-    key, p, value, mean = worst
-    return CellTest(key, value, mean, min(1.0, p * len(cells)), len(cells))
 
 
 def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
@@ -186,7 +151,7 @@ def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
     labels = row_labels(obs)
     scale = _scale(obs)
     chi2 = residuals**2 / (sigma_mm**2 * scale)
-    expected = np.clip(np.diag(residual_covariance(obs, jac)) / scale, 0.0, None)
+    expected = np.clip(residual_variance(obs, jac) / scale, 0.0, None)
     total, total_expected = float(chi2.sum()), float(expected.sum())
     keys = {"gauge": labels.gauge, "leg": np.array([AXES[i] for i in labels.leg]),
             "posture": labels.posture, "cycle": labels.cycle.astype(str),

@@ -3,8 +3,12 @@
 from __future__ import annotations
 
 
-def outcome_label(base_consistent: bool, final_consistent: bool, named_effects: bool) -> str:
-    """"consistent", "explained", "partly explained" or "unexplained"."""
+def outcome_label(base_consistent: bool, final_consistent: bool, named_effects: bool,
+                  judged: bool = True) -> str:
+    """"consistent", "explained", "partly explained", "unexplained", or "undetermined"
+    when the data leave nothing to judge the fit by."""
+    if not judged:
+        return "undetermined"
     if base_consistent:
         return "consistent"
     if final_consistent:

@@ -20,8 +20,10 @@ import numpy as np
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS
 from ogacq.diagnose.locate import row_labels
+from ogacq.diagnose.nested import nested_test
 from ogacq.diagnose.selection import Model
-from ogacq.diagnose.verdict import ALPHA, NoiseBasis, nested_test
+from ogacq.identify.consistency import LEVEL
+from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import NOMINAL, indices
@@ -52,8 +54,8 @@ def _without(obs: Observations, keep: np.ndarray) -> Observations:
                         obs.combination[keep], obs.source, obs.kind)
 
 
-def resting_cell(problem: Problem, noise: NoiseBasis, base: Model, claimed: Model,
-                 alpha: float = ALPHA) -> str | None:
+def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Model,
+                 alpha: float = LEVEL) -> str | None:
     """The cell (``"y_x at max"``) without which the claimed effects lose their
     significance, or None when they stand without any single cell."""
     if not claimed.effects:
@@ -64,7 +66,7 @@ def resting_cell(problem: Problem, noise: NoiseBasis, base: Model, claimed: Mode
         np.eye(len(obs)) if obs.raw else obs.noise_cov)
     top = max(dict.fromkeys(cells.tolist()), key=lambda c: gain[cells == c].sum())
     keep = cells != top
-    rest = Problem(_without(obs, keep))
+    rest = Problem(_without(obs, keep), noise)
     if rest.n_data <= len(claimed.names):
         return top
     start = claimed.theta.copy()

@@ -28,16 +28,9 @@ import numpy as np
 
 from ogacq.diagnose.batchfit import CandidateFits, Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, label, pairs, singles
-from ogacq.diagnose.locate import cell_test, residual_covariance
-from ogacq.diagnose.verdict import (
-    ALPHA,
-    NoiseBasis,
-    Verdict,
-    information_criteria,
-    judge,
-    nested_test,
-    nested_tests,
-)
+from ogacq.diagnose.nested import information_criteria, nested_test, nested_tests
+from ogacq.identify.consistency import LEVEL, Verdict, judge
+from ogacq.identify.noise import GaugeNoise
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
 
 MAX_EFFECTS = 4  # beyond this a "diagnosis" is a curve fit
@@ -64,17 +57,14 @@ class Model:
                 for g in dict.fromkeys(gauges.tolist())}
 
 
-def evaluate(problem: Problem, noise: NoiseBasis, effects: tuple[str, ...],
-             theta: np.ndarray, rank: int, alpha: float = ALPHA) -> Model:
+def evaluate(problem: Problem, noise: GaugeNoise, effects: tuple[str, ...],
+             theta: np.ndarray, rank: int, alpha: float = LEVEL) -> Model:
     """The fitted model with its full verdict (overall test and worst cell)."""
     residuals = problem.residuals(theta[None])[0]
     rss = float(np.sum(problem.weighted(residuals[None]) ** 2))
-    rms = float(np.sqrt(np.mean(residuals**2)))
     jac = problem.jacobian(theta, BASE_MODEL + effects, weighted=False)
-    cov = residual_covariance(problem.obs, jac)
-    worst = cell_test(problem.obs, residuals, cov, noise.sigma_mm)
     return Model(effects, theta, residuals, rss, rank,
-                 judge(rss, problem.n_data - rank, rms, noise, alpha, worst))
+                 judge(problem.obs, residuals, jac, rank, noise, alpha))
 
 
 @dataclass(frozen=True)
@@ -120,7 +110,7 @@ class Selection:
     candidates_fitted: int = 0
 
 
-def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: NoiseBasis,
+def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: GaugeNoise,
               alpha: float) -> list[Considered]:
     full, plausible = cands.full_rank(), cands.plausible()
     sizes = np.array([len(e) for e in cands.extras])
@@ -155,7 +145,7 @@ def _best(considered: list[Considered], size: int) -> Considered | None:
 
 
 def _choose(considered: list[Considered], full: Callable[[Considered], Model],
-            noise: NoiseBasis, alpha: float) -> tuple[Considered, Model] | None:
+            noise: GaugeNoise, alpha: float) -> tuple[Considered, Model] | None:
     single, pair = _best(considered, 1), _best(considered, 2)
     if single is None or pair is None:
         chosen = single or pair
@@ -188,11 +178,11 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
     return pair, models[pair.added]
 
 
-def select(problem: Problem, noise: NoiseBasis, base: Model, *, alpha: float = ALPHA,
+def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = LEVEL,
            max_effects: int = MAX_EFFECTS) -> Selection:
     selection = Selection(base, base)
     current = base
-    while not current.verdict.consistent and len(current.effects) < max_effects:
+    while current.verdict.state == "inconsistent" and len(current.effects) < max_effects:
         room = max_effects - len(current.effects)
         extras = singles(current.effects) + (pairs(current.effects) if room >= 2 else [])
         union = current.names + tuple(n for n in EFFECT_PARAMETERS if n not in current.names)
@@ -222,7 +212,7 @@ def select(problem: Problem, noise: NoiseBasis, base: Model, *, alpha: float = A
     return selection
 
 
-def _backward(problem: Problem, noise: NoiseBasis, model: Model, alpha: float,
+def _backward(problem: Problem, noise: GaugeNoise, model: Model, alpha: float,
               selection: Selection) -> Model:
     """Drop, one at a time, effects that the others have made redundant. Each effect
     was the best of the library's, so its test is corrected for that many."""

@@ -16,6 +16,7 @@ import numpy as np
 
 from ogacq.identify.fit import Weighting, design_rank, gauss_newton, jacobian
 from ogacq.identify.identifiability import Identifiability, assess
+from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import layout_of, protocol_readings
@@ -73,11 +74,12 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
     names = tuple(names)
     free = indices(names)
     theta_true = vector(truth)
-    w = Weighting(obs, "ols")
+    # Display rounding adds its own variance (step^2 / 12) to every reading, and the
+    # part of it the scatter does not dither repeats with the cycles.
+    noise = GaugeNoise.stated(noise_mm, rounding_mm or 0.0)
+    w = Weighting(obs, "ols", noise)
     jw = w.jac(jacobian(obs, theta_true[None], free))[0]
-    # Display rounding adds its own variance (step^2 / 12) to every reading.
-    effective = np.sqrt(noise_mm**2 + (rounding_mm or 0.0) ** 2 / 12.0)
-    ident, cov = assess(jw, w.noise_cov(), names, effective)
+    ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
     pred = AccuracyPrediction(names, theta_true[free], noise_mm, len(obs),
                               np.sqrt(np.diag(cov)), ident)
     if trials <= 0:

@@ -19,7 +19,7 @@ import numpy as np
 
 from ogacq.identify.identifiability import RANK_TOLERANCE, Identifiability, assess
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
-from ogacq.identify.noise import NoiseEstimate, noise_for, reading_covariance
+from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, indices, nested
 
@@ -60,33 +60,46 @@ def jacobian(obs: Observations, theta: np.ndarray, free: np.ndarray,
 
 class Weighting:
     """Maps residuals and Jacobians into the space where the fit is ordinary least
-    squares: gauge zeros projected out, then whitened for GLS."""
+    squares. Raw readings are whitened by their repeat groups' covariance (the
+    display rounding the cycles share, ``noise.py``) and the gauge zeros projected
+    out there, so the fit is generalised least squares whatever ``kind`` says;
+    tabulated deviations are whitened by their covariance for ``kind`` "gls"."""
 
-    def __init__(self, obs: Observations, kind: str) -> None:
+    def __init__(self, obs: Observations, kind: str, noise: GaugeNoise | None = None) -> None:
         if kind not in ("ols", "gls"):
             raise ValueError(f"weighting must be 'ols' or 'gls', got {kind!r}")
         self.obs = obs
         self.kind = kind
+        self.noise = noise or noise_for(obs)
         self.whitener: np.ndarray | None = None
-        if kind == "gls" and not obs.raw:
+        self.groups: GroupWhitener | None = None
+        if obs.raw:
+            self.groups = GroupWhitener(obs, self.noise)
+            gauge = obs.layout.gauge
+            # each gauge's zero, whitened: what it adds to every reading of that gauge
+            self._zero_onehot = np.eye(obs.layout.n_gauges)[gauge] * \
+                self.groups.mean_scale[self.groups.group][:, None]
+            self._zero_norm = np.sum(self._zero_onehot**2, axis=0)
+        elif kind == "gls":
             chol = np.linalg.cholesky(obs.noise_cov)
             self.whitener = np.linalg.inv(chol)
 
     def residual(self, r: np.ndarray) -> np.ndarray:
-        r = self.obs.remove_zeros(r)
+        if self.groups is not None:
+            w = self.groups(r)
+            return w - ((w @ self._zero_onehot) / self._zero_norm) @ self._zero_onehot.T
         return r if self.whitener is None else r @ self.whitener.T
 
     def jac(self, jac: np.ndarray) -> np.ndarray:
-        jac = np.swapaxes(self.obs.remove_zeros(np.swapaxes(jac, -1, -2)), -1, -2)
+        if self.groups is not None:
+            return np.swapaxes(self.residual(np.swapaxes(jac, -1, -2)), -1, -2)
         return jac if self.whitener is None else self.whitener @ jac
 
     def noise_cov(self) -> np.ndarray | None:
         """Noise covariance in the weighted space (units sigma^2); None is identity."""
-        if self.obs.raw:
+        if self.obs.raw or self.whitener is not None:
             return None
-        if self.whitener is None:
-            return self.obs.noise_cov
-        return None
+        return self.obs.noise_cov
 
 
 def design_rank(jw: np.ndarray, ranges: np.ndarray) -> int:
@@ -165,7 +178,7 @@ class FitResult:
     residual_rms_mm: float
     sigma_mm: float  # sqrt(RSS / dof): the noise these residuals imply
     dof: int
-    noise: NoiseEstimate  # the gauge noise the std are propagated from
+    noise: GaugeNoise  # the gauge noise the std are propagated from
     identifiability: Identifiability
     method: str
     weighting: str
@@ -173,6 +186,7 @@ class FitResult:
     converged: bool
     theta: np.ndarray  # the full parameter vector at the solution
     observations: Observations
+    jacobian: np.ndarray  # (m, p) of the predictions at the solution, unweighted
 
     @property
     def rss(self) -> float:
@@ -200,7 +214,7 @@ class FitResult:
 
 
 def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
-        weighting: str = "ols", noise: NoiseEstimate | None = None,
+        weighting: str = "ols", noise: GaugeNoise | None = None,
         theta0: np.ndarray | None = None) -> FitResult:
     """Identify ``names`` from ``obs``.
 
@@ -213,9 +227,9 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     names = tuple(names)
     free = indices(names)
     theta0 = NOMINAL.copy() if theta0 is None else np.asarray(theta0, dtype=float)
-    w = Weighting(obs, weighting)
-    y = obs.values[None]
     noise = noise or noise_for(obs)
+    w = Weighting(obs, weighting, noise)
+    y = obs.values[None]
 
     ranges = _ranges(free)
     jac = _linear_jacobian(obs, names, free, theta0)
@@ -246,11 +260,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
     jw = w.jac(jac if rank == len(names) else _linear_jacobian(obs, names, free, theta0))[0]
-    correlated = reading_covariance(obs, noise)
-    if correlated is not None:
-        ident, cov = assess(jw, correlated, names, 1.0)
-    else:
-        ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
+    ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
     return FitResult(
@@ -258,7 +268,8 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         residuals=residuals, residual_rms_mm=float(np.sqrt(np.mean(residuals**2))),
         sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,
         noise=noise, identifiability=ident, method=method, weighting=weighting,
-        iterations=iterations, converged=converged, theta=theta, observations=obs)
+        iterations=iterations, converged=converged, theta=theta, observations=obs,
+        jacobian=jac[0])
 
 
 def _linear_jacobian(obs: Observations, names: tuple[str, ...], free: np.ndarray,

@@ -1,28 +1,129 @@
-"""The gauge noise a fit is judged against: stated, measured from repeats, or the
-display step. Never the misfit itself, which would call any model consistent."""
+"""The gauge noise a fit is judged against, and how readings are weighted by it.
+
+A displayed reading is ``round((x + n) / s) * s``: the true value ``x``, the gauge's
+own scatter ``n`` (sigma, stated in the machine file or measured from repeats)
+and the display step ``s``. With the rounding phase of ``x`` uniform over the step,
+the error of one reading has variance ``sigma^2 + s^2/12`` whatever the regime;
+what changes with the regime is how much of it repeats. Readings repeated at
+the same gauge, posture and approach side (the cycles) share ``x``, so they share
+the part of the rounding error that the scatter does not dither away:
+
+    c(sigma, s) = s^2 / (2 pi^2) * sum_k exp(-4 pi^2 k^2 sigma^2 / s^2) / k^2
+
+(the variance of the mean rounding error over the phase: the sawtooth's Fourier
+series damped by the scatter's characteristic function). ``c`` is ``s^2/12`` for a
+dial far coarser than the noise (repeats read the same, the rounding never
+averages out) and vanishes once ``sigma`` exceeds about ``s/2`` (rounding is
+independent noise). So each repeat group has covariance
+``w I + c 11'`` with ``w = sigma^2 + s^2/12 - c``: one model for every regime,
+whitened group by group in O(n).
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from ogacq.identify.observations import Observations
 
+_HARMONICS = np.arange(1, 4001, dtype=float)
+# Within a repeat group the weight of a difference between repeats is capped at
+# this many times a plain reading's: with the scatter far below the display step
+# those differences are rare whole-step flips, not Gaussian noise, and identical
+# repeats must not get an infinite weight.
+MAX_WITHIN_WEIGHT = 10.0
+# Below this share of shared variance the rounding is independent noise: repeats
+# then scatter as Gaussian readings do and their scatter can be tested.
+DITHERED_SHARE = 0.05
+ROUNDING_DOMINATES = 0.25
+
+
+def shared_rounding_variance(sigma_mm: float, step_mm: float) -> float:
+    """``c(sigma, s)``: the variance of the rounding error that repeats share (mm^2)."""
+    if step_mm <= 0:
+        return 0.0
+    a = 4.0 * math.pi**2 * (sigma_mm / step_mm) ** 2
+    terms = np.exp(-a * _HARMONICS**2) / _HARMONICS**2
+    tail = 1.0 / _HARMONICS[-1] if a < 1e-12 else 0.0  # sum beyond the last harmonic
+    return float(step_mm**2 / (2.0 * math.pi**2) * (terms.sum() + tail))
+
+
+def within_variance(sigma_mm: float, step_mm: float) -> float:
+    """Variance of a reading about its repeat group's mean error (mm^2)."""
+    total = sigma_mm**2 + step_mm**2 / 12.0
+    return max(total - shared_rounding_variance(sigma_mm, step_mm), 0.0)
+
+
+def sigma_from_scatter(scatter_var: float, step_mm: float) -> float:
+    """The gauge scatter sigma whose rounded repeats scatter with ``scatter_var``:
+    inverts :func:`within_variance` (increasing in sigma) by bisection."""
+    if scatter_var <= 0.0:
+        return 0.0
+    low, high = 0.0, math.sqrt(scatter_var) + step_mm
+    for _ in range(60):
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if within_variance(mid, step_mm) < scatter_var else (low, mid)
+    return 0.5 * (low + high)
+
 
 @dataclass(frozen=True)
-class NoiseEstimate:
-    sigma_mm: float  # per reading, display rounding included
+class GaugeNoise:
+    """The noise of one data set's readings and where it came from."""
+
+    sigma_mm: float  # one reading's error, display rounding included
     source: str  # "machine file", "repeated readings", "gauge resolution"
-    dof: int | None = None  # degrees of freedom of a measured estimate
-    # The display step when the noise is too small to dither it: repeated readings
-    # then round the same way every cycle, and that error does not average out.
-    repeated_rounding_mm: float | None = None
+    step_mm: float = 0.0  # display step
+    scatter_mm: float | None = None  # the gauge's own scatter before rounding
+    shared_var: float = 0.0  # part of the variance repeats share (mm^2)
+    dof: int | None = None  # degrees of freedom of a measured noise
+    pure_error_ss: float | None = None  # repeats about their means, mm^2
+    repeats_scatter_mm: float | None = None  # what the repeats show, beside a stated noise
+
+    @property
+    def variance(self) -> float:
+        return self.sigma_mm**2
+
+    @property
+    def within_var(self) -> float:
+        return max(self.variance - self.shared_var, 0.0)
+
+    @property
+    def measured(self) -> bool:
+        return self.source == "repeated readings"
+
+    @property
+    def assumed(self) -> bool:
+        """Neither stated nor measured: the display step stands in for the noise."""
+        return self.source == "gauge resolution"
+
+    @property
+    def dithered(self) -> bool:
+        """The rounding is independent between repeats: their scatter is Gaussian."""
+        return self.shared_var <= DITHERED_SHARE * self.variance
+
+    @property
+    def rounding_dominated(self) -> bool:
+        """A quarter or more of a reading's error repeats with the cycles: the display
+        step, not the gauge, sets the error of a posture's mean."""
+        return self.shared_var >= ROUNDING_DOMINATES * self.variance
+
+    @classmethod
+    def stated(cls, scatter_mm: float, step_mm: float, *, repeats: bool = True,
+               source: str = "machine file") -> GaugeNoise:
+        """A gauge that scatters ``scatter_mm`` behind a display of ``step_mm``;
+        ``repeats``: readings repeat postures, so they share the rounding."""
+        shared = shared_rounding_variance(scatter_mm, step_mm) if repeats else 0.0
+        return cls(math.hypot(scatter_mm, step_mm / math.sqrt(12.0)), source, step_mm,
+                   scatter_mm, shared)
 
     def describe(self) -> str:
         extra = f", {self.dof} dof" if self.dof else ""
-        if self.repeated_rounding_mm:
-            extra += f"; mostly the {self.repeated_rounding_mm:g} mm display step"
+        if self.rounding_dominated:
+            extra += f"; mostly the {self.step_mm:g} mm display step, repeated by the cycles"
+        if self.assumed:
+            extra += "; assumed: state gauge_repeatability_mm to judge against the gauge"
         return f"{self.sigma_mm:.4g} mm ({self.source}{extra})"
 
 
@@ -35,8 +136,8 @@ def repeat_groups(obs: Observations) -> np.ndarray:
 
 
 def pure_error(obs: Observations) -> tuple[float, int] | None:
-    """Pooled scatter of readings repeated at the same gauge, posture and approach
-    side (the cycles): an estimate of the noise that needs no model."""
+    """(sum of squares, dof) of the readings about their repeat groups' means: the
+    scatter of the cycles, which needs no model."""
     if not obs.raw:
         return None
     group = repeat_groups(obs)
@@ -44,36 +145,56 @@ def pure_error(obs: Observations) -> tuple[float, int] | None:
     if dof <= 0:
         return None
     means = np.bincount(group, weights=obs.values) / np.bincount(group)
-    ss = float(np.sum((obs.values - means[group]) ** 2))
-    return float(np.sqrt(ss / dof)), int(dof)
+    return float(np.sum((obs.values - means[group]) ** 2)), int(dof)
 
 
-def noise_for(obs: Observations) -> NoiseEstimate:
-    machine = obs.machine
-    step = machine.gauge_resolution_mm
-    rounding_var = step**2 / 12.0
-    if machine.gauge_repeatability_mm is not None:
-        spread, source, dof = machine.gauge_repeatability_mm, "machine file", None
-    else:
-        measured = pure_error(obs)
-        if measured is None:
-            # Tabulated deviations carry no repeats: the display step is the noise.
-            return NoiseEstimate(step, "gauge resolution")
-        (spread, dof), source = measured, "repeated readings"
-    if spread < step / 2:
-        # Too little noise to dither the display: the rounding repeats with the
-        # posture, so it is added (a measured scatter cannot show it) and marked.
-        return NoiseEstimate(float(np.sqrt(spread**2 + rounding_var)), source, dof, step)
-    return NoiseEstimate(spread, source, dof)
+def noise_for(obs: Observations) -> GaugeNoise:
+    """The noise of INTERCHANGE.md: stated in the machine file, else measured from the
+    repeats, else (tabulated deviations, no repeats) the display step."""
+    step = obs.machine.gauge_resolution_mm
+    measured = pure_error(obs)
+    shared = obs.raw  # only raw readings are known to repeat
+    scatter = None
+    if measured is not None:
+        ss, dof = measured
+        scatter = sigma_from_scatter(ss / dof, step)
+    stated = obs.machine.gauge_repeatability_mm
+    if stated is not None:
+        return replace(GaugeNoise.stated(stated, step, repeats=shared),
+                       repeats_scatter_mm=scatter)
+    if measured is not None:
+        assert scatter is not None
+        return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
+                          step, scatter, shared_rounding_variance(scatter, step), measured[1],
+                          measured[0])
+    return GaugeNoise(step, "gauge resolution", step)
 
 
-def reading_covariance(obs: Observations, noise: NoiseEstimate) -> np.ndarray | None:
-    """Covariance of raw readings (mm^2) when their errors are not independent (a
-    repeated display rounding), else None: independent, ``sigma^2`` each."""
-    if not obs.raw or noise.repeated_rounding_mm is None:
-        return None
-    rounding_var = noise.repeated_rounding_mm**2 / 12.0
-    independent_var = max(noise.sigma_mm**2 - rounding_var, 0.0)
-    group = repeat_groups(obs)
-    same = group[:, None] == group[None, :]
-    return independent_var * np.eye(len(obs)) + rounding_var * same
+class GroupWhitener:
+    """``sigma V^-1/2`` for raw readings, repeat group by repeat group: the difference
+    of a reading from its group's mean is scaled by ``sigma / sqrt(w)``, the group's
+    mean by ``sigma / sqrt(w + n_g c)``. Applied along the last axis."""
+
+    def __init__(self, obs: Observations, noise: GaugeNoise) -> None:
+        self.group = repeat_groups(obs)
+        self.size = np.bincount(self.group).astype(float)
+        ref = noise.variance if noise.variance > 0 else 1.0
+        within = max(noise.within_var, ref / MAX_WITHIN_WEIGHT**2)
+        self.within_scale = math.sqrt(ref / within)
+        self.mean_scale = np.sqrt(ref / (within + self.size * noise.shared_var))
+        self._order = np.argsort(self.group, kind="stable")
+        self._starts = np.concatenate([[0], np.cumsum(self.size[:-1])]).astype(int)
+
+    def group_means(self, x: np.ndarray) -> np.ndarray:
+        """(..., G) means of each group along the last axis."""
+        sums = np.add.reduceat(x[..., self._order], self._starts, axis=-1)
+        return sums / self.size
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        means = self.group_means(x)[..., self.group]
+        return (x - means) * self.within_scale + means * self.mean_scale[self.group]
+
+    def group_space(self, whitened: np.ndarray) -> np.ndarray:
+        """(..., G) the mean part of whitened vectors, one coordinate per group with
+        the same squared norm: ``sqrt(n_g)`` times the group's mean."""
+        return self.group_means(whitened) * np.sqrt(self.size)

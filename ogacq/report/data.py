@@ -61,6 +61,10 @@ class FitSummary:
     reasons: tuple[str, ...]
     correlated_pairs: tuple[tuple[str, str, float], ...]
     method: str
+    # The one consistency test's verdict (ogacq/identify/consistency.py), as stated
+    # by every other command: its state, its sentence, the level it was judged at.
+    verdict: str = "undetermined"
+    verdict_text: str = ""
 
     @property
     def misfit_ratio(self) -> float:
@@ -283,7 +287,10 @@ def offsets_writes(session: LoadedSession) -> tuple[OffsetsWrite, ...]:
 # --- identification -----------------------------------------------------------------------
 
 def summarise(result: FitResult) -> FitSummary:
+    from ogacq.identify.consistency import fit_verdict
+
     ident = result.identifiability
+    verdict = fit_verdict(result)
     rows = tuple(ParameterRow(n, effect_of(n).unit, float(v), float(s))
                  for n, v, s in zip(result.names, result.values, result.std, strict=True))
     return FitSummary(
@@ -293,7 +300,7 @@ def summarise(result: FitResult) -> FitSummary:
         noise_dof=result.noise.dof, rank=ident.rank,
         condition_number=ident.condition_number, identifiable=ident.identifiable,
         reasons=tuple(ident.reasons), correlated_pairs=tuple(ident.correlated_pairs),
-        method=result.method)
+        method=result.method, verdict=verdict.state, verdict_text=verdict.describe())
 
 
 def residual_series(session: LoadedSession, residual_mm: np.ndarray) -> ResidualSeries:

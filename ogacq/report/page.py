@@ -12,11 +12,6 @@ from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
 from ogacq.report.figures import FigureFile
 from ogacq.report.formatting import duration, finite, measure, plain, signed, um
 
-# Residual scatter over gauge noise: below the first the offsets explain the readings;
-# above the second the model clearly leaves something out (as `ogacq refit` says).
-CLOSE_TO_NOISE = 1.5
-WELL_ABOVE_NOISE = 3.0
-
 STYLE = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Roboto,"DejaVu Sans",sans-serif;
  margin:0;background:#f4f5f7;color:#1d2329;line-height:1.45}
@@ -89,25 +84,18 @@ def status_badge(status: CampaignStatus) -> str:
 
 
 def misfit_sentence(fit: FitSummary) -> tuple[str, str]:
-    """(badge kind, sentence) comparing the residual scatter with the gauge noise."""
-    ratio = fit.misfit_ratio
-    numbers = (f"residual rms {um(fit.residual_rms_mm)}, gauge noise σ {um(fit.noise_mm)} "
-               f"({fit.noise_source})")
-    if not finite(ratio):
-        return "info", f"{numbers}: too few readings to compare the two."
-    if ratio <= CLOSE_TO_NOISE:
-        return "ok", (f"{numbers}: the residuals are at the level of the gauge noise "
-                      f"(×{ratio:.2f}); the joint offsets explain the readings.")
-    if ratio <= WELL_ABOVE_NOISE:
-        return "warn", (f"{numbers}: the residuals are ×{ratio:.1f} the gauge noise; "
-                        "something small is left out of the model (see the diagnosis).")
-    return "bad", (f"{numbers}: the residuals are ×{ratio:.0f} the gauge noise; the model "
-                   "leaves something out, so the offsets alone will not make the machine "
-                   "accurate (see the diagnosis).")
+    """(badge kind, sentence): the consistency test's verdict, as every command states
+    it, and what it means for the offsets."""
+    kind = {"consistent": "ok", "inconsistent": "bad"}.get(fit.verdict, "info")
+    meaning = {"ok": "the joint offsets explain the readings.",
+               "bad": "the model leaves something out, so the offsets alone will not make "
+                      "the machine accurate (see the diagnosis).",
+               "info": "nothing can be concluded from these readings."}[kind]
+    return kind, f"{fit.verdict_text}: {meaning}"
 
 
 def _fit_badge(kind: str) -> str:
-    text = {"ok": "within noise", "warn": "above noise", "bad": "misfit", "info": "n/a"}
+    text = {"ok": "within noise", "bad": "not within noise", "info": "cannot be judged"}
     return _badge(text[kind], kind)
 
 
@@ -116,6 +104,8 @@ def diagnosis_sentence(d: DiagnosisView) -> tuple[str, str]:
     if outcome == "consistent":
         return "ok", "consistent: the joint-offset model reproduces the readings within the noise"
     names = ", ".join(e.name for e in d.named_effects)
+    if outcome == "undetermined":
+        return "info", "undetermined: these readings leave nothing to judge the fit by"
     if outcome == "explained":
         return "warn", f"explained by {names}: with it the fit is within the gauge noise"
     if outcome == "partly explained":

@@ -7,79 +7,27 @@ physical joint is ``L + raw - o + drho`` and the offset that cancels ``drho``
 is ``o_new = o_campaign - drho``. (Checked against the simulator: after the
 write-back a validation campaign identifies offsets near zero.)
 
-The fit verdict is a chi-square test of the offsets fit's residuals against
-the gauge noise (the machine file's repeatability, the scatter of repeated
-readings, or the display step; never the misfit itself).
+The fit verdict is the one consistency test of ``ogacq/identify/consistency.py``,
+the same the diagnosis, the report and the CLI state. When the joint offsets
+alone are not within the noise but the diagnosis explains the readings with
+effects the controller cannot compensate (a squareness, a leg length), the
+offsets of the diagnosis's final model can be written instead: they are the
+joint offsets with those effects accounted for, and the effects remain, named.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
-from scipy import stats
-
 from ogacq.campaign import identify_session
+from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
+from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession
-
-# A fit whose residuals are this unlikely under the gauge noise alone is called
-# inconsistent: the joint-offset model leaves something out.
-SIGNIFICANCE = 0.001
-
-
-@dataclass(frozen=True)
-class FitVerdict:
-    """Chi-square of the residuals against the gauge noise."""
-
-    chi2: float
-    dof: int
-    p_value: float
-    noise_mm: float
-    noise_source: str
-    significance: float = SIGNIFICANCE
-
-    @property
-    def consistent(self) -> bool:
-        return self.p_value >= self.significance
-
-    @property
-    def chi2_per_dof(self) -> float:
-        return self.chi2 / self.dof if self.dof > 0 else math.nan
-
-    def describe(self) -> str:
-        if self.dof <= 0 or not math.isfinite(self.chi2):
-            return (f"no degrees of freedom left to judge the fit against the gauge noise "
-                    f"({self.dof} dof)")
-        verdict = "consistent with" if self.consistent else "inconsistent with"
-        return (f"residuals {verdict} the gauge noise {self.noise_mm:.4g} mm "
-                f"({self.noise_source}): chi2 {self.chi2:.1f} for {self.dof} dof "
-                f"(chi2/dof {self.chi2_per_dof:.2f}, p {self._p_text()})")
-
-    def _p_text(self) -> str:
-        return f"= {self.p_value:.3g}" if self.p_value > 0 else "< 1e-300"
-
-    def to_json(self) -> dict:
-        judged = self.dof > 0 and math.isfinite(self.chi2)
-        return {"chi2": round(self.chi2, 4) if judged else None, "dof": self.dof,
-                "chi2_dof": round(self.chi2_per_dof, 4) if judged else None,
-                "p_value": self.p_value, "noise_mm": self.noise_mm,
-                "noise_source": self.noise_source, "significance": self.significance,
-                "consistent": self.consistent}
-
-
-def fit_verdict(result: FitResult, significance: float = SIGNIFICANCE) -> FitVerdict:
-    sigma = result.noise.sigma_mm
-    dof = result.dof
-    if dof <= 0 or not sigma > 0:
-        # no redundancy left to judge the fit by: nothing supports it either
-        return FitVerdict(math.nan, dof, 0.0, sigma, result.noise.source, significance)
-    chi2 = result.rss / sigma**2
-    return FitVerdict(chi2, dof, float(stats.chi2.sf(chi2, dof)), sigma,
-                      result.noise.source, significance)
 
 
 @dataclass(frozen=True)
@@ -90,7 +38,7 @@ class Evidence:
     session_path: Path
     identified_mm: dict[str, float]  # drho per axis
     std_mm: dict[str, float]  # from the gauge noise; inf where not determined
-    verdict: FitVerdict
+    verdict: Verdict
     identifiable: bool
     identifiability_reasons: list[str]
     converged: bool
@@ -101,16 +49,20 @@ class Evidence:
     in_force_consistent: bool  # the same offsets at every start (a resume homes again)
     profile: str | None  # controller profile the campaign ran with
     port: str | None
+    model: str = "joint offsets"  # or "diagnosis: ..." naming the effects fitted beside
+    # effects of the model the controller cannot compensate: they remain, mechanically
+    uncompensated: list[str] = field(default_factory=list)
 
     def to_json(self) -> dict:
         return {"session": str(self.session_path),
                 "identified_mm": self.identified_mm,
                 "std_mm": {a: (s if math.isfinite(s) else None) for a, s in self.std_mm.items()},
-                "verdict": self.verdict.to_json(), "identifiable": self.identifiable,
+                "verdict": self.verdict.to_record(), "identifiable": self.identifiable,
                 "identifiability_reasons": self.identifiability_reasons,
                 "converged": self.converged, "residual_rms_mm": self.residual_rms_mm,
                 "readings": self.readings, "finished": self.finished,
-                "in_force_mm": self.in_force_mm, "profile": self.profile}
+                "in_force_mm": self.in_force_mm, "profile": self.profile,
+                "model": self.model, "uncompensated": self.uncompensated}
 
 
 def _stations(session: LoadedSession) -> list[dict]:
@@ -119,13 +71,21 @@ def _stations(session: LoadedSession) -> list[dict]:
     return [first, *session.of_type("station")]
 
 
-def evidence_from_session(session: LoadedSession,
-                          significance: float = SIGNIFICANCE) -> Evidence:
+def evidence_from_session(session: LoadedSession, from_diagnosis: bool = False) -> Evidence:
     """Re-identify the joint offsets from the session's raw readings (the readings are
-    the record; a stored result is only a copy) and gather the evidence."""
+    the record; a stored result is only a copy) and gather the evidence.
+    ``from_diagnosis``: the joint offsets of the diagnosis's final model."""
     if not session.readings:
         raise InputError(session.path, "the session holds no readings: nothing was identified")
-    result = identify_session(session)
+    model, uncompensated = "joint offsets", []
+    if from_diagnosis:
+        result, verdict, effects = _diagnosed(session)
+        if effects:
+            model = "diagnosis: joint offsets with " + ", ".join(effects)
+            uncompensated = effects
+    else:
+        result = identify_session(session)
+        verdict = fit_verdict(result)
     values = {a: result.value(f"joint_offset.{a}") for a in AXES}
     std = {a: float(result.std[result.names.index(f"joint_offset.{a}")]) for a in AXES}
     std = {a: s if math.isfinite(s) else math.inf for a, s in std.items()}
@@ -139,8 +99,21 @@ def evidence_from_session(session: LoadedSession,
     ident = result.identifiability
     return Evidence(
         session_path=session.path, identified_mm=values, std_mm=std,
-        verdict=fit_verdict(result, significance), identifiable=ident.identifiable,
+        verdict=verdict, identifiable=ident.identifiable,
         identifiability_reasons=list(ident.reasons), converged=result.converged,
         residual_rms_mm=result.residual_rms_mm, readings=len(session.readings),
         finished=session.finished, in_force_mm=in_force, in_force_consistent=consistent,
-        profile=controllers[0].get("profile"), port=controllers[0].get("port"))
+        profile=controllers[0].get("profile"), port=controllers[0].get("port"),
+        model=model, uncompensated=uncompensated)
+
+
+def _diagnosed(session: LoadedSession) -> tuple[FitResult, Verdict, list[str]]:
+    """The diagnosis's final model: its fit, its verdict and the effects beside the
+    joint offsets (none when the offsets alone are within the noise)."""
+    from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
+
+    try:
+        d = diagnose(session_observations(session), separate=False)
+    except DiagnosisError as exc:
+        raise InputError(session.path, str(exc)) from None
+    return d.final_fit, d.final, [e.name for e in d.effects]

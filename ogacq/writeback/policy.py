@@ -68,7 +68,7 @@ class ControllerFacts:
 class Refusal:
     """One reason not to write, with a stable code for scripts and tests."""
 
-    code: str  # inconsistent, unidentifiable, not_converged, too_large, beyond_margin,
+    code: str  # inconsistent, unjudged, unidentifiable, not_converged, too_large, beyond_margin,
     #            incomplete, unknown_baseline, mixed_baseline, stale, other_profile
     message: str
 
@@ -153,10 +153,17 @@ def plan_write(evidence: Evidence, current_mm: Mapping[str, float], facts: Contr
                                 f"the joint offsets are not identifiable from this campaign: "
                                 f"{why}"))
     if not evidence.verdict.consistent:
-        refusals.append(Refusal(
-            "inconsistent",
-            f"offsets fit: {evidence.verdict.describe()}; the joint-offset model leaves "
-            "something out (run `ogacq diagnose` on the session)"))
+        hint = ("the model leaves something out" if evidence.uncompensated else
+                "the joint-offset model leaves something out (run `ogacq diagnose` on the "
+                "session; when it explains the readings, `--from-diagnosis` writes the "
+                "offsets of its model)")
+        refusals.append(Refusal("inconsistent" if evidence.verdict.judged else "unjudged",
+                                f"{evidence.model} fit: {evidence.verdict.describe()}; {hint}"))
+    if evidence.uncompensated:
+        notes.append(f"these are the joint offsets of the model with "
+                     f"{', '.join(evidence.uncompensated)}; the controller cannot compensate "
+                     f"{'that effect' if len(evidence.uncompensated) == 1 else 'those effects'}"
+                     ": they remain until the machine is adjusted mechanically")
     if evidence.profile is not None and evidence.profile != facts.profile:
         refusals.append(Refusal("other_profile",
                                 f"the campaign ran with controller profile {evidence.profile!r}, "

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from ogacq.diagnose.diagnosis import diagnose
-from ogacq.diagnose.verdict import ALPHA
+from ogacq.identify.consistency import LEVEL as ALPHA
 from tests.diagnose.campaigns import MACHINE, MACHINE_WITHOUT_NOISE, simulate
 
 SEEDS = range(100)

@@ -9,9 +9,19 @@ import pytest
 from scipy import stats
 
 from ogacq.diagnose.diagnosis import diagnose
-from ogacq.diagnose.verdict import NoiseBasis, judge, nested_test, noise_basis
+from ogacq.diagnose.nested import nested_test
+from ogacq.identify.consistency import fit_verdict
+from ogacq.identify.fit import fit
+from ogacq.identify.noise import (
+    GaugeNoise,
+    noise_for,
+    shared_rounding_variance,
+    sigma_from_scatter,
+    within_variance,
+)
 from ogacq.identify.observations import deviations_observations, readings_observations
-from ogacq.model.machine import PAPER_PROTOTYPE
+from ogacq.model.machine import PAPER_PROTOTYPE, MachineSpec
+from ogacq.model.parameters import PARAM_SETS
 from tests.diagnose.campaigns import (
     MACHINE,
     MACHINE_WITHOUT_NOISE,
@@ -24,40 +34,101 @@ from tests.diagnose.campaigns import (
 
 
 def test_stated_noise_carries_the_display_rounding():
-    noise = noise_basis(simulate({}, 1))
+    noise = noise_for(simulate({}, 1))
     assert noise.source == "machine file" and not noise.measured
     assert noise.sigma_mm == pytest.approx(math.hypot(NOISE_MM, STEP_MM / math.sqrt(12)))
 
 
 def test_noise_from_repeats_uses_pure_error_and_the_lack_of_fit_test():
     obs = simulate({}, 2, machine=MACHINE_WITHOUT_NOISE)
-    noise = noise_basis(obs)
+    noise = noise_for(obs)
     assert noise.source == "repeated readings"
     assert noise.dof == 52  # 72 readings in 20 groups of gauge, posture and approach
     assert 0.0015 < noise.sigma_mm < 0.0028
-    verdict = judge(noise.pure_error_ss + 11 * noise.variance * 2.0, 63, 0.002, noise)
-    assert verdict.test == "lack-of-fit F"
-    assert verdict.statistic == pytest.approx(2.0)
-    assert verdict.overall_p == pytest.approx(stats.f.sf(2.0, 11, 52))
+    verdict = fit_verdict(fit(obs, PARAM_SETS["offsets"]))
+    assert verdict.test == "lack-of-fit F" and verdict.dof == 20 - 6 - 3
+    # 2 um scatter on a 1 um display: rounding is independent, the F has the pure
+    # error's 52 dof
+    assert verdict.noise_dof == pytest.approx(52, rel=0.02)
+    assert verdict.overall_p == pytest.approx(
+        stats.f.sf(verdict.statistic, verdict.dof, verdict.noise_dof))
 
 
-def test_tabulated_deviations_are_judged_against_the_display_step():
+def test_tabulated_deviations_are_judged_against_the_display_step_said_to_be_assumed():
     obs = deviations_observations(PAPER_PROTOTYPE, [("dx_y", 0.1), ("dy_x", 0.2)])
-    noise = noise_basis(obs)
-    assert noise.source == "gauge resolution" and noise.sigma_mm == 0.01
+    noise = noise_for(obs)
+    assert noise.source == "gauge resolution" and noise.sigma_mm == 0.01 and noise.assumed
 
 
-def test_chi_square_verdict():
-    noise = NoiseBasis(0.002, "machine file")
-    v = judge(63 * 0.002**2 * 1.5, 63, 0.0024, noise)
-    assert v.test == "chi-square" and v.chi2_dof == pytest.approx(1.5)
-    assert v.p_value == pytest.approx(stats.chi2.sf(94.5, 63))
-    assert not v.consistent
-    assert judge(63 * 0.002**2, 63, 0.002, noise).consistent
+def test_shared_rounding_matches_a_direct_simulation():
+    """c(sigma, s): the covariance of two repeats' errors, over a uniform rounding
+    phase, computed here by brute force and not by the series."""
+    rng = np.random.default_rng(0)
+    step = 0.01
+    for sigma in (0.0005, 0.001, 0.002, 0.003):
+        x = rng.uniform(0, step, 400_000)
+        e1 = np.round((x + rng.normal(0, sigma, x.size)) / step) * step - x
+        e2 = np.round((x + rng.normal(0, sigma, x.size)) / step) * step - x
+        assert np.cov(e1, e2)[0, 1] == pytest.approx(
+            shared_rounding_variance(sigma, step), abs=2e-8 + 0.03 * step**2 / 12)
+        assert np.var(e1) == pytest.approx(sigma**2 + step**2 / 12, rel=0.02)
+    assert shared_rounding_variance(0.0, step) == pytest.approx(step**2 / 12, rel=1e-3)
+    assert shared_rounding_variance(step, step) < 1e-12
+
+
+def test_scatter_of_repeats_is_inverted_to_the_gauge_scatter():
+    for sigma in (0.0, 0.0003, 0.001, 0.004, 0.02):
+        assert sigma_from_scatter(within_variance(sigma, 0.01), 0.01) == pytest.approx(
+            sigma, abs=1e-9)
+
+
+def test_dial_far_coarser_than_the_noise_is_not_a_false_alarm():
+    """The issue's case: 10 um dials, 1 um noise measured from repeats. The cycles
+    round alike, so an F-test against their scatter alone (the old rule) read about
+    3 under noise alone; the posture means are judged against the rounding."""
+    machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.01)
+    lay = layout(machine=machine)
+    rng = np.random.default_rng(5)
+    clean = readings_observations(machine, lay, np.zeros(len(lay))).predict(
+        _offsets_vector())
+    values = clean + rng.uniform(2, 10, lay.n_gauges)[lay.gauge] + rng.normal(0, 0.001,
+                                                                               len(lay))
+    obs = readings_observations(machine, lay, np.round(values / 0.01) * 0.01)
+    noise = noise_for(obs)
+    assert noise.rounding_dominated
+    verdict = fit_verdict(fit(obs, PARAM_SETS["offsets"]))
+    assert verdict.consistent, verdict.describe()
+    assert any("display step dominates" in n for n in verdict.notes)
+
+
+def _offsets_vector():
+    from ogacq.model.parameters import vector
+
+    return vector({"joint_offset.x": 0.8, "joint_offset.y": -0.5, "joint_offset.z": 1.2})
+
+
+def test_identical_repeats_are_judged_against_the_rounding_alone():
+    machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.01)
+    lay = layout(machine=machine)
+    clean = readings_observations(machine, lay, np.zeros(len(lay))).predict(_offsets_vector())
+    values = np.round((clean + 3.0) / 0.01) * 0.01  # no scatter at all
+    verdict = fit_verdict(fit(readings_observations(machine, lay, values),
+                              PARAM_SETS["offsets"]))
+    assert verdict.noise.scatter_mm == 0.0 and verdict.test == "lack-of-fit F"
+    assert verdict.noise_dof is None  # the denominator is the known rounding: chi-square
+    assert any("read identically" in n for n in verdict.notes)
+
+
+def test_no_redundancy_cannot_be_judged():
+    obs = deviations_observations(PAPER_PROTOTYPE, [("dx_y+", 0.1), ("dy_x+", 0.2),
+                                                    ("dz_x+", 0.3)])
+    verdict = fit_verdict(fit(obs, PARAM_SETS["offsets"], method="linear"))
+    assert verdict.state == "undetermined" and not verdict.consistent
+    assert "no redundancy" in verdict.describe()
 
 
 def test_nested_test_credits_only_what_beats_the_remaining_misfit():
-    noise = NoiseBasis(0.001, "machine file")
+    noise = GaugeNoise(0.001, "machine file")
     s2 = noise.variance
     # bigger model within the noise: likelihood-ratio test against the noise
     f_stat, p = nested_test(100 * s2, 60 * s2, 1, 60, noise)

@@ -98,7 +98,7 @@ def test_coverage_when_the_display_step_dominates_the_noise():
         noisy = clean + rng.uniform(2, 10, 6)[layout.gauge] + rng.normal(0, 0.001, len(clean))
         values = np.round(noisy / 0.01) * 0.01
         r = fit(readings_observations(machine, layout, values), PARAM_SETS["offsets"])
-        assert r.noise.repeated_rounding_mm == 0.01
+        assert r.noise.step_mm == 0.01 and r.noise.shared_var > 0
         z.extend((r.values - list(truth.values())) / r.std)
     z = np.array(z)
     inside = np.mean(np.abs(z) < 2.0)

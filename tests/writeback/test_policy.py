@@ -10,20 +10,24 @@ import numpy as np
 import pytest
 
 from drivers.axes.profile import load_profile
+from ogacq.identify.consistency import LEVEL, Verdict, fit_verdict
 from ogacq.identify.fit import fit
+from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import layout_of, protocol_readings
 from ogacq.model.parameters import AXES, PARAM_SETS, vector
 from ogacq.writeback.audit import Operation
-from ogacq.writeback.evidence import Evidence, FitVerdict, fit_verdict
+from ogacq.writeback.evidence import Evidence
 from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_restore, plan_write
 
 CIA = ControllerFacts.of(load_profile("cia402"))
 IAI = ControllerFacts.of(load_profile("iai-pcon"))
 ZEROS = dict.fromkeys(AXES, 0.0)
-GOOD = FitVerdict(chi2=60.0, dof=63, p_value=0.6, noise_mm=0.001, noise_source="machine file")
-BAD = FitVerdict(chi2=4000.0, dof=63, p_value=0.0, noise_mm=0.001, noise_source="machine file")
+NOISE = GaugeNoise(0.001, "machine file", 0.0001, 0.001)
+GOOD = Verdict("consistent", "chi-square", 60.0, 63, None, 0.6, 0.6, LEVEL, 6e-5, 0.001, NOISE)
+BAD = Verdict("inconsistent", "chi-square", 4000.0, 63, None, 0.0, 0.0, LEVEL, 4e-3, 0.008,
+              NOISE)
 
 
 def evidence(identified, *, std=0.001, verdict=GOOD, identifiable=True, in_force=ZEROS,
@@ -72,7 +76,7 @@ def test_each_unreliable_result_is_refused_with_its_reason(kwargs, code):
 
 def test_the_verdict_and_identifiability_reasons_are_in_the_message():
     plan = plan_write(evidence((0.5, -0.5, 0.2), verdict=BAD), ZEROS, CIA)
-    assert "chi2 4000.0 for 63 dof" in plan.refusals[0].message
+    assert "chi2(63) = 4000" in plan.refusals[0].message
     assert "ogacq diagnose" in plan.refusals[0].message
     plan = plan_write(evidence((0.5, -0.5, 0.2), identifiable=False, std=math.inf), ZEROS, CIA)
     assert "rank 2 of 3" in plan.refusals[0].message
@@ -141,18 +145,19 @@ def test_chi_square_verdict_against_the_gauge_noise():
     assert all(p > 0.001 for p in p_values)
     assert 0.1 < float(np.mean(p_values)) < 0.9
     verdict = fit_verdict(synthetic_fit({}, 1))
-    assert verdict.consistent and verdict.dof == 63 and verdict.noise_source == "machine file"
-    assert verdict.chi2_per_dof == pytest.approx(1.0, abs=0.4)
+    assert verdict.consistent and verdict.dof == 63 and verdict.noise.source == "machine file"
+    assert verdict.chi2_dof == pytest.approx(1.0, abs=0.4)
     # 0.5 mrad out of square: small, but far above 1 um gauges
     verdict = fit_verdict(synthetic_fit({"squareness.xy": 0.5}, 1))
-    assert not verdict.consistent and verdict.chi2_per_dof > 5
-    assert "inconsistent with the gauge noise 0.001 mm" in verdict.describe()
+    assert not verdict.consistent and verdict.chi2_dof > 5
+    assert verdict.describe().startswith("NOT within the gauge noise (chi-square test")
+    assert "judged at the 0.01 level" in verdict.describe()
 
 
 def test_a_fit_with_no_redundancy_is_not_called_consistent():
     lay = layout_of(protocol_readings(MACHINE, legs=(0,), postures=("zero", "max"), cycles=1))
     obs = readings_observations(MACHINE, lay, np.zeros(len(lay)))
     verdict = fit_verdict(fit(obs, PARAM_SETS["offsets"]))
-    assert verdict.dof <= 0 and not verdict.consistent
-    assert "no degrees of freedom" in verdict.describe()
-    assert verdict.to_json()["chi2"] is None
+    assert verdict.dof <= 0 and not verdict.consistent and verdict.state == "undetermined"
+    assert "no redundancy" in verdict.describe()
+    assert verdict.to_json()["chi2_dof"] is None

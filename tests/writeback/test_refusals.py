@@ -53,7 +53,7 @@ def refused_and_untouched(ran, session_path, campaign, code: str) -> None:
     ("unidentifiable", {"legs": (0,), "postures": ("zero", "max", "zero")}, (),
      "not identifiable"),
     # the machine is out of square by 1 mrad: offsets alone cannot fit the readings
-    ("inconsistent", {"effects": {"squareness.xy": 1.0}}, (), "inconsistent with the gauge noise"),
+    ("inconsistent", {"effects": {"squareness.xy": 1.0}}, (), "NOT within the gauge noise"),
     ("too_large", {}, ("--max-change-mm", "1.0"), "exceed the 1 mm limit"),
 ])
 def test_unreliable_result_is_refused_and_nothing_written(

@@ -10,11 +10,11 @@ import pytest
 
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import read_campaign
+from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.observations import averaged_deviations, readings_observations
 from ogacq.model.parameters import AXES, vector
 from ogacq.session.convert import session_layout, session_machine, session_observations
 from ogacq.session.store import load_session
-from ogacq.writeback.evidence import fit_verdict
 from tests.writeback.conftest import controller_offsets, sim_campaign, simulator
 from tests.writeback.conftest import ogacq as ogacq_process
 from tests.writeback.conftest import ogacq_here as ogacq

@@ -10,8 +10,7 @@ from rich.table import Table
 
 from ogacq.campaign import CampaignOutcome
 from ogacq.cli.wizard.ui import Screen
-
-RESIDUALS_TOO_LARGE = 3.0  # residuals this many times the gauge noise: the model misses something
+from ogacq.identify.consistency import fit_verdict
 
 
 def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
@@ -43,13 +42,15 @@ def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
         screen.problem("not identifiable: do not write these offsets")
         for reason in ident.reasons:
             screen.say(f"     {reason}")
-    if np.isfinite(fit.sigma_mm) and fit.noise.sigma_mm > 0:
-        ratio = fit.sigma_mm / fit.noise.sigma_mm
-        if ratio > RESIDUALS_TOO_LARGE:
-            writable = False
-            screen.problem(f"the readings scatter {ratio:.0f} times more than the gauges do: "
-                           "something the model leaves out (a loose stand, play, a bent leg). "
-                           f"Look before writing: ogacq diagnose {outcome.session_path}")
+    verdict = fit_verdict(fit)
+    if verdict.consistent:
+        screen.ok(f"fit {verdict.describe()}")
+    else:
+        writable = False
+        screen.problem(f"fit {verdict.describe()}")
+        if verdict.state == "inconsistent":
+            screen.say("     something the model leaves out (a loose stand, play, a bent "
+                       f"leg). Look before writing: ogacq diagnose {outcome.session_path}")
     screen.say(f"Session: {outcome.session_path}")
     return writable
 

@@ -1,0 +1,52 @@
+"""Does a bigger model fit significantly better than a smaller one nested in it?
+The nested-model tests and information criteria of the effect selection, judged
+against the same gauge noise as the verdict (``ogacq/identify/consistency.py``)."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import stats
+
+from ogacq.identify.noise import GaugeNoise
+
+
+def nested_test(rss_small: float, rss_big: float, added: int, dof_big: int,
+                noise: GaugeNoise) -> tuple[float, float]:
+    """Does the bigger of two nested models fit significantly better? Returns (F, p).
+
+    The improvement per added parameter is compared with the larger of the gauge
+    noise and what the bigger model still leaves unexplained: when the bigger
+    model is itself within the noise this is the likelihood-ratio test; when it is
+    not, an effect is only credited with what it explains beyond the remaining
+    misfit (the classical F-test), so that a partial fit of an unknown error is
+    not mistaken for the effect.
+    """
+    f_stat, p = nested_tests(rss_small, np.array([rss_big]), np.array([added]),
+                             np.array([dof_big]), noise)
+    return float(f_stat[0]), float(p[0])
+
+
+def nested_tests(rss_small: float, rss_big: np.ndarray, added: np.ndarray,
+                 dof_big: np.ndarray, noise: GaugeNoise) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`nested_test` for many bigger models at once (arrays of equal length)."""
+    rss_big = np.asarray(rss_big, dtype=float)
+    added = np.asarray(added)
+    dof_big = np.asarray(dof_big)
+    valid = (added > 0) & (dof_big > 0)
+    k, dof = np.maximum(added, 1), np.maximum(dof_big, 1)
+    gain = np.maximum(rss_small - rss_big, 0.0) / k
+    misfit = rss_big / dof
+    by_misfit = misfit > noise.variance
+    f_stat = np.where(by_misfit, gain / np.where(by_misfit, misfit, 1.0), gain / noise.variance)
+    p_noise = (stats.f.sf(f_stat, k, noise.dof) if noise.measured
+               else stats.chi2.sf(f_stat * k, k))
+    p = np.where(by_misfit, stats.f.sf(f_stat, k, dof), p_noise)
+    return np.where(valid, f_stat, 0.0), np.where(valid, p, 1.0)
+
+
+def information_criteria(rss: float | np.ndarray, n_params: int | np.ndarray, n_data: int,
+                         noise: GaugeNoise) -> tuple[float | np.ndarray, float | np.ndarray]:
+    """(AIC, BIC) up to a common constant, the noise taken as known; element-wise for
+    arrays of candidates."""
+    chi2 = rss / noise.variance
+    return chi2 + 2.0 * n_params, chi2 + n_params * float(np.log(max(n_data, 2)))

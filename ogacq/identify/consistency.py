@@ -1,0 +1,331 @@
+"""Is a fit within the gauge noise? The one test that the diagnosis, the write-back
+gate, the report, the CLI and the wizard all ask, with one noise (``noise.py``).
+
+The residuals are taken into the space where the readings' errors are independent
+(repeat groups whitened, gauge zeros and the fitted parameters projected out: the
+generalised least-squares residual). There they split into the misfit of each
+posture's mean (lack of fit) and the scatter of the cycles about it (pure error).
+
+- Noise stated in the machine file: chi-square of the whole residual. When the
+  gauge scatters less than the display step dithers (repeats round alike), the
+  scatter within cycles is a few whole-step flips, not Gaussian noise: only the
+  posture means are tested then, against their own variance, which the
+  repeated rounding dominates.
+- Noise measured from the repeats: the lack-of-fit F-test of the posture means
+  against that measurement; its denominator is the variance of a posture mean
+  (the repeats' scatter over the cycles plus the rounding they share), with the
+  Satterthwaite degrees of freedom of that sum. Identical repeats leave the
+  rounding alone, known from the display step: the test is then a chi-square.
+- Tabulated deviations: chi-square against their covariance (eq. 13-14).
+
+A misfit confined to one gauge at one posture (a knocked stand, a sticking spindle)
+hardly moves the overall sum, so the worst such cell is tested too against what
+noise alone would leave in it, Bonferroni-corrected over the cells; the verdict's
+p is the smaller of the two, doubled.
+
+With no redundancy left there is nothing to judge: the verdict is "undetermined".
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy import stats
+
+from ogacq.identify.fit import FitResult, Weighting
+from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
+from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.model.kinematics import nominal_tcp
+from ogacq.model.parameters import AXES
+
+# The level every consumer judges at. 1 % rather than 5 %: a false "inconsistent"
+# sends someone to re-tune a machine or withholds a good write-back, and the
+# effect search only runs past this gate, so it also bounds the rate of effects
+# claimed on a machine that has none.
+LEVEL = 0.01
+SATTERTHWAITE_CAP = 1e6  # beyond this the denominator is known: chi-square
+RANK_TOLERANCE = 1e-8
+
+
+@dataclass(frozen=True)
+class CellTest:
+    """The worst cell (one gauge at one posture, or one tabulated deviation)."""
+
+    cell: str  # "y_x at max"
+    chi2: float  # its misfit in units of the noise variance
+    expected: float  # what noise alone would leave there
+    p_value: float  # corrected for the number of cells looked at
+    cells: int
+
+
+@dataclass(frozen=True)
+class Verdict:
+    state: str  # "consistent", "inconsistent" or "undetermined"
+    test: str  # "chi-square", "lack-of-fit F" or "none"
+    statistic: float  # chi2, or F
+    dof: int
+    noise_dof: float | None  # denominator dof of the F-test
+    overall_p: float  # of the overall test alone
+    p_value: float  # of the verdict (overall and worst cell, Bonferroni-combined)
+    level: float
+    rss: float  # weighted residual sum of squares, mm^2 (all of it)
+    rms_mm: float  # residual rms, gauge zeros removed
+    noise: GaugeNoise
+    worst_cell: CellTest | None = None
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    @property
+    def consistent(self) -> bool:
+        return self.state == "consistent"
+
+    @property
+    def judged(self) -> bool:
+        return self.state != "undetermined"
+
+    @property
+    def chi2_dof(self) -> float:
+        """The test statistic per degree of freedom: 1 when the fit is within the noise."""
+        if not self.judged:
+            return math.nan
+        return self.statistic if self.test == "lack-of-fit F" else self.statistic / self.dof
+
+    def headline(self) -> str:
+        """Three words for a table: the same words everywhere."""
+        return {"consistent": "within the gauge noise",
+                "inconsistent": "NOT within the gauge noise",
+                "undetermined": "cannot be judged"}[self.state]
+
+    def describe(self) -> str:
+        if not self.judged:
+            return f"{self.headline()}: {'; '.join(self.notes)}"
+        name = "chi2" if self.test == "chi-square" else "F"
+        denominator = (f", {self.noise_dof:.0f}" if self.noise_dof is not None else "")
+        text = (f"{self.headline()} ({self.test} test: {name}({self.dof}{denominator}) = "
+                f"{self.statistic:.4g}, p = {format_p(self.overall_p)}; per dof "
+                f"{self.chi2_dof:.3g}, rms {self.rms_mm * 1000:.3g} µm, noise "
+                f"{self.noise.sigma_mm * 1000:.3g} µm from the {self.noise.source})")
+        if self.worst_cell is not None:
+            c = self.worst_cell
+            text += (f"; worst cell {c.cell}: chi2 {c.chi2:.3g} for {c.expected:.2g} expected, "
+                     f"p = {format_p(c.p_value)} over {c.cells} cells")
+        return text + f"; judged at the {self.level:g} level"
+
+    def to_json(self) -> dict:
+        """The verdict of INTERCHANGE.md's diagnosis JSON, exactly."""
+        chi2_dof = self.chi2_dof
+        return {"chi2_dof": round(chi2_dof, 4) if math.isfinite(chi2_dof) else None,
+                "rms_mm": round(self.rms_mm, 6), "consistent": self.consistent}
+
+    def to_record(self) -> dict:
+        """Everything the verdict rests on, for audit records and ``--json`` beyond
+        the diagnosis contract."""
+        return {**self.to_json(), "verdict": self.state, "test": self.test,
+                "statistic": self.statistic, "dof": self.dof, "noise_dof": self.noise_dof,
+                "p_value": self.p_value, "level": self.level,
+                "noise_mm": self.noise.sigma_mm, "noise_source": self.noise.source,
+                "notes": list(self.notes)}
+
+
+def format_p(p: float) -> str:
+    return f"{p:.3g}" if p >= 1e-4 else f"{p:.1e}"
+
+
+def fit_verdict(result: FitResult, level: float = LEVEL) -> Verdict:
+    """The verdict on a finished fit."""
+    return judge(result.observations, result.residuals, result.jacobian,
+                 result.identifiability.rank, result.noise, level)
+
+
+def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
+          noise: GaugeNoise | None = None, level: float = LEVEL) -> Verdict:
+    """The verdict on a fit of ``obs`` with ``residuals`` (observed minus predicted,
+    gauge zeros removed, mm), unweighted Jacobian ``jac`` (m, p) at the solution and
+    ``rank`` parameters determined."""
+    noise = noise or noise_for(obs)
+    weighting = Weighting(obs, "gls", noise)
+    rw = weighting.residual(np.asarray(residuals, float)[None])[0]
+    jw = weighting.jac(np.asarray(jac, float)[None])[0]
+    basis = _column_basis(jw, rank)
+    rw = rw - basis @ (basis.T @ rw)  # the GLS residual, whatever fit gave these
+    rss = float(rw @ rw)
+    rms = float(np.sqrt(np.mean(np.square(residuals)))) if len(residuals) else math.nan
+    dof = len(obs) - obs.n_nuisance - rank
+    notes = list(_noise_notes(noise))
+
+    def verdict(state, test="none", statistic=math.nan, test_dof=dof, noise_dof=None,
+                overall=1.0, cell=None) -> Verdict:
+        combined = overall if cell is None else min(1.0, 2.0 * min(overall, cell.p_value))
+        if state is None:
+            state = "consistent" if combined >= level else "inconsistent"
+        return Verdict(state, test, statistic, test_dof, noise_dof, overall, combined, level,
+                       rss, rms, noise, cell, tuple(notes))
+
+    if dof <= 0 or noise.variance <= 0:
+        notes.insert(0, f"no redundancy left ({dof} degrees of freedom after "
+                        f"{rank} parameters and {obs.n_nuisance} gauge zeros)")
+        return verdict("undetermined", test_dof=max(dof, 0))
+    if not obs.raw:
+        chi2 = rss / noise.variance
+        cell = _deviation_cell(obs, rw, basis, noise)
+        return verdict(None, "chi-square", chi2, dof, None, float(stats.chi2.sf(chi2, dof)),
+                       cell)
+
+    groups = weighting.groups
+    assert groups is not None
+    u = groups.group_space(rw)
+    lack_ss = float(u @ u)
+    pure_dof = len(obs) - len(groups.size)
+    lack_dof = dof - pure_dof
+    tests_means_only = noise.measured or not noise.dithered
+    if tests_means_only and lack_dof <= 0:
+        notes.insert(0, "every posture was read once per cycle and the rest of the "
+                        "readings measure the noise: nothing is left to test the model with")
+        return verdict("undetermined", test_dof=0)
+    if noise.measured:
+        noise_dof = _satterthwaite(noise, groups.size, pure_dof)
+        f_stat = lack_ss / noise.variance / lack_dof
+        overall = (float(stats.chi2.sf(f_stat * lack_dof, lack_dof)) if noise_dof is None
+                   else float(stats.f.sf(f_stat, lack_dof, noise_dof)))
+        cell = _readings_cell(obs, groups, u, basis, noise, noise_dof)
+        return verdict(None, "lack-of-fit F", f_stat, lack_dof, noise_dof, overall, cell)
+    if noise.dithered:
+        chi2 = rss / noise.variance
+        test_dof = dof
+    else:
+        chi2, test_dof = lack_ss / noise.variance, lack_dof
+        notes.append("the cycles' scatter about each posture mean is a few whole display "
+                     "steps at most and is not tested; the posture means are")
+    cell = _readings_cell(obs, groups, u, basis, noise, None)
+    return verdict(None, "chi-square", chi2, test_dof, None,
+                   float(stats.chi2.sf(chi2, test_dof)), cell)
+
+
+def _noise_notes(noise: GaugeNoise) -> list[str]:
+    notes = []
+    if noise.assumed:
+        notes.append(f"the noise is assumed to be the {noise.step_mm:g} mm display step: "
+                     "no repeats, and none stated (gauge_repeatability_mm)")
+    if noise.rounding_dominated:
+        mean_sd = math.sqrt(noise.shared_var) * 1000
+        notes.append(f"the {noise.step_mm * 1000:g} µm display step dominates: the cycles "
+                     f"round alike, so a posture mean is known to about ±{mean_sd:.1f} µm "
+                     "however many cycles; a misfit smaller than that cannot be told "
+                     "from rounding")
+    if noise.measured and noise.scatter_mm == 0.0:
+        notes.append("the repeats read identically: the gauge scatters less than its "
+                     "display shows, and the fit is judged against the rounding alone")
+    stated, seen = noise.scatter_mm, noise.repeats_scatter_mm
+    if not noise.measured and stated is not None and seen is not None and seen > 2 * stated:
+        notes.append(f"the repeats scatter {seen * 1000:.2g} µm, more than the "
+                     f"{stated * 1000:.2g} µm the machine file states")
+    return notes
+
+
+def _satterthwaite(noise: GaugeNoise, sizes: np.ndarray, pure_dof: int) -> float | None:
+    """Degrees of freedom of a posture mean's variance ``w/n + c``, of which only ``w``
+    is measured (with ``pure_dof``); None when ``w`` is negligible (chi-square)."""
+    n = float(np.mean(sizes))
+    within = noise.within_var / n
+    if within <= 0:
+        return None
+    nu = pure_dof * ((within + noise.shared_var) / within) ** 2
+    return None if nu > SATTERTHWAITE_CAP else nu
+
+
+def _column_basis(jw: np.ndarray, rank: int) -> np.ndarray:
+    if rank <= 0 or jw.size == 0:
+        return np.zeros((jw.shape[0], 0))
+    u, s, _ = np.linalg.svd(jw, full_matrices=False)
+    keep = min(rank, int(np.sum(s > s[0] * RANK_TOLERANCE))) if s[0] > 0 else 0
+    return u[:, :keep]
+
+
+def _cell_p(block: np.ndarray, chi2: float, noise_dof: float | None) -> float | None:
+    """Conservative p of a cell's misfit ``sum(l_i chi2_1)`` (``l_i`` the eigenvalues of
+    its block of the residual covariance): at most ``l_max`` times a chi-square (or
+    an F with the noise's dof) with as many dof as nonzero ``l_i``."""
+    eig = np.linalg.eigvalsh(block)
+    live = eig > 1e-9
+    if not live.any():
+        return None  # the fit leaves nothing there to test
+    k = int(live.sum())
+    scaled = chi2 / eig.max()
+    if noise_dof is None:
+        return float(stats.chi2.sf(scaled, k))
+    return float(stats.f.sf(scaled / k, k, noise_dof))
+
+
+def _readings_cell(obs: Observations, groups: GroupWhitener, u: np.ndarray, basis: np.ndarray,
+                   noise: GaugeNoise, noise_dof: float | None) -> CellTest | None:
+    """The worst gauge-at-posture cell, tested on the posture means (group space):
+    ``u`` is the mean part of the residual, ``basis`` the fitted directions (whitened,
+    orthonormal, in reading space). Under noise alone ``u`` has covariance
+    ``I - e e' - M B B' M'`` (``M`` taking reading space to group space, ``e`` each
+    gauge's zero), of which each cell's block is formed."""
+    cell_of_group = _group_cells(obs, groups.group, len(groups.size))
+    fitted = groups.group_space(basis.T).T
+    gauge_of_group = np.zeros(len(groups.size), dtype=int)
+    gauge_of_group[groups.group] = obs.layout.gauge
+    zero_dir = np.sqrt(groups.size) * groups.mean_scale
+    names = list(dict.fromkeys(cell_of_group.tolist()))
+    worst = None
+    for name in names:
+        sel = np.flatnonzero(cell_of_group == name)
+        gauge = gauge_of_group[sel[0]]
+        e = zero_dir[sel] / math.sqrt(np.sum(zero_dir[gauge_of_group == gauge] ** 2))
+        f = fitted[sel]
+        block = np.eye(len(sel)) - np.outer(e, e) - f @ f.T
+        chi2 = float(np.sum(u[sel] ** 2) / noise.variance)
+        p = _cell_p(block, chi2, noise_dof)
+        if p is not None and (worst is None or p < worst[1]):
+            worst = (name, p, chi2, float(np.trace(block)))
+    if worst is None:
+        return None
+    name, p, chi2, expected = worst
+    return CellTest(name, chi2, expected, min(1.0, p * len(names)), len(names))
+
+
+def _group_cells(obs: Observations, group: np.ndarray, n_groups: int) -> np.ndarray:
+    """For each repeat group, its cell: ``"y_x at max"``."""
+    lay = obs.layout
+    tcp = np.where(np.isfinite(lay.tcp_mm), lay.tcp_mm,
+                   nominal_tcp(lay.q_mm, obs.machine.leg_length_mm))
+    along = tcp[np.arange(len(lay)), lay.leg]
+    first = np.zeros(n_groups, dtype=int)
+    first[group[::-1]] = np.arange(len(group))[::-1]
+    return np.array([f"{AXES[lay.gauge_axis[i]]}_{AXES[lay.leg[i]]} at "
+                     f"{posture_name(along[i], obs.machine)}" for i in first])
+
+
+def posture_name(position_mm: float, machine) -> str:
+    for name, value in (("zero", 0.0), ("max", machine.rho_max_mm),
+                        ("min", machine.rho_min_mm)):
+        if abs(position_mm - value) < 1e-6:
+            return name
+    return f"{position_mm:+g} mm"
+
+
+def _deviation_cell(obs: Observations, rw: np.ndarray, basis: np.ndarray,
+                    noise: GaugeNoise) -> CellTest | None:
+    """The worst tabulated deviation, its GLS residual against its own variance."""
+    cov = obs.noise_cov
+    chol = np.linalg.cholesky(cov)
+    residual = chol @ rw  # back from the whitened space
+    resid_cov = chol @ (np.eye(len(rw)) - basis @ basis.T) @ chol.T  # units sigma^2
+    names = []
+    worst = None
+    for k, label in enumerate(obs.labels):
+        m = DEVIATION_NAME.match(label)
+        name = f"{m.group(1)}_{m.group(2)} at " + {"+": "max", "-": "min", "": "max-min"}[
+            m.group(3)] if m else label
+        names.append(name)
+        chi2 = float(residual[k] ** 2 / (noise.variance * cov[k, k]))
+        p = _cell_p(np.array([[resid_cov[k, k] / cov[k, k]]]), chi2, None)
+        if p is not None and (worst is None or p < worst[1]):
+            worst = (name, p, chi2, float(resid_cov[k, k] / cov[k, k]))
+    if worst is None:
+        return None
+    name, p, chi2, expected = worst
+    return CellTest(name, chi2, expected, min(1.0, p * len(names)), len(names))
