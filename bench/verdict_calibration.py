@@ -23,8 +23,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 from ogacq.identify.consistency import LEVEL  # noqa: E402
 from ogacq.identify.verdict_calibration import Cell, alarm_rate, grid, seeds_of  # noqa: E402
 
-POWER_EFFECTS = ({"squareness.xy": 0.03}, {"leg_length.y": 0.05}, {"backlash.x": 0.004})
-POWER_CELLS = grid(noises=(0.001, 0.002), protocols=("both-sides",), geometries=("prototype",))
+POWER_EFFECTS = ({"squareness.xy": 0.5}, {"axis_offset.xz": 0.05}, {"backlash.x": 0.008})
+POWER_CELLS = grid(noises=(0.001, 0.002), geometries=("prototype",))
 
 
 def _run(job: tuple[Cell, int, dict | None]):

@@ -13,6 +13,7 @@ from typing import Any
 
 from ogacq.campaign_file import Campaign, read_campaign
 from ogacq.identify.fit import FitResult, fit
+from ogacq.identify.plausibility import check_observations, check_result
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.plan import SetGauges, reading_steps
@@ -34,7 +35,11 @@ class CampaignOutcome:
 
 def identify_session(session: LoadedSession) -> FitResult:
     """The joint offsets from every raw reading, by the exact nonlinear fit."""
-    return fit(session_observations(session), PARAM_SETS["offsets"])
+    obs = session_observations(session)
+    check_observations(obs, PARAM_SETS["offsets"])
+    result = fit(obs, PARAM_SETS["offsets"])
+    check_result(result)
+    return result
 
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,

@@ -18,6 +18,13 @@ app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Acquisition and calibration for Orthoglide-type parallel machines.")
 
 MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
+# For files that may record their machine (sessions do, CSVs do not).
+RecordedMachineOption = Annotated[Path | None, typer.Option(
+    "--machine", "-m", help="Machine file (TOML); a session's own is used when left out, "
+                            "and one that differs from it is refused (--other-geometry).")]
+OtherGeometryOption = Annotated[bool, typer.Option(
+    "--other-geometry", help="Reanalyse a session with the --machine file even though it "
+                             "differs from the machine the session was recorded with.")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
 
 

@@ -9,8 +9,15 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.app import JsonOption, MachineOption, UserError, app
+from ogacq.cli.app import (
+    JsonOption,
+    OtherGeometryOption,
+    RecordedMachineOption,
+    UserError,
+    app,
+)
 from ogacq.identify.fit import fit
+from ogacq.identify.plausibility import check_result
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine
 from ogacq.model.parameters import PARAM_SETS
@@ -36,7 +43,7 @@ class Weighting(StrEnum):
 @app.command()
 def refit(
     file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
-    machine: MachineOption,
+    machine: RecordedMachineOption = None,
     params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
     = ParamSet.offsets,
     method: Annotated[Method, typer.Option(
@@ -45,18 +52,22 @@ def refit(
     weighting: Annotated[Weighting, typer.Option(
         help="ols (the papers') or gls with the deviations' covariance (eq. 13-14).")]
     = Weighting.ols,
+    other_geometry: OtherGeometryOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """Identify joint offsets and/or leg lengths from recorded data."""
-    spec = read_machine(machine)
-    obs = load_observations(file, spec)
+    spec = read_machine(machine) if machine is not None else None
+    names = PARAM_SETS[params.value]
+    obs = load_observations(file, spec, names, machine_path=machine,
+                            other_geometry=other_geometry)
     chosen = method.value
     if chosen == "auto":
         chosen = "linear" if obs.kind == "deviations" else "exact"
-    result = fit(obs, PARAM_SETS[params.value], method=chosen, weighting=weighting.value)
+    result = fit(obs, names, method=chosen, weighting=weighting.value)
     if not result.converged:
         raise UserError(f"{file}: the {chosen} fit did not converge in {result.iterations} "
                         "iterations; try --method linear or check the data")
+    check_result(result)
     if as_json:
         typer.echo(json.dumps(result.to_json(params.value)))
         return

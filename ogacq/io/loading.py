@@ -1,8 +1,10 @@
-"""Turn a file given on the command line into observations to fit."""
+"""Turn a file given on the command line into observations to fit, with the machine
+they belong to: a session's own, or the one the user names."""
 
 from __future__ import annotations
 
 import logging
+from collections.abc import Sequence
 from pathlib import Path
 
 from ogacq.identify.observations import (
@@ -10,6 +12,7 @@ from ogacq.identify.observations import (
     deviations_observations,
     readings_observations,
 )
+from ogacq.identify.plausibility import check_observations
 from ogacq.io.errors import InputError
 from ogacq.io.tables import check_postures, read_deviations, read_readings, sniff
 from ogacq.model.machine import MachineSpec
@@ -17,21 +20,52 @@ from ogacq.model.machine import MachineSpec
 log = logging.getLogger(__name__)
 
 
-def load_observations(path: str | Path, machine: MachineSpec) -> Observations:
+def load_observations(path: str | Path, machine: MachineSpec | None = None,
+                      names: Sequence[str] = (), *, machine_path: str | Path | None = None,
+                      other_geometry: bool = False) -> Observations:
+    """Observations of ``path`` (readings CSV, deviations CSV or session), checked to be
+    plausible millimetres and enough for ``names``.
+
+    A session records its machine, which is used when ``machine`` is None; a
+    ``machine`` that differs from it is refused (naming ``machine_path`` and the
+    keys) unless ``other_geometry`` says the user means to reanalyse with it. A
+    CSV records none: ``machine`` is required."""
     path = Path(path)
     if not path.exists():
         raise InputError(path, "no such file")
     kind = sniff(path)
+    if kind != "session" and machine is None:
+        raise InputError(path, f"a {kind} CSV does not record its machine: give the machine "
+                               "file with --machine M.toml")
     if kind == "deviations":
-        return deviations_observations(machine, read_deviations(path), source=str(path))
-    if kind == "readings":
+        obs = deviations_observations(machine, read_deviations(path), source=str(path))
+    elif kind == "readings":
         table = read_readings(path)
         check_postures(table, machine, path)
-        return readings_observations(machine, table.layout(), table.reading_mm, str(path))
-    from ogacq.session.convert import session_observations
+        obs = readings_observations(machine, table.layout(), table.reading_mm, str(path))
+    else:
+        obs = _session_observations(path, machine, machine_path, other_geometry)
+    check_observations(obs, names)
+    return obs
+
+
+def _session_observations(path: Path, machine: MachineSpec | None,
+                          machine_path: str | Path | None, other_geometry: bool
+                          ) -> Observations:
+    from ogacq.session.convert import machine_dict, session_machine, session_observations
     from ogacq.session.store import load_session
 
     session = load_session(path)
     for warning in session.warnings:
         log.warning(warning)
-    return session_observations(session, machine)
+    recorded = session_machine(session)
+    if machine is not None and not other_geometry:
+        given, own = machine_dict(machine), machine_dict(recorded)
+        differing = [f"{k} {given.get(k, 'absent')} there, {own.get(k, 'absent')} in the "
+                     "session" for k in dict.fromkeys([*own, *given]) if given.get(k) != own.get(k)]
+        if differing:
+            raise InputError(machine_path or "--machine", f"differs from the machine {path} was "
+                             f"recorded with: {'; '.join(differing)}. Leave out --machine to "
+                             "use the session's own, or add --other-geometry to reanalyse "
+                             "with this one")
+    return session_observations(session, machine or recorded)
