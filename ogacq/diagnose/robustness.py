@@ -62,8 +62,8 @@ def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Mode
         return None
     obs = problem.obs
     cells = _cells(obs)
-    gain = (base.residuals**2 - claimed.residuals**2) / np.diag(
-        np.eye(len(obs)) if obs.raw else obs.noise_cov)
+    gain = (base.residuals**2 - claimed.residuals**2) / (
+        np.ones(len(obs)) if obs.raw else np.diag(obs.noise_cov))
     top = max(dict.fromkeys(cells.tolist()), key=lambda c: gain[cells == c].sum())
     keep = cells != top
     rest = Problem(_without(obs, keep), noise)

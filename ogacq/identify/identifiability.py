@@ -42,7 +42,7 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     p = len(names)
     ranges = np.array([effect_of(n).plausible_range for n in names])
     s = np.linalg.svd(jw * ranges, compute_uv=False) if p else np.zeros(0)
-    _, _, vt = np.linalg.svd(jw * ranges)
+    _, _, vt = np.linalg.svd(jw * ranges, full_matrices=False)
     rank = int(np.sum(s > s[0] * RANK_TOLERANCE)) if p and s[0] > 0 else 0
     cond = float(s[0] / s[-1]) if p and s[-1] > s[0] * RANK_TOLERANCE else float("inf")
 

@@ -76,7 +76,8 @@ class DiagnosisView:
     @property
     def outcome(self) -> str:
         return outcome_label(self.base.consistent, self.final.consistent,
-                             bool(self.named_effects), self.base.chi2_dof is not None)
+                             bool(self.named_effects),
+                             self.base.consistent or self.base.chi2_dof is not None)
 
 
 def _number(d: dict, key: str, where: str, optional: bool = False) -> float | None:

@@ -92,6 +92,29 @@ def test_show_says_why_it_would_refuse_and_writes_nothing(tmp_path, capsys, monk
     assert load_session(session).of_type("offsets") == []
 
 
+def test_the_diagnosis_model_offsets_are_written_and_the_squareness_named(
+        tmp_path, capsys, monkeypatch, campaign):
+    """Out of square by 0.5 mrad: the offsets alone are refused; the diagnosis explains
+    the readings with the squareness, and its model's offsets (near the truth, where
+    the offsets-only ones are biased) are written, the squareness said to remain."""
+    session = synthetic_session(tmp_path / "s.jsonl", campaign, offsets_mm=OFFSETS,
+                                effects={"squareness.xy": 0.5})
+    plain = ogacq_here(capsys, monkeypatch, "offsets", "write", session, "--yes")
+    assert plain.returncode == 4 and "--from-diagnosis" in plain.stderr
+    ran = ogacq_here(capsys, monkeypatch, "offsets", "write", session, "--yes",
+                     "--from-diagnosis")
+    assert ran.returncode == 0, ran.stdout + ran.stderr
+    text = " ".join(ran.stdout.split())
+    assert "diagnosis: joint offsets with squareness.xy fit: within the gauge noise" in text
+    assert "the controller cannot compensate that effect" in text
+    held = controller_offsets(campaign)
+    assert held == pytest.approx({a: -v for a, v in OFFSETS.items()}, abs=0.006)
+    intent = load_session(session).of_type("offsets")[-2]
+    assert intent["stage"] == "intent"
+    undone = ogacq_here(capsys, monkeypatch, "offsets", "restore", session, "--yes")
+    assert undone.returncode == 0 and controller_offsets(campaign) == ZEROS
+
+
 def test_force_writes_past_the_reason_saves_nvm_and_restore_undoes_it(
         tmp_path, capsys, monkeypatch, campaign):
     session = synthetic_session(tmp_path / "s.jsonl", campaign, offsets_mm=OFFSETS)
