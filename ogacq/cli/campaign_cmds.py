@@ -139,4 +139,4 @@ def _diagnose_demo(session, outcome: CampaignOutcome, folder: Path) -> None:
 
     diagnosis = diagnose(session_observations(session))
     (folder / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n")
-    print_demo_diagnosis(diagnosis.to_json(), outcome.hidden or {})
+    print_demo_diagnosis(diagnosis, outcome.hidden or {})

@@ -211,17 +211,15 @@ def print_session(session) -> None:
                 console.print(f"  {name}.{axis} = {value:+.4f} +- {std:.4f} mm")
 
 
-def print_demo_diagnosis(diagnosis: dict, hidden: dict[str, float]) -> None:
+def print_demo_diagnosis(d, hidden: dict[str, float]) -> None:
     """The diagnosis verdict and what it found, beside the simulator's hidden effects."""
-    base, final = diagnosis["base"], diagnosis["final"]
-    if base["consistent"]:
-        console.print(f"diagnosis: the joint offsets explain the readings (chi2/dof "
-                      f"{base['chi2_dof']:.2f} against gauge noise "
-                      f"{diagnosis['noise_mm'] * 1000:.2f} um): nothing left out")
+    diagnosis = d.to_json()
+    if d.base.consistent:
+        console.print(f"diagnosis: the joint offsets explain the readings, "
+                      f"{d.base.describe()}: nothing left out", highlight=False)
         return
-    console.print(f"[yellow]diagnosis: the joint offsets alone do not explain the readings "
-                  f"(chi2/dof {base['chi2_dof']:.1f}, rms {base['rms_mm'] * 1000:.2f} um against "
-                  f"noise {diagnosis['noise_mm'] * 1000:.2f} um)[/]")
+    console.print(f"[yellow]diagnosis: the joint offsets alone: {d.base.describe()}[/]",
+                  highlight=False)
     table = Table(show_edge=False, header_style="bold", title="physics found by the diagnosis")
     for column in ("effect", "found", "std", "hidden truth", "alternatives"):
         table.add_column(column, justify="left" if column in ("effect", "alternatives")
@@ -241,9 +239,7 @@ def print_demo_diagnosis(diagnosis: dict, hidden: dict[str, float]) -> None:
         if not name.startswith("joint_offset.") and name not in found:
             table.add_row(name, "not found", "", f"{value:+.4f}", "")
     console.print(table)
-    verdict = "within the gauge noise" if final["consistent"] else "still NOT within the noise"
-    console.print(f"with these effects the fit is {verdict} (chi2/dof {final['chi2_dof']:.2f}, "
-                  f"rms {final['rms_mm'] * 1000:.2f} um)")
+    console.print(f"with these effects the fit is {d.final.describe()}", highlight=False)
     offsets = diagnosis["parameters"]["joint_offset"]
     console.print("joint offsets of the final model: " + ", ".join(
         f"{a} {offsets[a]:+.4f} (truth {hidden.get(f'joint_offset.{a}', 0.0):+.4f})"
