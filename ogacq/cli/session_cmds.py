@@ -1,4 +1,5 @@
-"""``ogacq session show|export|import``: sessions to look at and to exchange."""
+"""``ogacq session show|export|import|check|salvage``: sessions to look at, to exchange,
+to check and to rescue."""
 
 from __future__ import annotations
 
@@ -8,11 +9,13 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.app import MachineOption, app
+from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.session.convert import export_readings, import_readings
-from ogacq.session.store import load_session
+from ogacq.session.store import load_session, salvage_session, scan_session
 
-session_app = typer.Typer(no_args_is_help=True, help="Look at, export and import sessions.")
+session_app = typer.Typer(no_args_is_help=True,
+                          help="Look at, export, import, check and salvage sessions.")
 app.add_typer(session_app, name="session")
 
 
@@ -48,3 +51,34 @@ def import_(
     """Make a session from a readings CSV (for tools that work on sessions)."""
     path = import_readings(readings, read_machine(machine), out)
     typer.echo(f"session written to {path}")
+
+
+@session_app.command("check")
+def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
+    """Check every record (sequence, checksum, fields): what is wrong, and where."""
+    scan = scan_session(session)
+    for warning in scan.warnings:
+        typer.echo(f"warning: {warning}")
+    for line, problem in scan.problems:
+        typer.echo(f"{session}:{line}: {problem}")
+    if scan.problems:
+        total = len(scan.records) + len(scan.problems)
+        typer.echo(f"{len(scan.problems)} corrupt records of {total}; `ogacq session salvage "
+                   f"{session} NEW` keeps the {len(scan.records)} valid ones")
+        raise typer.Exit(2)
+    load_session(session)  # the header too
+    typer.echo(f"{session}: {len(scan.records)} records, every one valid")
+
+
+@session_app.command("salvage")
+def salvage(
+    session: Annotated[Path, typer.Argument(help="Damaged session file (left as it is).")],
+    out: Annotated[Path, typer.Argument(help="New session file to write.")],
+) -> None:
+    """Write every valid record of a damaged session to a new one; list the rest."""
+    kept, dropped = salvage_session(session, out)
+    for line, problem in dropped:
+        typer.echo(f"left out {session}:{line}: {problem}")
+    typer.echo(f"{kept} records written to {out}; {len(dropped)} left out")
+    if kept <= 1:
+        raise InputError(session, "no record beyond the header was valid")

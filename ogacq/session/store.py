@@ -8,14 +8,31 @@ up for the disk's latency. The first record describes the session (machine, stat
 plan, software version); the rest are appended in the order they happened. A
 record cut by a crash mid-write (a torn last line) is dropped on loading with a
 warning naming it; everything before it stands.
+
+Each record proves itself: it carries its sequence number and a CRC-32 of its
+own line, and is checked on loading against the fields its type must have. A
+record changed after it was written, out of sequence or missing what its type
+needs is named with its line; a line written twice is dropped with a warning;
+``ogacq session salvage`` keeps every valid record of a damaged file. Files
+written before the sequence numbers and checksums load as they are.
+
+One writer at a time, across processes: every writer holds an OS lock on the
+session file (``flock``) for as long as it is open, appends only (``O_APPEND``),
+and, when it continues a session it has read, first checks that nobody has
+written to it since. Who holds the lock is said in ``SESSION.lock``.
 """
 
 from __future__ import annotations
 
+import contextlib
+import fcntl
 import json
+import math
 import os
+import sys
 import threading
 import time
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -32,6 +49,7 @@ class LoadedSession:
     header: dict[str, Any]
     records: list[dict[str, Any]]
     warnings: list[str] = field(default_factory=list)
+    size_bytes: int = 0  # of the file as read: a writer checks nobody wrote since
 
     def of_type(self, kind: str) -> list[dict[str, Any]]:
         return [r for r in self.records if r.get("type") == kind]
@@ -76,13 +94,52 @@ class _Syncer(threading.Thread):
         self.join()
 
 
+class SessionLock:
+    """An exclusive OS lock on a session file, held by one writer; its holder is said
+    in ``SESSION.lock`` for the refusal another writer gets."""
+
+    def __init__(self, path: Path, fd: int) -> None:
+        self.path = path
+        self._fd = fd
+        self._note = path.with_name(path.name + ".lock")
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise InputError(path, f"in use by {self._holder()}: one writer at a time; "
+                             "wait until it has finished") from None
+        with contextlib.suppress(OSError):  # only a refusal's message depends on it
+            self._note.write_text(f"{' '.join(['ogacq', *sys.argv[1:3]])} (pid {os.getpid()}) "
+                                  f"since {time.strftime('%H:%M:%S')}\n", encoding="utf-8")
+
+    def _holder(self) -> str:
+        try:
+            return self._note.read_text(encoding="utf-8").strip() or "another process"
+        except OSError:
+            return "another process"
+
+    def release(self) -> None:
+        with contextlib.suppress(OSError):
+            self._note.unlink()
+        fcntl.flock(self._fd, fcntl.LOCK_UN)
+
+
+def _line(record: dict[str, Any]) -> str:
+    """The record as one line, its CRC-32 last (over the line without it)."""
+    body = json.dumps(record, separators=(",", ":"))
+    crc = zlib.crc32(body.encode("utf-8"))
+    return f'{body[:-1]},"crc":"{crc:08x}"}}\n' if body != "{}" else body + "\n"
+
+
 class SessionWriter:
     """Appends records durably. Opened on a new file (``create``) or to resume."""
 
-    def __init__(self, path: Path, handle) -> None:
+    def __init__(self, path: Path, fd: int, next_seq: int,
+                 lock: SessionLock | None = None) -> None:
         self.path = path
-        self._fh = handle
-        self._syncer = _Syncer(handle.fileno())
+        self._lock = lock or SessionLock(path, fd)
+        self._fh = os.fdopen(fd, "a", encoding="utf-8")
+        self._seq = next_seq
+        self._syncer = _Syncer(fd)
         self._syncer.start()
 
     @classmethod
@@ -90,30 +147,51 @@ class SessionWriter:
         path = Path(path)
         path.parent.mkdir(parents=True, exist_ok=True)
         try:
-            fh = path.open("x", encoding="utf-8")
+            fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
         except FileExistsError:
             raise InputError(path, "a session already exists here; resume it with "
                              f"`ogacq resume {path}` or choose another name") from None
-        writer = cls(path, fh)
+        writer = cls(path, fd, 0)
         writer._write({"type": "session", "format": FORMAT, "software": f"ogacq {__version__}",
                        "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **header})
         return writer
 
     @classmethod
-    def append_to(cls, path: str | Path) -> SessionWriter:
-        """A writer at the end of an existing session, after cutting off a torn last
-        record (appending after it would corrupt the file)."""
+    def append_to(cls, path: str | Path, expected_size: int | None = None) -> SessionWriter:
+        """A writer at the end of an existing session (``expected_size``: as it was read;
+        a session written to since is refused). A torn last record is cut off
+        (appending after it would corrupt the file); a complete one that only lost
+        its newline gets it back."""
         path = Path(path)
-        raw = path.read_bytes()
-        if raw and not raw.endswith(b"\n"):
-            with path.open("r+b") as fh:
-                fh.truncate(raw.rfind(b"\n") + 1)
-        return cls(path, path.open("a", encoding="utf-8"))
+        fd = os.open(path, os.O_RDWR | os.O_APPEND)
+        try:
+            lock = SessionLock(path, fd)
+        except InputError:
+            os.close(fd)
+            raise
+        try:
+            raw = path.read_bytes()
+            if expected_size is not None and len(raw) != expected_size:
+                raise InputError(path, "was written to since it was read (another command); "
+                                 "run this again")
+            if raw and not raw.endswith(b"\n"):
+                tail = raw[raw.rfind(b"\n") + 1:]
+                if _parse(tail) is not None:
+                    os.write(fd, b"\n")
+                    raw += b"\n"
+                else:
+                    os.ftruncate(fd, raw.rfind(b"\n") + 1)
+                    raw = raw[:raw.rfind(b"\n") + 1]
+        except BaseException:
+            lock.release()
+            os.close(fd)
+            raise
+        return cls(path, fd, sum(1 for line in raw.split(b"\n") if line.strip()), lock)
 
     @classmethod
     def reopen(cls, session: LoadedSession) -> SessionWriter:
         """Append to a session to resume its campaign; the resume is recorded."""
-        writer = cls.append_to(session.path)
+        writer = cls.append_to(session.path, session.size_bytes or None)
         writer.append("resume", software=f"ogacq {__version__}",
                       after_records=len(session.records))
         return writer
@@ -124,14 +202,16 @@ class SessionWriter:
     def _write(self, record: dict[str, Any]) -> None:
         # One write of the whole line, then into the OS: a killed process cannot
         # lose it after this; the syncer puts it on the disk.
-        self._fh.write(json.dumps(record, separators=(",", ":")) + "\n")
+        self._fh.write(_line({**record, "seq": self._seq}))
         self._fh.flush()
+        self._seq += 1
         self._syncer.poke()
 
     def close(self) -> None:
         if not self._fh.closed:
             self._fh.flush()
             self._syncer.finish()  # the last fsync, before the file is closed
+            self._lock.release()
             self._fh.close()
 
     def __enter__(self) -> SessionWriter:
@@ -141,34 +221,152 @@ class SessionWriter:
         self.close()
 
 
-def load_session(path: str | Path) -> LoadedSession:
+_AXES = ("x", "y", "z")
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and \
+        math.isfinite(value)
+
+
+def _triple(value: Any, check) -> bool:
+    return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
+
+
+# What each kind of record must hold for the code that reads it.
+_READING_FIELDS = {
+    "step": lambda v: isinstance(v, str), "gauge": lambda v: isinstance(v, str),
+    "leg": lambda v: v in _AXES, "gauge_axis": lambda v: v in _AXES,
+    "cycle": lambda v: isinstance(v, int) and not isinstance(v, bool),
+    "t_s": _finite, "q_mm": lambda v: _triple(v, _finite),
+    "tcp_mm": lambda v: _triple(v, _finite),
+    "approach": lambda v: _triple(v, lambda a: a in (-1, 0, 1)), "reading_mm": _finite,
+}
+
+
+def _problem(record: Any) -> str | None:
+    """What is wrong with a decoded record, or None."""
+    if not isinstance(record, dict) or not isinstance(record.get("type"), str):
+        return "not a session record"
+    if record["type"] == "reading":
+        bad = [k for k, ok in _READING_FIELDS.items() if k not in record or not ok(record[k])]
+        if bad:
+            return f"reading without a valid {', '.join(bad)}"
+    return None
+
+
+def _decode(line: bytes) -> tuple[dict[str, Any] | None, str | None]:
+    """(record, None), or (None, what is wrong with the line)."""
+    try:
+        record = json.loads(line)
+    except ValueError:
+        return None, "not valid JSON"
+    if isinstance(record, dict) and "crc" in record:
+        crc = record.pop("crc")
+        body = json.dumps(record, separators=(",", ":")).encode("utf-8")
+        if f"{zlib.crc32(body):08x}" != crc:
+            return None, "fails its checksum: changed after it was written"
+    problem = _problem(record)
+    return (None, problem) if problem else (record, None)
+
+
+def _parse(line: bytes) -> dict[str, Any] | None:
+    return _decode(line)[0]
+
+
+@dataclass(frozen=True)
+class Scan:
+    """Every line of a session file judged: the valid records (with their line), the
+    lines that are not, and what was dropped with a warning."""
+
+    records: list[tuple[int, dict[str, Any]]]
+    problems: list[tuple[int, str]]
+    warnings: list[str]
+    size_bytes: int
+
+
+def scan_session(path: str | Path) -> Scan:
     path = Path(path)
     try:
         raw = path.read_bytes()
     except OSError as exc:
         raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
     lines = raw.split(b"\n")
-    records: list[dict[str, Any]] = []
+    last = max((k for k, line in enumerate(lines, 1) if line.strip()), default=0)
+    records: list[tuple[int, dict[str, Any]]] = []
+    problems: list[tuple[int, str]] = []
     warnings: list[str] = []
+    seen: dict[int, tuple[int, dict[str, Any]]] = {}
+    expected: int | None = 0  # None after a record without a number (edited by hand)
     for number, line in enumerate(lines, 1):
         if not line.strip():
             continue
-        try:
-            record = json.loads(line)
-            if not isinstance(record, dict) or "type" not in record:
-                raise ValueError("not a record")
-        except ValueError:
-            last = number == len(lines) or all(not rest.strip() for rest in lines[number:])
-            if last:  # a crash mid-write: drop it, keep the rest
+        record, problem = _decode(line)
+        if problem is not None:
+            if number == last and not raw.endswith(b"\n"):
+                # Cut by a crash mid-write (a line goes out whole, its newline last):
+                # drop it, keep the rest.
                 warnings.append(f"{path}:{number}: dropped a torn last record "
                                 f"({len(line)} bytes: {line[:60].decode(errors='replace')!r})")
+            else:
+                problems.append((number, problem))
+            continue
+        assert record is not None
+        seq = record.pop("seq", None)
+        if not isinstance(seq, int):
+            expected = None
+        else:
+            if seq in seen:
+                first, earlier = seen[seq]
+                if earlier == record:
+                    warnings.append(f"{path}:{number}: dropped a copy of line {first}")
+                else:
+                    problems.append((number, f"sequence number {seq} repeats line {first} "
+                                             "with other content"))
                 continue
-            raise InputError(path, "corrupt record in the middle of the session "
-                             "(not valid JSON)", number) from None
-        records.append(record)
-    if not records or records[0].get("type") != "session":
+            if expected is not None and seq != expected:
+                problems.append((number, f"out of sequence: record {seq} where {expected} "
+                                         "was due (records lost or moved)"))
+            seen[seq] = (number, record)
+            expected = seq + 1
+        records.append((number, record))
+    return Scan(records, problems, warnings, len(raw))
+
+
+def load_session(path: str | Path) -> LoadedSession:
+    path = Path(path)
+    scan = scan_session(path)
+    if not scan.records or scan.records[0] != (1, scan.records[0][1]) or \
+            scan.records[0][1].get("type") != "session":
         raise InputError(path, "not an ogacq session (no session header on line 1)", 1)
+    if scan.problems:
+        number, problem = scan.problems[0]
+        more = f" (and {len(scan.problems) - 1} more)" if len(scan.problems) > 1 else ""
+        raise InputError(path, f"corrupt record: {problem}{more}; `ogacq session check` lists "
+                         "every problem, `ogacq session salvage` keeps the valid records",
+                         number)
+    records = [r for _, r in scan.records]
     if records[0].get("format") != FORMAT:
         raise InputError(path, f"session format {records[0].get('format')!r} is not "
                          f"{FORMAT!r}", 1)
-    return LoadedSession(path, records[0], records[1:], warnings)
+    return LoadedSession(path, records[0], records[1:], scan.warnings, scan.size_bytes)
+
+
+def salvage_session(path: str | Path, out: str | Path) -> tuple[int, list[tuple[int, str]]]:
+    """Write every valid record of ``path`` to the new session ``out``, renumbered and
+    checksummed; returns (records kept, the lines left out and why)."""
+    scan = scan_session(path)
+    kept = [r for _, r in scan.records]
+    if not kept or kept[0].get("type") != "session":
+        raise InputError(path, "no valid session header on line 1: nothing to salvage", 1)
+    out = Path(out)
+    try:
+        fd = os.open(out, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
+    except FileExistsError:
+        raise InputError(out, "exists; not overwriting it") from None
+    with os.fdopen(fd, "w", encoding="utf-8") as fh:
+        for seq, record in enumerate(kept):
+            fh.write(_line({**record, "seq": seq}))
+        fh.flush()
+        os.fsync(fh.fileno())
+    return len(kept), scan.problems

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import secrets
 from dataclasses import dataclass
-from pathlib import Path
 from typing import Any
 
 from ogacq.session.store import LoadedSession, SessionWriter
@@ -29,7 +28,10 @@ class AuditLog:
 
     def record(self, stage: str, **fields: Any) -> None:
         if self._writer is None:
-            self._writer = _append_to(self.session.path)
+            # the session as the evidence was read from it: a campaign that wrote to it
+            # since (or still holds it) makes this write-back wait for a fresh look
+            self._writer = SessionWriter.append_to(self.session.path,
+                                                   self.session.size_bytes or None)
         self._writer.append(RECORD, stage=stage, **fields)
 
     def close(self) -> None:
@@ -41,12 +43,6 @@ class AuditLog:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def _append_to(path: Path) -> SessionWriter:
-    """A writer at the end of the session. Not ``SessionWriter.reopen``: that records a
-    campaign resume, and a write-back is not one."""
-    return SessionWriter.append_to(path)
 
 
 def new_operation_id(action: str) -> str:

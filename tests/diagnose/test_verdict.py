@@ -21,7 +21,7 @@ from ogacq.identify.noise import (
 )
 from ogacq.identify.observations import deviations_observations, readings_observations
 from ogacq.model.machine import PAPER_PROTOTYPE, MachineSpec
-from ogacq.model.parameters import PARAM_SETS
+from ogacq.model.parameters import PARAM_SETS, vector
 from tests.diagnose.campaigns import (
     MACHINE,
     MACHINE_WITHOUT_NOISE,
@@ -102,8 +102,6 @@ def test_dial_far_coarser_than_the_noise_is_not_a_false_alarm():
 
 
 def _offsets_vector():
-    from ogacq.model.parameters import vector
-
     return vector({"joint_offset.x": 0.8, "joint_offset.y": -0.5, "joint_offset.z": 1.2})
 
 
