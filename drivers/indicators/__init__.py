@@ -71,6 +71,13 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType(
             LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=False),
             "Sylvac Opto-RS duplex cable",
         ),
+        "sylvac-simplex": Backend(
+            "drivers.indicators.sylvac_simplex",
+            "SylvacSimplex",
+            # Powered from RTS high; DTR rests high and a low pulse asks for a value.
+            LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=True),
+            "Sylvac Opto-RS simplex cable (DTR-pulse request; real port or rfc2217://)",
+        ),
     }
 )
 
