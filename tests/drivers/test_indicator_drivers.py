@@ -333,7 +333,7 @@ _cut = _whole.flatmap(lambda f: st.integers(0, len(f) - 1).map(lambda i: f[:i]))
 _chunks = st.lists(st.one_of(st.binary(max_size=20), _whole, _cut), max_size=5)
 
 
-@pytest.mark.parametrize("protocol", sorted(BACKENDS))
+@pytest.mark.parametrize("protocol", sorted(p for p, b in BACKENDS.items() if b.serial))
 @settings(max_examples=40, deadline=None)
 @given(chunks=_chunks)
 def test_drivers_fed_random_and_cut_frames_never_give_a_wrong_number(

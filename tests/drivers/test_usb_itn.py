@@ -1,0 +1,124 @@
+"""The USB-ITN data mode end to end: the real driver and pyusb, a software USB
+backend (drivers.usb_net) and the simulated cable answering pytuyo's transfers."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, FrameError, LinkError, UnitError
+from drivers.indicators import open_indicator, read_stable
+from drivers.indicators.usb_itn import UsbItn
+from drivers.sim.gauges import Fault
+from drivers.sim.usb_itn import UsbItnEndpoint
+
+WHERE = "itn-4"
+
+
+@pytest.fixture
+def cable() -> Iterator[tuple[UsbItnEndpoint, UsbItn]]:
+    values = {"mm": 1.2334}
+    endpoint = UsbItnEndpoint(lambda: values["mm"]).start()
+    endpoint.values = values  # type: ignore[attr-defined]
+    gauge = open_indicator("usb-itn", endpoint.port, unit="mm", where=WHERE, timeout_s=0.5)
+    yield endpoint, gauge
+    gauge.close()
+    endpoint.close()
+
+
+def test_reads_with_the_documented_transfers(cable):
+    endpoint, gauge = cable
+    reading = gauge.read()
+    assert (reading.value_mm, reading.frame, reading.unit) == (1.233, b"01A+0001.233\r", "mm")
+    # pytuyo: 0x40/0x01 wValue 0xA5A5, then 0xC0/0x02 (one byte, 0x01), then 0x40/0x03 "1\r".
+    assert endpoint.vendor_transfers == [
+        (0x40, 0x01, 0xA5A5, b""),
+        (0xC0, 0x02, 0, b""),
+        (0x40, 0x03, 0, b"1\r"),
+    ]
+    assert gauge.device_info() == "SIM-ITN USB-ITN simulated cable 1.0"
+    endpoint.values["mm"] = -0.5
+    assert read_stable(gauge, n=3, tolerance_mm=0.001, timeout_s=2).value_mm == -0.5
+
+
+def test_stale_replies_are_flushed(cable):
+    endpoint, gauge = cable
+    gauge.read()
+    endpoint.values["mm"] = 2.5
+    endpoint.set_fault(Fault.STALE, count=4)  # replies of 1.233 queued in the cable
+    stable = read_stable(gauge, n=3, tolerance_mm=0.001, timeout_s=2)
+    assert [r.value_mm for r in stable.readings] == [2.5, 2.5, 2.5]
+
+
+def test_silence_is_a_timeout_naming_the_gauge_then_recovers(cable):
+    endpoint, gauge = cable
+    endpoint.set_fault(Fault.SILENCE)
+    start = time.monotonic()
+    with pytest.raises(DeviceTimeout, match=f"{WHERE}: no reply"):
+        gauge.read(timeout_s=0.1)
+    assert time.monotonic() - start < 5  # bounded by the deadline, not by the cable
+    endpoint.clear_fault()
+    assert gauge.read().value_mm == 1.233
+
+
+def test_garbage_is_a_frame_error_then_recovers(cable):
+    endpoint, gauge = cable
+    endpoint.set_fault(Fault.GARBLED, count=1)
+    with pytest.raises(FrameError, match=f"{WHERE}.*#"):
+        gauge.read()
+    assert gauge.read().value_mm == 1.233
+
+
+def test_status_codes_busy_error_and_inch(cable):
+    endpoint, gauge = cable
+    endpoint.set_fault(Fault.BUSY, count=2)
+    before = endpoint.requests_received
+    assert gauge.read().value_mm == 1.233  # 918 twice, asked again
+    assert endpoint.requests_received - before == 3
+    endpoint.set_fault(Fault.BUSY)
+    with pytest.raises(DeviceBusy, match=WHERE):
+        gauge.read(timeout_s=0.2)
+    endpoint.clear_fault()
+    endpoint.set_fault(Fault.ERROR, code="911", count=1)
+    with pytest.raises(DeviceFault, match=f"{WHERE}.*911.*no data") as fault:
+        gauge.read()
+    assert fault.value.code == "911"
+    endpoint.set_fault(Fault.INCH)
+    with pytest.raises(UnitError, match=f"{WHERE}.*inch"):
+        gauge.read()  # no unit in the 01A frame: the decimals betray the inch display
+
+
+def test_unplug_is_a_link_error_and_the_cable_is_then_not_found(cable):
+    endpoint, gauge = cable
+    gauge.read()
+    endpoint.set_fault(Fault.UNPLUG)
+    with pytest.raises(LinkError, match=f"{WHERE}: USB link lost.*unplugged") as error:
+        gauge.read()
+    assert "\n" not in str(error.value)
+    with pytest.raises(LinkError, match=f"{WHERE}: no USB device 0fe7:4001.*plugged in"):
+        open_indicator("usb-itn", endpoint.port, unit="mm", where=WHERE)
+
+
+def test_no_cable_on_this_pc_is_one_line():
+    with pytest.raises(LinkError, match="gauge U: ") as error:
+        open_indicator("usb-itn", "usb", unit="mm", where="gauge U")
+    assert "\n" not in str(error.value)
+
+
+def test_without_pyusb_the_message_says_how_to_install_it():
+    code = (
+        "import sys; sys.modules['usb'] = None\n"
+        "from drivers.indicators import open_indicator\n"
+        "from drivers.errors import LinkError\n"
+        "try:\n"
+        "    open_indicator('usb-itn', 'usb', unit='mm', where='gauge U')\n"
+        "except LinkError as e:\n"
+        "    print(e)\n"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip().startswith("gauge U: USB cables need pyusb")
+    assert "pip install 'ogacq[usb]'" in out.stdout
