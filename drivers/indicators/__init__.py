@@ -95,6 +95,13 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType(
             "Mitutoyo USB-ITN cable in data mode (pyusb; port usb, usb:SERIAL)",
             kind="usb",
         ),
+        "usb-itn-keyboard": Backend(
+            "drivers.indicators.usb_itn_keyboard",
+            "UsbItnKeyboard",
+            LinkSettings(),
+            "Mitutoyo USB-ITN cable in keyboard mode (port keyboard or /dev/input/eventN)",
+            kind="input",
+        ),
     }
 )
 

@@ -118,15 +118,17 @@ def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir)
 
 
 @pytest.mark.parametrize("kind", [Fault.SILENCE, Fault.UNPLUG])
-def test_dead_usb_itn_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind):
-    """A USB-ITN cable (data mode, through pyusb) silent or pulled out mid-campaign:
-    named in one line, axes stopped, nothing lost, and the campaign resumes."""
-    extra = FAST + '[simulator.gauge_protocols]\nz_y = "usb-itn"\n'
+@pytest.mark.parametrize("protocol", ["usb-itn", "usb-itn-keyboard"])
+def test_dead_usb_itn_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind, protocol):
+    """A USB-ITN cable (data mode through pyusb, or keyboard mode) silent or pulled
+    out mid-campaign: named in one line, axes stopped, nothing lost, and it resumes."""
+    extra = FAST + f'[simulator.gauge_protocols]\nz_y = "{protocol}"\n'
     path = write_campaign(campaign_dir, seed=6, extra="")
     path.write_text(path.read_text().replace("[protocol]", extra + "\n[protocol]", 1))
     campaign = read_campaign(path)
     with open_station(campaign) as station:
-        assert station.description["gauges"]["z_y"]["port"].startswith("usbsim://")
+        port = station.description["gauges"]["z_y"]["port"]
+        assert port.startswith("usbsim://") if protocol == "usb-itn" else "/dev/input/" in port
         station.prepare()
         writer = SessionWriter.create(campaign.session, {"plan": None})
         observer = inject_at(station, 30, "z_y", kind)
@@ -141,7 +143,7 @@ def test_dead_usb_itn_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind
         if kind is Fault.UNPLUG:
             assert "unplugged" in end["reason"]
             return
-        assert "no reply" in end["reason"] or "settle" in end["reason"]
+        assert "no reply" in end["reason"] or "no value typed" in end["reason"]
         station.simulator.gauges["z_y"].clear_fault()
         with SessionWriter.reopen(session) as writer:
             runner_for(station, writer, campaign, recorded=session.recorded()).run()
