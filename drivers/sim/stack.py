@@ -61,6 +61,10 @@ def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: flo
         return KeyboardEndpoint(source, resolution_mm=resolution_mm, name=name,
                                 period_s=PUSH_PERIOD_S)
     period = PUSH_PERIOD_S if protocol == "uwave" else None
+    if protocol in ("sylvac", "sylvac-simplex"):
+        # A Sylvac shows 0.001 mm unless set otherwise (RES2), and its driver pins
+        # that layout; a coarser machine resolution would be a RES3 gauge.
+        resolution_mm = min(resolution_mm, 0.001)
     return GaugeEndpoint(protocol, source, resolution_mm=resolution_mm, transport=transport,
                          name=name, period_s=period)
 
