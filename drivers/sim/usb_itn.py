@@ -148,6 +148,12 @@ class UsbItnEndpoint:
         self._conns: list[socket.socket] = []
         self._thread: threading.Thread | None = None
         self._last_value_mm: float | None = None
+        self._scripted: deque[bytes] = deque()
+
+    def answer_next_with(self, raw: bytes) -> None:
+        """The next value request is answered with ``raw`` (any bytes: garbage tests)."""
+        with self._lock:
+            self._scripted.append(raw)
 
     # ---------------------------------------------------------------- lifecycle
     @property
@@ -313,6 +319,10 @@ class UsbItnEndpoint:
             return
         if command != usb_itn.READ_COMMAND:
             return
+        with self._lock:
+            if self._scripted:
+                self._queue(self._scripted.popleft())
+                return
         faults = self._take_faults()
         if Fault.SILENCE in faults:
             return

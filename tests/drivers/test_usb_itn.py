@@ -9,8 +9,18 @@ import time
 from collections.abc import Iterator
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, FrameError, LinkError, UnitError
+from drivers.errors import (
+    DeviceBusy,
+    DeviceFault,
+    DeviceTimeout,
+    DriverError,
+    FrameError,
+    LinkError,
+    UnitError,
+)
 from drivers.indicators import open_indicator, read_stable
 from drivers.indicators.usb_itn import UsbItn
 from drivers.sim.gauges import Fault
@@ -122,3 +132,37 @@ def test_without_pyusb_the_message_says_how_to_install_it():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip().startswith("gauge U: USB cables need pyusb")
     assert "pip install 'ogacq[usb]'" in out.stdout
+
+
+# Whole messages and what they mean (None: a status, never a number).
+KNOWN = {b"01A+0000.123\r": 0.123, b"01A-0012.345\r": -12.345, b"918\r": None, b"911\r": None,
+         b"1SIM-ITN\r": None}
+_whole = st.sampled_from(sorted(KNOWN))
+_cut = _whole.flatmap(lambda f: st.integers(0, len(f) - 1).map(lambda i: f[:i]))
+_replies = st.lists(st.one_of(st.binary(max_size=16), _whole, _cut), min_size=1, max_size=4)
+
+
+@pytest.fixture(scope="module")
+def fuzz_cable() -> Iterator[tuple[UsbItnEndpoint, UsbItn]]:
+    endpoint = UsbItnEndpoint(lambda: 0.0).start()
+    gauge = open_indicator("usb-itn", endpoint.port, unit="mm", where="fuzz", timeout_s=0.03)
+    gauge.busy_retry_delay_s = 0.05  # longer than the deadline: a busy reply is not retried
+    yield endpoint, gauge
+    gauge.close()
+    endpoint.close()
+
+
+@settings(max_examples=30, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(chunks=_replies)
+def test_garbage_on_the_interrupt_endpoint_never_gives_a_wrong_number(fuzz_cable, chunks):
+    endpoint, gauge = fuzz_cable
+    raw = b"".join(chunks)
+    endpoint.answer_next_with(raw)
+    try:
+        reading = gauge.read()
+    except DriverError as exc:
+        assert "fuzz" in str(exc)
+    else:
+        assert reading.frame in raw  # a number comes only from a whole 01A value message
+        assert reading.value_mm == KNOWN[reading.frame]

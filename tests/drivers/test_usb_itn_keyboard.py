@@ -10,6 +10,8 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from drivers.errors import DeviceTimeout, FrameError, LinkError, UnitError
 from drivers.indicators import open_indicator, read_stable
@@ -123,3 +125,33 @@ def test_line_grammar(line: str, value: str, decimals: int):
 def test_line_grammar_refuses(line: str):
     with pytest.raises(FrameError):
         decode_line(line)
+
+
+_values = st.decimals(min_value=-99, max_value=99, places=3, allow_nan=False)
+_lines = st.lists(st.tuples(_values, st.none() | st.integers(0, 8), st.sampled_from([30, 57, 51])),
+                  min_size=1, max_size=4)
+
+
+@settings(max_examples=25, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(lines=_lines)
+def test_a_stray_key_makes_a_line_garbage_never_another_number(cable, lines):
+    """Typed values with stray keys (A, space, comma) inserted: a line with one is
+    refused, a clean line reads exactly its value."""
+    endpoint, gauge = cable
+    gauge.flush_input()
+    records = bytearray()
+    for value, where, stray in lines:
+        text = f"{value:.3f}"
+        events = key_events(text)
+        if where is not None:
+            at = 2 * min(where, len(text))  # before a character (press and release pairs)
+            events[at:at] = [(stray, 1), (stray, 0)]
+        records += b"".join(EVENT.pack(0, 0, 1, code, v) for code, v in events)
+    os.write(endpoint._fd, bytes(records))
+    for value, where, _ in lines:
+        if where is None:
+            assert gauge.read().value_mm == float(value)
+        else:
+            with pytest.raises(FrameError, match=WHERE):
+                gauge.read()
