@@ -60,7 +60,7 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType(
             "drivers.indicators.mitutoyo_01a",
             "Mitutoyo01A",
             LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
-            "Mitutoyo 01A ASCII (USB-ITN, DMX-1, MUX-10, QM-Height)",
+            "Mitutoyo 01A ASCII on a serial port (DMX-1, MUX-10, QM-Height)",
         ),
         "digimatic": Backend(
             "drivers.indicators.digimatic",
