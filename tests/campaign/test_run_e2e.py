@@ -94,11 +94,13 @@ def test_two_indicators_moved_from_leg_to_leg(campaign_dir):
     assert len(session.readings) == 72
 
 
-# Six protocols per station: with the 01A default of the other runs, every protocol the
-# drivers know reads a whole campaign, each gauge through its own wire format.
+# Seven protocols, six gauges: two stations, so that every protocol the drivers know
+# reads a whole campaign, each gauge through its own wire format and driver.
 MIXED = {
     "cables": {"y_x": "usb-itn", "z_x": "usb-itn-keyboard", "x_y": "sylvac-simplex",
                "z_y": "uwave", "x_z": "digimatic", "y_z": "sylvac"},
+    "with-01a": {"y_x": "usb-itn", "z_x": "usb-itn-keyboard", "x_y": "sylvac-simplex",
+                 "z_y": "uwave", "x_z": "digimatic", "y_z": "mitutoyo-01a"},
 }
 
 
@@ -122,5 +124,6 @@ def test_one_gauge_of_each_protocol_end_to_end(campaign_dir, station):
     assert raw["y_x"].startswith("01A")  # USB-ITN data mode: an 01A reply over USB
     assert raw["z_y"].startswith("DT1") and raw["x_z"].startswith("FFFF")
     assert raw["x_y"][0] in "+- " and raw["z_x"][0] in "-0123456789"
+    assert raw["y_z"][0] in "+- " if protocols["y_z"] == "sylvac" else raw["y_z"][:3] == "01A"
     assert gauges["y_x"]["port"].startswith("usbsim://")
     assert gauges["x_y"]["port"].startswith("rfc2217://")

@@ -98,9 +98,9 @@ def test_01a_encoders_refuse_what_does_not_fit():
 @pytest.mark.parametrize(
     ("frame", "value", "decimals", "unit", "nibble"),
     [
-        # INSTRUMENTS.md says "FFFF000012330 = +1.233 mm", but by its own nibble table
-        # (and Mitutoyo's QM-Height manual 99MAF600B, 6.2.1, "normal measurement of
-        # 0.123 mm") the digits d6-d11 are 000123 and d12 = 3: +0.123 mm.
+        # An earlier INSTRUMENTS.md said "FFFF000012330 = +1.233 mm"; by its own nibble
+        # table and Mitutoyo's QM-Height manual 99MAF600B, 6.2.1 ("normal measurement
+        # of 0.123 mm") the digits d6-d11 are 000123 and d12 = 3: +0.123 mm.
         (b"FFFF000012330\r\n", Decimal("0.123"), 3, "mm", "0"),
         (b"FFFF000123330\r\n", Decimal("1.233"), 3, "mm", "0"),  # what +1.233 mm looks like
         (b"FFFF021076540\r\n", Decimal("21.0765"), 4, "mm", "0"),  # maker's example
