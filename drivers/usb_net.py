@@ -168,5 +168,8 @@ class NetBackend(usb.backend.IBackend):
     def detach_kernel_driver(self, dev_handle: Any, intf: int) -> None:
         self._call("detach_kernel_driver", interface=intf)
 
+    def attach_kernel_driver(self, dev_handle: Any, intf: int) -> None:
+        self._call("attach_kernel_driver", interface=intf)
+
     def reset_device(self, dev_handle: Any) -> None:
         self._call("reset")

@@ -109,6 +109,7 @@ class UsbItn:
         self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._buffer = bytearray()
         self._endpoint: Any = None
+        self._detached = False  # whether we took interface 0 from the kernel's usbhid
         self._enter_data_mode()
 
     @classmethod
@@ -122,6 +123,7 @@ class UsbItn:
         with usb_errors(self.where, "switching the USB-ITN to data mode"):
             if dev.is_kernel_driver_active(INTERFACE):
                 dev.detach_kernel_driver(INTERFACE)  # usbhid holds it in keyboard mode
+                self._detached = True
             dev.set_configuration(1)
             interface = dev.get_active_configuration()[(INTERFACE, 0)]
             self._endpoint = interface[0]
@@ -164,10 +166,14 @@ class UsbItn:
         self._buffer.clear()
 
     def close(self) -> None:
+        """Release the cable and give it back to the kernel (usbhid), as found."""
         import usb.util
 
         try:
             usb.util.dispose_resources(self.device)
+            if self._detached:
+                self.device.attach_kernel_driver(INTERFACE)
+                self._detached = False
         except Exception as exc:  # closing a vanished device must not hide the first error
             log.debug("%s: releasing the USB device: %s", self.where, exc)
 

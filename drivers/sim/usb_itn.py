@@ -141,7 +141,7 @@ class UsbItnEndpoint:
         self._lock = threading.Condition()
         self._packets: deque[bytes] = deque()
         self._armed = self._data_mode = False
-        self._kernel_driver = True
+        self._kernel_driver = True  # usbhid holds the cable: keyboard mode
         self._configuration = 0
         self._listener: socket.socket | None = None
         self._port = ""
@@ -273,8 +273,11 @@ class UsbItnEndpoint:
             return self._configuration
         if op == "kernel_driver_active":
             return self._kernel_driver
-        if op == "detach_kernel_driver":
-            self._kernel_driver = False
+        if op in ("detach_kernel_driver", "attach_kernel_driver"):
+            # The host's usbhid lets go of the cable, or takes it back (keyboard mode).
+            self._kernel_driver = op == "attach_kernel_driver"
+            if self._kernel_driver:
+                self._armed = self._data_mode = False  # back to keyboard mode (no source)
             return None
         if op == "ctrl":
             return self._control(request)

@@ -51,8 +51,11 @@ def test_reads_with_the_documented_transfers(cable):
         (0x40, 0x03, 0, b"1\r"),
     ]
     assert gauge.device_info() == "SIM-ITN USB-ITN simulated cable 1.0"
+    assert not endpoint._kernel_driver  # usbhid let go of the cable while we read it
     endpoint.values["mm"] = -0.5
     assert read_stable(gauge, n=3, tolerance_mm=0.001, timeout_s=2).value_mm == -0.5
+    gauge.close()
+    assert endpoint._kernel_driver  # given back: the cable types again as a keyboard
 
 
 def test_stale_replies_are_flushed(cable):
