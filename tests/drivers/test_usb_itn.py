@@ -34,7 +34,7 @@ def cable() -> Iterator[tuple[UsbItnEndpoint, UsbItn]]:
     values = {"mm": 1.2334}
     endpoint = UsbItnEndpoint(lambda: values["mm"]).start()
     endpoint.values = values  # type: ignore[attr-defined]
-    gauge = open_indicator("usb-itn", endpoint.port, unit="mm", where=WHERE, timeout_s=0.5)
+    gauge = open_indicator("usb-itn", endpoint.port, unit="mm", where=WHERE, timeout_s=3)
     yield endpoint, gauge
     gauge.close()
     endpoint.close()
@@ -94,7 +94,7 @@ def test_status_codes_busy_error_and_inch(cable):
     assert endpoint.requests_received - before == 3
     endpoint.set_fault(Fault.BUSY)
     with pytest.raises(DeviceBusy, match=WHERE):
-        gauge.read(timeout_s=0.2)
+        gauge.read(timeout_s=1)
     endpoint.clear_fault()
     endpoint.set_fault(Fault.ERROR, code="911", count=1)
     with pytest.raises(DeviceFault, match=f"{WHERE}.*911.*no data") as fault:
@@ -148,8 +148,8 @@ _replies = st.lists(st.one_of(st.binary(max_size=16), _whole, _cut), min_size=1,
 @pytest.fixture(scope="module")
 def fuzz_cable() -> Iterator[tuple[UsbItnEndpoint, UsbItn]]:
     endpoint = UsbItnEndpoint(lambda: 0.0).start()
-    gauge = open_indicator("usb-itn", endpoint.port, unit="mm", where="fuzz", timeout_s=0.03)
-    gauge.busy_retry_delay_s = 0.05  # longer than the deadline: a busy reply is not retried
+    gauge = open_indicator("usb-itn", endpoint.port, unit="mm", where="fuzz", timeout_s=0.1)
+    gauge.busy_retry_delay_s = 0.2  # longer than the deadline: a busy reply is not retried
     yield endpoint, gauge
     gauge.close()
     endpoint.close()

@@ -29,7 +29,7 @@ def cable() -> Iterator[tuple[KeyboardEndpoint, UsbItnKeyboard]]:
     endpoint = KeyboardEndpoint(lambda: values["mm"]).start()
     endpoint.values = values  # type: ignore[attr-defined]
     gauge = open_indicator("usb-itn-keyboard", endpoint.port, unit="mm", where=WHERE,
-                           timeout_s=0.3)
+                           timeout_s=3)
     yield endpoint, gauge
     gauge.close()
     endpoint.close()
