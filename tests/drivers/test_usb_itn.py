@@ -22,7 +22,7 @@ from drivers.errors import (
     UnitError,
 )
 from drivers.indicators import open_indicator, read_stable
-from drivers.indicators.usb_itn import UsbItn
+from drivers.indicators.usb_itn import Message, UsbItn, classify
 from drivers.sim.gauges import Fault
 from drivers.sim.usb_itn import UsbItnEndpoint
 
@@ -169,3 +169,21 @@ def test_garbage_on_the_interrupt_endpoint_never_gives_a_wrong_number(fuzz_cable
     else:
         assert reading.frame in raw  # a number comes only from a whole 01A value message
         assert reading.value_mm == KNOWN[reading.frame]
+
+
+@pytest.mark.parametrize(
+    ("raw", "kind"),
+    [  # pytuyo: the first character says what a message is (0 data, 1 info, 9 status)
+        (b"01A+0000.123\r", "0"),
+        (b"1SIM-ITN V1.0\r", "1"),
+        (b"918\r", "9"),  # the second open script: sent "until data is available again"
+    ],
+)
+def test_messages_are_classified_by_their_first_character(raw: bytes, kind: str):
+    assert classify(raw) == Message(kind, raw)
+
+
+@pytest.mark.parametrize("raw", [b"21A+0000.123\r", b"01A+0000.123", b"", b"\r"])
+def test_other_messages_are_frame_errors(raw: bytes):
+    with pytest.raises(FrameError):
+        classify(raw, where="itn")
