@@ -89,18 +89,28 @@ def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
 
 
 def _usb_itn_cables() -> list[DetectedPort]:
-    """USB-ITN cables plugged in as keyboards (their input device, found by USB ids);
-    a listing is a convenience, so any failure just lists nothing."""
+    """USB-ITN cables: on the USB bus (data mode, when pyusb and libusb are there) and
+    as keyboards (their input device, found by USB ids). A listing is a convenience,
+    so any failure just lists nothing."""
     from drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
     from drivers.input_link import find_event_devices
 
+    found: list[DetectedPort] = []
+    try:
+        import usb.core
+
+        for dev in usb.core.find(find_all=True, idVendor=VENDOR_ID, idProduct=PRODUCT_ID):
+            found.append(DetectedPort(f"usb:{dev.bus}.{dev.address}",
+                                      "Mitutoyo USB-ITN cable (protocol usb-itn: data mode)"))
+    except Exception:  # no pyusb, no libusb, no permission: type the port instead
+        pass
     try:
         nodes = find_event_devices(VENDOR_ID, PRODUCT_ID)
     except OSError:
-        return []
-    return [DetectedPort(str(node), "Mitutoyo USB-ITN cable in keyboard mode "
-                                    "(protocol usb-itn-keyboard; usb-itn for data mode)")
-            for node in nodes]
+        nodes = []
+    found += [DetectedPort(str(node), "Mitutoyo USB-ITN cable typing as a keyboard "
+                                      "(protocol usb-itn-keyboard)") for node in nodes]
+    return found
 
 
 def show_ports(screen: Screen, ports: Sequence[DetectedPort]) -> None:
