@@ -17,8 +17,10 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
                                       # position, written by `ogacq offsets write`
     [[gauges]]
     gauge = "y_x"                     # along y on the x leg
-    protocol = "mitutoyo-01a"
-    port = "/dev/ttyUSB0"
+    protocol = "mitutoyo-01a"         # or digimatic, uwave, sylvac, sylvac-simplex,
+                                      # usb-itn, usb-itn-keyboard (README: cables)
+    port = "/dev/ttyUSB0"             # usb / usb:SERIAL (usb-itn); keyboard or
+                                      # /dev/input/eventN (usb-itn-keyboard)
     channel = 1                       # multiplexer channel, when there is one
     unit = "mm"
     serial = "SN 1234"                # recorded in the session
@@ -35,6 +37,8 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     seed = 3
     effects = "effects.toml"
     speed = 20
+    gauge_protocol = "usb-itn"        # what the simulated gauges speak (default 01A)
+    gauge_protocols = { z_y = "sylvac-simplex" }   # per gauge, over gauge_protocol
 """
 
 from __future__ import annotations
@@ -44,6 +48,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from drivers.indicators import BACKENDS
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import line_of, read_toml
@@ -51,7 +56,7 @@ from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 
-PROTOCOLS = ("mitutoyo-01a", "digimatic", "uwave", "sylvac")
+PROTOCOLS = tuple(BACKENDS)
 
 _TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}
 _CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file"}
@@ -59,7 +64,8 @@ _GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
 _PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
              "move_timeout_s"}
 _STABILITY = {"readings", "tolerance_mm", "timeout_s"}
-_SIMULATOR = {"seed", "effects", "speed", "profile", "noise_mm", "gauge_layout"}
+_SIMULATOR = {"seed", "effects", "speed", "profile", "noise_mm", "gauge_layout",
+              "gauge_protocol", "gauge_protocols"}
 
 
 @dataclass(frozen=True)
@@ -93,11 +99,15 @@ class SimulatorSpec:
     noise_mm: float | None = None
     gauge_layout: str = "separate"  # "multiplexer": six channels on one port; "moved":
     # two indicators the simulated operator moves from leg to leg
+    gauge_protocol: str = "mitutoyo-01a"
+    gauge_protocols: tuple[tuple[str, str], ...] = ()  # (gauge, protocol) overrides
 
     def header(self) -> dict[str, Any]:
         """The session header's ``simulator`` entry: what a resume restarts."""
         return {"seed": self.seed, "profile": self.profile, "speed": self.speed,
-                "effects": str(self.effects or ""), "gauge_layout": self.gauge_layout}
+                "effects": str(self.effects or ""), "gauge_layout": self.gauge_layout,
+                "gauge_protocol": self.gauge_protocol,
+                "gauge_protocols": dict(self.gauge_protocols)}
 
     @classmethod
     def from_header(cls, entry: dict[str, Any]) -> SimulatorSpec:
@@ -105,7 +115,9 @@ class SimulatorSpec:
                    effects=Path(entry["effects"]) if entry.get("effects") else None,
                    speed=float(entry.get("speed", 20.0)),
                    profile=str(entry.get("profile", "cia402")),
-                   gauge_layout=str(entry.get("gauge_layout", "separate")))
+                   gauge_layout=str(entry.get("gauge_layout", "separate")),
+                   gauge_protocol=str(entry.get("gauge_protocol", "mitutoyo-01a")),
+                   gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())))
 
 
 @dataclass
@@ -209,7 +221,13 @@ def read_campaign(path: str | Path) -> Campaign:
             profile=str(sim.get("profile", "cia402")),
             noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None,
             gauge_layout=_choice(src, sim, "gauge_layout", ("separate", "multiplexer", "moved"),
-                                 "simulator", after))
+                                 "simulator", after),
+            gauge_protocol=_choice(src, sim, "gauge_protocol", PROTOCOLS, "simulator", after),
+            gauge_protocols=_sim_protocols(src, sim, after))
+        if campaign.simulator.gauge_layout == "multiplexer" and (
+                "gauge_protocol" in sim or "gauge_protocols" in sim):
+            raise src.fail("a simulated multiplexer is an 01A box: gauge_protocol(s) do not "
+                           "apply with gauge_layout = \"multiplexer\"", "gauge_layout", after)
     if "controller" in data:
         campaign.controller = _controller(src, data["controller"], base)
     elif campaign.simulator is None:
@@ -222,6 +240,21 @@ def read_campaign(path: str | Path) -> Campaign:
             raise src.fail(f"no [[gauges]] entry for {', '.join(missing)}: an unattended "
                            "campaign needs both gauges of every leg mounted")
     return campaign
+
+
+def _sim_protocols(src: _Source, sim: dict, after: int) -> tuple[tuple[str, str], ...]:
+    table = sim.get("gauge_protocols", {})
+    if not isinstance(table, dict):
+        raise src.fail("simulator.gauge_protocols must be a table like { z_y = \"usb-itn\" }",
+                       "gauge_protocols", after)
+    for gauge, protocol in table.items():
+        if gauge not in GAUGE_KEYS:
+            raise src.fail(f"gauge_protocols: {gauge!r} is not one of {', '.join(GAUGE_KEYS)}",
+                           "gauge_protocols", after)
+        if protocol not in PROTOCOLS:
+            raise src.fail(f"gauge_protocols: {gauge} = {protocol!r} is not one of "
+                           f"{', '.join(PROTOCOLS)}", "gauge_protocols", after)
+    return tuple(sorted(table.items()))
 
 
 def _choice(src: _Source, table: dict, key: str, choices: tuple[str, ...], where: str,

@@ -114,7 +114,9 @@ def start_simulator(campaign: Campaign, sim: SimulatorSpec):
         truth.noise_mm = sim.noise_mm
     return SimulatorStack(SimulatorConfig(campaign.machine, truth, profile=sim.profile,
                                           speed=sim.speed, seed=sim.seed,
-                                          gauge_layout=sim.gauge_layout)).start()
+                                          gauge_layout=sim.gauge_layout,
+                                          gauge_protocol=sim.gauge_protocol,
+                                          gauge_protocols=dict(sim.gauge_protocols))).start()
 
 
 def simulator_endpoints(simulator) -> tuple[ControllerSpec, list[GaugeSpec]]:
@@ -169,6 +171,11 @@ def _open_gauges(specs: list[GaugeSpec], stack: contextlib.ExitStack) -> dict[st
         where = f"gauge {g.gauge} ({g.port}" + (f" channel {g.channel})" if g.channel else ")")
         if [s.gauge for s in specs if (s.port, s.channel) == (g.port, g.channel)] != [g.gauge]:
             where = f"indicator on {g.port}" + (f" channel {g.channel}" if g.channel else "")
+        if not backend(g.protocol).serial:  # a USB cable or input device opens itself
+            indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
+                g.protocol, g.port, unit=g.unit, channel=g.channel, where=where)
+            stack.callback(indicators[g.gauge].close)
+            continue
         if g.port not in links:
             settings = backend(g.protocol).settings
             if g.baudrate is not None:

@@ -36,12 +36,22 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class Backend:
-    """Where a protocol's driver lives and how its link is set up."""
+    """Where a protocol's driver lives and how its link is set up.
+
+    ``kind`` "serial": the driver gets an open serial link (``settings``);
+    "usb" and "input": the driver class opens its own device from the port string
+    (its ``open`` class method), and ``settings`` is unused.
+    """
 
     module: str
     class_name: str
     settings: LinkSettings
     description: str
+    kind: str = "serial"
+
+    @property
+    def serial(self) -> bool:
+        return self.kind == "serial"
 
 
 BACKENDS: Mapping[str, Backend] = MappingProxyType(
@@ -50,7 +60,7 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType(
             "drivers.indicators.mitutoyo_01a",
             "Mitutoyo01A",
             LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
-            "Mitutoyo 01A ASCII (USB-ITN, DMX-1, MUX-10, QM-Height)",
+            "Mitutoyo 01A ASCII on a serial port (DMX-1, MUX-10, QM-Height)",
         ),
         "digimatic": Backend(
             "drivers.indicators.digimatic",
@@ -70,6 +80,27 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType(
             "SylvacOptoRS",
             LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=False),
             "Sylvac Opto-RS duplex cable",
+        ),
+        "sylvac-simplex": Backend(
+            "drivers.indicators.sylvac_simplex",
+            "SylvacSimplex",
+            # Powered from RTS high; DTR rests high and a low pulse asks for a value.
+            LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=True),
+            "Sylvac Opto-RS simplex cable (DTR-pulse request; real port or rfc2217://)",
+        ),
+        "usb-itn": Backend(
+            "drivers.indicators.usb_itn",
+            "UsbItn",
+            LinkSettings(),
+            "Mitutoyo USB-ITN cable in data mode (pyusb; port usb, usb:SERIAL)",
+            kind="usb",
+        ),
+        "usb-itn-keyboard": Backend(
+            "drivers.indicators.usb_itn_keyboard",
+            "UsbItnKeyboard",
+            LinkSettings(),
+            "Mitutoyo USB-ITN cable in keyboard mode (port keyboard or /dev/input/eventN)",
+            kind="input",
         ),
     }
 )
@@ -117,6 +148,12 @@ def open_indicator(
     cls = driver_class(protocol)
     if channel is not None:
         options["channel"] = channel
+    if not entry.serial:
+        if link is not None:
+            raise DriverError(
+                f"a {protocol} gauge opens its own device, not a serial link", where=where
+            )
+        return cls.open(port, where=where, unit=unit, **options)
     owns_link = link is None
     if link is None:
         link = open_link(port, settings or entry.settings, where=where)

@@ -1,6 +1,7 @@
 """Raw Digimatic frames as USB bridges emit them: 13 hex characters and CR/LF.
 
-Nibbles (one ASCII character each)::
+Nibbles (one ASCII character each), Mitutoyo QM-Height manual No. 99MAF600B,
+6.2.1 "Digimatic output"::
 
     d1-d4  FFFF      header
     d5     0 / 8     sign + / -
@@ -8,9 +9,24 @@ Nibbles (one ASCII character each)::
     d12    0-5       digits after the decimal point
     d13    0 / 1|8   unit mm / inch (8 is the same bit read in the other order)
 
-``FFFF000012330`` = +1.233 mm; ``FFFF021076540`` = +21.0765 mm. The frame
-carries its unit, so the value is converted from it; a configured unit that
-differs is only a warning (the number stays right, in mm).
+``FFFF000012330`` = +0.123 mm (the manual's example, "normal measurement of
+0.123 mm"; digits 000123, decimal position 3). An earlier INSTRUMENTS.md read it
+as +1.233 mm: the manual wins. ``FFFF021076540`` = +21.0765 mm (linear scale
+manual No. 99MBC095A, 6.2.1.5).
+
+Digimatic 2 (same page of 99MAF600B, "Digimatic 2 output") puts eight digits in
+the frame: d1 = 8 (the format nibble, bits 0001 sent LSB first), d2 = F, d3-d4
+the two most significant digits, d5 the sign, d6-d11 the other six, d12 the
+decimal position, d13 the unit::
+
+    8F 00 0 000123 3 0  ->  +0.123 mm  (the manual's example, as characters)
+
+The manual's bit row for that example disagrees with its character row in d11
+to d13 (it shows 5, 5, 1); the character row is the one consistent with "0.123
+mm" and is what this decoder follows.
+
+The frame carries its unit, so the value is converted from it; a configured unit
+that differs is only a warning (the number stays right, in mm).
 
 Bridges either answer any byte with one frame (polled) or stream a frame every
 ~10 ms (streaming, so old frames pile up unread).
@@ -35,9 +51,11 @@ log = logging.getLogger(__name__)
 Mode = Literal["polled", "streaming"]
 POLL_REQUEST = b"\r"  # bridges answer any byte; one byte asks for exactly one frame
 DIGITS = 6
+DIGITS_2 = 8  # Digimatic 2: d3-d4 and d6-d11
 UNIT_NIBBLES: dict[str, Unit] = {"0": "mm", "1": "inch", "8": "inch"}
 
-_FRAME = re.compile(rb"FFFF([08])([0-9]{6})([0-5])([018])(?:\r\n|\r|\n)")
+# Groups: high digits (Digimatic 2 only, else None), sign, six digits, point, unit.
+_FRAME = re.compile(rb"(?:FFFF|8F([0-9]{2}))([08])([0-9]{6})([0-5])([018])(?:\r\n|\r|\n)")
 
 
 @dataclass(frozen=True, slots=True)
@@ -48,6 +66,7 @@ class DigimaticFrame:
     decimals: int
     unit: Unit
     unit_nibble: str  # "0", "1" or "8", kept to log which inch convention a bridge uses
+    digimatic2: bool = False  # an eight-digit Digimatic 2 frame
 
 
 def encode_frame(
@@ -57,10 +76,12 @@ def encode_frame(
     unit: Unit = "mm",
     inch_nibble: str = "1",
     terminator: bytes = b"\r\n",
+    digimatic2: bool = False,
 ) -> bytes:
-    """The frame for ``value`` in ``unit`` with ``decimals`` places.
+    """The frame for ``value`` in ``unit`` with ``decimals`` places (a Digimatic 2
+    frame with eight digits when ``digimatic2``).
 
-    Raises ValueError when the value needs more than six digits.
+    Raises ValueError when the value needs more digits than the frame has.
     """
     if not 0 <= decimals <= 5:
         raise ValueError(f"Digimatic decimals must be 0..5, got {decimals}")
@@ -75,10 +96,13 @@ def encode_frame(
     exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
     shown = exact.quantize(Decimal(1).scaleb(-decimals), rounding=ROUND_HALF_EVEN)
     digits = int(abs(shown).scaleb(decimals))
-    if digits >= 10**DIGITS:
-        raise ValueError(f"{value} does not fit six digits with {decimals} decimals")
+    width = DIGITS_2 if digimatic2 else DIGITS
+    if digits >= 10**width:
+        raise ValueError(f"{value} does not fit {width} digits with {decimals} decimals")
     sign = "8" if shown < 0 else "0"
-    return f"FFFF{sign}{digits:06d}{decimals}{unit_nibble}".encode("ascii") + terminator
+    text = f"{digits:0{width}d}"
+    head = f"8F{text[:2]}" if digimatic2 else "FFFF"
+    return f"{head}{sign}{text[-DIGITS:]}{decimals}{unit_nibble}".encode("ascii") + terminator
 
 
 def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:
@@ -86,13 +110,19 @@ def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:
     match = _FRAME.fullmatch(frame)
     if match is None:
         raise FrameError("not a Digimatic frame", where=where, frame=frame)
-    sign, digits, point, unit_nibble = (group.decode("ascii") for group in match.groups())
+    high, sign, digits, point, unit_nibble = (
+        (group or b"").decode("ascii") for group in match.groups()
+    )
     decimals = int(point)
-    value = Decimal(int(digits)).scaleb(-decimals)
+    value = Decimal(int(high + digits)).scaleb(-decimals)
     if sign == "8":
         value = -value
     return DigimaticFrame(
-        value=value, decimals=decimals, unit=UNIT_NIBBLES[unit_nibble], unit_nibble=unit_nibble
+        value=value,
+        decimals=decimals,
+        unit=UNIT_NIBBLES[unit_nibble],
+        unit_nibble=unit_nibble,
+        digimatic2=match.group(1) is not None,
     )
 
 

@@ -1,4 +1,8 @@
-"""Mitutoyo "01A" ASCII protocol (USB-ITN virtual COM, DMX-1, MUX-10, QM-Height).
+"""Mitutoyo "01A" ASCII protocol on a serial port (DMX-1, MUX-10, QM-Height).
+
+The USB-ITN cable answers the same frames, but over USB (it is a HID device,
+not a serial port, whatever ../shared/spec/INSTRUMENTS.md's "virtual-COM mode"
+suggests): see :mod:`drivers.indicators.usb_itn`.
 
 Request: the channel digit and CR (``1\\r``). Reply, 13 bytes::
 

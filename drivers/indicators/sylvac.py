@@ -1,5 +1,10 @@
 """Sylvac Opto-RS duplex cable: 4800 baud 7E2, powered from DTR high / RTS low.
 
+Source: Sylvac "User's manual for OPTO-RS cable connections" (reproduced in the
+Bowers Group / Sylvac Opto instruments user manual, pages 12-13): line settings,
+data format, ERR0-3, the identification line and both cables' wiring. The
+simplex cable is :mod:`drivers.indicators.sylvac_simplex`.
+
 Request ``?\\r``; reply ``[+|-| ]int.frac\\r`` in the unit set on the gauge
 (the ``MM`` / ``IN`` commands set it), so the unit is recorded at setup and the
 number of decimals must fit it. Errors: ``ERR0`` sensor, ``ERR1`` bad command,
@@ -12,6 +17,10 @@ lost fractional digit is caught because the number of decimals is pinned to
 one value (default 3 in mm, 0.001 mm; 5 in inch, 0.00005 in; the gauge's
 RES2 setting). A digit lost from the integer part cannot be detected from the
 frame alone; the 7E2 line's parity is the only guard there.
+
+At power-on the instrument sends one identification line, ``SY`` instrument
+``.`` option {``.`` option} CR, e.g. ``SY235.1`` (same manual, "Identification"):
+it is recorded and skipped, not counted as a garbled reply.
 """
 
 from __future__ import annotations
@@ -20,7 +29,7 @@ import errno
 import logging
 import re
 import time
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from decimal import ROUND_HALF_EVEN, Decimal
 
@@ -53,6 +62,8 @@ ERROR_MEANINGS = {
 
 _VALUE = re.compile(rb"([+\- ])([0-9]{1,9})\.([0-9]{1,7})([<=>]?)\r")
 _ERROR = re.compile(rb"ERR([0-9])\r")
+# "SY" | instrument (203, 235, 233...) | "." | OPT1 | {"." | OPT2} | CR
+_IDENTIFICATION = re.compile(rb"SY([0-9A-Za-z]+)((?:\.[0-9A-Za-z]+)+)\r")
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,6 +73,35 @@ class SylvacReply:
     value: Decimal
     decimals: int
     tolerance_flag: str = ""  # "<", "=" or ">" in tolerance mode
+
+
+def decode_identification(frame: bytes) -> str | None:
+    """``"SY235.1"`` for the power-on identification line ``SY235.1\\r``; None otherwise."""
+    if _IDENTIFICATION.fullmatch(frame) is None:
+        return None
+    return frame[:-1].decode("ascii")
+
+
+def encode_identification(instrument: str = "235", *options: str) -> bytes:
+    """The identification line: ``encode_identification("235", "1") == b"SY235.1\\r"``."""
+    frame = ".".join(("SY" + instrument, *(options or ("1",)))).encode("ascii") + b"\r"
+    if decode_identification(frame) is None:
+        raise ValueError(f"not an identification line: {frame!r}")
+    return frame
+
+
+def read_reply(read_frame: Callable[[], bytes], *, where: str, skip: bytes = b"") -> bytes:
+    """The next frame that is a reply: the identification line a gauge sends when
+    switched on (and an echoed ``skip`` request) is logged and skipped."""
+    while True:
+        frame = read_frame()
+        if skip and frame == skip:
+            log.debug("%s: skipping the echoed request", where)
+            continue
+        ident = decode_identification(frame)
+        if ident is None:
+            return frame
+        log.info("%s: instrument identifies itself as %s (switched on)", where, ident)
 
 
 def encode_reply(value: float | Decimal, *, decimals: int, tolerance_flag: str = "") -> bytes:
@@ -150,10 +190,7 @@ class SylvacOptoRS(SerialIndicator):
         deadline = self._deadline(timeout_s)
         self.flush_input()
         self._send(REQUEST)
-        frame = self._read_frame(deadline)
-        if frame == REQUEST:
-            log.debug("%s: skipping the echoed request", self.where)
-            frame = self._read_frame(deadline)
+        frame = read_reply(lambda: self._read_frame(deadline), where=self.where, skip=REQUEST)
         reply = decode_reply(frame, where=self.where)
         check_decimals(
             reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame

@@ -1,14 +1,22 @@
 """Mitutoyo U-WAVE-R receiver: readings pushed by the receiver, CR-terminated.
 
-Data frame ``DT1 GG CC ±value U`` (group, channel, unit ``M`` mm / ``I`` inch),
-e.g. ``DT10000+00000011.88M`` = +11.88 mm from group 00, channel 00. The value
-field is fixed-width (11 characters, floating decimal point) so that a lost
-digit is a grammar error, not a different number.
+Data frame ``DT1 GG CC ±value U`` (group, channel, unit ``M`` mm / ``I`` inch /
+``0`` no unit), e.g. ``DT10000+00000011.88M`` = +11.88 mm from group 00, channel
+00 (../shared/spec/INSTRUMENTS.md; unit ``0`` from the U-WAVE-R user's manual
+No. 99MAL216A, section 6.1, as quoted in issue 12). The value field is
+fixed-width (11 characters, floating decimal point) so that a lost digit is a
+grammar error, not a different number. A frame with unit ``0`` carries no unit:
+the unit recorded at setup applies and the decimals must fit it, as for 01A.
 
-Status frame ``ST1 GG CC .. SS``: a two-digit code at the end (00 battery low,
-01 instrument not responding, 03 data loss, 04 transmitter disconnected, 05 no
-data). The two characters before it are not documented; up to four are
-accepted and logged.
+Status frame, 19 characters and CR (manual 99MAL216A, section 6.1)::
+
+    ST1 GG CC IIIIIIIIII SS
+    ST1 01 02 FFFFFFFFFF 04      transmitter 0102 disconnected, id unknown
+
+``IIIIIIIIII`` is the transmitter's 10-digit id, or ``FFFFFFFFFF`` when the
+receiver does not know it. INSTRUMENTS.md writes the frame ``ST1GGCC..SS``
+(two characters before the code); the manual's 10-character id wins, and a
+frame shaped like INSTRUMENTS.md's is refused as garbled.
 """
 
 from __future__ import annotations
@@ -16,30 +24,51 @@ from __future__ import annotations
 import logging
 import re
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
 from decimal import ROUND_HALF_EVEN, Decimal
 
 import serial
 
 from drivers.errors import DeviceFault, DriverError, FrameError
-from drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
+from drivers.indicators.base import (
+    Reading,
+    SerialIndicator,
+    Unit,
+    accepted_decimals,
+    check_decimals,
+    check_unit,
+    to_mm,
+)
 
 log = logging.getLogger(__name__)
 
 VALUE_WIDTH = 11
-UNIT_LETTERS: dict[bytes, Unit] = {b"M": "mm", b"I": "inch"}
+# Unit character of a data frame; "0" = the instrument sends no unit (99MAL216A 6.1).
+UNIT_LETTERS: dict[bytes, Unit | None] = {b"M": "mm", b"I": "inch", b"0": None}
+UNKNOWN_ID = "FFFFFFFFFF"  # transmitter id the receiver does not know (99MAL216A 6.1)
 BATTERY_LOW = "00"
+# Codes of 99MAL216A section 6.1 (the list issue 12 quotes). The wording of 00, 01,
+# 03, 04, 05 follows INSTRUMENTS.md; for 02, 50, 51 and 99 we had no text of the
+# manual at hand (no source for the wording), so the message gives the code and
+# points to the manual. Every code but 00 stops the reading: a status we cannot
+# vouch for must not let a campaign carry on as if the gauge were fine.
 STATUS_MEANINGS = {
     "00": "transmitter battery low",
     "01": "instrument not responding (check the gauge and its U-WAVE-T)",
+    "02": "instrument error (status 02, see the U-WAVE-R manual 99MAL216A, 6.1)",
     "03": "data loss (radio link)",
     "04": "transmitter disconnected (out of range or switched off?)",
     "05": "no data from the instrument",
+    "50": "transmitter status 50 (see the U-WAVE-R manual 99MAL216A, 6.1)",
+    "51": "transmitter status 51 (see the U-WAVE-R manual 99MAL216A, 6.1)",
+    "99": "receiver error 99 (see the U-WAVE-R manual 99MAL216A, 6.1)",
 }
 
-_DATA = re.compile(rb"DT1([0-9]{2})([0-9]{2})([+-])([0-9.]{11})([MI])\r")
+_DATA = re.compile(rb"DT1([0-9]{2})([0-9]{2})([+-])([0-9.]{11})([MI0])\r")
 _VALUE_FIELD = re.compile(rb"[0-9]+(?:\.[0-9]+)?")
-_STATUS = re.compile(rb"ST1([0-9]{2})([0-9]{2})([\x20-\x7e]{0,4}?)([0-9]{2})\r")
+# 3 + 2 + 2 + 10 + 2 = 19 characters, then CR. The id is digits or all F.
+_STATUS = re.compile(rb"ST1([0-9]{2})([0-9]{2})([0-9]{10}|F{10})([0-9]{2})\r")
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,7 +79,7 @@ class UWaveData:
     channel: str
     value: Decimal
     decimals: int
-    unit: Unit
+    unit: Unit | None  # None: the frame's unit character is "0" (no unit)
 
     @property
     def gauge_id(self) -> str:
@@ -65,7 +94,7 @@ class UWaveStatus:
     channel: str
     code: str
     meaning: str
-    detail: str = ""  # the undocumented characters before the code
+    transmitter_id: str = UNKNOWN_ID
 
     @property
     def gauge_id(self) -> str:
@@ -81,17 +110,18 @@ def encode_data(
     value: float | Decimal,
     *,
     decimals: int,
-    unit: Unit = "mm",
+    unit: Unit | None = "mm",
     gauge_id: str = "0000",
 ) -> bytes:
-    """A data frame for ``value`` in ``unit``; ValueError when it does not fit."""
+    """A data frame for ``value`` in ``unit`` (None: unit character ``0``);
+    ValueError when it does not fit."""
     if not re.fullmatch(r"[0-9]{4}", gauge_id):
         raise ValueError(f"gauge_id is group and channel, four digits, got {gauge_id!r}")
     if not 0 <= decimals <= VALUE_WIDTH - 2:
         raise ValueError(f"decimals must be 0..{VALUE_WIDTH - 2}, got {decimals}")
-    letter = {"mm": "M", "inch": "I"}.get(unit)
+    letter = {"mm": "M", "inch": "I", None: "0"}.get(unit)
     if letter is None:
-        raise ValueError(f"unit must be 'mm' or 'inch', got {unit!r}")
+        raise ValueError(f"unit must be 'mm', 'inch' or None (no unit), got {unit!r}")
     exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
     shown = exact.quantize(Decimal(1).scaleb(-decimals), rounding=ROUND_HALF_EVEN)
     sign = "-" if shown < 0 else "+"
@@ -101,20 +131,25 @@ def encode_data(
     return f"DT1{gauge_id}{sign}{field}{letter}\r".encode("ascii")
 
 
-def encode_status(code: str, *, gauge_id: str = "0000", detail: str = "00") -> bytes:
-    """A status frame, e.g. ``encode_status("04") == b"ST10000" b"00" b"04\\r"``."""
+def encode_status(code: str, *, gauge_id: str = "0000", transmitter_id: str = UNKNOWN_ID) -> bytes:
+    """A 19-character status frame, e.g. ``encode_status("04") ==
+    b"ST10000FFFFFFFFFF04\\r"``."""
     if not re.fullmatch(r"[0-9]{2}", code) or not re.fullmatch(r"[0-9]{4}", gauge_id):
         raise ValueError(f"bad status code {code!r} or gauge_id {gauge_id!r}")
-    return f"ST1{gauge_id}{detail}{code}\r".encode("ascii")
+    if not re.fullmatch(r"[0-9]{10}|F{10}", transmitter_id):
+        raise ValueError(f"transmitter id is 10 digits or FFFFFFFFFF, got {transmitter_id!r}")
+    return f"ST1{gauge_id}{transmitter_id}{code}\r".encode("ascii")
 
 
 def decode_frame(frame: bytes, *, where: str = "") -> UWaveData | UWaveStatus:
     """Decode a data or status frame (CR included); FrameError if it is neither."""
     status = _STATUS.fullmatch(frame)
     if status is not None:
-        group, channel, detail, code = (part.decode("ascii") for part in status.groups())
+        group, channel, ident, code = (part.decode("ascii") for part in status.groups())
         meaning = STATUS_MEANINGS.get(code, f"unknown status {code}")
-        return UWaveStatus(group=group, channel=channel, code=code, meaning=meaning, detail=detail)
+        return UWaveStatus(
+            group=group, channel=channel, code=code, meaning=meaning, transmitter_id=ident
+        )
     data = _DATA.fullmatch(frame)
     if data is None:
         raise FrameError("not a U-WAVE data or status frame", where=where, frame=frame)
@@ -154,6 +189,7 @@ class UWaveReceiver(SerialIndicator):
         where: str,
         unit: str,
         channel: str | None = None,
+        decimals: int | Iterable[int] | None = None,
         timeout_s: float | None = None,
         owns_link: bool = False,
     ) -> None:
@@ -163,6 +199,7 @@ class UWaveReceiver(SerialIndicator):
                 f"U-WAVE channel is 'CC' or 'GGCC' digits, got {channel!r}", where=where
             )
         self.unit: Unit = check_unit(unit, where=where)
+        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self.channel = channel
         self._cut_by_flush = True  # opening may land mid-frame, as a flush does
         self._last_unit: Unit | None = None
@@ -184,37 +221,49 @@ class UWaveReceiver(SerialIndicator):
                 log.debug("%s: ignoring frame from transmitter %s", self.where, decoded.gauge_id)
                 continue
             if isinstance(decoded, UWaveStatus):
-                if decoded.detail not in ("", "00"):
-                    log.debug("%s: status frame detail %r", self.where, decoded.detail)
                 if decoded.is_warning:
                     log.warning(
                         "%s: %s (transmitter %s)", self.where, decoded.meaning, decoded.gauge_id
                     )
                     continue
+                ident = (
+                    "" if decoded.transmitter_id == UNKNOWN_ID else f", id {decoded.transmitter_id}"
+                )
                 raise DeviceFault(
                     f"U-WAVE status {decoded.code}: {decoded.meaning} "
-                    f"(transmitter {decoded.gauge_id})",
+                    f"(transmitter {decoded.gauge_id}{ident})",
                     code=decoded.code,
                     where=self.where,
                 )
-            if decoded.unit != self._last_unit:
-                self._last_unit = decoded.unit
-                if decoded.unit != self.unit:
-                    log.warning(
-                        "%s: gauge displays %s but is configured %s; values are converted "
-                        "from the unit in each frame",
-                        self.where,
-                        decoded.unit,
-                        self.unit,
-                    )
+            unit = self._unit_of(decoded, frame)
             return Reading(
-                value_mm=to_mm(decoded.value, decoded.unit),
+                value_mm=to_mm(decoded.value, unit),
                 frame=frame,
                 time_s=time.time(),
                 channel=decoded.gauge_id,
-                unit=decoded.unit,
+                unit=unit,
                 where=self.where,
             )
+
+    def _unit_of(self, decoded: UWaveData, frame: bytes) -> Unit:
+        """The frame's unit; for unit ``0`` (none sent) the configured one, whose
+        decimal layout the value must fit, as with the unit-less 01A frames."""
+        if decoded.unit is None:
+            check_decimals(
+                decoded.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
+            )
+            return self.unit
+        if decoded.unit != self._last_unit:
+            self._last_unit = decoded.unit
+            if decoded.unit != self.unit:
+                log.warning(
+                    "%s: gauge displays %s but is configured %s; values are converted "
+                    "from the unit in each frame",
+                    self.where,
+                    decoded.unit,
+                    self.unit,
+                )
+        return decoded.unit
 
     def _is_mine(self, gauge_id: str) -> bool:
         if self.channel is None:

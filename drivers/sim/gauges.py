@@ -1,9 +1,13 @@
 """Simulated gauges that speak the exact indicator wire formats.
 
-A :class:`GaugeEndpoint` serves one protocol (``"mitutoyo-01a"``,
-``"digimatic"``, ``"uwave"``, ``"sylvac"``) on a real pseudo-terminal (clients
-open the slave path like a ``/dev/ttyUSB``) or on a loopback TCP socket
-(clients open ``socket://127.0.0.1:PORT``). Values come from
+A :class:`GaugeEndpoint` serves one serial protocol (``"mitutoyo-01a"``,
+``"digimatic"``, ``"uwave"``, ``"sylvac"``, ``"sylvac-simplex"``) on a real
+pseudo-terminal (clients open the slave path like a ``/dev/ttyUSB``), on a
+loopback TCP socket (clients open ``socket://127.0.0.1:PORT``) or on an RFC 2217
+server (``rfc2217://127.0.0.1:PORT``), the one of the three that carries the
+control lines: the Sylvac simplex cable is asked for a value by a DTR pulse, so
+it is always served that way (pyserial's own RFC 2217 port manager decodes the
+client's SET_CONTROL requests here). Values come from
 ``value_source`` callables (the simulated machine, or a lambda in tests), are
 rounded to the display resolution and encoded with the drivers' own encoders,
 so every end-to-end test runs the real codecs.
@@ -33,7 +37,7 @@ from dataclasses import dataclass, replace
 from decimal import Decimal
 from enum import StrEnum
 from types import TracebackType
-from typing import Literal
+from typing import Any, Literal
 
 from drivers.indicators import BACKENDS, digimatic, mitutoyo_01a, sylvac, uwave
 from drivers.indicators.base import Unit
@@ -43,13 +47,22 @@ from drivers.sim.clock import sleep_until
 log = logging.getLogger(__name__)
 
 ValueSource = Callable[[], float]
-Transport = Literal["pty", "socket"]
+Transport = Literal["pty", "socket", "rfc2217"]
 PROTOCOLS = tuple(BACKENDS)
 MM_PER_INCH = 25.4
 
-_DEFAULT_CHANNEL = {"mitutoyo-01a": "1", "digimatic": "", "uwave": "0000", "sylvac": ""}
-_MAX_DECIMALS = {"mitutoyo-01a": 6, "digimatic": 5, "uwave": 9, "sylvac": 7}
-_DEFAULT_ERROR = {"mitutoyo-01a": "911", "uwave": "01", "sylvac": "3"}
+_DEFAULT_CHANNEL = {
+    "mitutoyo-01a": "1",
+    "digimatic": "",
+    "uwave": "0000",
+    "sylvac": "",
+    "sylvac-simplex": "",
+}
+_MAX_DECIMALS = {"mitutoyo-01a": 6, "digimatic": 5, "uwave": 9, "sylvac": 7, "sylvac-simplex": 7}
+_DEFAULT_ERROR = {"mitutoyo-01a": "911", "uwave": "01", "sylvac": "3", "sylvac-simplex": "3"}
+_SYLVAC = ("sylvac", "sylvac-simplex")
+# Shortest DTR-low pulse a simplex instrument takes as a request (Opto-RS manual: 110 ms).
+_SIMPLEX_PULSE_S = 0.110
 _DEVICE_INFO = b"SIM-ITN 01A simulated interface 1.0\r"
 
 
@@ -196,6 +209,80 @@ class _SocketTransport:
     close = unplug
 
 
+class _ControlLines:
+    """The serial port pyserial's RFC 2217 PortManager drives: line settings are
+    kept, and DTR/RTS changes are handed to the endpoint."""
+
+    def __init__(self, on_change: Callable[[str, bool], None]) -> None:
+        self._on_change = on_change
+        self.baudrate, self.bytesize, self.parity, self.stopbits = 9600, 8, "N", 1
+        self.rtscts = self.xonxoff = False
+        self.break_condition = False
+        self.cts = self.dsr = True
+        self.ri = self.cd = False
+        self._dtr = self._rts = False
+
+    @property
+    def dtr(self) -> bool:
+        return self._dtr
+
+    @dtr.setter
+    def dtr(self, level: bool) -> None:
+        self._dtr = level
+        self._on_change("dtr", level)
+
+    @property
+    def rts(self) -> bool:
+        return self._rts
+
+    @rts.setter
+    def rts(self, level: bool) -> None:
+        self._rts = level
+        self._on_change("rts", level)
+
+    def reset_input_buffer(self) -> None:
+        pass
+
+    def reset_output_buffer(self) -> None:
+        pass
+
+
+class _Rfc2217Transport(_SocketTransport):
+    """A loopback RFC 2217 server (a network serial port with control lines)."""
+
+    def __init__(self, on_control: Callable[[str, bool], None]) -> None:
+        super().__init__()
+        self.port = self.port.replace("socket://", "rfc2217://")
+        self._on_control = on_control
+        self._manager: Any = None
+
+    def on_readable(self, fd: int) -> bytes:
+        had_connection = self._conn is not None
+        data = super().on_readable(fd)
+        if not had_connection and self._conn is not None:
+            from serial.rfc2217 import PortManager
+
+            self._manager = PortManager(_ControlLines(self._on_control), self)
+        if not data or self._manager is None:
+            return b""
+        return b"".join(self._manager.filter(data))
+
+    def write(self, data: bytes) -> None:
+        """PortManager's connection interface (Telnet negotiation, replies)."""
+        if self._conn is not None:
+            with contextlib.suppress(OSError):
+                self._conn.sendall(data)
+
+    def send(self, data: bytes) -> None:
+        if self._manager is not None:
+            data = b"".join(self._manager.escape(data))
+        super().send(data)
+
+    def _drop_connection(self) -> None:
+        super()._drop_connection()
+        self._manager = None
+
+
 def _decimals_for(resolution: float, limit: int) -> int:
     """Decimal places needed to show steps of ``resolution``."""
     return max(0, min(limit, math.ceil(-math.log10(resolution) - 1e-9)))
@@ -233,11 +320,14 @@ class GaugeEndpoint:
         streaming: bool = False,
         period_s: float | None = None,
         name: str | None = None,
+        digimatic2: bool = False,
     ) -> None:
         if protocol not in BACKENDS:
             raise ValueError(f"unknown protocol {protocol!r} (known: {', '.join(PROTOCOLS)})")
-        if transport not in ("pty", "socket"):
-            raise ValueError(f"transport must be 'pty' or 'socket', got {transport!r}")
+        if transport not in ("pty", "socket", "rfc2217"):
+            raise ValueError(f"transport must be 'pty', 'socket' or 'rfc2217', got {transport!r}")
+        if protocol == "sylvac-simplex":
+            transport = "rfc2217"  # the request is a DTR pulse: only RFC 2217 carries it
         if unit not in ("mm", "inch"):
             raise ValueError(f"unit must be 'mm' or 'inch', got {unit!r}")
         if resolution_mm <= 0:
@@ -265,6 +355,7 @@ class GaugeEndpoint:
         self._mm_decimals = _decimals_for(resolution_mm, _MAX_DECIMALS[protocol])
         self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH, _MAX_DECIMALS[protocol])
         self.streaming = streaming
+        self.digimatic2 = digimatic2  # eight-digit Digimatic 2 frames (99MAF600B 6.2.1)
         if streaming and protocol != "digimatic":
             raise ValueError("only the Digimatic bridge streams")
         if period_s is None and streaming:
@@ -292,6 +383,8 @@ class GaugeEndpoint:
         self._rx_free_at = 0.0
         self._tx_free_at = 0.0
         self._last_value_mm: dict[str, float] = {}
+        self._dtr_low_since: float | None = None
+        self.identification = sylvac.encode_identification("235", "1")  # sent at power-on
 
     # ----------------------------------------------------------------- lifecycle
     @property
@@ -305,7 +398,12 @@ class GaugeEndpoint:
         """Create the pty or socket and start serving in a daemon thread."""
         if self._thread is not None:
             return self
-        self._transport = _PtyTransport() if self.transport_kind == "pty" else _SocketTransport()
+        if self.transport_kind == "pty":
+            self._transport = _PtyTransport()
+        elif self.transport_kind == "rfc2217":
+            self._transport = _Rfc2217Transport(self._on_control)
+        else:
+            self._transport = _SocketTransport()
         self._wake_r, self._wake_w = os.pipe()
         os.set_blocking(self._wake_r, False)
         os.set_blocking(self._wake_w, False)
@@ -478,8 +576,8 @@ class GaugeEndpoint:
                     self.requests_received += 1
                     self._emit(self.default_channel)
             return
-        if self.protocol == "uwave":
-            return  # the receiver pushes; nothing to answer
+        if self.protocol in ("uwave", "sylvac-simplex"):
+            return  # the receiver pushes; a simplex instrument ignores commands
         self._rx_buffer += data.replace(b"\n", b"")
         while b"\r" in self._rx_buffer:
             line, _, rest = bytes(self._rx_buffer).partition(b"\r")
@@ -509,6 +607,23 @@ class GaugeEndpoint:
                 self.unit = "mm" if command == "MM" else "inch"
             else:
                 self._send_paced(sylvac.encode_error(1))
+
+    def _on_control(self, line: str, level: bool) -> None:
+        """A control line changed (RFC 2217 SET_CONTROL, in the serving thread)."""
+        if self.protocol != "sylvac-simplex":
+            return
+        if line == "rts" and level:  # the cable powers the instrument up: it says who it is
+            self._send_paced(self.identification)
+        elif line == "dtr" and not level:
+            self._dtr_low_since = time.monotonic()
+        elif line == "dtr" and level and self._dtr_low_since is not None:
+            low_s = time.monotonic() - self._dtr_low_since
+            self._dtr_low_since = None
+            if low_s >= _SIMPLEX_PULSE_S:
+                self.requests_received += 1
+                self._emit(self.default_channel)
+            else:
+                log.debug("%s: DTR low %.0f ms, too short for a request", self.name, low_s * 1e3)
 
     def _push_all(self) -> None:
         for channel in self.channels:
@@ -593,21 +708,25 @@ class GaugeEndpoint:
                 return mitutoyo_01a.encode_reply(shown, decimals=decimals, channel=channel)
             if self.protocol == "digimatic":
                 return digimatic.encode_frame(
-                    shown, decimals=decimals, unit=unit, inch_nibble=inch_nibble
+                    shown,
+                    decimals=decimals,
+                    unit=unit,
+                    inch_nibble=inch_nibble,
+                    digimatic2=self.digimatic2,
                 )
             if self.protocol == "uwave":
                 return uwave.encode_data(shown, decimals=decimals, unit=unit, gauge_id=channel)
-            return sylvac.encode_reply(shown, decimals=decimals)
+            return sylvac.encode_reply(shown, decimals=decimals)  # both Sylvac cables
         except ValueError:
             log.warning("%s: %.6g mm is beyond what the display shows", self.name, value_mm)
-            if self.protocol == "sylvac":
+            if self.protocol in _SYLVAC:
                 return sylvac.encode_error(3)  # out of measuring range
             return None
 
     def _error_frame(self, code: str, channel: str) -> bytes:
         if self.protocol == "mitutoyo-01a":
             return mitutoyo_01a.encode_error(code)
-        if self.protocol == "sylvac":
+        if self.protocol in _SYLVAC:
             return sylvac.encode_error(code)
         return uwave.encode_status(code, gauge_id=channel)
 

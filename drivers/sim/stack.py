@@ -1,6 +1,8 @@
 """Everything the simulator serves, started together over one simulated machine:
 the Modbus controller (TCP on loopback, or RTU on a pseudo-terminal) and one
-serial gauge per leg and direction, on pseudo-terminals or loopback sockets.
+gauge per leg and direction: serial gauges on pseudo-terminals, loopback sockets
+or RFC 2217 (the Sylvac simplex cable), USB-ITN cables over the software USB
+backend (``usbsim://``) or as a keyboard (an input-event device node).
 
 Clients connect with the real drivers; only this module knows the endpoints
 are simulated.
@@ -41,6 +43,32 @@ class SimulatorConfig:
 
 
 
+# Gauges that push their values (U-WAVE's DATA button, the keyboard cable's switch):
+# the simulated operator presses it this often, so a campaign gets readings.
+PUSH_PERIOD_S = 0.05
+
+
+def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: float,
+               transport: str, name: str) -> Any:
+    """The simulated endpoint serving one gauge of ``protocol``."""
+    if protocol == "usb-itn":
+        from drivers.sim.usb_itn import UsbItnEndpoint
+
+        return UsbItnEndpoint(source, resolution_mm=resolution_mm, name=name)
+    if protocol == "usb-itn-keyboard":
+        from drivers.sim.keyboard import KeyboardEndpoint
+
+        return KeyboardEndpoint(source, resolution_mm=resolution_mm, name=name,
+                                period_s=PUSH_PERIOD_S)
+    period = PUSH_PERIOD_S if protocol == "uwave" else None
+    if protocol in ("sylvac", "sylvac-simplex"):
+        # A Sylvac shows 0.001 mm unless set otherwise (RES2), and its driver pins
+        # that layout; a coarser machine resolution would be a RES3 gauge.
+        resolution_mm = min(resolution_mm, 0.001)
+    return GaugeEndpoint(protocol, source, resolution_mm=resolution_mm, transport=transport,
+                         name=name, period_s=period)
+
+
 class SimulatorStack:
     def __init__(self, config: SimulatorConfig) -> None:
         self.config = config
@@ -62,7 +90,7 @@ class SimulatorStack:
             self.channels = channels
         elif config.gauge_layout == "separate":
             for key in GAUGE_KEYS:
-                self.gauges[key] = GaugeEndpoint(
+                self.gauges[key] = make_gauge(
                     config.gauge_protocols.get(key, config.gauge_protocol), sources[key],
                     resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
                     name=f"sim gauge {key}")
@@ -70,7 +98,7 @@ class SimulatorStack:
         elif config.gauge_layout == "moved":
             self._mounted_leg = AXES[0]
             for number, keys in enumerate(MOVED_INDICATORS, 1):
-                indicator = GaugeEndpoint(
+                indicator = make_gauge(
                     config.gauge_protocol, self._mounted_source(keys, sources),
                     resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
                     name=f"sim indicator {number}")
@@ -123,7 +151,7 @@ class SimulatorStack:
         by_leg = {key.split("_")[1]: sources[key] for key in keys}
         return lambda: by_leg[self._mounted_leg]()
 
-    def _endpoints(self) -> list[GaugeEndpoint]:
+    def _endpoints(self) -> list[Any]:
         return list({id(g): g for g in self.gauges.values()}.values())
 
     def info(self) -> dict[str, Any]:

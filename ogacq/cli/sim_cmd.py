@@ -11,6 +11,7 @@ from typing import Annotated
 
 import typer
 
+from drivers.indicators import BACKENDS
 from ogacq.cli.app import JsonOption, app
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import PAPER_PROTOTYPE
@@ -21,11 +22,8 @@ class Profile(StrEnum):
     iai_pcon = "iai-pcon"
 
 
-class GaugeProtocol(StrEnum):
-    mitutoyo_01a = "mitutoyo-01a"
-    digimatic = "digimatic"
-    uwave = "uwave"
-    sylvac = "sylvac"
+# Every protocol of the driver table, so a new cable is served as soon as it has a driver.
+GaugeProtocol = StrEnum("GaugeProtocol", {name: name for name in BACKENDS})
 
 
 @app.command()
@@ -42,7 +40,10 @@ def sim(
     speed: Annotated[float, typer.Option(
         min=0.01, help="Simulated time runs this many times faster than real time.")] = 1.0,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
-        help="Frame format of the simulated gauges.")] = GaugeProtocol.mitutoyo_01a,
+        help="What the simulated gauges speak.")] = GaugeProtocol["mitutoyo-01a"],
+    gauge: Annotated[list[str] | None, typer.Option(
+        help="GAUGE=PROTOCOL for one gauge (repeatable), e.g. z_y=usb-itn: a mixed "
+             "station.")] = None,
     as_json: JsonOption = False,
 ) -> None:
     """Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."""
@@ -54,7 +55,8 @@ def sim(
     if effects is not None:
         truth = read_effects(effects, truth)
     stack = SimulatorStack(SimulatorConfig(spec, truth, profile=profile.value, speed=speed,
-                                           seed=seed, gauge_protocol=gauge_protocol.value))
+                                           seed=seed, gauge_protocol=gauge_protocol.value,
+                                           gauge_protocols=_per_gauge(gauge or [])))
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     with stack:
@@ -70,3 +72,17 @@ def sim(
                 pass
         except KeyboardInterrupt:
             pass
+
+
+def _per_gauge(items: list[str]) -> dict[str, str]:
+    from ogacq.model.gauges import GAUGE_KEYS
+
+    out: dict[str, str] = {}
+    for item in items:
+        key, _, protocol = item.partition("=")
+        if key not in GAUGE_KEYS or protocol not in BACKENDS:
+            raise typer.BadParameter(
+                f"{item!r}: GAUGE=PROTOCOL, GAUGE one of {', '.join(GAUGE_KEYS)}, PROTOCOL one "
+                f"of {', '.join(BACKENDS)}", param_hint="--gauge")
+        out[key] = protocol
+    return out

@@ -52,6 +52,9 @@ def wizard(
                            "unless told).")] = None,
     resume: Annotated[Path | None, typer.Option(
         help="Continue this session with the wizard.")] = None,
+    gauge_protocol: Annotated[str, typer.Option(
+        help="Simulator: what the simulated gauges speak (mitutoyo-01a, digimatic, uwave, "
+             "sylvac, sylvac-simplex, usb-itn, usb-itn-keyboard).")] = "mitutoyo-01a",
     simulate_fault: Annotated[list[str] | None, typer.Option(
         hidden=True, help="Simulator: GAUGE:KIND@N[xCOUNT], a gauge fault after N "
                           "readings.")] = None,
@@ -64,6 +67,10 @@ def wizard(
     if indicators not in (None, 2, 6):
         raise typer.BadParameter("2 (moved from leg to leg) or 6 (left in place)",
                                  param_hint="--indicators")
+    from drivers.indicators import BACKENDS
+
+    if gauge_protocol not in BACKENDS:
+        raise typer.BadParameter(f"one of {', '.join(BACKENDS)}", param_hint="--gauge-protocol")
     if faults and not simulator and resume is None:
         raise typer.BadParameter("faults can only be injected into the simulator",
                                  param_hint="--simulate-fault")
@@ -72,7 +79,7 @@ def wizard(
                             stability_timeout_s=stability_timeout_s,
                             gauge_range_mm=gauge_range_mm, max_offset_mm=max_offset_mm,
                             by_eye=by_eye, indicators=indicators, faults=faults,
-                            resume=resume)
+                            resume=resume, gauge_protocol=gauge_protocol)
     code = run_wizard(options)
     if code:
         raise typer.Exit(code)  # 130: quit, the session kept

@@ -72,3 +72,50 @@ def test_one_indicator_may_serve_one_gauge_per_leg(tmp_path):
         for key in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")))
     assert read_campaign(path).moved_indicators == {
         "/dev/ttyUSB0": ["y_x", "x_y", "x_z"], "/dev/ttyUSB1": ["z_x", "z_y", "y_z"]}
+
+
+NEW_CABLES = {"y_x": ("usb-itn", "usb"), "z_x": ("usb-itn-keyboard", "keyboard"),
+              "x_y": ("sylvac-simplex", "/dev/ttyUSB1"), "z_y": ("uwave", "/dev/ttyUSB2"),
+              "x_z": ("digimatic", "/dev/ttyUSB3"), "y_z": ("usb-itn", "usb:B4562")}
+
+
+def test_every_cable_is_named_like_the_others(tmp_path):
+    from ogacq.campaign_file import read_campaign
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    entries = "".join(f'[[gauges]]\ngauge = "{key}"\nprotocol = "{protocol}"\nport = "{port}"\n'
+                      for key, (protocol, port) in NEW_CABLES.items())
+    path.write_text(HEAD + CONTROLLER + entries)
+    campaign = read_campaign(path)
+    assert {g.gauge: (g.protocol, g.port) for g in campaign.gauges} == NEW_CABLES
+
+
+@pytest.mark.parametrize(("table", "words"), [
+    ('gauge_protocols = { z_q = "usb-itn" }', "'z_q' is not one of"),
+    ('gauge_protocols = { z_y = "usb-itm" }', "z_y = 'usb-itm' is not one of"),
+    ('gauge_protocol = "rs232"', "simulator.gauge_protocol must be one of"),
+    ('gauge_layout = "multiplexer"\ngauge_protocol = "usb-itn"', "01A box"),
+])
+def test_bad_simulated_protocols_are_refused_with_line(tmp_path, table, words):
+    from ogacq.campaign_file import read_campaign
+    from ogacq.io.errors import InputError
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(HEAD + f"[simulator]\nseed = 1\n{table}\n")
+    with pytest.raises(InputError) as error:
+        read_campaign(path)
+    assert words in str(error.value) and f"{path}:" in str(error.value)
+
+
+def test_simulated_protocols_go_into_the_session_header_for_a_resume(tmp_path):
+    from ogacq.campaign_file import SimulatorSpec, read_campaign
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(HEAD + '[simulator]\ngauge_protocol = "uwave"\n'
+                    'gauge_protocols = { z_y = "usb-itn-keyboard", x_y = "usb-itn" }\n')
+    spec = read_campaign(path).simulator
+    assert spec is not None and spec.gauge_protocol == "uwave"
+    assert SimulatorSpec.from_header(spec.header()) == spec

@@ -115,3 +115,38 @@ def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir)
     assert end["status"] == "stopped"
     assert end["axes_stopped"] is False  # and the session says the stop could not be sent
     assert len(session.readings) == 12  # nothing measured is lost
+
+
+@pytest.mark.parametrize("kind", [Fault.SILENCE, Fault.UNPLUG])
+@pytest.mark.parametrize("protocol", ["usb-itn", "usb-itn-keyboard"])
+def test_dead_usb_itn_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind, protocol):
+    """A USB-ITN cable (data mode through pyusb, or keyboard mode) silent or pulled
+    out mid-campaign: named in one line, axes stopped, nothing lost, and it resumes."""
+    extra = FAST + f'[simulator.gauge_protocols]\nz_y = "{protocol}"\n'
+    path = write_campaign(campaign_dir, seed=6, extra="")
+    path.write_text(path.read_text().replace("[protocol]", extra + "\n[protocol]", 1))
+    campaign = read_campaign(path)
+    with open_station(campaign) as station:
+        port = station.description["gauges"]["z_y"]["port"]
+        assert port.startswith("usbsim://") if protocol == "usb-itn" else "/dev/input/" in port
+        station.prepare()
+        writer = SessionWriter.create(campaign.session, {"plan": None})
+        observer = inject_at(station, 30, "z_y", kind)
+        with pytest.raises(CampaignStopped) as stopped:
+            runner_for(station, writer, campaign, observer=observer).run()
+        writer.close()
+        assert "z_y" in stopped.value.reason and "\n" not in stopped.value.reason
+        session = load_session(campaign.session)
+        end = session.of_type("end")[-1]
+        assert end["status"] == "stopped" and end["axes_stopped"] is True
+        assert 30 <= len(session.readings) <= 31
+        if kind is Fault.UNPLUG:
+            assert "unplugged" in end["reason"]
+            return
+        assert "no reply" in end["reason"] or "no value typed" in end["reason"]
+        station.simulator.gauges["z_y"].clear_fault()
+        with SessionWriter.reopen(session) as writer:
+            runner_for(station, writer, campaign, recorded=session.recorded()).run()
+    session = load_session(campaign.session)
+    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    assert len(keys) == len(set(keys)) == 72 and session.finished

@@ -92,3 +92,38 @@ def test_two_indicators_moved_from_leg_to_leg(campaign_dir):
     assert gauges["y_x"]["port"] == gauges["x_y"]["port"] == gauges["x_z"]["port"]
     assert [e["leg"] for e in session.of_type("gauges_set")] == ["x", "y", "z"]
     assert len(session.readings) == 72
+
+
+# Seven protocols, six gauges: two stations, so that every protocol the drivers know
+# reads a whole campaign, each gauge through its own wire format and driver.
+MIXED = {
+    "cables": {"y_x": "usb-itn", "z_x": "usb-itn-keyboard", "x_y": "sylvac-simplex",
+               "z_y": "uwave", "x_z": "digimatic", "y_z": "sylvac"},
+    "with-01a": {"y_x": "usb-itn", "z_x": "usb-itn-keyboard", "x_y": "sylvac-simplex",
+                 "z_y": "uwave", "x_z": "digimatic", "y_z": "mitutoyo-01a"},
+}
+
+
+@pytest.mark.parametrize("station", list(MIXED))
+def test_one_gauge_of_each_protocol_end_to_end(campaign_dir, station):
+    protocols = MIXED[station]
+    path = write_campaign(campaign_dir, seed=4)
+    table = "\n".join(f'{key} = "{protocol}"' for key, protocol in protocols.items())
+    path.write_text(path.read_text().replace(
+        "[protocol]", f"[simulator.gauge_protocols]\n{table}\n\n[protocol]", 1))
+    out = run_ogacq("run", path, "--json", check_json=True)
+    for axis in "xyz":
+        truth = out["hidden"][f"joint_offset.{axis}"]
+        got, std = out["parameters"]["joint_offset"][axis], out["std"]["joint_offset"][axis]
+        assert abs(got - truth) < 3 * std, (axis, got, truth, std)
+    session = load_session(campaign_dir / "session.jsonl")
+    assert session.finished and len(session.readings) == 72
+    gauges = session.header["station"]["gauges"]
+    assert {key: g["protocol"] for key, g in gauges.items()} == protocols
+    raw = {r["gauge"]: r["raw"] for r in session.readings}
+    assert raw["y_x"].startswith("01A")  # USB-ITN data mode: an 01A reply over USB
+    assert raw["z_y"].startswith("DT1") and raw["x_z"].startswith("FFFF")
+    assert raw["x_y"][0] in "+- " and raw["z_x"][0] in "-0123456789"
+    assert raw["y_z"][0] in "+- " if protocols["y_z"] == "sylvac" else raw["y_z"][:3] == "01A"
+    assert gauges["y_x"]["port"].startswith("usbsim://")
+    assert gauges["x_y"]["port"].startswith("rfc2217://")

@@ -98,9 +98,9 @@ def test_01a_encoders_refuse_what_does_not_fit():
 @pytest.mark.parametrize(
     ("frame", "value", "decimals", "unit", "nibble"),
     [
-        # INSTRUMENTS.md says "FFFF000012330 = +1.233 mm", but by its own nibble table
-        # (and Mitutoyo's QM-Height manual 99MAF600B, 6.2.1, "normal measurement of
-        # 0.123 mm") the digits d6-d11 are 000123 and d12 = 3: +0.123 mm.
+        # An earlier INSTRUMENTS.md said "FFFF000012330 = +1.233 mm"; by its own nibble
+        # table and Mitutoyo's QM-Height manual 99MAF600B, 6.2.1 ("normal measurement
+        # of 0.123 mm") the digits d6-d11 are 000123 and d12 = 3: +0.123 mm.
         (b"FFFF000012330\r\n", Decimal("0.123"), 3, "mm", "0"),
         (b"FFFF000123330\r\n", Decimal("1.233"), 3, "mm", "0"),  # what +1.233 mm looks like
         (b"FFFF021076540\r\n", Decimal("21.0765"), 4, "mm", "0"),  # maker's example
@@ -117,6 +117,34 @@ def test_digimatic_decodes_the_spec_frames(frame, value, decimals, unit, nibble)
     assert decoded == digimatic.DigimaticFrame(
         value=value, decimals=decimals, unit=unit, unit_nibble=nibble
     )
+
+
+@pytest.mark.parametrize(
+    ("frame", "value", "unit"),
+    [
+        # QM-Height manual 99MAF600B, 6.2.1 "Digimatic 2 output": "8 F 0 0 + 0 0 0 1 2 3
+        # 3 mm" at a normal measurement of 0.123 mm.
+        (b"8F00000012330\r\n", Decimal("0.123"), "mm"),
+        # Built from the same layout: d3-d4 carry the two high digits, then the six.
+        (b"8F12834567830\r\n", Decimal("-12345.678"), "mm"),
+        (b"8F00000485551\r\n", Decimal("0.04855"), "inch"),
+    ],
+)
+def test_digimatic2_frames(frame: bytes, value: Decimal, unit: str):
+    decoded = digimatic.decode_frame(frame)
+    assert (decoded.value, decoded.unit, decoded.digimatic2) == (value, unit, True)
+    encoded = digimatic.encode_frame(
+        value, decimals=decoded.decimals, unit=decoded.unit, digimatic2=True
+    )
+    assert encoded == frame
+
+
+def test_digimatic2_refuses_what_does_not_fit_or_spell():
+    with pytest.raises(ValueError):
+        digimatic.encode_frame(1000000.0, decimals=3, digimatic2=True)  # nine digits
+    for frame in (b"8E00000012330\r\n", b"8F0A000012330\r\n", b"1F00000012330\r\n"):
+        with pytest.raises(FrameError):
+            digimatic.decode_frame(frame)
 
 
 def test_digimatic_spec_examples_in_mm():
@@ -180,17 +208,22 @@ def test_uwave_inch_and_channels():
 
 @pytest.mark.parametrize(
     ("code", "warning", "words"),
-    [
+    [  # every code of the U-WAVE-R manual 99MAL216A, section 6.1
         ("00", True, "battery"),
         ("01", False, "not responding"),
+        ("02", False, "status 02"),
         ("03", False, "data loss"),
         ("04", False, "disconnected"),
         ("05", False, "no data"),
+        ("50", False, "status 50"),
+        ("51", False, "status 51"),
+        ("99", False, "error 99"),
         ("07", False, "unknown"),
     ],
 )
 def test_uwave_status_frames_are_classified(code: str, warning: bool, words: str):
     frame = uwave.encode_status(code, gauge_id="0102")
+    assert len(frame) == 19 + 1  # 19 characters and CR (99MAL216A 6.1)
     decoded = uwave.decode_frame(frame)
     assert isinstance(decoded, uwave.UWaveStatus)
     assert decoded.code == code and decoded.gauge_id == "0102"
@@ -198,10 +231,26 @@ def test_uwave_status_frames_are_classified(code: str, warning: bool, words: str
     assert words in decoded.meaning
 
 
-def test_uwave_status_tolerates_other_middle_fields():
-    for frame in (b"ST1000104\r", b"ST10001..04\r", b"ST10001 A 04\r"):
-        decoded = uwave.decode_frame(frame)
-        assert isinstance(decoded, uwave.UWaveStatus) and decoded.code == "04"
+@pytest.mark.parametrize(
+    ("frame", "gauge_id", "ident", "code"),
+    [  # the layout of 99MAL216A 6.1: ST1 GG CC <10-digit id or FFFFFFFFFF> SS
+        (b"ST10102FFFFFFFFFF04\r", "0102", "FFFFFFFFFF", "04"),  # disconnected, id unknown
+        (b"ST100001234567890" b"00\r", "0000", "1234567890", "00"),  # battery low, known id
+        (b"ST10301000000004299\r", "0301", "0000000042", "99"),
+    ],
+)
+def test_uwave_status_frames_of_the_manual(frame: bytes, gauge_id: str, ident: str, code: str):
+    decoded = uwave.decode_frame(frame)
+    assert isinstance(decoded, uwave.UWaveStatus)
+    assert (decoded.gauge_id, decoded.transmitter_id, decoded.code) == (gauge_id, ident, code)
+    assert uwave.encode_status(code, gauge_id=gauge_id, transmitter_id=ident) == frame
+
+
+def test_uwave_unit_zero_means_no_unit():
+    decoded = uwave.decode_frame(b"DT10000+00000011.880\r")  # unit character "0" (99MAL216A 6.1)
+    assert isinstance(decoded, uwave.UWaveData)
+    assert (decoded.value, decoded.decimals, decoded.unit) == (Decimal("11.88"), 2, None)
+    assert uwave.encode_data(11.88, decimals=2, unit=None) == b"DT10000+00000011.880\r"
 
 
 @pytest.mark.parametrize(
@@ -215,6 +264,11 @@ def test_uwave_status_tolerates_other_middle_fields():
         b"DT10000+0000001.1.8M\r",  # two points
         b"DT20000+00000011.88M\r",
         b"ST10001\r",
+        b"ST1000104\r",  # INSTRUMENTS.md's short shape: no transmitter id
+        b"ST10001..04\r",
+        b"ST10001FFFFFFFFF04\r",  # id one character short
+        b"ST10001FFFFFFFFFFF04\r",  # id one character long
+        b"ST10001ABCDEF012304\r",  # id neither digits nor all F
     ],
 )
 def test_uwave_rejects_frames_off_the_grammar(frame: bytes):
@@ -248,6 +302,24 @@ def test_sylvac_errors_are_classified(code: str):
     assert fault.value.code == f"ERR{code}"
     assert "gauge S" in str(fault.value)
     assert sylvac.ERROR_MEANINGS[code] in str(fault.value)
+
+
+@pytest.mark.parametrize(
+    ("frame", "ident"),
+    [  # Opto-RS manual, "Identification": "SY" instrument "." OPT1 {"." OPT2} CR
+        (b"SY235.1\r", "SY235.1"),
+        (b"SY203.1.2\r", "SY203.1.2"),
+        (b"+1.233\r", None),
+        (b"SY235\r", None),  # no option field
+        (b"SY.1\r", None),
+    ],
+)
+def test_sylvac_identification_line(frame: bytes, ident: str | None):
+    assert sylvac.decode_identification(frame) == ident
+    if ident is not None:
+        with pytest.raises(FrameError):
+            sylvac.decode_reply(frame)  # not a value: the driver skips it before decoding
+        assert sylvac.encode_identification(*ident[2:].split(".")) == frame
 
 
 def test_sylvac_encodes_replies():

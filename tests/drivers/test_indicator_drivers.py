@@ -27,6 +27,7 @@ from drivers.indicators.base import Indicator, Reading, read_stable
 from drivers.indicators.digimatic import DigimaticBridge
 from drivers.indicators.mitutoyo_01a import Mitutoyo01A
 from drivers.indicators.sylvac import SylvacOptoRS
+from drivers.indicators.sylvac_simplex import SylvacSimplex
 from drivers.indicators.uwave import UWaveReceiver
 from drivers.link import LinkSettings, open_link
 
@@ -227,7 +228,7 @@ def test_digimatic_inch_frames_are_converted_and_logged(caplog: pytest.LogCaptur
 
 
 def test_uwave_filters_transmitters_and_skips_battery_warnings(caplog: pytest.LogCaptureFixture):
-    link = ScriptedLink(pushed=b"DT10001+0000001.000M\rST100020000\rDT10002+0000002.000M\r")
+    link = ScriptedLink(pushed=b"DT10001+0000001.000M\rST10002FFFFFFFFFF00\rDT10002+0000002.000M\r")
     gauge = UWaveReceiver(link, where="uw", unit="mm", channel="02")  # type: ignore[arg-type]
     reading = gauge.read()
     assert (reading.value_mm, reading.channel) == (2.0, "0002")
@@ -235,11 +236,22 @@ def test_uwave_filters_transmitters_and_skips_battery_warnings(caplog: pytest.Lo
 
 
 def test_uwave_status_stops_the_reading():
-    link = ScriptedLink(pushed=b"ST100000004\r")
+    link = ScriptedLink(pushed=b"ST10000FFFFFFFFFF04\rST100001234567890" b"01\r")
     gauge = UWaveReceiver(link, where="uw", unit="mm", timeout_s=0.05)  # type: ignore[arg-type]
     with pytest.raises(DeviceFault, match="uw.*disconnected") as fault:
         gauge.read()
     assert fault.value.code == "04"
+    with pytest.raises(DeviceFault, match="uw.*not responding.*id 1234567890"):
+        gauge.read()
+
+
+def test_uwave_unit_zero_takes_the_configured_unit_and_checks_its_decimals():
+    link = ScriptedLink(pushed=b"DT10000+000001.50000\rDT10000+0000001.2340\r")
+    gauge = UWaveReceiver(link, where="uw", unit="inch", timeout_s=0.05)  # type: ignore[arg-type]
+    reading = gauge.read()
+    assert (reading.value_mm, reading.unit) == (pytest.approx(38.1), "inch")
+    with pytest.raises(UnitError, match="uw"):
+        gauge.read()  # three decimals: an mm layout on a gauge set up in inch
 
 
 # ------------------------------------------------------------------- Sylvac
@@ -258,6 +270,13 @@ def test_sylvac_skips_an_echoed_request():
     assert SylvacOptoRS(link, where="sy", unit="mm").read().value_mm == -0.005  # type: ignore[arg-type]
 
 
+def test_sylvac_skips_the_power_on_identification(caplog: pytest.LogCaptureFixture):
+    link = ScriptedLink([(b"?\r", b"SY235.1\r+0.250\r")])
+    with caplog.at_level("INFO"):
+        assert SylvacOptoRS(link, where="sy", unit="mm").read().value_mm == 0.25  # type: ignore[arg-type]
+    assert "SY235.1" in caplog.text
+
+
 def test_sylvac_error_and_unit_mismatch():
     link = ScriptedLink([(b"?\r", b"ERR3\r"), (b"?\r", b"+0.04855\r")])
     gauge = SylvacOptoRS(link, where="sy", unit="mm")  # type: ignore[arg-type]
@@ -270,6 +289,35 @@ def test_sylvac_error_and_unit_mismatch():
 # ----------------------------------------------------------- random input
 
 
+class DtrPulsedLink(ScriptedLink):
+    """A simplex instrument's line: DTR back high after a low pulse releases ``answer``."""
+
+    def __init__(self, answer: bytes) -> None:
+        self.answer = answer
+        self._dtr = True
+        super().__init__()
+
+    @property
+    def dtr(self) -> bool:
+        return self._dtr
+
+    @dtr.setter
+    def dtr(self, level: bool) -> None:
+        if level and not self._dtr:
+            self.rx += self.answer
+        self._dtr = level
+
+
+def test_sylvac_simplex_pulses_dtr_and_powers_from_rts():
+    link = DtrPulsedLink(b"SY235.1\r+0.125\r")
+    gauge = SylvacSimplex(link, where="sx", unit="mm")  # type: ignore[arg-type]
+    assert (link.dtr, link.rts) == (True, True)
+    start = time.monotonic()
+    assert gauge.read().value_mm == 0.125
+    assert time.monotonic() - start >= 0.110
+    assert link.dtr is True  # back at rest
+
+
 # Whole frames of every protocol, and what each means in mm.
 KNOWN_FRAMES = {
     b"01A+0000.123\r": 0.123,
@@ -278,24 +326,25 @@ KNOWN_FRAMES = {
     b"+1.233\r": 1.233,
     b"918\r": None,
     b"ERR3\r": None,
-    b"ST100000004\r": None,
+    b"ST10000FFFFFFFFFF04\r": None,
 }
 _whole = st.sampled_from(sorted(KNOWN_FRAMES))
 _cut = _whole.flatmap(lambda f: st.integers(0, len(f) - 1).map(lambda i: f[:i]))
 _chunks = st.lists(st.one_of(st.binary(max_size=20), _whole, _cut), max_size=5)
 
 
-@pytest.mark.parametrize("protocol", sorted(BACKENDS))
+@pytest.mark.parametrize("protocol", sorted(p for p, b in BACKENDS.items() if b.serial))
 @settings(max_examples=40, deadline=None)
 @given(chunks=_chunks)
 def test_drivers_fed_random_and_cut_frames_never_give_a_wrong_number(
     protocol: str, chunks: list[bytes]
 ):
     data = b"".join(chunks)
-    link = ScriptedLink(pushed=data)
+    link = DtrPulsedLink(data) if protocol == "sylvac-simplex" else ScriptedLink(pushed=data)
     link.write = lambda request: link.rx.extend(data) or len(request)  # type: ignore[method-assign]
     options = {"mode": "streaming"} if protocol == "digimatic" else {}
     gauge = driver_class(protocol)(link, where="fuzz", unit="mm", timeout_s=0.002, **options)
+    gauge.request_pulse_s = 0.0  # the simplex pulse length is not what this test is about
     for _ in range(3):
         try:
             reading = gauge.read()

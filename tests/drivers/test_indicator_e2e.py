@@ -378,3 +378,15 @@ def test_endpoint_threads_stop_on_close():
         thread = endpoint._thread
         assert thread is not None and thread.daemon and thread.is_alive()
     assert not thread.is_alive()
+
+
+def test_digimatic2_bridge_end_to_end():
+    """An eight-digit Digimatic 2 frame (99MAF600B 6.2.1) through a pty, polled: 8F, the
+    high digits 01, sign 8, then 234568, 3 decimals, mm."""
+    with GaugeEndpoint("digimatic", lambda: -1234.5678, digimatic2=True) as bridge:
+        gauge = open_indicator("digimatic", bridge.port, unit="mm", where="d2")
+        try:
+            reading = gauge.read()
+            assert reading.frame == b"8F01823456830\r" and reading.value_mm == -1234.568
+        finally:
+            gauge.close()

@@ -126,3 +126,29 @@ def test_session_header_matches_run_campaign(tmp_path: Path):
     for key in ("plan", "machine", "simulator"):
         assert guided[key] == plain[key]
     assert set(guided["station"]) == set(plain["station"])
+
+
+def test_wizard_writes_and_test_reads_every_cable(tmp_path: Path):
+    """The wizard's gauge test and its campaign file name the new cables like the others."""
+    from drivers.sim.stack import make_gauge
+    from ogacq.cli.wizard.connect import test_read
+
+    protocols = ("usb-itn", "usb-itn-keyboard", "sylvac-simplex", "uwave", "digimatic", "sylvac")
+    keys = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
+    endpoints = [make_gauge(p, lambda: 2.0004, resolution_mm=0.001, transport="pty",
+                            name=f"sim {p}").start() for p in protocols]
+    try:
+        gauges = [GaugeSpec(k, p, e.port) for k, p, e in zip(keys, protocols, endpoints,
+                                                              strict=True)]
+        assert [test_read(g, timeout_s=2.0) for g in gauges] == [2.0] * 6
+    finally:
+        for endpoint in endpoints:
+            endpoint.close()
+    (tmp_path / "machine.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
+                                           "rho_max_mm = 60.0\ngauge_resolution_mm = 0.001\n")
+    campaign = Campaign(tmp_path / "campaign.toml", read_machine(tmp_path / "machine.toml"),
+                        tmp_path / "machine.toml", tmp_path / "session.jsonl",
+                        ProtocolConfig(cycles=1), ControllerSpec("cia402", "10.0.0.2:502"), gauges)
+    campaign.path.write_text(campaign_file_text(campaign, set(), None))
+    assert [(g.gauge, g.protocol, g.port) for g in read_campaign(campaign.path).gauges] == \
+        [(g.gauge, g.protocol, g.port) for g in gauges]

@@ -85,6 +85,31 @@ def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
                    if d and d != "n/a"]
         hwid = port.hwid if port.hwid and port.hwid != "n/a" else ""
         found.append(DetectedPort(port.device, ", ".join(details) or hwid or "no description"))
+    return found + _usb_itn_cables()
+
+
+def _usb_itn_cables() -> list[DetectedPort]:
+    """USB-ITN cables: on the USB bus (data mode, when pyusb and libusb are there) and
+    as keyboards (their input device, found by USB ids). A listing is a convenience,
+    so any failure just lists nothing."""
+    from drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
+    from drivers.input_link import find_event_devices
+
+    found: list[DetectedPort] = []
+    try:
+        import usb.core
+
+        for dev in usb.core.find(find_all=True, idVendor=VENDOR_ID, idProduct=PRODUCT_ID):
+            found.append(DetectedPort(f"usb:{dev.bus}.{dev.address}",
+                                      "Mitutoyo USB-ITN cable (protocol usb-itn: data mode)"))
+    except Exception:  # no pyusb, no libusb, no permission: type the port instead
+        pass
+    try:
+        nodes = find_event_devices(VENDOR_ID, PRODUCT_ID)
+    except OSError:
+        nodes = []
+    found += [DetectedPort(str(node), "Mitutoyo USB-ITN cable typing as a keyboard "
+                                      "(protocol usb-itn-keyboard)") for node in nodes]
     return found
 
 
@@ -204,6 +229,16 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
     if protocol == "uwave":
         screen.note("U-WAVE sends a value when the transmitter's DATA button is pressed: "
                     "press it when a gauge is tested.")
+    if protocol == "usb-itn":
+        screen.note("USB-ITN in data mode: the port is usb (the one cable), usb:SERIAL or "
+                    "usb:BUS.ADDRESS (lsusb shows them); ogacq switches the cable to data mode.")
+    if protocol == "usb-itn-keyboard":
+        screen.note("USB-ITN in keyboard mode: the port is keyboard (the cable, found by its "
+                    "USB ids) or /dev/input/eventN; press the cable's data switch when a gauge "
+                    "is tested. The typed values go to ogacq only, not into other windows.")
+    if protocol == "sylvac-simplex":
+        screen.note("Sylvac simplex cable: it needs a real serial port (or an RFC 2217 "
+                    "server) with DTR and RTS; ogacq asks for each value with a DTR pulse.")
 
     if _indicator_count(screen, indicators, rehearsal_indicators) == 2:
         return _moved_indicators(screen, ports, legs, protocol, notes)

@@ -81,6 +81,7 @@ class WizardOptions:
     max_offset_mm: float = 2.0
     by_eye: bool = False
     indicators: int | None = None  # 6 (left in place) or 2 (moved leg to leg); None: asked
+    gauge_protocol: str = "mitutoyo-01a"  # what a rehearsal's simulated gauges speak
     faults: list[FaultPlan] = field(default_factory=list)
     resume: Path | None = None
 
@@ -153,7 +154,8 @@ class _Wizard:
         if opts.simulator:
             assert machine is not None and machine_path is not None
             sim = SimulatorSpec(seed=opts.seed, speed=opts.speed, profile=opts.profile,
-                                gauge_layout="moved" if opts.indicators == 2 else "separate")
+                                gauge_layout="moved" if opts.indicators == 2 else "separate",
+                                gauge_protocol=opts.gauge_protocol)
             self._start_rehearsal(cleanup, Campaign(folder / "campaign.toml", machine,
                                                      machine_path, folder / "session.jsonl",
                                                      protocol), sim)

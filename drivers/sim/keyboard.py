@@ -1,0 +1,216 @@
+"""A simulated USB-ITN cable in keyboard mode: key events in a device node.
+
+Without ``/dev/uinput`` (none in the sandbox, and creating input devices needs
+root), the cable is an input-event stream written into a named pipe standing for
+``/dev/input/eventN``, inside a temporary tree that also holds the sysfs entries
+the kernel would publish (``sys/class/input/eventN/device/id/vendor``...). The
+driver finds, checks and reads it with the code it uses on a real system
+(:mod:`drivers.input_link`); only the grab ioctl has nothing to grab.
+
+Each press of the data switch (every ``period_s``, or :meth:`trigger`) types the
+displayed value and Enter as ``struct input_event`` records (press, release, a
+SYN_REPORT after each). One line is written at once (well under PIPE_BUF, so
+atomically) or dropped when the reader lags that far, as evdev drops events.
+Faults: silence, garbled (a letter among the digits), stale, inch, unplug (the
+node disappears: the reader sees end of file).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import shutil
+import tempfile
+import threading
+import time
+from collections.abc import Callable
+from decimal import Decimal
+from pathlib import Path
+from typing import Any
+
+from drivers.indicators import usb_itn
+from drivers.indicators.base import Unit
+from drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
+from drivers.input_link import EVENT
+from drivers.sim.gauges import MM_PER_INCH, Fault, _decimals_for
+
+log = logging.getLogger(__name__)
+
+EV_SYN = 0  # linux/input-event-codes.h; SYN_REPORT is code 0
+EV_MSC, MSC_SCAN = 4, 4  # the scan code a HID keyboard reports before each key event
+
+
+class KeyboardEndpoint:
+    """One simulated keyboard-mode cable; clients open :attr:`port` (a device node path)."""
+
+    protocol = "usb-itn-keyboard"
+
+    def __init__(
+        self,
+        value_source: Callable[[], float],
+        *,
+        resolution_mm: float = 0.001,
+        unit: Unit = "mm",
+        period_s: float | None = None,
+        name: str | None = None,
+        vendor_id: int = usb_itn.VENDOR_ID,
+        product_id: int = usb_itn.PRODUCT_ID,
+    ) -> None:
+        self.value_source = value_source
+        self.resolution_mm = resolution_mm
+        self.unit: Unit = unit
+        self.period_s = period_s
+        self.name = name or "sim usb-itn keyboard"
+        self.ids = (vendor_id, product_id)
+        self._mm_decimals = _decimals_for(resolution_mm, 6)
+        self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH, 6)
+        self.lines_typed = 0
+        self.unplugged = False
+        self._faults: dict[Fault, list[Any]] = {}
+        self._lock = threading.Lock()
+        self._root: Path | None = None
+        self._fd = -1
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._last_value_mm: float | None = None
+
+    # ---------------------------------------------------------------- lifecycle
+    @property
+    def port(self) -> str:
+        if self._root is None:
+            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
+        return str(self._root / "dev" / "input" / "event0")
+
+    def start(self) -> KeyboardEndpoint:
+        if self._root is not None:
+            return self
+        root = Path(tempfile.mkdtemp(prefix="ogacq-keyboard-"))
+        ids = root / "sys" / "class" / "input" / "event0" / "device" / "id"
+        ids.mkdir(parents=True)
+        # sysfs writes the ids as four hex digits and a newline.
+        (ids / "vendor").write_text(f"{self.ids[0]:04x}\n")
+        (ids / "product").write_text(f"{self.ids[1]:04x}\n")
+        (ids / "bustype").write_text("0003\n")  # BUS_USB
+        (ids.parent / "name").write_text("Mitutoyo USB-ITN (simulated)\n")
+        node = root / "dev" / "input" / "event0"
+        node.parent.mkdir(parents=True)
+        os.mkfifo(node)
+        # Read-write: opening never blocks, and the reader sees end of file only
+        # when this end closes (the unplug).
+        self._fd = os.open(node, os.O_RDWR | os.O_NONBLOCK)
+        self._root = root
+        if self.period_s:
+            self._thread = threading.Thread(
+                target=self._press_periodically, daemon=True, name=self.name
+            )
+            self._thread.start()
+        return self
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2)
+        self._unplug_now()
+        if self._root is not None:
+            shutil.rmtree(self._root, ignore_errors=True)
+
+    def __enter__(self) -> KeyboardEndpoint:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"KeyboardEndpoint({self.port if self._root else 'not started'})"
+
+    # ------------------------------------------------------------------- faults
+    def set_fault(
+        self, kind: Fault | str, *, code: str = "", count: int | None = None, **_: Any
+    ) -> None:
+        kind = Fault(kind)
+        if kind is Fault.UNPLUG:
+            self.unplug()
+            return
+        if kind is Fault.STALE:
+            value = self._last_value_mm if self._last_value_mm is not None else self.value_source()
+            for _ in range(count or 3):
+                self._type(self._text(value, self.unit))
+            return
+        if kind not in (Fault.SILENCE, Fault.GARBLED, Fault.INCH):
+            raise ValueError(f"a keyboard cable cannot show {kind}")
+        with self._lock:
+            self._faults[kind] = [code, count]
+
+    def clear_fault(self, kind: Fault | str | None = None) -> None:
+        with self._lock:
+            if kind is None:
+                self._faults.clear()
+            else:
+                self._faults.pop(Fault(kind), None)
+
+    def unplug(self) -> None:
+        self.unplugged = True
+        self._unplug_now()
+
+    def trigger(self) -> None:
+        """The data switch is pressed once."""
+        with self._lock:
+            faults = dict(self._faults)
+            for kind, state in list(self._faults.items()):
+                if state[1] is not None and kind is not Fault.INCH:
+                    state[1] -= 1
+                    if state[1] <= 0:
+                        del self._faults[kind]
+        if Fault.SILENCE in faults or self.unplugged:
+            return
+        value = float(self.value_source())
+        self._last_value_mm = value
+        text = self._text(value, "inch" if Fault.INCH in faults else self.unit)
+        if Fault.GARBLED in faults:
+            middle = len(text) // 2
+            text = text[:middle] + "A" + text[middle + 1 :]
+        self._type(text)
+
+    # ----------------------------------------------------------------- typing
+    def _press_periodically(self) -> None:
+        assert self.period_s
+        while not self._stop.wait(self.period_s):
+            if self.unplugged:
+                return
+            self.trigger()
+
+    def _text(self, value_mm: float, unit: Unit) -> str:
+        if unit == "mm":
+            shown = Decimal(round(value_mm / self.resolution_mm)) * Decimal(str(self.resolution_mm))
+            return f"{shown:.{self._mm_decimals}f}"
+        return f"{Decimal(repr(value_mm / MM_PER_INCH)):.{self._inch_decimals}f}"
+
+    def _type(self, text: str) -> None:
+        now = time.time()
+        sec, usec = int(now), int((now % 1) * 1e6)
+        records = bytearray()
+        for code, value in key_events(text):
+            records += EVENT.pack(sec, usec, EV_MSC, MSC_SCAN, code)
+            records += EVENT.pack(sec, usec, EV_KEY, code, value)
+            records += EVENT.pack(sec, usec, EV_SYN, 0, 0)
+        with self._lock:
+            if self._fd < 0:
+                return
+            try:
+                os.write(self._fd, records)  # < PIPE_BUF: all or nothing
+            except BlockingIOError:
+                log.debug("%s: reader lagging, a typed line dropped", self.name)
+                return
+        self.lines_typed += 1
+
+    def _unplug_now(self) -> None:
+        with self._lock:
+            if self._fd >= 0:
+                with contextlib.suppress(OSError):
+                    os.close(self._fd)
+                self._fd = -1
+        if self._root is not None:  # the kernel removes the node and its sysfs entry
+            with contextlib.suppress(OSError):
+                os.unlink(self._root / "dev" / "input" / "event0")
+            shutil.rmtree(self._root / "sys" / "class" / "input" / "event0", ignore_errors=True)
