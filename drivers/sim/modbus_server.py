@@ -17,10 +17,13 @@ here is where the simulation happens:
 Behaviour comes from the profile's ``family``:
 
 - ``iai-robo``: coils PMSL (Modbus control), SON, HOME (rising edge), ALRS
-  (rising edge), STP (pause); the direct-move block starts a move when written;
-  status words from the profile's flags.
+  (the reset happens on the change back to 0000, as IAI's manual writes it),
+  STP (pause: releasing it resumes the remaining distance, as the manual says),
+  STOP (deceleration stop: cancels the move, and the coil resets itself); the
+  direct-move block starts a move when written; status words from the profile's flags.
 - ``cia402``: the CiA 402 state machine on the controlword (0x06 shutdown,
-  0x07 switch on, 0x0F enable, bit 7 fault reset on its rising edge, bit 8 halt,
+  0x07 switch on, 0x0F enable, bit 7 fault reset on its rising edge, bit 8 halt:
+  releasing it continues the positioning, bit 2 low quick stop: cancels it,
   bit 4 new set-point / start homing on its rising edge), modes 1 (profile
   position) and 6 (homing), statusword bits 10 (target reached) and 12
   (set-point acknowledged / homing attained), error code, home offset applied
@@ -200,6 +203,7 @@ class _IaiAxis(_SimulatedAxis):
         "home_command",
         "alarm_reset_command",
         "pause_command",
+        "decel_stop_command",
         "position_actual",
         "alarm_code",
         "move_target",
@@ -223,11 +227,18 @@ class _IaiAxis(_SimulatedAxis):
                 log.info("%s: homing ignored: pause (STP) is on", self.where)
                 return
             self._note(self.model.home(self.axis, home_position_mm=0.0), "homing")
-        elif name == "alarm_reset_command" and new and not old:
+        elif name == "alarm_reset_command" and old and not new:
+            # IAI: ALRS FF00 then 0000, "the reset happens on the change back to 0000"
             self.model.reset_alarm(self.axis)
             self.alarm_code = 0
         elif name == "pause_command" and new:
-            self.model.stop(self.axis)
+            self.model.pause(self.axis)
+        elif name == "pause_command" and old and not new:
+            # IAI: releasing STP resumes the remaining distance of the paused move
+            self._note(self.model.resume(self.axis) or Outcome.STARTED, "resume")
+        elif name == "decel_stop_command" and new:
+            self.model.stop(self.axis)  # cancels the move, paused or not
+            self.memory.coils[self.profile.value(name).address] = False  # resets itself
 
     def on_registers_written(self, names: list[str]) -> ExcCodes | None:
         if "move_target" not in names:
@@ -380,7 +391,10 @@ class _CiaAxis(_SimulatedAxis):
             self.setpoint_ack = False
             return
         if rising & _CW_HALT:
-            self.model.stop(self.axis)
+            self.model.pause(self.axis)
+        elif falling & _CW_HALT and self.mode == _MODE_PROFILE_POSITION:
+            # CiA 402 profile position, halt = 0: "execute or continue the positioning"
+            self._note(self.model.resume(self.axis) or Outcome.STARTED, "halt released")
         if falling & _CW_NEW_SETPOINT:
             self.setpoint_ack = False
         if rising & _CW_NEW_SETPOINT and not cw & _CW_HALT:

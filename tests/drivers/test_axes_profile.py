@@ -46,7 +46,7 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
         ("[codec]\n", "[codec]\nwords_order = 1\n", "codec", "unknown key(s) 'words_order'"),
         ('word_order = "high_first"', 'word_order = "big"', "codec.word_order", "must be one of"),
         ("address = 0x9000,", "address = true,", "values.position_actual.address", "must be int"),
-        ("bit = 12 }  # SV", "bit = 16 }", "flags.servo_on.bit", "must be 0..15"),
+        ("bit = 12 }  # SV [ME0162 DSS1]", "bit = 16 }", "flags.servo_on.bit", "must be 0..15"),
         (
             'value = "expansion_status", bit = 5',
             'value = "status_ext", bit = 5',
@@ -62,14 +62,14 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
         (
             '"move_band", "move_speed"',
             '"move_speed", "move_band"',
-            "commands.move.start[1].to",
+            "commands.move.start[0].to",
             "not contiguous",
         ),
-        ('"$band_mm"', '"$band"', "commands.move.start[1].value[1]", "is not one of"),
+        ('"$band_mm"', '"$band"', "commands.move.start[0].value[1]", "is not one of"),
         (
             'to = "servo_on_command", value = true',
             'to = "position_actual", value = 1.0',
-            "commands.enable.start[2].to",
+            "commands.enable.start[3].to",
             "not writable",
         ),
         (
@@ -80,16 +80,16 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
         ),
         ('kind = "software"', 'kind = "register"', "offset.kind", "must be one of"),
         (
-            "value = false, skip_unchanged = true }",
-            "value = false, skip_unchanged = true, edge = true }",
-            "commands.move.start[0]",
+            'to = "home_command", value = false },',
+            'to = "home_command", value = false, skip_unchanged = true, edge = true },',
+            "commands.home.start[0]",
             "edge and skip_unchanged exclude each other",
         ),
         (  # the move's start is confirmed in finish: without it, refused
             '  { op = "confirm", any = ["moving"], done = "in_position", at = "$target_mm" },'
             "\n]\n\n[commands.stop]",
             "]\n\n[commands.stop]",
-            "commands.move.start[1]",
+            "commands.move.start[0]",
             "followed by a wait or confirm",
         ),
         ("[limits]", "[limits]\n", "", ""),  # control: harmless edit still loads
