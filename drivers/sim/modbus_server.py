@@ -486,6 +486,7 @@ class ModbusSimServer:
         serial_port: str | None = None,
         baudrate: int | None = None,
         pace: bool = True,
+        axes: Iterable[str] | None = None,
     ) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
@@ -501,13 +502,20 @@ class ModbusSimServer:
         self.serial_port = serial_port
         self.baudrate = baudrate or self.profile.transport.baudrate
         self.pace = pace
-        missing = [a for a in self.profile.device_ids if a not in motion.axes]
+        # the axes behind this endpoint: all (one bus), or one (a drive per address)
+        self.axes = tuple(axes) if axes is not None else tuple(self.profile.device_ids)
+        missing = [a for a in self.axes if a not in motion.axes]
         if missing:
             raise ValueError(f"sim server: motion model lacks axes {missing}")
+        ids = [self.profile.device_ids[a] for a in self.axes]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"sim server: axes {list(self.axes)} share a device id in profile "
+                             f"{self.profile.name!r}: serve one axis per endpoint")
         family = _FAMILIES[self.profile.family]
         self.devices: dict[int, _SimulatedAxis] = {
-            dev: family(self.profile, motion, axis, dev)
-            for axis, dev in self.profile.device_ids.items()
+            self.profile.device_ids[axis]: family(self.profile, motion, axis,
+                                                  self.profile.device_ids[axis])
+            for axis in self.axes
         }
         self._bridge: PtyBridge | None = None
         self._thread: threading.Thread | None = None
@@ -558,7 +566,7 @@ class ModbusSimServer:
             host=self.host if self.transport == "tcp" else None,
             port=client_port,
             profile=self.profile.name,
-            device_ids=dict(self.profile.device_ids),
+            device_ids={a: self.profile.device_ids[a] for a in self.axes},
             baudrate=self.baudrate if self.transport == "rtu" else None,
         )
         log.info("simulated %s controller serving %s", self.profile.name, self._address.as_dict())
@@ -726,6 +734,10 @@ class ModbusSimServer:
         registers: list[int],
         set_values: Iterable[int] | Iterable[bool] | None,
     ) -> ExcCodes | None:
+        if function_code not in self.profile.transport.functions:
+            # a drive serving FC 03/08/16 only (MR-JE-C) answers anything else so
+            log.info("%s: function %d refused (illegal function)", unit.where, function_code)
+            return ExcCodes.ILLEGAL_FUNCTION
         try:
             if set_values is not None:
                 if function_code in _COIL_FUNCTIONS:
