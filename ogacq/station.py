@@ -23,6 +23,7 @@ from typing import Any
 
 from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.preflight import run_preflight
 from drivers.axes.profile import load_profile
 from drivers.errors import DriverError
 from drivers.indicators import backend, open_indicator
@@ -54,6 +55,9 @@ class DeviceStation:
         joint offsets in force recorded (a home offset takes effect at this homing)."""
         self.controller.enable()
         self.controller.home()
+        # before the first move: word order, home-offset sign, plausible status
+        run_preflight(self.controller)
+        self.controller.home()  # back to the known start the probe move left
         self.description.setdefault("controller", {})["offsets_mm"] = \
             self.controller.read_offsets()
         self._t0 = self.clock_s()
