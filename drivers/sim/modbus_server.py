@@ -313,17 +313,15 @@ _CIA_FLAG_BITS = {
 class _CiaAxis(_SimulatedAxis):
     """A CiA 402 drive (one per axis) with objects mapped at their index."""
 
+    # home_offset, store_parameters, mode_display and error_code are served when the
+    # profile maps them (a drive whose map has no source for them leaves them out)
     required_values = (
         "controlword",
         "statusword",
         "mode",
-        "mode_display",
         "position_actual",
         "target_position",
-        "home_offset",
         "profile_velocity",
-        "error_code",
-        "store_parameters",
     )
 
     def __init__(self, profile: Profile, model: MotionModel, axis: str, device_id: int) -> None:
@@ -348,7 +346,7 @@ class _CiaAxis(_SimulatedAxis):
         return int(self.get("mode"))
 
     def on_registers_written(self, names: list[str]) -> ExcCodes | None:
-        if "store_parameters" in names:
+        if "store_parameters" in names and "store_parameters" in self.profile.values:
             return self._store_parameters()
         if "home_offset" in names:
             log.info(
@@ -413,7 +411,8 @@ class _CiaAxis(_SimulatedAxis):
 
     def _new_setpoint(self, cw: int) -> None:
         if self.mode == _MODE_HOMING:
-            home_offset_mm = float(self.get("home_offset"))
+            home_offset_mm = (float(self.get("home_offset"))
+                              if "home_offset" in self.profile.values else 0.0)
             outcome = self.model.home(
                 self.axis, home_position_mm=self.profile.offset.sign * home_offset_mm
             )
@@ -457,9 +456,11 @@ class _CiaAxis(_SimulatedAxis):
         elif self.setpoint_ack:
             word |= _SW_BIT12  # set-point acknowledged
         self.put("statusword", word)
-        self.put("mode_display", self.mode)
+        if "mode_display" in self.profile.values:
+            self.put("mode_display", self.mode)
         self.put("position_actual", snap.counter_mm)
-        self.put("error_code", self.error_code)
+        if "error_code" in self.profile.values:
+            self.put("error_code", self.error_code)
 
 
 _FAMILIES: dict[str, type[_SimulatedAxis]] = {"iai-robo": _IaiAxis, "cia402": _CiaAxis}

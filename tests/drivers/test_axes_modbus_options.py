@@ -80,3 +80,25 @@ def test_functions_must_cover_what_the_profile_uses() -> None:
         _variant("cia402", transport={"functions": [3, 6]})
     with pytest.raises(ProfileError, match=r"\[transport.functions\[2\]\] must be one of"):
         _variant("cia402", transport={"functions": [3, 16, 4]})
+
+
+def test_the_simulator_serves_the_kinco_map_over_rtu() -> None:
+    profile = load_profile("kinco-fd")
+    model = MotionModel(SimClock(speed=50.0))
+    server = ModbusSimServer(profile, model, transport="rtu")
+    address = server.start()
+    link = ModbusLink.for_profile(profile, transport="rtu", serial_port=str(address.port))
+    try:
+        c = AxisController(profile, link)
+        c.enable()
+        c.home()
+        assert c.move_to({"x": 3.0, "y": 0.0, "z": -2.0})["z"].position_mm == pytest.approx(-2.0)
+        c.move_to({"x": -90.0}, speed_mm_s=5.0, wait=False)
+        c.stop(["x"])
+        stopped = model.raw_position_mm("x")
+        c.reset_alarms()
+        c.enable()
+        assert model.raw_position_mm("x") == stopped and -90.0 < stopped < 3.0
+    finally:
+        link.close()
+        server.stop()
