@@ -312,6 +312,7 @@ def _controller(src: _Source, table: dict, base: Path) -> ControllerSpec:
             raise src.fail(f"offsets_file: profile {profile!r} keeps the joint offsets in the "
                            f"controller ({kind}); a software offset table does not apply",
                            "offsets_file", after)
+    _check_unit_ids(src, profile, table.get("port", ""), axes, after)
     return ControllerSpec(
         profile=profile,
         port=_typed(src, table, "port", str, "controller", after) if "port" in table else "",
@@ -344,6 +345,30 @@ def _controller_axes(src: _Source, table: Any, after: int) -> dict[str, AxisEndp
                 if "port" in entry else None)
         out[axis] = AxisEndpoint(port, device_id)
     return out
+
+
+def _check_unit_ids(src: _Source, profile: str, shared: Any, axes: dict[str, AxisEndpoint],
+                    after: int) -> None:
+    """A serial (RTU) endpoint addresses units 1..247 only (Modbus over Serial Line
+    V1.02 §2.2); TCP takes 0..255."""
+    from drivers.axes.profile import load_profile
+
+    try:
+        ids = dict(load_profile(profile).device_ids)
+    except (ValueError, OSError):
+        return  # the station reports the profile's own error
+    for axis, endpoint in axes.items():
+        if endpoint.device_id is not None:
+            ids[axis] = endpoint.device_id
+    for axis, unit in ids.items():
+        endpoint = axes.get(axis)
+        port = endpoint.port if endpoint is not None and endpoint.port else shared
+        host, sep, number = str(port).rpartition(":")
+        serial = not (sep and number.isdigit() and not str(port).startswith("/"))
+        if serial and not 1 <= unit <= 247:
+            raise src.fail(f"axis {axis}: device id {unit} cannot be addressed over Modbus RTU "
+                           f"on {port} (1..247); set controller.axes.{axis}.device_id",
+                           "axes" if axes else "profile", after)
 
 
 def _offset_kind(profile: str) -> str | None:

@@ -97,6 +97,8 @@ def test_endpoint_per_axis_and_unit_ids(tmp_path):
     ('w = { port = "10.0.0.11:502" }\n', "has no axis 'w'"),
     ('x = { port = "a:1", device_id = 300 }\n', "device_id must be 0..255"),
     ('x = { port = "a:1", unit = 3 }\n', "unknown key 'unit'"),
+    ('x = { port = "/dev/ttyUSB0", device_id = 255 }\ny = { port = "a:1" }\n'
+     'z = { port = "a:2" }\n', "device id 255 cannot be addressed over Modbus RTU"),
 ])
 def test_bad_axis_endpoints_refused(tmp_path, axes, words):
     from ogacq.campaign_file import read_campaign
