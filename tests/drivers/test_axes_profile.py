@@ -23,6 +23,11 @@ def test_shipped_profiles_load() -> None:
     assert iai.value("move_target").address == 0x9900
     assert iai.flags["moving"].value == "expansion_status" and iai.flags["moving"].bit == 5
     assert cia.flags["in_position"].bit == 10 and cia.flags["moving"].invert
+    jec, kinco = load_profile("mr-je-c"), load_profile("kinco-fd")
+    assert jec.transport.functions == (3, 8, 16) and not jec.transport.single_register_write
+    assert jec.device_ids == {"x": 255, "y": 255, "z": 255} and jec.nvm.kind == "none"
+    assert kinco.value("controlword").address == 0x3100
+    assert kinco.value("statusword").address == 0x3200 and kinco.offset.kind == "software"
 
 
 def test_load_by_path_gives_same_profile() -> None:
@@ -126,3 +131,21 @@ def test_invalid_toml_and_unknown_name(tmp_path: Path) -> None:
         load_profile(path)
     with pytest.raises(ProfileError, match="no such profile; available: cia402, iai-pcon"):
         load_profile("no-such-controller")
+
+
+@pytest.mark.parametrize("name", ["iai-pcon", "cia402", "mr-je-c", "kinco-fd"])
+def test_every_register_coil_and_bit_cites_its_source(name: str) -> None:
+    """Each line of [values] and [flags] names its manual ([TAG] defined in the header)
+    or says "no source"; a register map without sources cannot be checked."""
+    text = (profiles_folder() / f"{name}.toml").read_text()
+    tags = set(re.findall(r"^#\s+(\[[A-Za-z0-9]+\])\s", text, flags=re.M))
+    assert tags, f"{name}: the header defines no source"
+    section = ""
+    for line in text.splitlines():
+        if line.startswith("["):
+            section = line.split("]")[0] + "]"
+            continue
+        if section in ("[values]", "[flags]") and re.match(r"^\w+\s*=\s*\{", line):
+            comment = line.partition("#")[2]
+            cited = {t + "]" for t in re.findall(r"\[[A-Za-z0-9]+", comment)}
+            assert "no source" in comment or cited & tags, f"{name}: {line}"
