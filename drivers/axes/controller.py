@@ -471,6 +471,32 @@ class AxisController:
             )
             self._write_value(axis, spec.value, spec.signature, what=f"save_to_nvm {axis}")
 
+    # ================================================================ for the pre-flight check
+
+    def chosen_axes(self, axes: Iterable[str] | None = None) -> tuple[str, ...]:
+        """``axes`` checked against this controller's (all of them for None)."""
+        return self._axes(axes)
+
+    def where(self, axis: str) -> str:
+        """Endpoint, device id and axis, for messages."""
+        return self._where(axis)
+
+    def read_raw(self, axis: str, name: str) -> float | int | bool:
+        """One named value of the profile, decoded (for checks outside the status poll)."""
+        return self._read_value(axis, name)
+
+    def counter_mm(self, status: AxisStatus) -> float:
+        """The controller's own position counter behind a status (software offset added)."""
+        return self._counter_position(status)
+
+    def counter_at_home_mm(self, axis: str) -> float:
+        """Where the position counter must read at the home point after a homing."""
+        return self._counter_at_home(axis)
+
+    def stop_quietly(self, axes: Sequence[str]) -> None:
+        """Stop ``axes``, logging (not raising) a failure: another error is the one to report."""
+        self._stop_after_failure(axes)
+
     # ================================================================ internals: coordinates
 
     def _axes(self, axes: Iterable[str] | None) -> tuple[str, ...]:

@@ -69,11 +69,11 @@ def _step_mm(controller: AxisController) -> float:
 def check_identity(controller: AxisController, axes: Iterable[str] | None = None) -> None:
     """Status pattern plausible for the family; the position read twice agrees (at rest)."""
     profile = controller.profile
-    for axis in controller._axes(axes):
-        where = controller._where(axis)
+    for axis in controller.chosen_axes(axes):
+        where = controller.where(axis)
         first = controller.read_status([axis])[axis]
         if profile.family == "cia402":
-            word = int(controller._read_value(axis, "statusword"))
+            word = int(controller.read_raw(axis, "statusword"))
             if not any(word & mask == value for mask, value, _ in CIA402_STATES):
                 raise PreflightError(
                     f"pre-flight {axis}: statusword {word:#06x} is no CiA 402 state: the device "
@@ -94,11 +94,11 @@ def check_home(controller: AxisController, axes: Iterable[str] | None = None) ->
     """After a homing: the position is the value the profile predicts at the home point."""
     profile = controller.profile
     step = _step_mm(controller) + 1e-9
-    for axis in controller._axes(axes):
-        where = controller._where(axis)
-        expected = controller._counter_at_home(axis)
+    for axis in controller.chosen_axes(axes):
+        where = controller.where(axis)
+        expected = controller.counter_at_home_mm(axis)
         status = controller.read_status([axis])[axis]
-        seen = controller._counter_position(status)
+        seen = controller.counter_mm(status)
         if abs(seen - expected) <= step:
             if expected == 0.0 and profile.offset.kind == "home_offset":
                 log.info("%s: home offset is 0: its sign (offset.sign) is checked at the next "
@@ -121,7 +121,7 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
                axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
     """A first small move of known size, watched on the way; stops the axes on a mismatch."""
     profile = controller.profile
-    chosen = controller._axes(axes)
+    chosen = controller.chosen_axes(axes)
     start = {a: s.position_mm for a, s in controller.read_status(chosen).items()}
     low, high = controller.soft_limits_mm
     targets = {a: q + probe_mm if q + probe_mm <= high else q - probe_mm
@@ -148,12 +148,12 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
             try:
                 status = controller.read_status([axis])[axis]
             except DriverError:
-                controller._stop_after_failure(chosen)
+                controller.stop_quietly(chosen)
                 raise
             q = status.position_mm
             lo, hi = sorted((start[axis], targets[axis]))
             if not lo - slack <= q <= hi + slack or status.fault:
-                controller._stop_after_failure(chosen)
+                controller.stop_quietly(chosen)
                 seen = (f"alarm {status.alarm_code:#x}" if status.fault
                         else f"position {q:+.4f} mm")
                 raise PreflightError(
@@ -161,17 +161,17 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
                     f"{start[axis]:+.4f} mm the drive showed {seen}, outside the way to "
                     f"{targets[axis]:+.4f} mm: the 32-bit word order is wrong; change "
                     f"codec.word_order in profile {profile.name!r}",
-                    field="codec.word_order", where=controller._where(axis))
+                    field="codec.word_order", where=controller.where(axis))
             if status.in_position and not status.moving and abs(q - targets[axis]) <= slack:
                 done.add(axis)
         if len(done) < len(chosen):
             if time.monotonic() > deadline:
-                controller._stop_after_failure(chosen)
+                controller.stop_quietly(chosen)
                 raise PreflightError(
                     f"pre-flight: the {probe_mm:g} mm probe move did not arrive within "
                     f"{limit:.0f} s: check codec.counts_per_mm and codec.word_order in profile "
                     f"{profile.name!r}", field="codec.counts_per_mm",
-                    where=controller._where(chosen[0]))
+                    where=controller.where(chosen[0]))
             time.sleep(controller.poll_interval_s)
     log.info("pre-flight: probe move of %g mm read back on %s", probe_mm, ", ".join(chosen))
 

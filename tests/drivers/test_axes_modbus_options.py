@@ -46,7 +46,7 @@ def test_fc16_only_drive_at_unit_255_one_endpoint_per_axis() -> None:
         reached = c.move_to({"x": 10.0, "y": -20.0, "z": 5.0})
         assert {a: s.position_mm for a, s in reached.items()} == pytest.approx(
             {"x": 10.0, "y": -20.0, "z": 5.0}, abs=0.011)
-        assert "device 255 (axis y)" in c._where("y") and str(servers[1].port) in c._where("y")
+        assert "device 255 (axis y)" in c.where("y") and str(servers[1].port) in c.where("y")
         # the same drive written with FC 6 answers "illegal function", as the issue saw
         fc6 = AxisController(_variant("cia402", axes__device_ids={"x": 255, "y": 255,
                                                                    "z": 255}), links)
