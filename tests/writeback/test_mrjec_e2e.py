@@ -70,6 +70,16 @@ def test_mrjec_campaign_write_restore_and_a_wrong_sign_caught(tmp_path, capsys, 
         assert not (tmp_path / "wrong.jsonl").exists() or \
             not load_session(tmp_path / "wrong.jsonl").of_type("reading")
 
+        # and a profile with the wrong 32-bit word order: stopped, the field named
+        swapped = tmp_path / "mr-je-c-swapped.toml"
+        swapped.write_text(Path(load_profile("mr-je-c").source).read_text()
+                           .replace('word_order = "low_first"', 'word_order = "high_first"'))
+        with pytest.raises(PreflightError) as stopped:
+            run_campaign(read_campaign(_campaign(tmp_path, info, "swapped", str(swapped))))
+        assert stopped.value.field == "codec.word_order" and "codec.word_order" in \
+            str(stopped.value)
+        assert controller_offsets(first) == pytest.approx(held, abs=1e-9)  # nothing written
+
         # restore through the wrong profile: refused by the pre-flight, nothing written
         wrong_restore = first.with_name("first-wrong.toml")
         wrong_restore.write_text(first.read_text().replace('profile = "mr-je-c"',
