@@ -103,6 +103,12 @@ class ControllerSpec:
         given = self.axes.get(axis)
         return given.port if given is not None and given.port else self.port
 
+    def endpoints(self) -> str:
+        """Where the controller answers, for messages: the shared port or one per axis."""
+        if not self.axes:
+            return self.port
+        return ", ".join(f"{a} {self.port_of(a)}" for a in ("x", "y", "z"))
+
     def device_ids(self) -> dict[str, int]:
         """Unit ids given in the campaign file (the profile's for the others)."""
         return {a: e.device_id for a, e in self.axes.items() if e.device_id is not None}
