@@ -7,8 +7,9 @@ the offset. Neither shows in the client's own bookkeeping, so this module looks
 where they do show:
 
 1. ``check_identity`` (nothing moves): the status words form a pattern the
-   family can show (a CiA 402 statusword is one of its state patterns), and the
-   position read twice at rest agrees within one register step.
+   family can show (a CiA 402 statusword is one of its state patterns; no axis
+   is in position and moving at once), and the position read twice at rest
+   agrees within one register step.
 2. ``check_home`` (after a homing): the position reads the value the profile
    predicts at the home point (``offset.sign`` × home offset, 0 for a software
    offset table) within one register step. Reading the opposite value names
@@ -80,6 +81,12 @@ def check_identity(controller: AxisController, axes: Iterable[str] | None = None
                     f"is not a CiA 402 drive at these addresses (check the profile's "
                     f"values.statusword.address and axes.device_ids)",
                     field="values.statusword.address", where=where)
+        if first.in_position and first.moving:
+            # in position and moving at once: a status bit read from the wrong place
+            raise PreflightError(
+                f"pre-flight {axis}: the status says in position and moving at once: check "
+                f"flags.in_position and flags.moving (and their registers) in profile "
+                f"{profile.name!r}", field="flags.moving", where=where)
         second = controller.read_status([axis])[axis]
         if not (first.moving or second.moving) and \
                 abs(first.position_mm - second.position_mm) > _step_mm(controller) + 1e-9:

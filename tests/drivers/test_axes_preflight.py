@@ -12,7 +12,7 @@ import pytest
 
 from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.preflight import PreflightError, check_home, run_preflight
+from drivers.axes.preflight import PreflightError, check_home, check_identity, run_preflight
 from drivers.axes.profile import Profile, load_profile, parse_profile
 from drivers.sim.clock import SimClock
 from drivers.sim.modbus_server import ModbusSimServer
@@ -76,3 +76,29 @@ def test_wrong_home_offset_sign_stops_after_homing() -> None:
         assert caught.value.field == "offset.sign"
         assert c.link.stats.writes == writes  # nothing written, nothing moved
         assert [model.raw_position_mm(a) for a in "xyz"] == [0.0, 0.0, 0.0]
+
+
+def test_a_status_bit_read_from_the_wrong_place_is_named() -> None:
+    drive = load_profile("iai-pcon")
+    raw = tomllib.loads(Path(drive.source).read_text(encoding="utf-8"))
+    raw["flags"]["moving"] = {"value": "device_status_1", "bit": 12}  # SV, not MOVE
+    client = parse_profile(raw, source="iai-pcon with moving on the servo bit")
+    with _drive(drive, client) as (c, _model, _server):
+        check_identity(c)  # servo off: nothing contradicts yet
+        drive_side = AxisController(drive, c.link)
+        drive_side.enable(["x"])
+        with pytest.raises(PreflightError, match="in position and moving at once") as caught:
+            check_identity(c, ["x"])
+        assert caught.value.field == "flags.moving"
+
+
+def test_a_device_that_is_no_cia402_drive_is_named() -> None:
+    drive = load_profile("cia402")
+    raw = tomllib.loads(Path(drive.source).read_text(encoding="utf-8"))
+    raw["values"]["statusword"]["address"] = 0x6060  # reads the mode (1): no CiA 402 state
+    raw["values"]["mode"]["address"] = 0x6041
+    client = parse_profile(raw, source="cia402 with statusword and mode swapped")
+    with _drive(drive, client) as (c, _model, _server):
+        with pytest.raises(PreflightError, match="is no CiA 402 state") as caught:
+            check_identity(c, ["x"])
+        assert caught.value.field == "values.statusword.address"
