@@ -9,9 +9,15 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     machine = "machine.toml"          # relative to this file
     session = "runs/cal-1.jsonl"      # where the session is written
     [controller]
-    profile = "cia402"                # or "iai-pcon", or a profile file path
-    port = "127.0.0.1:502"            # host:port (TCP) or a serial device (RTU)
+    profile = "cia402"                # or "iai-pcon", "mr-je-c", "kinco-fd", or a file path
+    port = "127.0.0.1:502"            # host:port (TCP) or a serial device (RTU), shared
+                                      # by the three axes (told apart by device id)
     baudrate = 38400                  # RTU only
+    [controller.axes]                 # instead of `port`, or beside it: one endpoint per
+                                      # axis (drives that are one Ethernet device each);
+    x = { port = "192.168.3.11:502", device_id = 255 }  # device_id: Modbus unit id,
+    y = { port = "192.168.3.12:502" } # 0..255 over TCP, 1..247 over RTU; the profile's
+    z = { port = "192.168.3.13:502" } # when left out. An axis without `port` uses the shared one
     offsets_file = "offsets.toml"     # software offset table (profiles without an offset
                                       # register, e.g. iai-pcon): applied to every commanded
                                       # position, written by `ogacq offsets write`
@@ -59,7 +65,8 @@ from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 PROTOCOLS = tuple(BACKENDS)
 
 _TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}
-_CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file"}
+_CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file", "axes"}
+_CONTROLLER_AXIS = {"port", "device_id"}
 _GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
 _PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
              "move_timeout_s"}
@@ -80,14 +87,37 @@ class GaugeSpec:
 
 
 @dataclass(frozen=True)
+class AxisEndpoint:
+    """Where one axis's drive answers, when it is not the shared ``port``."""
+
+    port: str | None = None
+    device_id: int | None = None
+
+
+@dataclass(frozen=True)
 class ControllerSpec:
     profile: str
-    port: str
+    port: str  # shared endpoint ("" when every axis has its own)
     baudrate: int | None = None
     timeout_s: float = 1.0
     # The software offset table (relative paths resolved against the campaign file);
     # None: the profile keeps its offsets in the controller, or none are applied.
     offsets_file: Path | None = None
+    axes: dict[str, AxisEndpoint] = field(default_factory=dict)
+
+    def port_of(self, axis: str) -> str:
+        given = self.axes.get(axis)
+        return given.port if given is not None and given.port else self.port
+
+    def endpoints(self) -> str:
+        """Where the controller answers, for messages: the shared port or one per axis."""
+        if not self.axes:
+            return self.port
+        return ", ".join(f"{a} {self.port_of(a)}" for a in ("x", "y", "z"))
+
+    def device_ids(self) -> dict[str, int]:
+        """Unit ids given in the campaign file (the profile's for the others)."""
+        return {a: e.device_id for a, e in self.axes.items() if e.device_id is not None}
 
 
 @dataclass(frozen=True)
@@ -305,10 +335,13 @@ def _protocol(src: _Source, proto: dict, stab: dict, machine: MachineSpec) -> Pr
 def _controller(src: _Source, table: dict, base: Path) -> ControllerSpec:
     after = src.line("controller") or 0
     _check_keys(src, table, _CONTROLLER, "[controller]", after)
-    for key in ("profile", "port"):
-        if key not in table:
-            raise src.fail(f"[controller] needs {key!r}", "controller")
+    if "profile" not in table:
+        raise src.fail("[controller] needs 'profile'", "controller")
     profile = _typed(src, table, "profile", str, "controller", after)
+    axes = _controller_axes(src, table.get("axes", {}), after)
+    if "port" not in table and not all(a in axes and axes[a].port for a in "xyz"):
+        raise src.fail("[controller] needs 'port', or a port for each of x, y and z in "
+                       "[controller.axes]", "controller")
     offsets_file = None
     if "offsets_file" in table:
         offsets_file = (base / _typed(src, table, "offsets_file", str, "controller", after)
@@ -318,14 +351,63 @@ def _controller(src: _Source, table: dict, base: Path) -> ControllerSpec:
             raise src.fail(f"offsets_file: profile {profile!r} keeps the joint offsets in the "
                            f"controller ({kind}); a software offset table does not apply",
                            "offsets_file", after)
+    _check_unit_ids(src, profile, table.get("port", ""), axes, after)
     return ControllerSpec(
         profile=profile,
-        port=_typed(src, table, "port", str, "controller", after),
+        port=_typed(src, table, "port", str, "controller", after) if "port" in table else "",
+        axes=axes,
         baudrate=_typed(src, table, "baudrate", int, "controller", after)
         if "baudrate" in table else None,
         timeout_s=float(_typed(src, table, "timeout_s", (int, float), "controller", after))
         if "timeout_s" in table else 1.0,
         offsets_file=offsets_file)
+
+
+def _controller_axes(src: _Source, table: Any, after: int) -> dict[str, AxisEndpoint]:
+    if not isinstance(table, dict):
+        raise src.fail("[controller.axes] must be a table of x, y, z", "axes", after)
+    out: dict[str, AxisEndpoint] = {}
+    for axis, entry in table.items():
+        if axis not in ("x", "y", "z"):
+            raise src.fail(f"[controller.axes] has no axis {axis!r} (x, y, z)", axis, after)
+        if not isinstance(entry, dict):
+            raise src.fail(f"controller.axes.{axis} must be a table such as "
+                           '{ port = "192.168.3.11:502", device_id = 255 }', axis, after)
+        _check_keys(src, entry, _CONTROLLER_AXIS, f"[controller.axes.{axis}]", after)
+        device_id = None
+        if "device_id" in entry:
+            device_id = _typed(src, entry, "device_id", int, f"controller.axes.{axis}", after)
+            if not 0 <= device_id <= 255:
+                raise src.fail(f"controller.axes.{axis}.device_id must be 0..255, got "
+                               f"{device_id}", "device_id", after)
+        port = (_typed(src, entry, "port", str, f"controller.axes.{axis}", after)
+                if "port" in entry else None)
+        out[axis] = AxisEndpoint(port, device_id)
+    return out
+
+
+def _check_unit_ids(src: _Source, profile: str, shared: Any, axes: dict[str, AxisEndpoint],
+                    after: int) -> None:
+    """A serial (RTU) endpoint addresses units 1..247 only (Modbus over Serial Line
+    V1.02 §2.2); TCP takes 0..255."""
+    from drivers.axes.profile import load_profile
+
+    try:
+        ids = dict(load_profile(profile).device_ids)
+    except (ValueError, OSError):
+        return  # the station reports the profile's own error
+    for axis, endpoint in axes.items():
+        if endpoint.device_id is not None:
+            ids[axis] = endpoint.device_id
+    for axis, unit in ids.items():
+        endpoint = axes.get(axis)
+        port = endpoint.port if endpoint is not None and endpoint.port else shared
+        host, sep, number = str(port).rpartition(":")
+        serial = not (sep and number.isdigit() and not str(port).startswith("/"))
+        if serial and not 1 <= unit <= 247:
+            raise src.fail(f"axis {axis}: device id {unit} cannot be addressed over Modbus RTU "
+                           f"on {port} (1..247); set controller.axes.{axis}.device_id",
+                           "axes" if axes else "profile", after)
 
 
 def _offset_kind(profile: str) -> str | None:

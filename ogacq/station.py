@@ -23,12 +23,13 @@ from typing import Any
 
 from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.preflight import run_preflight
 from drivers.axes.profile import load_profile
 from drivers.errors import DriverError
 from drivers.indicators import backend, open_indicator
 from drivers.indicators.base import read_stable
 from drivers.link import open_link
-from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import StabilityRule
 from ogacq.protocol.runner import GaugeValue
@@ -54,6 +55,9 @@ class DeviceStation:
         joint offsets in force recorded (a home offset takes effect at this homing)."""
         self.controller.enable()
         self.controller.home()
+        # before the first move: word order, home-offset sign, plausible status
+        run_preflight(self.controller)
+        self.controller.home()  # back to the known start the probe move left
         self.description.setdefault("controller", {})["offsets_mm"] = \
             self.controller.read_offsets()
         self._t0 = self.clock_s()
@@ -92,12 +96,15 @@ class DeviceStation:
             return False
 
 
-def _controller_link(spec: ControllerSpec, profile) -> ModbusLink:
-    host, sep, port = spec.port.rpartition(":")
-    if sep and port.isdigit() and not spec.port.startswith("/"):
+def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None) -> ModbusLink:
+    """A link to ``endpoint`` (host:port for TCP, else a serial device), the shared
+    ``spec.port`` when not given."""
+    where = spec.port if endpoint is None else endpoint
+    host, sep, port = where.rpartition(":")
+    if sep and port.isdigit() and not where.startswith("/"):
         return ModbusLink.for_profile(profile, transport="tcp", host=host, port=int(port),
                                       timeout_s=spec.timeout_s)
-    return ModbusLink.for_profile(profile, transport="rtu", serial_port=spec.port,
+    return ModbusLink.for_profile(profile, transport="rtu", serial_port=where,
                                   baudrate=spec.baudrate, timeout_s=spec.timeout_s)
 
 
@@ -124,7 +131,11 @@ def simulator_endpoints(simulator) -> tuple[ControllerSpec, list[GaugeSpec]]:
     info = simulator.info()
     m = info["modbus"]
     port = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
-    controller = ControllerSpec(m["profile"], port, m.get("baudrate"))
+    axes = {axis: AxisEndpoint(f"{a['host']}:{a['port']}" if a["transport"] == "tcp"
+                               else a["port"], a["device_ids"][axis])
+            for axis, a in info.get("modbus_axes", {}).items()}
+    controller = ControllerSpec(m["profile"], "" if axes else port, m.get("baudrate"),
+                                axes=axes)
     gauges = [GaugeSpec(key, g["protocol"], g["port"], channel=g.get("channel"),
                         serial=f"sim-{key}") for key, g in info["gauges"].items()]
     return controller, gauges
@@ -142,16 +153,27 @@ def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
             log.warning("offset table %s does not exist yet: software offsets are zero "
                         "(`ogacq offsets write` creates it)", spec.offsets_file)
         software = table.offsets_mm
-    link = _controller_link(spec, profile).connect()
-    try:
-        yield AxisController(profile, link, software_offsets_mm=software)
-    finally:
-        link.close()
+    with contextlib.ExitStack() as stack:
+        # one link per distinct endpoint: the three axes on one bus, or a drive per address
+        links: dict[str, ModbusLink] = {}
+        per_axis: dict[str, ModbusLink] = {}
+        for axis in profile.device_ids:
+            endpoint = spec.port_of(axis)
+            if endpoint not in links:
+                links[endpoint] = _controller_link(spec, profile, endpoint)
+                stack.callback(links[endpoint].close)
+                links[endpoint].connect()
+            per_axis[axis] = links[endpoint]
+        yield AxisController(profile, per_axis, device_ids=spec.device_ids(),
+                             software_offsets_mm=software)
 
 
 def _controller_description(spec: ControllerSpec, controller: AxisController) -> dict[str, Any]:
     out: dict[str, Any] = {"profile": spec.profile, "port": spec.port,
                            "offset_kind": controller.profile.offset.kind}
+    if spec.axes:
+        out["axes"] = {a: {"port": spec.port_of(a), "device_id": controller.device_ids[a]}
+                       for a in controller.axes}
     if spec.offsets_file is not None:
         out["offsets_file"] = str(spec.offsets_file)
     return out

@@ -103,20 +103,34 @@ class AxisController:
     def __init__(
         self,
         profile: Profile,
-        link: ModbusLink,
+        link: ModbusLink | Mapping[str, ModbusLink],
         *,
         axes: Iterable[str] | None = None,
+        device_ids: Mapping[str, int] | None = None,
         software_offsets_mm: Mapping[str, float] | None = None,
         soft_limits_mm: tuple[float, float] | None = None,
         speed_mm_s: float | None = None,
         poll_interval_s: float = 0.002,
     ) -> None:
         self.profile = profile
-        self.link = link
         self.axes: tuple[str, ...] = tuple(axes) if axes is not None else tuple(profile.device_ids)
-        unknown = [a for a in self.axes if a not in profile.device_ids]
+        #: Modbus unit id per axis: the profile's, unless the station gives its own.
+        self.device_ids = {**profile.device_ids, **dict(device_ids or {})}
+        unknown = [a for a in self.axes if a not in self.device_ids]
         if unknown:
             raise ValueError(f"profile {profile.name!r} has no device id for axes {unknown}")
+        # One link for all axes (one bus or gateway), or one per axis (a drive per address).
+        if isinstance(link, ModbusLink):
+            self._links = dict.fromkeys(self.axes, link)
+        else:
+            missing = [a for a in self.axes if a not in link]
+            if missing:
+                raise ValueError(f"no Modbus endpoint for axes {missing}")
+            self._links = {a: link[a] for a in self.axes}
+        #: The first axis's link (all of them where the axes share one).
+        self.link = self._links[self.axes[0]]
+        for axis in self.axes:
+            self._links[axis].check_device_id(self.device_ids[axis])
         low, high = soft_limits_mm or (profile.limits.min_mm, profile.limits.max_mm)
         if not low < high:
             raise ValueError(f"soft limits [{low}, {high}] mm are empty")
@@ -457,6 +471,32 @@ class AxisController:
             )
             self._write_value(axis, spec.value, spec.signature, what=f"save_to_nvm {axis}")
 
+    # ================================================================ for the pre-flight check
+
+    def chosen_axes(self, axes: Iterable[str] | None = None) -> tuple[str, ...]:
+        """``axes`` checked against this controller's (all of them for None)."""
+        return self._axes(axes)
+
+    def where(self, axis: str) -> str:
+        """Endpoint, device id and axis, for messages."""
+        return self._where(axis)
+
+    def read_raw(self, axis: str, name: str) -> float | int | bool:
+        """One named value of the profile, decoded (for checks outside the status poll)."""
+        return self._read_value(axis, name)
+
+    def counter_mm(self, status: AxisStatus) -> float:
+        """The controller's own position counter behind a status (software offset added)."""
+        return self._counter_position(status)
+
+    def counter_at_home_mm(self, axis: str) -> float:
+        """Where the position counter must read at the home point after a homing."""
+        return self._counter_at_home(axis)
+
+    def stop_quietly(self, axes: Sequence[str]) -> None:
+        """Stop ``axes``, logging (not raising) a failure: another error is the one to report."""
+        self._stop_after_failure(axes)
+
     # ================================================================ internals: coordinates
 
     def _axes(self, axes: Iterable[str] | None) -> tuple[str, ...]:
@@ -503,7 +543,7 @@ class AxisController:
         return max(self.profile.motion.in_position_band_mm, one_count) + 1e-9
 
     def _where(self, axis: str) -> str:
-        return f"{self.link.where(self.profile.device_ids[axis])} (axis {axis})"
+        return f"{self._links[axis].where(self.device_ids[axis])} (axis {axis})"
 
     # ================================================================ internals: registers
 
@@ -528,10 +568,10 @@ class AxisController:
         return self._make_poll(axis, self._read_values(axis, blocks))
 
     def _read_values(self, axis: str, blocks: Sequence[_Block]) -> dict[str, float | int]:
-        device = self.profile.device_ids[axis]
+        device, link = self.device_ids[axis], self._links[axis]
         values: dict[str, float | int] = {}
         for block in blocks:
-            registers = self.link.read_registers(device, block.address, block.count)
+            registers = link.read_registers(device, block.address, block.count)
             for name in block.names:
                 spec = self.profile.value(name)
                 offset = spec.address - block.address
@@ -580,26 +620,26 @@ class AxisController:
 
     def _read_value(self, axis: str, name: str) -> float | int | bool:
         spec = self.profile.value(name)
-        device = self.profile.device_ids[axis]
+        device, link = self.device_ids[axis], self._links[axis]
         if spec.function == "coil":
-            return self.link.read_coils(device, spec.address, 1)[0]
-        registers = self.link.read_registers(device, spec.address, spec.words)
+            return link.read_coils(device, spec.address, 1)[0]
+        registers = link.read_registers(device, spec.address, spec.words)
         return self.profile.decode(name, registers)
 
     def _write_value(self, axis: str, name: str, value: Any, *, what: str) -> None:
         spec = self.profile.value(name)
-        device = self.profile.device_ids[axis]
+        device, link = self.device_ids[axis], self._links[axis]
         encoded = self.profile.encode(name, value)
         label = f"{what}: {name}={value}"
         self._written.pop((axis, name), None)  # unknown until the write succeeds
         if spec.function == "coil":
-            self.link.write_coil(device, spec.address, bool(encoded), what=label)
-        elif spec.words == 1:
+            link.write_coil(device, spec.address, bool(encoded), what=label)
+        elif spec.words == 1 and self.profile.transport.single_register_write:
             assert isinstance(encoded, list)
-            self.link.write_register(device, spec.address, encoded[0], what=label)
-        else:
+            link.write_register(device, spec.address, encoded[0], what=label)
+        else:  # FC16, also for one register where the drive has no FC6 (MR-JE-C)
             assert isinstance(encoded, list)
-            self.link.write_registers(device, spec.address, encoded, what=label)
+            link.write_registers(device, spec.address, encoded, what=label)
         self._remember_written(axis, name, encoded)
 
     def _write_block(
@@ -614,8 +654,8 @@ class AxisController:
         label = f"{what}: " + ", ".join(f"{n}={v}" for n, v in zip(names, values, strict=True))
         for name in names:
             self._written.pop((axis, name), None)
-        self.link.write_registers(
-            self.profile.device_ids[axis], specs[0].address, registers, what=label
+        self._links[axis].write_registers(
+            self.device_ids[axis], specs[0].address, registers, what=label
         )
         at = 0
         for name, spec in zip(names, specs, strict=True):
@@ -638,7 +678,8 @@ class AxisController:
     def _drop_written_after_failures(self) -> None:
         # After a failed transaction (a write that may or may not have landed, a
         # lost link, a drive that rebooted), what the device holds is unknown.
-        failures = self.link.stats.failures
+        failures = sum(link.stats.failures for link in {id(k): k for k in
+                                                           self._links.values()}.values())
         if failures != self._written_failures:
             self._written.clear()
             self._written_failures = failures

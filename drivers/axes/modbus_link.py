@@ -181,6 +181,19 @@ class ModbusLink:
     def stats(self) -> LinkStats:
         return LinkStats(self._reads, self._writes, self._retries, self._failures)
 
+    def check_device_id(self, device_id: int) -> None:
+        """Refuse a unit id the transport cannot address.
+
+        RTU: 1..247 (0 is broadcast, never answered; 248..255 reserved): Modbus over
+        Serial Line V1.02 §2.2. TCP: 0..255; a device reached directly (not through a
+        gateway) is often addressed as 255 (Modbus Messaging on TCP/IP Implementation
+        Guide V1.0b, unit identifier; MR-JE-C's examples use 255).
+        """
+        low, high = (1, 247) if self.transport == "rtu" else (0, 255)
+        if not low <= device_id <= high:
+            raise ValueError(f"{self.endpoint}: device id {device_id} is outside {low}..{high} "
+                             f"for Modbus {self.transport.upper()}")
+
     def where(self, device_id: int) -> str:
         return f"{self.endpoint} device {device_id}"
 

@@ -56,6 +56,10 @@ STEP_PARAMETERS = (
     "move_timeout_s",
 )
 AXIS_NAMES = ("x", "y", "z")
+#: Function codes a profile may list in [transport].functions: read coils (1), read
+#: holding registers (3), write coil (5), write register (6), diagnostics (8, not
+#: used by this client), write registers (16). Modbus Application Protocol V1.1b3 §6.
+SUPPORTED_FUNCTIONS = (1, 3, 5, 6, 8, 16)
 
 
 class ProfileError(ValueError):
@@ -123,6 +127,13 @@ class TransportDefaults:
     tcp_port: int
     timeout_s: float
     read_retries: int
+    #: Modbus function codes the device serves (a drive may lack FC 1/5/6).
+    functions: tuple[int, ...] = (1, 3, 5, 6, 16)
+
+    @property
+    def single_register_write(self) -> bool:
+        """FC 6 for one register; without it, one register goes by FC 16."""
+        return 6 in self.functions
 
     @property
     def bits_per_byte(self) -> int:
@@ -459,6 +470,10 @@ class _Parser:
         device_ids = self.axes(top["axes"])
         codec = self.codec(top["codec"])
         values = self.values(top["values"])
+        coils = [v.name for v in values.values() if v.function == "coil"]
+        if coils and not {1, 5} <= set(transport.functions):
+            raise self.fail(f"values.{coils[0]}.function",
+                            "a coil needs FC 1 and 5, which [transport].functions leaves out")
         flags = self.flags(top["flags"], values)
         status = self.status(top["status"], values, flags)
         offset = self.offset(top["offset"], values)
@@ -495,7 +510,15 @@ class _Parser:
             "timeout_s",
             "read_retries",
         )
-        t = self.table(raw, "transport", keys)
+        t = self.table(raw, "transport", keys, optional=("functions",))
+        functions = tuple(self.typed(t.get("functions", [1, 3, 5, 6, 16]), list,
+                                     "transport.functions"))
+        for i, code in enumerate(functions):
+            self.choice(code, SUPPORTED_FUNCTIONS, f"transport.functions[{i}]")
+        for needed in (3, 16):
+            if needed not in functions:
+                raise self.fail("transport.functions", f"must include {needed} (this client "
+                                "reads with FC 3 and writes blocks with FC 16)")
         retries = self.typed(t["read_retries"], int, "transport.read_retries")
         if not 0 <= retries <= 5:
             raise self.fail("transport.read_retries", f"must be 0..5, got {retries}")
@@ -508,6 +531,7 @@ class _Parser:
             tcp_port=self.typed(t["tcp_port"], int, "transport.tcp_port"),
             timeout_s=self.number(t["timeout_s"], "transport.timeout_s", positive=True),
             read_retries=retries,
+            functions=functions,
         )
 
     def axes(self, raw: Any) -> dict[str, int]:
@@ -515,8 +539,9 @@ class _Parser:
         ids = self.table(a["device_ids"], "axes.device_ids", AXIS_NAMES)
         for axis, dev in ids.items():
             self.typed(dev, int, f"axes.device_ids.{axis}")
-            if not 1 <= dev <= 247:
-                raise self.fail(f"axes.device_ids.{axis}", f"must be 1..247, got {dev}")
+            # 0..255 on TCP; RTU allows 1..247 only (checked when the link is chosen)
+            if not 0 <= dev <= 255:
+                raise self.fail(f"axes.device_ids.{axis}", f"must be 0..255, got {dev}")
         return {axis: ids[axis] for axis in AXIS_NAMES}
 
     def codec(self, raw: Any) -> Codec:

@@ -17,10 +17,13 @@ here is where the simulation happens:
 Behaviour comes from the profile's ``family``:
 
 - ``iai-robo``: coils PMSL (Modbus control), SON, HOME (rising edge), ALRS
-  (rising edge), STP (pause); the direct-move block starts a move when written;
-  status words from the profile's flags.
+  (the reset happens on the change back to 0000, as IAI's manual writes it),
+  STP (pause: releasing it resumes the remaining distance, as the manual says),
+  STOP (deceleration stop: cancels the move, and the coil resets itself); the
+  direct-move block starts a move when written; status words from the profile's flags.
 - ``cia402``: the CiA 402 state machine on the controlword (0x06 shutdown,
-  0x07 switch on, 0x0F enable, bit 7 fault reset on its rising edge, bit 8 halt,
+  0x07 switch on, 0x0F enable, bit 7 fault reset on its rising edge, bit 8 halt:
+  releasing it continues the positioning, bit 2 low quick stop: cancels it,
   bit 4 new set-point / start homing on its rising edge), modes 1 (profile
   position) and 6 (homing), statusword bits 10 (target reached) and 12
   (set-point acknowledged / homing attained), error code, home offset applied
@@ -200,6 +203,7 @@ class _IaiAxis(_SimulatedAxis):
         "home_command",
         "alarm_reset_command",
         "pause_command",
+        "decel_stop_command",
         "position_actual",
         "alarm_code",
         "move_target",
@@ -223,11 +227,18 @@ class _IaiAxis(_SimulatedAxis):
                 log.info("%s: homing ignored: pause (STP) is on", self.where)
                 return
             self._note(self.model.home(self.axis, home_position_mm=0.0), "homing")
-        elif name == "alarm_reset_command" and new and not old:
+        elif name == "alarm_reset_command" and old and not new:
+            # IAI: ALRS FF00 then 0000, "the reset happens on the change back to 0000"
             self.model.reset_alarm(self.axis)
             self.alarm_code = 0
         elif name == "pause_command" and new:
-            self.model.stop(self.axis)
+            self.model.pause(self.axis)
+        elif name == "pause_command" and old and not new:
+            # IAI: releasing STP resumes the remaining distance of the paused move
+            self._note(self.model.resume(self.axis) or Outcome.STARTED, "resume")
+        elif name == "decel_stop_command" and new:
+            self.model.stop(self.axis)  # cancels the move, paused or not
+            self.memory.coils[self.profile.value(name).address] = False  # resets itself
 
     def on_registers_written(self, names: list[str]) -> ExcCodes | None:
         if "move_target" not in names:
@@ -302,17 +313,15 @@ _CIA_FLAG_BITS = {
 class _CiaAxis(_SimulatedAxis):
     """A CiA 402 drive (one per axis) with objects mapped at their index."""
 
+    # home_offset, store_parameters, mode_display and error_code are served when the
+    # profile maps them (a drive whose map has no source for them leaves them out)
     required_values = (
         "controlword",
         "statusword",
         "mode",
-        "mode_display",
         "position_actual",
         "target_position",
-        "home_offset",
         "profile_velocity",
-        "error_code",
-        "store_parameters",
     )
 
     def __init__(self, profile: Profile, model: MotionModel, axis: str, device_id: int) -> None:
@@ -337,7 +346,7 @@ class _CiaAxis(_SimulatedAxis):
         return int(self.get("mode"))
 
     def on_registers_written(self, names: list[str]) -> ExcCodes | None:
-        if "store_parameters" in names:
+        if "store_parameters" in names and "store_parameters" in self.profile.values:
             return self._store_parameters()
         if "home_offset" in names:
             log.info(
@@ -380,7 +389,10 @@ class _CiaAxis(_SimulatedAxis):
             self.setpoint_ack = False
             return
         if rising & _CW_HALT:
-            self.model.stop(self.axis)
+            self.model.pause(self.axis)
+        elif falling & _CW_HALT and self.mode == _MODE_PROFILE_POSITION:
+            # CiA 402 profile position, halt = 0: "execute or continue the positioning"
+            self._note(self.model.resume(self.axis) or Outcome.STARTED, "halt released")
         if falling & _CW_NEW_SETPOINT:
             self.setpoint_ack = False
         if rising & _CW_NEW_SETPOINT and not cw & _CW_HALT:
@@ -399,7 +411,8 @@ class _CiaAxis(_SimulatedAxis):
 
     def _new_setpoint(self, cw: int) -> None:
         if self.mode == _MODE_HOMING:
-            home_offset_mm = float(self.get("home_offset"))
+            home_offset_mm = (float(self.get("home_offset"))
+                              if "home_offset" in self.profile.values else 0.0)
             outcome = self.model.home(
                 self.axis, home_position_mm=self.profile.offset.sign * home_offset_mm
             )
@@ -443,9 +456,11 @@ class _CiaAxis(_SimulatedAxis):
         elif self.setpoint_ack:
             word |= _SW_BIT12  # set-point acknowledged
         self.put("statusword", word)
-        self.put("mode_display", self.mode)
+        if "mode_display" in self.profile.values:
+            self.put("mode_display", self.mode)
         self.put("position_actual", snap.counter_mm)
-        self.put("error_code", self.error_code)
+        if "error_code" in self.profile.values:
+            self.put("error_code", self.error_code)
 
 
 _FAMILIES: dict[str, type[_SimulatedAxis]] = {"iai-robo": _IaiAxis, "cia402": _CiaAxis}
@@ -472,6 +487,7 @@ class ModbusSimServer:
         serial_port: str | None = None,
         baudrate: int | None = None,
         pace: bool = True,
+        axes: Iterable[str] | None = None,
     ) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
@@ -487,13 +503,20 @@ class ModbusSimServer:
         self.serial_port = serial_port
         self.baudrate = baudrate or self.profile.transport.baudrate
         self.pace = pace
-        missing = [a for a in self.profile.device_ids if a not in motion.axes]
+        # the axes behind this endpoint: all (one bus), or one (a drive per address)
+        self.axes = tuple(axes) if axes is not None else tuple(self.profile.device_ids)
+        missing = [a for a in self.axes if a not in motion.axes]
         if missing:
             raise ValueError(f"sim server: motion model lacks axes {missing}")
+        ids = [self.profile.device_ids[a] for a in self.axes]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"sim server: axes {list(self.axes)} share a device id in profile "
+                             f"{self.profile.name!r}: serve one axis per endpoint")
         family = _FAMILIES[self.profile.family]
         self.devices: dict[int, _SimulatedAxis] = {
-            dev: family(self.profile, motion, axis, dev)
-            for axis, dev in self.profile.device_ids.items()
+            self.profile.device_ids[axis]: family(self.profile, motion, axis,
+                                                  self.profile.device_ids[axis])
+            for axis in self.axes
         }
         self._bridge: PtyBridge | None = None
         self._thread: threading.Thread | None = None
@@ -544,7 +567,7 @@ class ModbusSimServer:
             host=self.host if self.transport == "tcp" else None,
             port=client_port,
             profile=self.profile.name,
-            device_ids=dict(self.profile.device_ids),
+            device_ids={a: self.profile.device_ids[a] for a in self.axes},
             baudrate=self.baudrate if self.transport == "rtu" else None,
         )
         log.info("simulated %s controller serving %s", self.profile.name, self._address.as_dict())
@@ -712,6 +735,10 @@ class ModbusSimServer:
         registers: list[int],
         set_values: Iterable[int] | Iterable[bool] | None,
     ) -> ExcCodes | None:
+        if function_code not in self.profile.transport.functions:
+            # a drive serving FC 03/08/16 only (MR-JE-C) answers anything else so
+            log.info("%s: function %d refused (illegal function)", unit.where, function_code)
+            return ExcCodes.ILLEGAL_FUNCTION
         try:
             if set_values is not None:
                 if function_code in _COIL_FUNCTIONS:

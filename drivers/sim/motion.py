@@ -18,9 +18,14 @@ Two coordinates per axis:
 
 Moves follow a trapezoidal speed profile, then settle for ``settle_s`` before
 the axis reports in position. Stops are immediate (no deceleration ramp): the
-simulator favours clarity over dynamics. State is computed lazily from the
-clock on each query, so there is no background thread; one lock makes every
-call atomic, because the Modbus server thread and the machine both call in.
+simulator favours clarity over dynamics. Two kinds of stop, as drives have
+them: :meth:`MotionModel.stop` cancels the move (IAI deceleration stop, CiA 402
+quick stop), :meth:`MotionModel.pause` holds it and :meth:`MotionModel.resume`
+goes on for the remaining distance (IAI STP released, CiA 402 halt released),
+so a client that releases a pause it used as a stop sees the move complete.
+State is computed lazily from the clock on each query, so there is no
+background thread; one lock makes every call atomic, because the Modbus
+server thread and the machine both call in.
 """
 
 from __future__ import annotations
@@ -127,6 +132,8 @@ class _Axis:
     segment: _Segment | None = None
     settled_at_s: float = 0.0
     target_counter_mm: float = 0.0
+    #: The move a pause interrupted, resumed when the pause is released.
+    paused: _Segment | None = None
 
 
 class MotionModel:
@@ -242,6 +249,8 @@ class MotionModel:
             ax = self._update(axis, now)
             if not on and ax.segment is not None:
                 self._halt(ax, now)
+            if not on:
+                ax.paused = None  # simulator's choice: no remaining move survives servo off
             if ax.servo_on != on:
                 log.debug("sim axis %s: servo %s", axis, "on" if on else "off")
             ax.servo_on = on
@@ -278,6 +287,7 @@ class MotionModel:
                 return Outcome.SOFT_LIMIT
             speed = self._positive(speed_mm_s, self.speed_mm_s)
             accel = self._positive(accel_mm_s2, self.accel_mm_s2)
+            ax.paused = None
             self._start(ax, now, raw_target, speed, accel, dwell_s=0.0, home_position_mm=None)
             ax.target_counter_mm = counter_target_mm
             return Outcome.STARTED
@@ -292,6 +302,7 @@ class MotionModel:
                 log.info("sim axis %s: homing %s", axis, refused.value)
                 return refused
             ax.homed = False
+            ax.paused = None
             self._start(
                 ax,
                 now,
@@ -305,13 +316,47 @@ class MotionModel:
             return Outcome.STARTED
 
     def stop(self, axis: str) -> None:
-        """Stop where the axis is now; a homing stopped half way leaves the axis not homed."""
+        """Stop where the axis is now and cancel the move (and a paused one); a homing
+        stopped half way leaves the axis not homed."""
+        with self._lock:
+            now = self.clock.now()
+            ax = self._update(axis, now)
+            ax.paused = None
+            if ax.segment is not None:
+                self._halt(ax, now)
+                log.info("sim axis %s: stopped at raw %.3f mm", axis, ax.raw_mm)
+
+    def pause(self, axis: str) -> None:
+        """Stop where the axis is now but keep the move: :meth:`resume` completes it."""
         with self._lock:
             now = self.clock.now()
             ax = self._update(axis, now)
             if ax.segment is not None:
+                ax.paused = ax.segment
+                target = ax.target_counter_mm
                 self._halt(ax, now)
-                log.info("sim axis %s: stopped at raw %.3f mm", axis, ax.raw_mm)
+                ax.target_counter_mm = target
+                log.info("sim axis %s: paused at raw %.3f mm", axis, ax.raw_mm)
+
+    def resume(self, axis: str) -> Outcome | None:
+        """Go on for the remaining distance of a paused move (None: nothing was paused)."""
+        with self._lock:
+            now = self.clock.now()
+            ax = self._update(axis, now)
+            seg, ax.paused = ax.paused, None
+            if seg is None:
+                return None
+            refused = self._refusal(ax)
+            if refused is not None:
+                return refused
+            log.info("sim axis %s: pause released, resuming to raw %.3f mm", axis, seg.end_raw)
+            self._start(ax, now, seg.end_raw, seg.speed, seg.accel,
+                        dwell_s=seg.dwell_s, home_position_mm=seg.home_position_mm)
+            return Outcome.STARTED
+
+    def has_paused_move(self, axis: str) -> bool:
+        with self._lock:
+            return self._axis(axis).paused is not None
 
     def inject_alarm(self, axis: str, alarm: Alarm = Alarm.OVERLOAD) -> None:
         """A drive fault now: the axis halts where it is and refuses to move until reset."""
@@ -320,6 +365,7 @@ class MotionModel:
             ax = self._update(axis, now)
             if ax.segment is not None:
                 self._halt(ax, now)
+            ax.paused = None
             ax.alarm = alarm
             log.info("sim axis %s: alarm %s injected", axis, alarm.value)
 

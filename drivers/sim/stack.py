@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from drivers.axes.profile import load_profile
 from drivers.sim.clock import SimClock
 from drivers.sim.gauges import GaugeEndpoint
 from drivers.sim.machine import SimMachine
@@ -76,7 +77,13 @@ class SimulatorStack:
         m = config.machine
         self.motion = MotionModel(self.clock, soft_min_mm=m.rho_min_mm, soft_max_mm=m.rho_max_mm)
         self.machine = SimMachine(m, config.truth, self.motion, self.clock, seed=config.seed)
-        self.server = ModbusSimServer(config.profile, self.motion)
+        profile = load_profile(config.profile)
+        if len(set(profile.device_ids.values())) == len(profile.device_ids):
+            self.servers = [ModbusSimServer(profile, self.motion)]
+        else:  # one drive per address (MR-JE-C: unit 255 each): one endpoint per axis
+            self.servers = [ModbusSimServer(profile, self.motion, axes=[a])
+                            for a in profile.device_ids]
+        self.server = self.servers[0]
         self.gauges: dict[str, GaugeEndpoint] = {}
         self.channels: dict[str, str | None] = {}
         sources = {key: self.machine.value_source(*(AXES.index(c) for c in key.split("_")))
@@ -111,7 +118,8 @@ class SimulatorStack:
 
     def start(self) -> SimulatorStack:
         try:
-            self.server.start()
+            for server in self.servers:
+                server.start()
             for endpoint in self._endpoints():
                 endpoint.start()
         except BaseException:
@@ -123,7 +131,8 @@ class SimulatorStack:
     def close(self) -> None:
         for endpoint in self._endpoints():
             endpoint.close()
-        self.server.stop()
+        for server in self.servers:
+            server.stop()
         self._started = False
 
     def __enter__(self) -> SimulatorStack:
@@ -156,8 +165,10 @@ class SimulatorStack:
 
     def info(self) -> dict[str, Any]:
         """Where to connect, as ``ogacq sim --json`` prints it."""
+        per_axis = {s.axes[0]: s.info() for s in self.servers} if len(self.servers) > 1 else {}
         return {
             "modbus": self.server.info(),
+            **({"modbus_axes": per_axis} if per_axis else {}),
             "gauges": {key: {"port": g.port, "protocol": g.protocol}
                        | ({"channel": self.channels[key]} if self.channels[key] else {})
                        for key, g in self.gauges.items()},

@@ -113,9 +113,10 @@ def _ask(question: str) -> bool:
 def _approve_and_execute(controller, plan, session: LoadedSession, campaign: Campaign, *,
                          yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
     """Refuse, ask, then write: the part ``write`` and ``restore`` share."""
+    from drivers.errors import DriverError
     from ogacq.cli import render_offsets as render
     from ogacq.writeback.audit import AuditLog
-    from ogacq.writeback.execute import WriteBackError, WriteOptions, execute_plan
+    from ogacq.writeback.execute import WriteBackError, WriteOptions, execute_plan, preflight
 
     if plan.nothing_to_do:
         typer.echo(f"the controller already holds these offsets: nothing to {plan.action}")
@@ -141,6 +142,13 @@ def _approve_and_execute(controller, plan, session: LoadedSession, campaign: Cam
         options = WriteOptions(save_nvm=save_nvm, rehome=rehome,
                                forced=tuple(r.code for r in plan.refusals),
                                confirmed_by="--yes" if yes else "prompt", port=spec.port)
+        try:
+            preflight(controller, plan, options)
+        except DriverError as exc:
+            audit.record("refused", **summary, reasons=[f"pre-flight: {exc}"],
+                         codes=["preflight"])
+            typer.echo(f"ogacq: error: pre-flight check, nothing written: {exc}", err=True)
+            raise typer.Exit(EXIT_DEVICE) from None
         try:
             outcome = execute_plan(controller, plan, audit, options,
                                    offsets_file=spec.offsets_file)

@@ -96,6 +96,9 @@ def print_sim(info: dict) -> None:
     where = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
     console.print(f"[bold]simulated controller[/] ({m['profile']}, Modbus {m['transport'].upper()})"
                   f": {where}, device ids {m['device_ids']}")
+    for axis, a in info.get("modbus_axes", {}).items():  # one endpoint per axis
+        at = f"{a['host']}:{a['port']}" if a["transport"] == "tcp" else a["port"]
+        console.print(f"  axis {axis}: {at}, device id {a['device_ids'][axis]}")
     table = Table(show_edge=False, header_style="bold")
     table.add_column("gauge")
     table.add_column("port")

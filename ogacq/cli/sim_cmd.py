@@ -20,6 +20,8 @@ from ogacq.model.machine import PAPER_PROTOTYPE
 class Profile(StrEnum):
     cia402 = "cia402"
     iai_pcon = "iai-pcon"
+    mr_je_c = "mr-je-c"
+    kinco_fd = "kinco-fd"
 
 
 # Every protocol of the driver table, so a new cable is served as soon as it has a driver.
@@ -29,8 +31,9 @@ GaugeProtocol = StrEnum("GaugeProtocol", {name: name for name in BACKENDS})
 @app.command()
 def sim(
     profile: Annotated[Profile, typer.Option(
-        help="Controller register map: cia402 (Modbus TCP) or iai-pcon (Modbus RTU on a "
-             "pseudo-terminal).")] = Profile.cia402,
+        help="Controller register map: cia402 (Modbus TCP), iai-pcon (Modbus RTU on a "
+             "pseudo-terminal), mr-je-c (one Modbus TCP endpoint per axis, unit 255, "
+             "FC 03/08/16) or kinco-fd (RTU).")] = Profile.cia402,
     effects: Annotated[Path | None, typer.Option(
         help="TOML file of hidden effects (joint_offset, squareness, ... gauges.noise_mm).")]
     = None,

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from drivers.axes.controller import AxisController
+from drivers.axes.preflight import check_home, check_identity
 from drivers.errors import DriverError
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
@@ -79,6 +80,18 @@ def _held(controller: AxisController, plan: OffsetPlan,
     except (DriverError, InputError, OSError) as exc:
         log.error("offsets could not be read back after the failure: %s", exc)
         return None
+
+
+def preflight(controller: AxisController, plan: OffsetPlan, options: WriteOptions) -> None:
+    """Before anything is written: the status is plausible and, where the offset acts
+    at homing, the drive shows the home offset it holds with the profile's sign and
+    word order (a homing with the old offset, checked). Raises DriverError
+    (a PreflightError names the profile field)."""
+    check_identity(controller)
+    if plan.facts.kind == "home_offset" and options.rehome:
+        controller.enable()
+        controller.home()
+        check_home(controller)
 
 
 def execute_plan(controller: AxisController, plan: OffsetPlan, audit: AuditLog,

@@ -119,3 +119,41 @@ def test_simulated_protocols_go_into_the_session_header_for_a_resume(tmp_path):
     spec = read_campaign(path).simulator
     assert spec is not None and spec.gauge_protocol == "uwave"
     assert SimulatorSpec.from_header(spec.header()) == spec
+
+
+def test_endpoint_per_axis_and_unit_ids(tmp_path):
+    from ogacq.campaign_file import read_campaign
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    per_axis = ('[controller]\nprofile = "cia402"\n[controller.axes]\n'
+                'x = { port = "10.0.0.11:502", device_id = 255 }\n'
+                'y = { port = "10.0.0.12:502" }\nz = { port = "10.0.0.13:502", device_id = 0 }\n')
+    path.write_text(HEAD + per_axis + ALL_GAUGES)
+    c = read_campaign(path).controller
+    assert [c.port_of(a) for a in "xyz"] == ["10.0.0.11:502", "10.0.0.12:502", "10.0.0.13:502"]
+    assert c.device_ids() == {"x": 255, "z": 0}
+    # the shared form still works, with a per-axis unit id beside it
+    path.write_text(HEAD + CONTROLLER + '[controller.axes]\ny = { device_id = 7 }\n' + ALL_GAUGES)
+    c = read_campaign(path).controller
+    assert [c.port_of(a) for a in "xyz"] == ["127.0.0.1:1"] * 3 and c.device_ids() == {"y": 7}
+
+
+@pytest.mark.parametrize(("axes", "words"), [
+    ('x = { port = "10.0.0.11:502" }\n', "needs 'port', or a port for each of x, y and z"),
+    ('w = { port = "10.0.0.11:502" }\n', "has no axis 'w'"),
+    ('x = { port = "a:1", device_id = 300 }\n', "device_id must be 0..255"),
+    ('x = { port = "a:1", unit = 3 }\n', "unknown key 'unit'"),
+    ('x = { port = "/dev/ttyUSB0", device_id = 255 }\ny = { port = "a:1" }\n'
+     'z = { port = "a:2" }\n', "device id 255 cannot be addressed over Modbus RTU"),
+])
+def test_bad_axis_endpoints_refused(tmp_path, axes, words):
+    from ogacq.campaign_file import read_campaign
+    from ogacq.io.errors import InputError
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(HEAD + '[controller]\nprofile = "cia402"\n[controller.axes]\n' + axes
+                    + ALL_GAUGES)
+    with pytest.raises(InputError, match=words):
+        read_campaign(path)

@@ -120,7 +120,7 @@ def test_soft_limit_alarm_then_reset(ready: Rig) -> None:
     assert c.reset_alarms() == {}  # nothing in alarm: nothing written
 
 
-def test_stop_interrupts_a_move(ready: Rig) -> None:
+def test_stop_interrupts_a_move_and_recovery_does_not_resume_it(ready: Rig) -> None:
     c, model = ready.controller, ready.model
     # 18 s simulated, 0.36 s real: long enough to still be moving after the slowest
     # move start (CiA 402 over paced RTU: a status check and the set-point handshake)
@@ -129,9 +129,13 @@ def test_stop_interrupts_a_move(ready: Rig) -> None:
     c.stop()
     stopped = model.raw_position_mm("x")
     assert -90.0 < stopped < 0.0
+    assert not model.has_paused_move("x")  # cancelled, not paused
+    # the campaign's recovery path: alarm reset, enable (a CiA 402 quick stop disables)
+    c.reset_alarms()
+    c.enable()
     status = c.wait_in_position(["x"], timeout_s=2.0)["x"]
     assert not status.moving and status.position_mm == pytest.approx(stopped, abs=0.011)
-    time.sleep(0.02)
+    time.sleep(0.1)  # 5 s simulated: a resumed move would be 25 mm further
     assert model.raw_position_mm("x") == stopped
     assert c.move_to({"x": 5.0})["x"].position_mm == pytest.approx(5.0)
 
@@ -197,11 +201,10 @@ def test_unacknowledged_move_is_not_resent() -> None:
         sent = _record_writes(r.link)
         with pytest.raises(DeviceTimeout, match="not acknowledged.*not re-sent"):
             r.controller.move_to({"x": 20.0})
-        # the move block once (the pause release is skipped: the homing just wrote
-        # it), then the stop a failed move ends with
+        # the move block once, then the deceleration stop a failed move ends with
         move_block = profile.value("move_target").address
-        pause = profile.value("pause_command").address
-        assert sent == [("registers", move_block), ("coil", pause, True)]
+        stop = profile.value("decel_stop_command").address
+        assert sent == [("registers", move_block), ("coil", stop, True)]
         assert r.model.raw_position_mm("x") == 0.0
 
 

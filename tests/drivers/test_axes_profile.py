@@ -23,6 +23,11 @@ def test_shipped_profiles_load() -> None:
     assert iai.value("move_target").address == 0x9900
     assert iai.flags["moving"].value == "expansion_status" and iai.flags["moving"].bit == 5
     assert cia.flags["in_position"].bit == 10 and cia.flags["moving"].invert
+    jec, kinco = load_profile("mr-je-c"), load_profile("kinco-fd")
+    assert jec.transport.functions == (3, 8, 16) and not jec.transport.single_register_write
+    assert jec.device_ids == {"x": 255, "y": 255, "z": 255} and jec.nvm.kind == "none"
+    assert kinco.value("controlword").address == 0x3100
+    assert kinco.value("statusword").address == 0x3200 and kinco.offset.kind == "software"
 
 
 def test_load_by_path_gives_same_profile() -> None:
@@ -46,7 +51,7 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
         ("[codec]\n", "[codec]\nwords_order = 1\n", "codec", "unknown key(s) 'words_order'"),
         ('word_order = "high_first"', 'word_order = "big"', "codec.word_order", "must be one of"),
         ("address = 0x9000,", "address = true,", "values.position_actual.address", "must be int"),
-        ("bit = 12 }  # SV", "bit = 16 }", "flags.servo_on.bit", "must be 0..15"),
+        ("bit = 12 }  # SV [ME0162 DSS1]", "bit = 16 }", "flags.servo_on.bit", "must be 0..15"),
         (
             'value = "expansion_status", bit = 5',
             'value = "status_ext", bit = 5',
@@ -62,14 +67,14 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
         (
             '"move_band", "move_speed"',
             '"move_speed", "move_band"',
-            "commands.move.start[1].to",
+            "commands.move.start[0].to",
             "not contiguous",
         ),
-        ('"$band_mm"', '"$band"', "commands.move.start[1].value[1]", "is not one of"),
+        ('"$band_mm"', '"$band"', "commands.move.start[0].value[1]", "is not one of"),
         (
             'to = "servo_on_command", value = true',
             'to = "position_actual", value = 1.0',
-            "commands.enable.start[2].to",
+            "commands.enable.start[3].to",
             "not writable",
         ),
         (
@@ -80,16 +85,16 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
         ),
         ('kind = "software"', 'kind = "register"', "offset.kind", "must be one of"),
         (
-            "value = false, skip_unchanged = true }",
-            "value = false, skip_unchanged = true, edge = true }",
-            "commands.move.start[0]",
+            'to = "home_command", value = false },',
+            'to = "home_command", value = false, skip_unchanged = true, edge = true },',
+            "commands.home.start[0]",
             "edge and skip_unchanged exclude each other",
         ),
         (  # the move's start is confirmed in finish: without it, refused
             '  { op = "confirm", any = ["moving"], done = "in_position", at = "$target_mm" },'
             "\n]\n\n[commands.stop]",
             "]\n\n[commands.stop]",
-            "commands.move.start[1]",
+            "commands.move.start[0]",
             "followed by a wait or confirm",
         ),
         ("[limits]", "[limits]\n", "", ""),  # control: harmless edit still loads
@@ -126,3 +131,21 @@ def test_invalid_toml_and_unknown_name(tmp_path: Path) -> None:
         load_profile(path)
     with pytest.raises(ProfileError, match="no such profile; available: cia402, iai-pcon"):
         load_profile("no-such-controller")
+
+
+@pytest.mark.parametrize("name", ["iai-pcon", "cia402", "mr-je-c", "kinco-fd"])
+def test_every_register_coil_and_bit_cites_its_source(name: str) -> None:
+    """Each line of [values] and [flags] names its manual ([TAG] defined in the header)
+    or says "no source"; a register map without sources cannot be checked."""
+    text = (profiles_folder() / f"{name}.toml").read_text()
+    tags = set(re.findall(r"^#\s+(\[[A-Za-z0-9]+\])\s", text, flags=re.M))
+    assert tags, f"{name}: the header defines no source"
+    section = ""
+    for line in text.splitlines():
+        if line.startswith("["):
+            section = line.split("]")[0] + "]"
+            continue
+        if section in ("[values]", "[flags]") and re.match(r"^\w+\s*=\s*\{", line):
+            comment = line.partition("#")[2]
+            cited = {t + "]" for t in re.findall(r"\[[A-Za-z0-9]+", comment)}
+            assert "no source" in comment or cited & tags, f"{name}: {line}"

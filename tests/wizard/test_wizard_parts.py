@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from ogacq.campaign import run_campaign
-from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, read_campaign
+from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, read_campaign
 from ogacq.cli.wizard.drawing import leg_drawing
 from ogacq.cli.wizard.execution import campaign_file_text, run_guided
 from ogacq.cli.wizard.expected import ReadingExpectations, deviation_model, travel_needed_mm
@@ -82,7 +82,12 @@ def test_drawing_fits_an_80_column_terminal_and_names_both_gauges():
         assert all(g in text for g in gauges) and f"{leg} leg" in text
 
 
-def test_campaign_file_for_hardware_reads_back_the_same(tmp_path: Path):
+@pytest.mark.parametrize("controller", [
+    ControllerSpec("cia402", "192.168.0.10:502"),
+    ControllerSpec("mr-je-c", "", axes={a: AxisEndpoint(f"192.168.3.1{k}:502", 255)
+                                        for k, a in enumerate("xyz")}),
+], ids=["shared", "per-axis"])
+def test_campaign_file_for_hardware_reads_back_the_same(tmp_path: Path, controller):
     (tmp_path / "machine.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
                                            "rho_max_mm = 60.0\ngauge_resolution_mm = 0.01\n")
     protocol = ProtocolConfig(cycles=2, settle_s=0.5)
@@ -90,7 +95,7 @@ def test_campaign_file_for_hardware_reads_back_the_same(tmp_path: Path):
               for k, g in enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"))]
     campaign = Campaign(tmp_path / "campaign.toml", read_machine(tmp_path / "machine.toml"),
                         tmp_path / "machine.toml", tmp_path / "session.jsonl", protocol,
-                        ControllerSpec("cia402", "192.168.0.10:502"), gauges)
+                        controller, gauges)
     campaign.path.write_text(campaign_file_text(campaign, set(), None))
     again = read_campaign(campaign.path)
     assert again.protocol.to_dict() == protocol.to_dict()

@@ -99,7 +99,7 @@ def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsa
              f"session = {_toml(_relative(campaign.session, folder))}", ""]
     if rehearsal is not None:
         lines += ["# a rehearsal on the built-in simulator (ports of this run: controller "
-                  f"{rehearsal.controller.port}; gauges "
+                  f"{rehearsal.controller.endpoints()}; gauges "
                   + ", ".join(f"{g.gauge} {g.port}" for g in rehearsal.gauges) + ")",
                   "[simulator]"]
         lines += [f"{k} = {_toml(v)}" for k, v in (("seed", rehearsal.spec.seed),
@@ -112,8 +112,18 @@ def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsa
         lines.append("")
     else:
         assert campaign.controller is not None
-        lines += ["[controller]", f"profile = {_toml(campaign.controller.profile)}",
-                  f"port = {_toml(campaign.controller.port)}", ""]
+        spec = campaign.controller
+        lines += ["[controller]", f"profile = {_toml(spec.profile)}"]
+        if spec.port:
+            lines.append(f"port = {_toml(spec.port)}")
+        if spec.axes:  # one endpoint per axis (a drive per address)
+            lines.append("[controller.axes]")
+            for axis, endpoint in spec.axes.items():
+                fields = ([f"port = {_toml(endpoint.port)}"] if endpoint.port else []) + \
+                    ([f"device_id = {endpoint.device_id}"] if endpoint.device_id is not None
+                     else [])
+                lines.append(f"{axis} = {{ {', '.join(fields)} }}")
+        lines.append("")
         for gauge in campaign.gauges:
             lines += ["[[gauges]]", f"gauge = {_toml(gauge.gauge)}",
                       f"protocol = {_toml(gauge.protocol)}", f"port = {_toml(gauge.port)}",

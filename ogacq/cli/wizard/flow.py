@@ -18,7 +18,7 @@ from typing import Any
 
 from drivers.errors import DriverError
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
-from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
     StationChoice,
@@ -223,7 +223,10 @@ class _Wizard:
             campaign.gauges = list(self.rehearsal.gauges)
         else:
             c = station.get("controller") or {}
-            campaign.controller = ControllerSpec(c.get("profile", "cia402"), c.get("port", ""))
+            axes = {a: AxisEndpoint(e.get("port"), e.get("device_id"))
+                    for a, e in (c.get("axes") or {}).items()}
+            campaign.controller = ControllerSpec(c.get("profile", "cia402"), c.get("port", ""),
+                                                 axes=axes)
             campaign.gauges = [GaugeSpec(k, g["protocol"], g["port"], g.get("channel"),
                                          g.get("unit", "mm"), g.get("serial", ""))
                                for k, g in (station.get("gauges") or {}).items()]
@@ -286,7 +289,8 @@ class _Wizard:
                 s.ok(f"controller answers: {check_controller(campaign.controller)}")
                 break
             except (DriverError, ValueError, OSError) as exc:
-                s.problem(f"the controller on {campaign.controller.port} does not answer: {exc}")
+                s.problem(f"the controller on {campaign.controller.endpoints()} does not answer: "
+                          f"{exc}")
                 if s.choose("What now?", [Option("r", "retry"),
                                           Option("q", "quit (the session stays resumable)")],
                             default="r") == "q":

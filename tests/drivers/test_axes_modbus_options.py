@@ -1,0 +1,104 @@
+"""Per-profile Modbus options a real drive needs: write function codes, unit ids 0..255,
+an endpoint per axis. Against the simulator serving only the function codes the
+profile lists (it answers anything else "illegal function", as such a drive does)."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import pytest
+
+from drivers.axes.controller import AxisController
+from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.profile import Profile, ProfileError, load_profile, parse_profile
+from drivers.errors import DeviceFault
+from drivers.sim.clock import SimClock
+from drivers.sim.modbus_server import ModbusSimServer
+from drivers.sim.motion import MotionModel
+
+
+def _variant(name: str, **changes: dict) -> Profile:
+    raw = tomllib.loads(Path(load_profile(name).source).read_text(encoding="utf-8"))
+    for table, values in changes.items():
+        section, _, sub = table.partition("__")
+        (raw[section][sub] if sub else raw[section]).update(values)
+    return parse_profile(raw, source=f"{name} variant")
+
+
+FC16_ONLY_255 = {"transport": {"functions": [3, 8, 16]},
+                 "axes__device_ids": {"x": 255, "y": 255, "z": 255}}
+
+
+def test_fc16_only_drive_at_unit_255_one_endpoint_per_axis() -> None:
+    profile = _variant("cia402", **FC16_ONLY_255)
+    assert not profile.transport.single_register_write
+    model = MotionModel(SimClock(speed=50.0))
+    servers = [ModbusSimServer(profile, model, transport="tcp", axes=[a]) for a in "xyz"]
+    links = {}
+    try:
+        for axis, server in zip("xyz", servers, strict=True):
+            address = server.start()
+            links[axis] = ModbusLink.tcp(address.host, address.port)
+        c = AxisController(profile, links)
+        c.enable()
+        c.home()
+        reached = c.move_to({"x": 10.0, "y": -20.0, "z": 5.0})
+        assert {a: s.position_mm for a, s in reached.items()} == pytest.approx(
+            {"x": 10.0, "y": -20.0, "z": 5.0}, abs=0.011)
+        assert "device 255 (axis y)" in c.where("y") and str(servers[1].port) in c.where("y")
+        # the same drive written with FC 6 answers "illegal function", as the issue saw
+        fc6 = AxisController(_variant("cia402", axes__device_ids={"x": 255, "y": 255,
+                                                                   "z": 255}), links)
+        with pytest.raises(DeviceFault, match="illegal function"):
+            fc6.enable(["x"])
+    finally:
+        for link in links.values():
+            link.close()
+        for server in servers:
+            server.stop()
+
+
+def test_unit_ids_the_transport_cannot_address_are_refused() -> None:
+    profile = _variant("cia402", axes__device_ids={"x": 0, "y": 255, "z": 247})
+    ModbusLink.tcp("127.0.0.1", 1).check_device_id(255)
+    ModbusLink.tcp("127.0.0.1", 1).check_device_id(0)
+    rtu = ModbusLink.rtu("/dev/null")
+    for bad in (0, 248, 255):
+        with pytest.raises(ValueError, match=f"device id {bad} is outside 1..247"):
+            rtu.check_device_id(bad)
+    with pytest.raises(ValueError, match="device id 0 is outside 1..247 for Modbus RTU"):
+        AxisController(profile, rtu)
+    with pytest.raises(ProfileError, match=r"\[axes.device_ids.x\] must be 0..255"):
+        _variant("cia402", axes__device_ids={"x": 256})
+
+
+def test_functions_must_cover_what_the_profile_uses() -> None:
+    with pytest.raises(ProfileError, match=r"\[values.servo_on_command.function\] a coil needs"):
+        _variant("iai-pcon", transport={"functions": [3, 16]})
+    with pytest.raises(ProfileError, match=r"\[transport.functions\] must include 16"):
+        _variant("cia402", transport={"functions": [3, 6]})
+    with pytest.raises(ProfileError, match=r"\[transport.functions\[2\]\] must be one of"):
+        _variant("cia402", transport={"functions": [3, 16, 4]})
+
+
+def test_the_simulator_serves_the_kinco_map_over_rtu() -> None:
+    profile = load_profile("kinco-fd")
+    model = MotionModel(SimClock(speed=50.0))
+    server = ModbusSimServer(profile, model, transport="rtu")
+    address = server.start()
+    link = ModbusLink.for_profile(profile, transport="rtu", serial_port=str(address.port))
+    try:
+        c = AxisController(profile, link)
+        c.enable()
+        c.home()
+        assert c.move_to({"x": 3.0, "y": 0.0, "z": -2.0})["z"].position_mm == pytest.approx(-2.0)
+        c.move_to({"x": -90.0}, speed_mm_s=5.0, wait=False)
+        c.stop(["x"])
+        stopped = model.raw_position_mm("x")
+        c.reset_alarms()
+        c.enable()
+        assert model.raw_position_mm("x") == stopped and -90.0 < stopped < 3.0
+    finally:
+        link.close()
+        server.stop()

@@ -1,0 +1,104 @@
+"""The pre-flight check against a simulated drive whose word order or home-offset sign
+differs from the client's profile: it stops before the second move and names the field."""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import pytest
+
+from drivers.axes.controller import AxisController
+from drivers.axes.modbus_link import ModbusLink
+from drivers.axes.preflight import PreflightError, check_home, check_identity, run_preflight
+from drivers.axes.profile import Profile, load_profile, parse_profile
+from drivers.sim.clock import SimClock
+from drivers.sim.modbus_server import ModbusSimServer
+from drivers.sim.motion import MotionModel
+
+
+def _variant(name: str, table: str, **values: object) -> Profile:
+    raw = tomllib.loads(Path(load_profile(name).source).read_text(encoding="utf-8"))
+    raw[table].update(values)
+    return parse_profile(raw, source=f"{name} with {table} {values}")
+
+
+@contextmanager
+def _drive(drive: Profile, client: Profile) -> Iterator[tuple[AxisController, MotionModel,
+                                                               ModbusSimServer]]:
+    model = MotionModel(SimClock(speed=50.0))
+    server = ModbusSimServer(drive, model, transport="tcp")
+    address = server.start()
+    link = ModbusLink.for_profile(client, transport="tcp", host=address.host, port=address.port)
+    try:
+        yield AxisController(client, link), model, server
+    finally:
+        link.close()
+        server.stop()
+
+
+@pytest.mark.parametrize("name", ["cia402", "iai-pcon"])
+def test_a_drive_as_the_profile_says_passes(name: str) -> None:
+    profile = load_profile(name)
+    with _drive(profile, profile) as (c, model, _server):
+        c.enable()
+        c.home()
+        run_preflight(c, probe_mm=1.0)
+        assert [model.raw_position_mm(a) for a in "xyz"] == pytest.approx([1.0] * 3, abs=0.011)
+
+
+def test_wrong_word_order_stops_at_the_probe_move() -> None:
+    drive = load_profile("cia402")
+    client = _variant("cia402", "codec", word_order="high_first")
+    with _drive(drive, client) as (c, model, _server):
+        c.enable()
+        c.home()
+        with pytest.raises(PreflightError, match="change codec.word_order") as caught:
+            run_preflight(c, probe_mm=1.0)
+        assert caught.value.field == "codec.word_order"
+        assert [model.raw_position_mm(a) for a in "xyz"] == [0.0, 0.0, 0.0]
+        assert "\n" not in str(caught.value)
+
+
+def test_wrong_home_offset_sign_stops_after_homing() -> None:
+    drive = load_profile("cia402")  # the drive: home point reads -home_offset
+    client = _variant("cia402", "offset", sign=1)
+    with _drive(drive, client) as (c, model, server):
+        for unit in server.devices.values():
+            unit.put("home_offset", 0.5)  # set on the drive's panel before
+        c.enable()
+        c.home()
+        writes = c.link.stats.writes
+        with pytest.raises(PreflightError, match="change offset.sign to -1") as caught:
+            check_home(c)
+        assert caught.value.field == "offset.sign"
+        assert c.link.stats.writes == writes  # nothing written, nothing moved
+        assert [model.raw_position_mm(a) for a in "xyz"] == [0.0, 0.0, 0.0]
+
+
+def test_a_status_bit_read_from_the_wrong_place_is_named() -> None:
+    drive = load_profile("iai-pcon")
+    raw = tomllib.loads(Path(drive.source).read_text(encoding="utf-8"))
+    raw["flags"]["moving"] = {"value": "device_status_1", "bit": 12}  # SV, not MOVE
+    client = parse_profile(raw, source="iai-pcon with moving on the servo bit")
+    with _drive(drive, client) as (c, _model, _server):
+        check_identity(c)  # servo off: nothing contradicts yet
+        drive_side = AxisController(drive, c.link)
+        drive_side.enable(["x"])
+        with pytest.raises(PreflightError, match="in position and moving at once") as caught:
+            check_identity(c, ["x"])
+        assert caught.value.field == "flags.moving"
+
+
+def test_a_device_that_is_no_cia402_drive_is_named() -> None:
+    drive = load_profile("cia402")
+    raw = tomllib.loads(Path(drive.source).read_text(encoding="utf-8"))
+    raw["values"]["statusword"]["address"] = 0x6060  # reads the mode (1): no CiA 402 state
+    raw["values"]["mode"]["address"] = 0x6041
+    client = parse_profile(raw, source="cia402 with statusword and mode swapped")
+    with _drive(drive, client) as (c, _model, _server):
+        with pytest.raises(PreflightError, match="is no CiA 402 state") as caught:
+            check_identity(c, ["x"])
+        assert caught.value.field == "values.statusword.address"
