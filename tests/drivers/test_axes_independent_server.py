@@ -173,6 +173,11 @@ def test_iai_alarm_reset_on_the_fall_to_0000_over_rtu() -> None:
         assert c.read_status(["x"])["x"].fault
         assert c.reset_alarms(["x"]) == {"x": 0x0A7}
         assert not c.read_status(["x"])["x"].fault
+        # IAI's ROBO Cylinder Modbus manual, 5.4.4 (4) "Query sample" for axis No. 0:
+        # 01 05 04 07 FF 00 3C CB, then 01 05 04 07 00 00 7D 3B (address 01, CRC last)
+        assert b.profile.device_ids["x"] == 0x01
+        sample = [bytes.fromhex("05 04 07 FF 00"), bytes.fromhex("05 04 07 00 00")]
+        assert [p for p in x.requests if p[0] == 5 and p[1:3] == b"\x04\x07"] == sample
 
 
 @contextmanager
