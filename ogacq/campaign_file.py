@@ -49,6 +49,7 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -198,6 +199,13 @@ def _check_keys(src: _Source, table: dict, allowed: set[str], where: str, after:
                            f"{', '.join(sorted(allowed))})", key, after)
 
 
+# The smallest value each numeric key may take: durations, counts, speeds and
+# tolerances cannot be negative (a negative settle time fails only after homing).
+_AT_LEAST = {"settle_s": 0.0, "move_timeout_s": 1e-3, "timeout_s": 1e-3, "cycles": 1,
+             "readings": 1, "tolerance_mm": 0.0, "overshoot_mm": 0.0, "speed": 1e-3,
+             "seed": 0, "baudrate": 1}
+
+
 def _typed(src: _Source, table: dict, key: str, kind: type | tuple, where: str,
            after: int = 0) -> Any:
     value = table[key]
@@ -205,6 +213,12 @@ def _typed(src: _Source, table: dict, key: str, kind: type | tuple, where: str,
         raise src.fail(f"{where}.{key} must be {_kind_name(kind)}, got {value!r}", key, after)
     if not isinstance(value, kind):
         raise src.fail(f"{where}.{key} must be {_kind_name(kind)}, got {value!r}", key, after)
+    if isinstance(value, float) and not math.isfinite(value):
+        raise src.fail(f"{where}.{key} must be a finite number, got {value!r}", key, after)
+    if isinstance(value, int | float) and not isinstance(value, bool) and \
+            value < _AT_LEAST.get(key, -math.inf):
+        raise src.fail(f"{where}.{key} must be at least {_AT_LEAST[key]:g}, got {value!r}", key,
+                       after)
     return value
 
 

@@ -17,6 +17,7 @@ table per effect, plus the gauges' noise and an out-of-library lead-screw error
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -85,7 +86,8 @@ def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
         if section == "lead_screw":
             for axis, spec in entries.items():
                 if axis not in AXES or not isinstance(spec, dict) or \
-                        set(spec) != {"amplitude_mm", "pitch_mm"} or spec["pitch_mm"] <= 0:
+                        set(spec) != {"amplitude_mm", "pitch_mm"} or \
+                        not all(_is_number(v) for v in spec.values()) or spec["pitch_mm"] <= 0:
                     raise InputError(path, f"[lead_screw.{axis}] needs axis x, y or z with "
                                      "amplitude_mm and pitch_mm > 0", line_of(text, axis))
                 lead[AXES.index(axis)] = LeadScrewError(float(spec["amplitude_mm"]),
@@ -102,11 +104,13 @@ def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
                 raise InputError(path, f"[{section}] has no {where!r}; it takes "
                                  f"{', '.join(effect.wheres)}", line_of(text, where))
             if not _is_number(value):
-                raise InputError(path, f"{name} must be a number in {effect.unit}",
+                raise InputError(path, f"{name} must be a finite number in {effect.unit}",
                                  line_of(text, where))
             theta[PARAM_INDEX[name]] = float(value)
     return SimTruth(theta, noise, lead)
 
 
 def _is_number(value: object) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool)
+    """A finite number (a nan or inf effect would crash the simulated gauges)."""
+    return isinstance(value, int | float) and not isinstance(value, bool) and \
+        math.isfinite(value)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from ogacq.io.errors import InputError
@@ -11,6 +12,7 @@ from ogacq.model.machine import MachineSpec
 REQUIRED = ("leg_length_mm", "rho_min_mm", "rho_max_mm", "gauge_resolution_mm")
 OPTIONAL = ("gauge_repeatability_mm",)
 UNIT_SUFFIX = "_mm"
+MAX_LENGTH_MM = 1e5  # 100 m: beyond any machine this tool calibrates
 
 
 def read_machine(path: str | Path) -> MachineSpec:
@@ -45,6 +47,9 @@ def machine_from_mapping(data: dict, path: str | Path = "<machine>", text: str =
         if isinstance(value, bool) or not isinstance(value, int | float):
             raise InputError(path, f"{key} must be a number in mm, got {value!r}",
                              line_of(text, key))
+        if not math.isfinite(value) or abs(value) > MAX_LENGTH_MM:
+            raise InputError(path, f"{key} must be a finite length in mm (at most "
+                             f"{MAX_LENGTH_MM:g}), got {value!r}", line_of(text, key))
         values[key] = float(value)
     try:
         return MachineSpec(

@@ -93,3 +93,13 @@ def test_offsets_beyond_the_machine_are_refused(paper_dir, tmp_path):
 def test_the_json_contract_is_unchanged_by_the_checks(session):
     out = json.loads(run_ogacq("diagnose", session / "s.jsonl", "--json").stdout)
     assert set(out["base"]) == {"chi2_dof", "rms_mm", "consistent"}
+
+
+@pytest.mark.parametrize(("value", "words"), [("inf", "finite length"), ("1e308", "at most")])
+def test_a_machine_file_with_an_impossible_length_is_refused(paper_dir, tmp_path, value, words):
+    text = (paper_dir / "machine.toml").read_text()
+    (tmp_path / "m.toml").write_text(text.replace("leg_length_mm = 310.25",
+                                                  f"leg_length_mm = {value}"))
+    line = one_line_error(run_ogacq("refit", paper_dir / "experiment2_12.csv", "--machine",
+                                    tmp_path / "m.toml"))
+    assert "m.toml:" in line and "leg_length_mm" in line and words in line
