@@ -50,7 +50,9 @@ def refit(
         help="linear: the papers' eq. 11; exact: nonlinear fit of the exact model. "
              "auto: linear for tabulated deviations, exact for readings.")] = Method.auto,
     weighting: Annotated[Weighting, typer.Option(
-        help="ols (the papers') or gls with the deviations' covariance (eq. 13-14).")]
+        help="Tabulated deviations: ols (the papers') or gls with their covariance "
+             "(eq. 13-14). Readings are always weighted by their own noise (the display "
+             "rounding that repeats share).")]
     = Weighting.ols,
     other_geometry: OtherGeometryOption = False,
     as_json: JsonOption = False,
