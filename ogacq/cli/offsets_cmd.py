@@ -110,12 +110,12 @@ def _ask(question: str) -> bool:
         return False
 
 
-def _approve_and_execute(controller, plan, session: LoadedSession, campaign: Campaign, *,
+def _approve_and_execute(controller, plan, audit, campaign: Campaign, *,
                          yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
-    """Refuse, ask, then write: the part ``write`` and ``restore`` share."""
+    """Refuse, ask, then write: the part ``write`` and ``restore`` share. ``audit`` is
+    open: this command holds the session, so no campaign runs on it meanwhile."""
     from drivers.errors import DriverError
     from ogacq.cli import render_offsets as render
-    from ogacq.writeback.audit import AuditLog
     from ogacq.writeback.execute import WriteBackError, WriteOptions, execute_plan, preflight
 
     if plan.nothing_to_do:
@@ -123,38 +123,37 @@ def _approve_and_execute(controller, plan, session: LoadedSession, campaign: Cam
         return
     spec = campaign.controller
     summary = {"action": plan.action, "current_mm": plan.current_mm, "new_mm": plan.new_mm}
-    with AuditLog(session) as audit:
-        if plan.refused:
-            render.print_refusals(plan, forced=force)
-        if plan.refused and not force:
-            audit.record("refused", **summary, reasons=[r.message for r in plan.refusals],
-                         codes=[r.code for r in plan.refusals])
-            raise typer.Exit(EXIT_REFUSED)
-        if not yes:
-            homing = (" and re-home the axes (the machine moves)"
-                      if rehome and plan.facts.takes_effect == "at_next_homing" else "")
-            target = ("the software offset table" if plan.facts.kind == "software"
-                      else "the controller")
-            if not _ask(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
-                audit.record("declined", **summary)
-                typer.echo("nothing written", err=True)
-                raise typer.Exit(EXIT_DECLINED)
-        options = WriteOptions(save_nvm=save_nvm, rehome=rehome,
-                               forced=tuple(r.code for r in plan.refusals),
-                               confirmed_by="--yes" if yes else "prompt", port=spec.port)
-        try:
-            preflight(controller, plan, options)
-        except DriverError as exc:
-            audit.record("refused", **summary, reasons=[f"pre-flight: {exc}"],
-                         codes=["preflight"])
-            typer.echo(f"ogacq: error: pre-flight check, nothing written: {exc}", err=True)
-            raise typer.Exit(EXIT_DEVICE) from None
-        try:
-            outcome = execute_plan(controller, plan, audit, options,
-                                   offsets_file=spec.offsets_file)
-        except WriteBackError as exc:
-            typer.echo(f"ogacq: error: {exc}", err=True)
-            raise typer.Exit(EXIT_DEVICE) from None
+    if plan.refused:
+        render.print_refusals(plan, forced=force)
+    if plan.refused and not force:
+        audit.record("refused", **summary, reasons=[r.message for r in plan.refusals],
+                     codes=[r.code for r in plan.refusals])
+        raise typer.Exit(EXIT_REFUSED)
+    if not yes:
+        homing = (" and re-home the axes (the machine moves)"
+                  if rehome and plan.facts.takes_effect == "at_next_homing" else "")
+        target = ("the software offset table" if plan.facts.kind == "software"
+                  else "the controller")
+        if not _ask(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
+            audit.record("declined", **summary)
+            typer.echo("nothing written", err=True)
+            raise typer.Exit(EXIT_DECLINED)
+    options = WriteOptions(save_nvm=save_nvm, rehome=rehome,
+                           forced=tuple(r.code for r in plan.refusals),
+                           confirmed_by="--yes" if yes else "prompt", port=spec.port)
+    try:
+        preflight(controller, plan, options)
+    except DriverError as exc:
+        audit.record("refused", **summary, reasons=[f"pre-flight: {exc}"],
+                     codes=["preflight"])
+        typer.echo(f"ogacq: error: pre-flight check, nothing written: {exc}", err=True)
+        raise typer.Exit(EXIT_DEVICE) from None
+    try:
+        outcome = execute_plan(controller, plan, audit, options,
+                               offsets_file=spec.offsets_file)
+    except WriteBackError as exc:
+        typer.echo(f"ogacq: error: {exc}", err=True)
+        raise typer.Exit(EXIT_DEVICE) from None
     render.print_outcome(outcome)
 
 
@@ -224,6 +223,7 @@ def write(
     """Write the offsets identified by a campaign: shown, confirmed, read back, recorded."""
     from ogacq.cli import render_offsets as render
     from ogacq.station import open_controller
+    from ogacq.writeback.audit import AuditLog
     from ogacq.writeback.evidence import evidence_from_session
     from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
 
@@ -232,13 +232,15 @@ def write(
     campaign, profile = _campaign_for(session, campaign_path)
     spec = campaign.controller
     _check_writable(campaign, profile, save_nvm)
-    with _device_errors(), open_controller(spec) as controller:
+    # The session is held before the controller is touched: a campaign running on it
+    # (or another write-back) refuses this one before anything moves.
+    with AuditLog(session) as audit, _device_errors(), open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
         render.print_evidence(evidence)
         render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec),
                           evidence=evidence)
-        _approve_and_execute(controller, plan, session, campaign, yes=yes, force=force,
+        _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
 
 
@@ -254,7 +256,7 @@ def restore(
     """Put back the offsets the session's last write-back replaced."""
     from ogacq.cli import render_offsets as render
     from ogacq.station import open_controller
-    from ogacq.writeback.audit import last_write
+    from ogacq.writeback.audit import AuditLog, last_write
     from ogacq.writeback.policy import ControllerFacts, plan_restore
 
     session = load_session(session_path)
@@ -265,9 +267,9 @@ def restore(
     campaign, profile = _campaign_for(session, campaign_path)
     spec = campaign.controller
     _check_writable(campaign, profile, save_nvm)
-    with _device_errors(), open_controller(spec) as controller:
+    with AuditLog(session) as audit, _device_errors(), open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_restore(operation, controller.read_offsets(), facts)
         render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
-        _approve_and_execute(controller, plan, session, campaign, yes=yes, force=force,
+        _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)

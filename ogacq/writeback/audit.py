@@ -20,18 +20,16 @@ RECORD = "offsets"
 
 
 class AuditLog:
-    """Appends audit records to a session, opening it on the first record."""
+    """Appends audit records to a session. Used as a context manager it holds the
+    session from the start (one writer at a time), before any controller is touched."""
 
     def __init__(self, session: LoadedSession) -> None:
         self.session = session
         self._writer: SessionWriter | None = None
 
     def record(self, stage: str, **fields: Any) -> None:
-        if self._writer is None:
-            # the session as the evidence was read from it: a campaign that wrote to it
-            # since (or still holds it) makes this write-back wait for a fresh look
-            self._writer = SessionWriter.append_to(self.session.path,
-                                                   self.session.size_bytes or None)
+        self._open()
+        assert self._writer is not None
         self._writer.append(RECORD, stage=stage, **fields)
 
     def close(self) -> None:
@@ -39,7 +37,15 @@ class AuditLog:
             self._writer.close()
 
     def __enter__(self) -> AuditLog:
+        self._open()
         return self
+
+    def _open(self) -> None:
+        if self._writer is None:
+            # the session as the evidence was read from it: a campaign that wrote to it
+            # since (or still holds it) makes this write-back wait for a fresh look
+            self._writer = SessionWriter.append_to(self.session.path,
+                                                   self.session.size_bytes or None)
 
     def __exit__(self, *exc: object) -> None:
         self.close()

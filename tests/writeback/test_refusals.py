@@ -5,6 +5,8 @@ checks that need no controller come before connecting to one."""
 from __future__ import annotations
 
 import json
+import subprocess
+import sys
 
 import pytest
 
@@ -113,6 +115,36 @@ def test_the_diagnosis_model_offsets_are_written_and_the_squareness_named(
     assert intent["stage"] == "intent"
     undone = ogacq_here(capsys, monkeypatch, "offsets", "restore", session, "--yes")
     assert undone.returncode == 0 and controller_offsets(campaign) == ZEROS
+
+
+HOLD_SESSION = """
+import sys, time
+from ogacq.session.store import SessionWriter
+writer = SessionWriter.append_to(sys.argv[1])
+print("holding", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_write_back_while_another_command_writes_the_session_is_refused(tmp_path, campaign):
+    """A campaign (here: any writer in another process) holds the session: the
+    write-back is refused in one line naming it, and nothing reaches the controller
+    or the session."""
+    session = synthetic_session(tmp_path / "s.jsonl", campaign, offsets_mm=OFFSETS)
+    before = session.read_bytes()
+    holder = subprocess.Popen([sys.executable, "-c", HOLD_SESSION, str(session)],
+                              stdout=subprocess.PIPE, text=True)
+    try:
+        assert holder.stdout.readline().strip() == "holding"
+        ran = ogacq("offsets", "write", session, "--yes")
+    finally:
+        holder.kill()
+        holder.wait()
+    assert ran.returncode == 2, ran.stdout + ran.stderr
+    assert "in use by" in ran.stderr and f"pid {holder.pid}" in ran.stderr
+    assert "Traceback" not in ran.stderr
+    assert controller_offsets(campaign) == ZEROS
+    assert session.read_bytes() == before
 
 
 def test_force_writes_past_the_reason_saves_nvm_and_restore_undoes_it(
