@@ -140,13 +140,20 @@ class UsbItn:
     def read(self, timeout_s: float | None = None) -> Reading:
         """Ask for a value and decode it; ``918`` (busy) is asked again until the deadline."""
         deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        busy: DeviceBusy | None = None
         while True:
             try:
                 return self._exchange(deadline)
-            except DeviceBusy:
+            except DeviceBusy as exc:
                 if time.monotonic() + self.busy_retry_delay_s >= deadline:
                     raise
+                busy = exc
                 time.sleep(self.busy_retry_delay_s)
+            except DeviceTimeout:
+                # the deadline passed while asking again: the gauge was busy, not silent
+                if busy is not None:
+                    raise busy from None
+                raise
 
     def device_info(self, timeout_s: float | None = None) -> str:
         """The cable's identification (``V``), without the leading ``1``."""
