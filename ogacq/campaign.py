@@ -19,7 +19,7 @@ from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.plan import SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
-from ogacq.session.store import LoadedSession, SessionWriter, load_session
+from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation, open_station
 
 # Adapts the opened station for one run: gets the session writer and what is on file.
@@ -53,6 +53,9 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     ``wrap_station``: adapts the opened station for this run (the wizard's pause
     checkpoints and gauges read by eye); ``header_extra``: more session header.
     """
+    # before the station opens: a session that cannot be written is found before homing
+    check_writable(resume.path if resume is not None else campaign.session,
+                   resuming=resume is not None)
     with open_station(campaign, simulator) as station:
         station.prepare()
         recorded_before = resume.recorded() if resume is not None else set()

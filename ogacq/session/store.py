@@ -29,6 +29,7 @@ import fcntl
 import json
 import math
 import os
+import shutil
 import sys
 import threading
 import time
@@ -121,6 +122,40 @@ class SessionLock:
         with contextlib.suppress(OSError):
             self._note.unlink()
         fcntl.flock(self._fd, fcntl.LOCK_UN)
+
+
+# Room a campaign needs on disk before it starts: its records are a few hundred bytes
+# each, so this holds tens of thousands of readings with room to spare.
+MIN_FREE_BYTES = 16 * 2**20
+
+
+def check_writable(path: str | Path, *, resuming: bool = False) -> None:
+    """Refuse, before anything moves, a session that could not be written: a new one
+    where one exists, a folder that cannot be made or written to, a session file
+    that is read-only, or a disk with less than ``MIN_FREE_BYTES`` free."""
+    path = Path(path)
+    if not resuming and path.exists():
+        raise InputError(path, "a session already exists here; resume it with "
+                         f"`ogacq resume {path}` or choose another name")
+    folder = path.parent
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        probe = folder / f".ogacq-write-test-{os.getpid()}"
+        fd = os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600)
+        try:
+            os.write(fd, b"\n")
+        finally:
+            os.close(fd)
+            probe.unlink()
+        if resuming and not os.access(path, os.W_OK):
+            raise PermissionError(13, "the session file is read-only")
+        free = shutil.disk_usage(folder).free
+    except OSError as exc:
+        raise InputError(path, f"cannot write the session here ({exc.strerror or exc}): "
+                         "nothing was started") from None
+    if free < MIN_FREE_BYTES:
+        raise InputError(path, f"only {free / 2**20:.1f} MiB free on this disk, less than the "
+                         f"{MIN_FREE_BYTES / 2**20:.0f} MiB a campaign needs: nothing was started")
 
 
 def _line(record: dict[str, Any]) -> str:

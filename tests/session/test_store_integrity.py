@@ -172,3 +172,21 @@ def test_scan_counts_every_record(tmp_path):
     assert len(scan.records) == 4 and not scan.problems
     kept, dropped = salvage_session(path, tmp_path / "copy.jsonl")
     assert kept == 4 and dropped == []
+
+
+def test_a_session_that_cannot_be_written_is_refused_before_anything_moves(tmp_path):
+    """A read-only place (here /sys, read-only even for root) or an existing session:
+    ``ogacq run`` refuses with one line before the simulated machine is even started."""
+    from tests.campaign.conftest import MACHINE
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    for session, words in (("/sys/ogacq-test/s.jsonl", "cannot write the session here"),
+                           (str(make_session(tmp_path / "old.jsonl")), "already exists")):
+        campaign = tmp_path / "campaign.toml"
+        campaign.write_text(f'machine = "machine.toml"\nsession = "{session}"\n'
+                            "[simulator]\nseed = 1\n")
+        proc = run_ogacq("run", campaign)
+        assert proc.returncode == 2, proc.stdout + proc.stderr
+        lines = proc.stderr.strip().splitlines()
+        assert len(lines) == 1 and words in lines[0] and session in lines[0], proc.stderr
+        assert "homing" not in proc.stdout and "[1/" not in proc.stdout
