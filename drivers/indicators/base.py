@@ -167,6 +167,15 @@ def check_decimals(
     )
 
 
+def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
+                    accepted: frozenset[int], channel: str, where: str) -> Reading:
+    """The reading of a decoded frame whose decimals must fit the configured unit (the
+    frame itself carries none), stamped now."""
+    check_decimals(decimals, unit, accepted, where=where, frame=frame)
+    return Reading(value_mm=to_mm(value, unit), frame=frame, time_s=time.time(),
+                   channel=channel, unit=unit, where=where)
+
+
 def to_mm(value: Decimal, unit: Unit) -> float:
     """A displayed value in mm (exact decimal arithmetic, one rounding at the end)."""
     mm = value * MM_PER_INCH if unit == "inch" else value

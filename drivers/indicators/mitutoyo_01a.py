@@ -32,9 +32,8 @@ from drivers.indicators.base import (
     SerialIndicator,
     Unit,
     accepted_decimals,
-    check_decimals,
     check_unit,
-    to_mm,
+    checked_reading,
 )
 
 log = logging.getLogger(__name__)
@@ -201,14 +200,6 @@ class Mitutoyo01A(SerialIndicator):
                 where=self.where,
                 frame=frame,
             )
-        check_decimals(
-            reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
-        )
-        return Reading(
-            value_mm=to_mm(reply.value, self.unit),
-            frame=frame,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=self.unit,
-            where=self.where,
-        )
+        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
+                               accepted=self._accepted_decimals, channel=self.channel,
+                               where=self.where)

@@ -28,7 +28,6 @@ from __future__ import annotations
 import errno
 import logging
 import re
-import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from decimal import ROUND_HALF_EVEN, Decimal
@@ -41,10 +40,9 @@ from drivers.indicators.base import (
     SerialIndicator,
     Unit,
     accepted_decimals,
-    check_decimals,
     check_unit,
+    checked_reading,
     link_errors,
-    to_mm,
 )
 
 log = logging.getLogger(__name__)
@@ -192,14 +190,6 @@ class SylvacOptoRS(SerialIndicator):
         self._send(REQUEST)
         frame = read_reply(lambda: self._read_frame(deadline), where=self.where, skip=REQUEST)
         reply = decode_reply(frame, where=self.where)
-        check_decimals(
-            reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
-        )
-        return Reading(
-            value_mm=to_mm(reply.value, self.unit),
-            frame=frame,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=self.unit,
-            where=self.where,
-        )
+        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
+                               accepted=self._accepted_decimals, channel=self.channel,
+                               where=self.where)

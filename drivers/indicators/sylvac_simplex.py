@@ -22,7 +22,11 @@ import logging
 import time
 
 from drivers.errors import LinkError
-from drivers.indicators.base import Reading, check_decimals, link_errors, to_mm
+from drivers.indicators.base import (
+    Reading,
+    checked_reading,
+    link_errors,
+)
 from drivers.indicators.sylvac import SylvacOptoRS, decode_reply, read_reply
 
 log = logging.getLogger(__name__)
@@ -50,17 +54,9 @@ class SylvacSimplex(SylvacOptoRS):
         self._set_lines("ending the request (DTR high)", dtr=True)
         frame = read_reply(lambda: self._read_frame(deadline), where=self.where)
         reply = decode_reply(frame, where=self.where)
-        check_decimals(
-            reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
-        )
-        return Reading(
-            value_mm=to_mm(reply.value, self.unit),
-            frame=frame,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=self.unit,
-            where=self.where,
-        )
+        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
+                               accepted=self._accepted_decimals, channel=self.channel,
+                               where=self.where)
 
     def _set_lines(self, action: str, **lines: bool) -> None:
         try:

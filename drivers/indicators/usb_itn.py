@@ -42,9 +42,8 @@ from drivers.indicators.base import (
     Reading,
     Unit,
     accepted_decimals,
-    check_decimals,
     check_unit,
-    to_mm,
+    checked_reading,
 )
 from drivers.indicators.mitutoyo_01a import decode_reply
 from drivers.usb_link import open_usb_device, usb_errors
@@ -201,17 +200,9 @@ class UsbItn:
                 "device information where a value was asked", where=self.where, frame=message.raw
             )
         reply = decode_reply(message.raw, where=self.where)  # 91x raise, classified
-        check_decimals(
-            reply.decimals, self.unit, self._accepted_decimals, where=self.where, frame=message.raw
-        )
-        return Reading(
-            value_mm=to_mm(reply.value, self.unit),
-            frame=message.raw,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=self.unit,
-            where=self.where,
-        )
+        return checked_reading(reply.value, reply.decimals, message.raw, unit=self.unit,
+                               accepted=self._accepted_decimals, channel=self.channel,
+                               where=self.where)
 
     def _command(self, command: bytes, deadline: float) -> Message:
         self.flush_input()

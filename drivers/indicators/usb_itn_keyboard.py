@@ -37,9 +37,8 @@ from drivers.indicators.base import (
     Reading,
     Unit,
     accepted_decimals,
-    check_decimals,
     check_unit,
-    to_mm,
+    checked_reading,
 )
 from drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
 from drivers.input_link import EVENT, open_event_device, resolve_event_device
@@ -155,15 +154,9 @@ class UsbItnKeyboard:
         line = self._lines.pop(0)
         value, decimals = decode_line(line, where=self.where)
         frame = line.encode("ascii") + b"\n"
-        check_decimals(decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame)
-        return Reading(
-            value_mm=to_mm(value, self.unit),
-            frame=frame,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=self.unit,
-            where=self.where,
-        )
+        return checked_reading(value, decimals, frame, unit=self.unit,
+                               accepted=self._accepted_decimals, channel=self.channel,
+                               where=self.where)
 
     def flush_input(self) -> None:
         """Drop the lines typed before now; a line cut in the middle is skipped whole."""
