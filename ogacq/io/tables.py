@@ -180,8 +180,8 @@ def read_readings(path: str | Path) -> ReadingsTable:
         lines=np.array(cols["line"]))
 
 
-def check_postures(table: ReadingsTable, machine: MachineSpec, path: str | Path,
-                   margin_mm: float = 1.0) -> None:
+def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str | Path,
+                         margin_mm: float = 1.0) -> None:
     """Refuse rows whose joint coordinates the machine cannot take."""
     low, high = machine.rho_min_mm - margin_mm, machine.rho_max_mm + margin_mm
     bad = np.flatnonzero(np.any((table.q_mm < low) | (table.q_mm > high), axis=1))
