@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq.campaign_file import Campaign, read_campaign
-from ogacq.identify.fit import FitResult, fit
+from ogacq.identify.fit import FitResult, evaluate, fit
 from ogacq.identify.plausibility import check_observations, check_result
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
@@ -41,6 +41,21 @@ def identify_session(session: LoadedSession) -> FitResult:
     result = fit(obs, PARAM_SETS["offsets"])
     check_result(result)
     return result
+
+
+def recorded_identification(session: LoadedSession) -> FitResult:
+    """The joint offsets the campaign recorded when it finished, with their residuals
+    and statistics on the session's readings; identified afresh when the session
+    records none (a campaign stopped before its end, an imported table)."""
+    recorded = session.result
+    names = PARAM_SETS["offsets"]
+    if recorded is None or recorded.params != "offsets":
+        return identify_session(session)
+    try:
+        values = recorded.values(names)
+    except (KeyError, TypeError, ValueError):  # a result of another shape: not ours to read
+        return identify_session(session)
+    return evaluate(session_observations(session), names, values)
 
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,

@@ -1,8 +1,9 @@
 """Everything the report shows, taken from a session (and optionally a validation
 session and a diagnosis), as plain values: the figures and the HTML only lay it out.
 
-The identification is the campaign's own (:func:`ogacq.campaign.identify_session`),
-so the report shows the numbers the campaign printed. "Before" deviations are the
+The identification is the campaign's own, as it recorded it
+(:func:`ogacq.campaign.recorded_identification`), so the report shows the numbers
+the campaign printed. "Before" deviations are the
 papers' twelve (Max/Min relative to Zero, averaged over cycles) of the readings;
 "after, predicted" are the same averages of the residuals, i.e. what remains once
 the identified offsets are compensated; "after, measured" are the deviations of a
@@ -18,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ogacq import __version__
-from ogacq.campaign import identify_session
+from ogacq.campaign import recorded_identification
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.observations import Deviation, Observations, averaged_deviations
 from ogacq.io.errors import InputError
@@ -374,7 +375,7 @@ def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
     if not session.readings:
         return None, "the session holds no readings: there is nothing to identify"
     try:
-        return identify_session(session), None
+        return recorded_identification(session), None
     except (ValueError, InputError) as exc:
         return None, f"the joint offsets could not be identified: {exc}"
 

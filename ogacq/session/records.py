@@ -226,6 +226,15 @@ class ResultRecord(Record):
         return {"params": self.params, "refit": self.refit, "noise_mm": self.noise_mm,
                 "noise_source": self.noise_source}
 
+    def values(self, names: tuple[str, ...]) -> list[float]:
+        """The recorded values of parameters ``names`` ("joint_offset.x", ...);
+        KeyError when one was not identified."""
+        out = []
+        for name in names:
+            effect, where = name.split(".")
+            out.append(float(self.refit["parameters"][effect][where]))
+        return out
+
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> ResultRecord:
         refit = d.get("refit")

@@ -60,7 +60,7 @@ def test_dead_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind):
         assert end.axes_stopped is True
         faults = session.of_type(FaultRecord)
         assert len(faults) == 3  # bounded: three attempts, then stop
-        failed_step = faults[0]["step"]
+        failed_step = faults[0].step
         # everything up to the fault is on file; nothing from the dead gauge since
         assert 30 <= len(session.readings) <= 31
         assert (failed_step, "z_y") not in session.recorded()
@@ -92,7 +92,7 @@ def test_axis_alarm_is_reset_and_the_move_retried(campaign_dir):
     session = load_session(campaign.session)
     assert session.finished and len(session.readings) == 72
     faults = [f for f in session.of_type(FaultRecord) if f.during == "move"]
-    assert len(faults) == 1 and "alarm" in faults[0]["message"]
+    assert len(faults) == 1 and "alarm" in faults[0].message
 
 
 def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir):

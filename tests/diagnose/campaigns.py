@@ -27,9 +27,10 @@ PAPERS = ("zero", "max", "min", "zero")
 RICH = ("zero", 30.0, "max", 30.0, "zero", -50.0, "min", -50.0, "zero")
 
 
-def layout(postures: Sequence[str | float] = PAPERS, machine: MachineSpec = MACHINE,
-           **kw) -> ReadingsLayout:
-    return planned_layout(ProtocolConfig(postures=tuple(postures), **kw), machine)
+def layout(postures: Sequence[str | float] = PAPERS, machine: MachineSpec = MACHINE, *,
+           seconds_per_posture: float = 20.0, **kw) -> ReadingsLayout:
+    return planned_layout(ProtocolConfig(postures=tuple(postures), **kw), machine,
+                          seconds_per_posture=seconds_per_posture)
 
 
 def simulate(effects: Mapping[str, float], seed: int, *, machine: MachineSpec = MACHINE,

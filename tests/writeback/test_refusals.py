@@ -48,7 +48,7 @@ def refused_and_untouched(ran, session_path, campaign, code: str) -> None:
     assert controller_offsets(campaign) == ZEROS
     records = load_session(session_path).of_type(OffsetsRecord)
     assert [r.stage for r in records] == ["refused"]
-    assert code in records[0]["codes"]
+    assert code in records[0].details["codes"]
 
 
 @pytest.mark.parametrize(("code", "session_kw", "options", "words"), [

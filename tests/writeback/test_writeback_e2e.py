@@ -142,5 +142,5 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
         records = offsets_records(first_session)
         assert [(r.stage, r.details["action"]) for r in records[-2:]] == [
             ("intent", "restore"), ("done", "restore")]
-        assert records[-2]["restores"] == intent.details["operation"]
-        assert records[-1]["new_mm"] == zeros
+        assert records[-2].details["restores"] == intent.details["operation"]
+        assert records[-1].details["new_mm"] == zeros
