@@ -42,8 +42,7 @@ EFFECTS: tuple[EffectKind, ...] = (
     EffectKind("thermal_drift", "mm/h", AXES, 0.0, 1.0, "joint offset drift rate"),
     EffectKind("gauge_position", "fraction", AXES, 0.5, 0.4,
                "where along the leg the gauges were set, from the TCP end"),
-    EffectKind("gauge_scale", "ppm", GAUGE_KEYS, 0.0, 50000.0,
-               "gauge gain error"),
+    EffectKind("gauge_scale", "ppm", GAUGE_KEYS, 0.0, 50000.0, "gauge gain error"),
 )
 EFFECT_BY_NAME = {e.name: e for e in EFFECTS}
 

@@ -169,7 +169,7 @@ class CampaignRunner:
 
     def _done(self, step: SetGauges | Read) -> bool:
         if isinstance(step, SetGauges):  # measuring this leg began: its gauges are set
-            return any(s.startswith(f"{step.leg}/") for s, _ in self.recorded)
+            return any(Gauge.parse(g).leg == step.leg for _, g in self.recorded)
         return all((step.step, g) in self.recorded for g in step.gauges)
 
     def _set_gauges(self, step: SetGauges) -> None:

@@ -53,6 +53,11 @@ def _triple(value: Any, check) -> bool:
     return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
 
 
+def _rest(d: Mapping[str, Any], *named: str) -> dict[str, Any]:
+    """A record's keys other than its kind, its time and those ``named``."""
+    return {k: v for k, v in d.items() if k not in ("type", "wall", *named)}
+
+
 @dataclass(frozen=True, kw_only=True)
 class ReadingRecord(Record):
     """One stable gauge value, taken at a step of the plan."""
@@ -272,42 +277,42 @@ class StationRecord(Record):
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> StationRecord:
-        return cls(wall=d.get("wall"), description={k: v for k, v in d.items()
-                                                    if k not in ("type", "wall")})
+        return cls(wall=d.get("wall"), description=_rest(d))
 
 
 @dataclass(frozen=True, kw_only=True)
-class OperatorRecord(Record):
+class _HeadedRecord(Record):
+    """A record named by one key (``HEAD``) and holding whatever else its writer notes."""
+
+    HEAD: ClassVar[str] = ""
+    details: dict[str, Any] = field(default_factory=dict)
+
+    def fields(self) -> dict[str, Any]:
+        return {self.HEAD: getattr(self, self.HEAD), **self.details}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> Any:
+        return cls(wall=d.get("wall"), details=_rest(d, cls.HEAD),
+                   **{cls.HEAD: str(d.get(cls.HEAD, ""))})
+
+
+@dataclass(frozen=True, kw_only=True)
+class OperatorRecord(_HeadedRecord):
     """What the operator did in the wizard: ``action`` and what it concerns."""
 
     KIND: ClassVar[str] = "operator"
+    HEAD: ClassVar[str] = "action"
     action: str
-    details: dict[str, Any] = field(default_factory=dict)
-
-    def fields(self) -> dict[str, Any]:
-        return {"action": self.action, **self.details}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> OperatorRecord:
-        return cls(wall=d.get("wall"), action=str(d.get("action", "")),
-                   details={k: v for k, v in d.items() if k not in ("type", "wall", "action")})
 
 
 @dataclass(frozen=True, kw_only=True)
-class OffsetsRecord(Record):
-    """One stage of a write-back's audit trail (``ogacq.writeback.audit``)."""
+class OffsetsRecord(_HeadedRecord):
+    """One stage of a write-back's audit trail (``ogacq.writeback.audit``): refused,
+    declined, intent, done or failed, with what that stage records."""
 
     KIND: ClassVar[str] = "offsets"
-    stage: str  # refused, declined, intent, done, failed
-    details: dict[str, Any] = field(default_factory=dict)
-
-    def fields(self) -> dict[str, Any]:
-        return {"stage": self.stage, **self.details}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> OffsetsRecord:
-        return cls(wall=d.get("wall"), stage=str(d.get("stage", "")),
-                   details={k: v for k, v in d.items() if k not in ("type", "wall", "stage")})
+    HEAD: ClassVar[str] = "stage"
+    stage: str
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -321,10 +326,8 @@ class OtherRecord(Record):
         return dict(self.content)
 
     def to_json(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"type": self.kind}
-        if self.wall is not None:
-            out["wall"] = self.wall
-        return {**out, **self.content}
+        return {"type": self.kind, **({} if self.wall is None else {"wall": self.wall}),
+                **self.content}
 
 
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
@@ -340,6 +343,5 @@ def record_from_json(d: Mapping[str, Any]) -> Record:
         raise ValueError("not a session record")
     known = KINDS.get(kind)
     if known is None:
-        return OtherRecord(wall=d.get("wall"), kind=kind,
-                           content={k: v for k, v in d.items() if k not in ("type", "wall")})
+        return OtherRecord(wall=d.get("wall"), kind=kind, content=_rest(d))
     return known.from_json(d)
