@@ -40,6 +40,7 @@ from drivers.indicators.mitutoyo_01a import encode_request
 from ogacq.campaign_file import read_campaign
 from ogacq.protocol.plan import Move, campaign_steps
 from ogacq.protocol.runner import CampaignRunner
+from ogacq.session.records import MoveRecord
 from ogacq.session.store import SessionWriter
 from ogacq.station import open_station
 
@@ -130,7 +131,7 @@ def main() -> None:
                 wall = time.perf_counter() - start
         from ogacq.session.store import load_session
 
-        moves = load_session(campaign.session).of_type("move")
+        moves = load_session(campaign.session).of_type(MoveRecord)
         gauge = info["gauges"]["y_x"]
         gauge_s = gauge_response_s(gauge["port"], encode_request())
     finally:
@@ -140,8 +141,8 @@ def main() -> None:
     motion_sim, last = 0.0, (0.0, 0.0, 0.0)
     for move in moves:
         motion_sim += move_time_s(max(abs(a - b) for a, b in
-                                      zip(move["q_mm"], last, strict=True))) + MOTION_SETTLE_S
-        last = tuple(move["q_mm"])
+                                      zip(move.q_mm, last, strict=True))) + MOTION_SETTLE_S
+        last = tuple(move.q_mm)
     motion_s = motion_sim / SPEED
     reads = sum(1 for s in campaign_steps(campaign.protocol, campaign.machine)
                 if not isinstance(s, Move)) - 3

@@ -24,8 +24,8 @@ from ogacq.diagnose.diagnosis import diagnose
 from ogacq.diagnose.library import BASE_MODEL, pairs, singles
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import layout_of, protocol_readings
 from ogacq.model.parameters import NOMINAL, indices, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001,
                       gauge_repeatability_mm=0.002)
@@ -34,7 +34,7 @@ TRUTH = {"joint_offset.x": -0.49, "joint_offset.y": 0.50, "joint_offset.z": -1.6
 
 
 def campaign(seed: int):
-    layout = layout_of(protocol_readings(MACHINE))
+    layout = planned_layout(ProtocolConfig(), MACHINE)
     rng = np.random.default_rng(seed)
     clean = readings_observations(MACHINE, layout, np.zeros(len(layout))).predict(
         vector(TRUTH))

@@ -12,18 +12,19 @@ from pathlib import Path
 from typing import Any
 
 from ogacq.campaign_file import Campaign, read_campaign
-from ogacq.identify.fit import FitResult, fit
+from ogacq.identify.fit import FitResult, evaluate, fit
 from ogacq.identify.plausibility import check_observations, check_result
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.plan import SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
+from ogacq.session.records import OperatorRecord, ResultRecord, StationRecord
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation, open_station
 
-# Adapts the opened station for one run: gets the session writer and what is on file.
-StationWrapper = Callable[[DeviceStation, SessionWriter, set[tuple[str, str]]], Station]
+# Adapts the opened station for one run: gets the session writer.
+StationWrapper = Callable[[DeviceStation, SessionWriter], Station]
 
 
 @dataclass
@@ -40,6 +41,21 @@ def identify_session(session: LoadedSession) -> FitResult:
     result = fit(obs, PARAM_SETS["offsets"])
     check_result(result)
     return result
+
+
+def recorded_identification(session: LoadedSession) -> FitResult:
+    """The joint offsets the campaign recorded when it finished, with their residuals
+    and statistics on the session's readings; identified afresh when the session
+    records none (a campaign stopped before its end, an imported table)."""
+    recorded = session.result
+    names = PARAM_SETS["offsets"]
+    if recorded is None or recorded.params != "offsets":
+        return identify_session(session)
+    try:
+        values = recorded.values(names)
+    except (KeyError, TypeError, ValueError):  # a result of another shape: not ours to read
+        return identify_session(session)
+    return evaluate(session_observations(session), names, values)
 
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
@@ -74,18 +90,19 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             recorded: set[tuple[str, str]] = set()
         else:
             writer = SessionWriter.reopen(resume)
-            writer.append("station", **station.description)
+            writer.write(StationRecord(description=station.description))
             recorded = resume.recorded()
         with writer:
-            runs_on = wrap_station(station, writer, recorded) if wrap_station else station
+            runs_on = wrap_station(station, writer) if wrap_station else station
             runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges)
             runner.run()
             session = load_session(writer.path)
             result = identify_session(session)
-            writer.append("result", params="offsets", refit=result.to_json("offsets"),
-                          noise_mm=result.noise.sigma_mm, noise_source=result.noise.source)
+            writer.write(ResultRecord(params="offsets", refit=result.to_json("offsets"),
+                                      noise_mm=result.noise.sigma_mm,
+                                      noise_source=result.noise.source))
         hidden = station.simulator.machine.truth.hidden() if station.simulator else None
     return CampaignOutcome(writer.path, result, hidden)
 
@@ -113,8 +130,8 @@ def gauges_read_by_eye(session: LoadedSession) -> set[str]:
     mid-way when a gauge failed): only the wizard can ask for them."""
     wizard = session.header.get("wizard")
     chosen = wizard.get("by_eye", []) if isinstance(wizard, dict) else []
-    switched = {r["gauge"] for r in session.of_type("operator")
-                if r.get("action") == "read_by_eye"}
+    switched = {r.details["gauge"] for r in session.of_type(OperatorRecord)
+                if r.action == "read_by_eye"}
     return set(chosen) | switched
 
 

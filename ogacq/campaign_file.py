@@ -59,7 +59,7 @@ from drivers.indicators import BACKENDS
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import line_of, read_toml
-from ogacq.model.gauges import GAUGE_KEYS
+from ogacq.model.gauges import GAUGE_KEYS, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 
@@ -464,9 +464,9 @@ def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeS
         if gauge in seen_gauge:
             raise InputError(src.path, f"gauge {gauge} appears twice (first on line "
                              f"{seen_gauge[gauge]})", start or None)
-        leg = gauge.split("_")[1]
+        leg = Gauge.parse(gauge).leg
         same_leg = [(g, n) for g, n in on_channel.get((port, channel), [])
-                    if g.split("_")[1] == leg]
+                    if Gauge.parse(g).leg == leg]
         if same_leg:
             where = f"port {port}" + (f" channel {channel}" if channel else "")
             other, line = same_leg[0]

@@ -31,7 +31,7 @@ from drivers.indicators.base import read_stable
 from drivers.link import open_link
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.model.parameters import AXES
-from ogacq.protocol.plan import StabilityRule
+from ogacq.protocol.plan import Read, StabilityRule
 from ogacq.protocol.runner import GaugeValue
 from ogacq.writeback.table import read_offset_table
 
@@ -69,7 +69,7 @@ class DeviceStation:
         resolved = self.controller.resolved_targets_mm(targets)
         return tuple(resolved[a] for a in AXES)
 
-    def read_gauge(self, gauge: str, rule: StabilityRule) -> GaugeValue:
+    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
         indicator = self.indicators[gauge]
         stable = read_stable(indicator, rule.readings, rule.tolerance_mm, rule.timeout_s)
         frame = stable.readings[-1].frame.decode("ascii", errors="replace").strip()

@@ -21,7 +21,7 @@ from drivers.sim.machine import SimMachine
 from drivers.sim.modbus_server import ModbusSimServer
 from drivers.sim.motion import MotionModel
 from drivers.sim.truth import SimTruth
-from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS
+from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 
@@ -86,7 +86,7 @@ class SimulatorStack:
         self.server = self.servers[0]
         self.gauges: dict[str, GaugeEndpoint] = {}
         self.channels: dict[str, str | None] = {}
-        sources = {key: self.machine.value_source(*(AXES.index(c) for c in key.split("_")))
+        sources = {key: self.machine.value_source(*Gauge.parse(key).indices)
                    for key in GAUGE_KEYS}
         if config.gauge_layout == "multiplexer":
             channels = {key: str(n) for n, key in enumerate(GAUGE_KEYS, 1)}
@@ -157,7 +157,7 @@ class SimulatorStack:
 
     def _mounted_source(self, keys: tuple[str, ...],
                         sources: dict[str, Callable[[], float]]) -> Callable[[], float]:
-        by_leg = {key.split("_")[1]: sources[key] for key in keys}
+        by_leg = {Gauge.parse(key).leg: sources[key] for key in keys}
         return lambda: by_leg[self._mounted_leg]()
 
     def _endpoints(self) -> list[Any]:

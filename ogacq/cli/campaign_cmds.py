@@ -7,7 +7,7 @@ import shutil
 import sys
 import time
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -16,7 +16,10 @@ from ogacq.campaign_file import read_campaign
 from ogacq.cli.app import app
 from ogacq.cli.leg_prompt import operator_for
 from ogacq.protocol.runner import CampaignStopped
-from ogacq.session.store import load_session
+from ogacq.session.store import LoadedSession, load_session
+
+if TYPE_CHECKING:
+    from ogacq.diagnose.diagnosis import Diagnosis
 
 EXIT_STOPPED = 3
 EXIT_INTERRUPTED = 130
@@ -122,15 +125,18 @@ def demo(
     (folder / "result.json").write_text(json.dumps(
         {**outcome.fit.to_json("offsets"), "hidden": outcome.hidden}, indent=2) + "\n")
     _finish(outcome, as_json=False)
-    _diagnose_demo(session, outcome, folder)
-    from ogacq.cli.report_cmd import report_command
+    diagnosis = _diagnose_demo(session, outcome, folder)
+    from ogacq.cli.report_cmd import diagnosis_for_report, write_session_report
 
-    report_command(outcome.session_path, out=folder / "report")
+    # the session as loaded once, and its diagnosis: the report neither reloads nor
+    # rediagnoses, and shows the identification the campaign recorded
+    write_session_report(session, folder / "report", *diagnosis_for_report(session, diagnosis))
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
 
 
-def _diagnose_demo(session, outcome: CampaignOutcome, folder: Path) -> None:
+def _diagnose_demo(session: LoadedSession, outcome: CampaignOutcome, folder: Path,
+                   ) -> Diagnosis:
     """The rest of the story when the joint offsets alone do not fit: what the
     diagnosis finds, beside the simulator's hidden truth."""
     from ogacq.cli.render import print_demo_diagnosis
@@ -140,3 +146,4 @@ def _diagnose_demo(session, outcome: CampaignOutcome, folder: Path) -> None:
     diagnosis = diagnose(session_observations(session))
     (folder / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n")
     print_demo_diagnosis(diagnosis, outcome.hidden or {})
+    return diagnosis

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 
 from ogacq.campaign_file import Campaign
 from ogacq.io.errors import InputError
+from ogacq.model.gauges import Gauge
 from ogacq.protocol.plan import SetGauges
 from ogacq.protocol.runner import CampaignStopped, GaugeSetter
 
@@ -52,7 +53,7 @@ class LegPrompt:
             console.print(f"\n[bold]The machine is at the Zero posture: set the gauges on "
                           f"the {step.leg} leg.[/]")
             for gauge in step.gauges:
-                axis = gauge.split("_")[0]
+                axis = Gauge.parse(gauge).axis
                 console.print(f"  along {axis}: the indicator on {self._where[gauge]} "
                               f"(gauge {gauge}), touching the middle of the leg, near "
                               "mid-travel")

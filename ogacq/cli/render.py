@@ -11,6 +11,7 @@ from rich.table import Table
 
 from ogacq.identify.fit import FitResult
 from ogacq.model.parameters import effect_of
+from ogacq.session.records import EndRecord, FaultRecord, MoveRecord, ResumeRecord
 
 console = Console()
 
@@ -184,8 +185,8 @@ def print_outcome(outcome) -> None:
 
 def print_session(session) -> None:
     header = session.header
-    ends = session.of_type("end")
-    status = ends[-1]["status"] if ends else "in progress or killed"
+    ends = session.of_type(EndRecord)
+    status = ends[-1].status if ends else "in progress or killed"
     console.print(f"[bold]{session.path}[/]: {header.get('software', '?')}, created "
                   f"{header.get('created', '?')}, status [bold]{status}[/]")
     machine = header.get("machine", {})
@@ -197,17 +198,16 @@ def print_session(session) -> None:
     if controller:
         console.print(f"controller: {controller.get('profile')} at {controller.get('port')}"
                       + (" (simulated)" if station.get("simulated") else ""))
-    faults = session.of_type("fault")
-    console.print(f"readings: {len(session.readings)}, moves: {len(session.of_type('move'))}, "
-                  f"faults: {len(faults)}, resumed: {len(session.of_type('resume'))} times")
+    faults = session.of_type(FaultRecord)
+    console.print(f"readings: {len(session.readings)}, moves: "
+                  f"{len(session.of_type(MoveRecord))}, faults: {len(faults)}, resumed: "
+                  f"{len(session.of_type(ResumeRecord))} times")
     for fault in faults[-3:]:
-        console.print(f"  fault during {fault.get('during')}: {fault.get('message')}",
-                      highlight=False)
-    if ends and ends[-1].get("reason"):
-        console.print(f"stopped because: {ends[-1]['reason']}", highlight=False)
-    results = session.of_type("result")
-    if results:
-        refit = results[-1]["refit"]
+        console.print(f"  fault during {fault.during}: {fault.message}", highlight=False)
+    if ends and ends[-1].reason:
+        console.print(f"stopped because: {ends[-1].reason}", highlight=False)
+    if session.result is not None:
+        refit = session.result.refit
         for name, where in refit["parameters"].items():
             for axis, value in where.items():
                 std = refit["std"][name][axis]

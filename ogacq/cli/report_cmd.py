@@ -38,9 +38,11 @@ def _read_diagnosis(path: Path) -> dict:
                          "`ogacq diagnose --json`", exc.lineno) from None
 
 
-def _diagnose_here(session: LoadedSession) -> tuple[dict[str, Any] | None, str | None]:
-    """The diagnosis JSON of INTERCHANGE.md from the diagnosis package, when this
-    installation has it; else (None, why). The report's only tie to that package."""
+def diagnosis_for_report(session: LoadedSession, done: Any = None,
+                   ) -> tuple[dict[str, Any] | None, str | None]:
+    """The diagnosis JSON of INTERCHANGE.md from the diagnosis package (``done``: the
+    session's diagnosis already made), when this installation has it; else
+    (None, why). The report's only tie to that package."""
     if not session.readings:
         return None, "no diagnosis: the session holds no readings"
     try:
@@ -50,7 +52,7 @@ def _diagnose_here(session: LoadedSession) -> tuple[dict[str, Any] | None, str |
     from ogacq.session.convert import session_observations
 
     try:
-        result = diagnose(session_observations(session))
+        result = done if done is not None else diagnose(session_observations(session))
     except (ValueError, ArithmeticError) as exc:  # DiagnosisError is a ValueError
         return None, f"the diagnosis could not run on this session: {exc}"
     if not callable(getattr(result, "to_json", None)):
@@ -84,6 +86,20 @@ def report_command(
 ) -> None:
     """Write the calibration report: deviations before and after, residuals, parameters
     with confidence intervals, identifiability, diagnosis and provenance."""
+    calibration = _load(session)
+    validation = _load(after) if after is not None else None
+    raw, note = (_read_diagnosis(diagnosis), None) if diagnosis is not None else \
+        diagnosis_for_report(calibration)
+    folder = out if out is not None else session.parent / f"{session.stem}-report"
+    write_session_report(calibration, folder, raw, note, validation=validation,
+                         diagnosis_file=diagnosis)
+
+
+def write_session_report(calibration: LoadedSession, folder: Path,
+                         diagnosis: dict[str, Any] | None, diagnosis_note: str | None, *,
+                         validation: LoadedSession | None = None,
+                         diagnosis_file: Path | None = None) -> None:
+    """Write the report of a loaded session and its diagnosis JSON; say where."""
     from ogacq.report import (
         DiagnosisFormatError,
         build_report,
@@ -92,18 +108,12 @@ def report_command(
         write_report,
     )
 
-    calibration = _load(session)
-    validation = _load(after) if after is not None else None
-    if diagnosis is not None:
-        raw, note = _read_diagnosis(diagnosis), None
-    else:
-        raw, note = _diagnose_here(calibration)
     try:
-        view = parse_diagnosis(raw) if raw is not None else None
+        view = parse_diagnosis(diagnosis) if diagnosis is not None else None
     except DiagnosisFormatError as exc:
-        raise InputError(diagnosis or session, f"diagnosis: {exc}") from None
-    data = collect(calibration, validation=validation, diagnosis=view, diagnosis_note=note)
-    folder = out if out is not None else session.parent / f"{session.stem}-report"
+        raise InputError(diagnosis_file or calibration.path, f"diagnosis: {exc}") from None
+    data = collect(calibration, validation=validation, diagnosis=view,
+                   diagnosis_note=diagnosis_note)
     if folder.exists() and not folder.is_dir():
         raise UserError(f"{folder}: exists and is not a folder; choose another --out")
     typer.echo(str(write_report(build_report(data), folder)))

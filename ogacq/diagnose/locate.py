@@ -16,6 +16,7 @@ from scipy import stats
 
 from ogacq.identify.consistency import posture_name
 from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.model.gauges import Gauge
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.parameters import AXES
 
@@ -117,8 +118,8 @@ class Location:
     def gauges_json(self) -> list[dict]:
         out = []
         for g in self.level("gauge"):
-            axis, leg = g.key.split("_")
-            out.append({"leg": leg, "gauge_axis": axis, "share": round(g.share, 4)})
+            gauge = Gauge.parse(g.key)
+            out.append({"leg": gauge.leg, "gauge_axis": gauge.axis, "share": round(g.share, 4)})
         return out
 
 

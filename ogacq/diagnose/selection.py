@@ -85,7 +85,9 @@ class Considered:
 
 
 @dataclass
-class Step:
+class SelectionStep:
+    """One addition of the forward selection: the effects added and the tests that chose them."""
+
     before: Model
     after: Model
     added: tuple[str, ...]
@@ -104,7 +106,7 @@ class Step:
 class Selection:
     base: Model
     final: Model
-    steps: list[Step] = field(default_factory=list)
+    steps: list[SelectionStep] = field(default_factory=list)
     dropped: list[tuple[str, float]] = field(default_factory=list)  # (effect, p) removed
     last_considered: list[Considered] = field(default_factory=list)  # when stuck
     candidates_fitted: int = 0
@@ -205,7 +207,7 @@ def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = L
         aic1, bic1 = information_criteria(after.rss, after.rank, problem.n_data, noise)
         runners = sorted((c for c in considered if c.added != chosen.added and c.eligible),
                          key=lambda c: c.rss)[:SHOWN_RUNNERS_UP]
-        selection.steps.append(Step(current, after, chosen.added, chosen.f_stat,
+        selection.steps.append(SelectionStep(current, after, chosen.added, chosen.f_stat,
                                     chosen.p_value, aic1 - aic0, bic1 - bic0, runners))
         current = after
     selection.final = _backward(problem, noise, current, alpha, selection)

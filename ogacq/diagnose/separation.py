@@ -21,7 +21,7 @@ from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS
 from ogacq.diagnose.visibility import Capability, capability
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import layout_of, protocol_readings
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 SEPARATES_CHI2 = 26.0
 
@@ -96,9 +96,9 @@ class Separation:
 
 def plan_problem(machine: MachineSpec, option: PlanOption) -> Problem:
     """The plan's readings laid out by the exact model (values are irrelevant)."""
-    layout = layout_of(protocol_readings(machine, postures=option.postures,
-                                         cycles=option.cycles,
-                                         seconds_per_posture=option.seconds_per_posture))
+    layout = planned_layout(ProtocolConfig(postures=tuple(option.postures),
+                                           cycles=option.cycles), machine,
+                            seconds_per_posture=option.seconds_per_posture)
     return Problem(readings_observations(machine, layout, np.zeros(len(layout))))
 
 

@@ -18,9 +18,10 @@ from ogacq.identify.fit import Weighting, design_rank, gauss_newton, jacobian
 from ogacq.identify.identifiability import Identifiability, assess
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
+from ogacq.model.gauges import AXES
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import layout_of, protocol_readings
 from ogacq.model.parameters import NOMINAL, effect_of, indices, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 CHUNK = 1000  # trials per vectorised batch: bounds memory at a few hundred MB
 
@@ -62,7 +63,8 @@ class AccuracyPrediction:
 
 def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float],
                          cycles: int, legs: Sequence[int] = (0, 1, 2)) -> Observations:
-    layout = layout_of(protocol_readings(machine, legs=legs, postures=postures, cycles=cycles))
+    layout = planned_layout(ProtocolConfig(legs=tuple(AXES[i] for i in legs),
+                                           postures=tuple(postures), cycles=cycles), machine)
     return readings_observations(machine, layout, np.zeros(len(layout)), "plan")
 
 

@@ -256,7 +256,32 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         converged = bool(conv[0])
         jac = jacobian(obs, theta[None], free)  # central differences for the covariance
         residuals = obs.remove_zeros(y - obs.predict(theta[None]))[0]
+    return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
+                      iterations, converged)
 
+
+def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
+             weighting: str = "ols", noise: GaugeNoise | None = None) -> FitResult:
+    """The exact fit's result at ``values`` already identified (a campaign's recorded
+    result), without iterating: residuals, covariance and identifiability there."""
+    names = tuple(names)
+    free = indices(names)
+    noise = noise or noise_for(obs)
+    w = Weighting(obs, weighting, noise)
+    theta = NOMINAL.copy()
+    theta[free] = np.asarray(values, dtype=float)
+    rank = design_rank(w.jac(_linear_jacobian(obs, names, free, NOMINAL))[0], _ranges(free))
+    jac = jacobian(obs, theta[None], free)
+    residuals = obs.remove_zeros(obs.values[None] - obs.predict(theta[None]))[0]
+    return _result_at(obs, names, theta, NOMINAL, jac, residuals, rank, w, "exact", 0, True)
+
+
+def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
+               theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
+               w: Weighting, method: str, iterations: int, converged: bool) -> FitResult:
+    """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``."""
+    free = indices(names)
+    noise = w.noise
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
     jw = w.jac(jac if rank == len(names) else _linear_jacobian(obs, names, free, theta0))[0]
@@ -267,7 +292,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         names=names, values=theta[free], std=np.sqrt(np.diag(cov)), covariance=cov,
         residuals=residuals, residual_rms_mm=float(np.sqrt(np.mean(residuals**2))),
         sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,
-        noise=noise, identifiability=ident, method=method, weighting=weighting,
+        noise=noise, identifiability=ident, method=method, weighting=w.kind,
         iterations=iterations, converged=converged, theta=theta, observations=obs,
         jacobian=jac[0])
 

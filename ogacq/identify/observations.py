@@ -14,18 +14,38 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ogacq.model.kinematics import nominal_q
+from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import (
-    PlannedReading,
-    ReadingsLayout,
-    layout_of,
-    posture_tcp,
-    predict_coordinates,
-)
+from ogacq.model.measurement import POSTURE_NAMES, ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 DEVIATION_NAME = re.compile(r"^d([xyz])_([xyz])([+-]?)$")
+POSTURE_OF_SIGN = {"+": "max", "-": "min", "": "max-min"}
+
+
+@dataclass(frozen=True)
+class Deviation:
+    """A tabulated deviation's name: ``dy_x+`` is gauge y_x at Max relative to Zero,
+    ``dy_x-`` at Min, ``dy_x`` Max minus Min."""
+
+    gauge: Gauge
+    sign: str  # "+", "-" or ""
+
+    @classmethod
+    def parse(cls, name: str) -> Deviation:
+        m = DEVIATION_NAME.match(name)
+        if not m or m.group(1) == m.group(2):
+            raise ValueError(f"{name!r} is not a deviation name like dx_y+, dx_y- or dx_y")
+        return cls(Gauge(m.group(1), m.group(2)), m.group(3))
+
+    @property
+    def name(self) -> str:
+        return f"d{self.gauge.key}{self.sign}"
+
+    @property
+    def posture(self) -> str:
+        return POSTURE_OF_SIGN[self.sign]
 # The order of eq. 11 of the 2008 paper, per leg pair (dX_Y+, dY_X+, dX_Y-, dY_X-).
 PAPER_ORDER_12 = ("dx_y+", "dy_x+", "dx_y-", "dy_x-", "dx_z+", "dz_x+", "dx_z-", "dz_x-",
                   "dy_z+", "dz_y+", "dy_z-", "dz_y-")
@@ -82,11 +102,6 @@ class Observations:
         means = (x @ onehot) / onehot.sum(axis=0)
         return x - means @ onehot.T
 
-    def gauge_zeros(self, residual: np.ndarray) -> np.ndarray:
-        """Least-squares gauge zeros for a residual before projection."""
-        g = self.layout.gauge
-        return np.bincount(g, weights=residual) / np.bincount(g)
-
 
 def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values,
                           source: str = "") -> Observations:
@@ -100,35 +115,27 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
     """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min).
 
     The readings they were taken from are laid out as one cycle of the papers'
-    protocol (Zero, Max, Min for each leg involved); approach and time are
-    unknown for tabulated data and taken as neutral.
+    plan (Zero, Max, Min for each leg involved), keeping the gauges named;
+    approach and time are unknown for tabulated data and taken as neutral.
     """
-    parsed = []
-    for name, value in named:
-        m = DEVIATION_NAME.match(name)
-        if not m or m.group(1) == m.group(2):
-            raise ValueError(f"{name!r} is not a deviation name like dx_y+, dx_y- or dx_y")
-        parsed.append((AXES.index(m.group(1)), AXES.index(m.group(2)), m.group(3), value))
-    planned: list[PlannedReading] = []
-    index: dict[tuple[int, int, str], int] = {}
-    for j, i, _, _ in parsed:
-        for posture in ("zero", "max", "min"):
-            if (j, i, posture) not in index:
-                index[(j, i, posture)] = len(planned)
-                tcp = posture_tcp(i, posture, machine)
-                planned.append(PlannedReading(i, j, 1, posture, tcp,
-                                              nominal_q(tcp, machine.leg_length_mm), 0.0))
-    layout = layout_of(planned)
-    layout = ReadingsLayout.build(layout.q_mm, layout.leg, layout.gauge_axis, layout.t_s,
-                                  layout.cycle, layout.tcp_mm,
-                                  np.zeros_like(layout.approach))
-    D = np.zeros((len(parsed), len(planned)))
-    for row, (j, i, sign, _) in enumerate(parsed):
-        first, second = {"+": ("max", "zero"), "-": ("min", "zero"), "": ("max", "min")}[sign]
-        D[row, index[(j, i, first)]] = 1.0
-        D[row, index[(j, i, second)]] = -1.0
+    parsed = [Deviation.parse(name) for name, _ in named]
+    gauges = {d.gauge.indices for d in parsed}
+    legs = tuple(leg for leg in AXES if any(d.gauge.leg == leg for d in parsed))
+    plan = planned_layout(ProtocolConfig(legs=legs, postures=POSTURE_NAMES, cycles=1), machine,
+                          seconds_per_posture=0.0)
+    plan = plan.subset(np.array([(int(j), int(i)) in gauges
+                                 for j, i in zip(plan.gauge_axis, plan.leg, strict=True)]))
+    layout = ReadingsLayout.build(plan.q_mm, plan.leg, plan.gauge_axis, plan.t_s, plan.cycle,
+                                  plan.tcp_mm, np.zeros_like(plan.approach), plan.posture)
+    index = {(Gauge.at(j, i), posture): k for k, (j, i, posture) in
+             enumerate(zip(layout.gauge_axis, layout.leg, layout.posture, strict=True))}
+    D = np.zeros((len(parsed), len(layout)))
+    for row, d in enumerate(parsed):
+        first, second = {"+": ("max", "zero"), "-": ("min", "zero"), "": ("max", "min")}[d.sign]
+        D[row, index[(d.gauge, first)]] = 1.0
+        D[row, index[(d.gauge, second)]] = -1.0
     labels = [name for name, _ in named]
-    return Observations(machine, layout, [v for *_, v in parsed], labels, D, source,
+    return Observations(machine, layout, [value for _, value in named], labels, D, source,
                         "deviations")
 
 
@@ -139,13 +146,12 @@ def averaged_deviations(obs: Observations, form: str = "12") -> Observations:
         return obs
     lay = obs.layout
     named = []
+    postures = lay.posture_names(obs.machine)
     for j, i in lay.gauge_keys:
         sel = (lay.gauge_axis == j) & (lay.leg == i)
-        s = lay.tcp_mm[sel, i]
         mean = {}
-        for posture, target in (("zero", 0.0), ("max", obs.machine.rho_max_mm),
-                                ("min", obs.machine.rho_min_mm)):
-            hit = np.isclose(s, target, atol=1e-6)
+        for posture in POSTURE_NAMES:
+            hit = postures[sel] == posture
             if hit.any():
                 mean[posture] = float(obs.values[sel][hit].mean())
         name = f"d{AXES[j]}_{AXES[i]}"

@@ -24,8 +24,9 @@ from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import ReadingsLayout, layout_of, protocol_readings
+from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 GEOMETRIES = {
     "prototype": MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001),
@@ -58,8 +59,8 @@ class Cell:
                        else None)
 
     def layout(self) -> ReadingsLayout:
-        return layout_of(protocol_readings(self.machine(), postures=PROTOCOLS[self.protocol],
-                                           cycles=self.cycles))
+        return planned_layout(ProtocolConfig(postures=PROTOCOLS[self.protocol],
+                                             cycles=self.cycles), self.machine())
 
     def label(self) -> str:
         return (f"{self.display_mm * 1000:>4g} µm  {self.noise_mm * 1000:>4g} µm  "

@@ -14,7 +14,7 @@ from ogacq.identify.observations import (
 )
 from ogacq.identify.plausibility import check_observations
 from ogacq.io.errors import InputError
-from ogacq.io.tables import check_postures, read_deviations, read_readings, sniff
+from ogacq.io.tables import check_table_postures, read_deviations, read_readings, sniff
 from ogacq.model.machine import MachineSpec
 
 log = logging.getLogger(__name__)
@@ -41,7 +41,7 @@ def load_observations(path: str | Path, machine: MachineSpec | None = None,
         obs = deviations_observations(machine, read_deviations(path), source=str(path))
     elif kind == "readings":
         table = read_readings(path)
-        check_postures(table, machine, path)
+        check_table_postures(table, machine, path)
         obs = readings_observations(machine, table.layout(), table.reading_mm, str(path))
     else:
         obs = _session_observations(path, machine, machine_path, other_geometry)

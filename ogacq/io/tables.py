@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ogacq.identify.observations import DEVIATION_NAME
+from ogacq.identify.observations import Deviation
 from ogacq.io.errors import InputError
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
@@ -122,11 +122,12 @@ def read_deviations(path: str | Path) -> list[tuple[str, float]]:
         if len(row) < len(header):
             raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
         name = row[at["name"]].strip()
-        m = DEVIATION_NAME.match(name)
-        if not m or m.group(1) == m.group(2):
+        try:
+            Deviation.parse(name)
+        except ValueError:
             raise InputError(path, f"{name!r} is not a deviation name: expected dX_Y+, dX_Y- "
                              "(relative to Zero) or dX_Y (Max minus Min), X != Y in x, y, z",
-                             line)
+                             line) from None
         if name in seen:
             raise InputError(path, f"{name} appears twice (first at line {seen[name]})", line)
         seen[name] = line
@@ -180,8 +181,8 @@ def read_readings(path: str | Path) -> ReadingsTable:
         lines=np.array(cols["line"]))
 
 
-def check_postures(table: ReadingsTable, machine: MachineSpec, path: str | Path,
-                   margin_mm: float = 1.0) -> None:
+def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str | Path,
+                         margin_mm: float = 1.0) -> None:
     """Refuse rows whose joint coordinates the machine cannot take."""
     low, high = machine.rho_min_mm - margin_mm, machine.rho_max_mm + margin_mm
     bad = np.flatnonzero(np.any((table.q_mm < low) | (table.q_mm > high), axis=1))

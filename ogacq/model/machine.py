@@ -47,10 +47,6 @@ class MachineSpec:
     def alpha_min_rad(self) -> float:
         return math.asin(self.rho_min_mm / self.leg_length_mm)
 
-    def prior_noise_mm(self) -> float | None:
-        """The gauge noise the file states, if it states one."""
-        return self.gauge_repeatability_mm
-
 
 PAPER_PROTOTYPE = MachineSpec(leg_length_mm=310.25, rho_min_mm=-100.0, rho_max_mm=60.0,
                               gauge_resolution_mm=0.01, name="Orthoglide prototype")

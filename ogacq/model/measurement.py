@@ -14,13 +14,13 @@ that depends on the side a posture was approached from.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from ogacq.model.kinematics import axis_lines, forward, joint_centres, leg_lengths, nominal_q
+from ogacq.model.gauges import GAUGES, Gauge
+from ogacq.model.kinematics import axis_lines, forward, joint_centres, leg_lengths
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_INDEX
 
@@ -31,13 +31,7 @@ _DRIFT = [PARAM_INDEX[f"thermal_drift.{a}"] for a in AXES]
 _GPOS = [PARAM_INDEX[f"gauge_position.{a}"] for a in AXES]
 
 
-def gauge_name(gauge_axis: int, leg: int) -> str:
-    """``x_y``: the gauge measuring along x on the y leg."""
-    return f"{AXES[gauge_axis]}_{AXES[leg]}"
-
-
-_GSCALE = {(j, i): PARAM_INDEX[f"gauge_scale.{gauge_name(j, i)}"]
-           for i in range(3) for j in range(3) if i != j}
+_GSCALE = {g.indices: PARAM_INDEX[f"gauge_scale.{g.key}"] for g in GAUGES}
 
 
 def approach_from_sequence(q_mm: np.ndarray) -> np.ndarray:
@@ -68,10 +62,12 @@ class ReadingsLayout:
     gauge: np.ndarray  # (n,) index into gauge_keys
     gauge_keys: tuple[tuple[int, int], ...]  # (gauge_axis, leg) per gauge
     setting_q_mm: np.ndarray  # (G, 3) posture each gauge was set at
+    # (n,) the plan's posture labels ("zero", "max", "+12mm"), None when not recorded
+    posture: np.ndarray | None = None
 
     @classmethod
     def build(cls, q_mm, leg, gauge_axis, t_s=None, cycle=None, tcp_mm=None,
-              approach=None) -> ReadingsLayout:
+              approach=None, posture=None) -> ReadingsLayout:
         q = np.asarray(q_mm, dtype=float).reshape(-1, 3)
         n = len(q)
         leg = np.asarray(leg, dtype=int)
@@ -96,6 +92,7 @@ class ReadingsLayout:
             else np.asarray(approach, dtype=int),
             gauge=gauge, gauge_keys=tuple(keys),
             setting_q_mm=np.array(setting).reshape(-1, 3),
+            posture=None if posture is None else np.asarray(posture, dtype=object),
         )
 
     def __len__(self) -> int:
@@ -106,7 +103,7 @@ class ReadingsLayout:
         return len(self.gauge_keys)
 
     def gauge_names(self) -> list[str]:
-        return [gauge_name(j, i) for j, i in self.gauge_keys]
+        return [Gauge.at(j, i).key for j, i in self.gauge_keys]
 
     @cached_property
     def distinct_poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -131,7 +128,19 @@ class ReadingsLayout:
             approach=self.approach[idx],
             gauge=np.array([renumber[g] for g in self.gauge[idx]], dtype=int),
             gauge_keys=tuple(self.gauge_keys[g] for g in kept),
-            setting_q_mm=self.setting_q_mm[kept].reshape(-1, 3))
+            setting_q_mm=self.setting_q_mm[kept].reshape(-1, 3),
+            posture=None if self.posture is None else self.posture[idx])
+
+    def posture_names(self, machine: MachineSpec) -> np.ndarray:
+        """(n,) each reading's posture: as recorded, else (a readings CSV has no posture
+        column) zero, max or min where the commanded TCP along the leg is one of them."""
+        if self.posture is not None:
+            return self.posture
+        along = self.tcp_mm[np.arange(len(self)), self.leg]
+        out = np.full(len(self), "", dtype=object)
+        for name in POSTURE_NAMES:
+            out[np.isclose(along, posture_tcp(0, name, machine)[0], atol=1e-6)] = name
+        return out
 
 
 def _joint_positions(theta, q, t_s, approach, machine: MachineSpec):
@@ -203,40 +212,3 @@ def posture_tcp(leg: int, posture: str | float, machine: MachineSpec) -> np.ndar
     p = np.zeros(3)
     p[leg] = s
     return p
-
-
-@dataclass(frozen=True)
-class PlannedReading:
-    leg: int
-    gauge_axis: int
-    cycle: int
-    posture: str | float
-    tcp_mm: np.ndarray
-    q_mm: np.ndarray
-    t_s: float
-
-
-def protocol_readings(machine: MachineSpec, *, legs: Sequence[int] = (0, 1, 2),
-                      postures: Sequence[str | float] = ("zero", "max", "min", "zero"),
-                      cycles: int = 3, seconds_per_posture: float = 20.0,
-                      ) -> list[PlannedReading]:
-    """The readings of a campaign in the order taken (the papers' protocol by default):
-    for each leg, ``postures`` repeated ``cycles`` times, both gauges at each."""
-    out = []
-    t = 0.0
-    for i in legs:
-        for c in range(1, cycles + 1):
-            for posture in postures:
-                tcp = posture_tcp(i, posture, machine)
-                q = nominal_q(tcp, machine.leg_length_mm)
-                for j in range(3):
-                    if j != i:
-                        out.append(PlannedReading(i, j, c, posture, tcp, q, t))
-                t += seconds_per_posture
-    return out
-
-
-def layout_of(planned: Sequence[PlannedReading]) -> ReadingsLayout:
-    return ReadingsLayout.build(
-        [r.q_mm for r in planned], [r.leg for r in planned], [r.gauge_axis for r in planned],
-        [r.t_s for r in planned], [r.cycle for r in planned], [r.tcp_mm for r in planned])

@@ -13,10 +13,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-AXES = ("x", "y", "z")
+from ogacq.model.gauges import AXES, GAUGE_KEYS
+
 AXIS_PAIRS = ("xy", "xz", "yz")
-# (gauge axis, leg): the gauge measuring along the first on the second's leg
-GAUGES = tuple((j, i) for i in AXES for j in AXES if j != i)
 
 
 @dataclass(frozen=True)
@@ -43,14 +42,12 @@ EFFECTS: tuple[EffectKind, ...] = (
     EffectKind("thermal_drift", "mm/h", AXES, 0.0, 1.0, "joint offset drift rate"),
     EffectKind("gauge_position", "fraction", AXES, 0.5, 0.4,
                "where along the leg the gauges were set, from the TCP end"),
-    EffectKind("gauge_scale", "ppm", tuple(f"{j}_{i}" for j, i in GAUGES), 0.0, 50000.0,
-               "gauge gain error"),
+    EffectKind("gauge_scale", "ppm", GAUGE_KEYS, 0.0, 50000.0, "gauge gain error"),
 )
 EFFECT_BY_NAME = {e.name: e for e in EFFECTS}
 
 PARAM_NAMES: tuple[str, ...] = tuple(f"{e.name}.{w}" for e in EFFECTS for w in e.wheres)
 PARAM_INDEX: dict[str, int] = {n: k for k, n in enumerate(PARAM_NAMES)}
-N_PARAMS = len(PARAM_NAMES)
 NOMINAL = np.array([EFFECT_BY_NAME[n.split(".")[0]].nominal for n in PARAM_NAMES])
 
 PARAM_SETS: dict[str, tuple[str, ...]] = {

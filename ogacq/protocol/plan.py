@@ -4,6 +4,9 @@ A plan says what to do, not how: move, settle, read the gauges of a leg, ask
 the operator. One runner executes it for the wizard, for unattended campaigns
 and in the tests (``list(campaign_steps(...))`` is the whole campaign). Each
 reading step carries a stable id, so a resumed campaign knows what is done.
+It is the only enumeration of the protocol: the readings a plan would take,
+laid out for the model (:func:`planned_layout`), serve the accuracy and
+separation analyses and the tabulated deviations alike.
 
 Approach: how each posture is approached, which matters when the drives have
 backlash. ``sequence`` goes straight from posture to posture (the papers');
@@ -19,9 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ogacq.model.gauges import Gauge, gauges_on
 from ogacq.model.kinematics import nominal_q
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import posture_tcp
+from ogacq.model.measurement import ReadingsLayout, posture_tcp
 from ogacq.model.parameters import AXES
 
 APPROACHES = ("sequence", "from_below", "from_above", "both")
@@ -80,7 +84,7 @@ class SetGauges:
     """The gauges of ``leg`` are set (by hand, or confirmed pre-mounted) at its Zero."""
 
     leg: str
-    gauges: tuple[str, ...]  # "y_x": along y on the x leg
+    gauges: tuple[str, ...]  # Gauge keys: "y_x" is along y on the x leg
 
 
 @dataclass(frozen=True)
@@ -136,7 +140,7 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
     side = np.zeros(3, dtype=int)
     for leg in config.legs:
         i = AXES.index(leg)
-        gauges = tuple(f"{AXES[j]}_{leg}" for j in range(3) if j != i)
+        gauges = tuple(g.key for g in gauges_on(leg))
         first_tcp = posture_tcp(i, config.postures[0], machine)
         first_q = nominal_q(first_tcp, machine.leg_length_mm)
         # Gauges are set at the leg's first posture: go there first.
@@ -176,3 +180,20 @@ def _t(v: Sequence[float] | np.ndarray) -> tuple:
 
 def reading_steps(config: ProtocolConfig, machine: MachineSpec) -> list[Read]:
     return [s for s in campaign_steps(config, machine) if isinstance(s, Read)]
+
+
+def planned_layout(config: ProtocolConfig, machine: MachineSpec, *,
+                   seconds_per_posture: float = 20.0) -> ReadingsLayout:
+    """The readings the plan takes, in order, laid out for the model: each reading
+    step's gauges at its joints, approach and posture, the clock advancing
+    ``seconds_per_posture`` from one posture to the next."""
+    rows = [(k, step, gauge) for k, step in enumerate(reading_steps(config, machine))
+            for gauge in step.gauges]
+    gauges = [Gauge.parse(gauge) for _, _, gauge in rows]
+    return ReadingsLayout.build(
+        q_mm=[step.q_mm for _, step, _ in rows], leg=[AXES.index(g.leg) for g in gauges],
+        gauge_axis=[AXES.index(g.axis) for g in gauges],
+        t_s=[k * seconds_per_posture for k, _, _ in rows],
+        cycle=[step.cycle for _, step, _ in rows], tcp_mm=[step.tcp_mm for _, step, _ in rows],
+        approach=[step.approach for _, step, _ in rows],
+        posture=[step.posture for _, step, _ in rows])

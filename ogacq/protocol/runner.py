@@ -17,6 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import (
     Move,
@@ -25,6 +26,13 @@ from ogacq.protocol.plan import (
     SetGauges,
     StabilityRule,
     campaign_steps,
+)
+from ogacq.session.records import (
+    EndRecord,
+    FaultRecord,
+    GaugesSetRecord,
+    MoveRecord,
+    ReadingRecord,
 )
 from ogacq.session.store import SessionWriter
 
@@ -44,8 +52,9 @@ class Station(Protocol):
         """Move the three joints and return once in position (raise DriverError),
         with the coordinates really commanded (rounded to the controller's resolution)."""
 
-    def read_gauge(self, gauge: str, rule: StabilityRule) -> GaugeValue:
-        """A stable value of gauge ``gauge`` (``y_x``: along y on the x leg)."""
+    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
+        """A stable value of gauge ``gauge`` (``y_x``: along y on the x leg), for the
+        plan's reading step ``step`` the runner is executing."""
 
     def campaign_time_s(self) -> float: ...
 
@@ -120,7 +129,7 @@ class CampaignRunner:
         except DriverError as exc:
             self._stop_safely("stopped", str(exc))
             raise CampaignStopped(str(exc)) from exc
-        self.writer.append("end", status="complete", readings=len(self.recorded))
+        self.writer.write(EndRecord(status="complete", readings=len(self.recorded)))
 
     def _stop_safely(self, status: str, reason: str) -> None:
         try:
@@ -128,8 +137,8 @@ class CampaignRunner:
             stopped = True
         except DriverError:
             stopped = False
-        self.writer.append("end", status=status, reason=reason, axes_stopped=stopped,
-                           readings=len(self.recorded))
+        self.writer.write(EndRecord(status=status, reason=reason, axes_stopped=stopped,
+                                    readings=len(self.recorded)))
 
     def _run(self) -> None:
         pending: list[Move] = []
@@ -160,13 +169,13 @@ class CampaignRunner:
 
     def _done(self, step: SetGauges | Read) -> bool:
         if isinstance(step, SetGauges):  # measuring this leg began: its gauges are set
-            return any(s.startswith(f"{step.leg}/") for s, _ in self.recorded)
+            return any(Gauge.parse(g).leg == step.leg for _, g in self.recorded)
         return all((step.step, g) in self.recorded for g in step.gauges)
 
     def _set_gauges(self, step: SetGauges) -> None:
         if self.set_gauges is not None:
             self.set_gauges(step)
-        self.writer.append("gauges_set", leg=step.leg, gauges=list(step.gauges))
+        self.writer.write(GaugesSetRecord(leg=step.leg, gauges=step.gauges))
         self.observer(Progress(len(self.recorded), self._total,
                                f"gauges set on the {step.leg} leg"))
 
@@ -181,33 +190,32 @@ class CampaignRunner:
                     self._planned_q = move.q_mm
                     break
                 except (DeviceFault, DeviceTimeout) as exc:
-                    self.writer.append("fault", during="move", attempt=attempt,
-                                       error=type(exc).__name__, message=str(exc),
-                                       q_mm=list(move.q_mm))
+                    self.writer.write(FaultRecord(during="move", attempt=attempt,
+                                                  error=type(exc).__name__, message=str(exc),
+                                                  q_mm=move.q_mm))
                     if attempt == self.retry.move_attempts or not self.station.recover_axes():
                         raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
                                               f"{exc}") from exc
-            self.writer.append("move", q_mm=list(self._commanded_q), purpose=move.purpose)
+            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose))
 
     def _read(self, step: Read, gauge: str) -> None:
         for attempt in range(1, self.retry.gauge_attempts + 1):
             try:
-                value = self.station.read_gauge(gauge, self.config.stability)
+                value = self.station.read_gauge(step, gauge, self.config.stability)
                 break
             except DriverError as exc:  # silent, 911, garbled, unplugged: all retried, bounded
-                self.writer.append("fault", during="read", step=step.step, gauge=gauge,
-                                   attempt=attempt, error=type(exc).__name__, message=str(exc))
+                self.writer.write(FaultRecord(during="read", step=step.step, gauge=gauge,
+                                              attempt=attempt, error=type(exc).__name__,
+                                              message=str(exc)))
                 if attempt == self.retry.gauge_attempts:
                     raise CampaignStopped(f"gauge {gauge} at {step.step}: {exc} "
                                           f"({attempt} attempts)") from exc
                 time.sleep(self.retry.backoff_s * attempt)
-        leg, axis = step.leg, gauge.split("_")[0]
-        self.writer.append(
-            "reading", step=step.step, gauge=gauge, leg=leg, gauge_axis=axis,
-            cycle=step.cycle, posture=step.posture, t_s=round(self.station.campaign_time_s(), 3),
-            q_mm=list(self._commanded_q or step.q_mm), tcp_mm=list(step.tcp_mm),
-            approach=list(step.approach),
-            reading_mm=value.value_mm, raw=value.raw, source=value.where)
+        self.writer.write(ReadingRecord(
+            step=step.step, gauge=Gauge.parse(gauge), cycle=step.cycle, posture=step.posture,
+            t_s=round(self.station.campaign_time_s(), 3),
+            q_mm=self._commanded_q or step.q_mm, tcp_mm=step.tcp_mm, approach=step.approach,
+            reading_mm=value.value_mm, raw=value.raw, source=value.where))
         self.recorded.add((step.step, gauge))
         self.observer(Progress(len(self.recorded), self._total,
                                f"{step.step} {gauge} = {value.value_mm:.4f} mm"))

@@ -1,8 +1,9 @@
 """Everything the report shows, taken from a session (and optionally a validation
 session and a diagnosis), as plain values: the figures and the HTML only lay it out.
 
-The identification is the campaign's own (:func:`ogacq.campaign.identify_session`),
-so the report shows the numbers the campaign printed. "Before" deviations are the
+The identification is the campaign's own, as it recorded it
+(:func:`ogacq.campaign.recorded_identification`), so the report shows the numbers
+the campaign printed. "Before" deviations are the
 papers' twelve (Max/Min relative to Zero, averaged over cycles) of the readings;
 "after, predicted" are the same averages of the residuals, i.e. what remains once
 the identified offsets are compensated; "after, measured" are the deviations of a
@@ -18,13 +19,15 @@ from typing import Any
 import numpy as np
 
 from ogacq import __version__
-from ogacq.campaign import identify_session
+from ogacq.campaign import recorded_identification
 from ogacq.identify.fit import FitResult, fit
-from ogacq.identify.observations import Observations, averaged_deviations
+from ogacq.identify.observations import Deviation, Observations, averaged_deviations
 from ogacq.io.errors import InputError
+from ogacq.model.measurement import POSTURE_NAMES
 from ogacq.model.parameters import AXES, PARAM_INDEX, effect_of
 from ogacq.report.diagnosis_view import DiagnosisView
 from ogacq.session.convert import session_machine
+from ogacq.session.records import EndRecord, FaultRecord, Record, ResumeRecord
 from ogacq.session.store import LoadedSession
 
 POSTURE_OF_SIGN = {"+": "max", "-": "min"}
@@ -180,30 +183,24 @@ class ReportData:
 # --- the session as a campaign ------------------------------------------------------------
 
 def campaign_status(session: LoadedSession) -> CampaignStatus:
-    ends = session.of_type("end")
+    ends = session.of_type(EndRecord)
     last = ends[-1] if ends else None
     readings = len(session.readings)
     if last is None:
         status, reason = "incomplete", None
     else:
-        status, reason = str(last.get("status", "incomplete")), last.get("reason")
+        status, reason = last.status, last.reason
         # a resumed campaign that has not finished yet ends on its earlier stop
-        if session.records.index(last) < _last_index(session, "resume"):
+        if _last_index(session, EndRecord) < _last_index(session, ResumeRecord):
             status, reason = "incomplete", None
-    faults = tuple(_fault_text(f) for f in session.of_type("fault"))
+    faults = tuple(f.describe() for f in session.of_type(FaultRecord))
     return CampaignStatus(status, readings, _planned_readings(session), reason, faults,
                           tuple(session.warnings))
 
 
-def _last_index(session: LoadedSession, kind: str) -> int:
-    found = [k for k, r in enumerate(session.records) if r.get("type") == kind]
+def _last_index(session: LoadedSession, kind: type[Record]) -> int:
+    found = [k for k, r in enumerate(session.records) if isinstance(r, kind)]
     return found[-1] if found else -1
-
-
-def _fault_text(fault: dict) -> str:
-    where = " ".join(str(fault[k]) for k in ("during", "step", "gauge") if fault.get(k))
-    attempt = f" (attempt {fault['attempt']})" if fault.get("attempt") else ""
-    return f"{where}{attempt}: {fault.get('message', 'fault')}"
 
 
 def _planned_readings(session: LoadedSession) -> int | None:
@@ -234,9 +231,8 @@ def provenance(session: LoadedSession) -> Provenance:
         if key not in ("controller", "gauges", "simulated"):
             described.append((key.replace("_", " "), _describe(value)
                               if isinstance(value, dict) else str(value)))
-    resumes = tuple(f"{_wall(r.get('wall'))} with {r.get('software', '?')}"
-                    for r in session.of_type("resume"))
-    times = [r["t_s"] for r in session.readings if isinstance(r.get("t_s"), int | float)]
+    resumes = tuple(f"{_wall(r.wall)} with {r.software}" for r in session.of_type(ResumeRecord))
+    times = [r.t_s for r in session.readings]
     simulator = h.get("simulator") if isinstance(h.get("simulator"), dict) else None
     return Provenance(
         session_path=str(session.path), software=str(h.get("software", "unknown")),
@@ -306,20 +302,18 @@ def summarise(result: FitResult) -> FitSummary:
 def residual_series(session: LoadedSession, residual_mm: np.ndarray) -> ResidualSeries:
     rows = session.readings
     return ResidualSeries(np.arange(1, len(rows) + 1), np.asarray(residual_mm, dtype=float),
-                          tuple(str(r["leg"]) for r in rows), tuple(str(r["gauge"]) for r in rows))
+                          tuple(r.leg for r in rows), tuple(r.gauge.key for r in rows))
 
 
 def _deviation_noise(obs: Observations, sigma_mm: float) -> dict[str, float]:
     """1-sigma noise of each averaged deviation: its Max (or Min) mean and its Zero mean
     are averages of independent readings."""
     lay = obs.layout
+    postures = lay.posture_names(obs.machine)
     out = {}
     for j, i in lay.gauge_keys:
         sel = (lay.gauge_axis == j) & (lay.leg == i)
-        s = lay.tcp_mm[sel, i]
-        count = {p: int(np.isclose(s, target, atol=1e-6).sum()) for p, target in
-                 (("zero", 0.0), ("max", obs.machine.rho_max_mm),
-                  ("min", obs.machine.rho_min_mm))}
+        count = {p: int(np.sum(postures[sel] == p)) for p in POSTURE_NAMES}
         for sign, posture in POSTURE_OF_SIGN.items():
             if count[posture] and count["zero"]:
                 out[f"d{AXES[j]}_{AXES[i]}{sign}"] = sigma_mm * float(
@@ -347,8 +341,9 @@ def deviation_rows(result: FitResult, validation: FitResult | None) -> tuple[Dev
         measured_noise = _deviation_noise(validation.observations, validation.noise.sigma_mm)
     rows = []
     for name, value in before.items():
-        gauge_axis, leg, sign = name[1], name[3], name[4]
-        rows.append(DeviationRow(name, leg, gauge_axis, POSTURE_OF_SIGN[sign], value,
+        deviation = Deviation.parse(name)
+        rows.append(DeviationRow(name, deviation.gauge.leg, deviation.gauge.axis,
+                                 deviation.posture, value,
                                  noise.get(name, float("nan")), after.get(name, float("nan")),
                                  measured.get(name), measured_noise.get(name)))
     order = {leg: k for k, leg in enumerate(AXES)}
@@ -380,7 +375,7 @@ def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
     if not session.readings:
         return None, "the session holds no readings: there is nothing to identify"
     try:
-        return identify_session(session), None
+        return recorded_identification(session), None
     except (ValueError, InputError) as exc:
         return None, f"the joint offsets could not be identified: {exc}"
 

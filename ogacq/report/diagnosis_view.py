@@ -19,7 +19,9 @@ class DiagnosisFormatError(ValueError):
 
 
 @dataclass(frozen=True)
-class FitVerdict:
+class ModelAgreement:
+    """How well one of the diagnosis's models (its base or final) fits the readings."""
+
     chi2_dof: float | None
     rms_mm: float | None
     consistent: bool
@@ -58,8 +60,8 @@ class EffectFound:
 @dataclass(frozen=True)
 class DiagnosisView:
     noise_mm: float
-    base: FitVerdict
-    final: FitVerdict
+    base: ModelAgreement
+    final: ModelAgreement
     located: tuple[MisfitShare, ...]
     effects: tuple[EffectFound, ...]
     offsets_mm: dict[str, float]  # the final model's joint offsets, by axis
@@ -95,11 +97,11 @@ def _object(d: Any, where: str) -> dict:
     return d
 
 
-def _verdict(d: Any, where: str) -> FitVerdict:
+def _verdict(d: Any, where: str) -> ModelAgreement:
     d = _object(d, where)
     if not isinstance(d.get("consistent"), bool):
         raise DiagnosisFormatError(f"{where}.consistent must be true or false")
-    return FitVerdict(_number(d, "chi2_dof", where, True), _number(d, "rms_mm", where, True),
+    return ModelAgreement(_number(d, "chi2_dof", where, True), _number(d, "rms_mm", where, True),
                       d["consistent"])
 
 

@@ -9,10 +9,11 @@ import numpy as np
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import machine_from_mapping
-from ogacq.io.tables import check_postures, read_readings, write_readings
+from ogacq.io.tables import check_table_postures, read_readings, write_readings
+from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
-from ogacq.model.parameters import AXES
+from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.store import LoadedSession, SessionWriter
 
 
@@ -33,13 +34,15 @@ def session_layout(session: LoadedSession) -> tuple[ReadingsLayout, np.ndarray]:
     rows = session.readings
     if not rows:
         raise InputError(session.path, "the session holds no readings yet")
+    postures = [r.posture for r in rows]
     layout = ReadingsLayout.build(
-        q_mm=[r["q_mm"] for r in rows],
-        leg=[AXES.index(r["leg"]) for r in rows],
-        gauge_axis=[AXES.index(r["gauge_axis"]) for r in rows],
-        t_s=[r["t_s"] for r in rows], cycle=[r["cycle"] for r in rows],
-        tcp_mm=[r["tcp_mm"] for r in rows], approach=[r["approach"] for r in rows])
-    return layout, np.array([r["reading_mm"] for r in rows])
+        q_mm=[r.q_mm for r in rows], leg=[r.gauge.indices[1] for r in rows],
+        gauge_axis=[r.gauge.indices[0] for r in rows], t_s=[r.t_s for r in rows],
+        cycle=[r.cycle for r in rows], tcp_mm=[r.tcp_mm for r in rows],
+        approach=[r.approach for r in rows],
+        # imported readings carry none: the layout then finds them from the TCP
+        posture=None if None in postures else postures)
+    return layout, np.array([r.reading_mm for r in rows])
 
 
 def session_observations(session: LoadedSession, machine: MachineSpec | None = None,
@@ -59,18 +62,17 @@ def import_readings(csv_path: str | Path, machine: MachineSpec, session_path: st
                     ) -> Path:
     """A session holding a readings CSV's rows, for tools that work on sessions."""
     table = read_readings(csv_path)
-    check_postures(table, machine, csv_path)
+    check_table_postures(table, machine, csv_path)
     layout = table.layout()
     header = {"machine": machine_dict(machine), "station": {"imported_from": str(csv_path)},
               "plan": None}
     with SessionWriter.create(session_path, header) as writer:
         for k in range(len(layout)):
-            leg, axis = AXES[layout.leg[k]], AXES[layout.gauge_axis[k]]
-            writer.append("reading", step=f"import/{k + 1}", gauge=f"{axis}_{leg}", leg=leg,
-                          gauge_axis=axis, cycle=int(layout.cycle[k]),
-                          t_s=float(layout.t_s[k]), q_mm=layout.q_mm[k].tolist(),
-                          tcp_mm=layout.tcp_mm[k].tolist(),
-                          approach=layout.approach[k].tolist(),
-                          reading_mm=float(table.reading_mm[k]))
-        writer.append("end", status="complete")
+            writer.write(ReadingRecord(
+                step=f"import/{k + 1}", gauge=Gauge.at(layout.gauge_axis[k], layout.leg[k]),
+                cycle=int(layout.cycle[k]), posture=None, t_s=float(layout.t_s[k]),
+                q_mm=tuple(layout.q_mm[k].tolist()), tcp_mm=tuple(layout.tcp_mm[k].tolist()),
+                approach=tuple(layout.approach[k].tolist()),
+                reading_mm=float(table.reading_mm[k])))
+        writer.write(EndRecord(status="complete"))
     return Path(session_path)

@@ -27,7 +27,6 @@ from __future__ import annotations
 import contextlib
 import fcntl
 import json
-import math
 import os
 import shutil
 import sys
@@ -36,37 +35,51 @@ import time
 import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 from ogacq import __version__
 from ogacq.io.errors import InputError
+from ogacq.session.records import (
+    FORMAT,
+    EndRecord,
+    ReadingRecord,
+    Record,
+    ResultRecord,
+    ResumeRecord,
+    record_from_json,
+)
 
-FORMAT = "ogacq-session/1"
+R = TypeVar("R", bound=Record)
 
 
 @dataclass
 class LoadedSession:
     path: Path
-    header: dict[str, Any]
-    records: list[dict[str, Any]]
+    header: dict[str, Any]  # the first line: machine, station, plan, software, ...
+    records: list[Record]  # the rest, in the order written
     warnings: list[str] = field(default_factory=list)
     size_bytes: int = 0  # of the file as read: a writer checks nobody wrote since
 
-    def of_type(self, kind: str) -> list[dict[str, Any]]:
-        return [r for r in self.records if r.get("type") == kind]
+    def of_type(self, kind: type[R]) -> list[R]:
+        return [r for r in self.records if isinstance(r, kind)]
 
     @property
-    def readings(self) -> list[dict[str, Any]]:
-        return self.of_type("reading")
+    def readings(self) -> list[ReadingRecord]:
+        return self.of_type(ReadingRecord)
 
     def recorded(self) -> set[tuple[str, str]]:
-        """(step id, gauge) of every reading on file."""
-        return {(r["step"], r["gauge"]) for r in self.readings}
+        """(step id, gauge key) of every reading on file."""
+        return {(r.step, r.gauge.key) for r in self.readings}
 
     @property
     def finished(self) -> bool:
-        return any(r.get("type") == "end" and r.get("status") == "complete"
-                   for r in self.records)
+        return any(r.status == "complete" for r in self.of_type(EndRecord))
+
+    @property
+    def result(self) -> ResultRecord | None:
+        """The identification the campaign recorded when it finished, if it did."""
+        results = self.of_type(ResultRecord)
+        return results[-1] if results else None
 
 
 class _Syncer(threading.Thread):
@@ -227,12 +240,15 @@ class SessionWriter:
     def reopen(cls, session: LoadedSession) -> SessionWriter:
         """Append to a session to resume its campaign; the resume is recorded."""
         writer = cls.append_to(session.path, session.size_bytes or None)
-        writer.append("resume", software=f"ogacq {__version__}",
-                      after_records=len(session.records))
+        writer.write(ResumeRecord(software=f"ogacq {__version__}",
+                                  after_records=len(session.records)))
         return writer
 
-    def append(self, kind: str, **fields: Any) -> None:
-        self._write({"type": kind, "wall": round(time.time(), 3), **fields})
+    def write(self, record: Record) -> None:
+        """Append ``record``, stamped with the wall-clock time unless it has one."""
+        line = record.to_json()
+        self._write({"type": line.pop("type"), "wall": line.pop("wall", round(time.time(), 3)),
+                     **line})
 
     def _write(self, record: dict[str, Any]) -> None:
         # One write of the whole line, then into the OS: a killed process cannot
@@ -256,37 +272,16 @@ class SessionWriter:
         self.close()
 
 
-_AXES = ("x", "y", "z")
-
-
-def _finite(value: Any) -> bool:
-    return isinstance(value, int | float) and not isinstance(value, bool) and \
-        math.isfinite(value)
-
-
-def _triple(value: Any, check) -> bool:
-    return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
-
-
-# What each kind of record must hold for the code that reads it.
-_READING_FIELDS = {
-    "step": lambda v: isinstance(v, str), "gauge": lambda v: isinstance(v, str),
-    "leg": lambda v: v in _AXES, "gauge_axis": lambda v: v in _AXES,
-    "cycle": lambda v: isinstance(v, int) and not isinstance(v, bool),
-    "t_s": _finite, "q_mm": lambda v: _triple(v, _finite),
-    "tcp_mm": lambda v: _triple(v, _finite),
-    "approach": lambda v: _triple(v, lambda a: a in (-1, 0, 1)), "reading_mm": _finite,
-}
-
-
 def _problem(record: Any) -> str | None:
-    """What is wrong with a decoded record, or None."""
-    if not isinstance(record, dict) or not isinstance(record.get("type"), str):
+    """What is wrong with a decoded record, or None (the header is checked on loading)."""
+    if not isinstance(record, dict):
         return "not a session record"
-    if record["type"] == "reading":
-        bad = [k for k, ok in _READING_FIELDS.items() if k not in record or not ok(record[k])]
-        if bad:
-            return f"reading without a valid {', '.join(bad)}"
+    if record.get("type") == "session":
+        return None
+    try:
+        record_from_json(record)
+    except ValueError as exc:
+        return str(exc)
     return None
 
 
@@ -384,7 +379,8 @@ def load_session(path: str | Path) -> LoadedSession:
     if records[0].get("format") != FORMAT:
         raise InputError(path, f"session format {records[0].get('format')!r} is not "
                          f"{FORMAT!r}", 1)
-    return LoadedSession(path, records[0], records[1:], scan.warnings, scan.size_bytes)
+    return LoadedSession(path, records[0], [record_from_json(r) for r in records[1:]],
+                         scan.warnings, scan.size_bytes)
 
 
 def salvage_session(path: str | Path, out: str | Path) -> tuple[int, list[tuple[int, str]]]:

@@ -14,9 +14,8 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
+from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import LoadedSession, SessionWriter
-
-RECORD = "offsets"
 
 
 class AuditLog:
@@ -30,7 +29,7 @@ class AuditLog:
     def record(self, stage: str, **fields: Any) -> None:
         self._open()
         assert self._writer is not None
-        self._writer.append(RECORD, stage=stage, **fields)
+        self._writer.write(OffsetsRecord(stage=stage, details=fields))
 
     def close(self) -> None:
         if self._writer is not None:
@@ -76,24 +75,27 @@ class Operation:
 
 def operations(session: LoadedSession) -> list[Operation]:
     """Write-backs and restores recorded in the session, oldest first."""
-    intents: dict[str, dict] = {}
-    outcomes: dict[str, dict] = {}
-    for record in session.of_type(RECORD):
-        op = record.get("operation")
+    intents: dict[str, OffsetsRecord] = {}
+    outcomes: dict[str, OffsetsRecord] = {}
+    for record in session.of_type(OffsetsRecord):
+        op = record.details.get("operation")
         if not op:
             continue
-        if record.get("stage") == "intent":
+        if record.stage == "intent":
             intents[op] = record
-        elif record.get("stage") in ("done", "failed"):
+        elif record.stage in ("done", "failed"):
             outcomes[op] = record
     out = []
     for op, intent in intents.items():
-        outcome = outcomes.get(op, {})
-        status = outcome.get("stage", "interrupted")
-        new = outcome.get("new_mm") if status == "done" else intent["new_mm"]
-        out.append(Operation(op, intent.get("action", "write"), status,
-                             dict(intent["old_mm"]), dict(new), intent.get("profile"),
-                             bool(outcome.get("nvm_saved", False)), intent.get("wall")))
+        outcome = outcomes.get(op)
+        status = outcome.stage if outcome else "interrupted"
+        new = outcome.details.get("new_mm") if outcome and status == "done" \
+            else intent.details["new_mm"]
+        out.append(Operation(op, intent.details.get("action", "write"), status,
+                             dict(intent.details["old_mm"]), dict(new),
+                             intent.details.get("profile"),
+                             bool(outcome and outcome.details.get("nvm_saved", False)),
+                             intent.wall))
     return out
 
 

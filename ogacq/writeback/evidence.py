@@ -27,6 +27,7 @@ from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
 from ogacq.session.convert import session_observations
+from ogacq.session.records import StationRecord
 from ogacq.session.store import LoadedSession
 
 
@@ -68,7 +69,7 @@ class Evidence:
 def _stations(session: LoadedSession) -> list[dict]:
     """The station of every start of the campaign: the header's, then each resume's."""
     first = session.header.get("station") or {}
-    return [first, *session.of_type("station")]
+    return [first, *(r.description for r in session.of_type(StationRecord))]
 
 
 def evidence_from_session(session: LoadedSession, from_diagnosis: bool = False) -> Evidence:

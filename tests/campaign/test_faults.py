@@ -5,6 +5,7 @@ import pytest
 from drivers.sim.gauges import Fault
 from ogacq.campaign_file import read_campaign
 from ogacq.protocol.runner import CampaignRunner, CampaignStopped, Progress
+from ogacq.session.records import EndRecord, FaultRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.station import open_station
 from tests.campaign.conftest import write_campaign
@@ -37,9 +38,9 @@ def test_transient_911_is_retried_and_the_campaign_completes(campaign_dir):
             runner_for(station, writer, campaign, observer=observer).run()
     session = load_session(campaign.session)
     assert session.finished and len(session.readings) == 72
-    faults = session.of_type("fault")
-    assert faults and all(f["gauge"] == "z_x" for f in faults)
-    assert any("911" in f["message"] for f in faults)
+    faults = session.of_type(FaultRecord)
+    assert faults and all(f.gauge == "z_x" for f in faults)
+    assert any("911" in f.message for f in faults)
 
 
 @pytest.mark.parametrize("kind", [Fault.SILENCE, Fault.UNPLUG])
@@ -54,12 +55,12 @@ def test_dead_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind):
         writer.close()
         assert "z_y" in stopped.value.reason
         session = load_session(campaign.session)
-        end = session.of_type("end")[-1]
-        assert end["status"] == "stopped" and "z_y" in end["reason"]
-        assert end["axes_stopped"] is True
-        faults = session.of_type("fault")
+        end = session.of_type(EndRecord)[-1]
+        assert end.status == "stopped" and "z_y" in end.reason
+        assert end.axes_stopped is True
+        faults = session.of_type(FaultRecord)
         assert len(faults) == 3  # bounded: three attempts, then stop
-        failed_step = faults[0]["step"]
+        failed_step = faults[0].step
         # everything up to the fault is on file; nothing from the dead gauge since
         assert 30 <= len(session.readings) <= 31
         assert (failed_step, "z_y") not in session.recorded()
@@ -70,7 +71,7 @@ def test_dead_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind):
         with SessionWriter.reopen(session) as writer:
             runner_for(station, writer, campaign, recorded=session.recorded()).run()
     session = load_session(campaign.session)
-    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    keys = [(r.step, r.gauge.key) for r in session.readings]
     assert len(keys) == len(set(keys)) == 72
     assert session.finished
 
@@ -90,8 +91,8 @@ def test_axis_alarm_is_reset_and_the_move_retried(campaign_dir):
             runner_for(station, writer, campaign, observer=observer).run()
     session = load_session(campaign.session)
     assert session.finished and len(session.readings) == 72
-    faults = [f for f in session.of_type("fault") if f["during"] == "move"]
-    assert len(faults) == 1 and "alarm" in faults[0]["message"]
+    faults = [f for f in session.of_type(FaultRecord) if f.during == "move"]
+    assert len(faults) == 1 and "alarm" in faults[0].message
 
 
 def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir):
@@ -111,9 +112,9 @@ def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir)
         writer.close()
     assert "modbus" in stopped.value.reason.lower()
     session = load_session(campaign.session)
-    end = session.of_type("end")[-1]
-    assert end["status"] == "stopped"
-    assert end["axes_stopped"] is False  # and the session says the stop could not be sent
+    end = session.of_type(EndRecord)[-1]
+    assert end.status == "stopped"
+    assert end.axes_stopped is False  # and the session says the stop could not be sent
     assert len(session.readings) == 12  # nothing measured is lost
 
 
@@ -137,16 +138,16 @@ def test_dead_usb_itn_gauge_stops_safely_names_it_and_resumes(campaign_dir, kind
         writer.close()
         assert "z_y" in stopped.value.reason and "\n" not in stopped.value.reason
         session = load_session(campaign.session)
-        end = session.of_type("end")[-1]
-        assert end["status"] == "stopped" and end["axes_stopped"] is True
+        end = session.of_type(EndRecord)[-1]
+        assert end.status == "stopped" and end.axes_stopped is True
         assert 30 <= len(session.readings) <= 31
         if kind is Fault.UNPLUG:
-            assert "unplugged" in end["reason"]
+            assert "unplugged" in end.reason
             return
-        assert "no reply" in end["reason"] or "no value typed" in end["reason"]
+        assert "no reply" in end.reason or "no value typed" in end.reason
         station.simulator.gauges["z_y"].clear_fault()
         with SessionWriter.reopen(session) as writer:
             runner_for(station, writer, campaign, recorded=session.recorded()).run()
     session = load_session(campaign.session)
-    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    keys = [(r.step, r.gauge.key) for r in session.readings]
     assert len(keys) == len(set(keys)) == 72 and session.finished

@@ -68,7 +68,7 @@ def test_the_operator_is_asked_at_each_leg_and_the_offsets_come_out(moved_statio
     result = load_session(path.parent / "s.jsonl")
     assert result.finished and len(result.readings) == 72
     hidden = stack.machine.truth.hidden()
-    fit = result.of_type("result")[-1]["refit"]
+    fit = result.result.refit
     for axis in "xyz":
         error = fit["parameters"]["joint_offset"][axis] - hidden[f"joint_offset.{axis}"]
         assert abs(error) < 3 * fit["std"]["joint_offset"][axis]

@@ -8,6 +8,7 @@ import time
 
 import numpy as np
 
+from ogacq.session.records import GaugesSetRecord, ResumeRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import run_ogacq
@@ -54,11 +55,11 @@ def test_sigkill_at_random_points_then_resume(tmp_path):
     final = run_ogacq("resume", session, "--json", check_json=True)
 
     loaded = load_session(session)
-    keys = [(r["step"], r["gauge"]) for r in loaded.readings]
+    keys = [(r.step, r.gauge.key) for r in loaded.readings]
     assert len(keys) == 72, f"killed at {kill_points}"
     assert len(set(keys)) == 72, "a reading was taken twice"
     assert loaded.finished
-    assert len(loaded.of_type("resume")) == 3
+    assert len(loaded.of_type(ResumeRecord)) == 3
     assert np.allclose(offsets(final), offsets(reference), atol=2e-6), kill_points
 
 
@@ -81,7 +82,7 @@ def test_torn_last_record_loads_with_a_warning_and_resumes(tmp_path):
     assert final["dof"] > 0
     loaded = load_session(session)
     assert loaded.finished and not loaded.warnings
-    assert len({(r["step"], r["gauge"]) for r in loaded.readings}) == len(loaded.readings) == 72
+    assert len({(r.step, r.gauge.key) for r in loaded.readings}) == len(loaded.readings) == 72
 
 
 def test_a_complete_campaign_is_not_resumed(tmp_path):
@@ -106,6 +107,6 @@ def test_moved_indicators_resume_on_the_leg_they_were_on(tmp_path):
     kill_after(start("run", path), session, 36)  # the y leg has readings 25..48
     final = run_ogacq("resume", session, "--json", check_json=True)
     loaded = load_session(session)
-    assert len({(r["step"], r["gauge"]) for r in loaded.readings}) == len(loaded.readings) == 72
-    assert [e["leg"] for e in loaded.of_type("gauges_set")] == ["x", "y", "z"]
+    assert len({(r.step, r.gauge.key) for r in loaded.readings}) == len(loaded.readings) == 72
+    assert [e.leg for e in loaded.of_type(GaugesSetRecord)] == ["x", "y", "z"]
     assert np.allclose(offsets(final), offsets(reference), atol=2e-6)

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from ogacq.session.records import GaugesSetRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import run_ogacq
@@ -28,7 +29,7 @@ def test_run_recovers_hidden_offsets_within_predicted_std(campaign_dir, profile,
     assert session.header["station"]["controller"]["profile"] == profile
     assert len(session.header["station"]["gauges"]) == 6
     # every reading kept its raw frame and where it came from
-    assert all(r["raw"].startswith("01A") and r["source"] for r in session.readings)
+    assert all(r.raw.startswith("01A") and r.source for r in session.readings)
 
 
 def test_refit_reads_the_session_and_its_csv_export(campaign_dir, tmp_path):
@@ -70,8 +71,8 @@ def test_six_gauges_on_one_multiplexer_port(campaign_dir):
     assert len(ports) == 1 and channels == {"1", "2", "3", "4", "5", "6"}
     # each reading came from its own channel: byte 2 of the 01A frame
     for r in session.readings:
-        expected = session.header["station"]["gauges"][r["gauge"]]["channel"]
-        assert r["raw"][1] == expected
+        expected = session.header["station"]["gauges"][r.gauge.key]["channel"]
+        assert r.raw[1] == expected
 
 
 def test_two_indicators_moved_from_leg_to_leg(campaign_dir):
@@ -90,7 +91,7 @@ def test_two_indicators_moved_from_leg_to_leg(campaign_dir):
     gauges = session.header["station"]["gauges"]
     assert len({g["port"] for g in gauges.values()}) == 2
     assert gauges["y_x"]["port"] == gauges["x_y"]["port"] == gauges["x_z"]["port"]
-    assert [e["leg"] for e in session.of_type("gauges_set")] == ["x", "y", "z"]
+    assert [e.leg for e in session.of_type(GaugesSetRecord)] == ["x", "y", "z"]
     assert len(session.readings) == 72
 
 
@@ -120,7 +121,7 @@ def test_one_gauge_of_each_protocol_end_to_end(campaign_dir, station):
     assert session.finished and len(session.readings) == 72
     gauges = session.header["station"]["gauges"]
     assert {key: g["protocol"] for key, g in gauges.items()} == protocols
-    raw = {r["gauge"]: r["raw"] for r in session.readings}
+    raw = {r.gauge.key: r.raw for r in session.readings}
     assert raw["y_x"].startswith("01A")  # USB-ITN data mode: an 01A reply over USB
     assert raw["z_y"].startswith("DT1") and raw["x_z"].startswith("FFFF")
     assert raw["x_y"][0] in "+- " and raw["z_x"][0] in "-0123456789"

@@ -10,8 +10,9 @@ import numpy as np
 from ogacq.identify.fit import fit
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import ReadingsLayout, layout_of, protocol_readings
+from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 NOISE_MM = 0.002
 STEP_MM = 0.001
@@ -26,9 +27,10 @@ PAPERS = ("zero", "max", "min", "zero")
 RICH = ("zero", 30.0, "max", 30.0, "zero", -50.0, "min", -50.0, "zero")
 
 
-def layout(postures: Sequence[str | float] = PAPERS, machine: MachineSpec = MACHINE,
-           **kw) -> ReadingsLayout:
-    return layout_of(protocol_readings(machine, postures=postures, **kw))
+def layout(postures: Sequence[str | float] = PAPERS, machine: MachineSpec = MACHINE, *,
+           seconds_per_posture: float = 20.0, **kw) -> ReadingsLayout:
+    return planned_layout(ProtocolConfig(postures=tuple(postures), **kw), machine,
+                          seconds_per_posture=seconds_per_posture)
 
 
 def simulate(effects: Mapping[str, float], seed: int, *, machine: MachineSpec = MACHINE,

@@ -10,9 +10,11 @@ from drivers.axes.profile import load_profile
 from drivers.indicators import open_indicator, read_stable
 from drivers.sim.stack import SimulatorConfig, SimulatorStack
 from drivers.sim.truth import SimTruth
+from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import ReadingsLayout, predict_coordinates, protocol_readings
+from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, vector
+from ogacq.protocol.plan import ProtocolConfig, reading_steps
 
 MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
 TRUTH = {"joint_offset.x": 0.8, "joint_offset.y": -1.1, "joint_offset.z": 0.5,
@@ -38,24 +40,25 @@ def test_papers_postures_read_what_the_geometry_implies(profile):
             try:
                 zero_reading = {}
                 deviations = []
-                for planned in protocol_readings(MACHINE, postures=("zero", "max", "min"),
-                                                 cycles=1):
-                    target = dict(zip(AXES, planned.q_mm, strict=True))
+                plan = ProtocolConfig(postures=("zero", "max", "min"), cycles=1)
+                readings = [(s, key) for s in reading_steps(plan, MACHINE) for key in s.gauges]
+                for step, key in readings:
+                    planned = Gauge.parse(key)
+                    target = dict(zip(AXES, step.q_mm, strict=True))
                     controller.move_to(target, timeout_s=20)
                     q = np.array([controller.resolved_targets_mm(target)[a] for a in AXES])
-                    key = f"{AXES[planned.gauge_axis]}_{AXES[planned.leg]}"
                     value = read_stable(gauges[key], 2, 0.0015, 5.0).value_mm
-                    if planned.posture == "zero":
+                    if step.posture == "zero":
                         zero_reading[key] = value
                         continue
                     # the deviation from Zero that the hidden geometry implies
                     layout = ReadingsLayout.build(
-                        [np.zeros(3), q], [planned.leg] * 2, [planned.gauge_axis] * 2,
+                        [np.zeros(3), q], [planned.indices[1]] * 2, [planned.indices[0]] * 2,
                         approach=np.zeros((2, 3), dtype=int))
                     expected = np.diff(predict_coordinates(vector(TRUTH), layout, MACHINE))[0]
                     measured = value - zero_reading[key]
                     deviations.append(expected)
-                    assert measured == pytest.approx(expected, abs=0.0015), (key, planned.posture)
+                    assert measured == pytest.approx(expected, abs=0.0015), (key, step.posture)
                 assert len(deviations) == 12
                 assert max(map(abs, deviations)) > 0.1  # the hidden geometry shows
             finally:

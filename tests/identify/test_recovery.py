@@ -5,15 +5,15 @@ import numpy as np
 from ogacq.identify.fit import fit
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import layout_of, protocol_readings
 from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.0001,
                       gauge_repeatability_mm=0.002)
 
 
 def simulate(truth, seed, noise=0.002):
-    layout = layout_of(protocol_readings(MACHINE))
+    layout = planned_layout(ProtocolConfig(), MACHINE)
     rng = np.random.default_rng(seed)
     zeros = rng.uniform(2, 10, layout.n_gauges)  # each gauge's arbitrary zero
     clean = readings_observations(MACHINE, layout, np.zeros(len(layout))).predict(
@@ -61,7 +61,7 @@ def test_offsets_and_lengths_from_readings_coverage():
 
 def test_noise_from_repeats_when_the_machine_file_has_none():
     machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.0001)
-    layout = layout_of(protocol_readings(machine))
+    layout = planned_layout(ProtocolConfig(), machine)
     rng = np.random.default_rng(5)
     clean = readings_observations(machine, layout, np.zeros(len(layout))).predict(
         vector({"joint_offset.x": 0.4}))
@@ -88,7 +88,7 @@ def test_coverage_when_the_display_step_dominates_the_noise():
     """10 um dials with 1 um noise: repeats read the same, the rounding error repeats
     every cycle, and the std must say so (it does not shrink with the cycles)."""
     machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.01)
-    layout = layout_of(protocol_readings(machine))
+    layout = planned_layout(ProtocolConfig(), machine)
     rng = np.random.default_rng(99)
     z = []
     for _ in range(200):

@@ -4,8 +4,9 @@ import pytest
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
 from ogacq.identify.observations import PAPER_ORDER_12, deviations_observations
 from ogacq.model.machine import PAPER_PROTOTYPE as M
-from ogacq.model.measurement import layout_of, predict_coordinates, protocol_readings
+from ogacq.model.measurement import predict_coordinates
 from ogacq.model.parameters import PARAM_NAMES, effect_of, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 
 def deviations_at(theta):
@@ -14,7 +15,7 @@ def deviations_at(theta):
 
 
 def test_nominal_machine_reads_constant_on_every_gauge():
-    layout = layout_of(protocol_readings(M))
+    layout = planned_layout(ProtocolConfig(), M)
     y = predict_coordinates(vector(), layout, M)
     for g in range(layout.n_gauges):
         assert np.ptp(y[layout.gauge == g]) < 1e-9
@@ -45,7 +46,7 @@ def test_linear_model_agrees_with_exact_to_second_order(seed):
 
 
 def test_every_effect_moves_some_reading():
-    layout = layout_of(protocol_readings(M))  # approach from the sequence: both sides occur
+    layout = planned_layout(ProtocolConfig(), M)  # approach from the sequence: both sides occur
     start = {"joint_offset.x": 1.0, "joint_offset.y": -1.0, "leg_length.z": 0.5}
     base_theta = vector(start)
     base = predict_coordinates(base_theta, layout, M)
@@ -57,7 +58,7 @@ def test_every_effect_moves_some_reading():
 
 
 def test_batch_prediction_equals_one_at_a_time():
-    layout = layout_of(protocol_readings(M, cycles=1))
+    layout = planned_layout(ProtocolConfig(cycles=1), M)
     rng = np.random.default_rng(3)
     thetas = np.array([vector({"joint_offset.x": a, "squareness.xy": b, "backlash.y": c})
                        for a, b, c in rng.normal(size=(4, 3))])
@@ -67,7 +68,7 @@ def test_batch_prediction_equals_one_at_a_time():
 
 
 def test_subset_keeps_each_gauges_setting_posture():
-    layout = layout_of(protocol_readings(M))
+    layout = planned_layout(ProtocolConfig(), M)
     theta = vector({"joint_offset.x": 2.0, "joint_offset.y": -1.5, "leg_length.z": 0.8})
     full = predict_coordinates(theta, layout, M)
     keep = np.ones(len(layout), dtype=bool)

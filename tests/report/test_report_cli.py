@@ -90,8 +90,7 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
 
     # the session's own numbers: the campaign's result record ...
     session = load_session(calibration)
-    result = session.of_type("result")[-1]
-    refit = result["refit"]
+    refit = session.result.refit
     for axis in "xyz":
         value, std = _row_numbers(html, f"joint_offset.{axis}")[:2]
         assert value == pytest.approx(refit["parameters"]["joint_offset"][axis], abs=1e-5)
@@ -99,7 +98,7 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
     text = _text(html)
     rms_um = refit["residual_rms_mm"] * 1e3
     assert f"residual rms {rms_um:.2f} µm" in text
-    assert f"gauge noise σ {result['noise_mm'] * 1e3:.2f} µm" in text
+    assert f"gauge noise σ {session.result.noise_mm * 1e3:.2f} µm" in text
     # ... the deviations measured before, from the raw readings ...
     before = averaged_deviations(session_observations(session), "12")
     for name, value in zip(before.labels, before.values, strict=True):
@@ -194,6 +193,6 @@ def test_the_stored_result_and_the_report_agree_on_every_offset(sessions):
 
     session = load_session(sessions[0])
     data = collect(session)
-    stored = session.of_type("result")[-1]["refit"]["parameters"]["joint_offset"]
+    stored = session.result.refit["parameters"]["joint_offset"]
     got = {p.name.split(".")[1]: p.value for p in data.fit.parameters}
     assert np.allclose([got[a] for a in "xyz"], [stored[a] for a in "xyz"], atol=1e-6)

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from ogacq.io.errors import InputError
+from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.store import SessionWriter, load_session, salvage_session, scan_session
 from tests.cli.helpers import run_ogacq
 
@@ -25,17 +26,18 @@ def reading(k: int) -> dict:
 def make_session(path, n: int = 8):
     with SessionWriter.create(path, {"machine": {}, "plan": None}) as writer:
         for k in range(n):
-            writer.append("reading", **reading(k))
+            writer.write(ReadingRecord.from_json(reading(k)))
     return path
 
 
 def values(path) -> list[float]:
-    return [r["reading_mm"] for r in load_session(path).readings]
+    return [r.reading_mm for r in load_session(path).readings]
 
 
 HOLD = """
 import sys, time
 from ogacq.session.store import SessionWriter
+from ogacq.session.records import EndRecord, ReadingRecord
 w = SessionWriter.append_to(sys.argv[1])
 print("holding", flush=True)
 time.sleep(60)
@@ -55,7 +57,7 @@ def test_one_writer_at_a_time_across_processes(tmp_path):
         holder.kill()
         holder.wait()
     with SessionWriter.append_to(path) as writer:  # the lock died with its holder
-        writer.append("reading", **reading(8))
+        writer.write(ReadingRecord.from_json(reading(8)))
     assert len(values(path)) == 9
 
 
@@ -63,7 +65,7 @@ def test_a_session_written_to_since_it_was_read_is_not_continued(tmp_path):
     path = make_session(tmp_path / "s.jsonl")
     loaded = load_session(path)
     with SessionWriter.append_to(path) as other:
-        other.append("reading", **reading(8))
+        other.write(ReadingRecord.from_json(reading(8)))
     with pytest.raises(InputError, match="written to since it was read"):
         SessionWriter.reopen(loaded)
 
@@ -73,7 +75,7 @@ def test_a_complete_last_record_without_its_newline_is_kept(tmp_path):
     path.write_bytes(path.read_bytes().rstrip(b"\n"))
     assert len(values(path)) == 8 and not load_session(path).warnings
     with SessionWriter.append_to(path) as writer:
-        writer.append("end", status="complete")
+        writer.write(EndRecord(status="complete"))
     session = load_session(path)
     assert len(session.readings) == 8 and session.finished
 
@@ -85,7 +87,7 @@ def test_a_torn_last_record_is_dropped_with_a_warning_and_cut_before_appending(t
     session = load_session(path)
     assert len(session.readings) == 7 and "torn last record" in session.warnings[0]
     with SessionWriter.append_to(path) as writer:
-        writer.append("reading", **reading(7))
+        writer.write(ReadingRecord.from_json(reading(7)))
     assert values(path) == [5.0 + 0.001 * k for k in range(8)]
 
 

@@ -11,6 +11,7 @@ import sys
 import pytest
 
 from ogacq.campaign_file import read_campaign
+from ogacq.session.records import EndRecord, FaultRecord, OperatorRecord
 from ogacq.session.store import load_session
 from tests.wizard.terminal import SHOWN, Wizard
 
@@ -53,8 +54,8 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     session = load_session(w.session)
     assert session.finished and len(session.readings) == 72
     assert session.header["wizard"]["by_eye"] == []
-    assert [r["leg"] for r in session.of_type("operator") if r["action"] == "gauges_checked"] \
-        == ["x", "y", "z"]
+    checked = [r for r in session.of_type(OperatorRecord) if r.action == "gauges_checked"]
+    assert [r.details["leg"] for r in checked] == ["x", "y", "z"]
     truth = session.header["simulator"]
     assert truth["seed"] == 3
     # the campaign file beside the session gives back the same plan (ogacq resume needs it)
@@ -88,7 +89,7 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
     campaign = read_campaign(tmp_path / "run" / "campaign.toml")  # what `ogacq resume` reads
     assert campaign.simulator is not None and campaign.simulator.gauge_layout == "moved"
     # each gauge was read on its own leg: the fit is consistent, the offsets sharp
-    fit = session.of_type("result")[-1]["refit"]
+    fit = session.result.refit
     assert max(fit["std"]["joint_offset"].values()) < 0.002
     assert fit["residual_rms_mm"] < 0.005
 
@@ -111,9 +112,9 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
     w.answer(r"Write these offsets", "n")
     assert w.finish() == 0
     session = load_session(w.session)
-    faults = session.of_type("fault")
-    assert len(faults) == 3 and {f["gauge"] for f in faults} == {"z_x"}
-    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    faults = session.of_type(FaultRecord)
+    assert len(faults) == 3 and {f.gauge for f in faults} == {"z_x"}
+    keys = [(r.step, r.gauge.key) for r in session.readings]
     assert len(keys) == len(set(keys)) == 24 and session.finished
 
 
@@ -141,12 +142,12 @@ def test_ctrl_c_pauses_resumes_then_quits_and_ogacq_resume_completes(tmp_path, w
 
     session = load_session(w.session)
     assert not session.finished and len(session.readings) == 8
-    assert session.of_type("end")[-1]["status"] == "interrupted"
+    assert session.of_type(EndRecord)[-1].status == "interrupted"
     resumed = subprocess.run([sys.executable, "-m", "ogacq", "resume", str(w.session)],
                              capture_output=True, text=True, timeout=60)
     assert resumed.returncode == 0, resumed.stderr
     session = load_session(w.session)
-    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    keys = [(r.step, r.gauge.key) for r in session.readings]
     assert session.finished and len(keys) == len(set(keys)) == 24
 
 
@@ -177,7 +178,7 @@ def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path
     session = load_session(w.session)
     assert session.finished
     assert set(session.header["wizard"]["by_eye"]) == {"y_x", "z_x", "x_y", "z_y", "x_z", "y_z"}
-    assert all(r["raw"].startswith("typed ") and "kept" not in r["raw"]
+    assert all(r.raw.startswith("typed ") and "kept" not in r.raw
                for r in session.readings)
 
 
@@ -218,5 +219,5 @@ def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path,
     again.answer(r"Write these offsets", "n")
     assert again.finish() == 0
     session = load_session(w.session)
-    keys = [(r["step"], r["gauge"]) for r in session.readings]
+    keys = [(r.step, r.gauge.key) for r in session.readings]
     assert session.finished and len(keys) == len(set(keys)) == 24

@@ -19,9 +19,11 @@ import numpy as np
 
 from ogacq.campaign_file import read_campaign
 from ogacq.cli.app import main
+from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import layout_of, protocol_readings
 from ogacq.model.parameters import AXES, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
+from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.store import SessionWriter
 from ogacq.station import open_controller
 from tests.campaign.conftest import MACHINE
@@ -122,8 +124,8 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
     """A finished campaign's session, made with the exact model instead of a machine:
     what a real campaign records, in a fraction of a second."""
     machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
-    planned = protocol_readings(machine, legs=legs, postures=postures)
-    lay = layout_of(planned)
+    lay = planned_layout(ProtocolConfig(legs=tuple(AXES[i] for i in legs),
+                                        postures=tuple(postures)), machine)
     from ogacq.identify.observations import readings_observations
 
     truth = {f"joint_offset.{a}": v for a, v in offsets_mm.items()} | dict(effects or {})
@@ -141,11 +143,11 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
                                          "offsets_mm": in_force}},
               "plan": None}
     with SessionWriter.create(path, header) as writer:
-        for k, r in enumerate(planned):
-            writer.append("reading", step=f"synthetic/{k + 1}",
-                          gauge=f"{AXES[r.gauge_axis]}_{AXES[r.leg]}", leg=AXES[r.leg],
-                          gauge_axis=AXES[r.gauge_axis], cycle=r.cycle, t_s=float(r.t_s),
-                          q_mm=lay.q_mm[k].tolist(), tcp_mm=lay.tcp_mm[k].tolist(),
-                          approach=lay.approach[k].tolist(), reading_mm=float(values[k]))
-        writer.append("end", status="complete")
+        for k in range(len(lay)):
+            writer.write(ReadingRecord(
+                step=f"synthetic/{k + 1}", gauge=Gauge.at(lay.gauge_axis[k], lay.leg[k]),
+                cycle=int(lay.cycle[k]), posture=lay.posture[k], t_s=float(lay.t_s[k]),
+                q_mm=tuple(lay.q_mm[k].tolist()), tcp_mm=tuple(lay.tcp_mm[k].tolist()),
+                approach=tuple(lay.approach[k].tolist()), reading_mm=float(values[k])))
+        writer.write(EndRecord(status="complete"))
     return path

@@ -12,6 +12,7 @@ from drivers.axes.controller import OffsetChange
 from drivers.axes.profile import load_profile
 from drivers.errors import DeviceTimeout
 from ogacq.model.parameters import AXES
+from ogacq.session.records import EndRecord, OffsetsRecord, ResumeRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.writeback.audit import AuditLog, last_write, operations
 from ogacq.writeback.execute import WriteBackError, WriteOptions, execute_plan
@@ -78,12 +79,12 @@ def plan_for(profile_name: str, current=ZEROS, new=NEW) -> OffsetPlan:
 @pytest.fixture
 def session(tmp_path):
     with SessionWriter.create(tmp_path / "s.jsonl", {"plan": None}) as writer:
-        writer.append("end", status="complete")
+        writer.write(EndRecord(status="complete"))
     return load_session(tmp_path / "s.jsonl")
 
 
 def stages(path: Path) -> list[str]:
-    return [r["stage"] for r in load_session(path).of_type("offsets")]
+    return [r.stage for r in load_session(path).of_type(OffsetsRecord)]
 
 
 def test_write_read_back_save_rehome_and_record(session):
@@ -94,11 +95,12 @@ def test_write_read_back_save_rehome_and_record(session):
     assert controller.calls == ["write", "nvm", "enable", "home"]
     assert outcome.new_mm == NEW and outcome.rehomed and outcome.nvm_saved
     assert stages(session.path) == ["intent", "done"]
-    intent, done = load_session(session.path).of_type("offsets")
-    assert intent["old_mm"] == ZEROS and intent["new_mm"] == NEW and intent["save_nvm"]
-    assert done["home_positions_mm"] == {a: -v for a, v in NEW.items()}
+    intent, done = load_session(session.path).of_type(OffsetsRecord)
+    assert intent.details["old_mm"] == ZEROS and intent.details["new_mm"] == NEW
+    assert intent.details["save_nvm"]
+    assert done.details["home_positions_mm"] == {a: -v for a, v in NEW.items()}
     # no "resume" record: a write-back is not a campaign resume
-    assert load_session(session.path).of_type("resume") == []
+    assert load_session(session.path).of_type(ResumeRecord) == []
     op = last_write(load_session(session.path))
     assert op.status == "done" and op.old_mm == ZEROS and op.new_mm == NEW
 
@@ -122,8 +124,8 @@ def test_a_failed_step_is_recorded_with_what_the_controller_holds(session, kwarg
     assert failed.value.written and words in str(failed.value)
     assert "ogacq offsets restore" in str(failed.value)
     assert stages(session.path) == ["intent", "failed"]
-    record = load_session(session.path).of_type("offsets")[-1]
-    assert words in record["error"] and record["held_mm"] == controller.held
+    record = load_session(session.path).of_type(OffsetsRecord)[-1]
+    assert words in record.details["error"] and record.details["held_mm"] == controller.held
     # restore has what it needs: the old values, from the intent
     op = operations(load_session(session.path))[-1]
     assert op.status == "failed" and op.old_mm == ZEROS

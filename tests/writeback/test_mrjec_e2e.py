@@ -15,6 +15,7 @@ from drivers.axes.profile import load_profile
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import read_campaign
 from ogacq.model.parameters import AXES
+from ogacq.session.records import OffsetsRecord, ReadingRecord
 from ogacq.session.store import load_session
 from tests.writeback.conftest import FAST_STABILITY, SETTLE_S, controller_offsets, simulator
 from tests.writeback.conftest import ogacq_here as ogacq
@@ -49,16 +50,16 @@ def test_mrjec_campaign_write_restore_and_a_wrong_sign_caught(tmp_path, capsys, 
         controller = session.header["station"]["controller"]
         assert controller["axes"]["y"]["device_id"] == 255
         assert controller["axes"]["y"]["port"].endswith(str(info["modbus_axes"]["y"]["port"]))
-        assert len(session.of_type("reading")) == 18  # 3 legs x 2 gauges x 3 postures
+        assert len(session.of_type(ReadingRecord)) == 18  # 3 legs x 2 gauges x 3 postures
 
         written = ogacq(capsys, monkeypatch, "offsets", "write", session.path, "--yes",
                         "--force")
         assert written.returncode == 0, written.stdout + written.stderr
-        done = [r for r in load_session(session.path).of_type("offsets")
-                if r["stage"] == "done"][-1]
+        done = [r for r in load_session(session.path).of_type(OffsetsRecord)
+                if r.stage == "done"][-1]
         held = controller_offsets(first)
-        assert held == pytest.approx(done["new_mm"], abs=1e-9) and held != zeros
-        assert done["rehomed"]
+        assert held == pytest.approx(done.details["new_mm"], abs=1e-9) and held != zeros
+        assert done.details["rehomed"]
 
         # the same drives, a profile with the wrong home-offset sign: stopped after the
         # homing, before the probe move, naming the field; no reading recorded
@@ -68,7 +69,7 @@ def test_mrjec_campaign_write_restore_and_a_wrong_sign_caught(tmp_path, capsys, 
         assert "change offset.sign to -1" in str(stopped.value)
         assert stopped.value.field == "offset.sign"
         assert not (tmp_path / "wrong.jsonl").exists() or \
-            not load_session(tmp_path / "wrong.jsonl").of_type("reading")
+            not load_session(tmp_path / "wrong.jsonl").of_type(ReadingRecord)
 
         # and a profile with the wrong 32-bit word order: stopped, the field named
         swapped = tmp_path / "mr-je-c-swapped.toml"
@@ -84,15 +85,15 @@ def test_mrjec_campaign_write_restore_and_a_wrong_sign_caught(tmp_path, capsys, 
         wrong_restore = first.with_name("first-wrong.toml")
         wrong_restore.write_text(first.read_text().replace('profile = "mr-je-c"',
                                                            f'profile = "{wrong_sign}"'))
-        records = len(load_session(session.path).of_type("offsets"))
+        records = len(load_session(session.path).of_type(OffsetsRecord))
         # (the policy sees the offsets "changed" through the wrong sign: --force past it)
         refused = ogacq(capsys, monkeypatch, "offsets", "restore", session.path, "--yes",
                         "--force", "--campaign", wrong_restore)
         assert refused.returncode == 3, refused.stdout + refused.stderr
         assert "offset.sign" in refused.stderr and "nothing written" in refused.stderr
         assert controller_offsets(first) == pytest.approx(held, abs=1e-9)
-        after = load_session(session.path).of_type("offsets")[records:]
-        assert [r["stage"] for r in after] == ["refused"]
+        after = load_session(session.path).of_type(OffsetsRecord)[records:]
+        assert [r.stage for r in after] == ["refused"]
 
         restored = ogacq(capsys, monkeypatch, "offsets", "restore", session.path, "--yes")
         assert restored.returncode == 0, restored.stdout + restored.stderr

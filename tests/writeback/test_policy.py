@@ -15,8 +15,8 @@ from ogacq.identify.fit import fit
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import layout_of, protocol_readings
 from ogacq.model.parameters import AXES, PARAM_SETS, vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout
 from ogacq.writeback.audit import Operation
 from ogacq.writeback.evidence import Evidence
 from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_restore, plan_write
@@ -131,7 +131,7 @@ MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001,
 
 
 def synthetic_fit(effects: dict[str, float], seed: int):
-    lay = layout_of(protocol_readings(MACHINE))
+    lay = planned_layout(ProtocolConfig(), MACHINE)
     obs = readings_observations(MACHINE, lay, np.zeros(len(lay)))
     truth = {"joint_offset.x": 0.8, "joint_offset.y": -0.6, "joint_offset.z": 1.2, **effects}
     rng = np.random.default_rng(seed)
@@ -155,7 +155,8 @@ def test_chi_square_verdict_against_the_gauge_noise():
 
 
 def test_a_fit_with_no_redundancy_is_not_called_consistent():
-    lay = layout_of(protocol_readings(MACHINE, legs=(0,), postures=("zero", "max"), cycles=1))
+    lay = planned_layout(ProtocolConfig(legs=("x",), postures=("zero", "max"), cycles=1),
+                         MACHINE)
     obs = readings_observations(MACHINE, lay, np.zeros(len(lay)))
     verdict = fit_verdict(fit(obs, PARAM_SETS["offsets"]))
     assert verdict.dof <= 0 and not verdict.consistent and verdict.state == "undetermined"

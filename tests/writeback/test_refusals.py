@@ -11,6 +11,7 @@ import sys
 import pytest
 
 from ogacq.model.parameters import AXES
+from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import MACHINE
 from tests.writeback.conftest import (
@@ -45,9 +46,9 @@ def refused_and_untouched(ran, session_path, campaign, code: str) -> None:
     assert f"refused ({code})" in ran.stderr
     assert "nothing written" in ran.stderr
     assert controller_offsets(campaign) == ZEROS
-    records = load_session(session_path).of_type("offsets")
-    assert [r["stage"] for r in records] == ["refused"]
-    assert code in records[0]["codes"]
+    records = load_session(session_path).of_type(OffsetsRecord)
+    assert [r.stage for r in records] == ["refused"]
+    assert code in records[0].details["codes"]
 
 
 @pytest.mark.parametrize(("code", "session_kw", "options", "words"), [
@@ -91,7 +92,7 @@ def test_show_says_why_it_would_refuse_and_writes_nothing(tmp_path, capsys, monk
     human = ogacq_here(capsys, monkeypatch, "offsets", "show", session)
     assert "would refuse (inconsistent)" in human.stdout
     assert controller_offsets(campaign) == ZEROS
-    assert load_session(session).of_type("offsets") == []
+    assert load_session(session).of_type(OffsetsRecord) == []
 
 
 def test_the_diagnosis_model_offsets_are_written_and_the_squareness_named(
@@ -111,8 +112,8 @@ def test_the_diagnosis_model_offsets_are_written_and_the_squareness_named(
     assert "the controller cannot compensate that effect" in text
     held = controller_offsets(campaign)
     assert held == pytest.approx({a: -v for a, v in OFFSETS.items()}, abs=0.006)
-    intent = load_session(session).of_type("offsets")[-2]
-    assert intent["stage"] == "intent"
+    intent = load_session(session).of_type(OffsetsRecord)[-2]
+    assert intent.stage == "intent"
     undone = ogacq_here(capsys, monkeypatch, "offsets", "restore", session, "--yes")
     assert undone.returncode == 0 and controller_offsets(campaign) == ZEROS
 
@@ -156,9 +157,9 @@ def test_force_writes_past_the_reason_saves_nvm_and_restore_undoes_it(
     assert "--force writes past" in ran.stderr and "too_large" not in ran.stdout
     held = controller_offsets(campaign)
     assert held == pytest.approx({a: -v for a, v in OFFSETS.items()}, abs=0.006)
-    intent, done = load_session(session).of_type("offsets")
-    assert intent["forced"] == ["too_large"] and intent["save_nvm"]
-    assert done["nvm_saved"] and done["rehomed"]
+    intent, done = load_session(session).of_type(OffsetsRecord)
+    assert intent.details["forced"] == ["too_large"] and intent.details["save_nvm"]
+    assert done.details["nvm_saved"] and done.details["rehomed"]
 
     # restoring without --save-nvm is allowed, and says the NVM still holds the new ones
     undone = ogacq_here(capsys, monkeypatch, "offsets", "restore", session, "--yes")

@@ -14,6 +14,7 @@ from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.observations import averaged_deviations, readings_observations
 from ogacq.model.parameters import AXES, vector
 from ogacq.session.convert import session_layout, session_machine, session_observations
+from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.writeback.conftest import controller_offsets, sim_campaign, simulator
 from tests.writeback.conftest import ogacq as ogacq_process
@@ -45,8 +46,8 @@ def model_deviations(session_path, offsets_mm: dict[str, float]) -> np.ndarray:
         readings_observations(clean.machine, layout, predicted)).values
 
 
-def offsets_records(session_path) -> list[dict]:
-    return load_session(session_path).of_type("offsets")
+def offsets_records(session_path) -> list[OffsetsRecord]:
+    return load_session(session_path).of_type(OffsetsRecord)
 
 
 def run_campaign_file(path):
@@ -86,11 +87,11 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
         records = offsets_records(first_session)
         stages = ["declined", "refused", "intent", "done"] if table else \
             ["declined", "intent", "done"]
-        assert [r["stage"] for r in records] == stages
+        assert [r.stage for r in records] == stages
         intent, done = records[-2], records[-1]
-        assert intent["old_mm"] == zeros and intent["confirmed_by"] == "--yes"
-        assert done["operation"] == intent["operation"]
-        new = done["new_mm"]
+        assert intent.details["old_mm"] == zeros and intent.details["confirmed_by"] == "--yes"
+        assert done.details["operation"] == intent.details["operation"]
+        new = done.details["new_mm"]
         held = controller_offsets(first)
         assert held == pytest.approx(new, abs=1e-9)
         # the sign: o_new = o_in_force - drho_identified (o_in_force = 0 here), stored
@@ -100,11 +101,12 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
             assert abs(new[axis] + identified[axis]) <= step / 2 + 1e-9
         if profile == "cia402":
             # the home offset acts at homing: re-homed, and q = -o at the home point
-            assert done["rehomed"] and done["takes_effect"] == "at_next_homing"
+            assert done.details["rehomed"] and done.details["takes_effect"] == "at_next_homing"
             for axis in AXES:
-                assert done["home_positions_mm"][axis] == pytest.approx(-held[axis], abs=0.011)
+                assert done.details["home_positions_mm"][axis] == pytest.approx(-held[axis],
+                                                                                abs=0.011)
         else:
-            assert done["takes_effect"] == "now" and not done["rehomed"]
+            assert done.details["takes_effect"] == "now" and not done.details["rehomed"]
             assert (tmp_path / table).exists()
 
         session, after_fit = run_campaign_file(validation)
@@ -138,7 +140,7 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
         assert restored.returncode == 0, restored.stdout + restored.stderr
         assert controller_offsets(first) == zeros
         records = offsets_records(first_session)
-        assert [(r["stage"], r["action"]) for r in records[-2:]] == [
+        assert [(r.stage, r.details["action"]) for r in records[-2:]] == [
             ("intent", "restore"), ("done", "restore")]
-        assert records[-2]["restores"] == intent["operation"]
-        assert records[-1]["new_mm"] == zeros
+        assert records[-2].details["restores"] == intent.details["operation"]
+        assert records[-1].details["new_mm"] == zeros

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 
 from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.ui import Screen, parse_mm
+from ogacq.model.gauges import Gauge
 from ogacq.protocol.plan import Read
 from ogacq.protocol.runner import GaugeValue
 
@@ -42,12 +43,13 @@ class ByEyeReadings:
 
     def __call__(self, gauge: str, step: Read) -> GaugeValue:
         expected = self.expectations.expected(gauge, step.q_mm)
-        axis, leg = gauge.split("_")
+        where = Gauge.parse(gauge)
         self.screen.stop_live()
         self.screen.say(
             f"[bold]Reading {self.counter.done + 1} of {self.counter.total}[/]  "
-            f"{leg} leg · cycle {step.cycle} of {self.cycles} · {step.posture.title()} posture")
-        self.screen.say(f"  Read {gauge} (along {axis}) by eye. Expected "
+            f"{where.leg} leg · cycle {step.cycle} of {self.cycles} · "
+            f"{step.posture.title()} posture")
+        self.screen.say(f"  Read {gauge} (along {where.axis}) by eye. Expected "
                         f"{expected.describe(self.decimals)}.")
         if self.shown_value is not None:
             self.screen.note(f"  (rehearsal: the simulated gauge shows "

@@ -19,7 +19,7 @@ from drivers.errors import DriverError
 from drivers.indicators import BACKENDS, open_indicator
 from ogacq.campaign_file import ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
-from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS
+from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
 from ogacq.model.parameters import AXES
 from ogacq.station import open_controller  # the campaign's own way of connecting
 
@@ -45,12 +45,12 @@ class StationChoice:
 
 
 def gauges_of(legs: Sequence[str]) -> list[str]:
-    return [g for g in GAUGE_KEYS if g.split("_")[1] in legs]
+    return [g.key for g in gauges_on(tuple(legs))]
 
 
 def describe_gauge(gauge: str) -> str:
-    axis, leg = gauge.split("_")
-    return f"{gauge} (on the {leg} leg, along {axis})"
+    g = Gauge.parse(gauge)
+    return f"{gauge} (on the {g.leg} leg, along {g.axis})"
 
 
 def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
@@ -286,12 +286,12 @@ def _moved_indicators(screen: Screen, ports: Sequence[DetectedPort], legs: Seque
     screen.say("Type each indicator's port (a number from the list, a device or a URL), "
                "or [bold]m[/] to read it by eye.")
     for number, served in enumerate(MOVED_INDICATORS, 1):
-        gauges = [g for g in served if g.split("_")[1] in legs]
+        gauges = [g for g in served if Gauge.parse(g).leg in legs]
         taken = {s.port for s in chosen.values()}
         guess = next((p for p in ports if p.suggested_for == f"indicator {number}"), None) \
             or next((p for p in free if p.device not in taken), None)
         label = f"Indicator {number} (" + ", ".join(
-            f"along {g.split('_')[0]} on the {g.split('_')[1]} leg" for g in gauges) + ")"
+            f"along {Gauge.parse(g).axis} on the {Gauge.parse(g).leg} leg" for g in gauges) + ")"
         spec = _one_gauge(screen, gauges[0], protocol, ports, taken,
                           guess.device if guess else None, notes, label=label,
                           name=f"indicator {number}")

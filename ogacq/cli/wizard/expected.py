@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, vector
@@ -29,8 +30,7 @@ _STEP_MM = 1e-3  # finite-difference step on the joint offsets
 
 def gauge_axes(gauge: str) -> tuple[int, int]:
     """``y_x`` -> (1, 0): index of the axis it measures along, index of its leg."""
-    axis, leg = gauge.split("_")
-    return AXES.index(axis), AXES.index(leg)
+    return Gauge.parse(gauge).indices
 
 
 def deviation_model(machine: MachineSpec, gauge: str, q_set_mm: Sequence[float],

@@ -51,6 +51,7 @@ from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped, GaugeValue
 from ogacq.session.convert import session_machine
+from ogacq.session.records import FaultRecord, OperatorRecord, ReadingRecord, StationRecord
 from ogacq.session.store import LoadedSession, SessionWriter, load_session
 from ogacq.station import DeviceStation
 
@@ -110,7 +111,7 @@ class _Wizard:
         self.by_eye: set[str] = set()
         self.rehearsal: Rehearsal | None = None
         self.injector: FaultInjector | None = None
-        self._notes_for_session: list[dict[str, Any]] = []  # written at the next run
+        self._notes_for_session: list[OperatorRecord] = []  # written at the next run
         self.resumable_by_ogacq = False  # the campaign file alone continues the session
         self.campaign: Campaign | None = None
 
@@ -214,7 +215,8 @@ class _Wizard:
         s.say(f"{session.path}: {len(session.readings)} readings recorded.")
         if session.finished:
             return CampaignOutcome(session.path, identify_session(session), None)
-        station = (session.of_type("station") or [h.get("station") or {}])[-1]
+        station = ([r.description for r in session.of_type(StationRecord)]
+                   or [h.get("station") or {}])[-1]
         sim = h.get("simulator")
         if isinstance(sim, dict):
             self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(sim))
@@ -324,8 +326,8 @@ class _Wizard:
         if choice == "m":
             reason = self.screen.reason(f"read {gauge} by eye")
             self.by_eye.add(gauge)
-            self._notes_for_session.append({"action": "read_by_eye", "gauge": gauge,
-                                            "reason": reason})
+            self._notes_for_session.append(OperatorRecord(
+                action="read_by_eye", details={"gauge": gauge, "reason": reason}))
         return choice
 
     # ====================================================================== measuring
@@ -342,11 +344,12 @@ class _Wizard:
             repeat_tolerance_mm=max(0.05, 5 * machine.gauge_resolution_mm),
             gauge_range_mm=opts.gauge_range_mm)
         for r in session.records if session else []:
-            if r.get("type") == "reading" and r.get("step") in by_id:
-                expectations.observe(r["gauge"], by_id[r["step"]].q_mm, r["reading_mm"])
-            elif r.get("type") == "operator" and r.get("action") == "dial_set":
-                setting = next(step for step in steps if step.leg == r["leg"])
-                expectations.set_reference(r["gauge"], setting.q_mm, r["value_mm"])
+            if isinstance(r, ReadingRecord) and r.step in by_id:
+                expectations.observe(r.gauge.key, by_id[r.step].q_mm, r.reading_mm)
+            elif isinstance(r, OperatorRecord) and r.action == "dial_set":
+                setting = next(step for step in steps if step.leg == r.details["leg"])
+                expectations.set_reference(r.details["gauge"], setting.q_mm,
+                                           r.details["value_mm"])
         total = sum(len(step.gauges) for step in steps)
         counter = ReadingCounter(len(session.readings) if session else 0, total)
         handles = RunHandles()
@@ -374,18 +377,16 @@ class _Wizard:
             campaign.gauges = [g for g in campaign.gauges if g.gauge not in self.by_eye]
             self._write_campaign_file(campaign)
 
-            def wrap(device: DeviceStation, writer: SessionWriter,
-                     recorded: set[tuple[str, str]]) -> GuidedStation:
-                station = GuidedStation(device, self.gate, steps=steps, recorded=recorded,
-                                        expectations=expectations, by_eye=self.by_eye,
-                                        ask_reading=self._typed(ask_reading),
+            def wrap(device: DeviceStation, writer: SessionWriter) -> GuidedStation:
+                station = GuidedStation(device, self.gate, expectations=expectations,
+                                        by_eye=self.by_eye, ask_reading=self._typed(ask_reading),
                                         on_pause=lambda: pause_here(
                                             f"after reading {counter.done} of {counter.total}"))
                 handles.station = station
-                handles.note = lambda action, **fields: writer.append("operator",
-                                                                      action=action, **fields)
+                handles.note = lambda action, **fields: writer.write(
+                    OperatorRecord(action=action, details=fields))
                 for note in self._notes_for_session:
-                    writer.append("operator", **note)
+                    writer.write(note)
                 self._notes_for_session.clear()
                 return station
 
@@ -465,11 +466,11 @@ class _Wizard:
                 raise OperatorQuit()
             return
         fault = self._last_fault()
-        if fault and fault.get("during") == "read" and fault.get("gauge"):
-            gauge = fault["gauge"]
+        if fault and fault.during == "read" and fault.gauge:
+            gauge = fault.gauge
             s.problem(f"Gauge {describe_gauge(gauge)} stopped answering "
-                      f"({self._describe_step(fault.get('step', ''))}):")
-            s.say(f"     {fault.get('message', stop.reason)}")
+                      f"({self._describe_step(fault.step or '')}):")
+            s.say(f"     {fault.message or stop.reason}")
             s.say("     Check its cable, that it is switched on, and its battery.")
             self._gauge_menu(gauge)
             return
@@ -502,9 +503,9 @@ class _Wizard:
                     return f"{step.leg} leg, cycle {step.cycle}, {step.posture.title()} posture"
         return f"reading {step_id}"
 
-    def _last_fault(self) -> dict[str, Any] | None:
+    def _last_fault(self) -> FaultRecord | None:
         assert self.session_path is not None
-        faults = load_session(self.session_path).of_type("fault")
+        faults = load_session(self.session_path).of_type(FaultRecord)
         return faults[-1] if faults else None
 
     def _say_quit(self) -> None:

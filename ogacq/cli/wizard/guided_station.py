@@ -2,15 +2,14 @@
 checkpoints for Ctrl-C (the run is inside ``InterruptGate.deferred``), gauges
 read by eye, and single reads for live values.
 
-It keeps the runner's order of readings (the plan, minus what is recorded), so
-a typed reading is asked for with its posture and cycle, and each reading
-feeds the expected ranges the next ones are checked against.
+The runner hands it the plan step of each reading, so a typed reading is asked
+for with its posture and cycle, and each reading feeds the expected ranges the
+next ones are checked against.
 """
 
 from __future__ import annotations
 
-from collections import deque
-from collections.abc import Callable, Iterable
+from collections.abc import Callable
 from typing import Any
 
 from drivers.indicators.base import read_stable
@@ -27,8 +26,8 @@ AskReading = Callable[[str, Read], GaugeValue]
 class GuidedStation:
     """Implements the runner's ``Station`` around an open ``DeviceStation``."""
 
-    def __init__(self, device: DeviceStation, gate: InterruptGate, *, steps: Iterable[Read],
-                 recorded: set[tuple[str, str]], expectations: ReadingExpectations,
+    def __init__(self, device: DeviceStation, gate: InterruptGate, *,
+                 expectations: ReadingExpectations,
                  by_eye: set[str], ask_reading: AskReading,
                  on_pause: Callable[[], None]) -> None:
         self.device = device
@@ -37,11 +36,6 @@ class GuidedStation:
         self.expectations = expectations
         self._ask_reading = ask_reading
         self._on_pause = on_pause
-        self._pending: dict[str, deque[Read]] = {}
-        for step in steps:
-            for gauge in step.gauges:
-                if (step.step, gauge) not in recorded:
-                    self._pending.setdefault(gauge, deque()).append(step)
 
     # ------------------------------------------------------------ runner's Station
     def move(self, q_mm: tuple[float, float, float], timeout_s: float,
@@ -49,16 +43,13 @@ class GuidedStation:
         self._checkpoint()
         return self.device.move(q_mm, timeout_s)
 
-    def read_gauge(self, gauge: str, rule: StabilityRule) -> GaugeValue:
+    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
         self._checkpoint()
-        step = self.next_step(gauge)
         if gauge in self.by_eye:
             with self.gate.immediate():
                 value = self._ask_reading(gauge, step)
         else:
-            value = self.device.read_gauge(gauge, rule)
-        # The runner records a reading as soon as read_gauge returns it.
-        self._pending[gauge].popleft()
+            value = self.device.read_gauge(step, gauge, rule)
         self.expectations.observe(gauge, step.q_mm, value.value_mm)
         return value
 
@@ -79,10 +70,6 @@ class GuidedStation:
     @property
     def description(self) -> dict[str, Any]:
         return self.device.description
-
-    def next_step(self, gauge: str) -> Read:
-        """The plan step the next reading of ``gauge`` belongs to."""
-        return self._pending[gauge][0]
 
     def can_read(self, gauge: str) -> bool:
         return gauge in self.device.indicators and gauge not in self.by_eye

@@ -1,0 +1,347 @@
+"""The records of a session, typed: every writer builds one of these and every reader
+gets one back, so a record's keys are spelled in this module only.
+
+On disk each record is one JSON object whose ``type`` names its class here; the
+store adds ``seq`` and ``crc``. ``from_json`` checks what later stages rely on
+(a reading's step, gauge, posture and numbers) and raises ``ValueError`` naming
+what is wrong, which the store reports with the line. Records of a kind this
+version does not know load as :class:`OtherRecord`, untouched.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from ogacq.model.gauges import AXES, Gauge
+
+FORMAT = "ogacq-session/1"
+
+Triple = tuple[float, float, float]
+
+
+@dataclass(frozen=True, kw_only=True)
+class Record:
+    """What every appended record has: its kind and the wall-clock time it was written."""
+
+    KIND: ClassVar[str] = ""
+    wall: float | None = None
+
+    def fields(self) -> dict[str, Any]:
+        """The record's own keys, as written after ``type`` and ``wall``."""
+        raise NotImplementedError
+
+    def to_json(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"type": self.KIND}
+        if self.wall is not None:
+            out["wall"] = self.wall
+        return {**out, **self.fields()}
+
+
+def _finite(value: Any) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool) and \
+        math.isfinite(value)
+
+
+def _integer(value: Any) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def _triple(value: Any, check) -> bool:
+    return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
+
+
+def _rest(d: Mapping[str, Any], *named: str) -> dict[str, Any]:
+    """A record's keys other than its kind, its time and those ``named``."""
+    return {k: v for k, v in d.items() if k not in ("type", "wall", *named)}
+
+
+@dataclass(frozen=True, kw_only=True)
+class ReadingRecord(Record):
+    """One stable gauge value, taken at a step of the plan."""
+
+    KIND: ClassVar[str] = "reading"
+    step: str  # the plan's id of the step, "x/c1/p2"
+    gauge: Gauge
+    cycle: int
+    posture: str | None  # the plan's label ("zero", "max", "+12mm"); None when imported
+    t_s: float  # station clock since the campaign started
+    q_mm: Triple  # joint coordinates as commanded
+    tcp_mm: Triple
+    approach: tuple[int, int, int]  # side each joint came from: +1 below, -1 above
+    reading_mm: float
+    raw: str | None = None  # the frame as received
+    source: str | None = None  # port/channel the value came from
+
+    # What each key must hold for the code that reads it.
+    _CHECKS: ClassVar[dict[str, Any]] = {
+        "step": lambda v: isinstance(v, str), "gauge": lambda v: isinstance(v, str),
+        "leg": lambda v: v in AXES, "gauge_axis": lambda v: v in AXES, "cycle": _integer,
+        "t_s": _finite, "q_mm": lambda v: _triple(v, _finite),
+        "tcp_mm": lambda v: _triple(v, _finite),
+        "approach": lambda v: _triple(v, lambda a: a in (-1, 0, 1)), "reading_mm": _finite,
+    }
+
+    @property
+    def leg(self) -> str:
+        return self.gauge.leg
+
+    @property
+    def gauge_axis(self) -> str:
+        return self.gauge.axis
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"step": self.step, "gauge": self.gauge.key, "leg": self.leg,
+                               "gauge_axis": self.gauge_axis, "cycle": self.cycle}
+        if self.posture is not None:
+            out["posture"] = self.posture
+        out.update(t_s=self.t_s, q_mm=list(self.q_mm), tcp_mm=list(self.tcp_mm),
+                   approach=list(self.approach), reading_mm=self.reading_mm)
+        if self.raw is not None:
+            out["raw"] = self.raw
+        if self.source is not None:
+            out["source"] = self.source
+        return out
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> ReadingRecord:
+        bad = [k for k, ok in cls._CHECKS.items() if k not in d or not ok(d[k])]
+        if not bad:
+            try:
+                gauge = Gauge.parse(d["gauge"])
+            except ValueError:
+                bad = ["gauge"]
+            else:
+                if (gauge.axis, gauge.leg) != (d["gauge_axis"], d["leg"]):
+                    bad = ["gauge (its leg and gauge_axis disagree)"]
+        if "posture" in d and not isinstance(d["posture"], str):
+            bad.append("posture")
+        if bad:
+            raise ValueError(f"reading without a valid {', '.join(bad)}")
+        return cls(wall=d.get("wall"), step=d["step"], gauge=gauge, cycle=d["cycle"],
+                   posture=d.get("posture"), t_s=d["t_s"], q_mm=tuple(d["q_mm"]),
+                   tcp_mm=tuple(d["tcp_mm"]), approach=tuple(d["approach"]),
+                   reading_mm=d["reading_mm"], raw=d.get("raw"), source=d.get("source"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class MoveRecord(Record):
+    KIND: ClassVar[str] = "move"
+    q_mm: Triple  # as commanded (rounded to the controller's resolution)
+    purpose: str  # "posture" or "approach"
+
+    def fields(self) -> dict[str, Any]:
+        return {"q_mm": list(self.q_mm), "purpose": self.purpose}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> MoveRecord:
+        return cls(wall=d.get("wall"), q_mm=tuple(d.get("q_mm") or ()),
+                   purpose=str(d.get("purpose", "")))
+
+
+@dataclass(frozen=True, kw_only=True)
+class GaugesSetRecord(Record):
+    KIND: ClassVar[str] = "gauges_set"
+    leg: str
+    gauges: tuple[str, ...]
+
+    def fields(self) -> dict[str, Any]:
+        return {"leg": self.leg, "gauges": list(self.gauges)}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> GaugesSetRecord:
+        return cls(wall=d.get("wall"), leg=str(d.get("leg", "")),
+                   gauges=tuple(d.get("gauges") or ()))
+
+
+@dataclass(frozen=True, kw_only=True)
+class FaultRecord(Record):
+    """A device fault during a move or a read, retried or not."""
+
+    KIND: ClassVar[str] = "fault"
+    during: str  # "move" or "read"
+    attempt: int | None
+    error: str  # the exception's class name
+    message: str
+    step: str | None = None  # a read's
+    gauge: str | None = None  # a read's
+    q_mm: Triple | None = None  # a move's target
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"during": self.during}
+        if self.step is not None:
+            out.update(step=self.step, gauge=self.gauge)
+        out.update(attempt=self.attempt, error=self.error, message=self.message)
+        if self.q_mm is not None:
+            out["q_mm"] = list(self.q_mm)
+        return out
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> FaultRecord:
+        q = d.get("q_mm")
+        return cls(wall=d.get("wall"), during=str(d.get("during", "")),
+                   attempt=d.get("attempt"), error=str(d.get("error", "")),
+                   message=str(d.get("message", "fault")), step=d.get("step"),
+                   gauge=d.get("gauge"), q_mm=tuple(q) if q else None)
+
+    def describe(self) -> str:
+        where = " ".join(str(v) for v in (self.during, self.step, self.gauge) if v)
+        attempt = f" (attempt {self.attempt})" if self.attempt else ""
+        return f"{where}{attempt}: {self.message}"
+
+
+@dataclass(frozen=True, kw_only=True)
+class EndRecord(Record):
+    """The campaign ended: ``complete``, or ``stopped``/``interrupted`` with a reason."""
+
+    KIND: ClassVar[str] = "end"
+    status: str
+    reason: str | None = None
+    axes_stopped: bool | None = None
+    readings: int | None = None
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"status": self.status}
+        if self.reason is not None:
+            out.update(reason=self.reason, axes_stopped=self.axes_stopped)
+        if self.readings is not None:
+            out["readings"] = self.readings
+        return out
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> EndRecord:
+        return cls(wall=d.get("wall"), status=str(d.get("status", "incomplete")),
+                   reason=d.get("reason"), axes_stopped=d.get("axes_stopped"),
+                   readings=d.get("readings"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class ResultRecord(Record):
+    """The identification a finished campaign made: the ``ogacq refit --json`` object."""
+
+    KIND: ClassVar[str] = "result"
+    params: str
+    refit: dict[str, Any]
+    noise_mm: float
+    noise_source: str
+
+    def fields(self) -> dict[str, Any]:
+        return {"params": self.params, "refit": self.refit, "noise_mm": self.noise_mm,
+                "noise_source": self.noise_source}
+
+    def values(self, names: tuple[str, ...]) -> list[float]:
+        """The recorded values of parameters ``names`` ("joint_offset.x", ...);
+        KeyError when one was not identified."""
+        out = []
+        for name in names:
+            effect, where = name.split(".")
+            out.append(float(self.refit["parameters"][effect][where]))
+        return out
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> ResultRecord:
+        refit = d.get("refit")
+        if not isinstance(refit, dict) or not isinstance(refit.get("parameters"), dict):
+            raise ValueError("result without a valid refit")
+        return cls(wall=d.get("wall"), params=str(d.get("params", "offsets")), refit=refit,
+                   noise_mm=d.get("noise_mm", math.nan),
+                   noise_source=str(d.get("noise_source", "")))
+
+
+@dataclass(frozen=True, kw_only=True)
+class ResumeRecord(Record):
+    KIND: ClassVar[str] = "resume"
+    software: str
+    after_records: int
+
+    def fields(self) -> dict[str, Any]:
+        return {"software": self.software, "after_records": self.after_records}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> ResumeRecord:
+        return cls(wall=d.get("wall"), software=str(d.get("software", "?")),
+                   after_records=int(d.get("after_records", 0)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class StationRecord(Record):
+    """The station a resumed campaign continued on (the header holds the first)."""
+
+    KIND: ClassVar[str] = "station"
+    description: dict[str, Any]
+
+    def fields(self) -> dict[str, Any]:
+        return dict(self.description)
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> StationRecord:
+        return cls(wall=d.get("wall"), description=_rest(d))
+
+
+@dataclass(frozen=True, kw_only=True)
+class _HeadedRecord(Record):
+    """A record named by one key (``HEAD``) and holding whatever else its writer notes."""
+
+    HEAD: ClassVar[str] = ""
+    details: dict[str, Any] = field(default_factory=dict)
+
+    def fields(self) -> dict[str, Any]:
+        return {self.HEAD: getattr(self, self.HEAD), **self.details}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> Any:
+        return cls(wall=d.get("wall"), details=_rest(d, cls.HEAD),
+                   **{cls.HEAD: str(d.get(cls.HEAD, ""))})
+
+
+@dataclass(frozen=True, kw_only=True)
+class OperatorRecord(_HeadedRecord):
+    """What the operator did in the wizard: ``action`` and what it concerns."""
+
+    KIND: ClassVar[str] = "operator"
+    HEAD: ClassVar[str] = "action"
+    action: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class OffsetsRecord(_HeadedRecord):
+    """One stage of a write-back's audit trail (``ogacq.writeback.audit``): refused,
+    declined, intent, done or failed, with what that stage records."""
+
+    KIND: ClassVar[str] = "offsets"
+    HEAD: ClassVar[str] = "stage"
+    stage: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class OtherRecord(Record):
+    """A record of a kind this version does not write, kept as it was."""
+
+    kind: str
+    content: dict[str, Any]
+
+    def fields(self) -> dict[str, Any]:
+        return dict(self.content)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"type": self.kind, **({} if self.wall is None else {"wall": self.wall}),
+                **self.content}
+
+
+KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
+    ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
+    ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord)}
+
+
+def record_from_json(d: Mapping[str, Any]) -> Record:
+    """The typed record of a decoded line (``seq`` and ``crc`` already taken off);
+    ``ValueError`` says what a known kind is missing."""
+    kind = d.get("type")
+    if not isinstance(kind, str):
+        raise ValueError("not a session record")
+    known = KINDS.get(kind)
+    if known is None:
+        return OtherRecord(wall=d.get("wall"), kind=kind, content=_rest(d))
+    return known.from_json(d)

@@ -1,0 +1,162 @@
+"""Typed session records: what is written is what is read back, a reading carries its
+step, gauge and posture, and the recorded result is what later stages use."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ogacq.campaign import identify_session, recorded_identification
+from ogacq.model.gauges import GAUGE_KEYS, GAUGES, Gauge
+from ogacq.model.machine import MachineSpec
+from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, planned_layout
+from ogacq.protocol.runner import CampaignRunner, GaugeValue
+from ogacq.session.records import (
+    EndRecord,
+    FaultRecord,
+    GaugesSetRecord,
+    MoveRecord,
+    OffsetsRecord,
+    OperatorRecord,
+    OtherRecord,
+    ReadingRecord,
+    ResultRecord,
+    ResumeRecord,
+    StationRecord,
+    record_from_json,
+)
+from ogacq.session.store import SessionWriter, load_session
+
+MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
+READING = ReadingRecord(step="x/c1/p2", gauge=Gauge("y", "x"), cycle=1, posture="max",
+                        t_s=12.5, q_mm=(60.2, -1.0, -1.0), tcp_mm=(60.0, 0.0, 0.0),
+                        approach=(1, -1, -1), reading_mm=-0.3211, raw="01A+00.3211",
+                        source="/dev/ttyUSB0")
+
+
+@pytest.mark.parametrize("record", [
+    READING,
+    ReadingRecord(step="import/1", gauge=Gauge("z", "y"), cycle=2, posture=None, t_s=0.0,
+                  q_mm=(0.0, 0.0, 0.0), tcp_mm=(0.0, 0.0, 0.0), approach=(0, 0, 0),
+                  reading_mm=1.0),
+    MoveRecord(q_mm=(1.0, 2.0, 3.0), purpose="posture"),
+    GaugesSetRecord(leg="y", gauges=("x_y", "z_y")),
+    FaultRecord(during="read", attempt=2, error="DeviceTimeout", message="no reply",
+                step="x/c1/p1", gauge="z_x"),
+    FaultRecord(during="move", attempt=1, error="DeviceFault", message="alarm",
+                q_mm=(0.0, 1.0, 0.0)),
+    EndRecord(status="stopped", reason="gauge z_x silent", axes_stopped=True, readings=30),
+    EndRecord(status="complete"),
+    ResultRecord(params="offsets", refit={"parameters": {"joint_offset": {"x": 0.1}}},
+                 noise_mm=0.001, noise_source="repeated readings"),
+    ResumeRecord(software="ogacq 0.1.0", after_records=12),
+    StationRecord(description={"controller": {"profile": "cia402"}}),
+    OperatorRecord(action="dial_set", details={"gauge": "y_x", "value_mm": 0.5}),
+    OffsetsRecord(stage="intent", details={"operation": "write-1", "new_mm": {"x": 0.1}}),
+    OtherRecord(kind="note", content={"text": "from another tool"}),
+])
+def test_every_record_reads_back_as_written(record):
+    on_disk = json.loads(json.dumps({**record.to_json(), "wall": 1.5}))
+    again = record_from_json(on_disk)
+    assert type(again) is type(record) and again.to_json() == {**record.to_json(), "wall": 1.5}
+
+
+def test_a_reading_keeps_the_wire_keys_of_the_session_format():
+    assert list(READING.to_json()) == ["type", "step", "gauge", "leg", "gauge_axis", "cycle",
+                                       "posture", "t_s", "q_mm", "tcp_mm", "approach",
+                                       "reading_mm", "raw", "source"]
+
+
+@pytest.mark.parametrize(("change", "named"), [
+    ({"gauge": "x_x"}, "gauge"), ({"leg": "y"}, "disagree"), ({"cycle": 1.5}, "cycle"),
+    ({"posture": 3}, "posture"), ({"reading_mm": float("nan")}, "reading_mm"),
+])
+def test_a_reading_missing_what_later_stages_need_is_refused(change, named):
+    with pytest.raises(ValueError, match=f"reading without a valid .*{named}"):
+        ReadingRecord.from_json({**READING.to_json(), **change})
+
+
+def test_one_gauge_type_spells_and_orders_every_gauge():
+    assert GAUGE_KEYS == ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
+    assert sorted(reversed(GAUGES)) == list(GAUGES)
+    assert [Gauge.parse(k) for k in GAUGE_KEYS] == list(GAUGES)
+    assert Gauge.parse("z_y").indices == (2, 1) and Gauge.at(2, 1).key == "z_y"
+    for bad in ("x_x", "y", "y_x_z", "q_x", ""):
+        with pytest.raises(ValueError, match="is not a gauge; gauges are y_x"):
+            Gauge.parse(bad)
+
+
+class _Station:
+    """A station that answers every read and remembers the step it was read for."""
+
+    def __init__(self) -> None:
+        self.reads: list[tuple[str, str]] = []
+
+    def move(self, q_mm, timeout_s):
+        return q_mm
+
+    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
+        assert gauge in step.gauges
+        self.reads.append((step.step, gauge))
+        return GaugeValue(0.01 * len(self.reads), "frame", "test")
+
+    def campaign_time_s(self) -> float:
+        return 0.0
+
+    def settle(self, seconds: float) -> None:
+        pass
+
+    def stop_axes(self) -> None:
+        pass
+
+    def recover_axes(self) -> bool:
+        return True
+
+
+def test_the_runner_hands_the_station_each_step_and_the_reading_keeps_its_posture(tmp_path):
+    config = ProtocolConfig(legs=("x",), postures=("zero", 30.0, "max"), cycles=1)
+    station = _Station()
+    with SessionWriter.create(tmp_path / "s.jsonl", {"plan": config.to_dict()}) as writer:
+        CampaignRunner(station, writer, config, MACHINE).run()
+    readings = load_session(tmp_path / "s.jsonl").readings
+    assert [(r.step, r.gauge.key) for r in readings] == station.reads
+    assert [r.posture for r in readings] == ["zero", "zero", "+30mm", "+30mm", "max", "max"]
+    layout = planned_layout(config, MACHINE)
+    assert list(layout.posture) == [r.posture for r in readings]
+
+
+def _finished_session(tmp_path, *, result: ResultRecord | None):
+    layout = planned_layout(ProtocolConfig(), MACHINE)
+    path = tmp_path / "s.jsonl"
+    with SessionWriter.create(path, {"machine": {"leg_length_mm": 310.25, "rho_min_mm": -100.0,
+                                                 "rho_max_mm": 60.0,
+                                                 "gauge_resolution_mm": 0.001},
+                                     "plan": None}) as writer:
+        for k in range(len(layout)):
+            # a joint offset of the x leg shows as a tilt of its readings, plus some scatter
+            value = 0.002 * layout.q_mm[k][0] + 0.001 * ((k * 7) % 5 - 2)
+            writer.write(ReadingRecord(
+                step=f"r/{k}", gauge=Gauge.at(layout.gauge_axis[k], layout.leg[k]),
+                cycle=int(layout.cycle[k]), posture=layout.posture[k], t_s=float(k),
+                q_mm=tuple(layout.q_mm[k]), tcp_mm=tuple(layout.tcp_mm[k]),
+                approach=tuple(int(a) for a in layout.approach[k]), reading_mm=value))
+        writer.write(EndRecord(status="complete"))
+        if result is not None:
+            writer.write(result)
+    return load_session(path)
+
+
+def test_the_recorded_result_is_used_and_a_session_without_one_is_fitted(tmp_path):
+    fitted = identify_session(_finished_session(tmp_path / "a", result=None))
+    assert recorded_identification(_finished_session(tmp_path / "b", result=None)).iterations \
+        == fitted.iterations > 0
+    recorded = ResultRecord(params="offsets", refit=fitted.to_json("offsets"),
+                            noise_mm=fitted.noise.sigma_mm, noise_source=fitted.noise.source)
+    session = _finished_session(tmp_path / "c", result=recorded)
+    assert session.result is not None and session.result.fields() == recorded.fields()
+    used = recorded_identification(session)
+    assert used.iterations == 0  # not fitted again: evaluated at the recorded values
+    assert used.values.tolist() == recorded.values(used.names)
+    assert used.residual_rms_mm == pytest.approx(fitted.residual_rms_mm, rel=1e-6)
+    assert used.std == pytest.approx(fitted.std, rel=1e-6)
