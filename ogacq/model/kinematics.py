@@ -29,10 +29,6 @@ _AO = [PARAM_INDEX[f"axis_offset.{w}"] for w in ("xy", "xz", "yz")]
 _DL = [PARAM_INDEX[f"leg_length.{a}"] for a in "xyz"]
 
 
-class NoAssembly(ValueError):
-    """The legs cannot all reach one TCP: the posture is outside the workspace."""
-
-
 def axis_lines(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Unit directions ``u`` and base points ``o`` of the three actuator lines.
 
