@@ -1,15 +1,61 @@
-"""One exception root for every instrument and controller driver.
+"""One exception root for the project, and its three branches.
 
-Callers catch ``DriverError`` to handle any device problem; the subclasses say
+Every error the tool reports to a user derives from ``OgacqError``; the branch
+says whose the problem is, and so the exit code the command line returns
+(README, "Exit codes"):
+
+* ``InputError`` (2): something the user gave -- a file, an option, a value.
+* ``DriverError`` (3): a gauge or a controller failed or cannot be reached.
+* ``Refused`` (4): the tool declines for safety or evidence reasons.
+
+The root lives here, not in ``ogacq``, because ``drivers`` never imports ``ogacq``.
+
+Callers catch ``DriverError`` to handle any device problem; its subclasses say
 what kind, so a campaign can decide whether to retry (``DeviceBusy``,
 ``DeviceTimeout``) or stop (``DeviceFault``, ``LinkError``).
 """
 
 from __future__ import annotations
 
+from pathlib import Path
 
-class DriverError(Exception):
+
+class OgacqError(Exception):
+    """Any problem the tool reports in one line. ``label`` and ``exit_code`` are how
+    the command line words and signals it."""
+
+    label = "error"
+    exit_code = 1
+
+
+class InputError(OgacqError):
+    """A problem in what the user gave: always the file (or the option), the line
+    when there is one, and the problem in words. ``path`` is None when the problem
+    names its own place."""
+
+    exit_code = 2
+
+    def __init__(self, path: str | Path | None, problem: str, line: int | None = None) -> None:
+        self.path = None if path is None else str(path)
+        self.line = line
+        self.problem = problem
+        where = f"{self.path}:{line}" if self.path is not None and line is not None else self.path
+        super().__init__(f"{where}: {problem}" if where is not None else problem)
+
+
+class Refused(OgacqError):
+    """The tool declines to act (the evidence is unreliable, acting is unsafe);
+    the message says what would make it go ahead."""
+
+    label = "refused"
+    exit_code = 4
+
+
+class DriverError(OgacqError):
     """Any failure talking to a gauge or a controller. ``where`` names the device."""
+
+    label = "device error"
+    exit_code = 3
 
     def __init__(self, message: str, *, where: str = "") -> None:
         self.where = where

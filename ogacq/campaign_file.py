@@ -408,7 +408,7 @@ def _check_unit_ids(src: _Source, profile: str, shared: Any, axes: dict[str, Axi
 
     try:
         ids = dict(load_profile(profile).device_ids)
-    except (ValueError, OSError):
+    except (InputError, OSError):
         return  # the station reports the profile's own error
     for axis, endpoint in axes.items():
         if endpoint.device_id is not None:
@@ -431,7 +431,7 @@ def _offset_kind(profile: str) -> str | None:
 
     try:
         return load_profile(profile).offset.kind
-    except (ValueError, OSError):
+    except (InputError, OSError):
         return None
 
 

@@ -26,6 +26,8 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
+from drivers.errors import InputError
+
 SCHEMA_VERSION = 1
 
 WordOrder = Literal["high_first", "low_first"]
@@ -62,13 +64,13 @@ AXIS_NAMES = ("x", "y", "z")
 SUPPORTED_FUNCTIONS = (1, 3, 5, 6, 8, 16)
 
 
-class ProfileError(ValueError):
+class ProfileError(InputError):
     """A profile file is unreadable, incomplete or inconsistent. Names file and key."""
 
     def __init__(self, source: str, key: str, problem: str) -> None:
         self.source = source
         self.key = key
-        super().__init__(f"{source}: [{key}] {problem}" if key else f"{source}: {problem}")
+        super().__init__(source, f"[{key}] {problem}" if key else problem)
 
 
 # --------------------------------------------------------------------------- codec

@@ -1,38 +1,63 @@
-"""The ``ogacq`` command: one typer app, errors turned into one line and exit 2."""
+"""The ``ogacq`` command: the table of commands, and every error turned into one line
+and the exit code of its kind.
+
+Command modules define plain functions and never import this module; the app imports
+a command's module only when that command runs (``ogacq.cli.lazy``).
+"""
 
 from __future__ import annotations
 
 import logging
 import sys
-from pathlib import Path
 from typing import Annotated
 
 import typer
-from typer.exceptions import TyperException
+from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own click
 
-from drivers.errors import DriverError
 from ogacq import __version__
-from ogacq.io.errors import InputError
+from ogacq.cli.lazy import LazyCommands, LazyGroupSpec
+from ogacq.errors import OgacqError
 
-app = typer.Typer(add_completion=False, no_args_is_help=True,
-                  help="Acquisition and calibration for Orthoglide-type parallel machines.")
+# The README's "Exit codes" table, in one paragraph.
+EXIT_CODES = ("Exit codes: 0 done; 1 declined at a prompt; 2 bad input (a file, an option, a "
+              "value); 3 a device failed or cannot be reached, or a campaign stopped (it can "
+              "be resumed); 4 refused as unreliable or unsafe (the reasons are printed); "
+              "130 interrupted.")
 
-MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
-# For files that may record their machine (sessions do, CSVs do not).
-RecordedMachineOption = Annotated[Path | None, typer.Option(
-    "--machine", "-m", help="Machine file (TOML); a session's own is used when left out, "
-                            "and one that differs from it is refused (--other-geometry).")]
-OtherGeometryOption = Annotated[bool, typer.Option(
-    "--other-geometry", help="Reanalyse a session with the --machine file even though it "
-                             "differs from the machine the session was recorded with.")]
-JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
-
-
-EXIT_DEVICE = 3  # a device fault or an unreachable device
+OFFSETS_HELP = ("Joint offsets on the controller: show the identified ones against the "
+                "controller's, write them back (confirmed, read back, recorded), restore the "
+                "old ones.")
+SESSION_HELP = "Look at, export, import, check and salvage sessions."
 
 
-class UserError(Exception):
-    """A problem the user can fix, reported in one line with exit code 2."""
+class OgacqCommands(LazyCommands):
+    # name -> "module:function", in the order `ogacq --help` lists them
+    table = {
+        "run": "ogacq.cli.campaign_cmds:run",
+        "resume": "ogacq.cli.campaign_cmds:resume",
+        "demo": "ogacq.cli.demo_cmd:demo",
+        "diagnose": "ogacq.cli.diagnose_cmd:diagnose_command",
+        "refit": "ogacq.cli.refit_cmd:refit",
+        "plan": "ogacq.cli.plan_cmd:plan",
+        "report": "ogacq.cli.report_cmd:report_command",
+        "sim": "ogacq.cli.sim_cmd:sim",
+        "wizard": "ogacq.cli.wizard_cmd:wizard",
+        "offsets": LazyGroupSpec(OFFSETS_HELP, {
+            "show": "ogacq.cli.offsets_cmd:show",
+            "write": "ogacq.cli.offsets_cmd:write",
+            "restore": "ogacq.cli.offsets_cmd:restore"}),
+        "session": LazyGroupSpec(SESSION_HELP, {
+            "show": "ogacq.cli.session_cmds:show",
+            "export": "ogacq.cli.session_cmds:export",
+            "import": "ogacq.cli.session_cmds:import_",
+            "check": "ogacq.cli.session_cmds:check",
+            "salvage": "ogacq.cli.session_cmds:salvage"}),
+    }
+
+
+app = typer.Typer(cls=OgacqCommands, add_completion=False, no_args_is_help=True,
+                  help="Acquisition and calibration for Orthoglide-type parallel machines.",
+                  epilog=EXIT_CODES)
 
 
 def _version(value: bool) -> None:
@@ -48,34 +73,22 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
     pass
 
 
-def _register() -> None:
-    from ogacq.cli import (  # noqa: F401  (commands attach to app)
-        campaign_cmds,
-        diagnose_cmd,
-        offsets_cmd,
-        plan_cmd,
-        refit_cmd,
-        report_cmd,
-        session_cmds,
-        sim_cmd,
-        wizard_cmd,
-    )
+def _say(kind: str, message: str) -> None:
+    """One line on stderr, whatever line breaks the message had."""
+    text = " ".join(part.strip() for part in message.splitlines() if part.strip())
+    typer.echo(f"ogacq: {kind}: {text}", err=True)
 
 
 def main(argv: list[str] | None = None) -> int:
     logging.basicConfig(level=logging.WARNING, format="ogacq: warning: %(message)s")
     # pymodbus logs a refused connection too; our own one-line error names the device
     logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
-    _register()
     try:
         # Outside standalone mode click returns typer.Exit's code instead of exiting.
         code = app(args=argv, prog_name="ogacq", standalone_mode=False)
-    except (InputError, UserError) as exc:
-        typer.echo(f"ogacq: error: {exc}", err=True)
-        return 2
-    except DriverError as exc:  # a device unreachable or failing before a campaign began
-        typer.echo(f"ogacq: device error: {exc}", err=True)
-        return EXIT_DEVICE
+    except OgacqError as exc:
+        _say(exc.label, str(exc))
+        return exc.exit_code
     except typer.Exit as exc:
         return exc.exit_code
     except typer.Abort:
@@ -84,12 +97,14 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         typer.echo("ogacq: interrupted", err=True)
         return 130
-    except TyperException as exc:  # usage errors (typer vendors its own click)
-        show = getattr(exc, "show", None)
-        if show is None:
-            raise
-        show()
-        return getattr(exc, "exit_code", 2)
+    except NoArgsIsHelpError as exc:  # `ogacq`, `ogacq session`: the help
+        exc.show()
+        return exc.exit_code
+    except typer.TyperException as exc:  # click's usage errors: a bad option or value
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see `{ctx.command_path} --help`)" if ctx is not None else ""
+        _say("error", exc.format_message() + hint)
+        return exc.exit_code
     return code if isinstance(code, int) else 0
 
 

@@ -1,34 +1,54 @@
-"""``ogacq run``, ``ogacq resume`` and ``ogacq demo``: campaigns from the command line."""
+"""``ogacq run`` and ``ogacq resume``: campaigns from the command line, and the
+progress and result display ``ogacq demo`` shares with them."""
 
 from __future__ import annotations
 
 import json
-import shutil
-import sys
-import time
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 import typer
 
 from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
 from ogacq.campaign_file import read_campaign
-from ogacq.cli.app import app
 from ogacq.cli.leg_prompt import operator_for
-from ogacq.protocol.runner import CampaignStopped
-from ogacq.session.store import LoadedSession, load_session
-
-if TYPE_CHECKING:
-    from ogacq.diagnose.diagnosis import Diagnosis
-
-EXIT_STOPPED = 3
-EXIT_INTERRUPTED = 130
+from ogacq.cli.options import JsonOption
+from ogacq.cli.render import campaign_progress, print_outcome
+from ogacq.protocol.runner import CampaignStopped, Observer
+from ogacq.session.store import load_session
 
 
-def _execute(start, *, quiet: bool = False) -> CampaignOutcome:
+def run(
+    campaign_file: Annotated[Path, typer.Argument(help="Campaign file (TOML).")],
+    as_json: JsonOption = False,
+) -> None:
+    """Run a scripted campaign: no operator when the six gauges are mounted, or one
+    asked to set them at each leg when indicators move from leg to leg."""
+    campaign = read_campaign(campaign_file)
+    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
+    outcome = execute(lambda obs: run_campaign(
+        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
+    show_outcome(outcome, as_json)
+
+
+def resume(
+    session: Annotated[Path, typer.Argument(help="Session file of an interrupted campaign.")],
+    as_json: JsonOption = False,
+) -> None:
+    """Continue an interrupted campaign where it stopped."""
+    loaded = load_session(session)
+    campaign = resumable_campaign(loaded)
+    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
+    outcome = execute(lambda obs: run_campaign(
+        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
+        quiet=as_json)
+    show_outcome(outcome, as_json)
+
+
+def execute(start: Callable[[Observer], CampaignOutcome], *,
+            quiet: bool = False) -> CampaignOutcome:
     """Run ``start(observer)`` with progress shown; a stop exits non-zero with its reason."""
-    from ogacq.cli.render import campaign_progress
-
     with campaign_progress(enabled=not quiet) as observer:
         try:
             return start(observer)
@@ -36,114 +56,13 @@ def _execute(start, *, quiet: bool = False) -> CampaignOutcome:
             typer.echo(f"ogacq: campaign {stop.status}: {stop.reason}", err=True)
             typer.echo("ogacq: the session is saved and can be resumed with `ogacq resume`",
                        err=True)
-            raise typer.Exit(EXIT_INTERRUPTED if stop.status == "interrupted"
-                             else EXIT_STOPPED) from None
+            raise typer.Exit(stop.exit_code) from None
 
 
-def _finish(outcome: CampaignOutcome, as_json: bool) -> None:
+def show_outcome(outcome: CampaignOutcome, as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps({"session": str(outcome.session_path),
                                **outcome.fit.to_json("offsets"),
                                "hidden": outcome.hidden}))
         return
-    from ogacq.cli.render import print_outcome
-
     print_outcome(outcome)
-
-
-@app.command()
-def run(
-    campaign_file: Annotated[Path, typer.Argument(help="Campaign file (TOML).")],
-    as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
-) -> None:
-    """Run a scripted campaign: no operator when the six gauges are mounted, or one
-    asked to set them at each leg when indicators move from leg to leg."""
-    campaign = read_campaign(campaign_file)
-    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
-    outcome = _execute(lambda obs: run_campaign(
-        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
-    _finish(outcome, as_json)
-
-
-@app.command()
-def resume(
-    session: Annotated[Path, typer.Argument(help="Session file of an interrupted campaign.")],
-    as_json: Annotated[bool, typer.Option("--json", help="Print the result as JSON.")] = False,
-) -> None:
-    """Continue an interrupted campaign where it stopped."""
-    loaded = load_session(session)
-    campaign = resumable_campaign(loaded)
-    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
-    outcome = _execute(lambda obs: run_campaign(
-        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
-        quiet=as_json)
-    _finish(outcome, as_json)
-
-
-DEMO_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators
-leg_length_mm = 310.25
-rho_min_mm = -100.0
-rho_max_mm = 60.0
-gauge_resolution_mm = 0.001
-"""
-
-
-@app.command()
-def demo(
-    effects: Annotated[Path | None, typer.Option(
-        help="TOML file of hidden effects the simulated machine has (see `ogacq sim`).")]
-    = None,
-    seed: Annotated[int, typer.Option(help="Seed of the hidden offsets and the noise.")] = 1,
-    profile: Annotated[str, typer.Option(help="cia402 (Modbus TCP) or iai-pcon (RTU).")]
-    = "cia402",
-    out: Annotated[Path | None, typer.Option(help="Folder to write (default: a new one "
-                                             "named after the time).")] = None,
-    speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
-) -> None:
-    """A full calibration campaign against the built-in simulator: identify the hidden
-    joint offsets through the real drivers and compare them with the truth."""
-    folder = out or Path(f"ogacq-demo-{time.strftime('%Y%m%d-%H%M%S')}")
-    if folder.exists() and any(folder.iterdir()):
-        raise typer.BadParameter(f"{folder} exists and is not empty", param_hint="--out")
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "machine.toml").write_text(DEMO_MACHINE)
-    sim = [f"seed = {seed}", f"speed = {speed}", f'profile = "{profile}"']
-    if effects is not None:
-        shutil.copy(effects, folder / "effects.toml")
-        sim.append('effects = "effects.toml"')
-    (folder / "campaign.toml").write_text(
-        'machine = "machine.toml"\nsession = "session.jsonl"\n\n[simulator]\n'
-        + "\n".join(sim) + "\n\n[protocol]\nsettle_s = 1.0\n")
-    typer.echo(f"demo: simulated machine (seed {seed}, {profile}), campaign in {folder}/",
-               err=not sys.stdout.isatty())
-    campaign = read_campaign(folder / "campaign.toml")
-    outcome = _execute(lambda obs: run_campaign(campaign, observer=obs))
-    from ogacq.session.convert import export_readings
-
-    session = load_session(outcome.session_path)
-    export_readings(session, folder / "readings.csv")
-    (folder / "result.json").write_text(json.dumps(
-        {**outcome.fit.to_json("offsets"), "hidden": outcome.hidden}, indent=2) + "\n")
-    _finish(outcome, as_json=False)
-    diagnosis = _diagnose_demo(session, outcome, folder)
-    from ogacq.cli.report_cmd import diagnosis_for_report, write_session_report
-
-    # the session as loaded once, and its diagnosis: the report neither reloads nor
-    # rediagnoses, and shows the identification the campaign recorded
-    write_session_report(session, folder / "report", *diagnosis_for_report(session, diagnosis))
-    typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
-               "report/report.html")
-
-
-def _diagnose_demo(session: LoadedSession, outcome: CampaignOutcome, folder: Path,
-                   ) -> Diagnosis:
-    """The rest of the story when the joint offsets alone do not fit: what the
-    diagnosis finds, beside the simulator's hidden truth."""
-    from ogacq.cli.render import print_demo_diagnosis
-    from ogacq.diagnose.diagnosis import diagnose
-    from ogacq.session.convert import session_observations
-
-    diagnosis = diagnose(session_observations(session))
-    (folder / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n")
-    print_demo_diagnosis(diagnosis, outcome.hidden or {})
-    return diagnosis

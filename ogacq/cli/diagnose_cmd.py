@@ -9,20 +9,16 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.app import (
-    JsonOption,
-    OtherGeometryOption,
-    RecordedMachineOption,
-    UserError,
-    app,
-)
+from ogacq.cli.options import JsonOption, OtherGeometryOption, RecordedMachineOption
+from ogacq.cli.render_diagnosis import print_diagnosis
+from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
+from ogacq.errors import InputError
 from ogacq.identify.plausibility import check_result
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine
 from ogacq.model.parameters import PARAM_SETS
 
 
-@app.command(name="diagnose")
 def diagnose_command(
     file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
@@ -33,17 +29,12 @@ def diagnose_command(
     spec = read_machine(machine) if machine is not None else None
     obs = load_observations(file, spec, PARAM_SETS["offsets"], machine_path=machine,
                             other_geometry=other_geometry)
-    # scipy.stats loads here, not on every ogacq start
-    from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
-
     try:
         result = diagnose(obs)
     except DiagnosisError as exc:
-        raise UserError(f"{file}: {exc}") from None
+        raise InputError(file, str(exc)) from None
     check_result(result.final_fit)
     if as_json:
         typer.echo(json.dumps(result.to_json()))
         return
-    from ogacq.cli.render_diagnosis import print_diagnosis
-
     print_diagnosis(result, machine_file=str(machine or file))

@@ -10,16 +10,13 @@ moves.
 from __future__ import annotations
 
 import sys
-from typing import TYPE_CHECKING
 
 from ogacq.campaign_file import Campaign
-from ogacq.io.errors import InputError
+from ogacq.cli.render import CampaignProgress, console
+from ogacq.errors import InputError
 from ogacq.model.gauges import Gauge
 from ogacq.protocol.plan import SetGauges
 from ogacq.protocol.runner import CampaignStopped, GaugeSetter
-
-if TYPE_CHECKING:
-    from ogacq.cli.render import CampaignProgress
 
 
 def operator_for(campaign: Campaign, progress: CampaignProgress | None = None,
@@ -47,8 +44,6 @@ class LegPrompt:
         self._progress = progress
 
     def __call__(self, step: SetGauges) -> None:
-        from ogacq.cli.render import console
-
         with self._progress.paused():
             console.print(f"\n[bold]The machine is at the Zero posture: set the gauges on "
                           f"the {step.leg} leg.[/]")

@@ -10,29 +10,33 @@ overrides).
 
 from __future__ import annotations
 
-import contextlib
 import json
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
+from drivers.axes.controller import AxisController
 from drivers.axes.profile import Profile, ProfileError, load_profile
 from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
-from ogacq.cli.app import JsonOption, UserError, app
+from ogacq.cli import render_offsets as render
+from ogacq.cli.options import JsonOption
+from ogacq.errors import DriverError, InputError, Refused
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.writeback.policy import DEFAULT_MAX_CHANGE_MM
+from ogacq.station import open_controller
+from ogacq.writeback.audit import AuditLog, last_write, operations
+from ogacq.writeback.evidence import evidence_from_session
+from ogacq.writeback.execute import WriteOptions, execute_plan, preflight
+from ogacq.writeback.policy import (
+    DEFAULT_MAX_CHANGE_MM,
+    ControllerFacts,
+    OffsetPlan,
+    WritePolicy,
+    plan_restore,
+    plan_write,
+)
 
 EXIT_DECLINED = 1
-EXIT_DEVICE = 3
-EXIT_REFUSED = 4
-
-
-offsets_app = typer.Typer(no_args_is_help=True, help=(
-    "Joint offsets on the controller: show the identified ones against the controller's, "
-    "write them back (confirmed, read back, recorded), restore the old ones."))
-app.add_typer(offsets_app, name="offsets")
 
 SessionArgument = Annotated[Path, typer.Argument(
     help="Session of the calibration campaign (its identified offsets; the audit goes here).")]
@@ -63,18 +67,18 @@ def _campaign_for(session: LoadedSession, path: Path | None) -> tuple[Campaign, 
     if path is None:
         recorded = session.header.get("campaign_file")
         if not recorded:
-            raise UserError(f"{session.path}: the session names no campaign file; give the "
-                            "controller's with --campaign")
+            raise InputError(session.path, "the session names no campaign file; give the "
+                             "controller's with --campaign")
         path = Path(recorded)
     campaign = read_campaign(path)
     if campaign.simulator is not None or campaign.controller is None:
-        raise UserError(f"{campaign.path}: this campaign starts the built-in simulator inside "
-                        "each command, and its controller does not outlive it; serve one with "
-                        "`ogacq sim` and name it in [controller]")
+        raise InputError(campaign.path, "this campaign starts the built-in simulator inside "
+                         "each command, and its controller does not outlive it; serve one with "
+                         "`ogacq sim` and name it in [controller]")
     try:
         profile = load_profile(campaign.controller.profile)
     except ProfileError as exc:
-        raise UserError(f"{campaign.path}: controller profile: {exc}") from None
+        raise InputError(campaign.path, f"controller profile: {exc}") from None
     return campaign, profile
 
 
@@ -82,24 +86,12 @@ def _check_writable(campaign: Campaign, profile: Profile, save_nvm: bool) -> Non
     """What the profile alone rules out, said before connecting to anything."""
     spec = campaign.controller
     if profile.offset.kind == "software" and spec.offsets_file is None:
-        raise UserError(f"{campaign.path}: profile {spec.profile!r} has no offset register; its "
-                        "offsets live in a software offset table: add offsets_file = "
-                        "\"offsets.toml\" to [controller] so that every campaign applies it")
+        raise InputError(campaign.path, f"profile {spec.profile!r} has no offset register; "
+                         "its offsets live in a software offset table: add offsets_file = "
+                         "\"offsets.toml\" to [controller] so that every campaign applies it")
     if save_nvm and profile.nvm.kind == "none":
-        raise UserError(f"--save-nvm: profile {spec.profile!r} has no non-volatile memory; its "
-                        "offsets persist in the software offset table")
-
-
-@contextlib.contextmanager
-def _device_errors() -> Iterator[None]:
-    """A controller that cannot be reached or fails: one line, exit 3."""
-    from drivers.errors import DriverError
-
-    try:
-        yield
-    except DriverError as exc:
-        typer.echo(f"ogacq: error: controller: {exc}", err=True)
-        raise typer.Exit(EXIT_DEVICE) from None
+        raise InputError("--save-nvm", f"profile {spec.profile!r} has no non-volatile memory; "
+                         "its offsets persist in the software offset table")
 
 
 def _ask(question: str) -> bool:
@@ -110,14 +102,11 @@ def _ask(question: str) -> bool:
         return False
 
 
-def _approve_and_execute(controller, plan, audit, campaign: Campaign, *,
+def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
+                         campaign: Campaign, *,
                          yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
     """Refuse, ask, then write: the part ``write`` and ``restore`` share. ``audit`` is
     open: this command holds the session, so no campaign runs on it meanwhile."""
-    from drivers.errors import DriverError
-    from ogacq.cli import render_offsets as render
-    from ogacq.writeback.execute import WriteBackError, WriteOptions, execute_plan, preflight
-
     if plan.nothing_to_do:
         typer.echo(f"the controller already holds these offsets: nothing to {plan.action}")
         return
@@ -128,7 +117,7 @@ def _approve_and_execute(controller, plan, audit, campaign: Campaign, *,
     if plan.refused and not force:
         audit.record("refused", **summary, reasons=[r.message for r in plan.refusals],
                      codes=[r.code for r in plan.refusals])
-        raise typer.Exit(EXIT_REFUSED)
+        raise Refused(f"nothing written; --force {plan.action}s anyway")
     if not yes:
         homing = (" and re-home the axes (the machine moves)"
                   if rehome and plan.facts.takes_effect == "at_next_homing" else "")
@@ -146,18 +135,12 @@ def _approve_and_execute(controller, plan, audit, campaign: Campaign, *,
     except DriverError as exc:
         audit.record("refused", **summary, reasons=[f"pre-flight: {exc}"],
                      codes=["preflight"])
-        typer.echo(f"ogacq: error: pre-flight check, nothing written: {exc}", err=True)
-        raise typer.Exit(EXIT_DEVICE) from None
-    try:
-        outcome = execute_plan(controller, plan, audit, options,
-                               offsets_file=spec.offsets_file)
-    except WriteBackError as exc:
-        typer.echo(f"ogacq: error: {exc}", err=True)
-        raise typer.Exit(EXIT_DEVICE) from None
+        raise DriverError(f"pre-flight check, nothing written: {exc}") from None
+    # a WriteBackError (a DriverError) says what the controller holds now
+    outcome = execute_plan(controller, plan, audit, options, offsets_file=spec.offsets_file)
     render.print_outcome(outcome)
 
 
-@offsets_app.command("show")
 def show(
     session_path: SessionArgument,
     campaign_path: CampaignOption = None,
@@ -170,16 +153,11 @@ def show(
 
     Says whether `ogacq offsets write` would write them, and if not, why.
     """
-    from ogacq.station import open_controller
-    from ogacq.writeback.audit import operations
-    from ogacq.writeback.evidence import evidence_from_session
-    from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
-
     session = load_session(session_path)
     evidence = evidence_from_session(session, from_diagnosis)
     campaign, profile = _campaign_for(session, campaign_path)
     spec = campaign.controller
-    with _device_errors(), open_controller(spec) as controller:
+    with open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
     history = operations(session)
@@ -191,8 +169,6 @@ def show(
                            else None},
             "writes": [op.as_mapping() for op in history]}))
         return
-    from ogacq.cli import render_offsets as render
-
     render.print_evidence(evidence)
     render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec), evidence=evidence)
     render.print_history(history)
@@ -209,7 +185,6 @@ def _table_name(spec: ControllerSpec) -> str | None:
     return str(spec.offsets_file) if spec.offsets_file else None
 
 
-@offsets_app.command("write")
 def write(
     session_path: SessionArgument,
     campaign_path: CampaignOption = None,
@@ -221,12 +196,6 @@ def write(
     from_diagnosis: FromDiagnosisOption = False,
 ) -> None:
     """Write the offsets identified by a campaign: shown, confirmed, read back, recorded."""
-    from ogacq.cli import render_offsets as render
-    from ogacq.station import open_controller
-    from ogacq.writeback.audit import AuditLog
-    from ogacq.writeback.evidence import evidence_from_session
-    from ogacq.writeback.policy import ControllerFacts, WritePolicy, plan_write
-
     session = load_session(session_path)
     evidence = evidence_from_session(session, from_diagnosis)
     campaign, profile = _campaign_for(session, campaign_path)
@@ -234,7 +203,7 @@ def write(
     _check_writable(campaign, profile, save_nvm)
     # The session is held before the controller is touched: a campaign running on it
     # (or another write-back) refuses this one before anything moves.
-    with AuditLog(session) as audit, _device_errors(), open_controller(spec) as controller:
+    with AuditLog(session) as audit, open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
         render.print_evidence(evidence)
@@ -244,7 +213,6 @@ def write(
                              save_nvm=save_nvm, rehome=not no_home)
 
 
-@offsets_app.command("restore")
 def restore(
     session_path: SessionArgument,
     campaign_path: CampaignOption = None,
@@ -254,20 +222,15 @@ def restore(
     no_home: NoHomeOption = False,
 ) -> None:
     """Put back the offsets the session's last write-back replaced."""
-    from ogacq.cli import render_offsets as render
-    from ogacq.station import open_controller
-    from ogacq.writeback.audit import AuditLog, last_write
-    from ogacq.writeback.policy import ControllerFacts, plan_restore
-
     session = load_session(session_path)
     operation = last_write(session)
     if operation is None:
-        raise UserError(f"{session.path}: no write-back is recorded in this session: nothing "
-                        "to restore")
+        raise InputError(session.path, "no write-back is recorded in this session: nothing "
+                         "to restore")
     campaign, profile = _campaign_for(session, campaign_path)
     spec = campaign.controller
     _check_writable(campaign, profile, save_nvm)
-    with AuditLog(session) as audit, _device_errors(), open_controller(spec) as controller:
+    with AuditLog(session) as audit, open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_restore(operation, controller.read_offsets(), facts)
         render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))

@@ -8,8 +8,9 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.app import JsonOption, MachineOption, UserError, app
-from ogacq.cli.refit_cmd import ParamSet
+from ogacq.cli.options import JsonOption, MachineOption, ParamSet, seed_option
+from ogacq.cli.render import print_plan
+from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
 from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
@@ -24,11 +25,11 @@ def parse_postures(text: str, rho_min: float, rho_max: float) -> list[str | floa
         try:
             value = float(item)
         except ValueError:
-            raise UserError(f"--postures: {item!r} is neither zero/max/min nor a number "
-                            "in mm") from None
+            raise InputError("--postures", f"{item!r} is neither zero/max/min nor a "
+                             "number in mm") from None
         if not rho_min <= value <= rho_max:
-            raise UserError(f"--postures: {value:g} mm is outside the machine's "
-                            f"{rho_min:g}..{rho_max:g} mm")
+            raise InputError("--postures", f"{value:g} mm is outside the machine's "
+                             f"{rho_min:g}..{rho_max:g} mm")
         out.append(value)
     return out
 
@@ -38,16 +39,15 @@ def parse_truth(text: str | None) -> dict[str, float]:
     for item in filter(None, (t.strip() for t in (text or "").split(","))):
         name, _, value = item.partition("=")
         if name not in PARAM_INDEX:
-            raise UserError(f"--assume: unknown parameter {name!r} "
-                            "(e.g. joint_offset.x, squareness.xy)")
+            raise InputError("--assume", f"unknown parameter {name!r} "
+                             "(e.g. joint_offset.x, squareness.xy)")
         try:
             truth[name] = float(value)
         except ValueError:
-            raise UserError(f"--assume: {item!r} needs a number after '='") from None
+            raise InputError("--assume", f"{item!r} needs a number after '='") from None
     return truth
 
 
-@app.command()
 def plan(
     machine: MachineOption,
     params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
@@ -64,7 +64,7 @@ def plan(
     trials: Annotated[int, typer.Option(
         min=0, help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
     = 10000,
-    seed: Annotated[int, typer.Option(help="Seed of the simulated noise.")] = 0,
+    seed: Annotated[int, seed_option("Seed of the simulated noise.")] = 0,
     as_json: JsonOption = False,
 ) -> None:
     """Predict the std of each parameter for a planned campaign."""
@@ -72,7 +72,7 @@ def plan(
     sigma = noise if noise is not None else (spec.gauge_repeatability_mm
                                             or spec.gauge_resolution_mm)
     if sigma <= 0:
-        raise UserError(f"--noise must be positive, got {sigma:g} mm")
+        raise InputError("--noise", f"must be positive, got {sigma:g} mm")
     obs = planned_observations(
         spec, postures=parse_postures(postures, spec.rho_min_mm, spec.rho_max_mm),
         cycles=cycles)
@@ -81,6 +81,4 @@ def plan(
     if as_json:
         typer.echo(json.dumps(pred.to_json()))
         return
-    from ogacq.cli.render import print_plan
-
     print_plan(pred, Path(machine).name, postures, cycles)

@@ -9,24 +9,14 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.app import (
-    JsonOption,
-    OtherGeometryOption,
-    RecordedMachineOption,
-    UserError,
-    app,
-)
+from ogacq.cli.options import JsonOption, OtherGeometryOption, ParamSet, RecordedMachineOption
+from ogacq.cli.render import print_fit
+from ogacq.errors import InputError
 from ogacq.identify.fit import fit
 from ogacq.identify.plausibility import check_result
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine
 from ogacq.model.parameters import PARAM_SETS
-
-
-class ParamSet(StrEnum):
-    offsets = "offsets"
-    lengths = "lengths"
-    both = "both"
 
 
 class Method(StrEnum):
@@ -40,7 +30,6 @@ class Weighting(StrEnum):
     gls = "gls"
 
 
-@app.command()
 def refit(
     file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
@@ -67,12 +56,10 @@ def refit(
         chosen = "linear" if obs.kind == "deviations" else "exact"
     result = fit(obs, names, method=chosen, weighting=weighting.value)
     if not result.converged:
-        raise UserError(f"{file}: the {chosen} fit did not converge in {result.iterations} "
-                        "iterations; try --method linear or check the data")
+        raise InputError(file, f"the {chosen} fit did not converge in {result.iterations} "
+                         "iterations; try --method linear or check the data")
     check_result(result)
     if as_json:
         typer.echo(json.dumps(result.to_json(params.value)))
         return
-    from ogacq.cli.render import print_fit
-
     print_fit(result, params.value)

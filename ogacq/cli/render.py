@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 
 import numpy as np
@@ -54,6 +55,8 @@ def print_fit(result: FitResult, params_label: str) -> None:
             console.print(f"  - {reason}")
     for a, b, c in ident.correlated_pairs:
         console.print(f"  correlated: {a} / {b} {c:+.4f}")
+
+    # scipy.stats (a second of start-up) loads here: `refit --json` never needs it
     from ogacq.identify.consistency import fit_verdict
 
     verdict = fit_verdict(result)
@@ -136,8 +139,6 @@ class CampaignProgress:
 @contextmanager
 def campaign_progress(enabled: bool = True):
     """An observer for the runner: a live bar on a terminal, log lines otherwise."""
-    import sys
-
     if not enabled:
         yield CampaignProgress()
         return

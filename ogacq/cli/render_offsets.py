@@ -86,11 +86,9 @@ def print_refusals(plan: OffsetPlan, forced: bool) -> None:
             err_console.print(f"ogacq: warning: --force writes past: {refusal.message}",
                               highlight=False, soft_wrap=True)
         return
-    for refusal in plan.refusals:
+    for refusal in plan.refusals:  # the command's one-line refusal follows
         err_console.print(f"ogacq: refused ({refusal.code}): {refusal.message}",
                           highlight=False, soft_wrap=True)
-    err_console.print(f"ogacq: nothing written; --force {plan.action}s anyway",
-                      highlight=False, soft_wrap=True)
 
 
 def print_outcome(outcome: WriteOutcome) -> None:

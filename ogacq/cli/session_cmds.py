@@ -8,52 +8,44 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.app import MachineOption, app
-from ogacq.io.errors import InputError
+from ogacq.cli.options import MachineOption
+from ogacq.cli.outputs import check_new_file
+from ogacq.cli.render import print_session
+from ogacq.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.session.convert import export_readings, import_readings
-from ogacq.session.store import load_session, salvage_session, scan_session
-
-session_app = typer.Typer(no_args_is_help=True,
-                          help="Look at, export, import, check and salvage sessions.")
-app.add_typer(session_app, name="session")
+from ogacq.session.store import check_writable, load_session, salvage_session, scan_session
 
 
-@session_app.command("show")
 def show(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
     """What a session holds: machine, station, progress, faults, result."""
-    from ogacq.cli.render import print_session
-
     loaded = load_session(session)
     for warning in loaded.warnings:
         typer.echo(f"ogacq: warning: {warning}", err=True)
     print_session(loaded)
 
 
-@session_app.command("export")
 def export(
     session: Annotated[Path, typer.Argument(help="Session file.")],
     out: Annotated[Path, typer.Argument(help="Readings CSV to write.")],
 ) -> None:
     """Write the session's readings as a readings CSV (INTERCHANGE.md)."""
-    if out.exists():
-        raise typer.BadParameter(f"{out} exists; not overwriting it", param_hint="OUT")
+    check_new_file(out, "OUT")
     count = export_readings(load_session(session), out)
     typer.echo(f"{count} readings written to {out}")
 
 
-@session_app.command("import")
 def import_(
     readings: Annotated[Path, typer.Argument(help="Readings CSV.")],
     out: Annotated[Path, typer.Argument(help="Session file to create.")],
     machine: MachineOption,
 ) -> None:
     """Make a session from a readings CSV (for tools that work on sessions)."""
+    check_writable(out)
     path = import_readings(readings, read_machine(machine), out)
     typer.echo(f"session written to {path}")
 
 
-@session_app.command("check")
 def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
     """Check every record (sequence, checksum, fields): what is wrong, and where."""
     scan = scan_session(session)
@@ -70,12 +62,12 @@ def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> Non
     typer.echo(f"{session}: {len(scan.records)} records, every one valid")
 
 
-@session_app.command("salvage")
 def salvage(
     session: Annotated[Path, typer.Argument(help="Damaged session file (left as it is).")],
     out: Annotated[Path, typer.Argument(help="New session file to write.")],
 ) -> None:
     """Write every valid record of a damaged session to a new one; list the rest."""
+    check_new_file(out, "OUT")
     kept, dropped = salvage_session(session, out)
     for line, problem in dropped:
         typer.echo(f"left out {session}:{line}: {problem}")

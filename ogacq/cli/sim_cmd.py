@@ -5,39 +5,30 @@ from __future__ import annotations
 import json
 import signal
 import threading
-from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
 import typer
 
 from drivers.indicators import BACKENDS
-from ogacq.cli.app import JsonOption, app
+from drivers.sim.stack import SimulatorConfig, SimulatorStack
+from drivers.sim.truth import random_truth, read_effects
+from ogacq.cli.options import GaugeProtocol, JsonOption, ProfileChoice, seed_option
+from ogacq.cli.render import print_sim
 from ogacq.io.machine_file import read_machine
+from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE
 
 
-class Profile(StrEnum):
-    cia402 = "cia402"
-    iai_pcon = "iai-pcon"
-    mr_je_c = "mr-je-c"
-    kinco_fd = "kinco-fd"
-
-
-# Every protocol of the driver table, so a new cable is served as soon as it has a driver.
-GaugeProtocol = StrEnum("GaugeProtocol", {name: name for name in BACKENDS})
-
-
-@app.command()
 def sim(
-    profile: Annotated[Profile, typer.Option(
+    profile: Annotated[ProfileChoice, typer.Option(
         help="Controller register map: cia402 (Modbus TCP), iai-pcon (Modbus RTU on a "
              "pseudo-terminal), mr-je-c (one Modbus TCP endpoint per axis, unit 255, "
-             "FC 03/08/16) or kinco-fd (RTU).")] = Profile.cia402,
+             "FC 03/08/16) or kinco-fd (RTU).")] = ProfileChoice["cia402"],
     effects: Annotated[Path | None, typer.Option(
         help="TOML file of hidden effects (joint_offset, squareness, ... gauges.noise_mm).")]
     = None,
-    seed: Annotated[int, typer.Option(help="Seed of the hidden offsets and the noise.")] = 0,
+    seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise.")] = 0,
     machine: Annotated[Path | None, typer.Option(
         "--machine", "-m", help="Machine file (default: the papers' prototype).")] = None,
     speed: Annotated[float, typer.Option(
@@ -50,9 +41,6 @@ def sim(
     as_json: JsonOption = False,
 ) -> None:
     """Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."""
-    from drivers.sim.stack import SimulatorConfig, SimulatorStack
-    from drivers.sim.truth import random_truth, read_effects
-
     spec = read_machine(machine) if machine else PAPER_PROTOTYPE
     truth = random_truth(seed)
     if effects is not None:
@@ -67,8 +55,6 @@ def sim(
         if as_json:
             typer.echo(json.dumps(info))
         else:
-            from ogacq.cli.render import print_sim
-
             print_sim(info)
         try:
             while not done.wait(0.5):
@@ -78,8 +64,6 @@ def sim(
 
 
 def _per_gauge(items: list[str]) -> dict[str, str]:
-    from ogacq.model.gauges import GAUGE_KEYS
-
     out: dict[str, str] = {}
     for item in items:
         key, _, protocol = item.partition("=")

@@ -7,27 +7,27 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.app import app
+from ogacq.cli.options import GaugeProtocol, ProfileChoice, seed_option
+from ogacq.cli.outputs import check_output_folder
+from ogacq.cli.wizard import WizardOptions, run_wizard
+from ogacq.cli.wizard.faults import parse_fault
 
 
 def _faults(values: list[str] | None) -> list:
-    from ogacq.cli.wizard.faults import parse_fault
-
     try:
         return [parse_fault(v) for v in values or []]
     except ValueError as exc:
         raise typer.BadParameter(str(exc), param_hint="--simulate-fault") from None
 
 
-@app.command()
 def wizard(
     simulator: Annotated[bool, typer.Option(
         "--simulator", help="Rehearse on the built-in simulator: its ports are offered as "
                             "the instruments.")] = False,
-    seed: Annotated[int, typer.Option(help="Simulator: seed of the hidden offsets.")] = 0,
+    seed: Annotated[int, seed_option("Simulator: seed of the hidden offsets.")] = 0,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulator: time speed-up.")] = 20.0,
-    profile: Annotated[str, typer.Option(help="Simulator: controller register map.")]
-    = "cia402",
+    profile: Annotated[ProfileChoice, typer.Option(
+        help="Simulator: controller register map.")] = ProfileChoice["cia402"],
     machine: Annotated[Path | None, typer.Option(
         "--machine", "-m", help="Machine file (asked for when not given).")] = None,
     out: Annotated[Path | None, typer.Option(
@@ -52,34 +52,29 @@ def wizard(
                            "unless told).")] = None,
     resume: Annotated[Path | None, typer.Option(
         help="Continue this session with the wizard.")] = None,
-    gauge_protocol: Annotated[str, typer.Option(
-        help="Simulator: what the simulated gauges speak (mitutoyo-01a, digimatic, uwave, "
-             "sylvac, sylvac-simplex, usb-itn, usb-itn-keyboard).")] = "mitutoyo-01a",
+    gauge_protocol: Annotated[GaugeProtocol, typer.Option(
+        help="Simulator: what the simulated gauges speak.")] = GaugeProtocol["mitutoyo-01a"],
     simulate_fault: Annotated[list[str] | None, typer.Option(
         hidden=True, help="Simulator: GAUGE:KIND@N[xCOUNT], a gauge fault after N "
                           "readings.")] = None,
 ) -> None:
     """Guided calibration: connect the instruments, set the gauges leg by leg, measure,
     identify the joint offsets."""
-    from ogacq.cli.wizard import WizardOptions, run_wizard
-
     faults = _faults(simulate_fault)
     if indicators not in (None, 2, 6):
         raise typer.BadParameter("2 (moved from leg to leg) or 6 (left in place)",
                                  param_hint="--indicators")
-    from drivers.indicators import BACKENDS
-
-    if gauge_protocol not in BACKENDS:
-        raise typer.BadParameter(f"one of {', '.join(BACKENDS)}", param_hint="--gauge-protocol")
     if faults and not simulator and resume is None:
         raise typer.BadParameter("faults can only be injected into the simulator",
                                  param_hint="--simulate-fault")
-    options = WizardOptions(simulator=simulator, seed=seed, speed=speed, profile=profile,
+    if out is not None:
+        check_output_folder(out, "--out")
+    options = WizardOptions(simulator=simulator, seed=seed, speed=speed, profile=profile.value,
                             machine=machine, out=out, cycles=cycles, settle_s=settle_s,
                             stability_timeout_s=stability_timeout_s,
                             gauge_range_mm=gauge_range_mm, max_offset_mm=max_offset_mm,
                             by_eye=by_eye, indicators=indicators, faults=faults,
-                            resume=resume, gauge_protocol=gauge_protocol)
+                            resume=resume, gauge_protocol=gauge_protocol.value)
     code = run_wizard(options)
     if code:
         raise typer.Exit(code)  # 130: quit, the session kept

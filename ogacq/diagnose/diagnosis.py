@@ -33,6 +33,7 @@ from ogacq.diagnose.separation import (
     separation,
 )
 from ogacq.diagnose.visibility import Capability, capability
+from ogacq.errors import InputError
 from ogacq.identify.consistency import LEVEL, Verdict
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import GaugeNoise, noise_for
@@ -49,8 +50,11 @@ PARTIAL_SHARE = 0.75
 FEW_POSTURES = 3  # at most this many positions per leg: errors in q are seen at 3 points
 
 
-class DiagnosisError(ValueError):
+class DiagnosisError(InputError):
     """The data cannot be diagnosed (the base fit itself fails)."""
+
+    def __init__(self, problem: str) -> None:
+        super().__init__(None, problem)
 
 
 @dataclass

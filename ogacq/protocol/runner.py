@@ -17,6 +17,7 @@ from typing import Protocol
 import numpy as np
 
 from drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from ogacq.errors import OgacqError
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import (
@@ -67,12 +68,14 @@ class Station(Protocol):
         """Try to clear an axis alarm; True when the axes are ready again."""
 
 
-class CampaignStopped(Exception):
-    """The campaign stopped before the end; the session says why and can be resumed."""
+class CampaignStopped(OgacqError):
+    """The campaign stopped before the end; the session says why and can be resumed.
+    Not a DriverError: the runner retries those, and an operator's stop is final."""
 
     def __init__(self, reason: str, status: str = "stopped") -> None:
         self.reason = reason
         self.status = status
+        self.exit_code = 130 if status == "interrupted" else 3
         super().__init__(reason)
 
 

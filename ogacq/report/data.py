@@ -29,6 +29,7 @@ from ogacq.report.diagnosis_view import DiagnosisView
 from ogacq.session.convert import session_machine
 from ogacq.session.records import EndRecord, FaultRecord, Record, ResumeRecord
 from ogacq.session.store import LoadedSession
+from ogacq.writeback.audit import operations
 
 POSTURE_OF_SIGN = {"+": "max", "-": "min"}
 Z95 = 1.959964  # two-sided 95 % of the normal distribution
@@ -264,11 +265,7 @@ def _wall(wall: Any) -> str:
 
 def offsets_writes(session: LoadedSession) -> tuple[OffsetsWrite, ...]:
     """The write-backs recorded in the session, as the write-back package reads its own
-    audit records; none when this installation has no write-back."""
-    try:
-        from ogacq.writeback.audit import operations
-    except ImportError:
-        return ()
+    audit records."""
     out = []
     for op in operations(session):
         saved = ("saved to non-volatile memory" if op.nvm_saved

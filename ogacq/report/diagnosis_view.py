@@ -12,10 +12,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ogacq.diagnose.outcome import outcome_label
+from ogacq.errors import InputError
 
 
-class DiagnosisFormatError(ValueError):
+class DiagnosisFormatError(InputError):
     """The diagnosis JSON does not have the shape of INTERCHANGE.md."""
+
+    def __init__(self, problem: str) -> None:
+        super().__init__(None, problem)
 
 
 @dataclass(frozen=True)

@@ -31,7 +31,7 @@ from ogacq.writeback.table import read_offset_table, write_offset_table
 log = logging.getLogger(__name__)
 
 
-class WriteBackError(Exception):
+class WriteBackError(DriverError):
     """The write-back stopped; the message says what the controller holds now."""
 
     def __init__(self, message: str, *, written: bool, operation: str | None = None) -> None:

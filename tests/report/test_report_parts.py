@@ -20,6 +20,7 @@ from ogacq.report.formatting import measure
 from ogacq.report.page import render_page
 from ogacq.session.convert import import_readings
 from ogacq.session.store import load_session
+from ogacq.writeback.audit import AuditLog
 from tests.diagnose.campaigns import MACHINE, simulate
 
 # INTERCHANGE.md's diagnosis, with an alternative and a rest nothing explains
@@ -125,12 +126,11 @@ def test_values_are_shown_with_the_decimals_their_std_allows():
 
 
 def test_a_write_back_recorded_in_the_session_is_shown(session_path, tmp_path):
-    audit = pytest.importorskip("ogacq.writeback.audit")
     path = tmp_path / "written.jsonl"
     path.write_text(session_path.read_text())
     old = {"x": 0.0, "y": 0.0, "z": 0.0}
     new = {"x": 2.00123, "y": 1.99871, "z": -2.00042}
-    with audit.AuditLog(load_session(path)) as log:
+    with AuditLog(load_session(path)) as log:
         log.record("intent", operation="write-1a2b3c4d", action="write", profile="cia402",
                    old_mm=old, new_mm=new)
         log.record("done", operation="write-1a2b3c4d", action="write", old_mm=old,

@@ -290,7 +290,7 @@ class _Wizard:
             try:
                 s.ok(f"controller answers: {check_controller(campaign.controller)}")
                 break
-            except (DriverError, ValueError, OSError) as exc:
+            except (DriverError, InputError, ValueError, OSError) as exc:
                 s.problem(f"the controller on {campaign.controller.endpoints()} does not answer: "
                           f"{exc}")
                 if s.choose("What now?", [Option("r", "retry"),

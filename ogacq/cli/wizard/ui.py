@@ -17,13 +17,18 @@ from typing import Protocol, TypeVar
 
 from rich.console import Console
 
+from ogacq.errors import InputError
+
 T = TypeVar("T")
 
 console = Console(highlight=False)
 
 
-class InputClosed(Exception):
+class InputClosed(InputError):
     """The terminal closed (end of input): nobody is there to answer."""
+
+    def __init__(self, problem: str) -> None:
+        super().__init__(None, problem)
 
 
 @dataclass(frozen=True)

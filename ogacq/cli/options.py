@@ -1,0 +1,41 @@
+"""Options and choices that several commands share, so that each is spelled, checked
+and documented once."""
+
+from __future__ import annotations
+
+from enum import StrEnum
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from drivers.axes.profile import available_profiles
+from drivers.indicators import BACKENDS
+
+MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
+# For files that may record their machine (sessions do, CSVs do not).
+RecordedMachineOption = Annotated[Path | None, typer.Option(
+    "--machine", "-m", help="Machine file (TOML); a session's own is used when left out, "
+                            "and one that differs from it is refused (--other-geometry).")]
+OtherGeometryOption = Annotated[bool, typer.Option(
+    "--other-geometry", help="Reanalyse a session with the --machine file even though it "
+                             "differs from the machine the session was recorded with.")]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+
+
+def seed_option(help: str) -> Any:
+    """A random seed: numpy's generators take none below 0, so typer refuses it at parsing."""
+    return typer.Option(min=0, help=help)
+
+
+class ParamSet(StrEnum):
+    offsets = "offsets"
+    lengths = "lengths"
+    both = "both"
+
+
+# Every controller profile shipped with the drivers, so a new register map is offered
+# as soon as its file is there.
+ProfileChoice = StrEnum("ProfileChoice", {name: name for name in available_profiles()})
+# Every protocol of the driver table, so a new cable is served as soon as it has a driver.
+GaugeProtocol = StrEnum("GaugeProtocol", {name: name for name in BACKENDS})

@@ -1,0 +1,131 @@
+"""Every command, fed its bad inputs, answers with one line on stderr and the documented
+exit code (README, "Exit codes"), before it starts any work: no traceback, no
+half-made output.
+
+The table lists the commands the app has: a new command without its bad inputs
+here fails ``test_every_command_has_bad_inputs``.
+"""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from ogacq.cli.app import EXIT_CODES, OgacqCommands, main
+from ogacq.cli.lazy import LazyGroupSpec
+from ogacq.session.store import SessionWriter
+
+PAPER = Path(__file__).resolve().parents[2] / "fixtures" / "paper"
+MISSING = "missing.toml"  # in the test's folder, never created
+
+# command -> [(arguments, exit code, words the line must hold)]; names below are files
+# of the test's folder (see `folder`), "/proc" refuses new files even to root.
+BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
+    "run": [([MISSING], 2, MISSING),
+            (["machine.toml"], 2, "machine.toml")],
+    "resume": [(["missing.jsonl"], 2, "missing.jsonl"),
+               (["deviations.csv"], 2, "deviations.csv")],
+    "demo": [(["--seed", "-5", "--out", "demo"], 2, "--seed"),
+             (["--profile", "nope", "--out", "demo"], 2, "'nope'"),
+             (["--speed", "0", "--out", "demo"], 2, "--speed"),
+             (["--effects", MISSING, "--out", "demo"], 2, MISSING),
+             (["--out", "machine.toml"], 2, "not a folder"),
+             (["--out", "/proc/nope"], 2, "/proc/nope")],
+    "diagnose": [(["missing.csv", "-m", "machine.toml"], 2, "missing.csv"),
+                 (["machine.toml", "-m", "machine.toml"], 2, "machine.toml"),
+                 (["deviations.csv", "-m", "broken.toml"], 2, "broken.toml")],
+    "refit": [(["missing.csv", "-m", "machine.toml"], 2, "missing.csv"),
+              (["deviations.csv", "-m", "machine.toml", "--params", "nope"], 2, "--params"),
+              (["deviations.csv", "-m", "broken.toml"], 2, "broken.toml")],
+    "plan": [(["-m", MISSING], 2, MISSING),
+             (["-m", "machine.toml", "--seed", "-5"], 2, "--seed"),
+             (["-m", "machine.toml", "--postures", "zero,banana"], 2, "'banana'"),
+             (["-m", "machine.toml", "--noise", "-1"], 2, "--noise"),
+             (["-m", "machine.toml", "--assume", "joint_offset.q=1"], 2, "--assume")],
+    "report": [(["missing.jsonl"], 2, "missing.jsonl"),
+               (["deviations.csv"], 2, "not an ogacq session"),
+               (["session.jsonl", "--out", "/proc/nope"], 2, "/proc/nope"),
+               (["session.jsonl", "--out", "machine.toml"], 2, "not a folder"),
+               (["session.jsonl", "--diagnosis", "machine.toml"], 2, "not JSON")],
+    "sim": [(["--seed", "-5"], 2, "--seed"),
+            (["--profile", "nope"], 2, "'nope'"),
+            (["--gauge", "z_q=usb-itn"], 2, "z_q"),
+            (["--machine", MISSING], 2, MISSING),
+            (["--effects", MISSING], 2, MISSING)],
+    "wizard": [(["--seed", "-5"], 2, "--seed"),
+               (["--profile", "nope"], 2, "'nope'"),
+               (["--gauge-protocol", "nope"], 2, "'nope'"),
+               (["--indicators", "4"], 2, "--indicators"),
+               (["--simulate-fault", "x_y:silent@3"], 2, "--simulate-fault"),
+               (["--simulator", "--out", "/proc/nope"], 2, "/proc/nope")],
+    "offsets show": [(["missing.jsonl"], 2, "missing.jsonl"),
+                     (["session.jsonl", "--max-change-mm", "-1"], 2, "--max-change-mm")],
+    "offsets write": [(["missing.jsonl"], 2, "missing.jsonl"),
+                      (["deviations.csv"], 2, "deviations.csv")],
+    "offsets restore": [(["missing.jsonl"], 2, "missing.jsonl"),
+                        (["session.jsonl"], 2, "no write-back is recorded")],
+    "session show": [(["missing.jsonl"], 2, "missing.jsonl"),
+                     (["deviations.csv"], 2, "deviations.csv")],
+    "session export": [(["session.jsonl", "/nonexistent/dir/o.csv"], 2, "/nonexistent/dir"),
+                       (["session.jsonl", "machine.toml"], 2, "not overwriting"),
+                       (["missing.jsonl", "out.csv"], 2, "missing.jsonl")],
+    "session import": [(["missing.csv", "new.jsonl", "-m", "machine.toml"], 2, "missing.csv"),
+                       (["deviations.csv", "/proc/nope/s.jsonl", "-m", "machine.toml"], 2,
+                        "/proc/nope"),
+                       (["deviations.csv", "new.jsonl"], 2, "--machine")],
+    "session check": [(["missing.jsonl"], 2, "missing.jsonl")],
+    "session salvage": [(["session.jsonl", "/nonexistent/dir/s.jsonl"], 2, "/nonexistent/dir"),
+                        (["missing.jsonl", "new.jsonl"], 2, "missing.jsonl")],
+}
+
+
+def command_names() -> set[str]:
+    names = set()
+    for name, target in OgacqCommands.table.items():
+        if isinstance(target, LazyGroupSpec):
+            names |= {f"{name} {sub}" for sub in target.commands}
+        else:
+            names.add(name)
+    return names
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory) -> Path:
+    """A machine file, a broken TOML, a deviations CSV and a session with nothing but
+    its header (it names no campaign file and no write-back)."""
+    folder = tmp_path_factory.mktemp("bad-input")
+    shutil.copy(PAPER / "machine.toml", folder / "machine.toml")
+    shutil.copy(PAPER / "experiment2_12.csv", folder / "deviations.csv")
+    (folder / "broken.toml").write_text("leg_length_mm = [\n")
+    SessionWriter.create(folder / "session.jsonl", {"machine": {}, "plan": None}).close()
+    return folder
+
+
+def test_every_command_has_bad_inputs():
+    assert set(BAD_INPUTS) == command_names()
+
+
+@pytest.mark.parametrize(("command", "args", "code", "words"), [
+    (command, args, code, words)
+    for command, cases in BAD_INPUTS.items() for args, code, words in cases])
+def test_bad_input_is_one_line_and_its_exit_code(command, args, code, words, folder, capsys,
+                                                monkeypatch):
+    monkeypatch.chdir(folder)
+    before = sorted(p.name for p in folder.iterdir())
+    assert main([*command.split(), *args]) == code
+    err = capsys.readouterr().err
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("ogacq: ") and "Traceback" not in err, err
+    assert words in err, err
+    assert sorted(p.name for p in folder.iterdir()) == before  # nothing made
+
+
+def test_the_help_lists_the_exit_codes(capsys):
+    assert main(["--help"]) == 0
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert " ".join(EXIT_CODES.split()) in help_text
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    for code in ("0", "1", "2", "3", "4", "130"):
+        assert f"| {code} |" in readme

@@ -1,0 +1,45 @@
+"""The app imports a command's module only when that command runs: one command's
+start-up does not pay for the others (the simulator, the wizard, the report's
+matplotlib and jinja2)."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+from ogacq.cli.app import OgacqCommands
+from ogacq.cli.lazy import LazyGroupSpec
+
+PROBE = """
+import json, sys
+from ogacq.cli.app import main
+main(sys.argv[1:])
+print(json.dumps(sorted(m for m in sys.modules if m.startswith(("ogacq", "drivers", "jinja2",
+                                                                 "matplotlib")))))
+"""
+
+
+def modules_after(*args: str) -> set[str]:
+    proc = subprocess.run([sys.executable, "-c", PROBE, *args], capture_output=True,
+                          text=True, timeout=60)
+    assert proc.returncode == 0, proc.stderr
+    return set(json.loads(proc.stdout.splitlines()[-1]))
+
+
+def command_modules() -> set[str]:
+    targets = []
+    for target in OgacqCommands.table.values():
+        targets += target.commands.values() if isinstance(target, LazyGroupSpec) else [target]
+    return {t.partition(":")[0] for t in targets}
+
+
+def test_one_command_imports_its_own_module_only():
+    loaded = modules_after("refit", "--help")
+    assert loaded & command_modules() == {"ogacq.cli.refit_cmd"}
+    assert not {m for m in loaded if m.startswith(("drivers.sim", "ogacq.cli.wizard",
+                                                    "jinja2", "matplotlib"))}
+
+
+def test_the_help_imports_every_command():
+    assert command_modules() <= modules_after("--help")
