@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 import sys
 from pathlib import Path
 from typing import Annotated
@@ -12,7 +11,8 @@ from typer.exceptions import TyperException
 
 from drivers.errors import DriverError
 from ogacq import __version__
-from ogacq.io.errors import InputError
+from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats
+from ogacq.io.errors import InputError, StorageError
 
 app = typer.Typer(add_completion=False, no_args_is_help=True,
                   help="Acquisition and calibration for Orthoglide-type parallel machines.")
@@ -62,19 +62,27 @@ def _register() -> None:
     )
 
 
-def main(argv: list[str] | None = None) -> int:
-    logging.basicConfig(level=logging.WARNING, format="ogacq: warning: %(message)s")
-    # pymodbus logs a refused connection too; our own one-line error names the device
-    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
-    _register()
+def _run_app(argv: list[str] | None) -> object:
     try:
         # Outside standalone mode click returns typer.Exit's code instead of exiting.
-        code = app(args=argv, prog_name="ogacq", standalone_mode=False)
+        return app(args=argv, prog_name="ogacq", standalone_mode=False)
+    finally:
+        say_pending_repeats()  # before the command's last word
+
+
+def main(argv: list[str] | None = None) -> int:
+    configure_logging()
+    _register()
+    try:
+        code = _run_app(argv)
     except (InputError, UserError) as exc:
         typer.echo(f"ogacq: error: {exc}", err=True)
         return 2
     except DriverError as exc:  # a device unreachable or failing before a campaign began
         typer.echo(f"ogacq: device error: {exc}", err=True)
+        return EXIT_DEVICE
+    except StorageError as exc:  # the disk, not the input: what was written stays intact
+        typer.echo(f"ogacq: error: {exc}", err=True)
         return EXIT_DEVICE
     except typer.Exit as exc:
         return exc.exit_code

@@ -13,3 +13,14 @@ class InputError(Exception):
         self.problem = problem
         where = f"{self.path}:{line}" if line is not None else self.path
         super().__init__(f"{where}: {problem}")
+
+
+class StorageError(Exception):
+    """A file could not be written: the disk is full, the file system read-only or
+    failing. Reported in one line with exit 3 (a fault of the station's disk, not of
+    the user's input); whatever was written before stays intact."""
+
+    def __init__(self, path: str | Path, cause: OSError, what: str = "write") -> None:
+        self.path = str(path)
+        self.cause = cause
+        super().__init__(f"{self.path}: cannot {what} ({cause.strerror or cause})")

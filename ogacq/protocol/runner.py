@@ -9,6 +9,7 @@ observer callback that the command line renders.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -16,7 +17,8 @@ from typing import Protocol
 
 import numpy as np
 
-from drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from ogacq.io.errors import StorageError
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import (
     Move,
@@ -111,6 +113,7 @@ class CampaignRunner:
         """Run to the end, or raise CampaignStopped after recording why."""
         try:
             self._run()
+            self.writer.append("end", status="complete", readings=len(self.recorded))
         except CampaignStopped as stop:
             self._stop_safely(stop.status, stop.reason)
             raise
@@ -120,7 +123,9 @@ class CampaignRunner:
         except DriverError as exc:
             self._stop_safely("stopped", str(exc))
             raise CampaignStopped(str(exc)) from exc
-        self.writer.append("end", status="complete", readings=len(self.recorded))
+        except StorageError as exc:  # disk full or read-only: what is on file stays valid
+            self._stop_safely("stopped", str(exc))
+            raise CampaignStopped(str(exc)) from None
 
     def _stop_safely(self, status: str, reason: str) -> None:
         try:
@@ -128,8 +133,11 @@ class CampaignRunner:
             stopped = True
         except DriverError:
             stopped = False
-        self.writer.append("end", status=status, reason=reason, axes_stopped=stopped,
-                           readings=len(self.recorded))
+        # The disk that stopped the campaign may refuse this too: the session then
+        # ends like one whose process died, and resumes the same way.
+        with contextlib.suppress(StorageError):
+            self.writer.append("end", status=status, reason=reason, axes_stopped=stopped,
+                               readings=len(self.recorded))
 
     def _run(self) -> None:
         pending: list[Move] = []
@@ -180,7 +188,7 @@ class CampaignRunner:
                     self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
                     self._planned_q = move.q_mm
                     break
-                except (DeviceFault, DeviceTimeout) as exc:
+                except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
                     self.writer.append("fault", during="move", attempt=attempt,
                                        error=type(exc).__name__, message=str(exc),
                                        q_mm=list(move.q_mm))
