@@ -159,9 +159,21 @@ def check_writable(path: str | Path, *, resuming: bool = False) -> None:
     except OSError as exc:
         raise InputError(path, f"cannot write the session here ({exc.strerror or exc}): "
                          "nothing was started") from None
+    if resuming:
+        _check_not_in_use(path)
     if free < MIN_FREE_BYTES:
         raise InputError(path, f"only {free / 2**20:.1f} MiB free on this disk, less than the "
                          f"{MIN_FREE_BYTES / 2**20:.0f} MiB a campaign needs: nothing was started")
+
+
+def _check_not_in_use(path: Path) -> None:
+    """Refuse, naming the holder, a session another writer holds now (the writer
+    that opens it later takes the lock for good; this only refuses early)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        SessionLock(path, fd).release()
+    finally:
+        os.close(fd)
 
 
 def _line(record: dict[str, Any]) -> str:

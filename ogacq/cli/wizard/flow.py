@@ -51,7 +51,7 @@ from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped, GaugeValue
 from ogacq.session.convert import session_machine
-from ogacq.session.store import LoadedSession, SessionWriter, load_session
+from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation
 
 EXIT_DONE = 0
@@ -214,6 +214,7 @@ class _Wizard:
         s.say(f"{session.path}: {len(session.readings)} readings recorded.")
         if session.finished:
             return CampaignOutcome(session.path, identify_session(session), None)
+        check_writable(session.path, resuming=True)  # before the operator checks anything
         station = (session.of_type("station") or [h.get("station") or {}])[-1]
         sim = h.get("simulator")
         if isinstance(sim, dict):
