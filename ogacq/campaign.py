@@ -16,6 +16,7 @@ from ogacq.identify.fit import FitResult, evaluate, fit
 from ogacq.identify.plausibility import check_observations, check_result
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
+from ogacq.protocol.deadline import DeadlineStation, default_deadline_s
 from ogacq.protocol.plan import SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
@@ -74,6 +75,8 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                    resuming=resume is not None)
     with open_station(campaign, simulator) as station:
         station.prepare()
+        station.description["deadline_s"] = campaign.deadline_s or default_deadline_s(
+            campaign.protocol, campaign.machine)
         recorded_before = resume.recorded() if resume is not None else set()
         if station.simulator is not None and station.simulator.moves_indicators:
             set_gauges = _simulated_operator(station.simulator, campaign, recorded_before,
@@ -93,7 +96,10 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             writer.write(StationRecord(description=station.description))
             recorded = resume.recorded()
         with writer:
-            runs_on = wrap_station(station, writer) if wrap_station else station
+            station.record_event = writer.write
+            # inside the wizard's wrapper: its pauses are the operator's time, not the work's
+            works = DeadlineStation(station, station.description["deadline_s"])
+            runs_on = wrap_station(works, writer) if wrap_station else works
             runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges)

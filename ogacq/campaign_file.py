@@ -8,11 +8,16 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
 
     machine = "machine.toml"          # relative to this file
     session = "runs/cal-1.jsonl"      # where the session is written
+    deadline_s = 3600                 # the most working time (moves, settling, readings;
+                                      # not the operator's) a run may take; default: the
+                                      # plan's steps each taking their whole timeout
     [controller]
     profile = "cia402"                # or "iai-pcon", "mr-je-c", "kinco-fd", or a file path
     port = "127.0.0.1:502"            # host:port (TCP) or a serial device (RTU), shared
                                       # by the three axes (told apart by device id)
     baudrate = 38400                  # RTU only
+    reconnect_attempts = 5            # a dropped link: reconnects before the campaign stops,
+    reconnect_backoff_s = 1.0         # the first after this wait, each next after twice it
     [controller.axes]                 # instead of `port`, or beside it: one endpoint per
                                       # axis (drives that are one Ethernet device each);
     x = { port = "192.168.3.11:502", device_id = 255 }  # device_id: Modbus unit id,
@@ -55,6 +60,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from drivers.axes.reconnect import ReconnectPolicy
 from drivers.indicators import BACKENDS
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
@@ -65,8 +71,10 @@ from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
 
 PROTOCOLS = tuple(BACKENDS)
 
-_TOP = {"machine", "session", "controller", "gauges", "protocol", "stability", "simulator"}
-_CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file", "axes"}
+_TOP = {"machine", "session", "deadline_s", "controller", "gauges", "protocol", "stability",
+        "simulator"}
+_CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file", "axes",
+               "reconnect_attempts", "reconnect_backoff_s"}
 _CONTROLLER_AXIS = {"port", "device_id"}
 _GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
 _PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
@@ -105,6 +113,7 @@ class ControllerSpec:
     # None: the profile keeps its offsets in the controller, or none are applied.
     offsets_file: Path | None = None
     axes: dict[str, AxisEndpoint] = field(default_factory=dict)
+    reconnect: ReconnectPolicy = field(default_factory=ReconnectPolicy)
 
     def port_of(self, axis: str) -> str:
         given = self.axes.get(axis)
@@ -161,6 +170,7 @@ class Campaign:
     controller: ControllerSpec | None = None
     gauges: list[GaugeSpec] = field(default_factory=list)
     simulator: SimulatorSpec | None = None
+    deadline_s: float | None = None  # None: derived from the plan (ogacq.protocol.deadline)
 
     @property
     def moved_indicators(self) -> dict[str, list[str]]:
@@ -203,7 +213,10 @@ def _check_keys(src: _Source, table: dict, allowed: set[str], where: str, after:
 # tolerances cannot be negative (a negative settle time fails only after homing).
 _AT_LEAST = {"settle_s": 0.0, "move_timeout_s": 1e-3, "timeout_s": 1e-3, "cycles": 1,
              "readings": 1, "tolerance_mm": 0.0, "overshoot_mm": 0.0, "speed": 1e-3,
-             "seed": 0, "baudrate": 1}
+             "seed": 0, "baudrate": 1, "deadline_s": 1.0, "reconnect_attempts": 0,
+             "reconnect_backoff_s": 0.0}
+# and the largest: a reconnect policy still bounded in practice
+_AT_MOST = {"reconnect_attempts": 100}
 
 
 def _typed(src: _Source, table: dict, key: str, kind: type | tuple, where: str,
@@ -218,6 +231,9 @@ def _typed(src: _Source, table: dict, key: str, kind: type | tuple, where: str,
     if isinstance(value, int | float) and not isinstance(value, bool) and \
             value < _AT_LEAST.get(key, -math.inf):
         raise src.fail(f"{where}.{key} must be at least {_AT_LEAST[key]:g}, got {value!r}", key,
+                       after)
+    if isinstance(value, int | float) and value > _AT_MOST.get(key, math.inf):
+        raise src.fail(f"{where}.{key} must be at most {_AT_MOST[key]:g}, got {value!r}", key,
                        after)
     return value
 
@@ -252,6 +268,8 @@ def read_campaign(path: str | Path) -> Campaign:
     protocol = _protocol(src, proto, stab, machine)
 
     campaign = Campaign(path, machine, machine_path, session, protocol)
+    if "deadline_s" in data:
+        campaign.deadline_s = float(_typed(src, data, "deadline_s", (int, float), "campaign"))
     if "simulator" in data:
         sim = data["simulator"]
         after = src.line("simulator") or 0
@@ -374,7 +392,16 @@ def _controller(src: _Source, table: dict, base: Path) -> ControllerSpec:
         if "baudrate" in table else None,
         timeout_s=float(_typed(src, table, "timeout_s", (int, float), "controller", after))
         if "timeout_s" in table else 1.0,
-        offsets_file=offsets_file)
+        offsets_file=offsets_file, reconnect=_reconnect_policy(src, table, after))
+
+
+def _reconnect_policy(src: _Source, table: dict, after: int) -> ReconnectPolicy:
+    default = ReconnectPolicy()
+    return ReconnectPolicy(
+        attempts=_typed(src, table, "reconnect_attempts", int, "controller", after)
+        if "reconnect_attempts" in table else default.attempts,
+        backoff_s=float(_typed(src, table, "reconnect_backoff_s", (int, float), "controller",
+                               after)) if "reconnect_backoff_s" in table else default.backoff_s)
 
 
 def _controller_axes(src: _Source, table: Any, after: int) -> dict[str, AxisEndpoint]:

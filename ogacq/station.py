@@ -25,7 +25,8 @@ from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
 from drivers.axes.preflight import run_preflight
 from drivers.axes.profile import load_profile
-from drivers.errors import DriverError
+from drivers.axes.reconnect import ReconnectPolicy, reconnect
+from drivers.errors import DeviceTimeout, DriverError, LinkError
 from drivers.indicators import backend, open_indicator
 from drivers.indicators.base import read_stable
 from drivers.link import open_link
@@ -33,6 +34,7 @@ from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpe
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import Read, StabilityRule
 from ogacq.protocol.runner import GaugeValue
+from ogacq.session.records import ReconnectRecord, Record
 from ogacq.writeback.table import read_offset_table
 
 log = logging.getLogger(__name__)
@@ -48,7 +50,13 @@ class DeviceStation:
     speed: float = 1.0  # machine time per real time (the simulator may run faster)
     description: dict[str, Any] = field(default_factory=dict)
     simulator: Any = None  # the SimulatorStack when simulated
+    reconnect: ReconnectPolicy = field(default_factory=ReconnectPolicy)
+    # Where events of the station go into the session (set once it is open).
+    record_event: Callable[[Record], None] = lambda record: None
     _t0: float = 0.0
+    # A move lost its connection: even if a later request connected again on its own,
+    # the axes are stopped and their state re-read before anything else moves.
+    _link_lost: bool = False
 
     def prepare(self) -> None:
         """Servo on and home: every campaign starts from a known position, with the
@@ -65,7 +73,11 @@ class DeviceStation:
     def move(self, q_mm: tuple[float, float, float], timeout_s: float,
              ) -> tuple[float, float, float]:
         targets = dict(zip(AXES, q_mm, strict=True))
-        self.controller.move_to(targets, wait=True, timeout_s=timeout_s / self.speed)
+        try:
+            self.controller.move_to(targets, wait=True, timeout_s=timeout_s / self.speed)
+        except LinkError:
+            self._link_lost = True
+            raise
         resolved = self.controller.resolved_targets_mm(targets)
         return tuple(resolved[a] for a in AXES)
 
@@ -86,14 +98,38 @@ class DeviceStation:
 
     def recover_axes(self) -> bool:
         """Reset alarms and switch the drives back on (a CiA 402 fault drops the power
-        stage); True when every axis is ready to move again."""
+        stage); True when every axis is ready to move again. A connection lost (or
+        gone silent) is first reconnected within the station's reconnect policy,
+        the axes stopped and their state re-read and recorded."""
         try:
-            self.controller.reset_alarms()
-            self.controller.enable()
-            return not any(s.fault or s.alarm_code or not s.servo_on
-                           for s in self.controller.read_status().values())
+            if self._link_lost or not all(link.connected for link in self.controller.links):
+                self._reconnect()
+            try:
+                return self._reset_and_enable()
+            except (LinkError, DeviceTimeout):  # lost while recovering, or silent
+                self._reconnect()
+                return self._reset_and_enable()
         except DriverError:
             return False
+
+    def _reset_and_enable(self) -> bool:
+        self.controller.reset_alarms()
+        self.controller.enable()
+        return not any(s.fault or s.alarm_code or not s.servo_on
+                       for s in self.controller.read_status().values())
+
+    def _reconnect(self) -> None:
+        try:
+            back = reconnect(self.controller, self.reconnect)
+        except LinkError as exc:
+            self.record_event(ReconnectRecord(connected=False,
+                                              attempts=self.reconnect.attempts,
+                                              message=str(exc)))
+            raise
+        self._link_lost = False
+        self.record_event(ReconnectRecord(connected=True, attempts=back.attempts,
+                                          axes_stopped=True, positions_mm=back.positions_mm,
+                                          alarms=back.alarms))
 
 
 def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None) -> ModbusLink:
@@ -170,7 +206,8 @@ def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
 
 def _controller_description(spec: ControllerSpec, controller: AxisController) -> dict[str, Any]:
     out: dict[str, Any] = {"profile": spec.profile, "port": spec.port,
-                           "offset_kind": controller.profile.offset.kind}
+                           "offset_kind": controller.profile.offset.kind,
+                           "reconnect": spec.reconnect.as_dict()}
     if spec.axes:
         out["axes"] = {a: {"port": spec.port_of(a), "device_id": controller.device_ids[a]}
                        for a in controller.axes}
@@ -234,4 +271,5 @@ def open_station(campaign: Campaign, simulator=None) -> Iterator[DeviceStation]:
                                  "unit": g.unit, "serial": g.serial} for g in gauge_specs},
             "simulated": simulator is not None,
         }
-        yield DeviceStation(controller, indicators, clock, speed, description, simulator)
+        yield DeviceStation(controller, indicators, clock, speed, description, simulator,
+                            controller_spec.reconnect)

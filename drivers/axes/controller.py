@@ -162,6 +162,11 @@ class AxisController:
         self._written: dict[tuple[str, str], tuple[int | bool, ...]] = {}
         self._written_failures = 0
 
+    @property
+    def links(self) -> tuple[ModbusLink, ...]:
+        """Every distinct link: one for a shared bus or gateway, else one per drive."""
+        return tuple({id(k): k for k in self._links.values()}.values())
+
     # ================================================================ status
 
     def read_status(self, axes: Iterable[str] | None = None) -> dict[str, AxisStatus]:
@@ -678,8 +683,7 @@ class AxisController:
     def _drop_written_after_failures(self) -> None:
         # After a failed transaction (a write that may or may not have landed, a
         # lost link, a drive that rebooted), what the device holds is unknown.
-        failures = sum(link.stats.failures for link in {id(k): k for k in
-                                                           self._links.values()}.values())
+        failures = sum(link.stats.failures for link in self.links)
         if failures != self._written_failures:
             self._written.clear()
             self._written_failures = failures

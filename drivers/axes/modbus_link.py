@@ -171,6 +171,12 @@ class ModbusLink:
         with self._lock:
             self._client.close()
 
+    @property
+    def connected(self) -> bool:
+        """False once the connection was lost (closed on a reset or refused request)
+        or never made; requests connect again on demand."""
+        return bool(self._client.connected)
+
     def __enter__(self) -> ModbusLink:
         return self.connect()
 

@@ -7,7 +7,6 @@ a command's module only when that command runs (``ogacq.cli.lazy``).
 
 from __future__ import annotations
 
-import logging
 import sys
 from typing import Annotated
 
@@ -16,6 +15,7 @@ from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own c
 
 from ogacq import __version__
 from ogacq.cli.lazy import LazyCommands, LazyGroupSpec
+from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats
 from ogacq.errors import OgacqError
 
 # The README's "Exit codes" table, in one paragraph.
@@ -79,13 +79,18 @@ def _say(kind: str, message: str) -> None:
     typer.echo(f"ogacq: {kind}: {text}", err=True)
 
 
-def main(argv: list[str] | None = None) -> int:
-    logging.basicConfig(level=logging.WARNING, format="ogacq: warning: %(message)s")
-    # pymodbus logs a refused connection too; our own one-line error names the device
-    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+def _run_app(argv: list[str] | None) -> object:
     try:
         # Outside standalone mode click returns typer.Exit's code instead of exiting.
-        code = app(args=argv, prog_name="ogacq", standalone_mode=False)
+        return app(args=argv, prog_name="ogacq", standalone_mode=False)
+    finally:
+        say_pending_repeats()  # before the command's last word
+
+
+def main(argv: list[str] | None = None) -> int:
+    configure_logging()
+    try:
+        code = _run_app(argv)
     except OgacqError as exc:
         _say(exc.label, str(exc))
         return exc.exit_code

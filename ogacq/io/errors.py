@@ -3,6 +3,6 @@
 
 from __future__ import annotations
 
-from ogacq.errors import InputError
+from ogacq.errors import InputError, StorageError
 
-__all__ = ["InputError"]
+__all__ = ["InputError", "StorageError"]

@@ -9,6 +9,7 @@ observer callback that the command line renders.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -16,8 +17,8 @@ from typing import Protocol
 
 import numpy as np
 
-from drivers.errors import DeviceFault, DeviceTimeout, DriverError
-from ogacq.errors import OgacqError
+from drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from ogacq.errors import OgacqError, StorageError
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import (
@@ -123,6 +124,7 @@ class CampaignRunner:
         """Run to the end, or raise CampaignStopped after recording why."""
         try:
             self._run()
+            self.writer.write(EndRecord(status="complete", readings=len(self.recorded)))
         except CampaignStopped as stop:
             self._stop_safely(stop.status, stop.reason)
             raise
@@ -132,7 +134,9 @@ class CampaignRunner:
         except DriverError as exc:
             self._stop_safely("stopped", str(exc))
             raise CampaignStopped(str(exc)) from exc
-        self.writer.write(EndRecord(status="complete", readings=len(self.recorded)))
+        except StorageError as exc:  # disk full or read-only: what is on file stays valid
+            self._stop_safely("stopped", str(exc))
+            raise CampaignStopped(str(exc)) from None
 
     def _stop_safely(self, status: str, reason: str) -> None:
         try:
@@ -140,8 +144,11 @@ class CampaignRunner:
             stopped = True
         except DriverError:
             stopped = False
-        self.writer.write(EndRecord(status=status, reason=reason, axes_stopped=stopped,
-                                    readings=len(self.recorded)))
+        # The disk that stopped the campaign may refuse this too: the session then
+        # ends like one whose process died, and resumes the same way.
+        with contextlib.suppress(StorageError):
+            self.writer.write(EndRecord(status=status, reason=reason, axes_stopped=stopped,
+                                        readings=len(self.recorded)))
 
     def _run(self) -> None:
         pending: list[Move] = []
@@ -192,7 +199,7 @@ class CampaignRunner:
                     self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
                     self._planned_q = move.q_mm
                     break
-                except (DeviceFault, DeviceTimeout) as exc:
+                except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
                     self.writer.write(FaultRecord(during="move", attempt=attempt,
                                                   error=type(exc).__name__, message=str(exc),
                                                   q_mm=move.q_mm))

@@ -13,6 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+from ogacq.io.atomic import write_atomically
+from ogacq.io.errors import StorageError
 from ogacq.model.parameters import AXES
 from ogacq.report.data import ReportData, collect
 from ogacq.report.diagnosis_view import DiagnosisFormatError, DiagnosisView, parse_diagnosis
@@ -80,13 +82,19 @@ def build_report(data: ReportData) -> Report:
 
 
 def write_report(report: Report, folder: str | Path) -> Path:
-    """Write ``report.html`` and the PNG figures into ``folder``; returns the HTML path."""
+    """Write ``report.html`` and the PNG figures into ``folder``; returns the HTML path.
+    Each file is replaced whole (a full disk leaves no truncated figure), the page
+    last, so a page on disk never names figures that are not; StorageError when
+    the folder cannot be written."""
     folder = Path(folder)
-    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise StorageError(folder, exc, "create the report folder") from None
     for figure in report.figures:
-        (folder / figure.name).write_bytes(figure.png)
+        write_atomically(folder / figure.name, figure.png)
     path = folder / REPORT_NAME
-    path.write_text(report.html, encoding="utf-8")
+    write_atomically(path, report.html.encode("utf-8"))
     return path
 
 

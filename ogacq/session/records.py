@@ -316,6 +316,33 @@ class OffsetsRecord(_HeadedRecord):
 
 
 @dataclass(frozen=True, kw_only=True)
+class ReconnectRecord(Record):
+    """The controller's connection dropped during a move: reconnected (the axes then
+    stopped and their state re-read) or given up after every attempt."""
+
+    KIND: ClassVar[str] = "reconnect"
+    connected: bool
+    attempts: int
+    message: str | None = None  # why it was given up
+    axes_stopped: bool | None = None
+    positions_mm: dict[str, float] | None = None
+    alarms: dict[str, int] | None = None
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"connected": self.connected, "attempts": self.attempts}
+        extra = {"message": self.message, "axes_stopped": self.axes_stopped,
+                 "positions_mm": self.positions_mm, "alarms": self.alarms}
+        return {**out, **{k: v for k, v in extra.items() if v is not None}}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> ReconnectRecord:
+        return cls(wall=d.get("wall"), connected=bool(d.get("connected")),
+                   attempts=int(d.get("attempts") or 0), message=d.get("message"),
+                   axes_stopped=d.get("axes_stopped"), positions_mm=d.get("positions_mm"),
+                   alarms=d.get("alarms"))
+
+
+@dataclass(frozen=True, kw_only=True)
 class OtherRecord(Record):
     """A record of a kind this version does not write, kept as it was."""
 
@@ -332,7 +359,7 @@ class OtherRecord(Record):
 
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
-    ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord)}
+    ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:

@@ -38,7 +38,7 @@ from pathlib import Path
 from typing import Any, TypeVar
 
 from ogacq import __version__
-from ogacq.io.errors import InputError
+from ogacq.io.errors import InputError, StorageError
 from ogacq.session.records import (
     FORMAT,
     EndRecord,
@@ -83,13 +83,16 @@ class LoadedSession:
 
 
 class _Syncer(threading.Thread):
-    """Forces written records to the disk soon after they are written."""
+    """Forces written records to the disk soon after they are written. A failed
+    fsync (an I/O error, a file system gone read-only) is kept for the writer to
+    raise: the records may not have reached the disk."""
 
     def __init__(self, fd: int) -> None:
         super().__init__(name="session-fsync", daemon=True)
         self._fd = fd
         self._pending = threading.Event()
         self._closing = False
+        self.error: OSError | None = None
 
     def poke(self) -> None:
         self._pending.set()
@@ -98,7 +101,10 @@ class _Syncer(threading.Thread):
         while True:
             self._pending.wait()
             self._pending.clear()
-            os.fsync(self._fd)
+            try:
+                os.fsync(self._fd)
+            except OSError as exc:
+                self.error = self.error or exc
             if self._closing:
                 return
 
@@ -166,9 +172,21 @@ def check_writable(path: str | Path, *, resuming: bool = False) -> None:
     except OSError as exc:
         raise InputError(path, f"cannot write the session here ({exc.strerror or exc}): "
                          "nothing was started") from None
+    if resuming:
+        _check_not_in_use(path)
     if free < MIN_FREE_BYTES:
         raise InputError(path, f"only {free / 2**20:.1f} MiB free on this disk, less than the "
                          f"{MIN_FREE_BYTES / 2**20:.0f} MiB a campaign needs: nothing was started")
+
+
+def _check_not_in_use(path: Path) -> None:
+    """Refuse, naming the holder, a session another writer holds now (the writer
+    that opens it later takes the lock for good; this only refuses early)."""
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        SessionLock(path, fd).release()
+    finally:
+        os.close(fd)
 
 
 def _line(record: dict[str, Any]) -> str:
@@ -179,13 +197,20 @@ def _line(record: dict[str, Any]) -> str:
 
 
 class SessionWriter:
-    """Appends records durably. Opened on a new file (``create``) or to resume."""
+    """Appends records durably. Opened on a new file (``create``) or to resume.
+
+    A record that cannot be written (disk full, file system read-only, I/O error)
+    raises StorageError after the file is cut back to its last whole record, so
+    what was recorded before stays valid and the session can be resumed once the
+    disk is fixed."""
 
     def __init__(self, path: Path, fd: int, next_seq: int,
                  lock: SessionLock | None = None) -> None:
         self.path = path
         self._lock = lock or SessionLock(path, fd)
-        self._fh = os.fdopen(fd, "a", encoding="utf-8")
+        self._fd = fd
+        self._closed = False
+        self._size = os.fstat(fd).st_size  # bytes of whole records on file
         self._seq = next_seq
         self._syncer = _Syncer(fd)
         self._syncer.start()
@@ -251,19 +276,52 @@ class SessionWriter:
                      **line})
 
     def _write(self, record: dict[str, Any]) -> None:
-        # One write of the whole line, then into the OS: a killed process cannot
-        # lose it after this; the syncer puts it on the disk.
-        self._fh.write(_line({**record, "seq": self._seq}))
-        self._fh.flush()
+        # The whole line into the OS at once: a killed process cannot lose it after
+        # this; the syncer puts it on the disk.
+        data = _line({**record, "seq": self._seq}).encode("utf-8")
+        try:
+            self._raise_sync_error()
+            written = 0
+            while written < len(data):  # a nearly full disk may take part of it
+                written += os.write(self._fd, data[written:])
+        except OSError as exc:
+            self._cut_back()
+            raise StorageError(self.path, exc, "write the session") from None
+        self._size += len(data)
         self._seq += 1
         self._syncer.poke()
 
+    def sync(self) -> None:
+        """Force what is written to the disk now (an audit record that must be on
+        the disk before the controller is touched); StorageError when it cannot."""
+        try:
+            self._raise_sync_error()
+            os.fsync(self._fd)
+        except OSError as exc:
+            raise StorageError(self.path, exc, "write the session") from None
+
+    def _raise_sync_error(self) -> None:
+        if self._syncer.error is not None:
+            error, self._syncer.error = self._syncer.error, None
+            raise error
+
+    def _cut_back(self) -> None:
+        """Remove the part of a record a failed write left: the file ends with a whole
+        record again (a torn line followed by a later record would be corruption)."""
+        with contextlib.suppress(OSError):  # a read-only file system keeps it: torn, last
+            os.ftruncate(self._fd, self._size)
+
     def close(self) -> None:
-        if not self._fh.closed:
-            self._fh.flush()
-            self._syncer.finish()  # the last fsync, before the file is closed
-            self._lock.release()
-            self._fh.close()
+        """Release the session; a last fsync that fails raises StorageError after it
+        is released."""
+        if self._closed:
+            return
+        self._closed = True
+        self._syncer.finish()  # the last fsync, before the file is closed
+        self._lock.release()
+        os.close(self._fd)
+        if self._syncer.error is not None:
+            raise StorageError(self.path, self._syncer.error, "write the session")
 
     def __enter__(self) -> SessionWriter:
         return self

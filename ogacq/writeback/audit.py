@@ -30,6 +30,8 @@ class AuditLog:
         self._open()
         assert self._writer is not None
         self._writer.write(OffsetsRecord(stage=stage, details=fields))
+        if stage == "intent":  # what to restore is on the disk before the controller is touched
+            self._writer.sync()
 
     def close(self) -> None:
         if self._writer is not None:

@@ -15,6 +15,7 @@ Order of work, each step checked before the next:
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,7 +23,7 @@ from pathlib import Path
 from drivers.axes.controller import AxisController
 from drivers.axes.preflight import check_home, check_identity
 from drivers.errors import DriverError
-from ogacq.io.errors import InputError
+from ogacq.io.errors import InputError, StorageError
 from ogacq.model.parameters import AXES
 from ogacq.writeback.audit import AuditLog, new_operation_id
 from ogacq.writeback.policy import OffsetPlan
@@ -34,9 +35,12 @@ log = logging.getLogger(__name__)
 class WriteBackError(DriverError):
     """The write-back stopped; the message says what the controller holds now."""
 
-    def __init__(self, message: str, *, written: bool, operation: str | None = None) -> None:
+    def __init__(self, message: str, *, written: bool, operation: str | None = None,
+                 disk: bool = False) -> None:
         self.written = written  # False: nothing was sent to the controller or the table
         self.operation = operation
+        if disk:  # the session's disk stopped it, not the controller (still exit 3)
+            self.label = "error"
         super().__init__(message)
 
 
@@ -113,14 +117,18 @@ def execute_plan(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
                              written=False)
 
     operation = new_operation_id(plan.action)
-    audit.record("intent", operation=operation, action=plan.action, profile=facts.profile,
-                 port=options.port, offset_kind=facts.kind,
-                 offsets_file=str(offsets_file) if offsets_file else None,
-                 old_mm=now, new_mm=plan.new_mm, baseline_mm=plan.baseline_mm or None,
-                 restores=plan.restores_operation, forced=list(options.forced),
-                 refusals=[r.message for r in plan.refusals],
-                 confirmed_by=options.confirmed_by, save_nvm=options.save_nvm,
-                 rehome=options.rehome)
+    try:
+        audit.record("intent", operation=operation, action=plan.action, profile=facts.profile,
+                     port=options.port, offset_kind=facts.kind,
+                     offsets_file=str(offsets_file) if offsets_file else None,
+                     old_mm=now, new_mm=plan.new_mm, baseline_mm=plan.baseline_mm or None,
+                     restores=plan.restores_operation, forced=list(options.forced),
+                     refusals=[r.message for r in plan.refusals],
+                     confirmed_by=options.confirmed_by, save_nvm=options.save_nvm,
+                     rehome=options.rehome)
+    except StorageError as exc:  # no write without the record of what to restore
+        raise WriteBackError(f"{exc}: the intent record could not be written, so nothing "
+                             "was written to the controller", written=False, disk=True) from None
     log.info("offsets %s: %s", operation,
              ", ".join(f"{c.axis} {c.current_mm:+.4f} -> {c.new_mm:+.4f} mm"
                        for c in plan.changes))
@@ -162,9 +170,10 @@ def execute_plan(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
     except BaseException as exc:
         held = _held(controller, plan, offsets_file)
         error = str(exc) or type(exc).__name__
-        audit.record("failed", operation=operation, action=plan.action, error=error,
-                     held_mm=held,
-                     nvm_saved=nvm_saved, rehomed=rehomed)
+        # the intent (fsynced) already holds what restore needs, should the disk refuse this
+        with contextlib.suppress(StorageError):
+            audit.record("failed", operation=operation, action=plan.action, error=error,
+                         held_mm=held, nvm_saved=nvm_saved, rehomed=rehomed)
         log.error("offsets %s failed: %s (held now: %s)", operation, error, held)
         if not isinstance(exc, DriverError | ValueError | OSError | InputError):
             raise
@@ -174,10 +183,17 @@ def execute_plan(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
             f"old values {_fmt(now)} mm are in the session (`ogacq offsets restore`)",
             written=True, operation=operation) from exc
 
-    audit.record("done", operation=operation, action=plan.action, old_mm=now, new_mm=back,
-                 takes_effect=change.takes_effect, rehomed=rehomed,
-                 home_positions_mm=home_positions, nvm_saved=nvm_saved,
-                 offsets_file=str(offsets_file) if offsets_file else None)
+    try:
+        audit.record("done", operation=operation, action=plan.action, old_mm=now, new_mm=back,
+                     takes_effect=change.takes_effect, rehomed=rehomed,
+                     home_positions_mm=home_positions, nvm_saved=nvm_saved,
+                     offsets_file=str(offsets_file) if offsets_file else None)
+    except StorageError as exc:
+        raise WriteBackError(
+            f"{plan.action} {operation}: the controller holds {_fmt(back)} mm (read back), but "
+            f"the session could not record it: {exc}. Its intent record holds the old values "
+            f"{_fmt(now)} mm (`ogacq offsets restore`)", written=True,
+            operation=operation, disk=True) from None
     log.info("offsets %s done: %s mm (%s)", operation, _fmt(back), change.takes_effect)
     return WriteOutcome(operation, plan.action, now, back, change.takes_effect, rehomed,
                         home_positions, nvm_saved, offsets_file)

@@ -2,6 +2,7 @@
 
 import pytest
 
+from drivers.axes.reconnect import ReconnectPolicy
 from drivers.sim.gauges import Fault
 from ogacq.campaign_file import read_campaign
 from ogacq.protocol.runner import CampaignRunner, CampaignStopped, Progress
@@ -99,6 +100,8 @@ def test_controller_that_stops_answering_stops_the_campaign_safely(campaign_dir)
     campaign = read_campaign(write_campaign(campaign_dir, seed=8, extra=FAST))
     with open_station(campaign) as station:
         station.prepare()
+        # a long outage: the bounded reconnect (short here) gives up, then the stop
+        station.reconnect = ReconnectPolicy(attempts=2, backoff_s=0.05)
         fired = []
 
         def observer(progress: Progress) -> None:

@@ -14,6 +14,7 @@ from ogacq.model.parameters import AXES
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import MACHINE
+from tests.cli.helpers import with_file_size_limit
 from tests.writeback.conftest import (
     controller_offsets,
     ogacq,
@@ -218,3 +219,37 @@ def test_checks_before_connecting(tmp_path, capsys, monkeypatch):
         assert not (tmp_path / "offsets.toml").exists()
     nothing = ogacq_here(capsys, monkeypatch, "offsets", "restore", tmp_path / "iai.jsonl")
     assert nothing.returncode == 2 and "no write-back is recorded" in nothing.stderr
+
+
+def test_a_full_disk_refuses_the_write_back_before_the_controller(tmp_path, campaign):
+    """The intent record (the old values, what restore needs) cannot be written: the
+    write-back is refused in one line and the controller keeps its offsets."""
+    session = synthetic_session(tmp_path / "s.jsonl", campaign, offsets_mm=OFFSETS)
+    before = session.read_bytes()
+    ran = with_file_size_limit(len(before) + 50, "offsets", "write", session, "--yes")
+    assert ran.returncode == 3, ran.stdout + ran.stderr
+    (error,) = [line for line in ran.stderr.splitlines() if line.startswith("ogacq: error")]
+    assert str(session) in error and "nothing was written to the controller" in error
+    assert "Traceback" not in ran.stderr
+    assert controller_offsets(campaign) == ZEROS
+    assert session.read_bytes() == before
+
+
+def test_a_done_record_the_disk_refuses_ends_in_one_line_and_restore_undoes(
+        tmp_path, capsys, monkeypatch, campaign):
+    """Room for the intent record (about 430 bytes) but not for the done record after
+    it: the controller was written and read back; one line says so, the session ends
+    with the whole intent record (no torn one), and restore puts the old values back."""
+    session = synthetic_session(tmp_path / "s.jsonl", campaign, offsets_mm=OFFSETS)
+    before = session.read_bytes()
+    ran = with_file_size_limit(len(before) + 530, "offsets", "write", session, "--yes")
+    assert ran.returncode == 3, ran.stdout + ran.stderr
+    (error,) = [line for line in ran.stderr.splitlines() if line.startswith("ogacq: error")]
+    assert "the session could not record it" in error and "Traceback" not in ran.stderr
+    assert controller_offsets(campaign) == pytest.approx(
+        {a: -v for a, v in OFFSETS.items()}, abs=0.006)
+    loaded = load_session(session)
+    assert not loaded.warnings and [r.stage for r in loaded.of_type(OffsetsRecord)] == ["intent"]
+    undone = ogacq_here(capsys, monkeypatch, "offsets", "restore", session, "--yes")
+    assert undone.returncode == 0, undone.stdout + undone.stderr
+    assert controller_offsets(campaign) == ZEROS

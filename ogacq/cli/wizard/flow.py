@@ -52,7 +52,7 @@ from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, 
 from ogacq.protocol.runner import CampaignStopped, GaugeValue
 from ogacq.session.convert import session_machine
 from ogacq.session.records import FaultRecord, OperatorRecord, ReadingRecord, StationRecord
-from ogacq.session.store import LoadedSession, SessionWriter, load_session
+from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation
 
 EXIT_DONE = 0
@@ -215,6 +215,7 @@ class _Wizard:
         s.say(f"{session.path}: {len(session.readings)} readings recorded.")
         if session.finished:
             return CampaignOutcome(session.path, identify_session(session), None)
+        check_writable(session.path, resuming=True)  # before the operator checks anything
         station = ([r.description for r in session.of_type(StationRecord)]
                    or [h.get("station") or {}])[-1]
         sim = h.get("simulator")

@@ -1,0 +1,64 @@
+"""Warnings as the command line prints them: one line each, and a warning repeated
+back to back printed once, then counted.
+
+A gauge sending garbage is read again and again while a stable value is awaited:
+each frame is discarded with a warning, thousands per failed reading, which bury
+everything else. Repeats are told apart from new warnings up to their numbers (a
+garbled frame's digits differ from frame to frame, an attempt counter counts).
+"""
+
+from __future__ import annotations
+
+import logging
+import re
+import sys
+from typing import TextIO
+
+_NUMBER = re.compile(r"\d+")
+
+
+class RepeatCollapsingHandler(logging.StreamHandler):
+    """Prints a record unless it repeats the previous one (same logger, level and
+    message up to its numbers); the count of repeats is printed as
+    ``(repeated N times)`` when another warning comes, and when flushed or closed."""
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        super().__init__(stream if stream is not None else sys.stderr)
+        self._last: tuple[str, int, str] | None = None
+        self._repeats = 0
+
+    def emit(self, record: logging.LogRecord) -> None:
+        key = (record.name, record.levelno, _NUMBER.sub("#", record.getMessage()))
+        if key == self._last:
+            self._repeats += 1
+            return
+        self._say_repeats()
+        self._last = key
+        super().emit(record)
+
+    def flush(self) -> None:
+        self._say_repeats()
+        super().flush()
+
+    def _say_repeats(self) -> None:
+        if self._repeats:
+            repeats, self._repeats = self._repeats, 0
+            self.stream.write(f"ogacq: (the warning above repeated {repeats} more "
+                              f"time{'s' if repeats > 1 else ''})\n")
+
+
+def configure_logging() -> None:
+    """Warnings and errors on stderr, one line each, repeats counted (unless logging
+    was configured already: a program embedding ``main`` keeps its own)."""
+    handler = RepeatCollapsingHandler()
+    handler.setFormatter(logging.Formatter("ogacq: warning: %(message)s"))
+    logging.basicConfig(level=logging.WARNING, handlers=[handler])
+    # pymodbus logs a refused connection too; our own one-line error names the device
+    logging.getLogger("pymodbus").setLevel(logging.CRITICAL)
+
+
+def say_pending_repeats() -> None:
+    """The count of a warning still being repeated, before the command's last word."""
+    for handler in logging.getLogger().handlers:
+        if isinstance(handler, RepeatCollapsingHandler):
+            handler.flush()
