@@ -12,9 +12,12 @@ from typing import Annotated
 import typer
 
 from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.app import app
 from ogacq.cli.leg_prompt import operator_for
+from ogacq.io.machine_file import write_machine
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
+from ogacq.protocol.plan import ProtocolConfig
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.store import load_session
 
@@ -77,14 +80,6 @@ def resume(
     _finish(outcome, as_json)
 
 
-DEMO_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators
-leg_length_mm = 310.25
-rho_min_mm = -100.0
-rho_max_mm = 60.0
-gauge_resolution_mm = 0.001
-"""
-
-
 @app.command()
 def demo(
     effects: Annotated[Path | None, typer.Option(
@@ -103,14 +98,15 @@ def demo(
     if folder.exists() and any(folder.iterdir()):
         raise typer.BadParameter(f"{folder} exists and is not empty", param_hint="--out")
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "machine.toml").write_text(DEMO_MACHINE)
-    sim = [f"seed = {seed}", f"speed = {speed}", f'profile = "{profile}"']
+    machine_path = write_machine(folder / "machine.toml", PAPER_PROTOTYPE_DIGITAL,
+                                 PAPER_PROTOTYPE_DIGITAL_NOTE)
     if effects is not None:
-        shutil.copy(effects, folder / "effects.toml")
-        sim.append('effects = "effects.toml"')
-    (folder / "campaign.toml").write_text(
-        'machine = "machine.toml"\nsession = "session.jsonl"\n\n[simulator]\n'
-        + "\n".join(sim) + "\n\n[protocol]\nsettle_s = 1.0\n")
+        effects = Path(shutil.copy(effects, folder / "effects.toml"))
+    (folder / "campaign.toml").write_text(campaign_text(Campaign(
+        folder / "campaign.toml", PAPER_PROTOTYPE_DIGITAL, machine_path,
+        folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
+        simulator=SimulatorSpec(seed=seed, effects=effects, speed=speed, profile=profile)),
+        comment="written by `ogacq demo`"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")

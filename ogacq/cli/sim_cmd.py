@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from drivers.indicators import BACKENDS
+from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.cli.app import JsonOption, app
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import PAPER_PROTOTYPE
@@ -43,7 +43,7 @@ def sim(
     speed: Annotated[float, typer.Option(
         min=0.01, help="Simulated time runs this many times faster than real time.")] = 1.0,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
-        help="What the simulated gauges speak.")] = GaugeProtocol["mitutoyo-01a"],
+        help="What the simulated gauges speak.")] = GaugeProtocol[DEFAULT_PROTOCOL],
     gauge: Annotated[list[str] | None, typer.Option(
         help="GAUGE=PROTOCOL for one gauge (repeatable), e.g. z_y=usb-itn: a mixed "
              "station.")] = None,

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.cli.app import app
 
 
@@ -53,8 +54,8 @@ def wizard(
     resume: Annotated[Path | None, typer.Option(
         help="Continue this session with the wizard.")] = None,
     gauge_protocol: Annotated[str, typer.Option(
-        help="Simulator: what the simulated gauges speak (mitutoyo-01a, digimatic, uwave, "
-             "sylvac, sylvac-simplex, usb-itn, usb-itn-keyboard).")] = "mitutoyo-01a",
+        help=f"Simulator: what the simulated gauges speak ({', '.join(BACKENDS)}).")]
+    = DEFAULT_PROTOCOL,
     simulate_fault: Annotated[list[str] | None, typer.Option(
         hidden=True, help="Simulator: GAUGE:KIND@N[xCOUNT], a gauge fault after N "
                           "readings.")] = None,
@@ -67,8 +68,6 @@ def wizard(
     if indicators not in (None, 2, 6):
         raise typer.BadParameter("2 (moved from leg to leg) or 6 (left in place)",
                                  param_hint="--indicators")
-    from drivers.indicators import BACKENDS
-
     if gauge_protocol not in BACKENDS:
         raise typer.BadParameter(f"one of {', '.join(BACKENDS)}", param_hint="--gauge-protocol")
     if faults and not simulator and resume is None:
