@@ -165,6 +165,7 @@ class Source:
         found: int | None = None
         start = 0
         tables: list[str] = []
+        parent_found = True  # a key is looked for only under a table that was found
         for part in path:
             if isinstance(part, int):
                 headers = self._headers(".".join(tables), array=True)
@@ -175,13 +176,14 @@ class Source:
             headers = self._headers(".".join(tables), array=False)
             if headers:
                 found = start = headers[0]
+                parent_found = True
                 continue
             if self._headers(".".join(tables), array=True):
                 continue  # [[part]]: the index that follows picks the entry
-            at = self._key_line(part, start)
-            if at is None:
-                break
-            found = start = at
+            at = self._key_line(part, start) if parent_found else None
+            parent_found = at is not None  # [a.b] may stand without [a]: look on
+            if at is not None:
+                found = start = at
         return found
 
     def _headers(self, dotted: str, *, array: bool) -> list[int]:
@@ -315,7 +317,8 @@ def _map(kind: MapOf, raw: Any, path: KeyPath, src: Source) -> dict[str, Any]:
     return out
 
 
-def _scalar(kind: Value, raw: Any, path: KeyPath, src: Source) -> Any:
+def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
+    raw = given  # messages quote the value as written
     if not _is_instance(raw, kind.types):
         names = " or ".join(_KIND_NAMES[t] for t in kind.types)
         raise src.fail(path, f"must be {names}, got {raw!r}")
@@ -329,13 +332,13 @@ def _scalar(kind: Value, raw: Any, path: KeyPath, src: Source) -> Any:
     if isinstance(raw, int | float) and not isinstance(raw, bool):
         low, high = kind.minimum, kind.maximum
         if kind.positive and not raw > 0:
-            raise src.fail(path, f"must be positive, got {raw!r}")
+            raise src.fail(path, f"must be positive, got {given!r}")
         if low is not None and high is not None and not low <= raw <= high:
-            raise src.fail(path, f"must be {low:g}..{high:g}, got {raw!r}")
+            raise src.fail(path, f"must be {low:g}..{high:g}, got {given!r}")
         if low is not None and raw < low:
-            raise src.fail(path, f"must be at least {low:g}, got {raw!r}")
+            raise src.fail(path, f"must be at least {low:g}, got {given!r}")
         if high is not None and raw > high:
-            raise src.fail(path, f"must be at most {high:g}, got {raw!r}")
+            raise src.fail(path, f"must be at most {high:g}, got {given!r}")
     return raw
 
 
