@@ -318,28 +318,27 @@ def _map(kind: MapOf, raw: Any, path: KeyPath, src: Source) -> dict[str, Any]:
 
 
 def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
-    raw = given  # messages quote the value as written
-    if not _is_instance(raw, kind.types):
+    if not _is_instance(given, kind.types):
         names = " or ".join(_KIND_NAMES[t] for t in kind.types)
-        raise src.fail(path, f"must be {names}, got {raw!r}")
-    if isinstance(raw, float) and not math.isfinite(raw):
-        raise src.fail(path, f"must be a finite number, got {raw!r}")
-    if isinstance(raw, int) and not isinstance(raw, bool) and float in kind.types \
-            and int not in kind.types:
-        raw = float(raw)
-    if kind.choices and raw not in kind.choices:
-        raise src.fail(path, _one_of(kind.choices, raw))
-    if isinstance(raw, int | float) and not isinstance(raw, bool):
-        low, high = kind.minimum, kind.maximum
-        if kind.positive and not raw > 0:
-            raise src.fail(path, f"must be positive, got {given!r}")
-        if low is not None and high is not None and not low <= raw <= high:
-            raise src.fail(path, f"must be {low:g}..{high:g}, got {given!r}")
-        if low is not None and raw < low:
-            raise src.fail(path, f"must be at least {low:g}, got {given!r}")
-        if high is not None and raw > high:
-            raise src.fail(path, f"must be at most {high:g}, got {given!r}")
-    return raw
+        raise src.fail(path, f"must be {names}, got {given!r}")
+    if isinstance(given, float) and not math.isfinite(given):
+        raise src.fail(path, f"must be a finite number, got {given!r}")
+    if kind.choices and given not in kind.choices:
+        raise src.fail(path, _one_of(kind.choices, given))
+    if isinstance(given, bool) or not isinstance(given, int | float):
+        return given
+    low, high = kind.minimum, kind.maximum
+    if kind.positive and not given > 0:
+        raise src.fail(path, f"must be positive, got {given!r}")
+    if low is not None and high is not None and not low <= given <= high:
+        raise src.fail(path, f"must be {low:g}..{high:g}, got {given!r}")
+    if low is not None and given < low:
+        raise src.fail(path, f"must be at least {low:g}, got {given!r}")
+    if high is not None and given > high:
+        raise src.fail(path, f"must be at most {high:g}, got {given!r}")
+    if isinstance(given, int) and float in kind.types and int not in kind.types:
+        return float(given)  # a whole number where a number is asked: the same value
+    return given
 
 
 def _is_instance(value: Any, types: tuple[type, ...]) -> bool:
