@@ -1,6 +1,7 @@
 """Campaign files (TOML) for unattended runs: machine, station, protocol, output.
 
-Everything is checked before anything moves: unknown keys, missing ports,
+The file's schema (CAMPAIGN_FILE) both reads and writes it. Everything is
+checked before anything moves: unknown keys, missing ports,
 postures outside the workspace, two gauges of a leg on one port channel. Errors
 name the file and the line. One indicator may serve one gauge on each leg: the
 papers' two indicators, moved from leg to leg (give each of its gauges the same
@@ -28,8 +29,8 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
                                       # position, written by `ogacq offsets write`
     [[gauges]]
     gauge = "y_x"                     # along y on the x leg
-    protocol = "mitutoyo-01a"         # or digimatic, uwave, sylvac, sylvac-simplex,
-                                      # usb-itn, usb-itn-keyboard (README: cables)
+    protocol = "mitutoyo-01a"         # a protocol of drivers.indicators.BACKENDS
+                                      # (README: cables)
     port = "/dev/ttyUSB0"             # usb / usb:SERIAL (usb-itn); keyboard or
                                       # /dev/input/eventN (usb-itn-keyboard)
     channel = 1                       # multiplexer channel, when there is one
@@ -54,34 +55,37 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
 
 from __future__ import annotations
 
-import math
-import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from drivers.axes.profile import Profile, ProfileError, load_profile
 from drivers.axes.reconnect import ReconnectPolicy
-from drivers.indicators import BACKENDS
+from drivers.config_schema import (
+    Field,
+    FilePath,
+    ListOf,
+    MapOf,
+    Source,
+    Table,
+    TableArray,
+    Value,
+    dump,
+    number,
+    text,
+    whole,
+)
+from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
-from ogacq.io.toml_file import line_of, read_toml
+from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
 from ogacq.model.machine import MachineSpec
-from ogacq.protocol.plan import ProtocolConfig, StabilityRule, check_postures
+from ogacq.model.parameters import AXES
+from ogacq.protocol.plan import APPROACHES, ProtocolConfig, StabilityRule, check_postures
 
 PROTOCOLS = tuple(BACKENDS)
-
-_TOP = {"machine", "session", "deadline_s", "controller", "gauges", "protocol", "stability",
-        "simulator"}
-_CONTROLLER = {"profile", "port", "baudrate", "timeout_s", "offsets_file", "axes",
-               "reconnect_attempts", "reconnect_backoff_s"}
-_CONTROLLER_AXIS = {"port", "device_id"}
-_GAUGE = {"gauge", "protocol", "port", "channel", "unit", "serial", "baudrate"}
-_PROTOCOL = {"legs", "postures", "cycles", "approach", "overshoot_mm", "settle_s",
-             "move_timeout_s"}
-_STABILITY = {"readings", "tolerance_mm", "timeout_s"}
-_SIMULATOR = {"seed", "effects", "speed", "profile", "noise_mm", "gauge_layout",
-              "gauge_protocol", "gauge_protocols"}
+GAUGE_LAYOUTS = ("separate", "multiplexer", "moved")
 
 
 @dataclass(frozen=True)
@@ -106,14 +110,20 @@ class AxisEndpoint:
 @dataclass(frozen=True)
 class ControllerSpec:
     profile: str
-    port: str  # shared endpoint ("" when every axis has its own)
+    port: str = ""  # shared endpoint ("" when every axis has its own)
     baudrate: int | None = None
     timeout_s: float = 1.0
     # The software offset table (relative paths resolved against the campaign file);
     # None: the profile keeps its offsets in the controller, or none are applied.
     offsets_file: Path | None = None
     axes: dict[str, AxisEndpoint] = field(default_factory=dict)
-    reconnect: ReconnectPolicy = field(default_factory=ReconnectPolicy)
+    reconnect_attempts: int = ReconnectPolicy.attempts
+    reconnect_backoff_s: float = ReconnectPolicy.backoff_s
+
+    @property
+    def reconnect(self) -> ReconnectPolicy:
+        """How a dropped link is ridden out before the campaign stops."""
+        return ReconnectPolicy(self.reconnect_attempts, self.reconnect_backoff_s)
 
     def port_of(self, axis: str) -> str:
         given = self.axes.get(axis)
@@ -139,7 +149,7 @@ class SimulatorSpec:
     noise_mm: float | None = None
     gauge_layout: str = "separate"  # "multiplexer": six channels on one port; "moved":
     # two indicators the simulated operator moves from leg to leg
-    gauge_protocol: str = "mitutoyo-01a"
+    gauge_protocol: str = DEFAULT_PROTOCOL
     gauge_protocols: tuple[tuple[str, str], ...] = ()  # (gauge, protocol) overrides
 
     def header(self) -> dict[str, Any]:
@@ -156,7 +166,7 @@ class SimulatorSpec:
                    speed=float(entry.get("speed", 20.0)),
                    profile=str(entry.get("profile", "cia402")),
                    gauge_layout=str(entry.get("gauge_layout", "separate")),
-                   gauge_protocol=str(entry.get("gauge_protocol", "mitutoyo-01a")),
+                   gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
                    gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())))
 
 
@@ -183,333 +193,203 @@ class Campaign:
         return {where: gauges for where, gauges in by_link.items() if len(gauges) > 1}
 
 
-class _Source:
-    """The campaign file's text, to say on which line a key stands."""
+# --------------------------------------------------------------------------- the schema
+# Durations, counts, speeds and tolerances cannot be negative (a negative settle time
+# would fail only after homing); a timeout of zero never lets anything answer.
+_TIMEOUT = number(minimum=1e-3)
 
-    def __init__(self, path: Path, text: str) -> None:
-        self.path = path
-        self.text = text
-        self.lines = text.splitlines()
+_AXIS_ENDPOINT = Table((
+    Field("port", text()),
+    # Modbus unit id: 0..255 over TCP (1..247 over RTU, checked with the port below)
+    Field("device_id", whole(minimum=0, maximum=255)),
+), build=AxisEndpoint)
 
-    def line(self, key: str, after: int = 0) -> int | None:
-        return line_of(self.text, key, after)
+_CONTROLLER = Table((
+    Field("profile", text(), required=True),
+    Field("port", text()),
+    Field("baudrate", whole(minimum=1)),
+    Field("timeout_s", _TIMEOUT),
+    Field("offsets_file", FilePath(), decode=Path.resolve),
+    Field("axes", MapOf(_AXIS_ENDPOINT, keys=AXES, noun="axis")),
+    # a reconnect policy still bounded in practice
+    Field("reconnect_attempts", whole(minimum=0, maximum=100)),
+    Field("reconnect_backoff_s", number(minimum=0.0)),
+), build=ControllerSpec)
 
-    def fail(self, problem: str, key: str | None = None, after: int = 0) -> InputError:
-        return InputError(self.path, problem, self.line(key, after) if key else None)
+_GAUGE = Table((
+    Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
+    Field("protocol", text(*PROTOCOLS), required=True),
+    Field("port", text(), required=True),
+    Field("channel", Value((str, int)), decode=str),
+    Field("unit", text("mm", "inch")),  # as set on the gauge
+    Field("serial", text()),
+    Field("baudrate", whole(minimum=1)),
+), build=GaugeSpec)
+
+_PROTOCOL = Table((
+    Field("legs", ListOf(text(*AXES))),
+    Field("postures", ListOf(Value((str, float)))),  # zero, max, min or a q in mm
+    Field("cycles", whole(minimum=1)),
+    Field("approach", text(*APPROACHES)),
+    Field("overshoot_mm", number(minimum=0.0)),
+    Field("settle_s", number(minimum=0.0)),
+    Field("move_timeout_s", _TIMEOUT),
+))
+
+_STABILITY = Table((
+    Field("readings", whole(minimum=1)),
+    Field("tolerance_mm", number(minimum=0.0)),
+    Field("timeout_s", _TIMEOUT),
+))
+
+_SIMULATOR = Table((
+    Field("seed", whole(minimum=0)),
+    Field("effects", FilePath()),
+    Field("speed", number(minimum=1e-3)),
+    Field("profile", text()),
+    Field("noise_mm", number(minimum=0.0)),
+    Field("gauge_layout", text(*GAUGE_LAYOUTS)),
+    Field("gauge_protocol", text(*PROTOCOLS)),
+    Field("gauge_protocols", MapOf(text(*PROTOCOLS), keys=GAUGE_KEYS, noun="gauge"),
+          decode=lambda table: tuple(sorted(table.items())), encode=dict),
+), build=SimulatorSpec)
+
+CAMPAIGN_FILE = Table((
+    Field("machine", FilePath(), required=True),
+    Field("session", FilePath()),
+    Field("deadline_s", number(minimum=1.0)),
+    Field("controller", _CONTROLLER),
+    Field("gauges", TableArray(_GAUGE)),
+    Field("protocol", _PROTOCOL),
+    Field("stability", _STABILITY),
+    Field("simulator", _SIMULATOR),
+))
 
 
-def _table_lines(src: _Source, name: str) -> list[int]:
-    return [n for n, line in enumerate(src.lines, 1) if re.match(rf"\s*\[\[{name}\]\]", line)]
-
-
-def _check_keys(src: _Source, table: dict, allowed: set[str], where: str, after: int = 0) -> None:
-    for key in table:
-        if key not in allowed:
-            raise src.fail(f"unknown key {key!r} in {where} (allowed: "
-                           f"{', '.join(sorted(allowed))})", key, after)
-
-
-# The smallest value each numeric key may take: durations, counts, speeds and
-# tolerances cannot be negative (a negative settle time fails only after homing).
-_AT_LEAST = {"settle_s": 0.0, "move_timeout_s": 1e-3, "timeout_s": 1e-3, "cycles": 1,
-             "readings": 1, "tolerance_mm": 0.0, "overshoot_mm": 0.0, "speed": 1e-3,
-             "seed": 0, "baudrate": 1, "deadline_s": 1.0, "reconnect_attempts": 0,
-             "reconnect_backoff_s": 0.0}
-# and the largest: a reconnect policy still bounded in practice
-_AT_MOST = {"reconnect_attempts": 100}
-
-
-def _typed(src: _Source, table: dict, key: str, kind: type | tuple, where: str,
-           after: int = 0) -> Any:
-    value = table[key]
-    if isinstance(value, bool) and bool not in (kind if isinstance(kind, tuple) else (kind,)):
-        raise src.fail(f"{where}.{key} must be {_kind_name(kind)}, got {value!r}", key, after)
-    if not isinstance(value, kind):
-        raise src.fail(f"{where}.{key} must be {_kind_name(kind)}, got {value!r}", key, after)
-    if isinstance(value, float) and not math.isfinite(value):
-        raise src.fail(f"{where}.{key} must be a finite number, got {value!r}", key, after)
-    if isinstance(value, int | float) and not isinstance(value, bool) and \
-            value < _AT_LEAST.get(key, -math.inf):
-        raise src.fail(f"{where}.{key} must be at least {_AT_LEAST[key]:g}, got {value!r}", key,
-                       after)
-    if isinstance(value, int | float) and value > _AT_MOST.get(key, math.inf):
-        raise src.fail(f"{where}.{key} must be at most {_AT_MOST[key]:g}, got {value!r}", key,
-                       after)
-    return value
-
-
-def _kind_name(kind: type | tuple) -> str:
-    kinds = kind if isinstance(kind, tuple) else (kind,)
-    return " or ".join({int: "a whole number", float: "a number", str: "text",
-                        list: "a list"}.get(k, k.__name__) for k in kinds)
+# --------------------------------------------------------------------------- reading
 
 
 def read_campaign(path: str | Path) -> Campaign:
     path = Path(path)
-    try:
-        data, text = read_toml(path, "campaign file")
-    except FileNotFoundError:
-        raise InputError(path, "no such campaign file") from None
-    src = _Source(path, text)
-    _check_keys(src, data, _TOP, "the campaign file")
-    base = path.parent
-
-    if "machine" not in data:
-        raise src.fail("missing key 'machine' (the machine file)")
-    machine_path = base / _typed(src, data, "machine", str, "campaign")
-    machine = read_machine(machine_path)
-    session = base / (_typed(src, data, "session", str, "campaign") if "session" in data
-                      else f"sessions/{path.stem}.jsonl")
-
-    proto = data.get("protocol", {})
-    _check_keys(src, proto, _PROTOCOL, "[protocol]", src.line("protocol") or 0)
-    stab = data.get("stability", {})
-    _check_keys(src, stab, _STABILITY, "[stability]", src.line("stability") or 0)
-    protocol = _protocol(src, proto, stab, machine)
-
-    campaign = Campaign(path, machine, machine_path, session, protocol)
-    if "deadline_s" in data:
-        campaign.deadline_s = float(_typed(src, data, "deadline_s", (int, float), "campaign"))
-    if "simulator" in data:
-        sim = data["simulator"]
-        after = src.line("simulator") or 0
-        _check_keys(src, sim, _SIMULATOR, "[simulator]", after)
-        effects = sim.get("effects")
-        campaign.simulator = SimulatorSpec(
-            seed=int(_typed(src, sim, "seed", int, "simulator", after)) if "seed" in sim else 0,
-            effects=base / effects if effects else None,
-            speed=float(_typed(src, sim, "speed", (int, float), "simulator", after))
-            if "speed" in sim else 20.0,
-            profile=str(sim.get("profile", "cia402")),
-            noise_mm=float(sim["noise_mm"]) if "noise_mm" in sim else None,
-            gauge_layout=_choice(src, sim, "gauge_layout", ("separate", "multiplexer", "moved"),
-                                 "simulator", after),
-            gauge_protocol=_choice(src, sim, "gauge_protocol", PROTOCOLS, "simulator", after),
-            gauge_protocols=_sim_protocols(src, sim, after))
-        if campaign.simulator.gauge_layout == "multiplexer" and (
-                "gauge_protocol" in sim or "gauge_protocols" in sim):
-            raise src.fail("a simulated multiplexer is an 01A box: gauge_protocol(s) do not "
-                           "apply with gauge_layout = \"multiplexer\"", "gauge_layout", after)
-    if "controller" in data:
-        campaign.controller = _controller(src, data["controller"], base)
+    given, src = load_toml(path, CAMPAIGN_FILE, "the campaign file")
+    machine = read_machine(given["machine"])
+    protocol = _protocol(src, given.get("protocol", {}), given.get("stability", {}), machine)
+    campaign = Campaign(path, machine, given["machine"],
+                        given.get("session", path.parent / f"sessions/{path.stem}.jsonl"),
+                        protocol, simulator=given.get("simulator"),
+                        deadline_s=given.get("deadline_s"))
+    if campaign.simulator is not None:
+        _check_profile(src, ("simulator", "profile"), campaign.simulator.profile)
+    if campaign.simulator is not None and campaign.simulator.gauge_layout == "multiplexer" \
+            and (campaign.simulator.gauge_protocol != DEFAULT_PROTOCOL
+                 or campaign.simulator.gauge_protocols):
+        raise src.fail(("simulator", "gauge_layout"), "", "a simulated multiplexer is an 01A "
+                       "box: gauge_protocol(s) do not apply with gauge_layout = \"multiplexer\"")
+    if "controller" in given:
+        campaign.controller = _controller(src, given["controller"])
     elif campaign.simulator is None:
-        raise src.fail("missing [controller] (profile and port), or a [simulator] table")
-    campaign.gauges = _gauges(src, data.get("gauges", []), protocol)
+        raise src.fail((), "missing [controller] (profile and port), or a [simulator] table")
+    campaign.gauges = _gauges(src, given.get("gauges", []))
     if campaign.simulator is None:
         wanted = {f"{a}_{leg}" for leg in protocol.legs for a in "xyz" if a != leg}
         missing = sorted(wanted - {g.gauge for g in campaign.gauges})
         if missing:
-            raise src.fail(f"no [[gauges]] entry for {', '.join(missing)}: an unattended "
+            raise src.fail((), f"no [[gauges]] entry for {', '.join(missing)}: an unattended "
                            "campaign needs both gauges of every leg mounted")
     return campaign
 
 
-def _sim_protocols(src: _Source, sim: dict, after: int) -> tuple[tuple[str, str], ...]:
-    table = sim.get("gauge_protocols", {})
-    if not isinstance(table, dict):
-        raise src.fail("simulator.gauge_protocols must be a table like { z_y = \"usb-itn\" }",
-                       "gauge_protocols", after)
-    for gauge, protocol in table.items():
-        if gauge not in GAUGE_KEYS:
-            raise src.fail(f"gauge_protocols: {gauge!r} is not one of {', '.join(GAUGE_KEYS)}",
-                           "gauge_protocols", after)
-        if protocol not in PROTOCOLS:
-            raise src.fail(f"gauge_protocols: {gauge} = {protocol!r} is not one of "
-                           f"{', '.join(PROTOCOLS)}", "gauge_protocols", after)
-    return tuple(sorted(table.items()))
-
-
-def _choice(src: _Source, table: dict, key: str, choices: tuple[str, ...], where: str,
-            after: int) -> str:
-    if key not in table:
-        return choices[0]
-    value = table[key]
-    if value not in choices:
-        raise src.fail(f"{where}.{key} must be one of {', '.join(choices)}, got {value!r}",
-                       key, after)
-    return value
-
-
-def _protocol(src: _Source, proto: dict, stab: dict, machine: MachineSpec) -> ProtocolConfig:
-    after = src.line("protocol") or 0
-    kwargs: dict[str, Any] = {}
-    for key, kind in (("cycles", int), ("approach", str), ("overshoot_mm", (int, float)),
-                      ("settle_s", (int, float)), ("move_timeout_s", (int, float)),
-                      ("legs", list), ("postures", list)):
-        if key in proto:
-            kwargs[key] = _typed(src, proto, key, kind, "protocol", after)
-    if "legs" in kwargs:
-        kwargs["legs"] = tuple(kwargs["legs"])
-    if "postures" in kwargs:
-        postures = []
-        for p in kwargs["postures"]:
-            if isinstance(p, bool) or not isinstance(p, str | int | float):
-                raise src.fail(f"postures: {p!r} is not zero, max, min or a number in mm",
-                               "postures", after)
-            postures.append(p if isinstance(p, str) else float(p))
-        kwargs["postures"] = tuple(postures)
-    after_stab = src.line("stability") or 0
-    rule = {}
-    for key, kind in (("readings", int), ("tolerance_mm", (int, float)),
-                      ("timeout_s", (int, float))):
-        if key in stab:
-            rule[key] = _typed(src, stab, key, kind, "stability", after_stab)
+def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
+              ) -> ProtocolConfig:
     try:
-        config = ProtocolConfig(stability=StabilityRule(**rule), **kwargs)
+        config = ProtocolConfig(stability=StabilityRule(**stability), **given)
         check_postures(config, machine)
     except ValueError as exc:
         key = next((k for k in ("postures", "approach", "cycles", "legs", "overshoot_mm")
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
-        raise src.fail(str(exc), key, after) from None
+        raise src.fail(("protocol", key), "", str(exc)) from None
     return config
 
 
-def _controller(src: _Source, table: dict, base: Path) -> ControllerSpec:
-    after = src.line("controller") or 0
-    _check_keys(src, table, _CONTROLLER, "[controller]", after)
-    if "profile" not in table:
-        raise src.fail("[controller] needs 'profile'", "controller")
-    profile = _typed(src, table, "profile", str, "controller", after)
-    axes = _controller_axes(src, table.get("axes", {}), after)
-    if "port" not in table and not all(a in axes and axes[a].port for a in "xyz"):
-        raise src.fail("[controller] needs 'port', or a port for each of x, y and z in "
-                       "[controller.axes]", "controller")
-    offsets_file = None
-    if "offsets_file" in table:
-        offsets_file = (base / _typed(src, table, "offsets_file", str, "controller", after)
-                        ).resolve()
-        kind = _offset_kind(profile)
-        if kind not in (None, "software"):
-            raise src.fail(f"offsets_file: profile {profile!r} keeps the joint offsets in the "
-                           f"controller ({kind}); a software offset table does not apply",
-                           "offsets_file", after)
-    _check_unit_ids(src, profile, table.get("port", ""), axes, after)
-    return ControllerSpec(
-        profile=profile,
-        port=_typed(src, table, "port", str, "controller", after) if "port" in table else "",
-        axes=axes,
-        baudrate=_typed(src, table, "baudrate", int, "controller", after)
-        if "baudrate" in table else None,
-        timeout_s=float(_typed(src, table, "timeout_s", (int, float), "controller", after))
-        if "timeout_s" in table else 1.0,
-        offsets_file=offsets_file, reconnect=_reconnect_policy(src, table, after))
+def _controller(src: Source, spec: ControllerSpec) -> ControllerSpec:
+    if not spec.port and not all(a in spec.axes and spec.axes[a].port for a in AXES):
+        raise src.fail(("controller",), "", "[controller] needs 'port', or a port for each of "
+                       "x, y and z in [controller.axes]")
+    profile = _check_profile(src, ("controller", "profile"), spec.profile)
+    kind = profile.offset.kind
+    if spec.offsets_file is not None and kind != "software":
+        raise src.fail(("controller", "offsets_file"), "", f"offsets_file: profile "
+                       f"{spec.profile!r} keeps the joint offsets in the controller ({kind}); "
+                       "a software offset table does not apply")
+    _check_unit_ids(src, spec, profile.device_ids)
+    return spec
 
 
-def _reconnect_policy(src: _Source, table: dict, after: int) -> ReconnectPolicy:
-    default = ReconnectPolicy()
-    return ReconnectPolicy(
-        attempts=_typed(src, table, "reconnect_attempts", int, "controller", after)
-        if "reconnect_attempts" in table else default.attempts,
-        backoff_s=float(_typed(src, table, "reconnect_backoff_s", (int, float), "controller",
-                               after)) if "reconnect_backoff_s" in table else default.backoff_s)
+def _check_profile(src: Source, key: tuple[str, ...], name: str) -> Profile:
+    """The register map ``name`` names, loaded now: a wrong name or a broken profile
+    file is said with the campaign file's line, before anything opens."""
+    try:
+        return load_profile(name)
+    except ProfileError as exc:
+        raise src.fail(key, "", f"profile {name!r}: {exc}") from None
 
 
-def _controller_axes(src: _Source, table: Any, after: int) -> dict[str, AxisEndpoint]:
-    if not isinstance(table, dict):
-        raise src.fail("[controller.axes] must be a table of x, y, z", "axes", after)
-    out: dict[str, AxisEndpoint] = {}
-    for axis, entry in table.items():
-        if axis not in ("x", "y", "z"):
-            raise src.fail(f"[controller.axes] has no axis {axis!r} (x, y, z)", axis, after)
-        if not isinstance(entry, dict):
-            raise src.fail(f"controller.axes.{axis} must be a table such as "
-                           '{ port = "192.168.3.11:502", device_id = 255 }', axis, after)
-        _check_keys(src, entry, _CONTROLLER_AXIS, f"[controller.axes.{axis}]", after)
-        device_id = None
-        if "device_id" in entry:
-            device_id = _typed(src, entry, "device_id", int, f"controller.axes.{axis}", after)
-            if not 0 <= device_id <= 255:
-                raise src.fail(f"controller.axes.{axis}.device_id must be 0..255, got "
-                               f"{device_id}", "device_id", after)
-        port = (_typed(src, entry, "port", str, f"controller.axes.{axis}", after)
-                if "port" in entry else None)
-        out[axis] = AxisEndpoint(port, device_id)
-    return out
-
-
-def _check_unit_ids(src: _Source, profile: str, shared: Any, axes: dict[str, AxisEndpoint],
-                    after: int) -> None:
+def _check_unit_ids(src: Source, spec: ControllerSpec, profile_ids: dict[str, int]) -> None:
     """A serial (RTU) endpoint addresses units 1..247 only (Modbus over Serial Line
     V1.02 §2.2); TCP takes 0..255."""
-    from drivers.axes.profile import load_profile
-
-    try:
-        ids = dict(load_profile(profile).device_ids)
-    except (InputError, OSError):
-        return  # the station reports the profile's own error
-    for axis, endpoint in axes.items():
-        if endpoint.device_id is not None:
-            ids[axis] = endpoint.device_id
+    ids = {**profile_ids, **spec.device_ids()}
     for axis, unit in ids.items():
-        endpoint = axes.get(axis)
-        port = endpoint.port if endpoint is not None and endpoint.port else shared
-        host, sep, number = str(port).rpartition(":")
-        serial = not (sep and number.isdigit() and not str(port).startswith("/"))
+        port = spec.port_of(axis)
+        _, sep, number_text = port.rpartition(":")
+        serial = not (sep and number_text.isdigit() and not port.startswith("/"))
         if serial and not 1 <= unit <= 247:
-            raise src.fail(f"axis {axis}: device id {unit} cannot be addressed over Modbus RTU "
-                           f"on {port} (1..247); set controller.axes.{axis}.device_id",
-                           "axes" if axes else "profile", after)
+            raise src.fail(("controller", "axes" if spec.axes else "profile"), "",
+                           f"axis {axis}: device id {unit} cannot be addressed over Modbus RTU "
+                           f"on {port} (1..247); set controller.axes.{axis}.device_id")
 
 
-def _offset_kind(profile: str) -> str | None:
-    """How the profile keeps joint offsets; None when it does not load (the station
-    reports that, with the profile's own error)."""
-    from drivers.axes.profile import load_profile
-
-    try:
-        return load_profile(profile).offset.kind
-    except (InputError, OSError):
-        return None
-
-
-def _gauges(src: _Source, tables: list, protocol: ProtocolConfig) -> list[GaugeSpec]:
-    lines = _table_lines(src, "gauges")
-    out: list[GaugeSpec] = []
-    on_channel: dict[tuple[str, str | None], list[tuple[str, int]]] = {}
-    seen_gauge: dict[str, int] = {}
-    for k, table in enumerate(tables):
-        start = lines[k] if k < len(lines) else 0
-        after = start - 1 if start else 0
-        _check_keys(src, table, _GAUGE, "[[gauges]]", after)
-        for key in ("gauge", "protocol", "port"):
-            if key not in table:
-                raise InputError(src.path, f"[[gauges]] entry needs {key!r}", start or None)
-        gauge = _typed(src, table, "gauge", str, "gauges", after)
-        if gauge not in GAUGE_KEYS:
-            raise src.fail(f"gauge {gauge!r} is not one of {', '.join(GAUGE_KEYS)} "
-                           "(AXIS_LEG: along AXIS on that leg)", "gauge", after)
-        protocol_name = _typed(src, table, "protocol", str, "gauges", after)
-        if protocol_name not in PROTOCOLS:
-            raise src.fail(f"protocol {protocol_name!r} is not one of {', '.join(PROTOCOLS)}",
-                           "protocol", after)
-        unit = str(table.get("unit", "mm"))
-        if unit not in ("mm", "inch"):
-            raise src.fail(f"unit {unit!r} must be mm or inch (as set on the gauge)", "unit",
-                           after)
-        port = _typed(src, table, "port", str, "gauges", after)
-        channel = str(table["channel"]) if "channel" in table else None
-        if gauge in seen_gauge:
-            raise InputError(src.path, f"gauge {gauge} appears twice (first on line "
-                             f"{seen_gauge[gauge]})", start or None)
-        leg = Gauge.parse(gauge).leg
-        same_leg = [(g, n) for g, n in on_channel.get((port, channel), [])
-                    if Gauge.parse(g).leg == leg]
+def _gauges(src: Source, gauges: list[GaugeSpec]) -> list[GaugeSpec]:
+    """Each gauge once; the two gauges of a leg on their own port or channel; one
+    protocol per port."""
+    seen: dict[str, int | None] = {}
+    for k, g in enumerate(gauges):
+        line = src.line(("gauges", k))
+        if g.gauge in seen:
+            raise InputError(src.path, f"gauge {g.gauge} appears twice (first on line "
+                             f"{seen[g.gauge]})", line)
+        leg = Gauge.parse(g.gauge).leg
+        same_leg = [(other, seen[other.gauge]) for other in gauges[:k]
+                    if (other.port, other.channel) == (g.port, g.channel)
+                    and Gauge.parse(other.gauge).leg == leg]
         if same_leg:
-            where = f"port {port}" + (f" channel {channel}" if channel else "")
-            other, line = same_leg[0]
-            raise InputError(src.path, f"gauges {other} (line {line}) and {gauge} of the {leg} "
-                             f"leg both on {where}: the two gauges of a leg each need their "
-                             "own port or channel (one indicator may serve one gauge per leg, "
-                             "moved from leg to leg)", start or None)
-        first_on_port = next((g for g in out if g.port == port), None)
-        if first_on_port is not None and first_on_port.protocol != protocol_name:
-            raise InputError(src.path, f"gauge {gauge} on port {port} is {protocol_name} but "
+            where = f"port {g.port}" + (f" channel {g.channel}" if g.channel else "")
+            other, other_line = same_leg[0]
+            raise InputError(src.path, f"gauges {other.gauge} (line {other_line}) and "
+                             f"{g.gauge} of the {leg} leg both on {where}: the two gauges of a "
+                             "leg each need their own port or channel (one indicator may serve "
+                             "one gauge per leg, moved from leg to leg)", line)
+        first_on_port = next((other for other in gauges[:k] if other.port == g.port), None)
+        if first_on_port is not None and first_on_port.protocol != g.protocol:
+            raise InputError(src.path, f"gauge {g.gauge} on port {g.port} is {g.protocol} but "
                              f"{first_on_port.gauge} on the same port is "
-                             f"{first_on_port.protocol}: one port speaks one protocol",
-                             start or None)
-        seen_gauge[gauge] = start
-        on_channel.setdefault((port, channel), []).append((gauge, start))
-        out.append(GaugeSpec(gauge, protocol_name, port, channel, unit,
-                             str(table.get("serial", "")),
-                             int(table["baudrate"]) if "baudrate" in table else None))
-    return out
+                             f"{first_on_port.protocol}: one port speaks one protocol", line)
+        seen[g.gauge] = line
+    return gauges
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def campaign_text(campaign: Campaign, *, comment: str = "",
+                  notes: dict[str, str] | None = None) -> str:
+    """The campaign file of ``campaign`` (paths relative to its folder): what
+    ``read_campaign`` reads back as the same campaign. ``comment`` goes on top,
+    ``notes`` (by table name) above their tables."""
+    plan = campaign.protocol.to_dict()
+    stability = plan.pop("stability")
+    document = {"machine": campaign.machine_path, "session": campaign.session,
+                "deadline_s": campaign.deadline_s,
+                "simulator": campaign.simulator, "controller": campaign.controller,
+                "gauges": campaign.gauges, "protocol": plan, "stability": stability}
+    return dump(CAMPAIGN_FILE, document, folder=campaign.path.parent, header=comment,
+                notes=notes)

@@ -38,7 +38,7 @@ from dataclasses import dataclass, field
 from typing import Any, Literal
 
 from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import Profile, Step, ValueSpec, counts_to_mm, mm_to_counts
+from drivers.axes.profile import CommandStep, Profile, ValueSpec, counts_to_mm, mm_to_counts
 from drivers.errors import DeviceFault, DeviceTimeout, DriverError
 
 log = logging.getLogger(__name__)
@@ -735,7 +735,7 @@ class AxisController:
         return value
 
     def _run_steps(
-        self, command: str, steps: Sequence[Step], axis: str, params: Mapping[str, Any]
+        self, command: str, steps: Sequence[CommandStep], axis: str, params: Mapping[str, Any]
     ) -> None:
         what = f"{command} {axis}"
         for step in steps:
@@ -781,7 +781,7 @@ class AxisController:
             time.sleep(self.poll_interval_s)
 
     def _confirm(
-        self, axis: str, command: str, step: Step, params: Mapping[str, Any]
+        self, axis: str, command: str, step: CommandStep, params: Mapping[str, Any]
     ) -> AxisStatus:
         """Read back that an edge-triggered write was taken; never re-send it."""
         timeout_s = float(self._resolve(step.timeout_s, params, command))

@@ -8,9 +8,10 @@ added by writing a profile; the controller client (``controller.py``) and the
 simulated controller (``drivers/sim/modbus_server.py``) both read it, so tests
 run the real codec.
 
-Validation is strict: unknown or missing keys, wrong types and dangling
-references raise :class:`ProfileError` naming the file and the key, because a
-typo in a register map would otherwise surface as a write to the wrong address.
+Validation is strict: unknown or missing keys, wrong types (the declared schema
+``PROFILE_FILE``) and dangling references raise :class:`ProfileError` naming the
+file and the key, because a typo in a register map would otherwise surface as a
+write to the wrong address.
 
 The codec (``int_to_words``/``words_to_int``, ``mm_to_counts``/``counts_to_mm``)
 is pure and shared by client and simulator.
@@ -19,13 +20,28 @@ is pure and shared by client and simulator.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
+from drivers.config_schema import (
+    TRUTH,
+    Field,
+    Issue,
+    ListOf,
+    MapOf,
+    Source,
+    Table,
+    Value,
+    Variants,
+    load,
+    number,
+    read_document,
+    text,
+    whole,
+)
 from drivers.errors import InputError
 
 SCHEMA_VERSION = 1
@@ -189,7 +205,7 @@ class FlagSpec:
 
 
 @dataclass(frozen=True)
-class Step:
+class CommandStep:
     """One step of a command sequence (see the profile files for the step language)."""
 
     op: Literal["write", "write_block", "wait", "confirm"]
@@ -210,8 +226,8 @@ class Step:
 @dataclass(frozen=True)
 class Command:
     name: str
-    start: tuple[Step, ...]
-    finish: tuple[Step, ...]
+    start: tuple[CommandStep, ...]
+    finish: tuple[CommandStep, ...]
 
 
 @dataclass(frozen=True)
@@ -338,6 +354,95 @@ class Profile:
         return list(dict.fromkeys(names))
 
 
+# --------------------------------------------------------------------------- the schema
+# What each key of a profile file is; the checks across tables (references to values
+# and flags, overlapping registers, step values that fit their register) follow below.
+
+_ANY_STEP_VALUE = Value((bool, int, float, str))  # checked against the register written
+_TIMEOUT_OR_PARAM = Value((float, str), positive=True)  # seconds or a "$parameter"
+
+
+def _op(name: str, *fields: Field) -> Table:
+    return Table((Field("op", text(name), required=True), *fields))
+
+
+_STEP = Variants("op", {
+    "write": _op("write", Field("to", text(), required=True),
+                 Field("value", _ANY_STEP_VALUE, required=True),
+                 Field("edge", TRUTH), Field("skip_unchanged", TRUTH)),
+    "write_block": _op("write_block", Field("to", ListOf(text()), required=True),
+                       Field("value", ListOf(_ANY_STEP_VALUE), required=True),
+                       Field("edge", TRUTH)),
+    "wait": _op("wait", Field("flag", text(), required=True),
+                Field("state", TRUTH, required=True), Field("timeout_s", _TIMEOUT_OR_PARAM)),
+    "confirm": _op("confirm", Field("any", ListOf(text()), required=True),
+                   Field("done", text(), required=True),
+                   Field("at", Value((float, str)), required=True),
+                   Field("timeout_s", _TIMEOUT_OR_PARAM)),
+})
+
+
+def _required(*fields: tuple[str, Any]) -> tuple[Field, ...]:
+    return tuple(Field(key, kind, required=True) for key, kind in fields)
+
+
+PROFILE_FILE = Table(_required(
+    ("schema", whole(choices=(SCHEMA_VERSION,))),  # the file format version this tool reads
+    ("name", text()),
+    ("family", text("iai-robo", "cia402")),
+    ("description", text()),
+    ("transport", Table((
+        *_required(("default", text("rtu", "tcp")), ("baudrate", whole(minimum=1)),
+                   ("bytesize", whole(choices=(7, 8))), ("parity", text("N", "E", "O")),
+                   ("stopbits", whole(choices=(1, 2))),
+                   ("tcp_port", whole(minimum=0, maximum=0xFFFF)),
+                   ("timeout_s", number(positive=True)),
+                   ("read_retries", whole(minimum=0, maximum=5))),
+        Field("functions", ListOf(whole(choices=SUPPORTED_FUNCTIONS))),
+    ), build=TransportDefaults)),
+    # Unit ids: 0..255 on TCP; RTU allows 1..247 only (checked when the link is chosen)
+    ("axes", Table(_required(("device_ids", Table(_required(
+        *((a, whole(minimum=0, maximum=255)) for a in AXIS_NAMES))))))),
+    ("codec", Table(_required(
+        ("word_order", text("high_first", "low_first")),
+        ("counts_per_mm", number(positive=True)),
+        ("speed_counts_per_mm_s", number(positive=True))), build=Codec)),
+    ("values", MapOf(Table(_required(
+        ("address", whole(minimum=0, maximum=0xFFFF)), ("function", text("holding", "coil")),
+        ("type", text(*VALUE_TYPES)), ("unit", text(*UNITS)),
+        ("access", text("r", "w", "rw")))), noun="value")),
+    ("flags", MapOf(Table((*_required(("value", text()), ("bit", whole(minimum=0, maximum=15))),
+                           Field("invert", TRUTH))), noun="flag")),
+    ("status", Table(_required(
+        ("position", text()), ("alarm_code", text()),
+        ("alarm_code_read", text("always", "on_fault")), ("fault_flags", ListOf(text())),
+        ("max_gap_registers", whole(minimum=0, maximum=32))))),
+    ("motion", Table(_required(("speed_mm_s", number(positive=True)),
+                               ("in_position_band_mm", number(positive=True))),
+                     build=MotionDefaults)),
+    ("limits", Table(_required(("min_mm", number()), ("max_mm", number()),
+                               ("margin_mm", number(minimum=0.0))), build=Limits)),
+    ("timing", Table(_required(*((k, number(positive=True)) for k in (
+        "ack_timeout_s", "enable_timeout_s", "home_timeout_s", "move_timeout_s"))),
+        build=Timing)),
+    ("offset", Variants("kind", {
+        "software": Table(_required(("kind", text("software"))), build=OffsetSpec),
+        "home_offset": Table(_required(
+            ("kind", text("home_offset")), ("value", text()), ("sign", whole(choices=(1, -1))),
+            ("write_when_disabled", TRUTH)), build=OffsetSpec)})),
+    ("nvm", Variants("kind", {
+        "none": Table(_required(("kind", text("none"))), build=NvmSpec),
+        "store_parameters": Table(_required(
+            ("kind", text("store_parameters")), ("value", text()),
+            ("signature", whole())), build=NvmSpec)})),
+    ("commands", Table(_required(*((name, Table((
+        Field("start", ListOf(_STEP), required=True), Field("finish", ListOf(_STEP)))))
+        for name in COMMANDS_REQUIRED)))),
+    ("sim", Table(_required(("soft_limit_alarm_code", whole(minimum=1, maximum=0xFFFF))),
+                  build=SimSpec)),
+))
+
+
 # --------------------------------------------------------------------------- loading
 
 
@@ -350,33 +455,37 @@ def available_profiles() -> list[str]:
     return sorted(p.stem for p in profiles_folder().glob("*.toml"))
 
 
+def _profile_error(issue: Issue) -> ProfileError:
+    return ProfileError(issue.file, issue.key, issue.problem)
+
+
 def load_profile(name_or_path: str | Path) -> Profile:
     """Load a profile by name (``"iai-pcon"``) from the package folder, or from a path."""
-    text = str(name_or_path)
-    if isinstance(name_or_path, Path) or text.endswith(".toml") or "/" in text:
+    text_ = str(name_or_path)
+    if isinstance(name_or_path, Path) or text_.endswith(".toml") or "/" in text_:
         path = Path(name_or_path)
     else:
-        path = profiles_folder() / f"{text}.toml"
+        path = profiles_folder() / f"{text_}.toml"
         if not path.is_file():
             raise ProfileError(
-                text, "", f"no such profile; available: {', '.join(available_profiles())}"
+                text_, "", f"no such profile; available: {', '.join(available_profiles())}"
             )
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
+        raw, _ = read_document(path, "the profile", _profile_error)
+    except FileNotFoundError as exc:
         raise ProfileError(str(path), "", f"cannot read: {exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ProfileError(str(path), "", f"not valid TOML: {exc}") from exc
     return parse_profile(raw, source=str(path))
 
 
 def parse_profile(raw: Mapping[str, Any], *, source: str = "<profile>") -> Profile:
     """Validate a decoded TOML document and build a :class:`Profile`."""
-    return _Parser(source).profile(raw)
+    given = load(PROFILE_FILE, raw, Source(source, _profile_error))
+    return _Checks(source).profile(given)
 
 
-class _Parser:
-    """Table-by-table validation; every error names the file and the dotted key."""
+class _Checks:
+    """What the schema cannot say: references between tables, registers that overlap,
+    step values that must fit their register. Errors name the file and the dotted key."""
 
     def __init__(self, source: str) -> None:
         self.source = source
@@ -384,201 +493,57 @@ class _Parser:
     def fail(self, key: str, problem: str) -> ProfileError:
         return ProfileError(self.source, key, problem)
 
-    def table(
-        self,
-        raw: Mapping[str, Any],
-        key: str,
-        required: Sequence[str],
-        optional: Sequence[str] = (),
-    ) -> dict[str, Any]:
-        if not isinstance(raw, Mapping):
-            raise self.fail(key, f"must be a table, got {type(raw).__name__}")
-        unknown = sorted(set(raw) - set(required) - set(optional))
-        if unknown:
-            raise self.fail(key, f"unknown key(s) {', '.join(map(repr, unknown))}")
-        missing = [k for k in required if k not in raw]
-        if missing:
-            raise self.fail(key, f"missing key(s) {', '.join(map(repr, missing))}")
-        return dict(raw)
-
-    def named_entries(self, raw: Any, key: str) -> dict[str, Any]:
-        """A table whose keys are names chosen by the profile's author ([values], [flags])."""
-        if not isinstance(raw, Mapping):
-            raise self.fail(key, f"must be a table, got {type(raw).__name__}")
-        return dict(raw)
-
-    def typed(self, value: Any, kinds: type | tuple[type, ...], key: str) -> Any:
-        # bool is an int in Python; a register address of `true` is still a mistake
-        if isinstance(value, bool) and bool not in (
-            kinds if isinstance(kinds, tuple) else (kinds,)
-        ):
-            raise self.fail(key, f"must be {self._kind_names(kinds)}, got {value!r}")
-        if not isinstance(value, kinds):
-            raise self.fail(key, f"must be {self._kind_names(kinds)}, got {value!r}")
-        return value
-
-    @staticmethod
-    def _kind_names(kinds: type | tuple[type, ...]) -> str:
-        kinds = kinds if isinstance(kinds, tuple) else (kinds,)
-        return " or ".join(k.__name__ for k in kinds)
-
-    def choice(self, value: Any, options: Sequence[Any], key: str) -> Any:
-        if value not in options:
-            raise self.fail(key, f"must be one of {', '.join(map(repr, options))}, got {value!r}")
-        return value
-
-    def number(self, value: Any, key: str, *, positive: bool = False) -> float:
-        number = float(self.typed(value, (int, float), key))
-        if not math.isfinite(number) or (positive and number <= 0):
-            raise self.fail(
-                key, f"must be a {'positive ' if positive else ''}number, got {value!r}"
-            )
-        return number
-
-    # ---- sections
-
-    def profile(self, raw: Mapping[str, Any]) -> Profile:
-        top = self.table(
-            raw,
-            "",
-            required=(
-                "schema",
-                "name",
-                "family",
-                "description",
-                "transport",
-                "axes",
-                "codec",
-                "values",
-                "flags",
-                "status",
-                "motion",
-                "limits",
-                "timing",
-                "offset",
-                "nvm",
-                "commands",
-                "sim",
-            ),
-        )
-        if top["schema"] != SCHEMA_VERSION:
-            raise self.fail(
-                "schema", f"this tool reads schema {SCHEMA_VERSION}, got {top['schema']!r}"
-            )
-        name = self.typed(top["name"], str, "name")
-        family = self.choice(top["family"], ("iai-robo", "cia402"), "family")
-        description = self.typed(top["description"], str, "description")
-        transport = self.transport(top["transport"])
-        device_ids = self.axes(top["axes"])
-        codec = self.codec(top["codec"])
+    def profile(self, top: dict[str, Any]) -> Profile:
+        transport: TransportDefaults = top["transport"]
+        for needed in (3, 16):
+            if needed not in transport.functions:
+                raise self.fail("transport.functions", f"must include {needed} (this client "
+                                "reads with FC 3 and writes blocks with FC 16)")
         values = self.values(top["values"])
         coils = [v.name for v in values.values() if v.function == "coil"]
         if coils and not {1, 5} <= set(transport.functions):
             raise self.fail(f"values.{coils[0]}.function",
                             "a coil needs FC 1 and 5, which [transport].functions leaves out")
         flags = self.flags(top["flags"], values)
-        status = self.status(top["status"], values, flags)
-        offset = self.offset(top["offset"], values)
-        nvm = self.nvm(top["nvm"], values)
-        commands = self.commands(top["commands"], values, flags)
+        limits: Limits = top["limits"]
+        if limits.min_mm >= limits.max_mm:
+            raise self.fail("limits", f"min_mm {limits.min_mm} must be below max_mm "
+                            f"{limits.max_mm}")
         return Profile(
-            name=name,
-            family=family,
-            description=description,
+            name=top["name"],
+            family=top["family"],
+            description=top["description"],
             source=self.source,
             transport=transport,
-            device_ids=device_ids,
-            codec=codec,
+            device_ids={a: top["axes"]["device_ids"][a] for a in AXIS_NAMES},
+            codec=top["codec"],
             values=values,
             flags=flags,
-            status=status,
-            motion=self.motion(top["motion"]),
-            limits=self.limits(top["limits"]),
-            timing=self.timing(top["timing"]),
-            offset=offset,
-            nvm=nvm,
-            commands=commands,
-            sim=self.sim(top["sim"]),
+            status=self.status(top["status"], values, flags),
+            motion=top["motion"],
+            limits=limits,
+            timing=top["timing"],
+            offset=self.offset(top["offset"], values),
+            nvm=self.nvm(top["nvm"], values),
+            commands=self.commands(top["commands"], values, flags),
+            sim=top["sim"],
         )
 
-    def transport(self, raw: Any) -> TransportDefaults:
-        keys = (
-            "default",
-            "baudrate",
-            "bytesize",
-            "parity",
-            "stopbits",
-            "tcp_port",
-            "timeout_s",
-            "read_retries",
-        )
-        t = self.table(raw, "transport", keys, optional=("functions",))
-        functions = tuple(self.typed(t.get("functions", [1, 3, 5, 6, 16]), list,
-                                     "transport.functions"))
-        for i, code in enumerate(functions):
-            self.choice(code, SUPPORTED_FUNCTIONS, f"transport.functions[{i}]")
-        for needed in (3, 16):
-            if needed not in functions:
-                raise self.fail("transport.functions", f"must include {needed} (this client "
-                                "reads with FC 3 and writes blocks with FC 16)")
-        retries = self.typed(t["read_retries"], int, "transport.read_retries")
-        if not 0 <= retries <= 5:
-            raise self.fail("transport.read_retries", f"must be 0..5, got {retries}")
-        return TransportDefaults(
-            default=self.choice(t["default"], ("rtu", "tcp"), "transport.default"),
-            baudrate=int(self.number(t["baudrate"], "transport.baudrate", positive=True)),
-            bytesize=self.choice(t["bytesize"], (7, 8), "transport.bytesize"),
-            parity=self.choice(t["parity"], ("N", "E", "O"), "transport.parity"),
-            stopbits=self.choice(t["stopbits"], (1, 2), "transport.stopbits"),
-            tcp_port=self.typed(t["tcp_port"], int, "transport.tcp_port"),
-            timeout_s=self.number(t["timeout_s"], "transport.timeout_s", positive=True),
-            read_retries=retries,
-            functions=functions,
-        )
-
-    def axes(self, raw: Any) -> dict[str, int]:
-        a = self.table(raw, "axes", ("device_ids",))
-        ids = self.table(a["device_ids"], "axes.device_ids", AXIS_NAMES)
-        for axis, dev in ids.items():
-            self.typed(dev, int, f"axes.device_ids.{axis}")
-            # 0..255 on TCP; RTU allows 1..247 only (checked when the link is chosen)
-            if not 0 <= dev <= 255:
-                raise self.fail(f"axes.device_ids.{axis}", f"must be 0..255, got {dev}")
-        return {axis: ids[axis] for axis in AXIS_NAMES}
-
-    def codec(self, raw: Any) -> Codec:
-        c = self.table(raw, "codec", ("word_order", "counts_per_mm", "speed_counts_per_mm_s"))
-        return Codec(
-            word_order=self.choice(
-                c["word_order"], ("high_first", "low_first"), "codec.word_order"
-            ),
-            counts_per_mm=self.number(c["counts_per_mm"], "codec.counts_per_mm", positive=True),
-            speed_counts_per_mm_s=self.number(
-                c["speed_counts_per_mm_s"], "codec.speed_counts_per_mm_s", positive=True
-            ),
-        )
-
-    def values(self, raw: Any) -> dict[str, ValueSpec]:
-        table = self.named_entries(raw, "values")
+    def values(self, table: dict[str, dict[str, Any]]) -> dict[str, ValueSpec]:
         if not table:
             raise self.fail("values", "defines no value")
         out: dict[str, ValueSpec] = {}
-        for name, spec in table.items():
+        for name, v in table.items():
             key = f"values.{name}"
-            v = self.table(spec, key, ("address", "function", "type", "unit", "access"))
-            address = self.typed(v["address"], int, f"{key}.address")
-            function = self.choice(v["function"], ("holding", "coil"), f"{key}.function")
-            vtype = self.choice(v["type"], tuple(VALUE_TYPES), f"{key}.type")
-            unit = self.choice(v["unit"], UNITS, f"{key}.unit")
-            access = self.choice(v["access"], ("r", "w", "rw"), f"{key}.access")
-            if (function == "coil") != (vtype == "bool"):
+            spec = ValueSpec(name, **v)
+            if (spec.function == "coil") != (spec.type == "bool"):
                 raise self.fail(f"{key}.type", "coils are type 'bool' and only coils are")
-            if function == "coil" and unit != "raw":
+            if spec.function == "coil" and spec.unit != "raw":
                 raise self.fail(f"{key}.unit", "a coil has unit 'raw'")
-            words = VALUE_TYPES[vtype][0]
-            if not 0 <= address <= 0x10000 - words:
-                raise self.fail(f"{key}.address", f"{address:#x} is outside 0x0000..0xFFFF")
-            out[name] = ValueSpec(name, address, function, vtype, unit, access)
+            if spec.address + spec.words > 0x10000:
+                raise self.fail(f"{key}.address",
+                                f"{spec.address:#x} is outside 0x0000..0xFFFF")
+            out[name] = spec
         self._check_overlaps(out)
         return out
 
@@ -594,67 +559,42 @@ class _Parser:
                     )
                 taken[slot] = spec.name
 
-    def flags(self, raw: Any, values: Mapping[str, ValueSpec]) -> dict[str, FlagSpec]:
-        table = self.named_entries(raw, "flags")
+    def flags(self, table: dict[str, dict[str, Any]], values: Mapping[str, ValueSpec],
+              ) -> dict[str, FlagSpec]:
         missing = [name for name in FLAGS_REQUIRED if name not in table]
         if missing:
-            raise self.fail("flags", f"missing key(s) {', '.join(map(repr, missing))}")
+            raise self.fail("flags", f"missing flag {missing[0]!r}")
         out: dict[str, FlagSpec] = {}
-        for name, spec in table.items():
+        for name, f in table.items():
             key = f"flags.{name}"
-            f = self.table(spec, key, ("value", "bit"), optional=("invert",))
-            value = self.typed(f["value"], str, f"{key}.value")
-            target = values.get(value)
+            target = values.get(f["value"])
             if target is None:
-                raise self.fail(f"{key}.value", f"no value named {value!r} in [values]")
+                raise self.fail(f"{key}.value", f"no value named {f['value']!r} in [values]")
             if target.function != "holding" or target.words != 1 or not target.readable:
-                raise self.fail(f"{key}.value", f"{value!r} must be a readable 16-bit register")
-            bit = self.typed(f["bit"], int, f"{key}.bit")
-            if not 0 <= bit <= 15:
-                raise self.fail(f"{key}.bit", f"must be 0..15, got {bit}")
-            invert = self.typed(f.get("invert", False), bool, f"{key}.invert")
-            out[name] = FlagSpec(name, value, bit, invert)
+                raise self.fail(f"{key}.value",
+                                f"{f['value']!r} must be a readable 16-bit register")
+            out[name] = FlagSpec(name, f["value"], f["bit"], f.get("invert", False))
         return out
 
-    def status(
-        self, raw: Any, values: Mapping[str, ValueSpec], flags: Mapping[str, FlagSpec]
-    ) -> StatusSpec:
-        s = self.table(
-            raw,
-            "status",
-            ("position", "alarm_code", "alarm_code_read", "fault_flags", "max_gap_registers"),
-        )
+    def status(self, s: dict[str, Any], values: Mapping[str, ValueSpec],
+               flags: Mapping[str, FlagSpec]) -> StatusSpec:
         position = self._value_ref(s["position"], values, "status.position", readable=True)
         if values[position].unit != "mm":
             raise self.fail("status.position", f"{position!r} must have unit 'mm'")
-        alarm = self._value_ref(s["alarm_code"], values, "status.alarm_code", readable=True)
-        fault_flags = tuple(self.typed(s["fault_flags"], list, "status.fault_flags"))
-        for i, name in enumerate(fault_flags):
+        for i, name in enumerate(s["fault_flags"]):
             if name not in flags:
                 raise self.fail(f"status.fault_flags[{i}]", f"no flag named {name!r} in [flags]")
-        gap = self.typed(s["max_gap_registers"], int, "status.max_gap_registers")
-        if not 0 <= gap <= 32:
-            raise self.fail("status.max_gap_registers", f"must be 0..32, got {gap}")
         return StatusSpec(
             position=position,
-            alarm_code=alarm,
-            alarm_code_read=self.choice(
-                s["alarm_code_read"], ("always", "on_fault"), "status.alarm_code_read"
-            ),
-            fault_flags=fault_flags,
-            max_gap_registers=gap,
+            alarm_code=self._value_ref(s["alarm_code"], values, "status.alarm_code",
+                                       readable=True),
+            alarm_code_read=s["alarm_code_read"],
+            fault_flags=s["fault_flags"],
+            max_gap_registers=s["max_gap_registers"],
         )
 
-    def _value_ref(
-        self,
-        name: Any,
-        values: Mapping[str, ValueSpec],
-        key: str,
-        *,
-        readable: bool = False,
-        writable: bool = False,
-    ) -> str:
-        self.typed(name, str, key)
+    def _value_ref(self, name: str, values: Mapping[str, ValueSpec], key: str, *,
+                   readable: bool = False, writable: bool = False) -> str:
         spec = values.get(name)
         if spec is None:
             raise self.fail(key, f"no value named {name!r} in [values]")
@@ -664,88 +604,31 @@ class _Parser:
             raise self.fail(key, f"{name!r} is not writable (access {spec.access!r})")
         return name
 
-    def motion(self, raw: Any) -> MotionDefaults:
-        m = self.table(raw, "motion", ("speed_mm_s", "in_position_band_mm"))
-        return MotionDefaults(
-            speed_mm_s=self.number(m["speed_mm_s"], "motion.speed_mm_s", positive=True),
-            in_position_band_mm=self.number(
-                m["in_position_band_mm"], "motion.in_position_band_mm", positive=True
-            ),
-        )
+    def offset(self, offset: OffsetSpec, values: Mapping[str, ValueSpec]) -> OffsetSpec:
+        if offset.kind == "home_offset":
+            self._value_ref(offset.value, values, "offset.value", readable=True, writable=True)
+            target = values[offset.value]
+            if target.unit != "mm" or target.function != "holding":
+                raise self.fail("offset.value",
+                                f"{offset.value!r} must be a holding register in 'mm'")
+        return offset
 
-    def limits(self, raw: Any) -> Limits:
-        lim = self.table(raw, "limits", ("min_mm", "max_mm", "margin_mm"))
-        low = self.number(lim["min_mm"], "limits.min_mm")
-        high = self.number(lim["max_mm"], "limits.max_mm")
-        if low >= high:
-            raise self.fail("limits", f"min_mm {low} must be below max_mm {high}")
-        margin = self.number(lim["margin_mm"], "limits.margin_mm")
-        if margin < 0:
-            raise self.fail("limits.margin_mm", f"must be >= 0, got {margin}")
-        return Limits(low, high, margin)
-
-    def timing(self, raw: Any) -> Timing:
-        keys = ("ack_timeout_s", "enable_timeout_s", "home_timeout_s", "move_timeout_s")
-        t = self.table(raw, "timing", keys)
-        return Timing(*(self.number(t[k], f"timing.{k}", positive=True) for k in keys))
-
-    def offset(self, raw: Any, values: Mapping[str, ValueSpec]) -> OffsetSpec:
-        kind = self.choice(
-            raw.get("kind") if isinstance(raw, Mapping) else None,
-            ("software", "home_offset"),
-            "offset.kind",
-        )
-        if kind == "software":
-            self.table(raw, "offset", ("kind",))
-            return OffsetSpec(kind="software")
-        o = self.table(raw, "offset", ("kind", "value", "sign", "write_when_disabled"))
-        value = self._value_ref(o["value"], values, "offset.value", readable=True, writable=True)
-        if values[value].unit != "mm" or values[value].function != "holding":
-            raise self.fail("offset.value", f"{value!r} must be a holding register in 'mm'")
-        return OffsetSpec(
-            kind="home_offset",
-            value=value,
-            sign=self.choice(o["sign"], (1, -1), "offset.sign"),
-            write_when_disabled=self.typed(
-                o["write_when_disabled"], bool, "offset.write_when_disabled"
-            ),
-        )
-
-    def nvm(self, raw: Any, values: Mapping[str, ValueSpec]) -> NvmSpec:
-        kind = self.choice(
-            raw.get("kind") if isinstance(raw, Mapping) else None,
-            ("none", "store_parameters"),
-            "nvm.kind",
-        )
-        if kind == "none":
-            self.table(raw, "nvm", ("kind",))
-            return NvmSpec(kind="none")
-        n = self.table(raw, "nvm", ("kind", "value", "signature"))
-        value = self._value_ref(n["value"], values, "nvm.value", writable=True)
-        signature = self.typed(n["signature"], int, "nvm.signature")
-        if values[value].unit != "raw" or values[value].function != "holding":
-            raise self.fail("nvm.value", f"{value!r} must be a raw holding register")
-        return NvmSpec(kind="store_parameters", value=value, signature=signature)
-
-    def sim(self, raw: Any) -> SimSpec:
-        s = self.table(raw, "sim", ("soft_limit_alarm_code",))
-        code = self.typed(s["soft_limit_alarm_code"], int, "sim.soft_limit_alarm_code")
-        if not 1 <= code <= 0xFFFF:
-            raise self.fail("sim.soft_limit_alarm_code", f"must be 1..0xFFFF, got {code}")
-        return SimSpec(soft_limit_alarm_code=code)
+    def nvm(self, nvm: NvmSpec, values: Mapping[str, ValueSpec]) -> NvmSpec:
+        if nvm.kind == "store_parameters":
+            self._value_ref(nvm.value, values, "nvm.value", writable=True)
+            if values[nvm.value].unit != "raw" or values[nvm.value].function != "holding":
+                raise self.fail("nvm.value", f"{nvm.value!r} must be a raw holding register")
+        return nvm
 
     # ---- command sequences
 
-    def commands(
-        self, raw: Any, values: Mapping[str, ValueSpec], flags: Mapping[str, FlagSpec]
-    ) -> dict[str, Command]:
-        table = self.table(raw, "commands", COMMANDS_REQUIRED)
+    def commands(self, table: dict[str, dict[str, Any]], values: Mapping[str, ValueSpec],
+                 flags: Mapping[str, FlagSpec]) -> dict[str, Command]:
         out: dict[str, Command] = {}
-        for name, spec in table.items():
+        for name, c in table.items():
             key = f"commands.{name}"
-            c = self.table(spec, key, ("start",), optional=("finish",))
             start = self.steps(c["start"], f"{key}.start", values, flags)
-            finish = self.steps(c.get("finish", []), f"{key}.finish", values, flags)
+            finish = self.steps(c.get("finish", ()), f"{key}.finish", values, flags)
             # An edge-triggered write is never re-sent, so the command must read
             # back whether it was taken: a wait/confirm step has to follow it,
             # later in `start` or in `finish` (after every axis has started).
@@ -760,108 +643,77 @@ class _Parser:
             out[name] = Command(name, start, finish)
         return out
 
-    def steps(
-        self, raw: Any, key: str, values: Mapping[str, ValueSpec], flags: Mapping[str, FlagSpec]
-    ) -> tuple[Step, ...]:
-        self.typed(raw, list, key)
+    def steps(self, raw: tuple[dict[str, Any], ...], key: str, values: Mapping[str, ValueSpec],
+              flags: Mapping[str, FlagSpec]) -> tuple[CommandStep, ...]:
         return tuple(self.step(item, f"{key}[{i}]", values, flags) for i, item in enumerate(raw))
 
-    def step(
-        self, raw: Any, key: str, values: Mapping[str, ValueSpec], flags: Mapping[str, FlagSpec]
-    ) -> Step:
-        op = self.choice(raw.get("op") if isinstance(raw, Mapping) else None, STEP_OPS, f"{key}.op")
+    def step(self, s: dict[str, Any], key: str, values: Mapping[str, ValueSpec],
+             flags: Mapping[str, FlagSpec]) -> CommandStep:
+        op = s["op"]
+        timeout = self._timeout(s.get("timeout_s", "$ack_timeout_s"), f"{key}.timeout_s")
         if op == "write":
-            s = self.table(raw, key, ("op", "to", "value"), optional=("edge", "skip_unchanged"))
             to = self._value_ref(s["to"], values, f"{key}.to", writable=True)
             value = self._step_value(s["value"], values[to], f"{key}.value")
-            edge = self._edge(s, key)
-            skip = self.typed(s.get("skip_unchanged", False), bool, f"{key}.skip_unchanged")
+            edge, skip = s.get("edge", False), s.get("skip_unchanged", False)
             if edge and skip:
                 raise self.fail(key, "an edge-triggered write is always sent: "
                                      "edge and skip_unchanged exclude each other")
-            return Step(op, to=(to,), value=(value,), edge=edge, skip_unchanged=skip)
+            return CommandStep(op, to=(to,), value=(value,), edge=edge, skip_unchanged=skip)
         if op == "write_block":
-            s = self.table(raw, key, ("op", "to", "value"), optional=("edge",))
-            names = self.typed(s["to"], list, f"{key}.to")
-            given = self.typed(s["value"], list, f"{key}.value")
+            names, given = s["to"], s["value"]
             if not names or len(names) != len(given):
                 raise self.fail(key, "'to' and 'value' must be non-empty lists of equal length")
-            refs = [
-                self._value_ref(n, values, f"{key}.to[{i}]", writable=True)
-                for i, n in enumerate(names)
-            ]
+            refs = [self._value_ref(n, values, f"{key}.to[{i}]", writable=True)
+                    for i, n in enumerate(names)]
             for prev, nxt in zip(refs, refs[1:], strict=False):
                 a, b = values[prev], values[nxt]
-                if (
-                    a.function != "holding"
-                    or b.function != "holding"
-                    or a.address + a.words != b.address
-                ):
-                    raise self.fail(
-                        f"{key}.to", f"{prev!r} and {nxt!r} are not contiguous registers"
-                    )
-            vals = tuple(
-                self._step_value(v, values[n], f"{key}.value[{i}]")
-                for i, (n, v) in enumerate(zip(refs, given, strict=True))
-            )
-            return Step(op, to=tuple(refs), value=vals, edge=self._edge(s, key))
+                if a.function != "holding" or b.function != "holding" \
+                        or a.address + a.words != b.address:
+                    raise self.fail(f"{key}.to", f"{prev!r} and {nxt!r} are not contiguous "
+                                    "registers")
+            vals = tuple(self._step_value(v, values[n], f"{key}.value[{i}]")
+                         for i, (n, v) in enumerate(zip(refs, given, strict=True)))
+            return CommandStep(op, to=tuple(refs), value=vals, edge=s.get("edge", False))
         if op == "wait":
-            s = self.table(raw, key, ("op", "flag", "state"), optional=("timeout_s",))
-            flag = self._flag_ref(s["flag"], flags, f"{key}.flag")
-            return Step(
-                op,
-                flag=flag,
-                state=self.typed(s["state"], bool, f"{key}.state"),
-                timeout_s=self._timeout(s.get("timeout_s", "$ack_timeout_s"), f"{key}.timeout_s"),
-            )
-        s = self.table(raw, key, ("op", "any", "done", "at"), optional=("timeout_s",))
-        any_flags = tuple(
-            self._flag_ref(f, flags, f"{key}.any[{i}]")
-            for i, f in enumerate(self.typed(s["any"], list, f"{key}.any"))
-        )
+            return CommandStep(op, flag=self._flag_ref(s["flag"], flags, f"{key}.flag"),
+                               state=s["state"], timeout_s=timeout)
+        any_flags = tuple(self._flag_ref(f, flags, f"{key}.any[{i}]")
+                          for i, f in enumerate(s["any"]))
         at = s["at"]
         if isinstance(at, str):
             self._param(at, f"{key}.at")
-        else:
-            self.number(at, f"{key}.at")
-        return Step(
-            op,
-            any=any_flags,
-            done=self._flag_ref(s["done"], flags, f"{key}.done"),
-            at=at,
-            timeout_s=self._timeout(s.get("timeout_s", "$ack_timeout_s"), f"{key}.timeout_s"),
-        )
+        return CommandStep(op, any=any_flags, done=self._flag_ref(s["done"], flags,
+                                                                  f"{key}.done"),
+                           at=at, timeout_s=timeout)
 
-    def _edge(self, s: Mapping[str, Any], key: str) -> bool:
-        return self.typed(s.get("edge", False), bool, f"{key}.edge")
-
-    def _flag_ref(self, name: Any, flags: Mapping[str, FlagSpec], key: str) -> str:
-        self.typed(name, str, key)
+    def _flag_ref(self, name: str, flags: Mapping[str, FlagSpec], key: str) -> str:
         if name not in flags:
             raise self.fail(key, f"no flag named {name!r} in [flags]")
         return name
 
-    def _param(self, text: str, key: str) -> str:
-        if not text.startswith("$") or text[1:] not in STEP_PARAMETERS:
-            raise self.fail(key, f"{text!r} is not one of ${', $'.join(STEP_PARAMETERS)}")
-        return text
+    def _param(self, given: str, key: str) -> str:
+        if not given.startswith("$") or given[1:] not in STEP_PARAMETERS:
+            raise self.fail(key, f"{given!r} is not one of ${', $'.join(STEP_PARAMETERS)}")
+        return given
 
-    def _timeout(self, raw: Any, key: str) -> float | str:
-        if isinstance(raw, str):
-            return self._param(raw, key)
-        return self.number(raw, key, positive=True)
+    def _timeout(self, given: float | str, key: str) -> float | str:
+        return self._param(given, key) if isinstance(given, str) else given
 
-    def _step_value(self, raw: Any, spec: ValueSpec, key: str) -> Any:
-        if isinstance(raw, str):
-            return self._param(raw, key)
+    def _step_value(self, given: Any, spec: ValueSpec, key: str) -> Any:
+        if isinstance(given, str):
+            return self._param(given, key)
         if spec.function == "coil":
-            return self.typed(raw, bool, key)
+            if not isinstance(given, bool):
+                raise self.fail(key, f"must be true or false, got {given!r}")
+            return given
+        if isinstance(given, bool) or (spec.unit == "raw" and not isinstance(given, int)):
+            kind = "a whole number" if spec.unit == "raw" else "a number"
+            raise self.fail(key, f"must be {kind}, got {given!r}")
         if spec.unit == "raw":
-            value = self.typed(raw, int, key)
             bits = 16 * spec.words
             low = -(1 << (bits - 1)) if spec.signed else 0
             high = (1 << (bits - 1)) - 1 if spec.signed else (1 << bits) - 1
-            if not low <= value <= high:
-                raise self.fail(key, f"{value} does not fit {spec.type} value {spec.name!r}")
-            return value
-        return self.number(raw, key)
+            if not low <= given <= high:
+                raise self.fail(key, f"{given} does not fit {spec.type} value {spec.name!r}")
+            return given
+        return float(given)

@@ -24,6 +24,7 @@ from drivers.link import LinkSettings, open_link
 
 __all__ = [
     "BACKENDS",
+    "DEFAULT_PROTOCOL",
     "Backend",
     "Indicator",
     "Reading",
@@ -104,6 +105,8 @@ BACKENDS: Mapping[str, Backend] = MappingProxyType(
         ),
     }
 )
+#: What a gauge speaks unless told (campaign files, the simulator, the wizard).
+DEFAULT_PROTOCOL = "mitutoyo-01a"
 
 
 def backend(protocol: str) -> Backend:

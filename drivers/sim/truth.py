@@ -17,15 +17,14 @@ table per effect, plus the gauges' noise and an out-of-library lead-screw error
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
-from ogacq.io.errors import InputError
-from ogacq.io.toml_file import line_of, read_toml
-from ogacq.model.parameters import AXES, EFFECT_BY_NAME, PARAM_INDEX, vector
+from drivers.config_schema import Field, MapOf, Table, number
+from ogacq.io.toml_file import load_toml
+from ogacq.model.parameters import AXES, EFFECTS, PARAM_INDEX, vector
 
 
 @dataclass(frozen=True)
@@ -62,55 +61,28 @@ def random_truth(seed: int, offsets_mm: float = 1.5, noise_mm: float = 0.001) ->
     return SimTruth(vector(values), noise_mm)
 
 
+# The effects file's schema: one table per effect of the vocabulary, its entries
+# in the effect's unit; the gauges' noise; the out-of-library lead-screw error.
+EFFECTS_FILE = Table((
+    *(Field(e.name, MapOf(number(), keys=e.wheres, noun="entry"))
+      for e in EFFECTS),
+    Field("gauges", Table((Field("noise_mm", number(minimum=0.0)),))),
+    Field("lead_screw", MapOf(Table((
+        Field("amplitude_mm", number(), required=True),
+        Field("pitch_mm", number(positive=True), required=True),
+    ), build=LeadScrewError), keys=AXES, noun="axis")),
+), noun="effect")
+
+
 def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
-    """``base`` with the effects file's entries applied on top."""
-    path = Path(path)
-    try:
-        data, text = read_toml(path, "effects file")
-    except FileNotFoundError:
-        raise InputError(path, "no such effects file") from None
+    """``base`` with the effects file's entries applied on top (a nan or inf effect
+    would crash the simulated gauges: the schema refuses them)."""
+    given, _ = load_toml(path, EFFECTS_FILE, "the effects file")
     theta = base.theta.copy()
-    noise = base.noise_mm
-    lead: dict[int, LeadScrewError] = dict(base.lead_screw)
-    for section, entries in data.items():
-        if not isinstance(entries, dict):
-            raise InputError(path, f"{section!r} must be a table like [{section}]",
-                             line_of(text, section))
-        if section == "gauges":
-            for key, value in entries.items():
-                if key != "noise_mm" or not _is_number(value) or value < 0:
-                    raise InputError(path, f"[gauges] takes noise_mm = a number >= 0, got "
-                                     f"{key} = {value!r}", line_of(text, key))
-                noise = float(value)
-            continue
-        if section == "lead_screw":
-            for axis, spec in entries.items():
-                if axis not in AXES or not isinstance(spec, dict) or \
-                        set(spec) != {"amplitude_mm", "pitch_mm"} or \
-                        not all(_is_number(v) for v in spec.values()) or spec["pitch_mm"] <= 0:
-                    raise InputError(path, f"[lead_screw.{axis}] needs axis x, y or z with "
-                                     "amplitude_mm and pitch_mm > 0", line_of(text, axis))
-                lead[AXES.index(axis)] = LeadScrewError(float(spec["amplitude_mm"]),
-                                                        float(spec["pitch_mm"]))
-            continue
-        effect = EFFECT_BY_NAME.get(section)
-        if effect is None:
-            raise InputError(path, f"unknown effect [{section}]; known: "
-                             f"{', '.join(EFFECT_BY_NAME)}, gauges, lead_screw",
-                             line_of(text, section))
-        for where, value in entries.items():
-            name = f"{section}.{where}"
-            if name not in PARAM_INDEX:
-                raise InputError(path, f"[{section}] has no {where!r}; it takes "
-                                 f"{', '.join(effect.wheres)}", line_of(text, where))
-            if not _is_number(value):
-                raise InputError(path, f"{name} must be a finite number in {effect.unit}",
-                                 line_of(text, where))
-            theta[PARAM_INDEX[name]] = float(value)
+    for effect in EFFECTS:
+        for where, value in given.get(effect.name, {}).items():
+            theta[PARAM_INDEX[f"{effect.name}.{where}"]] = value
+    noise = given.get("gauges", {}).get("noise_mm", base.noise_mm)
+    lead = {**base.lead_screw,
+            **{AXES.index(axis): err for axis, err in given.get("lead_screw", {}).items()}}
     return SimTruth(theta, noise, lead)
-
-
-def _is_number(value: object) -> bool:
-    """A finite number (a nan or inf effect would crash the simulated gauges)."""
-    return isinstance(value, int | float) and not isinstance(value, bool) and \
-        math.isfinite(value)

@@ -12,7 +12,7 @@ from typing import Annotated
 import typer
 
 from ogacq.campaign import run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
 from ogacq.cli.options import ProfileChoice, seed_option
 from ogacq.cli.outputs import check_output_folder
@@ -20,15 +20,11 @@ from ogacq.cli.render import print_demo_diagnosis
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError
+from ogacq.io.machine_file import write_machine
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
+from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
-
-DEMO_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators
-leg_length_mm = 310.25
-rho_min_mm = -100.0
-rho_max_mm = 60.0
-gauge_resolution_mm = 0.001
-"""
 
 
 def demo(
@@ -51,14 +47,18 @@ def demo(
     # Read now, as text: a process substitution (a pipe) can be read only once.
     effects_text = _read_effects(effects) if effects is not None else None
     folder.mkdir(parents=True, exist_ok=True)
-    (folder / "machine.toml").write_text(DEMO_MACHINE)
-    sim = [f"seed = {seed}", f"speed = {speed}", f'profile = "{profile.value}"']
+    machine_path = write_machine(folder / "machine.toml", PAPER_PROTOTYPE_DIGITAL,
+                                 PAPER_PROTOTYPE_DIGITAL_NOTE)
+    effects_path = None
     if effects_text is not None:
-        (folder / "effects.toml").write_text(effects_text)
-        sim.append('effects = "effects.toml"')
-    (folder / "campaign.toml").write_text(
-        'machine = "machine.toml"\nsession = "session.jsonl"\n\n[simulator]\n'
-        + "\n".join(sim) + "\n\n[protocol]\nsettle_s = 1.0\n")
+        effects_path = folder / "effects.toml"
+        effects_path.write_text(effects_text, encoding="utf-8")
+    (folder / "campaign.toml").write_text(campaign_text(Campaign(
+        folder / "campaign.toml", PAPER_PROTOTYPE_DIGITAL, machine_path,
+        folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
+        simulator=SimulatorSpec(seed=seed, effects=effects_path, speed=speed,
+                                profile=profile.value)),
+        comment="written by `ogacq demo`"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")

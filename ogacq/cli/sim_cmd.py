@@ -10,7 +10,7 @@ from typing import Annotated
 
 import typer
 
-from drivers.indicators import BACKENDS
+from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from drivers.sim.stack import SimulatorConfig, SimulatorStack
 from drivers.sim.truth import random_truth, read_effects
 from ogacq.cli.options import GaugeProtocol, JsonOption, ProfileChoice, seed_option
@@ -34,7 +34,7 @@ def sim(
     speed: Annotated[float, typer.Option(
         min=0.01, help="Simulated time runs this many times faster than real time.")] = 1.0,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
-        help="What the simulated gauges speak.")] = GaugeProtocol["mitutoyo-01a"],
+        help="What the simulated gauges speak.")] = GaugeProtocol[DEFAULT_PROTOCOL],
     gauge: Annotated[list[str] | None, typer.Option(
         help="GAUGE=PROTOCOL for one gauge (repeatable), e.g. z_y=usb-itn: a mixed "
              "station.")] = None,

@@ -7,6 +7,7 @@ from typing import Annotated
 
 import typer
 
+from drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.cli.options import GaugeProtocol, ProfileChoice, seed_option
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.wizard import WizardOptions, run_wizard
@@ -53,7 +54,7 @@ def wizard(
     resume: Annotated[Path | None, typer.Option(
         help="Continue this session with the wizard.")] = None,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
-        help="Simulator: what the simulated gauges speak.")] = GaugeProtocol["mitutoyo-01a"],
+        help="Simulator: what the simulated gauges speak.")] = GaugeProtocol[DEFAULT_PROTOCOL],
     simulate_fault: Annotated[list[str] | None, typer.Option(
         hidden=True, help="Simulator: GAUGE:KIND@N[xCOUNT], a gauge fault after N "
                           "readings.")] = None,

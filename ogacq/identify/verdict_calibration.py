@@ -23,13 +23,13 @@ from scipy import stats
 from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.observations import readings_observations
-from ogacq.model.machine import MachineSpec
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, MachineSpec
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import PARAM_SETS, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 GEOMETRIES = {
-    "prototype": MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001),
+    "prototype": PAPER_PROTOTYPE_DIGITAL,
     "large": MachineSpec(620.0, -220.0, 180.0, gauge_resolution_mm=0.001),
 }
 PROTOCOLS: dict[str, tuple[str | float, ...]] = {

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 
 @dataclass(frozen=True)
@@ -48,5 +48,14 @@ class MachineSpec:
         return math.asin(self.rho_min_mm / self.leg_length_mm)
 
 
+# The Orthoglide prototype of the papers: L = 310.25 mm (2008 section 2.1), rho from
+# -100 to +60 mm (2008 section 4.1), comparator indicators of 10 um resolution (2006
+# section 4 "Experimental setup", 2008 section 4.1; MODEL.md "Machine").
 PAPER_PROTOTYPE = MachineSpec(leg_length_mm=310.25, rho_min_mm=-100.0, rho_max_mm=60.0,
                               gauge_resolution_mm=0.01, name="Orthoglide prototype")
+# The same machine with the 1 um digital indicators the 2008 paper recommends for
+# industrial use (section 4.1): what the demo and the wizard's rehearsal simulate.
+DIGITAL_INDICATOR_RESOLUTION_MM = 0.001
+PAPER_PROTOTYPE_DIGITAL = replace(PAPER_PROTOTYPE,
+                                  gauge_resolution_mm=DIGITAL_INDICATOR_RESOLUTION_MM)
+PAPER_PROTOTYPE_DIGITAL_NOTE = "the papers' Orthoglide prototype, with 1 um digital indicators"

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import contextlib
 import logging
-import math
 import os
 import tempfile
 import time
@@ -25,14 +24,25 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ogacq.io.errors import InputError
-from ogacq.io.toml_file import line_of, read_toml
+from drivers.config_schema import Field, Table, dump, load, number, text
+from ogacq.io.toml_file import read_toml
 from ogacq.model.parameters import AXES
 
 log = logging.getLogger(__name__)
 
 FORMAT = "ogacq-offsets/1"
-_TOP = {"format", "written", "session", "action", "joint_offset_mm"}
+HEADER = """Software joint offsets (mm), applied by ogacq to every commanded position:
+controller coordinate q = raw position - offset. Written by `ogacq offsets`;
+the session named below records the old and new values."""
+
+OFFSET_TABLE_FILE = Table((
+    Field("format", text(FORMAT)),
+    Field("written", text()),
+    Field("session", text()),
+    Field("action", text()),
+    Field("joint_offset_mm", Table(tuple(Field(a, number(), required=True) for a in AXES),
+                                   noun="axis"), required=True),
+))
 
 
 @dataclass(frozen=True)
@@ -47,39 +57,13 @@ def read_offset_table(path: str | Path) -> OffsetTable:
     """The table at ``path``; a missing file means no offsets yet (all zero)."""
     path = Path(path)
     try:
-        data, text = read_toml(path, "the offset table")
+        data, source = read_toml(path, "the offset table")
     except FileNotFoundError:
         return OffsetTable(path, dict.fromkeys(AXES, 0.0), exists=False)
-    for key in data:
-        if key not in _TOP:
-            raise InputError(path, f"unknown key {key!r} in the offset table (allowed: "
-                             f"{', '.join(sorted(_TOP))})", line_of(text, key))
-    if data.get("format", FORMAT) != FORMAT:
-        raise InputError(path, f"offset table format {data['format']!r} is not {FORMAT!r}",
-                         line_of(text, "format"))
-    table = data.get("joint_offset_mm")
-    if not isinstance(table, dict):
-        raise InputError(path, "missing [joint_offset_mm] (x, y, z in mm)")
-    offsets: dict[str, float] = {}
-    for key, value in table.items():
-        line = line_of(text, key)
-        if key not in AXES:
-            raise InputError(path, f"[joint_offset_mm] has unknown axis {key!r} (x, y, z)", line)
-        if isinstance(value, bool) or not isinstance(value, int | float) \
-                or not math.isfinite(value):
-            raise InputError(path, f"joint_offset_mm.{key} must be a finite number of mm, "
-                             f"got {value!r}", line)
-        offsets[key] = float(value)
-    missing = [a for a in AXES if a not in offsets]
-    if missing:
-        raise InputError(path, f"[joint_offset_mm] lacks {', '.join(missing)}",
-                         line_of(text, "joint_offset_mm"))
-    about = {k: data[k] for k in ("written", "session", "action") if k in data}
-    return OffsetTable(path, offsets, exists=True, about=about)
-
-
-def _toml_string(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    given = load(OFFSET_TABLE_FILE, data, source)
+    offsets = given.pop("joint_offset_mm")
+    given.pop("format", None)
+    return OffsetTable(path, {a: offsets[a] for a in AXES}, exists=True, about=given)
 
 
 def write_offset_table(path: str | Path, offsets_mm: dict[str, float], *,
@@ -88,27 +72,14 @@ def write_offset_table(path: str | Path, offsets_mm: dict[str, float], *,
     and return it as read back from disk."""
     path = Path(path)
     values = {a: float(offsets_mm[a]) for a in AXES}
-    bad = {a: v for a, v in values.items() if not math.isfinite(v)}
-    if bad:
-        raise ValueError(f"offset table: {bad} are not finite numbers")
-    lines = [
-        "# Software joint offsets (mm), applied by ogacq to every commanded position:",
-        "# controller coordinate q = raw position - offset. Written by `ogacq offsets`;",
-        "# the session named below records the old and new values.",
-        f"format = {_toml_string(FORMAT)}",
-        f"written = {_toml_string(time.strftime('%Y-%m-%dT%H:%M:%S%z'))}",
-        f"session = {_toml_string(session)}",
-        f"action = {_toml_string(action)}",
-        "",
-        "[joint_offset_mm]",
-        # repr round-trips a float exactly, and is valid TOML for finite values
-        *(f"{a} = {values[a]!r}" for a in AXES),
-    ]
+    content = dump(OFFSET_TABLE_FILE, {
+        "format": FORMAT, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        "session": session, "action": action, "joint_offset_mm": values}, header=HEADER)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write("\n".join(lines) + "\n")
+            fh.write(content)
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)

@@ -19,7 +19,7 @@ ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
     (HEAD + CONTROLLER + ALL_GAUGES.replace("channel = 2", "channel = 1"), 11,
      "gauges y_x (line 6) and z_x of the x leg both on port /dev/ttyUSB0 channel 1"),
     (HEAD + CONTROLLER + ALL_GAUGES.replace('gauge = "y_z"', 'gauge = "z_z"'), 32,
-     "is not one of"),
+     "gauges[5].gauge must be one of"),
     (HEAD + CONTROLLER + gauge("y_x", "/dev/ttyUSB0"), None, "no [[gauges]] entry for"),
     (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\napproach = "sideways"\n', 37, "approach"),
     (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\nsettle_s = -1\n', 37,
@@ -98,7 +98,7 @@ def test_every_cable_is_named_like_the_others(tmp_path):
 
 @pytest.mark.parametrize(("table", "words"), [
     ('gauge_protocols = { z_q = "usb-itn" }', "'z_q' is not one of"),
-    ('gauge_protocols = { z_y = "usb-itm" }', "z_y = 'usb-itm' is not one of"),
+    ('gauge_protocols = { z_y = "usb-itm" }', "gauge_protocols.z_y must be one of"),
     ('gauge_protocol = "rs232"', "simulator.gauge_protocol must be one of"),
     ('gauge_layout = "multiplexer"\ngauge_protocol = "usb-itn"', "01A box"),
 ])
@@ -146,7 +146,7 @@ def test_endpoint_per_axis_and_unit_ids(tmp_path):
 
 @pytest.mark.parametrize(("axes", "words"), [
     ('x = { port = "10.0.0.11:502" }\n', "needs 'port', or a port for each of x, y and z"),
-    ('w = { port = "10.0.0.11:502" }\n', "has no axis 'w'"),
+    ('w = { port = "10.0.0.11:502" }\n', "axis 'w' is not one of x, y, z"),
     ('x = { port = "a:1", device_id = 300 }\n', "device_id must be 0..255"),
     ('x = { port = "a:1", unit = 3 }\n', "unknown key 'unit'"),
     ('x = { port = "/dev/ttyUSB0", device_id = 255 }\ny = { port = "a:1" }\n'

@@ -95,7 +95,7 @@ def test_the_json_contract_is_unchanged_by_the_checks(session):
     assert set(out["base"]) == {"chi2_dof", "rms_mm", "consistent"}
 
 
-@pytest.mark.parametrize(("value", "words"), [("inf", "finite length"), ("1e308", "at most")])
+@pytest.mark.parametrize(("value", "words"), [("inf", "finite number"), ("1e308", "at most")])
 def test_a_machine_file_with_an_impossible_length_is_refused(paper_dir, tmp_path, value, words):
     text = (paper_dir / "machine.toml").read_text()
     (tmp_path / "m.toml").write_text(text.replace("leg_length_mm = 310.25",

@@ -47,10 +47,15 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
 @pytest.mark.parametrize(
     ("old", "new", "key", "message"),
     [
-        ("counts_per_mm = 100.0 ", "", "codec", "missing key(s) 'counts_per_mm'"),
-        ("[codec]\n", "[codec]\nwords_order = 1\n", "codec", "unknown key(s) 'words_order'"),
+        ("counts_per_mm = 100.0 ", "", "codec", "missing key 'counts_per_mm'"),
+        ("[codec]\n", "[codec]\nwords_order = 1\n", "codec", "unknown key 'words_order'"),
         ('word_order = "high_first"', 'word_order = "big"', "codec.word_order", "must be one of"),
-        ("address = 0x9000,", "address = true,", "values.position_actual.address", "must be int"),
+        (
+            "address = 0x9000,",
+            "address = true,",
+            "values.position_actual.address",
+            "must be a whole number",
+        ),
         ("bit = 12 }  # SV [ME0162 DSS1]", "bit = 16 }", "flags.servo_on.bit", "must be 0..15"),
         (
             'value = "expansion_status", bit = 5',

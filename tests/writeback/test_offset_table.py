@@ -31,8 +31,8 @@ def test_round_trip_exact_and_missing_means_zero(tmp_path):
 
 @pytest.mark.parametrize(("text", "line", "words"), [
     ('[joint_offset_mm]\nx = 0.1\ny = 0.2\nw = 0.3\n', 4, "unknown axis 'w'"),
-    ('[joint_offset_mm]\nx = 0.1\ny = "0.2"\nz = 0.3\n', 3, "must be a finite number"),
-    ('[joint_offset_mm]\nx = 0.1\ny = 0.2\n', 1, "lacks z"),
+    ('[joint_offset_mm]\nx = 0.1\ny = "0.2"\nz = 0.3\n', 3, "joint_offset_mm.y must be a number"),
+    ('[joint_offset_mm]\nx = 0.1\ny = 0.2\n', 1, "[joint_offset_mm] needs 'z'"),
     ('colour = 1\n[joint_offset_mm]\nx = 0.1\ny = 0.2\nz = 0.3\n', 1, "unknown key 'colour'"),
     ('format = "other/9"\n', 1, "format"),
     ('[joint_offset_mm\n', 1, "not valid TOML"),

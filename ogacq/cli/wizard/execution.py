@@ -8,15 +8,19 @@ wrapped (checkpoints for Ctrl-C, gauges read by eye, live values).
 
 from __future__ import annotations
 
-import json
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
 from ogacq.campaign import CampaignOutcome, StationWrapper, run_campaign
-from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
-from ogacq.protocol.plan import ProtocolConfig
+from ogacq.campaign_file import (
+    Campaign,
+    ControllerSpec,
+    GaugeSpec,
+    SimulatorSpec,
+    campaign_text,
+)
 from ogacq.protocol.runner import GaugeSetter, Observer
 from ogacq.session.store import LoadedSession
 from ogacq.station import simulator_endpoints, start_simulator
@@ -70,14 +74,24 @@ def run_guided(campaign: Campaign, *, wrap: StationWrapper, observer: Observer,
 
 # ---------------------------------------------------------------- the campaign file
 
-def _toml(value: Any) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return json.dumps(value)  # a TOML basic string is a JSON string
-    if isinstance(value, list | tuple):
-        return "[" + ", ".join(_toml(v) for v in value) + "]"
-    return repr(value)
+def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsal | None,
+                       purpose: str = "") -> str:
+    """The campaign file (``ogacq/campaign_file.py``) for what the technician chose."""
+    purpose = purpose or ("continue an interrupted campaign with: ogacq resume "
+                          f"{_relative(campaign.session, Path.cwd())}")
+    notes = {}
+    if rehearsal is not None:
+        campaign = replace(campaign, simulator=rehearsal.spec, controller=None, gauges=[])
+        notes["simulator"] = (
+            "a rehearsal on the built-in simulator (ports of this run: controller "
+            f"{rehearsal.controller.endpoints()}; gauges "
+            + ", ".join(f"{g.gauge} {g.port}" for g in rehearsal.gauges) + ")")
+    if by_eye:
+        notes["protocol"] = (f"read by eye in the wizard (no [[gauges]] entry): "
+                             f"{', '.join(sorted(by_eye))}; continue with `ogacq wizard "
+                             "--resume`")
+    return campaign_text(campaign, notes=notes, comment=(
+        f"written by `ogacq wizard` on {time.strftime('%Y-%m-%d %H:%M')}\n{purpose}"))
 
 
 def _relative(path: Path, folder: Path) -> str:
@@ -85,57 +99,6 @@ def _relative(path: Path, folder: Path) -> str:
         return str(path.resolve().relative_to(folder.resolve()))
     except ValueError:
         return str(path.resolve())
-
-
-def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsal | None,
-                       purpose: str = "") -> str:
-    """The TOML of ``ogacq/campaign_file.py`` for what the technician chose."""
-    folder = campaign.path.parent
-    purpose = purpose or ("continue an interrupted campaign with: ogacq resume "
-                          f"{_relative(campaign.session, Path.cwd())}")
-    lines = [f"# written by `ogacq wizard` on {time.strftime('%Y-%m-%d %H:%M')}",
-             f"# {purpose}",
-             f"machine = {_toml(_relative(campaign.machine_path, folder))}",
-             f"session = {_toml(_relative(campaign.session, folder))}", ""]
-    if rehearsal is not None:
-        lines += ["# a rehearsal on the built-in simulator (ports of this run: controller "
-                  f"{rehearsal.controller.endpoints()}; gauges "
-                  + ", ".join(f"{g.gauge} {g.port}" for g in rehearsal.gauges) + ")",
-                  "[simulator]"]
-        lines += [f"{k} = {_toml(v)}" for k, v in (("seed", rehearsal.spec.seed),
-                                                   ("speed", rehearsal.spec.speed),
-                                                   ("profile", rehearsal.spec.profile))]
-        if rehearsal.spec.effects:
-            lines.append(f"effects = {_toml(str(rehearsal.spec.effects))}")
-        if rehearsal.spec.gauge_layout != "separate":
-            lines.append(f"gauge_layout = {_toml(rehearsal.spec.gauge_layout)}")
-        lines.append("")
-    else:
-        assert campaign.controller is not None
-        spec = campaign.controller
-        lines += ["[controller]", f"profile = {_toml(spec.profile)}"]
-        if spec.port:
-            lines.append(f"port = {_toml(spec.port)}")
-        if spec.axes:  # one endpoint per axis (a drive per address)
-            lines.append("[controller.axes]")
-            for axis, endpoint in spec.axes.items():
-                fields = ([f"port = {_toml(endpoint.port)}"] if endpoint.port else []) + \
-                    ([f"device_id = {endpoint.device_id}"] if endpoint.device_id is not None
-                     else [])
-                lines.append(f"{axis} = {{ {', '.join(fields)} }}")
-        lines.append("")
-        for gauge in campaign.gauges:
-            lines += ["[[gauges]]", f"gauge = {_toml(gauge.gauge)}",
-                      f"protocol = {_toml(gauge.protocol)}", f"port = {_toml(gauge.port)}",
-                      f"unit = {_toml(gauge.unit)}", ""]
-    if by_eye:
-        lines += [f"# read by eye in the wizard (no [[gauges]] entry): "
-                  f"{', '.join(sorted(by_eye))}; continue with `ogacq wizard --resume`", ""]
-    plan = campaign.protocol.to_dict()
-    stability = plan.pop("stability")
-    lines += ["[protocol]", *(f"{k} = {_toml(v)}" for k, v in plan.items()), "",
-              "[stability]", *(f"{k} = {_toml(v)}" for k, v in stability.items()), ""]
-    return "\n".join(lines)
 
 
 def rehearsal_controller_file(campaign: Campaign, rehearsal: Rehearsal) -> Path:
@@ -148,14 +111,3 @@ def rehearsal_controller_file(campaign: Campaign, rehearsal: Rehearsal) -> Path:
         live, set(), None, "the rehearsal simulator's endpoints: valid only while the "
                            "wizard that started it runs"))
     return path
-
-
-def protocol_round_trips(path: Path, protocol: ProtocolConfig) -> bool:
-    """Whether the written file gives back the same plan (``ogacq resume`` requires it)."""
-    from ogacq.campaign_file import read_campaign
-    from ogacq.io.errors import InputError
-
-    try:
-        return read_campaign(path).protocol.to_dict() == protocol.to_dict()
-    except InputError:
-        return False

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from drivers.errors import DriverError
+from drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
@@ -31,7 +32,6 @@ from ogacq.cli.wizard.connect import (
 from ogacq.cli.wizard.execution import (
     Rehearsal,
     campaign_file_text,
-    protocol_round_trips,
     rehearsal_controller_file,
     run_guided,
     start_rehearsal,
@@ -45,8 +45,8 @@ from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_writeback, show_result
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, times
 from ogacq.io.errors import InputError
-from ogacq.io.machine_file import read_machine
-from ogacq.model.machine import MachineSpec
+from ogacq.io.machine_file import read_machine, write_machine
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
 from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped, GaugeValue
@@ -58,13 +58,6 @@ from ogacq.station import DeviceStation
 EXIT_DONE = 0
 EXIT_QUIT = 130
 
-# the papers' Orthoglide prototype, for a rehearsal without a machine file
-REHEARSAL_MACHINE = """# the papers' Orthoglide prototype, with 1 um digital indicators
-leg_length_mm = 310.25
-rho_min_mm = -100.0
-rho_max_mm = 60.0
-gauge_resolution_mm = 0.001
-"""
 
 
 @dataclass
@@ -82,7 +75,7 @@ class WizardOptions:
     max_offset_mm: float = 2.0
     by_eye: bool = False
     indicators: int | None = None  # 6 (left in place) or 2 (moved leg to leg); None: asked
-    gauge_protocol: str = "mitutoyo-01a"  # what a rehearsal's simulated gauges speak
+    gauge_protocol: str = DEFAULT_PROTOCOL  # what a rehearsal's simulated gauges speak
     faults: list[FaultPlan] = field(default_factory=list)
     resume: Path | None = None
 
@@ -250,8 +243,9 @@ class _Wizard:
         if self.options.machine is not None:
             return read_machine(self.options.machine), self.options.machine
         if self.options.simulator:
-            path = folder / "machine.toml"
-            path.write_text(REHEARSAL_MACHINE)
+            # the papers' prototype, for a rehearsal without a machine file
+            path = write_machine(folder / "machine.toml", PAPER_PROTOTYPE_DIGITAL,
+                                 PAPER_PROTOTYPE_DIGITAL_NOTE)
             return read_machine(path), path
         return None, None
 
@@ -452,7 +446,7 @@ class _Wizard:
 
     def _write_campaign_file(self, campaign: Campaign) -> None:
         campaign.path.write_text(campaign_file_text(campaign, self.by_eye, self.rehearsal))
-        self.resumable_by_ogacq = protocol_round_trips(campaign.path, campaign.protocol)
+        self.resumable_by_ogacq = True  # the schema reads back what it wrote
 
     def _after_stop(self, stop: CampaignStopped) -> None:
         """Say what stopped the campaign; return to retry, raise OperatorQuit to quit."""

@@ -1,0 +1,471 @@
+"""Declared schemas for the project's TOML files: one declaration per file kind both
+loads it (typed values; every error names the file, the key and, when the text is at
+hand, its line) and writes it.
+
+This is the lowest layer's file mechanics: the register-map profiles of ``drivers``
+and ogacq's machine, campaign, effects and offset-table files all use it, so it
+imports nothing of the project. What is wrong is reported through the caller's
+error factory (``ProfileError`` for profiles, ``InputError`` for ogacq's files), so
+each layer keeps its own exception.
+
+A schema is a :class:`Table` of :class:`Field`; a field's kind is a :class:`Value`
+(a scalar, with its type, range and choices), :class:`ListOf`, a nested
+:class:`Table`, :class:`TableArray` (``[[name]]``), :class:`MapOf` (keys chosen by the
+file's author) or :class:`Variants` (tables told apart by a tag such as ``op``).
+Numbers are always finite: a nan or inf in a setting only fails later, after the
+machine moved.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import difflib
+import json
+import math
+import re
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+KeyPath = tuple[str | int, ...]
+
+
+@dataclass(frozen=True)
+class Issue:
+    """One thing wrong with a file."""
+
+    file: str
+    key: str  # dotted path: "protocol.settle_s", "transport.functions[2]"; "" for the file
+    problem: str  # without the key: "must be at least 0, got -1"
+    message: str  # naming the key: "protocol.settle_s must be at least 0, got -1"
+    line: int | None
+
+
+ErrorFactory = Callable[[Issue], Exception]
+
+
+# --------------------------------------------------------------------------- kinds
+
+
+@dataclass(frozen=True)
+class Value:
+    """A scalar: one of ``types`` (int is accepted where float is, bool never is
+    unless named), then range and choices."""
+
+    types: tuple[type, ...]
+    choices: tuple[Any, ...] = ()
+    minimum: float | None = None
+    maximum: float | None = None
+    positive: bool = False
+
+
+def number(*, minimum: float | None = None, maximum: float | None = None,
+           positive: bool = False) -> Value:
+    return Value((float,), minimum=minimum, maximum=maximum, positive=positive)
+
+
+def whole(*, minimum: int | None = None, maximum: int | None = None,
+          choices: tuple[int, ...] = ()) -> Value:
+    return Value((int,), choices=choices, minimum=minimum, maximum=maximum)
+
+
+def text(*choices: str) -> Value:
+    return Value((str,), choices=choices)
+
+
+TRUTH = Value((bool,))
+
+
+@dataclass(frozen=True)
+class FilePath:
+    """A path in the file, relative to the file's folder."""
+
+
+@dataclass(frozen=True)
+class ListOf:
+    item: Kind
+
+
+@dataclass(frozen=True)
+class MapOf:
+    """A table whose keys the author chooses (among ``keys`` when given)."""
+
+    value: Kind
+    keys: tuple[str, ...] = ()
+    noun: str = "key"  # what a key is, for messages ("gauge")
+
+
+@dataclass(frozen=True)
+class Field:
+    key: str
+    kind: Kind
+    required: bool = False
+    attr: str = ""  # the built object's attribute, when not named like the key
+    decode: Callable[[Any], Any] | None = None  # file value -> attribute
+    encode: Callable[[Any], Any] | None = None  # attribute -> file value
+
+    @property
+    def name(self) -> str:
+        return self.attr or self.key
+
+
+@dataclass(frozen=True)
+class Table:
+    fields: tuple[Field, ...]
+    build: Callable[..., Any] | None = None  # called with the given fields; None: a dict
+    noun: str = "key"  # what a key of this table is, for messages ("axis")
+
+    def field(self, key: str) -> Field:
+        return next(f for f in self.fields if f.key == key)
+
+
+@dataclass(frozen=True)
+class TableArray:
+    table: Table
+
+
+@dataclass(frozen=True)
+class Variants:
+    """Tables told apart by the value of ``tag`` (each variant declares the tag too)."""
+
+    tag: str
+    tables: Mapping[str, Table]
+
+
+Kind = Value | FilePath | ListOf | MapOf | Table | TableArray | Variants
+
+_KIND_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "text"}
+
+
+# --------------------------------------------------------------------------- the source
+
+
+@dataclass
+class Source:
+    """A file's name and text, to name the key and the line in every error."""
+
+    path: str
+    error: ErrorFactory
+    text: str = ""
+    what: str = ""  # the file's role in messages ("the campaign file")
+    _lines: list[str] = field(default_factory=list, repr=False)
+
+    def __post_init__(self) -> None:
+        self._lines = self.text.splitlines()
+
+    @property
+    def folder(self) -> Path:
+        return Path(self.path).parent
+
+    def line(self, path: KeyPath) -> int | None:
+        """The line of ``path`` in the text: the table header or the ``key =`` line,
+        or the innermost enclosing one found (a key inside an inline table)."""
+        found: int | None = None
+        start = 0
+        tables: list[str] = []
+        parent_found = True  # a key is looked for only under a table that was found
+        for part in path:
+            if isinstance(part, int):
+                headers = self._headers(".".join(tables), array=True)
+                if part < len(headers):
+                    found = start = headers[part]
+                continue
+            tables.append(part)
+            headers = self._headers(".".join(tables), array=False)
+            if headers:
+                found = start = headers[0]
+                parent_found = True
+                continue
+            if self._headers(".".join(tables), array=True):
+                continue  # [[part]]: the index that follows picks the entry
+            at = self._key_line(part, start) if parent_found else None
+            parent_found = at is not None  # [a.b] may stand without [a]: look on
+            if at is not None:
+                found = start = at
+        return found
+
+    def _headers(self, dotted: str, *, array: bool) -> list[int]:
+        pattern = (rf"\s*\[\[\s*{re.escape(dotted)}\s*\]\]" if array
+                   else rf"\s*\[\s*{re.escape(dotted)}\s*\](?!\])")
+        return [n for n, line in enumerate(self._lines, 1) if re.match(pattern, line)]
+
+    def _key_line(self, key: str, after: int) -> int | None:
+        pattern = re.compile(rf"\s*(\"{re.escape(key)}\"|{re.escape(key)})\s*=")
+        for number, line in enumerate(self._lines[after:], after + 1):
+            if pattern.match(line):
+                return number
+        return None
+
+    def fail(self, path: KeyPath, problem: str, message: str = "") -> Exception:
+        """The caller's error for ``problem`` at ``path`` (``message``: the whole
+        sentence, when it is not the key followed by the problem)."""
+        key = dotted(path)
+        message = message or (f"{key} {problem}" if key else problem)
+        return self.error(Issue(self.path, key, problem, message, self.line(path)))
+
+    def table_label(self, path: KeyPath) -> str:
+        if not path:
+            return self.what or "the file"
+        if isinstance(path[-1], int):
+            return f"[[{dotted(path[:-1])}]] entry"
+        return f"[{dotted(path)}]"
+
+
+def dotted(path: KeyPath) -> str:
+    out = ""
+    for part in path:
+        out += f"[{part}]" if isinstance(part, int) else (f".{part}" if out else part)
+    return out
+
+
+def read_document(path: str | Path, what: str, error: ErrorFactory,
+                  ) -> tuple[dict[str, Any], Source]:
+    """The parsed file and its :class:`Source`. FileNotFoundError passes through, for
+    callers to whom a missing file means something (no offsets yet)."""
+    source = Source(str(path), error, what=what)
+    try:
+        content = Path(path).read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise
+    except OSError as exc:
+        raise source.fail((), f"cannot read {what}: {exc.strerror or exc}") from None
+    except UnicodeDecodeError:
+        raise source.fail((), f"{what} is not a text file") from None
+    source = Source(str(path), error, content, what)
+    return parse_document(source), source
+
+
+def parse_document(source: Source) -> dict[str, Any]:
+    try:
+        return tomllib.loads(source.text)
+    except tomllib.TOMLDecodeError as exc:
+        match = re.search(r"line (\d+)", str(exc))
+        problem = f"not valid TOML: {str(exc).split(' (at')[0]}"
+        raise source.error(Issue(source.path, "", problem, problem,
+                                 int(match.group(1)) if match else None)) from None
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def load(schema: Table, data: Mapping[str, Any], source: Source) -> Any:
+    """The file's content checked against ``schema`` and built."""
+    return _load(schema, data, (), source)
+
+
+def _load(kind: Kind, raw: Any, path: KeyPath, src: Source) -> Any:
+    if isinstance(kind, Value):
+        return _scalar(kind, raw, path, src)
+    if isinstance(kind, FilePath):
+        return src.folder / _scalar(text(), raw, path, src)
+    if isinstance(kind, ListOf):
+        if not isinstance(raw, list):
+            raise src.fail(path, f"must be a list, got {raw!r}")
+        return tuple(_load(kind.item, item, (*path, i), src) for i, item in enumerate(raw))
+    if isinstance(kind, TableArray):
+        if not isinstance(raw, list):
+            raise src.fail(path, f"must be tables [[{dotted(path)}]], got {raw!r}")
+        return [_load(kind.table, item, (*path, i), src) for i, item in enumerate(raw)]
+    if isinstance(kind, MapOf):
+        return _map(kind, raw, path, src)
+    if isinstance(kind, Variants):
+        tag = raw.get(kind.tag) if isinstance(raw, Mapping) else None
+        if tag not in kind.tables:
+            raise src.fail((*path, kind.tag), _one_of(kind.tables, tag))
+        return _table(kind.tables[tag], raw, path, src)
+    return _table(kind, raw, path, src)
+
+
+def _table(table: Table, raw: Any, path: KeyPath, src: Source) -> Any:
+    label = src.table_label(path)
+    if not isinstance(raw, Mapping):
+        raise src.fail(path, f"must be a table, got {raw!r}")
+    known = [f.key for f in table.fields]
+    for key in raw:
+        if key not in known:
+            close = difflib.get_close_matches(key, known, n=1, cutoff=0.75)
+            hint = f"; did you mean {close[0]}?" if close else ""
+            problem = f"unknown {table.noun} {key!r}{hint} (allowed: {', '.join(known)})"
+            raise src.error(Issue(src.path, dotted(path), problem,
+                                  f"unknown {table.noun} {key!r} in {label}{hint} "
+                                  f"(allowed: {', '.join(known)})", src.line((*path, key))))
+    given: dict[str, Any] = {}
+    for f in table.fields:
+        if f.key not in raw:
+            if f.required:
+                raise src.fail(path, f"missing {table.noun} {f.key!r}",
+                               f"{label} needs {f.key!r}")
+            continue
+        value = _load(f.kind, raw[f.key], (*path, f.key), src)
+        given[f.name] = f.decode(value) if f.decode else value
+    return table.build(**given) if table.build else given
+
+
+def _map(kind: MapOf, raw: Any, path: KeyPath, src: Source) -> dict[str, Any]:
+    if not isinstance(raw, Mapping):
+        raise src.fail(path, f"must be a table, got {raw!r}")
+    out = {}
+    for key, item in raw.items():
+        if kind.keys and key not in kind.keys:
+            raise src.fail((*path, key), f"{kind.noun} {key!r} is not one of "
+                           f"{', '.join(kind.keys)}",
+                           f"{src.table_label(path)}: {kind.noun} {key!r} is not one of "
+                           f"{', '.join(kind.keys)}")
+        out[key] = _load(kind.value, item, (*path, key), src)
+    return out
+
+
+def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
+    if not _is_instance(given, kind.types):
+        names = " or ".join(_KIND_NAMES[t] for t in kind.types)
+        raise src.fail(path, f"must be {names}, got {given!r}")
+    if isinstance(given, float) and not math.isfinite(given):
+        raise src.fail(path, f"must be a finite number, got {given!r}")
+    if kind.choices and given not in kind.choices:
+        raise src.fail(path, _one_of(kind.choices, given))
+    if isinstance(given, bool) or not isinstance(given, int | float):
+        return given
+    low, high = kind.minimum, kind.maximum
+    if kind.positive and not given > 0:
+        raise src.fail(path, f"must be positive, got {given!r}")
+    if low is not None and high is not None and not low <= given <= high:
+        raise src.fail(path, f"must be {low:g}..{high:g}, got {given!r}")
+    if low is not None and given < low:
+        raise src.fail(path, f"must be at least {low:g}, got {given!r}")
+    if high is not None and given > high:
+        raise src.fail(path, f"must be at most {high:g}, got {given!r}")
+    if isinstance(given, int) and float in kind.types and int not in kind.types:
+        return float(given)  # a whole number where a number is asked: the same value
+    return given
+
+
+def _is_instance(value: Any, types: tuple[type, ...]) -> bool:
+    if isinstance(value, bool):  # bool is an int to Python; `address = true` is a mistake
+        return bool in types
+    if isinstance(value, int):
+        return int in types or float in types
+    return isinstance(value, types)
+
+
+def _one_of(choices: Any, got: Any) -> str:
+    return f"must be one of {', '.join(map(str, choices))}, got {got!r}"
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def dump(schema: Table, value: Any, *, folder: Path | None = None, header: str = "",
+         notes: Mapping[str, str] | None = None) -> str:
+    """The TOML text of ``value`` (a built object or a mapping) under ``schema``:
+    ``header`` comment lines first, ``notes`` (by dotted table key) as comments above
+    their table. Paths are written relative to ``folder`` when inside it; values
+    equal to the built class's defaults are left out, as absent keys load them."""
+    out = [f"# {line}" if line else "#" for line in header.splitlines()]
+    _emit(schema, value, (), out, folder, notes or {})
+    return "\n".join(out).strip("\n") + "\n"
+
+
+def _emit(table: Table, value: Any, path: KeyPath, out: list[str], folder: Path | None,
+          notes: Mapping[str, str]) -> None:
+    sections: list[tuple[Field, Any]] = []
+    for f, item in _present(table, value):
+        if _is_section(f.kind):
+            sections.append((f, item))
+        else:
+            out.append(f"{_key(f.key)} = {_literal(f.kind, item, (*path, f.key), folder)}")
+    for f, item in sections:
+        if not item:
+            continue  # no [[entries]], an empty map: nothing to write
+        where = (*path, f.key)
+        name = ".".join(_key(str(p)) for p in where)
+        out.append("")
+        if dotted(where) in notes:
+            out += [f"# {line}" for line in notes[dotted(where)].splitlines()]
+        kind = f.kind
+        if isinstance(kind, TableArray):
+            for k, entry in enumerate(item):
+                if k:
+                    out.append("")
+                out.append(f"[[{name}]]")
+                _emit(kind.table, entry, where, out, folder, notes)
+        elif isinstance(kind, MapOf):
+            out.append(f"[{name}]")
+            out += [f"{_key(k)} = {_literal(kind.value, v, (*where, k), folder)}"
+                    for k, v in item.items()]
+        else:
+            out.append(f"[{name}]")
+            _emit(_chosen(kind, item), item, where, out, folder, notes)
+
+
+def _present(table: Table, value: Any) -> list[tuple[Field, Any]]:
+    """The fields to write, with their file values."""
+    defaults = _defaults(value)
+    out = []
+    for f in table.fields:
+        item = value.get(f.name) if isinstance(value, Mapping) else getattr(value, f.name)
+        if item is None or (f.name in defaults and item == defaults[f.name]):
+            continue
+        out.append((f, f.encode(item) if f.encode else item))
+    return out
+
+
+def _defaults(value: Any) -> dict[str, Any]:
+    if not dataclasses.is_dataclass(value):
+        return {}
+    out = {}
+    for f in dataclasses.fields(value):
+        if f.default is not dataclasses.MISSING:
+            out[f.name] = f.default
+        elif f.default_factory is not dataclasses.MISSING:
+            out[f.name] = f.default_factory()
+    return out
+
+
+def _is_section(kind: Kind) -> bool:
+    return isinstance(kind, Table | TableArray | Variants) or (
+        isinstance(kind, MapOf) and isinstance(kind.value, Table | Variants))
+
+
+def _chosen(kind: Kind, value: Any) -> Table:
+    if isinstance(kind, Variants):
+        tag = value.get(kind.tag) if isinstance(value, Mapping) else getattr(value, kind.tag)
+        return kind.tables[tag]
+    assert isinstance(kind, Table)
+    return kind
+
+
+def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
+    if isinstance(kind, FilePath):
+        return json.dumps(_relative(Path(value), folder))
+    if isinstance(kind, ListOf):
+        return "[" + ", ".join(_literal(kind.item, v, (*path, i), folder)
+                               for i, v in enumerate(value)) + "]"
+    if isinstance(kind, MapOf | Table | Variants):
+        fields = (_present(_chosen(kind, value), value) if not isinstance(kind, MapOf)
+                  else [(Field(k, kind.value), v) for k, v in value.items()])
+        return "{ " + ", ".join(f"{_key(f.key)} = {_literal(f.kind, v, (*path, f.key), folder)}"
+                                for f, v in fields) + " }"
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float):
+        if not math.isfinite(value):
+            raise ValueError(f"{dotted(path)} = {value}: not a finite number")
+        return repr(value)  # repr round-trips a float exactly and is valid TOML
+    if isinstance(value, int):
+        return str(value)
+    return json.dumps(str(value))  # a JSON string is a TOML basic string
+
+
+def _key(key: str) -> str:
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
+
+
+def _relative(path: Path, folder: Path | None) -> str:
+    if folder is None:
+        return str(path)
+    try:
+        return str(path.resolve().relative_to(folder.resolve()))
+    except ValueError:
+        return str(path.resolve())
