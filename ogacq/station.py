@@ -111,8 +111,8 @@ def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None)
 def start_simulator(campaign: Campaign, sim: SimulatorSpec):
     """The built-in simulator a ``[simulator]`` table describes, started: the one
     recipe, so that a resumed campaign meets the same hidden machine."""
-    from drivers.sim.stack import SimulatorConfig, SimulatorStack
-    from drivers.sim.truth import random_truth, read_effects
+    from ogacq.sim.stack import SimulatorConfig, SimulatorStack
+    from ogacq.sim.truth import random_truth, read_effects
 
     truth = random_truth(sim.seed)
     if sim.effects is not None:

@@ -50,8 +50,8 @@ def sim(
     as_json: JsonOption = False,
 ) -> None:
     """Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."""
-    from drivers.sim.stack import SimulatorConfig, SimulatorStack
-    from drivers.sim.truth import random_truth, read_effects
+    from ogacq.sim.stack import SimulatorConfig, SimulatorStack
+    from ogacq.sim.truth import random_truth, read_effects
 
     spec = read_machine(machine) if machine else PAPER_PROTOTYPE
     truth = random_truth(seed)

@@ -27,7 +27,7 @@ class Rehearsal:
     """The built-in simulator the wizard started, and how to start it again."""
 
     spec: SimulatorSpec
-    stack: Any  # drivers.sim.stack.SimulatorStack
+    stack: Any  # ogacq.sim.stack.SimulatorStack
     controller: ControllerSpec
     gauges: list[GaugeSpec]
 
