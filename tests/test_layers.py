@@ -1,5 +1,6 @@
 """The import layers: ``drivers`` never imports ``ogacq``, no module imports a layer
-above its own, and the packages of one layer import each other one way only.
+above its own, and the packages of one layer import each other one way only. And
+one module, the station, opens devices and starts the simulator.
 
 The source is read with ``ast``, nothing is imported: imports inside functions and
 under ``TYPE_CHECKING`` count too, since they are dependencies all the same.
@@ -60,8 +61,9 @@ def project_module(name: str) -> str | None:
 
 
 @cache
-def imports_of(module: str) -> frozenset[str]:
-    """The project modules ``module`` imports, wherever in the file it does."""
+def imported_names(module: str) -> frozenset[str]:
+    """Every dotted name ``module`` imports (``from a.b import C`` gives ``a.b.C``),
+    wherever in the file it does."""
     path = modules()[module]
     package = module if path.name == "__init__.py" else module.rpartition(".")[0]
     names: set[str] = set()
@@ -73,10 +75,13 @@ def imports_of(module: str) -> frozenset[str]:
             if node.level:
                 anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
                 base = ".".join([*anchor, *([node.module] if node.module else [])])
-            # ``from pkg import submodule`` depends on the submodule
-            names.update(f"{base}.{alias.name}" if f"{base}.{alias.name}" in modules()
-                         else base for alias in node.names)
-    found = {project_module(name) for name in names}
+            names.update(f"{base}.{alias.name}" for alias in node.names)
+    return frozenset(names)
+
+
+def imports_of(module: str) -> frozenset[str]:
+    """The project modules ``module`` imports."""
+    found = {project_module(name) for name in imported_names(module)}
     return frozenset(m for m in found if m is not None and m != module)
 
 
@@ -145,3 +150,16 @@ def test_the_cycle_finder_finds_cycles():
     """The check above would see a cycle if there were one."""
     assert _a_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
     assert _a_cycle({"a": {"b"}, "b": set()}) is None
+
+
+# What opens a device or starts the simulator; campaigns, the wizard and `ogacq sim`
+# reach them through the station, so every endpoint gets the campaign's settings.
+ENDPOINT_OPENERS = ("drivers.indicators.open_indicator", "drivers.link.open_link",
+                    "drivers.axes.modbus_link.ModbusLink", "ogacq.sim.stack.SimulatorConfig")
+
+
+def test_only_the_station_opens_endpoints():
+    openers = {m: sorted(set(imported_names(m)) & set(ENDPOINT_OPENERS))
+               for m in modules() if m.startswith("ogacq.") and entry_of(m) != "ogacq.sim"}
+    assert {m: names for m, names in openers.items() if names} == \
+        {"ogacq.station": sorted(ENDPOINT_OPENERS)}
