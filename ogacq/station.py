@@ -3,7 +3,9 @@
 Either way the campaign talks to the same drivers: the indicator drivers on
 serial ports (device paths, pseudo-terminals or ``socket://`` URLs) and the
 Modbus controller client. With a ``[simulator]`` table the endpoints are the
-built-in simulator's, started here; nothing else knows the difference.
+built-in simulator's, started here; nothing else knows the difference. Campaigns,
+the wizard (its instrument checks and its rehearsal) and ``ogacq sim`` all open
+gauges, controllers and the simulator through this module only.
 
 Joint offsets: a profile without an offset register (IAI) gets the software
 offset table named by ``[controller] offsets_file`` loaded into the controller
@@ -17,9 +19,9 @@ from __future__ import annotations
 import contextlib
 import logging
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
@@ -31,11 +33,15 @@ from drivers.indicators import backend, open_indicator
 from drivers.indicators.base import read_stable
 from drivers.link import open_link
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import Read, StabilityRule
 from ogacq.protocol.runner import GaugeValue
 from ogacq.session.records import ReconnectRecord, Record
 from ogacq.writeback.table import read_offset_table
+
+if TYPE_CHECKING:
+    from ogacq.sim.stack import SimulatorStack
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +55,7 @@ class DeviceStation:
     clock_s: Callable[[], float]  # machine time, seconds
     speed: float = 1.0  # machine time per real time (the simulator may run faster)
     description: dict[str, Any] = field(default_factory=dict)
-    simulator: Any = None  # the SimulatorStack when simulated
+    simulator: SimulatorStack | None = None
     reconnect: ReconnectPolicy = field(default_factory=ReconnectPolicy)
     # Where events of the station go into the session (set once it is open).
     record_event: Callable[[Record], None] = lambda record: None
@@ -144,25 +150,28 @@ def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None)
                                   baudrate=spec.baudrate, timeout_s=spec.timeout_s)
 
 
-def start_simulator(campaign: Campaign, sim: SimulatorSpec):
+def start_simulator(machine: MachineSpec, sim: SimulatorSpec) -> SimulatorStack:
     """The built-in simulator a ``[simulator]`` table describes, started: the one
-    recipe, so that a resumed campaign meets the same hidden machine."""
-    from drivers.sim.stack import SimulatorConfig, SimulatorStack
-    from drivers.sim.truth import random_truth, read_effects
+    recipe (campaigns, the wizard's rehearsal, ``ogacq sim``), so that a resumed
+    campaign meets the same hidden machine."""
+    # Loaded here, not with the module: every command imports the station, and the
+    # simulator's Modbus server and gauge emulators add ~50 ms to each start.
+    from ogacq.sim.stack import SimulatorConfig, SimulatorStack
+    from ogacq.sim.truth import random_truth, read_effects
 
     truth = random_truth(sim.seed)
     if sim.effects is not None:
         truth = read_effects(sim.effects, truth)
     if sim.noise_mm is not None:
         truth.noise_mm = sim.noise_mm
-    return SimulatorStack(SimulatorConfig(campaign.machine, truth, profile=sim.profile,
+    return SimulatorStack(SimulatorConfig(machine, truth, profile=sim.profile,
                                           speed=sim.speed, seed=sim.seed,
                                           gauge_layout=sim.gauge_layout,
                                           gauge_protocol=sim.gauge_protocol,
                                           gauge_protocols=dict(sim.gauge_protocols))).start()
 
 
-def simulator_endpoints(simulator) -> tuple[ControllerSpec, list[GaugeSpec]]:
+def simulator_endpoints(simulator: SimulatorStack) -> tuple[ControllerSpec, list[GaugeSpec]]:
     """Controller and gauge specs pointing at a running simulator's endpoints."""
     info = simulator.info()
     m = info["modbus"]
@@ -211,56 +220,70 @@ def _controller_description(spec: ControllerSpec, controller: AxisController) ->
     if spec.axes:
         out["axes"] = {a: {"port": spec.port_of(a), "device_id": controller.device_ids[a]}
                        for a in controller.axes}
+    if spec.baudrate is not None:  # an RTU line's rate, for a resume to reopen it
+        out["baudrate"] = spec.baudrate
     if spec.offsets_file is not None:
         out["offsets_file"] = str(spec.offsets_file)
     return out
 
 
-def _open_gauges(specs: list[GaugeSpec], stack: contextlib.ExitStack) -> dict[str, Any]:
-    """One driver per indicator; gauges on one port (a multiplexer's channels) share one
-    open link, since a serial port can be opened only once, and the gauges of one
-    indicator moved from leg to leg share its driver."""
-    links: dict[str, Any] = {}
-    drivers: dict[tuple[str, str | None], Any] = {}
-    indicators: dict[str, Any] = {}
-    for g in specs:
-        if (g.port, g.channel) in drivers:
-            indicators[g.gauge] = drivers[(g.port, g.channel)]
-            continue
-        where = f"gauge {g.gauge} ({g.port}" + (f" channel {g.channel})" if g.channel else ")")
-        if [s.gauge for s in specs if (s.port, s.channel) == (g.port, g.channel)] != [g.gauge]:
-            where = f"indicator on {g.port}" + (f" channel {g.channel}" if g.channel else "")
-        if not backend(g.protocol).serial:  # a USB cable or input device opens itself
-            indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
-                g.protocol, g.port, unit=g.unit, channel=g.channel, where=where)
-            stack.callback(indicators[g.gauge].close)
-            continue
-        if g.port not in links:
-            settings = backend(g.protocol).settings
-            if g.baudrate is not None:
-                settings = replace(settings, baudrate=g.baudrate)
-            links[g.port] = open_link(g.port, settings, where=where)
-            stack.callback(links[g.port].close)
-        indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
-            g.protocol, g.port, unit=g.unit, channel=g.channel, where=where,
-            link=links[g.port])
-    return indicators
+def _gauge_where(gauge: GaugeSpec, specs: Sequence[GaugeSpec]) -> str:
+    """How errors name what answers on the gauge's port and channel: the gauge, or the
+    indicator when it serves several gauges (moved from leg to leg)."""
+    channel = f" channel {gauge.channel}" if gauge.channel else ""
+    shared = [s.gauge for s in specs if (s.port, s.channel) == (gauge.port, gauge.channel)]
+    if shared != [gauge.gauge]:
+        return f"indicator on {gauge.port}{channel}"
+    return f"gauge {gauge.gauge} ({gauge.port}{channel})"
 
 
 @contextlib.contextmanager
-def open_station(campaign: Campaign, simulator=None) -> Iterator[DeviceStation]:
+def open_gauges(specs: Sequence[GaugeSpec]) -> Iterator[dict[str, Any]]:
+    """One driver per indicator, with the line settings the campaign gives (its baud
+    rate over the protocol's); all closed on leaving. Gauges on one port (a
+    multiplexer's channels) share one open link, since a serial port can be opened
+    only once, and the gauges of one indicator moved from leg to leg share its driver."""
+    links: dict[str, Any] = {}
+    drivers: dict[tuple[str, str | None], Any] = {}
+    indicators: dict[str, Any] = {}
+    with contextlib.ExitStack() as stack:
+        for g in specs:
+            if (g.port, g.channel) in drivers:
+                indicators[g.gauge] = drivers[(g.port, g.channel)]
+                continue
+            where = _gauge_where(g, specs)
+            if not backend(g.protocol).serial:  # a USB cable or input device opens itself
+                indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
+                    g.protocol, g.port, unit=g.unit, channel=g.channel, where=where)
+                stack.callback(indicators[g.gauge].close)
+                continue
+            if g.port not in links:
+                settings = backend(g.protocol).settings
+                if g.baudrate is not None:
+                    settings = replace(settings, baudrate=g.baudrate)
+                links[g.port] = open_link(g.port, settings, where=where)
+                stack.callback(links[g.port].close)
+            indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
+                g.protocol, g.port, unit=g.unit, channel=g.channel, where=where,
+                link=links[g.port])
+        yield indicators
+
+
+@contextlib.contextmanager
+def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
+                 ) -> Iterator[DeviceStation]:
     """Open everything the campaign names; close it all after. A ``[simulator]``
     campaign starts the built-in simulator here, unless a running one (the wizard's
     rehearsal) is given, which stays the caller's to close."""
     with contextlib.ExitStack() as stack:
         controller_spec, gauge_specs = campaign.controller, campaign.gauges
         if simulator is None and campaign.simulator is not None:
-            simulator = start_simulator(campaign, campaign.simulator)
+            simulator = start_simulator(campaign.machine, campaign.simulator)
             stack.callback(simulator.close)
         if simulator is not None:
             controller_spec, gauge_specs = simulator_endpoints(simulator)
         controller = stack.enter_context(open_controller(controller_spec))
-        indicators = _open_gauges(gauge_specs, stack)
+        indicators = stack.enter_context(open_gauges(gauge_specs))
         if simulator is not None:
             clock, speed = simulator.clock.now, simulator.clock.speed
         else:
@@ -268,7 +291,10 @@ def open_station(campaign: Campaign, simulator=None) -> Iterator[DeviceStation]:
         description = {
             "controller": _controller_description(controller_spec, controller),
             "gauges": {g.gauge: {"protocol": g.protocol, "port": g.port, "channel": g.channel,
-                                 "unit": g.unit, "serial": g.serial} for g in gauge_specs},
+                                 "unit": g.unit, "serial": g.serial}
+                       # a resumed campaign (the wizard's too) reopens the gauge at this rate
+                       | ({"baudrate": g.baudrate} if g.baudrate is not None else {})
+                       for g in gauge_specs},
             "simulated": simulator is not None,
         }
         yield DeviceStation(controller, indicators, clock, speed, description, simulator,

@@ -33,10 +33,6 @@ class SimClock:
         with self._lock:
             self._extra_s += seconds
 
-    def real_seconds(self, sim_seconds: float) -> float:
-        """How long in real time a span of simulated time takes."""
-        return sim_seconds / self.speed
-
 
 #: The last stretch before a deadline that is spun rather than slept: the OS
 #: wakes a sleeper 0.05-0.15 ms late (timer slack), which a simulated line

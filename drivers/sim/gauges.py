@@ -490,11 +490,6 @@ class GaugeEndpoint:
             else:
                 self._faults.pop(Fault(kind), None)
 
-    def active_faults(self) -> dict[Fault, str]:
-        """The faults now on, with their codes."""
-        with self._lock:
-            return {kind: state.code for kind, state in self._faults.items()}
-
     def trigger(self, *, wait: bool = False) -> None:
         """Push one frame per channel now (U-WAVE data button; any free-running source)."""
         self._call(self._push_all, wait=wait)

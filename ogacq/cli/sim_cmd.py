@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import signal
 import threading
@@ -11,13 +12,13 @@ from typing import Annotated
 import typer
 
 from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
-from drivers.sim.stack import SimulatorConfig, SimulatorStack
-from drivers.sim.truth import random_truth, read_effects
+from ogacq.campaign_file import SimulatorSpec
 from ogacq.cli.options import GaugeProtocol, JsonOption, ProfileChoice, seed_option
 from ogacq.cli.render import print_sim
 from ogacq.io.machine_file import read_machine
 from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE
+from ogacq.station import start_simulator
 
 
 def sim(
@@ -42,15 +43,12 @@ def sim(
 ) -> None:
     """Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."""
     spec = read_machine(machine) if machine else PAPER_PROTOTYPE
-    truth = random_truth(seed)
-    if effects is not None:
-        truth = read_effects(effects, truth)
-    stack = SimulatorStack(SimulatorConfig(spec, truth, profile=profile.value, speed=speed,
-                                           seed=seed, gauge_protocol=gauge_protocol.value,
-                                           gauge_protocols=_per_gauge(gauge or [])))
+    simulated = SimulatorSpec(seed=seed, effects=effects, speed=speed, profile=profile.value,
+                              gauge_protocol=gauge_protocol.value,
+                              gauge_protocols=tuple(sorted(_per_gauge(gauge or []).items())))
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
-    with stack:
+    with contextlib.closing(start_simulator(spec, simulated)) as stack:
         info = stack.info()
         if as_json:
             typer.echo(json.dumps(info))

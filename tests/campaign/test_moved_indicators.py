@@ -14,10 +14,10 @@ import sys
 import pexpect
 import pytest
 
-from drivers.sim.stack import SimulatorConfig, SimulatorStack
-from drivers.sim.truth import random_truth
 from ogacq.io.machine_file import read_machine
 from ogacq.session.store import load_session
+from ogacq.sim.stack import SimulatorConfig, SimulatorStack
+from ogacq.sim.truth import random_truth
 from tests.campaign.conftest import HEAD, MACHINE, gauge
 from tests.cli.helpers import run_ogacq
 

@@ -8,13 +8,13 @@ from drivers.axes.controller import AxisController
 from drivers.axes.modbus_link import ModbusLink
 from drivers.axes.profile import load_profile
 from drivers.indicators import open_indicator, read_stable
-from drivers.sim.stack import SimulatorConfig, SimulatorStack
-from drivers.sim.truth import SimTruth
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, vector
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
+from ogacq.sim.stack import SimulatorConfig, SimulatorStack
+from ogacq.sim.truth import SimTruth
 
 MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
 TRUTH = {"joint_offset.x": 0.8, "joint_offset.y": -1.1, "joint_offset.z": 0.5,

@@ -10,7 +10,6 @@ from pathlib import Path
 import pytest
 
 from drivers.config_schema import Field, MapOf, Source, Table, Variants, dump, load, number, text
-from drivers.sim.truth import random_truth, read_effects
 from ogacq.campaign_file import (
     AxisEndpoint,
     Campaign,
@@ -25,6 +24,7 @@ from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.machine import PAPER_PROTOTYPE, PAPER_PROTOTYPE_DIGITAL
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.protocol.plan import ProtocolConfig, StabilityRule
+from ogacq.sim.truth import random_truth, read_effects
 from ogacq.writeback.table import read_offset_table
 from tests.campaign.conftest import MACHINE
 

@@ -135,8 +135,8 @@ def test_session_header_matches_run_campaign(tmp_path: Path):
 
 def test_wizard_writes_and_test_reads_every_cable(tmp_path: Path):
     """The wizard's gauge test and its campaign file name the new cables like the others."""
-    from drivers.sim.stack import make_gauge
     from ogacq.cli.wizard.connect import test_read
+    from ogacq.sim.stack import make_gauge
 
     protocols = ("usb-itn", "usb-itn-keyboard", "sylvac-simplex", "uwave", "digimatic", "sylvac")
     keys = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")

@@ -16,12 +16,12 @@ from typing import Any
 
 from drivers.axes.profile import ProfileError, available_profiles
 from drivers.errors import DriverError
-from drivers.indicators import BACKENDS, open_indicator
+from drivers.indicators import BACKENDS
 from ogacq.campaign_file import ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
 from ogacq.model.parameters import AXES
-from ogacq.station import open_controller  # the campaign's own way of connecting
+from ogacq.station import open_controller, open_gauges  # as the campaign connects
 
 BY_EYE = "by eye"
 
@@ -194,12 +194,9 @@ def choose_controller(screen: Screen, ports: Sequence[DetectedPort],
 # ------------------------------------------------------------------------ gauges
 
 def test_read(spec: GaugeSpec, timeout_s: float = 1.0) -> float:
-    indicator = open_indicator(spec.protocol, spec.port, unit=spec.unit, channel=spec.channel,
-                               where=f"gauge {spec.gauge} ({spec.port})")
-    try:
-        return indicator.read(timeout_s=timeout_s).value_mm
-    finally:
-        indicator.close()
+    """One value from the gauge, opened as the campaign will open it (its line settings)."""
+    with open_gauges([spec]) as gauges:
+        return gauges[spec.gauge].read(timeout_s=timeout_s).value_mm
 
 
 def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],

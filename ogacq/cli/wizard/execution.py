@@ -11,7 +11,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ogacq.campaign import CampaignOutcome, StationWrapper, run_campaign
 from ogacq.campaign_file import (
@@ -25,13 +25,16 @@ from ogacq.protocol.runner import GaugeSetter, Observer
 from ogacq.session.store import LoadedSession
 from ogacq.station import simulator_endpoints, start_simulator
 
+if TYPE_CHECKING:
+    from ogacq.sim.stack import SimulatorStack
+
 
 @dataclass(frozen=True)
 class Rehearsal:
     """The built-in simulator the wizard started, and how to start it again."""
 
     spec: SimulatorSpec
-    stack: Any  # drivers.sim.stack.SimulatorStack
+    stack: SimulatorStack
     controller: ControllerSpec
     gauges: list[GaugeSpec]
 
@@ -54,7 +57,7 @@ class Rehearsal:
 def start_rehearsal(campaign: Campaign, spec: SimulatorSpec) -> Rehearsal:
     """Start the simulator exactly as a ``[simulator]`` campaign would, so that
     ``ogacq resume`` on the written campaign file meets the same hidden machine."""
-    stack = start_simulator(campaign, spec)
+    stack = start_simulator(campaign.machine, spec)
     controller, gauges = simulator_endpoints(stack)
     return Rehearsal(spec, stack, controller, gauges)
 

@@ -9,9 +9,13 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.protocol import runner
+
+if TYPE_CHECKING:
+    from ogacq.sim.stack import SimulatorStack
 
 _SPEC = re.compile(r"(?P<gauge>[xyz]_[xyz]):(?P<kind>[a-z]+)@(?P<after>\d+)(x(?P<count>\d+))?")
 
@@ -43,7 +47,7 @@ def parse_fault(text: str) -> FaultPlan:
 class FaultInjector:
     """Switches the planned faults on in the simulator as readings are recorded."""
 
-    def __init__(self, plans: Sequence[FaultPlan], stack) -> None:  # stack: SimulatorStack
+    def __init__(self, plans: Sequence[FaultPlan], stack: SimulatorStack) -> None:
         self.plans = list(plans)
         self.stack = stack
 

@@ -222,9 +222,10 @@ class _Wizard:
             axes = {a: AxisEndpoint(e.get("port"), e.get("device_id"))
                     for a, e in (c.get("axes") or {}).items()}
             campaign.controller = ControllerSpec(c.get("profile", "cia402"), c.get("port", ""),
-                                                 axes=axes)
+                                                 c.get("baudrate"), axes=axes)
             campaign.gauges = [GaugeSpec(k, g["protocol"], g["port"], g.get("channel"),
-                                         g.get("unit", "mm"), g.get("serial", ""))
+                                         g.get("unit", "mm"), g.get("serial", ""),
+                                         g.get("baudrate"))
                                for k, g in (station.get("gauges") or {}).items()]
         s.heading("Check the instruments", "step 1 of 4")
         pausable(s, "while checking the instruments", lambda: self._recheck(campaign))

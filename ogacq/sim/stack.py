@@ -17,13 +17,13 @@ from typing import Any
 from drivers.axes.profile import load_profile
 from drivers.sim.clock import SimClock
 from drivers.sim.gauges import GaugeEndpoint
-from drivers.sim.machine import SimMachine
 from drivers.sim.modbus_server import ModbusSimServer
 from drivers.sim.motion import MotionModel
-from drivers.sim.truth import SimTruth
 from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
+from ogacq.sim.machine import SimMachine
+from ogacq.sim.truth import SimTruth
 
 
 @dataclass

@@ -16,11 +16,11 @@ from typing import Protocol
 import numpy as np
 
 from drivers.sim.clock import SimClock
-from drivers.sim.truth import SimTruth
 from ogacq.model.gauges import GAUGE_INDICES
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, PARAM_INDEX
+from ogacq.sim.truth import SimTruth
 
 GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
 

@@ -1,0 +1,165 @@
+"""The import layers: ``drivers`` never imports ``ogacq``, no module imports a layer
+above its own, and the packages of one layer import each other one way only. And
+one module, the station, opens devices and starts the simulator.
+
+The source is read with ``ast``, nothing is imported: imports inside functions and
+under ``TYPE_CHECKING`` count too, since they are dependencies all the same.
+"""
+
+from __future__ import annotations
+
+import ast
+from functools import cache
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+PACKAGES = ("drivers", "ogacq")
+
+# Lowest first. A module belongs to the longest entry naming it or a package above it
+# (a bare package name, "ogacq", names its __init__ only). A module may import its own
+# layer and those below; within a layer, the entries must not import each other in a
+# cycle. Entries are packages, except where a package spans layers:
+# - ogacq.io: its error type and TOML reading are the ground everything reads files
+#   with (the package as such sits there); machine files need the model; tables and
+#   loading build observations (ogacq.identify) and sessions.
+# - ogacq.writeback.table: the offset-table file, opened with the controller by the
+#   station, while the rest of writeback decides from finished campaigns.
+LAYERS: list[tuple[str, ...]] = [
+    ("drivers", "drivers.errors"),
+    ("drivers.link", "drivers.usb_net", "drivers.usb_link", "drivers.input_link"),
+    ("drivers.axes", "drivers.indicators"),
+    ("drivers.sim",),  # device emulators speaking the wire protocols
+    ("ogacq", "ogacq.io", "ogacq.io.errors", "ogacq.io.toml_file"),
+    ("ogacq.model",),
+    # computed from the model alone, and the files read without a campaign
+    ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table"),
+    ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file"),
+    ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
+    ("ogacq.campaign",),
+    ("ogacq.writeback", "ogacq.report"),
+    ("ogacq.cli", "ogacq.__main__"),
+]
+LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entries}
+
+
+@cache
+def modules() -> dict[str, Path]:
+    """Every module of the project by dotted name (a package by its __init__)."""
+    found: dict[str, Path] = {}
+    for package in PACKAGES:
+        for path in sorted((ROOT / package).rglob("*.py")):
+            parts = path.relative_to(ROOT).with_suffix("").parts
+            found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
+    return found
+
+
+def project_module(name: str) -> str | None:
+    """The project module an imported name lives in (``a.b.C`` -> ``a.b``), if any."""
+    while name and name not in modules():
+        name = name.rpartition(".")[0]
+    return name or None
+
+
+@cache
+def imported_names(module: str) -> frozenset[str]:
+    """Every dotted name ``module`` imports (``from a.b import C`` gives ``a.b.C``),
+    wherever in the file it does."""
+    path = modules()[module]
+    package = module if path.name == "__init__.py" else module.rpartition(".")[0]
+    names: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(), str(path))):
+        if isinstance(node, ast.Import):
+            names.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
+                base = ".".join([*anchor, *([node.module] if node.module else [])])
+            names.update(f"{base}.{alias.name}" for alias in node.names)
+    return frozenset(names)
+
+
+def imports_of(module: str) -> frozenset[str]:
+    """The project modules ``module`` imports."""
+    found = {project_module(name) for name in imported_names(module)}
+    return frozenset(m for m in found if m is not None and m != module)
+
+
+def entry_of(module: str) -> str | None:
+    """The LAYERS entry a module belongs to."""
+    matches = [e for e in LEVEL if module == e or (module.startswith(e + ".")
+                                                   and e not in PACKAGES)]
+    return max(matches, key=len, default=None)
+
+
+def test_every_module_and_entry_is_placed():
+    """A new module outside every entry must be given its layer; a stale entry goes."""
+    assert "drivers.link" in modules() and "ogacq.cli.app" in modules()
+    unplaced = sorted(m for m in modules() if entry_of(m) is None)
+    assert not unplaced, f"place these modules in LAYERS: {unplaced}"
+    stale = sorted(e for e in LEVEL if not any(entry_of(m) == e for m in modules()))
+    assert not stale, f"LAYERS names modules that are gone: {stale}"
+
+
+def test_drivers_never_import_ogacq():
+    offending = {m: sorted(t for t in imports_of(m) if t.split(".")[0] == "ogacq")
+                 for m in modules() if m.split(".")[0] == "drivers"}
+    assert not {m: t for m, t in offending.items() if t}
+
+
+def test_no_module_imports_a_higher_layer():
+    upward = [f"{m} (layer {LEVEL[entry_of(m)]}) imports {t} (layer {LEVEL[entry_of(t)]})"
+              for m in sorted(modules()) for t in sorted(imports_of(m))
+              if LEVEL[entry_of(t)] > LEVEL[entry_of(m)]]
+    assert not upward, "\n".join(upward)
+
+
+def test_no_import_cycle_between_packages():
+    """Between the entries of LAYERS (packages, mostly): an edge set without a cycle."""
+    edges: dict[str, set[str]] = {e: set() for e in LEVEL}
+    for m in modules():
+        edges[entry_of(m)].update(entry_of(t) for t in imports_of(m))
+    for entry in edges:
+        edges[entry].discard(entry)
+    cycle = _a_cycle(edges)
+    assert cycle is None, " -> ".join(cycle or [])
+
+
+def _a_cycle(edges: dict[str, set[str]]) -> list[str] | None:
+    """One cycle of the directed graph, as a closed path, or None (depth-first search)."""
+    done: set[str] = set()
+    path: list[str] = []
+
+    def visit(node: str) -> list[str] | None:
+        if node in path:
+            return path[path.index(node):] + [node]
+        if node in done:
+            return None
+        path.append(node)
+        for target in sorted(edges[node]):
+            if (cycle := visit(target)) is not None:
+                return cycle
+        path.pop()
+        done.add(node)
+        return None
+
+    return next((c for c in map(visit, sorted(edges)) if c is not None), None)
+
+
+def test_the_cycle_finder_finds_cycles():
+    """The check above would see a cycle if there were one."""
+    assert _a_cycle({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": set()}) == ["a", "b", "c", "a"]
+    assert _a_cycle({"a": {"b"}, "b": set()}) is None
+
+
+# What opens a device or starts the simulator; campaigns, the wizard and `ogacq sim`
+# reach them through the station, so every endpoint gets the campaign's settings.
+ENDPOINT_OPENERS = ("drivers.indicators.open_indicator", "drivers.link.open_link",
+                    "drivers.axes.modbus_link.ModbusLink", "ogacq.sim.stack.SimulatorConfig")
+
+
+def test_only_the_station_opens_endpoints():
+    openers = {m: sorted(set(imported_names(m)) & set(ENDPOINT_OPENERS))
+               for m in modules() if m.startswith("ogacq.") and entry_of(m) != "ogacq.sim"}
+    assert {m: names for m, names in openers.items() if names} == \
+        {"ogacq.station": sorted(ENDPOINT_OPENERS)}
