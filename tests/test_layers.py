@@ -22,15 +22,19 @@ PACKAGES = ("drivers", "ogacq")
 # - ogacq.io: its error type and TOML reading are the ground everything reads files
 #   with (the package as such sits there); machine files need the model; tables and
 #   loading build observations (ogacq.identify) and sessions.
+# - ogacq.protocol.plan: the plan is what identification, accuracy prediction and
+#   separation derive their layouts of readings from; the runner executing it records
+#   into sessions, so the rest of ogacq.protocol sits with the session.
 # - ogacq.writeback.table: the offset-table file, opened with the controller by the
 #   station, while the rest of writeback decides from finished campaigns.
 LAYERS: list[tuple[str, ...]] = [
-    ("drivers", "drivers.errors"),
+    ("drivers", "drivers.errors", "drivers.config_schema"),
     ("drivers.link", "drivers.usb_net", "drivers.usb_link", "drivers.input_link"),
     ("drivers.axes", "drivers.indicators"),
     ("drivers.sim",),  # device emulators speaking the wire protocols
-    ("ogacq", "ogacq.io", "ogacq.io.errors", "ogacq.io.toml_file"),
+    ("ogacq", "ogacq.errors", "ogacq.io", "ogacq.io.errors", "ogacq.io.toml_file"),
     ("ogacq.model",),
+    ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file"),
