@@ -37,11 +37,6 @@ PYUSB_MISSING = (
 _BUS_ADDRESS = re.compile(r"([0-9]{1,3})\.([0-9]{1,3})")
 
 
-def is_usb_port(port: str) -> bool:
-    """True for the port strings this module opens."""
-    return port == "usb" or port.startswith(("usb:", "usbsim://"))
-
-
 def import_usb(where: str = "") -> Any:
     """``usb.core``, or a LinkError saying how to install pyusb."""
     try:

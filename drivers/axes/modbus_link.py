@@ -147,14 +147,6 @@ class ModbusLink:
             read_retries=t.read_retries,
         )
 
-    @classmethod
-    def tcp(cls, host: str, port: int, **kwargs: object) -> ModbusLink:
-        return cls(transport="tcp", host=host, port=port, **kwargs)  # type: ignore[arg-type]
-
-    @classmethod
-    def rtu(cls, serial_port: str, *, baudrate: int = 38400, **kwargs: object) -> ModbusLink:
-        return cls(transport="rtu", serial_port=serial_port, baudrate=baudrate, **kwargs)  # type: ignore[arg-type]
-
     # ------------------------------------------------------------ life cycle
 
     def connect(self) -> ModbusLink:

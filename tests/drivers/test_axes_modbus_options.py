@@ -39,7 +39,7 @@ def test_fc16_only_drive_at_unit_255_one_endpoint_per_axis() -> None:
     try:
         for axis, server in zip("xyz", servers, strict=True):
             address = server.start()
-            links[axis] = ModbusLink.tcp(address.host, address.port)
+            links[axis] = ModbusLink(transport="tcp", host=address.host, port=address.port)
         c = AxisController(profile, links)
         c.enable()
         c.home()
@@ -61,9 +61,9 @@ def test_fc16_only_drive_at_unit_255_one_endpoint_per_axis() -> None:
 
 def test_unit_ids_the_transport_cannot_address_are_refused() -> None:
     profile = _variant("cia402", axes__device_ids={"x": 0, "y": 255, "z": 247})
-    ModbusLink.tcp("127.0.0.1", 1).check_device_id(255)
-    ModbusLink.tcp("127.0.0.1", 1).check_device_id(0)
-    rtu = ModbusLink.rtu("/dev/null")
+    ModbusLink(transport="tcp", host="127.0.0.1", port=1).check_device_id(255)
+    ModbusLink(transport="tcp", host="127.0.0.1", port=1).check_device_id(0)
+    rtu = ModbusLink(transport="rtu", serial_port="/dev/null")
     for bad in (0, 248, 255):
         with pytest.raises(ValueError, match=f"device id {bad} is outside 1..247"):
             rtu.check_device_id(bad)
