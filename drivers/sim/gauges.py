@@ -36,7 +36,6 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from decimal import Decimal
 from enum import StrEnum
-from types import TracebackType
 from typing import Any, Literal
 
 from drivers.indicators import BACKENDS, digimatic, mitutoyo_01a, sylvac, uwave
@@ -95,6 +94,35 @@ class _FaultState:
     code: str = ""
     remaining: int | None = None  # replies still affected; None = until cleared
     pause_s: float = 0.05
+
+
+class SimulatedGauge:
+    """What every simulated gauge endpoint (serial, USB, keyboard) shares: used as a
+    context manager around ``start``/``close``, and a table of the faults it has
+    been told to show, guarded by ``_lock``."""
+
+    _faults: dict[Fault, Any]
+    _lock: Any  # a Lock or a Condition
+
+    def start(self) -> Any:
+        raise NotImplementedError
+
+    def close(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Any:
+        return self.start()
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def clear_fault(self, kind: Fault | str | None = None) -> None:
+        """Switch one fault off, or all of them."""
+        with self._lock:
+            if kind is None:
+                self._faults.clear()
+            else:
+                self._faults.pop(Fault(kind), None)
 
 
 class _PtyTransport:
@@ -295,7 +323,7 @@ def _garble(frame: bytes) -> bytes:
     return body[:index] + b"#" + body[index + 1 :] + frame[len(body) :]
 
 
-class GaugeEndpoint:
+class GaugeEndpoint(SimulatedGauge):
     """One simulated gauge (or 01A multiplexer / U-WAVE receiver) on a pty or a socket.
 
     ``value_source`` gives the true value in mm (noise included); a mapping
@@ -428,17 +456,6 @@ class GaugeEndpoint:
                     os.close(fd)
         self._wake_r = self._wake_w = -1
 
-    def __enter__(self) -> GaugeEndpoint:
-        return self.start()
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.close()
-
     def __repr__(self) -> str:
         where = self._transport.port if self._transport else "not started"
         return f"GaugeEndpoint({self.protocol!r}, {where})"
@@ -481,14 +498,6 @@ class GaugeEndpoint:
                 raise ValueError(f"inch unit nibble is 1 or 8, got {code!r}")
         with self._lock:
             self._faults[kind] = _FaultState(code=code, remaining=count, pause_s=pause_s)
-
-    def clear_fault(self, kind: Fault | str | None = None) -> None:
-        """Switch one fault off, or all of them."""
-        with self._lock:
-            if kind is None:
-                self._faults.clear()
-            else:
-                self._faults.pop(Fault(kind), None)
 
     def trigger(self, *, wait: bool = False) -> None:
         """Push one frame per channel now (U-WAVE data button; any free-running source)."""

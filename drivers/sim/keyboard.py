@@ -33,7 +33,7 @@ from drivers.indicators import usb_itn
 from drivers.indicators.base import Unit
 from drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from drivers.input_link import EVENT
-from drivers.sim.gauges import MM_PER_INCH, Fault, _decimals_for
+from drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +41,7 @@ EV_SYN = 0  # linux/input-event-codes.h; SYN_REPORT is code 0
 EV_MSC, MSC_SCAN = 4, 4  # the scan code a HID keyboard reports before each key event
 
 
-class KeyboardEndpoint:
+class KeyboardEndpoint(SimulatedGauge):
     """One simulated keyboard-mode cable; clients open :attr:`port` (a device node path)."""
 
     protocol = "usb-itn-keyboard"
@@ -115,12 +115,6 @@ class KeyboardEndpoint:
         if self._root is not None:
             shutil.rmtree(self._root, ignore_errors=True)
 
-    def __enter__(self) -> KeyboardEndpoint:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
     def __repr__(self) -> str:
         return f"KeyboardEndpoint({self.port if self._root else 'not started'})"
 
@@ -141,13 +135,6 @@ class KeyboardEndpoint:
             raise ValueError(f"a keyboard cable cannot show {kind}")
         with self._lock:
             self._faults[kind] = [code, count]
-
-    def clear_fault(self, kind: Fault | str | None = None) -> None:
-        with self._lock:
-            if kind is None:
-                self._faults.clear()
-            else:
-                self._faults.pop(Fault(kind), None)
 
     def unplug(self) -> None:
         self.unplugged = True

@@ -31,7 +31,7 @@ from typing import Any
 
 from drivers.indicators import mitutoyo_01a, usb_itn
 from drivers.indicators.base import Unit
-from drivers.sim.gauges import MM_PER_INCH, Fault, _decimals_for, _garble
+from drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for, _garble
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +112,7 @@ def _descriptors(serial_index: int) -> dict[str, Any]:
     }
 
 
-class UsbItnEndpoint:
+class UsbItnEndpoint(SimulatedGauge):
     """One simulated USB-ITN cable and its gauge; clients open :attr:`port`."""
 
     protocol = "usb-itn"
@@ -178,12 +178,6 @@ class UsbItnEndpoint:
     def close(self) -> None:
         self._disconnect()
 
-    def __enter__(self) -> UsbItnEndpoint:
-        return self.start()
-
-    def __exit__(self, *exc: object) -> None:
-        self.close()
-
     def __repr__(self) -> str:
         return f"UsbItnEndpoint({self._port or 'not started'})"
 
@@ -208,13 +202,6 @@ class UsbItnEndpoint:
             raise ValueError(f"a USB-ITN cable cannot show {kind}")
         with self._lock:
             self._faults[kind] = [code, count]
-
-    def clear_fault(self, kind: Fault | str | None = None) -> None:
-        with self._lock:
-            if kind is None:
-                self._faults.clear()
-            else:
-                self._faults.pop(Fault(kind), None)
 
     def unplug(self) -> None:
         """The cable is pulled out: connections drop, and nobody can find it again."""
