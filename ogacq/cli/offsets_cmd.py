@@ -10,7 +10,9 @@ overrides).
 
 from __future__ import annotations
 
+import contextlib
 import json
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Annotated
 
@@ -198,17 +200,12 @@ def write(
     """Write the offsets identified by a campaign: shown, confirmed, read back, recorded."""
     session = load_session(session_path)
     evidence = evidence_from_session(session, from_diagnosis)
-    campaign, profile = _campaign_for(session, campaign_path)
-    spec = campaign.controller
-    _check_writable(campaign, profile, save_nvm)
-    # The session is held before the controller is touched: a campaign running on it
-    # (or another write-back) refuses this one before anything moves.
-    with AuditLog(session) as audit, open_controller(spec) as controller:
-        facts = ControllerFacts.of(controller.profile)
-        plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
+    with _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+        plan = plan_write(evidence, controller.read_offsets(),
+                          ControllerFacts.of(controller.profile), WritePolicy(max_change_mm))
         render.print_evidence(evidence)
-        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec),
-                          evidence=evidence)
+        render.print_plan(plan, port=campaign.controller.port,
+                          offsets_file=_table_name(campaign.controller), evidence=evidence)
         _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
 
@@ -227,12 +224,22 @@ def restore(
     if operation is None:
         raise InputError(session.path, "no write-back is recorded in this session: nothing "
                          "to restore")
-    campaign, profile = _campaign_for(session, campaign_path)
-    spec = campaign.controller
-    _check_writable(campaign, profile, save_nvm)
-    with AuditLog(session) as audit, open_controller(spec) as controller:
-        facts = ControllerFacts.of(controller.profile)
-        plan = plan_restore(operation, controller.read_offsets(), facts)
-        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
+    with _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+        plan = plan_restore(operation, controller.read_offsets(),
+                            ControllerFacts.of(controller.profile))
+        render.print_plan(plan, port=campaign.controller.port,
+                          offsets_file=_table_name(campaign.controller))
         _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
+
+
+@contextlib.contextmanager
+def _controller_of(session: LoadedSession, campaign_path: Path | None, save_nvm: bool,
+                   ) -> Iterator[tuple[Campaign, AuditLog, AxisController]]:
+    """The session's campaign, its audit log and its controller, opened in that order:
+    the session is held before the controller is touched, so a campaign running on it
+    (or another write-back) refuses this one before anything moves."""
+    campaign, profile = _campaign_for(session, campaign_path)
+    _check_writable(campaign, profile, save_nvm)
+    with AuditLog(session) as audit, open_controller(campaign.controller) as controller:
+        yield campaign, audit, controller
