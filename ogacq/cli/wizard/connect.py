@@ -261,11 +261,11 @@ def _indicator_count(screen: Screen, known: int | None, rehearsal: int | None) -
     options = [Option("6", "six, two per leg, left in place for the whole campaign"),
                Option("2", "two, moved from leg to leg (as in the papers): you set them on "
                            "each leg when the machine stops there")]
-    if known is not None and rehearsal is None:
+    if known is not None:  # --indicators: a rehearsal's simulator was built with it
         return known
     while True:
         count = int(screen.choose("How many indicators?", options,
-                                  default=str(rehearsal or known or 6)))
+                                  default=str(rehearsal or 6)))
         if rehearsal is None or count == rehearsal:
             return count
         screen.problem(f"this rehearsal's simulator has {rehearsal} indicators; to rehearse "

@@ -20,6 +20,7 @@ from drivers.errors import DriverError
 from drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.cli.options import DEFAULT_SEED
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
     StationChoice,
@@ -63,7 +64,7 @@ EXIT_QUIT = 130
 @dataclass
 class WizardOptions:
     simulator: bool = False
-    seed: int = 0
+    seed: int = DEFAULT_SEED
     speed: float = 20.0
     profile: str = "cia402"
     machine: Path | None = None
