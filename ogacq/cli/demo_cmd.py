@@ -63,7 +63,7 @@ def demo(
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")
-    outcome = execute(lambda obs: run_campaign(campaign, observer=obs))
+    outcome = execute(lambda obs: run_campaign(campaign, observer=obs), campaign.session)
     session = load_session(outcome.session_path)
     export_readings(session, folder / "readings.csv")
     (folder / "result.json").write_text(json.dumps(
