@@ -129,9 +129,8 @@ def open_link(
         hint = _HINTS.get(_errno_of(exc) or -1, "")
         if "exclusively lock" in str(exc):
             hint = _HINTS[errno.EBUSY]
-        message = f"cannot open {port}: {exc}"
-        if hint:
-            message += f" ({hint})"
-        raise LinkError(message, where=where) from exc
+        # pyserial's message repeats the port and the errno; a known errno's hint
+        # says the cause once, in the technician's terms.
+        raise LinkError(f"cannot open {port}: {hint or exc}", where=where) from exc
     log.debug("opened %s (%s) for %s", port, settings, where)
     return link

@@ -138,12 +138,19 @@ class DeviceStation:
                                           alarms=back.alarms))
 
 
+def is_modbus_tcp(where: str) -> bool:
+    """A controller endpoint ``host:port`` is Modbus TCP; anything else is a serial
+    device (Modbus RTU, which needs a baud rate)."""
+    _, sep, port = where.rpartition(":")
+    return bool(sep) and port.isdigit() and not where.startswith("/")
+
+
 def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None) -> ModbusLink:
     """A link to ``endpoint`` (host:port for TCP, else a serial device), the shared
     ``spec.port`` when not given."""
     where = spec.port if endpoint is None else endpoint
-    host, sep, port = where.rpartition(":")
-    if sep and port.isdigit() and not where.startswith("/"):
+    if is_modbus_tcp(where):
+        host, _, port = where.rpartition(":")
         return ModbusLink.for_profile(profile, transport="tcp", host=host, port=int(port),
                                       timeout_s=spec.timeout_s)
     return ModbusLink.for_profile(profile, transport="rtu", serial_port=where,

@@ -8,6 +8,7 @@ a command's module only when that command runs (``ogacq.cli.lazy``).
 from __future__ import annotations
 
 import sys
+from pathlib import Path
 from typing import Annotated
 
 import typer
@@ -15,6 +16,7 @@ from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own c
 
 from ogacq import __version__
 from ogacq.cli.lazy import LazyCommands, LazyGroupSpec
+from ogacq.cli.log_options import apply_log_options
 from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats
 from ogacq.errors import OgacqError
 
@@ -31,6 +33,7 @@ SESSION_HELP = "Look at, export, import, check and salvage sessions."
 
 
 class OgacqCommands(LazyCommands):
+    command_epilog = EXIT_CODES
     # name -> "module:function", in the order `ogacq --help` lists them
     table = {
         "run": "ogacq.cli.campaign_cmds:run",
@@ -55,7 +58,9 @@ class OgacqCommands(LazyCommands):
     }
 
 
-app = typer.Typer(cls=OgacqCommands, add_completion=False, no_args_is_help=True,
+# Completion asks the group for its commands' names only (``list_commands``), so the
+# table is not imported to complete a command's name.
+app = typer.Typer(cls=OgacqCommands, add_completion=True, no_args_is_help=True,
                   help="Acquisition and calibration for Orthoglide-type parallel machines.",
                   epilog=EXIT_CODES)
 
@@ -69,8 +74,14 @@ def _version(value: bool) -> None:
 @app.callback()
 def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
                                                 is_eager=True, help="Show the version.")]
-          = False) -> None:
-    pass
+          = False,
+          verbose: Annotated[bool, typer.Option(
+              "--verbose", "-v", help="Also print info messages (retries, reconnections, "
+                                      "steps) on the terminal, not only warnings.")] = False,
+          log_file: Annotated[Path | None, typer.Option(
+              "--log-file", help="Append every log message, with its time, to this file "
+                                 "(debug messages included).")] = None) -> None:
+    apply_log_options(verbose, log_file)
 
 
 def _say(kind: str, message: str) -> None:

@@ -28,7 +28,8 @@ def run(
     campaign = read_campaign(campaign_file)
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     outcome = execute(lambda obs: run_campaign(
-        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), quiet=as_json)
+        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), campaign.session,
+        quiet=as_json)
     show_outcome(outcome, as_json)
 
 
@@ -42,20 +43,21 @@ def resume(
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     outcome = execute(lambda obs: run_campaign(
         campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
-        quiet=as_json)
+        loaded.path, quiet=as_json)
     show_outcome(outcome, as_json)
 
 
-def execute(start: Callable[[Observer], CampaignOutcome], *,
+def execute(start: Callable[[Observer], CampaignOutcome], session: Path, *,
             quiet: bool = False) -> CampaignOutcome:
-    """Run ``start(observer)`` with progress shown; a stop exits non-zero with its reason."""
+    """Run ``start(observer)`` with progress shown; a stop exits non-zero with its reason
+    and the command that continues ``session``."""
     with campaign_progress(enabled=not quiet) as observer:
         try:
             return start(observer)
         except CampaignStopped as stop:
             typer.echo(f"ogacq: campaign {stop.status}: {stop.reason}", err=True)
-            typer.echo("ogacq: the session is saved and can be resumed with `ogacq resume`",
-                       err=True)
+            typer.echo(f"ogacq: the session is saved: continue it with `ogacq resume "
+                       f"{session}`", err=True)
             raise typer.Exit(stop.exit_code) from None
 
 

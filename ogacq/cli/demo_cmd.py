@@ -14,7 +14,7 @@ import typer
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
-from ogacq.cli.options import ProfileChoice, seed_option
+from ogacq.cli.options import DEFAULT_SEED, ProfileChoice, seed_option
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.render import print_demo_diagnosis
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
@@ -31,7 +31,8 @@ def demo(
     effects: Annotated[Path | None, typer.Option(
         help="TOML file of hidden effects the simulated machine has (see `ogacq sim`).")]
     = None,
-    seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise.")] = 1,
+    seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise (the same "
+                                     "default in demo, sim and wizard).")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="Controller register map of the simulated machine.")] = ProfileChoice["cia402"],
     out: Annotated[Path | None, typer.Option(help="Folder to write (default: a new one "
@@ -62,7 +63,7 @@ def demo(
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")
-    outcome = execute(lambda obs: run_campaign(campaign, observer=obs))
+    outcome = execute(lambda obs: run_campaign(campaign, observer=obs), campaign.session)
     session = load_session(outcome.session_path)
     export_readings(session, folder / "readings.csv")
     (folder / "result.json").write_text(json.dumps(

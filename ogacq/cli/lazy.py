@@ -9,15 +9,16 @@ Commands are named by ``"module:function"``; a sub-group (``ogacq session ...``)
 from __future__ import annotations
 
 import importlib
+import inspect
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import typer
-from typer.core import TyperGroup
+from typer.core import TyperCommand, TyperGroup
 
 if TYPE_CHECKING:  # typer vendors its own click
-    from typer._click import Command, Context
+    from typer._click import Command, Context, Parameter
 
 
 @dataclass(frozen=True)
@@ -31,17 +32,54 @@ def load_function(target: str) -> Callable[..., Any]:
     return getattr(importlib.import_module(module), name)
 
 
-def build_command(name: str, target: str | LazyGroupSpec) -> Command:
+def flags_without_value(params: list[Parameter]) -> list[Parameter]:
+    """typer 0.29's rich help shows a flag's type as if it took a value
+    (``--json <bool>``, while ``--json true`` is refused): a flag gets an empty metavar,
+    which that help prints instead of the type."""
+    for param in params:
+        if getattr(param, "is_flag", False) and param.metavar is None:
+            param.metavar = ""
+    return params
+
+
+def one_paragraph_lines(text: str | None) -> str | None:
+    """A docstring's paragraphs each on one line: typer's rich help keeps the source's
+    line breaks, which then break the help's lines raggedly."""
+    if text is None:
+        return None
+    paragraphs = inspect.cleandoc(text).split("\n\n")
+    return "\n\n".join(" ".join(p.split()) for p in paragraphs)
+
+
+class FlagCommand(TyperCommand):
+    def get_params(self, ctx: Context) -> list[Parameter]:
+        return flags_without_value(super().get_params(ctx))
+
+
+class FlagGroup(TyperGroup):
+    def get_params(self, ctx: Context) -> list[Parameter]:
+        return flags_without_value(super().get_params(ctx))
+
+
+def _command(app: typer.Typer, name: str, function: Callable[..., Any],
+             epilog: str | None) -> None:
+    app.command(name, cls=FlagCommand, help=one_paragraph_lines(function.__doc__),
+                epilog=epilog)(function)
+
+
+def build_command(name: str, target: str | LazyGroupSpec, epilog: str | None = None,
+                  ) -> Command:
     """The click command of one target: its function's signature gives the options,
-    its docstring the help."""
+    its docstring the help; ``epilog`` ends every help page."""
     if isinstance(target, LazyGroupSpec):
-        group = typer.Typer(no_args_is_help=True, help=target.help, add_completion=False)
+        group = typer.Typer(cls=FlagGroup, no_args_is_help=True, help=target.help,
+                            add_completion=False, epilog=epilog)
         for sub_name, sub_target in target.commands.items():
-            group.command(sub_name)(load_function(sub_target))
+            _command(group, sub_name, load_function(sub_target), epilog)
         command = typer.main.get_group(group)
     else:
         single = typer.Typer(add_completion=False)
-        single.command(name)(load_function(target))
+        _command(single, name, load_function(target), epilog)
         command = typer.main.get_command(single)
     command.name = name
     return command
@@ -52,16 +90,17 @@ class LazyCommandTable(MutableMapping[str, "Command"]):
     its keys (listing, "did you mean") need no import."""
 
     def __init__(self, targets: Mapping[str, str | LazyGroupSpec],
-                 built: Mapping[str, Command]) -> None:
+                 built: Mapping[str, Command], epilog: str | None = None) -> None:
         self._targets = dict(targets)
         self._built = dict(built)
+        self._epilog = epilog
 
     def __contains__(self, name: object) -> bool:  # without building it
         return name in self._targets or name in self._built
 
     def __getitem__(self, name: str) -> Command:
         if name not in self._built:
-            self._built[name] = build_command(name, self._targets[name])
+            self._built[name] = build_command(name, self._targets[name], self._epilog)
         return self._built[name]
 
     def __setitem__(self, name: str, command: Command) -> None:
@@ -80,14 +119,16 @@ class LazyCommandTable(MutableMapping[str, "Command"]):
         return len(self._targets.keys() | self._built.keys())
 
 
-class LazyCommands(TyperGroup):
-    """A group whose commands are those of ``table`` (set by a subclass), in its order."""
+class LazyCommands(FlagGroup):
+    """A group whose commands are those of ``table`` (set by a subclass), in its order;
+    each command's help ends with ``command_epilog``."""
 
     table: ClassVar[Mapping[str, str | LazyGroupSpec]] = {}
+    command_epilog: ClassVar[str | None] = None
 
     def __init__(self, **attrs: Any) -> None:
         super().__init__(**attrs)
-        self.commands = LazyCommandTable(self.table, self.commands)
+        self.commands = LazyCommandTable(self.table, self.commands, self.command_epilog)
 
     def list_commands(self, ctx: Context) -> list[str]:
         return list(self.commands)  # names only: the base class would build them all

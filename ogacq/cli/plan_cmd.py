@@ -60,7 +60,8 @@ def plan(
         help="Gauge noise sigma in mm (default: the machine file's repeatability, "
              "else its resolution).")] = None,
     assume: Annotated[str | None, typer.Option(
-        help="Geometry to predict at, e.g. 'joint_offset.x=0.5,joint_offset.z=-1'.")] = None,
+        help="Geometry to predict at, parameters in mm or mrad separated by commas, e.g. "
+             "'joint_offset.x=0.5, joint_offset.z=-1'.")] = None,
     trials: Annotated[int, typer.Option(
         min=0, help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
     = 10000,

@@ -43,7 +43,7 @@ def print_fit(result: FitResult, params_label: str) -> None:
                       effect_of(name).unit)
     console.print(table)
     console.print(f"residual rms {result.residual_rms_mm:.4f} mm, sigma from residuals "
-                  f"{_num(result.sigma_mm)} mm ({result.dof} dof); gauge noise "
+                  f"{_num(result.sigma_mm, sign=False)} mm ({result.dof} dof); gauge noise "
                   f"{result.noise.describe()}")
     console.print(f"condition number {ident.condition_number:.4g}, rank {ident.rank} of "
                   f"{len(result.names)}")
@@ -173,14 +173,16 @@ def print_outcome(outcome) -> None:
     if outcome.hidden is not None:
         table.add_column("hidden truth", justify="right")
         table.add_column("error / std", justify="right")
+    table.add_column("unit")
     for name, value, std in zip(result.names, result.values, result.std, strict=True):
         row = [name, f"{value:+.4f}", f"{std:.4f}"]
         if outcome.hidden is not None:
             truth = outcome.hidden.get(name, 0.0)
             row += [f"{truth:+.4f}", f"{(value - truth) / std:+.1f}"]
-        table.add_row(*row)
+        table.add_row(*row, effect_of(name).unit)
     console.print(table)
-    console.print(f"residual rms {result.residual_rms_mm * 1000:.2f} um, gauge noise "
+    # in the noise's unit: one unit on the line
+    console.print(f"residual rms {result.residual_rms_mm:.4g} mm, gauge noise "
                   f"{result.noise.describe()}; session {outcome.session_path}")
 
 
@@ -225,23 +227,23 @@ def print_demo_diagnosis(d, hidden: dict[str, float]) -> None:
     console.print(f"[yellow]diagnosis: the joint offsets alone: {d.base.describe()}[/]",
                   highlight=False)
     table = Table(show_edge=False, header_style="bold", title="physics found by the diagnosis")
-    for column in ("effect", "found", "std", "hidden truth", "alternatives"):
-        table.add_column(column, justify="left" if column in ("effect", "alternatives")
+    for column in ("effect", "found", "std", "hidden truth", "unit", "alternatives"):
+        table.add_column(column, justify="left" if column in ("effect", "unit", "alternatives")
                          else "right")
     found = set()
     for e in diagnosis["effects"]:
         name = f"{e['effect']}.{e['where']}"
         found.add(name)
         if e["effect"] == "unexplained":
-            table.add_row(f"unexplained at {e['where']}", "-", "-", "-", "")
+            table.add_row(f"unexplained at {e['where']}", "-", "-", "-", "", "")
             continue
         alternatives = ", ".join(f"{a['effect']}.{a['where']}" for a in e["alternatives"])
         truth = hidden.get(name)
-        table.add_row(name, f"{e['value']:+.4f} {e['unit']}", f"{e['std']:.4f}",
-                      "-" if truth is None else f"{truth:+.4f}", alternatives)
+        table.add_row(name, f"{e['value']:+.4f}", f"{e['std']:.4f}",
+                      "-" if truth is None else f"{truth:+.4f}", e["unit"], alternatives)
     for name, value in hidden.items():
         if not name.startswith("joint_offset.") and name not in found:
-            table.add_row(name, "not found", "", f"{value:+.4f}", "")
+            table.add_row(name, "not found", "", f"{value:+.4f}", effect_of(name).unit, "")
     console.print(table)
     console.print(f"with these effects the fit is {d.final.describe()}", highlight=False)
     offsets = diagnosis["parameters"]["joint_offset"]

@@ -47,11 +47,18 @@ class RepeatCollapsingHandler(logging.StreamHandler):
                               f"time{'s' if repeats > 1 else ''})\n")
 
 
+class OneLineFormatter(logging.Formatter):
+    """``ogacq: warning: ...`` (or ``info``, ``error``): as the command's own messages."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        return f"ogacq: {record.levelname.lower()}: {record.getMessage()}"
+
+
 def configure_logging() -> None:
     """Warnings and errors on stderr, one line each, repeats counted (unless logging
     was configured already: a program embedding ``main`` keeps its own)."""
     handler = RepeatCollapsingHandler()
-    handler.setFormatter(logging.Formatter("ogacq: warning: %(message)s"))
+    handler.setFormatter(OneLineFormatter())
     logging.basicConfig(level=logging.WARNING, handlers=[handler])
     # pymodbus logs a refused connection too; our own one-line error names the device
     logging.getLogger("pymodbus").setLevel(logging.CRITICAL)

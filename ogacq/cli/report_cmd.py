@@ -32,8 +32,8 @@ def report_command(
     with confidence intervals, identifiability, diagnosis and provenance."""
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
-    calibration = load_calibration(session)
-    validation = load_calibration(after) if after is not None else None
+    calibration = load_session(session)
+    validation = load_session(after) if after is not None else None
     if diagnosis is not None:
         raw, note = _read_diagnosis(diagnosis), None
     else:
@@ -70,19 +70,6 @@ def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any
                                  for s in effect.separations]
     data["caveats"] = result.caveats()
     return data
-
-
-def load_calibration(path: Path) -> LoadedSession:
-    """A session, or one line saying the file is not one (a readings CSV, say)."""
-    try:
-        with path.open("rb") as fh:
-            first = fh.readline().lstrip()
-    except OSError:
-        first = b"{"  # let load_session word the problem
-    if first and not first.startswith(b"{"):
-        raise InputError(path, "not an ogacq session (line 1 is not a JSON record); "
-                         "`ogacq report` takes the session.jsonl a campaign wrote", 1)
-    return load_session(path)
 
 
 def _read_diagnosis(path: Path) -> dict:

@@ -13,7 +13,7 @@ import typer
 
 from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.campaign_file import SimulatorSpec
-from ogacq.cli.options import GaugeProtocol, JsonOption, ProfileChoice, seed_option
+from ogacq.cli.options import DEFAULT_SEED, GaugeProtocol, JsonOption, ProfileChoice, seed_option
 from ogacq.cli.render import print_sim
 from ogacq.io.machine_file import read_machine
 from ogacq.model.gauges import GAUGE_KEYS
@@ -29,7 +29,8 @@ def sim(
     effects: Annotated[Path | None, typer.Option(
         help="TOML file of hidden effects (joint_offset, squareness, ... gauges.noise_mm).")]
     = None,
-    seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise.")] = 0,
+    seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise (the same "
+                                     "default in demo, sim and wizard).")] = DEFAULT_SEED,
     machine: Annotated[Path | None, typer.Option(
         "--machine", "-m", help="Machine file (default: the papers' prototype).")] = None,
     speed: Annotated[float, typer.Option(

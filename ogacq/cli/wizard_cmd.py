@@ -8,7 +8,13 @@ from typing import Annotated
 import typer
 
 from drivers.indicators import DEFAULT_PROTOCOL
-from ogacq.cli.options import GaugeProtocol, ProfileChoice, seed_option
+from ogacq.cli.options import (
+    DEFAULT_SEED,
+    GaugeProtocol,
+    IndicatorCount,
+    ProfileChoice,
+    seed_option,
+)
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.wizard import WizardOptions, run_wizard
 from ogacq.cli.wizard.faults import parse_fault
@@ -25,7 +31,8 @@ def wizard(
     simulator: Annotated[bool, typer.Option(
         "--simulator", help="Rehearse on the built-in simulator: its ports are offered as "
                             "the instruments.")] = False,
-    seed: Annotated[int, seed_option("Simulator: seed of the hidden offsets.")] = 0,
+    seed: Annotated[int, seed_option("Simulator: seed of the hidden offsets (as demo and "
+                                     "sim).")] = DEFAULT_SEED,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulator: time speed-up.")] = 20.0,
     profile: Annotated[ProfileChoice, typer.Option(
         help="Simulator: controller register map.")] = ProfileChoice["cia402"],
@@ -47,10 +54,9 @@ def wizard(
     by_eye: Annotated[bool, typer.Option(
         "--by-eye", help="Dial indicators: type each reading (the default answer to "
                          "'how are the gauges read').")] = False,
-    indicators: Annotated[int | None, typer.Option(
-        min=2, max=6, help="6: two per leg, left in place; 2: moved from leg to leg, as in "
-                           "the papers (asked when not given; a rehearsal's simulator has 6 "
-                           "unless told).")] = None,
+    indicators: Annotated[IndicatorCount | None, typer.Option(
+        help="6: two per leg, left in place; 2: moved from leg to leg, as in the papers "
+             "(asked when not given; a rehearsal's simulator has 6 unless told).")] = None,
     resume: Annotated[Path | None, typer.Option(
         help="Continue this session with the wizard.")] = None,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
@@ -62,9 +68,6 @@ def wizard(
     """Guided calibration: connect the instruments, set the gauges leg by leg, measure,
     identify the joint offsets."""
     faults = _faults(simulate_fault)
-    if indicators not in (None, 2, 6):
-        raise typer.BadParameter("2 (moved from leg to leg) or 6 (left in place)",
-                                 param_hint="--indicators")
     if faults and not simulator and resume is None:
         raise typer.BadParameter("faults can only be injected into the simulator",
                                  param_hint="--simulate-fault")
@@ -74,7 +77,8 @@ def wizard(
                             machine=machine, out=out, cycles=cycles, settle_s=settle_s,
                             stability_timeout_s=stability_timeout_s,
                             gauge_range_mm=gauge_range_mm, max_offset_mm=max_offset_mm,
-                            by_eye=by_eye, indicators=indicators, faults=faults,
+                            by_eye=by_eye, faults=faults,
+                            indicators=int(indicators) if indicators else None,
                             resume=resume, gauge_protocol=gauge_protocol.value)
     code = run_wizard(options)
     if code:

@@ -253,8 +253,11 @@ KNOWN_HEADER = frozenset({"type", "format", "software", "created", "machine", "m
 
 
 def _describe(d: dict) -> str:
-    return ", ".join(f"{str(k).replace('_', ' ')} {v}" for k, v in d.items()
-                     if v not in (None, "", [], {}))
+    """``key value, ...`` in words; a nested table (a reconnect policy, offsets by axis)
+    in parentheses the same way, never as a Python dict."""
+    return ", ".join(f"{str(k).replace('_', ' ')} " + (f"({_describe(v)})" if isinstance(v, dict)
+                                                      else str(v))
+                     for k, v in d.items() if v not in (None, "", [], {}))
 
 
 def _wall(wall: Any) -> str:

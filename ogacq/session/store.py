@@ -424,9 +424,9 @@ def scan_session(path: str | Path) -> Scan:
 def load_session(path: str | Path) -> LoadedSession:
     path = Path(path)
     scan = scan_session(path)
-    if not scan.records or scan.records[0] != (1, scan.records[0][1]) or \
+    if not scan.records or scan.records[0][0] != 1 or \
             scan.records[0][1].get("type") != "session":
-        raise InputError(path, "not an ogacq session (no session header on line 1)", 1)
+        raise _not_a_session(path, scan)
     if scan.problems:
         number, problem = scan.problems[0]
         more = f" (and {len(scan.problems) - 1} more)" if len(scan.problems) > 1 else ""
@@ -439,6 +439,17 @@ def load_session(path: str | Path) -> LoadedSession:
                          f"{FORMAT!r}", 1)
     return LoadedSession(path, records[0], [record_from_json(r) for r in records[1:]],
                          scan.warnings, scan.size_bytes)
+
+
+def _not_a_session(path: Path, scan: Scan) -> InputError:
+    """Why a file is not a session, said before anything about its later lines: a
+    readings CSV given for a session is not a "corrupt record"."""
+    if (1, "not valid JSON") in scan.problems or not scan.size_bytes:
+        why = "line 1 is not a JSON record"
+    else:
+        why = "no session header on line 1"
+    return InputError(path, f"not an ogacq session ({why}); give the session.jsonl a "
+                      "campaign wrote", 1)
 
 
 def salvage_session(path: str | Path, out: str | Path) -> tuple[int, list[tuple[int, str]]]:

@@ -63,6 +63,20 @@ def test_sigkill_at_random_points_then_resume(tmp_path):
     assert np.allclose(offsets(final), offsets(reference), atol=2e-6), kill_points
 
 
+def test_ctrl_c_names_the_command_that_continues_the_session(tmp_path):
+    path = write_campaign(tmp_path / "c", seed=9, speed=5)
+    session = path.parent / "session.jsonl"
+    proc = start("run", path)
+    end = time.monotonic() + 60
+    while readings_on_disk(session) < 1:
+        assert proc.poll() is None and time.monotonic() < end, proc.stderr.read().decode()
+        time.sleep(0.01)
+    proc.send_signal(signal.SIGINT)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 130, err
+    assert f"continue it with `ogacq resume {session}`" in err.decode()
+
+
 def test_torn_last_record_loads_with_a_warning_and_resumes(tmp_path):
     path = write_campaign(tmp_path / "torn", seed=4, noise=0.0)
     session = path.parent / "session.jsonl"

@@ -1,6 +1,7 @@
 """The README's main job: ``ogacq demo``, with a concealed effect to find."""
 
 import json
+import re
 
 from tests.cli.helpers import run_ogacq
 
@@ -28,7 +29,25 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
         assert abs(got - hidden[f"joint_offset.{axis}"]) < 0.005
     assert "physics found by the diagnosis" in proc.stdout
     assert "squareness.xy" in proc.stdout
-    assert "squareness" in (out / "report" / "report.html").read_text()
+    html = (out / "report" / "report.html").read_text()
+    assert "squareness" in html
+    assert "{'" not in html and "{&#39;" not in html, "the provenance shows a Python dict"
+    assert_one_unit_per_line(proc.stdout)
+
+
+def assert_one_unit_per_line(text: str) -> None:
+    """Every number of the result tables has its unit, and no line mixes units."""
+    lines = text.splitlines()
+    rows = [line for line in lines if line.lstrip().startswith(("joint_offset.",
+                                                                 "squareness."))]
+    assert rows
+    for row in rows:
+        unit = "mrad" if row.lstrip().startswith("squareness") else "mm"
+        assert re.search(rf"\b{unit}\b", row), row
+    for line in lines:
+        assert not (re.search(r"\d um\b", line) and re.search(r"\d mm\b", line)), line
+    residual = next(line for line in lines if line.startswith("residual rms"))
+    assert re.match(r"residual rms \d\S* mm, gauge noise \d\S* mm", residual), residual
 
 
 def test_demo_refuses_a_non_empty_folder(tmp_path):

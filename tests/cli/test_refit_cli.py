@@ -1,6 +1,7 @@
 """``ogacq refit`` as users and scripts call it: the published figures and bad input."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -55,6 +56,8 @@ def test_human_table_names_the_verdict(paper_dir):
     assert proc.returncode == 0, proc.stderr
     assert "not identifiable" in proc.stdout
     assert "joint_offset.x" in proc.stdout
+    # a standard deviation has no sign
+    assert re.search(r"sigma from residuals \d+\.\d+ mm", " ".join(proc.stdout.split()))
 
 
 def _machine(tmp_path, text):

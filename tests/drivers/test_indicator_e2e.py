@@ -358,8 +358,12 @@ def test_port_of_a_closed_pty_gauge_is_a_link_error_naming_it():
     endpoint = GaugeEndpoint("mitutoyo-01a", lambda: 1.0).start()
     port = endpoint.port
     endpoint.close()
-    with pytest.raises(LinkError, match=f"gauge B: cannot open {port}"):
+    with pytest.raises(LinkError, match=f"gauge B: cannot open {port}") as raised:
         open_indicator("mitutoyo-01a", port, unit="mm", where="gauge B")
+    message = str(raised.value)
+    # the cause once, in words: not pyserial's errno and port again
+    assert message.count(port) == 1 and "Errno" not in message, message
+    assert "no such device" in message
 
 
 def test_unplugged_socket_gauge_refuses_new_connections():

@@ -22,6 +22,7 @@ class Wizard:
                  timeout_s: float = 30) -> None:
         self.folder = folder
         self.session = folder / "session.jsonl"
+        self.indicators_given = "--indicators" in args  # then never asked
         env = {**os.environ, "TERM": "xterm-256color", "COLUMNS": "120", "LINES": "50"}
         env.pop("NO_COLOR", None)
         start = ["--resume", str(resume)] if resume else \
@@ -67,7 +68,7 @@ class Wizard:
         self.answer(r"Controller port")
         self.expect(r"controller answers")
         self.answer(r"How are the gauges read\?")
-        if not by_eye:
+        if not by_eye and not self.indicators_given:
             self.answer(r"How many indicators\?", str(indicators))
         if not by_eye and indicators == 6:
             for gauge in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"):

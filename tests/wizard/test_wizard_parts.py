@@ -157,3 +157,31 @@ def test_wizard_writes_and_test_reads_every_cable(tmp_path: Path):
     campaign.path.write_text(campaign_file_text(campaign, set(), None))
     assert [(g.gauge, g.protocol, g.port) for g in read_campaign(campaign.path).gauges] == \
         [(g.gauge, g.protocol, g.port) for g in gauges]
+
+
+def test_log_lines_go_through_the_wizard_screen_while_it_runs():
+    """A retry's warning printed straight to stderr would break into a live display."""
+    import io
+    import logging
+
+    from rich.console import Console
+
+    from ogacq.cli.repeated_warnings import OneLineFormatter, RepeatCollapsingHandler
+    from ogacq.cli.wizard.ui import Screen, log_on_screen
+
+    stderr, shown = io.StringIO(), io.StringIO()
+    terminal = RepeatCollapsingHandler(stderr)
+    terminal.setFormatter(OneLineFormatter())
+    root = logging.getLogger()
+    root.addHandler(terminal)
+    log = logging.getLogger("drivers.test")
+    try:
+        with log_on_screen(Screen(Console(file=shown, width=100))):
+            for attempt in (1, 2, 3):
+                log.warning("gauge z_x [x leg]: no reply, attempt %d of 3", attempt)
+        log.warning("after the wizard")
+    finally:
+        root.removeHandler(terminal)
+    assert "ogacq: warning: gauge z_x [x leg]: no reply, attempt 1 of 3" in shown.getvalue()
+    assert "repeated 2 more times" in shown.getvalue()
+    assert stderr.getvalue() == "ogacq: warning: after the wizard\n"

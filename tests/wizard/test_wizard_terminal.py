@@ -154,6 +154,8 @@ def test_ctrl_c_pauses_resumes_then_quits_and_ogacq_resume_completes(tmp_path, w
 def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path, wizards):
     w = start(wizards, tmp_path / "run", "--cycles", "1", "--by-eye")
     w.connect_with_defaults(by_eye=True)  # with --by-eye, "by eye" is the default answer
+    plan = next(line for line in "".join(w.transcript).splitlines() if "Plan:" in line)
+    assert "24 readings, each typed by you" in plan and "automatically" not in plan
     for leg in "xyz":
         w.expect(rf"Leg {leg}: set the two gauges")
         for _ in range(2):  # each gauge's value as set: the reference of its readings
@@ -221,3 +223,47 @@ def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path,
     session = load_session(w.session)
     keys = [(r.step, r.gauge.key) for r in session.readings]
     assert session.finished and len(keys) == len(set(keys)) == 24
+
+
+def test_rtu_rehearsal_edges_then_not_started_leaves_no_folder(tmp_path, wizards):
+    """An RTU controller's baud rate is asked; --indicators 6 is not asked again; after
+    "change the port" the detected port is still offered; a cause said once; declining
+    to start names the full command and leaves no folder behind."""
+    folder = tmp_path / "run"
+    w = start(wizards, folder, "--profile", "iai-pcon", "--indicators", "6")
+    w.answer(r"Register map of the controller")
+    w.answer(r"Controller port")
+    w.answer(r"Baud rate of the controller's serial line .*38400")
+    w.expect(r"controller answers")
+    w.answer(r"How are the gauges read\?")
+    offered = w.expect(r"Gauge y_x \(on the x leg, along y\).*?(/dev/pts/\d+)").group(1)
+    w.child.sendline("/dev/ttyNOPE")
+    w.expect(r"Check the cable")
+    problem = " ".join(w.transcript[-1].split()).partition("did not give a value:")[2]
+    assert problem.count("ttyNOPE") == 1 and "Errno" not in problem, problem
+    w.answer(r"What now\?", "c")
+    assert w.expect(r"Gauge y_x \(on the x leg, along y\).*?(/dev/pts/\d+)").group(1) == offered
+    w.child.sendline("")
+    w.expect(r"y_x reads [0-9.]+ mm")
+    for gauge in ("z_x", "x_y", "z_y", "x_z", "y_z"):
+        w.answer(rf"Gauge {gauge} \(on the")
+        w.expect(rf"{gauge} reads [0-9.]+ mm")
+    w.answer(r"Is this the machine you are calibrating\?")
+    w.expect(r"72 readings, taken automatically")
+    w.answer(r"Start\?", "n")
+    w.expect(r"Start again with: ogacq wizard --simulator --indicators 6 --out ")
+    assert w.finish() == 130
+    transcript = "".join(w.transcript)
+    assert "How many indicators" not in transcript
+    assert not folder.exists()
+
+
+def test_quit_at_the_first_question_names_the_rehearsal_command(tmp_path, wizards):
+    folder = tmp_path / "run"
+    w = start(wizards, folder)
+    w.expect(r"Register map of the controller")
+    w.ctrl_c()
+    w.answer(r"Resume or quit\?", "q")
+    w.expect(r"Nothing was measured. Start again with: ogacq wizard --simulator --out ")
+    assert w.finish() == 130
+    assert not folder.exists()

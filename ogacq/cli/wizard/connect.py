@@ -14,14 +14,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from drivers.axes.profile import ProfileError, available_profiles
+from drivers.axes.profile import ProfileError, available_profiles, load_profile
 from drivers.errors import DriverError
 from drivers.indicators import BACKENDS
 from ogacq.campaign_file import ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
 from ogacq.model.parameters import AXES
-from ogacq.station import open_controller, open_gauges  # as the campaign connects
+from ogacq.station import (  # as the campaign connects
+    is_modbus_tcp,
+    open_controller,
+    open_gauges,
+)
 
 BY_EYE = "by eye"
 
@@ -169,7 +173,7 @@ def choose_controller(screen: Screen, ports: Sequence[DetectedPort],
             "Controller port: a number from the list, a serial device, or host:port",
             lambda a: _port_answer(a, ports),
             default=suggested.device if suggested else None)
-        spec = ControllerSpec(profile, port)
+        spec = ControllerSpec(profile, port, _ask_baudrate(screen, profile, port))
         while True:
             screen.say(f"Checking the controller on {port} …")
             try:
@@ -189,6 +193,25 @@ def choose_controller(screen: Screen, ports: Sequence[DetectedPort],
                 return spec
             if choice == "c":
                 break
+
+
+def _ask_baudrate(screen: Screen, profile: str, port: str) -> int | None:
+    """The bit rate of a serial (Modbus RTU) controller, the profile's as the default;
+    None over TCP, which has none."""
+    if is_modbus_tcp(port):
+        return None
+    try:
+        default = load_profile(profile).transport.baudrate
+    except ProfileError:
+        default = 38400
+    return screen.ask_parsed("Baud rate of the controller's serial line (bit/s; the drive's "
+                             "own setting)", _baudrate, default=str(default))
+
+
+def _baudrate(answer: str) -> int:
+    if not answer.isdigit() or int(answer) <= 0:
+        raise ValueError(f"{answer!r} is not a baud rate: a whole number such as 38400")
+    return int(answer)
 
 
 # ------------------------------------------------------------------------ gauges
@@ -261,11 +284,11 @@ def _indicator_count(screen: Screen, known: int | None, rehearsal: int | None) -
     options = [Option("6", "six, two per leg, left in place for the whole campaign"),
                Option("2", "two, moved from leg to leg (as in the papers): you set them on "
                            "each leg when the machine stops there")]
-    if known is not None and rehearsal is None:
+    if known is not None:  # --indicators: a rehearsal's simulator was built with it
         return known
     while True:
         count = int(screen.choose("How many indicators?", options,
-                                  default=str(rehearsal or known or 6)))
+                                  default=str(rehearsal or 6)))
         if rehearsal is None or count == rehearsal:
             return count
         screen.problem(f"this rehearsal's simulator has {rehearsal} indicators; to rehearse "
@@ -342,8 +365,7 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
                 notes.append({"step": "gauge test", "gauge": gauge, "port": port,
                               "reason": screen.reason(f"skip the test of {name}")})
                 return spec
-            if choice == "c":
-                default = None
+            if choice == "c":  # the suggested port stays the default
                 break
 
 

@@ -20,6 +20,7 @@ from drivers.errors import DriverError
 from drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.cli.options import DEFAULT_SEED
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
     StationChoice,
@@ -43,7 +44,7 @@ from ogacq.cli.wizard.guided_station import GuidedStation
 from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_writeback, show_result
-from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, times
+from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
@@ -63,7 +64,7 @@ EXIT_QUIT = 130
 @dataclass
 class WizardOptions:
     simulator: bool = False
-    seed: int = 0
+    seed: int = DEFAULT_SEED
     speed: float = 20.0
     profile: str = "cia402"
     machine: Path | None = None
@@ -85,7 +86,8 @@ def run_wizard(options: WizardOptions) -> int:
     gate = InterruptGate()
     gate.install()
     try:
-        return _Wizard(screen, gate, options).run()
+        with log_on_screen(screen):
+            return _Wizard(screen, gate, options).run()
     except InputClosed:
         screen.stop_live()
         screen.say("\nThe terminal closed: the wizard stops here.")
@@ -107,9 +109,18 @@ class _Wizard:
         self._notes_for_session: list[OperatorRecord] = []  # written at the next run
         self.resumable_by_ogacq = False  # the campaign file alone continues the session
         self.campaign: Campaign | None = None
+        self.folder: NewFolder | None = None  # a new campaign's, until it holds a session
 
     # ====================================================================== top level
     def run(self) -> int:
+        try:
+            return self._run()
+        finally:
+            if self.folder is not None and (self.session_path is None
+                                            or not self.session_path.exists()):
+                self.folder.remove()  # an abandoned start leaves nothing behind
+
+    def _run(self) -> int:
         with contextlib.ExitStack() as cleanup:
             try:
                 if self.options.resume is not None:
@@ -135,7 +146,8 @@ class _Wizard:
 
     def _new_campaign(self, cleanup: contextlib.ExitStack) -> CampaignOutcome:
         opts = self.options
-        folder = _new_folder(opts.out)
+        self.folder = NewFolder.make(opts.out)
+        folder = self.folder.path
         s = self.screen
         s.say("[bold]ogacq wizard[/]: a guided calibration of the joint offsets.")
         s.say("Four steps: connect the instruments, confirm the machine, set the gauges and "
@@ -177,7 +189,8 @@ class _Wizard:
         postures = " → ".join(p.title() if isinstance(p, str) else f"{p:g} mm"
                               for p in protocol.postures)
         s.say(f"Plan: legs {', '.join(protocol.legs)}; on each, {postures}, "
-              f"{times(protocol.cycles)}: {readings} readings, taken automatically.")
+              f"{times(protocol.cycles)}: {readings} readings, "
+              f"{_how_read(campaign, self.by_eye)}.")
         s.say(f"Everything is saved as it is measured, in {folder}/.")
         if not pausable(s, "before measuring",
                         lambda: s.confirm("Start? The machine homes, then goes to the Zero "
@@ -509,7 +522,7 @@ class _Wizard:
         s.stop_live()
         path = self.session_path
         if path is None or not path.exists():
-            s.say("\nStopped. Nothing was measured. Start again with: ogacq wizard")
+            s.say(f"\nStopped. Nothing was measured. Start again with: {self._start_again()}")
             return
         session = load_session(path)
         s.say(f"\nStopped after {len(session.readings)} readings. The session is saved: "
@@ -520,9 +533,52 @@ class _Wizard:
         s.say(f"  ogacq wizard --resume {path}   (guided)")
 
 
-def _new_folder(out: Path | None) -> Path:
-    folder = out or Path(f"ogacq-wizard-{time.strftime('%Y%m%d-%H%M%S')}")
-    if folder.exists() and any(folder.iterdir()):
-        raise InputError(folder, "exists and is not empty: choose another --out folder")
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
+    def _start_again(self) -> str:
+        """The command that starts this wizard again, with what chose its machine."""
+        opts = self.options
+        words = ["ogacq wizard"]
+        if opts.simulator:
+            words.append("--simulator")
+        if opts.machine is not None:
+            words.append(f"--machine {opts.machine}")
+        if opts.indicators is not None:
+            words.append(f"--indicators {opts.indicators}")
+        if opts.out is not None:
+            words.append(f"--out {opts.out}")
+        return " ".join(words)
+
+
+def _how_read(campaign: Campaign, by_eye: set[str]) -> str:
+    """How the plan's readings are taken: by the gauges, typed, or both."""
+    if not by_eye:
+        return "taken automatically"
+    if not campaign.gauges:  # none is read over a link
+        return "each typed by you from the dial"
+    return f"typed by you for {', '.join(sorted(by_eye))}, the others taken automatically"
+
+
+@dataclass(frozen=True)
+class NewFolder:
+    """A new campaign's folder, and whether the wizard made it."""
+
+    path: Path
+    made: bool
+
+    @classmethod
+    def make(cls, out: Path | None) -> NewFolder:
+        folder = out or Path(f"ogacq-wizard-{time.strftime('%Y%m%d-%H%M%S')}")
+        if folder.exists() and any(folder.iterdir()):
+            raise InputError(folder, "exists and is not empty: choose another --out folder")
+        existed = folder.exists()
+        folder.mkdir(parents=True, exist_ok=True)
+        return cls(folder, not existed)
+
+    def remove(self) -> None:
+        """The files the wizard writes before a session (the rehearsal's machine, the
+        campaign file), and the folder if the wizard made it and nothing else is there."""
+        for name in ("machine.toml", "campaign.toml"):
+            with contextlib.suppress(OSError):
+                (self.path / name).unlink()
+        if self.made:
+            with contextlib.suppress(OSError):  # not empty: someone else's files stay
+                self.path.rmdir()

@@ -8,6 +8,7 @@ is stopped before any question, so prompts never fight with redraws.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import select
 import sys
@@ -16,7 +17,9 @@ from dataclasses import dataclass
 from typing import Protocol, TypeVar
 
 from rich.console import Console
+from rich.markup import escape
 
+from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
 from ogacq.errors import InputError
 
 T = TypeVar("T")
@@ -132,6 +135,45 @@ class Screen:
             if text:
                 return text
             self.problem("a reason is needed, so whoever reads the session knows why")
+
+
+class _ScreenLines:
+    """A stream whose lines the screen prints: above a live display, never into it."""
+
+    def __init__(self, screen: Screen) -> None:
+        self.screen = screen
+
+    def write(self, text: str) -> None:
+        for line in filter(None, text.splitlines()):
+            self.screen.note(escape(line))
+
+    def flush(self) -> None:
+        pass
+
+
+@contextlib.contextmanager
+def log_on_screen(screen: Screen) -> Iterator[None]:
+    """While the wizard runs, the log's terminal lines (a retry, a reconnect) go through
+    the screen: written straight to stderr they would break into a redrawn progress
+    display or a question."""
+    root = logging.getLogger()
+    terminal = [h for h in root.handlers if isinstance(h, RepeatCollapsingHandler)]
+    on_screen: list[logging.Handler] = []
+    for handler in terminal:
+        replacement = RepeatCollapsingHandler(_ScreenLines(screen))
+        replacement.setFormatter(handler.formatter)
+        replacement.setLevel(handler.level)
+        root.removeHandler(handler)
+        root.addHandler(replacement)
+        on_screen.append(replacement)
+    try:
+        yield
+    finally:
+        for replacement in on_screen:
+            replacement.flush()
+            root.removeHandler(replacement)
+        for handler in terminal:
+            root.addHandler(handler)
 
 
 class Keys:

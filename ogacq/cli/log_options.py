@@ -1,0 +1,37 @@
+"""``ogacq --verbose`` and ``ogacq --log-file FILE``: what the log says, and where.
+
+The terminal shows warnings (``configure_logging`` in ``repeated_warnings``), or with
+``--verbose`` also the info records (a retry, a reconnect, a step started); the log
+file gets every record, debug included, each with its time, for whoever investigates
+a campaign afterwards.
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
+from ogacq.errors import InputError
+
+LOG_FILE_FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
+
+
+def apply_log_options(verbose: bool, log_file: Path | None) -> None:
+    root = logging.getLogger()
+    terminal_level = logging.INFO if verbose else logging.WARNING
+    for handler in root.handlers:
+        if isinstance(handler, RepeatCollapsingHandler):
+            handler.setLevel(terminal_level)
+    root.setLevel(terminal_level)
+    if log_file is None:
+        return
+    try:
+        file_handler = logging.FileHandler(log_file, encoding="utf-8")
+    except OSError as exc:
+        raise InputError(log_file, f"cannot write the log file ({exc.strerror or exc})") \
+            from None
+    file_handler.setFormatter(logging.Formatter(LOG_FILE_FORMAT))
+    file_handler.setLevel(logging.DEBUG)
+    root.addHandler(file_handler)
+    root.setLevel(logging.DEBUG)
