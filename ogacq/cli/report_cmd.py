@@ -11,6 +11,7 @@ import typer
 from ogacq.cli.outputs import check_output_folder
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
+from ogacq.io.text import read_text, strip_bom
 from ogacq.report import DiagnosisFormatError, build_report, collect, parse_diagnosis, write_report
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
@@ -76,7 +77,7 @@ def load_calibration(path: Path) -> LoadedSession:
     """A session, or one line saying the file is not one (a readings CSV, say)."""
     try:
         with path.open("rb") as fh:
-            first = fh.readline().lstrip()
+            first = strip_bom(fh.readline()).lstrip()
     except OSError:
         first = b"{"  # let load_session word the problem
     if first and not first.startswith(b"{"):
@@ -87,7 +88,7 @@ def load_calibration(path: Path) -> LoadedSession:
 
 def _read_diagnosis(path: Path) -> dict:
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read the diagnosis: {exc.strerror or exc}") from None
     try:
