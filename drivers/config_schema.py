@@ -226,7 +226,7 @@ def read_document(path: str | Path, what: str, error: ErrorFactory,
     callers to whom a missing file means something (no offsets yet)."""
     source = Source(str(path), error, what=what)
     try:
-        content = Path(path).read_text(encoding="utf-8")
+        content = Path(path).read_text(encoding="utf-8-sig")  # a BOM is harmless
     except FileNotFoundError:
         raise
     except OSError as exc:

@@ -157,10 +157,12 @@ def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None)
                                   baudrate=spec.baudrate, timeout_s=spec.timeout_s)
 
 
-def start_simulator(machine: MachineSpec, sim: SimulatorSpec) -> SimulatorStack:
+def start_simulator(machine: MachineSpec, sim: SimulatorSpec, *, modbus_port: int = 0,
+                    ) -> SimulatorStack:
     """The built-in simulator a ``[simulator]`` table describes, started: the one
     recipe (campaigns, the wizard's rehearsal, ``ogacq sim``), so that a resumed
-    campaign meets the same hidden machine."""
+    campaign meets the same hidden machine. ``modbus_port``: the Modbus TCP port
+    (0: any free one)."""
     # Loaded here, not with the module: every command imports the station, and the
     # simulator's Modbus server and gauge emulators add ~50 ms to each start.
     from ogacq.sim.stack import SimulatorConfig, SimulatorStack
@@ -175,7 +177,8 @@ def start_simulator(machine: MachineSpec, sim: SimulatorSpec) -> SimulatorStack:
                                           speed=sim.speed, seed=sim.seed,
                                           gauge_layout=sim.gauge_layout,
                                           gauge_protocol=sim.gauge_protocol,
-                                          gauge_protocols=dict(sim.gauge_protocols))).start()
+                                          gauge_protocols=dict(sim.gauge_protocols),
+                                          modbus_port=modbus_port)).start()
 
 
 def simulator_endpoints(simulator: SimulatorStack) -> tuple[ControllerSpec, list[GaugeSpec]]:

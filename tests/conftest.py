@@ -5,7 +5,7 @@ import pytest
 from ogacq.io.machine_file import read_machine
 
 ROOT = Path(__file__).resolve().parents[1]
-PAPER = ROOT / "fixtures" / "paper"
+PAPER = ROOT / "ogacq" / "examples" / "paper"
 
 
 @pytest.fixture(scope="session")

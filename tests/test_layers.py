@@ -32,12 +32,14 @@ LAYERS: list[tuple[str, ...]] = [
     ("drivers.link", "drivers.usb_net", "drivers.usb_link", "drivers.input_link"),
     ("drivers.axes", "drivers.indicators"),
     ("drivers.sim",),  # device emulators speaking the wire protocols
-    ("ogacq", "ogacq.errors", "ogacq.io", "ogacq.io.errors", "ogacq.io.toml_file"),
+    ("ogacq", "ogacq.errors", "ogacq.io", "ogacq.io.errors", "ogacq.io.text",
+     "ogacq.io.toml_file"),
     ("ogacq.model",),
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table"),
-    ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file"),
+    ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
+     "ogacq.file_templates"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
     ("ogacq.campaign",),
     ("ogacq.writeback", "ogacq.report"),

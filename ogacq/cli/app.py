@@ -26,6 +26,10 @@ EXIT_CODES = ("Exit codes: 0 done; 1 declined at a prompt; 2 bad input (a file, 
               "be resumed); 4 refused as unreliable or unsafe (the reasons are printed); "
               "130 interrupted.")
 
+FILE_FORMATS = ("Files: machine, campaign, effects and offset-table files, readings and "
+                "deviations CSVs are described in docs/formats.md (in the ogacq repository); "
+                "`ogacq init machine|campaign` writes a commented template to start from.")
+
 OFFSETS_HELP = ("Joint offsets on the controller: show the identified ones against the "
                 "controller's, write them back (confirmed, read back, recorded), restore the "
                 "old ones.")
@@ -45,6 +49,7 @@ class OgacqCommands(LazyCommands):
         "report": "ogacq.cli.report_cmd:report_command",
         "sim": "ogacq.cli.sim_cmd:sim",
         "wizard": "ogacq.cli.wizard_cmd:wizard",
+        "init": "ogacq.cli.init_cmd:init",
         "offsets": LazyGroupSpec(OFFSETS_HELP, {
             "show": "ogacq.cli.offsets_cmd:show",
             "write": "ogacq.cli.offsets_cmd:write",
@@ -62,7 +67,7 @@ class OgacqCommands(LazyCommands):
 # table is not imported to complete a command's name.
 app = typer.Typer(cls=OgacqCommands, add_completion=True, no_args_is_help=True,
                   help="Acquisition and calibration for Orthoglide-type parallel machines.",
-                  epilog=EXIT_CODES)
+                  epilog=f"{EXIT_CODES}\n\n{FILE_FORMATS}")
 
 
 def _version(value: bool) -> None:

@@ -21,10 +21,20 @@ from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError
 from ogacq.io.machine_file import write_machine
+from ogacq.io.text import read_text
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
+
+# Under the folder the command was started in, one level down: the runs gather in one
+# place (ignored by git) instead of beside the package, where a search would pack them.
+RUNS_FOLDER = Path("ogacq-runs")
+DEMO_FOLDER_HELP = "./ogacq-runs/demo-YYYYMMDD-HHMMSS"
+
+
+def default_demo_folder() -> Path:
+    return RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
 def demo(
@@ -35,13 +45,13 @@ def demo(
                                      "default in demo, sim and wizard).")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="Controller register map of the simulated machine.")] = ProfileChoice["cia402"],
-    out: Annotated[Path | None, typer.Option(help="Folder to write (default: a new one "
-                                             "named after the time).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
+                                             f"{DEMO_FOLDER_HELP}).")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
 ) -> None:
     """A full calibration campaign against the built-in simulator: identify the hidden
     joint offsets through the real drivers and compare them with the truth."""
-    folder = out or Path(f"ogacq-demo-{time.strftime('%Y%m%d-%H%M%S')}")
+    folder = out or default_demo_folder()
     if folder.is_dir() and any(folder.iterdir()):
         raise InputError(folder, "exists and is not empty; choose another --out")
     check_output_folder(folder, "--out")
@@ -82,7 +92,6 @@ def demo(
 
 def _read_effects(path: Path) -> str:
     try:
-        return path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) else "not UTF-8 text"
-        raise InputError(path, f"cannot read the effects file ({reason or exc})") from None
+        return read_text(path)
+    except OSError as exc:
+        raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None

@@ -5,8 +5,14 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Annotated
+
+import typer
 
 from ogacq.errors import InputError
+
+ForceOption = Annotated[bool, typer.Option(
+    "--force", help="Overwrite the output file when it exists.")]
 
 
 def check_new_file(path: Path, name: str) -> None:
@@ -14,6 +20,19 @@ def check_new_file(path: Path, name: str) -> None:
     whose folder is missing or cannot be written to."""
     if path.exists():
         raise InputError(path, "exists; not overwriting it")
+    _check_file_folder(path, name)
+
+
+def check_output_file(path: Path, name: str, *, force: bool) -> None:
+    """As :func:`check_new_file`, but an existing file is replaced with ``force``."""
+    if path.is_dir():
+        raise InputError(path, f"is a folder; choose another {name}")
+    if path.exists() and not force:
+        raise InputError(path, "exists; not overwriting it without --force")
+    _check_file_folder(path, name)
+
+
+def _check_file_folder(path: Path, name: str) -> None:
     if not path.parent.is_dir():
         raise InputError(path, f"cannot be written: there is no folder {path.parent}; "
                          f"choose another {name}")

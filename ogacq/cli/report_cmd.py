@@ -11,6 +11,7 @@ import typer
 from ogacq.cli.outputs import check_output_folder
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
+from ogacq.io.text import read_text
 from ogacq.report import DiagnosisFormatError, build_report, collect, parse_diagnosis, write_report
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
@@ -74,7 +75,7 @@ def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any
 
 def _read_diagnosis(path: Path) -> dict:
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read the diagnosis: {exc.strerror or exc}") from None
     try:

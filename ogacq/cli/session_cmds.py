@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.options import MachineOption
-from ogacq.cli.outputs import check_new_file
+from ogacq.cli.outputs import ForceOption, check_new_file, check_output_file
 from ogacq.cli.render import print_session
 from ogacq.errors import InputError
 from ogacq.io.machine_file import read_machine
@@ -28,9 +28,10 @@ def show(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None
 def export(
     session: Annotated[Path, typer.Argument(help="Session file.")],
     out: Annotated[Path, typer.Argument(help="Readings CSV to write.")],
+    force: ForceOption = False,
 ) -> None:
-    """Write the session's readings as a readings CSV (INTERCHANGE.md)."""
-    check_new_file(out, "OUT")
+    """Write the session's readings as a readings CSV (docs/formats.md)."""
+    check_output_file(out, "OUT", force=force)
     count = export_readings(load_session(session), out)
     typer.echo(f"{count} readings written to {out}")
 
@@ -41,6 +42,7 @@ def import_(
     machine: MachineOption,
 ) -> None:
     """Make a session from a readings CSV (for tools that work on sessions)."""
+    check_new_file(out, "OUT")  # its folder too: a session import makes no folders
     check_writable(out)
     path = import_readings(readings, read_machine(machine), out)
     typer.echo(f"session written to {path}")

@@ -11,14 +11,18 @@ from typing import Annotated
 
 import typer
 
+from drivers.axes.profile import load_profile
 from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
-from ogacq.campaign_file import SimulatorSpec
+from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text
 from ogacq.cli.options import DEFAULT_SEED, GaugeProtocol, JsonOption, ProfileChoice, seed_option
+from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.cli.render import print_sim
-from ogacq.io.machine_file import read_machine
+from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.gauges import GAUGE_KEYS
-from ogacq.model.machine import PAPER_PROTOTYPE
-from ogacq.station import start_simulator
+from ogacq.model.machine import PAPER_PROTOTYPE, MachineSpec
+from ogacq.protocol.plan import ProtocolConfig
+from ogacq.sim.stack import SimulatorStack
+from ogacq.station import simulator_endpoints, start_simulator
 
 
 def sim(
@@ -40,16 +44,38 @@ def sim(
     gauge: Annotated[list[str] | None, typer.Option(
         help="GAUGE=PROTOCOL for one gauge (repeatable), e.g. z_y=usb-itn: a mixed "
              "station.")] = None,
+    port: Annotated[int | None, typer.Option(
+        min=1, max=65535, help="Modbus TCP port of the controller (default: a free one; "
+                               "with mr-je-c, axis y and z take the next two).")] = None,
+    write_campaign: Annotated[Path | None, typer.Option(
+        help="Write a campaign file that runs against this simulator (`ogacq run FILE` "
+             "while it serves); without --machine, the machine file goes beside it as "
+             "machine.toml.")] = None,
+    force: ForceOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."""
+    if port and load_profile(profile.value).transport.default != "tcp":
+        raise typer.BadParameter(f"profile {profile.value} is served over Modbus RTU on a "
+                                 "pseudo-terminal, which has no port number",
+                                 param_hint="--port")
     spec = read_machine(machine) if machine else PAPER_PROTOTYPE
+    machine_out = None
+    if write_campaign is not None:
+        check_output_file(write_campaign, "--write-campaign", force=force)
+        if machine is None:
+            machine_out = write_campaign.parent / "machine.toml"
+            check_output_file(machine_out, "--write-campaign folder", force=force)
     simulated = SimulatorSpec(seed=seed, effects=effects, speed=speed, profile=profile.value,
                               gauge_protocol=gauge_protocol.value,
                               gauge_protocols=tuple(sorted(_per_gauge(gauge or []).items())))
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
-    with contextlib.closing(start_simulator(spec, simulated)) as stack:
+    with contextlib.closing(start_simulator(spec, simulated, modbus_port=port or 0)) as stack:
+        if write_campaign is not None:
+            machine_path = machine or write_machine(machine_out, spec,
+                                                    "written by `ogacq sim --write-campaign`")
+            _write_campaign(write_campaign, stack, spec, machine_path, speed)
         info = stack.info()
         if as_json:
             typer.echo(json.dumps(info))
@@ -72,3 +98,17 @@ def _per_gauge(items: list[str]) -> dict[str, str]:
                 f"of {', '.join(BACKENDS)}", param_hint="--gauge")
         out[key] = protocol
     return out
+
+
+def _write_campaign(path: Path, stack: SimulatorStack, machine: MachineSpec,
+                    machine_path: Path, speed: float) -> None:
+    """A campaign file whose station is ``stack``'s endpoints: valid while it serves
+    (the gauges' pseudo-terminals are new at each start)."""
+    controller, gauges = simulator_endpoints(stack)
+    # The simulator's time runs `speed` times faster: the settling it needs, in wall time.
+    protocol = ProtocolConfig(settle_s=ProtocolConfig.settle_s / speed)
+    campaign = Campaign(path, machine, machine_path,
+                        path.parent / "sessions" / f"{path.stem}.jsonl", protocol,
+                        controller=controller, gauges=gauges)
+    path.write_text(campaign_text(campaign, comment="written by `ogacq sim --write-campaign`: "
+                                  "talks to that simulator while it runs"), encoding="utf-8")

@@ -8,6 +8,7 @@ rather than converted silently.
 from __future__ import annotations
 
 import csv
+import io
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -17,6 +18,7 @@ import numpy as np
 
 from ogacq.identify.observations import Deviation
 from ogacq.io.errors import InputError
+from ogacq.io.text import decode_text, read_text
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
@@ -52,13 +54,10 @@ def sniff(path: str | Path) -> str:
     """"readings", "deviations" or "session" from the file's first line."""
     path = Path(path)
     try:
-        with path.open(encoding="utf-8", newline="") as fh:
-            first = fh.readline()
+        with path.open("rb") as fh:
+            first = decode_text(fh.readline(), path)
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise InputError(path, "not a text file (readings CSV, deviations CSV or session)",
-                         1) from None
     if first.lstrip().startswith("{"):
         return "session"
     header = {h.strip() for h in next(csv.reader([first]), [])}
@@ -72,13 +71,12 @@ def sniff(path: str | Path) -> str:
 
 def _rows(path: Path, required: Sequence[str]) -> tuple[list[str], list[tuple[int, list[str]]]]:
     try:
-        with path.open(encoding="utf-8", newline="") as fh:
-            reader = csv.reader(fh)
-            header = [h.strip() for h in next(reader, [])]
-            rows = [(reader.line_num, row) for row in reader if any(c.strip() for c in row)]
+        reader = csv.reader(io.StringIO(read_text(path), newline=""))
+        header = [h.strip() for h in next(reader, [])]
+        rows = [(reader.line_num, row) for row in reader if any(c.strip() for c in row)]
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
+    except csv.Error as exc:
         raise InputError(path, f"not a readable CSV file: {exc}") from None
     if not header:
         raise InputError(path, "empty file: no header row", 1)

@@ -7,8 +7,9 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from drivers.config_schema import Issue, Source, Table, load, read_document
+from drivers.config_schema import Issue, Source, Table, load, parse_document
 from ogacq.io.errors import InputError
+from ogacq.io.text import read_text
 
 
 def input_error(issue: Issue) -> InputError:
@@ -19,7 +20,14 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
     """The parsed file and its source (to name lines in later checks); ``what`` names
     the file's role in messages ("the machine file"). FileNotFoundError passes
     through, for callers to whom a missing file means something."""
-    return read_document(path, what, input_error)
+    try:
+        content = read_text(path)
+    except FileNotFoundError:
+        raise
+    except OSError as exc:
+        raise InputError(path, f"cannot read {what}: {exc.strerror or exc}") from None
+    source = Source(str(path), input_error, content, what)
+    return parse_document(source), source
 
 
 def load_toml(path: str | Path, schema: Table, what: str) -> tuple[Any, Source]:

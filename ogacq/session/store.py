@@ -39,6 +39,7 @@ from typing import Any, TypeVar
 
 from ogacq import __version__
 from ogacq.io.errors import InputError, StorageError
+from ogacq.io.text import strip_bom
 from ogacq.session.records import (
     FORMAT,
     EndRecord,
@@ -376,7 +377,7 @@ class Scan:
 def scan_session(path: str | Path) -> Scan:
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        raw = strip_bom(path.read_bytes())  # a session saved from an editor
     except OSError as exc:
         raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
     lines = raw.split(b"\n")

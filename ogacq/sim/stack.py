@@ -41,6 +41,9 @@ class SimulatorConfig:
     # multiplexer port, channels 1..6 (a DMX/MUX box); "moved": two indicators,
     # moved from leg to leg as the papers did (see SimulatorStack.set_gauges)
     gauge_layout: str = "separate"
+    # The Modbus TCP port (0: any free one); drives served one per endpoint take it
+    # and the ports that follow, one per axis.
+    modbus_port: int = 0
 
 
 
@@ -79,10 +82,12 @@ class SimulatorStack:
         self.machine = SimMachine(m, config.truth, self.motion, self.clock, seed=config.seed)
         profile = load_profile(config.profile)
         if len(set(profile.device_ids.values())) == len(profile.device_ids):
-            self.servers = [ModbusSimServer(profile, self.motion)]
+            self.servers = [ModbusSimServer(profile, self.motion, port=config.modbus_port)]
         else:  # one drive per address (MR-JE-C: unit 255 each): one endpoint per axis
-            self.servers = [ModbusSimServer(profile, self.motion, axes=[a])
-                            for a in profile.device_ids]
+            self.servers = [ModbusSimServer(profile, self.motion, axes=[a],
+                                            port=config.modbus_port + k if config.modbus_port
+                                            else 0)
+                            for k, a in enumerate(profile.device_ids)]
         self.server = self.servers[0]
         self.gauges: dict[str, GaugeEndpoint] = {}
         self.channels: dict[str, str | None] = {}

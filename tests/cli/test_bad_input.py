@@ -17,7 +17,7 @@ from ogacq.cli.app import EXIT_CODES, OgacqCommands, main
 from ogacq.cli.lazy import LazyGroupSpec
 from ogacq.session.store import SessionWriter
 
-PAPER = Path(__file__).resolve().parents[2] / "fixtures" / "paper"
+PAPER = Path(__file__).resolve().parents[2] / "ogacq" / "examples" / "paper"
 MISSING = "missing.toml"  # in the test's folder, never created
 
 # command -> [(arguments, exit code, words the line must hold)]; names below are files
@@ -54,7 +54,15 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
             (["--profile", "nope"], 2, "'nope'"),
             (["--gauge", "z_q=usb-itn"], 2, "z_q"),
             (["--machine", MISSING], 2, MISSING),
-            (["--effects", MISSING], 2, MISSING)],
+            (["--effects", MISSING], 2, MISSING),
+            (["--port", "70000"], 2, "--port"),
+            (["--profile", "iai-pcon", "--port", "1502"], 2, "--port"),
+            (["--write-campaign", "machine.toml"], 2, "--force"),
+            (["--write-campaign", "/nonexistent/dir/c.toml"], 2, "/nonexistent/dir")],
+    "init": [(["banana"], 2, "'banana'"),
+             (["machine", "machine.toml"], 2, "--force"),
+             (["campaign", "/nonexistent/dir/c.toml"], 2, "/nonexistent/dir"),
+             (["machine", "/proc/m.toml"], 2, "/proc/m.toml")],
     "wizard": [(["--seed", "-5"], 2, "--seed"),
                (["--profile", "nope"], 2, "'nope'"),
                (["--gauge-protocol", "nope"], 2, "'nope'"),
@@ -72,11 +80,14 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
                      (["deviations.csv"], 2, "deviations.csv")],
     "session export": [(["session.jsonl", "/nonexistent/dir/o.csv"], 2, "/nonexistent/dir"),
                        (["session.jsonl", "machine.toml"], 2, "not overwriting"),
+                       (["session.jsonl", ".", "--force"], 2, "is a folder"),
                        (["missing.jsonl", "out.csv"], 2, "missing.jsonl")],
     "session import": [(["missing.csv", "new.jsonl", "-m", "machine.toml"], 2, "missing.csv"),
                        (["deviations.csv", "/proc/nope/s.jsonl", "-m", "machine.toml"], 2,
                         "/proc/nope"),
-                       (["deviations.csv", "new.jsonl"], 2, "--machine")],
+                       (["deviations.csv", "new.jsonl"], 2, "--machine"),
+                       (["deviations.csv", "/nonexistent/s.jsonl", "-m", "machine.toml"], 2,
+                        "/nonexistent")],
     "session check": [(["missing.jsonl"], 2, "missing.jsonl")],
     "session salvage": [(["session.jsonl", "/nonexistent/dir/s.jsonl"], 2, "/nonexistent/dir"),
                         (["missing.jsonl", "new.jsonl"], 2, "missing.jsonl")],

@@ -1,0 +1,66 @@
+"""Commented starting points for the files a user writes: a machine file and a
+campaign file, written through their schemas' writers so that a template always
+loads back (``ogacq init``; the copies in ``ogacq/examples/`` are these texts)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, campaign_text
+from ogacq.io.machine_file import machine_text
+from ogacq.model.gauges import GAUGE_KEYS
+from ogacq.model.machine import PAPER_PROTOTYPE
+from ogacq.protocol.plan import ProtocolConfig
+
+FORMATS_DOC = "docs/formats.md"
+
+MACHINE_HEADER = f"""\
+A machine file: the geometry and the gauges of one Orthoglide-type machine
+(format: {FORMATS_DOC} in the ogacq repository). Lengths in mm.
+The values below are the papers' prototype: replace them with your machine's.
+
+leg_length_mm           length of the parallelogram legs
+rho_min_mm, rho_max_mm  the joint (actuator) travel used by the postures min and max,
+                        from the zero posture; rho_min_mm < 0 < rho_max_mm
+gauge_resolution_mm     the step the gauges display (0.01 dial, 0.001 digital)
+gauge_repeatability_mm  optional: the gauges' scatter when it is known; left out,
+                        it is measured from the repeated readings"""
+
+CAMPAIGN_HEADER = f"""\
+A campaign file: the machine, the station (controller and six gauges) and the
+protocol of one unattended calibration, run with `ogacq run THIS_FILE`
+(format: {FORMATS_DOC} in the ogacq repository; paths relative to this file).
+Replace the controller's and the gauges' ports with your station's; write the
+machine file it names with `ogacq init machine`.
+
+deadline_s, [controller] baudrate (RTU), [controller.axes] (one endpoint per axis),
+offsets_file (profiles without an offset register), [[gauges]] channel, serial and
+baudrate, and a [simulator] table (instead of hardware) may be added."""
+
+CAMPAIGN_NOTES = {
+    "controller": "profile: cia402, iai-pcon, mr-je-c, kinco-fd or a profile file;\n"
+                  "port: host:port (Modbus TCP) or a serial device (Modbus RTU)",
+    "gauges": "gauge AXIS_LEG: measures along AXIS on that leg (y_x: along y on the x leg);\n"
+              "protocol: how it is read (README, \"Cables and interfaces\"); unit mm or inch",
+    "protocol": "postures: zero, max, min or a joint position in mm; approach: sequence,\n"
+                "from_below, from_above or both; times in s",
+    "stability": "a reading is taken once `readings` values agree within tolerance_mm",
+}
+
+# Where a template's campaign expects its hardware: a placeholder on the local network
+# and the usual first USB serial adapters, one per gauge.
+TEMPLATE_CONTROLLER = ControllerSpec(profile="cia402", port="192.168.0.10:502")
+
+
+def machine_template() -> str:
+    return machine_text(PAPER_PROTOTYPE, MACHINE_HEADER)
+
+
+def campaign_template(path: Path, machine_path: Path) -> str:
+    """The campaign template as it reads when written to ``path``."""
+    gauges = [GaugeSpec(key, "mitutoyo-01a", f"/dev/ttyUSB{n}")
+              for n, key in enumerate(GAUGE_KEYS)]
+    campaign = Campaign(path, PAPER_PROTOTYPE, machine_path,
+                        path.parent / "sessions" / f"{path.stem}.jsonl", ProtocolConfig(),
+                        controller=TEMPLATE_CONTROLLER, gauges=gauges)
+    return campaign_text(campaign, comment=CAMPAIGN_HEADER, notes=CAMPAIGN_NOTES)

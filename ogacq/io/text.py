@@ -1,0 +1,35 @@
+"""Decoding the text files a user gives: UTF-8, the one encoding every format of
+ogacq is defined in. A leading byte order mark (what a spreadsheet's "CSV UTF-8"
+export and some editors write) is harmless and dropped; any other encoding is
+named by its first wrong byte's line and column, so the user knows what to fix."""
+
+from __future__ import annotations
+
+import codecs
+from pathlib import Path
+
+from ogacq.io.errors import InputError
+
+
+def decode_text(data: bytes, path: str | Path) -> str:
+    """``data`` (the content of ``path``, or its first lines) as text."""
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line_start = data.rfind(b"\n", 0, exc.start) + 1
+        column = len(data[line_start:exc.start].decode("utf-8")) + 1
+        line = data.count(b"\n", 0, exc.start) + 1
+        raise InputError(path, f"not UTF-8 text (byte 0x{data[exc.start]:02x} at column "
+                         f"{column}); save the file as UTF-8", line) from None
+    return text.removeprefix("\ufeff")
+
+
+def read_text(path: str | Path) -> str:
+    """The whole file as text; OSError (a missing file included) passes through, for
+    callers that say what the file was for."""
+    return decode_text(Path(path).read_bytes(), path)
+
+
+def strip_bom(data: bytes) -> bytes:
+    """Bytes read line by line (sessions: JSON lines) without a leading BOM."""
+    return data.removeprefix(codecs.BOM_UTF8)
