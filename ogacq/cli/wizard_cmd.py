@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from drivers.indicators import DEFAULT_PROTOCOL
+from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.cli.options import GaugeProtocol, ProfileChoice, seed_option
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.wizard import WizardOptions, run_wizard
