@@ -36,7 +36,7 @@ import time
 import tty
 from pathlib import Path
 
-from drivers.indicators.mitutoyo_01a import encode_request
+from ogacq_drivers.indicators.mitutoyo_01a import encode_request
 from ogacq.campaign_file import read_campaign
 from ogacq.protocol.plan import Move, campaign_steps
 from ogacq.protocol.runner import CampaignRunner

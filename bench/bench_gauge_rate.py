@@ -16,9 +16,9 @@ import argparse
 import sys
 import time
 
-from drivers.indicators import open_indicator, read_stable
-from drivers.indicators.mitutoyo_01a import encode_reply, encode_request
-from drivers.sim.gauges import GaugeEndpoint
+from ogacq_drivers.indicators import open_indicator, read_stable
+from ogacq_drivers.indicators.mitutoyo_01a import encode_reply, encode_request
+from ogacq_drivers.sim.gauges import GaugeEndpoint
 
 TARGET_RATIO = 0.90
 

@@ -28,12 +28,12 @@ import statistics
 import time
 from dataclasses import dataclass
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import load_profile
-from drivers.sim.clock import SimClock
-from drivers.sim.modbus_server import ModbusSimServer
-from drivers.sim.motion import MotionModel
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.modbus_server import ModbusSimServer
+from ogacq_drivers.sim.motion import MotionModel
 
 ETHERNET_BIT_S = 1 / 100e6
 TCP_IP_ETHERNET_OVERHEAD_BYTES = 54  # Ethernet 14 + IPv4 20 + TCP 20, no options

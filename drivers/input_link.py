@@ -25,7 +25,7 @@ import os
 import struct
 from pathlib import Path
 
-from drivers.errors import LinkError
+from ogacq_drivers.errors import LinkError
 
 log = logging.getLogger(__name__)
 

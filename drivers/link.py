@@ -4,7 +4,7 @@ Every driver receives an already open link (pymeasure habit), so this is the one
 place that turns a configured port string into a ``serial.Serial``-like object:
 ``/dev/ttyUSB0``, ``/dev/pts/5``, ``COM3``, ``socket://host:port``, ``loop://``,
 ``spy://...`` all go through :func:`serial.serial_for_url`, and every failure to
-open becomes a :class:`~drivers.errors.LinkError` naming the port and saying
+open becomes a :class:`~ogacq_drivers.errors.LinkError` naming the port and saying
 what to check.
 """
 
@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import serial
 
-from drivers.errors import LinkError
+from ogacq_drivers.errors import LinkError
 
 log = logging.getLogger(__name__)
 

@@ -1,4 +1,4 @@
-"""Open a USB device from a port string, as :mod:`drivers.link` does for serial ports.
+"""Open a USB device from a port string, as :mod:`ogacq_drivers.link` does for serial ports.
 
 Port strings (the USB counterpart of device paths and pyserial URLs):
 
@@ -7,13 +7,13 @@ Port strings (the USB counterpart of device paths and pyserial URLs):
   cables on one PC);
 - ``usb:BUS.ADDRESS``: the device at that bus and address (``lsusb`` shows them);
 - ``usbsim://HOST:PORT``: a device served over TCP by the simulator
-  (:mod:`drivers.usb_net`); everything above the backend is the same code.
+  (:mod:`ogacq_drivers.usb_net`); everything above the backend is the same code.
 
 pyusb is an optional dependency (``pip install 'ogacq[usb]'``): without it, or
 without libusb, the error says so in one line. Every pyusb failure while
 talking to the device goes through :func:`usb_errors`, which turns it into a
-:class:`~drivers.errors.LinkError` (unplugged, no permission) or a
-:class:`~drivers.errors.DeviceTimeout`.
+:class:`~ogacq_drivers.errors.LinkError` (unplugged, no permission) or a
+:class:`~ogacq_drivers.errors.DeviceTimeout`.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any
 
-from drivers.errors import DeviceTimeout, LinkError
+from ogacq_drivers.errors import DeviceTimeout, LinkError
 
 log = logging.getLogger(__name__)
 
@@ -69,7 +69,7 @@ def usb_errors(where: str, action: str) -> Iterator[None]:
 def _backend(port: str, where: str) -> Any:
     if not port.startswith("usbsim://"):
         return None  # pyusb picks libusb
-    from drivers.usb_net import NetBackend
+    from ogacq_drivers.usb_net import NetBackend
 
     host, _, number = port.removeprefix("usbsim://").rpartition(":")
     if not number.isdigit():

@@ -29,7 +29,7 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
                                       # position, written by `ogacq offsets write`
     [[gauges]]
     gauge = "y_x"                     # along y on the x leg
-    protocol = "mitutoyo-01a"         # a protocol of drivers.indicators.BACKENDS
+    protocol = "mitutoyo-01a"         # a protocol of ogacq_drivers.indicators.BACKENDS
                                       # (README: cables)
     port = "/dev/ttyUSB0"             # usb / usb:SERIAL (usb-itn); keyboard or
                                       # /dev/input/eventN (usb-itn-keyboard)
@@ -59,9 +59,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from drivers.axes.profile import Profile, ProfileError, load_profile
-from drivers.axes.reconnect import ReconnectPolicy
-from drivers.config_schema import (
+from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
+from ogacq_drivers.axes.reconnect import ReconnectPolicy
+from ogacq_drivers.config_schema import (
     Field,
     FilePath,
     ListOf,
@@ -75,7 +75,7 @@ from drivers.config_schema import (
     text,
     whole,
 )
-from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
+from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import load_toml

@@ -1,6 +1,6 @@
 """The project's exceptions, for ``ogacq`` code to import from one place.
 
-The root and its branches live in ``drivers.errors`` (``drivers`` never imports
+The root and its branches live in ``ogacq_drivers.errors`` (``drivers`` never imports
 ``ogacq``); the command line maps the branches to exit codes (README, "Exit
 codes"). Errors of one stage derive from a branch next to the code that raises
 them: ``DiagnosisError`` is an ``InputError``, ``WriteBackError`` a
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drivers.errors import DriverError, InputError, OgacqError, Refused
+from ogacq_drivers.errors import DriverError, InputError, OgacqError, Refused
 
 __all__ = ["DriverError", "InputError", "OgacqError", "Refused", "StorageError"]
 

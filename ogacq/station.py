@@ -23,15 +23,15 @@ from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.preflight import run_preflight
-from drivers.axes.profile import load_profile
-from drivers.axes.reconnect import ReconnectPolicy, reconnect
-from drivers.errors import DeviceTimeout, DriverError, LinkError
-from drivers.indicators import backend, open_indicator
-from drivers.indicators.base import read_stable
-from drivers.link import open_link
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.preflight import run_preflight
+from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.axes.reconnect import ReconnectPolicy, reconnect
+from ogacq_drivers.errors import DeviceTimeout, DriverError, LinkError
+from ogacq_drivers.indicators import backend, open_indicator
+from ogacq_drivers.indicators.base import read_stable
+from ogacq_drivers.link import open_link
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES

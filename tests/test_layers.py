@@ -13,7 +13,7 @@ from functools import cache
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("drivers", "ogacq")
+PACKAGES = {"ogacq_drivers": "drivers", "ogacq": "ogacq"}  # installed name -> folder
 
 # Lowest first. A module belongs to the longest entry naming it or a package above it
 # (a bare package name, "ogacq", names its __init__ only). A module may import its own
@@ -28,10 +28,11 @@ PACKAGES = ("drivers", "ogacq")
 # - ogacq.writeback.table: the offset-table file, opened with the controller by the
 #   station, while the rest of writeback decides from finished campaigns.
 LAYERS: list[tuple[str, ...]] = [
-    ("drivers", "drivers.errors", "drivers.config_schema"),
-    ("drivers.link", "drivers.usb_net", "drivers.usb_link", "drivers.input_link"),
-    ("drivers.axes", "drivers.indicators"),
-    ("drivers.sim",),  # device emulators speaking the wire protocols
+    ("ogacq_drivers", "ogacq_drivers.errors", "ogacq_drivers.config_schema"),
+    ("ogacq_drivers.link", "ogacq_drivers.usb_net", "ogacq_drivers.usb_link",
+     "ogacq_drivers.input_link"),
+    ("ogacq_drivers.axes", "ogacq_drivers.indicators"),
+    ("ogacq_drivers.sim",),  # device emulators speaking the wire protocols
     ("ogacq", "ogacq.errors", "ogacq.io", "ogacq.io.errors", "ogacq.io.text",
      "ogacq.io.toml_file"),
     ("ogacq.model",),
@@ -52,9 +53,9 @@ LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entri
 def modules() -> dict[str, Path]:
     """Every module of the project by dotted name (a package by its __init__)."""
     found: dict[str, Path] = {}
-    for package in PACKAGES:
-        for path in sorted((ROOT / package).rglob("*.py")):
-            parts = path.relative_to(ROOT).with_suffix("").parts
+    for package, folder in PACKAGES.items():
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            parts = (package, *path.relative_to(ROOT / folder).with_suffix("").parts)
             found[".".join(parts[:-1] if parts[-1] == "__init__" else parts)] = path
     return found
 
@@ -100,7 +101,7 @@ def entry_of(module: str) -> str | None:
 
 def test_every_module_and_entry_is_placed():
     """A new module outside every entry must be given its layer; a stale entry goes."""
-    assert "drivers.link" in modules() and "ogacq.cli.app" in modules()
+    assert "ogacq_drivers.link" in modules() and "ogacq.cli.app" in modules()
     unplaced = sorted(m for m in modules() if entry_of(m) is None)
     assert not unplaced, f"place these modules in LAYERS: {unplaced}"
     stale = sorted(e for e in LEVEL if not any(entry_of(m) == e for m in modules()))
@@ -109,7 +110,7 @@ def test_every_module_and_entry_is_placed():
 
 def test_drivers_never_import_ogacq():
     offending = {m: sorted(t for t in imports_of(m) if t.split(".")[0] == "ogacq")
-                 for m in modules() if m.split(".")[0] == "drivers"}
+                 for m in modules() if m.split(".")[0] == "ogacq_drivers"}
     assert not {m: t for m, t in offending.items() if t}
 
 
@@ -160,8 +161,8 @@ def test_the_cycle_finder_finds_cycles():
 
 # What opens a device or starts the simulator; campaigns, the wizard and `ogacq sim`
 # reach them through the station, so every endpoint gets the campaign's settings.
-ENDPOINT_OPENERS = ("drivers.indicators.open_indicator", "drivers.link.open_link",
-                    "drivers.axes.modbus_link.ModbusLink", "ogacq.sim.stack.SimulatorConfig")
+ENDPOINT_OPENERS = ("ogacq_drivers.indicators.open_indicator", "ogacq_drivers.link.open_link",
+                    "ogacq_drivers.axes.modbus_link.ModbusLink", "ogacq.sim.stack.SimulatorConfig")
 
 
 def test_only_the_station_opens_endpoints():

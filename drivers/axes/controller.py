@@ -37,9 +37,9 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import CommandStep, Profile, ValueSpec, counts_to_mm, mm_to_counts
-from drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.profile import CommandStep, Profile, ValueSpec, counts_to_mm, mm_to_counts
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError
 
 log = logging.getLogger(__name__)
 

@@ -3,7 +3,7 @@
 pymodbus renames its keywords between minor versions (``unit`` -> ``slave`` ->
 ``device_id``) and rebuilt its internals in 3.13, so every client call is kept
 here, behind four verbs (read registers / coils, write registers / coil), and
-everything above speaks in :mod:`drivers.errors` exceptions.
+everything above speaks in :mod:`ogacq_drivers.errors` exceptions.
 
 Timing rules:
 
@@ -32,8 +32,8 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusIOException
 from pymodbus.pdu import ExceptionResponse
 
-from drivers.axes.profile import Profile
-from drivers.errors import (
+from ogacq_drivers.axes.profile import Profile
+from ogacq_drivers.errors import (
     DeviceBusy,
     DeviceFault,
     DeviceTimeout,

@@ -36,8 +36,8 @@ import logging
 import time
 from collections.abc import Iterable
 
-from drivers.axes.controller import AxisController
-from drivers.errors import DeviceFault, DriverError
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.errors import DeviceFault, DriverError
 
 log = logging.getLogger(__name__)
 

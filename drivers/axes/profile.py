@@ -26,7 +26,7 @@ from importlib import resources
 from pathlib import Path
 from typing import Any, Literal
 
-from drivers.config_schema import (
+from ogacq_drivers.config_schema import (
     TRUTH,
     Field,
     Issue,
@@ -42,7 +42,7 @@ from drivers.config_schema import (
     text,
     whole,
 )
-from drivers.errors import InputError
+from ogacq_drivers.errors import InputError
 
 SCHEMA_VERSION = 1
 
@@ -448,7 +448,7 @@ PROFILE_FILE = Table(_required(
 
 def profiles_folder() -> Path:
     """The folder holding the profiles shipped with the package."""
-    return Path(str(resources.files("drivers.axes") / "profiles"))
+    return Path(str(resources.files("ogacq_drivers.axes") / "profiles"))
 
 
 def available_profiles() -> list[str]:

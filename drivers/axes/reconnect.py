@@ -16,8 +16,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from drivers.axes.controller import AxisController
-from drivers.errors import DeviceTimeout, LinkError
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.errors import DeviceTimeout, LinkError
 
 log = logging.getLogger(__name__)
 

@@ -18,9 +18,9 @@ from typing import Any
 
 import serial
 
-from drivers.errors import DriverError
-from drivers.indicators.base import Indicator, Reading, StableReading, read_stable
-from drivers.link import LinkSettings, open_link
+from ogacq_drivers.errors import DriverError
+from ogacq_drivers.indicators.base import Indicator, Reading, StableReading, read_stable
+from ogacq_drivers.link import LinkSettings, open_link
 
 __all__ = [
     "BACKENDS",
@@ -58,46 +58,46 @@ class Backend:
 BACKENDS: Mapping[str, Backend] = MappingProxyType(
     {
         "mitutoyo-01a": Backend(
-            "drivers.indicators.mitutoyo_01a",
+            "ogacq_drivers.indicators.mitutoyo_01a",
             "Mitutoyo01A",
             LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
             "Mitutoyo 01A ASCII on a serial port (DMX-1, MUX-10, QM-Height)",
         ),
         "digimatic": Backend(
-            "drivers.indicators.digimatic",
+            "ogacq_drivers.indicators.digimatic",
             "DigimaticBridge",
             # USB bridges are virtual COM ports: the rate is ignored but must be valid.
             LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
             "raw Digimatic frames from a USB bridge (polled or streaming)",
         ),
         "uwave": Backend(
-            "drivers.indicators.uwave",
+            "ogacq_drivers.indicators.uwave",
             "UWaveReceiver",
             LinkSettings(baudrate=57600, bytesize=8, parity="N", stopbits=1),
             "Mitutoyo U-WAVE-R receiver (pushed readings)",
         ),
         "sylvac": Backend(
-            "drivers.indicators.sylvac",
+            "ogacq_drivers.indicators.sylvac",
             "SylvacOptoRS",
             LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=False),
             "Sylvac Opto-RS duplex cable",
         ),
         "sylvac-simplex": Backend(
-            "drivers.indicators.sylvac_simplex",
+            "ogacq_drivers.indicators.sylvac_simplex",
             "SylvacSimplex",
             # Powered from RTS high; DTR rests high and a low pulse asks for a value.
             LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=True),
             "Sylvac Opto-RS simplex cable (DTR-pulse request; real port or rfc2217://)",
         ),
         "usb-itn": Backend(
-            "drivers.indicators.usb_itn",
+            "ogacq_drivers.indicators.usb_itn",
             "UsbItn",
             LinkSettings(),
             "Mitutoyo USB-ITN cable in data mode (pyusb; port usb, usb:SERIAL)",
             kind="usb",
         ),
         "usb-itn-keyboard": Backend(
-            "drivers.indicators.usb_itn_keyboard",
+            "ogacq_drivers.indicators.usb_itn_keyboard",
             "UsbItnKeyboard",
             LinkSettings(),
             "Mitutoyo USB-ITN cable in keyboard mode (port keyboard or /dev/input/eventN)",

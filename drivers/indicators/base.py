@@ -24,7 +24,7 @@ from typing import Literal, Protocol, TypeVar, runtime_checkable
 
 import serial
 
-from drivers.errors import (
+from ogacq_drivers.errors import (
     DeviceBusy,
     DeviceTimeout,
     DriverError,

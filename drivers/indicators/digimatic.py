@@ -43,8 +43,8 @@ from typing import Literal
 
 import serial
 
-from drivers.errors import DriverError, FrameError
-from drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
+from ogacq_drivers.errors import DriverError, FrameError
+from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
 
 log = logging.getLogger(__name__)
 

@@ -2,7 +2,7 @@
 
 The USB-ITN cable answers the same frames, but over USB (it is a HID device,
 not a serial port, whatever ../shared/spec/INSTRUMENTS.md's "virtual-COM mode"
-suggests): see :mod:`drivers.indicators.usb_itn`.
+suggests): see :mod:`ogacq_drivers.indicators.usb_itn`.
 
 Request: the channel digit and CR (``1\\r``). Reply, 13 bytes::
 
@@ -10,7 +10,7 @@ Request: the channel digit and CR (``1\\r``). Reply, 13 bytes::
     01A+0000.123\\r     01A+000.1234\\r (inch)     02A-001.2340\\r
 
 The frame has no unit: the unit is a gauge setting, recorded at setup, and the
-number of decimals must fit it (see :mod:`drivers.indicators.base`).
+number of decimals must fit it (see :mod:`ogacq_drivers.indicators.base`).
 Errors are ``91`` and a digit (``911`` no data from the gauge, ``918`` busy);
 they look numeric, so they are classified before any value parsing.
 """
@@ -26,8 +26,8 @@ from decimal import ROUND_HALF_EVEN, Decimal, InvalidOperation
 
 import serial
 
-from drivers.errors import DeviceBusy, DeviceFault, DriverError, FrameError
-from drivers.indicators.base import (
+from ogacq_drivers.errors import DeviceBusy, DeviceFault, DriverError, FrameError
+from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
     Unit,

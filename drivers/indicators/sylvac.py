@@ -3,7 +3,7 @@
 Source: Sylvac "User's manual for OPTO-RS cable connections" (reproduced in the
 Bowers Group / Sylvac Opto instruments user manual, pages 12-13): line settings,
 data format, ERR0-3, the identification line and both cables' wiring. The
-simplex cable is :mod:`drivers.indicators.sylvac_simplex`.
+simplex cable is :mod:`ogacq_drivers.indicators.sylvac_simplex`.
 
 Request ``?\\r``; reply ``[+|-| ]int.frac\\r`` in the unit set on the gauge
 (the ``MM`` / ``IN`` commands set it), so the unit is recorded at setup and the
@@ -34,8 +34,8 @@ from decimal import ROUND_HALF_EVEN, Decimal
 
 import serial
 
-from drivers.errors import DeviceFault, FrameError
-from drivers.indicators.base import (
+from ogacq_drivers.errors import DeviceFault, FrameError
+from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
     Unit,

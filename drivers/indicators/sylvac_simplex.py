@@ -21,13 +21,13 @@ import errno
 import logging
 import time
 
-from drivers.errors import LinkError
-from drivers.indicators.base import (
+from ogacq_drivers.errors import LinkError
+from ogacq_drivers.indicators.base import (
     Reading,
     checked_reading,
     link_errors,
 )
-from drivers.indicators.sylvac import SylvacOptoRS, decode_reply, read_reply
+from ogacq_drivers.indicators.sylvac import SylvacOptoRS, decode_reply, read_reply
 
 log = logging.getLogger(__name__)
 

@@ -1,7 +1,7 @@
 """Mitutoyo USB-ITN cable (USB Input Tool Direct) in its data mode, over pyusb.
 
 Out of the box the cable is a USB HID keyboard that types the value
-(:mod:`drivers.indicators.usb_itn_keyboard`). Its data mode is reached with
+(:mod:`ogacq_drivers.indicators.usb_itn_keyboard`). Its data mode is reached with
 vendor control transfers; the replies come on the interrupt IN endpoint. Mitutoyo
 publishes no description of these transfers that we could find (no maker
 source): everything below is from the open reader pytuyo (github.com/rabryan/
@@ -21,7 +21,7 @@ several cables repeats transfer for transfer:
   device information;
 - the reply arrives on the interrupt endpoint in packets, up to CR. Its first
   character says what it is: ``0`` a value, which is a whole 01A reply
-  (``01A+0000.123\\r``, decoded by :mod:`drivers.indicators.mitutoyo_01a`),
+  (``01A+0000.123\\r``, decoded by :mod:`ogacq_drivers.indicators.mitutoyo_01a`),
   ``1`` the device information, ``9`` a status, the 01A error codes ``91x``
   (the second script notes ``918`` "until data is available again": busy).
 
@@ -37,16 +37,16 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from drivers.errors import DeviceBusy, DeviceTimeout, DriverError, FrameError
-from drivers.indicators.base import (
+from ogacq_drivers.errors import DeviceBusy, DeviceTimeout, DriverError, FrameError
+from ogacq_drivers.indicators.base import (
     Reading,
     Unit,
     accepted_decimals,
     check_unit,
     checked_reading,
 )
-from drivers.indicators.mitutoyo_01a import decode_reply
-from drivers.usb_link import open_usb_device, usb_errors
+from ogacq_drivers.indicators.mitutoyo_01a import decode_reply
+from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
 log = logging.getLogger(__name__)
 

@@ -6,7 +6,7 @@ when its data switch is pressed it types the displayed value and Enter (issue
 the plain one, an optional sign, digits, an optional point and digits: no source
 beyond that). It is read from its own input event device, found by its vendor
 and product id (0FE7:4001, pytuyo) and grabbed, through
-:mod:`drivers.input_link`; never from the operator's keyboard.
+:mod:`ogacq_drivers.input_link`; never from the operator's keyboard.
 
 Key codes are the kernel's (``linux/input-event-codes.h``): the digit row
 (KEY_1 = 2 ... KEY_0 = 11), KEY_MINUS 12, KEY_DOT 52, KEY_ENTER 28, the keypad
@@ -32,16 +32,16 @@ from collections.abc import Iterable
 from decimal import Decimal
 from typing import Any
 
-from drivers.errors import DeviceTimeout, FrameError, LinkError
-from drivers.indicators.base import (
+from ogacq_drivers.errors import DeviceTimeout, FrameError, LinkError
+from ogacq_drivers.indicators.base import (
     Reading,
     Unit,
     accepted_decimals,
     check_unit,
     checked_reading,
 )
-from drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
-from drivers.input_link import EVENT, open_event_device, resolve_event_device
+from ogacq_drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
+from ogacq_drivers.input_link import EVENT, open_event_device, resolve_event_device
 
 log = logging.getLogger(__name__)
 

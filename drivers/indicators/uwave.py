@@ -30,8 +30,8 @@ from decimal import ROUND_HALF_EVEN, Decimal
 
 import serial
 
-from drivers.errors import DeviceFault, DriverError, FrameError
-from drivers.indicators.base import (
+from ogacq_drivers.errors import DeviceFault, DriverError, FrameError
+from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
     Unit,

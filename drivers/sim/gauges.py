@@ -38,10 +38,10 @@ from decimal import Decimal
 from enum import StrEnum
 from typing import Any, Literal
 
-from drivers.indicators import BACKENDS, digimatic, mitutoyo_01a, sylvac, uwave
-from drivers.indicators.base import Unit
-from drivers.link import LinkSettings
-from drivers.sim.clock import sleep_until
+from ogacq_drivers.indicators import BACKENDS, digimatic, mitutoyo_01a, sylvac, uwave
+from ogacq_drivers.indicators.base import Unit
+from ogacq_drivers.link import LinkSettings
+from ogacq_drivers.sim.clock import sleep_until
 
 log = logging.getLogger(__name__)
 

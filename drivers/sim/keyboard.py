@@ -5,7 +5,7 @@ root), the cable is an input-event stream written into a named pipe standing for
 ``/dev/input/eventN``, inside a temporary tree that also holds the sysfs entries
 the kernel would publish (``sys/class/input/eventN/device/id/vendor``...). The
 driver finds, checks and reads it with the code it uses on a real system
-(:mod:`drivers.input_link`); only the grab ioctl has nothing to grab.
+(:mod:`ogacq_drivers.input_link`); only the grab ioctl has nothing to grab.
 
 Each press of the data switch (every ``period_s``, or :meth:`trigger`) types the
 displayed value and Enter as ``struct input_event`` records (press, release, a
@@ -29,11 +29,11 @@ from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
-from drivers.indicators import usb_itn
-from drivers.indicators.base import Unit
-from drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
-from drivers.input_link import EVENT
-from drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for
+from ogacq_drivers.indicators import usb_itn
+from ogacq_drivers.indicators.base import Unit
+from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
+from ogacq_drivers.input_link import EVENT
+from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for
 
 log = logging.getLogger(__name__)
 

@@ -9,7 +9,7 @@ pymodbus 3.16's ``SimDevice`` calls an ``action`` coroutine on every request
 here is where the simulation happens:
 
 - on a write, the written registers/coils go to the device's state and the
-  command they carry is executed on the :class:`~drivers.sim.motion.MotionModel`
+  command they carry is executed on the :class:`~ogacq_drivers.sim.motion.MotionModel`
   (servo, home on a rising edge, start a move, CiA 402 controlword transitions...);
 - on every request, the dynamic registers (position, status words, alarm code)
   are rewritten from the motion model, so each read reflects simulated "now".
@@ -29,7 +29,7 @@ Behaviour comes from the profile's ``family``:
   (set-point acknowledged / homing attained), error code, home offset applied
   at the next homing with the profile's sign convention, store parameters.
 
-Over RTU without a given port, a :class:`~drivers.sim.ptybridge.PtyBridge`
+Over RTU without a given port, a :class:`~ogacq_drivers.sim.ptybridge.PtyBridge`
 stands in for the serial cable and paces bytes at the baud rate (the pymodbus
 server itself writes as fast as it can; the bridge, like a real line, makes
 them take ``bits_per_byte / baud`` each).
@@ -52,10 +52,10 @@ from pymodbus.constants import ExcCodes
 from pymodbus.server import ModbusSerialServer, ModbusTcpServer
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from drivers.axes.profile import Profile, ValueSpec, load_profile
-from drivers.errors import LinkError
-from drivers.sim.motion import MotionModel, Outcome
-from drivers.sim.ptybridge import PtyBridge
+from ogacq_drivers.axes.profile import Profile, ValueSpec, load_profile
+from ogacq_drivers.errors import LinkError
+from ogacq_drivers.sim.motion import MotionModel, Outcome
+from ogacq_drivers.sim.ptybridge import PtyBridge
 
 log = logging.getLogger(__name__)
 # pymodbus logs its own failures; unconfigured, Python's last-resort handler would print them.

@@ -37,7 +37,7 @@ import threading
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
-from drivers.sim.clock import SimClock
+from ogacq_drivers.sim.clock import SimClock
 
 log = logging.getLogger(__name__)
 

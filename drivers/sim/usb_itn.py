@@ -1,7 +1,7 @@
 """A simulated Mitutoyo USB-ITN cable, served to pyusb over TCP (``usbsim://``).
 
 The device model answers the transfers the driver makes (pytuyo's, see
-:mod:`drivers.indicators.usb_itn`): the standard string descriptors, the vendor
+:mod:`ogacq_drivers.indicators.usb_itn`): the standard string descriptors, the vendor
 request that enters data mode and its one-byte confirmation, the command
 request, and the interrupt IN endpoint on which the reply comes back in
 packets. A command sent before data mode is entered stalls (no source for what
@@ -9,7 +9,7 @@ the real cable does; a stall makes a driver that skipped the set-up fail
 loudly). The interrupt packet size, 8 bytes, is an assumption (no source): the
 driver reads whatever size the endpoint descriptor gives.
 
-Faults as for the serial gauges (:class:`drivers.sim.gauges.Fault`): silence,
+Faults as for the serial gauges (:class:`ogacq_drivers.sim.gauges.Fault`): silence,
 error (``911``), busy (``918``), garbled, stale, inch, unplug (the connection
 and the listener close: pyusb then sees LIBUSB_ERROR_NO_DEVICE, and a new
 search finds no cable).
@@ -29,9 +29,9 @@ from collections.abc import Callable
 from decimal import Decimal
 from typing import Any
 
-from drivers.indicators import mitutoyo_01a, usb_itn
-from drivers.indicators.base import Unit
-from drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for, _garble
+from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
+from ogacq_drivers.indicators.base import Unit
+from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for, _garble
 
 log = logging.getLogger(__name__)
 

@@ -18,8 +18,8 @@ from typing import Annotated
 
 import typer
 
-from drivers.axes.controller import AxisController
-from drivers.axes.profile import Profile, ProfileError, load_profile
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
 from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
 from ogacq.cli import render_offsets as render
 from ogacq.cli.options import JsonOption

@@ -9,8 +9,8 @@ from typing import Annotated, Any
 
 import typer
 
-from drivers.axes.profile import available_profiles
-from drivers.indicators import BACKENDS
+from ogacq_drivers.axes.profile import available_profiles
+from ogacq_drivers.indicators import BACKENDS
 
 MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
 # For files that may record their machine (sessions do, CSVs do not).

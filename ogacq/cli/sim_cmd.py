@@ -11,8 +11,8 @@ from typing import Annotated
 
 import typer
 
-from drivers.axes.profile import load_profile
-from drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
+from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text
 from ogacq.cli.options import DEFAULT_SEED, GaugeProtocol, JsonOption, ProfileChoice, seed_option
 from ogacq.cli.outputs import ForceOption, check_output_file

@@ -7,7 +7,7 @@ from typing import Annotated
 
 import typer
 
-from drivers.indicators import DEFAULT_PROTOCOL
+from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.cli.options import (
     DEFAULT_SEED,
     GaugeProtocol,

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from drivers.config_schema import Field, Source, Table, dump, load, number
+from ogacq_drivers.config_schema import Field, Source, Table, dump, load, number
 from ogacq.io.toml_file import input_error, load_toml
 from ogacq.model.machine import MachineSpec
 

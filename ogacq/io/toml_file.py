@@ -1,5 +1,5 @@
 """ogacq's TOML files (machine, campaign, effects, offset table) read and written
-through their declared schemas (``drivers.config_schema``), every error an
+through their declared schemas (``ogacq_drivers.config_schema``), every error an
 :class:`InputError` naming the file, the line and the key."""
 
 from __future__ import annotations
@@ -7,7 +7,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-from drivers.config_schema import Issue, Source, Table, load, parse_document
+from ogacq_drivers.config_schema import Issue, Source, Table, load, parse_document
 from ogacq.io.errors import InputError
 from ogacq.io.text import read_text
 

@@ -17,7 +17,7 @@ from typing import Protocol
 
 import numpy as np
 
-from drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
 from ogacq.errors import OgacqError, StorageError
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec

@@ -15,7 +15,7 @@ from typing import Protocol
 
 import numpy as np
 
-from drivers.sim.clock import SimClock
+from ogacq_drivers.sim.clock import SimClock
 from ogacq.model.gauges import GAUGE_INDICES
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates

@@ -14,11 +14,11 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from drivers.axes.profile import load_profile
-from drivers.sim.clock import SimClock
-from drivers.sim.gauges import GaugeEndpoint
-from drivers.sim.modbus_server import ModbusSimServer
-from drivers.sim.motion import MotionModel
+from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.gauges import GaugeEndpoint
+from ogacq_drivers.sim.modbus_server import ModbusSimServer
+from ogacq_drivers.sim.motion import MotionModel
 from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
@@ -56,11 +56,11 @@ def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: flo
                transport: str, name: str) -> Any:
     """The simulated endpoint serving one gauge of ``protocol``."""
     if protocol == "usb-itn":
-        from drivers.sim.usb_itn import UsbItnEndpoint
+        from ogacq_drivers.sim.usb_itn import UsbItnEndpoint
 
         return UsbItnEndpoint(source, resolution_mm=resolution_mm, name=name)
     if protocol == "usb-itn-keyboard":
-        from drivers.sim.keyboard import KeyboardEndpoint
+        from ogacq_drivers.sim.keyboard import KeyboardEndpoint
 
         return KeyboardEndpoint(source, resolution_mm=resolution_mm, name=name,
                                 period_s=PUSH_PERIOD_S)

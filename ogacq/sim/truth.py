@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drivers.config_schema import Field, MapOf, Table, number
+from ogacq_drivers.config_schema import Field, MapOf, Table, number
 from ogacq.io.toml_file import load_toml
 from ogacq.model.parameters import AXES, EFFECTS, PARAM_INDEX, vector
 

@@ -20,9 +20,9 @@ import logging
 from dataclasses import dataclass
 from pathlib import Path
 
-from drivers.axes.controller import AxisController
-from drivers.axes.preflight import check_home, check_identity
-from drivers.errors import DriverError
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.preflight import check_home, check_identity
+from ogacq_drivers.errors import DriverError
 from ogacq.io.errors import InputError, StorageError
 from ogacq.model.parameters import AXES
 from ogacq.writeback.audit import AuditLog, new_operation_id

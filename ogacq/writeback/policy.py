@@ -13,7 +13,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Literal
 
-from drivers.axes.profile import Profile
+from ogacq_drivers.axes.profile import Profile
 from ogacq.model.parameters import AXES
 from ogacq.writeback.audit import Operation
 

@@ -24,7 +24,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from drivers.config_schema import Field, Table, dump, load, number, text
+from ogacq_drivers.config_schema import Field, Table, dump, load, number, text
 from ogacq.io.toml_file import read_toml
 from ogacq.model.parameters import AXES
 

@@ -2,8 +2,8 @@
 
 import pytest
 
-from drivers.axes.reconnect import ReconnectPolicy
-from drivers.sim.gauges import Fault
+from ogacq_drivers.axes.reconnect import ReconnectPolicy
+from ogacq_drivers.sim.gauges import Fault
 from ogacq.campaign_file import read_campaign
 from ogacq.protocol.runner import CampaignRunner, CampaignStopped, Progress
 from ogacq.session.records import EndRecord, FaultRecord

@@ -15,7 +15,7 @@ PROBE = """
 import json, sys
 from ogacq.cli.app import main
 main(sys.argv[1:])
-print(json.dumps(sorted(m for m in sys.modules if m.startswith(("ogacq", "drivers", "jinja2",
+print(json.dumps(sorted(m for m in sys.modules if m.startswith(("ogacq", "ogacq_drivers", "jinja2",
                                                                  "matplotlib")))))
 """
 
@@ -37,7 +37,7 @@ def command_modules() -> set[str]:
 def test_one_command_imports_its_own_module_only():
     loaded = modules_after("refit", "--help")
     assert loaded & command_modules() == {"ogacq.cli.refit_cmd"}
-    assert not {m for m in loaded if m.startswith(("drivers.sim", "ogacq.cli.wizard",
+    assert not {m for m in loaded if m.startswith(("ogacq_drivers.sim", "ogacq.cli.wizard",
                                                     "jinja2", "matplotlib"))}
 
 

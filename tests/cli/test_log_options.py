@@ -33,11 +33,11 @@ def terminal():
 def test_verbose_shows_info_and_the_file_gets_everything_timed(tmp_path, terminal):
     log = tmp_path / "ogacq.log"
     apply_log_options(verbose=True, log_file=log)
-    logging.getLogger("drivers.link").debug("frame %s", "0x01")
+    logging.getLogger("ogacq_drivers.link").debug("frame %s", "0x01")
     logging.getLogger("ogacq.station").info("reconnected after 2 attempts")
     assert terminal.getvalue() == "ogacq: info: reconnected after 2 attempts\n"
     lines = log.read_text().splitlines()
-    assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+ DEBUG drivers.link: frame 0x01$",
+    assert re.match(r"\d{4}-\d\d-\d\d \d\d:\d\d:\d\d,\d+ DEBUG ogacq_drivers.link: frame 0x01$",
                     lines[0])
     assert lines[1].endswith("INFO ogacq.station: reconnected after 2 attempts")
 

@@ -9,8 +9,8 @@ import logging
 
 import pytest
 
-from drivers.errors import DriverError
-from drivers.indicators.base import read_stable
+from ogacq_drivers.errors import DriverError
+from ogacq_drivers.indicators.base import read_stable
 from ogacq.campaign_file import read_campaign
 from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
 from ogacq.station import open_station
@@ -23,7 +23,7 @@ def printed():
     stream = io.StringIO()
     handler = RepeatCollapsingHandler(stream)
     handler.setFormatter(logging.Formatter("ogacq: warning: %(message)s"))
-    drivers_log = logging.getLogger("drivers")
+    drivers_log = logging.getLogger("ogacq_drivers")
     drivers_log.addHandler(handler)
     try:
         yield stream, handler
@@ -49,7 +49,7 @@ def test_a_gauge_sending_garbage_prints_one_warning_and_a_count(tmp_path, printe
 
 def test_a_different_warning_says_the_count_first_then_prints(printed):
     stream, handler = printed
-    log = logging.getLogger("drivers.test")
+    log = logging.getLogger("ogacq_drivers.test")
     for k in range(3):
         log.warning("frame %d garbled", k)
     log.warning("gauge unplugged")

@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from drivers.axes.profile import (
+from ogacq_drivers.axes.profile import (
     counts_to_mm,
     int_to_words,
     load_profile,

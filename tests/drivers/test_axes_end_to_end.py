@@ -18,14 +18,14 @@ from dataclasses import dataclass
 import pytest
 from pymodbus.client import ModbusTcpClient
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import Profile, load_profile
-from drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
-from drivers.sim.clock import SimClock
-from drivers.sim.modbus_server import ModbusSimServer
-from drivers.sim.motion import MotionModel
-from drivers.sim.ptybridge import PtyBridge
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.profile import Profile, load_profile
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.modbus_server import ModbusSimServer
+from ogacq_drivers.sim.motion import MotionModel
+from ogacq_drivers.sim.ptybridge import PtyBridge
 
 X_LEG_MAX = {"x": 60.0, "y": -5.84, "z": -5.84}  # posture of the paper (approx.)
 Y_LEG_MAX = {"x": -5.84, "y": 60.0, "z": -5.84}

@@ -18,10 +18,10 @@ from dataclasses import dataclass
 
 import pytest
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import Profile, load_profile
-from drivers.sim.ptybridge import PtyBridge
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.profile import Profile, load_profile
+from ogacq_drivers.sim.ptybridge import PtyBridge
 from tests.emulators.drives import Cia402Drive, EmulatorServer, IaiDrive
 
 # modbus_tk 1.1.5 calls threading.Event.isSet(), deprecated since Python 3.10

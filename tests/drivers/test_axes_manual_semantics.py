@@ -18,13 +18,13 @@ from pathlib import Path
 
 import pytest
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import Profile, load_profile
-from drivers.errors import DeviceTimeout
-from drivers.sim.clock import SimClock
-from drivers.sim.modbus_server import ModbusSimServer
-from drivers.sim.motion import Alarm, MotionModel
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.profile import Profile, load_profile
+from ogacq_drivers.errors import DeviceTimeout
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.modbus_server import ModbusSimServer
+from ogacq_drivers.sim.motion import Alarm, MotionModel
 
 
 @contextmanager

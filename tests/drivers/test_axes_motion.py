@@ -6,8 +6,8 @@ import threading
 
 import pytest
 
-from drivers.sim.clock import SimClock
-from drivers.sim.motion import Alarm, MotionModel, Outcome
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.motion import Alarm, MotionModel, Outcome
 
 
 class FrozenClock(SimClock):

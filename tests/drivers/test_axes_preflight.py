@@ -10,13 +10,13 @@ from pathlib import Path
 
 import pytest
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.preflight import PreflightError, check_home, check_identity, run_preflight
-from drivers.axes.profile import Profile, load_profile, parse_profile
-from drivers.sim.clock import SimClock
-from drivers.sim.modbus_server import ModbusSimServer
-from drivers.sim.motion import MotionModel
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, run_preflight
+from ogacq_drivers.axes.profile import Profile, load_profile, parse_profile
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.modbus_server import ModbusSimServer
+from ogacq_drivers.sim.motion import MotionModel
 
 
 def _variant(name: str, table: str, **values: object) -> Profile:

@@ -7,7 +7,12 @@ from pathlib import Path
 
 import pytest
 
-from drivers.axes.profile import ProfileError, available_profiles, load_profile, profiles_folder
+from ogacq_drivers.axes.profile import (
+    ProfileError,
+    available_profiles,
+    load_profile,
+    profiles_folder,
+)
 
 
 def test_shipped_profiles_load() -> None:

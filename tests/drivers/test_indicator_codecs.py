@@ -6,8 +6,8 @@ from decimal import Decimal
 
 import pytest
 
-from drivers.errors import DeviceBusy, DeviceFault, FrameError, UnitError
-from drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwave
+from ogacq_drivers.errors import DeviceBusy, DeviceFault, FrameError, UnitError
+from ogacq_drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwave
 
 # ---------------------------------------------------------------------- 01A
 

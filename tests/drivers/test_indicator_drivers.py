@@ -13,7 +13,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from drivers.errors import (
+from ogacq_drivers.errors import (
     DeviceBusy,
     DeviceFault,
     DeviceTimeout,
@@ -22,14 +22,14 @@ from drivers.errors import (
     LinkError,
     UnitError,
 )
-from drivers.indicators import BACKENDS, driver_class, open_indicator
-from drivers.indicators.base import Indicator, Reading, read_stable
-from drivers.indicators.digimatic import DigimaticBridge
-from drivers.indicators.mitutoyo_01a import Mitutoyo01A
-from drivers.indicators.sylvac import SylvacOptoRS
-from drivers.indicators.sylvac_simplex import SylvacSimplex
-from drivers.indicators.uwave import UWaveReceiver
-from drivers.link import LinkSettings, open_link
+from ogacq_drivers.indicators import BACKENDS, driver_class, open_indicator
+from ogacq_drivers.indicators.base import Indicator, Reading, read_stable
+from ogacq_drivers.indicators.digimatic import DigimaticBridge
+from ogacq_drivers.indicators.mitutoyo_01a import Mitutoyo01A
+from ogacq_drivers.indicators.sylvac import SylvacOptoRS
+from ogacq_drivers.indicators.sylvac_simplex import SylvacSimplex
+from ogacq_drivers.indicators.uwave import UWaveReceiver
+from ogacq_drivers.link import LinkSettings, open_link
 
 
 class ScriptedLink:
@@ -469,11 +469,11 @@ def test_unknown_protocol_lists_the_known_ones():
 
 def test_backends_are_imported_lazily():
     code = (
-        "import sys, drivers.indicators as d;"
+        "import sys, ogacq_drivers.indicators as d;"
         "assert not any(m in sys.modules for m in "
-        "('drivers.indicators.sylvac', 'drivers.indicators.uwave',"
-        " 'drivers.indicators.digimatic', 'drivers.indicators.mitutoyo_01a'));"
-        "d.driver_class('sylvac'); assert 'drivers.indicators.sylvac' in sys.modules"
+        "('ogacq_drivers.indicators.sylvac', 'ogacq_drivers.indicators.uwave',"
+        " 'ogacq_drivers.indicators.digimatic', 'ogacq_drivers.indicators.mitutoyo_01a'));"
+        "d.driver_class('sylvac'); assert 'ogacq_drivers.indicators.sylvac' in sys.modules"
     )
     subprocess.run([sys.executable, "-c", code], check=True)
 

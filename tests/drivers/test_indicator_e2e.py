@@ -12,7 +12,7 @@ from typing import Any
 import pytest
 from serial.urlhandler import protocol_socket
 
-from drivers.errors import (
+from ogacq_drivers.errors import (
     DeviceBusy,
     DeviceFault,
     DeviceTimeout,
@@ -20,8 +20,8 @@ from drivers.errors import (
     LinkError,
     UnitError,
 )
-from drivers.indicators import open_indicator, read_stable
-from drivers.sim.gauges import Fault, GaugeEndpoint
+from ogacq_drivers.indicators import open_indicator, read_stable
+from ogacq_drivers.sim.gauges import Fault, GaugeEndpoint
 
 TRUE_MM = 1.2334  # shown as 1.233 at 0.001 mm
 WHERE = "dial-7"

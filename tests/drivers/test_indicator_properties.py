@@ -14,8 +14,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drivers.errors import DriverError, FrameError, UnitError
-from drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwave
+from ogacq_drivers.errors import DriverError, FrameError, UnitError
+from ogacq_drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwave
 
 FAST = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 

@@ -4,10 +4,10 @@ gauges, and see the readings the simulated geometry implies."""
 import numpy as np
 import pytest
 
-from drivers.axes.controller import AxisController
-from drivers.axes.modbus_link import ModbusLink
-from drivers.axes.profile import load_profile
-from drivers.indicators import open_indicator, read_stable
+from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
+from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.indicators import open_indicator, read_stable
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates

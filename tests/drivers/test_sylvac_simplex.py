@@ -10,10 +10,10 @@ from collections.abc import Iterator
 
 import pytest
 
-from drivers.errors import DeviceFault, DeviceTimeout, FrameError, LinkError
-from drivers.indicators import open_indicator, read_stable
-from drivers.indicators.sylvac_simplex import REQUEST_PULSE_S
-from drivers.sim.gauges import Fault, GaugeEndpoint
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, FrameError, LinkError
+from ogacq_drivers.indicators import open_indicator, read_stable
+from ogacq_drivers.indicators.sylvac_simplex import REQUEST_PULSE_S
+from ogacq_drivers.sim.gauges import Fault, GaugeEndpoint
 
 WHERE = "simplex-3"
 
@@ -48,7 +48,7 @@ def test_a_pulse_shorter_than_the_minimum_is_no_request(simplex, monkeypatch):
     before = endpoint.requests_received
     # The instrument's minimum raised to 5 s, so that "shorter" does not depend on how
     # busy this machine is; the 110 ms itself is checked by the request test above.
-    monkeypatch.setattr("drivers.sim.gauges._SIMPLEX_PULSE_S", 5.0)
+    monkeypatch.setattr("ogacq_drivers.sim.gauges._SIMPLEX_PULSE_S", 5.0)
     gauge.link.dtr = False
     gauge.link.dtr = True  # low for a round trip: the instrument must not answer
     time.sleep(0.05)

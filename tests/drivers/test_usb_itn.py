@@ -1,5 +1,5 @@
 """The USB-ITN data mode end to end: the real driver and pyusb, a software USB
-backend (drivers.usb_net) and the simulated cable answering pytuyo's transfers."""
+backend (ogacq_drivers.usb_net) and the simulated cable answering pytuyo's transfers."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drivers.errors import (
+from ogacq_drivers.errors import (
     DeviceBusy,
     DeviceFault,
     DeviceTimeout,
@@ -21,10 +21,10 @@ from drivers.errors import (
     LinkError,
     UnitError,
 )
-from drivers.indicators import open_indicator, read_stable
-from drivers.indicators.usb_itn import Message, UsbItn, classify
-from drivers.sim.gauges import Fault
-from drivers.sim.usb_itn import UsbItnEndpoint
+from ogacq_drivers.indicators import open_indicator, read_stable
+from ogacq_drivers.indicators.usb_itn import Message, UsbItn, classify
+from ogacq_drivers.sim.gauges import Fault
+from ogacq_drivers.sim.usb_itn import UsbItnEndpoint
 
 WHERE = "itn-4"
 
@@ -125,8 +125,8 @@ def test_no_cable_on_this_pc_is_one_line():
 def test_without_pyusb_the_message_says_how_to_install_it():
     code = (
         "import sys; sys.modules['usb'] = None\n"
-        "from drivers.indicators import open_indicator\n"
-        "from drivers.errors import LinkError\n"
+        "from ogacq_drivers.indicators import open_indicator\n"
+        "from ogacq_drivers.errors import LinkError\n"
         "try:\n"
         "    open_indicator('usb-itn', 'usb', unit='mm', where='gauge U')\n"
         "except LinkError as e:\n"

@@ -13,12 +13,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from drivers.errors import DeviceTimeout, FrameError, LinkError, UnitError
-from drivers.indicators import open_indicator, read_stable
-from drivers.indicators.usb_itn_keyboard import UsbItnKeyboard, decode_line, key_events
-from drivers.input_link import EVENT, find_event_devices
-from drivers.sim.gauges import Fault
-from drivers.sim.keyboard import KeyboardEndpoint
+from ogacq_drivers.errors import DeviceTimeout, FrameError, LinkError, UnitError
+from ogacq_drivers.indicators import open_indicator, read_stable
+from ogacq_drivers.indicators.usb_itn_keyboard import UsbItnKeyboard, decode_line, key_events
+from ogacq_drivers.input_link import EVENT, find_event_devices
+from ogacq_drivers.sim.gauges import Fault
+from ogacq_drivers.sim.keyboard import KeyboardEndpoint
 
 WHERE = "kbd-2"
 

@@ -9,7 +9,17 @@ from pathlib import Path
 
 import pytest
 
-from drivers.config_schema import Field, MapOf, Source, Table, Variants, dump, load, number, text
+from ogacq_drivers.config_schema import (
+    Field,
+    MapOf,
+    Source,
+    Table,
+    Variants,
+    dump,
+    load,
+    number,
+    text,
+)
 from ogacq.campaign_file import (
     AxisEndpoint,
     Campaign,

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from drivers.indicators import backend
-from drivers.sim.gauges import GaugeEndpoint
+from ogacq_drivers.indicators import backend
+from ogacq_drivers.sim.gauges import GaugeEndpoint
 from ogacq import station
 from ogacq.campaign_file import GaugeSpec
 from ogacq.cli.wizard import connect

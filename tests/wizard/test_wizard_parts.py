@@ -174,7 +174,7 @@ def test_log_lines_go_through_the_wizard_screen_while_it_runs():
     terminal.setFormatter(OneLineFormatter())
     root = logging.getLogger()
     root.addHandler(terminal)
-    log = logging.getLogger("drivers.test")
+    log = logging.getLogger("ogacq_drivers.test")
     try:
         with log_on_screen(Screen(Console(file=shown, width=100))):
             for attempt in (1, 2, 3):

@@ -8,9 +8,9 @@ from types import SimpleNamespace
 
 import pytest
 
-from drivers.axes.controller import OffsetChange
-from drivers.axes.profile import load_profile
-from drivers.errors import DeviceTimeout
+from ogacq_drivers.axes.controller import OffsetChange
+from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.errors import DeviceTimeout
 from ogacq.model.parameters import AXES
 from ogacq.session.records import EndRecord, OffsetsRecord, ResumeRecord
 from ogacq.session.store import SessionWriter, load_session

@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from drivers.axes.preflight import PreflightError
-from drivers.axes.profile import load_profile
+from ogacq_drivers.axes.preflight import PreflightError
+from ogacq_drivers.axes.profile import load_profile
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import read_campaign
 from ogacq.model.parameters import AXES

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drivers.axes.profile import load_profile
+from ogacq_drivers.axes.profile import load_profile
 from ogacq.identify.consistency import LEVEL, Verdict, fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.noise import GaugeNoise

@@ -14,9 +14,9 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from drivers.axes.profile import ProfileError, available_profiles, load_profile
-from drivers.errors import DriverError
-from drivers.indicators import BACKENDS
+from ogacq_drivers.axes.profile import ProfileError, available_profiles, load_profile
+from ogacq_drivers.errors import DriverError
+from ogacq_drivers.indicators import BACKENDS
 from ogacq.campaign_file import ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
@@ -96,8 +96,8 @@ def _usb_itn_cables() -> list[DetectedPort]:
     """USB-ITN cables: on the USB bus (data mode, when pyusb and libusb are there) and
     as keyboards (their input device, found by USB ids). A listing is a convenience,
     so any failure just lists nothing."""
-    from drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
-    from drivers.input_link import find_event_devices
+    from ogacq_drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
+    from ogacq_drivers.input_link import find_event_devices
 
     found: list[DetectedPort] = []
     try:

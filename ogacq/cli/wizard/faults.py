@@ -30,7 +30,7 @@ class FaultPlan:
 
 
 def parse_fault(text: str) -> FaultPlan:
-    from drivers.sim.gauges import Fault
+    from ogacq_drivers.sim.gauges import Fault
 
     match = _SPEC.fullmatch(text.strip())
     if match is None:

@@ -18,7 +18,7 @@ from rich.live import Live
 from rich.table import Table
 from rich.text import Text
 
-from drivers.errors import DriverError
+from ogacq_drivers.errors import DriverError
 from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
 from ogacq.cli.wizard.expected import ReadingExpectations, travel_needed_mm
 from ogacq.cli.wizard.guided_station import GuidedStation

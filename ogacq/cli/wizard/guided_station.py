@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from drivers.indicators.base import read_stable
+from ogacq_drivers.indicators.base import read_stable
 from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.pause import InterruptGate
 from ogacq.protocol.plan import Read, StabilityRule
