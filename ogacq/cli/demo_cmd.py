@@ -30,7 +30,7 @@ from ogacq.session.store import load_session
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
 RUNS_FOLDER = Path("ogacq-runs")
-DEMO_FOLDER_HELP = "./ogacq-runs/demo-YYYYMMDD-HHMMSS"
+DEMO_FOLDER_HELP = "a new folder in ./ogacq-runs named demo-DATE-TIME"
 
 
 def default_demo_folder() -> Path:
