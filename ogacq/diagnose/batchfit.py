@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.identify.fit import Weighting, jacobian
+from ogacq.identify.fit import Weighting
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
@@ -59,8 +59,8 @@ class Problem:
     def jacobian(self, theta: np.ndarray, names: Sequence[str],
                  weighted: bool = True) -> np.ndarray:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
-        (central differences), weighted unless asked otherwise."""
-        jac = jacobian(self.obs, np.asarray(theta, float)[None], indices(names))
+        (analytic), weighted unless asked otherwise."""
+        jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))
         return self.weighting.jac(jac)[0] if weighted else jac[0]
 
 

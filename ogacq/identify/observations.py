@@ -16,7 +16,12 @@ import numpy as np
 
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import POSTURE_NAMES, ReadingsLayout, predict_coordinates
+from ogacq.model.measurement import (
+    POSTURE_NAMES,
+    ReadingsLayout,
+    predict_coordinates,
+    predict_jacobian,
+)
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
@@ -93,6 +98,12 @@ class Observations:
         """(B, m) or (m,) predicted observations, gauge zeros left out."""
         h = predict_coordinates(theta, self.layout, self.machine)
         return h if self.raw else h @ self.combination.T
+
+    def jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """(B, m, p) derivatives of :meth:`predict` by the parameters at ``free``,
+        for theta (B, N): the model's analytic ones, combined like the values."""
+        jac = predict_jacobian(theta, self.layout, self.machine, free)
+        return jac if self.raw else np.einsum("mn,bnp->bmp", self.combination, jac)
 
     def remove_zeros(self, x: np.ndarray) -> np.ndarray:
         """Project out what gauge zeros can absorb: per-gauge means for raw readings."""

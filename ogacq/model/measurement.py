@@ -20,7 +20,15 @@ from functools import cached_property
 import numpy as np
 
 from ogacq.model.gauges import GAUGES, Gauge
-from ogacq.model.kinematics import axis_lines, forward, joint_centres, leg_lengths
+from ogacq.model.kinematics import (
+    axis_line_tangents,
+    axis_lines,
+    forward,
+    forward_tangent,
+    joint_centres,
+    leg_length_tangents,
+    leg_lengths,
+)
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_INDEX
 
@@ -153,6 +161,23 @@ def _joint_positions(theta, q, t_s, approach, machine: MachineSpec):
             + drift * t_s[None, :, None] - 0.5 * approach[None] * backlash)
 
 
+def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
+    """(m, P, 3) derivatives of :func:`_joint_positions` by the ``free`` parameters.
+    A drift's derivative is ``t / 3600``, different for every reading: it is given
+    here as 1 (an offset's) and scaled by each reading's time once the poses are
+    mapped to readings, so that poses stay shared across readings."""
+    out = np.zeros((len(q), len(free), 3))
+    for k, index in enumerate(free):
+        for a in range(3):
+            if index in (_DRHO[a], _DRIFT[a]):
+                out[:, k, a] = 1.0
+            elif index == _SCALE[a]:
+                out[:, k, a] = q[:, a] * 1e-6
+            elif index == _BACKLASH[a]:
+                out[:, k, a] = -0.5 * approach[:, a]
+    return out
+
+
 def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
                         machine: MachineSpec) -> np.ndarray:
     """Predicted gauge readings up to each gauge's zero: (B, n), or (n,) for 1-D theta.
@@ -160,8 +185,23 @@ def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
     NaN marks readings whose posture the legs cannot reach.
     """
     theta = np.asarray(theta, dtype=float)
-    single = theta.ndim == 1
-    th = theta[None] if single else theta
+    out, _ = _evaluate(theta[None] if theta.ndim == 1 else theta, layout, machine, None)
+    return out[0] if theta.ndim == 1 else out
+
+
+def predict_jacobian(theta: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
+                     free: np.ndarray) -> np.ndarray:
+    """(B, n, P) analytic derivatives of :func:`predict_coordinates` by the parameters
+    at positions ``free`` of the full vector, for theta (B, N)."""
+    _, jac = _evaluate(np.asarray(theta, dtype=float), layout, machine,
+                       np.asarray(free, dtype=int))
+    return jac
+
+
+def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
+              free: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The predictions (B, n) and, when ``free`` is given, their derivatives (B, n, P):
+    one pass through the same intermediate values, so the two cannot disagree."""
     n, g = len(layout), layout.n_gauges
     if np.any(th[:, _DRIFT] != 0):
         # Drift makes every reading's pose its own: solve them all.
@@ -177,25 +217,54 @@ def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
     r_poses = joint_centres(rho, u[:, None], o[:, None])  # (B, poses, 3, 3)
     legs = leg_lengths(th, machine.leg_length_mm)[:, None, :]
     p_poses = forward(r_poses, np.broadcast_to(legs, r_poses.shape[:-1]))
-    r, p = r_poses[:, rows], p_poses[:, rows]  # (B, n + G, ...): readings, then settings
 
     set_leg = np.array([i for _, i in layout.gauge_keys], dtype=int)
-    gidx = np.arange(g)
-    p0 = p[:, n + gidx, set_leg]
-    r0 = r[:, n + gidx, set_leg, set_leg]
+    i, j = layout.leg, layout.gauge_axis
+    # (B, n) or (B, G) the coordinates the readings need: the reading pose's TCP
+    # along the leg (pi) and the gauge axis (pj), the leg's joint centre (ri, rj);
+    # the setting pose's TCP and joint centre along the set leg (p0, r0).
+    at_reading, at_setting = rows[:n], rows[n:]
+    p0 = p_poses[:, at_setting, set_leg]
+    r0 = r_poses[:, at_setting, set_leg, set_leg]
+    pi, pj = p_poses[:, at_reading, i], p_poses[:, at_reading, j]
+    ri, rj = r_poses[:, at_reading, i, i], r_poses[:, at_reading, i, j]
+
     frac = th[:, _GPOS][:, set_leg]
     plane = p0 + frac * (r0 - p0)  # (B, G): the gauge's fixed coordinate along its leg
-
-    k = np.arange(n)
-    i, j = layout.leg, layout.gauge_axis
-    pi, pj = p[:, k, i], p[:, k, j]
-    ri = r[:, k, i, i]
-    rj = r[:, k, i, j]
     mu = (plane[:, layout.gauge] - pi) / (ri - pi)
     coord = pj + mu * (rj - pj)
-    gscale = th[:, [_GSCALE[(int(a), int(b))] for a, b in zip(j, i, strict=True)]]
-    out = coord * (1.0 + gscale * 1e-6)
-    return out[0] if single else out
+    scale_index = np.array([_GSCALE[(int(a), int(b))] for a, b in zip(j, i, strict=True)],
+                           dtype=int)
+    gain = 1.0 + th[:, scale_index] * 1e-6
+    out = coord * gain
+    if free is None:
+        return out, None
+
+    # Forward-mode derivatives of every step above, parameter axis last but for
+    # the pose arrays (B, poses, P, ...) where it precedes the coordinates.
+    du, do = axis_line_tangents(th, free)
+    drho = _joint_position_tangents(q, appr, free)
+    dr_poses = (do + drho[None, :, :, :, None] * u[:, None, None]
+                + rho[:, :, None, :, None] * du[:, None])
+    dp_poses = forward_tangent(r_poses, p_poses, legs, dr_poses, leg_length_tangents(free))
+    # parameter axis last, so that indexing poses and coordinates leaves (B, n|G, P)
+    dp_poses, dr_poses = np.moveaxis(dp_poses, 2, -1), np.moveaxis(dr_poses, 2, -1)
+    drift = np.isin(free, _DRIFT)
+    dp0 = dp_poses[:, at_setting, set_leg] * ~drift  # gauges are set at t = 0: no drift
+    dr0 = dr_poses[:, at_setting, set_leg, set_leg] * ~drift
+    per_reading = np.where(drift[None, :], layout.t_s[:, None] / 3600.0, 1.0)
+    dpi = dp_poses[:, at_reading, i] * per_reading
+    dpj = dp_poses[:, at_reading, j] * per_reading
+    dri = dr_poses[:, at_reading, i, i] * per_reading
+    drj = dr_poses[:, at_reading, i, j] * per_reading
+    dfrac = (free[None, :] == np.array(_GPOS)[set_leg][:, None]).astype(float)  # (G, P)
+
+    dplane = dp0 + dfrac * (r0 - p0)[..., None] + frac[..., None] * (dr0 - dp0)
+    den = (ri - pi)[..., None]
+    dmu = (dplane[:, layout.gauge] - dpi - mu[..., None] * (dri - dpi)) / den
+    dcoord = dpj + dmu * (rj - pj)[..., None] + mu[..., None] * (drj - dpj)
+    dgain = (free[None, :] == scale_index[:, None]) * 1e-6  # (n, P)
+    return out, dcoord * gain[..., None] + coord[..., None] * dgain
 
 
 # --- postures and the papers' protocol -------------------------------------------------
