@@ -36,8 +36,8 @@ class RowLabels:
 
     @property
     def gauge(self) -> np.ndarray:
-        return np.array([f"{AXES[j]}_{AXES[i]}" for j, i in zip(self.gauge_axis, self.leg,
-                                                                 strict=True)])
+        names = np.array([[f"{AXES[j]}_{AXES[i]}" for i in range(3)] for j in range(3)])
+        return names[self.gauge_axis, self.leg]
 
 
 def row_labels(obs: Observations) -> RowLabels:
@@ -47,10 +47,14 @@ def row_labels(obs: Observations) -> RowLabels:
                        nominal_tcp(lay.q_mm, obs.machine.leg_length_mm))
         along = tcp[np.arange(len(lay)), lay.leg]
         signs = {-1: "-", 0: "0", 1: "+"}
+        # named once per distinct value: campaigns repeat few postures many times
+        positions, at = np.unique(along, return_inverse=True)
+        sides, side = np.unique(lay.approach, axis=0, return_inverse=True)
         return RowLabels(
             lay.leg, lay.gauge_axis,
-            np.array([posture_name(s, obs.machine) for s in along]), lay.cycle, lay.t_s,
-            np.array(["".join(signs[int(v)] for v in a) for a in lay.approach]))
+            np.array([posture_name(s, obs.machine) for s in positions])[at.ravel()],
+            lay.cycle, lay.t_s,
+            np.array(["".join(signs[int(v)] for v in a) for a in sides])[side.ravel()])
     parsed = [DEVIATION_NAME.match(label) for label in obs.labels]
     n = len(parsed)
     return RowLabels(

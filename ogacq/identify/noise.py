@@ -130,9 +130,7 @@ class GaugeNoise:
 def repeat_groups(obs: Observations) -> np.ndarray:
     """For each raw reading, the index of its group of repeats: same gauge, same
     joint coordinates, same approach side (the cycles of one posture)."""
-    lay = obs.layout
-    keys = np.column_stack([lay.gauge, np.round(lay.q_mm, 6), lay.approach])
-    return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
+    return obs.layout.repeat_group
 
 
 def pure_error(obs: Observations) -> tuple[float, int] | None:

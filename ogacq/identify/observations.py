@@ -116,8 +116,8 @@ class Observations:
 
 def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values,
                           source: str = "") -> Observations:
-    labels = [f"{n}@{k + 1}" for k, n in enumerate(
-        layout.gauge_names()[g] for g in layout.gauge)]
+    names = layout.gauge_names()
+    labels = [f"{names[g]}@{k + 1}" for k, g in enumerate(layout.gauge.tolist())]
     return Observations(machine, layout, values, labels, None, source, "readings")
 
 

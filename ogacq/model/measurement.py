@@ -39,7 +39,10 @@ _DRIFT = [PARAM_INDEX[f"thermal_drift.{a}"] for a in AXES]
 _GPOS = [PARAM_INDEX[f"gauge_position.{a}"] for a in AXES]
 
 
-_GSCALE = {g.indices: PARAM_INDEX[f"gauge_scale.{g.key}"] for g in GAUGES}
+# [gauge axis, leg] -> position of that gauge's scale in the parameter vector
+_GSCALE = np.zeros((3, 3), dtype=int)
+for _gauge in GAUGES:
+    _GSCALE[_gauge.indices] = PARAM_INDEX[f"gauge_scale.{_gauge.key}"]
 
 
 def approach_from_sequence(q_mm: np.ndarray) -> np.ndarray:
@@ -124,6 +127,26 @@ class ReadingsLayout:
         unique, index = np.unique(key, axis=0, return_inverse=True)
         return unique[:, :3], unique[:, 3:].astype(int), index.ravel()
 
+    @cached_property
+    def repeat_group(self) -> np.ndarray:
+        """(n,) each reading's group of repeats: same gauge, same joint coordinates,
+        same approach side (the cycles of one posture). Computed once per layout:
+        every weighting and noise estimate of these readings asks for it."""
+        keys = np.column_stack([self.gauge, np.round(self.q_mm, 6), self.approach])
+        return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
+
+    @cached_property
+    def timed_poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """As :attr:`distinct_poses`, time included (thermal drift makes it matter):
+        (unique q, unique approach, unique t, index (n + G,)). The gauges of one
+        posture are read at one time, so they still share a pose."""
+        q = np.concatenate([self.q_mm, self.setting_q_mm])
+        appr = np.concatenate([self.approach, np.zeros((self.n_gauges, 3), dtype=int)])
+        t = np.concatenate([self.t_s, np.zeros(self.n_gauges)])
+        key = np.column_stack([np.round(q, 9), appr, t])
+        unique, index = np.unique(key, axis=0, return_inverse=True)
+        return unique[:, :3], unique[:, 3:6].astype(int), unique[:, 6], index.ravel()
+
     def subset(self, mask: np.ndarray) -> ReadingsLayout:
         """The readings selected by ``mask``. Each kept gauge keeps the posture it was
         set at, even when the reading taken there is dropped."""
@@ -202,13 +225,9 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
               free: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
     """The predictions (B, n) and, when ``free`` is given, their derivatives (B, n, P):
     one pass through the same intermediate values, so the two cannot disagree."""
-    n, g = len(layout), layout.n_gauges
+    n = len(layout)
     if np.any(th[:, _DRIFT] != 0):
-        # Drift makes every reading's pose its own: solve them all.
-        q = np.concatenate([layout.q_mm, layout.setting_q_mm])
-        t = np.concatenate([layout.t_s, np.zeros(g)])
-        appr = np.concatenate([layout.approach, np.zeros((g, 3), dtype=int)])
-        rows = np.arange(n + g)
+        q, appr, t, rows = layout.timed_poses  # drift: a pose per reading time
     else:
         q, appr, rows = layout.distinct_poses
         t = np.zeros(len(q))
@@ -233,8 +252,7 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
     plane = p0 + frac * (r0 - p0)  # (B, G): the gauge's fixed coordinate along its leg
     mu = (plane[:, layout.gauge] - pi) / (ri - pi)
     coord = pj + mu * (rj - pj)
-    scale_index = np.array([_GSCALE[(int(a), int(b))] for a, b in zip(j, i, strict=True)],
-                           dtype=int)
+    scale_index = _GSCALE[j, i]
     gain = 1.0 + th[:, scale_index] * 1e-6
     out = coord * gain
     if free is None:
