@@ -62,7 +62,9 @@ class Problem:
         return self.weighting.residual(residuals)
 
     def weighted_residuals(self, theta: np.ndarray) -> np.ndarray:
-        return self.weighted(self.residuals(theta))
+        """(B, m) weighted residuals; the weighting projects the gauge zeros out itself,
+        so the unweighted removal of :meth:`residuals` is skipped."""
+        return self.weighted(self.obs.values[None] - self.predict(theta))
 
     @cached_property
     def group_space(self) -> GroupSpace | None:

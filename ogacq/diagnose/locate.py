@@ -163,16 +163,20 @@ def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
             "approach": labels.approach}
     groups = []
     for level in LEVELS:
-        values = keys[level]
-        distinct = list(dict.fromkeys(values.tolist()))
+        distinct, first, which = np.unique(keys[level], return_index=True,
+                                           return_inverse=True)
         if len(distinct) < 2:
             continue
-        for key in distinct:
-            sel = values == key
+        which = which.ravel()
+        count = np.bincount(which)
+        chi2_sum = np.bincount(which, weights=chi2)
+        expected_sum = np.bincount(which, weights=expected)
+        for k in np.argsort(first):  # in order of appearance
             groups.append(GroupShare(
-                level, key, int(sel.sum()), float(chi2[sel].sum() / total) if total else 0.0,
-                float(expected[sel].sum() / total_expected) if total_expected else 0.0,
-                float(chi2[sel].sum()), float(expected[sel].sum())))
+                level, str(distinct[k]), int(count[k]),
+                float(chi2_sum[k] / total) if total else 0.0,
+                float(expected_sum[k] / total_expected) if total_expected else 0.0,
+                float(chi2_sum[k]), float(expected_sum[k])))
     return Location(groups, _trends(labels, residuals, sigma_mm),
                     _approach_differences(labels, residuals, sigma_mm), total)
 
