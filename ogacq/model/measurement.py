@@ -85,15 +85,15 @@ class ReadingsLayout:
         axis = np.asarray(gauge_axis, dtype=int)
         if np.any(leg == axis):
             raise ValueError("a gauge cannot measure along its own leg's axis")
-        keys: list[tuple[int, int]] = []
-        gauge = np.empty(n, dtype=int)
-        setting = []
-        for k in range(n):
-            key = (int(axis[k]), int(leg[k]))
-            if key not in keys:
-                keys.append(key)
-                setting.append(q[k])
-            gauge[k] = keys.index(key)
+        # gauges numbered in order of first reading, each set where it first read
+        code = axis * 3 + leg
+        codes, first, which = np.unique(code, return_index=True, return_inverse=True)
+        order = np.argsort(first)
+        number = np.empty(len(codes), dtype=int)
+        number[order] = np.arange(len(codes))
+        gauge = number[which.ravel()]
+        keys = [(int(c) // 3, int(c) % 3) for c in codes[order]]
+        setting = q[first[order]]
         return cls(
             q_mm=q, leg=leg, gauge_axis=axis,
             t_s=np.zeros(n) if t_s is None else np.asarray(t_s, dtype=float),

@@ -6,7 +6,7 @@ import pytest
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
 from ogacq.identify.observations import PAPER_ORDER_12, deviations_observations
 from ogacq.model.machine import PAPER_PROTOTYPE as M
-from ogacq.model.measurement import predict_coordinates, predict_jacobian
+from ogacq.model.measurement import ReadingsLayout, predict_coordinates, predict_jacobian
 from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
@@ -117,3 +117,19 @@ def test_analytic_jacobian_of_a_batch_equals_one_at_a_time():
     for b in range(2):
         assert np.allclose(batch[b], predict_jacobian(thetas[b:b + 1], layout, M, free)[0],
                            rtol=0, atol=1e-15)
+
+
+def test_layout_numbers_gauges_in_order_of_first_reading():
+    rng = np.random.default_rng(3)
+    leg = rng.integers(0, 3, 200)
+    axis = (leg + rng.integers(1, 3, 200)) % 3
+    q = rng.normal(size=(200, 3))
+    layout = ReadingsLayout.build(q, leg, axis)
+    seen: list[tuple[int, int]] = []
+    for k in range(200):
+        key = (int(axis[k]), int(leg[k]))
+        if key not in seen:
+            seen.append(key)
+            assert np.array_equal(layout.setting_q_mm[len(seen) - 1], q[k])
+        assert layout.gauge[k] == seen.index(key)
+    assert layout.gauge_keys == tuple(seen)
