@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from ogacq.identify.consistency import posture_name
 from ogacq.identify.observations import DEVIATION_NAME, Observations
@@ -87,7 +87,7 @@ class TimeTrend:
 
     @property
     def p_value(self) -> float:
-        return float(2 * stats.norm.sf(abs(self.slope_mm_per_h) / self.std_mm_per_h))
+        return float(2 * special.ndtr(-abs(self.slope_mm_per_h) / self.std_mm_per_h))
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ class ApproachDifference:
 
     @property
     def p_value(self) -> float:
-        return float(2 * stats.norm.sf(abs(self.difference_mm) / self.std_mm))
+        return float(2 * special.ndtr(-abs(self.difference_mm) / self.std_mm))
 
 
 @dataclass

@@ -32,7 +32,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from ogacq.identify.fit import FitResult, Weighting
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
@@ -169,7 +169,7 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
     if not obs.raw:
         chi2 = rss / noise.variance
         cell = _deviation_cell(obs, rw, basis, noise)
-        return verdict(None, "chi-square", chi2, dof, None, float(stats.chi2.sf(chi2, dof)),
+        return verdict(None, "chi-square", chi2, dof, None, float(special.chdtrc(dof, chi2)),
                        cell)
 
     groups = weighting.groups
@@ -186,8 +186,8 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
     if noise.measured:
         noise_dof = _satterthwaite(noise, groups.size, pure_dof)
         f_stat = lack_ss / noise.variance / lack_dof
-        overall = (float(stats.chi2.sf(f_stat * lack_dof, lack_dof)) if noise_dof is None
-                   else float(stats.f.sf(f_stat, lack_dof, noise_dof)))
+        overall = (float(special.chdtrc(lack_dof, f_stat * lack_dof)) if noise_dof is None
+                   else float(special.fdtrc(lack_dof, noise_dof, f_stat)))
         cell = _readings_cell(obs, groups, u, basis, noise, noise_dof)
         return verdict(None, "lack-of-fit F", f_stat, lack_dof, noise_dof, overall, cell)
     if noise.dithered:
@@ -199,7 +199,7 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
                      "steps at most and is not tested; the posture means are")
     cell = _readings_cell(obs, groups, u, basis, noise, None)
     return verdict(None, "chi-square", chi2, test_dof, None,
-                   float(stats.chi2.sf(chi2, test_dof)), cell)
+                   float(special.chdtrc(test_dof, chi2)), cell)
 
 
 def _noise_notes(noise: GaugeNoise) -> list[str]:
@@ -262,8 +262,8 @@ def _cells_p(blocks: np.ndarray, chi2: np.ndarray, noise_dof: float | None) -> n
         return out
     scaled = chi2[tested] / eig[tested].max(axis=1)
     dof = k[tested]
-    out[tested] = (stats.chi2.sf(scaled, dof) if noise_dof is None
-                   else stats.f.sf(scaled / dof, dof, noise_dof))
+    out[tested] = (special.chdtrc(dof, scaled) if noise_dof is None
+                   else special.fdtrc(dof, noise_dof, scaled / dof))
     return out
 
 
