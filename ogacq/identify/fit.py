@@ -94,36 +94,41 @@ def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int) -> np.
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
                  weighting: Weighting, rank: int | None = None,
                  max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
-                 ) -> tuple[np.ndarray, int, np.ndarray]:
+                 ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
     """Fit ``free`` entries for each row of ``y`` (B, m), starting every row from the
     full vector ``theta0`` (N,). Returns the full parameter vectors (B, N), the
-    iterations used and a converged mask. ``rank``: how many directions the data
-    determine (all, when not given); ``tolerance``: per-parameter step at which
-    to stop (default: ``STEP_TOLERANCE`` of the plausible ranges)."""
+    iterations used, a converged mask and the Jacobian (B, m, p) at the returned
+    vectors. ``rank``: how many directions the data determine (all, when not
+    given); ``tolerance``: per-parameter step at which to stop (default:
+    ``STEP_TOLERANCE`` of the plausible ranges).
+
+    A trial's predictions and Jacobian come from one evaluation of the model: an
+    accepted step needs both, and a rejected one (rare) wastes little."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
     theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
-    start = obs.predict(theta[:1])
+    # Every row starts at the same point: one evaluation serves them all.
+    start, start_jac = obs.predict_and_jacobian(theta[:1], free)
     pred = np.repeat(start, batch, axis=0)
-    # Every row starts at the same point: one Jacobian serves them all.
-    jac = np.repeat(obs.jacobian(theta[:1], free), batch, axis=0)
+    jac = np.repeat(start_jac, batch, axis=0)
     cost = np.sum(weighting.residual(y - pred) ** 2, axis=1)
     converged = np.zeros(batch, dtype=bool)
     iterations = 0
-    for iterations in range(1, max_iterations + 1):
+    while iterations < max_iterations:
+        iterations += 1
         act = np.flatnonzero(~converged)
-        jac = obs.jacobian(theta[act], free) if iterations > 1 else jac[act]
-        step = _solve(weighting.jac(jac), weighting.residual(y[act] - pred[act]), ranges, rank)
+        step = _solve(weighting.jac(jac[act]), weighting.residual(y[act] - pred[act]), ranges,
+                      rank)
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
         for _ in range(8):
             trial = theta[act[todo]].copy()
             trial[:, free] += step[todo] * scale[todo, None]
-            trial_pred = obs.predict(trial)
+            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
             trial_cost = np.sum(weighting.residual(y[act[todo]] - trial_pred) ** 2, axis=1)
             ok = trial_cost <= cost[act[todo]] * (1 + 1e-12) + 1e-300
             rows = act[todo[ok]]
@@ -132,6 +137,7 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             small = np.all(np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol, axis=1)
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
+            jac[rows] = trial_jac[ok]
             converged[rows] = small | stalled
             todo = todo[~ok]
             if not len(todo):
@@ -140,7 +146,7 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         converged[act[todo]] = True  # no step lowers the cost: at the minimum
         if converged.all():
             break
-    return theta, iterations, converged
+    return theta, iterations, converged, jac
 
 
 @dataclass
@@ -217,19 +223,18 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv = gauss_newton(obs, y, free, theta0, w, rank)
+        th, iterations, conv, jac = gauss_newton(obs, y, free, theta0, w, rank)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
-            rank_there = design_rank(w.jac(obs.jacobian(th, free))[0], ranges)
+            rank_there = design_rank(w.jac(jac)[0], ranges)
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv = gauss_newton(obs, y, free, th[0], w, rank)
+                th, more, conv, jac = gauss_newton(obs, y, free, th[0], w, rank)
                 iterations += more
         theta = th[0]
         converged = bool(conv[0])
-        jac = obs.jacobian(theta[None], free)
         residuals = obs.remove_zeros(y - obs.predict(theta[None]))[0]
     return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
                       iterations, converged)

@@ -19,8 +19,8 @@ from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import (
     POSTURE_NAMES,
     ReadingsLayout,
+    predict_and_jacobian,
     predict_coordinates,
-    predict_jacobian,
 )
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
@@ -102,8 +102,15 @@ class Observations:
     def jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
         """(B, m, p) derivatives of :meth:`predict` by the parameters at ``free``,
         for theta (B, N): the model's analytic ones, combined like the values."""
-        jac = predict_jacobian(theta, self.layout, self.machine, free)
-        return jac if self.raw else np.einsum("mn,bnp->bmp", self.combination, jac)
+        return self.predict_and_jacobian(theta, free)[1]
+
+    def predict_and_jacobian(self, theta: np.ndarray, free: np.ndarray,
+                             ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` (B, m) and :meth:`jacobian` (B, m, p) from one evaluation."""
+        h, jac = predict_and_jacobian(theta, self.layout, self.machine, free)
+        if self.raw:
+            return h, jac
+        return h @ self.combination.T, np.einsum("mn,bnp->bmp", self.combination, jac)
 
     def remove_zeros(self, x: np.ndarray) -> np.ndarray:
         """Project out what gauge zeros can absorb: per-gauge means for raw readings."""

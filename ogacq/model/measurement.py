@@ -216,9 +216,16 @@ def predict_jacobian(theta: np.ndarray, layout: ReadingsLayout, machine: Machine
                      free: np.ndarray) -> np.ndarray:
     """(B, n, P) analytic derivatives of :func:`predict_coordinates` by the parameters
     at positions ``free`` of the full vector, for theta (B, N)."""
-    _, jac = _evaluate(np.asarray(theta, dtype=float), layout, machine,
-                       np.asarray(free, dtype=int))
-    return jac
+    return predict_and_jacobian(theta, layout, machine, free)[1]
+
+
+def predict_and_jacobian(theta: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
+                         free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`predict_coordinates` (B, n) and :func:`predict_jacobian` (B, n, P) at once."""
+    out, jac = _evaluate(np.asarray(theta, dtype=float), layout, machine,
+                         np.asarray(free, dtype=int))
+    assert jac is not None
+    return out, jac
 
 
 def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
