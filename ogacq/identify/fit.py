@@ -94,13 +94,15 @@ def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int) -> np.
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
                  weighting: Weighting, rank: int | None = None,
                  max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
+                 at_start: tuple[np.ndarray, np.ndarray] | None = None,
                  ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
     """Fit ``free`` entries for each row of ``y`` (B, m), starting every row from the
     full vector ``theta0`` (N,). Returns the full parameter vectors (B, N), the
     iterations used, a converged mask and the Jacobian (B, m, p) at the returned
     vectors. ``rank``: how many directions the data determine (all, when not
     given); ``tolerance``: per-parameter step at which to stop (default:
-    ``STEP_TOLERANCE`` of the plausible ranges).
+    ``STEP_TOLERANCE`` of the plausible ranges); ``at_start``: the predictions
+    (1, m) and Jacobian (1, m, p) at ``theta0`` when the caller already has them.
 
     A trial's predictions and Jacobian come from one evaluation of the model: an
     accepted step needs both, and a rejected one (rare) wastes little."""
@@ -111,7 +113,8 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         tolerance, ranges * STEP_TOLERANCE)
     theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
     # Every row starts at the same point: one evaluation serves them all.
-    start, start_jac = obs.predict_and_jacobian(theta[:1], free)
+    start, start_jac = obs.predict_and_jacobian(theta[:1], free) if at_start is None \
+        else at_start
     pred = np.repeat(start, batch, axis=0)
     jac = np.repeat(start_jac, batch, axis=0)
     cost = np.sum(weighting.residual(y - pred) ** 2, axis=1)
@@ -213,7 +216,12 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     y = obs.values[None]
 
     ranges = _ranges(free)
-    jac = _linear_jacobian(obs, names, free, theta0)
+    at_start = None
+    if _uses_design_matrix(obs, names, theta0):
+        jac = _linear_jacobian(obs, names, free, theta0)
+    else:  # the exact Jacobian there, which the iterations start from too
+        at_start = obs.predict_and_jacobian(theta0[None], free)
+        jac = at_start[1]
     rank = design_rank(w.jac(jac)[0], ranges)
     if method == "linear":
         base = obs.predict(theta0[None])
@@ -223,7 +231,8 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv, jac = gauss_newton(obs, y, free, theta0, w, rank)
+        th, iterations, conv, jac = gauss_newton(obs, y, free, theta0, w, rank,
+                                                 at_start=at_start)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
@@ -277,10 +286,16 @@ def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
         jacobian=jac[0])
 
 
+def _uses_design_matrix(obs: Observations, names: tuple[str, ...], theta0: np.ndarray,
+                        ) -> bool:
+    """Deviations fitted for offsets and lengths from nominal: the papers' eq. 11."""
+    return (obs.kind == "deviations" and bool(np.allclose(theta0, NOMINAL))
+            and set(names) <= set(LINEAR_COLUMNS))
+
+
 def _linear_jacobian(obs: Observations, names: tuple[str, ...], free: np.ndarray,
                      theta0: np.ndarray) -> np.ndarray:
-    at_nominal = np.allclose(theta0, NOMINAL)
-    if obs.kind == "deviations" and at_nominal and set(names) <= set(LINEAR_COLUMNS):
+    if _uses_design_matrix(obs, names, theta0):
         cols = [LINEAR_COLUMNS.index(n) for n in names]
         return design_matrix(obs.labels, obs.machine)[:, cols][None]
     return obs.jacobian(theta0[None], free)

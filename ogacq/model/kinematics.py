@@ -148,10 +148,17 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
     rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr) + legs_mm[..., None, :] * dlegs
     a1, a2, a3 = legs_to_tcp[..., 0, :], legs_to_tcp[..., 1, :], legs_to_tcp[..., 2, :]
-    columns = np.stack([np.cross(a2, a3), np.cross(a3, a1), np.cross(a1, a2)], axis=-1)
+    columns = np.stack([_cross(a2, a3), _cross(a3, a1), _cross(a1, a2)], axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         columns /= np.einsum("...k,...k->...", a1, columns[..., 0])[..., None, None]
     return np.einsum("...ji,...qi->...qj", columns, rhs)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` over the last axis, without its axis bookkeeping (small batches)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def inverse(p: np.ndarray, u: np.ndarray, o: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
