@@ -9,9 +9,6 @@ from typing import Annotated, Any
 
 import typer
 
-from ogacq_drivers.axes.profile import available_profiles
-from ogacq_drivers.indicators import BACKENDS
-
 MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
 # For files that may record their machine (sessions do, CSVs do not).
 RecordedMachineOption = Annotated[Path | None, typer.Option(
@@ -47,8 +44,20 @@ class ParamSet(StrEnum):
     both = "both"
 
 
-# Every controller profile shipped with the drivers, so a new register map is offered
-# as soon as its file is there.
-ProfileChoice = StrEnum("ProfileChoice", {name: name for name in available_profiles()})
-# Every protocol of the driver table, so a new cable is served as soon as it has a driver.
-GaugeProtocol = StrEnum("GaugeProtocol", {name: name for name in BACKENDS})
+def __getattr__(name: str) -> type[StrEnum]:
+    """The device choices, built when a command asks for them: the drivers they list
+    cost start-up time that the analysis commands (refit, diagnose) do not need."""
+    if name == "ProfileChoice":
+        # Every controller profile shipped with the drivers, so a new register map is
+        # offered as soon as its file is there.
+        from ogacq_drivers.axes.profile import available_profiles
+        choice = StrEnum("ProfileChoice", {p: p for p in available_profiles()})
+    elif name == "GaugeProtocol":
+        # Every protocol of the driver table, so a new cable is served as soon as it
+        # has a driver.
+        from ogacq_drivers.indicators import BACKENDS
+        choice = StrEnum("GaugeProtocol", {p: p for p in BACKENDS})
+    else:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    globals()[name] = choice  # built once
+    return choice

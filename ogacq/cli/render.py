@@ -4,15 +4,18 @@ from __future__ import annotations
 
 import sys
 from contextlib import contextmanager
+from typing import TYPE_CHECKING
 
 import numpy as np
 from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from ogacq.identify.fit import FitResult
 from ogacq.model.parameters import effect_of
-from ogacq.session.records import EndRecord, FaultRecord, MoveRecord, ResumeRecord
+
+if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
+    from rich.progress import Progress
+
+    from ogacq.identify.fit import FitResult
 
 console = Console()
 
@@ -151,6 +154,14 @@ def campaign_progress(enabled: bool = True):
 
         yield CampaignProgress(log_line)
         return
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+    )
+
     with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                   TimeElapsedColumn(), TextColumn("{task.fields[last]}"),
                   console=console, transient=False) as bar:
@@ -187,6 +198,8 @@ def print_outcome(outcome) -> None:
 
 
 def print_session(session) -> None:
+    from ogacq.session.records import EndRecord, FaultRecord, MoveRecord, ResumeRecord
+
     header = session.header
     ends = session.of_type(EndRecord)
     status = ends[-1].status if ends else "in progress or killed"

@@ -13,12 +13,14 @@ reach the exact least-squares fit to far below the gauge noise.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from ogacq.identify.fit import Weighting, jacobian
+from ogacq.diagnose.groupspace import GroupSpace
+from ogacq.identify.fit import Weighting
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
@@ -26,6 +28,9 @@ from ogacq.model.parameters import AXES, PARAM_NAMES, effect_of, indices
 
 _DRIFT = indices([f"thermal_drift.{a}" for a in AXES])
 CHORD_ITERATIONS = 3
+# Candidates are fitted in chunks of at most this many (candidate, row) values per
+# array (8 MB): memory then grows with the readings, not readings x candidates.
+CHUNK_VALUES = 1_000_000
 
 
 class Problem:
@@ -56,11 +61,22 @@ class Problem:
     def weighted(self, residuals: np.ndarray) -> np.ndarray:
         return self.weighting.residual(residuals)
 
+    def weighted_residuals(self, theta: np.ndarray) -> np.ndarray:
+        """(B, m) weighted residuals; the weighting projects the gauge zeros out itself,
+        so the unweighted removal of :meth:`residuals` is skipped."""
+        return self.weighted(self.obs.values[None] - self.predict(theta))
+
+    @cached_property
+    def group_space(self) -> GroupSpace | None:
+        """Raw readings on their repeat groups' means, where candidates without
+        drift are fitted; None for tabulated deviations (no repeats)."""
+        return GroupSpace(self.obs, self.weighting) if self.obs.raw else None
+
     def jacobian(self, theta: np.ndarray, names: Sequence[str],
                  weighted: bool = True) -> np.ndarray:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
-        (central differences), weighted unless asked otherwise."""
-        jac = jacobian(self.obs, np.asarray(theta, float)[None], indices(names))
+        (analytic), weighted unless asked otherwise."""
+        jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))
         return self.weighting.jac(jac)[0] if weighted else jac[0]
 
 
@@ -123,26 +139,60 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
 
 def _chord(problem: Problem, theta_start: np.ndarray, jw: np.ndarray, cols: np.ndarray,
            free: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chord fits of candidates of one size. Without thermal drift they are fitted
+    on the repeat groups' means (exact, ``groupspace.py``); the others on every
+    reading, a chunk at a time so that the (B, m) arrays stay within
+    ``CHUNK_VALUES`` however long the campaign. Each candidate's fit is
+    independent of the others'."""
+    batch = len(cols)
+    theta = np.empty((batch, len(theta_start)))
+    rss = np.empty(batch)
+    rank = np.empty(batch, dtype=int)
+    drifts = np.isin(free, _DRIFT).any(axis=1) | bool(np.any(theta_start[_DRIFT] != 0.0))
+    space = problem.group_space
+    for rows, fitted in ((np.flatnonzero(~drifts), space), (np.flatnonzero(drifts), None)):
+        if not len(rows):
+            continue
+        jw_here = jw if fitted is None else fitted.jacobian(jw)
+        residuals = (problem.weighted_residuals if fitted is None else fitted.residuals)
+        constant = 0.0 if fitted is None else fitted.constant_rss
+        start = residuals(theta_start[None])[0]  # where every candidate starts
+        chunk = max(1, CHUNK_VALUES // max(len(jw_here), 1))
+        for lo in range(0, len(rows), chunk):
+            part = rows[lo:lo + chunk]
+            theta[part], rss[part], rank[part] = _chord_chunk(
+                residuals, theta_start, start, jw_here, cols[part], free[part], iterations)
+        rss[rows] += constant
+    return theta, rss, rank
+
+
+def _chord_chunk(residuals: Callable[[np.ndarray], np.ndarray], theta_start: np.ndarray,
+                 start: np.ndarray, jw: np.ndarray, cols: np.ndarray, free: np.ndarray,
+                 iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Chord Gauss-Newton of a batch; ``residuals`` (B, N) -> (B, m) weighted, in the
+    space of the rows of ``jw``, ``start`` (m,) theirs at ``theta_start``."""
     batch, p = cols.shape
     ranges = np.array([[effect_of(PARAM_NAMES[k]).plausible_range for k in row]
                        for row in free])
     a = np.moveaxis(jw[:, cols], 0, 1) * ranges[:, None, :]  # (B, m, p), plausible units
     u, s, vt = np.linalg.svd(a, full_matrices=False)
+    del a
     keep = s > s[:, :1] * RANK_TOLERANCE
     inv_s = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
     rows = np.arange(batch)[:, None]
 
     theta = np.repeat(theta_start[None], batch, axis=0)
-    r = problem.weighted(problem.residuals(theta))
+    r = np.repeat(start[None], batch, axis=0)
     rss = np.sum(r**2, axis=1)
     for _ in range(iterations):
         coef = np.einsum("bmk,bm->bk", u, r) * inv_s
         step = np.einsum("bkp,bk->bp", vt, coef) * ranges
         trial = theta.copy()
         trial[rows, free] += step
-        r_trial = problem.weighted(problem.residuals(trial))
+        r_trial = residuals(trial)
         rss_trial = np.sum(r_trial**2, axis=1)
-        # A step that does not lower the cost is beyond the fixed Jacobian's reach.
+        # A step that does not lower the cost is beyond the fixed Jacobian's reach
+        # (and stays so: the same step would be tried again), in any chunk.
         better = rss_trial < rss
         theta[better], r[better], rss[better] = trial[better], r_trial[better], rss_trial[better]
         if not better.any():

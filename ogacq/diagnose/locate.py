@@ -12,7 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import stats
+from scipy import special
 
 from ogacq.identify.consistency import posture_name
 from ogacq.identify.observations import DEVIATION_NAME, Observations
@@ -36,8 +36,8 @@ class RowLabels:
 
     @property
     def gauge(self) -> np.ndarray:
-        return np.array([f"{AXES[j]}_{AXES[i]}" for j, i in zip(self.gauge_axis, self.leg,
-                                                                 strict=True)])
+        names = np.array([[f"{AXES[j]}_{AXES[i]}" for i in range(3)] for j in range(3)])
+        return names[self.gauge_axis, self.leg]
 
 
 def row_labels(obs: Observations) -> RowLabels:
@@ -47,10 +47,14 @@ def row_labels(obs: Observations) -> RowLabels:
                        nominal_tcp(lay.q_mm, obs.machine.leg_length_mm))
         along = tcp[np.arange(len(lay)), lay.leg]
         signs = {-1: "-", 0: "0", 1: "+"}
+        # named once per distinct value: campaigns repeat few postures many times
+        positions, at = np.unique(along, return_inverse=True)
+        sides, side = np.unique(lay.approach, axis=0, return_inverse=True)
         return RowLabels(
             lay.leg, lay.gauge_axis,
-            np.array([posture_name(s, obs.machine) for s in along]), lay.cycle, lay.t_s,
-            np.array(["".join(signs[int(v)] for v in a) for a in lay.approach]))
+            np.array([posture_name(s, obs.machine) for s in positions])[at.ravel()],
+            lay.cycle, lay.t_s,
+            np.array(["".join(signs[int(v)] for v in a) for a in sides])[side.ravel()])
     parsed = [DEVIATION_NAME.match(label) for label in obs.labels]
     n = len(parsed)
     return RowLabels(
@@ -83,7 +87,7 @@ class TimeTrend:
 
     @property
     def p_value(self) -> float:
-        return float(2 * stats.norm.sf(abs(self.slope_mm_per_h) / self.std_mm_per_h))
+        return float(2 * special.ndtr(-abs(self.slope_mm_per_h) / self.std_mm_per_h))
 
 
 @dataclass(frozen=True)
@@ -96,7 +100,7 @@ class ApproachDifference:
 
     @property
     def p_value(self) -> float:
-        return float(2 * stats.norm.sf(abs(self.difference_mm) / self.std_mm))
+        return float(2 * special.ndtr(-abs(self.difference_mm) / self.std_mm))
 
 
 @dataclass
@@ -159,16 +163,20 @@ def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
             "approach": labels.approach}
     groups = []
     for level in LEVELS:
-        values = keys[level]
-        distinct = list(dict.fromkeys(values.tolist()))
+        distinct, first, which = np.unique(keys[level], return_index=True,
+                                           return_inverse=True)
         if len(distinct) < 2:
             continue
-        for key in distinct:
-            sel = values == key
+        which = which.ravel()
+        count = np.bincount(which)
+        chi2_sum = np.bincount(which, weights=chi2)
+        expected_sum = np.bincount(which, weights=expected)
+        for k in np.argsort(first):  # in order of appearance
             groups.append(GroupShare(
-                level, key, int(sel.sum()), float(chi2[sel].sum() / total) if total else 0.0,
-                float(expected[sel].sum() / total_expected) if total_expected else 0.0,
-                float(chi2[sel].sum()), float(expected[sel].sum())))
+                level, str(distinct[k]), int(count[k]),
+                float(chi2_sum[k] / total) if total else 0.0,
+                float(expected_sum[k] / total_expected) if total_expected else 0.0,
+                float(chi2_sum[k]), float(expected_sum[k])))
     return Location(groups, _trends(labels, residuals, sigma_mm),
                     _approach_differences(labels, residuals, sigma_mm), total)
 

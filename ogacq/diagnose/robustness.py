@@ -31,8 +31,8 @@ from ogacq.model.parameters import NOMINAL, indices
 
 def _cells(obs: Observations) -> np.ndarray:
     labels = row_labels(obs)
-    return np.array([f"{g} at {p}" for g, p in zip(labels.gauge, labels.posture,
-                                                    strict=True)])
+    return np.char.add(np.char.add(labels.gauge.astype(str), " at "),
+                       labels.posture.astype(str))
 
 
 def _subset(layout: ReadingsLayout, keep: np.ndarray) -> ReadingsLayout:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.identify.fit import Weighting, design_rank, gauss_newton, jacobian
+from ogacq.identify.fit import Weighting, design_rank, gauss_newton
 from ogacq.identify.identifiability import Identifiability, assess
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
@@ -80,7 +80,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
     # part of it the scatter does not dither repeats with the cycles.
     noise = GaugeNoise.stated(noise_mm, rounding_mm or 0.0)
     w = Weighting(obs, "ols", noise)
-    jw = w.jac(jacobian(obs, theta_true[None], free))[0]
+    jw = w.jac(obs.jacobian(theta_true[None], free))[0]
     ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
     pred = AccuracyPrediction(names, theta_true[free], noise_mm, len(obs),
                               np.sqrt(np.diag(cov)), ident)
@@ -100,7 +100,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
         y = clean + rng.normal(0.0, noise_mm, (hi - lo, len(clean)))
         if rounding_mm:
             y = np.round(y / rounding_mm) * rounding_mm
-        theta, _, conv = gauss_newton(obs, y, free, NOMINAL, w, rank,
+        theta, _, conv, _ = gauss_newton(obs, y, free, NOMINAL, w, rank,
                                       tolerance=tolerance)
         estimates[lo:hi] = theta[:, free]
         converged[lo:hi] = conv

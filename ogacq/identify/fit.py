@@ -1,9 +1,9 @@
 """Fitting parameters of the exact model to observations, in batches.
 
 One routine serves a single refit and a Monte-Carlo of ten thousand: the
-parameters of every trial move together, the finite-difference Jacobian of all
-trials and all parameters comes from one call of the vectorised forward model,
-and the Gauss-Newton normal equations are solved as a stack.
+parameters of every trial move together, the analytic Jacobian of all trials
+and all parameters comes from one call of the vectorised model, and the
+Gauss-Newton normal equations are solved as a stack.
 
 Weighting: ordinary least squares (the papers') or generalised least squares
 with the deviations' own covariance (eq. 13-14), which is the better estimator
@@ -24,38 +24,13 @@ from ogacq.identify.observations import Observations
 from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, indices, nested
 
 MAX_ITERATIONS = 30
-# Steps below this (relative to each parameter's plausible range) are finite-
-# difference noise: the fit has converged.
+# Steps below this (relative to each parameter's plausible range) are far below any
+# gauge's resolution: the fit has converged.
 STEP_TOLERANCE = 1e-8
 
 
 def _ranges(free: np.ndarray) -> np.ndarray:
     return np.array([effect_of(PARAM_NAMES[k]).plausible_range for k in free])
-
-
-def _fd_steps(free: np.ndarray) -> np.ndarray:
-    return _ranges(free) * 1e-6
-
-
-def jacobian(obs: Observations, theta: np.ndarray, free: np.ndarray,
-             base: np.ndarray | None = None) -> np.ndarray:
-    """(B, m, p) derivatives of the predicted observations by finite differences:
-    central, or forward from ``base`` (the prediction at ``theta``) when given,
-    which halves the cost inside iterations where the base is already known."""
-    batch, p = theta.shape[0], len(free)
-    h = _fd_steps(free)
-    signs = (1.0,) if base is not None else (1.0, -1.0)
-    probe = np.repeat(theta[:, None, :], len(signs) * p, axis=1)  # (B, s*p, N)
-    for k, idx in enumerate(free):
-        for s, sign in enumerate(signs):
-            probe[:, len(signs) * k + s, idx] += sign * h[k]
-    pred = obs.predict(probe.reshape(batch * len(signs) * p, -1))
-    pred = pred.reshape(batch, p, len(signs), -1)
-    if base is None:
-        diff = (pred[:, :, 0] - pred[:, :, 1]) / (2 * h)[None, :, None]
-    else:
-        diff = (pred[:, :, 0] - base[:, None, :]) / h[None, :, None]
-    return np.moveaxis(diff, 1, 2)
 
 
 class Weighting:
@@ -119,36 +94,44 @@ def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int) -> np.
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
                  weighting: Weighting, rank: int | None = None,
                  max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
-                 ) -> tuple[np.ndarray, int, np.ndarray]:
+                 at_start: tuple[np.ndarray, np.ndarray] | None = None,
+                 ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
     """Fit ``free`` entries for each row of ``y`` (B, m), starting every row from the
     full vector ``theta0`` (N,). Returns the full parameter vectors (B, N), the
-    iterations used and a converged mask. ``rank``: how many directions the data
-    determine (all, when not given); ``tolerance``: per-parameter step at which
-    to stop (default: finite-difference noise)."""
+    iterations used, a converged mask and the Jacobian (B, m, p) at the returned
+    vectors. ``rank``: how many directions the data determine (all, when not
+    given); ``tolerance``: per-parameter step at which to stop (default:
+    ``STEP_TOLERANCE`` of the plausible ranges); ``at_start``: the predictions
+    (1, m) and Jacobian (1, m, p) at ``theta0`` when the caller already has them.
+
+    A trial's predictions and Jacobian come from one evaluation of the model: an
+    accepted step needs both, and a rejected one (rare) wastes little."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
     theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
-    start = obs.predict(theta[:1])
+    # Every row starts at the same point: one evaluation serves them all.
+    start, start_jac = obs.predict_and_jacobian(theta[:1], free) if at_start is None \
+        else at_start
     pred = np.repeat(start, batch, axis=0)
-    # Every row starts at the same point: one Jacobian serves them all.
-    jac = np.repeat(jacobian(obs, theta[:1], free, start), batch, axis=0)
+    jac = np.repeat(start_jac, batch, axis=0)
     cost = np.sum(weighting.residual(y - pred) ** 2, axis=1)
     converged = np.zeros(batch, dtype=bool)
     iterations = 0
-    for iterations in range(1, max_iterations + 1):
+    while iterations < max_iterations:
+        iterations += 1
         act = np.flatnonzero(~converged)
-        jac = jacobian(obs, theta[act], free, pred[act]) if iterations > 1 else jac[act]
-        step = _solve(weighting.jac(jac), weighting.residual(y[act] - pred[act]), ranges, rank)
+        step = _solve(weighting.jac(jac[act]), weighting.residual(y[act] - pred[act]), ranges,
+                      rank)
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
         for _ in range(8):
             trial = theta[act[todo]].copy()
             trial[:, free] += step[todo] * scale[todo, None]
-            trial_pred = obs.predict(trial)
+            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
             trial_cost = np.sum(weighting.residual(y[act[todo]] - trial_pred) ** 2, axis=1)
             ok = trial_cost <= cost[act[todo]] * (1 + 1e-12) + 1e-300
             rows = act[todo[ok]]
@@ -157,6 +140,7 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             small = np.all(np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol, axis=1)
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
+            jac[rows] = trial_jac[ok]
             converged[rows] = small | stalled
             todo = todo[~ok]
             if not len(todo):
@@ -165,7 +149,7 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         converged[act[todo]] = True  # no step lowers the cost: at the minimum
         if converged.all():
             break
-    return theta, iterations, converged
+    return theta, iterations, converged, jac
 
 
 @dataclass
@@ -232,7 +216,12 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     y = obs.values[None]
 
     ranges = _ranges(free)
-    jac = _linear_jacobian(obs, names, free, theta0)
+    at_start = None
+    if _uses_design_matrix(obs, names, theta0):
+        jac = _linear_jacobian(obs, names, free, theta0)
+    else:  # the exact Jacobian there, which the iterations start from too
+        at_start = obs.predict_and_jacobian(theta0[None], free)
+        jac = at_start[1]
     rank = design_rank(w.jac(jac)[0], ranges)
     if method == "linear":
         base = obs.predict(theta0[None])
@@ -242,19 +231,19 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv = gauss_newton(obs, y, free, theta0, w, rank)
+        th, iterations, conv, jac = gauss_newton(obs, y, free, theta0, w, rank,
+                                                 at_start=at_start)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
-            rank_there = design_rank(w.jac(jacobian(obs, th, free))[0], ranges)
+            rank_there = design_rank(w.jac(jac)[0], ranges)
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv = gauss_newton(obs, y, free, th[0], w, rank)
+                th, more, conv, jac = gauss_newton(obs, y, free, th[0], w, rank)
                 iterations += more
         theta = th[0]
         converged = bool(conv[0])
-        jac = jacobian(obs, theta[None], free)  # central differences for the covariance
         residuals = obs.remove_zeros(y - obs.predict(theta[None]))[0]
     return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
                       iterations, converged)
@@ -271,7 +260,7 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
     theta = NOMINAL.copy()
     theta[free] = np.asarray(values, dtype=float)
     rank = design_rank(w.jac(_linear_jacobian(obs, names, free, NOMINAL))[0], _ranges(free))
-    jac = jacobian(obs, theta[None], free)
+    jac = obs.jacobian(theta[None], free)
     residuals = obs.remove_zeros(obs.values[None] - obs.predict(theta[None]))[0]
     return _result_at(obs, names, theta, NOMINAL, jac, residuals, rank, w, "exact", 0, True)
 
@@ -297,10 +286,16 @@ def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
         jacobian=jac[0])
 
 
+def _uses_design_matrix(obs: Observations, names: tuple[str, ...], theta0: np.ndarray,
+                        ) -> bool:
+    """Deviations fitted for offsets and lengths from nominal: the papers' eq. 11."""
+    return (obs.kind == "deviations" and bool(np.allclose(theta0, NOMINAL))
+            and set(names) <= set(LINEAR_COLUMNS))
+
+
 def _linear_jacobian(obs: Observations, names: tuple[str, ...], free: np.ndarray,
                      theta0: np.ndarray) -> np.ndarray:
-    at_nominal = np.allclose(theta0, NOMINAL)
-    if obs.kind == "deviations" and at_nominal and set(names) <= set(LINEAR_COLUMNS):
+    if _uses_design_matrix(obs, names, theta0):
         cols = [LINEAR_COLUMNS.index(n) for n in names]
         return design_matrix(obs.labels, obs.machine)[:, cols][None]
-    return jacobian(obs, theta0[None], free)
+    return obs.jacobian(theta0[None], free)

@@ -45,7 +45,11 @@ def shared_rounding_variance(sigma_mm: float, step_mm: float) -> float:
     if step_mm <= 0:
         return 0.0
     a = 4.0 * math.pi**2 * (sigma_mm / step_mm) ** 2
-    terms = np.exp(-a * _HARMONICS**2) / _HARMONICS**2
+    # harmonics beyond exp(-a k^2) < 1e-30 add nothing a double can hold: skip them
+    # (the bisection of sigma_from_scatter evaluates this 60 times per data set)
+    count = len(_HARMONICS) if a < 1e-12 else min(len(_HARMONICS), int(math.sqrt(70.0 / a)) + 1)
+    harmonics = _HARMONICS[:count]
+    terms = np.exp(-a * harmonics**2) / harmonics**2
     tail = 1.0 / _HARMONICS[-1] if a < 1e-12 else 0.0  # sum beyond the last harmonic
     return float(step_mm**2 / (2.0 * math.pi**2) * (terms.sum() + tail))
 
@@ -130,9 +134,7 @@ class GaugeNoise:
 def repeat_groups(obs: Observations) -> np.ndarray:
     """For each raw reading, the index of its group of repeats: same gauge, same
     joint coordinates, same approach side (the cycles of one posture)."""
-    lay = obs.layout
-    keys = np.column_stack([lay.gauge, np.round(lay.q_mm, 6), lay.approach])
-    return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
+    return obs.layout.repeat_group
 
 
 def pure_error(obs: Observations) -> tuple[float, int] | None:

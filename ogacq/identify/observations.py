@@ -16,7 +16,12 @@ import numpy as np
 
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import POSTURE_NAMES, ReadingsLayout, predict_coordinates
+from ogacq.model.measurement import (
+    POSTURE_NAMES,
+    ReadingsLayout,
+    predict_and_jacobian,
+    predict_coordinates,
+)
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
@@ -94,6 +99,19 @@ class Observations:
         h = predict_coordinates(theta, self.layout, self.machine)
         return h if self.raw else h @ self.combination.T
 
+    def jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
+        """(B, m, p) derivatives of :meth:`predict` by the parameters at ``free``,
+        for theta (B, N): the model's analytic ones, combined like the values."""
+        return self.predict_and_jacobian(theta, free)[1]
+
+    def predict_and_jacobian(self, theta: np.ndarray, free: np.ndarray,
+                             ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` (B, m) and :meth:`jacobian` (B, m, p) from one evaluation."""
+        h, jac = predict_and_jacobian(theta, self.layout, self.machine, free)
+        if self.raw:
+            return h, jac
+        return h @ self.combination.T, np.einsum("mn,bnp->bmp", self.combination, jac)
+
     def remove_zeros(self, x: np.ndarray) -> np.ndarray:
         """Project out what gauge zeros can absorb: per-gauge means for raw readings."""
         if not self.raw:
@@ -105,8 +123,8 @@ class Observations:
 
 def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values,
                           source: str = "") -> Observations:
-    labels = [f"{n}@{k + 1}" for k, n in enumerate(
-        layout.gauge_names()[g] for g in layout.gauge)]
+    names = layout.gauge_names()
+    labels = [f"{names[g]}@{k + 1}" for k, g in enumerate(layout.gauge.tolist())]
     return Observations(machine, layout, values, labels, None, source, "readings")
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -73,7 +74,7 @@ def _rows(path: Path, required: Sequence[str]) -> tuple[list[str], list[tuple[in
     try:
         reader = csv.reader(io.StringIO(read_text(path), newline=""))
         header = [h.strip() for h in next(reader, [])]
-        rows = [(reader.line_num, row) for row in reader if any(c.strip() for c in row)]
+        rows = [(reader.line_num, row) for row in reader if "".join(row).strip()]
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
     except csv.Error as exc:
@@ -140,43 +141,108 @@ def _axis(path: Path, line: int, column: str, text: str) -> int:
     return AXES.index(value)
 
 
+_AXIS_CODE = {a: k for k, a in enumerate(AXES)}
+_NUMBER_COLUMNS = ("t_s", "tcp_x", "tcp_y", "tcp_z", "q_x", "q_y", "q_z", "reading_mm")
+
+
+def _checked_row(path: Path, line: int, row: list[str], header: list[str], at: dict[str, int],
+                 has_approach: bool) -> None:
+    """Refuse one row, naming its first problem: the one definition of a valid row's
+    messages (the vectorised reader checks all rows at once, then asks this for the
+    words and the line)."""
+    if len(row) < len(header):
+        raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
+    leg = _axis(path, line, "leg", row[at["leg"]])
+    gauge = _axis(path, line, "gauge_axis", row[at["gauge_axis"]])
+    if gauge == leg:
+        raise InputError(path, f"gauge_axis {AXES[gauge]} equals leg: a gauge measures "
+                         "across its leg, along one of the two other axes", line)
+    cycle_text = row[at["cycle"]].strip()
+    if not cycle_text.isdigit() or int(cycle_text) < 1:
+        raise InputError(path, f"cycle: {cycle_text!r} is not a whole number >= 1", line)
+    for c in _NUMBER_COLUMNS:
+        _number(path, line, c, row[at[c]])
+    if has_approach:
+        for c in APPROACH_COLUMNS:
+            v = _number(path, line, c, row[at[c]])
+            if v not in (-1.0, 0.0, 1.0):
+                raise InputError(path, f"{c}: {v:g} is not -1, 0 or 1", line)
+
+
+def _numbers(texts: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """(values, bad mask) of a column of numbers, read as :func:`_number` reads one."""
+    try:
+        values = np.array(list(map(float, texts)))
+    except ValueError:  # some entry is not a number: find which, one by one
+        values = np.array([_float_or_nan(t) for t in texts])
+    return values, ~np.isfinite(values)
+
+
+def _number_block(path: Path, columns: list[int], n_rows: int) -> np.ndarray | None:
+    """(n, k) the numeric columns parsed by numpy's C reader, or None when the file is
+    not plain enough for it (a bad entry, quoting, blank-looking rows): the rows are
+    then converted one column at a time, and the problem found with its line."""
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "empty input": the row count below decides
+            block = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2,
+                               encoding="utf-8", comments=None, dtype=float)
+    except ValueError:
+        return None
+    return block if block.shape == (n_rows, len(columns)) else None
+
+
+def _float_or_nan(text: str) -> float:
+    try:
+        return float(text)
+    except ValueError:
+        return math.nan
+
+
 def read_readings(path: str | Path) -> ReadingsTable:
+    """The readings CSV, converted column by column (a campaign can hold 100,000 rows).
+    A row any check flags is handed to :func:`_checked_row`, which raises the first
+    flagged row's problem with its line, as a row-by-row reader would."""
     path = Path(path)
     header, rows = _rows(path, READINGS_COLUMNS)
     at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
     has_approach = all(c in at for c in APPROACH_COLUMNS)
-    cols: dict[str, list] = {c: [] for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS, "line")}
-    for line, row in rows:
-        if len(row) < len(header):
-            raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
-        leg = _axis(path, line, "leg", row[at["leg"]])
-        gauge = _axis(path, line, "gauge_axis", row[at["gauge_axis"]])
-        if gauge == leg:
-            raise InputError(path, f"gauge_axis {AXES[gauge]} equals leg: a gauge measures "
-                             "across its leg, along one of the two other axes", line)
-        cycle_text = row[at["cycle"]].strip()
-        if not cycle_text.isdigit() or int(cycle_text) < 1:
-            raise InputError(path, f"cycle: {cycle_text!r} is not a whole number >= 1", line)
-        cols["leg"].append(leg)
-        cols["gauge_axis"].append(gauge)
-        cols["cycle"].append(int(cycle_text))
-        for c in ("t_s", "tcp_x", "tcp_y", "tcp_z", "q_x", "q_y", "q_z", "reading_mm"):
-            cols[c].append(_number(path, line, c, row[at[c]]))
-        if has_approach:
-            for c in APPROACH_COLUMNS:
-                v = _number(path, line, c, row[at[c]])
-                if v not in (-1.0, 0.0, 1.0):
-                    raise InputError(path, f"{c}: {v:g} is not -1, 0 or 1", line)
-                cols[c].append(int(v))
-        cols["line"].append(line)
+    fields = [row for _, row in rows]
+    lines = np.array([line for line, _ in rows])
+    bad = np.array([len(row) < len(header) for row in fields])
+    if bad.any():  # short rows: pad them so that the columns can be cut; refused below
+        fields = [row + [""] * (len(header) - len(row)) for row in fields]
+    columns = list(zip(*fields, strict=False))  # extra trailing fields are ignored
+
+    def column(name: str) -> tuple[str, ...]:
+        return columns[at[name]]
+
+    leg = np.array([_AXIS_CODE.get(t.strip().lower(), -1) for t in column("leg")])
+    gauge = np.array([_AXIS_CODE.get(t.strip().lower(), -1) for t in column("gauge_axis")])
+    bad |= (leg < 0) | (gauge < 0) | (leg == gauge)
+    cycle_text = [t.strip() for t in column("cycle")]
+    cycle = np.array([int(t) if t.isdecimal() else 0 for t in cycle_text])
+    bad |= cycle < 1
+    wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
+    block = _number_block(path, [at[c] for c in wanted], len(rows))
+    numbers = {}
+    for k, c in enumerate(wanted):
+        if block is None:
+            numbers[c], not_finite = _numbers(column(c))
+        else:
+            numbers[c], not_finite = block[:, k], ~np.isfinite(block[:, k])
+        bad |= not_finite
+    if has_approach:
+        approach = np.column_stack([numbers[c] for c in APPROACH_COLUMNS])
+        bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
+    for k in np.flatnonzero(bad):
+        _checked_row(path, int(lines[k]), rows[k][1], header, at, has_approach)
     return ReadingsTable(
-        t_s=np.array(cols["t_s"]), cycle=np.array(cols["cycle"]), leg=np.array(cols["leg"]),
-        gauge_axis=np.array(cols["gauge_axis"]),
-        tcp_mm=np.column_stack([cols["tcp_x"], cols["tcp_y"], cols["tcp_z"]]),
-        q_mm=np.column_stack([cols["q_x"], cols["q_y"], cols["q_z"]]),
-        reading_mm=np.array(cols["reading_mm"]),
-        approach=np.column_stack([cols[c] for c in APPROACH_COLUMNS]) if has_approach else None,
-        lines=np.array(cols["line"]))
+        t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
+        tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
+        q_mm=np.column_stack([numbers[c] for c in ("q_x", "q_y", "q_z")]),
+        reading_mm=numbers["reading_mm"],
+        approach=approach.astype(int) if has_approach else None, lines=lines)
 
 
 def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str | Path,

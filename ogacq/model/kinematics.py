@@ -51,6 +51,38 @@ def axis_lines(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return u, o
 
 
+def axis_line_tangents(theta: np.ndarray, free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Derivatives of :func:`axis_lines` by the ``free`` parameters (P,): ``du``
+    (..., P, 3, 3) and ``do`` (P, 3, 3); zero for parameters that do not tilt or
+    shift the lines. Differentiates the expressions of ``axis_lines`` term by term."""
+    shape = theta.shape[:-1]
+    s_xy, s_xz, s_yz = (np.sin(theta[..., k] * 1e-3) for k in _SQ)
+    c_xy, c_xz, c_yz = (np.cos(theta[..., k] * 1e-3) * 1e-3 for k in _SQ)  # d sin / d mrad
+    u11 = np.sqrt(1.0 - s_xy**2)
+    u22 = np.sqrt(1.0 - s_xz**2 - s_yz**2)
+    du = np.zeros(shape + (len(free), 3, 3))
+    do = np.zeros((len(free), 3, 3))
+    for k, index in enumerate(free):
+        if index == _SQ[0]:
+            du[..., k, 1, 0] = c_xy
+            du[..., k, 1, 1] = -s_xy * c_xy / u11
+        elif index == _SQ[1]:
+            du[..., k, 2, 0] = c_xz
+            du[..., k, 2, 2] = -s_xz * c_xz / u22
+        elif index == _SQ[2]:
+            du[..., k, 2, 1] = c_yz
+            du[..., k, 2, 2] = -s_yz * c_yz / u22
+        elif index in _AO:
+            line, coordinate = {_AO[0]: (1, 2), _AO[1]: (2, 1), _AO[2]: (2, 0)}[index]
+            do[k, line, coordinate] = 1.0
+    return du, do
+
+
+def leg_length_tangents(free: np.ndarray) -> np.ndarray:
+    """(P, 3) derivatives of :func:`leg_lengths` by the ``free`` parameters."""
+    return (np.asarray(free)[:, None] == np.array(_DL)[None, :]).astype(float)
+
+
 def leg_lengths(theta: np.ndarray, nominal_mm: float) -> np.ndarray:
     """(..., 3) actual leg lengths."""
     return nominal_mm + theta[..., _DL]
@@ -98,6 +130,35 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     origin_side = np.where(nx * x1 + ny * y1 + nz * z1 > 0, -1.0, 1.0)
     t = (-beta + origin_side * root) / nn
     return np.stack([x1 + dx + t * nx, y1 + dy + t * ny, z1 + dz + t * nz], axis=-1)
+
+
+def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.ndarray,
+                    dlegs: np.ndarray) -> np.ndarray:
+    """Derivatives ``dp`` (..., P, 3) of :func:`forward`'s TCP ``p`` (..., 3) given
+    those of the joint centres ``dr`` (..., P, 3, 3) and of the leg lengths
+    ``dlegs`` (..., P, 3).
+
+    Implicit differentiation of the constraints ``|p - r_i|^2 = L_i^2``:
+    ``(p - r_i) . (dp - dr_i) = L_i dL_i``, three linear equations in ``dp`` whose
+    matrix (rows ``a_i = p - r_i``) is the same for every parameter. Its inverse has
+    the columns ``a_2 x a_3``, ``a_3 x a_1``, ``a_1 x a_2`` over the determinant
+    (Cramer): computed once per pose, NaN where the legs cannot meet. Exact, and
+    independent of the assembly mode ``forward`` picked.
+    """
+    legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
+    rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr) + legs_mm[..., None, :] * dlegs
+    a1, a2, a3 = legs_to_tcp[..., 0, :], legs_to_tcp[..., 1, :], legs_to_tcp[..., 2, :]
+    columns = np.stack([_cross(a2, a3), _cross(a3, a1), _cross(a1, a2)], axis=-1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        columns /= np.einsum("...k,...k->...", a1, columns[..., 0])[..., None, None]
+    return np.einsum("...ji,...qi->...qj", columns, rhs)
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` over the last axis, without its axis bookkeeping (small batches)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def inverse(p: np.ndarray, u: np.ndarray, o: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:

@@ -20,7 +20,15 @@ from functools import cached_property
 import numpy as np
 
 from ogacq.model.gauges import GAUGES, Gauge
-from ogacq.model.kinematics import axis_lines, forward, joint_centres, leg_lengths
+from ogacq.model.kinematics import (
+    axis_line_tangents,
+    axis_lines,
+    forward,
+    forward_tangent,
+    joint_centres,
+    leg_length_tangents,
+    leg_lengths,
+)
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_INDEX
 
@@ -31,7 +39,10 @@ _DRIFT = [PARAM_INDEX[f"thermal_drift.{a}"] for a in AXES]
 _GPOS = [PARAM_INDEX[f"gauge_position.{a}"] for a in AXES]
 
 
-_GSCALE = {g.indices: PARAM_INDEX[f"gauge_scale.{g.key}"] for g in GAUGES}
+# [gauge axis, leg] -> position of that gauge's scale in the parameter vector
+_GSCALE = np.zeros((3, 3), dtype=int)
+for _gauge in GAUGES:
+    _GSCALE[_gauge.indices] = PARAM_INDEX[f"gauge_scale.{_gauge.key}"]
 
 
 def approach_from_sequence(q_mm: np.ndarray) -> np.ndarray:
@@ -74,15 +85,15 @@ class ReadingsLayout:
         axis = np.asarray(gauge_axis, dtype=int)
         if np.any(leg == axis):
             raise ValueError("a gauge cannot measure along its own leg's axis")
-        keys: list[tuple[int, int]] = []
-        gauge = np.empty(n, dtype=int)
-        setting = []
-        for k in range(n):
-            key = (int(axis[k]), int(leg[k]))
-            if key not in keys:
-                keys.append(key)
-                setting.append(q[k])
-            gauge[k] = keys.index(key)
+        # gauges numbered in order of first reading, each set where it first read
+        code = axis * 3 + leg
+        codes, first, which = np.unique(code, return_index=True, return_inverse=True)
+        order = np.argsort(first)
+        number = np.empty(len(codes), dtype=int)
+        number[order] = np.arange(len(codes))
+        gauge = number[which.ravel()]
+        keys = [(int(c) // 3, int(c) % 3) for c in codes[order]]
+        setting = q[first[order]]
         return cls(
             q_mm=q, leg=leg, gauge_axis=axis,
             t_s=np.zeros(n) if t_s is None else np.asarray(t_s, dtype=float),
@@ -115,6 +126,26 @@ class ReadingsLayout:
         key = np.column_stack([np.round(q, 9), appr])
         unique, index = np.unique(key, axis=0, return_inverse=True)
         return unique[:, :3], unique[:, 3:].astype(int), index.ravel()
+
+    @cached_property
+    def repeat_group(self) -> np.ndarray:
+        """(n,) each reading's group of repeats: same gauge, same joint coordinates,
+        same approach side (the cycles of one posture). Computed once per layout:
+        every weighting and noise estimate of these readings asks for it."""
+        keys = np.column_stack([self.gauge, np.round(self.q_mm, 6), self.approach])
+        return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
+
+    @cached_property
+    def timed_poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """As :attr:`distinct_poses`, time included (thermal drift makes it matter):
+        (unique q, unique approach, unique t, index (n + G,)). The gauges of one
+        posture are read at one time, so they still share a pose."""
+        q = np.concatenate([self.q_mm, self.setting_q_mm])
+        appr = np.concatenate([self.approach, np.zeros((self.n_gauges, 3), dtype=int)])
+        t = np.concatenate([self.t_s, np.zeros(self.n_gauges)])
+        key = np.column_stack([np.round(q, 9), appr, t])
+        unique, index = np.unique(key, axis=0, return_inverse=True)
+        return unique[:, :3], unique[:, 3:6].astype(int), unique[:, 6], index.ravel()
 
     def subset(self, mask: np.ndarray) -> ReadingsLayout:
         """The readings selected by ``mask``. Each kept gauge keeps the posture it was
@@ -153,6 +184,23 @@ def _joint_positions(theta, q, t_s, approach, machine: MachineSpec):
             + drift * t_s[None, :, None] - 0.5 * approach[None] * backlash)
 
 
+def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
+    """(m, P, 3) derivatives of :func:`_joint_positions` by the ``free`` parameters.
+    A drift's derivative is ``t / 3600``, different for every reading: it is given
+    here as 1 (an offset's) and scaled by each reading's time once the poses are
+    mapped to readings, so that poses stay shared across readings."""
+    out = np.zeros((len(q), len(free), 3))
+    for k, index in enumerate(free):
+        for a in range(3):
+            if index in (_DRHO[a], _DRIFT[a]):
+                out[:, k, a] = 1.0
+            elif index == _SCALE[a]:
+                out[:, k, a] = q[:, a] * 1e-6
+            elif index == _BACKLASH[a]:
+                out[:, k, a] = -0.5 * approach[:, a]
+    return out
+
+
 def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
                         machine: MachineSpec) -> np.ndarray:
     """Predicted gauge readings up to each gauge's zero: (B, n), or (n,) for 1-D theta.
@@ -160,15 +208,33 @@ def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
     NaN marks readings whose posture the legs cannot reach.
     """
     theta = np.asarray(theta, dtype=float)
-    single = theta.ndim == 1
-    th = theta[None] if single else theta
-    n, g = len(layout), layout.n_gauges
+    out, _ = _evaluate(theta[None] if theta.ndim == 1 else theta, layout, machine, None)
+    return out[0] if theta.ndim == 1 else out
+
+
+def predict_jacobian(theta: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
+                     free: np.ndarray) -> np.ndarray:
+    """(B, n, P) analytic derivatives of :func:`predict_coordinates` by the parameters
+    at positions ``free`` of the full vector, for theta (B, N)."""
+    return predict_and_jacobian(theta, layout, machine, free)[1]
+
+
+def predict_and_jacobian(theta: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
+                         free: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`predict_coordinates` (B, n) and :func:`predict_jacobian` (B, n, P) at once."""
+    out, jac = _evaluate(np.asarray(theta, dtype=float), layout, machine,
+                         np.asarray(free, dtype=int))
+    assert jac is not None
+    return out, jac
+
+
+def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
+              free: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
+    """The predictions (B, n) and, when ``free`` is given, their derivatives (B, n, P):
+    one pass through the same intermediate values, so the two cannot disagree."""
+    n = len(layout)
     if np.any(th[:, _DRIFT] != 0):
-        # Drift makes every reading's pose its own: solve them all.
-        q = np.concatenate([layout.q_mm, layout.setting_q_mm])
-        t = np.concatenate([layout.t_s, np.zeros(g)])
-        appr = np.concatenate([layout.approach, np.zeros((g, 3), dtype=int)])
-        rows = np.arange(n + g)
+        q, appr, t, rows = layout.timed_poses  # drift: a pose per reading time
     else:
         q, appr, rows = layout.distinct_poses
         t = np.zeros(len(q))
@@ -177,25 +243,53 @@ def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
     r_poses = joint_centres(rho, u[:, None], o[:, None])  # (B, poses, 3, 3)
     legs = leg_lengths(th, machine.leg_length_mm)[:, None, :]
     p_poses = forward(r_poses, np.broadcast_to(legs, r_poses.shape[:-1]))
-    r, p = r_poses[:, rows], p_poses[:, rows]  # (B, n + G, ...): readings, then settings
 
     set_leg = np.array([i for _, i in layout.gauge_keys], dtype=int)
-    gidx = np.arange(g)
-    p0 = p[:, n + gidx, set_leg]
-    r0 = r[:, n + gidx, set_leg, set_leg]
+    i, j = layout.leg, layout.gauge_axis
+    # (B, n) or (B, G) the coordinates the readings need: the reading pose's TCP
+    # along the leg (pi) and the gauge axis (pj), the leg's joint centre (ri, rj);
+    # the setting pose's TCP and joint centre along the set leg (p0, r0).
+    at_reading, at_setting = rows[:n], rows[n:]
+    p0 = p_poses[:, at_setting, set_leg]
+    r0 = r_poses[:, at_setting, set_leg, set_leg]
+    pi, pj = p_poses[:, at_reading, i], p_poses[:, at_reading, j]
+    ri, rj = r_poses[:, at_reading, i, i], r_poses[:, at_reading, i, j]
+
     frac = th[:, _GPOS][:, set_leg]
     plane = p0 + frac * (r0 - p0)  # (B, G): the gauge's fixed coordinate along its leg
-
-    k = np.arange(n)
-    i, j = layout.leg, layout.gauge_axis
-    pi, pj = p[:, k, i], p[:, k, j]
-    ri = r[:, k, i, i]
-    rj = r[:, k, i, j]
     mu = (plane[:, layout.gauge] - pi) / (ri - pi)
     coord = pj + mu * (rj - pj)
-    gscale = th[:, [_GSCALE[(int(a), int(b))] for a, b in zip(j, i, strict=True)]]
-    out = coord * (1.0 + gscale * 1e-6)
-    return out[0] if single else out
+    scale_index = _GSCALE[j, i]
+    gain = 1.0 + th[:, scale_index] * 1e-6
+    out = coord * gain
+    if free is None:
+        return out, None
+
+    # Forward-mode derivatives of every step above, parameter axis last but for
+    # the pose arrays (B, poses, P, ...) where it precedes the coordinates.
+    du, do = axis_line_tangents(th, free)
+    drho = _joint_position_tangents(q, appr, free)
+    dr_poses = (do + drho[None, :, :, :, None] * u[:, None, None]
+                + rho[:, :, None, :, None] * du[:, None])
+    dp_poses = forward_tangent(r_poses, p_poses, legs, dr_poses, leg_length_tangents(free))
+    # parameter axis last, so that indexing poses and coordinates leaves (B, n|G, P)
+    dp_poses, dr_poses = np.moveaxis(dp_poses, 2, -1), np.moveaxis(dr_poses, 2, -1)
+    drift = np.isin(free, _DRIFT)
+    dp0 = dp_poses[:, at_setting, set_leg] * ~drift  # gauges are set at t = 0: no drift
+    dr0 = dr_poses[:, at_setting, set_leg, set_leg] * ~drift
+    per_reading = np.where(drift[None, :], layout.t_s[:, None] / 3600.0, 1.0)
+    dpi = dp_poses[:, at_reading, i] * per_reading
+    dpj = dp_poses[:, at_reading, j] * per_reading
+    dri = dr_poses[:, at_reading, i, i] * per_reading
+    drj = dr_poses[:, at_reading, i, j] * per_reading
+    dfrac = (free[None, :] == np.array(_GPOS)[set_leg][:, None]).astype(float)  # (G, P)
+
+    dplane = dp0 + dfrac * (r0 - p0)[..., None] + frac[..., None] * (dr0 - dp0)
+    den = (ri - pi)[..., None]
+    dmu = (dplane[:, layout.gauge] - dpi - mu[..., None] * (dri - dpi)) / den
+    dcoord = dpj + dmu * (rj - pj)[..., None] + mu[..., None] * (drj - dpj)
+    dgain = (free[None, :] == scale_index[:, None]) * 1e-6  # (n, P)
+    return out, dcoord * gain[..., None] + coord[..., None] * dgain
 
 
 # --- postures and the papers' protocol -------------------------------------------------

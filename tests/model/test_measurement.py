@@ -1,11 +1,13 @@
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
 from ogacq.identify.observations import PAPER_ORDER_12, deviations_observations
 from ogacq.model.machine import PAPER_PROTOTYPE as M
-from ogacq.model.measurement import predict_coordinates
-from ogacq.model.parameters import PARAM_NAMES, effect_of, vector
+from ogacq.model.measurement import ReadingsLayout, predict_coordinates, predict_jacobian
+from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 
@@ -76,3 +78,58 @@ def test_subset_keeps_each_gauges_setting_posture():
     part = layout.subset(keep)
     assert np.allclose(predict_coordinates(theta, part, M), full[keep], atol=1e-12)
     assert part.n_gauges == layout.n_gauges
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_analytic_jacobian_matches_central_differences(seed):
+    """Every effect nonzero (drift included, so each reading is its own pose), and
+    again with drift zero (poses shared, drift's derivative scaled per reading)."""
+    rng = np.random.default_rng(seed)
+    layout = planned_layout(ProtocolConfig(), M)
+    layout = replace(layout, t_s=np.linspace(0.0, 1800.0, len(layout)))
+    ranges = np.array([effect_of(n).plausible_range for n in PARAM_NAMES])
+    signs = rng.choice([-1.0, 1.0], len(ranges))
+    with_drift = NOMINAL + signs * rng.uniform(0.01, 0.1, len(ranges)) * ranges
+    without_drift = with_drift.copy()
+    without_drift[[PARAM_NAMES.index(f"thermal_drift.{a}") for a in "xyz"]] = 0.0
+    free = np.arange(len(PARAM_NAMES))
+    for theta in (with_drift, without_drift):
+        jac = predict_jacobian(theta[None], layout, M, free)[0]
+        for k, name in enumerate(PARAM_NAMES):
+            h = ranges[k] * 1e-5
+            up, down = theta.copy(), theta.copy()
+            up[k] += h
+            down[k] -= h
+            fd = (predict_coordinates(up, layout, M) - predict_coordinates(down, layout, M)) \
+                / (2 * h)
+            scale = np.max(np.abs(fd))
+            assert scale > 0, name
+            assert np.max(np.abs(jac[:, k] - fd)) < 1e-6 * scale, name
+
+
+def test_analytic_jacobian_of_a_batch_equals_one_at_a_time():
+    layout = planned_layout(ProtocolConfig(), M)
+    thetas = np.stack([vector({"joint_offset.x": 0.5, "squareness.xy": 1.0}),
+                       vector({"leg_length.z": -0.3, "backlash.y": 0.02})])
+    free = np.array([PARAM_NAMES.index(n) for n in ("joint_offset.x", "squareness.yz",
+                                                    "gauge_scale.y_x", "backlash.y")])
+    batch = predict_jacobian(thetas, layout, M, free)
+    for b in range(2):
+        assert np.allclose(batch[b], predict_jacobian(thetas[b:b + 1], layout, M, free)[0],
+                           rtol=0, atol=1e-15)
+
+
+def test_layout_numbers_gauges_in_order_of_first_reading():
+    rng = np.random.default_rng(3)
+    leg = rng.integers(0, 3, 200)
+    axis = (leg + rng.integers(1, 3, 200)) % 3
+    q = rng.normal(size=(200, 3))
+    layout = ReadingsLayout.build(q, leg, axis)
+    seen: list[tuple[int, int]] = []
+    for k in range(200):
+        key = (int(axis[k]), int(leg[k]))
+        if key not in seen:
+            seen.append(key)
+            assert np.array_equal(layout.setting_q_mm[len(seen) - 1], q[k])
+        assert layout.gauge[k] == seen.index(key)
+    assert layout.gauge_keys == tuple(seen)

@@ -1,0 +1,64 @@
+"""Candidate fits of raw readings on their repeat groups' means, exactly.
+
+Readings repeated at one gauge, posture and approach side (a repeat group, the
+cycles) share one prediction unless thermal drift is modelled: only the time
+differs between them. Whitened by ``noise.GroupWhitener``, a residual splits into
+its part within the groups, which no parameter can change, and its part along the
+group means, one coordinate per group. The weighted residual sum of squares is
+therefore a constant plus the squared norm of ``G`` coordinates, and a fit needs
+the model at one reading per group: 24 for the papers' plan however many cycles,
+instead of every reading.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ogacq.identify.fit import Weighting
+from ogacq.identify.observations import Observations
+from ogacq.model.measurement import predict_coordinates
+
+
+class GroupSpace:
+    """The weighted residuals of raw readings as ``G`` group-mean coordinates, for
+    parameter vectors without thermal drift (the caller's to check)."""
+
+    def __init__(self, obs: Observations, weighting: Weighting) -> None:
+        groups = weighting.groups
+        assert groups is not None, "raw readings only"
+        self.obs = obs
+        self._groups = groups
+        n_groups = len(groups.size)
+        first = np.full(n_groups, len(obs))
+        np.minimum.at(first, groups.group, np.arange(len(obs)))
+        kept = np.sort(first)  # one reading per group, in the order of the readings
+        self.layout = obs.layout.subset(np.isin(np.arange(len(obs)), kept))
+        self._order = groups.group[kept]  # the group of each kept reading
+        means = groups.group_means(obs.values)
+        within = obs.values - means[groups.group]
+        # what no prediction changes: the whitened scatter about the group means
+        self.constant_rss = float(np.sum(within**2)) * groups.within_scale**2
+        self._mean = means[self._order]
+        # a group mean's whitened coordinate per mm of residual
+        self._scale = groups.mean_scale[self._order] * np.sqrt(groups.size[self._order])
+        zeros = np.eye(self.layout.n_gauges)[self.layout.gauge] * self._scale[:, None]
+        self._zeros = zeros / np.sqrt(np.sum(zeros**2, axis=0))  # orthonormal columns
+
+    def __len__(self) -> int:
+        return len(self._order)
+
+    def _project(self, x: np.ndarray) -> np.ndarray:
+        """Remove what the gauge zeros absorb, along the last axis."""
+        return x - (x @ self._zeros) @ self._zeros.T
+
+    def residuals(self, theta: np.ndarray) -> np.ndarray:
+        """(B, G) weighted residual coordinates: their squared norm plus
+        ``constant_rss`` is the weighted residual sum of squares."""
+        predicted = predict_coordinates(theta, self.layout, self.obs.machine)
+        return self._project((self._mean - predicted) * self._scale)
+
+    def jacobian(self, weighted_jac: np.ndarray) -> np.ndarray:
+        """(G, p) group coordinates of a weighted Jacobian (m, p) of the readings:
+        its rows are constant within a group, so nothing is lost."""
+        return self._groups.group_space(weighted_jac.T).T[self._order]
+
