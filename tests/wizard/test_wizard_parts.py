@@ -185,3 +185,31 @@ def test_log_lines_go_through_the_wizard_screen_while_it_runs():
     assert "ogacq: warning: gauge z_x [x leg]: no reply, attempt 1 of 3" in shown.getvalue()
     assert "repeated 2 more times" in shown.getvalue()
     assert stderr.getvalue() == "ogacq: warning: after the wizard\n"
+
+
+def test_the_wizard_makes_a_machine_file_from_questions(tmp_path, monkeypatch):
+    """'new' at the machine-file question: the operator describes the machine (an
+    impossible geometry is refused in words and asked again); the file written in
+    the campaign's folder reads back as that machine."""
+    import io
+
+    from rich.console import Console
+
+    from ogacq.cli.wizard.flow import WizardOptions, _Wizard
+    from ogacq.cli.wizard.pause import InterruptGate
+    from ogacq.cli.wizard.ui import Screen
+    from ogacq.io.machine_file import read_machine
+
+    answers = iter(["new",
+                    "400", "50", "80", "0.001",  # Min above zero: refused
+                    "400", "-120", "80", "abc", "0.001",  # a step that is not a number
+                    "y"])
+    monkeypatch.setattr("builtins.input", lambda prompt="": next(answers))
+    shown = io.StringIO()
+    wizard = _Wizard(Screen(Console(file=shown, width=100)), InterruptGate(), WizardOptions())
+    machine, path = wizard._confirm_machine(None, None, tmp_path)
+    assert path == tmp_path / "machine.toml" and read_machine(path) == machine
+    assert (machine.leg_length_mm, machine.rho_min_mm, machine.rho_max_mm,
+            machine.gauge_resolution_mm) == (400, -120, 80, 0.001)
+    assert "rho_min_mm < 0 < rho_max_mm" in shown.getvalue()
+    assert "could not convert string to float: 'abc'" in shown.getvalue()

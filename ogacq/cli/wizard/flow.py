@@ -47,7 +47,12 @@ from ogacq.cli.wizard.result import offer_writeback, show_result
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
+from ogacq.model.machine import (
+    PAPER_PROTOTYPE,
+    PAPER_PROTOTYPE_DIGITAL,
+    PAPER_PROTOTYPE_DIGITAL_NOTE,
+    MachineSpec,
+)
 from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped, GaugeValue
@@ -180,7 +185,7 @@ class _Wizard:
         s.heading("The machine", "step 2 of 4")
         machine, machine_path = pausable(
             s, "while confirming the machine",
-            lambda: self._confirm_machine(machine, machine_path))
+            lambda: self._confirm_machine(machine, machine_path, folder))
         campaign = Campaign(folder / "campaign.toml", machine, machine_path,
                             folder / "session.jsonl", protocol, choice.controller,
                             list(choice.gauges.values()))
@@ -263,15 +268,18 @@ class _Wizard:
             return read_machine(path), path
         return None, None
 
-    def _confirm_machine(self, machine: MachineSpec | None, path: Path | None,
+    def _confirm_machine(self, machine: MachineSpec | None, path: Path | None, folder: Path,
                          ) -> tuple[MachineSpec, Path]:
         s = self.screen
         while True:
             if machine is None or path is None:
-                typed = Path(s.ask("Machine file (TOML: leg_length_mm, rho_min_mm, "
-                                   "rho_max_mm, gauge_resolution_mm)"))
+                typed = s.ask("Machine file (TOML: leg_length_mm, rho_min_mm, rho_max_mm, "
+                              "gauge_resolution_mm), or 'new' to describe the machine")
+                if typed.lower() == "new":
+                    machine, path = self._describe_machine(folder)
+                    continue
                 try:
-                    machine, path = read_machine(typed), typed
+                    machine, path = read_machine(Path(typed)), Path(typed)
                 except InputError as exc:
                     s.problem(str(exc))
                     continue
@@ -290,6 +298,32 @@ class _Wizard:
                       "with --machine FILE.")
                 continue
             machine = path = None
+
+    def _describe_machine(self, folder: Path) -> tuple[MachineSpec, Path]:
+        """The machine file made from the operator's answers, in the campaign's folder;
+        the papers' prototype gives the defaults."""
+        s = self.screen
+        base = PAPER_PROTOTYPE
+        while True:
+            values = {
+                "leg_length_mm": s.ask_parsed("Leg length (mm, the parallelogram's)",
+                                              _length, f"{base.leg_length_mm:g}"),
+                "rho_min_mm": s.ask_parsed("Joint travel below the zero posture, for Min "
+                                           "(mm, negative)", float, f"{base.rho_min_mm:g}"),
+                "rho_max_mm": s.ask_parsed("Joint travel above the zero posture, for Max "
+                                           "(mm, positive)", float, f"{base.rho_max_mm:g}"),
+                "gauge_resolution_mm": s.ask_parsed(
+                    "Gauge display step (mm: 0.01 dial, 0.001 digital)", _length,
+                    f"{base.gauge_resolution_mm:g}"),
+            }
+            try:
+                machine = MachineSpec(**values)
+            except ValueError as exc:  # the geometry's own checks, in words
+                s.problem(str(exc))
+                continue
+            path = write_machine(folder / "machine.toml", machine,
+                                 "described to `ogacq wizard` by the operator")
+            return read_machine(path), path
 
     def _recheck(self, campaign: Campaign) -> None:
         """Before continuing: the controller answers and each gauge gives a value."""
@@ -555,6 +589,13 @@ def _how_read(campaign: Campaign, by_eye: set[str]) -> str:
     if not campaign.gauges:  # none is read over a link
         return "each typed by you from the dial"
     return f"typed by you for {', '.join(sorted(by_eye))}, the others taken automatically"
+
+
+def _length(text: str) -> float:
+    value = float(text)
+    if not 0 < value < float("inf"):
+        raise ValueError(f"a positive length in mm, got {text}")
+    return value
 
 
 @dataclass(frozen=True)
