@@ -125,6 +125,45 @@ class SimulatedGauge:
                 self._faults.pop(Fault(kind), None)
 
 
+class UsbCableGauge(SimulatedGauge):
+    """A gauge behind a USB cable (USB-ITN data or keyboard mode): faults switch on
+    per reply, except a pulled cable and a burst of old values, which happen at once.
+    A subclass says which faults it can show and how a value is pushed."""
+
+    CABLE = ""  # for messages: "a USB-ITN cable"
+    SHOWS: tuple[Fault, ...] = ()
+    unit: Unit
+    value_source: Callable[[], float]
+    _last_value_mm: float | None
+
+    def unplug(self) -> None:
+        raise NotImplementedError
+
+    def _push_stale(self, value_mm: float, count: int) -> None:
+        raise NotImplementedError
+
+    def _fault_code(self, kind: Fault, code: str) -> str:
+        """The code a fault is shown with, checked now (not at the next reply)."""
+        return code
+
+    def set_fault(
+        self, kind: Fault | str, *, code: str = "", count: int | None = None, **_: Any
+    ) -> None:
+        kind = Fault(kind)
+        if kind is Fault.UNPLUG:
+            self.unplug()
+            return
+        if kind is Fault.STALE:
+            last = self._last_value_mm
+            self._push_stale(last if last is not None else self.value_source(), count or 3)
+            return
+        if kind not in self.SHOWS:
+            raise ValueError(f"{self.CABLE} cannot show {kind}")
+        code = self._fault_code(kind, code)
+        with self._lock:
+            self._faults[kind] = [code, count]
+
+
 class _PtyTransport:
     """The master side of a pseudo-terminal; clients open the slave path."""
 

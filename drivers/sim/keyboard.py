@@ -33,7 +33,7 @@ from ogacq_drivers.indicators import usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from ogacq_drivers.input_link import EVENT
-from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for
+from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, UsbCableGauge, _decimals_for
 
 log = logging.getLogger(__name__)
 
@@ -41,7 +41,7 @@ EV_SYN = 0  # linux/input-event-codes.h; SYN_REPORT is code 0
 EV_MSC, MSC_SCAN = 4, 4  # the scan code a HID keyboard reports before each key event
 
 
-class KeyboardEndpoint(SimulatedGauge):
+class KeyboardEndpoint(UsbCableGauge):
     """One simulated keyboard-mode cable; clients open :attr:`port` (a device node path)."""
 
     protocol = "usb-itn-keyboard"
@@ -119,22 +119,12 @@ class KeyboardEndpoint(SimulatedGauge):
         return f"KeyboardEndpoint({self.port if self._root else 'not started'})"
 
     # ------------------------------------------------------------------- faults
-    def set_fault(
-        self, kind: Fault | str, *, code: str = "", count: int | None = None, **_: Any
-    ) -> None:
-        kind = Fault(kind)
-        if kind is Fault.UNPLUG:
-            self.unplug()
-            return
-        if kind is Fault.STALE:
-            value = self._last_value_mm if self._last_value_mm is not None else self.value_source()
-            for _ in range(count or 3):
-                self._type(self._text(value, self.unit))
-            return
-        if kind not in (Fault.SILENCE, Fault.GARBLED, Fault.INCH):
-            raise ValueError(f"a keyboard cable cannot show {kind}")
-        with self._lock:
-            self._faults[kind] = [code, count]
+    CABLE = "a keyboard cable"
+    SHOWS = (Fault.SILENCE, Fault.GARBLED, Fault.INCH)
+
+    def _push_stale(self, value_mm: float, count: int) -> None:
+        for _ in range(count):
+            self._type(self._text(value_mm, self.unit))
 
     def unplug(self) -> None:
         self.unplugged = True

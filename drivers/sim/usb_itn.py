@@ -31,7 +31,7 @@ from typing import Any
 
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
-from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, SimulatedGauge, _decimals_for, _garble
+from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, UsbCableGauge, _decimals_for, _garble
 
 log = logging.getLogger(__name__)
 
@@ -112,7 +112,7 @@ def _descriptors(serial_index: int) -> dict[str, Any]:
     }
 
 
-class UsbItnEndpoint(SimulatedGauge):
+class UsbItnEndpoint(UsbCableGauge):
     """One simulated USB-ITN cable and its gauge; clients open :attr:`port`."""
 
     protocol = "usb-itn"
@@ -182,26 +182,19 @@ class UsbItnEndpoint(SimulatedGauge):
         return f"UsbItnEndpoint({self._port or 'not started'})"
 
     # ------------------------------------------------------------------- faults
-    def set_fault(
-        self, kind: Fault | str, *, code: str = "", count: int | None = None, **_: Any
-    ) -> None:
-        kind = Fault(kind)
-        if kind is Fault.UNPLUG:
-            self.unplug()
-            return
-        if kind is Fault.STALE:
-            value = self._last_value_mm if self._last_value_mm is not None else self.value_source()
-            with self._lock:
-                for _ in range(count or 3):
-                    self._queue(self._frame(value, self.unit))
-            return
+    CABLE = "a USB-ITN cable"
+    SHOWS = (Fault.SILENCE, Fault.ERROR, Fault.BUSY, Fault.GARBLED, Fault.INCH)
+
+    def _push_stale(self, value_mm: float, count: int) -> None:
+        with self._lock:
+            for _ in range(count):
+                self._queue(self._frame(value_mm, self.unit))
+
+    def _fault_code(self, kind: Fault, code: str) -> str:
         if kind is Fault.ERROR:
             code = code or "911"
             mitutoyo_01a.encode_error(code)  # validate now
-        if kind not in (Fault.SILENCE, Fault.ERROR, Fault.BUSY, Fault.GARBLED, Fault.INCH):
-            raise ValueError(f"a USB-ITN cable cannot show {kind}")
-        with self._lock:
-            self._faults[kind] = [code, count]
+        return code
 
     def unplug(self) -> None:
         """The cable is pulled out: connections drop, and nobody can find it again."""
