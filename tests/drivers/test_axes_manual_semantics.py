@@ -12,32 +12,15 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
 from ogacq_drivers.axes.controller import AxisController
-from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.profile import Profile, load_profile
 from ogacq_drivers.errors import DeviceTimeout
-from ogacq_drivers.sim.clock import SimClock
-from ogacq_drivers.sim.modbus_server import ModbusSimServer
-from ogacq_drivers.sim.motion import Alarm, MotionModel
-
-
-@contextmanager
-def _rig(profile: Profile) -> Iterator[tuple[AxisController, MotionModel, ModbusLink]]:
-    model = MotionModel(SimClock(speed=50.0))
-    server = ModbusSimServer(profile, model, transport="tcp")
-    address = server.start()
-    link = ModbusLink.for_profile(profile, transport="tcp", host=address.host, port=address.port)
-    try:
-        yield AxisController(profile, link), model, link
-    finally:
-        link.close()
-        server.stop()
+from ogacq_drivers.sim.motion import Alarm
+from tests.drivers.drive_rig import simulated_drive
 
 
 def _homed_and_moving(c: AxisController) -> None:
@@ -50,7 +33,7 @@ def test_iai_stp_release_resumes_the_move_and_the_decel_stop_cancels_it() -> Non
     profile = load_profile("iai-pcon")
     stp = profile.value("pause_command").address
     stop = profile.value("decel_stop_command").address
-    with _rig(profile) as (c, model, link):
+    with simulated_drive(profile) as (c, model, _server, link):
         _homed_and_moving(c)
         link.write_coil(1, stp, True, what="test: STP on")
         held = model.raw_position_mm("x")
@@ -70,7 +53,7 @@ def test_iai_stp_release_resumes_the_move_and_the_decel_stop_cancels_it() -> Non
 def test_iai_alarm_reset_acts_on_the_change_back_to_0000() -> None:
     profile = load_profile("iai-pcon")
     alrs = profile.value("alarm_reset_command").address
-    with _rig(profile) as (c, model, link):
+    with simulated_drive(profile) as (c, model, _server, link):
         c.enable(["x"])
         model.inject_alarm("x", Alarm.OVERLOAD)
         link.write_coil(1, alrs, True, what="test: ALRS FF00")
@@ -85,7 +68,7 @@ def test_iai_alarm_reset_acts_on_the_change_back_to_0000() -> None:
 def test_cia402_halt_release_continues_the_positioning() -> None:
     profile = load_profile("cia402")
     controlword = profile.value("controlword").address
-    with _rig(profile) as (c, model, link):
+    with simulated_drive(profile) as (c, model, _server, link):
         _homed_and_moving(c)
         link.write_register(1, controlword, 0x010F, what="test: halt")
         assert model.has_paused_move("x")
@@ -119,7 +102,7 @@ start = [
 ]
 finish = [{ op = "wait", flag = "servo_on", state = true, timeout_s = "$enable_timeout_s" }]
 """})
-    with _rig(stp_stop) as (c, model, link):
+    with simulated_drive(stp_stop) as (c, model, _server, link):
         _homed_and_moving(c)
         c.stop(["x"])
         stopped = model.raw_position_mm("x")
@@ -138,7 +121,7 @@ start = [
 """})
     quick = dataclasses.replace(
         wait_between, timing=dataclasses.replace(wait_between.timing, ack_timeout_s=0.3))
-    with _rig(quick) as (c, model, _link):
+    with simulated_drive(quick) as (c, model, _server, _link):
         c.enable(["x"])
         model.inject_alarm("x", Alarm.OVERLOAD)
         with pytest.raises(DeviceTimeout, match="alarm did not become False"):

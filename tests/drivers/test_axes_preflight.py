@@ -4,19 +4,14 @@ differs from the client's profile: it stops before the second move and names the
 from __future__ import annotations
 
 import tomllib
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
 
 from ogacq_drivers.axes.controller import AxisController
-from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, run_preflight
 from ogacq_drivers.axes.profile import Profile, load_profile, parse_profile
-from ogacq_drivers.sim.clock import SimClock
-from ogacq_drivers.sim.modbus_server import ModbusSimServer
-from ogacq_drivers.sim.motion import MotionModel
+from tests.drivers.drive_rig import simulated_drive
 
 
 def _variant(name: str, table: str, **values: object) -> Profile:
@@ -25,24 +20,10 @@ def _variant(name: str, table: str, **values: object) -> Profile:
     return parse_profile(raw, source=f"{name} with {table} {values}")
 
 
-@contextmanager
-def _drive(drive: Profile, client: Profile) -> Iterator[tuple[AxisController, MotionModel,
-                                                               ModbusSimServer]]:
-    model = MotionModel(SimClock(speed=50.0))
-    server = ModbusSimServer(drive, model, transport="tcp")
-    address = server.start()
-    link = ModbusLink.for_profile(client, transport="tcp", host=address.host, port=address.port)
-    try:
-        yield AxisController(client, link), model, server
-    finally:
-        link.close()
-        server.stop()
-
-
 @pytest.mark.parametrize("name", ["cia402", "iai-pcon"])
 def test_a_drive_as_the_profile_says_passes(name: str) -> None:
     profile = load_profile(name)
-    with _drive(profile, profile) as (c, model, _server):
+    with simulated_drive(profile, profile) as (c, model, _server, _link):
         c.enable()
         c.home()
         run_preflight(c, probe_mm=1.0)
@@ -52,7 +33,7 @@ def test_a_drive_as_the_profile_says_passes(name: str) -> None:
 def test_wrong_word_order_stops_at_the_probe_move() -> None:
     drive = load_profile("cia402")
     client = _variant("cia402", "codec", word_order="high_first")
-    with _drive(drive, client) as (c, model, _server):
+    with simulated_drive(drive, client) as (c, model, _server, _link):
         c.enable()
         c.home()
         with pytest.raises(PreflightError, match="change codec.word_order") as caught:
@@ -65,7 +46,7 @@ def test_wrong_word_order_stops_at_the_probe_move() -> None:
 def test_wrong_home_offset_sign_stops_after_homing() -> None:
     drive = load_profile("cia402")  # the drive: home point reads -home_offset
     client = _variant("cia402", "offset", sign=1)
-    with _drive(drive, client) as (c, model, server):
+    with simulated_drive(drive, client) as (c, model, server, _link):
         for unit in server.devices.values():
             unit.put("home_offset", 0.5)  # set on the drive's panel before
         c.enable()
@@ -83,7 +64,7 @@ def test_a_status_bit_read_from_the_wrong_place_is_named() -> None:
     raw = tomllib.loads(Path(drive.source).read_text(encoding="utf-8"))
     raw["flags"]["moving"] = {"value": "device_status_1", "bit": 12}  # SV, not MOVE
     client = parse_profile(raw, source="iai-pcon with moving on the servo bit")
-    with _drive(drive, client) as (c, _model, _server):
+    with simulated_drive(drive, client) as (c, _model, _server, _link):
         check_identity(c)  # servo off: nothing contradicts yet
         drive_side = AxisController(drive, c.link)
         drive_side.enable(["x"])
@@ -98,7 +79,7 @@ def test_a_device_that_is_no_cia402_drive_is_named() -> None:
     raw["values"]["statusword"]["address"] = 0x6060  # reads the mode (1): no CiA 402 state
     raw["values"]["mode"]["address"] = 0x6041
     client = parse_profile(raw, source="cia402 with statusword and mode swapped")
-    with _drive(drive, client) as (c, _model, _server):
+    with simulated_drive(drive, client) as (c, _model, _server, _link):
         with pytest.raises(PreflightError, match="is no CiA 402 state") as caught:
             check_identity(c, ["x"])
         assert caught.value.field == "values.statusword.address"
