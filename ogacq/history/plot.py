@@ -53,7 +53,7 @@ def history_figure(title: str, calibrations: Sequence[Calibration],
         if any(guessed):
             ax.plot([x for x, g in zip(xs, guessed, strict=True) if g],
                     [y for y, g in zip(ys, guessed, strict=True) if g], "o", mfc="white",
-                    mec="#1f5fa8", ms=5, label="U unknown: ± 2 std")
+                    mec="#1f5fa8", ms=5, zorder=5, label="U unknown: ± 2 std")
         where = {c.record_id: x for (c, _), x in zip(dated, range(len(dated)), strict=True)}
         for d in drifts:
             if d.parameter != name or not d.flagged:
@@ -63,8 +63,8 @@ def history_figure(title: str, calibrations: Sequence[Calibration],
             x1 = dated[j][1] if by_date else j + 1
             y0 = calibrations[i].parameters[name].value_mm * 1000
             y1 = calibrations[j].parameters[name].value_mm * 1000
-            ax.plot([x0, x1], [y0, y1], "-", color="#c0392b", lw=2.5,
-                    label=f"drift > U ({d.change_mm * 1000:+.1f} µm)")
+            ax.plot([x0, x1], [y0, y1], "-", color="#c0392b", lw=2.5, zorder=4,
+                    label="change > U of the change")
         ax.set_ylabel(f"{name}\n(µm)", fontsize=9)
         ax.grid(True, alpha=0.3)
         handles, labels = ax.get_legend_handles_labels()
