@@ -40,7 +40,7 @@ LAYERS: list[tuple[str, ...]] = [
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
-     "ogacq.file_templates", "ogacq.history"),
+     "ogacq.file_templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
     ("ogacq.campaign",),
     ("ogacq.writeback", "ogacq.report"),
