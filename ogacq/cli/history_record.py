@@ -59,9 +59,10 @@ def record_session(history: History, session: LoadedSession,
                    record: Mapping[str, Any] | None = None) -> Recorded:
     """The session's calibration and every write-back of its audit (each once)."""
     record = dict(record) if record is not None else session_record(session)
-    done = history.record_calibration(record)
+    where = str(session.path.resolve())
+    done = history.record_calibration(record, session_path=where)
     for writeback in writebacks_of(session):
-        done += history.record_writeback(record, writeback)
+        done += history.record_writeback(record, writeback, session_path=where)
     return done
 
 
@@ -124,8 +125,9 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
 
     def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
         record = session_record(session)
-        done = history.record_calibration(record)
-        done += history.record_diagnosis(record, diagnosis)
+        where = str(session.path.resolve())
+        done = history.record_calibration(record, session_path=where)
+        done += history.record_diagnosis(record, diagnosis, session_path=where)
         return done
 
     record_after(session_path, option, "the diagnosis", record_with=with_diagnosis)

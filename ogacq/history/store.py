@@ -189,17 +189,22 @@ class History:
                 yield conn
 
     # ------------------------------------------------------------------ recording
-    def record_calibration(self, record: Mapping[str, Any]) -> Recorded:
+    # ``session_path``: where the session is, as an absolute path, when the record
+    # names it relative to the folder its command ran in.
+    def record_calibration(self, record: Mapping[str, Any], *,
+                           session_path: str | None = None) -> Recorded:
         record = check_record(record)
-        return self._record("calibration", record, details=None, parameters=True)
+        return self._record("calibration", record, details=None, parameters=True,
+                            session_path=session_path)
 
-    def record_diagnosis(self, record: Mapping[str, Any],
-                         diagnosis: Mapping[str, Any]) -> Recorded:
+    def record_diagnosis(self, record: Mapping[str, Any], diagnosis: Mapping[str, Any], *,
+                         session_path: str | None = None) -> Recorded:
         record = check_record(record)
         return self._record("diagnosis", record, details=clean_json(dict(diagnosis)),
-                            parameters=False)
+                            parameters=False, session_path=session_path)
 
-    def record_writeback(self, record: Mapping[str, Any], writeback: WriteBack) -> Recorded:
+    def record_writeback(self, record: Mapping[str, Any], writeback: WriteBack, *,
+                         session_path: str | None = None) -> Recorded:
         """A write-back or restore, with the offsets it found and left as states."""
         record = check_record(record)
         details = clean_json({"operation": writeback.operation, "action": writeback.action,
@@ -207,12 +212,15 @@ class History:
                               "new_mm": dict(writeback.new_mm), "profile": writeback.profile,
                               "restores": writeback.restores})
         return self._record(writeback.kind, record, details=details, parameters=False,
-                            writeback=writeback)
+                            writeback=writeback, session_path=session_path)
 
     def _record(self, kind: str, record: dict[str, Any], *, details: dict[str, Any] | None,
-                parameters: bool, writeback: WriteBack | None = None) -> Recorded:
+                parameters: bool, writeback: WriteBack | None = None,
+                session_path: str | None = None) -> Recorded:
         key = event_key(kind, record["id"], writeback.operation if writeback else None)
         columns = record_columns(record)
+        if session_path is not None:
+            columns["session_path"] = session_path
         if writeback is not None:
             columns["campaign_date"] = local_iso(writeback.wall) or columns["campaign_date"]
         with self._guard(f"record {key}"), self._transaction(write=True) as conn:
