@@ -308,6 +308,18 @@ class History:
                 e.c.machine_id == machine.id, e.c.record_id == record_id,
                 e.c.kind == "calibration")).scalar_one_or_none()
 
+    def results_history(self, machine: Machine) -> list[dict[str, Any]]:
+        """The machine's calibrations as ``build_record(history=...)`` takes them
+        (docs/calibration-record.md section 5): ``{"id", "date", "results"}`` each,
+        the results as their records hold them, oldest first."""
+        e = s.events
+        with self._guard("read the calibrations"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(e.c.record_id, e.c.campaign_date, e.c.record).where(
+                e.c.machine_id == machine.id, e.c.kind == "calibration")).all()
+        entries = [{"id": r.record_id, "date": r.campaign_date,
+                    "results": (r.record or {}).get("results") or {}} for r in rows]
+        return sorted(entries, key=lambda v: (v["date"] or "", v["id"]))
+
     def states(self, machine: Machine) -> list[OffsetState]:
         """The offsets states of the machine's write-backs and restores, oldest first."""
         o, e = s.offset_states, s.events

@@ -56,6 +56,10 @@ def test_calibrations_come_back_by_date_with_their_parameters_and_record(locatio
     # the record is kept whole
     with History.open(location) as history:
         assert history.records(machine, records[1]["id"]) == records[1]
+        # and the earlier results are what the record's history section takes
+        entries = history.results_history(machine)
+    assert [e["id"] for e in entries] == [c.record_id for c in found]
+    assert entries[0]["results"] == records[1]["results"]
 
 
 def test_the_same_record_twice_is_one_row(location):
