@@ -42,8 +42,9 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
      "ogacq.file_templates"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
-    ("ogacq.campaign",),
+    ("ogacq.campaign", "ogacq.record"),  # ogacq.record: the package; its modules sit where placed
     ("ogacq.writeback", "ogacq.report"),
+    ("ogacq.record.document",),  # the record: the campaign, its write-backs, its report data
     ("ogacq.cli", "ogacq.__main__"),
 ]
 LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entries}
