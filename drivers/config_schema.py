@@ -19,6 +19,7 @@ machine moved.
 from __future__ import annotations
 
 import dataclasses
+import datetime
 import difflib
 import json
 import math
@@ -76,6 +77,12 @@ def text(*choices: str) -> Value:
 
 
 TRUTH = Value((bool,))
+# TOML's own date values (RFC 3339), which tomllib gives as ``datetime.date`` and
+# ``datetime.datetime``: a calendar date (``due = 2027-03-01``) and a moment
+# (``date = 2026-01-10T09:00:00``, a bare date meaning its midnight). A date written
+# as text ("2027-03-01") is refused with the unquoted form to write.
+DATE = Value((datetime.date,))
+MOMENT = Value((datetime.datetime, datetime.date))
 
 
 @dataclass(frozen=True)
@@ -136,7 +143,9 @@ class Variants:
 
 Kind = Value | FilePath | ListOf | MapOf | Table | TableArray | Variants
 
-_KIND_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "text"}
+_KIND_NAMES = {bool: "true or false", int: "a whole number", float: "a number", str: "text",
+               datetime.date: "a date (YYYY-MM-DD, not quoted)",
+               datetime.datetime: "a date and time (YYYY-MM-DDTHH:MM:SS, not quoted)"}
 
 
 # --------------------------------------------------------------------------- the source
@@ -320,7 +329,9 @@ def _map(kind: MapOf, raw: Any, path: KeyPath, src: Source) -> dict[str, Any]:
 def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
     if not _is_instance(given, kind.types):
         names = " or ".join(_KIND_NAMES[t] for t in kind.types)
-        raise src.fail(path, f"must be {names}, got {given!r}")
+        raise src.fail(path, f"must be {names}, got {_shown(given)}")
+    if isinstance(given, datetime.date):
+        return given
     if isinstance(given, float) and not math.isfinite(given):
         raise src.fail(path, f"must be a finite number, got {given!r}")
     if kind.choices and given not in kind.choices:
@@ -341,7 +352,20 @@ def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
     return given
 
 
+def _shown(value: Any) -> str:
+    """A file value as its author wrote it (a date as TOML writes it)."""
+    if isinstance(value, datetime.date):
+        return value.isoformat()
+    return repr(value)
+
+
 def _is_instance(value: Any, types: tuple[type, ...]) -> bool:
+    if isinstance(value, datetime.datetime):  # a datetime is a date to Python, not to us
+        return datetime.datetime in types
+    if isinstance(value, datetime.date):
+        return datetime.date in types
+    if isinstance(value, datetime.time):
+        return False
     if isinstance(value, bool):  # bool is an int to Python; `address = true` is a mistake
         return bool in types
     if isinstance(value, int):
@@ -449,6 +473,8 @@ def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
                                 for f, v in fields) + " }"
     if isinstance(value, bool):
         return "true" if value else "false"
+    if isinstance(value, datetime.date):
+        return value.isoformat()  # a TOML date or local date-time, unquoted
     if isinstance(value, float):
         if not math.isfinite(value):
             raise ValueError(f"{dotted(path)} = {value}: not a finite number")

@@ -8,6 +8,7 @@ papers' two indicators, moved from leg to leg (give each of its gauges the same
 port); the campaign then waits for the operator at each leg (see `ogacq run`).
 
     machine = "machine.toml"          # relative to this file
+    operator = "J. Martin"            # who runs the calibration (recorded)
     session = "runs/cal-1.jsonl"      # where the session is written
     deadline_s = 3600                 # the most working time (moves, settling, readings;
                                       # not the operator's) a run may take; default: the
@@ -35,7 +36,15 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
                                       # /dev/input/eventN (usb-itn-keyboard)
     channel = 1                       # multiplexer channel, when there is one
     unit = "mm"
-    serial = "SN 1234"                # recorded in the session
+    serial = "SN 1234"                # the gauge's serial number, recorded in the session
+    make = "Mitutoyo"                 # identity and calibration certificate (recorded;
+    model = "543-790B"                # the uncertainty budget uses U and k)
+    certificate = "DKD-K-12345 2026-0412"
+    calibrated = 2026-03-01           # TOML dates, unquoted
+    due = 2027-03-01                  # past it, the campaign is refused before anything
+                                      # moves (see [override])
+    uncertainty_mm = 0.0015           # the certificate's expanded uncertainty U ...
+    uncertainty_k = 2.0               # ... and its coverage factor k
     [protocol]
     postures = ["zero", "max", "min", "zero"]
     cycles = 3
@@ -51,10 +60,21 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     speed = 20
     gauge_protocol = "usb-itn"        # what the simulated gauges speak (default 01A)
     gauge_protocols = { z_y = "sylvac-simplex" }   # per gauge, over gauge_protocol
+    date = 2026-01-10T09:00:00        # rehearse the campaign on this date (default: now)
+    ambient_c = 20.0                  # the simulated shop's temperature (the legs expand)
+    [environment]                     # recorded at the start (and the end) of the campaign
+    ambient_c = 20.4                  # typed: the ambient temperature, degC
+    machine_c = 21.0                  # typed: the machine's, when measured
+    sensor = "controller"             # or read the controller profile's [temperature]
+                                      # register(s) at the start and the end
+    [override]
+    expired_gauges = "reason"         # run although a gauge is past its due date; the
+                                      # reason is recorded in the session
 """
 
 from __future__ import annotations
 
+import datetime
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -62,6 +82,8 @@ from typing import Any
 from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
 from ogacq_drivers.axes.reconnect import ReconnectPolicy
 from ogacq_drivers.config_schema import (
+    DATE,
+    MOMENT,
     Field,
     FilePath,
     ListOf,
@@ -80,6 +102,7 @@ from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
+from ogacq.model.instrument import Instrument, parse_moment
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import APPROACHES, ProtocolConfig, StabilityRule, check_postures
@@ -91,12 +114,48 @@ GAUGE_LAYOUTS = ("separate", "multiplexer", "moved")
 @dataclass(frozen=True)
 class GaugeSpec:
     gauge: str
-    protocol: str
-    port: str
+    protocol: str = ""  # "" only in a [simulator] campaign: the simulator's gauges
+    port: str = ""
     channel: str | None = None
     unit: str = "mm"
     serial: str = ""
     baudrate: int | None = None
+    # identity and calibration certificate (docs/calibration-record.md 1)
+    make: str = ""
+    model: str = ""
+    certificate: str = ""
+    calibrated: datetime.date | None = None
+    due: datetime.date | None = None
+    uncertainty_mm: float | None = None
+    uncertainty_k: float | None = None
+
+    def instrument(self, resolution_mm: float | None = None) -> Instrument:
+        """The gauge as a traceable instrument (what the session header records)."""
+        return Instrument(self.gauge, make=self.make or None, model=self.model or None,
+                          serial=self.serial or None, certificate=self.certificate or None,
+                          calibrated=self.calibrated, due=self.due,
+                          uncertainty_mm=self.uncertainty_mm,
+                          uncertainty_k=self.uncertainty_k, resolution_mm=resolution_mm)
+
+    def identity(self) -> dict[str, Any]:
+        """The identity keys given (to carry them onto another endpoint)."""
+        return {k: getattr(self, k) for k in IDENTITY_KEYS if getattr(self, k)}
+
+
+IDENTITY_KEYS = ("serial", "make", "model", "certificate", "calibrated", "due",
+                 "uncertainty_mm", "uncertainty_k")
+ENVIRONMENT_SENSORS = ("controller",)
+
+
+@dataclass(frozen=True)
+class EnvironmentSpec:
+    """The temperatures a campaign records at its start and its end: typed in the
+    file (the same values at both ends, unless the wizard asks again) or read from
+    a sensor."""
+
+    ambient_c: float | None = None
+    machine_c: float | None = None
+    sensor: str | None = None  # "controller": the profile's [temperature] registers
 
 
 @dataclass(frozen=True)
@@ -151,13 +210,20 @@ class SimulatorSpec:
     # two indicators the simulated operator moves from leg to leg
     gauge_protocol: str = DEFAULT_PROTOCOL
     gauge_protocols: tuple[tuple[str, str], ...] = ()  # (gauge, protocol) overrides
+    # the campaign rehearsed on this date (None: now), in a shop at ambient_c (the
+    # simulated legs expand with it)
+    date: datetime.datetime | None = None
+    ambient_c: float = 20.0
 
     def header(self) -> dict[str, Any]:
         """The session header's ``simulator`` entry: what a resume restarts."""
-        return {"seed": self.seed, "profile": self.profile, "speed": self.speed,
-                "effects": str(self.effects or ""), "gauge_layout": self.gauge_layout,
-                "gauge_protocol": self.gauge_protocol,
-                "gauge_protocols": dict(self.gauge_protocols)}
+        out = {"seed": self.seed, "profile": self.profile, "speed": self.speed,
+               "effects": str(self.effects or ""), "gauge_layout": self.gauge_layout,
+               "gauge_protocol": self.gauge_protocol,
+               "gauge_protocols": dict(self.gauge_protocols), "ambient_c": self.ambient_c}
+        if self.date is not None:  # a rehearsed date, not the calendar's
+            out.update(date=self.date.isoformat(), simulated_date=True)
+        return out
 
     @classmethod
     def from_header(cls, entry: dict[str, Any]) -> SimulatorSpec:
@@ -167,7 +233,9 @@ class SimulatorSpec:
                    profile=str(entry.get("profile", "cia402")),
                    gauge_layout=str(entry.get("gauge_layout", "separate")),
                    gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
-                   gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())))
+                   gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
+                   date=parse_moment(entry.get("date")),
+                   ambient_c=float(entry.get("ambient_c", 20.0)))
 
 
 @dataclass
@@ -181,6 +249,19 @@ class Campaign:
     gauges: list[GaugeSpec] = field(default_factory=list)
     simulator: SimulatorSpec | None = None
     deadline_s: float | None = None  # None: derived from the plan (ogacq.protocol.deadline)
+    operator: str = ""
+    environment: EnvironmentSpec | None = None
+    override_expired: str = ""  # the reason to run with a gauge past its due date
+
+    def campaign_date(self) -> datetime.datetime:
+        """The campaign's date: the simulator's rehearsed one, or now (local time)."""
+        if self.simulator is not None and self.simulator.date is not None:
+            return self.simulator.date
+        return datetime.datetime.now().replace(microsecond=0)
+
+    def instruments(self, resolution_mm: float | None = None) -> list[Instrument]:
+        """The [[gauges]] entries as instruments, in the file's order."""
+        return [g.instrument(resolution_mm) for g in self.gauges]
 
     @property
     def moved_indicators(self) -> dict[str, list[str]]:
@@ -188,6 +269,8 @@ class Campaign:
         where each is connected -> its gauges. Empty when every gauge stays put."""
         by_link: dict[str, list[str]] = {}
         for g in self.gauges:
+            if not g.port:
+                continue  # a simulator's gauge, identified only
             where = g.port + (f" channel {g.channel}" if g.channel else "")
             by_link.setdefault(where, []).append(g.gauge)
         return {where: gauges for where, gauges in by_link.items() if len(gauges) > 1}
@@ -216,15 +299,37 @@ _CONTROLLER = Table((
     Field("reconnect_backoff_s", number(minimum=0.0)),
 ), build=ControllerSpec)
 
+# A temperature a shop floor may have: beyond it, a typo (a Fahrenheit value, a sign)
+_TEMPERATURE = number(minimum=-40.0, maximum=80.0)
+
 _GAUGE = Table((
     Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
-    Field("protocol", text(*PROTOCOLS), required=True),
-    Field("port", text(), required=True),
+    # required without [simulator] (checked with the file's line in _gauges)
+    Field("protocol", text(*PROTOCOLS)),
+    Field("port", text()),
     Field("channel", Value((str, int)), decode=str),
     Field("unit", text("mm", "inch")),  # as set on the gauge
     Field("serial", text()),
     Field("baudrate", whole(minimum=1)),
+    Field("make", text()),
+    Field("model", text()),
+    Field("certificate", text()),
+    Field("calibrated", DATE),
+    Field("due", DATE),
+    # the certificate's U and k: a U of 0 would claim a perfect gauge
+    Field("uncertainty_mm", number(positive=True, maximum=10.0)),
+    Field("uncertainty_k", number(minimum=1.0, maximum=10.0)),
 ), build=GaugeSpec)
+
+_ENVIRONMENT = Table((
+    Field("ambient_c", _TEMPERATURE),
+    Field("machine_c", _TEMPERATURE),
+    Field("sensor", text(*ENVIRONMENT_SENSORS)),
+), build=EnvironmentSpec)
+
+_OVERRIDE = Table((
+    Field("expired_gauges", text()),
+))
 
 _PROTOCOL = Table((
     Field("legs", ListOf(text(*AXES))),
@@ -252,10 +357,13 @@ _SIMULATOR = Table((
     Field("gauge_protocol", text(*PROTOCOLS)),
     Field("gauge_protocols", MapOf(text(*PROTOCOLS), keys=GAUGE_KEYS, noun="gauge"),
           decode=lambda table: tuple(sorted(table.items())), encode=dict),
+    Field("date", MOMENT, decode=parse_moment),
+    Field("ambient_c", _TEMPERATURE),
 ), build=SimulatorSpec)
 
 CAMPAIGN_FILE = Table((
     Field("machine", FilePath(), required=True),
+    Field("operator", text()),
     Field("session", FilePath()),
     Field("deadline_s", number(minimum=1.0)),
     Field("controller", _CONTROLLER),
@@ -263,6 +371,8 @@ CAMPAIGN_FILE = Table((
     Field("protocol", _PROTOCOL),
     Field("stability", _STABILITY),
     Field("simulator", _SIMULATOR),
+    Field("environment", _ENVIRONMENT),
+    Field("override", _OVERRIDE),
 ))
 
 
@@ -277,7 +387,15 @@ def read_campaign(path: str | Path) -> Campaign:
     campaign = Campaign(path, machine, given["machine"],
                         given.get("session", path.parent / f"sessions/{path.stem}.jsonl"),
                         protocol, simulator=given.get("simulator"),
-                        deadline_s=given.get("deadline_s"))
+                        deadline_s=given.get("deadline_s"),
+                        operator=given.get("operator", "").strip(),
+                        environment=given.get("environment"))
+    override = given.get("override", {}).get("expired_gauges")
+    if override is not None:
+        if not override.strip():
+            raise src.fail(("override", "expired_gauges"), "", "override.expired_gauges needs "
+                           "a reason (what makes the measurement valid all the same)")
+        campaign.override_expired = override.strip()
     if campaign.simulator is not None:
         _check_profile(src, ("simulator", "profile"), campaign.simulator.profile)
     if campaign.simulator is not None and campaign.simulator.gauge_layout == "multiplexer" \
@@ -289,7 +407,9 @@ def read_campaign(path: str | Path) -> Campaign:
         campaign.controller = _controller(src, given["controller"])
     elif campaign.simulator is None:
         raise src.fail((), "missing [controller] (profile and port), or a [simulator] table")
-    campaign.gauges = _gauges(src, given.get("gauges", []))
+    campaign.gauges = _gauges(src, given.get("gauges", []),
+                              simulated=campaign.simulator is not None)
+    _check_environment(src, campaign)
     if campaign.simulator is None:
         wanted = {f"{a}_{leg}" for leg in protocol.legs for a in "xyz" if a != leg}
         missing = sorted(wanted - {g.gauge for g in campaign.gauges})
@@ -348,15 +468,48 @@ def _check_unit_ids(src: Source, spec: ControllerSpec, profile_ids: dict[str, in
                            f"on {port} (1..247); set controller.axes.{axis}.device_id")
 
 
-def _gauges(src: Source, gauges: list[GaugeSpec]) -> list[GaugeSpec]:
-    """Each gauge once; the two gauges of a leg on their own port or channel; one
-    protocol per port."""
+def _check_environment(src: Source, campaign: Campaign) -> None:
+    """A temperature sensor named must exist: the controller profile's registers."""
+    env = campaign.environment
+    if env is None or env.sensor != "controller":
+        return
+    profile_name = (campaign.simulator.profile if campaign.simulator is not None
+                    else campaign.controller.profile if campaign.controller else "")
+    profile = _check_profile(src, ("environment", "sensor"), profile_name)
+    if profile.temperature is None:
+        raise src.fail(("environment", "sensor"), "", f"environment.sensor = \"controller\": "
+                       f"profile {profile_name!r} has no [temperature] register; type the "
+                       "temperatures (ambient_c, machine_c) instead")
+
+
+def _check_identity(src: Source, k: int, g: GaugeSpec) -> None:
+    """A certificate's dates in order."""
+    if g.calibrated is not None and g.due is not None and g.due <= g.calibrated:
+        raise src.fail(("gauges", k, "due"), "", f"gauge {g.gauge}: due {g.due.isoformat()} "
+                       f"is not after calibrated {g.calibrated.isoformat()}")
+    if g.uncertainty_k is not None and g.uncertainty_mm is None:
+        raise src.fail(("gauges", k, "uncertainty_k"), "", f"gauge {g.gauge}: uncertainty_k "
+                       "without uncertainty_mm (the certificate's U)")
+
+
+def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
+            ) -> list[GaugeSpec]:
+    """Each gauge once, with its link unless simulated; the two gauges of a leg on
+    their own port or channel; one protocol per port."""
     seen: dict[str, int | None] = {}
     for k, g in enumerate(gauges):
         line = src.line(("gauges", k))
         if g.gauge in seen:
             raise InputError(src.path, f"gauge {g.gauge} appears twice (first on line "
                              f"{seen[g.gauge]})", line)
+        _check_identity(src, k, g)
+        if not g.protocol or not g.port:
+            if simulated and not g.protocol and not g.port:
+                seen[g.gauge] = line  # the simulator's gauge, identified here
+                continue
+            missing = "protocol" if not g.protocol else "port"
+            raise src.fail(("gauges", k), "", f"gauge {g.gauge} needs {missing!r} (how "
+                           "and where it is read)")
         leg = Gauge.parse(g.gauge).leg
         same_leg = [(other, seen[other.gauge]) for other in gauges[:k]
                     if (other.port, other.channel) == (g.port, g.channel)
@@ -387,9 +540,12 @@ def campaign_text(campaign: Campaign, *, comment: str = "",
     ``notes`` (by table name) above their tables."""
     plan = campaign.protocol.to_dict()
     stability = plan.pop("stability")
-    document = {"machine": campaign.machine_path, "session": campaign.session,
-                "deadline_s": campaign.deadline_s,
+    document = {"machine": campaign.machine_path, "operator": campaign.operator or None,
+                "session": campaign.session, "deadline_s": campaign.deadline_s,
                 "simulator": campaign.simulator, "controller": campaign.controller,
-                "gauges": campaign.gauges, "protocol": plan, "stability": stability}
+                "gauges": campaign.gauges, "protocol": plan, "stability": stability,
+                "environment": campaign.environment,
+                "override": ({"expired_gauges": campaign.override_expired}
+                             if campaign.override_expired else None)}
     return dump(CAMPAIGN_FILE, document, folder=campaign.path.parent, header=comment,
                 notes=notes)

@@ -40,7 +40,7 @@ LAYERS: list[tuple[str, ...]] = [
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
-     "ogacq.file_templates"),
+     "ogacq.file_templates", "ogacq.record", "ogacq.record.context"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
     ("ogacq.campaign", "ogacq.record"),  # ogacq.record: the package; its modules sit where placed
     ("ogacq.writeback", "ogacq.report"),

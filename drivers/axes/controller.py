@@ -490,6 +490,20 @@ class AxisController:
         """One named value of the profile, decoded (for checks outside the status poll)."""
         return self._read_value(axis, name)
 
+    def read_temperatures(self) -> dict[str, float]:
+        """The temperatures the profile's ``[temperature]`` registers hold, degC
+        (``{"ambient": 20.4, "machine": 21.0}``, those it names); empty when the
+        profile has none."""
+        spec = self.profile.temperature
+        if spec is None:
+            return {}
+        out = {}
+        for key in ("ambient", "machine"):
+            name = getattr(spec, key)
+            if name:
+                out[key] = int(self._read_value(spec.axis, name)) * spec.degc_per_count
+        return out
+
     def counter_mm(self, status: AxisStatus) -> float:
         """The controller's own position counter behind a status (software offset added)."""
         return self._counter_position(status)

@@ -281,6 +281,18 @@ class SimSpec:
 
 
 @dataclass(frozen=True)
+class TemperatureSpec:
+    """Registers holding temperatures the campaign may record (``[temperature]``):
+    the ambient and/or the machine's, raw counts times ``degc_per_count``, read on
+    the drive of ``axis``."""
+
+    degc_per_count: float
+    ambient: str = ""
+    machine: str = ""
+    axis: str = "x"
+
+
+@dataclass(frozen=True)
 class Profile:
     name: str
     family: Literal["iai-robo", "cia402"]
@@ -299,6 +311,7 @@ class Profile:
     nvm: NvmSpec
     commands: dict[str, Command]
     sim: SimSpec
+    temperature: TemperatureSpec | None = None
 
     def value(self, name: str) -> ValueSpec:
         try:
@@ -386,7 +399,7 @@ def _required(*fields: tuple[str, Any]) -> tuple[Field, ...]:
     return tuple(Field(key, kind, required=True) for key, kind in fields)
 
 
-PROFILE_FILE = Table(_required(
+PROFILE_FILE = Table((*_required(
     ("schema", whole(choices=(SCHEMA_VERSION,))),  # the file format version this tool reads
     ("name", text()),
     ("family", text("iai-robo", "cia402")),
@@ -440,7 +453,13 @@ PROFILE_FILE = Table(_required(
         for name in COMMANDS_REQUIRED)))),
     ("sim", Table(_required(("soft_limit_alarm_code", whole(minimum=1, maximum=0xFFFF))),
                   build=SimSpec)),
-))
+), Field("temperature", Table((
+    # optional: temperature registers (a value of [values], raw counts)
+    Field("ambient", text()),
+    Field("machine", text()),
+    Field("degc_per_count", number(positive=True), required=True),
+    Field("axis", text(*AXIS_NAMES)),
+), build=TemperatureSpec))))
 
 
 # --------------------------------------------------------------------------- loading
@@ -527,7 +546,25 @@ class _Checks:
             nvm=self.nvm(top["nvm"], values),
             commands=self.commands(top["commands"], values, flags),
             sim=top["sim"],
+            temperature=self.temperature(top.get("temperature"), values),
         )
+
+    def temperature(self, spec: TemperatureSpec | None, values: Mapping[str, ValueSpec],
+                    ) -> TemperatureSpec | None:
+        if spec is None:
+            return None
+        if not spec.ambient and not spec.machine:
+            raise self.fail("temperature", "names no register: give 'ambient' and/or "
+                            "'machine'")
+        for key in ("ambient", "machine"):
+            name = getattr(spec, key)
+            if not name:
+                continue
+            self._value_ref(name, values, f"temperature.{key}", readable=True)
+            if values[name].unit != "raw" or values[name].function != "holding":
+                raise self.fail(f"temperature.{key}",
+                                f"{name!r} must be a raw holding register (counts)")
+        return spec
 
     def values(self, table: dict[str, dict[str, Any]]) -> dict[str, ValueSpec]:
         if not table:

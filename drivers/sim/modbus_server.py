@@ -44,7 +44,7 @@ import asyncio
 import functools
 import logging
 import threading
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, Literal
 
@@ -488,6 +488,7 @@ class ModbusSimServer:
         baudrate: int | None = None,
         pace: bool = True,
         axes: Iterable[str] | None = None,
+        temperatures_c: Callable[[], Mapping[str, float]] | None = None,
     ) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
@@ -503,6 +504,8 @@ class ModbusSimServer:
         self.serial_port = serial_port
         self.baudrate = baudrate or self.profile.transport.baudrate
         self.pace = pace
+        # what the profile's [temperature] registers show: {"ambient": degC, "machine": ...}
+        self.temperatures_c = temperatures_c or (lambda: {"ambient": 20.0, "machine": 20.0})
         # the axes behind this endpoint: all (one bus), or one (a drive per address)
         self.axes = tuple(axes) if axes is not None else tuple(self.profile.device_ids)
         missing = [a for a in self.axes if a not in motion.axes]
@@ -748,6 +751,7 @@ class ModbusSimServer:
                 if result is not None:
                     return result
             unit.refresh()
+            self._refresh_temperatures(unit)
             self._copy_out(unit, function_code, start_address, registers)
         except Exception:
             log.exception(
@@ -755,6 +759,17 @@ class ModbusSimServer:
             )
             return ExcCodes.DEVICE_FAILURE
         return None
+
+    def _refresh_temperatures(self, unit: _SimulatedAxis) -> None:
+        """The profile's temperature registers, on the drive that serves them."""
+        spec = self.profile.temperature
+        if spec is None or unit.axis != spec.axis:
+            return
+        now = self.temperatures_c()
+        for key in ("ambient", "machine"):
+            name = getattr(spec, key)
+            if name and key in now:
+                unit.put(name, round(now[key] / spec.degc_per_count))
 
     @staticmethod
     def _copy_out(

@@ -52,7 +52,8 @@ def load_observations(path: str | Path, machine: MachineSpec | None = None,
 def _session_observations(path: Path, machine: MachineSpec | None,
                           machine_path: str | Path | None, other_geometry: bool
                           ) -> Observations:
-    from ogacq.session.convert import machine_dict, session_machine, session_observations
+    from ogacq.io.machine_file import geometry_dict
+    from ogacq.session.convert import session_machine, session_observations
     from ogacq.session.store import load_session
 
     session = load_session(path)
@@ -60,7 +61,7 @@ def _session_observations(path: Path, machine: MachineSpec | None,
         log.warning(warning)
     recorded = session_machine(session)
     if machine is not None and not other_geometry:
-        given, own = machine_dict(machine), machine_dict(recorded)
+        given, own = geometry_dict(machine), geometry_dict(recorded)
         differing = [f"{k} {given.get(k, 'absent')} there, {own.get(k, 'absent')} in the "
                      "session" for k in dict.fromkeys([*own, *given]) if given.get(k) != own.get(k)]
         if differing:

@@ -1,49 +1,125 @@
-"""The machine file (TOML, INTERCHANGE.md): its schema, reading and writing."""
+"""The machine file (TOML, INTERCHANGE.md): its schema, reading and writing.
+
+Beside the INTERCHANGE geometry keys, optional identity and acceptance keys
+(docs/calibration-record.md 1): ``name`` (default: the file's stem), ``serial``,
+``leg_expansion_ppm_per_k`` and a ``[tolerances]`` table. A file without them
+reads as before."""
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
-from ogacq_drivers.config_schema import Field, Source, Table, dump, load, number
+from ogacq_drivers.config_schema import (
+    Field,
+    Source,
+    Table,
+    dump,
+    load,
+    number,
+    text,
+)
 from ogacq.io.toml_file import input_error, load_toml
-from ogacq.model.machine import MachineSpec
+from ogacq.model.machine import DECISION_RULES, MachineSpec, Tolerances
 
 MAX_LENGTH_MM = 1e5  # 100 m: beyond any machine this tool calibrates
 _LENGTH = number(maximum=MAX_LENGTH_MM)
+# the twelve deviations a tolerance may name (docs/formats.md, deviations CSV)
+DEVIATION_NAMES = tuple(f"d{axis}_{leg}{side}" for leg in "xyz" for axis in "xyz"
+                        if axis != leg for side in "+-")
+# The keys that say the geometry: what a reanalysis with another machine file compares.
+GEOMETRY_KEYS = ("leg_length_mm", "rho_min_mm", "rho_max_mm", "gauge_resolution_mm",
+                 "gauge_repeatability_mm")
+
+_TOLERANCE = number(positive=True, maximum=MAX_LENGTH_MM)
+_TOLERANCES = Table((
+    Field("deviation_mm", _TOLERANCE, attr="default_mm"),
+    Field("decision_rule", text(*DECISION_RULES)),
+    *(Field(name, _TOLERANCE) for name in DEVIATION_NAMES),
+), noun="key")
 
 MACHINE_FILE = Table((
+    Field("name", text()),
+    Field("serial", text()),
     Field("leg_length_mm", _LENGTH, required=True),
     Field("rho_min_mm", _LENGTH, required=True),
     Field("rho_max_mm", _LENGTH, required=True),
     Field("gauge_resolution_mm", _LENGTH, required=True),
     Field("gauge_repeatability_mm", _LENGTH),
+    # 0..1000 ppm/K covers every engineering material (invar ~1, steel 11.5,
+    # aluminium 23, polymers ~100); beyond it the number is a mistake
+    Field("leg_expansion_ppm_per_k", number(minimum=0.0, maximum=1000.0)),
+    Field("tolerances", _TOLERANCES, decode=lambda table: _tolerances(table),
+          encode=lambda tolerances: _tolerance_table(tolerances)),
 ))
+
+
+def _tolerances(table: dict[str, Any]) -> Tolerances:
+    per = {k: v for k, v in table.items() if k in DEVIATION_NAMES}
+    return Tolerances(table.get("default_mm"), per,
+                      table.get("decision_rule", "guard-band"))
+
+
+def _tolerance_table(tolerances: Tolerances) -> dict[str, Any]:
+    out: dict[str, Any] = {"default_mm": tolerances.default_mm,
+                           "decision_rule": tolerances.decision_rule}
+    return {**out, **dict(tolerances.per_deviation)}
 
 
 def read_machine(path: str | Path) -> MachineSpec:
     values, source = load_toml(path, MACHINE_FILE, "the machine file")
-    return _machine(values, source)
+    return _machine(values, source, default_name=Path(str(path)).stem)
 
 
 def machine_from_mapping(data: dict, path: str | Path = "<machine>") -> MachineSpec:
-    """The machine a session header records, checked as a machine file is."""
+    """The machine a session header records, checked as a machine file is (a header
+    written before the name was recorded names it after nothing: "")."""
     source = Source(str(path), input_error, what="the recorded machine")
-    return _machine(load(MACHINE_FILE, data, source), source)
+    return _machine(load(MACHINE_FILE, data, source), source, default_name="")
 
 
-def _machine(values: dict, source: Source) -> MachineSpec:
-    path = source.path
+def machine_dict(machine: MachineSpec) -> dict[str, Any]:
+    """The machine as a session header records it: the machine file's keys."""
+    out: dict[str, Any] = {"leg_length_mm": machine.leg_length_mm,
+                           "rho_min_mm": machine.rho_min_mm,
+                           "rho_max_mm": machine.rho_max_mm,
+                           "gauge_resolution_mm": machine.gauge_resolution_mm}
+    if machine.gauge_repeatability_mm is not None:
+        out["gauge_repeatability_mm"] = machine.gauge_repeatability_mm
+    if machine.name:
+        out["name"] = machine.name
+    if machine.serial:
+        out["serial"] = machine.serial
+    if machine.leg_expansion_ppm_per_k is not None:
+        out["leg_expansion_ppm_per_k"] = machine.leg_expansion_ppm_per_k
+    if machine.tolerances is not None:
+        out["tolerances"] = machine.tolerances.to_json()
+    return out
+
+
+def geometry_dict(machine: MachineSpec) -> dict[str, Any]:
+    """The keys that say the geometry (identity and acceptance left out)."""
+    return {k: v for k, v in machine_dict(machine).items() if k in GEOMETRY_KEYS}
+
+
+def _machine(values: dict, source: Source, default_name: str) -> MachineSpec:
+    values = {"name": default_name, **values}
     try:
-        return MachineSpec(**values, name=Path(str(path)).stem)
+        return MachineSpec(**values)
     except ValueError as exc:
         problem = str(exc).split("; ")[0]
         key = next((f.key for f in MACHINE_FILE.fields if f.key in problem), "rho_max_mm")
         raise source.fail((key,), "", f"impossible geometry: {problem}") from None
 
 
-def machine_text(machine: MachineSpec, comment: str) -> str:
-    """The machine file of ``machine``, ``comment`` on top."""
-    return dump(MACHINE_FILE, machine, header=comment)
+def machine_text(machine: MachineSpec, comment: str, *, footer: str = "") -> str:
+    """The machine file of ``machine``, ``comment`` on top, ``footer`` (comment
+    lines) at the end."""
+    text_ = dump(MACHINE_FILE, machine, header=comment)
+    if footer:
+        text_ += "\n" + "\n".join(f"# {line}" if line else "#"
+                                  for line in footer.splitlines()) + "\n"
+    return text_
 
 
 def write_machine(path: str | Path, machine: MachineSpec, comment: str) -> Path:

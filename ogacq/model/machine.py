@@ -3,7 +3,56 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+from types import MappingProxyType
+
+DECISION_RULES = ("guard-band", "simple")
+# Steel legs when the machine file does not say: the linear expansion coefficient
+# of carbon steel, 11.5e-6 /K (about 10..13e-6 /K across carbon steels; no single
+# normative source, a handbook figure).
+STEEL_EXPANSION_PPM_PER_K = 11.5
+# The reference temperature of dimensional measurements (ISO 1:2022, 20 degC).
+REFERENCE_TEMPERATURE_C = 20.0
+
+
+@dataclass(frozen=True)
+class Tolerances:
+    """Acceptance of the leg-parallelism deviations (docs/calibration-record.md 4):
+    every deviation within +/- ``default_mm`` unless ``per_deviation`` names its own
+    (``{"dx_y+": 0.015}``); judged by ``decision_rule`` (ILAC-G8:09/2019: a guard
+    band w = U, or the simple rule)."""
+
+    default_mm: float | None = None
+    per_deviation: Mapping[str, float] = field(default_factory=dict)
+    decision_rule: str = "guard-band"
+
+    def __post_init__(self) -> None:
+        # read-only, and hashable with the machine that holds it
+        object.__setattr__(self, "per_deviation",
+                           MappingProxyType(dict(self.per_deviation)))
+        if self.decision_rule not in DECISION_RULES:
+            raise ValueError(f"decision_rule must be one of {', '.join(DECISION_RULES)}, "
+                             f"got {self.decision_rule!r}")
+
+    def __hash__(self) -> int:
+        return hash((self.default_mm, tuple(sorted(self.per_deviation.items())),
+                     self.decision_rule))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Tolerances) and (
+            self.default_mm, dict(self.per_deviation), self.decision_rule) == (
+            other.default_mm, dict(other.per_deviation), other.decision_rule)
+
+    def of(self, deviation: str) -> float | None:
+        """The tolerance of one deviation ("dx_y+"), None when none is set."""
+        return self.per_deviation.get(deviation, self.default_mm)
+
+    def to_json(self) -> dict:
+        out: dict = {"decision_rule": self.decision_rule}
+        if self.default_mm is not None:
+            out["deviation_mm"] = self.default_mm
+        return {**out, **dict(self.per_deviation)}
 
 
 @dataclass(frozen=True)
@@ -14,6 +63,11 @@ class MachineSpec:
     gauge_resolution_mm: float
     gauge_repeatability_mm: float | None = None
     name: str = ""
+    serial: str = ""
+    # the legs' linear expansion coefficient, 1e-6 /K; None: not stated (steel assumed
+    # where a number is needed, see ``expansion_ppm_per_k``)
+    leg_expansion_ppm_per_k: float | None = None
+    tolerances: Tolerances | None = None
 
     def __post_init__(self) -> None:
         problems = self.problems()
@@ -37,7 +91,24 @@ class MachineSpec:
         if self.gauge_repeatability_mm is not None and not self.gauge_repeatability_mm > 0:
             out.append("gauge_repeatability_mm must be positive, "
                        f"got {self.gauge_repeatability_mm}")
+        if self.leg_expansion_ppm_per_k is not None and not (
+                0 <= self.leg_expansion_ppm_per_k < 1000):
+            out.append("leg_expansion_ppm_per_k must be 0..1000 (steel 11.5), "
+                       f"got {self.leg_expansion_ppm_per_k}")
         return out
+
+    @property
+    def expansion_ppm_per_k(self) -> float:
+        """The legs' expansion coefficient: the file's, or steel's."""
+        if self.leg_expansion_ppm_per_k is None:
+            return STEEL_EXPANSION_PPM_PER_K
+        return self.leg_expansion_ppm_per_k
+
+    def leg_expansion_mm(self, temperature_c: float) -> float:
+        """How much longer the legs are at ``temperature_c`` than at 20 degC:
+        alpha L (T - 20 degC), linear expansion."""
+        return self.expansion_ppm_per_k * 1e-6 * self.leg_length_mm * (
+            temperature_c - REFERENCE_TEMPERATURE_C)
 
     @property
     def alpha_max_rad(self) -> float:

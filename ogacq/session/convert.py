@@ -8,22 +8,13 @@ import numpy as np
 
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.io.errors import InputError
-from ogacq.io.machine_file import machine_from_mapping
+from ogacq.io.machine_file import machine_dict, machine_from_mapping
 from ogacq.io.tables import check_table_postures, read_readings, write_readings
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.store import LoadedSession, SessionWriter
-
-
-def machine_dict(machine: MachineSpec) -> dict:
-    out = {"leg_length_mm": machine.leg_length_mm, "rho_min_mm": machine.rho_min_mm,
-           "rho_max_mm": machine.rho_max_mm,
-           "gauge_resolution_mm": machine.gauge_resolution_mm}
-    if machine.gauge_repeatability_mm is not None:
-        out["gauge_repeatability_mm"] = machine.gauge_repeatability_mm
-    return out
 
 
 def session_machine(session: LoadedSession) -> MachineSpec:

@@ -342,6 +342,67 @@ class ReconnectRecord(Record):
                    alarms=d.get("alarms"))
 
 
+ENVIRONMENT_STAGES = ("start", "end")
+ENVIRONMENT_SOURCES = ("typed", "sensor", "simulator")
+
+
+def _temperature(value: Any) -> float | None:
+    return float(value) if _finite(value) else None
+
+
+@dataclass(frozen=True, kw_only=True)
+class EnvironmentRecord(Record):
+    """The temperatures at the start or the end of a campaign, degC, and where they
+    came from: typed by the operator, read from a sensor, or the simulator's."""
+
+    KIND: ClassVar[str] = "environment"
+    stage: str  # "start" or "end"
+    ambient_c: float | None
+    machine_c: float | None = None
+    source: str = "typed"
+
+    def fields(self) -> dict[str, Any]:
+        return {"stage": self.stage, "ambient_c": self.ambient_c,
+                "machine_c": self.machine_c, "source": self.source}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> EnvironmentRecord:
+        if d.get("stage") not in ENVIRONMENT_STAGES:
+            raise ValueError(f"environment without a valid stage ({', '.join(ENVIRONMENT_STAGES)})")
+        for key in ("ambient_c", "machine_c"):
+            if d.get(key) is not None and _temperature(d[key]) is None:
+                raise ValueError(f"environment with an invalid {key}")
+        return cls(wall=d.get("wall"), stage=d["stage"], ambient_c=_temperature(d.get("ambient_c")),
+                   machine_c=_temperature(d.get("machine_c")),
+                   source=str(d.get("source") or "typed"))
+
+
+@dataclass(frozen=True, kw_only=True)
+class OverrideRecord(Record):
+    """A refusal overridden, with its reason: ``what`` ("expired-gauge") and its
+    ``subject`` ("y_x 12345678"); ``due`` the date it was past."""
+
+    KIND: ClassVar[str] = "override"
+    what: str
+    subject: str
+    reason: str
+    due: str | None = None  # YYYY-MM-DD
+    operator: str | None = None
+
+    def fields(self) -> dict[str, Any]:
+        return {"what": self.what, "subject": self.subject, "due": self.due,
+                "reason": self.reason, "operator": self.operator}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> OverrideRecord:
+        if not isinstance(d.get("what"), str) or not isinstance(d.get("reason"), str):
+            raise ValueError("override without its what and reason")
+        return cls(wall=d.get("wall"), what=d["what"], subject=str(d.get("subject") or ""),
+                   reason=d["reason"], due=d.get("due") if isinstance(d.get("due"), str)
+                   else None, operator=d.get("operator") if isinstance(d.get("operator"), str)
+                   else None)
+
+
 @dataclass(frozen=True, kw_only=True)
 class OtherRecord(Record):
     """A record of a kind this version does not write, kept as it was."""
@@ -359,7 +420,8 @@ class OtherRecord(Record):
 
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
-    ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord)}
+    ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord,
+    EnvironmentRecord, OverrideRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:

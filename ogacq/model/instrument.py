@@ -1,0 +1,115 @@
+"""A gauge as a traceable instrument: its identity and its calibration certificate.
+
+The campaign file (``[[gauges]]``), the wizard and its inventory give these; the
+session header records them (``instruments``); the expired-gauge gate, the
+uncertainty budget and the record read them back. Every value may be unknown
+(None, or "" for text): a session written before they were recorded reads so.
+"""
+
+from __future__ import annotations
+
+import datetime
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+
+@dataclass(frozen=True)
+class Instrument:
+    gauge: str  # the gauge it served ("y_x")
+    make: str | None = None
+    model: str | None = None
+    serial: str | None = None
+    certificate: str | None = None
+    calibrated: datetime.date | None = None
+    due: datetime.date | None = None
+    uncertainty_mm: float | None = None  # the certificate's expanded uncertainty U ...
+    uncertainty_k: float | None = None  # ... and its coverage factor k
+    resolution_mm: float | None = None  # its display step
+
+    def expired(self, on: datetime.date) -> bool | None:
+        """Past its due date on ``on`` (the day after ``due`` is the first day it is
+        expired; the due day itself is still within the certificate); None when no
+        due date is known."""
+        if self.due is None:
+            return None
+        return _day(on) > self.due
+
+    @property
+    def standard_uncertainty_mm(self) -> float | None:
+        """The certificate's standard uncertainty u = U / k (JCGM 100:2008 4.3.3:
+        an expanded uncertainty quoted with its coverage factor is divided by it);
+        None when U or k is unknown."""
+        if self.uncertainty_mm is None or not self.uncertainty_k:
+            return None
+        return self.uncertainty_mm / self.uncertainty_k
+
+    @property
+    def label(self) -> str:
+        """How messages name it: "y_x (serial 12345678)"."""
+        return f"{self.gauge} (serial {self.serial})" if self.serial else self.gauge
+
+    def to_json(self) -> dict[str, Any]:
+        """The session header's ``instruments`` entry (absent values null)."""
+        return {"gauge": self.gauge, "make": self.make, "model": self.model,
+                "serial": self.serial, "certificate": self.certificate,
+                "calibrated": _iso(self.calibrated), "due": _iso(self.due),
+                "uncertainty_mm": self.uncertainty_mm, "uncertainty_k": self.uncertainty_k,
+                "resolution_mm": self.resolution_mm}
+
+    @classmethod
+    def from_json(cls, entry: Mapping[str, Any]) -> Instrument:
+        """An ``instruments`` entry read leniently: a value of the wrong kind is unknown."""
+        return cls(gauge=str(entry.get("gauge") or ""), make=_text(entry.get("make")),
+                   model=_text(entry.get("model")), serial=_text(entry.get("serial")),
+                   certificate=_text(entry.get("certificate")),
+                   calibrated=parse_date(entry.get("calibrated")),
+                   due=parse_date(entry.get("due")),
+                   uncertainty_mm=_number(entry.get("uncertainty_mm")),
+                   uncertainty_k=_number(entry.get("uncertainty_k")),
+                   resolution_mm=_number(entry.get("resolution_mm")))
+
+
+def _day(on: datetime.date) -> datetime.date:
+    return on.date() if isinstance(on, datetime.datetime) else on
+
+
+def _iso(day: datetime.date | None) -> str | None:
+    return None if day is None else day.isoformat()
+
+
+def _text(value: Any) -> str | None:
+    return value if isinstance(value, str) and value else None
+
+
+def _number(value: Any) -> float | None:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    return float(value) if math.isfinite(value) else None
+
+
+def parse_date(value: Any) -> datetime.date | None:
+    """``"2027-03-01"`` (or a date) as a date; None for anything else."""
+    if isinstance(value, datetime.date):
+        return _day(value)
+    if not isinstance(value, str):
+        return None
+    try:
+        return datetime.date.fromisoformat(value[:10])
+    except ValueError:
+        return None
+
+
+def parse_moment(value: Any) -> datetime.datetime | None:
+    """An ISO 8601 date-time (or a date, its midnight) as a datetime; None otherwise."""
+    if isinstance(value, datetime.datetime):
+        return value
+    if isinstance(value, datetime.date):
+        return datetime.datetime.combine(value, datetime.time())
+    if not isinstance(value, str):
+        return None
+    try:
+        return datetime.datetime.fromisoformat(value)
+    except ValueError:
+        return None
