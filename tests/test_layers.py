@@ -42,7 +42,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
      "ogacq.file_templates", "ogacq.record", "ogacq.record.context"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
-    ("ogacq.campaign", "ogacq.record"),  # ogacq.record: the package; its modules sit where placed
+    ("ogacq.campaign",),
     ("ogacq.writeback", "ogacq.report"),
     ("ogacq.record.document",),  # the record: the campaign, its write-backs, its report data
     ("ogacq.cli", "ogacq.__main__"),

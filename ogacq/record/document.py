@@ -31,6 +31,7 @@ from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import effect_of
+from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.store import LoadedSession
 
@@ -60,21 +61,20 @@ def compact_date(date: str | None) -> str:
 
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
                  history: Sequence[Mapping[str, Any]] | None = None,
-                 context: Any = None, issued: str | None = None) -> dict[str, Any]:
+                 issued: str | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
 
     ``validation``: the campaign run after the write-back (the as-left measurement);
     ``history``: earlier calibrations of the same machine, each ``{"id", "date",
-    "results"}`` with ``results`` shaped as this record's; ``context``: the
-    identity, instruments, environment and overrides the session recorded (the
-    ``CalibrationContext`` of docs/calibration-record.md section 2; ``None``: not
-    recorded); ``issued``: the issue time (default: now, ISO 8601 with offset).
+    "results"}`` with ``results`` shaped as this record's; ``issued``: the issue
+    time (default: now, ISO 8601 with offset). The identity, instruments,
+    environment and overrides are the session's own (:func:`calibration_context`).
     """
     header_line, sha256 = _session_digest(session)
     header = session.header
     machine = dict(header.get("machine") or {})
-    date = _text(getattr(context, "date", None)) or _text(header.get("date")) \
-        or _text(header.get("created"))
+    context = calibration_context(session)
+    date = _text(context.date)
     missing: dict[str, str] = {}
     result, why_no_fit = _identify(session)
     if why_no_fit:
@@ -84,14 +84,12 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         "format": FORMAT,
         "id": record_id(header_line, date),
         "issued": issued or dt.datetime.now().astimezone().isoformat(timespec="seconds"),
-        "machine": {"name": _text(getattr(context, "machine_name", None))
-                    or _text(machine.get("name")),
-                    "serial": _text(getattr(context, "machine_serial", None))
-                    or _text(machine.get("serial")),
+        "machine": {"name": context.machine_name, "serial": context.machine_serial,
                     "file": machine},
-        "operator": _text(getattr(context, "operator", None)),
+        "operator": context.operator,
         "date": date,
-        **_context_sections(context, date, missing),
+        "date_simulated": context.simulated_date,
+        **_context_sections(context, "instruments" in header, missing),
         "campaign": _campaign(session),
         "method": _method(session, result, machine),
         "results": _results(result) if result is not None else None,
@@ -145,35 +143,26 @@ def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
         return None, f"the joint offsets could not be identified: {exc}"
 
 
-def _context_sections(context: Any, date: str | None,
+def _context_sections(context: CalibrationContext, recorded: bool,
                       missing: dict[str, str]) -> dict[str, Any]:
-    """Instruments, environment and overrides from a ``CalibrationContext``."""
-    if context is None:
-        for key, what in (("instruments", "the instruments and their certificates"),
-                          ("environment", "the temperatures"),
-                          ("overrides", "any override")):
-            missing[key] = NOT_IN_SESSION.format(what=what)
-        return {"instruments": None, "environment": None, "overrides": None}
-    instruments = [dict(plain(i), expired=_expired(i, date)) for i in context.instruments]
-    environment = plain(context.environment)
+    """Instruments, environment and overrides as the session recorded them.
+    ``recorded``: the session records its instruments (a session from before has
+    only its gauges' serials, and no expired-gauge check ran, so no override)."""
+    instruments = [dict(i.to_json(), expired=context.expired(i)) for i in context.instruments]
+    environment = context.environment.to_json()
     if not instruments:
         missing["instruments"] = NOT_IN_SESSION.format(what="the instruments")
-    if not environment or not any(v for v in environment.values() if v):
+    elif not any(i["certificate"] for i in instruments):
+        missing["certificates"] = NOT_IN_SESSION.format(
+            what="the instruments' calibration certificates")
+    if not any(environment.values()):
         missing["environment"] = NOT_IN_SESSION.format(what="the temperatures")
-    return {"instruments": instruments, "environment": environment,
-            "overrides": [plain(o) for o in context.overrides]}
-
-
-def _expired(instrument: Any, date: str | None) -> bool | None:
-    """Whether the gauge's certificate was past its due date on the campaign's date;
-    None when either date is unknown."""
-    own = getattr(instrument, "expired", None)
-    if isinstance(own, bool):
-        return own
-    due = _text(getattr(instrument, "due", None))
-    if not due or not date:
-        return None
-    return due[:10] < date[:10]  # ISO 8601 calendar dates compare as text
+    overrides: list[dict[str, Any]] | None = [o.to_json() for o in context.overrides]
+    if not recorded and not overrides:
+        overrides = None
+        missing["overrides"] = NOT_IN_SESSION.format(
+            what="whether a check was overridden (no expired-gauge check ran)")
+    return {"instruments": instruments, "environment": environment, "overrides": overrides}
 
 
 def _campaign(session: LoadedSession) -> dict[str, Any]:

@@ -102,10 +102,12 @@ def identification(record: Mapping[str, Any]) -> Table:
     session = record.get("session") or {}
     planned = f" of {shown(campaign.get('planned'))} planned" if campaign.get("planned") else ""
     reason = f" ({campaign['reason']})" if campaign.get("reason") else ""
+    rehearsed = " (a simulated date: a rehearsal)" if record.get("date_simulated") else ""
     rows: list[list[Cell]] = [
         ["record", shown(record.get("id"))],
+        ["record format", shown(record.get("format"))],
         ["issued", shown(record.get("issued"))],
-        ["calibration date", shown(record.get("date"))],
+        ["calibration date", shown(record.get("date")) + rehearsed],
         ["machine", shown(machine.get("name"))],
         ["machine serial number", shown(machine.get("serial"))],
         ["machine description", shown(machine.get("file"))],
