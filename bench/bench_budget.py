@@ -63,7 +63,9 @@ def main() -> None:
             mc = monte_carlo(obs, result, inputs, draws=draws, seed=2026, budget=budget)
             print(f"\n{label}, {len(obs)} readings, {params}: budget {budget_ms:.1f} ms, "
                   f"{draws} draws {mc.seconds:.2f} s, converged {mc.converged_fraction:.1%}, "
-                  f"agrees within 10 %: {mc.agrees()}")
+                  f"agrees within 10 %: {mc.agrees()}"
+                  + ("" if budget.complete else "; budget incomplete: "
+                     + "; ".join(sorted({o.note for o in budget.outputs if o.note}))))
             print(f"  {'parameter':<16}{'u_c GUM':>11}{'u MC':>11}{'ratio':>8}{'se':>7}"
                   f"{'GUM 95 %':>24}{'MC 95 %':>24}")
             for k, out in enumerate(budget.outputs):

@@ -73,7 +73,12 @@ class OutputBudget:
     # Add this to refer the value to 20 degC (the mean temperature's known
     # systematic effect, JCGM 100:2008 3.2.4); None when the temperature is unknown.
     temperature_correction_mm: float | None
-    determined: bool = True
+    determined: bool = True  # False: the data do not determine it at all (rank deficient)
+    # False: determined only in combination with another parameter (|correlation| >
+    # 0.99) or beyond its plausible range: u_c is the estimator's spread, but the value
+    # is not a calibration of this parameter alone
+    identified: bool = True
+    note: str = ""
 
     @property
     def U(self) -> float:  # noqa: N802 - the GUM's name for the expanded uncertainty
@@ -81,7 +86,7 @@ class OutputBudget:
 
     @property
     def complete(self) -> bool:
-        return self.determined and all(row.evaluated for row in self.rows)
+        return self.determined and self.identified and all(row.evaluated for row in self.rows)
 
     @property
     def not_evaluated(self) -> list[str]:
@@ -93,7 +98,9 @@ class OutputBudget:
                 "u_mm": _round(self.u_c) if finite else None,
                 "U_mm": _round(self.U) if finite else None, "k": self.k,
                 "dof_eff": _dof(self.dof_eff), "complete": self.complete,
-                "temperature_correction_mm": _round(self.temperature_correction_mm)}
+                "identified": self.determined and self.identified,
+                "temperature_correction_mm": _round(self.temperature_correction_mm),
+                "note": self.note}
 
 
 @dataclass(frozen=True)
@@ -137,7 +144,7 @@ class Budget:
             if o.complete:
                 out[o.name] = Measured(o.value_mm, o.U)
             else:
-                missing = ", ".join(o.not_evaluated) or "not determined by the data"
+                missing = ", ".join(o.not_evaluated) or o.note
                 out[o.name] = Measured(o.value_mm, None,
                                        f"uncertainty budget incomplete ({missing})")
         return out
@@ -167,7 +174,8 @@ def _sources(obs: Observations, theta: np.ndarray, inputs: BudgetInputs) -> list
 
 def _budgets(names: Sequence[str], values: np.ndarray, operator: np.ndarray,
              space: ObservationSpace, sources: Sequence[Source], inputs: BudgetInputs,
-             determined: np.ndarray) -> tuple[OutputBudget, ...]:
+             determined: np.ndarray, unidentified: Sequence[str] = (),
+             why_unidentified: str = "") -> tuple[OutputBudget, ...]:
     """Each output's rows: every source's sensitivity through ``operator`` (q, m)."""
     sensitivities = []
     for source in sources:
@@ -194,10 +202,14 @@ def _budgets(names: Sequence[str], values: np.ndarray, operator: np.ndarray,
         u_c = math.sqrt(sum(u**2 for u, _ in contributions))
         correction = None if offset is None or thermal is None else \
             float(sensitivities[thermal][q]) * offset
+        note = "" if name not in unidentified else \
+            f"not identified from these data: {why_unidentified}"
+        if not determined[q]:
+            note = "not determined by these data (rank deficient): " + why_unidentified
         out.append(OutputBudget(name, float(values[q]), tuple(rows),
                                 u_c if determined[q] else math.inf, COVERAGE_FACTOR,
                                 welch_satterthwaite(u_c, contributions), correction,
-                                bool(determined[q])))
+                                bool(determined[q]), name not in unidentified, note))
     return tuple(out)
 
 
@@ -213,8 +225,10 @@ def uncertainty_budget(obs: Observations, result: FitResult, inputs: BudgetInput
     if rounding is not None:
         sources.append(rounding)
     determined = np.isfinite(result.std)
+    ident = result.identifiability
     return Budget("parameters", _budgets(result.names, result.values, operator, space,
-                                         sources, inputs, determined))
+                                         sources, inputs, determined, ident.unidentified,
+                                         "; ".join(ident.reasons)))
 
 
 def deviations_operator(obs: Observations) -> tuple[list[str], np.ndarray]:

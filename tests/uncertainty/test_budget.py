@@ -211,3 +211,23 @@ def test_a_fit_of_other_observations_is_refused():
     with pytest.raises(ValueError, match="72 observations, these are 12"):
         uncertainty_budget(other, result, BudgetInputs.from_fit(result))
     assert np.isfinite(result.std).all()
+
+
+def test_parameters_not_separately_identifiable_make_the_budget_incomplete(paper_dir,
+                                                                           paper_machine):
+    """MODEL.md: offsets and lengths together from table 2 are not separately
+    identifiable; their spread is stated, but never as a complete budget."""
+    obs = deviations_observations(paper_machine,
+                                  read_deviations(paper_dir / "experiment2_12.csv"))
+    result = fit(obs, PARAM_SETS["both"])
+    inputs = BudgetInputs.from_fit(result, gauge_noise_mm=0.003,
+                                   calibration_u_mm=CERTIFICATES, ambient_start_c=20.0,
+                                   ambient_end_c=20.5)
+    budget = uncertainty_budget(obs, result, inputs)
+    out = budget["leg_length.y"]
+    assert all(row.evaluated for row in out.rows)
+    assert not out.identified and not out.complete and not budget.complete
+    assert "joint_offset.y/leg_length.y" in out.note
+    doc = budget.to_json()["results"]["leg_length"]["y"]
+    assert doc["identified"] is False and doc["complete"] is False
+    assert doc["u_mm"] == pytest.approx(out.u_c, abs=1e-9) and out.u_c > 0.1
