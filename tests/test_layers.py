@@ -38,12 +38,14 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.model",),
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
-    ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table"),
+    ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
+     "ogacq.uncertainty"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
      "ogacq.file_templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
     ("ogacq.campaign",),
     ("ogacq.writeback", "ogacq.report"),
+    ("ogacq.record.document",),  # the record: the campaign, its write-backs, its report data
     ("ogacq.cli", "ogacq.__main__"),
 ]
 LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entries}

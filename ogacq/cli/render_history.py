@@ -122,7 +122,8 @@ def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
         "calibrations": [{
             "record": c.record_id, "date": c.date, "operator": c.operator,
             "parameters": {n: {"value_mm": p.value_mm, "u_mm": p.u_mm, "U_mm": p.expanded_mm,
-                               "k": p.k} for n, p in c.parameters.items()},
+                               "k": p.k, "std_mm": p.std_mm}
+                           for n, p in c.parameters.items()},
             "verdict": c.verdict,
             "acceptance": {"as_found": c.acceptance_decision,
                            "as_left": ((c.acceptance or {}).get("as_left") or {}).get(

@@ -1,4 +1,5 @@
-"""``ogacq report SESSION``: the calibration report, one HTML file plus PNG figures."""
+"""``ogacq report SESSION``: the calibration record, one HTML page plus PNG figures, its
+``record.json`` and, with ``--pdf``, its printout."""
 
 from __future__ import annotations
 
@@ -12,7 +13,9 @@ from ogacq.cli.outputs import check_output_folder
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.io.text import read_text
+from ogacq.record.document import build_record
 from ogacq.report import DiagnosisFormatError, build_report, collect, parse_diagnosis, write_report
+from ogacq.report.printing import print_pdf
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
 
@@ -28,9 +31,14 @@ def report_command(
     out: Annotated[Path | None, typer.Option(
         "--out", help="Folder for report.html and the PNG figures (default: "
                       "SESSION-report next to the session).")] = None,
+    pdf: Annotated[bool, typer.Option(
+        "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
+                      "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
+    ] = False,
 ) -> None:
-    """Write the calibration report: deviations before and after, residuals, parameters
-    with confidence intervals, identifiability, diagnosis and provenance."""
+    """Write the calibration record: report.html (identification, instruments,
+    environment, method, results with their uncertainty, acceptance, budget, history,
+    then the analysis behind them), record.json with the same record, and the figures."""
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
     calibration = load_session(session)
@@ -39,25 +47,31 @@ def report_command(
         raw, note = _read_diagnosis(diagnosis), None
     else:
         raw, note = _diagnose_here(calibration)
-    typer.echo(str(write_session_report(calibration, folder, validation=validation,
-                                        diagnosis=raw, diagnosis_note=note,
-                                        diagnosis_source=diagnosis or session)))
+    page = write_session_report(calibration, folder, validation=validation,
+                                diagnosis=raw, diagnosis_note=note,
+                                diagnosis_source=diagnosis or session)
+    typer.echo(str(page))
+    if pdf:  # after the page is on disk: a missing browser loses nothing
+        typer.echo(str(print_pdf(page, page.with_suffix(".pdf"))))
 
 
 def write_session_report(calibration: LoadedSession, folder: Path, *,
                          validation: LoadedSession | None = None,
                          diagnosis: dict[str, Any] | None = None,
                          diagnosis_note: str | None = None,
-                         diagnosis_source: Path | None = None) -> Path:
+                         diagnosis_source: Path | None = None,
+                         history: list[dict[str, Any]] | None = None) -> Path:
     """Write the report of ``calibration`` into ``folder``; returns the HTML file.
-    ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``."""
+    ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``;
+    ``history``: the machine's earlier calibrations (docs/calibration-record.md 5)."""
     try:
         view = parse_diagnosis(diagnosis) if diagnosis is not None else None
     except DiagnosisFormatError as exc:
         raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
-    return write_report(build_report(data), folder)
+    record = build_record(calibration, validation=validation, history=history)
+    return write_report(build_report(data, record), folder)
 
 
 def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any]:

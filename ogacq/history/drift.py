@@ -56,11 +56,13 @@ class Drift:
 
 
 def expanded(parameter: Parameter) -> tuple[float | None, Basis]:
-    """The parameter's U, or 2 std when its U is unknown; None when neither is known."""
+    """The parameter's U; when it is unknown, 2 std of the fit (else 2 u, should a
+    record hold u without U); None when nothing is known."""
     if parameter.expanded_mm is not None:
         return parameter.expanded_mm, "U"
-    if parameter.u_mm is not None:
-        return COVERAGE_K * parameter.u_mm, "std"
+    stand_in = parameter.std_mm if parameter.std_mm is not None else parameter.u_mm
+    if stand_in is not None:
+        return COVERAGE_K * stand_in, "std"
     return None, "std"
 
 

@@ -30,6 +30,7 @@ class Parameter:
     u_mm: float | None  # standard uncertainty (JCGM 100:2008 2.3.4: u_c)
     expanded_mm: float | None  # U = k u_c (JCGM 100:2008 6.2.1)
     k: float | None
+    std_mm: float | None = None  # the fit's standard deviation (type A, JCGM 100:2008 4.2)
 
 
 @dataclass(frozen=True)
@@ -103,7 +104,7 @@ def parameters_of(record: Mapping[str, Any]) -> list[Parameter]:
                 continue
             out.append(Parameter(f"{group}.{where}", float(entry["value_mm"]),
                                  _number(entry.get("u_mm")), _number(entry.get("U_mm")),
-                                 _number(entry.get("k"))))
+                                 _number(entry.get("k")), _number(entry.get("std_mm"))))
     return out
 
 

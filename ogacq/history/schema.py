@@ -82,9 +82,10 @@ parameters = Table(
     Column("event_id", ForeignKey(events.c.id), primary_key=True),
     Column("name", String(80), primary_key=True),  # "joint_offset.x"
     Column("value_mm", Float, nullable=False),
-    Column("u_mm", Float),  # standard uncertainty (or the fit's std when no budget)
+    Column("u_mm", Float),  # standard uncertainty u_c, from the budget
     Column("expanded_mm", Float),  # U
     Column("k", Float),
+    Column("std_mm", Float),  # the fit's std (stands in when there is no budget)
 )
 
 offset_states = Table(

@@ -237,7 +237,8 @@ class History:
                 return Recorded(present=[key])
             if parameters:
                 rows = [{"event_id": event_id, "name": p.name, "value_mm": p.value_mm,
-                         "u_mm": p.u_mm, "expanded_mm": p.expanded_mm, "k": p.k}
+                         "u_mm": p.u_mm, "expanded_mm": p.expanded_mm, "k": p.k,
+                         "std_mm": p.std_mm}
                         for p in parameters_of(record)]
                 if rows:
                     conn.execute(s.parameters.insert(), rows)
@@ -279,7 +280,7 @@ class History:
         by_event: dict[int, dict[str, Parameter]] = {}
         for p in params:
             by_event.setdefault(p.event_id, {})[p.name] = Parameter(
-                p.name, p.value_mm, p.u_mm, p.expanded_mm, p.k)
+                p.name, p.value_mm, p.u_mm, p.expanded_mm, p.k, p.std_mm)
         out = [Calibration(r.record_id, r.campaign_date, r.operator, r.verdict,
                            r.acceptance_decision, r.acceptance, r.ambient_c,
                            _in_record_order(by_event.get(r.id, {}), r.record),

@@ -1,7 +1,10 @@
-"""The calibration report: one self-contained HTML page plus its figures as PNG files.
+"""The calibration report: one self-contained HTML page plus its figures as PNG files,
+and the calibration record it shows as ``record.json``.
 
     session (+ validation session, + diagnosis JSON)
         -> data.collect: the numbers (the campaign's own identification)
+        -> the record (``ogacq-record/1``, built by ogacq.record.document): what the
+           page's record sections show, every value of it
         -> figures: matplotlib on the Agg canvas, PNG bytes
         -> page.render_page: HTML with the PNGs embedded as data: URIs
 
@@ -10,8 +13,11 @@ Entry points: :func:`build_report` (in memory) and :func:`write_report` (to a fo
 
 from __future__ import annotations
 
+import json
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import StorageError
@@ -26,16 +32,22 @@ from ogacq.report.figures import (
     png_bytes,
     residuals_figure,
 )
+from ogacq.report.history_plot import history_figure, history_points
 from ogacq.report.page import render_page
 
 REPORT_NAME = "report.html"
+RECORD_NAME = "record.json"
 
 
 @dataclass(frozen=True)
 class Report:
     data: ReportData
+    record: Mapping[str, Any]  # the ogacq-record/1 document the page shows
     figures: tuple[FigureFile, ...]
     html: str
+
+    def record_json(self) -> str:
+        return json.dumps(self.record, indent=2, ensure_ascii=False, allow_nan=False) + "\n"
 
 
 def planned_legs(data: ReportData) -> tuple[str, ...]:
@@ -46,7 +58,7 @@ def planned_legs(data: ReportData) -> tuple[str, ...]:
     return AXES
 
 
-def figures_for(data: ReportData) -> tuple[FigureFile, ...]:
+def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile, ...]:
     out = []
     fit = data.fit
     if data.deviations:
@@ -73,16 +85,26 @@ def figures_for(data: ReportData) -> tuple[FigureFile, ...]:
             "Residuals with the joint offsets only and with each effect of the diagnosis "
             "added, on one scale.",
             png_bytes(diagnosis_figure(data.diagnosis_steps, data.diagnosis.noise_mm))))
+    if record.get("history"):
+        points = history_points(record)
+        if points:
+            out.append(FigureFile(
+                "history.png", "History of this machine's calibrations",
+                "Each parameter at each calibration of this machine, with its expanded "
+                "uncertainty as error bars, this calibration marked.",
+                png_bytes(history_figure(points))))
     return tuple(out)
 
 
-def build_report(data: ReportData) -> Report:
-    figures = figures_for(data)
-    return Report(data, figures, render_page(data, figures))
+def build_report(data: ReportData, record: Mapping[str, Any]) -> Report:
+    """The page of ``record`` (built from the same session as ``data``)."""
+    figures = figures_for(data, record)
+    return Report(data, record, figures, render_page(data, figures, record))
 
 
 def write_report(report: Report, folder: str | Path) -> Path:
-    """Write ``report.html`` and the PNG figures into ``folder``; returns the HTML path.
+    """Write ``report.html``, ``record.json`` and the PNG figures into ``folder``;
+    returns the HTML path.
     Each file is replaced whole (a full disk leaves no truncated figure), the page
     last, so a page on disk never names figures that are not; StorageError when
     the folder cannot be written."""
@@ -93,10 +115,11 @@ def write_report(report: Report, folder: str | Path) -> Path:
         raise StorageError(folder, exc, "create the report folder") from None
     for figure in report.figures:
         write_atomically(folder / figure.name, figure.png)
+    write_atomically(folder / RECORD_NAME, report.record_json().encode("utf-8"))
     path = folder / REPORT_NAME
     write_atomically(path, report.html.encode("utf-8"))
     return path
 
 
-__all__ = ["DiagnosisFormatError", "DiagnosisView", "Report", "ReportData", "build_report",
-           "collect", "parse_diagnosis", "write_report"]
+__all__ = ["RECORD_NAME", "REPORT_NAME", "DiagnosisFormatError", "DiagnosisView", "Report",
+           "ReportData", "build_report", "collect", "parse_diagnosis", "write_report"]

@@ -10,51 +10,28 @@ of plain strings.
 from __future__ import annotations
 
 import base64
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any, NamedTuple
 
 import jinja2
 
+from ogacq.report.cells import Badge, Cell, Lines, Table
+from ogacq.report.cells import table as _table
 from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ReportData
 from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
 from ogacq.report.figures import FigureFile
 from ogacq.report.formatting import duration, finite, measure, plain, signed, um
+from ogacq.report.record_view import css_string, record_view
 
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("ogacq.report", "templates"),
                                 autoescape=True, undefined=jinja2.StrictUndefined,
                                 keep_trailing_newline=True)
 
 
-class Badge(NamedTuple):
-    text: str
-    kind: str  # ok, warn, bad or info: its colour
-
-
-class Lines(NamedTuple):
-    """A table cell of several lines."""
-    lines: tuple[str, ...]
-
-
-Cell = str | Badge | Lines
-
-
-class Table(NamedTuple):
-    header: tuple[str, ...] | None  # None: the first column names the rows
-    rows: list[list[Cell]]
-    numeric: tuple[bool, ...]  # per column: right-aligned figures
-
-
 class Figure(NamedTuple):
     png_base64: str
     description: str
     name: str
-
-
-def _table(header: Sequence[str] | None, rows: list[list[Cell]],
-           numeric: Sequence[bool] = ()) -> Table:
-    width = len(header) if header else max((len(r) for r in rows), default=0)
-    return Table(tuple(header) if header else None, rows,
-                 tuple(numeric) + (False,) * (width - len(numeric)))
 
 
 # --- sentences ----------------------------------------------------------------------------
@@ -267,15 +244,20 @@ def _provenance(data: ReportData) -> Table:
 
 # --- the page -----------------------------------------------------------------------------
 
-def render_page(data: ReportData, figures: Sequence[FigureFile]) -> str:
+def render_page(data: ReportData, figures: Sequence[FigureFile],
+                record: Mapping[str, Any]) -> str:
+    """The page: the calibration record's sections (``record``, the ``ogacq-record/1``
+    document of the same campaign) then the analysis behind them (``data``)."""
     p = data.provenance
     fit = data.fit
-    machine = p.machine.get("name") or p.machine_file or "machine"
+    machine = ((record.get("machine") or {}).get("name") or p.machine.get("name")
+               or p.machine_file or "machine")
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
-    context: dict[str, Any] = {
+    context: dict[str, Any] = record_view(record) | {
+        "page_issued": css_string(str(record.get("issued"))),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
-        "title": f"Calibration report: {machine}, {p.created}",
+        "title": f"Calibration record {record.get('id')}: {machine}",
         "status_badge": status_badge(data.status), "um": um,
         "figures": {f.name.removesuffix(".png"): Figure(base64.b64encode(f.png).decode("ascii"),
                                                          f.description, f.name)

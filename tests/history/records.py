@@ -13,7 +13,8 @@ AXES = ("x", "y", "z")
 def contract_record(*, date: str = "2026-01-10T09:00:00", machine: str = "OG-1 cell 3",
                     serial: str = "OG-2026-0017", operator: str = "J. Martin",
                     offsets: dict[str, float] | None = None, U: float | None = 0.006,
-                    u: float | None = 0.003, ambient_c: float | None = 20.4,
+                    u: float | None = 0.003, std: float | None = 0.0028,
+                    ambient_c: float | None = 20.4,
                     decision: str = "pass", session: str = "/runs/a/session.jsonl",
                     consistent: bool = True) -> dict[str, Any]:
     offsets = offsets or {"x": 0.42, "y": -0.31, "z": 0.12}
@@ -35,8 +36,8 @@ def contract_record(*, date: str = "2026-01-10T09:00:00", machine: str = "OG-1 c
                         "end": {"ambient_c": ambient_c, "machine_c": None, "source": "typed"}},
         "method": {"protocol": {"cycles": 3}, "params": "offsets", "software": "ogacq 0.1.0",
                    "decision_rule": "guard-band"},
-        "results": {"joint_offset": {a: {"value_mm": v, "u_mm": u, "U_mm": U,
-                                         "k": 2.0 if U is not None else None}
+        "results": {"joint_offset": {a: {"value_mm": v, "std_mm": std, "u_mm": u, "U_mm": U,
+                                         "k": 2.0 if U is not None else None, "unit": "mm"}
                                      for a, v in offsets.items()}},
         "budget": {}, "budget_complete": U is not None,
         "monte_carlo": {"draws": 2000, "u_mm": {}, "agreement": 0.04},

@@ -12,10 +12,10 @@ from ogacq.history.plot import write_history_plot
 from ogacq.history.store import Calibration
 
 
-def calibration(record_id: str, date: str, x: float, U: float | None, u: float | None = None,
-                ) -> Calibration:
+def calibration(record_id: str, date: str, x: float, U: float | None,
+                std: float | None = None) -> Calibration:
     return Calibration(record_id, date, "J. Martin", None, None, None, 20.0,
-                       {"joint_offset.x": Parameter("joint_offset.x", x, u, U, 2.0)},
+                       {"joint_offset.x": Parameter("joint_offset.x", x, None, U, 2.0, std)},
                        None, None)
 
 
@@ -33,7 +33,7 @@ def test_a_change_beyond_the_rss_of_both_u_is_flagged_and_one_within_is_not():
 
 
 def test_without_u_twice_the_std_stands_in_and_says_so():
-    found = changes([calibration("A", "2026-01-10", 0.420, None, u=0.002),
+    found = changes([calibration("A", "2026-01-10", 0.420, None, std=0.002),
                      calibration("B", "2026-02-10", 0.430, 0.006)])
     assert found[0].basis == "std"
     assert math.isclose(found[0].limit_mm, math.hypot(0.004, 0.006))
@@ -45,6 +45,6 @@ def test_without_u_twice_the_std_stands_in_and_says_so():
 
 def test_the_plot_is_a_png(tmp_path):
     history = [calibration("A", "2026-01-10T09:00:00", 0.420, 0.006),
-               calibration("B", "2026-02-10T09:00:00+01:00", 0.450, None, u=0.003)]
+               calibration("B", "2026-02-10T09:00:00+01:00", 0.450, None, std=0.003)]
     path = write_history_plot(tmp_path / "h.png", "OG-1", history, changes(history))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

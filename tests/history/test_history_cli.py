@@ -68,7 +68,7 @@ def test_json_plot_and_states(history_file, capsys, tmp_path):
     data = json.loads(out)
     assert [c["record"] for c in data["calibrations"]] == [r["id"] for r in records]
     assert data["calibrations"][0]["parameters"]["joint_offset.x"] == {
-        "value_mm": 0.42, "u_mm": 0.003, "U_mm": 0.006, "k": 2.0}
+        "value_mm": 0.42, "u_mm": 0.003, "U_mm": 0.006, "k": 2.0, "std_mm": 0.0028}
     assert data["calibrations"][2]["acceptance"] == {"as_found": "fail",
                                                      "as_left": "not evaluated"}
     assert [(d["parameter"], d["to"]) for d in data["drifts"]] == [

@@ -50,6 +50,7 @@ def test_calibrations_come_back_by_date_with_their_parameters_and_record(locatio
     x = first.parameters["joint_offset.x"]
     assert (x.value_mm, x.u_mm, x.expanded_mm, x.k) == (0.42, 0.003, 0.006, 2.0)
     assert found[1].parameters["joint_offset.x"].expanded_mm is None  # no budget: no U
+    assert found[1].parameters["joint_offset.x"].std_mm == 0.0028  # but the fit's std
     assert first.operator == "J. Martin" and first.verdict["consistent"] is True
     assert first.instruments[0]["certificate"] == "DKD-K-12345 2026-0412"
     assert first.session_path == "/runs/a/session.jsonl"

@@ -91,8 +91,9 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
     # the session's own numbers: the campaign's result record ...
     session = load_session(calibration)
     refit = session.result.refit
+    parameters = html[html.index('<h2 id="parameters"'):]  # the analysis's table
     for axis in "xyz":
-        value, std = _row_numbers(html, f"joint_offset.{axis}")[:2]
+        value, std = _row_numbers(parameters, f"joint_offset.{axis}")[:2]
         assert value == pytest.approx(refit["parameters"]["joint_offset"][axis], abs=1e-5)
         assert std == pytest.approx(refit["std"]["joint_offset"][axis], abs=1e-5)
     text = _text(html)
@@ -110,7 +111,7 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
 
     # the validation campaign: measured deviations after write-back, small remaining offsets
     assert "after, measured (µm)" in text and "remaining after write-back" in text
-    remaining = _row_numbers(html, "joint_offset.x")[-2]
+    remaining = _row_numbers(parameters, "joint_offset.x")[-2]
     assert abs(remaining) < 0.005
     # the diagnosis ran here and names the out-of-square pair, with the fit then in noise
     assert "explained by squareness.xy" in text

@@ -13,6 +13,7 @@ import pytest
 from matplotlib.text import Text
 
 from ogacq.io.tables import write_readings
+from ogacq.record.document import build_record
 from ogacq.report import build_report, collect, parse_diagnosis
 from ogacq.report.diagnosis_view import DiagnosisFormatError
 from ogacq.report.figures import deviations_figure, parameters_figure, residuals_figure
@@ -73,7 +74,7 @@ def test_the_figures_carry_the_numbers_of_the_session(session_path):
 
 def test_a_diagnosis_is_shown_as_the_json_says(session_path):
     data = collect(load_session(session_path), diagnosis=parse_diagnosis(DIAGNOSIS))
-    report = build_report(data)
+    report = build_report(data, build_record(load_session(session_path)))
     text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", report.html))
     assert "partly explained by squareness.xy; the rest sits at z_y" in text
     assert "joint offsets only 3.90 µm 36.60" in text and "2.10 µm 1.90" in text
@@ -99,7 +100,7 @@ def test_text_from_the_session_is_escaped(session_path, tmp_path):
     header["machine_file"] = "shop & <floor>.toml"
     path = tmp_path / "odd.jsonl"
     path.write_text(json.dumps(header) + "\n" + "".join(lines[1:]))
-    html = render_page(collect(load_session(path)), ())
+    html = render_page(collect(load_session(path)), (), build_record(load_session(path)))
     assert "<img src=x" not in html
     assert "&lt;img src=x onerror=alert(1)&gt;" in html
     assert "shop &amp; &lt;floor&gt;.toml" in html
@@ -136,6 +137,6 @@ def test_a_write_back_recorded_in_the_session_is_shown(session_path, tmp_path):
         log.record("done", operation="write-1a2b3c4d", action="write", old_mm=old,
                    new_mm=new, nvm_saved=True)
     text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", render_page(
-        collect(load_session(path)), ())))
+        collect(load_session(path)), (), build_record(load_session(path)))))
     assert "write done" in text and "controller cia402, saved to non-volatile memory" in text
-    assert "x +0.00000 +2.00123" in text and "z +0.00000 -2.00042" in text
+    assert "x 0 +2.00123" in text and "z 0 -2.00042" in text  # as record.json holds them

@@ -1,0 +1,284 @@
+"""The calibration record as one JSON document (``ogacq-record/1``,
+docs/calibration-record.md section 5): what the report page shows, in a form a
+program reads (``record.json`` beside ``report.html``).
+
+Nothing is invented. A value the session does not hold (an old session has no
+operator, no certificates, no temperatures) is ``null`` and the record's
+``missing`` table says why, in words the page repeats; an uncertainty that was not
+evaluated is not a zero.
+
+ISO/IEC 17025:2017 7.8.2.1 lists what a report holds (a unique identification,
+the item, the method, the dates, the results with their units, who authorises it)
+and 7.8.4.1 what a calibration certificate adds (the measurement uncertainty, the
+environmental conditions, the traceability, the results before and after an
+adjustment, the statement of conformity); the sections below follow them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import datetime as dt
+import hashlib
+import math
+import re
+from collections.abc import Iterable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from ogacq import __version__
+from ogacq.campaign import recorded_identification
+from ogacq.identify.consistency import fit_verdict
+from ogacq.identify.fit import FitResult
+from ogacq.io.errors import InputError
+from ogacq.model.parameters import effect_of
+from ogacq.record.context import CalibrationContext, calibration_context
+from ogacq.report.data import campaign_status, offsets_writes
+from ogacq.session.store import LoadedSession
+
+FORMAT = "ogacq-record/1"
+COVERAGE_K = 2.0  # JCGM 100:2008 6.3.3: k = 2 for about 95 % coverage
+
+# Why a section holds nothing, for a session recorded before ogacq recorded it.
+NOT_IN_SESSION = "the session does not record {what} (recorded before ogacq asked for it)"
+NO_UNCERTAINTY = ("not evaluated: this build of ogacq does not evaluate the uncertainty "
+                  "budget (ogacq/uncertainty)")
+
+
+def record_id(header_line: bytes, date: str | None) -> str:
+    """``OGQ-<date>-<first 8 hex of the SHA-256 of the session's header line>``: the
+    header holds the session's creation time, station and plan, so the same session
+    always gives the same id and two sessions never share one (no source: the
+    project's own rule, docs/calibration-record.md section 5)."""
+    digest = hashlib.sha256(header_line.rstrip(b"\r\n")).hexdigest()[:8]
+    return f"OGQ-{compact_date(date)}-{digest}"
+
+
+def compact_date(date: str | None) -> str:
+    """``2026-01-10T09:00:00`` -> ``20260110``; ``undated`` when there is no date."""
+    found = re.match(r"(\d{4})-(\d{2})-(\d{2})", date or "")
+    return "".join(found.groups()) if found else "undated"
+
+
+def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
+                 history: Sequence[Mapping[str, Any]] | None = None,
+                 issued: str | None = None) -> dict[str, Any]:
+    """The record of the calibration campaign ``session``.
+
+    ``validation``: the campaign run after the write-back (the as-left measurement);
+    ``history``: earlier calibrations of the same machine, each ``{"id", "date",
+    "results"}`` with ``results`` shaped as this record's; ``issued``: the issue
+    time (default: now, ISO 8601 with offset). The identity, instruments,
+    environment and overrides are the session's own (:func:`calibration_context`).
+    """
+    header_line, sha256 = _session_digest(session)
+    header = session.header
+    machine = dict(header.get("machine") or {})
+    context = calibration_context(session)
+    date = _text(context.date)
+    missing: dict[str, str] = {}
+    result, why_no_fit = _identify(session)
+    if why_no_fit:
+        missing["results"] = why_no_fit
+
+    record: dict[str, Any] = {
+        "format": FORMAT,
+        "id": record_id(header_line, date),
+        "issued": issued or dt.datetime.now().astimezone().isoformat(timespec="seconds"),
+        "machine": {"name": context.machine_name, "serial": context.machine_serial,
+                    "file": machine},
+        "operator": context.operator,
+        "date": date,
+        "date_simulated": context.simulated_date,
+        **_context_sections(context, "instruments" in header, missing),
+        "campaign": _campaign(session),
+        "method": _method(session, result, machine),
+        "results": _results(result) if result is not None else None,
+        "budget": None,
+        "budget_complete": False,
+        "monte_carlo": None,
+        "acceptance": _acceptance(machine, validation),
+        "verdict": _verdict(result) if result is not None else None,
+        "writeback": [_write(w) for w in offsets_writes(session)],
+        "history": [_history_entry(h) for h in history or ()],
+        "session": _session_reference(session, sha256),
+        "validation_session": (_session_reference(validation) if validation is not None
+                               else None),
+    }
+    if record["operator"] is None:
+        missing.setdefault("operator", NOT_IN_SESSION.format(what="the operator"))
+    if record["machine"]["serial"] is None:
+        missing["machine serial"] = NOT_IN_SESSION.format(what="the machine's serial number")
+    missing["uncertainty"] = NO_UNCERTAINTY
+    record["missing"] = missing
+    return record
+
+
+# --- the parts ----------------------------------------------------------------------------
+
+def _session_digest(session: LoadedSession) -> tuple[bytes, str]:
+    """The header line and the SHA-256 of the session file as it was loaded."""
+    try:
+        with open(session.path, "rb") as f:
+            data = f.read(session.size_bytes) if session.size_bytes else f.read()
+    except OSError as exc:
+        raise InputError(session.path, f"cannot read session: {exc.strerror or exc}") from None
+    return data.split(b"\n", 1)[0], hashlib.sha256(data).hexdigest()
+
+
+def _session_reference(session: LoadedSession, sha256: str | None = None) -> dict[str, Any]:
+    """Where the record's evidence is: the session file (absolute path), its SHA-256
+    as loaded, and its number of records after the header."""
+    if sha256 is None:
+        _, sha256 = _session_digest(session)
+    return {"path": str(Path(session.path).resolve()), "sha256": sha256,
+            "records": len(session.records)}
+
+
+def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
+    if not session.readings:
+        return None, "the session holds no readings: nothing was identified"
+    try:
+        return recorded_identification(session), None
+    except (ValueError, InputError) as exc:
+        return None, f"the joint offsets could not be identified: {exc}"
+
+
+def _context_sections(context: CalibrationContext, recorded: bool,
+                      missing: dict[str, str]) -> dict[str, Any]:
+    """Instruments, environment and overrides as the session recorded them.
+    ``recorded``: the session records its instruments (a session from before has
+    only its gauges' serials, and no expired-gauge check ran, so no override)."""
+    instruments = [dict(i.to_json(), expired=context.expired(i)) for i in context.instruments]
+    environment = context.environment.to_json()
+    if not instruments:
+        missing["instruments"] = NOT_IN_SESSION.format(what="the instruments")
+    elif not any(i["certificate"] for i in instruments):
+        missing["certificates"] = NOT_IN_SESSION.format(
+            what="the instruments' calibration certificates")
+    if not any(environment.values()):
+        missing["environment"] = NOT_IN_SESSION.format(what="the temperatures")
+    overrides: list[dict[str, Any]] | None = [o.to_json() for o in context.overrides]
+    if not recorded and not overrides:
+        overrides = None
+        missing["overrides"] = NOT_IN_SESSION.format(
+            what="whether a check was overridden (no expired-gauge check ran)")
+    return {"instruments": instruments, "environment": environment, "overrides": overrides}
+
+
+def _campaign(session: LoadedSession) -> dict[str, Any]:
+    status = campaign_status(session)
+    return {"status": status.status, "readings": status.readings, "planned": status.planned,
+            "reason": status.reason}
+
+
+def _method(session: LoadedSession, result: FitResult | None,
+            machine: Mapping[str, Any]) -> dict[str, Any]:
+    tolerances = machine.get("tolerances")
+    recorded = session.result
+    return {
+        "protocol": session.header.get("plan"),
+        "params": recorded.params if recorded is not None else "offsets",
+        "identification": None if result is None else {
+            "method": result.method, "weighting": result.weighting,
+            "readings": len(result.observations),
+            "noise_mm": number(result.noise.sigma_mm), "noise_source": result.noise.source},
+        "software": _text(session.header.get("software")),
+        "record_software": f"ogacq {__version__}",
+        "decision_rule": (tolerances.get("decision_rule")
+                          if isinstance(tolerances, Mapping) else None),
+    }
+
+
+def _results(result: FitResult) -> dict[str, dict[str, dict[str, Any]]]:
+    """Each parameter's value and the fit's standard deviation (the gauge noise
+    propagated, JCGM 100:2008 4.2, a type A evaluation); ``u`` and ``U`` are the
+    budget's."""
+    out: dict[str, dict[str, dict[str, Any]]] = {}
+    for name, value, std in zip(result.names, result.values, result.std, strict=True):
+        group, _, where = name.partition(".")
+        out.setdefault(group, {})[where] = {
+            "value_mm": number(value), "std_mm": number(std), "u_mm": None, "U_mm": None,
+            "k": None, "unit": effect_of(name).unit}
+    return out
+
+
+def _verdict(result: FitResult) -> dict[str, Any]:
+    verdict = fit_verdict(result)
+    return {"state": verdict.state, "consistent": verdict.consistent,
+            "chi2_dof": number(verdict.chi2_dof, 4), "p": number(verdict.p_value, 4),
+            "test": verdict.test, "dof": verdict.dof, "level": verdict.level,
+            "text": verdict.describe()}
+
+
+def _acceptance(machine: Mapping[str, Any],
+                validation: LoadedSession | None) -> dict[str, Any]:
+    tolerances = machine.get("tolerances")
+    rule = tolerances.get("decision_rule") if isinstance(tolerances, Mapping) else None
+    why = NO_UNCERTAINTY.removeprefix("not evaluated: ")
+    if not isinstance(tolerances, Mapping):
+        why = "the machine file states no tolerances"
+    return {"rule": rule,
+            "as_found": {"decision": "not evaluated", "why": why, "rows": []},
+            "as_left": {"decision": "not evaluated", "rows": [],
+                        "why": why if validation is not None else "no as-left measurement"}}
+
+
+def _write(write: Any) -> dict[str, Any]:
+    return {"action": write.action, "status": write.status, "when": write.when,
+            "old_mm": {k: number(v) for k, v in sorted(write.old_mm.items())},
+            "new_mm": {k: number(v) for k, v in sorted(write.new_mm.items())},
+            "details": write.details}
+
+
+def _history_entry(entry: Mapping[str, Any]) -> dict[str, Any]:
+    """An earlier calibration as the caller gave it: its id, date and results."""
+    if not isinstance(entry, Mapping) or "date" not in entry:
+        raise ValueError(f"a history entry needs an id, a date and results: {entry!r}")
+    results = entry.get("results")
+    return {"id": _text(entry.get("id")), "date": _text(entry.get("date")),
+            "results": plain(results) if isinstance(results, Mapping) else {}}
+
+
+# --- JSON values --------------------------------------------------------------------------
+
+def number(x: Any, digits: int = 6) -> float | None:
+    """A finite float rounded to ``digits`` decimals (mm: 1 nm), or None: JSON has no
+    NaN, and an undetermined value is unknown, not a number."""
+    try:
+        value = float(x)
+    except (TypeError, ValueError):
+        return None
+    if not math.isfinite(value):
+        return None
+    if digits >= 0 and value != 0 and abs(value) < 10.0 ** -digits:
+        return float(f"{value:.{max(1, digits - 2)}g}")  # keep a tiny number's digits
+    return round(value, digits)
+
+
+def plain(value: Any) -> Any:
+    """A dataclass, mapping, sequence, date or number as JSON values."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    if isinstance(value, Mapping):
+        return {str(k): plain(v) for k, v in value.items()}
+    if isinstance(value, dt.date | dt.datetime | dt.time):
+        return value.isoformat()
+    if isinstance(value, bool) or value is None or isinstance(value, str):
+        return value
+    if isinstance(value, int):
+        return value
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Path):
+        return str(value)
+    if isinstance(value, Iterable):
+        return [plain(v) for v in value]
+    return str(value)
+
+
+def _text(value: Any) -> str | None:
+    if value is None or value == "":
+        return None
+    if isinstance(value, dt.date | dt.datetime):
+        return value.isoformat()
+    return str(value)

@@ -1,0 +1,315 @@
+"""The calibration record (``ogacq-record/1``, docs/calibration-record.md section 5) as
+the page's sections: every value of ``record.json`` in words and tables.
+
+The sections follow what ISO/IEC 17025:2017 asks of a report: 7.8.2.1 (a unique
+identification on every page and the end marked, the item, the method, the date of
+the work and of issue, the results with their units, who authorises the report)
+and 7.8.4.1 for a calibration (the uncertainty in the unit of the result, the
+environmental conditions, the traceability of the instruments, the results
+before and after an adjustment, the statement of conformity with its decision
+rule, 7.8.6.1). A value the record does not hold is said ("not recorded", "not
+evaluated"), with the record's reason, never left blank or shown as zero.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from markupsafe import Markup
+
+from ogacq.report.cells import Badge, Cell, Table, table
+
+NOT_RECORDED = "not recorded"
+NOT_EVALUATED = "not evaluated"
+
+# Column and row names for the record's keys; other keys read with spaces for "_".
+WORDS = {
+    "value_mm": "value (mm)", "std_mm": "fit std (mm)", "u_mm": "u (mm)",
+    "U_mm": "U (mm)", "k": "k", "u_input": "input u", "ambient_c": "ambient (°C)",
+    "machine_c": "machine (°C)", "uncertainty_mm": "certificate U (mm)",
+    "uncertainty_k": "certificate k", "resolution_mm": "resolution (mm)",
+    "tolerance_mm": "tolerance (mm)", "deviation_mm": "deviation (mm)",
+    "overshoot_mm": "overshoot (mm)", "settle_s": "settle (s)",
+    "move_timeout_s": "move timeout (s)", "tolerance": "tolerance", "timeout_s": "timeout (s)",
+    "leg_length_mm": "leg length (mm)", "rho_min_mm": "Min posture (mm)",
+    "rho_max_mm": "Max posture (mm)", "gauge_resolution_mm": "gauge resolution (mm)",
+    "gauge_repeatability_mm": "gauge repeatability (mm)", "noise_mm": "gauge noise σ (mm)",
+    "chi2_dof": "χ² per dof", "p": "p", "dof": "dof",
+    "leg_expansion_ppm_per_k": "leg expansion (ppm/K)",
+}
+DECISION_KIND = {"pass": "ok", "fail": "bad", "undecided": "warn"}
+
+
+def words(key: str) -> str:
+    return WORDS.get(key, key.replace("_", " "))
+
+
+def shown(value: Any, empty: str = NOT_RECORDED) -> str:
+    """A JSON value as the page prints it: numbers in full (the digits record.json
+    holds), booleans as yes/no, a table as ``key value, ...``, nothing as ``empty``."""
+    if value is None or value == "" or value == [] or value == {}:
+        return empty
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, int):
+        return str(value)
+    if isinstance(value, float):
+        return str(np.format_float_positional(value, trim="-"))
+    if isinstance(value, Mapping):
+        return ", ".join(f"{words(str(k))} " + (f"({shown(v, empty)})" if isinstance(v, Mapping)
+                                                 else shown(v, empty))
+                         for k, v in value.items())
+    if isinstance(value, list | tuple):
+        return ", ".join(shown(v, empty) for v in value)
+    return str(value)
+
+
+def signed_shown(value: Any, empty: str = NOT_EVALUATED) -> str:
+    text = shown(value, empty)
+    return f"+{text}" if isinstance(value, int | float) and not isinstance(value, bool) \
+        and value > 0 else text
+
+
+def decision_badge(decision: Any) -> Badge:
+    text = shown(decision, NOT_EVALUATED)
+    return Badge(text, DECISION_KIND.get(text, "info"))
+
+
+def rows_table(rows: Sequence[Mapping[str, Any]], empty: str = NOT_RECORDED,
+               first: Sequence[str] = ()) -> Table:
+    """A table of dicts: one column per key (``first`` ones first), every key shown."""
+    keys = list(first)
+    for row in rows:
+        keys += [k for k in row if k not in keys]
+    body: list[list[Cell]] = [[shown(row.get(k), empty) for k in keys] for row in rows]
+    numeric = [all(isinstance(r.get(k), int | float) and not isinstance(r.get(k), bool)
+                   for r in rows if r.get(k) is not None) for k in keys]
+    return table([words(k) for k in keys], body, numeric)
+
+
+def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
+    """Rows named by the keys."""
+    return table(None, [[words(k), shown(v, empty)] for k, v in pairs.items()])
+
+
+# --- the sections -------------------------------------------------------------------------
+
+def identification(record: Mapping[str, Any]) -> Table:
+    machine = record.get("machine") or {}
+    campaign = record.get("campaign") or {}
+    session = record.get("session") or {}
+    planned = f" of {shown(campaign.get('planned'))} planned" if campaign.get("planned") else ""
+    reason = f" ({campaign['reason']})" if campaign.get("reason") else ""
+    rehearsed = " (a simulated date: a rehearsal)" if record.get("date_simulated") else ""
+    rows: list[list[Cell]] = [
+        ["record", shown(record.get("id"))],
+        ["record format", shown(record.get("format"))],
+        ["issued", shown(record.get("issued"))],
+        ["calibration date", shown(record.get("date")) + rehearsed],
+        ["machine", shown(machine.get("name"))],
+        ["machine serial number", shown(machine.get("serial"))],
+        ["machine description", shown(machine.get("file"))],
+        ["operator", shown(record.get("operator"))],
+        ["campaign", f"{shown(campaign.get('status'))}{reason}: "
+                     f"{shown(campaign.get('readings'))} readings{planned}"],
+        ["session file", shown(session.get("path"))],
+        ["session SHA-256", shown(session.get("sha256"))],
+        ["session records", shown(session.get("records"))],
+    ]
+    validation = record.get("validation_session")
+    if validation:
+        rows += [["as-left session file", shown(validation.get("path"))],
+                 ["as-left session SHA-256", shown(validation.get("sha256"))],
+                 ["as-left session records", shown(validation.get("records"))]]
+    return table(None, rows)
+
+
+def instruments(record: Mapping[str, Any]) -> Table | None:
+    """The gauges with their certificates; an expired one is marked, with its override."""
+    found = record.get("instruments")
+    if not found:
+        return None
+    overrides = {str(o.get("subject", "")).split(" ")[0]: o
+                 for o in record.get("overrides") or () if o.get("what") == "expired-gauge"}
+    shown_keys = ["gauge", "make", "model", "serial", "certificate", "calibrated", "due",
+                  "uncertainty_mm", "uncertainty_k", "resolution_mm"]
+    extra = [k for i in found for k in i if k not in shown_keys and k != "expired"]
+    header = [words(k) for k in shown_keys + list(dict.fromkeys(extra))] + ["certificate status"]
+    rows: list[list[Cell]] = []
+    kinds = []
+    for instrument in found:
+        row: list[Cell] = [shown(instrument.get(k)) for k in shown_keys]
+        row += [shown(instrument.get(k)) for k in dict.fromkeys(extra)]
+        expired = instrument.get("expired")
+        override = overrides.get(str(instrument.get("gauge")))
+        if expired:
+            row.append(Badge("EXPIRED, used under override" if override else "EXPIRED", "bad"))
+        elif expired is False:
+            row.append(Badge("in date", "ok"))
+        else:
+            row.append(Badge("due date unknown", "warn"))
+        rows.append(row)
+        kinds.append("bad" if expired else "")
+    numeric = [k.endswith(("_mm", "_k")) for k in shown_keys]
+    return table(header, rows, numeric, kinds)
+
+
+def environment(record: Mapping[str, Any]) -> Table | None:
+    found = record.get("environment")
+    if not found:
+        return None
+    if all(isinstance(v, Mapping) or v is None for v in found.values()):
+        stages = [{"stage": stage, **(values or {})} for stage, values in found.items()]
+        return rows_table(stages, first=("stage",))
+    return pairs_table(found)
+
+
+def method(record: Mapping[str, Any]) -> Table:
+    m = record.get("method") or {}
+    rows: list[list[Cell]] = []
+    protocol = m.get("protocol")
+    if isinstance(protocol, Mapping):
+        rows += [[f"protocol: {words(k)}", shown(v)] for k, v in protocol.items()]
+    else:
+        rows.append(["protocol", shown(protocol)])
+    rows.append(["parameters identified", shown(m.get("params"))])
+    ident = m.get("identification")
+    if isinstance(ident, Mapping):
+        rows += [[f"identification: {words(k)}", shown(v)] for k, v in ident.items()]
+    else:
+        rows.append(["identification", shown(ident, NOT_EVALUATED)])
+    rows += [["recorded by", shown(m.get("software"))],
+             ["record made by", shown(m.get("record_software"))],
+             ["decision rule", shown(m.get("decision_rule"))]]
+    rows += [[words(k), shown(v)] for k, v in m.items()
+             if k not in ("protocol", "params", "identification", "software",
+                          "record_software", "decision_rule")]
+    return table(None, rows)
+
+
+def results(record: Mapping[str, Any]) -> Table | None:
+    found = record.get("results")
+    if not found:
+        return None
+    keys = ["value_mm", "std_mm", "u_mm", "U_mm", "k", "unit"]
+    extra = [k for by in found.values() for r in by.values() for k in r if k not in keys]
+    keys += list(dict.fromkeys(extra))
+    rows: list[list[Cell]] = []
+    for group, by_where in found.items():
+        for where, r in by_where.items():
+            rows.append([f"{group}.{where}", signed_shown(r.get("value_mm"), "not determined")]
+                        + [shown(r.get(k), NOT_EVALUATED) for k in keys[1:]])
+    return table(["parameter"] + [words(k) for k in keys], rows,
+                 [False] + [k != "unit" for k in keys])
+
+
+def verdict(record: Mapping[str, Any]) -> Table | None:
+    found = record.get("verdict")
+    return pairs_table(found, NOT_EVALUATED) if found else None
+
+
+def acceptance(record: Mapping[str, Any]) -> dict[str, Any]:
+    found = record.get("acceptance") or {}
+    stages = []
+    for key, title in (("as_found", "As found (this campaign)"),
+                       ("as_left", "As left (after the write-back)")):
+        stage = found.get(key) or {}
+        rows = stage.get("rows") or []
+        others = {k: v for k, v in stage.items() if k not in ("decision", "why", "rows")}
+        stages.append({"title": title, "badge": decision_badge(stage.get("decision")),
+                       "why": stage.get("why"),
+                       "table": rows_table(rows, NOT_EVALUATED) if rows else None,
+                       "others": pairs_table(others, NOT_EVALUATED) if others else None})
+    return {"rule": shown(found.get("rule")), "stages": stages}
+
+
+def budget(record: Mapping[str, Any]) -> list[tuple[str, Table]]:
+    found = record.get("budget")
+    if not found:
+        return []
+    first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
+             "evaluated")
+    return [(name, rows_table(rows, NOT_EVALUATED, first)) for name, rows in found.items()]
+
+
+def monte_carlo(record: Mapping[str, Any]) -> Table | None:
+    found = record.get("monte_carlo")
+    if not found:
+        return None
+    rows: list[list[Cell]] = []
+    for key, value in found.items():
+        if isinstance(value, Mapping):
+            rows += [[f"{words(key)}: {name}", shown(v, NOT_EVALUATED)]
+                     for name, v in value.items()]
+        else:
+            rows.append([words(key), shown(value, NOT_EVALUATED)])
+    return table(None, rows, [False, True])
+
+
+def history(record: Mapping[str, Any]) -> Table | None:
+    found = record.get("history")
+    if not found:
+        return None
+    names = list(dict.fromkeys(f"{g}.{w}" for e in found for g, by in e["results"].items()
+                               for w in by))
+    rows: list[list[Cell]] = []
+    for entry in found:
+        row: list[Cell] = [shown(entry.get("id")), shown(entry.get("date"))]
+        for name in names:
+            group, _, where = name.partition(".")
+            r = (entry["results"].get(group) or {}).get(where) or {}
+            value = signed_shown(r.get("value_mm"), "-")
+            row.append(value if r.get("U_mm") is None
+                       else f"{value} ± {shown(r.get('U_mm'))}")
+        rows.append(row)
+    return table(["record", "date"] + [f"{n} (mm) ± U" for n in names], rows,
+                 [False, False] + [True] * len(names))
+
+
+def overrides(record: Mapping[str, Any]) -> Table | None:
+    found = record.get("overrides")
+    if not found:
+        return None
+    return rows_table(found, first=("what", "subject", "due", "reason", "operator"))
+
+
+def writebacks(record: Mapping[str, Any]) -> list[dict[str, Any]]:
+    out = []
+    for w in record.get("writeback") or ():
+        old, new = w.get("old_mm") or {}, w.get("new_mm") or {}
+        kind = {"done": "ok", "failed": "bad"}.get(w.get("status"), "warn")
+        out.append({
+            "badge": Badge(f"{shown(w.get('action'))} {shown(w.get('status'))}", kind),
+            "when": shown(w.get("when")), "details": shown(w.get("details")),
+            "table": table(["joint offset", "before (mm)", "after (mm)"],
+                           [[a, signed_shown(old.get(a), "-"), signed_shown(new.get(a), "-")]
+                            for a in sorted({*old, *new})], [False, True, True])})
+    return out
+
+
+def record_view(record: Mapping[str, Any]) -> dict[str, Any]:
+    """The template's values for the record's sections."""
+    missing = record.get("missing") or {}
+    return {
+        "rec": record, "identification": identification(record),
+        "missing": [(words(k), v) for k, v in missing.items()],
+        "instruments": instruments(record), "environment": environment(record),
+        "method": method(record), "results": results(record), "verdict": verdict(record),
+        "acceptance": acceptance(record), "budget": budget(record),
+        "budget_complete": record.get("budget_complete"),
+        "monte_carlo": monte_carlo(record), "history": history(record),
+        "overrides": overrides(record), "record_writes": writebacks(record),
+        "page_footer": css_string(f"Calibration record {record.get('id')}"),
+    }
+
+
+def css_string(text: str) -> str:
+    """``text`` as a CSS string literal for the print stylesheet's page margins
+    (CSS Syntax Level 3, 4.3.5: a backslash escapes the quote and itself; a
+    newline cannot stand in a string). Angle brackets are escaped too (4.3.7,
+    ``\\3c``), so nothing in it can close the page's style element."""
+    escaped = (text.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ")
+               .replace("<", "\\3c ").replace(">", "\\3e "))
+    return Markup(f'"{escaped}"')

@@ -1,0 +1,135 @@
+"""The record document (ogacq-record/1): its id rule, a session from before the
+context was recorded (nothing invented), a session with its context, and
+``ogacq report`` writing record.json beside a page that shows all of it."""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+
+import pytest
+
+from ogacq.cli.app import main
+from ogacq.record.document import FORMAT, build_record, record_id
+from ogacq.session.store import load_session
+from tests.record.pages import page_text, unshown
+from tests.record.sessions import (
+    DATE,
+    HISTORY,
+    INSTRUMENTS,
+    MACHINE_NAME,
+    MACHINE_SERIAL,
+    OPERATOR,
+    OVERRIDE_REASON,
+)
+
+ID = re.compile(r"OGQ-\d{8}-[0-9a-f]{8}")
+
+
+def test_the_id_is_the_session_s_own(campaign_sessions, tmp_path):
+    plain, with_context = campaign_sessions
+    first = build_record(load_session(plain))
+    assert ID.fullmatch(first["id"])
+    assert first["id"] == build_record(load_session(plain))["id"]  # built again: same id
+    moved = tmp_path / "elsewhere.jsonl"
+    shutil.copyfile(plain, moved)  # the same session under another name: the same record
+    assert build_record(load_session(moved))["id"] == first["id"]
+    other = build_record(load_session(with_context))
+    assert other["id"] != first["id"]
+    assert other["id"].startswith("OGQ-20260110-")  # the campaign's date, not today's
+    header = plain.read_bytes().split(b"\n", 1)[0]
+    assert first["id"] == record_id(header, first["date"])
+    # one byte more in the header (another station, another start time) is another id
+    assert record_id(header.replace(b'"seed":3', b'"seed":4'), first["date"]) != first["id"]
+
+
+def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_path):
+    plain, _ = campaign_sessions
+    session = load_session(plain)
+    record = build_record(session)
+    assert record["format"] == FORMAT
+    assert record["machine"]["name"] is None and record["machine"]["serial"] is None
+    assert record["operator"] is None and record["overrides"] is None
+    assert record["environment"] == {"start": None, "end": None}
+    # the gauges' serials are in the station description; nothing else is known of them
+    assert [i["serial"] for i in record["instruments"]] == [
+        g["serial"] for g in session.header["station"]["gauges"].values()]
+    assert all(i["certificate"] is None and i["due"] is None and i["expired"] is None
+               for i in record["instruments"])
+    assert record["date"].startswith(session.header["created"][:19])
+    for key in ("operator", "machine serial", "certificates", "environment", "overrides",
+                "uncertainty"):
+        assert key in record["missing"], key
+    # results: the recorded identification's values and std; u and U not evaluated
+    refit = session.result.refit
+    for axis, result in record["results"]["joint_offset"].items():
+        assert result["value_mm"] == pytest.approx(refit["parameters"]["joint_offset"][axis])
+        assert result["std_mm"] == pytest.approx(refit["std"]["joint_offset"][axis])
+        assert result["u_mm"] is None and result["U_mm"] is None
+    assert record["budget"] is None and record["budget_complete"] is False
+    assert record["acceptance"]["as_found"]["decision"] == "not evaluated"
+    assert record["acceptance"]["as_left"]["why"] == "no as-left measurement"
+    assert record["verdict"]["state"] == "consistent"
+    assert record["session"]["sha256"] == __import__("hashlib").sha256(
+        plain.read_bytes()).hexdigest()
+
+    assert main(["report", str(plain), "--out", str(tmp_path / "old")]) == 0
+    text = page_text((tmp_path / "old" / "report.html").read_text(encoding="utf-8"))
+    assert "machine not recorded" in text and "operator not recorded" in text
+    assert "the session does not record the temperatures" in text
+    assert "u and U not evaluated" in text
+    assert "No earlier calibration of this machine was given" in text
+
+
+def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, capsys):
+    _, with_context = campaign_sessions
+    out = tmp_path / "out"
+    assert main(["report", str(with_context), "--out", str(out)]) == 0
+    assert capsys.readouterr().out.strip() == str(out / "report.html")
+    record = json.loads((out / "record.json").read_text(encoding="utf-8"))
+    page = (out / "report.html").read_text(encoding="utf-8")
+    text = page_text(page)
+
+    assert record["id"] == build_record(load_session(with_context))["id"]
+    assert record["machine"]["name"] == MACHINE_NAME and record["operator"] == OPERATOR
+    assert record["machine"]["serial"] == MACHINE_SERIAL and record["date"] == DATE
+    assert [i["certificate"] for i in record["instruments"]] == [
+        i["certificate"] for i in INSTRUMENTS]
+    expired = [i["gauge"] for i in record["instruments"] if i["expired"]]
+    assert expired == ["y_x"]
+    assert record["overrides"][0]["reason"] == OVERRIDE_REASON
+    assert record["environment"]["end"]["ambient_c"] == 21.1
+    assert record["acceptance"]["rule"] == "guard-band"
+    assert set(record["missing"]) == {"uncertainty"}
+
+    # every value of record.json is on the page, as record.json holds it
+    assert unshown(record, text) == []
+    assert f"Calibration record {record['id']}" in text
+    assert f'content:"Calibration record {record["id"]}"' in page  # the printed pages' margin
+    # the expired gauge stands out, with its override
+    row = re.search(r'<tr class="row-bad">(.*?)</tr>', page)
+    assert row and "12340000" in row.group(1) and "EXPIRED, used under override" in row.group(1)
+    assert f"expired-gauge y_x 12340000 2026-01-01 {OVERRIDE_REASON} {OPERATOR}" in text
+    assert not (out / "history.png").exists()  # no history given: no plot
+    assert "No earlier calibration of this machine was given" in text
+
+
+def test_the_history_is_plotted_and_listed(campaign_sessions, tmp_path):
+    from ogacq.cli.report_cmd import write_session_report
+
+    _, with_context = campaign_sessions
+    page = write_session_report(load_session(with_context), tmp_path, history=HISTORY)
+    record = json.loads((tmp_path / "record.json").read_text(encoding="utf-8"))
+    assert [h["id"] for h in record["history"]] == [h["id"] for h in HISTORY]
+    text = page_text(page.read_text(encoding="utf-8"))
+    assert unshown(record, text) == []
+    assert "-1.2391 ± 0.0041" in text and "-1.2417" in text
+    png = (tmp_path / "history.png").read_bytes()
+    assert png.startswith(b"\x89PNG") and len(png) > 10_000
+
+
+def test_a_history_entry_without_a_date_is_refused(campaign_sessions):
+    plain, _ = campaign_sessions
+    with pytest.raises(ValueError, match="history entry"):
+        build_record(load_session(plain), history=[{"id": "OGQ-x"}])

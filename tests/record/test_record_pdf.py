@@ -1,0 +1,51 @@
+"""``ogacq report --pdf``: the page printed by a headless Chromium (one start for this
+module, the command's own), and a clear exit 3 when there is no browser."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ogacq.cli.app import main
+from ogacq.report.printing import BROWSER_ENV
+from tests.cli.helpers import run_ogacq
+from tests.record.browser import need_chromium
+
+
+def test_report_pdf_prints_the_record(campaign_sessions, tmp_path):
+    from pypdf import PdfReader
+
+    need_chromium()
+    out = tmp_path / "out"
+    proc = run_ogacq("report", campaign_sessions[1], "--out", out, "--pdf")
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == [str(out / "report.html"), str(out / "report.pdf")]
+    record = json.loads((out / "record.json").read_text(encoding="utf-8"))
+    pages = PdfReader(out / "report.pdf").pages
+    assert len(pages) >= 2
+    for number, page in enumerate(pages, start=1):
+        text = " ".join(page.extract_text().split())
+        assert f"Calibration record {record['id']}" in text
+        assert f"page {number} of {len(pages)}" in text
+        assert float(page.mediabox.height) == pytest.approx(841.9, abs=1.0)  # A4
+    assert not list(out.glob(".*partial"))
+
+
+def test_without_a_browser_the_page_is_written_and_the_pdf_refused(campaign_sessions, tmp_path,
+                                                                  monkeypatch, capsys):
+    monkeypatch.setenv("PATH", str(tmp_path / "empty"))  # no browser on it
+    monkeypatch.delenv(BROWSER_ENV, raising=False)
+    out = tmp_path / "out"
+    assert main(["report", str(campaign_sessions[0]), "--out", str(out), "--pdf"]) == 3
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("ogacq: error: no Chromium found to print the PDF")
+    assert len(err.splitlines()) == 1 and "apt-get install chromium" in err
+    assert (out / "report.html").exists() and (out / "record.json").exists()
+    assert not (out / "report.pdf").exists()
+
+    monkeypatch.setenv(BROWSER_ENV, str(tmp_path / "no-such-browser"))
+    assert main(["report", str(campaign_sessions[0]), "--out", str(tmp_path / "b"),
+                 "--pdf"]) == 3
+    assert f"{BROWSER_ENV}={tmp_path / 'no-such-browser'} is not an executable" in \
+        capsys.readouterr().err
