@@ -87,9 +87,13 @@ def record_after(session_path: Path, option: str | None, action: str, *,
     messages) into ``location``, else the history the option, the environment or the
     session names; None when recording is switched off or failed (a warning then
     says how to add it later)."""
-    from ogacq.history.location import history_for_session
-    from ogacq.history.store import History
-
+    try:
+        from ogacq.history.location import history_for_session
+        from ogacq.history.store import History
+    except ImportError as exc:  # an install without SQLAlchemy: the session is kept all the same
+        log.warning("%s not recorded in the history: %s; add it later with `ogacq history add "
+                    "%s`", action, exc, session_path)
+        return None
     if location is None:
         try:
             location = history_for_session(option, session_path)
