@@ -42,7 +42,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
      "ogacq.file_templates", "ogacq.record", "ogacq.record.context"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
-    ("ogacq.campaign",),
+    ("ogacq.campaign", "ogacq.traceability"),
     ("ogacq.writeback", "ogacq.report"),
     ("ogacq.cli", "ogacq.__main__"),
 ]

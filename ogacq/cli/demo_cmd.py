@@ -3,6 +3,7 @@ identification, diagnosis and report -- in a new folder."""
 
 from __future__ import annotations
 
+import datetime
 import json
 import sys
 import time
@@ -12,16 +13,30 @@ from typing import Annotated
 import typer
 
 from ogacq.campaign import run_campaign
-from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
+from ogacq.campaign_file import (
+    Campaign,
+    GaugeSpec,
+    SimulatorSpec,
+    campaign_text,
+    read_campaign,
+)
 from ogacq.cli.campaign_cmds import execute, show_outcome
-from ogacq.cli.options import DEFAULT_SEED, ProfileChoice, seed_option
+from ogacq.cli.options import (
+    DEFAULT_SEED,
+    OverrideExpiredOption,
+    ProfileChoice,
+    override_reason,
+    seed_option,
+)
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.render import print_demo_diagnosis
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
-from ogacq.errors import InputError
+from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
+from ogacq.model.gauges import GAUGE_KEYS
+from ogacq.model.instrument import parse_moment
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
@@ -37,6 +52,25 @@ def default_demo_folder() -> Path:
     return RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
+# The simulated indicators' certificate: issued CERTIFICATE_AGE_DAYS before today, valid
+# a year, its U that of a 1 um digital indicator (k = 2). A --date past its due date
+# rehearses the expired-gauge refusal.
+CERTIFICATE_AGE_DAYS = 90
+CERTIFICATE_VALID_DAYS = 365
+SIMULATED_U_MM = 0.002
+
+
+def simulated_gauges(today: datetime.date) -> list[GaugeSpec]:
+    """The simulator's six indicators as instruments with a (simulated) certificate."""
+    calibrated = today - datetime.timedelta(days=CERTIFICATE_AGE_DAYS)
+    return [GaugeSpec(key, serial=f"sim-{key}", make="ogacq", model="simulated indicator",
+                      certificate=f"SIM-{calibrated:%Y%m%d}-{key} (simulated)",
+                      calibrated=calibrated,
+                      due=calibrated + datetime.timedelta(days=CERTIFICATE_VALID_DAYS),
+                      uncertainty_mm=SIMULATED_U_MM, uncertainty_k=2.0)
+            for key in GAUGE_KEYS]
+
+
 def demo(
     effects: Annotated[Path | None, typer.Option(
         help="TOML file of hidden effects the simulated machine has (see `ogacq sim`).")]
@@ -48,9 +82,19 @@ def demo(
     out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
                                              f"{DEMO_FOLDER_HELP}).")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
+    date: Annotated[str | None, typer.Option(
+        metavar="YYYY-MM-DD[THH:MM]",
+        help="Rehearse the campaign on this date (the simulated indicators' certificates "
+             "run a year from 90 days before today).")] = None,
+    ambient_c: Annotated[float, typer.Option(
+        "--ambient-c", min=-40.0, max=80.0,
+        help="The simulated shop's temperature, degC: the legs expand with it.")] = 20.0,
+    override_expired: OverrideExpiredOption = None,
 ) -> None:
     """A full calibration campaign against the built-in simulator: identify the hidden
     joint offsets through the real drivers and compare them with the truth."""
+    reason = override_reason(override_expired)
+    rehearsed = _date_option(date)
     folder = out or default_demo_folder()
     if folder.is_dir() and any(folder.iterdir()):
         raise InputError(folder, "exists and is not empty; choose another --out")
@@ -67,13 +111,24 @@ def demo(
     (folder / "campaign.toml").write_text(campaign_text(Campaign(
         folder / "campaign.toml", PAPER_PROTOTYPE_DIGITAL, machine_path,
         folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
+        gauges=simulated_gauges(datetime.date.today()),
         simulator=SimulatorSpec(seed=seed, effects=effects_path, speed=speed,
-                                profile=profile.value)),
+                                profile=profile.value, date=rehearsed,
+                                ambient_c=ambient_c),
+        override_expired=reason),
         comment="written by `ogacq demo`"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")
-    outcome = execute(lambda obs: run_campaign(campaign, observer=obs), campaign.session)
+    try:
+        outcome = execute(lambda obs: run_campaign(campaign, observer=obs), campaign.session)
+    except Refused:
+        # refused before anything started (an expired gauge): the folder is left as found
+        for name in ("machine.toml", "effects.toml", "campaign.toml"):
+            (folder / name).unlink(missing_ok=True)
+        if not any(folder.iterdir()):
+            folder.rmdir()
+        raise
     session = load_session(outcome.session_path)
     export_readings(session, folder / "readings.csv")
     (folder / "result.json").write_text(json.dumps(
@@ -88,6 +143,16 @@ def demo(
                          diagnosis=report_diagnosis(diagnosis, session))
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
+
+
+def _date_option(given: str | None) -> datetime.datetime | None:
+    if given is None:
+        return None
+    moment = parse_moment(given)
+    if moment is None:
+        raise typer.BadParameter(f"{given!r} is not a date (YYYY-MM-DD, or "
+                                 "YYYY-MM-DDTHH:MM)", param_hint="--date")
+    return moment
 
 
 def _read_effects(path: Path) -> str:

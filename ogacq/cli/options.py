@@ -18,6 +18,20 @@ OtherGeometryOption = Annotated[bool, typer.Option(
     "--other-geometry", help="Reanalyse a session with the --machine file even though it "
                              "differs from the machine the session was recorded with.")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+OverrideExpiredOption = Annotated[str | None, typer.Option(
+    "--override-expired", metavar="REASON",
+    help="Run although a gauge is past its calibration due date; the reason is recorded "
+         "in the session (otherwise such a campaign is refused before anything moves).")]
+
+
+def override_reason(given: str | None) -> str:
+    """The stated reason of --override-expired: a blank one is no reason."""
+    if given is None:
+        return ""
+    if not given.strip():
+        raise typer.BadParameter("give the reason (what makes the measurement valid all "
+                                 "the same)", param_hint="--override-expired")
+    return given.strip()
 
 
 # One default for every simulated machine (demo, sim, wizard): a rehearsal with the
