@@ -14,8 +14,9 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from ogacq.campaign_file import Campaign
+from ogacq.campaign_file import Campaign, GaugeSpec
 from ogacq.errors import Refused
+from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.instrument import Instrument
 from ogacq.session.records import EnvironmentRecord, OverrideRecord
 from ogacq.station import DeviceStation
@@ -75,13 +76,11 @@ def header_entries(campaign: Campaign, station_gauges: dict[str, Any]) -> dict[s
     """The session header's ``identity``, ``instruments`` and ``date``: every gauge
     the station reads, with the identity the campaign gives it (or its serial)."""
     machine = campaign.machine
-    given = {g.gauge: g for g in campaign.gauges}
+    given = {i.gauge: i for i in campaign.instruments(machine.gauge_resolution_mm)}
     instruments = []
     for key in dict.fromkeys([*station_gauges, *given]):
-        spec = given.get(key)
-        if spec is not None:
-            instrument = spec.instrument(machine.gauge_resolution_mm)
-        else:
+        instrument = given.get(key)
+        if instrument is None:  # only what the station knows of it
             serial = str(station_gauges.get(key, {}).get("serial") or "") or None
             instrument = Instrument(key, serial=serial,
                                     resolution_mm=machine.gauge_resolution_mm)
@@ -116,3 +115,22 @@ def read_environment(campaign: Campaign, station: DeviceStation, stage: str,
 
 def _rounded(value: float | None) -> float | None:
     return None if value is None else round(value, 3)
+
+
+# The simulated indicators' certificate: issued CERTIFICATE_AGE_DAYS before today, valid
+# a year, its U that of a 1 um digital indicator (k = 2). A --date past its due date
+# rehearses the expired-gauge refusal.
+CERTIFICATE_AGE_DAYS = 90
+CERTIFICATE_VALID_DAYS = 365
+SIMULATED_U_MM = 0.002
+
+
+def simulated_gauges(today: datetime.date) -> list[GaugeSpec]:
+    """The simulator's six indicators as instruments with a (simulated) certificate."""
+    calibrated = today - datetime.timedelta(days=CERTIFICATE_AGE_DAYS)
+    return [GaugeSpec(key, serial=f"sim-{key}", make="ogacq", model="simulated indicator",
+                      certificate=f"SIM-{calibrated:%Y%m%d}-{key} (simulated)",
+                      calibrated=calibrated,
+                      due=calibrated + datetime.timedelta(days=CERTIFICATE_VALID_DAYS),
+                      uncertainty_mm=SIMULATED_U_MM, uncertainty_k=2.0)
+            for key in GAUGE_KEYS]

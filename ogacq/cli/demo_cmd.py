@@ -13,13 +13,7 @@ from typing import Annotated
 import typer
 
 from ogacq.campaign import run_campaign
-from ogacq.campaign_file import (
-    Campaign,
-    GaugeSpec,
-    SimulatorSpec,
-    campaign_text,
-    read_campaign,
-)
+from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
 from ogacq.cli.options import (
     DEFAULT_SEED,
@@ -35,12 +29,12 @@ from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
-from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.instrument import parse_moment
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
+from ogacq.traceability import simulated_gauges
 
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
@@ -50,25 +44,6 @@ DEMO_FOLDER_HELP = "a new folder in ./ogacq-runs named demo-DATE-TIME"
 
 def default_demo_folder() -> Path:
     return RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
-
-
-# The simulated indicators' certificate: issued CERTIFICATE_AGE_DAYS before today, valid
-# a year, its U that of a 1 um digital indicator (k = 2). A --date past its due date
-# rehearses the expired-gauge refusal.
-CERTIFICATE_AGE_DAYS = 90
-CERTIFICATE_VALID_DAYS = 365
-SIMULATED_U_MM = 0.002
-
-
-def simulated_gauges(today: datetime.date) -> list[GaugeSpec]:
-    """The simulator's six indicators as instruments with a (simulated) certificate."""
-    calibrated = today - datetime.timedelta(days=CERTIFICATE_AGE_DAYS)
-    return [GaugeSpec(key, serial=f"sim-{key}", make="ogacq", model="simulated indicator",
-                      certificate=f"SIM-{calibrated:%Y%m%d}-{key} (simulated)",
-                      calibrated=calibrated,
-                      due=calibrated + datetime.timedelta(days=CERTIFICATE_VALID_DAYS),
-                      uncertainty_mm=SIMULATED_U_MM, uncertainty_k=2.0)
-            for key in GAUGE_KEYS]
 
 
 def demo(
