@@ -20,12 +20,21 @@ from ogacq.protocol.deadline import DeadlineStation, default_deadline_s
 from ogacq.protocol.plan import SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
-from ogacq.session.records import OperatorRecord, ResultRecord, StationRecord
+from ogacq.session.records import (
+    EnvironmentRecord,
+    OperatorRecord,
+    OverrideRecord,
+    ResultRecord,
+    StationRecord,
+)
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation, open_station
+from ogacq.traceability import check_instruments, header_entries, read_environment
 
 # Adapts the opened station for one run: gets the session writer.
 StationWrapper = Callable[[DeviceStation, SessionWriter], Station]
+# The temperatures at the end, asked of someone (the wizard asks the operator).
+EnvironmentAsker = Callable[[DeviceStation], EnvironmentRecord | None]
 
 
 @dataclass
@@ -63,17 +72,25 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                  set_gauges: GaugeSetter | None = None,
                  resume: LoadedSession | None = None, simulator=None,
                  wrap_station: StationWrapper | None = None,
-                 header_extra: dict[str, Any] | None = None) -> CampaignOutcome:
+                 header_extra: dict[str, Any] | None = None,
+                 environment_at_end: EnvironmentAsker | None = None) -> CampaignOutcome:
     """Run (or resume) a campaign; raises CampaignStopped when it cannot finish.
 
     ``simulator``: a running simulator to use instead of starting one;
     ``wrap_station``: adapts the opened station for this run (the wizard's pause
-    checkpoints and gauges read by eye); ``header_extra``: more session header.
+    checkpoints and gauges read by eye); ``header_extra``: more session header;
+    ``environment_at_end``: asks the temperatures at the end (default: the sensor or
+    the simulator the campaign names, if any).
     """
     # before the station opens: a session that cannot be written is found before homing
     check_writable(resume.path if resume is not None else campaign.session,
                    resuming=resume is not None)
+    # ... and a gauge past its due date before anything moves (Refused, unless overridden)
+    overrides = check_instruments(campaign, overridden=[
+        r.subject for r in resume.of_type(OverrideRecord)] if resume is not None else ())
     with open_station(campaign, simulator) as station:
+        started = resume is None or not resume.of_type(EnvironmentRecord)
+        environment = read_environment(campaign, station, "start") if started else None
         station.prepare()
         station.description["deadline_s"] = campaign.deadline_s or default_deadline_s(
             campaign.protocol, campaign.machine)
@@ -86,6 +103,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                       "machine_file": str(campaign.machine_path),
                       "campaign_file": str(campaign.path.resolve()),
                       "station": station.description, "plan": campaign.protocol.to_dict(),
+                      **header_entries(campaign, station.description["gauges"]),
                       **(header_extra or {})}
             if station.simulator is not None and campaign.simulator is not None:
                 header["simulator"] = campaign.simulator.header()
@@ -96,6 +114,9 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             writer.write(StationRecord(description=station.description))
             recorded = resume.recorded()
         with writer:
+            for record in (*overrides, environment):
+                if record is not None:
+                    writer.write(record)
             station.record_event = writer.write
             # inside the wizard's wrapper: its pauses are the operator's time, not the work's
             works = DeadlineStation(station, station.description["deadline_s"])
@@ -104,6 +125,10 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges)
             runner.run()
+            at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))
+            ended = at_end(station)
+            if ended is not None:
+                writer.write(ended)
             session = load_session(writer.path)
             result = identify_session(session)
             writer.write(ResultRecord(params="offsets", refit=result.to_json("offsets"),

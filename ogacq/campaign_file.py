@@ -75,7 +75,7 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
 from __future__ import annotations
 
 import datetime
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -252,6 +252,8 @@ class Campaign:
     operator: str = ""
     environment: EnvironmentSpec | None = None
     override_expired: str = ""  # the reason to run with a gauge past its due date
+    # gauges identified without a [[gauges]] entry (the wizard's, read by eye)
+    extra_instruments: list[Instrument] = field(default_factory=list)
 
     def campaign_date(self) -> datetime.datetime:
         """The campaign's date: the simulator's rehearsed one, or now (local time)."""
@@ -260,8 +262,10 @@ class Campaign:
         return datetime.datetime.now().replace(microsecond=0)
 
     def instruments(self, resolution_mm: float | None = None) -> list[Instrument]:
-        """The [[gauges]] entries as instruments, in the file's order."""
-        return [g.instrument(resolution_mm) for g in self.gauges]
+        """The [[gauges]] entries as instruments, in the file's order, then the
+        instruments identified otherwise."""
+        return [g.instrument(resolution_mm) for g in self.gauges] + [
+            replace(i, resolution_mm=resolution_mm) for i in self.extra_instruments]
 
     @property
     def moved_indicators(self) -> dict[str, list[str]]:

@@ -4,6 +4,7 @@ loads back (``ogacq init``; the copies in ``ogacq/examples/`` are these texts)."
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, campaign_text
@@ -24,7 +25,18 @@ rho_min_mm, rho_max_mm  the joint (actuator) travel used by the postures min and
                         from the zero posture; rho_min_mm < 0 < rho_max_mm
 gauge_resolution_mm     the step the gauges display (0.01 dial, 0.001 digital)
 gauge_repeatability_mm  optional: the gauges' scatter when it is known; left out,
-                        it is measured from the repeated readings"""
+                        it is measured from the repeated readings
+Optional, shown commented at the end: the machine's name (default: this file's name)
+and serial number, its legs' expansion coefficient (steel 11.5 ppm/K when left out)
+and the tolerances the deviations are accepted against."""
+
+MACHINE_FOOTER = """name = "OG-1 cell 3"              # recorded in every session and report
+serial = "OG-2026-0017"
+leg_expansion_ppm_per_k = 11.5    # the legs' linear expansion, 1e-6 /K (steel 11.5)
+[tolerances]                      # acceptance of the deviations dx_y+ ... dy_z-
+deviation_mm = 0.020              # every deviation within +/- this
+"dx_y+" = 0.015                   # a deviation's own tolerance
+decision_rule = "guard-band"      # ILAC-G8: guard-band (pass within T - U) or simple"""
 
 CAMPAIGN_HEADER = f"""\
 A campaign file: the machine, the station (controller and six gauges) and the
@@ -35,7 +47,16 @@ machine file it names with `ogacq init machine`.
 
 deadline_s, [controller] baudrate (RTU), [controller.axes] (one endpoint per axis),
 offsets_file (profiles without an offset register), [[gauges]] channel, serial and
-baudrate, and a [simulator] table (instead of hardware) may be added."""
+baudrate, and a [simulator] table (instead of hardware) may be added.
+
+Traceability (recorded in the session; format: docs/formats.md):
+operator = "J. Martin"           who runs the calibration
+[[gauges]] make, model, serial, certificate, calibrated = 2026-03-01, due = 2027-03-01,
+           uncertainty_mm (the certificate's U), uncertainty_k (its k): a gauge past
+           its due date is refused before anything moves, unless
+[override] expired_gauges = "the reason" (recorded)
+[environment] ambient_c = 20.4, machine_c = 21.0 (typed, degC), or
+              sensor = "controller" (the profile's temperature registers)"""
 
 CAMPAIGN_NOTES = {
     "controller": "profile: cia402, iai-pcon, mr-je-c, kinco-fd or a profile file;\n"
@@ -53,7 +74,9 @@ TEMPLATE_CONTROLLER = ControllerSpec(profile="cia402", port="192.168.0.10:502")
 
 
 def machine_template() -> str:
-    return machine_text(PAPER_PROTOTYPE, MACHINE_HEADER)
+    # nameless: a machine file is named after itself unless it says otherwise
+    return machine_text(replace(PAPER_PROTOTYPE, name=""), MACHINE_HEADER,
+                        footer=MACHINE_FOOTER)
 
 
 def campaign_template(path: Path, machine_path: Path) -> str:

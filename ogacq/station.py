@@ -173,7 +173,10 @@ def start_simulator(machine: MachineSpec, sim: SimulatorSpec, *, modbus_port: in
         truth = read_effects(sim.effects, truth)
     if sim.noise_mm is not None:
         truth.noise_mm = sim.noise_mm
+    # the shop's temperature is physics: the legs are longer when it is warm
+    truth = truth.at_temperature(machine, sim.ambient_c)
     return SimulatorStack(SimulatorConfig(machine, truth, profile=sim.profile,
+                                          ambient_c=sim.ambient_c,
                                           speed=sim.speed, seed=sim.seed,
                                           gauge_layout=sim.gauge_layout,
                                           gauge_protocol=sim.gauge_protocol,

@@ -43,7 +43,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
      "ogacq.file_templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
-    ("ogacq.campaign",),
+    ("ogacq.campaign", "ogacq.traceability"),
     ("ogacq.writeback", "ogacq.report"),
     ("ogacq.record.document",),  # the record: the campaign, its write-backs, its report data
     ("ogacq.cli", "ogacq.__main__"),

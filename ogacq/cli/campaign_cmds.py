@@ -14,7 +14,7 @@ from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
 from ogacq.campaign_file import read_campaign
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.leg_prompt import operator_for
-from ogacq.cli.options import HistoryOption, JsonOption
+from ogacq.cli.options import HistoryOption, JsonOption, OverrideExpiredOption, override_reason
 from ogacq.cli.render import campaign_progress, print_outcome
 from ogacq.protocol.runner import CampaignStopped, Observer
 from ogacq.session.store import load_session
@@ -24,10 +24,14 @@ def run(
     campaign_file: Annotated[Path, typer.Argument(help="Campaign file (TOML).")],
     as_json: JsonOption = False,
     history: HistoryOption = None,
+    override_expired: OverrideExpiredOption = None,
 ) -> None:
     """Run a scripted campaign: no operator when the six gauges are mounted, or one
     asked to set them at each leg when indicators move from leg to leg."""
+    reason = override_reason(override_expired)
     campaign = read_campaign(campaign_file)
+    if reason:
+        campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     outcome = execute(lambda obs: run_campaign(
         campaign, observer=obs, set_gauges=operator_for(campaign, obs)), campaign.session,
@@ -40,10 +44,14 @@ def resume(
     session: Annotated[Path, typer.Argument(help="Session file of an interrupted campaign.")],
     as_json: JsonOption = False,
     history: HistoryOption = None,
+    override_expired: OverrideExpiredOption = None,
 ) -> None:
     """Continue an interrupted campaign where it stopped."""
+    reason = override_reason(override_expired)
     loaded = load_session(session)
     campaign = resumable_campaign(loaded)
+    if reason:
+        campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     outcome = execute(lambda obs: run_campaign(
         campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),

@@ -3,6 +3,7 @@ identification, diagnosis and report -- in a new folder."""
 
 from __future__ import annotations
 
+import datetime
 import json
 import sys
 import time
@@ -15,18 +16,27 @@ from ogacq.campaign import run_campaign
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
 from ogacq.cli.history_record import record_campaign
-from ogacq.cli.options import DEFAULT_SEED, HistoryOption, ProfileChoice, seed_option
+from ogacq.cli.options import (
+    DEFAULT_SEED,
+    HistoryOption,
+    OverrideExpiredOption,
+    ProfileChoice,
+    override_reason,
+    seed_option,
+)
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.render import print_demo_diagnosis
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
-from ogacq.errors import InputError
+from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
+from ogacq.model.instrument import parse_moment
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
+from ogacq.traceability import simulated_gauges
 
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
@@ -50,9 +60,19 @@ def demo(
                                              f"{DEMO_FOLDER_HELP}).")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
     history: HistoryOption = None,
+    date: Annotated[str | None, typer.Option(
+        metavar="YYYY-MM-DD[THH:MM]",
+        help="Rehearse the campaign on this date (the simulated indicators' certificates "
+             "run a year from 90 days before today).")] = None,
+    ambient_c: Annotated[float, typer.Option(
+        "--ambient-c", min=-40.0, max=80.0,
+        help="The simulated shop's temperature, degC: the legs expand with it.")] = 20.0,
+    override_expired: OverrideExpiredOption = None,
 ) -> None:
     """A full calibration campaign against the built-in simulator: identify the hidden
     joint offsets through the real drivers and compare them with the truth."""
+    reason = override_reason(override_expired)
+    rehearsed = _date_option(date)
     folder = out or default_demo_folder()
     if folder.is_dir() and any(folder.iterdir()):
         raise InputError(folder, "exists and is not empty; choose another --out")
@@ -69,13 +89,24 @@ def demo(
     (folder / "campaign.toml").write_text(campaign_text(Campaign(
         folder / "campaign.toml", PAPER_PROTOTYPE_DIGITAL, machine_path,
         folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
+        gauges=simulated_gauges(datetime.date.today()),
         simulator=SimulatorSpec(seed=seed, effects=effects_path, speed=speed,
-                                profile=profile.value)),
+                                profile=profile.value, date=rehearsed,
+                                ambient_c=ambient_c),
+        override_expired=reason),
         comment="written by `ogacq demo`"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")
-    outcome = execute(lambda obs: run_campaign(campaign, observer=obs), campaign.session)
+    try:
+        outcome = execute(lambda obs: run_campaign(campaign, observer=obs), campaign.session)
+    except Refused:
+        # refused before anything started (an expired gauge): the folder is left as found
+        for name in ("machine.toml", "effects.toml", "campaign.toml"):
+            (folder / name).unlink(missing_ok=True)
+        if not any(folder.iterdir()):
+            folder.rmdir()
+        raise
     session = load_session(outcome.session_path)
     export_readings(session, folder / "readings.csv")
     (folder / "result.json").write_text(json.dumps(
@@ -91,6 +122,16 @@ def demo(
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
     record_campaign(outcome.session_path, history, say=typer.echo)
+
+
+def _date_option(given: str | None) -> datetime.datetime | None:
+    if given is None:
+        return None
+    moment = parse_moment(given)
+    if moment is None:
+        raise typer.BadParameter(f"{given!r} is not a date (YYYY-MM-DD, or "
+                                 "YYYY-MM-DDTHH:MM)", param_hint="--date")
+    return moment
 
 
 def _read_effects(path: Path) -> str:

@@ -24,6 +24,20 @@ HistoryOption = Annotated[str | None, typer.Option(
     help="Record into this history: an SQLite file or a PostgreSQL URL "
          "(default: $OGACQ_HISTORY, else history.sqlite beside the session; none: record "
          "nothing).")]
+OverrideExpiredOption = Annotated[str | None, typer.Option(
+    "--override-expired", metavar="REASON",
+    help="Run although a gauge is past its calibration due date; the reason is recorded "
+         "in the session (otherwise such a campaign is refused before anything moves).")]
+
+
+def override_reason(given: str | None) -> str:
+    """The stated reason of --override-expired: a blank one is no reason."""
+    if given is None:
+        return ""
+    if not given.strip():
+        raise typer.BadParameter("give the reason (what makes the measurement valid all "
+                                 "the same)", param_hint="--override-expired")
+    return given.strip()
 
 
 # One default for every simulated machine (demo, sim, wizard): a rehearsal with the

@@ -243,9 +243,18 @@ def provenance(session: LoadedSession) -> Provenance:
         simulated=bool(station.get("simulated")) or simulator is not None,
         simulator=simulator, plan=h.get("plan") if isinstance(h.get("plan"), dict) else None,
         resumes=resumes, campaign_time_s=max(times) if times else None,
-        other=tuple((key.replace("_", " "), _describe(value) if isinstance(value, dict)
-                     else str(value)) for key, value in h.items()
+        other=tuple((key.replace("_", " "), _describe_value(value)) for key, value in h.items()
                     if key not in KNOWN_HEADER and value not in (None, "", [], {})))
+
+
+def _describe_value(value: object) -> str:
+    """A header value in words: a table as ``key value``, a list of tables (the
+    instruments) one after the other."""
+    if isinstance(value, dict):
+        return _describe(value)
+    if isinstance(value, list):
+        return "; ".join(_describe_value(item) for item in value)
+    return str(value)
 
 
 KNOWN_HEADER = frozenset({"type", "format", "software", "created", "machine", "machine_file",

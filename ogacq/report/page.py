@@ -81,14 +81,17 @@ def _offsets_inline(fit: FitSummary) -> list[tuple[str, str]]:
 MACHINE_WORDS = {"leg_length_mm": ("leg length", "mm"), "rho_min_mm": ("Min posture", "mm"),
                  "rho_max_mm": ("Max posture", "mm"),
                  "gauge_resolution_mm": ("gauge resolution", "mm"),
-                 "gauge_repeatability_mm": ("gauge repeatability", "mm")}
+                 "gauge_repeatability_mm": ("gauge repeatability", "mm"),
+                 "leg_expansion_ppm_per_k": ("legs' expansion", "ppm/K")}
 
 
 def machine_words(machine: dict) -> str:
     """``leg length 310.25 mm, Min posture -100.0 mm, ...``; unknown keys as they are."""
     parts = []
     for key, value in machine.items():
-        words, unit = MACHINE_WORDS.get(key, (key, ""))
+        words, unit = MACHINE_WORDS.get(key, (key.replace("_", " "), ""))
+        if isinstance(value, dict):  # the tolerances, in words too
+            value = "(" + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in value.items()) + ")"
         parts.append(f"{words} {value}{' ' + unit if unit else ''}")
     return ", ".join(parts) or "not recorded"
 

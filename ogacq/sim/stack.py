@@ -44,7 +44,9 @@ class SimulatorConfig:
     # The Modbus TCP port (0: any free one); drives served one per endpoint take it
     # and the ports that follow, one per axis.
     modbus_port: int = 0
-
+    # the shop's temperature, degC: what the controller's temperature registers show
+    # (the truth's legs are already expanded to it, see SimTruth.at_temperature)
+    ambient_c: float = 20.0
 
 
 # Gauges that push their values (U-WAVE's DATA button, the keyboard cable's switch):
@@ -82,11 +84,12 @@ class SimulatorStack:
         self.machine = SimMachine(m, config.truth, self.motion, self.clock, seed=config.seed)
         profile = load_profile(config.profile)
         if len(set(profile.device_ids.values())) == len(profile.device_ids):
-            self.servers = [ModbusSimServer(profile, self.motion, port=config.modbus_port)]
+            self.servers = [ModbusSimServer(profile, self.motion, port=config.modbus_port,
+                                            temperatures_c=self.temperatures_c)]
         else:  # one drive per address (MR-JE-C: unit 255 each): one endpoint per axis
             self.servers = [ModbusSimServer(profile, self.motion, axes=[a],
                                             port=config.modbus_port + k if config.modbus_port
-                                            else 0)
+                                            else 0, temperatures_c=self.temperatures_c)
                             for k, a in enumerate(profile.device_ids)]
         self.server = self.servers[0]
         self.gauges: dict[str, GaugeEndpoint] = {}
@@ -145,6 +148,15 @@ class SimulatorStack:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+    @property
+    def ambient_c(self) -> float:
+        return self.config.ambient_c
+
+    def temperatures_c(self) -> dict[str, float]:
+        """What a thermometer in the simulated shop and one on the machine read: the
+        machine has settled to the ambient."""
+        return {"ambient": self.config.ambient_c, "machine": self.config.ambient_c}
 
     @property
     def moves_indicators(self) -> bool:

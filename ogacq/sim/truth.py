@@ -24,6 +24,7 @@ import numpy as np
 
 from ogacq_drivers.config_schema import Field, MapOf, Table, number
 from ogacq.io.toml_file import load_toml
+from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, EFFECTS, PARAM_INDEX, vector
 
 
@@ -44,6 +45,15 @@ class SimTruth:
         from ogacq.model.parameters import non_nominal
 
         return non_nominal(self.theta)
+
+    def at_temperature(self, machine: MachineSpec, temperature_c: float) -> SimTruth:
+        """This truth with the legs at ``temperature_c``: each leg alpha L (T - 20 degC)
+        longer than at the reference temperature (ISO 1), on top of any leg-length
+        error the effects give; alpha from the machine file (steel when not given)."""
+        theta = self.theta.copy()
+        for axis in AXES:
+            theta[PARAM_INDEX[f"leg_length.{axis}"]] += machine.leg_expansion_mm(temperature_c)
+        return SimTruth(theta, self.noise_mm, dict(self.lead_screw))
 
     def disturbed_q(self, q_mm: np.ndarray) -> np.ndarray:
         """Joint coordinates as the physics sees them: the lead-screw error added."""

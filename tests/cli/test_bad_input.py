@@ -24,7 +24,8 @@ MISSING = "missing.toml"  # in the test's folder, never created
 # of the test's folder (see `folder`), "/proc" refuses new files even to root.
 BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
     "run": [([MISSING], 2, MISSING),
-            (["machine.toml"], 2, "machine.toml")],
+            (["machine.toml"], 2, "machine.toml"),
+            (["machine.toml", "--override-expired", " "], 2, "--override-expired")],
     "resume": [(["missing.jsonl"], 2, "missing.jsonl"),
                (["deviations.csv"], 2, "deviations.csv"),
                (["deviations.csv"], 2, "not an ogacq session (line 1 is not a JSON record)")],
@@ -33,7 +34,10 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
              (["--speed", "0", "--out", "demo"], 2, "--speed"),
              (["--effects", MISSING, "--out", "demo"], 2, MISSING),
              (["--out", "machine.toml"], 2, "not a folder"),
-             (["--out", "/proc/nope"], 2, "/proc/nope")],
+             (["--out", "/proc/nope"], 2, "/proc/nope"),
+             (["--date", "10/01/2026", "--out", "demo"], 2, "--date"),
+             (["--ambient-c", "120", "--out", "demo"], 2, "--ambient-c"),
+             (["--override-expired", "", "--out", "demo"], 2, "--override-expired")],
     "diagnose": [(["missing.csv", "-m", "machine.toml"], 2, "missing.csv"),
                  (["machine.toml", "-m", "machine.toml"], 2, "machine.toml"),
                  (["deviations.csv", "-m", "broken.toml"], 2, "broken.toml")],

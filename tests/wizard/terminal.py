@@ -23,7 +23,9 @@ class Wizard:
         self.folder = folder
         self.session = folder / "session.jsonl"
         self.indicators_given = "--indicators" in args  # then never asked
-        env = {**os.environ, "TERM": "xterm-256color", "COLUMNS": "120", "LINES": "50"}
+        env = {**os.environ, "TERM": "xterm-256color", "COLUMNS": "120", "LINES": "50",
+               # the inventory of gauges met before: the test's own
+               "OGACQ_HOME": str(folder.parent / "ogacq-home")}
         env.pop("NO_COLOR", None)
         start = ["--resume", str(resume)] if resume else \
             ["--simulator", *FAST, "--out", str(folder)]
@@ -79,7 +81,20 @@ class Wizard:
                 self.answer(rf"Indicator {number} \(along")
                 self.expect(rf"indicator {number} reads [0-9.]+ mm")
         self.answer(r"Is this the machine you are calibrating\?")
+        self.identify_with_defaults(6 if by_eye else indicators)
         self.answer(r"Start\?")
+
+    def identify_with_defaults(self, indicators: int) -> None:
+        """Who and what, each answer the offered one (the rehearsal's gauges are known)."""
+        self.answer(r"Machine name")
+        self.answer(r"Machine serial number")
+        self.answer(r"Operator \(your name\)")
+        self.answer(r"Ambient temperature now, °C")
+        for _ in range(indicators):
+            self.answer(r"Serial number of ")
+
+    def end_temperature(self, value: str = "") -> None:
+        self.answer(r"Ambient temperature now, at the end, °C", value)
 
     def type_what_is_shown(self, prompt: str) -> float:
         """Rehearsal by eye: type the value the simulated gauge shows."""

@@ -11,6 +11,7 @@ import sys
 import pytest
 
 from ogacq.campaign_file import read_campaign
+from ogacq.record.context import calibration_context
 from ogacq.session.records import EndRecord, FaultRecord, OperatorRecord
 from ogacq.session.store import load_session
 from tests.wizard.terminal import SHOWN, Wizard
@@ -40,6 +41,7 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     for leg in "xyz":
         w.set_gauges(leg)
         w.expect(rf"{leg} leg measured: 24 readings")
+    w.end_temperature("21,5")
     w.expect(r"Joint offsets identified from 72 readings")
     for joint in "xyz":
         w.expect(rf"{joint}\s+│\s+[+-]\d+\.\d+ mm\s+│\s+0\.\d+ mm\s+│\s+[+-]\d+\.\d+ mm")
@@ -58,6 +60,14 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     assert [r.details["leg"] for r in checked] == ["x", "y", "z"]
     truth = session.header["simulator"]
     assert truth["seed"] == 3
+    # who, what and at what temperature, as answered (the offered values)
+    context = calibration_context(session)
+    assert context.machine_name == "Orthoglide prototype" and context.machine_serial is None
+    assert context.instrument("y_x").serial == "sim-y_x"
+    assert context.instrument("y_x").due is not None and not context.expired(
+        context.instrument("y_x"))
+    assert (context.environment.start.ambient_c, context.environment.end.ambient_c) == (
+        20.0, 21.5)
     # the campaign file beside the session gives back the same plan (ogacq resume needs it)
     campaign = read_campaign(tmp_path / "run" / "campaign.toml")
     assert campaign.protocol.to_dict() == session.header["plan"]
@@ -72,6 +82,7 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
     for leg in "xyz":
         w.set_gauges(leg)
         w.expect(rf"{leg} leg measured: 24 readings")
+    w.end_temperature()
     w.expect(r"Joint offsets identified from 72 readings")
     told = re.findall(r"Gauge ([xyz]_[xyz]) is the indicator on /dev/\S+: it goes from leg",
                       "".join(w.transcript))
@@ -108,6 +119,7 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
     w.expect(r"x leg measured: 8 readings")
     for leg in "yz":
         w.set_gauges(leg)
+    w.end_temperature()
     w.expect(r"Joint offsets identified from 24 readings")
     w.answer(r"Write these offsets", "n")
     assert w.finish() == 0
@@ -173,6 +185,7 @@ def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path
                 assert low <= float(shown) <= high
                 continue
             assert low <= w.type_what_is_shown(r"reads \(mm\)") <= high
+    w.end_temperature()
     w.expect(r"Joint offsets identified from 24 readings")
     w.expect(r"identifiable: every offset is determined")
     w.answer(r"Write these offsets", "n")
@@ -217,6 +230,7 @@ def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path,
             again.type_what_is_shown(r"what does it show now \(mm\)\?")
         for _ in range(8):
             again.type_what_is_shown(r"reads \(mm\)")
+    again.end_temperature()
     again.expect(r"Joint offsets identified from 24 readings")
     again.answer(r"Write these offsets", "n")
     assert again.finish() == 0
@@ -249,6 +263,7 @@ def test_rtu_rehearsal_edges_then_not_started_leaves_no_folder(tmp_path, wizards
         w.answer(rf"Gauge {gauge} \(on the")
         w.expect(rf"{gauge} reads [0-9.]+ mm")
     w.answer(r"Is this the machine you are calibrating\?")
+    w.identify_with_defaults(6)
     w.expect(r"72 readings, taken automatically")
     w.answer(r"Start\?", "n")
     w.expect(r"Start again with: ogacq wizard --simulator --indicators 6 --out ")
@@ -267,3 +282,53 @@ def test_quit_at_the_first_question_names_the_rehearsal_command(tmp_path, wizard
     w.expect(r"Nothing was measured. Start again with: ogacq wizard --simulator --out ")
     assert w.finish() == 130
     assert not folder.exists()
+
+
+def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizards):
+    """A gauge typed in for the first time with a certificate already past due: the
+    wizard says so before anything moves; the reason given is recorded and the gauge
+    is remembered in the inventory."""
+    w = start(wizards, tmp_path / "run", "--cycles", "1", "--indicators", "6")
+    w.answer(r"Register map of the controller")
+    w.answer(r"Controller port")
+    w.answer(r"How are the gauges read\?")
+    for gauge in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"):
+        w.answer(rf"Gauge {gauge} \(on the")
+    w.answer(r"Is this the machine you are calibrating\?")
+    w.answer(r"Machine name", "OG-1 cell 3")
+    w.answer(r"Machine serial number", "OG-2026-0017")
+    w.answer(r"Operator \(your name\)", "J. Martin")
+    w.answer(r"Ambient temperature now, °C", "22,5")
+    w.answer(r"Serial number of gauge y_x", "12345678")
+    w.expect(r"12345678 is new")
+    for prompt, text in ((r"Make", "Mitutoyo"), (r"Model", "543-790B"),
+                         (r"certificate number", "DKD-K-12345"),
+                         (r"Calibrated on", "2024-01-10"), (r"Calibration due", "2024/12"),
+                         (r"Calibration due", "2025-01-10"),
+                         (r"expanded uncertainty U", "0.0015"), (r"coverage factor k", "")):
+        w.answer(prompt, text)
+    for _ in range(5):
+        w.answer(r"Serial number of gauge")
+    w.expect(r"Gauge y_x \(serial 12345678, due 2025-01-10\) is past the due date")
+    w.answer(r"What now\?", "o")
+    w.answer(r"Why measure with a gauge past its due date\?", "compared with gauge blocks")
+    w.answer(r"Start\?")
+    for leg in "xyz":
+        w.set_gauges(leg)
+    w.end_temperature("23")
+    w.answer(r"Write these offsets", "n")
+    assert w.finish() == 0
+    session = load_session(w.session)
+    context = calibration_context(session)
+    assert (context.machine_name, context.machine_serial, context.operator) == (
+        "OG-1 cell 3", "OG-2026-0017", "J. Martin")
+    y_x = context.instrument("y_x")
+    assert (y_x.make, y_x.certificate, y_x.uncertainty_mm, y_x.uncertainty_k) == (
+        "Mitutoyo", "DKD-K-12345", 0.0015, 2.0)
+    assert [(o.subject, o.reason, o.operator) for o in context.overrides] == [
+        ("y_x 12345678", "compared with gauge blocks", "J. Martin")]
+    assert (context.environment.start.ambient_c, context.environment.end.ambient_c) == (
+        22.5, 23.0)
+    inventory = (tmp_path / "ogacq-home" / "instruments.toml").read_text()
+    assert 'serial = "12345678"' in inventory and "due = 2025-01-10" in inventory
+    assert 'operator = "J. Martin"' in inventory

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.campaign import CampaignOutcome, StationWrapper, run_campaign
+from ogacq.campaign import CampaignOutcome, EnvironmentAsker, StationWrapper, run_campaign
 from ogacq.campaign_file import (
     Campaign,
     ControllerSpec,
@@ -65,14 +65,15 @@ def start_rehearsal(campaign: Campaign, spec: SimulatorSpec) -> Rehearsal:
 def run_guided(campaign: Campaign, *, wrap: StationWrapper, observer: Observer,
                set_gauges: GaugeSetter, resume: LoadedSession | None,
                wizard_header: dict[str, Any], rehearsal: Rehearsal | None,
-               ) -> CampaignOutcome:
+               environment_at_end: EnvironmentAsker | None = None) -> CampaignOutcome:
     """``run_campaign`` with the opened station wrapped and, for a rehearsal, on the
     simulator the wizard already started."""
     if rehearsal is not None:
         campaign.simulator = rehearsal.spec  # recorded in the header as [simulator] is
     return run_campaign(campaign, observer=observer, set_gauges=set_gauges, resume=resume,
                         simulator=rehearsal.stack if rehearsal is not None else None,
-                        wrap_station=wrap, header_extra={"wizard": wizard_header})
+                        wrap_station=wrap, header_extra={"wizard": wizard_header},
+                        environment_at_end=environment_at_end)
 
 
 # ---------------------------------------------------------------- the campaign file

@@ -9,10 +9,11 @@ reading that gauge by eye, or quit.
 from __future__ import annotations
 
 import contextlib
+import datetime
 import re
 import time
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -21,7 +22,14 @@ from rich.markup import escape
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
-from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.campaign_file import (
+    AxisEndpoint,
+    Campaign,
+    ControllerSpec,
+    EnvironmentSpec,
+    GaugeSpec,
+    SimulatorSpec,
+)
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import DEFAULT_SEED
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
@@ -31,6 +39,7 @@ from ogacq.cli.wizard.connect import (
     connect_instruments,
     describe_gauge,
     detect_ports,
+    gauges_of,
     test_read,
 )
 from ogacq.cli.wizard.execution import (
@@ -44,9 +53,11 @@ from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.faults import FaultInjector, FaultPlan
 from ogacq.cli.wizard.gauge_setting import LegSetter, RunHandles
 from ogacq.cli.wizard.guided_station import GuidedStation
+from ogacq.cli.wizard.inventory import KnownGauge, load_inventory, unreadable_inventory
 from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_writeback, show_result
+from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
@@ -60,9 +71,16 @@ from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped, GaugeValue
 from ogacq.session.convert import session_machine
-from ogacq.session.records import FaultRecord, OperatorRecord, ReadingRecord, StationRecord
+from ogacq.session.records import (
+    EnvironmentRecord,
+    FaultRecord,
+    OperatorRecord,
+    ReadingRecord,
+    StationRecord,
+)
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation
+from ogacq.traceability import simulated_gauges
 
 EXIT_DONE = 0
 EXIT_QUIT = 130
@@ -119,6 +137,7 @@ class _Wizard:
         self.resumable_by_ogacq = False  # the campaign file alone continues the session
         self.campaign: Campaign | None = None
         self.folder: NewFolder | None = None  # a new campaign's, until it holds a session
+        self.questions: TraceabilityQuestions | None = None
 
     # ====================================================================== top level
     def run(self) -> int:
@@ -197,6 +216,10 @@ class _Wizard:
         campaign = Campaign(folder / "campaign.toml", machine, machine_path,
                             folder / "session.jsonl", protocol, choice.controller,
                             list(choice.gauges.values()))
+        trace = pausable(s, "while recording who and what", lambda: self._questions().ask(
+            machine, _indicators(choice, protocol.legs, rehearsal=self.rehearsal is not None),
+            datetime.date.today()))
+        _apply(campaign, trace, choice.by_eye)
         self.session_path = campaign.session
         readings = sum(len(step.gauges) for step in reading_steps(protocol, machine))
         postures = " → ".join(p.title() if isinstance(p, str) else f"{p:g} mm"
@@ -258,6 +281,37 @@ class _Wizard:
         return self._measure(campaign, session, wizard)
 
     # ====================================================================== helpers
+    def _questions(self) -> TraceabilityQuestions:
+        """The traceability questions, with the inventory of gauges met before (a
+        rehearsal's simulated gauges known too)."""
+        if self.questions is None:
+            try:
+                inventory = load_inventory()
+            except InputError as exc:
+                self.screen.problem(f"{exc} (the gauges met before are not offered; the "
+                                    "file is left as it is)")
+                inventory = unreadable_inventory()
+            known, hint = [], None
+            if self.rehearsal is not None:
+                known = [KnownGauge(**g.identity())
+                         for g in simulated_gauges(datetime.date.today())]
+                hint = self.rehearsal.stack.ambient_c
+            self.questions = TraceabilityQuestions(self.screen, inventory, known=known,
+                                                   ambient_hint_c=hint)
+        return self.questions
+
+    def _end_temperature(self, station: DeviceStation) -> EnvironmentRecord | None:
+        """Asked once the last reading is taken, before the result."""
+        with self.gate.immediate():
+            try:
+                value = self._questions().ask_temperature(
+                    "Ambient temperature now, at the end, °C (Enter: not measured)")
+            except InputClosed:
+                return None
+        if value is None:
+            return None
+        return EnvironmentRecord(stage="end", ambient_c=value, machine_c=None, source="typed")
+
     def _start_rehearsal(self, cleanup: contextlib.ExitStack, campaign: Campaign,
                          spec: SimulatorSpec) -> None:
         self.rehearsal = start_rehearsal(campaign, spec)
@@ -448,7 +502,8 @@ class _Wizard:
                 with self.gate.deferred():
                     return run_guided(campaign, wrap=wrap, observer=self._observer(display),
                                       set_gauges=self._asking(setter), resume=session,
-                                      wizard_header=wizard_header, rehearsal=self.rehearsal)
+                                      wizard_header=wizard_header, rehearsal=self.rehearsal,
+                                      environment_at_end=self._end_temperature)
             except OperatorQuit:
                 raise
             except CampaignStopped as stop:
@@ -588,6 +643,39 @@ class _Wizard:
         if opts.out is not None:
             words.append(f"--out {opts.out}")
         return " ".join(words)
+
+
+def _indicators(choice: StationChoice, legs: Sequence[str], *, rehearsal: bool = False,
+                ) -> list[Indicator]:
+    """The physical gauges to identify: one per link (an indicator moved from leg to
+    leg serves three gauges), and each dial gauge read by eye. A rehearsal's are the
+    simulator's (serial sim-GAUGE)."""
+    by_link: dict[tuple[str, str | None], list[GaugeSpec]] = {}
+    for spec in choice.gauges.values():
+        by_link.setdefault((spec.port, spec.channel), []).append(spec)
+    out = []
+    for (port, channel), specs in by_link.items():
+        where = port + (f" channel {channel}" if channel else "")
+        keys = tuple(g.gauge for g in specs)
+        label = (f"gauge {keys[0]} ({where})" if len(keys) == 1
+                 else f"the indicator on {where} (gauges {', '.join(keys)})")
+        out.append(Indicator(label, keys, specs[0].serial
+                             or (f"sim-{keys[0]}" if rehearsal else "")))
+    out += [Indicator(f"dial gauge {key}", (key,))
+            for key in gauges_of(legs) if key in choice.by_eye]
+    return out
+
+
+def _apply(campaign: Campaign, trace: Traceability, by_eye: set[str]) -> None:
+    """The answers, into the campaign: the session header and the gate read them."""
+    campaign.machine = trace.machine
+    campaign.operator = trace.operator
+    if trace.ambient_start_c is not None:
+        campaign.environment = EnvironmentSpec(ambient_c=trace.ambient_start_c)
+    campaign.gauges = [replace(g, **trace.identities.get(g.gauge, {}))
+                       for g in campaign.gauges]
+    campaign.extra_instruments = [i for i in trace.instruments() if i.gauge in by_eye]
+    campaign.override_expired = trace.override_expired
 
 
 def _how_read(campaign: Campaign, by_eye: set[str]) -> str:

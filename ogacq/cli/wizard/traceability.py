@@ -1,0 +1,216 @@
+"""The wizard's traceability questions: who calibrates which machine, with which
+gauges (their identity and certificate, offered from the inventory of gauges met
+before), at what temperature; and the refusal of a gauge past its due date,
+which only a stated reason overrides (recorded in the session).
+
+Everything may be left unrecorded with Enter, and is then recorded as unknown:
+the uncertainty budget and the record say so, rather than guessing.
+"""
+
+from __future__ import annotations
+
+import datetime
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from ogacq.cli.wizard.inventory import Inventory, KnownGauge
+from ogacq.cli.wizard.pause import OperatorQuit
+from ogacq.cli.wizard.ui import Option, Screen
+from ogacq.model.instrument import Instrument
+from ogacq.model.machine import MachineSpec
+from ogacq.traceability import expired_instruments
+
+# The shop-floor range a temperature is accepted in (as the campaign file's)
+LOWEST_C, HIGHEST_C = -40.0, 80.0
+
+
+@dataclass(frozen=True)
+class Indicator:
+    """One physical gauge to identify: the plan's gauges it serves (an indicator moved
+    from leg to leg serves three) and the serial its link reports, if any."""
+
+    label: str  # "gauge y_x (on /dev/ttyUSB0)"
+    gauges: tuple[str, ...]
+    serial: str = ""
+
+
+@dataclass
+class Traceability:
+    machine: MachineSpec
+    operator: str = ""
+    ambient_start_c: float | None = None
+    identities: dict[str, dict[str, Any]] = field(default_factory=dict)  # gauge key -> keys
+    override_expired: str = ""
+
+    def instruments(self, resolution_mm: float | None = None) -> list[Instrument]:
+        return [Instrument(gauge, make=given.get("make") or None,
+                           model=given.get("model") or None,
+                           serial=given.get("serial") or None,
+                           certificate=given.get("certificate") or None,
+                           calibrated=given.get("calibrated"), due=given.get("due"),
+                           uncertainty_mm=given.get("uncertainty_mm"),
+                           uncertainty_k=given.get("uncertainty_k"),
+                           resolution_mm=resolution_mm)
+                for gauge, given in self.identities.items()]
+
+
+def temperature(text: str) -> float | None:
+    """A typed temperature in degC (a decimal comma is fine); empty: not measured."""
+    text = text.strip().replace(",", ".").removesuffix("°C").removesuffix("C").strip()
+    if not text:
+        return None
+    value = float(text)
+    if not LOWEST_C <= value <= HIGHEST_C:
+        raise ValueError(f"a temperature in °C between {LOWEST_C:g} and {HIGHEST_C:g}, got "
+                         f"{text}")
+    return value
+
+
+def _date(text: str) -> datetime.date | None:
+    text = text.strip()
+    if not text:
+        return None
+    try:
+        return datetime.date.fromisoformat(text)
+    except ValueError:
+        raise ValueError(f"a date as YYYY-MM-DD, got {text}") from None
+
+
+def _positive(text: str) -> float | None:
+    text = text.strip().replace(",", ".")
+    if not text:
+        return None
+    value = float(text)
+    if not 0 < value < 10:
+        raise ValueError(f"a positive number (mm), got {text}")
+    return value
+
+
+def _coverage(text: str) -> float | None:
+    text = text.strip().replace(",", ".")
+    if not text:
+        return None
+    value = float(text)
+    if not 1 <= value <= 10:
+        raise ValueError(f"a coverage factor between 1 and 10 (usually 2), got {text}")
+    return value
+
+
+class TraceabilityQuestions:
+    """Asks, in order: the machine's name and serial (when its file has no serial),
+    the operator, the ambient temperature, each gauge's identity."""
+
+    def __init__(self, screen: Screen, inventory: Inventory, *,
+                 known: Sequence[KnownGauge] = (), ambient_hint_c: float | None = None,
+                 ) -> None:
+        self.screen = screen
+        self.inventory = inventory
+        # gauges known without the inventory (a rehearsal's simulated ones)
+        self.known = {g.serial: g for g in known}
+        self.ambient_hint_c = ambient_hint_c
+
+    def ask(self, machine: MachineSpec, indicators: Sequence[Indicator],
+            on: datetime.date) -> Traceability:
+        s = self.screen
+        s.say("Who, what and when: recorded in the session and the report (Enter leaves a "
+              "value unrecorded).")
+        if not machine.serial:
+            name = s.ask("Machine name", machine.name or None)
+            serial = s.ask("Machine serial number (Enter: not recorded)")
+            machine = replace(machine, name=name or machine.name, serial=serial)
+        operator = s.ask("Operator (your name)", self.inventory.operator or None)
+        if operator:
+            self.inventory.operator = operator
+        ambient = self.ask_temperature("Ambient temperature now, °C (Enter: not measured)")
+        trace = Traceability(machine, operator, ambient)
+        if self.inventory.gauges:
+            s.note("Gauges met before: " + "; ".join(
+                f"{g.serial} ({g.summary()})" for g in self.inventory.gauges.values()))
+        for indicator in indicators:
+            identity = self._identify(indicator)
+            for gauge in indicator.gauges:
+                trace.identities[gauge] = identity
+        self.inventory.save()
+        trace.override_expired = self._check_due(trace, indicators, on)
+        return trace
+
+    def ask_temperature(self, question: str) -> float | None:
+        hint = f"{self.ambient_hint_c:g}" if self.ambient_hint_c is not None else None
+        if hint is not None:
+            self.screen.note(f"(rehearsal: the simulated shop is at {hint} °C)")
+        return self.screen.ask_parsed(question, temperature, hint)
+
+    def _identify(self, indicator: Indicator) -> dict[str, Any]:
+        s = self.screen
+        serial = s.ask(f"Serial number of {indicator.label} (Enter: not recorded)",
+                       indicator.serial or None)
+        if not serial:
+            return {}
+        known = self.known.get(serial) or self.inventory.find(serial)
+        if known is not None:
+            s.ok(f"{serial}: {known.summary()}")
+            return known.identity()
+        s.say(f"{serial} is new: its make, model and calibration certificate "
+              "(Enter: not recorded).")
+        gauge = self._new_gauge(serial)
+        self.inventory.remember(gauge)
+        return gauge.identity()
+
+    def _new_gauge(self, serial: str) -> KnownGauge:
+        s = self.screen
+        make = s.ask("  Make")
+        model = s.ask("  Model")
+        certificate = s.ask("  Calibration certificate number")
+        calibrated = s.ask_parsed("  Calibrated on (YYYY-MM-DD)", _date)
+        while True:
+            due = s.ask_parsed("  Calibration due (YYYY-MM-DD)", _date)
+            if due is None or calibrated is None or due > calibrated:
+                break
+            s.problem(f"the due date must come after the calibration ({calibrated})")
+        uncertainty = s.ask_parsed("  Certificate's expanded uncertainty U (mm)", _positive)
+        k = s.ask_parsed("  Its coverage factor k", _coverage, "2") if uncertainty else None
+        return KnownGauge(serial, make, model, certificate, calibrated, due, uncertainty, k)
+
+    def _check_due(self, trace: Traceability, indicators: Sequence[Indicator],
+                   on: datetime.date) -> str:
+        """A gauge past its due date: a reason to measure all the same, or re-identify
+        it, or quit (OperatorQuit from the menu)."""
+        s = self.screen
+        while True:
+            expired = expired_instruments(trace.instruments(0.0), on)
+            if not expired:
+                return ""
+            for e in expired:
+                s.problem(f"Gauge {e.describe()} is past the due date of its calibration "
+                          f"certificate (today {on.isoformat()}).")
+            choice = s.choose("What now?", [
+                Option("o", "measure all the same (give the reason: it is recorded)"),
+                Option("c", "change the gauge or correct its certificate"),
+                Option("q", "quit (nothing was started)"),
+            ], default="c")
+            if choice == "o":
+                return s.reason("measure with a gauge past its due date")
+            if choice == "q":
+                raise OperatorQuit("a gauge is past its due date")
+            for indicator in indicators:
+                if any(e.instrument.gauge in indicator.gauges for e in expired):
+                    identity = self._reidentify(indicator, on)
+                    for gauge in indicator.gauges:
+                        trace.identities[gauge] = identity
+            self.inventory.save()
+
+    def _reidentify(self, indicator: Indicator, on: datetime.date) -> dict[str, Any]:
+        """Another gauge, or the same with its new certificate."""
+        s = self.screen
+        serial = s.ask(f"Serial number of {indicator.label}")
+        if not serial:
+            return {}
+        known = self.known.get(serial) or self.inventory.find(serial)
+        if known is not None and (known.due is None or known.due >= on):
+            s.ok(f"{serial}: {known.summary()}")
+            return known.identity()
+        s.say(f"{serial}: its calibration certificate.")
+        gauge = self._new_gauge(serial)
+        self.inventory.remember(gauge)
+        return gauge.identity()

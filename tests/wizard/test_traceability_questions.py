@@ -1,0 +1,77 @@
+"""The wizard's traceability questions as typed at its prompts, and the inventory
+of gauges met before: a gauge's certificate is typed once, then offered by serial."""
+
+from __future__ import annotations
+
+import datetime
+import io
+from dataclasses import replace
+
+import pytest
+from rich.console import Console
+
+from ogacq.cli.wizard.inventory import KnownGauge, load_inventory
+from ogacq.cli.wizard.traceability import Indicator, TraceabilityQuestions, temperature
+from ogacq.cli.wizard.ui import Screen
+from ogacq.errors import InputError
+from ogacq.model.machine import PAPER_PROTOTYPE
+
+MACHINE = replace(PAPER_PROTOTYPE, serial="OG-17")
+ON = datetime.date(2026, 1, 10)
+
+
+def ask(monkeypatch, home, answers: list[str], indicators) -> tuple[object, str]:
+    """The questions asked with ``answers`` typed, one per prompt."""
+    monkeypatch.setenv("OGACQ_HOME", str(home))
+    monkeypatch.setattr("sys.stdin", io.StringIO("".join(a + "\n" for a in answers)))
+    shown = io.StringIO()
+    questions = TraceabilityQuestions(Screen(Console(file=shown, width=120)), load_inventory())
+    trace = questions.ask(MACHINE, indicators, ON)
+    return trace, shown.getvalue()
+
+
+def test_a_new_gauge_is_remembered_and_offered_next_time(tmp_path, monkeypatch):
+    indicators = [Indicator("gauge y_x (/dev/ttyUSB0)", ("y_x",)),
+                  Indicator("the indicator on /dev/ttyUSB1 (gauges z_x, z_y)", ("z_x", "z_y"))]
+    trace, _ = ask(monkeypatch, tmp_path, [
+        "A. Technician", "20,4",
+        "SN9", "Sylvac", "S_Dial Work", "C-2025-118", "2025-06-01", "2026-06-01", "0.002", "",
+        ""], indicators)  # the second indicator: not recorded
+    assert trace.operator == "A. Technician" and trace.ambient_start_c == 20.4
+    assert trace.machine.serial == "OG-17"  # the file says it: not asked
+    (y_x, z_x, z_y) = sorted(trace.instruments(0.001), key=lambda i: i.gauge != "y_x")
+    assert (y_x.serial, y_x.make, y_x.due, y_x.uncertainty_k) == (
+        "SN9", "Sylvac", datetime.date(2026, 6, 1), 2.0)
+    assert z_x.serial is None and z_y.serial is None and trace.override_expired == ""
+
+    again, shown = ask(monkeypatch, tmp_path, ["", "", "", "SN9"], indicators[::-1])
+    assert "Gauges met before: SN9 (Sylvac S_Dial Work, certificate C-2025-118" in shown
+    assert again.operator == "A. Technician"  # remembered, offered, accepted
+    assert again.ambient_start_c is None
+    assert again.identities["y_x"] == trace.identities["y_x"]  # nothing typed twice
+    assert load_inventory(tmp_path / "instruments.toml").find("SN9") == KnownGauge(
+        "SN9", "Sylvac", "S_Dial Work", "C-2025-118", datetime.date(2025, 6, 1),
+        datetime.date(2026, 6, 1), 0.002, 2.0)
+
+
+def test_an_expired_gauge_is_changed_for_a_valid_one(tmp_path, monkeypatch):
+    indicators = [Indicator("gauge y_x (/dev/ttyUSB0)", ("y_x",))]
+    trace, shown = ask(monkeypatch, tmp_path, [
+        "", "", "OLD1", "", "", "", "2024-01-01", "2025-01-01", "", "c",
+        "NEW2", "", "", "", "2025-09-01", "2026-09-01", ""], indicators)
+    assert "y_x (serial OLD1, due 2025-01-01) is past the due date" in shown
+    assert trace.identities["y_x"]["serial"] == "NEW2" and trace.override_expired == ""
+
+
+def test_temperatures_typed_and_refused():
+    assert temperature("21,5") == 21.5 and temperature("19.0 °C") == 19.0
+    assert temperature("") is None
+    with pytest.raises(ValueError, match="between -40 and 80"):
+        temperature("98.6")  # a Fahrenheit value
+
+
+def test_a_broken_inventory_is_named_with_its_line(tmp_path):
+    (tmp_path / "instruments.toml").write_text('[[gauges]]\nserial = "A"\ndue = "soon"\n')
+    with pytest.raises(InputError, match=r"instruments\.toml:3: gauges\[0\]\.due must be a "
+                                         r"date"):
+        load_inventory(tmp_path / "instruments.toml")
