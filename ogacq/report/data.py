@@ -248,8 +248,11 @@ def provenance(session: LoadedSession) -> Provenance:
                     if key not in KNOWN_HEADER and value not in (None, "", [], {})))
 
 
+# identity, instruments and date are the record's (its identification and
+# instruments sections show them), not provenance to list again
 KNOWN_HEADER = frozenset({"type", "format", "software", "created", "machine", "machine_file",
-                          "campaign_file", "station", "simulator", "plan"})
+                          "campaign_file", "station", "simulator", "plan", "identity",
+                          "instruments", "date"})
 
 
 def _describe(d: dict) -> str:

@@ -21,7 +21,7 @@ from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ReportDa
 from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
 from ogacq.report.figures import FigureFile
 from ogacq.report.formatting import duration, finite, measure, plain, signed, um
-from ogacq.report.record_view import css_string, record_view
+from ogacq.report.record_view import css_string, record_view, shown
 
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("ogacq.report", "templates"),
                                 autoescape=True, undefined=jinja2.StrictUndefined,
@@ -88,8 +88,11 @@ def machine_words(machine: dict) -> str:
     """``leg length 310.25 mm, Min posture -100.0 mm, ...``; unknown keys as they are."""
     parts = []
     for key, value in machine.items():
-        words, unit = MACHINE_WORDS.get(key, (key, ""))
-        parts.append(f"{words} {value}{' ' + unit if unit else ''}")
+        words, unit = MACHINE_WORDS.get(key, (key.replace("_", " "), ""))
+        if isinstance(value, dict):  # a table of the machine file ([tolerances])
+            parts.append(f"{words} ({shown(value)})")
+        else:
+            parts.append(f"{words} {value}{' ' + unit if unit else ''}")
     return ", ".join(parts) or "not recorded"
 
 

@@ -59,16 +59,24 @@ def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_pa
                for i in record["instruments"])
     assert record["date"].startswith(session.header["created"][:19])
     for key in ("operator", "machine serial", "certificates", "environment", "overrides",
-                "uncertainty"):
+                "uncertainty budget"):
         assert key in record["missing"], key
-    # results: the recorded identification's values and std; u and U not evaluated
+    # results: the recorded identification's values and std; the budget without the
+    # certificates and temperatures is incomplete and says which sources it lacks
     refit = session.result.refit
     for axis, result in record["results"]["joint_offset"].items():
         assert result["value_mm"] == pytest.approx(refit["parameters"]["joint_offset"][axis])
         assert result["std_mm"] == pytest.approx(refit["std"]["joint_offset"][axis])
-        assert result["u_mm"] is None and result["U_mm"] is None
-    assert record["budget"] is None and record["budget_complete"] is False
+        assert result["complete"] is False
+        assert result["U_mm"] == pytest.approx(2 * result["u_mm"], abs=2e-9)
+    assert record["budget_complete"] is False
+    rows = record["budget"]["joint_offset.x"]
+    not_evaluated = {r["source"].split(" ")[0] for r in rows if not r["evaluated"]}
+    assert {"gauge", "temperature"} <= not_evaluated
+    assert all(r["u_mm"] is None for r in rows if not r["evaluated"])  # not a zero
+    assert "gauge calibration" in record["missing"]["uncertainty budget"]
     assert record["acceptance"]["as_found"]["decision"] == "not evaluated"
+    assert record["acceptance"]["as_found"]["why"] == "the machine file states no tolerances"
     assert record["acceptance"]["as_left"]["why"] == "no as-left measurement"
     assert record["verdict"]["state"] == "consistent"
     assert record["session"]["sha256"] == __import__("hashlib").sha256(
@@ -78,7 +86,7 @@ def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_pa
     text = page_text((tmp_path / "old" / "report.html").read_text(encoding="utf-8"))
     assert "machine not recorded" in text and "operator not recorded" in text
     assert "the session does not record the temperatures" in text
-    assert "u and U not evaluated" in text
+    assert "budget incomplete u and U leave out the sources that were not evaluated" in text
     assert "No earlier calibration of this machine was given" in text
 
 
@@ -100,8 +108,23 @@ def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, ca
     assert expired == ["y_x"]
     assert record["overrides"][0]["reason"] == OVERRIDE_REASON
     assert record["environment"]["end"]["ambient_c"] == 21.1
-    assert record["acceptance"]["rule"] == "guard-band"
-    assert set(record["missing"]) == {"uncertainty"}
+    assert set(record["missing"]) == set()  # everything recorded and evaluated
+    # the budget from the certificates and temperatures, checked by Monte-Carlo
+    assert record["budget_complete"] is True
+    for result in record["results"]["joint_offset"].values():
+        assert result["complete"] and 0 < result["std_mm"] < result["u_mm"]
+        assert result["U_mm"] == pytest.approx(2 * result["u_mm"])
+    assert record["monte_carlo"]["agrees_within_10_percent"] is True
+    # as found against the machine file's 0.02 mm: the offsets of a few tenths fail
+    found = record["acceptance"]["as_found"]
+    assert record["acceptance"]["rule"] == found["rule"] == "guard-band"
+    assert found["decision"] == "fail" and len(found["rows"]) == 12
+    for row in found["rows"]:
+        d, U, T = abs(row["value_mm"]), row["U_mm"], row["tolerance_mm"]
+        assert T == 0.02 and U > 0
+        assert row["decision"] == ("pass" if d <= T - U else "fail" if d > T + U
+                                   else "undecided")
+    assert record["acceptance"]["as_left"]["decision"] == "not evaluated"
 
     # every value of record.json is on the page, as record.json holds it
     assert unshown(record, text) == []
@@ -127,6 +150,18 @@ def test_the_history_is_plotted_and_listed(campaign_sessions, tmp_path):
     assert "-1.2391 ± 0.0041" in text and "-1.2417" in text
     png = (tmp_path / "history.png").read_bytes()
     assert png.startswith(b"\x89PNG") and len(png) > 10_000
+
+
+def test_as_left_is_judged_from_the_validation_campaign(campaign_sessions, tmp_path):
+    """The as-left stage takes the validation campaign's own deviations and budget
+    (here a copy of the same campaign: the same decisions)."""
+    _, with_context = campaign_sessions
+    copy = tmp_path / "validation.jsonl"
+    shutil.copyfile(with_context, copy)
+    record = build_record(load_session(with_context), validation=load_session(copy))
+    found, left = record["acceptance"]["as_found"], record["acceptance"]["as_left"]
+    assert left["decision"] == found["decision"] and left["rows"] == found["rows"]
+    assert record["validation_session"]["path"] == str(copy.resolve())
 
 
 def test_a_history_entry_without_a_date_is_refused(campaign_sessions):

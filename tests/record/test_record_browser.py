@@ -60,7 +60,8 @@ def test_the_rendered_page_shows_every_field_of_the_record(browser, report):
         assert record["acceptance"][stage]["decision"] in text
     for name, rows in (record["budget"] or {}).items():
         assert name in text and all(row["source"] in text for row in rows)
-    assert not re.search(r"\bNone\b|\bnan\b|\bundefined\b", text)
+    # nothing left as a program wrote it: no None, NaN, undefined, dict or list dump
+    assert not re.search(r"\bNone\b|\bnan\b|\bundefined\b|\{'|\[\{|\['", text)
 
 
 def test_a_screenshot_of_each_section_is_a_real_picture(browser, report, tmp_path):
