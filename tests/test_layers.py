@@ -41,7 +41,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
      "ogacq.uncertainty"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
-     "ogacq.file_templates", "ogacq.record", "ogacq.record.context"),
+     "ogacq.file_templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
     ("ogacq.campaign",),
     ("ogacq.writeback", "ogacq.report"),

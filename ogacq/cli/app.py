@@ -40,6 +40,13 @@ OFFSETS_HELP = ("Joint offsets on the controller: show the identified ones again
                 "controller's, write them back (confirmed, read back, recorded), restore the "
                 "old ones.")
 SESSION_HELP = "Look at, export, import, check and salvage sessions."
+HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq history MACHINE` "
+                "(the same as `ogacq history show MACHINE`) lists them with each parameter's U "
+                "and flags a drift larger than U; `ogacq history add SESSION...` records "
+                "sessions afterwards. The history is --history URL_OR_PATH (an SQLite file or "
+                "postgresql://USER@HOST/DATABASE), else $OGACQ_HISTORY, else history.sqlite in "
+                "the current folder (campaigns record into history.sqlite beside their "
+                "session).")
 
 
 class OgacqCommands(LazyCommands):
@@ -60,6 +67,9 @@ class OgacqCommands(LazyCommands):
             "show": "ogacq.cli.offsets_cmd:show",
             "write": "ogacq.cli.offsets_cmd:write",
             "restore": "ogacq.cli.offsets_cmd:restore"}),
+        "history": LazyGroupSpec(HISTORY_HELP, {
+            "show": "ogacq.cli.history_cmd:show",
+            "add": "ogacq.cli.history_cmd:add"}, default="show"),
         "session": LazyGroupSpec(SESSION_HELP, {
             "show": "ogacq.cli.session_cmds:show",
             "export": "ogacq.cli.session_cmds:export",

@@ -12,8 +12,9 @@ import typer
 
 from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
 from ogacq.campaign_file import read_campaign
+from ogacq.cli.history_record import record_campaign
 from ogacq.cli.leg_prompt import operator_for
-from ogacq.cli.options import JsonOption
+from ogacq.cli.options import HistoryOption, JsonOption
 from ogacq.cli.render import campaign_progress, print_outcome
 from ogacq.protocol.runner import CampaignStopped, Observer
 from ogacq.session.store import load_session
@@ -22,6 +23,7 @@ from ogacq.session.store import load_session
 def run(
     campaign_file: Annotated[Path, typer.Argument(help="Campaign file (TOML).")],
     as_json: JsonOption = False,
+    history: HistoryOption = None,
 ) -> None:
     """Run a scripted campaign: no operator when the six gauges are mounted, or one
     asked to set them at each leg when indicators move from leg to leg."""
@@ -31,11 +33,13 @@ def run(
         campaign, observer=obs, set_gauges=operator_for(campaign, obs)), campaign.session,
         quiet=as_json)
     show_outcome(outcome, as_json)
+    record_campaign(outcome.session_path, history)
 
 
 def resume(
     session: Annotated[Path, typer.Argument(help="Session file of an interrupted campaign.")],
     as_json: JsonOption = False,
+    history: HistoryOption = None,
 ) -> None:
     """Continue an interrupted campaign where it stopped."""
     loaded = load_session(session)
@@ -45,6 +49,7 @@ def resume(
         campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
         loaded.path, quiet=as_json)
     show_outcome(outcome, as_json)
+    record_campaign(outcome.session_path, history)
 
 
 def execute(start: Callable[[Observer], CampaignOutcome], session: Path, *,

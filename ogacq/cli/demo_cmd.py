@@ -14,7 +14,8 @@ import typer
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
-from ogacq.cli.options import DEFAULT_SEED, ProfileChoice, seed_option
+from ogacq.cli.history_record import record_campaign
+from ogacq.cli.options import DEFAULT_SEED, HistoryOption, ProfileChoice, seed_option
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.render import print_demo_diagnosis
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
@@ -48,6 +49,7 @@ def demo(
     out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
                                              f"{DEMO_FOLDER_HELP}).")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
+    history: HistoryOption = None,
 ) -> None:
     """A full calibration campaign against the built-in simulator: identify the hidden
     joint offsets through the real drivers and compare them with the truth."""
@@ -88,6 +90,7 @@ def demo(
                          diagnosis=report_diagnosis(diagnosis, session))
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
+    record_campaign(outcome.session_path, history, say=typer.echo)
 
 
 def _read_effects(path: Path) -> str:

@@ -9,13 +9,20 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.options import JsonOption, OtherGeometryOption, RecordedMachineOption
+from ogacq.cli.history_record import record_diagnosis
+from ogacq.cli.options import (
+    HistoryOption,
+    JsonOption,
+    OtherGeometryOption,
+    RecordedMachineOption,
+)
 from ogacq.cli.render_diagnosis import print_diagnosis
 from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.identify.plausibility import check_result
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine
+from ogacq.io.tables import sniff
 from ogacq.model.parameters import PARAM_SETS
 
 
@@ -24,8 +31,13 @@ def diagnose_command(
     machine: RecordedMachineOption = None,
     other_geometry: OtherGeometryOption = False,
     as_json: JsonOption = False,
+    history: HistoryOption = None,
 ) -> None:
-    """Compare the recordings with the identified model; locate and explain a mismatch."""
+    """Compare the recordings with the identified model; locate and explain a mismatch.
+
+    The diagnosis of a session is recorded in the machine's history (not with
+    --other-geometry: another machine's).
+    """
     spec = read_machine(machine) if machine is not None else None
     obs = load_observations(file, spec, PARAM_SETS["offsets"], machine_path=machine,
                             other_geometry=other_geometry)
@@ -36,5 +48,7 @@ def diagnose_command(
     check_result(result.final_fit)
     if as_json:
         typer.echo(json.dumps(result.to_json()))
-        return
-    print_diagnosis(result, machine_file=str(machine or file))
+    else:
+        print_diagnosis(result, machine_file=str(machine or file))
+    if sniff(file) == "session" and not other_geometry:
+        record_diagnosis(file, result.to_json(), history)

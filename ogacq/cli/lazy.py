@@ -25,6 +25,8 @@ if TYPE_CHECKING:  # typer vendors its own click
 class LazyGroupSpec:
     help: str
     commands: Mapping[str, str]  # sub-command name -> "module:function"
+    # the sub-command run when the first word names none (``ogacq history MACHINE``)
+    default: str | None = None
 
 
 def load_function(target: str) -> Callable[..., Any]:
@@ -57,8 +59,16 @@ class FlagCommand(TyperCommand):
 
 
 class FlagGroup(TyperGroup):
+    default_command: str | None = None  # run when the first word is not a sub-command
+
     def get_params(self, ctx: Context) -> list[Parameter]:
         return flags_without_value(super().get_params(ctx))
+
+    def parse_args(self, ctx: Context, args: list[str]) -> list[str]:
+        if self.default_command and args and args[0] not in self.commands \
+                and args[0] not in ctx.help_option_names:
+            args = [self.default_command, *args]
+        return super().parse_args(ctx, args)
 
 
 def _command(app: typer.Typer, name: str, function: Callable[..., Any],
@@ -77,6 +87,7 @@ def build_command(name: str, target: str | LazyGroupSpec, epilog: str | None = N
         for sub_name, sub_target in target.commands.items():
             _command(group, sub_name, load_function(sub_target), epilog)
         command = typer.main.get_group(group)
+        command.default_command = target.default
     else:
         single = typer.Typer(add_completion=False)
         _command(single, name, load_function(target), epilog)

@@ -14,7 +14,7 @@ import contextlib
 import json
 from collections.abc import Iterator
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
@@ -22,8 +22,9 @@ from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
 from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
 from ogacq.cli import render_offsets as render
-from ogacq.cli.options import JsonOption
-from ogacq.errors import DriverError, InputError, Refused
+from ogacq.cli.history_record import record_writebacks
+from ogacq.cli.options import HistoryOption, JsonOption
+from ogacq.errors import DriverError, InputError, OgacqError, Refused
 from ogacq.session.store import LoadedSession, load_session
 from ogacq.station import open_controller
 from ogacq.writeback.audit import AuditLog, last_write, operations
@@ -35,8 +36,12 @@ from ogacq.writeback.policy import (
     OffsetPlan,
     WritePolicy,
     plan_restore,
+    plan_return,
     plan_write,
 )
+
+if TYPE_CHECKING:  # SQLAlchemy is imported when the history is used, not at start-up
+    from ogacq.history.location import HistoryLocation
 
 EXIT_DECLINED = 1
 
@@ -196,11 +201,14 @@ def write(
     no_home: NoHomeOption = False,
     max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
     from_diagnosis: FromDiagnosisOption = False,
+    history: HistoryOption = None,
 ) -> None:
-    """Write the offsets identified by a campaign: shown, confirmed, read back, recorded."""
+    """Write the offsets identified by a campaign: shown, confirmed, read back, recorded
+    in the session and in the machine's history."""
     session = load_session(session_path)
     evidence = evidence_from_session(session, from_diagnosis)
-    with _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+    with _recorded_after(session, history), \
+            _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
         plan = plan_write(evidence, controller.read_offsets(),
                           ControllerFacts.of(controller.profile), WritePolicy(max_change_mm))
         render.print_evidence(evidence)
@@ -210,27 +218,111 @@ def write(
                              save_nvm=save_nvm, rehome=not no_home)
 
 
+RestoreSessionArgument = Annotated[Path | None, typer.Argument(
+    help="Session whose last write-back to undo (its audit goes there); leave it out with "
+         "--machine and --to.")]
+MachineOption = Annotated[str | None, typer.Option(
+    "--machine", help="Go back to a state of this machine's history (its name or serial; "
+                      "with --to).")]
+ToOption = Annotated[str | None, typer.Option(
+    "--to", metavar="STATE", help="The offsets state (`ogacq history MACHINE --states`) or the "
+                                  "calibration record id whose write-back to go back to.")]
+RestoreHistoryOption = Annotated[str | None, typer.Option(
+    "--history", metavar="URL_OR_PATH",
+    help="The history: an SQLite file or a postgresql://USER@HOST/DB URL (default: "
+         "$OGACQ_HISTORY, else history.sqlite beside the session, or in the current folder "
+         "with --machine).")]
+
+
 def restore(
-    session_path: SessionArgument,
+    session_path: RestoreSessionArgument = None,
     campaign_path: CampaignOption = None,
     yes: YesOption = False,
     force: ForceOption = False,
     save_nvm: SaveNvmOption = False,
     no_home: NoHomeOption = False,
+    machine: MachineOption = None,
+    to: ToOption = None,
+    history: RestoreHistoryOption = None,
 ) -> None:
-    """Put back the offsets the session's last write-back replaced."""
+    """Put back the offsets the session's last write-back replaced, or (--machine NAME
+    --to STATE) any offsets state the machine's history recorded.
+
+    Either way: shown, confirmed, written, read back, recorded in the session and the
+    history. Going back to a state is refused when the controller holds offsets the
+    history does not know (--force overrides).
+    """
+    if session_path is not None and (machine is not None or to is not None):
+        raise InputError("--machine", "give either a SESSION, or --machine and --to, not both")
+    if session_path is None:
+        if machine is None or to is None:
+            raise InputError("--machine" if machine is None else "--to",
+                             "is missing: give a SESSION, or --machine NAME --to STATE")
+        _restore_state(machine, to, history, campaign_path, yes=yes, force=force,
+                       save_nvm=save_nvm, rehome=not no_home)
+        return
     session = load_session(session_path)
     operation = last_write(session)
     if operation is None:
         raise InputError(session.path, "no write-back is recorded in this session: nothing "
                          "to restore")
-    with _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+    with _recorded_after(session, history), \
+            _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
         plan = plan_restore(operation, controller.read_offsets(),
                             ControllerFacts.of(controller.profile))
         render.print_plan(plan, port=campaign.controller.port,
                           offsets_file=_table_name(campaign.controller))
         _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
+
+
+def _restore_state(machine_name: str, wanted: str, history: str | None,
+                   campaign_path: Path | None, *, yes: bool, force: bool, save_nvm: bool,
+                   rehome: bool) -> None:
+    """Go back to an offsets state of the machine's history, through the session it
+    came from (its campaign names the controller, its audit gets the records)."""
+    from ogacq.history.location import history_to_read
+    from ogacq.history.store import History
+
+    location = history_to_read(history)
+    with History.open(location, create=False) as db:
+        found = db.find_machine(machine_name)
+        state = db.find_state(found, wanted)
+        in_force = db.current_state(found)
+    if not state.session_path or not Path(state.session_path).is_file():
+        raise InputError(state.session_path or wanted, f"the session of offsets state "
+                         f"{state.state_id} is not on this computer: restore from the station "
+                         "that holds it")
+    session = load_session(Path(state.session_path))
+    typer.echo(f"{found.describe()}: back to offsets state {state.state_id} ({state.stage} "
+               f"{state.action} {state.operation}, {state.at or 'undated'})")
+    with _recorded_after(session, history, location), \
+            _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+        try:
+            plan = plan_return(state.offsets_mm, state.state_id, controller.read_offsets(),
+                               ControllerFacts.of(controller.profile), profile=state.profile,
+                               expected_mm=in_force.offsets_mm if in_force else None)
+        except ValueError as exc:
+            raise InputError(wanted, str(exc)) from None
+        render.print_plan(plan, port=campaign.controller.port,
+                          offsets_file=_table_name(campaign.controller))
+        _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
+                             save_nvm=save_nvm, rehome=rehome)
+
+
+@contextlib.contextmanager
+def _recorded_after(session: LoadedSession, history: str | None,
+                    location: HistoryLocation | None = None) -> Iterator[None]:
+    """Once the session is released, whatever the outcome: when its audit holds a new
+    write-back or restore (a declined or refused one wrote nothing; a failed one is
+    recorded as failed), the history gets it."""
+    before = len(operations(session))
+    try:
+        yield
+    finally:
+        with contextlib.suppress(OgacqError):  # the session's own error is said already
+            if len(operations(load_session(session.path))) > before:
+                record_writebacks(session.path, history, location)
 
 
 @contextlib.contextmanager

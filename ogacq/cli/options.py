@@ -18,6 +18,12 @@ OtherGeometryOption = Annotated[bool, typer.Option(
     "--other-geometry", help="Reanalyse a session with the --machine file even though it "
                              "differs from the machine the session was recorded with.")]
 JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+# Where a finished campaign, diagnosis or write-back is recorded (ogacq.history.location).
+HistoryOption = Annotated[str | None, typer.Option(
+    "--history", metavar="URL_OR_PATH",
+    help="Record into this history: an SQLite file or a PostgreSQL URL "
+         "(default: $OGACQ_HISTORY, else history.sqlite beside the session; none: record "
+         "nothing).")]
 
 
 # One default for every simulated machine (demo, sim, wizard): a rehearsal with the

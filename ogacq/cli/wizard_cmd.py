@@ -11,6 +11,7 @@ from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.cli.options import (
     DEFAULT_SEED,
     GaugeProtocol,
+    HistoryOption,
     IndicatorCount,
     ProfileChoice,
     seed_option,
@@ -64,6 +65,7 @@ def wizard(
     simulate_fault: Annotated[list[str] | None, typer.Option(
         hidden=True, help="Simulator: GAUGE:KIND@N[xCOUNT], a gauge fault after N "
                           "readings.")] = None,
+    history: HistoryOption = None,
 ) -> None:
     """Guided calibration: connect the instruments, set the gauges leg by leg, measure,
     identify the joint offsets."""
@@ -79,7 +81,8 @@ def wizard(
                             gauge_range_mm=gauge_range_mm, max_offset_mm=max_offset_mm,
                             by_eye=by_eye, faults=faults,
                             indicators=int(indicators) if indicators else None,
-                            resume=resume, gauge_protocol=gauge_protocol.value)
+                            resume=resume, gauge_protocol=gauge_protocol.value,
+                            history=history)
     code = run_wizard(options)
     if code:
         raise typer.Exit(code)  # 130: quit, the session kept

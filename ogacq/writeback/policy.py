@@ -250,3 +250,37 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
                      "restored ones too (--save-nvm), or a power cycle brings them back")
     return OffsetPlan("restore", facts, changes, tuple(refusals), tuple(notes),
                       restores_operation=operation.operation)
+
+
+def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: Mapping[str, float],
+                facts: ControllerFacts, *, profile: str | None,
+                expected_mm: Mapping[str, float | None] | None) -> OffsetPlan:
+    """Go back to an offsets state the history recorded (``state``: its id).
+
+    ``expected_mm``: what the history says the controller holds now (its last finished
+    write-back or restore); a controller holding something else was changed outside
+    the history, and going back would undo that change unseen: refused as stale.
+    """
+    if any(target_mm.get(a) is None or not math.isfinite(target_mm[a]) for a in AXES):
+        raise ValueError(f"offsets state {state} recorded no usable values")
+    current = {a: float(current_mm[a]) for a in AXES}
+    changes = tuple(AxisChange(a, current[a], facts.quantize(float(target_mm[a])))
+                    for a in AXES)
+    nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
+    refusals: list[Refusal] = []
+    if expected_mm is not None and not nothing and not all(
+            expected_mm.get(a) is not None and facts.same(current[a], float(expected_mm[a]))
+            for a in AXES):
+        recorded = ", ".join(f"{a} {expected_mm[a]:+.4f}" if expected_mm.get(a) is not None
+                             else f"{a} unknown" for a in AXES)
+        refusals.append(Refusal(
+            "stale",
+            f"the controller holds {_fmt(current)} mm, but the history's last write-back "
+            f"left {recorded}: a change the history does not know, which going back would "
+            "undo"))
+    if profile not in (None, facts.profile):
+        refusals.append(Refusal("other_profile",
+                                f"offsets state {state} was on a {profile!r} controller, this "
+                                f"one is {facts.profile!r}"))
+    refusals += _margin_refusals({c.axis: c.new_mm for c in changes}, facts)
+    return OffsetPlan("restore", facts, changes, tuple(refusals), restores_operation=state)

@@ -75,7 +75,20 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
     "offsets write": [(["missing.jsonl"], 2, "missing.jsonl"),
                       (["deviations.csv"], 2, "deviations.csv")],
     "offsets restore": [(["missing.jsonl"], 2, "missing.jsonl"),
-                        (["session.jsonl"], 2, "no write-back is recorded")],
+                        (["session.jsonl"], 2, "no write-back is recorded"),
+                        (["--machine", "OG-1"], 2, "--to: is missing"),
+                        (["session.jsonl", "--machine", "OG-1", "--to", "S-1"], 2, "not both"),
+                        (["--machine", "OG-1", "--to", "S-1"], 2, "no history named")],
+    "history show": [(["OG-1"], 2, "no history named"),
+                     (["OG-1", "--history", "nope.sqlite"], 3, "no history here"),
+                     (["OG-1", "--history", "machine.toml"], 3, "file is not a database"),
+                     (["OG-1", "--history", "mysql://u@h/db"], 2, "'mysql' is not supported"),
+                     (["OG-1", "--history", "h.sqlite", "--plot", "p.txt"], 2, "PNG"),
+                     (["OG-1", "--history", "h.sqlite", "--plot", "machine.png"], 2,
+                      "without --force")],
+    "history add": [(["missing.jsonl"], 2, "missing.jsonl"),
+                    (["deviations.csv"], 2, "not an ogacq session"),
+                    (["session.jsonl", "--history", "none"], 2, "no history to add to")],
     "session show": [(["missing.jsonl"], 2, "missing.jsonl"),
                      (["deviations.csv"], 2, "deviations.csv")],
     "session export": [(["session.jsonl", "/nonexistent/dir/o.csv"], 2, "/nonexistent/dir"),
@@ -112,6 +125,7 @@ def folder(tmp_path_factory) -> Path:
     shutil.copy(PAPER / "machine.toml", folder / "machine.toml")
     shutil.copy(PAPER / "experiment2_12.csv", folder / "deviations.csv")
     (folder / "broken.toml").write_text("leg_length_mm = [\n")
+    (folder / "machine.png").write_bytes(b"\x89PNG\r\n\x1a\n")  # a plot not to overwrite
     SessionWriter.create(folder / "session.jsonl", {"machine": {}, "plan": None}).close()
     return folder
 

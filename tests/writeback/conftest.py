@@ -120,7 +120,7 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
                       effects: Mapping[str, float] | None = None, legs=(0, 1, 2),
                       postures=("zero", "max", "min", "zero"), noise_mm: float = 0.001,
                       in_force_mm: Mapping[str, float] | None = None, profile: str = "cia402",
-                      seed: int = 0) -> Path:
+                      seed: int = 0, header_extra: Mapping | None = None) -> Path:
     """A finished campaign's session, made with the exact model instead of a machine:
     what a real campaign records, in a fraction of a second."""
     machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
@@ -141,7 +141,7 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
               "campaign_file": str(campaign_path.resolve()),
               "station": {"controller": {"profile": profile, "port": "synthetic",
                                          "offsets_mm": in_force}},
-              "plan": None}
+              "plan": None, **(header_extra or {})}
     with SessionWriter.create(path, header) as writer:
         for k in range(len(lay)):
             writer.write(ReadingRecord(

@@ -16,10 +16,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from rich.markup import escape
+
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import DEFAULT_SEED
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
@@ -84,6 +87,7 @@ class WizardOptions:
     gauge_protocol: str = DEFAULT_PROTOCOL  # what a rehearsal's simulated gauges speak
     faults: list[FaultPlan] = field(default_factory=list)
     resume: Path | None = None
+    history: str | None = None  # --history: where the finished campaign is recorded
 
 
 def run_wizard(options: WizardOptions) -> int:
@@ -137,12 +141,16 @@ class _Wizard:
                 return EXIT_QUIT
             self.screen.heading("Result", "step 4 of 4")
             writable = show_result(self.screen, outcome)
+            # the session is closed and safe: a history that fails only warns
+            record_campaign(outcome.session_path, self.options.history,
+                            say=lambda text: self.screen.say(escape(text)))
             controller_file = None
             if self.rehearsal is not None and self.campaign is not None:
                 controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
             try:
                 offer_writeback(self.screen, outcome.session_path, writable, controller_file,
-                                rehearsal=self.rehearsal is not None)
+                                rehearsal=self.rehearsal is not None,
+                                history=self.options.history)
             except (KeyboardInterrupt, OperatorQuit):
                 self.screen.say(f"\nNot written. Later: ogacq offsets write "
                                 f"{outcome.session_path}")

@@ -72,13 +72,17 @@ def _writeback_command_exists() -> bool:
 
 
 def offer_writeback(screen: Screen, session: Path, writable: bool,
-                    campaign: Path | None = None, rehearsal: bool = False) -> None:
+                    campaign: Path | None = None, rehearsal: bool = False,
+                    history: str | None = None) -> None:
     """Offer ``ogacq offsets write`` (run here, with its own confirmation), or say it.
     ``campaign`` names the controller when the session's campaign file cannot
-    (a rehearsal: the simulator the file starts does not outlive the command)."""
+    (a rehearsal: the simulator the file starts does not outlive the command);
+    ``history``: the wizard's --history, where the write-back is recorded too."""
     command = ["offsets", "write", str(session)]
     if campaign is not None:
         command += ["--campaign", str(campaign)]
+    if history is not None:
+        command += ["--history", history]
     typed = "ogacq " + " ".join(command)
     if not writable:
         screen.say(f"When the cause is fixed and a new campaign is consistent, write the "

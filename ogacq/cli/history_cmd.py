@@ -1,0 +1,101 @@
+"""``ogacq history MACHINE`` and ``ogacq history add SESSION...``: a machine's
+calibrations over time, and sessions recorded into the history afterwards."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ogacq.cli import render_history as render
+from ogacq.cli.history_record import record_session
+from ogacq.cli.options import JsonOption
+from ogacq.cli.outputs import ForceOption, check_output_file
+from ogacq.errors import InputError
+from ogacq.history.drift import changes
+from ogacq.history.location import history_for_session, history_to_read
+from ogacq.history.store import History
+from ogacq.session.store import load_session
+
+ReadHistoryOption = Annotated[str | None, typer.Option(
+    "--history", metavar="URL_OR_PATH",
+    help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
+         "$OGACQ_HISTORY, else history.sqlite in the current folder.")]
+AddHistoryOption = Annotated[str | None, typer.Option(
+    "--history", metavar="URL_OR_PATH",
+    help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
+         "$OGACQ_HISTORY, else history.sqlite beside each session.")]
+
+
+def show(
+    machine: Annotated[str, typer.Argument(help="The machine's name (or its serial), as "
+                                                "its machine file gives it.")],
+    history: ReadHistoryOption = None,
+    states: Annotated[bool, typer.Option(
+        "--states", help="List the offsets each write-back and restore found and left on "
+                         "the controller (what `ogacq offsets restore --to` takes).")] = False,
+    plot: Annotated[Path | None, typer.Option(
+        "--plot", metavar="FILE.png", help="Also draw each parameter over time with its U "
+                                           "(PNG).")] = None,
+    force: ForceOption = False,
+    as_json: JsonOption = False,
+) -> None:
+    """A machine's calibrations: date, record, operator, each parameter with its U, fit
+    verdict, acceptance, ambient temperature; a change from one calibration to the next
+    larger than its U (root sum of squares of both U) is flagged as a drift.
+
+    The history is --history, else $OGACQ_HISTORY, else history.sqlite in the current
+    folder.
+    """
+    if plot is not None:
+        if plot.suffix.lower() != ".png":
+            raise InputError(plot, "the plot is a PNG image: name it FILE.png")
+        check_output_file(plot, "--plot", force=force)
+    location = history_to_read(history)
+    with History.open(location, create=False) as db:
+        found = db.find_machine(machine)
+        if states:
+            listed = db.states(found)
+            current = db.current_state(found)
+        else:
+            calibrations = db.calibrations(found)
+            events = db.events(found)
+    where = location.describe()
+    if states:
+        if as_json:
+            typer.echo(json.dumps(render.states_json(found, listed, current)))
+        else:
+            render.print_states(found, where, listed, current)
+        return
+    drifts = changes(calibrations)
+    if plot is not None:
+        from ogacq.history.plot import write_history_plot  # matplotlib only when asked
+
+        write_history_plot(plot, found.describe(), calibrations, drifts)
+    if as_json:
+        typer.echo(json.dumps(render.calibrations_json(found, calibrations, drifts)))
+        return
+    render.print_calibrations(found, where, calibrations, drifts, events)
+    if plot is not None:
+        typer.echo(f"plot: {plot}")
+
+
+def add(
+    sessions: Annotated[list[Path], typer.Argument(
+        help="Session files of finished campaigns (their write-backs come along).")],
+    history: AddHistoryOption = None,
+) -> None:
+    """Record sessions into the history afterwards: each session's calibration record,
+    rebuilt from the file, and the write-backs and restores its audit holds. A session
+    recorded before is not recorded twice."""
+    loaded = [load_session(path) for path in sessions]  # every file checked before any write
+    for session in loaded:
+        location = history_for_session(history, session.path)
+        if location is None:
+            raise InputError("--history", "is 'none': there is no history to add to")
+        with History.open(location) as db:
+            recorded = record_session(db, session)
+        what = ", ".join(recorded.new) if recorded.new else "already recorded"
+        typer.echo(f"{session.path}: {what} ({location.describe()})")

@@ -1,0 +1,144 @@
+"""Recording what a command finished into the machine's history.
+
+Called after the session is closed: the session is the source of truth and is
+already safe on disk, so a history that cannot be reached only costs a warning
+that says how to add the session later (``ogacq history add``). Nothing here
+raises for a history failure.
+
+What is recorded is the ``ogacq-record/1`` document of the session
+(``ogacq.record.document.build_record``), with, for a write-back, the operation
+its audit records describe.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import typer
+
+from ogacq.errors import OgacqError
+from ogacq.history.entries import RecordError, WriteBack
+from ogacq.session.records import OffsetsRecord
+from ogacq.session.store import LoadedSession, load_session
+from ogacq.writeback.audit import operations
+
+if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
+    from ogacq.history.location import HistoryLocation
+    from ogacq.history.store import History, Recorded
+
+log = logging.getLogger("ogacq.history")
+
+Say = Callable[[str], None]
+
+
+def _say(text: str) -> None:
+    typer.echo(text, err=True)  # stdout stays the command's own (its --json)
+
+
+def session_record(session: LoadedSession) -> dict[str, Any]:
+    """The session's record, as ``ogacq report`` writes it beside the page."""
+    from ogacq.record.document import build_record
+
+    return build_record(session)
+
+
+def writebacks_of(session: LoadedSession) -> list[WriteBack]:
+    """The write-backs and restores the session's audit records describe."""
+    restores = {}
+    for record in session.of_type(OffsetsRecord):
+        if record.stage == "intent" and record.details.get("operation"):
+            restores[record.details["operation"]] = record.details.get("restores")
+    return [WriteBack(op.operation, op.action, op.status, op.old_mm, op.new_mm, op.profile,
+                      op.wall, restores.get(op.operation)) for op in operations(session)]
+
+
+def record_session(history: History, session: LoadedSession,
+                   record: Mapping[str, Any] | None = None) -> Recorded:
+    """The session's calibration and every write-back of its audit (each once)."""
+    record = dict(record) if record is not None else session_record(session)
+    where = str(session.path.resolve())
+    done = history.record_calibration(record, session_path=where)
+    for writeback in writebacks_of(session):
+        done += history.record_writeback(record, writeback, session_path=where)
+    return done
+
+
+def _later(session_path: Path, location: HistoryLocation) -> str:
+    named = "" if location.origin == "beside the session" else \
+        f" --history {location.option_value()}"
+    return f"add it later with `ogacq history add {session_path}{named}`"
+
+
+def _summary(recorded: Recorded) -> str:
+    kinds = [key.split(":")[0] for key in recorded.new]
+    counted = ", ".join(f"{kinds.count(k)} {k}{'s' if kinds.count(k) > 1 else ''}"
+                        for k in dict.fromkeys(kinds))
+    return counted or "nothing new"
+
+
+def record_after(session_path: Path, option: str | None, action: str, *,
+                 record_with: Callable[[History, LoadedSession], Recorded] | None = None,
+                 location: HistoryLocation | None = None, say: Say = _say,
+                 ) -> Recorded | None:
+    """Record the finished ``session_path`` (``action``: what finished, for the
+    messages) into ``location``, else the history the option, the environment or the
+    session names; None when recording is switched off or failed (a warning then
+    says how to add it later)."""
+    try:
+        from ogacq.history.location import history_for_session
+        from ogacq.history.store import History
+    except ImportError as exc:  # an install without SQLAlchemy: the session is kept all the same
+        log.warning("%s not recorded in the history: %s; add it later with `ogacq history add "
+                    "%s`", action, exc, session_path)
+        return None
+    if location is None:
+        try:
+            location = history_for_session(option, session_path)
+        except OgacqError as exc:
+            log.warning("%s not recorded in the history: %s", action, exc)
+            return None
+        if location is None:
+            return None
+    try:
+        session = load_session(session_path)
+        with History.open(location) as history:
+            recorded = (record_with or record_session)(history, session)
+    except (OgacqError, RecordError, ValueError, OSError) as exc:
+        log.warning("%s not recorded in the history: %s; %s", action, exc,
+                    _later(session_path, location))
+        return None
+    except Exception as exc:  # the session is safe whatever failed here: say it, go on
+        log.warning("%s not recorded in the history (%s: %s); %s", action,
+                    type(exc).__name__, exc, _later(session_path, location))
+        return None
+    say(f"history: {_summary(recorded)} recorded in {location.describe()}")
+    return recorded
+
+
+def record_campaign(session_path: Path, option: str | None, *, say: Say = _say) -> None:
+    """A finished campaign (run, resume, demo, the wizard)."""
+    record_after(session_path, option, "the campaign", say=say)
+
+
+def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
+                     option: str | None) -> None:
+    """``ogacq diagnose`` of a session: its findings beside the session's record."""
+
+    def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
+        record = session_record(session)
+        where = str(session.path.resolve())
+        done = history.record_calibration(record, session_path=where)
+        done += history.record_diagnosis(record, diagnosis, session_path=where)
+        return done
+
+    record_after(session_path, option, "the diagnosis", record_with=with_diagnosis)
+
+
+def record_writebacks(session_path: Path, option: str | None,
+                      location: HistoryLocation | None = None) -> None:
+    """After ``offsets write`` or ``restore``: every operation of the session's audit
+    (the one just made among them), into ``location`` when the states came from one."""
+    record_after(session_path, option, "the write-back", location=location)

@@ -1,0 +1,143 @@
+"""Rendering for ``ogacq history``: the calibrations of a machine with their drift
+flags, its offsets states, and the same as JSON."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+from rich.console import Console
+from rich.table import Table
+
+from ogacq.history.drift import Drift, expanded
+from ogacq.history.store import Calibration, Event, Machine, OffsetState
+
+console = Console()
+
+DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
+
+
+def verdict_words(verdict: dict[str, Any] | None) -> str:
+    if not isinstance(verdict, dict):
+        return "-"
+    state = verdict.get("state")
+    if state == "unjudged" or verdict.get("consistent") is None:
+        return "cannot be judged"
+    return "within noise" if verdict.get("consistent") else "NOT within noise"
+
+
+def acceptance_words(calibration: Calibration) -> str:
+    acceptance = calibration.acceptance if isinstance(calibration.acceptance, dict) else {}
+    found = calibration.acceptance_decision or "-"
+    left = (acceptance.get("as_left") or {}).get("decision")
+    return found if left in (None, "not evaluated") else f"{found} / left {left}"
+
+
+def _value(calibration: Calibration, name: str, flagged: bool) -> str:
+    p = calibration.parameters.get(name)
+    if p is None:
+        return "-"
+    u, basis = expanded(p)
+    spread = "" if u is None else (f" ± {u:.4f}" + ("" if basis == "U" else "*"))
+    return f"{p.value_mm:+.4f}{spread}" + (f" {DRIFT_MARK}" if flagged else "")
+
+
+def _short(name: str) -> str:
+    return name.removeprefix("joint_offset.") if name.startswith("joint_offset.") else name
+
+
+def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
+                       drifts: Sequence[Drift], events: Sequence[Event]) -> None:
+    names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
+    flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
+    table = Table(title=f"{machine.describe()}: {len(calibrations)} calibration"
+                        f"{'s' if len(calibrations) != 1 else ''} in {where}",
+                  show_edge=False, header_style="bold", title_justify="left")
+    for column in ("date", "record", "operator"):
+        table.add_column(column, no_wrap=column != "operator")
+    joint = all(n.startswith("joint_offset.") for n in names)
+    for name in names:
+        table.add_column(f"{'joint offset ' if joint else ''}{_short(name)} (mm ± U)",
+                         justify="right")
+    table.add_column("fit")
+    table.add_column("acceptance")
+    table.add_column("ambient", justify="right")
+    for c in calibrations:
+        ambient = f"{c.ambient_c:.1f} °C" if c.ambient_c is not None and \
+            math.isfinite(c.ambient_c) else "-"
+        table.add_row(c.date or "-", c.record_id, c.operator or "-",
+                      *(_value(c, n, (c.record_id, n) in flagged) for n in names),
+                      verdict_words(c.verdict), acceptance_words(c), ambient)
+    console.print(table)
+    if any(p.expanded_mm is None for c in calibrations for p in c.parameters.values()):
+        console.print("* U unknown (no uncertainty budget): 2 x the fit's std shown and used",
+                      highlight=False)
+    shown = [d for d in drifts if d.flagged]
+    for d in shown:
+        console.print(f"[red]{DRIFT_MARK} {d.describe()}[/]", highlight=False)
+    if len(calibrations) > 1 and not shown:
+        console.print("no change between successive calibrations exceeds its U")
+    others = [e for e in events if e.kind != "calibration"]
+    if others:
+        counts = {k: sum(e.kind == k for e in others) for k in dict.fromkeys(e.kind for e in
+                                                                            others)}
+        hint = (f" (`ogacq history {machine.name!r} --states`: the offsets written)"
+                if "write-back" in counts or "restore" in counts else "")
+        console.print("also recorded: " + ", ".join(f"{n} {k}{'s' if n > 1 else ''}"
+                                                    for k, n in counts.items()) + hint,
+                      highlight=False)
+
+
+def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
+                 current: OffsetState | None) -> None:
+    table = Table(title=f"{machine.describe()}: offsets states in {where} (o, mm)",
+                  show_edge=False, header_style="bold", title_justify="left")
+    for column in ("state", "when", "what", "record", "x", "y", "z", "status"):
+        table.add_column(column, justify="right" if column in "xyz" else "left",
+                         no_wrap=column in ("state", "when", "record"))
+    for v in states:
+        what = (f"before {v.action} {v.operation}" if v.stage == "before"
+                else f"after {v.action} {v.operation}")
+        mark = ", in force" if current is not None and v.state_id == current.state_id else ""
+        table.add_row(v.state_id, v.at or "-", what, v.record_id,
+                      *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
+                        for a in "xyz"), v.status + mark)
+    console.print(table)
+    if not states:
+        console.print("no write-back of this machine is recorded")
+    else:
+        console.print(f"go back to one: ogacq offsets restore --machine {machine.name!r} "
+                      "--to STATE (a state above, or a calibration's record id)",
+                      highlight=False)
+
+
+def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
+                      drifts: Sequence[Drift]) -> dict[str, Any]:
+    by_target: dict[str, dict[str, Any]] = {}
+    for d in drifts:
+        by_target.setdefault(d.to_record, {})[d.parameter] = d.to_json()
+    return {
+        "machine": {"name": machine.name, "serial": machine.serial},
+        "calibrations": [{
+            "record": c.record_id, "date": c.date, "operator": c.operator,
+            "parameters": {n: {"value_mm": p.value_mm, "u_mm": p.u_mm, "U_mm": p.expanded_mm,
+                               "k": p.k, "std_mm": p.std_mm}
+                           for n, p in c.parameters.items()},
+            "verdict": c.verdict,
+            "acceptance": {"as_found": c.acceptance_decision,
+                           "as_left": ((c.acceptance or {}).get("as_left") or {}).get(
+                               "decision") if isinstance(c.acceptance, dict) else None},
+            "ambient_c": c.ambient_c,
+            "instruments": c.instruments, "overrides": c.overrides,
+            "session": {"path": c.session_path, "sha256": c.session_sha256},
+            "changes": by_target.get(c.record_id, {})} for c in calibrations],
+        "drifts": [d.to_json() for d in drifts if d.flagged],
+    }
+
+
+def states_json(machine: Machine, states: Sequence[OffsetState],
+                current: OffsetState | None) -> dict[str, Any]:
+    return {"machine": {"name": machine.name, "serial": machine.serial},
+            "states": [v.as_mapping() for v in states],
+            "in_force": current.state_id if current is not None else None}

@@ -1,0 +1,17 @@
+"""Each machine's calibration history in a database (SQLAlchemy Core).
+
+SQLite by default (``history.sqlite`` beside the session: a file, nothing to
+install), PostgreSQL for a site whose stations share one history, through the
+same schema and code, chosen by a URL:
+
+- ``location``: which database a command uses (``--history``, ``OGACQ_HISTORY``,
+  ``history.sqlite`` beside the session) and the SQLAlchemy URL of it;
+- ``schema``: the tables and the schema version row, created on first use;
+- ``entries``: what a record (``ogacq-record/1``) and a write-back put in the rows;
+- ``store``: ``History``, the one place that reads and writes the database;
+- ``drift``: changes between successive calibrations larger than their U;
+- ``plot``: each parameter over time with its U.
+
+The session stays the source of truth: the history holds the record whole with
+the session's path and SHA-256, so every row can be traced back to its file.
+"""

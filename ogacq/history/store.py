@@ -1,0 +1,463 @@
+"""``History``: the one place that reads and writes the history database.
+
+Recording is one transaction (the machine, the event, its parameters and
+offsets states together, or nothing), and idempotent: every event has a unique
+key (``entries.event_key``) and is inserted with ``ON CONFLICT DO NOTHING``, so
+the same record sent twice, or by two stations at once, is one row. SQLite
+transactions that write start with ``BEGIN IMMEDIATE`` (the file's write lock is
+taken first, and a second station waits for it instead of failing half-way);
+PostgreSQL serialises the first creation of the schema with an advisory lock.
+
+Every database error becomes a ``HistoryError`` (a ``StorageError``: exit 3) in
+one line naming the database and what could not be done.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from sqlalchemy import Connection, Engine, create_engine, event, func, inspect, select
+from sqlalchemy.dialects import postgresql, sqlite
+from sqlalchemy.exc import SQLAlchemyError
+
+from ogacq import __version__
+from ogacq.errors import InputError, StorageError
+from ogacq.history import schema as s
+from ogacq.history.entries import (
+    Parameter,
+    WriteBack,
+    check_record,
+    clean_json,
+    event_key,
+    local_iso,
+    machine_of,
+    offsets_row,
+    parameters_of,
+    record_columns,
+    state_id,
+    utc_now,
+)
+from ogacq.history.location import HistoryLocation
+
+# A second station writing to the same SQLite file waits this long for its lock.
+SQLITE_BUSY_TIMEOUT_S = 30.0
+# PostgreSQL: a server that does not answer is said within this many seconds.
+CONNECT_TIMEOUT_S = 10
+# Any 64-bit number: the key of the advisory lock taken while the schema is created.
+SCHEMA_LOCK_KEY = 0x6F67_6171_6869_7374  # "ogaqhist"
+
+
+class HistoryError(StorageError):
+    """The history database cannot be reached, read or written, or is not an ogacq
+    history (exit 3, like a disk that fails)."""
+
+    def __init__(self, location: HistoryLocation, problem: str) -> None:
+        self.location = location
+        self.path = location.describe()
+        Exception.__init__(self, f"history {self.path}: {problem}")
+
+
+@dataclass(frozen=True)
+class Machine:
+    id: int
+    name: str
+    serial: str
+
+    def describe(self) -> str:
+        return f"{self.name} (serial {self.serial})" if self.serial else self.name
+
+
+@dataclass(frozen=True)
+class Calibration:
+    record_id: str
+    date: str | None
+    operator: str | None
+    verdict: dict[str, Any] | None
+    acceptance_decision: str | None
+    acceptance: dict[str, Any] | None
+    ambient_c: float | None
+    parameters: dict[str, Parameter]
+    session_path: str | None
+    session_sha256: str | None
+    instruments: list[Any] | None = None
+    environment: dict[str, Any] | None = None
+    overrides: list[Any] | None = None
+    station: str | None = None
+
+
+@dataclass(frozen=True)
+class Event:
+    kind: str
+    record_id: str
+    date: str | None
+    operator: str | None
+    session_path: str | None
+    details: dict[str, Any] | None
+
+
+@dataclass(frozen=True)
+class OffsetState:
+    state_id: str
+    stage: str  # before, after
+    at: str | None
+    wall: float | None
+    operation: str
+    action: str
+    status: str
+    profile: str | None
+    offsets_mm: dict[str, float | None]
+    record_id: str
+    session_path: str | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return {"state": self.state_id, "stage": self.stage, "at": self.at,
+                "operation": self.operation, "action": self.action, "status": self.status,
+                "profile": self.profile, "offsets_mm": self.offsets_mm,
+                "record": self.record_id, "session": self.session_path}
+
+
+@dataclass
+class Recorded:
+    """What one call recorded: the keys written, and those already there."""
+
+    new: list[str] = field(default_factory=list)
+    present: list[str] = field(default_factory=list)
+
+    def __iadd__(self, other: Recorded) -> Recorded:
+        self.new += other.new
+        self.present += other.present
+        return self
+
+
+def _first_line(exc: BaseException) -> str:
+    cause = getattr(exc, "orig", None) or exc
+    text = " ".join(str(cause).split("\n")[0].split())
+    return text or type(cause).__name__
+
+
+class History:
+    """An open history database. ``History.open(location)`` checks it (and creates
+    the schema on first use unless ``create=False``); use it as a context manager."""
+
+    def __init__(self, location: HistoryLocation, engine: Engine) -> None:
+        self.location = location
+        self.engine = engine
+
+    # ------------------------------------------------------------------ opening
+    @classmethod
+    def open(cls, location: HistoryLocation, *, create: bool = True) -> History:
+        engine = _engine(location, create)
+        history = cls(location, engine)
+        try:
+            with history._guard("open"), history._transaction(write=create) as conn:
+                _prepare(conn, location, create)
+        except BaseException:
+            engine.dispose()
+            raise
+        return history
+
+    def close(self) -> None:
+        self.engine.dispose()
+
+    def __enter__(self) -> History:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    @contextlib.contextmanager
+    def _guard(self, what: str) -> Iterator[None]:
+        try:
+            yield
+        except SQLAlchemyError as exc:
+            raise HistoryError(self.location, f"cannot {what} ({_first_line(exc)})") from None
+
+    @contextlib.contextmanager
+    def _transaction(self, *, write: bool) -> Iterator[Connection]:
+        with self.engine.connect() as conn:
+            if write:
+                conn.info["ogacq_immediate"] = True  # SQLite: BEGIN IMMEDIATE
+            with conn.begin():
+                if write and conn.dialect.name == "postgresql":
+                    # one writer at a time per history: two stations recording the same
+                    # machine's first calibration must not both insert it
+                    conn.execute(select(func.pg_advisory_xact_lock(SCHEMA_LOCK_KEY)))
+                yield conn
+
+    # ------------------------------------------------------------------ recording
+    # ``session_path``: where the session is, as an absolute path, when the record
+    # names it relative to the folder its command ran in.
+    def record_calibration(self, record: Mapping[str, Any], *,
+                           session_path: str | None = None) -> Recorded:
+        record = check_record(record)
+        return self._record("calibration", record, details=None, parameters=True,
+                            session_path=session_path)
+
+    def record_diagnosis(self, record: Mapping[str, Any], diagnosis: Mapping[str, Any], *,
+                         session_path: str | None = None) -> Recorded:
+        record = check_record(record)
+        return self._record("diagnosis", record, details=clean_json(dict(diagnosis)),
+                            parameters=False, session_path=session_path)
+
+    def record_writeback(self, record: Mapping[str, Any], writeback: WriteBack, *,
+                         session_path: str | None = None) -> Recorded:
+        """A write-back or restore, with the offsets it found and left as states."""
+        record = check_record(record)
+        details = clean_json({"operation": writeback.operation, "action": writeback.action,
+                              "status": writeback.status, "old_mm": dict(writeback.old_mm),
+                              "new_mm": dict(writeback.new_mm), "profile": writeback.profile,
+                              "restores": writeback.restores})
+        return self._record(writeback.kind, record, details=details, parameters=False,
+                            writeback=writeback, session_path=session_path)
+
+    def _record(self, kind: str, record: dict[str, Any], *, details: dict[str, Any] | None,
+                parameters: bool, writeback: WriteBack | None = None,
+                session_path: str | None = None) -> Recorded:
+        key = event_key(kind, record["id"], writeback.operation if writeback else None)
+        columns = record_columns(record)
+        if session_path is not None:
+            columns["session_path"] = session_path
+        if writeback is not None:
+            columns["campaign_date"] = local_iso(writeback.wall) or columns["campaign_date"]
+        with self._guard(f"record {key}"), self._transaction(write=True) as conn:
+            machine_id = _machine_id(conn, machine_of(record))
+            inserted = conn.execute(_insert(conn, s.events).values(
+                event_key=key, machine_id=machine_id, kind=kind, recorded_at=utc_now(),
+                station=socket.gethostname(), details=details,
+                record=clean_json(record), **{**columns, "software":
+                                              columns["software"] or f"ogacq {__version__}"})
+                .on_conflict_do_nothing(index_elements=["event_key"])
+                .returning(s.events.c.id))
+            event_id = inserted.scalar_one_or_none()
+            if event_id is None:  # recorded before (here or by another station)
+                return Recorded(present=[key])
+            if parameters:
+                rows = [{"event_id": event_id, "name": p.name, "value_mm": p.value_mm,
+                         "u_mm": p.u_mm, "expanded_mm": p.expanded_mm, "k": p.k,
+                         "std_mm": p.std_mm}
+                        for p in parameters_of(record)]
+                if rows:
+                    conn.execute(s.parameters.insert(), rows)
+            if writeback is not None:
+                conn.execute(s.offset_states.insert(),
+                             _state_rows(writeback, machine_of(record), event_id, machine_id))
+        return Recorded(new=[key])
+
+    # ------------------------------------------------------------------ reading
+    def machines(self) -> list[Machine]:
+        with self._guard("read the machines"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(s.machines).order_by(s.machines.c.name,
+                                                            s.machines.c.serial)).all()
+        return [Machine(r.id, r.name, r.serial) for r in rows]
+
+    def find_machine(self, name_or_serial: str) -> Machine:
+        """The machine of that name (or serial); InputError naming those there are."""
+        wanted = name_or_serial.strip()
+        known = self.machines()
+        found = [m for m in known if m.name == wanted] or \
+            [m for m in known if m.serial and m.serial == wanted]
+        if len(found) == 1:
+            return found[0]
+        if found:
+            raise InputError(name_or_serial, "names several machines: "
+                             f"{', '.join(m.describe() for m in found)}; give the serial")
+        there = ", ".join(m.describe() for m in known) or "none yet"
+        raise InputError(name_or_serial, f"no such machine in history "
+                         f"{self.location.describe()} (machines: {there})")
+
+    def calibrations(self, machine: Machine) -> list[Calibration]:
+        """The machine's calibrations, oldest first (by their campaign date)."""
+        e = s.events
+        with self._guard("read the calibrations"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(e).where(e.c.machine_id == machine.id,
+                                                e.c.kind == "calibration")).all()
+            params = conn.execute(select(s.parameters).where(
+                s.parameters.c.event_id.in_([r.id for r in rows]))).all() if rows else []
+        by_event: dict[int, dict[str, Parameter]] = {}
+        for p in params:
+            by_event.setdefault(p.event_id, {})[p.name] = Parameter(
+                p.name, p.value_mm, p.u_mm, p.expanded_mm, p.k, p.std_mm)
+        out = [Calibration(r.record_id, r.campaign_date, r.operator, r.verdict,
+                           r.acceptance_decision, r.acceptance, r.ambient_c,
+                           _in_record_order(by_event.get(r.id, {}), r.record),
+                           r.session_path, r.session_sha256, r.instruments, r.environment,
+                           r.overrides, r.station)
+               for r in rows]
+        return sorted(out, key=lambda c: (c.date or "", c.record_id))
+
+    def events(self, machine: Machine) -> list[Event]:
+        """Every event of the machine (calibrations, diagnoses, write-backs, restores),
+        by date."""
+        e = s.events
+        with self._guard("read the events"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(e.c.kind, e.c.record_id, e.c.campaign_date,
+                                       e.c.operator, e.c.session_path, e.c.details)
+                                .where(e.c.machine_id == machine.id)).all()
+        return sorted((Event(r.kind, r.record_id, r.campaign_date, r.operator, r.session_path,
+                             r.details) for r in rows),
+                      key=lambda v: (v.date or "", s.EVENT_KINDS.index(v.kind), v.record_id))
+
+    def records(self, machine: Machine, record_id: str) -> dict[str, Any] | None:
+        """The record stored whole with the machine's calibration ``record_id``."""
+        e = s.events
+        with self._guard("read a record"), self._transaction(write=False) as conn:
+            return conn.execute(select(e.c.record).where(
+                e.c.machine_id == machine.id, e.c.record_id == record_id,
+                e.c.kind == "calibration")).scalar_one_or_none()
+
+    def results_history(self, machine: Machine) -> list[dict[str, Any]]:
+        """The machine's calibrations as ``build_record(history=...)`` takes them
+        (docs/calibration-record.md section 5): ``{"id", "date", "results"}`` each,
+        the results as their records hold them, oldest first."""
+        e = s.events
+        with self._guard("read the calibrations"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(e.c.record_id, e.c.campaign_date, e.c.record).where(
+                e.c.machine_id == machine.id, e.c.kind == "calibration")).all()
+        entries = [{"id": r.record_id, "date": r.campaign_date,
+                    "results": (r.record or {}).get("results") or {}} for r in rows]
+        return sorted(entries, key=lambda v: (v["date"] or "", v["id"]))
+
+    def states(self, machine: Machine) -> list[OffsetState]:
+        """The offsets states of the machine's write-backs and restores, oldest first."""
+        o, e = s.offset_states, s.events
+        with self._guard("read the offsets states"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(o, e.c.record_id, e.c.session_path)
+                                .join(e, e.c.id == o.c.event_id)
+                                .where(o.c.machine_id == machine.id)).all()
+        states = [OffsetState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action,
+                              r.status, r.profile,
+                              {a: getattr(r, f"{a}_mm") for a in ("x", "y", "z")},
+                              r.record_id, r.session_path) for r in rows]
+        return sorted(states, key=lambda v: (v.wall or 0.0, v.stage != "before", v.state_id))
+
+    def current_state(self, machine: Machine) -> OffsetState | None:
+        """What the history says the controller holds: the last write-back or restore
+        that finished."""
+        done = [v for v in self.states(machine) if v.stage == "after" and v.status == "done"]
+        return done[-1] if done else None
+
+    def find_state(self, machine: Machine, wanted: str) -> OffsetState:
+        """An offsets state by its id, or the offsets a calibration's last finished
+        write-back wrote (by the calibration's record id)."""
+        states = self.states(machine)
+        by_id = [v for v in states if v.state_id == wanted.strip()]
+        if by_id:
+            return by_id[0]
+        written = [v for v in states if v.record_id == wanted.strip() and v.stage == "after"
+                   and v.status == "done" and v.action == "write"]
+        if written:
+            return written[-1]
+        if any(c.record_id == wanted.strip() for c in self.calibrations(machine)):
+            raise InputError(wanted, f"calibration {wanted} of {machine.describe()} was never "
+                             "written to a controller: nothing of it to restore (`ogacq offsets "
+                             "write SESSION` writes it)")
+        raise InputError(wanted, f"no offsets state or calibration {wanted} for "
+                         f"{machine.describe()} (`ogacq history {machine.name} --states` "
+                         "lists them)")
+
+
+def _in_record_order(found: dict[str, Parameter], record: Any) -> dict[str, Parameter]:
+    order = [p.name for p in parameters_of(record)] if isinstance(record, Mapping) else []
+    return {n: found[n] for n in [*order, *sorted(set(found) - set(order))] if n in found}
+
+
+def _state_rows(writeback: WriteBack, machine: tuple[str, str], event_id: int,
+                machine_id: int) -> list[dict[str, Any]]:
+    common = {"event_id": event_id, "machine_id": machine_id, "at": local_iso(writeback.wall),
+              "wall": writeback.wall, "operation": writeback.operation,
+              "action": writeback.action, "status": writeback.status,
+              "profile": writeback.profile}
+    return [{**common, "state_id": state_id(machine, writeback.operation, stage), "stage": stage,
+             **offsets_row(values)}
+            for stage, values in (("before", writeback.old_mm), ("after", writeback.new_mm))]
+
+
+def _insert(conn: Connection, table: s.Table) -> Any:
+    """The dialect's INSERT, which has ON CONFLICT DO NOTHING on both backends."""
+    return (postgresql.insert(table) if conn.dialect.name == "postgresql"
+            else sqlite.insert(table))
+
+
+def _machine_id(conn: Connection, identity: tuple[str, str]) -> int:
+    name, serial = identity
+    m = s.machines
+    conn.execute(_insert(conn, m).values(name=name, serial=serial, first_recorded=utc_now())
+                 .on_conflict_do_nothing(index_elements=["name", "serial"]))
+    return conn.execute(select(m.c.id).where(m.c.name == name, m.c.serial == serial)
+                        ).scalar_one()
+
+
+def _engine(location: HistoryLocation, create: bool) -> Engine:
+    url = location.url
+    if location.backend == "sqlite":
+        from pathlib import Path
+
+        path = Path(url.database or "")
+        if not path.parent.is_dir():
+            raise HistoryError(location, f"cannot open: there is no folder {path.parent}")
+        if not create and not path.exists():
+            raise HistoryError(location, "no history here (the file does not exist)")
+        if path.exists() and not path.is_file():
+            raise HistoryError(location, "is not a file")
+        engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_S})
+
+        @event.listens_for(engine, "connect")
+        def _connect(dbapi_connection: Any, _record: Any) -> None:
+            # the transactions are begun below, not by the driver (SQLAlchemy 2.0 docs,
+            # pysqlite dialect, "Serializable isolation / Savepoints / Transactional DDL")
+            dbapi_connection.isolation_level = None
+            dbapi_connection.execute("PRAGMA foreign_keys = ON")
+
+        @event.listens_for(engine, "begin")
+        def _begin(conn: Connection) -> None:
+            immediate = conn.info.pop("ogacq_immediate", False)
+            conn.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
+
+        return engine
+    return create_engine(url, connect_args={"connect_timeout": CONNECT_TIMEOUT_S},
+                         pool_pre_ping=True)
+
+
+def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
+    """Check that the database is an ogacq history this version reads; create the
+    schema in an empty one (when ``create``); migrate an older one."""
+    tables = set(inspect(conn).get_table_names())
+    if s.schema_info.name not in tables:
+        if tables:
+            listed = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
+            raise HistoryError(location, f"is not an ogacq history: it holds other tables "
+                               f"({listed}); give an empty database or an ogacq history")
+        if not create:
+            raise HistoryError(location, "holds no ogacq history yet (nothing was recorded)")
+        s.metadata.create_all(conn)
+        conn.execute(s.schema_info.insert(), [
+            {"key": "application", "value": s.APPLICATION},
+            {"key": "version", "value": str(s.SCHEMA_VERSION)},
+            {"key": "created", "value": utc_now()},
+            {"key": "created_by", "value": f"ogacq {__version__}"}])
+        return
+    info = dict(conn.execute(select(s.schema_info.c.key, s.schema_info.c.value)).all())
+    if info.get("application") != s.APPLICATION:
+        raise HistoryError(location, "is not an ogacq history (its ogacq_schema table says "
+                           f"{info.get('application')!r})")
+    try:
+        version = int(info.get("version", ""))
+    except ValueError:
+        raise HistoryError(location, f"has an unreadable schema version "
+                           f"{info.get('version')!r}") from None
+    if version > s.SCHEMA_VERSION:
+        raise HistoryError(location, f"was written by a newer ogacq (schema {version}; this "
+                           f"one reads up to {s.SCHEMA_VERSION}): update ogacq")
+    if version < s.SCHEMA_VERSION:
+        if not create:
+            raise HistoryError(location, f"holds schema {version}: record something with this "
+                               f"ogacq to bring it to schema {s.SCHEMA_VERSION}")
+        for step in range(version, s.SCHEMA_VERSION):
+            for statement in s.MIGRATIONS[step]:
+                conn.exec_driver_sql(statement)
+        conn.execute(s.schema_info.update().where(s.schema_info.c.key == "version")
+                     .values(value=str(s.SCHEMA_VERSION)))

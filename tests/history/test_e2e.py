@@ -1,0 +1,105 @@
+"""Issue 15, end to end on the simulator: three calibrations of one machine on
+different dates and at different temperatures, with a drift of its x joint offset
+injected before the third (the simulator's hidden truth, an effects file), land in
+SQLite through ``ogacq run``; ``ogacq history`` shows the three and flags that
+drift, and the same sessions in a real PostgreSQL server give the same history."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.campaign.conftest import MACHINE
+from tests.writeback.conftest import ogacq_here
+
+NAME = "OG-e2e cell 1"
+# (date, simulated ambient, hidden x offset): the third calibration finds x 80 um
+# further, far beyond the few um of its U
+CALIBRATIONS = [("2026-01-10T09:00:00", 20.3, 0.400),
+                ("2026-02-14T10:30:00", 21.1, 0.401),
+                ("2026-03-20T08:15:00", 19.6, 0.480)]
+
+
+def campaign(folder: Path, index: int) -> Path:
+    date, ambient, x = CALIBRATIONS[index]
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / "machine.toml").write_text(f'name = "{NAME}"\nserial = "SIM-0001"\n{MACHINE}')
+    (folder / "effects.toml").write_text(f"[joint_offset]\nx = {x}\ny = -0.25\nz = 0.15\n")
+    path = folder / "campaign.toml"
+    # one cycle, fast simulated time: 24 readings in about a second
+    path.write_text(f'machine = "machine.toml"\nsession = "session.jsonl"\n'
+                    f'operator = "A. Technician"\n\n[environment]\nambient_c = {ambient}\n\n'
+                    f"[protocol]\ncycles = 1\nsettle_s = 0.2\n\n"
+                    f"[stability]\nreadings = 2\ntolerance_mm = 0.003\ntimeout_s = 2.0\n\n"
+                    f'[simulator]\nseed = 3\nspeed = 100\neffects = "effects.toml"\n'
+                    f"date = {date}\nambient_c = {ambient}\n")
+    return path
+
+
+def history_json(capsys, monkeypatch, url: str) -> dict:
+    ran = ogacq_here(capsys, monkeypatch, "history", NAME, "--history", url, "--json")
+    assert ran.returncode == 0, ran.stderr
+    return json.loads(ran.stdout)
+
+
+@pytest.mark.slow
+def test_three_calibrations_drift_flagged_in_sqlite_and_postgresql(tmp_path, capsys,
+                                                                   monkeypatch,
+                                                                   postgres_url):
+    sqlite_path = tmp_path / "site-history.sqlite"
+    sessions = []
+    for i in range(3):
+        ran = ogacq_here(capsys, monkeypatch, "run", campaign(tmp_path / f"cal{i}", i),
+                         "--json", "--history", sqlite_path)
+        assert ran.returncode == 0, ran.stderr
+        assert "history: 1 calibration recorded" in ran.stderr
+        sessions.append(tmp_path / f"cal{i}" / "session.jsonl")
+
+    lite = history_json(capsys, monkeypatch, str(sqlite_path))
+    found = lite["calibrations"]
+    assert len(found) == 3
+    assert [c["session"]["path"] for c in found] == [str(s) for s in sessions]
+    x = [c["parameters"]["joint_offset.x"] for c in found]
+    for entry, (_, _, truth) in zip(x, CALIBRATIONS, strict=True):
+        assert abs(entry["value_mm"] - truth) < 0.01
+        # U from the budget, or the fit's std standing in for it (said in the flag)
+        assert (entry["U_mm"] or 2 * entry["std_mm"]) < 0.02
+    # the injected drift, and only it, is flagged
+    assert [(d["parameter"], d["from"], d["to"]) for d in lite["drifts"]] == [
+        ("joint_offset.x", found[1]["record"], found[2]["record"])]
+    assert lite["drifts"][0]["change_mm"] == pytest.approx(0.079, abs=0.01)
+
+    # the human table says it too
+    monkeypatch.setenv("COLUMNS", "250")
+    table = ogacq_here(capsys, monkeypatch, "history", NAME, "--history", sqlite_path)
+    assert table.returncode == 0 and "! drift: joint_offset.x +0.0" in table.stdout
+
+    # the same sessions into a PostgreSQL history: the same answers
+    added = ogacq_here(capsys, monkeypatch, "history", "add", *sessions, "--history",
+                       postgres_url)
+    assert added.returncode == 0, added.stderr
+    assert history_json(capsys, monkeypatch, postgres_url) == lite
+    # recorded twice, still once
+    again = ogacq_here(capsys, monkeypatch, "history", "add", *sessions, "--history",
+                       postgres_url)
+    assert again.stdout.count("already recorded") == 3
+    assert history_json(capsys, monkeypatch, postgres_url) == lite
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="issue15a: `ogacq run` does not yet write the campaign "
+                   "file's [simulator] date, operator and [environment] into the session, so "
+                   "the record (and the history) holds the run's own date and no temperature")
+def test_the_campaign_date_operator_and_temperature_reach_the_history(tmp_path, capsys,
+                                                                      monkeypatch):
+    history = tmp_path / "h.sqlite"
+    for i in (0, 2):
+        ran = ogacq_here(capsys, monkeypatch, "run", campaign(tmp_path / f"cal{i}", i),
+                         "--json", "--history", history)
+        assert ran.returncode == 0, ran.stderr
+    found = history_json(capsys, monkeypatch, str(history))["calibrations"]
+    assert [c["date"][:19] for c in found] == [CALIBRATIONS[0][0], CALIBRATIONS[2][0]]
+    assert [c["operator"] for c in found] == ["A. Technician"] * 2
+    assert [c["ambient_c"] for c in found] == [CALIBRATIONS[0][1], CALIBRATIONS[2][1]]

@@ -1,0 +1,92 @@
+"""``ogacq history MACHINE``: the table, the JSON, the plot and the states of a
+history holding records shaped as the contract says."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ogacq.cli.app import main
+from ogacq.history.entries import WriteBack
+from ogacq.history.location import parse_location
+from ogacq.history.store import History
+from tests.history.records import contract_record
+
+
+@pytest.fixture
+def history_file(tmp_path):
+    path = tmp_path / "history.sqlite"
+    records = [contract_record(date="2026-01-10T09:00:00", ambient_c=20.4),
+               contract_record(date="2026-02-01T14:00:00", ambient_c=18.0,
+                               offsets={"x": 0.424, "y": -0.31, "z": 0.12}),
+               contract_record(date="2026-03-02T08:30:00", ambient_c=23.1, decision="fail",
+                               offsets={"x": 0.47, "y": -0.309, "z": 0.12})]
+    with History.open(parse_location(str(path), "--history")) as history:
+        for record in records:
+            history.record_calibration(record)
+        history.record_writeback(records[0], WriteBack(
+            "write-0001", "write", "done", dict.fromkeys("xyz", 0.0),
+            {"x": -0.42, "y": 0.31, "z": -0.12}, "cia402", 1_768_100_000.0))
+    return path, records
+
+
+def run(capsys, *args) -> tuple[int, str, str]:
+    capsys.readouterr()
+    code = main([str(a) for a in args])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_the_table_lists_the_calibrations_and_flags_the_drift(history_file, capsys,
+                                                               monkeypatch):
+    path, records = history_file
+    monkeypatch.setenv("COLUMNS", "250")
+    code, out, _ = run(capsys, "history", "OG-1 cell 3", "--history", path)
+    assert code == 0
+    lines = out.splitlines()
+    rows = [line for line in lines if line.strip().startswith("2026-")]
+    assert len(rows) == 3
+    assert records[2]["id"] in rows[2] and "+0.4700 ± 0.0060 !" in rows[2]
+    assert "23.1 °C" in rows[2] and "fail" in rows[2] and "J. Martin" in rows[2]
+    assert "!" not in rows[1]  # 4 um: within the 8.5 um of the change
+    assert any(line.startswith(f"! drift: joint_offset.x +0.0460 mm from {records[1]['id']}")
+               for line in lines)
+    assert "1 write-back" in out
+    # the same, found in the current folder, and by the serial
+    monkeypatch.chdir(path.parent)
+    code, again, _ = run(capsys, "history", "OG-2026-0017")
+    assert code == 0 and again == out
+
+
+def test_json_plot_and_states(history_file, capsys, tmp_path):
+    path, records = history_file
+    plot = tmp_path / "history.png"
+    code, out, _ = run(capsys, "history", "show", "OG-1 cell 3", "--history", path, "--json",
+                       "--plot", plot)
+    assert code == 0
+    data = json.loads(out)
+    assert [c["record"] for c in data["calibrations"]] == [r["id"] for r in records]
+    assert data["calibrations"][0]["parameters"]["joint_offset.x"] == {
+        "value_mm": 0.42, "u_mm": 0.003, "U_mm": 0.006, "k": 2.0, "std_mm": 0.0028}
+    assert data["calibrations"][2]["acceptance"] == {"as_found": "fail",
+                                                     "as_left": "not evaluated"}
+    assert [(d["parameter"], d["to"]) for d in data["drifts"]] == [
+        ("joint_offset.x", records[2]["id"])]
+    assert data["calibrations"][2]["changes"]["joint_offset.x"]["flagged"] is True
+    assert plot.read_bytes()[:4] == b"\x89PNG"
+    code, out, _ = run(capsys, "history", "OG-1 cell 3", "--history", path, "--states",
+                       "--json")
+    states = json.loads(out)
+    assert [s["stage"] for s in states["states"]] == ["before", "after"]
+    assert states["in_force"] == states["states"][1]["state"]
+    assert states["states"][1]["offsets_mm"] == {"x": -0.42, "y": 0.31, "z": -0.12}
+
+
+def test_an_unknown_machine_and_an_unreachable_history_are_one_line(history_file, capsys):
+    path, _ = history_file
+    code, _, err = run(capsys, "history", "OG-9", "--history", path)
+    assert code == 2 and err.count("\n") == 1 and "machines: OG-1 cell 3 (serial" in err
+    code, _, err = run(capsys, "history", "OG-1", "--history",
+                       "postgresql://ogacq@127.0.0.1:1/none")
+    assert code == 3 and err.count("\n") == 1 and err.startswith("ogacq: error: history ")

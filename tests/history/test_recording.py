@@ -1,0 +1,56 @@
+"""A history that cannot be reached, or is not an ogacq history, never costs the
+campaign: the session is complete, the command succeeds, and one warning says how
+to add the session later."""
+
+from __future__ import annotations
+
+import json
+import socket
+import sqlite3
+
+from ogacq.session.store import load_session
+from tests.history.test_e2e import campaign
+from tests.writeback.conftest import ogacq_here
+
+
+def closed_port() -> int:
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        return probe.getsockname()[1]
+
+
+def test_an_unreachable_history_only_warns_and_the_session_is_whole(tmp_path, capsys,
+                                                                     monkeypatch, caplog):
+    url = f"postgresql://ogacq@127.0.0.1:{closed_port()}/site"
+    path = campaign(tmp_path / "cal", 0)
+    ran = ogacq_here(capsys, monkeypatch, "run", path, "--json", "--history", url)
+    assert ran.returncode == 0, ran.stderr
+    assert json.loads(ran.stdout)["parameters"]["joint_offset"]  # the result, as ever
+    session_path = tmp_path / "cal" / "session.jsonl"
+    assert load_session(session_path).finished and load_session(session_path).result
+    # (the command line prints each warning as one line "ogacq: warning: ...")
+    warnings = [r.getMessage() for r in caplog.records if r.name == "ogacq.history"]
+    assert len(warnings) == 1 and caplog.records[-1].levelname == "WARNING"
+    assert warnings[0].startswith("the campaign not recorded in the history: history "
+                                  "postgresql+psycopg://ogacq@127.0.0.1:")
+    assert "\n" not in warnings[0] and "Connection refused" in warnings[0]
+    assert f"add it later with `ogacq history add {session_path} --history " \
+           "postgresql+psycopg://ogacq@127.0.0.1:" in warnings[0]
+
+
+def test_adding_to_a_database_of_another_application_is_refused_untouched(tmp_path, capsys,
+                                                                          monkeypatch):
+    other = tmp_path / "erp.sqlite"
+    with sqlite3.connect(other) as conn:
+        conn.execute("CREATE TABLE orders (id INTEGER)")
+    before = other.read_bytes()
+    session = tmp_path / "s.jsonl"
+    from ogacq.session.store import SessionWriter
+
+    SessionWriter.create(session, {"machine": {}, "plan": None}).close()
+    ran = ogacq_here(capsys, monkeypatch, "history", "add", session, "--history", other)
+    assert ran.returncode == 3
+    assert ran.stderr.strip() == (f"ogacq: error: history {other}: is not an ogacq history: it "
+                                  "holds other tables (orders); give an empty database or an "
+                                  "ogacq history")
+    assert other.read_bytes() == before
