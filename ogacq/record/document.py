@@ -57,14 +57,22 @@ def compact_date(date: str | None) -> str:
     return "".join(found.groups()) if found else "undated"
 
 
+def session_record_id(session: LoadedSession) -> str:
+    """The id the record of ``session`` has (without building the record)."""
+    header_line, _ = _session_digest(session)
+    return record_id(header_line, _text(calibration_context(session).date))
+
+
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
                  history: Sequence[Mapping[str, Any]] | None = None,
+                 history_why: str | None = None,
                  issued: str | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
 
     ``validation``: the campaign run after the write-back (the as-left measurement);
     ``history``: earlier calibrations of the same machine, each ``{"id", "date",
-    "results"}`` with ``results`` shaped as this record's; ``issued``: the issue
+    "results"}`` with ``results`` shaped as this record's (``history_why``: why
+    there is none, when None is given); ``issued``: the issue
     time (default: now, ISO 8601 with offset). The identity, instruments,
     environment and overrides are the session's own (:func:`calibration_context`).
     """
@@ -114,6 +122,8 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         missing.setdefault("operator", NOT_IN_SESSION.format(what="the operator"))
     if record["machine"]["serial"] is None:
         missing["machine serial"] = NOT_IN_SESSION.format(what="the machine's serial number")
+    if history is None and history_why:
+        missing["history"] = history_why
     record["missing"] = missing | evaluation.missing
     return record
 

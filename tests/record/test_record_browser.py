@@ -61,6 +61,9 @@ def test_the_rendered_page_shows_every_field_of_the_record(browser, report):
     for name, rows in (record["budget"] or {}).items():
         assert name in text and all(row["source"] in text for row in rows)
     # nothing left as a program wrote it: no None, NaN, undefined, dict or list dump
+    # the history given: listed with U where it has one, and plotted
+    assert "-1.2391 ± 0.0041" in text and "-1.2417" in text
+    assert browser.find_element("css selector", 'img[alt^="Each parameter at each"]')
     assert not re.search(r"\bNone\b|\bnan\b|\bundefined\b|\{'|\[\{|\['", text)
 
 
