@@ -45,7 +45,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
     ("ogacq.campaign", "ogacq.traceability"),
     ("ogacq.writeback", "ogacq.report"),
-    ("ogacq.record.document",),  # the record: the campaign, its write-backs, its report data
+    # the record: the campaign, its uncertainty, its write-backs, its report data
+    ("ogacq.record.document", "ogacq.record.evaluation"),
     ("ogacq.cli", "ogacq.__main__"),
 ]
 LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entries}

@@ -10,6 +10,7 @@ from typing import Annotated, Any
 import typer
 
 from ogacq.cli.outputs import check_output_folder
+from ogacq.cli.report_history import earlier_calibrations
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.io.text import read_text
@@ -31,6 +32,11 @@ def report_command(
     out: Annotated[Path | None, typer.Option(
         "--out", help="Folder for report.html and the PNG figures (default: "
                       "SESSION-report next to the session).")] = None,
+    history: Annotated[str | None, typer.Option(
+        "--history", metavar="URL_OR_PATH",
+        help="History to plot this machine's earlier calibrations from: an SQLite file or "
+             "a PostgreSQL URL (default: $OGACQ_HISTORY, else history.sqlite beside the "
+             "session; none: no history).")] = None,
     pdf: Annotated[bool, typer.Option(
         "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
                       "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
@@ -43,13 +49,15 @@ def report_command(
     check_output_folder(folder, "--out")
     calibration = load_session(session)
     validation = load_session(after) if after is not None else None
+    earlier, why = earlier_calibrations(history, calibration)
     if diagnosis is not None:
         raw, note = _read_diagnosis(diagnosis), None
     else:
         raw, note = _diagnose_here(calibration)
     page = write_session_report(calibration, folder, validation=validation,
                                 diagnosis=raw, diagnosis_note=note,
-                                diagnosis_source=diagnosis or session)
+                                diagnosis_source=diagnosis or session,
+                                history=earlier, history_why=why)
     typer.echo(str(page))
     if pdf:  # after the page is on disk: a missing browser loses nothing
         typer.echo(str(print_pdf(page, page.with_suffix(".pdf"))))
@@ -60,17 +68,20 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
                          diagnosis: dict[str, Any] | None = None,
                          diagnosis_note: str | None = None,
                          diagnosis_source: Path | None = None,
-                         history: list[dict[str, Any]] | None = None) -> Path:
+                         history: list[dict[str, Any]] | None = None,
+                         history_why: str | None = None) -> Path:
     """Write the report of ``calibration`` into ``folder``; returns the HTML file.
     ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``;
-    ``history``: the machine's earlier calibrations (docs/calibration-record.md 5)."""
+    ``history``: the machine's earlier calibrations (docs/calibration-record.md 5),
+    ``history_why``: why there are none to give."""
     try:
         view = parse_diagnosis(diagnosis) if diagnosis is not None else None
     except DiagnosisFormatError as exc:
         raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
-    record = build_record(calibration, validation=validation, history=history)
+    record = build_record(calibration, validation=validation, history=history,
+                          history_why=history_why)
     return write_report(build_report(data, record), folder)
 
 

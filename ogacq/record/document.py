@@ -32,16 +32,14 @@ from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import effect_of
 from ogacq.record.context import CalibrationContext, calibration_context
+from ogacq.record.evaluation import Evaluation, evaluate
 from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.store import LoadedSession
 
 FORMAT = "ogacq-record/1"
-COVERAGE_K = 2.0  # JCGM 100:2008 6.3.3: k = 2 for about 95 % coverage
 
 # Why a section holds nothing, for a session recorded before ogacq recorded it.
 NOT_IN_SESSION = "the session does not record {what} (recorded before ogacq asked for it)"
-NO_UNCERTAINTY = ("not evaluated: this build of ogacq does not evaluate the uncertainty "
-                  "budget (ogacq/uncertainty)")
 
 
 def record_id(header_line: bytes, date: str | None) -> str:
@@ -59,14 +57,22 @@ def compact_date(date: str | None) -> str:
     return "".join(found.groups()) if found else "undated"
 
 
+def session_record_id(session: LoadedSession) -> str:
+    """The id the record of ``session`` has (without building the record)."""
+    header_line, _ = _session_digest(session)
+    return record_id(header_line, _text(calibration_context(session).date))
+
+
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
                  history: Sequence[Mapping[str, Any]] | None = None,
+                 history_why: str | None = None,
                  issued: str | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
 
     ``validation``: the campaign run after the write-back (the as-left measurement);
     ``history``: earlier calibrations of the same machine, each ``{"id", "date",
-    "results"}`` with ``results`` shaped as this record's; ``issued``: the issue
+    "results"}`` with ``results`` shaped as this record's (``history_why``: why
+    there is none, when None is given); ``issued``: the issue
     time (default: now, ISO 8601 with offset). The identity, instruments,
     environment and overrides are the session's own (:func:`calibration_context`).
     """
@@ -79,6 +85,14 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     result, why_no_fit = _identify(session)
     if why_no_fit:
         missing["results"] = why_no_fit
+    as_left, why_no_left = None, None
+    if validation is not None:
+        left, why_no_left = _identify(validation)
+        if left is not None:
+            as_left = (left, calibration_context(validation))
+        else:
+            why_no_left = f"the as-left campaign: {why_no_left}"
+    evaluation = evaluate(result, context, as_left, why_no_left)
 
     record: dict[str, Any] = {
         "format": FORMAT,
@@ -92,11 +106,11 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         **_context_sections(context, "instruments" in header, missing),
         "campaign": _campaign(session),
         "method": _method(session, result, machine),
-        "results": _results(result) if result is not None else None,
-        "budget": None,
-        "budget_complete": False,
-        "monte_carlo": None,
-        "acceptance": _acceptance(machine, validation),
+        "results": _results(result, evaluation) if result is not None else None,
+        "budget": evaluation.budget,
+        "budget_complete": evaluation.budget_complete,
+        "monte_carlo": evaluation.monte_carlo,
+        "acceptance": evaluation.acceptance,
         "verdict": _verdict(result) if result is not None else None,
         "writeback": [_write(w) for w in offsets_writes(session)],
         "history": [_history_entry(h) for h in history or ()],
@@ -108,8 +122,9 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         missing.setdefault("operator", NOT_IN_SESSION.format(what="the operator"))
     if record["machine"]["serial"] is None:
         missing["machine serial"] = NOT_IN_SESSION.format(what="the machine's serial number")
-    missing["uncertainty"] = NO_UNCERTAINTY
-    record["missing"] = missing
+    if history is None and history_why:
+        missing["history"] = history_why
+    record["missing"] = missing | evaluation.missing
     return record
 
 
@@ -189,16 +204,18 @@ def _method(session: LoadedSession, result: FitResult | None,
     }
 
 
-def _results(result: FitResult) -> dict[str, dict[str, dict[str, Any]]]:
-    """Each parameter's value and the fit's standard deviation (the gauge noise
-    propagated, JCGM 100:2008 4.2, a type A evaluation); ``u`` and ``U`` are the
-    budget's."""
+def _results(result: FitResult, evaluation: Evaluation) -> dict[str, dict[str, dict[str, Any]]]:
+    """Each parameter's value, the fit's standard deviation (the gauge noise propagated
+    through the fit alone, JCGM 100:2008 4.2, a type A evaluation) and, from the
+    budget, its u, U = k u and how complete that is."""
+    budget = evaluation.results or {}
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for name, value, std in zip(result.names, result.values, result.std, strict=True):
         group, _, where = name.partition(".")
+        evaluated = (budget.get(group) or {}).get(where) or {}
         out.setdefault(group, {})[where] = {
             "value_mm": number(value), "std_mm": number(std), "u_mm": None, "U_mm": None,
-            "k": None, "unit": effect_of(name).unit}
+            "k": None, **evaluated, "unit": effect_of(name).unit}
     return out
 
 
@@ -208,19 +225,6 @@ def _verdict(result: FitResult) -> dict[str, Any]:
             "chi2_dof": number(verdict.chi2_dof, 4), "p": number(verdict.p_value, 4),
             "test": verdict.test, "dof": verdict.dof, "level": verdict.level,
             "text": verdict.describe()}
-
-
-def _acceptance(machine: Mapping[str, Any],
-                validation: LoadedSession | None) -> dict[str, Any]:
-    tolerances = machine.get("tolerances")
-    rule = tolerances.get("decision_rule") if isinstance(tolerances, Mapping) else None
-    why = NO_UNCERTAINTY.removeprefix("not evaluated: ")
-    if not isinstance(tolerances, Mapping):
-        why = "the machine file states no tolerances"
-    return {"rule": rule,
-            "as_found": {"decision": "not evaluated", "why": why, "rows": []},
-            "as_left": {"decision": "not evaluated", "rows": [],
-                        "why": why if validation is not None else "no as-left measurement"}}
 
 
 def _write(write: Any) -> dict[str, Any]:

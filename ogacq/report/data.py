@@ -257,8 +257,11 @@ def _describe_value(value: object) -> str:
     return str(value)
 
 
+# identity, instruments and date are the record's (its identification and
+# instruments sections show them), not provenance to list again
 KNOWN_HEADER = frozenset({"type", "format", "software", "created", "machine", "machine_file",
-                          "campaign_file", "station", "simulator", "plan"})
+                          "campaign_file", "station", "simulator", "plan", "identity",
+                          "instruments", "date"})
 
 
 def _describe(d: dict) -> str:

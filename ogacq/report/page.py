@@ -21,7 +21,7 @@ from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ReportDa
 from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
 from ogacq.report.figures import FigureFile
 from ogacq.report.formatting import duration, finite, measure, plain, signed, um
-from ogacq.report.record_view import css_string, record_view
+from ogacq.report.record_view import css_string, record_view, shown
 
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("ogacq.report", "templates"),
                                 autoescape=True, undefined=jinja2.StrictUndefined,
@@ -90,9 +90,10 @@ def machine_words(machine: dict) -> str:
     parts = []
     for key, value in machine.items():
         words, unit = MACHINE_WORDS.get(key, (key.replace("_", " "), ""))
-        if isinstance(value, dict):  # the tolerances, in words too
-            value = "(" + ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in value.items()) + ")"
-        parts.append(f"{words} {value}{' ' + unit if unit else ''}")
+        if isinstance(value, dict):  # a table of the machine file ([tolerances])
+            parts.append(f"{words} ({shown(value)})")
+        else:
+            parts.append(f"{words} {value}{' ' + unit if unit else ''}")
     return ", ".join(parts) or "not recorded"
 
 

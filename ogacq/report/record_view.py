@@ -37,8 +37,15 @@ WORDS = {
     "rho_max_mm": "Max posture (mm)", "gauge_resolution_mm": "gauge resolution (mm)",
     "gauge_repeatability_mm": "gauge repeatability (mm)", "noise_mm": "gauge noise σ (mm)",
     "chi2_dof": "χ² per dof", "p": "p", "dof": "dof",
-    "leg_expansion_ppm_per_k": "leg expansion (ppm/K)",
+    "leg_expansion_ppm_per_k": "leg expansion (ppm/K)", "dof_eff": "effective dof",
+    "temperature_correction_mm": "correction to 20 °C (mm)", "complete": "budget complete",
+    "u_c_mm": "budget u_c (mm)", "mean_mm": "mean (mm)", "interval_95_mm": "95 % interval (mm)",
+    "ratio": "u / u_c", "agrees_within_10_percent": "agrees within 10 %",
+    "converged_fraction": "converged fraction", "seconds": "time (s)",
 }
+# A null that is not an unknown: degrees of freedom of a type B input are infinite
+# (JCGM 100:2008 G.4.2), and the uncertainty package writes them as null.
+NULL_WORDS = {"dof": "∞", "dof_eff": "∞"}
 DECISION_KIND = {"pass": "ok", "fail": "bad", "undecided": "warn"}
 
 
@@ -49,7 +56,9 @@ def words(key: str) -> str:
 def shown(value: Any, empty: str = NOT_RECORDED) -> str:
     """A JSON value as the page prints it: numbers in full (the digits record.json
     holds), booleans as yes/no, a table as ``key value, ...``, nothing as ``empty``."""
-    if value is None or value == "" or value == [] or value == {}:
+    if value == "":
+        return ""  # nothing to say, as opposed to unknown
+    if value is None or value == [] or value == {}:
         return empty
     if isinstance(value, bool):
         return "yes" if value else "no"
@@ -83,10 +92,17 @@ def rows_table(rows: Sequence[Mapping[str, Any]], empty: str = NOT_RECORDED,
     keys = list(first)
     for row in rows:
         keys += [k for k in row if k not in keys]
-    body: list[list[Cell]] = [[shown(row.get(k), empty) for k in keys] for row in rows]
+    body: list[list[Cell]] = [[cell(k, row.get(k), empty) for k in keys] for row in rows]
     numeric = [all(isinstance(r.get(k), int | float) and not isinstance(r.get(k), bool)
                    for r in rows if r.get(k) is not None) for k in keys]
     return table([words(k) for k in keys], body, numeric)
+
+
+def cell(key: str, value: Any, empty: str) -> Cell:
+    """One value of a table; a decision as its badge."""
+    if key == "decision":
+        return decision_badge(value)
+    return shown(value, NULL_WORDS.get(key, empty))
 
 
 def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
@@ -200,7 +216,7 @@ def results(record: Mapping[str, Any]) -> Table | None:
     for group, by_where in found.items():
         for where, r in by_where.items():
             rows.append([f"{group}.{where}", signed_shown(r.get("value_mm"), "not determined")]
-                        + [shown(r.get(k), NOT_EVALUATED) for k in keys[1:]])
+                        + [cell(k, r.get(k), NOT_EVALUATED) for k in keys[1:]])
     return table(["parameter"] + [words(k) for k in keys], rows,
                  [False] + [k != "unit" for k in keys])
 
@@ -234,18 +250,19 @@ def budget(record: Mapping[str, Any]) -> list[tuple[str, Table]]:
     return [(name, rows_table(rows, NOT_EVALUATED, first)) for name, rows in found.items()]
 
 
-def monte_carlo(record: Mapping[str, Any]) -> Table | None:
+def monte_carlo(record: Mapping[str, Any]) -> tuple[Table, Table] | None:
+    """The check's settings and verdict, then one row per parameter."""
     found = record.get("monte_carlo")
     if not found:
         return None
-    rows: list[list[Cell]] = []
-    for key, value in found.items():
-        if isinstance(value, Mapping):
-            rows += [[f"{words(key)}: {name}", shown(v, NOT_EVALUATED)]
-                     for name, v in value.items()]
-        else:
-            rows.append([words(key), shown(value, NOT_EVALUATED)])
-    return table(None, rows, [False, True])
+    scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
+    per = {k: v for k, v in found.items() if isinstance(v, Mapping)}
+    names = list(dict.fromkeys(n for values in per.values() for n in values))
+    rows: list[list[Cell]] = [[name] + [shown(values.get(name), NOT_EVALUATED)
+                                        for values in per.values()] for name in names]
+    return (pairs_table(scalars, NOT_EVALUATED),
+            table(["parameter"] + [words(k) for k in per], rows,
+                  [False] + [True] * len(per)))
 
 
 def history(record: Mapping[str, Any]) -> Table | None:

@@ -70,7 +70,7 @@ def as_before(source: Path, target: Path) -> Path:
     return target
 
 
-def with_context(source: Path, target: Path) -> Path:
+def with_context(source: Path, target: Path, date: str = DATE) -> Path:
     """``source``'s campaign as a session recording its context: the header's
     identity, instruments and date, the environment at start and end, and the
     override of the expired y_x, around the same records."""
@@ -80,7 +80,7 @@ def with_context(source: Path, target: Path) -> Path:
                          "tolerances": {"deviation_mm": 0.02, "decision_rule": "guard-band"}}
     header |= {"identity": {"machine": MACHINE_NAME, "serial": MACHINE_SERIAL,
                             "operator": OPERATOR},
-               "instruments": INSTRUMENTS, "date": DATE}
+               "instruments": INSTRUMENTS, "date": date}
     with SessionWriter.create(target, header) as writer:
         writer.write(EnvironmentRecord(stage="start", ambient_c=20.4, machine_c=20.9,
                                        source="typed"))

@@ -16,12 +16,12 @@ from ogacq.session.store import load_session
 from tests.record.pages import page_text, unshown
 from tests.record.sessions import (
     DATE,
-    HISTORY,
     INSTRUMENTS,
     MACHINE_NAME,
     MACHINE_SERIAL,
     OPERATOR,
     OVERRIDE_REASON,
+    with_context,
 )
 
 ID = re.compile(r"OGQ-\d{8}-[0-9a-f]{8}")
@@ -59,16 +59,24 @@ def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_pa
                for i in record["instruments"])
     assert record["date"].startswith(session.header["created"][:19])
     for key in ("operator", "machine serial", "certificates", "environment", "overrides",
-                "uncertainty"):
+                "uncertainty budget"):
         assert key in record["missing"], key
-    # results: the recorded identification's values and std; u and U not evaluated
+    # results: the recorded identification's values and std; the budget without the
+    # certificates and temperatures is incomplete and says which sources it lacks
     refit = session.result.refit
     for axis, result in record["results"]["joint_offset"].items():
         assert result["value_mm"] == pytest.approx(refit["parameters"]["joint_offset"][axis])
         assert result["std_mm"] == pytest.approx(refit["std"]["joint_offset"][axis])
-        assert result["u_mm"] is None and result["U_mm"] is None
-    assert record["budget"] is None and record["budget_complete"] is False
+        assert result["complete"] is False
+        assert result["U_mm"] == pytest.approx(2 * result["u_mm"], abs=2e-9)
+    assert record["budget_complete"] is False
+    rows = record["budget"]["joint_offset.x"]
+    not_evaluated = {r["source"].split(" ")[0] for r in rows if not r["evaluated"]}
+    assert {"gauge", "temperature"} <= not_evaluated
+    assert all(r["u_mm"] is None for r in rows if not r["evaluated"])  # not a zero
+    assert "gauge calibration" in record["missing"]["uncertainty budget"]
     assert record["acceptance"]["as_found"]["decision"] == "not evaluated"
+    assert record["acceptance"]["as_found"]["why"] == "the machine file states no tolerances"
     assert record["acceptance"]["as_left"]["why"] == "no as-left measurement"
     assert record["verdict"]["state"] == "consistent"
     assert record["session"]["sha256"] == __import__("hashlib").sha256(
@@ -78,8 +86,8 @@ def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_pa
     text = page_text((tmp_path / "old" / "report.html").read_text(encoding="utf-8"))
     assert "machine not recorded" in text and "operator not recorded" in text
     assert "the session does not record the temperatures" in text
-    assert "u and U not evaluated" in text
-    assert "No earlier calibration of this machine was given" in text
+    assert "budget incomplete u and U leave out the sources that were not evaluated" in text
+    assert "No earlier calibration is known: no history database beside the session" in text
 
 
 def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, capsys):
@@ -100,8 +108,23 @@ def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, ca
     assert expired == ["y_x"]
     assert record["overrides"][0]["reason"] == OVERRIDE_REASON
     assert record["environment"]["end"]["ambient_c"] == 21.1
-    assert record["acceptance"]["rule"] == "guard-band"
-    assert set(record["missing"]) == {"uncertainty"}
+    assert set(record["missing"]) == {"history"}  # all else recorded and evaluated
+    # the budget from the certificates and temperatures, checked by Monte-Carlo
+    assert record["budget_complete"] is True
+    for result in record["results"]["joint_offset"].values():
+        assert result["complete"] and 0 < result["std_mm"] < result["u_mm"]
+        assert result["U_mm"] == pytest.approx(2 * result["u_mm"])
+    assert record["monte_carlo"]["agrees_within_10_percent"] is True
+    # as found against the machine file's 0.02 mm: the offsets of a few tenths fail
+    found = record["acceptance"]["as_found"]
+    assert record["acceptance"]["rule"] == found["rule"] == "guard-band"
+    assert found["decision"] == "fail" and len(found["rows"]) == 12
+    for row in found["rows"]:
+        d, U, T = abs(row["value_mm"]), row["U_mm"], row["tolerance_mm"]
+        assert T == 0.02 and U > 0
+        assert row["decision"] == ("pass" if d <= T - U else "fail" if d > T + U
+                                   else "undecided")
+    assert record["acceptance"]["as_left"]["decision"] == "not evaluated"
 
     # every value of record.json is on the page, as record.json holds it
     assert unshown(record, text) == []
@@ -112,21 +135,52 @@ def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, ca
     assert row and "12340000" in row.group(1) and "EXPIRED, used under override" in row.group(1)
     assert f"expired-gauge y_x 12340000 2026-01-01 {OVERRIDE_REASON} {OPERATOR}" in text
     assert not (out / "history.png").exists()  # no history given: no plot
-    assert "No earlier calibration of this machine was given" in text
+    assert "No earlier calibration is known: no history database beside the session" in text
 
 
-def test_the_history_is_plotted_and_listed(campaign_sessions, tmp_path):
-    from ogacq.cli.report_cmd import write_session_report
+def test_report_takes_the_earlier_calibrations_from_the_history(campaign_sessions, tmp_path,
+                                                                capsys):
+    """Earlier calibrations of the same machine recorded in an SQLite history: the
+    report plots those before this one, not this one, not later ones."""
+    from ogacq.history.location import parse_location
+    from ogacq.history.store import History
 
+    ran = campaign_sessions[0].parent.parent / "campaign" / "session.jsonl"
+    database = tmp_path / "history.sqlite"
+    records = {}
+    with History.open(parse_location(str(database), "test")) as history:
+        for date in ("2025-06-01T10:00:00", DATE, "2026-06-01T10:00:00"):
+            session = load_session(with_context(ran, tmp_path / date[:10] / "s.jsonl", date))
+            records[date] = build_record(session)
+            history.record_calibration(records[date], session_path=str(session.path))
+    out = tmp_path / "out"
+    assert main(["report", str(tmp_path / DATE[:10] / "s.jsonl"), "--history", str(database),
+                 "--out", str(out)]) == 0
+    capsys.readouterr()
+    record = json.loads((out / "record.json").read_text(encoding="utf-8"))
+    earlier = records["2025-06-01T10:00:00"]
+    assert [(h["id"], h["date"]) for h in record["history"]] == [(earlier["id"],
+                                                                 earlier["date"])]
+    assert record["history"][0]["results"]["joint_offset"]["x"]["U_mm"] == \
+        earlier["results"]["joint_offset"]["x"]["U_mm"]
+    assert (out / "history.png").stat().st_size > 10_000
+    assert "history" not in record["missing"]
+    # a history named but not there is an error, not an empty plot
+    assert main(["report", str(tmp_path / DATE[:10] / "s.jsonl"), "--history",
+                 str(tmp_path / "nowhere.sqlite"), "--out", str(tmp_path / "o2")]) == 3
+    assert "no history here" in capsys.readouterr().err
+
+
+def test_as_left_is_judged_from_the_validation_campaign(campaign_sessions, tmp_path):
+    """The as-left stage takes the validation campaign's own deviations and budget
+    (here a copy of the same campaign: the same decisions)."""
     _, with_context = campaign_sessions
-    page = write_session_report(load_session(with_context), tmp_path, history=HISTORY)
-    record = json.loads((tmp_path / "record.json").read_text(encoding="utf-8"))
-    assert [h["id"] for h in record["history"]] == [h["id"] for h in HISTORY]
-    text = page_text(page.read_text(encoding="utf-8"))
-    assert unshown(record, text) == []
-    assert "-1.2391 ± 0.0041" in text and "-1.2417" in text
-    png = (tmp_path / "history.png").read_bytes()
-    assert png.startswith(b"\x89PNG") and len(png) > 10_000
+    copy = tmp_path / "validation.jsonl"
+    shutil.copyfile(with_context, copy)
+    record = build_record(load_session(with_context), validation=load_session(copy))
+    found, left = record["acceptance"]["as_found"], record["acceptance"]["as_left"]
+    assert left["decision"] == found["decision"] and left["rows"] == found["rows"]
+    assert record["validation_session"]["path"] == str(copy.resolve())
 
 
 def test_a_history_entry_without_a_date_is_refused(campaign_sessions):

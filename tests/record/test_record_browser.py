@@ -60,7 +60,11 @@ def test_the_rendered_page_shows_every_field_of_the_record(browser, report):
         assert record["acceptance"][stage]["decision"] in text
     for name, rows in (record["budget"] or {}).items():
         assert name in text and all(row["source"] in text for row in rows)
-    assert not re.search(r"\bNone\b|\bnan\b|\bundefined\b", text)
+    # nothing left as a program wrote it: no None, NaN, undefined, dict or list dump
+    # the history given: listed with U where it has one, and plotted
+    assert "-1.2391 ± 0.0041" in text and "-1.2417" in text
+    assert browser.find_element("css selector", 'img[alt^="Each parameter at each"]')
+    assert not re.search(r"\bNone\b|\bnan\b|\bundefined\b|\{'|\[\{|\['", text)
 
 
 def test_a_screenshot_of_each_section_is_a_real_picture(browser, report, tmp_path):

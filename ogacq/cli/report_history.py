@@ -1,0 +1,49 @@
+"""The earlier calibrations ``ogacq report`` plots: the machine's entries in its
+history database (docs/calibration-record.md section 6), read without writing.
+
+The history is the one the campaign recorded into: ``--history``, else
+``$OGACQ_HISTORY``, else ``history.sqlite`` beside the session. A history that
+was named and cannot be read is an error (exit 3); none beside the session means
+no earlier calibration is known, and the record says so.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+from ogacq.errors import InputError
+from ogacq.record.context import calibration_context
+from ogacq.record.document import session_record_id
+from ogacq.session.store import LoadedSession
+
+
+def earlier_calibrations(option: str | None, session: LoadedSession,
+                         ) -> tuple[list[dict[str, Any]] | None, str | None]:
+    """(the machine's calibrations before this one, oldest first; or None and why
+    none was read)."""
+    from ogacq.history.location import history_for_session
+    from ogacq.history.store import History
+
+    location = history_for_session(option, Path(session.path))
+    if location is None:
+        return None, "the history is switched off (--history none)"
+    if location.origin == "beside the session" and not Path(location.url.database or "").exists():
+        return None, ("no history database beside the session (history.sqlite); "
+                      "--history names another")
+    context = calibration_context(session)
+    if context.machine_name is None:
+        return None, "the session does not name its machine, so its history cannot be found"
+    this_id = session_record_id(session)
+    this_date = context.date.isoformat() if context.date else ""
+    with History.open(location, create=False) as history:
+        try:
+            machine = history.find_machine(context.machine_serial or context.machine_name)
+        except InputError:
+            try:
+                machine = history.find_machine(context.machine_name)
+            except InputError:
+                return [], None  # known history, nothing of this machine in it yet
+        entries = history.results_history(machine)
+    return [e for e in entries
+            if e["id"] != this_id and e.get("date") and e["date"] <= this_date], None
