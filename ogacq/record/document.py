@@ -30,10 +30,12 @@ from ogacq.campaign import recorded_identification
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
+from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import effect_of
 from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.record.evaluation import Evaluation, evaluate
 from ogacq.report.data import campaign_status, offsets_writes
+from ogacq.session.convert import session_machine
 from ogacq.session.store import LoadedSession
 
 FORMAT = "ogacq-record/1"
@@ -92,7 +94,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
             as_left = (left, calibration_context(validation))
         else:
             why_no_left = f"the as-left campaign: {why_no_left}"
-    evaluation = evaluate(result, context, as_left, why_no_left)
+    evaluation = evaluate(result, context, as_left, why_no_left, machine=_machine(session))
 
     record: dict[str, Any] = {
         "format": FORMAT,
@@ -149,6 +151,14 @@ def _session_reference(session: LoadedSession, sha256: str | None = None) -> dic
             "records": len(session.records)}
 
 
+def _machine(session: LoadedSession) -> MachineSpec | None:
+    """The machine the session describes (its tolerances), None when it cannot say."""
+    try:
+        return session_machine(session)
+    except (InputError, ValueError, TypeError):
+        return None
+
+
 def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
     if not session.readings:
         return None, "the session holds no readings: nothing was identified"
@@ -175,8 +185,8 @@ def _context_sections(context: CalibrationContext, recorded: bool,
     overrides: list[dict[str, Any]] | None = [o.to_json() for o in context.overrides]
     if not recorded and not overrides:
         overrides = None
-        missing["overrides"] = NOT_IN_SESSION.format(
-            what="whether a check was overridden (no expired-gauge check ran)")
+        missing["overrides"] = ("the session records no instruments, so no expired-gauge "
+                                "check ran and no override could be recorded")
     return {"instruments": instruments, "environment": environment, "overrides": overrides}
 
 

@@ -65,11 +65,14 @@ def budget_inputs(result: FitResult, context: CalibrationContext) -> BudgetInput
 
 def evaluate(result: FitResult | None, context: CalibrationContext,
              validation: tuple[FitResult, CalibrationContext] | None = None,
-             validation_problem: str | None = None) -> Evaluation:
+             validation_problem: str | None = None, *,
+             machine: MachineSpec | None = None) -> Evaluation:
     """The budget, Monte-Carlo check and acceptance of a campaign's fit ``result``;
-    ``validation``: the as-left campaign's fit and context, when one was run."""
+    ``validation``: the as-left campaign's fit and context, when one was run;
+    ``machine``: the session's machine (its tolerances), default the fit's."""
     out = Evaluation()
-    machine = result.observations.machine if result is not None else None
+    if machine is None and result is not None:
+        machine = result.observations.machine
     if result is None:
         out.missing["uncertainty"] = "not evaluated: nothing was identified"
         out.acceptance = _acceptance(machine, None, None, "nothing was identified",

@@ -187,3 +187,28 @@ def test_a_history_entry_without_a_date_is_refused(campaign_sessions):
     plain, _ = campaign_sessions
     with pytest.raises(ValueError, match="history entry"):
         build_record(load_session(plain), history=[{"id": "OGQ-x"}])
+
+
+def test_a_session_without_readings_still_gives_a_record(tmp_path):
+    """Nothing identified: no results, no verdict, acceptance not evaluated and why."""
+    from ogacq.session.store import SessionWriter
+
+    machine = {"leg_length_mm": 310.25, "rho_min_mm": -100.0, "rho_max_mm": 60.0,
+               "gauge_resolution_mm": 0.001, "name": MACHINE_NAME,
+               "tolerances": {"deviation_mm": 0.02, "decision_rule": "simple"}}
+    with SessionWriter.create(tmp_path / "empty.jsonl", {"machine": machine}):
+        pass
+    record = build_record(load_session(tmp_path / "empty.jsonl"))
+    assert record["results"] is None and record["verdict"] is None
+    assert record["budget"] is None and record["monte_carlo"] is None
+    assert record["acceptance"]["rule"] == "simple"
+    assert record["acceptance"]["as_found"] == {
+        "decision": "not evaluated", "rule": "simple", "rows": [],
+        "why": "nothing was identified"}
+    assert record["missing"]["results"] == ("the session holds no readings: nothing was "
+                                            "identified")
+    assert main(["report", str(tmp_path / "empty.jsonl"), "--out", str(tmp_path / "r")]) == 0
+    text = page_text((tmp_path / "r" / "report.html").read_text(encoding="utf-8"))
+    written = json.loads((tmp_path / "r" / "record.json").read_text(encoding="utf-8"))
+    assert unshown(written, text) == []
+    assert "no result the session holds no readings: nothing was identified" in text
