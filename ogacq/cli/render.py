@@ -197,6 +197,33 @@ def print_outcome(outcome) -> None:
                   f"{result.noise.describe()}; session {outcome.session_path}")
 
 
+def _print_context(session) -> None:
+    """Who, when, with which certificates and at what temperature (what is known)."""
+    from ogacq.record.context import calibration_context
+
+    c = calibration_context(session)
+    date = c.date.isoformat(sep=" ") if c.date else "not recorded"
+    console.print(f"machine {c.machine_name or '(no name)'}, serial "
+                  f"{c.machine_serial or 'not recorded'}; operator "
+                  f"{c.operator or 'not recorded'}; date {date}"
+                  + (" (rehearsed on the simulator)" if c.simulated_date else ""),
+                  highlight=False)
+    for i in c.instruments:
+        if i.certificate or i.due:
+            state = {True: "EXPIRED", False: "valid", None: "?"}[c.expired(i)]
+            console.print(f"  gauge {i.label}: certificate {i.certificate or '?'}, due "
+                          f"{i.due or '?'} ({state})", highlight=False)
+    env = c.environment
+    if env.start or env.end:
+        words = [f"{stage} {t.ambient_c if t.ambient_c is not None else '?'} °C ambient"
+                 + (f", {t.machine_c} °C machine" if t.machine_c is not None else "")
+                 + f" ({t.source})" for stage, t in (("start", env.start), ("end", env.end))
+                 if t is not None]
+        console.print("temperature: " + "; ".join(words), highlight=False)
+    for o in c.overrides:
+        console.print(f"override ({o.what}) {o.subject}: {o.reason}", highlight=False)
+
+
 def print_session(session) -> None:
     from ogacq.session.records import EndRecord, FaultRecord, MoveRecord, ResumeRecord
 
@@ -209,6 +236,7 @@ def print_session(session) -> None:
     console.print(f"machine: L = {machine.get('leg_length_mm')} mm, postures "
                   f"{machine.get('rho_min_mm')}..{machine.get('rho_max_mm')} mm, gauges "
                   f"{machine.get('gauge_resolution_mm')} mm")
+    _print_context(session)
     station = header.get("station") or {}
     controller = station.get("controller")
     if controller:

@@ -126,6 +126,25 @@ def test_bad_profile_names_file_and_key(
     assert caught.value.key == key
 
 
+@pytest.mark.parametrize(("old", "new", "key", "message"), [
+    ('ambient = "ambient_temperature"', 'ambient = "room"', "temperature.ambient",
+     "no value named 'room'"),
+    ('ambient = "ambient_temperature"', 'ambient = "position_actual"', "temperature.ambient",
+     "must be a raw holding register"),
+    ('degc_per_count = 0.1 ', 'degc_per_count = 0 ', "temperature.degc_per_count",
+     "must be positive"),
+])
+def test_bad_temperature_register_names_its_key(tmp_path: Path, old: str, new: str, key: str,
+                                                 message: str) -> None:
+    with pytest.raises(ProfileError) as caught:
+        load_profile(_broken(tmp_path, old, new, base="cia402"))
+    assert caught.value.key == key and message in str(caught.value)
+    # the shipped one: both registers, 0.1 degC a count, on the x drive
+    spec = load_profile("cia402").temperature
+    assert (spec.ambient, spec.machine, spec.degc_per_count, spec.axis) == (
+        "ambient_temperature", "machine_temperature", 0.1, "x")
+
+
 def test_missing_top_level_table(tmp_path: Path) -> None:
     text = (profiles_folder() / "cia402.toml").read_text()
     path = tmp_path / "no_sim.toml"

@@ -100,6 +100,12 @@ def test_override_and_sensor_temperatures_are_recorded(tmp_path):
     assert context.instrument("z_x").serial == "sim-z_x"  # the simulator's, no certificate
     assert context.environment.temperature_c == 23.5
     assert [o.reason for o in context.overrides] == ["checked on gauge blocks today"]
+    shown = " ".join(run_ogacq("session", "show", session.path).stdout.split())
+    assert "operator J. Martin; date 2026-01-10 09:00:00 (rehearsed" in shown
+    assert "gauge y_x (serial 12345678): certificate DKD-K-12345 2025-0112, due 2026-01-05 " \
+           "(EXPIRED)" in shown
+    assert "temperature: start 23.5 °C ambient, 23.5 °C machine (sensor)" in shown
+    assert "override (expired-gauge) y_x 12345678: checked on gauge blocks today" in shown
 
 
 def test_typed_temperatures_and_the_campaign_files_override(tmp_path):
