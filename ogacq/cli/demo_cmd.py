@@ -4,9 +4,11 @@ identification, diagnosis and report -- in a new folder."""
 from __future__ import annotations
 
 import datetime
+import getpass
 import json
 import sys
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -32,7 +34,11 @@ from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
 from ogacq.model.instrument import parse_moment
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
+from ogacq.model.machine import (
+    PAPER_PROTOTYPE_DIGITAL,
+    PAPER_PROTOTYPE_DIGITAL_NOTE,
+    Tolerances,
+)
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
@@ -42,6 +48,9 @@ from ogacq.traceability import simulated_gauges
 # place (ignored by git) instead of beside the package, where a search would pack them.
 RUNS_FOLDER = Path("ogacq-runs")
 DEMO_FOLDER_HELP = "a new folder in ./ogacq-runs named demo-DATE-TIME"
+# The rehearsal's acceptance: every leg-parallelism deviation within +/- 20 um, judged
+# with the guard band (no source: a stated example, as a machine file would state it)
+DEMO_TOLERANCE_MM = 0.020
 
 
 def default_demo_folder() -> Path:
@@ -68,6 +77,9 @@ def demo(
         "--ambient-c", min=-40.0, max=80.0,
         help="The simulated shop's temperature, degC: the legs expand with it.")] = 20.0,
     override_expired: OverrideExpiredOption = None,
+    operator: Annotated[str | None, typer.Option(
+        help="Who runs the rehearsal, as the record names them (default: your login "
+             "name).")] = None,
 ) -> None:
     """A full calibration campaign against the built-in simulator: identify the hidden
     joint offsets through the real drivers and compare them with the truth."""
@@ -80,20 +92,22 @@ def demo(
     # Read now, as text: a process substitution (a pipe) can be read only once.
     effects_text = _read_effects(effects) if effects is not None else None
     folder.mkdir(parents=True, exist_ok=True)
-    machine_path = write_machine(folder / "machine.toml", PAPER_PROTOTYPE_DIGITAL,
+    machine = replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
+                      tolerances=Tolerances(default_mm=DEMO_TOLERANCE_MM))
+    machine_path = write_machine(folder / "machine.toml", machine,
                                  PAPER_PROTOTYPE_DIGITAL_NOTE)
     effects_path = None
     if effects_text is not None:
         effects_path = folder / "effects.toml"
         effects_path.write_text(effects_text, encoding="utf-8")
     (folder / "campaign.toml").write_text(campaign_text(Campaign(
-        folder / "campaign.toml", PAPER_PROTOTYPE_DIGITAL, machine_path,
+        folder / "campaign.toml", machine, machine_path,
         folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
         gauges=simulated_gauges(datetime.date.today()),
         simulator=SimulatorSpec(seed=seed, effects=effects_path, speed=speed,
                                 profile=profile.value, date=rehearsed,
                                 ambient_c=ambient_c),
-        override_expired=reason),
+        override_expired=reason, operator=(operator or _login_name()).strip()),
         comment="written by `ogacq demo`"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
@@ -122,6 +136,13 @@ def demo(
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
     record_campaign(outcome.session_path, history, say=typer.echo)
+
+
+def _login_name() -> str:
+    try:
+        return getpass.getuser()
+    except (KeyError, OSError):  # no user name in the environment or the password file
+        return "demo"
 
 
 def _date_option(given: str | None) -> datetime.datetime | None:

@@ -40,8 +40,10 @@ from ogacq.session.store import LoadedSession
 
 FORMAT = "ogacq-record/1"
 
-# Why a section holds nothing, for a session recorded before ogacq recorded it.
+# Why a section holds nothing: a session recorded before ogacq asked for it, or one
+# whose campaign file and operator left it out.
 NOT_IN_SESSION = "the session does not record {what} (recorded before ogacq asked for it)"
+NOT_GIVEN = "{what} was not given when the campaign ran"
 
 
 def record_id(header_line: bytes, date: str | None) -> str:
@@ -120,10 +122,11 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         "validation_session": (_session_reference(validation) if validation is not None
                                else None),
     }
+    why_none = NOT_GIVEN if "identity" in session.header else NOT_IN_SESSION
     if record["operator"] is None:
-        missing.setdefault("operator", NOT_IN_SESSION.format(what="the operator"))
+        missing.setdefault("operator", why_none.format(what="the operator"))
     if record["machine"]["serial"] is None:
-        missing["machine serial"] = NOT_IN_SESSION.format(what="the machine's serial number")
+        missing["machine serial"] = why_none.format(what="the machine's serial number")
     if history is None and history_why:
         missing["history"] = history_why
     record["missing"] = missing | evaluation.missing

@@ -223,7 +223,13 @@ def results(record: Mapping[str, Any]) -> Table | None:
 
 def verdict(record: Mapping[str, Any]) -> Table | None:
     found = record.get("verdict")
-    return pairs_table(found, NOT_EVALUATED) if found else None
+    if not found:
+        return None
+    # the verdict's p combines the overall test and the worst cell (Bonferroni): said
+    # so, beside the overall F test's own p in the text
+    shown = {("p (overall and worst cell combined)" if k == "p" else k): v
+             for k, v in found.items()}
+    return pairs_table(shown, NOT_EVALUATED)
 
 
 def acceptance(record: Mapping[str, Any]) -> dict[str, Any]:

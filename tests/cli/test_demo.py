@@ -11,7 +11,7 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
     effects.write_text("[squareness]\nxy = 0.5\n")
     out = tmp_path / "demo"
     proc = run_ogacq("demo", "--effects", effects, "--seed", "4", "--speed", "50", "--out", out,
-                     timeout=180)
+                     "--operator", "J. Martin", timeout=180)
     assert proc.returncode == 0, proc.stderr
     for name in ("session.jsonl", "readings.csv", "result.json", "diagnosis.json",
                  "report/report.html", "report/deviations.png"):
@@ -33,6 +33,12 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
     assert "squareness" in html
     assert "{'" not in html and "{&#39;" not in html, "the provenance shows a Python dict"
     assert_one_unit_per_line(proc.stdout)
+    # the report is a complete record: who, which machine, and the acceptance as found
+    # (offsets of a millimetre put the deviations far outside the 20 um tolerance)
+    record = json.loads((out / "report" / "record.json").read_text())
+    assert record["operator"] == "J. Martin" and record["machine"]["serial"] == "SIM-4"
+    assert not record["missing"], record["missing"]
+    assert record["acceptance"]["as_found"]["decision"] == "fail"
 
 
 def assert_one_unit_per_line(text: str) -> None:
