@@ -13,8 +13,6 @@ from rich.table import Table
 from ogacq.history.drift import Drift, expanded
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 
-console = Console()
-
 DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
 
 
@@ -43,33 +41,44 @@ def _value(calibration: Calibration, name: str, flagged: bool) -> str:
     return f"{p.value_mm:+.4f}{spread}" + (f" {DRIFT_MARK}" if flagged else "")
 
 
+def _when(date: str | None) -> str:
+    """An ISO date-time to the minute: seconds and zone add nothing to a history."""
+    return "-" if not date else date.replace("T", " ")[:16]
+
+
 def _short(name: str) -> str:
     return name.removeprefix("joint_offset.") if name.startswith("joint_offset.") else name
 
 
 def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
                        drifts: Sequence[Drift], events: Sequence[Event]) -> None:
+    console = Console()  # per call: the terminal's width as it is now
     names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
     flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
+    joint = all(n.startswith("joint_offset.") for n in names)
+    # Two tables, so each fits a terminal of 80 columns: who and how, then the values.
     table = Table(title=f"{machine.describe()}: {len(calibrations)} calibration"
                         f"{'s' if len(calibrations) != 1 else ''} in {where}",
                   show_edge=False, header_style="bold", title_justify="left")
-    for column in ("date", "record", "operator"):
-        table.add_column(column, no_wrap=column != "operator")
-    joint = all(n.startswith("joint_offset.") for n in names)
-    for name in names:
-        table.add_column(f"{'joint offset ' if joint else ''}{_short(name)} (mm ± U)",
-                         justify="right")
-    table.add_column("fit")
-    table.add_column("acceptance")
-    table.add_column("ambient", justify="right")
+    for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
+        table.add_column(column, no_wrap=column in ("date", "record"), min_width=len(column),
+                         justify="right" if column == "ambient" else "left")
     for c in calibrations:
         ambient = f"{c.ambient_c:.1f} °C" if c.ambient_c is not None and \
             math.isfinite(c.ambient_c) else "-"
-        table.add_row(c.date or "-", c.record_id, c.operator or "-",
-                      *(_value(c, n, (c.record_id, n) in flagged) for n in names),
-                      verdict_words(c.verdict), acceptance_words(c), ambient)
+        table.add_row(_when(c.date), c.record_id, c.operator or "-", verdict_words(c.verdict),
+                      acceptance_words(c), ambient)
     console.print(table)
+    values = Table(title=f"identified {'joint offsets ' if joint else ''}(mm ± U, k = 2; "
+                         f"{DRIFT_MARK} changed by more than U)",
+                   show_edge=False, header_style="bold", title_justify="left")
+    values.add_column("date", no_wrap=True)
+    for name in names:
+        values.add_column(_short(name), justify="right", no_wrap=True)
+    for c in calibrations:
+        values.add_row(_when(c.date), *(_value(c, n, (c.record_id, n) in flagged)
+                                        for n in names))
+    console.print(values)
     if any(p.expanded_mm is None for c in calibrations for p in c.parameters.values()):
         console.print("* U unknown (no uncertainty budget): 2 x the fit's std shown and used",
                       highlight=False)
@@ -91,6 +100,7 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
 
 def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
                  current: OffsetState | None) -> None:
+    console = Console()
     table = Table(title=f"{machine.describe()}: offsets states in {where} (o, mm)",
                   show_edge=False, header_style="bold", title_justify="left")
     for column in ("state", "when", "what", "record", "x", "y", "z", "status"):

@@ -41,15 +41,20 @@ def run(capsys, *args) -> tuple[int, str, str]:
 def test_the_table_lists_the_calibrations_and_flags_the_drift(history_file, capsys,
                                                                monkeypatch):
     path, records = history_file
+    monkeypatch.setenv("COLUMNS", "80")  # a plain terminal: wrapped, nothing cut off
+    code, narrow, _ = run(capsys, "history", "OG-1 cell 3", "--history", path)
+    assert code == 0 and "…" not in narrow
+    assert max(len(line) for line in narrow.splitlines()) <= 80
     monkeypatch.setenv("COLUMNS", "250")
     code, out, _ = run(capsys, "history", "OG-1 cell 3", "--history", path)
     assert code == 0
     lines = out.splitlines()
     rows = [line for line in lines if line.strip().startswith("2026-")]
-    assert len(rows) == 3
-    assert records[2]["id"] in rows[2] and "+0.4700 ± 0.0060 !" in rows[2]
-    assert "23.1 °C" in rows[2] and "fail" in rows[2] and "J. Martin" in rows[2]
-    assert "!" not in rows[1]  # 4 um: within the 8.5 um of the change
+    assert len(rows) == 6  # who and how, then the values: one row each per calibration
+    who, values = rows[:3], rows[3:]
+    assert records[2]["id"] in who[2] and "+0.4700 ± 0.0060 !" in values[2]
+    assert "23.1 °C" in who[2] and "fail" in who[2] and "J. Martin" in who[2]
+    assert "!" not in values[1]  # 4 um: within the 8.5 um of the change
     assert any(line.startswith(f"! drift: joint_offset.x +0.0460 mm from {records[1]['id']}")
                for line in lines)
     assert "1 write-back" in out
