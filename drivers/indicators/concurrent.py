@@ -154,7 +154,14 @@ def _settle_line(indicators: Mapping[str, Indicator], group: list[str], *, windo
 
 
 class _Window:
-    """A gauge's recent values: at least ``n`` and back to ``window_s`` before the last."""
+    """A gauge's recent values: at least ``n`` and back to ``window_s`` before the last.
+
+    Settled when the window's peak-to-peak is within twice the tolerance (a ringing's
+    amplitude, half its peak-to-peak, within the tolerance) and its last ``n`` values
+    agree within the tolerance (a stable reading). The looser bound over the window
+    keeps the gauges' own scatter from holding the settle: a window of seven values of
+    scatter sigma spans about 2.7 sigma (the expected range of normal samples), three
+    values about 1.7 sigma."""
 
     def __init__(self, window_s: float, n: int, tolerance_mm: float) -> None:
         self.window_s, self.n, self.tolerance_mm = window_s, n, tolerance_mm
@@ -174,11 +181,14 @@ class _Window:
             values.popleft()
         if len(values) < self.n or values[0][0] > t - self.window_s:
             return None
-        mm = [r.value_mm for _, r in values]
         # The epsilon keeps quantised values from failing on float noise (as read_stable).
-        if max(mm) - min(mm) > self.tolerance_mm + 1e-9:
+        tolerance = self.tolerance_mm + 1e-9
+        mm = [r.value_mm for _, r in values]
+        if max(mm) - min(mm) > 2 * tolerance:
             return None
         last = [r for _, r in list(values)[-self.n:]]
         lasts = [r.value_mm for r in last]
-        return StableReading(value_mm=sum(lasts) / self.n, spread_mm=max(mm) - min(mm),
+        if max(lasts) - min(lasts) > tolerance:
+            return None
+        return StableReading(value_mm=sum(lasts) / self.n, spread_mm=max(lasts) - min(lasts),
                              readings=tuple(last))

@@ -131,10 +131,12 @@ class SettleRule:
     ``fixed``: ``bound_s`` of machine time. ``stable``: the gauges are read from
     the moment the axes report in position; a gauge has settled once its values
     of the last ``window_s`` (a span of at least that long, at least ``readings``
-    values) agree within ``tolerance_mm``, and its reading is the mean of its last
-    ``readings`` values, as a stable reading is (:class:`StabilityRule`). The
-    window spans the period of a vibration slower than 1 / ``window_s``, so a
-    vibration's crest, where consecutive values agree, does not pass for rest.
+    values) lie within twice ``tolerance_mm`` (a ringing's amplitude, half its
+    peak-to-peak, within the tolerance) and its last ``readings`` values agree
+    within ``tolerance_mm``; its reading is their mean, as a stable reading is
+    (:class:`StabilityRule`). The window spans a period of any vibration faster
+    than 1 / ``window_s``, so a vibration's crest, where consecutive values agree,
+    does not pass for rest.
     ``bound_s``: the longest a stable settle waits; a gauge not settled by then is
     read by the stability rule as after a fixed wait. No source: the rule is the
     project's.
@@ -149,8 +151,9 @@ class SettleRule:
     def describe(self) -> str:
         if self.kind == "fixed":
             return f"fixed {self.bound_s:g} s"
-        return (f"stable: values over {self.window_s:g} s (at least {self.readings}) within "
-                f"{self.tolerance_mm:g} mm, at most {self.bound_s:g} s")
+        return (f"stable: values over {self.window_s:g} s within 2 x {self.tolerance_mm:g} mm "
+                f"and the last {self.readings} within {self.tolerance_mm:g} mm, at most "
+                f"{self.bound_s:g} s")
 
 
 @dataclass(frozen=True)
@@ -196,16 +199,23 @@ def scan_targets(config: ProtocolConfig, machine: MachineSpec) -> list[float]:
     (rounded to 1e-6 mm, so that repeats of a target are the same number); the end
     is a target when it falls on the grid."""
     assert config.scan_step_mm is not None
-    start = machine.rho_min_mm if config.scan_from_mm is None else config.scan_from_mm
-    end = machine.rho_max_mm if config.scan_to_mm is None else config.scan_to_mm
+    start, end = scan_range(config, machine)
     count = int(np.floor((end - start) / config.scan_step_mm + 1e-9)) + 1
     return [round(start + k * config.scan_step_mm, 6) + 0.0 for k in range(count)]  # no -0
 
 
+def scan_range(config: ProtocolConfig, machine: MachineSpec) -> tuple[float, float]:
+    """The scan's first and last target: as stated, else the whole travel, less the
+    overshoot at each end when the approach goes past the targets."""
+    inset = 0.0 if config.approach == "sequence" else config.overshoot_mm
+    start = machine.rho_min_mm + inset if config.scan_from_mm is None else config.scan_from_mm
+    end = machine.rho_max_mm - inset if config.scan_to_mm is None else config.scan_to_mm
+    return start, end
+
+
 def _check_scan(config: ProtocolConfig, machine: MachineSpec) -> None:
     assert config.scan_step_mm is not None
-    start = machine.rho_min_mm if config.scan_from_mm is None else config.scan_from_mm
-    end = machine.rho_max_mm if config.scan_to_mm is None else config.scan_to_mm
+    start, end = scan_range(config, machine)
     for key, value in (("scan_from_mm", start), ("scan_to_mm", end)):
         if not machine.rho_min_mm <= value <= machine.rho_max_mm:
             raise ValueError(f"{key} {value:g} mm is outside the workspace "
@@ -234,6 +244,29 @@ def check_postures(config: ProtocolConfig, machine: MachineSpec) -> None:
         reach = max(abs(machine.rho_min_mm), abs(machine.rho_max_mm)) + config.overshoot_mm
         if reach >= machine.leg_length_mm:
             raise ValueError("overshoot_mm takes the postures beyond the workspace")
+        _check_overshoot(config, machine)
+
+
+def _check_overshoot(config: ProtocolConfig, machine: MachineSpec) -> None:
+    """A posture approached from below (above) needs ``overshoot_mm`` of travel below
+    (above) it: the controller refuses a move past its soft limits."""
+    below = config.approach in ("from_below", "both")
+    above = config.approach in ("from_above", "both")
+    if config.is_scan:
+        targets = scan_range(config, machine)
+        lowest, highest = targets if config.approach == "both" else (targets[0], targets[0]) \
+            if below else (targets[1], targets[1])
+    else:
+        along = [float(posture_tcp(0, p, machine)[0]) for p in config.postures]
+        lowest, highest = min(along), max(along)
+    if below and lowest - config.overshoot_mm < machine.rho_min_mm - 1e-9:
+        raise ValueError(f"approach {config.approach}: the posture {lowest:g} mm is approached "
+                         f"from {lowest - config.overshoot_mm:g} mm, below rho_min "
+                         f"{machine.rho_min_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
+    if above and highest + config.overshoot_mm > machine.rho_max_mm + 1e-9:
+        raise ValueError(f"approach {config.approach}: the posture {highest:g} mm is approached "
+                         f"from {highest + config.overshoot_mm:g} mm, above rho_max "
+                         f"{machine.rho_max_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
 
 
 def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
