@@ -187,6 +187,8 @@ class CampaignRunner:
                 moved = True
                 if isinstance(step, SetGauges):
                     self._set_gauges(step)
+                    # a hand on the gauges shakes them; pre-mounted ones nobody touched
+                    disturbed = disturbed or self.set_gauges is not None
                 else:
                     self._read_step(step, settle=disturbed)
                     disturbed = False
