@@ -10,8 +10,9 @@ observer callback that the command line renders.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -61,7 +62,8 @@ class Station(Protocol):
     """What a campaign needs from the hardware (or the simulator).
 
     A station may also read several gauges at once: ``read_gauges(step, gauges,
-    rule) -> {gauge: GaugeValue | DriverError}`` and ``read_settled(step, gauges,
+    rule) -> {gauge: GaugeValue | DriverError}`` (or pairs of them, yielded as each
+    comes) and ``read_settled(step, gauges,
     settle_rule) -> {gauge: SettledGauge | DriverError}`` (the device station
     does); the runner reads one gauge after the other, and settles by a fixed
     wait, on a station without them.
@@ -264,48 +266,46 @@ class CampaignRunner:
 
     def _read_gauges(self, step: Read, gauges: Sequence[str],
                      first: dict[str, GaugeValue | DriverError]) -> None:
-        """Read ``gauges`` at once, retrying each failed one within bounds; record each
-        value in the plan's order. ``first``: values (or errors) the settle already took."""
-        values: dict[str, GaugeValue] = {}
+        """Read ``gauges`` at once, retrying each failed one within bounds; each value is
+        recorded as it comes. ``first``: values (or errors) the settle already took."""
         missing = list(gauges)
         for attempt in range(1, self.retry.gauge_attempts + 1):
-            got = {g: first[g] for g in missing if g in first} if attempt == 1 else {}
-            ask = [g for g in missing if g not in got]
-            if ask:
-                got.update(self._read_now(step, ask))
-            for gauge in missing:
-                result = got[gauge]
+            given = [(g, first[g]) for g in missing if g in first] if attempt == 1 else []
+            ask = [g for g in missing if g not in dict(given)]
+            failed: dict[str, DriverError] = {}
+            for gauge, result in itertools.chain(given, self._read_now(step, ask)):
                 if isinstance(result, DriverError):  # silent, 911, garbled, unplugged
                     self.writer.write(FaultRecord(during="read", step=step.step, gauge=gauge,
                                                   attempt=attempt, error=type(result).__name__,
                                                   message=str(result)))
-                else:
-                    values[gauge] = result
-            failed = [g for g in missing if g not in values]
-            # what was read is kept, whatever happens to the others
-            for gauge in [g for g in gauges if g in values and (step.step, g)
-                          not in self.recorded]:
-                self._record(step, gauge, values[gauge])
+                    failed[gauge] = result
+                else:  # kept at once, whatever happens to the others
+                    self._record(step, gauge, result)
             if not failed:
                 return
+            missing = [g for g in missing if g in failed]
             if attempt == self.retry.gauge_attempts:
-                error = got[failed[0]]
-                raise CampaignStopped(f"gauge {failed[0]} at {step.step}: {error} "
+                error = failed[missing[0]]
+                raise CampaignStopped(f"gauge {missing[0]} at {step.step}: {error} "
                                       f"({attempt} attempts)") from error
-            missing = failed
             time.sleep(self.retry.backoff_s * attempt)
 
-    def _read_now(self, step: Read, gauges: list[str]) -> dict[str, GaugeValue | DriverError]:
+    def _read_now(self, step: Read, gauges: list[str],
+                  ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
+        """Each gauge's value or error, as each comes (a station reading them at once
+        gives them together; gauges read by eye come one by one)."""
+        if not gauges:
+            return
         rule = self.config.stability
         if hasattr(self.station, "read_gauges"):
-            return self.station.read_gauges(step, gauges, rule)
-        out: dict[str, GaugeValue | DriverError] = {}
+            got = self.station.read_gauges(step, gauges, rule)
+            yield from got.items() if isinstance(got, dict) else got
+            return
         for gauge in gauges:
             try:
-                out[gauge] = self.station.read_gauge(step, gauge, rule)
+                yield gauge, self.station.read_gauge(step, gauge, rule)
             except DriverError as exc:
-                out[gauge] = exc
-        return out
+                yield gauge, exc
 
     def _record(self, step: Read, gauge: str, value: GaugeValue) -> None:
         self.writer.write(ReadingRecord(

@@ -9,7 +9,7 @@ next ones are checked against.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
 from ogacq_drivers.errors import DriverError
@@ -55,19 +55,21 @@ class GuidedStation:
         return value
 
     def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
-                    ) -> dict[str, GaugeValue | DriverError]:
-        """The gauges the station reads, at once; then those read by eye, one by one."""
+                    ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
+        """The gauges the station reads, at once; then those read by eye, each handed
+        over as typed (so it is on file before the next is asked for)."""
         self._checkpoint()
         read = [g for g in gauges if g not in self.by_eye]
-        out = dict(self.device.read_gauges(step, read, rule)) if read else {}
+        for gauge, value in (self.device.read_gauges(step, read, rule) if read else {}).items():
+            if isinstance(value, GaugeValue):
+                self.expectations.observe(gauge, step.q_mm, value.value_mm)
+            yield gauge, value
         for gauge in gauges:
             if gauge in self.by_eye:
                 with self.gate.immediate():
-                    out[gauge] = self._ask_reading(gauge, step)
-        for gauge, value in out.items():
-            if isinstance(value, GaugeValue):
+                    value = self._ask_reading(gauge, step)
                 self.expectations.observe(gauge, step.q_mm, value.value_mm)
-        return {g: out[g] for g in gauges}
+                yield gauge, value
 
     def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
                      ) -> dict[str, SettledGauge | DriverError]:
