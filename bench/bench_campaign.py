@@ -1,24 +1,31 @@
-"""Benchmark: the campaign's own overhead per reading (prints figures; not a test).
+"""Benchmark: the papers' campaign beside its physical floor (prints figures; not a test).
 
-A papers' campaign (72 readings) runs through the real drivers against
-`ogacq sim` in a separate process, as it would against a real controller and
-real gauges (an in-process simulator would bill its own physics to the
-campaign). From the campaign's wall time we subtract what the machine and the
-wire take by themselves: the simulated motion (trapezoidal moves plus
-settling, at the simulator's speed-up), the protocol's settle time, and the
-gauges' line time (each request and reply at 9600 baud). What remains, per
-reading, is the campaign's own overhead: runner, session writes (fsync),
-Modbus transactions of verified moves and status polls, frame parsing.
-Target: under 5 ms per reading on top of the wire time.
+Every campaign runs through the real drivers against `ogacq sim` in its own
+process (an in-process simulator would bill its own physics to the campaign), on
+the simulator's ringing machine (a damped vibration after every move,
+`ogacq/sim/truth.py:Vibration`, stated below), seed 1 for every run.
 
-The overhead so defined still holds the simulated devices' own response time:
-a simulated gauge answers a fraction of a millisecond after the request (a real
-one after its own delay). The benchmark measures that with a plain client (raw
-pty, no ogacq code) and prints what is left beside the total. The simulated
-drive's response is left in: its transactions overlap the motion, except those
-that start and confirm a move, and the split is not measured here.
+1. Overhead per reading, the machine loaded as CI loads it: a second process the
+   bench starts itself keeps one of the cores busy, the simulator at x25. From
+   the wall time we subtract the simulated motion (trapezoidal moves plus the
+   drive's in-position delay), the settle the rule took (machine clock, the
+   gauges' exchanges during it included) and the gauge line time of the readings
+   after it (each request and reply at 9600 baud; the gauges of a posture read
+   at once, so a step costs its slowest line). What remains, per reading, is the
+   campaign's own: runner, session writes, Modbus transactions of verified moves
+   and status polls, frame parsing, the simulated devices' response. Target:
+   under 5 ms. Beside it, the physical floor: motion + the settle the ringing
+   needs (its time constant times ln(amplitude / tolerance), from the stated
+   vibration) + the line time of one stable reading per step.
+2. In real time (x1, unloaded): the runner as it was before (a fixed settle
+   before every reading step, moved or not, gauges read one after the other),
+   `settle = "fixed"` and `settle = "stable"`: wall time, the identified offsets
+   and their std. Target: stable at least 30 % shorter than before, the offsets
+   unchanged within their std.
+3. The fixed cost of a 72-reading refit beside the plain numpy Gauss-Newton floor
+   (`numpy_floor.py`, the same readings as `bench_linear.py`). Target: 1.5x.
 
-Run: python bench/bench_campaign.py
+Run: python bench/bench_campaign.py [--quick: skip the real-time runs]
 """
 
 from __future__ import annotations
@@ -26,31 +33,38 @@ from __future__ import annotations
 import json
 import math
 import os
-import select
 import signal
-import statistics
 import subprocess
 import sys
 import tempfile
 import time
-import tty
 from pathlib import Path
 
-from ogacq_drivers.indicators.mitutoyo_01a import encode_request
-from ogacq.campaign_file import read_campaign
-from ogacq.protocol.plan import Move, campaign_steps
-from ogacq.protocol.runner import CampaignRunner
-from ogacq.session.records import MoveRecord
-from ogacq.session.store import SessionWriter
-from ogacq.station import open_station
+import numpy as np
 
-SPEED = 25.0
-SETTLE_S = 1.0  # machine time
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_linear import OFFSETS, campaign, floor_of, seconds  # noqa: E402
+
+from ogacq.campaign import identify_session  # noqa: E402
+from ogacq.campaign_file import read_campaign  # noqa: E402
+from ogacq.identify.fit import fit  # noqa: E402
+from ogacq.protocol.plan import Read  # noqa: E402
+from ogacq.protocol.runner import CampaignRunner  # noqa: E402
+from ogacq.session.convert import machine_dict  # noqa: E402
+from ogacq.session.records import MoveRecord, SettleRecord  # noqa: E402
+from ogacq.session.store import SessionWriter, load_session  # noqa: E402
+from ogacq.sim.truth import Vibration  # noqa: E402
+from ogacq.station import open_station  # noqa: E402
+
 BAUD_BYTE_S = 10 / 9600
+EXCHANGE_S = 15 * BAUD_BYTE_S  # 01A: "1\r" and "01A+0000.123\r"
 # the simulator's motion model defaults (drivers/sim/motion.py)
 SPEED_MM_S, ACCEL_MM_S2, MOTION_SETTLE_S = 100.0, 2000.0, 0.02
 MACHINE = "leg_length_mm = 310.25\nrho_min_mm = -100.0\nrho_max_mm = 60.0\n" \
           "gauge_resolution_mm = 0.01\n"
+SETTLE_S, WINDOW_S = 1.0, 0.1  # machine seconds
+RINGING = Vibration()
 
 
 def move_time_s(distance_mm: float) -> float:
@@ -61,109 +75,176 @@ def move_time_s(distance_mm: float) -> float:
     return distance_mm / SPEED_MM_S + SPEED_MM_S / ACCEL_MM_S2
 
 
-def start_simulator() -> tuple[subprocess.Popen, dict]:
-    proc = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", str(SPEED),
+class BeforeRunner(CampaignRunner):
+    """The runner before issue 14's rest: a fixed settle before every reading step,
+    moved or not, then the gauges one after the other."""
+
+    moved = 0  # steps after a move: where the ringing needs its time
+
+    def _read_step(self, step: Read, *, settle: bool) -> None:
+        self.moved += settle
+        self.station.settle(self.config.settle_s)
+        for gauge in step.gauges:
+            if (step.step, gauge) not in self.recorded:
+                self._read_gauges(step, [gauge], {})
+
+
+class LineTimer:
+    """Wraps the station: counts each gauge's exchanges and the line time of the reads
+    outside a settle (per step the slowest line, the gauges being read at once)."""
+
+    def __init__(self, station) -> None:
+        self.station = station
+        self.exchanges = dict.fromkeys(station.indicators, 0)
+        self.line_s = 0.0
+        for gauge, indicator in station.indicators.items():
+            read = indicator.read
+
+            def counted(*args, _read=read, _gauge=gauge, **kwargs):
+                self.exchanges[_gauge] += 1
+                return _read(*args, **kwargs)
+
+            indicator.read = counted
+        self._plain = station.read_gauges
+        station.read_gauges = self.read_gauges
+
+    def read_gauges(self, step, gauges, rule):
+        before = dict(self.exchanges)
+        out = self._plain(step, gauges, rule)
+        self.line_s += max(self.exchanges[g] - before[g] for g in gauges) * EXCHANGE_S
+        return out
+
+
+def start_simulator(speed: float) -> tuple[subprocess.Popen, dict]:
+    proc = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", str(speed),
                              "--seed", "1", "--json"], stdout=subprocess.PIPE,
                             start_new_session=True, text=True)
     return proc, json.loads(proc.stdout.readline())
 
 
-def _count_exchanges(indicators: dict) -> list[int]:
-    """Count request/reply exchanges as the campaign makes them (a stable reading
-    takes three or more, as many as it needs to agree)."""
-    counter = [0]
-    for indicator in indicators.values():
-        read = indicator.read
-
-        def counted(*args, _read=read, **kwargs):
-            counter[0] += 1
-            return _read(*args, **kwargs)
-
-        indicator.read = counted
-    return counter
-
-
-def gauge_response_s(port: str, request: bytes, n: int = 60) -> float:
-    """Median wait of a plain client for a simulated gauge's reply, beyond line time."""
-    fd = os.open(port, os.O_RDWR | os.O_NOCTTY)
-    try:
-        tty.setraw(fd)
-        waits = []
-        for _ in range(n):
-            start = time.perf_counter()
-            os.write(fd, request)
-            reply = b""
-            while not reply.endswith(b"\r"):
-                select.select([fd], [], [], 1.0)
-                reply += os.read(fd, 64)
-            waits.append(time.perf_counter() - start - (len(request) + len(reply)) * BAUD_BYTE_S)
-        return statistics.median(waits)
-    finally:
-        os.close(fd)
-
-
-def campaign_text(info: dict) -> str:
+def campaign_text(info: dict, speed: float, settle: str, session: str) -> str:
     m = info["modbus"]
-    lines = ['machine = "machine.toml"', 'session = "s.jsonl"', "[controller]",
+    lines = ['machine = "machine.toml"', f'session = "{session}"', "[controller]",
              f'profile = "{m["profile"]}"', f'port = "{m["host"]}:{m["port"]}"',
-             # the external simulator settles on its own clock: real seconds here
-             "[protocol]", f"settle_s = {SETTLE_S / SPEED}"]
+             # the external simulator keeps its own clock: real seconds here
+             "[protocol]", f'settle = "{settle}"', f"settle_s = {SETTLE_S / speed}",
+             f"settle_window_s = {WINDOW_S / speed}"]
     for key, g in info["gauges"].items():
         lines += ["[[gauges]]", f'gauge = "{key}"', f'protocol = "{g["protocol"]}"',
                   f'port = "{g["port"]}"']
     return "\n".join(lines) + "\n"
 
 
-def main() -> None:
-    folder = Path(tempfile.mkdtemp(prefix="ogacq-bench-"))
-    (folder / "machine.toml").write_text(MACHINE)
-    proc, info = start_simulator()
+def run(folder: Path, speed: float, settle: str, runner_class=CampaignRunner) -> dict:
+    """One papers' campaign against a fresh `ogacq sim`; its figures."""
+    proc, info = start_simulator(speed)
+    name = f"{runner_class.__name__}-{settle}-x{speed:g}"
     try:
-        (folder / "campaign.toml").write_text(campaign_text(info))
-        campaign = read_campaign(folder / "campaign.toml")
+        path = folder / f"{name}.toml"
+        path.write_text(campaign_text(info, speed, settle, f"{name}.jsonl"))
+        campaign = read_campaign(path)
         with open_station(campaign) as station:
             station.prepare()
-            exchanges = _count_exchanges(station.indicators)
-            with SessionWriter.create(campaign.session, {"plan": None}) as writer:
-                runner = CampaignRunner(station, writer, campaign.protocol, campaign.machine)
+            timer = LineTimer(station)
+            header = {"plan": campaign.protocol.to_dict(),
+                      "machine": machine_dict(campaign.machine)}
+            with SessionWriter.create(campaign.session, header) as writer:
+                runner = runner_class(station, writer, campaign.protocol, campaign.machine)
                 start = time.perf_counter()
                 runner.run()
                 wall = time.perf_counter() - start
-        from ogacq.session.store import load_session
-
-        moves = load_session(campaign.session).of_type(MoveRecord)
-        gauge = info["gauges"]["y_x"]
-        gauge_s = gauge_response_s(gauge["port"], encode_request())
     finally:
         os.killpg(proc.pid, signal.SIGINT)
         proc.wait(10)
-
-    motion_sim, last = 0.0, (0.0, 0.0, 0.0)
-    for move in moves:
-        motion_sim += move_time_s(max(abs(a - b) for a, b in
-                                      zip(move.q_mm, last, strict=True))) + MOTION_SETTLE_S
+    session = load_session(campaign.session)
+    motion, last = 0.0, (0.0, 0.0, 0.0)
+    for move in session.of_type(MoveRecord):
+        motion += move_time_s(max(abs(a - b) for a, b in zip(move.q_mm, last, strict=True))) \
+            + MOTION_SETTLE_S
         last = tuple(move.q_mm)
-    motion_s = motion_sim / SPEED
-    reads = sum(1 for s in campaign_steps(campaign.protocol, campaign.machine)
-                if not isinstance(s, Move)) - 3
-    settle_s = reads * campaign.protocol.settle_s
-    readings = runner.total_readings
-    # every request/reply exchange is 2 + 13 bytes on the line
-    line_s = exchanges[0] * 15 * BAUD_BYTE_S
-    overhead = wall - motion_s - settle_s - line_s
-    print(f"campaign: {readings} readings, {len(moves)} moves in {wall:.2f} s wall "
-          f"(ogacq sim in its own process, x{SPEED:g})")
-    print(f"  motion {motion_s:.2f} s + settle {settle_s:.2f} s + gauge line {line_s:.2f} s "
-          f"({exchanges[0]} exchanges at 9600 baud)")
-    print(f"  overhead {overhead:.2f} s = {overhead / readings * 1000:.2f} ms per reading "
-          f"(target < 5 ms); wire time per reading {line_s / readings * 1000:.1f} ms, "
-          f"overhead/wire ratio {overhead / line_s:.2f}")
-    gauges = exchanges[0] * gauge_s
-    print(f"  of which the simulated gauges' own response (plain client): "
-          f"{gauge_s * 1000:.2f} ms x {exchanges[0]} exchanges = "
-          f"{gauges / readings * 1000:.2f} ms per reading; the rest, "
-          f"{(overhead - gauges) / readings * 1000:.2f} ms per reading, is ogacq's "
-          "and the simulated drive's")
+    settles = session.of_type(SettleRecord)
+    if runner_class is BeforeRunner:
+        settle_s = sum(1 for s in runner._steps if isinstance(s, Read)) * campaign.protocol.settle_s
+        moved = runner.moved
+    else:
+        settle_s = sum(r.waited_s for r in settles)
+        moved = sum(1 for r in settles if r.rule != "none")
+    steps = sum(1 for s in runner._steps if isinstance(s, Read))
+    needed = RINGING.time_constant_s * math.log(RINGING.amplitude_mm
+                                                / campaign.protocol.stability.tolerance_mm)
+    result = identify_session(session)
+    return {"wall": wall, "readings": runner.total_readings,
+            "moves": len(session.of_type(MoveRecord)), "motion": motion / speed, "settle": settle_s,
+            "line": timer.line_s, "exchanges": sum(timer.exchanges.values()),
+            "floor": motion / speed + moved * needed / speed
+            + steps * campaign.protocol.stability.readings * EXCHANGE_S,
+            "ended": {e: sum(1 for r in settles if r.ended == e)
+                      for e in ("stable", "bound", "time", "not moved")},
+            "offsets": result.values, "std": result.std}
+
+
+def overhead(folder: Path) -> None:
+    load = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        runs = {"stable": run(folder, 25.0, "stable"),
+                "before": run(folder, 25.0, "fixed", BeforeRunner)}
+    finally:
+        load.kill()
+        load.wait()
+    print(f"1. overhead (x25, one core kept busy by a second process, {os.cpu_count()} cores; "
+          "the runner as it was before beside it, same load):")
+    for name, r in runs.items():
+        rest = r["wall"] - r["motion"] - r["settle"] - r["line"]
+        per = rest / r["readings"] * 1000
+        print(f"   {name:<7} {r['readings']} readings, {r['moves']} moves in {r['wall']:.2f} s "
+              f"wall = motion {r['motion']:.2f} s + settle taken {r['settle']:.2f} s + gauge "
+              f"line after it {r['line']:.2f} s + overhead {rest:.2f} s = {per:.2f} ms per "
+              "reading (target < 5 ms)")
+    r = runs["stable"]
+    print(f"   physical floor (motion + ringing to tolerance + one stable reading's line "
+          f"time per step) {r['floor']:.2f} s: stable's wall / floor {r['wall'] / r['floor']:.2f};"
+          f" its settles {r['ended']}")
+
+
+def real_time(folder: Path) -> None:
+    print(f"2. real time (x1, unloaded; ringing {RINGING.amplitude_mm * 1000:g} um, time "
+          f"constant {RINGING.time_constant_s:g} s, {RINGING.frequency_hz:g} Hz; settle_s "
+          f"{SETTLE_S:g}, window {WINDOW_S:g} s):")
+    runs = {"before": run(folder, 1.0, "fixed", BeforeRunner),
+            "fixed": run(folder, 1.0, "fixed"), "stable": run(folder, 1.0, "stable")}
+    before = runs["before"]["wall"]
+    for name, r in runs.items():
+        offsets = " ".join(f"{v:+.4f}+-{s:.4f}" for v, s in zip(r["offsets"], r["std"],
+                                                                strict=True))
+        print(f"   {name:<7} {r['wall']:6.1f} s ({1 - r['wall'] / before:+6.1%} vs before), "
+              f"floor {r['floor']:5.1f} s, motion {r['motion']:4.1f} s, settle "
+              f"{r['settle']:4.1f} s; offsets x y z mm {offsets}")
+    fixed, stable = runs["fixed"], runs["stable"]
+    shift = np.abs(stable["offsets"] - fixed["offsets"]) / fixed["std"]
+    std_ratio = stable["std"] / fixed["std"]
+    print(f"   stable vs fixed: offsets differ by {np.max(shift):.2f} std at most, std ratio "
+          f"{np.min(std_ratio):.2f}..{np.max(std_ratio):.2f}; stable vs before "
+          f"{1 - stable['wall'] / before:.1%} shorter (target >= 30 %)")
+
+
+def refit_fixed_cost() -> None:
+    obs = campaign(72)
+    fit(obs, OFFSETS)  # warm
+    refit_s = seconds(lambda: fit(obs, OFFSETS), 200)
+    floor = floor_of(obs)
+    floor_s = seconds(floor.fit, 200)
+    diff = float(np.max(np.abs(fit(obs, OFFSETS).values - floor.fit())))
+    print(f"3. refit at 72 readings: {refit_s * 1e3:.2f} ms, numpy floor {floor_s * 1e3:.2f} ms,"
+          f" ratio {refit_s / floor_s:.2f} (target 1.5), offsets differ by {diff:.1e} mm")
+
+
+def main() -> None:
+    folder = Path(tempfile.mkdtemp(prefix="ogacq-bench-"))
+    (folder / "machine.toml").write_text(MACHINE)
+    overhead(folder)
+    if "--quick" not in sys.argv:
+        real_time(folder)
+    refit_fixed_cost()
 
 
 if __name__ == "__main__":

@@ -17,7 +17,7 @@ from ogacq.identify.plausibility import check_observations, check_result
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.deadline import DeadlineStation, default_deadline_s
-from ogacq.protocol.plan import SetGauges, reading_steps
+from ogacq.protocol.plan import ProtocolConfig, SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
 from ogacq.session.convert import machine_dict, session_observations
 from ogacq.session.records import (
@@ -180,8 +180,17 @@ def resumable_campaign(session: LoadedSession) -> Campaign:
         raise InputError(session.path, f"gauges {', '.join(sorted(by_eye))} are read by eye: "
                          f"continue with `ogacq wizard --resume {session.path}`")
     campaign = read_campaign(campaign_file)
-    if campaign.protocol.to_dict() != session.header.get("plan"):
+    if not _same_plan(campaign.protocol, session.header.get("plan")):
         raise InputError(campaign.path, f"the protocol differs from the one {session.path} "
                          "was started with; resume needs the same plan")
     campaign.session = session.path
     return campaign
+
+
+def _same_plan(protocol: ProtocolConfig, recorded: Any) -> bool:
+    """The campaign file's protocol is the one the session was started with; a plan
+    recorded before a key existed reads with that key's default."""
+    try:
+        return ProtocolConfig.from_dict(recorded).to_dict() == protocol.to_dict()
+    except (TypeError, ValueError):
+        return False

@@ -49,7 +49,14 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     postures = ["zero", "max", "min", "zero"]
     cycles = 3
     approach = "sequence"             # sequence, from_below, from_above, both
+    settle = "stable"                 # "stable": read once the gauges agree (at most
+                                      # settle_s after each move); "fixed": wait settle_s
     settle_s = 1.0
+    settle_window_s = 0.1             # stable: values over this long agree within the
+                                      # [stability] tolerance_mm
+    # scan_step_mm = 1.0              # a scan instead of postures: every 1 mm, up and down
+    # scan_from_mm = -50.0            # the scan's range (default: rho_min..rho_max)
+    # scan_to_mm = 50.0
     [stability]
     readings = 3
     tolerance_mm = 0.002
@@ -105,7 +112,13 @@ from ogacq.model.gauges import GAUGE_KEYS, Gauge
 from ogacq.model.instrument import Instrument, parse_moment
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
-from ogacq.protocol.plan import APPROACHES, ProtocolConfig, StabilityRule, check_postures
+from ogacq.protocol.plan import (
+    APPROACHES,
+    SETTLES,
+    ProtocolConfig,
+    StabilityRule,
+    check_postures,
+)
 
 PROTOCOLS = tuple(BACKENDS)
 GAUGE_LAYOUTS = ("separate", "multiplexer", "moved")
@@ -341,8 +354,13 @@ _PROTOCOL = Table((
     Field("cycles", whole(minimum=1)),
     Field("approach", text(*APPROACHES)),
     Field("overshoot_mm", number(minimum=0.0)),
+    Field("settle", text(*SETTLES)),
     Field("settle_s", number(minimum=0.0)),
+    Field("settle_window_s", number(minimum=0.0)),
     Field("move_timeout_s", _TIMEOUT),
+    Field("scan_step_mm", number(positive=True)),
+    Field("scan_from_mm", number()),
+    Field("scan_to_mm", number()),
 ))
 
 _STABILITY = Table((
@@ -425,11 +443,19 @@ def read_campaign(path: str | Path) -> Campaign:
 
 def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
               ) -> ProtocolConfig:
+    if "postures" in given and "scan_step_mm" in given:
+        raise src.fail(("protocol", "postures"), "", "postures and scan_step_mm exclude each "
+                       "other: a scan's postures are every scan_step_mm along the travel")
+    scan_range = [k for k in ("scan_from_mm", "scan_to_mm") if k in given]
+    if scan_range and "scan_step_mm" not in given:
+        raise src.fail(("protocol", scan_range[0]), "", f"{scan_range[0]} needs scan_step_mm "
+                       "(the step of the scan)")
     try:
         config = ProtocolConfig(stability=StabilityRule(**stability), **given)
         check_postures(config, machine)
     except ValueError as exc:
-        key = next((k for k in ("postures", "approach", "cycles", "legs", "overshoot_mm")
+        key = next((k for k in ("scan_step_mm", "scan_from_mm", "scan_to_mm", "postures",
+                                "approach", "cycles", "legs", "overshoot_mm")
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
         raise src.fail(("protocol", key), "", str(exc)) from None
     return config

@@ -30,13 +30,14 @@ from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.axes.reconnect import ReconnectPolicy, reconnect
 from ogacq_drivers.errors import DeviceTimeout, DriverError, LinkError
 from ogacq_drivers.indicators import backend, open_indicator
-from ogacq_drivers.indicators.base import read_stable
+from ogacq_drivers.indicators.base import StableReading, read_stable
+from ogacq_drivers.indicators.concurrent import ConcurrentReader
 from ogacq_drivers.link import open_link
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
-from ogacq.protocol.plan import Read, StabilityRule
-from ogacq.protocol.runner import GaugeValue
+from ogacq.protocol.plan import Read, SettleRule, StabilityRule
+from ogacq.protocol.runner import GaugeValue, SettledGauge
 from ogacq.session.records import ReconnectRecord, Record
 from ogacq.writeback.table import read_offset_table
 
@@ -63,6 +64,13 @@ class DeviceStation:
     # A move lost its connection: even if a later request connected again on its own,
     # the axes are stopped and their state re-read before anything else moves.
     _link_lost: bool = False
+    _reader: ConcurrentReader | None = None
+
+    def close(self) -> None:
+        """Let the gauge readers go (before the gauges' lines close)."""
+        if self._reader is not None:
+            self._reader.close()
+            self._reader = None
 
     def prepare(self) -> None:
         """Servo on and home: every campaign starts from a known position, with the
@@ -89,9 +97,32 @@ class DeviceStation:
 
     def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
         indicator = self.indicators[gauge]
-        stable = read_stable(indicator, rule.readings, rule.tolerance_mm, rule.timeout_s)
-        frame = stable.readings[-1].frame.decode("ascii", errors="replace").strip()
-        return GaugeValue(stable.value_mm, frame, stable.where)
+        return _gauge_value(read_stable(indicator, rule.readings, rule.tolerance_mm,
+                                        rule.timeout_s))
+
+    def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
+                    ) -> dict[str, GaugeValue | DriverError]:
+        """A stable value of each gauge, all read at once (one line after another only
+        where they share it), or the error each raised."""
+        out = self._gauge_reader().read_stable_many(gauges, rule.readings, rule.tolerance_mm,
+                                                    rule.timeout_s)
+        return {g: r if isinstance(r, DriverError) else _gauge_value(r) for g, r in out.items()}
+
+    def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
+                     ) -> dict[str, SettledGauge | DriverError]:
+        """The gauges read at once from now (the axes in position) until each one's values
+        agree by ``rule``, at most ``rule.bound_s`` of machine time."""
+        out = self._gauge_reader().settle_many(
+            gauges, window_s=rule.window_s, n=rule.readings, tolerance_mm=rule.tolerance_mm,
+            bound_s=rule.bound_s, clock=self.clock_s)
+        return {g: r if isinstance(r, DriverError) else
+                SettledGauge(None if r.reading is None else _gauge_value(r.reading),
+                             r.waited_s, r.values) for g, r in out.items()}
+
+    def _gauge_reader(self) -> ConcurrentReader:
+        if self._reader is None:
+            self._reader = ConcurrentReader(self.indicators)
+        return self._reader
 
     def campaign_time_s(self) -> float:
         return self.clock_s() - self._t0
@@ -136,6 +167,11 @@ class DeviceStation:
         self.record_event(ReconnectRecord(connected=True, attempts=back.attempts,
                                           axes_stopped=True, positions_mm=back.positions_mm,
                                           alarms=back.alarms))
+
+
+def _gauge_value(stable: StableReading) -> GaugeValue:
+    frame = stable.readings[-1].frame.decode("ascii", errors="replace").strip()
+    return GaugeValue(stable.value_mm, frame, stable.where)
 
 
 def is_modbus_tcp(where: str) -> bool:
@@ -310,5 +346,7 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
                        for g in gauge_specs},
             "simulated": simulator is not None,
         }
-        yield DeviceStation(controller, indicators, clock, speed, description, simulator,
-                            controller_spec.reconnect)
+        station = DeviceStation(controller, indicators, clock, speed, description, simulator,
+                                controller_spec.reconnect)
+        stack.callback(station.close)  # before the gauges close (callbacks run last first)
+        yield station

@@ -134,6 +134,8 @@ class _Axis:
     target_counter_mm: float = 0.0
     #: The move a pause interrupted, resumed when the pause is released.
     paused: _Segment | None = None
+    #: When the axis last came to a stop after moving (None: never moved).
+    stopped_at_s: float | None = None
 
 
 class MotionModel:
@@ -212,6 +214,17 @@ class MotionModel:
         """+1 / -1: direction of the last motion of ``axis``; 0 before any motion."""
         with self._lock:
             return self._axis(axis).last_direction
+
+    def stopped_at_s(self) -> float | None:
+        """When the last of the axes came to a stop (simulated seconds), None while
+        one moves or before any has moved: where the machine's ringing starts."""
+        with self._lock:
+            now = self.clock.now()
+            axes = [self._update(name, now) for name in self._axes]
+            if any(ax.segment is not None for ax in axes):
+                return None
+            stops = [ax.stopped_at_s for ax in axes if ax.stopped_at_s is not None]
+            return max(stops) if stops else None
 
     def counter_mm(self, axis: str) -> float:
         """What the controller's position counter shows."""
@@ -427,6 +440,7 @@ class MotionModel:
         if ax.segment is not None:
             ax.raw_mm = ax.segment.raw_at(now)
             ax.segment = None
+            ax.stopped_at_s = now
         ax.target_counter_mm = ax.raw_mm - ax.reference_mm
         ax.settled_at_s = now + self.settle_s
 
@@ -438,6 +452,8 @@ class MotionModel:
             ax.raw_mm = seg.end_raw
             ax.segment = None
             ax.settled_at_s = seg.end_s + self.settle_s
+            if seg.end_raw != seg.start_raw:
+                ax.stopped_at_s = seg.end_s
             if seg.home_position_mm is not None:
                 ax.reference_mm = ax.raw_mm - seg.home_position_mm
                 ax.homed = True

@@ -14,6 +14,7 @@ from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
 from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
+from ogacq.protocol.plan import APPROACHES, ProtocolConfig, check_postures, scan_targets
 
 
 def parse_postures(text: str, rho_min: float, rho_max: float) -> list[str | float]:
@@ -32,6 +33,31 @@ def parse_postures(text: str, rho_min: float, rho_max: float) -> list[str | floa
                              f"{rho_min:g}..{rho_max:g} mm")
         out.append(value)
     return out
+
+
+def parse_range(text: str | None) -> tuple[float | None, float | None]:
+    """``FROM:TO`` in mm (either side may be left empty: the machine's travel end)."""
+    if text is None:
+        return None, None
+    low, sep, high = text.partition(":")
+    if not sep:
+        raise InputError("--scan-range", f"{text!r} is not FROM:TO in mm, e.g. -50:50")
+    try:
+        return (float(low) if low.strip() else None, float(high) if high.strip() else None)
+    except ValueError:
+        raise InputError("--scan-range", f"{text!r} is not FROM:TO in mm, e.g. -50:50") \
+            from None
+
+
+def describe_protocol(protocol: ProtocolConfig, machine) -> str:
+    """The plan in words: its postures, or its scan's range, step and directions."""
+    if not protocol.is_scan:
+        return "postures " + ",".join(str(p) for p in protocol.postures)
+    targets = scan_targets(protocol, machine)
+    ways = {"both": "both directions", "sequence": "up and down",
+            "from_below": "upwards only", "from_above": "downwards only"}[protocol.approach]
+    return (f"scan {targets[0]:g}..{targets[-1]:g} mm every {protocol.scan_step_mm:g} mm, "
+            f"{ways} ({len(targets)} postures per leg)")
 
 
 def parse_truth(text: str | None) -> dict[str, float]:
@@ -56,6 +82,14 @@ def plan(
         help="Postures of each leg's test, in order: zero, max, min or a position in mm.")]
     = "zero,max,min,zero",
     cycles: Annotated[int, typer.Option(min=1, help="Repeats of the postures per leg.")] = 3,
+    scan_step: Annotated[float | None, typer.Option(
+        help="A scan instead of --postures: a reading every this many mm along each "
+             "leg's axis, up and back down.")] = None,
+    scan_range: Annotated[str | None, typer.Option(
+        help="The scan's FROM:TO in mm (default: the machine's whole travel).")] = None,
+    approach: Annotated[str, typer.Option(
+        help="How each posture is approached: sequence, from_below, from_above, both.")]
+    = "sequence",
     noise: Annotated[float | None, typer.Option(
         help="Gauge noise sigma in mm (default: the machine file's repeatability, "
              "else its resolution).")] = None,
@@ -74,12 +108,24 @@ def plan(
                                             or spec.gauge_resolution_mm)
     if sigma <= 0:
         raise InputError("--noise", f"must be positive, got {sigma:g} mm")
-    obs = planned_observations(
-        spec, postures=parse_postures(postures, spec.rho_min_mm, spec.rho_max_mm),
-        cycles=cycles)
+    if approach not in APPROACHES:
+        raise InputError("--approach", f"{approach!r} is not one of {', '.join(APPROACHES)}")
+    if scan_step is None and scan_range is not None:
+        raise InputError("--scan-range", "needs --scan-step (the step of the scan)")
+    start, end = parse_range(scan_range)
+    try:
+        protocol = ProtocolConfig(
+            postures=tuple(parse_postures(postures, spec.rho_min_mm, spec.rho_max_mm)),
+            cycles=cycles, approach=approach, scan_step_mm=scan_step, scan_from_mm=start,
+            scan_to_mm=end)
+        check_postures(protocol, spec)
+    except ValueError as exc:
+        raise InputError("--scan-step" if scan_step is not None else "--postures",
+                         str(exc)) from None
+    obs = planned_observations(spec, protocol=protocol)
     pred = predict_accuracy(obs, PARAM_SETS[params.value], sigma, truth=parse_truth(assume),
                             trials=trials, seed=seed, rounding_mm=spec.gauge_resolution_mm)
     if as_json:
-        typer.echo(json.dumps(pred.to_json()))
+        typer.echo(json.dumps(pred.to_json() | {"protocol": protocol.to_dict()}))
         return
-    print_plan(pred, Path(machine).name, postures, cycles)
+    print_plan(pred, Path(machine).name, describe_protocol(protocol, spec), cycles)

@@ -71,7 +71,7 @@ def print_fit(result: FitResult, params_label: str) -> None:
 
 
 def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
-    console.print(f"[bold]{machine_name}[/]: postures {postures}, {cycles} cycles per leg, "
+    console.print(f"[bold]{machine_name}[/]: {postures}, {cycles} cycles per leg, "
                   f"{pred.n_readings} readings, gauge noise {pred.noise_mm:g} mm")
     table = Table(show_edge=False, header_style="bold")
     table.add_column("parameter")

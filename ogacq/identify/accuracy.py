@@ -61,10 +61,15 @@ class AccuracyPrediction:
         return out
 
 
-def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float],
-                         cycles: int, legs: Sequence[int] = (0, 1, 2)) -> Observations:
-    layout = planned_layout(ProtocolConfig(legs=tuple(AXES[i] for i in legs),
-                                           postures=tuple(postures), cycles=cycles), machine)
+def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float] = (),
+                         cycles: int = 3, legs: Sequence[int] = (0, 1, 2),
+                         protocol: ProtocolConfig | None = None) -> Observations:
+    """The readings a plan takes (values zero): ``protocol`` (a scan too), else the
+    ``postures`` of ``legs`` repeated ``cycles`` times."""
+    if protocol is None:
+        protocol = ProtocolConfig(legs=tuple(AXES[i] for i in legs), postures=tuple(postures),
+                                  cycles=cycles)
+    layout = planned_layout(protocol, machine)
     return readings_observations(machine, layout, np.zeros(len(layout)), "plan")
 
 

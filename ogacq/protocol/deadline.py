@@ -54,6 +54,12 @@ class DeadlineStation:
     def read_gauge(self, *args: Any, **kwargs: Any) -> Any:
         return self._within_deadline(self._station.read_gauge, *args, **kwargs)
 
+    def read_gauges(self, *args: Any, **kwargs: Any) -> Any:
+        return self._within_deadline(self._station.read_gauges, *args, **kwargs)
+
+    def read_settled(self, *args: Any, **kwargs: Any) -> Any:
+        return self._within_deadline(self._station.read_settled, *args, **kwargs)
+
     def recover_axes(self) -> bool:
         return self._within_deadline(self._station.recover_axes)
 

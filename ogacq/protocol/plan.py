@@ -13,6 +13,23 @@ backlash. ``sequence`` goes straight from posture to posture (the papers');
 ``from_below``/``from_above`` first go past the target by ``overshoot_mm`` and
 come back, so every reading is approached from the same side; ``both`` takes
 every reading twice, once from each side, to reveal lost motion.
+
+Scan: instead of a few postures, readings at many intermediate postures along
+each leg's axis, ``scan_step_mm`` apart from ``scan_from_mm`` to ``scan_to_mm``
+(the whole travel rho_min..rho_max when not given), to map a lead screw. Each
+cycle runs the targets up (ascending) and back down, so every target is read
+once from each side: ISO 230-2:2014 section 3.14 ("bidirectional") and its
+linear test cycle, 4.3. ``approach`` says how the two runs start: ``both`` goes
+past the first target of each run by ``overshoot_mm`` (ISO 230-2 4.3: the
+reversal beyond the end targets), ``sequence`` turns straight round at the
+ends, ``from_below``/``from_above`` keep one run only (unidirectional). The
+gauges are set at Zero and a Zero reading starts each leg (the gauges' setting
+posture), since a gauge is set where it first reads.
+
+Settling: after a move, ``settle = "fixed"`` waits ``settle_s``; ``"stable"``
+reads the leg's gauges from the moment the axes are in position and takes the
+values once they agree (:class:`SettleRule`), ``settle_s`` being the longest it
+waits. Where nothing moved (a posture read again), there is nothing to settle.
 """
 
 from __future__ import annotations
@@ -29,6 +46,10 @@ from ogacq.model.measurement import ReadingsLayout, posture_tcp
 from ogacq.model.parameters import AXES
 
 APPROACHES = ("sequence", "from_below", "from_above", "both")
+SETTLES = ("stable", "fixed")
+# A guard against a typo (a step in um written as mm), no source: a scan of more
+# postures per leg than this is refused before anything moves.
+MAX_SCAN_POSTURES = 100_000
 
 
 @dataclass(frozen=True)
@@ -51,6 +72,11 @@ class ProtocolConfig:
     settle_s: float = 1.0
     move_timeout_s: float = 60.0
     stability: StabilityRule = field(default_factory=StabilityRule)
+    settle: str = "stable"
+    settle_window_s: float = 0.1
+    scan_step_mm: float | None = None  # None: the postures above, no scan
+    scan_from_mm: float | None = None  # None: the machine's rho_min
+    scan_to_mm: float | None = None  # None: the machine's rho_max
 
     def __post_init__(self) -> None:
         if self.approach not in APPROACHES:
@@ -61,15 +87,34 @@ class ProtocolConfig:
         bad = [leg for leg in self.legs if leg not in AXES]
         if bad:
             raise ValueError(f"legs must be among x, y, z, got {bad}")
+        if self.settle not in SETTLES:
+            raise ValueError(f"settle must be one of {', '.join(SETTLES)}, got {self.settle!r}")
+        if self.scan_step_mm is not None and not self.scan_step_mm > 0:
+            raise ValueError(f"scan_step_mm must be positive, got {self.scan_step_mm:g}")
+
+    @property
+    def is_scan(self) -> bool:
+        return self.scan_step_mm is not None
+
+    @property
+    def settle_rule(self) -> SettleRule:
+        return SettleRule(self.settle, self.settle_s, self.settle_window_s,
+                          self.stability.readings, self.stability.tolerance_mm)
 
     def to_dict(self) -> dict:
-        return {"legs": list(self.legs), "postures": list(self.postures),
-                "cycles": self.cycles, "approach": self.approach,
-                "overshoot_mm": self.overshoot_mm, "settle_s": self.settle_s,
-                "move_timeout_s": self.move_timeout_s,
-                "stability": {"readings": self.stability.readings,
-                              "tolerance_mm": self.stability.tolerance_mm,
-                              "timeout_s": self.stability.timeout_s}}
+        out = {"legs": list(self.legs), "postures": list(self.postures),
+               "cycles": self.cycles, "approach": self.approach,
+               "overshoot_mm": self.overshoot_mm, "settle": self.settle,
+               "settle_s": self.settle_s, "settle_window_s": self.settle_window_s,
+               "move_timeout_s": self.move_timeout_s,
+               "stability": {"readings": self.stability.readings,
+                             "tolerance_mm": self.stability.tolerance_mm,
+                             "timeout_s": self.stability.timeout_s}}
+        if self.is_scan:  # a scan replaces the postures
+            del out["postures"]
+            out.update(scan_step_mm=self.scan_step_mm, scan_from_mm=self.scan_from_mm,
+                       scan_to_mm=self.scan_to_mm)
+        return out
 
     @classmethod
     def from_dict(cls, d: dict) -> ProtocolConfig:
@@ -77,6 +122,38 @@ class ProtocolConfig:
         stability = StabilityRule(**d.pop("stability", {}))
         return cls(legs=tuple(d.pop("legs", AXES)), postures=tuple(d.pop("postures", ())),
                    stability=stability, **d)
+
+
+@dataclass(frozen=True)
+class SettleRule:
+    """How a reading step waits for the machine to come to rest after a move.
+
+    ``fixed``: ``bound_s`` of machine time. ``stable``: the gauges are read from
+    the moment the axes report in position; a gauge has settled once its values
+    of the last ``window_s`` (a span of at least that long, at least ``readings``
+    values) lie within twice ``tolerance_mm`` (a ringing's amplitude, half its
+    peak-to-peak, within the tolerance) and its last ``readings`` values agree
+    within ``tolerance_mm``; its reading is their mean, as a stable reading is
+    (:class:`StabilityRule`). The window spans a period of any vibration faster
+    than 1 / ``window_s``, so a vibration's crest, where consecutive values agree,
+    does not pass for rest.
+    ``bound_s``: the longest a stable settle waits; a gauge not settled by then is
+    read by the stability rule as after a fixed wait. No source: the rule is the
+    project's.
+    """
+
+    kind: str  # "stable" or "fixed"
+    bound_s: float
+    window_s: float
+    readings: int
+    tolerance_mm: float
+
+    def describe(self) -> str:
+        if self.kind == "fixed":
+            return f"fixed {self.bound_s:g} s"
+        return (f"stable: values over {self.window_s:g} s within 2 x {self.tolerance_mm:g} mm "
+                f"and the last {self.readings} within {self.tolerance_mm:g} mm, at most "
+                f"{self.bound_s:g} s")
 
 
 @dataclass(frozen=True)
@@ -117,9 +194,45 @@ def posture_label(posture: str | float) -> str:
     return posture if isinstance(posture, str) else f"{posture:+g}mm"
 
 
+def scan_targets(config: ProtocolConfig, machine: MachineSpec) -> list[float]:
+    """The scan's targets in ascending order, ``scan_step_mm`` apart from its start
+    (rounded to 1e-6 mm, so that repeats of a target are the same number); the end
+    is a target when it falls on the grid."""
+    assert config.scan_step_mm is not None
+    start, end = scan_range(config, machine)
+    count = int(np.floor((end - start) / config.scan_step_mm + 1e-9)) + 1
+    return [round(start + k * config.scan_step_mm, 6) + 0.0 for k in range(count)]  # no -0
+
+
+def scan_range(config: ProtocolConfig, machine: MachineSpec) -> tuple[float, float]:
+    """The scan's first and last target: as stated, else the whole travel, less the
+    overshoot at each end when the approach goes past the targets."""
+    inset = 0.0 if config.approach == "sequence" else config.overshoot_mm
+    start = machine.rho_min_mm + inset if config.scan_from_mm is None else config.scan_from_mm
+    end = machine.rho_max_mm - inset if config.scan_to_mm is None else config.scan_to_mm
+    return start, end
+
+
+def _check_scan(config: ProtocolConfig, machine: MachineSpec) -> None:
+    assert config.scan_step_mm is not None
+    start, end = scan_range(config, machine)
+    for key, value in (("scan_from_mm", start), ("scan_to_mm", end)):
+        if not machine.rho_min_mm <= value <= machine.rho_max_mm:
+            raise ValueError(f"{key} {value:g} mm is outside the workspace "
+                             f"{machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm")
+    if not start < end:
+        raise ValueError(f"scan_from_mm {start:g} mm must be below scan_to_mm {end:g} mm")
+    count = (end - start) / config.scan_step_mm + 1
+    if count > MAX_SCAN_POSTURES:
+        raise ValueError(f"scan_step_mm {config.scan_step_mm:g} mm makes {count:.0f} postures "
+                         f"per leg (at most {MAX_SCAN_POSTURES}); is the step in mm?")
+
+
 def check_postures(config: ProtocolConfig, machine: MachineSpec) -> None:
     """Refuse postures the machine cannot take, before anything moves."""
-    for posture in config.postures:
+    if config.is_scan:
+        _check_scan(config, machine)
+    for posture in () if config.is_scan else config.postures:
         if isinstance(posture, str):
             if posture not in ("zero", "max", "min"):
                 raise ValueError(f"posture {posture!r} is not zero, max, min or a number in mm")
@@ -131,11 +244,37 @@ def check_postures(config: ProtocolConfig, machine: MachineSpec) -> None:
         reach = max(abs(machine.rho_min_mm), abs(machine.rho_max_mm)) + config.overshoot_mm
         if reach >= machine.leg_length_mm:
             raise ValueError("overshoot_mm takes the postures beyond the workspace")
+        _check_overshoot(config, machine)
+
+
+def _check_overshoot(config: ProtocolConfig, machine: MachineSpec) -> None:
+    """A posture approached from below (above) needs ``overshoot_mm`` of travel below
+    (above) it: the controller refuses a move past its soft limits."""
+    below = config.approach in ("from_below", "both")
+    above = config.approach in ("from_above", "both")
+    if config.is_scan:
+        targets = scan_range(config, machine)
+        lowest, highest = targets if config.approach == "both" else (targets[0], targets[0]) \
+            if below else (targets[1], targets[1])
+    else:
+        along = [float(posture_tcp(0, p, machine)[0]) for p in config.postures]
+        lowest, highest = min(along), max(along)
+    if below and lowest - config.overshoot_mm < machine.rho_min_mm - 1e-9:
+        raise ValueError(f"approach {config.approach}: the posture {lowest:g} mm is approached "
+                         f"from {lowest - config.overshoot_mm:g} mm, below rho_min "
+                         f"{machine.rho_min_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
+    if above and highest + config.overshoot_mm > machine.rho_max_mm + 1e-9:
+        raise ValueError(f"approach {config.approach}: the posture {highest:g} mm is approached "
+                         f"from {highest + config.overshoot_mm:g} mm, above rho_max "
+                         f"{machine.rho_max_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
 
 
 def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
     """Every step of the campaign, in order."""
     check_postures(config, machine)
+    if config.is_scan:
+        yield from _scan_steps(config, machine)
+        return
     last_q = np.zeros(3)
     side = np.zeros(3, dtype=int)
     for leg in config.legs:
@@ -159,6 +298,44 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
                     tag = "" if len(sides) == 1 else f"/{how}"
                     yield Read(f"{leg}/c{cycle}/p{k + 1}{tag}", leg, gauges, cycle,
                                posture_label(posture), _t(q), _t(tcp), _t(side))
+
+
+# A scan's runs per cycle, by approach: (name, direction, how its first target is reached).
+_SCAN_RUNS = {
+    "both": (("up", 1, "from_below"), ("down", -1, "from_above")),
+    "sequence": (("up", 1, "sequence"), ("down", -1, "sequence")),
+    "from_below": (("up", 1, "from_below"),),
+    "from_above": (("down", -1, "from_above"),),
+}
+
+
+def _scan_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
+    """Each leg: set the gauges at Zero and read them there, then ``cycles`` times
+    the runs of the scan (up and back down for both directions)."""
+    targets = scan_targets(config, machine)
+    last_q = np.zeros(3)
+    side = np.zeros(3, dtype=int)
+    for leg in config.legs:
+        i = AXES.index(leg)
+        gauges = tuple(g.key for g in gauges_on(leg))
+        zero_tcp = posture_tcp(i, "zero", machine)
+        zero_q = nominal_q(zero_tcp, machine.leg_length_mm)
+        yield from _approach(zero_q, zero_tcp, config, last_q, side, "sequence")
+        last_q = zero_q
+        yield SetGauges(leg, gauges)
+        yield Read(f"{leg}/set", leg, gauges, 1, "zero", _t(zero_q), _t(zero_tcp), _t(side))
+        for cycle in range(1, config.cycles + 1):
+            for run, direction, first in _SCAN_RUNS[config.approach]:
+                order = range(len(targets)) if direction > 0 else \
+                    range(len(targets) - 1, -1, -1)
+                for n, k in enumerate(order):
+                    tcp = posture_tcp(i, targets[k], machine)
+                    q = nominal_q(tcp, machine.leg_length_mm)
+                    yield from _approach(q, tcp, config, last_q, side,
+                                         first if n == 0 else "sequence")
+                    last_q = q
+                    yield Read(f"{leg}/c{cycle}/{run}/p{k + 1}", leg, gauges, cycle,
+                               posture_label(targets[k]), _t(q), _t(tcp), _t(side))
 
 
 def _approach(q, tcp, config: ProtocolConfig, last_q, side, how: str) -> Iterator[Move]:

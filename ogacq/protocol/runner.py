@@ -10,8 +10,9 @@ observer callback that the command line renders.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -26,6 +27,7 @@ from ogacq.protocol.plan import (
     ProtocolConfig,
     Read,
     SetGauges,
+    SettleRule,
     StabilityRule,
     campaign_steps,
 )
@@ -35,6 +37,7 @@ from ogacq.session.records import (
     GaugesSetRecord,
     MoveRecord,
     ReadingRecord,
+    SettleRecord,
 )
 from ogacq.session.store import SessionWriter
 
@@ -46,8 +49,25 @@ class GaugeValue:
     where: str  # port/channel the value came from
 
 
+@dataclass(frozen=True)
+class SettledGauge:
+    """A gauge read from the end of a move until its values agreed (SettleRule)."""
+
+    value: GaugeValue | None  # None: not settled within the rule's bound
+    waited_s: float  # machine seconds from in position to its last value
+    values: int  # values read meanwhile
+
+
 class Station(Protocol):
-    """What a campaign needs from the hardware (or the simulator)."""
+    """What a campaign needs from the hardware (or the simulator).
+
+    A station may also read several gauges at once: ``read_gauges(step, gauges,
+    rule) -> {gauge: GaugeValue | DriverError}`` (or pairs of them, yielded as each
+    comes) and ``read_settled(step, gauges,
+    settle_rule) -> {gauge: SettledGauge | DriverError}`` (the device station
+    does); the runner reads one gauge after the other, and settles by a fixed
+    wait, on a station without them.
+    """
 
     def move(self, q_mm: tuple[float, float, float], timeout_s: float,
              ) -> tuple[float, float, float]:
@@ -154,6 +174,7 @@ class CampaignRunner:
         pending: list[Move] = []
         came_from: Move | None = None  # the plan's last posture before ``pending``
         moved = False
+        disturbed = True  # something moved (or a hand set the gauges) since the last read
         for step in self._steps:
             if isinstance(step, Move):
                 pending.append(step)
@@ -164,15 +185,15 @@ class CampaignRunner:
                     # Resuming: arrive from the posture the plan came from, so that
                     # each joint approaches from the same side as it would have.
                     moves = [came_from, *pending]
-                self._execute_moves(moves)
+                disturbed = self._execute_moves(moves) or disturbed
                 moved = True
                 if isinstance(step, SetGauges):
                     self._set_gauges(step)
+                    # a hand on the gauges shakes them; pre-mounted ones nobody touched
+                    disturbed = disturbed or self.set_gauges is not None
                 else:
-                    self.station.settle(self.config.settle_s)
-                    for gauge in step.gauges:
-                        if (step.step, gauge) not in self.recorded:
-                            self._read(step, gauge)
+                    self._read_step(step, settle=disturbed)
+                    disturbed = False
             came_from = next((m for m in reversed(pending) if m.purpose == "posture"),
                              came_from)
             pending = []
@@ -189,7 +210,9 @@ class CampaignRunner:
         self.observer(Progress(len(self.recorded), self._total,
                                f"gauges set on the {step.leg} leg"))
 
-    def _execute_moves(self, moves: list[Move]) -> None:
+    def _execute_moves(self, moves: list[Move]) -> bool:
+        """Command the moves; True when the axes moved (not when already there)."""
+        moved = False
         for move in moves:
             if self._commanded_q is not None and np.allclose(move.q_mm, self._planned_q,
                                                              atol=1e-9):
@@ -198,6 +221,7 @@ class CampaignRunner:
                 try:
                     self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
                     self._planned_q = move.q_mm
+                    moved = True
                     break
                 except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
                     self.writer.write(FaultRecord(during="move", attempt=attempt,
@@ -207,20 +231,83 @@ class CampaignRunner:
                         raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
                                               f"{exc}") from exc
             self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose))
+        return moved
 
-    def _read(self, step: Read, gauge: str) -> None:
+    def _read_step(self, step: Read, *, settle: bool) -> None:
+        """Settle (when something moved) and read the step's gauges not yet on file."""
+        gauges = [g for g in step.gauges if (step.step, g) not in self.recorded]
+        rule = self.config.settle_rule
+        first: dict[str, GaugeValue | DriverError] = {}
+        if not settle:  # nothing moved since the last reading: nothing rings
+            self.writer.write(SettleRecord(step=step.step, rule="none", ended="not moved",
+                                           waited_s=0.0))
+        elif rule.kind == "stable" and hasattr(self.station, "read_settled"):
+            first = self._settle_stable(step, gauges, rule)
+        else:
+            self.station.settle(rule.bound_s)
+            self.writer.write(SettleRecord(step=step.step, rule="fixed", ended="time",
+                                           waited_s=rule.bound_s))
+        self._read_gauges(step, gauges, first)
+
+    def _settle_stable(self, step: Read, gauges: list[str], rule: SettleRule,
+                       ) -> dict[str, GaugeValue | DriverError]:
+        """Read from in position until the gauges agree; their values, or the errors
+        that count as each gauge's first attempt."""
+        outcome = self.station.read_settled(step, gauges, rule)
+        settled = {g: r for g, r in outcome.items() if isinstance(r, SettledGauge)}
+        waited = max((r.waited_s for r in settled.values()), default=0.0)
+        bound = [g for g, r in settled.items() if r.value is None]
+        self.writer.write(SettleRecord(
+            step=step.step, rule="stable", ended="bound" if bound else "stable",
+            waited_s=round(waited, 4), values={g: r.values for g, r in settled.items()},
+            unsettled=tuple(bound)))
+        return {g: r.value if isinstance(r, SettledGauge) else r for g, r in outcome.items()
+                if not (isinstance(r, SettledGauge) and r.value is None)}
+
+    def _read_gauges(self, step: Read, gauges: Sequence[str],
+                     first: dict[str, GaugeValue | DriverError]) -> None:
+        """Read ``gauges`` at once, retrying each failed one within bounds; each value is
+        recorded as it comes. ``first``: values (or errors) the settle already took."""
+        missing = list(gauges)
         for attempt in range(1, self.retry.gauge_attempts + 1):
+            given = [(g, first[g]) for g in missing if g in first] if attempt == 1 else []
+            ask = [g for g in missing if g not in dict(given)]
+            failed: dict[str, DriverError] = {}
+            for gauge, result in itertools.chain(given, self._read_now(step, ask)):
+                if isinstance(result, DriverError):  # silent, 911, garbled, unplugged
+                    self.writer.write(FaultRecord(during="read", step=step.step, gauge=gauge,
+                                                  attempt=attempt, error=type(result).__name__,
+                                                  message=str(result)))
+                    failed[gauge] = result
+                else:  # kept at once, whatever happens to the others
+                    self._record(step, gauge, result)
+            if not failed:
+                return
+            missing = [g for g in missing if g in failed]
+            if attempt == self.retry.gauge_attempts:
+                error = failed[missing[0]]
+                raise CampaignStopped(f"gauge {missing[0]} at {step.step}: {error} "
+                                      f"({attempt} attempts)") from error
+            time.sleep(self.retry.backoff_s * attempt)
+
+    def _read_now(self, step: Read, gauges: list[str],
+                  ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
+        """Each gauge's value or error, as each comes (a station reading them at once
+        gives them together; gauges read by eye come one by one)."""
+        if not gauges:
+            return
+        rule = self.config.stability
+        if hasattr(self.station, "read_gauges"):
+            got = self.station.read_gauges(step, gauges, rule)
+            yield from got.items() if isinstance(got, dict) else got
+            return
+        for gauge in gauges:
             try:
-                value = self.station.read_gauge(step, gauge, self.config.stability)
-                break
-            except DriverError as exc:  # silent, 911, garbled, unplugged: all retried, bounded
-                self.writer.write(FaultRecord(during="read", step=step.step, gauge=gauge,
-                                              attempt=attempt, error=type(exc).__name__,
-                                              message=str(exc)))
-                if attempt == self.retry.gauge_attempts:
-                    raise CampaignStopped(f"gauge {gauge} at {step.step}: {exc} "
-                                          f"({attempt} attempts)") from exc
-                time.sleep(self.retry.backoff_s * attempt)
+                yield gauge, self.station.read_gauge(step, gauge, rule)
+            except DriverError as exc:
+                yield gauge, exc
+
+    def _record(self, step: Read, gauge: str, value: GaugeValue) -> None:
         self.writer.write(ReadingRecord(
             step=step.step, gauge=Gauge.parse(gauge), cycle=step.cycle, posture=step.posture,
             t_s=round(self.station.campaign_time_s(), 3),

@@ -404,6 +404,40 @@ class OverrideRecord(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
+class SettleRecord(Record):
+    """How a reading step waited for the machine to come to rest: ``rule`` "stable"
+    (ended "stable", or "bound" when a gauge in ``unsettled`` had not agreed by the
+    plan's settle_s), "fixed" (ended "time") or "none" (ended "not moved": nothing
+    moved since the last reading). ``waited_s``: machine seconds it took; ``values``:
+    gauge values read meanwhile, per gauge. The plan in the header states the rule."""
+
+    KIND: ClassVar[str] = "settle"
+    step: str
+    rule: str
+    ended: str
+    waited_s: float
+    values: dict[str, int] | None = None
+    unsettled: tuple[str, ...] = ()
+
+    def fields(self) -> dict[str, Any]:
+        out: dict[str, Any] = {"step": self.step, "rule": self.rule, "ended": self.ended,
+                               "waited_s": self.waited_s}
+        if self.values is not None:
+            out["values"] = self.values
+        if self.unsettled:
+            out["unsettled"] = list(self.unsettled)
+        return out
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> SettleRecord:
+        waited = d.get("waited_s")
+        return cls(wall=d.get("wall"), step=str(d.get("step", "")), rule=str(d.get("rule", "")),
+                   ended=str(d.get("ended", "")),
+                   waited_s=float(waited) if _finite(waited) else math.nan,
+                   values=d.get("values"), unsettled=tuple(d.get("unsettled") or ()))
+
+
+@dataclass(frozen=True, kw_only=True)
 class OtherRecord(Record):
     """A record of a kind this version does not write, kept as it was."""
 
@@ -421,7 +455,7 @@ class OtherRecord(Record):
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
     ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord,
-    EnvironmentRecord, OverrideRecord)}
+    EnvironmentRecord, OverrideRecord, SettleRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:

@@ -28,6 +28,7 @@ GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
 class EncoderPositions(Protocol):
     def raw_position_mm(self, axis: str) -> float: ...
     def last_direction(self, axis: str) -> int: ...
+    def stopped_at_s(self) -> float | None: ...
 
 
 class SimMachine:
@@ -47,6 +48,12 @@ class SimMachine:
         self._drifts = bool(np.any(truth.theta[[PARAM_INDEX[f"thermal_drift.{a}"]
                                                 for a in AXES]] != 0))
         self._pose_cache: dict[tuple, dict[tuple[int, int], float]] = {}
+        # Each stop's ringing, per gauge: (amplitude, phase), drawn from the seed and
+        # the stop's number, so the same campaign rings the same way (the noise's own
+        # generator is left to the noise).
+        self._seed = seed
+        self._ringing: tuple[float, dict[tuple[int, int], tuple[float, float]]] | None = None
+        self._stops = 0
 
     def coordinates_mm(self, q_mm: np.ndarray, approach: np.ndarray,
                        t_s: float) -> dict[tuple[int, int], float]:
@@ -76,7 +83,37 @@ class SimMachine:
                 self._pose_cache[pose] = coords
         with self._lock:
             noise = self._rng.normal(0.0, self.truth.noise_mm) if self.truth.noise_mm else 0.0
-        return self._zero_mm[(gauge_axis, leg)] + coords[(gauge_axis, leg)] + noise
+        return (self._zero_mm[(gauge_axis, leg)] + coords[(gauge_axis, leg)] + noise
+                + self.vibration_mm(gauge_axis, leg))
+
+    def vibration_mm(self, gauge_axis: int, leg: int) -> float:
+        """The machine's ringing the gauge sees now (0 while an axis moves; the
+        motion itself is in the coordinates)."""
+        vibration = self.truth.vibration
+        if vibration.amplitude_mm == 0:
+            return 0.0
+        stopped = self.encoders.stopped_at_s()
+        if stopped is None:
+            return 0.0
+        since = self.clock.now() - stopped
+        with self._lock:
+            if self._ringing is None or self._ringing[0] != stopped:
+                self._stops += 1
+                rng = np.random.default_rng([self._seed, 20, self._stops])
+                self._ringing = (stopped, {key: (float(rng.uniform(0.5, 1.0)),
+                                                 float(rng.uniform(0.0, 2 * np.pi)))
+                                           for key in GAUGE_INDICES})
+            share, phase = self._ringing[1][(gauge_axis, leg)]
+        return share * vibration.envelope_mm(since) * float(
+            np.sin(2 * np.pi * vibration.frequency_hz * since + phase))
+
+    def ringing_envelope_mm(self) -> float:
+        """The largest ringing any gauge may show now: what a reading taken now could
+        be off by (tests check the stable settle against it)."""
+        stopped = self.encoders.stopped_at_s()
+        if stopped is None:
+            return float("inf")
+        return self.truth.vibration.envelope_mm(self.clock.now() - stopped)
 
     def value_source(self, gauge_axis: int, leg: int) -> Callable[[], float]:
         return lambda: self.gauge_value_mm(gauge_axis, leg)

@@ -48,7 +48,8 @@ def test_sigkill_at_random_points_then_resume(tmp_path):
 
     path = write_campaign(tmp_path / "killed", seed=9, noise=0.0)
     session = path.parent / "session.jsonl"
-    kill_points = sorted(rng.choice(np.arange(2, 70), size=3, replace=False))
+    # 3 readings apart at least: the two gauges of a posture, read at once, land together
+    kill_points = sorted(rng.choice(np.arange(2, 70, 3), size=3, replace=False))
     kill_after(start("run", path), session, kill_points[0])
     for point in kill_points[1:]:
         kill_after(start("resume", session), session, point)

@@ -58,7 +58,7 @@ def test_the_paper_fixture_is_the_paper_prototype(paper_dir: Path) -> None:
 
 def _campaign(tmp_path: Path, **parts) -> Campaign:
     write_machine(tmp_path / "machine.toml", PAPER_PROTOTYPE, "")
-    protocol = ProtocolConfig(postures=("zero", 30.0, "max", "min"), cycles=2,
+    protocol = ProtocolConfig(postures=("zero", 30.0, 55.0, -90.0), cycles=2,
                               approach="both", settle_s=0.25,
                               stability=StabilityRule(readings=4, timeout_s=3.0))
     return Campaign(tmp_path / "campaign.toml", PAPER_PROTOTYPE, tmp_path / "machine.toml",

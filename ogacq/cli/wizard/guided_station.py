@@ -9,14 +9,15 @@ next ones are checked against.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from typing import Any
 
+from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators.base import read_stable
 from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.pause import InterruptGate
-from ogacq.protocol.plan import Read, StabilityRule
-from ogacq.protocol.runner import GaugeValue
+from ogacq.protocol.plan import Read, SettleRule, StabilityRule
+from ogacq.protocol.runner import GaugeValue, SettledGauge
 from ogacq.station import DeviceStation
 
 # Asks for one reading of a gauge read by eye, at a plan step; returns its value.
@@ -52,6 +53,37 @@ class GuidedStation:
             value = self.device.read_gauge(step, gauge, rule)
         self.expectations.observe(gauge, step.q_mm, value.value_mm)
         return value
+
+    def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
+                    ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
+        """The gauges the station reads, at once; then those read by eye, each handed
+        over as typed (so it is on file before the next is asked for)."""
+        self._checkpoint()
+        read = [g for g in gauges if g not in self.by_eye]
+        for gauge, value in (self.device.read_gauges(step, read, rule) if read else {}).items():
+            if isinstance(value, GaugeValue):
+                self.expectations.observe(gauge, step.q_mm, value.value_mm)
+            yield gauge, value
+        for gauge in gauges:
+            if gauge in self.by_eye:
+                with self.gate.immediate():
+                    value = self._ask_reading(gauge, step)
+                self.expectations.observe(gauge, step.q_mm, value.value_mm)
+                yield gauge, value
+
+    def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
+                     ) -> dict[str, SettledGauge | DriverError]:
+        """Settled by the gauges' values; with a gauge read by eye, by the fixed wait
+        (a person reads the dial once the machine is at rest)."""
+        self._checkpoint()
+        if any(g in self.by_eye for g in gauges):
+            self.device.settle(rule.bound_s)
+            return {g: SettledGauge(None, rule.bound_s, 0) for g in gauges}
+        out = self.device.read_settled(step, gauges, rule)
+        for gauge, settled in out.items():
+            if isinstance(settled, SettledGauge) and settled.value is not None:
+                self.expectations.observe(gauge, step.q_mm, settled.value.value_mm)
+        return out
 
     def settle(self, seconds: float) -> None:
         self._checkpoint()
