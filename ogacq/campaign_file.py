@@ -49,8 +49,8 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     postures = ["zero", "max", "min", "zero"]
     cycles = 3
     approach = "sequence"             # sequence, from_below, from_above, both
-    settle = "stable"                 # "stable": read once the gauges agree (at most
-                                      # settle_s after each move); "fixed": wait settle_s
+    settle = "fixed"                  # "fixed": wait settle_s after each move; "stable":
+                                      # read once the gauges agree (at most settle_s)
     settle_s = 1.0
     settle_window_s = 0.1             # stable: values over this long agree within the
                                       # [stability] tolerance_mm

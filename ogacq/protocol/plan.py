@@ -72,7 +72,11 @@ class ProtocolConfig:
     settle_s: float = 1.0
     move_timeout_s: float = 60.0
     stability: StabilityRule = field(default_factory=StabilityRule)
-    settle: str = "stable"
+    # fixed by default: a stable settle ends once values agree within the stability
+    # tolerance, which on 1 um indicators can leave a ringing of that size in the
+    # reading (seen as a fit outside the noise); opt in where the tolerance is below
+    # the gauges' noise
+    settle: str = "fixed"
     settle_window_s: float = 0.1
     scan_step_mm: float | None = None  # None: the postures above, no scan
     scan_from_mm: float | None = None  # None: the machine's rho_min
