@@ -43,7 +43,7 @@ FORMAT = "ogacq-record/1"
 # Why a section holds nothing: a session recorded before ogacq asked for it, or one
 # whose campaign file and operator left it out.
 NOT_IN_SESSION = "the session does not record {what} (recorded before ogacq asked for it)"
-NOT_GIVEN = "{what} was not given when the campaign ran"
+NOT_GIVEN = "{what}: not given when the campaign ran"
 
 
 def record_id(header_line: bytes, date: str | None) -> str:
@@ -178,13 +178,14 @@ def _context_sections(context: CalibrationContext, recorded: bool,
     only its gauges' serials, and no expired-gauge check ran, so no override)."""
     instruments = [dict(i.to_json(), expired=context.expired(i)) for i in context.instruments]
     environment = context.environment.to_json()
+    why_none = NOT_GIVEN if recorded else NOT_IN_SESSION
     if not instruments:
-        missing["instruments"] = NOT_IN_SESSION.format(what="the instruments")
+        missing["instruments"] = why_none.format(what="the instruments")
     elif not any(i["certificate"] for i in instruments):
-        missing["certificates"] = NOT_IN_SESSION.format(
+        missing["certificates"] = why_none.format(
             what="the instruments' calibration certificates")
     if not any(environment.values()):
-        missing["environment"] = NOT_IN_SESSION.format(what="the temperatures")
+        missing["environment"] = why_none.format(what="the temperatures")
     overrides: list[dict[str, Any]] | None = [o.to_json() for o in context.overrides]
     if not recorded and not overrides:
         overrides = None
