@@ -14,9 +14,11 @@ the simulator's ringing machine (a damped vibration after every move,
    at once, so a step costs its slowest line). What remains, per reading, is the
    campaign's own: runner, session writes, Modbus transactions of verified moves
    and status polls, frame parsing, the simulated devices' response. Target:
-   under 5 ms. Beside it, the physical floor: motion + the settle the ringing
-   needs (its time constant times ln(amplitude / tolerance), from the stated
-   vibration) + the line time of one stable reading per step.
+   under 5 ms (the load other processes put on the machine, their 1-min load
+   average before the bench's own, is printed with it). Beside it, the physical
+   floor: motion + the settle the ringing needs (its time constant times
+   ln(amplitude / tolerance), from the stated vibration) + the line time of one
+   stable reading per step.
 2. In real time (x1, unloaded): the runner as it was before (a fixed settle
    before every reading step, moved or not, gauges read one after the other),
    `settle = "fixed"` and `settle = "stable"`: wall time, the identified offsets
@@ -183,7 +185,14 @@ def run(folder: Path, speed: float, settle: str, runner_class=CampaignRunner) ->
             "offsets": result.values, "std": result.std}
 
 
+def offsets_text(r: dict) -> str:
+    return " ".join(f"{v:+.4f}+-{s:.4f}" for v, s in zip(r["offsets"], r["std"], strict=True))
+
+
 def overhead(folder: Path) -> None:
+    # The load that was there before the bench's own (other processes on the machine):
+    # the overhead is measured beside it, so it is stated with the figures.
+    others = os.getloadavg()[0]
     load = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
         runs = {"stable": run(folder, 25.0, "stable"),
@@ -191,7 +200,8 @@ def overhead(folder: Path) -> None:
     finally:
         load.kill()
         load.wait()
-    print(f"1. overhead (x25, one core kept busy by a second process, {os.cpu_count()} cores; "
+    print(f"1. overhead (x25, one core kept busy by a second process, {os.cpu_count()} cores, "
+          f"1-min load average of other processes before it {others:.2f}; "
           "the runner as it was before beside it, same load):")
     for name, r in runs.items():
         rest = r["wall"] - r["motion"] - r["settle"] - r["line"]
@@ -204,6 +214,7 @@ def overhead(folder: Path) -> None:
     print(f"   physical floor (motion + ringing to tolerance + one stable reading's line "
           f"time per step) {r['floor']:.2f} s: stable's wall / floor {r['wall'] / r['floor']:.2f};"
           f" its settles {r['ended']}")
+    print(f"   stable's offsets x y z mm {offsets_text(r)}")
 
 
 def real_time(folder: Path) -> None:
@@ -214,8 +225,7 @@ def real_time(folder: Path) -> None:
             "fixed": run(folder, 1.0, "fixed"), "stable": run(folder, 1.0, "stable")}
     before = runs["before"]["wall"]
     for name, r in runs.items():
-        offsets = " ".join(f"{v:+.4f}+-{s:.4f}" for v, s in zip(r["offsets"], r["std"],
-                                                                strict=True))
+        offsets = offsets_text(r)
         print(f"   {name:<7} {r['wall']:6.1f} s ({1 - r['wall'] / before:+6.1%} vs before), "
               f"floor {r['floor']:5.1f} s, motion {r['motion']:4.1f} s, settle "
               f"{r['settle']:4.1f} s; offsets x y z mm {offsets}")
