@@ -14,9 +14,11 @@ the simulator's ringing machine (a damped vibration after every move,
    at once, so a step costs its slowest line). What remains, per reading, is the
    campaign's own: runner, session writes, Modbus transactions of verified moves
    and status polls, frame parsing, the simulated devices' response. Target:
-   under 5 ms. Beside it, the physical floor: motion + the settle the ringing
-   needs (its time constant times ln(amplitude / tolerance), from the stated
-   vibration) + the line time of one stable reading per step.
+   under 5 ms (the cores other processes kept busy meanwhile, the machine's busy
+   time less the bench's own, are printed with it). Beside it, the physical
+   floor: motion + the settle the ringing needs (its time constant times
+   ln(amplitude / tolerance), from the stated vibration) + the line time of one
+   stable reading per step.
 2. In real time (x1, unloaded): the runner as it was before (a fixed settle
    before every reading step, moved or not, gauges read one after the other),
    `settle = "fixed"` and `settle = "stable"`: wall time, the identified offsets
@@ -115,6 +117,39 @@ class LineTimer:
         return out
 
 
+def cpu_seconds(pid: int | str) -> float:
+    """CPU time (user + system) a process has used, its threads and reaped children
+    included (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return sum(int(v) for v in fields[11:15]) / os.sysconf("SC_CLK_TCK")
+
+
+def machine_busy_s() -> float:
+    """CPU seconds all cores have been busy since boot (/proc/stat: all but idle, iowait)."""
+    values = [int(v) for v in Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]]
+    return (sum(values) - values[3] - values[4]) / os.sysconf("SC_CLK_TCK")
+
+
+class LoadMeter:
+    """The cores other processes kept busy while a campaign ran: the machine's busy
+    time less that of the bench, its simulator and its load process, over the wall time."""
+
+    def __init__(self, *pids: int) -> None:
+        self.pids = ["self", *pids]
+        self.start = time.perf_counter()
+        self.busy, self.own = machine_busy_s(), self._own()
+
+    def _own(self) -> float:
+        return sum(cpu_seconds(pid) for pid in self.pids)
+
+    def others_cores(self) -> float:
+        wall = time.perf_counter() - self.start
+        return max(0.0, (machine_busy_s() - self.busy) - (self._own() - self.own)) / wall
+
+
+LOAD_PID: list[int] = []  # the bench's own load process, while it runs
+
+
 def start_simulator(speed: float) -> tuple[subprocess.Popen, dict]:
     proc = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", str(speed),
                              "--seed", "1", "--json"], stdout=subprocess.PIPE,
@@ -150,9 +185,11 @@ def run(folder: Path, speed: float, settle: str, runner_class=CampaignRunner) ->
                       "machine": machine_dict(campaign.machine)}
             with SessionWriter.create(campaign.session, header) as writer:
                 runner = runner_class(station, writer, campaign.protocol, campaign.machine)
+                meter = LoadMeter(proc.pid, *LOAD_PID)
                 start = time.perf_counter()
                 runner.run()
                 wall = time.perf_counter() - start
+                others = meter.others_cores()
     finally:
         os.killpg(proc.pid, signal.SIGINT)
         proc.wait(10)
@@ -173,7 +210,7 @@ def run(folder: Path, speed: float, settle: str, runner_class=CampaignRunner) ->
     needed = RINGING.time_constant_s * math.log(RINGING.amplitude_mm
                                                 / campaign.protocol.stability.tolerance_mm)
     result = identify_session(session)
-    return {"wall": wall, "readings": runner.total_readings,
+    return {"wall": wall, "others": others, "readings": runner.total_readings,
             "moves": len(session.of_type(MoveRecord)), "motion": motion / speed, "settle": settle_s,
             "line": timer.line_s, "exchanges": sum(timer.exchanges.values()),
             "floor": motion / speed + moved * needed / speed
@@ -183,27 +220,35 @@ def run(folder: Path, speed: float, settle: str, runner_class=CampaignRunner) ->
             "offsets": result.values, "std": result.std}
 
 
+def offsets_text(r: dict) -> str:
+    return " ".join(f"{v:+.4f}+-{s:.4f}" for v, s in zip(r["offsets"], r["std"], strict=True))
+
+
 def overhead(folder: Path) -> None:
     load = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    LOAD_PID.append(load.pid)
     try:
         runs = {"stable": run(folder, 25.0, "stable"),
                 "before": run(folder, 25.0, "fixed", BeforeRunner)}
     finally:
+        LOAD_PID.clear()
         load.kill()
         load.wait()
-    print(f"1. overhead (x25, one core kept busy by a second process, {os.cpu_count()} cores; "
-          "the runner as it was before beside it, same load):")
+    print(f"1. overhead (x25, one core kept busy by a second process, {os.cpu_count()} cores, "
+          "and the cores other processes kept busy meanwhile, measured; the runner as it "
+          "was before beside it, same load):")
     for name, r in runs.items():
         rest = r["wall"] - r["motion"] - r["settle"] - r["line"]
         per = rest / r["readings"] * 1000
         print(f"   {name:<7} {r['readings']} readings, {r['moves']} moves in {r['wall']:.2f} s "
               f"wall = motion {r['motion']:.2f} s + settle taken {r['settle']:.2f} s + gauge "
               f"line after it {r['line']:.2f} s + overhead {rest:.2f} s = {per:.2f} ms per "
-              "reading (target < 5 ms)")
+              f"reading (target < 5 ms); other processes {r['others']:.2f} cores")
     r = runs["stable"]
     print(f"   physical floor (motion + ringing to tolerance + one stable reading's line "
           f"time per step) {r['floor']:.2f} s: stable's wall / floor {r['wall'] / r['floor']:.2f};"
           f" its settles {r['ended']}")
+    print(f"   stable's offsets x y z mm {offsets_text(r)}")
 
 
 def real_time(folder: Path) -> None:
@@ -214,8 +259,7 @@ def real_time(folder: Path) -> None:
             "fixed": run(folder, 1.0, "fixed"), "stable": run(folder, 1.0, "stable")}
     before = runs["before"]["wall"]
     for name, r in runs.items():
-        offsets = " ".join(f"{v:+.4f}+-{s:.4f}" for v, s in zip(r["offsets"], r["std"],
-                                                                strict=True))
+        offsets = offsets_text(r)
         print(f"   {name:<7} {r['wall']:6.1f} s ({1 - r['wall'] / before:+6.1%} vs before), "
               f"floor {r['floor']:5.1f} s, motion {r['motion']:4.1f} s, settle "
               f"{r['settle']:4.1f} s; offsets x y z mm {offsets}")

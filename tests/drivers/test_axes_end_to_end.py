@@ -448,3 +448,36 @@ def test_arrival_is_confirmed_by_flags_then_one_position_read_per_axis() -> None
         position = profile.value("position_actual").address
         assert read_addresses.count(position) == 3  # on arrival only
         assert read_addresses.count(profile.value("statusword").address) >= 3 + 3 + 3
+
+
+def test_every_axis_is_checked_then_the_longest_travel_starts_first() -> None:
+    # The move ends with its longest travel: started first, the other axes' start
+    # requests no longer add to the time the move takes. Nothing starts before all
+    # three axes were checked (fault, servo on).
+    with rig("cia402", "tcp") as r:
+        c, profile = r.controller, r.profile
+        c.enable()
+        c.home()
+        c.move_to({"x": 0.0, "y": 10.0, "z": 0.0})
+        traffic: list[tuple[str, int, int]] = []
+        read, write_one = r.link.read_registers, r.link.write_register
+
+        def reading(device_id, address, count):  # type: ignore[no-untyped-def]
+            traffic.append(("read", device_id, address))
+            return read(device_id, address, count)
+
+        def writing(device_id, address, value, *, what):  # type: ignore[no-untyped-def]
+            traffic.append((f"write {value:#x}", device_id, address))
+            write_one(device_id, address, value, what=what)
+
+        r.link.read_registers, r.link.write_register = reading, writing  # type: ignore[method-assign]
+        # travels: x 5 mm, y 50 mm (from 10), z 20 mm
+        reached = c.move_to({"x": -5.0, "y": -40.0, "z": 20.0})
+        assert list(reached) == ["x", "y", "z"]
+        controlword = profile.value("controlword").address
+        starts = [device for kind, device, address in traffic
+                  if kind == "write 0x1f" and address == controlword]
+        assert starts == [profile.device_ids[a] for a in ("y", "z", "x")]
+        first_write = next(i for i, (kind, _, _) in enumerate(traffic) if kind != "read")
+        assert sorted(device for _, device, _ in traffic[:first_write]) == [1, 2, 3]
+        assert r.model.raw_position_mm("y") == pytest.approx(-40.0, abs=0.011)
