@@ -19,8 +19,8 @@ NAME = "OG-e2e cell 1"
 # further, far beyond the few um of its U. The shop's temperature differs a few
 # tenths of a degree: the simulated legs expand with it (about 3.6 um of apparent
 # offset per degC on this machine), which a change of 1.5 degC would show as a
-# change beyond U of y and z too, rightly (the record's budget has no temperature
-# row without the end temperature).
+# change beyond U of y and z too, rightly: the budget's temperature rows hold the
+# uncertainty of each campaign's temperature, not a correction between campaigns.
 CALIBRATIONS = [("2026-01-10T09:00:00", 20.2, 0.400),
                 ("2026-02-14T10:30:00", 20.5, 0.400),
                 ("2026-03-20T08:15:00", 20.3, 0.480)]
@@ -32,10 +32,19 @@ def campaign(folder: Path, index: int) -> Path:
     (folder / "machine.toml").write_text(f'name = "{NAME}"\nserial = "SIM-0001"\n{MACHINE}')
     (folder / "effects.toml").write_text(f"[joint_offset]\nx = {x}\ny = -0.25\nz = 0.15\n")
     path = folder / "campaign.toml"
-    # one cycle, fast simulated time: 24 readings in about a second
+    # One cycle, fast simulated time: 24 readings in about a second, after a settle the
+    # simulated ringing (time constant 0.15 s) has died down in. The gauges' certificates
+    # and the simulator's thermometer (start and end) make the budget complete, so U
+    # holds the systematic sources a repeat does not vary and a drift is judged against
+    # what a real history would judge it against, not the 4-dof scatter alone.
+    gauges = "".join(
+        f'[[gauges]]\ngauge = "{key}"\nmake = "Mitutoyo"\nmodel = "543-790B"\n'
+        f'serial = "G-{key}"\ncertificate = "CAL-2025-{key}"\ncalibrated = 2025-12-01\n'
+        f"due = 2026-12-01\nuncertainty_mm = 0.002\nuncertainty_k = 2.0\n\n"
+        for key in ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"))
     path.write_text(f'machine = "machine.toml"\nsession = "session.jsonl"\n'
-                    f'operator = "A. Technician"\n\n[environment]\nambient_c = {ambient}\n\n'
-                    f"[protocol]\ncycles = 1\nsettle_s = 0.2\n\n"
+                    f'operator = "A. Technician"\n\n{gauges}'
+                    f"[protocol]\ncycles = 1\nsettle_s = 1.0\n\n"
                     f"[stability]\nreadings = 2\ntolerance_mm = 0.003\ntimeout_s = 2.0\n\n"
                     f'[simulator]\nseed = 3\nspeed = 100\neffects = "effects.toml"\n'
                     f"date = {date}\nambient_c = {ambient}\n")
