@@ -106,6 +106,17 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
 
     A trial's predictions and Jacobian come from one evaluation of the model: an
     accepted step needs both, and a rejected one (rare) wastes little."""
+    return _iterate(obs, y, free, theta0, weighting, rank, max_iterations, tolerance,
+                    at_start)[:4]
+
+
+def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
+             weighting: Weighting, rank: int | None = None,
+             max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
+             at_start: tuple[np.ndarray, np.ndarray] | None = None,
+             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`gauss_newton`, and the predictions (B, m) at the returned vectors, which
+    the last accepted evaluation already made (a fit's residuals need no other)."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
@@ -117,14 +128,16 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         else at_start
     pred = np.repeat(start, batch, axis=0)
     jac = np.repeat(start_jac, batch, axis=0)
-    cost = np.sum(weighting.residual(y - pred) ** 2, axis=1)
+    # the weighted residuals at each row's current vector, kept with its cost: the
+    # next step starts from them
+    white = weighting.residual(y - pred)
+    cost = (white**2).sum(axis=1)
     converged = np.zeros(batch, dtype=bool)
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
         act = np.flatnonzero(~converged)
-        step = _solve(weighting.jac(jac[act]), weighting.residual(y[act] - pred[act]), ranges,
-                      rank)
+        step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
@@ -132,15 +145,16 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             trial = theta[act[todo]].copy()
             trial[:, free] += step[todo] * scale[todo, None]
             trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            trial_cost = np.sum(weighting.residual(y[act[todo]] - trial_pred) ** 2, axis=1)
+            trial_white = weighting.residual(y[act[todo]] - trial_pred)
+            trial_cost = (trial_white**2).sum(axis=1)
             ok = trial_cost <= cost[act[todo]] * (1 + 1e-12) + 1e-300
             rows = act[todo[ok]]
             # Converged when the step is below tolerance, or when it no longer lowers
             # the cost (ill-conditioned sets jitter along weak directions).
-            small = np.all(np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol, axis=1)
+            small = (np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol).all(axis=1)
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
-            jac[rows] = trial_jac[ok]
+            white[rows], jac[rows] = trial_white[ok], trial_jac[ok]
             converged[rows] = small | stalled
             todo = todo[~ok]
             if not len(todo):
@@ -149,7 +163,7 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         converged[act[todo]] = True  # no step lowers the cost: at the minimum
         if converged.all():
             break
-    return theta, iterations, converged, jac
+    return theta, iterations, converged, jac, pred
 
 
 @dataclass
@@ -231,8 +245,8 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv, jac = gauss_newton(obs, y, free, theta0, w, rank,
-                                                 at_start=at_start)
+        th, iterations, conv, jac, pred = _iterate(obs, y, free, theta0, w, rank,
+                                                   at_start=at_start)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
@@ -240,11 +254,11 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
             rank_there = design_rank(w.jac(jac)[0], ranges)
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv, jac = gauss_newton(obs, y, free, th[0], w, rank)
+                th, more, conv, jac, pred = _iterate(obs, y, free, th[0], w, rank)
                 iterations += more
         theta = th[0]
         converged = bool(conv[0])
-        residuals = obs.remove_zeros(y - obs.predict(theta[None]))[0]
+        residuals = obs.remove_zeros(y - pred)[0]
     return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
                       iterations, converged)
 
