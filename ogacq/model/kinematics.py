@@ -130,8 +130,7 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     nn = _dot(n, n)
     beta = _dot(n, d)
     disc = beta * beta - nn * (_dot(d, d) - l1)
-    with np.errstate(invalid="ignore"):
-        root = np.sqrt(disc)
+    root = _sqrt_or_nan(disc)
     origin_side = np.where(_dot(n, r1) > 0, -1.0, 1.0)
     t = (-beta + origin_side * root) / nn
     p = r1 + d + t * n
@@ -172,10 +171,23 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     # rows a_2, a_3, a_1 crossed with a_3, a_1, a_2: the inverse's columns, as rows
     after, last = legs_to_tcp[..., _NEXT, :], legs_to_tcp[..., _AFTER, :]
     rows = after[..., _NEXT] * last[..., _AFTER] - after[..., _AFTER] * last[..., _NEXT]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rows /= np.einsum("...k,...k->...", legs_to_tcp[..., 0, :], rows[..., 0, :]
-                          )[..., None, None]
+    det = np.einsum("...k,...k->...", legs_to_tcp[..., 0, :], rows[..., 0, :])[..., None, None]
+    if (det == 0).any():  # legs in one plane: infinite derivatives, said without a warning
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rows /= det
+    else:  # NaN (legs that cannot meet) divides silently
+        rows /= det
     return np.einsum("...ij,...qi->...qj", rows, rhs)
+
+
+def _sqrt_or_nan(x: np.ndarray) -> np.ndarray:
+    """``sqrt(x)``, NaN where ``x`` is negative, without numpy's warning; the warning
+    state is only changed when there is one (entering np.errstate costs more than a
+    fit's square root)."""
+    if (x < 0).any():
+        with np.errstate(invalid="ignore"):
+            return np.sqrt(x)
+    return np.sqrt(x)
 
 
 def inverse(p: np.ndarray, u: np.ndarray, o: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:

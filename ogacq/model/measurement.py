@@ -195,6 +195,9 @@ _DRHO_AT, _SCALE_AT, _BACKLASH_AT, _DRIFT_AT, _GPOS_AT = (
     np.array(k) for k in (_DRHO, _SCALE, _BACKLASH, _DRIFT, _GPOS))
 _SQUARENESS_AT = np.array([PARAM_INDEX[f"squareness.{w}"] for w in AXIS_PAIRS])
 _AXIS_OFFSET_AT = np.array([PARAM_INDEX[f"axis_offset.{w}"] for w in AXIS_PAIRS])
+_LEG_LENGTH_AT = np.array([PARAM_INDEX[f"leg_length.{a}"] for a in AXES])
+# every entry axis_lines and leg_lengths read
+_GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
 
 
 def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
@@ -246,6 +249,7 @@ class _EvaluationPlan:
         self.r_setting = at_setting * 9 + set_leg * 4
         self.gauge_position = _GPOS_AT[set_leg]  # (G,)
         self.gauge_scale = _GSCALE[j, i]  # (n,)
+        self._lines: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
         if free is None:
             return
         fr = np.array(free, dtype=int)
@@ -265,6 +269,22 @@ class _EvaluationPlan:
         self.dfrac = dfrac if dfrac.any() else None
         dgain = (fr[None, :] == self.gauge_scale[:, None]) * 1e-6  # (n, P)
         self.dgain = dgain if dgain.any() else None
+
+
+    def lines(self, th: np.ndarray, leg_length_mm: float,
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`axis_lines` ``u``, ``o`` (B, 3, 3) and the leg lengths (B, 1, 3) of
+        ``th``, remembered for the last values of the entries they depend on: a fit
+        that does not free them evaluates the same lines every time."""
+        geometry = th[:, _GEOMETRY_AT]
+        last = self._lines  # read once: another thread may replace it meanwhile
+        if last is not None and last[1] == leg_length_mm and \
+                last[0].shape == geometry.shape and (last[0] == geometry).all():
+            return last[2]  # type: ignore[return-value]
+        u, o = axis_lines(th)
+        lines = (u, o, leg_lengths(th, leg_length_mm)[:, None, :])
+        self._lines = (geometry, leg_length_mm, lines)
+        return lines
 
 
 # Plans kept per layout: a diagnosis asks for a few free sets in turn; a long campaign's
@@ -318,9 +338,8 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
     plan = _plan(layout, free, bool(th[:, _DRIFT_AT].any()))
     n, batch = plan.n, len(th)
     rho = _joint_positions(th, plan.q, plan.t, plan.appr, machine)
-    u, o = axis_lines(th)
+    u, o, legs = plan.lines(th, machine.leg_length_mm)
     r_poses = joint_centres(rho, u[:, None], o[:, None])  # (B, poses, 3, 3)
-    legs = leg_lengths(th, machine.leg_length_mm)[:, None, :]
     p_poses = forward(r_poses, legs)
 
     # (B, n) or (B, G) the coordinates the readings need (see _EvaluationPlan)
