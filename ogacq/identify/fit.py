@@ -114,9 +114,12 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
              weighting: Weighting, rank: int | None = None,
              max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
              at_start: tuple[np.ndarray, np.ndarray] | None = None,
+             weighted_start_jac: np.ndarray | None = None,
              ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
     """:func:`gauss_newton`, and the predictions (B, m) at the returned vectors, which
-    the last accepted evaluation already made (a fit's residuals need no other)."""
+    the last accepted evaluation already made (a fit's residuals need no other).
+    ``weighted_start_jac``: ``weighting.jac`` of ``at_start``'s Jacobian, when the
+    caller has it."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
@@ -128,6 +131,8 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         else at_start
     pred = np.repeat(start, batch, axis=0)
     jac = np.repeat(start_jac, batch, axis=0)
+    jw_start = weighted_start_jac if weighted_start_jac is not None and at_start is not None \
+        else None
     # the weighted residuals at each row's current vector, kept with its cost: the
     # next step starts from them
     white = weighting.residual(y - pred)
@@ -137,25 +142,35 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     while iterations < max_iterations:
         iterations += 1
         act = np.flatnonzero(~converged)
-        step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
+        if len(act) == batch:  # every row still moving (always so for one fit)
+            jw = jw_start if iterations == 1 and jw_start is not None and batch == 1 \
+                else weighting.jac(jac)
+            step = _solve(jw, white, ranges, rank)
+        else:
+            step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
         for _ in range(8):
-            trial = theta[act[todo]].copy()
-            trial[:, free] += step[todo] * scale[todo, None]
-            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            trial_white = weighting.residual(y[act[todo]] - trial_pred)
-            trial_cost = (trial_white**2).sum(axis=1)
-            ok = trial_cost <= cost[act[todo]] * (1 + 1e-12) + 1e-300
-            rows = act[todo[ok]]
+            rows_tried = act[todo]
+            moved = step[todo] * scale[todo, None]
+            trial = theta[rows_tried]  # a copy: fancy indexing
+            trial[:, free] += moved
             # Converged when the step is below tolerance, or when it no longer lowers
             # the cost (ill-conditioned sets jitter along weak directions).
-            small = (np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol).all(axis=1)
+            small = (np.abs(moved) < tol).all(axis=1)
+            # The Jacobian even where this step ends the fit: the covariance is
+            # propagated at the solution itself (at the point before, a condition
+            # number moves in its ninth digit).
+            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+            trial_white = weighting.residual(y[rows_tried] - trial_pred)
+            trial_cost = (trial_white**2).sum(axis=1)
+            ok = trial_cost <= cost[rows_tried] * (1 + 1e-12) + 1e-300
+            rows = rows_tried[ok]
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
             white[rows], jac[rows] = trial_white[ok], trial_jac[ok]
-            converged[rows] = small | stalled
+            converged[rows] = small[ok] | stalled
             todo = todo[~ok]
             if not len(todo):
                 break
@@ -236,7 +251,8 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     else:  # the exact Jacobian there, which the iterations start from too
         at_start = obs.predict_and_jacobian(theta0[None], free)
         jac = at_start[1]
-    rank = design_rank(w.jac(jac)[0], ranges)
+    jw_start = w.jac(jac)
+    rank = design_rank(jw_start[0], ranges)
     if method == "linear":
         base = obs.predict(theta0[None])
         step = _solve(w.jac(jac), w.residual(y - base), ranges, rank)[0]
@@ -246,7 +262,8 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         iterations, converged = 1, True
     else:
         th, iterations, conv, jac, pred = _iterate(obs, y, free, theta0, w, rank,
-                                                   at_start=at_start)
+                                                   at_start=at_start,
+                                                   weighted_start_jac=jw_start)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
