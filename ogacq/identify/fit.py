@@ -27,6 +27,11 @@ MAX_ITERATIONS = 30
 # Steps below this (relative to each parameter's plausible range) are far below any
 # gauge's resolution: the fit has converged.
 STEP_TOLERANCE = 1e-8
+# A step below this fraction of the tolerance (1e-10 mm for an offset) is not even
+# taken: near the minimum Gauss-Newton's steps shrink quadratically (1e-3, 1e-6,
+# 1e-12 mm), so its last one is usually of this size, and taking it would cost one
+# more evaluation of the model to move by nothing any result shows.
+NEGLIGIBLE_STEP = 1e-3
 
 
 def _ranges(free: np.ndarray) -> np.ndarray:
@@ -148,6 +153,17 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
             step = _solve(jw, white, ranges, rank)
         else:
             step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
+        # A step far below the tolerance changes nothing a double of these readings
+        # could show: the row is at its minimum where it stands, and is not moved
+        # (nor the model evaluated) for it. Only at the default tolerance: a caller
+        # that states its own (a Monte-Carlo's) gets exactly the steps it asked for.
+        negligible = (np.abs(step) < tol * NEGLIGIBLE_STEP).all(axis=1) \
+            if tolerance is None else np.zeros(len(act), dtype=bool)
+        if negligible.any():
+            converged[act[negligible]] = True
+            act, step = act[~negligible], step[~negligible]
+            if not len(act):
+                break
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
