@@ -180,28 +180,22 @@ class ReadingsLayout:
         return out
 
 
-def _joint_positions(theta, q, t_s, approach, machine: MachineSpec):
-    """(B, m, 3) joint positions along their lines."""
-    scale = theta[:, None, _SCALE_AT] * 1e-6
-    drho = theta[:, None, _DRHO_AT]
-    drift = theta[:, None, _DRIFT_AT] / 3600.0
-    backlash = theta[:, None, _BACKLASH_AT]
-    return (machine.leg_length_mm + q[None] * (1.0 + scale) + drho
-            + drift * t_s[None, :, None] - 0.5 * approach[None] * backlash)
-
-
-# the same positions as index arrays: numpy gathers with them without converting a list
+# the parameters' positions as index arrays: numpy gathers with them without converting
+# a list
 _DRHO_AT, _SCALE_AT, _BACKLASH_AT, _DRIFT_AT, _GPOS_AT = (
     np.array(k) for k in (_DRHO, _SCALE, _BACKLASH, _DRIFT, _GPOS))
 _SQUARENESS_AT = np.array([PARAM_INDEX[f"squareness.{w}"] for w in AXIS_PAIRS])
 _AXIS_OFFSET_AT = np.array([PARAM_INDEX[f"axis_offset.{w}"] for w in AXIS_PAIRS])
 _LEG_LENGTH_AT = np.array([PARAM_INDEX[f"leg_length.{a}"] for a in AXES])
+# the entries of the joint positions but the offsets
+_JOINT_TERMS_AT = np.concatenate([_SCALE_AT, _DRIFT_AT, _BACKLASH_AT])
 # every entry axis_lines and leg_lengths read
 _GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
 
 
 def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
-    """(m, P, 3) derivatives of :func:`_joint_positions` by the ``free`` parameters.
+    """(m, P, 3) derivatives of the joint positions (``_EvaluationPlan.joint_positions``)
+    by the ``free`` parameters.
     A drift's derivative is ``t / 3600``, different for every reading: it is given
     here as 1 (an offset's) and scaled by each reading's time once the poses are
     mapped to readings, so that poses stay shared across readings."""
@@ -250,6 +244,7 @@ class _EvaluationPlan:
         self.gauge_position = _GPOS_AT[set_leg]  # (G,)
         self.gauge_scale = _GSCALE[j, i]  # (n,)
         self._lines: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
+        self._joint_terms: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
         if free is None:
             return
         fr = np.array(free, dtype=int)
@@ -270,6 +265,25 @@ class _EvaluationPlan:
         dgain = (fr[None, :] == self.gauge_scale[:, None]) * 1e-6  # (n, P)
         self.dgain = dgain if dgain.any() else None
 
+
+    def joint_positions(self, th: np.ndarray, leg_length_mm: float) -> np.ndarray:
+        """(B, poses, 3) joint positions along their lines (the module's formula for
+        ``rho``), its scale, drift and backlash terms remembered for the last values
+        of those entries (a fit of offsets or lengths evaluates the same ones every
+        time)."""
+        entries = th[:, _JOINT_TERMS_AT]
+        last = self._joint_terms  # read once: another thread may replace it meanwhile
+        if last is None or last[1] != leg_length_mm or last[0].shape != entries.shape \
+                or not (last[0] == entries).all():
+            scale = th[:, None, _SCALE_AT] * 1e-6
+            drift = th[:, None, _DRIFT_AT] / 3600.0
+            backlash = th[:, None, _BACKLASH_AT]
+            terms = (leg_length_mm + self.q[None] * (1.0 + scale),
+                     drift * self.t[None, :, None], 0.5 * self.appr[None] * backlash)
+            last = (entries, leg_length_mm, terms)
+            self._joint_terms = last
+        scaled, drifted, lost = last[2]
+        return scaled + th[:, None, _DRHO_AT] + drifted - lost
 
     def lines(self, th: np.ndarray, leg_length_mm: float,
               ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -337,7 +351,7 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
     one pass through the same intermediate values, so the two cannot disagree."""
     plan = _plan(layout, free, bool(th[:, _DRIFT_AT].any()))
     n, batch = plan.n, len(th)
-    rho = _joint_positions(th, plan.q, plan.t, plan.appr, machine)
+    rho = plan.joint_positions(th, machine.leg_length_mm)
     u, o, legs = plan.lines(th, machine.leg_length_mm)
     r_poses = joint_centres(rho, u[:, None], o[:, None])  # (B, poses, 3, 3)
     p_poses = forward(r_poses, legs)
