@@ -88,10 +88,17 @@ def design_rank(jw: np.ndarray, ranges: np.ndarray) -> int:
     return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
 
 
-def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int) -> np.ndarray:
+def _rank(s: np.ndarray) -> int:
+    """:func:`design_rank` from the singular values (p,) of the scaled Jacobian."""
+    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
+
+
+def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
+           svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Least-squares steps for a stack (B, m, p), truncated to ``rank`` directions so
-    that a fit never wanders along combinations the data cannot see."""
-    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False)
+    that a fit never wanders along combinations the data cannot see. ``svd``: the
+    reduced SVD of ``jw * ranges`` when the caller has it."""
+    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if svd is None else svd
     coef = np.einsum("bmk,bm->bk", u[:, :, :rank], rw) / s[:, :rank]
     return np.einsum("bkp,bk->bp", vt[:, :rank], coef) * ranges
 
@@ -120,11 +127,14 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
              max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
              at_start: tuple[np.ndarray, np.ndarray] | None = None,
              weighted_start_jac: np.ndarray | None = None,
-             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray]:
-    """:func:`gauss_newton`, and the predictions (B, m) at the returned vectors, which
-    the last accepted evaluation already made (a fit's residuals need no other).
-    ``weighted_start_jac``: ``weighting.jac`` of ``at_start``'s Jacobian, when the
-    caller has it."""
+             start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+    """:func:`gauss_newton`, then the predictions (B, m) at the returned vectors, which
+    the last accepted evaluation already made (a fit's residuals need no other), and
+    ``weighting.jac`` of the returned Jacobian when the last step formed it (None
+    otherwise). ``weighted_start_jac``: ``weighting.jac`` of ``at_start``'s
+    Jacobian, and ``start_svd`` the reduced SVD of it times the ranges, when the
+    caller has them (one row only)."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
@@ -136,8 +146,10 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         else at_start
     pred = np.repeat(start, batch, axis=0)
     jac = np.repeat(start_jac, batch, axis=0)
-    jw_start = weighted_start_jac if weighted_start_jac is not None and at_start is not None \
-        else None
+    one_start = batch == 1 and at_start is not None
+    # the weighted Jacobian at the current vectors, while it is known
+    jw_here = weighted_start_jac if one_start else None
+    svd_here = start_svd if one_start and jw_here is not None else None
     # the weighted residuals at each row's current vector, kept with its cost: the
     # next step starts from them
     white = weighting.residual(y - pred)
@@ -146,13 +158,15 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
-        act = np.flatnonzero(~converged)
-        if len(act) == batch:  # every row still moving (always so for one fit)
-            jw = jw_start if iterations == 1 and jw_start is not None and batch == 1 \
-                else weighting.jac(jac)
-            step = _solve(jw, white, ranges, rank)
+        every = not converged.any()  # every row still moving (always so for one fit)
+        act = np.arange(batch) if every else np.flatnonzero(~converged)
+        if every:
+            jw_here = weighting.jac(jac) if jw_here is None else jw_here
+            step = _solve(jw_here, white, ranges, rank, svd_here)
         else:
+            jw_here = None
             step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
+        svd_here = None
         # A step far below the tolerance changes nothing a double of these readings
         # could show: the row is at its minimum where it stands, and is not moved
         # (nor the model evaluated) for it. Only at the default tolerance: a caller
@@ -184,6 +198,8 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
             ok = trial_cost <= cost[rows_tried] * (1 + 1e-12) + 1e-300
             rows = rows_tried[ok]
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
+            if len(rows):
+                jw_here = None  # vectors moved
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
             white[rows], jac[rows] = trial_white[ok], trial_jac[ok]
             converged[rows] = small[ok] | stalled
@@ -194,7 +210,7 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         converged[act[todo]] = True  # no step lowers the cost: at the minimum
         if converged.all():
             break
-    return theta, iterations, converged, jac, pred
+    return theta, iterations, converged, jac, pred, jw_here
 
 
 @dataclass
@@ -268,32 +284,34 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         at_start = obs.predict_and_jacobian(theta0[None], free)
         jac = at_start[1]
     jw_start = w.jac(jac)
-    rank = design_rank(jw_start[0], ranges)
+    start_svd = np.linalg.svd(jw_start * ranges, full_matrices=False)
+    rank = _rank(start_svd[1][0])
+    jw_end: np.ndarray | None = None
     if method == "linear":
         base = obs.predict(theta0[None])
-        step = _solve(w.jac(jac), w.residual(y - base), ranges, rank)[0]
+        step = _solve(jw_start, w.residual(y - base), ranges, rank, start_svd)[0]
         theta = theta0.copy()
         theta[free] += step
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv, jac, pred = _iterate(obs, y, free, theta0, w, rank,
-                                                   at_start=at_start,
-                                                   weighted_start_jac=jw_start)
+        th, iterations, conv, jac, pred, jw_end = _iterate(
+            obs, y, free, theta0, w, rank, at_start=at_start, weighted_start_jac=jw_start,
+            start_svd=start_svd)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
-            rank_there = design_rank(w.jac(jac)[0], ranges)
+            rank_there = design_rank((w.jac(jac) if jw_end is None else jw_end)[0], ranges)
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv, jac, pred = _iterate(obs, y, free, th[0], w, rank)
+                th, more, conv, jac, pred, jw_end = _iterate(obs, y, free, th[0], w, rank)
                 iterations += more
         theta = th[0]
         converged = bool(conv[0])
         residuals = obs.remove_zeros(y - pred)[0]
     return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
-                      iterations, converged)
+                      iterations, converged, jw_end)
 
 
 def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
@@ -314,13 +332,17 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
 
 def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
                theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
-               w: Weighting, method: str, iterations: int, converged: bool) -> FitResult:
-    """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``."""
+               w: Weighting, method: str, iterations: int, converged: bool,
+               weighted_jac: np.ndarray | None = None) -> FitResult:
+    """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``
+    (``weighted_jac``: ``w.jac(jac)``, when known)."""
     free = indices(names)
     noise = w.noise
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
-    jw = w.jac(jac if rank == len(names) else _linear_jacobian(obs, names, free, theta0))[0]
+    if rank < len(names):
+        weighted_jac = w.jac(_linear_jacobian(obs, names, free, theta0))
+    jw = (w.jac(jac) if weighted_jac is None else weighted_jac)[0]
     ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
