@@ -55,9 +55,8 @@ class Weighting:
         self.groups: GroupWhitener | None = None
         if obs.raw:
             self.groups = GroupWhitener(obs, self.noise)
-            gauge = obs.layout.gauge
             # each gauge's zero, whitened: what it adds to every reading of that gauge
-            self._zero_onehot = np.eye(obs.layout.n_gauges)[gauge] * \
+            self._zero_onehot = obs.layout.gauge_onehot * \
                 self.groups.mean_scale[self.groups.group][:, None]
             self._zero_norm = np.sum(self._zero_onehot**2, axis=0)
         elif kind == "gls":
@@ -72,7 +71,7 @@ class Weighting:
 
     def jac(self, jac: np.ndarray) -> np.ndarray:
         if self.groups is not None:
-            return np.swapaxes(self.residual(np.swapaxes(jac, -1, -2)), -1, -2)
+            return self.residual(jac.swapaxes(-1, -2)).swapaxes(-1, -2)
         return jac if self.whitener is None else self.whitener @ jac
 
     def noise_cov(self) -> np.ndarray | None:
@@ -103,6 +102,14 @@ def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
     return np.einsum("bkp,bk->bp", vt[:, :rank], coef) * ranges
 
 
+@dataclass(frozen=True)
+class _Weighted:
+    """A weighted Jacobian (B, m, p) and the reduced SVD of it times the ranges."""
+
+    jac: np.ndarray
+    svd: tuple[np.ndarray, np.ndarray, np.ndarray]
+
+
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
                  weighting: Weighting, rank: int | None = None,
                  max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
@@ -128,13 +135,13 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
              at_start: tuple[np.ndarray, np.ndarray] | None = None,
              weighted_start_jac: np.ndarray | None = None,
              start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
     """:func:`gauss_newton`, then the predictions (B, m) at the returned vectors, which
     the last accepted evaluation already made (a fit's residuals need no other), and
-    ``weighting.jac`` of the returned Jacobian when the last step formed it (None
-    otherwise). ``weighted_start_jac``: ``weighting.jac`` of ``at_start``'s
-    Jacobian, and ``start_svd`` the reduced SVD of it times the ranges, when the
-    caller has them (one row only)."""
+    ``weighting.jac`` of the returned Jacobian with the SVD of it times the ranges
+    when the last step formed them (None otherwise). ``weighted_start_jac``:
+    ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
+    of it times the ranges, when the caller has them (one row only)."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
@@ -162,11 +169,12 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         act = np.arange(batch) if every else np.flatnonzero(~converged)
         if every:
             jw_here = weighting.jac(jac) if jw_here is None else jw_here
+            if svd_here is None:
+                svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
             step = _solve(jw_here, white, ranges, rank, svd_here)
         else:
-            jw_here = None
+            jw_here = svd_here = None
             step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
-        svd_here = None
         # A step far below the tolerance changes nothing a double of these readings
         # could show: the row is at its minimum where it stands, and is not moved
         # (nor the model evaluated) for it. Only at the default tolerance: a caller
@@ -199,7 +207,7 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
             rows = rows_tried[ok]
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
             if len(rows):
-                jw_here = None  # vectors moved
+                jw_here = svd_here = None  # vectors moved
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
             white[rows], jac[rows] = trial_white[ok], trial_jac[ok]
             converged[rows] = small[ok] | stalled
@@ -210,7 +218,8 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         converged[act[todo]] = True  # no step lowers the cost: at the minimum
         if converged.all():
             break
-    return theta, iterations, converged, jac, pred, jw_here
+    known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
+    return theta, iterations, converged, jac, pred, known
 
 
 @dataclass
@@ -286,7 +295,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     jw_start = w.jac(jac)
     start_svd = np.linalg.svd(jw_start * ranges, full_matrices=False)
     rank = _rank(start_svd[1][0])
-    jw_end: np.ndarray | None = None
+    end: _Weighted | None = None
     if method == "linear":
         base = obs.predict(theta0[None])
         step = _solve(jw_start, w.residual(y - base), ranges, rank, start_svd)[0]
@@ -295,23 +304,24 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv, jac, pred, jw_end = _iterate(
+        th, iterations, conv, jac, pred, end = _iterate(
             obs, y, free, theta0, w, rank, at_start=at_start, weighted_start_jac=jw_start,
             start_svd=start_svd)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
-            rank_there = design_rank((w.jac(jac) if jw_end is None else jw_end)[0], ranges)
+            rank_there = design_rank(w.jac(jac)[0], ranges) if end is None else \
+                _rank(end.svd[1][0])
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv, jac, pred, jw_end = _iterate(obs, y, free, th[0], w, rank)
+                th, more, conv, jac, pred, end = _iterate(obs, y, free, th[0], w, rank)
                 iterations += more
         theta = th[0]
         converged = bool(conv[0])
         residuals = obs.remove_zeros(y - pred)[0]
     return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
-                      iterations, converged, jw_end)
+                      iterations, converged, end)
 
 
 def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
@@ -333,17 +343,23 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
 def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
                theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
                w: Weighting, method: str, iterations: int, converged: bool,
-               weighted_jac: np.ndarray | None = None) -> FitResult:
+               weighted: _Weighted | None = None) -> FitResult:
     """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``
-    (``weighted_jac``: ``w.jac(jac)``, when known)."""
+    (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known)."""
     free = indices(names)
     noise = w.noise
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
+    judged = jac
     if rank < len(names):
-        weighted_jac = w.jac(_linear_jacobian(obs, names, free, theta0))
-    jw = (w.jac(jac) if weighted_jac is None else weighted_jac)[0]
-    ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
+        weighted = None
+        judged = _linear_jacobian(obs, names, free, theta0)
+    if weighted is None:
+        ident, cov = assess(w.jac(judged)[0], w.noise_cov(), names, noise.sigma_mm)
+    else:
+        u, s, vt = weighted.svd
+        ident, cov = assess(weighted.jac[0], w.noise_cov(), names, noise.sigma_mm,
+                            scaled_svd=(u[0], s[0], vt[0]))
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
     return FitResult(

@@ -34,14 +34,18 @@ class Identifiability:
 
 
 def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
-           sigma_mm: float) -> tuple[Identifiability, np.ndarray]:
+           sigma_mm: float, *,
+           scaled_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+           ) -> tuple[Identifiability, np.ndarray]:
     """Identifiability of ``names`` from a weighted Jacobian (m, p), and the parameter
     covariance ``sigma^2 A C A'`` (eq. 12, ``A`` the pseudo-inverse) with infinite
-    variance along directions the data do not see."""
+    variance along directions the data do not see. ``scaled_svd``: the reduced SVD
+    of ``jw`` with its columns scaled to the plausible ranges, when the caller has it."""
     names = tuple(names)
     p = len(names)
     ranges = np.array([effect_of(n).plausible_range for n in names])
-    _, s, vt = np.linalg.svd(jw * ranges, full_matrices=False)
+    _, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if scaled_svd is None \
+        else scaled_svd
     rank = int(np.sum(s > s[0] * RANK_TOLERANCE)) if p and s[0] > 0 else 0
     cond = float(s[0] / s[-1]) if p and s[-1] > s[0] * RANK_TOLERANCE else float("inf")
 

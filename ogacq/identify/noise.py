@@ -228,6 +228,7 @@ class GroupWhitener:
         self.mean_scale = np.sqrt(ref / (within + self.size * noise.shared_var))
         self._order = np.argsort(self.group, kind="stable")
         self._starts = np.concatenate([[0], np.cumsum(self.size[:-1])]).astype(int)
+        self._reading_mean_scale = self.mean_scale[self.group]  # (n,) once, not per call
 
     def group_means(self, x: np.ndarray) -> np.ndarray:
         """(..., G) means of each group along the last axis."""
@@ -236,7 +237,7 @@ class GroupWhitener:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         means = self.group_means(x)[..., self.group]
-        return (x - means) * self.within_scale + means * self.mean_scale[self.group]
+        return (x - means) * self.within_scale + means * self._reading_mean_scale
 
     def group_space(self, whitened: np.ndarray) -> np.ndarray:
         """(..., G) the mean part of whitened vectors, one coordinate per group with

@@ -148,6 +148,12 @@ class ReadingsLayout:
         return unique[:, :3], unique[:, 3:6].astype(int), unique[:, 6], index.ravel()
 
     @cached_property
+    def gauge_onehot(self) -> np.ndarray:
+        """(n, G) 1 where a reading is its gauge's: sums and means per gauge as one
+        product (a gauge's unknown zero is removed this way at every fit)."""
+        return np.eye(self.n_gauges)[self.gauge]
+
+    @cached_property
     def evaluation_plans(self) -> dict:
         """The model's evaluation plans for these readings (``_plan``), most recently
         used last: what a fit's repeated evaluations share."""

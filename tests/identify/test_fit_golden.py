@@ -93,6 +93,8 @@ def cases() -> dict[str, FitResult]:
     scan = simulated(DIGITAL, ProtocolConfig(cycles=1, scan_step_mm=20.0), 4)
     out["scan offsets"] = fit(scan, PARAM_SETS["offsets"])
     out["scan every branch"] = fit(scan, EVERY_BRANCH)
+    one_leg = simulated(DIGITAL, ProtocolConfig(cycles=1, legs=("x",)), 5)
+    out["one leg every branch (rank short)"] = fit(one_leg, EVERY_BRANCH)
     found = out["papers' plan 72 offsets"]
     out["papers' plan 72 evaluate"] = evaluate(papers, found.names, found.values)
     return out
