@@ -4,12 +4,13 @@
 identifiability and ``refit --json`` object of every case below, written by the
 fit as it was before the issue-14 speed-ups (commit 4ae4846, bisection noise
 estimate, six model evaluations per fit). Every case must still agree to 1e-9
-(mm, or the parameter's own unit; relative 1e-12 for numbers beyond 1000): the
+(mm; a parameter's value, std and derivatives to 1e-10 of its plausible range,
+which is 1e-9 mm for an offset; relative 1e-12 for numbers beyond 1000): the
 paper's deviations (every data set, every parameter set, linear and exact, OLS
 and GLS) and simulated campaigns whose free sets reach every branch of the
 model's Jacobian (squareness, axis offset, encoder scale, backlash, thermal
-drift, gauge position and gain), measured and stated noise, a 10 um dial and a
-scan.
+drift, gauge position and gain), measured and stated noise, a 10 um dial, a
+scan and a fit whose rank stays short.
 
 Regenerate (only when a result is meant to change, and say why in the commit):
 ``python tests/identify/test_fit_golden.py --write``.
@@ -32,7 +33,7 @@ from ogacq.identify.observations import readings_observations
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.model.parameters import EFFECT_BY_NAME, PARAM_NAMES, PARAM_SETS, effect_of, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 GOLDEN = Path(__file__).with_name("fit_golden.json")
@@ -40,9 +41,14 @@ PAPER = Path(__file__).resolve().parents[2] / "ogacq" / "examples" / "paper"
 PAPER_SETS = ("experiment1_6", "experiment2_12", "experiment2_6", "experiment3_12",
               "experiment3_6")
 TOLERANCE = 1e-9
+# A parameter's value, std, covariance and derivatives are compared in shares of its
+# plausible range (the currency of the fit's own step tolerance): 1e-10 of it is
+# 1e-9 mm for an offset, 5e-6 ppm for a gauge's gain.
+RANGE_TOLERANCE = 1e-10
 # A number beyond a thousand (a gain's variance in ppm^2, a diverged unidentifiable
 # fit's value) is compared to its last few digits instead: a double holds no more.
 RELATIVE = 1e-12
+PARAMETER_KEYS = ("values", "std", "covariance", "theta", "jacobian", "json")
 
 DIGITAL = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001,
                       gauge_repeatability_mm=0.002)
@@ -149,19 +155,46 @@ def scatter_cases() -> list[list[float]]:
     return rows
 
 
-def compare(expected, actual, where: str) -> None:
+def compare(expected, actual, where: str, tolerance: float = TOLERANCE) -> None:
     if isinstance(expected, dict):
         assert expected.keys() == actual.keys(), where
         for key in expected:
-            compare(expected[key], actual[key], f"{where}.{key}")
+            compare(expected[key], actual[key], f"{where}.{key}", tolerance)
     elif isinstance(expected, list):
         assert len(expected) == len(actual), where
         for k, (e, a) in enumerate(zip(expected, actual, strict=True)):
-            compare(e, a, f"{where}[{k}]")
+            compare(e, a, f"{where}[{k}]", tolerance)
     elif isinstance(expected, float) and isinstance(actual, float):
-        assert actual == pytest.approx(expected, abs=TOLERANCE, rel=RELATIVE), where
+        assert actual == pytest.approx(expected, abs=tolerance, rel=RELATIVE), where
     else:
         assert expected == actual, where
+
+
+def in_ranges(fit: dict, names: tuple[str, ...]) -> dict:
+    """The parameter-valued parts of a plain :func:`summary`, each number divided by
+    its parameter's plausible range (squared for a covariance; a derivative by the
+    parameter multiplied)."""
+    ranges = [effect_of(n).plausible_range for n in names]
+    every = [effect_of(n).plausible_range for n in PARAM_NAMES]
+
+    def share(x, r):
+        return x / r if isinstance(x, float) else x
+
+    def nested_share(table: dict) -> dict:
+        return {effect: {where: share(v, EFFECT_BY_NAME[effect].plausible_range)
+                         for where, v in values.items()} for effect, values in table.items()}
+
+    return {
+        "values": [share(v, r) for v, r in zip(fit["values"], ranges, strict=True)],
+        "std": [share(v, r) for v, r in zip(fit["std"], ranges, strict=True)],
+        "covariance": [[share(c, ri * rj) for c, rj in zip(row, ranges, strict=True)]
+                       for row, ri in zip(fit["covariance"], ranges, strict=True)],
+        "theta": [share(v, r) for v, r in zip(fit["theta"], every, strict=True)],
+        "jacobian": [[share(d, 1.0 / r) for d, r in zip(row, ranges, strict=True)]
+                     for row in fit["jacobian"]],
+        "json": {**fit["json"], "parameters": nested_share(fit["json"]["parameters"]),
+                 "std": nested_share(fit["json"]["std"])},
+    }
 
 
 @pytest.fixture(scope="module")
@@ -172,7 +205,12 @@ def golden() -> dict:
 @pytest.mark.parametrize("case", sorted(json.loads(GOLDEN.read_text())["fits"])
                          if GOLDEN.exists() else [])
 def test_fit_unchanged(golden, case):
-    compare(golden["fits"][case], plain(summary(cases()[case])), case)
+    result = cases()[case]
+    expected, actual = golden["fits"][case], plain(summary(result))
+    compare(in_ranges(expected, result.names), in_ranges(actual, result.names), case,
+            RANGE_TOLERANCE)
+    compare({k: v for k, v in expected.items() if k not in PARAMETER_KEYS},
+            {k: v for k, v in actual.items() if k not in PARAMETER_KEYS}, case)
 
 
 def test_noise_inversion_unchanged(golden):
