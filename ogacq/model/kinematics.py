@@ -109,18 +109,18 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     # that order, crosses are the textbook components: the same arithmetic as
     # writing every component out.
     c = np.ascontiguousarray(r.transpose(r.ndim - 2, r.ndim - 1, *range(r.ndim - 2)))
-    legs = np.asarray(legs_mm)
-    l1, l2, l3 = (legs[..., k] ** 2 for k in range(3))
+    lsq = np.asarray(legs_mm) ** 2
+    l1, l2, l3 = lsq[..., 0], lsq[..., 1], lsq[..., 2]
     r1 = c[0]
     ab = c[1:] - r1  # (2, 3, ...): a = r2 - r1, b = r3 - r1
     a, b = ab[0], ab[1]
-    squares = c * c
-    norms = squares[:, 0] + squares[:, 1] + squares[:, 2]  # (3, ...) |r_k|^2
+    norms = (c * c).sum(axis=1)  # (3, ...) |r_k|^2
     s1 = norms[0]
     # a . p = ca and b . p = cb, from |p - r_k|^2 - |p - r_1|^2 = L_k^2 - L_1^2
     ca = 0.5 * (norms[1] - s1 - l2 + l1)
     cb = 0.5 * (norms[2] - s1 - l3 + l1)
-    gaa, gab, gbb = _dot(a, a), _dot(a, b), _dot(b, b)
+    gram = (ab[:, None] * ab[None, :]).sum(axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
+    gaa, gab, gbb = gram[0, 0], gram[0, 1], gram[1, 1]
     det = gaa * gbb - gab * gab
     ka = (gbb * ca - gab * cb) / det
     kb = (gaa * cb - gab * ca) / det
@@ -138,9 +138,9 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Dot product over the first axis (3): x, then y, then z added."""
-    ab = a * b
-    return ab[0] + ab[1] + ab[2]
+    """Dot product over the first axis (3): x, then y, then z added (numpy reduces
+    along an outer axis row after row)."""
+    return (a * b).sum(axis=0)
 
 
 def _cross_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
