@@ -165,9 +165,9 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
-        every = not converged.any()  # every row still moving (always so for one fit)
-        act = np.arange(batch) if every else np.flatnonzero(~converged)
-        if every:
+        moving = not converged.any()  # every row still moving (always so for one fit)
+        act = np.arange(batch) if moving else np.flatnonzero(~converged)
+        if moving:
             jw_here = weighting.jac(jac) if jw_here is None else jw_here
             if svd_here is None:
                 svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
@@ -189,10 +189,13 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
-        for _ in range(8):
-            rows_tried = act[todo]
-            moved = step[todo] * scale[todo, None]
-            trial = theta[rows_tried]  # a copy: fancy indexing
+        every = len(act) == batch
+        for attempt in range(8):
+            # every row's full step (always so for one fit): whole arrays, no gathers
+            whole = every and attempt == 0
+            rows_tried = act if whole else act[todo]
+            moved = step if whole else step[todo] * scale[todo, None]
+            trial = theta.copy() if whole else theta[rows_tried]  # fancy indexing copies
             trial[:, free] += moved
             # Converged when the step is below tolerance, or when it no longer lowers
             # the cost (ill-conditioned sets jitter along weak directions).
@@ -201,9 +204,17 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
             # propagated at the solution itself (at the point before, a condition
             # number moves in its ninth digit).
             trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            trial_white = weighting.residual(y[rows_tried] - trial_pred)
+            trial_white = weighting.residual((y if whole else y[rows_tried]) - trial_pred)
             trial_cost = (trial_white**2).sum(axis=1)
-            ok = trial_cost <= cost[rows_tried] * (1 + 1e-12) + 1e-300
+            before = cost if whole else cost[rows_tried]
+            ok = trial_cost <= before * (1 + 1e-12) + 1e-300
+            if whole and ok.all():  # the usual case: every row takes its full step
+                converged = small | (trial_cost >= before * (1 - 1e-12))
+                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
+                    trial_jac
+                jw_here = svd_here = None  # vectors moved
+                todo = todo[:0]
+                break
             rows = rows_tried[ok]
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
             if len(rows):
