@@ -264,12 +264,15 @@ class _EvaluationPlan:
         # gauges are set at t = 0: no drift there; a reading's drift derivative is
         # its time (see _joint_position_tangents). None: no drift free.
         self.set_without_drift = ~drift if drift.any() else None
-        self.per_reading = np.where(drift[None, :], layout.t_s[:, None] / 3600.0, 1.0) \
-            if drift.any() else None
+        # only the columns a drift or a gauge's gain acts on, each (n,) per column: a
+        # (n, P) array of ones and zeros would cost a long campaign megabytes per plan
+        self.drift_columns = np.flatnonzero(drift)
+        self.hours = layout.t_s[:, None] / 3600.0 if drift.any() else None
         dfrac = (fr[None, :] == self.gauge_position[:, None]).astype(float)  # (G, P)
         self.dfrac = dfrac if dfrac.any() else None
-        dgain = (fr[None, :] == self.gauge_scale[:, None]) * 1e-6  # (n, P)
-        self.dgain = dgain if dgain.any() else None
+        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE))
+        self.dgain = (fr[self.gain_columns][None, :] == self.gauge_scale[:, None]) * 1e-6 \
+            if len(self.gain_columns) else None  # (n, columns)
 
 
     def joint_positions(self, th: np.ndarray, leg_length_mm: float) -> np.ndarray:
@@ -287,7 +290,9 @@ class _EvaluationPlan:
             terms = (leg_length_mm + self.q[None] * (1.0 + scale),
                      drift * self.t[None, :, None], 0.5 * self.appr[None] * backlash)
             last = (entries, leg_length_mm, terms)
-            self._joint_terms = last
+            # kept only while small: what it saves is numpy calls, which matter only
+            # where the arrays are small (a batch over a long campaign's poses is not)
+            self._joint_terms = last if terms[0].size <= _REMEMBERED_SIZE else None
         scaled, drifted, lost = last[2]
         return scaled + th[:, None, _DRHO_AT] + drifted - lost
 
@@ -305,6 +310,10 @@ class _EvaluationPlan:
         lines = (u, o, leg_lengths(th, leg_length_mm)[:, None, :])
         self._lines = (geometry, leg_length_mm, lines)
         return lines
+
+
+# Largest array (elements) a plan remembers from one evaluation for the next.
+_REMEMBERED_SIZE = 30_000
 
 
 # Plans kept per layout: a diagnosis asks for a few free sets in turn; a long campaign's
@@ -393,10 +402,10 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
     dr_flat = dr_poses.transpose(0, 1, 3, 4, 2).reshape(batch, -1, params)
     dpij, drij = dp_flat[:, plan.p_reading], dr_flat[:, plan.r_reading]
     dp0, dr0 = dp_flat[:, plan.p_setting], dr_flat[:, plan.r_setting]
-    if plan.per_reading is not None:
+    if plan.hours is not None:  # gathers copy: scaled in place
         dp0, dr0 = dp0 * plan.set_without_drift, dr0 * plan.set_without_drift
-        dpij = dpij * np.concatenate([plan.per_reading, plan.per_reading])
-        drij = drij * np.concatenate([plan.per_reading, plan.per_reading])
+        for part in (dpij[:, :n], dpij[:, n:], drij[:, :n], drij[:, n:]):
+            part[..., plan.drift_columns] *= plan.hours
     dpi, dpj, dri, drj = dpij[:, :n], dpij[:, n:], drij[:, :n], drij[:, n:]
 
     dplane = dp0 + frac[..., None] * (dr0 - dp0)
@@ -407,7 +416,7 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
     dcoord = dpj + dmu * (rj - pj)[..., None] + mu[..., None] * (drj - dpj)
     jac = dcoord * gain[..., None]
     if plan.dgain is not None:
-        jac = jac + coord[..., None] * plan.dgain
+        jac[..., plan.gain_columns] += coord[..., None] * plan.dgain
     return out, jac
 
 
