@@ -27,6 +27,11 @@ MAX_ITERATIONS = 30
 # Steps below this (relative to each parameter's plausible range) are far below any
 # gauge's resolution: the fit has converged.
 STEP_TOLERANCE = 1e-8
+# A step below this fraction of the tolerance (1e-10 mm for an offset) is not even
+# taken: near the minimum Gauss-Newton's steps shrink quadratically (1e-3, 1e-6,
+# 1e-12 mm), so its last one is usually of this size, and taking it would cost one
+# more evaluation of the model to move by nothing any result shows.
+NEGLIGIBLE_STEP = 1e-3
 
 
 def _ranges(free: np.ndarray) -> np.ndarray:
@@ -50,9 +55,8 @@ class Weighting:
         self.groups: GroupWhitener | None = None
         if obs.raw:
             self.groups = GroupWhitener(obs, self.noise)
-            gauge = obs.layout.gauge
             # each gauge's zero, whitened: what it adds to every reading of that gauge
-            self._zero_onehot = np.eye(obs.layout.n_gauges)[gauge] * \
+            self._zero_onehot = obs.layout.gauge_onehot * \
                 self.groups.mean_scale[self.groups.group][:, None]
             self._zero_norm = np.sum(self._zero_onehot**2, axis=0)
         elif kind == "gls":
@@ -67,7 +71,7 @@ class Weighting:
 
     def jac(self, jac: np.ndarray) -> np.ndarray:
         if self.groups is not None:
-            return np.swapaxes(self.residual(np.swapaxes(jac, -1, -2)), -1, -2)
+            return self.residual(jac.swapaxes(-1, -2)).swapaxes(-1, -2)
         return jac if self.whitener is None else self.whitener @ jac
 
     def noise_cov(self) -> np.ndarray | None:
@@ -83,12 +87,27 @@ def design_rank(jw: np.ndarray, ranges: np.ndarray) -> int:
     return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
 
 
-def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int) -> np.ndarray:
+def _rank(s: np.ndarray) -> int:
+    """:func:`design_rank` from the singular values (p,) of the scaled Jacobian."""
+    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
+
+
+def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
+           svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Least-squares steps for a stack (B, m, p), truncated to ``rank`` directions so
-    that a fit never wanders along combinations the data cannot see."""
-    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False)
+    that a fit never wanders along combinations the data cannot see. ``svd``: the
+    reduced SVD of ``jw * ranges`` when the caller has it."""
+    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if svd is None else svd
     coef = np.einsum("bmk,bm->bk", u[:, :, :rank], rw) / s[:, :rank]
     return np.einsum("bkp,bk->bp", vt[:, :rank], coef) * ranges
+
+
+@dataclass(frozen=True)
+class _Weighted:
+    """A weighted Jacobian (B, m, p) and the reduced SVD of it times the ranges."""
+
+    jac: np.ndarray
+    svd: tuple[np.ndarray, np.ndarray, np.ndarray]
 
 
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
@@ -106,6 +125,23 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
 
     A trial's predictions and Jacobian come from one evaluation of the model: an
     accepted step needs both, and a rejected one (rare) wastes little."""
+    return _iterate(obs, y, free, theta0, weighting, rank, max_iterations, tolerance,
+                    at_start)[:4]
+
+
+def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
+             weighting: Weighting, rank: int | None = None,
+             max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
+             at_start: tuple[np.ndarray, np.ndarray] | None = None,
+             weighted_start_jac: np.ndarray | None = None,
+             start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
+    """:func:`gauss_newton`, then the predictions (B, m) at the returned vectors, which
+    the last accepted evaluation already made (a fit's residuals need no other), and
+    ``weighting.jac`` of the returned Jacobian with the SVD of it times the ranges
+    when the last step formed them (None otherwise). ``weighted_start_jac``:
+    ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
+    of it times the ranges, when the caller has them (one row only)."""
     batch = y.shape[0]
     ranges = _ranges(free)
     rank = len(free) if rank is None else rank
@@ -117,31 +153,75 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         else at_start
     pred = np.repeat(start, batch, axis=0)
     jac = np.repeat(start_jac, batch, axis=0)
-    cost = np.sum(weighting.residual(y - pred) ** 2, axis=1)
+    one_start = batch == 1 and at_start is not None
+    # the weighted Jacobian at the current vectors, while it is known
+    jw_here = weighted_start_jac if one_start else None
+    svd_here = start_svd if one_start and jw_here is not None else None
+    # the weighted residuals at each row's current vector, kept with its cost: the
+    # next step starts from them
+    white = weighting.residual(y - pred)
+    cost = (white**2).sum(axis=1)
     converged = np.zeros(batch, dtype=bool)
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
-        act = np.flatnonzero(~converged)
-        step = _solve(weighting.jac(jac[act]), weighting.residual(y[act] - pred[act]), ranges,
-                      rank)
+        moving = not converged.any()  # every row still moving (always so for one fit)
+        act = np.arange(batch) if moving else np.flatnonzero(~converged)
+        if moving:
+            jw_here = weighting.jac(jac) if jw_here is None else jw_here
+            if svd_here is None:
+                svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
+            step = _solve(jw_here, white, ranges, rank, svd_here)
+        else:
+            jw_here = svd_here = None
+            step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
+        # A step far below the tolerance changes nothing a double of these readings
+        # could show: the row is at its minimum where it stands, and is not moved
+        # (nor the model evaluated) for it. Only at the default tolerance: a caller
+        # that states its own (a Monte-Carlo's) gets exactly the steps it asked for.
+        negligible = (np.abs(step) < tol * NEGLIGIBLE_STEP).all(axis=1) \
+            if tolerance is None else np.zeros(len(act), dtype=bool)
+        if negligible.any():
+            converged[act[negligible]] = True
+            act, step = act[~negligible], step[~negligible]
+            if not len(act):
+                break
         # Halve the step where it made things worse: rare, the model is mildly nonlinear.
         scale = np.ones(len(act))
         todo = np.arange(len(act))
-        for _ in range(8):
-            trial = theta[act[todo]].copy()
-            trial[:, free] += step[todo] * scale[todo, None]
-            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            trial_cost = np.sum(weighting.residual(y[act[todo]] - trial_pred) ** 2, axis=1)
-            ok = trial_cost <= cost[act[todo]] * (1 + 1e-12) + 1e-300
-            rows = act[todo[ok]]
+        every = len(act) == batch
+        for attempt in range(8):
+            # every row's full step (always so for one fit): whole arrays, no gathers
+            whole = every and attempt == 0
+            rows_tried = act if whole else act[todo]
+            moved = step if whole else step[todo] * scale[todo, None]
+            trial = theta.copy() if whole else theta[rows_tried]  # fancy indexing copies
+            trial[:, free] += moved
             # Converged when the step is below tolerance, or when it no longer lowers
             # the cost (ill-conditioned sets jitter along weak directions).
-            small = np.all(np.abs(step[todo[ok]] * scale[todo[ok], None]) < tol, axis=1)
+            small = (np.abs(moved) < tol).all(axis=1)
+            # The Jacobian even where this step ends the fit: the covariance is
+            # propagated at the solution itself (at the point before, a condition
+            # number moves in its ninth digit).
+            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+            trial_white = weighting.residual((y if whole else y[rows_tried]) - trial_pred)
+            trial_cost = (trial_white**2).sum(axis=1)
+            before = cost if whole else cost[rows_tried]
+            ok = trial_cost <= before * (1 + 1e-12) + 1e-300
+            if whole and ok.all():  # the usual case: every row takes its full step
+                converged = small | (trial_cost >= before * (1 - 1e-12))
+                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
+                    trial_jac
+                jw_here = svd_here = None  # vectors moved
+                todo = todo[:0]
+                break
+            rows = rows_tried[ok]
             stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
+            if len(rows):
+                jw_here = svd_here = None  # vectors moved
             theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
-            jac[rows] = trial_jac[ok]
-            converged[rows] = small | stalled
+            white[rows], jac[rows] = trial_white[ok], trial_jac[ok]
+            converged[rows] = small[ok] | stalled
             todo = todo[~ok]
             if not len(todo):
                 break
@@ -149,7 +229,8 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         converged[act[todo]] = True  # no step lowers the cost: at the minimum
         if converged.all():
             break
-    return theta, iterations, converged, jac
+    known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
+    return theta, iterations, converged, jac, pred, known
 
 
 @dataclass
@@ -222,31 +303,36 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     else:  # the exact Jacobian there, which the iterations start from too
         at_start = obs.predict_and_jacobian(theta0[None], free)
         jac = at_start[1]
-    rank = design_rank(w.jac(jac)[0], ranges)
+    jw_start = w.jac(jac)
+    start_svd = np.linalg.svd(jw_start * ranges, full_matrices=False)
+    rank = _rank(start_svd[1][0])
+    end: _Weighted | None = None
     if method == "linear":
         base = obs.predict(theta0[None])
-        step = _solve(w.jac(jac), w.residual(y - base), ranges, rank)[0]
+        step = _solve(jw_start, w.residual(y - base), ranges, rank, start_svd)[0]
         theta = theta0.copy()
         theta[free] += step
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
         iterations, converged = 1, True
     else:
-        th, iterations, conv, jac = gauss_newton(obs, y, free, theta0, w, rank,
-                                                 at_start=at_start)
+        th, iterations, conv, jac, pred, end = _iterate(
+            obs, y, free, theta0, w, rank, at_start=at_start, weighted_start_jac=jw_start,
+            start_svd=start_svd)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
-            rank_there = design_rank(w.jac(jac)[0], ranges)
+            rank_there = design_rank(w.jac(jac)[0], ranges) if end is None else \
+                _rank(end.svd[1][0])
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv, jac = gauss_newton(obs, y, free, th[0], w, rank)
+                th, more, conv, jac, pred, end = _iterate(obs, y, free, th[0], w, rank)
                 iterations += more
         theta = th[0]
         converged = bool(conv[0])
-        residuals = obs.remove_zeros(y - obs.predict(theta[None]))[0]
+        residuals = obs.remove_zeros(y - pred)[0]
     return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
-                      iterations, converged)
+                      iterations, converged, end)
 
 
 def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
@@ -267,14 +353,24 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
 
 def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
                theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
-               w: Weighting, method: str, iterations: int, converged: bool) -> FitResult:
-    """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``."""
+               w: Weighting, method: str, iterations: int, converged: bool,
+               weighted: _Weighted | None = None) -> FitResult:
+    """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``
+    (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known)."""
     free = indices(names)
     noise = w.noise
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
-    jw = w.jac(jac if rank == len(names) else _linear_jacobian(obs, names, free, theta0))[0]
-    ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
+    judged = jac
+    if rank < len(names):
+        weighted = None
+        judged = _linear_jacobian(obs, names, free, theta0)
+    if weighted is None:
+        ident, cov = assess(w.jac(judged)[0], w.noise_cov(), names, noise.sigma_mm)
+    else:
+        u, s, vt = weighted.svd
+        ident, cov = assess(weighted.jac[0], w.noise_cov(), names, noise.sigma_mm,
+                            scaled_svd=(u[0], s[0], vt[0]))
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
     return FitResult(

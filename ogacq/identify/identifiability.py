@@ -34,19 +34,22 @@ class Identifiability:
 
 
 def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
-           sigma_mm: float) -> tuple[Identifiability, np.ndarray]:
+           sigma_mm: float, *,
+           scaled_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+           ) -> tuple[Identifiability, np.ndarray]:
     """Identifiability of ``names`` from a weighted Jacobian (m, p), and the parameter
     covariance ``sigma^2 A C A'`` (eq. 12, ``A`` the pseudo-inverse) with infinite
-    variance along directions the data do not see."""
+    variance along directions the data do not see. ``scaled_svd``: the reduced SVD
+    of ``jw`` with its columns scaled to the plausible ranges, when the caller has it."""
     names = tuple(names)
     p = len(names)
     ranges = np.array([effect_of(n).plausible_range for n in names])
-    s = np.linalg.svd(jw * ranges, compute_uv=False) if p else np.zeros(0)
-    _, _, vt = np.linalg.svd(jw * ranges, full_matrices=False)
+    _, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if scaled_svd is None \
+        else scaled_svd
     rank = int(np.sum(s > s[0] * RANK_TOLERANCE)) if p and s[0] > 0 else 0
     cond = float(s[0] / s[-1]) if p and s[-1] > s[0] * RANK_TOLERANCE else float("inf")
 
-    a = np.linalg.pinv(jw, rcond=RANK_TOLERANCE)
+    a = _pinv(jw)
     cov = sigma_mm**2 * (a @ a.T if noise_cov is None else a @ noise_cov @ a.T)
     reasons: list[str] = []
     unidentified: set[str] = set()
@@ -93,3 +96,16 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     ident = Identifiability(names, rank, cond, corr, pairs, not reasons, reasons,
                             [n for n in names if n in unidentified])
     return ident, cov
+
+
+def _pinv(jw: np.ndarray) -> np.ndarray:
+    """``np.linalg.pinv(jw, rcond=RANK_TOLERANCE)`` for one (m, p) matrix, the same
+    steps without its generality (stacks, complex, hermitian), which cost more
+    than the decomposition at a fit's sizes."""
+    if jw.size == 0:
+        return np.empty(jw.shape[::-1])
+    u, s, vt = np.linalg.svd(jw, full_matrices=False)
+    large = s > RANK_TOLERANCE * s.max()
+    inverse = np.divide(1, s, where=large, out=s)
+    inverse[~large] = 0
+    return vt.T @ (inverse[:, None] * u.T)

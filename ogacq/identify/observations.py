@@ -116,7 +116,7 @@ class Observations:
         """Project out what gauge zeros can absorb: per-gauge means for raw readings."""
         if not self.raw:
             return x
-        onehot = np.eye(self.layout.n_gauges)[self.layout.gauge]  # (m, G)
+        onehot = self.layout.gauge_onehot  # (m, G)
         means = (x @ onehot) / onehot.sum(axis=0)
         return x - means @ onehot.T
 

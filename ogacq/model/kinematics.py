@@ -94,42 +94,63 @@ def joint_centres(rho: np.ndarray, u: np.ndarray, o: np.ndarray) -> np.ndarray:
 
 
 def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
-    """TCP from the three joint centres ``r`` (..., 3, 3) and leg lengths (..., 3).
+    """TCP from the three joint centres ``r`` (..., 3, 3) and leg lengths (..., 3)
+    (any shape that broadcasts to ``r``'s leading shape and 3).
 
     Subtracting the sphere equations pairwise leaves a line; the TCP is where
     it meets the first sphere, on the origin side of the plane through the
     joint centres (the assembly mode of the papers). Returns NaN where the legs
     cannot meet; callers decide whether that is an error.
     """
-    # Component arithmetic on contiguous component arrays: einsum and cross over a
-    # length-3 axis cost more than the maths at the batch sizes a Monte-Carlo uses.
-    c = np.ascontiguousarray(np.moveaxis(r, (-2, -1), (0, 1)))
-    lsq = np.ascontiguousarray(np.moveaxis(np.broadcast_to(legs_mm, r.shape[:-1]), -1, 0)) ** 2
-    x1, y1, z1 = c[0, 0], c[0, 1], c[0, 2]
-    ax, ay, az = c[1, 0] - x1, c[1, 1] - y1, c[1, 2] - z1
-    bx, by, bz = c[2, 0] - x1, c[2, 1] - y1, c[2, 2] - z1
-    s1 = x1 * x1 + y1 * y1 + z1 * z1
-    l1, l2, l3 = lsq[0], lsq[1], lsq[2]
+    # Coordinates first, each a contiguous (3, ...) array: one numpy call does a
+    # vector's three components (a fit evaluates a few dozen poses, where every call
+    # costs more than its arithmetic; a Monte-Carlo evaluates millions, where
+    # contiguous components are what makes it fast). Dot products sum x, y, z in
+    # that order, crosses are the textbook components: the same arithmetic as
+    # writing every component out.
+    c = np.ascontiguousarray(r.transpose(r.ndim - 2, r.ndim - 1, *range(r.ndim - 2)))
+    lsq = np.asarray(legs_mm) ** 2
+    l1, l2, l3 = lsq[..., 0], lsq[..., 1], lsq[..., 2]
+    r1 = c[0]
+    ab = c[1:] - r1  # (2, 3, ...): a = r2 - r1, b = r3 - r1
+    a, b = ab[0], ab[1]
+    norms = (c * c).sum(axis=1)  # (3, ...) |r_k|^2
+    s1 = norms[0]
     # a . p = ca and b . p = cb, from |p - r_k|^2 - |p - r_1|^2 = L_k^2 - L_1^2
-    ca = 0.5 * ((c[1, 0] ** 2 + c[1, 1] ** 2 + c[1, 2] ** 2) - s1 - l2 + l1)
-    cb = 0.5 * ((c[2, 0] ** 2 + c[2, 1] ** 2 + c[2, 2] ** 2) - s1 - l3 + l1)
-    gaa = ax * ax + ay * ay + az * az
-    gab = ax * bx + ay * by + az * bz
-    gbb = bx * bx + by * by + bz * bz
+    ca = 0.5 * (norms[1] - s1 - l2 + l1)
+    cb = 0.5 * (norms[2] - s1 - l3 + l1)
+    gram = (ab[:, None] * ab[None, :]).sum(axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
+    gaa, gab, gbb = gram[0, 0], gram[0, 1], gram[1, 1]
     det = gaa * gbb - gab * gab
     ka = (gbb * ca - gab * cb) / det
     kb = (gaa * cb - gab * ca) / det
     # nearest point of the line to the origin, relative to r1
-    dx, dy, dz = ka * ax + kb * bx - x1, ka * ay + kb * by - y1, ka * az + kb * bz - z1
-    nx, ny, nz = ay * bz - az * by, az * bx - ax * bz, ax * by - ay * bx
-    nn = nx * nx + ny * ny + nz * nz
-    beta = nx * dx + ny * dy + nz * dz
-    disc = beta * beta - nn * (dx * dx + dy * dy + dz * dz - l1)
-    with np.errstate(invalid="ignore"):
-        root = np.sqrt(disc)
-    origin_side = np.where(nx * x1 + ny * y1 + nz * z1 > 0, -1.0, 1.0)
+    d = ka * a + kb * b - r1
+    n = _cross_first(a, b)
+    nn = _dot(n, n)
+    beta = _dot(n, d)
+    disc = beta * beta - nn * (_dot(d, d) - l1)
+    root = _sqrt_or_nan(disc)
+    origin_side = np.where(_dot(n, r1) > 0, -1.0, 1.0)
     t = (-beta + origin_side * root) / nn
-    return np.stack([x1 + dx + t * nx, y1 + dy + t * ny, z1 + dz + t * nz], axis=-1)
+    p = r1 + d + t * n
+    return p.transpose(*range(1, p.ndim), 0)
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Dot product over the first axis (3): x, then y, then z added (numpy reduces
+    along an outer axis row after row)."""
+    return (a * b).sum(axis=0)
+
+
+def _cross_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product over the first axis (3)."""
+    return a[_NEXT] * b[_AFTER] - a[_AFTER] * b[_NEXT]
+
+
+# Component k of a x b is a[k+1] b[k+2] - a[k+2] b[k+1] (indices mod 3).
+_NEXT = np.array([1, 2, 0])
+_AFTER = np.array([2, 0, 1])
 
 
 def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.ndarray,
@@ -147,18 +168,26 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     """
     legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
     rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr) + legs_mm[..., None, :] * dlegs
-    a1, a2, a3 = legs_to_tcp[..., 0, :], legs_to_tcp[..., 1, :], legs_to_tcp[..., 2, :]
-    columns = np.stack([_cross(a2, a3), _cross(a3, a1), _cross(a1, a2)], axis=-1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        columns /= np.einsum("...k,...k->...", a1, columns[..., 0])[..., None, None]
-    return np.einsum("...ji,...qi->...qj", columns, rhs)
+    # rows a_2, a_3, a_1 crossed with a_3, a_1, a_2: the inverse's columns, as rows
+    after, last = legs_to_tcp[..., _NEXT, :], legs_to_tcp[..., _AFTER, :]
+    rows = after[..., _NEXT] * last[..., _AFTER] - after[..., _AFTER] * last[..., _NEXT]
+    det = np.einsum("...k,...k->...", legs_to_tcp[..., 0, :], rows[..., 0, :])[..., None, None]
+    if (det == 0).any():  # legs in one plane: infinite derivatives, said without a warning
+        with np.errstate(invalid="ignore", divide="ignore"):
+            rows /= det
+    else:  # NaN (legs that cannot meet) divides silently
+        rows /= det
+    return np.einsum("...ij,...qi->...qj", rows, rhs)
 
 
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``np.cross`` over the last axis, without its axis bookkeeping (small batches)."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+def _sqrt_or_nan(x: np.ndarray) -> np.ndarray:
+    """``sqrt(x)``, NaN where ``x`` is negative, without numpy's warning; the warning
+    state is only changed when there is one (entering np.errstate costs more than a
+    fit's square root)."""
+    if (x < 0).any():
+        with np.errstate(invalid="ignore"):
+            return np.sqrt(x)
+    return np.sqrt(x)
 
 
 def inverse(p: np.ndarray, u: np.ndarray, o: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:

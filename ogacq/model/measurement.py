@@ -30,7 +30,7 @@ from ogacq.model.kinematics import (
     leg_lengths,
 )
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import AXES, PARAM_INDEX
+from ogacq.model.parameters import AXES, AXIS_PAIRS, NOMINAL, PARAM_INDEX
 
 _DRHO = [PARAM_INDEX[f"joint_offset.{a}"] for a in AXES]
 _SCALE = [PARAM_INDEX[f"encoder_scale.{a}"] for a in AXES]
@@ -147,6 +147,18 @@ class ReadingsLayout:
         unique, index = np.unique(key, axis=0, return_inverse=True)
         return unique[:, :3], unique[:, 3:6].astype(int), unique[:, 6], index.ravel()
 
+    @cached_property
+    def gauge_onehot(self) -> np.ndarray:
+        """(n, G) 1 where a reading is its gauge's: sums and means per gauge as one
+        product (a gauge's unknown zero is removed this way at every fit)."""
+        return np.eye(self.n_gauges)[self.gauge]
+
+    @cached_property
+    def evaluation_plans(self) -> dict:
+        """The model's evaluation plans for these readings (``_plan``), most recently
+        used last: what a fit's repeated evaluations share."""
+        return {}
+
     def subset(self, mask: np.ndarray) -> ReadingsLayout:
         """The readings selected by ``mask``. Each kept gauge keeps the posture it was
         set at, even when the reading taken there is dropped."""
@@ -174,18 +186,22 @@ class ReadingsLayout:
         return out
 
 
-def _joint_positions(theta, q, t_s, approach, machine: MachineSpec):
-    """(B, m, 3) joint positions along their lines."""
-    scale = theta[:, None, _SCALE] * 1e-6
-    drho = theta[:, None, _DRHO]
-    drift = theta[:, None, _DRIFT] / 3600.0
-    backlash = theta[:, None, _BACKLASH]
-    return (machine.leg_length_mm + q[None] * (1.0 + scale) + drho
-            + drift * t_s[None, :, None] - 0.5 * approach[None] * backlash)
+# the parameters' positions as index arrays: numpy gathers with them without converting
+# a list
+_DRHO_AT, _SCALE_AT, _BACKLASH_AT, _DRIFT_AT, _GPOS_AT = (
+    np.array(k) for k in (_DRHO, _SCALE, _BACKLASH, _DRIFT, _GPOS))
+_SQUARENESS_AT = np.array([PARAM_INDEX[f"squareness.{w}"] for w in AXIS_PAIRS])
+_AXIS_OFFSET_AT = np.array([PARAM_INDEX[f"axis_offset.{w}"] for w in AXIS_PAIRS])
+_LEG_LENGTH_AT = np.array([PARAM_INDEX[f"leg_length.{a}"] for a in AXES])
+# the entries of the joint positions but the offsets
+_JOINT_TERMS_AT = np.concatenate([_SCALE_AT, _DRIFT_AT, _BACKLASH_AT])
+# every entry axis_lines and leg_lengths read
+_GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
 
 
 def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
-    """(m, P, 3) derivatives of :func:`_joint_positions` by the ``free`` parameters.
+    """(m, P, 3) derivatives of the joint positions (``_EvaluationPlan.joint_positions``)
+    by the ``free`` parameters.
     A drift's derivative is ``t / 3600``, different for every reading: it is given
     here as 1 (an offset's) and scaled by each reading's time once the poses are
     mapped to readings, so that poses stay shared across readings."""
@@ -199,6 +215,122 @@ def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
             elif index == _BACKLASH[a]:
                 out[:, k, a] = -0.5 * approach[:, a]
     return out
+
+
+class _EvaluationPlan:
+    """What :func:`_evaluate` needs of a layout that no parameter value changes: the
+    distinct poses, where each reading and gauge setting finds its coordinates
+    among them (flat indices, one gather each), and for a free set the derivatives
+    that are constants (joint positions, line offsets, leg lengths, which readings
+    a drift, gauge position or gain acts on). Built once per layout, free set and
+    whether drift makes time matter; a fit evaluates the model a handful of times
+    with the same ones, so none of it is redone per evaluation."""
+
+    def __init__(self, layout: ReadingsLayout, free: tuple[int, ...] | None,
+                 timed: bool) -> None:
+        n = len(layout)
+        if timed:  # drift: a pose per reading time
+            self.q, self.appr, self.t, rows = layout.timed_poses
+        else:
+            self.q, self.appr, rows = layout.distinct_poses
+            self.t = np.zeros(len(self.q))
+        self.n = n
+        at_reading, at_setting = rows[:n], rows[n:]
+        set_leg = np.array([i for _, i in layout.gauge_keys], dtype=int)
+        i, j = layout.leg, layout.gauge_axis
+        self.gauge = layout.gauge
+        # into p (B, poses * 3): the reading pose's TCP along the leg (pi) then the
+        # gauge axis (pj); the setting pose's TCP along the set leg (p0)
+        self.p_reading = np.concatenate([at_reading * 3 + i, at_reading * 3 + j])
+        self.p_setting = at_setting * 3 + set_leg
+        # into r (B, poses * 9), joint then coordinate: the leg's joint centre along
+        # the leg (ri) and the gauge axis (rj), the set leg's along itself (r0)
+        self.r_reading = np.concatenate([at_reading * 9 + i * 4, at_reading * 9 + i * 3 + j])
+        self.r_setting = at_setting * 9 + set_leg * 4
+        self.gauge_position = _GPOS_AT[set_leg]  # (G,)
+        self.gauge_scale = _GSCALE[j, i]  # (n,)
+        self._lines: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
+        self._joint_terms: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
+        if free is None:
+            return
+        fr = np.array(free, dtype=int)
+        self.free = fr
+        self.drho = _joint_position_tangents(self.q, self.appr, fr)  # (poses, P, 3)
+        self.tilts = bool(np.isin(fr, _SQUARENESS_AT).any())
+        self.do = axis_line_tangents(NOMINAL[None], fr)[1] \
+            if np.isin(fr, _AXIS_OFFSET_AT).any() else None
+        self.dlegs = leg_length_tangents(fr)
+        drift = np.isin(fr, _DRIFT_AT)
+        # gauges are set at t = 0: no drift there; a reading's drift derivative is
+        # its time (see _joint_position_tangents). None: no drift free.
+        self.set_without_drift = ~drift if drift.any() else None
+        # only the columns a drift or a gauge's gain acts on, each (n,) per column: a
+        # (n, P) array of ones and zeros would cost a long campaign megabytes per plan
+        self.drift_columns = np.flatnonzero(drift)
+        self.hours = layout.t_s[:, None] / 3600.0 if drift.any() else None
+        dfrac = (fr[None, :] == self.gauge_position[:, None]).astype(float)  # (G, P)
+        self.dfrac = dfrac if dfrac.any() else None
+        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE))
+        self.dgain = (fr[self.gain_columns][None, :] == self.gauge_scale[:, None]) * 1e-6 \
+            if len(self.gain_columns) else None  # (n, columns)
+
+
+    def joint_positions(self, th: np.ndarray, leg_length_mm: float) -> np.ndarray:
+        """(B, poses, 3) joint positions along their lines (the module's formula for
+        ``rho``), its scale, drift and backlash terms remembered for the last values
+        of those entries (a fit of offsets or lengths evaluates the same ones every
+        time)."""
+        entries = th[:, _JOINT_TERMS_AT]
+        last = self._joint_terms  # read once: another thread may replace it meanwhile
+        if last is None or last[1] != leg_length_mm or last[0].shape != entries.shape \
+                or not (last[0] == entries).all():
+            scale = th[:, None, _SCALE_AT] * 1e-6
+            drift = th[:, None, _DRIFT_AT] / 3600.0
+            backlash = th[:, None, _BACKLASH_AT]
+            terms = (leg_length_mm + self.q[None] * (1.0 + scale),
+                     drift * self.t[None, :, None], 0.5 * self.appr[None] * backlash)
+            last = (entries, leg_length_mm, terms)
+            # kept only while small: what it saves is numpy calls, which matter only
+            # where the arrays are small (a batch over a long campaign's poses is not)
+            self._joint_terms = last if terms[0].size <= _REMEMBERED_SIZE else None
+        scaled, drifted, lost = last[2]
+        return scaled + th[:, None, _DRHO_AT] + drifted - lost
+
+    def lines(self, th: np.ndarray, leg_length_mm: float,
+              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """:func:`axis_lines` ``u``, ``o`` (B, 3, 3) and the leg lengths (B, 1, 3) of
+        ``th``, remembered for the last values of the entries they depend on: a fit
+        that does not free them evaluates the same lines every time."""
+        geometry = th[:, _GEOMETRY_AT]
+        last = self._lines  # read once: another thread may replace it meanwhile
+        if last is not None and last[1] == leg_length_mm and \
+                last[0].shape == geometry.shape and (last[0] == geometry).all():
+            return last[2]  # type: ignore[return-value]
+        u, o = axis_lines(th)
+        lines = (u, o, leg_lengths(th, leg_length_mm)[:, None, :])
+        self._lines = (geometry, leg_length_mm, lines)
+        return lines
+
+
+# Largest array (elements) a plan remembers from one evaluation for the next.
+_REMEMBERED_SIZE = 30_000
+
+
+# Plans kept per layout: a diagnosis asks for a few free sets in turn; a long campaign's
+# plans hold arrays as long as its readings, so only the latest few are kept.
+_PLANS_KEPT = 4
+
+
+def _plan(layout: ReadingsLayout, free: np.ndarray | None, timed: bool) -> _EvaluationPlan:
+    plans = layout.evaluation_plans
+    key = (None if free is None else tuple(free.tolist()), timed)
+    plan = plans.pop(key, None)
+    if plan is None:
+        plan = _EvaluationPlan(layout, key[0], timed)
+        while len(plans) >= _PLANS_KEPT:
+            plans.pop(next(iter(plans)))
+    plans[key] = plan  # most recently used last
+    return plan
 
 
 def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
@@ -232,64 +364,60 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
               free: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
     """The predictions (B, n) and, when ``free`` is given, their derivatives (B, n, P):
     one pass through the same intermediate values, so the two cannot disagree."""
-    n = len(layout)
-    if np.any(th[:, _DRIFT] != 0):
-        q, appr, t, rows = layout.timed_poses  # drift: a pose per reading time
-    else:
-        q, appr, rows = layout.distinct_poses
-        t = np.zeros(len(q))
-    rho = _joint_positions(th, q, t, appr, machine)
-    u, o = axis_lines(th)
+    plan = _plan(layout, free, bool(th[:, _DRIFT_AT].any()))
+    n, batch = plan.n, len(th)
+    rho = plan.joint_positions(th, machine.leg_length_mm)
+    u, o, legs = plan.lines(th, machine.leg_length_mm)
     r_poses = joint_centres(rho, u[:, None], o[:, None])  # (B, poses, 3, 3)
-    legs = leg_lengths(th, machine.leg_length_mm)[:, None, :]
-    p_poses = forward(r_poses, np.broadcast_to(legs, r_poses.shape[:-1]))
+    p_poses = forward(r_poses, legs)
 
-    set_leg = np.array([i for _, i in layout.gauge_keys], dtype=int)
-    i, j = layout.leg, layout.gauge_axis
-    # (B, n) or (B, G) the coordinates the readings need: the reading pose's TCP
-    # along the leg (pi) and the gauge axis (pj), the leg's joint centre (ri, rj);
-    # the setting pose's TCP and joint centre along the set leg (p0, r0).
-    at_reading, at_setting = rows[:n], rows[n:]
-    p0 = p_poses[:, at_setting, set_leg]
-    r0 = r_poses[:, at_setting, set_leg, set_leg]
-    pi, pj = p_poses[:, at_reading, i], p_poses[:, at_reading, j]
-    ri, rj = r_poses[:, at_reading, i, i], r_poses[:, at_reading, i, j]
+    # (B, n) or (B, G) the coordinates the readings need (see _EvaluationPlan)
+    p_flat, r_flat = p_poses.reshape(batch, -1), r_poses.reshape(batch, -1)
+    pij, rij = p_flat[:, plan.p_reading], r_flat[:, plan.r_reading]
+    pi, pj, ri, rj = pij[:, :n], pij[:, n:], rij[:, :n], rij[:, n:]
+    p0, r0 = p_flat[:, plan.p_setting], r_flat[:, plan.r_setting]
 
-    frac = th[:, _GPOS][:, set_leg]
+    frac = th[:, plan.gauge_position]
     plane = p0 + frac * (r0 - p0)  # (B, G): the gauge's fixed coordinate along its leg
-    mu = (plane[:, layout.gauge] - pi) / (ri - pi)
+    mu = (plane[:, plan.gauge] - pi) / (ri - pi)
     coord = pj + mu * (rj - pj)
-    scale_index = _GSCALE[j, i]
-    gain = 1.0 + th[:, scale_index] * 1e-6
+    gain = 1.0 + th[:, plan.gauge_scale] * 1e-6
     out = coord * gain
     if free is None:
         return out, None
 
-    # Forward-mode derivatives of every step above, parameter axis last but for
-    # the pose arrays (B, poses, P, ...) where it precedes the coordinates.
-    du, do = axis_line_tangents(th, free)
-    drho = _joint_position_tangents(q, appr, free)
-    dr_poses = (do + drho[None, :, :, :, None] * u[:, None, None]
-                + rho[:, :, None, :, None] * du[:, None])
-    dp_poses = forward_tangent(r_poses, p_poses, legs, dr_poses, leg_length_tangents(free))
-    # parameter axis last, so that indexing poses and coordinates leaves (B, n|G, P)
-    dp_poses, dr_poses = np.moveaxis(dp_poses, 2, -1), np.moveaxis(dr_poses, 2, -1)
-    drift = np.isin(free, _DRIFT)
-    dp0 = dp_poses[:, at_setting, set_leg] * ~drift  # gauges are set at t = 0: no drift
-    dr0 = dr_poses[:, at_setting, set_leg, set_leg] * ~drift
-    per_reading = np.where(drift[None, :], layout.t_s[:, None] / 3600.0, 1.0)
-    dpi = dp_poses[:, at_reading, i] * per_reading
-    dpj = dp_poses[:, at_reading, j] * per_reading
-    dri = dr_poses[:, at_reading, i, i] * per_reading
-    drj = dr_poses[:, at_reading, i, j] * per_reading
-    dfrac = (free[None, :] == np.array(_GPOS)[set_leg][:, None]).astype(float)  # (G, P)
+    # Forward-mode derivatives of every step above. Terms a free set cannot have
+    # (no tilt, no line offset, no drift, no gauge position or gain free) are left
+    # out rather than added as zeros.
+    dr_poses = plan.drho[None, :, :, :, None] * u[:, None, None]  # (B, poses, P, 3, 3)
+    if plan.do is not None:
+        dr_poses = plan.do + dr_poses
+    if plan.tilts:
+        dr_poses = dr_poses + rho[:, :, None, :, None] * axis_line_tangents(th, free)[0][:, None]
+    dp_poses = forward_tangent(r_poses, p_poses, legs, dr_poses, plan.dlegs)
+    # parameter axis last and poses with coordinates flat, so that one gather gives
+    # (B, n|G, P) as above
+    params = len(free)
+    dp_flat = dp_poses.transpose(0, 1, 3, 2).reshape(batch, -1, params)
+    dr_flat = dr_poses.transpose(0, 1, 3, 4, 2).reshape(batch, -1, params)
+    dpij, drij = dp_flat[:, plan.p_reading], dr_flat[:, plan.r_reading]
+    dp0, dr0 = dp_flat[:, plan.p_setting], dr_flat[:, plan.r_setting]
+    if plan.hours is not None:  # gathers copy: scaled in place
+        dp0, dr0 = dp0 * plan.set_without_drift, dr0 * plan.set_without_drift
+        for part in (dpij[:, :n], dpij[:, n:], drij[:, :n], drij[:, n:]):
+            part[..., plan.drift_columns] *= plan.hours
+    dpi, dpj, dri, drj = dpij[:, :n], dpij[:, n:], drij[:, :n], drij[:, n:]
 
-    dplane = dp0 + dfrac * (r0 - p0)[..., None] + frac[..., None] * (dr0 - dp0)
+    dplane = dp0 + frac[..., None] * (dr0 - dp0)
+    if plan.dfrac is not None:
+        dplane = dp0 + plan.dfrac * (r0 - p0)[..., None] + frac[..., None] * (dr0 - dp0)
     den = (ri - pi)[..., None]
-    dmu = (dplane[:, layout.gauge] - dpi - mu[..., None] * (dri - dpi)) / den
+    dmu = (dplane[:, plan.gauge] - dpi - mu[..., None] * (dri - dpi)) / den
     dcoord = dpj + dmu * (rj - pj)[..., None] + mu[..., None] * (drj - dpj)
-    dgain = (free[None, :] == scale_index[:, None]) * 1e-6  # (n, P)
-    return out, dcoord * gain[..., None] + coord[..., None] * dgain
+    jac = dcoord * gain[..., None]
+    if plan.dgain is not None:
+        jac[..., plan.gain_columns] += coord[..., None] * plan.dgain
+    return out, jac
 
 
 # --- postures and the papers' protocol -------------------------------------------------
