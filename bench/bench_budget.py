@@ -20,13 +20,11 @@ import sys
 import time
 from dataclasses import replace
 
-import numpy as np
-
 from ogacq.identify.fit import fit
-from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import PAPER_PROTOTYPE
-from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
+from ogacq.sim.readings import simulated_readings
 from ogacq.uncertainty.budget import uncertainty_budget
 from ogacq.uncertainty.inputs import BudgetInputs, standard_uncertainty
 from ogacq.uncertainty.montecarlo import monte_carlo
@@ -38,13 +36,8 @@ GAUGES = ("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")
 def campaign(scatter_mm: float, step_mm: float, seed: int = 1):
     machine = replace(PAPER_PROTOTYPE, gauge_resolution_mm=step_mm,
                       gauge_repeatability_mm=scatter_mm)
-    layout = planned_layout(ProtocolConfig(), machine)
-    rng = np.random.default_rng(seed)
-    clean = readings_observations(machine, layout, np.zeros(len(layout))).predict(
-        vector(TRUTH))
-    values = clean + rng.uniform(2, 10, layout.n_gauges)[layout.gauge] + \
-        rng.normal(0, scatter_mm, len(layout))
-    return readings_observations(machine, layout, np.round(values / step_mm) * step_mm)
+    return simulated_readings(machine, planned_layout(ProtocolConfig(), machine), TRUTH,
+                              scatter_mm=scatter_mm, step_mm=step_mm, seed=seed)
 
 
 def main() -> None:
