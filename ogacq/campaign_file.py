@@ -319,6 +319,19 @@ _CONTROLLER = Table((
 # A temperature a shop floor may have: beyond it, a typo (a Fahrenheit value, a sign)
 _TEMPERATURE = number(minimum=-40.0, maximum=80.0)
 
+# A gauge's identity and calibration certificate, as a campaign file and the wizard's
+# instruments inventory both write them (docs/calibration-record.md 1).
+CERTIFICATE_FIELDS = (
+    Field("make", text()),
+    Field("model", text()),
+    Field("certificate", text()),
+    Field("calibrated", DATE),
+    Field("due", DATE),
+    # the certificate's U and k: a U of 0 would claim a perfect gauge
+    Field("uncertainty_mm", number(positive=True, maximum=10.0)),
+    Field("uncertainty_k", number(minimum=1.0, maximum=10.0)),
+)
+
 _GAUGE = Table((
     Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
     # required without [simulator] (checked with the file's line in _gauges)
@@ -328,14 +341,7 @@ _GAUGE = Table((
     Field("unit", text("mm", "inch")),  # as set on the gauge
     Field("serial", text()),
     Field("baudrate", whole(minimum=1)),
-    Field("make", text()),
-    Field("model", text()),
-    Field("certificate", text()),
-    Field("calibrated", DATE),
-    Field("due", DATE),
-    # the certificate's U and k: a U of 0 would claim a perfect gauge
-    Field("uncertainty_mm", number(positive=True, maximum=10.0)),
-    Field("uncertainty_k", number(minimum=1.0, maximum=10.0)),
+    *CERTIFICATE_FIELDS,
 ), build=GaugeSpec)
 
 _ENVIRONMENT = Table((

@@ -15,7 +15,8 @@ from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
-from ogacq_drivers.config_schema import DATE, Field, Table, TableArray, dump, number, text
+from ogacq_drivers.config_schema import Field, Table, TableArray, dump, text
+from ogacq.campaign_file import CERTIFICATE_FIELDS
 from ogacq.io.atomic import write_atomically
 from ogacq.io.toml_file import load_toml
 
@@ -66,16 +67,8 @@ class KnownGauge:
         return ", ".join(parts)
 
 
-_KNOWN_GAUGE = Table((
-    Field("serial", text(), required=True),
-    Field("make", text()),
-    Field("model", text()),
-    Field("certificate", text()),
-    Field("calibrated", DATE),
-    Field("due", DATE),
-    Field("uncertainty_mm", number(positive=True)),
-    Field("uncertainty_k", number(minimum=1.0, maximum=10.0)),
-), build=KnownGauge)
+_KNOWN_GAUGE = Table((Field("serial", text(), required=True), *CERTIFICATE_FIELDS),
+                     build=KnownGauge)
 
 INVENTORY_FILE = Table((
     Field("operator", text()),  # the last operator, offered first next time
