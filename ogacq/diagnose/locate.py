@@ -12,9 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import special
 
 from ogacq.identify.consistency import posture_name
+from ogacq.identify.distributions import normal_sf
 from ogacq.identify.observations import DEVIATION_NAME, Observations
 from ogacq.model.gauges import Gauge
 from ogacq.model.kinematics import nominal_tcp
@@ -87,7 +87,7 @@ class TimeTrend:
 
     @property
     def p_value(self) -> float:
-        return float(2 * special.ndtr(-abs(self.slope_mm_per_h) / self.std_mm_per_h))
+        return float(2 * normal_sf(abs(self.slope_mm_per_h) / self.std_mm_per_h))
 
 
 @dataclass(frozen=True)
@@ -100,7 +100,7 @@ class ApproachDifference:
 
     @property
     def p_value(self) -> float:
-        return float(2 * special.ndtr(-abs(self.difference_mm) / self.std_mm))
+        return float(2 * normal_sf(abs(self.difference_mm) / self.std_mm))
 
 
 @dataclass

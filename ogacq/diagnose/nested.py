@@ -5,8 +5,8 @@ against the same gauge noise as the verdict (``ogacq/identify/consistency.py``).
 from __future__ import annotations
 
 import numpy as np
-from scipy import special
 
+from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.noise import GaugeNoise
 
 
@@ -38,9 +38,9 @@ def nested_tests(rss_small: float, rss_big: np.ndarray, added: np.ndarray,
     misfit = rss_big / dof
     by_misfit = misfit > noise.variance
     f_stat = np.where(by_misfit, gain / np.where(by_misfit, misfit, 1.0), gain / noise.variance)
-    p_noise = (special.fdtrc(k, noise.dof, f_stat) if noise.measured
-               else special.chdtrc(k, f_stat * k))
-    p = np.where(by_misfit, special.fdtrc(k, dof, f_stat), p_noise)
+    p_noise = (f_sf(k, noise.dof, f_stat) if noise.measured
+               else chi2_sf(k, f_stat * k))
+    p = np.where(by_misfit, f_sf(k, dof, f_stat), p_noise)
     return np.where(valid, f_stat, 0.0), np.where(valid, p, 1.0)
 
 

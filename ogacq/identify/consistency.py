@@ -32,8 +32,8 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import special
 
+from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.fit import FitResult, Weighting
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import DEVIATION_NAME, Observations
@@ -169,7 +169,7 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
     if not obs.raw:
         chi2 = rss / noise.variance
         cell = _deviation_cell(obs, rw, basis, noise)
-        return verdict(None, "chi-square", chi2, dof, None, float(special.chdtrc(dof, chi2)),
+        return verdict(None, "chi-square", chi2, dof, None, float(chi2_sf(dof, chi2)),
                        cell)
 
     groups = weighting.groups
@@ -186,8 +186,8 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
     if noise.measured:
         noise_dof = _satterthwaite(noise, groups.size, pure_dof)
         f_stat = lack_ss / noise.variance / lack_dof
-        overall = (float(special.chdtrc(lack_dof, f_stat * lack_dof)) if noise_dof is None
-                   else float(special.fdtrc(lack_dof, noise_dof, f_stat)))
+        overall = (float(chi2_sf(lack_dof, f_stat * lack_dof)) if noise_dof is None
+                   else float(f_sf(lack_dof, noise_dof, f_stat)))
         cell = _readings_cell(obs, groups, u, basis, noise, noise_dof)
         return verdict(None, "lack-of-fit F", f_stat, lack_dof, noise_dof, overall, cell)
     if noise.dithered:
@@ -199,7 +199,7 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
                      "steps at most and is not tested; the posture means are")
     cell = _readings_cell(obs, groups, u, basis, noise, None)
     return verdict(None, "chi-square", chi2, test_dof, None,
-                   float(special.chdtrc(test_dof, chi2)), cell)
+                   float(chi2_sf(test_dof, chi2)), cell)
 
 
 def _noise_notes(noise: GaugeNoise) -> list[str]:
@@ -262,8 +262,8 @@ def _cells_p(blocks: np.ndarray, chi2: np.ndarray, noise_dof: float | None) -> n
         return out
     scaled = chi2[tested] / eig[tested].max(axis=1)
     dof = k[tested]
-    out[tested] = (special.chdtrc(dof, scaled) if noise_dof is None
-                   else special.fdtrc(dof, noise_dof, scaled / dof))
+    out[tested] = (chi2_sf(dof, scaled) if noise_dof is None
+                   else f_sf(dof, noise_dof, scaled / dof))
     return out
 
 
@@ -293,7 +293,7 @@ def _readings_cell(obs: Observations, groups: GroupWhitener, u: np.ndarray, basi
     p = np.full(len(names), np.nan)
     chi2 = np.bincount(cell, weights=u**2, minlength=len(names)) / noise.variance
     trace = np.zeros(len(names))
-    for size in np.unique(sizes):
+    for size in sorted(set(sizes.tolist())):  # np.unique would import numpy.ma: 10 ms
         cells = np.flatnonzero(sizes == size)
         sel = members[starts[cells][:, None] + np.arange(size)]  # (C, size) groups
         e = zero_dir[sel] / zero_norm[gauge_of_group[sel[:, 0]]][:, None]

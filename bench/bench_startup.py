@@ -1,0 +1,84 @@
+"""Benchmark: a 72-reading `refit` and `diagnose` through the CLI, process start
+included (prints figures; not a test).
+
+Each command runs as a user runs it (`python -m ogacq ...` in a new process) on the
+papers' plan, 3 cycles, the 1 um display (``bench_linear.campaign``), written as a
+readings CSV and a machine file. Beside them, in the same run: the interpreter alone
+(`python -c pass`) and numpy's import, the floor any numpy program pays; and the
+import share of each command (`-X importtime`, the top-level imports summed; that run
+is not timed).
+
+Targets (issue 14, 2 cores): refit < 0.5 s, diagnose < 1 s.
+Run: python bench/bench_startup.py [runs, default 7]
+"""
+
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from bench_linear import MACHINE, campaign  # noqa: E402
+
+from ogacq.io.machine_file import write_machine  # noqa: E402
+from ogacq.io.tables import write_readings  # noqa: E402
+
+TARGETS_S = {"refit": 0.5, "diagnose": 1.0}
+
+
+def wall_s(argv: list[str], runs: int) -> list[float]:
+    times = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        subprocess.run(argv, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        times.append(time.perf_counter() - start)
+    return times
+
+
+def import_s(argv: list[str]) -> float:
+    """The command's imports: the top-level entries of -X importtime, summed."""
+    err = subprocess.run([argv[0], "-X", "importtime", *argv[1:]], check=True,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True).stderr
+    total_us = 0
+    for line in err.splitlines():
+        if not line.startswith("import time:") or "cumulative" in line:
+            continue
+        _, cumulative_us, name = line.split("|")
+        if not name.startswith("  "):  # top level (one space): its cumulative holds its children
+            total_us += int(cumulative_us)
+    return total_us / 1e6
+
+
+def main() -> None:
+    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 7
+    with tempfile.TemporaryDirectory() as tmp:
+        obs = campaign(72)
+        readings, machine = Path(tmp, "readings.csv"), Path(tmp, "machine.toml")
+        write_readings(readings, obs.layout, obs.values)
+        write_machine(machine, MACHINE, "bench_startup: the 72-reading campaign's machine")
+        python = sys.executable
+        floors = {"python -c pass": [python, "-c", "pass"],
+                  "python -c 'import numpy'": [python, "-c", "import numpy"]}
+        commands = {name: [python, "-m", "ogacq", name, str(readings), "-m", str(machine)]
+                    for name in TARGETS_S}
+        print(f"72 readings, {runs} runs each, median (min-max):")
+        for label, argv in floors.items():
+            t = wall_s(argv, runs)
+            print(f"   {label:26s} {statistics.median(t):.3f} s "
+                  f"({min(t):.3f}-{max(t):.3f})")
+        for name, argv in commands.items():
+            t = wall_s(argv, runs)
+            imports = import_s(argv)
+            median = statistics.median(t)
+            print(f"   ogacq {name:20s} {median:.3f} s ({min(t):.3f}-{max(t):.3f}), "
+                  f"imports {imports:.3f} s ({imports / median:.0%}); "
+                  f"target < {TARGETS_S[name]:g} s: {'met' if max(t) < TARGETS_S[name] else 'NOT met'}")
+
+
+if __name__ == "__main__":
+    main()
