@@ -136,6 +136,19 @@ class ReadingsLayout:
         return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
     @cached_property
+    def repeat_size(self) -> np.ndarray:
+        """(groups,) how many readings each repeat group holds (int)."""
+        return np.bincount(self.repeat_group)
+
+    @cached_property
+    def repeat_order(self) -> tuple[np.ndarray, np.ndarray]:
+        """The readings ordered group by group (stable) and where each group starts in
+        that order: sums per group as one ``np.add.reduceat``."""
+        order = np.argsort(self.repeat_group, kind="stable")
+        starts = np.concatenate([[0], np.cumsum(self.repeat_size[:-1])]).astype(int)
+        return order, starts
+
+    @cached_property
     def timed_poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """As :attr:`distinct_poses`, time included (thermal drift makes it matter):
         (unique q, unique approach, unique t, index (n + G,)). The gauges of one
