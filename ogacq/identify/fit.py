@@ -12,16 +12,17 @@ when Zero readings are shared. Raw readings are independent, so both coincide.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.identify.identifiability import RANK_TOLERANCE, Identifiability, assess
+from ogacq.identify.identifiability import Identifiability, assess, plausible_ranges, rank_of
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import Observations
-from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, indices, nested
+from ogacq.model.parameters import NOMINAL, PARAM_NAMES, indices, nested
 
 MAX_ITERATIONS = 30
 # Steps below this (relative to each parameter's plausible range) are far below any
@@ -35,7 +36,8 @@ NEGLIGIBLE_STEP = 1e-3
 
 
 def _ranges(free: np.ndarray) -> np.ndarray:
-    return np.array([effect_of(PARAM_NAMES[k]).plausible_range for k in free])
+    """(p,) the plausible ranges of the parameters at ``free`` (read-only, built once)."""
+    return plausible_ranges([PARAM_NAMES[k] for k in np.asarray(free).tolist()])
 
 
 class Weighting:
@@ -57,7 +59,7 @@ class Weighting:
             self.groups = GroupWhitener(obs, self.noise)
             # each gauge's zero, whitened: what it adds to every reading of that gauge
             self._zero_onehot = obs.layout.gauge_onehot * \
-                self.groups.mean_scale[self.groups.group][:, None]
+                self.groups.reading_mean_scale[:, None]
             self._zero_norm = np.sum(self._zero_onehot**2, axis=0)
         elif kind == "gls":
             chol = np.linalg.cholesky(obs.noise_cov)
@@ -83,13 +85,7 @@ class Weighting:
 
 def design_rank(jw: np.ndarray, ranges: np.ndarray) -> int:
     """Rank of a weighted Jacobian (m, p), columns scaled to plausible ranges."""
-    s = np.linalg.svd(jw * ranges, compute_uv=False)
-    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
-
-
-def _rank(s: np.ndarray) -> int:
-    """:func:`design_rank` from the singular values (p,) of the scaled Jacobian."""
-    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
+    return rank_of(np.linalg.svd(jw * ranges, compute_uv=False))
 
 
 def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
@@ -143,8 +139,11 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
     of it times the ranges, when the caller has them (one row only)."""
     batch = y.shape[0]
-    ranges = _ranges(free)
     rank = len(free) if rank is None else rank
+    if batch == 1 and tolerance is None:
+        return _iterate_one(obs, y, free, theta0, weighting, rank, max_iterations, at_start,
+                            weighted_start_jac, start_svd)
+    ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
     theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
@@ -233,6 +232,65 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     return theta, iterations, converged, jac, pred, known
 
 
+def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
+                 weighting: Weighting, rank: int, max_iterations: int,
+                 at_start: tuple[np.ndarray, np.ndarray] | None,
+                 weighted_start_jac: np.ndarray | None,
+                 start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+                 ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
+    """:func:`_iterate` for one row at the default tolerance (a refit): the same steps,
+    decisions and arithmetic, the cost compared as a plain float and without the
+    masks and gathers a batch needs, which cost a refit of a few dozen readings
+    more than its arithmetic."""
+    ranges = _ranges(free)
+    tol = ranges * STEP_TOLERANCE
+    negligible_below = tol * NEGLIGIBLE_STEP
+    theta = np.array(theta0, dtype=float)[None]
+    if at_start is None:
+        pred, jac = obs.predict_and_jacobian(theta, free)
+        jw_here, svd_here = None, None
+    else:
+        pred, jac = at_start
+        jw_here = weighted_start_jac
+        svd_here = start_svd if jw_here is not None else None
+    white = weighting.residual(y - pred)
+    cost = float((white**2).sum(axis=1)[0])
+    converged = False
+    iterations = 0
+    while iterations < max_iterations:
+        iterations += 1
+        if jw_here is None:
+            jw_here = weighting.jac(jac)
+        if svd_here is None:
+            svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
+        step = _solve(jw_here, white, ranges, rank, svd_here)
+        if (np.abs(step) < negligible_below).all():
+            converged = True  # at the minimum where it stands (see _iterate)
+            break
+        scale = 1.0
+        for attempt in range(8):
+            moved = step if attempt == 0 else step * scale  # halved where it made it worse
+            trial = theta.copy()
+            trial[:, free] += moved
+            small = bool((np.abs(moved) < tol).all())
+            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+            trial_white = weighting.residual(y - trial_pred)
+            trial_cost = float((trial_white**2).sum(axis=1)[0])
+            if trial_cost <= cost * (1 + 1e-12) + 1e-300:
+                converged = small or trial_cost >= cost * (1 - 1e-12)
+                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
+                    trial_jac
+                jw_here = svd_here = None  # vectors moved
+                break
+            scale *= 0.5
+        else:
+            converged = True  # no step lowers the cost: at the minimum
+        if converged:
+            break
+    known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
+    return theta, iterations, np.array([converged]), jac, pred, known
+
+
 @dataclass
 class FitResult:
     names: tuple[str, ...]
@@ -305,7 +363,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         jac = at_start[1]
     jw_start = w.jac(jac)
     start_svd = np.linalg.svd(jw_start * ranges, full_matrices=False)
-    rank = _rank(start_svd[1][0])
+    rank = rank_of(start_svd[1][0])
     end: _Weighted | None = None
     if method == "linear":
         base = obs.predict(theta0[None])
@@ -323,7 +381,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
             rank_there = design_rank(w.jac(jac)[0], ranges) if end is None else \
-                _rank(end.svd[1][0])
+                rank_of(end.svd[1][0])
             if rank_there > rank:
                 rank = rank_there
                 th, more, conv, jac, pred, end = _iterate(obs, y, free, th[0], w, rank)
@@ -375,7 +433,8 @@ def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
     rss = float(np.sum(residuals**2))
     return FitResult(
         names=names, values=theta[free], std=np.sqrt(np.diag(cov)), covariance=cov,
-        residuals=residuals, residual_rms_mm=float(np.sqrt(np.mean(residuals**2))),
+        # np.mean's own steps: the sum over the count
+        residuals=residuals, residual_rms_mm=math.sqrt(rss / len(residuals)),
         sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,
         noise=noise, identifiability=ident, method=method, weighting=w.kind,
         iterations=iterations, converged=converged, theta=theta, observations=obs,

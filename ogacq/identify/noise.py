@@ -244,7 +244,7 @@ class GroupWhitener:
         self.within_scale = math.sqrt(ref / within)
         self.mean_scale = np.sqrt(ref / (within + self.size * noise.shared_var))
         self._order, self._starts = layout.repeat_order
-        self._reading_mean_scale = self.mean_scale[self.group]  # (n,) once, not per call
+        self.reading_mean_scale = self.mean_scale[self.group]  # (n,) once, not per call
 
     def group_means(self, x: np.ndarray) -> np.ndarray:
         """(..., G) means of each group along the last axis."""
@@ -253,7 +253,7 @@ class GroupWhitener:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         means = self.group_means(x)[..., self.group]
-        return (x - means) * self.within_scale + means * self._reading_mean_scale
+        return (x - means) * self.within_scale + means * self.reading_mean_scale
 
     def group_space(self, whitened: np.ndarray) -> np.ndarray:
         """(..., G) the mean part of whitened vectors, one coordinate per group with
