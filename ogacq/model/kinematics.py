@@ -154,10 +154,10 @@ _AFTER = np.array([2, 0, 1])
 
 
 def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.ndarray,
-                    dlegs: np.ndarray) -> np.ndarray:
+                    dlegs: np.ndarray | None) -> np.ndarray:
     """Derivatives ``dp`` (..., P, 3) of :func:`forward`'s TCP ``p`` (..., 3) given
     those of the joint centres ``dr`` (..., P, 3, 3) and of the leg lengths
-    ``dlegs`` (..., P, 3).
+    ``dlegs`` (..., P, 3) (None: no leg length moves).
 
     Implicit differentiation of the constraints ``|p - r_i|^2 = L_i^2``:
     ``(p - r_i) . (dp - dr_i) = L_i dL_i``, three linear equations in ``dp`` whose
@@ -167,7 +167,9 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     independent of the assembly mode ``forward`` picked.
     """
     legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
-    rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr) + legs_mm[..., None, :] * dlegs
+    rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr)
+    if dlegs is not None:
+        rhs = rhs + legs_mm[..., None, :] * dlegs
     # rows a_2, a_3, a_1 crossed with a_3, a_1, a_2: the inverse's columns, as rows
     after, last = legs_to_tcp[..., _NEXT, :], legs_to_tcp[..., _AFTER, :]
     rows = after[..., _NEXT] * last[..., _AFTER] - after[..., _AFTER] * last[..., _NEXT]
