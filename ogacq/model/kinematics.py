@@ -110,31 +110,38 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     # writing every component out.
     c = np.ascontiguousarray(r.transpose(r.ndim - 2, r.ndim - 1, *range(r.ndim - 2)))
     lsq = np.asarray(legs_mm) ** 2
-    l1, l2, l3 = lsq[..., 0], lsq[..., 1], lsq[..., 2]
+    lsq = lsq.transpose(lsq.ndim - 1, *range(lsq.ndim - 1))  # (3, ...): L_k^2
+    l1 = lsq[0]
     r1 = c[0]
     ab = c[1:] - r1  # (2, 3, ...): a = r2 - r1, b = r3 - r1
-    a, b = ab[0], ab[1]
     norms = (c * c).sum(axis=1)  # (3, ...) |r_k|^2
-    s1 = norms[0]
     # a . p = ca and b . p = cb, from |p - r_k|^2 - |p - r_1|^2 = L_k^2 - L_1^2
-    ca = 0.5 * (norms[1] - s1 - l2 + l1)
-    cb = 0.5 * (norms[2] - s1 - l3 + l1)
+    cab = 0.5 * (norms[1:] - norms[0] - lsq[1:] + l1)  # (2, ...): ca, cb
     gram = (ab[:, None] * ab[None, :]).sum(axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
-    gaa, gab, gbb = gram[0, 0], gram[0, 1], gram[1, 1]
-    det = gaa * gbb - gab * gab
-    ka = (gbb * ca - gab * cb) / det
-    kb = (gaa * cb - gab * ca) / det
-    # nearest point of the line to the origin, relative to r1
-    d = ka * a + kb * b - r1
-    n = _cross_first(a, b)
-    nn = _dot(n, n)
-    beta = _dot(n, d)
-    disc = beta * beta - nn * (_dot(d, d) - l1)
+    gab = gram[0, 1]
+    det = gram[0, 0] * gram[1, 1] - gab * gab
+    # ka = (b.b ca - a.b cb) / det, kb = (a.a cb - a.b ca) / det
+    k = (gram[_BB_AA, _BB_AA] * cab - gab * cab[::-1]) / det
+    # the nearest point of the line to the origin relative to r1 (d), beside the
+    # line's direction (n): their dot products in one product, as the Gram matrix's
+    nd = np.empty((2,) + r1.shape)
+    n, d = nd[0], nd[1]
+    ab_next, ab_after = ab[:, _NEXT], ab[:, _AFTER]
+    np.subtract(ab_next[0] * ab_after[1], ab_after[0] * ab_next[1], out=n)  # a x b
+    kab = k[:, None] * ab
+    np.subtract(kab[0] + kab[1], r1, out=d)
+    dots = (nd[:, None] * nd[None, :]).sum(axis=2)  # (2, 2, ...): n.n, n.d; d.n, d.d
+    nn, beta = dots[0, 0], dots[0, 1]
+    disc = beta * beta - nn * (dots[1, 1] - l1)
     root = _sqrt_or_nan(disc)
     origin_side = np.where(_dot(n, r1) > 0, -1.0, 1.0)
     t = (-beta + origin_side * root) / nn
     p = r1 + d + t * n
     return p.transpose(*range(1, p.ndim), 0)
+
+
+# gram[_BB_AA, _BB_AA]: b.b then a.a
+_BB_AA = np.array([1, 0])
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -171,10 +178,12 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     if dlegs is not None:
         rhs = rhs + legs_mm[..., None, :] * dlegs
     # rows a_2, a_3, a_1 crossed with a_3, a_1, a_2: the inverse's columns, as rows
-    after, last = legs_to_tcp[..., _NEXT, :], legs_to_tcp[..., _AFTER, :]
-    rows = after[..., _NEXT] * last[..., _AFTER] - after[..., _AFTER] * last[..., _NEXT]
+    # after[..., _NEXT], last[..., _AFTER], after[..., _AFTER], last[..., _NEXT] in one gather
+    factors = legs_to_tcp.reshape(legs_to_tcp.shape[:-2] + (9,))[..., _CRAMER_FACTORS]
+    rows = factors[..., 0, :, :] * factors[..., 1, :, :] \
+        - factors[..., 2, :, :] * factors[..., 3, :, :]
     det = np.einsum("...k,...k->...", legs_to_tcp[..., 0, :], rows[..., 0, :])[..., None, None]
-    if (det == 0).any():  # legs in one plane: infinite derivatives, said without a warning
+    if not det.all():  # legs in one plane: infinite derivatives, said without a warning
         with np.errstate(invalid="ignore", divide="ignore"):
             rows /= det
     else:  # NaN (legs that cannot meet) divides silently
@@ -182,11 +191,20 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     return np.einsum("...ij,...qi->...qj", rows, rhs)
 
 
+# Flat (row * 3 + coordinate) positions in a 3x3 matrix whose gather gives, for row i
+# and coordinate k, the factors of component k of row i+1 x row i+2 (indices mod 3):
+# row i+1's k+1, row i+2's k+2, row i+1's k+2, row i+2's k+1.
+_CRAMER_FACTORS = np.array([[[3 * _NEXT[i] + _NEXT[k] for k in range(3)] for i in range(3)],
+                            [[3 * _AFTER[i] + _AFTER[k] for k in range(3)] for i in range(3)],
+                            [[3 * _NEXT[i] + _AFTER[k] for k in range(3)] for i in range(3)],
+                            [[3 * _AFTER[i] + _NEXT[k] for k in range(3)] for i in range(3)]])
+
+
 def _sqrt_or_nan(x: np.ndarray) -> np.ndarray:
     """``sqrt(x)``, NaN where ``x`` is negative, without numpy's warning; the warning
     state is only changed when there is one (entering np.errstate costs more than a
     fit's square root)."""
-    if (x < 0).any():
+    if x.min(initial=0.0) < 0:  # NaN (legs that cannot meet) takes its root silently
         with np.errstate(invalid="ignore"):
             return np.sqrt(x)
     return np.sqrt(x)

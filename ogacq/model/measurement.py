@@ -323,7 +323,8 @@ class _EvaluationPlan:
         self.hours = np.tile(layout.t_s / 3600.0, 2)[:, None] if drift.any() else None
         dfrac = (fr[None, :] == self.gauge_position[:, None]).astype(float)  # (G, P)
         self.dfrac = dfrac if dfrac.any() else None
-        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE))
+        # (not _GSCALE: its unused diagonal holds 0, a joint offset's position)
+        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE_AT))
         self.dgain = (fr[self.gain_columns][None, :] == self.gauge_scale[:, None]) * 1e-6 \
             if len(self.gain_columns) else None  # (n, columns)
 
