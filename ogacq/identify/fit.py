@@ -18,7 +18,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.identify.identifiability import Identifiability, assess, plausible_ranges, rank_of
+from ogacq.identify.identifiability import (
+    Identifiability,
+    assess,
+    plausible_ranges,
+    rank_of,
+    reduced_svd,
+)
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import Observations
@@ -93,7 +99,7 @@ def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
     """Least-squares steps for a stack (B, m, p), truncated to ``rank`` directions so
     that a fit never wanders along combinations the data cannot see. ``svd``: the
     reduced SVD of ``jw * ranges`` when the caller has it."""
-    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if svd is None else svd
+    u, s, vt = reduced_svd(jw * ranges) if svd is None else svd
     coef = np.einsum("bmk,bm->bk", u[:, :, :rank], rw) / s[:, :rank]
     return np.einsum("bkp,bk->bp", vt[:, :rank], coef) * ranges
 
@@ -169,7 +175,7 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         if moving:
             jw_here = weighting.jac(jac) if jw_here is None else jw_here
             if svd_here is None:
-                svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
+                svd_here = reduced_svd(jw_here * ranges)
             step = _solve(jw_here, white, ranges, rank, svd_here)
         else:
             jw_here = svd_here = None
@@ -244,7 +250,8 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
     more than its arithmetic."""
     ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE
-    negligible_below = tol * NEGLIGIBLE_STEP
+    # the steps' tests on plain floats: p is a handful
+    tol_list, negligible_below = tol.tolist(), (tol * NEGLIGIBLE_STEP).tolist()
     theta = np.array(theta0, dtype=float)[None]
     if at_start is None:
         pred, jac = obs.predict_and_jacobian(theta, free)
@@ -254,7 +261,7 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         jw_here = weighted_start_jac
         svd_here = start_svd if jw_here is not None else None
     white = weighting.residual(y - pred)
-    cost = float((white**2).sum(axis=1)[0])
+    cost = _cost(white)
     converged = False
     iterations = 0
     while iterations < max_iterations:
@@ -262,9 +269,9 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         if jw_here is None:
             jw_here = weighting.jac(jac)
         if svd_here is None:
-            svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
+            svd_here = reduced_svd(jw_here * ranges)
         step = _solve(jw_here, white, ranges, rank, svd_here)
-        if (np.abs(step) < negligible_below).all():
+        if _all_below(step, negligible_below):
             converged = True  # at the minimum where it stands (see _iterate)
             break
         scale = 1.0
@@ -272,10 +279,10 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             moved = step if attempt == 0 else step * scale  # halved where it made it worse
             trial = theta.copy()
             trial[:, free] += moved
-            small = bool((np.abs(moved) < tol).all())
+            small = _all_below(moved, tol_list)
             trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
             trial_white = weighting.residual(y - trial_pred)
-            trial_cost = float((trial_white**2).sum(axis=1)[0])
+            trial_cost = _cost(trial_white)
             if trial_cost <= cost * (1 + 1e-12) + 1e-300:
                 converged = small or trial_cost >= cost * (1 - 1e-12)
                 theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
@@ -289,6 +296,17 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             break
     known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
     return theta, iterations, np.array([converged]), jac, pred, known
+
+
+def _cost(white: np.ndarray) -> float:
+    """The sum of squares of one row (1, m) of weighted residuals: ``(white**2).sum(axis=1)``,
+    the same reduction."""
+    return float(np.add.reduce(white * white, axis=1)[0])
+
+
+def _all_below(step: np.ndarray, bounds: list[float]) -> bool:
+    """Whether every entry of one row (1, p) is below its bound in magnitude."""
+    return all(abs(v) < b for v, b in zip(step[0].tolist(), bounds, strict=True))
 
 
 @dataclass
@@ -362,7 +380,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         at_start = obs.predict_and_jacobian(theta0[None], free)
         jac = at_start[1]
     jw_start = w.jac(jac)
-    start_svd = np.linalg.svd(jw_start * ranges, full_matrices=False)
+    start_svd = reduced_svd(jw_start * ranges)
     rank = rank_of(start_svd[1][0])
     end: _Weighted | None = None
     if method == "linear":
