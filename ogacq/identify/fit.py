@@ -28,6 +28,7 @@ from ogacq.identify.identifiability import (
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import Observations
+from ogacq.model.measurement import as_slice
 from ogacq.model.parameters import NOMINAL, PARAM_NAMES, indices, nested
 
 MAX_ITERATIONS = 30
@@ -66,7 +67,7 @@ class Weighting:
             # each gauge's zero, whitened: what it adds to every reading of that gauge
             self._zero_onehot = obs.layout.gauge_onehot * \
                 self.groups.reading_mean_scale[:, None]
-            self._zero_norm = np.sum(self._zero_onehot**2, axis=0)
+            self._zero_norm = np.add.reduce(self._zero_onehot * self._zero_onehot, axis=0)
         elif kind == "gls":
             chol = np.linalg.cholesky(obs.noise_cov)
             self.whitener = np.linalg.inv(chol)
@@ -253,6 +254,7 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
     # the steps' tests on plain floats: p is a handful
     tol_list, negligible_below = tol.tolist(), (tol * NEGLIGIBLE_STEP).tolist()
     theta = np.array(theta0, dtype=float)[None]
+    at = as_slice(free)  # the free entries, a view when consecutive (the offsets)
     if at_start is None:
         pred, jac = obs.predict_and_jacobian(theta, free)
         jw_here, svd_here = None, None
@@ -278,7 +280,7 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         for attempt in range(8):
             moved = step if attempt == 0 else step * scale  # halved where it made it worse
             trial = theta.copy()
-            trial[:, free] += moved
+            trial[:, at] += moved
             small = _all_below(moved, tol_list)
             trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
             trial_white = weighting.residual(y - trial_pred)
@@ -450,7 +452,7 @@ def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
     return FitResult(
-        names=names, values=theta[free], std=np.sqrt(np.diag(cov)), covariance=cov,
+        names=names, values=theta[free], std=np.sqrt(cov.diagonal()), covariance=cov,
         # np.mean's own steps: the sum over the count
         residuals=residuals, residual_rms_mm=math.sqrt(rss / len(residuals)),
         sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,

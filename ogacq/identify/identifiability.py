@@ -74,9 +74,10 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
         sub = cov[np.ix_(finite, finite)] / np.outer(std, std)
         corr[np.ix_(finite, finite)] = sub
     else:
-        std = np.sqrt(np.diag(cov))
-        corr = cov / np.outer(std, std) if (std > 0).all() else np.eye(p)
-    np.fill_diagonal(corr, 1.0)
+        std = np.sqrt(cov.diagonal())
+        # np.outer's and np.fill_diagonal's own steps, without their generality
+        corr = cov / (std[:, None] * std[None, :]) if (std > 0).all() else np.eye(p)
+    corr.flat[::p + 1] = 1.0
 
     pairs = []
     rows = corr.tolist()  # the same doubles, read without numpy's scalar boxing
@@ -91,7 +92,7 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     if strong and rank == p:
         reasons.append("only combinations are determined: correlation " + ", ".join(strong))
     if rank == p:
-        for n, k_std, k_range in zip(names, np.sqrt(np.diag(cov)).tolist(), ranges.tolist(),
+        for n, k_std, k_range in zip(names, np.sqrt(cov.diagonal()).tolist(), ranges.tolist(),
                                      strict=True):
             if k_std > k_range:
                 reasons.append(f"{n} std {k_std:.3g} exceeds its plausible range "

@@ -208,6 +208,19 @@ _AXIS_OFFSET_AT = np.array([PARAM_INDEX[f"axis_offset.{w}"] for w in AXIS_PAIRS]
 _LEG_LENGTH_AT = np.array([PARAM_INDEX[f"leg_length.{a}"] for a in AXES])
 # the entries of the joint positions but the offsets
 _JOINT_TERMS_AT = np.concatenate([_SCALE_AT, _DRIFT_AT, _BACKLASH_AT])
+
+
+def as_slice(at: np.ndarray) -> np.ndarray | slice:
+    """``at`` as a slice when its positions are consecutive: indexing with it is a
+    view, where an index array gathers a copy (a fit indexes small vectors often)."""
+    at = np.asarray(at)
+    if len(at) and np.array_equal(at, np.arange(at[0], at[0] + len(at))):
+        return slice(int(at[0]), int(at[0]) + len(at))
+    return at
+
+
+# the offsets' and drifts' positions, consecutive in the parameter vector
+_DRHO_SLICE, _DRIFT_SLICE = as_slice(_DRHO_AT), as_slice(_DRIFT_AT)
 # every entry axis_lines and leg_lengths read
 _GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
 # every gauge's gain
@@ -295,11 +308,11 @@ class _EvaluationPlan:
         self.keeps_lines, self.keeps_joint_terms, self.keeps_frac, self.keeps_gain = (
             free_entries.isdisjoint(at.tolist())
             for at in (_GEOMETRY_AT, _JOINT_TERMS_AT, _GPOS_AT, _GSCALE_AT))
-        self.key_at = np.concatenate(
+        self.key_at = as_slice(np.sort(np.concatenate(
             [at for at, kept in ((_GEOMETRY_AT, self.keeps_lines),
                                  (_JOINT_TERMS_AT, self.keeps_joint_terms),
                                  (_GPOS_AT, self.keeps_frac), (_GSCALE_AT, self.keeps_gain))
-             if kept] + [np.zeros(0, dtype=int)])
+             if kept] + [np.zeros(0, dtype=int)])))
         self._fixed: _Fixed | None = None
         self.free: np.ndarray | None = None
         if free is None:
@@ -338,7 +351,7 @@ class _EvaluationPlan:
         last = self._fixed  # read once: another thread may replace it meanwhile
         if last is not None and last.matches(key, leg_length_mm):
             return last
-        made = _Fixed(key, leg_length_mm)
+        made = _Fixed(key.copy(), leg_length_mm)  # a view of th, which its caller may change
         if self.keeps_lines:
             made.lines = _lines(th, leg_length_mm)
         if self.keeps_joint_terms:
@@ -364,7 +377,7 @@ class _EvaluationPlan:
         """The joint positions' terms but the offsets (the module's formula for ``rho``):
         (B, poses, 3) each, scaled travel, drift and half the lost motion."""
         scale = th[:, None, _SCALE_AT] * 1e-6
-        drift = th[:, None, _DRIFT_AT] / 3600.0
+        drift = th[:, None, _DRIFT_SLICE] / 3600.0
         backlash = th[:, None, _BACKLASH_AT]
         return (leg_length_mm + self.q[None] * (1.0 + scale), drift * self.t[None, :, None],
                 0.5 * self.appr[None] * backlash)
@@ -376,9 +389,9 @@ class _EvaluationPlan:
         ones (None: made here). A zero term is not added: it would change no digit."""
         if terms is None:
             scaled, drifted, lost = self.joint_terms(th, leg_length_mm)
-            return scaled + th[:, None, _DRHO_AT] + drifted - lost
+            return scaled + th[:, None, _DRHO_SLICE] + drifted - lost
         scaled, drifted, lost = terms
-        rho = scaled + th[:, None, _DRHO_AT]
+        rho = scaled + th[:, None, _DRHO_SLICE]
         if drifted is not None:
             rho = rho + drifted
         return rho if lost is None else rho - lost
@@ -465,7 +478,7 @@ def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
               free: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
     """The predictions (B, n) and, when ``free`` is given, their derivatives (B, n, P):
     one pass through the same intermediate values, so the two cannot disagree."""
-    plan = _plan(layout, free, bool(th[:, _DRIFT_AT].any()))
+    plan = _plan(layout, free, bool(th[:, _DRIFT_SLICE].any()))
     n, batch = plan.n, len(th)
     leg_length_mm = machine.leg_length_mm
     fixed = plan.fixed(th, leg_length_mm)
