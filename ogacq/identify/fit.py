@@ -26,7 +26,7 @@ from ogacq.identify.identifiability import (
     reduced_svd,
 )
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
-from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
+from ogacq.identify.noise import GaugeNoise, GroupWhitener, group_whitener, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.measurement import as_slice
 from ogacq.model.parameters import NOMINAL, PARAM_NAMES, indices, nested
@@ -63,11 +63,9 @@ class Weighting:
         self.whitener: np.ndarray | None = None
         self.groups: GroupWhitener | None = None
         if obs.raw:
-            self.groups = GroupWhitener(obs, self.noise)
+            self.groups = group_whitener(obs, self.noise)
             # each gauge's zero, whitened: what it adds to every reading of that gauge
-            self._zero_onehot = obs.layout.gauge_onehot * \
-                self.groups.reading_mean_scale[:, None]
-            self._zero_norm = np.add.reduce(self._zero_onehot * self._zero_onehot, axis=0)
+            self._zero_onehot, self._zero_norm = self.groups.zeros(obs.layout.gauge_onehot)
         elif kind == "gls":
             chol = np.linalg.cholesky(obs.noise_cov)
             self.whitener = np.linalg.inv(chol)

@@ -207,7 +207,19 @@ def pure_error(obs: Observations) -> tuple[float, int] | None:
 
 def noise_for(obs: Observations) -> GaugeNoise:
     """The noise of INTERCHANGE.md: stated in the machine file, else measured from the
-    repeats, else (tabulated deviations, no repeats) the display step."""
+    repeats, else (tabulated deviations, no repeats) the display step. Estimated once
+    per observations (a refit, its verdict and its report each ask): kept with the
+    values, machine and layout it came from, estimated again when one changed."""
+    known = obs.derived.get("noise")
+    if known is not None and known[0] is obs.layout and known[1] == obs.machine \
+            and known[2].shape == obs.values.shape and bool((known[2] == obs.values).all()):
+        return known[3]
+    noise = _estimate_noise(obs)
+    obs.derived["noise"] = (obs.layout, obs.machine, obs.values.copy(), noise)
+    return noise
+
+
+def _estimate_noise(obs: Observations) -> GaugeNoise:
     step = obs.machine.gauge_resolution_mm
     measured = pure_error(obs)
     shared = obs.raw  # only raw readings are known to repeat
@@ -230,6 +242,17 @@ def noise_for(obs: Observations) -> GaugeNoise:
     return GaugeNoise(step, "gauge resolution", step)
 
 
+def group_whitener(obs: Observations, noise: GaugeNoise) -> GroupWhitener:
+    """``GroupWhitener(obs, noise)``, built once per layout and noise (kept with the
+    observations; read-only, like every whitener)."""
+    known = obs.derived.get("group whitener")
+    if known is not None and known[0] is obs.layout and known[1] == noise:
+        return known[2]
+    groups = GroupWhitener(obs, noise)
+    obs.derived["group whitener"] = (obs.layout, noise, groups)
+    return groups
+
+
 class GroupWhitener:
     """``sigma V^-1/2`` for raw readings, repeat group by repeat group: the difference
     of a reading from its group's mean is scaled by ``sigma / sqrt(w)``, the group's
@@ -245,6 +268,18 @@ class GroupWhitener:
         self.mean_scale = np.sqrt(ref / (within + self.size * noise.shared_var))
         self._order, self._starts = layout.repeat_order
         self.reading_mean_scale = self.mean_scale[self.group]  # (n,) once, not per call
+        self._zeros: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def zeros(self, onehot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each gauge's zero whitened, (n, G) from the gauges' one-hot (n, G): what it
+        adds to every reading of that gauge; and its squared norm (G,). Formed once
+        per whitener (``fit.Weighting`` projects the zeros out at every step)."""
+        known = self._zeros
+        if known is None or known[0] is not onehot:
+            zero = onehot * self.reading_mean_scale[:, None]
+            known = (onehot, zero, np.add.reduce(zero * zero, axis=0))
+            self._zeros = known
+        return known[1], known[2]
 
     def group_means(self, x: np.ndarray) -> np.ndarray:
         """(..., G) means of each group along the last axis."""
