@@ -407,7 +407,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         theta = th[0]
         converged = bool(conv[0])
         residuals = obs.remove_zeros(y - pred)[0]
-    return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
+    return _result_at(obs, names, free, theta, theta0, jac, residuals, rank, w, method,
                       iterations, converged, end)
 
 
@@ -424,16 +424,17 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
     rank = design_rank(w.jac(_linear_jacobian(obs, names, free, NOMINAL))[0], _ranges(free))
     jac = obs.jacobian(theta[None], free)
     residuals = obs.remove_zeros(obs.values[None] - obs.predict(theta[None]))[0]
-    return _result_at(obs, names, theta, NOMINAL, jac, residuals, rank, w, "exact", 0, True)
+    return _result_at(obs, names, free, theta, NOMINAL, jac, residuals, rank, w, "exact", 0,
+                      True)
 
 
-def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
+def _result_at(obs: Observations, names: tuple[str, ...], free: np.ndarray, theta: np.ndarray,
                theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
                w: Weighting, method: str, iterations: int, converged: bool,
                weighted: _Weighted | None = None) -> FitResult:
     """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``
-    (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known)."""
-    free = indices(names)
+    (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known); ``free``: the
+    positions of ``names``."""
     noise = w.noise
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.

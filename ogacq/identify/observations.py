@@ -121,7 +121,7 @@ class Observations:
         if not self.raw:
             return x
         onehot = self.layout.gauge_onehot  # (m, G)
-        means = (x @ onehot) / onehot.sum(axis=0)
+        means = (x @ onehot) / self.layout.gauge_counts
         return x - means @ onehot.T
 
 

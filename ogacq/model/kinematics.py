@@ -114,10 +114,10 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     l1 = lsq[0]
     r1 = c[0]
     ab = c[1:] - r1  # (2, 3, ...): a = r2 - r1, b = r3 - r1
-    norms = (c * c).sum(axis=1)  # (3, ...) |r_k|^2
+    norms = np.add.reduce(c * c, axis=1)  # (3, ...) |r_k|^2 (ndarray.sum's reduction)
     # a . p = ca and b . p = cb, from |p - r_k|^2 - |p - r_1|^2 = L_k^2 - L_1^2
     cab = 0.5 * (norms[1:] - norms[0] - lsq[1:] + l1)  # (2, ...): ca, cb
-    gram = (ab[:, None] * ab[None, :]).sum(axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
+    gram = np.add.reduce(ab[:, None] * ab[None, :], axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
     gab = gram[0, 1]
     det = gram[0, 0] * gram[1, 1] - gab * gab
     # ka = (b.b ca - a.b cb) / det, kb = (a.a cb - a.b ca) / det
@@ -130,7 +130,7 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     np.subtract(ab_next[0] * ab_after[1], ab_after[0] * ab_next[1], out=n)  # a x b
     kab = k[:, None] * ab
     np.subtract(kab[0] + kab[1], r1, out=d)
-    dots = (nd[:, None] * nd[None, :]).sum(axis=2)  # (2, 2, ...): n.n, n.d; d.n, d.d
+    dots = np.add.reduce(nd[:, None] * nd[None, :], axis=2)  # (2, 2, ...): n.n, n.d; d.n, d.d
     nn, beta = dots[0, 0], dots[0, 1]
     disc = beta * beta - nn * (dots[1, 1] - l1)
     root = _sqrt_or_nan(disc)
@@ -147,7 +147,7 @@ _BB_AA = np.array([1, 0])
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Dot product over the first axis (3): x, then y, then z added (numpy reduces
     along an outer axis row after row)."""
-    return (a * b).sum(axis=0)
+    return np.add.reduce(a * b, axis=0)
 
 
 def _cross_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:

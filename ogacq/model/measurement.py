@@ -167,6 +167,11 @@ class ReadingsLayout:
         return np.eye(self.n_gauges)[self.gauge]
 
     @cached_property
+    def gauge_counts(self) -> np.ndarray:
+        """(G,) how many readings each gauge took (float: ``gauge_onehot.sum(axis=0)``)."""
+        return self.gauge_onehot.sum(axis=0)
+
+    @cached_property
     def evaluation_plans(self) -> dict:
         """The model's evaluation plans for these readings (``_plan``), most recently
         used last: what a fit's repeated evaluations share."""
