@@ -76,6 +76,20 @@ class Weighting:
             return w - ((w @ self._zero_onehot) / self._zero_norm) @ self._zero_onehot.T
         return r if self.whitener is None else r @ self.whitener.T
 
+    def residual_and_jac(self, r: np.ndarray, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`residual` of ``r`` (1, m) and :meth:`jac` of ``jac`` (1, m, p) at once,
+        the same doubles: the repeat groups whiten every row alike, so the residual
+        and the Jacobian's columns go through them as one array; the zeros are
+        projected out of each as :meth:`residual` does (a product of another shape
+        may sum in another order)."""
+        if self.groups is None:
+            return self.residual(r), self.jac(jac)
+        both = self.groups(np.concatenate([r[:, None, :], jac.swapaxes(-1, -2)], axis=1))
+        w, wj = both[:, 0], both[:, 1:]
+        zeros, norm = self._zero_onehot, self._zero_norm
+        return w - ((w @ zeros) / norm) @ zeros.T, \
+            (wj - ((wj @ zeros) / norm) @ zeros.T).swapaxes(-1, -2)
+
     def jac(self, jac: np.ndarray) -> np.ndarray:
         if self.groups is not None:
             return self.residual(jac.swapaxes(-1, -2)).swapaxes(-1, -2)
@@ -136,18 +150,20 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
              at_start: tuple[np.ndarray, np.ndarray] | None = None,
              weighted_start_jac: np.ndarray | None = None,
              start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+             start_white: np.ndarray | None = None,
              ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
     """:func:`gauss_newton`, then the predictions (B, m) at the returned vectors, which
     the last accepted evaluation already made (a fit's residuals need no other), and
     ``weighting.jac`` of the returned Jacobian with the SVD of it times the ranges
     when the last step formed them (None otherwise). ``weighted_start_jac``:
     ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
-    of it times the ranges, when the caller has them (one row only)."""
+    of it times the ranges, when the caller has them (one row only), and
+    ``start_white`` ``weighting.residual`` of the residuals at ``at_start``."""
     batch = y.shape[0]
     rank = len(free) if rank is None else rank
     if batch == 1 and tolerance is None:
         return _iterate_one(obs, y, free, theta0, weighting, rank, max_iterations, at_start,
-                            weighted_start_jac, start_svd)
+                            weighted_start_jac, start_svd, start_white)
     ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
@@ -242,11 +258,13 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
                  at_start: tuple[np.ndarray, np.ndarray] | None,
                  weighted_start_jac: np.ndarray | None,
                  start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+                 start_white: np.ndarray | None = None,
                  ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
     """:func:`_iterate` for one row at the default tolerance (a refit): the same steps,
     decisions and arithmetic, the cost compared as a plain float and without the
     masks and gathers a batch needs, which cost a refit of a few dozen readings
-    more than its arithmetic."""
+    more than its arithmetic. ``start_white``: ``weighting.residual`` of the
+    residuals at ``at_start``, when the caller has it."""
     ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE
     # the steps' tests on plain floats: p is a handful
@@ -255,12 +273,13 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
     at = as_slice(free)  # the free entries, a view when consecutive (the offsets)
     if at_start is None:
         pred, jac = obs.predict_and_jacobian(theta, free)
-        jw_here, svd_here = None, None
+        white, jw_here = weighting.residual_and_jac(y - pred, jac)
+        svd_here = None
     else:
         pred, jac = at_start
         jw_here = weighted_start_jac
         svd_here = start_svd if jw_here is not None else None
-    white = weighting.residual(y - pred)
+        white = weighting.residual(y - pred) if start_white is None else start_white
     cost = _cost(white)
     converged = False
     iterations = 0
@@ -281,13 +300,15 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             trial[:, at] += moved
             small = _all_below(moved, tol_list)
             trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            trial_white = weighting.residual(y - trial_pred)
+            # the weighted Jacobian with the residuals: an accepted step (the usual
+            # case) needs it next
+            trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
             trial_cost = _cost(trial_white)
             if trial_cost <= cost * (1 + 1e-12) + 1e-300:
                 converged = small or trial_cost >= cost * (1 - 1e-12)
                 theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
                     trial_jac
-                jw_here = svd_here = None  # vectors moved
+                jw_here, svd_here = trial_jw, None  # vectors moved
                 break
             scale *= 0.5
         else:
@@ -373,13 +394,14 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     y = obs.values[None]
 
     ranges = _ranges(free)
-    at_start = None
+    at_start = start_white = None
     if _uses_design_matrix(obs, names, theta0):
         jac = _linear_jacobian(obs, names, free, theta0)
+        jw_start = w.jac(jac)
     else:  # the exact Jacobian there, which the iterations start from too
         at_start = obs.predict_and_jacobian(theta0[None], free)
         jac = at_start[1]
-    jw_start = w.jac(jac)
+        start_white, jw_start = w.residual_and_jac(y - at_start[0], jac)
     start_svd = reduced_svd(jw_start * ranges)
     rank = rank_of(start_svd[1][0])
     end: _Weighted | None = None
@@ -393,7 +415,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     else:
         th, iterations, conv, jac, pred, end = _iterate(
             obs, y, free, theta0, w, rank, at_start=at_start, weighted_start_jac=jw_start,
-            start_svd=start_svd)
+            start_svd=start_svd, start_white=start_white)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again

@@ -218,10 +218,10 @@ _JOINT_TERMS_AT = np.concatenate([_SCALE_AT, _DRIFT_AT, _BACKLASH_AT])
 def as_slice(at: np.ndarray) -> np.ndarray | slice:
     """``at`` as a slice when its positions are consecutive: indexing with it is a
     view, where an index array gathers a copy (a fit indexes small vectors often)."""
-    at = np.asarray(at)
-    if len(at) and np.array_equal(at, np.arange(at[0], at[0] + len(at))):
-        return slice(int(at[0]), int(at[0]) + len(at))
-    return at
+    positions = np.asarray(at).tolist()
+    if positions and positions == list(range(positions[0], positions[0] + len(positions))):
+        return slice(positions[0], positions[0] + len(positions))
+    return np.asarray(at)
 
 
 # the offsets' and drifts' positions, consecutive in the parameter vector
