@@ -110,38 +110,31 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     # writing every component out.
     c = np.ascontiguousarray(r.transpose(r.ndim - 2, r.ndim - 1, *range(r.ndim - 2)))
     lsq = np.asarray(legs_mm) ** 2
-    lsq = lsq.transpose(lsq.ndim - 1, *range(lsq.ndim - 1))  # (3, ...): L_k^2
-    l1 = lsq[0]
+    l1, l2, l3 = lsq[..., 0], lsq[..., 1], lsq[..., 2]
     r1 = c[0]
     ab = c[1:] - r1  # (2, 3, ...): a = r2 - r1, b = r3 - r1
-    norms = np.add.reduce(c * c, axis=1)  # (3, ...) |r_k|^2 (ndarray.sum's reduction)
+    a, b = ab[0], ab[1]
+    norms = (c * c).sum(axis=1)  # (3, ...) |r_k|^2
+    s1 = norms[0]
     # a . p = ca and b . p = cb, from |p - r_k|^2 - |p - r_1|^2 = L_k^2 - L_1^2
-    cab = 0.5 * (norms[1:] - norms[0] - lsq[1:] + l1)  # (2, ...): ca, cb
-    gram = np.add.reduce(ab[:, None] * ab[None, :], axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
-    gab = gram[0, 1]
-    det = gram[0, 0] * gram[1, 1] - gab * gab
-    # ka = (b.b ca - a.b cb) / det, kb = (a.a cb - a.b ca) / det
-    k = (gram[_BB_AA, _BB_AA] * cab - gab * cab[::-1]) / det
-    # the nearest point of the line to the origin relative to r1 (d), beside the
-    # line's direction (n): their dot products in one product, as the Gram matrix's
-    nd = np.empty((2,) + r1.shape)
-    n, d = nd[0], nd[1]
-    ab_next, ab_after = ab[:, _NEXT], ab[:, _AFTER]
-    np.subtract(ab_next[0] * ab_after[1], ab_after[0] * ab_next[1], out=n)  # a x b
-    kab = k[:, None] * ab
-    np.subtract(kab[0] + kab[1], r1, out=d)
-    dots = np.add.reduce(nd[:, None] * nd[None, :], axis=2)  # (2, 2, ...): n.n, n.d; d.n, d.d
-    nn, beta = dots[0, 0], dots[0, 1]
-    disc = beta * beta - nn * (dots[1, 1] - l1)
+    ca = 0.5 * (norms[1] - s1 - l2 + l1)
+    cb = 0.5 * (norms[2] - s1 - l3 + l1)
+    gram = (ab[:, None] * ab[None, :]).sum(axis=2)  # (2, 2, ...): a.a, a.b; b.a, b.b
+    gaa, gab, gbb = gram[0, 0], gram[0, 1], gram[1, 1]
+    det = gaa * gbb - gab * gab
+    ka = (gbb * ca - gab * cb) / det
+    kb = (gaa * cb - gab * ca) / det
+    # nearest point of the line to the origin, relative to r1
+    d = ka * a + kb * b - r1
+    n = _cross_first(a, b)
+    nn = _dot(n, n)
+    beta = _dot(n, d)
+    disc = beta * beta - nn * (_dot(d, d) - l1)
     root = _sqrt_or_nan(disc)
     origin_side = np.where(_dot(n, r1) > 0, -1.0, 1.0)
     t = (-beta + origin_side * root) / nn
     p = r1 + d + t * n
     return p.transpose(*range(1, p.ndim), 0)
-
-
-# gram[_BB_AA, _BB_AA]: b.b then a.a
-_BB_AA = np.array([1, 0])
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

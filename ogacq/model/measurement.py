@@ -357,23 +357,22 @@ class _EvaluationPlan:
         if last is not None and last.matches(key, leg_length_mm):
             return last
         made = _Fixed(key.copy(), leg_length_mm)  # a view of th, which its caller may change
-        if self.keeps_lines:
+        # a part too large to keep is not made here: the evaluation makes it, once
+        batch = len(th)
+        if self.keeps_lines:  # (B, 3, 3): always small enough
             made.lines = _lines(th, leg_length_mm)
-        if self.keeps_joint_terms:
+        if self.keeps_joint_terms and batch * len(self.q) * 3 <= _REMEMBERED_SIZE:
             scaled, drifted, lost = self.joint_terms(th, leg_length_mm)
-            if scaled.size <= _REMEMBERED_SIZE:
-                made.joint_terms = (scaled, drifted if drifted.any() else None,
-                                    lost if lost.any() else None)
-        if self.keeps_frac:
+            made.joint_terms = (scaled, drifted if drifted.any() else None,
+                                lost if lost.any() else None)
+        if self.keeps_frac and batch * len(self.gauge_position) <= _REMEMBERED_SIZE:
             made.frac = th[:, self.gauge_position]
-        if self.keeps_gain:
-            gain = 1.0 + th[:, self.gauge_scale] * 1e-6
-            made.unit_gain = bool((gain == 1.0).all())
-            made.gain = gain if gain.size <= _REMEMBERED_SIZE else None
-        if made.lines is not None and self.free is not None:
-            dr = self.joint_centre_tangents(th, made.lines[0])
-            if dr[1].size <= _REMEMBERED_SIZE:
-                made.dr = dr
+        if self.keeps_gain and batch * self.n <= _REMEMBERED_SIZE:
+            made.gain = 1.0 + th[:, self.gauge_scale] * 1e-6
+            made.unit_gain = bool((made.gain == 1.0).all())
+        if made.lines is not None and self.free is not None and \
+                batch * len(self.r_index) * len(self.free) <= _REMEMBERED_SIZE:
+            made.dr = self.joint_centre_tangents(th, made.lines[0])
         self._fixed = made
         return made
 
