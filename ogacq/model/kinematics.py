@@ -197,7 +197,7 @@ def _sqrt_or_nan(x: np.ndarray) -> np.ndarray:
     """``sqrt(x)``, NaN where ``x`` is negative, without numpy's warning; the warning
     state is only changed when there is one (entering np.errstate costs more than a
     fit's square root)."""
-    if x.min(initial=0.0) < 0:  # NaN (legs that cannot meet) takes its root silently
+    if (x < 0).any():
         with np.errstate(invalid="ignore"):
             return np.sqrt(x)
     return np.sqrt(x)
