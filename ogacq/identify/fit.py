@@ -12,16 +12,24 @@ when Zero readings are shared. Raw readings are independent, so both coincide.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.identify.identifiability import RANK_TOLERANCE, Identifiability, assess
+from ogacq.identify.identifiability import (
+    Identifiability,
+    assess,
+    plausible_ranges,
+    rank_of,
+    reduced_svd,
+)
 from ogacq.identify.linear import LINEAR_COLUMNS, design_matrix
-from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
+from ogacq.identify.noise import GaugeNoise, GroupWhitener, group_whitener, noise_for
 from ogacq.identify.observations import Observations
-from ogacq.model.parameters import NOMINAL, PARAM_NAMES, effect_of, indices, nested
+from ogacq.model.measurement import as_slice
+from ogacq.model.parameters import NOMINAL, PARAM_NAMES, indices, nested
 
 MAX_ITERATIONS = 30
 # Steps below this (relative to each parameter's plausible range) are far below any
@@ -35,7 +43,8 @@ NEGLIGIBLE_STEP = 1e-3
 
 
 def _ranges(free: np.ndarray) -> np.ndarray:
-    return np.array([effect_of(PARAM_NAMES[k]).plausible_range for k in free])
+    """(p,) the plausible ranges of the parameters at ``free`` (read-only, built once)."""
+    return plausible_ranges([PARAM_NAMES[k] for k in np.asarray(free).tolist()])
 
 
 class Weighting:
@@ -54,11 +63,9 @@ class Weighting:
         self.whitener: np.ndarray | None = None
         self.groups: GroupWhitener | None = None
         if obs.raw:
-            self.groups = GroupWhitener(obs, self.noise)
+            self.groups = group_whitener(obs, self.noise)
             # each gauge's zero, whitened: what it adds to every reading of that gauge
-            self._zero_onehot = obs.layout.gauge_onehot * \
-                self.groups.mean_scale[self.groups.group][:, None]
-            self._zero_norm = np.sum(self._zero_onehot**2, axis=0)
+            self._zero_onehot, self._zero_norm = self.groups.zeros(obs.layout.gauge_onehot)
         elif kind == "gls":
             chol = np.linalg.cholesky(obs.noise_cov)
             self.whitener = np.linalg.inv(chol)
@@ -68,6 +75,20 @@ class Weighting:
             w = self.groups(r)
             return w - ((w @ self._zero_onehot) / self._zero_norm) @ self._zero_onehot.T
         return r if self.whitener is None else r @ self.whitener.T
+
+    def residual_and_jac(self, r: np.ndarray, jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`residual` of ``r`` (1, m) and :meth:`jac` of ``jac`` (1, m, p) at once,
+        the same doubles: the repeat groups whiten every row alike, so the residual
+        and the Jacobian's columns go through them as one array; the zeros are
+        projected out of each as :meth:`residual` does (a product of another shape
+        may sum in another order)."""
+        if self.groups is None:
+            return self.residual(r), self.jac(jac)
+        both = self.groups(np.concatenate([r[:, None, :], jac.swapaxes(-1, -2)], axis=1))
+        w, wj = both[:, 0], both[:, 1:]
+        zeros, norm = self._zero_onehot, self._zero_norm
+        return w - ((w @ zeros) / norm) @ zeros.T, \
+            (wj - ((wj @ zeros) / norm) @ zeros.T).swapaxes(-1, -2)
 
     def jac(self, jac: np.ndarray) -> np.ndarray:
         if self.groups is not None:
@@ -83,13 +104,7 @@ class Weighting:
 
 def design_rank(jw: np.ndarray, ranges: np.ndarray) -> int:
     """Rank of a weighted Jacobian (m, p), columns scaled to plausible ranges."""
-    s = np.linalg.svd(jw * ranges, compute_uv=False)
-    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
-
-
-def _rank(s: np.ndarray) -> int:
-    """:func:`design_rank` from the singular values (p,) of the scaled Jacobian."""
-    return int(np.sum(s > s[0] * RANK_TOLERANCE)) if len(s) and s[0] > 0 else 0
+    return rank_of(np.linalg.svd(jw * ranges, compute_uv=False))
 
 
 def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
@@ -97,7 +112,7 @@ def _solve(jw: np.ndarray, rw: np.ndarray, ranges: np.ndarray, rank: int,
     """Least-squares steps for a stack (B, m, p), truncated to ``rank`` directions so
     that a fit never wanders along combinations the data cannot see. ``svd``: the
     reduced SVD of ``jw * ranges`` when the caller has it."""
-    u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if svd is None else svd
+    u, s, vt = reduced_svd(jw * ranges) if svd is None else svd
     coef = np.einsum("bmk,bm->bk", u[:, :, :rank], rw) / s[:, :rank]
     return np.einsum("bkp,bk->bp", vt[:, :rank], coef) * ranges
 
@@ -135,16 +150,21 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
              at_start: tuple[np.ndarray, np.ndarray] | None = None,
              weighted_start_jac: np.ndarray | None = None,
              start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
+             start_white: np.ndarray | None = None,
              ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
     """:func:`gauss_newton`, then the predictions (B, m) at the returned vectors, which
     the last accepted evaluation already made (a fit's residuals need no other), and
     ``weighting.jac`` of the returned Jacobian with the SVD of it times the ranges
     when the last step formed them (None otherwise). ``weighted_start_jac``:
     ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
-    of it times the ranges, when the caller has them (one row only)."""
+    of it times the ranges, when the caller has them (one row only), and
+    ``start_white`` ``weighting.residual`` of the residuals at ``at_start``."""
     batch = y.shape[0]
-    ranges = _ranges(free)
     rank = len(free) if rank is None else rank
+    if batch == 1 and tolerance is None:
+        return _iterate_one(obs, y, free, theta0, weighting, rank, max_iterations, at_start,
+                            weighted_start_jac, start_svd, start_white)
+    ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
     theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
@@ -170,7 +190,7 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         if moving:
             jw_here = weighting.jac(jac) if jw_here is None else jw_here
             if svd_here is None:
-                svd_here = np.linalg.svd(jw_here * ranges, full_matrices=False)
+                svd_here = reduced_svd(jw_here * ranges)
             step = _solve(jw_here, white, ranges, rank, svd_here)
         else:
             jw_here = svd_here = None
@@ -231,6 +251,83 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
             break
     known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
     return theta, iterations, converged, jac, pred, known
+
+
+def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
+                 weighting: Weighting, rank: int, max_iterations: int,
+                 at_start: tuple[np.ndarray, np.ndarray] | None,
+                 weighted_start_jac: np.ndarray | None,
+                 start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
+                 start_white: np.ndarray | None = None,
+                 ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
+    """:func:`_iterate` for one row at the default tolerance (a refit): the same steps,
+    decisions and arithmetic, the cost compared as a plain float and without the
+    masks and gathers a batch needs, which cost a refit of a few dozen readings
+    more than its arithmetic. ``start_white``: ``weighting.residual`` of the
+    residuals at ``at_start``, when the caller has it."""
+    ranges = _ranges(free)
+    tol = ranges * STEP_TOLERANCE
+    # the steps' tests on plain floats: p is a handful
+    tol_list, negligible_below = tol.tolist(), (tol * NEGLIGIBLE_STEP).tolist()
+    theta = np.array(theta0, dtype=float)[None]
+    at = as_slice(free)  # the free entries, a view when consecutive (the offsets)
+    if at_start is None:
+        pred, jac = obs.predict_and_jacobian(theta, free)
+        white, jw_here = weighting.residual_and_jac(y - pred, jac)
+        svd_here = None
+    else:
+        pred, jac = at_start
+        jw_here = weighted_start_jac
+        svd_here = start_svd if jw_here is not None else None
+        white = weighting.residual(y - pred) if start_white is None else start_white
+    cost = _cost(white)
+    converged = False
+    iterations = 0
+    while iterations < max_iterations:
+        iterations += 1
+        if jw_here is None:
+            jw_here = weighting.jac(jac)
+        if svd_here is None:
+            svd_here = reduced_svd(jw_here * ranges)
+        step = _solve(jw_here, white, ranges, rank, svd_here)
+        if _all_below(step, negligible_below):
+            converged = True  # at the minimum where it stands (see _iterate)
+            break
+        scale = 1.0
+        for attempt in range(8):
+            moved = step if attempt == 0 else step * scale  # halved where it made it worse
+            trial = theta.copy()
+            trial[:, at] += moved
+            small = _all_below(moved, tol_list)
+            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+            # the weighted Jacobian with the residuals: an accepted step (the usual
+            # case) needs it next
+            trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
+            trial_cost = _cost(trial_white)
+            if trial_cost <= cost * (1 + 1e-12) + 1e-300:
+                converged = small or trial_cost >= cost * (1 - 1e-12)
+                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
+                    trial_jac
+                jw_here, svd_here = trial_jw, None  # vectors moved
+                break
+            scale *= 0.5
+        else:
+            converged = True  # no step lowers the cost: at the minimum
+        if converged:
+            break
+    known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
+    return theta, iterations, np.array([converged]), jac, pred, known
+
+
+def _cost(white: np.ndarray) -> float:
+    """The sum of squares of one row (1, m) of weighted residuals: ``(white**2).sum(axis=1)``,
+    the same reduction."""
+    return float(np.add.reduce(white * white, axis=1)[0])
+
+
+def _all_below(step: np.ndarray, bounds: list[float]) -> bool:
+    """Whether every entry of one row (1, p) is below its bound in magnitude."""
+    return all(abs(v) < b for v, b in zip(step[0].tolist(), bounds, strict=True))
 
 
 @dataclass
@@ -297,15 +394,16 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     y = obs.values[None]
 
     ranges = _ranges(free)
-    at_start = None
+    at_start = start_white = None
     if _uses_design_matrix(obs, names, theta0):
         jac = _linear_jacobian(obs, names, free, theta0)
+        jw_start = w.jac(jac)
     else:  # the exact Jacobian there, which the iterations start from too
         at_start = obs.predict_and_jacobian(theta0[None], free)
         jac = at_start[1]
-    jw_start = w.jac(jac)
-    start_svd = np.linalg.svd(jw_start * ranges, full_matrices=False)
-    rank = _rank(start_svd[1][0])
+        start_white, jw_start = w.residual_and_jac(y - at_start[0], jac)
+    start_svd = reduced_svd(jw_start * ranges)
+    rank = rank_of(start_svd[1][0])
     end: _Weighted | None = None
     if method == "linear":
         base = obs.predict(theta0[None])
@@ -317,13 +415,13 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
     else:
         th, iterations, conv, jac, pred, end = _iterate(
             obs, y, free, theta0, w, rank, at_start=at_start, weighted_start_jac=jw_start,
-            start_svd=start_svd)
+            start_svd=start_svd, start_white=start_white)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
             # where the determined ones put us, and finish from there.
             rank_there = design_rank(w.jac(jac)[0], ranges) if end is None else \
-                _rank(end.svd[1][0])
+                rank_of(end.svd[1][0])
             if rank_there > rank:
                 rank = rank_there
                 th, more, conv, jac, pred, end = _iterate(obs, y, free, th[0], w, rank)
@@ -331,7 +429,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         theta = th[0]
         converged = bool(conv[0])
         residuals = obs.remove_zeros(y - pred)[0]
-    return _result_at(obs, names, theta, theta0, jac, residuals, rank, w, method,
+    return _result_at(obs, names, free, theta, theta0, jac, residuals, rank, w, method,
                       iterations, converged, end)
 
 
@@ -348,16 +446,17 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
     rank = design_rank(w.jac(_linear_jacobian(obs, names, free, NOMINAL))[0], _ranges(free))
     jac = obs.jacobian(theta[None], free)
     residuals = obs.remove_zeros(obs.values[None] - obs.predict(theta[None]))[0]
-    return _result_at(obs, names, theta, NOMINAL, jac, residuals, rank, w, "exact", 0, True)
+    return _result_at(obs, names, free, theta, NOMINAL, jac, residuals, rank, w, "exact", 0,
+                      True)
 
 
-def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
+def _result_at(obs: Observations, names: tuple[str, ...], free: np.ndarray, theta: np.ndarray,
                theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
                w: Weighting, method: str, iterations: int, converged: bool,
                weighted: _Weighted | None = None) -> FitResult:
     """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``
-    (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known)."""
-    free = indices(names)
+    (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known); ``free``: the
+    positions of ``names``."""
     noise = w.noise
     # A set the design cannot determine is judged at the start: far along its
     # null directions the curvature makes any Jacobian look full-rank.
@@ -374,8 +473,9 @@ def _result_at(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
     dof = len(obs) - obs.n_nuisance - ident.rank
     rss = float(np.sum(residuals**2))
     return FitResult(
-        names=names, values=theta[free], std=np.sqrt(np.diag(cov)), covariance=cov,
-        residuals=residuals, residual_rms_mm=float(np.sqrt(np.mean(residuals**2))),
+        names=names, values=theta[free], std=np.sqrt(cov.diagonal()), covariance=cov,
+        # np.mean's own steps: the sum over the count
+        residuals=residuals, residual_rms_mm=math.sqrt(rss / len(residuals)),
         sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,
         noise=noise, identifiability=ident, method=method, weighting=w.kind,
         iterations=iterations, converged=converged, theta=theta, observations=obs,

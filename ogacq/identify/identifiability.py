@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cache
 
 import numpy as np
 
@@ -43,11 +44,12 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     of ``jw`` with its columns scaled to the plausible ranges, when the caller has it."""
     names = tuple(names)
     p = len(names)
-    ranges = np.array([effect_of(n).plausible_range for n in names])
-    _, s, vt = np.linalg.svd(jw * ranges, full_matrices=False) if scaled_svd is None \
-        else scaled_svd
-    rank = int(np.sum(s > s[0] * RANK_TOLERANCE)) if p and s[0] > 0 else 0
-    cond = float(s[0] / s[-1]) if p and s[-1] > s[0] * RANK_TOLERANCE else float("inf")
+    ranges = plausible_ranges(names)
+    _, s, vt = reduced_svd(jw * ranges) if scaled_svd is None else scaled_svd
+    rank = rank_of(s)
+    # plain floats: p is a handful, where a numpy call costs more than its arithmetic
+    first, last = (float(s[0]), float(s[-1])) if p else (0.0, 0.0)
+    cond = first / last if p and last > first * RANK_TOLERANCE else float("inf")
 
     a = _pinv(jw)
     cov = sigma_mm**2 * (a @ a.T if noise_cov is None else a @ noise_cov @ a.T)
@@ -72,30 +74,76 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
         sub = cov[np.ix_(finite, finite)] / np.outer(std, std)
         corr[np.ix_(finite, finite)] = sub
     else:
-        std = np.sqrt(np.diag(cov))
-        corr = cov / np.outer(std, std) if np.all(std > 0) else np.eye(p)
-    np.fill_diagonal(corr, 1.0)
+        std = np.sqrt(cov.diagonal())
+        # np.outer's and np.fill_diagonal's own steps, without their generality
+        corr = cov / (std[:, None] * std[None, :]) if (std > 0).all() else np.eye(p)
+    corr.flat[::p + 1] = 1.0
 
     pairs = []
+    rows = corr.tolist()  # the same doubles, read without numpy's scalar boxing
     for i in range(p):
         for j in range(i + 1, p):
-            if abs(corr[i, j]) > NAMED_CORRELATION:
-                pairs.append((names[i], names[j], float(corr[i, j])))
-                if abs(corr[i, j]) > INSEPARABLE_CORRELATION:
+            if abs(rows[i][j]) > NAMED_CORRELATION:
+                pairs.append((names[i], names[j], rows[i][j]))
+                if abs(rows[i][j]) > INSEPARABLE_CORRELATION:
                     unidentified.update((names[i], names[j]))
     pairs.sort(key=lambda t: -abs(t[2]))
     strong = [f"{a}/{b} {c:+.4f}" for a, b, c in pairs if abs(c) > INSEPARABLE_CORRELATION]
     if strong and rank == p:
         reasons.append("only combinations are determined: correlation " + ", ".join(strong))
-    diag = np.diag(cov)
-    for k, n in enumerate(names):
-        if rank == p and np.sqrt(diag[k]) > ranges[k]:
-            reasons.append(f"{n} std {np.sqrt(diag[k]):.3g} exceeds its plausible range "
-                           f"{ranges[k]:g} {effect_of(n).unit}")
-            unidentified.add(n)
+    if rank == p:
+        for n, k_std, k_range in zip(names, np.sqrt(cov.diagonal()).tolist(), ranges.tolist(),
+                                     strict=True):
+            if k_std > k_range:
+                reasons.append(f"{n} std {k_std:.3g} exceeds its plausible range "
+                               f"{k_range:g} {effect_of(n).unit}")
+                unidentified.add(n)
     ident = Identifiability(names, rank, cond, corr, pairs, not reasons, reasons,
                             [n for n in names if n in unidentified])
     return ident, cov
+
+
+try:  # numpy's own gufunc behind np.linalg.svd (LAPACK gesdd), present in numpy 1.x and 2.x
+    from numpy.linalg import _umath_linalg
+    _SVD_REDUCED = _umath_linalg.svd_s
+except (ImportError, AttributeError):  # pragma: no cover - a numpy that moved it
+    _SVD_REDUCED = None
+
+
+def reduced_svd(a: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``np.linalg.svd(a, full_matrices=False)`` for real (..., m, p) stacks: the same
+    gufunc, so the same decomposition to the last bit, without the wrapper's type
+    checks and promotion, which cost a refit's 72 x 3 matrices half as much again as
+    the decomposition (a fit takes five). A decomposition that fails (NaN) is
+    handed to ``np.linalg.svd`` to fail as it does (LinAlgError)."""
+    if _SVD_REDUCED is None or a.dtype != np.float64 or a.ndim < 2:
+        return np.linalg.svd(a, full_matrices=False)
+    with np.errstate(all="ignore"):  # as np.linalg.svd's, whose invalid flag means failure
+        u, s, vt = _SVD_REDUCED(a, signature="d->ddd")
+    if np.isnan(s).any():
+        return np.linalg.svd(a, full_matrices=False)
+    return u, s, vt
+
+
+def rank_of(s: np.ndarray) -> int:
+    """Rank from the singular values (p,) of a Jacobian scaled to plausible ranges."""
+    values = s.tolist()
+    if not values or values[0] <= 0:
+        return 0
+    floor = values[0] * RANK_TOLERANCE
+    return sum(v > floor for v in values)
+
+
+@cache
+def _ranges_of(names: tuple[str, ...]) -> np.ndarray:
+    ranges = np.array([effect_of(n).plausible_range for n in names], dtype=float)
+    ranges.setflags(write=False)  # shared by every caller
+    return ranges
+
+
+def plausible_ranges(names: Sequence[str]) -> np.ndarray:
+    """(p,) each parameter's plausible range (read-only; built once per set)."""
+    return _ranges_of(tuple(names))
 
 
 def _pinv(jw: np.ndarray) -> np.ndarray:
@@ -104,8 +152,10 @@ def _pinv(jw: np.ndarray) -> np.ndarray:
     than the decomposition at a fit's sizes."""
     if jw.size == 0:
         return np.empty(jw.shape[::-1])
-    u, s, vt = np.linalg.svd(jw, full_matrices=False)
+    u, s, vt = reduced_svd(jw)
     large = s > RANK_TOLERANCE * s.max()
+    if large.all():  # the usual case: every direction inverted
+        return vt.T @ ((1 / s)[:, None] * u.T)
     inverse = np.divide(1, s, where=large, out=s)
     inverse[~large] = 0
     return vt.T @ (inverse[:, None] * u.T)

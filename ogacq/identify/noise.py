@@ -22,7 +22,7 @@ whitened group by group in O(n).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -86,6 +86,18 @@ def _within_variance_slope(sigma_mm: float, step_mm: float) -> float:
     return 2.0 * sigma_mm + 4.0 * sigma_mm * _exp_sums(sigma_mm, step_mm)[1]
 
 
+def _within_variance_and_slope(sigma_mm: float, step_mm: float) -> tuple[float, float]:
+    """:func:`within_variance` and :func:`_within_variance_slope` from one sum of the
+    series (the same expressions, so the same doubles): the inversion below needs
+    both at every step."""
+    if step_mm <= 0:
+        return max(sigma_mm**2 + step_mm**2 / 12.0, 0.0), 2.0 * sigma_mm
+    damped_over_k2, damped = _exp_sums(sigma_mm, step_mm)
+    total = sigma_mm**2 + step_mm**2 / 12.0
+    shared = step_mm**2 / (2.0 * math.pi**2) * damped_over_k2
+    return max(total - shared, 0.0), 2.0 * sigma_mm + 4.0 * sigma_mm * damped
+
+
 def sigma_from_scatter(scatter_var: float, step_mm: float) -> float:
     """The gauge scatter sigma whose rounded repeats scatter with ``scatter_var``:
     inverts :func:`within_variance` (increasing in sigma). Newton's method kept
@@ -99,11 +111,11 @@ def sigma_from_scatter(scatter_var: float, step_mm: float) -> float:
     low, high = 0.0, math.sqrt(scatter_var) + step_mm  # within_variance(high) >= high^2
     sigma = math.sqrt(scatter_var)
     for _ in range(MAX_ROOT_STEPS):
-        excess = within_variance(sigma, step_mm) - scatter_var
+        variance, slope = _within_variance_and_slope(sigma, step_mm)
+        excess = variance - scatter_var
         if excess == 0.0:
             break
         low, high = (sigma, high) if excess < 0.0 else (low, sigma)
-        slope = _within_variance_slope(sigma, step_mm)
         step = excess / slope if slope > 0.0 else math.inf
         if abs(step) <= 4.0 * math.ulp(sigma):
             break  # at the root to the doubles' resolution
@@ -185,16 +197,29 @@ def pure_error(obs: Observations) -> tuple[float, int] | None:
     if not obs.raw:
         return None
     group = repeat_groups(obs)
-    dof = len(obs) - (group.max() + 1)
+    size = obs.layout.repeat_size
+    dof = len(obs) - len(size)
     if dof <= 0:
         return None
-    means = np.bincount(group, weights=obs.values) / np.bincount(group)
+    means = np.bincount(group, weights=obs.values) / size
     return float(np.sum((obs.values - means[group]) ** 2)), int(dof)
 
 
 def noise_for(obs: Observations) -> GaugeNoise:
     """The noise of INTERCHANGE.md: stated in the machine file, else measured from the
-    repeats, else (tabulated deviations, no repeats) the display step."""
+    repeats, else (tabulated deviations, no repeats) the display step. Estimated once
+    per observations (a refit, its verdict and its report each ask): kept with the
+    values, machine and layout it came from, estimated again when one changed."""
+    known = obs.derived.get("noise")
+    if known is not None and known[0] is obs.layout and known[1] == obs.machine \
+            and known[2].shape == obs.values.shape and bool((known[2] == obs.values).all()):
+        return known[3]
+    noise = _estimate_noise(obs)
+    obs.derived["noise"] = (obs.layout, obs.machine, obs.values.copy(), noise)
+    return noise
+
+
+def _estimate_noise(obs: Observations) -> GaugeNoise:
     step = obs.machine.gauge_resolution_mm
     measured = pure_error(obs)
     shared = obs.raw  # only raw readings are known to repeat
@@ -204,8 +229,11 @@ def noise_for(obs: Observations) -> GaugeNoise:
         scatter = sigma_from_scatter(ss / dof, step)
     stated = obs.machine.gauge_repeatability_mm
     if stated is not None:
-        return replace(GaugeNoise.stated(stated, step, repeats=shared),
-                       repeats_scatter_mm=scatter)
+        # GaugeNoise.stated's numbers, built at once with what the repeats show
+        # (dataclasses.replace costs more than the noise it copies)
+        return GaugeNoise(math.hypot(stated, step / math.sqrt(12.0)), "machine file", step,
+                          stated, shared_rounding_variance(stated, step) if shared else 0.0,
+                          repeats_scatter_mm=scatter)
     if measured is not None:
         assert scatter is not None
         return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
@@ -214,21 +242,44 @@ def noise_for(obs: Observations) -> GaugeNoise:
     return GaugeNoise(step, "gauge resolution", step)
 
 
+def group_whitener(obs: Observations, noise: GaugeNoise) -> GroupWhitener:
+    """``GroupWhitener(obs, noise)``, built once per layout and noise (kept with the
+    observations; read-only, like every whitener)."""
+    known = obs.derived.get("group whitener")
+    if known is not None and known[0] is obs.layout and known[1] == noise:
+        return known[2]
+    groups = GroupWhitener(obs, noise)
+    obs.derived["group whitener"] = (obs.layout, noise, groups)
+    return groups
+
+
 class GroupWhitener:
     """``sigma V^-1/2`` for raw readings, repeat group by repeat group: the difference
     of a reading from its group's mean is scaled by ``sigma / sqrt(w)``, the group's
     mean by ``sigma / sqrt(w + n_g c)``. Applied along the last axis."""
 
     def __init__(self, obs: Observations, noise: GaugeNoise) -> None:
-        self.group = repeat_groups(obs)
-        self.size = np.bincount(self.group).astype(float)
+        layout = obs.layout  # the groups' structure is the layout's, built once
+        self.group = layout.repeat_group
+        self.size = layout.repeat_size.astype(float)
         ref = noise.variance if noise.variance > 0 else 1.0
         within = max(noise.within_var, ref / MAX_WITHIN_WEIGHT**2)
         self.within_scale = math.sqrt(ref / within)
         self.mean_scale = np.sqrt(ref / (within + self.size * noise.shared_var))
-        self._order = np.argsort(self.group, kind="stable")
-        self._starts = np.concatenate([[0], np.cumsum(self.size[:-1])]).astype(int)
-        self._reading_mean_scale = self.mean_scale[self.group]  # (n,) once, not per call
+        self._order, self._starts = layout.repeat_order
+        self.reading_mean_scale = self.mean_scale[self.group]  # (n,) once, not per call
+        self._zeros: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def zeros(self, onehot: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Each gauge's zero whitened, (n, G) from the gauges' one-hot (n, G): what it
+        adds to every reading of that gauge; and its squared norm (G,). Formed once
+        per whitener (``fit.Weighting`` projects the zeros out at every step)."""
+        known = self._zeros
+        if known is None or known[0] is not onehot:
+            zero = onehot * self.reading_mean_scale[:, None]
+            known = (onehot, zero, np.add.reduce(zero * zero, axis=0))
+            self._zeros = known
+        return known[1], known[2]
 
     def group_means(self, x: np.ndarray) -> np.ndarray:
         """(..., G) means of each group along the last axis."""
@@ -237,7 +288,7 @@ class GroupWhitener:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         means = self.group_means(x)[..., self.group]
-        return (x - means) * self.within_scale + means * self._reading_mean_scale
+        return (x - means) * self.within_scale + means * self.reading_mean_scale
 
     def group_space(self, whitened: np.ndarray) -> np.ndarray:
         """(..., G) the mean part of whitened vectors, one coordinate per group with

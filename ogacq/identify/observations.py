@@ -74,6 +74,10 @@ class Observations:
     source: str = ""
     kind: str = "readings"  # "readings" or "deviations"
     noise_cov: np.ndarray = field(init=False)
+    # what is computed from these observations and reused (their noise, their
+    # weighting's groups), each kept with the inputs it was computed from and
+    # recomputed when one of them changed (``noise.noise_for``, ``fit.Weighting``)
+    derived: dict = field(init=False, repr=False, compare=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         self.values = np.asarray(self.values, dtype=float)
@@ -117,7 +121,7 @@ class Observations:
         if not self.raw:
             return x
         onehot = self.layout.gauge_onehot  # (m, G)
-        means = (x @ onehot) / onehot.sum(axis=0)
+        means = (x @ onehot) / self.layout.gauge_counts
         return x - means @ onehot.T
 
 

@@ -140,7 +140,7 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Dot product over the first axis (3): x, then y, then z added (numpy reduces
     along an outer axis row after row)."""
-    return (a * b).sum(axis=0)
+    return np.add.reduce(a * b, axis=0)
 
 
 def _cross_first(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -154,10 +154,10 @@ _AFTER = np.array([2, 0, 1])
 
 
 def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.ndarray,
-                    dlegs: np.ndarray) -> np.ndarray:
+                    dlegs: np.ndarray | None) -> np.ndarray:
     """Derivatives ``dp`` (..., P, 3) of :func:`forward`'s TCP ``p`` (..., 3) given
     those of the joint centres ``dr`` (..., P, 3, 3) and of the leg lengths
-    ``dlegs`` (..., P, 3).
+    ``dlegs`` (..., P, 3) (None: no leg length moves).
 
     Implicit differentiation of the constraints ``|p - r_i|^2 = L_i^2``:
     ``(p - r_i) . (dp - dr_i) = L_i dL_i``, three linear equations in ``dp`` whose
@@ -167,17 +167,30 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     independent of the assembly mode ``forward`` picked.
     """
     legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
-    rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr) + legs_mm[..., None, :] * dlegs
+    rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr)
+    if dlegs is not None:
+        rhs = rhs + legs_mm[..., None, :] * dlegs
     # rows a_2, a_3, a_1 crossed with a_3, a_1, a_2: the inverse's columns, as rows
-    after, last = legs_to_tcp[..., _NEXT, :], legs_to_tcp[..., _AFTER, :]
-    rows = after[..., _NEXT] * last[..., _AFTER] - after[..., _AFTER] * last[..., _NEXT]
+    # after[..., _NEXT], last[..., _AFTER], after[..., _AFTER], last[..., _NEXT] in one gather
+    factors = legs_to_tcp.reshape(legs_to_tcp.shape[:-2] + (9,))[..., _CRAMER_FACTORS]
+    rows = factors[..., 0, :, :] * factors[..., 1, :, :] \
+        - factors[..., 2, :, :] * factors[..., 3, :, :]
     det = np.einsum("...k,...k->...", legs_to_tcp[..., 0, :], rows[..., 0, :])[..., None, None]
-    if (det == 0).any():  # legs in one plane: infinite derivatives, said without a warning
+    if not det.all():  # legs in one plane: infinite derivatives, said without a warning
         with np.errstate(invalid="ignore", divide="ignore"):
             rows /= det
     else:  # NaN (legs that cannot meet) divides silently
         rows /= det
     return np.einsum("...ij,...qi->...qj", rows, rhs)
+
+
+# Flat (row * 3 + coordinate) positions in a 3x3 matrix whose gather gives, for row i
+# and coordinate k, the factors of component k of row i+1 x row i+2 (indices mod 3):
+# row i+1's k+1, row i+2's k+2, row i+1's k+2, row i+2's k+1.
+_CRAMER_FACTORS = np.array([[[3 * _NEXT[i] + _NEXT[k] for k in range(3)] for i in range(3)],
+                            [[3 * _AFTER[i] + _AFTER[k] for k in range(3)] for i in range(3)],
+                            [[3 * _NEXT[i] + _AFTER[k] for k in range(3)] for i in range(3)],
+                            [[3 * _AFTER[i] + _NEXT[k] for k in range(3)] for i in range(3)]])
 
 
 def _sqrt_or_nan(x: np.ndarray) -> np.ndarray:

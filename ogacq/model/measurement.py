@@ -136,6 +136,19 @@ class ReadingsLayout:
         return np.unique(keys, axis=0, return_inverse=True)[1].ravel()
 
     @cached_property
+    def repeat_size(self) -> np.ndarray:
+        """(groups,) how many readings each repeat group holds (int)."""
+        return np.bincount(self.repeat_group)
+
+    @cached_property
+    def repeat_order(self) -> tuple[np.ndarray, np.ndarray]:
+        """The readings ordered group by group (stable) and where each group starts in
+        that order: sums per group as one ``np.add.reduceat``."""
+        order = np.argsort(self.repeat_group, kind="stable")
+        starts = np.concatenate([[0], np.cumsum(self.repeat_size[:-1])]).astype(int)
+        return order, starts
+
+    @cached_property
     def timed_poses(self) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """As :attr:`distinct_poses`, time included (thermal drift makes it matter):
         (unique q, unique approach, unique t, index (n + G,)). The gauges of one
@@ -152,6 +165,11 @@ class ReadingsLayout:
         """(n, G) 1 where a reading is its gauge's: sums and means per gauge as one
         product (a gauge's unknown zero is removed this way at every fit)."""
         return np.eye(self.n_gauges)[self.gauge]
+
+    @cached_property
+    def gauge_counts(self) -> np.ndarray:
+        """(G,) how many readings each gauge took (float: ``gauge_onehot.sum(axis=0)``)."""
+        return self.gauge_onehot.sum(axis=0)
 
     @cached_property
     def evaluation_plans(self) -> dict:
@@ -195,8 +213,23 @@ _AXIS_OFFSET_AT = np.array([PARAM_INDEX[f"axis_offset.{w}"] for w in AXIS_PAIRS]
 _LEG_LENGTH_AT = np.array([PARAM_INDEX[f"leg_length.{a}"] for a in AXES])
 # the entries of the joint positions but the offsets
 _JOINT_TERMS_AT = np.concatenate([_SCALE_AT, _DRIFT_AT, _BACKLASH_AT])
+
+
+def as_slice(at: np.ndarray) -> np.ndarray | slice:
+    """``at`` as a slice when its positions are consecutive: indexing with it is a
+    view, where an index array gathers a copy (a fit indexes small vectors often)."""
+    positions = np.asarray(at).tolist()
+    if positions and positions == list(range(positions[0], positions[0] + len(positions))):
+        return slice(positions[0], positions[0] + len(positions))
+    return np.asarray(at)
+
+
+# the offsets' and drifts' positions, consecutive in the parameter vector
+_DRHO_SLICE, _DRIFT_SLICE = as_slice(_DRHO_AT), as_slice(_DRIFT_AT)
 # every entry axis_lines and leg_lengths read
 _GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
+# every gauge's gain
+_GSCALE_AT = np.array(sorted({int(_GSCALE[g.indices]) for g in GAUGES}))
 
 
 def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
@@ -215,6 +248,31 @@ def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
             elif index == _BACKLASH[a]:
                 out[:, k, a] = -0.5 * approach[:, a]
     return out
+
+
+class _Fixed:
+    """The parts of an evaluation that read only entries a fit leaves as they were
+    (``_EvaluationPlan.fixed``), for one value of those entries. None where a part
+    is not remembered (it reads a free entry, or it is too large to keep)."""
+
+    __slots__ = ("key", "leg_length_mm", "lines", "joint_terms", "frac", "gain", "unit_gain",
+                 "dr")
+
+    def __init__(self, key: np.ndarray, leg_length_mm: float) -> None:
+        self.key, self.leg_length_mm = key, leg_length_mm
+        self.lines: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        # (scaled, drifted, lost) of the joint positions; drifted and lost None when zero
+        self.joint_terms: tuple[np.ndarray, np.ndarray | None, np.ndarray | None] | None = None
+        self.frac: np.ndarray | None = None
+        self.gain: np.ndarray | None = None
+        self.unit_gain = False  # every gain exactly 1: multiplying by it changes nothing
+        # the joint centres' derivatives (B, poses, P, 3, 3) and those the readings need:
+        # along the leg (B, n, P), along the gauge axis, at the gauge settings (B, G, P)
+        self.dr: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    def matches(self, key: np.ndarray, leg_length_mm: float) -> bool:
+        return self.leg_length_mm == leg_length_mm and self.key.shape == key.shape \
+            and bool((self.key == key).all())
 
 
 class _EvaluationPlan:
@@ -239,18 +297,29 @@ class _EvaluationPlan:
         set_leg = np.array([i for _, i in layout.gauge_keys], dtype=int)
         i, j = layout.leg, layout.gauge_axis
         self.gauge = layout.gauge
-        # into p (B, poses * 3): the reading pose's TCP along the leg (pi) then the
-        # gauge axis (pj); the setting pose's TCP along the set leg (p0)
-        self.p_reading = np.concatenate([at_reading * 3 + i, at_reading * 3 + j])
-        self.p_setting = at_setting * 3 + set_leg
+        # into p (B, poses * 3), one gather: the reading pose's TCP along the leg (pi),
+        # then along the gauge axis (pj), then the setting pose's along the set leg (p0)
+        self.p_index = np.concatenate([at_reading * 3 + i, at_reading * 3 + j,
+                                       at_setting * 3 + set_leg])
         # into r (B, poses * 9), joint then coordinate: the leg's joint centre along
         # the leg (ri) and the gauge axis (rj), the set leg's along itself (r0)
-        self.r_reading = np.concatenate([at_reading * 9 + i * 4, at_reading * 9 + i * 3 + j])
-        self.r_setting = at_setting * 9 + set_leg * 4
+        self.r_index = np.concatenate([at_reading * 9 + i * 4, at_reading * 9 + i * 3 + j,
+                                       at_setting * 9 + set_leg * 4])
         self.gauge_position = _GPOS_AT[set_leg]  # (G,)
         self.gauge_scale = _GSCALE[j, i]  # (n,)
-        self._lines: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
-        self._joint_terms: tuple[np.ndarray, float, tuple[np.ndarray, ...]] | None = None
+        # the parts remembered between evaluations: those that read no free entry
+        # (a fit changes only those), keyed on the entries they read
+        free_entries = set() if free is None else set(free)
+        self.keeps_lines, self.keeps_joint_terms, self.keeps_frac, self.keeps_gain = (
+            free_entries.isdisjoint(at.tolist())
+            for at in (_GEOMETRY_AT, _JOINT_TERMS_AT, _GPOS_AT, _GSCALE_AT))
+        self.key_at = as_slice(np.sort(np.concatenate(
+            [at for at, kept in ((_GEOMETRY_AT, self.keeps_lines),
+                                 (_JOINT_TERMS_AT, self.keeps_joint_terms),
+                                 (_GPOS_AT, self.keeps_frac), (_GSCALE_AT, self.keeps_gain))
+             if kept] + [np.zeros(0, dtype=int)])))
+        self._fixed: _Fixed | None = None
+        self.free: np.ndarray | None = None
         if free is None:
             return
         fr = np.array(free, dtype=int)
@@ -259,7 +328,8 @@ class _EvaluationPlan:
         self.tilts = bool(np.isin(fr, _SQUARENESS_AT).any())
         self.do = axis_line_tangents(NOMINAL[None], fr)[1] \
             if np.isin(fr, _AXIS_OFFSET_AT).any() else None
-        self.dlegs = leg_length_tangents(fr)
+        dlegs = leg_length_tangents(fr)
+        self.dlegs = dlegs if dlegs.any() else None
         drift = np.isin(fr, _DRIFT_AT)
         # gauges are set at t = 0: no drift there; a reading's drift derivative is
         # its time (see _joint_position_tangents). None: no drift free.
@@ -267,49 +337,91 @@ class _EvaluationPlan:
         # only the columns a drift or a gauge's gain acts on, each (n,) per column: a
         # (n, P) array of ones and zeros would cost a long campaign megabytes per plan
         self.drift_columns = np.flatnonzero(drift)
-        self.hours = layout.t_s[:, None] / 3600.0 if drift.any() else None
+        # a reading's hours, for its coordinates along the leg and the gauge axis
+        self.hours = np.tile(layout.t_s / 3600.0, 2)[:, None] if drift.any() else None
         dfrac = (fr[None, :] == self.gauge_position[:, None]).astype(float)  # (G, P)
         self.dfrac = dfrac if dfrac.any() else None
-        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE))
+        # (not _GSCALE: its unused diagonal holds 0, a joint offset's position)
+        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE_AT))
         self.dgain = (fr[self.gain_columns][None, :] == self.gauge_scale[:, None]) * 1e-6 \
             if len(self.gain_columns) else None  # (n, columns)
 
+    def fixed(self, th: np.ndarray, leg_length_mm: float) -> _Fixed:
+        """The remembered parts for ``th``: those of the last call when the entries
+        they read are the same (every evaluation of a fit but the first), else made
+        now. Each part is kept only while small: what it saves is numpy calls, which
+        matter only where the arrays are small (a batch over a long campaign's
+        poses is not)."""
+        key = th[:, self.key_at]
+        last = self._fixed  # read once: another thread may replace it meanwhile
+        if last is not None and last.matches(key, leg_length_mm):
+            return last
+        made = _Fixed(key.copy(), leg_length_mm)  # a view of th, which its caller may change
+        # a part too large to keep is not made here: the evaluation makes it, once
+        batch = len(th)
+        if self.keeps_lines:  # (B, 3, 3): always small enough
+            made.lines = _lines(th, leg_length_mm)
+        if self.keeps_joint_terms and batch * len(self.q) * 3 <= _REMEMBERED_SIZE:
+            scaled, drifted, lost = self.joint_terms(th, leg_length_mm)
+            made.joint_terms = (scaled, drifted if drifted.any() else None,
+                                lost if lost.any() else None)
+        if self.keeps_frac and batch * len(self.gauge_position) <= _REMEMBERED_SIZE:
+            made.frac = th[:, self.gauge_position]
+        if self.keeps_gain and batch * self.n <= _REMEMBERED_SIZE:
+            made.gain = 1.0 + th[:, self.gauge_scale] * 1e-6
+            made.unit_gain = bool((made.gain == 1.0).all())
+        if made.lines is not None and self.free is not None and \
+                batch * len(self.r_index) * len(self.free) <= _REMEMBERED_SIZE:
+            made.dr = self.joint_centre_tangents(th, made.lines[0])
+        self._fixed = made
+        return made
 
-    def joint_positions(self, th: np.ndarray, leg_length_mm: float) -> np.ndarray:
-        """(B, poses, 3) joint positions along their lines (the module's formula for
-        ``rho``), its scale, drift and backlash terms remembered for the last values
-        of those entries (a fit of offsets or lengths evaluates the same ones every
-        time)."""
-        entries = th[:, _JOINT_TERMS_AT]
-        last = self._joint_terms  # read once: another thread may replace it meanwhile
-        if last is None or last[1] != leg_length_mm or last[0].shape != entries.shape \
-                or not (last[0] == entries).all():
-            scale = th[:, None, _SCALE_AT] * 1e-6
-            drift = th[:, None, _DRIFT_AT] / 3600.0
-            backlash = th[:, None, _BACKLASH_AT]
-            terms = (leg_length_mm + self.q[None] * (1.0 + scale),
-                     drift * self.t[None, :, None], 0.5 * self.appr[None] * backlash)
-            last = (entries, leg_length_mm, terms)
-            # kept only while small: what it saves is numpy calls, which matter only
-            # where the arrays are small (a batch over a long campaign's poses is not)
-            self._joint_terms = last if terms[0].size <= _REMEMBERED_SIZE else None
-        scaled, drifted, lost = last[2]
-        return scaled + th[:, None, _DRHO_AT] + drifted - lost
+    def joint_terms(self, th: np.ndarray, leg_length_mm: float,
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The joint positions' terms but the offsets (the module's formula for ``rho``):
+        (B, poses, 3) each, scaled travel, drift and half the lost motion."""
+        scale = th[:, None, _SCALE_AT] * 1e-6
+        drift = th[:, None, _DRIFT_SLICE] / 3600.0
+        backlash = th[:, None, _BACKLASH_AT]
+        return (leg_length_mm + self.q[None] * (1.0 + scale), drift * self.t[None, :, None],
+                0.5 * self.appr[None] * backlash)
 
-    def lines(self, th: np.ndarray, leg_length_mm: float,
-              ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """:func:`axis_lines` ``u``, ``o`` (B, 3, 3) and the leg lengths (B, 1, 3) of
-        ``th``, remembered for the last values of the entries they depend on: a fit
-        that does not free them evaluates the same lines every time."""
-        geometry = th[:, _GEOMETRY_AT]
-        last = self._lines  # read once: another thread may replace it meanwhile
-        if last is not None and last[1] == leg_length_mm and \
-                last[0].shape == geometry.shape and (last[0] == geometry).all():
-            return last[2]  # type: ignore[return-value]
-        u, o = axis_lines(th)
-        lines = (u, o, leg_lengths(th, leg_length_mm)[:, None, :])
-        self._lines = (geometry, leg_length_mm, lines)
-        return lines
+    def joint_positions(self, th: np.ndarray, leg_length_mm: float,
+                        terms: tuple[np.ndarray, np.ndarray | None, np.ndarray | None] | None,
+                        ) -> np.ndarray:
+        """(B, poses, 3) joint positions along their lines; ``terms``: the remembered
+        ones (None: made here). A zero term is not added: it would change no digit."""
+        if terms is None:
+            scaled, drifted, lost = self.joint_terms(th, leg_length_mm)
+            return scaled + th[:, None, _DRHO_SLICE] + drifted - lost
+        scaled, drifted, lost = terms
+        rho = scaled + th[:, None, _DRHO_SLICE]
+        if drifted is not None:
+            rho = rho + drifted
+        return rho if lost is None else rho - lost
+
+    def joint_centre_tangents(self, th: np.ndarray, u: np.ndarray,
+                              rho: np.ndarray | None = None,
+                              ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """The joint centres' derivatives by the free parameters (B, poses, P, 3, 3)
+        and those the readings need, gathered (see :class:`_Fixed`); ``rho``: the
+        joint positions, needed when a squareness is free."""
+        batch, n, free = len(th), self.n, self.free
+        assert free is not None
+        dr_poses = self.drho[None, :, :, :, None] * u[:, None, None]  # (B, poses, P, 3, 3)
+        if self.do is not None:
+            dr_poses = self.do + dr_poses
+        if self.tilts:
+            assert rho is not None
+            dr_poses = dr_poses + rho[:, :, None, :, None] * \
+                axis_line_tangents(th, free)[0][:, None]
+        dr_flat = dr_poses.transpose(0, 1, 3, 4, 2).reshape(batch, -1, len(free))
+        dr_at = dr_flat[:, self.r_index]  # gathers copy: scaled in place
+        dr0 = dr_at[:, 2 * n:]
+        if self.hours is not None:
+            dr0 = dr0 * self.set_without_drift
+            dr_at[:, :2 * n, self.drift_columns] *= self.hours
+        return dr_poses, dr_at[:, :n], dr_at[:, n:2 * n], dr0
 
 
 # Largest array (elements) a plan remembers from one evaluation for the next.
@@ -360,61 +472,68 @@ def predict_and_jacobian(theta: np.ndarray, layout: ReadingsLayout, machine: Mac
     return out, jac
 
 
+def _lines(th: np.ndarray, leg_length_mm: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`axis_lines` ``u``, ``o`` (B, 3, 3) and the leg lengths (B, 1, 3) of ``th``."""
+    u, o = axis_lines(th)
+    return u, o, leg_lengths(th, leg_length_mm)[:, None, :]
+
+
 def _evaluate(th: np.ndarray, layout: ReadingsLayout, machine: MachineSpec,
               free: np.ndarray | None) -> tuple[np.ndarray, np.ndarray | None]:
     """The predictions (B, n) and, when ``free`` is given, their derivatives (B, n, P):
     one pass through the same intermediate values, so the two cannot disagree."""
-    plan = _plan(layout, free, bool(th[:, _DRIFT_AT].any()))
+    plan = _plan(layout, free, bool(th[:, _DRIFT_SLICE].any()))
     n, batch = plan.n, len(th)
-    rho = plan.joint_positions(th, machine.leg_length_mm)
-    u, o, legs = plan.lines(th, machine.leg_length_mm)
+    leg_length_mm = machine.leg_length_mm
+    fixed = plan.fixed(th, leg_length_mm)
+    u, o, legs = _lines(th, leg_length_mm) if fixed.lines is None else fixed.lines
+    rho = plan.joint_positions(th, leg_length_mm, fixed.joint_terms)
     r_poses = joint_centres(rho, u[:, None], o[:, None])  # (B, poses, 3, 3)
     p_poses = forward(r_poses, legs)
 
     # (B, n) or (B, G) the coordinates the readings need (see _EvaluationPlan)
-    p_flat, r_flat = p_poses.reshape(batch, -1), r_poses.reshape(batch, -1)
-    pij, rij = p_flat[:, plan.p_reading], r_flat[:, plan.r_reading]
-    pi, pj, ri, rj = pij[:, :n], pij[:, n:], rij[:, :n], rij[:, n:]
-    p0, r0 = p_flat[:, plan.p_setting], r_flat[:, plan.r_setting]
+    p_at = p_poses.reshape(batch, -1)[:, plan.p_index]
+    r_at = r_poses.reshape(batch, -1)[:, plan.r_index]
+    pi, pj, p0 = p_at[:, :n], p_at[:, n:2 * n], p_at[:, 2 * n:]
+    ri, rj, r0 = r_at[:, :n], r_at[:, n:2 * n], r_at[:, 2 * n:]
 
-    frac = th[:, plan.gauge_position]
+    frac = th[:, plan.gauge_position] if fixed.frac is None else fixed.frac
     plane = p0 + frac * (r0 - p0)  # (B, G): the gauge's fixed coordinate along its leg
-    mu = (plane[:, plan.gauge] - pi) / (ri - pi)
-    coord = pj + mu * (rj - pj)
-    gain = 1.0 + th[:, plan.gauge_scale] * 1e-6
-    out = coord * gain
+    span, reach = ri - pi, rj - pj
+    mu = (plane[:, plan.gauge] - pi) / span
+    coord = pj + mu * reach
+    if fixed.unit_gain:  # times 1.0: the same doubles
+        gain = None
+        out = coord
+    else:
+        gain = 1.0 + th[:, plan.gauge_scale] * 1e-6 if fixed.gain is None else fixed.gain
+        out = coord * gain
     if free is None:
         return out, None
 
     # Forward-mode derivatives of every step above. Terms a free set cannot have
     # (no tilt, no line offset, no drift, no gauge position or gain free) are left
     # out rather than added as zeros.
-    dr_poses = plan.drho[None, :, :, :, None] * u[:, None, None]  # (B, poses, P, 3, 3)
-    if plan.do is not None:
-        dr_poses = plan.do + dr_poses
-    if plan.tilts:
-        dr_poses = dr_poses + rho[:, :, None, :, None] * axis_line_tangents(th, free)[0][:, None]
+    dr_poses, dri, drj, dr0 = plan.joint_centre_tangents(th, u, rho) if fixed.dr is None \
+        else fixed.dr
     dp_poses = forward_tangent(r_poses, p_poses, legs, dr_poses, plan.dlegs)
     # parameter axis last and poses with coordinates flat, so that one gather gives
     # (B, n|G, P) as above
-    params = len(free)
-    dp_flat = dp_poses.transpose(0, 1, 3, 2).reshape(batch, -1, params)
-    dr_flat = dr_poses.transpose(0, 1, 3, 4, 2).reshape(batch, -1, params)
-    dpij, drij = dp_flat[:, plan.p_reading], dr_flat[:, plan.r_reading]
-    dp0, dr0 = dp_flat[:, plan.p_setting], dr_flat[:, plan.r_setting]
+    dp_at = dp_poses.transpose(0, 1, 3, 2).reshape(batch, -1, len(free))[:, plan.p_index]
+    dp0 = dp_at[:, 2 * n:]
     if plan.hours is not None:  # gathers copy: scaled in place
-        dp0, dr0 = dp0 * plan.set_without_drift, dr0 * plan.set_without_drift
-        for part in (dpij[:, :n], dpij[:, n:], drij[:, :n], drij[:, n:]):
-            part[..., plan.drift_columns] *= plan.hours
-    dpi, dpj, dri, drj = dpij[:, :n], dpij[:, n:], drij[:, :n], drij[:, n:]
+        dp0 = dp0 * plan.set_without_drift
+        dp_at[:, :2 * n, plan.drift_columns] *= plan.hours
+    dpi, dpj = dp_at[:, :n], dp_at[:, n:2 * n]
 
-    dplane = dp0 + frac[..., None] * (dr0 - dp0)
-    if plan.dfrac is not None:
+    if plan.dfrac is None:
+        dplane = dp0 + frac[..., None] * (dr0 - dp0)
+    else:
         dplane = dp0 + plan.dfrac * (r0 - p0)[..., None] + frac[..., None] * (dr0 - dp0)
-    den = (ri - pi)[..., None]
-    dmu = (dplane[:, plan.gauge] - dpi - mu[..., None] * (dri - dpi)) / den
-    dcoord = dpj + dmu * (rj - pj)[..., None] + mu[..., None] * (drj - dpj)
-    jac = dcoord * gain[..., None]
+    mu_ = mu[..., None]
+    dmu = (dplane[:, plan.gauge] - dpi - mu_ * (dri - dpi)) / span[..., None]
+    dcoord = dpj + dmu * reach[..., None] + mu_ * (drj - dpj)
+    jac = dcoord if gain is None else dcoord * gain[..., None]
     if plan.dgain is not None:
         jac[..., plan.gain_columns] += coord[..., None] * plan.dgain
     return out, jac
