@@ -74,10 +74,10 @@ def main() -> None:
         for name, argv in commands.items():
             t = wall_s(argv, runs)
             imports = import_s(argv)
-            median = statistics.median(t)
+            median, target = statistics.median(t), TARGETS_S[name]
             print(f"   ogacq {name:20s} {median:.3f} s ({min(t):.3f}-{max(t):.3f}), "
                   f"imports {imports:.3f} s ({imports / median:.0%}); "
-                  f"target < {TARGETS_S[name]:g} s: {'met' if max(t) < TARGETS_S[name] else 'NOT met'}")
+                  f"target < {target:g} s: {'met' if max(t) < target else 'NOT met'}")
 
 
 if __name__ == "__main__":
