@@ -29,8 +29,14 @@ from ogacq.model.parameters import AXES, PARAM_NAMES, effect_of, indices
 _DRIFT = indices([f"thermal_drift.{a}" for a in AXES])
 CHORD_ITERATIONS = 3
 # Candidates are fitted in chunks of at most this many (candidate, row) values per
-# array (8 MB): memory then grows with the readings, not readings x candidates.
-CHUNK_VALUES = 1_000_000
+# array, or one candidate when a single one has more: memory then grows with the
+# readings, not readings x candidates. The size is set by speed, not memory: the
+# model's evaluation makes dozens of temporaries of this size, and while each fits
+# in a core's own cache (1 MiB, 131,072 float64, on the 2-core machine of issue 14,
+# as on most cores since 2017) a candidate costs about half of what it costs when
+# they spill to the shared cache or memory (72,000 readings: 8 ms an evaluation per
+# candidate alone, 14 ms batched by 13).
+CHUNK_VALUES = 100_000
 
 
 class Problem:
@@ -127,36 +133,60 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
     jac_names, jw = jac
     position = {n: k for k, n in enumerate(jac_names)}
     sizes = sorted({len(e) for e in extras})
+    spaces = _Spaces(problem, theta_start, jw)
     for size in sizes:
         rows = np.array([k for k, e in enumerate(extras) if len(e) == size])
         names = [model + extras[k] for k in rows]
         cols = np.array([[position[n] for n in ns] for ns in names], dtype=int)
         free = np.array([indices(ns) for ns in names], dtype=int)
-        theta, rss, rank = _chord(problem, theta_start, jw, cols, free, iterations)
+        theta, rss, rank = _chord(spaces, cols, free, iterations)
         out.theta[rows], out.rss[rows], out.rank[rows] = theta, rss, rank
     return out
 
 
-def _chord(problem: Problem, theta_start: np.ndarray, jw: np.ndarray, cols: np.ndarray,
-           free: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+class _Spaces:
+    """Where candidates are fitted, each with its residual function, the weighted
+    Jacobian there and the residuals at the common start: the repeat groups' means
+    (candidates without drift, raw readings) or every observation. Built when first
+    asked and shared by the candidates of every size."""
+
+    def __init__(self, problem: Problem, theta_start: np.ndarray, jw: np.ndarray) -> None:
+        self.problem, self.theta_start, self._jw = problem, theta_start, jw
+        self._built: dict[bool, tuple[Callable, np.ndarray, np.ndarray, float]] = {}
+
+    def get(self, on_groups: bool) -> tuple[Callable[[np.ndarray], np.ndarray], np.ndarray,
+                                            np.ndarray, float]:
+        """(residuals, jacobian, start residuals, rss constant) of one space."""
+        if on_groups not in self._built:
+            fitted = self.problem.group_space if on_groups else None
+            if fitted is None:
+                residuals, jw, constant = self.problem.weighted_residuals, self._jw, 0.0
+            else:
+                residuals, jw = fitted.residuals, fitted.jacobian(self._jw)
+                constant = fitted.constant_rss
+            start = residuals(self.theta_start[None])[0]  # where every candidate starts
+            self._built[on_groups] = (residuals, jw, start, constant)
+        return self._built[on_groups]
+
+
+def _chord(spaces: _Spaces, cols: np.ndarray, free: np.ndarray,
+           iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The chord fits of candidates of one size. Without thermal drift they are fitted
     on the repeat groups' means (exact, ``groupspace.py``); the others on every
     reading, a chunk at a time so that the (B, m) arrays stay within
     ``CHUNK_VALUES`` however long the campaign. Each candidate's fit is
     independent of the others'."""
+    theta_start = spaces.theta_start
     batch = len(cols)
     theta = np.empty((batch, len(theta_start)))
     rss = np.empty(batch)
     rank = np.empty(batch, dtype=int)
     drifts = np.isin(free, _DRIFT).any(axis=1) | bool(np.any(theta_start[_DRIFT] != 0.0))
-    space = problem.group_space
-    for rows, fitted in ((np.flatnonzero(~drifts), space), (np.flatnonzero(drifts), None)):
+    on_groups = spaces.problem.group_space is not None
+    for rows, grouped in ((np.flatnonzero(~drifts), on_groups), (np.flatnonzero(drifts), False)):
         if not len(rows):
             continue
-        jw_here = jw if fitted is None else fitted.jacobian(jw)
-        residuals = (problem.weighted_residuals if fitted is None else fitted.residuals)
-        constant = 0.0 if fitted is None else fitted.constant_rss
-        start = residuals(theta_start[None])[0]  # where every candidate starts
+        residuals, jw_here, start, constant = spaces.get(grouped)
         chunk = max(1, CHUNK_VALUES // max(len(jw_here), 1))
         for lo in range(0, len(rows), chunk):
             part = rows[lo:lo + chunk]
@@ -184,17 +214,21 @@ def _chord_chunk(residuals: Callable[[np.ndarray], np.ndarray], theta_start: np.
     theta = np.repeat(theta_start[None], batch, axis=0)
     r = np.repeat(start[None], batch, axis=0)
     rss = np.sum(r**2, axis=1)
+    moving = np.arange(batch)  # candidates whose last step lowered their cost
     for _ in range(iterations):
-        coef = np.einsum("bmk,bm->bk", u, r) * inv_s
-        step = np.einsum("bkp,bk->bp", vt, coef) * ranges
-        trial = theta.copy()
-        trial[rows, free] += step
+        coef = np.einsum("bmk,bm->bk", u[moving], r[moving]) * inv_s[moving]
+        step = np.einsum("bkp,bk->bp", vt[moving], coef) * ranges[moving]
+        trial = theta[moving]
+        trial[rows[:len(moving)], free[moving]] += step
         r_trial = residuals(trial)
         rss_trial = np.sum(r_trial**2, axis=1)
         # A step that does not lower the cost is beyond the fixed Jacobian's reach
-        # (and stays so: the same step would be tried again), in any chunk.
-        better = rss_trial < rss
-        theta[better], r[better], rss[better] = trial[better], r_trial[better], rss_trial[better]
-        if not better.any():
+        # and stays so: from the same point the same step would be tried again, so
+        # that candidate is not evaluated any more.
+        better = rss_trial < rss[moving]
+        moving = moving[better]
+        theta[moving], r[moving], rss[moving] = trial[better], r_trial[better], \
+            rss_trial[better]
+        if not len(moving):
             break
     return theta, rss, keep.sum(axis=1)
