@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ogacq.diagnose.alternatives import Alternative, alternatives, noise_scale
-from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.batchfit import Design, Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, unit
 from ogacq.diagnose.locate import Location, locate, row_labels
 from ogacq.diagnose.outcome import outcome_label
@@ -188,12 +188,15 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha)
 
     everything = BASE_MODEL + EFFECT_PARAMETERS
-    seen = capability(problem.jacobian(base.theta, everything), everything, noise.sigma_mm,
-                      problem.n_data)
+    design = Design(everything, problem.jacobian(base.theta, everything))
+    # From the Jacobian's R factor: the same inner products as the Jacobian itself,
+    # every effect's column (30 rows instead of one per reading).
+    seen = capability(design.factors[1], everything, noise.sigma_mm, problem.n_data)
     located = locate(obs, base.residuals, problem.jacobian(base.theta, BASE_MODEL, False),
                      noise.sigma_mm)
 
-    selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects)
+    selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects,
+                       design=design)
     share = explained_share(base, selection.final, noise)
     claimed, final_fit = base, base_fit
     if selection.final.effects and (selection.final.verdict.consistent

@@ -12,11 +12,14 @@ instead of every reading.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ogacq.identify.fit import Weighting
 from ogacq.identify.observations import Observations
-from ogacq.model.measurement import predict_coordinates
+from ogacq.model.measurement import predict_coordinates, predict_jacobian
+from ogacq.model.parameters import indices
 
 
 class GroupSpace:
@@ -56,6 +59,15 @@ class GroupSpace:
         ``constant_rss`` is the weighted residual sum of squares."""
         predicted = predict_coordinates(theta, self.layout, self.obs.machine)
         return self._project((self._mean - predicted) * self._scale)
+
+    def jacobian_at(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
+        """(G, p) the weighted Jacobian of the named parameters at ``theta`` (without
+        drift) in group coordinates, from the model at one reading per group: the
+        same as :meth:`jacobian` of the readings' weighted Jacobian, without
+        evaluating it at every reading."""
+        jac = predict_jacobian(np.asarray(theta, dtype=float)[None], self.layout,
+                               self.obs.machine, np.array(indices(names), dtype=int))[0]
+        return self._project((jac * self._scale[:, None]).T).T
 
     def jacobian(self, weighted_jac: np.ndarray) -> np.ndarray:
         """(G, p) group coordinates of a weighted Jacobian (m, p) of the readings:
