@@ -63,14 +63,8 @@ class GroupSpace:
     def jacobian_at(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
         """(G, p) the weighted Jacobian of the named parameters at ``theta`` (without
         drift) in group coordinates, from the model at one reading per group: the
-        same as :meth:`jacobian` of the readings' weighted Jacobian, without
-        evaluating it at every reading."""
+        same as the group coordinates of the readings' weighted Jacobian (its rows
+        are constant within a group), without evaluating it at every reading."""
         jac = predict_jacobian(np.asarray(theta, dtype=float)[None], self.layout,
                                self.obs.machine, np.array(indices(names), dtype=int))[0]
         return self._project((jac * self._scale[:, None]).T).T
-
-    def jacobian(self, weighted_jac: np.ndarray) -> np.ndarray:
-        """(G, p) group coordinates of a weighted Jacobian (m, p) of the readings:
-        its rows are constant within a group, so nothing is lost."""
-        return self._groups.group_space(weighted_jac.T).T[self._order]
-
