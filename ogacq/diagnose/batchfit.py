@@ -21,6 +21,7 @@ import numpy as np
 
 from ogacq.diagnose.gaugesums import GaugeSums
 from ogacq.diagnose.groupspace import GroupSpace
+from ogacq.diagnose.locate import RowLabels, row_labels
 from ogacq.identify.fit import Weighting
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import GaugeNoise, noise_for
@@ -81,6 +82,11 @@ class Problem:
         """(B, m) weighted residuals; the weighting projects the gauge zeros out itself,
         so the unweighted removal of :meth:`residuals` is skipped."""
         return self.weighted(self.obs.values[None] - self.predict(theta))
+
+    @cached_property
+    def labels(self) -> RowLabels:
+        """What each observation belongs to (``locate.row_labels``), found once."""
+        return row_labels(self.obs)
 
     @cached_property
     def group_space(self) -> GroupSpace | None:
