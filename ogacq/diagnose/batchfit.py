@@ -167,8 +167,9 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
     # Without thermal drift, raw readings are fitted on their repeat groups' means
     # (exact, ``groupspace.py``); with it, on every reading.
     start_drifts = bool(np.any(theta_start[_DRIFT] != 0.0))
+    drift = set(_DRIFT.tolist())
     on_groups = np.array([problem.group_space is not None and not start_drifts
-                          and not np.isin(f, _DRIFT).any() for f in free])
+                          and drift.isdisjoint(f.tolist()) for f in free])
     for grouped in (True, False):
         chosen = np.flatnonzero(on_groups == grouped)
         if not len(chosen):
