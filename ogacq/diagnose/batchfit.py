@@ -4,11 +4,12 @@ Each candidate frees its own parameters beside a common model (the joint offsets
 and the effects chosen so far), so the candidates do not share a free set and the
 identification engine's ``gauss_newton`` (one free set per batch) does not apply.
 They do share a starting point: the common model's solution. One Jacobian of
-every parameter there serves all candidates, and the batch is iterated with that
-fixed Jacobian (a chord Gauss-Newton) while each residual is the exact model's,
-evaluated for all candidates in one vectorised call. At the magnitudes of real
-effects the Jacobian barely changes over a candidate's step, so three iterations
-reach the exact least-squares fit to far below the gauge noise.
+every parameter there, decomposed once (QR), serves all candidates, and the batch
+is iterated with that fixed Jacobian (a chord Gauss-Newton) while each residual is
+the exact model's, evaluated for a chunk of candidates in one vectorised call. At
+the magnitudes of real effects the Jacobian barely changes over a candidate's
+step, so three iterations reach the exact least-squares fit to far below the gauge
+noise.
 """
 
 from __future__ import annotations
