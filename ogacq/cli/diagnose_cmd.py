@@ -9,14 +9,12 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.history_record import record_diagnosis
 from ogacq.cli.options import (
     HistoryOption,
     JsonOption,
     OtherGeometryOption,
     RecordedMachineOption,
 )
-from ogacq.cli.render_diagnosis import print_diagnosis
 from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.identify.plausibility import check_result
@@ -46,9 +44,15 @@ def diagnose_command(
     except DiagnosisError as exc:
         raise InputError(file, str(exc)) from None
     check_result(result.final_fit)
+    # The terminal rendering (rich) and the history (sessions) are imported only
+    # when used: start-up is most of a short campaign's diagnosis.
     if as_json:
         typer.echo(json.dumps(result.to_json()))
     else:
+        from ogacq.cli.render_diagnosis import print_diagnosis
+
         print_diagnosis(result, machine_file=str(machine or file))
     if sniff(file) == "session" and not other_geometry:
+        from ogacq.cli.history_record import record_diagnosis
+
         record_diagnosis(file, result.to_json(), history)

@@ -4,11 +4,12 @@ Each candidate frees its own parameters beside a common model (the joint offsets
 and the effects chosen so far), so the candidates do not share a free set and the
 identification engine's ``gauss_newton`` (one free set per batch) does not apply.
 They do share a starting point: the common model's solution. One Jacobian of
-every parameter there serves all candidates, and the batch is iterated with that
-fixed Jacobian (a chord Gauss-Newton) while each residual is the exact model's,
-evaluated for all candidates in one vectorised call. At the magnitudes of real
-effects the Jacobian barely changes over a candidate's step, so three iterations
-reach the exact least-squares fit to far below the gauge noise.
+every parameter there, decomposed once (QR), serves all candidates, and the batch
+is iterated with that fixed Jacobian (a chord Gauss-Newton) while each residual is
+the exact model's, evaluated for a chunk of candidates in one vectorised call. At
+the magnitudes of real effects the Jacobian barely changes over a candidate's
+step, so three iterations reach the exact least-squares fit to far below the gauge
+noise.
 """
 
 from __future__ import annotations
@@ -19,7 +20,9 @@ from functools import cached_property
 
 import numpy as np
 
+from ogacq.diagnose.gaugesums import GaugeSums
 from ogacq.diagnose.groupspace import GroupSpace
+from ogacq.diagnose.locate import RowLabels, row_labels
 from ogacq.identify.fit import Weighting
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import GaugeNoise, noise_for
@@ -29,8 +32,14 @@ from ogacq.model.parameters import AXES, PARAM_NAMES, effect_of, indices
 _DRIFT = indices([f"thermal_drift.{a}" for a in AXES])
 CHORD_ITERATIONS = 3
 # Candidates are fitted in chunks of at most this many (candidate, row) values per
-# array (8 MB): memory then grows with the readings, not readings x candidates.
-CHUNK_VALUES = 1_000_000
+# array, or one candidate when a single one has more: memory then grows with the
+# readings, not readings x candidates. The size is set by speed, not memory: the
+# model's evaluation makes dozens of temporaries of this size, and while each fits
+# in a core's own cache (1 MiB, 131,072 float64, on the 2-core machine of issue 14,
+# as on most cores since 2017) a candidate costs about half of what it costs when
+# they spill to the shared cache or memory (72,000 readings: 8 ms an evaluation per
+# candidate alone, 14 ms batched by 13).
+CHUNK_VALUES = 100_000
 
 
 class Problem:
@@ -42,6 +51,8 @@ class Problem:
         self.noise = noise or noise_for(obs)
         self.weighting = Weighting(obs, "gls", self.noise)
         self.n_data = len(obs) - obs.n_nuisance  # independent observations
+        # raw readings: zeros and weighting by sums, on the calling thread (gaugesums.py)
+        self._sums = GaugeSums(obs, self.weighting) if obs.raw else None
 
     def predict(self, theta: np.ndarray) -> np.ndarray:
         """(B, m) predictions. Rows with thermal drift need every reading's pose
@@ -56,15 +67,27 @@ class Problem:
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         """(B, m) observed minus predicted, gauge zeros removed (mm), unweighted."""
-        return self.obs.remove_zeros(self.obs.values[None] - self.predict(theta))
+        return self.remove_zeros(self.obs.values[None] - self.predict(theta))
+
+    def remove_zeros(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`Observations.remove_zeros` along the last axis."""
+        return self.obs.remove_zeros(x) if self._sums is None else self._sums.remove_zeros(x)
 
     def weighted(self, residuals: np.ndarray) -> np.ndarray:
-        return self.weighting.residual(residuals)
+        """:meth:`Weighting.residual` along the last axis."""
+        if self._sums is None:
+            return self.weighting.residual(residuals)
+        return self._sums.weighted(residuals)
 
     def weighted_residuals(self, theta: np.ndarray) -> np.ndarray:
         """(B, m) weighted residuals; the weighting projects the gauge zeros out itself,
         so the unweighted removal of :meth:`residuals` is skipped."""
         return self.weighted(self.obs.values[None] - self.predict(theta))
+
+    @cached_property
+    def labels(self) -> RowLabels:
+        """What each observation belongs to (``locate.row_labels``), found once."""
+        return row_labels(self.obs)
 
     @cached_property
     def group_space(self) -> GroupSpace | None:
@@ -76,8 +99,12 @@ class Problem:
                  weighted: bool = True) -> np.ndarray:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
         (analytic), weighted unless asked otherwise."""
-        jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))
-        return self.weighting.jac(jac)[0] if weighted else jac[0]
+        jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))[0]
+        if not weighted:
+            return jac
+        if self._sums is None:
+            return self.weighting.jac(jac[None])[0]
+        return self._sums.weighted(jac.T).T
 
 
 @dataclass
@@ -108,12 +135,28 @@ class CandidateFits:
         return out
 
 
+@dataclass
+class Design:
+    """A weighted Jacobian ``jw`` (m, U) of the parameters ``names`` at one
+    parameter vector, with its QR factors once asked for: a caller that needs both
+    (the capability table and the first step of the selection) decomposes it once."""
+
+    names: tuple[str, ...]
+    jw: np.ndarray
+
+    @cached_property
+    def factors(self) -> tuple[np.ndarray, np.ndarray]:
+        """``q`` (m, k) orthonormal and ``r`` (k, U), ``jw = q r``, k = min(m, U)."""
+        q, r = np.linalg.qr(self.jw)
+        return q, r
+
+
 def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
              extras: Sequence[Sequence[str]], iterations: int = CHORD_ITERATIONS,
-             jac: tuple[tuple[str, ...], np.ndarray] | None = None) -> CandidateFits:
+             jac: Design | None = None) -> CandidateFits:
     """Fit ``model + extra`` for every extra, each started from ``theta_start`` (the
-    model's own solution). ``jac``: the weighted Jacobian (names, (m, U)) at
-    ``theta_start`` when the caller already holds one covering all the names."""
+    model's own solution). ``jac``: the weighted Jacobian at ``theta_start`` when
+    the caller already holds one covering the names fitted on every reading."""
     model = tuple(model)
     extras = [tuple(e) for e in extras]
     theta_start = np.asarray(theta_start, dtype=float)
@@ -121,80 +164,124 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
                         np.empty(len(extras)), np.empty(len(extras), dtype=int))
     if not extras:
         return out
-    union = tuple(dict.fromkeys(model + tuple(n for e in extras for n in e)))
-    if jac is None or not set(union) <= set(jac[0]):
-        jac = (union, problem.jacobian(theta_start, union))
-    jac_names, jw = jac
-    position = {n: k for k, n in enumerate(jac_names)}
-    sizes = sorted({len(e) for e in extras})
-    for size in sizes:
-        rows = np.array([k for k, e in enumerate(extras) if len(e) == size])
-        names = [model + extras[k] for k in rows]
-        cols = np.array([[position[n] for n in ns] for ns in names], dtype=int)
-        free = np.array([indices(ns) for ns in names], dtype=int)
-        theta, rss, rank = _chord(problem, theta_start, jw, cols, free, iterations)
-        out.theta[rows], out.rss[rows], out.rank[rows] = theta, rss, rank
+    free = [np.array(indices(model + e), dtype=int) for e in extras]
+    # Without thermal drift, raw readings are fitted on their repeat groups' means
+    # (exact, ``groupspace.py``); with it, on every reading.
+    start_drifts = bool(np.any(theta_start[_DRIFT] != 0.0))
+    drift = set(_DRIFT.tolist())
+    on_groups = np.array([problem.group_space is not None and not start_drifts
+                          and drift.isdisjoint(f.tolist()) for f in free])
+    for grouped in (True, False):
+        chosen = np.flatnonzero(on_groups == grouped)
+        if not len(chosen):
+            continue
+        names = tuple(dict.fromkeys(model + tuple(n for k in chosen for n in extras[k])))
+        space = _Space.build(problem, theta_start, names, grouped, jac)
+        for size in sorted({len(extras[k]) for k in chosen}):
+            rows = np.array([k for k in chosen if len(extras[k]) == size])
+            cols = np.array([[space.position[n] for n in model + extras[k]] for k in rows],
+                            dtype=int)
+            theta, rss, rank = _chord(space, theta_start, cols,
+                                      np.array([free[k] for k in rows]), iterations)
+            out.theta[rows], out.rss[rows], out.rank[rows] = theta, rss, rank
     return out
 
 
-def _chord(problem: Problem, theta_start: np.ndarray, jw: np.ndarray, cols: np.ndarray,
-           free: np.ndarray, iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The chord fits of candidates of one size. Without thermal drift they are fitted
-    on the repeat groups' means (exact, ``groupspace.py``); the others on every
-    reading, a chunk at a time so that the (B, m) arrays stay within
-    ``CHUNK_VALUES`` however long the campaign. Each candidate's fit is
-    independent of the others'."""
+@dataclass(frozen=True)
+class _Space:
+    """Where candidates are fitted: ``residuals`` (B, N) -> (B, m) weighted, the
+    QR factors of the weighted Jacobian there at the common start (``q`` (m, k)
+    orthonormal, ``r`` (k, U), the columns of ``position``), the start's residuals'
+    coordinates along ``q`` and sum of squares, and what every fit there adds to
+    its sum of squares.
+
+    A candidate's columns of the Jacobian are ``q`` times its columns of ``r``, so
+    its singular value decomposition is that of a (k, p) matrix, and what a step
+    needs of a residual vector is its k coordinates along ``q``: no candidate
+    decomposes an (m, p) matrix, and the products over the m rows are ``einsum``
+    sums on the calling thread (gaugesums.py says why that matters)."""
+
+    residuals: Callable[[np.ndarray], np.ndarray]
+    position: dict[str, int]
+    q: np.ndarray
+    r: np.ndarray
+    start: np.ndarray  # (k,) coordinates of the start's residuals along q
+    start_rss: float
+    constant: float
+
+    @classmethod
+    def build(cls, problem: Problem, theta_start: np.ndarray, names: tuple[str, ...],
+              on_groups: bool, jac: Design | None) -> _Space:
+        """The space of the repeat groups' means or of every observation, for
+        candidates freeing at most ``names``."""
+        space = problem.group_space if on_groups else None
+        if space is not None:
+            # G rows: decomposed directly, whatever the caller holds
+            design = Design(names, space.jacobian_at(theta_start, names))
+            residuals, constant = space.residuals, space.constant_rss
+        else:
+            if jac is None or not set(names) <= set(jac.names):
+                jac = Design(names, problem.jacobian(theta_start, names))
+            design, residuals, constant = jac, problem.weighted_residuals, 0.0
+        q, r = design.factors
+        start = residuals(theta_start[None])[0]  # where every candidate starts
+        return cls(residuals, {n: k for k, n in enumerate(design.names)}, q, r,
+                   _along(start[None], q)[0], float(np.sum(start**2)), constant)
+
+
+def _along(r: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(B, k) coordinates of the rows of ``r`` (B, m) along the columns of ``q``."""
+    return np.einsum("bm,mk->bk", r, q)
+
+
+def _chord(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.ndarray,
+           iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The chord fits of candidates of one size in ``space``, a chunk at a time so
+    that the (B, m) arrays stay within ``CHUNK_VALUES`` however long the campaign.
+    Each candidate's fit is independent of the others'."""
     batch = len(cols)
     theta = np.empty((batch, len(theta_start)))
     rss = np.empty(batch)
     rank = np.empty(batch, dtype=int)
-    drifts = np.isin(free, _DRIFT).any(axis=1) | bool(np.any(theta_start[_DRIFT] != 0.0))
-    space = problem.group_space
-    for rows, fitted in ((np.flatnonzero(~drifts), space), (np.flatnonzero(drifts), None)):
-        if not len(rows):
-            continue
-        jw_here = jw if fitted is None else fitted.jacobian(jw)
-        residuals = (problem.weighted_residuals if fitted is None else fitted.residuals)
-        constant = 0.0 if fitted is None else fitted.constant_rss
-        start = residuals(theta_start[None])[0]  # where every candidate starts
-        chunk = max(1, CHUNK_VALUES // max(len(jw_here), 1))
-        for lo in range(0, len(rows), chunk):
-            part = rows[lo:lo + chunk]
-            theta[part], rss[part], rank[part] = _chord_chunk(
-                residuals, theta_start, start, jw_here, cols[part], free[part], iterations)
-        rss[rows] += constant
-    return theta, rss, rank
+    chunk = max(1, CHUNK_VALUES // max(len(space.q), 1))
+    for lo in range(0, batch, chunk):
+        part = slice(lo, lo + chunk)
+        theta[part], rss[part], rank[part] = _chord_chunk(
+            space, theta_start, cols[part], free[part], iterations)
+    return theta, rss + space.constant, rank
 
 
-def _chord_chunk(residuals: Callable[[np.ndarray], np.ndarray], theta_start: np.ndarray,
-                 start: np.ndarray, jw: np.ndarray, cols: np.ndarray, free: np.ndarray,
+def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.ndarray,
                  iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Chord Gauss-Newton of a batch; ``residuals`` (B, N) -> (B, m) weighted, in the
-    space of the rows of ``jw``, ``start`` (m,) theirs at ``theta_start``."""
+    """Chord Gauss-Newton of a batch in ``space``, every candidate from ``theta_start``."""
     batch, p = cols.shape
     ranges = np.array([[effect_of(PARAM_NAMES[k]).plausible_range for k in row]
                        for row in free])
-    a = np.moveaxis(jw[:, cols], 0, 1) * ranges[:, None, :]  # (B, m, p), plausible units
+    a = np.moveaxis(space.r[:, cols], 0, 1) * ranges[:, None, :]  # (B, k, p), plausible units
     u, s, vt = np.linalg.svd(a, full_matrices=False)
-    del a
     keep = s > s[:, :1] * RANK_TOLERANCE
     inv_s = np.where(keep, 1.0 / np.where(keep, s, 1.0), 0.0)
     rows = np.arange(batch)[:, None]
 
     theta = np.repeat(theta_start[None], batch, axis=0)
-    r = np.repeat(start[None], batch, axis=0)
-    rss = np.sum(r**2, axis=1)
-    for _ in range(iterations):
-        coef = np.einsum("bmk,bm->bk", u, r) * inv_s
-        step = np.einsum("bkp,bk->bp", vt, coef) * ranges
-        trial = theta.copy()
-        trial[rows, free] += step
-        r_trial = residuals(trial)
+    along = np.repeat(space.start[None], batch, axis=0)  # residuals' coordinates along q
+    rss = np.full(batch, space.start_rss)
+    moving = np.arange(batch)  # candidates whose last step lowered their cost
+    for iteration in range(iterations):
+        coef = np.einsum("bkj,bk->bj", u[moving], along[moving]) * inv_s[moving]
+        step = np.einsum("bjp,bj->bp", vt[moving], coef) * ranges[moving]
+        trial = theta[moving]
+        trial[rows[:len(moving)], free[moving]] += step
+        r_trial = space.residuals(trial)
         rss_trial = np.sum(r_trial**2, axis=1)
         # A step that does not lower the cost is beyond the fixed Jacobian's reach
-        # (and stays so: the same step would be tried again), in any chunk.
-        better = rss_trial < rss
-        theta[better], r[better], rss[better] = trial[better], r_trial[better], rss_trial[better]
-        if not better.any():
+        # and stays so: from the same point the same step would be tried again, so
+        # that candidate is not evaluated any more.
+        better = rss_trial < rss[moving]
+        moving = moving[better]
+        theta[moving], rss[moving] = trial[better], rss_trial[better]
+        if not len(moving):
             break
+        if iteration + 1 < iterations:
+            along[moving] = _along(r_trial[better], space.q)
     return theta, rss, keep.sum(axis=1)

@@ -19,9 +19,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ogacq.diagnose.alternatives import Alternative, alternatives, noise_scale
-from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.batchfit import Design, Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, unit
-from ogacq.diagnose.locate import Location, locate, row_labels
+from ogacq.diagnose.locate import Location, locate
 from ogacq.diagnose.outcome import outcome_label
 from ogacq.diagnose.robustness import resting_cell
 from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
@@ -188,12 +188,15 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha)
 
     everything = BASE_MODEL + EFFECT_PARAMETERS
-    seen = capability(problem.jacobian(base.theta, everything), everything, noise.sigma_mm,
-                      problem.n_data)
+    design = Design(everything, problem.jacobian(base.theta, everything))
+    # From the Jacobian's R factor: the same inner products as the Jacobian itself,
+    # every effect's column (30 rows instead of one per reading).
+    seen = capability(design.factors[1], everything, noise.sigma_mm, problem.n_data)
     located = locate(obs, base.residuals, problem.jacobian(base.theta, BASE_MODEL, False),
-                     noise.sigma_mm)
+                     noise.sigma_mm, problem.labels)
 
-    selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects)
+    selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects,
+                       design=design)
     share = explained_share(base, selection.final, noise)
     claimed, final_fit = base, base_fit
     if selection.final.effects and (selection.final.verdict.consistent
@@ -203,7 +206,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
                            final_fit.identifiability.rank, alpha)
     remaining = located if claimed is base else locate(
         obs, claimed.residuals, problem.jacobian(claimed.theta, claimed.names, False),
-        noise.sigma_mm)
+        noise.sigma_mm, problem.labels)
 
     inflation = float(np.sqrt(noise_scale(claimed)))
     effects = _effects(obs, problem, noise, claimed, final_fit, inflation, separate)
@@ -216,13 +219,13 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
         plans = plan_capabilities(obs.machine, claimed.theta, noise.sigma_mm)
     return Diagnosis(obs.source, obs.kind, len(obs), noise, seen, selection, claimed, share,
                      base_fit, final_fit, located, remaining, effects, inflation,
-                     _postures_per_leg(obs), plans)
+                     _postures_per_leg(problem), plans)
 
 
-def _postures_per_leg(obs: Observations) -> int:
-    if not obs.raw:
+def _postures_per_leg(problem: Problem) -> int:
+    if not problem.obs.raw:
         return 3  # tabulated deviations: Zero, Max, Min
-    labels = row_labels(obs)
+    labels = problem.labels
     return max(len(set(labels.posture[labels.leg == leg].tolist()))
                for leg in set(labels.leg.tolist()))
 

@@ -12,11 +12,14 @@ instead of every reading.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from ogacq.identify.fit import Weighting
 from ogacq.identify.observations import Observations
-from ogacq.model.measurement import predict_coordinates
+from ogacq.model.measurement import predict_coordinates, predict_jacobian
+from ogacq.model.parameters import indices
 
 
 class GroupSpace:
@@ -57,8 +60,11 @@ class GroupSpace:
         predicted = predict_coordinates(theta, self.layout, self.obs.machine)
         return self._project((self._mean - predicted) * self._scale)
 
-    def jacobian(self, weighted_jac: np.ndarray) -> np.ndarray:
-        """(G, p) group coordinates of a weighted Jacobian (m, p) of the readings:
-        its rows are constant within a group, so nothing is lost."""
-        return self._groups.group_space(weighted_jac.T).T[self._order]
-
+    def jacobian_at(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
+        """(G, p) the weighted Jacobian of the named parameters at ``theta`` (without
+        drift) in group coordinates, from the model at one reading per group: the
+        same as the group coordinates of the readings' weighted Jacobian (its rows
+        are constant within a group), without evaluating it at every reading."""
+        jac = predict_jacobian(np.asarray(theta, dtype=float)[None], self.layout,
+                               self.obs.machine, np.array(indices(names), dtype=int))[0]
+        return self._project((jac * self._scale[:, None]).T).T

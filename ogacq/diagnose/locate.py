@@ -49,12 +49,17 @@ def row_labels(obs: Observations) -> RowLabels:
         signs = {-1: "-", 0: "0", 1: "+"}
         # named once per distinct value: campaigns repeat few postures many times
         positions, at = np.unique(along, return_inverse=True)
-        sides, side = np.unique(lay.approach, axis=0, return_inverse=True)
+        # each joint's -1/0/+1 as a base-3 digit: one integer per reading, whose
+        # distinct values numpy finds far faster than distinct rows
+        digits = lay.approach + 1
+        sides, side = np.unique(digits[:, 0] * 9 + digits[:, 1] * 3 + digits[:, 2],
+                                return_inverse=True)
         return RowLabels(
             lay.leg, lay.gauge_axis,
             np.array([posture_name(s, obs.machine) for s in positions])[at.ravel()],
             lay.cycle, lay.t_s,
-            np.array(["".join(signs[int(v)] for v in a) for a in sides])[side.ravel()])
+            np.array(["".join(signs[int(c) // 3**k % 3 - 1] for k in (2, 1, 0))
+                      for c in sides])[side.ravel()])
     parsed = [DEVIATION_NAME.match(label) for label in obs.labels]
     n = len(parsed)
     return RowLabels(
@@ -150,10 +155,11 @@ def _scale(obs: Observations) -> np.ndarray:
 
 
 def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
-           sigma_mm: float) -> Location:
+           sigma_mm: float, labels: RowLabels | None = None) -> Location:
     """Where ``residuals`` (unweighted, gauge zeros removed) of a fit with unweighted
-    Jacobian ``jac`` sit, judged against the gauge noise ``sigma_mm``."""
-    labels = row_labels(obs)
+    Jacobian ``jac`` sit, judged against the gauge noise ``sigma_mm``. ``labels``:
+    ``row_labels(obs)`` when the caller has them."""
+    labels = row_labels(obs) if labels is None else labels
     scale = _scale(obs)
     chi2 = residuals**2 / (sigma_mm**2 * scale)
     expected = np.clip(residual_variance(obs, jac) / scale, 0.0, None)

@@ -19,7 +19,7 @@ import numpy as np
 
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS
-from ogacq.diagnose.locate import row_labels
+from ogacq.diagnose.locate import RowLabels
 from ogacq.diagnose.nested import nested_test
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL
@@ -29,8 +29,7 @@ from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import NOMINAL, indices
 
 
-def _cells(obs: Observations) -> np.ndarray:
-    labels = row_labels(obs)
+def _cells(labels: RowLabels) -> np.ndarray:
     return np.char.add(np.char.add(labels.gauge.astype(str), " at "),
                        labels.posture.astype(str))
 
@@ -61,7 +60,7 @@ def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Mode
     if not claimed.effects:
         return None
     obs = problem.obs
-    cells = _cells(obs)
+    cells = _cells(problem.labels)
     gain = (base.residuals**2 - claimed.residuals**2) / (
         np.ones(len(obs)) if obs.raw else np.diag(obs.noise_cov))
     top = max(dict.fromkeys(cells.tolist()), key=lambda c: gain[cells == c].sum())

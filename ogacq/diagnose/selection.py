@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ogacq.diagnose.batchfit import CandidateFits, Problem, fit_many
+from ogacq.diagnose.batchfit import CandidateFits, Design, Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, label, pairs, singles
 from ogacq.diagnose.nested import information_criteria, nested_test, nested_tests
 from ogacq.identify.consistency import LEVEL, Verdict, judge
@@ -181,15 +181,19 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
 
 
 def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = LEVEL,
-           max_effects: int = MAX_EFFECTS) -> Selection:
+           max_effects: int = MAX_EFFECTS, design: Design | None = None) -> Selection:
+    """``design``: the weighted Jacobian of the offsets and every effect at the base
+    model's solution, when the caller holds it."""
     selection = Selection(base, base)
     current = base
     while current.verdict.state == "inconsistent" and len(current.effects) < max_effects:
         room = max_effects - len(current.effects)
         extras = singles(current.effects) + (pairs(current.effects) if room >= 2 else [])
-        union = current.names + tuple(n for n in EFFECT_PARAMETERS if n not in current.names)
-        jac = (union, problem.jacobian(current.theta, union))
-        cands = fit_many(problem, current.theta, current.names, extras, jac=jac)
+        if current is not base or design is None:
+            union = current.names + tuple(n for n in EFFECT_PARAMETERS
+                                          if n not in current.names)
+            design = Design(union, problem.jacobian(current.theta, union))
+        cands = fit_many(problem, current.theta, current.names, extras, jac=design)
         selection.candidates_fitted += len(extras)
         considered = _consider(cands, current, problem, noise, alpha)
 

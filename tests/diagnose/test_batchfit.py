@@ -6,8 +6,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ogacq.diagnose.batchfit import Problem, fit_many
+from ogacq.diagnose.batchfit import Design, Problem, fit_many
+from ogacq.diagnose.gaugesums import GaugeSums
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, pairs, singles
+from ogacq.diagnose.robustness import _without
 from ogacq.diagnose.visibility import capability
 from ogacq.identify.fit import fit
 from ogacq.identify.identifiability import assess
@@ -68,3 +70,54 @@ def test_drift_needs_time_and_backlash_needs_reversals():
     cap = capability(problem.jacobian(theta, names), names, NOISE_MM, problem.n_data)
     assert {"backlash.x", "backlash.y", "backlash.z"} & set(cap.invisible() + cap.weak()) \
         or cap.saturated
+
+
+def test_diagnosis_weighting_is_the_fit_weighting(campaign):
+    """The diagnosis weights raw readings by per-gauge sums (no threaded matrix
+    products); it must be the identification's weighting exactly, also when a gauge
+    has lost all its readings (the robustness test drops a cell)."""
+    obs, problem, base = campaign
+    rng = np.random.default_rng(3)
+    x = rng.normal(0.0, 0.01, (2, len(obs)))
+    assert np.allclose(problem.weighted(x), problem.weighting.residual(x), rtol=0, atol=1e-14)
+    assert np.allclose(problem.remove_zeros(x), obs.remove_zeros(x), rtol=0, atol=1e-14)
+    names = BASE_MODEL + ("squareness.xy", "thermal_drift.y")
+    raw = problem.jacobian(base.theta, names, weighted=False)
+    assert np.allclose(problem.jacobian(base.theta, names), problem.weighting.jac(raw[None])[0],
+                       rtol=0, atol=1e-12)
+    rest = _without(obs, obs.layout.gauge != 0)  # gauge 0 keeps its key, no reading
+    sums = GaugeSums(rest, Problem(rest).weighting)
+    y = x[:, obs.layout.gauge != 0]
+    expected = np.stack([np.bincount(rest.layout.gauge, weights=row,
+                                     minlength=rest.layout.n_gauges) for row in y])
+    assert np.allclose(sums.sums(y), expected, rtol=0, atol=1e-14)
+    assert np.all(np.isfinite(sums.weighted(y)))
+
+
+def test_group_jacobian_is_the_readings_jacobian_on_group_means(campaign):
+    obs, problem, base = campaign
+    names = BASE_MODEL + ("squareness.xy", "backlash.z", "gauge_scale.x_y")
+    space = problem.group_space
+    readings = problem.jacobian(base.theta, names)  # (m, p), weighted
+    groups = problem.weighting.groups
+    first = np.sort(np.unique(groups.group, return_index=True)[1])  # a reading per group
+    on_means = groups.group_space(readings.T).T[groups.group[first]]
+    direct = space.jacobian_at(base.theta, names)
+    assert direct.shape == (len(space), len(names))
+    assert np.allclose(direct, on_means,
+                       rtol=0, atol=1e-9 * np.abs(direct).max())
+
+
+def test_capability_from_the_r_factor_is_the_capability_from_the_jacobian(campaign):
+    _, problem, base = campaign
+    names = BASE_MODEL + EFFECT_PARAMETERS
+    design = Design(names, problem.jacobian(base.theta, names))
+    full = capability(design.jw, names, NOISE_MM, problem.n_data)
+    reduced = capability(design.factors[1], names, NOISE_MM, problem.n_data)
+    assert reduced.effect_rank == full.effect_rank
+    assert reduced.alias_groups() == full.alias_groups()
+    for name, seen in full.visibility.items():
+        other = reduced.visibility[name]
+        assert other.std == pytest.approx(seen.std, rel=1e-9)
+        assert other.absorbed == pytest.approx(seen.absorbed, rel=1e-9, abs=1e-12)
+        assert [a for a, _ in other.aliases] == [a for a, _ in seen.aliases]
