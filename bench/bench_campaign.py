@@ -155,9 +155,12 @@ LOAD_PID: list[int] = []  # the bench's own load process, while it runs
 
 
 def start_simulator(speed: float) -> tuple[subprocess.Popen, dict]:
+    # Ctrl-C stops it: a bench run in the background (nohup, &) hands its children
+    # SIGINT ignored, and Python then installs no handler for it
     proc = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", str(speed),
                              "--seed", "1", "--json"], stdout=subprocess.PIPE,
-                            start_new_session=True, text=True)
+                            start_new_session=True, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     return proc, json.loads(proc.stdout.readline())
 
 
@@ -198,7 +201,7 @@ def run(folder: Path, speed: float, settle: str, runner_class=CampaignRunner) ->
         os.killpg(proc.pid, signal.SIGINT)
         try:
             proc.wait(30)
-        except subprocess.TimeoutExpired:  # seen twice on the loaded machine, not reproduced
+        except subprocess.TimeoutExpired:  # a last resort: the figures are kept
             print("   (the simulator did not stop within 30 s of Ctrl-C: killed)",
                   file=sys.stderr)
             os.killpg(proc.pid, signal.SIGKILL)
