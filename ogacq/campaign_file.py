@@ -49,11 +49,11 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     postures = ["zero", "max", "min", "zero"]
     cycles = 3
     approach = "sequence"             # sequence, from_below, from_above, both
-    settle = "fixed"                  # "fixed": wait settle_s after each move; "stable":
-                                      # read once the gauges agree (at most settle_s)
+    settle = "stable"                 # "stable": read once each gauge is at rest against
+                                      # its own noise (at most settle_s); "fixed": wait
     settle_s = 1.0
-    settle_window_s = 0.1             # stable: values over this long agree within the
-                                      # [stability] tolerance_mm
+    settle_window_s = 0.1             # stable: one period of the slowest ringing covered
+                                      # (0.1 s: 10 Hz and faster)
     # scan_step_mm = 1.0              # a scan instead of postures: every 1 mm, up and down
     # scan_from_mm = -50.0            # the scan's range (default: rho_min..rho_max)
     # scan_to_mm = 50.0
@@ -362,7 +362,7 @@ _PROTOCOL = Table((
     Field("overshoot_mm", number(minimum=0.0)),
     Field("settle", text(*SETTLES)),
     Field("settle_s", number(minimum=0.0)),
-    Field("settle_window_s", number(minimum=0.0)),
+    Field("settle_window_s", number(positive=True)),
     Field("move_timeout_s", _TIMEOUT),
     Field("scan_step_mm", number(positive=True)),
     Field("scan_from_mm", number()),

@@ -65,8 +65,9 @@ CAMPAIGN_NOTES = {
               "protocol: how it is read (README, \"Cables and interfaces\"); unit mm or inch",
     "protocol": "postures: zero, max, min or a joint position in mm (or scan_step_mm = 1.0:\n"
                 "a scan every 1 mm up and down, scan_from_mm/scan_to_mm its range); approach:\n"
-                "sequence, from_below, from_above or both; settle: fixed (wait settle_s) or\n"
-                "stable (read once the gauges agree, at most settle_s); times in s",
+                "sequence, from_below, from_above or both; settle: stable (read once each gauge\n"
+                "is at rest against its own noise, at most settle_s; settle_window_s: one period\n"
+                "of the slowest ringing covered) or fixed (wait settle_s); times in s",
     "stability": "a reading is taken once `readings` values agree within tolerance_mm",
 }
 

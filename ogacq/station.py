@@ -110,14 +110,16 @@ class DeviceStation:
 
     def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
                      ) -> dict[str, SettledGauge | DriverError]:
-        """The gauges read at once from now (the axes in position) until each one's values
-        agree by ``rule``, at most ``rule.bound_s`` of machine time."""
+        """The gauges read at once from now (the axes in position) until each one is at
+        rest by ``rule``, at most ``rule.bound_s`` of machine time."""
         out = self._gauge_reader().settle_many(
-            gauges, window_s=rule.window_s, n=rule.readings, tolerance_mm=rule.tolerance_mm,
-            bound_s=rule.bound_s, clock=self.clock_s)
+            gauges, window_s=rule.window_s, bound_s=rule.bound_s,
+            display_step_mm=rule.display_step_mm, clock=self.clock_s)
         return {g: r if isinstance(r, DriverError) else
                 SettledGauge(None if r.reading is None else _gauge_value(r.reading),
-                             r.waited_s, r.values) for g, r in out.items()}
+                             r.waited_s, r.values,
+                             None if r.reference is None else r.reference.u_mm, r.measured)
+                for g, r in out.items()}
 
     def _gauge_reader(self) -> ConcurrentReader:
         if self._reader is None:

@@ -8,21 +8,23 @@ at a time; each line gets its own worker. Every gauge's outcome comes back,
 value or error, so one failing gauge never loses the others' readings.
 
 :func:`settle_many` reads from the moment the axes are in position and stops each
-gauge once its values of the last ``window_s`` agree: the settle lasts as long as
-the machine rings, not a fixed time (``bound_s`` caps it).
+gauge once its values show the machine at rest (:mod:`ogacq_drivers.indicators.rest`):
+the settle lasts as long as the machine rings, not a fixed time (``bound_s`` caps
+it). Each gauge's rest reference is measured at its first settle and kept by the
+reader for the run.
 """
 
 from __future__ import annotations
 
 import threading
-from collections import deque
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from ogacq_drivers.errors import DeviceBusy, DriverError, FrameError
-from ogacq_drivers.indicators.base import Indicator, Reading, StableReading, read_stable
+from ogacq_drivers.indicators.base import Indicator, StableReading, read_stable
+from ogacq_drivers.indicators.rest import RestJudge, RestReference
 
 T = TypeVar("T")
 Clock = Callable[[], float]
@@ -30,12 +32,15 @@ Clock = Callable[[], float]
 
 @dataclass(frozen=True, slots=True)
 class Settled:
-    """A gauge's settle: ``reading`` (the mean of its last ``n`` agreeing values) once
-    its values agreed, None when ``bound_s`` passed first."""
+    """A gauge's settle: ``reading`` (the mean of its two windows at rest) once it was at
+    rest, None when ``bound_s`` passed first. ``reference``: the rest reference it was
+    judged against, ``measured`` when this settle measured it (waiting the bound)."""
 
     reading: StableReading | None
     waited_s: float  # clock seconds from the start of the settle to its last value
     values: int  # values read during the settle
+    reference: RestReference | None = None
+    measured: bool = False
 
 
 def line_groups(indicators: Mapping[str, Indicator]) -> list[list[str]]:
@@ -55,6 +60,8 @@ class ConcurrentReader:
         self.indicators = indicators
         self._pool: ThreadPoolExecutor | None = None
         self._stop = threading.Event()
+        # what each gauge showed at rest, measured at its first settle of the run
+        self.rest: dict[str, RestReference] = {}
 
     def close(self) -> None:
         self._stop.set()
@@ -70,23 +77,26 @@ class ConcurrentReader:
 
         return self._per_line(gauges, one)
 
-    def settle_many(self, gauges: Sequence[str], *, window_s: float, n: int,
-                    tolerance_mm: float, bound_s: float, clock: Clock,
-                    ) -> dict[str, Settled | DriverError]:
-        """Read each gauge until its values of the last ``window_s`` (at least ``n``,
-        spanning at least ``window_s`` of ``clock``) agree within ``tolerance_mm``,
-        or until ``bound_s`` of ``clock`` has passed since the call."""
+    def settle_many(self, gauges: Sequence[str], *, window_s: float, bound_s: float,
+                    display_step_mm: float, clock: Clock) -> dict[str, Settled | DriverError]:
+        """Read each gauge until its values show rest (:class:`RestJudge`: two windows of
+        ``window_s`` consistent with its rest reference), or until ``bound_s`` of
+        ``clock`` has passed since the call. A gauge without a rest reference yet
+        reads to the bound and measures it over the bound's second half."""
         start = clock()
         by_line = line_groups({g: self.indicators[g] for g in gauges})
 
         def line(group: list[str]) -> dict[str, Settled | DriverError]:
-            return _settle_line(self.indicators, group, window_s=window_s, n=n,
-                                tolerance_mm=tolerance_mm, until=start + bound_s,
-                                clock=clock, start=start, stop=self._stop)
+            judges = {g: RestJudge(window_s, display_step_mm, self.rest.get(g)) for g in group}
+            return _settle_line(self.indicators, judges, bound_s=bound_s, clock=clock,
+                                start=start, stop=self._stop)
 
         out: dict[str, Settled | DriverError] = {}
         for result in self._map(line, by_line):
             out.update(result)
+        for gauge, settled in out.items():
+            if isinstance(settled, Settled) and settled.measured and settled.reference:
+                self.rest[gauge] = settled.reference
         return {g: out[g] for g in gauges}
 
     # ------------------------------------------------------------------ internals
@@ -122,73 +132,34 @@ class ConcurrentReader:
         return [first, *(future.result() for future in futures)]
 
 
-def _settle_line(indicators: Mapping[str, Indicator], group: list[str], *, window_s: float,
-                 n: int, tolerance_mm: float, until: float, clock: Clock, start: float,
-                 stop: threading.Event) -> dict[str, Any]:
-    """The gauges of one line, read in turn until each has settled (or the bound)."""
-    windows = {g: _Window(window_s, n, tolerance_mm) for g in group}
+def _settle_line(indicators: Mapping[str, Indicator], judges: dict[str, RestJudge], *,
+                 bound_s: float, clock: Clock, start: float, stop: threading.Event,
+                 ) -> dict[str, Any]:
+    """The gauges of one line, read in turn until each is at rest (or the bound)."""
     out: dict[str, Settled | DriverError] = {}
-    for gauge in group:
+    for gauge in judges:
         indicators[gauge].flush_input()  # what arrived before the move ended is not rest
-    while len(out) < len(group) and not stop.is_set():
-        for gauge in group:
+    while len(out) < len(judges) and not stop.is_set():
+        for gauge, judge in judges.items():
             if gauge in out:
                 continue
-            window = windows[gauge]
             try:
                 reading = indicators[gauge].read()
             except (FrameError, DeviceBusy):  # breaks the run of values, as read_stable's
-                window.clear()
-                stable = None
+                judge.clear()
+                rest = None
             except DriverError as exc:
                 out[gauge] = exc
                 continue
             else:
-                stable = window.add(clock(), reading)
-            now = clock()
-            if stable is not None:
-                out[gauge] = Settled(stable, now - start, window.count)
-            elif now >= until:
-                out[gauge] = Settled(None, now - start, window.count)
+                rest = judge.add(clock() - start, reading)
+            now = clock() - start
+            if rest is not None:
+                out[gauge] = Settled(rest, now, judge.count, judge.reference)
+            elif now >= bound_s:
+                if judge.reference is None:  # the machine as still as after a fixed wait
+                    measured = judge.rest_from_tail(bound_s / 2)
+                    out[gauge] = Settled(None, now, judge.count, measured, measured is not None)
+                else:
+                    out[gauge] = Settled(None, now, judge.count, judge.reference)
     return out
-
-
-class _Window:
-    """A gauge's recent values: at least ``n`` and back to ``window_s`` before the last.
-
-    Settled when the window's peak-to-peak is within twice the tolerance (a ringing's
-    amplitude, half its peak-to-peak, within the tolerance) and its last ``n`` values
-    agree within the tolerance (a stable reading). The looser bound over the window
-    keeps the gauges' own scatter from holding the settle: a window of seven values of
-    scatter sigma spans about 2.7 sigma (the expected range of normal samples), three
-    values about 1.7 sigma."""
-
-    def __init__(self, window_s: float, n: int, tolerance_mm: float) -> None:
-        self.window_s, self.n, self.tolerance_mm = window_s, n, tolerance_mm
-        self.values: deque[tuple[float, Reading]] = deque()
-        self.count = 0
-
-    def clear(self) -> None:
-        self.values.clear()
-
-    def add(self, t: float, reading: Reading) -> StableReading | None:
-        """The stable reading once the window's values agree, else None."""
-        self.count += 1
-        values = self.values
-        values.append((t, reading))
-        # keep one value at or before the window's start, so its span can be judged
-        while len(values) > self.n and values[1][0] <= t - self.window_s:
-            values.popleft()
-        if len(values) < self.n or values[0][0] > t - self.window_s:
-            return None
-        # The epsilon keeps quantised values from failing on float noise (as read_stable).
-        tolerance = self.tolerance_mm + 1e-9
-        mm = [r.value_mm for _, r in values]
-        if max(mm) - min(mm) > 2 * tolerance:
-            return None
-        last = [r for _, r in list(values)[-self.n:]]
-        lasts = [r.value_mm for r in last]
-        if max(lasts) - min(lasts) > tolerance:
-            return None
-        return StableReading(value_mm=sum(lasts) / self.n, spread_mm=max(lasts) - min(lasts),
-                             readings=tuple(last))

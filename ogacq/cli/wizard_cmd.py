@@ -43,8 +43,8 @@ def wizard(
         help="Folder for the campaign file and the session (default: a new one named "
              "after the time).")] = None,
     cycles: Annotated[int, typer.Option(min=1, help="Zero/Max/Min/Zero cycles per leg.")] = 3,
-    settle_s: Annotated[float, typer.Option(min=0.0, help="Wait before each reading, s.")]
-    = 1.0,
+    settle_s: Annotated[float, typer.Option(
+        min=0.0, help="Longest wait for the machine to come to rest after a move, s.")] = 1.0,
     stability_timeout_s: Annotated[float, typer.Option(
         min=0.1, help="Longest wait for a gauge to give a steady value, s.")] = 10.0,
     gauge_range_mm: Annotated[float, typer.Option(

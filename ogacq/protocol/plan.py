@@ -26,10 +26,11 @@ ends, ``from_below``/``from_above`` keep one run only (unidirectional). The
 gauges are set at Zero and a Zero reading starts each leg (the gauges' setting
 posture), since a gauge is set where it first reads.
 
-Settling: after a move, ``settle = "fixed"`` waits ``settle_s``; ``"stable"``
-reads the leg's gauges from the moment the axes are in position and takes the
-values once they agree (:class:`SettleRule`), ``settle_s`` being the longest it
-waits. Where nothing moved (a posture read again), there is nothing to settle.
+Settling: after a move, ``settle = "stable"`` (the default) reads the leg's gauges
+from the moment the axes are in position and takes each one's reading once its
+values show rest against its own noise and display step (:class:`SettleRule`),
+``settle_s`` being the longest it waits; ``"fixed"`` waits ``settle_s``. Where
+nothing moved (a posture read again), there is nothing to settle.
 """
 
 from __future__ import annotations
@@ -72,12 +73,11 @@ class ProtocolConfig:
     settle_s: float = 1.0
     move_timeout_s: float = 60.0
     stability: StabilityRule = field(default_factory=StabilityRule)
-    # fixed by default: a stable settle ends once values agree within the stability
-    # tolerance, which on 1 um indicators can leave a ringing of that size in the
-    # reading (seen as a fit outside the noise); opt in where the tolerance is below
-    # the gauges' noise
-    settle: str = "fixed"
-    settle_window_s: float = 0.1
+    # stable by default: it ends when each gauge's values are at rest against the
+    # gauge's own noise and display step, leaving a ringing under a third of its
+    # uncertainty in the reading (ogacq_drivers.indicators.rest), settle_s its bound
+    settle: str = "stable"
+    settle_window_s: float = 0.1  # a period of the slowest ringing covered: 10 Hz
     scan_step_mm: float | None = None  # None: the postures above, no scan
     scan_from_mm: float | None = None  # None: the machine's rho_min
     scan_to_mm: float | None = None  # None: the machine's rho_max
@@ -102,8 +102,7 @@ class ProtocolConfig:
 
     @property
     def settle_rule(self) -> SettleRule:
-        return SettleRule(self.settle, self.settle_s, self.settle_window_s,
-                          self.stability.readings, self.stability.tolerance_mm)
+        return SettleRule(self.settle, self.settle_s, self.settle_window_s)
 
     def to_dict(self) -> dict:
         out = {"legs": list(self.legs), "postures": list(self.postures),
@@ -133,31 +132,29 @@ class SettleRule:
     """How a reading step waits for the machine to come to rest after a move.
 
     ``fixed``: ``bound_s`` of machine time. ``stable``: the gauges are read from
-    the moment the axes report in position; a gauge has settled once its values
-    of the last ``window_s`` (a span of at least that long, at least ``readings``
-    values) lie within twice ``tolerance_mm`` (a ringing's amplitude, half its
-    peak-to-peak, within the tolerance) and its last ``readings`` values agree
-    within ``tolerance_mm``; its reading is their mean, as a stable reading is
-    (:class:`StabilityRule`). The window spans a period of any vibration faster
-    than 1 / ``window_s``, so a vibration's crest, where consecutive values agree,
-    does not pass for rest.
-    ``bound_s``: the longest a stable settle waits; a gauge not settled by then is
-    read by the stability rule as after a fixed wait. No source: the rule is the
-    project's.
+    the moment the axes report in position; a gauge is at rest once the values of
+    its last two windows, each spanning ``window_s`` (a whole period of any ringing
+    of 1 / ``window_s`` Hz or faster), scatter no more than its rest scatter allows
+    (a chi-square test against its standard uncertainty from noise and display
+    step, ``display_step_mm`` the machine file's gauge resolution); its reading is
+    the mean of both windows, which leaves under a third of that uncertainty of
+    any ringing (the rule and its physics: ``ogacq_drivers.indicators.rest``).
+    ``bound_s``: the longest a stable settle waits; a gauge not at rest by then is
+    read afresh as after a fixed wait, and so is each gauge's first settle of a
+    run, which measures its rest scatter over the bound's second half.
     """
 
     kind: str  # "stable" or "fixed"
     bound_s: float
     window_s: float
-    readings: int
-    tolerance_mm: float
+    display_step_mm: float = 0.0
 
     def describe(self) -> str:
         if self.kind == "fixed":
             return f"fixed {self.bound_s:g} s"
-        return (f"stable: values over {self.window_s:g} s within 2 x {self.tolerance_mm:g} mm "
-                f"and the last {self.readings} within {self.tolerance_mm:g} mm, at most "
-                f"{self.bound_s:g} s")
+        return (f"stable: two windows of {self.window_s:g} s (ringing of "
+                f"{1 / self.window_s:g} Hz and faster) at rest against the gauge's noise and "
+                f"display step, the reading their mean; at most {self.bound_s:g} s")
 
 
 @dataclass(frozen=True)

@@ -10,6 +10,7 @@ observer callback that the command line renders.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import itertools
 import time
 from collections.abc import Callable, Iterator, Sequence
@@ -51,11 +52,13 @@ class GaugeValue:
 
 @dataclass(frozen=True)
 class SettledGauge:
-    """A gauge read from the end of a move until its values agreed (SettleRule)."""
+    """A gauge read from the end of a move until its values showed rest (SettleRule)."""
 
-    value: GaugeValue | None  # None: not settled within the rule's bound
+    value: GaugeValue | None  # None: not at rest within the rule's bound
     waited_s: float  # machine seconds from in position to its last value
     values: int  # values read meanwhile
+    u_mm: float | None = None  # the uncertainty its values were judged against
+    measured_rest: bool = False  # it waited the bound to measure its rest scatter
 
 
 class Station(Protocol):
@@ -236,7 +239,9 @@ class CampaignRunner:
     def _read_step(self, step: Read, *, settle: bool) -> None:
         """Settle (when something moved) and read the step's gauges not yet on file."""
         gauges = [g for g in step.gauges if (step.step, g) not in self.recorded]
-        rule = self.config.settle_rule
+        # the display step is the machine file's: what a still gauge may round by
+        rule = dataclasses.replace(self.config.settle_rule,
+                                   display_step_mm=self.machine.gauge_resolution_mm)
         first: dict[str, GaugeValue | DriverError] = {}
         if not settle:  # nothing moved since the last reading: nothing rings
             self.writer.write(SettleRecord(step=step.step, rule="none", ended="not moved",
@@ -251,16 +256,19 @@ class CampaignRunner:
 
     def _settle_stable(self, step: Read, gauges: list[str], rule: SettleRule,
                        ) -> dict[str, GaugeValue | DriverError]:
-        """Read from in position until the gauges agree; their values, or the errors
-        that count as each gauge's first attempt."""
+        """Read from in position until the gauges are at rest; their values, or the
+        errors that count as each gauge's first attempt."""
         outcome = self.station.read_settled(step, gauges, rule)
         settled = {g: r for g, r in outcome.items() if isinstance(r, SettledGauge)}
         waited = max((r.waited_s for r in settled.values()), default=0.0)
         bound = [g for g, r in settled.items() if r.value is None]
+        reference = tuple(g for g in bound if settled[g].measured_rest)
+        u_mm = {g: round(r.u_mm, 7) for g, r in settled.items() if r.u_mm is not None}
         self.writer.write(SettleRecord(
             step=step.step, rule="stable", ended="bound" if bound else "stable",
             waited_s=round(waited, 4), values={g: r.values for g, r in settled.items()},
-            unsettled=tuple(bound)))
+            unsettled=tuple(g for g in bound if g not in reference), reference=reference,
+            u_mm=u_mm or None))
         return {g: r.value if isinstance(r, SettledGauge) else r for g, r in outcome.items()
                 if not (isinstance(r, SettledGauge) and r.value is None)}
 

@@ -406,10 +406,13 @@ class OverrideRecord(Record):
 @dataclass(frozen=True, kw_only=True)
 class SettleRecord(Record):
     """How a reading step waited for the machine to come to rest: ``rule`` "stable"
-    (ended "stable", or "bound" when a gauge in ``unsettled`` had not agreed by the
-    plan's settle_s), "fixed" (ended "time") or "none" (ended "not moved": nothing
-    moved since the last reading). ``waited_s``: machine seconds it took; ``values``:
-    gauge values read meanwhile, per gauge. The plan in the header states the rule."""
+    (ended "stable", or "bound" when a gauge waited the plan's settle_s: one in
+    ``unsettled`` was never at rest, one in ``reference`` measured its rest scatter
+    there), "fixed" (ended "time") or "none" (ended "not moved": nothing moved since
+    the last reading). ``waited_s``: machine seconds it took; ``values``: gauge
+    values read meanwhile, per gauge; ``u_mm``: per gauge, the standard uncertainty
+    from noise and display step its values were judged against (since the rest rule;
+    a session of the earlier rule has none). The plan in the header states the rule."""
 
     KIND: ClassVar[str] = "settle"
     step: str
@@ -418,6 +421,8 @@ class SettleRecord(Record):
     waited_s: float
     values: dict[str, int] | None = None
     unsettled: tuple[str, ...] = ()
+    reference: tuple[str, ...] = ()
+    u_mm: dict[str, float] | None = None
 
     def fields(self) -> dict[str, Any]:
         out: dict[str, Any] = {"step": self.step, "rule": self.rule, "ended": self.ended,
@@ -426,15 +431,23 @@ class SettleRecord(Record):
             out["values"] = self.values
         if self.unsettled:
             out["unsettled"] = list(self.unsettled)
+        if self.reference:
+            out["reference"] = list(self.reference)
+        if self.u_mm is not None:
+            out["u_mm"] = self.u_mm
         return out
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> SettleRecord:
         waited = d.get("waited_s")
+        u_mm = d.get("u_mm")
         return cls(wall=d.get("wall"), step=str(d.get("step", "")), rule=str(d.get("rule", "")),
                    ended=str(d.get("ended", "")),
                    waited_s=float(waited) if _finite(waited) else math.nan,
-                   values=d.get("values"), unsettled=tuple(d.get("unsettled") or ()))
+                   values=d.get("values"), unsettled=tuple(d.get("unsettled") or ()),
+                   reference=tuple(d.get("reference") or ()),
+                   u_mm={str(g): float(u) for g, u in u_mm.items() if _finite(u)}
+                   if isinstance(u_mm, dict) else None)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -86,6 +86,14 @@ class SimMachine:
         return (self._zero_mm[(gauge_axis, leg)] + coords[(gauge_axis, leg)] + noise
                 + self.vibration_mm(gauge_axis, leg))
 
+    def rest_value_mm(self, gauge_axis: int, leg: int) -> float:
+        """What the gauge would read now were the machine still and the gauge without
+        noise or display step: the truth a reading is judged against (benches, tests)."""
+        q = np.array([self.encoders.raw_position_mm(a) for a in AXES])
+        approach = np.array([self.encoders.last_direction(a) for a in AXES])
+        coords = self.coordinates_mm(q, approach, self.clock.now())
+        return self._zero_mm[(gauge_axis, leg)] + coords[(gauge_axis, leg)]
+
     def vibration_mm(self, gauge_axis: int, leg: int) -> float:
         """The machine's ringing the gauge sees now (0 while an axis moves; the
         motion itself is in the coordinates)."""

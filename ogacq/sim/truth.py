@@ -76,7 +76,8 @@ class SimTruth:
         theta = self.theta.copy()
         for axis in AXES:
             theta[PARAM_INDEX[f"leg_length.{axis}"]] += machine.leg_expansion_mm(temperature_c)
-        return SimTruth(theta, self.noise_mm, dict(self.lead_screw))
+        # the rest of the physics as it was (an effects file's [vibration] included)
+        return SimTruth(theta, self.noise_mm, dict(self.lead_screw), self.vibration)
 
     def disturbed_q(self, q_mm: np.ndarray) -> np.ndarray:
         """Joint coordinates as the physics sees them: the lead-screw error added."""

@@ -23,6 +23,7 @@ from ogacq.session.records import (
     ReadingRecord,
     ResultRecord,
     ResumeRecord,
+    SettleRecord,
     StationRecord,
     record_from_json,
 )
@@ -55,11 +56,29 @@ READING = ReadingRecord(step="x/c1/p2", gauge=Gauge("y", "x"), cycle=1, posture=
     OperatorRecord(action="dial_set", details={"gauge": "y_x", "value_mm": 0.5}),
     OffsetsRecord(stage="intent", details={"operation": "write-1", "new_mm": {"x": 0.1}}),
     OtherRecord(kind="note", content={"text": "from another tool"}),
+    SettleRecord(step="x/c1/p1", rule="stable", ended="bound", waited_s=1.0042,
+                 values={"y_x": 63, "z_x": 61}, reference=("y_x", "z_x"),
+                 u_mm={"y_x": 0.0011, "z_x": 0.0009}),
+    SettleRecord(step="x/c1/p2", rule="stable", ended="bound", waited_s=1.0,
+                 values={"y_x": 64, "z_x": 20}, unsettled=("y_x",),
+                 u_mm={"y_x": 0.0011, "z_x": 0.0009}),
+    SettleRecord(step="x/c2/p1", rule="none", ended="not moved", waited_s=0.0),
 ])
 def test_every_record_reads_back_as_written(record):
     on_disk = json.loads(json.dumps({**record.to_json(), "wall": 1.5}))
     again = record_from_json(on_disk)
     assert type(again) is type(record) and again.to_json() == {**record.to_json(), "wall": 1.5}
+
+
+def test_a_settle_record_of_the_earlier_rule_still_loads():
+    """Before the rest rule a stable settle recorded no reference and no u."""
+    old = {"type": "settle", "step": "x/c1/p2", "rule": "stable", "ended": "stable",
+           "waited_s": 0.31, "values": {"y_x": 21, "z_x": 19}}
+    record = record_from_json(old)
+    assert isinstance(record, SettleRecord)
+    assert (record.ended, record.reference, record.u_mm, record.unsettled) == \
+        ("stable", (), None, ())
+    assert record.to_json() == old
 
 
 def test_a_reading_keeps_the_wire_keys_of_the_session_format():
