@@ -19,7 +19,9 @@ the simulator's ringing machine (a damped vibration after every move,
    floor: motion + the settle the ringing needs (its time constant times
    ln(amplitude / (u / 3)), from the stated vibration: until under a third of the
    gauges' standard uncertainty u = sqrt(noise^2 + q^2 / 12), the stable rule's
-   target) + the line time of one stable reading per step.
+   target) + the line time of one stable reading per step. The floor waits for the
+   largest drawn amplitude to decay; the stable rule reads during the decay and
+   averages whole periods of the ringing, so it can end at or below this floor.
 2. In real time (x1, unloaded): the runner as it was before (a fixed settle
    before every reading step, moved or not, gauges read one after the other),
    `settle = "fixed"` and `settle = "stable"` (the default): wall time, the
