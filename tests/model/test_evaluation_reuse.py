@@ -78,3 +78,19 @@ def test_no_leg_length_term_is_the_zero_term():
     dr = rng.normal(size=(1, 6, 3, 3, 3))
     with_zeros = forward_tangent(r, p, legs, dr, np.zeros((3, 3)))
     assert np.array_equal(forward_tangent(r, p, legs, dr, None), with_zeros)
+
+
+def test_unique_rows_is_numpys_unique_by_rows() -> None:
+    """The layout's groups by one lexsort: the rows, their order and the inverse of
+    np.unique(axis=0), on keys with repeats, signed zeros, ties in early columns."""
+    from ogacq.model.measurement import unique_rows
+
+    rng = np.random.default_rng(7)
+    keys = np.column_stack([rng.integers(0, 3, 500), rng.choice([-0.0, 0.0, 12.5, -3.25], 500),
+                            rng.integers(-1, 2, (500, 2)), rng.choice([0.1, 0.2], 500)])
+    for rows in (keys, keys[:1], keys[:0].reshape(0, 5)):
+        unique, inverse = unique_rows(rows)
+        expected, expected_inverse = np.unique(rows, axis=0, return_inverse=True)
+        np.testing.assert_array_equal(unique, expected)
+        np.testing.assert_array_equal(inverse, expected_inverse.ravel())
+        np.testing.assert_array_equal(unique[inverse], rows)
