@@ -45,26 +45,37 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     names = tuple(names)
     p = len(names)
     ranges = plausible_ranges(names)
-    _, s, vt = reduced_svd(jw * ranges) if scaled_svd is None else scaled_svd
+    u, s, vt = reduced_svd(jw * ranges) if scaled_svd is None else scaled_svd
     rank = rank_of(s)
     # plain floats: p is a handful, where a numpy call costs more than its arithmetic
     first, last = (float(s[0]), float(s[-1])) if p else (0.0, 0.0)
-    cond = first / last if p and last > first * RANK_TOLERANCE else float("inf")
+    # fewer rows than parameters: the smallest singular values are zeros it does not list
+    cond = first / last if p and len(s) == p and last > first * RANK_TOLERANCE \
+        else float("inf")
 
-    a = _pinv(jw)
+    # The estimator's covariance from the same scaled decomposition and the same rank
+    # as the identifiability: an inverse of the unscaled Jacobian would cut its own
+    # directions (mm beside ppm columns spread its singular values by 1e4 more), and a
+    # direction inverted there but judged null here gave the identified parameters a
+    # covariance made of rounding.
+    a = _truncated_pinv(u, s, vt, rank) * ranges[:, None]
     cov = sigma_mm**2 * (a @ a.T if noise_cov is None else a @ noise_cov @ a.T)
     reasons: list[str] = []
     unidentified: set[str] = set()
     if rank < p:
-        null = vt[rank:].T * ranges[:, None]  # null directions in parameter units
-        null /= np.linalg.norm(null, axis=0, keepdims=True)
-        weight = np.linalg.norm(null, axis=1)
+        if vt.shape[0] < p:  # fewer rows than parameters: the reduced SVD lacks the rest
+            vt = np.linalg.svd(jw * ranges, full_matrices=True)[2]
+        # The projector onto the null space (in shares of each plausible range), not a
+        # basis of it: a null space of several dimensions has any rotation of one basis
+        # for another, and which one a BLAS kernel returns is its own affair.
+        null = vt[rank:].T
+        projector = null @ null.T
+        weight = np.sqrt(np.maximum(projector.diagonal(), 0.0))
         loose = weight > 1e-3
         cov[loose, :] = np.nan
         cov[:, loose] = np.nan
         cov[loose, loose] = np.inf
-        outer = null @ null.T
-        corr = outer / np.outer(np.maximum(weight, 1e-300), np.maximum(weight, 1e-300))
+        corr = projector / np.outer(np.maximum(weight, 1e-300), np.maximum(weight, 1e-300))
         corr[~np.outer(loose, loose)] = 0.0
         reasons.append(f"rank {rank} of {p}: the data fix only {rank} combinations of "
                        f"{', '.join(n for n, lo in zip(names, loose, strict=True) if lo)}")
@@ -87,7 +98,9 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
                 pairs.append((names[i], names[j], rows[i][j]))
                 if abs(rows[i][j]) > INSEPARABLE_CORRELATION:
                     unidentified.update((names[i], names[j]))
-    pairs.sort(key=lambda t: -abs(t[2]))
+    # largest first as shown (4 decimals); pairs equal there keep the parameters' order,
+    # not an order that the last bits of a BLAS kernel would choose
+    pairs.sort(key=lambda t: -round(abs(t[2]), 4))
     strong = [f"{a}/{b} {c:+.4f}" for a, b, c in pairs if abs(c) > INSEPARABLE_CORRELATION]
     if strong and rank == p:
         reasons.append("only combinations are determined: correlation " + ", ".join(strong))
@@ -146,16 +159,9 @@ def plausible_ranges(names: Sequence[str]) -> np.ndarray:
     return _ranges_of(tuple(names))
 
 
-def _pinv(jw: np.ndarray) -> np.ndarray:
-    """``np.linalg.pinv(jw, rcond=RANK_TOLERANCE)`` for one (m, p) matrix, the same
-    steps without its generality (stacks, complex, hermitian), which cost more
-    than the decomposition at a fit's sizes."""
-    if jw.size == 0:
-        return np.empty(jw.shape[::-1])
-    u, s, vt = reduced_svd(jw)
-    large = s > RANK_TOLERANCE * s.max()
-    if large.all():  # the usual case: every direction inverted
-        return vt.T @ ((1 / s)[:, None] * u.T)
-    inverse = np.divide(1, s, where=large, out=s)
-    inverse[~large] = 0
-    return vt.T @ (inverse[:, None] * u.T)
+def _truncated_pinv(u: np.ndarray, s: np.ndarray, vt: np.ndarray, rank: int) -> np.ndarray:
+    """The pseudo-inverse (p, m) of the matrix whose reduced SVD is ``u s vt``, inverted
+    along its ``rank`` largest directions only."""
+    if rank == 0:
+        return np.zeros((vt.shape[1], u.shape[0]))
+    return vt[:rank].T @ ((1 / s[:rank])[:, None] * u[:, :rank].T)
