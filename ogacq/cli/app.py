@@ -21,7 +21,7 @@ import typer
 from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own click
 
 from ogacq import __version__
-from ogacq.cli.lazy import LazyCommands, LazyGroupSpec
+from ogacq.cli.lazy import LazyCommands, LazyCommandSpec, LazyGroupSpec
 from ogacq.cli.log_options import apply_log_options
 from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats
 from ogacq.errors import OgacqError
@@ -51,18 +51,47 @@ HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq hi
 
 class OgacqCommands(LazyCommands):
     command_epilog = EXIT_CODES
-    # name -> "module:function", in the order `ogacq --help` lists them
+    # name -> the command's function and the summary `ogacq --help` lists (its docstring's
+    # first paragraph: the help lists the commands without importing them), in that order
     table = {
-        "run": "ogacq.cli.campaign_cmds:run",
-        "resume": "ogacq.cli.campaign_cmds:resume",
-        "demo": "ogacq.cli.demo_cmd:demo",
-        "diagnose": "ogacq.cli.diagnose_cmd:diagnose_command",
-        "refit": "ogacq.cli.refit_cmd:refit",
-        "plan": "ogacq.cli.plan_cmd:plan",
-        "report": "ogacq.cli.report_cmd:report_command",
-        "sim": "ogacq.cli.sim_cmd:sim",
-        "wizard": "ogacq.cli.wizard_cmd:wizard",
-        "init": "ogacq.cli.init_cmd:init",
+        "run": LazyCommandSpec(
+            "ogacq.cli.campaign_cmds:run",
+            "Run a scripted campaign: no operator when the six gauges are mounted, or one "
+            "asked to set them at each leg when indicators move from leg to leg."),
+        "resume": LazyCommandSpec(
+            "ogacq.cli.campaign_cmds:resume",
+            "Continue an interrupted campaign where it stopped."),
+        "demo": LazyCommandSpec(
+            "ogacq.cli.demo_cmd:demo",
+            "A full calibration campaign against the built-in simulator: identify the "
+            "hidden joint offsets through the real drivers and compare them with the "
+            "truth."),
+        "diagnose": LazyCommandSpec(
+            "ogacq.cli.diagnose_cmd:diagnose_command",
+            "Compare the recordings with the identified model; locate and explain a "
+            "mismatch."),
+        "refit": LazyCommandSpec(
+            "ogacq.cli.refit_cmd:refit",
+            "Identify joint offsets and/or leg lengths from recorded data."),
+        "plan": LazyCommandSpec(
+            "ogacq.cli.plan_cmd:plan",
+            "Predict the std of each parameter for a planned campaign."),
+        "report": LazyCommandSpec(
+            "ogacq.cli.report_cmd:report_command",
+            "Write the calibration record: report.html (identification, instruments, "
+            "environment, method, results with their uncertainty, acceptance, budget, "
+            "history, then the analysis behind them), record.json with the same record, "
+            "and the figures."),
+        "sim": LazyCommandSpec(
+            "ogacq.cli.sim_cmd:sim",
+            "Serve a simulated machine on loopback and pseudo-terminals until Ctrl-C."),
+        "wizard": LazyCommandSpec(
+            "ogacq.cli.wizard_cmd:wizard",
+            "Guided calibration: connect the instruments, set the gauges leg by leg, "
+            "measure, identify the joint offsets."),
+        "init": LazyCommandSpec(
+            "ogacq.cli.init_cmd:init",
+            "Write a commented template of a machine or a campaign file to edit."),
         "offsets": LazyGroupSpec(OFFSETS_HELP, {
             "show": "ogacq.cli.offsets_cmd:show",
             "write": "ogacq.cli.offsets_cmd:write",
@@ -82,6 +111,7 @@ class OgacqCommands(LazyCommands):
 # Completion asks the group for its commands' names only (``list_commands``), so the
 # table is not imported to complete a command's name.
 app = typer.Typer(cls=OgacqCommands, add_completion=True, no_args_is_help=True,
+                  rich_markup_mode=None,
                   help="Acquisition and calibration for Orthoglide-type parallel machines.",
                   epilog=f"{EXIT_CODES}\n\n{FILE_FORMATS}")
 

@@ -1,9 +1,11 @@
-"""A typer group that imports a command's module only when that command runs (or when
-the help lists it): ``ogacq refit`` never pays for the simulator, the wizard or
-matplotlib.
+"""A typer group that imports a command's module only when that command runs:
+``ogacq refit`` never pays for the simulator, the wizard or matplotlib, and
+``ogacq --help`` lists every command from the table's summaries without importing
+any of them.
 
-Commands are named by ``"module:function"``; a sub-group (``ogacq session ...``) by a
-``LazyGroupSpec`` of such targets.
+Commands are named by a ``LazyCommandSpec`` (``"module:function"`` and the first
+paragraph of its help); a sub-group (``ogacq session ...``) by a ``LazyGroupSpec``
+of ``"module:function"`` targets.
 """
 
 from __future__ import annotations
@@ -17,8 +19,18 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import typer
 from typer.core import TyperCommand, TyperGroup
 
+from ogacq.cli.coercion import plain_runtime_param
+
 if TYPE_CHECKING:  # typer vendors its own click
     from typer._click import Command, Context, Parameter
+
+
+@dataclass(frozen=True)
+class LazyCommandSpec:
+    target: str  # "module:function"
+    # the first paragraph of the function's docstring, which the group's help lists
+    # (tests/cli/test_lazy_commands.py holds the two the same)
+    summary: str
 
 
 @dataclass(frozen=True)
@@ -37,10 +49,19 @@ def load_function(target: str) -> Callable[..., Any]:
 def flags_without_value(params: list[Parameter]) -> list[Parameter]:
     """typer 0.29's rich help shows a flag's type as if it took a value
     (``--json <bool>``, while ``--json true`` is refused): a flag gets an empty metavar,
-    which that help prints instead of the type."""
+    which that help prints instead of the type. And each parameter of a plain type is
+    coerced without pydantic (``ogacq.cli.coercion``)."""
     for param in params:
         if getattr(param, "is_flag", False) and param.metavar is None:
             param.metavar = ""
+        descriptor = getattr(param, "type_descriptor", None)
+        if param.metavar is None and descriptor is not None and descriptor.is_ranged:
+            # the range is printed with the default ([default: 1; x>=0]), not as a type
+            param.metavar = f"<{descriptor.ranged_type_name}>"
+        if param.param_type_name == "argument" and param.metavar is None and param.name:
+            param.metavar = param.name.upper()  # "SESSION", not click's "{session}"
+        if getattr(param, "_runtime_param", False) is None:
+            param._runtime_param = plain_runtime_param(param.type_descriptor)  # type: ignore[attr-defined]
     return params
 
 
@@ -77,20 +98,22 @@ def _command(app: typer.Typer, name: str, function: Callable[..., Any],
                 epilog=epilog)(function)
 
 
-def build_command(name: str, target: str | LazyGroupSpec, epilog: str | None = None,
-                  ) -> Command:
+def build_command(name: str, target: str | LazyCommandSpec | LazyGroupSpec,
+                  epilog: str | None = None) -> Command:
     """The click command of one target: its function's signature gives the options,
     its docstring the help; ``epilog`` ends every help page."""
     if isinstance(target, LazyGroupSpec):
         group = typer.Typer(cls=FlagGroup, no_args_is_help=True, help=target.help,
+                            rich_markup_mode=None,
                             add_completion=False, epilog=epilog)
         for sub_name, sub_target in target.commands.items():
             _command(group, sub_name, load_function(sub_target), epilog)
         command = typer.main.get_group(group)
         command.default_command = target.default
     else:
-        single = typer.Typer(add_completion=False)
-        _command(single, name, load_function(target), epilog)
+        single = typer.Typer(add_completion=False, rich_markup_mode=None)
+        function = target.target if isinstance(target, LazyCommandSpec) else target
+        _command(single, name, load_function(function), epilog)
         command = typer.main.get_command(single)
     command.name = name
     return command
@@ -100,16 +123,22 @@ class LazyCommandTable(MutableMapping[str, "Command"]):
     """A group's name -> command mapping whose commands are built on first lookup;
     its keys (listing, "did you mean") need no import."""
 
-    def __init__(self, targets: Mapping[str, str | LazyGroupSpec],
+    def __init__(self, targets: Mapping[str, str | LazyCommandSpec | LazyGroupSpec],
                  built: Mapping[str, Command], epilog: str | None = None) -> None:
         self._targets = dict(targets)
         self._built = dict(built)
         self._epilog = epilog
+        # While the group's own help is formatted, a command not yet built is looked up
+        # for its summary only: a command that says it and nothing more (never run).
+        self.listing = False
 
     def __contains__(self, name: object) -> bool:  # without building it
         return name in self._targets or name in self._built
 
     def __getitem__(self, name: str) -> Command:
+        if self.listing and name not in self._built:
+            summary = _summary(self._targets[name])
+            return typer.core.TyperCommand(name, help=summary, short_help=summary)
         if name not in self._built:
             self._built[name] = build_command(name, self._targets[name], self._epilog)
         return self._built[name]
@@ -134,7 +163,7 @@ class LazyCommands(FlagGroup):
     """A group whose commands are those of ``table`` (set by a subclass), in its order;
     each command's help ends with ``command_epilog``."""
 
-    table: ClassVar[Mapping[str, str | LazyGroupSpec]] = {}
+    table: ClassVar[Mapping[str, str | LazyCommandSpec | LazyGroupSpec]] = {}
     command_epilog: ClassVar[str | None] = None
 
     def __init__(self, **attrs: Any) -> None:
@@ -143,3 +172,20 @@ class LazyCommands(FlagGroup):
 
     def list_commands(self, ctx: Context) -> list[str]:
         return list(self.commands)  # names only: the base class would build them all
+
+    def format_help(self, ctx: Context, formatter: Any) -> None:
+        table = self.commands
+        assert isinstance(table, LazyCommandTable)
+        table.listing = True
+        try:
+            super().format_help(ctx, formatter)
+        finally:
+            table.listing = False
+
+
+def _summary(target: str | LazyCommandSpec | LazyGroupSpec) -> str | None:
+    if isinstance(target, LazyCommandSpec):
+        return target.summary
+    if isinstance(target, LazyGroupSpec):
+        return one_paragraph_lines(target.help)
+    return None

@@ -10,7 +10,6 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.options import JsonOption, OtherGeometryOption, ParamSet, RecordedMachineOption
-from ogacq.cli.render import print_fit
 from ogacq.errors import InputError
 from ogacq.identify.fit import fit
 from ogacq.identify.plausibility import check_result
@@ -62,4 +61,6 @@ def refit(
     if as_json:
         typer.echo(json.dumps(result.to_json(params.value)))
         return
+    from ogacq.cli.render import print_fit  # rich: for the terminal only, not under --json
+
     print_fit(result, params.value)
