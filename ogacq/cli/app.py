@@ -22,7 +22,7 @@ from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own c
 
 from ogacq import __version__
 from ogacq.cli.lazy import LazyCommands, LazyCommandSpec, LazyGroupSpec
-from ogacq.cli.log_options import apply_log_options
+from ogacq.cli.log_options import apply_log_options, global_options_first
 from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats
 from ogacq.errors import OgacqError
 
@@ -151,6 +151,7 @@ def _run_app(argv: list[str] | None) -> object:
 
 def main(argv: list[str] | None = None) -> int:
     configure_logging()
+    argv = global_options_first(sys.argv[1:] if argv is None else list(argv))
     try:
         code = _run_app(argv)
     except OgacqError as exc:

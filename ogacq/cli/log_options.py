@@ -35,3 +35,30 @@ def apply_log_options(verbose: bool, log_file: Path | None) -> None:
     file_handler.setLevel(logging.DEBUG)
     root.addHandler(file_handler)
     root.setLevel(logging.DEBUG)
+
+
+_FLAGS = ("--verbose", "-v")
+_WITH_VALUE = ("--log-file",)
+
+
+def global_options_first(argv: list[str]) -> list[str]:
+    """``ogacq run c.toml --log-file run.log`` as ``ogacq --log-file run.log run c.toml``:
+    the global options are accepted after the command too (a user adds them at the end
+    of the line they just ran). Nothing after ``--`` is touched."""
+    front: list[str] = []
+    rest: list[str] = []
+    k = 0
+    while k < len(argv):
+        word = argv[k]
+        if word == "--":
+            rest += argv[k:]
+            break
+        if word in _FLAGS or word.startswith(tuple(f"{o}=" for o in _WITH_VALUE)):
+            front.append(word)
+        elif word in _WITH_VALUE and k + 1 < len(argv):
+            front += argv[k:k + 2]
+            k += 1
+        else:
+            rest.append(word)
+        k += 1
+    return front + rest

@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.options import JsonOption, MachineOption, ParamSet, seed_option
-from ogacq.cli.render import print_plan
+from ogacq.cli.render import print_plan, trials_progress
 from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
@@ -123,8 +123,10 @@ def plan(
         raise InputError("--scan-step" if scan_step is not None else "--postures",
                          str(exc)) from None
     obs = planned_observations(spec, protocol=protocol)
-    pred = predict_accuracy(obs, PARAM_SETS[params.value], sigma, truth=parse_truth(assume),
-                            trials=trials, seed=seed, rounding_mm=spec.gauge_resolution_mm)
+    with trials_progress("Monte-Carlo trials of the nonlinear fit") as on_trials:
+        pred = predict_accuracy(obs, PARAM_SETS[params.value], sigma,
+                                truth=parse_truth(assume), trials=trials, seed=seed,
+                                rounding_mm=spec.gauge_resolution_mm, on_trials=on_trials)
     if as_json:
         typer.echo(json.dumps(pred.to_json() | {"protocol": protocol.to_dict()}))
         return

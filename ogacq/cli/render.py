@@ -140,6 +140,22 @@ class CampaignProgress:
 
 
 @contextmanager
+def trials_progress(label: str):
+    """A callback ``(done, total)`` showing a bar on the terminal (stderr, so that a
+    --json on stdout stays clean), and nothing when no one watches."""
+    err = Console(stderr=True)
+    if not err.is_terminal:
+        yield None
+        return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                  console=err, transient=True) as bar:
+        task = bar.add_task(label, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+@contextmanager
 def campaign_progress(enabled: bool = True):
     """An observer for the runner: a live bar on a terminal, log lines otherwise."""
     if not enabled:

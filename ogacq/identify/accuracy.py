@@ -9,7 +9,7 @@ When they disagree, the linearisation is not to be trusted for this plan.
 from __future__ import annotations
 
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -75,9 +75,12 @@ def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float
 
 def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *,
                      truth: Mapping[str, float] | None = None, trials: int = 0,
-                     seed: int = 0, rounding_mm: float | None = None) -> AccuracyPrediction:
+                     seed: int = 0, rounding_mm: float | None = None,
+                     on_trials: Callable[[int, int], None] | None = None,
+                     ) -> AccuracyPrediction:
     """Predicted std of ``names`` for the readings laid out in ``obs`` (its values are
-    ignored). ``rounding_mm``: the gauge display step applied to simulated readings."""
+    ignored). ``rounding_mm``: the gauge display step applied to simulated readings.
+    ``on_trials(done, total)`` is told after each batch of Monte-Carlo trials."""
     names = tuple(names)
     free = indices(names)
     theta_true = vector(truth)
@@ -100,8 +103,11 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
     estimates = np.empty((trials, len(free)))
     converged = np.empty(trials, dtype=bool)
     start = time.perf_counter()
-    for lo in range(0, trials, CHUNK):
-        hi = min(trials, lo + CHUNK)
+    # Batches of at most CHUNK, and about twenty of them when a watcher is told of each
+    # (the same draws: one generator fills them in order, whatever the batch sizes).
+    chunk = CHUNK if on_trials is None else max(50, min(CHUNK, -(-trials // 20)))
+    for lo in range(0, trials, chunk):
+        hi = min(trials, lo + chunk)
         y = clean + rng.normal(0.0, noise_mm, (hi - lo, len(clean)))
         if rounding_mm:
             y = np.round(y / rounding_mm) * rounding_mm
@@ -109,6 +115,8 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
                                       tolerance=tolerance)
         estimates[lo:hi] = theta[:, free]
         converged[lo:hi] = conv
+        if on_trials is not None:
+            on_trials(hi, trials)
     pred.mc_seconds = time.perf_counter() - start
     pred.trials = trials
     pred.mc_std = estimates.std(axis=0, ddof=1)

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import pytest
 
-from ogacq.cli.log_options import apply_log_options
+from ogacq.cli.log_options import apply_log_options, global_options_first
 from ogacq.cli.repeated_warnings import OneLineFormatter, RepeatCollapsingHandler
 from ogacq.errors import InputError
 
@@ -52,3 +52,29 @@ def test_without_verbose_the_terminal_keeps_to_warnings(terminal):
 def test_an_unwritable_log_file_is_bad_input(terminal):
     with pytest.raises(InputError, match="cannot write the log file"):
         apply_log_options(verbose=False, log_file=Path("/proc/nope.log"))
+
+
+@pytest.mark.parametrize("argv, expected", [
+    (["run", "c.toml", "--log-file", "run.log"], ["--log-file", "run.log", "run", "c.toml"]),
+    (["refit", "-v", "f.csv", "--log-file=a.log"], ["-v", "--log-file=a.log", "refit", "f.csv"]),
+    (["--verbose", "demo"], ["--verbose", "demo"]),
+    (["session", "show", "s.jsonl", "--", "-v"], ["session", "show", "s.jsonl", "--", "-v"]),
+])
+def test_global_options_are_taken_after_the_command_too(argv, expected):
+    assert global_options_first(argv) == expected
+
+
+def test_a_log_file_given_after_the_command_gets_the_log(tmp_path, capsys):
+    from ogacq.cli.app import main
+
+    log = tmp_path / "after.log"
+    paper = Path(__file__).resolve().parents[2] / "ogacq" / "examples" / "paper"
+    try:
+        assert main(["refit", str(paper / "experiment2_12.csv"), "-m",
+                     str(paper / "machine.toml"), "--json", "--log-file", str(log)]) == 0
+    finally:
+        root = logging.getLogger()
+        for handler in [h for h in root.handlers if isinstance(h, logging.FileHandler)]:
+            root.removeHandler(handler)
+            handler.close()
+    assert log.exists()

@@ -31,3 +31,18 @@ def test_plan_says_lengths_and_offsets_cannot_be_separated():
     pred = predict_accuracy(obs, PARAM_SETS["both"], 0.01)
     assert not pred.identifiability.identifiable
     assert len(pred.identifiability.correlated_pairs) == 3
+
+
+def test_a_watched_monte_carlo_draws_the_same_trials():
+    """A progress watcher makes the batches smaller, never other draws."""
+    obs = planned_observations(PAPER_PROTOTYPE)
+    told: list[tuple[int, int]] = []
+    kwargs = dict(trials=300, seed=3, rounding_mm=0.01)
+    quiet = predict_accuracy(obs, PARAM_SETS["offsets"], 0.01, **kwargs)
+    watched = predict_accuracy(obs, PARAM_SETS["offsets"], 0.01,
+                               on_trials=lambda done, total: told.append((done, total)),
+                               **kwargs)
+    assert told[-1] == (300, 300) and len(told) > 1
+    assert [d for d, _ in told] == sorted(d for d, _ in told)
+    np.testing.assert_allclose(watched.mc_std, quiet.mc_std, rtol=1e-9)
+    np.testing.assert_allclose(watched.mc_bias, quiet.mc_bias, rtol=1e-9, atol=1e-12)
