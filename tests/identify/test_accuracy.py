@@ -35,7 +35,8 @@ def test_plan_says_lengths_and_offsets_cannot_be_separated():
 
 def test_a_watched_monte_carlo_draws_the_same_trials():
     """A progress watcher makes the batches smaller, never other draws."""
-    obs = planned_observations(PAPER_PROTOTYPE)
+    obs = planned_observations(PAPER_PROTOTYPE, postures=("zero", "max", "min", "zero"),
+                               cycles=3)
     told: list[tuple[int, int]] = []
     kwargs = dict(trials=300, seed=3, rounding_mm=0.01)
     quiet = predict_accuracy(obs, PARAM_SETS["offsets"], 0.01, **kwargs)
