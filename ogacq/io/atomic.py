@@ -1,5 +1,9 @@
 """Replacing a file whole or not at all: a full disk, a read-only file system or a
-crash mid-write leaves the old file (or none), never a truncated one."""
+crash mid-write leaves the old file (or none), never a truncated one.
+
+The file gets the permissions a plain ``open()`` would give it (0666 less the umask;
+those of the file it replaces, when there is one), not the temporary file's private
+0600: a record is read by the reviewer who signs it, from another account."""
 
 from __future__ import annotations
 
@@ -19,6 +23,7 @@ def write_atomically(path: str | Path, data: bytes) -> None:
     tmp: str | None = None
     try:
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        os.fchmod(fd, _mode_for(path))
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
@@ -29,3 +34,25 @@ def write_atomically(path: str | Path, data: bytes) -> None:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
         raise StorageError(path, exc) from None
+
+
+def _mode_for(path: Path) -> int:
+    """The permissions of the file ``path`` names, or those a new file gets."""
+    try:
+        return path.stat().st_mode & 0o7777
+    except OSError:
+        return 0o666 & ~_umask()
+
+
+def _umask() -> int:
+    """The process's umask, read without changing it where Linux says it (setting it to
+    read it back would race with another thread creating a file meanwhile)."""
+    try:
+        for line in Path("/proc/self/status").read_text().splitlines():
+            if line.startswith("Umask:"):
+                return int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask

@@ -18,13 +18,13 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.config_schema import Field, Table, dump, load, number, text
+from ogacq.io.atomic import write_atomically
 from ogacq.io.toml_file import read_toml
 from ogacq.model.parameters import AXES
 
@@ -76,17 +76,7 @@ def write_offset_table(path: str | Path, offsets_mm: dict[str, float], *,
         "format": FORMAT, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "session": session, "action": action, "joint_offset_mm": values}, header=HEADER)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as fh:
-            fh.write(content)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
+    write_atomically(path, content.encode("utf-8"))
     _fsync_folder(path.parent)
     log.info("offset table %s written (%s): %s", path, action,
              ", ".join(f"{a} {v:+.6f} mm" for a, v in values.items()))
