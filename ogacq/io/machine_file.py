@@ -109,7 +109,8 @@ def _machine(values: dict, source: Source, default_name: str) -> MachineSpec:
     except ValueError as exc:
         problem = str(exc).split("; ")[0]
         key = next((f.key for f in MACHINE_FILE.fields if f.key in problem), "rho_max_mm")
-        raise source.fail((key,), "", f"impossible geometry: {problem}") from None
+        what = "implausible" if key.startswith("gauge_") else "impossible geometry"
+        raise source.fail((key,), "", f"{what}: {problem}") from None
 
 
 def machine_text(machine: MachineSpec, comment: str, *, footer: str = "") -> str:

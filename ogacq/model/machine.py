@@ -55,6 +55,12 @@ class Tolerances:
         return {**out, **dict(self.per_deviation)}
 
 
+# A dial indicator's graduation is 0.01 mm (0.1 mm on the coarsest), a digital
+# indicator's step 0.01 to 0.0001 mm and a length gauge's down to 0.00001 mm; its
+# repeatability lies in the same span (Mitutoyo catalogue, "Indicators"; no other source).
+GAUGE_STEP_RANGE_MM = (1e-6, 0.1)
+
+
 @dataclass(frozen=True)
 class MachineSpec:
     leg_length_mm: float
@@ -86,11 +92,17 @@ class MachineSpec:
                 self.leg_length_mm:
             out.append("the Max/Min postures must lie within one leg length of the zero posture "
                        f"(|rho| < {self.leg_length_mm})")
-        if not self.gauge_resolution_mm > 0:
-            out.append(f"gauge_resolution_mm must be positive, got {self.gauge_resolution_mm}")
-        if self.gauge_repeatability_mm is not None and not self.gauge_repeatability_mm > 0:
-            out.append("gauge_repeatability_mm must be positive, "
-                       f"got {self.gauge_repeatability_mm}")
+        for key in ("gauge_resolution_mm", "gauge_repeatability_mm"):
+            value = getattr(self, key)
+            if value is None:
+                continue
+            if not value > 0:
+                out.append(f"{key} must be positive, got {value}")
+            elif not GAUGE_STEP_RANGE_MM[0] <= value <= GAUGE_STEP_RANGE_MM[1]:
+                out.append(f"{key} = {value:g} mm is no indicator's (they show "
+                           f"{GAUGE_STEP_RANGE_MM[0]:g} to {GAUGE_STEP_RANGE_MM[1]:g} mm): "
+                           + ("micrometres written as mm?" if value > 1 else
+                              "is the unit mm?"))
         if self.leg_expansion_ppm_per_k is not None and not (
                 0 <= self.leg_expansion_ppm_per_k < 1000):
             out.append("leg_expansion_ppm_per_k must be 0..1000 (steel 11.5), "
