@@ -266,9 +266,12 @@ class AxisController:
                     code=status.alarm_code,
                     where=self._where(axis),
                 )
-            if not status.flags["servo_on"]:
+            if not status.flags["servo_on"] or not status.flags.get("quick_stop", True):
+                # CiA 402 "quick stop active" keeps bit 2 (operation enabled) set but
+                # takes no set-point: a stop, not a state to move from
                 raise DeviceFault(
-                    f"move {axis} refused: servo is off; enable first",
+                    f"move {axis} refused: servo is off (or the drive is in quick stop); "
+                    "enable first",
                     code="servo_off",
                     where=self._where(axis),
                 )
@@ -783,6 +786,9 @@ class AxisController:
                 self._write_block(
                     axis, step.to, values, what=what + (" (edge, sent once)" if step.edge else "")
                 )
+            elif step.op == "wait" and step.until:
+                timeout = float(self._resolve(step.timeout_s, params, command))
+                self._wait_any(axis, command, step.until, timeout)
             elif step.op == "wait":
                 timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_flag(axis, command, step.flag, step.state, timeout)
@@ -810,6 +816,35 @@ class AxisController:
                     f"{command} {axis}: {flag} did not become {state} within {timeout_s:g} s",
                     where=self._where(axis),
                 )
+            time.sleep(self.poll_interval_s)
+
+    def _wait_any(
+        self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
+        timeout_s: float,
+    ) -> _Poll:
+        """Poll until the flags match one of the ``until`` alternatives (all of its
+        flag states at once); an alarm ends the wait unless an alternative asks for it."""
+        deadline = time.monotonic() + timeout_s
+        tolerate_fault = any(flag in self.profile.status.fault_flags
+                             for alternative in until for flag, _ in alternative)
+        while True:
+            status = self._poll(axis, self._flag_blocks)
+            if any(all(status.flags[flag] == state for flag, state in alternative)
+                   for alternative in until):
+                return status
+            if status.fault and not tolerate_fault:
+                raise DeviceFault(
+                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting",
+                    code=status.alarm_code, where=self._where(axis))
+            if time.monotonic() >= deadline:
+                wanted = " or ".join(
+                    "(" + ", ".join(f"{f}={v}" for f, v in alternative) + ")"
+                    for alternative in until)
+                seen = ", ".join(f"{f}={status.flags[f]}" for f in dict.fromkeys(
+                    f for alternative in until for f, _ in alternative))
+                raise DeviceTimeout(
+                    f"{command} {axis}: none of {wanted} within {timeout_s:g} s "
+                    f"(last seen {seen})", where=self._where(axis))
             time.sleep(self.poll_interval_s)
 
     def _confirm(
