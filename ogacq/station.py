@@ -25,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.modbus_link import ModbusLink
-from ogacq_drivers.axes.preflight import run_preflight
+from ogacq_drivers.axes.preflight import check_home, check_identity, probe_move
 from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.axes.reconnect import ReconnectPolicy, reconnect
 from ogacq_drivers.errors import DeviceTimeout, DriverError, LinkError
@@ -75,10 +75,14 @@ class DeviceStation:
     def prepare(self) -> None:
         """Servo on and home: every campaign starts from a known position, with the
         joint offsets in force recorded (a home offset takes effect at this homing)."""
+        # before homing, before any set-point: a plausible status and values (a
+        # wrong word order reads 65,536 times too far), then the home value, then a
+        # probe that cannot lurch (see drivers/axes/preflight.py)
+        check_identity(self.controller)
         self.controller.enable()
         self.controller.home()
-        # before the first move: word order, home-offset sign, plausible status
-        run_preflight(self.controller)
+        check_home(self.controller)
+        probe_move(self.controller)
         self.controller.home()  # back to the known start the probe move left
         self.description.setdefault("controller", {})["offsets_mm"] = \
             self.controller.read_offsets()

@@ -346,6 +346,8 @@ class Cia402Drive(_Drive):
         self.saves = 0
         self.saved_home_offset = 0  # what the non-volatile memory holds for 607Ch
         self.quick_stop_at: float | None = None
+        # software position limits 607Dh, counts (None: the drive has none set)
+        self.limits: tuple[int, int] | None = (-10200, 6200)
         self.events: list[tuple[int, str]] = []  # (requests received so far, what happened)
         self.put(0x6060, 1)
 
@@ -490,7 +492,7 @@ class Cia402Drive(_Drive):
             elif mode == 1:
                 target = self.obj(0x607A)
                 self.note(f"set-point {target}")
-                if not -10200 <= target <= 6200:
+                if self.limits is not None and not self.limits[0] <= target <= self.limits[1]:
                     self.state, self.error = "fault", 0x8612
                     self.motion.cancel()
                     return
