@@ -121,9 +121,13 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             # inside the wizard's wrapper: its pauses are the operator's time, not the work's
             works = DeadlineStation(station, station.description["deadline_s"])
             runs_on = wrap_station(works, writer) if wrap_station else works
+            # a resumed campaign was homed anew (prepare): the readings on file hold only
+            # if the machine reads the same at the posture of the last of them
+            previous = resume.readings if resume is not None else ()
             runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
-                                    set_gauges=set_gauges)
+                                    set_gauges=set_gauges, previous=previous,
+                                    check_first=bool(previous))
             runner.run()
             at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))
             ended = at_end(station)

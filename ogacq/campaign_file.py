@@ -20,6 +20,10 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     baudrate = 38400                  # RTU only
     reconnect_attempts = 5            # a dropped link: reconnects before the campaign stops,
     reconnect_backoff_s = 1.0         # the first after this wait, each next after twice it
+    rehome_after_loss = true          # an axis whose drive lost its position reference (a
+                                      # power cycle) is homed again unattended, then a
+                                      # posture is checked against the readings on file;
+                                      # false: the campaign stops (exit 3) for a person
     [controller.axes]                 # instead of `port`, or beside it: one endpoint per
                                       # axis (drives that are one Ethernet device each);
     x = { port = "192.168.3.11:502", device_id = 255 }  # device_id: Modbus unit id,
@@ -91,6 +95,7 @@ from ogacq_drivers.axes.reconnect import ReconnectPolicy
 from ogacq_drivers.config_schema import (
     DATE,
     MOMENT,
+    TRUTH,
     Field,
     FilePath,
     ListOf,
@@ -191,6 +196,9 @@ class ControllerSpec:
     axes: dict[str, AxisEndpoint] = field(default_factory=dict)
     reconnect_attempts: int = ReconnectPolicy.attempts
     reconnect_backoff_s: float = ReconnectPolicy.backoff_s
+    # An axis that lost its position reference (a drive switched off and on) is homed
+    # again unattended; False: the campaign stops, resumable, for someone to home it.
+    rehome_after_loss: bool = True
 
     @property
     def reconnect(self) -> ReconnectPolicy:
@@ -314,6 +322,7 @@ _CONTROLLER = Table((
     # a reconnect policy still bounded in practice
     Field("reconnect_attempts", whole(minimum=0, maximum=100)),
     Field("reconnect_backoff_s", number(minimum=0.0)),
+    Field("rehome_after_loss", TRUTH),
 ), build=ControllerSpec)
 
 # A temperature a shop floor may have: beyond it, a typo (a Fahrenheit value, a sign)
