@@ -121,3 +121,23 @@ def test_no_unattended_homing_stops_with_exit_3_and_resumes(
     assert session.finished
     assert session.of_type(ReferenceRecord)[-1].event == "checked"
     assert_same_readings(readings(path), uninterrupted)
+
+
+def test_a_reference_that_moved_is_caught_at_the_check_posture(rig, capsys, monkeypatch):
+    """A home offset written but not saved: the power cycle brings back the saved one,
+    the new homing puts the joint zero 0.5 mm elsewhere, and the check posture says
+    the readings taken before are not to be trusted (exit 3)."""
+    station, folder = rig
+    for drive in station.drives.values():
+        drive.put(0x607C, 50)  # counts, in RAM only: saved_home_offset stays 0
+    path = station.campaign(folder, "unsaved-offset")
+    watcher = station.power_cycle_when(read_campaign(path).session, CYCLED_AFTER)
+    ran = ogacq_here(capsys, monkeypatch, "run", path)
+    watcher.join(5)
+    assert ran.returncode == 3
+    assert "readings taken before are not to be trusted" in ran.stderr
+    session = load_session(read_campaign(path).session)
+    events = session.of_type(ReferenceRecord)
+    assert [r.event for r in events] == ["lost", "rehomed", "check_failed"]
+    assert max(abs(d) for d in events[-1].differences_mm.values()) > 0.1
+    assert session.of_type(EndRecord)[-1].status == "stopped"
