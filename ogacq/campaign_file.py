@@ -440,6 +440,8 @@ def read_campaign(path: str | Path) -> Campaign:
                  or campaign.simulator.gauge_protocols):
         raise src.fail(("simulator", "gauge_layout"), "", "a simulated multiplexer is an 01A "
                        "box: gauge_protocol(s) do not apply with gauge_layout = \"multiplexer\"")
+    if campaign.simulator is not None:
+        _check_simulated_only(src, given)
     if "controller" in given:
         campaign.controller = _controller(src, given["controller"])
     elif campaign.simulator is None:
@@ -474,6 +476,23 @@ def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
         raise src.fail(("protocol", key), "", str(exc)) from None
     return config
+
+
+def _check_simulated_only(src: Source, given: dict) -> None:
+    """Real or simulated, said once: a [simulator] campaign names no real controller
+    and no gauge port (gauges there carry identities only), else it would run on the
+    simulator while the file says where the machine is."""
+    real = []
+    if "controller" in given:
+        spec: ControllerSpec = given["controller"]
+        real.append(f"[controller] {spec.endpoints() or spec.profile}")
+    real += [f"gauge {g.gauge} on {g.port or g.protocol}" for g in given.get("gauges", [])
+             if g.port or g.protocol]
+    if real:
+        raise src.fail(("simulator",), "", f"a [simulator] table and real ports "
+                       f"({', '.join(real[:3])}{', ...' if len(real) > 3 else ''}): a campaign "
+                       "runs on the simulator or on the machine; remove [simulator] to run on "
+                       "the machine, or the ports to rehearse")
 
 
 def _controller(src: Source, spec: ControllerSpec) -> ControllerSpec:

@@ -195,6 +195,9 @@ def print_outcome(outcome) -> None:
     # in the noise's unit: one unit on the line
     console.print(f"residual rms {result.residual_rms_mm:.4g} mm, gauge noise "
                   f"{result.noise.describe()}; session {outcome.session_path}")
+    if getattr(outcome, "simulated", False):
+        console.print("[bold reverse] SIMULATED [/] a rehearsal on the built-in simulator: "
+                      "not a calibration of the machine", highlight=False)
 
 
 def _print_context(session) -> None:
