@@ -187,6 +187,11 @@ class DeviceStation:
 
     def _restore_reference(self, cause: str) -> None:
         """Ask the drives whether the reference survived; home again where it did not."""
+        if not self.controller.reports_reference:
+            # the drive cannot say whether an alarm or a lost link cost it its reference
+            # (switched off and on between two polls, it would read the same): no
+            # set-point on this client's memory of a homing
+            self.controller.forget_reference()
         paths = None
         if self._reached is not None:
             heading = self._heading or self._reached

@@ -9,8 +9,9 @@ somewhere else. So the answer is asked of the drive itself, axis by axis:
 1. its own homing state, where the profile has one (``flags.homed``: IAI DSS1
    bit 4 HEND, "home return completed" [ME0162]); where it has none (CiA 402
    defines no such bit outside homing mode: statusword bit 12 is "homing
-   attained" in mode 6 only [CiA 402-2]), the drive cannot say, and a loss of
-   the link (it may have been switched off) is a loss of the reference;
+   attained" in mode 6 only [CiA 402-2]), the drive cannot say: after any loss
+   (an alarm, a lost link; switched off and on between two polls it reads the
+   same) the caller forgets the homing, and the reference counts as lost;
 2. its position within the machine's soft limits and their margin;
 3. its position where it can have got to since it was last seen: on the way
    from the last position reached to the last target commanded (a stop may
@@ -75,8 +76,8 @@ def assess_reference(controller: AxisController, paths: Mapping[str, Path] | Non
         reasons: list[str] = []
         if not status.homed:
             reasons.append("the drive reports it is not homed" if controller.reports_reference
-                           else "the drive does not report its homing and was out of reach "
-                                "(it may have been switched off)")
+                           else "the drive does not report whether it is homed (no homed "
+                                "flag in the profile), and it was lost")
         if not low - margin <= q <= high + margin:
             reasons.append(f"it reads {q:+.3f} mm, outside the soft limits "
                            f"[{low:g}, {high:g}] mm")
