@@ -62,8 +62,9 @@ def no_setpoint_before_homed(station, before: dict[str, int]) -> None:
     """On each drive: the power cycle, then homing done, and no target written between."""
     for axis, drive in station.drives.items():
         cycled = event_index(drive, "power cycle", before[axis])
+        assert cycled is not None, drive.events
         homed = event_index(drive, "homed", cycled)
-        assert cycled is not None and homed is not None, drive.events
+        assert homed is not None, drive.events
         assert target_writes(drive, cycled, homed) == 0, axis
         assert target_writes(drive, homed) > 0  # and the campaign went on after
 

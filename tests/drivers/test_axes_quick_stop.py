@@ -12,6 +12,7 @@ import time
 import pytest
 
 from tests.drivers.test_axes_independent_server import bench
+from tests.emulators.drives import Cia402Drive
 
 pytestmark = pytest.mark.filterwarnings("ignore:isSet:DeprecationWarning")
 
@@ -23,6 +24,7 @@ QUICK = 200_000.0    # counts/s^2: the same stop in 5 ms, 2.5 counts on
 def test_every_quick_stop_option_code_stops_cleanly(code: int) -> None:
     with bench("cia402", "tcp") as b:
         c, x = b.controller, b.drives["x"]
+        assert isinstance(x, Cia402Drive)
         x.quick_stop_option_code, x.slow_down_ramp, x.quick_stop_ramp = code, SLOW_DOWN, QUICK
         c.enable(["x"])
         c.home(["x"])
@@ -32,6 +34,7 @@ def test_every_quick_stop_option_code_stops_cleanly(code: int) -> None:
         assert not x.motion.moving
         assert x.state == ("quick_stop_active" if code >= 5 else "switch_on_disabled")
         stopped = x.motion.now()
+        assert x.quick_stop_at is not None
         braked = abs(stopped - x.quick_stop_at)
         if code in (1, 5):  # on the slow-down ramp: v^2 / 2a = 250 counts
             assert braked == pytest.approx(250, abs=30)
@@ -55,6 +58,7 @@ def test_every_quick_stop_option_code_stops_cleanly(code: int) -> None:
 def test_disable_leaves_every_state_by_disable_voltage(code: int) -> None:
     with bench("cia402", "tcp") as b:
         c, x = b.controller, b.drives["x"]
+        assert isinstance(x, Cia402Drive)
         x.quick_stop_option_code = code
         c.enable(["x"])
         c.stop(["x"])

@@ -54,7 +54,9 @@ def test_cia402_lost_link_forgets_the_homing_until_homed_again() -> None:
     profile = load_profile("cia402")
     server = EmulatorServer("tcp")
     drive = server.add(1, Cia402Drive)
-    proxy = FaultyProxy(("127.0.0.1", server.start())).start()
+    port = server.start()
+    assert port is not None
+    proxy = FaultyProxy(("127.0.0.1", port)).start()
     link = ModbusLink.for_profile(profile, transport="tcp", host="127.0.0.1", port=proxy.port)
     try:
         c = AxisController(profile, link, axes=["x"])

@@ -57,7 +57,9 @@ def test_a_wrong_word_order_is_refused_before_any_setpoint(home_offset_counts: i
         drive.motion.position = 1234.0  # where the axis stands: 12.34 mm on its counter
         drive.put(0x607C, home_offset_counts)
         drive.refresh()
-    station = station_on(drives, server.start())
+    port = server.start()
+    assert port is not None
+    station = station_on(drives, port)
     try:
         with pytest.raises(PreflightError) as refused:
             station.prepare()

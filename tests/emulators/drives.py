@@ -31,6 +31,7 @@ import struct
 import threading
 import time
 from dataclasses import dataclass
+from typing import TypeVar
 
 import serial
 from modbus_tk import defines, hooks, modbus_rtu, modbus_tcp
@@ -527,6 +528,9 @@ class Cia402Drive(_Drive):
         self.put(0x603F, self.error)
 
 
+DriveT = TypeVar("DriveT", bound=_Drive)
+
+
 class EmulatorServer:
     """A modbus_tk server (TCP on 127.0.0.1, or RTU on a serial device) for some drives."""
 
@@ -539,7 +543,7 @@ class EmulatorServer:
         self.transport = transport
         self.drives: dict[int, _Drive] = {}
 
-    def add(self, unit: int, kind: type[_Drive], **options: object) -> _Drive:
+    def add(self, unit: int, kind: type[DriveT], **options: object) -> DriveT:
         drive = kind(self.server.add_slave(unit), **options)  # type: ignore[arg-type]
         self.drives[unit] = drive
         with _HOOK_LOCK:
