@@ -203,7 +203,7 @@ class DeviceStation:
             self.record_event(ReferenceRecord(event="kept", cause=cause, axes=axes))
             return
         self.controller.forget_reference()  # no set-point before the homing
-        why = "; ".join(f"{r.axis}: {', '.join(r.reasons)}" for r in lost)
+        why = "; ".join(r.describe() for r in lost)
         log.warning("axes %s lost their reference after a %s: %s",
                     ", ".join(r.axis for r in lost), cause, why)
         if not self.rehome_after_loss:

@@ -55,6 +55,10 @@ class AxisReference:
     def kept(self) -> bool:
         return not self.reasons
 
+    def describe(self) -> str:
+        """``x at +67.770 mm: reason, reason`` (one line)."""
+        return f"{self.axis} at {self.position_mm:+.3f} mm: {', '.join(self.reasons)}"
+
     def as_dict(self) -> dict[str, Any]:
         out: dict[str, Any] = {"position_mm": round(self.position_mm, 6), "homed": self.homed}
         if self.reasons:
@@ -76,14 +80,11 @@ def assess_reference(controller: AxisController, paths: Mapping[str, Path] | Non
         reasons: list[str] = []
         if not status.homed:
             reasons.append("the drive reports it is not homed" if controller.reports_reference
-                           else "the drive does not report whether it is homed (no homed "
-                                "flag in the profile), and it was lost")
+                           else "the drive does not report whether it is homed, and was lost")
         if not low - margin <= q <= high + margin:
-            reasons.append(f"it reads {q:+.3f} mm, outside the soft limits "
-                           f"[{low:g}, {high:g}] mm")
+            reasons.append(f"outside the soft limits [{low:g}, {high:g}] mm")
         path = (paths or {}).get(axis)
         if path is not None and not path.holds(q, slack):
-            reasons.append(f"it reads {q:+.3f} mm, not on its way from {path.start_mm:+.3f} "
-                           f"to {path.end_mm:+.3f} mm")
+            reasons.append(f"not on its way from {path.start_mm:+.3f} to {path.end_mm:+.3f} mm")
         out[axis] = AxisReference(axis, q, status.homed, tuple(reasons))
     return out

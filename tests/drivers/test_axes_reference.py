@@ -69,6 +69,7 @@ def test_cia402_lost_link_forgets_the_homing_until_homed_again() -> None:
         link.connect()
         found = assess_reference(c)["x"]
         assert not found.kept and "does not report whether it is homed" in found.reasons[0]
+        assert found.describe().startswith("x at +0.000 mm: the drive does not report")
         with pytest.raises(DeviceFault, match="not homed"):
             c.move_to({"x": 1.0})
         assert not any(pdu[0] == 16 and pdu[1:3] == b"\x60\x7a" for pdu in drive.requests)
