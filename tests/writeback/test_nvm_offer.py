@@ -10,6 +10,7 @@ from __future__ import annotations
 import pytest
 
 from ogacq.model.parameters import AXES
+from ogacq.record.document import build_record
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.emulators.drives import Cia402Drive, EmulatorServer
@@ -56,6 +57,9 @@ def test_the_save_is_offered_and_the_record_says_what_a_power_cycle_does(
     if not save:
         assert "NOT saved to non-volatile memory" in ran.stdout
     assert all(d.saves == (1 if save else 0) for d in drives.values())
+    # the calibration record says it too
+    said = build_record(load_session(session))["writeback"][-1]["details"]
+    assert ("survives a power cycle" if save else "a power cycle brings back") in said
 
     for drive in drives.values():
         drive.power_cycle()
