@@ -42,6 +42,7 @@ class CampaignOutcome:
     session_path: Path
     fit: FitResult
     hidden: dict[str, float] | None  # the simulator's truth, when simulated
+    simulated: bool = False  # run on the built-in simulator, not on the machine
 
 
 def identify_session(session: LoadedSession) -> FitResult:
@@ -102,6 +103,8 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             header = {"machine": machine_dict(campaign.machine),
                       "machine_file": str(campaign.machine_path),
                       "campaign_file": str(campaign.path.resolve()),
+                      # said once and loudly: a rehearsal is never the machine's record
+                      "simulated": station.simulator is not None,
                       "station": station.description, "plan": campaign.protocol.to_dict(),
                       **header_entries(campaign, station.description["gauges"]),
                       **(header_extra or {})}
@@ -121,9 +124,13 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             # inside the wizard's wrapper: its pauses are the operator's time, not the work's
             works = DeadlineStation(station, station.description["deadline_s"])
             runs_on = wrap_station(works, writer) if wrap_station else works
+            # a resumed campaign was homed anew (prepare): the readings on file hold only
+            # if the machine reads the same at the posture of the last of them
+            previous = resume.readings if resume is not None else ()
             runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
-                                    set_gauges=set_gauges)
+                                    set_gauges=set_gauges, previous=previous,
+                                    check_first=bool(previous))
             runner.run()
             at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))
             ended = at_end(station)
@@ -135,7 +142,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                                       noise_mm=result.noise.sigma_mm,
                                       noise_source=result.noise.source))
         hidden = station.simulator.machine.truth.hidden() if station.simulator else None
-    return CampaignOutcome(writer.path, result, hidden)
+    return CampaignOutcome(writer.path, result, hidden, station.simulator is not None)
 
 
 def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, str]],

@@ -20,6 +20,10 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     baudrate = 38400                  # RTU only
     reconnect_attempts = 5            # a dropped link: reconnects before the campaign stops,
     reconnect_backoff_s = 1.0         # the first after this wait, each next after twice it
+    rehome_after_loss = true          # an axis whose drive lost its position reference (a
+                                      # power cycle) is homed again unattended, then a
+                                      # posture is checked against the readings on file;
+                                      # false: the campaign stops (exit 3) for a person
     [controller.axes]                 # instead of `port`, or beside it: one endpoint per
                                       # axis (drives that are one Ethernet device each);
     x = { port = "192.168.3.11:502", device_id = 255 }  # device_id: Modbus unit id,
@@ -91,6 +95,7 @@ from ogacq_drivers.axes.reconnect import ReconnectPolicy
 from ogacq_drivers.config_schema import (
     DATE,
     MOMENT,
+    TRUTH,
     Field,
     FilePath,
     ListOf,
@@ -191,6 +196,9 @@ class ControllerSpec:
     axes: dict[str, AxisEndpoint] = field(default_factory=dict)
     reconnect_attempts: int = ReconnectPolicy.attempts
     reconnect_backoff_s: float = ReconnectPolicy.backoff_s
+    # An axis that lost its position reference (a drive switched off and on) is homed
+    # again unattended; False: the campaign stops, resumable, for someone to home it.
+    rehome_after_loss: bool = True
 
     @property
     def reconnect(self) -> ReconnectPolicy:
@@ -314,6 +322,7 @@ _CONTROLLER = Table((
     # a reconnect policy still bounded in practice
     Field("reconnect_attempts", whole(minimum=0, maximum=100)),
     Field("reconnect_backoff_s", number(minimum=0.0)),
+    Field("rehome_after_loss", TRUTH),
 ), build=ControllerSpec)
 
 # A temperature a shop floor may have: beyond it, a typo (a Fahrenheit value, a sign)
@@ -431,6 +440,8 @@ def read_campaign(path: str | Path) -> Campaign:
                  or campaign.simulator.gauge_protocols):
         raise src.fail(("simulator", "gauge_layout"), "", "a simulated multiplexer is an 01A "
                        "box: gauge_protocol(s) do not apply with gauge_layout = \"multiplexer\"")
+    if campaign.simulator is not None:
+        _check_simulated_only(src, given)
     if "controller" in given:
         campaign.controller = _controller(src, given["controller"])
     elif campaign.simulator is None:
@@ -465,6 +476,23 @@ def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
         raise src.fail(("protocol", key), "", str(exc)) from None
     return config
+
+
+def _check_simulated_only(src: Source, given: dict) -> None:
+    """Real or simulated, said once: a [simulator] campaign names no real controller
+    and no gauge port (gauges there carry identities only), else it would run on the
+    simulator while the file says where the machine is."""
+    real = []
+    if "controller" in given:
+        spec: ControllerSpec = given["controller"]
+        real.append(f"[controller] {spec.endpoints() or spec.profile}")
+    real += [f"gauge {g.gauge} on {g.port or g.protocol}" for g in given.get("gauges", [])
+             if g.port or g.protocol]
+    if real:
+        raise src.fail(("simulator",), "", f"a [simulator] table and real ports "
+                       f"({', '.join(real[:3])}{', ...' if len(real) > 3 else ''}): a campaign "
+                       "runs on the simulator or on the machine; remove [simulator] to run on "
+                       "the machine, or the ports to rehearse")
 
 
 def _controller(src: Source, spec: ControllerSpec) -> ControllerSpec:

@@ -25,9 +25,11 @@ from typing import TYPE_CHECKING, Any
 
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.modbus_link import ModbusLink
-from ogacq_drivers.axes.preflight import run_preflight
+from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, probe_move
 from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.axes.reconnect import ReconnectPolicy, reconnect
+from ogacq_drivers.axes.reference import Path as AxisPath
+from ogacq_drivers.axes.reference import assess_reference
 from ogacq_drivers.errors import DeviceTimeout, DriverError, LinkError
 from ogacq_drivers.indicators import backend, open_indicator
 from ogacq_drivers.indicators.base import StableReading, read_stable
@@ -37,8 +39,8 @@ from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpe
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
-from ogacq.protocol.runner import GaugeValue, SettledGauge
-from ogacq.session.records import ReconnectRecord, Record
+from ogacq.protocol.runner import CampaignStopped, GaugeValue, SettledGauge
+from ogacq.session.records import ReconnectRecord, Record, ReferenceRecord
 from ogacq.writeback.table import read_offset_table
 
 if TYPE_CHECKING:
@@ -60,11 +62,20 @@ class DeviceStation:
     reconnect: ReconnectPolicy = field(default_factory=ReconnectPolicy)
     # Where events of the station go into the session (set once it is open).
     record_event: Callable[[Record], None] = lambda record: None
+    # An axis that lost its reference is homed again unattended (the campaign then
+    # checks a posture); False: the campaign stops instead ([controller] rehome_after_loss).
+    rehome_after_loss: bool = True
     _t0: float = 0.0
     # A move lost its connection: even if a later request connected again on its own,
     # the axes are stopped and their state re-read before anything else moves.
     _link_lost: bool = False
     _reader: ConcurrentReader | None = None
+    # Joint coordinates last reached, and the target of the move under way: where a
+    # stop may have left each axis.
+    _reached: dict[str, float] | None = None
+    _heading: dict[str, float] | None = None
+    # Homed again after a loss: the runner checks a posture before it goes on.
+    _check_requested: bool = False
 
     def close(self) -> None:
         """Let the gauge readers go (before the gauges' lines close)."""
@@ -75,11 +86,16 @@ class DeviceStation:
     def prepare(self) -> None:
         """Servo on and home: every campaign starts from a known position, with the
         joint offsets in force recorded (a home offset takes effect at this homing)."""
+        # before homing, before any set-point: a plausible status and values (a
+        # wrong word order reads 65,536 times too far), then the home value, then a
+        # probe that cannot lurch (see drivers/axes/preflight.py)
+        check_identity(self.controller)
         self.controller.enable()
         self.controller.home()
-        # before the first move: word order, home-offset sign, plausible status
-        run_preflight(self.controller)
-        self.controller.home()  # back to the known start the probe move left
+        check_home(self.controller)
+        probe_move(self.controller)
+        statuses = self.controller.home()  # back to the known start the probe move left
+        self._reached = {a: s.position_mm for a, s in statuses.items()}
         self.description.setdefault("controller", {})["offsets_mm"] = \
             self.controller.read_offsets()
         self._t0 = self.clock_s()
@@ -87,12 +103,14 @@ class DeviceStation:
     def move(self, q_mm: tuple[float, float, float], timeout_s: float,
              ) -> tuple[float, float, float]:
         targets = dict(zip(AXES, q_mm, strict=True))
+        self._heading = targets
         try:
             self.controller.move_to(targets, wait=True, timeout_s=timeout_s / self.speed)
         except LinkError:
             self._link_lost = True
             raise
         resolved = self.controller.resolved_targets_mm(targets)
+        self._reached, self._heading = resolved, None
         return tuple(resolved[a] for a in AXES)
 
     def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
@@ -139,17 +157,72 @@ class DeviceStation:
         """Reset alarms and switch the drives back on (a CiA 402 fault drops the power
         stage); True when every axis is ready to move again. A connection lost (or
         gone silent) is first reconnected within the station's reconnect policy,
-        the axes stopped and their state re-read and recorded."""
+        the axes stopped and their state re-read and recorded. Then the drives say
+        whether each axis kept its reference (:func:`assess_reference`); where one
+        did not, every axis is homed again before any set-point (and the runner
+        checks a posture), or the campaign stops when that is not allowed."""
+        cause = "alarm"
         try:
             if self._link_lost or not all(link.connected for link in self.controller.links):
+                cause = "reconnect"
                 self._reconnect()
             try:
-                return self._reset_and_enable()
+                ready = self._reset_and_enable()
             except (LinkError, DeviceTimeout):  # lost while recovering, or silent
+                cause = "reconnect"
                 self._reconnect()
-                return self._reset_and_enable()
+                ready = self._reset_and_enable()
+            if ready:
+                self._restore_reference(cause)
+            return ready
+        except PreflightError as exc:  # the re-homed drive is not what it was
+            raise CampaignStopped(str(exc)) from exc
         except DriverError:
             return False
+
+    def take_check_request(self) -> bool:
+        """True once after the axes were homed again: the runner checks a posture."""
+        requested, self._check_requested = self._check_requested, False
+        return requested
+
+    def _restore_reference(self, cause: str) -> None:
+        """Ask the drives whether the reference survived; home again where it did not."""
+        if not self.controller.reports_reference:
+            # the drive cannot say whether an alarm or a lost link cost it its reference
+            # (switched off and on between two polls, it would read the same): no
+            # set-point on this client's memory of a homing
+            self.controller.forget_reference()
+        paths = None
+        if self._reached is not None:
+            heading = self._heading or self._reached
+            paths = {a: AxisPath(self._reached[a], heading[a]) for a in self._reached}
+        found = assess_reference(self.controller, paths)
+        axes = {a: r.as_dict() for a, r in found.items()}
+        lost = [r for r in found.values() if not r.kept]
+        if not lost:
+            self.record_event(ReferenceRecord(event="kept", cause=cause, axes=axes))
+            return
+        self.controller.forget_reference()  # no set-point before the homing
+        why = "; ".join(r.describe() for r in lost)
+        log.warning("axes %s lost their reference after a %s: %s",
+                    ", ".join(r.axis for r in lost), cause, why)
+        if not self.rehome_after_loss:
+            message = (f"axis {', '.join(r.axis for r in lost)} lost its position reference "
+                       f"({why}); homing unattended is not allowed ([controller] "
+                       "rehome_after_loss = false): home the machine, then `ogacq resume` "
+                       "(it checks a posture against the readings on file)")
+            self.record_event(ReferenceRecord(event="lost", cause=cause, axes=axes,
+                                              message=message))
+            raise CampaignStopped(message)
+        self.record_event(ReferenceRecord(event="lost", cause=cause, axes=axes, message=why))
+        check_identity(self.controller)  # plausible values before homing, as at the start
+        statuses = self.controller.home()
+        check_home(self.controller)
+        self._reached, self._heading = {a: s.position_mm for a, s in statuses.items()}, None
+        self._check_requested = True
+        self.record_event(ReferenceRecord(
+            event="rehomed", cause=cause,
+            axes={a: {"position_mm": round(s.position_mm, 6)} for a, s in statuses.items()}))
 
     def _reset_and_enable(self) -> bool:
         self.controller.reset_alarms()
@@ -267,7 +340,8 @@ def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
 def _controller_description(spec: ControllerSpec, controller: AxisController) -> dict[str, Any]:
     out: dict[str, Any] = {"profile": spec.profile, "port": spec.port,
                            "offset_kind": controller.profile.offset.kind,
-                           "reconnect": spec.reconnect.as_dict()}
+                           "reconnect": spec.reconnect.as_dict(),
+                           "rehome_after_loss": spec.rehome_after_loss}
     if spec.axes:
         out["axes"] = {a: {"port": spec.port_of(a), "device_id": controller.device_ids[a]}
                        for a in controller.axes}
@@ -349,6 +423,7 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
             "simulated": simulator is not None,
         }
         station = DeviceStation(controller, indicators, clock, speed, description, simulator,
-                                controller_spec.reconnect)
+                                controller_spec.reconnect,
+                                rehome_after_loss=controller_spec.rehome_after_loss)
         stack.callback(station.close)  # before the gauges close (callbacks run last first)
         yield station

@@ -145,8 +145,11 @@ class AxisController:
                     "a software offset table does not apply"
                 )
             self._software_offsets.update(self._per_axis(software_offsets_mm, "software offsets"))
-        # Set once this client saw a homing through; used where the profile has no homed bit.
+        # Set once this client saw a homing through; used where the profile has no homed
+        # bit, and only while the drive was never out of reach since (it may have been
+        # switched off and on: an incremental encoder then counts from anywhere).
         self._homed_latch = {a: False for a in self.axes}
+        self._losses_at_home = {a: 0 for a in self.axes}
         #: Axes whose home offset was written but not yet made effective by a homing.
         self.rehome_required: set[str] = set()
         self._blocks = self._plan_reads(self.profile.status_values())
@@ -224,6 +227,7 @@ class AxisController:
         self._run("home", chosen, per_axis=params)
         for axis in chosen:
             self._homed_latch[axis] = True
+            self._losses_at_home[axis] = self._links[axis].stats.losses
             self.rehome_required.discard(axis)
         log.info("homed axes %s", ", ".join(chosen))
         return self.read_status(chosen)
@@ -266,9 +270,12 @@ class AxisController:
                     code=status.alarm_code,
                     where=self._where(axis),
                 )
-            if not status.flags["servo_on"]:
+            if not status.flags["servo_on"] or not status.flags.get("quick_stop", True):
+                # CiA 402 "quick stop active" keeps bit 2 (operation enabled) set but
+                # takes no set-point: a stop, not a state to move from
                 raise DeviceFault(
-                    f"move {axis} refused: servo is off; enable first",
+                    f"move {axis} refused: servo is off (or the drive is in quick stop); "
+                    "enable first",
                     code="servo_off",
                     where=self._where(axis),
                 )
@@ -529,6 +536,24 @@ class AxisController:
         """Where the position counter must read at the home point after a homing."""
         return self._counter_at_home(axis)
 
+    @property
+    def reports_reference(self) -> bool:
+        """Whether the drive itself says it is homed (a ``homed`` flag in the profile:
+        IAI's HEND); else only this client's memory of a homing, lost with the link."""
+        return "homed" in self.profile.flags
+
+    def forget_reference(self, axes: Iterable[str] | None = None) -> None:
+        """This client no longer vouches for the axes' homing: no move until :meth:`home`
+        (where the drive reports its own homing, the drive's word still decides)."""
+        for axis in self._axes(axes):
+            self._homed_latch[axis] = False
+
+    def _latched_homed(self, axis: str) -> bool:
+        """Homed by this client's memory, and the drive never out of reach since."""
+        if self._links[axis].stats.losses != self._losses_at_home[axis]:
+            self._homed_latch[axis] = False
+        return self._homed_latch[axis]
+
     def stop_quietly(self, axes: Sequence[str]) -> None:
         """Stop ``axes``, logging (not raising) a failure: another error is the one to report."""
         self._stop_after_failure(axes)
@@ -633,7 +658,7 @@ class AxisController:
             flags=flags,
             fault=fault,
             alarm_code=alarm_code,
-            homed=flags["homed"] if "homed" in flags else self._homed_latch[axis],
+            homed=flags["homed"] if "homed" in flags else self._latched_homed(axis),
             position_mm=None if position is None else self._counter_to_q(axis, float(position)),
         )
 
@@ -783,6 +808,9 @@ class AxisController:
                 self._write_block(
                     axis, step.to, values, what=what + (" (edge, sent once)" if step.edge else "")
                 )
+            elif step.op == "wait" and step.until:
+                timeout = float(self._resolve(step.timeout_s, params, command))
+                self._wait_any(axis, command, step.until, timeout)
             elif step.op == "wait":
                 timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_flag(axis, command, step.flag, step.state, timeout)
@@ -810,6 +838,35 @@ class AxisController:
                     f"{command} {axis}: {flag} did not become {state} within {timeout_s:g} s",
                     where=self._where(axis),
                 )
+            time.sleep(self.poll_interval_s)
+
+    def _wait_any(
+        self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
+        timeout_s: float,
+    ) -> _Poll:
+        """Poll until the flags match one of the ``until`` alternatives (all of its
+        flag states at once); an alarm ends the wait unless an alternative asks for it."""
+        deadline = time.monotonic() + timeout_s
+        tolerate_fault = any(flag in self.profile.status.fault_flags
+                             for alternative in until for flag, _ in alternative)
+        while True:
+            status = self._poll(axis, self._flag_blocks)
+            if any(all(status.flags[flag] == state for flag, state in alternative)
+                   for alternative in until):
+                return status
+            if status.fault and not tolerate_fault:
+                raise DeviceFault(
+                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting",
+                    code=status.alarm_code, where=self._where(axis))
+            if time.monotonic() >= deadline:
+                wanted = " or ".join(
+                    "(" + ", ".join(f"{f}={v}" for f, v in alternative) + ")"
+                    for alternative in until)
+                seen = ", ".join(f"{f}={status.flags[f]}" for f in dict.fromkeys(
+                    f for alternative in until for f, _ in alternative))
+                raise DeviceTimeout(
+                    f"{command} {axis}: none of {wanted} within {timeout_s:g} s "
+                    f"(last seen {seen})", where=self._where(axis))
             time.sleep(self.poll_interval_s)
 
     def _confirm(

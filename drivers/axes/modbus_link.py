@@ -70,6 +70,9 @@ class LinkStats:
     read_retries: int
     #: Transactions that ended in an error (timeout, exception reply, lost link).
     failures: int = 0
+    #: Of those, the ones where the device was not heard at all (a lost or refused
+    #: connection, no answer after every attempt): it may have been switched off.
+    losses: int = 0
 
 
 class ModbusLink:
@@ -118,7 +121,7 @@ class ModbusLink:
                 retries=0,
             )
         self._lock = threading.Lock()
-        self._reads = self._writes = self._retries = self._failures = 0
+        self._reads = self._writes = self._retries = self._failures = self._losses = 0
 
     @classmethod
     def for_profile(
@@ -177,7 +180,8 @@ class ModbusLink:
 
     @property
     def stats(self) -> LinkStats:
-        return LinkStats(self._reads, self._writes, self._retries, self._failures)
+        return LinkStats(self._reads, self._writes, self._retries, self._failures,
+                         self._losses)
 
     def check_device_id(self, device_id: int) -> None:
         """Refuse a unit id the transport cannot address.
@@ -236,6 +240,7 @@ class ModbusLink:
                 return self._execute(device_id, what, call)
             except DeviceTimeout:
                 if attempt == attempts:
+                    self._losses += 1
                     raise DeviceTimeout(
                         f"{what}: no answer after {attempts} attempt(s) of {self.timeout_s:g} s "
                         f"({time.monotonic() - started:.2f} s)",
@@ -298,6 +303,7 @@ class ModbusLink:
         try:
             self._execute(device_id, what, call)
         except DeviceTimeout as exc:
+            self._losses += 1
             # The write may or may not have been executed: say so, the caller reads back.
             raise DeviceTimeout(
                 f"{what}: no answer within {self.timeout_s:g} s; not re-sent, "
@@ -310,6 +316,10 @@ class ModbusLink:
     def _execute(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
         try:
             return self._execute_once(device_id, what, call)
+        except LinkError:
+            self._failures += 1
+            self._losses += 1
+            raise
         except DriverError:
             self._failures += 1
             raise

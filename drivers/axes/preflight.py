@@ -1,27 +1,37 @@
-"""Pre-flight check: is the drive what the profile says, before anything moves further?
+"""Pre-flight check: is the drive what the profile says, before any set-point?
 
 A profile with the wrong 32-bit word order passes every read-back (writes and
 reads are swapped alike) while the drive is sent 65,536 times the target; a
 profile with the wrong home-offset sign homes and runs silently off by twice
 the offset. Neither shows in the client's own bookkeeping, so this module looks
-where they do show:
+where they do show, and before anything is commanded that could lurch:
 
-1. ``check_identity`` (nothing moves): the status words form a pattern the
-   family can show (a CiA 402 statusword is one of its state patterns; no axis
-   is in position and moving at once), and the position read twice at rest
-   agrees within one register step.
+1. ``check_identity`` (nothing moves, before homing): the status words form a
+   pattern the family can show (a CiA 402 statusword is one of its state
+   patterns; no axis is in position and moving at once); the position read
+   twice at rest agrees within one register step; and every 32-bit value read
+   (position, home offset) is plausible for the machine: no further from 0
+   than its whole travel (soft limits and their margins). A value of 1 count
+   and more read with its words swapped is 65,536 counts and more (655 mm at
+   100 counts/mm): the refusal names ``codec.word_order`` and shows what the
+   words would read the other way round. Homing is the drive's own motion (its
+   method and speeds are its parameters), so it is safe with any codec; these
+   reads come first all the same, so that a wrong home offset is not applied.
 2. ``check_home`` (after a homing): the position reads the value the profile
    predicts at the home point (``offset.sign`` × home offset, 0 for a software
    offset table) within one register step. Reading the opposite value names
-   ``offset.sign``; reading the value with swapped words names ``codec.word_order``.
-3. ``probe_move`` (the first move): a small move of known size from home,
-   polled on the way. With the words swapped, the first position read while the
-   drive moves decodes far outside the way from start to target (a count in the
-   low word becomes 65,536 counts in the high word): the axes are stopped at
-   once and ``codec.word_order`` is named. On arrival the move must read back
-   its size. A drive's own position limits may refuse the swapped target first
-   (an alarm): that is reported with the same field.
+   ``offset.sign``; any other names ``codec.word_order``.
+3. ``probe_move`` (the first set-point): a small move of known size from home
+   at a speed of exactly 65,536 counts/s (0x00010000). In the profile's word
+   order that is the drive's fast speed for a 1 mm move; with the words swapped
+   the drive reads 1 count/s, so the far target it also misreads is crept
+   towards one count at a time, and the first count moved decodes as 65,536
+   (far outside the way): the axes are stopped at once, a count or two from
+   where they were, and ``codec.word_order`` is named. A drive's own position
+   limits may refuse the swapped target first (an alarm): the same field.
 
+Only an axis that stands at counter 0 (or -1) with a home offset of 0 reads the
+same in both word orders; then the probe's speed is what bounds a mistake.
 What no Modbus read can show: a wrong ``codec.counts_per_mm`` that scales
 commands and reads alike; the drive reads back consistent numbers. The
 campaign's gauges see it (the diagnosis names an encoder scale error).
@@ -37,6 +47,13 @@ import time
 from collections.abc import Iterable
 
 from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.profile import (
+    Profile,
+    counts_to_mm,
+    int_to_words,
+    mm_to_counts,
+    words_to_int,
+)
 from ogacq_drivers.errors import DeviceFault, DriverError
 
 log = logging.getLogger(__name__)
@@ -63,12 +80,71 @@ class PreflightError(DeviceFault):
         self.field = field
 
 
+#: The probe's speed in counts/s: 0x00010000, whose words swapped read 0x00000001.
+PROBE_SPEED_COUNTS_S = 0x10000
+
+
 def _step_mm(controller: AxisController) -> float:
     return 1.0 / controller.profile.codec.counts_per_mm
 
 
+def travel_bound_mm(controller: AxisController) -> float:
+    """The furthest from 0 any position or offset of this machine can read: its whole
+    travel, soft limits and their margins (an incremental counter started anywhere on
+    the axis stays within it; a homed one stays within the limits)."""
+    low, high = controller.soft_limits_mm
+    return (high - low) + 2.0 * controller.profile.limits.margin_mm
+
+
+def _swapped_mm(profile: Profile, name: str, value_mm: float) -> float | None:
+    """What ``value_mm`` of 32-bit value ``name`` reads with its two words the other way
+    round (None for a 16-bit value or one that cannot be encoded)."""
+    spec = profile.value(name)
+    scale = profile.scale_of(spec)
+    if spec.words != 2 or scale is None:
+        return None
+    try:
+        words = int_to_words(mm_to_counts(value_mm, scale), 2,
+                             word_order=profile.codec.word_order, signed=spec.signed)
+    except ValueError:
+        return None
+    return counts_to_mm(words_to_int(words[::-1], word_order=profile.codec.word_order,
+                                     signed=spec.signed), scale)
+
+
+def check_plausible(controller: AxisController, axes: Iterable[str] | None = None) -> None:
+    """Every 32-bit value the client reads at rest (position, home offset) within the
+    machine's whole travel; else the words are read in the wrong order (or the scale
+    is wrong): refused before homing, before any set-point."""
+    profile = controller.profile
+    bound = travel_bound_mm(controller)
+    names = [profile.status.position]
+    if profile.offset.kind == "home_offset":
+        names.append(profile.offset.value)
+    for axis in controller.chosen_axes(axes):
+        for name in names:
+            value = float(controller.read_raw(axis, name))
+            if abs(value) <= bound:
+                continue
+            swapped = _swapped_mm(profile, name, value)
+            other = "" if swapped is None else (
+                f"; with its words the other way round it reads {swapped:+.2f} mm")
+            plausible = swapped is not None and abs(swapped) <= bound
+            raise PreflightError(
+                f"pre-flight {axis}: {name} reads {value:+,.2f} mm at rest, "
+                f"{abs(value) / bound:,.0f} times the machine's whole travel of {bound:g} mm"
+                f"{other}: " + (
+                    f"change codec.word_order (now {profile.codec.word_order!r}) in profile "
+                    f"{profile.name!r}" if plausible else
+                    f"check codec.word_order (now {profile.codec.word_order!r}) and "
+                    f"codec.counts_per_mm in profile {profile.name!r}")
+                + "; nothing was commanded",
+                field="codec.word_order", where=controller.where(axis))
+
+
 def check_identity(controller: AxisController, axes: Iterable[str] | None = None) -> None:
-    """Status pattern plausible for the family; the position read twice agrees (at rest)."""
+    """Status pattern plausible for the family; the position read twice agrees (at rest);
+    every 32-bit value within the machine's travel (:func:`check_plausible`)."""
     profile = controller.profile
     for axis in controller.chosen_axes(axes):
         where = controller.where(axis)
@@ -95,6 +171,7 @@ def check_identity(controller: AxisController, axes: Iterable[str] | None = None
                 f"and {second.position_mm:.4f} mm: check values.{profile.status.position}."
                 "address and codec.word_order",
                 field="codec.word_order", where=where)
+    check_plausible(controller, axes)
 
 
 def check_home(controller: AxisController, axes: Iterable[str] | None = None) -> None:
@@ -124,9 +201,16 @@ def check_home(controller: AxisController, axes: Iterable[str] | None = None) ->
             field="codec.word_order", where=where)
 
 
+def probe_speed_mm_s(controller: AxisController) -> float:
+    """The probe's speed: 65,536 counts/s in the profile's units (1 count/s swapped)."""
+    return PROBE_SPEED_COUNTS_S / controller.profile.codec.speed_counts_per_mm_s
+
+
 def probe_move(controller: AxisController, probe_mm: float = 1.0,
                axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
-    """A first small move of known size, watched on the way; stops the axes on a mismatch."""
+    """A first small move of known size, watched on the way; stops the axes on a mismatch.
+    Its speed (:func:`probe_speed_mm_s`) reads 1 count/s with the words swapped, so a
+    wrong word order creeps, is seen at its first count, and is stopped there."""
     profile = controller.profile
     chosen = controller.chosen_axes(axes)
     start = {a: s.position_mm for a, s in controller.read_status(chosen).items()}
@@ -137,10 +221,12 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
         raise ValueError(f"pre-flight: no room for a {probe_mm} mm probe move within "
                          f"the soft limits [{low:g}, {high:g}] mm")
     slack = max(_step_mm(controller), profile.motion.in_position_band_mm) + 1e-9
-    speed = controller.speed_mm_s
-    limit = timeout_s or (10.0 + 5.0 * probe_mm / speed)
+    speed = probe_speed_mm_s(controller)
+    # the right word order arrives in a blink (the drive's own ramps and speed limit
+    # aside); the wrong one moves one count a second and is seen at its first
+    limit = timeout_s or 10.0
     try:
-        controller.move_to(targets, wait=False)
+        controller.move_to(targets, wait=False, speed_mm_s=speed)
     except DeviceFault as exc:
         said = str(exc).removeprefix(f"{exc.where}: ")
         raise PreflightError(
@@ -175,16 +261,19 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
             if time.monotonic() > deadline:
                 controller.stop_quietly(chosen)
                 raise PreflightError(
-                    f"pre-flight: the {probe_mm:g} mm probe move did not arrive within "
-                    f"{limit:.0f} s: check codec.counts_per_mm and codec.word_order in profile "
-                    f"{profile.name!r}", field="codec.counts_per_mm",
+                    f"pre-flight: the {probe_mm:g} mm probe move at {speed:g} mm/s did not "
+                    f"arrive within {limit:.0f} s: a drive that reads its speed with the "
+                    f"words swapped creeps at 1 count/s; check codec.word_order (and "
+                    f"codec.counts_per_mm, codec.speed_counts_per_mm_s) in profile "
+                    f"{profile.name!r}", field="codec.word_order",
                     where=controller.where(chosen[0]))
             time.sleep(controller.poll_interval_s)
     log.info("pre-flight: probe move of %g mm read back on %s", probe_mm, ", ".join(chosen))
 
 
 def run_preflight(controller: AxisController, *, probe_mm: float = 1.0) -> None:
-    """All checks, for axes enabled and just homed: identity, home value, probe move."""
+    """All checks, for axes enabled and just homed: identity, home value, probe move.
+    (A campaign runs :func:`check_identity` before its homing too.)"""
     check_identity(controller)
     check_home(controller)
     probe_move(controller, probe_mm)

@@ -217,6 +217,10 @@ class CommandStep:
     skip_unchanged: bool = False
     flag: str = ""
     state: bool = True
+    #: A wait for any of several states, each a set of flags that must all hold
+    #: (``((("servo_on", False),), (("quick_stop", False), ("in_position", True)))``);
+    #: empty for a wait on ``flag`` alone.
+    until: tuple[tuple[tuple[str, bool], ...], ...] = ()
     timeout_s: float | str = "$ack_timeout_s"
     any: tuple[str, ...] = ()
     done: str = ""
@@ -386,8 +390,10 @@ _STEP = Variants("op", {
     "write_block": _op("write_block", Field("to", ListOf(text()), required=True),
                        Field("value", ListOf(_ANY_STEP_VALUE), required=True),
                        Field("edge", TRUTH)),
-    "wait": _op("wait", Field("flag", text(), required=True),
-                Field("state", TRUTH, required=True), Field("timeout_s", _TIMEOUT_OR_PARAM)),
+    # flag and state, or until = [{FLAG = STATE, ...}, ...]: any one set of flag states
+    "wait": _op("wait", Field("flag", text()), Field("state", TRUTH),
+                Field("until", ListOf(MapOf(TRUTH, noun="flag"))),
+                Field("timeout_s", _TIMEOUT_OR_PARAM)),
     "confirm": _op("confirm", Field("any", ListOf(text()), required=True),
                    Field("done", text(), required=True),
                    Field("at", Value((float, str)), required=True),
@@ -712,8 +718,18 @@ class _Checks:
                          for i, (n, v) in enumerate(zip(refs, given, strict=True)))
             return CommandStep(op, to=tuple(refs), value=vals, edge=s.get("edge", False))
         if op == "wait":
-            return CommandStep(op, flag=self._flag_ref(s["flag"], flags, f"{key}.flag"),
-                               state=s["state"], timeout_s=timeout)
+            if ("until" in s) == ("flag" in s) or ("flag" in s) != ("state" in s):
+                raise self.fail(key, "a wait names 'flag' and 'state', or 'until' (a list of "
+                                "flag states, any one of which ends it)")
+            if "flag" in s:
+                return CommandStep(op, flag=self._flag_ref(s["flag"], flags, f"{key}.flag"),
+                                   state=s["state"], timeout_s=timeout)
+            if not s["until"] or not all(s["until"]):
+                raise self.fail(f"{key}.until", "needs at least one set of flag states")
+            until = tuple(tuple((self._flag_ref(f, flags, f"{key}.until[{i}].{f}"), bool(v))
+                                for f, v in alternative.items())
+                          for i, alternative in enumerate(s["until"]))
+            return CommandStep(op, until=until, timeout_s=timeout)
         any_flags = tuple(self._flag_ref(f, flags, f"{key}.any[{i}]")
                           for i, f in enumerate(s["any"]))
         at = s["at"]

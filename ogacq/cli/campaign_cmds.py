@@ -78,6 +78,6 @@ def show_outcome(outcome: CampaignOutcome, as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps({"session": str(outcome.session_path),
                                **outcome.fit.to_json("offsets"),
-                               "hidden": outcome.hidden}))
+                               "hidden": outcome.hidden, "simulated": outcome.simulated}))
         return
     print_outcome(outcome)

@@ -101,6 +101,24 @@ def _check_writable(campaign: Campaign, profile: Profile, save_nvm: bool) -> Non
                          "its offsets persist in the software offset table")
 
 
+def _offer_nvm(plan: OffsetPlan, *, yes: bool) -> bool:
+    """Where the drive can save its parameters, ask (not with --yes: only --save-nvm
+    saves unattended); say what a power cycle does to values left unsaved."""
+    facts = plan.facts
+    if facts.kind == "software":
+        return False  # the table is a file: it outlives any power cycle
+    if not facts.has_nvm:
+        typer.echo(f"profile {facts.profile!r} has no non-volatile save: a power cycle of the "
+                   "drive brings back the offsets it saved before (save them with the "
+                   "drive's own panel or software to keep them)", err=True)
+        return False
+    if yes:
+        return False
+    return _ask("Save them to the drive's non-volatile memory too? Unsaved, switching the "
+                "drive off and on brings back the offsets it saved before (the memory "
+                "takes a limited number of writes: save only values you keep)")
+
+
 def _ask(question: str) -> bool:
     try:
         return typer.confirm(question, default=False)
@@ -134,6 +152,7 @@ def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: Au
             audit.record("declined", **summary)
             typer.echo("nothing written", err=True)
             raise typer.Exit(EXIT_DECLINED)
+    save_nvm = save_nvm or _offer_nvm(plan, yes=yes)
     options = WriteOptions(save_nvm=save_nvm, rehome=rehome,
                            forced=tuple(r.code for r in plan.refusals),
                            confirmed_by="--yes" if yes else "prompt", port=spec.port)

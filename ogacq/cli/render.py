@@ -211,6 +211,9 @@ def print_outcome(outcome) -> None:
     # in the noise's unit: one unit on the line
     console.print(f"residual rms {result.residual_rms_mm:.4g} mm, gauge noise "
                   f"{result.noise.describe()}; session {outcome.session_path}")
+    if getattr(outcome, "simulated", False):
+        console.print("[bold reverse] SIMULATED [/] a rehearsal on the built-in simulator: "
+                      "not a calibration of the machine", highlight=False)
 
 
 def _print_context(session) -> None:
@@ -241,7 +244,13 @@ def _print_context(session) -> None:
 
 
 def print_session(session) -> None:
-    from ogacq.session.records import EndRecord, FaultRecord, MoveRecord, ResumeRecord
+    from ogacq.session.records import (
+        EndRecord,
+        FaultRecord,
+        MoveRecord,
+        ReferenceRecord,
+        ResumeRecord,
+    )
 
     header = session.header
     ends = session.of_type(EndRecord)
@@ -264,6 +273,15 @@ def print_session(session) -> None:
                   f"{len(session.of_type(ResumeRecord))} times")
     for fault in faults[-3:]:
         console.print(f"  fault during {fault.during}: {fault.message}", highlight=False)
+    for ref in session.of_type(ReferenceRecord):  # after a loss of a drive: the reference
+        said = f"  reference {ref.event}" + (f" ({ref.cause})" if ref.cause else "")
+        if ref.differences_mm:
+            worst = max(abs(d) for d in ref.differences_mm.values())
+            said += (f" at {ref.step}: {worst:.4f} mm at most, within {ref.tolerance_mm} mm "
+                     "expected")
+        elif ref.message:
+            said += f": {ref.message}"
+        console.print(said, highlight=False, markup=False)
     if ends and ends[-1].reason:
         console.print(f"stopped because: {ends[-1].reason}", highlight=False)
     if session.result is not None:

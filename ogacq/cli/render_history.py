@@ -66,9 +66,12 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     for c in calibrations:
         ambient = f"{c.ambient_c:.1f} °C" if c.ambient_c is not None and \
             math.isfinite(c.ambient_c) else "-"
-        table.add_row(_when(c.date), c.record_id, c.operator or "-", verdict_words(c.verdict),
-                      acceptance_words(c), ambient)
+        table.add_row(_when(c.date), c.record_id + (" SIMULATED" if c.simulated else ""),
+                      c.operator or "-", verdict_words(c.verdict), acceptance_words(c), ambient)
     console.print(table)
+    if any(c.simulated for c in calibrations):
+        console.print("SIMULATED: a rehearsal on the built-in simulator, not a calibration "
+                      "of the machine", highlight=False)
     values = Table(title=f"identified {'joint offsets ' if joint else ''}(mm ± U, k = 2; "
                          f"{DRIFT_MARK} changed by more than U)",
                    show_edge=False, header_style="bold", title_justify="left")
@@ -131,6 +134,7 @@ def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
         "machine": {"name": machine.name, "serial": machine.serial},
         "calibrations": [{
             "record": c.record_id, "date": c.date, "operator": c.operator,
+            "simulated": c.simulated,
             "parameters": {n: {"value_mm": p.value_mm, "u_mm": p.u_mm, "U_mm": p.expanded_mm,
                                "k": p.k, "std_mm": p.std_mm}
                            for n, p in c.parameters.items()},

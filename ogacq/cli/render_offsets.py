@@ -108,10 +108,12 @@ def print_outcome(outcome: WriteOutcome) -> None:
         console.print("[yellow]not re-homed: the new offsets take effect at the next homing "
                       "(every campaign homes first)[/]")
     if outcome.nvm_saved:
-        console.print("saved to non-volatile memory")
+        console.print("saved to non-volatile memory: they survive a power cycle of the drive")
     elif outcome.offsets_file is None:
-        console.print("not saved to non-volatile memory: a power cycle of the drive brings the "
-                      "old offsets back (--save-nvm saves them)")
+        console.print("[yellow]NOT saved to non-volatile memory: switching the drive off and on "
+                      "brings back the offsets it saved before[/] (`ogacq offsets write "
+                      "--save-nvm` saves them; a campaign after a power cycle then homes with "
+                      "the old ones)", highlight=False)
     if outcome.action == "write":
         console.print("old and new values are recorded in the session (`ogacq offsets "
                       "restore` puts the old ones back)")

@@ -87,6 +87,7 @@ class Calibration:
     environment: dict[str, Any] | None = None
     overrides: list[Any] | None = None
     station: str | None = None
+    simulated: bool | None = None  # a rehearsal on the simulator (None: not said)
 
 
 @dataclass(frozen=True)
@@ -285,7 +286,9 @@ class History:
                            r.acceptance_decision, r.acceptance, r.ambient_c,
                            _in_record_order(by_event.get(r.id, {}), r.record),
                            r.session_path, r.session_sha256, r.instruments, r.environment,
-                           r.overrides, r.station)
+                           r.overrides, r.station,
+                           (r.record or {}).get("simulated") if isinstance(r.record, dict)
+                           else None)
                for r in rows]
         return sorted(out, key=lambda c: (c.date or "", c.record_id))
 

@@ -5,6 +5,13 @@ holds (resume), reproduces the approach side of the posture it resumes at,
 retries device faults within bounds and otherwise stops safely: axes stopped,
 the stop recorded, the session resumable. It never prints: progress goes to an
 observer callback that the command line renders.
+
+After a drive was lost and the axes homed again (the station says so), and on a
+resume, the readings on file are only as good as the reference they were taken
+with: the runner goes back to the posture of the last reading on file, from the
+same side, and reads its gauges again (the check posture). Within the noise, the
+campaign goes on; otherwise it stops, saying that the readings taken before the
+loss are not to be trusted.
 """
 
 from __future__ import annotations
@@ -38,6 +45,7 @@ from ogacq.session.records import (
     GaugesSetRecord,
     MoveRecord,
     ReadingRecord,
+    ReferenceRecord,
     SettleRecord,
 )
 from ogacq.session.store import SessionWriter
@@ -89,7 +97,9 @@ class Station(Protocol):
     def stop_axes(self) -> None: ...
 
     def recover_axes(self) -> bool:
-        """Try to clear an axis alarm; True when the axes are ready again."""
+        """Try to clear an axis alarm; True when the axes are ready again. A station
+        that homed the axes again meanwhile says so once through an optional
+        ``take_check_request() -> bool``: the runner then checks a posture."""
 
 
 class CampaignStopped(OgacqError):
@@ -125,7 +135,11 @@ class CampaignRunner:
     def __init__(self, station: Station, writer: SessionWriter, config: ProtocolConfig,
                  machine: MachineSpec, *, recorded: set[tuple[str, str]] | None = None,
                  observer: Observer | None = None, set_gauges: GaugeSetter | None = None,
-                 retry: RetryPolicy | None = None) -> None:
+                 retry: RetryPolicy | None = None,
+                 previous: Sequence[ReadingRecord] = (), check_first: bool = False) -> None:
+        """``previous``: the readings a resumed session holds, in order; with
+        ``check_first`` (a resume: the axes were homed anew) the posture of the last of
+        them is checked before anything else."""
         self.station = station
         self.writer = writer
         self.config = config
@@ -138,6 +152,15 @@ class CampaignRunner:
         self._commanded_q: tuple[float, float, float] | None = None
         self._planned_q: tuple[float, float, float] | None = None
         self._total = sum(len(s.gauges) for s in self._steps if isinstance(s, Read))
+        # Each step's readings on file (gauge -> value) and the step read last: the
+        # check posture after a loss reads it again.
+        self._values: dict[str, dict[str, float]] = {}
+        self._last_step: str | None = None
+        for reading in previous:
+            self._values.setdefault(reading.step, {})[reading.gauge.key] = reading.reading_mm
+            self._last_step = reading.step
+        self._check_first = check_first
+        self._mounted_leg: str | None = None  # moved indicators: where they are now
 
     @property
     def total_readings(self) -> int:
@@ -174,6 +197,8 @@ class CampaignRunner:
                                         readings=len(self.recorded)))
 
     def _run(self) -> None:
+        if self._check_first:
+            self._check_posture("resume")
         pending: list[Move] = []
         came_from: Move | None = None  # the plan's last posture before ``pending``
         moved = False
@@ -209,32 +234,123 @@ class CampaignRunner:
     def _set_gauges(self, step: SetGauges) -> None:
         if self.set_gauges is not None:
             self.set_gauges(step)
+            self._mounted_leg = step.leg
         self.writer.write(GaugesSetRecord(leg=step.leg, gauges=step.gauges))
         self.observer(Progress(len(self.recorded), self._total,
                                f"gauges set on the {step.leg} leg"))
 
     def _execute_moves(self, moves: list[Move]) -> bool:
-        """Command the moves; True when the axes moved (not when already there)."""
+        """Command the moves; True when the axes moved (not when already there). A
+        failed move is retried after the station recovered the axes; where they were
+        homed again, the posture of the last reading is checked first and the moves
+        start over from it, so that each joint still approaches from its side."""
         moved = False
-        for move in moves:
+        index, attempt = 0, 1
+        while index < len(moves):
+            move = moves[index]
             if self._commanded_q is not None and np.allclose(move.q_mm, self._planned_q,
                                                              atol=1e-9):
+                index += 1
                 continue  # already there (Zero -> Zero between cycles): nothing to command
-            for attempt in range(1, self.retry.move_attempts + 1):
-                try:
-                    self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
-                    self._planned_q = move.q_mm
-                    moved = True
-                    break
-                except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
-                    self.writer.write(FaultRecord(during="move", attempt=attempt,
-                                                  error=type(exc).__name__, message=str(exc),
-                                                  q_mm=move.q_mm))
-                    if attempt == self.retry.move_attempts or not self.station.recover_axes():
-                        raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
-                                              f"{exc}") from exc
+            try:
+                self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+                self._planned_q = move.q_mm
+                moved = True
+            except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
+                self.writer.write(FaultRecord(during="move", attempt=attempt,
+                                              error=type(exc).__name__, message=str(exc),
+                                              q_mm=move.q_mm))
+                if attempt == self.retry.move_attempts or not self.station.recover_axes():
+                    raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
+                                          f"{exc}") from exc
+                attempt += 1
+                # where a stop left the axes is not where the plan was: command again
+                self._commanded_q = self._planned_q = None
+                take = getattr(self.station, "take_check_request", None)
+                if take is not None and take():
+                    self._check_posture("loss")
+                    index = 0
+                continue
             self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose))
+            index, attempt = index + 1, 1
         return moved
+
+    # ------------------------------------------------------------ check posture
+
+    def check_tolerance_mm(self) -> float:
+        """How far a gauge may read from its reading on file at the check posture: twice
+        the spread of a stable reading and the display step (no source: the noise a
+        reading is taken within, on either side)."""
+        return 2.0 * (self.config.stability.tolerance_mm + self.machine.gauge_resolution_mm)
+
+    def _check_posture(self, cause: str) -> None:
+        """Back to the posture of the last reading on file, approached from the same
+        side, and its gauges read again: the re-homed machine must read the same."""
+        step = next((s for s in self._steps if isinstance(s, Read)
+                     and s.step == self._last_step), None)
+        if step is None:
+            self.writer.write(ReferenceRecord(event="not_checked", cause=cause,
+                                              message="no reading on file yet"))
+            return
+        if self.set_gauges is not None and self._mounted_leg != step.leg:
+            self.writer.write(ReferenceRecord(
+                event="not_checked", cause=cause, step=step.step,
+                message=f"the indicators were moved off the {step.leg} leg since its last "
+                        "reading (or are set anew): the check posture cannot be read"))
+            return
+        recorded = self._values[step.step]
+        for move in self._approach_to(step):
+            self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+            self._planned_q = move.q_mm
+            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose="check"))
+        now = self._read_again(step, list(recorded))
+        tolerance = self.check_tolerance_mm()
+        differences = {g: round(now[g] - recorded[g], 6) for g in recorded}
+        worst = max(differences, key=lambda g: abs(differences[g]))
+        passed = abs(differences[worst]) <= tolerance + 1e-9
+        self.writer.write(ReferenceRecord(
+            event="checked" if passed else "check_failed", cause=cause, step=step.step,
+            differences_mm=differences, tolerance_mm=round(tolerance, 6)))
+        self.observer(Progress(len(self.recorded), self._total,
+                               f"check posture {step.step}: "
+                               + ("as before" if passed else "differs")))
+        if not passed:
+            raise CampaignStopped(
+                f"after the axes were homed again, the check posture {step.step} reads "
+                f"{differences[worst]:+.4f} mm off at gauge {worst} (within "
+                f"{tolerance:.4f} mm expected): the machine's reference moved, so the "
+                "readings taken before are not to be trusted; start a new campaign")
+
+    def _approach_to(self, step: Read) -> list[Move]:
+        """The moves the plan makes to reach ``step``: the posture it came from, then
+        its approach moves and the posture itself."""
+        at = self._steps.index(step)
+        moves: list[Move] = []
+        k = at - 1
+        while k >= 0 and not isinstance(self._steps[k], Read):
+            if isinstance(self._steps[k], Move):
+                moves.insert(0, self._steps[k])  # type: ignore[arg-type]
+            k -= 1
+        came_from = next((m for m in reversed(self._steps[:k + 1])
+                          if isinstance(m, Move) and m.purpose == "posture"), None)
+        return ([came_from] if came_from is not None else []) + moves
+
+    def _read_again(self, step: Read, gauges: list[str]) -> dict[str, float]:
+        """The gauges' values now, settled as a reading is (nothing recorded)."""
+        rule = dataclasses.replace(self.config.settle_rule,
+                                   display_step_mm=self.machine.gauge_resolution_mm)
+        out: dict[str, float] = {}
+        if rule.kind == "stable" and hasattr(self.station, "read_settled"):
+            for gauge, settled in self.station.read_settled(step, gauges, rule).items():
+                if isinstance(settled, SettledGauge) and settled.value is not None:
+                    out[gauge] = settled.value.value_mm
+        else:
+            self.station.settle(rule.bound_s)
+        for gauge, result in self._read_now(step, [g for g in gauges if g not in out]):
+            if isinstance(result, DriverError):
+                raise result
+            out[gauge] = result.value_mm
+        return out
 
     def _read_step(self, step: Read, *, settle: bool) -> None:
         """Settle (when something moved) and read the step's gauges not yet on file."""
@@ -322,6 +438,8 @@ class CampaignRunner:
             q_mm=self._commanded_q or step.q_mm, tcp_mm=step.tcp_mm, approach=step.approach,
             reading_mm=value.value_mm, raw=value.raw, source=value.where))
         self.recorded.add((step.step, gauge))
+        self._values.setdefault(step.step, {})[gauge] = value.value_mm
+        self._last_step = step.step
         self.observer(Progress(len(self.recorded), self._total,
                                f"{step.step} {gauge} = {value.value_mm:.4f} mm"))
 

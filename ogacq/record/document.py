@@ -107,6 +107,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         "operator": context.operator,
         "date": date,
         "date_simulated": context.simulated_date,
+        "simulated": simulated(header),
         **_context_sections(context, "instruments" in header, missing),
         "campaign": _campaign(session),
         "method": _method(session, result, machine),
@@ -134,6 +135,17 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
 
 
 # --- the parts ----------------------------------------------------------------------------
+
+def simulated(header: Mapping[str, Any]) -> bool | None:
+    """Whether the campaign ran on the built-in simulator: the header's ``simulated``,
+    or (sessions before it) its station's; None where the session does not say
+    (an imported table)."""
+    for said in (header.get("simulated"), (header.get("station") or {}).get("simulated")
+                 if isinstance(header.get("station"), Mapping) else None):
+        if isinstance(said, bool):
+            return said
+    return True if header.get("simulator") else None
+
 
 def _session_digest(session: LoadedSession) -> tuple[bytes, str]:
     """The header line and the SHA-256 of the session file as it was loaded."""

@@ -285,6 +285,13 @@ def offsets_writes(session: LoadedSession) -> tuple[OffsetsWrite, ...]:
     for op in operations(session):
         saved = ("saved to non-volatile memory" if op.nvm_saved
                  else "not saved to non-volatile memory")
+        if op.survives_power_cycle is True and not op.nvm_saved:
+            saved = "in the software offset table: survives a power cycle"
+        elif op.survives_power_cycle is True:
+            saved = "saved to non-volatile memory: survives a power cycle"
+        elif op.survives_power_cycle is False:
+            saved = ("not saved to non-volatile memory: a power cycle brings back the "
+                     "offsets the drive saved before")
         details = ", ".join(d for d in (f"controller {op.profile}" if op.profile else "",
                                         saved, f"operation {op.operation}") if d)
         out.append(OffsetsWrite(_wall(op.wall), op.action, op.status, dict(op.old_mm),

@@ -261,7 +261,8 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     context: dict[str, Any] = record_view(record) | {
         "page_issued": css_string(str(record.get("issued"))),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
-        "title": f"Calibration record {record.get('id')}: {machine}",
+        "title": f"Calibration record {record.get('id')}: {machine}"
+                 + (" (SIMULATED)" if p.simulated else ""),
         "status_badge": status_badge(data.status), "um": um,
         "figures": {f.name.removesuffix(".png"): Figure(base64.b64encode(f.png).decode("ascii"),
                                                          f.description, f.name)

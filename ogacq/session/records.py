@@ -451,6 +451,42 @@ class SettleRecord(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
+class ReferenceRecord(Record):
+    """After a drive was lost (a reconnect, an alarm, a resume): whether its axes kept
+    their position reference, as the drives themselves tell it; the homing that
+    restored it; the check posture that says whether the readings taken before still
+    hold. ``event``: "kept", "lost", "rehomed", "checked" (the check posture read the
+    same within ``tolerance_mm``), "check_failed", or "not_checked" (why in
+    ``message``)."""
+
+    KIND: ClassVar[str] = "reference"
+    event: str
+    cause: str | None = None  # what lost the drive: "reconnect", "alarm", "resume"
+    axes: dict[str, Any] | None = None  # per axis: position_mm, homed, reasons
+    step: str | None = None  # the check posture: the plan's step read again
+    differences_mm: dict[str, float] | None = None  # per gauge: now minus as recorded
+    tolerance_mm: float | None = None
+    message: str | None = None
+
+    def fields(self) -> dict[str, Any]:
+        extra = {"cause": self.cause, "axes": self.axes, "step": self.step,
+                 "differences_mm": self.differences_mm, "tolerance_mm": self.tolerance_mm,
+                 "message": self.message}
+        return {"event": self.event, **{k: v for k, v in extra.items() if v is not None}}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> ReferenceRecord:
+        differences = d.get("differences_mm")
+        return cls(wall=d.get("wall"), event=str(d.get("event", "")), cause=d.get("cause"),
+                   axes=d.get("axes") if isinstance(d.get("axes"), dict) else None,
+                   step=d.get("step"),
+                   differences_mm={str(g): float(v) for g, v in differences.items()
+                                   if _finite(v)} if isinstance(differences, dict) else None,
+                   tolerance_mm=d.get("tolerance_mm") if _finite(d.get("tolerance_mm"))
+                   else None, message=d.get("message"))
+
+
+@dataclass(frozen=True, kw_only=True)
 class OtherRecord(Record):
     """A record of a kind this version does not write, kept as it was."""
 
@@ -468,7 +504,7 @@ class OtherRecord(Record):
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
     ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord,
-    EnvironmentRecord, OverrideRecord, SettleRecord)}
+    EnvironmentRecord, OverrideRecord, SettleRecord, ReferenceRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:

@@ -68,11 +68,15 @@ class Operation:
     profile: str | None
     nvm_saved: bool
     wall: float | None
+    #: the values written outlive a power cycle (a table, or saved to NVM); None: not
+    #: recorded (a write-back before issue 25, or one that did not finish)
+    survives_power_cycle: bool | None = None
 
     def as_mapping(self) -> dict[str, Any]:
         return {"operation": self.operation, "action": self.action, "status": self.status,
                 "old_mm": self.old_mm, "new_mm": self.new_mm, "profile": self.profile,
-                "nvm_saved": self.nvm_saved, "wall": self.wall}
+                "nvm_saved": self.nvm_saved, "wall": self.wall,
+                "survives_power_cycle": self.survives_power_cycle}
 
 
 def operations(session: LoadedSession) -> list[Operation]:
@@ -97,7 +101,8 @@ def operations(session: LoadedSession) -> list[Operation]:
                              dict(intent.details["old_mm"]), dict(new),
                              intent.details.get("profile"),
                              bool(outcome and outcome.details.get("nvm_saved", False)),
-                             intent.wall))
+                             intent.wall,
+                             outcome.details.get("survives_power_cycle") if outcome else None))
     return out
 
 

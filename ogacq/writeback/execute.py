@@ -66,6 +66,13 @@ class WriteOutcome:
     offsets_file: Path | None
 
     @property
+    def survives_power_cycle(self) -> bool:
+        """Whether the values written are still there after the drive is switched off
+        and on: a software table is a file; a drive register only once saved to its
+        non-volatile memory (else the drive loads the values it saved before)."""
+        return self.offsets_file is not None or self.nvm_saved
+
+    @property
     def pending_homing(self) -> bool:
         return self.takes_effect == "at_next_homing" and not self.rehomed
 
@@ -187,7 +194,8 @@ def execute_plan(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
         audit.record("done", operation=operation, action=plan.action, old_mm=now, new_mm=back,
                      takes_effect=change.takes_effect, rehomed=rehomed,
                      home_positions_mm=home_positions, nvm_saved=nvm_saved,
-                     offsets_file=str(offsets_file) if offsets_file else None)
+                     offsets_file=str(offsets_file) if offsets_file else None,
+                     survives_power_cycle=offsets_file is not None or nvm_saved)
     except StorageError as exc:
         raise WriteBackError(
             f"{plan.action} {operation}: the controller holds {_fmt(back)} mm (read back), but "

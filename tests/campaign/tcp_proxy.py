@@ -53,6 +53,10 @@ class FaultyProxy:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
+    def cut(self) -> None:
+        """Every connection reset now (and the port closed, with ``stay_down``)."""
+        self._cut()
+
     def come_back(self) -> None:
         """The outage is over: the port accepts connections again."""
         self.stay_down = False

@@ -27,6 +27,11 @@ ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
     (HEAD + CONTROLLER + ALL_GAUGES + '[stability]\ntimeout_s = nan\n', 37,
      "stability.timeout_s must be a finite number, got nan"),
     (HEAD + '[simulator]\nspeed = inf\n', 4, "simulator.speed must be a finite number"),
+    # real or simulated, said once: the real ports were silently ignored before
+    (HEAD + CONTROLLER + '[simulator]\nseed = 1\n', 6,
+     "a [simulator] table and real ports ([controller] 127.0.0.1:1)"),
+    (HEAD + '[simulator]\nseed = 1\n' + gauge("y_x", "/dev/ttyUSB0"), 3,
+     "a [simulator] table and real ports (gauge y_x on /dev/ttyUSB0)"),
 ])
 def test_bad_campaign_refused_with_line(tmp_path, text, line, words):
     (tmp_path / "machine.toml").write_text(MACHINE)

@@ -16,7 +16,9 @@ client is checked against an implementation that does not share its mistakes.
   statusword 0x6041, modes 0x6060/0x6061, position 0x6064, target 0x607A, home
   offset 0x607C, profile velocity 0x6081, error code 0x603F, store 0x1010, 32-bit
   values low word first. Halt (bit 8) released continues the positioning; quick
-  stop (bit 2 low) cancels it and ends in "switch on disabled".
+  stop (bit 2 low) cancels it and reacts as its quick stop option code (605Ah)
+  says: "switch on disabled" (codes 0..4) or "quick stop active" (5..8).
+- Either can be power-cycled (``power_cycle``): not homed, counter restarted.
 
 Motion is linear at the commanded speed in real time (no ramps): the tests
 keep moves long enough (seconds) that no timing depends on machine load.
@@ -29,6 +31,7 @@ import struct
 import threading
 import time
 from dataclasses import dataclass
+from typing import TypeVar
 
 import serial
 from modbus_tk import defines, hooks, modbus_rtu, modbus_tcp
@@ -39,7 +42,8 @@ from modbus_tk.exceptions import ModbusError
 
 @dataclass
 class _Motion:
-    """Linear motion at constant speed; counts are the drive's position units."""
+    """Linear motion at constant speed, and braking at a constant deceleration;
+    counts are the drive's position units."""
 
     position: float = 0.0
     start: float = 0.0
@@ -48,24 +52,54 @@ class _Motion:
     t0: float = 0.0
     moving: bool = False
     paused_target: float | None = None
+    braking: float = 0.0  # counts/s^2 while braking to rest, else 0
+    direction: int = 0  # of the last motion: +1, -1 (0 before any)
+    stopped_at: float = 0.0  # time.monotonic() of the last arrival or stop
 
     def now(self) -> float:
         if not self.moving:
             return self.position
-        travelled = self.speed * (time.monotonic() - self.t0)
+        elapsed = time.monotonic() - self.t0
+        if self.braking:
+            t_stop = self.speed / self.braking
+            t = min(elapsed, t_stop)
+            travelled = self.speed * t - self.braking * t * t / 2.0
+            if elapsed >= t_stop:
+                self.position = self.start + self.direction * travelled
+                self._arrived()
+                return self.position
+            return self.start + self.direction * travelled
+        travelled = self.speed * elapsed
         distance = abs(self.target - self.start)
         if travelled >= distance:
-            self.position, self.moving = self.target, False
+            self.position = self.target
+            self._arrived()
             return self.position
         return self.start + (travelled if self.target > self.start else -travelled)
+
+    def _arrived(self) -> None:
+        self.moving, self.braking, self.stopped_at = False, 0.0, time.monotonic()
 
     def go(self, target: float, speed: float) -> None:
         self.position = self.now()
         self.start, self.target, self.speed = self.position, target, max(speed, 1.0)
-        self.t0, self.moving, self.paused_target = time.monotonic(), True, None
+        self.t0, self.moving, self.paused_target, self.braking = \
+            time.monotonic(), True, None, 0.0
+        if target != self.position:
+            self.direction = 1 if target > self.position else -1
+
+    def brake(self, deceleration: float) -> None:
+        """Slow down to rest at ``deceleration`` counts/s^2 (a ramp, not a jump)."""
+        self.position = self.now()
+        self.paused_target = None
+        if not self.moving or self.braking:
+            return
+        self.start, self.t0, self.braking = self.position, time.monotonic(), deceleration
 
     def halt(self) -> None:
-        self.position, self.moving = self.now(), False
+        self.position = self.now()
+        if self.moving:
+            self._arrived()
 
     def pause(self) -> None:
         if self.moving:
@@ -178,6 +212,24 @@ class IaiDrive(_Drive):
         self.servo = self.homed = False
         self.alarm = 0
         self.homing = False
+        self.reference = 0.0  # PNOW = physical - reference (0 once homed)
+        self.events: list[tuple[int, str]] = []
+
+    def physical_counts(self) -> float:
+        return self.motion.now() + self.reference
+
+    def power_cycle(self, counter_at_power_on: int = 0) -> None:
+        """Switched off and on: servo off, HEND clear (an incremental encoder counts
+        from where it stands) [ME0162 DSS1 HEND]."""
+        with self.lock:
+            physical = self.physical_counts()
+            self.motion.cancel()
+            self.motion.position = float(counter_at_power_on)
+            self.reference = physical - counter_at_power_on
+            self.servo = self.homed = self.homing = False
+            self.alarm = 0
+            self.events.append((len(self.requests), "power cycle"))
+            self.refresh()
 
     def coil(self, address: int) -> int:
         return self.get("coils", address)[0]
@@ -205,7 +257,7 @@ class IaiDrive(_Drive):
         elif address == self.HOME and new and not was and self.servo and not self.alarm \
                 and self.coil(self.PMSL) and not self.coil(self.STP):
             self.homed, self.homing = False, True
-            self.motion.go(0.0, 5000.0)
+            self.motion.go(-self.reference, 5000.0)
 
     def on_registers(self, old: dict[int, int], address: int, count: int) -> int | None:
         if address != 0x9900:
@@ -226,6 +278,9 @@ class IaiDrive(_Drive):
         position = round(self.motion.now())
         if self.homing and not self.motion.moving:
             self.homing, self.homed = False, True
+            self.motion.position = self.reference = 0.0
+            position = 0
+            self.events.append((len(self.requests), "homed"))
         dss1 = (self.servo << 12) | ((self.alarm != 0) << 10) | (self.homed << 4) \
             | ((self.servo and not self.motion.moving) << 3)
         dsse = self.motion.moving << 5
@@ -234,7 +289,24 @@ class IaiDrive(_Drive):
 
 
 class Cia402Drive(_Drive):
-    """A CiA 402 drive, objects at their index, low word first (see the module docstring)."""
+    """A CiA 402 drive, objects at their index, low word first (see the module docstring).
+
+    The device state machine is CiA 402-2's (IEC 61800-7-201), written from its
+    command coding: controlword bits 7, 3..0 select disable voltage (transitions 7,
+    9, 10, 12), quick stop (7, 10, 11), shutdown (2, 6, 8), switch on / disable
+    operation (3, 5), enable operation (4, 16) and fault reset (15, on the rising
+    edge of bit 7). The quick stop's reaction follows object 605Ah, the quick stop
+    option code: 0 disables the drive function at once; 1 to 4 slow down (on the
+    slow-down ramp, the quick stop ramp, the current limit, the voltage limit) and
+    then pass to "switch on disabled"; 5 to 8 slow down the same four ways and stay
+    in "quick stop active", from which "enable operation" (transition 16) or
+    "disable voltage" (12) leads out. Statusword bit 5 (quick stop) is 0 in
+    "quick stop active" and 1 in the states of operation [CiA 402 state coding].
+
+    :meth:`power_cycle` is a drive switched off and on: incremental encoder, so its
+    counter reads ``counter_at_power_on`` wherever the axis stands and the drive is
+    not homed; RAM parameters (home offset) come back from its non-volatile memory.
+    """
 
     OBJECTS = {0x1010: 2, 0x603F: 1, 0x6040: 1, 0x6041: 1, 0x6060: 1, 0x6061: 1, 0x6064: 2,
                0x607A: 2, 0x607C: 2, 0x6081: 2}
@@ -245,9 +317,13 @@ class Cia402Drive(_Drive):
     KINCO = {0x6040: 0x3100, 0x6041: 0x3200, 0x6060: 0x3500, 0x6064: 0x3700,
              0x607A: 0x4000, 0x6081: 0x4A00}
 
+    STATUS = {"switch_on_disabled": 0x0040, "ready_to_switch_on": 0x0021,
+              "switched_on": 0x0023, "operation_enabled": 0x0027,
+              "quick_stop_active": 0x0007, "fault": 0x0008}
+
     def __init__(self, slave, *, functions: tuple[int, ...] = (3, 6, 16),  # type: ignore[no-untyped-def]
                  home_sign: int = -1, addresses: dict[int, int] | None = None,
-                 high_first: bool = False) -> None:
+                 high_first: bool = False, quick_stop_option_code: int = 2) -> None:
         super().__init__(slave)
         self.functions = functions
         self.home_sign = home_sign  # position at the home point = home_sign × home offset
@@ -257,6 +333,10 @@ class Cia402Drive(_Drive):
         for index, address in self.at.items():
             slave.add_block(f"{index:04x}", defines.HOLDING_REGISTERS, address,
                             self.OBJECTS[index])
+        self.quick_stop_option_code = quick_stop_option_code  # 605Ah, set on the drive
+        self.slow_down_ramp = 20_000.0   # counts/s^2: profile deceleration 6084h
+        self.quick_stop_ramp = 200_000.0  # counts/s^2: quick stop deceleration 6085h
+        self.limit_ramp = 1_000_000.0     # counts/s^2: braking at the current / voltage limit
         self.state = "switch_on_disabled"
         self.cw = 0
         self.reference = 0.0  # position counter = physical - reference
@@ -265,8 +345,14 @@ class Cia402Drive(_Drive):
         self.ack = False
         self.error = 0
         self.saves = 0
+        self.saved_home_offset = 0  # what the non-volatile memory holds for 607Ch
+        self.quick_stop_at: float | None = None
+        # software position limits 607Dh, counts (None: the drive has none set)
+        self.limits: tuple[int, int] | None = (-10200, 6200)
+        self.events: list[tuple[int, str]] = []  # (requests received so far, what happened)
         self.put(0x6060, 1)
 
+    # ---------------------------------------------------------------- memory
     def obj(self, index: int) -> int:
         if index not in self.at:
             return 0
@@ -280,6 +366,29 @@ class Cia402Drive(_Drive):
             _s32_words(value, self.high_first)
         self.set(f"{index:04x}", self.at[index], words)
 
+    def physical_counts(self) -> float:
+        """Where the axis is, in counts from its home switch (what a ruler would show)."""
+        return self.motion.now() + self.reference
+
+    def note(self, what: str) -> None:
+        self.events.append((len(self.requests), what))
+
+    # ---------------------------------------------------------------- power
+    def power_cycle(self, counter_at_power_on: int = 0) -> None:
+        """Switched off where it stands and on again (see the class docstring)."""
+        with self.lock:
+            physical = self.physical_counts()
+            self.motion.cancel()  # no power, no motion (the axis coasts to rest: here at once)
+            self.motion.position = float(counter_at_power_on)
+            self.reference = physical - counter_at_power_on
+            self.state, self.cw, self.ack, self.error = "switch_on_disabled", 0, False, 0
+            self.homing = self.homed_flag = False
+            self.put(0x607C, self.saved_home_offset)
+            self.put(0x6060, 0)  # no mode until the master chooses one
+            self.note("power cycle")
+            self.refresh()
+
+    # ---------------------------------------------------------------- requests
     def on_registers(self, old: dict[int, int], address: int, count: int) -> int | None:
         if 0x1010 in self.at and address == self.at[0x1010]:
             signature = self.obj(0x1010) & 0xFFFFFFFF
@@ -287,33 +396,88 @@ class Cia402Drive(_Drive):
             if signature != 0x65766173:  # "save"
                 return defines.ILLEGAL_DATA_VALUE
             self.saves += 1
+            self.saved_home_offset = self.obj(0x607C)
         if address == self.at[0x6040]:
             self._controlword(self.obj(0x6040))
         return None
+
+    def _command(self, cw: int) -> str:
+        """The device control command the controlword codes [CiA 402 command coding]."""
+        if not cw & 0x02:
+            return "disable_voltage"
+        if not cw & 0x04:
+            return "quick_stop"
+        if not cw & 0x01:
+            return "shutdown"
+        return "enable_operation" if cw & 0x08 else "switch_on"
 
     def _controlword(self, cw: int) -> None:
         old, self.cw = self.cw, cw
         rising, falling = cw & ~old, old & ~cw
         if self.state == "fault":
-            if rising & 0x80:
+            if rising & 0x80:  # transition 15
                 self.state, self.error = "switch_on_disabled", 0
+                self.note("fault reset")
             return
-        if not cw & 0x02 or not cw & 0x04:  # disable voltage, quick stop (option code 2)
-            self.motion.cancel()
-            self.homing = False
-            self.state = "switch_on_disabled"
-        elif not cw & 0x01:
-            self.state = "ready_to_switch_on"
-            self.motion.cancel()
-        elif not cw & 0x08:
-            if self.state != "switch_on_disabled":
+        command, state = self._command(cw), self.state
+        if state == "switch_on_disabled":
+            if command == "shutdown":
+                self.state = "ready_to_switch_on"  # 2
+        elif state == "ready_to_switch_on":
+            if command in ("disable_voltage", "quick_stop"):
+                self.state = "switch_on_disabled"  # 7
+            elif command in ("switch_on", "enable_operation"):
+                self.state = "switched_on"  # 3
+        elif state == "switched_on":
+            if command in ("disable_voltage", "quick_stop"):
+                self.state = "switch_on_disabled"  # 10
+            elif command == "shutdown":
+                self.state = "ready_to_switch_on"  # 6
+        elif state == "operation_enabled":
+            if command == "disable_voltage":
+                self._power_off("switch_on_disabled")  # 9
+            elif command == "shutdown":
+                self._power_off("ready_to_switch_on")  # 8
+            elif command == "switch_on":
+                self.motion.brake(self.slow_down_ramp)  # 5, disable operation
                 self.state = "switched_on"
-            self.motion.cancel()
-        elif self.state in ("ready_to_switch_on", "switched_on", "operation_enabled"):
-            self.state = "operation_enabled"
+            elif command == "quick_stop":
+                self._quick_stop()  # 11
+        elif state == "quick_stop_active":
+            if command == "disable_voltage":
+                self._power_off("switch_on_disabled")  # 12
+            elif command == "enable_operation" and self.quick_stop_option_code in (5, 6, 7, 8) \
+                    and not self.motion.moving:
+                self.state = "operation_enabled"  # 16
+        if self.state == "switched_on" and command == "enable_operation":
+            self.state = "operation_enabled"  # 4 (after 3: "switch on + enable operation")
         if self.state != "operation_enabled":
             self.ack = False
             return
+        self._operate(cw, rising, falling)
+
+    def _power_off(self, state: str) -> None:
+        """The power stage switched off: the motor no longer holds or drives the axis."""
+        self.motion.cancel()
+        self.homing = False
+        self.state = state
+
+    def _quick_stop(self) -> None:
+        """Transition 11 and the reaction 605Ah asks for."""
+        code = self.quick_stop_option_code
+        self.note(f"quick stop (option code {code})")
+        self.quick_stop_at = self.motion.now()  # counts, where the stop began
+        self.homing = False
+        self.motion.paused_target = None
+        if code == 0:  # disable drive function: the power stage off at once
+            self._power_off("switch_on_disabled")
+            return
+        ramp = {1: self.slow_down_ramp, 2: self.quick_stop_ramp, 3: self.limit_ramp,
+                4: self.limit_ramp}[(code - 1) % 4 + 1]
+        self.motion.brake(ramp)
+        self.state = "quick_stop_active"
+
+    def _operate(self, cw: int, rising: int, falling: int) -> None:
         mode = self.obj(0x6060)
         if rising & 0x100:
             self.motion.pause()
@@ -324,10 +488,12 @@ class Cia402Drive(_Drive):
         if rising & 0x10 and not cw & 0x100:
             if mode == 6:
                 self.homing, self.homed_flag = True, False
+                self.note("homing started")
                 self.motion.go(self._physical_zero(), 5000.0)
             elif mode == 1:
                 target = self.obj(0x607A)
-                if not -10200 <= target <= 6200:
+                self.note(f"set-point {target}")
+                if self.limits is not None and not self.limits[0] <= target <= self.limits[1]:
                     self.state, self.error = "fault", 0x8612
                     self.motion.cancel()
                     return
@@ -346,11 +512,13 @@ class Cia402Drive(_Drive):
             at_home = self.home_sign * self.obj(0x607C)
             self.reference += position - at_home
             self.motion.position = position = float(at_home)
-        words = {"switch_on_disabled": 0x0040, "ready_to_switch_on": 0x0021,
-                 "switched_on": 0x0023, "operation_enabled": 0x0027, "fault": 0x0008}
-        sw = words[self.state] | 0x0200
+            self.note("homed")
+        if self.state == "quick_stop_active" and not self.motion.moving \
+                and self.quick_stop_option_code in (1, 2, 3, 4):
+            self.state = "switch_on_disabled"  # 12, once the drive stands
+        sw = self.STATUS[self.state] | 0x0200
         if not self.motion.moving:
-            sw |= 0x0400  # target reached
+            sw |= 0x0400  # target reached (in quick stop active: the drive stands)
         mode = self.obj(0x6060)
         if (mode == 6 and self.homed_flag and not self.homing) or (mode == 1 and self.ack):
             sw |= 0x1000
@@ -358,6 +526,9 @@ class Cia402Drive(_Drive):
         self.put(0x6061, mode)
         self.put(0x6064, round(position))
         self.put(0x603F, self.error)
+
+
+DriveT = TypeVar("DriveT", bound=_Drive)
 
 
 class EmulatorServer:
@@ -372,7 +543,7 @@ class EmulatorServer:
         self.transport = transport
         self.drives: dict[int, _Drive] = {}
 
-    def add(self, unit: int, kind: type[_Drive], **options: object) -> _Drive:
+    def add(self, unit: int, kind: type[DriveT], **options: object) -> DriveT:
         drive = kind(self.server.add_slave(unit), **options)  # type: ignore[arg-type]
         self.drives[unit] = drive
         with _HOOK_LOCK:

@@ -87,7 +87,13 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
     told = re.findall(r"Gauge ([xyz]_[xyz]) is the indicator on /dev/\S+: it goes from leg",
                       "".join(w.transcript))
     assert told == ["y_x", "z_x", "x_y", "z_y", "x_z", "y_z"]
-    w.answer(r"Write these offsets to the controller now\?", "n")
+    # the write-back, then the save offered (the profile can): declined, and said what
+    # a power cycle then does before the job is called complete
+    w.answer(r"Write these offsets to the controller now\?", "y")
+    w.answer(r"Write these offsets to the controller and re-home", "y")
+    w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
+    w.expect(r"not in the drive's non-volatile")
+    w.expect(r"Calibration campaign complete")
     assert w.finish() == 0
 
     session = load_session(w.session)

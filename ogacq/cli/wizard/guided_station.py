@@ -98,6 +98,9 @@ class GuidedStation:
     def recover_axes(self) -> bool:
         return self.device.recover_axes()
 
+    def take_check_request(self) -> bool:
+        return self.device.take_check_request()
+
     # ------------------------------------------------------------ for the wizard
     @property
     def description(self) -> dict[str, Any]:

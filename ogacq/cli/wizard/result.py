@@ -104,3 +104,21 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
     code = main(command)
     if code != 0:
         screen.problem(f"the write-back stopped (exit {code}); run it again with: {typed}")
+        return
+    _say_what_a_power_cycle_does(screen, session, rehearsal)
+
+
+def _say_what_a_power_cycle_does(screen: Screen, session: Path, rehearsal: bool) -> None:
+    """After a write-back: whether the values written outlive a power cycle of the
+    drive (the session's record of it says), so the job is not called done unsaid."""
+    from ogacq.session.records import OffsetsRecord
+    from ogacq.session.store import load_session
+
+    done = [r for r in load_session(session).of_type(OffsetsRecord) if r.stage == "done"]
+    if not done or done[-1].details.get("survives_power_cycle") is not False:
+        return
+    where = " (rehearsal: the simulated drive)" if rehearsal else ""
+    screen.say(f"[yellow]The offsets written are not in the drive's non-volatile "
+               f"memory{where}: switching the drive off and on brings back the ones it "
+               f"saved before.[/] Save them with the drive's own panel or software, or "
+               f"write them again with --save-nvm where the profile can save.")
