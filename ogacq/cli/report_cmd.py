@@ -91,7 +91,9 @@ def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any
     diagnosis's own words."""
     data = result.to_json()
     machine_file = str(session.header.get("machine_file") or "M.toml")
-    for entry, effect in zip(data["effects"], result.effects, strict=True):
+    # the effects found come first; an "unexplained" entry may follow them
+    for entry, effect in zip(data["effects"][:len(result.effects)], result.effects,
+                             strict=True):
         entry["separated_by"] = [s.describe().replace("M.toml", machine_file)
                                  for s in effect.separations]
     data["caveats"] = result.caveats()
