@@ -18,7 +18,8 @@ from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.deadline import DeadlineStation, default_deadline_s
 from ogacq.protocol.plan import ProtocolConfig, SetGauges, reading_steps
-from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
+from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer
+from ogacq.protocol.station import Station
 from ogacq.session.convert import machine_dict, session_observations
 from ogacq.session.records import (
     EnvironmentRecord,
@@ -31,8 +32,9 @@ from ogacq.session.store import LoadedSession, SessionWriter, check_writable, lo
 from ogacq.station import DeviceStation, open_station
 from ogacq.traceability import check_instruments, header_entries, read_environment
 
-# Adapts the opened station for one run: gets the session writer.
-StationWrapper = Callable[[DeviceStation, SessionWriter], Station]
+# Adapts the station for one run (the wizard's pauses and gauges read by eye): gets the
+# station the campaign runs on, the device station it opened and the session writer.
+StationAdapter = Callable[[Station, DeviceStation, SessionWriter], Station]
 # The temperatures at the end, asked of someone (the wizard asks the operator).
 EnvironmentAsker = Callable[[DeviceStation], EnvironmentRecord | None]
 
@@ -72,7 +74,7 @@ def recorded_identification(session: LoadedSession) -> FitResult:
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                  set_gauges: GaugeSetter | None = None,
                  resume: LoadedSession | None = None, simulator=None,
-                 wrap_station: StationWrapper | None = None,
+                 wrap_station: StationAdapter | None = None,
                  header_extra: dict[str, Any] | None = None,
                  environment_at_end: EnvironmentAsker | None = None) -> CampaignOutcome:
     """Run (or resume) a campaign; raises CampaignStopped when it cannot finish.
@@ -123,7 +125,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             station.record_event = writer.write
             # inside the wizard's wrapper: its pauses are the operator's time, not the work's
             works = DeadlineStation(station, station.description["deadline_s"])
-            runs_on = wrap_station(works, writer) if wrap_station else works
+            runs_on = wrap_station(works, station, writer) if wrap_station else works
             # a resumed campaign was homed anew (prepare): the readings on file hold only
             # if the machine reads the same at the posture of the last of them
             previous = resume.readings if resume is not None else ()

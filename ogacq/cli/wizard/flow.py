@@ -69,7 +69,8 @@ from ogacq.model.machine import (
 )
 from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
-from ogacq.protocol.runner import CampaignStopped, GaugeValue
+from ogacq.protocol.runner import CampaignStopped
+from ogacq.protocol.station import GaugeValue, Station
 from ogacq.session.convert import session_machine
 from ogacq.session.records import (
     EnvironmentRecord,
@@ -482,8 +483,9 @@ class _Wizard:
             campaign.gauges = [g for g in campaign.gauges if g.gauge not in self.by_eye]
             self._write_campaign_file(campaign)
 
-            def wrap(device: DeviceStation, writer: SessionWriter) -> GuidedStation:
-                station = GuidedStation(device, self.gate, expectations=expectations,
+            def wrap(works: Station, device: DeviceStation, writer: SessionWriter,
+                     ) -> GuidedStation:
+                station = GuidedStation(works, device, self.gate, expectations=expectations,
                                         by_eye=self.by_eye, ask_reading=self._typed(ask_reading),
                                         on_pause=lambda: pause_here(
                                             f"after reading {counter.done} of {counter.total}"))
