@@ -54,8 +54,8 @@ def default_deadline_s(config: ProtocolConfig, machine: MachineSpec) -> float:
 class DeadlineStation(StationWrapper):
     """A station whose work stops the campaign once ``deadline_s`` of it is spent.
 
-    Checked before each move, settling and reading (each gauge's value of a read at
-    once counted as it comes), so a step under way ends within its own timeout.
+    Checked before each move, settling and reading (the values of a read at once are
+    counted as each comes), so a step under way ends within its own timeout.
     Stopping the axes and the clock pass through unchanged.
     """
 
@@ -73,9 +73,9 @@ class DeadlineStation(StationWrapper):
     def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
                     ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
         readings = iter(self._within_deadline(self.inner.read_gauges, step, gauges, rule))
-        while True:
+        while True:  # the reading under way goes on: its values' time is counted
             try:
-                yield self._within_deadline(next, readings)
+                yield self._counted(next, readings)
             except StopIteration:
                 return
 
@@ -92,6 +92,9 @@ class DeadlineStation(StationWrapper):
             raise CampaignStopped(f"deadline: {self.spent_s:.0f} s of work, the campaign's "
                                   f"deadline_s is {self.deadline_s:.0f} s (a controller or "
                                   "gauge answering slowly?)")
+        return self._counted(action, *args, **kwargs)
+
+    def _counted(self, action: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
         started = self.inner.campaign_time_s()
         try:
             return action(*args, **kwargs)
