@@ -146,7 +146,8 @@ def plan_write(evidence: Evidence, current_mm: Mapping[str, float], facts: Contr
         refusals.append(Refusal("incomplete", "the campaign did not run to its end "
                                 f"({evidence.readings} readings): resume it first"))
     if not evidence.converged:
-        refusals.append(Refusal("not_converged", "the offsets fit did not converge"))
+        refusals.append(Refusal("not_converged", f"the offsets fit did not converge: "
+                                f"{evidence.fit_stop.describe()}"))
     if not evidence.identifiable:
         why = "; ".join(evidence.identifiability_reasons) or "the design is rank deficient"
         refusals.append(Refusal("unidentifiable",
