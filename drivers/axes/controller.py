@@ -359,7 +359,8 @@ class AxisController:
                         where=self._where(axis),
                     )
                 target = targets[axis]
-                if poll.settled and (target is None or abs(poll.position_mm - target) <= tolerance):
+                if poll.settled and poll.position_mm is not None and (
+                        target is None or abs(poll.position_mm - target) <= tolerance):
                     arrived[axis] = self._as_status(poll)
             if len(arrived) == len(targets):
                 return {axis: arrived[axis] for axis in targets}

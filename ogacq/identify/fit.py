@@ -316,7 +316,8 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
     at = as_slice(free)  # the free entries, a view when consecutive (the offsets)
     if at_start is None:
         pred, jac = obs.predict_and_jacobian(theta, free)
-        white, jw_here = weighting.residual_and_jac(y - pred, jac)
+        white, jw_start = weighting.residual_and_jac(y - pred, jac)
+        jw_here: np.ndarray | None = jw_start
         svd_here = None
     else:
         pred, jac = at_start

@@ -407,8 +407,8 @@ class _EvaluationPlan:
         """(B, poses, 3) joint positions along their lines; ``terms``: the remembered
         ones (None: made here). A zero term is not added: it would change no digit."""
         if terms is None:
-            scaled, drifted, lost = self.joint_terms(th, leg_length_mm)
-            return scaled + th[:, None, _DRHO_SLICE] + drifted - lost
+            travel, drift, backlash = self.joint_terms(th, leg_length_mm)
+            return travel + th[:, None, _DRHO_SLICE] + drift - backlash
         scaled, drifted, lost = terms
         rho = scaled + th[:, None, _DRHO_SLICE]
         if drifted is not None:

@@ -11,9 +11,11 @@ from __future__ import annotations
 import io
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 import numpy as np
+from matplotlib.artist import Artist
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
@@ -22,6 +24,9 @@ from ogacq.model.parameters import AXES
 from ogacq.report.data import DeviationRow, FitSummary, ModelStep, ResidualSeries
 from ogacq.report.formatting import UM_PER_MM, finite
 
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType  # read by the type checker only
+
 LEG_COLOUR = {"x": "#D55E00", "y": "#009E73", "z": "#0072B2"}
 LEG_MARKER = {"x": "o", "y": "s", "z": "^"}
 BEFORE_COLOUR = "#5d6d7e"
@@ -29,9 +34,9 @@ PREDICTED_COLOUR = "#E69F00"
 MEASURED_COLOUR = "#56B4E9"
 BAND_COLOUR = "#d9d9d9"
 DPI = 110
-STYLE = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
-         "figure.titlesize": 12, "legend.fontsize": 9, "axes.spines.top": False,
-         "axes.spines.right": False}
+STYLE: dict[RcKeyType, Any] = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
+                                "figure.titlesize": 12, "legend.fontsize": 9,
+                                "axes.spines.top": False, "axes.spines.right": False}
 
 
 @dataclass(frozen=True)
@@ -126,7 +131,7 @@ def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) 
         axes[1, 0].set_ylabel("deviation after (µm)")
         _headroom(axes[0, 0])
         _symmetric(axes[1, 0], 1.25)
-        legend: dict[str, object] = {}  # one legend under the panels, clear of the bars
+        legend: dict[str, Artist] = {}  # one legend under the panels, clear of the bars
         for ax in axes.ravel():
             for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
                 legend.setdefault(label, handle)
