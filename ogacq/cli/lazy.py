@@ -108,8 +108,10 @@ def build_command(name: str, target: str | LazyCommandSpec | LazyGroupSpec,
                             add_completion=False, epilog=epilog)
         for sub_name, sub_target in target.commands.items():
             _command(group, sub_name, load_function(sub_target), epilog)
-        command = typer.main.get_group(group)
-        command.default_command = target.default
+        flags = typer.main.get_group(group)
+        assert isinstance(flags, FlagGroup)  # typer makes the group of the class given
+        flags.default_command = target.default
+        command: Command = flags
     else:
         single = typer.Typer(add_completion=False, rich_markup_mode=None)
         function = target.target if isinstance(target, LazyCommandSpec) else target

@@ -50,6 +50,7 @@ def report_command(
     calibration = load_session(session)
     validation = load_session(after) if after is not None else None
     earlier, why = earlier_calibrations(history, calibration)
+    raw: dict[str, Any] | None
     if diagnosis is not None:
         raw, note = _read_diagnosis(diagnosis), None
     else:

@@ -73,9 +73,11 @@ def sim(
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     with contextlib.closing(start_simulator(spec, simulated, modbus_port=port or 0)) as stack:
         if write_campaign is not None:
-            machine_path = machine or write_machine(machine_out, spec,
-                                                    "written by `ogacq sim --write-campaign`")
-            _write_campaign(write_campaign, stack, spec, machine_path, speed)
+            if machine is None:
+                assert machine_out is not None  # set above, beside the campaign file
+                machine = write_machine(machine_out, spec,
+                                        "written by `ogacq sim --write-campaign`")
+            _write_campaign(write_campaign, stack, spec, machine, speed)
         info = stack.info()
         if as_json:
             typer.echo(json.dumps(info))
