@@ -1,7 +1,8 @@
 """A new gauge protocol is one module: ``throwaway_gauge.py`` (its codec, driver,
 simulated instrument and hints), registered here and nowhere else, runs a campaign
-end to end on the simulated machine: its simulated gauges on real pseudo-terminals,
-read by its driver through the station as any campaign reads its gauges."""
+end to end on the simulated machine (its simulated gauges on real pseudo-terminals,
+read by its driver through the station as any campaign reads its gauges), shows the
+simulator's faults, and the wizard shows its hints."""
 
 from __future__ import annotations
 
