@@ -3,22 +3,27 @@
 >>> gauge = open_indicator("mitutoyo-01a", "/dev/ttyUSB0", unit="mm", where="gauge A")
 >>> read_stable(gauge, n=3, tolerance_mm=0.002, timeout_s=5).value_mm
 
-The table says, per protocol, which module and class implement it and the
-serial settings its devices use; a backend module is imported only when asked
-for, so a station without a given gauge never imports its driver.
+``BACKENDS`` is the one table of gauge protocols: per protocol, a :class:`Backend`
+naming its driver, its codec, its simulated instrument and the hints the wizard
+shows (see :mod:`ogacq_drivers.indicators.backend`). The simulator, the wizard, the
+fuzz tests and the check of the README's table iterate it. A part's
+module is imported only when asked for, so a station without a given gauge never
+imports its driver. A protocol defined outside this package is one more entry
+(:func:`register`).
 """
 
 from __future__ import annotations
 
-import importlib
-from collections.abc import Mapping
-from dataclasses import dataclass
+import re
+from collections.abc import Iterator, Mapping
+from contextlib import contextmanager
 from types import MappingProxyType
 from typing import Any
 
 import serial
 
 from ogacq_drivers.errors import DriverError
+from ogacq_drivers.indicators.backend import Backend, Codec, ConnectionHints, load
 from ogacq_drivers.indicators.base import Indicator, Reading, StableReading, read_stable
 from ogacq_drivers.link import LinkSettings, open_link
 
@@ -26,87 +31,132 @@ __all__ = [
     "BACKENDS",
     "DEFAULT_PROTOCOL",
     "Backend",
+    "ConnectionHints",
     "Indicator",
     "Reading",
     "StableReading",
+    "backend",
+    "codec",
     "driver_class",
     "open_indicator",
     "read_stable",
+    "register",
+    "registered",
+    "unregister",
 ]
 
+_SERIAL_PORTS = "a serial device (/dev/ttyUSB0, COM3) or a network port (socket://host:port)"
 
-@dataclass(frozen=True, slots=True)
-class Backend:
-    """Where a protocol's driver lives and how its link is set up.
-
-    ``kind`` "serial": the driver gets an open serial link (``settings``);
-    "usb" and "input": the driver class opens its own device from the port string
-    (its ``open`` class method), and ``settings`` is unused.
-    """
-
-    module: str
-    class_name: str
-    settings: LinkSettings
-    description: str
-    kind: str = "serial"
-
-    @property
-    def serial(self) -> bool:
-        return self.kind == "serial"
-
-
-BACKENDS: Mapping[str, Backend] = MappingProxyType(
-    {
-        "mitutoyo-01a": Backend(
-            "ogacq_drivers.indicators.mitutoyo_01a",
-            "Mitutoyo01A",
-            LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
-            "Mitutoyo 01A ASCII on a serial port (DMX-1, MUX-10, QM-Height)",
-        ),
-        "digimatic": Backend(
-            "ogacq_drivers.indicators.digimatic",
-            "DigimaticBridge",
-            # USB bridges are virtual COM ports: the rate is ignored but must be valid.
-            LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
-            "raw Digimatic frames from a USB bridge (polled or streaming)",
-        ),
-        "uwave": Backend(
-            "ogacq_drivers.indicators.uwave",
-            "UWaveReceiver",
-            LinkSettings(baudrate=57600, bytesize=8, parity="N", stopbits=1),
-            "Mitutoyo U-WAVE-R receiver (pushed readings)",
-        ),
-        "sylvac": Backend(
-            "ogacq_drivers.indicators.sylvac",
-            "SylvacOptoRS",
-            LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=False),
-            "Sylvac Opto-RS duplex cable",
-        ),
-        "sylvac-simplex": Backend(
-            "ogacq_drivers.indicators.sylvac_simplex",
-            "SylvacSimplex",
-            # Powered from RTS high; DTR rests high and a low pulse asks for a value.
-            LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True, rts=True),
-            "Sylvac Opto-RS simplex cable (DTR-pulse request; real port or rfc2217://)",
-        ),
-        "usb-itn": Backend(
-            "ogacq_drivers.indicators.usb_itn",
-            "UsbItn",
-            LinkSettings(),
-            "Mitutoyo USB-ITN cable in data mode (pyusb; port usb, usb:SERIAL)",
-            kind="usb",
-        ),
-        "usb-itn-keyboard": Backend(
-            "ogacq_drivers.indicators.usb_itn_keyboard",
-            "UsbItnKeyboard",
-            LinkSettings(),
-            "Mitutoyo USB-ITN cable in keyboard mode (port keyboard or /dev/input/eventN)",
-            kind="input",
-        ),
-    }
-)
+_BUILT_IN: dict[str, Backend] = {
+    "mitutoyo-01a": Backend(
+        "Mitutoyo 01A ASCII on a serial port (DMX-1, MUX-10, QM-Height)",
+        driver="ogacq_drivers.indicators.mitutoyo_01a:Mitutoyo01A",
+        codec="ogacq_drivers.indicators.mitutoyo_01a:CODEC",
+        simulator="ogacq_drivers.sim.mitutoyo_01a:Mitutoyo01ADevice",
+        hints=ConnectionHints(_SERIAL_PORTS, channel="a multiplexer's channel (1-9, A-Z)"),
+        settings=LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
+    ),
+    "digimatic": Backend(
+        "raw Digimatic frames from a USB bridge (polled or streaming)",
+        driver="ogacq_drivers.indicators.digimatic:DigimaticBridge",
+        codec="ogacq_drivers.indicators.digimatic:CODEC",
+        simulator="ogacq_drivers.sim.digimatic:DigimaticBridgeDevice",
+        hints=ConnectionHints(_SERIAL_PORTS + "; a USB bridge is a virtual COM port"),
+        # USB bridges are virtual COM ports: the rate is ignored but must be valid.
+        settings=LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
+    ),
+    "uwave": Backend(
+        "Mitutoyo U-WAVE-R receiver (pushed readings)",
+        driver="ogacq_drivers.indicators.uwave:UWaveReceiver",
+        codec="ogacq_drivers.indicators.uwave:CODEC",
+        simulator="ogacq_drivers.sim.uwave:UWaveReceiverDevice",
+        hints=ConnectionHints(
+            _SERIAL_PORTS,
+            note="U-WAVE sends a value when the transmitter's DATA button is pressed: "
+                 "press it when a gauge is tested.",
+            channel="the transmitter: CC, or GGCC with its group"),
+        settings=LinkSettings(baudrate=57600, bytesize=8, parity="N", stopbits=1),
+    ),
+    "sylvac": Backend(
+        "Sylvac Opto-RS duplex cable",
+        driver="ogacq_drivers.indicators.sylvac:SylvacOptoRS",
+        codec="ogacq_drivers.indicators.sylvac:CODEC",
+        simulator="ogacq_drivers.sim.sylvac:SylvacDuplexDevice",
+        hints=ConnectionHints(_SERIAL_PORTS),
+        settings=LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True,
+                              rts=False),
+    ),
+    "sylvac-simplex": Backend(
+        "Sylvac Opto-RS simplex cable (DTR-pulse request; real port or rfc2217://)",
+        driver="ogacq_drivers.indicators.sylvac_simplex:SylvacSimplex",
+        codec="ogacq_drivers.indicators.sylvac:CODEC",  # the duplex cable's frames
+        simulator="ogacq_drivers.sim.sylvac:SylvacSimplexDevice",
+        hints=ConnectionHints(
+            "a real serial port (/dev/ttyUSB0, COM3) or an RFC 2217 server "
+            "(rfc2217://host:port): a pseudo-terminal or a raw socket has no DTR",
+            note="Sylvac simplex cable: it needs a real serial port (or an RFC 2217 "
+                 "server) with DTR and RTS; ogacq asks for each value with a DTR pulse."),
+        # Powered from RTS high; DTR rests high and a low pulse asks for a value.
+        settings=LinkSettings(baudrate=4800, bytesize=7, parity="E", stopbits=2, dtr=True,
+                              rts=True),
+    ),
+    "usb-itn": Backend(
+        "Mitutoyo USB-ITN cable in data mode (pyusb; port usb, usb:SERIAL)",
+        driver="ogacq_drivers.indicators.usb_itn:UsbItn",
+        codec="ogacq_drivers.indicators.usb_itn:CODEC",
+        simulator="ogacq_drivers.sim.usb_itn:UsbItnEndpoint",
+        hints=ConnectionHints(
+            "usb (the one cable), usb:SERIAL or usb:BUS.ADDRESS (lsusb shows them)",
+            note="USB-ITN in data mode: ogacq switches the cable to data mode.",
+            find="ogacq_drivers.indicators.usb_itn:find_cables"),
+        kind="usb",
+    ),
+    "usb-itn-keyboard": Backend(
+        "Mitutoyo USB-ITN cable in keyboard mode (port keyboard or /dev/input/eventN)",
+        driver="ogacq_drivers.indicators.usb_itn_keyboard:UsbItnKeyboard",
+        codec="ogacq_drivers.indicators.usb_itn_keyboard:CODEC",
+        simulator="ogacq_drivers.sim.keyboard:KeyboardEndpoint",
+        hints=ConnectionHints(
+            "keyboard (the cable, found by its USB ids) or /dev/input/eventN",
+            note="USB-ITN in keyboard mode: press the cable's data switch when a gauge is "
+                 "tested. The typed values go to ogacq only, not into other windows.",
+            find="ogacq_drivers.indicators.usb_itn_keyboard:find_keyboards"),
+        kind="input",
+    ),
+}
+_REGISTRY: dict[str, Backend] = dict(_BUILT_IN)
+#: Every protocol by name: the built-in ones, then those registered.
+BACKENDS: Mapping[str, Backend] = MappingProxyType(_REGISTRY)
 #: What a gauge speaks unless told (campaign files, the simulator, the wizard).
 DEFAULT_PROTOCOL = "mitutoyo-01a"
+_NAME = re.compile(r"[a-z0-9][a-z0-9-]*")
+
+
+def register(name: str, entry: Backend) -> None:
+    """Add a protocol to ``BACKENDS`` (a plugin's, a test's). ValueError for a name
+    taken or not lower-case letters, digits and hyphens."""
+    if not _NAME.fullmatch(name):
+        raise ValueError(f"a protocol name is lower-case letters, digits and '-', got {name!r}")
+    if name in _REGISTRY:
+        raise ValueError(f"protocol {name!r} is already registered")
+    _REGISTRY[name] = entry
+
+
+def unregister(name: str) -> None:
+    """Remove a registered protocol; the built-in ones stay."""
+    if name in _BUILT_IN:
+        raise ValueError(f"{name!r} is built in")
+    _REGISTRY.pop(name, None)
+
+
+@contextmanager
+def registered(name: str, entry: Backend) -> Iterator[Backend]:
+    """``entry`` in ``BACKENDS`` as ``name`` for the duration of the block."""
+    register(name, entry)
+    try:
+        yield entry
+    finally:
+        unregister(name)
 
 
 def backend(protocol: str) -> Backend:
@@ -120,9 +170,14 @@ def backend(protocol: str) -> Backend:
 
 def driver_class(protocol: str) -> type[Any]:
     """Import and return the driver class for ``protocol``."""
-    entry = backend(protocol)
-    module = importlib.import_module(entry.module)
-    return getattr(module, entry.class_name)
+    cls: type[Any] = load(backend(protocol).driver)
+    return cls
+
+
+def codec(protocol: str) -> Codec:
+    """Import and return the codec of ``protocol``."""
+    found: Codec = load(backend(protocol).codec)
+    return found
 
 
 def open_indicator(

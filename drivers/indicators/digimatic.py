@@ -12,7 +12,8 @@ Nibbles (one ASCII character each), Mitutoyo QM-Height manual No. 99MAF600B,
 ``FFFF000012330`` = +0.123 mm (the manual's example, "normal measurement of
 0.123 mm"; digits 000123, decimal position 3). An earlier INSTRUMENTS.md read it
 as +1.233 mm: the manual wins. ``FFFF021076540`` = +21.0765 mm (linear scale
-manual No. 99MBC095A, 6.2.1.5).
+manual No. 99MBC095A, 6.2.1.5); ``FFFF801234530`` = -12.345 mm (measuring projector
+manual No. 99MBA043A, 6-12).
 
 Digimatic 2 (same page of 99MAF600B, "Digimatic 2 output") puts eight digits in
 the frame: d1 = 8 (the format nibble, bits 0001 sent LSB first), d2 = F, d3-d4
@@ -44,6 +45,7 @@ from typing import Literal
 import serial
 
 from ogacq_drivers.errors import DriverError, FrameError
+from ogacq_drivers.indicators.backend import Codec, Decoded, Example
 from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
 
 log = logging.getLogger(__name__)
@@ -124,6 +126,35 @@ def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:
         unit_nibble=unit_nibble,
         digimatic2=match.group(1) is not None,
     )
+
+
+def decode(frame: bytes, *, where: str = "") -> Decoded:
+    """The codec's decode: the frame carries its unit."""
+    decoded = decode_frame(frame, where=where)
+    return Decoded(decoded.value, decoded.decimals, decoded.unit)
+
+
+def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
+    """The codec's encode: a six-digit frame, CR LF as the bridges send it."""
+    return encode_frame(value, decimals=decimals, unit=unit)
+
+
+# The manuals print the 13 characters; the bridges end them with CR LF.
+CODEC = Codec(
+    decode,
+    encode,
+    examples=(
+        Example(b"FFFF000012330\r\n", "QM-Height manual 99MAF600B, 6.2.1: 0.123 mm",
+                value_mm=0.123),
+        Example(b"FFFF021076540\r\n", "LSM-6200 manual 99MBC095A, 6.2.1.5: 21.0765 mm",
+                value_mm=21.0765),
+        Example(b"FFFF801234530\r\n", "measuring projector manual 99MBA043A, 6-12: -12.345 mm",
+                value_mm=-12.345),
+        Example(b"8F00000012330\r\n", "99MAF600B, 6.2.1 Digimatic 2 output: 0.123 mm",
+                value_mm=0.123),
+    ),
+    fixed_width=True,
+)
 
 
 class DigimaticBridge(SerialIndicator):

@@ -27,6 +27,7 @@ from decimal import ROUND_HALF_EVEN, Decimal, InvalidOperation
 import serial
 
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DriverError, FrameError
+from ogacq_drivers.indicators.backend import Codec, Decoded, Example
 from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
@@ -124,6 +125,33 @@ def decode_reply(frame: bytes, *, where: str = "") -> Reply01A:
         value = -value
     decimals = len(field) - field.index(b".") - 1
     return Reply01A(channel=channel.decode("ascii"), value=value, decimals=decimals)
+
+
+def decode(frame: bytes, *, where: str = "") -> Decoded:
+    """The codec's decode: a reply has no unit field (the unit is a gauge setting)."""
+    reply = decode_reply(frame, where=where)
+    return Decoded(reply.value, reply.decimals, None, reply.channel)
+
+
+def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
+    """The codec's encode: the unit is not in the frame, only in its decimals."""
+    return encode_reply(value, decimals=decimals, channel=channel or "1")
+
+
+#: The frames of INSTRUMENTS.md, 01A (the error codes there are one informal source, L).
+CODEC = Codec(
+    decode,
+    encode,
+    examples=(
+        Example(b"01A+0000.123\r", "INSTRUMENTS.md 01A: mm, 0.001", value_mm=0.123),
+        Example(b"01A+000.1234\r", "INSTRUMENTS.md 01A: inch", value_mm=3.13436, unit="inch"),
+        Example(b"01A-001.2340\r", "INSTRUMENTS.md 01A", value_mm=-31.3436, unit="inch"),
+        Example(b"911\r", "INSTRUMENTS.md 01A errors: no data from the gauge",
+                error=DeviceFault),
+        Example(b"918\r", "INSTRUMENTS.md 01A errors: busy", error=DeviceBusy),
+    ),
+    fixed_width=True,
+)
 
 
 class Mitutoyo01A(SerialIndicator):

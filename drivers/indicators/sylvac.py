@@ -35,6 +35,7 @@ from decimal import ROUND_HALF_EVEN, Decimal
 import serial
 
 from ogacq_drivers.errors import DeviceFault, FrameError
+from ogacq_drivers.indicators.backend import Codec, Decoded, Example
 from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
@@ -140,6 +141,38 @@ def decode_reply(frame: bytes, *, where: str = "") -> SylvacReply:
     if sign == "-":
         value = -value
     return SylvacReply(value=value, decimals=len(fraction), tolerance_flag=flag)
+
+
+def decode(frame: bytes, *, where: str = "") -> Decoded:
+    """The codec's decode: a reply has no unit field (the unit is set on the gauge)."""
+    reply = decode_reply(frame, where=where)
+    return Decoded(reply.value, reply.decimals, None)
+
+
+def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
+    """The codec's encode: the unit is not in the frame, only in its decimals."""
+    return encode_reply(value, decimals=decimals)
+
+
+# The manual gives the layout, not example values: the value frames are built from it.
+_MANUAL = "Opto-RS manual (Sylvac / Bowers Opto instruments manual, pp. 12-13)"
+CODEC = Codec(
+    decode,
+    encode,
+    examples=(
+        Example(b"+12.345\r", f"{_MANUAL}, data format: sign, integer, '.', fraction, CR",
+                value_mm=12.345),
+        Example(b" 0.005\r", f"{_MANUAL}, data format: the sign may be a space",
+                value_mm=0.005),
+        Example(b"-0.04855\r", f"{_MANUAL}, data format: an inch display at 0.00005 in",
+                value_mm=-1.23317, unit="inch"),
+        Example(b"ERR3\r", f"{_MANUAL}, errors: 3 exceeded measurement range",
+                error=DeviceFault),
+        Example(b"SY235.1\r", f"{_MANUAL}, identification: sent at power-on, not a value",
+                error=FrameError),
+    ),
+    fixed_width=False,  # the integer part has as many digits as the value needs
+)
 
 
 class SylvacOptoRS(SerialIndicator):

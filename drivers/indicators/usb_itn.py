@@ -35,9 +35,11 @@ import logging
 import time
 from collections.abc import Iterable
 from dataclasses import dataclass
+from decimal import Decimal
 from typing import Any
 
-from ogacq_drivers.errors import DeviceBusy, DeviceTimeout, DriverError, FrameError
+from ogacq_drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, DriverError, FrameError
+from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
 from ogacq_drivers.indicators.base import (
     Reading,
     Unit,
@@ -45,7 +47,7 @@ from ogacq_drivers.indicators.base import (
     check_unit,
     checked_reading,
 )
-from ogacq_drivers.indicators.mitutoyo_01a import decode_reply
+from ogacq_drivers.indicators.mitutoyo_01a import decode_reply, encode_reply
 from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
 log = logging.getLogger(__name__)
@@ -81,6 +83,44 @@ def classify(raw: bytes, *, where: str = "") -> Message:
     if kind not in (MESSAGE_VALUE, MESSAGE_INFO, MESSAGE_STATUS) or not raw.endswith(b"\r"):
         raise FrameError("not a USB-ITN message", where=where, frame=raw)
     return Message(kind, raw)
+
+
+def decode(frame: bytes, *, where: str = "") -> Decoded:
+    """The codec's decode of one message (up to its CR): a value is an 01A reply (no
+    unit field); device information is not a value."""
+    message = classify(frame, where=where)
+    if message.kind == MESSAGE_INFO:
+        raise FrameError("device information where a value was asked", where=where, frame=frame)
+    reply = decode_reply(frame, where=where)  # 91x raise, classified
+    return Decoded(reply.value, reply.decimals, None, reply.channel)
+
+
+def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
+    """The codec's encode: the 01A reply the cable sends for a value."""
+    return encode_reply(value, decimals=decimals, channel=channel or "1")
+
+
+CODEC = Codec(
+    decode,
+    encode,
+    examples=(
+        Example(b"01A+0000.123\r", "pytuyo: a value message is a whole 01A reply (this one "
+                "from INSTRUMENTS.md)", value_mm=0.123),
+        Example(b"918\r", "pytuyo: 9 starts a status; a second logger script: 918 until data "
+                "is available again", error=DeviceBusy),
+        Example(b"911\r", "pytuyo: 9 starts a status; 911 no data, as on the 01A interfaces "
+                "(INSTRUMENTS.md)", error=DeviceFault),
+    ),
+    fixed_width=True,
+)
+
+
+def find_cables() -> list[FoundPort]:
+    """The USB-ITN cables on the USB bus (needs pyusb and libusb; raises without them)."""
+    import usb.core
+
+    return [FoundPort(f"usb:{dev.bus}.{dev.address}", "Mitutoyo USB-ITN cable, data mode")
+            for dev in usb.core.find(find_all=True, idVendor=VENDOR_ID, idProduct=PRODUCT_ID)]
 
 
 class UsbItn:

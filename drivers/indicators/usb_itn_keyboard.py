@@ -33,6 +33,7 @@ from decimal import Decimal
 from typing import Any
 
 from ogacq_drivers.errors import DeviceTimeout, FrameError, LinkError
+from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
 from ogacq_drivers.indicators.base import (
     Reading,
     Unit,
@@ -41,7 +42,12 @@ from ogacq_drivers.indicators.base import (
     checked_reading,
 )
 from ogacq_drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
-from ogacq_drivers.input_link import EVENT, open_event_device, resolve_event_device
+from ogacq_drivers.input_link import (
+    EVENT,
+    find_event_devices,
+    open_event_device,
+    resolve_event_device,
+)
 
 log = logging.getLogger(__name__)
 
@@ -94,6 +100,40 @@ def decode_line(line: str, *, where: str = "") -> tuple[Decimal, int]:
     sign, whole, fraction = match.groups()
     value = Decimal(f"{whole}.{fraction or '0'}")
     return (-value if sign == "-" else value), len(fraction or "")
+
+
+def decode(frame: bytes, *, where: str = "") -> Decoded:
+    """The codec's decode of one typed line and its Enter, as a reading records it
+    (``b"1.233\\n"``); the value has no unit (the unit is set at setup)."""
+    body, enter = frame[:-1], frame[-1:]
+    if enter != b"\n" or not body.isascii():
+        raise FrameError("not a typed line and its Enter", where=where, frame=frame)
+    value, decimals = decode_line(body.decode("ascii"), where=where)
+    return Decoded(value, decimals, None)
+
+
+def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
+    """The codec's encode: the value as the cable types it, and Enter."""
+    return f"{Decimal(value):.{decimals}f}\n".encode("ascii")
+
+
+_NO_SOURCE = "no source for the typed characters (issue 12: the plain grammar)"
+CODEC = Codec(
+    decode,
+    encode,
+    examples=(
+        Example(b"1.233\n", _NO_SOURCE, value_mm=1.233),
+        Example(b"-0.0500\n", _NO_SOURCE + "; an inch display", value_mm=-1.27, unit="inch"),
+        Example(b"1.2A3\n", _NO_SOURCE + "; a key no value has", error=FrameError),
+    ),
+    fixed_width=False,  # typed as long as the value needs
+)
+
+
+def find_keyboards() -> list[FoundPort]:
+    """The input devices of USB-ITN cables in keyboard mode (found by their USB ids)."""
+    return [FoundPort(str(node), "Mitutoyo USB-ITN cable typing as a keyboard")
+            for node in find_event_devices(VENDOR_ID, PRODUCT_ID)]
 
 
 class UsbItnKeyboard:

@@ -31,6 +31,7 @@ from decimal import ROUND_HALF_EVEN, Decimal
 import serial
 
 from ogacq_drivers.errors import DeviceFault, DriverError, FrameError
+from ogacq_drivers.indicators.backend import Codec, Decoded, Example
 from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
@@ -171,6 +172,46 @@ def decode_frame(frame: bytes, *, where: str = "") -> UWaveData | UWaveStatus:
     )
 
 
+def status_fault(status: UWaveStatus, *, where: str = "") -> DeviceFault:
+    """The error a status frame stops a reading with."""
+    ident = "" if status.transmitter_id == UNKNOWN_ID else f", id {status.transmitter_id}"
+    return DeviceFault(
+        f"U-WAVE status {status.code}: {status.meaning} (transmitter {status.gauge_id}{ident})",
+        code=status.code,
+        where=where,
+    )
+
+
+def decode(frame: bytes, *, where: str = "") -> Decoded:
+    """The codec's decode: a data frame's value; every status frame is a DeviceFault
+    here, battery low included (the receiver, which can wait for the next frame,
+    only logs that one)."""
+    decoded = decode_frame(frame, where=where)
+    if isinstance(decoded, UWaveStatus):
+        raise status_fault(decoded, where=where)
+    return Decoded(decoded.value, decoded.decimals, decoded.unit, decoded.gauge_id)
+
+
+def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
+    """The codec's encode: ``channel`` is the transmitter, GGCC (default 0000)."""
+    return encode_data(value, decimals=decimals, unit=unit, gauge_id=channel or "0000")
+
+
+CODEC = Codec(
+    decode,
+    encode,
+    examples=(
+        Example(b"DT10000+00000011.88M\r", "INSTRUMENTS.md U-WAVE-R: +11.88 mm, group 00 "
+                "channel 00", value_mm=11.88),
+        Example(b"DT10000+00000011.880\r", "the frame above with unit character 0, no unit "
+                "sent (U-WAVE-R manual 99MAL216A, 6.1, as quoted in issue 12)", value_mm=11.88),
+        Example(b"ST10102FFFFFFFFFF04\r", "99MAL216A, 6.1 status layout: transmitter 0102 "
+                "disconnected, id unknown", error=DeviceFault),
+    ),
+    fixed_width=True,
+)
+
+
 class UWaveReceiver(SerialIndicator):
     """Readings pushed by a U-WAVE-R receiver for one transmitter.
 
@@ -226,15 +267,7 @@ class UWaveReceiver(SerialIndicator):
                         "%s: %s (transmitter %s)", self.where, decoded.meaning, decoded.gauge_id
                     )
                     continue
-                ident = (
-                    "" if decoded.transmitter_id == UNKNOWN_ID else f", id {decoded.transmitter_id}"
-                )
-                raise DeviceFault(
-                    f"U-WAVE status {decoded.code}: {decoded.meaning} "
-                    f"(transmitter {decoded.gauge_id}{ident})",
-                    code=decoded.code,
-                    where=self.where,
-                )
+                raise status_fault(decoded, where=self.where)
             unit = self._unit_of(decoded, frame)
             return Reading(
                 value_mm=to_mm(decoded.value, unit),

@@ -1,28 +1,36 @@
 """Simulated gauges that speak the exact indicator wire formats.
 
-A :class:`GaugeEndpoint` serves one serial protocol (``"mitutoyo-01a"``,
-``"digimatic"``, ``"uwave"``, ``"sylvac"``, ``"sylvac-simplex"``) on a real
-pseudo-terminal (clients open the slave path like a ``/dev/ttyUSB``), on a
-loopback TCP socket (clients open ``socket://127.0.0.1:PORT``) or on an RFC 2217
+Every protocol of ``BACKENDS`` names its simulated instrument (the backend's
+``simulator``), and :func:`simulated_gauge` makes one of any protocol: the
+simulator's stack knows no protocol by name.
+
+A serial protocol's instrument is a :class:`SerialDevice` (what it answers, pushes
+and shows; ``ogacq_drivers.sim.mitutoyo_01a``, ``.digimatic``, ``.uwave``,
+``.sylvac``), served by a :class:`GaugeEndpoint`, which does the line for every
+one of them: a real pseudo-terminal (clients open the slave path like a
+``/dev/ttyUSB``), a loopback TCP socket (``socket://127.0.0.1:PORT``) or an RFC 2217
 server (``rfc2217://127.0.0.1:PORT``), the one of the three that carries the
-control lines: the Sylvac simplex cable is asked for a value by a DTR pulse, so
-it is always served that way (pyserial's own RFC 2217 port manager decodes the
-client's SET_CONTROL requests here). Values come from
-``value_source`` callables (the simulated machine, or a lambda in tests), are
-rounded to the display resolution and encoded with the drivers' own encoders,
-so every end-to-end test runs the real codecs.
+control lines (pyserial's own RFC 2217 port manager decodes the client's
+SET_CONTROL requests here; a device that is asked by a control line, the Sylvac
+simplex cable, is always served that way). Values come from ``value_source``
+callables (the simulated machine, or a lambda in tests), are rounded to the
+display resolution and encoded with the drivers' own encoders, so every end-to-end
+test runs the real codecs.
 
 Output is paced at the configured baud rate (10 or 11 bits per byte), and so
 is input, because neither a pty nor a socket enforces a rate: a request/reply
 exchange takes as long as on the real line.
 
 Faults are switched at run time with :meth:`GaugeEndpoint.set_fault` (see
-:class:`Fault`) so drivers can be shown to report each one clearly.
+:class:`Fault`) so drivers can be shown to report each one clearly. The USB cables
+(``ogacq_drivers.sim.usb_itn``, ``.keyboard``) are endpoints of their own, built on
+:class:`UsbCableGauge`.
 """
 
 from __future__ import annotations
 
 import contextlib
+import inspect
 import logging
 import math
 import os
@@ -36,9 +44,10 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, replace
 from decimal import Decimal
 from enum import StrEnum
-from typing import Any, Literal
+from typing import Any, ClassVar, Literal, Protocol
 
-from ogacq_drivers.indicators import BACKENDS, digimatic, mitutoyo_01a, sylvac, uwave
+from ogacq_drivers.indicators import BACKENDS
+from ogacq_drivers.indicators.backend import load
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.link import LinkSettings
 from ogacq_drivers.sim.clock import sleep_until
@@ -47,22 +56,14 @@ log = logging.getLogger(__name__)
 
 ValueSource = Callable[[], float]
 Transport = Literal["pty", "socket", "rfc2217"]
-PROTOCOLS = tuple(BACKENDS)
+TRANSPORTS: tuple[Transport, ...] = ("pty", "socket", "rfc2217")
 MM_PER_INCH = 25.4
 
-_DEFAULT_CHANNEL = {
-    "mitutoyo-01a": "1",
-    "digimatic": "",
-    "uwave": "0000",
-    "sylvac": "",
-    "sylvac-simplex": "",
-}
-_MAX_DECIMALS = {"mitutoyo-01a": 6, "digimatic": 5, "uwave": 9, "sylvac": 7, "sylvac-simplex": 7}
-_DEFAULT_ERROR = {"mitutoyo-01a": "911", "uwave": "01", "sylvac": "3", "sylvac-simplex": "3"}
-_SYLVAC = ("sylvac", "sylvac-simplex")
-# Shortest DTR-low pulse a simplex instrument takes as a request (Opto-RS manual: 110 ms).
+# Shortest DTR-low pulse the simulated Sylvac simplex instrument takes as a request
+# (Opto-RS manual: 110 ms). Its device (ogacq_drivers.sim.sylvac) reads it from here
+# when a pulse ends, so that a test can lengthen it and "too short" does not depend on
+# how busy the machine is (tests/drivers/test_sylvac_simplex.py).
 _SIMPLEX_PULSE_S = 0.110
-_DEVICE_INFO = b"SIM-ITN 01A simulated interface 1.0\r"
 
 
 class Fault(StrEnum):
@@ -97,14 +98,25 @@ class _FaultState:
 
 
 class SimulatedGauge:
-    """What every simulated gauge endpoint (serial, USB, keyboard) shares: used as a
+    """What every simulated gauge endpoint (serial, USB, keyboard) shares: the
+    protocol it speaks and the ``port`` a client opens once it is started, used as a
     context manager around ``start``/``close``, and a table of the faults it has
     been told to show, guarded by ``_lock``."""
 
+    protocol: str
+    name: str
     _faults: dict[Fault, Any]
     _lock: Any  # a Lock or a Condition
 
+    @property
+    def port(self) -> str:
+        raise NotImplementedError
+
     def start(self) -> Any:
+        raise NotImplementedError
+
+    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None) -> None:
+        """Switch a fault on (see :class:`Fault`); ValueError for one it cannot show."""
         raise NotImplementedError
 
     def close(self) -> None:
@@ -362,16 +374,157 @@ def _garble(frame: bytes) -> bytes:
     return body[:index] + b"#" + body[index + 1 :] + frame[len(body) :]
 
 
-class GaugeEndpoint(SimulatedGauge):
-    """One simulated gauge (or 01A multiplexer / U-WAVE receiver) on a pty or a socket.
+def transport_of(text: str) -> Transport:
+    """``text`` as a transport name; ValueError for another."""
+    for transport in TRANSPORTS:
+        if text == transport:
+            return transport
+    raise ValueError(f"transport must be 'pty', 'socket' or 'rfc2217', got {text!r}")
 
-    ``value_source`` gives the true value in mm (noise included); a mapping
+
+@dataclass(frozen=True, slots=True)
+class SimSetup:
+    """What the simulator's stack asks of every gauge, whatever its protocol.
+
+    ``transport``: how a serial gauge is served (a protocol may insist on its own);
+    ``push_period_s``: how often the simulated operator presses the data button of a
+    gauge that sends a value per press (U-WAVE, the keyboard cable), None for never.
+    """
+
+    resolution_mm: float = 0.001
+    transport: Transport = "pty"
+    name: str | None = None
+    push_period_s: float | None = None
+
+
+class SimulatedInstrument(Protocol):
+    """What a backend's ``simulator`` names: a class that makes its simulated gauge."""
+
+    def simulate(self, protocol: str, source: ValueSource, setup: SimSetup) -> SimulatedGauge:
+        ...
+
+
+def simulator_of(protocol: str) -> SimulatedInstrument:
+    """The simulated instrument ``protocol``'s backend names; ValueError if unknown."""
+    entry = BACKENDS.get(protocol)
+    if entry is None:
+        raise ValueError(f"unknown protocol {protocol!r} (known: {', '.join(BACKENDS)})")
+    instrument: SimulatedInstrument = load(entry.simulator)
+    return instrument
+
+
+def simulated_gauge(protocol: str, source: ValueSource, setup: SimSetup) -> SimulatedGauge:
+    """A simulated gauge of any protocol of ``BACKENDS``, not yet started."""
+    return simulator_of(protocol).simulate(protocol, source, setup)
+
+
+class SerialDevice:
+    """The instrument's side of one serial protocol: what it answers, pushes and shows.
+
+    A :class:`GaugeEndpoint` drives it: the endpoint does the line (transport, pacing
+    at the baud rate), the faults and the serving thread, and asks the device only
+    what the protocol decides. A serial protocol's backend names its subclass as the
+    ``simulator``; options given to the endpoint (``streaming=True``) go to the
+    subclass's constructor. Methods run in the endpoint's serving thread.
+    """
+
+    #: The channel a one-channel endpoint serves when none is given.
+    DEFAULT_CHANNEL: ClassVar[str] = ""
+    #: The most decimals its frames carry (every device says).
+    MAX_DECIMALS: ClassVar[int]
+    #: The one transport that carries the protocol (None: any).
+    TRANSPORT: ClassVar[Transport | None] = None
+    #: Sends frames unasked: every ``period_s`` and on :meth:`GaugeEndpoint.trigger`.
+    FREE_RUNNING: ClassVar[bool] = False
+    #: Sends a value per press of a data button (the stack's operator presses it).
+    PRESSED: ClassVar[bool] = False
+    #: The code ``Fault.ERROR`` shows when given none (None: no error frames).
+    DEFAULT_ERROR: ClassVar[str | None] = None
+    #: The code of the busy reply ``Fault.BUSY`` shows (None: the protocol has none).
+    BUSY_CODE: ClassVar[str | None] = None
+
+    def __init__(self, gauge: GaugeEndpoint) -> None:
+        self.gauge = gauge
+
+    @classmethod
+    def simulate(cls, protocol: str, source: ValueSource, setup: SimSetup) -> GaugeEndpoint:
+        """The stack's gauge of this protocol."""
+        return GaugeEndpoint(protocol, source, resolution_mm=cls.shown_resolution_mm(
+            setup.resolution_mm), transport=setup.transport, name=setup.name,
+            period_s=setup.push_period_s if cls.PRESSED else None)
+
+    @classmethod
+    def shown_resolution_mm(cls, resolution_mm: float) -> float:
+        """The display step a gauge of this protocol shows in the stack for a machine
+        whose gauges resolve ``resolution_mm``."""
+        return resolution_mm
+
+    @classmethod
+    def check_channel(cls, channel: str) -> None:
+        """ValueError when ``channel`` is not a channel of the protocol."""
+
+    @property
+    def default_period_s(self) -> float | None:
+        """The output period when the endpoint is given none (None: no output unasked)."""
+        return None
+
+    def on_input(self, data: bytes) -> None:
+        """Bytes from the client, once their line time is over (default: ignored)."""
+
+    def on_control(self, line: str, level: bool) -> None:
+        """A control line (``"dtr"``, ``"rts"``) changed (default: ignored)."""
+
+    def value_frame(self, value: Decimal, *, decimals: int, unit: Unit, channel: str,
+                    inch_code: str) -> bytes:
+        """The frame showing ``value`` (display unit) with ``decimals`` places;
+        ValueError when the display cannot show it. ``inch_code``: the unit code an
+        inch display uses where the protocol has two (Digimatic's "1" or "8")."""
+        raise NotImplementedError
+
+    def overflow_frame(self) -> bytes | None:
+        """What it sends for a value its display cannot show (None: nothing)."""
+        return None
+
+    def error_frame(self, code: str, channel: str) -> bytes:
+        """The error or status frame ``code``; ValueError for a code it has not."""
+        raise ValueError(f"{self.gauge.protocol} frames have no error code")
+
+
+class LineDevice(SerialDevice):
+    """A device that takes commands as lines ending in CR (an LF is ignored); each
+    line counts as a request. Longer than 64 bytes without a CR: dropped."""
+
+    def __init__(self, gauge: GaugeEndpoint) -> None:
+        super().__init__(gauge)
+        self._rx_buffer = bytearray()
+
+    def on_input(self, data: bytes) -> None:
+        self._rx_buffer += data.replace(b"\n", b"")
+        while b"\r" in self._rx_buffer:
+            line, _, rest = bytes(self._rx_buffer).partition(b"\r")
+            self._rx_buffer = bytearray(rest)
+            self.gauge.count_request()
+            self.on_line(line.decode("ascii", "replace").strip())
+        if len(self._rx_buffer) > 64:
+            self._rx_buffer.clear()
+
+    def on_line(self, command: str) -> None:
+        """One command (stripped of blanks)."""
+        raise NotImplementedError
+
+
+class GaugeEndpoint(SimulatedGauge):
+    """One simulated gauge (or 01A multiplexer / U-WAVE receiver) of a serial protocol
+    on a pty, a socket or an RFC 2217 server.
+
+    ``protocol`` names a serial backend; its :class:`SerialDevice` decides what is
+    sent. ``value_source`` gives the true value in mm (noise included); a mapping
     ``{channel: source}`` serves several channels (01A multiplexer channels
-    ``"1"``..; U-WAVE transmitters ``"GGCC"``). ``resolution_mm`` is the
-    display resolution in mm; ``unit`` the display unit. ``baud`` (default:
-    the protocol's) paces the bytes. Digimatic answers any byte with a frame
-    unless ``streaming`` (a frame every ``period_s``, default 10 ms); U-WAVE
-    pushes on :meth:`trigger` and every ``period_s`` if given.
+    ``"1"``..; U-WAVE transmitters ``"GGCC"``). ``resolution_mm`` is the display
+    resolution in mm; ``unit`` the display unit. ``baud`` (default: the protocol's)
+    paces the bytes. A free-running device (Digimatic bridge, U-WAVE receiver) pushes
+    a frame per channel every ``period_s`` if given, and on :meth:`trigger`. Other
+    keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``).
     """
 
     def __init__(
@@ -384,17 +537,16 @@ class GaugeEndpoint(SimulatedGauge):
         channel: str | None = None,
         baud: int | None = None,
         transport: Transport = "pty",
-        streaming: bool = False,
         period_s: float | None = None,
         name: str | None = None,
-        digimatic2: bool = False,
+        **options: Any,
     ) -> None:
-        if protocol not in BACKENDS:
-            raise ValueError(f"unknown protocol {protocol!r} (known: {', '.join(PROTOCOLS)})")
-        if transport not in ("pty", "socket", "rfc2217"):
-            raise ValueError(f"transport must be 'pty', 'socket' or 'rfc2217', got {transport!r}")
-        if protocol == "sylvac-simplex":
-            transport = "rfc2217"  # the request is a DTR pulse: only RFC 2217 carries it
+        device_class = simulator_of(protocol)
+        if not (isinstance(device_class, type) and issubclass(device_class, SerialDevice)):
+            raise ValueError(f"{protocol} is not served on a serial line: make its gauge "
+                             "with simulated_gauge()")
+        transport = transport_of(transport)
+        transport = device_class.TRANSPORT or transport
         if unit not in ("mm", "inch"):
             raise ValueError(f"unit must be 'mm' or 'inch', got {unit!r}")
         if resolution_mm <= 0:
@@ -408,30 +560,20 @@ class GaugeEndpoint(SimulatedGauge):
         self.byte_time_s = settings.byte_time_s
         if callable(value_source):
             self.channels: dict[str, ValueSource] = {
-                channel if channel is not None else _DEFAULT_CHANNEL[protocol]: value_source
+                channel if channel is not None else device_class.DEFAULT_CHANNEL: value_source
             }
         else:
             self.channels = dict(value_source)
             if not self.channels:
                 raise ValueError("value_source mapping has no channels")
         for ident in self.channels:
-            self._check_channel(ident)
+            device_class.check_channel(ident)
         self.default_channel = channel if channel is not None else next(iter(self.channels))
         self.resolution_mm = resolution_mm
         self.unit: Unit = unit
-        self._mm_decimals = _decimals_for(resolution_mm, _MAX_DECIMALS[protocol])
-        self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH, _MAX_DECIMALS[protocol])
-        self.streaming = streaming
-        self.digimatic2 = digimatic2  # eight-digit Digimatic 2 frames (99MAF600B 6.2.1)
-        if streaming and protocol != "digimatic":
-            raise ValueError("only the Digimatic bridge streams")
-        if period_s is None and streaming:
-            period_s = 0.01
-        if period_s is not None and protocol not in ("digimatic", "uwave"):
-            raise ValueError(f"{protocol} answers requests; it has no output period")
-        # A frame takes its line time whatever the period: a stream faster than
-        # the line simply sends frames back to back.
-        self.period_s = period_s
+        self._mm_decimals = _decimals_for(resolution_mm, device_class.MAX_DECIMALS)
+        self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH,
+                                            device_class.MAX_DECIMALS)
         self.name = name or f"sim-{protocol}"
 
         self.frames_sent = 0
@@ -446,12 +588,23 @@ class GaugeEndpoint(SimulatedGauge):
         self._thread: threading.Thread | None = None
         self._transport: _PtyTransport | _SocketTransport | None = None
         self._wake_r = self._wake_w = -1
-        self._rx_buffer = bytearray()
         self._rx_free_at = 0.0
         self._tx_free_at = 0.0
         self._last_value_mm: dict[str, float] = {}
-        self._dtr_low_since: float | None = None
-        self.identification = sylvac.encode_identification("235", "1")  # sent at power-on
+
+        try:
+            inspect.signature(device_class).bind(self, **options)
+        except TypeError:
+            raise ValueError(f"a {protocol} gauge takes no option "
+                             f"{', '.join(sorted(options))}") from None
+        self.device: SerialDevice = device_class(self, **options)
+        if period_s is None:
+            period_s = self.device.default_period_s
+        if period_s is not None and not device_class.FREE_RUNNING:
+            raise ValueError(f"{protocol} answers requests; it has no output period")
+        # A frame takes its line time whatever the period: a stream faster than
+        # the line simply sends frames back to back.
+        self.period_s = period_s
 
     # ----------------------------------------------------------------- lifecycle
     @property
@@ -468,7 +621,7 @@ class GaugeEndpoint(SimulatedGauge):
         if self.transport_kind == "pty":
             self._transport = _PtyTransport()
         elif self.transport_kind == "rfc2217":
-            self._transport = _Rfc2217Transport(self._on_control)
+            self._transport = _Rfc2217Transport(self.device.on_control)
         else:
             self._transport = _SocketTransport()
         self._wake_r, self._wake_w = os.pipe()
@@ -523,14 +676,14 @@ class GaugeEndpoint(SimulatedGauge):
         if kind is Fault.UNPLUG and count is None:
             count = 1
         if kind is Fault.BUSY:
-            if self.protocol != "mitutoyo-01a":
+            if self.device.BUSY_CODE is None:
                 raise ValueError(f"{self.protocol} has no busy reply")
-            code = mitutoyo_01a.BUSY_CODE
+            code = self.device.BUSY_CODE
         if kind is Fault.ERROR:
-            if self.protocol not in _DEFAULT_ERROR:
+            if self.device.DEFAULT_ERROR is None:
                 raise ValueError(f"{self.protocol} frames have no error code")
-            code = code or _DEFAULT_ERROR[self.protocol]
-            self._error_frame(code, self.default_channel)  # validate now, not mid-serve
+            code = code or self.device.DEFAULT_ERROR
+            self.device.error_frame(code, self.default_channel)  # validate now, not mid-serve
         if kind is Fault.INCH:
             code = code or "1"
             if code not in ("1", "8"):
@@ -613,66 +766,54 @@ class GaugeEndpoint(SimulatedGauge):
         arrival = time.monotonic()
         self._rx_free_at = max(arrival, self._rx_free_at) + len(data) * self.byte_time_s
         sleep_until(self._rx_free_at)
-        if self.protocol == "digimatic":
-            if not self.streaming:
-                for _ in data:  # a polled bridge answers every byte
-                    self.requests_received += 1
-                    self._emit(self.default_channel)
-            return
-        if self.protocol in ("uwave", "sylvac-simplex"):
-            return  # the receiver pushes; a simplex instrument ignores commands
-        self._rx_buffer += data.replace(b"\n", b"")
-        while b"\r" in self._rx_buffer:
-            line, _, rest = bytes(self._rx_buffer).partition(b"\r")
-            self._rx_buffer = bytearray(rest)
-            self.requests_received += 1
-            self._answer(line)
-        if len(self._rx_buffer) > 64:
-            self._rx_buffer.clear()
+        self.device.on_input(data)
 
-    def _answer(self, line: bytes) -> None:
-        text = line.decode("ascii", "replace").strip()
-        if self.protocol == "mitutoyo-01a":
-            if text == "V":
-                if Fault.SILENCE not in self._faults:
-                    self._send_paced(_DEVICE_INFO)
-            elif text in self.channels:
-                self._emit(text)
-            elif len(text) == 1 and text.isalnum():
-                self._send_paced(mitutoyo_01a.encode_error("911"))  # nothing on that channel
-            else:
-                log.debug("%s: ignoring request %r", self.name, line)
-        else:  # sylvac
-            command = text.upper()
-            if command == "?":
-                self._emit(self.default_channel)
-            elif command in ("MM", "IN"):
-                self.unit = "mm" if command == "MM" else "inch"
-            else:
-                self._send_paced(sylvac.encode_error(1))
+    # ------------------------------------------------- what the device asks for
+    def count_request(self) -> None:
+        """One more request received (tests count the exchanges)."""
+        self.requests_received += 1
 
-    def _on_control(self, line: str, level: bool) -> None:
-        """A control line changed (RFC 2217 SET_CONTROL, in the serving thread)."""
-        if self.protocol != "sylvac-simplex":
+    @property
+    def silent(self) -> bool:
+        """Told to stay silent (``Fault.SILENCE``): no answer to anything."""
+        return Fault.SILENCE in self._faults
+
+    def emit(self, channel: str) -> None:
+        """Send ``channel``'s value frame now, or what the faults make of it."""
+        faults = self._take_faults()
+        frame: bytes | None
+        if Fault.UNPLUG in faults:
+            whole = self._value_frame(channel, faults) or b"\r"
+            self.send(whole[: max(1, len(whole) // 2)])
+            self._unplug_now()
             return
-        if line == "rts" and level:  # the cable powers the instrument up: it says who it is
-            self._send_paced(self.identification)
-        elif line == "dtr" and not level:
-            self._dtr_low_since = time.monotonic()
-        elif line == "dtr" and level and self._dtr_low_since is not None:
-            low_s = time.monotonic() - self._dtr_low_since
-            self._dtr_low_since = None
-            if low_s >= _SIMPLEX_PULSE_S:
-                self.requests_received += 1
-                self._emit(self.default_channel)
-            else:
-                log.debug("%s: DTR low %.0f ms, too short for a request", self.name, low_s * 1e3)
+        if Fault.SILENCE in faults:
+            return
+        if Fault.BUSY in faults:
+            frame = self.device.error_frame(faults[Fault.BUSY].code, channel)
+        elif Fault.ERROR in faults:
+            frame = self.device.error_frame(faults[Fault.ERROR].code, channel)
+        else:
+            frame = self._value_frame(channel, faults)
+        if frame is None:
+            return
+        if Fault.GARBLED in faults:
+            frame = _garble(frame)
+        if Fault.SPLIT in faults:
+            half = len(frame) // 2
+            self.send(frame[:half])
+            if self._stop.wait(faults[Fault.SPLIT].pause_s):
+                return
+            self.send(frame[half:])
+        else:
+            self.send(frame)
+        self.frames_sent += 1
 
     def _push_all(self) -> None:
         for channel in self.channels:
             if self.unplugged:
                 return
-            self._emit(channel)
+            self.emit(channel)
 
     # ---------------------------------------------------------------- replying
     def _take_faults(self) -> dict[Fault, _FaultState]:
@@ -683,7 +824,9 @@ class GaugeEndpoint(SimulatedGauge):
                 (k for k in (Fault.UNPLUG, Fault.SILENCE, Fault.BUSY, Fault.ERROR) if k in active),
                 None,
             )
-            applied = {k: v for k, v in active.items() if k in (Fault.GARBLED, Fault.SPLIT)}
+            applied: dict[Fault, _FaultState] = {
+                k: v for k, v in active.items() if k in (Fault.GARBLED, Fault.SPLIT)
+            }
             if outcome is not None:
                 applied[outcome] = active[outcome]
             for kind, state in applied.items():
@@ -694,35 +837,6 @@ class GaugeEndpoint(SimulatedGauge):
             if Fault.INCH in active:
                 applied[Fault.INCH] = active[Fault.INCH]
             return applied
-
-    def _emit(self, channel: str) -> None:
-        faults = self._take_faults()
-        if Fault.UNPLUG in faults:
-            frame = self._value_frame(channel, faults) or b"\r"
-            self._send_paced(frame[: max(1, len(frame) // 2)])
-            self._unplug_now()
-            return
-        if Fault.SILENCE in faults:
-            return
-        if Fault.BUSY in faults:
-            frame: bytes | None = self._error_frame(mitutoyo_01a.BUSY_CODE, channel)
-        elif Fault.ERROR in faults:
-            frame = self._error_frame(faults[Fault.ERROR].code, channel)
-        else:
-            frame = self._value_frame(channel, faults)
-        if frame is None:
-            return
-        if Fault.GARBLED in faults:
-            frame = _garble(frame)
-        if Fault.SPLIT in faults:
-            half = len(frame) // 2
-            self._send_paced(frame[:half])
-            if self._stop.wait(faults[Fault.SPLIT].pause_s):
-                return
-            self._send_paced(frame[half:])
-        else:
-            self._send_paced(frame)
-        self.frames_sent += 1
 
     def _value_frame(self, channel: str, faults: Mapping[Fault, _FaultState]) -> bytes | None:
         try:
@@ -747,31 +861,11 @@ class GaugeEndpoint(SimulatedGauge):
             decimals = self._inch_decimals
             shown = Decimal(repr(value_mm / MM_PER_INCH))
         try:
-            if self.protocol == "mitutoyo-01a":
-                return mitutoyo_01a.encode_reply(shown, decimals=decimals, channel=channel)
-            if self.protocol == "digimatic":
-                return digimatic.encode_frame(
-                    shown,
-                    decimals=decimals,
-                    unit=unit,
-                    inch_nibble=inch_nibble,
-                    digimatic2=self.digimatic2,
-                )
-            if self.protocol == "uwave":
-                return uwave.encode_data(shown, decimals=decimals, unit=unit, gauge_id=channel)
-            return sylvac.encode_reply(shown, decimals=decimals)  # both Sylvac cables
+            return self.device.value_frame(shown, decimals=decimals, unit=unit,
+                                           channel=channel, inch_code=inch_nibble)
         except ValueError:
             log.warning("%s: %.6g mm is beyond what the display shows", self.name, value_mm)
-            if self.protocol in _SYLVAC:
-                return sylvac.encode_error(3)  # out of measuring range
-            return None
-
-    def _error_frame(self, code: str, channel: str) -> bytes:
-        if self.protocol == "mitutoyo-01a":
-            return mitutoyo_01a.encode_error(code)
-        if self.protocol in _SYLVAC:
-            return sylvac.encode_error(code)
-        return uwave.encode_status(code, gauge_id=channel)
+            return self.device.overflow_frame()
 
     def _queue_stale(self, count: int, value_mm: float | None) -> None:
         """Frames of an old value, all in the line at once (a bridge's buffer)."""
@@ -790,7 +884,7 @@ class GaugeEndpoint(SimulatedGauge):
             self._transport.unplug()
         log.debug("%s: unplugged", self.name)
 
-    def _send_paced(self, data: bytes) -> None:
+    def send(self, data: bytes) -> None:
         """Write ``data`` at the line rate: each byte when its last bit would be in.
 
         Scheduling against absolute times (not sleeping a fixed amount per
@@ -818,9 +912,3 @@ class GaugeEndpoint(SimulatedGauge):
             else:
                 time.sleep(due_at - now)
         self._tx_free_at = start + total * byte_s
-
-    def _check_channel(self, ident: str) -> None:
-        if self.protocol == "mitutoyo-01a":
-            mitutoyo_01a.encode_request(ident)  # raises ValueError when not a channel id
-        elif self.protocol == "uwave" and not (len(ident) == 4 and ident.isdigit()):
-            raise ValueError(f"U-WAVE channel is group and channel 'GGCC', got {ident!r}")

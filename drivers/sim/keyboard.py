@@ -33,7 +33,14 @@ from ogacq_drivers.indicators import usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from ogacq_drivers.input_link import EVENT
-from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, UsbCableGauge, _decimals_for
+from ogacq_drivers.sim.gauges import (
+    MM_PER_INCH,
+    Fault,
+    SimSetup,
+    UsbCableGauge,
+    ValueSource,
+    _decimals_for,
+)
 
 log = logging.getLogger(__name__)
 
@@ -74,6 +81,14 @@ class KeyboardEndpoint(UsbCableGauge):
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._last_value_mm: float | None = None
+
+    @classmethod
+    def simulate(cls, protocol: str, source: ValueSource, setup: SimSetup) -> KeyboardEndpoint:
+        """The stack's cable, its data switch pressed every ``setup.push_period_s``."""
+        endpoint = cls(source, resolution_mm=setup.resolution_mm, name=setup.name,
+                       period_s=setup.push_period_s)
+        endpoint.protocol = protocol
+        return endpoint
 
     # ---------------------------------------------------------------- lifecycle
     @property

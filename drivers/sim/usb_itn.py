@@ -31,7 +31,15 @@ from typing import Any
 
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
-from ogacq_drivers.sim.gauges import MM_PER_INCH, Fault, UsbCableGauge, _decimals_for, _garble
+from ogacq_drivers.sim.gauges import (
+    MM_PER_INCH,
+    Fault,
+    SimSetup,
+    UsbCableGauge,
+    ValueSource,
+    _decimals_for,
+    _garble,
+)
 
 log = logging.getLogger(__name__)
 
@@ -149,6 +157,13 @@ class UsbItnEndpoint(UsbCableGauge):
         self._thread: threading.Thread | None = None
         self._last_value_mm: float | None = None
         self._scripted: deque[bytes] = deque()
+
+    @classmethod
+    def simulate(cls, protocol: str, source: ValueSource, setup: SimSetup) -> UsbItnEndpoint:
+        """The stack's cable (served over ``usbsim://`` whatever the setup's transport)."""
+        endpoint = cls(source, resolution_mm=setup.resolution_mm, name=setup.name)
+        endpoint.protocol = protocol
+        return endpoint
 
     def answer_next_with(self, raw: bytes) -> None:
         """The next value request is answered with ``raw`` (any bytes: garbage tests)."""

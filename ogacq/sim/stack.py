@@ -17,7 +17,13 @@ from typing import Any
 
 from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.sim.clock import SimClock
-from ogacq_drivers.sim.gauges import GaugeEndpoint
+from ogacq_drivers.sim.gauges import (
+    GaugeEndpoint,
+    SimSetup,
+    SimulatedGauge,
+    simulated_gauge,
+    transport_of,
+)
 from ogacq_drivers.sim.modbus_server import ModbusSimServer
 from ogacq_drivers.sim.motion import MotionModel
 from ogacq.model.gauges import GAUGE_KEYS, MOVED_INDICATORS, Gauge
@@ -56,24 +62,12 @@ PUSH_PERIOD_S = 0.05
 
 
 def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: float,
-               transport: str, name: str) -> Any:
-    """The simulated endpoint serving one gauge of ``protocol``."""
-    if protocol == "usb-itn":
-        from ogacq_drivers.sim.usb_itn import UsbItnEndpoint
-
-        return UsbItnEndpoint(source, resolution_mm=resolution_mm, name=name)
-    if protocol == "usb-itn-keyboard":
-        from ogacq_drivers.sim.keyboard import KeyboardEndpoint
-
-        return KeyboardEndpoint(source, resolution_mm=resolution_mm, name=name,
-                                period_s=PUSH_PERIOD_S)
-    period = PUSH_PERIOD_S if protocol == "uwave" else None
-    if protocol in ("sylvac", "sylvac-simplex"):
-        # A Sylvac shows 0.001 mm unless set otherwise (RES2), and its driver pins
-        # that layout; a coarser machine resolution would be a RES3 gauge.
-        resolution_mm = min(resolution_mm, 0.001)
-    return GaugeEndpoint(protocol, source, resolution_mm=resolution_mm, transport=transport,
-                         name=name, period_s=period)
+               transport: str, name: str) -> SimulatedGauge:
+    """The simulated endpoint serving one gauge of ``protocol`` (any of ``BACKENDS``:
+    its backend names the simulated instrument), not yet started."""
+    return simulated_gauge(protocol, source, SimSetup(
+        resolution_mm=resolution_mm, transport=transport_of(transport), name=name,
+        push_period_s=PUSH_PERIOD_S))
 
 
 # The fastest ringing (Hz of real time) the simulated gauges sample well enough for a
@@ -113,17 +107,18 @@ class SimulatorStack:
                                             else 0, temperatures_c=self.temperatures_c)
                             for k, a in enumerate(profile.device_ids)]
         self.server = self.servers[0]
-        self.gauges: dict[str, GaugeEndpoint] = {}
+        self.gauges: dict[str, SimulatedGauge] = {}
         self.channels: dict[str, str | None] = {}
         sources = {key: self.machine.value_source(*Gauge.parse(key).indices)
                    for key in GAUGE_KEYS}
-        if config.gauge_layout == "multiplexer":
+        if config.gauge_layout == "multiplexer":  # an 01A multiplexer box (DMX-1, MUX-10)
             channels = {key: str(n) for n, key in enumerate(GAUGE_KEYS, 1)}
             mux = GaugeEndpoint("mitutoyo-01a", {channels[k]: sources[k] for k in GAUGE_KEYS},
                                 resolution_mm=m.gauge_resolution_mm,
-                                transport=config.gauge_transport, name="sim multiplexer")
+                                transport=transport_of(config.gauge_transport),
+                                name="sim multiplexer")
             self.gauges = dict.fromkeys(GAUGE_KEYS, mux)
-            self.channels = channels
+            self.channels = dict(channels)
         elif config.gauge_layout == "separate":
             for key in GAUGE_KEYS:
                 self.gauges[key] = make_gauge(

@@ -64,17 +64,11 @@ def test_global_options_are_taken_after_the_command_too(argv, expected):
     assert global_options_first(argv) == expected
 
 
-def test_a_log_file_given_after_the_command_gets_the_log(tmp_path, capsys):
+def test_a_log_file_given_after_the_command_gets_the_log(tmp_path, terminal):
     from ogacq.cli.app import main
 
     log = tmp_path / "after.log"
     paper = Path(__file__).resolve().parents[2] / "ogacq" / "examples" / "paper"
-    try:
-        assert main(["refit", str(paper / "experiment2_12.csv"), "-m",
-                     str(paper / "machine.toml"), "--json", "--log-file", str(log)]) == 0
-    finally:
-        root = logging.getLogger()
-        for handler in [h for h in root.handlers if isinstance(h, logging.FileHandler)]:
-            root.removeHandler(handler)
-            handler.close()
+    assert main(["refit", str(paper / "experiment2_12.csv"), "-m",
+                 str(paper / "machine.toml"), "--json", "--log-file", str(log)]) == 0
     assert log.exists()

@@ -3,6 +3,7 @@
 Every decoder either raises one of the driver's own exceptions or returns the
 number the bytes actually spell (checked against an independent reading of
 the frame); frames that lost a byte are refused; encode -> decode is exact.
+The codecs are those of the protocol table, every protocol of it included.
 """
 
 from __future__ import annotations
@@ -14,17 +15,13 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from ogacq_drivers.errors import DriverError, FrameError, UnitError
-from ogacq_drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwave
+from ogacq_drivers.errors import DeviceFault, DriverError, FrameError, UnitError
+from ogacq_drivers.indicators import BACKENDS, base, codec, digimatic, mitutoyo_01a, sylvac, uwave
 
 FAST = settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 
-DECODERS: dict[str, Callable[..., object]] = {
-    "mitutoyo-01a": mitutoyo_01a.decode_reply,
-    "digimatic": digimatic.decode_frame,
-    "uwave": uwave.decode_frame,
-    "sylvac": sylvac.decode_reply,
-}
+# Every protocol of the table, through its codec.
+DECODERS: dict[str, Callable[..., object]] = {name: codec(name).decode for name in BACKENDS}
 
 
 def _decode_or_driver_error(decoder: Callable[..., object], frame: bytes) -> object | None:
@@ -162,39 +159,42 @@ def test_float_values_round_to_the_nearest_display_step(value_mm: float, decimal
     assert abs(float(reply.value) - value_mm) <= 0.5 * 10**-decimals + 1e-12
 
 
+@pytest.mark.parametrize("protocol", sorted(BACKENDS))
+@FAST
+@given(steps=_steps(5), decimals=st.integers(1, 3), unit=st.sampled_from(base.UNITS))
+def test_every_codec_of_the_table_round_trips(protocol: str, steps: int, decimals: int,
+                                              unit: base.Unit):
+    value = Decimal(steps).scaleb(-decimals)
+    frame = codec(protocol).encode(value, decimals=decimals, unit=unit)
+    decoded = codec(protocol).decode(frame)
+    assert (decoded.value, decoded.decimals, decoded.unit in (unit, None)) == (
+        value, decimals, True)
+
+
 # ------------------------------------------------------- truncated / damaged
 
 
-def _valid_frames() -> st.SearchStrategy[tuple[str, bytes]]:
+def _encoded(protocol: str, steps: int, decimals: int,
+             unit: base.Unit) -> tuple[str, bytes] | None:
+    """A value frame of the protocol's codec; None where the value does not fit it."""
+    try:
+        return protocol, codec(protocol).encode(Decimal(steps).scaleb(-decimals),
+                                                decimals=decimals, unit=unit)
+    except ValueError:
+        return None
+
+
+def _valid_frames(protocols: list[str]) -> st.SearchStrategy[tuple[str, bytes]]:
+    value_frames = st.builds(_encoded, st.sampled_from(protocols), _steps(6),
+                             st.integers(0, 5), st.sampled_from(base.UNITS))
     return st.one_of(
-        st.builds(
-            lambda s, d: (
-                "mitutoyo-01a",
-                mitutoyo_01a.encode_reply(Decimal(s).scaleb(-d), decimals=d),
-            ),
-            _steps(5),
-            st.integers(1, 3),
-        ),
-        st.builds(
-            lambda s, d, u: (
-                "digimatic",
-                digimatic.encode_frame(Decimal(s).scaleb(-d), decimals=d, unit=u),
-            ),
-            _steps(6),
-            st.integers(0, 5),
-            st.sampled_from(["mm", "inch"]),
-        ),
-        st.builds(
-            lambda s, d: ("uwave", uwave.encode_data(Decimal(s).scaleb(-d), decimals=d)),
-            _steps(8),
-            st.integers(0, 4),
-        ),
+        value_frames.filter(lambda case: case is not None),  # type: ignore[arg-type]
         st.builds(lambda c: ("uwave", uwave.encode_status(c)), st.from_regex(r"\A[0-9]{2}\Z")),
     )
 
 
 @FAST
-@given(case=_valid_frames(), data=st.data())
+@given(case=_valid_frames(sorted(BACKENDS)), data=st.data())
 def test_truncated_frames_are_refused(case: tuple[str, bytes], data: st.DataObject):
     protocol, frame = case
     cut = data.draw(st.integers(0, len(frame) - 1), label="cut")
@@ -206,16 +206,20 @@ def test_truncated_frames_are_refused(case: tuple[str, bytes], data: st.DataObje
     assert frame[cut:] == b"\n" and decoded == DECODERS[protocol](frame)
 
 
+FIXED_WIDTH = sorted(name for name in BACKENDS if codec(name).fixed_width)
+
+
 @FAST
-@given(case=_valid_frames(), data=st.data())
+@given(case=_valid_frames(FIXED_WIDTH), data=st.data())
 def test_frames_that_lost_a_byte_are_refused(case: tuple[str, bytes], data: st.DataObject):
-    """Fixed-width frames (01A, Digimatic, U-WAVE): any lost byte breaks the grammar.
+    """Fixed-width frames (01A, Digimatic, U-WAVE, USB-ITN): any lost byte breaks the
+    grammar.
 
     (A damaged U-WAVE status frame may still read as a status: it carries no
     number, and every status but battery-low stops the reading anyway.)
     """
     protocol, frame = case
-    if protocol == "digimatic" and frame.endswith(b"\r\n"):
+    if frame.endswith(b"\r\n"):
         frame = frame[:-1]  # keep one terminator: losing one of CR LF is harmless
     index = data.draw(st.integers(0, len(frame) - 1), label="lost byte")
     damaged = frame[:index] + frame[index + 1 :]
@@ -223,7 +227,10 @@ def test_frames_that_lost_a_byte_are_refused(case: tuple[str, bytes], data: st.D
         decoded = DECODERS[protocol](damaged)
     except FrameError:
         return
-    assert isinstance(decoded, uwave.UWaveStatus), f"{damaged!r} decoded to {decoded!r}"
+    except DeviceFault:
+        assert frame.startswith(b"ST1"), f"{damaged!r} read as a device error"
+        return
+    pytest.fail(f"{damaged!r} decoded to {decoded!r}")
 
 
 @FAST

@@ -17,6 +17,7 @@ from typing import Any
 from ogacq_drivers.axes.profile import ProfileError, available_profiles, load_profile
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import BACKENDS
+from ogacq_drivers.indicators.backend import load
 from ogacq.campaign_file import ControllerSpec, GaugeSpec
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
@@ -89,31 +90,23 @@ def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
                    if d and d != "n/a"]
         hwid = port.hwid if port.hwid and port.hwid != "n/a" else ""
         found.append(DetectedPort(port.device, ", ".join(details) or hwid or "no description"))
-    return found + _usb_itn_cables()
+    return found + _protocol_devices()
 
 
-def _usb_itn_cables() -> list[DetectedPort]:
-    """USB-ITN cables: on the USB bus (data mode, when pyusb and libusb are there) and
-    as keyboards (their input device, found by USB ids). A listing is a convenience,
-    so any failure just lists nothing."""
-    from ogacq_drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
-    from ogacq_drivers.input_link import find_event_devices
-
+def _protocol_devices() -> list[DetectedPort]:
+    """The devices the serial port list does not show (USB cables, input devices), as
+    each protocol's backend finds them. A listing is a convenience, so a protocol whose
+    search fails (no pyusb, no libusb, no permission) just lists nothing: its port can
+    be typed."""
     found: list[DetectedPort] = []
-    try:
-        import usb.core
-
-        for dev in usb.core.find(find_all=True, idVendor=VENDOR_ID, idProduct=PRODUCT_ID):
-            found.append(DetectedPort(f"usb:{dev.bus}.{dev.address}",
-                                      "Mitutoyo USB-ITN cable (protocol usb-itn: data mode)"))
-    except Exception:  # no pyusb, no libusb, no permission: type the port instead
-        pass
-    try:
-        nodes = find_event_devices(VENDOR_ID, PRODUCT_ID)
-    except OSError:
-        nodes = []
-    found += [DetectedPort(str(node), "Mitutoyo USB-ITN cable typing as a keyboard "
-                                      "(protocol usb-itn-keyboard)") for node in nodes]
+    for name, entry in BACKENDS.items():
+        if not entry.hints.find:
+            continue
+        try:
+            devices = load(entry.hints.find)()
+        except Exception:
+            continue
+        found += [DetectedPort(d.port, f"{d.description} (protocol {name})") for d in devices]
     return found
 
 
@@ -246,19 +239,7 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
                    "expected, and tell you when to read.")
         return {}, set(keys)
     protocol = protocols[answer - 1]
-    if protocol == "uwave":
-        screen.note("U-WAVE sends a value when the transmitter's DATA button is pressed: "
-                    "press it when a gauge is tested.")
-    if protocol == "usb-itn":
-        screen.note("USB-ITN in data mode: the port is usb (the one cable), usb:SERIAL or "
-                    "usb:BUS.ADDRESS (lsusb shows them); ogacq switches the cable to data mode.")
-    if protocol == "usb-itn-keyboard":
-        screen.note("USB-ITN in keyboard mode: the port is keyboard (the cable, found by its "
-                    "USB ids) or /dev/input/eventN; press the cable's data switch when a gauge "
-                    "is tested. The typed values go to ogacq only, not into other windows.")
-    if protocol == "sylvac-simplex":
-        screen.note("Sylvac simplex cable: it needs a real serial port (or an RFC 2217 "
-                    "server) with DTR and RTS; ogacq asks for each value with a DTR pulse.")
+    show_hints(screen, protocol)
 
     if _indicator_count(screen, indicators, rehearsal_indicators) == 2:
         return _moved_indicators(screen, ports, legs, protocol, notes)
@@ -278,6 +259,18 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
         else:
             chosen[gauge] = spec
     return chosen, by_eye
+
+
+def show_hints(screen: Screen, protocol: str) -> None:
+    """What the protocol's backend says about connecting such a gauge."""
+    from rich.markup import escape  # the table's words, not markup (a plugin's too)
+
+    entry = BACKENDS[protocol]
+    if entry.hints.note:
+        screen.note(escape(entry.hints.note))
+    line = f"; the line: {entry.line}" if entry.line else ""
+    channel = f"; a channel is {entry.hints.channel}" if entry.hints.channel else ""
+    screen.note(escape(f"The port of a {protocol} gauge: {entry.hints.ports}{line}{channel}."))
 
 
 def _indicator_count(screen: Screen, known: int | None, rehearsal: int | None) -> int:
