@@ -341,7 +341,10 @@ class _Rfc2217Transport(_SocketTransport):
         if not had_connection and self._conn is not None:
             from serial.rfc2217 import PortManager
 
-            self._manager = PortManager(_ControlLines(self._on_control), self)
+            # pyserial documents duck types here (a port with the control lines, a
+            # connection with write()); its stubs ask for Serial
+            self._manager = PortManager(_ControlLines(self._on_control),  # type: ignore[arg-type]
+                                        self)  # type: ignore[arg-type]
         if not data or self._manager is None:
             return b""
         return b"".join(self._manager.filter(data))
