@@ -135,8 +135,8 @@ def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
 
 def record_columns(record: Mapping[str, Any]) -> dict[str, Any]:
     """The event columns a record fills (every kind of event carries its record's)."""
-    session = record.get("session") if isinstance(record.get("session"), Mapping) else {}
-    method = record.get("method") if isinstance(record.get("method"), Mapping) else {}
+    session = found if isinstance(found := record.get("session"), Mapping) else {}
+    method = stated if isinstance(stated := record.get("method"), Mapping) else {}
     return {
         "record_id": record["id"],
         "campaign_date": str(record["date"]) if record.get("date") else None,

@@ -443,7 +443,8 @@ def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
             {"key": "created", "value": utc_now()},
             {"key": "created_by", "value": f"ogacq {__version__}"}])
         return
-    info = dict(conn.execute(select(s.schema_info.c.key, s.schema_info.c.value)).all())
+    info: dict[str, str] = {key: value for key, value in conn.execute(
+        select(s.schema_info.c.key, s.schema_info.c.value)).all()}
     if info.get("application") != s.APPLICATION:
         raise HistoryError(location, "is not an ogacq history (its ogacq_schema table says "
                            f"{info.get('application')!r})")

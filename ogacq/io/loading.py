@@ -34,17 +34,17 @@ def load_observations(path: str | Path, machine: MachineSpec | None = None,
     if not path.exists():
         raise InputError(path, "no such file")
     kind = sniff(path)
-    if kind != "session" and machine is None:
+    if kind == "session":
+        obs = _session_observations(path, machine, machine_path, other_geometry)
+    elif machine is None:
         raise InputError(path, f"a {kind} CSV does not record its machine: give the machine "
                                "file with --machine M.toml")
-    if kind == "deviations":
+    elif kind == "deviations":
         obs = deviations_observations(machine, read_deviations(path), source=str(path))
-    elif kind == "readings":
+    else:
         table = read_readings(path)
         check_table_postures(table, machine, path)
         obs = readings_observations(machine, table.layout(), table.reading_mm, str(path))
-    else:
-        obs = _session_observations(path, machine, machine_path, other_geometry)
     check_observations(obs, names)
     return obs
 

@@ -235,8 +235,8 @@ def read_readings(path: str | Path) -> ReadingsTable:
     if has_approach:
         approach = np.column_stack([numbers[c] for c in APPROACH_COLUMNS])
         bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
-    for k in np.flatnonzero(bad):
-        _checked_row(path, int(lines[k]), rows[k][1], header, at, has_approach)
+    for row in np.flatnonzero(bad):
+        _checked_row(path, int(lines[row]), rows[row][1], header, at, has_approach)
     return ReadingsTable(
         t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
         tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),

@@ -262,15 +262,15 @@ def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: M
     write-back or restore); a controller holding something else was changed outside
     the history, and going back would undo that change unseen: refused as stale.
     """
-    if any(target_mm.get(a) is None or not math.isfinite(target_mm[a]) for a in AXES):
+    target = {a: v for a in AXES if (v := target_mm.get(a)) is not None and math.isfinite(v)}
+    if len(target) < len(AXES):
         raise ValueError(f"offsets state {state} recorded no usable values")
     current = {a: float(current_mm[a]) for a in AXES}
-    changes = tuple(AxisChange(a, current[a], facts.quantize(float(target_mm[a])))
-                    for a in AXES)
+    changes = tuple(AxisChange(a, current[a], facts.quantize(float(target[a]))) for a in AXES)
     nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
     refusals: list[Refusal] = []
     if expected_mm is not None and not nothing and not all(
-            expected_mm.get(a) is not None and facts.same(current[a], float(expected_mm[a]))
+            (e := expected_mm.get(a)) is not None and facts.same(current[a], float(e))
             for a in AXES):
         recorded = ", ".join(f"{a} {expected_mm[a]:+.4f}" if expected_mm.get(a) is not None
                              else f"{a} unknown" for a in AXES)
