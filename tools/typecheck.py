@@ -10,13 +10,16 @@ fails on any error::
 
     python tools/typecheck.py                       # everything: exit 0 when clean
     python tools/typecheck.py ogacq/protocol drivers/link.py   # only their errors
+    python tools/typecheck.py /tmp/try.py           # a file of neither tree, checked with them
 
 Paths narrow what is reported, not what is checked: every module is analysed (the
-cache, ``.mypy_cache``, makes a second run take seconds).
+cache, ``.mypy_cache``, makes a second run take seconds). A Python file outside the
+trees is added to the check, as a module named by its file name and path.
 """
 
 from __future__ import annotations
 
+import hashlib
 import sys
 import tomllib
 from pathlib import Path
@@ -56,6 +59,14 @@ def check(only: list[str] | None = None) -> tuple[list[str], int]:
     of source files checked. Run from the project root (paths are relative to it)."""
     _, options = process_options(["--config-file", str(PYPROJECT), "-c", "pass"])
     sources = build_sources()
+    trees = [ROOT / folder for folder in source_trees().values()]
+    for given in map(Path, only or ()):
+        inside = any(given.resolve().is_relative_to(tree) for tree in trees)
+        if given.suffix == ".py" and given.is_file() and not inside:
+            # named after its path too: mypy's cache knows a module by its name, and
+            # would replay the errors of a same-named file elsewhere under that path
+            where = hashlib.sha1(str(given.resolve()).encode()).hexdigest()[:12]
+            sources.append(BuildSource(str(given), f"{given.stem}_{where}"))
     try:
         messages = build.build(sources, options).errors
     except CompileError as exc:  # a syntax error or a blocking one: reported as it is
