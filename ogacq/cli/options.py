@@ -73,6 +73,22 @@ if TYPE_CHECKING:  # their members are known at run time only (below)
         """A protocol of the drivers' table."""
 
 
+def profile_help(lead: str) -> str:
+    """``lead``, then each controller profile shipped with the drivers as its file
+    describes it: the profiles ProfileChoice offers, not a list kept by hand."""
+    from ogacq_drivers.axes.profile import available_profiles, load_profile
+
+    return f"{lead}: " + "; ".join(f"{name} ({load_profile(name).description})"
+                                   for name in available_profiles()) + "."
+
+
+def per_axis_profiles() -> str:
+    """The profiles whose axes are each their own endpoint ("mr-je-c"), in words."""
+    from ogacq_drivers.axes.profile import available_profiles, load_profile
+
+    return " and ".join(n for n in available_profiles() if load_profile(n).endpoint_per_axis)
+
+
 def _choice(name: str, values: Iterable[str]) -> type[StrEnum]:
     # Enum's functional API makes a class; the stubs read the call as a member lookup
     return cast("type[StrEnum]", StrEnum(name, {v: v for v in values}))

@@ -15,8 +15,10 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
+from ogacq.model.gauges import AXES
+from ogacq.model.instrument import finite_number as _number
+
 RECORD_FORMAT = "ogacq-record/1"
-AXES = ("x", "y", "z")
 
 
 class RecordError(ValueError):
@@ -62,12 +64,6 @@ def clean_json(value: Any) -> Any:
     if isinstance(value, list | tuple):
         return [clean_json(v) for v in value]
     return value
-
-
-def _number(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return None
-    return float(value) if math.isfinite(value) else None
 
 
 def check_record(record: Any) -> dict[str, Any]:

@@ -39,6 +39,7 @@ from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import DEVIATION_NAME, Observations
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.parameters import AXES
+from ogacq.model.units import UM_PER_MM
 
 # The level every consumer judges at. 1 % rather than 5 %: a false "inconsistent"
 # sends someone to re-tune a machine or withholds a good write-back, and the
@@ -104,8 +105,8 @@ class Verdict:
         denominator = (f", {self.noise_dof:.0f}" if self.noise_dof is not None else "")
         text = (f"{self.headline()} ({self.test} test: {name}({self.dof}{denominator}) = "
                 f"{self.statistic:.4g}, p = {format_p(self.overall_p)}; per dof "
-                f"{self.chi2_dof:.3g}, rms {self.rms_mm * 1000:.3g} µm, noise "
-                f"{self.noise.sigma_mm * 1000:.3g} µm from the {self.noise.source})")
+                f"{self.chi2_dof:.3g}, rms {self.rms_mm * UM_PER_MM:.3g} µm, noise "
+                f"{self.noise.sigma_mm * UM_PER_MM:.3g} µm from the {self.noise.source})")
         if self.worst_cell is not None:
             c = self.worst_cell
             text += (f"; worst cell {c.cell}: chi2 {c.chi2:.3g} for {c.expected:.2g} expected, "
@@ -208,8 +209,8 @@ def _noise_notes(noise: GaugeNoise) -> list[str]:
         notes.append(f"the noise is assumed to be the {noise.step_mm:g} mm display step: "
                      "no repeats, and none stated (gauge_repeatability_mm)")
     if noise.rounding_dominated:
-        mean_sd = math.sqrt(noise.shared_var) * 1000
-        notes.append(f"the {noise.step_mm * 1000:g} µm display step dominates: the cycles "
+        mean_sd = math.sqrt(noise.shared_var) * UM_PER_MM
+        notes.append(f"the {noise.step_mm * UM_PER_MM:g} µm display step dominates: the cycles "
                      f"round alike, so a posture mean is known to about ±{mean_sd:.1f} µm "
                      "however many cycles; a misfit smaller than that cannot be told "
                      "from rounding")
@@ -218,8 +219,8 @@ def _noise_notes(noise: GaugeNoise) -> list[str]:
                      "display shows, and the fit is judged against the rounding alone")
     stated, seen = noise.scatter_mm, noise.repeats_scatter_mm
     if not noise.measured and stated is not None and seen is not None and seen > 2 * stated:
-        notes.append(f"the repeats scatter {seen * 1000:.2g} µm, more than the "
-                     f"{stated * 1000:.2g} µm the machine file states")
+        notes.append(f"the repeats scatter {seen * UM_PER_MM:.2g} µm, more than the "
+                     f"{stated * UM_PER_MM:.2g} µm the machine file states")
     return notes
 
 

@@ -26,6 +26,7 @@ from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, MachineSpec
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.model.units import UM_PER_MM
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 GEOMETRIES = {
@@ -63,7 +64,7 @@ class Cell:
                                              cycles=self.cycles), self.machine())
 
     def label(self) -> str:
-        return (f"{self.display_mm * 1000:>4g} µm  {self.noise_mm * 1000:>4g} µm  "
+        return (f"{self.display_mm * UM_PER_MM:>4g} µm  {self.noise_mm * UM_PER_MM:>4g} µm  "
                 f"{self.source:<8}  {self.protocol:<10}  {self.geometry:<9}")
 
 

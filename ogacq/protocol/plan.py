@@ -65,7 +65,7 @@ class StabilityRule:
 
 @dataclass(frozen=True)
 class ProtocolConfig:
-    legs: tuple[str, ...] = ("x", "y", "z")
+    legs: tuple[str, ...] = AXES
     postures: tuple[str | float, ...] = ("zero", "max", "min", "zero")
     cycles: int = 3
     approach: str = "sequence"

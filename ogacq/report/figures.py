@@ -21,8 +21,9 @@ from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 from ogacq.model.parameters import AXES
+from ogacq.model.units import UM_PER_MM
 from ogacq.report.data import DeviationRow, FitSummary, ModelStep, ResidualSeries
-from ogacq.report.formatting import UM_PER_MM, finite
+from ogacq.report.formatting import finite
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType  # read by the type checker only

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Literal
 
 from ogacq_drivers.axes.profile import Profile
 from ogacq.model.parameters import AXES
+from ogacq.model.units import signed_per_axis as _fmt
 from ogacq.writeback.audit import Operation
 
 if TYPE_CHECKING:  # the evidence module pulls in the fit and scipy; the CLI imports this one
@@ -121,10 +122,6 @@ class OffsetPlan:
                 "baseline_mm": self.baseline_mm or None,
                 "refusals": [{"code": r.code, "message": r.message} for r in self.refusals],
                 "notes": list(self.notes), "nothing_to_do": self.nothing_to_do}
-
-
-def _fmt(values: Mapping[str, float]) -> str:
-    return ", ".join(f"{a} {v:+.4f}" for a, v in values.items())
 
 
 def _margin_refusals(new_mm: Mapping[str, float], facts: ControllerFacts) -> list[Refusal]:

@@ -11,6 +11,7 @@ from rich.table import Table
 from ogacq.campaign import CampaignOutcome
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
+from ogacq.report.formatting import um
 
 
 def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
@@ -30,7 +31,7 @@ def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
             row.append(f"{outcome.hidden.get(name, 0.0):+.4f} mm")
         table.add_row(*row)
     screen.say(table)
-    screen.say(f"Residual rms {fit.residual_rms_mm * 1000:.2f} µm; gauge noise "
+    screen.say(f"Residual rms {um(fit.residual_rms_mm)}; gauge noise "
                f"{fit.noise.describe()}.")
     ident = fit.identifiability
     writable = True
