@@ -41,7 +41,7 @@ from ogacq.protocol.station import GaugeReadings, Joints, SettledGauge, settle_u
 from ogacq.session.store import SessionWriter
 
 
-class Complete:
+class AllButSettling:  # every method of the contract but read_settled
     def move(self, q_mm: Joints, timeout_s: float) -> Joints:
         return q_mm
 
@@ -49,48 +49,30 @@ class Complete:
                     ) -> GaugeReadings:
         return []
 
+    def settle(self, seconds: float) -> None:
+        pass
+
+    def campaign_time_s(self) -> float:
+        return 0.0
+
+    def stop_axes(self) -> None:
+        pass
+
+    def recover_axes(self) -> bool:
+        return True
+
+    def take_check_request(self) -> bool:
+        return False
+
+
+class Complete(AllButSettling):
     def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
                      ) -> Mapping[str, SettledGauge | DriverError]:
         return settle_unjudged(self, gauges, rule)
 
-    def settle(self, seconds: float) -> None:
-        pass
 
-    def campaign_time_s(self) -> float:
-        return 0.0
-
-    def stop_axes(self) -> None:
-        pass
-
-    def recover_axes(self) -> bool:
-        return True
-
-    def take_check_request(self) -> bool:
-        return False
-
-
-class WithoutSettling:  # all but read_settled, as a station before the contract
-    def move(self, q_mm: Joints, timeout_s: float) -> Joints:
-        return q_mm
-
-    def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
-                    ) -> GaugeReadings:
-        return []
-
-    def settle(self, seconds: float) -> None:
-        pass
-
-    def campaign_time_s(self) -> float:
-        return 0.0
-
-    def stop_axes(self) -> None:
-        pass
-
-    def recover_axes(self) -> bool:
-        return True
-
-    def take_check_request(self) -> bool:
-        return False
+class WithoutSettling(AllButSettling):  # as a station before the contract
+    pass
 
 
 def run(writer: SessionWriter) -> None:

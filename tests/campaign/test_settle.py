@@ -15,20 +15,19 @@ from ogacq_drivers.indicators.rest import RestJudge
 from ogacq.campaign_file import read_campaign
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import PAPER_PROTOTYPE
-from ogacq.protocol.plan import ProtocolConfig, Read, SettleRule, StabilityRule, reading_steps
+from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignRunner, CampaignStopped
 from ogacq.protocol.station import (
     GaugeReadings,
     GaugeValue,
-    Joints,
     SettledGauge,
-    settle_unjudged,
 )
 from ogacq.session.records import FaultRecord, SettleRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.sim.truth import Vibration
 from ogacq.station import open_station
 from tests.campaign.conftest import write_campaign
+from tests.campaign.station_double import StationDouble
 
 # A slow ringing, so that the simulated gauges (an exchange every 16 ms of real time,
 # 0.16 s of machine time at speed 10) sample it several times a period; a window of
@@ -311,16 +310,13 @@ def test_gauges_sharing_a_line_are_read_in_turn_on_it():
     assert line_groups(drivers) == [["y_x", "z_x"], ["x_y"], ["usb"]]
 
 
-class _Station:
+class _Station(StationDouble):
     """Answers reads at once; gauge ``failing`` times out ``failures`` times first."""
 
     def __init__(self, failing: str = "", failures: int = 0) -> None:
         self.failing, self.failures = failing, failures
         self.settled: list[float] = []
         self.batches: list[tuple[str, ...]] = []
-
-    def move(self, q_mm: Joints, timeout_s: float) -> Joints:
-        return q_mm
 
     def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
                     ) -> GaugeReadings:
@@ -334,24 +330,8 @@ class _Station:
                 out[gauge] = GaugeValue(0.001 * len(self.batches), "frame", gauge)
         return out.items()
 
-    def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
-                     ) -> dict[str, SettledGauge | DriverError]:
-        return settle_unjudged(self, gauges, rule)  # it cannot judge rest by the values
-
-    def campaign_time_s(self) -> float:
-        return 0.0
-
     def settle(self, seconds: float) -> None:
         self.settled.append(seconds)
-
-    def stop_axes(self) -> None:
-        pass
-
-    def recover_axes(self) -> bool:
-        return True
-
-    def take_check_request(self) -> bool:
-        return False
 
 
 def _run(tmp_path, station, config):
