@@ -11,6 +11,8 @@ from pathlib import Path
 
 from ogacq.io.errors import InputError, StorageError
 
+NEW_FILE_MODE = 0o644  # what the files a user reads and edits get (sessions too)
+
 
 def write_atomically(path: str | Path, data: bytes) -> None:
     """Write ``data`` to a temporary file beside ``path``, force it to the disk, then
@@ -19,11 +21,13 @@ def write_atomically(path: str | Path, data: bytes) -> None:
     path = Path(path)
     tmp: str | None = None
     try:
+        mode = path.stat().st_mode & 0o777 if path.is_file() else NEW_FILE_MODE
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
+        os.chmod(tmp, mode)  # the file it replaces keeps its mode; mkstemp's 0600 is its own
         os.replace(tmp, path)
     except OSError as exc:
         if tmp is not None:
@@ -46,7 +50,7 @@ def write_new_file(path: str | Path, data: bytes) -> None:
             fh.write(data)
             fh.flush()
             os.fsync(fh.fileno())
-        os.chmod(tmp, 0o644)  # mkstemp's 0600 is for the temporary only
+        os.chmod(tmp, NEW_FILE_MODE)  # mkstemp's 0600 is for the temporary only
         try:
             os.link(tmp, path)
         except FileExistsError:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ogacq.identify.observations import Deviation
+from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.text import decode_text, read_text
 from ogacq.model.kinematics import nominal_tcp
@@ -314,13 +315,15 @@ def write_readings(path: str | Path, layout: ReadingsLayout, readings_mm: np.nda
                    with_approach: bool = True) -> None:
     """The readings CSV of INTERCHANGE.md (plus the approach side, ignored by others)."""
     header = list(READINGS_COLUMNS) + (list(APPROACH_COLUMNS) if with_approach else [])
-    with Path(path).open("w", encoding="utf-8", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for k in range(len(layout)):
-            row = [f"{layout.t_s[k]:.3f}", int(layout.cycle[k]), AXES[layout.leg[k]],
-                   AXES[layout.gauge_axis[k]], *(f"{v:.6f}" for v in layout.tcp_mm[k]),
-                   *(f"{v:.6f}" for v in layout.q_mm[k]), f"{readings_mm[k]:.6f}"]
-            if with_approach:
-                row += [int(v) for v in layout.approach[k]]
-            w.writerow(row)
+    out = io.StringIO(newline="")
+    w = csv.writer(out)
+    w.writerow(header)
+    for k in range(len(layout)):
+        row = [f"{layout.t_s[k]:.3f}", int(layout.cycle[k]), AXES[layout.leg[k]],
+               AXES[layout.gauge_axis[k]], *(f"{v:.6f}" for v in layout.tcp_mm[k]),
+               *(f"{v:.6f}" for v in layout.q_mm[k]), f"{readings_mm[k]:.6f}"]
+        if with_approach:
+            row += [int(v) for v in layout.approach[k]]
+        w.writerow(row)
+    # whole or not at all: a full disk leaves the file as it was (or none)
+    write_atomically(path, out.getvalue().encode("utf-8"))

@@ -281,7 +281,13 @@ def test_report_and_history_add_on_a_full_disk_are_one_line_and_a_retry_works(re
     ran = with_file_size_limit(20_000, "report", tmp_path / "s.jsonl", "--out", report,
                                "--history", "none")
     assert ran.returncode == 3 and "cannot write" in one_line(ran.stderr), ran.stderr
-    assert not list(report.glob("*.tmp")) and not (report / "report.html").exists()
+    assert not report.exists()  # the figures written before the disk filled: removed
+    shutil.copy(recorded.parent / "machine.toml", tmp_path / "export.csv")  # a file to replace
+    ran = with_file_size_limit(2_000, "session", "export", tmp_path / "s.jsonl",
+                               tmp_path / "export.csv", "--force")
+    assert ran.returncode == 3 and "export.csv" in one_line(ran.stderr), ran.stderr
+    assert (tmp_path / "export.csv").read_bytes() == (recorded.parent / "machine.toml"
+                                                      ).read_bytes()  # as it was
     assert run_ogacq("report", tmp_path / "s.jsonl", "--out", report, "--history",
                      "none").returncode == 0
     history = tmp_path / "h.sqlite"

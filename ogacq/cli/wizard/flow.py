@@ -58,6 +58,7 @@ from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
+from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.machine import (
@@ -555,7 +556,8 @@ class _Wizard:
         return observe
 
     def _write_campaign_file(self, campaign: Campaign) -> None:
-        campaign.path.write_text(campaign_file_text(campaign, self.by_eye, self.rehearsal))
+        write_atomically(campaign.path, campaign_file_text(campaign, self.by_eye, self.rehearsal)
+                         .encode("utf-8"))
         self.resumable_by_ogacq = True  # the schema reads back what it wrote
 
     def _after_stop(self, stop: CampaignStopped) -> None:
