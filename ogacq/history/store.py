@@ -19,6 +19,7 @@ nothing is recorded where it could never be read back.
 from __future__ import annotations
 
 import contextlib
+import json
 import socket
 import sqlite3
 from collections.abc import Iterator, Mapping
@@ -26,7 +27,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Connection, Engine, create_engine, event, func, inspect, select
+from sqlalchemy import JSON, Connection, Engine, create_engine, event, func, inspect, select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
 
@@ -184,6 +185,8 @@ class History:
         try:
             with self.engine.connect() as conn:
                 found = [row[0] for row in conn.exec_driver_sql("PRAGMA quick_check")]
+        except ValueError:  # the check's own report names damaged text
+            found = ["its report is not even text"]
         except SQLAlchemyError as exc:
             if isinstance(getattr(exc, "orig", None), sqlite3.OperationalError):
                 raise HistoryError(self.location, f"cannot open ({_first_line(exc)})") from None
@@ -193,6 +196,31 @@ class History:
             first = " ".join(str(found[0]).split()) if found else "no answer"
             raise HistoryError(self.location, f"fails its integrity check ({first}): nothing is "
                                f"recorded into it; {REPAIR.format(path=path)}")
+        damaged = self._damaged_record()
+        if damaged:
+            raise HistoryError(self.location, f"{damaged}: nothing is recorded into it (it could "
+                               f"not be read back); {REPAIR.format(path=path)}")
+
+    def _damaged_record(self) -> str | None:
+        """The first stored JSON document that no longer reads (a flipped byte the page
+        checks cannot see), or None. Every record is read: a history holds a few
+        hundred of them."""
+        e = s.events
+        columns = [c.name for c in e.columns if isinstance(c.type, JSON)]
+        where = "its events"
+        try:
+            with self.engine.connect() as conn:
+                if e.name not in inspect(conn).get_table_names():
+                    return None
+                rows = conn.exec_driver_sql(f"SELECT id, {', '.join(columns)} FROM {e.name}")
+                for row in rows:
+                    for column, text in zip(columns, row[1:], strict=True):
+                        where = f"event {row[0]}, {column}"
+                        if text is not None:
+                            json.loads(text)
+        except (SQLAlchemyError, ValueError) as exc:
+            return f"a stored record is damaged ({where}: {_first_line(exc)})"
+        return None
 
     def close(self) -> None:
         self.engine.dispose()
@@ -209,6 +237,9 @@ class History:
             yield
         except SQLAlchemyError as exc:
             raise HistoryError(self.location, f"cannot {what} ({_first_line(exc)})") from None
+        except ValueError as exc:  # a stored JSON document damaged (its text, its UTF-8)
+            raise HistoryError(self.location, f"cannot {what}: a stored record is damaged "
+                               f"({_first_line(exc)})") from None
 
     @contextlib.contextmanager
     def _transaction(self, *, write: bool) -> Iterator[Connection]:
@@ -472,7 +503,8 @@ def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
             {"key": "created", "value": utc_now()},
             {"key": "created_by", "value": f"ogacq {__version__}"}])
         return
-    info = dict(conn.execute(select(s.schema_info.c.key, s.schema_info.c.value)).all())
+    info: dict[str, str] = {row.key: row.value for row in conn.execute(
+        select(s.schema_info.c.key, s.schema_info.c.value))}
     if info.get("application") != s.APPLICATION:
         raise HistoryError(location, "is not an ogacq history (its ogacq_schema table says "
                            f"{info.get('application')!r})")

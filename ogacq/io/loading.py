@@ -85,9 +85,11 @@ def load_input(path: str | Path, machine: MachineSpec | None = None,
         raise InputError(path, f"a {kind} CSV does not record its machine: give the machine "
                                "file with --machine M.toml")
     if kind == "deviations":
+        assert machine is not None
         loaded = LoadedInput(deviations_observations(machine, read_deviations(path),
                                                      source=str(path)))
     elif kind == "readings":
+        assert machine is not None
         table = read_readings(path)
         check_table_postures(table, machine, path)
         loaded = LoadedInput(readings_observations(machine, table.layout(), table.reading_mm,

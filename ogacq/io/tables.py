@@ -140,6 +140,18 @@ def _number(path: Path, line: int, column: str, text: str) -> float:
     return value
 
 
+def _misfit(row: list[str], header: list[str]) -> bool:
+    """A row with fewer fields than the header, or more that hold something: an empty
+    trailing field is a spreadsheet's habit, a filled one most often a decimal comma
+    ("12,345") that would otherwise be read as 12 with the rest dropped."""
+    return len(row) < len(header) or any(cell.strip() for cell in row[len(header):])
+
+
+def _fields_problem(row: list[str], header: list[str]) -> str:
+    more = " (a decimal comma? write 12.345)" if len(row) > len(header) else ""
+    return f"row has {len(row)} fields, the header {len(header)}{more}"
+
+
 def read_deviations(path: str | Path) -> list[tuple[str, float]]:
     path = Path(path)
     header, rows = _rows(path, DEVIATIONS_COLUMNS)
@@ -147,8 +159,8 @@ def read_deviations(path: str | Path) -> list[tuple[str, float]]:
     out: list[tuple[str, float]] = []
     seen: dict[str, int] = {}
     for line, row in rows:
-        if len(row) < len(header):
-            raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
+        if _misfit(row, header):
+            raise InputError(path, _fields_problem(row, header), line)
         name = row[at["name"]].strip()
         try:
             Deviation.parse(name)
@@ -179,8 +191,8 @@ def _checked_row(path: Path, line: int, row: list[str], header: list[str], at: d
     """Refuse one row, naming its first problem: the one definition of a valid row's
     messages (the vectorised reader checks all rows at once, then asks this for the
     words and the line)."""
-    if len(row) < len(header):
-        raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
+    if _misfit(row, header):
+        raise InputError(path, _fields_problem(row, header), line)
     leg = _axis(path, line, "leg", row[at["leg"]])
     gauge = _axis(path, line, "gauge_axis", row[at["gauge_axis"]])
     if gauge == leg:
@@ -247,7 +259,7 @@ def read_readings(path: str | Path) -> ReadingsTable:
     has_approach = all(c in at for c in APPROACH_COLUMNS)
     fields = [row for _, row in rows]
     lines = np.array([line for line, _ in rows])
-    bad = np.array([len(row) < len(header) for row in fields])
+    bad = np.array([_misfit(row, header) for row in fields])
     if bad.any():  # short rows: pad them so that the columns can be cut; refused below
         fields = [row + [""] * (len(header) - len(row)) for row in fields]
     columns = list(zip(*fields, strict=False))  # extra trailing fields are ignored
@@ -271,7 +283,7 @@ def read_readings(path: str | Path) -> ReadingsTable:
     if has_approach:
         approach = np.column_stack([numbers[c] for c in APPROACH_COLUMNS])
         bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
-    for k in np.flatnonzero(bad):
+    for k in map(int, np.flatnonzero(bad)):
         _checked_row(path, int(lines[k]), rows[k][1], header, at, has_approach)
     return ReadingsTable(
         t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
@@ -287,7 +299,7 @@ def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str |
     low, high = machine.rho_min_mm - margin_mm, machine.rho_max_mm + margin_mm
     bad = np.flatnonzero(np.any((table.q_mm < low) | (table.q_mm > high), axis=1))
     if len(bad):
-        k = bad[0]
+        k = int(bad[0])
         raise InputError(path, f"posture outside the workspace: q = {_fmt(table.q_mm[k])} mm, "
                          f"limits {machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm "
                          "(is the machine file the right one?)", int(table.lines[k]))
@@ -295,14 +307,14 @@ def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str |
     reach = machine.leg_length_mm + max(abs(machine.rho_min_mm), abs(machine.rho_max_mm))
     bad = np.flatnonzero(np.any(np.abs(table.tcp_mm) > reach, axis=1))
     if len(bad):
-        k = bad[0]
+        k = int(bad[0])
         raise InputError(path, f"TCP outside the workspace: tcp = {_fmt(table.tcp_mm[k])} mm, "
                          f"farther than the {reach:g} mm a leg and its travel reach "
                          "(is the machine file the right one?)", int(table.lines[k]))
     tcp = nominal_tcp(table.q_mm, machine.leg_length_mm)
     bad = np.flatnonzero(~np.all(np.isfinite(tcp), axis=1))
     if len(bad):
-        k = bad[0]
+        k = int(bad[0])
         raise InputError(path, f"posture outside the workspace: the legs cannot reach a TCP "
                          f"at q = {_fmt(table.q_mm[k])} mm", int(table.lines[k]))
 

@@ -49,8 +49,8 @@ def session_notes(record: Mapping[str, Any]) -> list[str]:
 
     campaign = record.get("campaign") or {}
     session = record.get("session") or {}
-    edited = tuple((e.get("line"), e.get("problem")) for e in session.get("edited") or ()
-                   if isinstance(e, Mapping))
+    edited = tuple((int(e.get("line") or 0), str(e.get("problem"))) for e in
+                   session.get("edited") or () if isinstance(e, Mapping))
     notes = [campaign["partial"]] if campaign.get("partial") else []
     return notes + Integrity(str(session.get("integrity") or "sealed"), edited).notes()
 

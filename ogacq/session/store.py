@@ -509,8 +509,9 @@ def salvage_session(path: str | Path, out: str | Path) -> tuple[int, list[tuple[
         raise InputError(path, "no record beyond the header is as it was written: nothing to "
                          "salvage")
     given = kept[0][1]  # sealed again (an older session's header gains its seal)
-    header = {**{k: given[k] for k in ("type", "format") if k in given}, "integrity": SEAL,
-              **{k: v for k, v in given.items() if k not in ("type", "format", "integrity")}}
+    header: dict[str, Any] = {k: given[k] for k in ("type", "format") if k in given}
+    header["integrity"] = SEAL
+    header.update((k, v) for k, v in given.items() if k not in ("type", "format", "integrity"))
     records = [r for _, r in kept[1:]]
     records.append(SalvageRecord(source=str(Path(path).resolve()), left_out=tuple(left_out),
                                  wall=round(time.time(), 3)).to_json())

@@ -82,6 +82,20 @@ def test_numbers_are_ascii_finite_and_bounded(tmp_path, table_lines, column, tex
     assert str(caught.value) == f"{path}:7: {words}"
 
 
+def test_a_decimal_comma_is_refused_not_read_as_its_whole_part(tmp_path, table_lines):
+    """Unquoted, "5,002" is two fields: 5 and a field beyond the header's, which a
+    reader that ignores extra fields would drop; quoted, it is not a number."""
+    for text, words in (("5,002", "row has 15 fields, the header 14 (a decimal comma? "
+                                  "write 12.345)"),
+                        ('"5,002"', f"reading_mm: '5,002' {NOT_A_NUMBER}")):
+        path = _with(tmp_path, table_lines[2], 6, 10, text)
+        with pytest.raises(InputError) as caught:
+            read_readings(path)
+        assert str(caught.value) == f"{path}:7: {words}"
+    path = _with(tmp_path, table_lines[2], 6, 13, "1,")  # an empty trailing field: kept
+    assert len(read_readings(path).reading_mm) == len(table_lines[0])
+
+
 def test_numbers_as_csv_writes_them_are_accepted(tmp_path, table_lines):
     path = _with(tmp_path, table_lines[2], 6, 10, " +1.5e1 ")
     assert read_readings(path).reading_mm[5] == 15.0  # line 7: the sixth data row
