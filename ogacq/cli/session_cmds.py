@@ -23,12 +23,10 @@ from ogacq.session.store import (
 )
 
 
-def show(
-    session: Annotated[Path, typer.Argument(help="Session file.")],
-    accept_edited: AcceptEditedOption = False,
-) -> None:
-    """What a session holds: machine, station, progress, faults, result."""
-    loaded = load_session(session, accept_edited=accept_edited)
+def show(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
+    """What a session holds: machine, station, progress, faults, result; whether its
+    campaign finished and whether it was edited (shown as it stands, and said)."""
+    loaded = load_session(session, accept_edited=True)  # a look, not an analysis
     for warning in loaded.warnings:
         typer.echo(f"ogacq: warning: {warning}", err=True)
     print_session(loaded, completeness(loaded))

@@ -84,8 +84,7 @@ class Integrity:
         if self.edited:
             line, problem = self.edited[0]
             more = f", and {len(self.edited) - 1} more" if len(self.edited) > 1 else ""
-            out.append(f"edited: line {line} {problem}{more}; analysed as it stands "
-                       "(--accept-edited)")
+            out.append(f"edited: line {line} {problem}{more}; taken as it stands")
         if self.mode == UNCHECKED:
             out.append("unchecked: a session written before ogacq checksummed its records "
                        "(an edit to it cannot be found)")
