@@ -12,8 +12,11 @@ A schema is a :class:`Table` of :class:`Field`; a field's kind is a :class:`Valu
 (a scalar, with its type, range and choices), :class:`ListOf`, a nested
 :class:`Table`, :class:`TableArray` (``[[name]]``), :class:`MapOf` (keys chosen by the
 file's author) or :class:`Variants` (tables told apart by a tag such as ``op``).
-Numbers are always finite: a nan or inf in a setting only fails later, after the
-machine moved.
+Numbers are always finite (a nan or inf in a setting only fails later, after the
+machine moved) and integers fit in 64 bits, as TOML v1.0.0 ("Integer") requires
+of a parser: a 40-digit integer is a mistake in the file, not an OverflowError
+when it meets a float. A field's physical bounds are its ``minimum`` and
+``maximum``.
 """
 
 from __future__ import annotations
@@ -31,6 +34,10 @@ from pathlib import Path
 from typing import Any
 
 KeyPath = tuple[str | int, ...]
+
+# TOML v1.0.0, "Integer": 64-bit signed integers are accepted losslessly, and an
+# integer that cannot be represented losslessly is an error.
+INT64 = (-(2**63), 2**63 - 1)
 
 
 @dataclass(frozen=True)
@@ -249,9 +256,11 @@ def read_document(path: str | Path, what: str, error: ErrorFactory,
 def parse_document(source: Source) -> dict[str, Any]:
     try:
         return tomllib.loads(source.text)
-    except tomllib.TOMLDecodeError as exc:
+    except ValueError as exc:  # TOMLDecodeError; or an integer of over 4300 digits
         match = re.search(r"line (\d+)", str(exc))
-        problem = f"not valid TOML: {str(exc).split(' (at')[0]}"
+        problem = (f"not valid TOML: {str(exc).split(' (at')[0]}"
+                   if isinstance(exc, tomllib.TOMLDecodeError)
+                   else "not valid TOML: a number of thousands of digits")
         raise source.error(Issue(source.path, "", problem, problem,
                                  int(match.group(1)) if match else None)) from None
 
@@ -334,6 +343,10 @@ def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
         return given
     if isinstance(given, float) and not math.isfinite(given):
         raise src.fail(path, f"must be a finite number, got {given!r}")
+    if isinstance(given, int) and not isinstance(given, bool) and \
+            not INT64[0] <= given <= INT64[1]:
+        raise src.fail(path, f"must be a whole number of at most 19 digits (a 64-bit TOML "
+                             f"integer), got one of {len(str(abs(given)))} digits")
     if kind.choices and given not in kind.choices:
         raise src.fail(path, _one_of(kind.choices, given))
     if isinstance(given, bool) or not isinstance(given, int | float):

@@ -303,8 +303,13 @@ class Campaign:
 
 # --------------------------------------------------------------------------- the schema
 # Durations, counts, speeds and tolerances cannot be negative (a negative settle time
-# would fail only after homing); a timeout of zero never lets anything answer.
-_TIMEOUT = number(minimum=1e-3)
+# would fail only after homing); a timeout of zero never lets anything answer. Nor
+# can they be astronomical: each has a maximum an order of magnitude beyond any
+# campaign's (no source; a larger value is a typo, and 1e308 s would overflow a sleep).
+HOUR_S = 3600.0
+_TIMEOUT = number(minimum=1e-3, maximum=HOUR_S)
+_BAUDRATE = whole(minimum=1, maximum=10_000_000)  # RS-485 runs up to 10 Mbit/s
+_LENGTH_MM = 10_000.0  # 10 m: beyond any leg (the machine file's own bound is 100 m)
 
 _AXIS_ENDPOINT = Table((
     Field("port", text()),
@@ -315,13 +320,13 @@ _AXIS_ENDPOINT = Table((
 _CONTROLLER = Table((
     Field("profile", text(), required=True),
     Field("port", text()),
-    Field("baudrate", whole(minimum=1)),
+    Field("baudrate", _BAUDRATE),
     Field("timeout_s", _TIMEOUT),
     Field("offsets_file", FilePath(), decode=Path.resolve),
     Field("axes", MapOf(_AXIS_ENDPOINT, keys=AXES, noun="axis")),
     # a reconnect policy still bounded in practice
     Field("reconnect_attempts", whole(minimum=0, maximum=100)),
-    Field("reconnect_backoff_s", number(minimum=0.0)),
+    Field("reconnect_backoff_s", number(minimum=0.0, maximum=HOUR_S)),
     Field("rehome_after_loss", TRUTH),
 ), build=ControllerSpec)
 
@@ -349,7 +354,7 @@ _GAUGE = Table((
     Field("channel", Value((str, int)), decode=str),
     Field("unit", text("mm", "inch")),  # as set on the gauge
     Field("serial", text()),
-    Field("baudrate", whole(minimum=1)),
+    Field("baudrate", _BAUDRATE),
     *CERTIFICATE_FIELDS,
 ), build=GaugeSpec)
 
@@ -366,30 +371,30 @@ _OVERRIDE = Table((
 _PROTOCOL = Table((
     Field("legs", ListOf(text(*AXES))),
     Field("postures", ListOf(Value((str, float)))),  # zero, max, min or a q in mm
-    Field("cycles", whole(minimum=1)),
+    Field("cycles", whole(minimum=1, maximum=1000)),
     Field("approach", text(*APPROACHES)),
-    Field("overshoot_mm", number(minimum=0.0)),
+    Field("overshoot_mm", number(minimum=0.0, maximum=_LENGTH_MM)),
     Field("settle", text(*SETTLES)),
-    Field("settle_s", number(minimum=0.0)),
-    Field("settle_window_s", number(positive=True)),
+    Field("settle_s", number(minimum=0.0, maximum=HOUR_S)),
+    Field("settle_window_s", number(positive=True, maximum=HOUR_S)),
     Field("move_timeout_s", _TIMEOUT),
-    Field("scan_step_mm", number(positive=True)),
-    Field("scan_from_mm", number()),
-    Field("scan_to_mm", number()),
+    Field("scan_step_mm", number(positive=True, maximum=_LENGTH_MM)),
+    Field("scan_from_mm", number(minimum=-_LENGTH_MM, maximum=_LENGTH_MM)),
+    Field("scan_to_mm", number(minimum=-_LENGTH_MM, maximum=_LENGTH_MM)),
 ))
 
 _STABILITY = Table((
-    Field("readings", whole(minimum=1)),
-    Field("tolerance_mm", number(minimum=0.0)),
+    Field("readings", whole(minimum=1, maximum=1000)),
+    Field("tolerance_mm", number(minimum=0.0, maximum=_LENGTH_MM)),
     Field("timeout_s", _TIMEOUT),
 ))
 
 _SIMULATOR = Table((
     Field("seed", whole(minimum=0)),
     Field("effects", FilePath()),
-    Field("speed", number(minimum=1e-3)),
+    Field("speed", number(minimum=1e-3, maximum=1e6)),
     Field("profile", text()),
-    Field("noise_mm", number(minimum=0.0)),
+    Field("noise_mm", number(minimum=0.0, maximum=1.0)),  # 1 mm: beyond any indicator
     Field("gauge_layout", text(*GAUGE_LAYOUTS)),
     Field("gauge_protocol", text(*PROTOCOLS)),
     Field("gauge_protocols", MapOf(text(*PROTOCOLS), keys=GAUGE_KEYS, noun="gauge"),
@@ -402,7 +407,7 @@ CAMPAIGN_FILE = Table((
     Field("machine", FilePath(), required=True),
     Field("operator", text()),
     Field("session", FilePath()),
-    Field("deadline_s", number(minimum=1.0)),
+    Field("deadline_s", number(minimum=1.0, maximum=1000 * HOUR_S)),
     Field("controller", _CONTROLLER),
     Field("gauges", TableArray(_GAUGE)),
     Field("protocol", _PROTOCOL),

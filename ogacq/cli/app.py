@@ -23,6 +23,7 @@ from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own c
 from ogacq import __version__
 from ogacq.cli.lazy import LazyCommands, LazyCommandSpec, LazyGroupSpec
 from ogacq.cli.log_options import apply_log_options, global_options_first
+from ogacq.cli.plain import plain
 from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats
 from ogacq.errors import OgacqError
 
@@ -136,9 +137,17 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
 
 
 def _say(kind: str, message: str) -> None:
-    """One line on stderr, whatever line breaks the message had."""
+    """One line on stderr, whatever line breaks or control characters the message had
+    (it may quote a recorded name, a file's line or a device's reply)."""
     text = " ".join(part.strip() for part in message.splitlines() if part.strip())
-    typer.echo(f"ogacq: {kind}: {text}", err=True)
+    typer.echo(f"ogacq: {kind}: {plain(text)}", err=True)
+
+
+def _os_error(exc: OSError) -> str:
+    """A file the system refused (a full disk, a read-only folder, a permission) that
+    no command turned into its own error: the file and the reason, in one line."""
+    where = ": ".join(str(f) for f in (exc.filename, exc.filename2) if f is not None)
+    return f"{where}: {exc.strerror or exc}" if where else str(exc.strerror or exc)
 
 
 def _run_app(argv: list[str] | None) -> object:
@@ -165,6 +174,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         typer.echo("ogacq: interrupted", err=True)
         return 130
+    except OSError as exc:  # the disk's fault, not the user's input: as a StorageError
+        _say("error", _os_error(exc))
+        return 3
     except NoArgsIsHelpError as exc:  # `ogacq`, `ogacq session`: the help
         exc.show()
         return exc.exit_code

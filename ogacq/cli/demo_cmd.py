@@ -31,6 +31,7 @@ from ogacq.cli.render import print_demo_diagnosis
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
+from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
 from ogacq.model.instrument import parse_moment
@@ -99,8 +100,8 @@ def demo(
     effects_path = None
     if effects_text is not None:
         effects_path = folder / "effects.toml"
-        effects_path.write_text(effects_text, encoding="utf-8")
-    (folder / "campaign.toml").write_text(campaign_text(Campaign(
+        write_atomically(effects_path, effects_text.encode("utf-8"))
+    write_atomically(folder / "campaign.toml", campaign_text(Campaign(
         folder / "campaign.toml", machine, machine_path,
         folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
         gauges=simulated_gauges(datetime.date.today()),
@@ -108,7 +109,7 @@ def demo(
                                 profile=profile.value, date=rehearsed,
                                 ambient_c=ambient_c),
         override_expired=reason, operator=(operator or _login_name()).strip()),
-        comment="written by `ogacq demo`"))
+        comment="written by `ogacq demo`").encode("utf-8"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())
     campaign = read_campaign(folder / "campaign.toml")
@@ -123,13 +124,15 @@ def demo(
         raise
     session = load_session(outcome.session_path)
     export_readings(session, folder / "readings.csv")
-    (folder / "result.json").write_text(json.dumps(
+    write_atomically(folder / "result.json", (json.dumps(
         {**outcome.fit.to_json("offsets"), "hidden": outcome.hidden}, indent=2) + "\n")
+        .encode("utf-8"))
     show_outcome(outcome, as_json=False)
     # The rest of the story when the joint offsets alone do not fit: what the
     # diagnosis finds, beside the simulator's hidden truth; the report shows the same.
     diagnosis = diagnose(session_observations(session))
-    (folder / "diagnosis.json").write_text(json.dumps(diagnosis.to_json(), indent=2) + "\n")
+    write_atomically(folder / "diagnosis.json",
+                     (json.dumps(diagnosis.to_json(), indent=2) + "\n").encode("utf-8"))
     print_demo_diagnosis(diagnosis, outcome.hidden or {})
     write_session_report(session, folder / "report",
                          diagnosis=report_diagnosis(diagnosis, session))

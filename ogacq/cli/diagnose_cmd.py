@@ -10,17 +10,18 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.options import (
+    AcceptEditedOption,
     HistoryOption,
     JsonOption,
     OtherGeometryOption,
+    PartialOption,
     RecordedMachineOption,
 )
 from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.identify.plausibility import check_result
-from ogacq.io.loading import load_observations
+from ogacq.io.loading import load_input
 from ogacq.io.machine_file import read_machine
-from ogacq.io.tables import sniff
 from ogacq.model.parameters import PARAM_SETS
 
 
@@ -28,31 +29,37 @@ def diagnose_command(
     file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
     other_geometry: OtherGeometryOption = False,
+    partial: PartialOption = False,
+    accept_edited: AcceptEditedOption = False,
     as_json: JsonOption = False,
     history: HistoryOption = None,
 ) -> None:
     """Compare the recordings with the identified model; locate and explain a mismatch.
 
-    The diagnosis of a session is recorded in the machine's history (not with
-    --other-geometry: another machine's).
+    The diagnosis of a session is recorded in the machine's history with the
+    session's calibration (not with --other-geometry: another machine's; nor of a
+    campaign not finished: its complete result is recorded when it completes).
     """
     spec = read_machine(machine) if machine is not None else None
-    obs = load_observations(file, spec, PARAM_SETS["offsets"], machine_path=machine,
-                            other_geometry=other_geometry)
+    loaded = load_input(file, spec, PARAM_SETS["offsets"], machine_path=machine,
+                        other_geometry=other_geometry, partial=partial,
+                        accept_edited=accept_edited)
     try:
-        result = diagnose(obs)
+        result = diagnose(loaded.observations)
     except DiagnosisError as exc:
         raise InputError(file, str(exc)) from None
     check_result(result.final_fit)
     # The terminal rendering (rich) and the history (sessions) are imported only
     # when used: start-up is most of a short campaign's diagnosis.
     if as_json:
-        typer.echo(json.dumps(result.to_json()))
+        typer.echo(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
+        from ogacq.cli.render import print_notes
         from ogacq.cli.render_diagnosis import print_diagnosis
 
+        print_notes(loaded.notes())
         print_diagnosis(result, machine_file=str(machine or file))
-    if sniff(file) == "session" and not other_geometry:
+    if loaded.session is not None and not other_geometry:
         from ogacq.cli.history_record import record_diagnosis
 
-        record_diagnosis(file, result.to_json(), history)
+        record_diagnosis(file, result.to_json(), history, accept_edited=accept_edited)

@@ -10,13 +10,14 @@ from typing import Annotated
 import typer
 
 from ogacq.cli import render_history as render
-from ogacq.cli.history_record import record_session
-from ogacq.cli.options import JsonOption
+from ogacq.cli.history_record import record_session, writebacks_of
+from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
-from ogacq.errors import InputError
+from ogacq.errors import InputError, Refused
 from ogacq.history.drift import changes
 from ogacq.history.location import history_for_session, history_to_read
 from ogacq.history.store import History
+from ogacq.session.state import completeness
 from ogacq.session.store import load_session
 
 ReadHistoryOption = Annotated[str | None, typer.Option(
@@ -86,16 +87,28 @@ def add(
     sessions: Annotated[list[Path], typer.Argument(
         help="Session files of finished campaigns (their write-backs come along).")],
     history: AddHistoryOption = None,
+    accept_edited: AcceptEditedOption = False,
 ) -> None:
     """Record sessions into the history afterwards: each session's calibration record,
     rebuilt from the file, and the write-backs and restores its audit holds. A session
-    recorded before is not recorded twice."""
-    loaded = [load_session(path) for path in sessions]  # every file checked before any write
+    recorded before is not recorded twice; a campaign not finished gives no
+    calibration (its write-backs are recorded: the controller was changed)."""
+    # every file and place checked before any write
+    loaded = [load_session(path, accept_edited=accept_edited) for path in sessions]
+    locations = [history_for_session(history, session.path) for session in loaded]
+    if None in locations:
+        raise InputError("--history", "is 'none': there is no history to add to")
     for session in loaded:
-        location = history_for_session(history, session.path)
-        if location is None:
-            raise InputError("--history", "is 'none': there is no history to add to")
+        state = completeness(session)
+        if not state.complete and not writebacks_of(session):
+            raise Refused(f"{session.path}: {state.describe()}: a calibration enters the "
+                          "history when its campaign completes; nothing was recorded")
+    for session, location in zip(loaded, locations, strict=True):
+        assert location is not None
         with History.open(location) as db:
             recorded = record_session(db, session)
         what = ", ".join(recorded.new) if recorded.new else "already recorded"
+        state = completeness(session)
+        if not state.complete:
+            what += f"; no calibration: {state.describe()}"
         typer.echo(f"{session.path}: {what} ({location.describe()})")

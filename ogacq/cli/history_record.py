@@ -7,7 +7,10 @@ raises for a history failure.
 
 What is recorded is the ``ogacq-record/1`` document of the session
 (``ogacq.record.document.build_record``), with, for a write-back, the operation
-its audit records describe.
+its audit records describe. A session whose campaign has not finished gives no
+calibration (nor diagnosis): its complete result is recorded when the campaign
+completes, whoever analysed it first. A write-back it holds is recorded all the
+same: the controller was changed.
 """
 
 from __future__ import annotations
@@ -22,6 +25,7 @@ import typer
 from ogacq.errors import OgacqError
 from ogacq.history.entries import RecordError, WriteBack
 from ogacq.session.records import OffsetsRecord
+from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import operations
 
@@ -57,10 +61,15 @@ def writebacks_of(session: LoadedSession) -> list[WriteBack]:
 
 def record_session(history: History, session: LoadedSession,
                    record: Mapping[str, Any] | None = None) -> Recorded:
-    """The session's calibration and every write-back of its audit (each once)."""
+    """The session's calibration (when its campaign completed) and every write-back of
+    its audit (each once)."""
+    from ogacq.history.store import Recorded
+
     record = dict(record) if record is not None else session_record(session)
     where = str(session.path.resolve())
-    done = history.record_calibration(record, session_path=where)
+    done = Recorded()
+    if completeness(session, probe_lock=False).complete:
+        done += history.record_calibration(record, session_path=where)
     for writeback in writebacks_of(session):
         done += history.record_writeback(record, writeback, session_path=where)
     return done
@@ -82,11 +91,13 @@ def _summary(recorded: Recorded) -> str:
 def record_after(session_path: Path, option: str | None, action: str, *,
                  record_with: Callable[[History, LoadedSession], Recorded] | None = None,
                  location: HistoryLocation | None = None, say: Say = _say,
-                 ) -> Recorded | None:
+                 accept_edited: bool = False) -> Recorded | None:
     """Record the finished ``session_path`` (``action``: what finished, for the
     messages) into ``location``, else the history the option, the environment or the
     session names; None when recording is switched off or failed (a warning then
-    says how to add it later)."""
+    says how to add it later), or when the session's campaign has not finished and
+    holds no write-back (said). ``accept_edited``: the user accepted the session's
+    edits (its record says so)."""
     try:
         from ogacq.history.location import history_for_session
         from ogacq.history.store import History
@@ -103,7 +114,12 @@ def record_after(session_path: Path, option: str | None, action: str, *,
         if location is None:
             return None
     try:
-        session = load_session(session_path)
+        session = load_session(session_path, accept_edited=accept_edited)
+        state = completeness(session)
+        if not state.complete and (record_with is not None or not writebacks_of(session)):
+            say(f"history: nothing recorded: {state.describe()}; the campaign's result is "
+                "recorded when it completes")
+            return None
         with History.open(location) as history:
             recorded = (record_with or record_session)(history, session)
     except (OgacqError, RecordError, ValueError, OSError) as exc:
@@ -124,8 +140,9 @@ def record_campaign(session_path: Path, option: str | None, *, say: Say = _say) 
 
 
 def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
-                     option: str | None) -> None:
-    """``ogacq diagnose`` of a session: its findings beside the session's record."""
+                     option: str | None, *, accept_edited: bool = False) -> None:
+    """``ogacq diagnose`` of a session: its findings beside the session's record (a
+    session not finished gives nothing: its campaign's result comes when it does)."""
 
     def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
         record = session_record(session)
@@ -134,11 +151,14 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
         done += history.record_diagnosis(record, diagnosis, session_path=where)
         return done
 
-    record_after(session_path, option, "the diagnosis", record_with=with_diagnosis)
+    record_after(session_path, option, "the diagnosis", record_with=with_diagnosis,
+                 accept_edited=accept_edited)
 
 
 def record_writebacks(session_path: Path, option: str | None,
-                      location: HistoryLocation | None = None) -> None:
+                      location: HistoryLocation | None = None, *,
+                      accept_edited: bool = False) -> None:
     """After ``offsets write`` or ``restore``: every operation of the session's audit
     (the one just made among them), into ``location`` when the states came from one."""
-    record_after(session_path, option, "the write-back", location=location)
+    record_after(session_path, option, "the write-back", location=location,
+                 accept_edited=accept_edited)

@@ -10,6 +10,7 @@ import typer
 
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.file_templates import campaign_template, machine_template
+from ogacq.io.atomic import write_atomically
 
 
 class FileKind(StrEnum):
@@ -30,11 +31,11 @@ def init(
     path = file or Path(f"{kind.value}.toml")
     check_output_file(path, "FILE", force=force)
     if kind is FileKind.machine:
-        path.write_text(machine_template(), encoding="utf-8")
+        write_atomically(path, machine_template().encode("utf-8"))
         typer.echo(f"machine file written to {path}: edit its values")
         return
     machine_path = machine or path.parent / "machine.toml"
-    path.write_text(campaign_template(path, machine_path), encoding="utf-8")
+    write_atomically(path, campaign_template(path, machine_path).encode("utf-8"))
     typer.echo(f"campaign file written to {path}: set its ports, then `ogacq run {path}`")
     if not machine_path.exists():
         typer.echo(f"it names the machine file {machine_path}, not there yet: "

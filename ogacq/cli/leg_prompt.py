@@ -12,6 +12,7 @@ from __future__ import annotations
 import sys
 
 from ogacq.campaign_file import Campaign
+from ogacq.cli.plain import shown
 from ogacq.cli.render import CampaignProgress, console
 from ogacq.errors import InputError
 from ogacq.model.gauges import Gauge
@@ -49,7 +50,7 @@ class LegPrompt:
                           f"the {step.leg} leg.[/]")
             for gauge in step.gauges:
                 axis = Gauge.parse(gauge).axis
-                console.print(f"  along {axis}: the indicator on {self._where[gauge]} "
+                console.print(f"  along {axis}: the indicator on {shown(self._where[gauge])} "
                               f"(gauge {gauge}), touching the middle of the leg, near "
                               "mid-travel")
             try:

@@ -23,8 +23,9 @@ from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
 from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
 from ogacq.cli import render_offsets as render
 from ogacq.cli.history_record import record_writebacks
-from ogacq.cli.options import HistoryOption, JsonOption
+from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
 from ogacq.errors import DriverError, InputError, OgacqError, Refused
+from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
 from ogacq.station import open_controller
 from ogacq.writeback.audit import AuditLog, last_write, operations
@@ -174,6 +175,8 @@ def show(
     campaign_path: CampaignOption = None,
     max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
     from_diagnosis: FromDiagnosisOption = False,
+    partial: PartialOption = False,
+    accept_edited: AcceptEditedOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """Show the controller's offsets, the identified ones (std, fit verdict) and the
@@ -181,7 +184,7 @@ def show(
 
     Says whether `ogacq offsets write` would write them, and if not, why.
     """
-    session = load_session(session_path)
+    session = _analysed(session_path, partial, accept_edited, say=not as_json)
     evidence = evidence_from_session(session, from_diagnosis)
     _, spec, _ = _campaign_for(session, campaign_path)
     with open_controller(spec) as controller:
@@ -208,6 +211,17 @@ def show(
         typer.echo("`ogacq offsets write` would write these")
 
 
+def _analysed(path: Path, partial: bool, accept_edited: bool, *, say: bool = True,
+              ) -> LoadedSession:
+    """The session whose offsets are shown or written: refused when edited or not
+    finished unless the user said so; what it is then is said first."""
+    session = load_session(path, accept_edited=accept_edited)
+    state = require_complete(session, partial)
+    if say:
+        render.print_notes(session_notes(session, state))
+    return session
+
+
 def _table_name(spec: ControllerSpec) -> str | None:
     return str(spec.offsets_file) if spec.offsets_file else None
 
@@ -222,10 +236,12 @@ def write(
     max_change_mm: MaxChangeOption = DEFAULT_MAX_CHANGE_MM,
     from_diagnosis: FromDiagnosisOption = False,
     history: HistoryOption = None,
+    partial: PartialOption = False,
+    accept_edited: AcceptEditedOption = False,
 ) -> None:
     """Write the offsets identified by a campaign: shown, confirmed, read back, recorded
     in the session and in the machine's history."""
-    session = load_session(session_path)
+    session = _analysed(session_path, partial, accept_edited)
     evidence = evidence_from_session(session, from_diagnosis)
     with _recorded_after(session, history), \
             _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
@@ -338,9 +354,10 @@ def _recorded_after(session: LoadedSession, history: str | None,
     try:
         yield
     finally:
+        edited = bool(session.integrity.edited)  # accepted as it stands: recorded as such
         with contextlib.suppress(OgacqError):  # the session's own error is said already
-            if len(operations(load_session(session.path))) > before:
-                record_writebacks(session.path, history, location)
+            if len(operations(load_session(session.path, accept_edited=edited))) > before:
+                record_writebacks(session.path, history, location, accept_edited=edited)
 
 
 @contextlib.contextmanager

@@ -25,6 +25,16 @@ HistoryOption = Annotated[str | None, typer.Option(
     help="Record into this history: an SQLite file or a PostgreSQL URL "
          "(default: $OGACQ_HISTORY, else history.sqlite beside the session; none: record "
          "nothing).")]
+# A session is analysed only when its campaign finished and its records are as written;
+# these say the user means to analyse it as it stands (ogacq.session.state, .seal).
+PartialOption = Annotated[bool, typer.Option(
+    "--partial", help="Analyse a session whose campaign has not finished (running, stopped or "
+                      "killed): every output says 'partial: N of M planned readings', and "
+                      "nothing of it enters the history.")]
+AcceptEditedOption = Annotated[bool, typer.Option(
+    "--accept-edited", help="Analyse a session whose records were changed, removed or added "
+                            "after they were written (see `ogacq session check`) as it "
+                            "stands; every output and the record say so.")]
 OverrideExpiredOption = Annotated[str | None, typer.Option(
     "--override-expired", metavar="REASON",
     help="Run although a gauge is past its calibration due date; the reason is recorded "

@@ -9,11 +9,18 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.options import JsonOption, OtherGeometryOption, ParamSet, RecordedMachineOption
+from ogacq.cli.options import (
+    AcceptEditedOption,
+    JsonOption,
+    OtherGeometryOption,
+    ParamSet,
+    PartialOption,
+    RecordedMachineOption,
+)
 from ogacq.errors import InputError
 from ogacq.identify.fit import fit
 from ogacq.identify.plausibility import check_result
-from ogacq.io.loading import load_observations
+from ogacq.io.loading import load_input
 from ogacq.io.machine_file import read_machine
 from ogacq.model.parameters import PARAM_SETS
 
@@ -43,13 +50,16 @@ def refit(
              "rounding that repeats share).")]
     = Weighting.ols,
     other_geometry: OtherGeometryOption = False,
+    partial: PartialOption = False,
+    accept_edited: AcceptEditedOption = False,
     as_json: JsonOption = False,
 ) -> None:
     """Identify joint offsets and/or leg lengths from recorded data."""
     spec = read_machine(machine) if machine is not None else None
     names = PARAM_SETS[params.value]
-    obs = load_observations(file, spec, names, machine_path=machine,
-                            other_geometry=other_geometry)
+    loaded = load_input(file, spec, names, machine_path=machine, other_geometry=other_geometry,
+                        partial=partial, accept_edited=accept_edited)
+    obs = loaded.observations
     chosen = method.value
     if chosen == "auto":
         chosen = "linear" if obs.kind == "deviations" else "exact"
@@ -60,8 +70,9 @@ def refit(
                          "the data")
     check_result(result)
     if as_json:
-        typer.echo(json.dumps(result.to_json(params.value)))
+        typer.echo(json.dumps({**result.to_json(params.value), **loaded.state_json()}))
         return
-    from ogacq.cli.render import print_fit  # rich: for the terminal only, not under --json
+    from ogacq.cli.render import print_fit, print_notes  # rich: the terminal only
 
+    print_notes(loaded.notes())
     print_fit(result, params.value)

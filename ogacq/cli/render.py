@@ -7,9 +7,10 @@ from contextlib import contextmanager
 from typing import TYPE_CHECKING
 
 import numpy as np
-from rich.console import Console
 from rich.table import Table
 
+from ogacq.cli.plain import console as new_console
+from ogacq.cli.plain import shown
 from ogacq.model.parameters import effect_of
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
@@ -17,19 +18,26 @@ if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the r
 
     from ogacq.identify.fit import FitResult
 
-console = Console()
+console = new_console()
 
 
-def _num(value: float, digits: int = 4, sign: bool = True) -> str:
-    if value is None or not np.isfinite(value):
+def _num(value: float | None, digits: int = 4, sign: bool = True) -> str:
+    if not isinstance(value, int | float | np.floating) or isinstance(value, bool) or \
+            not np.isfinite(value):
         return "-"
     return f"{value:+.{digits}f}" if sign else f"{value:.{digits}f}"
+
+
+def print_notes(notes: list[str]) -> None:
+    """What an analysis says first about the session it read: partial, edited."""
+    for note in notes:
+        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
 
 
 def print_fit(result: FitResult, params_label: str) -> None:
     obs = result.observations
     ident = result.identifiability
-    console.print(f"[bold]{obs.source or 'data'}[/]: {len(obs)} {obs.kind}, "
+    console.print(f"[bold]{shown(obs.source or 'data')}[/]: {len(obs)} {obs.kind}, "
                   f"parameters [bold]{params_label}[/], {result.method} fit, "
                   f"{result.weighting.upper()}")
     table = Table(show_edge=False, header_style="bold")
@@ -55,7 +63,7 @@ def print_fit(result: FitResult, params_label: str) -> None:
     else:
         console.print("[red]not identifiable[/]:")
         for reason in ident.reasons:
-            console.print(f"  - {reason}")
+            console.print(f"  - {shown(reason)}")
     for a, b, c in ident.correlated_pairs:
         console.print(f"  correlated: {a} / {b} {c:+.4f}")
 
@@ -71,7 +79,7 @@ def print_fit(result: FitResult, params_label: str) -> None:
 
 
 def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
-    console.print(f"[bold]{machine_name}[/]: {postures}, {cycles} cycles per leg, "
+    console.print(f"[bold]{shown(machine_name)}[/]: {shown(postures)}, {cycles} cycles per leg, "
                   f"{pred.n_readings} readings, gauge noise {pred.noise_mm:g} mm")
     table = Table(show_edge=False, header_style="bold")
     table.add_column("parameter")
@@ -92,7 +100,7 @@ def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
     else:
         console.print("[red]not identifiable[/] with this plan:")
         for reason in ident.reasons:
-            console.print(f"  - {reason}")
+            console.print(f"  - {shown(reason)}")
     if pred.mc_std is not None:
         console.print(f"Monte-Carlo: {pred.converged_fraction:.1%} of fits converged, "
                       f"{pred.mc_seconds:.2f} s")
@@ -101,17 +109,19 @@ def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
 def print_sim(info: dict) -> None:
     m = info["modbus"]
     where = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
-    console.print(f"[bold]simulated controller[/] ({m['profile']}, Modbus {m['transport'].upper()})"
-                  f": {where}, device ids {m['device_ids']}")
+    console.print(f"[bold]simulated controller[/] ({shown(m['profile'])}, Modbus "
+                  f"{shown(m['transport'].upper())}): {shown(where)}, device ids "
+                  f"{shown(m['device_ids'])}")
     for axis, a in info.get("modbus_axes", {}).items():  # one endpoint per axis
         at = f"{a['host']}:{a['port']}" if a["transport"] == "tcp" else a["port"]
-        console.print(f"  axis {axis}: {at}, device id {a['device_ids'][axis]}")
+        console.print(f"  axis {shown(axis)}: {shown(at)}, device id "
+                      f"{shown(a['device_ids'][axis])}")
     table = Table(show_edge=False, header_style="bold")
     table.add_column("gauge")
     table.add_column("port")
     table.add_column("protocol")
     for key, g in info["gauges"].items():
-        table.add_row(key, g["port"], g["protocol"])
+        table.add_row(shown(key), shown(g["port"]), shown(g["protocol"]))
     console.print(table)
     console.print("running; Ctrl-C to stop")
 
@@ -143,7 +153,7 @@ class CampaignProgress:
 def trials_progress(label: str):
     """A callback ``(done, total)`` showing a bar on the terminal (stderr, so that a
     --json on stdout stays clean), and nothing when no one watches."""
-    err = Console(stderr=True)
+    err = new_console(stderr=True)
     if not err.is_terminal:
         yield None
         return
@@ -162,10 +172,10 @@ def campaign_progress(enabled: bool = True):
         yield CampaignProgress()
         return
     if not sys.stdout.isatty():
-        err = Console(stderr=True)
+        err = new_console(stderr=True)
 
         def log_line(progress) -> None:
-            err.print(f"[{progress.done}/{progress.total}] {progress.message}",
+            err.print(f"\\[{progress.done}/{progress.total}] {shown(progress.message)}",
                       highlight=False)
 
         yield CampaignProgress(log_line)
@@ -185,7 +195,7 @@ def campaign_progress(enabled: bool = True):
 
         def update(progress) -> None:
             bar.update(task, completed=progress.done, total=progress.total,
-                       last=progress.message)
+                       last=shown(progress.message))
 
         yield CampaignProgress(update, bar)
 
@@ -210,7 +220,7 @@ def print_outcome(outcome) -> None:
     console.print(table)
     # in the noise's unit: one unit on the line
     console.print(f"residual rms {result.residual_rms_mm:.4g} mm, gauge noise "
-                  f"{result.noise.describe()}; session {outcome.session_path}")
+                  f"{result.noise.describe()}; session {shown(outcome.session_path)}")
     if getattr(outcome, "simulated", False):
         console.print("[bold reverse] SIMULATED [/] a rehearsal on the built-in simulator: "
                       "not a calibration of the machine", highlight=False)
@@ -222,28 +232,30 @@ def _print_context(session) -> None:
 
     c = calibration_context(session)
     date = c.date.isoformat(sep=" ") if c.date else "not recorded"
-    console.print(f"machine {c.machine_name or '(no name)'}, serial "
-                  f"{c.machine_serial or 'not recorded'}; operator "
-                  f"{c.operator or 'not recorded'}; date {date}"
+    console.print(f"machine {shown(c.machine_name or '(no name)')}, serial "
+                  f"{shown(c.machine_serial or 'not recorded')}; operator "
+                  f"{shown(c.operator or 'not recorded')}; date {shown(date)}"
                   + (" (rehearsed on the simulator)" if c.simulated_date else ""),
                   highlight=False)
     for i in c.instruments:
         if i.certificate or i.due:
             state = {True: "EXPIRED", False: "valid", None: "?"}[c.expired(i)]
-            console.print(f"  gauge {i.label}: certificate {i.certificate or '?'}, due "
-                          f"{i.due or '?'} ({state})", highlight=False)
+            console.print(f"  gauge {shown(i.label)}: certificate {shown(i.certificate or '?')}"
+                          f", due {shown(i.due or '?')} ({state})", highlight=False)
     env = c.environment
     if env.start or env.end:
         words = [f"{stage} {t.ambient_c if t.ambient_c is not None else '?'} °C ambient"
                  + (f", {t.machine_c} °C machine" if t.machine_c is not None else "")
                  + f" ({t.source})" for stage, t in (("start", env.start), ("end", env.end))
                  if t is not None]
-        console.print("temperature: " + "; ".join(words), highlight=False)
+        console.print("temperature: " + shown("; ".join(words)), highlight=False)
     for o in c.overrides:
-        console.print(f"override ({o.what}) {o.subject}: {o.reason}", highlight=False)
+        console.print(f"override ({shown(o.what)}) {shown(o.subject)}: {shown(o.reason)}",
+                      highlight=False)
 
 
-def print_session(session) -> None:
+def print_session(session, state=None) -> None:
+    """What ``session`` holds; ``state``: its completeness (ogacq.session.state)."""
     from ogacq.session.records import (
         EndRecord,
         FaultRecord,
@@ -255,24 +267,31 @@ def print_session(session) -> None:
     header = session.header
     ends = session.of_type(EndRecord)
     status = ends[-1].status if ends else "in progress or killed"
-    console.print(f"[bold]{session.path}[/]: {header.get('software', '?')}, created "
-                  f"{header.get('created', '?')}, status [bold]{status}[/]")
+    console.print(f"[bold]{shown(session.path)}[/]: {shown(header.get('software', '?'))}, "
+                  f"created {shown(header.get('created', '?'))}, status [bold]{shown(status)}[/]")
+    if state is not None and not state.complete:
+        console.print(f"[yellow]{shown(state.describe())}[/]", highlight=False)
+    for note in session.integrity.notes():
+        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
     machine = header.get("machine", {})
-    console.print(f"machine: L = {machine.get('leg_length_mm')} mm, postures "
-                  f"{machine.get('rho_min_mm')}..{machine.get('rho_max_mm')} mm, gauges "
-                  f"{machine.get('gauge_resolution_mm')} mm")
+    machine = machine if isinstance(machine, dict) else {}
+    console.print(f"machine: L = {shown(machine.get('leg_length_mm'))} mm, postures "
+                  f"{shown(machine.get('rho_min_mm'))}..{shown(machine.get('rho_max_mm'))} mm, "
+                  f"gauges {shown(machine.get('gauge_resolution_mm'))} mm")
     _print_context(session)
     station = header.get("station") or {}
-    controller = station.get("controller")
-    if controller:
-        console.print(f"controller: {controller.get('profile')} at {controller.get('port')}"
+    controller = station.get("controller") if isinstance(station, dict) else None
+    if isinstance(controller, dict):
+        console.print(f"controller: {shown(controller.get('profile'))} at "
+                      f"{shown(controller.get('port'))}"
                       + (" (simulated)" if station.get("simulated") else ""))
     faults = session.of_type(FaultRecord)
     console.print(f"readings: {len(session.readings)}, moves: "
                   f"{len(session.of_type(MoveRecord))}, faults: {len(faults)}, resumed: "
                   f"{len(session.of_type(ResumeRecord))} times")
     for fault in faults[-3:]:
-        console.print(f"  fault during {fault.during}: {fault.message}", highlight=False)
+        console.print(f"  fault during {shown(fault.during)}: {shown(fault.message)}",
+                      highlight=False)
     for ref in session.of_type(ReferenceRecord):  # after a loss of a drive: the reference
         said = f"  reference {ref.event}" + (f" ({ref.cause})" if ref.cause else "")
         if ref.differences_mm:
@@ -283,13 +302,14 @@ def print_session(session) -> None:
             said += f": {ref.message}"
         console.print(said, highlight=False, markup=False)
     if ends and ends[-1].reason:
-        console.print(f"stopped because: {ends[-1].reason}", highlight=False)
+        console.print(f"stopped because: {shown(ends[-1].reason)}", highlight=False)
     if session.result is not None:
         refit = session.result.refit
         for name, where in refit["parameters"].items():
             for axis, value in where.items():
-                std = refit["std"][name][axis]
-                console.print(f"  {name}.{axis} = {value:+.4f} +- {std:.4f} mm")
+                std = refit.get("std", {}).get(name, {}).get(axis)
+                console.print(f"  {shown(name)}.{shown(axis)} = {_num(value)} +- "
+                              f"{_num(std, sign=False)} mm")
 
 
 def print_demo_diagnosis(d, hidden: dict[str, float]) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 from rich.table import Table
 
+from ogacq.cli.plain import shown
 from ogacq.cli.render import console
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.library import BASE_MODEL, label
@@ -29,7 +30,7 @@ def _verdict_line(title: str, model: Model) -> str:
 
 
 def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
-    console.print(f"[bold]{d.source or 'data'}[/]: {d.n_observations} {d.kind}; gauge noise "
+    console.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
                   f"{d.noise.describe()}")
     console.print(_verdict_line("joint offsets only", d.selection.base))
     if d.outcome == "consistent":
@@ -49,7 +50,7 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     _print_outcome(d, machine_file)
     _print_offsets(d)
     for caveat in d.caveats():
-        console.print(f"[yellow]note[/]: {caveat}")
+        console.print(f"[yellow]note[/]: {shown(caveat)}")
 
 
 def _print_location(title: str, loc: Location) -> None:
@@ -61,7 +62,7 @@ def _print_location(title: str, loc: Location) -> None:
             continue
         cells = ", ".join(f"{g.key} {g.share:.0%} ({g.expected_share:.0%})" for g in groups)
         name = "approach (sides of the x, y, z drives)" if level == "approach" else level
-        console.print(f"  {name}: {cells}")
+        console.print(f"  {name}: {shown(cells)}")
     trends = [t for t in loc.trends if t.p_value < LEVEL]
     for t in trends:
         console.print(f"  trend with time on gauge {t.gauge}: "
@@ -72,7 +73,7 @@ def _print_location(title: str, loc: Location) -> None:
     diffs = [a for a in loc.approach if a.p_value < LEVEL]
     for a in diffs:
         console.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
-                      f"{a.posture}: {a.difference_mm * UM_PER_MM:+.1f} ± "
+                      f"{shown(a.posture)}: {a.difference_mm * UM_PER_MM:+.1f} ± "
                       f"{a.std_mm * UM_PER_MM:.1f} µm")
     if not loc.approach:
         console.print("  no posture was read from both approach sides")
@@ -197,11 +198,12 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
                              f"{a.delta_chi2:+.1f})" for a in e.alternatives)
             console.print(f"    [yellow]explained equally well by[/]: {alts}")
             for sep in e.separations:
-                console.print(f"    {sep.describe().replace('M.toml', machine_file)}")
+                console.print(f"    {shown(sep.describe().replace('M.toml', machine_file))}")
         elif d.final.consistent and e.local_disturbance is None:
             console.print("    no other effect of the library explains these data as well")
     if d.unexplained is not None:
-        console.print(f"  [red]unexplained[/] misfit sits mostly at [bold]{d.unexplained}[/]")
+        console.print(f"  [red]unexplained[/] misfit sits mostly at "
+                      f"[bold]{shown(d.unexplained)}[/]")
         if d.remaining is not d.located:
             _print_location("  where the rest sits", d.remaining)
     console.print()

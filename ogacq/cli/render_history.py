@@ -7,9 +7,10 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from rich.console import Console
 from rich.table import Table
 
+from ogacq.cli.plain import console as new_console
+from ogacq.cli.plain import shown
 from ogacq.history.drift import Drift, expanded
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 
@@ -52,13 +53,13 @@ def _short(name: str) -> str:
 
 def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
                        drifts: Sequence[Drift], events: Sequence[Event]) -> None:
-    console = Console()  # per call: the terminal's width as it is now
+    console = new_console()  # per call: the terminal's width as it is now
     names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
     flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
     joint = all(n.startswith("joint_offset.") for n in names)
     # Two tables, so each fits a terminal of 80 columns: who and how, then the values.
-    table = Table(title=f"{machine.describe()}: {len(calibrations)} calibration"
-                        f"{'s' if len(calibrations) != 1 else ''} in {where}",
+    table = Table(title=f"{shown(machine.describe())}: {len(calibrations)} calibration"
+                        f"{'s' if len(calibrations) != 1 else ''} in {shown(where)}",
                   show_edge=False, header_style="bold", title_justify="left")
     for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
         table.add_column(column, no_wrap=column in ("date", "record"), min_width=len(column),
@@ -66,8 +67,10 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     for c in calibrations:
         ambient = f"{c.ambient_c:.1f} °C" if c.ambient_c is not None and \
             math.isfinite(c.ambient_c) else "-"
-        table.add_row(_when(c.date), c.record_id + (" SIMULATED" if c.simulated else ""),
-                      c.operator or "-", verdict_words(c.verdict), acceptance_words(c), ambient)
+        table.add_row(shown(_when(c.date)),
+                      shown(c.record_id) + (" SIMULATED" if c.simulated else ""),
+                      shown(c.operator or "-"), shown(verdict_words(c.verdict)),
+                      shown(acceptance_words(c)), ambient)
     console.print(table)
     if any(c.simulated for c in calibrations):
         console.print("SIMULATED: a rehearsal on the built-in simulator, not a calibration "
@@ -77,18 +80,18 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
                    show_edge=False, header_style="bold", title_justify="left")
     values.add_column("date", no_wrap=True)
     for name in names:
-        values.add_column(_short(name), justify="right", no_wrap=True)
+        values.add_column(shown(_short(name)), justify="right", no_wrap=True)
     for c in calibrations:
-        values.add_row(_when(c.date), *(_value(c, n, (c.record_id, n) in flagged)
-                                        for n in names))
+        values.add_row(shown(_when(c.date)), *(_value(c, n, (c.record_id, n) in flagged)
+                                               for n in names))
     console.print(values)
     if any(p.expanded_mm is None for c in calibrations for p in c.parameters.values()):
         console.print("* U unknown (no uncertainty budget): 2 x the fit's std shown and used",
                       highlight=False)
-    shown = [d for d in drifts if d.flagged]
-    for d in shown:
-        console.print(f"[red]{DRIFT_MARK} {d.describe()}[/]", highlight=False)
-    if len(calibrations) > 1 and not shown:
+    flagged_drifts = [d for d in drifts if d.flagged]
+    for d in flagged_drifts:
+        console.print(f"[red]{DRIFT_MARK} {shown(d.describe())}[/]", highlight=False)
+    if len(calibrations) > 1 and not flagged_drifts:
         console.print("no change between successive calibrations exceeds its U")
     others = [e for e in events if e.kind != "calibration"]
     if others:
@@ -96,15 +99,15 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
                                                                             others)}
         hint = (f" (`ogacq history {machine.name!r} --states`: the offsets written)"
                 if "write-back" in counts or "restore" in counts else "")
-        console.print("also recorded: " + ", ".join(f"{n} {k}{'s' if n > 1 else ''}"
-                                                    for k, n in counts.items()) + hint,
+        console.print(shown("also recorded: " + ", ".join(f"{n} {k}{'s' if n > 1 else ''}"
+                                                          for k, n in counts.items()) + hint),
                       highlight=False)
 
 
 def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
                  current: OffsetState | None) -> None:
-    console = Console()
-    table = Table(title=f"{machine.describe()}: offsets states in {where} (o, mm)",
+    console = new_console()
+    table = Table(title=f"{shown(machine.describe())}: offsets states in {shown(where)} (o, mm)",
                   show_edge=False, header_style="bold", title_justify="left")
     for column in ("state", "when", "what", "record", "x", "y", "z", "status"):
         table.add_column(column, justify="right" if column in "xyz" else "left",
@@ -113,16 +116,16 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
         what = (f"before {v.action} {v.operation}" if v.stage == "before"
                 else f"after {v.action} {v.operation}")
         mark = ", in force" if current is not None and v.state_id == current.state_id else ""
-        table.add_row(v.state_id, v.at or "-", what, v.record_id,
+        table.add_row(shown(v.state_id), shown(v.at or "-"), shown(what), shown(v.record_id),
                       *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
-                        for a in "xyz"), v.status + mark)
+                        for a in "xyz"), shown(v.status + mark))
     console.print(table)
     if not states:
         console.print("no write-back of this machine is recorded")
     else:
-        console.print(f"go back to one: ogacq offsets restore --machine {machine.name!r} "
-                      "--to STATE (a state above, or a calibration's record id)",
-                      highlight=False)
+        console.print(f"go back to one: ogacq offsets restore --machine "
+                      f"{shown(repr(machine.name))} --to STATE (a state above, or a "
+                      "calibration's record id)", highlight=False)
 
 
 def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],

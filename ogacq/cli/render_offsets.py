@@ -5,22 +5,30 @@ from __future__ import annotations
 import math
 import time
 
-from rich.console import Console
 from rich.table import Table
 
+from ogacq.cli.plain import console as new_console
+from ogacq.cli.plain import shown
 from ogacq.writeback.audit import Operation
 from ogacq.writeback.evidence import Evidence
 from ogacq.writeback.execute import WriteOutcome
 from ogacq.writeback.policy import OffsetPlan
 
-console = Console()
-err_console = Console(stderr=True)
+console = new_console()
+err_console = new_console(stderr=True)
 
 
 def _mm(value: float | None, digits: int = 4) -> str:
-    if value is None or not math.isfinite(value):
+    if not isinstance(value, int | float) or isinstance(value, bool) or \
+            not math.isfinite(value):
         return "-"
     return f"{value:+.{digits}f}"
+
+
+def print_notes(notes: list[str]) -> None:
+    """What the session is, said before its evidence: partial, edited."""
+    for note in notes:
+        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
 
 
 def _where(plan: OffsetPlan, port: str, offsets_file: str | None) -> str:
@@ -30,17 +38,18 @@ def _where(plan: OffsetPlan, port: str, offsets_file: str | None) -> str:
 
 
 def print_evidence(evidence: Evidence) -> None:
-    console.print(f"[bold]{evidence.session_path}[/]: {evidence.readings} readings"
+    console.print(f"[bold]{shown(evidence.session_path)}[/]: {evidence.readings} readings"
                   + ("" if evidence.finished else " [yellow](campaign not finished)[/]"),
                   highlight=False)
     verdict = evidence.verdict
     colour = "green" if verdict.consistent else "red"
-    console.print(f"{evidence.model} fit: [{colour}]{verdict.describe()}[/]", highlight=False)
+    console.print(f"{shown(evidence.model)} fit: [{colour}]{shown(verdict.describe())}[/]",
+                  highlight=False)
     if evidence.identifiable:
         console.print("identifiable: every joint offset is determined by this campaign")
     else:
         console.print("[red]not identifiable[/]: "
-                      + ("; ".join(evidence.identifiability_reasons) or "rank deficient"),
+                      + shown("; ".join(evidence.identifiability_reasons) or "rank deficient"),
                       highlight=False)
 
 
@@ -48,7 +57,7 @@ def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
                evidence: Evidence | None = None) -> None:
     title = (f"joint offsets o (mm, q = raw - o): {plan.action} to "
              f"{_where(plan, port, offsets_file)}")
-    table = Table(title=title, show_edge=False, header_style="bold", title_justify="left")
+    table = Table(title=shown(title), show_edge=False, header_style="bold", title_justify="left")
     table.add_column("axis")
     if evidence is not None:
         table.add_column("in force during campaign", justify="right")
@@ -59,7 +68,7 @@ def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
     table.add_column("new", justify="right")
     table.add_column("change", justify="right")
     for change in plan.changes:
-        row = [change.axis]
+        row = [shown(change.axis)]
         if evidence is not None:
             a = change.axis
             row += [_mm(plan.baseline_mm.get(a)), _mm(evidence.identified_mm[a]),
@@ -74,35 +83,36 @@ def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
               if plan.action == "write" else "restored offsets: ")
     console.print(prefix + when, highlight=False)
     for note in plan.notes:
-        console.print(f"note: {note}", highlight=False)
+        console.print(f"note: {shown(note)}", highlight=False)
     if plan.restores_operation:
-        console.print(f"restores the values write-back {plan.restores_operation} replaced",
-                      highlight=False)
+        console.print(f"restores the values write-back {shown(plan.restores_operation)} "
+                      "replaced", highlight=False)
 
 
 def print_refusals(plan: OffsetPlan, forced: bool) -> None:
     if forced:
         for refusal in plan.refusals:
-            err_console.print(f"ogacq: warning: --force writes past: {refusal.message}",
+            err_console.print(f"ogacq: warning: --force writes past: {shown(refusal.message)}",
                               highlight=False, soft_wrap=True)
         return
     for refusal in plan.refusals:  # the command's one-line refusal follows
-        err_console.print(f"ogacq: refused ({refusal.code}): {refusal.message}",
+        err_console.print(f"ogacq: refused ({shown(refusal.code)}): {shown(refusal.message)}",
                           highlight=False, soft_wrap=True)
 
 
 def print_outcome(outcome: WriteOutcome) -> None:
     done = "restored" if outcome.action == "restore" else "written"
-    console.print(f"[green]{done}[/] and read back ({outcome.operation}): "
-                  + ", ".join(f"{a} {_mm(v)}" for a, v in outcome.new_mm.items()) + " mm",
+    console.print(f"[green]{done}[/] and read back ({shown(outcome.operation)}): "
+                  + shown(", ".join(f"{a} {_mm(v)}" for a, v in outcome.new_mm.items())) + " mm",
                   highlight=False)
     if outcome.offsets_file is not None:
-        console.print(f"software offset table {outcome.offsets_file}: every campaign with this "
+        console.print(f"software offset table {shown(outcome.offsets_file)}: every campaign "
+                      "with this "
                       "campaign file now applies it", highlight=False)
     if outcome.rehomed and outcome.home_positions_mm is not None:
         console.print("re-homed: at the home point the axes read "
-                      + ", ".join(f"{a} {_mm(q, 3)}" for a, q in
-                                  outcome.home_positions_mm.items()) + " mm (= -o)",
+                      + shown(", ".join(f"{a} {_mm(q, 3)}" for a, q in
+                                        outcome.home_positions_mm.items())) + " mm (= -o)",
                       highlight=False)
     elif outcome.pending_homing:
         console.print("[yellow]not re-homed: the new offsets take effect at the next homing "
@@ -127,6 +137,6 @@ def print_history(operations: list[Operation]) -> None:
     console.print("[bold]write-backs recorded in this session[/]")
     for op in operations:
         when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(op.wall)) if op.wall else "?"
-        console.print(f"  {when} {op.operation} {op.action} [{op.status}]: "
-                      + ", ".join(f"{a} {_mm(op.old_mm[a])} -> {_mm(op.new_mm[a])}"
-                                  for a in op.old_mm), highlight=False)
+        console.print(shown(f"  {when} {op.operation} {op.action} [{op.status}]: "
+                            + ", ".join(f"{a} {_mm(op.old_mm.get(a))} -> {_mm(op.new_mm.get(a))}"
+                                        for a in op.old_mm)), highlight=False)

@@ -9,6 +9,7 @@ from typing import Annotated, Any
 
 import typer
 
+from ogacq.cli.options import AcceptEditedOption, PartialOption
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.report_history import earlier_calibrations
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
@@ -18,6 +19,7 @@ from ogacq.record.document import build_record
 from ogacq.report import DiagnosisFormatError, build_report, collect, parse_diagnosis, write_report
 from ogacq.report.printing import print_pdf
 from ogacq.session.convert import session_observations
+from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
 
 
@@ -41,18 +43,27 @@ def report_command(
         "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
                       "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
     ] = False,
+    partial: PartialOption = False,
+    accept_edited: AcceptEditedOption = False,
 ) -> None:
     """Write the calibration record: report.html (identification, instruments,
     environment, method, results with their uncertainty, acceptance, budget, history,
     then the analysis behind them), record.json with the same record, and the figures."""
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
-    calibration = load_session(session)
-    validation = load_session(after) if after is not None else None
+    calibration = load_session(session, accept_edited=accept_edited)
+    validation = load_session(after, accept_edited=accept_edited) if after is not None else None
+    given = _read_diagnosis(diagnosis) if diagnosis is not None else None
+    # the files read first; then whether they may be reported (the page says so)
+    for loaded in (calibration, validation):
+        if loaded is not None:
+            state = require_complete(loaded, partial)
+            for line in session_notes(loaded, state):
+                typer.echo(f"ogacq: warning: {loaded.path}: {line}", err=True)
     earlier, why = earlier_calibrations(history, calibration)
     raw: dict[str, Any] | None
-    if diagnosis is not None:
-        raw, note = _read_diagnosis(diagnosis), None
+    if given is not None:
+        raw, note = given, None
     else:
         raw, note = _diagnose_here(calibration)
     page = write_session_report(calibration, folder, validation=validation,

@@ -12,6 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import typer
+
 from ogacq.errors import InputError
 from ogacq.record.context import calibration_context
 from ogacq.record.document import session_record_id
@@ -25,7 +27,11 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
     from ogacq.history.location import history_for_session
     from ogacq.history.store import History
 
-    location = history_for_session(option, Path(session.path))
+    try:
+        location = history_for_session(option, Path(session.path))
+    except InputError as exc:  # a URL that cannot be parsed: the report is made without it
+        typer.echo(f"ogacq: warning: no history plotted: {exc}", err=True)
+        return None, f"the history named cannot be used: {exc}"
     if location is None:
         return None, "the history is switched off (--history none)"
     if location.origin == "beside the session" and not Path(location.url.database or "").exists():

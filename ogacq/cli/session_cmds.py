@@ -8,31 +8,44 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.options import MachineOption
+from ogacq.cli.options import AcceptEditedOption, MachineOption, PartialOption
 from ogacq.cli.outputs import ForceOption, check_new_file, check_output_file
 from ogacq.cli.render import print_session
-from ogacq.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.session.convert import export_readings, import_readings
-from ogacq.session.store import check_writable, load_session, salvage_session, scan_session
+from ogacq.session.seal import UNCHECKED
+from ogacq.session.state import completeness, require_complete, session_notes
+from ogacq.session.store import (
+    check_writable,
+    load_session,
+    salvage_session,
+    scan_session,
+)
 
 
 def show(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
-    """What a session holds: machine, station, progress, faults, result."""
-    loaded = load_session(session)
+    """What a session holds: machine, station, progress, faults, result; whether its
+    campaign finished and whether it was edited (shown as it stands, and said)."""
+    loaded = load_session(session, accept_edited=True)  # a look, not an analysis
     for warning in loaded.warnings:
         typer.echo(f"ogacq: warning: {warning}", err=True)
-    print_session(loaded)
+    print_session(loaded, completeness(loaded))
 
 
 def export(
     session: Annotated[Path, typer.Argument(help="Session file.")],
     out: Annotated[Path, typer.Argument(help="Readings CSV to write.")],
     force: ForceOption = False,
+    partial: PartialOption = False,
+    accept_edited: AcceptEditedOption = False,
 ) -> None:
     """Write the session's readings as a readings CSV (docs/formats.md)."""
     check_output_file(out, "OUT", force=force)
-    count = export_readings(load_session(session), out)
+    loaded = load_session(session, accept_edited=accept_edited)
+    state = require_complete(loaded, partial)
+    for note in session_notes(loaded, state):
+        typer.echo(note)
+    count = export_readings(loaded, out)
     typer.echo(f"{count} readings written to {out}")
 
 
@@ -49,30 +62,37 @@ def import_(
 
 
 def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
-    """Check every record (sequence, checksum, fields): what is wrong, and where."""
+    """Check every record (sequence, chain, checksum, fields): what is wrong, and where;
+    and whether the campaign finished. Exit 2 when a record is corrupt or edited."""
     scan = scan_session(session)
     for warning in scan.warnings:
         typer.echo(f"warning: {warning}")
-    for line, problem in scan.problems:
+    for line, problem in sorted(scan.problems + scan.edited):
         typer.echo(f"{session}:{line}: {problem}")
-    if scan.problems:
-        total = len(scan.records) + len(scan.problems)
-        typer.echo(f"{len(scan.problems)} corrupt records of {total}; `ogacq session salvage "
-                   f"{session} NEW` keeps the {len(scan.records)} valid ones")
+    total = len(scan.records) + len(scan.problems)
+    if scan.problems or scan.edited:
+        bad = len(scan.problems) + len(scan.changed)
+        typer.echo(f"{len(scan.problems)} corrupt and {len(scan.edited)} edited records of "
+                   f"{total}; `ogacq session salvage {session} NEW` keeps the "
+                   f"{total - bad} as written")
         raise typer.Exit(2)
-    load_session(session)  # the header too
-    typer.echo(f"{session}: {len(scan.records)} records, every one valid")
+    loaded = load_session(session)  # the header too
+    if scan.mode == UNCHECKED:
+        typer.echo(f"{session}: {total} records, unchecked: written before ogacq checksummed "
+                   "its records (an edit to it cannot be found)")
+        return
+    typer.echo(f"{session}: {total} records, every one as written ({scan.mode}); "
+               f"{completeness(loaded).describe()}")
 
 
 def salvage(
     session: Annotated[Path, typer.Argument(help="Damaged session file (left as it is).")],
     out: Annotated[Path, typer.Argument(help="New session file to write.")],
 ) -> None:
-    """Write every valid record of a damaged session to a new one; list the rest."""
+    """Write every record of a damaged session as it was written to a new one (written
+    whole or not at all); list the rest."""
     check_new_file(out, "OUT")
     kept, dropped = salvage_session(session, out)
     for line, problem in dropped:
         typer.echo(f"left out {session}:{line}: {problem}")
     typer.echo(f"{kept} records written to {out}; {len(dropped)} left out")
-    if kept <= 1:
-        raise InputError(session, "no record beyond the header was valid")

@@ -25,6 +25,7 @@ from ogacq.cli.options import (
 )
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.cli.render import print_sim
+from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE, MachineSpec
@@ -120,5 +121,6 @@ def _write_campaign(path: Path, stack: SimulatorStack, machine: MachineSpec,
     campaign = Campaign(path, machine, machine_path,
                         path.parent / "sessions" / f"{path.stem}.jsonl", protocol,
                         controller=controller, gauges=gauges)
-    path.write_text(campaign_text(campaign, comment="written by `ogacq sim --write-campaign`: "
-                                  "talks to that simulator while it runs"), encoding="utf-8")
+    write_atomically(path, campaign_text(  # whole or not at all: a full disk leaves no half
+        campaign, comment="written by `ogacq sim --write-campaign`: talks to that simulator "
+                          "while it runs").encode("utf-8"))

@@ -7,12 +7,17 @@ in the current folder). ``none`` (or ``off``) in either place records nothing.
 
 A value with ``://`` is a URL (``postgresql://user@host/db``,
 ``sqlite:////abs/path.sqlite``); anything else is the path of an SQLite file. A
-PostgreSQL URL without a driver gets psycopg 3, the driver ogacq installs.
+PostgreSQL URL without a driver gets psycopg 3, the driver ogacq installs. A URL
+that cannot be parsed (a port that is not a number, an unclosed ``[`` of an IPv6
+host, a connection option or value libpq does not know) is an InputError naming
+where it was given, its password hidden: a command whose history is optional
+says it in a warning and goes on.
 """
 
 from __future__ import annotations
 
 import os
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -57,14 +62,18 @@ def parse_location(value: str, origin: str) -> HistoryLocation:
                                                                    .absolute())), origin)
     try:
         url = make_url(text)
-    except ArgumentError:
-        raise InputError(origin, f"{text!r} is not a database URL (postgresql://USER@HOST/DB or "
-                         "sqlite:////PATH)") from None
+    except (ArgumentError, ValueError) as exc:
+        raise InputError(origin, f"{hide_password(text)!r} is not a database URL "
+                         f"({_why_unparsed(text, exc)}); write postgresql://USER@HOST[:PORT]/DB "
+                         "or sqlite:////PATH") from None
     backend = url.get_backend_name()
     if backend in ("postgresql", "postgres"):
         driver = url.get_driver_name()
         if backend == "postgres" or driver in ("", "psycopg2"):
             url = url.set(drivername="postgresql+psycopg")
+        problem = _postgresql_problem(url)
+        if problem:
+            raise InputError(origin, f"{hide_password(text)!r}: {problem}")
     elif backend == "sqlite":
         if not url.database or url.database == ":memory:":
             raise InputError(origin, "an SQLite history needs a file (sqlite:////PATH): one in "
@@ -73,6 +82,54 @@ def parse_location(value: str, origin: str) -> HistoryLocation:
         raise InputError(origin, f"database {backend!r} is not supported: ogacq keeps its "
                          "history in SQLite (a file) or PostgreSQL")
     return HistoryLocation(url, origin)
+
+
+def hide_password(text: str) -> str:
+    """A URL as it may be printed: the password between ``user:`` and ``@`` hidden."""
+    return re.sub(r"(://[^:/@\s]*:)[^@]*@", r"\1***@", text)
+
+
+def _why_unparsed(text: str, exc: Exception) -> str:
+    netloc = text.split("://", 1)[1].split("/", 1)[0].rsplit("@", 1)[-1]
+    if "[" in netloc and "]" not in netloc:
+        return "the [ of an IPv6 host is not closed"
+    if isinstance(exc, ValueError):
+        return "its port is not a number"
+    return "it does not read as one"
+
+
+# libpq's connection options whose values are a choice or a number (PostgreSQL
+# documentation, "libpq: Connection Strings, Parameter Key Words").
+_PG_CHOICES = {
+    "sslmode": ("disable", "allow", "prefer", "require", "verify-ca", "verify-full"),
+    "gssencmode": ("disable", "prefer", "require"),
+    "target_session_attrs": ("any", "read-write", "read-only", "primary", "standby",
+                             "prefer-standby"),
+}
+_PG_NUMBERS = ("connect_timeout", "keepalives", "keepalives_idle", "keepalives_interval",
+               "keepalives_count", "tcp_user_timeout")
+
+
+def _postgresql_problem(url: URL) -> str | None:
+    """What libpq would refuse in a PostgreSQL URL only when connecting, said now."""
+    if url.port is not None and not 1 <= url.port <= 65535:
+        return f"port {url.port} is not a TCP port (1..65535)"
+    for key, value in url.query.items():
+        values = value if isinstance(value, tuple) else (value,)
+        if key in _PG_CHOICES and any(v not in _PG_CHOICES[key] for v in values):
+            return f"{key} must be one of {', '.join(_PG_CHOICES[key])}, got {values[0]!r}"
+        if key in _PG_NUMBERS and not all(re.fullmatch(r"[0-9]{1,9}", v) for v in values):
+            return f"{key} must be a whole number of seconds, got {values[0]!r}"
+    try:
+        from psycopg.conninfo import make_conninfo
+    except ImportError:  # the driver is missing: connecting will say so
+        return None
+    try:
+        make_conninfo("", **{k: (v[0] if isinstance(v, tuple) else v)
+                             for k, v in url.query.items()})
+    except Exception as exc:  # psycopg.ProgrammingError: an option libpq does not know
+        return f"{str(exc).splitlines()[0]} (libpq's connection options only)"
+    return None
 
 
 def _named(option: str | None) -> tuple[str, str] | None:

@@ -4,6 +4,7 @@ display needed)."""
 
 from __future__ import annotations
 
+import io
 from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
@@ -13,6 +14,7 @@ from matplotlib.figure import Figure
 
 from ogacq.history.drift import Drift, expanded
 from ogacq.history.store import Calibration
+from ogacq.io.atomic import write_atomically
 
 DPI = 110
 
@@ -78,5 +80,7 @@ def history_figure(title: str, calibrations: Sequence[Calibration],
 
 def write_history_plot(path: Path, title: str, calibrations: Sequence[Calibration],
                        drifts: Sequence[Drift]) -> Path:
-    history_figure(title, calibrations, drifts).savefig(path, format="png", dpi=DPI)
+    buffer = io.BytesIO()  # drawn whole, then written whole (a full disk leaves no half PNG)
+    history_figure(title, calibrations, drifts).savefig(buffer, format="png", dpi=DPI)
+    write_atomically(path, buffer.getvalue())
     return path

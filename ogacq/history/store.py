@@ -9,18 +9,25 @@ taken first, and a second station waits for it instead of failing half-way);
 PostgreSQL serialises the first creation of the schema with an advisory lock.
 
 Every database error becomes a ``HistoryError`` (a ``StorageError``: exit 3) in
-one line naming the database and what could not be done.
+one line naming the database and what could not be done. An SQLite history is
+checked (``PRAGMA quick_check``, SQLite's "PRAGMA Statements" documentation)
+before anything is written to it: one that fails, or whose schema cannot even be
+read, is refused for writing with the way to repair it or to start another, so
+nothing is recorded where it could never be read back.
 """
 
 from __future__ import annotations
 
 import contextlib
+import json
 import socket
+import sqlite3
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
-from sqlalchemy import Connection, Engine, create_engine, event, func, inspect, select
+from sqlalchemy import JSON, Connection, Engine, create_engine, event, func, inspect, select
 from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
 
@@ -47,6 +54,11 @@ from ogacq.history.location import HistoryLocation
 SQLITE_BUSY_TIMEOUT_S = 30.0
 # PostgreSQL: a server that does not answer is said within this many seconds.
 CONNECT_TIMEOUT_S = 10
+# What to do with an SQLite history that fails its check: the sqlite3 shell's .recover
+# (SQLite 3.29 and later) copies what can still be read into a new file.
+REPAIR = ("repair it (`sqlite3 {path} .recover | sqlite3 REPAIRED.sqlite`, then "
+          "--history REPAIRED.sqlite) or start another (--history NEW.sqlite)")
+
 # Any 64-bit number: the key of the advisory lock taken while the schema is created.
 SCHEMA_LOCK_KEY = 0x6F67_6171_6869_7374  # "ogaqhist"
 
@@ -151,15 +163,65 @@ class History:
     # ------------------------------------------------------------------ opening
     @classmethod
     def open(cls, location: HistoryLocation, *, create: bool = True) -> History:
+        """``create``: the history is opened to be written to (its schema made on first
+        use, an SQLite file checked first)."""
         engine = _engine(location, create)
         history = cls(location, engine)
         try:
+            if create and location.backend == "sqlite":
+                history._check_sqlite()
             with history._guard("open"), history._transaction(write=create) as conn:
                 _prepare(conn, location, create)
         except BaseException:
             engine.dispose()
             raise
         return history
+
+    def _check_sqlite(self) -> None:
+        """Refuse to write to an SQLite file that fails its integrity check (a new one
+        has nothing to check; one that cannot be opened says why when it is)."""
+        path = self.location.describe()
+        if not Path(path).is_file() or not Path(path).stat().st_size:
+            return
+        try:
+            with self.engine.connect() as conn:
+                found = [row[0] for row in conn.exec_driver_sql("PRAGMA quick_check")]
+        except ValueError:  # the check's own report names damaged text
+            found = ["its report is not even text"]
+        except SQLAlchemyError as exc:
+            if isinstance(getattr(exc, "orig", None), sqlite3.OperationalError):
+                raise HistoryError(self.location, f"cannot open ({_first_line(exc)})") from None
+            raise HistoryError(self.location, f"cannot be read ({_first_line(exc)}): nothing is "
+                               f"recorded into it; {REPAIR.format(path=path)}") from None
+        if found != ["ok"]:
+            first = " ".join(str(found[0]).split()) if found else "no answer"
+            raise HistoryError(self.location, f"fails its integrity check ({first}): nothing is "
+                               f"recorded into it; {REPAIR.format(path=path)}")
+        damaged = self._damaged_record()
+        if damaged:
+            raise HistoryError(self.location, f"{damaged}: nothing is recorded into it (it could "
+                               f"not be read back); {REPAIR.format(path=path)}")
+
+    def _damaged_record(self) -> str | None:
+        """The first stored JSON document that no longer reads (a flipped byte the page
+        checks cannot see), or None. Every record is read: a history holds a few
+        hundred of them."""
+        e = s.events
+        columns = [c.name for c in e.columns if isinstance(c.type, JSON)]
+        where = "its events"
+        try:
+            with self.engine.connect() as conn:
+                if e.name not in inspect(conn).get_table_names():
+                    return None
+                rows = conn.exec_driver_sql(f"SELECT id, {', '.join(columns)} FROM {e.name}")
+                for row in rows:
+                    for column, text in zip(columns, row[1:], strict=True):
+                        where = f"event {row[0]}, {column}"
+                        if text is not None:
+                            json.loads(text)
+        except (SQLAlchemyError, ValueError) as exc:
+            return f"a stored record is damaged ({where}: {_first_line(exc)})"
+        return None
 
     def close(self) -> None:
         self.engine.dispose()
@@ -176,6 +238,9 @@ class History:
             yield
         except SQLAlchemyError as exc:
             raise HistoryError(self.location, f"cannot {what} ({_first_line(exc)})") from None
+        except ValueError as exc:  # a stored JSON document damaged (its text, its UTF-8)
+            raise HistoryError(self.location, f"cannot {what}: a stored record is damaged "
+                               f"({_first_line(exc)})") from None
 
     @contextlib.contextmanager
     def _transaction(self, *, write: bool) -> Iterator[Connection]:
@@ -397,8 +462,6 @@ def _machine_id(conn: Connection, identity: tuple[str, str]) -> int:
 def _engine(location: HistoryLocation, create: bool) -> Engine:
     url = location.url
     if location.backend == "sqlite":
-        from pathlib import Path
-
         path = Path(url.database or "")
         if not path.parent.is_dir():
             raise HistoryError(location, f"cannot open: there is no folder {path.parent}")
@@ -443,8 +506,8 @@ def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
             {"key": "created", "value": utc_now()},
             {"key": "created_by", "value": f"ogacq {__version__}"}])
         return
-    info: dict[str, str] = {key: value for key, value in conn.execute(
-        select(s.schema_info.c.key, s.schema_info.c.value)).all()}
+    info: dict[str, str] = {row.key: row.value for row in conn.execute(
+        select(s.schema_info.c.key, s.schema_info.c.value))}
     if info.get("application") != s.APPLICATION:
         raise HistoryError(location, "is not an ogacq history (its ogacq_schema table says "
                            f"{info.get('application')!r})")

@@ -1,5 +1,6 @@
-"""Replacing a file whole or not at all: a full disk, a read-only file system or a
-crash mid-write leaves the old file (or none), never a truncated one.
+"""Writing a file whole or not at all: a full disk, a read-only file system or a
+crash mid-write leaves the old file (or none), never a truncated one, and nothing
+in the way of a retry.
 
 The file gets the permissions a plain ``open()`` would give it (0666 less the umask;
 those of the file it replaces, when there is one), not the temporary file's private
@@ -12,7 +13,7 @@ import os
 import tempfile
 from pathlib import Path
 
-from ogacq.io.errors import StorageError
+from ogacq.io.errors import InputError, StorageError
 
 
 def write_atomically(path: str | Path, data: bytes) -> None:
@@ -22,8 +23,9 @@ def write_atomically(path: str | Path, data: bytes) -> None:
     path = Path(path)
     tmp: str | None = None
     try:
+        mode = _mode_for(path)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-        os.fchmod(fd, _mode_for(path))
+        os.fchmod(fd, mode)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()
@@ -34,6 +36,40 @@ def write_atomically(path: str | Path, data: bytes) -> None:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
         raise StorageError(path, exc) from None
+
+
+def write_new_file(path: str | Path, data: bytes) -> None:
+    """Create ``path`` holding ``data``, whole or not at all, never replacing a file:
+    InputError when ``path`` exists, StorageError (with nothing left behind) when it
+    cannot be written. The data goes to a temporary file beside it first, then takes
+    its name by a hard link, which fails rather than replace (a file system without
+    hard links gets a rename after a last check)."""
+    path = Path(path)
+    tmp: str | None = None
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        os.fchmod(fd, 0o666 & ~_umask())
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            raise
+        except OSError:  # no hard links here (FAT): the last check, then the rename
+            if path.exists():
+                raise FileExistsError(17, "File exists", str(path)) from None
+            os.rename(tmp, path)
+            tmp = None
+    except FileExistsError:
+        raise InputError(path, "exists; not overwriting it") from None
+    except OSError as exc:
+        raise StorageError(path, exc) from None
+    finally:
+        if tmp is not None:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
 
 
 def _mode_for(path: Path) -> int:

@@ -19,6 +19,7 @@ from ogacq_drivers.config_schema import (
     number,
     text,
 )
+from ogacq.io.atomic import write_atomically
 from ogacq.io.toml_file import input_error, load_toml
 from ogacq.model.machine import DECISION_RULES, MachineSpec, Tolerances
 
@@ -125,5 +126,5 @@ def machine_text(machine: MachineSpec, comment: str, *, footer: str = "") -> str
 
 def write_machine(path: str | Path, machine: MachineSpec, comment: str) -> Path:
     path = Path(path)
-    path.write_text(machine_text(machine, comment), encoding="utf-8")
+    write_atomically(path, machine_text(machine, comment).encode("utf-8"))  # whole or nothing
     return path

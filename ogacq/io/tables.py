@@ -2,7 +2,11 @@
 
 Every problem is reported with the file, the line and what is wrong; nothing is
 guessed. Values are in mm: a column in another unit, or with none, is refused
-rather than converted silently.
+rather than converted silently. A number is written as a CSV number is: ASCII
+digits, a sign, a point and an exponent (what Python's ``float`` also takes --
+fullwidth or Arabic-Indic digits, ``1_000`` -- is refused), finite, and within
+physical bounds: a length within 100 m, a time within 30 years, a cycle within a
+million.
 """
 
 from __future__ import annotations
@@ -10,6 +14,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+import re
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -18,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from ogacq.identify.observations import Deviation
+from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.text import decode_text, read_text
 from ogacq.model.kinematics import nominal_tcp
@@ -32,6 +38,17 @@ APPROACH_COLUMNS = ("approach_x", "approach_y", "approach_z")
 DEVIATIONS_COLUMNS = ("name", "value_mm")
 _OTHER_UNITS = {"_in": "inches", "_inch": "inches", "_um": "micrometres", "_m": "metres",
                 "_cm": "centimetres"}
+
+# A decimal number as a CSV writes it (ASCII only; spaces around it are the writer's)
+_NUMBER = re.compile(r"[ \t]*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t]*",
+                     re.ASCII)
+# Physical bounds (no source: beyond any machine this tool calibrates, as the machine
+# file's lengths): a length in mm, a time in s, a repeat index.
+MAX_LENGTH_MM = 1e5
+MAX_TIME_S = 1e9
+MAX_CYCLE = 1_000_000
+_BOUNDS = {"t_s": MAX_TIME_S, "reading_mm": MAX_LENGTH_MM, "value_mm": MAX_LENGTH_MM,
+           **{f"{c}_{a}": MAX_LENGTH_MM for c in ("tcp", "q") for a in AXES}}
 
 
 @dataclass
@@ -70,9 +87,10 @@ def sniff(path: str | Path) -> str:
                      f"({', '.join(READINGS_COLUMNS)}) or a deviations CSV (name,value_mm)", 1)
 
 
-def _rows(path: Path, required: Sequence[str]) -> tuple[list[str], list[tuple[int, list[str]]]]:
+def _rows(path: Path, required: Sequence[str], text: str | None = None,
+          ) -> tuple[list[str], list[tuple[int, list[str]]]]:
     try:
-        reader = csv.reader(io.StringIO(read_text(path), newline=""))
+        reader = csv.reader(io.StringIO(read_text(path) if text is None else text, newline=""))
         header = [h.strip() for h in next(reader, [])]
         rows = [(reader.line_num, row) for row in reader if "".join(row).strip()]
     except OSError as exc:
@@ -101,14 +119,38 @@ def _rows(path: Path, required: Sequence[str]) -> tuple[list[str], list[tuple[in
     return header, rows
 
 
+def _ascii_float(text: str) -> float:
+    """``text`` as a number if it is written as one in ASCII, else NaN."""
+    return float(text) if _NUMBER.fullmatch(text) else math.nan
+
+
 def _number(path: Path, line: int, column: str, text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise InputError(path, f"{column}: {text.strip()!r} is not a number", line) from None
+    shown = text.strip()[:40] + ("..." if len(text.strip()) > 40 else "")
+    if not _NUMBER.fullmatch(text):
+        if text.strip().lower().lstrip("+-") in ("nan", "inf", "infinity"):
+            raise InputError(path, f"{column}: {shown!r} is not a finite number", line)
+        raise InputError(path, f"{column}: {shown!r} is not a number (ASCII digits, a sign, a "
+                         "point, an exponent)", line)
+    value = float(text)
     if not math.isfinite(value):
-        raise InputError(path, f"{column}: {text.strip()!r} is not a finite number", line)
+        raise InputError(path, f"{column}: {shown!r} is not a finite number", line)
+    bound = _BOUNDS.get(column)
+    if bound is not None and abs(value) > bound:
+        raise InputError(path, f"{column}: {shown} is beyond {bound:g}, more than any machine "
+                         "this tool calibrates", line)
     return value
+
+
+def _misfit(row: list[str], header: list[str]) -> bool:
+    """A row with fewer fields than the header, or more that hold something: an empty
+    trailing field is a spreadsheet's habit, a filled one most often a decimal comma
+    ("12,345") that would otherwise be read as 12 with the rest dropped."""
+    return len(row) < len(header) or any(cell.strip() for cell in row[len(header):])
+
+
+def _fields_problem(row: list[str], header: list[str]) -> str:
+    more = " (a decimal comma? write 12.345)" if len(row) > len(header) else ""
+    return f"row has {len(row)} fields, the header {len(header)}{more}"
 
 
 def read_deviations(path: str | Path) -> list[tuple[str, float]]:
@@ -118,8 +160,8 @@ def read_deviations(path: str | Path) -> list[tuple[str, float]]:
     out: list[tuple[str, float]] = []
     seen: dict[str, int] = {}
     for line, row in rows:
-        if len(row) < len(header):
-            raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
+        if _misfit(row, header):
+            raise InputError(path, _fields_problem(row, header), line)
         name = row[at["name"]].strip()
         try:
             Deviation.parse(name)
@@ -150,16 +192,17 @@ def _checked_row(path: Path, line: int, row: list[str], header: list[str], at: d
     """Refuse one row, naming its first problem: the one definition of a valid row's
     messages (the vectorised reader checks all rows at once, then asks this for the
     words and the line)."""
-    if len(row) < len(header):
-        raise InputError(path, f"row has {len(row)} fields, the header {len(header)}", line)
+    if _misfit(row, header):
+        raise InputError(path, _fields_problem(row, header), line)
     leg = _axis(path, line, "leg", row[at["leg"]])
     gauge = _axis(path, line, "gauge_axis", row[at["gauge_axis"]])
     if gauge == leg:
         raise InputError(path, f"gauge_axis {AXES[gauge]} equals leg: a gauge measures "
                          "across its leg, along one of the two other axes", line)
     cycle_text = row[at["cycle"]].strip()
-    if not cycle_text.isdigit() or int(cycle_text) < 1:
-        raise InputError(path, f"cycle: {cycle_text!r} is not a whole number >= 1", line)
+    if _cycle(cycle_text) < 1:
+        shown = cycle_text[:40] + ("..." if len(cycle_text) > 40 else "")
+        raise InputError(path, f"cycle: {shown!r} is not a whole number 1..{MAX_CYCLE}", line)
     for c in _NUMBER_COLUMNS:
         _number(path, line, c, row[at[c]])
     if has_approach:
@@ -169,47 +212,118 @@ def _checked_row(path: Path, line: int, row: list[str], header: list[str], at: d
                 raise InputError(path, f"{c}: {v:g} is not -1, 0 or 1", line)
 
 
-def _numbers(texts: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
-    """(values, bad mask) of a column of numbers, read as :func:`_number` reads one."""
-    try:
-        values = np.array(list(map(float, texts)))
-    except ValueError:  # some entry is not a number: find which, one by one
-        values = np.array([_float_or_nan(t) for t in texts])
-    return values, ~np.isfinite(values)
+def _cycle(text: str) -> int:
+    """A repeat index written in ASCII digits within bounds, else 0."""
+    if not (text.isascii() and text.isdigit()) or len(text) > len(str(MAX_CYCLE)):
+        return 0
+    value = int(text)
+    return value if value <= MAX_CYCLE else 0
 
 
-def _number_block(path: Path, columns: list[int], n_rows: int) -> np.ndarray | None:
-    """(n, k) the numeric columns parsed by numpy's C reader, or None when the file is
-    not plain enough for it (a bad entry, quoting, blank-looking rows): the rows are
-    then converted one column at a time, and the problem found with its line."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # "empty input": the row count below decides
-            block = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2,
-                               encoding="utf-8", comments=None, dtype=float)
-    except ValueError:
-        return None
-    return block if block.shape == (n_rows, len(columns)) else None
+def _numbers(texts: tuple[str, ...]) -> np.ndarray:
+    """The values of a column of numbers as :func:`_number` reads one (NaN where it
+    would refuse the text)."""
+    return np.array([_ascii_float(t) for t in texts])
 
 
-def _float_or_nan(text: str) -> float:
-    try:
-        return float(text)
-    except ValueError:
-        return math.nan
+def _bad(column: str, values: np.ndarray) -> np.ndarray:
+    """Which values :func:`_number` refuses: not finite, or beyond the column's bound."""
+    bad = ~np.isfinite(values)
+    bound = _BOUNDS.get(column)
+    if bound is not None:
+        with np.errstate(invalid="ignore"):
+            bad |= np.abs(values) > bound
+    return bad
 
 
 def read_readings(path: str | Path) -> ReadingsTable:
     """The readings CSV, converted column by column (a campaign can hold 100,000 rows).
-    A row any check flags is handed to :func:`_checked_row`, which raises the first
-    flagged row's problem with its line, as a row-by-row reader would."""
+    A plain file (ASCII, unquoted, one row a line, as ogacq and spreadsheets write it)
+    is read by numpy's C reader whole; anything else, or a plain file with a problem,
+    row by row, where a row any check flags is handed to :func:`_checked_row`, which
+    raises the first flagged row's problem with its line."""
     path = Path(path)
-    header, rows = _rows(path, READINGS_COLUMNS)
+    try:
+        text = read_text(path)
+    except OSError as exc:
+        raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
+    plain = _plain_table(text)
+    return plain if plain is not None else _table_by_rows(path, text)
+
+
+# A plain file: its header, then rows with as many fields as it has, none quoted, no
+# blank line between them (so that row k is line k + 2), every character ASCII (numpy's
+# float reader also takes a non-breaking space, which _number refuses).
+_BLANK_LINE = re.compile(r"\n[ \t]*(\n|$)")
+
+
+def _plain_table(text: str) -> ReadingsTable | None:
+    """The table of a plain file whose every row is valid, else None."""
+    if not text.isascii() or '"' in text:
+        return None
+    text = text.replace("\r\n", "\n").removesuffix("\n")
+    head, newline, body = text.partition("\n")
+    if not newline or not body or _BLANK_LINE.search("\n" + body):
+        return None
+    header = [h.strip() for h in head.split(",")]
+    if len(set(header)) != len(header) or not set(READINGS_COLUMNS) <= set(header) \
+            or any(h.endswith(tuple(_OTHER_UNITS)) for h in header):  # _rows words these
+        return None
+    n_rows = body.count("\n") + 1
+    if body.count(",") != n_rows * (len(header) - 1):  # a row with a field more or less
+        return None
+    at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
+    has_approach = all(c in at for c in APPROACH_COLUMNS)
+    wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            words = np.loadtxt(io.StringIO(body), delimiter=",", dtype=str, comments=None,
+                               usecols=[at["leg"], at["gauge_axis"], at["cycle"]], ndmin=2)
+            block = np.loadtxt(io.StringIO(body), delimiter=",", dtype=float, comments=None,
+                               usecols=[at[c] for c in wanted], ndmin=2)
+    except ValueError:  # a field that is not a number, or rows of another width
+        return None
+    if words.shape[0] != n_rows or block.shape[0] != n_rows:
+        return None
+    leg, gauge = (_codes(words[:, k], _axis_code) for k in (0, 1))
+    cycle = _codes(words[:, 2], lambda t: _cycle(t.strip()))
+    numbers = {c: block[:, k] for k, c in enumerate(wanted)}
+    bad = (leg < 0) | (gauge < 0) | (leg == gauge) | (cycle < 1)
+    for c in wanted:
+        bad |= _bad(c, numbers[c])
+    if has_approach:
+        approach = block[:, -3:]
+        bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
+    if bad.any():  # the row-by-row reader says which row and why
+        return None
+    return ReadingsTable(
+        t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
+        tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
+        q_mm=np.column_stack([numbers[c] for c in ("q_x", "q_y", "q_z")]),
+        reading_mm=numbers["reading_mm"],
+        approach=approach.astype(int) if has_approach else None,
+        lines=np.arange(2, n_rows + 2))
+
+
+def _axis_code(text: str) -> int:
+    return _AXIS_CODE.get(text.strip().lower(), -1)
+
+
+def _codes(words: np.ndarray, code) -> np.ndarray:
+    """``code`` of each word, computed once per distinct word (a campaign's columns
+    of letters and cycles hold a handful of them)."""
+    distinct, inverse = np.unique(words, return_inverse=True)
+    return np.array([code(str(w)) for w in distinct], dtype=int)[inverse.ravel()]
+
+
+def _table_by_rows(path: Path, text: str) -> ReadingsTable:
+    header, rows = _rows(path, READINGS_COLUMNS, text)
     at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
     has_approach = all(c in at for c in APPROACH_COLUMNS)
     fields = [row for _, row in rows]
     lines = np.array([line for line, _ in rows])
-    bad = np.array([len(row) < len(header) for row in fields])
+    bad = np.array([_misfit(row, header) for row in fields])
     if bad.any():  # short rows: pad them so that the columns can be cut; refused below
         fields = [row + [""] * (len(header) - len(row)) for row in fields]
     columns = list(zip(*fields, strict=False))  # extra trailing fields are ignored
@@ -217,26 +331,21 @@ def read_readings(path: str | Path) -> ReadingsTable:
     def column(name: str) -> tuple[str, ...]:
         return columns[at[name]]
 
-    leg = np.array([_AXIS_CODE.get(t.strip().lower(), -1) for t in column("leg")])
-    gauge = np.array([_AXIS_CODE.get(t.strip().lower(), -1) for t in column("gauge_axis")])
+    leg = np.array([_axis_code(t) for t in column("leg")])
+    gauge = np.array([_axis_code(t) for t in column("gauge_axis")])
     bad |= (leg < 0) | (gauge < 0) | (leg == gauge)
-    cycle_text = [t.strip() for t in column("cycle")]
-    cycle = np.array([int(t) if t.isdecimal() else 0 for t in cycle_text])
+    cycle = np.array([_cycle(t.strip()) for t in column("cycle")])
     bad |= cycle < 1
     wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
-    block = _number_block(path, [at[c] for c in wanted], len(rows))
     numbers = {}
-    for k, c in enumerate(wanted):
-        if block is None:
-            numbers[c], not_finite = _numbers(column(c))
-        else:
-            numbers[c], not_finite = block[:, k], ~np.isfinite(block[:, k])
-        bad |= not_finite
+    for c in wanted:
+        numbers[c] = _numbers(column(c))
+        bad |= _bad(c, numbers[c])
     if has_approach:
         approach = np.column_stack([numbers[c] for c in APPROACH_COLUMNS])
         bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
-    for row in np.flatnonzero(bad):
-        _checked_row(path, int(lines[row]), rows[row][1], header, at, has_approach)
+    for k in map(int, np.flatnonzero(bad)):
+        _checked_row(path, int(lines[k]), rows[k][1], header, at, has_approach)
     return ReadingsTable(
         t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
         tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
@@ -251,14 +360,22 @@ def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str |
     low, high = machine.rho_min_mm - margin_mm, machine.rho_max_mm + margin_mm
     bad = np.flatnonzero(np.any((table.q_mm < low) | (table.q_mm > high), axis=1))
     if len(bad):
-        k = bad[0]
+        k = int(bad[0])
         raise InputError(path, f"posture outside the workspace: q = {_fmt(table.q_mm[k])} mm, "
                          f"limits {machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm "
+                         "(is the machine file the right one?)", int(table.lines[k]))
+    # the commanded TCP is never farther from the zero posture than a leg and its travel
+    reach = machine.leg_length_mm + max(abs(machine.rho_min_mm), abs(machine.rho_max_mm))
+    bad = np.flatnonzero(np.any(np.abs(table.tcp_mm) > reach, axis=1))
+    if len(bad):
+        k = int(bad[0])
+        raise InputError(path, f"TCP outside the workspace: tcp = {_fmt(table.tcp_mm[k])} mm, "
+                         f"farther than the {reach:g} mm a leg and its travel reach "
                          "(is the machine file the right one?)", int(table.lines[k]))
     tcp = nominal_tcp(table.q_mm, machine.leg_length_mm)
     bad = np.flatnonzero(~np.all(np.isfinite(tcp), axis=1))
     if len(bad):
-        k = bad[0]
+        k = int(bad[0])
         raise InputError(path, f"posture outside the workspace: the legs cannot reach a TCP "
                          f"at q = {_fmt(table.q_mm[k])} mm", int(table.lines[k]))
 
@@ -271,13 +388,15 @@ def write_readings(path: str | Path, layout: ReadingsLayout, readings_mm: np.nda
                    with_approach: bool = True) -> None:
     """The readings CSV of INTERCHANGE.md (plus the approach side, ignored by others)."""
     header = list(READINGS_COLUMNS) + (list(APPROACH_COLUMNS) if with_approach else [])
-    with Path(path).open("w", encoding="utf-8", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(header)
-        for k in range(len(layout)):
-            row = [f"{layout.t_s[k]:.3f}", int(layout.cycle[k]), AXES[layout.leg[k]],
-                   AXES[layout.gauge_axis[k]], *(f"{v:.6f}" for v in layout.tcp_mm[k]),
-                   *(f"{v:.6f}" for v in layout.q_mm[k]), f"{readings_mm[k]:.6f}"]
-            if with_approach:
-                row += [int(v) for v in layout.approach[k]]
-            w.writerow(row)
+    out = io.StringIO(newline="")
+    w = csv.writer(out)
+    w.writerow(header)
+    for k in range(len(layout)):
+        row = [f"{layout.t_s[k]:.3f}", int(layout.cycle[k]), AXES[layout.leg[k]],
+               AXES[layout.gauge_axis[k]], *(f"{v:.6f}" for v in layout.tcp_mm[k]),
+               *(f"{v:.6f}" for v in layout.q_mm[k]), f"{readings_mm[k]:.6f}"]
+        if with_approach:
+            row += [int(v) for v in layout.approach[k]]
+        w.writerow(row)
+    # whole or not at all: a full disk leaves the file as it was (or none)
+    write_atomically(path, out.getvalue().encode("utf-8"))

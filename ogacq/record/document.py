@@ -36,6 +36,7 @@ from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.record.evaluation import Evaluation, evaluate
 from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.convert import session_machine
+from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession
 
 FORMAT = "ogacq-record/1"
@@ -159,11 +160,15 @@ def _session_digest(session: LoadedSession) -> tuple[bytes, str]:
 
 def _session_reference(session: LoadedSession, sha256: str | None = None) -> dict[str, Any]:
     """Where the record's evidence is: the session file (absolute path), its SHA-256
-    as loaded, and its number of records after the header."""
+    as loaded, its number of records after the header, how it vouches for them
+    (``integrity``: sealed, checksummed or unchecked) and the records the user
+    accepted as edited (``ogacq.session.seal``)."""
     if sha256 is None:
         _, sha256 = _session_digest(session)
+    integrity = session.integrity.to_json()
     return {"path": str(Path(session.path).resolve()), "sha256": sha256,
-            "records": len(session.records)}
+            "records": len(session.records), "integrity": integrity["integrity"],
+            "edited": integrity["edited"]}
 
 
 def _machine(session: LoadedSession) -> MachineSpec | None:
@@ -208,8 +213,9 @@ def _context_sections(context: CalibrationContext, recorded: bool,
 
 def _campaign(session: LoadedSession) -> dict[str, Any]:
     status = campaign_status(session)
+    state = completeness(session)
     return {"status": status.status, "readings": status.readings, "planned": status.planned,
-            "reason": status.reason}
+            "reason": status.reason, "partial": None if state.complete else state.describe()}
 
 
 def _method(session: LoadedSession, result: FitResult | None,

@@ -13,6 +13,7 @@ Entry points: :func:`build_report` (in memory) and :func:`write_report` (to a fo
 
 from __future__ import annotations
 
+import contextlib
 import json
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -108,17 +109,33 @@ def write_report(report: Report, folder: str | Path) -> Path:
     returns the HTML path.
     Each file is replaced whole (a full disk leaves no truncated figure), the page
     last, so a page on disk never names figures that are not; StorageError when
-    the folder cannot be written."""
+    the folder cannot be written, the files this call made then removed again (a
+    file it replaced stays replaced: whole, and the retry replaces it again)."""
     folder = Path(folder)
+    made_folder = not folder.exists()
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise StorageError(folder, exc, "create the report folder") from None
-    for figure in report.figures:
-        write_atomically(folder / figure.name, figure.png)
-    write_atomically(folder / RECORD_NAME, report.record_json().encode("utf-8"))
     path = folder / REPORT_NAME
-    write_atomically(path, report.html.encode("utf-8"))
+    files = [(folder / f.name, f.png) for f in report.figures]
+    files += [(folder / RECORD_NAME, report.record_json().encode("utf-8")),
+              (path, report.html.encode("utf-8"))]
+    made: list[Path] = []
+    try:
+        for target, data in files:
+            new = not target.exists()
+            write_atomically(target, data)
+            if new:
+                made.append(target)
+    except StorageError:
+        for target in made:
+            with contextlib.suppress(OSError):
+                target.unlink()
+        if made_folder:
+            with contextlib.suppress(OSError):
+                folder.rmdir()
+        raise
     return path
 
 

@@ -43,6 +43,19 @@ def status_badge(status: CampaignStatus) -> Badge:
     return Badge(f"campaign {status.status}", "bad" if status.status == "stopped" else "warn")
 
 
+def session_notes(record: Mapping[str, Any]) -> list[str]:
+    """What the record says about its session before anything else: partial (the
+    campaign did not finish), edited (accepted as it stands), an older format."""
+    from ogacq.session.seal import Integrity
+
+    campaign = record.get("campaign") or {}
+    session = record.get("session") or {}
+    edited = tuple((int(e.get("line") or 0), str(e.get("problem"))) for e in
+                   session.get("edited") or () if isinstance(e, Mapping))
+    notes = [campaign["partial"]] if campaign.get("partial") else []
+    return notes + Integrity(str(session.get("integrity") or "sealed"), edited).notes()
+
+
 def misfit_sentence(fit: FitSummary) -> tuple[str, str]:
     """(badge kind, sentence): the consistency test's verdict, as every command states
     it, and what it means for the offsets."""
@@ -265,6 +278,7 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
         "title": f"Calibration record {record.get('id')}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
         "status_badge": status_badge(data.status), "um": um,
+        "session_notes": session_notes(record),
         "figures": {f.name.removesuffix(".png"): Figure(base64.b64encode(f.png).decode("ascii"),
                                                          f.description, f.name)
                     for f in figures},

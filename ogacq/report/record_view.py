@@ -133,13 +133,39 @@ def identification(record: Mapping[str, Any]) -> Table:
         ["session file", shown(session.get("path"))],
         ["session SHA-256", shown(session.get("sha256"))],
         ["session records", shown(session.get("records"))],
+        *_integrity_rows("session", session),
     ]
+    if campaign.get("partial"):
+        rows.insert(rows.index(["session file", shown(session.get("path"))]),
+                    ["campaign not finished", shown(campaign["partial"])])
     validation = record.get("validation_session")
     if validation:
         rows += [["as-left session file", shown(validation.get("path"))],
                  ["as-left session SHA-256", shown(validation.get("sha256"))],
-                 ["as-left session records", shown(validation.get("records"))]]
+                 ["as-left session records", shown(validation.get("records"))],
+                 *_integrity_rows("as-left session", validation)]
     return table(None, rows)
+
+
+# How a session vouches for its records (ogacq.session.seal), in a reader's words.
+INTEGRITY_WORDS = {
+    "sealed": "every record numbered, checksummed and chained to the one before",
+    "checksummed": "every record numbered and checksummed (an older format, not chained)",
+    "unchecked": "written before ogacq checksummed its records: an edit cannot be found",
+}
+
+
+def _integrity_rows(what: str, session: Mapping[str, Any]) -> list[list[Cell]]:
+    """The session's integrity and the records the user accepted as edited."""
+    if "integrity" not in session:
+        return []
+    mode = session.get("integrity")
+    rows: list[list[Cell]] = [[f"{what} integrity",
+                               f"{shown(mode)}: {INTEGRITY_WORDS.get(str(mode), '')}"]]
+    rows += [[f"{what} edited record", f"line {shown(e.get('line'))}: {shown(e.get('problem'))} "
+                                       "(accepted as it stands, --accept-edited)"]
+             for e in session.get("edited") or () if isinstance(e, Mapping)]
+    return rows
 
 
 def instruments(record: Mapping[str, Any]) -> Table | None:

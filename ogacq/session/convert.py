@@ -13,8 +13,8 @@ from ogacq.io.tables import check_table_postures, read_readings, write_readings
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
-from ogacq.session.records import EndRecord, ReadingRecord
-from ogacq.session.store import LoadedSession, SessionWriter
+from ogacq.session.records import EndRecord, ReadingRecord, Record
+from ogacq.session.store import LoadedSession, write_session
 
 
 def session_machine(session: LoadedSession) -> MachineSpec:
@@ -57,13 +57,12 @@ def import_readings(csv_path: str | Path, machine: MachineSpec, session_path: st
     layout = table.layout()
     header = {"machine": machine_dict(machine), "station": {"imported_from": str(csv_path)},
               "plan": None}
-    with SessionWriter.create(session_path, header) as writer:
-        for k in range(len(layout)):
-            writer.write(ReadingRecord(
-                step=f"import/{k + 1}", gauge=Gauge.at(layout.gauge_axis[k], layout.leg[k]),
-                cycle=int(layout.cycle[k]), posture=None, t_s=float(layout.t_s[k]),
-                q_mm=tuple(layout.q_mm[k].tolist()), tcp_mm=tuple(layout.tcp_mm[k].tolist()),
-                approach=tuple(layout.approach[k].tolist()),
-                reading_mm=float(table.reading_mm[k])))
-        writer.write(EndRecord(status="complete"))
-    return Path(session_path)
+    records: list[Record] = [ReadingRecord(
+        step=f"import/{k + 1}", gauge=Gauge.at(layout.gauge_axis[k], layout.leg[k]),
+        cycle=int(layout.cycle[k]), posture=None, t_s=float(layout.t_s[k]),
+        q_mm=tuple(layout.q_mm[k].tolist()), tcp_mm=tuple(layout.tcp_mm[k].tolist()),
+        approach=tuple(layout.approach[k].tolist()),
+        reading_mm=float(table.reading_mm[k])) for k in range(len(layout))]
+    records.append(EndRecord(status="complete", readings=len(layout)))
+    # whole or not at all: a full disk leaves no half session in the way of a retry
+    return write_session(session_path, header, records)

@@ -2,9 +2,10 @@
 gets one back, so a record's keys are spelled in this module only.
 
 On disk each record is one JSON object whose ``type`` names its class here; the
-store adds ``seq`` and ``crc``. ``from_json`` checks what later stages rely on
-(a reading's step, gauge, posture and numbers) and raises ``ValueError`` naming
-what is wrong, which the store reports with the line. Records of a kind this
+store adds ``seq``, ``prev`` and ``crc`` (``ogacq.session.seal``). ``from_json``
+checks what later stages rely on (a reading's step, gauge, posture and numbers)
+and raises ``ValueError`` naming what is wrong, which the store reports with the
+line. Records of a kind this
 version does not know load as :class:`OtherRecord`, untouched.
 """
 
@@ -41,12 +42,17 @@ class Record:
 
 
 def _finite(value: Any) -> TypeGuard[float]:
-    return isinstance(value, int | float) and not isinstance(value, bool) and \
-        math.isfinite(value)
+    """A JSON number that is one: finite, and an integer of 64 bits at most (a 400-digit
+    one would overflow every float it meets)."""
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, int):
+        return -(2**63) <= value < 2**63
+    return isinstance(value, float) and math.isfinite(value)
 
 
 def _integer(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, int) and not isinstance(value, bool) and -(2**63) <= value < 2**63
 
 
 def _triple(value: Any, check) -> bool:
@@ -487,6 +493,28 @@ class ReferenceRecord(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
+class SalvageRecord(Record):
+    """The last record of a session ``ogacq session salvage`` wrote: the damaged file
+    it came from, and the lines of it left out with why."""
+
+    KIND: ClassVar[str] = "salvage"
+    source: str
+    left_out: tuple[tuple[int, str], ...] = ()
+
+    def fields(self) -> dict[str, Any]:
+        return {"source": self.source,
+                "left_out": [{"line": line, "problem": why} for line, why in self.left_out]}
+
+    @classmethod
+    def from_json(cls, d: Mapping[str, Any]) -> SalvageRecord:
+        entries = given if isinstance(given := d.get("left_out"), list) else []
+        return cls(wall=d.get("wall"), source=str(d.get("source", "")),
+                   left_out=tuple((int(e.get("line", 0)), str(e.get("problem", "")))
+                                  for e in entries if isinstance(e, dict)
+                                  and _integer(e.get("line", 0))))
+
+
+@dataclass(frozen=True, kw_only=True)
 class OtherRecord(Record):
     """A record of a kind this version does not write, kept as it was."""
 
@@ -504,11 +532,11 @@ class OtherRecord(Record):
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
     ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord,
-    EnvironmentRecord, OverrideRecord, SettleRecord, ReferenceRecord)}
+    EnvironmentRecord, OverrideRecord, SettleRecord, ReferenceRecord, SalvageRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:
-    """The typed record of a decoded line (``seq`` and ``crc`` already taken off);
+    """The typed record of a decoded line (``seq``, ``prev`` and ``crc`` taken off);
     ``ValueError`` says what a known kind is missing."""
     kind = d.get("type")
     if not isinstance(kind, str):

@@ -9,12 +9,15 @@ plan, software version); the rest are appended in the order they happened. A
 record cut by a crash mid-write (a torn last line) is dropped on loading with a
 warning naming it; everything before it stands.
 
-Each record proves itself: it carries its sequence number and a CRC-32 of its
-own line, and is checked on loading against the fields its type must have. A
-record changed after it was written, out of sequence or missing what its type
-needs is named with its line; a line written twice is dropped with a warning;
-``ogacq session salvage`` keeps every valid record of a damaged file. Files
-written before the sequence numbers and checksums load as they are.
+Each record proves itself (``ogacq.session.seal``): its sequence number, the
+checksum of the line before it and its own CRC-32, checked on loading with the
+fields its type must have. A record that cannot be read is named with its line;
+one changed, removed, inserted or moved after it was written makes the session
+*edited*, which an analysis refuses unless the user accepts it as it stands
+(``accept_edited``: the loaded session then says so); a line written twice is
+dropped with a warning; ``ogacq session salvage`` keeps every record as written
+of a damaged file. Sessions written before the seals load as they are, and say
+so.
 
 One writer at a time, across processes: every writer holds an OS lock on the
 session file (``flock``) for as long as it is open, appends only (``O_APPEND``),
@@ -32,12 +35,13 @@ import shutil
 import sys
 import threading
 import time
-import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
 from ogacq import __version__
+from ogacq.errors import Refused
+from ogacq.io.atomic import write_new_file
 from ogacq.io.errors import InputError, StorageError
 from ogacq.io.text import strip_bom
 from ogacq.session.records import (
@@ -47,8 +51,21 @@ from ogacq.session.records import (
     Record,
     ResultRecord,
     ResumeRecord,
+    SalvageRecord,
     record_from_json,
 )
+from ogacq.session.seal import (
+    SEAL,
+    Integrity,
+    Scan,
+    line_crc,
+    parses,
+    scan_session,
+    seal_line,
+)
+
+__all__ = ["LoadedSession", "SessionEdited", "SessionLock", "SessionWriter", "check_writable",
+           "load_session", "lock_holder", "salvage_session", "scan_session", "write_session"]
 
 R = TypeVar("R", bound=Record)
 
@@ -60,6 +77,8 @@ class LoadedSession:
     records: list[Record]  # the rest, in the order written
     warnings: list[str] = field(default_factory=list)
     size_bytes: int = 0  # of the file as read: a writer checks nobody wrote since
+    # the header's format, and the edits the user accepted (ogacq.session.seal)
+    integrity: Integrity = field(default_factory=Integrity)
 
     def of_type(self, kind: type[R]) -> list[R]:
         return [r for r in self.records if isinstance(r, kind)]
@@ -126,17 +145,20 @@ class SessionLock:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise InputError(path, f"in use by {self._holder()}: one writer at a time; "
+            raise InputError(path, f"in use by {self.holder_of(path)}: one writer at a time; "
                              "wait until it has finished") from None
         with contextlib.suppress(OSError):  # only a refusal's message depends on it
             self._note.write_text(f"{' '.join(['ogacq', *sys.argv[1:3]])} (pid {os.getpid()}) "
                                   f"since {time.strftime('%H:%M:%S')}\n", encoding="utf-8")
 
-    def _holder(self) -> str:
+    @staticmethod
+    def holder_of(path: Path) -> str:
+        """Who holds the lock on ``path``, as its holder said."""
         try:
-            return self._note.read_text(encoding="utf-8").strip() or "another process"
-        except OSError:
+            note = path.with_name(path.name + ".lock").read_text(encoding="utf-8").strip()
+        except (OSError, UnicodeDecodeError):
             return "another process"
+        return note.splitlines()[0][:200] if note else "another process"
 
     def release(self) -> None:
         with contextlib.suppress(OSError):
@@ -183,51 +205,49 @@ def check_writable(path: str | Path, *, resuming: bool = False) -> None:
 def _check_not_in_use(path: Path) -> None:
     """Refuse, naming the holder, a session another writer holds now (the writer
     that opens it later takes the lock for good; this only refuses early)."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        SessionLock(path, fd).release()
-    finally:
-        os.close(fd)
-
-
-def _line(record: dict[str, Any]) -> str:
-    """The record as one line, its CRC-32 last (over the line without it)."""
-    body = json.dumps(record, separators=(",", ":"))
-    crc = zlib.crc32(body.encode("utf-8"))
-    return f'{body[:-1]},"crc":"{crc:08x}"}}\n' if body != "{}" else body + "\n"
+    holder = lock_holder(path)
+    if holder is not None:
+        raise InputError(path, f"in use by {holder}: one writer at a time; wait until it has "
+                         "finished")
 
 
 class SessionWriter:
-    """Appends records durably. Opened on a new file (``create``) or to resume.
+    """Appends records durably, each sealed (``ogacq.session.seal``). Opened on a new
+    file (``create``) or to continue one (``append_to``).
 
     A record that cannot be written (disk full, file system read-only, I/O error)
     raises StorageError after the file is cut back to its last whole record, so
     what was recorded before stays valid and the session can be resumed once the
     disk is fixed."""
 
-    def __init__(self, path: Path, fd: int, next_seq: int,
-                 lock: SessionLock | None = None) -> None:
+    def __init__(self, path: Path, fd: int, next_seq: int, lock: SessionLock | None = None,
+                 *, prev: str | None = None, chained: bool = True) -> None:
         self.path = path
         self._lock = lock or SessionLock(path, fd)
         self._fd = fd
         self._closed = False
         self._size = os.fstat(fd).st_size  # bytes of whole records on file
         self._seq = next_seq
+        # the chain checksum of the last line; a session written before the chain
+        # (its header has no seal) goes on without one, as its records were written
+        self._prev = prev
+        self._chained = chained
         self._syncer = _Syncer(fd)
         self._syncer.start()
 
     @classmethod
     def create(cls, path: str | Path, header: dict[str, Any]) -> SessionWriter:
         path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         try:
+            path.parent.mkdir(parents=True, exist_ok=True)
             fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
         except FileExistsError:
             raise InputError(path, "a session already exists here; resume it with "
                              f"`ogacq resume {path}` or choose another name") from None
+        except OSError as exc:
+            raise StorageError(path, exc, "create the session") from None
         writer = cls(path, fd, 0)
-        writer._write({"type": "session", "format": FORMAT, "software": f"ogacq {__version__}",
-                       "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **header})
+        writer._write(new_header(header))
         return writer
 
     @classmethod
@@ -235,32 +255,45 @@ class SessionWriter:
         """A writer at the end of an existing session (``expected_size``: as it was read;
         a session written to since is refused). A torn last record is cut off
         (appending after it would corrupt the file); a complete one that only lost
-        its newline gets it back."""
+        its newline gets it back. StorageError (exit 3) when the file cannot be
+        written (a read-only file system or file): nothing was appended."""
         path = Path(path)
-        fd = os.open(path, os.O_RDWR | os.O_APPEND)
+        try:
+            fd = os.open(path, os.O_RDWR | os.O_APPEND)
+        except FileNotFoundError:
+            raise InputError(path, "no such session") from None
+        except OSError as exc:
+            raise StorageError(path, exc, "write to the session") from None
         try:
             lock = SessionLock(path, fd)
         except InputError:
             os.close(fd)
             raise
         try:
-            raw = path.read_bytes()
+            raw = strip_bom(path.read_bytes())
             if expected_size is not None and len(raw) != expected_size:
                 raise InputError(path, "was written to since it was read (another command); "
                                  "run this again")
             if raw and not raw.endswith(b"\n"):
                 tail = raw[raw.rfind(b"\n") + 1:]
-                if _parse(tail) is not None:
+                if parses(tail):
                     os.write(fd, b"\n")
                     raw += b"\n"
                 else:
-                    os.ftruncate(fd, raw.rfind(b"\n") + 1)
+                    os.ftruncate(fd, os.fstat(fd).st_size - len(tail))
                     raw = raw[:raw.rfind(b"\n") + 1]
+        except OSError as exc:
+            lock.release()
+            os.close(fd)
+            raise StorageError(path, exc, "write to the session") from None
         except BaseException:
             lock.release()
             os.close(fd)
             raise
-        return cls(path, fd, sum(1 for line in raw.split(b"\n") if line.strip()), lock)
+        lines = [line for line in raw.split(b"\n") if line.strip()]
+        chained = _sealed_header(lines[0]) if lines else True
+        return cls(path, fd, _next_seq(lines), lock,
+                   prev=line_crc(lines[-1]) if lines and chained else None, chained=chained)
 
     @classmethod
     def reopen(cls, session: LoadedSession) -> SessionWriter:
@@ -279,7 +312,7 @@ class SessionWriter:
     def _write(self, record: dict[str, Any]) -> None:
         # The whole line into the OS at once: a killed process cannot lose it after
         # this; the syncer puts it on the disk.
-        data = _line({**record, "seq": self._seq}).encode("utf-8")
+        data = seal_line(record, self._seq, self._prev if self._chained else None)
         try:
             self._raise_sync_error()
             written = 0
@@ -290,6 +323,7 @@ class SessionWriter:
             raise StorageError(self.path, exc, "write the session") from None
         self._size += len(data)
         self._seq += 1
+        self._prev = line_crc(data)
         self._syncer.poke()
 
     def sync(self) -> None:
@@ -331,98 +365,82 @@ class SessionWriter:
         self.close()
 
 
-def _problem(record: Any) -> str | None:
-    """What is wrong with a decoded record, or None (the header is checked on loading)."""
-    if not isinstance(record, dict):
-        return "not a session record"
-    if record.get("type") == "session":
-        return None
-    try:
-        record_from_json(record)
-    except ValueError as exc:
-        return str(exc)
-    return None
+def new_header(header: dict[str, Any]) -> dict[str, Any]:
+    """A new session's first record: its format, seal, software and creation time, then
+    ``header`` (machine, station, plan, ...)."""
+    given = {k: v for k, v in header.items() if k not in ("type", "format", "integrity")}
+    return {"type": "session", "format": FORMAT, "integrity": SEAL,
+            "software": f"ogacq {__version__}",
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **given}
 
 
-def _decode(line: bytes) -> tuple[dict[str, Any] | None, str | None]:
-    """(record, None), or (None, what is wrong with the line)."""
+def _sealed_header(line: bytes) -> bool:
+    """Whether a session's first line says its records are chained."""
     try:
-        record = json.loads(line)
+        header = json.loads(line)
     except ValueError:
-        return None, "not valid JSON"
-    if isinstance(record, dict) and "crc" in record:
-        crc = record.pop("crc")
-        body = json.dumps(record, separators=(",", ":")).encode("utf-8")
-        if f"{zlib.crc32(body):08x}" != crc:
-            return None, "fails its checksum: changed after it was written"
-    problem = _problem(record)
-    return (None, problem) if problem else (record, None)
+        return True
+    return not isinstance(header, dict) or "integrity" in header
 
 
-def _parse(line: bytes) -> dict[str, Any] | None:
-    return _decode(line)[0]
+def _next_seq(lines: list[bytes]) -> int:
+    """The sequence number after the last line's (its count when that has none)."""
+    if lines:
+        try:
+            seq = json.loads(lines[-1]).get("seq")
+        except (ValueError, AttributeError):
+            seq = None
+        if isinstance(seq, int) and not isinstance(seq, bool):
+            return seq + 1
+    return len(lines)
 
 
-@dataclass(frozen=True)
-class Scan:
-    """Every line of a session file judged: the valid records (with their line), the
-    lines that are not, and what was dropped with a warning."""
+def sealed_bytes(header: dict[str, Any], records: list[dict[str, Any]]) -> bytes:
+    """A whole session as it is written: ``header`` (as written: give it
+    :func:`new_header`'s) and ``records`` (each with its ``type`` and ``wall``),
+    numbered and chained."""
+    out: list[bytes] = []
+    prev = None
+    for seq, record in enumerate([header, *records]):
+        line = seal_line(record, seq, prev)
+        out.append(line)
+        prev = line_crc(line)
+    return b"".join(out)
 
-    records: list[tuple[int, dict[str, Any]]]
-    problems: list[tuple[int, str]]
-    warnings: list[str]
-    size_bytes: int
 
-
-def scan_session(path: str | Path) -> Scan:
+def write_session(path: str | Path, header: dict[str, Any], records: list[Record]) -> Path:
+    """A new session written whole or not at all (an import, a salvage): a full disk
+    leaves no file in the way of a retry (StorageError), an existing file is refused."""
     path = Path(path)
-    try:
-        raw = strip_bom(path.read_bytes())  # a session saved from an editor
-    except OSError as exc:
-        raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
-    lines = raw.split(b"\n")
-    last = max((k for k, line in enumerate(lines, 1) if line.strip()), default=0)
-    records: list[tuple[int, dict[str, Any]]] = []
-    problems: list[tuple[int, str]] = []
-    warnings: list[str] = []
-    seen: dict[int, tuple[int, dict[str, Any]]] = {}
-    expected: int | None = 0  # None after a record without a number (edited by hand)
-    for number, line in enumerate(lines, 1):
-        if not line.strip():
-            continue
-        record, problem = _decode(line)
-        if problem is not None:
-            if number == last and not raw.endswith(b"\n"):
-                # Cut by a crash mid-write (a line goes out whole, its newline last):
-                # drop it, keep the rest.
-                warnings.append(f"{path}:{number}: dropped a torn last record "
-                                f"({len(line)} bytes: {line[:60].decode(errors='replace')!r})")
-            else:
-                problems.append((number, problem))
-            continue
-        assert record is not None
-        seq = record.pop("seq", None)
-        if not isinstance(seq, int):
-            expected = None
-        else:
-            if seq in seen:
-                first, earlier = seen[seq]
-                if earlier == record:
-                    warnings.append(f"{path}:{number}: dropped a copy of line {first}")
-                else:
-                    problems.append((number, f"sequence number {seq} repeats line {first} "
-                                             "with other content"))
-                continue
-            if expected is not None and seq != expected:
-                problems.append((number, f"out of sequence: record {seq} where {expected} "
-                                         "was due (records lost or moved)"))
-            seen[seq] = (number, record)
-            expected = seq + 1
-        records.append((number, record))
-    return Scan(records, problems, warnings, len(raw))
+    wall = round(time.time(), 3)
+    lines = []
+    for record in records:
+        fields = record.to_json()
+        lines.append({"type": fields.pop("type"), "wall": fields.pop("wall", wall), **fields})
+    write_new_file(path, sealed_bytes(new_header(header), lines))
+    return path
 
 
-def load_session(path: str | Path) -> LoadedSession:
+class SessionEdited(Refused):
+    """A session whose records were changed, removed, inserted or moved after they were
+    written: refused by every analysis unless accepted as it stands (exit 4)."""
+
+    def __init__(self, path: Path, edited: list[tuple[int, str]]) -> None:
+        self.path = str(path)
+        self.edited = edited
+        line, problem = edited[0]
+        more = f" (and {len(edited) - 1} more)" if len(edited) > 1 else ""
+        super().__init__(f"{path}:{line}: {problem}{more}: the session was edited after it was "
+                         f"written; `ogacq session check {path}` lists every edit, --accept-edited "
+                         "analyses it as it stands (every output then says so), `ogacq "
+                         f"session salvage {path} NEW` keeps the records as written")
+
+
+def load_session(path: str | Path, *, accept_edited: bool = False) -> LoadedSession:
+    """The session at ``path``, every record checked. InputError when a line cannot be
+    read or the file is no session; :class:`SessionEdited` when records were edited
+    after they were written, unless ``accept_edited`` (the session then carries the
+    edits in its ``integrity``)."""
     path = Path(path)
     scan = scan_session(path)
     if not scan.records or scan.records[0][0] != 1 or \
@@ -434,12 +452,35 @@ def load_session(path: str | Path) -> LoadedSession:
         raise InputError(path, f"corrupt record: {problem}{more}; `ogacq session check` lists "
                          "every problem, `ogacq session salvage` keeps the valid records",
                          number)
+    if scan.edited and not accept_edited:
+        raise SessionEdited(path, scan.edited)
     records = [r for _, r in scan.records]
     if records[0].get("format") != FORMAT:
         raise InputError(path, f"session format {records[0].get('format')!r} is not "
                          f"{FORMAT!r}", 1)
     return LoadedSession(path, records[0], [record_from_json(r) for r in records[1:]],
-                         scan.warnings, scan.size_bytes)
+                         scan.warnings, scan.size_bytes,
+                         Integrity(scan.mode, tuple(scan.edited)))
+
+
+def lock_holder(path: str | Path) -> str | None:
+    """Who writes the session now (a campaign running, a write-back), or None. Probed
+    with a shared lock, released at once: a reader never stops a writer starting."""
+    try:
+        fd = os.open(path, os.O_RDONLY)
+    except OSError:
+        return None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except BlockingIOError:
+            return SessionLock.holder_of(Path(path))
+        except OSError:
+            return None
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        return None
+    finally:
+        os.close(fd)
 
 
 def _not_a_session(path: Path, scan: Scan) -> InputError:
@@ -454,20 +495,25 @@ def _not_a_session(path: Path, scan: Scan) -> InputError:
 
 
 def salvage_session(path: str | Path, out: str | Path) -> tuple[int, list[tuple[int, str]]]:
-    """Write every valid record of ``path`` to the new session ``out``, renumbered and
-    checksummed; returns (records kept, the lines left out and why)."""
+    """Write every record of ``path`` as it was written to the new session ``out``,
+    renumbered and chained, with a last ``salvage`` record naming what was left out;
+    returns (records kept, the lines left out and why). The new file is written whole
+    or not at all: a full disk leaves nothing in the way of a retry."""
     scan = scan_session(path)
-    kept = [r for _, r in scan.records]
-    if not kept or kept[0].get("type") != "session":
-        raise InputError(path, "no valid session header on line 1: nothing to salvage", 1)
-    out = Path(out)
-    try:
-        fd = os.open(out, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_APPEND, 0o644)
-    except FileExistsError:
-        raise InputError(out, "exists; not overwriting it") from None
-    with os.fdopen(fd, "w", encoding="utf-8") as fh:
-        for seq, record in enumerate(kept):
-            fh.write(_line({**record, "seq": seq}))
-        fh.flush()
-        os.fsync(fh.fileno())
-    return len(kept), scan.problems
+    kept = scan.untouched
+    if not kept or kept[0][0] != 1 or kept[0][1].get("type") != "session":
+        why = "is not as it was written" if 1 in scan.changed else "is not valid"
+        raise InputError(path, f"the session header on line 1 {why}: nothing to salvage", 1)
+    left_out = sorted(scan.problems + [e for e in scan.edited if e[0] in scan.changed])
+    if len(kept) == 1:
+        raise InputError(path, "no record beyond the header is as it was written: nothing to "
+                         "salvage")
+    given = kept[0][1]  # sealed again (an older session's header gains its seal)
+    header: dict[str, Any] = {k: given[k] for k in ("type", "format") if k in given}
+    header["integrity"] = SEAL
+    header.update((k, v) for k, v in given.items() if k not in ("type", "format", "integrity"))
+    records = [r for _, r in kept[1:]]
+    records.append(SalvageRecord(source=str(Path(path).resolve()), left_out=tuple(left_out),
+                                 wall=round(time.time(), 3)).to_json())
+    write_new_file(Path(out), sealed_bytes(header, records))
+    return len(kept), left_out

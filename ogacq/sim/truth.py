@@ -96,19 +96,24 @@ def random_truth(seed: int, offsets_mm: float = 1.5, noise_mm: float = 0.001) ->
 
 
 # The effects file's schema: one table per effect of the vocabulary, its entries
-# in the effect's unit; the gauges' noise; the out-of-library lead-screw error.
+# in the effect's unit within its plausible range about nominal (the effects table,
+# ogacq/model/parameters.py: a machine beyond it is not one to simulate); the
+# gauges' noise; the out-of-library lead-screw error. The other maxima are an order
+# of magnitude beyond a real machine's (no source).
 EFFECTS_FILE = Table((
-    *(Field(e.name, MapOf(number(), keys=e.wheres, noun="entry"))
+    *(Field(e.name, MapOf(number(minimum=e.nominal - e.plausible_range,
+                                 maximum=e.nominal + e.plausible_range),
+                          keys=e.wheres, noun="entry"))
       for e in EFFECTS),
-    Field("gauges", Table((Field("noise_mm", number(minimum=0.0)),))),
+    Field("gauges", Table((Field("noise_mm", number(minimum=0.0, maximum=1.0)),))),
     Field("lead_screw", MapOf(Table((
-        Field("amplitude_mm", number(), required=True),
-        Field("pitch_mm", number(positive=True), required=True),
+        Field("amplitude_mm", number(minimum=-1.0, maximum=1.0), required=True),
+        Field("pitch_mm", number(positive=True, maximum=1000.0), required=True),
     ), build=LeadScrewError), keys=AXES, noun="axis")),
     Field("vibration", Table((
-        Field("amplitude_mm", number(minimum=0.0)),
-        Field("time_constant_s", number(positive=True)),
-        Field("frequency_hz", number(positive=True)),
+        Field("amplitude_mm", number(minimum=0.0, maximum=1.0)),
+        Field("time_constant_s", number(positive=True, maximum=60.0)),
+        Field("frequency_hz", number(positive=True, maximum=10_000.0)),
     ), build=Vibration)),
 ), noun="effect")
 

@@ -14,6 +14,7 @@ import secrets
 from dataclasses import dataclass
 from typing import Any
 
+from ogacq.errors import StorageError
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import LoadedSession, SessionWriter
 
@@ -45,8 +46,13 @@ class AuditLog:
         if self._writer is None:
             # the session as the evidence was read from it: a campaign that wrote to it
             # since (or still holds it) makes this write-back wait for a fresh look
-            self._writer = SessionWriter.append_to(self.session.path,
-                                                   self.session.size_bytes or None)
+            try:
+                self._writer = SessionWriter.append_to(self.session.path,
+                                                       self.session.size_bytes or None)
+            except StorageError as exc:  # opened before any controller: nothing was changed
+                raise StorageError(self.session.path, exc.cause,
+                                   "append the audit record, so nothing was written to the "
+                                   "controller") from None
 
     def __exit__(self, *exc: object) -> None:
         self.close()

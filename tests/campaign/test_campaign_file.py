@@ -23,7 +23,7 @@ ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
     (HEAD + CONTROLLER + gauge("y_x", "/dev/ttyUSB0"), None, "no [[gauges]] entry for"),
     (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\napproach = "sideways"\n', 37, "approach"),
     (HEAD + CONTROLLER + ALL_GAUGES + '[protocol]\nsettle_s = -1\n', 37,
-     "protocol.settle_s must be at least 0, got -1"),
+     "protocol.settle_s must be 0..3600, got -1"),
     (HEAD + CONTROLLER + ALL_GAUGES + '[stability]\ntimeout_s = nan\n', 37,
      "stability.timeout_s must be a finite number, got nan"),
     (HEAD + '[simulator]\nspeed = inf\n', 4, "simulator.speed must be a finite number"),

@@ -98,8 +98,10 @@ def test_torn_last_record_loads_with_a_warning_and_resumes(tmp_path):
     assert "torn last record" in loaded.warnings[0]
     assert f"{session}:" in loaded.warnings[0]
     refit = run_ogacq("refit", session, "--machine", path.parent / "machine.toml")
+    assert refit.returncode == 4 and "partial: " in refit.stderr  # killed: not finished
+    refit = run_ogacq("refit", session, "--machine", path.parent / "machine.toml", "--partial")
     assert refit.returncode == 0
-    assert "torn last record" in refit.stderr
+    assert "torn last record" in refit.stderr and "partial: " in refit.stdout
     final = run_ogacq("resume", session, "--json", check_json=True)
     assert final["dof"] > 0
     loaded = load_session(session)

@@ -45,9 +45,11 @@ def test_adding_to_a_database_of_another_application_is_refused_untouched(tmp_pa
         conn.execute("CREATE TABLE orders (id INTEGER)")
     before = other.read_bytes()
     session = tmp_path / "s.jsonl"
+    from ogacq.session.records import EndRecord
     from ogacq.session.store import SessionWriter
 
-    SessionWriter.create(session, {"machine": {}, "plan": None}).close()
+    with SessionWriter.create(session, {"machine": {}, "plan": None}) as writer:
+        writer.write(EndRecord(status="complete"))  # a finished one: partial is refused
     ran = ogacq_here(capsys, monkeypatch, "history", "add", session, "--history", other)
     assert ran.returncode == 3
     assert ran.stderr.strip() == (f"ogacq: error: history {other}: is not an ogacq history: it "

@@ -207,7 +207,9 @@ def test_a_session_without_readings_still_gives_a_record(tmp_path):
         "why": "nothing was identified"}
     assert record["missing"]["results"] == ("the session holds no readings: nothing was "
                                             "identified")
-    assert main(["report", str(tmp_path / "empty.jsonl"), "--out", str(tmp_path / "r")]) == 0
+    assert main(["report", str(tmp_path / "empty.jsonl"), "--out", str(tmp_path / "r")]) == 4
+    assert main(["report", str(tmp_path / "empty.jsonl"), "--out", str(tmp_path / "r"),
+                 "--partial"]) == 0  # no end record: a partial campaign, said
     text = page_text((tmp_path / "r" / "report.html").read_text(encoding="utf-8"))
     written = json.loads((tmp_path / "r" / "record.json").read_text(encoding="utf-8"))
     assert unshown(written, text) == []

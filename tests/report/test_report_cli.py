@@ -18,7 +18,8 @@ from PIL import Image
 from ogacq.cli.app import main
 from ogacq.identify.observations import averaged_deviations
 from ogacq.session.convert import session_observations
-from ogacq.session.store import load_session
+from ogacq.session.records import EndRecord, FaultRecord
+from ogacq.session.store import SessionWriter, load_session
 from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import run_ogacq
 
@@ -138,15 +139,19 @@ def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tm
     lines = calibration.read_text().splitlines()
     half = next(k for k, line in enumerate(lines) if '"y/c2/' in line)
     reason = "gauge z_y: no reply within 2.0 s"
-    stopped = _copy_records(calibration, tmp_path / "stopped.jsonl", half, "\n".join([
-        json.dumps({"type": "fault", "during": "read", "step": "y/c2/p1", "gauge": "z_y",
-                    "attempt": 3, "message": reason}),
-        json.dumps({"type": "end", "status": "stopped", "reason": reason}), ""]))
+    stopped = _copy_records(calibration, tmp_path / "stopped.jsonl", half)
+    with SessionWriter.append_to(stopped) as writer:  # sealed as a campaign writes them
+        writer.write(FaultRecord(during="read", step="y/c2/p1", gauge="z_y", attempt=3,
+                                 error="DeviceTimeout", message=reason))
+        writer.write(EndRecord(status="stopped", reason=reason))
     torn = _copy_records(calibration, tmp_path / "torn.jsonl", half,
                          lines[half][: len(lines[half]) // 2])
 
-    assert _report(stopped, "--out", tmp_path / "stopped") == 0
-    capsys.readouterr()
+    assert _report(stopped, "--out", tmp_path / "stopped") == 4  # not finished
+    assert "partial: " in capsys.readouterr().err
+    assert _report(stopped, "--out", tmp_path / "stopped", "--partial") == 0
+    assert f"partial: {len(load_session(stopped).readings)} of 72 planned readings" in \
+        capsys.readouterr().err
     text = _text((tmp_path / "stopped" / "report.html").read_text(encoding="utf-8"))
     n = len(load_session(stopped).readings)
     assert "campaign stopped" in text
@@ -157,7 +162,7 @@ def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tm
     consistent.write_text(json.dumps({"noise_mm": 0.0006, "effects": [],
                                       "base": {"rms_mm": 0.0006, "consistent": True},
                                       "final": {"rms_mm": 0.0006, "consistent": True}}))
-    assert _report(torn, "--diagnosis", consistent) == 0  # default folder: by the session
+    assert _report(torn, "--diagnosis", consistent, "--partial") == 0  # default folder
     assert capsys.readouterr().out.strip() == str(tmp_path / "torn-report" / "report.html")
     text = _text((tmp_path / "torn-report" / "report.html").read_text(encoding="utf-8"))
     assert "campaign incomplete" in text and "did not finish (no end record)" in text

@@ -100,7 +100,8 @@ def test_text_from_the_session_is_escaped(session_path, tmp_path):
     header["machine_file"] = "shop & <floor>.toml"
     path = tmp_path / "odd.jsonl"
     path.write_text(json.dumps(header) + "\n" + "".join(lines[1:]))
-    html = render_page(collect(load_session(path)), (), build_record(load_session(path)))
+    edited = load_session(path, accept_edited=True)  # edited by hand: accepted as it stands
+    html = render_page(collect(edited), (), build_record(edited))
     assert "<img src=x" not in html
     assert "&lt;img src=x onerror=alert(1)&gt;" in html
     assert "shop &amp; &lt;floor&gt;.toml" in html

@@ -12,8 +12,14 @@ import numpy as np
 import pytest
 
 from ogacq.io.errors import InputError
-from ogacq.session.records import EndRecord, ReadingRecord
-from ogacq.session.store import SessionWriter, load_session, salvage_session, scan_session
+from ogacq.session.records import EndRecord, ReadingRecord, SalvageRecord
+from ogacq.session.store import (
+    SessionEdited,
+    SessionWriter,
+    load_session,
+    salvage_session,
+    scan_session,
+)
 from tests.cli.helpers import run_ogacq
 
 
@@ -96,15 +102,19 @@ def test_a_changed_digit_is_named_and_salvage_keeps_the_rest(tmp_path):
     lines = path.read_text().splitlines(keepends=True)
     lines[3] = lines[3].replace('"reading_mm":5.002', '"reading_mm":5.092')
     path.write_text("".join(lines))
-    with pytest.raises(InputError, match=r"s.jsonl:4: corrupt record: fails its checksum"):
+    with pytest.raises(SessionEdited, match=r"s.jsonl:4: fails its checksum: changed after it "
+                                            "was written: the session was edited"):
         load_session(path)
     check = run_ogacq("session", "check", path)
     assert check.returncode == 2 and "s.jsonl:4: fails its checksum" in check.stdout
+    assert "s.jsonl:5" not in check.stdout  # the chain break after it is the same edit
     saved = run_ogacq("session", "salvage", path, tmp_path / "saved.jsonl")
     assert saved.returncode == 0, saved.stderr
     assert "8 records written" in saved.stdout and "left out" in saved.stdout
     assert values(tmp_path / "saved.jsonl") == [5.0 + 0.001 * k for k in range(8) if k != 2]
     assert run_ogacq("session", "check", tmp_path / "saved.jsonl").returncode == 0
+    (salvage,) = load_session(tmp_path / "saved.jsonl").of_type(SalvageRecord)
+    assert salvage.left_out[0][0] == 4 and "checksum" in salvage.left_out[0][1]
 
 
 def test_a_duplicated_line_is_dropped_once_with_a_warning(tmp_path):
@@ -151,7 +161,7 @@ def test_fault_matrix_truncations_and_byte_flips(tmp_path):
         path.write_bytes(data)
         try:
             got = values(path)
-        except InputError as exc:
+        except (InputError, SessionEdited) as exc:
             assert str(exc).startswith(str(path)), exc
             counts["refused"] += 1
             continue

@@ -19,6 +19,7 @@ from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import BACKENDS
 from ogacq_drivers.indicators.backend import load
 from ogacq.campaign_file import ControllerSpec, GaugeSpec
+from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
 from ogacq.model.parameters import AXES
@@ -122,7 +123,7 @@ def show_ports(screen: Screen, ports: Sequence[DetectedPort]) -> None:
     table.add_column("port")
     table.add_column("description")
     for number, port in enumerate(ports, 1):
-        table.add_row(str(number), port.device, port.description)
+        table.add_row(str(number), shown(port.device), shown(port.description))
     screen.say(table)
     screen.note("Pseudo-terminals and network ports are not listed by the system: "
                 "type them in full.")
@@ -168,7 +169,7 @@ def choose_controller(screen: Screen, ports: Sequence[DetectedPort],
             default=suggested.device if suggested else None)
         spec = ControllerSpec(profile, port, _ask_baudrate(screen, profile, port))
         while True:
-            screen.say(f"Checking the controller on {port} …")
+            screen.say(f"Checking the controller on {shown(port)} …")
             try:
                 screen.ok(f"controller answers: {check_controller(spec)}")
                 return spec

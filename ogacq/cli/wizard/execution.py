@@ -21,6 +21,7 @@ from ogacq.campaign_file import (
     SimulatorSpec,
     campaign_text,
 )
+from ogacq.io.atomic import write_atomically
 from ogacq.protocol.runner import GaugeSetter, Observer
 from ogacq.session.store import LoadedSession
 from ogacq.station import simulator_endpoints, start_simulator
@@ -111,7 +112,7 @@ def rehearsal_controller_file(campaign: Campaign, rehearsal: Rehearsal) -> Path:
     path = campaign.path.with_name("rehearsal-controller.toml")
     live = Campaign(path, campaign.machine, campaign.machine_path, campaign.session,
                     campaign.protocol, rehearsal.controller, list(rehearsal.gauges))
-    path.write_text(campaign_file_text(
+    write_atomically(path, campaign_file_text(
         live, set(), None, "the rehearsal simulator's endpoints: valid only while the "
-                           "wizard that started it runs"))
+                           "wizard that started it runs").encode("utf-8"))
     return path

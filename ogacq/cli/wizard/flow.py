@@ -17,8 +17,6 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from rich.markup import escape
-
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
@@ -32,6 +30,7 @@ from ogacq.campaign_file import (
 )
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import DEFAULT_SEED
+from ogacq.cli.plain import shown
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
     StationChoice,
@@ -59,6 +58,7 @@ from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
+from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.machine import (
@@ -163,7 +163,7 @@ class _Wizard:
             writable = show_result(self.screen, outcome)
             # the session is closed and safe: a history that fails only warns
             record_campaign(outcome.session_path, self.options.history,
-                            say=lambda text: self.screen.say(escape(text)))
+                            say=lambda text: self.screen.say(shown(text)))
             controller_file = None
             if self.rehearsal is not None and self.campaign is not None:
                 controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
@@ -173,7 +173,7 @@ class _Wizard:
                                 history=self.options.history)
             except (KeyboardInterrupt, OperatorQuit):
                 self.screen.say(f"\nNot written. Later: ogacq offsets write "
-                                f"{outcome.session_path}")
+                                f"{shown(outcome.session_path)}")
             self.screen.say("[bold green]Calibration campaign complete.[/]")
             return EXIT_DONE
 
@@ -228,7 +228,7 @@ class _Wizard:
         s.say(f"Plan: legs {', '.join(protocol.legs)}; on each, {postures}, "
               f"{times(protocol.cycles)}: {readings} readings, "
               f"{_how_read(campaign, self.by_eye)}.")
-        s.say(f"Everything is saved as it is measured, in {folder}/.")
+        s.say(f"Everything is saved as it is measured, in {shown(folder)}/.")
         if not pausable(s, "before measuring",
                         lambda: s.confirm("Start? The machine homes, then goes to the Zero "
                                           "posture of the first leg")):
@@ -256,7 +256,7 @@ class _Wizard:
                             session.path, protocol)
         s = self.screen
         s.say("[bold]ogacq wizard[/]: continuing a campaign.")
-        s.say(f"{session.path}: {len(session.readings)} readings recorded.")
+        s.say(f"{shown(session.path)}: {len(session.readings)} readings recorded.")
         if session.finished:
             return CampaignOutcome(session.path, identify_session(session), None)
         check_writable(session.path, resuming=True)  # before the operator checks anything
@@ -347,7 +347,7 @@ class _Wizard:
                 except InputError as exc:
                     s.problem(str(exc))
                     continue
-            s.say(f"Machine file {path}:")
+            s.say(f"Machine file {shown(path)}:")
             s.say(f"  legs {machine.leg_length_mm:g} mm; joints from {machine.rho_min_mm:+g} "
                   f"to {machine.rho_max_mm:+g} mm; gauge resolution "
                   f"{machine.gauge_resolution_mm:g} mm"
@@ -558,7 +558,8 @@ class _Wizard:
         return observe
 
     def _write_campaign_file(self, campaign: Campaign) -> None:
-        campaign.path.write_text(campaign_file_text(campaign, self.by_eye, self.rehearsal))
+        write_atomically(campaign.path, campaign_file_text(campaign, self.by_eye, self.rehearsal)
+                         .encode("utf-8"))
         self.resumable_by_ogacq = True  # the schema reads back what it wrote
 
     def _after_stop(self, stop: CampaignStopped) -> None:
@@ -566,7 +567,7 @@ class _Wizard:
         s = self.screen
         assert self.session_path is not None
         if stop.status == "interrupted":
-            s.say(f"[bold yellow]Stopped at once[/] ({stop.reason}). The axes were stopped; "
+            s.say(f"[bold yellow]Stopped at once[/] ({shown(stop.reason)}). The axes were stopped; "
                   "every reading so far is saved.")
             if s.choose("Resume or quit?", [Option("r", "resume where it stopped"),
                                              Option("q", "quit (the session stays resumable)")],
@@ -578,7 +579,7 @@ class _Wizard:
             gauge = fault.gauge
             s.problem(f"Gauge {describe_gauge(gauge)} stopped answering "
                       f"({self._describe_step(fault.step or '')}):")
-            s.say(f"     {fault.message or stop.reason}")
+            s.say(f"     {shown(fault.message or stop.reason)}")
             s.say("     Check its cable, that it is switched on, and its battery.")
             self._gauge_menu(gauge)
             return
@@ -621,15 +622,16 @@ class _Wizard:
         s.stop_live()
         path = self.session_path
         if path is None or not path.exists():
-            s.say(f"\nStopped. Nothing was measured. Start again with: {self._start_again()}")
+            s.say(f"\nStopped. Nothing was measured. Start again with: "
+                  f"{shown(self._start_again())}")
             return
         session = load_session(path)
         s.say(f"\nStopped after {len(session.readings)} readings. The session is saved: "
-              f"{path}")
+              f"{shown(path)}")
         s.say("Continue it later with:")
         if not self.by_eye and self.resumable_by_ogacq:
-            s.say(f"  ogacq resume {path}            (unattended)")
-        s.say(f"  ogacq wizard --resume {path}   (guided)")
+            s.say(f"  ogacq resume {shown(path)}            (unattended)")
+        s.say(f"  ogacq wizard --resume {shown(path)}   (guided)")
 
 
     def _start_again(self) -> str:

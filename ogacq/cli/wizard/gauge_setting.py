@@ -19,6 +19,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ogacq_drivers.errors import DriverError
+from ogacq.cli.plain import shown
 from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
 from ogacq.cli.wizard.expected import ReadingExpectations, travel_needed_mm
 from ogacq.cli.wizard.guided_station import GuidedStation
@@ -87,7 +88,7 @@ class LegSetter:
         s.say(f"The machine is at the Zero posture of the {step.leg} leg. "
               "Leave it there while you set the gauges.")
         for line in leg_instructions(step.leg) + self._moved_here(step):
-            s.say(f"  • {line}")
+            s.say(f"  • {shown(line)}")
         s.say()
         s.say(Text(leg_drawing(step.leg, s.out.width)))
         s.say()
@@ -207,7 +208,7 @@ class LegSetter:
         for gauge in gauges:
             value, error = latest[gauge]
             if value is None:
-                table.add_row(gauge, "[red]---[/]", "", f"[red]{error}[/]")
+                table.add_row(gauge, "[red]---[/]", "", f"[red]{shown(error)}[/]")
                 continue
             need = self.travel_mm(gauge)
             fine = need <= value <= self.gauge_range_mm - need

@@ -17,6 +17,7 @@ from pathlib import Path
 from types import FrameType
 from typing import TypeVar
 
+from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen
 from ogacq.protocol.runner import CampaignStopped
 
@@ -87,10 +88,10 @@ def pause_menu(screen: Screen, where: str, session: Path | None = None) -> None:
     """Return to resume; raise :class:`OperatorQuit` to quit. Ctrl-C here quits."""
     screen.stop_live()
     screen.say()
-    screen.say(f"[bold yellow]Paused[/] {where}.")
+    screen.say(f"[bold yellow]Paused[/] {shown(where)}.")
     if session is not None:
         screen.say("The axes hold their position; every reading so far is saved in "
-                   f"{session}.")
+                   f"{shown(session)}.")
     try:
         choice = screen.choose("Resume or quit?", [
             Option("r", "resume"),

@@ -9,6 +9,7 @@ import numpy as np
 from rich.table import Table
 
 from ogacq.campaign import CampaignOutcome
+from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
 from ogacq.report.formatting import um
@@ -42,7 +43,7 @@ def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
         writable = False
         screen.problem("not identifiable: do not write these offsets")
         for reason in ident.reasons:
-            screen.say(f"     {reason}")
+            screen.say(f"     {shown(reason)}")
     verdict = fit_verdict(fit)
     if verdict.consistent:
         screen.ok(f"fit {verdict.describe()}")
@@ -51,8 +52,9 @@ def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
         screen.problem(f"fit {verdict.describe()}")
         if verdict.state == "inconsistent":
             screen.say("     something the model leaves out (a loose stand, play, a bent "
-                       f"leg). Look before writing: ogacq diagnose {outcome.session_path}")
-    screen.say(f"Session: {outcome.session_path}")
+                       f"leg). Look before writing: ogacq diagnose "
+                       f"{shown(outcome.session_path)}")
+    screen.say(f"Session: {shown(outcome.session_path)}")
     return writable
 
 
@@ -87,10 +89,10 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
     typed = "ogacq " + " ".join(command)
     if not writable:
         screen.say(f"When the cause is fixed and a new campaign is consistent, write the "
-                   f"offsets with: {typed}")
+                   f"offsets with: {shown(typed)}")
         return
     if not _writeback_command_exists():
-        screen.say(f"To write these offsets to the controller, run:\n  [bold]{typed}[/]")
+        screen.say(f"To write these offsets to the controller, run:\n  [bold]{shown(typed)}[/]")
         return
     if not screen.confirm("Write these offsets to the controller now? (the old and new "
                           "values are shown before anything is written)", default=False):
@@ -98,7 +100,7 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
             screen.say("Not written (rehearsal: the simulated controller stops with the "
                        "wizard). On the machine: [bold]ogacq offsets write SESSION[/]")
         else:
-            screen.say(f"Not written. Later: [bold]{typed}[/]")
+            screen.say(f"Not written. Later: [bold]{shown(typed)}[/]")
         return
     from ogacq.cli.app import main
 

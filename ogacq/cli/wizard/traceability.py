@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ogacq.cli.plain import shown
 from ogacq.cli.wizard.inventory import Inventory, KnownGauge
 from ogacq.cli.wizard.pause import OperatorQuit
 from ogacq.cli.wizard.ui import Option, Screen
@@ -151,7 +152,7 @@ class TraceabilityQuestions:
         if known is not None:
             s.ok(f"{serial}: {known.summary()}")
             return known.identity()
-        s.say(f"{serial} is new: its make, model and calibration certificate "
+        s.say(f"{shown(serial)} is new: its make, model and calibration certificate "
               "(Enter: not recorded).")
         gauge = self._new_gauge(serial)
         self.inventory.remember(gauge)
@@ -210,7 +211,7 @@ class TraceabilityQuestions:
         if known is not None and (known.due is None or known.due >= on):
             s.ok(f"{serial}: {known.summary()}")
             return known.identity()
-        s.say(f"{serial}: its calibration certificate.")
+        s.say(f"{shown(serial)}: its calibration certificate.")
         gauge = self._new_gauge(serial)
         self.inventory.remember(gauge)
         return gauge.identity()

@@ -17,14 +17,15 @@ from dataclasses import dataclass
 from typing import Any, Protocol, TypeVar
 
 from rich.console import Console, RenderableType
-from rich.markup import escape
 
+from ogacq.cli.plain import console as new_console
+from ogacq.cli.plain import shown
 from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
 from ogacq.errors import InputError
 
 T = TypeVar("T")
 
-console = Console(highlight=False)
+console = new_console(highlight=False)
 
 
 class InputClosed(InputError):
@@ -76,23 +77,25 @@ class Screen:
     def say(self, text: RenderableType = "", **kwargs: Any) -> None:
         self.out.print(text, **kwargs)
 
+    # ok, problem and note print text as it is (a port's description, a serial, a
+    # device's message): never markup; say() takes markup, its callers escape data
     def ok(self, text: str) -> None:
-        self.out.print(f"[green]OK[/]  {text}")
+        self.out.print(f"[green]OK[/]  {shown(text)}")
 
     def problem(self, text: str) -> None:
-        self.out.print(f"[bold red]!![/]  {text}")
+        self.out.print(f"[bold red]!![/]  {shown(text)}")
 
     def note(self, text: str) -> None:
-        self.out.print(f"[dim]{text}[/]")
+        self.out.print(f"[dim]{shown(text)}[/]")
 
     # ---------------------------------------------------------------- questions
     def ask(self, question: str, default: str | None = None) -> str:
         """One line of text; the default when the answer is empty."""
         self.stop_live()
-        shown = f" [cyan]\\[{default}][/]" if default not in (None, "") else ""
+        offered = f" [cyan]\\[{shown(default)}][/]" if default not in (None, "") else ""
         end = " " if question.endswith("?") else ": "
         try:
-            answer = self.out.input(f"{question}{shown}{end}").strip()
+            answer = self.out.input(f"{shown(question)}{offered}{end}").strip()
         except EOFError:
             raise InputClosed("the terminal closed") from None
         return answer if answer or default is None else default
@@ -112,7 +115,7 @@ class Screen:
         """One of the options' keys, typed (case does not matter)."""
         keys = {o.key.lower(): o.key for o in options}
         for option in options:
-            self.out.print(f"  [bold cyan]{option.key}[/]  {option.label}")
+            self.out.print(f"  [bold cyan]{shown(option.key)}[/]  {shown(option.label)}")
         while True:
             answer = self.ask(question or "Your choice", default).lower()
             if answer in keys:
@@ -145,7 +148,7 @@ class _ScreenLines:
 
     def write(self, text: str) -> None:
         for line in filter(None, text.splitlines()):
-            self.screen.note(escape(line))
+            self.screen.note(line)
 
     def flush(self) -> None:
         pass

@@ -1,0 +1,42 @@
+"""Recorded text on the terminal as it is: data, never markup, never a control sequence.
+
+Whatever a session, a history, a file or a device gives (a machine's name, an
+operator, a path, a gauge's reply, a stop's reason) goes through :func:`shown`
+before it meets rich's markup (``[/3]`` in a name is text, not a closing tag) and
+through :func:`plain` before any other output (an escape sequence in a name does
+not move the cursor, clear the screen or retitle the terminal). Every rich console
+is made by :func:`console`, which leaves emoji codes such as ``:x:`` as typed.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:  # rich only where something is drawn: app.py's error line needs none
+    from rich.console import Console
+
+# C0 controls but tab and newline, DEL and the C1 controls (ECMA-48 5.2: the
+# introducers of the terminal's escape sequences, ESC and CSI among them)
+_CONTROL = re.compile(r"[\x00-\x08\x0b-\x1f\x7f-\x9f]")
+
+
+def plain(value: Any) -> str:
+    """``value`` as text, its control characters shown as escapes (``\\x1b``)."""
+    return _CONTROL.sub(lambda m: f"\\x{ord(m.group()):02x}", str(value))
+
+
+def shown(value: Any) -> str:
+    """``value`` for a rich markup string or a table cell: controls shown, brackets
+    escaped (rich.markup.escape), so it prints as it was recorded."""
+    from rich.markup import escape
+
+    return escape(plain(value))
+
+
+def console(**options: Any) -> Console:
+    """A rich console that prints emoji codes as typed (``:x:`` in an operator's name
+    stays three characters)."""
+    from rich.console import Console
+
+    return Console(emoji=False, **options)

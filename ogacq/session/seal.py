@@ -1,0 +1,278 @@
+"""The seal on every line of a session, and the check of every seal on reading.
+
+A record written by this version ends with three keys the store adds:
+
+* ``seq``: its place in the file, the header 0;
+* ``prev`` (not on the header): the CRC-32 of the line before it, as written;
+* ``crc``: the CRC-32 of its own line without this key (compact JSON).
+
+and the header says so: ``"integrity": "crc32-chain/1"``. A record changed after
+it was written fails its ``crc``; one whose ``crc`` (or ``seq``, or ``prev``) was
+deleted is missing what every record of a sealed session has; a record removed,
+inserted or moved breaks the ``seq`` and the ``prev`` of the one after it. So an
+edit is found whichever keys it touched, unless whoever made it recomputed every
+checksum after it: CRC-32 finds a disk's and an editor's changes, it is not a
+signature.
+
+Older sessions are told by their header: one with a ``crc`` but no
+``integrity`` was written with per-record checksums (no chain): every record
+must still carry its ``seq`` and ``crc``; one with neither was written before
+the checksums, and says so (:class:`Integrity`). A record with a chain checksum
+under a header that has lost its seal means the header was edited.
+
+Each problem is one of three kinds: a line that cannot be read (not JSON, not a
+record of its type: ``problems``), a readable record that is not as it was
+written (``changed``: ``ogacq session salvage`` leaves it out), or a record as
+written that is not where it was written (out of sequence, out of the chain).
+The last two together are ``edited``: an analysis refuses them unless the user
+accepts the session as it stands.
+"""
+
+from __future__ import annotations
+
+import json
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ogacq.io.errors import InputError
+from ogacq.io.text import strip_bom
+from ogacq.session.records import record_from_json
+
+# The header's ``integrity``: the seal this version writes, and those it checks.
+SEAL = "crc32-chain/1"
+SEALS = (SEAL,)
+
+SEALED = "sealed"  # every record with seq, prev and crc, chained
+CHECKSUMMED = "checksummed"  # every record with seq and crc (before the chain)
+UNCHECKED = "unchecked"  # written before the checksums
+
+_STORE_KEYS = ("seq", "prev", "crc")
+
+
+def line_crc(line: bytes) -> str:
+    """The chain checksum of a line as written (without its line end)."""
+    crc = zlib.crc32(line.rstrip(b"\r\n"))
+    return f"{crc:08x}"
+
+
+def seal_line(record: dict[str, Any], seq: int, prev: str | None) -> bytes:
+    """``record`` as one line with its ``seq``, its ``prev`` (None: the header, or a
+    record appended to a session written before the chain) and its ``crc`` last."""
+    fields = {k: v for k, v in record.items() if k not in _STORE_KEYS}
+    fields["seq"] = seq
+    if prev is not None:
+        fields["prev"] = prev
+    body = json.dumps(fields, separators=(",", ":"))
+    crc = zlib.crc32(body.encode("utf-8"))
+    return f'{body[:-1]},"crc":"{crc:08x}"}}\n'.encode()
+
+
+@dataclass(frozen=True)
+class Integrity:
+    """How far a loaded session can vouch for itself: its header's format, and the
+    records found edited that the user accepted (``--accept-edited``)."""
+
+    mode: str = SEALED
+    edited: tuple[tuple[int, str], ...] = ()
+
+    def notes(self) -> list[str]:
+        """What every output of an analysis says about it (nothing for a sealed,
+        untouched session)."""
+        out = []
+        if self.edited:
+            line, problem = self.edited[0]
+            more = f", and {len(self.edited) - 1} more" if len(self.edited) > 1 else ""
+            out.append(f"edited: line {line} {problem}{more}; taken as it stands")
+        if self.mode == UNCHECKED:
+            out.append("unchecked: a session written before ogacq checksummed its records "
+                       "(an edit to it cannot be found)")
+        elif self.mode == CHECKSUMMED:
+            out.append("older session format: each record checksummed, not chained (a record "
+                       "removed at the end cannot be found)")
+        return out
+
+    def to_json(self) -> dict[str, Any]:
+        return {"integrity": self.mode,
+                "edited": [{"line": line, "problem": problem} for line, problem in self.edited]}
+
+
+@dataclass(frozen=True)
+class Scan:
+    """Every line of a session file judged (see the module's docstring)."""
+
+    mode: str
+    records: list[tuple[int, dict[str, Any]]]  # every readable record, store keys taken off
+    problems: list[tuple[int, str]]  # lines that cannot be read
+    edited: list[tuple[int, str]]  # readable, but not as or where written
+    changed: frozenset[int]  # lines of ``edited`` whose own content is not as written
+    warnings: list[str]
+    size_bytes: int
+    header_seal: str | None = None  # the header's ``integrity``, when it has one
+
+    @property
+    def untouched(self) -> list[tuple[int, dict[str, Any]]]:
+        """The records as they were written (what salvage keeps)."""
+        return [(n, r) for n, r in self.records if n not in self.changed]
+
+
+@dataclass
+class _Line:
+    """One decoded line: the record, and what its own seal says."""
+
+    record: dict[str, Any]
+    crc: str  # "ok", "missing", "wrong"
+    seq: Any
+    prev: Any
+
+
+def _decode(line: bytes) -> tuple[_Line | None, str | None]:
+    """(the line decoded, None), or (None, why it cannot be read)."""
+    try:
+        record = json.loads(line)
+    except ValueError:
+        return None, "not valid JSON"
+    if not isinstance(record, dict):
+        return None, "not a session record"
+    crc = record.pop("crc", None)
+    if crc is None:
+        state = "missing"
+    else:
+        body = json.dumps(record, separators=(",", ":")).encode("utf-8")
+        state = "ok" if crc == f"{zlib.crc32(body):08x}" else "wrong"
+    seq, prev = record.pop("seq", None), record.pop("prev", None)
+    if record.get("type") != "session":
+        try:
+            record_from_json(record)
+        except ValueError as exc:
+            return None, str(exc)
+    return _Line(record, state, seq, prev), None
+
+
+def parses(line: bytes) -> bool:
+    """Whether a line is a whole record (a newline-less last line may be one)."""
+    decoded, _ = _decode(line)
+    return decoded is not None and decoded.crc != "wrong"
+
+
+def _mode(first: _Line | None) -> tuple[str, str | None]:
+    if first is None or first.record.get("type") != "session":
+        return UNCHECKED, None
+    seal = first.record.get("integrity")
+    if seal is not None:
+        return SEALED, seal
+    return (CHECKSUMMED if first.crc != "missing" or first.seq is not None else UNCHECKED), None
+
+
+def scan_session(path: str | Path) -> Scan:
+    path = Path(path)
+    try:
+        raw = strip_bom(path.read_bytes())  # a session saved from an editor
+    except OSError as exc:
+        raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
+    return _Scanner(path, raw).scan()
+
+
+class _Scanner:
+    def __init__(self, path: Path, raw: bytes) -> None:
+        self.path = path
+        self.raw = raw
+        self.lines = raw.split(b"\n")
+        self.records: list[tuple[int, dict[str, Any]]] = []
+        self.problems: list[tuple[int, str]] = []
+        self.edited: list[tuple[int, str]] = []
+        self.changed: set[int] = set()
+        self.warnings: list[str] = []
+
+    def scan(self) -> Scan:
+        last = max((k for k, line in enumerate(self.lines, 1) if line.strip()), default=0)
+        first, _ = _decode(self.lines[0]) if self.lines and self.lines[0].strip() else (None, None)
+        mode, seal = _mode(first)
+        if seal is not None and seal not in SEALS:
+            self.problems.append((1, f"sealed as {seal!r}, which this ogacq does not know "
+                                     "(written by a newer one): update ogacq"))
+        seen: dict[int, tuple[int, dict[str, Any]]] = {}
+        expected: int | None = 0  # unchecked: None after a record without a number
+        previous: tuple[int, bytes, bool] | None = None  # (line, bytes, as written)
+        for number, line in enumerate(self.lines, 1):
+            if not line.strip():
+                continue
+            decoded, problem = _decode(line)
+            if decoded is None:
+                if number == last and not self.raw.endswith(b"\n"):
+                    # cut by a crash mid-write (a line goes out whole, its newline last):
+                    # dropped, the rest stands
+                    self.warnings.append(
+                        f"{self.path}:{number}: dropped a torn last record ({len(line)} "
+                        f"bytes: {line[:60].decode(errors='replace')!r})")
+                else:
+                    assert problem is not None
+                    self.problems.append((number, problem))
+                    previous = (number, line, False)
+                continue
+            record, seq = decoded.record, decoded.seq
+            if isinstance(seq, int) and not isinstance(seq, bool) and seq in seen:
+                first_line, earlier = seen[seq]
+                if earlier == record:
+                    self.warnings.append(f"{self.path}:{number}: dropped a copy of line "
+                                         f"{first_line}")
+                    continue  # the chain goes on from the original
+            own = self._own_seal(number, decoded, mode)
+            if own:
+                self.changed.add(number)
+                self.edited.append((number, own))
+            else:
+                where = self._placement(number, decoded, mode, seen, expected, previous)
+                if where:
+                    self.edited.append((number, where))
+            if isinstance(seq, int) and not isinstance(seq, bool):
+                seen.setdefault(seq, (number, record))
+                expected = seq + 1
+            elif mode == UNCHECKED:
+                expected = None
+            previous = (number, line, not own)
+            self.records.append((number, record))
+        return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
+                    self.warnings, len(self.raw), seal)
+
+    @staticmethod
+    def _own_seal(number: int, line: _Line, mode: str) -> str | None:
+        """What is wrong with the line's own seal, or None."""
+        if line.crc == "wrong":
+            return "fails its checksum: changed after it was written"
+        if mode == UNCHECKED:
+            if line.prev is not None and number > 1:
+                return ("carries a chain checksum under a header without a seal: the header "
+                        "was edited")
+            return None
+        if line.crc == "missing":
+            return "has no checksum (crc): every record of this session had one"
+        if not isinstance(line.seq, int) or isinstance(line.seq, bool):
+            return "has no sequence number (seq): every record of this session had one"
+        if mode == SEALED and number > 1 and line.prev is None:
+            return "has no chain checksum (prev): every record of this session had one"
+        if mode == CHECKSUMMED and line.prev is not None:
+            return ("carries a chain checksum under a header without a seal: the header "
+                    "was edited")
+        return None
+
+    @staticmethod
+    def _placement(number: int, line: _Line, mode: str,
+                   seen: dict[int, tuple[int, dict[str, Any]]], expected: int | None,
+                   previous: tuple[int, bytes, bool] | None) -> str | None:
+        """Whether a record as written is where it was written, or what says not."""
+        seq = line.seq
+        if isinstance(seq, int) and not isinstance(seq, bool):
+            if seq in seen:
+                return f"sequence number {seq} repeats line {seen[seq][0]} with other content"
+            if expected is not None and seq != expected:
+                return (f"out of sequence: record {seq} where {expected} was due (records "
+                        "removed, inserted or moved)")
+        if mode == SEALED and previous is not None and line.prev is not None:
+            at, before, intact = previous
+            # a line after one already found changed: that one says it
+            if intact and line.prev != line_crc(before):
+                return (f"does not follow line {at} as written: a record before it was "
+                        "removed, inserted or changed")
+        return None
