@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ogacq.campaign_file import Campaign, read_campaign
 from ogacq.identify.fit import FitResult, evaluate, fit
@@ -31,6 +31,9 @@ from ogacq.session.records import (
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation, open_station
 from ogacq.traceability import check_instruments, header_entries, read_environment
+
+if TYPE_CHECKING:
+    from ogacq.sim.stack import SimulatorStack
 
 # Adapts the station for one run (the wizard's pauses and gauges read by eye): gets the
 # station the campaign runs on, the device station it opened and the session writer.
@@ -73,7 +76,8 @@ def recorded_identification(session: LoadedSession) -> FitResult:
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                  set_gauges: GaugeSetter | None = None,
-                 resume: LoadedSession | None = None, simulator=None,
+                 resume: LoadedSession | None = None,
+                 simulator: SimulatorStack | None = None,
                  wrap_station: StationAdapter | None = None,
                  header_extra: dict[str, Any] | None = None,
                  environment_at_end: EnvironmentAsker | None = None) -> CampaignOutcome:
@@ -147,8 +151,9 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     return CampaignOutcome(writer.path, result, hidden, station.simulator is not None)
 
 
-def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, str]],
-                        then: GaugeSetter | None) -> GaugeSetter:
+def _simulated_operator(simulator: SimulatorStack, campaign: Campaign,
+                        recorded: set[tuple[str, str]], then: GaugeSetter | None,
+                        ) -> GaugeSetter:
     """With the simulator's two indicators moved leg to leg, its operator moves them
     when the plan says so (before whoever else is told); a resumed campaign finds
     them on the leg it stopped at."""

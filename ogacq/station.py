@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, probe_move
-from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.axes.profile import Profile, load_profile
 from ogacq_drivers.axes.reconnect import ReconnectPolicy, reconnect
 from ogacq_drivers.axes.reference import Path as AxisPath
 from ogacq_drivers.axes.reference import assess_reference
@@ -255,7 +255,8 @@ def is_modbus_tcp(where: str) -> bool:
     return bool(sep) and port.isdigit() and not where.startswith("/")
 
 
-def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None) -> ModbusLink:
+def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,
+                     ) -> ModbusLink:
     """A link to ``endpoint`` (host:port for TCP, else a serial device), the shared
     ``spec.port`` when not given."""
     where = spec.port if endpoint is None else endpoint

@@ -38,6 +38,7 @@ from ogacq.identify.fit import FitResult, Weighting
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import DEVIATION_NAME, Observations
 from ogacq.model.kinematics import nominal_tcp
+from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
 
@@ -155,8 +156,9 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
     dof = len(obs) - obs.n_nuisance - rank
     notes = list(_noise_notes(noise))
 
-    def verdict(state, test="none", statistic=math.nan, test_dof=dof, noise_dof=None,
-                overall=1.0, cell=None) -> Verdict:
+    def verdict(state: str | None, test: str = "none", statistic: float = math.nan,
+                test_dof: int = dof, noise_dof: float | None = None, overall: float = 1.0,
+                cell: CellTest | None = None) -> Verdict:
         combined = overall if cell is None else min(1.0, 2.0 * min(overall, cell.p_value))
         if state is None:
             state = "consistent" if combined >= level else "inconsistent"
@@ -322,7 +324,7 @@ def _group_cells(obs: Observations, group: np.ndarray, n_groups: int) -> np.ndar
                      f"{posture_name(along[i], obs.machine)}" for i in first])
 
 
-def posture_name(position_mm: float, machine) -> str:
+def posture_name(position_mm: float, machine: MachineSpec) -> str:
     for name, value in (("zero", 0.0), ("max", machine.rho_max_mm),
                         ("min", machine.rho_min_mm)):
         if abs(position_mm - value) < 1e-6:

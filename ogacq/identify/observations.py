@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
@@ -125,11 +126,12 @@ class Observations:
         return x - means @ onehot.T
 
 
-def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values,
+def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values: ArrayLike,
                           source: str = "") -> Observations:
     names = layout.gauge_names()
     labels = [f"{names[g]}@{k + 1}" for k, g in enumerate(layout.gauge.tolist())]
-    return Observations(machine, layout, values, labels, None, source, "readings")
+    return Observations(machine, layout, np.asarray(values, dtype=float), labels, None, source,
+                        "readings")
 
 
 def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],

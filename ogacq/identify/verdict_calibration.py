@@ -22,7 +22,7 @@ from scipy import stats
 
 from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
-from ogacq.identify.observations import readings_observations
+from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, MachineSpec
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import PARAM_SETS, vector
@@ -94,7 +94,7 @@ def grid(displays: Iterable[float] = DISPLAYS_MM, noises: Iterable[float] = NOIS
 
 
 def simulated_observations(cell: Cell, seed: int, effects: Mapping[str, float] | None = None,
-                           lay: ReadingsLayout | None = None):
+                           lay: ReadingsLayout | None = None) -> Observations:
     machine = cell.machine()
     lay = lay if lay is not None else cell.layout()
     rng = np.random.default_rng(seed)

@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 import matplotlib
 import numpy as np
 from matplotlib.artist import Artist
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
@@ -55,7 +56,7 @@ def png_bytes(fig: Figure) -> bytes:
     return buffer.getvalue()
 
 
-def _band(ax, sigma_mm: float, scale: float, label: str | None) -> None:
+def _band(ax: Axes, sigma_mm: float, scale: float, label: str | None) -> None:
     """The +-2 sigma gauge-noise band around zero."""
     if not finite(sigma_mm) or sigma_mm <= 0:
         return
@@ -142,20 +143,20 @@ def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) 
     return fig
 
 
-def _headroom(ax) -> None:
+def _headroom(ax: Axes) -> None:
     """Room above and below the bars for their value labels."""
     low, high = ax.get_ylim()
     span = high - low
     ax.set_ylim(low - 0.08 * span if low < 0 else low, high + 0.08 * span if high > 0 else high)
 
 
-def _symmetric(ax, factor: float) -> None:
+def _symmetric(ax: Axes, factor: float) -> None:
     low, high = ax.get_ylim()
     bound = max(abs(low), abs(high)) * factor
     ax.set_ylim(-bound, bound)
 
 
-def _scatter_by_leg(ax, series: ResidualSeries, label: bool) -> None:
+def _scatter_by_leg(ax: Axes, series: ResidualSeries, label: bool) -> None:
     """Colour and marker by leg; of each leg's two gauges the first filled, the second
     hollow, so that a pattern on one gauge shows."""
     gauges = np.array(series.gauge)
@@ -170,7 +171,7 @@ def _scatter_by_leg(ax, series: ResidualSeries, label: bool) -> None:
                        linewidths=1.2, label=f"gauge {gauge} ({leg} leg)" if label else None)
 
 
-def _legend_below(fig: Figure, ax) -> None:
+def _legend_below(fig: Figure, ax: Axes) -> None:
     """The band in the first column, then one column per leg (two gauges each)."""
     handles, labels = ax.get_legend_handles_labels()
     if labels and "noise" in labels[0] and len(labels) % 2 == 1:
@@ -180,7 +181,7 @@ def _legend_below(fig: Figure, ax) -> None:
                frameon=False)
 
 
-def _leg_spans(ax, series: ResidualSeries, names: bool = True) -> None:
+def _leg_spans(ax: Axes, series: ResidualSeries, names: bool = True) -> None:
     """Where each leg's test begins and ends, in reading numbers."""
     legs = list(series.leg)
     start = 0
@@ -196,7 +197,7 @@ def _leg_spans(ax, series: ResidualSeries, names: bool = True) -> None:
             start = k
 
 
-def _residual_limits(ax, values_um: np.ndarray, sigma_mm: float) -> None:
+def _residual_limits(ax: Axes, values_um: np.ndarray, sigma_mm: float) -> None:
     bound = max(float(np.nanmax(np.abs(values_um))) if len(values_um) else 0.0,
                 3 * sigma_mm * UM_PER_MM if finite(sigma_mm) else 0.0, 1e-3)
     ax.set_ylim(-1.15 * bound, 1.15 * bound)

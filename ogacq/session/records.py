@@ -12,7 +12,7 @@ version does not know load as :class:`OtherRecord`, untouched.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar, TypeGuard
 
@@ -55,7 +55,7 @@ def _integer(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and -(2**63) <= value < 2**63
 
 
-def _triple(value: Any, check) -> bool:
+def _triple(value: Any, check: Callable[[Any], bool]) -> bool:
     return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
 
 
