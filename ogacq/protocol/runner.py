@@ -20,6 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from ogacq.compensation.applied import TargetCorrection
 from ogacq.errors import OgacqError, StorageError
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
@@ -125,7 +126,8 @@ class CampaignRunner:
     def __init__(self, station: Station, writer: SessionWriter, config: ProtocolConfig,
                  machine: MachineSpec, *, recorded: set[tuple[str, str]] | None = None,
                  observer: Observer | None = None, set_gauges: GaugeSetter | None = None,
-                 retry: RetryPolicy | None = None) -> None:
+                 retry: RetryPolicy | None = None,
+                 correction: TargetCorrection | None = None) -> None:
         self.station = station
         self.writer = writer
         self.config = config
@@ -134,6 +136,8 @@ class CampaignRunner:
         self.observer = observer or (lambda progress: None)
         self.set_gauges = set_gauges
         self.retry = retry or RetryPolicy()
+        # error maps ogacq applies itself: every target corrected, the plan's recorded
+        self.correction = correction
         self._steps = list(campaign_steps(config, machine))
         self._commanded_q: tuple[float, float, float] | None = None
         self._planned_q: tuple[float, float, float] | None = None
@@ -220,9 +224,14 @@ class CampaignRunner:
             if self._commanded_q is not None and np.allclose(move.q_mm, self._planned_q,
                                                              atol=1e-9):
                 continue  # already there (Zero -> Zero between cycles): nothing to command
+            target = move.q_mm if self.correction is None else \
+                self.correction.command(move.q_mm)
+            sent: tuple[float, float, float] | None = None
             for attempt in range(1, self.retry.move_attempts + 1):
                 try:
-                    self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+                    sent = self.station.move(target, self.config.move_timeout_s)
+                    self._commanded_q = sent if self.correction is None else \
+                        self.correction.nominal(move.q_mm, target, sent)
                     self._planned_q = move.q_mm
                     moved = True
                     break
@@ -233,7 +242,9 @@ class CampaignRunner:
                     if attempt == self.retry.move_attempts or not self.station.recover_axes():
                         raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
                                               f"{exc}") from exc
-            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose))
+            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose,
+                                         commanded_mm=None if self.correction is None
+                                         else sent))
         return moved
 
     def _read_step(self, step: Read, *, settle: bool) -> None:
