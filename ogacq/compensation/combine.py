@@ -75,10 +75,12 @@ def without(m: AxisMap, carried: Iterable[str]) -> tuple[AxisMap, tuple[str, ...
 def summed(axis: str, maps: Sequence[AxisMap], reference_mm: float) -> AxisMap:
     """The maps added on the union of their positions."""
     q = np.unique(np.concatenate([np.asarray(m.positions_mm, float) for m in maps]))
-    fwd = sum(m.error_mm(q, 1) for m in maps)
-    rev = sum(m.error_mm(q, -1) for m in maps)
-    u_f = np.sqrt(sum(np.interp(q, m.positions_mm, m.u_forward_mm) ** 2 for m in maps))
-    u_r = np.sqrt(sum(np.interp(q, m.positions_mm, m.u_reverse_mm) ** 2 for m in maps))
+    fwd = np.sum([m.error_mm(q, 1) for m in maps], axis=0)
+    rev = np.sum([m.error_mm(q, -1) for m in maps], axis=0)
+    u_f = np.sqrt(np.sum([np.interp(q, m.positions_mm, m.u_forward_mm) ** 2 for m in maps],
+                         axis=0))
+    u_r = np.sqrt(np.sum([np.interp(q, m.positions_mm, m.u_reverse_mm) ** 2 for m in maps],
+                         axis=0))
     excludes = tuple(dict.fromkeys(e for m in maps for e in m.excludes))
     return AxisMap(axis, tuple(float(v) for v in q), tuple(float(v) for v in fwd),
                    tuple(float(v) for v in rev), tuple(float(v) for v in u_f),
