@@ -48,6 +48,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.writeback", "ogacq.report"),
     # the record: the campaign, its uncertainty, its write-backs, its report data
     ("ogacq.record.document", "ogacq.record.evaluation"),
+    # calibrate's procedure: campaigns, diagnoses, write-backs and the record, in order
+    ("ogacq.calibration",),
     ("ogacq.cli", "ogacq.__main__"),
 ]
 LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entries}

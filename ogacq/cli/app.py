@@ -56,6 +56,7 @@ class OgacqCommands(LazyCommands):
         "run": "ogacq.cli.campaign_cmds:run",
         "resume": "ogacq.cli.campaign_cmds:resume",
         "demo": "ogacq.cli.demo_cmd:demo",
+        "calibrate": "ogacq.cli.calibrate_cmd:calibrate",
         "diagnose": "ogacq.cli.diagnose_cmd:diagnose_command",
         "refit": "ogacq.cli.refit_cmd:refit",
         "plan": "ogacq.cli.plan_cmd:plan",
