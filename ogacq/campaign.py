@@ -132,7 +132,9 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges,
-                                    correction=TargetCorrection(maps.maps)
+                                    correction=TargetCorrection(
+                                        maps.maps, (campaign.machine.rho_min_mm,
+                                                    campaign.machine.rho_max_mm))
                                     if maps is not None and maps.maps else None)
             runner.run()
             at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))

@@ -96,10 +96,18 @@ class Outcome:
         return {"declined": 1, "refused": 4, "restored": 4}.get(self.outcome, 0)
 
 
-def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool) -> Outcome:
-    """Run the procedure in ``setup.folder`` (``resume``: continue its log)."""
+def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
+              calibration_session: Path | None = None) -> Outcome:
+    """Run the procedure in ``setup.folder`` (``resume``: continue its log).
+    ``calibration_session``: a finished campaign of this machine, in its present
+    state, to start from (``ogacq demo`` hands over the one it ran)."""
     log_ = ProcedureLog.reopen(setup.folder) if resume else \
         ProcedureLog.create(setup.folder, setup.describe())
+    if calibration_session is not None and log_.last("campaign", role="calibration") is None:
+        if not load_session(calibration_session).finished:
+            raise InputError(calibration_session, "the campaign to start from did not finish")
+        log_.add("campaign", role="calibration", status="finished",
+                 session=str(calibration_session.resolve()))
     try:
         done = log_.finished
         if done is not None:

@@ -95,13 +95,14 @@ def calibrate(
         folder, campaign, simulator, effects, seed, profile.value, speed, scan_step_mm,
         not no_separate, operator, reason)
     from ogacq.calibration.procedure import calibrate as run_procedure
-    from ogacq.cli.history_record import record_calibrate, record_writebacks
+    from ogacq.cli.history_record import procedure_history, record_calibrate, record_writebacks
     from ogacq.cli.render_calibrate import TerminalUI, print_outcome
 
     typer.echo(f"calibration in {folder}/" + (" (continued)" if resuming else ""),
                err=not sys.stdout.isatty())
     spec = setup.controller
-    ui = TerminalUI(yes=yes, on_recorded=lambda path: record_writebacks(path, history),
+    where = procedure_history(history, folder / "calibration.jsonl")
+    ui = TerminalUI(yes=yes, on_recorded=lambda path: record_writebacks(path, history, where),
                     where="the simulator" if setup.simulated else spec.endpoints(),
                     offsets_file=str(spec.offsets_file) if spec.offsets_file else None)
     try:
@@ -123,7 +124,7 @@ def calibrate(
             validation=load_session(outcome.validation) if outcome.validation else None,
             record=outcome.record)
         record_calibrate(outcome.evidence, history, outcome.record, outcome.procedure,
-                         outcome.details, validation=outcome.validation)
+                         outcome.details, validation=outcome.validation, location=where)
     if as_json:
         typer.echo(json.dumps({"folder": str(folder), "procedure": outcome.procedure,
                                "outcome": outcome.outcome, "reason": outcome.reason,

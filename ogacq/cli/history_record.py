@@ -151,7 +151,8 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
 
 def record_calibrate(session_path: Path, option: str | None, record: Mapping[str, Any],
                      procedure: str, details: Mapping[str, Any], *, say: Say = _say,
-                     validation: Path | None = None) -> None:
+                     validation: Path | None = None,
+                     location: HistoryLocation | None = None) -> None:
     """After ``ogacq calibrate``: the calibration session (its record as found and as
     left, its write-backs and restores), the validation campaign, and the procedure's
     outcome."""
@@ -164,7 +165,20 @@ def record_calibrate(session_path: Path, option: str | None, record: Mapping[str
                                          session_path=str(session.path.resolve()))
         return done
 
-    record_after(session_path, option, "the calibration", record_with=with_outcome, say=say)
+    record_after(session_path, option, "the calibration", record_with=with_outcome, say=say,
+                 location=location)
+
+
+def procedure_history(option: str | None, anchor: Path) -> HistoryLocation | None:
+    """The one history a calibrate procedure records into: the option's, or the one
+    beside its calibration campaign (``anchor``), wherever its other sessions are."""
+    from ogacq.history.location import history_for_session
+
+    try:
+        return history_for_session(option, anchor)
+    except OgacqError as exc:
+        log.warning("the calibration will not be recorded in the history: %s", exc)
+        return None
 
 
 def record_writebacks(session_path: Path, option: str | None,

@@ -10,6 +10,10 @@ yet has no side, and gets the mean of both.
 What the readings record is where the joint was meant to be (the plan's target,
 plus what the controller's rounding of the commanded target added): with the
 maps right, the joint is there, and the model sees a machine without that error.
+A corrected target beyond the travel (a target at its end, a lost motion to make
+up) is held at the end: the controller refuses a move past its soft limits. The
+joint then lands short of the target by what was held back, and the reading
+records that too (its ``q`` is the target plus the difference).
 """
 
 from __future__ import annotations
@@ -26,10 +30,13 @@ class TargetCorrection:
     """Corrects the targets of one run, move by move (it remembers each joint's last
     target and side)."""
 
-    def __init__(self, maps: Mapping[str, AxisMap]) -> None:
+    def __init__(self, maps: Mapping[str, AxisMap],
+                 travel_mm: tuple[float, float] | None = None) -> None:
         self.maps = {a: maps[a] for a in AXES if a in maps}
+        self.travel_mm = travel_mm  # (lowest, highest) target the controller takes
         self._last: list[float | None] = [None, None, None]
         self._side = [0, 0, 0]
+        self._wanted: Triple | None = None  # the last corrected targets, before holding
 
     def command(self, q_mm: Triple) -> Triple:
         """The targets to command for the joints to land at ``q_mm``."""
@@ -42,11 +49,17 @@ class TargetCorrection:
             self._last[k] = q
             m = self.maps.get(axis)
             out.append(q if m is None else m.corrected_target(q, self._side[k]))
+        self._wanted = (out[0], out[1], out[2])
+        if self.travel_mm is not None:
+            low, high = self.travel_mm
+            out = [min(max(v, low), high) if axis in self.maps else v
+                   for v, axis in zip(out, AXES, strict=True)]
         return (out[0], out[1], out[2])
 
-    @staticmethod
-    def nominal(q_mm: Triple, commanded: Triple, resolved: Triple) -> Triple:
-        """Where the joints were meant to be: the target, plus what the controller's
-        rounding of the commanded target (``resolved``) moved."""
-        return tuple(round(q + (r - c), 9) for q, c, r in  # type: ignore[return-value]
-                     zip(q_mm, commanded, resolved, strict=True))
+    def nominal(self, q_mm: Triple, resolved: Triple) -> Triple:
+        """Where the joints were meant to be after the last ``command``: the target, plus
+        what the controller's rounding (``resolved``: the targets it took) and a target
+        held at the end of the travel moved."""
+        wanted = self._wanted if self._wanted is not None else q_mm
+        return tuple(round(q + (r - w), 9) for q, w, r in  # type: ignore[return-value]
+                     zip(q_mm, wanted, resolved, strict=True))

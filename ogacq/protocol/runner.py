@@ -231,7 +231,7 @@ class CampaignRunner:
                 try:
                     sent = self.station.move(target, self.config.move_timeout_s)
                     self._commanded_q = sent if self.correction is None else \
-                        self.correction.nominal(move.q_mm, target, sent)
+                        self.correction.nominal(move.q_mm, sent)
                     self._planned_q = move.q_mm
                     moved = True
                     break
