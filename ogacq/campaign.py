@@ -92,7 +92,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
         r.subject for r in resume.of_type(OverrideRecord)] if resume is not None else ())
     # ... and maps the session was not recorded with (its readings would mix two)
     maps = maps_in_force(campaign)
-    if resume is not None and maps is not None:
+    if resume is not None:
         check_same_maps(resume, maps)
     with open_station(campaign, simulator) as station:
         started = resume is None or not resume.of_type(EnvironmentRecord)
@@ -169,15 +169,18 @@ def recorded_maps(session: LoadedSession) -> dict[str, Any] | None:
     return None
 
 
-def check_same_maps(session: LoadedSession, maps: MapsTable) -> None:
-    """Refuse to resume with other maps than the session's readings were taken with."""
+def check_same_maps(session: LoadedSession, maps: MapsTable | None) -> None:
+    """Refuse to resume with other maps than the session's readings were taken with
+    (``maps`` None: the campaign names no maps file, so none are applied)."""
     before = recorded_maps(session)
     then = before.get("checksum") if before else maps_checksum({})  # none applied then
-    if then != maps.checksum:
-        raise InputError(maps.path, f"the maps file changed since {session.path} was started "
-                         f"(then {then[:12]}, now {maps.checksum[:12]}): its readings would mix "
-                         "two compensations; resume with the maps it started with, or start a "
-                         "new campaign")
+    now = maps.checksum if maps is not None else maps_checksum({})
+    if then != now:
+        where = maps.path if maps is not None else session.path
+        raise InputError(where, f"the maps applied changed since {session.path} was started "
+                         f"(then {then[:12]}, now {now[:12]}): its readings would mix two "
+                         "compensations; resume with the maps it started with (a calibration's "
+                         "campaign: `ogacq calibrate --resume`), or start a new campaign")
 
 
 def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, str]],
