@@ -16,15 +16,15 @@ def test_figures_worked_by_hand():
                        [0.5e-3, 1e-3, 0.5e-3], [1e-3, 0.5e-3, 0.5e-3])
     um = 1e-3
     # Bi = 2, 1, 3 -> B 3, mean 2
-    assert f.B == pytest.approx(3 * um) and f.B_mean == pytest.approx(2 * um)
+    assert pytest.approx(3 * um) == f.B and f.B_mean == pytest.approx(2 * um)
     # Ri: max(2*0.5 + 2*1 + 2, 2, 4) = 5; max(2 + 1 + 1, 4, 2) = 4; max(1 + 1 + 3, 2, 2) = 5
-    assert f.R == pytest.approx(5 * um)
+    assert pytest.approx(5 * um) == f.R
     assert f.R_up == pytest.approx(4 * um) and f.R_down == pytest.approx(4 * um)
     # E: max of all means 4, min -5 -> 9; E up 6, down 8; M: means 0, 3.5, -3.5 -> 7
-    assert f.E == pytest.approx(9 * um) and f.E_up == pytest.approx(6 * um)
-    assert f.E_down == pytest.approx(8 * um) and f.M == pytest.approx(7 * um)
+    assert pytest.approx(9 * um) == f.E and f.E_up == pytest.approx(6 * um)
+    assert f.E_down == pytest.approx(8 * um) and pytest.approx(7 * um) == f.M
     # A: max(x + 2s) = max(2, 6, -1, 1, 4, -4) = 6; min(x - 2s) = min(0, 2, -3, -3, 2, -6) = -6
-    assert f.A == pytest.approx(12 * um)
+    assert pytest.approx(12 * um) == f.A
     assert f.A_up == pytest.approx((6 - (-3)) * um)  # max(2, 6, -1) - min(0, 2, -3)
     assert f.A_down == pytest.approx((4 - (-6)) * um)  # max(1, 4, -4) - min(-3, 2, -6)
 
@@ -35,7 +35,7 @@ def test_a_map_with_only_lost_motion():
     q = (-10.0, 0.0, 10.0)
     m = AxisMap("y", q, (0.0,) * 3, (0.02,) * 3, (0.0,) * 3, (0.0,) * 3)
     f = map_figures(m)
-    assert f.B == pytest.approx(0.02)  # max |Bi|
+    assert pytest.approx(0.02) == f.B  # max |Bi|
     assert f.B_mean == pytest.approx(-0.02)  # x̄↑ - x̄↓: the map's e+ - e- = -b
-    assert f.E == pytest.approx(0.02) and f.M == pytest.approx(0.0)
-    assert f.R == pytest.approx(0.02) and f.A == pytest.approx(0.02)
+    assert pytest.approx(0.02) == f.E and pytest.approx(0.0) == f.M
+    assert pytest.approx(0.02) == f.R and pytest.approx(0.02) == f.A
