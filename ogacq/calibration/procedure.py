@@ -156,7 +156,8 @@ class Procedure:
                 stop = self._approve(comp, offsets, maps)
                 if stop is not None:
                     return stop
-            written = self._write(evidence, offsets, maps)
+            # audited in the calibration campaign's session, whose record this is
+            written = self._write(first, offsets, maps)
         # the calibration campaign's plan again: its record compares as found and as left
         validation = self._campaign("validation", self.setup.protocol)
         judgement = self._judge(comp, first, validation, "validation")
@@ -166,7 +167,7 @@ class Procedure:
             judgement = judgement.merged(self._judge(comp, evidence, scan, "validation-scan"))
         restored: dict[str, str | None] = {}
         if judgement.worse:
-            restored = self._restore(evidence, written, judgement)
+            restored = self._restore(first, written, judgement)
         return self._finish(comp, first, validation, judgement, written, restored)
 
     def _controller_spec(self) -> ControllerSpec:
@@ -182,11 +183,11 @@ class Procedure:
         if self.stack is None or not self.log.steps:
             return
         held: dict[str, float] | None = None
-        for role in ("calibration", "separating"):
-            path = self.setup.folder / f"{role}.jsonl"
-            if path.is_file():
-                for op in operations(load_session(path)):
-                    held = dict(op.new_mm) if op.status == "done" else dict(op.old_mm)
+        first = self.log.last("campaign", role="calibration")
+        path = Path(first.details["session"]) if first is not None else None
+        if path is not None and path.is_file():  # its audit holds the writes and restores
+            for op in operations(load_session(path)):
+                held = dict(op.new_mm) if op.status == "done" else dict(op.old_mm)
         if held is None:
             return
         with open_controller(self.controller) as controller:
@@ -290,7 +291,7 @@ class Procedure:
         self.log.add("confirmed", by="--yes" if self.ui.yes else "prompt")
         return None
 
-    def _write(self, evidence: LoadedSession, offsets: OffsetPlan,
+    def _write(self, audited: LoadedSession, offsets: OffsetPlan,
                maps: MapsPlan | None) -> dict[str, str | None]:
         done = self.log.last("written")
         if done is not None:
@@ -301,7 +302,7 @@ class Procedure:
         if refusals and not (offsets.nothing_to_do and (maps is None or maps.nothing_to_do)):
             raise Refused("nothing written: " + "; ".join(r.message for r in refusals))
         written: dict[str, str | None] = {"offsets": None, "maps": None}
-        session = load_session(evidence.path)
+        session = load_session(audited.path)
         with AuditLog(session) as audit:
             if not offsets.nothing_to_do:
                 with open_controller(self.controller) as controller:
@@ -316,7 +317,7 @@ class Procedure:
                 written["maps"] = execute_maps_plan(maps, audit, confirmed_by=by).operation
             elif maps is not None:
                 written["maps"] = _done_maps_write(maps_operations(session), maps)
-        self.ui.recorded(evidence.path)
+        self.ui.recorded(audited.path)
         self.log.add("written", **written)
         self.ui.say("written: " + ", ".join(f"{k} ({v})" for k, v in written.items() if v))
         return written
@@ -330,7 +331,7 @@ class Procedure:
                          before=str(before.path), **judgement.to_json())
         return judgement
 
-    def _restore(self, evidence: LoadedSession, written: dict[str, str | None],
+    def _restore(self, audited: LoadedSession, written: dict[str, str | None],
                  judgement: Judgement) -> dict[str, str | None]:
         done = self.log.last("restored")
         if done is not None:
@@ -338,7 +339,7 @@ class Procedure:
         reason = "; ".join(judgement.reasons)
         self.ui.say(f"the validation is worse than before: {reason}. Restoring the previous "
                     "state")
-        session = load_session(evidence.path)
+        session = load_session(audited.path)
         restored: dict[str, str | None] = {"offsets": None, "maps": None}
         with AuditLog(session) as audit:
             if written.get("offsets"):
@@ -348,7 +349,7 @@ class Procedure:
                 op_m = next(o for o in maps_operations(session)
                             if o.operation == written["maps"])
                 restored["maps"] = self._restore_maps(op_m, audit, session)
-        self.ui.recorded(evidence.path)
+        self.ui.recorded(audited.path)
         self.log.add("restored", reason=reason, **restored)
         return restored
 
