@@ -25,11 +25,12 @@ from ogacq.traceability import simulated_gauges
 
 MAPS_FILE = "maps.json"
 OFFSETS_FILE = "offsets.toml"
-# The scan a suspected map gets, unless given: every 5 mm, both directions, one cycle
-# (ISO 230-2's bidirectional cycle, shortened: the readings' repeats come from the
-# two gauges per leg and both approach sides).
+# The scan a suspected map gets, unless given: every 5 mm, both directions, two cycles
+# (ISO 230-2's bidirectional cycle, shortened from its five): with repeats, the gauge
+# noise is measured rather than assumed from the display step, which with one cycle
+# made the test conservative enough to miss an encoder scale beside a backlash.
 SCAN_STEP_MM = 5.0
-SCAN_CYCLES = 1
+SCAN_CYCLES = 2
 
 
 @dataclass(frozen=True)

@@ -39,7 +39,7 @@ from ogacq.writeback.maps_table import maps_checksum, read_maps_table
 SCALE_PPM = 400.0
 EFFECTS = f"[squareness]\nxy = 0.5\n[encoder_scale]\nx = {SCALE_PPM}\n"
 SEED = "3"
-FAST = ("--speed", "50", "--scan-step-mm", "10", "--yes")
+FAST = ("--speed", "50", "--scan-step-mm", "20", "--yes")
 
 
 def effects_file(folder: Path, text: str = EFFECTS) -> Path:
