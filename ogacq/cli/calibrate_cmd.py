@@ -33,6 +33,7 @@ from ogacq.cli.options import (
     override_reason,
     seed_option,
 )
+from ogacq.cli.outputs import check_output_folder
 from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.io.text import read_text
@@ -148,6 +149,7 @@ def _folder(campaign: Path | None, simulator: bool, out: Path | None,
         raise InputError("--simulator" if campaign is None else str(campaign),
                          "give a station's campaign file, or --simulator (not both)")
     folder = out or RUNS_FOLDER / f"calibrate-{time.strftime('%Y%m%d-%H%M%S')}"
+    check_output_folder(folder, "--out")
     if (folder / LOG_NAME).is_file():
         return folder, True  # the same command again: it continues
     if folder.is_dir() and any(folder.iterdir()):
