@@ -27,13 +27,16 @@ from typing import Any
 import numpy as np
 
 from ogacq.calibration.compensate import Compensation
+from ogacq.calibration.maps import diagnosis_maps
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
 from ogacq.compensation.iso230 import map_figures
+from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import noise_for
 from ogacq.identify.observations import Observations
+from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_SETS
 from ogacq.session.convert import session_observations
@@ -113,9 +116,11 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
             reasons.append(f"the joint offset of {a} left ({drho[a]:+.4f} mm) is larger than "
                            f"the one corrected ({comp.offsets_mm[a]:+.4f} mm)")
     figures_after, residual = _after_maps(comp, obs_after, base, machine)
-    before = comp.figures_before()
+    figures_before = comp.figures_before()
     for a, fig in figures_after.items():
-        was, now = before[a]["E_mm"], fig["E_mm"]
+        if a not in figures_before:
+            continue
+        was, now = figures_before[a]["E_mm"], fig["E_mm"]
         u = max(max(comp.maps[a].u_forward_mm), max(comp.maps[a].u_reverse_mm))
         margin = SIGMAS * math.hypot(u, fig.get("u_max_mm", 0.0))
         if now > was + margin:
@@ -125,21 +130,24 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
     return Judgement(outcome, tuple(reasons), {**v_after.to_json(), "text": v_after.describe(),
                                                "state": v_after.state},
                      v_before.chi2_dof, v_after.chi2_dof, dict(comp.offsets_mm), drho, drho_std,
-                     before, figures_after, residual)
+                     figures_before, figures_after, residual)
 
 
 def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
                 machine: MachineSpec) -> tuple[dict[str, dict[str, Any]],
                                                dict[str, dict[str, float]]]:
     """The ISO 230-2 figures of each compensated axis after: the corrected library
-    effects identified again on the validation (what the maps left), as maps."""
-    if not comp.compensated:
-        return {}, {}
-    result, _ = _fit(obs, base + tuple(comp.compensated))
-    values = {n: EffectValue(n, result.value(n),
-                             float(result.std[result.names.index(n)]))
-              for n in comp.compensated}
-    per_axis = compensation((), effect_maps(values, machine), values)
+    effects identified again on the validation, and the maps its diagnosis finds (what
+    the maps left), as maps. An axis where nothing is left to identify has none."""
+    values: dict[str, EffectValue] = {}
+    if comp.compensated:
+        result, _ = _fit(obs, base + tuple(comp.compensated))
+        values = {n: EffectValue(n, result.value(n), float(result.std[result.names.index(n)]))
+                  for n in comp.compensated}
+    found: tuple[AxisMap, ...] = ()
+    if comp.diagnosis_maps:  # maps left are the validation's diagnosis's to find
+        found = diagnosis_maps(diagnose(obs))
+    per_axis = compensation(found, effect_maps(values, machine), values)
     figures = {}
     for a, c in per_axis.items():
         fig = map_figures(c.axis_map).to_json()
