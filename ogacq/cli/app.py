@@ -40,6 +40,8 @@ OFFSETS_HELP = ("Joint offsets on the controller: show the identified ones again
                 "controller's, write them back (confirmed, read back, recorded), restore the "
                 "old ones.")
 SESSION_HELP = "Look at, export, import, check and salvage sessions."
+MAPS_HELP = ("The error maps ogacq applies to every target (written by `ogacq calibrate`): "
+             "show them with their ISO 230-2 figures, restore the ones a write replaced.")
 HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq history MACHINE` "
                 "(the same as `ogacq history show MACHINE`) lists them with each parameter's U "
                 "and flags a drift larger than U; `ogacq history add SESSION...` records "
@@ -68,6 +70,9 @@ class OgacqCommands(LazyCommands):
             "show": "ogacq.cli.offsets_cmd:show",
             "write": "ogacq.cli.offsets_cmd:write",
             "restore": "ogacq.cli.offsets_cmd:restore"}),
+        "maps": LazyGroupSpec(MAPS_HELP, {
+            "show": "ogacq.cli.maps_cmd:show",
+            "restore": "ogacq.cli.maps_cmd:restore"}),
         "history": LazyGroupSpec(HISTORY_HELP, {
             "show": "ogacq.cli.history_cmd:show",
             "add": "ogacq.cli.history_cmd:add"}, default="show"),

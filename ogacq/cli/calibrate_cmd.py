@@ -59,7 +59,8 @@ def calibrate(
     speed: Annotated[float, typer.Option(min=1.0, help="With --simulator: simulated time "
                                                        "speed-up.")] = 25.0,
     out: Annotated[Path | None, typer.Option(
-        help="The procedure's folder (default: a new ./ogacq-runs/calibrate-DATE-TIME); "
+        help="The procedure's folder (default: a new folder in ./ogacq-runs named "
+             "calibrate-DATE-TIME); "
              "one holding a procedure continues it.")] = None,
     resume: Annotated[Path | None, typer.Option(
         "--resume", metavar="FOLDER", help="Continue the procedure in FOLDER where it "

@@ -35,15 +35,18 @@ class Exported:
                 "figures": self.figures, "problem": self.problem}
 
 
-def tables_of(fmt: str, maps: Mapping[str, AxisMap], title: str) -> ControllerTables:
+def tables_of(fmt: str, maps: Mapping[str, AxisMap], title: str) -> list[ControllerTables]:
+    """The format's tables: FANUC's twice, with the negative-direction table (3605#0)
+    and with the backlash parameter 1851 instead, for a control without the option."""
     if fmt == "linuxcnc":
-        return linuxcnc_tables(maps, LinuxCncOptions(), title=title)
+        return [linuxcnc_tables(maps, LinuxCncOptions(), title=title)]
     if fmt == "fanuc":
-        return fanuc_tables(maps, FanucOptions(), title=title)
+        return [fanuc_tables(maps, FanucOptions(), title=title),
+                fanuc_tables(maps, FanucOptions(bidirectional=False), title=title)]
     if fmt == "siemens":
-        return siemens_tables(maps, SiemensOptions(), title=title)
+        return [siemens_tables(maps, SiemensOptions(), title=title)]
     if fmt == "csv":
-        return csv_tables(maps, title=title)
+        return [csv_tables(maps, title=title)]
     raise ValueError(f"unknown table format {fmt!r}; known: {', '.join(FORMATS)}")
 
 
@@ -52,18 +55,19 @@ def export_tables(folder: Path, maps: Mapping[str, AxisMap], *, title: str = "",
     out = []
     for fmt in formats:
         try:
-            tables = tables_of(fmt, maps, title)
+            variants = tables_of(fmt, maps, title)
         except TableError as exc:  # said, and the other formats still written
             out.append(Exported(fmt, (), {}, str(exc)))
             continue
         where = folder / fmt
         where.mkdir(parents=True, exist_ok=True)
-        written = []
-        for name, text in tables.files.items():
-            path = where / name
-            path.write_text(text, encoding="utf-8")
-            written.append(path)
-        figures = {a: {"before": t.before().to_json(), "after": t.after().to_json()}
-                   for a, t in tables.axes.items()}
-        out.append(Exported(fmt, tuple(written), figures))
+        for tables in variants:
+            written = []
+            for name, text in tables.files.items():
+                path = where / name
+                path.write_text(text, encoding="utf-8")
+                written.append(path)
+            figures = {a: {"before": t.before().to_json(), "after": t.after().to_json()}
+                       for a, t in tables.axes.items()}
+            out.append(Exported(fmt, tuple(written), figures))
     return out

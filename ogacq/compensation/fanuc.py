@@ -230,8 +230,10 @@ def fanuc_tables(maps: Mapping[str, AxisMap], options: FanucOptions = FanucOptio
                       f"opposite to the reference return (assumed +) = {s.ref_opposite} "
                       "detection units"]
         else:
-            lines.append(f"  1851 backlash compensating value          = {s.backlash} "
-                         "detection units")
+            lines += [f"  1851 backlash compensating value          = {s.backlash} "
+                      "detection units",
+                      "  1852 backlash for rapid traverse (when 1800#4 is set): measure it at "
+                      "rapid traverse; the value above is from positioning moves"]
         lines.append("  No.    section end (mm)   value" + ("   negative-direction No.  value"
                                                            if s.neg_values else ""))
         for k, n in enumerate(range(s.neg_no, s.pos_no + 1)):
@@ -240,4 +242,5 @@ def fanuc_tables(maps: Mapping[str, AxisMap], options: FanucOptions = FanucOptio
                 row += f"   {s.neg_dir_no + k:22d}  {s.neg_values[k]:+3d}"
             lines.append(row)
     lines += ["", *figures_block(axes, "#")]
-    return ControllerTables(FORMAT, {"fanuc.txt": "\n".join(lines) + "\n"}, axes)
+    name = "fanuc.txt" if options.bidirectional else "fanuc-backlash.txt"
+    return ControllerTables(FORMAT, {name: "\n".join(lines) + "\n"}, axes)

@@ -179,6 +179,18 @@ def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatc
     assert states[-1].maps == {}  # the maps state the restore left: none
 
 
+def test_maps_shown_and_restored_by_hand(straight, capsys, monkeypatch):
+    """After the procedure (last: it changes the straight run's maps file)."""
+    session = straight / "calibration.jsonl"
+    monkeypatch.setattr(sys, "stdin", __import__("io").StringIO(""))
+    assert main(["maps", "show", str(session)]) == 0
+    assert "ISO 230-2" in capsys.readouterr().out
+    assert main(["maps", "restore", str(session)]) == 1  # declined: nothing restored
+    assert "x" in read_maps_table(straight / "maps.json").maps
+    assert main(["maps", "restore", str(session), "--yes", "--history", "none"]) == 0
+    assert read_maps_table(straight / "maps.json").maps == {}
+
+
 @pytest.mark.skipif("maps" not in {f.name for f in dataclasses.fields(Diagnosis)},
                     reason="enabled once the diagnosis identifies maps (Diagnosis.maps)")
 def test_a_cyclic_screw_error_is_mapped_and_validated(tmp_path):

@@ -70,7 +70,7 @@ def test_fanuc_without_the_negative_table_gives_the_reversal_to_1851():
     assert s.neg_values == () and s.neg_dir_no is None
     assert s.backlash == 12  # detection units of 0.001 mm
     assert "1851 backlash compensating value" in fanuc_tables(
-        {"x": m}, FanucOptions(bidirectional=False)).files["fanuc.txt"]
+        {"x": m}, FanucOptions(bidirectional=False)).files["fanuc-backlash.txt"]
 
 
 def test_fanuc_limits_refused_with_the_reason():
