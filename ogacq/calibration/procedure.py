@@ -253,7 +253,9 @@ class Procedure:
         comp = replace(comp, tables=export(self.setup.folder, comp, title))
         if comp.maps and self.controller.maps_file is None:
             self.ui.say("the controller names no maps_file: the maps are exported as tables "
-                        "only (add maps_file to [controller] for ogacq to apply them)")
+                        "only (add maps_file to [controller] for ogacq to apply them); what "
+                        "they would correct stays, and the offsets are written without them")
+            comp = tables_only(comp)
         self.log.add("compensation", **comp.to_json())
         return comp
 
@@ -425,6 +427,16 @@ class Procedure:
         return Outcome(self.setup.folder, self.log.procedure, outcome, reason,
                        evidence.path if evidence else None,
                        validation.path if validation else None, record, details)
+
+
+def tables_only(comp: Compensation) -> Compensation:
+    """The compensation when its maps cannot be applied (exported only): nothing of it
+    is written but the offsets, without the maps' constants, and what the maps would
+    correct stays uncompensated (the validation expects it still there)."""
+    return replace(comp, maps={}, shift_mm=dict.fromkeys(comp.shift_mm, 0.0),
+                   compensated=(), uncompensated=comp.uncompensated + comp.compensated,
+                   offsets_mm={a: v - comp.shift_mm.get(a, 0.0)
+                               for a, v in comp.offsets_mm.items()})
 
 
 def _plan_of(session: LoadedSession) -> ProtocolConfig:
