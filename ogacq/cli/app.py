@@ -68,7 +68,9 @@ class OgacqCommands(LazyCommands):
             "ogacq.cli.demo_cmd:demo",
             "A full calibration campaign against the built-in simulator: identify the "
             "hidden joint offsets through the real drivers and compare them with the "
-            "truth."),
+            "truth; then write them (and the error maps a table would hold), validate "
+            "with a second campaign and keep or restore them, as `ogacq calibrate` "
+            "does."),
         "calibrate": LazyCommandSpec(
             "ogacq.cli.calibrate_cmd:calibrate",
             "Calibrate the machine and validate it: campaign, diagnosis, the separating "
