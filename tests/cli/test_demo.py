@@ -40,6 +40,14 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
     assert record["operator"] == "J. Martin" and record["machine"]["serial"] == "SIM-4"
     assert not record["missing"], record["missing"]
     assert record["acceptance"]["as_found"]["decision"] == "fail"
+    # then the loop closed: the offsets of the model written, validated by a second
+    # campaign, the record of the procedure as found and as left
+    loop = json.loads((out / "calibrate" / "report" / "record.json").read_text())
+    assert loop["compensation"]["outcome"] == "validated", loop["compensation"]
+    assert loop["compensation"]["uncompensated"] == ["squareness.xy"]
+    assert loop["acceptance"]["as_left"]["decision"] != "not evaluated"
+    assert loop["writeback"][0]["status"] == "done"
+    assert "validated" in proc.stdout
 
 
 def assert_one_unit_per_line(text: str) -> None:
