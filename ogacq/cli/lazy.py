@@ -61,6 +61,7 @@ def flags_without_value(params: list[Parameter]) -> list[Parameter]:
         if param.param_type_name == "argument" and param.metavar is None and param.name:
             param.metavar = param.name.upper()  # "SESSION", not click's "{session}"
         if getattr(param, "_runtime_param", False) is None:
+            # typer's own per-parameter slot (private: no stub declares it)
             param._runtime_param = plain_runtime_param(param.type_descriptor)  # type: ignore[attr-defined]
     return params
 
