@@ -15,8 +15,8 @@ from ogacq.campaign_file import read_campaign
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.leg_prompt import operator_for
 from ogacq.cli.options import HistoryOption, JsonOption, OverrideExpiredOption, override_reason
-from ogacq.cli.render import campaign_progress, print_outcome
-from ogacq.protocol.runner import CampaignStopped, Observer
+from ogacq.cli.render import CampaignProgress, campaign_progress, print_outcome
+from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.store import load_session
 
 
@@ -60,7 +60,7 @@ def resume(
     record_campaign(outcome.session_path, history)
 
 
-def execute(start: Callable[[Observer], CampaignOutcome], session: Path, *,
+def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path, *,
             quiet: bool = False) -> CampaignOutcome:
     """Run ``start(observer)`` with progress shown; a stop exits non-zero with its reason
     and the command that continues ``session``."""

@@ -12,6 +12,7 @@ from ogacq.campaign import CampaignOutcome
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
+from ogacq.report.formatting import um
 
 
 def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
@@ -31,7 +32,7 @@ def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
             row.append(f"{outcome.hidden.get(name, 0.0):+.4f} mm")
         table.add_row(*row)
     screen.say(table)
-    screen.say(f"Residual rms {fit.residual_rms_mm * 1000:.2f} µm; gauge noise "
+    screen.say(f"Residual rms {um(fit.residual_rms_mm)}; gauge noise "
                f"{fit.noise.describe()}.")
     ident = fit.identifiability
     writable = True
@@ -67,7 +68,7 @@ def _writeback_command_exists() -> bool:
         from ogacq.cli.app import app
 
         group = typer.main.get_command(app)
-        offsets = group.commands.get("offsets")  # type: ignore[attr-defined]
+        offsets = getattr(group, "commands", {}).get("offsets")
         return offsets is not None and "write" in getattr(offsets, "commands", {})
     except Exception:
         return False
