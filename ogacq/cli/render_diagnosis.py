@@ -7,11 +7,11 @@ from rich.table import Table
 
 from ogacq.cli.render import console
 from ogacq.diagnose.diagnosis import Diagnosis
-from ogacq.diagnose.library import BASE_MODEL, label
+from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, format_p
-from ogacq.model.parameters import PARAM_INDEX, effect_of
+from ogacq.model.parameters import PARAM_INDEX
 
 
 def _value(value: float, std: float, unit: str) -> str:
@@ -189,7 +189,7 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
                           "data no longer support it; a disturbance there (a knocked stand, a "
                           "sticking spindle) explains them as well; repeat that posture")
         if e.alternatives:
-            alts = ", ".join(f"{a.name} ({a.value:+.4g} {effect_of(a.name).unit}, chi2 "
+            alts = ", ".join(f"{a.name} ({a.value:+.4g} {unit(a.name)}, chi2 "
                              f"{a.delta_chi2:+.1f})" for a in e.alternatives)
             console.print(f"    [yellow]explained equally well by[/]: {alts}")
             for sep in e.separations:

@@ -47,15 +47,24 @@ for _gauge in GAUGES:
 
 def approach_from_sequence(q_mm: np.ndarray) -> np.ndarray:
     """Side each joint approached each reading from: the sign of its last move
-    before that reading in the recorded order (0 before any move)."""
-    out = np.zeros(q_mm.shape, dtype=int)
-    last = np.zeros(3, dtype=int)
-    prev = q_mm[0] if len(q_mm) else None
-    for k, q in enumerate(q_mm):
-        step = np.sign(np.round(q - prev, 9)).astype(int)
-        last = np.where(step != 0, step, last)
-        out[k] = last
-        prev = q
+    before that reading in the recorded order (moves below 1e-9 mm are none);
+    0, unknown, before its first recorded move. Each joint's moves found at once
+    and their signs repeated over the readings until its next move."""
+    q = np.asarray(q_mm, dtype=float).reshape(-1, 3)
+    n = len(q)
+    out = np.zeros((n, 3), dtype=int)
+    if n < 2:
+        return out
+    # np.sign(np.round(d, 9)): np.round is rint(d * 1e9) / 1e9, and rint (halves to
+    # even) gives a positive number exactly when its argument exceeds 0.5
+    nanometres = np.diff(q, axis=0) * 1e9  # (n - 1, 3)
+    steps = (nanometres > 0.5).astype(int) - (nanometres < -0.5)
+    for joint in range(3):
+        moved = np.flatnonzero(steps[:, joint])
+        if len(moved):
+            # the move between readings k and k + 1 holds from reading k + 1 on
+            lengths = np.diff(np.append(moved, n - 1))
+            out[moved[0] + 1:, joint] = np.repeat(steps[moved, joint], lengths)
     return out
 
 
