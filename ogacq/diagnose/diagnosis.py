@@ -38,6 +38,7 @@ from ogacq.diagnose.outcome import outcome_label
 from ogacq.diagnose.profile import LegProfile, leg_profiles
 from ogacq.diagnose.robustness import resting_cell
 from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
+from ogacq.diagnose.sides import SideChoice, resolve_sides
 from ogacq.diagnose.separation import (
     PlanOption,
     PlanSignatures,
@@ -127,6 +128,7 @@ class Diagnosis:
     plans: list[tuple[PlanOption, Capability]] = field(default_factory=list)
     mapped: MapOutcome | None = None  # the map search (None: not run)
     profiles: tuple[LegProfile, ...] = ()  # residuals along each scanned leg
+    sides: list[SideChoice] = field(default_factory=list)  # unknown sides resolved
 
     @property
     def base(self) -> Verdict:
@@ -183,6 +185,7 @@ class Diagnosis:
                        "on the joint position in another way (a lead-screw pitch error) is "
                        "seen at those points only and may pass for these effects; "
                        "a scan along each leg would show it")
+        out += [c.describe() for c in self.sides if c.side]
         if self.mapped is not None:
             for cov in self.mapped.search.coverage:
                 if not cov.dense and (self.map_effects or not self.final.consistent):
@@ -234,6 +237,10 @@ class Diagnosis:
                                 "both_sides": c.both_sides, "maps_searched": c.dense}
                                for c in self.mapped.search.coverage]
             out["chi2"] = self.chi2_json()
+        if self.sides:
+            out["unknown_sides"] = [{"axis": "xyz"[c.axis], "taken": c.side,
+                                     "readings": c.readings,
+                                     "chi2_gain": round(c.gain_chi2, 2)} for c in self.sides]
         if self.profiles:
             out["profiles"] = [p.to_json() for p in self.profiles]
         return out
@@ -276,6 +283,9 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     noise = noise_for(obs)
     problem = Problem(obs, noise)
     base_fit = _refit(obs, BASE_MODEL, noise)
+    # a side unknown before a joint's first recorded move, resolved where its lost
+    # motion decides it (the joint offsets' fit is the same either way)
+    obs, problem, sides = resolve_sides(obs, noise, problem, base_fit.theta)
     base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha)
 
     everything = BASE_MODEL + EFFECT_PARAMETERS
@@ -336,7 +346,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     profiles = leg_profiles(obs, base.residuals, final_residuals)
     return Diagnosis(obs.source, obs.kind, len(obs), noise, seen, selection, claimed, share,
                      base_fit, final_fit, located, remaining, all_effects, inflation,
-                     _postures_per_leg(problem), plans, mapped, profiles)
+                     _postures_per_leg(problem), plans, mapped, profiles, sides)
 
 
 def _postures_per_leg(problem: Problem) -> int:

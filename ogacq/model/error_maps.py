@@ -71,7 +71,7 @@ class JointHistory:
     @classmethod
     def of(cls, layout: ReadingsLayout, overshoot_mm: float = DEFAULT_OVERSHOOT_MM,
            ) -> JointHistory:
-        side = np.asarray(layout.approach, dtype=int)
+        side = np.asarray(layout.lost_motion_side, dtype=int)
         travel = travel_since_reversal(layout.q_mm, side, overshoot_mm)
         # a gauge is set at its first reading's pose (ReadingsLayout.build), and its
         # history there is that reading's

@@ -84,6 +84,11 @@ class ReadingsLayout:
     setting_q_mm: np.ndarray  # (G, 3) posture each gauge was set at
     # (n,) the plan's posture labels ("zero", "max", "+12mm"), None when not recorded
     posture: np.ndarray | None = None
+    # (n, 3) the side each joint's lost motion acts from, where it differs from the
+    # recorded approach: a side unknown before a joint's first recorded move (0) that
+    # the diagnosis resolved (``diagnose/sides.py``); None: the approach. Repeats are
+    # grouped by the recorded approach all the same.
+    side: np.ndarray | None = None
 
     @classmethod
     def build(cls, q_mm, leg, gauge_axis, t_s=None, cycle=None, tcp_mm=None,
@@ -119,6 +124,11 @@ class ReadingsLayout:
         return len(self.q_mm)
 
     @property
+    def lost_motion_side(self) -> np.ndarray:
+        """(n, 3) the side the model's lost motion takes at each reading."""
+        return self.approach if self.side is None else self.side
+
+    @property
     def n_gauges(self) -> int:
         return len(self.gauge_keys)
 
@@ -131,7 +141,7 @@ class ReadingsLayout:
         (unique q (u, 3), unique approach (u, 3), index (n + G,) into them).
         Time is left out; it only matters when thermal drift is modelled."""
         q = np.concatenate([self.q_mm, self.setting_q_mm])
-        appr = np.concatenate([self.approach, np.zeros((self.n_gauges, 3), dtype=int)])
+        appr = np.concatenate([self.lost_motion_side, np.zeros((self.n_gauges, 3), dtype=int)])
         key = np.column_stack([np.round(q, 9), appr])
         unique, index = unique_rows(key)
         return unique[:, :3], unique[:, 3:].astype(int), index
@@ -163,7 +173,7 @@ class ReadingsLayout:
         (unique q, unique approach, unique t, index (n + G,)). The gauges of one
         posture are read at one time, so they still share a pose."""
         q = np.concatenate([self.q_mm, self.setting_q_mm])
-        appr = np.concatenate([self.approach, np.zeros((self.n_gauges, 3), dtype=int)])
+        appr = np.concatenate([self.lost_motion_side, np.zeros((self.n_gauges, 3), dtype=int)])
         t = np.concatenate([self.t_s, np.zeros(self.n_gauges)])
         key = np.column_stack([np.round(q, 9), appr, t])
         unique, index = unique_rows(key)
@@ -199,7 +209,8 @@ class ReadingsLayout:
             gauge=np.array([renumber[g] for g in self.gauge[idx]], dtype=int),
             gauge_keys=tuple(self.gauge_keys[g] for g in kept),
             setting_q_mm=self.setting_q_mm[kept].reshape(-1, 3),
-            posture=None if self.posture is None else self.posture[idx])
+            posture=None if self.posture is None else self.posture[idx],
+            side=None if self.side is None else self.side[idx])
 
     def posture_names(self, machine: MachineSpec) -> np.ndarray:
         """(n,) each reading's posture: as recorded, else (a readings CSV has no posture
