@@ -38,7 +38,6 @@ from ogacq.diagnose.outcome import outcome_label
 from ogacq.diagnose.profile import LegProfile, leg_profiles
 from ogacq.diagnose.robustness import resting_cell
 from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
-from ogacq.diagnose.sides import SideChoice, resolve_sides
 from ogacq.diagnose.separation import (
     PlanOption,
     PlanSignatures,
@@ -46,6 +45,7 @@ from ogacq.diagnose.separation import (
     plan_capabilities,
     separation,
 )
+from ogacq.diagnose.sides import SideChoice, resolve_sides
 from ogacq.diagnose.visibility import Capability, capability
 from ogacq.errors import InputError
 from ogacq.identify.consistency import LEVEL, Verdict

@@ -15,9 +15,11 @@ before its first move see its position (a Zero posture does not: there its leg i
 parallel to the axis), the joint offsets and the backlashes are fitted with
 every combination of sides taken as from below or from above; a side is kept
 when its combination fits best by more than one unit of chi-square (one parameter's
-worth) and that joint's backlash is significant there; otherwise it stays unknown. The recorded approach is left as it is (the repeat groups, the verdict of
-the joint offsets, which have no lost motion, do not change): the model's side is
-the layout's ``side``.
+worth) and that joint's backlash is significant there; otherwise it stays unknown.
+The recorded approach is left as it is (the repeat groups, the verdict of the joint
+offsets, which have no lost motion, do not change): the model's side is the
+layout's ``side``. A session could tell the side from its homing and the moves
+before its first reading; it records neither today, so sessions are treated alike.
 """
 
 from __future__ import annotations
