@@ -22,6 +22,7 @@ from ogacq.model.gauges import AXES, Gauge
 MAX_BINS = 200
 MIN_POSITIONS = 10  # as the map search: fewer positions are postures, not a profile
 SPARK = "▁▂▃▄▅▆▇█"
+BEYOND_Z = 4.0
 
 
 @dataclass(frozen=True)
@@ -40,10 +41,11 @@ class LegProfile:
     count: np.ndarray  # (bins,) readings
 
     def beyond(self, sigma_mm: float, after: bool = False) -> tuple[float, float] | None:
-        """The span of bins whose rms exceeds the noise by more than chance would
-        (three standard errors of an rms of that many readings): (from, to) mm."""
+        """The span of bins whose rms exceeds the noise by more than chance would in
+        any of them: ``BEYOND_Z`` standard errors of an rms of that many readings (a
+        one-sided normal tail of 3e-5, 1 % over 300 bins): (from, to) mm."""
         rms = self.rms_after_mm if after else self.rms_before_mm
-        limit = sigma_mm * (1.0 + 3.0 / np.sqrt(2.0 * np.maximum(self.count, 1)))
+        limit = sigma_mm * (1.0 + BEYOND_Z / np.sqrt(2.0 * np.maximum(self.count, 1)))
         hot = np.flatnonzero(rms > limit)
         if not len(hot):
             return None

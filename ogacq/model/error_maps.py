@@ -36,6 +36,7 @@ Sign: a displacement is actual minus commanded joint position, as in ``AxisMap``
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -261,11 +262,12 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
     moving down (a hysteresis at its wound-up value: the table of a controller's
     backlash compensation; how it builds up is in ``extra``)."""
     assert terms and all(t.along and t.axis == terms[0].axis for t in terms)
-    count = int(np.floor((to_mm - from_mm) / step_mm + 1e-9)) + 1
-    q = from_mm + step_mm * np.arange(count)
-    if q[-1] < to_mm - 1e-9:
-        q = np.append(q, to_mm)
-    q = np.round(q, 9)
+    # a grid through the reference (where the map is zero), ends added
+    ref = terms[0].reference_mm
+    first = math.ceil((from_mm - ref) / step_mm - 1e-9)
+    last = math.floor((to_mm - ref) / step_mm + 1e-9)
+    q = ref + step_mm * np.arange(first, last + 1)
+    q = np.unique(np.round(np.concatenate([[from_mm], q, [to_mm]]), 9))
     inf = np.full(len(q), np.inf)
     zero = np.zeros(len(q))
 
