@@ -122,7 +122,9 @@ def fit_with_maps(problem: Problem, noise: GaugeNoise, names: tuple[str, ...],
     rank = int(keep.sum())
     inv = (vt[keep].T / s[keep] ** 2) @ vt[keep]
     covariance = noise.variance * inv * scale[:, None] * scale[None, :]
-    verdict = judge(obs, residuals, x, rank, noise, alpha)
+    # a shape found from the readings (a pitch) spends a degree of freedom as well
+    verdict = judge(obs, residuals, x, rank + sum(t.shape_parameters for t in terms), noise,
+                    alpha)
     split = np.cumsum([0] + [t.size for t in terms])
     return MapFit(names, theta, list(terms),
                   [coef[split[k]:split[k + 1]] for k in range(len(terms))], covariance,
@@ -201,9 +203,11 @@ def _rounded(x: float) -> float | None:
 
 
 def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, float]],
-              steps: dict[int, float]) -> tuple[AxisMap, ...]:
+              steps: dict[int, float], shape_std: dict[str, float] | None = None,
+              ) -> tuple[AxisMap, ...]:
     """One ``AxisMap`` per axis with a map along its line, its terms summed, the band
-    from their joint covariance (times ``inflation``)."""
+    from their joint covariance (times ``inflation``) and their shapes' std
+    (``shape_std`` by term name: a pitch)."""
     out = []
     for axis in range(3):
         ks = [k for k, t in enumerate(fitted.terms) if t.along and t.axis == axis
@@ -224,9 +228,10 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
             if t.family == "lead_screw_cyclic":
                 extra["pitch_mm"] = round(t.shape["pitch_mm"], 6)
         source = "; ".join(_source(t) for t in terms)
+        stds = [(shape_std or {}).get(t.name, math.nan) * inflation for t in terms]
         out.append(axis_map(terms, [fitted.coefficients[k] for k in ks], cov, lo, hi,
                             tabulation_step(terms, steps.get(axis)), source=source,
-                            excludes=excludes, extra=extra))
+                            excludes=excludes, extra=extra, shape_std=stds))
     return tuple(out)
 
 

@@ -210,7 +210,9 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
                                      (step.rss_before - step.rss_after) / noise.variance,
                                      coverage=covs.get(term.axis)))
     maps = axis_maps(fitted, inflation, {a: (c.from_mm, c.to_mm) for a, c in covs.items()},
-                     {a: c.step_mm for a, c in covs.items()}) if fitted is not None else ()
+                     {a: c.step_mm for a, c in covs.items()},
+                     {s.added.term.name: s.added.shape_std for s in search.steps}) \
+        if fitted is not None else ()
     outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
                          (fitted.rss if fitted is not None else claimed.rss) / noise.variance)
     if separate and problem.obs.raw and search.coverage:

@@ -234,6 +234,16 @@ class MapTerm:
         return at_reading, at_setting
 
     @property
+    def shape_parameters(self) -> int:
+        """Its shape parameters estimated from the readings (pitch, build-up length,
+        time constant): degrees of freedom the fit spends beside its amplitudes."""
+        if self.family in ("lead_screw_cyclic", "warm_up"):
+            return 1
+        if self.family == "hysteresis":
+            return int(self.shape["length_mm"] > 0)
+        return 0
+
+    @property
     def size(self) -> int:
         if self.family == "lead_screw_cyclic":
             return 2
@@ -255,12 +265,15 @@ def tabulation_step(terms: list[MapTerm], scan_step_mm: float | None) -> float:
 
 def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: np.ndarray,
              from_mm: float, to_mm: float, step_mm: float, *, source: str,
-             excludes: tuple[str, ...] = (), extra: Mapping | None = None) -> AxisMap:
+             excludes: tuple[str, ...] = (), extra: Mapping | None = None,
+             shape_std: list[float] | None = None) -> AxisMap:
     """The ``AxisMap`` of one axis from its fitted along-the-line terms: ``coefficients``
     per term, ``covariance`` of all of them stacked (standard uncertainty per point
-    from it, k = 1). Forward is the map approached moving up after a long run, reverse
-    moving down (a hysteresis at its wound-up value: the table of a controller's
-    backlash compensation; how it builds up is in ``extra``)."""
+    from it, k = 1), ``shape_std`` each term's shape parameter's std (a cyclic error's
+    pitch: a phase that slips the farther from the reference, added to the band).
+    Forward is the map approached moving up after a long run, reverse moving down (a
+    hysteresis at its wound-up value: the table of a controller's backlash
+    compensation; how it builds up is in ``extra``)."""
     assert terms and all(t.along and t.axis == terms[0].axis for t in terms)
     # a grid through the reference (where the map is zero), ends added
     ref = terms[0].reference_mm
@@ -275,11 +288,19 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
         return np.vstack([t.shape_of(q, np.full(len(q), side), inf, zero) for t in terms])
 
     coef = np.concatenate(coefficients)
+    slip = np.zeros(len(q))  # variance from the shapes' own uncertainty
+    for term, c, std in zip(terms, coefficients, shape_std or [math.nan] * len(terms),
+                            strict=True):
+        if term.family == "lead_screw_cyclic" and math.isfinite(std):
+            pitch, delta = term.shape["pitch_mm"], q - term.reference_mm
+            w = 2 * np.pi / pitch
+            d_pitch = (c[0] * np.cos(w * delta) - c[1] * np.sin(w * delta)) * delta * (-w / pitch)
+            slip += (d_pitch * std) ** 2
     out = {}
     for side in (1, -1):
         g = design(side)  # (k, Q)
         values = coef @ g
-        var = np.einsum("kq,kl,lq->q", g, covariance, g)
+        var = np.einsum("kq,kl,lq->q", g, covariance, g) + slip
         out[side] = (values, np.sqrt(np.maximum(var, 0.0)))
     return AxisMap(axis=AXES[terms[0].axis], positions_mm=tuple(q.tolist()),
                    forward_mm=tuple(out[1][0].tolist()), reverse_mm=tuple(out[-1][0].tolist()),
