@@ -14,8 +14,10 @@ joint's lost motion, so it is resolved where it does: for each joint whose readi
 before its first move see its position (a Zero posture does not: there its leg is
 parallel to the axis), the joint offsets and the backlashes are fitted with
 every combination of sides taken as from below or from above; a side is kept
-when its combination fits best by more than one unit of chi-square (one parameter's
-worth) and that joint's backlash is significant there; otherwise it stays unknown.
+when its combination fits best, better than with that side flipped by more than the
+1 % point of chi-square with one degree of freedom, and that joint's backlash is as
+significant there; otherwise it stays unknown (the middle of the lost motion: half a
+backlash off whichever side it was, where a wrong side would be a whole one).
 The recorded approach is left as it is (the repeat groups, the verdict of the joint
 offsets, which have no lost motion, do not change): the model's side is the
 layout's ``side``. A session could tell the side from its homing and the moves
@@ -40,8 +42,11 @@ from ogacq.model.joint_sensitivity import joint_sensitivity
 # lost motion of tens of micrometres would change it by a fraction of one (at the Zero
 # posture the sensitivity is of the order of the offsets over the leg, 1e-2 at most).
 SENSITIVE = 0.02
-BETTER_BY = 1.0  # chi-square units a side must win by to be taken
-SIGNIFICANT = 6.63  # chi-square of one degree of freedom at 1 %: the backlash is there
+# chi-square of one degree of freedom at 1 %: a side is taken only when the readings
+# favour it that clearly (a wrong side misplaces the joint by a whole backlash, the
+# unknown middle by half of one), and the backlash must be there as clearly
+BETTER_BY = 6.63
+SIGNIFICANT = 6.63
 
 
 @dataclass(frozen=True)
