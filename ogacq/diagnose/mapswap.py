@@ -85,9 +85,6 @@ class _Linear:
         cols = map_columns(self.problem, self.theta, [term], self.history)
         return self.problem.weighted(cols.T).T
 
-    def library_column(self, name: str) -> np.ndarray:
-        return self.problem.jacobian(self.theta, (name,))[:, 0]
-
     def column_of(self, name: str) -> np.ndarray:
         return self.columns[:, self.names.index(name)]
 
@@ -105,10 +102,41 @@ class _Linear:
     def refit(self, target: np.ndarray, columns: np.ndarray) -> tuple[float, np.ndarray]:
         """Residual sum of squares of ``target`` after fitting ``columns``, and the
         coefficients (columns scaled to unit norm first)."""
-        norm = np.maximum(np.linalg.norm(columns, axis=0), 1e-300)
-        coef, *_ = np.linalg.lstsq(columns / norm, target, rcond=1e-10)
-        rest = target - (columns / norm) @ coef
-        return float(rest @ rest), coef / norm
+        return _Projector(columns[:, :0]).fit(target, columns)
+
+
+class _Projector:
+    """Fits of one target with a fixed set of columns (``rest``) and a few more that
+    change: ``rest`` decomposed once, only the added columns' part beside it solved
+    for each (the swaps try dozens of candidates over every reading)."""
+
+    def __init__(self, rest: np.ndarray) -> None:
+        norm = np.maximum(np.linalg.norm(rest, axis=0), 1e-300)
+        self.norm = norm
+        u, s, vt = np.linalg.svd(rest / norm, full_matrices=False) if rest.shape[1] \
+            else (np.zeros((rest.shape[0], 0)), np.zeros(0), np.zeros((0, 0)))
+        keep = s > (s[0] if len(s) else 0.0) * 1e-10
+        self.u, self.s, self.vt = u[:, keep], s[keep], vt[keep]
+
+    def _out(self, x: np.ndarray) -> np.ndarray:
+        return x - self.u @ (self.u.T @ x)
+
+    def fit(self, target: np.ndarray, columns: np.ndarray) -> tuple[float, np.ndarray]:
+        """``columns`` are ``rest`` followed by the added ones: rss and coefficients of
+        all of them."""
+        p = len(self.norm)
+        added = columns[:, p:]
+        scale = np.maximum(np.linalg.norm(added, axis=0), 1e-300)
+        beside = self._out(added / scale)
+        left = self._out(target)
+        coef_added, *_ = np.linalg.lstsq(beside, left, rcond=1e-10) if added.shape[1] \
+            else (np.zeros(0),)
+        rest_target = target - (added / scale) @ coef_added
+        along = self.u.T @ rest_target
+        coef_rest = (self.vt.T @ (along / self.s)) / self.norm if len(self.s) else \
+            np.zeros(p)
+        resid = left - beside @ coef_added
+        return float(resid @ resid), np.concatenate([coef_rest, coef_added / scale])
 
 
 def linearised(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: JointHistory,
@@ -136,9 +164,10 @@ def library_swaps(lin: _Linear, effects: tuple[str, ...],
             list(range(len(lin.names), lin.columns.shape[1]))
         target = lin.residual + lin.signature_of_effect(name)
         rest = lin.columns[:, keep]
+        beside = _Projector(rest)
         found = []
         for term in candidates:
-            rss, coef = lin.refit(target, np.column_stack([rest, blocks[term.name]]))
+            rss, coef = beside.fit(target, np.column_stack([rest, blocks[term.name]]))
             delta = (rss - lin.rss) / lin.var
             amplitude = coef[-term.size:]
             if delta < SWAP_CHI2 and _size_mm(term, amplitude) <= PLAUSIBLE_MM[term.family]:
@@ -157,15 +186,20 @@ def map_swaps(lin: _Linear, library: tuple[str, ...],
     """For each map term of the final model, the library effects (not in the model)
     and the other map terms that take its place as well."""
     out: dict[str, list[Alternative]] = {}
+    # every library column and candidate block at once: one evaluation of the model
+    library_columns = lin.problem.jacobian(lin.theta, library) if library else \
+        np.zeros((len(lin.residual), 0))
+    blocks = {t.name: lin.term_columns(t) for t in candidates}
     for k, term in enumerate(lin.terms):
         start = len(lin.names) + sum(t.size for t in lin.terms[:k])
         keep = [j for j in range(lin.columns.shape[1])
                 if not start <= j < start + term.size]
         target = lin.residual + lin.signature_of_term(k)
         rest = lin.columns[:, keep]
+        beside = _Projector(rest)
         found = []
-        for name in library:
-            rss, coef = lin.refit(target, np.column_stack([rest, lin.library_column(name)]))
+        for j, name in enumerate(library):
+            rss, coef = beside.fit(target, np.column_stack([rest, library_columns[:, j]]))
             delta = (rss - lin.rss) / lin.var
             value = float(lin.theta[PARAM_INDEX[name]] + coef[-1])
             kind = effect_of(name)
@@ -176,7 +210,7 @@ def map_swaps(lin: _Linear, library: tuple[str, ...],
         for other in candidates:
             if other.name == term.name:
                 continue
-            rss, coef = lin.refit(target, np.column_stack([rest, lin.term_columns(other)]))
+            rss, coef = beside.fit(target, np.column_stack([rest, blocks[other.name]]))
             delta = (rss - lin.rss) / lin.var
             size = _size_mm(other, coef[-other.size:])
             if delta < SWAP_CHI2 and size <= PLAUSIBLE_MM[other.family]:
