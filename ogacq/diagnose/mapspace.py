@@ -158,10 +158,27 @@ class MapSpace:
         cr = columns_w @ self.r
         return _gains(cc[None], cb[None], cr[None])
 
+    @property
+    def within_groups_tested(self) -> bool:
+        """Whether what varies within the repeat groups (between the cycles) can be
+        tested: only against a stated noise whose rounding the scatter dithers. Repeats
+        rounded alike differ by a few whole display steps, not Gaussian noise (the
+        verdict tests only the posture means then), and a noise measured from the
+        repeats is that very scatter."""
+        noise = self.problem.noise
+        return noise.dithered and not noise.measured
+
     def gain_of(self, term: MapTerm) -> Gain:
+        """The gain of ``term``'s columns; those that vary within the repeat groups by
+        every reading, or by their groups' means where that variation cannot be
+        tested (``within_groups_tested``)."""
         if self.grouped(term):
             return self.gain_grouped(self.unweighted(term, self.representative)[None])
-        return self.gain_weighted(self.weighted(self.unweighted(term)))
+        cols = self.unweighted(term)
+        if not self.within_groups_tested:
+            means = self.groups.group_means(cols)[:, self.groups.group]
+            return self.gain_grouped(means[:, self.representative][None])
+        return self.gain_weighted(self.weighted(cols))
 
     # --- the model grown by chosen columns ----------------------------------------------
 
