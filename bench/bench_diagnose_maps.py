@@ -25,6 +25,7 @@ import statistics
 import sys
 import time
 from collections.abc import Callable
+from functools import partial
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -82,11 +83,11 @@ def main() -> None:
         for kind, make in (("papers", campaign), ("scan", scan)):
             obs = make(n)
             repeats = 5 if len(obs) <= 2_000 else 2 if len(obs) <= 10_000 else 1
-            without = seconds(lambda obs=obs: diagnose(obs, maps=False), repeats)
+            without = seconds(partial(diagnose, obs, maps=False), repeats)
             start = time.perf_counter()
             d = diagnose(obs)
             first = time.perf_counter() - start
-            with_maps = min(first, seconds(lambda obs=obs: diagnose(obs), repeats - 1)) \
+            with_maps = min(first, seconds(partial(diagnose, obs), repeats - 1)) \
                 if repeats > 1 else first
             times[kind].append(with_maps)
             counts[kind].append(len(obs))

@@ -24,6 +24,7 @@ alternatives and what would separate them, final refit with std.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -217,7 +218,8 @@ class Diagnosis:
         leg, before and after) and ``chi2`` (before and after the maps, with p)."""
         effects = [e.to_json() for e in self.effects]
         if self.unexplained is not None:
-            entry_ = {"effect": "unexplained", "where": self.unexplained, "value": None,
+            entry_: dict[str, Any] = {"effect": "unexplained", "where": self.unexplained,
+                                      "value": None,
                       "std": None, "unit": "-", "alternatives": []}
             along = self.unexplained_along()
             if along is not None:

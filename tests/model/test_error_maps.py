@@ -13,6 +13,8 @@ import numpy as np
 import pytest
 from scipy.interpolate import BSpline
 
+from ogacq_drivers.sim.clock import SimClock
+from ogacq_drivers.sim.motion import MotionModel
 from ogacq.errors import InputError
 from ogacq.model.error_maps import (
     JointHistory,
@@ -26,8 +28,6 @@ from ogacq.model.joint_sensitivity import joint_sensitivity, predict_displaced
 from ogacq.model.measurement import approach_from_sequence, predict_coordinates, predict_jacobian
 from ogacq.model.parameters import indices, vector
 from ogacq.sim.truth import random_truth, read_effects
-from ogacq_drivers.sim.clock import SimClock
-from ogacq_drivers.sim.motion import MotionModel
 from tests.diagnose.campaigns import MACHINE, OFFSETS, layout
 
 
