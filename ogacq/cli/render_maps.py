@@ -169,15 +169,26 @@ def _beyond(p, sigma: float, after: bool) -> str:
 
 
 def print_proposals(d: Diagnosis, machine_file: str) -> None:
+    """The scans proposed, pairs that the same scan separates said together."""
     proposals = d.proposals
     if not proposals:
         return
     console.print("[bold]What would tell them apart[/]")
+    by_scan: dict[str, list] = {}
     for p in proposals:
-        if p.first == "the effects found":
+        by_scan.setdefault(p.command(machine_file), []).append(p)
+    for command, group in by_scan.items():
+        first = group[0]
+        if first.first == "the effects found":
             console.print(f"  a scan along each leg would show an error along q: every "
-                          f"{p.step_mm:g} mm from {p.from_mm:+g} to {p.to_mm:+g} mm, up and "
-                          f"back down (`{p.command(machine_file)}`)")
+                          f"{first.step_mm:g} mm from {first.from_mm:+g} to {first.to_mm:+g} "
+                          f"mm, up and back down (`{command}`)")
+        elif not command:
+            for p in group:
+                console.print(f"  {escape(p.describe(machine_file))}")
         else:
-            console.print(f"  {escape(p.describe(machine_file))}")
+            pairs = "; ".join(f"{p.first} from {p.second} (expected chi-square gap "
+                              f"{p.expected_gap:.0f}, now {p.now_gap:+.1f})" for p in group)
+            console.print(f"  to separate {escape(pairs)}: {first.scan_words()} "
+                          f"(`{command}`)")
     console.print()

@@ -232,7 +232,7 @@ class Proposal:
     from_mm: float
     to_mm: float
     expected_gap: float  # chi-square by which the wrong one fits worse, on the scan
-    now_gap: float  # on these readings
+    now_gap: float  # on these readings: the second's chi-square minus the first's
 
     def command(self, machine_file: str = "M.toml") -> str:
         if self.step_mm is None:
@@ -245,20 +245,28 @@ class Proposal:
             return (f"none of the scans tried (down to {SCANS[-1][0]:g} mm, {SCANS[-1][1]} "
                     f"cycles) separates {self.first} from {self.second} (best expected gap "
                     f"{self.expected_gap:.1f}); a measurement of another kind is needed")
-        return (f"to separate {self.first} from {self.second}: scan each leg every "
-                f"{self.step_mm:g} mm from {self.from_mm:+g} to {self.to_mm:+g} mm, up and "
-                f"back down, {self.cycles} cycle{'s' if self.cycles > 1 else ''} (expected "
-                f"chi-square gap {self.expected_gap:.0f}, now {self.now_gap:.1f}; check with "
+        return (f"to separate {self.first} from {self.second}: {self.scan_words()} (expected "
+                f"chi-square gap {self.expected_gap:.0f}; on these readings {self.second} in "
+                f"its place changes the chi-square by {self.now_gap:+.1f}; check with "
                 f"`{self.command(machine_file)}`)")
+
+    def scan_words(self) -> str:
+        return (f"scan each leg every {self.step_mm:g} mm from {self.from_mm:+g} to "
+                f"{self.to_mm:+g} mm, up and back down, {self.cycles} "
+                f"cycle{'s' if self.cycles > 1 else ''}")
 
     def to_json(self, machine_file: str = "M.toml") -> dict:
         return {"separates": [self.first, self.second], "measurement": "scan",
                 "step_mm": self.step_mm, "from_mm": self.from_mm, "to_mm": self.to_mm,
                 "directions": "up and down", "cycles": self.cycles,
-                "expected_chi2_gap": round(self.expected_gap, 1),
-                "now_chi2_gap": round(self.now_gap, 2),
+                "expected_chi2_gap": _finite(self.expected_gap, 1),
+                "now_chi2_gap": _finite(self.now_gap, 2),
                 "command": self.command(machine_file) or None,
                 "text": self.describe(machine_file)}
+
+
+def _finite(x: float, digits: int) -> float | None:
+    return round(float(x), digits) if math.isfinite(x) else None
 
 
 class ScanSignatures:

@@ -21,7 +21,7 @@ from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import vector
 from ogacq.sim.physics import true_coordinates
 from ogacq.sim.readings import simulated_readings
-from ogacq.sim.truth import Hysteresis, LeadScrewError, RailBow, ScrewMap, SimTruth
+from ogacq.sim.truth import Hysteresis, LeadScrewError, RailBow, ScrewMap, SimTruth, WarmUp
 from tests.cli.helpers import run_ogacq
 from tests.diagnose import reference_model as ref
 from tests.diagnose.campaigns import (
@@ -269,3 +269,15 @@ def test_no_map_along_q_is_searched_where_the_campaign_is_sparse_and_it_says_so(
     assert "too few for a map along q" in d.mapped.search.coverage[0].describe()
     assert {c.term.family for c in d.mapped.search.last_considered} == {"warm_up"}
     assert math.isclose(d.final.statistic, d.base.statistic)
+
+
+def test_a_warm_up_is_found_in_time_on_the_papers_protocol():
+    """The x joint offset settling by 30 um with a 10 min time constant over eight
+    cycles of the papers' protocol (32 min): a warm-up in time, not a library drift."""
+    for seed in (0, 1):
+        obs, _ = campaign(seed, scan={"cycles": 8}, warm_up={0: WarmUp(0.03, 600.0)})
+        d = diagnose(obs)
+        assert [e.name for e in d.effects] == ["warm_up.x"] and d.final.consistent
+        warm = only_map(d, "warm_up.x")
+        assert abs(warm.value.value - 0.03) < 4 * warm.std
+        assert d.maps == ()  # a drift in time is no table along q
