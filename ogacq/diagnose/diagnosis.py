@@ -189,7 +189,7 @@ class Diagnosis:
         out += [c.describe() for c in self.sides if c.side]
         if self.mapped is not None:
             for cov in self.mapped.search.coverage:
-                if not cov.dense and (self.map_effects or not self.final.consistent):
+                if not cov.searchable and (self.map_effects or not self.final.consistent):
                     out.append(cov.describe())
         if self.noise.source == "repeated readings" and any(
                 n.startswith("thermal_drift") for n in self.capability.identifiable()):
@@ -236,7 +236,7 @@ class Diagnosis:
             out["coverage"] = [{"axis": "xyz"[c.axis], "positions": c.positions,
                                 "from_mm": c.from_mm, "to_mm": c.to_mm,
                                 "step_mm": c.step_mm if np.isfinite(c.step_mm) else None,
-                                "both_sides": c.both_sides, "maps_searched": c.dense}
+                                "both_sides": c.both_sides, "maps_searched": c.searchable}
                                for c in self.mapped.search.coverage]
             out["chi2"] = self.chi2_json()
         if self.sides:

@@ -84,10 +84,17 @@ class AxisCoverage:
     step_mm: float
     both_sides: bool
     shortest_travel_mm: float  # after a reversal (inf: never reversed)
+    # the display step, when its rounding dominates the gauge's noise (else None): the
+    # rounding then follows the signal along q and would pass for a map
+    display_limited_mm: float | None = None
 
     @property
     def dense(self) -> bool:
         return self.positions >= MIN_POSITIONS
+
+    @property
+    def searchable(self) -> bool:
+        return self.dense and self.display_limited_mm is None
 
     @property
     def span_mm(self) -> float:
@@ -95,6 +102,11 @@ class AxisCoverage:
 
     def describe(self) -> str:
         name = AXES[self.axis]
+        if self.dense and self.display_limited_mm is not None:
+            return (f"{name} axis read at {self.positions} positions, but the display's "
+                    f"{self.display_limited_mm * 1e3:g} µm step dominates the gauge noise: "
+                    "repeats round alike and the rounding follows the readings along q, "
+                    "so it would pass for a map; not searched (a finer indicator would tell)")
         if self.dense:
             return (f"{name} axis read at {self.positions} positions, {self.from_mm:+g} to "
                     f"{self.to_mm:+g} mm, every {self.step_mm:.3g} mm"
@@ -103,7 +115,8 @@ class AxisCoverage:
                 f"for a map along q (at least {MIN_POSITIONS}; a scan shows one)")
 
 
-def coverage(layout: ReadingsLayout, travel_mm: np.ndarray) -> tuple[AxisCoverage, ...]:
+def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
+             display_limited_mm: float | None = None) -> tuple[AxisCoverage, ...]:
     out = []
     for a in range(3):
         own = layout.leg == a
@@ -114,7 +127,8 @@ def coverage(layout: ReadingsLayout, travel_mm: np.ndarray) -> tuple[AxisCoverag
         both = bool((sides > 0).any() and (sides < 0).any())
         finite = travel_mm[:, a][np.isfinite(travel_mm[:, a]) & (travel_mm[:, a] > 0)]
         out.append(AxisCoverage(a, len(q_own), float(q_all.min()), float(q_all.max()), step,
-                                both, float(finite.min()) if len(finite) else math.inf))
+                                both, float(finite.min()) if len(finite) else math.inf,
+                                display_limited_mm))
     return tuple(out)
 
 
@@ -375,7 +389,7 @@ def _candidates(space: MapSpace, covs: tuple[AxisCoverage, ...], names: tuple[st
     layout = space.problem.obs.layout
     out: list[MapCandidate] = []
     for cov in covs:
-        if not cov.dense:
+        if not cov.searchable:
             continue
         fam = _Families(space, cov, names, noise)
         found: list[MapCandidate | None] = []
@@ -436,9 +450,13 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
     if not problem.obs.raw:
         return MapSearch((), level), None
     space = space if space is not None else MapSpace(problem, theta, names, rss)
-    covs = coverage(problem.obs.layout, space.history.travel_mm)
+    # with the display's rounding repeated by the cycles (not dithered by the gauge's
+    # scatter), the posture means' errors are the rounding of a signal that varies
+    # smoothly along q: a structure of its own, which the maps would fit
+    limited = None if noise.dithered else noise.step_mm
+    covs = coverage(problem.obs.layout, space.history.travel_mm, limited)
     search = MapSearch(covs, level)
-    search.searched = any(c.dense for c in covs) or (
+    search.searched = any(c.searchable for c in covs) or (
         _repeated_in_time(problem.obs.layout) and space.within_groups_tested)
     if not search.searched:
         return search, space
