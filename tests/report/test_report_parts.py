@@ -32,7 +32,7 @@ from ogacq.session.store import load_session
 from ogacq.sim.readings import simulated_readings
 from ogacq.sim.truth import LeadScrewError, SimTruth
 from ogacq.writeback.audit import AuditLog
-from tests.diagnose.campaigns import MACHINE, OFFSETS, layout, simulate
+from tests.diagnose.campaigns import MACHINE, OFFSETS, RICH, layout, simulate
 
 # INTERCHANGE.md's diagnosis, with an alternative and a rest nothing explains
 DIAGNOSIS = {
@@ -173,3 +173,17 @@ def test_a_scans_error_maps_are_drawn_and_stated(tmp_path):
     assert "Along each axis" in text and "with the maps too (final)" in text
     maps = _texts(maps_figure(view.maps))
     assert "x axis: cyclic lead-screw error" in maps and "forward ±2u" in maps
+
+
+def test_a_diagnosis_left_unexplained_is_reported(tmp_path):
+    """A lead-screw error read at five positions per leg: nothing of the library or the
+    maps explains it; the report's diagnosis keeps the "unexplained" entry (it once
+    stopped the report: the entry has no effect of its own to pair with)."""
+    obs = simulate({}, 1, lay=layout(RICH), lead_screw=(0.02, 16.0))
+    write_readings(tmp_path / "r.csv", obs.layout, obs.values)
+    session = load_session(import_readings(tmp_path / "r.csv", MACHINE, tmp_path / "s.jsonl"))
+    result = diagnose(session_observations(session))
+    assert result.outcome == "unexplained"
+    view = parse_diagnosis(report_diagnosis(result, session))
+    assert view.unexplained_where == result.unexplained
+    assert view.proposals  # a scan would show what three positions per leg cannot
