@@ -26,7 +26,8 @@ computed with the exact model on the scan's planned readings; ``ogacq plan
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import cached_property
 
 import numpy as np
 
@@ -34,15 +35,20 @@ from ogacq.diagnose.alternatives import SWAP_CHI2, Alternative
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapfit import MapFit, map_columns
 from ogacq.diagnose.mapsearch import PLAUSIBLE_MM, AxisCoverage, _size_mm
+from ogacq.diagnose.mapspace import term_columns
 from ogacq.diagnose.separation import SEPARATES_CHI2
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.gauges import AXES
+from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX, effect_of
 from ogacq.protocol.plan import ProtocolConfig, planned_layout, scan_targets
 
+# Below this share of its own size a signature is wholly absorbed by the other
+# explanation: that explanation holds it.
+NESTED = 1e-9
 # Scans tried, cheapest first: (step mm, cycles). Up and back down, so each
 # position is read from both sides (ISO 230-2 4.3's bidirectional run).
 SCANS = ((2.0, 1), (1.0, 1), (1.0, 3), (0.5, 3))
@@ -65,7 +71,7 @@ def swap_families(covs: tuple[AxisCoverage, ...], names: tuple[str, ...],
     return [t for t in out if t.name not in taken and f"{t.family}.{AXES[t.axis]}" not in taken]
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)
 class _Linear:
     """The final model linearised: weighted columns of its library parameters and map
     terms, its weighted residual, the noise variance a swap is judged against."""
@@ -81,9 +87,17 @@ class _Linear:
     coefficients: list[np.ndarray]
     history: JointHistory
 
+    @cached_property
+    def _sensitivity(self) -> tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]:
+        sens = joint_sensitivity(self.theta, self.problem.obs.layout, self.problem.obs.machine)
+        return sens, sens.along()
+
     def term_columns(self, term: MapTerm) -> np.ndarray:
-        cols = map_columns(self.problem, self.theta, [term], self.history)
-        return self.problem.weighted(cols.T).T
+        """(m, k) the term's weighted columns at the final model (the joints'
+        sensitivities found once for every candidate)."""
+        sens, along = self._sensitivity
+        cols = term_columns(term, self.history, sens, along, self.problem.obs.layout.gauge)
+        return self.problem.weighted(cols).T
 
     def column_of(self, name: str) -> np.ndarray:
         return self.columns[:, self.names.index(name)]
@@ -158,7 +172,14 @@ def library_swaps(lin: _Linear, effects: tuple[str, ...],
                   candidates: list[MapTerm]) -> dict[str, list[tuple[MapTerm, Alternative]]]:
     """For each library effect, the map terms that take its place as well."""
     out: dict[str, list[tuple[MapTerm, Alternative]]] = {}
-    blocks = {t.name: lin.term_columns(t) for t in candidates}
+    blocks: dict[tuple, np.ndarray] = {}
+
+    def block(term: MapTerm) -> np.ndarray:
+        key = (term.name, tuple(sorted(term.shape.items())))
+        if key not in blocks:
+            blocks[key] = lin.term_columns(term)
+        return blocks[key]
+
     for name in effects:
         keep = [k for k, n in enumerate(lin.names) if n != name] + \
             list(range(len(lin.names), lin.columns.shape[1]))
@@ -166,8 +187,12 @@ def library_swaps(lin: _Linear, effects: tuple[str, ...],
         rest = lin.columns[:, keep]
         beside = _Projector(rest)
         found = []
-        for term in candidates:
-            rss, coef = beside.fit(target, np.column_stack([rest, blocks[term.name]]))
+        for candidate in candidates:
+            # in place of an axis's encoder scale, its map takes the slope too
+            term = replace(candidate, shape={**candidate.shape, "detrended": 0.0}) \
+                if candidate.family == "screw_map" and \
+                name == f"encoder_scale.{AXES[candidate.axis]}" else candidate
+            rss, coef = beside.fit(target, np.column_stack([rest, block(term)]))
             delta = (rss - lin.rss) / lin.var
             amplitude = coef[-term.size:]
             if delta < SWAP_CHI2 and _size_mm(term, amplitude) <= PLAUSIBLE_MM[term.family]:
@@ -318,7 +343,15 @@ class ScanSignatures:
 
         s1 = signature(*first)
         s2 = signature(*second)
-        return min(rest_after(s1, second[1], second[2]), rest_after(s2, first[1], first[2]))
+        gaps = (rest_after(s1, second[1], second[2]), rest_after(s2, first[1], first[2]))
+        # an explanation that holds the other (a screw map with its slope, against the
+        # encoder scale) fits it whatever the scan: only the other way can fail, and a
+        # scan separates them when it does
+        held = [g <= NESTED * float(s @ s) / self.noise.variance
+                for g, s in zip(gaps, (s1, s2), strict=True)]
+        if held[0] != held[1]:
+            return gaps[1] if held[0] else gaps[0]
+        return min(gaps)
 
 
 def propose(signatures: ScanSignatures, first: str, second: str,
