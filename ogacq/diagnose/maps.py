@@ -94,7 +94,7 @@ class MapEffect:
             where += f", q from {self.coverage.from_mm:+g} to {self.coverage.to_mm:+g} mm"
         size = f"about {abs(v.value) * 1e3:.2g} µm"
         if t.family == "lead_screw_cyclic":
-            what = f"{WORDS[t.family]} of pitch {t.shape['pitch_mm']:.3g} mm"
+            what = f"{WORDS[t.family]} of pitch {t.shape['pitch_mm']:.4g} mm"
         elif t.family == "screw_map":
             what = f"{WORDS[t.family]}, largest at {v.extra['at_mm']:+g} mm"
         elif t.family == "hysteresis":
