@@ -316,6 +316,7 @@ def sweep_inputs(session: Path, work: Path, rng: random.Random, n: int) -> None:
     (work / "machine.toml").write_text(MACHINE)
     fuzz_toml(read_machine, MACHINE, work, by_family.setdefault("machine file", Counter()),
               "machine")
+    (work / "machine.toml").write_text(MACHINE)  # the campaign below names it: as given
     campaign = ("deadline_s = 600\n" + CAMPAIGN + "[stability]\nreadings = 3\n"
                 "tolerance_mm = 0.002\ntimeout_s = 10\n").replace(
         "[protocol]\n", "[protocol]\ncycles = 3\novershoot_mm = 1.0\nsettle_window_s = 0.1\n")
