@@ -490,6 +490,9 @@ class ReferenceRecord(Record):
                                    if _finite(v)} if isinstance(differences, dict) else None,
                    tolerance_mm=d.get("tolerance_mm") if _finite(d.get("tolerance_mm"))
                    else None, message=d.get("message"))
+
+
+@dataclass(frozen=True, kw_only=True)
 class SalvageRecord(Record):
     """The last record of a session ``ogacq session salvage`` wrote: the damaged file
     it came from, and the lines of it left out with why."""
