@@ -253,10 +253,17 @@ def _results(result: FitResult, evaluation: Evaluation) -> dict[str, dict[str, d
 
 def _verdict(result: FitResult) -> dict[str, Any]:
     verdict = fit_verdict(result)
+    cell = verdict.worst_cell
+    # "p" is the verdict's, judged against the level: the overall test's and the worst
+    # cell's Bonferroni-combined (the smaller, doubled); the keys after it say each
     return {"state": verdict.state, "consistent": verdict.consistent,
             "chi2_dof": number(verdict.chi2_dof, 4), "p": number(verdict.p_value, 4),
             "test": verdict.test, "dof": verdict.dof, "level": verdict.level,
-            "text": verdict.describe()}
+            "text": verdict.describe(),
+            "p_overall": number(verdict.overall_p, 4) if verdict.judged else None,
+            "p_worst_cell": number(cell.p_value, 4) if cell is not None else None,
+            "worst_cell": cell.cell if cell is not None else None,
+            "p_combined": number(verdict.p_value, 4) if verdict.judged else None}
 
 
 def _write(write: Any) -> dict[str, Any]:

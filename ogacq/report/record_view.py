@@ -43,6 +43,9 @@ WORDS = {
     "ratio": "u / u_c", "agrees_within_10_percent": "agrees within 10 %",
     "converged_fraction": "converged fraction", "seconds": "time (s)",
 }
+VERDICT_WORDS = {"p": "combined p (overall and worst cell, Bonferroni)",
+                 "p_overall": "overall p", "p_worst_cell": "worst cell's p (over the cells)",
+                 "worst_cell": "worst cell"}
 # A null that is not an unknown: degrees of freedom of a type B input are infinite
 # (JCGM 100:2008 G.4.2), and the uncertainty package writes them as null.
 NULL_WORDS = {"dof": "∞", "dof_eff": "∞"}
@@ -252,9 +255,8 @@ def verdict(record: Mapping[str, Any]) -> Table | None:
     if not found:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
-    # so, beside the overall F test's own p in the text
-    shown = {("p (overall and worst cell combined)" if k == "p" else k): v
-             for k, v in found.items()}
+    # so, and each p named (p_combined repeats p: shown once)
+    shown = {VERDICT_WORDS.get(k, k): v for k, v in found.items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
 
 
