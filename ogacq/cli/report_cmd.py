@@ -37,8 +37,8 @@ def report_command(
     history: Annotated[str | None, typer.Option(
         "--history", metavar="URL_OR_PATH",
         help="History to plot this machine's earlier calibrations from: an SQLite file or "
-             "a PostgreSQL URL (default: $OGACQ_HISTORY, else history.sqlite beside the "
-             "session; none: no history).")] = None,
+             "a PostgreSQL URL (default: $OGACQ_HISTORY, else history.sqlite in ogacq's data "
+             "folder; none: no history).")] = None,
     pdf: Annotated[bool, typer.Option(
         "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
                       "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
