@@ -7,7 +7,7 @@ from tests.cli.helpers import run_ogacq
 from tests.recovery import recovered
 
 
-def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
+def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_home):
     effects = tmp_path / "effects.toml"
     effects.write_text("[squareness]\nxy = 0.5\n")
     out = tmp_path / "demo"
@@ -40,6 +40,15 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
     assert record["operator"] == "J. Martin" and record["machine"]["serial"] == "SIM-4"
     assert not record["missing"], record["missing"]
     assert record["acceptance"]["as_found"]["decision"] == "fail"
+    # recorded in the history of ogacq's data folder, where every demo accumulates
+    assert f"history: 1 calibration recorded in {ogacq_home / 'history.sqlite'}" in \
+        " ".join(proc.stdout.split())
+    # the end: the verdict (not within the noise: the squareness), the record's id as
+    # issued beside the page, and what to do next
+    end = " ".join(proc.stdout[proc.stdout.index("verdict:"):].split())
+    assert end.startswith("verdict: NOT within the gauge noise")
+    assert f"record: {record['id']} (issued as {out / 'report' / 'record.json'})" in end
+    assert f"next: ogacq diagnose {out / 'session.jsonl'}" in end
 
 
 def assert_one_unit_per_line(text: str) -> None:
