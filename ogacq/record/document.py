@@ -33,7 +33,7 @@ from ogacq.io.errors import InputError
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import effect_of
 from ogacq.record.context import CalibrationContext, calibration_context
-from ogacq.record.evaluation import Evaluation, evaluate
+from ogacq.record.evaluation import evaluate
 from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.convert import session_machine
 from ogacq.session.state import completeness
@@ -90,7 +90,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     result, why_no_fit = _identify(session)
     if why_no_fit:
         missing["results"] = why_no_fit
-    as_left, why_no_left = None, None
+    as_left, why_no_left, left = None, None, None
     if validation is not None:
         left, why_no_left = _identify(validation)
         if left is not None:
@@ -112,7 +112,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         **_context_sections(context, "instruments" in header, missing),
         "campaign": _campaign(session),
         "method": _method(session, result, machine),
-        "results": _results(result, evaluation) if result is not None else None,
+        "results": _results(result, evaluation.results) if result is not None else None,
         "budget": evaluation.budget,
         "budget_complete": evaluation.budget_complete,
         "monte_carlo": evaluation.monte_carlo,
@@ -123,6 +123,9 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         "session": _session_reference(session, sha256),
         "validation_session": (_session_reference(validation) if validation is not None
                                else None),
+        # what the validation identified (the offsets remaining after the write-back)
+        "validation_results": (_results(left, evaluation.validation_results)
+                               if left is not None else None),
     }
     why_none = NOT_GIVEN if "identity" in session.header else NOT_IN_SESSION
     if record["operator"] is None:
@@ -236,11 +239,12 @@ def _method(session: LoadedSession, result: FitResult | None,
     }
 
 
-def _results(result: FitResult, evaluation: Evaluation) -> dict[str, dict[str, dict[str, Any]]]:
+def _results(result: FitResult, budget_results: Mapping[str, Any] | None,
+             ) -> dict[str, dict[str, dict[str, Any]]]:
     """Each parameter's value, the fit's standard deviation (the gauge noise propagated
     through the fit alone, JCGM 100:2008 4.2, a type A evaluation) and, from the
     budget, its u, U = k u and how complete that is."""
-    budget = evaluation.results or {}
+    budget = budget_results or {}
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for name, value, std in zip(result.names, result.values, result.std, strict=True):
         group, _, where = name.partition(".")

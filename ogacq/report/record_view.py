@@ -20,6 +20,7 @@ import numpy as np
 from markupsafe import Markup
 
 from ogacq.report.cells import Badge, Cell, Table, table
+from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
 
 NOT_RECORDED = "not recorded"
 NOT_EVALUATED = "not evaluated"
@@ -234,20 +235,41 @@ def method(record: Mapping[str, Any]) -> Table:
     return table(None, rows)
 
 
-def results(record: Mapping[str, Any]) -> Table | None:
-    found = record.get("results")
+# Results: the headline first (value ± U, k), then the detail, each rounded by the one
+# rule (JCGM 100:2008 7.2.6); record.json keeps every digit.
+HEADLINE_KEYS = ("value_mm", "U_mm", "k", "unit")
+DETAIL_KEYS = ("u_mm", "std_mm", "dof_eff")
+
+
+def results(record: Mapping[str, Any], key: str = "results") -> Table | None:
+    found = record.get(key)
     if not found:
         return None
-    keys = ["value_mm", "std_mm", "u_mm", "U_mm", "k", "unit"]
-    extra = [k for by in found.values() for r in by.values() for k in r if k not in keys]
-    keys += list(dict.fromkeys(extra))
+    extra = list(dict.fromkeys(k for by in found.values() for r in by.values() for k in r
+                               if k not in HEADLINE_KEYS + DETAIL_KEYS))
     rows: list[list[Cell]] = []
     for group, by_where in found.items():
         for where, r in by_where.items():
-            rows.append([f"{group}.{where}", signed_shown(r.get("value_mm"), "not determined")]
-                        + [cell(k, r.get(k), NOT_EVALUATED) for k in keys[1:]])
-    return table(["parameter"] + [words(k) for k in keys], rows,
-                 [False] + [k != "unit" for k in keys])
+            U = r.get("U_mm")
+            rows.append([f"{group}.{where}", str(entry_headline(r)),
+                         two_digits(r.get("u_mm")) if r.get("u_mm") is not None
+                         else NOT_EVALUATED,
+                         two_digits(r.get("std_mm")) if r.get("std_mm") is not None
+                         else "not determined",
+                         _dof(r.get("dof_eff"), r.get("u_mm"))]
+                        + [rounded(r.get(k), U, sign=True)
+                           if k.endswith("_mm") and isinstance(r.get(k), int | float)
+                           else cell(k, r.get(k), NOT_EVALUATED) for k in extra])
+    header = ["parameter", "value ± U", "u (mm)", "fit std (mm)", "effective dof"]
+    return table(header + [words(k) for k in extra], rows,
+                 [False, True, True, True, True] + [False] * len(extra))
+
+
+def _dof(dof: Any, u: Any) -> str:
+    """Effective degrees of freedom as a whole number; infinite (null with a u) as ∞."""
+    if isinstance(dof, int | float) and not isinstance(dof, bool):
+        return f"{dof:.0f}"
+    return "∞" if u is not None else NOT_EVALUATED
 
 
 def verdict(record: Mapping[str, Any]) -> Table | None:
@@ -311,11 +333,10 @@ def history(record: Mapping[str, Any]) -> Table | None:
         for name in names:
             group, _, where = name.partition(".")
             r = (entry["results"].get(group) or {}).get(where) or {}
-            value = signed_shown(r.get("value_mm"), "-")
-            row.append(value if r.get("U_mm") is None
-                       else f"{value} ± {shown(r.get('U_mm'))}")
+            line = entry_headline(r)
+            row.append("-" if not r else f"{line.value} ± {line.U}" if line.U else line.value)
         rows.append(row)
-    return table(["record", "date"] + [f"{n} (mm) ± U" for n in names], rows,
+    return table(["record", "date"] + [f"{n} (mm) ± U (k = 2)" for n in names], rows,
                  [False, False] + [True] * len(names))
 
 
@@ -348,6 +369,7 @@ def record_view(record: Mapping[str, Any]) -> dict[str, Any]:
         "missing": [(words(k), v) for k, v in missing.items()],
         "instruments": instruments(record), "environment": environment(record),
         "method": method(record), "results": results(record), "verdict": verdict(record),
+        "validation_results": results(record, "validation_results"),
         "acceptance": acceptance(record), "budget": budget(record),
         "budget_complete": record.get("budget_complete"),
         "monte_carlo": monte_carlo(record), "history": history(record),

@@ -22,6 +22,7 @@ from ogacq.session.records import EndRecord, FaultRecord
 from ogacq.session.store import SessionWriter, load_session
 from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import run_ogacq
+from tests.record.pages import gum
 
 FIGURES = ("deviations.png", "residuals.png", "parameters.png", "diagnosis.png")
 # the offsets a write-back leaves: what a validation campaign should find
@@ -92,11 +93,23 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
     # the session's own numbers: the campaign's result record ...
     session = load_session(calibration)
     refit = session.result.refit
+    # each offset's headline: U of the record's budget (k = 2) to two significant digits,
+    # the value at its decimal place (JCGM 100:2008 7.2.6); the fit std as the detail
+    record = json.loads((out / "record.json").read_text())
     parameters = html[html.index('<h2 id="parameters"'):]  # the analysis's table
     for axis in "xyz":
-        value, std = _row_numbers(parameters, f"joint_offset.{axis}")[:2]
-        assert value == pytest.approx(refit["parameters"]["joint_offset"][axis], abs=1e-5)
-        assert std == pytest.approx(refit["std"]["joint_offset"][axis], abs=1e-5)
+        row = re.search(rf"<tr><td>joint_offset\.{axis}</td>(.*?)</tr>", parameters).group(1)
+        entry = record["results"]["joint_offset"][axis]
+        assert entry["value_mm"] == pytest.approx(refit["parameters"]["joint_offset"][axis])
+        value, U = gum(entry["value_mm"], entry["U_mm"])
+        assert f"{value} ± {U} mm (k = 2" in row, row  # "; budget incomplete" may follow
+        std = float(re.search(r"(\d\.\d+) mm</td>", row).group(1))
+        assert std == pytest.approx(refit["std"]["joint_offset"][axis], rel=0.05)
+        assert std < entry["U_mm"] / 2  # the budget holds more than the fit's noise
+        # what remains after the write-back, with the U of the validation's own budget
+        left = record["validation_results"]["joint_offset"][axis]
+        value, U = gum(left["value_mm"], left["U_mm"])
+        assert f"{value} ± {U} mm (k = 2" in row.split("</td>")[-2], row
     text = _text(html)
     # the page shows 2 decimals of the full-precision fit, the result record holds 6 of
     # mm: the two may round either side of a hundredth of a um
