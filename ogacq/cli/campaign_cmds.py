@@ -48,10 +48,9 @@ def run(
         campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     campaign.session = _session_for(campaign.session, session)
-    warn_traceability(campaign)
     outcome = execute(lambda obs: run_campaign(
-        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), campaign.session,
-        quiet=as_json)
+        campaign, observer=obs, set_gauges=operator_for(campaign, obs),
+        checked=lambda: warn_traceability(campaign)), campaign.session, quiet=as_json)
     finish(outcome, as_json, history)
 
 
@@ -68,10 +67,9 @@ def resume(
     if reason:
         campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
-    warn_traceability(campaign)
     outcome = execute(lambda obs: run_campaign(
-        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
-        loaded.path, quiet=as_json)
+        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs),
+        checked=lambda: warn_traceability(campaign)), loaded.path, quiet=as_json)
     finish(outcome, as_json, history)
 
 
@@ -88,7 +86,8 @@ def _session_for(campaign_session: Path, given: Path | None) -> Path:
 
 
 def warn_traceability(campaign: Campaign) -> None:
-    """Before anything moves: what the record will lack (an operator, a certificate)."""
+    """Once the campaign passed its gates, before the station opens: what the record
+    will lack (an operator, a certificate)."""
     for gap in traceability_gaps(campaign):
         log.warning("%s: %s", campaign.path, gap)
 
