@@ -16,7 +16,15 @@ from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.io.text import read_text
 from ogacq.record.document import build_record
-from ogacq.report import DiagnosisFormatError, build_report, collect, parse_diagnosis, write_report
+from ogacq.record.revision import issue
+from ogacq.report import (
+    RECORD_NAME,
+    DiagnosisFormatError,
+    build_report,
+    collect,
+    parse_diagnosis,
+    write_report,
+)
 from ogacq.report.printing import print_pdf
 from ogacq.session.convert import session_observations
 from ogacq.session.state import require_complete, session_notes
@@ -93,7 +101,17 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
                    diagnosis_note=diagnosis_note)
     record = build_record(calibration, validation=validation, history=history,
                           history_why=history_why)
+    # issued beside an earlier issue of the same record: its next revision, or itself
+    record = issue(record, _earlier_issue(folder / RECORD_NAME))
     return write_report(build_report(data, record), folder)
+
+
+def _earlier_issue(path: Path) -> bytes | None:
+    """The record.json already in the report's folder (None: none, or unreadable)."""
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None
 
 
 def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any]:

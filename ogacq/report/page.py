@@ -29,7 +29,7 @@ from ogacq.report.formatting import (
     signed,
     um,
 )
-from ogacq.report.record_view import css_string, record_view, shown
+from ogacq.report.record_view import css_string, record_view, revision_label, shown
 from ogacq.uncertainty.reporting import two_digits
 
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("ogacq.report", "templates"),
@@ -291,7 +291,7 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     context: dict[str, Any] = record_view(record) | {
         "page_issued": css_string(str(record.get("issued"))),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
-        "title": f"Calibration record {record.get('id')}: {machine}"
+        "title": f"Calibration record {revision_label(record)}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
         "status_badge": status_badge(data.status), "um": um,
         "session_notes": session_notes(record),

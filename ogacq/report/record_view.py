@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 from markupsafe import Markup
 
-from ogacq.report.cells import Badge, Cell, Table, table
+from ogacq.report.cells import Badge, Cell, Lines, Table, table
 from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
 
 NOT_RECORDED = "not recorded"
@@ -127,6 +127,7 @@ def identification(record: Mapping[str, Any]) -> Table:
         ["record", shown(record.get("id"))],
         ["record format", shown(record.get("format"))],
         ["issued", shown(record.get("issued"))],
+        *_revision_rows(record),
         ["calibration date", shown(record.get("date")) + rehearsed],
         ["machine", shown(machine.get("name"))],
         ["machine serial number", shown(machine.get("serial"))],
@@ -149,6 +150,31 @@ def identification(record: Mapping[str, Any]) -> Table:
                  ["as-left session records", shown(validation.get("records"))],
                  *_integrity_rows("as-left session", validation)]
     return table(None, rows)
+
+
+def revision_label(record: Mapping[str, Any]) -> str:
+    """``OGQ-... revision 2``: how a re-issued record is named on every page; the first
+    issue (and a record from before revisions) by its id alone."""
+    revision = record.get("revision")
+    suffix = f" revision {revision}" if isinstance(revision, int) and revision > 1 else ""
+    return f"{record.get('id')}{suffix}"
+
+
+def _revision_rows(record: Mapping[str, Any]) -> list[list[Cell]]:
+    """The issue's revision, the issue it replaces and what changed (ISO/IEC
+    17025:2017 7.8.8)."""
+    if "revision" not in record:
+        return []
+    rows: list[list[Cell]] = [["revision", shown(record.get("revision"))]]
+    revises = record.get("revises")
+    if isinstance(revises, Mapping):
+        rows.append(["replaces", f"revision {shown(revises.get('revision'))} issued "
+                                 f"{shown(revises.get('issued'))} (its record.json SHA-256 "
+                                 f"{shown(revises.get('sha256'))})"])
+        changes = [str(c) for c in record.get("changes") or ()]
+        rows.append([f"changed since revision {shown(revises.get('revision'))}",
+                     Lines(tuple(changes)) if changes else "nothing named"])
+    return rows
 
 
 # How a session vouches for its records (ogacq.session.seal), in a reader's words.
@@ -374,7 +400,8 @@ def record_view(record: Mapping[str, Any]) -> dict[str, Any]:
         "budget_complete": record.get("budget_complete"),
         "monte_carlo": monte_carlo(record), "history": history(record),
         "overrides": overrides(record), "record_writes": writebacks(record),
-        "page_footer": css_string(f"Calibration record {record.get('id')}"),
+        "page_footer": css_string(f"Calibration record {revision_label(record)}"),
+        "record_label": revision_label(record),
     }
 
 
