@@ -12,6 +12,11 @@ Targets (issue 14, 2 cores): refit < 0.5 s, diagnose < 1 s; (issue 27) `ogacq --
 refit and diagnose each within 1.5x numpy's import measured in the same run. The
 runs of all commands are interleaved, so that a load that comes and goes falls on
 each alike.
+Then, in the same process, loading a 72,000-reading CSV into observations
+(``load_observations``) beside a plain numpy loader of the same file
+(``np.loadtxt(..., dtype=str)``: every field, as a file with letter columns needs);
+target (issue 27) <= 1.3x.
+
 Run: python bench/bench_startup.py [runs, default 7]
 """
 
@@ -28,6 +33,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_linear import MACHINE, campaign  # noqa: E402
 
+from ogacq.io.loading import load_observations  # noqa: E402
 from ogacq.io.machine_file import write_machine  # noqa: E402
 from ogacq.io.tables import write_readings  # noqa: E402
 
@@ -91,6 +97,32 @@ def main() -> None:
                              f"< {TARGETS_S[name]:g} s: "
                              f"{'met' if max(t) < TARGETS_S[name] else 'NOT met'}")
             print(line)
+        csv_load(tmp, runs)
+
+
+def csv_load(tmp: str, runs: int) -> None:
+    import numpy as np
+
+    obs = campaign(72_000)
+    readings, machine = Path(tmp, "readings72k.csv"), Path(tmp, "machine72k.toml")
+    write_readings(readings, obs.layout, obs.values)
+    write_machine(machine, MACHINE, "bench_startup: the 72,000-reading campaign's machine")
+    from ogacq.io.machine_file import read_machine
+
+    spec = read_machine(machine)
+    loaders = {"load_observations": lambda: load_observations(readings, spec),
+               "np.loadtxt(dtype=str)": lambda: np.loadtxt(readings, delimiter=",",
+                                                           skiprows=1, dtype=str)}
+    times: dict[str, list[float]] = {label: [] for label in loaders}
+    for _ in range(runs):
+        for label, load in loaders.items():
+            start = time.perf_counter()
+            load()
+            times[label].append(time.perf_counter() - start)
+    ours, plain = (statistics.median(t) for t in times.values())
+    print(f"72,000-reading CSV, {runs} loads each, median: load_observations {ours:.3f} s, "
+          f"np.loadtxt(dtype=str) {plain:.3f} s: {ours / plain:.2f}x "
+          f"(target <= 1.3x: {'met' if ours / plain <= 1.3 else 'NOT met'})")
 
 if __name__ == "__main__":
     main()

@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq.campaign_file import Campaign, read_campaign
+from ogacq.compensation.applied import TargetCorrection
 from ogacq.identify.fit import FitResult, evaluate, fit
 from ogacq.identify.plausibility import check_observations, check_result
 from ogacq.io.errors import InputError
@@ -30,6 +31,7 @@ from ogacq.session.records import (
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation, open_station
 from ogacq.traceability import check_instruments, header_entries, read_environment
+from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
 
 # Adapts the opened station for one run: gets the session writer.
 StationWrapper = Callable[[DeviceStation, SessionWriter], Station]
@@ -91,12 +93,18 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     # ... and a gauge past its due date before anything moves (Refused, unless overridden)
     overrides = check_instruments(campaign, overridden=[
         r.subject for r in resume.of_type(OverrideRecord)] if resume is not None else ())
+    # ... and maps the session was not recorded with (its readings would mix two)
+    maps = maps_in_force(campaign)
+    if resume is not None:
+        check_same_maps(resume, maps)
     if checked is not None:
         checked()
     with open_station(campaign, simulator) as station:
         started = resume is None or not resume.of_type(EnvironmentRecord)
         environment = read_environment(campaign, station, "start") if started else None
         station.prepare()
+        if maps is not None:  # the identity of the maps every target is corrected with
+            station.description["controller"]["maps"] = maps.identity()
         station.description["deadline_s"] = campaign.deadline_s or default_deadline_s(
             campaign.protocol, campaign.machine)
         recorded_before = resume.recorded() if resume is not None else set()
@@ -134,7 +142,11 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             runner = CampaignRunner(runs_on, writer, campaign.protocol, campaign.machine,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges, previous=previous,
-                                    check_first=bool(previous))
+                                    check_first=bool(previous),
+                                    correction=TargetCorrection(
+                                        maps.maps, (campaign.machine.rho_min_mm,
+                                                    campaign.machine.rho_max_mm))
+                                    if maps is not None and maps.maps else None)
             runner.run()
             at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))
             ended = at_end(station)
@@ -147,6 +159,39 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                                       noise_source=result.noise.source))
         hidden = station.simulator.machine.truth.hidden() if station.simulator else None
     return CampaignOutcome(writer.path, result, hidden, station.simulator is not None)
+
+
+def maps_in_force(campaign: Campaign) -> MapsTable | None:
+    """The maps file the campaign's controller names, read (None: it names none)."""
+    spec = campaign.controller
+    if spec is None or spec.maps_file is None:
+        return None
+    return read_maps_table(spec.maps_file)
+
+
+def recorded_maps(session: LoadedSession) -> dict[str, Any] | None:
+    """The maps identity the campaign last ran with (None: none were applied)."""
+    stations = [session.header.get("station") or {},
+                *(r.description for r in session.of_type(StationRecord))]
+    for station in reversed(stations):
+        controller = station.get("controller") or {}
+        if "maps" in controller or "maps_file" in controller:
+            return controller.get("maps")
+    return None
+
+
+def check_same_maps(session: LoadedSession, maps: MapsTable | None) -> None:
+    """Refuse to resume with other maps than the session's readings were taken with
+    (``maps`` None: the campaign names no maps file, so none are applied)."""
+    before = recorded_maps(session)
+    then = before.get("checksum") if before else maps_checksum({})  # none applied then
+    now = maps.checksum if maps is not None else maps_checksum({})
+    if then != now:
+        where = maps.path if maps is not None else session.path
+        raise InputError(where, f"the maps applied changed since {session.path} was started "
+                         f"(then {then[:12]}, now {now[:12]}): its readings would mix two "
+                         "compensations; resume with the maps it started with (a calibration's "
+                         "campaign: `ogacq calibrate --resume`), or start a new campaign")
 
 
 def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, str]],

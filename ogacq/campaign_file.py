@@ -32,6 +32,9 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     offsets_file = "offsets.toml"     # software offset table (profiles without an offset
                                       # register, e.g. iai-pcon): applied to every commanded
                                       # position, written by `ogacq offsets write`
+    maps_file = "maps.json"           # error maps ogacq applies to every target it
+                                      # commands (the drives hold no table), written by
+                                      # `ogacq calibrate`
     [[gauges]]
     gauge = "y_x"                     # along y on the x leg
     protocol = "mitutoyo-01a"         # a protocol of ogacq_drivers.indicators.BACKENDS
@@ -194,6 +197,9 @@ class ControllerSpec:
     # None: the profile keeps its offsets in the controller, or none are applied.
     offsets_file: Path | None = None
     axes: dict[str, AxisEndpoint] = field(default_factory=dict)
+    # The error maps ogacq applies to every commanded target (ogacq.writeback.maps_table);
+    # None: none are applied.
+    maps_file: Path | None = None
     reconnect_attempts: int = ReconnectPolicy.attempts
     reconnect_backoff_s: float = ReconnectPolicy.backoff_s
     # An axis that lost its position reference (a drive switched off and on) is homed
@@ -323,6 +329,7 @@ _CONTROLLER = Table((
     Field("baudrate", _BAUDRATE),
     Field("timeout_s", _TIMEOUT),
     Field("offsets_file", FilePath(), decode=Path.resolve),
+    Field("maps_file", FilePath(), decode=Path.resolve),
     Field("axes", MapOf(_AXIS_ENDPOINT, keys=AXES, noun="axis")),
     # a reconnect policy still bounded in practice
     Field("reconnect_attempts", whole(minimum=0, maximum=100)),

@@ -46,7 +46,8 @@ Replace the controller's and the gauges' ports with your station's; write the
 machine file it names with `ogacq init machine`.
 
 deadline_s, [controller] baudrate (RTU), [controller.axes] (one endpoint per axis),
-offsets_file (profiles without an offset register), [[gauges]] channel, serial and
+offsets_file (profiles without an offset register), maps_file (the error maps
+`ogacq calibrate` writes, applied to every target), [[gauges]] channel, serial and
 baudrate, and a [simulator] table (instead of hardware) may be added.
 
 Traceability (recorded in the session; format: docs/formats.md):

@@ -349,6 +349,8 @@ def _controller_description(spec: ControllerSpec, controller: AxisController) ->
         out["baudrate"] = spec.baudrate
     if spec.offsets_file is not None:
         out["offsets_file"] = str(spec.offsets_file)
+    if spec.maps_file is not None:
+        out["maps_file"] = str(spec.maps_file)
     return out
 
 
@@ -406,7 +408,11 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
             simulator = start_simulator(campaign.machine, campaign.simulator)
             stack.callback(simulator.close)
         if simulator is not None:
+            files = campaign.controller  # the tables ogacq applies, kept on the simulator's
             controller_spec, gauge_specs = simulator_endpoints(simulator)
+            if files is not None:
+                controller_spec = replace(controller_spec, offsets_file=files.offsets_file,
+                                          maps_file=files.maps_file)
         controller = stack.enter_context(open_controller(controller_spec))
         indicators = stack.enter_context(open_gauges(gauge_specs))
         if simulator is not None:

@@ -25,8 +25,9 @@ PACKAGES = {"ogacq_drivers": "drivers", "ogacq": "ogacq"}  # installed name -> f
 # - ogacq.protocol.plan: the plan is what identification, accuracy prediction and
 #   separation derive their layouts of readings from; the runner executing it records
 #   into sessions, so the rest of ogacq.protocol sits with the session.
-# - ogacq.writeback.table: the offset-table file, opened with the controller by the
-#   station, while the rest of writeback decides from finished campaigns.
+# - ogacq.writeback.table, ogacq.writeback.maps_table: the offset table and the maps
+#   file, opened with the controller by the station and loaded by every campaign,
+#   while the rest of writeback decides from finished campaigns.
 LAYERS: list[tuple[str, ...]] = [
     ("ogacq_drivers", "ogacq_drivers.errors", "ogacq_drivers.config_schema"),
     ("ogacq_drivers.link", "ogacq_drivers.usb_net", "ogacq_drivers.usb_link",
@@ -39,7 +40,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
-     "ogacq.uncertainty"),
+     "ogacq.writeback.maps_table", "ogacq.uncertainty", "ogacq.compensation"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
      "ogacq.file_templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
@@ -47,6 +48,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.writeback", "ogacq.report"),
     # the record: the campaign, its uncertainty, its write-backs, its report data
     ("ogacq.record.document", "ogacq.record.evaluation"),
+    # calibrate's procedure: campaigns, diagnoses, write-backs and the record, in order
+    ("ogacq.calibration",),
     ("ogacq.cli", "ogacq.__main__"),
 ]
 LEVEL = {entry: level for level, entries in enumerate(LAYERS) for entry in entries}

@@ -41,6 +41,8 @@ OFFSETS_HELP = ("Joint offsets on the controller: show the identified ones again
                 "controller's, write them back (confirmed, read back, recorded), restore the "
                 "old ones.")
 SESSION_HELP = "Look at, export, import, check and salvage sessions."
+MAPS_HELP = ("The error maps ogacq applies to every target (written by `ogacq calibrate`): "
+             "show them with their ISO 230-2 figures, restore the ones a write replaced.")
 HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq history MACHINE` "
                 "(the same as `ogacq history show MACHINE`) lists them with each parameter's U "
                 "and flags a drift larger than U; `ogacq history add SESSION...` records "
@@ -66,7 +68,17 @@ class OgacqCommands(LazyCommands):
             "ogacq.cli.demo_cmd:demo",
             "A full calibration campaign against the built-in simulator: identify the "
             "hidden joint offsets through the real drivers and compare them with the "
-            "truth."),
+            "truth; then write them (and the error maps a table would hold), validate "
+            "with a second campaign and keep or restore them, as `ogacq calibrate` "
+            "does."),
+        "calibrate": LazyCommandSpec(
+            "ogacq.cli.calibrate_cmd:calibrate",
+            "Calibrate the machine and validate it: campaign, diagnosis, the separating "
+            "measurement when the diagnosis is ambiguous, offsets and error maps written "
+            "(shown, confirmed, read back, audited), the compensation tables in the "
+            "controllers' formats with their ISO 230-2 figures, a validation campaign, "
+            "the record as found and as left; the previous state restored when the "
+            "validation is worse, with the reason."),
         "diagnose": LazyCommandSpec(
             "ogacq.cli.diagnose_cmd:diagnose_command",
             "Compare the recordings with the identified model; locate and explain a "
@@ -97,6 +109,9 @@ class OgacqCommands(LazyCommands):
             "show": "ogacq.cli.offsets_cmd:show",
             "write": "ogacq.cli.offsets_cmd:write",
             "restore": "ogacq.cli.offsets_cmd:restore"}),
+        "maps": LazyGroupSpec(MAPS_HELP, {
+            "show": "ogacq.cli.maps_cmd:show",
+            "restore": "ogacq.cli.maps_cmd:restore"}),
         "history": LazyGroupSpec(HISTORY_HELP, {
             "show": "ogacq.cli.history_cmd:show",
             "add": "ogacq.cli.history_cmd:add"}, default="show"),

@@ -17,7 +17,7 @@ import typer
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
-from ogacq.cli.campaign_end import campaign_end
+from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
@@ -82,9 +82,15 @@ def demo(
     operator: Annotated[str | None, typer.Option(
         help="Who runs the rehearsal, as the record names them (default: your login "
              "name).")] = None,
+    loop: Annotated[bool, typer.Option(
+        "--loop/--no-loop", help="Then close the loop as `ogacq calibrate` does: write the "
+                                 "offsets (and maps), validate, restore when worse "
+                                 "(in FOLDER/calibrate).")] = True,
 ) -> None:
     """A full calibration campaign against the built-in simulator: identify the hidden
-    joint offsets through the real drivers and compare them with the truth."""
+    joint offsets through the real drivers and compare them with the truth; then write
+    them (and the error maps a table would hold), validate with a second campaign and
+    keep or restore them, as `ogacq calibrate` does."""
     reason = override_reason(override_expired)
     rehearsed = _date_option(date)
     folder = out or default_demo_folder()
@@ -142,7 +148,48 @@ def demo(
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
     record_campaign(outcome.session_path, history, say=typer.echo, record=end.record)
+    if loop:  # the loop below is what comes next, on the simulator still running
+        opened = tuple(s for s in end.steps if s.command.startswith("open "))
+        end = replace(end, steps=(*opened, NextStep(
+            "", f"closing the loop below: the offsets written, a validation campaign, the "
+                f"record as found and as left in {folder}/calibrate/")))
     print_end(end.lines())
+    if loop:
+        _close_the_loop(folder, campaign, outcome.session_path, history)
+
+
+def _close_the_loop(folder: Path, campaign: Campaign, session: Path,
+                    history: str | None) -> None:
+    """The procedure of `ogacq calibrate`, from the campaign just run: the write, the
+    validation, the record as found and as left (FOLDER/calibrate)."""
+    from ogacq.calibration.procedure import calibrate
+    from ogacq.calibration.setup import simulator_setup
+    from ogacq.cli.history_record import procedure_history, record_calibrate, record_writebacks
+    from ogacq.cli.render_calibrate import TerminalUI, print_outcome
+
+    assert campaign.simulator is not None
+    typer.echo("\nclosing the loop (as `ogacq calibrate` does): write, validate, keep or "
+               f"restore, in {folder}/calibrate/")
+    setup = simulator_setup(folder / "calibrate", campaign.machine, campaign.machine_path,
+                            campaign.simulator, operator=campaign.operator,
+                            override_expired=campaign.override_expired)
+    setup.folder.mkdir(parents=True, exist_ok=True)
+    where = procedure_history(history, session)
+    ui = TerminalUI(yes=True, on_recorded=lambda path: record_writebacks(path, history, where),
+                    where="the simulator")
+    try:
+        done = calibrate(setup, ui, resume=False, calibration_session=session)
+    finally:
+        ui.close()
+    report = None
+    if done.record is not None and done.evidence is not None:
+        report = write_session_report(
+            load_session(done.evidence), setup.folder / "report",
+            validation=load_session(done.validation) if done.validation else None,
+            record=done.record)
+        record_calibrate(done.evidence, history, done.record, done.procedure, done.details,
+                         validation=done.validation, say=typer.echo, location=where)
+    print_outcome(done, report)
 
 
 def _login_name() -> str:

@@ -16,6 +16,8 @@ from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.errors import InputError, Refused
 from ogacq.history.drift import changes
 from ogacq.history.location import history_for_session, history_to_read
+from ogacq.history.states import diff as states_diff
+from ogacq.history.states import find, timeline
 from ogacq.history.store import History
 from ogacq.session.state import completeness
 from ogacq.session.store import load_session
@@ -38,7 +40,11 @@ def show(
     history: ReadHistoryOption = None,
     states: Annotated[bool, typer.Option(
         "--states", help="List the offsets each write-back and restore found and left on "
-                         "the controller (what `ogacq offsets restore --to` takes).")] = False,
+                         "the controller (what `ogacq offsets restore --to` takes), the maps "
+                         "each maps write left, and what calibrate made of them.")] = False,
+    diff: Annotated[tuple[str, str] | None, typer.Option(
+        "--diff", metavar="STATE STATE", help="With --states: what changed between two "
+                                              "states (offsets and maps).")] = None,
     plot: Annotated[Path | None, typer.Option(
         "--plot", metavar="FILE.png", help="Also draw each parameter over time with its U "
                                            "(PNG).")] = None,
@@ -56,21 +62,31 @@ def show(
         if plot.suffix.lower() != ".png":
             raise InputError(plot, "the plot is a PNG image: name it FILE.png")
         check_output_file(plot, "--plot", force=force)
+    if diff is not None and not states:
+        raise InputError("--diff", "compares two states: give it with --states")
     location = history_to_read(history)
     with History.open(location, create=False) as db:
         found = db.find_machine(machine)
         if states:
             listed = db.states(found)
             current = db.current_state(found)
+            machine_states = timeline(listed, db.map_states(found), db.calibrate_events(found))
         else:
             calibrations = db.calibrations(found)
             events = db.events(found)
     where = location.describe()
+    if states and diff is not None:
+        compared = states_diff(find(machine_states, diff[0]), find(machine_states, diff[1]))
+        if as_json:
+            typer.echo(json.dumps(compared))
+        else:
+            render.print_diff(found, compared)
+        return
     if states:
         if as_json:
-            typer.echo(json.dumps(render.states_json(found, listed, current)))
+            typer.echo(json.dumps(render.states_json(found, listed, current, machine_states)))
         else:
-            render.print_states(found, where, listed, current)
+            render.print_states(found, where, listed, current, machine_states)
         return
     drifts = changes(calibrations)
     if plot is not None:

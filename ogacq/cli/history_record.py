@@ -23,11 +23,12 @@ from typing import TYPE_CHECKING, Any
 import typer
 
 from ogacq.errors import OgacqError
-from ogacq.history.entries import RecordError, WriteBack
+from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import operations
+from ogacq.writeback.maps import maps_operations
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
@@ -59,10 +60,18 @@ def writebacks_of(session: LoadedSession) -> list[WriteBack]:
                       op.wall, restores.get(op.operation)) for op in operations(session)]
 
 
+def maps_writebacks_of(session: LoadedSession) -> list[MapsWriteBack]:
+    """The maps writes and restores the session's audit records describe."""
+    return [MapsWriteBack(op.operation, op.action, op.status, str(op.path),
+                          tuple(m.to_json() for m in op.old_maps.values()), op.old_checksum,
+                          tuple(m.to_json() for m in op.new_maps.values()), op.new_checksum,
+                          op.wall, op.restores) for op in maps_operations(session)]
+
+
 def record_session(history: History, session: LoadedSession,
                    record: Mapping[str, Any] | None = None) -> Recorded:
     """The session's calibration (when its campaign completed) and every write-back of
-    its audit (each once)."""
+    its audit, offsets and maps (each once)."""
     from ogacq.history.store import Recorded
 
     record = dict(record) if record is not None else session_record(session)
@@ -72,6 +81,8 @@ def record_session(history: History, session: LoadedSession,
         done += history.record_calibration(record, session_path=where)
     for writeback in writebacks_of(session):
         done += history.record_writeback(record, writeback, session_path=where)
+    for maps in maps_writebacks_of(session):
+        done += history.record_maps_writeback(record, maps, session_path=where)
     return done
 
 
@@ -157,6 +168,38 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
 
     record_after(session_path, option, "the diagnosis", record_with=with_diagnosis,
                  accept_edited=accept_edited)
+
+
+def record_calibrate(session_path: Path, option: str | None, record: Mapping[str, Any],
+                     procedure: str, details: Mapping[str, Any], *, say: Say = _say,
+                     validation: Path | None = None,
+                     location: HistoryLocation | None = None) -> None:
+    """After ``ogacq calibrate``: the calibration session (its record as found and as
+    left, its write-backs and restores), the validation campaign, and the procedure's
+    outcome."""
+
+    def with_outcome(history: History, session: LoadedSession) -> Recorded:
+        done = record_session(history, session, record)
+        if validation is not None:
+            done += record_session(history, load_session(validation))
+        done += history.record_calibrate(record, procedure, details,
+                                         session_path=str(session.path.resolve()))
+        return done
+
+    record_after(session_path, option, "the calibration", record_with=with_outcome, say=say,
+                 location=location)
+
+
+def procedure_history(option: str | None, anchor: Path) -> HistoryLocation | None:
+    """The one history a calibrate procedure records into: the option's, or the one
+    beside its calibration campaign (``anchor``), wherever its other sessions are."""
+    from ogacq.history.location import history_for_session
+
+    try:
+        return history_for_session(option, anchor)
+    except OgacqError as exc:
+        log.warning("the calibration will not be recorded in the history: %s", exc)
+        return None
 
 
 def record_writebacks(session_path: Path, option: str | None,

@@ -12,6 +12,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.history.drift import Drift, expanded
+from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 
 DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
@@ -105,8 +106,10 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
 
 
 def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
-                 current: OffsetState | None) -> None:
+                 current: OffsetState | None,
+                 machine_states: Sequence[MachineState] = ()) -> None:
     console = new_console()
+    fate = {v.state_id: v.fate for v in machine_states if v.fate}
     table = Table(title=f"{shown(machine.describe())}: offsets states in {shown(where)} (o, mm)",
                   show_edge=False, header_style="bold", title_justify="left")
     for column in ("state", "when", "what", "record", "x", "y", "z", "status"):
@@ -116,10 +119,27 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
         what = (f"before {v.action} {v.operation}" if v.stage == "before"
                 else f"after {v.action} {v.operation}")
         mark = ", in force" if current is not None and v.state_id == current.state_id else ""
+        told = f"; {fate[v.state_id]}" if v.state_id in fate else ""
         table.add_row(shown(v.state_id), shown(v.at or "-"), shown(what), shown(v.record_id),
                       *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
-                        for a in "xyz"), shown(v.status + mark))
+                        for a in "xyz"), shown(v.status + mark + told))
     console.print(table)
+    maps = [v for v in machine_states if v.kind == "maps"]
+    if maps:
+        table = Table(title=f"{machine.describe()}: maps states (the error maps ogacq applies)",
+                      show_edge=False, header_style="bold", title_justify="left")
+        for column in ("state", "when", "what", "record", "axes", "checksum", "status"):
+            table.add_column(column, no_wrap=column in ("state", "when", "record"))
+        for v in maps:
+            what = f"{v.stage} {v.action} {v.operation}"
+            table.add_row(v.state_id, v.at or "-", what, v.record_id,
+                          ", ".join(sorted(v.maps or {})) or "none",
+                          (v.maps_checksum or "-")[:12],
+                          v.status + (f"; {v.fate}" if v.fate else ""))
+        console.print(table)
+    if machine_states:
+        console.print(f"compare two: ogacq history {machine.name!r} --states --diff STATE STATE",
+                      highlight=False)
     if not states:
         console.print("no write-back of this machine is recorded")
     else:
@@ -154,7 +174,34 @@ def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
 
 
 def states_json(machine: Machine, states: Sequence[OffsetState],
-                current: OffsetState | None) -> dict[str, Any]:
+                current: OffsetState | None,
+                machine_states: Sequence[MachineState] = ()) -> dict[str, Any]:
     return {"machine": {"name": machine.name, "serial": machine.serial},
             "states": [v.as_mapping() for v in states],
-            "in_force": current.state_id if current is not None else None}
+            "in_force": current.state_id if current is not None else None,
+            "machine_states": [v.as_mapping() for v in machine_states]}
+
+
+def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
+    console = new_console()
+    a, b = compared["from"], compared["to"]
+    console.print(f"{shown(machine.describe())}: from {a['state']} ({a['at'] or 'undated'}, "
+                  f"{a['stage']} {a['action']} {a['operation']}) to {b['state']} "
+                  f"({b['at'] or 'undated'}, {b['stage']} {b['action']} {b['operation']})",
+                  highlight=False)
+    table = Table(show_edge=False, header_style="bold")
+    for column in ("axis", "offset from", "offset to", "change", "map"):
+        table.add_column(column, justify="left" if column in ("axis", "map") else "right")
+    for axis, o in compared["offsets_mm"].items():
+        m = compared["maps"][axis]
+        if m["change"] == "none":
+            words = "unchanged" if m.get("from") else "none"
+        else:
+            words = (f"{m['change']} ({m.get('from') or '-'} -> {m.get('to') or '-'}): up to "
+                     f"{m['max_forward_change_mm'] * 1000:.2f} µm forward, "
+                     f"{m['max_reverse_change_mm'] * 1000:.2f} µm reverse")
+        table.add_row(axis, *(f"{v:+.4f}" if v is not None else "-"
+                              for v in (o["from"], o["to"], o["change"])), words)
+    console.print(table)
+    if not compared["maps_known"]:
+        console.print("no maps state is recorded at or before these states", highlight=False)

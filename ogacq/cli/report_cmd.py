@@ -88,19 +88,22 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
                          diagnosis_note: str | None = None,
                          diagnosis_source: Path | None = None,
                          history: list[dict[str, Any]] | None = None,
-                         history_why: str | None = None) -> Path:
+                         history_why: str | None = None,
+                         record: dict[str, Any] | None = None) -> Path:
     """Write the report of ``calibration`` into ``folder``; returns the HTML file.
     ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``;
     ``history``: the machine's earlier calibrations (docs/calibration-record.md 5),
-    ``history_why``: why there are none to give."""
+    ``history_why``: why there are none to give; ``record``: the record already built
+    (``ogacq calibrate`` adds its compensation to it)."""
     try:
         view = parse_diagnosis(diagnosis) if diagnosis is not None else None
     except DiagnosisFormatError as exc:
         raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
-    record = build_record(calibration, validation=validation, history=history,
-                          history_why=history_why)
+    if record is None:
+        record = build_record(calibration, validation=validation, history=history,
+                              history_why=history_why)
     # issued beside an earlier issue of the same record: its next revision, or itself
     record = issue(record, _earlier_issue(folder / RECORD_NAME))
     return write_report(build_report(data, record), folder)

@@ -52,6 +52,27 @@ class WriteBack:
         return "restore" if self.action == "restore" else "write-back"
 
 
+@dataclass(frozen=True)
+class MapsWriteBack:
+    """One maps write or restore as the session's audit tells it (the fields of
+    ``ogacq.writeback.maps.MapsOperation``, the maps as their JSON)."""
+
+    operation: str
+    action: str  # write, restore
+    status: str  # done, failed, interrupted
+    maps_file: str
+    old_maps: tuple[Mapping[str, Any], ...]  # ogacq-axis-map/1 each
+    old_checksum: str
+    new_maps: tuple[Mapping[str, Any], ...]
+    new_checksum: str  # as read back when done, else as intended
+    wall: float | None
+    restores: str | None = None
+
+    @property
+    def kind(self) -> str:
+        return "map-restore" if self.action == "restore" else "map-write"
+
+
 def clean_json(value: Any) -> Any:
     """``value`` with every non-finite float as None: JSON has no NaN, and
     PostgreSQL's json type refuses it."""
@@ -170,6 +191,12 @@ def state_id(machine: tuple[str, str], operation: str, stage: str) -> str:
     stations gets the same id, two write-backs never share one."""
     digest = hashlib.sha256("\0".join((*machine, operation, stage)).encode("utf-8"))
     return f"S-{digest.hexdigest()[:10]}"
+
+
+def map_state_id(machine: tuple[str, str], operation: str, stage: str) -> str:
+    """As ``state_id``, for a maps state (``M-``)."""
+    digest = hashlib.sha256("\0".join((*machine, "maps", operation, stage)).encode("utf-8"))
+    return f"M-{digest.hexdigest()[:10]}"
 
 
 def offsets_row(values: Mapping[str, float] | None) -> dict[str, float | None]:

@@ -12,14 +12,24 @@
 - ``ogacq_parameters``: each identified parameter of an event with its u, U, k;
 - ``ogacq_offset_states``: the offsets a write-back or restore found on the
   controller (``before``) and left there (``after``), which ``ogacq offsets
-  restore --to STATE`` can put back.
+  restore --to STATE`` can put back;
+- ``ogacq_map_states`` (schema 2): the error maps a maps write or restore found in
+  the maps file ogacq applies and left there, each map whole (``ogacq-axis-map/1``)
+  with the file's checksum.
+
+A ``calibrate`` event is one ``ogacq calibrate`` procedure: its details name the
+write-backs it made and say whether the validation kept them or they were restored,
+and why.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 from sqlalchemy import (
     JSON,
     Column,
+    Connection,
     Float,
     ForeignKey,
     Integer,
@@ -31,9 +41,10 @@ from sqlalchemy import (
 )
 
 APPLICATION = "ogacq-history"
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
-EVENT_KINDS = ("calibration", "diagnosis", "write-back", "restore")
+EVENT_KINDS = ("calibration", "diagnosis", "write-back", "restore", "map-write", "map-restore",
+               "calibrate")
 
 metadata = MetaData()
 
@@ -103,8 +114,33 @@ offset_states = Table(
     Column("x_mm", Float), Column("y_mm", Float), Column("z_mm", Float),
 )
 
+map_states = Table(
+    "ogacq_map_states", metadata,
+    Column("state_id", String(32), primary_key=True),
+    Column("event_id", ForeignKey(events.c.id), nullable=False, index=True),
+    Column("machine_id", ForeignKey(machines.c.id), nullable=False, index=True),
+    Column("stage", String(10), nullable=False),  # before, after
+    Column("at", String(40)),
+    Column("wall", Float),
+    Column("operation", String(80), nullable=False),
+    Column("action", String(20), nullable=False),  # write, restore
+    Column("status", String(20), nullable=False),  # done, failed, interrupted
+    Column("maps_file", Text),
+    Column("checksum", String(64)),  # ogacq.writeback.maps_table.maps_checksum
+    Column("maps", JSON),  # [ogacq-axis-map/1, ...]
+)
+
 TABLES = tuple(metadata.tables)
 
-# version -> the SQL steps that bring a database of that version to the next one.
-# Version 1 is the first: nothing to migrate yet.
-MIGRATIONS: dict[int, tuple[str, ...]] = {}
+
+def _create(table: Table) -> Callable[[Connection], None]:
+    """A migration step: create ``table`` as this schema declares it (each backend's
+    own DDL, indexes included)."""
+    return lambda conn: table.create(conn)
+
+
+# version -> the steps (SQL, or a function of the connection) that bring a database of
+# that version to the next one.
+MIGRATIONS: dict[int, tuple[str | Callable[[Connection], None], ...]] = {
+    1: (_create(map_states),),  # schema 2: the maps states
+}

@@ -35,6 +35,7 @@ from ogacq import __version__
 from ogacq.errors import InputError, StorageError
 from ogacq.history import schema as s
 from ogacq.history.entries import (
+    MapsWriteBack,
     Parameter,
     WriteBack,
     check_record,
@@ -42,6 +43,7 @@ from ogacq.history.entries import (
     event_key,
     local_iso,
     machine_of,
+    map_state_id,
     offsets_row,
     parameters_of,
     record_columns,
@@ -133,6 +135,29 @@ class OffsetState:
                 "record": self.record_id, "session": self.session_path}
 
 
+@dataclass(frozen=True)
+class MapState:
+    state_id: str
+    stage: str  # before, after
+    at: str | None
+    wall: float | None
+    operation: str
+    action: str
+    status: str
+    maps_file: str | None
+    checksum: str | None
+    maps: list[dict[str, Any]]  # ogacq-axis-map/1 each
+    record_id: str
+    session_path: str | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return {"state": self.state_id, "stage": self.stage, "at": self.at,
+                "operation": self.operation, "action": self.action, "status": self.status,
+                "maps_file": self.maps_file, "checksum": self.checksum,
+                "axes": [m.get("axis") for m in self.maps], "record": self.record_id,
+                "session": self.session_path}
+
+
 @dataclass
 class Recorded:
     """What one call recorded: the keys written, and those already there."""
@@ -159,6 +184,7 @@ class History:
     def __init__(self, location: HistoryLocation, engine: Engine) -> None:
         self.location = location
         self.engine = engine
+        self.version = s.SCHEMA_VERSION  # as opened: an older one read as it is
 
     # ------------------------------------------------------------------ opening
     @classmethod
@@ -171,7 +197,7 @@ class History:
             if create and location.backend == "sqlite":
                 history._check_sqlite()
             with history._guard("open"), history._transaction(write=create) as conn:
-                _prepare(conn, location, create)
+                history.version = _prepare(conn, location, create)
         except BaseException:
             engine.dispose()
             raise
@@ -280,15 +306,40 @@ class History:
         return self._record(writeback.kind, record, details=details, parameters=False,
                             writeback=writeback, session_path=session_path)
 
+    def record_maps_writeback(self, record: Mapping[str, Any], writeback: MapsWriteBack, *,
+                              session_path: str | None = None) -> Recorded:
+        """A maps write or restore, with the maps it found and left as states."""
+        record = check_record(record)
+        details = clean_json({"operation": writeback.operation, "action": writeback.action,
+                              "status": writeback.status, "maps_file": writeback.maps_file,
+                              "old_checksum": writeback.old_checksum,
+                              "new_checksum": writeback.new_checksum,
+                              "restores": writeback.restores})
+        return self._record(writeback.kind, record, details=details, parameters=False,
+                            maps=writeback, session_path=session_path)
+
+    def record_calibrate(self, record: Mapping[str, Any], procedure: str,
+                         details: Mapping[str, Any], *,
+                         session_path: str | None = None) -> Recorded:
+        """One ``ogacq calibrate`` procedure's outcome (validated, restored and why),
+        naming the write-backs it made."""
+        record = check_record(record)
+        return self._record("calibrate", record, details=clean_json(dict(details)),
+                            parameters=False, session_path=session_path, operation=procedure)
+
     def _record(self, kind: str, record: dict[str, Any], *, details: dict[str, Any] | None,
                 parameters: bool, writeback: WriteBack | None = None,
-                session_path: str | None = None) -> Recorded:
-        key = event_key(kind, record["id"], writeback.operation if writeback else None)
+                maps: MapsWriteBack | None = None, session_path: str | None = None,
+                operation: str | None = None) -> Recorded:
+        operation = (writeback.operation if writeback else maps.operation if maps
+                     else operation)
+        key = event_key(kind, record["id"], operation)
         columns = record_columns(record)
         if session_path is not None:
             columns["session_path"] = session_path
-        if writeback is not None:
-            columns["campaign_date"] = local_iso(writeback.wall) or columns["campaign_date"]
+        wall = writeback.wall if writeback else maps.wall if maps else None
+        if wall is not None:
+            columns["campaign_date"] = local_iso(wall) or columns["campaign_date"]
         with self._guard(f"record {key}"), self._transaction(write=True) as conn:
             machine_id = _machine_id(conn, machine_of(record))
             inserted = conn.execute(_insert(conn, s.events).values(
@@ -311,6 +362,9 @@ class History:
             if writeback is not None:
                 conn.execute(s.offset_states.insert(),
                              _state_rows(writeback, machine_of(record), event_id, machine_id))
+            if maps is not None:
+                conn.execute(s.map_states.insert(),
+                             _map_state_rows(maps, machine_of(record), event_id, machine_id))
         return Recorded(new=[key])
 
     # ------------------------------------------------------------------ reading
@@ -402,6 +456,25 @@ class History:
                               r.record_id, r.session_path) for r in rows]
         return sorted(states, key=lambda v: (v.wall or 0.0, v.stage != "before", v.state_id))
 
+    def map_states(self, machine: Machine) -> list[MapState]:
+        """The maps states of the machine's maps writes and restores, oldest first
+        (none in a history of schema 1, which had none)."""
+        if self.version < 2:
+            return []
+        m, e = s.map_states, s.events
+        with self._guard("read the maps states"), self._transaction(write=False) as conn:
+            rows = conn.execute(select(m, e.c.record_id, e.c.session_path)
+                                .join(e, e.c.id == m.c.event_id)
+                                .where(m.c.machine_id == machine.id)).all()
+        states = [MapState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action, r.status,
+                           r.maps_file, r.checksum, list(r.maps or []), r.record_id,
+                           r.session_path) for r in rows]
+        return sorted(states, key=lambda v: (v.wall or 0.0, v.stage != "before", v.state_id))
+
+    def calibrate_events(self, machine: Machine) -> list[Event]:
+        """The machine's ``ogacq calibrate`` procedures, by date."""
+        return [v for v in self.events(machine) if v.kind == "calibrate"]
+
     def current_state(self, machine: Machine) -> OffsetState | None:
         """What the history says the controller holds: the last write-back or restore
         that finished."""
@@ -442,6 +515,17 @@ def _state_rows(writeback: WriteBack, machine: tuple[str, str], event_id: int,
     return [{**common, "state_id": state_id(machine, writeback.operation, stage), "stage": stage,
              **offsets_row(values)}
             for stage, values in (("before", writeback.old_mm), ("after", writeback.new_mm))]
+
+
+def _map_state_rows(maps: MapsWriteBack, machine: tuple[str, str], event_id: int,
+                    machine_id: int) -> list[dict[str, Any]]:
+    common = {"event_id": event_id, "machine_id": machine_id, "at": local_iso(maps.wall),
+              "wall": maps.wall, "operation": maps.operation, "action": maps.action,
+              "status": maps.status, "maps_file": maps.maps_file}
+    return [{**common, "state_id": map_state_id(machine, maps.operation, stage),
+             "stage": stage, "checksum": checksum, "maps": clean_json([dict(m) for m in values])}
+            for stage, checksum, values in (("before", maps.old_checksum, maps.old_maps),
+                                            ("after", maps.new_checksum, maps.new_maps))]
 
 
 def _insert(conn: Connection, table: s.Table) -> Any:
@@ -488,9 +572,10 @@ def _engine(location: HistoryLocation, create: bool) -> Engine:
                          pool_pre_ping=True)
 
 
-def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
+def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> int:
     """Check that the database is an ogacq history this version reads; create the
-    schema in an empty one (when ``create``); migrate an older one."""
+    schema in an empty one (when ``create``); migrate an older one (when ``create``:
+    one opened to read is read as its schema stands). Returns the schema version."""
     tables = set(inspect(conn).get_table_names())
     if s.schema_info.name not in tables:
         if tables:
@@ -505,7 +590,7 @@ def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
             {"key": "version", "value": str(s.SCHEMA_VERSION)},
             {"key": "created", "value": utc_now()},
             {"key": "created_by", "value": f"ogacq {__version__}"}])
-        return
+        return s.SCHEMA_VERSION
     info: dict[str, str] = {row.key: row.value for row in conn.execute(
         select(s.schema_info.c.key, s.schema_info.c.value))}
     if info.get("application") != s.APPLICATION:
@@ -520,11 +605,14 @@ def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> None:
         raise HistoryError(location, f"was written by a newer ogacq (schema {version}; this "
                            f"one reads up to {s.SCHEMA_VERSION}): update ogacq")
     if version < s.SCHEMA_VERSION:
-        if not create:
-            raise HistoryError(location, f"holds schema {version}: record something with this "
-                               f"ogacq to bring it to schema {s.SCHEMA_VERSION}")
+        if not create:  # read as it is: what a later schema added is simply not there
+            return version
         for step in range(version, s.SCHEMA_VERSION):
             for statement in s.MIGRATIONS[step]:
-                conn.exec_driver_sql(statement)
+                if callable(statement):
+                    statement(conn)
+                else:
+                    conn.exec_driver_sql(statement)
         conn.execute(s.schema_info.update().where(s.schema_info.c.key == "version")
                      .values(value=str(s.SCHEMA_VERSION)))
+    return s.SCHEMA_VERSION

@@ -87,9 +87,10 @@ def sniff(path: str | Path) -> str:
                      f"({', '.join(READINGS_COLUMNS)}) or a deviations CSV (name,value_mm)", 1)
 
 
-def _rows(path: Path, required: Sequence[str]) -> tuple[list[str], list[tuple[int, list[str]]]]:
+def _rows(path: Path, required: Sequence[str], text: str | None = None,
+          ) -> tuple[list[str], list[tuple[int, list[str]]]]:
     try:
-        reader = csv.reader(io.StringIO(read_text(path), newline=""))
+        reader = csv.reader(io.StringIO(read_text(path) if text is None else text, newline=""))
         header = [h.strip() for h in next(reader, [])]
         rows = [(reader.line_num, row) for row in reader if "".join(row).strip()]
     except OSError as exc:
@@ -235,26 +236,89 @@ def _bad(column: str, values: np.ndarray) -> np.ndarray:
     return bad
 
 
-def _number_block(path: Path, columns: list[int], n_rows: int) -> np.ndarray | None:
-    """(n, k) the numeric columns parsed by numpy's C reader, or None when the file is
-    not plain enough for it (a bad entry, quoting, blank-looking rows): the rows are
-    then converted one column at a time, and the problem found with its line."""
-    try:
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")  # "empty input": the row count below decides
-            block = np.loadtxt(path, delimiter=",", skiprows=1, usecols=columns, ndmin=2,
-                               encoding="utf-8", comments=None, dtype=float)
-    except ValueError:
-        return None
-    return block if block.shape == (n_rows, len(columns)) else None
-
-
 def read_readings(path: str | Path) -> ReadingsTable:
     """The readings CSV, converted column by column (a campaign can hold 100,000 rows).
-    A row any check flags is handed to :func:`_checked_row`, which raises the first
-    flagged row's problem with its line, as a row-by-row reader would."""
+    A plain file (ASCII, unquoted, one row a line, as ogacq and spreadsheets write it)
+    is read by numpy's C reader whole; anything else, or a plain file with a problem,
+    row by row, where a row any check flags is handed to :func:`_checked_row`, which
+    raises the first flagged row's problem with its line."""
     path = Path(path)
-    header, rows = _rows(path, READINGS_COLUMNS)
+    try:
+        text = read_text(path)
+    except OSError as exc:
+        raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
+    plain = _plain_table(text)
+    return plain if plain is not None else _table_by_rows(path, text)
+
+
+# A plain file: its header, then rows with as many fields as it has, none quoted, no
+# blank line between them (so that row k is line k + 2), every character ASCII (numpy's
+# float reader also takes a non-breaking space, which _number refuses).
+_BLANK_LINE = re.compile(r"\n[ \t]*(\n|$)")
+
+
+def _plain_table(text: str) -> ReadingsTable | None:
+    """The table of a plain file whose every row is valid, else None."""
+    if not text.isascii() or '"' in text:
+        return None
+    text = text.replace("\r\n", "\n").removesuffix("\n")
+    head, newline, body = text.partition("\n")
+    if not newline or not body or _BLANK_LINE.search("\n" + body):
+        return None
+    header = [h.strip() for h in head.split(",")]
+    if len(set(header)) != len(header) or not set(READINGS_COLUMNS) <= set(header) \
+            or any(h.endswith(tuple(_OTHER_UNITS)) for h in header):  # _rows words these
+        return None
+    n_rows = body.count("\n") + 1
+    if body.count(",") != n_rows * (len(header) - 1):  # a row with a field more or less
+        return None
+    at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
+    has_approach = all(c in at for c in APPROACH_COLUMNS)
+    wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            words = np.loadtxt(io.StringIO(body), delimiter=",", dtype=str, comments=None,
+                               usecols=[at["leg"], at["gauge_axis"], at["cycle"]], ndmin=2)
+            block = np.loadtxt(io.StringIO(body), delimiter=",", dtype=float, comments=None,
+                               usecols=[at[c] for c in wanted], ndmin=2)
+    except ValueError:  # a field that is not a number, or rows of another width
+        return None
+    if words.shape[0] != n_rows or block.shape[0] != n_rows:
+        return None
+    leg, gauge = (_codes(words[:, k], _axis_code) for k in (0, 1))
+    cycle = _codes(words[:, 2], lambda t: _cycle(t.strip()))
+    numbers = {c: block[:, k] for k, c in enumerate(wanted)}
+    bad = (leg < 0) | (gauge < 0) | (leg == gauge) | (cycle < 1)
+    for c in wanted:
+        bad |= _bad(c, numbers[c])
+    if has_approach:
+        approach = block[:, -3:]
+        bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
+    if bad.any():  # the row-by-row reader says which row and why
+        return None
+    return ReadingsTable(
+        t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
+        tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
+        q_mm=np.column_stack([numbers[c] for c in ("q_x", "q_y", "q_z")]),
+        reading_mm=numbers["reading_mm"],
+        approach=approach.astype(int) if has_approach else None,
+        lines=np.arange(2, n_rows + 2))
+
+
+def _axis_code(text: str) -> int:
+    return _AXIS_CODE.get(text.strip().lower(), -1)
+
+
+def _codes(words: np.ndarray, code) -> np.ndarray:
+    """``code`` of each word, computed once per distinct word (a campaign's columns
+    of letters and cycles hold a handful of them)."""
+    distinct, inverse = np.unique(words, return_inverse=True)
+    return np.array([code(str(w)) for w in distinct], dtype=int)[inverse.ravel()]
+
+
+def _table_by_rows(path: Path, text: str) -> ReadingsTable:
+    header, rows = _rows(path, READINGS_COLUMNS, text)
     at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
     has_approach = all(c in at for c in APPROACH_COLUMNS)
     fields = [row for _, row in rows]
@@ -267,18 +331,15 @@ def read_readings(path: str | Path) -> ReadingsTable:
     def column(name: str) -> tuple[str, ...]:
         return columns[at[name]]
 
-    leg = np.array([_AXIS_CODE.get(t.strip().lower(), -1) for t in column("leg")])
-    gauge = np.array([_AXIS_CODE.get(t.strip().lower(), -1) for t in column("gauge_axis")])
+    leg = np.array([_axis_code(t) for t in column("leg")])
+    gauge = np.array([_axis_code(t) for t in column("gauge_axis")])
     bad |= (leg < 0) | (gauge < 0) | (leg == gauge)
     cycle = np.array([_cycle(t.strip()) for t in column("cycle")])
     bad |= cycle < 1
     wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
-    # numpy's C reader takes ASCII numbers only (no "1_000", no fullwidth digits): a
-    # file it reads whole is read as _number would; otherwise column by column
-    block = _number_block(path, [at[c] for c in wanted], len(rows))
     numbers = {}
-    for k, c in enumerate(wanted):
-        numbers[c] = _numbers(column(c)) if block is None else block[:, k]
+    for c in wanted:
+        numbers[c] = _numbers(column(c))
         bad |= _bad(c, numbers[c])
     if has_approach:
         approach = np.column_stack([numbers[c] for c in APPROACH_COLUMNS])

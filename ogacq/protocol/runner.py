@@ -27,6 +27,7 @@ from typing import Protocol
 import numpy as np
 
 from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, LinkError
+from ogacq.compensation.applied import TargetCorrection
 from ogacq.errors import OgacqError, StorageError
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
@@ -136,10 +137,12 @@ class CampaignRunner:
                  machine: MachineSpec, *, recorded: set[tuple[str, str]] | None = None,
                  observer: Observer | None = None, set_gauges: GaugeSetter | None = None,
                  retry: RetryPolicy | None = None,
-                 previous: Sequence[ReadingRecord] = (), check_first: bool = False) -> None:
+                 previous: Sequence[ReadingRecord] = (), check_first: bool = False,
+                 correction: TargetCorrection | None = None) -> None:
         """``previous``: the readings a resumed session holds, in order; with
         ``check_first`` (a resume: the axes were homed anew) the posture of the last of
-        them is checked before anything else."""
+        them is checked before anything else. ``correction``: the error maps ogacq
+        applies itself (every target corrected, the plan's recorded)."""
         self.station = station
         self.writer = writer
         self.config = config
@@ -148,6 +151,7 @@ class CampaignRunner:
         self.observer = observer or (lambda progress: None)
         self.set_gauges = set_gauges
         self.retry = retry or RetryPolicy()
+        self.correction = correction
         self._steps = list(campaign_steps(config, machine))
         self._commanded_q: tuple[float, float, float] | None = None
         self._planned_q: tuple[float, float, float] | None = None
@@ -253,7 +257,7 @@ class CampaignRunner:
                 index += 1
                 continue  # already there (Zero -> Zero between cycles): nothing to command
             try:
-                self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+                self._commanded_q, sent = self._send(move.q_mm)
                 self._planned_q = move.q_mm
                 moved = True
             except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
@@ -264,16 +268,29 @@ class CampaignRunner:
                     raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
                                           f"{exc}") from exc
                 attempt += 1
-                # where a stop left the axes is not where the plan was: command again
+                # where a stop left the axes is not where the plan was: command again,
+                # from a side the maps do not know
                 self._commanded_q = self._planned_q = None
+                if self.correction is not None:
+                    self.correction.forget()
                 take = getattr(self.station, "take_check_request", None)
                 if take is not None and take():
                     self._check_posture("loss")
                     index = 0
                 continue
-            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose))
+            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose,
+                                         commanded_mm=sent))
             index, attempt = index + 1, 1
         return moved
+
+    def _send(self, q_mm: tuple[float, float, float],
+              ) -> tuple[tuple[float, float, float], tuple[float, float, float] | None]:
+        """Command the joints to land at ``q_mm``: where they are meant to be now, and
+        the targets sent when error maps correct them (None when none do)."""
+        if self.correction is None:
+            return self.station.move(q_mm, self.config.move_timeout_s), None
+        sent = self.station.move(self.correction.command(q_mm), self.config.move_timeout_s)
+        return self.correction.nominal(q_mm, sent), sent
 
     # ------------------------------------------------------------ check posture
 
@@ -300,9 +317,10 @@ class CampaignRunner:
             return
         recorded = self._values[step.step]
         for move in self._approach_to(step):
-            self._commanded_q = self.station.move(move.q_mm, self.config.move_timeout_s)
+            self._commanded_q, sent = self._send(move.q_mm)
             self._planned_q = move.q_mm
-            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose="check"))
+            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose="check",
+                                         commanded_mm=sent))
         now = self._read_again(step, list(recorded))
         tolerance = self.check_tolerance_mm()
         differences = {g: round(now[g] - recorded[g], 6) for g in recorded}

@@ -71,14 +71,17 @@ def session_record_id(session: LoadedSession) -> str:
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
                  history: Sequence[Mapping[str, Any]] | None = None,
                  history_why: str | None = None,
-                 issued: str | None = None) -> dict[str, Any]:
+                 issued: str | None = None,
+                 compensation: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
 
     ``validation``: the campaign run after the write-back (the as-left measurement);
     ``history``: earlier calibrations of the same machine, each ``{"id", "date",
     "results"}`` with ``results`` shaped as this record's (``history_why``: why
     there is none, when None is given); ``issued``: the issue
-    time (default: now, ISO 8601 with offset). The identity, instruments,
+    time (default: now, ISO 8601 with offset); ``compensation``: what ``ogacq
+    calibrate`` wrote and found (the maps, the ISO 230-2 figures before and after,
+    its outcome), recorded under that key when given. The identity, instruments,
     environment and overrides are the session's own (:func:`calibration_context`).
     """
     header_line, sha256 = _session_digest(session)
@@ -135,6 +138,8 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     if history is None and history_why:
         missing["history"] = history_why
     record["missing"] = missing | evaluation.missing
+    if compensation is not None:
+        record["compensation"] = plain(compensation)
     return record
 
 

@@ -100,7 +100,11 @@ def evaluate(result: FitResult | None, context: CalibrationContext,
     except (ValueError, ArithmeticError) as exc:
         out.missing["monte_carlo"] = f"not evaluated: {exc}"
 
-    found = _deviations(result, inputs)
+    found, why_found = None, None
+    try:  # a scan has no Zero/Max/Min deviations to accept
+        found = _deviations(result, inputs)
+    except ValueError as exc:
+        why_found = f"no deviations to judge: {exc}"
     left = None
     if validation is not None:
         v_result, v_context = validation
@@ -111,7 +115,7 @@ def evaluate(result: FitResult | None, context: CalibrationContext,
                 v_result.observations, v_result, v_inputs).to_json()["results"]
         except ValueError as exc:
             validation_problem = f"the as-left deviations have no uncertainty ({exc})"
-    out.acceptance = _acceptance(machine, found, left, None, validation_problem)
+    out.acceptance = _acceptance(machine, found, left, why_found, validation_problem)
     return out
 
 

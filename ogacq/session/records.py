@@ -137,14 +137,22 @@ class MoveRecord(Record):
     KIND: ClassVar[str] = "move"
     q_mm: Triple  # as commanded (rounded to the controller's resolution)
     purpose: str  # "posture" or "approach"
+    # with maps applied (ogacq.compensation.applied): the target really sent, q_mm
+    # being where the joints were meant to land
+    commanded_mm: Triple | None = None
 
     def fields(self) -> dict[str, Any]:
-        return {"q_mm": list(self.q_mm), "purpose": self.purpose}
+        out: dict[str, Any] = {"q_mm": list(self.q_mm), "purpose": self.purpose}
+        if self.commanded_mm is not None:
+            out["commanded_mm"] = list(self.commanded_mm)
+        return out
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> MoveRecord:
+        commanded = d.get("commanded_mm")
         return cls(wall=d.get("wall"), q_mm=tuple(d.get("q_mm") or ()),
-                   purpose=str(d.get("purpose", "")))
+                   purpose=str(d.get("purpose", "")),
+                   commanded_mm=tuple(commanded) if commanded else None)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -319,6 +327,26 @@ class OffsetsRecord(_HeadedRecord):
     KIND: ClassVar[str] = "offsets"
     HEAD: ClassVar[str] = "stage"
     stage: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class MapsRecord(_HeadedRecord):
+    """One stage of a maps write's audit trail (``ogacq.writeback.maps``): refused,
+    declined, intent, done or failed, as ``OffsetsRecord`` for the offsets."""
+
+    KIND: ClassVar[str] = "maps"
+    HEAD: ClassVar[str] = "stage"
+    stage: str
+
+
+@dataclass(frozen=True, kw_only=True)
+class CalibrateRecord(_HeadedRecord):
+    """One step of an ``ogacq calibrate`` procedure, in its own log
+    (``ogacq.calibration.log``): what was done, and what it found."""
+
+    KIND: ClassVar[str] = "calibrate"
+    HEAD: ClassVar[str] = "step"
+    step: str
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -532,7 +560,8 @@ class OtherRecord(Record):
 KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
     ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord,
-    EnvironmentRecord, OverrideRecord, SettleRecord, ReferenceRecord, SalvageRecord)}
+    EnvironmentRecord, OverrideRecord, SettleRecord, ReferenceRecord, SalvageRecord,
+    MapsRecord, CalibrateRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ogacq.errors import StorageError
-from ogacq.session.records import OffsetsRecord
+from ogacq.session.records import MapsRecord, OffsetsRecord
 from ogacq.session.store import LoadedSession, SessionWriter
 
 
@@ -32,6 +32,14 @@ class AuditLog:
         assert self._writer is not None
         self._writer.write(OffsetsRecord(stage=stage, details=fields))
         if stage == "intent":  # what to restore is on the disk before the controller is touched
+            self._writer.sync()
+
+    def record_maps(self, stage: str, **fields: Any) -> None:
+        """A stage of a maps write (``ogacq.writeback.maps``), the intent fsynced alike."""
+        self._open()
+        assert self._writer is not None
+        self._writer.write(MapsRecord(stage=stage, details=fields))
+        if stage == "intent":
             self._writer.sync()
 
     def close(self) -> None:

@@ -87,7 +87,17 @@ def evidence_from_session(session: LoadedSession, from_diagnosis: bool = False) 
     else:
         result = identify_session(session)
         verdict = fit_verdict(result)
-    values = {a: result.value(f"joint_offset.{a}") for a in AXES}
+    return evidence_of(session, result, verdict, model, uncompensated)
+
+
+def evidence_of(session: LoadedSession, result: FitResult, verdict: Verdict, model: str,
+                uncompensated: list[str], shift_mm: dict[str, float] | None = None,
+                ) -> Evidence:
+    """The evidence of a fit of the session's readings. ``shift_mm``: added to each
+    identified joint offset (the constant of a map written beside the offsets, which
+    the offset must then carry: ``ogacq.compensation.effects``)."""
+    shift = shift_mm or {}
+    values = {a: result.value(f"joint_offset.{a}") + shift.get(a, 0.0) for a in AXES}
     std = {a: float(result.std[result.names.index(f"joint_offset.{a}")]) for a in AXES}
     std = {a: s if math.isfinite(s) else math.inf for a, s in std.items()}
     stations = _stations(session)

@@ -43,12 +43,21 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_ho
     # recorded in the history of ogacq's data folder, where every demo accumulates
     assert f"history: 1 calibration recorded in {ogacq_home / 'history.sqlite'}" in \
         " ".join(proc.stdout.split())
-    # the end: the verdict (not within the noise: the squareness), the record's id as
-    # issued beside the page, and what to do next
+    # the end of its campaign: the verdict (not within the noise: the squareness), the
+    # record's id as issued beside the page, and what comes next
     end = " ".join(proc.stdout[proc.stdout.index("verdict:"):].split())
     assert end.startswith("verdict: NOT within the gauge noise")
     assert f"record: {record['id']} (issued as {out / 'report' / 'record.json'})" in end
-    assert f"next: ogacq diagnose {out / 'session.jsonl'}" in end
+    assert f"next: open {out / 'report' / 'report.html'}" in end
+    assert "closing the loop below" in end
+    # then the loop closed: the offsets of the model written, validated by a second
+    # campaign, the record of the procedure as found and as left
+    loop = json.loads((out / "calibrate" / "report" / "record.json").read_text())
+    assert loop["compensation"]["outcome"] == "validated", loop["compensation"]
+    assert loop["compensation"]["uncompensated"] == ["squareness.xy"]
+    assert loop["acceptance"]["as_left"]["decision"] != "not evaluated"
+    assert loop["writeback"][0]["status"] == "done"
+    assert "validated" in proc.stdout
 
 
 def assert_one_unit_per_line(text: str) -> None:

@@ -163,10 +163,10 @@ def test_a_newer_schema_is_refused_and_the_version_row_is_there(tmp_path):
     engine = create_engine(f"sqlite:///{path}")
     with engine.begin() as conn:
         assert conn.execute(text("SELECT value FROM ogacq_schema WHERE key = 'version'")
-                            ).scalar_one() == "1"
+                            ).scalar_one() == "2"
         conn.execute(text("UPDATE ogacq_schema SET value = '7' WHERE key = 'version'"))
     engine.dispose()
-    with pytest.raises(StorageError, match=r"newer ogacq \(schema 7; this one reads up to 1\)"):
+    with pytest.raises(StorageError, match=r"newer ogacq \(schema 7; this one reads up to 2\)"):
         History.open(parse_location(str(path), "--history"))
 
 

@@ -99,3 +99,51 @@ def test_a_decimal_comma_is_refused_not_read_as_its_whole_part(tmp_path, table_l
 def test_numbers_as_csv_writes_them_are_accepted(tmp_path, table_lines):
     path = _with(tmp_path, table_lines[2], 6, 10, " +1.5e1 ")
     assert read_readings(path).reading_mm[5] == 15.0  # line 7: the sixth data row
+
+
+TABLE_FIELDS = ("t_s", "cycle", "leg", "gauge_axis", "tcp_mm", "q_mm", "reading_mm", "approach",
+                "lines")
+
+
+@pytest.mark.parametrize("variant", ["as written", "CRLF", "no approach", "spaces", "upper case",
+                                     "extra column"])
+def test_the_plain_reader_gives_the_row_readers_table(tmp_path, table_lines, variant):
+    """A plain file read whole by numpy gives, bit for bit, what the row reader gives."""
+    from ogacq.io.tables import _plain_table, _table_by_rows
+
+    _, _, lines = table_lines
+    header, rows = lines[0], lines[1:]
+    if variant == "no approach":
+        header, rows = ",".join(header.split(",")[:11]), [",".join(r.split(",")[:11])
+                                                          for r in rows]
+    elif variant == "spaces":
+        rows = [", ".join(r.split(",")) for r in rows]
+    elif variant == "upper case":
+        rows = [r.replace(",x,", ",X,") for r in rows]
+    elif variant == "extra column":
+        header, rows = header + ",note", [r + ",ok" for r in rows]
+    newline = "\r\n" if variant == "CRLF" else "\n"
+    text = newline.join([header, *rows]) + newline
+    plain = _plain_table(text)
+    assert plain is not None
+    by_rows = _table_by_rows(tmp_path / "x.csv", text)
+    for name in TABLE_FIELDS:
+        a, b = getattr(plain, name), getattr(by_rows, name)
+        assert (a is None and b is None) or (np.array_equal(a, b) and a.dtype == b.dtype), name
+
+
+@pytest.mark.parametrize("row, column, text, words", [
+    (5, 10, "1_000", "is not a number"),
+    (7, 10, "１２", "is not a number"),
+    (9, 1, "0", "cycle"),
+    (11, 2, "w", "is not one of x, y, z"),
+    (13, 10, "12,345", "decimal comma"),
+    (15, 10, "nan", "not a finite number"),
+])
+def test_a_plain_file_with_a_bad_row_is_named_by_its_line(tmp_path, table_lines, row, column,
+                                                          text, words):
+    _, _, lines = table_lines
+    path = _with(tmp_path, lines, row, column, text)
+    with pytest.raises(InputError, match=words) as refused:
+        read_readings(path)
+    assert f":{row + 1}:" in str(refused.value)

@@ -1,0 +1,471 @@
+"""``ogacq calibrate``, step by step, each step resumed after a kill.
+
+    calibration campaign -> diagnosis -> (ambiguous: the separating measurement,
+    shown with its duration, run, diagnosed) -> the compensation (offsets and maps,
+    every table exported) -> shown, confirmed -> written (audited, read back) ->
+    validation campaign (the same plan) -> judged against the one before ->
+    worse: the previous state restored, with the reason -> the record (as found,
+    as left, the ISO 230-2 figures) -> done
+
+Each step is recorded in the procedure's log when done (``ogacq.calibration.log``);
+a run that finds a log continues at the first step not done: a campaign stopped
+half-way is resumed like any campaign, a write is planned again from what the
+controller and the maps file hold (a write that completed before the kill has
+nothing left to do, and its audit names it). On the simulator, the simulated
+drives lost with the process are given back the offsets the session's audit says
+they held: a real drive keeps its parameters when ogacq is killed.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+from collections.abc import Iterator
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Protocol
+
+from ogacq.calibration.compensate import Compensation, compensation_of, evidence_for, export
+from ogacq.calibration.log import ProcedureLog
+from ogacq.calibration.maps import diagnosis_maps
+from ogacq.calibration.separate import SeparatingPlan, separating_plan
+from ogacq.calibration.setup import Setup
+from ogacq.calibration.validate import Judgement, judge
+from ogacq.campaign import run_campaign
+from ogacq.campaign_file import ControllerSpec
+from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
+from ogacq.errors import InputError, Refused
+from ogacq.model.parameters import AXES
+from ogacq.protocol.plan import ProtocolConfig
+from ogacq.protocol.runner import Observer
+from ogacq.record.document import build_record
+from ogacq.session.convert import session_observations
+from ogacq.session.store import LoadedSession, load_session
+from ogacq.station import open_controller, simulator_endpoints, start_simulator
+from ogacq.writeback.audit import AuditLog, Operation, operations
+from ogacq.writeback.execute import WriteOptions, execute_plan, preflight
+from ogacq.writeback.maps import (
+    MapsOperation,
+    MapsPlan,
+    execute_maps_plan,
+    maps_operations,
+    plan_maps_restore,
+    plan_maps_write,
+)
+from ogacq.writeback.maps_table import maps_checksum, read_maps_table
+from ogacq.writeback.policy import (
+    ControllerFacts,
+    OffsetPlan,
+    WritePolicy,
+    plan_restore,
+    plan_write,
+)
+
+log = logging.getLogger(__name__)
+
+class CalibrationUI(Protocol):
+    """What the procedure shows and asks (the command line renders it)."""
+
+    yes: bool  # confirmed beforehand (--yes): nothing is asked
+
+    def say(self, text: str) -> None: ...
+    def observer(self, role: str) -> Observer | None: ...
+    def diagnosis(self, role: str, diagnosis: Diagnosis) -> None: ...
+    def separation(self, plan: SeparatingPlan, speed: float | None) -> None: ...
+    def compensation(self, comp: Compensation, offsets: OffsetPlan,
+                     maps: MapsPlan | None) -> None: ...
+    def confirm(self, question: str) -> bool: ...
+    def validation(self, judgement: Judgement) -> None: ...
+    def recorded(self, session_path: Path) -> None:
+        """Write-backs or restores were made in the session: into the history now."""
+
+
+@dataclass
+class Outcome:
+    folder: Path
+    procedure: str
+    outcome: str  # validated, improved, restored, nothing to correct, declined, refused
+    reason: str
+    evidence: Path | None = None
+    validation: Path | None = None
+    record: dict[str, Any] | None = None
+    details: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def exit_code(self) -> int:
+        return {"declined": 1, "refused": 4, "restored": 4}.get(self.outcome, 0)
+
+
+def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
+              calibration_session: Path | None = None) -> Outcome:
+    """Run the procedure in ``setup.folder`` (``resume``: continue its log).
+    ``calibration_session``: a finished campaign of this machine, in its present
+    state, to start from (``ogacq demo`` hands over the one it ran)."""
+    log_ = ProcedureLog.reopen(setup.folder) if resume else \
+        ProcedureLog.create(setup.folder, setup.describe())
+    if calibration_session is not None and log_.last("campaign", role="calibration") is None:
+        if not load_session(calibration_session).finished:
+            raise InputError(calibration_session, "the campaign to start from did not finish")
+        log_.add("campaign", role="calibration", status="finished",
+                 session=str(calibration_session.resolve()))
+    try:
+        done = log_.finished
+        if done is not None:
+            ui.say(f"calibration {log_.procedure} already finished: {done.details.get('outcome')}")
+            return _outcome_of(setup, log_)
+        with _machine(setup, log_) as stack:
+            return Procedure(setup, ui, log_, stack).run()
+    finally:
+        log_.close()
+
+
+@contextlib.contextmanager
+def _machine(setup: Setup, log_: ProcedureLog) -> Iterator[Any]:
+    """The simulator serving the whole procedure (None on a station)."""
+    if setup.simulator is None:
+        yield None
+        return
+    stack = start_simulator(setup.machine, setup.simulator)
+    try:
+        yield stack
+    finally:
+        stack.close()
+
+
+class Procedure:
+    def __init__(self, setup: Setup, ui: CalibrationUI, log_: ProcedureLog, stack: Any) -> None:
+        self.setup = setup
+        self.ui = ui
+        self.log = log_
+        self.stack = stack
+        self.controller = self._controller_spec()
+        self.resolution_mm = 0.0  # the controller's offset step, once planned
+
+    # ------------------------------------------------------------------ the steps
+    def run(self) -> Outcome:
+        self._give_back_drive_state()
+        first = self._campaign("calibration", self.setup.protocol)
+        evidence, diagnosis = first, self._diagnosis("calibration", first)
+        plan = self._separation(diagnosis, first)
+        if plan.protocol is not None and self.setup.separate:
+            evidence = self._campaign("separating", plan.protocol)
+            diagnosis = self._diagnosis("separating", evidence)
+        comp = self._compensation(diagnosis, evidence)
+        with self._plans(diagnosis, evidence, comp) as (offsets, maps):
+            if self.log.last("confirmed") is None:
+                stop = self._approve(comp, offsets, maps)
+                if stop is not None:
+                    return stop
+            # audited in the calibration campaign's session, whose record this is
+            written = self._write(first, offsets, maps)
+        # the calibration campaign's plan again: its record compares as found and as left
+        validation = self._campaign("validation", self.setup.protocol)
+        judgement = self._judge(comp, first, validation, "validation")
+        if comp.diagnosis_maps and evidence is not first:
+            # maps a scan found are validated by the same scan
+            scan = self._campaign("validation-scan", _plan_of(evidence))
+            judgement = judgement.merged(self._judge(comp, evidence, scan, "validation-scan"))
+        restored: dict[str, str | None] = {}
+        if judgement.worse:
+            restored = self._restore(first, written, judgement)
+        return self._finish(comp, first, validation, judgement, written, restored)
+
+    def _controller_spec(self) -> ControllerSpec:
+        spec = self.setup.controller
+        if self.stack is None:
+            return spec
+        endpoints, _ = simulator_endpoints(self.stack)
+        return replace(endpoints, offsets_file=spec.offsets_file, maps_file=spec.maps_file)
+
+    def _give_back_drive_state(self) -> None:
+        """On a restarted simulator, the offsets its drives held when the process died
+        (the audit of the session that wrote them); a real drive keeps its own."""
+        if self.stack is None or not self.log.steps:
+            return
+        held: dict[str, float] | None = None
+        first = self.log.last("campaign", role="calibration")
+        path = Path(first.details["session"]) if first is not None else None
+        if path is not None and path.is_file():  # its audit holds the writes and restores
+            for op in operations(load_session(path)):
+                held = dict(op.new_mm) if op.status == "done" else dict(op.old_mm)
+        if held is None:
+            return
+        with open_controller(self.controller) as controller:
+            if controller.profile.offset.kind == "software":
+                return  # in the offset table file, which outlived the process
+            controller.write_offsets(held)
+            self.ui.say("simulator restarted: its drives hold the offsets they held before "
+                        f"({', '.join(f'{a} {held[a]:+.4f}' for a in AXES)} mm)")
+
+    def _campaign(self, role: str, protocol: ProtocolConfig) -> LoadedSession:
+        done = self.log.last("campaign", role=role, status="finished")
+        if done is not None:
+            return load_session(done.details["session"])
+        campaign = self.setup.campaign(role, protocol)
+        path = campaign.session
+        if path.exists() and path.stat().st_size == 0:
+            path.unlink()  # killed between creating the file and its first line
+        if path.exists():
+            session = load_session(path)
+            if not session.finished:
+                self.ui.say(f"resuming the {role} campaign ({len(session.readings)} readings "
+                            "on file)")
+                run_campaign(campaign, observer=self.ui.observer(role), resume=session,
+                             simulator=self.stack)
+        else:
+            if self.log.last("campaign", role=role, status="started") is None:
+                self.log.add("campaign", role=role, status="started", session=str(path),
+                             plan=protocol.to_dict())
+            self.ui.say(f"{role} campaign: {path}")
+            run_campaign(campaign, observer=self.ui.observer(role), simulator=self.stack)
+        self.log.add("campaign", role=role, status="finished", session=str(path))
+        return load_session(path)
+
+    def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
+        try:
+            result = diagnose(session_observations(session))
+        except DiagnosisError as exc:
+            raise InputError(session.path, str(exc)) from None
+        if self.log.last("diagnosis", role=role) is None:
+            self.ui.diagnosis(role, result)
+            self.log.add("diagnosis", role=role, session=str(session.path),
+                         outcome=result.outcome, diagnosis=result.to_json(),
+                         maps=[m.to_json() for m in diagnosis_maps(result)])
+        return result
+
+    def _separation(self, diagnosis: Diagnosis, session: LoadedSession) -> SeparatingPlan:
+        plan = separating_plan(diagnosis, session, self.setup.machine,
+                               self.setup.scan_protocol())
+        if self.log.last("separation") is None:
+            speed = self.setup.simulator.speed if self.setup.simulator else None
+            self.ui.separation(plan, speed)
+            self.log.add("separation", run=plan.protocol is not None and self.setup.separate,
+                         **plan.to_json())
+        return plan
+
+    def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession) -> Compensation:
+        done = self.log.last("compensation")
+        if done is not None:
+            return Compensation.from_json(done.details)
+        comp = compensation_of(diagnosis, evidence, self.setup.machine)
+        title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
+                 f", from {evidence.path.name}")
+        comp = replace(comp, tables=export(self.setup.folder, comp, title))
+        if comp.maps and self.controller.maps_file is None:
+            self.ui.say("the controller names no maps_file: the maps are exported as tables "
+                        "only (add maps_file to [controller] for ogacq to apply them); what "
+                        "they would correct stays, and the offsets are written without them")
+            comp = tables_only(comp)
+        self.log.add("compensation", **comp.to_json())
+        return comp
+
+    @contextlib.contextmanager
+    def _plans(self, diagnosis: Diagnosis, evidence: LoadedSession, comp: Compensation,
+               ) -> Iterator[tuple[OffsetPlan, MapsPlan | None]]:
+        spec = self.controller
+        with open_controller(spec) as controller:
+            facts = ControllerFacts.of(controller.profile)
+            self.resolution_mm = facts.resolution_mm
+            offsets = plan_write(evidence_for(diagnosis, evidence, comp.shift_mm),
+                                 controller.read_offsets(), facts, WritePolicy())
+        maps = None
+        if comp.maps and spec.maps_file is not None:
+            maps = plan_maps_write(comp.maps, read_maps_table(spec.maps_file),
+                                   in_force_checksum=comp.in_force_checksum
+                                   or maps_checksum({}))
+        yield offsets, maps
+
+    def _approve(self, comp: Compensation, offsets: OffsetPlan,
+                 maps: MapsPlan | None) -> Outcome | None:
+        self.ui.compensation(comp, offsets, maps)
+        refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
+        if refusals:
+            reason = "; ".join(r.message for r in refusals)
+            self.log.add("refused", reasons=[r.message for r in refusals],
+                         codes=[r.code for r in refusals])
+            return self._end("refused", reason)
+        if offsets.nothing_to_do and (maps is None or maps.nothing_to_do):
+            return self._end("nothing to correct", "the controller and the maps file already "
+                             "hold what this calibration would write")
+        if not self.ui.yes and not self.ui.confirm("Write these offsets and maps?"):
+            self.log.add("declined")
+            return self._end("declined", "the operator declined the write")
+        self.log.add("confirmed", by="--yes" if self.ui.yes else "prompt")
+        return None
+
+    def _write(self, audited: LoadedSession, offsets: OffsetPlan,
+               maps: MapsPlan | None) -> dict[str, str | None]:
+        done = self.log.last("written")
+        if done is not None:
+            return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
+        by = (self.log.last("confirmed") or self.log.steps[-1]).details.get("by", "prompt")
+        # planned again on a resume: what the controller and the file hold may have moved
+        refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
+        if refusals and not (offsets.nothing_to_do and (maps is None or maps.nothing_to_do)):
+            raise Refused("nothing written: " + "; ".join(r.message for r in refusals))
+        written: dict[str, str | None] = {"offsets": None, "maps": None}
+        session = load_session(audited.path)
+        with AuditLog(session) as audit:
+            if not offsets.nothing_to_do:
+                with open_controller(self.controller) as controller:
+                    options = WriteOptions(confirmed_by=by, port=self.controller.port or None)
+                    preflight(controller, offsets, options)
+                    outcome = execute_plan(controller, offsets, audit, options,
+                                           offsets_file=self.controller.offsets_file)
+                    written["offsets"] = outcome.operation
+            else:  # written before the process was killed: its audit names it
+                written["offsets"] = _done_write(operations(session), offsets)
+            if maps is not None and not maps.nothing_to_do:
+                written["maps"] = execute_maps_plan(maps, audit, confirmed_by=by).operation
+            elif maps is not None:
+                written["maps"] = _done_maps_write(maps_operations(session), maps)
+        self.ui.recorded(audited.path)
+        self.log.add("written", **written)
+        self.ui.say("written: " + ", ".join(f"{k} ({v})" for k, v in written.items() if v))
+        return written
+
+    def _judge(self, comp: Compensation, before: LoadedSession, validation: LoadedSession,
+               role: str) -> Judgement:
+        judgement = judge(comp, before, validation, self.setup.machine, self.resolution_mm)
+        if self.log.last("validation", role=role) is None:
+            self.ui.validation(judgement)
+            self.log.add("validation", role=role, session=str(validation.path),
+                         before=str(before.path), **judgement.to_json())
+        return judgement
+
+    def _restore(self, audited: LoadedSession, written: dict[str, str | None],
+                 judgement: Judgement) -> dict[str, str | None]:
+        done = self.log.last("restored")
+        if done is not None:
+            return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
+        reason = "; ".join(judgement.reasons)
+        self.ui.say(f"the validation is worse than before: {reason}. Restoring the previous "
+                    "state")
+        session = load_session(audited.path)
+        restored: dict[str, str | None] = {"offsets": None, "maps": None}
+        with AuditLog(session) as audit:
+            if written.get("offsets"):
+                op = next(o for o in operations(session) if o.operation == written["offsets"])
+                restored["offsets"] = self._restore_offsets(op, audit, session)
+            if written.get("maps") and self.controller.maps_file is not None:
+                op_m = next(o for o in maps_operations(session)
+                            if o.operation == written["maps"])
+                restored["maps"] = self._restore_maps(op_m, audit, session)
+        self.ui.recorded(audited.path)
+        self.log.add("restored", reason=reason, **restored)
+        return restored
+
+    def _restore_offsets(self, op: Operation, audit: AuditLog,
+                         session: LoadedSession) -> str | None:
+        with open_controller(self.controller) as controller:
+            plan = plan_restore(op, controller.read_offsets(),
+                                ControllerFacts.of(controller.profile))
+            if plan.refused:
+                raise Refused("cannot restore the offsets: "
+                              + "; ".join(r.message for r in plan.refusals))
+            if plan.nothing_to_do:  # restored before the kill
+                return next((o.operation for o in reversed(operations(session))
+                             if o.action == "restore" and o.status == "done"), None)
+            options = WriteOptions(confirmed_by="calibrate (validation worse)",
+                                   port=self.controller.port or None)
+            preflight(controller, plan, options)
+            return execute_plan(controller, plan, audit, options,
+                                offsets_file=self.controller.offsets_file).operation
+
+    def _restore_maps(self, op: MapsOperation, audit: AuditLog,
+                      session: LoadedSession) -> str | None:
+        assert self.controller.maps_file is not None
+        plan = plan_maps_restore(op, read_maps_table(self.controller.maps_file))
+        if plan.refused:
+            raise Refused("cannot restore the maps: "
+                          + "; ".join(r.message for r in plan.refusals))
+        if plan.nothing_to_do:
+            return next((o.operation for o in reversed(maps_operations(session))
+                         if o.action == "restore" and o.status == "done"), None)
+        return execute_maps_plan(plan, audit,
+                                 confirmed_by="calibrate (validation worse)").operation
+
+    def _finish(self, comp: Compensation, evidence: LoadedSession, validation: LoadedSession,
+                judgement: Judgement, written: dict[str, str | None],
+                restored: dict[str, str | None]) -> Outcome:
+        outcome = "restored" if judgement.worse else judgement.outcome
+        reason = "; ".join(judgement.reasons) if judgement.worse else (
+            "the validation is within the gauge noise" if outcome == "validated" else
+            "better than before, but not within the gauge noise: " + judgement.verdict["text"])
+        return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
+                         judgement=judgement, written=written, restored=restored)
+
+    def _end(self, outcome: str, reason: str, *, comp: Compensation | None = None,
+             evidence: LoadedSession | None = None, validation: LoadedSession | None = None,
+             judgement: Judgement | None = None, written: dict[str, str | None] | None = None,
+             restored: dict[str, str | None] | None = None) -> Outcome:
+        details: dict[str, Any] = {"procedure": self.log.procedure, "outcome": outcome,
+                                   "reason": reason, "writes": written or {},
+                                   "restores": restored or {}}
+        record = None
+        if comp is not None and evidence is not None:
+            details.update(compensation=comp.to_json(),
+                           validation=judgement.to_json() if judgement else None)
+            summary = {"procedure": self.log.procedure, "outcome": outcome, "reason": reason,
+                       "writes": written or {}, "restores": restored or {},
+                       "maps": {a: {"source": m.source, "checksum": m.checksum()}
+                                for a, m in comp.maps.items()},
+                       "compensated": list(comp.compensated),
+                       "uncompensated": list(comp.uncompensated),
+                       "iso230_2": {"before": comp.figures_before(),
+                                    "after": judgement.figures_after if judgement else {}},
+                       "offsets": {"corrected_mm": comp.offsets_mm,
+                                   "left_mm": judgement.offsets_after_mm if judgement else None},
+                       "tables": comp.tables}
+            record = build_record(load_session(evidence.path), validation=validation,
+                                  compensation=summary)
+            details["validation_record"] = validation.path.name if validation else None
+        self.log.add("finished", outcome=outcome, reason=reason,
+                     record_id=record["id"] if record else None,
+                     evidence=str(evidence.path) if evidence else None,
+                     validation=str(validation.path) if validation else None)
+        return Outcome(self.setup.folder, self.log.procedure, outcome, reason,
+                       evidence.path if evidence else None,
+                       validation.path if validation else None, record, details)
+
+
+def tables_only(comp: Compensation) -> Compensation:
+    """The compensation when its maps cannot be applied (exported only): nothing of it
+    is written but the offsets, without the maps' constants, and what the maps would
+    correct stays uncompensated (the validation expects it still there)."""
+    return replace(comp, maps={}, shift_mm=dict.fromkeys(comp.shift_mm, 0.0),
+                   compensated=(), uncompensated=comp.uncompensated + comp.compensated,
+                   offsets_mm={a: v - comp.shift_mm.get(a, 0.0)
+                               for a, v in comp.offsets_mm.items()})
+
+
+def _plan_of(session: LoadedSession) -> ProtocolConfig:
+    return ProtocolConfig.from_dict(session.header["plan"])
+
+
+def _done_write(ops: list[Operation], plan: OffsetPlan) -> str | None:
+    """The write of the audit that left what the controller holds (a write done before
+    the process was killed)."""
+    for op in reversed(ops):
+        if op.action == "write" and op.status == "done" and all(
+                plan.facts.same(op.new_mm[a], plan.current_mm[a]) for a in AXES):
+            return op.operation
+    return None
+
+
+def _done_maps_write(ops: list[MapsOperation], plan: MapsPlan) -> str | None:
+    for op in reversed(ops):
+        if op.action == "write" and op.status == "done" and \
+                op.new_checksum == plan.current.checksum:
+            return op.operation
+    return None
+
+
+def _outcome_of(setup: Setup, log_: ProcedureLog) -> Outcome:
+    """A finished procedure's outcome, as its log says."""
+    done = log_.finished
+    assert done is not None
+    d = done.details
+    return Outcome(setup.folder, log_.procedure, str(d.get("outcome")), str(d.get("reason")),
+                   Path(d["evidence"]) if d.get("evidence") else None,
+                   Path(d["validation"]) if d.get("validation") else None)

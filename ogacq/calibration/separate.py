@@ -1,0 +1,110 @@
+"""When the diagnosis is ambiguous, the measurement that would separate it.
+
+Ambiguous here means one of:
+
+* an effect of the final model has alternatives that explain the readings as well
+  (the diagnosis's swap test), or rests on one reading cell;
+* the misfit is not explained, or only partly: something outside the library, a
+  lead screw's error or a bow, which a map describes;
+* an effect a table would correct (an encoder scale, a lost motion) was found from a
+  few positions per leg, where an error depending on the position in another way (a
+  lead-screw pitch error) passes for it: the diagnosis's own caveat.
+
+Where a map is suspected (the last two) the measurement is a scan of every leg's
+travel, both directions; where only alternatives stand, the plan the diagnosis
+found that separates them (``ogacq.diagnose.separation``). Its duration is
+estimated from the campaign already run on this machine: its machine time per
+reading step, times the plan's reading steps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from ogacq.calibration.maps import compensable_effects
+from ogacq.diagnose.diagnosis import FEW_POSTURES, Diagnosis
+from ogacq.model.machine import MachineSpec
+from ogacq.protocol.plan import ProtocolConfig, reading_steps
+from ogacq.session.store import LoadedSession
+
+
+@dataclass(frozen=True)
+class SeparatingPlan:
+    reasons: tuple[str, ...]  # why the diagnosis is ambiguous; empty: it is not
+    protocol: ProtocolConfig | None  # None: nothing to run (not ambiguous, or no plan)
+    kind: str  # "scan", "postures" or "none"
+    steps: int  # reading steps of the plan
+    duration_s: float  # estimated machine time
+    seconds_per_step: float
+    why_none: str = ""
+
+    def to_json(self) -> dict[str, Any]:
+        return {"reasons": list(self.reasons), "kind": self.kind,
+                "protocol": self.protocol.to_dict() if self.protocol else None,
+                "reading_steps": self.steps, "duration_s": round(self.duration_s, 1),
+                "seconds_per_step": round(self.seconds_per_step, 3),
+                "why_none": self.why_none or None}
+
+
+def ambiguity(diagnosis: Diagnosis) -> tuple[list[str], bool]:
+    """Why the diagnosis is ambiguous (empty: it is not), and whether a map is suspected."""
+    reasons = []
+    suspected = False
+    if diagnosis.outcome in ("unexplained", "partly explained"):
+        suspected = True
+        reasons.append(f"the diagnosis is {diagnosis.outcome}"
+                       + (f" (the rest at {diagnosis.unexplained})"
+                          if diagnosis.unexplained else "")
+                       + ": an error outside the library, which a map describes")
+    for effect in diagnosis.effects:
+        if effect.alternatives:
+            reasons.append(f"{effect.name} has alternatives: "
+                           + ", ".join(a.name for a in effect.alternatives))
+        if effect.local_disturbance:
+            reasons.append(f"{effect.name} rests on one cell ({effect.local_disturbance})")
+    tabled = compensable_effects(diagnosis)
+    if tabled and diagnosis.postures_per_leg <= FEW_POSTURES:
+        suspected = True
+        reasons.append(f"{', '.join(tabled)} found from {diagnosis.postures_per_leg} positions "
+                       "per leg: a lead-screw error would pass for it there")
+    return reasons, suspected
+
+
+def steps_of(protocol: ProtocolConfig, machine: MachineSpec) -> int:
+    return len(reading_steps(protocol, machine))
+
+
+def seconds_per_step(session: LoadedSession) -> float:
+    """Machine time per reading step of a finished campaign (its last reading's time
+    over its reading steps)."""
+    readings = session.readings
+    steps = {r.step for r in readings}
+    if not readings or not steps:
+        return 0.0
+    return max(r.t_s for r in readings) / len(steps)
+
+
+def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: MachineSpec,
+                    scan: ProtocolConfig) -> SeparatingPlan:
+    """The measurement that would separate what the diagnosis of ``session`` leaves
+    open (``scan``: the scan to run where a map is suspected)."""
+    reasons, suspected = ambiguity(diagnosis)
+    rate = seconds_per_step(session)
+    if not reasons:
+        return SeparatingPlan((), None, "none", 0, 0.0, rate, "the diagnosis is not ambiguous")
+    if suspected:
+        steps = steps_of(scan, machine)
+        return SeparatingPlan(tuple(reasons), scan, "scan", steps, steps * rate, rate)
+    for effect in diagnosis.effects:
+        for sep in effect.separations:
+            option = sep.separating
+            if option is not None:
+                protocol = ProtocolConfig(postures=tuple(option.postures), cycles=option.cycles,
+                                          settle_s=scan.settle_s)
+                steps = steps_of(protocol, machine)
+                return SeparatingPlan(tuple(reasons), protocol, "postures", steps,
+                                      steps * rate, rate)
+    return SeparatingPlan(tuple(reasons), None, "none", 0, 0.0, rate,
+                          "none of the plans tried separates them (a measurement of another "
+                          "kind is needed)")

@@ -1,0 +1,156 @@
+"""The validation campaign judged against the campaign the compensation came from.
+
+After the write, the same plan is run again. Its readings are fitted with the
+joint offsets and the effects no table corrects (a squareness stays until the
+machine is adjusted): with the compensation right, that fit is within the gauge
+noise, the joint offsets near zero, and the corrected effects gone. Worse than
+before, and restored, when any of these holds (each with its reason):
+
+* the validation fit is not within the noise and its misfit per degree of freedom
+  is larger than the same model's on the campaign before (the write added error);
+* a joint offset left is larger than the one the write corrected, by more than
+  three combined standard deviations (a wrong sign, a wrong value);
+* an axis's systematic positioning error E (ISO 230-2) after, from the corrected
+  effects identified again, exceeds the one before by more than three combined
+  uncertainties of the maps.
+
+Otherwise it is ``validated`` when the fit is within the noise, and ``improved``
+(kept, not within the noise) when it is not but nothing got worse.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ogacq.calibration.compensate import Compensation
+from ogacq.calibration.maps import diagnosis_maps
+from ogacq.compensation.combine import compensation
+from ogacq.compensation.effects import EffectValue, effect_maps
+from ogacq.compensation.iso230 import map_figures
+from ogacq.diagnose.diagnosis import diagnose
+from ogacq.identify.consistency import Verdict, fit_verdict
+from ogacq.identify.fit import FitResult, fit
+from ogacq.identify.noise import noise_for
+from ogacq.identify.observations import Observations
+from ogacq.model.axis_map import AxisMap
+from ogacq.model.machine import MachineSpec
+from ogacq.model.parameters import AXES, PARAM_SETS
+from ogacq.session.convert import session_observations
+from ogacq.session.store import LoadedSession
+
+SIGMAS = 3.0  # how far beyond the combined uncertainty "worse" starts
+
+
+@dataclass(frozen=True)
+class Judgement:
+    outcome: str  # validated, improved, worse
+    reasons: tuple[str, ...]  # why worse (empty otherwise)
+    verdict: dict[str, Any]  # of the validation fit
+    chi2_dof_before: float
+    chi2_dof_after: float
+    offsets_before_mm: dict[str, float]
+    offsets_after_mm: dict[str, float]
+    offsets_after_std_mm: dict[str, float]
+    figures_before: dict[str, dict[str, Any]]
+    figures_after: dict[str, dict[str, Any]]
+    residual_effects: dict[str, dict[str, float]] = field(default_factory=dict)
+
+    @property
+    def worse(self) -> bool:
+        return self.outcome == "worse"
+
+    def merged(self, other: Judgement) -> Judgement:
+        """Two validations of one write (the calibration plan, a scan): worse when either
+        is, validated when both are; the figures of the scan where it has them."""
+        order = ("worse", "improved", "validated")
+        outcome = min(self.outcome, other.outcome, key=order.index)
+        return replace(self, outcome=outcome, reasons=self.reasons + other.reasons,
+                       figures_after={**self.figures_after, **other.figures_after},
+                       residual_effects={**self.residual_effects, **other.residual_effects})
+
+    def to_json(self) -> dict[str, Any]:
+        return {"outcome": self.outcome, "reasons": list(self.reasons),
+                "verdict": self.verdict,
+                "chi2_dof_before": _num(self.chi2_dof_before),
+                "chi2_dof_after": _num(self.chi2_dof_after),
+                "offsets_before_mm": self.offsets_before_mm,
+                "offsets_after_mm": self.offsets_after_mm,
+                "offsets_after_std_mm": self.offsets_after_std_mm,
+                "figures_before": self.figures_before, "figures_after": self.figures_after,
+                "residual_effects": self.residual_effects}
+
+
+def _num(x: float) -> float | None:
+    return round(float(x), 6) if math.isfinite(x) else None
+
+
+def _fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]:
+    result = fit(obs, names, method="exact", weighting="gls", noise=noise_for(obs))
+    return result, fit_verdict(result)
+
+
+def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
+          machine: MachineSpec, resolution_mm: float = 0.0) -> Judgement:
+    """``resolution_mm``: the step the controller stores offsets with (what a written
+    offset may be off by, on top of the identification's std)."""
+    stay = tuple(comp.uncompensated)
+    base = PARAM_SETS["offsets"] + stay
+    _, v_before = _fit(session_observations(before), base)
+    obs_after = session_observations(after)
+    result, v_after = _fit(obs_after, base)
+    drho = {a: result.value(f"joint_offset.{a}") for a in AXES}
+    drho_std = {a: float(result.std[result.names.index(f"joint_offset.{a}")]) for a in AXES}
+    reasons = []
+    if not v_after.consistent and v_after.chi2_dof > v_before.chi2_dof:
+        reasons.append(f"the validation fit is not within the noise and its misfit per dof "
+                       f"grew from {v_before.chi2_dof:.3g} to {v_after.chi2_dof:.3g}")
+    for a in AXES:
+        was, now = abs(comp.offsets_mm[a]), abs(drho[a])
+        margin = SIGMAS * math.hypot(comp.offsets_std_mm.get(a, 0.0), drho_std[a],
+                                     resolution_mm / math.sqrt(12))
+        if now > was + margin:
+            reasons.append(f"the joint offset of {a} left ({drho[a]:+.4f} mm) is larger than "
+                           f"the one corrected ({comp.offsets_mm[a]:+.4f} mm)")
+    figures_after, residual = _after_maps(comp, obs_after, base, machine)
+    figures_before = comp.figures_before()
+    for a, fig in figures_after.items():
+        if a not in figures_before:
+            continue
+        was, now = figures_before[a]["E_mm"], fig["E_mm"]
+        u = max(max(comp.maps[a].u_forward_mm), max(comp.maps[a].u_reverse_mm))
+        margin = SIGMAS * math.hypot(u, fig.get("u_max_mm", 0.0))
+        if now > was + margin:
+            reasons.append(f"axis {a}: systematic positioning error E grew from "
+                           f"{was * 1000:.1f} to {now * 1000:.1f} µm (ISO 230-2)")
+    outcome = "worse" if reasons else "validated" if v_after.consistent else "improved"
+    return Judgement(outcome, tuple(reasons), {**v_after.to_json(), "text": v_after.describe(),
+                                               "state": v_after.state},
+                     v_before.chi2_dof, v_after.chi2_dof, dict(comp.offsets_mm), drho, drho_std,
+                     figures_before, figures_after, residual)
+
+
+def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
+                machine: MachineSpec) -> tuple[dict[str, dict[str, Any]],
+                                               dict[str, dict[str, float]]]:
+    """The ISO 230-2 figures of each compensated axis after: the corrected library
+    effects identified again on the validation, and the maps its diagnosis finds (what
+    the maps left), as maps. An axis where nothing is left to identify has none."""
+    values: dict[str, EffectValue] = {}
+    if comp.compensated:
+        result, _ = _fit(obs, base + tuple(comp.compensated))
+        values = {n: EffectValue(n, result.value(n), float(result.std[result.names.index(n)]))
+                  for n in comp.compensated}
+    found: tuple[AxisMap, ...] = ()
+    if comp.diagnosis_maps:  # maps left are the validation's diagnosis's to find
+        found = diagnosis_maps(diagnose(obs))
+    per_axis = compensation(found, effect_maps(values, machine), values)
+    figures = {}
+    for a, c in per_axis.items():
+        fig = map_figures(c.axis_map).to_json()
+        fig["u_max_mm"] = float(np.max([c.axis_map.u_forward_mm, c.axis_map.u_reverse_mm]))
+        figures[a] = fig
+    return figures, {n: {"value": v.value, "std": v.std} for n, v in values.items()}

@@ -1,0 +1,94 @@
+"""``ogacq maps show|restore``: the error maps ogacq applies, and undoing a maps write.
+
+The maps are written by ``ogacq calibrate`` (audited in its calibration campaign's
+session); ``show`` lists that session's maps writes and what the maps file holds
+now, with each axis's ISO 230-2 figures; ``restore`` puts back the maps the
+session's last maps write replaced: shown, confirmed, written atomically, read
+back by checksum, audited in the session and recorded in the history.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from ogacq.cli.options import HistoryOption, JsonOption
+from ogacq.cli.plain import plain
+from ogacq.compensation.iso230 import map_figures
+from ogacq.errors import InputError, Refused
+from ogacq.session.store import load_session
+from ogacq.writeback.audit import AuditLog
+from ogacq.writeback.maps import execute_maps_plan, maps_operations, plan_maps_restore
+from ogacq.writeback.maps_table import read_maps_table
+
+EXIT_DECLINED = 1
+SessionArgument = Annotated[Path, typer.Argument(
+    help="Session whose maps writes to show or undo (a calibration campaign's).")]
+
+
+def show(session_path: SessionArgument, as_json: JsonOption = False) -> None:
+    """The session's maps writes, and the maps the file holds now with their figures."""
+    session = load_session(session_path)
+    ops = maps_operations(session)
+    if not ops:
+        raise InputError(session.path, "no maps write is recorded in this session")
+    table = read_maps_table(ops[-1].path)
+    figures = {a: map_figures(m).to_json() for a, m in table.maps.items()}
+    if as_json:
+        typer.echo(json.dumps({
+            "file": str(table.path), "checksum": table.checksum,
+            "maps": {a: m.source for a, m in table.maps.items()}, "figures": figures,
+            "writes": [{"operation": o.operation, "action": o.action, "status": o.status,
+                        "old_checksum": o.old_checksum, "new_checksum": o.new_checksum}
+                       for o in ops]}))
+        return
+    for o in ops:
+        typer.echo(f"{o.operation} ({o.action}, {o.status}): {o.old_checksum[:12]} -> "
+                   f"{o.new_checksum[:12]}")
+    typer.echo(f"maps file {plain(table.path)}: {table.checksum[:12]}"
+               + ("" if table.maps else " (no maps)"))
+    for axis, m in table.maps.items():
+        typer.echo(f"  {axis}: {m.source or 'map'}; ISO 230-2: "
+                   f"{map_figures(m).line()}")
+
+
+def restore(
+    session_path: SessionArgument,
+    yes: Annotated[bool, typer.Option("--yes", "-y", help="Restore without asking.")] = False,
+    history: HistoryOption = None,
+) -> None:
+    """Put back the maps the session's last maps write replaced."""
+    session = load_session(session_path)
+    writes = [o for o in maps_operations(session) if o.action == "write"]
+    if not writes:
+        raise InputError(session.path, "no maps write is recorded in this session: nothing "
+                         "to restore")
+    op = writes[-1]
+    plan = plan_maps_restore(op, read_maps_table(op.path))
+    typer.echo(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
+               f"{plan.new_checksum[:12]} (back to before {op.operation}; "
+               f"{', '.join(plan.new_maps) or 'no maps'})")
+    if plan.nothing_to_do:
+        typer.echo("the maps file already holds these maps: nothing to restore")
+        return
+    if plan.refused:
+        raise Refused("nothing restored: " + "; ".join(r.message for r in plan.refusals))
+    if not yes:
+        try:
+            ok = typer.confirm("Restore these maps?", default=False)
+        except typer.Abort:
+            ok = False
+        if not ok:
+            typer.echo("nothing restored", err=True)
+            raise typer.Exit(EXIT_DECLINED)
+    with AuditLog(session) as audit:
+        done = execute_maps_plan(plan, audit, confirmed_by="--yes" if yes else "prompt")
+    typer.echo(f"restored: {done.operation}, read back {done.new_checksum[:12]}")
+    from ogacq.cli.history_record import record_writebacks
+
+    with contextlib.suppress(InputError):
+        record_writebacks(session.path, history)

@@ -1,0 +1,152 @@
+"""What ``ogacq calibrate`` shows: each campaign's progress, the diagnoses, the
+separating measurement with its duration, the compensation with its tables and the
+ISO 230-2 figures, the question, the validation and the outcome."""
+
+from __future__ import annotations
+
+import contextlib
+import sys
+from pathlib import Path
+from typing import Any
+
+import typer
+from rich.table import Table
+
+from ogacq.calibration.compensate import Compensation
+from ogacq.calibration.procedure import Outcome
+from ogacq.calibration.separate import SeparatingPlan
+from ogacq.calibration.validate import Judgement
+from ogacq.cli import render_offsets
+from ogacq.cli.plain import console as new_console
+from ogacq.cli.plain import shown
+from ogacq.cli.render import campaign_progress
+from ogacq.diagnose.diagnosis import Diagnosis
+from ogacq.writeback.maps import MapsPlan
+from ogacq.writeback.policy import OffsetPlan
+
+console = new_console()
+
+
+def _duration(seconds: float) -> str:
+    return f"{seconds / 60:.1f} min" if seconds >= 120 else f"{seconds:.0f} s"
+
+
+class TerminalUI:
+    """The procedure's UI on the command line (``ogacq.calibration.procedure``)."""
+
+    def __init__(self, *, yes: bool, on_recorded: Any, where: str = "the controller",
+                 offsets_file: str | None = None) -> None:
+        self.yes = yes
+        self.where = where
+        self.offsets_file = offsets_file
+        self._on_recorded = on_recorded
+        self._stack = contextlib.ExitStack()
+
+    def close(self) -> None:
+        self._stack.close()
+
+    def say(self, text: str) -> None:
+        console.print(text, highlight=False)
+
+    def observer(self, role: str):
+        self._stack.close()
+        self._stack = contextlib.ExitStack()
+        return self._stack.enter_context(campaign_progress())
+
+    def diagnosis(self, role: str, diagnosis: Diagnosis) -> None:
+        self._stack.close()
+        effects = ", ".join(f"{e.name} {e.value:+.4g} ± {e.std:.2g} {e.unit}"
+                            for e in diagnosis.effects) or "none"
+        console.print(f"diagnosis of the {role} campaign: {diagnosis.outcome}; effects: "
+                      f"{effects}", highlight=False)
+        console.print(f"  {diagnosis.final.describe()}", highlight=False)
+
+    def separation(self, plan: SeparatingPlan, speed: float | None) -> None:
+        if not plan.reasons:
+            console.print("the diagnosis is not ambiguous: no separating measurement")
+            return
+        console.print("the diagnosis is ambiguous: " + "; ".join(plan.reasons), highlight=False)
+        if plan.protocol is None:
+            console.print(f"  no separating measurement: {plan.why_none}", highlight=False)
+            return
+        what = (f"a scan every {plan.protocol.scan_step_mm:g} mm along each leg, both "
+                "directions" if plan.kind == "scan"
+                else "postures " + ",".join(str(p) for p in plan.protocol.postures))
+        wall = f" (about {_duration(plan.duration_s / speed)} here at {speed:g}x)" if speed \
+            else ""
+        console.print(f"  separating measurement: {what}, {plan.steps} reading steps, about "
+                      f"{_duration(plan.duration_s)} of machine time at this machine's "
+                      f"{plan.seconds_per_step:.1f} s per step{wall}", highlight=False)
+
+    def compensation(self, comp: Compensation, offsets: OffsetPlan,
+                     maps: MapsPlan | None) -> None:
+        render_offsets.print_plan(offsets, port=self.where, offsets_file=self.offsets_file)
+        for r in offsets.refusals:
+            console.print(f"  would refuse ({r.code}): {r.message}", highlight=False)
+        if comp.uncompensated:
+            console.print("stays uncompensated (no table corrects it): "
+                          + ", ".join(comp.uncompensated), highlight=False)
+        if not comp.maps:
+            console.print("no error map to write")
+            return
+        table = Table(title="error maps (ISO 230-2:2014 figures of each axis; s = the map's "
+                            "u, k = 1)", show_edge=False, header_style="bold",
+                      title_justify="left")
+        for column in ("axis", "from", "before", "after (predicted: ogacq applies it)"):
+            table.add_column(column)
+        from ogacq.compensation.iso230 import map_figures
+
+        for axis, m in comp.maps.items():
+            residual = map_figures(m.__class__(
+                m.axis, m.positions_mm, tuple(0.0 for _ in m.positions_mm),
+                tuple(0.0 for _ in m.positions_mm), m.u_forward_mm, m.u_reverse_mm,
+                m.reference_mm))
+            table.add_row(axis, m.source, map_figures(m).line(), residual.line())
+        console.print(table)
+        for t in comp.tables:
+            where = ", ".join(Path(f).name for f in t["files"]) or f"not written: {t['problem']}"
+            console.print(f"  {t['format']} table: {shown(where)}", highlight=False)
+        if maps is not None:
+            console.print(f"maps file {shown(maps.path)}: {maps.current.checksum[:12]} -> "
+                          f"{maps.new_checksum[:12]}"
+                          + ("" if not maps.nothing_to_do else " (already there)"),
+                          highlight=False)
+            for r in maps.refusals:
+                console.print(f"  would refuse ({r.code}): {r.message}", highlight=False)
+
+    def confirm(self, question: str) -> bool:
+        try:
+            return typer.confirm(question, default=False)
+        except typer.Abort:
+            typer.echo("", err=True)
+            return False
+
+    def validation(self, judgement: Judgement) -> None:
+        self._stack.close()
+        console.print(f"validation: {judgement.outcome}; {judgement.verdict['text']}",
+                      highlight=False)
+        left = ", ".join(f"{a} {v:+.4f}" for a, v in judgement.offsets_after_mm.items())
+        console.print(f"  joint offsets left: {left} mm", highlight=False)
+        for axis, fig in judgement.figures_after.items():
+            before = judgement.figures_before.get(axis, {})
+            console.print(f"  axis {axis}: A {before.get('A_mm', 0) * 1000:.2f} -> "
+                          f"{fig['A_mm'] * 1000:.2f} µm, B {before.get('B_mm', 0) * 1000:.2f}"
+                          f" -> {fig['B_mm'] * 1000:.2f} µm, E {before.get('E_mm', 0) * 1000:.2f}"
+                          f" -> {fig['E_mm'] * 1000:.2f} µm (ISO 230-2, from the maps)",
+                          highlight=False)
+        for reason in judgement.reasons:
+            console.print(f"  worse: {reason}", highlight=False)
+
+    def recorded(self, session_path: Path) -> None:
+        self._on_recorded(session_path)
+
+
+def print_outcome(outcome: Outcome, report: Path | None) -> None:
+    words = {"validated": "validated", "improved": "kept (better, not within the noise)",
+             "restored": "RESTORED to the previous state", "declined": "nothing written",
+             "refused": "refused, nothing written",
+             "nothing to correct": "nothing to correct"}.get(outcome.outcome, outcome.outcome)
+    stream = sys.stderr if outcome.exit_code else sys.stdout
+    print(f"calibration {outcome.procedure}: {words}: {outcome.reason}", file=stream)
+    if report is not None:
+        print(f"record: {report}", file=stream)

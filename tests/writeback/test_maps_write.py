@@ -1,0 +1,93 @@
+"""Maps written like offsets: planned, audited (intent fsynced before the file is
+touched), read back by checksum, restorable; a file edited by hand is refused; a
+campaign resumed with other maps than it started with is refused."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from ogacq.campaign import check_same_maps
+from ogacq.errors import InputError
+from ogacq.session.records import MapsRecord, StationRecord
+from ogacq.session.store import SessionWriter, load_session
+from ogacq.writeback.audit import AuditLog
+from ogacq.writeback.maps import (
+    execute_maps_plan,
+    maps_operations,
+    plan_maps_restore,
+    plan_maps_write,
+)
+from ogacq.writeback.maps_table import maps_checksum, read_maps_table, write_maps_table
+from tests.compensation.maps import screw_map
+
+
+def _session(tmp_path, maps=None):
+    path = tmp_path / "s.jsonl"
+    station = {"controller": {"profile": "cia402", "maps_file": str(tmp_path / "maps.json"),
+                              **({"maps": maps} if maps is not None else {})}}
+    with SessionWriter.create(path, {"station": station}):
+        pass
+    return load_session(path)
+
+
+def test_the_file_round_trip_and_a_hand_edit_refused(tmp_path):
+    path = tmp_path / "maps.json"
+    assert read_maps_table(path).maps == {} and not read_maps_table(path).exists
+    back = write_maps_table(path, {"x": screw_map("x"), "z": screw_map("z")}, session="s")
+    assert back.maps["x"] == screw_map("x") and back.checksum == maps_checksum(back.maps)
+    data = json.loads(path.read_text())
+    data["maps"][0]["forward_mm"][3] += 0.001  # a hand changed one value
+    path.write_text(json.dumps(data))
+    with pytest.raises(InputError, match="does not match its checksum"):
+        read_maps_table(path)
+
+
+def test_write_audited_read_back_and_restored(tmp_path):
+    path = tmp_path / "maps.json"
+    old = write_maps_table(path, {"y": screw_map("y")})
+    session = _session(tmp_path)
+    plan = plan_maps_write({"x": screw_map("x")}, read_maps_table(path),
+                           in_force_checksum=old.checksum)
+    assert not plan.refused and set(plan.new_maps) == {"x", "y"}  # y kept
+    assert "the maps of y stay" in plan.notes[0]
+    with AuditLog(session) as audit:
+        done = execute_maps_plan(plan, audit, confirmed_by="--yes")
+    assert read_maps_table(path).checksum == done.new_checksum == plan.new_checksum
+    stages = [r.stage for r in load_session(session.path).of_type(MapsRecord)]
+    assert stages == ["intent", "done"]
+    (op,) = maps_operations(load_session(session.path))
+    assert op.status == "done" and op.old_checksum == old.checksum
+    assert set(op.old_maps) == {"y"}  # what restore needs is in the intent
+    back = plan_maps_restore(op, read_maps_table(path))
+    assert not back.refused
+    with AuditLog(load_session(session.path)) as audit:
+        execute_maps_plan(back, audit, confirmed_by="--yes")
+    assert read_maps_table(path).checksum == old.checksum
+
+
+def test_a_file_changed_since_the_campaign_is_stale(tmp_path):
+    path = tmp_path / "maps.json"
+    write_maps_table(path, {"y": screw_map("y")})
+    plan = plan_maps_write({"x": screw_map("x")}, read_maps_table(path),
+                           in_force_checksum=maps_checksum({}))
+    assert [r.code for r in plan.refusals] == ["stale"]
+
+
+def test_a_campaign_resumed_with_other_maps_is_refused(tmp_path):
+    path = tmp_path / "maps.json"
+    first = write_maps_table(path, {"x": screw_map("x")})
+    session = _session(tmp_path, first.identity())
+    check_same_maps(session, first)  # the same maps: fine
+    other = write_maps_table(path, {"x": screw_map("x", lost_mm=0.0)})
+    with pytest.raises(InputError, match="changed since .* was started"):
+        check_same_maps(session, other)
+    # a campaign started without maps, resumed with some, mixes two compensations too
+    bare = _session(tmp_path / "bare")
+    with pytest.raises(InputError, match="changed since .* was started"):
+        check_same_maps(bare, other)
+    # and the last station's record decides (a resume recorded the maps it ran with)
+    with SessionWriter.append_to(session.path) as writer:
+        writer.write(StationRecord(description={"controller": {"maps": other.identity()}}))
+    check_same_maps(load_session(session.path), other)
