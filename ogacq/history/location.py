@@ -40,7 +40,7 @@ DISABLED = ("none", "off")
 @dataclass(frozen=True)
 class HistoryLocation:
     url: URL
-    origin: str  # where it was named: "--history", "OGACQ_HISTORY", "beside the session", ...
+    origin: str  # where it was named: "--history", "OGACQ_HISTORY", "ogacq's data folder", ...
 
     @property
     def backend(self) -> str:
