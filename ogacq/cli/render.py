@@ -13,7 +13,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.model.parameters import effect_of
-from ogacq.uncertainty.reporting import entry_headline, rounded
+from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
     from rich.progress import Progress
@@ -220,16 +220,13 @@ def print_outcome(outcome, record: Mapping[str, Any]) -> None:
     table.add_column("unit")
     incomplete = False
     for name, value in zip(result.names, result.values, strict=True):
-        group, _, where = name.partition(".")
-        entry = (results.get(group) or {}).get(where) or {}
-        line = entry_headline({"value_mm": float(value), **entry}, effect_of(name).unit)
+        line = result_headline(results, name, float(value), effect_of(name).unit)
         incomplete |= not line.complete
         row = [name, line.value, line.U or "not evaluated",
                f"{line.k:g}" if line.k is not None else "-"]
         if outcome.hidden is not None:
-            truth = outcome.hidden.get(name, 0.0)
-            row += [rounded(truth, entry.get("U_mm"), sign=True),
-                    rounded(float(value) - truth, entry.get("U_mm"), sign=True)]
+            truth, U = outcome.hidden.get(name, 0.0), expanded_mm(results, name)
+            row += [rounded(truth, U, sign=True), rounded(float(value) - truth, U, sign=True)]
         table.add_row(*row, line.unit)
     console.print(table)
     console.print("U: the expanded uncertainty of the record's budget (k = 2: about 95 %)"

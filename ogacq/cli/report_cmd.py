@@ -117,6 +117,20 @@ def _earlier_issue(path: Path) -> bytes | None:
         return None
 
 
+def report_of(session: Path, folder: Path, validation: Path | None = None,
+              history: str | None = None) -> tuple[Path, dict[str, Any]]:
+    """What ``ogacq report SESSION [--after VALIDATION] --out FOLDER [--history H]``
+    writes, the session diagnosed here: the page and the record issued."""
+    calibration = load_session(session)
+    after = load_session(validation) if validation is not None else None
+    earlier, why = earlier_calibrations(history, calibration)
+    raw, note = _diagnose_here(calibration)
+    page = write_session_report(calibration, folder, validation=after, diagnosis=raw,
+                                diagnosis_note=note, diagnosis_source=session,
+                                history=earlier, history_why=why)
+    return page, json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
+
+
 def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any]:
     """The diagnosis JSON of INTERCHANGE.md and, beyond that contract, which measurement
     would separate each effect from its alternatives, and the caveats, in the

@@ -5,10 +5,8 @@ a detail (a diagnosis's effect) with as many decimals as its std allows."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from typing import Any
 
-from ogacq.uncertainty.reporting import Headline, entry_headline
+from ogacq.uncertainty.reporting import expanded_mm, result_entry, result_headline
 
 UM_PER_MM = 1000.0
 
@@ -56,22 +54,6 @@ def duration(seconds: float | None) -> str:
     return f"{minutes} min {secs:02d} s" if minutes else f"{secs} s"
 
 
-def result_entry(results: Mapping[str, Any] | None, name: str) -> Mapping[str, Any]:
-    """``joint_offset.x``'s entry of a record's ``results`` (empty when absent)."""
-    group, _, where = name.partition(".")
-    entry = ((results or {}).get(group) or {}).get(where)
-    return entry if isinstance(entry, Mapping) else {}
 
-
-def result_headline(results: Mapping[str, Any] | None, name: str, value: float,
-                    unit: str) -> Headline:
-    """The headline of parameter ``name`` (its ``value`` as identified, its U from the
-    record's ``results``)."""
-    return entry_headline({**result_entry(results, name), "value_mm": value}, unit)
-
-
-def expanded_mm(results: Mapping[str, Any] | None, name: str) -> float | None:
-    """The U of parameter ``name`` in the record, None when not evaluated."""
-    U = result_entry(results, name).get("U_mm")
-    return float(U) if isinstance(U, int | float) and not isinstance(U, bool) \
-        and math.isfinite(U) else None
+__all__ = ["UM_PER_MM", "decimals_for", "duration", "expanded_mm", "finite", "measure",
+           "plain", "result_entry", "result_headline", "signed", "um"]

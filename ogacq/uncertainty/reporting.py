@@ -122,3 +122,24 @@ def _number(x: Any) -> float | None:
     if isinstance(x, bool) or not isinstance(x, int | float):
         return None
     return float(x)
+
+
+def result_entry(results: Mapping[str, Any] | None, name: str) -> Mapping[str, Any]:
+    """``joint_offset.x``'s entry of a record's ``results`` (empty when absent)."""
+    group, _, where = name.partition(".")
+    entry = ((results or {}).get(group) or {}).get(where)
+    return entry if isinstance(entry, Mapping) else {}
+
+
+def result_headline(results: Mapping[str, Any] | None, name: str, value: float,
+                    unit: str) -> Headline:
+    """The headline of parameter ``name`` (its ``value`` as identified, its U from the
+    record's ``results``)."""
+    return entry_headline({**result_entry(results, name), "value_mm": value}, unit)
+
+
+def expanded_mm(results: Mapping[str, Any] | None, name: str) -> float | None:
+    """The U of parameter ``name`` in the record, None when not evaluated."""
+    U = result_entry(results, name).get("U_mm")
+    return float(U) if isinstance(U, int | float) and not isinstance(U, bool) \
+        and math.isfinite(U) else None
