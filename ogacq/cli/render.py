@@ -13,7 +13,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.model.parameters import effect_of
-from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded
+from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
     from rich.progress import Progress
@@ -330,8 +330,10 @@ def print_session(session, state=None) -> None:
         for name, where in refit["parameters"].items():
             for axis, value in where.items():
                 std = refit.get("std", {}).get(name, {}).get(axis)
-                console.print(f"  {shown(name)}.{shown(axis)} = {_num(value)} +- "
-                              f"{_num(std, sign=False)} mm")
+                # a look at what the session holds: its fit's std, named so (the
+                # headline U is the record's, `ogacq report`)
+                console.print(f"  {shown(name)}.{shown(axis)} = {_num(value)} mm (fit std "
+                              f"{two_digits(std)} mm)", highlight=False)
 
 
 def print_demo_diagnosis(d, hidden: dict[str, float]) -> None:
