@@ -97,7 +97,7 @@ def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None
     then the verdict, the record id and what to do next."""
     end = campaign_end(outcome.session_path, outcome.fit, simulated=outcome.simulated)
     show_outcome(outcome, as_json, end.record)
-    record_campaign(outcome.session_path, history, record=end.record)
+    record_campaign(outcome.session_path, history, record=end.built)
     if not as_json:
         print_end(end.lines())
 

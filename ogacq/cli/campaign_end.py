@@ -9,6 +9,7 @@ same id.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,6 +20,8 @@ from ogacq.identify.fit import FitResult
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.series import earlier_in_series, next_session
 from ogacq.session.store import LoadedSession, load_session
+
+log = logging.getLogger("ogacq")
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,12 @@ class CampaignEnd:
     def record_id(self) -> str:
         return str(self.record.get("id"))
 
+    @property
+    def built(self) -> Mapping[str, Any] | None:
+        """The record whole (what the history stores); None when it could not be built
+        (the history then builds it, and warns)."""
+        return self.record if "format" in self.record else None
+
     def lines(self) -> list[str]:
         """Plain text (escape it before rich sees it)."""
         issued = (f"issued as {self.report.with_name('record.json')}" if self.report
@@ -57,10 +66,15 @@ def campaign_end(session_path: Path, fit: FitResult, *, simulated: bool,
     """The end of the campaign recorded in ``session_path`` (``fit``: its identified
     offsets); ``report``: the page already written (the demo's); ``rehearsal_writeback``:
     the offsets can be written to the simulator still running (the wizard's)."""
-    from ogacq.record.document import build_record  # the budget: not at start-up
+    from ogacq.record.document import build_record, session_record_id  # not at start-up
 
     session = load_session(session_path)
-    record = build_record(session)
+    try:
+        record: Mapping[str, Any] = build_record(session)
+    except Exception as exc:  # the campaign is complete and safe whatever fails here
+        log.warning("the record of %s could not be built (%s: %s); `ogacq report` says "
+                    "more", session.path, type(exc).__name__, exc)
+        record = {"id": session_record_id(session)}
     verdict = fit_verdict(fit)
     steps = next_steps(session, verdict, fit.identifiability.identifiable,
                        simulated=simulated, report=report,

@@ -147,7 +147,7 @@ def demo(
                          diagnosis=report_diagnosis(diagnosis, session))
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
-    record_campaign(outcome.session_path, history, say=typer.echo, record=end.record)
+    record_campaign(outcome.session_path, history, say=typer.echo, record=end.built)
     if loop:  # the loop below is what comes next, on the simulator still running
         opened = tuple(s for s in end.steps if s.command.startswith("open "))
         end = replace(end, steps=(*opened, NextStep(

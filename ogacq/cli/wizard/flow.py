@@ -174,7 +174,7 @@ class _Wizard:
         writable = show_result(s, outcome, end.record)
         # the session is closed and safe: a history that fails only warns
         record_campaign(outcome.session_path, self.options.history,
-                        say=lambda text: s.say(shown(text)), record=end.record)
+                        say=lambda text: s.say(shown(text)), record=end.built)
         controller_file = None
         if self.rehearsal is not None and self.campaign is not None:
             controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
@@ -225,12 +225,12 @@ class _Wizard:
         outcome = self._measure(campaign, None, dict(header) if isinstance(header, dict)
                                 else {})
         s.heading("Validation", "what remains after the write-back")
-        record = campaign_end(outcome.session_path, outcome.fit,
-                              simulated=self.rehearsal is not None).record
-        show_result(s, outcome, record, title="Offsets remaining after the write-back",
+        end = campaign_end(outcome.session_path, outcome.fit,
+                           simulated=self.rehearsal is not None)
+        show_result(s, outcome, end.record, title="Offsets remaining after the write-back",
                     truth=False)
         record_campaign(outcome.session_path, self.options.history,
-                        say=lambda text: s.say(shown(text)), record=record)
+                        say=lambda text: s.say(shown(text)), record=end.built)
         return outcome
 
     def _next_steps(self, end: CampaignEnd, outcome: CampaignOutcome, written: bool,
