@@ -290,7 +290,7 @@ def _load(kind: Kind, raw: Any, path: KeyPath, src: Source) -> Any:
         return _map(kind, raw, path, src)
     if isinstance(kind, Variants):
         tag = raw.get(kind.tag) if isinstance(raw, Mapping) else None
-        if tag not in kind.tables:
+        if not isinstance(tag, str) or tag not in kind.tables:
             raise src.fail((*path, kind.tag), _one_of(kind.tables, tag))
         return _table(kind.tables[tag], raw, path, src)
     return _table(kind, raw, path, src)
@@ -467,7 +467,7 @@ def _is_section(kind: Kind) -> bool:
 
 def _chosen(kind: Kind, value: Any) -> Table:
     if isinstance(kind, Variants):
-        tag = value.get(kind.tag) if isinstance(value, Mapping) else getattr(value, kind.tag)
+        tag = value[kind.tag] if isinstance(value, Mapping) else getattr(value, kind.tag)
         return kind.tables[tag]
     assert isinstance(kind, Table)
     return kind

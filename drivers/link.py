@@ -89,7 +89,7 @@ def _errno_of(exc: BaseException) -> int | None:
 
 def open_link(
     port: str, settings: LinkSettings | None = None, *, where: str = ""
-) -> serial.SerialBase:
+) -> serial.Serial:
     """Open ``port`` with ``settings`` and return the open link.
 
     Raises :class:`LinkError` naming the port (and ``where``, the gauge or

@@ -121,4 +121,4 @@ def _matches(device: Any, wanted: str, where: str) -> bool:
     import usb.util
 
     with usb_errors(where, "reading the serial number"):
-        return usb.util.get_string(device, device.iSerialNumber) == wanted
+        return bool(usb.util.get_string(device, device.iSerialNumber) == wanted)

@@ -19,6 +19,8 @@ import errno
 import json
 import socket
 import threading
+from array import array
+from collections.abc import Iterator
 from types import SimpleNamespace
 from typing import Any
 
@@ -89,7 +91,7 @@ class NetBackend(usb.backend.IBackend):
         self._sock = self._file = None
 
     # ----------------------------------------------------------- descriptors
-    def enumerate_devices(self):  # noqa: ANN201 - pyusb's interface
+    def enumerate_devices(self) -> Iterator[str]:
         try:
             self._tree = self._call("descriptors")
         except usb.core.USBError:
@@ -108,11 +110,13 @@ class NetBackend(usb.backend.IBackend):
         entry = self._descriptors()["configurations"][config]
         return SimpleNamespace(**entry["descriptor"])
 
-    def get_interface_descriptor(self, dev: Any, intf: int, alt: int, config: int):
+    def get_interface_descriptor(self, dev: Any, intf: int, alt: int, config: int,
+                                 ) -> SimpleNamespace:
         entry = self._descriptors()["configurations"][config]["interfaces"][intf]
         return SimpleNamespace(**entry["descriptor"])
 
-    def get_endpoint_descriptor(self, dev: Any, ep: int, intf: int, alt: int, config: int):
+    def get_endpoint_descriptor(self, dev: Any, ep: int, intf: int, alt: int, config: int,
+                                ) -> SimpleNamespace:
         entry = self._descriptors()["configurations"][config]["interfaces"][intf]
         return SimpleNamespace(**entry["endpoints"][ep])
 
@@ -137,7 +141,8 @@ class NetBackend(usb.backend.IBackend):
         with contextlib.suppress(usb.core.USBError):  # a vanished device: nothing to release
             self._call("release_interface", interface=intf)
 
-    def ctrl_transfer(self, dev_handle, bmRequestType, bRequest, wValue, wIndex, data, timeout):  # noqa: N803
+    def ctrl_transfer(self, dev_handle: Any, bmRequestType: int, bRequest: int,  # noqa: N803
+                      wValue: int, wIndex: int, data: array[int], timeout: int) -> int:
         outgoing = not bmRequestType & 0x80
         result = self._call(
             "ctrl",
@@ -155,7 +160,8 @@ class NetBackend(usb.backend.IBackend):
         data[: len(received)] = type(data)(data.typecode, received)
         return len(received)
 
-    def intr_read(self, dev_handle: Any, ep: int, intf: int, buff: Any, timeout: int) -> int:
+    def intr_read(self, dev_handle: Any, ep: int, intf: int, buff: array[int], timeout: int,
+                  ) -> int:
         received = bytes.fromhex(
             self._call("intr_read", endpoint=ep, size=len(buff), timeout_ms=timeout)
         )

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ogacq.campaign_file import Campaign, read_campaign
 from ogacq.compensation.applied import TargetCorrection
@@ -19,7 +19,8 @@ from ogacq.io.errors import InputError
 from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.deadline import DeadlineStation, default_deadline_s
 from ogacq.protocol.plan import ProtocolConfig, SetGauges, reading_steps
-from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer, Station
+from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer
+from ogacq.protocol.station import Station
 from ogacq.session.convert import machine_dict, session_observations
 from ogacq.session.records import (
     EnvironmentRecord,
@@ -33,8 +34,12 @@ from ogacq.station import DeviceStation, open_station
 from ogacq.traceability import check_instruments, header_entries, read_environment
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
 
-# Adapts the opened station for one run: gets the session writer.
-StationWrapper = Callable[[DeviceStation, SessionWriter], Station]
+if TYPE_CHECKING:
+    from ogacq.sim.stack import SimulatorStack
+
+# Adapts the station for one run (the wizard's pauses and gauges read by eye): gets the
+# station the campaign runs on, the device station it opened and the session writer.
+StationAdapter = Callable[[Station, DeviceStation, SessionWriter], Station]
 # The temperatures at the end, asked of someone (the wizard asks the operator).
 EnvironmentAsker = Callable[[DeviceStation], EnvironmentRecord | None]
 
@@ -73,8 +78,9 @@ def recorded_identification(session: LoadedSession) -> FitResult:
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                  set_gauges: GaugeSetter | None = None,
-                 resume: LoadedSession | None = None, simulator=None,
-                 wrap_station: StationWrapper | None = None,
+                 resume: LoadedSession | None = None,
+                 simulator: SimulatorStack | None = None,
+                 wrap_station: StationAdapter | None = None,
                  header_extra: dict[str, Any] | None = None,
                  environment_at_end: EnvironmentAsker | None = None,
                  checked: Callable[[], None] | None = None) -> CampaignOutcome:
@@ -135,7 +141,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
             station.record_event = writer.write
             # inside the wizard's wrapper: its pauses are the operator's time, not the work's
             works = DeadlineStation(station, station.description["deadline_s"])
-            runs_on = wrap_station(works, writer) if wrap_station else works
+            runs_on = wrap_station(works, station, writer) if wrap_station else works
             # a resumed campaign was homed anew (prepare): the readings on file hold only
             # if the machine reads the same at the posture of the last of them
             previous = resume.readings if resume is not None else ()
@@ -184,7 +190,7 @@ def check_same_maps(session: LoadedSession, maps: MapsTable | None) -> None:
     """Refuse to resume with other maps than the session's readings were taken with
     (``maps`` None: the campaign names no maps file, so none are applied)."""
     before = recorded_maps(session)
-    then = before.get("checksum") if before else maps_checksum({})  # none applied then
+    then = str(before.get("checksum")) if before else maps_checksum({})  # none applied then
     now = maps.checksum if maps is not None else maps_checksum({})
     if then != now:
         where = maps.path if maps is not None else session.path
@@ -194,8 +200,9 @@ def check_same_maps(session: LoadedSession, maps: MapsTable | None) -> None:
                          "campaign: `ogacq calibrate --resume`), or start a new campaign")
 
 
-def _simulated_operator(simulator, campaign: Campaign, recorded: set[tuple[str, str]],
-                        then: GaugeSetter | None) -> GaugeSetter:
+def _simulated_operator(simulator: SimulatorStack, campaign: Campaign,
+                        recorded: set[tuple[str, str]], then: GaugeSetter | None,
+                        ) -> GaugeSetter:
     """With the simulator's two indicators moved leg to leg, its operator moves them
     when the plan says so (before whoever else is told); a resumed campaign finds
     them on the leg it stopped at."""

@@ -219,7 +219,7 @@ class ControllerSpec:
         """Where the controller answers, for messages: the shared port or one per axis."""
         if not self.axes:
             return self.port
-        return ", ".join(f"{a} {self.port_of(a)}" for a in ("x", "y", "z"))
+        return ", ".join(f"{a} {self.port_of(a)}" for a in AXES)
 
     def device_ids(self) -> dict[str, int]:
         """Unit ids given in the campaign file (the profile's for the others)."""

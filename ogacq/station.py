@@ -26,20 +26,21 @@ from typing import TYPE_CHECKING, Any
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, probe_move
-from ogacq_drivers.axes.profile import load_profile
+from ogacq_drivers.axes.profile import Profile, load_profile
 from ogacq_drivers.axes.reconnect import ReconnectPolicy, reconnect
 from ogacq_drivers.axes.reference import Path as AxisPath
 from ogacq_drivers.axes.reference import assess_reference
-from ogacq_drivers.errors import DeviceTimeout, DriverError, LinkError
+from ogacq_drivers.errors import DeviceTimeout, DriverError, InputError, LinkError
 from ogacq_drivers.indicators import backend, open_indicator
-from ogacq_drivers.indicators.base import StableReading, read_stable
+from ogacq_drivers.indicators.base import StableReading
 from ogacq_drivers.indicators.concurrent import ConcurrentReader
 from ogacq_drivers.link import open_link
 from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
-from ogacq.protocol.runner import CampaignStopped, GaugeValue, SettledGauge
+from ogacq.protocol.runner import CampaignStopped
+from ogacq.protocol.station import GaugeReadings, GaugeValue, SettledGauge
 from ogacq.session.records import ReconnectRecord, Record, ReferenceRecord
 from ogacq.writeback.table import read_offset_table
 
@@ -51,7 +52,8 @@ log = logging.getLogger(__name__)
 
 @dataclass
 class DeviceStation:
-    """A controller and six gauges behind the runner's ``Station`` interface."""
+    """A controller and six gauges behind the runner's ``Station`` contract
+    (``ogacq.protocol.station``)."""
 
     controller: AxisController
     indicators: dict[str, Any]
@@ -111,20 +113,17 @@ class DeviceStation:
             raise
         resolved = self.controller.resolved_targets_mm(targets)
         self._reached, self._heading = resolved, None
-        return tuple(resolved[a] for a in AXES)
-
-    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
-        indicator = self.indicators[gauge]
-        return _gauge_value(read_stable(indicator, rule.readings, rule.tolerance_mm,
-                                        rule.timeout_s))
+        x, y, z = (resolved[a] for a in AXES)
+        return x, y, z
 
     def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
-                    ) -> dict[str, GaugeValue | DriverError]:
+                    ) -> GaugeReadings:
         """A stable value of each gauge, all read at once (one line after another only
         where they share it), or the error each raised."""
         out = self._gauge_reader().read_stable_many(gauges, rule.readings, rule.tolerance_mm,
                                                     rule.timeout_s)
-        return {g: r if isinstance(r, DriverError) else _gauge_value(r) for g, r in out.items()}
+        return [(g, r if isinstance(r, DriverError) else _gauge_value(r))
+                for g, r in out.items()]
 
     def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
                      ) -> dict[str, SettledGauge | DriverError]:
@@ -256,7 +255,8 @@ def is_modbus_tcp(where: str) -> bool:
     return bool(sep) and port.isdigit() and not where.startswith("/")
 
 
-def _controller_link(spec: ControllerSpec, profile, endpoint: str | None = None) -> ModbusLink:
+def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,
+                     ) -> ModbusLink:
     """A link to ``endpoint`` (host:port for TCP, else a serial device), the shared
     ``spec.port`` when not given."""
     where = spec.port if endpoint is None else endpoint
@@ -413,6 +413,9 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
             if files is not None:
                 controller_spec = replace(controller_spec, offsets_file=files.offsets_file,
                                           maps_file=files.maps_file)
+        if controller_spec is None:  # read_campaign refuses it; a Campaign made in code may not
+            raise InputError(campaign.path, "missing [controller] (profile and port), or a "
+                             "[simulator] table")
         controller = stack.enter_context(open_controller(controller_spec))
         indicators = stack.enter_context(open_gauges(gauge_specs))
         if simulator is not None:

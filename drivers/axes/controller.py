@@ -35,6 +35,7 @@ import math
 import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
+from numbers import Real
 from typing import Any, Literal
 
 from ogacq_drivers.axes.modbus_link import ModbusLink
@@ -330,13 +331,21 @@ class AxisController:
         self, targets_mm: Targets | Iterable[str] | None = None, *, timeout_s: float | None = None
     ) -> dict[str, AxisStatus]:
         """Poll until every axis is in position (and at its target, if given) and not moving."""
-        if targets_mm is None or (
-            not isinstance(targets_mm, Mapping) and all(isinstance(a, str) for a in targets_mm)
-        ):
-            axes = self._axes(targets_mm)  # type: ignore[arg-type]
-            targets: dict[str, float | None] = dict.fromkeys(axes)
-        else:
-            targets = dict(self._targets(targets_mm))  # type: ignore[arg-type]
+        targets: dict[str, float | None]
+        if targets_mm is None:
+            targets = dict.fromkeys(self.axes)
+        elif isinstance(targets_mm, Mapping):
+            targets = dict(self._targets(targets_mm))
+        else:  # axis names, or a value per axis
+            given = list(targets_mm)
+            names = [a for a in given if isinstance(a, str)]
+            numbers = [float(v) for v in given if isinstance(v, Real)]
+            if len(names) == len(given):
+                targets = dict.fromkeys(self._axes(names))
+            elif len(numbers) == len(given):
+                targets = dict(self._targets(numbers))
+            else:
+                raise ValueError(f"targets {given}: axis names or a value per axis, not both")
         timeout = timeout_s or self.profile.timing.move_timeout_s
         tolerance = self._position_tolerance_mm()
         deadline = time.monotonic() + timeout
@@ -359,7 +368,8 @@ class AxisController:
                         where=self._where(axis),
                     )
                 target = targets[axis]
-                if poll.settled and (target is None or abs(poll.position_mm - target) <= tolerance):
+                if poll.settled and poll.position_mm is not None and (
+                        target is None or abs(poll.position_mm - target) <= tolerance):
                     arrived[axis] = self._as_status(poll)
             if len(arrived) == len(targets):
                 return {axis: arrived[axis] for axis in targets}

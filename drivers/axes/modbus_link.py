@@ -23,14 +23,14 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
 from pymodbus import ModbusException
 from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.exceptions import ConnectionException, ModbusIOException
-from pymodbus.pdu import ExceptionResponse
+from pymodbus.pdu import ExceptionResponse, ModbusPDU
 
 from ogacq_drivers.axes.profile import Profile
 from ogacq_drivers.errors import (
@@ -231,7 +231,7 @@ class ModbusLink:
             )
         return bits[:count]
 
-    def _read(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
+    def _read(self, device_id: int, what: str, call: Callable[[], ModbusPDU]) -> ModbusPDU:
         attempts = self.read_retries + 1
         started = time.monotonic()
         for attempt in range(1, attempts + 1):
@@ -298,7 +298,7 @@ class ModbusLink:
             lambda: self._client.write_coil(address, value, device_id=device_id),
         )
 
-    def _write(self, device_id: int, what: str, call) -> None:  # type: ignore[no-untyped-def]
+    def _write(self, device_id: int, what: str, call: Callable[[], ModbusPDU]) -> None:
         self._writes += 1
         try:
             self._execute(device_id, what, call)
@@ -313,7 +313,7 @@ class ModbusLink:
 
     # ------------------------------------------------------------ error mapping
 
-    def _execute(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
+    def _execute(self, device_id: int, what: str, call: Callable[[], ModbusPDU]) -> ModbusPDU:
         try:
             return self._execute_once(device_id, what, call)
         except LinkError:
@@ -324,7 +324,7 @@ class ModbusLink:
             self._failures += 1
             raise
 
-    def _execute_once(self, device_id: int, what: str, call):  # type: ignore[no-untyped-def]
+    def _execute_once(self, device_id: int, what: str, call: Callable[[], ModbusPDU]) -> ModbusPDU:
         where = self.where(device_id)
         with self._lock:
             try:

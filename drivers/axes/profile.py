@@ -317,6 +317,12 @@ class Profile:
     sim: SimSpec
     temperature: TemperatureSpec | None = None
 
+    @property
+    def endpoint_per_axis(self) -> bool:
+        """Every axis's drive at the same address (MR-JE-C: unit 255 each): one
+        endpoint per axis, not one shared by the three."""
+        return len(set(self.device_ids.values())) < len(self.device_ids)
+
     def value(self, name: str) -> ValueSpec:
         try:
             return self.values[name]

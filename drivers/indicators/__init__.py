@@ -188,7 +188,7 @@ def open_indicator(
     channel: str | None = None,
     where: str | None = None,
     settings: LinkSettings | None = None,
-    link: serial.SerialBase | None = None,
+    link: serial.Serial | None = None,
     **options: Any,
 ) -> Indicator:
     """Open ``port`` with the protocol's serial settings and return its driver.
@@ -211,12 +211,14 @@ def open_indicator(
             raise DriverError(
                 f"a {protocol} gauge opens its own device, not a serial link", where=where
             )
-        return cls.open(port, where=where, unit=unit, **options)
+        opened: Indicator = cls.open(port, where=where, unit=unit, **options)
+        return opened
     owns_link = link is None
     if link is None:
         link = open_link(port, settings or entry.settings, where=where)
     try:
-        return cls(link, where=where, unit=unit, owns_link=owns_link, **options)
+        indicator: Indicator = cls(link, where=where, unit=unit, owns_link=owns_link, **options)
+        return indicator
     except BaseException:
         if owns_link:
             link.close()

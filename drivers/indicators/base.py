@@ -192,7 +192,7 @@ class FrameReader:
 
     def __init__(
         self,
-        link: serial.SerialBase,
+        link: serial.Serial,
         *,
         where: str,
         terminators: bytes = b"\r\n",
@@ -279,7 +279,7 @@ class SerialIndicator:
 
     def __init__(
         self,
-        link: serial.SerialBase,
+        link: serial.Serial,
         *,
         where: str,
         timeout_s: float | None = None,

@@ -168,7 +168,7 @@ class DigimaticBridge(SerialIndicator):
 
     def __init__(
         self,
-        link: serial.SerialBase,
+        link: serial.Serial,
         *,
         where: str,
         unit: str,

@@ -167,7 +167,7 @@ class Mitutoyo01A(SerialIndicator):
 
     def __init__(
         self,
-        link: serial.SerialBase,
+        link: serial.Serial,
         *,
         where: str,
         unit: str,

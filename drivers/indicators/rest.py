@@ -145,7 +145,7 @@ class RestJudge:
         return rest_reference([r.value_mm for t, r in self.values if t >= since_s],
                               self.display_step_mm)
 
-    def _windows(self) -> tuple[list, list] | None:
+    def _windows(self) -> tuple[list[tuple[float, Reading]], list[tuple[float, Reading]]] | None:
         """The last two windows (each from a value to the last one at least
         ``window_s`` before its end), with enough values each; None before that.
         Values before the older window are let go."""

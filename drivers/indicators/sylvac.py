@@ -186,7 +186,7 @@ class SylvacOptoRS(SerialIndicator):
 
     def __init__(
         self,
-        link: serial.SerialBase,
+        link: serial.Serial,
         *,
         where: str,
         unit: str,

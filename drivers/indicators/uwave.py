@@ -225,7 +225,7 @@ class UWaveReceiver(SerialIndicator):
 
     def __init__(
         self,
-        link: serial.SerialBase,
+        link: serial.Serial,
         *,
         where: str,
         unit: str,

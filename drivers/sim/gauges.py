@@ -48,6 +48,7 @@ from typing import Any, ClassVar, Literal, Protocol
 
 from ogacq_drivers.indicators import BACKENDS
 from ogacq_drivers.indicators.backend import load
+from ogacq_drivers.indicators.base import MM_PER_INCH as EXACT_MM_PER_INCH
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.link import LinkSettings
 from ogacq_drivers.sim.clock import sleep_until
@@ -57,7 +58,7 @@ log = logging.getLogger(__name__)
 ValueSource = Callable[[], float]
 Transport = Literal["pty", "socket", "rfc2217"]
 TRANSPORTS: tuple[Transport, ...] = ("pty", "socket", "rfc2217")
-MM_PER_INCH = 25.4
+MM_PER_INCH = float(EXACT_MM_PER_INCH)  # the drivers' inch, for the simulated values
 
 # Shortest DTR-low pulse the simulated Sylvac simplex instrument takes as a request
 # (Opto-RS manual: 110 ms). Its device (ogacq_drivers.sim.sylvac) reads it from here
@@ -341,7 +342,10 @@ class _Rfc2217Transport(_SocketTransport):
         if not had_connection and self._conn is not None:
             from serial.rfc2217 import PortManager
 
-            self._manager = PortManager(_ControlLines(self._on_control), self)
+            # pyserial documents duck types here (a port with the control lines, a
+            # connection with write()); its stubs ask for Serial
+            self._manager = PortManager(_ControlLines(self._on_control),  # type: ignore[arg-type]
+                                        self)  # type: ignore[arg-type]
         if not data or self._manager is None:
             return b""
         return b"".join(self._manager.filter(data))

@@ -649,7 +649,9 @@ class ModbusSimServer:
             )
         await server.serve_forever(background=True)
         if self.transport == "tcp":
-            self.port = server.transport.sockets[0].getsockname()[1]  # type: ignore[union-attr]
+            listener = server.transport  # pymodbus keeps its listening asyncio.Server there
+            assert isinstance(listener, asyncio.Server), listener
+            self.port = listener.sockets[0].getsockname()[1]
         self._ready.set()
         try:
             await self._stop_event.wait()

@@ -37,11 +37,11 @@ import threading
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
+from ogacq_drivers.axes.profile import AXIS_NAMES as AXES
 from ogacq_drivers.sim.clock import SimClock
 
 log = logging.getLogger(__name__)
 
-AXES = ("x", "y", "z")
 
 
 class Alarm(enum.Enum):

@@ -17,8 +17,8 @@ from ogacq.cli.campaign_end import campaign_end
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.leg_prompt import operator_for
 from ogacq.cli.options import HistoryOption, JsonOption, OverrideExpiredOption, override_reason
-from ogacq.cli.render import campaign_progress, print_end, print_outcome
-from ogacq.protocol.runner import CampaignStopped, Observer
+from ogacq.cli.render import CampaignProgress, campaign_progress, print_end, print_outcome
+from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.series import next_session
 from ogacq.session.store import load_session
 from ogacq.traceability import traceability_gaps
@@ -102,7 +102,7 @@ def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None
         print_end(end.lines())
 
 
-def execute(start: Callable[[Observer], CampaignOutcome], session: Path, *,
+def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path, *,
             quiet: bool = False) -> CampaignOutcome:
     """Run ``start(observer)`` with progress shown; a stop exits non-zero with its reason
     and the command that continues ``session``."""

@@ -61,6 +61,7 @@ def flags_without_value(params: list[Parameter]) -> list[Parameter]:
         if param.param_type_name == "argument" and param.metavar is None and param.name:
             param.metavar = param.name.upper()  # "SESSION", not click's "{session}"
         if getattr(param, "_runtime_param", False) is None:
+            # typer's own per-parameter slot (private: no stub declares it)
             param._runtime_param = plain_runtime_param(param.type_descriptor)  # type: ignore[attr-defined]
     return params
 
@@ -108,8 +109,10 @@ def build_command(name: str, target: str | LazyCommandSpec | LazyGroupSpec,
                             add_completion=False, epilog=epilog)
         for sub_name, sub_target in target.commands.items():
             _command(group, sub_name, load_function(sub_target), epilog)
-        command = typer.main.get_group(group)
-        command.default_command = target.default
+        flags = typer.main.get_group(group)
+        assert isinstance(flags, FlagGroup)  # typer makes the group of the class given
+        flags.default_command = target.default
+        command: Command = flags
     else:
         single = typer.Typer(add_completion=False, rich_markup_mode=None)
         function = target.target if isinstance(target, LazyCommandSpec) else target

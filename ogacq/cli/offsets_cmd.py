@@ -69,9 +69,11 @@ MaxChangeOption = Annotated[float, typer.Option(
     "--max-change-mm", min=0.0, help="Refuse a change of any axis larger than this (mm).")]
 
 
-def _campaign_for(session: LoadedSession, path: Path | None) -> tuple[Campaign, Profile]:
-    """The campaign file naming the controller, and its profile; a campaign that only
-    starts the built-in simulator names no controller that outlives the command."""
+def _campaign_for(session: LoadedSession, path: Path | None,
+                  ) -> tuple[Campaign, ControllerSpec, Profile]:
+    """The campaign file naming the controller, the controller and its profile; a
+    campaign that only starts the built-in simulator names no controller that outlives
+    the command."""
     if path is None:
         recorded = session.header.get("campaign_file")
         if not recorded:
@@ -83,16 +85,17 @@ def _campaign_for(session: LoadedSession, path: Path | None) -> tuple[Campaign, 
         raise InputError(campaign.path, "this campaign starts the built-in simulator inside "
                          "each command, and its controller does not outlive it; serve one with "
                          "`ogacq sim` and name it in [controller]")
+    spec = campaign.controller
     try:
-        profile = load_profile(campaign.controller.profile)
+        profile = load_profile(spec.profile)
     except ProfileError as exc:
         raise InputError(campaign.path, f"controller profile: {exc}") from None
-    return campaign, profile
+    return campaign, spec, profile
 
 
-def _check_writable(campaign: Campaign, profile: Profile, save_nvm: bool) -> None:
+def _check_writable(campaign: Campaign, spec: ControllerSpec, profile: Profile,
+                    save_nvm: bool) -> None:
     """What the profile alone rules out, said before connecting to anything."""
-    spec = campaign.controller
     if profile.offset.kind == "software" and spec.offsets_file is None:
         raise InputError(campaign.path, f"profile {spec.profile!r} has no offset register; "
                          "its offsets live in a software offset table: add offsets_file = "
@@ -129,14 +132,13 @@ def _ask(question: str) -> bool:
 
 
 def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
-                         campaign: Campaign, *,
+                         spec: ControllerSpec, *,
                          yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
     """Refuse, ask, then write: the part ``write`` and ``restore`` share. ``audit`` is
     open: this command holds the session, so no campaign runs on it meanwhile."""
     if plan.nothing_to_do:
         typer.echo(f"the controller already holds these offsets: nothing to {plan.action}")
         return
-    spec = campaign.controller
     summary = {"action": plan.action, "current_mm": plan.current_mm, "new_mm": plan.new_mm}
     if plan.refused:
         render.print_refusals(plan, forced=force)
@@ -184,8 +186,7 @@ def show(
     """
     session = _analysed(session_path, partial, accept_edited, say=not as_json)
     evidence = evidence_from_session(session, from_diagnosis)
-    campaign, profile = _campaign_for(session, campaign_path)
-    spec = campaign.controller
+    _, spec, _ = _campaign_for(session, campaign_path)
     with open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
@@ -243,13 +244,13 @@ def write(
     session = _analysed(session_path, partial, accept_edited)
     evidence = evidence_from_session(session, from_diagnosis)
     with _recorded_after(session, history), \
-            _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+            _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         plan = plan_write(evidence, controller.read_offsets(),
                           ControllerFacts.of(controller.profile), WritePolicy(max_change_mm))
         render.print_evidence(evidence)
-        render.print_plan(plan, port=campaign.controller.port,
-                          offsets_file=_table_name(campaign.controller), evidence=evidence)
-        _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
+        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec),
+                          evidence=evidence)
+        _approve_and_execute(controller, plan, audit, spec, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
 
 
@@ -302,12 +303,11 @@ def restore(
         raise InputError(session.path, "no write-back is recorded in this session: nothing "
                          "to restore")
     with _recorded_after(session, history), \
-            _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+            _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         plan = plan_restore(operation, controller.read_offsets(),
                             ControllerFacts.of(controller.profile))
-        render.print_plan(plan, port=campaign.controller.port,
-                          offsets_file=_table_name(campaign.controller))
-        _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
+        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
+        _approve_and_execute(controller, plan, audit, spec, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
 
 
@@ -332,16 +332,15 @@ def _restore_state(machine_name: str, wanted: str, history: str | None,
     typer.echo(f"{found.describe()}: back to offsets state {state.state_id} ({state.stage} "
                f"{state.action} {state.operation}, {state.at or 'undated'})")
     with _recorded_after(session, history, location), \
-            _controller_of(session, campaign_path, save_nvm) as (campaign, audit, controller):
+            _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         try:
             plan = plan_return(state.offsets_mm, state.state_id, controller.read_offsets(),
                                ControllerFacts.of(controller.profile), profile=state.profile,
                                expected_mm=in_force.offsets_mm if in_force else None)
         except ValueError as exc:
             raise InputError(wanted, str(exc)) from None
-        render.print_plan(plan, port=campaign.controller.port,
-                          offsets_file=_table_name(campaign.controller))
-        _approve_and_execute(controller, plan, audit, campaign, yes=yes, force=force,
+        render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
+        _approve_and_execute(controller, plan, audit, spec, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=rehome)
 
 
@@ -363,11 +362,12 @@ def _recorded_after(session: LoadedSession, history: str | None,
 
 @contextlib.contextmanager
 def _controller_of(session: LoadedSession, campaign_path: Path | None, save_nvm: bool,
-                   ) -> Iterator[tuple[Campaign, AuditLog, AxisController]]:
-    """The session's campaign, its audit log and its controller, opened in that order:
+                   ) -> Iterator[tuple[ControllerSpec, AuditLog, AxisController]]:
+    """The session's campaign's controller, its audit log and the controller opened, in
+    that order:
     the session is held before the controller is touched, so a campaign running on it
     (or another write-back) refuses this one before anything moves."""
-    campaign, profile = _campaign_for(session, campaign_path)
-    _check_writable(campaign, profile, save_nvm)
-    with AuditLog(session) as audit, open_controller(campaign.controller) as controller:
-        yield campaign, audit, controller
+    campaign, spec, profile = _campaign_for(session, campaign_path)
+    _check_writable(campaign, spec, profile, save_nvm)
+    with AuditLog(session) as audit, open_controller(spec) as controller:
+        yield spec, audit, controller

@@ -3,9 +3,10 @@ and documented once."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from enum import StrEnum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, cast
 
 import typer
 
@@ -75,6 +76,35 @@ class ParamSet(StrEnum):
     both = "both"
 
 
+if TYPE_CHECKING:  # their members are known at run time only (below)
+    class ProfileChoice(StrEnum):
+        """A controller profile shipped with the drivers."""
+
+    class GaugeProtocol(StrEnum):
+        """A protocol of the drivers' table."""
+
+
+def profile_help(lead: str) -> str:
+    """``lead``, then each controller profile shipped with the drivers as its file
+    describes it: the profiles ProfileChoice offers, not a list kept by hand."""
+    from ogacq_drivers.axes.profile import available_profiles, load_profile
+
+    return f"{lead}: " + "; ".join(f"{name} ({load_profile(name).description})"
+                                   for name in available_profiles()) + "."
+
+
+def per_axis_profiles() -> str:
+    """The profiles whose axes are each their own endpoint ("mr-je-c"), in words."""
+    from ogacq_drivers.axes.profile import available_profiles, load_profile
+
+    return " and ".join(n for n in available_profiles() if load_profile(n).endpoint_per_axis)
+
+
+def _choice(name: str, values: Iterable[str]) -> type[StrEnum]:
+    # Enum's functional API makes a class; the stubs read the call as a member lookup
+    return cast("type[StrEnum]", StrEnum(name, {v: v for v in values}))
+
+
 def __getattr__(name: str) -> type[StrEnum]:
     """The device choices, built when a command asks for them: the drivers they list
     cost start-up time that the analysis commands (refit, diagnose) do not need."""
@@ -82,12 +112,12 @@ def __getattr__(name: str) -> type[StrEnum]:
         # Every controller profile shipped with the drivers, so a new register map is
         # offered as soon as its file is there.
         from ogacq_drivers.axes.profile import available_profiles
-        choice = StrEnum("ProfileChoice", {p: p for p in available_profiles()})
+        choice = _choice("ProfileChoice", available_profiles())
     elif name == "GaugeProtocol":
         # Every protocol of the driver table, so a new cable is served as soon as it
         # has a driver.
         from ogacq_drivers.indicators import BACKENDS
-        choice = StrEnum("GaugeProtocol", {p: p for p in BACKENDS})
+        choice = _choice("GaugeProtocol", BACKENDS)
     else:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     globals()[name] = choice  # built once

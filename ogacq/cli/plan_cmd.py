@@ -13,6 +13,7 @@ from ogacq.cli.render import print_plan, trials_progress
 from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
+from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
 from ogacq.protocol.plan import APPROACHES, ProtocolConfig, check_postures, scan_targets
 
@@ -49,7 +50,7 @@ def parse_range(text: str | None) -> tuple[float | None, float | None]:
             from None
 
 
-def describe_protocol(protocol: ProtocolConfig, machine) -> str:
+def describe_protocol(protocol: ProtocolConfig, machine: MachineSpec) -> str:
     """The plan in words: its postures, or its scan's range, step and directions."""
     if not protocol.is_scan:
         return "postures " + ",".join(str(p) for p in protocol.postures)

@@ -65,8 +65,9 @@ def refit(
         chosen = "linear" if obs.kind == "deviations" else "exact"
     result = fit(obs, names, method=chosen, weighting=weighting.value)
     if not result.converged:
-        raise InputError(file, f"the {chosen} fit did not converge in {result.iterations} "
-                         "iterations; try --method linear or check the data")
+        raise InputError(file, f"the {chosen} fit did not converge "
+                         f"({result.stop_reason.describe()}); try --method linear or check "
+                         "the data")
     check_result(result)
     if as_json:
         typer.echo(json.dumps({**result.to_json(params.value), **loaded.state_json()}))

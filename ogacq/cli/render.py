@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
@@ -18,7 +18,14 @@ from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, t
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
     from rich.progress import Progress
 
+    from ogacq.campaign import CampaignOutcome
+    from ogacq.diagnose.diagnosis import Diagnosis
+    from ogacq.identify.accuracy import AccuracyPrediction
     from ogacq.identify.fit import FitResult
+    from ogacq.protocol.runner import Observer
+    from ogacq.protocol.runner import Progress as RunnerProgress
+    from ogacq.session.state import Completeness
+    from ogacq.session.store import LoadedSession
 
 console = new_console()
 
@@ -80,7 +87,8 @@ def print_fit(result: FitResult, params_label: str) -> None:
                       "readings[/]")
 
 
-def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
+def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycles: int,
+               ) -> None:
     console.print(f"[bold]{shown(machine_name)}[/]: {shown(postures)}, {cycles} cycles per leg, "
                   f"{pred.n_readings} readings, gauge noise {pred.noise_mm:g} mm")
     table = Table(show_edge=False, header_style="bold")
@@ -92,7 +100,7 @@ def print_plan(pred, machine_name: str, postures: str, cycles: int) -> None:
     table.add_column("unit")
     for k, name in enumerate(pred.names):
         row = [name, f"{pred.analytic_std[k]:.4f}"]
-        if pred.mc_std is not None:
+        if pred.mc_std is not None and pred.mc_bias is not None:
             row += [f"{pred.mc_std[k]:.4f}", f"{pred.mc_bias[k]:+.4f}"]
         table.add_row(*row, effect_of(name).unit)
     console.print(table)
@@ -132,15 +140,16 @@ class CampaignProgress:
     """The runner's observer as the command line shows it; ``paused()`` lifts a live
     bar off the terminal while the operator is asked something."""
 
-    def __init__(self, show=lambda progress: None, bar: Progress | None = None) -> None:
+    def __init__(self, show: Observer = lambda progress: None,
+                 bar: Progress | None = None) -> None:
         self._show = show
         self._bar = bar
 
-    def __call__(self, progress) -> None:
+    def __call__(self, progress: RunnerProgress) -> None:
         self._show(progress)
 
     @contextmanager
-    def paused(self):
+    def paused(self) -> Iterator[None]:
         if self._bar is None:
             yield
             return
@@ -152,7 +161,7 @@ class CampaignProgress:
 
 
 @contextmanager
-def trials_progress(label: str):
+def trials_progress(label: str) -> Iterator[Callable[[int, int], None] | None]:
     """A callback ``(done, total)`` showing a bar on the terminal (stderr, so that a
     --json on stdout stays clean), and nothing when no one watches."""
     err = new_console(stderr=True)
@@ -168,7 +177,7 @@ def trials_progress(label: str):
 
 
 @contextmanager
-def campaign_progress(enabled: bool = True):
+def campaign_progress(enabled: bool = True) -> Iterator[CampaignProgress]:
     """An observer for the runner: a live bar on a terminal, log lines otherwise."""
     if not enabled:
         yield CampaignProgress()
@@ -176,7 +185,7 @@ def campaign_progress(enabled: bool = True):
     if not sys.stdout.isatty():
         err = new_console(stderr=True)
 
-        def log_line(progress) -> None:
+        def log_line(progress: RunnerProgress) -> None:
             err.print(f"\\[{progress.done}/{progress.total}] {shown(progress.message)}",
                       highlight=False)
 
@@ -195,14 +204,14 @@ def campaign_progress(enabled: bool = True):
                   console=console, transient=False) as bar:
         task = bar.add_task("readings", total=None, last="")
 
-        def update(progress) -> None:
+        def update(progress: RunnerProgress) -> None:
             bar.update(task, completed=progress.done, total=progress.total,
                        last=shown(progress.message))
 
         yield CampaignProgress(update, bar)
 
 
-def print_outcome(outcome, record: Mapping[str, Any]) -> None:
+def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
     """The identified offsets as a person reads them: each with its expanded
     uncertainty U (k stated, GUM 7.2.6), from the campaign's ``record``; the
     simulator's truth beside them in a rehearsal."""
@@ -248,7 +257,7 @@ def print_end(lines: list[str]) -> None:
         console.print(shown(line), highlight=False, soft_wrap=True)  # paths whole
 
 
-def _print_context(session) -> None:
+def _print_context(session: LoadedSession) -> None:
     """Who, when, with which certificates and at what temperature (what is known)."""
     from ogacq.record.context import calibration_context
 
@@ -276,7 +285,7 @@ def _print_context(session) -> None:
                       highlight=False)
 
 
-def print_session(session, state=None) -> None:
+def print_session(session: LoadedSession, state: Completeness | None = None) -> None:
     """What ``session`` holds; ``state``: its completeness (ogacq.session.state)."""
     from ogacq.session.records import (
         EndRecord,
@@ -336,7 +345,7 @@ def print_session(session, state=None) -> None:
                               f"{two_digits(std)} mm)", highlight=False)
 
 
-def print_demo_diagnosis(d, hidden: dict[str, float]) -> None:
+def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
     """The diagnosis verdict and what it found, beside the simulator's hidden effects."""
     diagnosis = d.to_json()
     if d.base.consistent:

@@ -19,7 +19,7 @@ from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
-from ogacq.cli.render import campaign_progress
+from ogacq.cli.render import CampaignProgress, campaign_progress
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
@@ -48,7 +48,7 @@ class TerminalUI:
     def say(self, text: str) -> None:
         console.print(text, highlight=False)
 
-    def observer(self, role: str):
+    def observer(self, role: str) -> CampaignProgress:
         self._stack.close()
         self._stack = contextlib.ExitStack()
         return self._stack.enter_context(campaign_progress())

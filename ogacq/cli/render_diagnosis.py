@@ -13,6 +13,7 @@ from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, format_p
 from ogacq.model.parameters import PARAM_INDEX, effect_of
+from ogacq.model.units import UM_PER_MM
 
 
 def _value(value: float, std: float, unit: str) -> str:
@@ -64,15 +65,16 @@ def _print_location(title: str, loc: Location) -> None:
         console.print(f"  {name}: {shown(cells)}")
     trends = [t for t in loc.trends if t.p_value < LEVEL]
     for t in trends:
-        console.print(f"  trend with time on gauge {t.gauge}: {t.slope_mm_per_h * 1e3:+.1f} ± "
-                      f"{t.std_mm_per_h * 1e3:.1f} µm/h (p = {format_p(t.p_value)})")
+        console.print(f"  trend with time on gauge {t.gauge}: "
+                      f"{t.slope_mm_per_h * UM_PER_MM:+.1f} ± "
+                      f"{t.std_mm_per_h * UM_PER_MM:.1f} µm/h (p = {format_p(t.p_value)})")
     if loc.trends and not trends:
         console.print("  no gauge's residuals trend with time")
     diffs = [a for a in loc.approach if a.p_value < LEVEL]
     for a in diffs:
         console.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
-                      f"{shown(a.posture)}: {a.difference_mm * 1e3:+.1f} ± "
-                      f"{a.std_mm * 1e3:.1f} µm")
+                      f"{shown(a.posture)}: {a.difference_mm * UM_PER_MM:+.1f} ± "
+                      f"{a.std_mm * UM_PER_MM:.1f} µm")
     if not loc.approach:
         console.print("  no posture was read from both approach sides")
     elif not diffs:
@@ -131,8 +133,8 @@ def _print_search(d: Diagnosis) -> None:
     for col in ("step", "added", "rms before", "rms after", "chi2/dof", "p (nested)", "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right", overflow="fold")
     for k, step in enumerate(sel.steps, 1):
-        table.add_row(str(k), step.label, f"{step.before.verdict.rms_mm * 1e3:.2f} µm",
-                      f"{step.after.verdict.rms_mm * 1e3:.2f} µm",
+        table.add_row(str(k), step.label, f"{step.before.verdict.rms_mm * UM_PER_MM:.2f} µm",
+                      f"{step.after.verdict.rms_mm * UM_PER_MM:.2f} µm",
                       f"{step.before.verdict.chi2_dof:.3g} → {step.after.verdict.chi2_dof:.3g}",
                       format_p(step.p_value), f"{step.delta_bic:+.1f}")
     if sel.steps:
@@ -145,7 +147,8 @@ def _print_search(d: Diagnosis) -> None:
         console.print("  closest candidates that were not taken:")
         for c in sel.last_considered[:3]:
             rms = np.sqrt(c.rss / max(d.capability.n_data, 1))
-            console.print(f"    {label(c.added)}: weighted rms {rms * 1e3:.2f} µm, {c.reason}")
+            console.print(f"    {label(c.added)}: weighted rms {rms * UM_PER_MM:.2f} µm, "
+                          f"{c.reason}")
     console.print()
 
 
@@ -160,7 +163,7 @@ def _print_gauge_rms(d: Diagnosis) -> None:
         table.add_column(f"+ {step.label}", justify="right", overflow="fold")
     per_model = [m.rms_by_gauge(gauges) for m in models]
     for g in per_model[0]:
-        table.add_row(g, *(f"{rms[g] * 1e3:.2f}" for rms in per_model))
+        table.add_row(g, *(f"{rms[g] * UM_PER_MM:.2f}" for rms in per_model))
     console.print(table)
 
 

@@ -130,12 +130,12 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
                       show_edge=False, header_style="bold", title_justify="left")
         for column in ("state", "when", "what", "record", "axes", "checksum", "status"):
             table.add_column(column, no_wrap=column in ("state", "when", "record"))
-        for v in maps:
-            what = f"{v.stage} {v.action} {v.operation}"
-            table.add_row(v.state_id, v.at or "-", what, v.record_id,
-                          ", ".join(sorted(v.maps or {})) or "none",
-                          (v.maps_checksum or "-")[:12],
-                          v.status + (f"; {v.fate}" if v.fate else ""))
+        for m in maps:
+            what = f"{m.stage} {m.action} {m.operation}"
+            table.add_row(m.state_id, m.at or "-", what, m.record_id,
+                          ", ".join(sorted(m.maps or {})) or "none",
+                          (m.maps_checksum or "-")[:12],
+                          m.status + (f"; {m.fate}" if m.fate else ""))
         console.print(table)
     if machine_states:
         console.print(f"compare two: ogacq history {machine.name!r} --states --diff STATE STATE",

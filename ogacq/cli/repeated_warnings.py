@@ -12,9 +12,15 @@ from __future__ import annotations
 import logging
 import re
 import sys
-from typing import TextIO
+from typing import Protocol
 
 _NUMBER = re.compile(r"\d+")
+
+
+class TextSink(Protocol):
+    """Where a handler writes its lines: a text stream, or the wizard's screen."""
+
+    def write(self, text: str, /) -> object: ...
 
 
 class RepeatCollapsingHandler(logging.StreamHandler):
@@ -22,7 +28,7 @@ class RepeatCollapsingHandler(logging.StreamHandler):
     message up to its numbers); the count of repeats is printed as
     ``(repeated N times)`` when another warning comes, and when flushed or closed."""
 
-    def __init__(self, stream: TextIO | None = None) -> None:
+    def __init__(self, stream: TextSink | None = None) -> None:
         super().__init__(stream if stream is not None else sys.stderr)
         self._last: tuple[str, int, str] | None = None
         self._repeats = 0

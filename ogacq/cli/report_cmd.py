@@ -69,6 +69,7 @@ def report_command(
             for line in session_notes(loaded, state):
                 typer.echo(f"ogacq: warning: {loaded.path}: {line}", err=True)
     earlier, why = earlier_calibrations(history, calibration)
+    raw: dict[str, Any] | None
     if given is not None:
         raw, note = given, None
     else:

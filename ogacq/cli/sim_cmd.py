@@ -14,7 +14,15 @@ import typer
 from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text
-from ogacq.cli.options import DEFAULT_SEED, GaugeProtocol, JsonOption, ProfileChoice, seed_option
+from ogacq.cli.options import (
+    DEFAULT_SEED,
+    GaugeProtocol,
+    JsonOption,
+    ProfileChoice,
+    per_axis_profiles,
+    profile_help,
+    seed_option,
+)
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.cli.render import print_sim
 from ogacq.io.atomic import write_atomically
@@ -28,9 +36,8 @@ from ogacq.station import simulator_endpoints, start_simulator
 
 def sim(
     profile: Annotated[ProfileChoice, typer.Option(
-        help="Controller register map: cia402 (Modbus TCP), iai-pcon (Modbus RTU on a "
-             "pseudo-terminal), mr-je-c (one Modbus TCP endpoint per axis, unit 255, "
-             "FC 03/08/16) or kinco-fd (RTU).")] = ProfileChoice["cia402"],
+        help=profile_help("Controller register map (Modbus TCP on loopback, Modbus RTU on a "
+                          "pseudo-terminal)"))] = ProfileChoice["cia402"],
     effects: Annotated[Path | None, typer.Option(
         help="TOML file of hidden effects (joint_offset, squareness, ... gauges.noise_mm).")]
     = None,
@@ -47,7 +54,8 @@ def sim(
              "station.")] = None,
     port: Annotated[int | None, typer.Option(
         min=1, max=65535, help="Modbus TCP port of the controller (default: a free one; "
-                               "with mr-je-c, axis y and z take the next two).")] = None,
+                               f"with {per_axis_profiles()}, axis y and z take the next "
+                               "two).")] = None,
     write_campaign: Annotated[Path | None, typer.Option(
         help="Write a campaign file that runs against this simulator (`ogacq run FILE` "
              "while it serves); without --machine, the machine file goes beside it as "
@@ -74,9 +82,11 @@ def sim(
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     with contextlib.closing(start_simulator(spec, simulated, modbus_port=port or 0)) as stack:
         if write_campaign is not None:
-            machine_path = machine or write_machine(machine_out, spec,
-                                                    "written by `ogacq sim --write-campaign`")
-            _write_campaign(write_campaign, stack, spec, machine_path, speed)
+            if machine is None:
+                assert machine_out is not None  # set above, beside the campaign file
+                machine = write_machine(machine_out, spec,
+                                        "written by `ogacq sim --write-campaign`")
+            _write_campaign(write_campaign, stack, spec, machine, speed)
         info = stack.info()
         if as_json:
             typer.echo(json.dumps(info))

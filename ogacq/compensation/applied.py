@@ -68,5 +68,5 @@ class TargetCorrection:
         what the controller's rounding (``resolved``: the targets it took) and a target
         held at the end of the travel moved."""
         wanted = self._wanted if self._wanted is not None else q_mm
-        return tuple(round(q + (r - w), 9) for q, w, r in  # type: ignore[return-value]
-                     zip(q_mm, wanted, resolved, strict=True))
+        x, y, z = (round(q + (r - w), 9) for q, w, r in zip(q_mm, wanted, resolved, strict=True))
+        return x, y, z

@@ -37,12 +37,18 @@ tape from): no tape format is written, for want of a source for it.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.compensation.tables import AxisTable, ControllerTables, TableError, figures_block
+from ogacq.compensation.tables import (
+    Applied,
+    AxisTable,
+    ControllerTables,
+    TableError,
+    figures_block,
+)
 from ogacq.model.axis_map import AxisMap
 
 FORMAT = "fanuc"
@@ -152,7 +158,7 @@ def fanuc_axis(m: AxisMap, options: FanucOptions, first_point: int,
         backlash=0 if options.bidirectional else int(round(reversal / unit)))
 
 
-def _staircase(axis: FanucAxis, absolute_mm: np.ndarray):
+def _staircase(axis: FanucAxis, absolute_mm: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
     """The compensation between positions: that of the position below (see above)."""
     starts = axis.positions_mm()
 
@@ -164,7 +170,7 @@ def _staircase(axis: FanucAxis, absolute_mm: np.ndarray):
     return at
 
 
-def _applied(axis: FanucAxis):
+def _applied(axis: FanucAxis) -> Applied:
     fwd = _staircase(axis, axis.absolute(axis.values) * axis.unit_mm)
     if axis.neg_values:
         rev_abs = (axis.absolute(axis.neg_values) * axis.unit_mm

@@ -29,7 +29,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.compensation.tables import AxisTable, ControllerTables, TableError, figures_block
+from ogacq.compensation.tables import (
+    Applied,
+    AxisTable,
+    ControllerTables,
+    TableError,
+    figures_block,
+)
 from ogacq.model.axis_map import AxisMap
 
 MAX_TRIPLETS = 256  # "the limit inside LinuxCNC is for 256 triplets per joint"
@@ -66,7 +72,7 @@ def triplets(m: AxisMap, limit: int = MAX_TRIPLETS,
             for a, f, r in zip(q, fwd, rev, strict=True)]
 
 
-def _applied(rows: list[tuple[float, float, float]], file_type: int):
+def _applied(rows: list[tuple[float, float, float]], file_type: int) -> Applied:
     """The error the controller removes: minus its trim (type 0's loader takes the trim
     as nominal minus actual, LinuxCNC's usrmotLoadComp)."""
     q = np.array([r[0] for r in rows])

@@ -14,7 +14,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from ogacq.compensation.tables import AxisTable, ControllerTables, figures_block
+from ogacq.compensation.tables import Applied, AxisTable, ControllerTables, figures_block
 from ogacq.model.axis_map import AxisMap
 
 FORMAT = "csv"
@@ -22,7 +22,7 @@ K = 2.0
 HEADER = "axis,nominal_mm,forward_mm,reverse_mm,U_mm"
 
 
-def _applied(m: AxisMap):
+def _applied(m: AxisMap) -> Applied:
     def applied(x: np.ndarray, side: int) -> np.ndarray:
         return m.error_mm(x, side)
 

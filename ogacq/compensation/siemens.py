@@ -38,7 +38,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.compensation.tables import AxisTable, ControllerTables, TableError, figures_block
+from ogacq.compensation.tables import (
+    Applied,
+    AxisTable,
+    ControllerTables,
+    TableError,
+    figures_block,
+)
 from ogacq.model.axis_map import AxisMap
 
 FORMAT = "siemens"
@@ -89,7 +95,7 @@ def siemens_axis(m: AxisMap, options: SiemensOptions, name: str) -> SiemensAxis:
                        round(reversal, DECIMALS))
 
 
-def _applied(axis: SiemensAxis):
+def _applied(axis: SiemensAxis) -> Applied:
     q = axis.positions_mm()
     v = np.asarray(axis.values_mm)
 

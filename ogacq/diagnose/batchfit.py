@@ -152,13 +152,14 @@ class Design:
 
 
 def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
-             extras: Sequence[Sequence[str]], iterations: int = CHORD_ITERATIONS,
+             candidates: Sequence[Sequence[str]], iterations: int = CHORD_ITERATIONS,
              jac: Design | None = None) -> CandidateFits:
-    """Fit ``model + extra`` for every extra, each started from ``theta_start`` (the
-    model's own solution). ``jac``: the weighted Jacobian at ``theta_start`` when
-    the caller already holds one covering the names fitted on every reading."""
+    """Fit ``model + extra`` for every extra of ``candidates``, each started from
+    ``theta_start`` (the model's own solution). ``jac``: the weighted Jacobian at
+    ``theta_start`` when the caller already holds one covering the names fitted on every
+    reading."""
     model = tuple(model)
-    extras = [tuple(e) for e in extras]
+    extras = [tuple(e) for e in candidates]
     theta_start = np.asarray(theta_start, dtype=float)
     out = CandidateFits(model, extras, np.repeat(theta_start[None], len(extras), axis=0),
                         np.empty(len(extras)), np.empty(len(extras), dtype=int))

@@ -9,6 +9,7 @@ matrix of the fit), and each group's chi-square beside its expected value.
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +41,13 @@ class RowLabels:
         return names[self.gauge_axis, self.leg]
 
 
+def _deviation_name(label: str) -> re.Match[str]:
+    found = DEVIATION_NAME.match(label)
+    if found is None:  # deviations are read by their names: one that is not cannot be here
+        raise ValueError(f"not a deviation's name: {label!r}")
+    return found
+
+
 def row_labels(obs: Observations) -> RowLabels:
     if obs.raw:
         lay = obs.layout
@@ -60,7 +68,7 @@ def row_labels(obs: Observations) -> RowLabels:
             lay.cycle, lay.t_s,
             np.array(["".join(signs[int(c) // 3**k % 3 - 1] for k in (2, 1, 0))
                       for c in sides])[side.ravel()])
-    parsed = [DEVIATION_NAME.match(label) for label in obs.labels]
+    parsed = [_deviation_name(label) for label in obs.labels]
     n = len(parsed)
     return RowLabels(
         np.array([AXES.index(m.group(2)) for m in parsed]),

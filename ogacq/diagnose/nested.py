@@ -4,6 +4,8 @@ against the same gauge noise as the verdict (``ogacq/identify/consistency.py``).
 
 from __future__ import annotations
 
+from typing import overload
+
 import numpy as np
 
 from ogacq.identify.distributions import chi2_sf, f_sf
@@ -38,10 +40,20 @@ def nested_tests(rss_small: float, rss_big: np.ndarray, added: np.ndarray,
     misfit = rss_big / dof
     by_misfit = misfit > noise.variance
     f_stat = np.where(by_misfit, gain / np.where(by_misfit, misfit, 1.0), gain / noise.variance)
-    p_noise = (f_sf(k, noise.dof, f_stat) if noise.measured
+    p_noise = (f_sf(k, noise.dof, f_stat) if noise.measured and noise.dof is not None
                else chi2_sf(k, f_stat * k))
     p = np.where(by_misfit, f_sf(k, dof, f_stat), p_noise)
     return np.where(valid, f_stat, 0.0), np.where(valid, p, 1.0)
+
+
+@overload
+def information_criteria(rss: float, n_params: int, n_data: int, noise: GaugeNoise,
+                         ) -> tuple[float, float]: ...
+
+
+@overload
+def information_criteria(rss: np.ndarray, n_params: int | np.ndarray, n_data: int,
+                         noise: GaugeNoise) -> tuple[np.ndarray, np.ndarray]: ...
 
 
 def information_criteria(rss: float | np.ndarray, n_params: int | np.ndarray, n_data: int,

@@ -45,7 +45,7 @@ def _subset(layout: ReadingsLayout, keep: np.ndarray) -> ReadingsLayout:
 
 
 def _without(obs: Observations, keep: np.ndarray) -> Observations:
-    if obs.raw:
+    if obs.combination is None:
         return readings_observations(obs.machine, _subset(obs.layout, keep), obs.values[keep],
                                      obs.source)
     return Observations(obs.machine, obs.layout, obs.values[keep],

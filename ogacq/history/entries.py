@@ -15,8 +15,10 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
+from ogacq.model.gauges import AXES
+from ogacq.model.instrument import finite_number as _number
+
 RECORD_FORMAT = "ogacq-record/1"
-AXES = ("x", "y", "z")
 
 
 class RecordError(ValueError):
@@ -85,12 +87,6 @@ def clean_json(value: Any) -> Any:
     return value
 
 
-def _number(value: Any) -> float | None:
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return None
-    return float(value) if math.isfinite(value) else None
-
-
 def check_record(record: Any) -> dict[str, Any]:
     """The record, checked for what the history reads from it; RecordError naming
     what is missing."""
@@ -156,8 +152,8 @@ def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
 
 def record_columns(record: Mapping[str, Any]) -> dict[str, Any]:
     """The event columns a record fills (every kind of event carries its record's)."""
-    session = record.get("session") if isinstance(record.get("session"), Mapping) else {}
-    method = record.get("method") if isinstance(record.get("method"), Mapping) else {}
+    session = found if isinstance(found := record.get("session"), Mapping) else {}
+    method = stated if isinstance(stated := record.get("method"), Mapping) else {}
     return {
         "record_id": record["id"],
         "campaign_date": str(record["date"]) if record.get("date") else None,

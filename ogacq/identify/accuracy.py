@@ -50,7 +50,7 @@ class AccuracyPrediction:
             "condition_number": self.identifiability.condition_number,
             "correlated_pairs": [list(p) for p in self.identifiability.correlated_pairs],
         }
-        if self.mc_std is not None:
+        if self.mc_std is not None and self.mc_bias is not None:
             out["monte_carlo"] = {
                 "trials": self.trials,
                 "std": dict(zip(self.names, map(float, self.mc_std), strict=True)),

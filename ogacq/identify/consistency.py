@@ -38,7 +38,9 @@ from ogacq.identify.fit import FitResult, Weighting
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
 from ogacq.identify.observations import DEVIATION_NAME, Observations
 from ogacq.model.kinematics import nominal_tcp
+from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
+from ogacq.model.units import UM_PER_MM
 
 # The level every consumer judges at. 1 % rather than 5 %: a false "inconsistent"
 # sends someone to re-tune a machine or withholds a good write-back, and the
@@ -104,8 +106,8 @@ class Verdict:
         denominator = (f", {self.noise_dof:.0f}" if self.noise_dof is not None else "")
         text = (f"{self.headline()} ({self.test} test: {name}({self.dof}{denominator}) = "
                 f"{self.statistic:.4g}, overall p = {format_p(self.overall_p)}; per dof "
-                f"{self.chi2_dof:.3g}, rms {self.rms_mm * 1000:.3g} µm, noise "
-                f"{self.noise.sigma_mm * 1000:.3g} µm from the {self.noise.source})")
+                f"{self.chi2_dof:.3g}, rms {self.rms_mm * UM_PER_MM:.3g} µm, noise "
+                f"{self.noise.sigma_mm * UM_PER_MM:.3g} µm from the {self.noise.source})")
         if self.worst_cell is not None:
             c = self.worst_cell
             text += (f"; worst cell {c.cell}: chi2 {c.chi2:.3g} for {c.expected:.2g} expected, "
@@ -163,8 +165,9 @@ def judge(obs: Observations, residuals: np.ndarray, jac: np.ndarray, rank: int,
     dof = len(obs) - obs.n_nuisance - rank
     notes = list(_noise_notes(noise))
 
-    def verdict(state, test="none", statistic=math.nan, test_dof=dof, noise_dof=None,
-                overall=1.0, cell=None) -> Verdict:
+    def verdict(state: str | None, test: str = "none", statistic: float = math.nan,
+                test_dof: int = dof, noise_dof: float | None = None, overall: float = 1.0,
+                cell: CellTest | None = None) -> Verdict:
         combined = overall if cell is None else min(1.0, 2.0 * min(overall, cell.p_value))
         if state is None:
             state = "consistent" if combined >= level else "inconsistent"
@@ -217,8 +220,8 @@ def _noise_notes(noise: GaugeNoise) -> list[str]:
         notes.append(f"the noise is assumed to be the {noise.step_mm:g} mm display step: "
                      "no repeats, and none stated (gauge_repeatability_mm)")
     if noise.rounding_dominated:
-        mean_sd = math.sqrt(noise.shared_var) * 1000
-        notes.append(f"the {noise.step_mm * 1000:g} µm display step dominates: the cycles "
+        mean_sd = math.sqrt(noise.shared_var) * UM_PER_MM
+        notes.append(f"the {noise.step_mm * UM_PER_MM:g} µm display step dominates: the cycles "
                      f"round alike, so a posture mean is known to about ±{mean_sd:.1f} µm "
                      "however many cycles; a misfit smaller than that cannot be told "
                      "from rounding")
@@ -227,8 +230,8 @@ def _noise_notes(noise: GaugeNoise) -> list[str]:
                      "display shows, and the fit is judged against the rounding alone")
     stated, seen = noise.scatter_mm, noise.repeats_scatter_mm
     if not noise.measured and stated is not None and seen is not None and seen > 2 * stated:
-        notes.append(f"the repeats scatter {seen * 1000:.2g} µm, more than the "
-                     f"{stated * 1000:.2g} µm the machine file states")
+        notes.append(f"the repeats scatter {seen * UM_PER_MM:.2g} µm, more than the "
+                     f"{stated * UM_PER_MM:.2g} µm the machine file states")
     return notes
 
 
@@ -330,7 +333,7 @@ def _group_cells(obs: Observations, group: np.ndarray, n_groups: int) -> np.ndar
                      f"{posture_name(along[i], obs.machine)}" for i in first])
 
 
-def posture_name(position_mm: float, machine) -> str:
+def posture_name(position_mm: float, machine: MachineSpec) -> str:
     for name, value in (("zero", 0.0), ("max", machine.rho_max_mm),
                         ("min", machine.rho_min_mm)):
         if abs(position_mm - value) < 1e-6:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from enum import StrEnum
 
 import numpy as np
 
@@ -40,6 +41,45 @@ STEP_TOLERANCE = 1e-8
 # 1e-12 mm), so its last one is usually of this size, and taking it would cost one
 # more evaluation of the model to move by nothing any result shows.
 NEGLIGIBLE_STEP = 1e-3
+# How often a step that raised the cost is halved before none is taken.
+HALVINGS = 8
+
+
+class StopReason(StrEnum):
+    """Why a fit stopped iterating (lmfit's result says it in its ``message``). The
+    first four are convergence; a fit that stopped otherwise did not converge."""
+
+    STEP_BELOW_TOLERANCE = "step_below_tolerance"
+    NEGLIGIBLE_STEP = "negligible_step"
+    COST_STALLED = "cost_stalled"
+    NO_DESCENT = "no_descent"
+    MAX_ITERATIONS = "max_iterations"
+    STEP_FAILED = "step_failed"
+    LINEAR_STEP = "linear_step"  # method "linear": one step, nothing to converge
+    EVALUATED = "evaluated"  # values given (a recorded result): no iteration
+
+    @property
+    def converged(self) -> bool:
+        return self not in (StopReason.MAX_ITERATIONS, StopReason.STEP_FAILED)
+
+    def describe(self) -> str:
+        return _STOP_REASONS[self]
+
+
+_STOP_REASONS = {
+    StopReason.STEP_BELOW_TOLERANCE: f"converged: the last step was below {STEP_TOLERANCE:g} "
+                                     "of each parameter's plausible range",
+    StopReason.NEGLIGIBLE_STEP: "converged: the next step would move no parameter by "
+                                f"{STEP_TOLERANCE * NEGLIGIBLE_STEP:g} of its plausible range",
+    StopReason.COST_STALLED: "converged: the last step no longer lowered the sum of squares",
+    StopReason.NO_DESCENT: f"converged: no step, halved {HALVINGS} times, lowered the sum "
+                           "of squares",
+    StopReason.MAX_ITERATIONS: f"stopped after {MAX_ITERATIONS} iterations, still moving",
+    StopReason.STEP_FAILED: f"the model could not be evaluated along the step (no finite sum "
+                            f"of squares, halved {HALVINGS} times)",
+    StopReason.LINEAR_STEP: "one step of the linearised model, not iterated",
+    StopReason.EVALUATED: "evaluated at the values given, not iterated",
+}
 
 
 def _ranges(free: np.ndarray) -> np.ndarray:
@@ -162,8 +202,10 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     batch = y.shape[0]
     rank = len(free) if rank is None else rank
     if batch == 1 and tolerance is None:
-        return _iterate_one(obs, y, free, theta0, weighting, rank, max_iterations, at_start,
-                            weighted_start_jac, start_svd, start_white)
+        theta, iterations, stop, jac, pred, known = _iterate_one(
+            obs, y, free, theta0, weighting, rank, max_iterations, at_start,
+            weighted_start_jac, start_svd, start_white)
+        return theta, iterations, np.array([stop.converged]), jac, pred, known
     ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
@@ -210,7 +252,7 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
         scale = np.ones(len(act))
         todo = np.arange(len(act))
         every = len(act) == batch
-        for attempt in range(8):
+        for attempt in range(HALVINGS):
             # every row's full step (always so for one fit): whole arrays, no gathers
             whole = every and attempt == 0
             rows_tried = act if whole else act[todo]
@@ -259,12 +301,13 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
                  weighted_start_jac: np.ndarray | None,
                  start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
                  start_white: np.ndarray | None = None,
-                 ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
+                 ) -> tuple[np.ndarray, int, StopReason, np.ndarray, np.ndarray, _Weighted | None]:
     """:func:`_iterate` for one row at the default tolerance (a refit): the same steps,
     decisions and arithmetic, the cost compared as a plain float and without the
     masks and gathers a batch needs, which cost a refit of a few dozen readings
-    more than its arithmetic. ``start_white``: ``weighting.residual`` of the
-    residuals at ``at_start``, when the caller has it."""
+    more than its arithmetic; and why it stopped instead of a converged mask.
+    ``start_white``: ``weighting.residual`` of the residuals at ``at_start``, when
+    the caller has it."""
     ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE
     # the steps' tests on plain floats: p is a handful
@@ -273,7 +316,8 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
     at = as_slice(free)  # the free entries, a view when consecutive (the offsets)
     if at_start is None:
         pred, jac = obs.predict_and_jacobian(theta, free)
-        white, jw_here = weighting.residual_and_jac(y - pred, jac)
+        white, jw_start = weighting.residual_and_jac(y - pred, jac)
+        jw_here: np.ndarray | None = jw_start
         svd_here = None
     else:
         pred, jac = at_start
@@ -281,7 +325,7 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         svd_here = start_svd if jw_here is not None else None
         white = weighting.residual(y - pred) if start_white is None else start_white
     cost = _cost(white)
-    converged = False
+    stop = StopReason.MAX_ITERATIONS  # unless it stops for another reason first
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
@@ -291,10 +335,11 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             svd_here = reduced_svd(jw_here * ranges)
         step = _solve(jw_here, white, ranges, rank, svd_here)
         if _all_below(step, negligible_below):
-            converged = True  # at the minimum where it stands (see _iterate)
+            stop = StopReason.NEGLIGIBLE_STEP  # at the minimum where it stands (see _iterate)
             break
         scale = 1.0
-        for attempt in range(8):
+        evaluated = False  # a trial had a finite sum of squares
+        for attempt in range(HALVINGS):
             moved = step if attempt == 0 else step * scale  # halved where it made it worse
             trial = theta.copy()
             trial[:, at] += moved
@@ -304,19 +349,24 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             # case) needs it next
             trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
             trial_cost = _cost(trial_white)
+            evaluated = evaluated or math.isfinite(trial_cost)
             if trial_cost <= cost * (1 + 1e-12) + 1e-300:
-                converged = small or trial_cost >= cost * (1 - 1e-12)
+                stalled = trial_cost >= cost * (1 - 1e-12)
                 theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
                     trial_jac
                 jw_here, svd_here = trial_jw, None  # vectors moved
+                if small:
+                    stop = StopReason.STEP_BELOW_TOLERANCE
+                elif stalled:
+                    stop = StopReason.COST_STALLED
                 break
             scale *= 0.5
-        else:
-            converged = True  # no step lowers the cost: at the minimum
-        if converged:
+        else:  # no step lowers the cost: at the minimum, where the model could be evaluated
+            stop = StopReason.NO_DESCENT if evaluated else StopReason.STEP_FAILED
+        if stop is not StopReason.MAX_ITERATIONS:
             break
     known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
-    return theta, iterations, np.array([converged]), jac, pred, known
+    return theta, iterations, stop, jac, pred, known
 
 
 def _cost(white: np.ndarray) -> float:
@@ -345,10 +395,14 @@ class FitResult:
     method: str
     weighting: str
     iterations: int
-    converged: bool
+    stop_reason: StopReason
     theta: np.ndarray  # the full parameter vector at the solution
     observations: Observations
     jacobian: np.ndarray  # (m, p) of the predictions at the solution, unweighted
+
+    @property
+    def converged(self) -> bool:
+        return self.stop_reason.converged
 
     @property
     def rss(self) -> float:
@@ -411,11 +465,11 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         theta = theta0.copy()
         theta[free] += step
         residuals = obs.remove_zeros(y - base - np.einsum("bmp,p->bm", jac, step))[0]
-        iterations, converged = 1, True
+        iterations, stop = 1, StopReason.LINEAR_STEP
     else:
-        th, iterations, conv, jac, pred, end = _iterate(
-            obs, y, free, theta0, w, rank, at_start=at_start, weighted_start_jac=jw_start,
-            start_svd=start_svd, start_white=start_white)
+        th, iterations, stop, jac, pred, end = _iterate_one(
+            obs, y, free, theta0, w, rank, MAX_ITERATIONS, at_start, jw_start, start_svd,
+            start_white)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
@@ -424,13 +478,13 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
                 rank_of(end.svd[1][0])
             if rank_there > rank:
                 rank = rank_there
-                th, more, conv, jac, pred, end = _iterate(obs, y, free, th[0], w, rank)
+                th, more, stop, jac, pred, end = _iterate_one(obs, y, free, th[0], w, rank,
+                                                              MAX_ITERATIONS, None, None, None)
                 iterations += more
         theta = th[0]
-        converged = bool(conv[0])
         residuals = obs.remove_zeros(y - pred)[0]
     return _result_at(obs, names, free, theta, theta0, jac, residuals, rank, w, method,
-                      iterations, converged, end)
+                      iterations, stop, end)
 
 
 def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
@@ -447,12 +501,12 @@ def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *
     jac = obs.jacobian(theta[None], free)
     residuals = obs.remove_zeros(obs.values[None] - obs.predict(theta[None]))[0]
     return _result_at(obs, names, free, theta, NOMINAL, jac, residuals, rank, w, "exact", 0,
-                      True)
+                      StopReason.EVALUATED)
 
 
 def _result_at(obs: Observations, names: tuple[str, ...], free: np.ndarray, theta: np.ndarray,
                theta0: np.ndarray, jac: np.ndarray, residuals: np.ndarray, rank: int,
-               w: Weighting, method: str, iterations: int, converged: bool,
+               w: Weighting, method: str, iterations: int, stop_reason: StopReason,
                weighted: _Weighted | None = None) -> FitResult:
     """The statistics of a solution ``theta`` with its (1, m, p) Jacobian ``jac``
     (``weighted``: ``w.jac(jac)`` and its scaled SVD, when known); ``free``: the
@@ -478,7 +532,7 @@ def _result_at(obs: Observations, names: tuple[str, ...], free: np.ndarray, thet
         residuals=residuals, residual_rms_mm=math.sqrt(rss / len(residuals)),
         sigma_mm=float(np.sqrt(rss / dof)) if dof > 0 else float("nan"), dof=dof,
         noise=noise, identifiability=ident, method=method, weighting=w.kind,
-        iterations=iterations, converged=converged, theta=theta, observations=obs,
+        iterations=iterations, stop_reason=stop_reason, theta=theta, observations=obs,
         jacobian=jac[0])
 
 

@@ -116,6 +116,7 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     return ident, cov
 
 
+_SVD_REDUCED: np.ufunc | None
 try:  # numpy's own gufunc behind np.linalg.svd (LAPACK gesdd), present in numpy 1.x and 2.x
     from numpy.linalg import _umath_linalg
     _SVD_REDUCED = _umath_linalg.svd_s

@@ -56,8 +56,8 @@ def _exp_sums(sigma_mm: float, step_mm: float) -> tuple[float, float]:
     # harmonics beyond exp(-a k^2) < 1e-30 add nothing a double can hold: skip them
     count = len(_HARMONICS) if a < 1e-12 else min(len(_HARMONICS), int(math.sqrt(70.0 / a)) + 1)
     if count <= _SCALAR_HARMONICS:
-        damped = [math.exp(-a * k * k) for k in range(1, count + 1)]
-        return sum(d / (k * k) for k, d in enumerate(damped, 1)), sum(damped)
+        terms = [math.exp(-a * k * k) for k in range(1, count + 1)]
+        return sum(d / (k * k) for k, d in enumerate(terms, 1)), sum(terms)
     harmonics = _HARMONICS[:count]
     damped = np.exp(-a * harmonics**2)
     tail = 1.0 / _HARMONICS[-1] if a < 1e-12 else 0.0  # sum beyond the last harmonic

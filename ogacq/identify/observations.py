@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
@@ -101,7 +102,7 @@ class Observations:
     def predict(self, theta: np.ndarray) -> np.ndarray:
         """(B, m) or (m,) predicted observations, gauge zeros left out."""
         h = predict_coordinates(theta, self.layout, self.machine)
-        return h if self.raw else h @ self.combination.T
+        return h if self.combination is None else h @ self.combination.T
 
     def jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray:
         """(B, m, p) derivatives of :meth:`predict` by the parameters at ``free``,
@@ -112,7 +113,7 @@ class Observations:
                              ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`predict` (B, m) and :meth:`jacobian` (B, m, p) from one evaluation."""
         h, jac = predict_and_jacobian(theta, self.layout, self.machine, free)
-        if self.raw:
+        if self.combination is None:
             return h, jac
         return h @ self.combination.T, np.einsum("mn,bnp->bmp", self.combination, jac)
 
@@ -125,11 +126,12 @@ class Observations:
         return x - means @ onehot.T
 
 
-def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values,
+def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values: ArrayLike,
                           source: str = "") -> Observations:
     names = layout.gauge_names()
     labels = [f"{names[g]}@{k + 1}" for k, g in enumerate(layout.gauge.tolist())]
-    return Observations(machine, layout, values, labels, None, source, "readings")
+    return Observations(machine, layout, np.asarray(values, dtype=float), labels, None, source,
+                        "readings")
 
 
 def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],
@@ -149,6 +151,7 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
                                  for j, i in zip(plan.gauge_axis, plan.leg, strict=True)]))
     layout = ReadingsLayout.build(plan.q_mm, plan.leg, plan.gauge_axis, plan.t_s, plan.cycle,
                                   plan.tcp_mm, np.zeros_like(plan.approach), plan.posture)
+    assert layout.posture is not None  # built with the plan's labels
     index = {(Gauge.at(j, i), posture): k for k, (j, i, posture) in
              enumerate(zip(layout.gauge_axis, layout.leg, layout.posture, strict=True))}
     D = np.zeros((len(parsed), len(layout)))
@@ -157,8 +160,8 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
         D[row, index[(d.gauge, first)]] = 1.0
         D[row, index[(d.gauge, second)]] = -1.0
     labels = [name for name, _ in named]
-    return Observations(machine, layout, [value for _, value in named], labels, D, source,
-                        "deviations")
+    return Observations(machine, layout, np.array([value for _, value in named]), labels, D,
+                        source, "deviations")
 
 
 def averaged_deviations(obs: Observations, form: str = "12") -> Observations:

@@ -22,10 +22,11 @@ from scipy import stats
 
 from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
-from ogacq.identify.observations import readings_observations
+from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, MachineSpec
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.model.units import UM_PER_MM
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 GEOMETRIES = {
@@ -63,7 +64,7 @@ class Cell:
                                              cycles=self.cycles), self.machine())
 
     def label(self) -> str:
-        return (f"{self.display_mm * 1000:>4g} µm  {self.noise_mm * 1000:>4g} µm  "
+        return (f"{self.display_mm * UM_PER_MM:>4g} µm  {self.noise_mm * UM_PER_MM:>4g} µm  "
                 f"{self.source:<8}  {self.protocol:<10}  {self.geometry:<9}")
 
 
@@ -93,7 +94,7 @@ def grid(displays: Iterable[float] = DISPLAYS_MM, noises: Iterable[float] = NOIS
 
 
 def simulated_observations(cell: Cell, seed: int, effects: Mapping[str, float] | None = None,
-                           lay: ReadingsLayout | None = None):
+                           lay: ReadingsLayout | None = None) -> Observations:
     machine = cell.machine()
     lay = lay if lay is not None else cell.layout()
     rng = np.random.default_rng(seed)

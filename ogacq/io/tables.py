@@ -16,7 +16,7 @@ import io
 import math
 import re
 import warnings
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -310,7 +310,7 @@ def _axis_code(text: str) -> int:
     return _AXIS_CODE.get(text.strip().lower(), -1)
 
 
-def _codes(words: np.ndarray, code) -> np.ndarray:
+def _codes(words: np.ndarray, code: Callable[[str], int]) -> np.ndarray:
     """``code`` of each word, computed once per distinct word (a campaign's columns
     of letters and cycles hold a handful of them)."""
     distinct, inverse = np.unique(words, return_inverse=True)

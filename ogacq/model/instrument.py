@@ -66,9 +66,9 @@ class Instrument:
                    certificate=_text(entry.get("certificate")),
                    calibrated=parse_date(entry.get("calibrated")),
                    due=parse_date(entry.get("due")),
-                   uncertainty_mm=_number(entry.get("uncertainty_mm")),
-                   uncertainty_k=_number(entry.get("uncertainty_k")),
-                   resolution_mm=_number(entry.get("resolution_mm")))
+                   uncertainty_mm=finite_number(entry.get("uncertainty_mm")),
+                   uncertainty_k=finite_number(entry.get("uncertainty_k")),
+                   resolution_mm=finite_number(entry.get("resolution_mm")))
 
 
 def _day(on: datetime.date) -> datetime.date:
@@ -83,7 +83,8 @@ def _text(value: Any) -> str | None:
     return value if isinstance(value, str) and value else None
 
 
-def _number(value: Any) -> float | None:
+def finite_number(value: Any) -> float | None:
+    """A JSON number (not a bool) that is finite, as a float; None for anything else."""
     if isinstance(value, bool) or not isinstance(value, int | float):
         return None
     return float(value) if math.isfinite(value) else None

@@ -14,10 +14,12 @@ that depends on the side a posture was approached from.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ogacq.model.gauges import GAUGES, Gauge
 from ogacq.model.kinematics import (
@@ -77,8 +79,10 @@ class ReadingsLayout:
     posture: np.ndarray | None = None
 
     @classmethod
-    def build(cls, q_mm, leg, gauge_axis, t_s=None, cycle=None, tcp_mm=None,
-              approach=None, posture=None) -> ReadingsLayout:
+    def build(cls, q_mm: ArrayLike, leg: ArrayLike, gauge_axis: ArrayLike,
+              t_s: ArrayLike | None = None, cycle: ArrayLike | None = None,
+              tcp_mm: ArrayLike | None = None, approach: ArrayLike | None = None,
+              posture: Sequence[str | None] | np.ndarray | None = None) -> ReadingsLayout:
         q = np.asarray(q_mm, dtype=float).reshape(-1, 3)
         n = len(q)
         leg = np.asarray(leg, dtype=int)
@@ -247,7 +251,8 @@ _GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
 _GSCALE_AT = np.array(sorted({int(_GSCALE[g.indices]) for g in GAUGES}))
 
 
-def _joint_position_tangents(q, approach, free: np.ndarray) -> np.ndarray:
+def _joint_position_tangents(q: np.ndarray, approach: np.ndarray, free: np.ndarray,
+                             ) -> np.ndarray:
     """(m, P, 3) derivatives of the joint positions (``_EvaluationPlan.joint_positions``)
     by the ``free`` parameters.
     A drift's derivative is ``t / 3600``, different for every reading: it is given
@@ -407,8 +412,8 @@ class _EvaluationPlan:
         """(B, poses, 3) joint positions along their lines; ``terms``: the remembered
         ones (None: made here). A zero term is not added: it would change no digit."""
         if terms is None:
-            scaled, drifted, lost = self.joint_terms(th, leg_length_mm)
-            return scaled + th[:, None, _DRHO_SLICE] + drifted - lost
+            travel, drift, backlash = self.joint_terms(th, leg_length_mm)
+            return travel + th[:, None, _DRHO_SLICE] + drift - backlash
         scaled, drifted, lost = terms
         rho = scaled + th[:, None, _DRHO_SLICE]
         if drifted is not None:

@@ -10,10 +10,13 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from typing import TypeVar
 
 import numpy as np
 
 from ogacq.model.gauges import AXES, GAUGE_KEYS
+
+T = TypeVar("T")
 
 AXIS_PAIRS = ("xy", "xz", "yz")
 
@@ -79,9 +82,10 @@ def vector(values: Mapping[str, float] | None = None) -> np.ndarray:
     return theta
 
 
-def nested(names: Iterable[str], values: Iterable[float]) -> dict[str, dict[str, float]]:
-    """``{"joint_offset": {"x": ...}}`` as INTERCHANGE.md writes parameters."""
-    out: dict[str, dict[str, float]] = {}
+def nested(names: Iterable[str], values: Iterable[T]) -> dict[str, dict[str, T]]:
+    """``{"joint_offset": {"x": ...}}`` as INTERCHANGE.md writes parameters (a value, a
+    std that may be None, a result's entry)."""
+    out: dict[str, dict[str, T]] = {}
     for name, value in zip(names, values, strict=True):
         effect, where = name.split(".")
         out.setdefault(effect, {})[where] = value

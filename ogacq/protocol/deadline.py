@@ -11,11 +11,30 @@ it, the campaign stops safely and can be resumed.
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from typing import ParamSpec, TypeVar
 
+from ogacq_drivers.errors import DriverError
 from ogacq.model.machine import MachineSpec
-from ogacq.protocol.plan import Move, ProtocolConfig, Read, campaign_steps
+from ogacq.protocol.plan import (
+    Move,
+    ProtocolConfig,
+    Read,
+    SettleRule,
+    StabilityRule,
+    campaign_steps,
+)
 from ogacq.protocol.runner import CampaignStopped
+from ogacq.protocol.station import (
+    GaugeValue,
+    Joints,
+    SettledGauge,
+    Station,
+    StationWrapper,
+)
+
+P = ParamSpec("P")
+T = TypeVar("T")
 
 
 def default_deadline_s(config: ProtocolConfig, machine: MachineSpec) -> float:
@@ -32,47 +51,52 @@ def default_deadline_s(config: ProtocolConfig, machine: MachineSpec) -> float:
     return total
 
 
-class DeadlineStation:
+class DeadlineStation(StationWrapper):
     """A station whose work stops the campaign once ``deadline_s`` of it is spent.
 
-    Checked before each move, settling and reading, so a step under way ends within
-    its own timeout. Everything else (stopping, the wizard's use of the station's
-    parts) passes through unchanged.
+    Checked before each move, settling and reading (the values of a read at once are
+    counted as each comes), so a step under way ends within its own timeout.
+    Stopping the axes and the clock pass through unchanged.
     """
 
-    def __init__(self, station: Any, deadline_s: float) -> None:
-        self._station = station
+    def __init__(self, station: Station, deadline_s: float) -> None:
+        super().__init__(station)
         self.deadline_s = deadline_s
         self.spent_s = 0.0
 
-    def move(self, *args: Any, **kwargs: Any) -> Any:
-        return self._within_deadline(self._station.move, *args, **kwargs)
+    def move(self, q_mm: Joints, timeout_s: float) -> Joints:
+        return self._within_deadline(self.inner.move, q_mm, timeout_s)
 
-    def settle(self, *args: Any, **kwargs: Any) -> Any:
-        return self._within_deadline(self._station.settle, *args, **kwargs)
+    def settle(self, seconds: float) -> None:
+        self._within_deadline(self.inner.settle, seconds)
 
-    def read_gauge(self, *args: Any, **kwargs: Any) -> Any:
-        return self._within_deadline(self._station.read_gauge, *args, **kwargs)
+    def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
+                    ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
+        readings = iter(self._within_deadline(self.inner.read_gauges, step, gauges, rule))
+        while True:  # the reading under way goes on: its values' time is counted
+            try:
+                yield self._counted(next, readings)
+            except StopIteration:
+                return
 
-    def read_gauges(self, *args: Any, **kwargs: Any) -> Any:
-        return self._within_deadline(self._station.read_gauges, *args, **kwargs)
-
-    def read_settled(self, *args: Any, **kwargs: Any) -> Any:
-        return self._within_deadline(self._station.read_settled, *args, **kwargs)
+    def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
+                     ) -> Mapping[str, SettledGauge | DriverError]:
+        return self._within_deadline(self.inner.read_settled, step, gauges, rule)
 
     def recover_axes(self) -> bool:
-        return self._within_deadline(self._station.recover_axes)
+        return self._within_deadline(self.inner.recover_axes)
 
-    def __getattr__(self, name: str) -> Any:
-        return getattr(self._station, name)
-
-    def _within_deadline(self, action: Any, *args: Any, **kwargs: Any) -> Any:
+    def _within_deadline(self, action: Callable[P, T], *args: P.args, **kwargs: P.kwargs,
+                         ) -> T:
         if self.spent_s >= self.deadline_s:
             raise CampaignStopped(f"deadline: {self.spent_s:.0f} s of work, the campaign's "
                                   f"deadline_s is {self.deadline_s:.0f} s (a controller or "
                                   "gauge answering slowly?)")
-        started = self._station.campaign_time_s()
+        return self._counted(action, *args, **kwargs)
+
+    def _counted(self, action: Callable[P, T], *args: P.args, **kwargs: P.kwargs) -> T:
+        started = self.inner.campaign_time_s()
         try:
             return action(*args, **kwargs)
         finally:
-            self.spent_s += self._station.campaign_time_s() - started
+            self.spent_s += self.inner.campaign_time_s() - started

@@ -65,7 +65,7 @@ class StabilityRule:
 
 @dataclass(frozen=True)
 class ProtocolConfig:
-    legs: tuple[str, ...] = ("x", "y", "z")
+    legs: tuple[str, ...] = AXES
     postures: tuple[str | float, ...] = ("zero", "max", "min", "zero")
     cycles: int = 3
     approach: str = "sequence"
@@ -339,7 +339,8 @@ def _scan_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
                                posture_label(targets[k]), _t(q), _t(tcp), _t(side))
 
 
-def _approach(q, tcp, config: ProtocolConfig, last_q, side, how: str) -> Iterator[Move]:
+def _approach(q: np.ndarray, tcp: np.ndarray, config: ProtocolConfig, last_q: np.ndarray,
+              side: np.ndarray, how: str) -> Iterator[Move]:
     """Moves that bring the joints to ``q`` from the side ``how`` asks; updates ``side``."""
     if how in ("from_below", "from_above"):
         sign = 1 if how == "from_below" else -1

@@ -22,7 +22,6 @@ import itertools
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Protocol
 
 import numpy as np
 
@@ -37,9 +36,9 @@ from ogacq.protocol.plan import (
     Read,
     SetGauges,
     SettleRule,
-    StabilityRule,
     campaign_steps,
 )
+from ogacq.protocol.station import GaugeValue, SettledGauge, Station
 from ogacq.session.records import (
     EndRecord,
     FaultRecord,
@@ -50,57 +49,6 @@ from ogacq.session.records import (
     SettleRecord,
 )
 from ogacq.session.store import SessionWriter
-
-
-@dataclass(frozen=True)
-class GaugeValue:
-    value_mm: float
-    raw: str  # the frame as received, for the record
-    where: str  # port/channel the value came from
-
-
-@dataclass(frozen=True)
-class SettledGauge:
-    """A gauge read from the end of a move until its values showed rest (SettleRule)."""
-
-    value: GaugeValue | None  # None: not at rest within the rule's bound
-    waited_s: float  # machine seconds from in position to its last value
-    values: int  # values read meanwhile
-    u_mm: float | None = None  # the uncertainty its values were judged against
-    measured_rest: bool = False  # it waited the bound to measure its rest scatter
-
-
-class Station(Protocol):
-    """What a campaign needs from the hardware (or the simulator).
-
-    A station may also read several gauges at once: ``read_gauges(step, gauges,
-    rule) -> {gauge: GaugeValue | DriverError}`` (or pairs of them, yielded as each
-    comes) and ``read_settled(step, gauges,
-    settle_rule) -> {gauge: SettledGauge | DriverError}`` (the device station
-    does); the runner reads one gauge after the other, and settles by a fixed
-    wait, on a station without them.
-    """
-
-    def move(self, q_mm: tuple[float, float, float], timeout_s: float,
-             ) -> tuple[float, float, float]:
-        """Move the three joints and return once in position (raise DriverError),
-        with the coordinates really commanded (rounded to the controller's resolution)."""
-
-    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
-        """A stable value of gauge ``gauge`` (``y_x``: along y on the x leg), for the
-        plan's reading step ``step`` the runner is executing."""
-
-    def campaign_time_s(self) -> float: ...
-
-    def settle(self, seconds: float) -> None:
-        """Wait ``seconds`` of machine time."""
-
-    def stop_axes(self) -> None: ...
-
-    def recover_axes(self) -> bool:
-        """Try to clear an axis alarm; True when the axes are ready again. A station
-        that homed the axes again meanwhile says so once through an optional
-        ``take_check_request() -> bool``: the runner then checks a posture."""
 
 
 class CampaignStopped(OgacqError):
@@ -252,8 +200,8 @@ class CampaignRunner:
         index, attempt = 0, 1
         while index < len(moves):
             move = moves[index]
-            if self._commanded_q is not None and np.allclose(move.q_mm, self._planned_q,
-                                                             atol=1e-9):
+            if self._planned_q is not None and np.allclose(move.q_mm, self._planned_q,
+                                                           atol=1e-9):
                 index += 1
                 continue  # already there (Zero -> Zero between cycles): nothing to command
             try:
@@ -273,8 +221,7 @@ class CampaignRunner:
                 self._commanded_q = self._planned_q = None
                 if self.correction is not None:
                     self.correction.forget()
-                take = getattr(self.station, "take_check_request", None)
-                if take is not None and take():
+                if self.station.take_check_request():
                     self._check_posture("loss")
                     index = 0
                 continue
@@ -345,9 +292,9 @@ class CampaignRunner:
         at = self._steps.index(step)
         moves: list[Move] = []
         k = at - 1
-        while k >= 0 and not isinstance(self._steps[k], Read):
-            if isinstance(self._steps[k], Move):
-                moves.insert(0, self._steps[k])  # type: ignore[arg-type]
+        while k >= 0 and not isinstance(earlier := self._steps[k], Read):
+            if isinstance(earlier, Move):
+                moves.insert(0, earlier)
             k -= 1
         came_from = next((m for m in reversed(self._steps[:k + 1])
                           if isinstance(m, Move) and m.purpose == "posture"), None)
@@ -358,7 +305,7 @@ class CampaignRunner:
         rule = dataclasses.replace(self.config.settle_rule,
                                    display_step_mm=self.machine.gauge_resolution_mm)
         out: dict[str, float] = {}
-        if rule.kind == "stable" and hasattr(self.station, "read_settled"):
+        if rule.kind == "stable":
             for gauge, settled in self.station.read_settled(step, gauges, rule).items():
                 if isinstance(settled, SettledGauge) and settled.value is not None:
                     out[gauge] = settled.value.value_mm
@@ -380,7 +327,7 @@ class CampaignRunner:
         if not settle:  # nothing moved since the last reading: nothing rings
             self.writer.write(SettleRecord(step=step.step, rule="none", ended="not moved",
                                            waited_s=0.0))
-        elif rule.kind == "stable" and hasattr(self.station, "read_settled"):
+        elif rule.kind == "stable":
             first = self._settle_stable(step, gauges, rule)
         else:
             self.station.settle(rule.bound_s)
@@ -403,8 +350,13 @@ class CampaignRunner:
             waited_s=round(waited, 4), values={g: r.values for g, r in settled.items()},
             unsettled=tuple(g for g in bound if g not in reference), reference=reference,
             u_mm=u_mm or None))
-        return {g: r.value if isinstance(r, SettledGauge) else r for g, r in outcome.items()
-                if not (isinstance(r, SettledGauge) and r.value is None)}
+        first: dict[str, GaugeValue | DriverError] = {}
+        for gauge, result in outcome.items():
+            if isinstance(result, DriverError):
+                first[gauge] = result
+            elif result.value is not None:
+                first[gauge] = result.value
+        return first
 
     def _read_gauges(self, step: Read, gauges: Sequence[str],
                      first: dict[str, GaugeValue | DriverError]) -> None:
@@ -436,18 +388,8 @@ class CampaignRunner:
                   ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
         """Each gauge's value or error, as each comes (a station reading them at once
         gives them together; gauges read by eye come one by one)."""
-        if not gauges:
-            return
-        rule = self.config.stability
-        if hasattr(self.station, "read_gauges"):
-            got = self.station.read_gauges(step, gauges, rule)
-            yield from got.items() if isinstance(got, dict) else got
-            return
-        for gauge in gauges:
-            try:
-                yield gauge, self.station.read_gauge(step, gauge, rule)
-            except DriverError as exc:
-                yield gauge, exc
+        if gauges:
+            yield from self.station.read_gauges(step, gauges, self.config.stability)
 
     def _record(self, step: Read, gauge: str, value: GaugeValue) -> None:
         self.writer.write(ReadingRecord(

@@ -33,7 +33,7 @@ from ogacq.report.figures import (
     png_bytes,
     residuals_figure,
 )
-from ogacq.report.formatting import expanded_mm
+from ogacq.report.formatting import expanded_mm, um
 from ogacq.report.history_plot import history_figure, history_points
 from ogacq.report.page import render_page
 
@@ -73,7 +73,7 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
         out.append(FigureFile(
             "residuals.png", "Residuals",
             f"Residual of every reading in the order taken, coloured by leg; rms "
-            f"{fit.residual_rms_mm * 1e3:.2f} µm against a gauge noise band of ±2σ.",
+            f"{um(fit.residual_rms_mm)} against a gauge noise band of ±2σ.",
             png_bytes(residuals_figure(data.residuals, fit.noise_mm, fit.residual_rms_mm))))
     if fit is not None:
         validation = data.validation.fit if data.validation else None

@@ -423,7 +423,7 @@ def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
     if problem:
         notes.append(problem)
     elif result is not None and not result.converged:
-        notes.append(f"the fit did not converge in {result.iterations} iterations: "
+        notes.append(f"the fit did not converge ({result.stop_reason.describe()}): "
                      "treat the offsets with suspicion")
 
     validation_run, validation_fit = None, None

@@ -9,7 +9,7 @@ alternatives) and top-level ``caveats``.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal, overload
 
 from ogacq.diagnose.outcome import outcome_label
 from ogacq.errors import InputError
@@ -84,6 +84,14 @@ class DiagnosisView:
         return outcome_label(self.base.consistent, self.final.consistent,
                              bool(self.named_effects),
                              self.base.consistent or self.base.chi2_dof is not None)
+
+
+@overload
+def _number(d: dict, key: str, where: str, optional: Literal[False] = False) -> float: ...
+
+
+@overload
+def _number(d: dict, key: str, where: str, optional: bool) -> float | None: ...
 
 
 def _number(d: dict, key: str, where: str, optional: bool = False) -> float | None:

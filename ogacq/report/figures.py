@@ -11,17 +11,24 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import matplotlib
 import numpy as np
+from matplotlib.artist import Artist
+from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
 from ogacq.model.parameters import AXES
+from ogacq.model.units import UM_PER_MM
 from ogacq.report.data import DeviationRow, FitSummary, ModelStep, ResidualSeries
-from ogacq.report.formatting import UM_PER_MM, finite
+from ogacq.report.formatting import finite
 from ogacq.uncertainty.reporting import headline, two_digits
+
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType  # read by the type checker only
 
 LEG_COLOUR = {"x": "#D55E00", "y": "#009E73", "z": "#0072B2"}
 LEG_MARKER = {"x": "o", "y": "s", "z": "^"}
@@ -30,9 +37,9 @@ PREDICTED_COLOUR = "#E69F00"
 MEASURED_COLOUR = "#56B4E9"
 BAND_COLOUR = "#d9d9d9"
 DPI = 110
-STYLE = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
-         "figure.titlesize": 12, "legend.fontsize": 9, "axes.spines.top": False,
-         "axes.spines.right": False}
+STYLE: dict[RcKeyType, Any] = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
+                                "figure.titlesize": 12, "legend.fontsize": 9,
+                                "axes.spines.top": False, "axes.spines.right": False}
 
 
 @dataclass(frozen=True)
@@ -50,7 +57,7 @@ def png_bytes(fig: Figure) -> bytes:
     return buffer.getvalue()
 
 
-def _band(ax, sigma_mm: float, scale: float, label: str | None) -> None:
+def _band(ax: Axes, sigma_mm: float, scale: float, label: str | None) -> None:
     """The +-2 sigma gauge-noise band around zero."""
     if not finite(sigma_mm) or sigma_mm <= 0:
         return
@@ -127,7 +134,7 @@ def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) 
         axes[1, 0].set_ylabel("deviation after (µm)")
         _headroom(axes[0, 0])
         _symmetric(axes[1, 0], 1.25)
-        legend: dict[str, object] = {}  # one legend under the panels, clear of the bars
+        legend: dict[str, Artist] = {}  # one legend under the panels, clear of the bars
         for ax in axes.ravel():
             for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
                 legend.setdefault(label, handle)
@@ -137,20 +144,20 @@ def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) 
     return fig
 
 
-def _headroom(ax) -> None:
+def _headroom(ax: Axes) -> None:
     """Room above and below the bars for their value labels."""
     low, high = ax.get_ylim()
     span = high - low
     ax.set_ylim(low - 0.08 * span if low < 0 else low, high + 0.08 * span if high > 0 else high)
 
 
-def _symmetric(ax, factor: float) -> None:
+def _symmetric(ax: Axes, factor: float) -> None:
     low, high = ax.get_ylim()
     bound = max(abs(low), abs(high)) * factor
     ax.set_ylim(-bound, bound)
 
 
-def _scatter_by_leg(ax, series: ResidualSeries, label: bool) -> None:
+def _scatter_by_leg(ax: Axes, series: ResidualSeries, label: bool) -> None:
     """Colour and marker by leg; of each leg's two gauges the first filled, the second
     hollow, so that a pattern on one gauge shows."""
     gauges = np.array(series.gauge)
@@ -165,7 +172,7 @@ def _scatter_by_leg(ax, series: ResidualSeries, label: bool) -> None:
                        linewidths=1.2, label=f"gauge {gauge} ({leg} leg)" if label else None)
 
 
-def _legend_below(fig: Figure, ax) -> None:
+def _legend_below(fig: Figure, ax: Axes) -> None:
     """The band in the first column, then one column per leg (two gauges each)."""
     handles, labels = ax.get_legend_handles_labels()
     if labels and "noise" in labels[0] and len(labels) % 2 == 1:
@@ -175,7 +182,7 @@ def _legend_below(fig: Figure, ax) -> None:
                frameon=False)
 
 
-def _leg_spans(ax, series: ResidualSeries, names: bool = True) -> None:
+def _leg_spans(ax: Axes, series: ResidualSeries, names: bool = True) -> None:
     """Where each leg's test begins and ends, in reading numbers."""
     legs = list(series.leg)
     start = 0
@@ -191,7 +198,7 @@ def _leg_spans(ax, series: ResidualSeries, names: bool = True) -> None:
             start = k
 
 
-def _residual_limits(ax, values_um: np.ndarray, sigma_mm: float) -> None:
+def _residual_limits(ax: Axes, values_um: np.ndarray, sigma_mm: float) -> None:
     bound = max(float(np.nanmax(np.abs(values_um))) if len(values_um) else 0.0,
                 3 * sigma_mm * UM_PER_MM if finite(sigma_mm) else 0.0, 1e-3)
     ax.set_ylim(-1.15 * bound, 1.15 * bound)

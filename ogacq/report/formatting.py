@@ -5,13 +5,13 @@ a detail (a diagnosis's effect) with as many decimals as its std allows."""
 from __future__ import annotations
 
 import math
+from typing import TypeGuard
 
+from ogacq.model.units import UM_PER_MM
 from ogacq.uncertainty.reporting import expanded_mm, result_entry, result_headline
 
-UM_PER_MM = 1000.0
 
-
-def finite(x: float | None) -> bool:
+def finite(x: float | None) -> TypeGuard[float]:
     return x is not None and math.isfinite(x)
 
 

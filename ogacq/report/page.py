@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 
 import jinja2
 
+from ogacq.model.units import UM_PER_MM
 from ogacq.report.cells import Badge, Cell, Lines, Table
 from ogacq.report.cells import table as _table
 from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ParameterRow, ReportData
@@ -141,11 +142,11 @@ def _deviations(data: ReportData) -> tuple[Table | None, str]:
     rows: list[list[Cell]] = []
     for r in data.deviations:
         row: list[Cell] = [r.name, r.leg, r.gauge_axis, r.posture.capitalize(),
-                           signed(r.before_mm), signed(r.after_predicted_mm * 1e3, 2)]
+                           signed(r.before_mm), signed(r.after_predicted_mm * UM_PER_MM, 2)]
         if validated:
             row.append(signed(None if r.after_measured_mm is None
-                              else r.after_measured_mm * 1e3, 2))
-        row.append(plain(2 * r.noise_mm * 1e3, 2))
+                              else r.after_measured_mm * UM_PER_MM, 2))
+        row.append(plain(2 * r.noise_mm * UM_PER_MM, 2))
         rows.append(row)
     after = ("the bottom row shows what remains once the identified offsets are compensated, "
              "predicted from this session" + (" and measured by the validation campaign"

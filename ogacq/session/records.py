@@ -12,9 +12,9 @@ version does not know load as :class:`OtherRecord`, untouched.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any, ClassVar, TypeGuard
 
 from ogacq.model.gauges import AXES, Gauge
 
@@ -41,7 +41,7 @@ class Record:
         return {**out, **self.fields()}
 
 
-def _finite(value: Any) -> bool:
+def _finite(value: Any) -> TypeGuard[float]:
     """A JSON number that is one: finite, and an integer of 64 bits at most (a 400-digit
     one would overflow every float it meets)."""
     if isinstance(value, bool):
@@ -55,7 +55,7 @@ def _integer(value: Any) -> bool:
     return isinstance(value, int) and not isinstance(value, bool) and -(2**63) <= value < 2**63
 
 
-def _triple(value: Any, check) -> bool:
+def _triple(value: Any, check: Callable[[Any], bool]) -> bool:
     return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
 
 
@@ -535,7 +535,7 @@ class SalvageRecord(Record):
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> SalvageRecord:
-        entries = d.get("left_out") if isinstance(d.get("left_out"), list) else []
+        entries = given if isinstance(given := d.get("left_out"), list) else []
         return cls(wall=d.get("wall"), source=str(d.get("source", "")),
                    left_out=tuple((int(e.get("line", 0)), str(e.get("problem", "")))
                                   for e in entries if isinstance(e, dict)

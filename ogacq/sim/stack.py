@@ -98,7 +98,7 @@ class SimulatorStack:
         self.machine = SimMachine(m, _resolvable(config.truth, config.speed), self.motion,
                                   self.clock, seed=config.seed)
         profile = load_profile(config.profile)
-        if len(set(profile.device_ids.values())) == len(profile.device_ids):
+        if not profile.endpoint_per_axis:
             self.servers = [ModbusSimServer(profile, self.motion, port=config.modbus_port,
                                             temperatures_c=self.temperatures_c)]
         else:  # one drive per address (MR-JE-C: unit 255 each): one endpoint per axis

@@ -11,6 +11,7 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
+from typing import Any
 
 from ogacq.identify.fit import FitResult
 from ogacq.model.gauges import Gauge
@@ -103,7 +104,7 @@ class BudgetInputs:
         object.__setattr__(self, "calibration_u_mm", MappingProxyType(checked))
 
     @classmethod
-    def from_fit(cls, result: FitResult, **given) -> BudgetInputs:
+    def from_fit(cls, result: FitResult, **given: Any) -> BudgetInputs:
         """The inputs the fit and its machine file already hold (the gauge scatter and
         its dof when measured from repeats, the display step, the nominal leg length),
         completed by ``given`` (certificates, temperatures, register step...)."""

@@ -109,7 +109,7 @@ def operations(session: LoadedSession) -> list[Operation]:
     for op, intent in intents.items():
         outcome = outcomes.get(op)
         status = outcome.stage if outcome else "interrupted"
-        new = outcome.details.get("new_mm") if outcome and status == "done" \
+        new = outcome.details["new_mm"] if outcome and status == "done" \
             else intent.details["new_mm"]
         out.append(Operation(op, intent.details.get("action", "write"), status,
                              dict(intent.details["old_mm"]), dict(new),

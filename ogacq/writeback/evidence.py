@@ -23,7 +23,7 @@ from pathlib import Path
 
 from ogacq.campaign import identify_session
 from ogacq.identify.consistency import Verdict, fit_verdict
-from ogacq.identify.fit import FitResult
+from ogacq.identify.fit import FitResult, StopReason
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
 from ogacq.session.convert import session_observations
@@ -42,7 +42,7 @@ class Evidence:
     verdict: Verdict
     identifiable: bool
     identifiability_reasons: list[str]
-    converged: bool
+    fit_stop: StopReason  # why the offsets fit stopped: converged, or not and why
     residual_rms_mm: float
     readings: int
     finished: bool  # the campaign ran to its end
@@ -54,13 +54,18 @@ class Evidence:
     # effects of the model the controller cannot compensate: they remain, mechanically
     uncompensated: list[str] = field(default_factory=list)
 
+    @property
+    def converged(self) -> bool:
+        return self.fit_stop.converged
+
     def to_json(self) -> dict:
         return {"session": str(self.session_path),
                 "identified_mm": self.identified_mm,
                 "std_mm": {a: (s if math.isfinite(s) else None) for a, s in self.std_mm.items()},
                 "verdict": self.verdict.to_record(), "identifiable": self.identifiable,
                 "identifiability_reasons": self.identifiability_reasons,
-                "converged": self.converged, "residual_rms_mm": self.residual_rms_mm,
+                "converged": self.converged, "fit_stop": self.fit_stop.value,
+                "residual_rms_mm": self.residual_rms_mm,
                 "readings": self.readings, "finished": self.finished,
                 "in_force_mm": self.in_force_mm, "profile": self.profile,
                 "model": self.model, "uncompensated": self.uncompensated}
@@ -111,7 +116,7 @@ def evidence_of(session: LoadedSession, result: FitResult, verdict: Verdict, mod
     return Evidence(
         session_path=session.path, identified_mm=values, std_mm=std,
         verdict=verdict, identifiable=ident.identifiable,
-        identifiability_reasons=list(ident.reasons), converged=result.converged,
+        identifiability_reasons=list(ident.reasons), fit_stop=result.stop_reason,
         residual_rms_mm=result.residual_rms_mm, readings=len(session.readings),
         finished=session.finished, in_force_mm=in_force, in_force_consistent=consistent,
         profile=controllers[0].get("profile"), port=controllers[0].get("port"),

@@ -25,6 +25,7 @@ from ogacq_drivers.axes.preflight import check_home, check_identity
 from ogacq_drivers.errors import DriverError
 from ogacq.io.errors import InputError, StorageError
 from ogacq.model.parameters import AXES
+from ogacq.model.units import signed_per_axis as _fmt
 from ogacq.writeback.audit import AuditLog, new_operation_id
 from ogacq.writeback.policy import OffsetPlan
 from ogacq.writeback.table import read_offset_table, write_offset_table
@@ -75,10 +76,6 @@ class WriteOutcome:
     @property
     def pending_homing(self) -> bool:
         return self.takes_effect == "at_next_homing" and not self.rehomed
-
-
-def _fmt(values: dict[str, float]) -> str:
-    return ", ".join(f"{a} {v:+.4f}" for a, v in values.items())
 
 
 def _held(controller: AxisController, plan: OffsetPlan,

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Literal
 
 from ogacq_drivers.axes.profile import Profile
 from ogacq.model.parameters import AXES
+from ogacq.model.units import signed_per_axis as _fmt
 from ogacq.writeback.audit import Operation
 
 if TYPE_CHECKING:  # the evidence module pulls in the fit and scipy; the CLI imports this one
@@ -123,10 +124,6 @@ class OffsetPlan:
                 "notes": list(self.notes), "nothing_to_do": self.nothing_to_do}
 
 
-def _fmt(values: Mapping[str, float]) -> str:
-    return ", ".join(f"{a} {v:+.4f}" for a, v in values.items())
-
-
 def _margin_refusals(new_mm: Mapping[str, float], facts: ControllerFacts) -> list[Refusal]:
     beyond = {a: v for a, v in new_mm.items() if abs(v) > facts.margin_mm}
     if not beyond:
@@ -146,7 +143,8 @@ def plan_write(evidence: Evidence, current_mm: Mapping[str, float], facts: Contr
         refusals.append(Refusal("incomplete", "the campaign did not run to its end "
                                 f"({evidence.readings} readings): resume it first"))
     if not evidence.converged:
-        refusals.append(Refusal("not_converged", "the offsets fit did not converge"))
+        refusals.append(Refusal("not_converged", f"the offsets fit did not converge: "
+                                f"{evidence.fit_stop.describe()}"))
     if not evidence.identifiable:
         why = "; ".join(evidence.identifiability_reasons) or "the design is rank deficient"
         refusals.append(Refusal("unidentifiable",
@@ -261,15 +259,15 @@ def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: M
     write-back or restore); a controller holding something else was changed outside
     the history, and going back would undo that change unseen: refused as stale.
     """
-    if any(target_mm.get(a) is None or not math.isfinite(target_mm[a]) for a in AXES):
+    target = {a: v for a in AXES if (v := target_mm.get(a)) is not None and math.isfinite(v)}
+    if len(target) < len(AXES):
         raise ValueError(f"offsets state {state} recorded no usable values")
     current = {a: float(current_mm[a]) for a in AXES}
-    changes = tuple(AxisChange(a, current[a], facts.quantize(float(target_mm[a])))
-                    for a in AXES)
+    changes = tuple(AxisChange(a, current[a], facts.quantize(float(target[a]))) for a in AXES)
     nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
     refusals: list[Refusal] = []
     if expected_mm is not None and not nothing and not all(
-            expected_mm.get(a) is not None and facts.same(current[a], float(expected_mm[a]))
+            (e := expected_mm.get(a)) is not None and facts.same(current[a], float(e))
             for a in AXES):
         recorded = ", ".join(f"{a} {expected_mm[a]:+.4f}" if expected_mm.get(a) is not None
                              else f"{a} unknown" for a in AXES)

@@ -3,11 +3,12 @@ settle where nothing moved, and a settle that ends when the gauges agree, on a
 simulator that rings after every move."""
 
 import threading
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
 
-from ogacq_drivers.errors import DeviceTimeout
+from ogacq_drivers.errors import DeviceTimeout, DriverError
 from ogacq_drivers.indicators.base import Reading
 from ogacq_drivers.indicators.concurrent import line_groups
 from ogacq_drivers.indicators.rest import RestJudge
@@ -15,12 +16,18 @@ from ogacq.campaign_file import read_campaign
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import PAPER_PROTOTYPE
 from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, reading_steps
-from ogacq.protocol.runner import CampaignRunner, CampaignStopped, GaugeValue, SettledGauge
+from ogacq.protocol.runner import CampaignRunner, CampaignStopped
+from ogacq.protocol.station import (
+    GaugeReadings,
+    GaugeValue,
+    SettledGauge,
+)
 from ogacq.session.records import FaultRecord, SettleRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.sim.truth import Vibration
 from ogacq.station import open_station
 from tests.campaign.conftest import write_campaign
+from tests.campaign.station_double import StationDouble
 
 # A slow ringing, so that the simulated gauges (an exchange every 16 ms of real time,
 # 0.16 s of machine time at speed 10) sample it several times a period; a window of
@@ -282,7 +289,7 @@ def test_the_gauges_of_a_posture_are_read_at_once_through_their_endpoints(tmp_pa
                 return _read(*args, **kwargs)
 
             indicator.read = meeting
-        values = station.read_gauges(step, step.gauges, StabilityRule())
+        values = dict(station.read_gauges(step, step.gauges, StabilityRule()))
         assert all(isinstance(v, GaugeValue) for v in values.values()), values
         for event in started.values():
             event.clear()
@@ -303,7 +310,7 @@ def test_gauges_sharing_a_line_are_read_in_turn_on_it():
     assert line_groups(drivers) == [["y_x", "z_x"], ["x_y"], ["usb"]]
 
 
-class _Station:
+class _Station(StationDouble):
     """Answers reads at once; gauge ``failing`` times out ``failures`` times first."""
 
     def __init__(self, failing: str = "", failures: int = 0) -> None:
@@ -311,34 +318,20 @@ class _Station:
         self.settled: list[float] = []
         self.batches: list[tuple[str, ...]] = []
 
-    def move(self, q_mm, timeout_s):
-        return q_mm
-
-    def read_gauges(self, step: Read, gauges, rule):
+    def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
+                    ) -> GaugeReadings:
         self.batches.append(tuple(gauges))
-        out = {}
+        out: dict[str, GaugeValue | DriverError] = {}
         for gauge in gauges:
             if gauge == self.failing and self.failures:
                 self.failures -= 1
                 out[gauge] = DeviceTimeout("no reply before the deadline", where=gauge)
             else:
                 out[gauge] = GaugeValue(0.001 * len(self.batches), "frame", gauge)
-        return out
+        return out.items()
 
-    def read_gauge(self, step, gauge, rule):
-        raise AssertionError("read_gauges reads them all")
-
-    def campaign_time_s(self):
-        return 0.0
-
-    def settle(self, seconds):
+    def settle(self, seconds: float) -> None:
         self.settled.append(seconds)
-
-    def stop_axes(self):
-        pass
-
-    def recover_axes(self):
-        return True
 
 
 def _run(tmp_path, station, config):
@@ -361,8 +354,11 @@ def test_a_failing_gauge_is_retried_alone_and_the_other_reading_kept(tmp_path):
 def test_a_gauge_failing_every_attempt_stops_with_the_other_reading_on_file(tmp_path):
     config = ProtocolConfig(legs=("x",), postures=("zero",), cycles=1)
     with pytest.raises(CampaignStopped, match="gauge z_x at x/c1/p1.*3 attempts"):
-        _run(tmp_path, _Station("z_x", failures=5), config)
+        _run(tmp_path, station := _Station("z_x", failures=5), config)
     session = load_session(tmp_path / "s.jsonl")
     assert [(r.step, r.gauge.key) for r in session.readings] == [("x/c1/p1", "y_x")]
-    # a station without a settle by the gauges' values settles by the fixed wait
-    assert [r.rule for r in session.of_type(SettleRecord)] == ["fixed"]
+    # a station that cannot judge rest by the gauges' values waits the bound, and the
+    # gauges are read afresh after it, none said to be at rest
+    assert [(r.rule, r.ended, r.unsettled) for r in session.of_type(SettleRecord)] == [
+        ("stable", "bound", ("y_x", "z_x"))]
+    assert station.settled == [1.0]

@@ -79,7 +79,7 @@ CODEC = Codec(
 class ThrowawayGauge(SerialIndicator):
     """Ask, then decode the reply (an :class:`~ogacq_drivers.indicators.base.Indicator`)."""
 
-    def __init__(self, link: serial.SerialBase, *, where: str, unit: str, channel: str = "",
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, channel: str = "",
                  timeout_s: float | None = None, owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         self.unit: Unit = check_unit(unit, where=where)

@@ -11,7 +11,8 @@ from ogacq.campaign import identify_session, recorded_identification
 from ogacq.model.gauges import GAUGE_KEYS, GAUGES, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, planned_layout
-from ogacq.protocol.runner import CampaignRunner, GaugeValue
+from ogacq.protocol.runner import CampaignRunner
+from ogacq.protocol.station import GaugeValue
 from ogacq.session.records import (
     EndRecord,
     FaultRecord,
@@ -28,6 +29,7 @@ from ogacq.session.records import (
     record_from_json,
 )
 from ogacq.session.store import SessionWriter, load_session
+from tests.campaign.station_double import StationDouble
 
 MACHINE = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
 READING = ReadingRecord(step="x/c1/p2", gauge=Gauge("y", "x"), cycle=1, posture="max",
@@ -106,31 +108,16 @@ def test_one_gauge_type_spells_and_orders_every_gauge():
             Gauge.parse(bad)
 
 
-class _Station:
+class _Station(StationDouble):
     """A station that answers every read and remembers the step it was read for."""
 
     def __init__(self) -> None:
         self.reads: list[tuple[str, str]] = []
 
-    def move(self, q_mm, timeout_s):
-        return q_mm
-
     def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
         assert gauge in step.gauges
         self.reads.append((step.step, gauge))
         return GaugeValue(0.01 * len(self.reads), "frame", "test")
-
-    def campaign_time_s(self) -> float:
-        return 0.0
-
-    def settle(self, seconds: float) -> None:
-        pass
-
-    def stop_axes(self) -> None:
-        pass
-
-    def recover_axes(self) -> bool:
-        return True
 
 
 def test_the_runner_hands_the_station_each_step_and_the_reading_keeps_its_posture(tmp_path):

@@ -121,7 +121,7 @@ def test_session_header_matches_run_campaign(tmp_path: Path):
             if name == "plain":
                 run_campaign(campaign, **kwargs)
             else:
-                run_guided(campaign, wrap=lambda device, writer: device,
+                run_guided(campaign, wrap=lambda works, device, writer: works,
                            set_gauges=lambda step: None, resume=None, wizard_header={},
                            rehearsal=None, **kwargs)
         headers.append(load_session(campaign.session).header)

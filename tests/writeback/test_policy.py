@@ -11,7 +11,7 @@ import pytest
 
 from ogacq_drivers.axes.profile import load_profile
 from ogacq.identify.consistency import LEVEL, Verdict, fit_verdict
-from ogacq.identify.fit import fit
+from ogacq.identify.fit import StopReason, fit
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
 from ogacq.model.machine import MachineSpec
@@ -36,7 +36,8 @@ def evidence(identified, *, std=0.001, verdict=GOOD, identifiable=True, in_force
     return Evidence(
         session_path=Path("s.jsonl"), identified_mm=dict(zip(AXES, identified, strict=True)),
         std_mm=dict.fromkeys(AXES, std), verdict=verdict, identifiable=identifiable,
-        identifiability_reasons=[] if identifiable else ["rank 2 of 3"], converged=converged,
+        identifiability_reasons=[] if identifiable else ["rank 2 of 3"],
+        fit_stop=StopReason.COST_STALLED if converged else StopReason.MAX_ITERATIONS,
         residual_rms_mm=0.001, readings=72, finished=finished,
         in_force_mm=None if in_force is None else dict(in_force),
         in_force_consistent=in_force_consistent, profile=profile, port="p")
@@ -72,6 +73,12 @@ def test_each_unreliable_result_is_refused_with_its_reason(kwargs, code):
     plan = plan_write(evidence((0.5, -0.5, 0.2), **kwargs), ZEROS, CIA)
     assert codes(plan) == [code]
     assert plan.refusals[0].message  # says why, in words
+
+
+def test_a_fit_that_did_not_converge_is_refused_saying_why_it_stopped():
+    plan = plan_write(evidence((0.5, -0.5, 0.2), converged=False), ZEROS, CIA)
+    assert plan.refusals[0].message == ("the offsets fit did not converge: stopped after 30 "
+                                        "iterations, still moving")
 
 
 def test_the_verdict_and_identifiability_reasons_are_in_the_message():

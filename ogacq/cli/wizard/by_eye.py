@@ -16,7 +16,7 @@ from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.ui import Screen, parse_mm
 from ogacq.model.gauges import Gauge
 from ogacq.protocol.plan import Read
-from ogacq.protocol.runner import GaugeValue
+from ogacq.protocol.station import GaugeValue
 
 
 @dataclass

@@ -86,11 +86,11 @@ def detect_ports(simulated: dict[str, Any] | None = None) -> list[DetectedPort]:
         listed = sorted(comports(), key=lambda p: p.device)
     except Exception:  # listing is a convenience; a typed port always works
         listed = []
-    for port in listed:
-        details = [d for d in (port.description, port.manufacturer, port.serial_number)
+    for info in listed:
+        details = [d for d in (info.description, info.manufacturer, info.serial_number)
                    if d and d != "n/a"]
-        hwid = port.hwid if port.hwid and port.hwid != "n/a" else ""
-        found.append(DetectedPort(port.device, ", ".join(details) or hwid or "no description"))
+        hwid = info.hwid if info.hwid and info.hwid != "n/a" else ""
+        found.append(DetectedPort(info.device, ", ".join(details) or hwid or "no description"))
     return found + _protocol_devices()
 
 

@@ -13,7 +13,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.campaign import CampaignOutcome, EnvironmentAsker, StationWrapper, run_campaign
+from ogacq.campaign import CampaignOutcome, EnvironmentAsker, StationAdapter, run_campaign
 from ogacq.campaign_file import (
     Campaign,
     ControllerSpec,
@@ -63,7 +63,7 @@ def start_rehearsal(campaign: Campaign, spec: SimulatorSpec) -> Rehearsal:
     return Rehearsal(spec, stack, controller, gauges)
 
 
-def run_guided(campaign: Campaign, *, wrap: StationWrapper, observer: Observer,
+def run_guided(campaign: Campaign, *, wrap: StationAdapter, observer: Observer,
                set_gauges: GaugeSetter, resume: LoadedSession | None,
                wizard_header: dict[str, Any], rehearsal: Rehearsal | None,
                environment_at_end: EnvironmentAsker | None = None) -> CampaignOutcome:

@@ -108,7 +108,7 @@ class ReadingExpectations:
             if np.allclose(q_ref, q, atol=1e-6):
                 tol = self.repeat_tolerance_mm
                 return ExpectedRange(value - tol, value + tol, "its value when it was set")
-            nominal, slope = deviation_model(self.machine, gauge, q_ref, q)
+            nominal, slope = deviation_model(self.machine, gauge, q_ref, q_mm)
             half = float(np.abs(slope).sum()) * self.max_offset_mm + self.repeat_tolerance_mm
             centre = value + nominal
             return ExpectedRange(centre - half, centre + half,

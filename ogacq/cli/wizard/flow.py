@@ -70,7 +70,8 @@ from ogacq.model.machine import (
 )
 from ogacq.protocol import runner
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
-from ogacq.protocol.runner import CampaignStopped, GaugeValue
+from ogacq.protocol.runner import CampaignStopped
+from ogacq.protocol.station import GaugeValue, Station
 from ogacq.session.convert import session_machine
 from ogacq.session.records import (
     EnvironmentRecord,
@@ -327,7 +328,8 @@ class _Wizard:
             raise InputError(path, "this session has no plan: it was not recorded by a campaign")
         machine = session_machine(session)
         protocol = ProtocolConfig.from_dict(h["plan"])
-        wizard = h.get("wizard") if isinstance(h.get("wizard"), dict) else {}
+        recorded = h.get("wizard")
+        wizard: dict[str, Any] = recorded if isinstance(recorded, dict) else {}
         self.options.gauge_range_mm = wizard.get("gauge_range_mm", self.options.gauge_range_mm)
         self.options.max_offset_mm = wizard.get("max_offset_mm", self.options.max_offset_mm)
         self.by_eye = gauges_read_by_eye(session)
@@ -450,19 +452,18 @@ class _Wizard:
         s = self.screen
         base = PAPER_PROTOTYPE
         while True:
-            values = {
-                "leg_length_mm": s.ask_parsed("Leg length (mm, the parallelogram's)",
-                                              _length, f"{base.leg_length_mm:g}"),
-                "rho_min_mm": s.ask_parsed("Joint travel below the zero posture, for Min "
-                                           "(mm, negative)", float, f"{base.rho_min_mm:g}"),
-                "rho_max_mm": s.ask_parsed("Joint travel above the zero posture, for Max "
-                                           "(mm, positive)", float, f"{base.rho_max_mm:g}"),
-                "gauge_resolution_mm": s.ask_parsed(
-                    "Gauge display step (mm: 0.01 dial, 0.001 digital)", _length,
-                    f"{base.gauge_resolution_mm:g}"),
-            }
+            leg_length_mm = s.ask_parsed("Leg length (mm, the parallelogram's)", _length,
+                                         f"{base.leg_length_mm:g}")
+            rho_min_mm = s.ask_parsed("Joint travel below the zero posture, for Min "
+                                      "(mm, negative)", float, f"{base.rho_min_mm:g}")
+            rho_max_mm = s.ask_parsed("Joint travel above the zero posture, for Max "
+                                      "(mm, positive)", float, f"{base.rho_max_mm:g}")
+            gauge_resolution_mm = s.ask_parsed(
+                "Gauge display step (mm: 0.01 dial, 0.001 digital)", _length,
+                f"{base.gauge_resolution_mm:g}")
             try:
-                machine = MachineSpec(**values)
+                machine = MachineSpec(leg_length_mm, rho_min_mm, rho_max_mm,
+                                      gauge_resolution_mm)
             except ValueError as exc:  # the geometry's own checks, in words
                 s.problem(str(exc))
                 continue
@@ -565,8 +566,9 @@ class _Wizard:
             campaign.gauges = [g for g in campaign.gauges if g.gauge not in self.by_eye]
             self._write_campaign_file(campaign)
 
-            def wrap(device: DeviceStation, writer: SessionWriter) -> GuidedStation:
-                station = GuidedStation(device, self.gate, expectations=expectations,
+            def wrap(works: Station, device: DeviceStation, writer: SessionWriter,
+                     ) -> GuidedStation:
+                station = GuidedStation(works, device, self.gate, expectations=expectations,
                                         by_eye=self.by_eye, ask_reading=self._typed(ask_reading),
                                         on_pause=lambda: pause_here(
                                             f"after reading {counter.done} of {counter.total}"))

@@ -9,7 +9,7 @@ next ones are checked against.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
 from ogacq_drivers.errors import DriverError
@@ -17,20 +17,30 @@ from ogacq_drivers.indicators.base import read_stable
 from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.pause import InterruptGate
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
-from ogacq.protocol.runner import GaugeValue, SettledGauge
+from ogacq.protocol.station import (
+    GaugeValue,
+    Joints,
+    SettledGauge,
+    Station,
+    StationWrapper,
+    settle_unjudged,
+)
 from ogacq.station import DeviceStation
 
 # Asks for one reading of a gauge read by eye, at a plan step; returns its value.
 AskReading = Callable[[str, Read], GaugeValue]
 
 
-class GuidedStation:
-    """Implements the runner's ``Station`` around an open ``DeviceStation``."""
+class GuidedStation(StationWrapper):
+    """The runner's ``Station`` around the campaign's (``inner``: the open
+    ``DeviceStation`` within its deadline), with pause checkpoints and gauges read by
+    eye; ``device``: the station's parts the wizard reads live."""
 
-    def __init__(self, device: DeviceStation, gate: InterruptGate, *,
+    def __init__(self, inner: Station, device: DeviceStation, gate: InterruptGate, *,
                  expectations: ReadingExpectations,
                  by_eye: set[str], ask_reading: AskReading,
                  on_pause: Callable[[], None]) -> None:
+        super().__init__(inner)
         self.device = device
         self.gate = gate
         self.by_eye = by_eye  # shared with the wizard: a gauge can switch to by-eye mid-way
@@ -39,20 +49,9 @@ class GuidedStation:
         self._on_pause = on_pause
 
     # ------------------------------------------------------------ runner's Station
-    def move(self, q_mm: tuple[float, float, float], timeout_s: float,
-             ) -> tuple[float, float, float]:
+    def move(self, q_mm: Joints, timeout_s: float) -> Joints:
         self._checkpoint()
-        return self.device.move(q_mm, timeout_s)
-
-    def read_gauge(self, step: Read, gauge: str, rule: StabilityRule) -> GaugeValue:
-        self._checkpoint()
-        if gauge in self.by_eye:
-            with self.gate.immediate():
-                value = self._ask_reading(gauge, step)
-        else:
-            value = self.device.read_gauge(step, gauge, rule)
-        self.expectations.observe(gauge, step.q_mm, value.value_mm)
-        return value
+        return self.inner.move(q_mm, timeout_s)
 
     def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
                     ) -> Iterator[tuple[str, GaugeValue | DriverError]]:
@@ -60,26 +59,25 @@ class GuidedStation:
         over as typed (so it is on file before the next is asked for)."""
         self._checkpoint()
         read = [g for g in gauges if g not in self.by_eye]
-        for gauge, value in (self.device.read_gauges(step, read, rule) if read else {}).items():
+        for gauge, value in (self.inner.read_gauges(step, read, rule) if read else ()):
             if isinstance(value, GaugeValue):
                 self.expectations.observe(gauge, step.q_mm, value.value_mm)
             yield gauge, value
         for gauge in gauges:
             if gauge in self.by_eye:
                 with self.gate.immediate():
-                    value = self._ask_reading(gauge, step)
-                self.expectations.observe(gauge, step.q_mm, value.value_mm)
-                yield gauge, value
+                    typed = self._ask_reading(gauge, step)
+                self.expectations.observe(gauge, step.q_mm, typed.value_mm)
+                yield gauge, typed
 
     def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
-                     ) -> dict[str, SettledGauge | DriverError]:
+                     ) -> Mapping[str, SettledGauge | DriverError]:
         """Settled by the gauges' values; with a gauge read by eye, by the fixed wait
         (a person reads the dial once the machine is at rest)."""
         self._checkpoint()
         if any(g in self.by_eye for g in gauges):
-            self.device.settle(rule.bound_s)
-            return {g: SettledGauge(None, rule.bound_s, 0) for g in gauges}
-        out = self.device.read_settled(step, gauges, rule)
+            return settle_unjudged(self.inner, gauges, rule)
+        out = self.inner.read_settled(step, gauges, rule)
         for gauge, settled in out.items():
             if isinstance(settled, SettledGauge) and settled.value is not None:
                 self.expectations.observe(gauge, step.q_mm, settled.value.value_mm)
@@ -87,19 +85,7 @@ class GuidedStation:
 
     def settle(self, seconds: float) -> None:
         self._checkpoint()
-        self.device.settle(seconds)
-
-    def campaign_time_s(self) -> float:
-        return self.device.campaign_time_s()
-
-    def stop_axes(self) -> None:
-        self.device.stop_axes()
-
-    def recover_axes(self) -> bool:
-        return self.device.recover_axes()
-
-    def take_check_request(self) -> bool:
-        return self.device.take_check_request()
+        self.inner.settle(seconds)
 
     # ------------------------------------------------------------ for the wizard
     @property

@@ -6,7 +6,14 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    TaskID,
+    TextColumn,
+    TimeElapsedColumn,
+)
 
 from ogacq.cli.wizard.by_eye import ReadingCounter
 from ogacq.cli.wizard.ui import Screen, times
@@ -29,7 +36,7 @@ class CycleProgress:
         self._leg_done = Counter(self._by_id[step].leg for step, _ in recorded
                                  if step in self._by_id)
         self._bar: Progress | None = None
-        self._task = 0
+        self._task = TaskID(0)
         self._leg = ""
         self._last = ""
 

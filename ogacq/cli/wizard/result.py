@@ -85,7 +85,7 @@ def _writeback_command_exists() -> bool:
         from ogacq.cli.app import app
 
         group = typer.main.get_command(app)
-        offsets = group.commands.get("offsets")  # type: ignore[attr-defined]
+        offsets = getattr(group, "commands", {}).get("offsets")
         return offsets is not None and "write" in getattr(offsets, "commands", {})
     except Exception:
         return False

@@ -14,9 +14,9 @@ import select
 import sys
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Protocol, TypeVar
+from typing import Any, Protocol, TypeVar
 
-from rich.console import Console
+from rich.console import Console, RenderableType
 
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
@@ -74,7 +74,7 @@ class Screen:
         self.out.print()
         self.out.rule(f"[bold]{title}[/]" + (f"  [dim]{step}[/]" if step else ""), align="left")
 
-    def say(self, text: str = "", **kwargs) -> None:
+    def say(self, text: RenderableType = "", **kwargs: Any) -> None:
         self.out.print(text, **kwargs)
 
     # ok, problem and note print text as it is (a port's description, a serial, a
@@ -161,7 +161,7 @@ def log_on_screen(screen: Screen) -> Iterator[None]:
     display or a question."""
     root = logging.getLogger()
     terminal = [h for h in root.handlers if isinstance(h, RepeatCollapsingHandler)]
-    on_screen: list[logging.Handler] = []
+    on_screen: list[RepeatCollapsingHandler] = []
     for handler in terminal:
         replacement = RepeatCollapsingHandler(_ScreenLines(screen))
         replacement.setFormatter(handler.formatter)
