@@ -91,7 +91,8 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     checkpoints and gauges read by eye); ``header_extra``: more session header;
     ``environment_at_end``: asks the temperatures at the end (default: the sensor or
     the simulator the campaign names, if any); ``checked``: called once the campaign
-    passed its gates (session writable, gauges in date), before the station opens.
+    passed its gates (session writable, gauges in date) and its station opened, before
+    anything moves.
     """
     # before the station opens: a session that cannot be written is found before homing
     check_writable(resume.path if resume is not None else campaign.session,
@@ -103,9 +104,9 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     maps = maps_in_force(campaign)
     if resume is not None:
         check_same_maps(resume, maps)
-    if checked is not None:
-        checked()
     with open_station(campaign, simulator) as station:
+        if checked is not None:
+            checked()
         started = resume is None or not resume.of_type(EnvironmentRecord)
         environment = read_environment(campaign, station, "start") if started else None
         station.prepare()

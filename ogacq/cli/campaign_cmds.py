@@ -86,8 +86,8 @@ def _session_for(campaign_session: Path, given: Path | None) -> Path:
 
 
 def warn_traceability(campaign: Campaign) -> None:
-    """Once the campaign passed its gates, before the station opens: what the record
-    will lack (an operator, a certificate)."""
+    """Once the campaign passed its gates and its station opened, before anything
+    moves: what the record will lack (an operator, a certificate)."""
     for gap in traceability_gaps(campaign):
         log.warning("%s: %s", campaign.path, gap)
 

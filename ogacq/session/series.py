@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ogacq.errors import OgacqError
 from ogacq.io.errors import InputError
+from ogacq.session.state import RUNNING, completeness
 from ogacq.session.store import load_session
 
 _NUMBERED = re.compile(r"^(?P<stem>.+)-(?P<n>[1-9][0-9]*)$")
@@ -44,13 +45,17 @@ def next_session(base: Path) -> NextSession:
     if not last.exists():
         return NextSession(base, None)
     try:
-        finished = load_session(last).finished
+        state = completeness(load_session(last))
     except OgacqError as exc:
         raise InputError(last, f"a session already exists here and cannot be read ({exc}); "
                          "name the new one with --session FILE") from None
-    if not finished:
-        raise InputError(last, "a session of this campaign has not finished: resume it with "
-                         f"`ogacq resume {last}`, or start another with --session FILE")
+    if state.status == RUNNING:
+        raise InputError(last, f"a session already exists here and its campaign is running "
+                         f"({state.holder}): wait until it has finished")
+    if not state.complete:
+        raise InputError(last, "a session already exists here and its campaign has not "
+                         f"finished: resume it with `ogacq resume {last}`, or name another "
+                         "with --session FILE")
     return NextSession(numbered(base, n + 1), last)
 
 

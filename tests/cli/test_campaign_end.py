@@ -30,8 +30,8 @@ def test_the_series_of_a_campaigns_sessions(tmp_path):
     # a second session not finished (killed): resumed, never passed over
     with SessionWriter.create(tmp_path / "session-2.jsonl", {"plan": None}) as writer:
         writer.write(EndRecord(status="stopped", reason="the operator stopped it"))
-    with pytest.raises(InputError, match=r"session-2.jsonl: a session of this campaign has "
-                                         r"not finished: resume it"):
+    with pytest.raises(InputError, match=r"session-2.jsonl: a session already exists here and "
+                                         r"its campaign has not finished: resume it"):
         next_session(base)
     assert earlier_in_series(tmp_path / "session-2.jsonl") == [base]
     assert earlier_in_series(base) == [] and earlier_in_series(tmp_path / "x-2.jsonl") == []
