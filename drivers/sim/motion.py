@@ -136,6 +136,8 @@ class _Axis:
     paused: _Segment | None = None
     #: When the axis last came to a stop after moving (None: never moved).
     stopped_at_s: float | None = None
+    #: Where the axis last reversed (raw mm; None: it has not since power-on).
+    reversed_at_raw_mm: float | None = None
 
 
 class MotionModel:
@@ -214,6 +216,17 @@ class MotionModel:
         """+1 / -1: direction of the last motion of ``axis``; 0 before any motion."""
         with self._lock:
             return self._axis(axis).last_direction
+
+    def travel_since_reversal_mm(self, axis: str) -> float:
+        """How far ``axis`` has moved since it last reversed (a lost motion that builds up
+        with travel depends on it); inf before its first reversal."""
+        with self._lock:
+            now = self.clock.now()
+            ax = self._update(axis, now)
+            if ax.reversed_at_raw_mm is None:
+                return math.inf
+            raw = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
+            return abs(raw - ax.reversed_at_raw_mm)
 
     def stopped_at_s(self) -> float | None:
         """When the last of the axes came to a stop (simulated seconds), None while
@@ -424,7 +437,10 @@ class MotionModel:
     ) -> None:
         raw_now = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
         if raw_target != raw_now:
-            ax.last_direction = 1 if raw_target > raw_now else -1
+            direction = 1 if raw_target > raw_now else -1
+            if ax.last_direction and direction != ax.last_direction:
+                ax.reversed_at_raw_mm = raw_now
+            ax.last_direction = direction
         ax.raw_mm = raw_now
         ax.segment = _Segment(now, raw_now, raw_target, speed, accel, dwell_s, home_position_mm)
         log.debug(

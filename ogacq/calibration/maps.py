@@ -9,30 +9,30 @@ screw map, a rail bow, a hysteresis) on its result as a tuple of ``AxisMap``
 
 from __future__ import annotations
 
-from typing import Any
-
 from ogacq.compensation.effects import EffectValue, compensable
+from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.model.axis_map import AxisMap
 
 
-def diagnosis_maps(diagnosis: Any) -> tuple[AxisMap, ...]:
+def diagnosis_maps(diagnosis: Diagnosis) -> tuple[AxisMap, ...]:
     """The error maps the diagnosis identified (none when it identifies none)."""
-    return tuple(m for m in getattr(diagnosis, "maps", ()) or () if isinstance(m, AxisMap))
+    return diagnosis.maps
 
 
-def model_effects(diagnosis: Any) -> dict[str, EffectValue]:
-    """Every effect of the diagnosis's final model, with its value and std."""
+def model_effects(diagnosis: Diagnosis) -> dict[str, EffectValue]:
+    """Every library effect of the diagnosis's final model, with its value and std (its
+    error maps are not effects of the vocabulary: they come as maps)."""
     return {e.name: EffectValue(e.name, float(e.value), float(e.std))
-            for e in diagnosis.effects}
+            for e in diagnosis.effects if isinstance(e, EffectFound)}
 
 
-def compensable_effects(diagnosis: Any) -> dict[str, EffectValue]:
+def compensable_effects(diagnosis: Diagnosis) -> dict[str, EffectValue]:
     """The effects of the final model a per-joint table corrects (encoder scale, lost
     motion): those the controller can compensate."""
     return {n: v for n, v in model_effects(diagnosis).items() if compensable(n)}
 
 
-def uncompensated_effects(diagnosis: Any) -> list[str]:
+def uncompensated_effects(diagnosis: Diagnosis) -> list[str]:
     """The effects of the final model no table corrects: they stay (a squareness until
     the machine is adjusted)."""
     return [n for n in model_effects(diagnosis) if not compensable(n)]

@@ -14,7 +14,7 @@ from ogacq.cli.history_record import record_session, writebacks_of
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.errors import InputError, Refused
-from ogacq.history.drift import changes
+from ogacq.history.drift import changes, written_by_record
 from ogacq.history.location import history_for_session, history_to_read
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
@@ -74,6 +74,7 @@ def show(
         else:
             calibrations = db.calibrations(found)
             events = db.events(found)
+            written = written_by_record(db.states(found))
     where = location.describe()
     if states and diff is not None:
         compared = states_diff(find(machine_states, diff[0]), find(machine_states, diff[1]))
@@ -88,15 +89,15 @@ def show(
         else:
             render.print_states(found, where, listed, current, machine_states)
         return
-    drifts = changes(calibrations)
+    drifts = changes(calibrations, written)
     if plot is not None:
         from ogacq.history.plot import write_history_plot  # matplotlib only when asked
 
-        write_history_plot(plot, found.describe(), calibrations, drifts)
+        write_history_plot(plot, found.describe(), calibrations, drifts, written)
     if as_json:
         typer.echo(json.dumps(render.calibrations_json(found, calibrations, drifts)))
         return
-    render.print_calibrations(found, where, calibrations, drifts, events)
+    render.print_calibrations(found, where, calibrations, drifts, events, written)
     if plot is not None:
         typer.echo(f"plot: {plot}")
 

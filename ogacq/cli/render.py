@@ -348,7 +348,7 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
 def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
     """The diagnosis verdict and what it found, beside the simulator's hidden effects."""
     diagnosis = d.to_json()
-    if d.base.consistent:
+    if d.outcome == "consistent":
         console.print(f"diagnosis: the joint offsets explain the readings, "
                       f"{d.base.describe()}: nothing left out", highlight=False)
         return

@@ -21,6 +21,7 @@ from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.cli.render import CampaignProgress, campaign_progress
 from ogacq.diagnose.diagnosis import Diagnosis
+from ogacq.diagnose.maps import MapEffect
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
 
@@ -55,7 +56,8 @@ class TerminalUI:
 
     def diagnosis(self, role: str, diagnosis: Diagnosis) -> None:
         self._stack.close()
-        effects = ", ".join(f"{e.name} {e.value:+.4g} ± {e.std:.2g} {e.unit}"
+        effects = "; ".join(e.sentence() if isinstance(e, MapEffect)
+                            else f"{e.name} {e.value:+.4g} ± {e.std:.2g} {e.unit}"
                             for e in diagnosis.effects) or "none"
         console.print(f"diagnosis of the {role} campaign: {diagnosis.outcome}; effects: "
                       f"{effects}", highlight=False)

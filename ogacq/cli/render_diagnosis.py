@@ -7,13 +7,24 @@ from rich.table import Table
 
 from ogacq.cli.plain import shown
 from ogacq.cli.render import console
+from ogacq.cli.render_maps import (
+    print_axis_map,
+    print_coverage,
+    print_map_effect,
+    print_profiles,
+    print_proposals,
+)
 from ogacq.diagnose.diagnosis import Diagnosis
-from ogacq.diagnose.library import BASE_MODEL, label
+from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
+from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, format_p
-from ogacq.model.parameters import PARAM_INDEX, effect_of
+from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
+
+MANY_GROUPS = 12  # beyond this many postures (a scan) only the worst are listed
+SHOWN_GROUPS = 5
 
 
 def _value(value: float, std: float, unit: str) -> str:
@@ -29,6 +40,12 @@ def _verdict_line(title: str, model: Model) -> str:
     return f"{title}: [{colour}]{v.describe()}[/]"
 
 
+def _final_line(title: str, d: Diagnosis) -> str:
+    v = d.final
+    colour = "green" if v.consistent else "red"
+    return f"{title}: [{colour}]{v.describe()}[/]"
+
+
 def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     console.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
                   f"{d.noise.describe()}")
@@ -36,6 +53,10 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     if d.outcome == "consistent":
         console.print("The joint-offset model reproduces these recordings within the gauge "
                       "noise: nothing is left to explain.")
+        if d.mapped is not None and d.mapped.search.searched:
+            console.print(f"Nor along any axis or in time (searched at the "
+                          f"{d.mapped.search.level:g} level): "
+                          + "; ".join(c.describe() for c in d.mapped.search.coverage))
         _print_offsets(d)
         return
     if d.outcome == "undetermined":
@@ -47,7 +68,10 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     _print_location("Where the misfit of the joint-offset model sits", d.located)
     _print_capability(d)
     _print_search(d)
+    print_coverage(d)
     _print_outcome(d, machine_file)
+    print_profiles(d)
+    print_proposals(d, machine_file)
     _print_offsets(d)
     for caveat in d.caveats():
         console.print(f"[yellow]note[/]: {shown(caveat)}")
@@ -60,7 +84,14 @@ def _print_location(title: str, loc: Location) -> None:
         groups = loc.level(level)
         if not groups:
             continue
-        cells = ", ".join(f"{g.key} {g.share:.0%} ({g.expected_share:.0%})" for g in groups)
+        if len(groups) > MANY_GROUPS:  # a scan: the profile along q says where
+            top = sorted(groups, key=lambda g: -g.excess)[:SHOWN_GROUPS]
+            cells = (f"{len(groups)} groups, most beyond their noise share: "
+                     + ", ".join(f"{g.key} {g.share:.1%} ({g.expected_share:.1%})"
+                                 for g in top))
+        else:
+            cells = ", ".join(f"{g.key} {g.share:.0%} ({g.expected_share:.0%})"
+                              for g in groups)
         name = "approach (sides of the x, y, z drives)" if level == "approach" else level
         console.print(f"  {name}: {shown(cells)}")
     trends = [t for t in loc.trends if t.p_value < LEVEL]
@@ -70,15 +101,23 @@ def _print_location(title: str, loc: Location) -> None:
                       f"{t.std_mm_per_h * UM_PER_MM:.1f} µm/h (p = {format_p(t.p_value)})")
     if loc.trends and not trends:
         console.print("  no gauge's residuals trend with time")
-    diffs = [a for a in loc.approach if a.p_value < LEVEL]
-    for a in diffs:
+    # each difference is one of many looked at (hundreds on a scan): corrected for them
+    looked = max(len(loc.approach), 1)
+    diffs = sorted((a for a in loc.approach if a.p_value * looked < LEVEL),
+                   key=lambda a: a.p_value)
+    for a in diffs[:SHOWN_GROUPS]:
         console.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
                       f"{shown(a.posture)}: {a.difference_mm * UM_PER_MM:+.1f} ± "
-                      f"{a.std_mm * UM_PER_MM:.1f} µm")
+                      f"{a.std_mm * UM_PER_MM:.1f} µm "
+                      f"(p = {format_p(min(1.0, a.p_value * looked))} over {looked})")
+    if len(diffs) > SHOWN_GROUPS:
+        console.print(f"  and {len(diffs) - SHOWN_GROUPS} more differences between approach "
+                      "sides")
     if not loc.approach:
         console.print("  no posture was read from both approach sides")
     elif not diffs:
-        console.print("  no difference between approach sides")
+        console.print("  no difference between approach sides (corrected for the "
+                      f"{looked} compared)")
     console.print()
 
 
@@ -170,13 +209,13 @@ def _print_gauge_rms(d: Diagnosis) -> None:
 def _print_outcome(d: Diagnosis, machine_file: str) -> None:
     outcome = d.outcome
     if outcome == "explained":
-        console.print(_verdict_line("[bold]with the effects found[/]", d.claimed))
+        console.print(_final_line("[bold]with the effects found[/]", d))
     elif outcome == "partly explained":
         console.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
                       f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
                       "the noise; their std are inflated by the remaining misfit "
                       f"(x{d.std_inflation:.2f}).")
-        console.print(_verdict_line("with them", d.claimed))
+        console.print(_final_line("with them", d))
     else:
         console.print("[red]Unexplained[/]: nothing in the effect library brings the fit "
                       "within the gauge noise, so no effect is named.")
@@ -185,6 +224,9 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
                           f"only {d.explained_share:.0%} of the misfit beyond the noise "
                           f"({d.selection.final.verdict.describe()})")
     for e in d.effects:
+        if isinstance(e, MapEffect):
+            print_map_effect(e)
+            continue
         console.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
         if e.model_spread > 0.2 * e.std:
             console.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
@@ -194,16 +236,21 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
                           "data no longer support it; a disturbance there (a knocked stand, a "
                           "sticking spindle) explains them as well; repeat that posture")
         if e.alternatives:
-            alts = ", ".join(f"{a.name} ({a.value:+.4g} {effect_of(a.name).unit}, chi2 "
+            alts = ", ".join(f"{a.name} ({a.value:+.4g} {unit(a.name)}, chi2 "
                              f"{a.delta_chi2:+.1f})" for a in e.alternatives)
             console.print(f"    [yellow]explained equally well by[/]: {alts}")
             for sep in e.separations:
                 console.print(f"    {shown(sep.describe().replace('M.toml', machine_file))}")
         elif d.final.consistent and e.local_disturbance is None:
             console.print("    no other effect of the library explains these data as well")
+    for m in d.maps:
+        print_axis_map(m)
     if d.unexplained is not None:
+        along = d.unexplained_along()
+        where = "" if along is None else (f" (along the {along['leg']} leg from "
+                                          f"{along['from_mm']:+g} to {along['to_mm']:+g} mm)")
         console.print(f"  [red]unexplained[/] misfit sits mostly at "
-                      f"[bold]{shown(d.unexplained)}[/]")
+                      f"[bold]{shown(d.unexplained)}[/]{where}")
         if d.remaining is not d.located:
             _print_location("  where the rest sits", d.remaining)
     console.print()

@@ -4,7 +4,7 @@ flags, its offsets states, and the same as JSON."""
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from rich.table import Table
@@ -53,8 +53,13 @@ def _short(name: str) -> str:
 
 
 def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
-                       drifts: Sequence[Drift], events: Sequence[Event]) -> None:
+                       drifts: Sequence[Drift], events: Sequence[Event],
+                       written: Mapping[str, Mapping[str, float]] | None = None) -> None:
+    """The calibrations, their values with the write-backs between them (``written``:
+    record id -> parameter -> the change the record's write-backs made), each change
+    judged from the state as left."""
     console = new_console()  # per call: the terminal's width as it is now
+    written = written or {}
     names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
     flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
     joint = all(n.startswith("joint_offset.") for n in names)
@@ -73,6 +78,10 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
                       shown(c.operator or "-"), shown(verdict_words(c.verdict)),
                       shown(acceptance_words(c)), ambient)
     console.print(table)
+    for before, after in zip(calibrations, calibrations[1:], strict=False):
+        if written.get(before.record_id):  # the first campaign after a write-back checks it
+            console.print(shown(f"{after.record_id} validates the write-back made from "
+                                f"{before.record_id}"), highlight=False)
     if any(c.simulated for c in calibrations):
         console.print("SIMULATED: a rehearsal on the built-in simulator, not a calibration "
                       "of the machine", highlight=False)
@@ -85,6 +94,10 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     for c in calibrations:
         values.add_row(shown(_when(c.date)), *(_value(c, n, (c.record_id, n) in flagged)
                                                for n in names))
+        wrote = written.get(c.record_id)
+        if wrote and c is not calibrations[-1]:
+            values.add_row("  written back", *(f"{wrote[n]:+.4f}" if n in wrote else ""
+                                               for n in names), style="italic")
     console.print(values)
     if any(p.expanded_mm is None for c in calibrations for p in c.parameters.values()):
         console.print("* U unknown (no uncertainty budget): 2 x the fit's std shown and used",
@@ -93,7 +106,9 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     for d in flagged_drifts:
         console.print(f"[red]{DRIFT_MARK} {shown(d.describe())}[/]", highlight=False)
     if len(calibrations) > 1 and not flagged_drifts:
-        console.print("no change between successive calibrations exceeds its U")
+        console.print("no change between successive calibrations exceeds its U"
+                      + (" (each judged from the state as left by the write-backs between)"
+                         if any(written.get(c.record_id) for c in calibrations[:-1]) else ""))
     others = [e for e in events if e.kind != "calibration"]
     if others:
         counts = {k: sum(e.kind == k for e in others) for k in dict.fromkeys(e.kind for e in

@@ -138,12 +138,16 @@ def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any
     diagnosis's own words."""
     data = result.to_json()
     machine_file = str(session.header.get("machine_file") or "M.toml")
-    # the effects found come first; an "unexplained" entry may follow them
-    for entry, effect in zip(data["effects"][:len(result.effects)], result.effects,
-                             strict=True):
+    # the effects found, then (when the fit is not within the noise) "unexplained"
+    named = data["effects"][:len(result.effects)]
+    for entry, effect in zip(named, result.effects, strict=True):
         entry["separated_by"] = [s.describe().replace("M.toml", machine_file)
-                                 for s in effect.separations]
+                                 for s in effect.separations] + [
+            p.describe(machine_file) for p in result.proposals
+            if effect.name in (p.first, p.second)]
     data["caveats"] = result.caveats()
+    if "proposals" in data:  # the scans with the session's machine file
+        data["proposals"] = [p.to_json(machine_file) for p in result.proposals]
     return data
 
 

@@ -10,11 +10,21 @@ alternatives and what would separate them, final refit with std.
         -> alternatives of each effect (swap test) -> plans that would separate them
         -> does the claim rest on one cell? then a disturbance there is an alternative
         -> "unexplained" with where the rest sits, when the fit is not within noise
+    then, whether or not the library explained them (maps.py):
+        -> errors along each axis and in time the library lacks (cyclic and smooth
+           screw errors, hysteresis that builds up, rail bows, a warm-up), searched
+           where the campaign reads an axis densely enough, added by the same nested
+           tests at a calibrated level; library effects they make redundant dropped;
+           the final model refitted with them; one AxisMap per axis with a map
+        -> which map explains the readings as well as a library effect (and the
+           reverse), and the scan that would tell them apart
+        -> the misfit as a profile along each leg's joint coordinate, before and after
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -22,7 +32,11 @@ from ogacq.diagnose.alternatives import Alternative, alternatives, noise_scale
 from ogacq.diagnose.batchfit import Design, Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, unit
 from ogacq.diagnose.locate import Location, locate
+from ogacq.diagnose.mapfit import as_fit_result
+from ogacq.diagnose.maps import MapEffect, MapOutcome, map_diagnosis
+from ogacq.diagnose.mapswap import exploration
 from ogacq.diagnose.outcome import outcome_label
+from ogacq.diagnose.profile import LegProfile, leg_profiles
 from ogacq.diagnose.robustness import resting_cell
 from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
 from ogacq.diagnose.separation import (
@@ -32,12 +46,14 @@ from ogacq.diagnose.separation import (
     plan_capabilities,
     separation,
 )
+from ogacq.diagnose.sides import SideChoice, resolve_sides
 from ogacq.diagnose.visibility import Capability, capability
 from ogacq.errors import InputError
 from ogacq.identify.consistency import LEVEL, Verdict
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
+from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import PARAM_INDEX, nested
 
 SEPARATED_ALTERNATIVES = 4  # per effect, the closest ones get a separating plan
@@ -92,6 +108,9 @@ class EffectFound:
 
 @dataclass
 class Diagnosis:
+    """``effects``: the library's effects of the final model, then its error maps
+    (``maps.MapEffect``, the same fields the report and the terminal read)."""
+
     source: str
     kind: str  # "readings" or "deviations"
     n_observations: int
@@ -104,10 +123,13 @@ class Diagnosis:
     final_fit: FitResult
     located: Location  # the base model's misfit
     remaining: Location  # the final model's misfit
-    effects: list[EffectFound]
+    effects: list[EffectFound | MapEffect]
     std_inflation: float  # factor on the final std (1 when within the noise)
     postures_per_leg: int
     plans: list[tuple[PlanOption, Capability]] = field(default_factory=list)
+    mapped: MapOutcome | None = None  # the map search (None: not run)
+    profiles: tuple[LegProfile, ...] = ()  # residuals along each scanned leg
+    sides: list[SideChoice] = field(default_factory=list)  # unknown sides resolved
 
     @property
     def base(self) -> Verdict:
@@ -115,7 +137,29 @@ class Diagnosis:
 
     @property
     def final(self) -> Verdict:
+        if self.mapped is not None and self.mapped.fit is not None:
+            return self.mapped.fit.verdict
         return self.claimed.verdict
+
+    @property
+    def maps(self) -> tuple[AxisMap, ...]:
+        """The error map of each actuator with one, for its compensation table."""
+        return () if self.mapped is None else self.mapped.maps
+
+    @property
+    def map_effects(self) -> list[MapEffect]:
+        return [e for e in self.effects if isinstance(e, MapEffect)]
+
+    @property
+    def proposals(self) -> list:
+        """Scans that would separate what these readings cannot (``mapswap.Proposal``);
+        one that maps every axis when the fit is not explained and no axis was read
+        densely enough to search."""
+        out = [] if self.mapped is None else list(self.mapped.proposals)
+        if not out and self.mapped is not None and not self.final.consistent \
+                and self.final.judged and not any(c.dense for c in self.mapped.search.coverage):
+            out.append(exploration(self.base_fit.observations.machine))
+        return out
 
     @property
     def outcome(self) -> str:
@@ -141,7 +185,12 @@ class Diagnosis:
             out.append(f"with {self.postures_per_leg} positions per leg, an error that depends "
                        "on the joint position in another way (a lead-screw pitch error) is "
                        "seen at those points only and may pass for these effects; "
-                       "intermediate postures would show it")
+                       "a scan along each leg would show it")
+        out += [c.describe() for c in self.sides if c.side]
+        if self.mapped is not None:
+            for cov in self.mapped.search.coverage:
+                if not cov.searchable and (self.map_effects or not self.final.consistent):
+                    out.append(cov.describe())
         if self.noise.source == "repeated readings" and any(
                 n.startswith("thermal_drift") for n in self.capability.identifiable()):
             out.append("the noise is measured from repeated readings, whose scatter also "
@@ -149,16 +198,66 @@ class Diagnosis:
                        "machine file to judge drift against the gauge alone")
         return out
 
+    def unexplained_along(self) -> dict | None:
+        """Where along a scanned leg the misfit left unexplained sits."""
+        if self.unexplained is None:
+            return None
+        spans = [(p, p.beyond(self.noise.sigma_mm, after=True)) for p in self.profiles]
+        hot = [(p, s) for p, s in spans if s is not None]
+        if not hot:
+            return None
+        p, (lo, hi) = max(hot, key=lambda t: float(np.nanmax(t[0].rms_after_mm)))
+        return {"leg": "xyz"[p.leg], "from_mm": lo, "to_mm": hi}
+
     def to_json(self) -> dict:
+        """INTERCHANGE.md's object, plus (keys beyond the contract): each map effect's
+        further parameters in its entry, ``maps`` (one ogacq-axis-map/1 per actuator
+        with an error map), ``proposals`` (scans that would separate explanations
+        these readings cannot tell apart), ``coverage`` (how densely each axis was
+        read, whether maps were searched), ``profiles`` (residuals along each scanned
+        leg, before and after) and ``chi2`` (before and after the maps, with p)."""
         effects = [e.to_json() for e in self.effects]
         if self.unexplained is not None:
-            effects.append({"effect": "unexplained", "where": self.unexplained, "value": None,
-                            "std": None, "unit": "-", "alternatives": []})
+            entry_: dict[str, Any] = {"effect": "unexplained", "where": self.unexplained,
+                                      "value": None,
+                      "std": None, "unit": "-", "alternatives": []}
+            along = self.unexplained_along()
+            if along is not None:
+                entry_["along"] = along
+            effects.append(entry_)
         offsets = [self.final_fit.value(n) for n in BASE_MODEL]
-        return {"noise_mm": round(self.noise.sigma_mm, 6),
-                "base": self.base.to_json(), "final": self.final.to_json(),
-                "located": self.located.gauges_json(), "effects": effects,
-                "parameters": nested(BASE_MODEL, [round(float(v), 6) for v in offsets])}
+        out = {"noise_mm": round(self.noise.sigma_mm, 6),
+               "base": self.base.to_json(), "final": self.final.to_json(),
+               "located": self.located.gauges_json(), "effects": effects,
+               "parameters": nested(BASE_MODEL, [round(float(v), 6) for v in offsets])}
+        if self.mapped is not None:
+            out["maps"] = [m.to_json() for m in self.maps]
+            out["proposals"] = [p.to_json() for p in self.proposals]
+            out["coverage"] = [{"axis": "xyz"[c.axis], "positions": c.positions,
+                                "from_mm": c.from_mm, "to_mm": c.to_mm,
+                                "step_mm": c.step_mm if np.isfinite(c.step_mm) else None,
+                                "both_sides": c.both_sides, "maps_searched": c.searchable}
+                               for c in self.mapped.search.coverage]
+            out["chi2"] = self.chi2_json()
+        if self.sides:
+            out["unknown_sides"] = [{"axis": "xyz"[c.axis], "taken": c.side,
+                                     "readings": c.readings,
+                                     "chi2_gain": round(c.gain_chi2, 2)} for c in self.sides]
+        if self.profiles:
+            out["profiles"] = [p.to_json() for p in self.profiles]
+        return out
+
+    def chi2_json(self) -> dict:
+        """The chi-square and p of the library's model and of the final one (with the
+        maps): the improvement the maps bring."""
+        library, final = self.claimed.verdict, self.final
+
+        def one(v: Verdict) -> dict:
+            return {"statistic": round(float(v.statistic), 3) if np.isfinite(v.statistic)
+                    else None, "dof": v.dof, "test": v.test,
+                    "p": float(f"{v.overall_p:.4g}"), "consistent": v.consistent}
+
+        return {"base": one(self.base), "library": one(library), "final": one(final)}
 
 
 def _refit(obs: Observations, names: tuple[str, ...], noise: GaugeNoise,
@@ -179,12 +278,16 @@ def explained_share(base: Model, model: Model, noise: GaugeNoise) -> float:
 
 
 def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_EFFECTS,
-             separate: bool = True) -> Diagnosis:
+             separate: bool = True, maps: bool = True) -> Diagnosis:
     """Diagnose ``obs`` (raw readings or tabulated deviations). ``separate``: also
-    search the plans that would tell aliased effects apart."""
+    search the plans that would tell aliased effects apart; ``maps``: also search
+    errors along each axis and in time beyond the library (raw readings)."""
     noise = noise_for(obs)
     problem = Problem(obs, noise)
     base_fit = _refit(obs, BASE_MODEL, noise)
+    # a side unknown before a joint's first recorded move, resolved where its lost
+    # motion decides it (the joint offsets' fit is the same either way)
+    obs, problem, sides = resolve_sides(obs, noise, problem, base_fit.theta)
     base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha)
 
     everything = BASE_MODEL + EFFECT_PARAMETERS
@@ -217,9 +320,35 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     if separate and not base.verdict.consistent and (
             seen.invisible() or seen.alias_groups() or seen.saturated):
         plans = plan_capabilities(obs.machine, claimed.theta, noise.sigma_mm)
+    mapped = map_diagnosis(problem, noise, claimed, alpha, separate) \
+        if maps and obs.raw else None
+    all_effects: list[EffectFound | MapEffect] = list(effects)
+    final_residuals = claimed.residuals
+    if mapped is not None:
+        for effect in effects:  # library effects a map explains as well
+            effect.alternatives = effect.alternatives + \
+                mapped.library_alternatives.get(effect.name, [])
+    if mapped is not None and mapped.fit is not None:
+        fitted = mapped.fit
+        final_fit = as_fit_result(fitted, final_fit)
+        final_residuals = fitted.residuals
+        inflation = float(np.sqrt(max(1.0, fitted.verdict.chi2_dof)
+                                  if np.isfinite(fitted.verdict.chi2_dof) else 1.0))
+        dropped = {name for name, _ in mapped.dropped}
+        kept = [e for e in effects if e.name not in dropped]
+        for effect in kept:  # their values beside the maps
+            effect.value = final_fit.value(effect.name)
+            effect.std = float(np.hypot(fitted.std(effect.name) * inflation,
+                                        effect.model_spread))
+        all_effects = [*kept, *mapped.effects]
+        remaining = locate(obs, fitted.residuals, fitted.jacobian, noise.sigma_mm,
+                           problem.labels)
+        share = explained_share(base, Model(claimed.effects, fitted.theta, fitted.residuals,
+                                            fitted.rss, fitted.rank, fitted.verdict), noise)
+    profiles = leg_profiles(obs, base.residuals, final_residuals)
     return Diagnosis(obs.source, obs.kind, len(obs), noise, seen, selection, claimed, share,
-                     base_fit, final_fit, located, remaining, effects, inflation,
-                     _postures_per_leg(problem), plans)
+                     base_fit, final_fit, located, remaining, all_effects, inflation,
+                     _postures_per_leg(problem), plans, mapped, profiles, sides)
 
 
 def _postures_per_leg(problem: Problem) -> int:

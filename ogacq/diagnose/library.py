@@ -11,12 +11,13 @@ from __future__ import annotations
 from collections.abc import Iterable
 from itertools import combinations
 
-from ogacq.model.parameters import PARAM_NAMES, PARAM_SETS, effect_of
+from ogacq.model.parameters import EFFECT_BY_NAME, PARAM_NAMES, PARAM_SETS, effect_of
 
 BASE_MODEL: tuple[str, ...] = PARAM_SETS["offsets"]
 EFFECT_PARAMETERS: tuple[str, ...] = tuple(n for n in PARAM_NAMES if n not in BASE_MODEL)
 
 Candidate = tuple[str, ...]
+EFFECT_NAMES = frozenset(EFFECT_BY_NAME)
 
 
 def singles(exclude: Iterable[str] = ()) -> list[Candidate]:
@@ -36,7 +37,8 @@ def entry(name: str) -> dict[str, str]:
 
 
 def unit(name: str) -> str:
-    return effect_of(name).unit
+    """The unit of an effect of the vocabulary, or of an error map (mm)."""
+    return effect_of(name).unit if name.split(".")[0] in EFFECT_NAMES else "mm"
 
 
 def label(candidate: Candidate) -> str:

@@ -41,7 +41,9 @@ def _subset(layout: ReadingsLayout, keep: np.ndarray) -> ReadingsLayout:
     return replace(layout, q_mm=layout.q_mm[keep], leg=layout.leg[keep],
                    gauge_axis=layout.gauge_axis[keep], t_s=layout.t_s[keep],
                    cycle=layout.cycle[keep], tcp_mm=layout.tcp_mm[keep],
-                   approach=layout.approach[keep], gauge=layout.gauge[keep])
+                   approach=layout.approach[keep], gauge=layout.gauge[keep],
+                   posture=None if layout.posture is None else layout.posture[keep],
+                   side=None if layout.side is None else layout.side[keep])
 
 
 def _without(obs: Observations, keep: np.ndarray) -> Observations:

@@ -1,11 +1,12 @@
-"""Each parameter of a machine over time, with its U as error bars and the flagged
-drifts marked: one panel per parameter, drawn on matplotlib's Agg canvas (no
-display needed)."""
+"""Each parameter of a machine over time, with its U as error bars, the write-backs
+between calibrations (the value as found, then as left) and the flagged drifts
+marked from the state as left: one panel per parameter, drawn on matplotlib's Agg
+canvas (no display needed)."""
 
 from __future__ import annotations
 
 import io
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from datetime import datetime
 from pathlib import Path
 
@@ -30,8 +31,8 @@ def _when(date: str | None) -> datetime | None:
         return None
 
 
-def history_figure(title: str, calibrations: Sequence[Calibration],
-                   drifts: Sequence[Drift]) -> Figure:
+def history_figure(title: str, calibrations: Sequence[Calibration], drifts: Sequence[Drift],
+                   written: Mapping[str, Mapping[str, float]] | None = None) -> Figure:
     names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
     fig = Figure(figsize=(7.5, 1.2 + 2.0 * max(len(names), 1)), layout="constrained")
     FigureCanvasAgg(fig)
@@ -57,13 +58,23 @@ def history_figure(title: str, calibrations: Sequence[Calibration],
                     [y for y, g in zip(ys, guessed, strict=True) if g], "o", mfc="white",
                     mec="#1f5fa8", ms=5, zorder=5, label="U unknown: ± 2 std")
         where = {c.record_id: x for (c, _), x in zip(dated, range(len(dated)), strict=True)}
+        for index, (c, when) in enumerate(dated):
+            wrote = (written or {}).get(c.record_id, {}).get(name)
+            p = c.parameters.get(name)
+            if wrote is None or p is None or index == len(dated) - 1:
+                continue
+            x = when if by_date else index + 1
+            ax.plot([x, x], [p.value_mm * 1000, (p.value_mm + wrote) * 1000], "--",
+                    color="#2e8b57", lw=1.5, zorder=3)
+            ax.plot([x], [(p.value_mm + wrote) * 1000], "^", color="#2e8b57", ms=7, zorder=5,
+                    label="as left by a write-back")
         for d in drifts:
             if d.parameter != name or not d.flagged:
                 continue
             i, j = where[d.from_record], where[d.to_record]
             x0 = dated[i][1] if by_date else i + 1
             x1 = dated[j][1] if by_date else j + 1
-            y0 = calibrations[i].parameters[name].value_mm * 1000
+            y0 = (calibrations[i].parameters[name].value_mm + d.written_mm) * 1000
             y1 = calibrations[j].parameters[name].value_mm * 1000
             ax.plot([x0, x1], [y0, y1], "-", color="#c0392b", lw=2.5, zorder=4,
                     label="change > U of the change")
@@ -79,8 +90,10 @@ def history_figure(title: str, calibrations: Sequence[Calibration],
 
 
 def write_history_plot(path: Path, title: str, calibrations: Sequence[Calibration],
-                       drifts: Sequence[Drift]) -> Path:
+                       drifts: Sequence[Drift],
+                       written: Mapping[str, Mapping[str, float]] | None = None) -> Path:
     buffer = io.BytesIO()  # drawn whole, then written whole (a full disk leaves no half PNG)
-    history_figure(title, calibrations, drifts).savefig(buffer, format="png", dpi=DPI)
+    history_figure(title, calibrations, drifts, written).savefig(buffer, format="png",
+                                                                 dpi=DPI)
     write_atomically(path, buffer.getvalue())
     return path

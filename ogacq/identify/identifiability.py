@@ -90,6 +90,30 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
         corr = cov / (std[:, None] * std[None, :]) if (std > 0).all() else np.eye(p)
     corr.flat[::p + 1] = 1.0
 
+    return _judged(names, rank, cond, corr, cov, reasons, unidentified), cov
+
+
+def judge_covariance(names: Sequence[str], cov: np.ndarray) -> Identifiability:
+    """The identifiability of ``names`` from a full-rank covariance a fit has computed
+    otherwise (a diagnosis's final model with error maps beside the parameters: their
+    joint covariance), by the same rules as :func:`assess`; the condition number is
+    that of the design the covariance implies, columns scaled to the plausible ranges
+    (the square root of the scaled covariance's eigenvalue ratio)."""
+    names = tuple(names)
+    ranges = plausible_ranges(names)
+    eig = np.linalg.eigvalsh(cov / np.outer(ranges, ranges)) if len(names) else np.ones(1)
+    condition_number = float(np.sqrt(eig[-1] / eig[0])) if eig[0] > 0 else float("inf")
+    std = np.sqrt(np.maximum(cov.diagonal(), 0.0))
+    p = len(names)
+    corr = cov / (std[:, None] * std[None, :]) if (std > 0).all() else np.eye(p)
+    corr.flat[::p + 1] = 1.0
+    return _judged(names, p, condition_number, corr, cov, [], set())
+
+
+def _judged(names: tuple[str, ...], rank: int, cond: float, corr: np.ndarray, cov: np.ndarray,
+            reasons: list[str], unidentified: set[str]) -> Identifiability:
+    """The pairs, the inseparable ones and the std beyond their ranges, said."""
+    p = len(names)
     pairs = []
     rows = corr.tolist()  # the same doubles, read without numpy's scalar boxing
     for i in range(p):
@@ -105,15 +129,15 @@ def assess(jw: np.ndarray, noise_cov: np.ndarray | None, names: Sequence[str],
     if strong and rank == p:
         reasons.append("only combinations are determined: correlation " + ", ".join(strong))
     if rank == p:
+        ranges = plausible_ranges(names)
         for n, k_std, k_range in zip(names, np.sqrt(cov.diagonal()).tolist(), ranges.tolist(),
                                      strict=True):
             if k_std > k_range:
                 reasons.append(f"{n} std {k_std:.3g} exceeds its plausible range "
                                f"{k_range:g} {effect_of(n).unit}")
                 unidentified.add(n)
-    ident = Identifiability(names, rank, cond, corr, pairs, not reasons, reasons,
-                            [n for n in names if n in unidentified])
-    return ident, cov
+    return Identifiability(names, rank, cond, corr, pairs, not reasons, reasons,
+                           [n for n in names if n in unidentified])
 
 
 _SVD_REDUCED: np.ufunc | None

@@ -49,15 +49,24 @@ for _gauge in GAUGES:
 
 def approach_from_sequence(q_mm: np.ndarray) -> np.ndarray:
     """Side each joint approached each reading from: the sign of its last move
-    before that reading in the recorded order (0 before any move)."""
-    out = np.zeros(q_mm.shape, dtype=int)
-    last = np.zeros(3, dtype=int)
-    prev = q_mm[0] if len(q_mm) else None
-    for k, q in enumerate(q_mm):
-        step = np.sign(np.round(q - prev, 9)).astype(int)
-        last = np.where(step != 0, step, last)
-        out[k] = last
-        prev = q
+    before that reading in the recorded order (moves below 1e-9 mm are none);
+    0, unknown, before its first recorded move. Each joint's moves found at once
+    and their signs repeated over the readings until its next move."""
+    q = np.asarray(q_mm, dtype=float).reshape(-1, 3)
+    n = len(q)
+    out = np.zeros((n, 3), dtype=int)
+    if n < 2:
+        return out
+    # np.sign(np.round(d, 9)): np.round is rint(d * 1e9) / 1e9, and rint (halves to
+    # even) gives a positive number exactly when its argument exceeds 0.5
+    nanometres = np.diff(q, axis=0) * 1e9  # (n - 1, 3)
+    steps = (nanometres > 0.5).astype(int) - (nanometres < -0.5)
+    for joint in range(3):
+        moved = np.flatnonzero(steps[:, joint])
+        if len(moved):
+            # the move between readings k and k + 1 holds from reading k + 1 on
+            lengths = np.diff(np.append(moved, n - 1))
+            out[moved[0] + 1:, joint] = np.repeat(steps[moved, joint], lengths)
     return out
 
 
@@ -77,6 +86,11 @@ class ReadingsLayout:
     setting_q_mm: np.ndarray  # (G, 3) posture each gauge was set at
     # (n,) the plan's posture labels ("zero", "max", "+12mm"), None when not recorded
     posture: np.ndarray | None = None
+    # (n, 3) the side each joint's lost motion acts from, where it differs from the
+    # recorded approach: a side unknown before a joint's first recorded move (0) that
+    # the diagnosis resolved (``diagnose/sides.py``); None: the approach. Repeats are
+    # grouped by the recorded approach all the same.
+    side: np.ndarray | None = None
 
     @classmethod
     def build(cls, q_mm: ArrayLike, leg: ArrayLike, gauge_axis: ArrayLike,
@@ -114,6 +128,11 @@ class ReadingsLayout:
         return len(self.q_mm)
 
     @property
+    def lost_motion_side(self) -> np.ndarray:
+        """(n, 3) the side the model's lost motion takes at each reading."""
+        return self.approach if self.side is None else self.side
+
+    @property
     def n_gauges(self) -> int:
         return len(self.gauge_keys)
 
@@ -126,7 +145,7 @@ class ReadingsLayout:
         (unique q (u, 3), unique approach (u, 3), index (n + G,) into them).
         Time is left out; it only matters when thermal drift is modelled."""
         q = np.concatenate([self.q_mm, self.setting_q_mm])
-        appr = np.concatenate([self.approach, np.zeros((self.n_gauges, 3), dtype=int)])
+        appr = np.concatenate([self.lost_motion_side, np.zeros((self.n_gauges, 3), dtype=int)])
         key = np.column_stack([np.round(q, 9), appr])
         unique, index = unique_rows(key)
         return unique[:, :3], unique[:, 3:].astype(int), index
@@ -158,7 +177,7 @@ class ReadingsLayout:
         (unique q, unique approach, unique t, index (n + G,)). The gauges of one
         posture are read at one time, so they still share a pose."""
         q = np.concatenate([self.q_mm, self.setting_q_mm])
-        appr = np.concatenate([self.approach, np.zeros((self.n_gauges, 3), dtype=int)])
+        appr = np.concatenate([self.lost_motion_side, np.zeros((self.n_gauges, 3), dtype=int)])
         t = np.concatenate([self.t_s, np.zeros(self.n_gauges)])
         key = np.column_stack([np.round(q, 9), appr, t])
         unique, index = unique_rows(key)
@@ -194,7 +213,8 @@ class ReadingsLayout:
             gauge=np.array([renumber[g] for g in self.gauge[idx]], dtype=int),
             gauge_keys=tuple(self.gauge_keys[g] for g in kept),
             setting_q_mm=self.setting_q_mm[kept].reshape(-1, 3),
-            posture=None if self.posture is None else self.posture[idx])
+            posture=None if self.posture is None else self.posture[idx],
+            side=None if self.side is None else self.side[idx])
 
     def posture_names(self, machine: MachineSpec) -> np.ndarray:
         """(n,) each reading's posture: as recorded, else (a readings CSV has no posture

@@ -29,8 +29,10 @@ from ogacq.report.figures import (
     FigureFile,
     deviations_figure,
     diagnosis_figure,
+    maps_figure,
     parameters_figure,
     png_bytes,
+    profiles_figure,
     residuals_figure,
 )
 from ogacq.report.formatting import expanded_mm, um
@@ -90,6 +92,19 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
             "Residuals with the joint offsets only and with each effect of the diagnosis "
             "added, on one scale.",
             png_bytes(diagnosis_figure(data.diagnosis_steps, data.diagnosis.noise_mm))))
+    if data.diagnosis is not None and data.diagnosis.profiles:
+        out.append(FigureFile(
+            "profiles.png", "Residuals along each scanned leg",
+            "Each gauge's mean residual at each position along its leg's joint coordinate, "
+            "with the joint offsets only and with the effects found, against the gauge "
+            "noise band.",
+            png_bytes(profiles_figure(data.diagnosis.profiles, data.diagnosis.noise_mm))))
+    if data.diagnosis is not None and data.diagnosis.maps:
+        out.append(FigureFile(
+            "maps.png", "Error map of each actuator",
+            "Actual minus commanded joint position along each actuator with an error map, "
+            "forward and reverse, with a band of two standard uncertainties.",
+            png_bytes(maps_figure(data.diagnosis.maps))))
     if record.get("history"):
         points = history_points(record)
         if points:

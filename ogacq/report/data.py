@@ -377,6 +377,8 @@ def diagnosis_steps(result: FitResult, session: LoadedSession,
         session, result.residuals), result.residual_rms_mm)]
     names = list(result.names)
     for effect in view.named_effects:
+        if effect.located is not None:  # an error map: its residuals are the profiles'
+            continue
         if effect.name not in PARAM_INDEX:
             return tuple(steps), f"{effect.name} is not a parameter this version can fit"
         names.append(effect.name)

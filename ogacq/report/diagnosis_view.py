@@ -1,9 +1,12 @@
 """The diagnosis JSON of INTERCHANGE.md (``ogacq diagnose --json``), checked and typed
 for the report. The report depends on that JSON only, never on the diagnosis code.
 
-Two optional keys beyond the contract are shown when present: per effect
+Optional keys beyond the contract are shown when present: per effect
 ``separated_by`` (sentences saying which extra measurement would tell it from its
-alternatives) and top-level ``caveats``.
+alternatives) and ``located`` (an error map's place along its axis); top-level
+``caveats``, ``maps`` (ogacq-axis-map/1 tables), ``proposals`` (scans that would
+separate explanations), ``coverage``, ``chi2`` (before and after the maps) and
+``profiles`` (residuals along each scanned leg).
 """
 
 from __future__ import annotations
@@ -13,6 +16,7 @@ from typing import Any, Literal, overload
 
 from ogacq.diagnose.outcome import outcome_label
 from ogacq.errors import InputError
+from ogacq.model.axis_map import AxisMap
 
 
 class DiagnosisFormatError(InputError):
@@ -51,6 +55,7 @@ class EffectFound:
     unit: str
     alternatives: tuple[str, ...] = ()
     separated_by: tuple[str, ...] = ()
+    located: str | None = None  # an error map's place and shape, in words
 
     @property
     def name(self) -> str:
@@ -62,6 +67,25 @@ class EffectFound:
 
 
 @dataclass(frozen=True)
+class LegProfileView:
+    """Residuals along one scanned leg (``profiles``): bin centres (mm), per gauge the
+    mean residual before and after (µm, NaN where empty)."""
+
+    leg: str
+    q_mm: tuple[float, ...]
+    before_um: dict[str, tuple[float, ...]]
+    after_um: dict[str, tuple[float, ...]]
+
+
+@dataclass(frozen=True)
+class ModelChi2:
+    statistic: float | None
+    dof: int
+    p: float
+    consistent: bool
+
+
+@dataclass(frozen=True)
 class DiagnosisView:
     noise_mm: float
     base: ModelAgreement
@@ -70,6 +94,11 @@ class DiagnosisView:
     effects: tuple[EffectFound, ...]
     offsets_mm: dict[str, float]  # the final model's joint offsets, by axis
     caveats: tuple[str, ...] = field(default_factory=tuple)
+    maps: tuple[AxisMap, ...] = ()
+    proposals: tuple[str, ...] = ()
+    coverage: tuple[str, ...] = ()  # how densely each axis was read, in words
+    chi2: dict[str, ModelChi2] = field(default_factory=dict)  # base, library, final
+    profiles: tuple[LegProfileView, ...] = ()
 
     @property
     def named_effects(self) -> tuple[EffectFound, ...]:
@@ -132,10 +161,74 @@ def _effect(d: Any, k: int) -> EffectFound:
     separated = d.get("separated_by") or []
     if not isinstance(alternatives, list) or not isinstance(separated, list):
         raise DiagnosisFormatError(f"{where}.alternatives must be a list")
+    located = d.get("located")
     return EffectFound(d["effect"], str(d.get("where", "")),
                        _number(d, "value", where, True), _number(d, "std", where, True),
                        str(d.get("unit") or "-"), tuple(_alternative(a) for a in alternatives),
-                       tuple(str(s) for s in separated))
+                       tuple(str(s) for s in separated),
+                       str(located) if isinstance(located, str) else None)
+
+
+def _list(d: dict, key: str) -> list:
+    value = d.get(key) or []
+    if not isinstance(value, list):
+        raise DiagnosisFormatError(f"{key} must be a list")
+    return value
+
+
+def _maps(d: dict) -> tuple[AxisMap, ...]:
+    out = []
+    for k, m in enumerate(_list(d, "maps")):
+        try:
+            out.append(AxisMap.from_json(_object(m, f"maps[{k}]"), f"maps[{k}]"))
+        except (InputError, ValueError) as exc:
+            raise DiagnosisFormatError(f"maps[{k}]: {exc}") from None
+    return tuple(out)
+
+
+def _floats(values: Any, where: str) -> tuple[float, ...]:
+    if not isinstance(values, list):
+        raise DiagnosisFormatError(f"{where} must be a list of numbers")
+    return tuple(float("nan") if v is None else float(v) for v in values)
+
+
+def _profiles(d: dict) -> tuple[LegProfileView, ...]:
+    out = []
+    for k, p in enumerate(_list(d, "profiles")):
+        where = f"profiles[{k}]"
+        p = _object(p, where)
+        gauges = _object(p.get("gauges") or {}, f"{where}.gauges")
+        out.append(LegProfileView(
+            str(p.get("leg")), _floats(p.get("q_mm"), f"{where}.q_mm"),
+            {g: _floats(_object(v, g).get("before_um"), f"{where}.{g}") for g, v in gauges.items()},
+            {g: _floats(_object(v, g).get("after_um"), f"{where}.{g}") for g, v in gauges.items()}))
+    return tuple(out)
+
+
+def _chi2(d: dict) -> dict[str, ModelChi2]:
+    out = {}
+    for key, v in _object(d.get("chi2") or {}, "chi2").items():
+        v = _object(v, f"chi2.{key}")
+        out[str(key)] = ModelChi2(_number(v, "statistic", f"chi2.{key}", True),
+                                  int(v.get("dof") or 0),
+                                  float(_number(v, "p", f"chi2.{key}") or 0.0),
+                                  bool(v.get("consistent")))
+    return out
+
+
+def _coverage(d: dict) -> tuple[str, ...]:
+    out = []
+    for c in _list(d, "coverage"):
+        if not isinstance(c, dict):
+            continue
+        where = f"{c.get('axis')} axis: {c.get('positions')} positions read"
+        if c.get("maps_searched"):
+            where += (f", {c.get('from_mm')} to {c.get('to_mm')} mm every "
+                      f"{c.get('step_mm')} mm: searched for maps along it")
+        else:
+            where += ": too few for a map along it (a scan would show one)"
+        out.append(where)
+    return tuple(out)
 
 
 def parse_diagnosis(data: Any) -> DiagnosisView:
@@ -160,4 +253,8 @@ def parse_diagnosis(data: Any) -> DiagnosisView:
         effects=tuple(_effect(e, k) for k, e in enumerate(d.get("effects") or [])),
         offsets_mm={str(a): float(v) for a, v in _object(offsets, "parameters.joint_offset")
                     .items() if isinstance(v, int | float)},
-        caveats=tuple(str(c) for c in caveats) if isinstance(caveats, list) else ())
+        caveats=tuple(str(c) for c in caveats) if isinstance(caveats, list) else (),
+        maps=_maps(d),
+        proposals=tuple(str(p.get("text")) for p in _list(d, "proposals")
+                        if isinstance(p, dict) and p.get("text")),
+        coverage=_coverage(d), chi2=_chi2(d), profiles=_profiles(d))

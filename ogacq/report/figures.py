@@ -21,9 +21,11 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
 from ogacq.report.data import DeviationRow, FitSummary, ModelStep, ResidualSeries
+from ogacq.report.diagnosis_view import LegProfileView
 from ogacq.report.formatting import finite
 from ogacq.uncertainty.reporting import headline, two_digits
 
@@ -316,4 +318,69 @@ def diagnosis_figure(steps: Sequence[ModelStep], noise_mm: float) -> Figure:
         axes[-1].set_xlim(0.5, steps[0].residuals.number[-1] + 0.5)
         _legend_below(fig, axes[0])
         fig.suptitle("Residuals before and after each effect the diagnosis found")
+    return fig
+
+
+def maps_figure(maps: Sequence[AxisMap]) -> Figure:
+    """Each actuator's error map (actual minus commanded joint position) along its
+    joint coordinate, forward and reverse, with a band of two standard
+    uncertainties (k = 2); a map with a cyclic part is drawn whole and over two of
+    its periods, where its shape shows."""
+    with matplotlib.rc_context(STYLE):
+        rows = len(maps)
+        fig = Figure(figsize=(10, 0.8 + 2.6 * rows), layout="constrained")
+        axes = fig.subplots(rows, 2, squeeze=False, width_ratios=(3, 2))
+        for (whole, detail), m in zip(axes, maps, strict=True):
+            q = np.array(m.positions_mm)
+            fwd, rev = np.array(m.forward_mm), np.array(m.reverse_mm)
+            u_f, u_r = np.array(m.u_forward_mm), np.array(m.u_reverse_mm)
+            colour = LEG_COLOUR.get(m.axis, "black")
+            pitch = m.extra.get("pitch_mm") if isinstance(m.extra, dict) else None
+            lo = m.reference_mm if pitch and q[0] <= m.reference_mm <= q[-1] - 2 * pitch \
+                else q[0]
+            span = 2 * pitch if pitch else (q[-1] - q[0]) / 4
+            for ax, mask in ((whole, np.ones(len(q), dtype=bool)),
+                             (detail, (q >= lo) & (q <= lo + span))):
+                ax.fill_between(q[mask], (fwd - 2 * u_f)[mask] * UM_PER_MM,
+                                (fwd + 2 * u_f)[mask] * UM_PER_MM, color=colour, alpha=0.2,
+                                lw=0, label="forward ±2u")
+                ax.plot(q[mask], fwd[mask] * UM_PER_MM, color=colour, lw=1.2, label="forward")
+                if not np.allclose(fwd, rev):
+                    ax.fill_between(q[mask], (rev - 2 * u_r)[mask] * UM_PER_MM,
+                                    (rev + 2 * u_r)[mask] * UM_PER_MM, color=BEFORE_COLOUR,
+                                    alpha=0.2, lw=0, label="reverse ±2u")
+                    ax.plot(q[mask], rev[mask] * UM_PER_MM, color=BEFORE_COLOUR, lw=1.2,
+                            ls="--", label="reverse")
+                ax.axhline(0, color="black", lw=0.6)
+                ax.set_xlabel(f"q{m.axis} (mm)")
+            whole.set_ylabel("actual − commanded (µm)")
+            whole.set_title(f"{m.axis} axis: {m.source}", loc="left")
+            detail.set_title(f"{lo:+.1f} to {lo + span:+.1f} mm", loc="left")
+            whole.legend(loc="best", frameon=False)
+        fig.suptitle("Error map of each actuator (the compensation table's values)")
+    return fig
+
+
+def profiles_figure(profiles: Sequence[LegProfileView], noise_mm: float) -> Figure:
+    """Residuals along each scanned leg's joint coordinate, each gauge's mean per
+    position, with the joint offsets only and with the effects found."""
+    with matplotlib.rc_context(STYLE):
+        rows = len(profiles)
+        fig = Figure(figsize=(10, 0.8 + 2.4 * rows), layout="constrained")
+        axes = fig.subplots(rows, 2, squeeze=False, sharey=True)
+        for (before, after), p in zip(axes, profiles, strict=True):
+            q = np.array(p.q_mm)
+            for ax, series, title in ((before, p.before_um, "joint offsets only"),
+                                      (after, p.after_um, "with the effects found")):
+                _band(ax, noise_mm, UM_PER_MM, "gauge noise ±2σ")
+                for gauge, values in series.items():
+                    ax.plot(q, np.array(values), lw=0.9, marker=".", ms=2,
+                            color=LEG_COLOUR.get(gauge.split("_")[0], "black"),
+                            alpha=0.85, label=f"gauge {gauge}")
+                ax.axhline(0, color="black", lw=0.6)
+                ax.set_title(f"{p.leg} leg: {title}", loc="left")
+                ax.set_xlabel(f"q{p.leg} (mm)")
+            before.set_ylabel("mean residual (µm)")
+            after.legend(loc="best", frameon=False, fontsize=8)
+        fig.suptitle("Residuals along each scanned leg, before and after")
     return fig

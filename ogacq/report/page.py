@@ -213,7 +213,9 @@ def _effect_row(e: EffectFound) -> list[Cell]:
     if e.alternatives and not e.separated_by:
         separation = ("run `ogacq diagnose` on this session: it names the extra postures "
                       "or cycles that would tell these apart")
-    name = f"unexplained misfit at {e.where}" if e.unexplained else e.name
+    name: Cell = f"unexplained misfit at {e.where}" if e.unexplained else e.name
+    if e.located:  # an error map: where along which axis, its shape
+        name = Lines((e.name, e.located))
     return [name, value, alternatives, separation]
 
 
@@ -240,12 +242,31 @@ def _diagnosis(d: DiagnosisView, fit: FitSummary | None) -> dict[str, Any]:
         header += ["what would separate them"] if ambiguous else []
         out["effects"] = _table(header, [_effect_row(e)[:len(header)] for e in d.effects],
                                 [False, True, False, False][:len(header)])
+    out |= _along_axes(d)
     if d.offsets_mm and d.named_effects:
         base = {p.name.split(".")[-1]: p.value for p in fit.parameters} if fit else {}
         out["offsets_compared"] = _table(["axis", "offsets only", "with the effects"], [
             [a, signed(base.get(a), 5), signed(v, 5)] for a, v in sorted(d.offsets_mm.items())],
             [False, True, True])
     return out
+
+
+def _along_axes(d: DiagnosisView) -> dict[str, Any]:
+    """The map search's account: how each axis was read, the chi-square and p before
+    and after, the scans that would separate what the readings cannot."""
+    names = {"base": "joint offsets only", "library": "with the library's effects",
+             "final": "with the maps too (final)"}
+    rows: list[list[Cell]] = []
+    for key, title in names.items():
+        v = d.chi2.get(key)
+        if v is None:
+            continue
+        rows.append([title, plain(v.statistic, 1), str(v.dof), f"{v.p:.3g}",
+                     Badge("within noise", "ok") if v.consistent
+                     else Badge("not within noise", "bad")])
+    return {"axes_coverage": list(d.coverage), "proposals": list(d.proposals),
+            "map_chi2": _table(["model", "χ²", "dof", "p", "verdict"], rows,
+                               [False, True, True, True, False]) if rows else None}
 
 
 def _provenance(data: ReportData) -> Table:

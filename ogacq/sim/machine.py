@@ -16,10 +16,12 @@ from typing import Protocol
 import numpy as np
 
 from ogacq_drivers.sim.clock import SimClock
+from ogacq.model.error_maps import JointHistory
 from ogacq.model.gauges import GAUGE_INDICES
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import ReadingsLayout, predict_coordinates
+from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import AXES, PARAM_INDEX
+from ogacq.sim.physics import true_coordinates
 from ogacq.sim.truth import SimTruth
 
 GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
@@ -29,6 +31,13 @@ class EncoderPositions(Protocol):
     def raw_position_mm(self, axis: str) -> float: ...
     def last_direction(self, axis: str) -> int: ...
     def stopped_at_s(self) -> float | None: ...
+
+
+def _travel_since_reversal(encoders: EncoderPositions, axis: str) -> float:
+    """How far the axis has moved since it last reversed (a hysteresis builds up over
+    it); inf when the encoders do not follow it or it never reversed."""
+    travel = getattr(encoders, "travel_since_reversal_mm", None)
+    return float("inf") if travel is None else float(travel(axis))
 
 
 class SimMachine:
@@ -46,7 +55,7 @@ class SimMachine:
         # A gauge polled at rest asks the same pose again and again: without drift
         # its noise-free coordinate depends on the pose only, so keep it.
         self._drifts = bool(np.any(truth.theta[[PARAM_INDEX[f"thermal_drift.{a}"]
-                                                for a in AXES]] != 0))
+                                                for a in AXES]] != 0)) or bool(truth.warm_up)
         self._pose_cache: dict[tuple, dict[tuple[int, int], float]] = {}
         # Each stop's ringing, per gauge: (amplitude, phase), drawn from the seed and
         # the stop's number, so the same campaign rings the same way (the noise's own
@@ -55,30 +64,41 @@ class SimMachine:
         self._ringing: tuple[float, dict[tuple[int, int], tuple[float, float]]] | None = None
         self._stops = 0
 
-    def coordinates_mm(self, q_mm: np.ndarray, approach: np.ndarray,
-                       t_s: float) -> dict[tuple[int, int], float]:
+    def coordinates_mm(self, q_mm: np.ndarray, approach: np.ndarray, t_s: float,
+                       travel_mm: np.ndarray | None = None) -> dict[tuple[int, int], float]:
         """Noise-free coordinate every gauge (gauge_axis, leg) sees with the joints at
-        ``q_mm``: all six in one evaluation, since the gauges are read pose by pose."""
+        ``q_mm``: all six in one evaluation, since the gauges are read pose by pose.
+        ``travel_mm``: each joint's travel since its last reversal (None: long). The
+        gauges are set at Zero, whose joints' side the simulator does not follow: a
+        hysteresis is left out there (its effect on where a gauge sits is a part in a
+        thousand of it)."""
         n = len(GAUGE_INDICES)
+        side = np.repeat(np.asarray(approach, int)[None], n, axis=0)
+        travel = np.full((n, 3), np.inf) if travel_mm is None else \
+            np.repeat(np.asarray(travel_mm, float)[None], n, axis=0)
         layout = ReadingsLayout(
-            q_mm=np.repeat(self.truth.disturbed_q(q_mm)[None], n, axis=0),
+            q_mm=np.repeat(np.asarray(q_mm, float)[None], n, axis=0),
             leg=np.array([leg for _, leg in GAUGE_INDICES]),
             gauge_axis=np.array([axis for axis, _ in GAUGE_INDICES]),
             t_s=np.full(n, t_s), cycle=np.ones(n, dtype=int),
-            tcp_mm=np.full((n, 3), np.nan), approach=np.repeat(
-                np.asarray(approach, int)[None], n, axis=0),
+            tcp_mm=np.full((n, 3), np.nan), approach=side,
             gauge=np.arange(n), gauge_keys=GAUGE_INDICES, setting_q_mm=np.zeros((n, 3)))
-        values = predict_coordinates(self.truth.theta, layout, self.machine)
+        history = JointHistory(layout.q_mm, side, travel, layout.t_s, layout.setting_q_mm,
+                               np.zeros((n, 3), dtype=int), np.full((n, 3), np.inf))
+        values = true_coordinates(self.truth, layout, self.machine, history)
         return {key: float(v) for key, v in zip(GAUGE_INDICES, values, strict=True)}
 
     def gauge_value_mm(self, gauge_axis: int, leg: int) -> float:
         """What the gauge along ``gauge_axis`` on ``leg`` reads now, noise included."""
         q = tuple(self.encoders.raw_position_mm(a) for a in AXES)
         approach = tuple(self.encoders.last_direction(a) for a in AXES)
-        pose = (q, approach)
+        travel = tuple(_travel_since_reversal(self.encoders, a) for a in AXES) \
+            if self.truth.hysteresis else None
+        pose = (q, approach, travel)
         coords = None if self._drifts else self._pose_cache.get(pose)
         if coords is None:
-            coords = self.coordinates_mm(np.array(q), np.array(approach), self.clock.now())
+            coords = self.coordinates_mm(np.array(q), np.array(approach), self.clock.now(),
+                                         None if travel is None else np.array(travel))
             if not self._drifts and len(self._pose_cache) < 2_000:
                 self._pose_cache[pose] = coords
         with self._lock:
@@ -91,7 +111,8 @@ class SimMachine:
         noise or display step: the truth a reading is judged against (benches, tests)."""
         q = np.array([self.encoders.raw_position_mm(a) for a in AXES])
         approach = np.array([self.encoders.last_direction(a) for a in AXES])
-        coords = self.coordinates_mm(q, approach, self.clock.now())
+        travel = np.array([_travel_since_reversal(self.encoders, a) for a in AXES])
+        coords = self.coordinates_mm(q, approach, self.clock.now(), travel)
         return self._zero_mm[(gauge_axis, leg)] + coords[(gauge_axis, leg)]
 
     def vibration_mm(self, gauge_axis: int, leg: int) -> float:

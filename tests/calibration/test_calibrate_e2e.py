@@ -6,9 +6,8 @@ validation within the noise, the record as found and as left with the ISO 230-2
 figures before and after. Killed at two points, it resumes to the same end. A write
 made worse on purpose (the map's sign turned) is restored by the procedure itself,
 and the history says so.
-
-The lead-screw case waits for the diagnosis to identify maps (``Diagnosis.maps``):
-it is skipped until then.
+A lead screw's periodic error beside the squareness: the scan maps it, the map is
+written and the validation finds it gone.
 """
 
 from __future__ import annotations
@@ -27,7 +26,6 @@ import pytest
 
 from ogacq.calibration import procedure
 from ogacq.cli.app import main
-from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.history.location import parse_location
 from ogacq.history.states import timeline
 from ogacq.history.store import History
@@ -191,8 +189,6 @@ def test_maps_shown_and_restored_by_hand(straight, capsys, monkeypatch):
     assert read_maps_table(straight / "maps.json").maps == {}
 
 
-@pytest.mark.skipif("maps" not in {f.name for f in dataclasses.fields(Diagnosis)},
-                    reason="enabled once the diagnosis identifies maps (Diagnosis.maps)")
 def test_a_cyclic_screw_error_is_mapped_and_validated(tmp_path):
     """Squareness and a lead screw's periodic error: the scan maps the screw, the map
     is written and the validation scan finds it gone."""

@@ -4,10 +4,11 @@ alone would give; trends with time; differences between approach sides."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.diagnosis import diagnose
-from ogacq.diagnose.locate import locate, residual_variance
+from ogacq.diagnose.locate import _approach_differences, locate, residual_variance, row_labels
 from tests.diagnose.campaigns import RICH, layout, simulate
 
 
@@ -63,3 +64,33 @@ def test_located_json_is_sorted_gauge_shares():
     shares = [g["share"] for g in located]
     assert shares == sorted(shares, reverse=True)
     assert abs(sum(shares) - 1.0) < 1e-3
+
+
+def approach_differences_by_loop(labels, residuals, sigma_mm):
+    """The former cell-by-cell definition, kept as the reference."""
+    out = []
+    gauges = labels.gauge
+    for g in dict.fromkeys(gauges.tolist()):
+        for posture in dict.fromkeys(labels.posture[gauges == g].tolist()):
+            sel = (gauges == g) & (labels.posture == posture)
+            sides, counts = np.unique(labels.approach[sel], return_counts=True)
+            if len(sides) < 2 or "" in sides:
+                continue
+            first, second = sides[np.argsort(-counts, kind="stable")[:2]]
+            a = residuals[sel & (labels.approach == first)]
+            b = residuals[sel & (labels.approach == second)]
+            std = sigma_mm * np.sqrt(1 / len(a) + 1 / len(b))
+            out.append((g, posture, (str(first), str(second)), a.mean() - b.mean(), std))
+    return out
+
+
+@pytest.mark.parametrize("postures", [RICH, ("zero", "max", "min", "zero")])
+def test_approach_differences_are_the_cell_by_cell_loop(postures):
+    obs = simulate({"backlash.x": 0.02}, 3, lay=layout(postures, approach="sequence"))
+    labels = row_labels(obs)
+    residuals = np.random.default_rng(0).normal(0, 0.002, len(obs))
+    ours = [(a.gauge, a.posture, a.sides, a.difference_mm, a.std_mm)
+            for a in _approach_differences(labels, residuals, 0.002)]
+    theirs = approach_differences_by_loop(labels, residuals, 0.002)
+    assert [o[:3] for o in ours] == [t[:3] for t in theirs] and ours
+    assert np.allclose([o[3:] for o in ours], [t[3:] for t in theirs], rtol=0, atol=1e-15)

@@ -6,10 +6,10 @@ from __future__ import annotations
 
 import math
 
-from ogacq.history.drift import changes
+from ogacq.history.drift import changes, written_by_record
 from ogacq.history.entries import Parameter
-from ogacq.history.plot import write_history_plot
-from ogacq.history.store import Calibration
+from ogacq.history.plot import history_figure, write_history_plot
+from ogacq.history.store import Calibration, OffsetState
 
 
 def calibration(record_id: str, date: str, x: float, U: float | None,
@@ -48,3 +48,38 @@ def test_the_plot_is_a_png(tmp_path):
                calibration("B", "2026-02-10T09:00:00+01:00", 0.450, None, std=0.003)]
     path = write_history_plot(tmp_path / "h.png", "OG-1", history, changes(history))
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def state(operation: str, stage: str, x: float, record: str, status: str = "done",
+          action: str = "write") -> OffsetState:
+    return OffsetState(f"S-{operation}-{stage}", stage, None, None, operation, action, status,
+                       "cia402", {"x": x, "y": 0.0, "z": 0.0}, record, None)
+
+
+def test_a_write_back_is_no_drift_and_a_change_from_the_state_as_left_is():
+    """The offsets written from A's session set the machine's x to about zero: B (its
+    validation) is judged against that, as left, not against A as found."""
+    written = written_by_record([state("w1", "before", 0.0, "A"),
+                                 state("w1", "after", -0.907, "A"),
+                                 state("w2", "before", 0.0, "A", status="failed"),
+                                 state("w2", "after", 5.0, "A", status="failed")])
+    assert written == {"A": {"joint_offset.x": -0.907, "joint_offset.y": 0.0,
+                             "joint_offset.z": 0.0}}
+    history = [calibration("A", "2026-01-10", 0.907, 0.006),
+               calibration("B", "2026-01-11", 0.002, 0.006),   # validated: no drift
+               calibration("C", "2026-03-10", 0.020, 0.006)]   # 18 um from B: a drift
+    found = changes(history, written)
+    assert [(d.to_record, round(d.change_mm, 6), d.flagged) for d in found] == [
+        ("B", 0.002, False), ("C", 0.018, True)]
+    assert "from the state as left" in found[0].describe()
+    # as found (no write-back known), the validation would read as a 0.905 mm drift
+    assert changes(history)[0].flagged
+
+
+def test_the_plot_marks_the_write_back(tmp_path):
+    history = [calibration("A", "2026-01-10T09:00:00", 0.907, 0.006),
+               calibration("B", "2026-01-11T09:00:00", 0.002, 0.006)]
+    written = {"A": {"joint_offset.x": -0.907}}
+    figure = history_figure("OG-1", history, changes(history, written), written)
+    labels = [t.get_text() for t in figure.axes[0].get_legend().get_texts()]
+    assert "as left by a write-back" in labels and "change > U of the change" not in labels

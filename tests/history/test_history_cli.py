@@ -18,10 +18,11 @@ from tests.history.records import contract_record
 def history_file(tmp_path):
     path = tmp_path / "history.sqlite"
     records = [contract_record(date="2026-01-10T09:00:00", ambient_c=20.4),
+               # the write-back of the first's offsets, then its validation: about zero
                contract_record(date="2026-02-01T14:00:00", ambient_c=18.0,
-                               offsets={"x": 0.424, "y": -0.31, "z": 0.12}),
+                               offsets={"x": 0.004, "y": 0.0, "z": 0.0}),
                contract_record(date="2026-03-02T08:30:00", ambient_c=23.1, decision="fail",
-                               offsets={"x": 0.47, "y": -0.309, "z": 0.12})]
+                               offsets={"x": 0.05, "y": 0.001, "z": 0.0})]
     with History.open(parse_location(str(path), "--history")) as history:
         for record in records:
             history.record_calibration(record)
@@ -52,9 +53,14 @@ def test_the_table_lists_the_calibrations_and_flags_the_drift(history_file, caps
     rows = [line for line in lines if line.strip().startswith("2026-")]
     assert len(rows) == 6  # who and how, then the values: one row each per calibration
     who, values = rows[:3], rows[3:]
-    assert records[2]["id"] in who[2] and "+0.4700 ± 0.0060 !" in values[2]
+    assert records[2]["id"] in who[2] and "+0.0500 ± 0.0060 !" in values[2]
     assert "23.1 °C" in who[2] and "fail" in who[2] and "J. Martin" in who[2]
-    assert "!" not in values[1]  # 4 um: within the 8.5 um of the change
+    # judged from the state as left by the write-back (0.42 - 0.42), not as found: 4 um
+    # is within the 8.5 um of the change, and the second campaign validates the write
+    assert "!" not in values[1]
+    assert f"{records[1]['id']} validates the write-back made from {records[0]['id']}" in out
+    assert any(line.strip().startswith("written back") and "-0.4200" in line
+               for line in lines)
     assert any(line.startswith(f"! drift: joint_offset.x +0.0460 mm from {records[1]['id']}")
                for line in lines)
     assert "1 write-back" in out

@@ -12,17 +12,27 @@ import numpy as np
 import pytest
 from matplotlib.text import Text
 
+from ogacq.cli.report_cmd import report_diagnosis
+from ogacq.diagnose.diagnosis import diagnose
 from ogacq.io.tables import write_readings
+from ogacq.model.parameters import vector
 from ogacq.record.document import build_record
 from ogacq.report import build_report, collect, parse_diagnosis
 from ogacq.report.diagnosis_view import DiagnosisFormatError
-from ogacq.report.figures import deviations_figure, parameters_figure, residuals_figure
+from ogacq.report.figures import (
+    deviations_figure,
+    maps_figure,
+    parameters_figure,
+    residuals_figure,
+)
 from ogacq.report.formatting import measure
 from ogacq.report.page import render_page
-from ogacq.session.convert import import_readings
+from ogacq.session.convert import import_readings, session_observations
 from ogacq.session.store import load_session
+from ogacq.sim.readings import simulated_readings
+from ogacq.sim.truth import LeadScrewError, SimTruth
 from ogacq.writeback.audit import AuditLog
-from tests.diagnose.campaigns import MACHINE, simulate
+from tests.diagnose.campaigns import MACHINE, OFFSETS, RICH, layout, simulate
 from tests.record.pages import gum, two_significant
 
 # INTERCHANGE.md's diagnosis, with an alternative and a rest nothing explains
@@ -151,3 +161,40 @@ def test_a_write_back_recorded_in_the_session_is_shown(session_path, tmp_path):
         collect(load_session(path)), (), build_record(load_session(path)))))
     assert "write done" in text and "controller cia402, saved to non-volatile memory" in text
     assert "x 0 +2.00123" in text and "z 0 -2.00042" in text  # as record.json holds them
+
+
+def test_a_scans_error_maps_are_drawn_and_stated(tmp_path):
+    """A scan of a machine with a cyclic error on its x screw, diagnosed here: the
+    report states the map's place and shape, the chi-square before and after, and
+    draws the residuals along each leg and the map with its band."""
+    truth = SimTruth(vector(OFFSETS), lead_screw={0: LeadScrewError(0.008, 20.0, 0.0)})
+    obs = simulated_readings(MACHINE, layout(scan_step_mm=5.0, cycles=2), truth,
+                             scatter_mm=0.002, step_mm=0.001, seed=4)
+    write_readings(tmp_path / "scan.csv", obs.layout, obs.values)
+    session = load_session(import_readings(tmp_path / "scan.csv", MACHINE,
+                                           tmp_path / "scan.jsonl"))
+    result = diagnose(session_observations(session))
+    assert [e.name for e in result.effects] == ["lead_screw_cyclic.x"]
+    view = parse_diagnosis(report_diagnosis(result, session))
+    assert len(view.maps) == 1 and view.profiles and view.chi2["final"].consistent
+    report = build_report(collect(session, diagnosis=view), build_record(session))
+    assert {"profiles.png", "maps.png"} <= {f.name for f in report.figures}
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", report.html))
+    assert "x axis, q from -100 to +60 mm, cyclic lead-screw error of pitch" in text
+    assert "Along each axis" in text and "with the maps too (final)" in text
+    maps = _texts(maps_figure(view.maps))
+    assert "x axis: cyclic lead-screw error" in maps and "forward ±2u" in maps
+
+
+def test_a_diagnosis_left_unexplained_is_reported(tmp_path):
+    """A lead-screw error read at five positions per leg: nothing of the library or the
+    maps explains it; the report's diagnosis keeps the "unexplained" entry (it once
+    stopped the report: the entry has no effect of its own to pair with)."""
+    obs = simulate({}, 1, lay=layout(RICH), lead_screw=(0.02, 16.0))
+    write_readings(tmp_path / "r.csv", obs.layout, obs.values)
+    session = load_session(import_readings(tmp_path / "r.csv", MACHINE, tmp_path / "s.jsonl"))
+    result = diagnose(session_observations(session))
+    assert result.outcome == "unexplained"
+    view = parse_diagnosis(report_diagnosis(result, session))
+    assert view.unexplained_where == result.unexplained
+    assert view.proposals  # a scan would show what three positions per leg cannot

@@ -1,0 +1,248 @@
+"""The final model with error maps: the library's parameters by the exact model and
+the maps' amplitudes beside them, fitted together; its verdict, std, the maps as
+``AxisMap`` tables, and what each effect is worth.
+
+Gauss-Newton on ``y = h(theta) + sum_k M_k c_k``: ``h`` the exact measurement model
+of the library's parameters, ``M_k`` a map term's columns (the joints' sensitivities
+at the current ``theta`` times the term's shape, first order in its micrometre
+displacements: ``model/joint_sensitivity.py``). Weighted as every fit of these
+readings is (``fit.Weighting``: repeat groups whitened, gauge zeros projected out),
+the step truncated to the directions the data determine, columns scaled first (the
+library's by their plausible ranges, the maps' by their norms).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.mapspace import term_columns
+from ogacq.identify.consistency import LEVEL, Verdict, judge
+from ogacq.identify.fit import FitResult, StopReason
+from ogacq.identify.identifiability import RANK_TOLERANCE, judge_covariance, plausible_ranges
+from ogacq.identify.noise import GaugeNoise
+from ogacq.model.axis_map import AxisMap
+from ogacq.model.error_maps import JointHistory, MapTerm, axis_map, tabulation_step
+from ogacq.model.gauges import AXES
+from ogacq.model.joint_sensitivity import joint_sensitivity
+from ogacq.model.parameters import indices
+
+ITERATIONS = 6
+STEP_TOLERANCE = 1e-9  # of each column's scale: far below any gauge's resolution
+
+
+@dataclass
+class MapFit:
+    """The library parameters ``names`` at ``theta`` beside the map ``terms`` with
+    their ``coefficients``; ``covariance`` of all of them (library first, then the
+    terms' amplitudes in order), from the gauge noise."""
+
+    names: tuple[str, ...]
+    theta: np.ndarray
+    terms: list[MapTerm]
+    coefficients: list[np.ndarray]
+    covariance: np.ndarray
+    residuals: np.ndarray  # unweighted, gauge zeros removed, mm
+    rss: float  # weighted
+    rank: int
+    jacobian: np.ndarray  # (n, p + K) unweighted: the library's, then the maps'
+    verdict: Verdict
+    converged: bool
+
+    @property
+    def p(self) -> int:
+        return len(self.names)
+
+    def term_slice(self, k: int) -> slice:
+        start = self.p + sum(t.size for t in self.terms[:k])
+        return slice(start, start + self.terms[k].size)
+
+    def term_covariance(self, k: int) -> np.ndarray:
+        s = self.term_slice(k)
+        return self.covariance[s, s]
+
+    def std(self, name: str) -> float:
+        k = self.names.index(name)
+        return float(math.sqrt(max(self.covariance[k, k], 0.0)))
+
+
+def map_columns(problem: Problem, theta: np.ndarray, terms: list[MapTerm],
+                history: JointHistory) -> np.ndarray:
+    """(n, K) the terms' columns at ``theta``, unweighted."""
+    if not terms:
+        return np.zeros((len(problem.obs), 0))
+    sens = joint_sensitivity(theta, problem.obs.layout, problem.obs.machine)
+    along = sens.along()
+    gauge = problem.obs.layout.gauge
+    return np.vstack([term_columns(t, history, sens, along, gauge) for t in terms]).T
+
+
+def fit_with_maps(problem: Problem, noise: GaugeNoise, names: tuple[str, ...],
+                  theta0: np.ndarray, terms: list[MapTerm], history: JointHistory,
+                  coefficients0: np.ndarray | None = None, alpha: float = LEVEL,
+                  iterations: int = ITERATIONS) -> MapFit:
+    obs = problem.obs
+    theta = np.asarray(theta0, dtype=float).copy()
+    free = indices(names)
+    k_total = sum(t.size for t in terms)
+    coef = np.zeros(k_total) if coefficients0 is None else np.asarray(coefficients0, float)
+    ranges = plausible_ranges(list(names))
+    converged = False
+    for _ in range(iterations):
+        jac = problem.jacobian(theta, names, weighted=False)
+        cols = map_columns(problem, theta, terms, history)
+        x = np.column_stack([jac, cols])
+        resid = obs.values - problem.predict(theta[None])[0] - cols @ coef
+        xw = problem.weighted(x.T).T
+        rw = problem.weighted(resid[None])[0]
+        scale = np.concatenate([ranges, 1.0 / np.maximum(np.linalg.norm(xw[:, len(names):],
+                                                                        axis=0), 1e-300)])
+        u, s, vt = np.linalg.svd(xw * scale, full_matrices=False)
+        keep = s > s[0] * RANK_TOLERANCE
+        step = (vt[keep].T @ ((u[:, keep].T @ rw) / s[keep])) * scale
+        theta[free] += step[:len(names)]
+        coef = coef + step[len(names):]
+        if np.all(np.abs(step) <= STEP_TOLERANCE * scale):
+            converged = True
+            break
+    jac = problem.jacobian(theta, names, weighted=False)
+    cols = map_columns(problem, theta, terms, history)
+    x = np.column_stack([jac, cols])
+    raw = obs.values - problem.predict(theta[None])[0] - cols @ coef
+    residuals = problem.remove_zeros(raw[None])[0]
+    rw = problem.weighted(raw[None])[0]
+    xw = problem.weighted(x.T).T
+    scale = np.concatenate([ranges, 1.0 / np.maximum(np.linalg.norm(xw[:, len(names):],
+                                                                    axis=0), 1e-300)])
+    u, s, vt = np.linalg.svd(xw * scale, full_matrices=False)
+    keep = s > s[0] * RANK_TOLERANCE
+    rank = int(keep.sum())
+    inv = (vt[keep].T / s[keep] ** 2) @ vt[keep]
+    covariance = noise.variance * inv * scale[:, None] * scale[None, :]
+    # a shape found from the readings (a pitch) spends a degree of freedom as well
+    verdict = judge(obs, residuals, x, rank + sum(t.shape_parameters for t in terms), noise,
+                    alpha)
+    split = np.cumsum([0] + [t.size for t in terms])
+    return MapFit(names, theta, list(terms),
+                  [coef[split[k]:split[k + 1]] for k in range(len(terms))], covariance,
+                  residuals, float(rw @ rw), rank, x, verdict, converged)
+
+
+def as_fit_result(fitted: MapFit, library: FitResult) -> FitResult:
+    """The library's parameters of the final model as the ``FitResult`` the rest of the
+    tool reads (offsets, std, residuals): std from the joint covariance, the maps'
+    amplitudes beside them (from the gauge noise, as a fit's: a reader inflates
+    them as it does any fit's)."""
+    p = fitted.p
+    cov = fitted.covariance[:p, :p]
+    values = fitted.theta[indices(fitted.names)]
+    dof = max(fitted.verdict.dof, 1)
+    # judged on the joint covariance: the library's own fit may have held other
+    # parameters (those a map made redundant), and a map may correlate with an offset
+    identifiability = judge_covariance(fitted.names, cov)
+    return replace(library, names=fitted.names, values=values,
+                   identifiability=identifiability,
+                   std=np.sqrt(np.maximum(np.diag(cov), 0.0)), covariance=cov,
+                   residuals=fitted.residuals,
+                   residual_rms_mm=float(np.sqrt(np.mean(fitted.residuals**2))),
+                   sigma_mm=float(math.sqrt(fitted.rss / dof)),
+                   dof=fitted.verdict.dof, theta=fitted.theta, jacobian=fitted.jacobian[:, :p],
+                   stop_reason=StopReason.STEP_BELOW_TOLERANCE if fitted.converged
+                   else StopReason.MAX_ITERATIONS)
+
+
+# --- what each term is worth ------------------------------------------------------------
+
+@dataclass(frozen=True)
+class MapValue:
+    """A term's headline value with its std (mm), and its further parameters."""
+
+    value: float
+    std: float
+    extra: dict
+
+
+def term_value(term: MapTerm, coef: np.ndarray, cov: np.ndarray, shape_std: float,
+               ) -> MapValue:
+    if term.family == "lead_screw_cyclic":
+        a, b = float(coef[0]), float(coef[1])
+        amp = math.hypot(a, b)
+        grad = np.array([a, b]) / max(amp, 1e-300)
+        amp_std = float(math.sqrt(max(grad @ cov @ grad, 0.0)))
+        phase = math.atan2(b, a)
+        gphase = np.array([-b, a]) / max(amp**2, 1e-300)
+        phase_std = float(math.sqrt(max(gphase @ cov @ gphase, 0.0)))
+        return MapValue(amp, amp_std, {
+            "pitch_mm": round(term.shape["pitch_mm"], 6),
+            "pitch_std_mm": _rounded(shape_std),
+            "phase_deg": round(math.degrees(phase), 3),
+            "phase_std_deg": _rounded(math.degrees(phase_std))})
+    if term.family == "screw_map":
+        lo, hi = term.shape["from_mm"], term.shape["to_mm"]
+        q = np.linspace(lo, hi, 801)
+        g = term.shape_of(q, np.ones(len(q)), np.full(len(q), np.inf), np.zeros(len(q)))
+        e = coef @ g
+        k = int(np.argmax(np.abs(e)))
+        std = float(math.sqrt(max(g[:, k] @ cov @ g[:, k], 0.0)))
+        return MapValue(float(e[k]), std, {
+            "at_mm": round(float(q[k]), 3), "from_mm": lo, "to_mm": hi,
+            "knots": int(term.shape["knots"]),
+            "slope_in_encoder_scale": bool(term.shape.get("detrended"))})
+    std = float(math.sqrt(max(cov[0, 0], 0.0)))
+    if term.family == "hysteresis":
+        return MapValue(float(coef[0]), std, {
+            "build_up_mm": round(term.shape["length_mm"], 4),
+            "build_up_std_mm": _rounded(shape_std)})
+    if term.family == "rail_bow":
+        return MapValue(float(coef[0]), std, {
+            "toward": AXES[term.toward], "from_mm": term.shape["from_mm"],
+            "to_mm": term.shape["to_mm"]})
+    return MapValue(float(coef[0]), std, {"time_constant_s": round(term.shape["tau_s"], 1)})
+
+
+def _rounded(x: float) -> float | None:
+    return round(float(x), 6) if math.isfinite(x) else None
+
+
+def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, float]],
+              steps: dict[int, float], shape_std: dict[str, float] | None = None,
+              ) -> tuple[AxisMap, ...]:
+    """One ``AxisMap`` per axis with a map along its line, its terms summed, the band
+    from their joint covariance (times ``inflation``) and their shapes' std
+    (``shape_std`` by term name: a pitch)."""
+    out = []
+    for axis in range(3):
+        ks = [k for k, t in enumerate(fitted.terms) if t.along and t.axis == axis
+              and t.family != "warm_up"]
+        if not ks:
+            continue
+        terms = [fitted.terms[k] for k in ks]
+        idx = np.concatenate([np.arange(fitted.term_slice(k).start, fitted.term_slice(k).stop)
+                              for k in ks])
+        cov = fitted.covariance[np.ix_(idx, idx)] * inflation**2
+        excludes = tuple(n for n in fitted.names
+                         if n in (f"encoder_scale.{AXES[axis]}", f"backlash.{AXES[axis]}"))
+        lo, hi = ranges[axis]
+        extra: dict = {"families": [t.family for t in terms]}
+        for t in terms:
+            if t.family == "hysteresis":
+                extra["hysteresis_build_up_mm"] = round(t.shape["length_mm"], 4)
+            if t.family == "lead_screw_cyclic":
+                extra["pitch_mm"] = round(t.shape["pitch_mm"], 6)
+        source = "; ".join(_source(t) for t in terms)
+        stds = [(shape_std or {}).get(t.name, math.nan) * inflation for t in terms]
+        out.append(axis_map(terms, [fitted.coefficients[k] for k in ks], cov, lo, hi,
+                            tabulation_step(terms, steps.get(axis)), source=source,
+                            excludes=excludes, extra=extra, shape_std=stds))
+    return tuple(out)
+
+
+def _source(term: MapTerm) -> str:
+    if term.family == "lead_screw_cyclic":
+        return f"cyclic lead-screw error, pitch {term.shape['pitch_mm']:.3f} mm"
+    if term.family == "screw_map":
+        return f"smooth screw map (cubic spline, {int(term.shape['knots'])} inner knots)"
+    return f"hysteresis building up over {term.shape['length_mm']:.3g} mm (wound-up values)"

@@ -1,0 +1,283 @@
+"""The diagnosis's second look: errors along each axis and in time beside the library.
+
+    library's model (claimed) -> map search (mapsearch.py)
+        -> library effects the maps make redundant dropped (a backward nested test,
+           corrected for the library's size as the library's own backward check)
+        -> the final model refitted: the library's parameters by the exact model, the
+           maps beside them (mapfit.py)
+        -> each map's value, std and further parameters; one AxisMap per axis
+        -> alternatives both ways and the scans that would separate them (mapswap.py)
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ogacq.diagnose.alternatives import Alternative
+from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
+from ogacq.diagnose.mapfit import (
+    MapFit,
+    MapValue,
+    axis_maps,
+    fit_with_maps,
+    map_columns,
+    term_value,
+)
+from ogacq.diagnose.mapsearch import AxisCoverage, MapSearch, search_maps
+from ogacq.diagnose.mapswap import (
+    Proposal,
+    ScanSignatures,
+    _Linear,
+    library_swaps,
+    linearised,
+    map_swaps,
+    propose,
+    swap_families,
+)
+from ogacq.diagnose.nested import nested_test
+from ogacq.diagnose.selection import Model
+from ogacq.identify.consistency import LEVEL
+from ogacq.identify.noise import GaugeNoise
+from ogacq.model.axis_map import AxisMap
+from ogacq.model.error_maps import JointHistory, MapTerm
+from ogacq.model.gauges import AXES
+from ogacq.model.parameters import NOMINAL, PARAM_INDEX
+
+UNIT_MM = "mm"
+# what an explanation adds to the rest of a model: values, library names, map terms
+Explanation = tuple[np.ndarray, list[str], list[MapTerm]]
+# the families' words in a sentence
+WORDS = {"lead_screw_cyclic": "cyclic lead-screw error", "screw_map": "smooth screw map",
+         "hysteresis": "hysteresis building up with travel", "rail_bow": "rail bow",
+         "warm_up": "joint offset settling in time"}
+
+
+@dataclass
+class MapEffect:
+    """A map term of the final model: its value (mm) and std (inflated like every
+    effect's when the final fit is not within the noise), its further parameters,
+    its test, what else explains the readings as well."""
+
+    term: MapTerm
+    value: MapValue
+    std: float
+    p_value: float
+    delta_chi2: float  # by how much it lowered the chi-square when added
+    alternatives: list[Alternative] = field(default_factory=list)
+    coverage: AxisCoverage | None = None
+    # as a library effect's (``diagnosis.EffectFound``), for the readers of both
+    separations: list = field(default_factory=list)
+    model_spread: float = 0.0
+    local_disturbance: str | None = None
+
+    @property
+    def name(self) -> str:
+        return self.term.name
+
+    @property
+    def ambiguous(self) -> bool:
+        return bool(self.alternatives)
+
+    @property
+    def unit(self) -> str:
+        return UNIT_MM
+
+    def sentence(self) -> str:
+        """Where along which axis and what: "x axis, q from -100 to +60 mm, cyclic
+        lead-screw error of pitch 5.00 mm, about 4.8 µm"."""
+        t, v = self.term, self.value
+        where = f"{AXES[t.axis]} axis"
+        if self.coverage is not None:
+            where += f", q from {self.coverage.from_mm:+g} to {self.coverage.to_mm:+g} mm"
+        size = f"about {abs(v.value) * 1e3:.2g} µm"
+        if t.family == "lead_screw_cyclic":
+            what = f"{WORDS[t.family]} of pitch {t.shape['pitch_mm']:.4g} mm"
+        elif t.family == "screw_map":
+            what = f"{WORDS[t.family]}, largest at {v.extra['at_mm']:+g} mm"
+        elif t.family == "hysteresis":
+            what = f"{WORDS[t.family]} (over {t.shape['length_mm']:.2g} mm)"
+            size = f"lost motion about {abs(v.value) * 1e3:.2g} µm"
+        elif t.family == "rail_bow":
+            what = f"{WORDS[t.family]} toward {AXES[t.toward]}"
+            size = f"sagitta about {v.value * 1e3:+.2g} µm"
+        else:
+            what = f"{WORDS[t.family]} (time constant {t.shape['tau_s']:.0f} s)"
+        return f"{where}, {what}, {size}"
+
+    def to_json(self) -> dict:
+        std = round(float(self.std), 6) if math.isfinite(self.std) else None
+        return {**entry(self.name), "value": round(float(self.value.value), 6), "std": std,
+                "unit": self.unit, "alternatives": [entry(a.name) for a in self.alternatives],
+                "family": "error map", "p_value": float(f"{self.p_value:.3g}"),
+                "delta_chi2": round(self.delta_chi2, 1), "located": self.sentence(),
+                **self.value.extra}
+
+
+@dataclass
+class MapOutcome:
+    """What the map search found and the final model with it."""
+
+    search: MapSearch
+    fit: MapFit | None  # None: no map found (the library's model is final)
+    effects: list[MapEffect]
+    dropped: list[tuple[str, float]]  # library effects the maps made redundant, with p
+    maps: tuple[AxisMap, ...]
+    # library effect -> map terms explaining the readings as well in its place
+    library_alternatives: dict[str, list[Alternative]]
+    proposals: list[Proposal]
+    chi2_before: float  # the library model's chi-square (weighted rss / variance)
+    chi2_after: float
+
+    @property
+    def found(self) -> bool:
+        return self.fit is not None
+
+
+def _backward(problem: Problem, noise: GaugeNoise, claimed: Model, terms: list[MapTerm],
+              history: JointHistory, alpha: float) -> tuple[tuple[str, ...], list]:
+    """Drop, one at a time, library effects that the maps have made redundant: the
+    linear model about the library's solution, each effect's column left out in turn;
+    its test corrected for the library's size (each was the best of that many)."""
+    effects = list(claimed.effects)
+    dropped: list[tuple[str, float]] = []
+    if not effects or not terms:
+        return claimed.names, dropped
+    theta = claimed.theta
+    maps = problem.weighted(map_columns(problem, theta, terms, history).T).T
+    lib = problem.jacobian(theta, claimed.names)
+    # the readings as seen from the offsets with every effect at nominal
+    target = problem.weighted_residuals(theta[None])[0] + sum(
+        (lib[:, claimed.names.index(e)] * (theta[PARAM_INDEX[e]] - NOMINAL[PARAM_INDEX[e]])
+         for e in effects), np.zeros(len(lib)))
+
+    def rss_of(names: list[str]) -> tuple[float, int]:
+        x = np.column_stack([lib[:, [claimed.names.index(n) for n in names]], maps])
+        norm = np.maximum(np.linalg.norm(x, axis=0), 1e-300)
+        coef, _, rank, _ = np.linalg.lstsq(x / norm, target, rcond=1e-10)
+        rest = target - (x / norm) @ coef
+        return float(rest @ rest), int(rank)
+
+    while effects:
+        names = list(BASE_MODEL) + effects
+        rss, rank = rss_of(names)
+        pool = len(EFFECT_PARAMETERS) - len(effects) + 1
+        tests = []
+        for e in effects:
+            rss_without, rank_without = rss_of([n for n in names if n != e])
+            _, p = nested_test(rss_without, rss, max(rank - rank_without, 1),
+                               problem.n_data - rank, noise)
+            tests.append((min(1.0, p * pool), e))
+        p, worst = max(tests)
+        if p < alpha:
+            break
+        effects.remove(worst)
+        dropped.append((worst, p))
+    return BASE_MODEL + tuple(effects), dropped
+
+
+def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: float = LEVEL,
+                  separate: bool = True) -> MapOutcome:
+    """Search, refit and judge the maps beside the library's ``claimed`` model."""
+    history = JointHistory.of(problem.obs.layout)
+    search, space = search_maps(problem, noise, claimed.theta, claimed.names, claimed.rss,
+                                claimed.verdict.consistent, alpha)
+    chi2_before = claimed.rss / noise.variance
+    covs = {c.axis: c for c in search.coverage}
+    terms = search.terms
+    fitted: MapFit | None = None
+    dropped: list[tuple[str, float]] = []
+    names = claimed.names
+    theta0 = claimed.theta.copy()
+    if terms:
+        names, dropped = _backward(problem, noise, claimed, terms, history, alpha)
+        for name, _ in dropped:
+            theta0[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
+        fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha)
+    inflation = 1.0
+    if fitted is not None and math.isfinite(fitted.verdict.chi2_dof):
+        inflation = math.sqrt(max(1.0, fitted.verdict.chi2_dof))
+    effects = []
+    if fitted is not None:
+        added = {s.added.term.name: s for s in search.steps}
+        for k, term in enumerate(fitted.terms):
+            step = added[term.name]
+            value = term_value(term, fitted.coefficients[k], fitted.term_covariance(k)
+                               * inflation**2, step.added.shape_std * inflation)
+            effects.append(MapEffect(term, value, value.std, step.added.p_value,
+                                     (step.rss_before - step.rss_after) / noise.variance,
+                                     coverage=covs.get(term.axis)))
+    maps = axis_maps(fitted, inflation, {a: (c.from_mm, c.to_mm) for a, c in covs.items()},
+                     {a: c.step_mm for a, c in covs.items()},
+                     {s.added.term.name: s.added.shape_std for s in search.steps}) \
+        if fitted is not None else ()
+    outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
+                         (fitted.rss if fitted is not None else claimed.rss) / noise.variance)
+    if separate and problem.obs.raw and search.coverage:
+        _honesty(problem, noise, claimed, outcome, history, inflation)
+    return outcome
+
+
+def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOutcome,
+             history: JointHistory, inflation: float) -> None:
+    """Alternatives both ways between the library's effects and the maps, and the scans
+    that would tell each pair apart."""
+    fitted = outcome.fit
+    if fitted is None:  # the library's model, as a map fit without maps
+        fitted = fit_with_maps(problem, noise, claimed.names, claimed.theta, [], history,
+                               iterations=1)
+    library_effects = tuple(n for n in fitted.names if n not in BASE_MODEL)
+    if not library_effects and not fitted.terms:
+        return
+    lin = linearised(problem, noise, fitted, history, inflation)
+    taken = {t.name for t in fitted.terms}
+    candidates = swap_families(outcome.search.coverage, fitted.names, taken)
+    swaps = library_swaps(lin, library_effects, candidates) if library_effects else {}
+    outside = tuple(n for n in EFFECT_PARAMETERS if n not in fitted.names)
+    per_map = map_swaps(lin, outside, candidates) if fitted.terms else {}
+    signatures = ScanSignatures(problem.obs.machine, noise, fitted.theta, fitted.names,
+                                fitted.terms)
+    proposals: list[Proposal] = []
+    for name, found in swaps.items():
+        outcome.library_alternatives[name] = [a for _, a in found]
+        for term, alt in found[:2]:
+            k = PARAM_INDEX[name]
+            one: Explanation = (np.array([fitted.theta[k] - NOMINAL[k]]), [name], [])
+            other: Explanation = (_swap_coefficients(lin, name, term), [], [term])
+            proposals.append(propose(signatures, name, term.name, one, other,
+                                     alt.delta_chi2))
+    for effect in outcome.effects:
+        effect.alternatives = per_map.get(effect.name, [])
+        k = fitted.terms.index(effect.term)
+        for alt in effect.alternatives[:2]:
+            one = (fitted.coefficients[k], [], [effect.term])
+            if alt.name in PARAM_INDEX:
+                j = PARAM_INDEX[alt.name]
+                other = (np.array([alt.value - NOMINAL[j]]), [alt.name], [])
+            else:
+                term = next(t for t in candidates if t.name == alt.name)
+                other = (_swap_coefficients(lin, None, term, replace=k), [], [term])
+            proposals.append(propose(signatures, effect.name, alt.name, one, other,
+                                     alt.delta_chi2))
+    outcome.proposals = proposals
+
+
+def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
+                       replace: int | None = None) -> np.ndarray:
+    """The amplitudes of ``term`` fitted in place of library effect ``name`` or of the
+    model's map term number ``replace``."""
+    if name is not None:
+        keep = [k for k, n in enumerate(lin.names) if n != name] + \
+            list(range(len(lin.names), lin.columns.shape[1]))
+        target = lin.residual + lin.signature_of_effect(name)
+    else:
+        assert replace is not None
+        start = len(lin.names) + sum(t.size for t in lin.terms[:replace])
+        keep = [j for j in range(lin.columns.shape[1])
+                if not start <= j < start + lin.terms[replace].size]
+        target = lin.residual + lin.signature_of_term(replace)
+    _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
+    return coef[-term.size:]

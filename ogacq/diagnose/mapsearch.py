@@ -1,0 +1,481 @@
+"""Search the residuals for errors along each axis and in time that the effect
+library lacks (``model/error_maps.py``), after the library search.
+
+Where a campaign reads a joint at enough positions (a scan), every family is tried
+on every such axis beside the current model (the joint offsets, the library's
+effects found, the maps found so far):
+
+* the cyclic lead-screw error by a periodogram: the gain of a sine and a cosine
+  of ``q`` at every trial frequency, the least-squares spectrum of N. R. Lomb
+  (Astrophys. Space Sci. 39, 1976) and J. D. Scargle (ApJ 263, 1982), here with
+  the joint's sensitivity and the model's own directions taken out, on a grid five
+  times finer than the record's resolution 1 / span (J. T. VanderPlas, "Understanding
+  the Lomb-Scargle periodogram", ApJS 236, 2018, section 7.1), from three periods
+  over the span to 2.5 readings per period; the peak refined between grid points;
+* the smooth screw map as a cubic spline, its number of knots chosen by the
+  Bayesian information criterion;
+* hysteresis building up over a length chosen on a grid (0, a constant backlash,
+  to 32 mm), where the joint was read from both sides;
+* the rail's bow toward each of the other two axes;
+* the joint offset settling with a time constant chosen on a grid, where postures
+  were read again later and against a stated noise that the display's rounding does
+  not dominate (what varies between the cycles cannot be tested otherwise:
+  ``MapSpace.within_groups_tested``).
+
+Each family's best shape is tested against the current model by the library's
+nested test (``nested.py``), its p multiplied by the number of shapes tried and
+then by the number of families tried at that step (Bonferroni: the chance that
+noise alone gets any of them past the level is below the level). A family is
+added when it passes, pays for its parameters by the BIC (shape parameters
+counted) and has a plausible size; the best by the BIC first, then the search goes
+on from there. The level is the verdict's when the library's model is not within
+the noise, and ten times stricter when it is: a search run on every campaign must
+not raise the false alarms of the calibrated verdict (``bench/verdict_calibration.py
+--maps`` counts them).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.mapspace import Gain, MapSpace
+from ogacq.diagnose.nested import nested_tests
+from ogacq.identify.consistency import LEVEL
+from ogacq.identify.noise import GaugeNoise
+from ogacq.model.error_maps import MapTerm
+from ogacq.model.gauges import AXES
+from ogacq.model.measurement import ReadingsLayout
+
+# A joint read at fewer positions of its own travel is not searched for maps: a
+# cyclic error needs more than two readings per period over several periods, a
+# smooth map more positions than its spline has functions. No source: the smallest
+# record on which these families are determined at all, with a margin.
+MIN_POSITIONS = 10
+OVERSAMPLE = 5  # periodogram grid: this many frequencies per resolution element
+MIN_PERIODS = 3.0  # over the span: a longer period is the smooth map's
+SAMPLES_PER_PERIOD = 2.5  # above Nyquist's 2, so a peak is not at the grid's edge
+KNOTS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
+BUILD_UP_MM = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
+WARM_UP_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # of the campaign's duration
+MAX_TERMS = 4
+# Beyond these sizes a map is no explanation a machine in service would have (no
+# source: orders of magnitude beyond the worst rolled screws' lead error, about
+# 0.2 mm per 300 mm, and the library's 1 mm backlash).
+PLAUSIBLE_MM = {"lead_screw_cyclic": 0.1, "screw_map": 0.5, "hysteresis": 1.0,
+                "rail_bow": 0.5, "warm_up": 1.0}
+STRICTER_WHEN_CONSISTENT = 10.0
+CHUNK = 64  # trial frequencies per batch
+
+
+@dataclass(frozen=True)
+class AxisCoverage:
+    """How a campaign read one joint: its own leg's positions, their spacing, the
+    joint's whole range over all readings, and whether it was read from both sides."""
+
+    axis: int
+    positions: int
+    from_mm: float
+    to_mm: float
+    step_mm: float
+    both_sides: bool
+    shortest_travel_mm: float  # after a reversal (inf: never reversed)
+    # the display step, when its rounding dominates the gauge's noise (else None): the
+    # rounding then follows the signal along q and would pass for a map
+    display_limited_mm: float | None = None
+
+    @property
+    def dense(self) -> bool:
+        return self.positions >= MIN_POSITIONS
+
+    @property
+    def searchable(self) -> bool:
+        return self.dense and self.display_limited_mm is None
+
+    @property
+    def span_mm(self) -> float:
+        return self.to_mm - self.from_mm
+
+    def describe(self) -> str:
+        name = AXES[self.axis]
+        if self.dense and self.display_limited_mm is not None:
+            return (f"{name} axis read at {self.positions} positions, but the display's "
+                    f"{self.display_limited_mm * 1e3:g} µm step dominates the gauge noise: "
+                    "repeats round alike and the rounding follows the readings along q, "
+                    "so it would pass for a map; not searched (a finer indicator would tell)")
+        if self.dense:
+            return (f"{name} axis read at {self.positions} positions, {self.from_mm:+g} to "
+                    f"{self.to_mm:+g} mm, every {self.step_mm:.3g} mm"
+                    + (", from both sides" if self.both_sides else ""))
+        return (f"{name} axis read at {self.positions} positions of its travel only: too few "
+                f"for a map along q (at least {MIN_POSITIONS}; a scan shows one)")
+
+
+def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
+             display_limited_mm: float | None = None) -> tuple[AxisCoverage, ...]:
+    out = []
+    for a in range(3):
+        own = layout.leg == a
+        q_all = np.round(layout.q_mm[:, a], 6)
+        q_own = np.unique(q_all[own]) if own.any() else np.unique(q_all)
+        step = float(np.median(np.diff(q_own))) if len(q_own) > 1 else math.inf
+        sides = layout.approach[own, a] if own.any() else layout.approach[:, a]
+        both = bool((sides > 0).any() and (sides < 0).any())
+        finite = travel_mm[:, a][np.isfinite(travel_mm[:, a]) & (travel_mm[:, a] > 0)]
+        out.append(AxisCoverage(a, len(q_own), float(q_all.min()), float(q_all.max()), step,
+                                both, float(finite.min()) if len(finite) else math.inf,
+                                display_limited_mm))
+    return tuple(out)
+
+
+@dataclass(frozen=True)
+class Periodogram:
+    """The gain of a cyclic error at each trial period (mm^2, weighted)."""
+
+    axis: int
+    pitch_mm: np.ndarray
+    gain: np.ndarray
+
+
+@dataclass(frozen=True)
+class MapCandidate:
+    """A family at its best shape beside the current model."""
+
+    term: MapTerm
+    gain: float  # weighted rss it removes
+    rank: int  # its columns' rank beside the model
+    coefficients: np.ndarray
+    shapes_tried: int
+    shape_parameters: int  # estimated beyond its amplitudes (pitch, length, tau)
+    p_value: float = 1.0  # nested test, corrected for its shapes and the families tried
+    delta_bic: float = 0.0
+    size_mm: float = 0.0  # its largest displacement: what plausibility judges
+    reason: str = ""  # why not taken ("" when eligible)
+    shape_std: float = math.nan  # of the shape parameter (pitch mm, build-up mm, tau s)
+    periodogram: Periodogram | None = None
+    # its shape refined between the grid's points, with the shape's std: done only for
+    # a candidate that is taken (the test is on the grid, whose multiplicity it counts)
+    refine: Callable[[], MapCandidate] | None = field(default=None, repr=False,
+                                                       compare=False)
+
+    def refined(self) -> MapCandidate:
+        if self.refine is None:
+            return self
+        better = self.refine()
+        return replace(better, p_value=self.p_value, delta_bic=self.delta_bic,
+                       size_mm=self.size_mm, reason=self.reason, refine=None)
+
+    @property
+    def eligible(self) -> bool:
+        return not self.reason
+
+
+@dataclass
+class MapStep:
+    added: MapCandidate
+    considered: list[MapCandidate]
+    rss_before: float
+    rss_after: float
+
+
+@dataclass
+class MapSearch:
+    coverage: tuple[AxisCoverage, ...]
+    level: float
+    steps: list[MapStep] = field(default_factory=list)
+    last_considered: list[MapCandidate] = field(default_factory=list)
+    periodograms: list[Periodogram] = field(default_factory=list)
+    searched: bool = False  # any axis dense enough (or time spread) to search at all
+
+    @property
+    def terms(self) -> list[MapTerm]:
+        return [s.added.term for s in self.steps]
+
+
+def _noise_var(space: MapSpace, noise: GaugeNoise) -> float:
+    """The variance a gain is judged against: the gauge noise, or what the current
+    model leaves unexplained when that is more (as the nested test does)."""
+    return max(noise.variance, space.rss / max(space.dof, 1))
+
+
+def _golden(f: Callable[[float], float], lo: float, hi: float, steps: int = 30) -> float:
+    """The maximum of a unimodal ``f`` on [lo, hi] by golden-section search."""
+    ratio = (math.sqrt(5) - 1) / 2
+    a, b = lo, hi
+    c, d = b - ratio * (b - a), a + ratio * (b - a)
+    fc, fd = f(c), f(d)
+    for _ in range(steps):
+        if fc > fd:
+            b, d, fd = d, c, fc
+            c = b - ratio * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + ratio * (b - a)
+            fd = f(d)
+    return (a + b) / 2
+
+
+def _curvature_std(f: Callable[[float], float], x: float, h: float, var: float) -> float:
+    """Std of a shape parameter from the curvature of the gain at its best value: the
+    profile chi-square rises by one a std away."""
+    second = (f(x + h) - 2 * f(x) + f(x - h)) / h**2
+    return math.sqrt(2 * var / -second) if second < 0 else math.inf
+
+
+class _Families:
+    """Every family's best shape on one axis, beside one model."""
+
+    def __init__(self, space: MapSpace, cov: AxisCoverage, names: tuple[str, ...],
+                 noise: GaugeNoise) -> None:
+        self.space, self.cov, self.names, self.noise = space, cov, names, noise
+        self.rep = space.representative
+        h = space.history
+        self.gauge_rep = space.problem.obs.layout.gauge[self.rep]
+        self.q_rep = h.q_mm[self.rep, cov.axis]
+        self.q_set = h.setting_q_mm[self.gauge_rep, cov.axis]
+        s_r, s_s = space.along
+        self.s_rep, self.s_set = s_r[self.rep, cov.axis], s_s[self.rep, cov.axis]
+
+    def _candidate(self, term: MapTerm, gain: Gain, k: int, tried: int, shape_params: int,
+                   **kw: Any) -> MapCandidate:
+        return MapCandidate(term, float(gain.gain[k]), int(gain.rank[k]),
+                            gain.coefficients[k], tried, shape_params, **kw)
+
+    def periodic(self) -> tuple[MapCandidate, Periodogram] | None:
+        cov, a = self.cov, self.cov.axis
+        min_pitch = SAMPLES_PER_PERIOD * cov.step_mm
+        max_pitch = cov.span_mm / MIN_PERIODS
+        if not min_pitch < max_pitch:
+            return None
+        df = 1.0 / (OVERSAMPLE * cov.span_mm)
+        freqs = np.arange(1.0 / max_pitch, 1.0 / min_pitch + df / 2, df)
+        gains = np.empty(len(freqs))
+        for lo in range(0, len(freqs), CHUNK):
+            gains[lo:lo + CHUNK] = self._periodic_gain(freqs[lo:lo + CHUNK]).gain
+        best = int(np.argmax(gains))
+        gram = Periodogram(a, 1.0 / freqs, gains)
+
+        def at(f: float) -> float:
+            return float(self._periodic_gain(np.array([f])).gain[0])
+
+        def refine() -> MapCandidate:
+            top = float(freqs[best])
+            if 0 < best < len(freqs) - 1:  # at the grid's edge it is taken as it is
+                found = _golden(at, float(freqs[best - 1]), float(freqs[best + 1]), 20)
+                if at(found) > gains[best]:
+                    top = found
+            std_f = _curvature_std(at, top, df / 20, _noise_var(self.space, self.noise))
+            term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": 1.0 / top})
+            return self._candidate(term, self._periodic_gain(np.array([top])), 0, len(freqs),
+                                   1, shape_std=std_f / top**2, periodogram=gram)
+
+        term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": 1.0 / float(freqs[best])})
+        grid = self._candidate(term, self._periodic_gain(freqs[best:best + 1]), 0, len(freqs),
+                               1, periodogram=gram, refine=refine)
+        return grid, gram
+
+    def _periodic_gain(self, freqs: np.ndarray) -> Gain:
+        w = 2 * np.pi * freqs[:, None]  # (F, 1)
+        ref = 0.0
+        values = np.stack([
+            np.sin(w * (self.q_rep - ref)) * self.s_rep
+            + np.sin(w * (self.q_set - ref)) * self.s_set,
+            (np.cos(w * (self.q_rep - ref)) - 1.0) * self.s_rep
+            + (np.cos(w * (self.q_set - ref)) - 1.0) * self.s_set], axis=1)  # (F, 2, G)
+        return self.space.gain_grouped(values)
+
+    def screw_map(self) -> MapCandidate | None:
+        cov = self.cov
+        detrend = f"encoder_scale.{AXES[cov.axis]}" in self.names
+        choices = [k for k in KNOTS if k + 4 <= cov.positions // 2]
+        if not choices:
+            return None
+        var = self.noise.variance
+        log_n = math.log(max(self.space.problem.n_data, 2))
+        best: tuple[float, MapTerm, Gain] | None = None
+        for knots in choices:
+            term = MapTerm("screw_map", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
+                                                  "knots": knots, "detrended": float(detrend)})
+            gain = self.space.gain_of(term)
+            bic = -float(gain.gain[0]) / var + int(gain.rank[0]) * log_n
+            if best is None or bic < best[0]:
+                best = (bic, term, gain)
+        assert best is not None
+        return self._candidate(best[1], best[2], 0, len(choices), 0)
+
+    def hysteresis(self) -> MapCandidate | None:
+        cov = self.cov
+        if not cov.both_sides or not math.isfinite(cov.shortest_travel_mm):
+            return None
+        travel = self.space.history.travel_mm[:, cov.axis]
+        longest = float(np.max(travel[np.isfinite(travel)], initial=0.0))
+        grid = [b for b in BUILD_UP_MM if b <= longest / 2]
+        if not grid:
+            return None
+
+        def gain_at(length: float) -> Gain:
+            return self.space.gain_of(MapTerm("hysteresis", cov.axis, {"length_mm": length}))
+
+        gains = [gain_at(b) for b in grid]
+        best = int(np.argmax([float(g.gain[0]) for g in gains]))
+
+        def refine() -> MapCandidate:
+            length, gain = grid[best], gains[best]
+            std = math.nan
+            if 0 < best < len(grid) - 1 and grid[best - 1] > 0:
+                def of_log(x: float) -> float:
+                    return float(gain_at(math.exp(x)).gain[0])
+
+                x = _golden(of_log, math.log(grid[best - 1]), math.log(grid[best + 1]), 16)
+                refined = gain_at(math.exp(x))
+                if refined.gain[0] >= gain.gain[0]:
+                    length, gain = math.exp(x), refined
+                std = length * _curvature_std(of_log, math.log(length), 0.05,
+                                              _noise_var(self.space, self.noise))
+            term = MapTerm("hysteresis", cov.axis, {"length_mm": length})
+            return self._candidate(term, gain, 0, len(grid), int(length > 0), shape_std=std)
+
+        term = MapTerm("hysteresis", cov.axis, {"length_mm": grid[best]})
+        return self._candidate(term, gains[best], 0, len(grid), int(grid[best] > 0),
+                               refine=refine)
+
+    def rail_bows(self) -> list[MapCandidate]:
+        cov = self.cov
+        out = []
+        for toward in range(3):
+            if toward == cov.axis:
+                continue
+            term = MapTerm("rail_bow", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
+                                                 "toward": toward})
+            out.append(self._candidate(term, self.space.gain_of(term), 0, 1, 0))
+        return out
+
+    def warm_up(self, duration_s: float) -> MapCandidate | None:
+        if duration_s <= 0:
+            return None
+        grid = [f * duration_s for f in WARM_UP_FRACTIONS]
+        gains = [(self.space.gain_of(MapTerm("warm_up", self.cov.axis, {"tau_s": tau})), tau)
+                 for tau in grid]
+        gain, tau = max(gains, key=lambda g: float(g[0].gain[0]))
+        return self._candidate(MapTerm("warm_up", self.cov.axis, {"tau_s": tau}), gain, 0,
+                               len(grid), 1)
+
+
+def _size_mm(term: MapTerm, coefficients: np.ndarray) -> float:
+    """The largest displacement the term makes over its axis's range (both sides)."""
+    if term.family == "lead_screw_cyclic":
+        return float(np.hypot(coefficients[0], coefficients[1]))
+    if term.family in ("hysteresis", "rail_bow", "warm_up"):
+        return float(abs(coefficients[0]))
+    lo, hi = term.shape["from_mm"], term.shape["to_mm"]
+    q = np.linspace(lo, hi, 401)
+    shape = term.shape_of(q, np.ones(len(q)), np.full(len(q), np.inf), np.zeros(len(q)))
+    return float(np.max(np.abs(coefficients @ shape)))
+
+
+def _repeated_in_time(layout: ReadingsLayout) -> bool:
+    """Whether postures were read again later (cycles): time is then separable from
+    position."""
+    return bool(np.any(layout.repeat_size > 1)) and float(np.ptp(layout.t_s)) > 0
+
+
+def _candidates(space: MapSpace, covs: tuple[AxisCoverage, ...], names: tuple[str, ...],
+                noise: GaugeNoise, taken: set[str], grams: list[Periodogram]) -> list[MapCandidate]:
+    layout = space.problem.obs.layout
+    out: list[MapCandidate] = []
+    for cov in covs:
+        if not cov.searchable:
+            continue
+        fam = _Families(space, cov, names, noise)
+        found: list[MapCandidate | None] = []
+        periodic = fam.periodic()
+        if periodic is not None:
+            found.append(periodic[0])
+            grams.append(periodic[1])
+        found += [fam.screw_map(), fam.hysteresis(), *fam.rail_bows()]
+        out += [c for c in found if c is not None and c.term.name not in taken]
+    if _repeated_in_time(layout) and space.within_groups_tested:
+        for cov in covs:
+            fam = _Families(space, cov, names, noise)
+            warm = fam.warm_up(float(np.ptp(layout.t_s)))
+            if warm is not None and warm.term.name not in taken:
+                out.append(warm)
+    return out
+
+
+def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
+           level: float) -> list[MapCandidate]:
+    """Each candidate's corrected p, BIC change, size and whether it may be added."""
+    if not cands:
+        return []
+    gains = np.array([c.gain for c in cands])
+    ranks = np.array([c.rank for c in cands])
+    dof = space.dof - ranks
+    _, p = nested_tests(space.rss, space.rss - gains, ranks, dof, noise)
+    log_n = math.log(max(space.problem.n_data, 2))
+    out = []
+    for k, c in enumerate(cands):
+        corrected = min(1.0, float(p[k]) * c.shapes_tried * len(cands))
+        bic = -c.gain / noise.variance + (c.rank + c.shape_parameters) * log_n
+        size = _size_mm(c.term, c.coefficients)
+        if c.rank == 0:
+            reason = "nothing of it is left beside the model"
+        elif corrected >= level:
+            reason = (f"not significant (p = {corrected:.2g} after {c.shapes_tried} shapes "
+                      f"and {len(cands)} families)")
+        elif bic >= 0:
+            reason = "does not pay for its parameters (BIC)"
+        elif size > PLAUSIBLE_MM[c.term.family]:
+            reason = f"needs an implausible size ({size * 1e3:.0f} µm)"
+        else:
+            reason = ""
+        out.append(replace(c, p_value=corrected, delta_bic=bic, size_mm=size, reason=reason))
+    return out
+
+
+def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
+                names: tuple[str, ...], rss: float, consistent: bool,
+                alpha: float = LEVEL, max_terms: int = MAX_TERMS,
+                space: MapSpace | None = None) -> tuple[MapSearch, MapSpace | None]:
+    """Forward selection of map terms beside the model ``names`` fitted at ``theta``
+    (weighted rss ``rss``); ``consistent``: whether that model is within the noise
+    (the search then runs at the stricter level). Returns the search and the space
+    grown by the terms added (None when nothing could be searched)."""
+    level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
+    if not problem.obs.raw:
+        return MapSearch((), level), None
+    space = space if space is not None else MapSpace(problem, theta, names, rss)
+    # with the display's rounding repeated by the cycles (not dithered by the gauge's
+    # scatter), the posture means' errors are the rounding of a signal that varies
+    # smoothly along q: a structure of its own, which the maps would fit
+    limited = None if noise.dithered else noise.step_mm
+    covs = coverage(problem.obs.layout, space.history.travel_mm, limited)
+    search = MapSearch(covs, level)
+    search.searched = any(c.searchable for c in covs) or (
+        _repeated_in_time(problem.obs.layout) and space.within_groups_tested)
+    if not search.searched:
+        return search, space
+    taken: set[str] = set()
+    while len(search.steps) < max_terms:
+        grams: list[Periodogram] = []
+        judged = _judge(_candidates(space, covs, names, noise, taken, grams), space, noise,
+                        level)
+        if not search.periodograms:
+            search.periodograms = grams
+        eligible = [c for c in judged if c.eligible]
+        if not eligible:
+            search.last_considered = sorted(judged, key=lambda c: c.delta_bic)
+            break
+        chosen = min(eligible, key=lambda c: c.delta_bic).refined()
+        before = space.rss
+        space = space.extended(space.weighted(space.unweighted(chosen.term)))
+        search.steps.append(MapStep(chosen, sorted(judged, key=lambda c: c.delta_bic),
+                                    before, space.rss))
+        taken.add(chosen.term.name)
+    return search, space

@@ -1,0 +1,136 @@
+"""The side a joint approached from before its first recorded move: unknown, not
+"none".
+
+A readings CSV records where each joint was, not how it got there: the side of
+each reading is the direction of the joint's last move in the recorded order
+(``measurement.approach_from_sequence``), and before the joint's first recorded move
+there is none. The model takes such a reading at the middle of the joint's lost
+motion (side 0), half a backlash from where the joint really was, on one side or
+the other. With a backlash in the machine, those readings then misfit by half of
+it, and a leg length can fit the campaign better than the backlash that is there.
+
+The side is a nuisance: one unknown sign per joint. It matters only through the
+joint's lost motion, so it is resolved where it does: for each joint whose readings
+before its first move see its position (a Zero posture does not: there its leg is
+parallel to the axis), the joint offsets and the backlashes are fitted with
+every combination of sides taken as from below or from above; a side is kept
+when its combination fits best, better than with that side flipped by more than the
+1 % point of chi-square with one degree of freedom, and that joint's backlash is as
+significant there; otherwise it stays unknown (the middle of the lost motion: half a
+backlash off whichever side it was, where a wrong side would be a whole one).
+The recorded approach is left as it is (the repeat groups, the verdict of the joint
+offsets, which have no lost motion, do not change): the model's side is the
+layout's ``side``. A session could tell the side from its homing and the moves
+before its first reading; it records neither today, so sessions are treated alike.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem, fit_many
+from ogacq.diagnose.library import BASE_MODEL
+from ogacq.identify.noise import GaugeNoise
+from ogacq.identify.observations import Observations, readings_observations
+from ogacq.model.gauges import AXES
+from ogacq.model.joint_sensitivity import joint_sensitivity
+
+# A reading whose sensitivity to its joint is below this is not moved by the side: a
+# lost motion of tens of micrometres would change it by a fraction of one (at the Zero
+# posture the sensitivity is of the order of the offsets over the leg, 1e-2 at most).
+SENSITIVE = 0.02
+# chi-square of one degree of freedom at 1 %: a side is taken only when the readings
+# favour it that clearly (a wrong side misplaces the joint by a whole backlash, the
+# unknown middle by half of one), and the backlash must be there as clearly
+BETTER_BY = 6.63
+SIGNIFICANT = 6.63
+
+
+@dataclass(frozen=True)
+class SideChoice:
+    """The side taken for a joint's readings before its first recorded move."""
+
+    axis: int
+    side: int  # +1 from below, -1 from above, 0 still unknown
+    readings: int  # how many readings it concerns
+    gain_chi2: float  # by how much the better side fits better than the other
+
+    def describe(self) -> str:
+        name = AXES[self.axis]
+        if self.side == 0:
+            return (f"joint {name}: the side it was approached from before its first "
+                    f"recorded move is unknown ({self.readings} readings); neither side fits "
+                    "its lost motion better")
+        way = "below" if self.side > 0 else "above"
+        return (f"joint {name}: the side before its first recorded move is unknown "
+                f"({self.readings} readings); taken as from {way}, where its backlash fits "
+                f"better by chi-square {self.gain_chi2:.1f}")
+
+
+def unknown_rows(obs: Observations) -> np.ndarray:
+    """(n, 3) the readings whose joint's side is unknown (0) though the joint moves
+    later in the record."""
+    side = obs.layout.lost_motion_side
+    later = np.flip(np.maximum.accumulate(np.flip(side != 0, axis=0), axis=0), axis=0)
+    return (side == 0) & later
+
+
+def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
+                  theta: np.ndarray) -> tuple[Observations, Problem, list[SideChoice]]:
+    """``obs`` with each joint's unknown side resolved where its lost motion decides it
+    (``theta``: the joint offsets' fit). Every combination of the unknown joints'
+    sides is fitted with the joint offsets and the three backlashes; a joint's side
+    is taken from the best combination when flipping it alone fits worse by more
+    than ``BETTER_BY`` and its backlash is significant there (dropping it costs more
+    than chi-square's 1 % point of one degree of freedom)."""
+    if not obs.raw:
+        return obs, problem, []
+    unknown = unknown_rows(obs)
+    if not unknown.any():
+        return obs, problem, []
+    along = joint_sensitivity(theta, obs.layout, obs.machine).along()[0]
+    rows = unknown & (np.abs(along) > SENSITIVE)
+    joints = [a for a in range(3) if rows[:, a].any()]
+    if not joints:
+        return obs, problem, []
+    backlash = tuple(f"backlash.{a}" for a in AXES)
+    side = obs.layout.lost_motion_side.copy()
+
+    def trial(signs: tuple[int, ...]) -> np.ndarray:
+        out = side.copy()
+        for axis, sign in zip(joints, signs, strict=True):
+            out[rows[:, axis], axis] = sign
+        return out
+
+    combos = list(itertools.product((1, -1), repeat=len(joints)))
+    fits = {}
+    for signs in combos:
+        variant = Problem(_with_side(obs, trial(signs)), noise)
+        fits[signs] = (variant, float(fit_many(variant, theta, BASE_MODEL, [backlash]).rss[0]))
+    best = min(combos, key=lambda c: fits[c][1])
+    variant, rss = fits[best]
+    choices = []
+    taken = list(best)
+    for k, axis in enumerate(joints):
+        flipped = tuple(-s if j == k else s for j, s in enumerate(best))
+        gain = (fits[flipped][1] - rss) / noise.variance
+        without = tuple(n for n in backlash if n != backlash[axis])
+        cost = (float(fit_many(variant, theta, BASE_MODEL, [without]).rss[0]) - rss) \
+            / noise.variance
+        if gain > BETTER_BY and cost > SIGNIFICANT:
+            choices.append(SideChoice(axis, best[k], int(rows[:, axis].sum()), gain))
+        else:
+            taken[k] = 0
+            choices.append(SideChoice(axis, 0, int(rows[:, axis].sum()), gain))
+    if not any(taken):
+        return obs, problem, choices
+    resolved = _with_side(obs, trial(tuple(taken)))
+    return resolved, Problem(resolved, noise), choices
+
+
+def _with_side(obs: Observations, side: np.ndarray) -> Observations:
+    layout = replace(obs.layout, side=side)
+    return readings_observations(obs.machine, layout, obs.values, obs.source)
