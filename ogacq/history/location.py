@@ -20,6 +20,7 @@ says it in a warning and goes on.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from dataclasses import dataclass
@@ -165,11 +166,23 @@ def history_for_session(option: str | None, session_path: Path | None = None,
     is switched off."""
     named = _named(option)
     if named is None:
-        return default_location()
+        location = default_location()
+        _make_folder(Path(location.url.database or "").parent)
+        return location
     value, origin = named
     if value.strip().lower() in DISABLED:
         return None
     return parse_location(value, origin)
+
+
+def _make_folder(folder: Path) -> None:
+    """ogacq's data folder made on first use, readable by its owner only (XDG Base
+    Directory Specification 0.8: a missing destination directory is created with
+    permissions 0700). A folder the history names is never made: a typo would be."""
+    # a folder that cannot be made: opening the history says what is wrong, and the
+    # command goes on
+    with contextlib.suppress(OSError):
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
 
 
 def history_to_read(option: str | None, folder: Path | None = None) -> HistoryLocation:

@@ -41,6 +41,9 @@ def test_run_again_with_session_warns_first_and_ends_with_what_to_do(
         tmp_path, capsys, monkeypatch, caplog, ogacq_home):
     campaign_dir = tmp_path / "campaign"
     monkeypatch.setenv("COLUMNS", "250")  # rich would wrap the long lines
+    # a first use: ogacq's data folder does not exist yet (made, for its owner only)
+    ogacq_home = ogacq_home / "first use"
+    monkeypatch.setenv("OGACQ_HOME", str(ogacq_home))
     path = write_campaign(campaign_dir, seed=3, extra="cycles = 1\n" + FAST_STABILITY)
     first = ogacq_here(capsys, monkeypatch, "run", path)
     assert first.returncode == 0, first.stderr
@@ -89,6 +92,7 @@ def test_run_again_with_session_warns_first_and_ends_with_what_to_do(
     assert not (campaign_dir / "session-2.jsonl").exists()
     # both in the one history of ogacq's data folder, found from any folder
     assert f"1 calibration recorded in {ogacq_home / 'history.sqlite'}" in again.stderr
+    assert ogacq_home.stat().st_mode & 0o777 == 0o700
     monkeypatch.chdir(tmp_path)
     listed = ogacq_here(capsys, monkeypatch, "history", "--json", "machine")
     assert len(json.loads(listed.stdout)["calibrations"]) == 2
