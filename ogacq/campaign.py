@@ -82,14 +82,17 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                  simulator: SimulatorStack | None = None,
                  wrap_station: StationAdapter | None = None,
                  header_extra: dict[str, Any] | None = None,
-                 environment_at_end: EnvironmentAsker | None = None) -> CampaignOutcome:
+                 environment_at_end: EnvironmentAsker | None = None,
+                 checked: Callable[[], None] | None = None) -> CampaignOutcome:
     """Run (or resume) a campaign; raises CampaignStopped when it cannot finish.
 
     ``simulator``: a running simulator to use instead of starting one;
     ``wrap_station``: adapts the opened station for this run (the wizard's pause
     checkpoints and gauges read by eye); ``header_extra``: more session header;
     ``environment_at_end``: asks the temperatures at the end (default: the sensor or
-    the simulator the campaign names, if any).
+    the simulator the campaign names, if any); ``checked``: called once the campaign
+    passed its gates (session writable, gauges in date) and its station opened, before
+    anything moves.
     """
     # before the station opens: a session that cannot be written is found before homing
     check_writable(resume.path if resume is not None else campaign.session,
@@ -102,6 +105,8 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
     if resume is not None:
         check_same_maps(resume, maps)
     with open_station(campaign, simulator) as station:
+        if checked is not None:
+            checked()
         started = resume is None or not resume.of_type(EnvironmentRecord)
         environment = read_environment(campaign, station, "start") if started else None
         station.prepare()

@@ -16,7 +16,7 @@ from typing import Any
 
 from ogacq.campaign_file import Campaign, GaugeSpec
 from ogacq.errors import Refused
-from ogacq.model.gauges import GAUGE_KEYS
+from ogacq.model.gauges import GAUGE_KEYS, gauges_on
 from ogacq.model.instrument import Instrument
 from ogacq.session.records import EnvironmentRecord, OverrideRecord
 from ogacq.station import DeviceStation
@@ -70,6 +70,40 @@ def check_instruments(campaign: Campaign, *, overridden: Iterable[str] = (),
                            due=e.instrument.due.isoformat() if e.instrument.due else None,
                            reason=campaign.override_expired,
                            operator=campaign.operator or None) for e in expired]
+
+
+def traceability_gaps(campaign: Campaign) -> list[str]:
+    """What the campaign's record will lack, said before anything moves: no operator,
+    a gauge of the plan without a calibration certificate, a certificate without its
+    U and k (the uncertainty budget then leaves that gauge's calibration out and the
+    record says it is incomplete: docs/calibration-record.md sections 1-3)."""
+    gaps = []
+    if not campaign.operator:
+        gaps.append("no operator is named (operator = \"NAME\" in the campaign file): the "
+                    "record will say the operator was not given")
+    given = {i.gauge: i for i in campaign.instruments()}
+    planned = [g.key for g in gauges_on(tuple(campaign.protocol.legs))]
+    uncertified = [g for g in planned if g not in given or not given[g].certificate]
+    without_u = [g for g in planned if g not in uncertified
+                 and given[g].standard_uncertainty_mm is None]
+    budget = ("left out of the uncertainty budget, which the record will mark incomplete")
+    if uncertified:
+        gaps.append(f"{_gauges(uncertified)} no calibration certificate ([[gauges]] "
+                    f"certificate, uncertainty_mm, uncertainty_k): {_their(uncertified)} "
+                    f"calibration is {budget}")
+    if without_u:
+        gaps.append(f"{_gauges(without_u)} a certificate without its expanded uncertainty "
+                    f"([[gauges]] uncertainty_mm and uncertainty_k): {_their(without_u)} "
+                    f"calibration is {budget}")
+    return gaps
+
+
+def _gauges(keys: list[str]) -> str:
+    return f"gauge {keys[0]} has" if len(keys) == 1 else f"gauges {', '.join(keys)} have"
+
+
+def _their(keys: list[str]) -> str:
+    return "its" if len(keys) == 1 else "their"
 
 
 def header_entries(campaign: Campaign, station_gauges: dict[str, Any]) -> dict[str, Any]:

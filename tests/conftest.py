@@ -1,3 +1,6 @@
+import os
+import shutil
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -6,6 +9,31 @@ from ogacq.io.machine_file import read_machine
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "ogacq" / "examples" / "paper"
+
+# ogacq's data folder (the default history, the wizard's inventory) is never the real
+# home's: one for the whole run, made before any fixture can record into it, and each
+# test its own (below), so that no test sees another's history. A history named in the
+# environment of whoever runs the suite is not written to either.
+_SUITE_HOME = Path(tempfile.mkdtemp(prefix="ogacq-test-home-"))
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    os.environ["OGACQ_HOME"] = str(_SUITE_HOME)
+    os.environ.pop("OGACQ_HISTORY", None)
+
+
+def pytest_unconfigure(config: pytest.Config) -> None:
+    shutil.rmtree(_SUITE_HOME, ignore_errors=True)
+
+
+@pytest.fixture(autouse=True)
+def ogacq_home(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch,
+               ) -> Path:
+    """This test's own data folder (its default history.sqlite)."""
+    home = tmp_path_factory.mktemp("ogacq-home")
+    monkeypatch.setenv("OGACQ_HOME", str(home))
+    monkeypatch.delenv("OGACQ_HISTORY", raising=False)
+    return home
 
 
 @pytest.fixture(scope="session")

@@ -48,8 +48,8 @@ HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq hi
                 "and flags a drift larger than U; `ogacq history add SESSION...` records "
                 "sessions afterwards. The history is --history URL_OR_PATH (an SQLite file or "
                 "postgresql://USER@HOST/DATABASE), else $OGACQ_HISTORY, else history.sqlite in "
-                "the current folder (campaigns record into history.sqlite beside their "
-                "session).")
+                "ogacq's data folder ($OGACQ_HOME, default ~/.local/share/ogacq), where "
+                "every campaign records.")
 
 
 class OgacqCommands(LazyCommands):

@@ -4,20 +4,33 @@ progress and result display ``ogacq demo`` shares with them."""
 from __future__ import annotations
 
 import json
-from collections.abc import Callable
+import logging
+from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
 from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign_file import Campaign, read_campaign
+from ogacq.cli.campaign_end import campaign_end
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.leg_prompt import operator_for
 from ogacq.cli.options import HistoryOption, JsonOption, OverrideExpiredOption, override_reason
-from ogacq.cli.render import CampaignProgress, campaign_progress, print_outcome
+from ogacq.cli.render import CampaignProgress, campaign_progress, print_end, print_outcome
 from ogacq.protocol.runner import CampaignStopped
+from ogacq.session.series import next_session
 from ogacq.session.store import load_session
+from ogacq.traceability import traceability_gaps
+
+log = logging.getLogger("ogacq")
+
+
+SessionOption = Annotated[Path | None, typer.Option(
+    "--session", metavar="FILE",
+    help="Record into this new session file instead of the campaign's (default: the "
+         "campaign's session; once that holds a complete campaign, the next free "
+         "SESSION-2.jsonl, SESSION-3.jsonl beside it).")]
 
 
 def run(
@@ -25,6 +38,7 @@ def run(
     as_json: JsonOption = False,
     history: HistoryOption = None,
     override_expired: OverrideExpiredOption = None,
+    session: SessionOption = None,
 ) -> None:
     """Run a scripted campaign: no operator when the six gauges are mounted, or one
     asked to set them at each leg when indicators move from leg to leg."""
@@ -33,11 +47,11 @@ def run(
     if reason:
         campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
+    campaign.session = _session_for(campaign.session, session)
     outcome = execute(lambda obs: run_campaign(
-        campaign, observer=obs, set_gauges=operator_for(campaign, obs)), campaign.session,
-        quiet=as_json)
-    show_outcome(outcome, as_json)
-    record_campaign(outcome.session_path, history)
+        campaign, observer=obs, set_gauges=operator_for(campaign, obs),
+        checked=lambda: warn_traceability(campaign)), campaign.session, quiet=as_json)
+    finish(outcome, as_json, history)
 
 
 def resume(
@@ -54,10 +68,38 @@ def resume(
         campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     outcome = execute(lambda obs: run_campaign(
-        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs)),
-        loaded.path, quiet=as_json)
-    show_outcome(outcome, as_json)
-    record_campaign(outcome.session_path, history)
+        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs),
+        checked=lambda: warn_traceability(campaign)), loaded.path, quiet=as_json)
+    finish(outcome, as_json, history)
+
+
+def _session_for(campaign_session: Path, given: Path | None) -> Path:
+    """The session this run records into: ``--session``, else the campaign's or the
+    next of its series once it is complete (said on the terminal)."""
+    if given is not None:
+        return given  # an existing file is refused before anything opens
+    chosen = next_session(campaign_session)
+    if chosen.previous is not None:
+        typer.echo(f"ogacq: {chosen.previous} holds a complete campaign: this run records "
+                   f"into {chosen.path} (--session FILE names another)", err=True)
+    return chosen.path
+
+
+def warn_traceability(campaign: Campaign) -> None:
+    """Once the campaign passed its gates and its station opened, before anything
+    moves: what the record will lack (an operator, a certificate)."""
+    for gap in traceability_gaps(campaign):
+        log.warning("%s: %s", campaign.path, gap)
+
+
+def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None:
+    """The end of a campaign: the offsets with their U, the record into the history,
+    then the verdict, the record id and what to do next."""
+    end = campaign_end(outcome.session_path, outcome.fit, simulated=outcome.simulated)
+    show_outcome(outcome, as_json, end.record)
+    record_campaign(outcome.session_path, history, record=end.built)
+    if not as_json:
+        print_end(end.lines())
 
 
 def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path, *,
@@ -74,10 +116,11 @@ def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path,
             raise typer.Exit(stop.exit_code) from None
 
 
-def show_outcome(outcome: CampaignOutcome, as_json: bool) -> None:
+def show_outcome(outcome: CampaignOutcome, as_json: bool,
+                 record: Mapping[str, Any] | None = None) -> None:
     if as_json:
         typer.echo(json.dumps({"session": str(outcome.session_path),
                                **outcome.fit.to_json("offsets"),
                                "hidden": outcome.hidden, "simulated": outcome.simulated}))
         return
-    print_outcome(outcome)
+    print_outcome(outcome, record or {})

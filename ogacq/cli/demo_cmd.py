@@ -17,6 +17,7 @@ import typer
 from ogacq.campaign import run_campaign
 from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.cli.campaign_cmds import execute, show_outcome
+from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
@@ -27,7 +28,7 @@ from ogacq.cli.options import (
     seed_option,
 )
 from ogacq.cli.outputs import check_output_folder
-from ogacq.cli.render import print_demo_diagnosis
+from ogacq.cli.render import print_demo_diagnosis, print_end
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
@@ -133,7 +134,9 @@ def demo(
     write_atomically(folder / "result.json", (json.dumps(
         {**outcome.fit.to_json("offsets"), "hidden": outcome.hidden}, indent=2) + "\n")
         .encode("utf-8"))
-    show_outcome(outcome, as_json=False)
+    report = folder / "report" / "report.html"
+    end = campaign_end(outcome.session_path, outcome.fit, simulated=True, report=report)
+    show_outcome(outcome, as_json=False, record=end.record)
     # The rest of the story when the joint offsets alone do not fit: what the
     # diagnosis finds, beside the simulator's hidden truth; the report shows the same.
     diagnosis = diagnose(session_observations(session))
@@ -144,7 +147,13 @@ def demo(
                          diagnosis=report_diagnosis(diagnosis, session))
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
-    record_campaign(outcome.session_path, history, say=typer.echo)
+    record_campaign(outcome.session_path, history, say=typer.echo, record=end.built)
+    if loop:  # the loop below is what comes next, on the simulator still running
+        opened = tuple(s for s in end.steps if s.command.startswith("open "))
+        end = replace(end, steps=(*opened, NextStep(
+            "", f"closing the loop below: the offsets written, a validation campaign, the "
+                f"record as found and as left in {folder}/calibrate/")))
+    print_end(end.lines())
     if loop:
         _close_the_loop(folder, campaign, outcome.session_path, history)
 

@@ -25,11 +25,13 @@ from ogacq.session.store import load_session
 ReadHistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
     help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
-         "$OGACQ_HISTORY, else history.sqlite in the current folder.")]
+         "$OGACQ_HISTORY, else history.sqlite in ogacq's data folder ($OGACQ_HOME, default "
+         "~/.local/share/ogacq).")]
 AddHistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
     help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
-         "$OGACQ_HISTORY, else history.sqlite beside each session.")]
+         "$OGACQ_HISTORY, else history.sqlite in ogacq's data folder ($OGACQ_HOME, default "
+         "~/.local/share/ogacq).")]
 
 
 def show(
@@ -53,8 +55,8 @@ def show(
     verdict, acceptance, ambient temperature; a change from one calibration to the next
     larger than its U (root sum of squares of both U) is flagged as a drift.
 
-    The history is --history, else $OGACQ_HISTORY, else history.sqlite in the current
-    folder.
+    The history is --history, else $OGACQ_HISTORY, else history.sqlite in ogacq's data
+    folder ($OGACQ_HOME, default ~/.local/share/ogacq).
     """
     if plot is not None:
         if plot.suffix.lower() != ".png":

@@ -87,7 +87,7 @@ def record_session(history: History, session: LoadedSession,
 
 
 def _later(session_path: Path, location: HistoryLocation) -> str:
-    named = "" if location.origin == "beside the session" else \
+    named = "" if location.origin == "ogacq's data folder" else \
         f" --history {location.option_value()}"
     return f"add it later with `ogacq history add {session_path}{named}`"
 
@@ -145,9 +145,13 @@ def record_after(session_path: Path, option: str | None, action: str, *,
     return recorded
 
 
-def record_campaign(session_path: Path, option: str | None, *, say: Say = _say) -> None:
-    """A finished campaign (run, resume, demo, the wizard)."""
-    record_after(session_path, option, "the campaign", say=say)
+def record_campaign(session_path: Path, option: str | None, *, say: Say = _say,
+                    record: Mapping[str, Any] | None = None) -> None:
+    """A finished campaign (run, resume, demo, the wizard); ``record``: its record,
+    when the command built it already."""
+    with_record = None if record is None else \
+        (lambda history, session: record_session(history, session, record))
+    record_after(session_path, option, "the campaign", say=say, record_with=with_record)
 
 
 def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],

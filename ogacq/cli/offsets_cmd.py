@@ -266,8 +266,8 @@ ToOption = Annotated[str | None, typer.Option(
 RestoreHistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
     help="The history: an SQLite file or a postgresql://USER@HOST/DB URL (default: "
-         "$OGACQ_HISTORY, else history.sqlite beside the session, or in the current folder "
-         "with --machine).")]
+         "$OGACQ_HISTORY, else history.sqlite in ogacq's data folder: $OGACQ_HOME, default "
+         "~/.local/share/ogacq).")]
 
 
 def restore(

@@ -23,7 +23,8 @@ JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object 
 HistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
     help="Record into this history: an SQLite file or a PostgreSQL URL "
-         "(default: $OGACQ_HISTORY, else history.sqlite beside the session; none: record "
+         "(default: $OGACQ_HISTORY, else history.sqlite in ogacq's data folder, $OGACQ_HOME "
+         "or ~/.local/share/ogacq; none: record "
          "nothing).")]
 # A session is analysed only when its campaign finished and its records are as written;
 # these say the user means to analyse it as it stands (ogacq.session.state, .seal).

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from rich.table import Table
@@ -13,6 +13,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.model.parameters import effect_of
+from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
     from rich.progress import Progress
@@ -210,30 +211,50 @@ def campaign_progress(enabled: bool = True) -> Iterator[CampaignProgress]:
         yield CampaignProgress(update, bar)
 
 
-def print_outcome(outcome: CampaignOutcome) -> None:
+def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
+    """The identified offsets as a person reads them: each with its expanded
+    uncertainty U (k stated, GUM 7.2.6), from the campaign's ``record``; the
+    simulator's truth beside them in a rehearsal."""
     result = outcome.fit
+    results = (record.get("results") or {})
     table = Table(show_edge=False, header_style="bold",
                   title=f"identified joint offsets ({len(result.observations)} readings)")
     table.add_column("parameter")
     table.add_column("identified", justify="right")
-    table.add_column("std", justify="right")
+    table.add_column("U", justify="right")
+    table.add_column("k", justify="right")
     if outcome.hidden is not None:
         table.add_column("hidden truth", justify="right")
-        table.add_column("error / std", justify="right")
+        table.add_column("error", justify="right")
     table.add_column("unit")
-    for name, value, std in zip(result.names, result.values, result.std, strict=True):
-        row = [name, f"{value:+.4f}", f"{std:.4f}"]
+    incomplete = False
+    for name, value in zip(result.names, result.values, strict=True):
+        line = result_headline(results, name, float(value), effect_of(name).unit)
+        incomplete |= not line.complete
+        row = [name, line.value, line.U or "not evaluated",
+               f"{line.k:g}" if line.k is not None else "-"]
         if outcome.hidden is not None:
-            truth = outcome.hidden.get(name, 0.0)
-            row += [f"{truth:+.4f}", f"{(value - truth) / std:+.1f}"]
-        table.add_row(*row, effect_of(name).unit)
+            truth, U = outcome.hidden.get(name, 0.0), expanded_mm(results, name)
+            row += [rounded(truth, U, sign=True), rounded(float(value) - truth, U, sign=True)]
+        table.add_row(*row, line.unit)
     console.print(table)
+    console.print("U: the expanded uncertainty of the record's budget (k = 2: about 95 %)"
+                  + ("; [yellow]budget incomplete: U leaves out what was not recorded "
+                     "(see the record's budget)[/]" if incomplete else ""), highlight=False)
     # in the noise's unit: one unit on the line
-    console.print(f"residual rms {result.residual_rms_mm:.4g} mm, gauge noise "
-                  f"{result.noise.describe()}; session {shown(outcome.session_path)}")
+    console.print(f"residual rms {result.residual_rms_mm:.2g} mm, gauge noise "
+                  f"{result.noise.describe()}; session {shown(outcome.session_path)}",
+                  highlight=False)
     if getattr(outcome, "simulated", False):
         console.print("[bold reverse] SIMULATED [/] a rehearsal on the built-in simulator: "
                       "not a calibration of the machine", highlight=False)
+
+
+def print_end(lines: list[str]) -> None:
+    """The end of a campaign: the verdict, the record id, the next commands."""
+    console.print()
+    for line in lines:
+        console.print(shown(line), highlight=False, soft_wrap=True)  # paths whole
 
 
 def _print_context(session: LoadedSession) -> None:
@@ -318,8 +339,10 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
         for name, where in refit["parameters"].items():
             for axis, value in where.items():
                 std = refit.get("std", {}).get(name, {}).get(axis)
-                console.print(f"  {shown(name)}.{shown(axis)} = {_num(value)} +- "
-                              f"{_num(std, sign=False)} mm")
+                # a look at what the session holds: its fit's std, named so (the
+                # headline U is the record's, `ogacq report`)
+                console.print(f"  {shown(name)}.{shown(axis)} = {_num(value)} mm (fit std "
+                              f"{two_digits(std)} mm)", highlight=False)
 
 
 def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:

@@ -62,7 +62,7 @@ def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
     if evidence is not None:
         table.add_column("in force during campaign", justify="right")
         table.add_column("identified drho", justify="right")
-        table.add_column("std", justify="right")
+        table.add_column("fit std", justify="right")  # the noise alone: U is the record's
     table.add_column("table now" if plan.facts.kind == "software" else "controller now",
                      justify="right")
     table.add_column("new", justify="right")

@@ -16,7 +16,15 @@ from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.io.text import read_text
 from ogacq.record.document import build_record
-from ogacq.report import DiagnosisFormatError, build_report, collect, parse_diagnosis, write_report
+from ogacq.record.revision import issue
+from ogacq.report import (
+    RECORD_NAME,
+    DiagnosisFormatError,
+    build_report,
+    collect,
+    parse_diagnosis,
+    write_report,
+)
 from ogacq.report.printing import print_pdf
 from ogacq.session.convert import session_observations
 from ogacq.session.state import require_complete, session_notes
@@ -37,8 +45,8 @@ def report_command(
     history: Annotated[str | None, typer.Option(
         "--history", metavar="URL_OR_PATH",
         help="History to plot this machine's earlier calibrations from: an SQLite file or "
-             "a PostgreSQL URL (default: $OGACQ_HISTORY, else history.sqlite beside the "
-             "session; none: no history).")] = None,
+             "a PostgreSQL URL (default: $OGACQ_HISTORY, else history.sqlite in ogacq's data "
+             "folder; none: no history).")] = None,
     pdf: Annotated[bool, typer.Option(
         "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
                       "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
@@ -97,7 +105,31 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
     if record is None:
         record = build_record(calibration, validation=validation, history=history,
                               history_why=history_why)
+    # issued beside an earlier issue of the same record: its next revision, or itself
+    record = issue(record, _earlier_issue(folder / RECORD_NAME))
     return write_report(build_report(data, record), folder)
+
+
+def _earlier_issue(path: Path) -> bytes | None:
+    """The record.json already in the report's folder (None: none, or unreadable)."""
+    try:
+        return path.read_bytes()
+    except OSError:
+        return None
+
+
+def report_of(session: Path, folder: Path, validation: Path | None = None,
+              history: str | None = None) -> tuple[Path, dict[str, Any]]:
+    """What ``ogacq report SESSION [--after VALIDATION] --out FOLDER [--history H]``
+    writes, the session diagnosed here: the page and the record issued."""
+    calibration = load_session(session)
+    after = load_session(validation) if validation is not None else None
+    earlier, why = earlier_calibrations(history, calibration)
+    raw, note = _diagnose_here(calibration)
+    page = write_session_report(calibration, folder, validation=after, diagnosis=raw,
+                                diagnosis_note=note, diagnosis_source=session,
+                                history=earlier, history_why=why)
+    return page, json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
 
 
 def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any]:

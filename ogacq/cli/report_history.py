@@ -2,9 +2,10 @@
 history database (docs/calibration-record.md section 6), read without writing.
 
 The history is the one the campaign recorded into: ``--history``, else
-``$OGACQ_HISTORY``, else ``history.sqlite`` beside the session. A history that
-was named and cannot be read is an error (exit 3); none beside the session means
-no earlier calibration is known, and the record says so.
+``$OGACQ_HISTORY``, else ``history.sqlite`` in ogacq's data folder
+(``ogacq.history.location``). A history that was named and cannot be read is an
+error (exit 3); no default history yet means no earlier calibration is known, and
+the record says so.
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
                          ) -> tuple[list[dict[str, Any]] | None, str | None]:
     """(the machine's calibrations before this one, oldest first; or None and why
     none was read)."""
-    from ogacq.history.location import history_for_session
+    from ogacq.history.location import DEFAULT_ORIGIN, history_for_session
     from ogacq.history.store import History
 
     try:
@@ -34,9 +35,9 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
         return None, f"the history named cannot be used: {exc}"
     if location is None:
         return None, "the history is switched off (--history none)"
-    if location.origin == "beside the session" and not Path(location.url.database or "").exists():
-        return None, ("no history database beside the session (history.sqlite); "
-                      "--history names another")
+    if location.origin == DEFAULT_ORIGIN and not Path(location.url.database or "").exists():
+        return None, (f"no history database yet in ogacq's data folder "
+                      f"({location.describe()}); --history names another")
     context = calibration_context(session)
     if context.machine_name is None:
         return None, "the session does not name its machine, so its history cannot be found"

@@ -53,8 +53,10 @@ def wizard(
         min=0.0, help="Largest joint offset expected, mm (sets the expected reading "
                       "ranges).")] = 2.0,
     by_eye: Annotated[bool, typer.Option(
-        "--by-eye", help="Dial indicators: type each reading (the default answer to "
-                         "'how are the gauges read').")] = False,
+        "--by-eye", help="Dial indicators read by eye, each reading typed: offered as the "
+                         "default answer to 'How are the gauges read?' (without it the "
+                         "default is the first protocol listed, or a rehearsal's "
+                         "simulated one).")] = False,
     indicators: Annotated[IndicatorCount | None, typer.Option(
         help="6: two per leg, left in place; 2: moved from leg to leg, as in the papers "
              "(asked when not given; a rehearsal's simulator has 6 unless told).")] = None,

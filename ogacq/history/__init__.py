@@ -1,11 +1,11 @@
 """Each machine's calibration history in a database (SQLAlchemy Core).
 
-SQLite by default (``history.sqlite`` beside the session: a file, nothing to
+SQLite by default (``history.sqlite`` in ogacq's data folder: a file, nothing to
 install), PostgreSQL for a site whose stations share one history, through the
 same schema and code, chosen by a URL:
 
 - ``location``: which database a command uses (``--history``, ``OGACQ_HISTORY``,
-  ``history.sqlite`` beside the session) and the SQLAlchemy URL of it;
+  ``history.sqlite`` in ogacq's data folder) and the SQLAlchemy URL of it;
 - ``schema``: the tables and the schema version row, created on first use;
 - ``entries``: what a record (``ogacq-record/1``) and a write-back put in the rows;
 - ``store``: ``History``, the one place that reads and writes the database;

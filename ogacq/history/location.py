@@ -1,9 +1,13 @@
-"""Which history database a command uses, and its SQLAlchemy URL.
+"""Which history database a command uses, and its SQLAlchemy URL: the one place
+that decides it.
 
 Order: the command's ``--history URL_OR_PATH``, else the ``OGACQ_HISTORY``
-environment variable, else ``history.sqlite`` beside the session the command
-works on (``ogacq history`` has no session: it then looks for ``history.sqlite``
-in the current folder). ``none`` (or ``off``) in either place records nothing.
+environment variable, else ``history.sqlite`` in ogacq's data folder
+(``$OGACQ_HOME``, default ``~/.local/share/ogacq``: ``ogacq/io/data_folder.py``),
+so that every run, demo and wizard of this account accumulates in one history
+wherever it was started. ``none`` (or ``off``) in either place records nothing.
+Reading (``ogacq history``) also finds a ``history.sqlite`` in the current folder
+when the data folder holds none yet (earlier versions kept one beside each session).
 
 A value with ``://`` is a URL (``postgresql://user@host/db``,
 ``sqlite:////abs/path.sqlite``); anything else is the path of an SQLite file. A
@@ -16,6 +20,7 @@ says it in a warning and goes on.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 from dataclasses import dataclass
@@ -25,6 +30,8 @@ from sqlalchemy.engine import URL, make_url
 from sqlalchemy.exc import ArgumentError
 
 from ogacq.errors import InputError
+from ogacq.io.data_folder import ENVIRONMENT_VARIABLE as DATA_VARIABLE
+from ogacq.io.data_folder import data_folder
 
 ENVIRONMENT_VARIABLE = "OGACQ_HISTORY"
 DEFAULT_FILE = "history.sqlite"
@@ -34,7 +41,7 @@ DISABLED = ("none", "off")
 @dataclass(frozen=True)
 class HistoryLocation:
     url: URL
-    origin: str  # where it was named: "--history", "OGACQ_HISTORY", "beside the session", ...
+    origin: str  # where it was named: "--history", "OGACQ_HISTORY", "ogacq's data folder", ...
 
     @property
     def backend(self) -> str:
@@ -142,28 +149,56 @@ def _named(option: str | None) -> tuple[str, str] | None:
     return None
 
 
-def history_for_session(option: str | None, session_path: Path) -> HistoryLocation | None:
-    """The history a command working on ``session_path`` records into; None when
-    recording is switched off."""
+DEFAULT_ORIGIN = "ogacq's data folder"
+LEGACY_ORIGIN = "the current folder"
+
+
+def default_location() -> HistoryLocation:
+    """``history.sqlite`` in ogacq's data folder (created when first recorded into)."""
+    path = (data_folder() / DEFAULT_FILE).absolute()
+    return HistoryLocation(URL.create("sqlite", database=str(path)), DEFAULT_ORIGIN)
+
+
+def history_for_session(option: str | None, session_path: Path | None = None,
+                        ) -> HistoryLocation | None:
+    """The history a command working on a session records into (the same whichever
+    session: ``session_path`` is kept for the callers' sake); None when recording
+    is switched off."""
     named = _named(option)
     if named is None:
-        return HistoryLocation(URL.create("sqlite", database=str(
-            session_path.absolute().parent / DEFAULT_FILE)), "beside the session")
+        location = default_location()
+        _make_folder(Path(location.url.database or "").parent)
+        return location
     value, origin = named
     if value.strip().lower() in DISABLED:
         return None
     return parse_location(value, origin)
 
 
+def _make_folder(folder: Path) -> None:
+    """ogacq's data folder made on first use, readable by its owner only (XDG Base
+    Directory Specification 0.8: a missing destination directory is created with
+    permissions 0700). A folder the history names is never made: a typo would be."""
+    # a folder that cannot be made: opening the history says what is wrong, and the
+    # command goes on
+    with contextlib.suppress(OSError):
+        folder.mkdir(mode=0o700, parents=True, exist_ok=True)
+
+
 def history_to_read(option: str | None, folder: Path | None = None) -> HistoryLocation:
-    """The history ``ogacq history`` reads: named, or ``history.sqlite`` in ``folder``
-    (default: the current one); InputError saying how to name it otherwise."""
+    """The history ``ogacq history`` reads: named, else the data folder's, else (an
+    older ogacq's) ``history.sqlite`` in ``folder`` (default: the current one);
+    InputError saying where it looked otherwise."""
     named = _named(option)
     if named is not None and named[0].strip().lower() not in DISABLED:
         return parse_location(*named)
+    default = default_location()
+    if Path(default.url.database or "").is_file():
+        return default
     candidate = (folder or Path.cwd()) / DEFAULT_FILE
     if candidate.is_file():
         return HistoryLocation(URL.create("sqlite", database=str(candidate.absolute())),
-                               "the current folder")
-    raise InputError("--history", f"no history named: give --history URL_OR_PATH, set "
-                     f"{ENVIRONMENT_VARIABLE}, or run this in the folder holding {DEFAULT_FILE}")
+                               LEGACY_ORIGIN)
+    raise InputError("--history", f"no history yet in {default.describe()} (ogacq's data "
+                     f"folder, ${DATA_VARIABLE}): nothing was recorded on this account; give "
+                     f"--history URL_OR_PATH or set {ENVIRONMENT_VARIABLE} to read another")

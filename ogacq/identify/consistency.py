@@ -105,14 +105,23 @@ class Verdict:
         name = "chi2" if self.test == "chi-square" else "F"
         denominator = (f", {self.noise_dof:.0f}" if self.noise_dof is not None else "")
         text = (f"{self.headline()} ({self.test} test: {name}({self.dof}{denominator}) = "
-                f"{self.statistic:.4g}, p = {format_p(self.overall_p)}; per dof "
+                f"{self.statistic:.4g}, overall p = {format_p(self.overall_p)}; per dof "
                 f"{self.chi2_dof:.3g}, rms {self.rms_mm * UM_PER_MM:.3g} µm, noise "
                 f"{self.noise.sigma_mm * UM_PER_MM:.3g} µm from the {self.noise.source})")
         if self.worst_cell is not None:
             c = self.worst_cell
             text += (f"; worst cell {c.cell}: chi2 {c.chi2:.3g} for {c.expected:.2g} expected, "
-                     f"p = {format_p(c.p_value)} over {c.cells} cells")
+                     f"cell p = {format_p(c.p_value)} over {c.cells} cells; combined p = "
+                     f"{format_p(self.p_value)}")
         return text + f"; judged at the {self.level:g} level"
+
+    def summary(self) -> str:
+        """One line for the end of a campaign: the state and the p it was judged by."""
+        if not self.judged:
+            return f"{self.headline()}: {'; '.join(self.notes)}"
+        which = "combined p" if self.worst_cell is not None else "p"
+        return (f"{self.headline()} ({self.test} test, {which} = {format_p(self.p_value)}, "
+                f"judged at the {self.level:g} level)")
 
     def to_json(self) -> dict:
         """The verdict of INTERCHANGE.md's diagnosis JSON, exactly."""

@@ -33,7 +33,7 @@ from ogacq.io.errors import InputError
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import effect_of
 from ogacq.record.context import CalibrationContext, calibration_context
-from ogacq.record.evaluation import Evaluation, evaluate
+from ogacq.record.evaluation import evaluate
 from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.convert import session_machine
 from ogacq.session.state import completeness
@@ -93,7 +93,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     result, why_no_fit = _identify(session)
     if why_no_fit:
         missing["results"] = why_no_fit
-    as_left, why_no_left = None, None
+    as_left, why_no_left, left = None, None, None
     if validation is not None:
         left, why_no_left = _identify(validation)
         if left is not None:
@@ -115,7 +115,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         **_context_sections(context, "instruments" in header, missing),
         "campaign": _campaign(session),
         "method": _method(session, result, machine),
-        "results": _results(result, evaluation) if result is not None else None,
+        "results": _results(result, evaluation.results) if result is not None else None,
         "budget": evaluation.budget,
         "budget_complete": evaluation.budget_complete,
         "monte_carlo": evaluation.monte_carlo,
@@ -126,6 +126,9 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         "session": _session_reference(session, sha256),
         "validation_session": (_session_reference(validation) if validation is not None
                                else None),
+        # what the validation identified (the offsets remaining after the write-back)
+        "validation_results": (_results(left, evaluation.validation_results)
+                               if left is not None else None),
     }
     why_none = NOT_GIVEN if "identity" in session.header else NOT_IN_SESSION
     if record["operator"] is None:
@@ -241,11 +244,12 @@ def _method(session: LoadedSession, result: FitResult | None,
     }
 
 
-def _results(result: FitResult, evaluation: Evaluation) -> dict[str, dict[str, dict[str, Any]]]:
+def _results(result: FitResult, budget_results: Mapping[str, Any] | None,
+             ) -> dict[str, dict[str, dict[str, Any]]]:
     """Each parameter's value, the fit's standard deviation (the gauge noise propagated
     through the fit alone, JCGM 100:2008 4.2, a type A evaluation) and, from the
     budget, its u, U = k u and how complete that is."""
-    budget = evaluation.results or {}
+    budget = budget_results or {}
     out: dict[str, dict[str, dict[str, Any]]] = {}
     for name, value, std in zip(result.names, result.values, result.std, strict=True):
         group, _, where = name.partition(".")
@@ -258,10 +262,17 @@ def _results(result: FitResult, evaluation: Evaluation) -> dict[str, dict[str, d
 
 def _verdict(result: FitResult) -> dict[str, Any]:
     verdict = fit_verdict(result)
+    cell = verdict.worst_cell
+    # "p" is the verdict's, judged against the level: the overall test's and the worst
+    # cell's Bonferroni-combined (the smaller, doubled); the keys after it say each
     return {"state": verdict.state, "consistent": verdict.consistent,
             "chi2_dof": number(verdict.chi2_dof, 4), "p": number(verdict.p_value, 4),
             "test": verdict.test, "dof": verdict.dof, "level": verdict.level,
-            "text": verdict.describe()}
+            "text": verdict.describe(),
+            "p_overall": number(verdict.overall_p, 4) if verdict.judged else None,
+            "p_worst_cell": number(cell.p_value, 4) if cell is not None else None,
+            "worst_cell": cell.cell if cell is not None else None,
+            "p_combined": number(verdict.p_value, 4) if verdict.judged else None}
 
 
 def _write(write: Any) -> dict[str, Any]:

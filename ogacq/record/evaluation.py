@@ -46,6 +46,9 @@ class Evaluation:
     monte_carlo: dict[str, Any] | None = None
     acceptance: dict[str, Any] = field(default_factory=dict)
     missing: dict[str, str] = field(default_factory=dict)
+    # the validation campaign's parameters (what remains after the write-back), each
+    # with its u and U from its own budget, shaped as ``results``
+    validation_results: dict[str, dict[str, dict[str, Any]]] | None = None
 
 
 def budget_inputs(result: FitResult, context: CalibrationContext) -> BudgetInputs:
@@ -106,7 +109,10 @@ def evaluate(result: FitResult | None, context: CalibrationContext,
     if validation is not None:
         v_result, v_context = validation
         try:
-            left = _deviations(v_result, budget_inputs(v_result, v_context))
+            v_inputs = budget_inputs(v_result, v_context)
+            left = _deviations(v_result, v_inputs)
+            out.validation_results = uncertainty_budget(
+                v_result.observations, v_result, v_inputs).to_json()["results"]
         except ValueError as exc:
             validation_problem = f"the as-left deviations have no uncertainty ({exc})"
     out.acceptance = _acceptance(machine, found, left, why_found, validation_problem)

@@ -23,7 +23,7 @@ from typing import Any
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import StorageError
 from ogacq.model.parameters import AXES
-from ogacq.report.data import ReportData, collect
+from ogacq.report.data import FitSummary, ReportData, collect
 from ogacq.report.diagnosis_view import DiagnosisFormatError, DiagnosisView, parse_diagnosis
 from ogacq.report.figures import (
     FigureFile,
@@ -35,7 +35,7 @@ from ogacq.report.figures import (
     profiles_figure,
     residuals_figure,
 )
-from ogacq.report.formatting import um
+from ogacq.report.formatting import expanded_mm, um
 from ogacq.report.history_plot import history_figure, history_points
 from ogacq.report.page import render_page
 
@@ -81,8 +81,11 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
         validation = data.validation.fit if data.validation else None
         out.append(FigureFile(
             "parameters.png", "Identified parameters",
-            "Identified joint offsets with 95 % confidence intervals, and the interval "
-            "half-widths.", png_bytes(parameters_figure(fit, validation))))
+            "Identified joint offsets with their expanded uncertainty U (k = 2) as "
+            "whiskers, and U itself.",
+            png_bytes(parameters_figure(
+                fit, validation, _expanded(record.get("results"), fit),
+                _expanded(record.get("validation_results"), validation)))))
     if data.diagnosis is not None and len(data.diagnosis_steps) > 1:
         out.append(FigureFile(
             "diagnosis.png", "Residuals before and after each effect",
@@ -111,6 +114,13 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
                 "uncertainty as error bars, this calibration marked.",
                 png_bytes(history_figure(points))))
     return tuple(out)
+
+
+def _expanded(results: Any, fit: FitSummary | None) -> dict[str, float | None]:
+    """U of each parameter of ``fit``, from the record's ``results``."""
+    if fit is None:
+        return {}
+    return {p.name: expanded_mm(results, p.name) for p in fit.parameters}
 
 
 def build_report(data: ReportData, record: Mapping[str, Any]) -> Report:

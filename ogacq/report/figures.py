@@ -9,7 +9,7 @@ that stays distinct for colour-blind readers).
 from __future__ import annotations
 
 import io
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -27,6 +27,7 @@ from ogacq.model.units import UM_PER_MM
 from ogacq.report.data import DeviationRow, FitSummary, ModelStep, ResidualSeries
 from ogacq.report.diagnosis_view import LegProfileView
 from ogacq.report.formatting import finite
+from ogacq.uncertainty.reporting import headline, two_digits
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType  # read by the type checker only
@@ -223,51 +224,73 @@ def residuals_figure(series: ResidualSeries, noise_mm: float, rms_mm: float) -> 
     return fig
 
 
-def parameters_figure(fit: FitSummary, validation: FitSummary | None = None) -> Figure:
-    """Left: each identified value with its 95 % confidence interval. Right: the
-    interval's half-width, how precisely each value is known."""
+def parameters_figure(fit: FitSummary, validation: FitSummary | None = None,
+                      expanded: Mapping[str, float | None] | None = None,
+                      validation_expanded: Mapping[str, float | None] | None = None,
+                      ) -> Figure:
+    """Left: each identified value with its expanded uncertainty U (k = 2, the record's
+    budget) as whiskers, labelled as every headline is (JCGM 100:2008 7.2.6). Right: U
+    itself, how precisely each is known. ``expanded``/``validation_expanded``: U by
+    parameter name; where a U was not evaluated, the whiskers are 2 std of the fit
+    alone and say so."""
     names = [p.name for p in fit.parameters]
     y = np.arange(len(names))[::-1].astype(float)
     with matplotlib.rc_context(STYLE):
         fig = Figure(figsize=(10, 1.0 + 0.75 * len(names) * (1.5 if validation else 1)),
                      layout="constrained")
         left, right = fig.subplots(1, 2, width_ratios=(1.6, 1))
-        series = [("identified", fit, 0.0, BEFORE_COLOUR)]
+        series = [("identified", fit, expanded, 0.0, BEFORE_COLOUR)]
         if validation is not None:
-            series = [("identified", fit, 0.18, BEFORE_COLOUR),
-                      ("remaining after write-back (validation)", validation, -0.18,
-                       MEASURED_COLOUR)]
+            series = [("identified", fit, expanded, 0.18, BEFORE_COLOUR),
+                      ("remaining after write-back (validation)", validation,
+                       validation_expanded, -0.18, MEASURED_COLOUR)]
         height = 0.32 if validation else 0.5
-        for label, summary, shift, colour in series:
+        fallback = False
+        for label, summary, given, shift, colour in series:
             rows = [summary.row(n) for n in names]
             value = np.array([r.value if r and finite(r.std) else np.nan for r in rows])
-            half = np.array([r.ci95_half if r and finite(r.std) else np.nan for r in rows])
+            half = np.full(len(rows), np.nan)
+            texts = []
+            for k, r in enumerate(rows):
+                if r is None or not finite(r.std):
+                    texts.append("not determined by these readings")
+                    continue
+                U = (given or {}).get(r.name)
+                if U is None:
+                    fallback = True
+                    half[k] = 2 * r.std
+                    texts.append(f"{headline(r.value, None, None, r.unit).value} ± "
+                                 f"{two_digits(2 * r.std)} {r.unit} (2 std, U not evaluated)")
+                else:
+                    half[k] = U
+                    texts.append(str(headline(r.value, U, 2.0, r.unit)))
             left.barh(y + shift, value, height, color=colour, label=label,
                       xerr=np.nan_to_num(half), ecolor="black", capsize=5)
             bars = right.barh(y + shift, half * UM_PER_MM, height, color=colour)
-            right.bar_label(bars, labels=["" if np.isnan(v) else f"{v:.2f} µm"
+            right.bar_label(bars, labels=["" if np.isnan(v) else f"{two_digits(v)} µm"
                                           for v in half * UM_PER_MM], padding=3, fontsize=9)
             for k, r in enumerate(rows):
                 if r is None:
                     continue
-                text = (f"{r.value:+.4f} ± {r.ci95_half:.4f} {r.unit} (95 %)"
-                        if finite(r.std) else "not determined by these readings")
                 # on the far side of zero, clear of the bar, its whisker and the names
-                left.annotate(text, (0, y[k] + shift), xytext=(-6 if r.value >= 0 else 6, 0),
+                left.annotate(texts[k], (0, y[k] + shift),
+                              xytext=(-6 if r.value >= 0 else 6, 0),
                               textcoords="offset points", va="center", fontsize=9,
                               ha="right" if r.value >= 0 else "left")
                 if not finite(r.std):
                     right.annotate("not determined", (0, y[k] + shift), xytext=(4, 0),
                                    textcoords="offset points", va="center", color="#b22222")
+        whiskers = "expanded uncertainty U (k = 2)" + (
+            "; 2 std where U was not evaluated" if fallback else "")
         left.axvline(0, color="black", lw=0.8)
         left.set_yticks(y, names)
         bound = max(abs(v) for v in left.get_xlim())
         left.set_xlim(-1.1 * bound, 1.1 * bound)  # symmetric: room for the labels
-        left.set_xlabel("value (mm), whiskers: 95 % confidence interval")
+        left.set_xlabel(f"value (mm), whiskers: {whiskers}")
         left.set_title("Identified joint offsets")
         right.set_yticks(y, [])
         right.set_xlim(0, right.get_xlim()[1] * 1.3)  # room for the labels
-        right.set_xlabel("95 % confidence half-width (µm)")
+        right.set_xlabel("U, k = 2 (µm)" + (" or 2 std" if fallback else ""))
         right.set_title("How precisely each is known")
         if validation is not None:
             fig.legend(*left.get_legend_handles_labels(), loc="outside lower center",

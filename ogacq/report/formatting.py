@@ -1,4 +1,6 @@
-"""Numbers as a person reads them: a value with as many decimals as its std allows."""
+"""Numbers as a person reads them: a parameter's headline is its value with the
+expanded uncertainty of the record (``ogacq.uncertainty.reporting``, the one rule);
+a detail (a diagnosis's effect) with as many decimals as its std allows."""
 
 from __future__ import annotations
 
@@ -6,6 +8,7 @@ import math
 from typing import TypeGuard
 
 from ogacq.model.units import UM_PER_MM
+from ogacq.uncertainty.reporting import expanded_mm, result_entry, result_headline
 
 
 def finite(x: float | None) -> TypeGuard[float]:
@@ -49,3 +52,8 @@ def duration(seconds: float | None) -> str:
     if hours:
         return f"{hours} h {minutes:02d} min"
     return f"{minutes} min {secs:02d} s" if minutes else f"{secs} s"
+
+
+
+__all__ = ["UM_PER_MM", "decimals_for", "duration", "expanded_mm", "finite", "measure",
+           "plain", "result_entry", "result_headline", "signed", "um"]

@@ -18,11 +18,20 @@ import jinja2
 from ogacq.model.units import UM_PER_MM
 from ogacq.report.cells import Badge, Cell, Lines, Table
 from ogacq.report.cells import table as _table
-from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ReportData
+from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ParameterRow, ReportData
 from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
 from ogacq.report.figures import FigureFile
-from ogacq.report.formatting import duration, finite, measure, plain, signed, um
-from ogacq.report.record_view import css_string, record_view, shown
+from ogacq.report.formatting import (
+    duration,
+    finite,
+    measure,
+    plain,
+    result_headline,
+    signed,
+    um,
+)
+from ogacq.report.record_view import css_string, record_view, revision_label, shown
+from ogacq.uncertainty.reporting import two_digits
 
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("ogacq.report", "templates"),
                                 autoescape=True, undefined=jinja2.StrictUndefined,
@@ -88,8 +97,16 @@ def diagnosis_sentence(d: DiagnosisView) -> tuple[str, str]:
                    f"sits at {d.unexplained_where or '?'}")
 
 
-def _offsets_inline(fit: FitSummary) -> list[tuple[str, str]]:
-    return [(p.name.split(".")[-1], measure(p.value, p.std, p.unit)) for p in fit.parameters]
+def _offsets_inline(fit: FitSummary, results: Mapping[str, Any] | None,
+                    ) -> list[tuple[str, str]]:
+    """``x +0.0347 ± 0.0035 mm (k = 2)``: each offset's headline, its U the record's."""
+    return [(p.name.split(".")[-1], _headline(p, results)) for p in fit.parameters]
+
+
+def _headline(p: ParameterRow, results: Mapping[str, Any] | None) -> str:
+    if not finite(p.std):
+        return "not determined"
+    return str(result_headline(results, p.name, p.value, p.unit))
 
 
 MACHINE_WORDS = {"leg_length_mm": ("leg length", "mm"), "rho_min_mm": ("Min posture", "mm"),
@@ -137,20 +154,20 @@ def _deviations(data: ReportData) -> tuple[Table | None, str]:
     return _table(header, rows, [False] * 4 + [True] * (len(header) - 4)), after
 
 
-def _parameters(fit: FitSummary, validation: FitSummary | None) -> Table:
-    header = ["parameter", "value", "std", "95 % interval", "unit"]
+def _parameters(fit: FitSummary, validation: FitSummary | None,
+                record: Mapping[str, Any]) -> Table:
+    """Each parameter's headline (value ± U, k = 2), the fit's std as its detail."""
+    header = ["parameter", "value ± U", "fit std (detail)"]
     header += ["remaining after write-back (validation)"] if validation else []
     rows: list[list[Cell]] = []
     for p in fit.parameters:
-        interval = (f"{p.value - p.ci95_half:+.5f} … {p.value + p.ci95_half:+.5f}"
-                    if finite(p.std) else "not determined")
-        value = signed(p.value, 5) if finite(p.std) else "not determined"
-        row: list[Cell] = [p.name, value, plain(p.std, 5), interval, p.unit]
+        row: list[Cell] = [p.name, _headline(p, record.get("results")),
+                           f"{two_digits(p.std)} {p.unit}" if finite(p.std) else "-"]
         if validation is not None:
             other = validation.row(p.name)
-            row.append(measure(other.value, other.std, other.unit) if other else "-")
+            row.append(_headline(other, record.get("validation_results")) if other else "-")
         rows.append(row)
-    return _table(header, rows, [False, True, True, True, False] + ([True] if validation else []))
+    return _table(header, rows, [False, True, True] + ([True] if validation else []))
 
 
 def _write(w: OffsetsWrite) -> dict[str, Any]:
@@ -296,7 +313,7 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     context: dict[str, Any] = record_view(record) | {
         "page_issued": css_string(str(record.get("issued"))),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
-        "title": f"Calibration record {record.get('id')}: {machine}"
+        "title": f"Calibration record {revision_label(record)}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
         "status_badge": status_badge(data.status), "um": um,
         "session_notes": session_notes(record),
@@ -310,13 +327,15 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
         "provenance": _provenance(data)}
     if fit is not None:
         kind, sentence = misfit_sentence(fit)
-        context |= {"offsets": _offsets_inline(fit), "fit_badge": _fit_badge(kind),
+        context |= {"offsets": _offsets_inline(fit, record.get("results")),
+                    "fit_badge": _fit_badge(kind),
                     "fit_sentence": sentence,
                     "glance_condition": f"{fit.condition_number:.3g}",
-                    "parameters": _parameters(fit, validation_fit),
+                    "parameters": _parameters(fit, validation_fit, record),
                     "residuals": _residuals(fit), "identifiability": _identifiability(fit)}
     if validation_fit is not None:
-        context["validation_offsets"] = _offsets_inline(validation_fit)
+        context["validation_offsets"] = _offsets_inline(validation_fit,
+                                                        record.get("validation_results"))
     if data.diagnosis is not None:
         context |= _diagnosis(data.diagnosis, fit)
     return _TEMPLATES.get_template("report.html.j2").render(context)

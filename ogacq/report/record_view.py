@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 from markupsafe import Markup
 
-from ogacq.report.cells import Badge, Cell, Table, table
+from ogacq.report.cells import Badge, Cell, Lines, Table, table
+from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
 
 NOT_RECORDED = "not recorded"
 NOT_EVALUATED = "not evaluated"
@@ -43,6 +44,9 @@ WORDS = {
     "ratio": "u / u_c", "agrees_within_10_percent": "agrees within 10 %",
     "converged_fraction": "converged fraction", "seconds": "time (s)",
 }
+VERDICT_WORDS = {"p": "combined p (overall and worst cell, Bonferroni)",
+                 "p_overall": "overall p", "p_worst_cell": "worst cell's p (over the cells)",
+                 "worst_cell": "worst cell"}
 # A null that is not an unknown: degrees of freedom of a type B input are infinite
 # (JCGM 100:2008 G.4.2), and the uncertainty package writes them as null.
 NULL_WORDS = {"dof": "∞", "dof_eff": "∞"}
@@ -123,6 +127,7 @@ def identification(record: Mapping[str, Any]) -> Table:
         ["record", shown(record.get("id"))],
         ["record format", shown(record.get("format"))],
         ["issued", shown(record.get("issued"))],
+        *_revision_rows(record),
         ["calibration date", shown(record.get("date")) + rehearsed],
         ["machine", shown(machine.get("name"))],
         ["machine serial number", shown(machine.get("serial"))],
@@ -145,6 +150,31 @@ def identification(record: Mapping[str, Any]) -> Table:
                  ["as-left session records", shown(validation.get("records"))],
                  *_integrity_rows("as-left session", validation)]
     return table(None, rows)
+
+
+def revision_label(record: Mapping[str, Any]) -> str:
+    """``OGQ-... revision 2``: how a re-issued record is named on every page; the first
+    issue (and a record from before revisions) by its id alone."""
+    revision = record.get("revision")
+    suffix = f" revision {revision}" if isinstance(revision, int) and revision > 1 else ""
+    return f"{record.get('id')}{suffix}"
+
+
+def _revision_rows(record: Mapping[str, Any]) -> list[list[Cell]]:
+    """The issue's revision, the issue it replaces and what changed (ISO/IEC
+    17025:2017 7.8.8)."""
+    if "revision" not in record:
+        return []
+    rows: list[list[Cell]] = [["revision", shown(record.get("revision"))]]
+    revises = record.get("revises")
+    if isinstance(revises, Mapping):
+        rows.append(["replaces", f"revision {shown(revises.get('revision'))} issued "
+                                 f"{shown(revises.get('issued'))} (its record.json SHA-256 "
+                                 f"{shown(revises.get('sha256'))})"])
+        changes = [str(c) for c in record.get("changes") or ()]
+        rows.append([f"changed since revision {shown(revises.get('revision'))}",
+                     Lines(tuple(changes)) if changes else "nothing named"])
+    return rows
 
 
 # How a session vouches for its records (ogacq.session.seal), in a reader's words.
@@ -231,20 +261,41 @@ def method(record: Mapping[str, Any]) -> Table:
     return table(None, rows)
 
 
-def results(record: Mapping[str, Any]) -> Table | None:
-    found = record.get("results")
+# Results: the headline first (value ± U, k), then the detail, each rounded by the one
+# rule (JCGM 100:2008 7.2.6); record.json keeps every digit.
+HEADLINE_KEYS = ("value_mm", "U_mm", "k", "unit")
+DETAIL_KEYS = ("u_mm", "std_mm", "dof_eff")
+
+
+def results(record: Mapping[str, Any], key: str = "results") -> Table | None:
+    found = record.get(key)
     if not found:
         return None
-    keys = ["value_mm", "std_mm", "u_mm", "U_mm", "k", "unit"]
-    extra = [k for by in found.values() for r in by.values() for k in r if k not in keys]
-    keys += list(dict.fromkeys(extra))
+    extra = list(dict.fromkeys(k for by in found.values() for r in by.values() for k in r
+                               if k not in HEADLINE_KEYS + DETAIL_KEYS))
     rows: list[list[Cell]] = []
     for group, by_where in found.items():
         for where, r in by_where.items():
-            rows.append([f"{group}.{where}", signed_shown(r.get("value_mm"), "not determined")]
-                        + [cell(k, r.get(k), NOT_EVALUATED) for k in keys[1:]])
-    return table(["parameter"] + [words(k) for k in keys], rows,
-                 [False] + [k != "unit" for k in keys])
+            U = r.get("U_mm")
+            rows.append([f"{group}.{where}", str(entry_headline(r)),
+                         two_digits(r.get("u_mm")) if r.get("u_mm") is not None
+                         else NOT_EVALUATED,
+                         two_digits(r.get("std_mm")) if r.get("std_mm") is not None
+                         else "not determined",
+                         _dof(r.get("dof_eff"), r.get("u_mm"))]
+                        + [rounded(r.get(k), U, sign=True)
+                           if k.endswith("_mm") and isinstance(r.get(k), int | float)
+                           else cell(k, r.get(k), NOT_EVALUATED) for k in extra])
+    header = ["parameter", "value ± U", "u (mm)", "fit std (mm)", "effective dof"]
+    return table(header + [words(k) for k in extra], rows,
+                 [False, True, True, True, True] + [False] * len(extra))
+
+
+def _dof(dof: Any, u: Any) -> str:
+    """Effective degrees of freedom as a whole number; infinite (null with a u) as ∞."""
+    if isinstance(dof, int | float) and not isinstance(dof, bool):
+        return f"{dof:.0f}"
+    return "∞" if u is not None else NOT_EVALUATED
 
 
 def verdict(record: Mapping[str, Any]) -> Table | None:
@@ -252,9 +303,8 @@ def verdict(record: Mapping[str, Any]) -> Table | None:
     if not found:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
-    # so, beside the overall F test's own p in the text
-    shown = {("p (overall and worst cell combined)" if k == "p" else k): v
-             for k, v in found.items()}
+    # so, and each p named (p_combined repeats p: shown once)
+    shown = {VERDICT_WORDS.get(k, k): v for k, v in found.items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
 
 
@@ -309,11 +359,10 @@ def history(record: Mapping[str, Any]) -> Table | None:
         for name in names:
             group, _, where = name.partition(".")
             r = (entry["results"].get(group) or {}).get(where) or {}
-            value = signed_shown(r.get("value_mm"), "-")
-            row.append(value if r.get("U_mm") is None
-                       else f"{value} ± {shown(r.get('U_mm'))}")
+            line = entry_headline(r)
+            row.append("-" if not r else f"{line.value} ± {line.U}" if line.U else line.value)
         rows.append(row)
-    return table(["record", "date"] + [f"{n} (mm) ± U" for n in names], rows,
+    return table(["record", "date"] + [f"{n} (mm) ± U (k = 2)" for n in names], rows,
                  [False, False] + [True] * len(names))
 
 
@@ -346,11 +395,13 @@ def record_view(record: Mapping[str, Any]) -> dict[str, Any]:
         "missing": [(words(k), v) for k, v in missing.items()],
         "instruments": instruments(record), "environment": environment(record),
         "method": method(record), "results": results(record), "verdict": verdict(record),
+        "validation_results": results(record, "validation_results"),
         "acceptance": acceptance(record), "budget": budget(record),
         "budget_complete": record.get("budget_complete"),
         "monte_carlo": monte_carlo(record), "history": history(record),
         "overrides": overrides(record), "record_writes": writebacks(record),
-        "page_footer": css_string(f"Calibration record {record.get('id')}"),
+        "page_footer": css_string(f"Calibration record {revision_label(record)}"),
+        "record_label": revision_label(record),
     }
 
 

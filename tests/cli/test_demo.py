@@ -7,7 +7,7 @@ from tests.cli.helpers import run_ogacq
 from tests.recovery import recovered
 
 
-def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
+def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_home):
     effects = tmp_path / "effects.toml"
     effects.write_text("[squareness]\nxy = 0.5\n")
     out = tmp_path / "demo"
@@ -40,6 +40,16 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path):
     assert record["operator"] == "J. Martin" and record["machine"]["serial"] == "SIM-4"
     assert not record["missing"], record["missing"]
     assert record["acceptance"]["as_found"]["decision"] == "fail"
+    # recorded in the history of ogacq's data folder, where every demo accumulates
+    assert f"history: 1 calibration recorded in {ogacq_home / 'history.sqlite'}" in \
+        " ".join(proc.stdout.split())
+    # the end of its campaign: the verdict (not within the noise: the squareness), the
+    # record's id as issued beside the page, and what comes next
+    end = " ".join(proc.stdout[proc.stdout.index("verdict:"):].split())
+    assert end.startswith("verdict: NOT within the gauge noise")
+    assert f"record: {record['id']} (issued as {out / 'report' / 'record.json'})" in end
+    assert f"next: open {out / 'report' / 'report.html'}" in end
+    assert "closing the loop below" in end
     # then the loop closed: the offsets of the model written, validated by a second
     # campaign, the record of the procedure as found and as left
     loop = json.loads((out / "calibrate" / "report" / "record.json").read_text())

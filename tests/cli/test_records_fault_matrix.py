@@ -37,7 +37,7 @@ def recorded(tmp_path_factory) -> Path:
     machine = folder / "machine.toml"
     machine.write_text(f'name = "{MACHINE_NAME}"\nserial = "SN [b]"\n' + machine.read_text())
     path.write_text(f'operator = "{OPERATOR_TOML}"\n' + path.read_text())
-    ran = run_ogacq("run", path)
+    ran = run_ogacq("run", path, "--history", folder / "history.sqlite")
     assert ran.returncode == 0, ran.stderr  # the red team's run crashed here, exit 1
     assert "Traceback" not in ran.stderr and "\x1b" not in ran.stdout + ran.stderr
     assert str(folder / "session.jsonl") in " ".join(ran.stdout.split())

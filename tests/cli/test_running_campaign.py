@@ -29,9 +29,9 @@ def readings_in(path) -> int:
 
 
 def test_diagnose_during_a_run_records_nothing_partial_and_the_run_records_the_whole(
-        tmp_path, capsys):
+        tmp_path, capsys, ogacq_home):
     path = write_campaign(tmp_path, seed=4, speed=20)
-    session, history = tmp_path / "session.jsonl", tmp_path / "history.sqlite"
+    session, history = tmp_path / "session.jsonl", ogacq_home / "history.sqlite"
     run = subprocess.Popen([sys.executable, "-m", "ogacq", "run", str(path)],
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

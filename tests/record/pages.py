@@ -33,11 +33,59 @@ def printed(value: Any) -> str | None:
     return " ".join(str(value).split())
 
 
+def two_significant(u: float) -> str:
+    """An uncertainty to two significant digits, trailing zeros kept (0.00996 ->
+    0.010): numpy's own positional formatting, not ogacq's."""
+    return np.format_float_positional(u, precision=2, unique=False, fractional=False,
+                                      trim="k")
+
+
+def gum(value: float, U: float) -> tuple[str, str]:
+    """JCGM 100:2008 7.2.6 written out independently: U to two significant digits,
+    the value (signed) to the same decimal place."""
+    u_text = two_significant(U)
+    decimals = len(u_text.split(".")[1]) if "." in u_text else 0
+    value_text = f"{value:+.{decimals}f}"
+    return ("+" + value_text[1:] if float(value_text) == 0 else value_text), u_text
+
+
+# The results a person reads: rounded by the headline rule (record.json keeps every
+# digit); each number's spelling on the page.
+ROUNDED = ("results.", "validation_results.")
+
+
+def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
+    """How the page writes a number of ``results``: the value at U's decimal place,
+    u, U and the fit std to two significant digits, the effective dof whole."""
+    *where, key = path.split(".")
+    entry = record
+    for part in where:
+        entry = entry[part]
+    U = entry.get("U_mm")
+    if key in ("value_mm", "temperature_correction_mm") and U:
+        return gum(value, U)[0]
+    if key in ("U_mm", "u_mm", "std_mm") and value:
+        return two_significant(value)
+    if key == "dof_eff":
+        return f"{value:.0f}"
+    return None
+
+
 def unshown(record: dict, text: str) -> list[str]:
-    """The record's values the page's ``text`` does not show, as ``path = value``."""
+    """The record's values the page's ``text`` does not show, as ``path = value``: as
+    record.json holds them, or for the results as the headline rule rounds them."""
     text = " ".join(text.split())
-    return [f"{path} = {value!r}" for path, value in leaves(record)
-            if (spelled := printed(value)) is not None and spelled not in text]
+    missing = []
+    for path, value in leaves(record):
+        spelled = printed(value)
+        if spelled is None or spelled in text:
+            continue
+        if path.startswith(ROUNDED) and isinstance(value, int | float):
+            spelled = rounded_spelling(path, value, record)
+            if spelled is not None and spelled in text:
+                continue
+        missing.append(f"{path} = {value!r}")
+    return missing
 
 
 def page_text(page: str) -> str:

@@ -87,7 +87,7 @@ def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_pa
     assert "machine not recorded" in text and "operator not recorded" in text
     assert "the session does not record the temperatures" in text
     assert "budget incomplete u and U leave out the sources that were not evaluated" in text
-    assert "No earlier calibration is known: no history database beside the session" in text
+    assert "No earlier calibration is known: no history database yet in ogacq's data folder" in text
 
 
 def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, capsys):
@@ -135,7 +135,7 @@ def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, ca
     assert row and "12340000" in row.group(1) and "EXPIRED, used under override" in row.group(1)
     assert f"expired-gauge y_x 12340000 2026-01-01 {OVERRIDE_REASON} {OPERATOR}" in text
     assert not (out / "history.png").exists()  # no history given: no plot
-    assert "No earlier calibration is known: no history database beside the session" in text
+    assert "No earlier calibration is known: no history database yet in ogacq's data folder" in text
 
 
 def test_report_takes_the_earlier_calibrations_from_the_history(campaign_sessions, tmp_path,

@@ -5,6 +5,7 @@ carries the session's own numbers."""
 from __future__ import annotations
 
 import base64
+import hashlib
 import json
 import re
 import subprocess
@@ -16,12 +17,14 @@ import pytest
 from PIL import Image
 
 from ogacq.cli.app import main
+from ogacq.cli.report_cmd import write_session_report
 from ogacq.identify.observations import averaged_deviations
 from ogacq.session.convert import session_observations
 from ogacq.session.records import EndRecord, FaultRecord
 from ogacq.session.store import SessionWriter, load_session
 from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import run_ogacq
+from tests.record.pages import gum
 
 FIGURES = ("deviations.png", "residuals.png", "parameters.png", "diagnosis.png")
 # the offsets a write-back leaves: what a validation campaign should find
@@ -92,11 +95,23 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
     # the session's own numbers: the campaign's result record ...
     session = load_session(calibration)
     refit = session.result.refit
+    # each offset's headline: U of the record's budget (k = 2) to two significant digits,
+    # the value at its decimal place (JCGM 100:2008 7.2.6); the fit std as the detail
+    record = json.loads((out / "record.json").read_text())
     parameters = html[html.index('<h2 id="parameters"'):]  # the analysis's table
     for axis in "xyz":
-        value, std = _row_numbers(parameters, f"joint_offset.{axis}")[:2]
-        assert value == pytest.approx(refit["parameters"]["joint_offset"][axis], abs=1e-5)
-        assert std == pytest.approx(refit["std"]["joint_offset"][axis], abs=1e-5)
+        row = re.search(rf"<tr><td>joint_offset\.{axis}</td>(.*?)</tr>", parameters).group(1)
+        entry = record["results"]["joint_offset"][axis]
+        assert entry["value_mm"] == pytest.approx(refit["parameters"]["joint_offset"][axis])
+        value, U = gum(entry["value_mm"], entry["U_mm"])
+        assert f"{value} ± {U} mm (k = 2" in row, row  # "; budget incomplete" may follow
+        std = float(re.search(r"(\d\.\d+) mm</td>", row).group(1))
+        assert std == pytest.approx(refit["std"]["joint_offset"][axis], rel=0.05)
+        assert std < entry["U_mm"] / 2  # the budget holds more than the fit's noise
+        # what remains after the write-back, with the U of the validation's own budget
+        left = record["validation_results"]["joint_offset"][axis]
+        value, U = gum(left["value_mm"], left["U_mm"])
+        assert f"{value} ± {U} mm (k = 2" in row.split("</td>")[-2], row
     text = _text(html)
     # the page shows 2 decimals of the full-precision fit, the result record holds 6 of
     # mm: the two may round either side of a hundredth of a um
@@ -206,3 +221,36 @@ def test_the_stored_result_and_the_report_agree_on_every_offset(sessions):
     stored = session.result.refit["parameters"]["joint_offset"]
     got = {p.name.split(".")[1]: p.value for p in data.fit.parameters}
     assert np.allclose([got[a] for a in "xyz"], [stored[a] for a in "xyz"], atol=1e-6)
+
+
+def test_a_record_issued_again_with_other_content_is_a_revision(sessions, tmp_path):
+    """ISO/IEC 17025:2017 7.8.8: ``report S`` then ``report S --after V`` into one folder
+    give the same record id with other content: the second is revision 2, naming the
+    issue it replaces and what changed; issuing the same content again is no revision."""
+    calibration, validation = (load_session(path) for path in sessions)
+    out = tmp_path / "report"
+    record_file = out / "record.json"
+    write_session_report(calibration, out)
+    first = record_file.read_bytes()
+    assert json.loads(first)["revision"] == 1 and "revises" not in json.loads(first)
+    write_session_report(calibration, out)  # the same content: the same issue
+    assert record_file.read_bytes() == first
+
+    write_session_report(calibration, out, validation=validation)
+    second = json.loads(record_file.read_text())
+    assert second["id"] == json.loads(first)["id"] and second["revision"] == 2
+    assert second["revises"] == {"revision": 1, "issued": json.loads(first)["issued"],
+                                 "sha256": hashlib.sha256(first).hexdigest()}
+    assert "added validation_session" in second["changes"]
+    assert "added validation_results" in second["changes"]
+    assert "changed acceptance.as_left" in second["changes"]
+    text = _text((out / "report.html").read_text(encoding="utf-8"))
+    assert f"Calibration record {second['id']} revision 2" in text
+    assert f"replaces revision 1 issued {json.loads(first)['issued']}" in text
+    assert "changed since revision 1 changed acceptance.as_left added validation_session" \
+        in text
+
+    write_session_report(calibration, out, validation=validation)
+    assert json.loads(record_file.read_text()) == second  # no revision 3 for nothing
+    write_session_report(calibration, out)  # back to the first content: a new issue
+    assert json.loads(record_file.read_text())["revision"] == 3

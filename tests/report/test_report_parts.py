@@ -33,6 +33,7 @@ from ogacq.sim.readings import simulated_readings
 from ogacq.sim.truth import LeadScrewError, SimTruth
 from ogacq.writeback.audit import AuditLog
 from tests.diagnose.campaigns import MACHINE, OFFSETS, RICH, layout, simulate
+from tests.record.pages import gum, two_significant
 
 # INTERCHANGE.md's diagnosis, with an alternative and a rest nothing explains
 DIAGNOSIS = {
@@ -76,10 +77,19 @@ def test_the_figures_carry_the_numbers_of_the_session(session_path):
     assert f"σ = {fit.noise_mm * 1e3:.2f} µm" in residuals
     assert "residual (µm)" in residuals and "reading number" in residuals
 
-    parameters = _texts(parameters_figure(fit))
+    # each offset with the expanded uncertainty of the record, as every headline says it
+    results = build_record(load_session(session_path))["results"]["joint_offset"]
+    expanded = {f"joint_offset.{a}": r["U_mm"] for a, r in results.items()}
+    parameters = _texts(parameters_figure(fit, expanded=expanded))
     for p in fit.parameters:
-        assert f"{p.value:+.4f} ± {p.ci95_half:.4f} mm (95 %)" in parameters
-    assert "95 % confidence" in parameters
+        value, U = gum(p.value, expanded[p.name])
+        assert f"{value} ± {U} mm (k = 2)" in parameters
+        assert f"{two_significant(expanded[p.name] * 1e3)} µm" in parameters
+    assert "whiskers: expanded uncertainty U (k = 2)" in parameters
+    assert "std" not in parameters
+    # without a U (not evaluated), the whiskers are 2 std and say so
+    fallback = _texts(parameters_figure(fit))
+    assert "(2 std, U not evaluated)" in fallback and "or 2 std" in fallback
 
 
 def test_a_diagnosis_is_shown_as_the_json_says(session_path):

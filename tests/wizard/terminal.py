@@ -102,6 +102,28 @@ class Wizard:
         self.answer(prompt, value.replace(".", ","))  # a decimal comma is fine
         return float(value)
 
+    def set_all_gauges(self, count: int = 6) -> None:
+        """Six indicators left in place: all set at once at the first leg's Zero."""
+        self.expect(rf"Set the {count} gauges")
+        self.expect(r"the wizard will not")
+        self.expect(r"mid-range")  # live values are on screen
+        self.child.send("\r")
+        for _ in range(count):
+            self.expect(r"steady, enough travel both ways")
+
+    def still_set(self, leg: str) -> None:
+        """A later leg of six in place: checked without a stop."""
+        self.expect(rf"{leg} leg: gauges [xyz]_{leg} -?[0-9.]+ mm, [xyz]_{leg} -?[0-9.]+ mm, "
+                    r"set at the start: steady")
+
+    def measure_in_place(self, readings_per_leg: int) -> None:
+        """The three legs of six indicators left in place, one stop for them all."""
+        self.set_all_gauges()
+        for leg in "xyz":
+            if leg != "x":
+                self.still_set(leg)
+            self.expect(rf"{leg} leg measured: {readings_per_leg} readings")
+
     def set_gauges(self, leg: str) -> None:
         """Wait for the leg's instruction and live values, press Enter, see the check."""
         self.expect(rf"Leg {leg}: set the two gauges")

@@ -36,6 +36,7 @@ def test_a_new_gauge_is_remembered_and_offered_next_time(tmp_path, monkeypatch):
     trace, _ = ask(monkeypatch, tmp_path, [
         "A. Technician", "20,4",
         "SN9", "Sylvac", "S_Dial Work", "C-2025-118", "2025-06-01", "2026-06-01", "0.002", "",
+        "",  # right as typed
         ""], indicators)  # the second indicator: not recorded
     assert trace.operator == "A. Technician" and trace.ambient_start_c == 20.4
     assert trace.machine.serial == "OG-17"  # the file says it: not asked
@@ -57,10 +58,42 @@ def test_a_new_gauge_is_remembered_and_offered_next_time(tmp_path, monkeypatch):
 def test_an_expired_gauge_is_changed_for_a_valid_one(tmp_path, monkeypatch):
     indicators = [Indicator("gauge y_x (/dev/ttyUSB0)", ("y_x",))]
     trace, shown = ask(monkeypatch, tmp_path, [
-        "", "", "OLD1", "", "", "", "2024-01-01", "2025-01-01", "", "c",
-        "NEW2", "", "", "", "2025-09-01", "2026-09-01", ""], indicators)
+        "", "", "OLD1", "", "", "", "2024-01-01", "2025-01-01", "", "", "c",
+        "NEW2", "", "", "", "2025-09-01", "2026-09-01", "", ""], indicators)
     assert "y_x (serial OLD1, due 2025-01-01) is past the due date" in shown
     assert trace.identities["y_x"]["serial"] == "NEW2" and trace.override_expired == ""
+
+
+def test_a_typo_is_typed_again_before_it_is_remembered_and_no_u_is_said(tmp_path,
+                                                                         monkeypatch):
+    """A new gauge is shown whole and confirmed before instruments.toml keeps it; a
+    certificate without its U is said to leave the budget incomplete, and asked again
+    unless the technician means it."""
+    indicators = [Indicator("gauge y_x (/dev/ttyUSB0)", ("y_x",))]
+    trace, shown = ask(monkeypatch, tmp_path, [
+        "", "",
+        "SN99", "Sylvac", "S_Dial Work", "C-1", "2025-06-01", "2026-06-01",
+        "",  # no U: said, and asked whether to leave it so
+        "n", "0.002", "",
+        "n",  # not right: the serial was mistyped
+        "SN9", "", "", "", "", "", "", "",  # the serial again, the rest as offered
+        ""], indicators)
+    assert "no U: without the certificate's expanded uncertainty this gauge's calibration " \
+           "is left out of the uncertainty budget" in " ".join(shown.split())
+    assert "SN99: Sylvac S_Dial Work, certificate C-1, calibrated 2025-06-01, due " \
+           "2026-06-01, U = 0.002 mm (k = 2)" in shown
+    inventory = load_inventory(tmp_path / "instruments.toml")
+    assert inventory.find("SN99") is None  # the typo never stored
+    assert inventory.find("SN9") == KnownGauge(
+        "SN9", "Sylvac", "S_Dial Work", "C-1", datetime.date(2025, 6, 1),
+        datetime.date(2026, 6, 1), 0.002, 2.0)
+    assert trace.identities["y_x"]["serial"] == "SN9"
+
+    # a certificate left without U on purpose: kept so, the record will say why
+    trace, _ = ask(monkeypatch, tmp_path / "other", [
+        "", "", "SN5", "", "", "C-5", "", "", "", "y", ""], indicators)
+    assert trace.identities["y_x"]["certificate"] == "C-5"
+    assert "uncertainty_mm" not in trace.identities["y_x"]
 
 
 def test_temperatures_typed_and_refused():

@@ -4,6 +4,7 @@ included: a full calibration, a gauge that goes silent, a pause then quit and
 
 from __future__ import annotations
 
+import json
 import re
 import subprocess
 import sys
@@ -38,20 +39,35 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     w.expect(r"Ports found")
     w.expect(r"simulated gauge y_x")
     w.connect_with_defaults()
-    for leg in "xyz":
-        w.set_gauges(leg)
-        w.expect(rf"{leg} leg measured: 24 readings")
+    w.measure_in_place(24)  # six left in place: one stop at the start, none per leg
     w.end_temperature("21,5")
-    w.expect(r"Joint offsets identified from 72 readings")
+    w.expect(r"Joint offsets identified from 72 readings \(mm\)")
+    # each offset with its U (k = 2): two significant digits, the value at its place
     for joint in "xyz":
-        w.expect(rf"{joint}\s+│\s+[+-]\d+\.\d+ mm\s+│\s+0\.\d+ mm\s+│\s+[+-]\d+\.\d+ mm")
+        row = w.expect(rf"{joint}\s+│\s+[+-]\d+\.(\d+)\s+│\s+\d\.(\d+)\s+│\s+[+-]\d+\.\d+")
+        assert len(row.group(1)) == len(row.group(2))
     w.expect(r"Residual rms")
     w.expect(r"identifiable: every offset is determined")
+    w.expect(r"fit within the gauge noise \(.* test, combined p = ")
     w.answer(r"Write these offsets to the controller now\?", "n")
     w.expect(r"Not written \(rehearsal")
     w.expect(r"ogacq offsets write SESSION")
+    # the record offered, written; no validation offered (nothing was written)
+    w.answer(r"Write the calibration record now", "y")
+    record_id = w.expect(r"record (OGQ-\d{8}-[0-9a-f]{8}): ").group(1)
+    w.expect(r"verdict: within the gauge noise")
+    w.expect(rf"record: {record_id} \(issued as ")
+    w.expect(r"next: open \S+report\.html")
+    w.expect(r"a rehearsal: the simulated controller stops with the wizard")
     w.expect(r"Calibration campaign complete")
     assert w.finish() == 0
+    transcript = "".join(w.transcript)
+    assert "set the two gauges" not in transcript and "Run a validation" not in transcript
+    # one unit on the result's screen: mm (no µm beside the offsets)
+    result = transcript[transcript.index("Joint offsets identified"):]
+    assert "µm" not in result[:result.index("Session:")]
+    assert json.loads((tmp_path / "run" / "report" / "record.json").read_text())["id"] \
+        == record_id
 
     session = load_session(w.session)
     assert session.finished and len(session.readings) == 72
@@ -93,6 +109,9 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
     w.answer(r"Write these offsets to the controller and re-home", "y")
     w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
     w.expect(r"not in the drive's non-volatile")
+    w.answer(r"Write the calibration record now", "n")
+    w.answer(r"Run a validation campaign now", "n")
+    w.expect(r"Not run. Later, with the gauges in place")
     w.expect(r"Calibration campaign complete")
     assert w.finish() == 0
 
@@ -115,7 +134,7 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
     # z_x stops answering after 5 readings, for the runner's three attempts
     w = start(wizards, tmp_path / "run", "--cycles", "1", "--simulate-fault", "z_x:silence@5x3")
     w.connect_with_defaults()
-    w.set_gauges("x")
+    w.set_all_gauges()
     w.expect(r"Gauge z_x \(on the x leg, along z\) stopped answering", 20)
     w.expect(r"no reply")
     w.expect(r"retry")
@@ -124,10 +143,11 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
     w.expect(r"continues where it stopped")
     w.expect(r"x leg measured: 8 readings")
     for leg in "yz":
-        w.set_gauges(leg)
+        w.still_set(leg)
     w.end_temperature()
     w.expect(r"Joint offsets identified from 24 readings")
     w.answer(r"Write these offsets", "n")
+    w.answer(r"Write the calibration record now", "n")
     assert w.finish() == 0
     session = load_session(w.session)
     faults = session.of_type(FaultRecord)
@@ -137,8 +157,8 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
 
 
 def test_ctrl_c_pauses_resumes_then_quits_and_ogacq_resume_completes(tmp_path, wizards):
-    w = start(wizards, tmp_path / "run", "--cycles", "1")
-    w.connect_with_defaults()
+    w = start(wizards, tmp_path / "run", "--cycles", "1", "--indicators", "2")
+    w.connect_with_defaults(indicators=2)
     w.set_gauges("x")
     w.expect(r"x leg")  # the cycles are running
     w.ctrl_c()
@@ -195,6 +215,7 @@ def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path
     w.expect(r"Joint offsets identified from 24 readings")
     w.expect(r"identifiable: every offset is determined")
     w.answer(r"Write these offsets", "n")
+    w.answer(r"Write the calibration record now", "n")
     assert w.finish() == 0
     session = load_session(w.session)
     assert session.finished
@@ -239,6 +260,7 @@ def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path,
     again.end_temperature()
     again.expect(r"Joint offsets identified from 24 readings")
     again.answer(r"Write these offsets", "n")
+    again.answer(r"Write the calibration record now", "n")
     assert again.finish() == 0
     session = load_session(w.session)
     keys = [(r.step, r.gauge.key) for r in session.readings]
@@ -252,11 +274,16 @@ def test_rtu_rehearsal_edges_then_not_started_leaves_no_folder(tmp_path, wizards
     folder = tmp_path / "run"
     w = start(wizards, folder, "--profile", "iai-pcon", "--indicators", "6")
     w.answer(r"Register map of the controller")
-    w.answer(r"Controller port")
+    controller = w.expect(r"Controller port.*?(/dev/pts/\d+)").group(1)
+    w.child.sendline("")
     w.answer(r"Baud rate of the controller's serial line .*38400")
     w.expect(r"controller answers")
     w.answer(r"How are the gauges read\?")
     offered = w.expect(r"Gauge y_x \(on the x leg, along y\).*?(/dev/pts/\d+)").group(1)
+    assert offered != controller
+    w.child.sendline(controller)  # one port, one device: the controller's is refused
+    w.expect(rf"{controller} is the controller's port already: one port, one device")
+    w.expect(r"Gauge y_x \(on the x leg, along y\)")
     w.child.sendline("/dev/ttyNOPE")
     w.expect(r"Check the cable")
     problem = " ".join(w.transcript[-1].split()).partition("did not give a value:")[2]
@@ -313,17 +340,43 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
                          (r"Calibration due", "2025-01-10"),
                          (r"expanded uncertainty U", "0.0015"), (r"coverage factor k", "")):
         w.answer(prompt, text)
+    # shown whole and confirmed before instruments.toml keeps it
+    w.expect(r"12345678: Mitutoyo 543-790B, certificate DKD-K-12345, calibrated 2024-01-10, "
+             r"due 2025-01-10, U = 0.0015 mm \(k = 2\)")
+    w.answer(r"Is this right\?", "y")
     for _ in range(5):
         w.answer(r"Serial number of gauge")
     w.expect(r"Gauge y_x \(serial 12345678, due 2025-01-10\) is past the due date")
     w.answer(r"What now\?", "o")
     w.answer(r"Why measure with a gauge past its due date\?", "compared with gauge blocks")
     w.answer(r"Start\?")
-    for leg in "xyz":
-        w.set_gauges(leg)
+    w.measure_in_place(8)
     w.end_temperature("23")
-    w.answer(r"Write these offsets", "n")
+    # written, the record issued, then the validation the wizard offers: the same plan
+    # into session-2.jsonl, one stop to check the six gauges, what remains of the
+    # offsets, and the record issued again as found and as left (its revision 2)
+    w.answer(r"Write these offsets", "y")
+    w.answer(r"Write these offsets to the controller and re-home", "y")
+    w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
+    w.answer(r"Write the calibration record now", "y")
+    w.expect(r"record OGQ-\d{8}-[0-9a-f]{8}: ")
+    w.answer(r"Run a validation campaign now", "y")
+    w.expect(r"Validation campaign, recorded in \S+session-2\.jsonl")
+    w.measure_in_place(8)
+    w.end_temperature("23")
+    w.expect(r"Offsets remaining after the write-back from 24 readings")
+    w.answer(r"Write the calibration record now \(as found and as left", "y")
+    w.expect(r"record OGQ-\d{8}-[0-9a-f]{8} revision 2: ")
+    w.expect(r"next: open \S+report\.html\s+\(the record as found and as left\)")
+    w.expect(r"Calibration campaign complete")
     assert w.finish() == 0
+    validation = load_session(tmp_path / "run" / "session-2.jsonl")
+    assert validation.finished and len(validation.readings) == 24
+    record = json.loads((tmp_path / "run" / "report" / "record.json").read_text())
+    assert record["revision"] == 2 and "added validation_session" in record["changes"]
+    for axis, left in record["validation_results"]["joint_offset"].items():
+        # what remains: the register's 0.01 mm step and the noise, not the offset
+        assert abs(left["value_mm"]) < 0.02, (axis, left)
     session = load_session(w.session)
     context = calibration_context(session)
     assert (context.machine_name, context.machine_serial, context.operator) == (

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ogacq.campaign import run_campaign
+from ogacq.campaign import recorded_identification, run_campaign
 from ogacq.campaign_file import read_campaign
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.observations import averaged_deviations, readings_observations
@@ -63,7 +63,6 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
     zeros = dict.fromkeys(AXES, 0.0)
     with simulator(tmp_path, profile, seed) as info:
         first = sim_campaign(tmp_path, info, name="first", offsets_file=table)
-        validation = sim_campaign(tmp_path, info, name="validation", offsets_file=table)
         session, before_fit = run_campaign_file(first)
         assert session.header["station"]["controller"]["offsets_mm"] == zeros
         assert fit_verdict(before_fit).consistent and before_fit.identifiability.identifiable
@@ -109,8 +108,18 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
             assert done.details["takes_effect"] == "now" and not done.details["rehomed"]
             assert (tmp_path / table).exists()
 
-        session, after_fit = run_campaign_file(validation)
-        validation_session = session.path
+        # the validation: the same campaign file run again, as a technician would; its
+        # session is complete, so the run records into the next of its series and says
+        # so, and its end names the record as found and as left
+        monkeypatch.setenv("COLUMNS", "250")
+        ran = ogacq(capsys, monkeypatch, "run", first)
+        assert ran.returncode == 0, ran.stdout + ran.stderr
+        validation_session = tmp_path / "first-2.jsonl"
+        assert f"{first_session} holds a complete campaign: this run records into " \
+               f"{validation_session}" in ran.stderr
+        assert f"next: ogacq report {first_session} --after {validation_session}" in ran.stdout
+        session = load_session(validation_session)
+        after_fit = recorded_identification(session)
         assert session.header["station"]["controller"]["offsets_mm"] == pytest.approx(held)
 
         # the twelve deviations drop to the gauge noise

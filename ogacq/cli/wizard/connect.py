@@ -142,6 +142,11 @@ def _port_answer(answer: str, ports: Sequence[DetectedPort]) -> str:
 
 # ------------------------------------------------------------------------ controller
 
+def controller_ports(spec: ControllerSpec) -> list[str]:
+    """Every port the controller answers on (the shared one, each axis's own)."""
+    return sorted({spec.port_of(axis) for axis in AXES} | ({spec.port} if spec.port else set()))
+
+
 def check_controller(spec: ControllerSpec) -> str:
     """One line on the axes' state; DriverError or ProfileError when it does not answer."""
     with open_controller(spec) as controller:
@@ -219,9 +224,12 @@ def test_read(spec: GaugeSpec, timeout_s: float = 1.0) -> float:
 def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],
                   notes: list[dict[str, str]], all_by_eye: bool = False,
                   indicators: int | None = None, rehearsal_indicators: int | None = None,
+                  controller_ports: Sequence[str] = (),
                   ) -> tuple[dict[str, GaugeSpec], set[str]]:
     """The gauges' specs (by key) and the gauges read by eye. ``indicators``: 6 or 2
-    if already known (else asked); ``rehearsal_indicators``: what the simulator has."""
+    if already known (else asked); ``rehearsal_indicators``: what the simulator has;
+    ``controller_ports``: where the controller is, refused for a gauge (one port,
+    one device)."""
     keys = gauges_of(legs)
     screen.say()
     screen.say("[bold]Gauges[/]")
@@ -242,8 +250,9 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
     protocol = protocols[answer - 1]
     show_hints(screen, protocol)
 
+    controller = {port: "the controller's" for port in controller_ports if port}
     if _indicator_count(screen, indicators, rehearsal_indicators) == 2:
-        return _moved_indicators(screen, ports, legs, protocol, notes)
+        return _moved_indicators(screen, ports, legs, protocol, notes, controller)
 
     chosen: dict[str, GaugeSpec] = {}
     by_eye: set[str] = set()
@@ -251,7 +260,7 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
     screen.say("Type each gauge's port (a number from the list, a device or a URL), or "
                "[bold]m[/] to read that gauge by eye.")
     for gauge in keys:
-        taken = {s.port for s in chosen.values()}
+        taken = controller | {s.port: f"gauge {s.gauge}'s" for s in chosen.values()}
         guess = suggested.get(gauge) or next((p for p in free if p.device not in taken), None)
         spec = _one_gauge(screen, gauge, protocol, ports, taken,
                           guess.device if guess else None, notes)
@@ -291,6 +300,7 @@ def _indicator_count(screen: Screen, known: int | None, rehearsal: int | None) -
 
 def _moved_indicators(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],
                       protocol: str, notes: list[dict[str, str]],
+                      controller: dict[str, str],
                       ) -> tuple[dict[str, GaugeSpec], set[str]]:
     """Two indicators, each serving one gauge on every leg (same port, its own zero
     on each leg): one port question and one test read per indicator."""
@@ -301,7 +311,7 @@ def _moved_indicators(screen: Screen, ports: Sequence[DetectedPort], legs: Seque
                "or [bold]m[/] to read it by eye.")
     for number, served in enumerate(MOVED_INDICATORS, 1):
         gauges = [g for g in served if Gauge.parse(g).leg in legs]
-        taken = {s.port for s in chosen.values()}
+        taken = controller | {s.port: f"indicator {number - 1}'s" for s in chosen.values()}
         guess = next((p for p in ports if p.suggested_for == f"indicator {number}"), None) \
             or next((p for p in free if p.device not in taken), None)
         label = f"Indicator {number} (" + ", ".join(
@@ -317,7 +327,7 @@ def _moved_indicators(screen: Screen, ports: Sequence[DetectedPort], legs: Seque
 
 
 def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[DetectedPort],
-               taken: set[str], default: str | None, notes: list[dict[str, str]],
+               taken: dict[str, str], default: str | None, notes: list[dict[str, str]],
                label: str | None = None, name: str | None = None) -> GaugeSpec | None:
     """The gauge's spec once it read (or its test was skipped); None: read by eye.
     ``label``/``name``: how the question and messages call it (default: the gauge)."""
@@ -328,9 +338,9 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
             if answer.lower() == "m":
                 return BY_EYE
             port = _port_answer(answer, ports)
-            if port in taken:
-                raise ValueError(f"{port} is already another gauge's port: each gauge needs "
-                                 "its own port (or channel)")
+            if port in taken:  # one port, one device: a gauge never shares the controller's
+                raise ValueError(f"{port} is {taken[port]} port already: one port, one device "
+                                 "(each gauge its own port or channel)")
             return port
 
         port = screen.ask_parsed(label, parse, default=default)
@@ -370,5 +380,5 @@ def connect_instruments(screen: Screen, ports: Sequence[DetectedPort], legs: Seq
     notes: list[dict[str, str]] = []
     controller = choose_controller(screen, ports, notes)
     gauges, by_eye = choose_gauges(screen, ports, legs, notes, all_by_eye, indicators,
-                                   rehearsal_indicators)
+                                   rehearsal_indicators, controller_ports(controller))
     return StationChoice(controller, gauges, by_eye, notes)

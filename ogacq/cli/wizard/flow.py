@@ -28,6 +28,7 @@ from ogacq.campaign_file import (
     GaugeSpec,
     SimulatorSpec,
 )
+from ogacq.cli.campaign_end import CampaignEnd, NextStep, campaign_end
 from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import DEFAULT_SEED
 from ogacq.cli.plain import shown
@@ -55,7 +56,7 @@ from ogacq.cli.wizard.guided_station import GuidedStation
 from ogacq.cli.wizard.inventory import KnownGauge, load_inventory, unreadable_inventory
 from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
 from ogacq.cli.wizard.progress import CycleProgress
-from ogacq.cli.wizard.result import offer_writeback, show_result
+from ogacq.cli.wizard.result import offer_report, offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
 from ogacq.io.atomic import write_atomically
@@ -79,6 +80,7 @@ from ogacq.session.records import (
     ReadingRecord,
     StationRecord,
 )
+from ogacq.session.series import next_session
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 from ogacq.station import DeviceStation
 from ogacq.traceability import simulated_gauges
@@ -159,23 +161,104 @@ class _Wizard:
             except OperatorQuit:
                 self._say_quit()
                 return EXIT_QUIT
-            self.screen.heading("Result", "step 4 of 4")
-            writable = show_result(self.screen, outcome)
-            # the session is closed and safe: a history that fails only warns
-            record_campaign(outcome.session_path, self.options.history,
-                            say=lambda text: self.screen.say(shown(text)))
-            controller_file = None
-            if self.rehearsal is not None and self.campaign is not None:
-                controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
+            return self._finish(outcome)
+
+    def _finish(self, outcome: CampaignOutcome) -> int:
+        """Step 4: the result with U, the record into the history, then what comes next,
+        offered here: the write-back, the record, a validation campaign; and last the
+        verdict, the record's id and the next command."""
+        s = self.screen
+        s.heading("Result", "step 4 of 4")
+        rehearsal = self.rehearsal is not None
+        end = campaign_end(outcome.session_path, outcome.fit, simulated=rehearsal,
+                           rehearsal_writeback=rehearsal)
+        writable = show_result(s, outcome, end.record)
+        # the session is closed and safe: a history that fails only warns
+        record_campaign(outcome.session_path, self.options.history,
+                        say=lambda text: s.say(shown(text)), record=end.built)
+        controller_file = None
+        if self.rehearsal is not None and self.campaign is not None:
+            controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
+        written = False
+        try:
+            written = offer_writeback(s, outcome.session_path, writable, controller_file,
+                                      rehearsal=rehearsal, history=self.options.history)
+        except (KeyboardInterrupt, OperatorQuit):
+            s.say(f"\nNot written. Later: ogacq offsets write {shown(outcome.session_path)}")
+        folder = outcome.session_path.parent / "report"
+        report = offer_report(s, outcome.session_path, folder, history=self.options.history)
+        validation: CampaignOutcome | None = None
+        if written and self.campaign is not None:
             try:
-                offer_writeback(self.screen, outcome.session_path, writable, controller_file,
-                                rehearsal=self.rehearsal is not None,
-                                history=self.options.history)
-            except (KeyboardInterrupt, OperatorQuit):
-                self.screen.say(f"\nNot written. Later: ogacq offsets write "
-                                f"{shown(outcome.session_path)}")
-            self.screen.say("[bold green]Calibration campaign complete.[/]")
-            return EXIT_DONE
+                validation = self._offer_validation(outcome)
+            except OperatorQuit:
+                self._say_quit()
+                return EXIT_QUIT
+            if validation is not None and report is not None:
+                report = offer_report(s, outcome.session_path, folder,
+                                      validation.session_path, self.options.history)
+        end = replace(end, steps=self._next_steps(end, outcome, written, validation, report),
+                      report=report)
+        s.say()
+        for line in end.lines():
+            s.say(shown(line), soft_wrap=True)
+        s.say("[bold green]Calibration campaign complete.[/]")
+        return EXIT_DONE
+
+    def _offer_validation(self, calibration: CampaignOutcome) -> CampaignOutcome | None:
+        """The same plan run again, the offsets as written: what remains (ISO/IEC
+        17025:2017 7.8.4.1 d, results before and after an adjustment). Into the next
+        session of the campaign's series (``session-2.jsonl``)."""
+        s = self.screen
+        assert self.campaign is not None
+        if not s.confirm("Run a validation campaign now (the same plan, the offsets as "
+                         "written: what remains of them)?", default=True):
+            s.say("Not run. Later, with the gauges in place: [bold]"
+                  + shown(f"ogacq run {self.campaign.path}") + "[/]"
+                  + (" (on the machine: the rehearsal's simulator stops with the wizard)"
+                     if self.rehearsal is not None else ""))
+            return None
+        chosen = next_session(self.campaign.session)
+        campaign = replace(self.campaign, session=chosen.path)
+        self.session_path = chosen.path
+        header = load_session(calibration.session_path).header.get("wizard")
+        s.say(f"Validation campaign, recorded in {shown(chosen.path)}.")
+        outcome = self._measure(campaign, None, dict(header) if isinstance(header, dict)
+                                else {})
+        s.heading("Validation", "what remains after the write-back")
+        end = campaign_end(outcome.session_path, outcome.fit,
+                           simulated=self.rehearsal is not None)
+        show_result(s, outcome, end.record, title="Offsets remaining after the write-back",
+                    truth=False)
+        record_campaign(outcome.session_path, self.options.history,
+                        say=lambda text: s.say(shown(text)), record=end.built)
+        return outcome
+
+    def _next_steps(self, end: CampaignEnd, outcome: CampaignOutcome, written: bool,
+                    validation: CampaignOutcome | None, report: Path | None,
+                    ) -> tuple[NextStep, ...]:
+        """What is left to do once the wizard's own offers are answered."""
+        session = outcome.session_path
+        after = f" --after {validation.session_path}" if validation is not None else ""
+        what = "the record as found and as left" if validation is not None \
+            else "the calibration record"
+        steps = [NextStep(f"open {report}", what) if report is not None
+                 else NextStep(f"ogacq report {session}{after}", what)]
+        if end.verdict.state == "inconsistent":
+            steps.insert(0, NextStep(f"ogacq diagnose {session}", "what the joint offsets "
+                                     "leave out: look before writing anything"))
+        elif not written and end.verdict.consistent and self.rehearsal is not None:
+            steps.append(NextStep("", "a rehearsal: the simulated controller stops with the "
+                                      "wizard; on the machine, `ogacq offsets write SESSION` "
+                                      "then a validation run"))
+        elif not written and end.verdict.consistent:
+            steps.append(NextStep(f"ogacq offsets write {session}", "write the offsets "
+                                  "(shown and confirmed first)"))
+        elif written and validation is None and self.campaign is not None \
+                and self.rehearsal is None:
+            steps.append(NextStep(f"ogacq run {self.campaign.path}", "a validation run, "
+                                  "the offsets as written"))
+        return tuple(steps)
 
     def _new_campaign(self, cleanup: contextlib.ExitStack) -> CampaignOutcome:
         opts = self.options

@@ -1,7 +1,9 @@
 """Setting the two gauges of a leg: where they go, live values, and the check.
 
 The runner calls this when the machine is at the leg's Zero posture and the
-gauges must be set (``SetGauges``). The technician sees a plain instruction
+gauges must be set (``SetGauges``). Six indicators left in place are all set
+once, at the first leg (Zero is the machine's centre for every leg), and only
+checked, without a stop, at the others. The technician sees a plain instruction
 and a drawing, the gauges' values updating in place while the stands are
 adjusted, then a check on Enter: each gauge answers, is steady, and has
 enough travel on both sides for what the cycles will ask of it.
@@ -13,6 +15,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
+import numpy as np
 from rich.console import Group
 from rich.live import Live
 from rich.table import Table
@@ -24,7 +27,9 @@ from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
 from ogacq.cli.wizard.expected import ReadingExpectations, travel_needed_mm
 from ogacq.cli.wizard.guided_station import GuidedStation
 from ogacq.cli.wizard.ui import Option, Screen, detail, keys, parse_mm
+from ogacq.model.gauges import Gauge, gauges_on
 from ogacq.model.machine import MachineSpec
+from ogacq.model.measurement import posture_tcp
 from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule
 
 BAR_CELLS = 25
@@ -67,6 +72,7 @@ class LegSetter:
         self.pause = pause
         self.shown_value = shown_value  # rehearsal: what a simulated dial shows
         self._travel: dict[str, float] = {}
+        self._in_place: bool | None = None  # six left in place: set once (first leg)
         self.check_rule = StabilityRule(
             readings=config.stability.readings,
             tolerance_mm=max(config.stability.tolerance_mm, 2 * machine.gauge_resolution_mm),
@@ -81,6 +87,81 @@ class LegSetter:
 
     # -------------------------------------------------------------------- the step
     def __call__(self, step: SetGauges) -> None:
+        if self._in_place is None:  # decided at the first leg, for the whole run
+            self._in_place = self._six_in_place()
+            if self._in_place:
+                self._set_all(step)
+                return
+        if self._in_place and self._still_set(step):
+            return
+        self._set_leg(step)
+
+    # -------------------------------------------------------- six indicators left in place
+    def _six_in_place(self) -> bool:
+        """Every gauge of the plan on its own link, read by the station, and every leg's
+        gauges set at the same posture (a first posture of Zero: the machine's centre
+        for every leg): then the six are set once, at the first leg, and not asked for
+        again (the papers' two indicators, or a dial read by eye, are set leg by leg)."""
+        gauges = [g for step in self._settings() for g in step.gauges]
+        if len(self.config.legs) < 2 or any(not self._station().can_read(g) for g in gauges):
+            return False
+        described = self._station().description.get("gauges") or {}
+        links = [(described.get(g, {}).get("port"), described.get(g, {}).get("channel"))
+                 for g in gauges]
+        centre = not np.any(posture_tcp(0, self.config.postures[0], self.machine))
+        return len(set(links)) == len(links) and centre
+
+    def _settings(self, first: str | None = None) -> list[SetGauges]:
+        """The legs' settings, from leg ``first`` on (a resumed campaign's pending one)."""
+        legs = list(self.config.legs)
+        legs = legs[legs.index(first):] if first in legs else legs
+        return [SetGauges(leg, tuple(g.key for g in gauges_on(leg))) for leg in legs]
+
+    def _set_all(self, first: SetGauges) -> None:
+        """The gauges of this leg and the next set at once, where the first leg's Zero
+        puts the machine."""
+        s = self.screen
+        settings = self._settings(first.leg)
+        every = SetGauges(first.leg, tuple(g for step in settings for g in step.gauges))
+        s.heading(f"Set the {len(every.gauges)} gauges", "once, for every leg")
+        s.say("The machine is at its Zero posture, the same for every leg. The indicators "
+              "stay in place for the whole campaign: set them all now; the wizard will not "
+              "stop at the other legs.")
+        for step in settings:
+            s.say(f"[bold]{step.leg} leg[/]")
+            for line in leg_instructions(step.leg):
+                s.say(f"  • {shown(line)}")
+            s.say(Text(leg_drawing(step.leg, s.out.width)))
+        travel = max(self.travel_mm(g) for g in every.gauges)
+        s.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm from "
+              "where you set it.")
+        while True:
+            try:
+                if self._set_and_check(every):
+                    return
+            except KeyboardInterrupt:
+                self.pause("while setting the gauges")
+
+    def _still_set(self, step: SetGauges) -> bool:
+        """A later leg, its gauges set at the start: checked without stopping; True when
+        they are steady with travel both ways (else the leg is set as usual)."""
+        if any(not self._station().can_read(g) for g in step.gauges):
+            return False  # switched to reading by eye since: its dial needs a value here
+        checks = [self._check(g) for g in step.gauges]
+        if any(c.problem for c in checks):
+            for check in checks:
+                if check.problem:
+                    self.screen.problem(check.problem)
+            return False
+        values = {c.gauge: c.value_mm for c in checks}
+        self.screen.ok(f"{step.leg} leg: gauges " + ", ".join(
+            f"{c.gauge} {c.value_mm:.4f} mm" for c in checks)
+            + ", set at the start: steady, enough travel both ways")
+        self.handles.note("gauges_checked", leg=step.leg, values_mm=values)
+        return True
+
+    # -------------------------------------------------------------------- leg by leg
+    def _set_leg(self, step: SetGauges) -> None:
         legs = self.config.legs
         s = self.screen
         s.heading(f"Leg {step.leg}: set the two gauges",
@@ -257,8 +338,10 @@ class LegSetter:
         return GaugeCheck(gauge, value)
 
     def _reference_by_eye(self, step: SetGauges, gauge: str) -> None:
-        """A dial's value as set: the reference its readings are checked against."""
-        first = next(s for s in self.steps if s.leg == step.leg)
+        """A dial's value as set: the reference its readings are checked against (at
+        its own leg's first posture: where it was set)."""
+        leg = Gauge.parse(gauge).leg
+        first = next(s for s in self.steps if s.leg == leg)
         span = self.gauge_range_mm
 
         def parse(text: str) -> float:
@@ -273,7 +356,7 @@ class LegSetter:
         value = self.screen.ask_parsed(f"{gauge}, read by eye: what does it show now (mm)?",
                                        parse)
         self.expectations.set_reference(gauge, first.q_mm, value)
-        self.handles.note("dial_set", gauge=gauge, leg=step.leg, value_mm=value)
+        self.handles.note("dial_set", gauge=gauge, leg=leg, value_mm=value)
 
     def _station(self) -> GuidedStation:
         assert self.handles.station is not None, "set_gauges is only called during a run"

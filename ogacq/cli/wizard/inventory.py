@@ -10,7 +10,6 @@ be read is named and left untouched (the wizard then remembers nothing new).
 from __future__ import annotations
 
 import datetime
-import os
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -18,20 +17,10 @@ from typing import Any
 from ogacq_drivers.config_schema import Field, Table, TableArray, dump, text
 from ogacq.campaign_file import CERTIFICATE_FIELDS
 from ogacq.io.atomic import write_atomically
+from ogacq.io.data_folder import data_folder
 from ogacq.io.toml_file import load_toml
 
 INVENTORY_NAME = "instruments.toml"
-
-
-def data_folder() -> Path:
-    """ogacq's own data folder: ``$OGACQ_HOME`` when set, else the XDG data home's
-    ``ogacq`` (XDG Base Directory Specification 0.8: ``$XDG_DATA_HOME``, default
-    ``~/.local/share``)."""
-    given = os.environ.get("OGACQ_HOME")
-    if given:
-        return Path(given)
-    xdg = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
-    return Path(xdg) / "ogacq"
 
 
 @dataclass(frozen=True)

@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import importlib.util
+from collections.abc import Mapping
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from rich.table import Table
@@ -12,27 +14,42 @@ from ogacq.campaign import CampaignOutcome
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
-from ogacq.report.formatting import um
+from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded
 
 
-def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
-    """Print the identified offsets; True when they are fit to be written back."""
+def show_result(screen: Screen, outcome: CampaignOutcome, record: Mapping[str, Any],
+                title: str = "Joint offsets identified", truth: bool = True) -> bool:
+    """Print the identified offsets, each with its expanded uncertainty U from the
+    campaign's ``record`` (k = 2, the one headline rule), every number in mm; True
+    when they are fit to be written back. ``truth``: a rehearsal's hidden offsets
+    beside them (not beside what remains after a write-back)."""
     fit = outcome.fit
-    table = Table(show_edge=False, header_style="bold", title_justify="left",
-                  title=f"Joint offsets identified from {len(fit.observations)} readings")
+    results = record.get("results")
+    truth = truth and outcome.hidden is not None
+    screen.say(f"[bold]{title} from {len(fit.observations)} readings (mm)[/]")
+    table = Table(show_edge=False, header_style="bold")
     table.add_column("joint")
     table.add_column("offset", justify="right")
-    table.add_column("± std", justify="right")
-    if outcome.hidden is not None:
+    table.add_column("± U (k = 2)", justify="right")
+    if truth:
         table.add_column("simulator's truth", justify="right")
+    incomplete = False
     for name, value, std in zip(fit.names, fit.values, fit.std, strict=True):
-        row = [name.replace("joint_offset.", ""), f"{value:+.4f} mm",
-               f"{std:.4f} mm" if np.isfinite(std) else "not determined"]
-        if outcome.hidden is not None:
-            row.append(f"{outcome.hidden.get(name, 0.0):+.4f} mm")
+        line = result_headline(results, name, float(value), "mm")
+        incomplete |= not line.complete
+        row = [name.replace("joint_offset.", ""),
+               line.value if np.isfinite(std) else "not determined",
+               line.U or ("not evaluated" if np.isfinite(std) else "")]
+        if truth and outcome.hidden is not None:
+            row.append(rounded(outcome.hidden.get(name, 0.0),
+                               expanded_mm(results, name), sign=True))
         table.add_row(*row)
     screen.say(table)
-    screen.say(f"Residual rms {um(fit.residual_rms_mm)}; gauge noise "
+    if incomplete:
+        screen.say("[yellow]U leaves out what was not recorded (a certificate, a "
+                   "temperature): the record lists it.[/]")
+    # one unit on this screen: mm, as the offsets
+    screen.say(f"Residual rms {fit.residual_rms_mm:.2g} mm; gauge noise "
                f"{fit.noise.describe()}.")
     ident = fit.identifiability
     writable = True
@@ -46,10 +63,10 @@ def show_result(screen: Screen, outcome: CampaignOutcome) -> bool:
             screen.say(f"     {shown(reason)}")
     verdict = fit_verdict(fit)
     if verdict.consistent:
-        screen.ok(f"fit {verdict.describe()}")
+        screen.ok(f"fit {verdict.summary()}")
     else:
         writable = False
-        screen.problem(f"fit {verdict.describe()}")
+        screen.problem(f"fit {verdict.summary()}")
         if verdict.state == "inconsistent":
             screen.say("     something the model leaves out (a loose stand, play, a bent "
                        f"leg). Look before writing: ogacq diagnose "
@@ -76,11 +93,12 @@ def _writeback_command_exists() -> bool:
 
 def offer_writeback(screen: Screen, session: Path, writable: bool,
                     campaign: Path | None = None, rehearsal: bool = False,
-                    history: str | None = None) -> None:
-    """Offer ``ogacq offsets write`` (run here, with its own confirmation), or say it.
-    ``campaign`` names the controller when the session's campaign file cannot
-    (a rehearsal: the simulator the file starts does not outlive the command);
-    ``history``: the wizard's --history, where the write-back is recorded too."""
+                    history: str | None = None) -> bool:
+    """Offer ``ogacq offsets write`` (run here, with its own confirmation), or say it;
+    True when the offsets were written. ``campaign`` names the controller when the
+    session's campaign file cannot (a rehearsal: the simulator the file starts does
+    not outlive the command); ``history``: the wizard's --history, where the
+    write-back is recorded too."""
     command = ["offsets", "write", str(session)]
     if campaign is not None:
         command += ["--campaign", str(campaign)]
@@ -90,10 +108,10 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
     if not writable:
         screen.say(f"When the cause is fixed and a new campaign is consistent, write the "
                    f"offsets with: {shown(typed)}")
-        return
+        return False
     if not _writeback_command_exists():
         screen.say(f"To write these offsets to the controller, run:\n  [bold]{shown(typed)}[/]")
-        return
+        return False
     if not screen.confirm("Write these offsets to the controller now? (the old and new "
                           "values are shown before anything is written)", default=False):
         if rehearsal:
@@ -101,14 +119,35 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
                        "wizard). On the machine: [bold]ogacq offsets write SESSION[/]")
         else:
             screen.say(f"Not written. Later: [bold]{shown(typed)}[/]")
-        return
+        return False
     from ogacq.cli.app import main
 
     code = main(command)
     if code != 0:
         screen.problem(f"the write-back stopped (exit {code}); run it again with: {typed}")
-        return
+        return False
     _say_what_a_power_cycle_does(screen, session, rehearsal)
+    return True
+
+
+def offer_report(screen: Screen, session: Path, folder: Path,
+                 validation: Path | None = None, history: str | None = None) -> Path | None:
+    """Offer the calibration record (``ogacq report``, with the validation as the as-left
+    measurement when there is one) into ``folder``; its page, or None when declined."""
+    what = "as found and as left" if validation is not None else "report.html, record.json"
+    if not screen.confirm(f"Write the calibration record now ({what}, in "
+                          f"{shown(folder)}/)?", default=True):
+        later = f"ogacq report {session}" + (f" --after {validation}" if validation else "")
+        screen.say(f"Not written. Later: [bold]{shown(later)}[/]")
+        return None
+    from ogacq.cli.report_cmd import report_of  # matplotlib: only when a record is made
+
+    screen.say("Writing the calibration record …")
+    page, record = report_of(session, folder, validation, history)
+    revision = record.get("revision")
+    issue = f" revision {revision}" if isinstance(revision, int) and revision > 1 else ""
+    screen.ok(f"record {record.get('id')}{issue}: {page}")
+    return page
 
 
 def _say_what_a_power_cycle_does(screen: Screen, session: Path, rehearsal: bool) -> None:

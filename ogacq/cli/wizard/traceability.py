@@ -154,24 +154,67 @@ class TraceabilityQuestions:
             return known.identity()
         s.say(f"{shown(serial)} is new: its make, model and calibration certificate "
               "(Enter: not recorded).")
-        gauge = self._new_gauge(serial)
+        gauge = self._confirmed(self._new_gauge(serial), indicator)
         self.inventory.remember(gauge)
         return gauge.identity()
 
-    def _new_gauge(self, serial: str) -> KnownGauge:
+    def _confirmed(self, gauge: KnownGauge, indicator: Indicator) -> KnownGauge:
+        """A new gauge as typed, shown whole and confirmed before it is remembered
+        (instruments.toml keeps it for every later campaign): a typo is typed again."""
         s = self.screen
-        make = s.ask("  Make")
-        model = s.ask("  Model")
-        certificate = s.ask("  Calibration certificate number")
-        calibrated = s.ask_parsed("  Calibrated on (YYYY-MM-DD)", _date)
         while True:
-            due = s.ask_parsed("  Calibration due (YYYY-MM-DD)", _date)
+            s.say(f"  {shown(gauge.serial)}: {shown(gauge.summary())}")
+            if s.confirm("  Is this right? It is remembered for the next campaigns "
+                         "(n: type it again)"):
+                return gauge
+            serial = ""
+            while not serial:
+                serial = s.ask(f"Serial number of {indicator.label}", gauge.serial)
+            gauge = self._new_gauge(serial, gauge)
+
+    def _new_gauge(self, serial: str, typed: KnownGauge | None = None) -> KnownGauge:
+        """A gauge's identity and certificate, asked (``typed``: the answers to offer
+        again)."""
+        s = self.screen
+        before = typed or KnownGauge(serial)
+
+        def offered(value: object) -> str | None:
+            return None if value in (None, "") else str(value)
+
+        make = s.ask("  Make", offered(before.make))
+        model = s.ask("  Model", offered(before.model))
+        certificate = s.ask("  Calibration certificate number", offered(before.certificate))
+        calibrated = s.ask_parsed("  Calibrated on (YYYY-MM-DD)", _date,
+                                  offered(before.calibrated))
+        while True:
+            due = s.ask_parsed("  Calibration due (YYYY-MM-DD)", _date, offered(before.due))
             if due is None or calibrated is None or due > calibrated:
                 break
             s.problem(f"the due date must come after the calibration ({calibrated})")
-        uncertainty = s.ask_parsed("  Certificate's expanded uncertainty U (mm)", _positive)
-        k = s.ask_parsed("  Its coverage factor k", _coverage, "2") if uncertainty else None
+        uncertainty, k = self._certificate_u(certificate, before)
         return KnownGauge(serial, make, model, certificate, calibrated, due, uncertainty, k)
+
+    def _certificate_u(self, certificate: str, before: KnownGauge,
+                       ) -> tuple[float | None, float | None]:
+        """The certificate's U and k. A certificate given without its U is said plainly
+        (the gauge's calibration then stays out of the uncertainty budget) and left so
+        only when confirmed."""
+        s = self.screen
+        while True:
+            uncertainty = s.ask_parsed("  Certificate's expanded uncertainty U (mm)", _positive,
+                                       None if before.uncertainty_mm is None
+                                       else f"{before.uncertainty_mm:g}")
+            if uncertainty is not None:
+                default_k = f"{before.uncertainty_k:g}" if before.uncertainty_k else "2"
+                return uncertainty, s.ask_parsed("  Its coverage factor k", _coverage,
+                                                 default_k)
+            if not certificate:
+                return None, None
+            s.problem("no U: without the certificate's expanded uncertainty this gauge's "
+                      "calibration is left out of the uncertainty budget, and the record "
+                      "says the budget is incomplete")
+            if s.confirm("  Leave U unrecorded all the same?", default=False):
+                return None, None
 
     def _check_due(self, trace: Traceability, indicators: Sequence[Indicator],
                    on: datetime.date) -> str:
@@ -212,6 +255,6 @@ class TraceabilityQuestions:
             s.ok(f"{serial}: {known.summary()}")
             return known.identity()
         s.say(f"{shown(serial)}: its calibration certificate.")
-        gauge = self._new_gauge(serial)
+        gauge = self._confirmed(self._new_gauge(serial, known), indicator)
         self.inventory.remember(gauge)
         return gauge.identity()

@@ -1,0 +1,138 @@
+"""The end of every campaign (run, resume, demo, the wizard): the verdict (the one of
+``ogacq/identify/consistency.py``), the record's id and the next command, and the
+record the history stores, built once.
+
+The record's id does not depend on when it is issued (``ogacq report`` issues it
+as ``record.json``), so it can be said before: the page and the history carry the
+same id.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ogacq.identify.consistency import Verdict, fit_verdict
+from ogacq.identify.fit import FitResult
+from ogacq.session.records import OffsetsRecord
+from ogacq.session.series import earlier_in_series, next_session
+from ogacq.session.store import LoadedSession, load_session
+
+log = logging.getLogger("ogacq")
+
+
+@dataclass(frozen=True)
+class NextStep:
+    command: str  # what to type ("" for advice without a command)
+    why: str
+
+
+@dataclass(frozen=True)
+class CampaignEnd:
+    session: Path
+    record: Mapping[str, Any]  # the ogacq-record/1 document of the session
+    verdict: Verdict
+    steps: tuple[NextStep, ...]
+    report: Path | None = None  # the page written already (the demo's)
+
+    @property
+    def record_id(self) -> str:
+        return str(self.record.get("id"))
+
+    @property
+    def built(self) -> Mapping[str, Any] | None:
+        """The record whole (what the history stores); None when it could not be built
+        (the history then builds it, and warns)."""
+        return self.record if "format" in self.record else None
+
+    def lines(self) -> list[str]:
+        """Plain text (escape it before rich sees it)."""
+        issued = (f"issued as {self.report.with_name('record.json')}" if self.report
+                  else "`ogacq report` issues it: report.html and record.json")
+        out = [f"verdict: {self.verdict.summary()}", f"record: {self.record_id} ({issued})"]
+        for k, step in enumerate(self.steps):
+            lead = "next: " if k == 0 else "      "
+            out.append(f"{lead}{step.command}   ({step.why})" if step.command
+                       else f"{lead}{step.why}")
+        return out
+
+
+def campaign_end(session_path: Path, fit: FitResult, *, simulated: bool,
+                 report: Path | None = None, rehearsal_writeback: bool = False,
+                 ) -> CampaignEnd:
+    """The end of the campaign recorded in ``session_path`` (``fit``: its identified
+    offsets); ``report``: the page already written (the demo's); ``rehearsal_writeback``:
+    the offsets can be written to the simulator still running (the wizard's)."""
+    from ogacq.record.document import build_record, session_record_id  # not at start-up
+
+    session = load_session(session_path)
+    try:
+        record: Mapping[str, Any] = build_record(session)
+    except Exception as exc:  # the campaign is complete and safe whatever fails here
+        log.warning("the record of %s could not be built (%s: %s); `ogacq report` says "
+                    "more", session.path, type(exc).__name__, exc)
+        record = {"id": session_record_id(session)}
+    verdict = fit_verdict(fit)
+    steps = next_steps(session, verdict, fit.identifiability.identifiable,
+                       simulated=simulated, report=report,
+                       rehearsal_writeback=rehearsal_writeback)
+    return CampaignEnd(session.path, record, verdict, steps, report)
+
+
+def validation_of(session: LoadedSession) -> Path | None:
+    """The earlier session of the same series whose offsets were written back before
+    this one ran: this campaign validates it."""
+    for earlier in earlier_in_series(Path(session.path)):
+        try:
+            loaded = load_session(earlier)
+        except Exception:  # an unreadable neighbour is no one's calibration
+            continue
+        if any(r.stage == "done" for r in loaded.of_type(OffsetsRecord)):
+            return earlier
+    return None
+
+
+def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
+               simulated: bool, report: Path | None = None,
+               rehearsal_writeback: bool = False) -> tuple[NextStep, ...]:
+    """What to do now, most useful first."""
+    path = session.path
+    calibrated = validation_of(session)
+    if calibrated is not None:
+        return (NextStep(f"ogacq report {calibrated} --after {path}",
+                         f"the record of {calibrated.name}: as found, and as left by this "
+                         "validation"),)
+    steps = [NextStep(f"open {report}", "the calibration record") if report is not None
+             else NextStep(f"ogacq report {path}", "the calibration record")]
+    if verdict.state == "inconsistent":
+        steps.insert(0, NextStep(f"ogacq diagnose {path}", "what the joint offsets leave "
+                                 "out: look before writing anything"))
+        return tuple(steps)
+    if not (verdict.consistent and identifiable):
+        return tuple(steps)
+    campaign = session.header.get("campaign_file")
+    if simulated and not rehearsal_writeback:
+        steps.append(NextStep("", "a rehearsal: the simulated controller stopped with the "
+                                  "command; on the machine, `ogacq offsets write SESSION` "
+                                  "then a validation run"))
+        return tuple(steps)
+    steps.insert(0, NextStep(f"ogacq offsets write {path}", "write the offsets to the "
+                             "controller (shown and confirmed first)"))
+    if campaign and not simulated:
+        steps.insert(1, NextStep(f"ogacq run {campaign}", "then a validation run, recorded "
+                                 f"as {_next_name(Path(campaign), path)}"))
+    return tuple(steps)
+
+
+def _next_name(campaign_file: Path, session: Path) -> str:
+    """The session a new run of ``campaign_file`` would record into."""
+    from ogacq.campaign_file import read_campaign
+    from ogacq.errors import OgacqError
+
+    try:
+        return next_session(read_campaign(campaign_file).session).path.name
+    except OgacqError:
+        return "the next session of the campaign"
