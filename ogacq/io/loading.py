@@ -39,15 +39,19 @@ class LoadedInput:
     def notes(self) -> list[str]:
         """What the output says first (partial, edited, an older format); none for a CSV
         or a complete, untouched session."""
+        if self.session is None:  # a CSV: the sessions' modules are not even imported
+            return []
         from ogacq.session.state import session_notes
 
-        return [] if self.session is None else session_notes(self.session, self.state)
+        return session_notes(self.session, self.state)
 
     def state_json(self) -> dict[str, Any]:
         """The keys a JSON output gains for the same (``partial``, ``edited``, ...)."""
+        if self.session is None:
+            return {}
         from ogacq.session.state import state_json
 
-        return {} if self.session is None else state_json(self.session, self.state)
+        return state_json(self.session, self.state)
 
     @property
     def partial(self) -> bool:
