@@ -11,7 +11,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -131,10 +133,50 @@ class MapOutcome:
     proposals: list[Proposal]
     chi2_before: float  # the library model's chi-square (weighted rss / variance)
     chi2_after: float
+    inflation: float = 1.0  # on the maps' std: the final fit's misfit beyond the noise
 
     @property
     def found(self) -> bool:
         return self.fit is not None
+
+    def maps_over(self, spans: Mapping[int, tuple[float, float]],
+                  zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
+        """The maps tabulated over what the campaign read of each axis widened to
+        ``spans`` (axis -> from, to; mm of q): where a compensation must hold beyond the
+        readings (the travel's ends, or a travel moved by new joint offsets), the fitted
+        shapes go on (a periodic error its period, a spline its end cubic, a wound-up
+        hysteresis its value), their band from the fit's covariance and the pitch's std
+        (which grows with the distance from the reference). Zero at ``zero_at`` (axis
+        -> q) where given, the band relative to it. ``extra["measured_mm"]`` says where
+        the readings were."""
+        if self.fit is None:
+            return ()
+        covs = {c.axis: c for c in self.search.coverage}
+        ranges = {}
+        for a, c in covs.items():
+            lo, hi = spans.get(a, (c.from_mm, c.to_mm))
+            ranges[a] = (min(lo, c.from_mm), max(hi, c.to_mm))
+        maps = axis_maps(self.fit, self.inflation, ranges,
+                         {a: c.step_mm for a, c in covs.items()},
+                         {s.added.term.name: s.added.shape_std for s in self.search.steps},
+                         zero_at)
+        return tuple(dataclasses.replace(m, extra={**m.extra, "measured_mm": [
+            covs[AXES.index(m.axis)].from_mm, covs[AXES.index(m.axis)].to_mm]})
+            for m in maps)
+
+    def value_at(self, axis: int, q_mm: float) -> float:
+        """The axis's map (its along-the-line terms summed, as the diagnosis fitted them,
+        zero at their reference) at ``q_mm`` approached forward: the constant a map
+        made zero elsewhere (``maps_over``'s ``zero_at``) hands to the joint offset."""
+        if self.fit is None:
+            return 0.0
+        total = 0.0
+        at = np.array([q_mm])
+        for term, coef in zip(self.fit.terms, self.fit.coefficients, strict=True):
+            if term.axis == axis and term.along and term.family != "warm_up":
+                shape = term.shape_of(at, np.ones(1), np.full(1, np.inf), np.zeros(1))
+                total += float(coef @ shape[:, 0])
+        return total
 
 
 def _backward(problem: Problem, noise: GaugeNoise, claimed: Model, terms: list[MapTerm],
@@ -215,7 +257,8 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
                      {s.added.term.name: s.added.shape_std for s in search.steps}) \
         if fitted is not None else ()
     outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
-                         (fitted.rss if fitted is not None else claimed.rss) / noise.variance)
+                         (fitted.rss if fitted is not None else claimed.rss) / noise.variance,
+                         inflation)
     if separate and problem.obs.raw and search.coverage:
         _honesty(problem, noise, claimed, outcome, history, inflation)
     return outcome
@@ -281,3 +324,4 @@ def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
         target = lin.residual + lin.signature_of_term(replace)
     _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
     return coef[-term.size:]
+
