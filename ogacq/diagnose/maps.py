@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -43,7 +43,8 @@ from ogacq.diagnose.mapswap import (
 from ogacq.diagnose.nested import nested_test
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL
-from ogacq.identify.noise import GaugeNoise
+from ogacq.identify.noise import GaugeNoise, noise_for
+from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.gauges import AXES
@@ -325,3 +326,25 @@ def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
     _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
     return coef[-term.size:]
 
+
+def maps_left(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
+              written: Mapping[int, tuple[list[MapTerm], tuple[float, float], float]],
+              coverage: Sequence[AxisCoverage]) -> tuple[AxisMap, ...]:
+    """What is left of maps applied while ``obs`` was read: per axis (``written``: its
+    terms as written, the range of its table and its reference), the terms at their
+    written shapes fitted again beside the model ``names`` (from ``theta``), tabulated
+    over that range, zero at that reference: what a correction left of the error it was
+    made for, with its band. Only on axes the campaign read densely enough to search
+    (``coverage``); none elsewhere."""
+    dense = {c.axis: c for c in coverage if c.dense}
+    todo = {a: w for a, w in written.items() if a in dense and w[0]}
+    if not todo:
+        return ()
+    noise = noise_for(obs)
+    problem = Problem(obs, noise)
+    terms = [t for a in sorted(todo) for t in todo[a][0]]
+    fitted = fit_with_maps(problem, noise, names, theta, terms, JointHistory.of(obs.layout))
+    chi2_dof = fitted.verdict.chi2_dof
+    inflation = math.sqrt(max(1.0, chi2_dof)) if math.isfinite(chi2_dof) else 1.0
+    return axis_maps(fitted, inflation, {a: todo[a][1] for a in todo},
+                     {a: dense[a].step_mm for a in todo}, zero_at={a: todo[a][2] for a in todo})
