@@ -71,6 +71,8 @@ def with_offsets(m: AxisMap, moved_mm: float, reference_mm: float = 0.0,
              round(float(m.extra.get("moved_with_offsets_mm", 0.0)) + moved_mm, 9)}
     if m.extra.get("terms"):  # the shapes it was made from, in the new coordinate too
         extra["terms"] = moved_terms_json(list(m.extra["terms"]), moved_mm)
+    if m.extra.get("measured_mm"):  # where the readings were
+        extra["measured_mm"] = [float(v) + moved_mm for v in m.extra["measured_mm"]]
     return zeroed(AxisMap(m.axis, moved.positions_mm, moved.forward_mm, moved.reverse_mm,
                           moved.u_forward_mm, moved.u_reverse_mm, reference_mm, m.source,
                           m.excludes, extra))
@@ -105,12 +107,27 @@ def summed(axis: str, maps: Sequence[AxisMap], reference_mm: float) -> AxisMap:
     u_r = np.sqrt(np.sum([np.interp(q, m.positions_mm, m.u_reverse_mm) ** 2 for m in maps],
                          axis=0))
     excludes = tuple(dict.fromkeys(e for m in maps for e in m.excludes))
-    terms = [t for m in maps for t in m.extra.get("terms") or ()]
     return AxisMap(axis, tuple(float(v) for v in q), tuple(float(v) for v in fwd),
                    tuple(float(v) for v in rev), tuple(float(v) for v in u_f),
                    tuple(float(v) for v in u_r), reference_mm,
-                   "; ".join(m.source for m in maps if m.source), excludes,
-                   {"terms": terms} if terms else {})
+                   "; ".join(m.source for m in maps if m.source), excludes, _extras(maps))
+
+
+def _extras(maps: Sequence[AxisMap]) -> dict:
+    """What the maps say beside their values, for their sum: the lists joined (their
+    terms, families, effects), any other entry the first one's (a pitch, where the
+    readings were); not the moves each went through (the sum is a map of this
+    coordinate)."""
+    out: dict = {}
+    for m in maps:
+        for key, value in m.extra.items():
+            if key == "moved_with_offsets_mm":
+                continue
+            if isinstance(value, list) and key != "measured_mm":
+                out[key] = [*out.get(key, []), *value]
+            else:
+                out.setdefault(key, value)
+    return out
 
 
 def compensation(diagnosis_maps: Sequence[AxisMap], effect_maps: Mapping[str, EffectMap],
