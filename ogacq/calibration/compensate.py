@@ -8,10 +8,25 @@ diagnosis's maps and its compensable library effects, made into one per axis
 without correcting anything twice (``ogacq.compensation.combine``), added to the
 maps that were in force during the campaign (its readings show what they left).
 Every table format is exported beside, with the ISO 230-2 figures.
+
+The campaign identified the maps in its controller coordinate, that of the offsets
+then in force. The offsets written beside them move that coordinate along the
+screws (``q = p - o``, the drive's raw position p being where the screw is): the
+joint at q then is at ``q + s`` after, s = o_then - o_written. So each map is
+written moved by s (a screw error of pitch P left where it was is off by
+``2 pi s / P`` of phase: a joint offset of 1.24 mm leaves 39 % of a 20 mm pitch's
+error in place), zero again at its reference, its new constant added to the offset
+(which moves s by as much: a fixed point, reached in a pass or two, a map's slope
+being a few um per mm). A map in force on an axis whose offset changes is moved too.
+The maps are tabulated from the diagnosis's fitted shapes over the whole travel of
+the new coordinate, beyond the readings where needed (a scan stops short of the
+travel's ends, and the move shifts them): a table holding its end values there would
+leave the error of the last millimetres in place, where the papers' postures read.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -23,7 +38,7 @@ from ogacq.calibration.maps import (
     uncompensated_effects,
 )
 from ogacq.campaign import recorded_maps
-from ogacq.compensation.combine import compensation
+from ogacq.compensation.combine import compensation, with_offsets
 from ogacq.compensation.effects import effect_maps
 from ogacq.compensation.export import export_tables
 from ogacq.compensation.iso230 import map_figures
@@ -35,6 +50,7 @@ from ogacq.session.store import LoadedSession
 from ogacq.writeback.evidence import Evidence, evidence_of
 
 TABLES_FOLDER = "tables"
+Register = Callable[[float], float]  # an offset as the controller stores it
 
 
 @dataclass(frozen=True)
@@ -92,20 +108,91 @@ def in_force_maps(session: LoadedSession) -> tuple[dict[str, AxisMap], str | Non
 
 
 def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: MachineSpec,
-                    ) -> Compensation:
-    """The offsets and maps that correct what the diagnosis of ``session`` found."""
+                    register: Register | None = None) -> Compensation:
+    """The offsets and maps that correct what the diagnosis of ``session`` found, the
+    maps in the controller coordinate the offsets make. ``register``: the value the
+    controller stores for an offset (its step); None: as given."""
     effects = compensable_effects(diagnosis)
-    found_maps = diagnosis_maps(diagnosis)
     in_force, checksum = in_force_maps(session)
-    per_axis = compensation(found_maps, effect_maps(effects, machine), effects, in_force)
-    shift = {a: per_axis[a].offset_shift_mm if a in per_axis else 0.0 for a in AXES}
-    evidence = evidence_for(diagnosis, session, shift)
+    # tabulated over the travel the offsets make, zero where their zero will be
+    spans, zero_at = _spans(diagnosis, machine)
+    found = diagnosis.maps_over(spans, zero_at)
+    per_axis = compensation(found, effect_maps(effects, machine, spans=spans,
+                                               references=zero_at), effects, in_force)
+    # the diagnosis's maps, fitted zero at the reference, less their value there
+    taken = {m.axis: diagnosis.map_value_at(m.axis, zero_at[m.axis]) for m in found}
+    shift = {a: per_axis[a].offset_shift_mm + taken.get(a, 0.0) if a in per_axis else 0.0
+             for a in AXES}
+    campaign_maps = {**{a: m for a, m in in_force.items() if a not in per_axis},
+                     **{a: c.axis_map for a, c in per_axis.items()}}
+    maps, constants, evidence = _with_offsets(diagnosis, session, campaign_maps, shift,
+                                              register, new=set(per_axis))
     return Compensation(
-        session.path, {a: c.axis_map for a, c in per_axis.items()}, shift, tuple(effects),
+        session.path, {a: maps[a] for a in AXES if a in maps},
+        {a: shift[a] + constants.get(a, 0.0) for a in AXES}, tuple(effects),
         tuple(uncompensated_effects(diagnosis)),
-        tuple(m.source or f"map of {m.axis}" for m in found_maps), checksum,
+        tuple(m.source or f"map of {m.axis}" for m in diagnosis_maps(diagnosis)), checksum,
         dict(evidence.identified_mm), dict(evidence.std_mm),
         {n: {"value": e.value, "std": e.std} for n, e in model_effects(diagnosis).items()})
+
+
+# How far beyond the travel moved by the final model's joint offsets the maps are
+# tabulated: the maps' constants and the register's step move the offsets by a few
+# micrometres more. No source: a margin.
+SPAN_MARGIN_MM = 0.1
+# Where the maps written are zero: the controller's zero, the reference position of the
+# tables written from them (FANUC's 3620, Siemens' reference point: ogacq/compensation).
+MAP_REFERENCE_MM = 0.0
+FIXED_POINT_PASSES = 4
+SAME_MOVE_MM = 1e-7  # far below any register's step and any map's meaning
+
+
+def _spans(diagnosis: Diagnosis, machine: MachineSpec,
+           ) -> tuple[dict[str, tuple[float, float]], dict[str, float]]:
+    """Per axis, the campaign's q the travel covers once the final model's joint offsets
+    are written (the joint at q then at q + drho after), and the q that becomes the
+    reference (MAP_REFERENCE_MM after)."""
+    spans, zero_at = {}, {}
+    for a in AXES:
+        drho = diagnosis.final_fit.value(f"joint_offset.{a}")
+        spans[a] = (machine.rho_min_mm - drho - SPAN_MARGIN_MM,
+                    machine.rho_max_mm - drho + SPAN_MARGIN_MM)
+        zero_at[a] = MAP_REFERENCE_MM - drho
+    return spans, zero_at
+
+
+def coordinate_moves(evidence: Evidence, register: Register | None = None,
+                     ) -> dict[str, float]:
+    """Per axis, how far the offsets written move the controller coordinate: the joint
+    at q during the campaign is at q + s after, s = o_then - o_written (``q = p - o``),
+    o_written = o_then - drho as the register stores it (``writeback.policy``)."""
+    then = evidence.in_force_mm or dict.fromkeys(AXES, 0.0)
+    store = register or (lambda v: v)
+    return {a: then[a] - store(then[a] - evidence.identified_mm[a]) for a in AXES}
+
+
+def _with_offsets(diagnosis: Diagnosis, session: LoadedSession,
+                  campaign_maps: dict[str, AxisMap], shift: dict[str, float],
+                  register: Register | None, new: set[str],
+                  ) -> tuple[dict[str, AxisMap], dict[str, float], Evidence]:
+    """The maps moved with the offsets written beside them (``combine.with_offsets``),
+    their new constants (to add to the offsets) and the evidence with those; a map in
+    force that nothing new changes, only where its offset moves."""
+    constants: dict[str, float] = {}
+    moves: dict[str, float] | None = None
+    maps: dict[str, AxisMap] = {}
+    for _ in range(FIXED_POINT_PASSES):
+        evidence = evidence_for(diagnosis, session,
+                                {a: shift[a] + constants.get(a, 0.0) for a in AXES})
+        now = coordinate_moves(evidence, register)
+        if moves is not None and all(abs(now[a] - moves[a]) <= SAME_MOVE_MM for a in AXES):
+            break
+        moves = now
+        maps, constants = {}, {}
+        for a, m in campaign_maps.items():
+            if a in new or moves[a] != 0.0:  # one in force stays where its offset stays
+                maps[a], constants[a] = with_offsets(m, moves[a], MAP_REFERENCE_MM)
+    return maps, constants, evidence
 
 
 def evidence_for(diagnosis: Diagnosis, session: LoadedSession,

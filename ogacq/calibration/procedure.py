@@ -25,6 +25,7 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any, Protocol
 
+from ogacq_drivers.axes.profile import load_profile
 from ogacq.calibration.compensate import Compensation, compensation_of, evidence_for, export
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
@@ -247,7 +248,9 @@ class Procedure:
         done = self.log.last("compensation")
         if done is not None:
             return Compensation.from_json(done.details)
-        comp = compensation_of(diagnosis, evidence, self.setup.machine)
+        # the maps go with the coordinate the offsets make, as the register stores them
+        register = ControllerFacts.of(load_profile(self.controller.profile)).quantize
+        comp = compensation_of(diagnosis, evidence, self.setup.machine, register)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")
         comp = replace(comp, tables=export(self.setup.folder, comp, title))

@@ -11,8 +11,8 @@ before, and restored, when any of these holds (each with its reason):
 * a joint offset left is larger than the one the write corrected, by more than
   three combined standard deviations (a wrong sign, a wrong value);
 * an axis's systematic positioning error E (ISO 230-2) after, from the corrected
-  effects identified again, exceeds the one before by more than three combined
-  uncertainties of the maps.
+  effects identified again and what the maps left (``_after_maps``), exceeds the one
+  before by more than three combined uncertainties of the maps.
 
 Otherwise it is ``validated`` when the fit is within the noise, and ``improved``
 (kept, not within the noise) when it is not but nothing got worse.
@@ -32,11 +32,13 @@ from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
 from ogacq.compensation.iso230 import map_figures
 from ogacq.diagnose.diagnosis import diagnose
+from ogacq.diagnose.maps import maps_left
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.error_maps import terms_of
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_SETS
 from ogacq.session.convert import session_observations
@@ -137,16 +139,24 @@ def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
                 machine: MachineSpec) -> tuple[dict[str, dict[str, Any]],
                                                dict[str, dict[str, float]]]:
     """The ISO 230-2 figures of each compensated axis after: the corrected library
-    effects identified again on the validation, and the maps its diagnosis finds (what
-    the maps left), as maps. An axis where nothing is left to identify has none."""
-    values: dict[str, EffectValue] = {}
-    if comp.compensated:
-        result, _ = _fit(obs, base + tuple(comp.compensated))
-        values = {n: EffectValue(n, result.value(n), float(result.std[result.names.index(n)]))
-                  for n in comp.compensated}
+    effects identified again on the validation, and what the maps left: the maps its
+    diagnosis finds, else, on an axis it read densely, the written maps' own terms
+    fitted again (what is left of them, with its band: a correction that worked leaves
+    figures within that band, not none). An axis the validation cannot map has none."""
+    names = base + tuple(comp.compensated)
+    result, _ = _fit(obs, names)
+    values = {n: EffectValue(n, result.value(n), float(result.std[result.names.index(n)]))
+              for n in comp.compensated}
     found: tuple[AxisMap, ...] = ()
     if comp.diagnosis_maps:  # maps left are the validation's diagnosis's to find
-        found = diagnosis_maps(diagnose(obs))
+        diagnosis = diagnose(obs)
+        found = diagnosis_maps(diagnosis)
+        seen = {m.axis for m in found}
+        written = {AXES.index(a): (terms_of(m), (m.positions_mm[0], m.positions_mm[-1]),
+                                   m.reference_mm)
+                   for a, m in comp.maps.items() if a not in seen}
+        coverage = diagnosis.mapped.search.coverage if diagnosis.mapped else ()
+        found += maps_left(obs, names, result.theta, written, coverage)
     per_axis = compensation(found, effect_maps(values, machine), values)
     figures = {}
     for a, c in per_axis.items():

@@ -12,7 +12,10 @@ ran (its readings then show only what is left). The rules:
    already orthogonal to it (``excludes`` does not name it) has that effect's
    signature projected out first, so the two never correct the same error twice;
 3. the rest add up on the union of the positions (linear between them, as every
-   map interpolates), their uncertainties in quadrature (independent estimates).
+   map interpolates), their uncertainties in quadrature (independent estimates);
+4. a map goes with the controller coordinate the offsets written beside it make
+   (``with_offsets``): moved by the coordinate's change, zero at the reference of that
+   coordinate, its new constant a part of the offset as in rule 1.
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import numpy as np
 
 from ogacq.compensation.effects import EffectMap
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.error_maps import moved_terms_json
 from ogacq.model.parameters import AXES
 
 # The signature each carried effect leaves in a map, per side: (forward, reverse) as
@@ -51,6 +55,27 @@ def zeroed(m: AxisMap) -> tuple[AxisMap, float]:
     return AxisMap(m.axis, m.positions_mm, tuple(v - c for v in m.forward_mm),
                    tuple(v - c for v in m.reverse_mm), m.u_forward_mm, m.u_reverse_mm,
                    m.reference_mm, m.source, m.excludes, m.extra), c
+
+
+def with_offsets(m: AxisMap, moved_mm: float, reference_mm: float = 0.0,
+                 ) -> tuple[AxisMap, float]:
+    """The map in the controller coordinate that new joint offsets make, the joint at
+    ``q`` before being at ``q + moved_mm`` after (``AxisMap.moved``), zero at
+    ``reference_mm`` of that coordinate forward; and the constant taken off (rule 1: the
+    offset's). The map's ``extra["moved_with_offsets_mm"]`` adds up the moves it went
+    through."""
+    if moved_mm == 0.0 and m.reference_mm == reference_mm:
+        return m, 0.0
+    moved = m.moved(moved_mm)
+    extra = {**m.extra, "moved_with_offsets_mm":
+             round(float(m.extra.get("moved_with_offsets_mm", 0.0)) + moved_mm, 9)}
+    if m.extra.get("terms"):  # the shapes it was made from, in the new coordinate too
+        extra["terms"] = moved_terms_json(list(m.extra["terms"]), moved_mm)
+    if m.extra.get("measured_mm"):  # where the readings were
+        extra["measured_mm"] = [float(v) + moved_mm for v in m.extra["measured_mm"]]
+    return zeroed(AxisMap(m.axis, moved.positions_mm, moved.forward_mm, moved.reverse_mm,
+                          moved.u_forward_mm, moved.u_reverse_mm, reference_mm, m.source,
+                          m.excludes, extra))
 
 
 def without(m: AxisMap, carried: Iterable[str]) -> tuple[AxisMap, tuple[str, ...]]:
@@ -85,7 +110,24 @@ def summed(axis: str, maps: Sequence[AxisMap], reference_mm: float) -> AxisMap:
     return AxisMap(axis, tuple(float(v) for v in q), tuple(float(v) for v in fwd),
                    tuple(float(v) for v in rev), tuple(float(v) for v in u_f),
                    tuple(float(v) for v in u_r), reference_mm,
-                   "; ".join(m.source for m in maps if m.source), excludes)
+                   "; ".join(m.source for m in maps if m.source), excludes, _extras(maps))
+
+
+def _extras(maps: Sequence[AxisMap]) -> dict:
+    """What the maps say beside their values, for their sum: the lists joined (their
+    terms, families, effects), any other entry the first one's (a pitch, where the
+    readings were); not the moves each went through (the sum is a map of this
+    coordinate)."""
+    out: dict = {}
+    for m in maps:
+        for key, value in m.extra.items():
+            if key == "moved_with_offsets_mm":
+                continue
+            if isinstance(value, list) and key != "measured_mm":
+                out[key] = [*out.get(key, []), *value]
+            else:
+                out.setdefault(key, value)
+    return out
 
 
 def compensation(diagnosis_maps: Sequence[AxisMap], effect_maps: Mapping[str, EffectMap],

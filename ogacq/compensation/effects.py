@@ -56,11 +56,13 @@ def compensable(name: str) -> bool:
     return name.split(".")[0] in COMPENSABLE
 
 
-def map_positions(machine: MachineSpec, step_mm: float = MAP_STEP_MM) -> np.ndarray:
-    """The travel rho_min..rho_max in steps of at most ``step_mm``, both ends included."""
-    span = machine.rho_max_mm - machine.rho_min_mm
-    count = int(math.ceil(span / step_mm - 1e-9)) + 1
-    return np.linspace(machine.rho_min_mm, machine.rho_max_mm, count)
+def map_positions(machine: MachineSpec, step_mm: float = MAP_STEP_MM,
+                  span_mm: tuple[float, float] | None = None) -> np.ndarray:
+    """The travel rho_min..rho_max (or ``span_mm``) in steps of at most ``step_mm``, both
+    ends included."""
+    lo, hi = (machine.rho_min_mm, machine.rho_max_mm) if span_mm is None else span_mm
+    count = int(math.ceil((hi - lo) / step_mm - 1e-9)) + 1
+    return np.linspace(lo, hi, count)
 
 
 @dataclass(frozen=True)
@@ -73,13 +75,18 @@ class EffectMap:
 
 def effect_maps(effects: Mapping[str, EffectValue], machine: MachineSpec, *,
                 reference_mm: float = 0.0, step_mm: float = MAP_STEP_MM,
+                spans: Mapping[str, tuple[float, float]] | None = None,
+                references: Mapping[str, float] | None = None,
                 ) -> dict[str, EffectMap]:
     """Per axis, the map of its compensable effects among ``effects`` (others are
-    ignored); the uncertainties propagate each effect's std, the effects taken as
-    uncorrelated (the diagnosis reports a std per effect, not their covariance)."""
+    ignored), over the travel or the axis's span in ``spans``, zero at ``reference_mm``
+    or the axis's entry in ``references``; the uncertainties propagate each effect's
+    std, the effects taken as uncorrelated (the diagnosis reports a std per effect, not
+    their covariance)."""
     out: dict[str, EffectMap] = {}
-    q = map_positions(machine, step_mm)
     for axis in AXES:
+        q = map_positions(machine, step_mm, (spans or {}).get(axis))
+        ref = (references or {}).get(axis, reference_mm)
         scale = effects.get(f"encoder_scale.{axis}")
         lost = effects.get(f"backlash.{axis}")
         if scale is None and lost is None:
@@ -88,8 +95,8 @@ def effect_maps(effects: Mapping[str, EffectValue], machine: MachineSpec, *,
         b, u_b = (lost.value, lost.std) if lost else (0.0, 0.0)
         fwd_full = s * q - b / 2
         rev_full = s * q + b / 2
-        shift = s * reference_mm - b / 2  # e(ref, +1)
-        dq = q - reference_mm
+        shift = s * ref - b / 2  # e(ref, +1)
+        dq = q - ref
         u_fwd = np.abs(dq) * u_s  # zero at the reference forward, as the map is
         u_rev = np.hypot(np.abs(dq) * u_s, u_b)
         parts = [f"encoder scale {scale.value:+.1f} ± {scale.std:.1f} ppm" if scale else "",
@@ -101,6 +108,6 @@ def effect_maps(effects: Mapping[str, EffectValue], machine: MachineSpec, *,
             reverse_mm=tuple(float(v) for v in rev_full - shift),
             u_forward_mm=tuple(float(v) for v in u_fwd),
             u_reverse_mm=tuple(float(v) for v in u_rev),
-            reference_mm=reference_mm, source=", ".join(p for p in parts if p),
+            reference_mm=ref, source=", ".join(p for p in parts if p),
             extra={"effects": list(names)}), float(shift))
     return out

@@ -23,6 +23,7 @@ alternatives and what would separate them, final refit with std.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -54,7 +55,7 @@ from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
-from ogacq.model.parameters import PARAM_INDEX, nested
+from ogacq.model.parameters import AXES, PARAM_INDEX, nested
 
 SEPARATED_ALTERNATIVES = 4  # per effect, the closest ones get a separating plan
 # When no set of effects brings the fit within the noise, those found are still
@@ -145,6 +146,20 @@ class Diagnosis:
     def maps(self) -> tuple[AxisMap, ...]:
         """The error map of each actuator with one, for its compensation table."""
         return () if self.mapped is None else self.mapped.maps
+
+    def maps_over(self, spans: Mapping[str, tuple[float, float]],
+                  zero_at: Mapping[str, float] | None = None) -> tuple[AxisMap, ...]:
+        """The maps tabulated beyond the readings, over ``spans`` (axis -> from, to), zero
+        at ``zero_at`` (axis -> q): what a compensation of the whole travel needs
+        (``MapOutcome.maps_over``)."""
+        if self.mapped is None:
+            return ()
+        return self.mapped.maps_over({AXES.index(a): span for a, span in spans.items()},
+                                     {AXES.index(a): q for a, q in (zero_at or {}).items()})
+
+    def map_value_at(self, axis: str, q_mm: float) -> float:
+        """The axis's map at ``q_mm`` forward, as fitted (0 without one)."""
+        return 0.0 if self.mapped is None else self.mapped.value_at(AXES.index(axis), q_mm)
 
     @property
     def map_effects(self) -> list[MapEffect]:

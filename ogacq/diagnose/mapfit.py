@@ -14,6 +14,7 @@ library's by their plausible ranges, the maps' by their norms).
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -25,7 +26,7 @@ from ogacq.identify.fit import FitResult, StopReason
 from ogacq.identify.identifiability import RANK_TOLERANCE, judge_covariance, plausible_ranges
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.axis_map import AxisMap
-from ogacq.model.error_maps import JointHistory, MapTerm, axis_map, tabulation_step
+from ogacq.model.error_maps import JointHistory, MapTerm, axis_map, tabulation_step, terms_json
 from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import joint_sensitivity
 from ogacq.model.parameters import indices
@@ -209,10 +210,11 @@ def _rounded(x: float) -> float | None:
 
 def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, float]],
               steps: dict[int, float], shape_std: dict[str, float] | None = None,
-              ) -> tuple[AxisMap, ...]:
+              zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
     """One ``AxisMap`` per axis with a map along its line, its terms summed, the band
     from their joint covariance (times ``inflation``) and their shapes' std
-    (``shape_std`` by term name: a pitch)."""
+    (``shape_std`` by term name: a pitch); zero at the terms' reference, or at the
+    axis's ``zero_at`` (``error_maps.axis_map``)."""
     out = []
     for axis in range(3):
         ks = [k for k, t in enumerate(fitted.terms) if t.along and t.axis == axis
@@ -226,7 +228,7 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
         excludes = tuple(n for n in fitted.names
                          if n in (f"encoder_scale.{AXES[axis]}", f"backlash.{AXES[axis]}"))
         lo, hi = ranges[axis]
-        extra: dict = {"families": [t.family for t in terms]}
+        extra: dict = {"families": [t.family for t in terms], "terms": terms_json(terms)}
         for t in terms:
             if t.family == "hysteresis":
                 extra["hysteresis_build_up_mm"] = round(t.shape["length_mm"], 4)
@@ -236,7 +238,8 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
         stds = [(shape_std or {}).get(t.name, math.nan) * inflation for t in terms]
         out.append(axis_map(terms, [fitted.coefficients[k] for k in ks], cov, lo, hi,
                             tabulation_step(terms, steps.get(axis)), source=source,
-                            excludes=excludes, extra=extra, shape_std=stds))
+                            excludes=excludes, extra=extra, shape_std=stds,
+                            zero_at=(zero_at or {}).get(axis)))
     return tuple(out)
 
 

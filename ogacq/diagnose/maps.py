@@ -11,7 +11,9 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -41,7 +43,8 @@ from ogacq.diagnose.mapswap import (
 from ogacq.diagnose.nested import nested_test
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL
-from ogacq.identify.noise import GaugeNoise
+from ogacq.identify.noise import GaugeNoise, noise_for
+from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.gauges import AXES
@@ -131,10 +134,50 @@ class MapOutcome:
     proposals: list[Proposal]
     chi2_before: float  # the library model's chi-square (weighted rss / variance)
     chi2_after: float
+    inflation: float = 1.0  # on the maps' std: the final fit's misfit beyond the noise
 
     @property
     def found(self) -> bool:
         return self.fit is not None
+
+    def maps_over(self, spans: Mapping[int, tuple[float, float]],
+                  zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
+        """The maps tabulated over what the campaign read of each axis widened to
+        ``spans`` (axis -> from, to; mm of q): where a compensation must hold beyond the
+        readings (the travel's ends, or a travel moved by new joint offsets), the fitted
+        shapes go on (a periodic error its period, a spline its end cubic, a wound-up
+        hysteresis its value), their band from the fit's covariance and the pitch's std
+        (which grows with the distance from the reference). Zero at ``zero_at`` (axis
+        -> q) where given, the band relative to it. ``extra["measured_mm"]`` says where
+        the readings were."""
+        if self.fit is None:
+            return ()
+        covs = {c.axis: c for c in self.search.coverage}
+        ranges = {}
+        for a, c in covs.items():
+            lo, hi = spans.get(a, (c.from_mm, c.to_mm))
+            ranges[a] = (min(lo, c.from_mm), max(hi, c.to_mm))
+        maps = axis_maps(self.fit, self.inflation, ranges,
+                         {a: c.step_mm for a, c in covs.items()},
+                         {s.added.term.name: s.added.shape_std for s in self.search.steps},
+                         zero_at)
+        return tuple(dataclasses.replace(m, extra={**m.extra, "measured_mm": [
+            covs[AXES.index(m.axis)].from_mm, covs[AXES.index(m.axis)].to_mm]})
+            for m in maps)
+
+    def value_at(self, axis: int, q_mm: float) -> float:
+        """The axis's map (its along-the-line terms summed, as the diagnosis fitted them,
+        zero at their reference) at ``q_mm`` approached forward: the constant a map
+        made zero elsewhere (``maps_over``'s ``zero_at``) hands to the joint offset."""
+        if self.fit is None:
+            return 0.0
+        total = 0.0
+        at = np.array([q_mm])
+        for term, coef in zip(self.fit.terms, self.fit.coefficients, strict=True):
+            if term.axis == axis and term.along and term.family != "warm_up":
+                shape = term.shape_of(at, np.ones(1), np.full(1, np.inf), np.zeros(1))
+                total += float(coef @ shape[:, 0])
+        return total
 
 
 def _backward(problem: Problem, noise: GaugeNoise, claimed: Model, terms: list[MapTerm],
@@ -215,7 +258,8 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
                      {s.added.term.name: s.added.shape_std for s in search.steps}) \
         if fitted is not None else ()
     outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
-                         (fitted.rss if fitted is not None else claimed.rss) / noise.variance)
+                         (fitted.rss if fitted is not None else claimed.rss) / noise.variance,
+                         inflation)
     if separate and problem.obs.raw and search.coverage:
         _honesty(problem, noise, claimed, outcome, history, inflation)
     return outcome
@@ -281,3 +325,26 @@ def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
         target = lin.residual + lin.signature_of_term(replace)
     _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
     return coef[-term.size:]
+
+
+def maps_left(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
+              written: Mapping[int, tuple[list[MapTerm], tuple[float, float], float]],
+              coverage: Sequence[AxisCoverage]) -> tuple[AxisMap, ...]:
+    """What is left of maps applied while ``obs`` was read: per axis (``written``: its
+    terms as written, the range of its table and its reference), the terms at their
+    written shapes fitted again beside the model ``names`` (from ``theta``), tabulated
+    over that range, zero at that reference: what a correction left of the error it was
+    made for, with its band. Only on axes the campaign read densely enough to search
+    (``coverage``); none elsewhere."""
+    dense = {c.axis: c for c in coverage if c.dense}
+    todo = {a: w for a, w in written.items() if a in dense and w[0]}
+    if not todo:
+        return ()
+    noise = noise_for(obs)
+    problem = Problem(obs, noise)
+    terms = [t for a in sorted(todo) for t in todo[a][0]]
+    fitted = fit_with_maps(problem, noise, names, theta, terms, JointHistory.of(obs.layout))
+    chi2_dof = fitted.verdict.chi2_dof
+    inflation = math.sqrt(max(1.0, chi2_dof)) if math.isfinite(chi2_dof) else 1.0
+    return axis_maps(fitted, inflation, {a: todo[a][1] for a in todo},
+                     {a: dense[a].step_mm for a in todo}, zero_at={a: todo[a][2] for a in todo})

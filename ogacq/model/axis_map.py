@@ -18,6 +18,11 @@ one type, so the sign and the reference are fixed here once:
   (e.g. ``encoder_scale.x`` when the linear trend stays in the model).
 * ``u_forward_mm``, ``u_reverse_mm`` are standard uncertainties (k = 1) of each
   point, from the fit's covariance; a table writer multiplies by its k.
+* ``q`` is the controller coordinate of the joint offsets in force when the map was
+  identified. A joint offset written moves that coordinate along the screw (``q = p
+  - o``: the drive's raw position ``p`` is where the screw is, and its errors stay
+  there), so a map is only right with the offsets it was made for: written with new
+  offsets, it is ``moved`` by the coordinate's change (``ogacq.calibration.compensate``).
 
 Between the tabulated positions the map is linear (as LinuxCNC's and Siemens'
 tables interpolate); outside them it holds its end values.
@@ -89,6 +94,16 @@ class AxisMap:
         fwd = np.interp(q, self.positions_mm, self.forward_mm)
         rev = np.interp(q, self.positions_mm, self.reverse_mm)
         return np.where(d > 0, fwd, np.where(d < 0, rev, 0.5 * (fwd + rev)))
+
+    def moved(self, by_mm: float) -> AxisMap:
+        """The same errors in a controller coordinate moved by ``by_mm``: the joint at
+        ``q`` here is at ``q + by_mm`` there (the offset o written lower by ``by_mm``:
+        ``q = p - o``). Positions and reference move, the values go with them: nothing
+        is interpolated."""
+        return AxisMap(self.axis, tuple(q + by_mm for q in self.positions_mm),
+                       self.forward_mm, self.reverse_mm, self.u_forward_mm,
+                       self.u_reverse_mm, self.reference_mm + by_mm, self.source,
+                       self.excludes, self.extra)
 
     def corrected_target(self, q_mm: float, direction: int) -> float:
         """The target to command so that the joint lands at ``q_mm``: one fixed-point

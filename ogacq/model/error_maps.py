@@ -266,36 +266,48 @@ def tabulation_step(terms: list[MapTerm], scan_step_mm: float | None) -> float:
 def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: np.ndarray,
              from_mm: float, to_mm: float, step_mm: float, *, source: str,
              excludes: tuple[str, ...] = (), extra: Mapping | None = None,
-             shape_std: list[float] | None = None) -> AxisMap:
+             shape_std: list[float] | None = None, zero_at: float | None = None) -> AxisMap:
     """The ``AxisMap`` of one axis from its fitted along-the-line terms: ``coefficients``
     per term, ``covariance`` of all of them stacked (standard uncertainty per point
     from it, k = 1), ``shape_std`` each term's shape parameter's std (a cyclic error's
     pitch: a phase that slips the farther from the reference, added to the band).
     Forward is the map approached moving up after a long run, reverse moving down (a
     hysteresis at its wound-up value: the table of a controller's backlash
-    compensation; how it builds up is in ``extra``)."""
+    compensation; how it builds up is in ``extra``). ``zero_at``: the map's reference
+    (the terms' when not given): the map less its value there forward, its band that of
+    the difference (the constant is the joint offset's, uncertainty included)."""
     assert terms and all(t.along and t.axis == terms[0].axis for t in terms)
     # a grid through the reference (where the map is zero), ends added
-    ref = terms[0].reference_mm
+    ref = terms[0].reference_mm if zero_at is None else zero_at
     first = math.ceil((from_mm - ref) / step_mm - 1e-9)
     last = math.floor((to_mm - ref) / step_mm + 1e-9)
     q = ref + step_mm * np.arange(first, last + 1)
     q = np.unique(np.round(np.concatenate([[from_mm], q, [to_mm]]), 9))
-    inf = np.full(len(q), np.inf)
-    zero = np.zeros(len(q))
+
+    def shapes(at: np.ndarray, side: int) -> np.ndarray:
+        n = len(at)
+        return np.vstack([t.shape_of(at, np.full(n, side), np.full(n, np.inf), np.zeros(n))
+                          for t in terms])
+
+    at_ref = shapes(np.array([ref]), 1)  # (k, 1)
 
     def design(side: int) -> np.ndarray:
-        return np.vstack([t.shape_of(q, np.full(len(q), side), inf, zero) for t in terms])
+        return shapes(q, side) - at_ref
 
     coef = np.concatenate(coefficients)
     slip = np.zeros(len(q))  # variance from the shapes' own uncertainty
     for term, c, std in zip(terms, coefficients, shape_std or [math.nan] * len(terms),
                             strict=True):
         if term.family == "lead_screw_cyclic" and math.isfinite(std):
-            pitch, delta = term.shape["pitch_mm"], q - term.reference_mm
+            pitch = term.shape["pitch_mm"]
             w = 2 * np.pi / pitch
-            d_pitch = (c[0] * np.cos(w * delta) - c[1] * np.sin(w * delta)) * delta * (-w / pitch)
-            slip += (d_pitch * std) ** 2
+
+            def d_pitch(x: np.ndarray, c: np.ndarray = c, w: float = w,
+                        pitch: float = pitch, term: MapTerm = term) -> np.ndarray:
+                delta = x - term.reference_mm
+                return (c[0] * np.cos(w * delta) - c[1] * np.sin(w * delta)) * delta * (-w / pitch)
+
+            slip += ((d_pitch(q) - d_pitch(np.array([ref]))) * std) ** 2
     out = {}
     for side in (1, -1):
         g = design(side)  # (k, Q)
@@ -306,7 +318,7 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
                    forward_mm=tuple(out[1][0].tolist()), reverse_mm=tuple(out[-1][0].tolist()),
                    u_forward_mm=tuple(out[1][1].tolist()),
                    u_reverse_mm=tuple(out[-1][1].tolist()),
-                   reference_mm=terms[0].reference_mm, source=source, excludes=excludes,
+                   reference_mm=ref, source=source, excludes=excludes,
                    extra=dict(extra or {}))
 
 
@@ -339,3 +351,39 @@ def library_axis_maps(values: Mapping[str, float], std: Mapping[str, float],
             source="library: " + ", ".join(sources),
             extra={"joint_offset_change_mm": -lost / 2.0} if lost else {}))
     return tuple(out)
+
+
+# --- a map's terms, kept beside its table --------------------------------------------
+
+# The shape parameters that are positions along q: they move with the coordinate.
+POSITION_SHAPES = ("from_mm", "to_mm")
+
+
+def terms_json(terms: list[MapTerm]) -> list[dict]:
+    """The terms a table was made from, as its ``extra["terms"]`` holds them: a later
+    campaign refits what is left of them (``ogacq.calibration.validate``)."""
+    return [{"family": t.family, "shape": {k: float(v) for k, v in t.shape.items()},
+             "reference_mm": float(t.reference_mm)} for t in terms]
+
+
+def moved_terms_json(entries: list[dict], by_mm: float) -> list[dict]:
+    """``terms_json`` entries in a coordinate moved by ``by_mm`` (``AxisMap.moved``)."""
+    return [{**e, "reference_mm": float(e["reference_mm"]) + by_mm,
+             "shape": {k: float(v) + by_mm if k in POSITION_SHAPES else float(v)
+                       for k, v in e["shape"].items()}} for e in entries]
+
+
+def terms_of(m: AxisMap) -> list[MapTerm]:
+    """The along-the-line terms ``m`` was made from (none when its ``extra`` does not
+    say: a library effect's map, a map written by hand)."""
+    out = []
+    for e in m.extra.get("terms") or ():
+        try:
+            term = MapTerm(str(e["family"]), AXES.index(m.axis),
+                           {str(k): float(v) for k, v in e["shape"].items()},
+                           float(e["reference_mm"]))
+        except (KeyError, TypeError, ValueError):
+            return []  # not terms this version can rebuild: none, rather than some
+        if term.along:
+            out.append(term)
+    return out
