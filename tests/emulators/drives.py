@@ -150,9 +150,19 @@ class _Drive:
         self.motion = _Motion()
         self.requests: list[bytes] = []  # every request PDU, as received
         self.lock = threading.RLock()
+        self.powered = True
+
+    def power_off(self) -> None:
+        """Switched off: a request still on its way (sent before the line was cut)
+        finds no drive to act on it; ``power_cycle`` switches it on again."""
+        with self.lock:
+            self.motion.cancel()  # no power, no motion
+            self.powered = False
 
     def handle(self, slave, pdu: bytes) -> bytes:  # type: ignore[no-untyped-def]
         with self.lock:
+            if not self.powered:  # nobody answers; the reply goes nowhere
+                return bytes([pdu[0] | 0x80, defines.SLAVE_DEVICE_FAILURE])
             self.requests.append(bytes(pdu))
             fc = pdu[0]
             if fc not in self.functions:
@@ -228,6 +238,7 @@ class IaiDrive(_Drive):
             self.reference = physical - counter_at_power_on
             self.servo = self.homed = self.homing = False
             self.alarm = 0
+            self.powered = True
             self.events.append((len(self.requests), "power cycle"))
             self.refresh()
 
@@ -383,6 +394,7 @@ class Cia402Drive(_Drive):
             self.reference = physical - counter_at_power_on
             self.state, self.cw, self.ack, self.error = "switch_on_disabled", 0, False, 0
             self.homing = self.homed_flag = False
+            self.powered = True
             self.put(0x607C, self.saved_home_offset)
             self.put(0x6060, 0)  # no mode until the master chooses one
             self.note("power cycle")
