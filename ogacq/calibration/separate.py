@@ -8,9 +8,10 @@ Ambiguous here means one of:
   lead screw's error or a bow, which a map describes;
 * an effect a table would correct (an encoder scale, a lost motion) was found from a
   few positions per leg, where an error depending on the position in another way (a
-  lead-screw pitch error) passes for it: the diagnosis's own caveat.
+  lead-screw pitch error) passes for it: the diagnosis's own caveat;
+* an error map is among an effect's alternatives.
 
-Where a map is suspected (the last two) the measurement is a scan of every leg's
+Where a map is suspected (the last three) the measurement is a scan of every leg's
 travel, both directions; where only alternatives stand, the plan the diagnosis
 found that separates them (``ogacq.diagnose.separation``). Its duration is
 estimated from the campaign already run on this machine: its machine time per
@@ -24,6 +25,7 @@ from typing import Any
 
 from ogacq.calibration.maps import compensable_effects
 from ogacq.diagnose.diagnosis import FEW_POSTURES, Diagnosis
+from ogacq.model.error_maps import FAMILIES as MAP_FAMILIES
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
 from ogacq.session.store import LoadedSession
@@ -61,6 +63,13 @@ def ambiguity(diagnosis: Diagnosis) -> tuple[list[str], bool]:
         if effect.alternatives:
             reasons.append(f"{effect.name} has alternatives: "
                            + ", ".join(a.name for a in effect.alternatives))
+        maps = [a.name for a in effect.alternatives if a.name.split(".")[0] in MAP_FAMILIES]
+        if maps:
+            # A plan of a few more postures could only say "a map": the table a
+            # controller needs is the scan's, so the scan is the separating measurement.
+            suspected = True
+            reasons.append(f"an error map ({', '.join(maps)}) explains the readings as well "
+                           f"as {effect.name}: only a scan tells them apart and tabulates it")
         if effect.local_disturbance:
             reasons.append(f"{effect.name} rests on one cell ({effect.local_disturbance})")
     tabled = compensable_effects(diagnosis)

@@ -1,0 +1,33 @@
+"""What makes the calibration's separating measurement a scan: an error map among
+an effect's alternatives is one (a few more postures could only say "a map"; the
+table a controller needs is the scan's). Seen: a cyclic screw error on the papers'
+protocol passed for a leg length with screw_map.x among its alternatives; the
+postures plan then left the misfit "partly explained" and the calibration refused."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+
+from ogacq.calibration.separate import ambiguity
+from ogacq.diagnose.alternatives import Alternative
+from ogacq.diagnose.diagnosis import EffectFound, diagnose
+from tests.diagnose.campaigns import simulate
+
+
+def with_effect(diagnosis, name: str, alternatives: tuple[str, ...]):
+    found = EffectFound(name, 0.3, 0.05, [Alternative(a, 0.1, 0.5, np.zeros(1))
+                                          for a in alternatives], [])
+    return dataclasses.replace(diagnosis, effects=[found])
+
+
+def test_an_error_map_among_the_alternatives_asks_for_a_scan():
+    diagnosis = diagnose(simulate({}, seed=1))  # the papers' protocol, offsets only
+    assert diagnosis.outcome == "consistent", diagnosis.outcome
+    reasons, suspected = ambiguity(with_effect(diagnosis, "leg_length.x",
+                                               ("backlash.x", "screw_map.x")))
+    assert suspected and any("screw_map.x" in r and "scan" in r for r in reasons), reasons
+    # a library alternative alone: ambiguous, but the postures plan can separate it
+    reasons, suspected = ambiguity(with_effect(diagnosis, "squareness.xy", ("backlash.z",)))
+    assert reasons and not suspected, reasons
