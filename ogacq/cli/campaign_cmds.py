@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import logging
+import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Annotated, Any
@@ -96,7 +97,17 @@ def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None
     """The end of a campaign: the offsets with their U, the record into the history,
     then the verdict, the record id and what to do next."""
     end = campaign_end(outcome.session_path, outcome.fit, simulated=outcome.simulated)
-    show_outcome(outcome, as_json, end.record)
+    if as_json:
+        # the refit object, then what the end of a campaign says in words: the
+        # verdict, the record's id and the next commands (a script needs them too)
+        typer.echo(json.dumps({**outcome_json(outcome),
+                               "verdict": {k: v if not isinstance(v, float) or math.isfinite(v)
+                                           else None for k, v in end.verdict.to_record().items()},
+                               "record_id": end.record_id if end.built else None,
+                               "next": [{"command": s.command or None, "why": s.why}
+                                        for s in end.steps]}))
+    else:
+        print_outcome(outcome, end.record)
     record_campaign(outcome.session_path, history, record=end.built)
     if not as_json:
         print_end(end.lines())
@@ -116,11 +127,14 @@ def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path,
             raise typer.Exit(stop.exit_code) from None
 
 
+def outcome_json(outcome: CampaignOutcome) -> dict[str, Any]:
+    return {"session": str(outcome.session_path), **outcome.fit.to_json("offsets"),
+            "hidden": outcome.hidden, "simulated": outcome.simulated}
+
+
 def show_outcome(outcome: CampaignOutcome, as_json: bool,
                  record: Mapping[str, Any] | None = None) -> None:
     if as_json:
-        typer.echo(json.dumps({"session": str(outcome.session_path),
-                               **outcome.fit.to_json("offsets"),
-                               "hidden": outcome.hidden, "simulated": outcome.simulated}))
+        typer.echo(json.dumps(outcome_json(outcome)))
         return
     print_outcome(outcome, record or {})
