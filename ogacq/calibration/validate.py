@@ -129,8 +129,9 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
             reasons.append(f"axis {a}: systematic positioning error E grew from "
                            f"{was * 1000:.1f} to {now * 1000:.1f} µm (ISO 230-2)")
     outcome = "worse" if reasons else "validated" if v_after.consistent else "improved"
+    p_value = v_after.p_value if math.isfinite(v_after.p_value) else None
     return Judgement(outcome, tuple(reasons), {**v_after.to_json(), "text": v_after.describe(),
-                                               "state": v_after.state},
+                                               "state": v_after.state, "p_value": p_value},
                      v_before.chi2_dof, v_after.chi2_dof, dict(comp.offsets_mm), drho, drho_std,
                      figures_before, figures_after, residual)
 

@@ -22,6 +22,11 @@ def test_run_recovers_hidden_offsets_within_predicted_std(campaign_dir, profile,
         assert abs(truth) > 0.05  # there was something to find
         assert recovered(got[axis], truth, std[axis]), (axis, got[axis], truth, std[axis])
         assert std[axis] < 0.002
+    # the end of the campaign, for a script: the verdict, the record's id, what next
+    # (within the noise at 1e-6, not the verdict's 1 %: one run in a hundred says "NOT")
+    assert out["verdict"]["verdict"] in ("consistent", "inconsistent")
+    assert 1e-6 < out["verdict"]["p_value"] <= 1
+    assert out["record_id"].startswith("OGQ-") and out["next"][0]["command"]
     session = load_session(campaign_dir / "session.jsonl")
     assert session.finished
     assert len(session.readings) == 72

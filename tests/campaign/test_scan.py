@@ -138,4 +138,5 @@ def test_scan_campaign_killed_mid_scan_resumes_and_analyses_as_usual(tmp_path):
     assert np.allclose([refit["parameters"]["joint_offset"][a] for a in "xyz"],
                        [got[a] for a in "xyz"], atol=1e-6)
     diagnosis = run_ogacq("diagnose", session, "--json", check_json=True)
-    assert diagnosis["base"]["consistent"], json.dumps(diagnosis["base"])
+    # within the noise at 1e-6 (the verdict's 1 % says "NOT" in one run of a hundred)
+    assert diagnosis["chi2"]["base"]["p"] > 1e-6, json.dumps(diagnosis["chi2"])

@@ -65,7 +65,9 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
         first = sim_campaign(tmp_path, info, name="first", offsets_file=table)
         session, before_fit = run_campaign_file(first)
         assert session.header["station"]["controller"]["offsets_mm"] == zeros
-        assert fit_verdict(before_fit).consistent and before_fit.identifiability.identifiable
+        # within the noise at 1e-6, not the 1 % the verdict uses (one run in a hundred)
+        assert fit_verdict(before_fit).p_value > 1e-6
+        assert before_fit.identifiability.identifiable
         identified = {a: before_fit.value(f"joint_offset.{a}") for a in AXES}
         first_session = session.path
 
@@ -137,7 +139,7 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
         assert rms(after - remains) < 3 * noise_rms, (rms(after - remains), noise_rms)
         assert rms(after) < 3 * noise_rms + rms(remains), (rms(after), noise_rms, rms(remains))
         # the re-identified offsets are near zero: what the register step leaves
-        assert fit_verdict(after_fit).consistent
+        assert fit_verdict(after_fit).p_value > 1e-6
         for k, axis in enumerate(AXES):
             spread = 4 * np.hypot(before_fit.std[k], after_fit.std[k])
             assert abs(after_fit.values[k] - residue[axis]) < spread, (axis, residue)
