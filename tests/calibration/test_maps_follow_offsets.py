@@ -31,15 +31,14 @@ from ogacq.calibration.compensate import compensation_of
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.io.machine_file import machine_dict
-from ogacq.model.gauges import Gauge
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
 from ogacq.model.parameters import AXES, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 from ogacq.session.convert import session_observations
-from ogacq.session.records import EndRecord, ReadingRecord
-from ogacq.session.store import LoadedSession, SessionWriter, load_session
+from ogacq.session.store import LoadedSession, load_session
 from ogacq.sim.readings import simulated_readings
 from ogacq.sim.truth import LeadScrewError, SimTruth
+from tests.writeback.conftest import write_layout_session
 
 MACHINE = PAPER_PROTOTYPE_DIGITAL
 AMPLITUDE_MM, PITCH_MM, PHASE_DEG = 0.008, 20.0, 30.0
@@ -70,14 +69,7 @@ def scan_session(path: Path) -> LoadedSession:
               "station": {"controller": {"profile": "cia402", "port": "synthetic",
                                          "offsets_mm": dict.fromkeys(AXES, 0.0)}},
               "plan": plan.to_dict()}
-    with SessionWriter.create(path, header) as writer:
-        for k in range(len(lay)):
-            writer.write(ReadingRecord(
-                step=f"scan/{k + 1}", gauge=Gauge.at(lay.gauge_axis[k], lay.leg[k]),
-                cycle=int(lay.cycle[k]), posture=lay.posture[k], t_s=float(lay.t_s[k]),
-                q_mm=tuple(lay.q_mm[k].tolist()), tcp_mm=tuple(lay.tcp_mm[k].tolist()),
-                approach=tuple(lay.approach[k].tolist()), reading_mm=float(obs.values[k])))
-        writer.write(EndRecord(status="complete"))
+    write_layout_session(path, header, lay, obs.values, "scan")
     return load_session(path)
 
 

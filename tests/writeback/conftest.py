@@ -142,12 +142,18 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
               "station": {"controller": {"profile": profile, "port": "synthetic",
                                          "offsets_mm": in_force}},
               "plan": None, **(header_extra or {})}
-    with SessionWriter.create(path, header) as writer:
+    write_layout_session(path, header, lay, values, "synthetic")
+    return path
+
+
+def write_layout_session(path: Path, header: Mapping, lay, values, step: str) -> None:
+    """A finished session of the readings ``values`` taken as the layout ``lay`` says
+    (each reading its own step, ``step/1``, ``step/2``, ...)."""
+    with SessionWriter.create(path, dict(header)) as writer:
         for k in range(len(lay)):
             writer.write(ReadingRecord(
-                step=f"synthetic/{k + 1}", gauge=Gauge.at(lay.gauge_axis[k], lay.leg[k]),
+                step=f"{step}/{k + 1}", gauge=Gauge.at(lay.gauge_axis[k], lay.leg[k]),
                 cycle=int(lay.cycle[k]), posture=lay.posture[k], t_s=float(lay.t_s[k]),
                 q_mm=tuple(lay.q_mm[k].tolist()), tcp_mm=tuple(lay.tcp_mm[k].tolist()),
                 approach=tuple(lay.approach[k].tolist()), reading_mm=float(values[k])))
         writer.write(EndRecord(status="complete"))
-    return path
