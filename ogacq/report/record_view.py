@@ -314,7 +314,7 @@ def acceptance(record: Mapping[str, Any]) -> dict[str, Any]:
     for key, title in (("as_found", "As found (this campaign)"),
                        ("as_left", "As left (after the write-back)")):
         stage = found.get(key) or {}
-        rows = stage.get("rows") or []
+        rows = [_deviation_row(r) for r in stage.get("rows") or []]
         others = {k: v for k, v in stage.items() if k not in ("decision", "why", "rows")}
         stages.append({"title": title, "badge": decision_badge(stage.get("decision")),
                        "why": stage.get("why"),
@@ -323,13 +323,29 @@ def acceptance(record: Mapping[str, Any]) -> dict[str, Any]:
     return {"rule": shown(found.get("rule")), "stages": stages}
 
 
+def _deviation_row(row: Mapping[str, Any]) -> dict[str, Any]:
+    """An acceptance row as a person reads it: the deviation at U's decimal place and U
+    to two significant digits (JCGM 100:2008 7.2.6; record.json keeps every digit)."""
+    U = row.get("U_mm")
+    out = dict(row)
+    if isinstance(row.get("value_mm"), float) and isinstance(U, float):
+        out["value_mm"] = rounded(row["value_mm"], U, sign=True)
+    if isinstance(U, float):
+        out["U_mm"] = two_digits(U)
+    return out
+
+
 def budget(record: Mapping[str, Any]) -> list[tuple[str, Table]]:
     found = record.get("budget")
     if not found:
         return []
     first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
              "evaluated")
-    return [(name, rows_table(rows, NOT_EVALUATED, first)) for name, rows in found.items()]
+    # each contribution u to two significant digits, as u_c and U are (JCGM 100:2008
+    # 7.2.6); the inputs and sensitivities as recorded
+    return [(name, rows_table([{**r, "u_mm": two_digits(r["u_mm"])}
+                               if isinstance(r.get("u_mm"), float) else r for r in rows],
+                              NOT_EVALUATED, first)) for name, rows in found.items()]
 
 
 def monte_carlo(record: Mapping[str, Any]) -> tuple[Table, Table] | None:

@@ -4,6 +4,7 @@ page's text, to check one against the other."""
 from __future__ import annotations
 
 import html
+import math
 import re
 from collections.abc import Iterator
 from typing import Any
@@ -34,10 +35,15 @@ def printed(value: Any) -> str | None:
 
 
 def two_significant(u: float) -> str:
-    """An uncertainty to two significant digits, trailing zeros kept (0.00996 ->
-    0.010): numpy's own positional formatting, not ogacq's."""
-    return np.format_float_positional(u, precision=2, unique=False, fractional=False,
-                                      trim="k")
+    """An uncertainty to two significant digits, trailing zeros kept (0.00198 -> 0.0020,
+    0.00996 -> 0.010), written here from the rule, not ogacq's. (numpy's positional
+    formatting drops the zero a rounding up leaves: 0.00198 -> 0.002.)"""
+    exponent = math.floor(math.log10(u))
+    decimals = 1 - exponent
+    q = round(u, decimals)
+    if q >= 10.0 ** (exponent + 1):  # rounded up into the next decade: one digit less
+        decimals -= 1
+    return f"{q:.{max(decimals, 0)}f}"
 
 
 def gum(value: float, U: float) -> tuple[str, str]:
@@ -51,24 +57,28 @@ def gum(value: float, U: float) -> tuple[str, str]:
 
 # The results a person reads: rounded by the headline rule (record.json keeps every
 # digit); each number's spelling on the page.
-ROUNDED = ("results.", "validation_results.")
+ROUNDED = ("results.", "validation_results.", "acceptance.", "budget.")
 
 
 def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
-    """How the page writes a number of ``results``: the value at U's decimal place,
-    u, U and the fit std to two significant digits, the effective dof whole."""
+    """How the page writes a number a person reads as a result (``results``, and the
+    acceptance's deviations and the budget's contributions): a value at its U's decimal
+    place, u, U and the fit std to two significant digits, the effective dof whole."""
     *where, key = path.split(".")
-    entry = record
-    for part in where:
-        entry = entry[part]
-    U = entry.get("U_mm")
-    if key in ("value_mm", "temperature_correction_mm") and U:
-        return gum(value, U)[0]
     if key in ("U_mm", "u_mm", "std_mm") and value:
         return two_significant(value)
     if key == "dof_eff":
         return f"{value:.0f}"
-    return None
+    if key not in ("value_mm", "temperature_correction_mm"):
+        return None
+    entry = record
+    for part in where:  # e.g. acceptance, as_found, rows[3]
+        name, *indices = part.split("[")
+        entry = entry[name]
+        for index in indices:
+            entry = entry[int(index.rstrip("]"))]
+    U = entry.get("U_mm")
+    return gum(value, U)[0] if U else None
 
 
 def unshown(record: dict, text: str) -> list[str]:

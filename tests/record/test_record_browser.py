@@ -15,7 +15,7 @@ from PIL import Image, ImageStat
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.session.store import load_session
 from tests.record.browser import WINDOW, chromium, need_chromium
-from tests.record.pages import gum, unshown
+from tests.record.pages import gum, printed, unshown
 from tests.record.sessions import HISTORY, INSTRUMENTS, OPERATOR, OVERRIDE_REASON
 
 A4_PT = (595.3, 841.9)  # 210 x 297 mm
@@ -59,6 +59,11 @@ def test_the_rendered_page_shows_every_field_of_the_record(browser, report):
         assert f"joint_offset.{axis} {value} ± {U} mm (k = 2)" in text, axis
     for stage in ("as_found", "as_left"):
         assert record["acceptance"][stage]["decision"] in text
+        # each deviation read as its U says: U to two digits, not record.json's nine
+        for row in record["acceptance"][stage].get("rows") or []:
+            value, U = gum(row["value_mm"], row["U_mm"])
+            assert f"{value} {U}" in text, row
+            assert printed(row["U_mm"]) == U or printed(row["U_mm"]) not in text, row
     for name, rows in (record["budget"] or {}).items():
         assert name in text and all(row["source"] in text for row in rows)
     # nothing left as a program wrote it: no None, NaN, undefined, dict or list dump
