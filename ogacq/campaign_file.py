@@ -113,11 +113,12 @@ from ogacq_drivers.config_schema import (
     whole,
 )
 from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
+from ogacq.io.dates import local_moment, moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
-from ogacq.model.instrument import Instrument, parse_moment
+from ogacq.model.instrument import Instrument
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import (
@@ -261,7 +262,7 @@ class SimulatorSpec:
                    gauge_layout=str(entry.get("gauge_layout", "separate")),
                    gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
                    gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
-                   date=parse_moment(entry.get("date")),
+                   date=moment_or_none(entry.get("date")),
                    ambient_c=float(entry.get("ambient_c", 20.0)))
 
 
@@ -406,7 +407,7 @@ _SIMULATOR = Table((
     Field("gauge_protocol", text(*PROTOCOLS)),
     Field("gauge_protocols", MapOf(text(*PROTOCOLS), keys=GAUGE_KEYS, noun="gauge"),
           decode=lambda table: tuple(sorted(table.items())), encode=dict),
-    Field("date", MOMENT, decode=parse_moment),
+    Field("date", MOMENT, decode=moment_or_none),
     Field("ambient_c", _TEMPERATURE),
 ), build=SimulatorSpec)
 
@@ -447,6 +448,9 @@ def read_campaign(path: str | Path) -> Campaign:
         campaign.override_expired = override.strip()
     if campaign.simulator is not None:
         _check_profile(src, ("simulator", "profile"), campaign.simulator.profile)
+        if campaign.simulator.date is not None:  # the shop's wall time, as `now` is taken
+            local_moment(campaign.simulator.date, source=path, key="simulator.date",
+                         line=src.line(("simulator", "date")))
     if campaign.simulator is not None and campaign.simulator.gauge_layout == "multiplexer" \
             and (campaign.simulator.gauge_protocol != DEFAULT_PROTOCOL
                  or campaign.simulator.gauge_protocols):

@@ -15,7 +15,6 @@ from __future__ import annotations
 import io
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from datetime import datetime
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -25,6 +24,7 @@ from matplotlib.figure import Figure
 from ogacq.history.drift import Drift, expanded
 from ogacq.history.entries import Parameter, parameters_of
 from ogacq.io.atomic import write_atomically
+from ogacq.io.dates import wall_time
 from ogacq.model.parameters import EFFECT_BY_NAME
 from ogacq.model.units import UM_PER_MM
 
@@ -65,17 +65,6 @@ def recorded_calibrations(record: Mapping[str, Any]) -> list[RecordedCalibration
             for e in entries if isinstance(e, Mapping)]
 
 
-def _when(date: str | None) -> datetime | None:
-    """The calibration's date as the wall time it was stated in (a time zone dropped:
-    the dates of one machine are compared on one axis)."""
-    if not date:
-        return None
-    try:
-        return datetime.fromisoformat(date.replace("Z", "+00:00")).replace(tzinfo=None)
-    except ValueError:
-        return None
-
-
 def shown_unit(name: str) -> tuple[str, float]:
     """The unit a parameter is drawn in and its factor from the record's value: µm for
     a length (mm in the record), else the effect's own unit."""
@@ -96,7 +85,7 @@ def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
     fig = Figure(figsize=(7.5, 1.2 + 2.0 * max(len(names), 1)), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(max(len(names), 1), 1, sharex=True, squeeze=False)[:, 0]
-    dated = [(c, _when(c.date)) for c in calibrations]
+    dated = [(c, wall_time(c.date)) for c in calibrations]
     by_date = all(when is not None for _, when in dated)
     xs_of = [when if by_date else index + 1 for index, (_, when) in enumerate(dated)]
     index_of = {c.record_id: index for index, c in enumerate(calibrations)}
