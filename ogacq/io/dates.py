@@ -152,14 +152,21 @@ def local_moment(moment: datetime.datetime, *, source: str | Path | None, key: s
 TOML_RULE = ("TOML writes YYYY-MM-DD or YYYY-MM-DDTHH:MM:SS unquoted, a UTC offset as Z or "
              "+HH:MM")
 _TOML_LINE = re.compile(r"\s*(?P<key>[A-Za-z0-9_.\"'-]+)\s*=\s*(?P<value>[0-9]{4}-[^#,}\]]*)")
+# TOML v1.0.0, "Offset Date-Time" to "Local Date": RFC 3339's forms, the seconds required
+_TOML_DATE = re.compile(rf"{_DATE}(?:[T ][0-9]{{2}}:[0-9]{{2}}:[0-9]{{2}}(?:\.[0-9]+)?"
+                        r"(?:Z|[+-][0-9]{2}:[0-9]{2})?)?")
+# what tomllib says of a date it cannot read (a wrong day; a shape it stops short in)
+_TOML_DATE_COMPLAINTS = ("Invalid date or datetime", "Expected newline or end of document")
 
 
-def toml_date_error(source: str | Path, line_text: str, line: int) -> DateError | None:
-    """Why the date on a TOML line is refused, when tomllib says only "Invalid date or
-    datetime" or "Expected newline": the value against the rule, or what TOML asks
-    more of it (the seconds, an offset's colon); None when the line holds no date."""
+def toml_date_error(source: str | Path, complaint: str, line_text: str,
+                    line: int) -> DateError | None:
+    """Why the date on a TOML line is refused, when tomllib's ``complaint`` is only
+    "Invalid date or datetime" or "Expected newline": the value against the rule, or
+    what TOML asks more of it (the seconds, an offset's colon); None when the line
+    holds no date or the complaint is about something else."""
     found = _TOML_LINE.match(line_text)
-    if found is None:
+    if found is None or not any(c in complaint for c in _TOML_DATE_COMPLAINTS):
         return None
     key, value = found["key"].strip("\"'"), found["value"].strip()
     try:
@@ -169,5 +176,7 @@ def toml_date_error(source: str | Path, line_text: str, line: int) -> DateError 
             parse_moment(value, source=source, key=key, zone=True, line=line)
     except DateError as exc:
         return exc
+    if _TOML_DATE.fullmatch(value):
+        return None  # a date TOML reads: the complaint is about the rest of the line
     return DateError(source, key, value, "a TOML date", "TOML needs the seconds, and a "
                      "colon in a UTC offset", TOML_RULE, line)

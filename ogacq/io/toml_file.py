@@ -35,7 +35,7 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
         # the date rule says what is wrong with it, naming the key and the value
         lines = content.splitlines()
         if exc.line is not None and 0 < exc.line <= len(lines):
-            found = toml_date_error(path, lines[exc.line - 1], exc.line)
+            found = toml_date_error(path, exc.problem, lines[exc.line - 1], exc.line)
             if found is not None:
                 raise found from None
         raise

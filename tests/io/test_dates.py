@@ -117,3 +117,18 @@ def test_the_wizard_asks_again_with_the_rules_words():
     assert _date("due")("") is None and _date("due")("2027-03-01") == datetime.date(2027, 3, 1)
     with pytest.raises(ValueError, match=r"^due = '2027-02-29' is not a date: day is out of "):
         _date("due")("2027-02-29")
+
+
+def test_a_toml_complaint_about_something_else_is_left_as_it_was(tmp_path):
+    from ogacq.errors import InputError
+    from ogacq.io.toml_file import read_toml
+
+    path = tmp_path / "f.toml"
+    path.write_text("due = 2027-03-01\ndue = 2027-03-02\n")  # a key twice: not the date
+    with pytest.raises(InputError) as caught:
+        read_toml(path, "the file")
+    assert not isinstance(caught.value, DateError) and "not valid TOML" in str(caught.value)
+    path.write_text("due = 2027-03-01 # fine\nwhen = 2026-01-10T09:00:00+0100\n")
+    with pytest.raises(DateError, match=r"f\.toml:2: when = '2026-01-10T09:00:00\+0100' is "
+                                        r"not a TOML date: TOML needs the seconds, and a colon"):
+        read_toml(path, "the file")
