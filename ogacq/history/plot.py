@@ -58,11 +58,16 @@ class RecordedCalibration:
 
 def recorded_calibrations(record: Mapping[str, Any]) -> list[RecordedCalibration]:
     """The earlier calibrations a record holds (``history``), then the record's own,
-    each with its parameters read as the history reads them (``parameters_of``)."""
+    each with its parameters read as the history reads them (``parameters_of``);
+    oldest first when every one is dated (a caller's history may come in any order)."""
     entries = [*(record.get("history") or ()), record]
-    return [RecordedCalibration(str(e.get("id")), str(e["date"]) if e.get("date") else None,
-                                {p.name: p for p in parameters_of(e)})
-            for e in entries if isinstance(e, Mapping)]
+    found = [RecordedCalibration(str(e.get("id")), str(e["date"]) if e.get("date") else None,
+                                 {p.name: p for p in parameters_of(e)})
+             for e in entries if isinstance(e, Mapping)]
+    dated = [(when, c) for c in found if (when := wall_time(c.date)) is not None]
+    if len(dated) < len(found):
+        return found
+    return [c for _, c in sorted(dated, key=lambda pair: pair[0])]  # stable: ties as given
 
 
 def shown_unit(name: str) -> tuple[str, float]:

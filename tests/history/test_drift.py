@@ -101,6 +101,7 @@ def test_a_records_history_is_drawn_by_the_same_figure_with_itself_marked():
                            results(0.420, None)},
                           {"id": "R-2", "date": "2026-02-10T09:00:00", "results":
                            results(0.428, 0.006)}]}
+    record["history"].reverse()  # a caller's history in any order: drawn oldest first
     calibrations = recorded_calibrations(record)
     assert [c.record_id for c in calibrations] == ["R-1", "R-2", "R-3"]
     figure = history_figure("this machine", calibrations, current="R-3")
