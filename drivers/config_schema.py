@@ -28,7 +28,7 @@ import json
 import math
 import re
 import tomllib
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Collection, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -63,7 +63,9 @@ class Value:
     unless named), then range and choices."""
 
     types: tuple[type, ...]
-    choices: tuple[Any, ...] = ()
+    # a tuple, or a live view of a registry (``BACKENDS.keys()``) read each time a file
+    # is checked: a name registered after the schema was declared is accepted
+    choices: Collection[Any] = field(default=(), hash=False)
     minimum: float | None = None
     maximum: float | None = None
     positive: bool = False
@@ -81,6 +83,12 @@ def whole(*, minimum: int | None = None, maximum: int | None = None,
 
 def text(*choices: str) -> Value:
     return Value((str,), choices=choices)
+
+
+def text_among(names: Collection[str]) -> Value:
+    """Text naming one of ``names`` as they are when a file is read (a registry's
+    keys view), not as they were when the schema was declared."""
+    return Value((str,), choices=names)
 
 
 TRUTH = Value((bool,))

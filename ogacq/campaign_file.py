@@ -110,14 +110,16 @@ from ogacq_drivers.config_schema import (
     dump,
     number,
     text,
+    text_among,
     whole,
 )
 from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
+from ogacq.io.dates import local_moment, moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
-from ogacq.model.instrument import Instrument, parse_moment
+from ogacq.model.instrument import Instrument
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import (
@@ -128,7 +130,9 @@ from ogacq.protocol.plan import (
     check_postures,
 )
 
-PROTOCOLS = tuple(BACKENDS)
+# the protocols BACKENDS holds when a file is read: one registered later (a plugin, a
+# test's throwaway module) is a campaign file's choice without a line here
+PROTOCOL_NAME = text_among(BACKENDS.keys())
 GAUGE_LAYOUTS = ("separate", "multiplexer", "moved")
 
 
@@ -261,7 +265,7 @@ class SimulatorSpec:
                    gauge_layout=str(entry.get("gauge_layout", "separate")),
                    gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
                    gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
-                   date=parse_moment(entry.get("date")),
+                   date=moment_or_none(entry.get("date")),
                    ambient_c=float(entry.get("ambient_c", 20.0)))
 
 
@@ -356,7 +360,7 @@ CERTIFICATE_FIELDS = (
 _GAUGE = Table((
     Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
     # required without [simulator] (checked with the file's line in _gauges)
-    Field("protocol", text(*PROTOCOLS)),
+    Field("protocol", PROTOCOL_NAME),
     Field("port", text()),
     Field("channel", Value((str, int)), decode=str),
     Field("unit", text("mm", "inch")),  # as set on the gauge
@@ -403,10 +407,10 @@ _SIMULATOR = Table((
     Field("profile", text()),
     Field("noise_mm", number(minimum=0.0, maximum=1.0)),  # 1 mm: beyond any indicator
     Field("gauge_layout", text(*GAUGE_LAYOUTS)),
-    Field("gauge_protocol", text(*PROTOCOLS)),
-    Field("gauge_protocols", MapOf(text(*PROTOCOLS), keys=GAUGE_KEYS, noun="gauge"),
+    Field("gauge_protocol", PROTOCOL_NAME),
+    Field("gauge_protocols", MapOf(PROTOCOL_NAME, keys=GAUGE_KEYS, noun="gauge"),
           decode=lambda table: tuple(sorted(table.items())), encode=dict),
-    Field("date", MOMENT, decode=parse_moment),
+    Field("date", MOMENT, decode=moment_or_none),
     Field("ambient_c", _TEMPERATURE),
 ), build=SimulatorSpec)
 
@@ -447,6 +451,9 @@ def read_campaign(path: str | Path) -> Campaign:
         campaign.override_expired = override.strip()
     if campaign.simulator is not None:
         _check_profile(src, ("simulator", "profile"), campaign.simulator.profile)
+        if campaign.simulator.date is not None:  # the shop's wall time, as `now` is taken
+            local_moment(campaign.simulator.date, source=path, key="simulator.date",
+                         line=src.line(("simulator", "date")))
     if campaign.simulator is not None and campaign.simulator.gauge_layout == "multiplexer" \
             and (campaign.simulator.gauge_protocol != DEFAULT_PROTOCOL
                  or campaign.simulator.gauge_protocols):

@@ -33,9 +33,9 @@ from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.io.atomic import write_atomically
+from ogacq.io.dates import parse_moment
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
-from ogacq.model.instrument import parse_moment
 from ogacq.model.machine import (
     PAPER_PROTOTYPE_DIGITAL,
     PAPER_PROTOTYPE_DIGITAL_NOTE,
@@ -202,11 +202,7 @@ def _login_name() -> str:
 def _date_option(given: str | None) -> datetime.datetime | None:
     if given is None:
         return None
-    moment = parse_moment(given)
-    if moment is None:
-        raise typer.BadParameter(f"{given!r} is not a date (YYYY-MM-DD, or "
-                                 "YYYY-MM-DDTHH:MM)", param_hint="--date")
-    return moment
+    return parse_moment(given, source=None, key="--date", zone=False)
 
 
 def _read_effects(path: Path) -> str:

@@ -27,10 +27,12 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from ogacq.history.entries import Parameter
-from ogacq.history.store import Calibration, OffsetState
+
+if TYPE_CHECKING:  # the types only: a report drawing a history needs no database
+    from ogacq.history.store import Calibration, OffsetState
 
 COVERAGE_K = 2.0  # for a std standing in for u_c (JCGM 100:2008 6.2.1)
 

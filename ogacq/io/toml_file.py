@@ -8,6 +8,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.config_schema import Issue, Source, Table, load, parse_document
+from ogacq.io.dates import toml_date_error
 from ogacq.io.errors import InputError
 from ogacq.io.text import read_text
 
@@ -27,7 +28,17 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
     except OSError as exc:
         raise InputError(path, f"cannot read {what}: {exc.strerror or exc}") from None
     source = Source(str(path), input_error, content, what)
-    return parse_document(source), source
+    try:
+        return parse_document(source), source
+    except InputError as exc:
+        # tomllib says "Invalid date or datetime" or "Expected newline" of a bad date:
+        # the date rule says what is wrong with it, naming the key and the value
+        lines = content.splitlines()
+        if exc.line is not None and 0 < exc.line <= len(lines):
+            found = toml_date_error(path, exc.problem, lines[exc.line - 1], exc.line)
+            if found is not None:
+                raise found from None
+        raise
 
 
 def load_toml(path: str | Path, schema: Table, what: str) -> tuple[Any, Source]:

@@ -14,6 +14,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ogacq.io.dates import date_or_none
+
 
 @dataclass(frozen=True)
 class Instrument:
@@ -64,8 +66,8 @@ class Instrument:
         return cls(gauge=str(entry.get("gauge") or ""), make=_text(entry.get("make")),
                    model=_text(entry.get("model")), serial=_text(entry.get("serial")),
                    certificate=_text(entry.get("certificate")),
-                   calibrated=parse_date(entry.get("calibrated")),
-                   due=parse_date(entry.get("due")),
+                   calibrated=date_or_none(entry.get("calibrated")),
+                   due=date_or_none(entry.get("due")),
                    uncertainty_mm=finite_number(entry.get("uncertainty_mm")),
                    uncertainty_k=finite_number(entry.get("uncertainty_k")),
                    resolution_mm=finite_number(entry.get("resolution_mm")))
@@ -89,28 +91,3 @@ def finite_number(value: Any) -> float | None:
         return None
     return float(value) if math.isfinite(value) else None
 
-
-def parse_date(value: Any) -> datetime.date | None:
-    """``"2027-03-01"`` (or a date) as a date; None for anything else."""
-    if isinstance(value, datetime.date):
-        return _day(value)
-    if not isinstance(value, str):
-        return None
-    try:
-        return datetime.date.fromisoformat(value[:10])
-    except ValueError:
-        return None
-
-
-def parse_moment(value: Any) -> datetime.datetime | None:
-    """An ISO 8601 date-time (or a date, its midnight) as a datetime; None otherwise."""
-    if isinstance(value, datetime.datetime):
-        return value
-    if isinstance(value, datetime.date):
-        return datetime.datetime.combine(value, datetime.time())
-    if not isinstance(value, str):
-        return None
-    try:
-        return datetime.datetime.fromisoformat(value)
-    except ValueError:
-        return None

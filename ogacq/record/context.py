@@ -15,7 +15,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from ogacq.model.instrument import Instrument, parse_moment
+from ogacq.io.dates import moment_or_none
+from ogacq.model.instrument import Instrument
 from ogacq.session.records import EnvironmentRecord, OverrideRecord
 from ogacq.session.store import LoadedSession
 
@@ -105,7 +106,7 @@ def calibration_context(session: LoadedSession) -> CalibrationContext:
     identity = _mapping(header.get("identity"))
     machine = _mapping(header.get("machine"))
     simulator = _mapping(header.get("simulator"))
-    date = parse_moment(header.get("date")) or parse_moment(header.get("created"))
+    date = moment_or_none(header.get("date")) or moment_or_none(header.get("created"))
     return CalibrationContext(
         machine_name=_text(identity.get("machine")) or _text(machine.get("name")),
         machine_serial=_text(identity.get("serial")) or _text(machine.get("serial")),
@@ -139,7 +140,7 @@ def _environment(session: LoadedSession) -> Environment:
 
 
 def _date(value: str | None) -> datetime.date | None:
-    moment = parse_moment(value)
+    moment = moment_or_none(value)
     return moment.date() if moment else None
 
 

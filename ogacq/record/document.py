@@ -20,7 +20,6 @@ import dataclasses
 import datetime as dt
 import hashlib
 import math
-import re
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -29,6 +28,7 @@ from ogacq import __version__
 from ogacq.campaign import recorded_identification
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
+from ogacq.io.dates import moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import effect_of
@@ -58,8 +58,8 @@ def record_id(header_line: bytes, date: str | None) -> str:
 
 def compact_date(date: str | None) -> str:
     """``2026-01-10T09:00:00`` -> ``20260110``; ``undated`` when there is no date."""
-    found = re.match(r"(\d{4})-(\d{2})-(\d{2})", date or "")
-    return "".join(found.groups()) if found else "undated"
+    day = moment_or_none(date)
+    return f"{day.year:04d}{day.month:02d}{day.day:02d}" if day is not None else "undated"
 
 
 def session_record_id(session: LoadedSession) -> str:

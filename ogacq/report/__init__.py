@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ogacq.history.plot import history_figure, recorded_calibrations
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import StorageError
 from ogacq.model.parameters import AXES
@@ -36,7 +37,6 @@ from ogacq.report.figures import (
     residuals_figure,
 )
 from ogacq.report.formatting import expanded_mm, um
-from ogacq.report.history_plot import history_figure, history_points
 from ogacq.report.page import render_page
 
 REPORT_NAME = "report.html"
@@ -106,13 +106,14 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
             "forward and reverse, with a band of two standard uncertainties.",
             png_bytes(maps_figure(data.diagnosis.maps))))
     if record.get("history"):
-        points = history_points(record)
-        if points:
+        calibrations = recorded_calibrations(record)
+        if any(c.parameters for c in calibrations):
             out.append(FigureFile(
                 "history.png", "History of this machine's calibrations",
                 "Each parameter at each calibration of this machine, with its expanded "
                 "uncertainty as error bars, this calibration marked.",
-                png_bytes(history_figure(points))))
+                png_bytes(history_figure("This machine's calibrations over time",
+                                         calibrations, current=str(record.get("id"))))))
     return tuple(out)
 
 

@@ -162,7 +162,7 @@ def test_invalid_toml_and_unknown_name(tmp_path: Path) -> None:
         load_profile("no-such-controller")
 
 
-@pytest.mark.parametrize("name", ["iai-pcon", "cia402", "mr-je-c", "kinco-fd"])
+@pytest.mark.parametrize("name", available_profiles())  # a new file is checked as it lands
 def test_every_register_coil_and_bit_cites_its_source(name: str) -> None:
     """Each line of [values] and [flags] names its manual ([TAG] defined in the header)
     or says "no source"; a register map without sources cannot be checked."""

@@ -17,11 +17,12 @@ from ogacq_drivers.errors import DeviceFault
 from ogacq_drivers.indicators import BACKENDS, codec, open_indicator, registered
 from ogacq_drivers.sim.gauges import Fault, GaugeEndpoint
 from ogacq.campaign import run_campaign
-from ogacq.campaign_file import Campaign, SimulatorSpec
+from ogacq.campaign_file import read_campaign
 from ogacq.cli.wizard.connect import show_hints
 from ogacq.cli.wizard.ui import Screen
+from ogacq.errors import InputError
+from ogacq.io.machine_file import write_machine
 from ogacq.model.machine import MachineSpec
-from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.store import load_session
 from tests.drivers import throwaway_gauge
 from tests.drivers.backend_parts import missing_parts
@@ -42,12 +43,29 @@ def test_the_new_protocol_has_every_part(throwaway: str):
             assert codec(throwaway).decode(example.frame).value_mm() == example.value_mm
 
 
-def test_the_new_protocol_runs_a_campaign_end_to_end(throwaway: str, tmp_path: Path):
-    campaign = Campaign(tmp_path / "campaign.toml", MACHINE, tmp_path / "machine.toml",
-                        tmp_path / "session.jsonl",
-                        ProtocolConfig(cycles=1, settle="fixed", settle_s=0.05),
-                        simulator=SimulatorSpec(seed=3, speed=50, gauge_protocol=throwaway,
-                                                noise_mm=0.0005))
+CAMPAIGN_FILE = """machine = "machine.toml"
+session = "session.jsonl"
+[protocol]
+cycles = 1
+settle = "fixed"
+settle_s = 0.05
+[simulator]
+seed = 3
+speed = 50
+noise_mm = 0.0005
+gauge_protocol = "throwaway"
+gauge_protocols = { z_y = "throwaway" }
+"""
+
+
+def test_the_new_protocol_runs_a_campaign_file_end_to_end(throwaway: str, tmp_path: Path):
+    """A campaign file names it as it names any protocol: the file's schema takes the
+    protocols registered when the file is read (campaign_file.py was imported above,
+    before the registration)."""
+    write_machine(tmp_path / "machine.toml", MACHINE, "the throwaway protocol's test")
+    (tmp_path / "campaign.toml").write_text(CAMPAIGN_FILE)
+    campaign = read_campaign(tmp_path / "campaign.toml")
+    assert campaign.simulator is not None and campaign.simulator.gauge_protocol == throwaway
     outcome = run_campaign(campaign)
     session = load_session(outcome.session_path)
     assert session.finished and len(session.readings) == 24
@@ -57,6 +75,31 @@ def test_the_new_protocol_runs_a_campaign_end_to_end(throwaway: str, tmp_path: P
     for index, name in enumerate(outcome.fit.names):  # the readings were read right
         error = outcome.fit.values[index] - outcome.hidden[name]
         assert abs(error) < max(5 * outcome.fit.std[index], 0.003), name
+
+
+def test_a_campaign_file_names_only_a_registered_protocol(tmp_path: Path):
+    """Unregistered again, the same file is refused, every place that names it."""
+    write_machine(tmp_path / "machine.toml", MACHINE, "the throwaway protocol's test")
+    path = tmp_path / "campaign.toml"
+    path.write_text(CAMPAIGN_FILE)
+    with registered("throwaway", throwaway_gauge.BACKEND):
+        read_campaign(path)
+    assert "throwaway" not in BACKENDS
+    with pytest.raises(InputError, match=r"campaign\.toml:11: simulator\.gauge_protocol must "
+                                         r"be one of mitutoyo-01a, .*, got 'throwaway'"):
+        read_campaign(path)
+    path.write_text(CAMPAIGN_FILE.replace('gauge_protocol = "throwaway"\n', ""))
+    with pytest.raises(InputError, match=r"gauge_protocols.*got 'throwaway'"):
+        read_campaign(path)
+    hardware = ('machine = "machine.toml"\n[controller]\nprofile = "cia402"\nport = "h:502"\n'
+                '[[gauges]]\ngauge = "y_x"\nprotocol = "throwaway"\nport = "/dev/ttyUSB0"\n')
+    path.write_text(hardware)
+    with pytest.raises(InputError, match=r"campaign\.toml:7: .*protocol must be one of .*, "
+                                         r"got 'throwaway'"):
+        read_campaign(path)
+    with registered("throwaway", throwaway_gauge.BACKEND), \
+            pytest.raises(InputError, match="no \\[\\[gauges\\]\\] entry for x_y"):
+        read_campaign(path)  # the protocol taken: the file's next problem is said
 
 
 def test_the_new_protocol_shows_the_simulators_faults(throwaway: str):

@@ -8,7 +8,7 @@ import math
 
 from ogacq.history.drift import changes, written_by_record
 from ogacq.history.entries import Parameter
-from ogacq.history.plot import history_figure, write_history_plot
+from ogacq.history.plot import history_figure, recorded_calibrations, write_history_plot
 from ogacq.history.store import Calibration, OffsetState
 
 
@@ -83,3 +83,33 @@ def test_the_plot_marks_the_write_back(tmp_path):
     figure = history_figure("OG-1", history, changes(history, written), written)
     labels = [t.get_text() for t in figure.axes[0].get_legend().get_texts()]
     assert "as left by a write-back" in labels and "change > U of the change" not in labels
+
+
+def test_a_records_history_is_drawn_by_the_same_figure_with_itself_marked():
+    """The report's figure: a record's earlier calibrations then itself, read as the
+    history reads records; a length in µm, a squareness in its own mrad; no U and no
+    std is said on the panel, not drawn as a zero bar."""
+    def results(x: float, U: float | None, squareness: float | None = None) -> dict:
+        out = {"joint_offset": {"x": {"value_mm": x, "U_mm": U, "std_mm": None}}}
+        if squareness is not None:
+            out["squareness"] = {"xy": {"value_mm": squareness, "U_mm": 0.01}}
+        return out
+
+    record = {"id": "R-3", "date": "2026-03-10T09:00:00+01:00",
+              "results": results(0.425, 0.006, 0.2),
+              "history": [{"id": "R-1", "date": "2026-01-10T09:00:00", "results":
+                           results(0.420, None)},
+                          {"id": "R-2", "date": "2026-02-10T09:00:00", "results":
+                           results(0.428, 0.006)}]}
+    record["history"].reverse()  # a caller's history in any order: drawn oldest first
+    calibrations = recorded_calibrations(record)
+    assert [c.record_id for c in calibrations] == ["R-1", "R-2", "R-3"]
+    figure = history_figure("this machine", calibrations, current="R-3")
+    offset, squareness = figure.axes[:2]
+    assert offset.get_ylabel() == "joint_offset.x\n(µm)"
+    assert squareness.get_ylabel() == "squareness.xy\n(mrad)"
+    labels = [t.get_text() for t in offset.get_legend().get_texts()]
+    assert labels == ["this calibration", "value ± U"]
+    assert [t.get_text() for t in offset.texts] == ["U not evaluated"]  # R-1 only
+    drawn = offset.lines[0].get_ydata()  # the current calibration's ring, in µm
+    assert list(drawn) == [425.0]

@@ -10,7 +10,7 @@ the uncertainty budget and the record say so, rather than guessing.
 from __future__ import annotations
 
 import datetime
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -18,6 +18,7 @@ from ogacq.cli.plain import shown
 from ogacq.cli.wizard.inventory import Inventory, KnownGauge
 from ogacq.cli.wizard.pause import OperatorQuit
 from ogacq.cli.wizard.ui import Option, Screen
+from ogacq.io.dates import DateError, parse_date
 from ogacq.model.instrument import Instrument
 from ogacq.model.machine import MachineSpec
 from ogacq.traceability import expired_instruments
@@ -68,14 +69,16 @@ def temperature(text: str) -> float | None:
     return value
 
 
-def _date(text: str) -> datetime.date | None:
-    text = text.strip()
-    if not text:
-        return None
-    try:
-        return datetime.date.fromisoformat(text)
-    except ValueError:
-        raise ValueError(f"a date as YYYY-MM-DD, got {text}") from None
+def _date(key: str) -> Callable[[str], datetime.date | None]:
+    """The parser of a typed date (empty: not known) as ``ask_parsed`` takes it."""
+    def parse(text: str) -> datetime.date | None:
+        if not text.strip():
+            return None
+        try:
+            return parse_date(text, source=None, key=key)
+        except DateError as exc:
+            raise ValueError(exc.problem) from None
+    return parse
 
 
 def _positive(text: str) -> float | None:
@@ -184,10 +187,11 @@ class TraceabilityQuestions:
         make = s.ask("  Make", offered(before.make))
         model = s.ask("  Model", offered(before.model))
         certificate = s.ask("  Calibration certificate number", offered(before.certificate))
-        calibrated = s.ask_parsed("  Calibrated on (YYYY-MM-DD)", _date,
+        calibrated = s.ask_parsed("  Calibrated on (YYYY-MM-DD)", _date("calibrated"),
                                   offered(before.calibrated))
         while True:
-            due = s.ask_parsed("  Calibration due (YYYY-MM-DD)", _date, offered(before.due))
+            due = s.ask_parsed("  Calibration due (YYYY-MM-DD)", _date("due"),
+                                 offered(before.due))
             if due is None or calibrated is None or due > calibrated:
                 break
             s.problem(f"the due date must come after the calibration ({calibrated})")
