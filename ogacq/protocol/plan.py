@@ -287,10 +287,13 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
         yield from _approach(first_q, first_tcp, config, last_q, side, config.approach)
         last_q = first_q
         yield SetGauges(leg, gauges)
+        # each posture's TCP and joints, computed once for all the cycles
+        tcps = [posture_tcp(i, posture, machine) for posture in config.postures]
+        qs = [nominal_q(tcp, machine.leg_length_mm) for tcp in tcps]
+        labels = [posture_label(posture) for posture in config.postures]
         for cycle in range(1, config.cycles + 1):
-            for k, posture in enumerate(config.postures):
-                tcp = posture_tcp(i, posture, machine)
-                q = nominal_q(tcp, machine.leg_length_mm)
+            for k in range(len(config.postures)):
+                tcp, q = tcps[k], qs[k]
                 sides = ("from_below", "from_above") if config.approach == "both" \
                     else (config.approach,)
                 for how in sides:
@@ -298,7 +301,7 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
                     last_q = q
                     tag = "" if len(sides) == 1 else f"/{how}"
                     yield Read(f"{leg}/c{cycle}/p{k + 1}{tag}", leg, gauges, cycle,
-                               posture_label(posture), _t(q), _t(tcp), _t(side))
+                               labels[k], _t(q), _t(tcp), _t(side))
 
 
 # A scan's runs per cycle, by approach: (name, direction, how its first target is reached).
