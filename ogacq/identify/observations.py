@@ -11,9 +11,12 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:  # numpy.typing: 1 ms of start-up for annotations only
+    from numpy.typing import ArrayLike
 
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
