@@ -12,16 +12,24 @@ Targets (issue 14, 2 cores): refit < 0.5 s, diagnose < 1 s; (issue 27) `ogacq --
 refit and diagnose each within 1.5x numpy's import measured in the same run. The
 runs of all commands are interleaved, so that a load that comes and goes falls on
 each alike.
+Every module runs from its compiled bytecode, as after ``pip install`` (which
+compiles the package) or a first run (which writes ``__pycache__``): the commands run
+with a fresh ``PYTHONPYCACHEPREFIX`` and one untimed run each fills it, numpy's
+modules included. A shell with ``PYTHONDONTWRITEBYTECODE`` set and an editable
+install (this project's sandboxes) would otherwise compile every ogacq module on
+every run while numpy's come compiled from site-packages: ``--compile-each-run``
+measures that instead.
 Then, in the same process, loading a 72,000-reading CSV into observations
 (``load_observations``) beside a plain numpy loader of the same file
 (``np.loadtxt(..., dtype=str)``: every field, as a file with letter columns needs);
 target (issue 27) <= 1.3x.
 
-Run: python bench/bench_startup.py [runs, default 7]
+Run: python bench/bench_startup.py [runs, default 7] [--compile-each-run]
 """
 
 from __future__ import annotations
 
+import os
 import statistics
 import subprocess
 import sys
@@ -40,19 +48,21 @@ from ogacq.io.tables import write_readings  # noqa: E402
 TARGETS_S = {"refit": 0.5, "diagnose": 1.0}
 
 
-def wall_s(argv: list[str], runs: int) -> list[float]:
+def wall_s(argv: list[str], runs: int, env: dict[str, str]) -> list[float]:
     times = []
     for _ in range(runs):
         start = time.perf_counter()
-        subprocess.run(argv, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        subprocess.run(argv, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                       env=env)
         times.append(time.perf_counter() - start)
     return times
 
 
-def import_s(argv: list[str]) -> float:
+def import_s(argv: list[str], env: dict[str, str]) -> float:
     """The command's imports: the top-level entries of -X importtime, summed."""
     err = subprocess.run([argv[0], "-X", "importtime", *argv[1:]], check=True,
-                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True).stderr
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                         env=env).stderr
     total_us = 0
     for line in err.splitlines():
         if not line.startswith("import time:") or "cumulative" in line:
@@ -63,8 +73,23 @@ def import_s(argv: list[str]) -> float:
     return total_us / 1e6
 
 
+def bytecode_env(tmp: str, compile_each_run: bool) -> tuple[dict[str, str], str]:
+    """The commands' environment and what it means for their bytecode."""
+    env = dict(os.environ)
+    if compile_each_run:
+        cached = not env.get("PYTHONDONTWRITEBYTECODE")
+        return env, ("as this shell has it: " + ("bytecode written and reused" if cached else
+                     "PYTHONDONTWRITEBYTECODE set, modules without a __pycache__ "
+                     "(an editable install's) compiled on every run"))
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    env["PYTHONPYCACHEPREFIX"] = str(Path(tmp, "pycache"))
+    return env, "every module from its bytecode, as installed (one untimed run each first)"
+
+
 def main() -> None:
-    runs = int(sys.argv[1]) if len(sys.argv) > 1 else 7
+    args = [a for a in sys.argv[1:] if not a.startswith("--")]
+    compile_each_run = "--compile-each-run" in sys.argv[1:]
+    runs = int(args[0]) if args else 7
     with tempfile.TemporaryDirectory() as tmp:
         obs = campaign(72)
         readings, machine = Path(tmp, "readings.csv"), Path(tmp, "machine.toml")
@@ -77,12 +102,16 @@ def main() -> None:
         for name in TARGETS_S:
             commands[f"ogacq {name}"] = [python, "-m", "ogacq", name, str(readings), "-m",
                                          str(machine)]
+        env, bytecode = bytecode_env(tmp, compile_each_run)
+        if not compile_each_run:
+            for argv in commands.values():
+                wall_s(argv, 1, env)
         times: dict[str, list[float]] = {label: [] for label in commands}
         for _ in range(runs):
             for label, argv in commands.items():
-                times[label] += wall_s(argv, 1)
+                times[label] += wall_s(argv, 1, env)
         numpy_s = statistics.median(times["python -c 'import numpy'"])
-        print(f"72 readings, {runs} runs each, interleaved, median (min-max):")
+        print(f"72 readings, {runs} runs each, interleaved, median (min-max); {bytecode}:")
         for label, t in times.items():
             median = statistics.median(t)
             line = f"   {label:26s} {median:.3f} s ({min(t):.3f}-{max(t):.3f})"
@@ -92,7 +121,7 @@ def main() -> None:
                         f"{'met' if ratio <= 1.5 else 'NOT met'})"
                 name = label.split()[1]
                 if name in TARGETS_S:
-                    imports = import_s(commands[label])
+                    imports = import_s(commands[label], env)
                     line += (f"; imports {imports:.3f} s ({imports / median:.0%}), "
                              f"< {TARGETS_S[name]:g} s: "
                              f"{'met' if max(t) < TARGETS_S[name] else 'NOT met'}")

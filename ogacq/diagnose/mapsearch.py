@@ -43,6 +43,7 @@ from typing import Any
 
 import numpy as np
 
+from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import nested_tests
@@ -122,8 +123,8 @@ def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
     for a in range(3):
         own = layout.leg == a
         q_all = np.round(layout.q_mm[:, a], 6)
-        q_own = np.unique(q_all[own]) if own.any() else np.unique(q_all)
-        step = float(np.median(np.diff(q_own))) if len(q_own) > 1 else math.inf
+        q_own = sorted_distinct(q_all[own]) if own.any() else sorted_distinct(q_all)
+        step = median(np.diff(q_own)) if len(q_own) > 1 else math.inf
         sides = layout.approach[own, a] if own.any() else layout.approach[:, a]
         both = bool((sides > 0).any() and (sides < 0).any())
         finite = travel_mm[:, a][np.isfinite(travel_mm[:, a]) & (travel_mm[:, a] > 0)]

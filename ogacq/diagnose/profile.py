@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.identify.observations import Observations
 from ogacq.model.gauges import AXES, Gauge
 
@@ -92,11 +93,11 @@ def leg_profiles(obs: Observations, before: np.ndarray, after: np.ndarray,
         if not len(own):
             continue
         q = lay.q_mm[own, leg]
-        positions = np.unique(np.round(q, 6))
+        positions = sorted_distinct(np.round(q, 6))
         if len(positions) < MIN_POSITIONS:
             continue
         lo, hi = float(positions[0]), float(positions[-1])
-        step = float(np.median(np.diff(positions)))
+        step = median(np.diff(positions))
         bins = int(min(MAX_BINS, len(positions), max(1, round((hi - lo) / step) + 1)))
         width = (hi - lo) / max(bins - 1, 1)
         which = np.clip(np.round((q - lo) / width).astype(int), 0, bins - 1) if bins > 1 \

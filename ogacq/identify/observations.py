@@ -11,9 +11,12 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from numpy.typing import ArrayLike
+
+if TYPE_CHECKING:  # numpy.typing: 1 ms of start-up for annotations only
+    from numpy.typing import ArrayLike
 
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
@@ -24,7 +27,6 @@ from ogacq.model.measurement import (
     predict_coordinates,
 )
 from ogacq.model.parameters import AXES
-from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 DEVIATION_NAME = re.compile(r"^d([xyz])_([xyz])([+-]?)$")
 POSTURE_OF_SIGN = {"+": "max", "-": "min", "": "max-min"}
@@ -142,6 +144,9 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
     plan (Zero, Max, Min for each leg involved), keeping the gauges named;
     approach and time are unknown for tabulated data and taken as neutral.
     """
+    # here: the protocol's dataclasses are 3 ms of a readings refit's start-up
+    from ogacq.protocol.plan import ProtocolConfig, planned_layout
+
     parsed = [Deviation.parse(name) for name, _ in named]
     gauges = {d.gauge.indices for d in parsed}
     legs = tuple(leg for leg in AXES if any(d.gauge.leg == leg for d in parsed))

@@ -10,10 +10,15 @@ from __future__ import annotations
 
 import contextlib
 import os
-import tempfile
 from pathlib import Path
 
 from ogacq.io.errors import InputError, StorageError
+
+
+def _temporary_beside(path: Path) -> tuple[int, str]:
+    import tempfile  # here: a command that only reads does not pay for it (1 ms)
+
+    return tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
 
 
 def write_atomically(path: str | Path, data: bytes) -> None:
@@ -24,7 +29,7 @@ def write_atomically(path: str | Path, data: bytes) -> None:
     tmp: str | None = None
     try:
         mode = _mode_for(path)
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        fd, tmp = _temporary_beside(path)
         os.fchmod(fd, mode)
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
@@ -47,7 +52,7 @@ def write_new_file(path: str | Path, data: bytes) -> None:
     path = Path(path)
     tmp: str | None = None
     try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+        fd, tmp = _temporary_beside(path)
         os.fchmod(fd, 0o666 & ~_umask())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)

@@ -287,10 +287,13 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
         yield from _approach(first_q, first_tcp, config, last_q, side, config.approach)
         last_q = first_q
         yield SetGauges(leg, gauges)
+        # each posture's TCP and joints, computed once for all the cycles
+        tcps = [posture_tcp(i, posture, machine) for posture in config.postures]
+        qs = [nominal_q(tcp, machine.leg_length_mm) for tcp in tcps]
+        labels = [posture_label(posture) for posture in config.postures]
         for cycle in range(1, config.cycles + 1):
-            for k, posture in enumerate(config.postures):
-                tcp = posture_tcp(i, posture, machine)
-                q = nominal_q(tcp, machine.leg_length_mm)
+            for k in range(len(config.postures)):
+                tcp, q = tcps[k], qs[k]
                 sides = ("from_below", "from_above") if config.approach == "both" \
                     else (config.approach,)
                 for how in sides:
@@ -298,7 +301,7 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
                     last_q = q
                     tag = "" if len(sides) == 1 else f"/{how}"
                     yield Read(f"{leg}/c{cycle}/p{k + 1}{tag}", leg, gauges, cycle,
-                               posture_label(posture), _t(q), _t(tcp), _t(side))
+                               labels[k], _t(q), _t(tcp), _t(side))
 
 
 # A scan's runs per cycle, by approach: (name, direction, how its first target is reached).
@@ -325,18 +328,21 @@ def _scan_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
         last_q = zero_q
         yield SetGauges(leg, gauges)
         yield Read(f"{leg}/set", leg, gauges, 1, "zero", _t(zero_q), _t(zero_tcp), _t(side))
+        # each target's TCP and joints, computed once for all the runs that visit it
+        tcps = [posture_tcp(i, target, machine) for target in targets]
+        qs = [nominal_q(tcp, machine.leg_length_mm) for tcp in tcps]
+        labels = [posture_label(target) for target in targets]
         for cycle in range(1, config.cycles + 1):
             for run, direction, first in _SCAN_RUNS[config.approach]:
                 order = range(len(targets)) if direction > 0 else \
                     range(len(targets) - 1, -1, -1)
                 for n, k in enumerate(order):
-                    tcp = posture_tcp(i, targets[k], machine)
-                    q = nominal_q(tcp, machine.leg_length_mm)
+                    tcp, q = tcps[k], qs[k]
                     yield from _approach(q, tcp, config, last_q, side,
                                          first if n == 0 else "sequence")
                     last_q = q
                     yield Read(f"{leg}/c{cycle}/{run}/p{k + 1}", leg, gauges, cycle,
-                               posture_label(targets[k]), _t(q), _t(tcp), _t(side))
+                               labels[k], _t(q), _t(tcp), _t(side))
 
 
 def _approach(q: np.ndarray, tcp: np.ndarray, config: ProtocolConfig, last_q: np.ndarray,
@@ -354,6 +360,8 @@ def _approach(q: np.ndarray, tcp: np.ndarray, config: ProtocolConfig, last_q: np
 
 
 def _t(v: Sequence[float] | np.ndarray) -> tuple:
+    if isinstance(v, np.ndarray) and v.dtype.kind in "fiu":
+        return tuple(v.tolist())  # the same Python floats and ints, at once
     return tuple(float(x) if isinstance(x, float | np.floating) else int(x) for x in v)
 
 

@@ -1,0 +1,81 @@
+"""What a 72-reading ``refit`` and ``diagnose`` import (issue 27's start-up): kept by
+*what* is loaded, never by a timing. The modules named here are each milliseconds of
+a command whose whole run is about 0.15 s (refit) and 0.25 s (diagnose): the terminal
+rendering (rich) under --json, numpy's masked arrays (np.unique's and np.median's
+plain calls), OpenSSL's hashes, tempfile, and the protocol for a readings refit."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from ogacq.io.tables import write_readings
+from tests.diagnose.campaigns import layout, simulate
+from tests.diagnose.test_diagnose_cli import MACHINE_TOML
+
+PROBE = """
+import json, sys
+from ogacq.cli.app import main
+code = main(sys.argv[1:])
+print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
+"""
+
+NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile")
+
+
+@pytest.fixture(scope="module")
+def readings(tmp_path_factory):
+    """The papers' plan, 3 cycles (72 readings), with two effects the offsets leave
+    out: the diagnosis runs its whole search, the plans that would separate them
+    and the scan that would show a map."""
+    root = tmp_path_factory.mktemp("startup")
+    (root / "m.toml").write_text(MACHINE_TOML)
+    obs = simulate({"squareness.xy": 0.4, "backlash.z": 0.02}, 1,
+                   lay=layout(cycles=3))
+    assert len(obs) == 72
+    write_readings(root / "r.csv", obs.layout, obs.values)
+    return root
+
+
+def run(*args: object) -> tuple[set[str], str]:
+    """The modules loaded by the command, and what it printed."""
+    proc = subprocess.run([sys.executable, "-c", PROBE, *map(str, args)], capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    *printed, last = proc.stdout.splitlines()
+    out = json.loads(last)
+    assert out["code"] == 0, proc.stderr
+    return set(out["modules"]), "\n".join(printed)
+
+
+def modules_after(*args: object) -> set[str]:
+    return run(*args)[0]
+
+
+def loaded(modules: set[str], prefixes: tuple[str, ...]) -> set[str]:
+    return {m for m in modules if m.startswith(prefixes) and
+            any(m == p or m.startswith(p + ".") for p in prefixes)}
+
+
+def test_refit_of_readings(readings):
+    as_json = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml", "--json")
+    assert not loaded(as_json, ("rich", "ogacq.protocol", "ogacq.diagnose", *NEVER))
+    on_terminal = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml")
+    assert "rich.table" in on_terminal  # the probe sees what the command loads
+    assert not loaded(on_terminal, ("ogacq.protocol", *NEVER))
+
+
+def test_diagnose_of_readings(readings):
+    as_json, printed = run("diagnose", readings / "r.csv", "-m", readings / "m.toml",
+                           "--json")
+    # the whole diagnosis ran: effects found, a scan planned that would tell one from
+    # a map along its axis
+    diagnosis = json.loads(printed)
+    assert diagnosis["effects"]
+    assert any(p["measurement"] == "scan" for p in diagnosis["proposals"]), printed
+    assert not loaded(as_json, ("rich", *NEVER))
+    assert not loaded(modules_after("diagnose", readings / "r.csv", "-m",
+                                    readings / "m.toml"), NEVER)
