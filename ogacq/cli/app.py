@@ -174,31 +174,6 @@ def _run_app(argv: list[str] | None) -> object:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run the command ``argv`` (None: this process's own command line, as the
-    ``ogacq`` script and ``python -m ogacq`` run it) and return its exit code."""
-    code = _main(argv)
-    if argv is None:  # the process ends next
-        _spare_the_exit_collections()
-    return code
-
-
-def _spare_the_exit_collections() -> None:
-    """Collect the command's garbage now (its finalizers run, as they would at exit),
-    then exempt what is still alive, the modules' ~30,000 objects, from the
-    interpreter's shutdown, whose collections traverse them all several times: 15-20
-    ms of every command. Objects alive at exit are left to the operating system as
-    Python itself allows (its reference: "It is not guaranteed that __del__() methods
-    are called for objects that still exist when the interpreter exits"); ogacq
-    closes its files, connections and devices itself, and logging is shut down
-    before (atexit). In-process callers (tests) pass ``argv`` and keep their
-    collector as it was."""
-    import gc
-
-    gc.collect()
-    gc.freeze()
-
-
-def _main(argv: list[str] | None) -> int:
     configure_logging()
     argv = global_options_first(sys.argv[1:] if argv is None else list(argv))
     try:
