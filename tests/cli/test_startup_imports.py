@@ -55,7 +55,17 @@ def modules_after(*args: object) -> set[str]:
     return run(*args)[0]
 
 
+def at_start() -> set[str]:
+    """What the interpreter loads before any command (site and its .pth files: on
+    some machines a CA bundle's loader brings tempfile and more): not the command's."""
+    proc = subprocess.run([sys.executable, "-c", "import json, sys; "
+                           "print(json.dumps(sorted(sys.modules)))"],
+                          capture_output=True, text=True, timeout=60, check=True)
+    return set(json.loads(proc.stdout))
+
+
 def loaded(modules: set[str], prefixes: tuple[str, ...]) -> set[str]:
+    modules = modules - at_start()
     return {m for m in modules if m.startswith(prefixes) and
             any(m == p or m.startswith(p + ".") for p in prefixes)}
 
