@@ -113,7 +113,7 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
         return tuple(steps)
     if not (verdict.consistent and identifiable):
         return tuple(steps)
-    campaign = session.header.get("campaign_file")
+    campaign = session.header.campaign_file
     if simulated and not rehearsal_writeback:
         steps.append(NextStep("", "a rehearsal: the simulated controller stopped with the "
                                   "command; on the machine, `ogacq offsets write SESSION` "

@@ -298,20 +298,19 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
     header = session.header
     ends = session.of_type(EndRecord)
     status = ends[-1].status if ends else "in progress or killed"
-    console.print(f"[bold]{shown(session.path)}[/]: {shown(header.get('software', '?'))}, "
-                  f"created {shown(header.get('created', '?'))}, status [bold]{shown(status)}[/]")
+    console.print(f"[bold]{shown(session.path)}[/]: {shown(header.software or '?')}, "
+                  f"created {shown(header.created or '?')}, status [bold]{shown(status)}[/]")
     if state is not None and not state.complete:
         console.print(f"[yellow]{shown(state.describe())}[/]", highlight=False)
     for note in session.integrity.notes():
         console.print(f"[yellow]{shown(note)}[/]", highlight=False)
-    machine = header.get("machine", {})
-    machine = machine if isinstance(machine, dict) else {}
+    machine = header.machine or {}
     console.print(f"machine: L = {shown(machine.get('leg_length_mm'))} mm, postures "
                   f"{shown(machine.get('rho_min_mm'))}..{shown(machine.get('rho_max_mm'))} mm, "
                   f"gauges {shown(machine.get('gauge_resolution_mm'))} mm")
     _print_context(session)
-    station = header.get("station") or {}
-    controller = station.get("controller") if isinstance(station, dict) else None
+    station = header.station or {}
+    controller = station.get("controller")
     if isinstance(controller, dict):
         console.print(f"controller: {shown(controller.get('profile'))} at "
                       f"{shown(controller.get('port'))}"
