@@ -17,6 +17,7 @@ from typing import Any
 
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.series import earlier_in_series, next_session
 from ogacq.session.store import LoadedSession, load_session
@@ -40,7 +41,7 @@ class CampaignEnd:
 
     @property
     def record_id(self) -> str:
-        return str(self.record.get("id"))
+        return str(CalibrationRecord.from_json(self.record).id)
 
     @property
     def built(self) -> Mapping[str, Any] | None:

@@ -13,6 +13,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.model.parameters import effect_of
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
@@ -216,7 +217,7 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
     uncertainty U (k stated, GUM 7.2.6), from the campaign's ``record``; the
     simulator's truth beside them in a rehearsal."""
     result = outcome.fit
-    results = (record.get("results") or {})
+    results = CalibrationRecord.from_json(record).results or {}
     table = Table(show_edge=False, header_style="bold",
                   title=f"identified joint offsets ({len(result.observations)} readings)")
     table.add_column("parameter")

@@ -16,6 +16,7 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.report.figures import BEFORE_COLOUR, STYLE
 
 CURRENT_COLOUR = "#D55E00"
@@ -44,9 +45,10 @@ def parse_date(text: str | None) -> dt.datetime | None:
 def history_points(record: Mapping[str, Any]) -> dict[str, list[HistoryPoint]]:
     """Per parameter (``joint_offset.x``), its values over time, oldest first; entries
     without a date or a value are left out (they cannot be placed)."""
+    typed = CalibrationRecord.from_json(record)
     entries = [(e.get("id"), e.get("date"), e.get("results"), False)
-               for e in record.get("history") or ()]
-    entries.append((record.get("id"), record.get("date"), record.get("results"), True))
+               for e in typed.history or () if isinstance(e, Mapping)]
+    entries.append((typed.id, typed.date, typed.results, True))
     out: dict[str, list[HistoryPoint]] = {}
     for record_id, date, results, current in entries:
         when = parse_date(date)
