@@ -178,7 +178,7 @@ def maps_in_force(campaign: Campaign) -> MapsTable | None:
 
 def recorded_maps(session: LoadedSession) -> dict[str, Any] | None:
     """The maps identity the campaign last ran with (None: none were applied)."""
-    stations = [session.header.get("station") or {},
+    stations = [dict(session.header.station or {}),
                 *(r.description for r in session.of_type(StationRecord))]
     for station in reversed(stations):
         controller = station.get("controller") or {}
@@ -223,8 +223,8 @@ def _simulated_operator(simulator: SimulatorStack, campaign: Campaign,
 def gauges_read_by_eye(session: LoadedSession) -> set[str]:
     """Gauges whose values the operator types (chosen at the start, or switched to
     mid-way when a gauge failed): only the wizard can ask for them."""
-    wizard = session.header.get("wizard")
-    chosen = wizard.get("by_eye", []) if isinstance(wizard, dict) else []
+    wizard = session.header.wizard
+    chosen = wizard.get("by_eye", []) if wizard is not None else []
     switched = {r.details["gauge"] for r in session.of_type(OperatorRecord)
                 if r.action == "read_by_eye"}
     return set(chosen) | switched
@@ -235,7 +235,7 @@ def resumable_campaign(session: LoadedSession) -> Campaign:
     if session.finished:
         raise InputError(session.path, "this campaign is complete; nothing to resume "
                          "(`ogacq refit` re-identifies it)")
-    campaign_file = session.header.get("campaign_file")
+    campaign_file = session.header.campaign_file
     if not campaign_file:
         raise InputError(session.path, "this session was not recorded by a campaign "
                          "(no campaign file): it cannot be resumed", 1)
@@ -244,7 +244,7 @@ def resumable_campaign(session: LoadedSession) -> Campaign:
         raise InputError(session.path, f"gauges {', '.join(sorted(by_eye))} are read by eye: "
                          f"continue with `ogacq wizard --resume {session.path}`")
     campaign = read_campaign(campaign_file)
-    if not _same_plan(campaign.protocol, session.header.get("plan")):
+    if not _same_plan(campaign.protocol, session.header.plan):
         raise InputError(campaign.path, f"the protocol differs from the one {session.path} "
                          "was started with; resume needs the same plan")
     campaign.session = session.path

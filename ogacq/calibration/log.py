@@ -19,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq.errors import InputError
+from ogacq.session.header import SessionHeader
 from ogacq.session.records import CalibrateRecord
 from ogacq.session.store import SessionWriter, load_session
 
@@ -29,13 +30,13 @@ PROCEDURE_FORMAT = "ogacq-calibrate/1"
 @dataclass
 class ProcedureLog:
     path: Path
-    header: dict[str, Any]
+    header: SessionHeader
     steps: list[CalibrateRecord]
     writer: SessionWriter
 
     @property
     def procedure(self) -> str:
-        return str(self.header["procedure"]["id"])
+        return str((self.header.procedure or {})["id"])
 
     @classmethod
     def create(cls, folder: Path, setup: dict[str, Any]) -> ProcedureLog:
@@ -52,7 +53,7 @@ class ProcedureLog:
         if not path.is_file():
             raise InputError(folder, f"no calibration procedure here (no {LOG_NAME})")
         loaded = load_session(path)
-        if (loaded.header.get("procedure") or {}).get("format") != PROCEDURE_FORMAT:
+        if (loaded.header.procedure or {}).get("format") != PROCEDURE_FORMAT:
             raise InputError(path, f"not an {PROCEDURE_FORMAT} log")
         writer = SessionWriter.append_to(path, loaded.size_bytes or None)
         return cls(path, loaded.header, loaded.of_type(CalibrateRecord), writer)

@@ -443,7 +443,10 @@ def tables_only(comp: Compensation) -> Compensation:
 
 
 def _plan_of(session: LoadedSession) -> ProtocolConfig:
-    return ProtocolConfig.from_dict(session.header["plan"])
+    if session.header.plan is None:
+        raise InputError(session.path, "this session has no plan: it was not recorded by a "
+                         "campaign")
+    return ProtocolConfig.from_dict(dict(session.header.plan))
 
 
 def _done_write(ops: list[Operation], plan: OffsetPlan) -> str | None:

@@ -201,7 +201,7 @@ def _resumed_setup(folder: Path) -> Setup:
     """The setup the procedure was started with, from its log's header."""
     log_ = ProcedureLog.reopen(folder)
     try:
-        described = log_.header["procedure"]
+        described = log_.header.procedure or {}
     finally:
         log_.close()
     scan = float(described.get("scan_step_mm") or SCAN_STEP_MM)

@@ -17,6 +17,7 @@ from typing import Any
 
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.series import earlier_in_series, next_session
 from ogacq.session.store import LoadedSession, load_session
@@ -40,7 +41,7 @@ class CampaignEnd:
 
     @property
     def record_id(self) -> str:
-        return str(self.record.get("id"))
+        return str(CalibrationRecord.from_json(self.record).id)
 
     @property
     def built(self) -> Mapping[str, Any] | None:
@@ -113,7 +114,7 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
         return tuple(steps)
     if not (verdict.consistent and identifiable):
         return tuple(steps)
-    campaign = session.header.get("campaign_file")
+    campaign = session.header.campaign_file
     if simulated and not rehearsal_writeback:
         steps.append(NextStep("", "a rehearsal: the simulated controller stopped with the "
                                   "command; on the machine, `ogacq offsets write SESSION` "

@@ -75,7 +75,7 @@ def _campaign_for(session: LoadedSession, path: Path | None,
     campaign that only starts the built-in simulator names no controller that outlives
     the command."""
     if path is None:
-        recorded = session.header.get("campaign_file")
+        recorded = session.header.campaign_file
         if not recorded:
             raise InputError(session.path, "the session names no campaign file; give the "
                              "controller's with --campaign")

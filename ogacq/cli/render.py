@@ -13,6 +13,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.model.parameters import effect_of
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
@@ -216,7 +217,7 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
     uncertainty U (k stated, GUM 7.2.6), from the campaign's ``record``; the
     simulator's truth beside them in a rehearsal."""
     result = outcome.fit
-    results = (record.get("results") or {})
+    results = CalibrationRecord.from_json(record).results or {}
     table = Table(show_edge=False, header_style="bold",
                   title=f"identified joint offsets ({len(result.observations)} readings)")
     table.add_column("parameter")
@@ -298,20 +299,19 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
     header = session.header
     ends = session.of_type(EndRecord)
     status = ends[-1].status if ends else "in progress or killed"
-    console.print(f"[bold]{shown(session.path)}[/]: {shown(header.get('software', '?'))}, "
-                  f"created {shown(header.get('created', '?'))}, status [bold]{shown(status)}[/]")
+    console.print(f"[bold]{shown(session.path)}[/]: {shown(header.software or '?')}, "
+                  f"created {shown(header.created or '?')}, status [bold]{shown(status)}[/]")
     if state is not None and not state.complete:
         console.print(f"[yellow]{shown(state.describe())}[/]", highlight=False)
     for note in session.integrity.notes():
         console.print(f"[yellow]{shown(note)}[/]", highlight=False)
-    machine = header.get("machine", {})
-    machine = machine if isinstance(machine, dict) else {}
+    machine = header.machine or {}
     console.print(f"machine: L = {shown(machine.get('leg_length_mm'))} mm, postures "
                   f"{shown(machine.get('rho_min_mm'))}..{shown(machine.get('rho_max_mm'))} mm, "
                   f"gauges {shown(machine.get('gauge_resolution_mm'))} mm")
     _print_context(session)
-    station = header.get("station") or {}
-    controller = station.get("controller") if isinstance(station, dict) else None
+    station = header.station or {}
+    controller = station.get("controller")
     if isinstance(controller, dict):
         console.print(f"controller: {shown(controller.get('profile'))} at "
                       f"{shown(controller.get('port'))}"

@@ -137,7 +137,7 @@ def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any
     would separate each effect from its alternatives, and the caveats, in the
     diagnosis's own words."""
     data = result.to_json()
-    machine_file = str(session.header.get("machine_file") or "M.toml")
+    machine_file = session.header.machine_file or "M.toml"
     # the effects found, then (when the fit is not within the noise) "unexplained"
     named = data["effects"][:len(result.effects)]
     for entry, effect in zip(named, result.effects, strict=True):

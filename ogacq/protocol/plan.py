@@ -35,8 +35,9 @@ nothing moved (a posture read again), there is nothing to settle.
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -120,7 +121,7 @@ class ProtocolConfig:
         return out
 
     @classmethod
-    def from_dict(cls, d: dict) -> ProtocolConfig:
+    def from_dict(cls, d: Mapping[str, Any]) -> ProtocolConfig:
         d = dict(d)
         stability = StabilityRule(**d.pop("stability", {}))
         return cls(legs=tuple(d.pop("legs", AXES)), postures=tuple(d.pop("postures", ())),

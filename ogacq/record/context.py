@@ -17,6 +17,7 @@ from typing import Any
 
 from ogacq.io.dates import moment_or_none
 from ogacq.model.instrument import Instrument
+from ogacq.session.header import SessionHeader
 from ogacq.session.records import EnvironmentRecord, OverrideRecord
 from ogacq.session.store import LoadedSession
 
@@ -103,10 +104,10 @@ class CalibrationContext:
 
 def calibration_context(session: LoadedSession) -> CalibrationContext:
     header = session.header
-    identity = _mapping(header.get("identity"))
-    machine = _mapping(header.get("machine"))
-    simulator = _mapping(header.get("simulator"))
-    date = moment_or_none(header.get("date")) or moment_or_none(header.get("created"))
+    identity = _mapping(header.identity)
+    machine = _mapping(header.machine)
+    simulator = _mapping(header.simulator)
+    date = moment_or_none(header.date) or moment_or_none(header.created)
     return CalibrationContext(
         machine_name=_text(identity.get("machine")) or _text(machine.get("name")),
         machine_serial=_text(identity.get("serial")) or _text(machine.get("serial")),
@@ -119,14 +120,13 @@ def calibration_context(session: LoadedSession) -> CalibrationContext:
         simulated_date=bool(simulator.get("simulated_date")))
 
 
-def _instruments(header: Mapping[str, Any]) -> tuple[Instrument, ...]:
-    given = header.get("instruments")
-    if isinstance(given, list):
+def _instruments(header: SessionHeader) -> tuple[Instrument, ...]:
+    given = header.instruments
+    if given is not None:
         return tuple(Instrument.from_json(e) for e in given if isinstance(e, Mapping))
     # written before instruments were recorded: the station's serials, nothing more
-    gauges = _mapping(_mapping(header.get("station")).get("gauges"))
     return tuple(Instrument(key, serial=_text(_mapping(g).get("serial")))
-                 for key, g in gauges.items())
+                 for key, g in header.gauges.items())
 
 
 def _environment(session: LoadedSession) -> Environment:

@@ -36,6 +36,7 @@ from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.record.evaluation import evaluate
 from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.convert import session_machine
+from ogacq.session.header import SessionHeader
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession
 
@@ -86,7 +87,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     """
     header_line, sha256 = _session_digest(session)
     header = session.header
-    machine = dict(header.get("machine") or {})
+    machine = dict(header.machine or {})
     context = calibration_context(session)
     date = _text(context.date)
     missing: dict[str, str] = {}
@@ -145,15 +146,14 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
 
 # --- the parts ----------------------------------------------------------------------------
 
-def simulated(header: Mapping[str, Any]) -> bool | None:
+def simulated(header: SessionHeader) -> bool | None:
     """Whether the campaign ran on the built-in simulator: the header's ``simulated``,
     or (sessions before it) its station's; None where the session does not say
     (an imported table)."""
-    for said in (header.get("simulated"), (header.get("station") or {}).get("simulated")
-                 if isinstance(header.get("station"), Mapping) else None):
+    for said in (header.simulated, (header.station or {}).get("simulated")):
         if isinstance(said, bool):
             return said
-    return True if header.get("simulator") else None
+    return True if header.simulator else None
 
 
 def _session_digest(session: LoadedSession) -> tuple[bytes, str]:
@@ -231,13 +231,13 @@ def _method(session: LoadedSession, result: FitResult | None,
     tolerances = machine.get("tolerances")
     recorded = session.result
     return {
-        "protocol": session.header.get("plan"),
+        "protocol": session.header.plan,
         "params": recorded.params if recorded is not None else "offsets",
         "identification": None if result is None else {
             "method": result.method, "weighting": result.weighting,
             "readings": len(result.observations),
             "noise_mm": number(result.noise.sigma_mm), "noise_source": result.noise.source},
-        "software": _text(session.header.get("software")),
+        "software": _text(session.header.software),
         "record_software": f"ogacq {__version__}",
         "decision_rule": (tolerances.get("decision_rule")
                           if isinstance(tolerances, Mapping) else None),

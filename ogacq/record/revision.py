@@ -17,6 +17,8 @@ import json
 from collections.abc import Mapping
 from typing import Any
 
+from ogacq.record.calibration_record import CalibrationRecord
+
 # What an issue adds to the content: not part of what is compared.
 ISSUE_KEYS = ("issued", "revision", "revises", "changes")
 # What differs from one evaluation to the next of the same content: how long it took.
@@ -38,7 +40,7 @@ def issue(record: Mapping[str, Any], previous: bytes | None) -> dict[str, Any]:
     replaces, if any): revision 1 when there is none, or it is another record's or
     not a record; the earlier issue itself when the content is the same; else the
     next revision, naming the one it replaces and what changed."""
-    earlier = _earlier_issue(previous, record.get("id"))
+    earlier = _earlier_issue(previous, CalibrationRecord.from_json(record).id)
     if earlier is None:
         return {**record, "revision": 1}
     if json_equal(content(earlier), content(record)):
@@ -64,8 +66,8 @@ def _earlier_issue(previous: bytes | None, record_id: Any) -> dict[str, Any] | N
 
 
 def _revision(record: Mapping[str, Any]) -> int:
-    revision = record.get("revision")
-    return revision if isinstance(revision, int) and revision >= 1 else 1  # before revisions
+    revision = CalibrationRecord.from_json(record).revision
+    return revision if revision is not None and revision >= 1 else 1  # before revisions
 
 
 def json_equal(a: Any, b: Any) -> bool:

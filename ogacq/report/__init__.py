@@ -24,6 +24,7 @@ from ogacq.history.plot import history_figure, recorded_calibrations
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import StorageError
 from ogacq.model.parameters import AXES
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.report.data import FitSummary, ReportData, collect
 from ogacq.report.diagnosis_view import DiagnosisFormatError, DiagnosisView, parse_diagnosis
 from ogacq.report.figures import (
@@ -63,6 +64,7 @@ def planned_legs(data: ReportData) -> tuple[str, ...]:
 
 
 def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile, ...]:
+    typed = CalibrationRecord.from_json(record)
     out = []
     fit = data.fit
     if data.deviations:
@@ -84,8 +86,8 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
             "Identified joint offsets with their expanded uncertainty U (k = 2) as "
             "whiskers, and U itself.",
             png_bytes(parameters_figure(
-                fit, validation, _expanded(record.get("results"), fit),
-                _expanded(record.get("validation_results"), validation)))))
+                fit, validation, _expanded(typed.results, fit),
+                _expanded(typed.validation_results, validation)))))
     if data.diagnosis is not None and len(data.diagnosis_steps) > 1:
         out.append(FigureFile(
             "diagnosis.png", "Residuals before and after each effect",
@@ -105,7 +107,7 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
             "Actual minus commanded joint position along each actuator with an error map, "
             "forward and reverse, with a band of two standard uncertainties.",
             png_bytes(maps_figure(data.diagnosis.maps))))
-    if record.get("history"):
+    if typed.history:
         calibrations = recorded_calibrations(record)
         if any(c.parameters for c in calibrations):
             out.append(FigureFile(

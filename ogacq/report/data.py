@@ -205,8 +205,8 @@ def _last_index(session: LoadedSession, kind: type[Record]) -> int:
 
 
 def _planned_readings(session: LoadedSession) -> int | None:
-    plan = session.header.get("plan")
-    if not isinstance(plan, dict):
+    plan = session.header.plan
+    if plan is None:
         return None
     from ogacq.protocol.plan import ProtocolConfig, reading_steps
 
@@ -219,7 +219,7 @@ def _planned_readings(session: LoadedSession) -> int | None:
 
 def provenance(session: LoadedSession) -> Provenance:
     h = session.header
-    station = h.get("station") or {}
+    station = h.station or {}
     described: list[tuple[str, str]] = []
     controller = station.get("controller")
     if isinstance(controller, dict):
@@ -234,16 +234,17 @@ def provenance(session: LoadedSession) -> Provenance:
                               if isinstance(value, dict) else str(value)))
     resumes = tuple(f"{_wall(r.wall)} with {r.software}" for r in session.of_type(ResumeRecord))
     times = [r.t_s for r in session.readings]
-    simulator = h.get("simulator") if isinstance(h.get("simulator"), dict) else None
+    simulator = dict(h.simulator) if h.simulator is not None else None
     return Provenance(
-        session_path=str(session.path), software=str(h.get("software", "unknown")),
-        created=str(h.get("created", "unknown")),
-        machine=dict(h.get("machine") or {}), machine_file=h.get("machine_file"),
-        campaign_file=h.get("campaign_file"), station=tuple(described),
+        session_path=str(session.path), software=h.software or "unknown",
+        created=h.created or "unknown",
+        machine=dict(h.machine or {}), machine_file=h.machine_file,
+        campaign_file=h.campaign_file, station=tuple(described),
         simulated=bool(station.get("simulated")) or simulator is not None,
-        simulator=simulator, plan=h.get("plan") if isinstance(h.get("plan"), dict) else None,
+        simulator=simulator, plan=dict(h.plan) if h.plan is not None else None,
         resumes=resumes, campaign_time_s=max(times) if times else None,
-        other=tuple((key.replace("_", " "), _describe_value(value)) for key, value in h.items()
+        other=tuple((key.replace("_", " "), _describe_value(value))
+                    for key, value in h.to_json().items()
                     if key not in KNOWN_HEADER and value not in (None, "", [], {})))
 
 

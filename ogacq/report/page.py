@@ -16,6 +16,7 @@ from typing import Any, NamedTuple
 import jinja2
 
 from ogacq.model.units import UM_PER_MM
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.report.cells import Badge, Cell, Lines, Table
 from ogacq.report.cells import table as _table
 from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ParameterRow, ReportData
@@ -57,8 +58,9 @@ def session_notes(record: Mapping[str, Any]) -> list[str]:
     campaign did not finish), edited (accepted as it stands), an older format."""
     from ogacq.session.seal import Integrity
 
-    campaign = record.get("campaign") or {}
-    session = record.get("session") or {}
+    typed = CalibrationRecord.from_json(record)
+    campaign = typed.campaign or {}
+    session = typed.session or {}
     edited = tuple((int(e.get("line") or 0), str(e.get("problem"))) for e in
                    session.get("edited") or () if isinstance(e, Mapping))
     notes = [campaign["partial"]] if campaign.get("partial") else []
@@ -155,17 +157,17 @@ def _deviations(data: ReportData) -> tuple[Table | None, str]:
 
 
 def _parameters(fit: FitSummary, validation: FitSummary | None,
-                record: Mapping[str, Any]) -> Table:
+                record: CalibrationRecord) -> Table:
     """Each parameter's headline (value ± U, k = 2), the fit's std as its detail."""
     header = ["parameter", "value ± U", "fit std (detail)"]
     header += ["remaining after write-back (validation)"] if validation else []
     rows: list[list[Cell]] = []
     for p in fit.parameters:
-        row: list[Cell] = [p.name, _headline(p, record.get("results")),
+        row: list[Cell] = [p.name, _headline(p, record.results),
                            f"{two_digits(p.std)} {p.unit}" if finite(p.std) else "-"]
         if validation is not None:
             other = validation.row(p.name)
-            row.append(_headline(other, record.get("validation_results")) if other else "-")
+            row.append(_headline(other, record.validation_results) if other else "-")
         rows.append(row)
     return _table(header, rows, [False, True, True] + ([True] if validation else []))
 
@@ -306,12 +308,13 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     document of the same campaign) then the analysis behind them (``data``)."""
     p = data.provenance
     fit = data.fit
-    machine = ((record.get("machine") or {}).get("name") or p.machine.get("name")
+    typed = CalibrationRecord.from_json(record)
+    machine = ((typed.machine or {}).get("name") or p.machine.get("name")
                or p.machine_file or "machine")
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
     context: dict[str, Any] = record_view(record) | {
-        "page_issued": css_string(str(record.get("issued"))),
+        "page_issued": css_string(str(typed.issued)),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
         "title": f"Calibration record {revision_label(record)}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
@@ -327,15 +330,15 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
         "provenance": _provenance(data)}
     if fit is not None:
         kind, sentence = misfit_sentence(fit)
-        context |= {"offsets": _offsets_inline(fit, record.get("results")),
+        context |= {"offsets": _offsets_inline(fit, typed.results),
                     "fit_badge": _fit_badge(kind),
                     "fit_sentence": sentence,
                     "glance_condition": f"{fit.condition_number:.3g}",
-                    "parameters": _parameters(fit, validation_fit, record),
+                    "parameters": _parameters(fit, validation_fit, typed),
                     "residuals": _residuals(fit), "identifiability": _identifiability(fit)}
     if validation_fit is not None:
         context["validation_offsets"] = _offsets_inline(validation_fit,
-                                                        record.get("validation_results"))
+                                                        typed.validation_results)
     if data.diagnosis is not None:
         context |= _diagnosis(data.diagnosis, fit)
     return _TEMPLATES.get_template("report.html.j2").render(context)

@@ -18,7 +18,7 @@ from ogacq.session.store import LoadedSession, write_session
 
 
 def session_machine(session: LoadedSession) -> MachineSpec:
-    return machine_from_mapping(session.header.get("machine", {}), session.path)
+    return machine_from_mapping(dict(session.header.machine or {}), session.path)
 
 
 def session_layout(session: LoadedSession) -> tuple[ReadingsLayout, np.ndarray]:

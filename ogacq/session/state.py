@@ -65,8 +65,8 @@ class Completeness:
 
 def planned_readings(session: LoadedSession) -> int | None:
     """The readings the session's plan takes on its machine; None when it states none."""
-    plan = session.header.get("plan")
-    if not isinstance(plan, dict):
+    plan = session.header.plan
+    if plan is None:
         return None
     try:
         config = ProtocolConfig.from_dict(plan)
@@ -104,7 +104,7 @@ def require_complete(session: LoadedSession, partial: bool) -> Completeness:
         return state
     if state.status == RUNNING:
         then = "wait until it has finished"
-    elif session.header.get("campaign_file"):
+    elif session.header.campaign_file:
         then = f"finish it with `ogacq resume {session.path}`"
     else:
         then = "its campaign cannot be resumed"

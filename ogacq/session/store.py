@@ -44,6 +44,7 @@ from ogacq.errors import Refused
 from ogacq.io.atomic import write_new_file
 from ogacq.io.errors import InputError, StorageError
 from ogacq.io.text import strip_bom
+from ogacq.session.header import SessionHeader
 from ogacq.session.records import (
     FORMAT,
     EndRecord,
@@ -73,7 +74,7 @@ R = TypeVar("R", bound=Record)
 @dataclass
 class LoadedSession:
     path: Path
-    header: dict[str, Any]  # the first line: machine, station, plan, software, ...
+    header: SessionHeader  # the first line: machine, station, plan, software, ...
     records: list[Record]  # the rest, in the order written
     warnings: list[str] = field(default_factory=list)
     size_bytes: int = 0  # of the file as read: a writer checks nobody wrote since
@@ -458,7 +459,8 @@ def load_session(path: str | Path, *, accept_edited: bool = False) -> LoadedSess
     if records[0].get("format") != FORMAT:
         raise InputError(path, f"session format {records[0].get('format')!r} is not "
                          f"{FORMAT!r}", 1)
-    return LoadedSession(path, records[0], [record_from_json(r) for r in records[1:]],
+    return LoadedSession(path, SessionHeader.from_json(records[0]),
+                         [record_from_json(r) for r in records[1:]],
                          scan.warnings, scan.size_bytes,
                          Integrity(scan.mode, tuple(scan.edited)))
 

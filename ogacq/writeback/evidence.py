@@ -73,7 +73,7 @@ class Evidence:
 
 def _stations(session: LoadedSession) -> list[dict]:
     """The station of every start of the campaign: the header's, then each resume's."""
-    first = session.header.get("station") or {}
+    first = dict(session.header.station or {})
     return [first, *(r.description for r in session.of_type(StationRecord))]
 
 

@@ -63,7 +63,7 @@ def test_a_connection_reset_mid_campaign_is_ridden_out(served, capsys, monkeypat
     (back,) = session.of_type(ReconnectRecord)
     assert back.connected and back.axes_stopped and set(back.positions_mm) == set("xyz")
     assert back.alarms == dict.fromkeys("xyz", 0)
-    assert session.header["station"]["controller"]["reconnect"] == {"attempts": 3,
+    assert session.header.station["controller"]["reconnect"] == {"attempts": 3,
                                                                    "backoff_s": 0.05}
 
 
@@ -99,7 +99,7 @@ def test_a_controller_answering_slowly_meets_the_deadline(served, capsys, monkey
     assert ran.returncode == 3
     assert "deadline" in ran.stderr and "Traceback" not in ran.stderr
     session = load_session(read_campaign(path).session)
-    assert session.header["station"]["deadline_s"] == 1
+    assert session.header.station["deadline_s"] == 1
     end = session.of_type(EndRecord)[-1]
     assert end.status == "stopped" and "deadline" in end.reason and end.axes_stopped
     assert unique_readings(session) < 24

@@ -31,9 +31,9 @@ def test_run_recovers_hidden_offsets_within_predicted_std(campaign_dir, profile,
     assert session.finished
     assert len(session.readings) == 72
     # the session names its station: protocol, ports and the software version
-    assert session.header["software"].startswith("ogacq ")
-    assert session.header["station"]["controller"]["profile"] == profile
-    assert len(session.header["station"]["gauges"]) == 6
+    assert session.header.software.startswith("ogacq ")
+    assert session.header.station["controller"]["profile"] == profile
+    assert len(session.header.station["gauges"]) == 6
     # every reading kept its raw frame and where it came from
     assert all(r.raw.startswith("01A") and r.source for r in session.readings)
 
@@ -72,12 +72,12 @@ def test_six_gauges_on_one_multiplexer_port(campaign_dir):
         got = out["parameters"]["joint_offset"][axis]
         assert recovered(got, truth, out["std"]["joint_offset"][axis])
     session = load_session(campaign_dir / "session.jsonl")
-    ports = {g["port"] for g in session.header["station"]["gauges"].values()}
-    channels = {g["channel"] for g in session.header["station"]["gauges"].values()}
+    ports = {g["port"] for g in session.header.station["gauges"].values()}
+    channels = {g["channel"] for g in session.header.station["gauges"].values()}
     assert len(ports) == 1 and channels == {"1", "2", "3", "4", "5", "6"}
     # each reading came from its own channel: byte 2 of the 01A frame
     for r in session.readings:
-        expected = session.header["station"]["gauges"][r.gauge.key]["channel"]
+        expected = session.header.station["gauges"][r.gauge.key]["channel"]
         assert r.raw[1] == expected
 
 
@@ -94,7 +94,7 @@ def test_two_indicators_moved_from_leg_to_leg(campaign_dir):
         got = out["parameters"]["joint_offset"][axis]
         assert recovered(got, truth, out["std"]["joint_offset"][axis])
     session = load_session(campaign_dir / "session.jsonl")
-    gauges = session.header["station"]["gauges"]
+    gauges = session.header.station["gauges"]
     assert len({g["port"] for g in gauges.values()}) == 2
     assert gauges["y_x"]["port"] == gauges["x_y"]["port"] == gauges["x_z"]["port"]
     assert [e.leg for e in session.of_type(GaugesSetRecord)] == ["x", "y", "z"]
@@ -125,7 +125,7 @@ def test_one_gauge_of_each_protocol_end_to_end(campaign_dir, station):
         assert recovered(got, truth, std), (axis, got, truth, std)
     session = load_session(campaign_dir / "session.jsonl")
     assert session.finished and len(session.readings) == 72
-    gauges = session.header["station"]["gauges"]
+    gauges = session.header.station["gauges"]
     assert {key: g["protocol"] for key, g in gauges.items()} == protocols
     raw = {r.gauge.key: r.raw for r in session.readings}
     assert raw["y_x"].startswith("01A")  # USB-ITN data mode: an 01A reply over USB

@@ -128,8 +128,8 @@ def test_stable_settle_ends_early_leaving_no_ringing_above_the_gauge_noise(tmp_p
         assert machine.truth.vibration.amplitude_mm == 0.02  # the effects file's ringing
         ringing = _RingingLeft(station)
         session = _run_campaign(campaign, station)
-    assert session.header["plan"]["settle"] == "stable"
-    assert session.header["plan"]["settle_window_s"] == 1.0
+    assert session.header.plan["settle"] == "stable"
+    assert session.header.plan["settle_window_s"] == 1.0
     records = {r.step: r for r in session.of_type(SettleRecord)}
     steps = [s.step for s in reading_steps(campaign.protocol, campaign.machine)]
     assert list(records) == steps, "one settle record per reading step"

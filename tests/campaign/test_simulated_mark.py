@@ -9,6 +9,7 @@ import json
 
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.record.document import simulated
+from ogacq.session.header import SessionHeader
 from ogacq.session.store import load_session
 from tests.campaign.conftest import write_campaign
 from tests.writeback.conftest import FAST_STABILITY, ogacq_here
@@ -22,7 +23,7 @@ def test_a_rehearsal_is_marked_simulated_everywhere(campaign_dir, capsys, monkey
     assert ran.returncode == 0, ran.stderr
     assert "SIMULATED" in ran.stdout  # the end summary
     session = campaign_dir / "session.jsonl"
-    assert load_session(session).header["simulated"] is True
+    assert load_session(session).header.simulated is True
 
     out = campaign_dir / "report"
     # the report as `ogacq report` writes it (its diagnosis aside)
@@ -41,8 +42,11 @@ def test_a_rehearsal_is_marked_simulated_everywhere(campaign_dir, capsys, monkey
 
 
 def test_sessions_before_the_mark_read_as_they_were_recorded():
-    assert simulated({"station": {"simulated": True}}) is True
-    assert simulated({"station": {"simulated": False}}) is False
-    assert simulated({"simulator": {"seed": 3}}) is True
-    assert simulated({}) is None  # an imported table: not said
-    assert simulated({"simulated": False, "station": {"simulated": True}}) is False
+    def said(line: dict) -> bool | None:
+        return simulated(SessionHeader.from_json(line))
+
+    assert said({"station": {"simulated": True}}) is True
+    assert said({"station": {"simulated": False}}) is False
+    assert said({"simulator": {"seed": 3}}) is True
+    assert said({}) is None  # an imported table: not said
+    assert said({"simulated": False, "station": {"simulated": True}}) is False

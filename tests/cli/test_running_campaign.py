@@ -61,7 +61,7 @@ def test_diagnose_during_a_run_records_nothing_partial_and_the_run_records_the_w
     assert "history: 1 calibration recorded" in err
 
     capsys.readouterr()
-    name = load_session(session).header["machine"]["name"]  # the machine file's own name
+    name = load_session(session).header.machine["name"]  # the machine file's own name
     assert main(["history", name, "--history", str(history), "--json"]) == 0
     (calibration,) = json.loads(capsys.readouterr().out)["calibrations"]
     result = load_session(session).result

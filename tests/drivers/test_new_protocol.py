@@ -69,7 +69,7 @@ def test_the_new_protocol_runs_a_campaign_file_end_to_end(throwaway: str, tmp_pa
     outcome = run_campaign(campaign)
     session = load_session(outcome.session_path)
     assert session.finished and len(session.readings) == 24
-    assert {g["protocol"] for g in session.header["station"]["gauges"].values()} == {throwaway}
+    assert {g["protocol"] for g in session.header.station["gauges"].values()} == {throwaway}
     assert all((r.raw or "").startswith("VAL=") for r in session.readings)  # its frames, recorded
     assert outcome.hidden is not None
     for index, name in enumerate(outcome.fit.names):  # the readings were read right

@@ -56,7 +56,7 @@ def as_before(source: Path, target: Path) -> Path:
     """``source``'s campaign as a session from before the record's context was
     recorded: no identity, instruments, date or temperatures (the same readings)."""
     old = load_session(source)
-    header = {k: v for k, v in old.header.items()
+    header = {k: v for k, v in old.header.to_json().items()
               if k not in ("type", "format", "seq", "crc", *NEW_HEADER_KEYS)}
     header["machine"] = {k: v for k, v in header["machine"].items()
                          if k not in NEW_MACHINE_KEYS}
@@ -75,7 +75,8 @@ def with_context(source: Path, target: Path, date: str = DATE) -> Path:
     identity, instruments and date, the environment at start and end, and the
     override of the expired y_x, around the same records."""
     old = load_session(source)
-    header = {k: v for k, v in old.header.items() if k not in ("type", "format", "seq", "crc")}
+    header = {k: v for k, v in old.header.to_json().items()
+              if k not in ("type", "format", "seq", "crc")}
     header["machine"] = {**header["machine"], "name": MACHINE_NAME, "serial": MACHINE_SERIAL,
                          "tolerances": {"deviation_mm": 0.02, "decision_rule": "guard-band"}}
     header |= {"identity": {"machine": MACHINE_NAME, "serial": MACHINE_SERIAL,

@@ -89,8 +89,8 @@ def test_override_and_sensor_temperatures_are_recorded(tmp_path):
     assert [(r.stage, r.ambient_c, r.machine_c, r.source)
             for r in session.of_type(EnvironmentRecord)] == [
         ("start", 23.5, 23.5, "sensor"), ("end", 23.5, 23.5, "sensor")]
-    assert session.header["date"] == "2026-01-10T09:00:00"
-    assert session.header["simulator"]["simulated_date"] is True
+    assert session.header.date == "2026-01-10T09:00:00"
+    assert session.header.simulator["simulated_date"] is True
     context = calibration_context(session)
     assert (context.machine_name, context.machine_serial, context.operator) == (
         "OG-1 cell 3", "OG-2026-0017", "J. Martin")

@@ -54,10 +54,10 @@ def test_a_session_from_before_gives_nulls_and_says_so(campaign_sessions, tmp_pa
     assert record["environment"] == {"start": None, "end": None}
     # the gauges' serials are in the station description; nothing else is known of them
     assert [i["serial"] for i in record["instruments"]] == [
-        g["serial"] for g in session.header["station"]["gauges"].values()]
+        g["serial"] for g in session.header.station["gauges"].values()]
     assert all(i["certificate"] is None and i["due"] is None and i["expired"] is None
                for i in record["instruments"])
-    assert record["date"].startswith(session.header["created"][:19])
+    assert record["date"].startswith(session.header.created[:19])
     for key in ("operator", "machine serial", "certificates", "environment", "overrides",
                 "uncertainty budget"):
         assert key in record["missing"], key

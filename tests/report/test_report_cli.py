@@ -126,7 +126,7 @@ def test_report_of_a_campaign_is_self_contained_and_carries_its_numbers(sessions
         assert _row_numbers(html, name)[0] == pytest.approx(value, abs=1e-4)
     # ... the machine, the station and the software that recorded it
     assert "leg length 310.25 mm" in text and "gauge resolution 0.001 mm" in text
-    assert f"recorded by {session.header['software']}" in text
+    assert f"recorded by {session.header.software}" in text
     assert "mitutoyo-01a" in text and "cia402" in text
 
     # the validation campaign: measured deviations after write-back, small remaining offsets

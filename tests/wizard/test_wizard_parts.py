@@ -124,7 +124,7 @@ def test_session_header_matches_run_campaign(tmp_path: Path):
                 run_guided(campaign, wrap=lambda works, device, writer: works,
                            set_gauges=lambda step: None, resume=None, wizard_header={},
                            rehearsal=None, **kwargs)
-        headers.append(load_session(campaign.session).header)
+        headers.append(load_session(campaign.session).header.to_json())
     plain, guided = headers
     assert set(guided) - set(plain) == {"wizard"}
     assert set(plain) <= set(guided)

@@ -71,10 +71,10 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
 
     session = load_session(w.session)
     assert session.finished and len(session.readings) == 72
-    assert session.header["wizard"]["by_eye"] == []
+    assert session.header.wizard["by_eye"] == []
     checked = [r for r in session.of_type(OperatorRecord) if r.action == "gauges_checked"]
     assert [r.details["leg"] for r in checked] == ["x", "y", "z"]
-    truth = session.header["simulator"]
+    truth = session.header.simulator
     assert truth["seed"] == 3
     # who, what and at what temperature, as answered (the offered values)
     context = calibration_context(session)
@@ -86,7 +86,7 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
         20.0, 21.5)
     # the campaign file beside the session gives back the same plan (ogacq resume needs it)
     campaign = read_campaign(tmp_path / "run" / "campaign.toml")
-    assert campaign.protocol.to_dict() == session.header["plan"]
+    assert campaign.protocol.to_dict() == session.header.plan
     assert campaign.simulator is not None and campaign.simulator.seed == 3
 
 
@@ -117,11 +117,11 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
 
     session = load_session(w.session)
     assert session.finished and len(session.readings) == 72
-    gauges = session.header["station"]["gauges"]
+    gauges = session.header.station["gauges"]
     assert gauges["y_x"]["port"] == gauges["x_y"]["port"] == gauges["x_z"]["port"]
     assert gauges["z_x"]["port"] == gauges["z_y"]["port"] == gauges["y_z"]["port"]
     assert gauges["y_x"]["port"] != gauges["z_x"]["port"]
-    assert session.header["simulator"]["gauge_layout"] == "moved"
+    assert session.header.simulator["gauge_layout"] == "moved"
     campaign = read_campaign(tmp_path / "run" / "campaign.toml")  # what `ogacq resume` reads
     assert campaign.simulator is not None and campaign.simulator.gauge_layout == "moved"
     # each gauge was read on its own leg: the fit is consistent, the offsets sharp
@@ -219,7 +219,7 @@ def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path
     assert w.finish() == 0
     session = load_session(w.session)
     assert session.finished
-    assert set(session.header["wizard"]["by_eye"]) == {"y_x", "z_x", "x_y", "z_y", "x_z", "y_z"}
+    assert set(session.header.wizard["by_eye"]) == {"y_x", "z_x", "x_y", "z_y", "x_z", "y_z"}
     assert all(r.raw.startswith("typed ") and "kept" not in r.raw
                for r in session.readings)
 

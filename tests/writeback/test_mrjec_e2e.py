@@ -47,7 +47,7 @@ def test_mrjec_campaign_write_restore_and_a_wrong_sign_caught(tmp_path, capsys, 
         first = _campaign(tmp_path, info, "first", "mr-je-c")
         outcome = run_campaign(read_campaign(first))
         session = load_session(outcome.session_path)
-        controller = session.header["station"]["controller"]
+        controller = session.header.station["controller"]
         assert controller["axes"]["y"]["device_id"] == 255
         assert controller["axes"]["y"]["port"].endswith(str(info["modbus_axes"]["y"]["port"]))
         assert len(session.of_type(ReadingRecord)) == 18  # 3 legs x 2 gauges x 3 postures

@@ -64,7 +64,7 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
     with simulator(tmp_path, profile, seed) as info:
         first = sim_campaign(tmp_path, info, name="first", offsets_file=table)
         session, before_fit = run_campaign_file(first)
-        assert session.header["station"]["controller"]["offsets_mm"] == zeros
+        assert session.header.station["controller"]["offsets_mm"] == zeros
         # within the noise at 1e-6, not the 1 % the verdict uses (one run in a hundred)
         assert fit_verdict(before_fit).p_value > 1e-6
         assert before_fit.identifiability.identifiable
@@ -122,7 +122,7 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
         assert f"next: ogacq report {first_session} --after {validation_session}" in ran.stdout
         session = load_session(validation_session)
         after_fit = recorded_identification(session)
-        assert session.header["station"]["controller"]["offsets_mm"] == pytest.approx(held)
+        assert session.header.station["controller"]["offsets_mm"] == pytest.approx(held)
 
         # the twelve deviations drop to the gauge noise
         before, after = deviations(first_session), deviations(validation_session)

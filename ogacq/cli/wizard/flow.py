@@ -221,9 +221,9 @@ class _Wizard:
         chosen = next_session(self.campaign.session)
         campaign = replace(self.campaign, session=chosen.path)
         self.session_path = chosen.path
-        header = load_session(calibration.session_path).header.get("wizard")
+        header = load_session(calibration.session_path).header.wizard
         s.say(f"Validation campaign, recorded in {shown(chosen.path)}.")
-        outcome = self._measure(campaign, None, dict(header) if isinstance(header, dict)
+        outcome = self._measure(campaign, None, dict(header) if header is not None
                                 else {})
         s.heading("Validation", "what remains after the write-back")
         end = campaign_end(outcome.session_path, outcome.fit,
@@ -324,18 +324,17 @@ class _Wizard:
         """``--resume``: a wizard (or any) session, continued with the wizard."""
         session = load_session(path)
         h = session.header
-        if not isinstance(h.get("plan"), dict):
+        if h.plan is None:
             raise InputError(path, "this session has no plan: it was not recorded by a campaign")
         machine = session_machine(session)
-        protocol = ProtocolConfig.from_dict(h["plan"])
-        recorded = h.get("wizard")
-        wizard: dict[str, Any] = recorded if isinstance(recorded, dict) else {}
+        protocol = ProtocolConfig.from_dict(dict(h.plan))
+        wizard: dict[str, Any] = dict(h.wizard or {})
         self.options.gauge_range_mm = wizard.get("gauge_range_mm", self.options.gauge_range_mm)
         self.options.max_offset_mm = wizard.get("max_offset_mm", self.options.max_offset_mm)
         self.by_eye = gauges_read_by_eye(session)
         self.session_path = session.path
-        campaign_path = Path(h.get("campaign_file") or session.path.with_name("campaign.toml"))
-        campaign = Campaign(campaign_path, machine, Path(h.get("machine_file", "")),
+        campaign_path = Path(h.campaign_file or session.path.with_name("campaign.toml"))
+        campaign = Campaign(campaign_path, machine, Path(h.machine_file or ""),
                             session.path, protocol)
         s = self.screen
         s.say("[bold]ogacq wizard[/]: continuing a campaign.")
@@ -344,10 +343,9 @@ class _Wizard:
             return CampaignOutcome(session.path, identify_session(session), None)
         check_writable(session.path, resuming=True)  # before the operator checks anything
         station = ([r.description for r in session.of_type(StationRecord)]
-                   or [h.get("station") or {}])[-1]
-        sim = h.get("simulator")
-        if isinstance(sim, dict):
-            self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(sim))
+                   or [dict(h.station or {})])[-1]
+        if h.simulator is not None:
+            self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(dict(h.simulator)))
             assert self.rehearsal is not None
             campaign.controller = self.rehearsal.controller
             campaign.gauges = list(self.rehearsal.gauges)

@@ -14,6 +14,7 @@ from ogacq.campaign import CampaignOutcome
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded
 
 
@@ -24,7 +25,7 @@ def show_result(screen: Screen, outcome: CampaignOutcome, record: Mapping[str, A
     when they are fit to be written back. ``truth``: a rehearsal's hidden offsets
     beside them (not beside what remains after a write-back)."""
     fit = outcome.fit
-    results = record.get("results")
+    results = CalibrationRecord.from_json(record).results
     truth = truth and outcome.hidden is not None
     screen.say(f"[bold]{title} from {len(fit.observations)} readings (mm)[/]")
     table = Table(show_edge=False, header_style="bold")
@@ -144,9 +145,10 @@ def offer_report(screen: Screen, session: Path, folder: Path,
 
     screen.say("Writing the calibration record …")
     page, record = report_of(session, folder, validation, history)
-    revision = record.get("revision")
-    issue = f" revision {revision}" if isinstance(revision, int) and revision > 1 else ""
-    screen.ok(f"record {record.get('id')}{issue}: {page}")
+    issued = CalibrationRecord.from_json(record)
+    revision = issued.revision
+    issue = f" revision {revision}" if revision is not None and revision > 1 else ""
+    screen.ok(f"record {issued.id}{issue}: {page}")
     return page
 
 
