@@ -48,7 +48,8 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
         assert len(row.group(1)) == len(row.group(2))
     w.expect(r"Residual rms")
     w.expect(r"identifiable: every offset is determined")
-    w.expect(r"fit within the gauge noise \(.* test, combined p = ")
+    w.verdict()
+    w.expect(r" \(.* test, combined p = ")
     w.answer(r"Write these offsets to the controller now\?", "n")
     w.expect(r"Not written \(rehearsal")
     w.expect(r"ogacq offsets write SESSION")
@@ -105,6 +106,7 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
     assert told == ["y_x", "z_x", "x_y", "z_y", "x_z", "y_z"]
     # the write-back, then the save offered (the profile can): declined, and said what
     # a power cycle then does before the job is called complete
+    w.verdict()
     w.answer(r"Write these offsets to the controller now\?", "y")
     w.answer(r"Write these offsets to the controller and re-home", "y")
     w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
@@ -146,6 +148,7 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
         w.still_set(leg)
     w.end_temperature()
     w.expect(r"Joint offsets identified from 24 readings")
+    w.verdict()
     w.answer(r"Write these offsets", "n")
     w.answer(r"Write the calibration record now", "n")
     assert w.finish() == 0
@@ -214,6 +217,7 @@ def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path
     w.end_temperature()
     w.expect(r"Joint offsets identified from 24 readings")
     w.expect(r"identifiable: every offset is determined")
+    w.verdict()
     w.answer(r"Write these offsets", "n")
     w.answer(r"Write the calibration record now", "n")
     assert w.finish() == 0
@@ -259,6 +263,7 @@ def test_by_eye_session_quit_at_a_reading_continues_with_wizard_resume(tmp_path,
             again.type_what_is_shown(r"reads \(mm\)")
     again.end_temperature()
     again.expect(r"Joint offsets identified from 24 readings")
+    again.verdict()
     again.answer(r"Write these offsets", "n")
     again.answer(r"Write the calibration record now", "n")
     assert again.finish() == 0
@@ -355,6 +360,7 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     # written, the record issued, then the validation the wizard offers: the same plan
     # into session-2.jsonl, one stop to check the six gauges, what remains of the
     # offsets, and the record issued again as found and as left (its revision 2)
+    w.verdict()
     w.answer(r"Write these offsets", "y")
     w.answer(r"Write these offsets to the controller and re-home", "y")
     w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
