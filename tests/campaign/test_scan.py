@@ -4,7 +4,6 @@
 import json
 from collections import Counter
 
-import numpy as np
 import pytest
 
 from ogacq.campaign_file import read_campaign
@@ -135,8 +134,11 @@ def test_scan_campaign_killed_mid_scan_resumes_and_analyses_as_usual(tmp_path):
     assert run_ogacq("session", "export", session, csv).returncode == 0
     refit = run_ogacq("refit", csv, "--machine", path.parent / "machine.toml", "--json",
                       check_json=True)
-    assert np.allclose([refit["parameters"]["joint_offset"][a] for a in "xyz"],
-                       [got[a] for a in "xyz"], atol=1e-6)
+    # the same fit of the same readings: equal within a share of the std no kernel
+    # moves (the two fits stop at their own points: 2e-6 mm seen, beyond the 1e-6 the
+    # JSON's rounding leaves)
+    for a in "xyz":
+        assert abs(refit["parameters"]["joint_offset"][a] - got[a]) < 0.05 * std[a], a
     diagnosis = run_ogacq("diagnose", session, "--json", check_json=True)
     # within the noise at 1e-6 (the verdict's 1 % says "NOT" in one run of a hundred)
     assert diagnosis["chi2"]["base"]["p"] > 1e-6, json.dumps(diagnosis["chi2"])
