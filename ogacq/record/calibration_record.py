@@ -13,16 +13,16 @@ type than this version writes (a hand-edited file), is kept in ``extra`` where i
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from ogacq.session.json_document import JsonObject, NamedJson
 
 __all__ = ["CalibrationRecord"]
 
-JsonObject = Mapping[str, Any]
-
 
 @dataclass(frozen=True)
-class CalibrationRecord:
+class CalibrationRecord(NamedJson):
     """A calibration record; None for a section it does not have (a record built
     without a fit has no ``results``, one never issued again no ``revision``)."""
 
@@ -40,45 +40,16 @@ class CalibrationRecord:
     session: JsonObject | None = None  # path, sha256, records, integrity, edited
     missing: JsonObject | None = None  # what the record lacks, and why
     revision: int | None = None  # 1 for the first issue
+    # each named key and the JSON type this version writes it as (dict: an object)
+    NAMED: ClassVar[Mapping[str, type]] = {
+        "format": str, "id": str, "issued": str, "machine": dict, "operator": str,
+        "date": str, "simulated": bool, "campaign": dict, "results": dict,
+        "validation_results": dict, "history": list, "session": dict, "missing": dict,
+        "revision": int}
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)
     order: tuple[str, ...] = ()
 
-    @classmethod
-    def from_json(cls, document: JsonObject) -> CalibrationRecord:
-        """The record a ``record.json`` document (a JSON object) says."""
-        named: dict[str, Any] = {}
-        extra: dict[str, Any] = {}
-        for key, value in document.items():
-            expected = _NAMED.get(key)
-            if expected is not None and (value is None or _is(value, expected)):
-                named[key] = value
-            else:
-                extra[key] = value
-        return cls(**named, extra=extra, order=tuple(document))
 
-    def to_json(self) -> dict[str, Any]:
-        """The record as a JSON object, exactly as it was read."""
-        keys = self.order or (*(name for name in _NAMED if getattr(self, name) is not None),
-                              *self.extra)
-        return {key: self.extra[key] if key in self.extra else getattr(self, key)
-                for key in keys}
-
-    def __contains__(self, key: str) -> bool:
-        """Whether the record has ``key`` at all (null included)."""
-        return key in (self.order or self.to_json())
-
-
-def _is(value: Any, expected: type) -> bool:
-    if expected is dict:
-        return isinstance(value, Mapping)
-    return isinstance(value, expected) and (expected is bool or not isinstance(value, bool))
-
-
-# each named key and the JSON type this version writes it as (dict: an object)
-_NAMED: dict[str, type] = {
-    "format": str, "id": str, "issued": str, "machine": dict, "operator": str, "date": str,
-    "simulated": bool, "campaign": dict, "results": dict, "validation_results": dict,
-    "history": list, "session": dict, "missing": dict, "revision": int}
-assert set(_NAMED) == {f.name for f in fields(CalibrationRecord)} - {"extra", "order"}
+CalibrationRecord.check_named()

@@ -13,16 +13,16 @@ attribute is then None, as for a key the session does not have.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
-from typing import Any
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+from ogacq.session.json_document import JsonObject, NamedJson
 
 __all__ = ["SessionHeader"]
 
-JsonObject = Mapping[str, Any]
-
 
 @dataclass(frozen=True)
-class SessionHeader:
+class SessionHeader(NamedJson):
     """A session's first line. Every attribute is None when the session does not say it
     (an import from a CSV has no plan, a session from before issue 15 no identity)."""
 
@@ -42,34 +42,16 @@ class SessionHeader:
     simulator: JsonObject | None = None  # the simulator's settings (seed, effects, ...)
     wizard: JsonObject | None = None  # what the wizard recorded of its run
     procedure: JsonObject | None = None  # ogacq calibrate's log: its procedure
+    # each named key and the JSON type this version writes it as (dict: an object)
+    NAMED: ClassVar[Mapping[str, type]] = {
+        "format": str, "integrity": str, "software": str, "created": str, "machine": dict,
+        "machine_file": str, "campaign_file": str, "simulated": bool, "station": dict,
+        "plan": dict, "identity": dict, "instruments": list, "date": str, "simulator": dict,
+        "wizard": dict, "procedure": dict}
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)
     order: tuple[str, ...] = ()
-
-    @classmethod
-    def from_json(cls, line: JsonObject) -> SessionHeader:
-        """The header a session's first line (a JSON object) says."""
-        named: dict[str, Any] = {}
-        extra: dict[str, Any] = {}
-        for key, value in line.items():
-            expected = _NAMED.get(key)
-            if expected is not None and (value is None or _is(value, expected)):
-                named[key] = value
-            else:
-                extra[key] = value
-        return cls(**named, extra=extra, order=tuple(line))
-
-    def to_json(self) -> dict[str, Any]:
-        """The header's line as a JSON object, exactly as it was read."""
-        keys = self.order or (*(name for name in _NAMED if getattr(self, name) is not None),
-                              *self.extra)
-        return {key: self.extra[key] if key in self.extra else getattr(self, key)
-                for key in keys}
-
-    def __contains__(self, key: str) -> bool:
-        """Whether the session's header has ``key`` at all (null included)."""
-        return key in (self.order or self.to_json())
 
     @property
     def gauges(self) -> JsonObject:
@@ -78,21 +60,4 @@ class SessionHeader:
         return gauges if isinstance(gauges, Mapping) else {}
 
 
-def _is(value: Any, expected: type) -> bool:
-    if expected is bool:
-        return isinstance(value, bool)
-    if expected is list:
-        return isinstance(value, list)
-    if expected is dict:
-        return isinstance(value, Mapping)
-    return isinstance(value, expected) and not isinstance(value, bool)
-
-
-# each named key and the JSON type this version writes it as (dict: an object, list:
-# an array)
-_NAMED: dict[str, type] = {
-    "format": str, "integrity": str, "software": str, "created": str, "machine": dict,
-    "machine_file": str, "campaign_file": str, "simulated": bool, "station": dict,
-    "plan": dict, "identity": dict, "instruments": list, "date": str, "simulator": dict,
-    "wizard": dict, "procedure": dict}
-assert set(_NAMED) == {f.name for f in fields(SessionHeader)} - {"extra", "order"}
+SessionHeader.check_named()
