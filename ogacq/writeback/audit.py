@@ -11,8 +11,9 @@ what the controller held afterwards). Records of one attempt share an
 from __future__ import annotations
 
 import secrets
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from ogacq.errors import StorageError
 from ogacq.session.records import MapsRecord, OffsetsRecord
@@ -93,11 +94,16 @@ class Operation:
                 "survives_power_cycle": self.survives_power_cycle}
 
 
-def operations(session: LoadedSession) -> list[Operation]:
-    """Write-backs and restores recorded in the session, oldest first."""
-    intents: dict[str, OffsetsRecord] = {}
-    outcomes: dict[str, OffsetsRecord] = {}
-    for record in session.of_type(OffsetsRecord):
+StagedRecord = TypeVar("StagedRecord", OffsetsRecord, MapsRecord)
+
+
+def intents_and_outcomes(records: Iterable[StagedRecord],
+                         ) -> list[tuple[str, StagedRecord, StagedRecord | None]]:
+    """Each operation of an audit trail, oldest first: its id, its intent, and the
+    record of how it ended (done or failed; None: interrupted)."""
+    intents: dict[str, StagedRecord] = {}
+    outcomes: dict[str, StagedRecord] = {}
+    for record in records:
         op = record.details.get("operation")
         if not op:
             continue
@@ -105,9 +111,13 @@ def operations(session: LoadedSession) -> list[Operation]:
             intents[op] = record
         elif record.stage in ("done", "failed"):
             outcomes[op] = record
+    return [(op, intent, outcomes.get(op)) for op, intent in intents.items()]
+
+
+def operations(session: LoadedSession) -> list[Operation]:
+    """Write-backs and restores recorded in the session, oldest first."""
     out = []
-    for op, intent in intents.items():
-        outcome = outcomes.get(op)
+    for op, intent, outcome in intents_and_outcomes(session.of_type(OffsetsRecord)):
         status = outcome.stage if outcome else "interrupted"
         new = outcome.details["new_mm"] if outcome and status == "done" \
             else intent.details["new_mm"]

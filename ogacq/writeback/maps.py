@@ -29,7 +29,7 @@ from ogacq.io.errors import InputError, StorageError
 from ogacq.model.axis_map import AxisMap
 from ogacq.session.records import MapsRecord
 from ogacq.session.store import LoadedSession
-from ogacq.writeback.audit import AuditLog, new_operation_id
+from ogacq.writeback.audit import AuditLog, intents_and_outcomes, new_operation_id
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table, write_maps_table
 from ogacq.writeback.policy import Refusal
 
@@ -118,20 +118,9 @@ class MapsOperation:
 
 def maps_operations(session: LoadedSession) -> list[MapsOperation]:
     """The maps writes and restores of the session's audit, oldest first."""
-    intents: dict[str, MapsRecord] = {}
-    outcomes: dict[str, MapsRecord] = {}
-    for record in session.of_type(MapsRecord):
-        op = record.details.get("operation")
-        if not op:
-            continue
-        if record.stage == "intent":
-            intents[op] = record
-        elif record.stage in ("done", "failed"):
-            outcomes[op] = record
     out = []
-    for op, intent in intents.items():
+    for op, intent, outcome in intents_and_outcomes(session.of_type(MapsRecord)):
         d = intent.details
-        outcome = outcomes.get(op)
         status = outcome.stage if outcome else "interrupted"
         new = outcome.details.get("new_checksum") if outcome and status == "done" \
             else d.get("new_checksum")
