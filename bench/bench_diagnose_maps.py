@@ -21,16 +21,14 @@ Run: python bench/bench_diagnose_maps.py [largest size]
 from __future__ import annotations
 
 import math
-import statistics
 import sys
 import time
-from collections.abc import Callable
 from functools import partial
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_linear import MACHINE, TRUTH, campaign  # noqa: E402
+from bench_linear import MACHINE, TRUTH, campaign, seconds  # noqa: E402
 
 from ogacq.diagnose.diagnosis import diagnose  # noqa: E402
 from ogacq.identify.observations import Observations  # noqa: E402
@@ -50,15 +48,6 @@ def scan(n_readings: int, seed: int = 1) -> Observations:
                      lead_screw={0: LeadScrewError(0.005, 5.0, 30.0)})
     return simulated_readings(MACHINE, layout, truth, scatter_mm=0.002, step_mm=0.001,
                               seed=seed)
-
-
-def seconds(fn: Callable[[], object], repeats: int) -> float:
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return statistics.median(times)
 
 
 def found(d) -> str:
