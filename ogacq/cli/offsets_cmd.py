@@ -20,14 +20,14 @@ import typer
 
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
-from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
+from ogacq.campaign.campaign_file import Campaign, ControllerSpec, read_campaign
+from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
-from ogacq.cli.history_record import record_writebacks
 from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
 from ogacq.errors import DriverError, InputError, OgacqError, Refused
+from ogacq.history.recording import record_writebacks
 from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.station import open_controller
 from ogacq.writeback.audit import AuditLog, last_write, operations
 from ogacq.writeback.evidence import evidence_from_session
 from ogacq.writeback.execute import WriteOptions, execute_plan, preflight

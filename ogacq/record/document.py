@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq import __version__
-from ogacq.campaign import recorded_identification
+from ogacq.campaign.run import recorded_identification
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.io.dates import moment_or_none

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from ogacq import __version__
-from ogacq.campaign import recorded_identification
+from ogacq.campaign.run import recorded_identification
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.observations import Deviation, Observations, averaged_deviations
 from ogacq.io.errors import InputError

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ogacq.campaign import identify_session
+from ogacq.campaign.run import identify_session
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit

@@ -13,18 +13,18 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.campaign import CampaignOutcome, EnvironmentAsker, StationAdapter, run_campaign
-from ogacq.campaign_file import (
+from ogacq.campaign.campaign_file import (
     Campaign,
     ControllerSpec,
     GaugeSpec,
     SimulatorSpec,
     campaign_text,
 )
+from ogacq.campaign.run import CampaignOutcome, EnvironmentAsker, StationAdapter, run_campaign
+from ogacq.campaign.station import simulator_endpoints, start_simulator
 from ogacq.io.atomic import write_atomically
 from ogacq.protocol.runner import GaugeSetter, Observer
 from ogacq.session.store import LoadedSession
-from ogacq.station import simulator_endpoints, start_simulator
 
 if TYPE_CHECKING:
     from ogacq.sim.stack import SimulatorStack
@@ -47,7 +47,7 @@ class Rehearsal:
 
     def shown_value(self, gauge: str) -> float:
         """What a simulated dial shows now, at the machine's resolution."""
-        from ogacq.cli.wizard.expected import gauge_axes
+        from ogacq.model.expected_readings import gauge_axes
 
         axis, leg = gauge_axes(gauge)
         resolution = self.stack.machine.machine.gauge_resolution_mm
