@@ -40,7 +40,6 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
-     "ogacq.model.expected_readings",
      "ogacq.writeback.maps_table", "ogacq.uncertainty", "ogacq.compensation"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign.campaign_file",
      "ogacq.campaign.templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
@@ -178,3 +177,16 @@ def test_only_the_station_opens_endpoints():
                for m in modules() if m.startswith("ogacq.") and entry_of(m) != "ogacq.sim"}
     assert {m: names for m, names in openers.items() if names} == \
         {"ogacq.campaign.station": sorted(ENDPOINT_OPENERS)}
+
+
+# The terminal's libraries: arguments (typer, click), prompts and rendering (rich).
+TERMINAL = ("typer", "click", "rich")
+
+
+def test_only_the_command_line_talks_to_the_terminal():
+    """Domain code lives below ogacq.cli, which only asks, calls and renders: no other
+    module imports the command line's libraries."""
+    outside = {m: sorted(n for n in imported_names(m) if n.split(".")[0] in TERMINAL)
+               for m in modules() if entry_of(m) not in ("ogacq.cli", "ogacq.__main__")}
+    assert not {m: names for m, names in outside.items() if names}
+    assert any(n.split(".")[0] == "typer" for n in imported_names("ogacq.cli.app"))

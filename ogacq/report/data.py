@@ -2,7 +2,7 @@
 session and a diagnosis), as plain values: the figures and the HTML only lay it out.
 
 The identification is the campaign's own, as it recorded it
-(:func:`ogacq.campaign.recorded_identification`), so the report shows the numbers
+(:func:`ogacq.campaign.run.recorded_identification`), so the report shows the numbers
 the campaign printed. "Before" deviations are the
 papers' twelve (Max/Min relative to Zero, averaged over cycles) of the readings;
 "after, predicted" are the same averages of the residuals, i.e. what remains once

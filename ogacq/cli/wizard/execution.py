@@ -2,7 +2,7 @@
 session format as ``ogacq run``; and the campaign file written beside the
 session so ``ogacq resume`` can continue it.
 
-``run_guided`` is ``ogacq.campaign.run_campaign`` with the opened station
+``run_guided`` is ``ogacq.campaign.run.run_campaign`` with the opened station
 wrapped (checkpoints for Ctrl-C, gauges read by eye, live values).
 """
 
@@ -81,7 +81,7 @@ def run_guided(campaign: Campaign, *, wrap: StationAdapter, observer: Observer,
 
 def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsal | None,
                        purpose: str = "") -> str:
-    """The campaign file (``ogacq/campaign_file.py``) for what the technician chose."""
+    """The campaign file (``ogacq/campaign/campaign_file.py``) for what the technician chose."""
     purpose = purpose or ("continue an interrupted campaign with: ogacq resume "
                           f"{_relative(campaign.session, Path.cwd())}")
     notes = {}
