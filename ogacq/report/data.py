@@ -28,6 +28,7 @@ analysis shows the numbers the campaign printed and the record states.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -339,14 +340,18 @@ def status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
         notes.append(f"This {what} {state}{why}: {status.readings} readings{planned}. "
                      "Everything below comes from the readings on file only; legs or "
                      "postures that were not read cannot show.")
-    notes += [f"A record cut by a crash was dropped: {w}" for w in status.torn]
-    return notes
+    return notes + torn_notes(status.torn)
+
+
+def torn_notes(warnings: Sequence[str]) -> list[str]:
+    """Each record a crash cut (the session's load warnings), as the page says it."""
+    return [f"A record cut by a crash was dropped: {w}" for w in warnings]
 
 
 def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
             diagnosis: DiagnosisView | None = None,
             diagnosis_note: str | None = None) -> ReportData:
-    notes = [f"A record cut by a crash was dropped: {w}" for w in session.warnings]
+    notes = torn_notes(session.warnings)
     result, problem = _identify(session)
     if problem:
         notes.append(problem)
