@@ -27,6 +27,13 @@ from ogacq.campaign.campaign_file import (
     GaugeSpec,
     SimulatorSpec,
 )
+from ogacq.campaign.guided import (
+    Rehearsal,
+    campaign_file_text,
+    rehearsal_controller_file,
+    run_guided,
+    start_rehearsal,
+)
 from ogacq.campaign.inventory import KnownGauge, load_inventory, unreadable_inventory
 from ogacq.campaign.run import CampaignOutcome, gauges_read_by_eye, identify_session
 from ogacq.campaign.station import DeviceStation
@@ -44,14 +51,6 @@ from ogacq.cli.wizard.connect import (
     gauges_of,
     test_read,
 )
-from ogacq.cli.wizard.execution import (
-    Rehearsal,
-    campaign_file_text,
-    rehearsal_controller_file,
-    run_guided,
-    start_rehearsal,
-)
-from ogacq.cli.wizard.faults import FaultInjector, FaultPlan
 from ogacq.cli.wizard.gauge_setting import LegSetter, RunHandles
 from ogacq.cli.wizard.guided_station import GuidedStation
 from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
@@ -84,6 +83,7 @@ from ogacq.session.records import (
 )
 from ogacq.session.series import next_session
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
+from ogacq.sim.faults import FaultInjector, FaultPlan
 
 EXIT_DONE = 0
 EXIT_QUIT = 130
