@@ -42,8 +42,7 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
      "ogacq.writeback.maps_table", "ogacq.uncertainty", "ogacq.compensation"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign.campaign_file",
-     "ogacq.campaign.templates", "ogacq.record", "ogacq.record.context", "ogacq.history",
-     "ogacq.sim.faults"),
+     "ogacq.campaign.templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.campaign.station", "ogacq.diagnose"),
     ("ogacq.campaign",),  # the run, traceability and the instruments inventory
     ("ogacq.writeback", "ogacq.report"),
