@@ -20,6 +20,14 @@ judged against the state as left, the earlier value plus what was written from i
 session (``written``: the net change of the offsets of every completed write-back
 and restore the earlier calibration's record made), never against the value as
 found.
+
+Where both records say which offsets the controller held during their campaigns
+(``controller.offsets_mm``, read at every start), the change is judged by those
+instead: the offset the machine needs is the one in force minus the one identified,
+and a change of it is the machine's, whoever changed the controller in between. A
+controller whose offsets moved other than by the recorded write-backs (reset by a
+drive's replacement or a parameter reload, edited by hand, another tool's write)
+is then no drift of the machine, and :func:`controller_changes` names it.
 """
 
 from __future__ import annotations
@@ -35,6 +43,9 @@ if TYPE_CHECKING:  # the types only: a report drawing a history needs no databas
     from ogacq.history.store import Calibration, OffsetState
 
 COVERAGE_K = 2.0  # for a std standing in for u_c (JCGM 100:2008 6.2.1)
+# Offsets read back from a controller are the same number when equal; this only keeps
+# a float's last digit from being called a change (far below any register's step).
+OFFSET_EQUAL_MM = 1e-6
 
 Basis = Literal["U", "std"]
 
@@ -55,12 +66,25 @@ class Drift:
     # what the write-backs made from the earlier calibration changed this parameter by:
     # the change is the later value's from the state as left (earlier + written)
     written_mm: float = 0.0
+    # how far the controller's offset moved between the two campaigns, by the offsets
+    # both recorded in force (None: not both known; the written ones then stand in)
+    controller_moved_mm: float | None = None
+
+    @property
+    def shift_mm(self) -> float:
+        """What the later value is compared with is the earlier plus this."""
+        return self.written_mm if self.controller_moved_mm is None else self.controller_moved_mm
 
     def describe(self) -> str:
         word = "drift" if self.flagged else "change"
         note = "" if self.basis == "U" else " (U unknown: 2 x the fit's std used)"
-        left = (f" (from the state as left: its value {self.written_mm:+.4f} mm written "
-                "back)" if self.written_mm else "")
+        if self.controller_moved_mm is not None:
+            left = (f" (from the offsets in force: the controller's moved "
+                    f"{self.controller_moved_mm:+.4f} mm between the campaigns)"
+                    if abs(self.controller_moved_mm) > OFFSET_EQUAL_MM else "")
+        else:
+            left = (f" (from the state as left: its value {self.written_mm:+.4f} mm written "
+                    "back)" if self.written_mm else "")
         return (f"{word}: {self.parameter} {self.change_mm:+.4f} mm from {self.from_record} to "
                 f"{self.to_record}{left}, U of the change {self.limit_mm:.4f} mm{note}")
 
@@ -69,7 +93,9 @@ class Drift:
                 "from_date": self.from_date, "to_date": self.to_date,
                 "change_mm": round(self.change_mm, 9), "U_change_mm": round(self.limit_mm, 9),
                 "basis": self.basis, "flagged": self.flagged,
-                "written_mm": round(self.written_mm, 9)}
+                "written_mm": round(self.written_mm, 9),
+                "controller_moved_mm": None if self.controller_moved_mm is None
+                else round(self.controller_moved_mm, 9)}
 
 
 def expanded(parameter: Parameter) -> tuple[float | None, Basis]:
@@ -119,8 +145,65 @@ def changes(calibrations: Sequence[Calibration],
             if u_then is None or u_now is None:
                 continue  # nothing to judge the change against
             limit = math.hypot(u_then, u_now)
-            change = now.value_mm - (then.value_mm + wrote.get(name, 0.0))
+            moved = _moved(before, after).get(name)
+            shift = wrote.get(name, 0.0) if moved is None else moved
+            change = now.value_mm - (then.value_mm + shift)
             basis: Basis = "U" if basis_then == basis_now == "U" else "std"
             out.append(Drift(name, before.record_id, after.record_id, before.date, after.date,
-                             change, limit, basis, abs(change) > limit, wrote.get(name, 0.0)))
+                             change, limit, basis, abs(change) > limit, wrote.get(name, 0.0),
+                             moved))
     return out
+
+
+@dataclass(frozen=True)
+class ControllerChange:
+    """The controller's offsets moved between two campaigns other than by the
+    write-backs recorded from the earlier one."""
+
+    from_record: str
+    to_record: str
+    then_mm: dict[str, float]  # in force during the earlier campaign
+    now_mm: dict[str, float]  # in force during the later one
+    written_mm: dict[str, float]  # the net change the recorded write-backs made
+    unexplained_mm: dict[str, float]  # per axis, moved minus written (only those moved)
+
+    def describe(self) -> str:
+        moves = ", ".join(f"{p.removeprefix('joint_offset.')} {v:+.4f}"
+                          for p, v in self.unexplained_mm.items())
+        return (f"controller: its joint offsets changed outside ogacq between "
+                f"{self.from_record} and {self.to_record} ({moves} mm beyond the recorded "
+                "write-backs): a reset, a replaced drive or a hand edit; judged from the "
+                "offsets in force, so not a drift of the machine")
+
+    def to_json(self) -> dict[str, Any]:
+        return {"from": self.from_record, "to": self.to_record, "then_mm": self.then_mm,
+                "now_mm": self.now_mm, "written_mm": self.written_mm,
+                "unexplained_mm": self.unexplained_mm}
+
+
+def controller_changes(calibrations: Sequence[Calibration],
+                       written: dict[str, dict[str, float]] | None = None,
+                       ) -> list[ControllerChange]:
+    """Each pair of successive calibrations (oldest first) between which the controller's
+    offsets in force moved by more than the write-backs recorded from the earlier."""
+    out = []
+    for before, after in zip(calibrations, calibrations[1:], strict=False):
+        moved = _moved(before, after)
+        wrote = (written or {}).get(before.record_id, {})
+        beyond = {name: m - wrote.get(name, 0.0) for name, m in moved.items()
+                  if abs(m - wrote.get(name, 0.0)) > OFFSET_EQUAL_MM}
+        if beyond and before.offsets_in_force_mm and after.offsets_in_force_mm:
+            out.append(ControllerChange(
+                before.record_id, after.record_id, dict(before.offsets_in_force_mm),
+                dict(after.offsets_in_force_mm),
+                {name: wrote.get(name, 0.0) for name in moved}, beyond))
+    return out
+
+
+def _moved(before: Calibration, after: Calibration) -> dict[str, float]:
+    """joint_offset.<axis> -> how far the controller's offset moved between the two
+    campaigns ({} unless both recorded their offsets in force)."""
+    then, now = before.offsets_in_force_mm, after.offsets_in_force_mm
+    if not then or not now:
+        return {}
+    return {f"joint_offset.{a}": now[a] - then[a] for a in then if a in now}

@@ -136,7 +136,7 @@ def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
             if d.parameter != name or not d.flagged:
                 continue
             i, j = index_of[d.from_record], index_of[d.to_record]
-            y0 = (calibrations[i].parameters[name].value_mm + d.written_mm) * scale
+            y0 = (calibrations[i].parameters[name].value_mm + d.shift_mm) * scale
             y1 = calibrations[j].parameters[name].value_mm * scale
             ax.plot([xs_of[i], xs_of[j]], [y0, y1], "-", color=DRIFT_COLOUR, lw=2.5, zorder=4,
                     label="change > U of the change")

@@ -102,6 +102,9 @@ class Calibration:
     overrides: list[Any] | None = None
     station: str | None = None
     simulated: bool | None = None  # a rehearsal on the simulator (None: not said)
+    # the joint offsets the controller held during the campaign, the same at every start
+    # (None: the record does not say, or they changed between starts)
+    offsets_in_force_mm: dict[str, float] | None = None
 
 
 @dataclass(frozen=True)

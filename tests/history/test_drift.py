@@ -4,9 +4,10 @@ the flag says so. And the plot draws every parameter with its U."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
-from ogacq.history.drift import changes, written_by_record
+from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import Parameter
 from ogacq.history.plot import history_figure, recorded_calibrations, write_history_plot
 from ogacq.history.store import Calibration, OffsetState
@@ -113,3 +114,38 @@ def test_a_records_history_is_drawn_by_the_same_figure_with_itself_marked():
     assert [t.get_text() for t in offset.texts] == ["U not evaluated"]  # R-1 only
     drawn = offset.lines[0].get_ydata()  # the current calibration's ring, in µm
     assert list(drawn) == [425.0]
+
+
+def in_force(c: Calibration, x: float) -> Calibration:
+    return dataclasses.replace(c, offsets_in_force_mm={"x": x, "y": 0.0, "z": 0.0})
+
+
+def test_a_controller_reset_outside_ogacq_is_named_and_no_drift_of_the_machine():
+    """A's offsets written (0 -> -0.907), B validates them; then the drive is replaced
+    and holds 0 again: C finds the 0.907 mm of A. Judged by the offsets in force, the
+    machine did not move; the controller's change is named instead."""
+    written = written_by_record([state("w1", "before", 0.0, "A"),
+                                 state("w1", "after", -0.907, "A")])
+    history = [in_force(calibration("A", "2026-01-10", 0.907, 0.006), 0.0),
+               in_force(calibration("B", "2026-01-11", 0.002, 0.006), -0.907),
+               in_force(calibration("C", "2026-03-10", 0.909, 0.006), 0.0)]
+    found = changes(history, written)
+    assert [(d.to_record, round(d.change_mm, 6), d.flagged) for d in found] == [
+        ("B", 0.002, False), ("C", 0.0, False)]
+    assert math.isclose(found[1].controller_moved_mm, 0.907)
+    assert "the controller's moved +0.9070 mm" in found[1].describe()
+    moved = controller_changes(history, written)
+    assert [(c.from_record, c.to_record) for c in moved] == [("B", "C")]
+    assert math.isclose(moved[0].unexplained_mm["joint_offset.x"], 0.907)
+    assert "changed outside ogacq between B and C (x +0.9070 mm" in moved[0].describe()
+    # by the write-backs alone, C would read as a 0.907 mm drift
+    bare = [dataclasses.replace(c, offsets_in_force_mm=None) for c in history]
+    assert changes(bare, written)[1].flagged and controller_changes(bare, written) == []
+
+
+def test_a_real_drift_stays_flagged_when_the_offsets_in_force_are_known():
+    history = [in_force(calibration("A", "2026-01-10", 0.907, 0.006), 0.0),
+               in_force(calibration("B", "2026-03-10", 0.925, 0.006), 0.0)]  # 18 um
+    found = changes(history)
+    assert found[0].flagged and math.isclose(found[0].change_mm, 0.018)
+    assert controller_changes(history) == []
