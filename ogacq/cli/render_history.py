@@ -14,6 +14,7 @@ from ogacq.cli.plain import shown
 from ogacq.history.drift import Drift, expanded
 from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
+from ogacq.model.units import UM_PER_MM
 
 DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
 # record id -> parameter -> the change the record's write-backs made
@@ -268,8 +269,8 @@ def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
             words = "unchanged" if m.get("from") else "none"
         else:
             words = (f"{m['change']} ({m.get('from') or '-'} -> {m.get('to') or '-'}): up to "
-                     f"{m['max_forward_change_mm'] * 1000:.2f} µm forward, "
-                     f"{m['max_reverse_change_mm'] * 1000:.2f} µm reverse")
+                     f"{m['max_forward_change_mm'] * UM_PER_MM:.2f} µm forward, "
+                     f"{m['max_reverse_change_mm'] * UM_PER_MM:.2f} µm reverse")
         table.add_row(axis, *(f"{v:+.4f}" if v is not None else "-"
                               for v in (o["from"], o["to"], o["change"])), words)
     console.print(table)
