@@ -345,6 +345,47 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     return rows.theta, iterations, rows.converged, rows.jac, rows.pred, known
 
 
+@dataclass(frozen=True)
+class _Accepted:
+    """A step one row took (halved or not), with what the model gave there."""
+
+    theta: np.ndarray  # (1, N)
+    pred: np.ndarray
+    jac: np.ndarray
+    white: np.ndarray
+    cost: float
+    jw: np.ndarray  # weighting.jac(jac): the next step needs it
+    stop: StopReason  # MAX_ITERATIONS while the fit goes on
+
+
+def _descend_one(obs: Observations, y: np.ndarray, free: np.ndarray, weighting: Weighting,
+                 at: slice | np.ndarray, theta: np.ndarray, cost: float, step: np.ndarray,
+                 tol_list: list[float]) -> _Accepted | StopReason:
+    """The step, halved where it made things worse: where it lowers the cost, or why
+    none did (at the minimum where the model could be evaluated, else a failed step)."""
+    scale = 1.0
+    evaluated = False  # a trial had a finite sum of squares
+    for attempt in range(HALVINGS):
+        moved = step if attempt == 0 else step * scale
+        trial = theta.copy()
+        trial[:, at] += moved
+        small = _all_below(moved, tol_list)
+        trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+        # the weighted Jacobian with the residuals: an accepted step (the usual case)
+        # needs it next
+        trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
+        trial_cost = _cost(trial_white)
+        evaluated = evaluated or math.isfinite(trial_cost)
+        if trial_cost <= cost * (1 + 1e-12) + 1e-300:
+            stop = StopReason.STEP_BELOW_TOLERANCE if small \
+                else StopReason.COST_STALLED if trial_cost >= cost * (1 - 1e-12) \
+                else StopReason.MAX_ITERATIONS
+            return _Accepted(trial, trial_pred, trial_jac, trial_white, trial_cost, trial_jw,
+                             stop)
+        scale *= 0.5
+    return StopReason.NO_DESCENT if evaluated else StopReason.STEP_FAILED
+
+
 def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
                  weighting: Weighting, rank: int, max_iterations: int,
                  at_start: tuple[np.ndarray, np.ndarray] | None,
@@ -387,32 +428,14 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         if _all_below(step, negligible_below):
             stop = StopReason.NEGLIGIBLE_STEP  # at the minimum where it stands (see _iterate)
             break
-        scale = 1.0
-        evaluated = False  # a trial had a finite sum of squares
-        for attempt in range(HALVINGS):
-            moved = step if attempt == 0 else step * scale  # halved where it made it worse
-            trial = theta.copy()
-            trial[:, at] += moved
-            small = _all_below(moved, tol_list)
-            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            # the weighted Jacobian with the residuals: an accepted step (the usual
-            # case) needs it next
-            trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
-            trial_cost = _cost(trial_white)
-            evaluated = evaluated or math.isfinite(trial_cost)
-            if trial_cost <= cost * (1 + 1e-12) + 1e-300:
-                stalled = trial_cost >= cost * (1 - 1e-12)
-                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
-                    trial_jac
-                jw_here, svd_here = trial_jw, None  # vectors moved
-                if small:
-                    stop = StopReason.STEP_BELOW_TOLERANCE
-                elif stalled:
-                    stop = StopReason.COST_STALLED
-                break
-            scale *= 0.5
-        else:  # no step lowers the cost: at the minimum, where the model could be evaluated
-            stop = StopReason.NO_DESCENT if evaluated else StopReason.STEP_FAILED
+        taken = _descend_one(obs, y, free, weighting, at, theta, cost, step, tol_list)
+        if isinstance(taken, StopReason):
+            stop = taken
+            break
+        theta, pred, cost, white, jac = taken.theta, taken.pred, taken.cost, taken.white, \
+            taken.jac
+        jw_here, svd_here = taken.jw, None  # vectors moved
+        stop = taken.stop
         if stop is not StopReason.MAX_ITERATIONS:
             break
     known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
