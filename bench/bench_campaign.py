@@ -53,8 +53,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from bench_linear import OFFSETS, campaign, floor_of, seconds  # noqa: E402
 
-from ogacq.campaign import identify_session  # noqa: E402
-from ogacq.campaign_file import read_campaign  # noqa: E402
+from ogacq.campaign.campaign_file import read_campaign  # noqa: E402
+from ogacq.campaign.run import identify_session  # noqa: E402
+from ogacq.campaign.station import open_station  # noqa: E402
 from ogacq.identify.fit import fit  # noqa: E402
 from ogacq.identify.observations import readings_observations  # noqa: E402
 from ogacq.protocol.plan import Read  # noqa: E402
@@ -63,7 +64,6 @@ from ogacq.session.convert import machine_dict  # noqa: E402
 from ogacq.session.records import MoveRecord, SettleRecord  # noqa: E402
 from ogacq.session.store import SessionWriter, load_session  # noqa: E402
 from ogacq.sim.truth import SimTruth, Vibration  # noqa: E402
-from ogacq.station import open_station  # noqa: E402
 
 BAUD_BYTE_S = 10 / 9600
 EXCHANGE_S = 15 * BAUD_BYTE_S  # 01A: "1\r" and "01A+0000.123\r"

@@ -34,15 +34,15 @@ from pathlib import Path
 
 import numpy as np
 
-from ogacq.campaign import identify_session
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.run import identify_session
+from ogacq.campaign.station import open_station
 from ogacq.identify.consistency import fit_verdict
 from ogacq.model.gauges import Gauge
 from ogacq.protocol.runner import CampaignRunner
 from ogacq.session.convert import machine_dict
 from ogacq.session.records import SettleRecord
 from ogacq.session.store import SessionWriter, load_session
-from ogacq.station import open_station
 
 RESOLUTION_MM, NOISE_MM = 0.001, 0.001
 MACHINE = ("leg_length_mm = 310.25\nrho_min_mm = -100.0\nrho_max_mm = 60.0\n"

@@ -4,7 +4,9 @@ included (prints figures; not a test).
 Each command runs as a user runs it (`python -m ogacq ...` in a new process) on the
 papers' plan, 3 cycles, the 1 um display (``bench_linear.campaign``), written as a
 readings CSV and a machine file. Beside them, in the same run: the interpreter alone
-(`python -c pass`) and numpy's import, the floor any numpy program pays; and the
+(`python -c pass`) and numpy's import, the floor any numpy program pays; numpy, typer
+and rich's tables imported together, the floor of a command that parses its options
+and prints a table (no ogacq module in it); and the
 import share of each command (`-X importtime`, the top-level imports summed; that run
 is not timed).
 
@@ -46,6 +48,7 @@ from ogacq.io.machine_file import write_machine  # noqa: E402
 from ogacq.io.tables import write_readings  # noqa: E402
 
 TARGETS_S = {"refit": 0.5, "diagnose": 1.0}
+LIBRARY_FLOOR = "numpy + typer + rich"
 
 
 def wall_s(argv: list[str], runs: int, env: dict[str, str]) -> list[float]:
@@ -98,6 +101,9 @@ def main() -> None:
         python = sys.executable
         commands = {"python -c pass": [python, "-c", "pass"],
                     "python -c 'import numpy'": [python, "-c", "import numpy"],
+                    # the floor under a command that prints a table: numpy, the command
+                    # line's parser and the terminal's tables, before any ogacq code
+                    LIBRARY_FLOOR: [python, "-c", "import numpy, typer, rich.console, rich.table"],
                     "ogacq --help": [python, "-m", "ogacq", "--help"]}
         for name in TARGETS_S:
             commands[f"ogacq {name}"] = [python, "-m", "ogacq", name, str(readings), "-m",
@@ -115,6 +121,8 @@ def main() -> None:
         for label, t in times.items():
             median = statistics.median(t)
             line = f"   {label:26s} {median:.3f} s ({min(t):.3f}-{max(t):.3f})"
+            if label == LIBRARY_FLOOR:
+                line += f", {median / numpy_s:.2f}x numpy's import"
             if label.startswith("ogacq"):
                 ratio = median / numpy_s
                 line += f", {ratio:.2f}x numpy's import (target <= 1.5x: " \

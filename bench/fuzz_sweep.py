@@ -301,7 +301,7 @@ def fuzz_toml(reader, text: str, work: Path, counts: Counter, kind: str) -> None
 
 
 def sweep_inputs(session: Path, work: Path, rng: random.Random, n: int) -> None:
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
     from ogacq.io.machine_file import read_machine
     from ogacq.sim.truth import random_truth, read_effects
 

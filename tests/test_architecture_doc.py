@@ -148,3 +148,77 @@ def test_the_path_check_sees_a_wrong_path():
         "ogacq/compensation/linuxcnc.py", "ogacq/compensation/fanuc.py"]
     assert _defines(ROOT / "ogacq/history/plot.py", "history_figure")
     assert not _defines(ROOT / "ogacq/history/plot.py", "no_such_function")
+
+
+# --- "How to add": the common changes, each with the files it touches -----------------------
+
+COMMON_CHANGES = ("A gauge protocol", "A drive profile", "An effect", "A report section",
+                  "A command")
+_FILES_LINE = "Files to touch:"
+# names that are one file wherever they are said: the repository's root files, and a
+# file ogacq writes (``record.json`` beside the report)
+_ROOT_FILES_AND_OUTPUTS = ("pyproject.toml", "README.md", "record.json")
+# a backticked file (a name with an extension, or a folder), full or bare
+_FILE_TOKEN = re.compile(r"`([\w./<>{},*-]+(?:\.(?:py|toml|j2|css|md|json)|/))(?::[\w.]+)?`")
+
+
+@cache
+def how_to_add() -> dict[str, str]:
+    """The section's paragraphs by their bold title (``**A command.**`` -> "A command"),
+    each up to the next title."""
+    text = DOC.read_text()
+    section = text[text.index("## How to add"):]
+    end = section.find("\n## ", 1)
+    section = section if end < 0 else section[:end]
+    parts = re.split(r"^\*\*([^*]+?)\.?\*\*", section, flags=re.M)
+    return {title.split(" (")[0].strip(): body for title, body in zip(parts[1::2], parts[2::2],
+                                                                         strict=True)}
+
+
+def files_to_touch(body: str) -> list[str]:
+    """The backticked paths of a paragraph's "Files to touch:" list."""
+    assert body.count(_FILES_LINE) == 1, "one 'Files to touch:' list per change"
+    listed = body[body.index(_FILES_LINE) + len(_FILES_LINE):]
+    return re.findall(r"`([^`]+)`", listed)
+
+
+def _there(path: str) -> bool:
+    """A repository path is there; a pattern for a file to add (``<name>``) has its
+    folder there."""
+    if "<" in path:
+        path = path[:path.index("<")].rpartition("/")[0]
+    return all((ROOT / one).exists() for one in _expanded(path))
+
+
+def test_how_to_add_covers_the_common_changes():
+    titles = how_to_add()
+    assert len(titles) >= len(COMMON_CHANGES), "the section is read"
+    missing = [c for c in COMMON_CHANGES if c not in titles]
+    assert not missing, f"'How to add' says nothing of: {missing}"
+    for title, body in titles.items():
+        assert files_to_touch(body), f"{title}: no file to touch named"
+
+
+def test_every_file_to_touch_is_there():
+    wrong = [f"{title}: {path}" for title, body in how_to_add().items()
+             for path in files_to_touch(body) if not _there(path)]
+    assert not wrong, "\n".join(wrong)
+
+
+def test_a_file_named_by_its_name_alone_is_one_the_change_names_in_full():
+    """``record.html.j2`` in a paragraph is the ``ogacq/report/templates/record.html.j2``
+    the same paragraph names: a reader is never left to guess which file."""
+    wrong = []
+    for title, body in how_to_add().items():
+        tokens = _FILE_TOKEN.findall(body)
+        full = {t.rpartition("/")[2] for t in tokens if "/" in t}
+        wrong += [f"{title}: {t}" for t in tokens
+                  if "/" not in t and t not in _ROOT_FILES_AND_OUTPUTS and t not in full]
+    assert not wrong, "\n".join(wrong)
+
+
+def test_the_how_to_add_checks_see_a_wrong_file():
+    assert not _there("ogacq/report/no_such_file.py")
+    assert _there("drivers/indicators/<name>.py") and not _there("nowhere/<name>.py")
+    assert files_to_touch("prose `a.py`. Files to touch: `b/c.py`, `d.md`.") == ["b/c.py",
+                                                                                "d.md"]

@@ -41,13 +41,14 @@ LAYERS: list[tuple[str, ...]] = [
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
      "ogacq.writeback.maps_table", "ogacq.uncertainty", "ogacq.compensation"),
-    ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign_file",
-     "ogacq.file_templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
-    ("ogacq.io.loading", "ogacq.station", "ogacq.diagnose"),
-    ("ogacq.campaign", "ogacq.traceability"),
+    ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign.campaign_file",
+     "ogacq.campaign.templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
+    ("ogacq.io.loading", "ogacq.campaign.station", "ogacq.diagnose"),
+    ("ogacq.campaign",),  # the run, traceability and the instruments inventory
     ("ogacq.writeback", "ogacq.report"),
     # the record: the campaign, its uncertainty, its write-backs, its report data
-    ("ogacq.record.document", "ogacq.record.evaluation"),
+    ("ogacq.record.document", "ogacq.record.evaluation", "ogacq.history.recording",
+     "ogacq.history.earlier"),
     # calibrate's procedure: campaigns, diagnoses, write-backs and the record, in order
     ("ogacq.calibration",),
     ("ogacq.cli", "ogacq.__main__"),
@@ -175,4 +176,17 @@ def test_only_the_station_opens_endpoints():
     openers = {m: sorted(set(imported_names(m)) & set(ENDPOINT_OPENERS))
                for m in modules() if m.startswith("ogacq.") and entry_of(m) != "ogacq.sim"}
     assert {m: names for m, names in openers.items() if names} == \
-        {"ogacq.station": sorted(ENDPOINT_OPENERS)}
+        {"ogacq.campaign.station": sorted(ENDPOINT_OPENERS)}
+
+
+# The terminal's libraries: arguments (typer, click), prompts and rendering (rich).
+TERMINAL = ("typer", "click", "rich")
+
+
+def test_only_the_command_line_talks_to_the_terminal():
+    """Domain code lives below ogacq.cli, which only asks, calls and renders: no other
+    module imports the command line's libraries."""
+    outside = {m: sorted(n for n in imported_names(m) if n.split(".")[0] in TERMINAL)
+               for m in modules() if entry_of(m) not in ("ogacq.cli", "ogacq.__main__")}
+    assert not {m: names for m, names in outside.items() if names}
+    assert any(n.split(".")[0] == "typer" for n in imported_names("ogacq.cli.app"))

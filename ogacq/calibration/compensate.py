@@ -37,7 +37,7 @@ from ogacq.calibration.maps import (
     model_effects,
     uncompensated_effects,
 )
-from ogacq.campaign import recorded_maps
+from ogacq.campaign.run import recorded_maps
 from ogacq.compensation.combine import compensation, with_offsets
 from ogacq.compensation.effects import effect_maps
 from ogacq.compensation.export import export_tables

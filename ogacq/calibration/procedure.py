@@ -32,8 +32,9 @@ from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.separate import SeparatingPlan, separating_plan
 from ogacq.calibration.setup import Setup
 from ogacq.calibration.validate import Judgement, judge
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import ControllerSpec
+from ogacq.campaign.campaign_file import ControllerSpec
+from ogacq.campaign.run import run_campaign
+from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.model.parameters import AXES
@@ -42,7 +43,6 @@ from ogacq.protocol.runner import Observer
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.writeback.audit import AuditLog, Operation, operations
 from ogacq.writeback.execute import WriteOptions, execute_plan, preflight
 from ogacq.writeback.maps import (

@@ -18,10 +18,10 @@ from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.axes.profile import load_profile
-from ogacq.campaign_file import Campaign, ControllerSpec, SimulatorSpec, campaign_text
+from ogacq.campaign.campaign_file import Campaign, ControllerSpec, SimulatorSpec, campaign_text
+from ogacq.campaign.traceability import simulated_gauges
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig
-from ogacq.traceability import simulated_gauges
 
 MAPS_FILE = "maps.json"
 OFFSETS_FILE = "offsets.toml"

@@ -23,7 +23,7 @@ import typer
 
 from ogacq.calibration.log import LOG_NAME, ProcedureLog
 from ogacq.calibration.setup import SCAN_STEP_MM, Setup, simulator_setup, station_setup
-from ogacq.campaign_file import SimulatorSpec, read_campaign
+from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
     HistoryOption,
@@ -98,8 +98,8 @@ def calibrate(
         folder, campaign, simulator, effects, seed, profile.value, speed, scan_step_mm,
         not no_separate, operator, reason)
     from ogacq.calibration.procedure import calibrate as run_procedure
-    from ogacq.cli.history_record import procedure_history, record_calibrate, record_writebacks
     from ogacq.cli.render_calibrate import TerminalUI, print_outcome
+    from ogacq.history.recording import procedure_history, record_calibrate, record_writebacks
 
     typer.echo(f"calibration in {plain(folder)}/" + (" (continued)" if resuming else ""),
                err=not sys.stdout.isatty())

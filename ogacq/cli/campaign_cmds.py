@@ -12,17 +12,17 @@ from typing import Annotated, Any
 
 import typer
 
-from ogacq.campaign import CampaignOutcome, resumable_campaign, run_campaign
-from ogacq.campaign_file import Campaign, read_campaign
+from ogacq.campaign.campaign_file import Campaign, read_campaign
+from ogacq.campaign.run import CampaignOutcome, resumable_campaign, run_campaign
+from ogacq.campaign.traceability import traceability_gaps
 from ogacq.cli.campaign_end import campaign_end
-from ogacq.cli.history_record import record_campaign
 from ogacq.cli.leg_prompt import operator_for
 from ogacq.cli.options import HistoryOption, JsonOption, OverrideExpiredOption, override_reason
 from ogacq.cli.render import CampaignProgress, campaign_progress, print_end, print_outcome
+from ogacq.history.recording import record_campaign
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.series import next_session
 from ogacq.session.store import load_session
-from ogacq.traceability import traceability_gaps
 
 log = logging.getLogger("ogacq")
 

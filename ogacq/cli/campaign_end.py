@@ -130,7 +130,7 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
 
 def _next_name(campaign_file: Path, session: Path) -> str:
     """The session a new run of ``campaign_file`` would record into."""
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
     from ogacq.errors import OgacqError
 
     try:

@@ -14,11 +14,11 @@ from typing import Annotated
 
 import typer
 
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
+from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
+from ogacq.campaign.run import run_campaign
+from ogacq.campaign.traceability import simulated_gauges
 from ogacq.cli.campaign_cmds import execute, show_outcome
 from ogacq.cli.campaign_end import NextStep, campaign_end
-from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
     HistoryOption,
@@ -32,6 +32,7 @@ from ogacq.cli.render import print_demo_diagnosis, print_end
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
+from ogacq.history.recording import record_campaign
 from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import parse_moment
 from ogacq.io.machine_file import write_machine
@@ -44,7 +45,6 @@ from ogacq.model.machine import (
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
-from ogacq.traceability import simulated_gauges
 
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
@@ -164,8 +164,8 @@ def _close_the_loop(folder: Path, campaign: Campaign, session: Path,
     validation, the record as found and as left (FOLDER/calibrate)."""
     from ogacq.calibration.procedure import calibrate
     from ogacq.calibration.setup import simulator_setup
-    from ogacq.cli.history_record import procedure_history, record_calibrate, record_writebacks
     from ogacq.cli.render_calibrate import TerminalUI, print_outcome
+    from ogacq.history.recording import procedure_history, record_calibrate, record_writebacks
 
     assert campaign.simulator is not None
     typer.echo("\nclosing the loop (as `ogacq calibrate` does): write, validate, keep or "

@@ -60,6 +60,6 @@ def diagnose_command(
         print_notes(loaded.notes())
         print_diagnosis(result, machine_file=str(machine or file))
     if loaded.session is not None and not other_geometry:
-        from ogacq.cli.history_record import record_diagnosis
+        from ogacq.history.recording import record_diagnosis
 
         record_diagnosis(file, result.to_json(), history, accept_edited=accept_edited)

@@ -10,12 +10,12 @@ from typing import Annotated
 import typer
 
 from ogacq.cli import render_history as render
-from ogacq.cli.history_record import record_session, writebacks_of
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.errors import InputError, Refused
 from ogacq.history.drift import changes, written_by_record
 from ogacq.history.location import history_for_session, history_to_read
+from ogacq.history.recording import record_session, writebacks_of
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
 from ogacq.history.store import History

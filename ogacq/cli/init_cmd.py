@@ -8,8 +8,8 @@ from typing import Annotated
 
 import typer
 
+from ogacq.campaign.templates import campaign_template, machine_template
 from ogacq.cli.outputs import ForceOption, check_output_file
-from ogacq.file_templates import campaign_template, machine_template
 from ogacq.io.atomic import write_atomically
 
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sys
 
-from ogacq.campaign_file import Campaign
+from ogacq.campaign.campaign_file import Campaign
 from ogacq.cli.plain import shown
 from ogacq.cli.render import CampaignProgress, console
 from ogacq.errors import InputError

@@ -88,7 +88,7 @@ def restore(
     with AuditLog(session) as audit:
         done = execute_maps_plan(plan, audit, confirmed_by="--yes" if yes else "prompt")
     typer.echo(f"restored: {done.operation}, read back {done.new_checksum[:12]}")
-    from ogacq.cli.history_record import record_writebacks
+    from ogacq.history.recording import record_writebacks
 
     with contextlib.suppress(InputError):
         record_writebacks(session.path, history)

@@ -19,15 +19,14 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from ogacq_drivers.axes.controller import AxisController
-from ogacq_drivers.axes.profile import Profile, ProfileError, load_profile
-from ogacq.campaign_file import Campaign, ControllerSpec, read_campaign
+from ogacq.campaign.campaign_file import ControllerSpec
+from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
-from ogacq.cli.history_record import record_writebacks
 from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
 from ogacq.errors import DriverError, InputError, OgacqError, Refused
+from ogacq.history.recording import record_writebacks
 from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.station import open_controller
 from ogacq.writeback.audit import AuditLog, last_write, operations
 from ogacq.writeback.evidence import evidence_from_session
 from ogacq.writeback.execute import WriteOptions, execute_plan, preflight
@@ -40,6 +39,7 @@ from ogacq.writeback.policy import (
     plan_return,
     plan_write,
 )
+from ogacq.writeback.target import controller_of, session_controller
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when the history is used, not at start-up
     from ogacq.history.location import HistoryLocation
@@ -67,42 +67,6 @@ FromDiagnosisOption = Annotated[bool, typer.Option(
                              "with the effects it found beside them); the effects remain.")]
 MaxChangeOption = Annotated[float, typer.Option(
     "--max-change-mm", min=0.0, help="Refuse a change of any axis larger than this (mm).")]
-
-
-def _campaign_for(session: LoadedSession, path: Path | None,
-                  ) -> tuple[Campaign, ControllerSpec, Profile]:
-    """The campaign file naming the controller, the controller and its profile; a
-    campaign that only starts the built-in simulator names no controller that outlives
-    the command."""
-    if path is None:
-        recorded = session.header.campaign_file
-        if not recorded:
-            raise InputError(session.path, "the session names no campaign file; give the "
-                             "controller's with --campaign")
-        path = Path(recorded)
-    campaign = read_campaign(path)
-    if campaign.simulator is not None or campaign.controller is None:
-        raise InputError(campaign.path, "this campaign starts the built-in simulator inside "
-                         "each command, and its controller does not outlive it; serve one with "
-                         "`ogacq sim` and name it in [controller]")
-    spec = campaign.controller
-    try:
-        profile = load_profile(spec.profile)
-    except ProfileError as exc:
-        raise InputError(campaign.path, f"controller profile: {exc}") from None
-    return campaign, spec, profile
-
-
-def _check_writable(campaign: Campaign, spec: ControllerSpec, profile: Profile,
-                    save_nvm: bool) -> None:
-    """What the profile alone rules out, said before connecting to anything."""
-    if profile.offset.kind == "software" and spec.offsets_file is None:
-        raise InputError(campaign.path, f"profile {spec.profile!r} has no offset register; "
-                         "its offsets live in a software offset table: add offsets_file = "
-                         "\"offsets.toml\" to [controller] so that every campaign applies it")
-    if save_nvm and profile.nvm.kind == "none":
-        raise InputError("--save-nvm", f"profile {spec.profile!r} has no non-volatile memory; "
-                         "its offsets persist in the software offset table")
 
 
 def _offer_nvm(plan: OffsetPlan, *, yes: bool) -> bool:
@@ -186,7 +150,7 @@ def show(
     """
     session = _analysed(session_path, partial, accept_edited, say=not as_json)
     evidence = evidence_from_session(session, from_diagnosis)
-    _, spec, _ = _campaign_for(session, campaign_path)
+    _, spec, _ = session_controller(session, campaign_path)
     with open_controller(spec) as controller:
         facts = ControllerFacts.of(controller.profile)
         plan = plan_write(evidence, controller.read_offsets(), facts, WritePolicy(max_change_mm))
@@ -244,7 +208,7 @@ def write(
     session = _analysed(session_path, partial, accept_edited)
     evidence = evidence_from_session(session, from_diagnosis)
     with _recorded_after(session, history), \
-            _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
+            controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         plan = plan_write(evidence, controller.read_offsets(),
                           ControllerFacts.of(controller.profile), WritePolicy(max_change_mm))
         render.print_evidence(evidence)
@@ -303,7 +267,7 @@ def restore(
         raise InputError(session.path, "no write-back is recorded in this session: nothing "
                          "to restore")
     with _recorded_after(session, history), \
-            _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
+            controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         plan = plan_restore(operation, controller.read_offsets(),
                             ControllerFacts.of(controller.profile))
         render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
@@ -332,7 +296,7 @@ def _restore_state(machine_name: str, wanted: str, history: str | None,
     typer.echo(f"{found.describe()}: back to offsets state {state.state_id} ({state.stage} "
                f"{state.action} {state.operation}, {state.at or 'undated'})")
     with _recorded_after(session, history, location), \
-            _controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
+            controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         try:
             plan = plan_return(state.offsets_mm, state.state_id, controller.read_offsets(),
                                ControllerFacts.of(controller.profile), profile=state.profile,
@@ -360,14 +324,3 @@ def _recorded_after(session: LoadedSession, history: str | None,
                 record_writebacks(session.path, history, location, accept_edited=edited)
 
 
-@contextlib.contextmanager
-def _controller_of(session: LoadedSession, campaign_path: Path | None, save_nvm: bool,
-                   ) -> Iterator[tuple[ControllerSpec, AuditLog, AxisController]]:
-    """The session's campaign's controller, its audit log and the controller opened, in
-    that order:
-    the session is held before the controller is touched, so a campaign running on it
-    (or another write-back) refuses this one before anything moves."""
-    campaign, spec, profile = _campaign_for(session, campaign_path)
-    _check_writable(campaign, spec, profile, save_nvm)
-    with AuditLog(session) as audit, open_controller(spec) as controller:
-        yield spec, audit, controller

@@ -36,7 +36,9 @@ def shown(value: Any) -> str:
 
 def console(**options: Any) -> Console:
     """A rich console that prints emoji codes as typed (``:x:`` in an operator's name
-    stays three characters)."""
+    stays three characters) and text in the colours its markup gives, no others: rich's
+    default highlighter would colour any number or quoted word of a recorded name as if
+    it were code, and compiles its patterns on the first print of every command."""
     from rich.console import Console
 
-    return Console(emoji=False, **options)
+    return Console(emoji=False, **{"highlight": False, **options})

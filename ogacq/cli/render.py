@@ -19,7 +19,7 @@ from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, t
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
     from rich.progress import Progress
 
-    from ogacq.campaign import CampaignOutcome
+    from ogacq.campaign.run import CampaignOutcome
     from ogacq.diagnose.diagnosis import Diagnosis
     from ogacq.identify.accuracy import AccuracyPrediction
     from ogacq.identify.fit import FitResult

@@ -17,12 +17,14 @@ from ogacq.calibration.procedure import Outcome
 from ogacq.calibration.separate import SeparatingPlan
 from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
+from ogacq.cli.campaign_end import NextStep
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import plain, shown
 from ogacq.cli.render import CampaignProgress, campaign_progress
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.model.units import UM_PER_MM
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
 
@@ -146,11 +148,45 @@ class TerminalUI:
 
 
 def print_outcome(outcome: Outcome, report: Path | None) -> None:
+    """The procedure's end, as every campaign's: the outcome, the record's id and page,
+    and the next command."""
     words = {"validated": "validated", "improved": "kept (better, not within the noise)",
              "restored": "RESTORED to the previous state", "declined": "nothing written",
              "refused": "refused, nothing written",
              "nothing to correct": "nothing to correct"}.get(outcome.outcome, outcome.outcome)
     stream = sys.stderr if outcome.exit_code else sys.stdout
-    print(f"calibration {outcome.procedure}: {words}: {outcome.reason}", file=stream)
-    if report is not None:
-        print(f"record: {report}", file=stream)
+    print(f"calibration {outcome.procedure}: {words}: {plain(outcome.reason)}", file=stream)
+    record_id = CalibrationRecord.from_json(outcome.record).id if outcome.record else None
+    if record_id or report is not None:
+        print("record: " + " ".join(plain(part) for part in (
+            record_id, f"({report})" if record_id and report else report) if part),
+            file=stream)
+    for k, step in enumerate(next_steps(outcome, report)):
+        lead = "next: " if k == 0 else "      "
+        print(plain(f"{lead}{step.command}   ({step.why})" if step.command
+                    else f"{lead}{step.why}"), file=stream)
+
+
+def next_steps(outcome: Outcome, report: Path | None) -> tuple[NextStep, ...]:
+    """What to do after the procedure, most useful first."""
+    evidence, validation = outcome.evidence, outcome.validation
+    record = (NextStep(f"open {report}", "the calibration record: as found and as left")
+              if report is not None else
+              NextStep(f"ogacq report {evidence}", "the calibration record")
+              if evidence is not None else None)
+    steps: list[NextStep | None]
+    if outcome.outcome == "improved":
+        steps = [NextStep(f"ogacq diagnose {validation}", "what the correction left, in "
+                          "the validation campaign") if validation is not None else None,
+                 NextStep("", "a second `ogacq calibrate` starts from the corrections now "
+                              "in force and corrects what is left"),
+                 record]
+    elif outcome.outcome in ("restored", "refused"):
+        why = ("the correction made it worse and the previous state is back: what the "
+               "calibration campaign shows" if outcome.outcome == "restored" else
+               "nothing was written (the reasons above): what the calibration campaign shows")
+        steps = [NextStep(f"ogacq diagnose {evidence}", why) if evidence is not None else None,
+                 record]
+    else:  # validated, nothing to correct, declined
+        steps = [record]
+    return tuple(step for step in steps if step is not None)

@@ -11,9 +11,9 @@ import typer
 
 from ogacq.cli.options import AcceptEditedOption, PartialOption
 from ogacq.cli.outputs import check_output_folder
-from ogacq.cli.report_history import earlier_calibrations
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
+from ogacq.history.earlier import earlier_calibrations
 from ogacq.io.text import read_text
 from ogacq.record.document import build_record
 from ogacq.record.revision import issue

@@ -13,7 +13,8 @@ import typer
 
 from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
-from ogacq.campaign_file import Campaign, SimulatorSpec, campaign_text
+from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text
+from ogacq.campaign.station import simulator_endpoints, start_simulator
 from ogacq.cli.options import (
     DEFAULT_SEED,
     GaugeProtocol,
@@ -31,7 +32,6 @@ from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE, MachineSpec
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.sim.stack import SimulatorStack
-from ogacq.station import simulator_endpoints, start_simulator
 
 
 def sim(

@@ -18,7 +18,7 @@ from ogacq.cli.options import (
 )
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.wizard import WizardOptions, run_wizard
-from ogacq.cli.wizard.faults import parse_fault
+from ogacq.sim.faults import parse_fault
 
 
 def _faults(values: list[str] | None) -> list:

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import datetime
 import re
+import time
 from pathlib import Path
 from typing import Any
 
@@ -180,3 +181,12 @@ def toml_date_error(source: str | Path, complaint: str, line_text: str,
         return None  # a date TOML reads: the complaint is about the rest of the line
     return DateError(source, key, value, "a TOML date", "TOML needs the seconds, and a "
                      "colon in a UTC offset", TOML_RULE, line)
+
+
+def local_time_text(wall: Any) -> str:
+    """A recorded wall-clock time (seconds since the epoch, as a session's records
+    carry it) the way ogacq writes a time, local with its offset
+    (``2026-01-10T09:00:00+0100``, as session headers are); ``?`` for no number."""
+    if not isinstance(wall, int | float) or isinstance(wall, bool):
+        return "?"
+    return time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(wall))

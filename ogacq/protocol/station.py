@@ -1,7 +1,7 @@
 """What a campaign needs from a station, and the one way to wrap one.
 
 ``Station`` is the runner's whole contract: every method required, none found by
-``hasattr``. The device station (``ogacq.station``), the deadline
+``hasattr``. The device station (``ogacq.campaign.station``), the deadline
 (``ogacq.protocol.deadline``), the wizard's guided station and the tests' doubles
 implement all of it; mypy rejects a station that misses one where the runner is
 given it (tests/test_types.py shows it does).

@@ -25,7 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq import __version__
-from ogacq.campaign import recorded_identification
+from ogacq.campaign.run import recorded_identification
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.io.dates import moment_or_none
@@ -34,11 +34,11 @@ from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import effect_of
 from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.record.evaluation import evaluate
-from ogacq.report.data import campaign_status, offsets_writes
 from ogacq.session.convert import session_machine
 from ogacq.session.header import SessionHeader
-from ogacq.session.state import completeness
+from ogacq.session.state import campaign_status, completeness
 from ogacq.session.store import LoadedSession
+from ogacq.writeback.audit import offsets_writes
 
 FORMAT = "ogacq-record/1"
 

@@ -1,35 +1,52 @@
-"""Everything the report shows, taken from a session (and optionally a validation
-session and a diagnosis), as plain values: the figures and the HTML only lay it out.
+"""The supporting analysis of the report: what the page shows beside the calibration
+record and the record does not hold, taken from the same session (and optionally a
+validation session and a diagnosis) as plain values.
 
+One path: what the record (``ogacq-record/1``, ``ogacq.record.document``) holds, the
+page reads from the record: the campaign's status, readings and planned readings,
+the results with their uncertainty, the verdict, the write-backs (built by
+``ogacq.session.state.campaign_status`` and ``ogacq.writeback.audit.offsets_writes``,
+which the record calls). What stays here is what no record carries:
+- the figures' arrays: the papers' twelve deviations before ("before": Max/Min
+  relative to Zero, averaged over cycles), after as predicted (the same averages of
+  the residuals: what remains once the identified offsets are compensated) and after
+  as measured (a validation campaign run after the write-back); the residual of each
+  reading; the residuals of each step of a diagnosis, refitted here;
+- the fit's statistics beyond its results (residual rms, the sigma it implies, dof,
+  rank, condition number, correlated pairs, why a parameter is not determined) and
+  each parameter at the fit's own precision (the record rounds to 1 nm; the figures
+  and the analysis tables keep the fit's digits);
+- what the session's header and records say beyond the record: the station, the
+  resumes, the campaign's length, other tools' header entries, the faults met, the
+  records a crash cut; and the validation campaign's status and fit (the record
+  keeps only its results).
 The identification is the campaign's own, as it recorded it
-(:func:`ogacq.campaign.recorded_identification`), so the report shows the numbers
-the campaign printed. "Before" deviations are the
-papers' twelve (Max/Min relative to Zero, averaged over cycles) of the readings;
-"after, predicted" are the same averages of the residuals, i.e. what remains once
-the identified offsets are compensated; "after, measured" are the deviations of a
-validation campaign run after the offsets were written back.
+(:func:`ogacq.campaign.run.recorded_identification`), as the record's is, so the
+analysis shows the numbers the campaign printed and the record states.
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
 from ogacq import __version__
-from ogacq.campaign import recorded_identification
+from ogacq.campaign.run import recorded_identification
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.observations import Deviation, Observations, averaged_deviations
+from ogacq.io.dates import local_time_text
 from ogacq.io.errors import InputError
 from ogacq.model.measurement import POSTURE_NAMES
 from ogacq.model.parameters import AXES, PARAM_INDEX, effect_of
 from ogacq.report.diagnosis_view import DiagnosisView
 from ogacq.session.convert import session_machine
-from ogacq.session.records import EndRecord, FaultRecord, Record, ResumeRecord
+from ogacq.session.records import FaultRecord, ResumeRecord
+from ogacq.session.state import CampaignStatus, campaign_status
 from ogacq.session.store import LoadedSession
-from ogacq.writeback.audit import operations
 
 POSTURE_OF_SIGN = {"+": "max", "-": "min"}
 Z95 = 1.959964  # two-sided 95 % of the normal distribution
@@ -65,10 +82,6 @@ class FitSummary:
     reasons: tuple[str, ...]
     correlated_pairs: tuple[tuple[str, str, float], ...]
     method: str
-    # The one consistency test's verdict (ogacq/identify/consistency.py), as stated
-    # by every other command: its state, its sentence, the level it was judged at.
-    verdict: str = "undetermined"
-    verdict_text: str = ""
 
     @property
     def misfit_ratio(self) -> float:
@@ -113,33 +126,6 @@ class ModelStep:
 
 
 @dataclass(frozen=True)
-class CampaignStatus:
-    status: str  # "complete", "stopped", "interrupted", "incomplete"
-    readings: int
-    planned: int | None
-    reason: str | None
-    faults: tuple[str, ...]
-    torn: tuple[str, ...]  # load warnings: a record cut by a crash
-
-    @property
-    def complete(self) -> bool:
-        return self.status == "complete"
-
-
-@dataclass(frozen=True)
-class OffsetsWrite:
-    """A write-back (or restore) of joint offsets into the controller, from the audit
-    records the write-back appends to the session."""
-
-    when: str
-    action: str  # "write" or "restore"
-    status: str  # "done", "failed", "interrupted"
-    old_mm: dict[str, float]
-    new_mm: dict[str, float]  # as read back when done, else as intended
-    details: str  # controller profile, saved to non-volatile memory, operation id
-
-
-@dataclass(frozen=True)
 class Provenance:
     session_path: str
     software: str  # that recorded the session
@@ -169,7 +155,7 @@ class ValidationRun:
 @dataclass(frozen=True)
 class ReportData:
     provenance: Provenance
-    status: CampaignStatus
+    faults: tuple[str, ...]  # the faults the campaign met, in words
     fit: FitSummary | None
     deviations: tuple[DeviationRow, ...]
     residuals: ResidualSeries | None
@@ -177,45 +163,12 @@ class ReportData:
     diagnosis: DiagnosisView | None
     diagnosis_steps: tuple[ModelStep, ...]
     diagnosis_note: str | None
-    writes: tuple[OffsetsWrite, ...]
-    notes: tuple[str, ...]  # what a reader must know before trusting the numbers
+    # what a reader must know before trusting the numbers, after what the record says
+    # of its campaign (a partial one): a record cut by a crash, a fit that failed
+    notes: tuple[str, ...]
 
 
 # --- the session as a campaign ------------------------------------------------------------
-
-def campaign_status(session: LoadedSession) -> CampaignStatus:
-    ends = session.of_type(EndRecord)
-    last = ends[-1] if ends else None
-    readings = len(session.readings)
-    if last is None:
-        status, reason = "incomplete", None
-    else:
-        status, reason = last.status, last.reason
-        # a resumed campaign that has not finished yet ends on its earlier stop
-        if _last_index(session, EndRecord) < _last_index(session, ResumeRecord):
-            status, reason = "incomplete", None
-    faults = tuple(f.describe() for f in session.of_type(FaultRecord))
-    return CampaignStatus(status, readings, _planned_readings(session), reason, faults,
-                          tuple(session.warnings))
-
-
-def _last_index(session: LoadedSession, kind: type[Record]) -> int:
-    found = [k for k, r in enumerate(session.records) if isinstance(r, kind)]
-    return found[-1] if found else -1
-
-
-def _planned_readings(session: LoadedSession) -> int | None:
-    plan = session.header.plan
-    if plan is None:
-        return None
-    from ogacq.protocol.plan import ProtocolConfig, reading_steps
-
-    try:
-        steps = reading_steps(ProtocolConfig.from_dict(plan), session_machine(session))
-    except (ValueError, TypeError, KeyError, InputError):
-        return None
-    return sum(len(s.gauges) for s in steps)
-
 
 def provenance(session: LoadedSession) -> Provenance:
     h = session.header
@@ -232,7 +185,8 @@ def provenance(session: LoadedSession) -> Provenance:
         if key not in ("controller", "gauges", "simulated"):
             described.append((key.replace("_", " "), _describe(value)
                               if isinstance(value, dict) else str(value)))
-    resumes = tuple(f"{_wall(r.wall)} with {r.software}" for r in session.of_type(ResumeRecord))
+    resumes = tuple(f"{local_time_text(r.wall)} with {r.software}"
+                    for r in session.of_type(ResumeRecord))
     times = [r.t_s for r in session.readings]
     simulator = dict(h.simulator) if h.simulator is not None else None
     return Provenance(
@@ -273,40 +227,11 @@ def _describe(d: dict) -> str:
                      for k, v in d.items() if v not in (None, "", [], {}))
 
 
-def _wall(wall: Any) -> str:
-    if not isinstance(wall, int | float):
-        return "?"
-    return time.strftime("%Y-%m-%dT%H:%M:%S%z", time.localtime(wall))
-
-
-def offsets_writes(session: LoadedSession) -> tuple[OffsetsWrite, ...]:
-    """The write-backs recorded in the session, as the write-back package reads its own
-    audit records."""
-    out = []
-    for op in operations(session):
-        saved = ("saved to non-volatile memory" if op.nvm_saved
-                 else "not saved to non-volatile memory")
-        if op.survives_power_cycle is True and not op.nvm_saved:
-            saved = "in the software offset table: survives a power cycle"
-        elif op.survives_power_cycle is True:
-            saved = "saved to non-volatile memory: survives a power cycle"
-        elif op.survives_power_cycle is False:
-            saved = ("not saved to non-volatile memory: a power cycle brings back the "
-                     "offsets the drive saved before")
-        details = ", ".join(d for d in (f"controller {op.profile}" if op.profile else "",
-                                        saved, f"operation {op.operation}") if d)
-        out.append(OffsetsWrite(_wall(op.wall), op.action, op.status, dict(op.old_mm),
-                                dict(op.new_mm), details))
-    return tuple(out)
-
 
 # --- identification -----------------------------------------------------------------------
 
 def summarise(result: FitResult) -> FitSummary:
-    from ogacq.identify.consistency import fit_verdict
-
     ident = result.identifiability
-    verdict = fit_verdict(result)
     rows = tuple(ParameterRow(n, effect_of(n).unit, float(v), float(s))
                  for n, v, s in zip(result.names, result.values, result.std, strict=True))
     return FitSummary(
@@ -316,7 +241,7 @@ def summarise(result: FitResult) -> FitSummary:
         noise_dof=result.noise.dof, rank=ident.rank,
         condition_number=ident.condition_number, identifiable=ident.identifiable,
         reasons=tuple(ident.reasons), correlated_pairs=tuple(ident.correlated_pairs),
-        method=result.method, verdict=verdict.state, verdict_text=verdict.describe())
+        method=result.method)
 
 
 def residual_series(session: LoadedSession, residual_mm: np.ndarray) -> ResidualSeries:
@@ -402,7 +327,9 @@ def _identify(session: LoadedSession) -> tuple[FitResult | None, str | None]:
         return None, f"the joint offsets could not be identified: {exc}"
 
 
-def _status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
+def status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
+    """What a campaign that did not finish means for what the page shows, and each
+    record a crash cut."""
     notes = []
     if not status.complete:
         planned = f" of {status.planned} planned" if status.planned else ""
@@ -413,15 +340,18 @@ def _status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
         notes.append(f"This {what} {state}{why}: {status.readings} readings{planned}. "
                      "Everything below comes from the readings on file only; legs or "
                      "postures that were not read cannot show.")
-    notes += [f"A record cut by a crash was dropped: {w}" for w in status.torn]
-    return notes
+    return notes + torn_notes(status.torn)
+
+
+def torn_notes(warnings: Sequence[str]) -> list[str]:
+    """Each record a crash cut (the session's load warnings), as the page says it."""
+    return [f"A record cut by a crash was dropped: {w}" for w in warnings]
 
 
 def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
             diagnosis: DiagnosisView | None = None,
             diagnosis_note: str | None = None) -> ReportData:
-    status = campaign_status(session)
-    notes = _status_notes(status)
+    notes = torn_notes(session.warnings)
     result, problem = _identify(session)
     if problem:
         notes.append(problem)
@@ -433,8 +363,8 @@ def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
     if validation is not None:
         v_status = campaign_status(validation)
         validation_fit, v_problem = _identify(validation)
-        v_notes = _status_notes(v_status, "validation campaign") + ([v_problem] if v_problem
-                                                                      else [])
+        v_notes = status_notes(v_status, "validation campaign") + ([v_problem] if v_problem
+                                                                     else [])
         if session_machine(validation) != session_machine(session):
             v_notes.append("the validation session was recorded with another machine "
                            "description than the calibration session")
@@ -449,10 +379,11 @@ def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
             diagnosis_note = "; ".join(n for n in (diagnosis_note, step_note) if n)
 
     return ReportData(
-        provenance=provenance(session), status=status,
+        provenance=provenance(session),
+        faults=tuple(f.describe() for f in session.of_type(FaultRecord)),
         fit=summarise(result) if result is not None else None,
         deviations=deviation_rows(result, validation_fit) if result is not None else (),
         residuals=residual_series(session, result.residuals) if result is not None else None,
         validation=validation_run, diagnosis=diagnosis, diagnosis_steps=steps,
-        diagnosis_note=diagnosis_note, writes=offsets_writes(session), notes=tuple(notes))
+        diagnosis_note=diagnosis_note, notes=tuple(notes))
 

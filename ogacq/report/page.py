@@ -19,7 +19,7 @@ from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.report.cells import Badge, Cell, Lines, Table
 from ogacq.report.cells import table as _table
-from ogacq.report.data import CampaignStatus, FitSummary, OffsetsWrite, ParameterRow, ReportData
+from ogacq.report.data import FitSummary, ParameterRow, ReportData, status_notes
 from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
 from ogacq.report.figures import FigureFile
 from ogacq.report.formatting import (
@@ -32,6 +32,7 @@ from ogacq.report.formatting import (
     um,
 )
 from ogacq.report.record_view import css_string, record_view, revision_label, shown
+from ogacq.session.state import CampaignStatus
 from ogacq.uncertainty.reporting import two_digits
 
 _TEMPLATES = jinja2.Environment(loader=jinja2.PackageLoader("ogacq.report", "templates"),
@@ -46,6 +47,15 @@ class Figure(NamedTuple):
 
 
 # --- sentences ----------------------------------------------------------------------------
+
+def recorded_status(record: CalibrationRecord, faults: tuple[str, ...] = ()) -> CampaignStatus:
+    """The campaign's status as the record states it (``campaign``: status, readings,
+    planned, reason), with the faults the session lists (the record has none)."""
+    campaign = record.campaign or {}
+    return CampaignStatus(str(campaign.get("status") or "incomplete"),
+                          int(campaign.get("readings") or 0), campaign.get("planned"),
+                          campaign.get("reason"), faults, ())
+
 
 def status_badge(status: CampaignStatus) -> Badge:
     if status.complete:
@@ -67,15 +77,24 @@ def session_notes(record: Mapping[str, Any]) -> list[str]:
     return notes + Integrity(str(session.get("integrity") or "sealed"), edited).notes()
 
 
-def misfit_sentence(fit: FitSummary) -> tuple[str, str]:
-    """(badge kind, sentence): the consistency test's verdict, as every command states
-    it, and what it means for the offsets."""
-    kind = {"consistent": "ok", "inconsistent": "bad"}.get(fit.verdict, "info")
+def recorded_verdict(record: CalibrationRecord) -> tuple[str, str]:
+    """The record's verdict (``verdict``: the one consistency test's, as every command
+    states it): its state and its sentence; undetermined without one."""
+    # the section as record.json holds it, whichever type reads it
+    verdict = record.to_json().get("verdict") or {}
+    return str(verdict.get("state") or "undetermined"), str(verdict.get("text") or "")
+
+
+def misfit_sentence(verdict: tuple[str, str]) -> tuple[str, str]:
+    """(badge kind, sentence): the record's verdict (``recorded_verdict``) and what it
+    means for the offsets."""
+    state, text = verdict
+    kind = {"consistent": "ok", "inconsistent": "bad"}.get(state, "info")
     meaning = {"ok": "the joint offsets explain the readings.",
                "bad": "the model leaves something out, so the offsets alone will not make "
                       "the machine accurate (see the diagnosis).",
                "info": "nothing can be concluded from these readings."}[kind]
-    return kind, f"{fit.verdict_text}: {meaning}"
+    return kind, f"{text}: {meaning}"
 
 
 def _fit_badge(kind: str) -> Badge:
@@ -170,16 +189,6 @@ def _parameters(fit: FitSummary, validation: FitSummary | None,
             row.append(_headline(other, record.validation_results) if other else "-")
         rows.append(row)
     return _table(header, rows, [False, True, True] + ([True] if validation else []))
-
-
-def _write(w: OffsetsWrite) -> dict[str, Any]:
-    kind = {"done": "ok", "failed": "bad"}.get(w.status, "warn")
-    rows: list[list[Cell]] = [[a, signed(w.old_mm.get(a), 5), signed(w.new_mm.get(a), 5)]
-                              for a in sorted({*w.old_mm, *w.new_mm})]
-    return {"badge": Badge(f"{w.action} {w.status}", kind), "when": w.when,
-            "details": w.details,
-            "table": _table(["joint offset", "before (mm)", "after (mm)"], rows,
-                            [False, True, True])}
 
 
 def _residuals(fit: FitSummary) -> Table:
@@ -288,7 +297,7 @@ def _provenance(data: ReportData) -> Table:
                              f"{plan.get('approach', '?')}"])
     rows += [[what, desc] for what, desc in (*p.station, *p.other)]
     rows += [["resumed", r] for r in p.resumes]
-    rows += [["fault", f] for f in data.status.faults]
+    rows += [["fault", f] for f in data.faults]
     if data.validation is not None:
         v = data.validation.provenance
         rows.append(["validation session", f"{v.session_path} ({v.software}, started "
@@ -313,23 +322,23 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
                or p.machine_file or "machine")
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
+    status = recorded_status(typed, data.faults)
     context: dict[str, Any] = record_view(record) | {
         "page_issued": css_string(str(typed.issued)),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
         "title": f"Calibration record {revision_label(record)}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
-        "status_badge": status_badge(data.status), "um": um,
+        "status": status, "status_badge": status_badge(status), "um": um,
+        "notes": status_notes(status) + list(data.notes),
         "session_notes": session_notes(record),
         "figures": {f.name.removesuffix(".png"): Figure(base64.b64encode(f.png).decode("ascii"),
                                                          f.description, f.name)
                     for f in figures},
         "deviations": deviations, "deviations_after": deviations_after,
         "validation_fit": validation_fit,
-        "writes": [_write(w) for w in data.writes],
-        "last_write": data.writes[-1] if data.writes else None,
         "provenance": _provenance(data)}
     if fit is not None:
-        kind, sentence = misfit_sentence(fit)
+        kind, sentence = misfit_sentence(recorded_verdict(typed))
         context |= {"offsets": _offsets_inline(fit, typed.results),
                     "fit_badge": _fit_badge(kind),
                     "fit_sentence": sentence,

@@ -20,7 +20,7 @@ from typing import Any
 from ogacq.errors import OgacqError, Refused
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
 from ogacq.session.convert import session_machine
-from ogacq.session.records import EndRecord, ResumeRecord
+from ogacq.session.records import EndRecord, FaultRecord, Record, ResumeRecord
 from ogacq.session.store import LoadedSession, lock_holder
 
 COMPLETE = "complete"
@@ -73,6 +73,45 @@ def planned_readings(session: LoadedSession) -> int | None:
         return sum(len(step.gauges) for step in reading_steps(config, session_machine(session)))
     except (OgacqError, TypeError, ValueError, KeyError, AttributeError):
         return None
+
+
+@dataclass(frozen=True)
+class CampaignStatus:
+    """How the session's campaign ended, as its record states it (``campaign``:
+    status, readings, planned, reason), with the faults it met and the records a crash
+    cut (load warnings)."""
+
+    status: str  # "complete", "stopped", "interrupted", "incomplete"
+    readings: int
+    planned: int | None
+    reason: str | None
+    faults: tuple[str, ...]
+    torn: tuple[str, ...]
+
+    @property
+    def complete(self) -> bool:
+        return self.status == COMPLETE
+
+
+def campaign_status(session: LoadedSession) -> CampaignStatus:
+    """The last end record's status, or ``incomplete`` when there is none, or when the
+    campaign was resumed after it and has not ended since."""
+    ends = session.of_type(EndRecord)
+    last = ends[-1] if ends else None
+    if last is None:
+        status, reason = "incomplete", None
+    else:
+        status, reason = last.status, last.reason
+        if _last_index(session, EndRecord) < _last_index(session, ResumeRecord):
+            status, reason = "incomplete", None
+    faults = tuple(f.describe() for f in session.of_type(FaultRecord))
+    return CampaignStatus(status, len(session.readings), planned_readings(session), reason,
+                          faults, tuple(session.warnings))
+
+
+def _last_index(session: LoadedSession, kind: type[Record]) -> int:
+    found = [k for k, r in enumerate(session.records) if isinstance(r, kind)]
+    return found[-1] if found else -1
 
 
 def completeness(session: LoadedSession, *, probe_lock: bool = True) -> Completeness:

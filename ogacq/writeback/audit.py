@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from ogacq.errors import StorageError
+from ogacq.io.dates import local_time_text
 from ogacq.session.records import MapsRecord, OffsetsRecord
 from ogacq.session.store import LoadedSession, SessionWriter
 
@@ -133,3 +134,37 @@ def operations(session: LoadedSession) -> list[Operation]:
 def last_write(session: LoadedSession) -> Operation | None:
     writes = [op for op in operations(session) if op.action == "write"]
     return writes[-1] if writes else None
+
+
+@dataclass(frozen=True)
+class OffsetsWrite:
+    """A write-back (or restore) of joint offsets as the record states it: its
+    ``writeback`` entries (docs/calibration-record.md section 5)."""
+
+    when: str
+    action: str  # "write" or "restore"
+    status: str  # "done", "failed", "interrupted"
+    old_mm: dict[str, float]
+    new_mm: dict[str, float]  # as read back when done, else as intended
+    details: str  # controller profile, saved to non-volatile memory, operation id
+
+
+def offsets_writes(session: LoadedSession) -> tuple[OffsetsWrite, ...]:
+    """The write-backs recorded in the session, in words: where the values were kept
+    and whether they outlive a power cycle."""
+    out = []
+    for op in operations(session):
+        saved = ("saved to non-volatile memory" if op.nvm_saved
+                 else "not saved to non-volatile memory")
+        if op.survives_power_cycle is True and not op.nvm_saved:
+            saved = "in the software offset table: survives a power cycle"
+        elif op.survives_power_cycle is True:
+            saved = "saved to non-volatile memory: survives a power cycle"
+        elif op.survives_power_cycle is False:
+            saved = ("not saved to non-volatile memory: a power cycle brings back the "
+                     "offsets the drive saved before")
+        details = ", ".join(d for d in (f"controller {op.profile}" if op.profile else "",
+                                        saved, f"operation {op.operation}") if d)
+        out.append(OffsetsWrite(local_time_text(op.wall), op.action, op.status,
+                                dict(op.old_mm), dict(op.new_mm), details))
+    return tuple(out)

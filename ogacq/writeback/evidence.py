@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ogacq.campaign import identify_session
+from ogacq.campaign.run import identify_session
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult, StopReason
 from ogacq.io.errors import InputError

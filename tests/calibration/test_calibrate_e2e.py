@@ -15,6 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -162,7 +163,7 @@ def test_killed_at_two_points_it_resumes_to_the_same_end(straight, tmp_path):
     assert np.all(np.abs(ours.error_mm(q, 1) - theirs.error_mm(q, 1)) <= tolerance)
 
 
-def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatch):
+def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatch, capsys):
     made = procedure.compensation_of
 
     def wrong_sign(*args, **kwargs):
@@ -180,6 +181,9 @@ def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatc
                  "--seed", SEED, "--out", str(folder), *FAST, "--no-separate",
                  "--history", str(history)])
     assert code == 4  # restored: refused as unsafe
+    end = capsys.readouterr().err
+    assert re.search(r"^record: OGQ-\d{8}-[0-9a-f]{8} \(", end, re.M), end
+    assert f"next: ogacq diagnose {folder / 'calibration.jsonl'}" in end, end
     finished = step(folder, "finished")
     assert finished["outcome"] == "restored" and "grew" in finished["reason"]
     restored = step(folder, "restored")

@@ -73,7 +73,7 @@ def test_unreachable_controller_is_named_and_nothing_is_written(tmp_path):
 
 def test_one_indicator_may_serve_one_gauge_per_leg(tmp_path):
     """The papers' two indicators, moved leg to leg: accepted, and known as moved."""
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
 
     (tmp_path / "machine.toml").write_text(MACHINE)
     path = tmp_path / "campaign.toml"
@@ -90,7 +90,7 @@ NEW_CABLES = {"y_x": ("usb-itn", "usb"), "z_x": ("usb-itn-keyboard", "keyboard")
 
 
 def test_every_cable_is_named_like_the_others(tmp_path):
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
 
     (tmp_path / "machine.toml").write_text(MACHINE)
     path = tmp_path / "campaign.toml"
@@ -108,7 +108,7 @@ def test_every_cable_is_named_like_the_others(tmp_path):
     ('gauge_layout = "multiplexer"\ngauge_protocol = "usb-itn"', "01A box"),
 ])
 def test_bad_simulated_protocols_are_refused_with_line(tmp_path, table, words):
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
     from ogacq.io.errors import InputError
 
     (tmp_path / "machine.toml").write_text(MACHINE)
@@ -120,7 +120,7 @@ def test_bad_simulated_protocols_are_refused_with_line(tmp_path, table, words):
 
 
 def test_simulated_protocols_go_into_the_session_header_for_a_resume(tmp_path):
-    from ogacq.campaign_file import SimulatorSpec, read_campaign
+    from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
 
     (tmp_path / "machine.toml").write_text(MACHINE)
     path = tmp_path / "campaign.toml"
@@ -132,7 +132,7 @@ def test_simulated_protocols_go_into_the_session_header_for_a_resume(tmp_path):
 
 
 def test_endpoint_per_axis_and_unit_ids(tmp_path):
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
 
     (tmp_path / "machine.toml").write_text(MACHINE)
     path = tmp_path / "campaign.toml"
@@ -158,7 +158,7 @@ def test_endpoint_per_axis_and_unit_ids(tmp_path):
      'z = { port = "a:2" }\n', "device id 255 cannot be addressed over Modbus RTU"),
 ])
 def test_bad_axis_endpoints_refused(tmp_path, axes, words):
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
     from ogacq.io.errors import InputError
 
     (tmp_path / "machine.toml").write_text(MACHINE)

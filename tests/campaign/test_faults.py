@@ -4,11 +4,11 @@ import pytest
 
 from ogacq_drivers.axes.reconnect import ReconnectPolicy
 from ogacq_drivers.sim.gauges import Fault
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.station import open_station
 from ogacq.protocol.runner import CampaignRunner, CampaignStopped, Progress
 from ogacq.session.records import EndRecord, FaultRecord
 from ogacq.session.store import SessionWriter, load_session
-from ogacq.station import open_station
 from tests.campaign.conftest import write_campaign
 
 FAST = "\n[stability]\nreadings = 2\ntolerance_mm = 0.003\ntimeout_s = 1.0\n"

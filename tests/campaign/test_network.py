@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.protocol.deadline import default_deadline_s
 from ogacq.session.records import EndRecord, FaultRecord, ReconnectRecord
 from ogacq.session.store import load_session

@@ -14,7 +14,7 @@ import io
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.cli.app import main
 from ogacq.session.records import EndRecord, ReconnectRecord, ReferenceRecord
 from ogacq.session.store import load_session

@@ -6,7 +6,7 @@ from collections import Counter
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.model.machine import PAPER_PROTOTYPE
 from ogacq.protocol.plan import (
     Move,

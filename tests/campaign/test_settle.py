@@ -12,7 +12,8 @@ from ogacq_drivers.errors import DeviceTimeout, DriverError
 from ogacq_drivers.indicators.base import Reading
 from ogacq_drivers.indicators.concurrent import line_groups
 from ogacq_drivers.indicators.rest import RestJudge
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.station import open_station
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import PAPER_PROTOTYPE
 from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, reading_steps
@@ -25,7 +26,6 @@ from ogacq.protocol.station import (
 from ogacq.session.records import FaultRecord, SettleRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.sim.truth import Vibration
-from ogacq.station import open_station
 from tests.campaign.conftest import write_campaign
 from tests.campaign.station_double import StationDouble
 

@@ -108,8 +108,9 @@ def test_the_deadline_counts_the_work_and_stops_the_campaign_past_it():
 
 def _station_modules() -> list[Path]:
     """The runner and every station: the device's, the deadline, the wizard's."""
-    return [*sorted((ROOT / "ogacq" / "protocol").glob("*.py")), ROOT / "ogacq" / "station.py",
-            ROOT / "ogacq" / "campaign.py", ROOT / "ogacq" / "cli" / "wizard" / "guided_station.py"]
+    return [*sorted((ROOT / "ogacq" / "protocol").glob("*.py")),
+            ROOT / "ogacq" / "campaign" / "station.py", ROOT / "ogacq" / "campaign" / "run.py",
+            ROOT / "ogacq" / "cli" / "wizard" / "guided_station.py"]
 
 
 @pytest.mark.parametrize("path", _station_modules(), ids=lambda p: p.name)

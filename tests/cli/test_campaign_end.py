@@ -10,12 +10,12 @@ import re
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.traceability import traceability_gaps
 from ogacq.errors import InputError
 from ogacq.session.records import EndRecord
 from ogacq.session.series import earlier_in_series, next_session
 from ogacq.session.store import SessionWriter, load_session
-from ogacq.traceability import traceability_gaps
 from tests.campaign.conftest import CONTROLLER, HEAD, MACHINE, gauge, write_campaign
 from tests.writeback.conftest import FAST_STABILITY, ogacq_here, synthetic_session
 

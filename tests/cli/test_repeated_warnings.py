@@ -11,9 +11,9 @@ import pytest
 
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators.base import read_stable
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.station import open_station
 from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
-from ogacq.station import open_station
 from tests.campaign.conftest import write_campaign
 
 

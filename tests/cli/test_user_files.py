@@ -15,9 +15,9 @@ from pathlib import Path
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.templates import campaign_template, machine_template
 from ogacq.cli.app import main
-from ogacq.file_templates import campaign_template, machine_template
 from ogacq.io.machine_file import read_machine
 from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE

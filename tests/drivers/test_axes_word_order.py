@@ -18,7 +18,7 @@ from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.preflight import PreflightError, probe_move
 from ogacq_drivers.axes.profile import load_profile
-from ogacq.station import DeviceStation
+from ogacq.campaign.station import DeviceStation
 from tests.emulators.drives import Cia402Drive, EmulatorServer
 
 pytestmark = pytest.mark.filterwarnings("ignore:isSet:DeprecationWarning")

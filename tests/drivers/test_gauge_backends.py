@@ -15,9 +15,9 @@ from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import BACKENDS, codec, register, registered, unregister
 from ogacq_drivers.indicators.backend import Backend, Codec, ConnectionHints, Example
 from ogacq_drivers.indicators.mitutoyo_01a import decode
-from ogacq.campaign_file import GaugeSpec
+from ogacq.campaign.campaign_file import GaugeSpec
+from ogacq.campaign.station import open_gauges
 from ogacq.sim.stack import make_gauge
-from ogacq.station import open_gauges
 from tests.drivers.backend_parts import missing_parts
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -16,8 +16,8 @@ from rich.console import Console
 from ogacq_drivers.errors import DeviceFault
 from ogacq_drivers.indicators import BACKENDS, codec, open_indicator, registered
 from ogacq_drivers.sim.gauges import Fault, GaugeEndpoint
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.run import run_campaign
 from ogacq.cli.wizard.connect import show_hints
 from ogacq.cli.wizard.ui import Screen
 from ogacq.errors import InputError

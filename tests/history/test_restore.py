@@ -9,11 +9,11 @@ import json
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.station import open_controller
 from ogacq.model.parameters import AXES
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
-from ogacq.station import open_controller
 from tests.writeback.conftest import (
     controller_offsets,
     ogacq_here,

@@ -7,14 +7,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ogacq.campaign import identify_session
+from ogacq.campaign.run import identify_session
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.verdict_calibration import Cell, alarm_rate, seeds_of, simulated_observations
 from ogacq.io.tables import write_readings
 from ogacq.model.parameters import PARAM_SETS
-from ogacq.report.data import summarise
+from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.document import build_record
+from ogacq.report.page import recorded_verdict
 from ogacq.session.convert import import_readings, session_observations
 from ogacq.session.store import load_session
 from ogacq.writeback.evidence import evidence_from_session
@@ -52,11 +54,13 @@ def test_every_consumer_states_the_same_verdict(tmp_path, label, make):
 
     diagnosis = diagnose(session_observations(session), separate=False).base
     gate = evidence_from_session(session).verdict
-    report = summarise(identify_session(session))
+    # the report states its record's verdict
+    report_state, report_text = recorded_verdict(CalibrationRecord.from_json(
+        build_record(session)))
     wizard = fit_verdict(identify_session(session))  # what the wizard and refit print
-    assert gate.state == diagnosis.state == report.verdict == wizard.state, label
+    assert gate.state == diagnosis.state == report_state == wizard.state, label
     assert gate.p_value == pytest.approx(diagnosis.p_value, rel=1e-6, abs=1e-12)
-    assert report.verdict_text == gate.describe()
+    assert report_text == gate.describe()
     assert f"judged at the {LEVEL:g} level" in gate.describe()
 
 

@@ -20,7 +20,7 @@ from ogacq_drivers.config_schema import (
     number,
     text,
 )
-from ogacq.campaign_file import (
+from ogacq.campaign.campaign_file import (
     AxisEndpoint,
     Campaign,
     ControllerSpec,

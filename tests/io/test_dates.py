@@ -82,7 +82,7 @@ def test_recorded_values_that_break_the_rule_are_unknown_not_fatal():
 
 
 def _campaign(tmp_path, line: str) -> str:
-    from ogacq.campaign_file import read_campaign
+    from ogacq.campaign.campaign_file import read_campaign
     from ogacq.errors import InputError
     from tests.record.test_identity_files import CAMPAIGN, IDENTIFIED
 

@@ -10,7 +10,7 @@ import shutil
 import numpy as np
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.io.errors import InputError
 from ogacq.io.loading import load_observations
 from ogacq.io.machine_file import read_machine

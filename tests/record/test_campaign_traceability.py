@@ -12,8 +12,9 @@ import pytest
 
 from ogacq_drivers.sim.clock import SimClock
 from ogacq_drivers.sim.motion import MotionModel
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.run import run_campaign
+from ogacq.campaign.station import start_simulator
 from ogacq.errors import Refused
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_INDEX
@@ -22,7 +23,6 @@ from ogacq.session.records import EnvironmentRecord, OverrideRecord
 from ogacq.session.store import load_session
 from ogacq.sim.machine import SimMachine
 from ogacq.sim.truth import random_truth
-from ogacq.station import start_simulator
 from tests.cli.helpers import run_ogacq
 
 MACHINE = """name = "OG-1 cell 3"

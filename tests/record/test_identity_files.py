@@ -7,7 +7,7 @@ import datetime
 
 import pytest
 
-from ogacq.campaign_file import campaign_text, read_campaign
+from ogacq.campaign.campaign_file import campaign_text, read_campaign
 from ogacq.errors import InputError
 from ogacq.io.machine_file import machine_dict, machine_from_mapping, read_machine
 from ogacq.model.instrument import Instrument

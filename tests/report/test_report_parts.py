@@ -163,6 +163,26 @@ def test_a_write_back_recorded_in_the_session_is_shown(session_path, tmp_path):
     assert "x 0 +2.00123" in text and "z 0 -2.00042" in text  # as record.json holds them
 
 
+def test_what_the_record_holds_the_page_takes_from_the_record(session_path):
+    """One path: the campaign's status, the verdict and the write-backs on the page are
+    the record's (given a record that says otherwise than the session, the page says
+    what the record says), while the analysis (deviations, residuals) is the session's."""
+    session = load_session(session_path)
+    record = build_record(session)
+    assert record["campaign"]["status"] == "complete" and not record["writeback"]
+    record["campaign"] |= {"status": "stopped", "reason": "stop pressed", "readings": 40,
+                           "planned": 72}
+    record["verdict"] |= {"state": "inconsistent", "text": "chi2 said so"}
+    record["writeback"] = [{"action": "restore", "status": "failed", "when": "at noon",
+                            "old_mm": {"x": 0.1}, "new_mm": {"x": 0.0}, "details": "no reply"}]
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", render_page(collect(session), (), record)))
+    assert "campaign stopped" in text and "40 readings of 72 planned" in text
+    assert "This campaign stopped before its end (stop pressed): 40 readings of 72" in text
+    assert "chi2 said so: the model leaves something out" in text
+    assert "Written to controller restore failed at noon, see Adjustment" in text
+    assert "Deviations per leg and posture" in text and "residual rms" in text
+
+
 def test_a_scans_error_maps_are_drawn_and_stated(tmp_path):
     """A scan of a machine with a cyclic error on its x screw, diagnosed here: the
     report states the map's place and shape, the chi-square before and after, and

@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from ogacq.campaign import identify_session, recorded_identification
+from ogacq.campaign.run import identify_session, recorded_identification
 from ogacq.model.gauges import GAUGE_KEYS, GAUGES, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, planned_layout

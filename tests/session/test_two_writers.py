@@ -14,8 +14,8 @@ import sys
 
 import pytest
 
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.run import run_campaign
 from ogacq.protocol.runner import CampaignStopped, Progress
 from ogacq.session.records import EndRecord
 from ogacq.session.store import load_session

@@ -6,8 +6,8 @@ import pytest
 
 from ogacq_drivers.indicators import backend
 from ogacq_drivers.sim.gauges import GaugeEndpoint
-from ogacq import station
-from ogacq.campaign_file import GaugeSpec
+from ogacq.campaign import station
+from ogacq.campaign.campaign_file import GaugeSpec
 from ogacq.cli.wizard import connect
 
 

@@ -10,7 +10,7 @@ from dataclasses import replace
 import pytest
 from rich.console import Console
 
-from ogacq.cli.wizard.inventory import KnownGauge, load_inventory
+from ogacq.campaign.inventory import KnownGauge, load_inventory
 from ogacq.cli.wizard.traceability import Indicator, TraceabilityQuestions, temperature
 from ogacq.cli.wizard.ui import Screen
 from ogacq.errors import InputError

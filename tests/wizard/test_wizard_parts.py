@@ -8,18 +8,24 @@ from pathlib import Path
 
 import pytest
 
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, read_campaign
+from ogacq.campaign.campaign_file import (
+    AxisEndpoint,
+    Campaign,
+    ControllerSpec,
+    GaugeSpec,
+    read_campaign,
+)
+from ogacq.campaign.guided import campaign_file_text, run_guided
+from ogacq.campaign.run import run_campaign
 from ogacq.cli.wizard.drawing import leg_drawing
-from ogacq.cli.wizard.execution import campaign_file_text, run_guided
-from ogacq.cli.wizard.expected import ReadingExpectations, deviation_model, travel_needed_mm
-from ogacq.cli.wizard.faults import parse_fault
 from ogacq.cli.wizard.ui import parse_mm
 from ogacq.io.machine_file import read_machine
+from ogacq.model.expected_readings import ReadingExpectations, deviation_model, travel_needed_mm
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.store import load_session
+from ogacq.sim.faults import parse_fault
 from tests.campaign.conftest import write_campaign
 
 MACHINE = MachineSpec(leg_length_mm=310.25, rho_min_mm=-100.0, rho_max_mm=60.0,

@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.record.context import calibration_context
 from ogacq.session.records import EndRecord, FaultRecord, OperatorRecord
 from ogacq.session.store import load_session

@@ -17,7 +17,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.station import open_controller
 from ogacq.cli.app import main
 from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
@@ -25,7 +26,6 @@ from ogacq.model.parameters import AXES, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.store import SessionWriter
-from ogacq.station import open_controller
 from tests.campaign.conftest import MACHINE
 
 SPEED = 50.0  # simulated time runs this much faster

@@ -8,7 +8,7 @@ import json
 
 import pytest
 
-from ogacq.campaign import check_same_maps
+from ogacq.campaign.run import check_same_maps
 from ogacq.errors import InputError
 from ogacq.session.records import MapsRecord, StationRecord
 from ogacq.session.store import SessionWriter, load_session

@@ -12,8 +12,8 @@ import pytest
 
 from ogacq_drivers.axes.preflight import PreflightError
 from ogacq_drivers.axes.profile import load_profile
-from ogacq.campaign import run_campaign
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
+from ogacq.campaign.run import run_campaign
 from ogacq.model.parameters import AXES
 from ogacq.session.records import OffsetsRecord, ReadingRecord
 from ogacq.session.store import load_session

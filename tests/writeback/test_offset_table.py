@@ -6,7 +6,7 @@ import math
 
 import pytest
 
-from ogacq.campaign_file import read_campaign
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
 from ogacq.writeback.table import read_offset_table, write_offset_table

@@ -12,8 +12,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from ogacq.cli.wizard.expected import ReadingExpectations
 from ogacq.cli.wizard.ui import Screen, parse_mm
+from ogacq.model.expected_readings import ReadingExpectations
 from ogacq.model.gauges import Gauge
 from ogacq.protocol.plan import Read
 from ogacq.protocol.station import GaugeValue

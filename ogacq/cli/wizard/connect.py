@@ -18,16 +18,16 @@ from ogacq_drivers.axes.profile import ProfileError, available_profiles, load_pr
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import BACKENDS
 from ogacq_drivers.indicators.backend import load
-from ogacq.campaign_file import ControllerSpec, GaugeSpec
-from ogacq.cli.plain import shown
-from ogacq.cli.wizard.ui import Option, Screen, detail
-from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
-from ogacq.model.parameters import AXES
-from ogacq.station import (  # as the campaign connects
+from ogacq.campaign.campaign_file import ControllerSpec, GaugeSpec
+from ogacq.campaign.station import (  # as the campaign connects
     is_modbus_tcp,
     open_controller,
     open_gauges,
 )
+from ogacq.cli.plain import shown
+from ogacq.cli.wizard.ui import Option, Screen, detail
+from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
+from ogacq.model.parameters import AXES
 
 BY_EYE = "by eye"
 

@@ -19,8 +19,7 @@ from typing import Any
 
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators import DEFAULT_PROTOCOL
-from ogacq.campaign import CampaignOutcome, gauges_read_by_eye, identify_session
-from ogacq.campaign_file import (
+from ogacq.campaign.campaign_file import (
     AxisEndpoint,
     Campaign,
     ControllerSpec,
@@ -28,8 +27,18 @@ from ogacq.campaign_file import (
     GaugeSpec,
     SimulatorSpec,
 )
+from ogacq.campaign.guided import (
+    Rehearsal,
+    campaign_file_text,
+    rehearsal_controller_file,
+    run_guided,
+    start_rehearsal,
+)
+from ogacq.campaign.inventory import KnownGauge, load_inventory, unreadable_inventory
+from ogacq.campaign.run import CampaignOutcome, gauges_read_by_eye, identify_session
+from ogacq.campaign.station import DeviceStation
+from ogacq.campaign.traceability import simulated_gauges
 from ogacq.cli.campaign_end import CampaignEnd, NextStep, campaign_end
-from ogacq.cli.history_record import record_campaign
 from ogacq.cli.options import DEFAULT_SEED
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
@@ -42,26 +51,18 @@ from ogacq.cli.wizard.connect import (
     gauges_of,
     test_read,
 )
-from ogacq.cli.wizard.execution import (
-    Rehearsal,
-    campaign_file_text,
-    rehearsal_controller_file,
-    run_guided,
-    start_rehearsal,
-)
-from ogacq.cli.wizard.expected import ReadingExpectations
-from ogacq.cli.wizard.faults import FaultInjector, FaultPlan
 from ogacq.cli.wizard.gauge_setting import LegSetter, RunHandles
 from ogacq.cli.wizard.guided_station import GuidedStation
-from ogacq.cli.wizard.inventory import KnownGauge, load_inventory, unreadable_inventory
 from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_report, offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
 from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
+from ogacq.history.recording import record_campaign
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
+from ogacq.model.expected_readings import ReadingExpectations
 from ogacq.model.machine import (
     PAPER_PROTOTYPE,
     PAPER_PROTOTYPE_DIGITAL,
@@ -82,8 +83,7 @@ from ogacq.session.records import (
 )
 from ogacq.session.series import next_session
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
-from ogacq.station import DeviceStation
-from ogacq.traceability import simulated_gauges
+from ogacq.sim.faults import FaultInjector, FaultPlan
 
 EXIT_DONE = 0
 EXIT_QUIT = 130

@@ -24,9 +24,9 @@ from rich.text import Text
 from ogacq_drivers.errors import DriverError
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
-from ogacq.cli.wizard.expected import ReadingExpectations, travel_needed_mm
 from ogacq.cli.wizard.guided_station import GuidedStation
 from ogacq.cli.wizard.ui import Option, Screen, detail, keys, parse_mm
+from ogacq.model.expected_readings import ReadingExpectations, travel_needed_mm
 from ogacq.model.gauges import Gauge, gauges_on
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import posture_tcp

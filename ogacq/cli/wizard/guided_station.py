@@ -14,8 +14,9 @@ from typing import Any
 
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators.base import read_stable
-from ogacq.cli.wizard.expected import ReadingExpectations
+from ogacq.campaign.station import DeviceStation
 from ogacq.cli.wizard.pause import InterruptGate
+from ogacq.model.expected_readings import ReadingExpectations
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
 from ogacq.protocol.station import (
     GaugeValue,
@@ -25,7 +26,6 @@ from ogacq.protocol.station import (
     StationWrapper,
     settle_unjudged,
 )
-from ogacq.station import DeviceStation
 
 # Asks for one reading of a gauge read by eye, at a plan step; returns its value.
 AskReading = Callable[[str, Read], GaugeValue]

@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 from rich.table import Table
 
-from ogacq.campaign import CampaignOutcome
+from ogacq.campaign.run import CampaignOutcome
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict

@@ -14,14 +14,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from ogacq.campaign.inventory import Inventory, KnownGauge
+from ogacq.campaign.traceability import expired_instruments
 from ogacq.cli.plain import shown
-from ogacq.cli.wizard.inventory import Inventory, KnownGauge
 from ogacq.cli.wizard.pause import OperatorQuit
 from ogacq.cli.wizard.ui import Option, Screen
 from ogacq.io.dates import DateError, parse_date
 from ogacq.model.instrument import Instrument
 from ogacq.model.machine import MachineSpec
-from ogacq.traceability import expired_instruments
 
 # The shop-floor range a temperature is accepted in (as the campaign file's)
 LOWEST_C, HIGHEST_C = -40.0, 80.0

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -23,9 +24,19 @@ from ogacq.model.gauges import Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
 from ogacq.model.parameters import AXES, vector
-from ogacq.protocol.plan import Read
 
 _STEP_MM = 1e-3  # finite-difference step on the joint offsets
+
+
+class PlannedReading(Protocol):
+    """What a planned reading says here: its posture and the gauges read there (the
+    plan's ``Read`` is one; the model sits below the plan and does not import it)."""
+
+    @property
+    def gauges(self) -> Sequence[str]: ...
+
+    @property
+    def q_mm(self) -> Sequence[float]: ...
 
 
 def gauge_axes(gauge: str) -> tuple[int, int]:
@@ -45,7 +56,7 @@ def deviation_model(machine: MachineSpec, gauge: str, q_set_mm: Sequence[float],
     return float(deviations[0]), (deviations[1:] - deviations[0]) / _STEP_MM
 
 
-def travel_needed_mm(machine: MachineSpec, gauge: str, steps: Iterable[Read],
+def travel_needed_mm(machine: MachineSpec, gauge: str, steps: Iterable[PlannedReading],
                      max_offset_mm: float) -> float:
     """Largest move of this gauge's reading over the plan's postures."""
     mine = [s for s in steps if gauge in s.gauges]

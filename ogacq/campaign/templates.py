@@ -7,7 +7,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from ogacq.campaign_file import Campaign, ControllerSpec, GaugeSpec, campaign_text
+from ogacq.campaign.campaign_file import Campaign, ControllerSpec, GaugeSpec, campaign_text
 from ogacq.io.machine_file import machine_text
 from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE

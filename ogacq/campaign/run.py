@@ -11,7 +11,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.campaign_file import Campaign, read_campaign
+from ogacq.campaign.campaign_file import Campaign, read_campaign
+from ogacq.campaign.station import DeviceStation, open_station
+from ogacq.campaign.traceability import check_instruments, header_entries, read_environment
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.identify.fit import FitResult, evaluate, fit
 from ogacq.identify.plausibility import check_observations, check_result
@@ -30,8 +32,6 @@ from ogacq.session.records import (
     StationRecord,
 )
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
-from ogacq.station import DeviceStation, open_station
-from ogacq.traceability import check_instruments, header_entries, read_environment
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
 
 if TYPE_CHECKING:

@@ -9,13 +9,21 @@ from __future__ import annotations
 import re
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Protocol
 
 from ogacq.model.gauges import GAUGE_KEYS
-from ogacq.protocol import runner
 
 if TYPE_CHECKING:
     from ogacq.sim.stack import SimulatorStack
+
+
+class ReadingsDone(Protocol):
+    """How far a run is: the runner's ``Progress`` is one (the simulator sits below the
+    runner and does not import it)."""
+
+    @property
+    def done(self) -> int: ...
+
 
 _SPEC = re.compile(r"(?P<gauge>[xyz]_[xyz]):(?P<kind>[a-z]+)@(?P<after>\d+)(x(?P<count>\d+))?")
 
@@ -57,5 +65,5 @@ class FaultInjector:
                 self.stack.gauges[plan.gauge].set_fault(plan.kind, count=plan.count)
                 plan.fired = True
 
-    def observe(self, progress: runner.Progress) -> None:
+    def observe(self, progress: ReadingsDone) -> None:
         self.check(progress.done)

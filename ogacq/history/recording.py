@@ -16,11 +16,10 @@ same: the controller was changed.
 from __future__ import annotations
 
 import logging
+import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
-
-import typer
 
 from ogacq.errors import OgacqError
 from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack
@@ -40,7 +39,7 @@ Say = Callable[[str], None]
 
 
 def _say(text: str) -> None:
-    typer.echo(text, err=True)  # stdout stays the command's own (its --json)
+    print(text, file=sys.stderr, flush=True)  # stdout stays the command's own (its --json)
 
 
 def session_record(session: LoadedSession) -> dict[str, Any]:

@@ -10,15 +10,16 @@ the record says so.
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 from typing import Any
-
-import typer
 
 from ogacq.errors import InputError
 from ogacq.record.context import calibration_context
 from ogacq.record.document import session_record_id
 from ogacq.session.store import LoadedSession
+
+log = logging.getLogger("ogacq.history")
 
 
 def earlier_calibrations(option: str | None, session: LoadedSession,
@@ -31,7 +32,7 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
     try:
         location = history_for_session(option, Path(session.path))
     except InputError as exc:  # a URL that cannot be parsed: the report is made without it
-        typer.echo(f"ogacq: warning: no history plotted: {exc}", err=True)
+        log.warning("no history plotted: %s", exc)
         return None, f"the history named cannot be used: {exc}"
     if location is None:
         return None, "the history is switched off (--history none)"

@@ -2,7 +2,7 @@
 session format as ``ogacq run``; and the campaign file written beside the
 session so ``ogacq resume`` can continue it.
 
-``run_guided`` is ``ogacq.campaign.run_campaign`` with the opened station
+``run_guided`` is ``ogacq.campaign.run.run_campaign`` with the opened station
 wrapped (checkpoints for Ctrl-C, gauges read by eye, live values).
 """
 
@@ -13,18 +13,18 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.campaign import CampaignOutcome, EnvironmentAsker, StationAdapter, run_campaign
-from ogacq.campaign_file import (
+from ogacq.campaign.campaign_file import (
     Campaign,
     ControllerSpec,
     GaugeSpec,
     SimulatorSpec,
     campaign_text,
 )
+from ogacq.campaign.run import CampaignOutcome, EnvironmentAsker, StationAdapter, run_campaign
+from ogacq.campaign.station import simulator_endpoints, start_simulator
 from ogacq.io.atomic import write_atomically
 from ogacq.protocol.runner import GaugeSetter, Observer
 from ogacq.session.store import LoadedSession
-from ogacq.station import simulator_endpoints, start_simulator
 
 if TYPE_CHECKING:
     from ogacq.sim.stack import SimulatorStack
@@ -47,7 +47,7 @@ class Rehearsal:
 
     def shown_value(self, gauge: str) -> float:
         """What a simulated dial shows now, at the machine's resolution."""
-        from ogacq.cli.wizard.expected import gauge_axes
+        from ogacq.model.expected_readings import gauge_axes
 
         axis, leg = gauge_axes(gauge)
         resolution = self.stack.machine.machine.gauge_resolution_mm
@@ -81,7 +81,7 @@ def run_guided(campaign: Campaign, *, wrap: StationAdapter, observer: Observer,
 
 def campaign_file_text(campaign: Campaign, by_eye: set[str], rehearsal: Rehearsal | None,
                        purpose: str = "") -> str:
-    """The campaign file (``ogacq/campaign_file.py``) for what the technician chose."""
+    """The campaign file (``ogacq/campaign/campaign_file.py``) for what the technician chose."""
     purpose = purpose or ("continue an interrupted campaign with: ogacq resume "
                           f"{_relative(campaign.session, Path.cwd())}")
     notes = {}

@@ -14,12 +14,12 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from ogacq.campaign_file import Campaign, GaugeSpec
+from ogacq.campaign.campaign_file import Campaign, GaugeSpec
+from ogacq.campaign.station import DeviceStation
 from ogacq.errors import Refused
 from ogacq.model.gauges import GAUGE_KEYS, gauges_on
 from ogacq.model.instrument import Instrument
 from ogacq.session.records import EnvironmentRecord, OverrideRecord
-from ogacq.station import DeviceStation
 
 EXPIRED_GAUGE = "expired-gauge"
 

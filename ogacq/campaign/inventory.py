@@ -15,7 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.config_schema import Field, Table, TableArray, dump, text
-from ogacq.campaign_file import CERTIFICATE_FIELDS
+from ogacq.campaign.campaign_file import CERTIFICATE_FIELDS
 from ogacq.io.atomic import write_atomically
 from ogacq.io.data_folder import data_folder
 from ogacq.io.toml_file import load_toml

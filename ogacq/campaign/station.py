@@ -35,7 +35,13 @@ from ogacq_drivers.indicators import backend, open_indicator
 from ogacq_drivers.indicators.base import StableReading
 from ogacq_drivers.indicators.concurrent import ConcurrentReader
 from ogacq_drivers.link import open_link
-from ogacq.campaign_file import AxisEndpoint, Campaign, ControllerSpec, GaugeSpec, SimulatorSpec
+from ogacq.campaign.campaign_file import (
+    AxisEndpoint,
+    Campaign,
+    ControllerSpec,
+    GaugeSpec,
+    SimulatorSpec,
+)
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
