@@ -41,6 +41,7 @@ from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import terms_of
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_SETS
+from ogacq.model.units import UM_PER_MM
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession
 
@@ -127,7 +128,7 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
         margin = SIGMAS * math.hypot(u, fig.get("u_max_mm", 0.0))
         if now > was + margin:
             reasons.append(f"axis {a}: systematic positioning error E grew from "
-                           f"{was * 1000:.1f} to {now * 1000:.1f} µm (ISO 230-2)")
+                           f"{was * UM_PER_MM:.1f} to {now * UM_PER_MM:.1f} µm (ISO 230-2)")
     outcome = "worse" if reasons else "validated" if v_after.consistent else "improved"
     p_value = v_after.p_value if math.isfinite(v_after.p_value) else None
     return Judgement(outcome, tuple(reasons), {**v_after.to_json(), "text": v_after.describe(),

@@ -60,8 +60,6 @@ operator = "J. Martin"           who runs the calibration
               sensor = "controller" (the profile's temperature registers)"""
 
 CAMPAIGN_NOTES = {
-    "controller": "profile: cia402, iai-pcon, mr-je-c, kinco-fd or a profile file;\n"
-                  "port: host:port (Modbus TCP) or a serial device (Modbus RTU)",
     "gauges": "gauge AXIS_LEG: measures along AXIS on that leg (y_x: along y on the x leg);\n"
               "protocol: how it is read (README, \"Cables and interfaces\"); unit mm or inch",
     "protocol": "postures: zero, max, min or a joint position in mm (or scan_step_mm = 1.0:\n"
@@ -90,4 +88,14 @@ def campaign_template(path: Path, machine_path: Path) -> str:
     campaign = Campaign(path, PAPER_PROTOTYPE, machine_path,
                         path.parent / "sessions" / f"{path.stem}.jsonl", ProtocolConfig(),
                         controller=TEMPLATE_CONTROLLER, gauges=gauges)
-    return campaign_text(campaign, comment=CAMPAIGN_HEADER, notes=CAMPAIGN_NOTES)
+    return campaign_text(campaign, comment=CAMPAIGN_HEADER,
+                         notes={"controller": _controller_note(), **CAMPAIGN_NOTES})
+
+
+def _controller_note() -> str:
+    """The profiles shipped with the drivers, as `--profile` offers them (not a list kept
+    by hand: a new register map is named as soon as its file is there)."""
+    from ogacq_drivers.axes.profile import available_profiles
+
+    return (f"profile: {', '.join(available_profiles())} or a profile file;\n"
+            "port: host:port (Modbus TCP) or a serial device (Modbus RTU)")

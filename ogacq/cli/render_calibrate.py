@@ -23,6 +23,7 @@ from ogacq.cli.plain import plain, shown
 from ogacq.cli.render import CampaignProgress, campaign_progress
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
+from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
@@ -133,10 +134,11 @@ class TerminalUI:
         console.print(f"  joint offsets left: {left} mm", highlight=False)
         for axis, fig in judgement.figures_after.items():
             before = judgement.figures_before.get(axis, {})
-            console.print(f"  axis {axis}: A {before.get('A_mm', 0) * 1000:.2f} -> "
-                          f"{fig['A_mm'] * 1000:.2f} µm, B {before.get('B_mm', 0) * 1000:.2f}"
-                          f" -> {fig['B_mm'] * 1000:.2f} µm, E {before.get('E_mm', 0) * 1000:.2f}"
-                          f" -> {fig['E_mm'] * 1000:.2f} µm (ISO 230-2, from the maps)",
+            was = {n: before.get(f"{n}_mm", 0) * UM_PER_MM for n in "ABE"}
+            now = {n: fig[f"{n}_mm"] * UM_PER_MM for n in "ABE"}
+            console.print(f"  axis {axis}: A {was['A']:.2f} -> {now['A']:.2f} µm, "
+                          f"B {was['B']:.2f} -> {now['B']:.2f} µm, "
+                          f"E {was['E']:.2f} -> {now['E']:.2f} µm (ISO 230-2, from the maps)",
                           highlight=False)
         for reason in judgement.reasons:
             console.print(f"  worse: {reason}", highlight=False)

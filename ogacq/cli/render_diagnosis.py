@@ -14,7 +14,7 @@ from ogacq.cli.render_maps import (
     print_profiles,
     print_proposals,
 )
-from ogacq.diagnose.diagnosis import Diagnosis
+from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.maps import MapEffect
@@ -206,11 +206,11 @@ def _print_gauge_rms(d: Diagnosis) -> None:
     console.print(table)
 
 
-def _print_outcome(d: Diagnosis, machine_file: str) -> None:
-    outcome = d.outcome
-    if outcome == "explained":
+def _print_outcome_line(d: Diagnosis) -> None:
+    """Explained, partly explained or unexplained, and by how much."""
+    if d.outcome == "explained":
         console.print(_final_line("[bold]with the effects found[/]", d))
-    elif outcome == "partly explained":
+    elif d.outcome == "partly explained":
         console.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
                       f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
                       "the noise; their std are inflated by the remaining misfit "
@@ -223,36 +223,51 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
             console.print(f"  the best set tried, {label(d.selection.final.effects)}, removes "
                           f"only {d.explained_share:.0%} of the misfit beyond the noise "
                           f"({d.selection.final.verdict.describe()})")
+
+
+def _print_effect(e: EffectFound, d: Diagnosis, machine_file: str) -> None:
+    """One effect found: its value, what its std holds, and what else explains it."""
+    console.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
+    if e.model_spread > 0.2 * e.std:
+        console.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
+                      "much when another effect is swapped for its alternative)")
+    if e.local_disturbance is not None:
+        console.print(f"    [yellow]rests on one cell[/]: without {e.local_disturbance} the "
+                      "data no longer support it; a disturbance there (a knocked stand, a "
+                      "sticking spindle) explains them as well; repeat that posture")
+    if e.alternatives:
+        alts = ", ".join(f"{a.name} ({a.value:+.4g} {unit(a.name)}, chi2 "
+                         f"{a.delta_chi2:+.1f})" for a in e.alternatives)
+        console.print(f"    [yellow]explained equally well by[/]: {alts}")
+        for sep in e.separations:
+            console.print(f"    {shown(sep.describe().replace('M.toml', machine_file))}")
+    elif d.final.consistent and e.local_disturbance is None:
+        console.print("    no other effect of the library explains these data as well")
+
+
+def _print_unexplained(d: Diagnosis) -> None:
+    """Where the misfit no effect explains sits."""
+    if d.unexplained is None:
+        return
+    along = d.unexplained_along()
+    where = "" if along is None else (f" (along the {along['leg']} leg from "
+                                      f"{along['from_mm']:+g} to {along['to_mm']:+g} mm)")
+    console.print(f"  [red]unexplained[/] misfit sits mostly at "
+                  f"[bold]{shown(d.unexplained)}[/]{where}")
+    if d.remaining is not d.located:
+        _print_location("  where the rest sits", d.remaining)
+
+
+def _print_outcome(d: Diagnosis, machine_file: str) -> None:
+    _print_outcome_line(d)
     for e in d.effects:
         if isinstance(e, MapEffect):
             print_map_effect(e)
-            continue
-        console.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
-        if e.model_spread > 0.2 * e.std:
-            console.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
-                          "much when another effect is swapped for its alternative)")
-        if e.local_disturbance is not None:
-            console.print(f"    [yellow]rests on one cell[/]: without {e.local_disturbance} the "
-                          "data no longer support it; a disturbance there (a knocked stand, a "
-                          "sticking spindle) explains them as well; repeat that posture")
-        if e.alternatives:
-            alts = ", ".join(f"{a.name} ({a.value:+.4g} {unit(a.name)}, chi2 "
-                             f"{a.delta_chi2:+.1f})" for a in e.alternatives)
-            console.print(f"    [yellow]explained equally well by[/]: {alts}")
-            for sep in e.separations:
-                console.print(f"    {shown(sep.describe().replace('M.toml', machine_file))}")
-        elif d.final.consistent and e.local_disturbance is None:
-            console.print("    no other effect of the library explains these data as well")
+        else:
+            _print_effect(e, d, machine_file)
     for m in d.maps:
         print_axis_map(m)
-    if d.unexplained is not None:
-        along = d.unexplained_along()
-        where = "" if along is None else (f" (along the {along['leg']} leg from "
-                                          f"{along['from_mm']:+g} to {along['to_mm']:+g} mm)")
-        console.print(f"  [red]unexplained[/] misfit sits mostly at "
-                      f"[bold]{shown(d.unexplained)}[/]{where}")
-        if d.remaining is not d.located:
-            _print_location("  where the rest sits", d.remaining)
+    _print_unexplained(d)
     console.print()
 
 

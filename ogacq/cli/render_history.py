@@ -14,8 +14,11 @@ from ogacq.cli.plain import shown
 from ogacq.history.drift import Drift, expanded
 from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
+from ogacq.model.units import UM_PER_MM
 
 DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
+# record id -> parameter -> the change the record's write-backs made
+Written = Mapping[str, Mapping[str, float]]
 
 
 def verdict_words(verdict: dict[str, Any] | None) -> str:
@@ -52,39 +55,48 @@ def _short(name: str) -> str:
     return name.removeprefix("joint_offset.") if name.startswith("joint_offset.") else name
 
 
-def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
-                       drifts: Sequence[Drift], events: Sequence[Event],
-                       written: Mapping[str, Mapping[str, float]] | None = None) -> None:
-    """The calibrations, their values with the write-backs between them (``written``:
-    record id -> parameter -> the change the record's write-backs made), each change
-    judged from the state as left."""
-    console = new_console()  # per call: the terminal's width as it is now
-    written = written or {}
-    names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
-    flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
-    joint = all(n.startswith("joint_offset.") for n in names)
-    # Two tables, so each fits a terminal of 80 columns: who and how, then the values.
-    table = Table(title=f"{shown(machine.describe())}: {len(calibrations)} calibration"
-                        f"{'s' if len(calibrations) != 1 else ''} in {shown(where)}",
+def _ambient(calibration: Calibration) -> str:
+    t = calibration.ambient_c
+    return f"{t:.1f} °C" if t is not None and math.isfinite(t) else "-"
+
+
+def _plural(n: int, word: str) -> str:
+    return f"{n} {word}{'s' if n != 1 else ''}"
+
+
+def _who_table(machine: Machine, where: str, calibrations: Sequence[Calibration]) -> Table:
+    """Who calibrated and how it came out, one row per calibration."""
+    table = Table(title=f"{shown(machine.describe())}: "
+                        f"{_plural(len(calibrations), 'calibration')} in {shown(where)}",
                   show_edge=False, header_style="bold", title_justify="left")
     for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
         table.add_column(column, no_wrap=column in ("date", "record"), min_width=len(column),
                          justify="right" if column == "ambient" else "left")
     for c in calibrations:
-        ambient = f"{c.ambient_c:.1f} °C" if c.ambient_c is not None and \
-            math.isfinite(c.ambient_c) else "-"
         table.add_row(shown(_when(c.date)),
                       shown(c.record_id) + (" SIMULATED" if c.simulated else ""),
                       shown(c.operator or "-"), shown(verdict_words(c.verdict)),
-                      shown(acceptance_words(c)), ambient)
-    console.print(table)
-    for before, after in zip(calibrations, calibrations[1:], strict=False):
-        if written.get(before.record_id):  # the first campaign after a write-back checks it
-            console.print(shown(f"{after.record_id} validates the write-back made from "
-                                f"{before.record_id}"), highlight=False)
+                      shown(acceptance_words(c)), _ambient(c))
+    return table
+
+
+def _who_notes(calibrations: Sequence[Calibration], written: Written) -> list[str]:
+    """Which campaign validates which write-back; whether any is a rehearsal."""
+    notes = [f"{after.record_id} validates the write-back made from {before.record_id}"
+             for before, after in zip(calibrations, calibrations[1:], strict=False)
+             if written.get(before.record_id)]  # the first campaign after a write-back
     if any(c.simulated for c in calibrations):
-        console.print("SIMULATED: a rehearsal on the built-in simulator, not a calibration "
-                      "of the machine", highlight=False)
+        notes.append("SIMULATED: a rehearsal on the built-in simulator, not a calibration "
+                     "of the machine")
+    return notes
+
+
+def _values_table(calibrations: Sequence[Calibration], drifts: Sequence[Drift],
+                  written: Written) -> Table:
+    """The identified values, a row per calibration and one per write-back after it."""
+    names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
+    flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
+    joint = all(n.startswith("joint_offset.") for n in names)
     values = Table(title=f"identified {'joint offsets ' if joint else ''}(mm ± U, k = 2; "
                          f"{DRIFT_MARK} changed by more than U)",
                    show_edge=False, header_style="bold", title_justify="left")
@@ -98,60 +110,104 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
         if wrote and c is not calibrations[-1]:
             values.add_row("  written back", *(f"{wrote[n]:+.4f}" if n in wrote else ""
                                                for n in names), style="italic")
-    console.print(values)
+    return values
+
+
+def _drift_notes(calibrations: Sequence[Calibration], drifts: Sequence[Drift],
+                 written: Written) -> list[str]:
+    """The footnote on U, each change flagged, or that none is."""
+    notes = []
     if any(p.expanded_mm is None for c in calibrations for p in c.parameters.values()):
-        console.print("* U unknown (no uncertainty budget): 2 x the fit's std shown and used",
-                      highlight=False)
-    flagged_drifts = [d for d in drifts if d.flagged]
-    for d in flagged_drifts:
-        console.print(f"[red]{DRIFT_MARK} {shown(d.describe())}[/]", highlight=False)
-    if len(calibrations) > 1 and not flagged_drifts:
-        console.print("no change between successive calibrations exceeds its U"
-                      + (" (each judged from the state as left by the write-backs between)"
-                         if any(written.get(c.record_id) for c in calibrations[:-1]) else ""))
-    others = [e for e in events if e.kind != "calibration"]
-    if others:
-        counts = {k: sum(e.kind == k for e in others) for k in dict.fromkeys(e.kind for e in
-                                                                            others)}
-        hint = (f" (`ogacq history {machine.name!r} --states`: the offsets written)"
-                if "write-back" in counts or "restore" in counts else "")
-        console.print(shown("also recorded: " + ", ".join(f"{n} {k}{'s' if n > 1 else ''}"
-                                                          for k, n in counts.items()) + hint),
-                      highlight=False)
+        notes.append("* U unknown (no uncertainty budget): 2 x the fit's std shown and used")
+    flagged = [d for d in drifts if d.flagged]
+    notes += [f"[red]{DRIFT_MARK} {shown(d.describe())}[/]" for d in flagged]
+    if len(calibrations) > 1 and not flagged:
+        between = any(written.get(c.record_id) for c in calibrations[:-1])
+        notes.append("no change between successive calibrations exceeds its U"
+                     + (" (each judged from the state as left by the write-backs between)"
+                        if between else ""))
+    return notes
 
 
-def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
-                 current: OffsetState | None,
-                 machine_states: Sequence[MachineState] = ()) -> None:
-    console = new_console()
+def _events_note(machine: Machine, events: Sequence[Event]) -> str | None:
+    """The other events recorded, counted by kind."""
+    kinds = [e.kind for e in events if e.kind != "calibration"]
+    if not kinds:
+        return None
+    counts = {k: kinds.count(k) for k in dict.fromkeys(kinds)}
+    hint = (f" (`ogacq history {machine.name!r} --states`: the offsets written)"
+            if "write-back" in counts or "restore" in counts else "")
+    return "also recorded: " + ", ".join(f"{n} {k}{'s' if n > 1 else ''}"
+                                         for k, n in counts.items()) + hint
+
+
+def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
+                       drifts: Sequence[Drift], events: Sequence[Event],
+                       written: Written | None = None) -> None:
+    """The calibrations, their values with the write-backs between them (``written``:
+    record id -> parameter -> the change the record's write-backs made), each change
+    judged from the state as left."""
+    console = new_console()  # per call: the terminal's width as it is now
+    written = written or {}
+    # Two tables, so each fits a terminal of 80 columns: who and how, then the values.
+    console.print(_who_table(machine, where, calibrations))
+    for line in _who_notes(calibrations, written):
+        console.print(shown(line), highlight=False)
+    console.print(_values_table(calibrations, drifts, written))
+    for line in _drift_notes(calibrations, drifts, written):
+        console.print(line, highlight=False)
+    events_note = _events_note(machine, events)
+    if events_note:
+        console.print(shown(events_note), highlight=False)
+
+
+def _offsets_states_table(machine: Machine, where: str, states: Sequence[OffsetState],
+                          current: OffsetState | None,
+                          machine_states: Sequence[MachineState]) -> Table:
+    """Each offsets state: which write-back or restore left it, and what became of it."""
     fate = {v.state_id: v.fate for v in machine_states if v.fate}
     table = Table(title=f"{shown(machine.describe())}: offsets states in {shown(where)} (o, mm)",
                   show_edge=False, header_style="bold", title_justify="left")
     for column in ("state", "when", "what", "record", "x", "y", "z", "status"):
         table.add_column(column, justify="right" if column in "xyz" else "left",
                          no_wrap=column in ("state", "when", "record"))
+    in_force = current.state_id if current is not None else None
     for v in states:
-        what = (f"before {v.action} {v.operation}" if v.stage == "before"
-                else f"after {v.action} {v.operation}")
-        mark = ", in force" if current is not None and v.state_id == current.state_id else ""
+        mark = ", in force" if v.state_id == in_force else ""
         told = f"; {fate[v.state_id]}" if v.state_id in fate else ""
-        table.add_row(shown(v.state_id), shown(v.at or "-"), shown(what), shown(v.record_id),
+        table.add_row(shown(v.state_id), shown(v.at or "-"),
+                      shown(f"{_stage(v)} {v.action} {v.operation}"), shown(v.record_id),
                       *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
                         for a in "xyz"), shown(v.status + mark + told))
-    console.print(table)
+    return table
+
+
+def _maps_states_table(machine: Machine, maps: Sequence[MachineState]) -> Table:
+    """Each maps state: the error maps ogacq applies, by checksum."""
+    table = Table(title=f"{machine.describe()}: maps states (the error maps ogacq applies)",
+                  show_edge=False, header_style="bold", title_justify="left")
+    for column in ("state", "when", "what", "record", "axes", "checksum", "status"):
+        table.add_column(column, no_wrap=column in ("state", "when", "record"))
+    for m in maps:
+        table.add_row(m.state_id, m.at or "-", f"{m.stage} {m.action} {m.operation}",
+                      m.record_id, ", ".join(sorted(m.maps or {})) or "none",
+                      (m.maps_checksum or "-")[:12],
+                      m.status + (f"; {m.fate}" if m.fate else ""))
+    return table
+
+
+def _stage(state: OffsetState) -> str:
+    return "before" if state.stage == "before" else "after"
+
+
+def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
+                 current: OffsetState | None,
+                 machine_states: Sequence[MachineState] = ()) -> None:
+    console = new_console()
+    console.print(_offsets_states_table(machine, where, states, current, machine_states))
     maps = [v for v in machine_states if v.kind == "maps"]
     if maps:
-        table = Table(title=f"{machine.describe()}: maps states (the error maps ogacq applies)",
-                      show_edge=False, header_style="bold", title_justify="left")
-        for column in ("state", "when", "what", "record", "axes", "checksum", "status"):
-            table.add_column(column, no_wrap=column in ("state", "when", "record"))
-        for m in maps:
-            what = f"{m.stage} {m.action} {m.operation}"
-            table.add_row(m.state_id, m.at or "-", what, m.record_id,
-                          ", ".join(sorted(m.maps or {})) or "none",
-                          (m.maps_checksum or "-")[:12],
-                          m.status + (f"; {m.fate}" if m.fate else ""))
-        console.print(table)
+        console.print(_maps_states_table(machine, maps))
     if machine_states:
         console.print(f"compare two: ogacq history {machine.name!r} --states --diff STATE STATE",
                       highlight=False)
@@ -213,8 +269,8 @@ def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
             words = "unchanged" if m.get("from") else "none"
         else:
             words = (f"{m['change']} ({m.get('from') or '-'} -> {m.get('to') or '-'}): up to "
-                     f"{m['max_forward_change_mm'] * 1000:.2f} µm forward, "
-                     f"{m['max_reverse_change_mm'] * 1000:.2f} µm reverse")
+                     f"{m['max_forward_change_mm'] * UM_PER_MM:.2f} µm forward, "
+                     f"{m['max_reverse_change_mm'] * UM_PER_MM:.2f} µm reverse")
         table.add_row(axis, *(f"{v:+.4f}" if v is not None else "-"
                               for v in (o["from"], o["to"], o["change"])), words)
     console.print(table)

@@ -16,6 +16,8 @@ from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.profile import SPARK, LegProfile
 from ogacq.identify.consistency import format_p
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.gauges import AXES
+from ogacq.model.units import UM_PER_MM
 
 MAP_ROWS = 9  # positions of a map shown as numbers; the rest as a profile
 PROFILE_WIDTH = 48
@@ -64,7 +66,7 @@ def print_coverage(d: Diagnosis) -> None:
 def print_map_effect(e: MapEffect) -> None:
     """One map effect: its sentence, value, further parameters."""
     v = e.value
-    unit_value = f"{v.value * 1e3:+.2f} ± {e.std * 1e3:.2f} µm"
+    unit_value = f"{v.value * UM_PER_MM:+.2f} ± {e.std * UM_PER_MM:.2f} µm"
     console.print(f"  [bold]{e.name}[/] = {unit_value}: {escape(e.sentence())}")
     extra = {k: val for k, val in v.extra.items() if val is not None and not (
         isinstance(val, float) and math.isnan(val))}
@@ -120,8 +122,8 @@ def print_axis_map(m: AxisMap) -> None:
     for col in ("q (mm)", "forward (µm)", "reverse (µm)"):
         table.add_column(col, justify="right")
     for k in pick:
-        table.add_row(f"{q[k]:+.2f}", f"{fwd[k] * 1e3:+.2f} ± {u_f[k] * 1e3:.2f}",
-                      f"{rev[k] * 1e3:+.2f} ± {u_r[k] * 1e3:.2f}")
+        table.add_row(f"{q[k]:+.2f}", f"{fwd[k] * UM_PER_MM:+.2f} ± {u_f[k] * UM_PER_MM:.2f}",
+                      f"{rev[k] * UM_PER_MM:+.2f} ± {u_r[k] * UM_PER_MM:.2f}")
     console.print(table)
     part = fwd[stretch]
     edges = np.linspace(0, len(part), min(PROFILE_WIDTH, len(part)) + 1).astype(int)
@@ -129,11 +131,12 @@ def print_axis_map(m: AxisMap) -> None:
     lo, hi = float(fwd.min()), float(fwd.max())
     where = (f"two periods from {q[stretch][0]:+.2f} mm; it repeats every {pitch:.4g} mm "
              f"to {q[-1]:+g} mm" if pitch else f"{q[0]:+g} to {q[-1]:+g} mm")
-    console.print(f"    forward: {_spark(cells - lo, hi - lo)}  ({where}; {lo * 1e3:+.1f} "
-                  f"to {hi * 1e3:+.1f} µm, band up to ±{float(u_f.max()) * 1e3:.2f} µm)")
+    console.print(f"    forward: {_spark(cells - lo, hi - lo)}  ({where}; "
+                  f"{lo * UM_PER_MM:+.1f} to {hi * UM_PER_MM:+.1f} µm, "
+                  f"band up to ±{float(u_f.max()) * UM_PER_MM:.2f} µm)")
     if not np.allclose(fwd, rev):
         gap = rev - fwd
-        console.print(f"    reverse minus forward: {float(gap.mean()) * 1e3:+.2f} µm "
+        console.print(f"    reverse minus forward: {float(gap.mean()) * UM_PER_MM:+.2f} µm "
                       "(the lost motion)")
 
 
@@ -147,10 +150,10 @@ def print_profiles(d: Diagnosis) -> None:
     sigma = d.noise.sigma_mm
     for p in d.profiles:
         top = float(np.nanmax(p.rms_before_mm))
-        leg = "xyz"[p.leg]
+        leg = AXES[p.leg]
         span = f"q {p.q_mm[0]:+g}..{p.q_mm[-1]:+g} mm"
-        console.print(f"  {leg} leg, {span}, scale 0..{top * 1e3:.1f} µm "
-                      f"(noise {sigma * 1e3:.2g} µm)")
+        console.print(f"  {leg} leg, {span}, scale 0..{top * UM_PER_MM:.1f} µm "
+                      f"(noise {sigma * UM_PER_MM:.2g} µm)")
         console.print(f"    before {p.spark(width=PROFILE_WIDTH, top=top)}  "
                       f"{_beyond(p, sigma, False)}")
         if changed:
@@ -165,7 +168,7 @@ def _beyond(p: LegProfile, sigma: float, after: bool) -> str:
     whole = float(np.sqrt(np.nansum(rms**2 * p.count) / max(p.count.sum(), 1)))
     where = "within the noise everywhere" if span is None else \
         f"beyond the noise from {span[0]:+g} to {span[1]:+g} mm"
-    return f"rms {whole * 1e3:.2f} µm, {where}"
+    return f"rms {whole * UM_PER_MM:.2f} µm, {where}"
 
 
 def print_proposals(d: Diagnosis, machine_file: str) -> None:

@@ -29,6 +29,7 @@ import numpy as np
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
+from ogacq.model.units import UM_PER_MM
 
 COMPENSABLE = ("encoder_scale", "backlash")
 PPM = 1e-6
@@ -100,7 +101,7 @@ def effect_maps(effects: Mapping[str, EffectValue], machine: MachineSpec, *,
         u_fwd = np.abs(dq) * u_s  # zero at the reference forward, as the map is
         u_rev = np.hypot(np.abs(dq) * u_s, u_b)
         parts = [f"encoder scale {scale.value:+.1f} ± {scale.std:.1f} ppm" if scale else "",
-                 f"backlash {b * 1000:.1f} ± {u_b * 1000:.1f} µm" if lost else ""]
+                 f"backlash {b * UM_PER_MM:.1f} ± {u_b * UM_PER_MM:.1f} µm" if lost else ""]
         names = tuple(e.name for e in (scale, lost) if e is not None)
         out[axis] = EffectMap(AxisMap(
             axis=axis, positions_mm=tuple(float(v) for v in q),

@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.units import UM_PER_MM
 
 MAP_S_SOURCE = "the map's standard uncertainty u (k = 1) at each target, not a repeat scatter"
 NAMES = ("A", "A_up", "A_down", "B", "B_mean", "R", "R_up", "R_down", "E", "E_up", "E_down", "M")
@@ -71,8 +72,9 @@ class Iso230Figures:
 
     def line(self) -> str:
         """The three figures an operator asks for, in micrometres."""
-        return (f"A {self.A * 1000:.2f} µm, B {self.B * 1000:.2f} µm, "
-                f"R {self.R * 1000:.2f} µm (E {self.E * 1000:.2f}, M {self.M * 1000:.2f} µm)")
+        um = {n: getattr(self, n) * UM_PER_MM for n in "ABREM"}
+        return (f"A {um['A']:.2f} µm, B {um['B']:.2f} µm, R {um['R']:.2f} µm "
+                f"(E {um['E']:.2f}, M {um['M']:.2f} µm)")
 
 
 def iso230_figures(axis: str, targets_mm: np.ndarray, up_mm: np.ndarray, down_mm: np.ndarray,

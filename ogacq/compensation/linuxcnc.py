@@ -37,6 +37,7 @@ from ogacq.compensation.tables import (
     figures_block,
 )
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.units import UM_PER_MM
 
 MAX_TRIPLETS = 256  # "the limit inside LinuxCNC is for 256 triplets per joint"
 FORMAT = "linuxcnc"
@@ -111,7 +112,7 @@ def linuxcnc_tables(maps: Mapping[str, AxisMap], options: LinuxCncOptions = Linu
         reversal = float(np.mean(m.error_mm(np.asarray(m.positions_mm), -1)
                                  - m.error_mm(np.asarray(m.positions_mm), 1)))
         notes = (f"BACKLASH is not used while COMP_FILE is set: the reversal (mean "
-                 f"{reversal * 1000:.1f} µm) is in the table",)
+                 f"{reversal * UM_PER_MM:.1f} µm) is in the table",)
         axes[axis] = AxisTable(axis, m, _applied(rows, options.file_type), notes,
                                probes_mm=tuple(r[0] for r in rows))
         ini += ["", f"[JOINT_{joints[axis]}]", f"; axis {axis}: {m.source or 'map'}",

@@ -222,7 +222,7 @@ class Diagnosis:
         if not hot:
             return None
         p, (lo, hi) = max(hot, key=lambda t: float(np.nanmax(t[0].rms_after_mm)))
-        return {"leg": "xyz"[p.leg], "from_mm": lo, "to_mm": hi}
+        return {"leg": AXES[p.leg], "from_mm": lo, "to_mm": hi}
 
     def to_json(self) -> dict:
         """INTERCHANGE.md's object, plus (keys beyond the contract): each map effect's
@@ -248,14 +248,14 @@ class Diagnosis:
         if self.mapped is not None:
             out["maps"] = [m.to_json() for m in self.maps]
             out["proposals"] = [p.to_json() for p in self.proposals]
-            out["coverage"] = [{"axis": "xyz"[c.axis], "positions": c.positions,
+            out["coverage"] = [{"axis": AXES[c.axis], "positions": c.positions,
                                 "from_mm": c.from_mm, "to_mm": c.to_mm,
                                 "step_mm": c.step_mm if np.isfinite(c.step_mm) else None,
                                 "both_sides": c.both_sides, "maps_searched": c.searchable}
                                for c in self.mapped.search.coverage]
             out["chi2"] = self.chi2_json()
         if self.sides:
-            out["unknown_sides"] = [{"axis": "xyz"[c.axis], "taken": c.side,
+            out["unknown_sides"] = [{"axis": AXES[c.axis], "taken": c.side,
                                      "readings": c.readings,
                                      "chi2_gain": round(c.gain_chi2, 2)} for c in self.sides]
         if self.profiles:

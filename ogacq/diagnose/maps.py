@@ -49,6 +49,7 @@ from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.gauges import AXES
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
+from ogacq.model.units import UM_PER_MM
 
 UNIT_MM = "mm"
 # what an explanation adds to the rest of a model: values, library names, map terms
@@ -96,17 +97,17 @@ class MapEffect:
         where = f"{AXES[t.axis]} axis"
         if self.coverage is not None:
             where += f", q from {self.coverage.from_mm:+g} to {self.coverage.to_mm:+g} mm"
-        size = f"about {abs(v.value) * 1e3:.2g} µm"
+        size = f"about {abs(v.value) * UM_PER_MM:.2g} µm"
         if t.family == "lead_screw_cyclic":
             what = f"{WORDS[t.family]} of pitch {t.shape['pitch_mm']:.4g} mm"
         elif t.family == "screw_map":
             what = f"{WORDS[t.family]}, largest at {v.extra['at_mm']:+g} mm"
         elif t.family == "hysteresis":
             what = f"{WORDS[t.family]} (over {t.shape['length_mm']:.2g} mm)"
-            size = f"lost motion about {abs(v.value) * 1e3:.2g} µm"
+            size = f"lost motion about {abs(v.value) * UM_PER_MM:.2g} µm"
         elif t.family == "rail_bow":
             what = f"{WORDS[t.family]} toward {AXES[t.toward]}"
-            size = f"sagitta about {v.value * 1e3:+.2g} µm"
+            size = f"sagitta about {v.value * UM_PER_MM:+.2g} µm"
         else:
             what = f"{WORDS[t.family]} (time constant {t.shape['tau_s']:.0f} s)"
         return f"{where}, {what}, {size}"

@@ -52,6 +52,7 @@ from ogacq.identify.noise import GaugeNoise
 from ogacq.model.error_maps import MapTerm
 from ogacq.model.gauges import AXES
 from ogacq.model.measurement import ReadingsLayout
+from ogacq.model.units import UM_PER_MM
 
 # A joint read at fewer positions of its own travel is not searched for maps: a
 # cyclic error needs more than two readings per period over several periods, a
@@ -106,7 +107,7 @@ class AxisCoverage:
         name = AXES[self.axis]
         if self.dense and self.display_limited_mm is not None:
             return (f"{name} axis read at {self.positions} positions, but the display's "
-                    f"{self.display_limited_mm * 1e3:g} µm step dominates the gauge noise: "
+                    f"{self.display_limited_mm * UM_PER_MM:g} µm step dominates the gauge noise: "
                     "repeats round alike and the rounding follows the readings along q, "
                     "so it would pass for a map; not searched (a finer indicator would tell)")
         if self.dense:
@@ -433,7 +434,7 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
         elif bic >= 0:
             reason = "does not pay for its parameters (BIC)"
         elif size > PLAUSIBLE_MM[c.term.family]:
-            reason = f"needs an implausible size ({size * 1e3:.0f} µm)"
+            reason = f"needs an implausible size ({size * UM_PER_MM:.0f} µm)"
         else:
             reason = ""
         out.append(replace(c, p_value=corrected, delta_bic=bic, size_mm=size, reason=reason))

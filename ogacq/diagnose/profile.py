@@ -19,6 +19,7 @@ import numpy as np
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.identify.observations import Observations
 from ogacq.model.gauges import AXES, Gauge
+from ogacq.model.units import UM_PER_MM
 
 MAX_BINS = 200
 MIN_POSITIONS = 10  # as the map search: fewer positions are postures, not a profile
@@ -72,7 +73,7 @@ class LegProfile:
 
     def to_json(self) -> dict:
         def um(x: np.ndarray) -> list:
-            return [None if not math.isfinite(v) else round(float(v) * 1e3, 3) for v in x]
+            return [None if not math.isfinite(v) else round(float(v) * UM_PER_MM, 3) for v in x]
 
         return {"leg": AXES[self.leg], "q_mm": [round(float(q), 4) for q in self.q_mm],
                 "gauges": {g: {"before_um": um(self.before_mm[k]), "after_um": um(self.after_mm[k])}

@@ -20,8 +20,7 @@ import numpy as np
 from ogacq.errors import InputError
 from ogacq.history.store import Event, MapState, OffsetState
 from ogacq.model.axis_map import AxisMap
-
-AXES = ("x", "y", "z")
+from ogacq.model.gauges import AXES
 
 
 @dataclass(frozen=True)

@@ -51,6 +51,7 @@ from ogacq.history.entries import (
     utc_now,
 )
 from ogacq.history.location import HistoryLocation
+from ogacq.model.gauges import AXES
 
 # A second station writing to the same SQLite file waits this long for its lock.
 SQLITE_BUSY_TIMEOUT_S = 30.0
@@ -455,7 +456,7 @@ class History:
                                 .where(o.c.machine_id == machine.id)).all()
         states = [OffsetState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action,
                               r.status, r.profile,
-                              {a: getattr(r, f"{a}_mm") for a in ("x", "y", "z")},
+                              {a: getattr(r, f"{a}_mm") for a in AXES},
                               r.record_id, r.session_path) for r in rows]
         return sorted(states, key=lambda v: (v.wall or 0.0, v.stage != "before", v.state_id))
 

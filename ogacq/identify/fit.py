@@ -184,6 +184,123 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
                     at_start)[:4]
 
 
+@dataclass
+class _Batch:
+    """The rows of a batched fit where they stand: vectors, predictions, Jacobians,
+    weighted residuals and costs, which rows have converged, and the weighted Jacobian
+    with its SVD while known. Mutable on purpose: an accepted step updates its rows in
+    place (a copy of every array per step would cost a Monte-Carlo more than its
+    arithmetic)."""
+
+    theta: np.ndarray  # (B, N)
+    pred: np.ndarray  # (B, m)
+    jac: np.ndarray  # (B, m, p)
+    white: np.ndarray  # (B, m): the next step starts from them
+    cost: np.ndarray  # (B,)
+    converged: np.ndarray  # (B,) bool
+    jw_here: np.ndarray | None  # weighting.jac(jac), while every row is where it was formed
+    svd_here: tuple[np.ndarray, np.ndarray, np.ndarray] | None  # of jw_here * ranges
+
+    def moved(self) -> None:
+        self.jw_here = self.svd_here = None
+
+
+def _batch_start(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
+                 weighting: Weighting, at_start: tuple[np.ndarray, np.ndarray] | None,
+                 weighted_start_jac: np.ndarray | None,
+                 start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> _Batch:
+    batch = y.shape[0]
+    theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
+    # Every row starts at the same point: one evaluation serves them all.
+    start, start_jac = obs.predict_and_jacobian(theta[:1], free) if at_start is None \
+        else at_start
+    pred = np.repeat(start, batch, axis=0)
+    one_start = batch == 1 and at_start is not None
+    jw_here = weighted_start_jac if one_start else None
+    white = weighting.residual(y - pred)
+    return _Batch(theta, pred, np.repeat(start_jac, batch, axis=0), white,
+                  (white**2).sum(axis=1), np.zeros(batch, dtype=bool), jw_here,
+                  start_svd if one_start and jw_here is not None else None)
+
+
+def _batch_steps(rows: _Batch, weighting: Weighting, ranges: np.ndarray,
+                 rank: int) -> tuple[np.ndarray, np.ndarray]:
+    """The rows still moving and their least-squares steps."""
+    if rows.converged.any():
+        act = np.flatnonzero(~rows.converged)
+        rows.moved()
+        return act, _solve(weighting.jac(rows.jac[act]), rows.white[act], ranges, rank)
+    # every row still moving (always so for one fit): the weighted Jacobian kept
+    if rows.jw_here is None:
+        rows.jw_here = weighting.jac(rows.jac)
+    if rows.svd_here is None:
+        rows.svd_here = reduced_svd(rows.jw_here * ranges)
+    act = np.arange(len(rows.cost))
+    return act, _solve(rows.jw_here, rows.white, ranges, rank, rows.svd_here)
+
+
+def _drop_negligible(rows: _Batch, act: np.ndarray, step: np.ndarray, tol: np.ndarray,
+                     at_default: bool) -> tuple[np.ndarray, np.ndarray]:
+    """A step far below the tolerance changes nothing a double of these readings could
+    show: the row is at its minimum where it stands, and is not moved (nor the model
+    evaluated) for it. Only at the default tolerance: a caller that states its own (a
+    Monte-Carlo's) gets exactly the steps it asked for."""
+    if not at_default:
+        return act, step
+    negligible = (np.abs(step) < tol * NEGLIGIBLE_STEP).all(axis=1)
+    if not negligible.any():
+        return act, step
+    rows.converged[act[negligible]] = True
+    return act[~negligible], step[~negligible]
+
+
+def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray,
+                weighting: Weighting, act: np.ndarray, step: np.ndarray,
+                tol: np.ndarray) -> None:
+    """Move each row in ``act`` by its step, halved where it made things worse (rare,
+    the model is mildly nonlinear); a row no step improves is at its minimum.
+
+    Converged when the step is below tolerance, or when it no longer lowers the cost
+    (ill-conditioned sets jitter along weak directions). The Jacobian is evaluated
+    even where a step ends the fit: the covariance is propagated at the solution
+    itself (at the point before, a condition number moves in its ninth digit)."""
+    scale = np.ones(len(act))
+    todo = np.arange(len(act))
+    every = len(act) == len(rows.cost)
+    for attempt in range(HALVINGS):
+        # every row's full step (always so for one fit): whole arrays, no gathers
+        whole = every and attempt == 0
+        rows_tried = act if whole else act[todo]
+        moved = step if whole else step[todo] * scale[todo, None]
+        trial = rows.theta.copy() if whole else rows.theta[rows_tried]  # fancy indexing copies
+        trial[:, free] += moved
+        small = (np.abs(moved) < tol).all(axis=1)
+        trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+        trial_white = weighting.residual((y if whole else y[rows_tried]) - trial_pred)
+        trial_cost = (trial_white**2).sum(axis=1)
+        before = rows.cost if whole else rows.cost[rows_tried]
+        ok = trial_cost <= before * (1 + 1e-12) + 1e-300
+        if whole and ok.all():  # the usual case: every row takes its full step
+            rows.converged = small | (trial_cost >= before * (1 - 1e-12))
+            rows.theta, rows.pred, rows.cost = trial, trial_pred, trial_cost
+            rows.white, rows.jac = trial_white, trial_jac
+            rows.moved()
+            return
+        accepted = rows_tried[ok]
+        stalled = trial_cost[ok] >= rows.cost[accepted] * (1 - 1e-12)
+        if len(accepted):
+            rows.moved()
+        rows.theta[accepted], rows.pred[accepted] = trial[ok], trial_pred[ok]
+        rows.cost[accepted] = trial_cost[ok]
+        rows.white[accepted], rows.jac[accepted] = trial_white[ok], trial_jac[ok]
+        rows.converged[accepted] = small[ok] | stalled
+        todo = todo[~ok]
+        if not len(todo):
+            return
+        scale[todo] *= 0.5
+    rows.converged[act[todo]] = True  # no step lowers the cost: at the minimum
+
+
 def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
              weighting: Weighting, rank: int | None = None,
              max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
@@ -198,10 +315,12 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     when the last step formed them (None otherwise). ``weighted_start_jac``:
     ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
     of it times the ranges, when the caller has them (one row only), and
-    ``start_white`` ``weighting.residual`` of the residuals at ``at_start``."""
-    batch = y.shape[0]
+    ``start_white`` ``weighting.residual`` of the residuals at ``at_start``.
+
+    Each iteration: the steps of the rows still moving, the negligible ones dropped,
+    the rest taken (halved where they made things worse)."""
     rank = len(free) if rank is None else rank
-    if batch == 1 and tolerance is None:
+    if y.shape[0] == 1 and tolerance is None:
         theta, iterations, stop, jac, pred, known = _iterate_one(
             obs, y, free, theta0, weighting, rank, max_iterations, at_start,
             weighted_start_jac, start_svd, start_white)
@@ -209,90 +328,62 @@ def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndar
     ranges = _ranges(free)
     tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
         tolerance, ranges * STEP_TOLERANCE)
-    theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
-    # Every row starts at the same point: one evaluation serves them all.
-    start, start_jac = obs.predict_and_jacobian(theta[:1], free) if at_start is None \
-        else at_start
-    pred = np.repeat(start, batch, axis=0)
-    jac = np.repeat(start_jac, batch, axis=0)
-    one_start = batch == 1 and at_start is not None
-    # the weighted Jacobian at the current vectors, while it is known
-    jw_here = weighted_start_jac if one_start else None
-    svd_here = start_svd if one_start and jw_here is not None else None
-    # the weighted residuals at each row's current vector, kept with its cost: the
-    # next step starts from them
-    white = weighting.residual(y - pred)
-    cost = (white**2).sum(axis=1)
-    converged = np.zeros(batch, dtype=bool)
+    rows = _batch_start(obs, y, free, theta0, weighting, at_start, weighted_start_jac,
+                        start_svd)
     iterations = 0
     while iterations < max_iterations:
         iterations += 1
-        moving = not converged.any()  # every row still moving (always so for one fit)
-        act = np.arange(batch) if moving else np.flatnonzero(~converged)
-        if moving:
-            jw_here = weighting.jac(jac) if jw_here is None else jw_here
-            if svd_here is None:
-                svd_here = reduced_svd(jw_here * ranges)
-            step = _solve(jw_here, white, ranges, rank, svd_here)
-        else:
-            jw_here = svd_here = None
-            step = _solve(weighting.jac(jac[act]), white[act], ranges, rank)
-        # A step far below the tolerance changes nothing a double of these readings
-        # could show: the row is at its minimum where it stands, and is not moved
-        # (nor the model evaluated) for it. Only at the default tolerance: a caller
-        # that states its own (a Monte-Carlo's) gets exactly the steps it asked for.
-        negligible = (np.abs(step) < tol * NEGLIGIBLE_STEP).all(axis=1) \
-            if tolerance is None else np.zeros(len(act), dtype=bool)
-        if negligible.any():
-            converged[act[negligible]] = True
-            act, step = act[~negligible], step[~negligible]
-            if not len(act):
-                break
-        # Halve the step where it made things worse: rare, the model is mildly nonlinear.
-        scale = np.ones(len(act))
-        todo = np.arange(len(act))
-        every = len(act) == batch
-        for attempt in range(HALVINGS):
-            # every row's full step (always so for one fit): whole arrays, no gathers
-            whole = every and attempt == 0
-            rows_tried = act if whole else act[todo]
-            moved = step if whole else step[todo] * scale[todo, None]
-            trial = theta.copy() if whole else theta[rows_tried]  # fancy indexing copies
-            trial[:, free] += moved
-            # Converged when the step is below tolerance, or when it no longer lowers
-            # the cost (ill-conditioned sets jitter along weak directions).
-            small = (np.abs(moved) < tol).all(axis=1)
-            # The Jacobian even where this step ends the fit: the covariance is
-            # propagated at the solution itself (at the point before, a condition
-            # number moves in its ninth digit).
-            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            trial_white = weighting.residual((y if whole else y[rows_tried]) - trial_pred)
-            trial_cost = (trial_white**2).sum(axis=1)
-            before = cost if whole else cost[rows_tried]
-            ok = trial_cost <= before * (1 + 1e-12) + 1e-300
-            if whole and ok.all():  # the usual case: every row takes its full step
-                converged = small | (trial_cost >= before * (1 - 1e-12))
-                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
-                    trial_jac
-                jw_here = svd_here = None  # vectors moved
-                todo = todo[:0]
-                break
-            rows = rows_tried[ok]
-            stalled = trial_cost[ok] >= cost[rows] * (1 - 1e-12)
-            if len(rows):
-                jw_here = svd_here = None  # vectors moved
-            theta[rows], pred[rows], cost[rows] = trial[ok], trial_pred[ok], trial_cost[ok]
-            white[rows], jac[rows] = trial_white[ok], trial_jac[ok]
-            converged[rows] = small[ok] | stalled
-            todo = todo[~ok]
-            if not len(todo):
-                break
-            scale[todo] *= 0.5
-        converged[act[todo]] = True  # no step lowers the cost: at the minimum
-        if converged.all():
+        act, step = _batch_steps(rows, weighting, ranges, rank)
+        act, step = _drop_negligible(rows, act, step, tol, tolerance is None)
+        if not len(act):
             break
-    known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)
-    return theta, iterations, converged, jac, pred, known
+        _take_steps(rows, obs, y, free, weighting, act, step, tol)
+        if rows.converged.all():
+            break
+    known = None if rows.jw_here is None or rows.svd_here is None \
+        else _Weighted(rows.jw_here, rows.svd_here)
+    return rows.theta, iterations, rows.converged, rows.jac, rows.pred, known
+
+
+@dataclass(frozen=True)
+class _Accepted:
+    """A step one row took (halved or not), with what the model gave there."""
+
+    theta: np.ndarray  # (1, N)
+    pred: np.ndarray
+    jac: np.ndarray
+    white: np.ndarray
+    cost: float
+    jw: np.ndarray  # weighting.jac(jac): the next step needs it
+    stop: StopReason  # MAX_ITERATIONS while the fit goes on
+
+
+def _descend_one(obs: Observations, y: np.ndarray, free: np.ndarray, weighting: Weighting,
+                 at: slice | np.ndarray, theta: np.ndarray, cost: float, step: np.ndarray,
+                 tol_list: list[float]) -> _Accepted | StopReason:
+    """The step, halved where it made things worse: where it lowers the cost, or why
+    none did (at the minimum where the model could be evaluated, else a failed step)."""
+    scale = 1.0
+    evaluated = False  # a trial had a finite sum of squares
+    for attempt in range(HALVINGS):
+        moved = step if attempt == 0 else step * scale
+        trial = theta.copy()
+        trial[:, at] += moved
+        small = _all_below(moved, tol_list)
+        trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
+        # the weighted Jacobian with the residuals: an accepted step (the usual case)
+        # needs it next
+        trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
+        trial_cost = _cost(trial_white)
+        evaluated = evaluated or math.isfinite(trial_cost)
+        if trial_cost <= cost * (1 + 1e-12) + 1e-300:
+            stop = StopReason.STEP_BELOW_TOLERANCE if small \
+                else StopReason.COST_STALLED if trial_cost >= cost * (1 - 1e-12) \
+                else StopReason.MAX_ITERATIONS
+            return _Accepted(trial, trial_pred, trial_jac, trial_white, trial_cost, trial_jw,
+                             stop)
+        scale *= 0.5
+    return StopReason.NO_DESCENT if evaluated else StopReason.STEP_FAILED
 
 
 def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
@@ -337,32 +428,14 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
         if _all_below(step, negligible_below):
             stop = StopReason.NEGLIGIBLE_STEP  # at the minimum where it stands (see _iterate)
             break
-        scale = 1.0
-        evaluated = False  # a trial had a finite sum of squares
-        for attempt in range(HALVINGS):
-            moved = step if attempt == 0 else step * scale  # halved where it made it worse
-            trial = theta.copy()
-            trial[:, at] += moved
-            small = _all_below(moved, tol_list)
-            trial_pred, trial_jac = obs.predict_and_jacobian(trial, free)
-            # the weighted Jacobian with the residuals: an accepted step (the usual
-            # case) needs it next
-            trial_white, trial_jw = weighting.residual_and_jac(y - trial_pred, trial_jac)
-            trial_cost = _cost(trial_white)
-            evaluated = evaluated or math.isfinite(trial_cost)
-            if trial_cost <= cost * (1 + 1e-12) + 1e-300:
-                stalled = trial_cost >= cost * (1 - 1e-12)
-                theta, pred, cost, white, jac = trial, trial_pred, trial_cost, trial_white, \
-                    trial_jac
-                jw_here, svd_here = trial_jw, None  # vectors moved
-                if small:
-                    stop = StopReason.STEP_BELOW_TOLERANCE
-                elif stalled:
-                    stop = StopReason.COST_STALLED
-                break
-            scale *= 0.5
-        else:  # no step lowers the cost: at the minimum, where the model could be evaluated
-            stop = StopReason.NO_DESCENT if evaluated else StopReason.STEP_FAILED
+        taken = _descend_one(obs, y, free, weighting, at, theta, cost, step, tol_list)
+        if isinstance(taken, StopReason):
+            stop = taken
+            break
+        theta, pred, cost, white, jac = taken.theta, taken.pred, taken.cost, taken.white, \
+            taken.jac
+        jw_here, svd_here = taken.jw, None  # vectors moved
+        stop = taken.stop
         if stop is not StopReason.MAX_ITERATIONS:
             break
     known = None if jw_here is None or svd_here is None else _Weighted(jw_here, svd_here)

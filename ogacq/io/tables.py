@@ -87,8 +87,8 @@ def sniff(path: str | Path) -> str:
                      f"({', '.join(READINGS_COLUMNS)}) or a deviations CSV (name,value_mm)", 1)
 
 
-def _rows(path: Path, required: Sequence[str], text: str | None = None,
-          ) -> tuple[list[str], list[tuple[int, list[str]]]]:
+def _read_csv(path: Path, text: str | None) -> tuple[list[str], list[tuple[int, list[str]]]]:
+    """The header and the rows that hold something, each with its line."""
     try:
         reader = csv.reader(io.StringIO(read_text(path) if text is None else text, newline=""))
         header = [h.strip() for h in next(reader, [])]
@@ -97,13 +97,21 @@ def _rows(path: Path, required: Sequence[str], text: str | None = None,
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
     except csv.Error as exc:
         raise InputError(path, f"not a readable CSV file: {exc}") from None
-    if not header:
-        raise InputError(path, "empty file: no header row", 1)
+    return header, rows
+
+
+def _check_units(path: Path, header: list[str], required: Sequence[str]) -> None:
+    """Refuse a required mm column given in another unit."""
     for col in header:
         for suffix, unit in _OTHER_UNITS.items():
             if col.endswith(suffix) and col[: -len(suffix)] + "_mm" in required:
                 raise InputError(path, f"column {col!r} is in {unit}; this format takes mm: "
                                  f"convert and name it {col[: -len(suffix)]}_mm", 1)
+
+
+def _check_columns(path: Path, header: list[str], required: Sequence[str]) -> None:
+    """Refuse a header without a required column (one without its unit said so), or
+    with a column twice."""
     missing = [c for c in required if c not in header]
     if missing:
         col = missing[0]
@@ -114,6 +122,15 @@ def _rows(path: Path, required: Sequence[str], text: str | None = None,
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise InputError(path, f"column {dup!r} appears twice in the header", 1)
+
+
+def _rows(path: Path, required: Sequence[str], text: str | None = None,
+          ) -> tuple[list[str], list[tuple[int, list[str]]]]:
+    header, rows = _read_csv(path, text)
+    if not header:
+        raise InputError(path, "empty file: no header row", 1)
+    _check_units(path, header, required)
+    _check_columns(path, header, required)
     if not rows:
         raise InputError(path, "no data rows after the header", 2)
     return header, rows
@@ -236,6 +253,56 @@ def _bad(column: str, values: np.ndarray) -> np.ndarray:
     return bad
 
 
+@dataclass(frozen=True)
+class _ColumnsAt:
+    """Where each column of a readings header is."""
+
+    at: dict[str, int]
+    has_approach: bool  # all three approach columns
+
+    @classmethod
+    def of(cls, header: Sequence[str]) -> _ColumnsAt:
+        at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
+        return cls(at, all(c in at for c in APPROACH_COLUMNS))
+
+    @property
+    def numbers(self) -> tuple[str, ...]:
+        """The columns read as numbers."""
+        return _NUMBER_COLUMNS + (APPROACH_COLUMNS if self.has_approach else ())
+
+
+@dataclass(frozen=True)
+class _Columns:
+    """The readings' columns decoded, a refused cell as a code below 0 (leg, gauge,
+    cycle) or NaN (numbers); :meth:`flagged` says which rows hold one."""
+
+    leg: np.ndarray
+    gauge: np.ndarray
+    cycle: np.ndarray
+    numbers: dict[str, np.ndarray]  # each number column read
+    approach: np.ndarray | None  # (n, 3), when the file has the approach columns
+
+    def flagged(self) -> np.ndarray:
+        """The rows :func:`_checked_row` refuses."""
+        bad = (self.leg < 0) | (self.gauge < 0) | (self.leg == self.gauge) | (self.cycle < 1)
+        for c, values in self.numbers.items():
+            bad |= _bad(c, values)
+        if self.approach is not None:
+            a = self.approach
+            bad |= np.any((a != -1.0) & (a != 0.0) & (a != 1.0), axis=1)
+        return bad
+
+    def table(self, lines: np.ndarray) -> ReadingsTable:
+        n = self.numbers
+        return ReadingsTable(
+            t_s=n["t_s"], cycle=self.cycle, leg=self.leg, gauge_axis=self.gauge,
+            tcp_mm=np.column_stack([n[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
+            q_mm=np.column_stack([n[c] for c in ("q_x", "q_y", "q_z")]),
+            reading_mm=n["reading_mm"],
+            approach=self.approach.astype(int) if self.approach is not None else None,
+            lines=lines)
+
+
 def read_readings(path: str | Path) -> ReadingsTable:
     """The readings CSV, converted column by column (a campaign can hold 100,000 rows).
     A plain file (ASCII, unquoted, one row a line, as ogacq and spreadsheets write it)
@@ -257,8 +324,16 @@ def read_readings(path: str | Path) -> ReadingsTable:
 _BLANK_LINE = re.compile(r"\n[ \t]*(\n|$)")
 
 
-def _plain_table(text: str) -> ReadingsTable | None:
-    """The table of a plain file whose every row is valid, else None."""
+@dataclass(frozen=True)
+class _PlainFile:
+    header: list[str]
+    body: str  # the rows, one a line
+    n_rows: int
+
+
+def _plain_file(text: str) -> _PlainFile | None:
+    """``text`` cut into header and rows, if it is a plain file with the readings
+    columns (those :func:`_rows` words a problem of are left to it)."""
     if not text.isascii() or '"' in text:
         return None
     text = text.replace("\r\n", "\n").removesuffix("\n")
@@ -267,43 +342,44 @@ def _plain_table(text: str) -> ReadingsTable | None:
         return None
     header = [h.strip() for h in head.split(",")]
     if len(set(header)) != len(header) or not set(READINGS_COLUMNS) <= set(header) \
-            or any(h.endswith(tuple(_OTHER_UNITS)) for h in header):  # _rows words these
+            or any(h.endswith(tuple(_OTHER_UNITS)) for h in header):
         return None
     n_rows = body.count("\n") + 1
     if body.count(",") != n_rows * (len(header) - 1):  # a row with a field more or less
         return None
-    at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
-    has_approach = all(c in at for c in APPROACH_COLUMNS)
-    wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
+    return _PlainFile(header, body, n_rows)
+
+
+def _load_plain(plain: _PlainFile) -> _Columns | None:
+    """The columns by numpy's C reader; None where it refuses a field."""
+    where = _ColumnsAt.of(plain.header)
+    at, wanted = where.at, where.numbers
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            words = np.loadtxt(io.StringIO(body), delimiter=",", dtype=str, comments=None,
-                               usecols=[at["leg"], at["gauge_axis"], at["cycle"]], ndmin=2)
-            block = np.loadtxt(io.StringIO(body), delimiter=",", dtype=float, comments=None,
-                               usecols=[at[c] for c in wanted], ndmin=2)
+            words = np.loadtxt(io.StringIO(plain.body), delimiter=",", dtype=str,
+                               comments=None, usecols=[at["leg"], at["gauge_axis"], at["cycle"]],
+                               ndmin=2)
+            block = np.loadtxt(io.StringIO(plain.body), delimiter=",", dtype=float,
+                               comments=None, usecols=[at[c] for c in wanted], ndmin=2)
     except ValueError:  # a field that is not a number, or rows of another width
         return None
-    if words.shape[0] != n_rows or block.shape[0] != n_rows:
+    if words.shape[0] != plain.n_rows or block.shape[0] != plain.n_rows:
         return None
     leg, gauge = (_codes(words[:, k], _axis_code) for k in (0, 1))
-    cycle = _codes(words[:, 2], lambda t: _cycle(t.strip()))
-    numbers = {c: block[:, k] for k, c in enumerate(wanted)}
-    bad = (leg < 0) | (gauge < 0) | (leg == gauge) | (cycle < 1)
-    for c in wanted:
-        bad |= _bad(c, numbers[c])
-    if has_approach:
-        approach = block[:, -3:]
-        bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
-    if bad.any():  # the row-by-row reader says which row and why
+    return _Columns(leg, gauge, _codes(words[:, 2], lambda t: _cycle(t.strip())),
+                    {c: block[:, k] for k, c in enumerate(wanted)},
+                    block[:, -3:] if where.has_approach else None)
+
+
+def _plain_table(text: str) -> ReadingsTable | None:
+    """The table of a plain file whose every row is valid, else None (the row-by-row
+    reader then says which row and why)."""
+    plain = _plain_file(text)
+    columns = None if plain is None else _load_plain(plain)
+    if plain is None or columns is None or columns.flagged().any():
         return None
-    return ReadingsTable(
-        t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
-        tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
-        q_mm=np.column_stack([numbers[c] for c in ("q_x", "q_y", "q_z")]),
-        reading_mm=numbers["reading_mm"],
-        approach=approach.astype(int) if has_approach else None,
-        lines=np.arange(2, n_rows + 2))
+    return columns.table(np.arange(2, plain.n_rows + 2))
 
 
 def _axis_code(text: str) -> int:
@@ -319,39 +395,27 @@ def _codes(words: np.ndarray, code: Callable[[str], int]) -> np.ndarray:
 
 def _table_by_rows(path: Path, text: str) -> ReadingsTable:
     header, rows = _rows(path, READINGS_COLUMNS, text)
-    at = {c: header.index(c) for c in (*READINGS_COLUMNS, *APPROACH_COLUMNS) if c in header}
-    has_approach = all(c in at for c in APPROACH_COLUMNS)
+    where = _ColumnsAt.of(header)
+    at = where.at
     fields = [row for _, row in rows]
     lines = np.array([line for line, _ in rows])
-    bad = np.array([_misfit(row, header) for row in fields])
-    if bad.any():  # short rows: pad them so that the columns can be cut; refused below
+    misfits = np.array([_misfit(row, header) for row in fields])
+    if misfits.any():  # short rows: pad them so that the columns can be cut; refused below
         fields = [row + [""] * (len(header) - len(row)) for row in fields]
-    columns = list(zip(*fields, strict=False))  # extra trailing fields are ignored
+    cells = list(zip(*fields, strict=False))  # extra trailing fields are ignored
 
     def column(name: str) -> tuple[str, ...]:
-        return columns[at[name]]
+        return cells[at[name]]
 
-    leg = np.array([_axis_code(t) for t in column("leg")])
-    gauge = np.array([_axis_code(t) for t in column("gauge_axis")])
-    bad |= (leg < 0) | (gauge < 0) | (leg == gauge)
-    cycle = np.array([_cycle(t.strip()) for t in column("cycle")])
-    bad |= cycle < 1
-    wanted = _NUMBER_COLUMNS + (APPROACH_COLUMNS if has_approach else ())
-    numbers = {}
-    for c in wanted:
-        numbers[c] = _numbers(column(c))
-        bad |= _bad(c, numbers[c])
-    if has_approach:
-        approach = np.column_stack([numbers[c] for c in APPROACH_COLUMNS])
-        bad |= np.any((approach != -1.0) & (approach != 0.0) & (approach != 1.0), axis=1)
-    for k in map(int, np.flatnonzero(bad)):
-        _checked_row(path, int(lines[k]), rows[k][1], header, at, has_approach)
-    return ReadingsTable(
-        t_s=numbers["t_s"], cycle=cycle, leg=leg, gauge_axis=gauge,
-        tcp_mm=np.column_stack([numbers[c] for c in ("tcp_x", "tcp_y", "tcp_z")]),
-        q_mm=np.column_stack([numbers[c] for c in ("q_x", "q_y", "q_z")]),
-        reading_mm=numbers["reading_mm"],
-        approach=approach.astype(int) if has_approach else None, lines=lines)
+    numbers = {c: _numbers(column(c)) for c in where.numbers}
+    columns = _Columns(np.array([_axis_code(t) for t in column("leg")]),
+                       np.array([_axis_code(t) for t in column("gauge_axis")]),
+                       np.array([_cycle(t.strip()) for t in column("cycle")]), numbers,
+                       np.column_stack([numbers[c] for c in APPROACH_COLUMNS])
+                       if where.has_approach else None)
+    for k in map(int, np.flatnonzero(misfits | columns.flagged())):
+        _checked_row(path, int(lines[k]), rows[k][1], header, at, where.has_approach)
+    return columns.table(lines)
 
 
 def check_table_postures(table: ReadingsTable, machine: MachineSpec, path: str | Path,

@@ -24,7 +24,13 @@ from matplotlib.patches import Rectangle
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
-from ogacq.report.data import DeviationRow, FitSummary, ModelStep, ResidualSeries
+from ogacq.report.data import (
+    DeviationRow,
+    FitSummary,
+    ModelStep,
+    ParameterRow,
+    ResidualSeries,
+)
 from ogacq.report.diagnosis_view import LegProfileView
 from ogacq.report.formatting import finite
 from ogacq.uncertainty.reporting import headline, two_digits
@@ -78,6 +84,62 @@ def _label_format(values: np.ndarray) -> str:
     return "{:+.2f}" if finite_values.size and finite_values.max() < 1 else "{:+.1f}"
 
 
+def _not_measured(top: Axes, bottom: Axes, leg: str) -> None:
+    """The panels of a leg without readings, saying so."""
+    for ax, when in ((top, "before calibration"), (bottom, "after compensation")):
+        ax.set_title(f"{leg} leg: {when}", color=LEG_COLOUR[leg])
+        ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center",
+                va="center", color="#7f7f7f", fontsize=11)
+        ax.set_xticks([])
+
+
+def _before_panel(top: Axes, leg: str, mine: Sequence[DeviationRow]) -> None:
+    """The deviations measured before calibration (mm), labelled."""
+    x = np.arange(len(mine))
+    before = np.array([r.before_mm for r in mine])
+    bars = top.bar(x, before, 0.6, color=BEFORE_COLOUR, label="measured before calibration")
+    top.bar_label(bars, labels=[f"{v:+.3f}" for v in before], padding=2, fontsize=9)
+    top.axhline(0, color="black", lw=0.8)
+    top.set_title(f"{leg} leg: before calibration", color=LEG_COLOUR[leg], fontweight="bold")
+
+
+def _after_panel(bottom: Axes, leg: str, mine: Sequence[DeviationRow], validated: bool) -> None:
+    """What remains after compensation (µm): predicted, and measured when validated,
+    against each deviation's noise band (its own averaging)."""
+    x = np.arange(len(mine))
+    bottom.set_title(f"{leg} leg: after compensation", color=LEG_COLOUR[leg])
+    width = 0.38 if validated else 0.6
+    offset = width / 2 if validated else 0.0
+    for k, r in enumerate(mine):
+        half = 2 * r.noise_mm * UM_PER_MM
+        bottom.bar(k, 2 * half, 0.9, bottom=-half, color=BAND_COLOUR, zorder=0,
+                   label="gauge noise ±2σ" if k == 0 else None)
+    predicted = np.array([r.after_predicted_mm for r in mine]) * UM_PER_MM
+    bars = bottom.bar(x - offset, predicted, width, color=PREDICTED_COLOUR,
+                      label="after compensation, predicted")
+    fmt = _label_format(predicted)
+    bottom.bar_label(bars, labels=[fmt.format(v) for v in predicted], padding=2, fontsize=8.5)
+    if validated:
+        measured = np.array([np.nan if r.after_measured_mm is None
+                             else r.after_measured_mm for r in mine]) * UM_PER_MM
+        bars = bottom.bar(x + offset, measured, width, color=MEASURED_COLOUR,
+                          label="after write-back, measured")
+        fmt = _label_format(measured)
+        bottom.bar_label(bars, labels=["" if np.isnan(v) else fmt.format(v)
+                                       for v in measured], padding=2, fontsize=8.5)
+    bottom.axhline(0, color="black", lw=0.8)
+
+
+def _legend_of_all(fig: Figure, axes: np.ndarray) -> None:
+    """One legend under the panels, clear of the bars: each label once."""
+    legend: dict[str, Artist] = {}
+    for ax in axes.ravel():
+        for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
+            legend.setdefault(label, handle)
+    fig.legend(list(legend.values()), list(legend), loc="outside lower center",
+               ncols=len(legend), frameon=False)
+
+
 def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) -> Figure:
     """Top: the measured deviations per leg and posture (mm). Bottom: what remains after
     compensation (µm), predicted from the fit and, when given, measured in a validation
@@ -90,58 +152,20 @@ def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) 
         axes = fig.subplots(2, len(legs), sharey="row", squeeze=False)
         for col, leg in enumerate(legs):
             mine = [r for r in rows if r.leg == leg]
-            x = np.arange(len(mine))
             top, bottom = axes[0, col], axes[1, col]
             if not mine:
-                for ax, when in ((top, "before calibration"), (bottom, "after compensation")):
-                    ax.set_title(f"{leg} leg: {when}", color=LEG_COLOUR[leg])
-                    ax.text(0.5, 0.5, "not measured", transform=ax.transAxes, ha="center",
-                            va="center", color="#7f7f7f", fontsize=11)
-                    ax.set_xticks([])
+                _not_measured(top, bottom, leg)
                 continue
-
-            before = np.array([r.before_mm for r in mine])
-            bars = top.bar(x, before, 0.6, color=BEFORE_COLOUR,
-                           label="measured before calibration")
-            top.bar_label(bars, labels=[f"{v:+.3f}" for v in before], padding=2, fontsize=9)
-            top.axhline(0, color="black", lw=0.8)
-            top.set_title(f"{leg} leg: before calibration", color=LEG_COLOUR[leg],
-                          fontweight="bold")
-            bottom.set_title(f"{leg} leg: after compensation", color=LEG_COLOUR[leg])
-            top.set_xticks(x, [_tick(r) for r in mine], fontsize=8.5)
-
-            width = 0.38 if validated else 0.6
-            offset = width / 2 if validated else 0.0
-            for k, r in enumerate(mine):  # the band per deviation: its own averaging
-                half = 2 * r.noise_mm * UM_PER_MM
-                bottom.bar(k, 2 * half, 0.9, bottom=-half, color=BAND_COLOUR, zorder=0,
-                           label="gauge noise ±2σ" if k == 0 else None)
-            predicted = np.array([r.after_predicted_mm for r in mine]) * UM_PER_MM
-            bars = bottom.bar(x - offset, predicted, width, color=PREDICTED_COLOUR,
-                              label="after compensation, predicted")
-            fmt = _label_format(predicted)
-            bottom.bar_label(bars, labels=[fmt.format(v) for v in predicted], padding=2,
-                             fontsize=8.5)
-            if validated:
-                measured = np.array([np.nan if r.after_measured_mm is None
-                                     else r.after_measured_mm for r in mine]) * UM_PER_MM
-                bars = bottom.bar(x + offset, measured, width, color=MEASURED_COLOUR,
-                                  label="after write-back, measured")
-                fmt = _label_format(measured)
-                bottom.bar_label(bars, labels=["" if np.isnan(v) else fmt.format(v)
-                                               for v in measured], padding=2, fontsize=8.5)
-            bottom.axhline(0, color="black", lw=0.8)
-            bottom.set_xticks(x, [_tick(r) for r in mine], fontsize=8.5)
+            _before_panel(top, leg, mine)
+            _after_panel(bottom, leg, mine, validated)
+            ticks = [_tick(r) for r in mine]
+            top.set_xticks(np.arange(len(mine)), ticks, fontsize=8.5)
+            bottom.set_xticks(np.arange(len(mine)), ticks, fontsize=8.5)
         axes[0, 0].set_ylabel("deviation before (mm)")
         axes[1, 0].set_ylabel("deviation after (µm)")
         _headroom(axes[0, 0])
         _symmetric(axes[1, 0], 1.25)
-        legend: dict[str, Artist] = {}  # one legend under the panels, clear of the bars
-        for ax in axes.ravel():
-            for handle, label in zip(*ax.get_legend_handles_labels(), strict=True):
-                legend.setdefault(label, handle)
-        fig.legend(list(legend.values()), list(legend), loc="outside lower center",
-                   ncols=len(legend), frameon=False)
+        _legend_of_all(fig, axes)
         fig.suptitle("Deviations per leg and posture, relative to Zero (averaged over cycles)")
     return fig
 
@@ -224,6 +248,85 @@ def residuals_figure(series: ResidualSeries, noise_mm: float, rms_mm: float) -> 
     return fig
 
 
+@dataclass(frozen=True)
+class _Whiskers:
+    """One fit's values and whiskers, a row per parameter name: U where the record's
+    budget gives it, else 2 std of the fit (``fallback``), NaN where not determined."""
+
+    rows: tuple[ParameterRow | None, ...]
+    value: np.ndarray
+    half: np.ndarray
+    texts: tuple[str, ...]  # each value as its headline says it
+    fallback: bool
+
+    @classmethod
+    def of(cls, summary: FitSummary, names: Sequence[str],
+           given: Mapping[str, float | None] | None) -> _Whiskers:
+        rows = tuple(summary.row(n) for n in names)
+        value = np.array([r.value if r and finite(r.std) else np.nan for r in rows])
+        half = np.full(len(rows), np.nan)
+        texts = []
+        fallback = False
+        for k, r in enumerate(rows):
+            if r is None or not finite(r.std):
+                texts.append("not determined by these readings")
+                continue
+            U = (given or {}).get(r.name)
+            if U is None:
+                fallback = True
+                half[k] = 2 * r.std
+                texts.append(f"{headline(r.value, None, None, r.unit).value} ± "
+                             f"{two_digits(2 * r.std)} {r.unit} (2 std, U not evaluated)")
+            else:
+                half[k] = U
+                texts.append(str(headline(r.value, U, 2.0, r.unit)))
+        return cls(rows, value, half, tuple(texts), fallback)
+
+
+@dataclass(frozen=True)
+class _Series:
+    label: str
+    whiskers: _Whiskers
+    shift: float  # of its bars from the name's line
+    colour: str
+
+
+def _draw_series(left: Axes, right: Axes, y: np.ndarray, s: _Series, height: float) -> None:
+    """Values with whiskers on the left, U on the right, each labelled."""
+    w = s.whiskers
+    left.barh(y + s.shift, w.value, height, color=s.colour, label=s.label,
+              xerr=np.nan_to_num(w.half), ecolor="black", capsize=5)
+    bars = right.barh(y + s.shift, w.half * UM_PER_MM, height, color=s.colour)
+    right.bar_label(bars, labels=["" if np.isnan(v) else f"{two_digits(v)} µm"
+                                  for v in w.half * UM_PER_MM], padding=3, fontsize=9)
+    for k, r in enumerate(w.rows):
+        if r is None:
+            continue
+        # on the far side of zero, clear of the bar, its whisker and the names
+        left.annotate(w.texts[k], (0, y[k] + s.shift), xytext=(-6 if r.value >= 0 else 6, 0),
+                      textcoords="offset points", va="center", fontsize=9,
+                      ha="right" if r.value >= 0 else "left")
+        if not finite(r.std):
+            right.annotate("not determined", (0, y[k] + s.shift), xytext=(4, 0),
+                           textcoords="offset points", va="center", color="#b22222")
+
+
+def _label_parameters(left: Axes, right: Axes, y: np.ndarray, names: Sequence[str],
+                      fallback: bool) -> None:
+    whiskers = "expanded uncertainty U (k = 2)" + (
+        "; 2 std where U was not evaluated" if fallback else "")
+    left.axvline(0, color="black", lw=0.8)
+    left.set_yticks(y, names)
+    bound = max(abs(v) for v in left.get_xlim())
+    left.set_xlim(-1.1 * bound, 1.1 * bound)  # symmetric: room for the labels
+    left.set_xlabel(f"value (mm), whiskers: {whiskers}")
+    left.set_title("Identified joint offsets")
+    right.set_yticks(y, [])
+    right.set_xlim(0, right.get_xlim()[1] * 1.3)  # room for the labels
+    right.set_xlabel("U, k = 2 (µm)" + (" or 2 std" if fallback else ""))
+    right.set_title("How precisely each is known")
+
+
 def parameters_figure(fit: FitSummary, validation: FitSummary | None = None,
                       expanded: Mapping[str, float | None] | None = None,
                       validation_expanded: Mapping[str, float | None] | None = None,
@@ -235,63 +338,20 @@ def parameters_figure(fit: FitSummary, validation: FitSummary | None = None,
     alone and say so."""
     names = [p.name for p in fit.parameters]
     y = np.arange(len(names))[::-1].astype(float)
+    identified = _Whiskers.of(fit, names, expanded)
+    series = [_Series("identified", identified, 0.0, BEFORE_COLOUR)]
+    if validation is not None:
+        series = [_Series("identified", identified, 0.18, BEFORE_COLOUR),
+                  _Series("remaining after write-back (validation)",
+                          _Whiskers.of(validation, names, validation_expanded), -0.18,
+                          MEASURED_COLOUR)]
     with matplotlib.rc_context(STYLE):
         fig = Figure(figsize=(10, 1.0 + 0.75 * len(names) * (1.5 if validation else 1)),
                      layout="constrained")
         left, right = fig.subplots(1, 2, width_ratios=(1.6, 1))
-        series = [("identified", fit, expanded, 0.0, BEFORE_COLOUR)]
-        if validation is not None:
-            series = [("identified", fit, expanded, 0.18, BEFORE_COLOUR),
-                      ("remaining after write-back (validation)", validation,
-                       validation_expanded, -0.18, MEASURED_COLOUR)]
-        height = 0.32 if validation else 0.5
-        fallback = False
-        for label, summary, given, shift, colour in series:
-            rows = [summary.row(n) for n in names]
-            value = np.array([r.value if r and finite(r.std) else np.nan for r in rows])
-            half = np.full(len(rows), np.nan)
-            texts = []
-            for k, r in enumerate(rows):
-                if r is None or not finite(r.std):
-                    texts.append("not determined by these readings")
-                    continue
-                U = (given or {}).get(r.name)
-                if U is None:
-                    fallback = True
-                    half[k] = 2 * r.std
-                    texts.append(f"{headline(r.value, None, None, r.unit).value} ± "
-                                 f"{two_digits(2 * r.std)} {r.unit} (2 std, U not evaluated)")
-                else:
-                    half[k] = U
-                    texts.append(str(headline(r.value, U, 2.0, r.unit)))
-            left.barh(y + shift, value, height, color=colour, label=label,
-                      xerr=np.nan_to_num(half), ecolor="black", capsize=5)
-            bars = right.barh(y + shift, half * UM_PER_MM, height, color=colour)
-            right.bar_label(bars, labels=["" if np.isnan(v) else f"{two_digits(v)} µm"
-                                          for v in half * UM_PER_MM], padding=3, fontsize=9)
-            for k, r in enumerate(rows):
-                if r is None:
-                    continue
-                # on the far side of zero, clear of the bar, its whisker and the names
-                left.annotate(texts[k], (0, y[k] + shift),
-                              xytext=(-6 if r.value >= 0 else 6, 0),
-                              textcoords="offset points", va="center", fontsize=9,
-                              ha="right" if r.value >= 0 else "left")
-                if not finite(r.std):
-                    right.annotate("not determined", (0, y[k] + shift), xytext=(4, 0),
-                                   textcoords="offset points", va="center", color="#b22222")
-        whiskers = "expanded uncertainty U (k = 2)" + (
-            "; 2 std where U was not evaluated" if fallback else "")
-        left.axvline(0, color="black", lw=0.8)
-        left.set_yticks(y, names)
-        bound = max(abs(v) for v in left.get_xlim())
-        left.set_xlim(-1.1 * bound, 1.1 * bound)  # symmetric: room for the labels
-        left.set_xlabel(f"value (mm), whiskers: {whiskers}")
-        left.set_title("Identified joint offsets")
-        right.set_yticks(y, [])
-        right.set_xlim(0, right.get_xlim()[1] * 1.3)  # room for the labels
-        right.set_xlabel("U, k = 2 (µm)" + (" or 2 std" if fallback else ""))
-        right.set_title("How precisely each is known")
+        for s in series:
+            _draw_series(left, right, y, s, 0.32 if validation else 0.5)
+        _label_parameters(left, right, y, names, any(s.whiskers.fallback for s in series))
         if validation is not None:
             fig.legend(*left.get_legend_handles_labels(), loc="outside lower center",
                        ncols=2, frameon=False)

@@ -20,6 +20,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from ogacq.model.instrument import finite_number
+
 SIGNIFICANT_DIGITS = 2  # GUM 7.2.6: "at most two significant digits"
 MAX_DECIMALS = 9  # below 1 nm in mm: a U smaller than this is shown as 0
 DEFAULT_DECIMALS = 4  # a value without U: 0.1 um in mm
@@ -113,15 +115,9 @@ def entry_headline(entry: Mapping[str, Any] | None, unit: str = "mm") -> Headlin
     ``k``, ``complete``: docs/calibration-record.md section 5)."""
     entry = entry or {}
     complete = entry.get("complete")
-    return headline(_number(entry.get("value_mm")), _number(entry.get("U_mm")),
-                    _number(entry.get("k")), str(entry.get("unit") or unit),
+    return headline(finite_number(entry.get("value_mm")), finite_number(entry.get("U_mm")),
+                    finite_number(entry.get("k")), str(entry.get("unit") or unit),
                     complete=complete is not False)
-
-
-def _number(x: Any) -> float | None:
-    if isinstance(x, bool) or not isinstance(x, int | float):
-        return None
-    return float(x)
 
 
 def result_entry(results: Mapping[str, Any] | None, name: str) -> Mapping[str, Any]:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 from ogacq_drivers.axes.profile import Profile
 from ogacq.model.parameters import AXES
@@ -25,6 +25,7 @@ DEFAULT_MAX_CHANGE_MM = 2.0
 SOFTWARE_RESOLUTION_MM = 1e-6  # the software table keeps what it is given; below any physics
 
 Action = Literal["write", "restore"]
+_T = TypeVar("_T")
 
 
 @dataclass(frozen=True)
@@ -134,82 +135,147 @@ def _margin_refusals(new_mm: Mapping[str, float], facts: ControllerFacts) -> lis
                     "room beyond the soft limits")]
 
 
-def plan_write(evidence: Evidence, current_mm: Mapping[str, float], facts: ControllerFacts,
-               policy: WritePolicy = WritePolicy()) -> OffsetPlan:
-    """Old -> new per axis (``o_new = o_campaign - drho``) and every reason not to."""
-    refusals: list[Refusal] = []
-    notes: list[str] = []
-    if not evidence.finished:
-        refusals.append(Refusal("incomplete", "the campaign did not run to its end "
-                                f"({evidence.readings} readings): resume it first"))
-    if not evidence.converged:
-        refusals.append(Refusal("not_converged", f"the offsets fit did not converge: "
-                                f"{evidence.fit_stop.describe()}"))
-    if not evidence.identifiable:
-        why = "; ".join(evidence.identifiability_reasons) or "the design is rank deficient"
-        refusals.append(Refusal("unidentifiable",
-                                f"the joint offsets are not identifiable from this campaign: "
-                                f"{why}"))
-    if not evidence.verdict.consistent:
-        hint = ("the model leaves something out" if evidence.uncompensated else
-                "the joint-offset model leaves something out (run `ogacq diagnose` on the "
-                "session; when it explains the readings, `--from-diagnosis` writes the "
-                "offsets of its model)")
-        refusals.append(Refusal("inconsistent" if evidence.verdict.judged else "unjudged",
-                                f"{evidence.model} fit: {evidence.verdict.describe()}; {hint}"))
-    if evidence.uncompensated:
-        notes.append(f"these are the joint offsets of the model with "
-                     f"{', '.join(evidence.uncompensated)}; the controller cannot compensate "
-                     f"{'that effect' if len(evidence.uncompensated) == 1 else 'those effects'}"
-                     ": they remain until the machine is adjusted mechanically")
-    if evidence.profile is not None and evidence.profile != facts.profile:
-        refusals.append(Refusal("other_profile",
-                                f"the campaign ran with controller profile {evidence.profile!r}, "
-                                f"this controller has {facts.profile!r}"))
+def _refuse_incomplete(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
+    if evidence.finished:
+        return None
+    return Refusal("incomplete", "the campaign did not run to its end "
+                   f"({evidence.readings} readings): resume it first")
 
-    current = {a: float(current_mm[a]) for a in AXES}
+
+def _refuse_not_converged(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
+    if evidence.converged:
+        return None
+    return Refusal("not_converged", f"the offsets fit did not converge: "
+                   f"{evidence.fit_stop.describe()}")
+
+
+def _refuse_unidentifiable(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
+    if evidence.identifiable:
+        return None
+    why = "; ".join(evidence.identifiability_reasons) or "the design is rank deficient"
+    return Refusal("unidentifiable",
+                   f"the joint offsets are not identifiable from this campaign: {why}")
+
+
+def _refuse_inconsistent(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
+    if evidence.verdict.consistent:
+        return None
+    hint = ("the model leaves something out" if evidence.uncompensated else
+            "the joint-offset model leaves something out (run `ogacq diagnose` on the "
+            "session; when it explains the readings, `--from-diagnosis` writes the "
+            "offsets of its model)")
+    return Refusal("inconsistent" if evidence.verdict.judged else "unjudged",
+                   f"{evidence.model} fit: {evidence.verdict.describe()}; {hint}")
+
+
+def _refuse_other_profile(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
+    if evidence.profile is None or evidence.profile == facts.profile:
+        return None
+    return Refusal("other_profile",
+                   f"the campaign ran with controller profile {evidence.profile!r}, "
+                   f"this controller has {facts.profile!r}")
+
+
+# The checks of the evidence alone, in the order the operator reads their refusals.
+_EVIDENCE_CHECKS = (_refuse_incomplete, _refuse_not_converged, _refuse_unidentifiable,
+                    _refuse_inconsistent, _refuse_other_profile)
+
+
+@dataclass(frozen=True)
+class _Baseline:
+    """The offsets the identified ones are relative to, and why they may not be."""
+
+    offsets_mm: dict[str, float]
+    refusal: Refusal | None
+
+
+def _baseline(evidence: Evidence, current: dict[str, float]) -> _Baseline:
     if evidence.in_force_mm is None:
-        baseline = current
-        refusals.append(Refusal(
+        return _Baseline(current, Refusal(
             "unknown_baseline",
             "the session does not record the controller offsets in force during the "
             "campaign, and the identified offsets are relative to them (with --force the "
             "current ones are assumed)"))
-    else:
-        baseline = dict(evidence.in_force_mm)
-        if not evidence.in_force_consistent:
-            refusals.append(Refusal("mixed_baseline",
-                                    "the controller offsets changed between the starts of this "
-                                    "campaign (it was resumed after a change): its readings mix "
-                                    "two baselines"))
+    mixed = None if evidence.in_force_consistent else Refusal(
+        "mixed_baseline", "the controller offsets changed between the starts of this "
+        "campaign (it was resumed after a change): its readings mix two baselines")
+    return _Baseline(dict(evidence.in_force_mm), mixed)
 
-    new = {a: facts.quantize(baseline[a] - evidence.identified_mm[a]) for a in AXES}
-    changes = tuple(AxisChange(a, current[a], new[a]) for a in AXES)
-    plan_nothing = all(facts.same(current[a], new[a]) for a in AXES)
-    if not plan_nothing and not all(facts.same(current[a], baseline[a]) for a in AXES):
-        refusals.append(Refusal(
-            "stale",
-            f"the controller's offsets changed since this campaign (then {_fmt(baseline)}, "
-            f"now {_fmt(current)} mm): a later write-back or a manual change; writing would "
-            "replace them with this campaign's result"))
+
+def _refuse_stale(changes: tuple[AxisChange, ...], baseline: dict[str, float],
+                  facts: ControllerFacts) -> Refusal | None:
+    current = {c.axis: c.current_mm for c in changes}
+    if _nothing_to_do(changes, facts) or all(facts.same(current[a], baseline[a]) for a in AXES):
+        return None
+    return Refusal(
+        "stale",
+        f"the controller's offsets changed since this campaign (then {_fmt(baseline)}, "
+        f"now {_fmt(current)} mm): a later write-back or a manual change; writing would "
+        "replace them with this campaign's result")
+
+
+def _refuse_too_large(changes: tuple[AxisChange, ...], policy: WritePolicy) -> Refusal | None:
     too_large = {c.axis: c.change_mm for c in changes if abs(c.change_mm) > policy.max_change_mm}
-    if too_large:
-        refusals.append(Refusal(
-            "too_large",
-            f"changes {_fmt(too_large)} mm exceed the {policy.max_change_mm:g} mm limit "
-            "(--max-change-mm): implausible for an encoder zero error; check the set-up"))
-    refusals += _margin_refusals(new, facts)
+    if not too_large:
+        return None
+    return Refusal(
+        "too_large",
+        f"changes {_fmt(too_large)} mm exceed the {policy.max_change_mm:g} mm limit "
+        "(--max-change-mm): implausible for an encoder zero error; check the set-up")
 
+
+def _nothing_to_do(changes: tuple[AxisChange, ...], facts: ControllerFacts) -> bool:
+    return all(facts.same(c.current_mm, c.new_mm) for c in changes)
+
+
+def _uncompensated_note(evidence: Evidence) -> str | None:
+    if not evidence.uncompensated:
+        return None
+    return (f"these are the joint offsets of the model with "
+            f"{', '.join(evidence.uncompensated)}; the controller cannot compensate "
+            f"{'that effect' if len(evidence.uncompensated) == 1 else 'those effects'}"
+            ": they remain until the machine is adjusted mechanically")
+
+
+def _noise_note(evidence: Evidence, changes: tuple[AxisChange, ...],
+                facts: ControllerFacts) -> str | None:
     small = [a for a in AXES if math.isfinite(evidence.std_mm[a])
              and abs(evidence.identified_mm[a]) < 2 * evidence.std_mm[a]]
-    if small and not plan_nothing:
-        notes.append(f"the identified offsets of {', '.join(small)} are within two std of zero: "
-                     "their change is noise")
-    residue = {a: new[a] - (baseline[a] - evidence.identified_mm[a]) for a in AXES}
-    if facts.kind != "software" and any(abs(v) > 1e-9 for v in residue.values()):
-        notes.append(f"rounded to the register step {facts.resolution_mm:g} mm: up to "
-                     f"{max(abs(v) for v in residue.values()):.4f} mm remains")
-    return OffsetPlan("write", facts, changes, tuple(refusals), tuple(notes), baseline)
+    if not small or _nothing_to_do(changes, facts):
+        return None
+    return (f"the identified offsets of {', '.join(small)} are within two std of zero: "
+            "their change is noise")
+
+
+def _rounding_note(wanted_mm: dict[str, float], new_mm: dict[str, float],
+                   facts: ControllerFacts) -> str | None:
+    residue = [abs(new_mm[a] - wanted_mm[a]) for a in AXES]
+    if facts.kind == "software" or not any(r > 1e-9 for r in residue):
+        return None
+    return (f"rounded to the register step {facts.resolution_mm:g} mm: up to "
+            f"{max(residue):.4f} mm remains")
+
+
+def _present(*found: _T | None) -> tuple[_T, ...]:
+    return tuple(x for x in found if x is not None)
+
+
+def plan_write(evidence: Evidence, current_mm: Mapping[str, float], facts: ControllerFacts,
+               policy: WritePolicy = WritePolicy()) -> OffsetPlan:
+    """Old -> new per axis (``o_new = o_campaign - drho``) and every reason not to:
+    the evidence's checks, then the baseline's, then the plan's."""
+    current = {a: float(current_mm[a]) for a in AXES}
+    baseline = _baseline(evidence, current)
+    wanted = {a: baseline.offsets_mm[a] - evidence.identified_mm[a] for a in AXES}
+    new = {a: facts.quantize(wanted[a]) for a in AXES}
+    changes = tuple(AxisChange(a, current[a], new[a]) for a in AXES)
+    refusals = _present(*(check(evidence, facts) for check in _EVIDENCE_CHECKS),
+                        baseline.refusal,
+                        _refuse_stale(changes, baseline.offsets_mm, facts),
+                        _refuse_too_large(changes, policy)) + tuple(_margin_refusals(new, facts))
+    notes = _present(_uncompensated_note(evidence), _noise_note(evidence, changes, facts),
+                     _rounding_note(wanted, new, facts))
+    return OffsetPlan("write", facts, changes, refusals, notes, baseline.offsets_mm)
 
 
 def plan_restore(operation: Operation, current_mm: Mapping[str, float],
