@@ -69,15 +69,34 @@ def step(folder: Path, name: str, **match) -> dict:
     return found[-1]
 
 
+def calibrated(root: Path, args: list[str]) -> Path:
+    """``ogacq calibrate ARGS --out ROOT/cal``, ended with exit 0: its folder.
+
+    The write is refused when the diagnosis's model is not within the noise at the 1 %
+    level, which a correct model's campaign is once in a hundred (its timing moves the
+    readings; seen once, p = 0.004): that refusal alone gets one more campaign, so this
+    fails on it once in ten thousand runs, and on anything else at once."""
+    for attempt in ("cal", "cal-again"):
+        folder = root / attempt
+        code = main(["calibrate", *args, "--out", str(folder)])
+        if not (code == 4 and refused_as_inconsistent(folder)):
+            break
+    assert code == 0
+    return folder
+
+
+def refused_as_inconsistent(folder: Path) -> bool:
+    """The procedure refused the write for the verdict alone."""
+    refused = [r.details for r in log_steps(folder) if r.step == "refused"]
+    return bool(refused) and refused[-1].get("codes") == ["inconsistent"]
+
+
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory) -> Path:
     """One uninterrupted calibration, in this process."""
     root = tmp_path_factory.mktemp("straight")
-    folder = root / "cal"
-    code = main(["calibrate", "--simulator", "--effects", str(effects_file(root)),
-                 "--seed", SEED, "--out", str(folder), *FAST])
-    assert code == 0
-    return folder
+    return calibrated(root, ["--simulator", "--effects", str(effects_file(root)),
+                             "--seed", SEED, *FAST])
 
 
 def test_ends_validated_with_the_map_the_offsets_and_the_record(straight):
@@ -144,6 +163,9 @@ def test_killed_at_two_points_it_resumes_to_the_same_end(straight, tmp_path):
         deadline = time.monotonic() + 240
         while not when() and run.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
+        if run.poll() is not None and refused_as_inconsistent(folder):
+            pytest.skip("the write was refused: the model not within the noise at the 1 % "
+                        "level (a correct campaign's once in a hundred); no kill after it")
         assert run.poll() is None, "the procedure ended before the kill point"
         os.kill(run.pid, signal.SIGKILL)
         run.wait()
@@ -218,11 +240,9 @@ def test_a_cyclic_screw_error_is_mapped_and_validated(tmp_path):
     the squareness left as it is. A map left where the campaign's coordinate had it
     (the screw 1.24 mm off under it) left 6 of 16 um and was not within the noise."""
     text = "[squareness]\nxy = 0.5\n[lead_screw.x]\namplitude_mm = 0.008\npitch_mm = 20.0\n"
-    folder = tmp_path / "cal"
-    code = main(["calibrate", "--simulator", "--effects", str(effects_file(tmp_path, text)),
-                 "--seed", SEED, "--out", str(folder), "--speed", "50", "--scan-step-mm",
-                 "5", "--yes", "--history", "none"])
-    assert code == 0
+    folder = calibrated(tmp_path, ["--simulator", "--effects", str(effects_file(tmp_path, text)),
+                                   "--seed", SEED, "--speed", "50", "--scan-step-mm", "5",
+                                   "--yes", "--history", "none"])
     assert step(folder, "finished")["outcome"] in KEPT
     for role in ("validation", "validation-scan"):
         verdict = step(folder, "validation", role=role)["verdict"]
