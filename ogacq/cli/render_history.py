@@ -64,20 +64,33 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'s' if n != 1 else ''}"
 
 
-def _who_table(machine: Machine, where: str, calibrations: Sequence[Calibration]) -> Table:
+def _who_title(machine: Machine, where: str, calibrations: Sequence[Calibration]) -> str:
+    return (f"{shown(machine.describe())}: "
+            f"{_plural(len(calibrations), 'calibration')} in {shown(where)}")
+
+
+def _who_table(calibrations: Sequence[Calibration]) -> Table:
     """Who calibrated and how it came out, one row per calibration."""
-    table = Table(title=f"{shown(machine.describe())}: "
-                        f"{_plural(len(calibrations), 'calibration')} in {shown(where)}",
-                  show_edge=False, header_style="bold", title_justify="left")
+    table = Table(show_edge=False, header_style="bold")
     for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
         table.add_column(column, no_wrap=column in ("date", "record"), min_width=len(column),
                          justify="right" if column == "ambient" else "left")
     for c in calibrations:
-        table.add_row(shown(_when(c.date)),
-                      shown(c.record_id) + (" SIMULATED" if c.simulated else ""),
-                      shown(c.operator or "-"), shown(verdict_words(c.verdict)),
-                      shown(acceptance_words(c)), _ambient(c))
+        table.add_row(shown(_when(c.date)), _record_words(c), shown(c.operator or "-"),
+                      shown(verdict_words(c.verdict)), shown(acceptance_words(c)), _ambient(c))
     return table
+
+
+def _who_blocks(calibrations: Sequence[Calibration]) -> list[str]:
+    """The same, a block per calibration: for a terminal the table does not fit."""
+    return [f"{shown(_when(c.date))}  {_record_words(c)}\n"
+            f"    operator {shown(c.operator or '-')}; fit {shown(verdict_words(c.verdict))}; "
+            f"acceptance {shown(acceptance_words(c))}; ambient {_ambient(c)}"
+            for c in calibrations]
+
+
+def _record_words(c: Calibration) -> str:
+    return shown(c.record_id) + (" SIMULATED" if c.simulated else "")
 
 
 def _who_notes(calibrations: Sequence[Calibration], written: Written) -> list[str]:
@@ -100,7 +113,7 @@ def _values_table(calibrations: Sequence[Calibration], drifts: Sequence[Drift],
     values = Table(title=f"identified {'joint offsets ' if joint else ''}(mm ± U, k = 2; "
                          f"{DRIFT_MARK} changed by more than U)",
                    show_edge=False, header_style="bold", title_justify="left")
-    values.add_column("date", no_wrap=True)
+    values.add_column("date")  # wraps before its time, never a value cut off
     for name in names:
         values.add_column(shown(_short(name)), justify="right", no_wrap=True)
     for c in calibrations:
@@ -149,8 +162,17 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     judged from the state as left."""
     console = new_console()  # per call: the terminal's width as it is now
     written = written or {}
-    # Two tables, so each fits a terminal of 80 columns: who and how, then the values.
-    console.print(_who_table(machine, where, calibrations))
+    # Two tables, so each fits a terminal of 80 columns: who and how, then the values;
+    # where the first does not fit whole (a long operator, a SIMULATED mark), a block
+    # per calibration instead of a column cut off.
+    console.print(_who_title(machine, where, calibrations), highlight=False)
+    who = _who_table(calibrations)
+    natural = console.measure(who, options=console.options.update_width(10_000)).maximum
+    if natural <= console.width:
+        console.print(who)
+    else:
+        for block in _who_blocks(calibrations):
+            console.print(block, highlight=False)
     for line in _who_notes(calibrations, written):
         console.print(shown(line), highlight=False)
     console.print(_values_table(calibrations, drifts, written))

@@ -46,6 +46,11 @@ def test_the_table_lists_the_calibrations_and_flags_the_drift(history_file, caps
     code, narrow, _ = run(capsys, "history", "OG-1 cell 3", "--history", path)
     assert code == 0 and "…" not in narrow
     assert max(len(line) for line in narrow.splitlines()) <= 80
+    # every calibration whole: its record, its verdict, its acceptance, its ambient
+    for record, ambient in zip(records, ("20.4 °C", "18.0 °C", "23.1 °C"), strict=True):
+        assert record["id"] in narrow and ambient in narrow
+    assert narrow.count("within noise") == 3 and "fail" in narrow
+    assert narrow.count(" ! ") + narrow.count(" !\n") >= 1  # the drift's mark, not cut off
     monkeypatch.setenv("COLUMNS", "250")
     code, out, _ = run(capsys, "history", "OG-1 cell 3", "--history", path)
     assert code == 0
