@@ -13,7 +13,7 @@ from ogacq.cli import render_history as render
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.errors import InputError, Refused
-from ogacq.history.drift import changes, written_by_record
+from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.location import history_for_session, history_to_read
 from ogacq.history.recording import record_session, writebacks_of
 from ogacq.history.states import diff as states_diff
@@ -90,14 +90,15 @@ def show(
             render.print_states(found, where, listed, current, machine_states)
         return
     drifts = changes(calibrations, written)
+    moves = controller_changes(calibrations, written)
     if plot is not None:
         from ogacq.history.plot import write_history_plot  # matplotlib only when asked
 
         write_history_plot(plot, found.describe(), calibrations, drifts, written)
     if as_json:
-        typer.echo(json.dumps(render.calibrations_json(found, calibrations, drifts)))
+        typer.echo(json.dumps(render.calibrations_json(found, calibrations, drifts, moves)))
         return
-    render.print_calibrations(found, where, calibrations, drifts, events, written)
+    render.print_calibrations(found, where, calibrations, drifts, events, written, moves)
     if plot is not None:
         typer.echo(f"plot: {plot}")
 

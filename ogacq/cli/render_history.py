@@ -11,7 +11,7 @@ from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
-from ogacq.history.drift import Drift, expanded
+from ogacq.history.drift import ControllerChange, Drift, expanded
 from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 from ogacq.model.units import UM_PER_MM
@@ -156,7 +156,8 @@ def _events_note(machine: Machine, events: Sequence[Event]) -> str | None:
 
 def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Calibration],
                        drifts: Sequence[Drift], events: Sequence[Event],
-                       written: Written | None = None) -> None:
+                       written: Written | None = None,
+                       controller_moves: Sequence[ControllerChange] = ()) -> None:
     """The calibrations, their values with the write-backs between them (``written``:
     record id -> parameter -> the change the record's write-backs made), each change
     judged from the state as left."""
@@ -178,6 +179,8 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     console.print(_values_table(calibrations, drifts, written))
     for line in _drift_notes(calibrations, drifts, written):
         console.print(line, highlight=False)
+    for move in controller_moves:
+        console.print(f"[yellow]{shown(move.describe())}[/]", highlight=False)
     events_note = _events_note(machine, events)
     if events_note:
         console.print(shown(events_note), highlight=False)
@@ -242,7 +245,8 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
 
 
 def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
-                      drifts: Sequence[Drift]) -> dict[str, Any]:
+                      drifts: Sequence[Drift],
+                      controller_moves: Sequence[ControllerChange] = ()) -> dict[str, Any]:
     by_target: dict[str, dict[str, Any]] = {}
     for d in drifts:
         by_target.setdefault(d.to_record, {})[d.parameter] = d.to_json()
@@ -263,6 +267,7 @@ def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
             "session": {"path": c.session_path, "sha256": c.session_sha256},
             "changes": by_target.get(c.record_id, {})} for c in calibrations],
         "drifts": [d.to_json() for d in drifts if d.flagged],
+        "controller_changes": [m.to_json() for m in controller_moves],
     }
 
 
