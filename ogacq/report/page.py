@@ -313,10 +313,10 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
                or p.machine_file or "machine")
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
-    context: dict[str, Any] = record_view(record) | {
+    context: dict[str, Any] = record_view(typed) | {
         "page_issued": css_string(str(typed.issued)),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
-        "title": f"Calibration record {revision_label(record)}: {machine}"
+        "title": f"Calibration record {revision_label(typed)}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
         "status_badge": status_badge(data.status), "um": um,
         "session_notes": session_notes(record),
