@@ -179,6 +179,10 @@ class ReportData:
     diagnosis_note: str | None
     writes: tuple[OffsetsWrite, ...]
     notes: tuple[str, ...]  # what a reader must know before trusting the numbers
+    # the identifications summarised above (recorded_identification of each session),
+    # handed to the record so that it does not identify them again
+    identified: FitResult | None = None
+    validation_identified: FitResult | None = None
 
 
 # --- the session as a campaign ------------------------------------------------------------
@@ -454,5 +458,6 @@ def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
         deviations=deviation_rows(result, validation_fit) if result is not None else (),
         residuals=residual_series(session, result.residuals) if result is not None else None,
         validation=validation_run, diagnosis=diagnosis, diagnosis_steps=steps,
-        diagnosis_note=diagnosis_note, writes=offsets_writes(session), notes=tuple(notes))
+        diagnosis_note=diagnosis_note, writes=offsets_writes(session), notes=tuple(notes),
+        identified=result, validation_identified=validation_fit)
 
