@@ -143,8 +143,9 @@ def demo(
     write_atomically(folder / "diagnosis.json",
                      (json.dumps(diagnosis.to_json(), indent=2) + "\n").encode("utf-8"))
     print_demo_diagnosis(diagnosis, outcome.hidden or {})
-    write_session_report(session, folder / "report",
-                         diagnosis=report_diagnosis(diagnosis, session))
+    write_session_report(session, folder / "report",  # the record campaign_end built
+                         diagnosis=report_diagnosis(diagnosis, session),
+                         record=dict(end.built) if end.built is not None else None)
     typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
                "report/report.html")
     record_campaign(outcome.session_path, history, say=typer.echo, record=end.built)

@@ -104,7 +104,8 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
                    diagnosis_note=diagnosis_note)
     if record is None:
         record = build_record(calibration, validation=validation, history=history,
-                              history_why=history_why)
+                              history_why=history_why, fit=data.identified,
+                              validation_fit=data.validation_identified)
     # issued beside an earlier issue of the same record: its next revision, or itself
     record = issue(record, _earlier_issue(folder / RECORD_NAME))
     return write_report(build_report(data, record), folder)

@@ -10,13 +10,15 @@ from __future__ import annotations
 import hashlib
 import math
 import time
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
 from ogacq.model.gauges import AXES
 from ogacq.model.instrument import finite_number as _number
+from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.sections import ResultEntry
 
 RECORD_FORMAT = "ogacq-record/1"
 
@@ -92,56 +94,53 @@ def check_record(record: Any) -> dict[str, Any]:
     what is missing."""
     if not isinstance(record, Mapping):
         raise RecordError("a record is a JSON object")
-    if record.get("format") != RECORD_FORMAT:
-        raise RecordError(f"not an {RECORD_FORMAT} record (format {record.get('format')!r})")
-    if not isinstance(record.get("id"), str) or not record["id"]:
+    typed = CalibrationRecord.from_json(record)
+    if typed.format != RECORD_FORMAT:
+        raise RecordError(f"not an {RECORD_FORMAT} record (format {typed.as_written('format')!r})")
+    if not typed.id:
         raise RecordError("the record has no id")
-    machine = record.get("machine")
-    if not isinstance(machine, Mapping) or not isinstance(machine.get("name"), str) \
-            or not machine["name"].strip():
-        raise RecordError(f"record {record['id']} names no machine")
+    name = typed.machine_named.name
+    if name is None or not name.strip():
+        raise RecordError(f"record {typed.id} names no machine")
     return dict(record)
 
 
-def machine_of(record: Mapping[str, Any]) -> tuple[str, str]:
-    """(name, serial) of the record's machine; the serial is "" when none is given."""
-    machine = record["machine"]
-    return machine["name"].strip(), str(machine.get("serial") or "").strip()
+def _typed(record: Mapping[str, Any] | CalibrationRecord) -> CalibrationRecord:
+    return record if isinstance(record, CalibrationRecord) else CalibrationRecord.from_json(record)
 
 
-def parameters_of(record: Mapping[str, Any]) -> list[Parameter]:
+def machine_of(record: Mapping[str, Any] | CalibrationRecord) -> tuple[str, str]:
+    """(name, serial) of the record's machine (checked by ``check_record``); the serial
+    is "" when none is given."""
+    machine = _typed(record).machine_named
+    return str(machine.name).strip(), (machine.serial or "").strip()
+
+
+def parameters_in(entries: Sequence[ResultEntry]) -> list[Parameter]:
+    """The parameters of a record's (or a history entry's) ``results`` that have a value."""
+    return [Parameter(e.name, e.value_mm, e.u_mm, e.U_mm, e.k, e.std_mm)
+            for e in entries if e.value_mm is not None]
+
+
+def parameters_of(record: Mapping[str, Any] | CalibrationRecord) -> list[Parameter]:
     """Every identified parameter of ``results`` (``{"joint_offset": {"x": {...}}}``),
     by its dotted name, in the record's order."""
-    out = []
-    for group, entries in (record.get("results") or {}).items():
-        if not isinstance(entries, Mapping):
-            continue
-        for where, entry in entries.items():
-            if not isinstance(entry, Mapping) or _number(entry.get("value_mm")) is None:
-                continue
-            out.append(Parameter(f"{group}.{where}", float(entry["value_mm"]),
-                                 _number(entry.get("u_mm")), _number(entry.get("U_mm")),
-                                 _number(entry.get("k")), _number(entry.get("std_mm"))))
-    return out
+    return parameters_in(_typed(record).result_entries)
 
 
-def ambient_of(record: Mapping[str, Any]) -> float | None:
+def ambient_of(record: Mapping[str, Any] | CalibrationRecord) -> float | None:
     """The ambient temperature at the start (else at the end) of the campaign, degC."""
-    environment = record.get("environment") or {}
+    environment = _typed(record).environment or {}
     for stage in ("start", "end"):
-        entry = environment.get(stage) if isinstance(environment, Mapping) else None
+        entry = environment.get(stage)
         if isinstance(entry, Mapping) and _number(entry.get("ambient_c")) is not None:
             return float(entry["ambient_c"])
     return None
 
 
-def acceptance_decision(record: Mapping[str, Any]) -> str | None:
-    acceptance = record.get("acceptance")
-    if not isinstance(acceptance, Mapping):
-        return None
-    as_found = acceptance.get("as_found")
-    return str(as_found.get("decision")) if isinstance(as_found, Mapping) \
-        and as_found.get("decision") is not None else None
+def acceptance_decision(record: Mapping[str, Any] | CalibrationRecord) -> str | None:
+    """The as-found decision (pass, fail, undecided), None when not recorded."""
+    return _typed(record).acceptance_read.as_found.decision
 
 
 def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
@@ -150,24 +149,25 @@ def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
     return f"{kind}:{record_id}" + (f":{operation}" if operation else "")
 
 
-def record_columns(record: Mapping[str, Any]) -> dict[str, Any]:
+def record_columns(record: Mapping[str, Any] | CalibrationRecord) -> dict[str, Any]:
     """The event columns a record fills (every kind of event carries its record's)."""
-    session = found if isinstance(found := record.get("session"), Mapping) else {}
-    method = stated if isinstance(stated := record.get("method"), Mapping) else {}
+    typed = _typed(record)
+    session = typed.session_reference
+    software = (typed.method or {}).get("software")
     return {
-        "record_id": record["id"],
-        "campaign_date": str(record["date"]) if record.get("date") else None,
-        "operator": str(record["operator"]) if record.get("operator") else None,
-        "software": str(method.get("software")) if method.get("software") else None,
-        "session_path": str(session.get("path")) if session.get("path") else None,
-        "session_sha256": str(session.get("sha256")) if session.get("sha256") else None,
-        "verdict": clean_json(record.get("verdict")),
-        "acceptance_decision": acceptance_decision(record),
-        "acceptance": clean_json(record.get("acceptance")),
-        "instruments": clean_json(record.get("instruments")),
-        "environment": clean_json(record.get("environment")),
-        "ambient_c": ambient_of(record),
-        "overrides": clean_json(record.get("overrides")),
+        "record_id": typed.id,
+        "campaign_date": typed.date or None,
+        "operator": typed.operator or None,
+        "software": str(software) if software else None,
+        "session_path": session.path or None,
+        "session_sha256": session.sha256 or None,
+        "verdict": clean_json(typed.as_written("verdict")),
+        "acceptance_decision": acceptance_decision(typed),
+        "acceptance": clean_json(typed.as_written("acceptance")),
+        "instruments": clean_json(typed.as_written("instruments")),
+        "environment": clean_json(typed.as_written("environment")),
+        "ambient_c": ambient_of(typed),
+        "overrides": clean_json(typed.as_written("overrides")),
     }
 
 

@@ -22,11 +22,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ogacq.history.drift import Drift, expanded
-from ogacq.history.entries import Parameter, parameters_of
+from ogacq.history.entries import Parameter, parameters_in
 from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import wall_time
 from ogacq.model.parameters import EFFECT_BY_NAME
 from ogacq.model.units import UM_PER_MM
+from ogacq.record.calibration_record import CalibrationRecord
 
 DPI = 110
 VALUE_COLOUR = "#1f5fa8"
@@ -56,14 +57,17 @@ class RecordedCalibration:
     parameters: Mapping[str, Parameter]
 
 
-def recorded_calibrations(record: Mapping[str, Any]) -> list[RecordedCalibration]:
+def recorded_calibrations(record: Mapping[str, Any] | CalibrationRecord
+                          ) -> list[RecordedCalibration]:
     """The earlier calibrations a record holds (``history``), then the record's own,
-    each with its parameters read as the history reads them (``parameters_of``);
+    each with its parameters read as the history reads them (``parameters_in``);
     oldest first when every one is dated (a caller's history may come in any order)."""
-    entries = [*(record.get("history") or ()), record]
-    found = [RecordedCalibration(str(e.get("id")), str(e["date"]) if e.get("date") else None,
-                                 {p.name: p for p in parameters_of(e)})
-             for e in entries if isinstance(e, Mapping)]
+    typed = record if isinstance(record, CalibrationRecord) \
+        else CalibrationRecord.from_json(record)
+    entries = [*typed.history_entries, typed.as_history_entry()]
+    found = [RecordedCalibration(str(e.id), e.date or None,
+                                 {p.name: p for p in parameters_in(e.results)})
+             for e in entries]
     dated = [(when, c) for c in found if (when := wall_time(c.date)) is not None]
     if len(dated) < len(found):
         return found

@@ -5,9 +5,12 @@ It is built as JSON by ``ogacq.record.document.build_record`` and kept so
 (``record.json``, the history's rows); ``from_json`` then ``to_json`` gives back the
 same keys in the same order with the same values, so the document, its SHA-256 and
 its revisions (``ogacq.record.revision``) do not depend on this type. The sections
-read by more than one module are named; every other key, and a named one of another
-type than this version writes (a hand-edited file), is kept in ``extra`` where it was
-(the named attribute then None, as for a key the record does not have).
+read by another module are named; every other key, and a named one of another type
+than this version writes (a hand-edited file), is kept in ``extra`` where it was (the
+named attribute then None, as for a key the record does not have). A section whose
+inner keys more than one module reads is also given as a typed value
+(``ogacq.record.sections``: ``machine_named``, ``result_entries``, ``verdict_read``,
+...), read from the JSON as tolerantly as the readers did by hand.
 """
 
 from __future__ import annotations
@@ -16,6 +19,15 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from ogacq.record.sections import (
+    Acceptance,
+    HistoryEntry,
+    RecordMachine,
+    ResultEntry,
+    SessionReference,
+    Verdict,
+    result_entries,
+)
 from ogacq.session.json_document import JsonObject, NamedJson
 
 __all__ = ["CalibrationRecord"]
@@ -32,24 +44,89 @@ class CalibrationRecord(NamedJson):
     machine: JsonObject | None = None  # name, serial, the machine file as recorded
     operator: str | None = None
     date: str | None = None  # the campaign's date
+    date_simulated: bool | None = None  # a rehearsed simulator date
     simulated: bool | None = None
+    instruments: Sequence[Any] | None = None  # gauge, make, ..., due, expired
+    environment: JsonObject | None = None  # stage -> ambient_c, machine_c, source
     campaign: JsonObject | None = None  # status, readings, planned, reason, partial
+    method: JsonObject | None = None  # protocol, params, identification, software, ...
     results: JsonObject | None = None  # effect -> where -> value, U, std, ...
-    validation_results: JsonObject | None = None  # the same, of the as-left campaign
+    budget: JsonObject | None = None  # parameter -> [contribution, ...]
+    budget_complete: bool | None = None
+    monte_carlo: JsonObject | None = None  # draws, seed, u_mm, ratio, ...
+    acceptance: JsonObject | None = None  # rule, as_found, as_left
+    verdict: JsonObject | None = None  # state, consistent, chi2_dof, p, ...
+    overrides: Sequence[Any] | None = None  # what, subject, due, reason, operator
+    writeback: Sequence[Any] | None = None  # action, status, when, old_mm, new_mm, details
     history: Sequence[Any] | None = None  # earlier calibrations: id, date, results
     session: JsonObject | None = None  # path, sha256, records, integrity, edited
+    validation_session: JsonObject | None = None  # the same, of the as-left campaign
+    validation_results: JsonObject | None = None  # as results, of the as-left campaign
+    compensation: JsonObject | None = None  # calibrate's: procedure, outcome, writes, ...
     missing: JsonObject | None = None  # what the record lacks, and why
     revision: int | None = None  # 1 for the first issue
+    revises: JsonObject | None = None  # from revision 2: revision, issued, sha256
+    changes: Sequence[Any] | None = None  # what differs from the issue it revises
     # each named key and the JSON type this version writes it as (dict: an object)
     NAMED: ClassVar[Mapping[str, type]] = {
         "format": str, "id": str, "issued": str, "machine": dict, "operator": str,
-        "date": str, "simulated": bool, "campaign": dict, "results": dict,
-        "validation_results": dict, "history": list, "session": dict, "missing": dict,
-        "revision": int}
+        "date": str, "date_simulated": bool, "simulated": bool, "instruments": list,
+        "environment": dict, "campaign": dict, "method": dict, "results": dict,
+        "budget": dict, "budget_complete": bool, "monte_carlo": dict, "acceptance": dict,
+        "verdict": dict, "overrides": list, "writeback": list, "history": list,
+        "session": dict, "validation_session": dict, "validation_results": dict,
+        "compensation": dict, "missing": dict, "revision": int, "revises": dict,
+        "changes": list}
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)
     order: tuple[str, ...] = ()
+
+    def as_written(self, key: str) -> Any:
+        """A top-level value as the file has it, of whatever type (None when absent):
+        for those who keep a section as recorded, or name a wrong value in an error."""
+        return self.extra[key] if key in self.extra else getattr(self, key, None)
+
+    # --- the sections as typed values ---------------------------------------------
+    @property
+    def machine_named(self) -> RecordMachine:
+        return RecordMachine.from_json(self.machine)
+
+    @property
+    def session_reference(self) -> SessionReference:
+        return SessionReference.from_json(self.session)
+
+    @property
+    def validation_reference(self) -> SessionReference | None:
+        """The as-left session, None when the record has none."""
+        return SessionReference.from_json(self.validation_session) \
+            if self.validation_session else None
+
+    @property
+    def result_entries(self) -> tuple[ResultEntry, ...]:
+        return result_entries(self.results)
+
+    @property
+    def validation_result_entries(self) -> tuple[ResultEntry, ...]:
+        return result_entries(self.validation_results)
+
+    @property
+    def verdict_read(self) -> Verdict | None:
+        """The verdict, None when the record has none (no fit)."""
+        return Verdict.from_json(self.verdict) if self.verdict else None
+
+    @property
+    def acceptance_read(self) -> Acceptance:
+        return Acceptance.from_json(self.acceptance)
+
+    @property
+    def history_entries(self) -> tuple[HistoryEntry, ...]:
+        """The earlier calibrations the record holds, in its order."""
+        return HistoryEntry.all_of(self.history)
+
+    def as_history_entry(self) -> HistoryEntry:
+        """This calibration as a history entry (id, date, results)."""
+        return HistoryEntry(self.id, self.date, self.result_entries)
 
 
 CalibrationRecord.check_named()

@@ -73,7 +73,9 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
                  history: Sequence[Mapping[str, Any]] | None = None,
                  history_why: str | None = None,
                  issued: str | None = None,
-                 compensation: Mapping[str, Any] | None = None) -> dict[str, Any]:
+                 compensation: Mapping[str, Any] | None = None,
+                 fit: FitResult | None = None,
+                 validation_fit: FitResult | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
 
     ``validation``: the campaign run after the write-back (the as-left measurement);
@@ -84,6 +86,11 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     calibrate`` wrote and found (the maps, the ISO 230-2 figures before and after,
     its outcome), recorded under that key when given. The identity, instruments,
     environment and overrides are the session's own (:func:`calibration_context`).
+    ``fit`` / ``validation_fit``: the session's (the validation's) identification
+    as the caller already computed it, which must be ``recorded_identification`` of
+    that session (the report's data is); None: identified here (a saved file).
+    The fit a campaign ran is not that one (the record evaluates the result the
+    session recorded, so a record built later from the file is the same).
     """
     header_line, sha256 = _session_digest(session)
     header = session.header
@@ -91,12 +98,13 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     context = calibration_context(session)
     date = _text(context.date)
     missing: dict[str, str] = {}
-    result, why_no_fit = _identify(session)
+    result, why_no_fit = (fit, None) if fit is not None else _identify(session)
     if why_no_fit:
         missing["results"] = why_no_fit
     as_left, why_no_left, left = None, None, None
     if validation is not None:
-        left, why_no_left = _identify(validation)
+        left, why_no_left = ((validation_fit, None) if validation_fit is not None
+                             else _identify(validation))
         if left is not None:
             as_left = (left, calibration_context(validation))
         else:

@@ -108,14 +108,14 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
             "forward and reverse, with a band of two standard uncertainties.",
             png_bytes(maps_figure(data.diagnosis.maps))))
     if typed.history:
-        calibrations = recorded_calibrations(record)
+        calibrations = recorded_calibrations(typed)
         if any(c.parameters for c in calibrations):
             out.append(FigureFile(
                 "history.png", "History of this machine's calibrations",
                 "Each parameter at each calibration of this machine, with its expanded "
                 "uncertainty as error bars, this calibration marked.",
                 png_bytes(history_figure("This machine's calibrations over time",
-                                         calibrations, current=str(record.get("id"))))))
+                                         calibrations, current=str(typed.id)))))
     return tuple(out)
 
 

@@ -166,6 +166,10 @@ class ReportData:
     # what a reader must know before trusting the numbers, after what the record says
     # of its campaign (a partial one): a record cut by a crash, a fit that failed
     notes: tuple[str, ...]
+    # the identifications summarised above (recorded_identification of each session),
+    # handed to the record so that it does not identify them again
+    identified: FitResult | None = None
+    validation_identified: FitResult | None = None
 
 
 # --- the session as a campaign ------------------------------------------------------------
@@ -385,5 +389,6 @@ def collect(session: LoadedSession, *, validation: LoadedSession | None = None,
         deviations=deviation_rows(result, validation_fit) if result is not None else (),
         residuals=residual_series(session, result.residuals) if result is not None else None,
         validation=validation_run, diagnosis=diagnosis, diagnosis_steps=steps,
-        diagnosis_note=diagnosis_note, notes=tuple(notes))
+        diagnosis_note=diagnosis_note, notes=tuple(notes),
+        identified=result, validation_identified=validation_fit)
 

@@ -80,9 +80,10 @@ def session_notes(record: Mapping[str, Any]) -> list[str]:
 def recorded_verdict(record: CalibrationRecord) -> tuple[str, str]:
     """The record's verdict (``verdict``: the one consistency test's, as every command
     states it): its state and its sentence; undetermined without one."""
-    # the section as record.json holds it, whichever type reads it
-    verdict = record.to_json().get("verdict") or {}
-    return str(verdict.get("state") or "undetermined"), str(verdict.get("text") or "")
+    verdict = record.verdict_read
+    if verdict is None:
+        return "undetermined", ""
+    return verdict.state or "undetermined", verdict.text or ""
 
 
 def misfit_sentence(verdict: tuple[str, str]) -> tuple[str, str]:
@@ -323,10 +324,10 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
     status = recorded_status(typed, data.faults)
-    context: dict[str, Any] = record_view(record) | {
+    context: dict[str, Any] = record_view(typed) | {
         "page_issued": css_string(str(typed.issued)),
         "data": data, "p": p, "fit": fit, "d": data.diagnosis, "machine": machine,
-        "title": f"Calibration record {revision_label(record)}: {machine}"
+        "title": f"Calibration record {revision_label(typed)}: {machine}"
                  + (" (SIMULATED)" if p.simulated else ""),
         "status": status, "status_badge": status_badge(status), "um": um,
         "notes": status_notes(status) + list(data.notes),

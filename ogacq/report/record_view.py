@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 from markupsafe import Markup
 
+from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.sections import ResultEntry, SessionReference
 from ogacq.report.cells import Badge, Cell, Lines, Table, table
 from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
 
@@ -116,62 +118,62 @@ def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
 
 # --- the sections -------------------------------------------------------------------------
 
-def identification(record: Mapping[str, Any]) -> Table:
-    machine = record.get("machine") or {}
-    campaign = record.get("campaign") or {}
-    session = record.get("session") or {}
+def identification(record: CalibrationRecord) -> Table:
+    machine = record.machine_named
+    campaign = record.campaign or {}
+    session = record.session_reference
     planned = f" of {shown(campaign.get('planned'))} planned" if campaign.get("planned") else ""
     reason = f" ({campaign['reason']})" if campaign.get("reason") else ""
-    rehearsed = " (a simulated date: a rehearsal)" if record.get("date_simulated") else ""
+    rehearsed = " (a simulated date: a rehearsal)" if record.date_simulated else ""
     rows: list[list[Cell]] = [
-        ["record", shown(record.get("id"))],
-        ["record format", shown(record.get("format"))],
-        ["issued", shown(record.get("issued"))],
+        ["record", shown(record.id)],
+        ["record format", shown(record.format)],
+        ["issued", shown(record.issued)],
         *_revision_rows(record),
-        ["calibration date", shown(record.get("date")) + rehearsed],
-        ["machine", shown(machine.get("name"))],
-        ["machine serial number", shown(machine.get("serial"))],
-        ["machine description", shown(machine.get("file"))],
-        ["operator", shown(record.get("operator"))],
+        ["calibration date", shown(record.date) + rehearsed],
+        ["machine", shown(machine.name)],
+        ["machine serial number", shown(machine.serial)],
+        ["machine description", shown(machine.file)],
+        ["operator", shown(record.operator)],
         ["campaign", f"{shown(campaign.get('status'))}{reason}: "
                      f"{shown(campaign.get('readings'))} readings{planned}"],
-        ["session file", shown(session.get("path"))],
-        ["session SHA-256", shown(session.get("sha256"))],
-        ["session records", shown(session.get("records"))],
+        ["session file", shown(session.path)],
+        ["session SHA-256", shown(session.sha256)],
+        ["session records", shown(session.records)],
         *_integrity_rows("session", session),
     ]
     if campaign.get("partial"):
-        rows.insert(rows.index(["session file", shown(session.get("path"))]),
+        rows.insert(rows.index(["session file", shown(session.path)]),
                     ["campaign not finished", shown(campaign["partial"])])
-    validation = record.get("validation_session")
-    if validation:
-        rows += [["as-left session file", shown(validation.get("path"))],
-                 ["as-left session SHA-256", shown(validation.get("sha256"))],
-                 ["as-left session records", shown(validation.get("records"))],
+    validation = record.validation_reference
+    if validation is not None:
+        rows += [["as-left session file", shown(validation.path)],
+                 ["as-left session SHA-256", shown(validation.sha256)],
+                 ["as-left session records", shown(validation.records)],
                  *_integrity_rows("as-left session", validation)]
     return table(None, rows)
 
 
-def revision_label(record: Mapping[str, Any]) -> str:
+def revision_label(record: CalibrationRecord) -> str:
     """``OGQ-... revision 2``: how a re-issued record is named on every page; the first
     issue (and a record from before revisions) by its id alone."""
-    revision = record.get("revision")
-    suffix = f" revision {revision}" if isinstance(revision, int) and revision > 1 else ""
-    return f"{record.get('id')}{suffix}"
+    revision = record.revision
+    suffix = f" revision {revision}" if revision is not None and revision > 1 else ""
+    return f"{record.id}{suffix}"
 
 
-def _revision_rows(record: Mapping[str, Any]) -> list[list[Cell]]:
+def _revision_rows(record: CalibrationRecord) -> list[list[Cell]]:
     """The issue's revision, the issue it replaces and what changed (ISO/IEC
     17025:2017 7.8.8)."""
     if "revision" not in record:
         return []
-    rows: list[list[Cell]] = [["revision", shown(record.get("revision"))]]
-    revises = record.get("revises")
-    if isinstance(revises, Mapping):
+    rows: list[list[Cell]] = [["revision", shown(record.revision)]]
+    revises = record.revises
+    if revises is not None:
         rows.append(["replaces", f"revision {shown(revises.get('revision'))} issued "
                                  f"{shown(revises.get('issued'))} (its record.json SHA-256 "
                                  f"{shown(revises.get('sha256'))})"])
-        changes = [str(c) for c in record.get("changes") or ()]
+        changes = [str(c) for c in record.changes or ()]
         rows.append([f"changed since revision {shown(revises.get('revision'))}",
                      Lines(tuple(changes)) if changes else "nothing named"])
     return rows
@@ -185,26 +187,28 @@ INTEGRITY_WORDS = {
 }
 
 
-def _integrity_rows(what: str, session: Mapping[str, Any]) -> list[list[Cell]]:
+def _integrity_rows(what: str, session: SessionReference) -> list[list[Cell]]:
     """The session's integrity and the records the user accepted as edited."""
-    if "integrity" not in session:
+    written = session.fields
+    if "integrity" not in written:
         return []
-    mode = session.get("integrity")
+    mode = written.get("integrity")
     rows: list[list[Cell]] = [[f"{what} integrity",
                                f"{shown(mode)}: {INTEGRITY_WORDS.get(str(mode), '')}"]]
     rows += [[f"{what} edited record", f"line {shown(e.get('line'))}: {shown(e.get('problem'))} "
                                        "(accepted as it stands, --accept-edited)"]
-             for e in session.get("edited") or () if isinstance(e, Mapping)]
+             for e in written.get("edited") or () if isinstance(e, Mapping)]
     return rows
 
 
-def instruments(record: Mapping[str, Any]) -> Table | None:
+def instruments(record: CalibrationRecord) -> Table | None:
     """The gauges with their certificates; an expired one is marked, with its override."""
-    found = record.get("instruments")
+    found = [i for i in record.instruments or () if isinstance(i, Mapping)]
     if not found:
         return None
     overrides = {str(o.get("subject", "")).split(" ")[0]: o
-                 for o in record.get("overrides") or () if o.get("what") == "expired-gauge"}
+                 for o in record.overrides or ()
+                 if isinstance(o, Mapping) and o.get("what") == "expired-gauge"}
     shown_keys = ["gauge", "make", "model", "serial", "certificate", "calibrated", "due",
                   "uncertainty_mm", "uncertainty_k", "resolution_mm"]
     extra = [k for i in found for k in i if k not in shown_keys and k != "expired"]
@@ -228,8 +232,8 @@ def instruments(record: Mapping[str, Any]) -> Table | None:
     return table(header, rows, numeric, kinds)
 
 
-def environment(record: Mapping[str, Any]) -> Table | None:
-    found = record.get("environment")
+def environment(record: CalibrationRecord) -> Table | None:
+    found = record.environment
     if not found:
         return None
     if all(isinstance(v, Mapping) or v is None for v in found.values()):
@@ -238,8 +242,8 @@ def environment(record: Mapping[str, Any]) -> Table | None:
     return pairs_table(found)
 
 
-def method(record: Mapping[str, Any]) -> Table:
-    m = record.get("method") or {}
+def method(record: CalibrationRecord) -> Table:
+    m = record.method or {}
     rows: list[list[Cell]] = []
     protocol = m.get("protocol")
     if isinstance(protocol, Mapping):
@@ -267,60 +271,55 @@ HEADLINE_KEYS = ("value_mm", "U_mm", "k", "unit")
 DETAIL_KEYS = ("u_mm", "std_mm", "dof_eff")
 
 
-def results(record: Mapping[str, Any], key: str = "results") -> Table | None:
-    found = record.get(key)
-    if not found:
+def results(entries: Sequence[ResultEntry]) -> Table | None:
+    """One row per parameter of ``results`` (or ``validation_results``)."""
+    if not entries:
         return None
-    extra = list(dict.fromkeys(k for by in found.values() for r in by.values() for k in r
+    extra = list(dict.fromkeys(k for r in entries for k in r.fields
                                if k not in HEADLINE_KEYS + DETAIL_KEYS))
     rows: list[list[Cell]] = []
-    for group, by_where in found.items():
-        for where, r in by_where.items():
-            U = r.get("U_mm")
-            rows.append([f"{group}.{where}", str(entry_headline(r)),
-                         two_digits(r.get("u_mm")) if r.get("u_mm") is not None
-                         else NOT_EVALUATED,
-                         two_digits(r.get("std_mm")) if r.get("std_mm") is not None
-                         else "not determined",
-                         _dof(r.get("dof_eff"), r.get("u_mm"))]
-                        + [rounded(r.get(k), U, sign=True)
-                           if k.endswith("_mm") and isinstance(r.get(k), int | float)
-                           else cell(k, r.get(k), NOT_EVALUATED) for k in extra])
+    for r in entries:
+        rows.append([r.name, str(entry_headline(r.fields)),
+                     two_digits(r.u_mm) if r.u_mm is not None else NOT_EVALUATED,
+                     two_digits(r.std_mm) if r.std_mm is not None else "not determined",
+                     _dof(r.dof_eff, r.u_mm)]
+                    + [rounded(r.fields.get(k), r.U_mm, sign=True)
+                       if k.endswith("_mm") and isinstance(r.fields.get(k), int | float)
+                       else cell(k, r.fields.get(k), NOT_EVALUATED) for k in extra])
     header = ["parameter", "value ± U", "u (mm)", "fit std (mm)", "effective dof"]
     return table(header + [words(k) for k in extra], rows,
                  [False, True, True, True, True] + [False] * len(extra))
 
 
-def _dof(dof: Any, u: Any) -> str:
+def _dof(dof: float | None, u: float | None) -> str:
     """Effective degrees of freedom as a whole number; infinite (null with a u) as ∞."""
-    if isinstance(dof, int | float) and not isinstance(dof, bool):
+    if dof is not None:
         return f"{dof:.0f}"
     return "∞" if u is not None else NOT_EVALUATED
 
 
-def verdict(record: Mapping[str, Any]) -> Table | None:
-    found = record.get("verdict")
-    if not found:
+def verdict(record: CalibrationRecord) -> Table | None:
+    found = record.verdict_read
+    if found is None:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
     # so, and each p named (p_combined repeats p: shown once)
-    shown = {VERDICT_WORDS.get(k, k): v for k, v in found.items() if k != "p_combined"}
+    shown = {VERDICT_WORDS.get(k, k): v for k, v in found.fields.items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
 
 
-def acceptance(record: Mapping[str, Any]) -> dict[str, Any]:
-    found = record.get("acceptance") or {}
+def acceptance(record: CalibrationRecord) -> dict[str, Any]:
+    found = record.acceptance_read
     stages = []
-    for key, title in (("as_found", "As found (this campaign)"),
-                       ("as_left", "As left (after the write-back)")):
-        stage = found.get(key) or {}
-        rows = [_deviation_row(r) for r in stage.get("rows") or []]
-        others = {k: v for k, v in stage.items() if k not in ("decision", "why", "rows")}
-        stages.append({"title": title, "badge": decision_badge(stage.get("decision")),
-                       "why": stage.get("why"),
+    for stage, title in ((found.as_found, "As found (this campaign)"),
+                         (found.as_left, "As left (after the write-back)")):
+        rows = [_deviation_row(r) for r in stage.rows]
+        stages.append({"title": title, "badge": decision_badge(stage.decision),
+                       "why": stage.why,
                        "table": rows_table(rows, NOT_EVALUATED) if rows else None,
-                       "others": pairs_table(others, NOT_EVALUATED) if others else None})
-    return {"rule": shown(found.get("rule")), "stages": stages}
+                       "others": pairs_table(stage.others, NOT_EVALUATED)
+                       if stage.others else None})
+    return {"rule": shown(found.rule), "stages": stages}
 
 
 def _deviation_row(row: Mapping[str, Any]) -> dict[str, Any]:
@@ -335,8 +334,8 @@ def _deviation_row(row: Mapping[str, Any]) -> dict[str, Any]:
     return out
 
 
-def budget(record: Mapping[str, Any]) -> list[tuple[str, Table]]:
-    found = record.get("budget")
+def budget(record: CalibrationRecord) -> list[tuple[str, Table]]:
+    found = record.budget
     if not found:
         return []
     first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
@@ -348,9 +347,9 @@ def budget(record: Mapping[str, Any]) -> list[tuple[str, Table]]:
                               NOT_EVALUATED, first)) for name, rows in found.items()]
 
 
-def monte_carlo(record: Mapping[str, Any]) -> tuple[Table, Table] | None:
+def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
     """The check's settings and verdict, then one row per parameter."""
-    found = record.get("monte_carlo")
+    found = record.monte_carlo
     if not found:
         return None
     scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
@@ -363,35 +362,35 @@ def monte_carlo(record: Mapping[str, Any]) -> tuple[Table, Table] | None:
                   [False] + [True] * len(per)))
 
 
-def history(record: Mapping[str, Any]) -> Table | None:
-    found = record.get("history")
+def history(record: CalibrationRecord) -> Table | None:
+    found = record.history_entries
     if not found:
         return None
-    names = list(dict.fromkeys(f"{g}.{w}" for e in found for g, by in e["results"].items()
-                               for w in by))
+    names = list(dict.fromkeys(r.name for e in found for r in e.results))
     rows: list[list[Cell]] = []
     for entry in found:
-        row: list[Cell] = [shown(entry.get("id")), shown(entry.get("date"))]
+        row: list[Cell] = [shown(entry.id), shown(entry.date)]
+        by_name = {r.name: r for r in entry.results}
         for name in names:
-            group, _, where = name.partition(".")
-            r = (entry["results"].get(group) or {}).get(where) or {}
-            line = entry_headline(r)
-            row.append("-" if not r else f"{line.value} ± {line.U}" if line.U else line.value)
+            r = by_name.get(name)
+            line = entry_headline(r.fields if r is not None else None)
+            row.append("-" if r is None or not r.fields
+                       else f"{line.value} ± {line.U}" if line.U else line.value)
         rows.append(row)
     return table(["record", "date"] + [f"{n} (mm) ± U (k = 2)" for n in names], rows,
                  [False, False] + [True] * len(names))
 
 
-def overrides(record: Mapping[str, Any]) -> Table | None:
-    found = record.get("overrides")
+def overrides(record: CalibrationRecord) -> Table | None:
+    found = record.overrides
     if not found:
         return None
     return rows_table(found, first=("what", "subject", "due", "reason", "operator"))
 
 
-def writebacks(record: Mapping[str, Any]) -> list[dict[str, Any]]:
+def writebacks(record: CalibrationRecord) -> list[dict[str, Any]]:
     out = []
-    for w in record.get("writeback") or ():
+    for w in record.writeback or ():
         old, new = w.get("old_mm") or {}, w.get("new_mm") or {}
         kind = {"done": "ok", "failed": "bad"}.get(w.get("status"), "warn")
         out.append({
@@ -403,17 +402,18 @@ def writebacks(record: Mapping[str, Any]) -> list[dict[str, Any]]:
     return out
 
 
-def record_view(record: Mapping[str, Any]) -> dict[str, Any]:
+def record_view(record: CalibrationRecord) -> dict[str, Any]:
     """The template's values for the record's sections."""
-    missing = record.get("missing") or {}
+    missing = record.missing or {}
     return {
-        "rec": record, "identification": identification(record),
+        "rec": record.to_json(), "identification": identification(record),
         "missing": [(words(k), v) for k, v in missing.items()],
         "instruments": instruments(record), "environment": environment(record),
-        "method": method(record), "results": results(record), "verdict": verdict(record),
-        "validation_results": results(record, "validation_results"),
+        "method": method(record), "results": results(record.result_entries),
+        "verdict": verdict(record),
+        "validation_results": results(record.validation_result_entries),
         "acceptance": acceptance(record), "budget": budget(record),
-        "budget_complete": record.get("budget_complete"),
+        "budget_complete": record.budget_complete,
         "monte_carlo": monte_carlo(record), "history": history(record),
         "overrides": overrides(record), "record_writes": writebacks(record),
         "page_footer": css_string(f"Calibration record {revision_label(record)}"),

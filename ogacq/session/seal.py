@@ -119,9 +119,10 @@ class Scan:
 
 @dataclass
 class _Line:
-    """One decoded line: the record, and what its own seal says."""
+    """One decoded line: its JSON object (the store's keys taken off), and what its
+    own seal says."""
 
-    record: dict[str, Any]
+    content: dict[str, Any]
     crc: str  # "ok", "missing", "wrong"
     seq: Any
     prev: Any
@@ -130,24 +131,24 @@ class _Line:
 def _decode(line: bytes) -> tuple[_Line | None, str | None]:
     """(the line decoded, None), or (None, why it cannot be read)."""
     try:
-        record = json.loads(line)
+        content = json.loads(line)
     except ValueError:
         return None, "not valid JSON"
-    if not isinstance(record, dict):
+    if not isinstance(content, dict):
         return None, "not a session record"
-    crc = record.pop("crc", None)
+    crc = content.pop("crc", None)
     if crc is None:
         state = "missing"
     else:
-        body = json.dumps(record, separators=(",", ":")).encode("utf-8")
+        body = json.dumps(content, separators=(",", ":")).encode("utf-8")
         state = "ok" if crc == f"{zlib.crc32(body):08x}" else "wrong"
-    seq, prev = record.pop("seq", None), record.pop("prev", None)
-    if record.get("type") != "session":
+    seq, prev = content.pop("seq", None), content.pop("prev", None)
+    if content.get("type") != "session":
         try:
-            record_from_json(record)
+            record_from_json(content)
         except ValueError as exc:
             return None, str(exc)
-    return _Line(record, state, seq, prev), None
+    return _Line(content, state, seq, prev), None
 
 
 def parses(line: bytes) -> bool:
@@ -157,9 +158,9 @@ def parses(line: bytes) -> bool:
 
 
 def _mode(first: _Line | None) -> tuple[str, str | None]:
-    if first is None or first.record.get("type") != "session":
+    if first is None or first.content.get("type") != "session":
         return UNCHECKED, None
-    seal = first.record.get("integrity")
+    seal = first.content.get("integrity")
     if seal is not None:
         return SEALED, seal
     return (CHECKSUMMED if first.crc != "missing" or first.seq is not None else UNCHECKED), None
@@ -211,10 +212,10 @@ class _Scanner:
                     self.problems.append((number, problem))
                     previous = (number, line, False)
                 continue
-            record, seq = decoded.record, decoded.seq
+            content, seq = decoded.content, decoded.seq
             if isinstance(seq, int) and not isinstance(seq, bool) and seq in seen:
                 first_line, earlier = seen[seq]
-                if earlier == record:
+                if earlier == content:
                     self.warnings.append(f"{self.path}:{number}: dropped a copy of line "
                                          f"{first_line}")
                     continue  # the chain goes on from the original
@@ -227,12 +228,12 @@ class _Scanner:
                 if where:
                     self.edited.append((number, where))
             if isinstance(seq, int) and not isinstance(seq, bool):
-                seen.setdefault(seq, (number, record))
+                seen.setdefault(seq, (number, content))
                 expected = seq + 1
             elif mode == UNCHECKED:
                 expected = None
             previous = (number, line, not own)
-            self.records.append((number, record))
+            self.records.append((number, content))
         return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
                     self.warnings, len(self.raw), seal)
 
