@@ -136,8 +136,11 @@ def _drift_notes(calibrations: Sequence[Calibration], drifts: Sequence[Drift],
     notes += [f"[red]{DRIFT_MARK} {shown(d.describe())}[/]" for d in flagged]
     if len(calibrations) > 1 and not flagged:
         between = any(written.get(c.record_id) for c in calibrations[:-1])
+        by_force = any(d.controller_moved_mm is not None for d in drifts)
         notes.append("no change between successive calibrations exceeds its U"
-                     + (" (each judged from the state as left by the write-backs between)"
+                     + (" (each judged from the offsets the controller held during the "
+                        "campaigns)" if by_force else
+                        " (each judged from the state as left by the write-backs between)"
                         if between else ""))
     return notes
 

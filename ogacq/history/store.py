@@ -52,6 +52,7 @@ from ogacq.history.entries import (
 )
 from ogacq.history.location import HistoryLocation
 from ogacq.model.gauges import AXES
+from ogacq.record.calibration_record import CalibrationRecord
 
 # A second station writing to the same SQLite file waits this long for its lock.
 SQLITE_BUSY_TIMEOUT_S = 30.0
@@ -405,14 +406,14 @@ class History:
         for p in params:
             by_event.setdefault(p.event_id, {})[p.name] = Parameter(
                 p.name, p.value_mm, p.u_mm, p.expanded_mm, p.k, p.std_mm)
-        out = [Calibration(r.record_id, r.campaign_date, r.operator, r.verdict,
-                           r.acceptance_decision, r.acceptance, r.ambient_c,
-                           _in_record_order(by_event.get(r.id, {}), r.record),
-                           r.session_path, r.session_sha256, r.instruments, r.environment,
-                           r.overrides, r.station,
-                           (r.record or {}).get("simulated") if isinstance(r.record, dict)
-                           else None)
-               for r in rows]
+        out = []
+        for r in rows:
+            record = CalibrationRecord.from_json(r.record if isinstance(r.record, dict) else {})
+            out.append(Calibration(
+                r.record_id, r.campaign_date, r.operator, r.verdict, r.acceptance_decision,
+                r.acceptance, r.ambient_c, _in_record_order(by_event.get(r.id, {}), r.record),
+                r.session_path, r.session_sha256, r.instruments, r.environment, r.overrides,
+                r.station, record.simulated, record.offsets_in_force_mm))
         return sorted(out, key=lambda c: (c.date or "", c.record_id))
 
     def events(self, machine: Machine) -> list[Event]:

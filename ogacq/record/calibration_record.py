@@ -124,6 +124,19 @@ class CalibrationRecord(NamedJson):
         """The earlier calibrations the record holds, in its order."""
         return HistoryEntry.all_of(self.history)
 
+    @property
+    def offsets_in_force_mm(self) -> dict[str, float] | None:
+        """The controller's joint offsets during the campaign (``method``), the same at
+        every start; None when not recorded, changed between starts, or not numbers."""
+        method = self.method or {}
+        found = method.get("offsets_in_force_mm")
+        if method.get("offsets_in_force_consistent") is not True or not isinstance(found, dict):
+            return None
+        if not all(isinstance(v, int | float) and not isinstance(v, bool)
+                   for v in found.values()):
+            return None
+        return {str(a): float(v) for a, v in found.items()}
+
     def as_history_entry(self) -> HistoryEntry:
         """This calibration as a history entry (id, date, results)."""
         return HistoryEntry(self.id, self.date, self.result_entries)

@@ -36,6 +36,7 @@ from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.record.evaluation import evaluate
 from ogacq.session.convert import session_machine
 from ogacq.session.header import SessionHeader
+from ogacq.session.offsets_in_force import offsets_in_force
 from ogacq.session.state import campaign_status, completeness
 from ogacq.session.store import LoadedSession
 from ogacq.writeback.audit import offsets_writes
@@ -249,7 +250,16 @@ def _method(session: LoadedSession, result: FitResult | None,
         "record_software": f"ogacq {__version__}",
         "decision_rule": (tolerances.get("decision_rule")
                           if isinstance(tolerances, Mapping) else None),
+        # what the identified offsets are relative to (q = raw - o): the write-back
+        # plans from it, the history compares calibrations by it
+        **_offsets_in_force(session),
     }
+
+
+def _offsets_in_force(session: LoadedSession) -> dict[str, Any]:
+    found = offsets_in_force(session)
+    return {"offsets_in_force_mm": found.offsets_mm,
+            "offsets_in_force_consistent": found.consistent}
 
 
 def _results(result: FitResult, budget_results: Mapping[str, Any] | None,

@@ -259,10 +259,27 @@ def method(record: CalibrationRecord) -> Table:
     rows += [["recorded by", shown(m.get("software"))],
              ["record made by", shown(m.get("record_software"))],
              ["decision rule", shown(m.get("decision_rule"))]]
+    if "offsets_in_force_mm" in m:
+        rows.append(["joint offsets in force (the controller's, read at every start)",
+                     _offsets_in_force(m.get("offsets_in_force_mm"),
+                                       m.get("offsets_in_force_consistent"))])
     rows += [[words(k), shown(v)] for k, v in m.items()
              if k not in ("protocol", "params", "identification", "software",
-                          "record_software", "decision_rule")]
+                          "record_software", "decision_rule", "offsets_in_force_mm",
+                          "offsets_in_force_consistent")]
     return table(None, rows)
+
+
+def _offsets_in_force(offsets: Any, consistent: Any) -> str:
+    """Every digit the controller gave (a register's step, or a software table's)."""
+    if not isinstance(offsets, Mapping):
+        return ("not recorded at every start of the campaign" if consistent is not False
+                else "they changed between the starts of the campaign (it was resumed "
+                     "after a change)")
+    held = ", ".join(f"{shown(a)} {v:+}" if isinstance(v, float | int) else
+                     f"{shown(a)} {shown(v)}" for a, v in offsets.items()) + " mm"
+    return held if consistent is not False else \
+        held + " at the first start; they changed at a later one (resumed after a change)"
 
 
 # Results: the headline first (value ± U, k), then the detail, each rounded by the one

@@ -27,7 +27,7 @@ from ogacq.identify.fit import FitResult, StopReason
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
 from ogacq.session.convert import session_observations
-from ogacq.session.records import StationRecord
+from ogacq.session.offsets_in_force import offsets_in_force, stations
 from ogacq.session.store import LoadedSession
 
 
@@ -71,12 +71,6 @@ class Evidence:
                 "model": self.model, "uncompensated": self.uncompensated}
 
 
-def _stations(session: LoadedSession) -> list[dict]:
-    """The station of every start of the campaign: the header's, then each resume's."""
-    first = dict(session.header.station or {})
-    return [first, *(r.description for r in session.of_type(StationRecord))]
-
-
 def evidence_from_session(session: LoadedSession, from_diagnosis: bool = False) -> Evidence:
     """Re-identify the joint offsets from the session's raw readings (the readings are
     the record; a stored result is only a copy) and gather the evidence.
@@ -105,20 +99,16 @@ def evidence_of(session: LoadedSession, result: FitResult, verdict: Verdict, mod
     values = {a: result.value(f"joint_offset.{a}") + shift.get(a, 0.0) for a in AXES}
     std = {a: float(result.std[result.names.index(f"joint_offset.{a}")]) for a in AXES}
     std = {a: s if math.isfinite(s) else math.inf for a, s in std.items()}
-    stations = _stations(session)
-    controllers = [s.get("controller") or {} for s in stations]
-    recorded = [c.get("offsets_mm") for c in controllers]
-    known = [{a: float(r[a]) for a in AXES} for r in recorded if isinstance(r, dict)]
-    in_force = known[0] if known and len(known) == len(recorded) else None
-    consistent = all(
-        all(abs(k[a] - known[0][a]) < 1e-9 for a in AXES) for k in known[1:]) if known else True
+    controllers = [s.get("controller") or {} for s in stations(session)]
+    in_force = offsets_in_force(session)
     ident = result.identifiability
     return Evidence(
         session_path=session.path, identified_mm=values, std_mm=std,
         verdict=verdict, identifiable=ident.identifiable,
         identifiability_reasons=list(ident.reasons), fit_stop=result.stop_reason,
         residual_rms_mm=result.residual_rms_mm, readings=len(session.readings),
-        finished=session.finished, in_force_mm=in_force, in_force_consistent=consistent,
+        finished=session.finished, in_force_mm=in_force.offsets_mm,
+        in_force_consistent=in_force.consistent,
         profile=controllers[0].get("profile"), port=controllers[0].get("port"),
         model=model, uncompensated=uncompensated)
 

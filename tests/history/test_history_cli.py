@@ -106,3 +106,38 @@ def test_an_unknown_machine_and_an_unreachable_history_are_one_line(history_file
     code, _, err = run(capsys, "history", "OG-1", "--history",
                        "postgresql://ogacq@127.0.0.1:1/none")
     assert code == 3 and err.count("\n") == 1 and err.startswith("ogacq: error: history ")
+
+
+def test_a_controller_reset_is_named_not_flagged_as_a_drift(tmp_path, capsys, monkeypatch):
+    """A's offsets written (0 -> -0.42 on x), B validates them; the drive is then reset
+    to 0 and C finds A's 0.42 again: by the offsets each campaign ran with, the machine
+    did not move, and the history says the controller changed outside ogacq."""
+    def with_force(record: dict, x: float) -> dict:
+        record["method"] |= {"offsets_in_force_mm": {"x": x, "y": 0.0, "z": 0.0},
+                             "offsets_in_force_consistent": True}
+        return record
+
+    path = tmp_path / "history.sqlite"
+    records = [with_force(contract_record(date="2026-01-10T09:00:00"), 0.0),
+               with_force(contract_record(date="2026-02-01T14:00:00",
+                                          offsets={"x": 0.004, "y": -0.31, "z": 0.12}), -0.42),
+               with_force(contract_record(date="2026-03-02T08:30:00",
+                                          offsets={"x": 0.424, "y": -0.31, "z": 0.12}), 0.0)]
+    with History.open(parse_location(str(path), "--history")) as history:
+        for record in records:
+            history.record_calibration(record)
+        history.record_writeback(records[0], WriteBack(
+            "write-0001", "write", "done", dict.fromkeys("xyz", 0.0),
+            {"x": -0.42, "y": 0.0, "z": 0.0}, "cia402", 1_768_100_000.0))
+    monkeypatch.setenv("COLUMNS", "250")
+    code, out, _ = run(capsys, "history", "OG-1 cell 3", "--history", path)
+    assert code == 0 and "! drift" not in out
+    assert (f"changed outside ogacq between {records[1]['id']} and {records[2]['id']} "
+            "(x +0.4200 mm beyond the recorded write-backs)") in out
+    assert "judged from the offsets the controller held during the campaigns" in out
+    code, out, _ = run(capsys, "history", "OG-1 cell 3", "--history", path, "--json")
+    data = json.loads(out)
+    assert data["drifts"] == []
+    assert [(c["from"], c["to"]) for c in data["controller_changes"]] == [
+        (records[1]["id"], records[2]["id"])]
+    assert data["controller_changes"][0]["unexplained_mm"] == {"joint_offset.x": 0.42}
