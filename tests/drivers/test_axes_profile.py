@@ -178,3 +178,20 @@ def test_every_register_coil_and_bit_cites_its_source(name: str) -> None:
             comment = line.partition("#")[2]
             cited = {t + "]" for t in re.findall(r"\[[A-Za-z0-9]+", comment)}
             assert "no source" in comment or cited & tags, f"{name}: {line}"
+
+
+def test_the_campaign_file_docs_name_every_shipped_profile() -> None:
+    """docs/formats.md lists the `[controller] profile` choices by hand, as a reader
+    wants them: the list is the profile files', no more, no less."""
+    docs = (Path(__file__).resolve().parents[2] / "docs" / "formats.md").read_text()
+    row = next(line for line in docs.splitlines() if line.startswith("| `[controller]`"))
+    listed = re.search(r"`profile` \(([^)]*?), or a profile file\)", row)
+    assert listed is not None, row
+    assert sorted(listed.group(1).split(", ")) == available_profiles()
+
+
+def test_the_readme_names_every_shipped_profile() -> None:
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
+    listed = re.search(r"`ogacq sim \[--profile ([^\]]+)\]", readme)
+    assert listed is not None
+    assert sorted(listed.group(1).split("\\|")) == available_profiles()
