@@ -89,7 +89,7 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
 from __future__ import annotations
 
 import datetime
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
 
@@ -136,16 +136,13 @@ PROTOCOL_NAME = text_among(BACKENDS.keys())
 GAUGE_LAYOUTS = ("separate", "multiplexer", "moved")
 
 
-@dataclass(frozen=True)
-class GaugeSpec:
-    gauge: str
-    protocol: str = ""  # "" only in a [simulator] campaign: the simulator's gauges
-    port: str = ""
-    channel: str | None = None
-    unit: str = "mm"
-    serial: str = ""
-    baudrate: int | None = None
-    # identity and calibration certificate (docs/calibration-record.md 1)
+@dataclass(frozen=True, kw_only=True)
+class GaugeIdentity:
+    """A gauge's make, model and calibration certificate (docs/calibration-record.md 1),
+    beside the serial number: what a campaign file's [[gauges]] entry and the wizard's
+    inventory (``ogacq.campaign.inventory``) both hold, read by ``CERTIFICATE_FIELDS``.
+    Keyword-only, so each holder keeps its own positional fields first."""
+
     make: str = ""
     model: str = ""
     certificate: str = ""
@@ -153,6 +150,23 @@ class GaugeSpec:
     due: datetime.date | None = None
     uncertainty_mm: float | None = None
     uncertainty_k: float | None = None
+
+    def identity_given(self, serial: str) -> dict[str, Any]:
+        """The serial and every identity key known (None and "" are not)."""
+        given = {"serial": serial, **{f.name: getattr(self, f.name)
+                                      for f in fields(GaugeIdentity)}}
+        return {k: v for k, v in given.items() if v not in (None, "")}
+
+
+@dataclass(frozen=True)
+class GaugeSpec(GaugeIdentity):
+    gauge: str
+    protocol: str = ""  # "" only in a [simulator] campaign: the simulator's gauges
+    port: str = ""
+    channel: str | None = None
+    unit: str = "mm"
+    serial: str = ""
+    baudrate: int | None = None
 
     def instrument(self, resolution_mm: float | None = None) -> Instrument:
         """The gauge as a traceable instrument (what the session header records)."""
@@ -164,11 +178,9 @@ class GaugeSpec:
 
     def identity(self) -> dict[str, Any]:
         """The identity keys given (to carry them onto another endpoint)."""
-        return {k: getattr(self, k) for k in IDENTITY_KEYS if getattr(self, k)}
+        return self.identity_given(self.serial)
 
 
-IDENTITY_KEYS = ("serial", "make", "model", "certificate", "calibrated", "due",
-                 "uncertainty_mm", "uncertainty_k")
 ENVIRONMENT_SENSORS = ("controller",)
 
 

@@ -9,13 +9,12 @@ be read is named and left untouched (the wizard then remembers nothing new).
 
 from __future__ import annotations
 
-import datetime
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.config_schema import Field, Table, TableArray, dump, text
-from ogacq.campaign.campaign_file import CERTIFICATE_FIELDS
+from ogacq.campaign.campaign_file import CERTIFICATE_FIELDS, GaugeIdentity
 from ogacq.io.atomic import write_atomically
 from ogacq.io.data_folder import data_folder
 from ogacq.io.toml_file import load_toml
@@ -24,22 +23,14 @@ INVENTORY_NAME = "instruments.toml"
 
 
 @dataclass(frozen=True)
-class KnownGauge:
+class KnownGauge(GaugeIdentity):
     """A gauge as remembered: its identity and its last certificate."""
 
     serial: str
-    make: str = ""
-    model: str = ""
-    certificate: str = ""
-    calibrated: datetime.date | None = None
-    due: datetime.date | None = None
-    uncertainty_mm: float | None = None
-    uncertainty_k: float | None = None
 
     def identity(self) -> dict[str, Any]:
         """The campaign file's [[gauges]] keys it gives (those known)."""
-        return {f.name: getattr(self, f.name) for f in fields(self)
-                if getattr(self, f.name) not in (None, "")}
+        return self.identity_given(self.serial)
 
     def summary(self) -> str:
         """"Mitutoyo 543-790B, certificate DKD-K-12345, calibrated 2026-03-01, due

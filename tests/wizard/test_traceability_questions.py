@@ -51,8 +51,9 @@ def test_a_new_gauge_is_remembered_and_offered_next_time(tmp_path, monkeypatch):
     assert again.ambient_start_c is None
     assert again.identities["y_x"] == trace.identities["y_x"]  # nothing typed twice
     assert load_inventory(tmp_path / "instruments.toml").find("SN9") == KnownGauge(
-        "SN9", "Sylvac", "S_Dial Work", "C-2025-118", datetime.date(2025, 6, 1),
-        datetime.date(2026, 6, 1), 0.002, 2.0)
+        "SN9", make="Sylvac", model="S_Dial Work", certificate="C-2025-118",
+        calibrated=datetime.date(2025, 6, 1), due=datetime.date(2026, 6, 1),
+        uncertainty_mm=0.002, uncertainty_k=2.0)
 
 
 def test_an_expired_gauge_is_changed_for_a_valid_one(tmp_path, monkeypatch):
@@ -85,8 +86,9 @@ def test_a_typo_is_typed_again_before_it_is_remembered_and_no_u_is_said(tmp_path
     inventory = load_inventory(tmp_path / "instruments.toml")
     assert inventory.find("SN99") is None  # the typo never stored
     assert inventory.find("SN9") == KnownGauge(
-        "SN9", "Sylvac", "S_Dial Work", "C-1", datetime.date(2025, 6, 1),
-        datetime.date(2026, 6, 1), 0.002, 2.0)
+        "SN9", make="Sylvac", model="S_Dial Work", certificate="C-1",
+        calibrated=datetime.date(2025, 6, 1), due=datetime.date(2026, 6, 1),
+        uncertainty_mm=0.002, uncertainty_k=2.0)
     assert trace.identities["y_x"]["serial"] == "SN9"
 
     # a certificate left without U on purpose: kept so, the record will say why

@@ -196,7 +196,9 @@ class TraceabilityQuestions:
                 break
             s.problem(f"the due date must come after the calibration ({calibrated})")
         uncertainty, k = self._certificate_u(certificate, before)
-        return KnownGauge(serial, make, model, certificate, calibrated, due, uncertainty, k)
+        return KnownGauge(serial, make=make, model=model, certificate=certificate,
+                          calibrated=calibrated, due=due, uncertainty_mm=uncertainty,
+                          uncertainty_k=k)
 
     def _certificate_u(self, certificate: str, before: KnownGauge,
                        ) -> tuple[float | None, float | None]:
