@@ -131,11 +131,13 @@ def written_by_record(states: Sequence[OffsetState]) -> dict[str, dict[str, floa
 def changes(calibrations: Sequence[Calibration],
             written: dict[str, dict[str, float]] | None = None) -> list[Drift]:
     """Every parameter's change between successive calibrations (oldest first) that
-    both have, from the state as left (``written``: :func:`written_by_record`), with
-    its U; those larger than it flagged."""
+    both have, from the offsets in force where both recorded them, else from the state
+    as left (``written``: :func:`written_by_record`), with its U; those larger than it
+    flagged."""
     out: list[Drift] = []
     for before, after in zip(calibrations, calibrations[1:], strict=False):
         wrote = (written or {}).get(before.record_id, {})
+        moved_by = _moved(before, after)
         for name, now in after.parameters.items():
             then = before.parameters.get(name)
             if then is None:
@@ -145,7 +147,7 @@ def changes(calibrations: Sequence[Calibration],
             if u_then is None or u_now is None:
                 continue  # nothing to judge the change against
             limit = math.hypot(u_then, u_now)
-            moved = _moved(before, after).get(name)
+            moved = moved_by.get(name)
             shift = wrote.get(name, 0.0) if moved is None else moved
             change = now.value_mm - (then.value_mm + shift)
             basis: Basis = "U" if basis_then == basis_now == "U" else "std"
@@ -192,7 +194,8 @@ def controller_changes(calibrations: Sequence[Calibration],
         wrote = (written or {}).get(before.record_id, {})
         beyond = {name: m - wrote.get(name, 0.0) for name, m in moved.items()
                   if abs(m - wrote.get(name, 0.0)) > OFFSET_EQUAL_MM}
-        if beyond and before.offsets_in_force_mm and after.offsets_in_force_mm:
+        if beyond:  # moved is empty unless both recorded their offsets in force
+            assert before.offsets_in_force_mm and after.offsets_in_force_mm
             out.append(ControllerChange(
                 before.record_id, after.record_id, dict(before.offsets_in_force_mm),
                 dict(after.offsets_in_force_mm),
