@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import difflib
 import json
 import math
 import re
@@ -311,6 +310,8 @@ def _table(table: Table, raw: Any, path: KeyPath, src: Source) -> Any:
     known = [f.key for f in table.fields]
     for key in raw:
         if key not in known:
+            import difflib  # only for a file with a mistake: every command reads a machine file
+
             close = difflib.get_close_matches(key, known, n=1, cutoff=0.75)
             hint = f"; did you mean {close[0]}?" if close else ""
             problem = f"unknown {table.noun} {key!r}{hint} (allowed: {', '.join(known)})"
