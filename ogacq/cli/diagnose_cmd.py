@@ -7,8 +7,7 @@ import json
 from pathlib import Path
 from typing import Annotated
 
-import typer
-
+from ogacq.cli.declare import Argument
 from ogacq.cli.options import (
     AcceptEditedOption,
     HistoryOption,
@@ -26,7 +25,7 @@ from ogacq.model.parameters import PARAM_SETS
 
 
 def diagnose_command(
-    file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
+    file: Annotated[Path, Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
     other_geometry: OtherGeometryOption = False,
     partial: PartialOption = False,
@@ -52,7 +51,7 @@ def diagnose_command(
     # The terminal rendering (rich) and the history (sessions) are imported only
     # when used: start-up is most of a short campaign's diagnosis.
     if as_json:
-        typer.echo(json.dumps({**result.to_json(), **loaded.state_json()}))
+        print(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
         from ogacq.cli.render import print_notes
         from ogacq.cli.render_diagnosis import print_diagnosis

@@ -10,40 +10,64 @@ of ``"module:function"`` targets.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import inspect
+import typing
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
-from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
 import typer
 from typer.core import TyperCommand, TyperGroup
 
 from ogacq.cli.coercion import plain_runtime_param
+from ogacq.cli.command_table import LazyCommandSpec, LazyGroupSpec
+from ogacq.cli.declare import Argument, Option
 
 if TYPE_CHECKING:  # typer vendors its own click
     from typer._click import Command, Context, Parameter
 
 
-@dataclass(frozen=True)
-class LazyCommandSpec:
-    target: str  # "module:function"
-    # the first paragraph of the function's docstring, which the group's help lists
-    # (tests/cli/test_lazy_commands.py holds the two the same)
-    summary: str
-
-
-@dataclass(frozen=True)
-class LazyGroupSpec:
-    help: str
-    commands: Mapping[str, str]  # sub-command name -> "module:function"
-    # the sub-command run when the first word names none (``ogacq history MACHINE``)
-    default: str | None = None
-
-
 def load_function(target: str) -> Callable[..., Any]:
     module, _, name = target.partition(":")
-    return getattr(importlib.import_module(module), name)
+    return with_typer_declarations(getattr(importlib.import_module(module), name))
+
+
+def _typer_declaration(meta: object) -> object:
+    if isinstance(meta, Option):
+        return typer.Option(*meta.names, **meta.typer_keywords())
+    if isinstance(meta, Argument):
+        return typer.Argument(help=meta.help)
+    return meta
+
+
+def with_typer_declarations(function: Callable[..., Any]) -> Callable[..., Any]:
+    """``function`` as typer reads it: each ``ogacq.cli.declare`` declaration in its
+    annotations made typer's own (typer takes the signature from ``__signature__``).
+    A function declared with typer's own is returned as it is."""
+    hints = typing.get_type_hints(function, include_extras=True)
+    signature = inspect.signature(function)
+    parameters = []
+    declared_here = False
+    for parameter in signature.parameters.values():
+        hint = hints.get(parameter.name, parameter.annotation)
+        if typing.get_origin(hint) is Annotated:
+            base, *metadata = typing.get_args(hint)
+            converted = [_typer_declaration(meta) for meta in metadata]
+            declared_here |= converted != metadata
+            hint = Annotated[(base, *converted)]
+        parameters.append(parameter.replace(annotation=hint))
+    if not declared_here:
+        return function
+
+    @functools.wraps(function)
+    def command(*args: Any, **kwargs: Any) -> Any:
+        return function(*args, **kwargs)
+
+    command.__signature__ = signature.replace(  # type: ignore[attr-defined]
+        parameters=parameters, return_annotation=hints.get("return", None))
+    command.__annotations__ = {p.name: p.annotation for p in parameters}
+    return command
 
 
 def flags_without_value(params: list[Parameter]) -> list[Parameter]:

@@ -8,19 +8,19 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, cast
 
-import typer
+from ogacq.cli.declare import Option
 
-MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
+MachineOption = Annotated[Path, Option("--machine", "-m", help="Machine file (TOML).")]
 # For files that may record their machine (sessions do, CSVs do not).
-RecordedMachineOption = Annotated[Path | None, typer.Option(
+RecordedMachineOption = Annotated[Path | None, Option(
     "--machine", "-m", help="Machine file (TOML); a session's own is used when left out, "
                             "and one that differs from it is refused (--other-geometry).")]
-OtherGeometryOption = Annotated[bool, typer.Option(
+OtherGeometryOption = Annotated[bool, Option(
     "--other-geometry", help="Reanalyse a session with the --machine file even though it "
                              "differs from the machine the session was recorded with.")]
-JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
+JsonOption = Annotated[bool, Option("--json", help="Print one JSON object on stdout.")]
 # Where a finished campaign, diagnosis or write-back is recorded (ogacq.history.location).
-HistoryOption = Annotated[str | None, typer.Option(
+HistoryOption = Annotated[str | None, Option(
     "--history", metavar="URL_OR_PATH",
     help="Record into this history: an SQLite file or a PostgreSQL URL "
          "(default: $OGACQ_HISTORY, else history.sqlite in ogacq's data folder, $OGACQ_HOME "
@@ -28,15 +28,15 @@ HistoryOption = Annotated[str | None, typer.Option(
          "nothing).")]
 # A session is analysed only when its campaign finished and its records are as written;
 # these say the user means to analyse it as it stands (ogacq.session.state, .seal).
-PartialOption = Annotated[bool, typer.Option(
+PartialOption = Annotated[bool, Option(
     "--partial", help="Analyse a session whose campaign has not finished (running, stopped or "
                       "killed): every output says 'partial: N of M planned readings', and "
                       "nothing of it enters the history.")]
-AcceptEditedOption = Annotated[bool, typer.Option(
+AcceptEditedOption = Annotated[bool, Option(
     "--accept-edited", help="Analyse a session whose records were changed, removed or added "
                             "after they were written (see `ogacq session check`) as it "
                             "stands; every output and the record say so.")]
-OverrideExpiredOption = Annotated[str | None, typer.Option(
+OverrideExpiredOption = Annotated[str | None, Option(
     "--override-expired", metavar="REASON",
     help="Run although a gauge is past its calibration due date; the reason is recorded "
          "in the session (otherwise such a campaign is refused before anything moves).")]
@@ -47,6 +47,8 @@ def override_reason(given: str | None) -> str:
     if given is None:
         return ""
     if not given.strip():
+        import typer  # the commands that take the option run on typer's path
+
         raise typer.BadParameter("give the reason (what makes the measurement valid all "
                                  "the same)", param_hint="--override-expired")
     return given.strip()
@@ -60,7 +62,7 @@ DEFAULT_SEED = 1
 
 def seed_option(help: str) -> Any:
     """A random seed: numpy's generators take none below 0, so typer refuses it at parsing."""
-    return typer.Option(min=0, help=help)
+    return Option(min=0, help=help)
 
 
 class IndicatorCount(StrEnum):

@@ -7,8 +7,7 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
-import typer
-
+from ogacq.cli.declare import Argument, Option
 from ogacq.cli.options import (
     AcceptEditedOption,
     JsonOption,
@@ -37,14 +36,14 @@ class Weighting(StrEnum):
 
 
 def refit(
-    file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
+    file: Annotated[Path, Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
-    params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
+    params: Annotated[ParamSet, Option(help="Parameter set to identify.")]
     = ParamSet.offsets,
-    method: Annotated[Method, typer.Option(
+    method: Annotated[Method, Option(
         help="linear: the papers' eq. 11; exact: nonlinear fit of the exact model. "
              "auto: linear for tabulated deviations, exact for readings.")] = Method.auto,
-    weighting: Annotated[Weighting, typer.Option(
+    weighting: Annotated[Weighting, Option(
         help="Tabulated deviations: ols (the papers') or gls with their covariance "
              "(eq. 13-14). Readings are always weighted by their own noise (the display "
              "rounding that repeats share).")]
@@ -70,7 +69,7 @@ def refit(
                          "the data")
     check_result(result)
     if as_json:
-        typer.echo(json.dumps({**result.to_json(params.value), **loaded.state_json()}))
+        print(json.dumps({**result.to_json(params.value), **loaded.state_json()}))
         return
     from ogacq.cli.render import print_fit, print_notes  # rich: the terminal only
 

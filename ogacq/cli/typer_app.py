@@ -1,0 +1,80 @@
+"""``ogacq`` as typer's group: every command, its help, completion and click's usage
+errors. ``ogacq.cli.app.main`` comes here for every command line the fast path
+(``ogacq.cli.fast_path``) does not take.
+
+Command modules define plain functions and never import this module; the group
+imports a command's module only when that command runs (``ogacq.cli.lazy``).
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own click
+
+from ogacq import __version__
+from ogacq.cli.command_table import COMMANDS, EXIT_CODES, FILE_FORMATS
+from ogacq.cli.lazy import LazyCommands
+from ogacq.cli.log_options import apply_log_options
+from ogacq.cli.repeated_warnings import say_pending_repeats
+from ogacq.cli.say import say
+
+
+class OgacqCommands(LazyCommands):
+    command_epilog = EXIT_CODES
+    table = COMMANDS
+
+
+# Completion asks the group for its commands' names only (``list_commands``), so the
+# table is not imported to complete a command's name.
+app = typer.Typer(cls=OgacqCommands, add_completion=True, no_args_is_help=True,
+                  rich_markup_mode=None,
+                  help="Acquisition and calibration for Orthoglide-type parallel machines.",
+                  epilog=f"{EXIT_CODES}\n\n{FILE_FORMATS}")
+
+
+def _version(value: bool) -> None:
+    if value:
+        typer.echo(f"ogacq {__version__}")
+        raise typer.Exit()
+
+
+@app.callback()
+def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
+                                                is_eager=True, help="Show the version.")]
+          = False,
+          verbose: Annotated[bool, typer.Option(
+              "--verbose", "-v", help="Also print info messages (retries, reconnections, "
+                                      "steps) on the terminal, not only warnings.")] = False,
+          log_file: Annotated[Path | None, typer.Option(
+              "--log-file", help="Append every log message, with its time, to this file "
+                                 "(debug messages included).")] = None) -> None:
+    apply_log_options(verbose, log_file)
+
+
+def run_app(argv: list[str]) -> int:
+    """Run ``argv`` through typer: click's own outcomes (an exit, an abort, the help,
+    a usage error) become exit codes here; ogacq's errors go up to ``main``."""
+    try:
+        try:
+            # Outside standalone mode click returns typer.Exit's code instead of exiting.
+            code = app(args=argv, prog_name="ogacq", standalone_mode=False)
+        finally:
+            say_pending_repeats()  # before the command's last word
+    except typer.Exit as exc:
+        return exc.exit_code
+    except typer.Abort:
+        print("ogacq: aborted", file=sys.stderr, flush=True)
+        return 130
+    except NoArgsIsHelpError as exc:  # `ogacq`, `ogacq session`: the help
+        exc.show()
+        return exc.exit_code
+    except typer.TyperException as exc:  # click's usage errors: a bad option or value
+        ctx = getattr(exc, "ctx", None)
+        hint = f" (see `{ctx.command_path} --help`)" if ctx is not None else ""
+        say("error", exc.format_message() + hint)
+        return exc.exit_code
+    return code if isinstance(code, int) else 0
