@@ -48,6 +48,14 @@ class Declared:
     declaration: Option | Argument
     default: Any  # inspect.Parameter.empty when the command line must give it
 
+    @property
+    def option_names(self) -> tuple[str, ...]:
+        """An option's names; typer names one declared without them after its keyword
+        (``weighting`` -> ``--weighting``)."""
+        if not isinstance(self.declaration, Option):
+            return ()
+        return self.declaration.names or (f"--{self.name.replace('_', '-')}",)
+
 
 def declared_parameters(function: Callable[..., Any]) -> list[Declared] | None:
     """Each parameter of ``function`` with its declaration and plain type; None when
@@ -109,8 +117,7 @@ def _option_value(parameter: Declared, has_value: str, value: str,
 def _split(parameters: Sequence[Declared],
            words: Sequence[str]) -> tuple[dict[str, Any], list[str]] | None:
     """The options' values by keyword, and the positional words."""
-    options = {name: p for p in parameters if isinstance(p.declaration, Option)
-               for name in p.declaration.names}
+    options = {name: p for p in parameters for name in p.option_names}
     given: dict[str, Any] = {}
     positional: list[str] = []
     k = 0

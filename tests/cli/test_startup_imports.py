@@ -23,7 +23,8 @@ code = main(sys.argv[1:])
 print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 """
 
-NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile")
+# typer (and its click) too: refit and diagnose take the fast path (cli/fast_path.py)
+NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile", "typer", "click")
 
 
 @pytest.fixture(scope="module")
