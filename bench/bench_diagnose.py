@@ -52,6 +52,7 @@ from ogacq.model.parameters import PARAM_SETS  # noqa: E402
 
 PAPER = ROOT / "ogacq" / "examples" / "paper"
 SESSION = ROOT / "tests" / "golden" / "session.jsonl"
+FOLDER = Path(tempfile.gettempdir(), "bench_diag1")
 
 
 @dataclass(frozen=True)
@@ -63,11 +64,10 @@ class Case:
 
 
 def _simulated() -> dict[str, Callable[[], tuple[Observations, MachineSpec]]]:
+    from ogacq.sim.truth import Hysteresis, LeadScrewError, ScrewMap
     from tests.diagnose.campaigns import MACHINE, RICH, layout, simulate
     from tests.diagnose.test_maps import campaign as scan
     from tests.diagnose.test_unexplained import LEAD_SCREW
-
-    from ogacq.sim.truth import Hysteresis, LeadScrewError, ScrewMap
 
     return {
         "bench72": lambda: (campaign(72), BENCH_MACHINE),
@@ -130,8 +130,11 @@ def main() -> None:
     parser.add_argument("--scipy", action="store_true")
     parser.add_argument("--only", action="append", default=[])
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as tmp:
-        folder = Path(tmp)
+    # one fixed folder: the outputs name their files, and dumps of two runs compare
+    folder = FOLDER
+    shutil.rmtree(folder, ignore_errors=True)
+    folder.mkdir()
+    try:
         cases = [c for c in corpus(folder) if not args.only or c.name in args.only]
         env = dict(os.environ, COLUMNS="100")
         env.pop("PYTHONDONTWRITEBYTECODE", None)
@@ -165,6 +168,8 @@ def main() -> None:
         print(f"{'total':24s} {'':8s} {total_warm * 1e3:9.1f} ms {total_cold:7.3f} s")
         if args.scipy:
             scipy_comparison()
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
 
 
 def scipy_comparison() -> None:
