@@ -37,6 +37,7 @@ from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
@@ -374,7 +375,33 @@ def planned_layout(config: ProtocolConfig, machine: MachineSpec, *,
                    seconds_per_posture: float = 20.0) -> ReadingsLayout:
     """The readings the plan takes, in order, laid out for the model: each reading
     step's gauges at its joints, approach and posture, the clock advancing
-    ``seconds_per_posture`` from one posture to the next."""
+    ``seconds_per_posture`` from one posture to the next.
+
+    Its arrays are read-only: the same plan on the same machine is laid out once and
+    shared (a diagnosis weighs the same candidate plans and scans every time, each a
+    walk through thousands of steps)."""
+    try:
+        hash((config, machine))
+    except TypeError:  # a field that does not hash by value: laid out afresh
+        return _layout(config, machine, float(seconds_per_posture))
+    # the postures' types too: 30 and 30.0 compare equal but may be labelled apart
+    kinds = tuple(type(p) for p in config.postures)
+    return _shared_layout(config, machine, float(seconds_per_posture), kinds)
+
+
+@lru_cache(maxsize=64)
+def _shared_layout(config: ProtocolConfig, machine: MachineSpec, seconds_per_posture: float,
+                   kinds: tuple[type, ...]) -> ReadingsLayout:
+    """A pure function of frozen inputs (both dataclasses hash by value)."""
+    layout = _layout(config, machine, seconds_per_posture)
+    for value in vars(layout).values():
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+    return layout
+
+
+def _layout(config: ProtocolConfig, machine: MachineSpec,
+            seconds_per_posture: float) -> ReadingsLayout:
     rows = [(k, step, gauge) for k, step in enumerate(reading_steps(config, machine))
             for gauge in step.gauges]
     gauges = [Gauge.parse(gauge) for _, _, gauge in rows]
