@@ -34,7 +34,7 @@ _LOG_2PI = math.log(2 * math.pi)
 # floats: a verdict asks for one or a few, and a numpy call per iteration costs more
 # than the arithmetic (0.45 ms a p-value at a few hundred dof; IEEE doubles give the
 # same digits either way).
-ONE_BY_ONE = 8
+ONE_BY_ONE = 32
 
 _lgamma = np.frompyfunc(math.lgamma, 1, 1)
 
