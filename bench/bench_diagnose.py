@@ -183,11 +183,11 @@ def scipy_comparison() -> None:
     result = diagnose(obs)
     ours = time.perf_counter() - start
     start = time.perf_counter()
-    best = (np.inf, ())
+    best: tuple[float, tuple[str, ...]] = (np.inf, ())
     for extra in singles() + pairs():
         free = indices(BASE_MODEL + extra)
 
-        def residual(x, free=free):
+        def residual(x: np.ndarray, free: np.ndarray = free) -> np.ndarray:
             theta = NOMINAL.copy()
             theta[free] = x
             return obs.remove_zeros(obs.values - obs.predict(theta))
