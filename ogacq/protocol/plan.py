@@ -397,7 +397,7 @@ def planned_layout(config: ProtocolConfig, machine: MachineSpec, *,
     return _shared_layout(config, machine, float(seconds_per_posture), kinds)
 
 
-@lru_cache(maxsize=64)
+@lru_cache(maxsize=16)  # a diagnosis weighs 6; a 1 mm scan's, with its evaluation plans, ~0.5 MiB
 def _shared_layout(config: ProtocolConfig, machine: MachineSpec, seconds_per_posture: float,
                    kinds: tuple[type, ...]) -> ReadingsLayout:
     """A pure function of frozen inputs (both dataclasses hash by value)."""
