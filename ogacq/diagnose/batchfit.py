@@ -30,6 +30,10 @@ from ogacq.identify.observations import Observations
 from ogacq.model.parameters import AXES, PARAM_NAMES, effect_of, indices
 
 _DRIFT = indices([f"thermal_drift.{a}" for a in AXES])
+# each parameter's plausible range, by its position in the full vector: gathered for a
+# whole batch at once (a name lookup per parameter per candidate was a Python loop
+# over thousands of entries a diagnosis)
+_PLAUSIBLE_RANGE = np.array([effect_of(name).plausible_range for name in PARAM_NAMES])
 CHORD_ITERATIONS = 3
 # Candidates are fitted in chunks of at most this many (candidate, row) values per
 # array, or one candidate when a single one has more: memory then grows with the
@@ -256,8 +260,7 @@ def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free:
                  iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Chord Gauss-Newton of a batch in ``space``, every candidate from ``theta_start``."""
     batch, p = cols.shape
-    ranges = np.array([[effect_of(PARAM_NAMES[k]).plausible_range for k in row]
-                       for row in free])
+    ranges = _PLAUSIBLE_RANGE[free]  # (B, p)
     a = np.moveaxis(space.r[:, cols], 0, 1) * ranges[:, None, :]  # (B, k, p), plausible units
     u, s, vt = np.linalg.svd(a, full_matrices=False)
     keep = s > s[:, :1] * RANK_TOLERANCE

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy import special
 
-from ogacq.identify.distributions import chi2_sf, f_sf, normal_sf
+from ogacq.identify.distributions import ONE_BY_ONE, chi2_sf, f_sf, normal_sf
 
 P_LEVELS = [1e-300, 1e-100, 1e-12, 1e-6, 1e-3, 0.01, 0.1, 0.3, 0.5, 0.7, 0.9, 0.999999]
 
@@ -66,3 +66,19 @@ def test_edges() -> None:
     assert np.isnan(chi2_sf(3, np.nan)) and np.isnan(f_sf(3, 4, np.nan))
     assert np.isnan(chi2_sf(0, 1.0))  # no degrees of freedom: no distribution
     assert np.shape(chi2_sf(3, 2.0)) == () and np.shape(f_sf(3, 4, [1.0, 2.0])) == (2,)
+
+
+def test_one_value_at_a_time_gives_the_same_doubles() -> None:
+    # a few values run in Python floats, many in numpy arrays: the same operations in
+    # the same order, so each p-value must come out bit for bit the same either way
+    dof = np.array([1, 2, 3, 4.5, 11, 49, 100, 1000, 35_000, 70_000] * 2, dtype=float)
+    x = np.concatenate([dof * 0.3, dof * 1.7])  # the series and the fraction
+    dof = np.concatenate([dof, dof])
+    many = chi2_sf(dof, x)
+    assert len(many) > ONE_BY_ONE  # the numpy path
+    np.testing.assert_array_equal(
+        many, [float(chi2_sf(d, v)) for d, v in zip(dof, x, strict=True)])
+    dfd = np.full(len(x), 49.0)
+    many_f = f_sf(dof, dfd, x / dof)
+    np.testing.assert_array_equal(many_f, [float(f_sf(d, 49.0, v / d))
+                                           for d, v in zip(dof, x, strict=True)])
