@@ -78,7 +78,10 @@ def import_s(argv: list[str], env: dict[str, str]) -> float:
 
 def bytecode_env(tmp: str, compile_each_run: bool) -> tuple[dict[str, str], str]:
     """The commands' environment and what it means for their bytecode."""
-    env = dict(os.environ)
+    # numpy's reference with the one BLAS thread every ogacq command sets before numpy
+    # (cli/app.py): on a machine of N cores, numpy's own import starts N OpenBLAS
+    # threads, which made the reference 60 % slower on 2 cores, and ogacq look faster
+    env = {**os.environ, "OPENBLAS_NUM_THREADS": os.environ.get("OPENBLAS_NUM_THREADS", "1")}
     if compile_each_run:
         cached = not env.get("PYTHONDONTWRITEBYTECODE")
         return env, ("as this shell has it: " + ("bytecode written and reused" if cached else
