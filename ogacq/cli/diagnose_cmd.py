@@ -53,8 +53,8 @@ def diagnose_command(
     if as_json:
         print(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
-        from ogacq.cli.render import print_notes
         from ogacq.cli.render_diagnosis import print_diagnosis
+        from ogacq.cli.render_fit import print_notes
 
         print_notes(loaded.notes())
         print_diagnosis(result, machine_file=str(machine or file))

@@ -28,8 +28,9 @@ def plain(value: Any) -> str:
 
 def shown(value: Any) -> str:
     """``value`` for a rich markup string or a table cell: controls shown, brackets
-    escaped (rich.markup.escape), so it prints as it was recorded."""
-    from rich.markup import escape
+    escaped (as rich.markup.escape: ``ogacq.cli.text_out.escape``), so it prints as it
+    was recorded."""
+    from ogacq.cli.text_out import escape
 
     return escape(plain(value))
 

@@ -71,7 +71,7 @@ def refit(
     if as_json:
         print(json.dumps({**result.to_json(params.value), **loaded.state_json()}))
         return
-    from ogacq.cli.render import print_fit, print_notes  # rich: the terminal only
+    from ogacq.cli.render_fit import print_fit, print_notes
 
     print_notes(loaded.notes())
     print_fit(result, params.value)

@@ -7,11 +7,11 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
-import numpy as np
 from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
+from ogacq.cli.render_fit import format_number
 from ogacq.model.parameters import effect_of
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
@@ -22,70 +22,12 @@ if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the r
     from ogacq.campaign.run import CampaignOutcome
     from ogacq.diagnose.diagnosis import Diagnosis
     from ogacq.identify.accuracy import AccuracyPrediction
-    from ogacq.identify.fit import FitResult
     from ogacq.protocol.runner import Observer
     from ogacq.protocol.runner import Progress as RunnerProgress
     from ogacq.session.state import Completeness
     from ogacq.session.store import LoadedSession
 
 console = new_console()
-
-
-def _num(value: float | None, digits: int = 4, sign: bool = True) -> str:
-    if not isinstance(value, int | float | np.floating) or isinstance(value, bool) or \
-            not np.isfinite(value):
-        return "-"
-    return f"{value:+.{digits}f}" if sign else f"{value:.{digits}f}"
-
-
-def print_notes(notes: list[str]) -> None:
-    """What an analysis says first about the session it read: partial, edited."""
-    for note in notes:
-        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
-
-
-def print_fit(result: FitResult, params_label: str) -> None:
-    obs = result.observations
-    ident = result.identifiability
-    console.print(f"[bold]{shown(obs.source or 'data')}[/]: {len(obs)} {obs.kind}, "
-                  f"parameters [bold]{params_label}[/], {result.method} fit, "
-                  f"{result.weighting.upper()}")
-    table = Table(show_edge=False, header_style="bold")
-    table.add_column("parameter")
-    table.add_column("value", justify="right")
-    table.add_column("std (gauge noise)", justify="right")
-    table.add_column("std (from residuals)", justify="right")
-    table.add_column("unit")
-    scale = result.sigma_mm / result.noise.sigma_mm if np.isfinite(result.sigma_mm) else np.nan
-    if not obs.raw:
-        scale /= np.sqrt(2.0)  # a deviation is a difference of two readings
-    for name, value, std in zip(result.names, result.values, result.std, strict=True):
-        table.add_row(name, _num(value), _num(std, sign=False), _num(std * scale, sign=False),
-                      effect_of(name).unit)
-    console.print(table)
-    console.print(f"residual rms {result.residual_rms_mm:.4f} mm, sigma from residuals "
-                  f"{_num(result.sigma_mm, sign=False)} mm ({result.dof} dof); gauge noise "
-                  f"{result.noise.describe()}")
-    console.print(f"condition number {ident.condition_number:.4g}, rank {ident.rank} of "
-                  f"{len(result.names)}")
-    if ident.identifiable:
-        console.print("[green]identifiable[/]: every parameter is determined by these data")
-    else:
-        console.print("[red]not identifiable[/]:")
-        for reason in ident.reasons:
-            console.print(f"  - {shown(reason)}")
-    for a, b, c in ident.correlated_pairs:
-        console.print(f"  correlated: {a} / {b} {c:+.4f}")
-
-    # scipy.stats (a second of start-up) loads here: `refit --json` never needs it
-    from ogacq.identify.consistency import fit_verdict
-
-    verdict = fit_verdict(result)
-    colour = {"consistent": "green", "inconsistent": "red"}.get(verdict.state, "yellow")
-    console.print(f"fit: [{colour}]{verdict.describe()}[/]", highlight=False)
-    if verdict.state == "inconsistent":
-        console.print("[yellow]the model leaves something out: run `ogacq diagnose` on the "
-                      "readings[/]")
 
 
 def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycles: int,
@@ -341,7 +283,7 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
                 std = refit.get("std", {}).get(name, {}).get(axis)
                 # a look at what the session holds: its fit's std, named so (the
                 # headline U is the record's, `ogacq report`)
-                console.print(f"  {shown(name)}.{shown(axis)} = {_num(value)} mm (fit std "
+                console.print(f"  {shown(name)}.{shown(axis)} = {format_number(value)} mm (fit std "
                               f"{two_digits(std)} mm)", highlight=False)
 
 

@@ -3,10 +3,8 @@
 from __future__ import annotations
 
 import numpy as np
-from rich.table import Table
 
 from ogacq.cli.plain import shown
-from ogacq.cli.render import console
 from ogacq.cli.render_maps import (
     print_axis_map,
     print_coverage,
@@ -14,6 +12,7 @@ from ogacq.cli.render_maps import (
     print_profiles,
     print_proposals,
 )
+from ogacq.cli.text_out import TextTable, out
 from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
@@ -47,24 +46,24 @@ def _final_line(title: str, d: Diagnosis) -> str:
 
 
 def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
-    console.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
-                  f"{d.noise.describe()}")
-    console.print(_verdict_line("joint offsets only", d.selection.base))
+    out.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
+              f"{d.noise.describe()}")
+    out.print(_verdict_line("joint offsets only", d.selection.base))
     if d.outcome == "consistent":
-        console.print("The joint-offset model reproduces these recordings within the gauge "
-                      "noise: nothing is left to explain.")
+        out.print("The joint-offset model reproduces these recordings within the gauge "
+                  "noise: nothing is left to explain.")
         if d.mapped is not None and d.mapped.search.searched:
-            console.print(f"Nor along any axis or in time (searched at the "
-                          f"{d.mapped.search.level:g} level): "
-                          + "; ".join(c.describe() for c in d.mapped.search.coverage))
+            out.print(f"Nor along any axis or in time (searched at the "
+                      f"{d.mapped.search.level:g} level): "
+                      + "; ".join(c.describe() for c in d.mapped.search.coverage))
         _print_offsets(d)
         return
     if d.outcome == "undetermined":
-        console.print("These recordings leave nothing to judge the fit by: nothing is "
-                      "diagnosed.")
+        out.print("These recordings leave nothing to judge the fit by: nothing is "
+                  "diagnosed.")
         _print_offsets(d)
         return
-    console.print()
+    out.print()
     _print_location("Where the misfit of the joint-offset model sits", d.located)
     _print_capability(d)
     _print_search(d)
@@ -74,12 +73,12 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     print_proposals(d, machine_file)
     _print_offsets(d)
     for caveat in d.caveats():
-        console.print(f"[yellow]note[/]: {shown(caveat)}")
+        out.print(f"[yellow]note[/]: {shown(caveat)}")
 
 
 def _print_location(title: str, loc: Location) -> None:
-    console.print(f"[bold]{title}[/] (share of the misfit; under noise alone each would "
-                  "carry the share in brackets)")
+    out.print(f"[bold]{title}[/] (share of the misfit; under noise alone each would "
+              "carry the share in brackets)")
     for level in ("gauge", "leg", "posture", "cycle", "approach"):
         groups = loc.level(level)
         if not groups:
@@ -93,40 +92,40 @@ def _print_location(title: str, loc: Location) -> None:
             cells = ", ".join(f"{g.key} {g.share:.0%} ({g.expected_share:.0%})"
                               for g in groups)
         name = "approach (sides of the x, y, z drives)" if level == "approach" else level
-        console.print(f"  {name}: {shown(cells)}")
+        out.print(f"  {name}: {shown(cells)}")
     trends = [t for t in loc.trends if t.p_value < LEVEL]
     for t in trends:
-        console.print(f"  trend with time on gauge {t.gauge}: "
-                      f"{t.slope_mm_per_h * UM_PER_MM:+.1f} ± "
-                      f"{t.std_mm_per_h * UM_PER_MM:.1f} µm/h (p = {format_p(t.p_value)})")
+        out.print(f"  trend with time on gauge {t.gauge}: "
+                  f"{t.slope_mm_per_h * UM_PER_MM:+.1f} ± "
+                  f"{t.std_mm_per_h * UM_PER_MM:.1f} µm/h (p = {format_p(t.p_value)})")
     if loc.trends and not trends:
-        console.print("  no gauge's residuals trend with time")
+        out.print("  no gauge's residuals trend with time")
     # each difference is one of many looked at (hundreds on a scan): corrected for them
     looked = max(len(loc.approach), 1)
     diffs = sorted((a for a in loc.approach if a.p_value * looked < LEVEL),
                    key=lambda a: a.p_value)
     for a in diffs[:SHOWN_GROUPS]:
-        console.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
-                      f"{shown(a.posture)}: {a.difference_mm * UM_PER_MM:+.1f} ± "
-                      f"{a.std_mm * UM_PER_MM:.1f} µm "
-                      f"(p = {format_p(min(1.0, a.p_value * looked))} over {looked})")
+        out.print(f"  approach sides {a.sides[0]} vs {a.sides[1]} on gauge {a.gauge} at "
+                  f"{shown(a.posture)}: {a.difference_mm * UM_PER_MM:+.1f} ± "
+                  f"{a.std_mm * UM_PER_MM:.1f} µm "
+                  f"(p = {format_p(min(1.0, a.p_value * looked))} over {looked})")
     if len(diffs) > SHOWN_GROUPS:
-        console.print(f"  and {len(diffs) - SHOWN_GROUPS} more differences between approach "
-                      "sides")
+        out.print(f"  and {len(diffs) - SHOWN_GROUPS} more differences between approach "
+                  "sides")
     if not loc.approach:
-        console.print("  no posture was read from both approach sides")
+        out.print("  no posture was read from both approach sides")
     elif not diffs:
-        console.print("  no difference between approach sides (corrected for the "
-                      f"{looked} compared)")
-    console.print()
+        out.print("  no difference between approach sides (corrected for the "
+                  f"{looked} compared)")
+    out.print()
 
 
 def _print_capability(d: Diagnosis) -> None:
     cap = d.capability
-    console.print(f"[bold]What these data can tell beside the joint offsets[/] "
-                  f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
-                  f"offsets, {cap.effect_rank} independent effect directions)")
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
+    out.print(f"[bold]What these data can tell beside the joint offsets[/] "
+              f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
+              f"offsets, {cap.effect_rank} independent effect directions)")
+    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("effect", "std", "shows from", "unit", "offsets absorb", "aliases"):
         table.add_column(col, justify="left" if col in ("effect", "unit", "aliases")
                          else "right", overflow="fold")
@@ -137,38 +136,38 @@ def _print_capability(d: Diagnosis) -> None:
         shows = f"{v.detectable:.3g}" if v.identifiable else f"[yellow]{v.detectable:.3g}[/]"
         table.add_row(name, f"{v.std:.3g}", shows, v.unit, f"{v.absorbed:.0%}",
                       ", ".join(a for a, _ in v.aliases))
-    console.print(table)
+    out.print(table)
     if cap.invisible():
-        console.print(f"  not seen at all: {', '.join(cap.invisible())}"
-                      + (" (tabulated deviations carry no approach side and no time)"
+        out.print(f"  not seen at all: {', '.join(cap.invisible())}"
+                  + (" (tabulated deviations carry no approach side and no time)"
                          if d.kind == "deviations" else ""))
     if cap.weak():
-        console.print(f"  seen only above their plausible range: {', '.join(cap.weak())}")
+        out.print(f"  seen only above their plausible range: {', '.join(cap.weak())}")
     for group in cap.alias_groups():
-        console.print(f"  cannot be told apart: {', '.join(group)}")
+        out.print(f"  cannot be told apart: {', '.join(group)}")
     if cap.saturated:
-        console.print(f"  [yellow]{cap.dof_after_offsets} observations are left after the "
-                      f"offsets and the effects span {cap.effect_rank} directions: any "
-                      f"{cap.dof_after_offsets} independent effects reproduce these data exactly, "
-                      "so the data cannot choose among such sets[/]")
+        out.print(f"  [yellow]{cap.dof_after_offsets} observations are left after the "
+                  f"offsets and the effects span {cap.effect_rank} directions: any "
+                  f"{cap.dof_after_offsets} independent effects reproduce these data exactly, "
+                  "so the data cannot choose among such sets[/]")
     for option, plan in d.plans:
         groups = plan.alias_groups()
-        console.print(f"  with '{option.key}' ({option.description}): "
-                      f"{plan.dof_after_offsets} dof after the offsets, "
-                      f"{plan.effect_rank} effect directions, "
-                      f"{len(plan.invisible())} effects unseen, "
-                      f"{len(groups)} alias groups")
-    console.print()
+        out.print(f"  with '{option.key}' ({option.description}): "
+                  f"{plan.dof_after_offsets} dof after the offsets, "
+                  f"{plan.effect_rank} effect directions, "
+                  f"{len(plan.invisible())} effects unseen, "
+                  f"{len(groups)} alias groups")
+    out.print()
 
 
 def _print_search(d: Diagnosis) -> None:
     sel = d.selection
-    console.print(f"[bold]Search[/]: {sel.candidates_fitted} candidate models fitted "
-                  "(every effect alone and in pairs, at each step)")
+    out.print(f"[bold]Search[/]: {sel.candidates_fitted} candidate models fitted "
+              "(every effect alone and in pairs, at each step)")
     if not sel.steps:
-        console.print("  no effect or pair of effects improves the fit significantly with "
-                      "plausible values")
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
+        out.print("  no effect or pair of effects improves the fit significantly with "
+                  "plausible values")
+    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "rms before", "rms after", "chi2/dof", "p (nested)", "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right", overflow="fold")
     for k, step in enumerate(sel.steps, 1):
@@ -177,25 +176,25 @@ def _print_search(d: Diagnosis) -> None:
                       f"{step.before.verdict.chi2_dof:.3g} → {step.after.verdict.chi2_dof:.3g}",
                       format_p(step.p_value), f"{step.delta_bic:+.1f}")
     if sel.steps:
-        console.print(table)
+        out.print(table)
         _print_gauge_rms(d)
     for name, p in sel.dropped:
-        console.print(f"  dropped {name}: no longer significant beside the others "
-                      f"(p = {format_p(p)})")
+        out.print(f"  dropped {name}: no longer significant beside the others "
+                  f"(p = {format_p(p)})")
     if sel.last_considered:
-        console.print("  closest candidates that were not taken:")
+        out.print("  closest candidates that were not taken:")
         for c in sel.last_considered[:3]:
             rms = np.sqrt(c.rss / max(d.capability.n_data, 1))
-            console.print(f"    {label(c.added)}: weighted rms {rms * UM_PER_MM:.2f} µm, "
-                          f"{c.reason}")
-    console.print()
+            out.print(f"    {label(c.added)}: weighted rms {rms * UM_PER_MM:.2f} µm, "
+                      f"{c.reason}")
+    out.print()
 
 
 def _print_gauge_rms(d: Diagnosis) -> None:
     gauges = row_labels(d.base_fit.observations).gauge
     models = [d.selection.base] + [s.after for s in d.selection.steps]
-    table = Table(title="residual rms per gauge (µm), before and after each step",
-                  show_edge=False, header_style="bold", pad_edge=False)
+    table = TextTable(title="residual rms per gauge (µm), before and after each step",
+                      show_edge=False, header_style="bold", pad_edge=False)
     table.add_column("gauge")
     table.add_column("offsets", justify="right")
     for step in d.selection.steps:
@@ -203,46 +202,46 @@ def _print_gauge_rms(d: Diagnosis) -> None:
     per_model = [m.rms_by_gauge(gauges) for m in models]
     for g in per_model[0]:
         table.add_row(g, *(f"{rms[g] * UM_PER_MM:.2f}" for rms in per_model))
-    console.print(table)
+    out.print(table)
 
 
 def _print_outcome_line(d: Diagnosis) -> None:
     """Explained, partly explained or unexplained, and by how much."""
     if d.outcome == "explained":
-        console.print(_final_line("[bold]with the effects found[/]", d))
+        out.print(_final_line("[bold]with the effects found[/]", d))
     elif d.outcome == "partly explained":
-        console.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
-                      f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
-                      "the noise; their std are inflated by the remaining misfit "
-                      f"(x{d.std_inflation:.2f}).")
-        console.print(_final_line("with them", d))
+        out.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
+                  f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
+                  "the noise; their std are inflated by the remaining misfit "
+                  f"(x{d.std_inflation:.2f}).")
+        out.print(_final_line("with them", d))
     else:
-        console.print("[red]Unexplained[/]: nothing in the effect library brings the fit "
-                      "within the gauge noise, so no effect is named.")
+        out.print("[red]Unexplained[/]: nothing in the effect library brings the fit "
+                  "within the gauge noise, so no effect is named.")
         if d.selection.final.effects:
-            console.print(f"  the best set tried, {label(d.selection.final.effects)}, removes "
-                          f"only {d.explained_share:.0%} of the misfit beyond the noise "
-                          f"({d.selection.final.verdict.describe()})")
+            out.print(f"  the best set tried, {label(d.selection.final.effects)}, removes "
+                      f"only {d.explained_share:.0%} of the misfit beyond the noise "
+                      f"({d.selection.final.verdict.describe()})")
 
 
 def _print_effect(e: EffectFound, d: Diagnosis, machine_file: str) -> None:
     """One effect found: its value, what its std holds, and what else explains it."""
-    console.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
+    out.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
     if e.model_spread > 0.2 * e.std:
-        console.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
-                      "much when another effect is swapped for its alternative)")
+        out.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
+                  "much when another effect is swapped for its alternative)")
     if e.local_disturbance is not None:
-        console.print(f"    [yellow]rests on one cell[/]: without {e.local_disturbance} the "
-                      "data no longer support it; a disturbance there (a knocked stand, a "
-                      "sticking spindle) explains them as well; repeat that posture")
+        out.print(f"    [yellow]rests on one cell[/]: without {e.local_disturbance} the "
+                  "data no longer support it; a disturbance there (a knocked stand, a "
+                  "sticking spindle) explains them as well; repeat that posture")
     if e.alternatives:
         alts = ", ".join(f"{a.name} ({a.value:+.4g} {unit(a.name)}, chi2 "
                          f"{a.delta_chi2:+.1f})" for a in e.alternatives)
-        console.print(f"    [yellow]explained equally well by[/]: {alts}")
+        out.print(f"    [yellow]explained equally well by[/]: {alts}")
         for sep in e.separations:
-            console.print(f"    {shown(sep.describe().replace('M.toml', machine_file))}")
+            out.print(f"    {shown(sep.describe().replace('M.toml', machine_file))}")
     elif d.final.consistent and e.local_disturbance is None:
-        console.print("    no other effect of the library explains these data as well")
+        out.print("    no other effect of the library explains these data as well")
 
 
 def _print_unexplained(d: Diagnosis) -> None:
@@ -252,8 +251,8 @@ def _print_unexplained(d: Diagnosis) -> None:
     along = d.unexplained_along()
     where = "" if along is None else (f" (along the {along['leg']} leg from "
                                       f"{along['from_mm']:+g} to {along['to_mm']:+g} mm)")
-    console.print(f"  [red]unexplained[/] misfit sits mostly at "
-                  f"[bold]{shown(d.unexplained)}[/]{where}")
+    out.print(f"  [red]unexplained[/] misfit sits mostly at "
+              f"[bold]{shown(d.unexplained)}[/]{where}")
     if d.remaining is not d.located:
         _print_location("  where the rest sits", d.remaining)
 
@@ -268,14 +267,14 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
     for m in d.maps:
         print_axis_map(m)
     _print_unexplained(d)
-    console.print()
+    out.print()
 
 
 def _print_offsets(d: Diagnosis) -> None:
     f = d.final_fit
     std = {n: f.std[k] * d.std_inflation for k, n in enumerate(f.names) if n in BASE_MODEL}
     parts = [f"{n.split('.')[1]} {_value(f.value(n), std[n], 'mm')}" for n in BASE_MODEL]
-    console.print("joint offsets (final model): " + ", ".join(parts))
+    out.print("joint offsets (final model): " + ", ".join(parts))
     # The offsets absorb what the effects do not: with an alias in an effect's place
     # they move, and writing them back should wait for the alias to be settled.
     for e in d.effects:
@@ -284,5 +283,5 @@ def _print_offsets(d: Diagnosis) -> None:
             if any(moved):
                 values = ", ".join(f"{n.split('.')[1]} {a.theta[PARAM_INDEX[n]]:+.4f}"
                                    for n in BASE_MODEL)
-                console.print(f"  [yellow]with {a.name} in place of {e.name} they would be[/] "
-                              f"{values} mm")
+                out.print(f"  [yellow]with {a.name} in place of {e.name} they would be[/] "
+                          f"{values} mm")

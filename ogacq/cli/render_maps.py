@@ -7,10 +7,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from rich.markup import escape
-from rich.table import Table
 
-from ogacq.cli.render import console
+from ogacq.cli.text_out import TextTable, escape, out
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.profile import SPARK, LegProfile
@@ -28,16 +26,16 @@ def print_coverage(d: Diagnosis) -> None:
     if mapped is None or not mapped.search.coverage:
         return
     search = mapped.search
-    console.print("[bold]Along each axis[/] (errors the library lacks: cyclic and smooth "
-                  "screw errors, hysteresis building up with travel, rail bows, a warm-up)")
+    out.print("[bold]Along each axis[/] (errors the library lacks: cyclic and smooth "
+              "screw errors, hysteresis building up with travel, rail bows, a warm-up)")
     for cov in search.coverage:
-        console.print(f"  {escape(cov.describe())}")
+        out.print(f"  {escape(cov.describe())}")
     if not search.searched:
-        console.print("  no axis was read densely enough to search for a map along it")
-        console.print()
+        out.print("  no axis was read densely enough to search for a map along it")
+        out.print()
         return
     level = search.level
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
+    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "chi2 before", "chi2 after", "p (nested, corrected)",
                 "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right")
@@ -46,44 +44,44 @@ def print_coverage(d: Diagnosis) -> None:
                       f"{step.rss_after / d.noise.variance:.1f}", format_p(step.added.p_value),
                       f"{step.added.delta_bic:+.1f}")
     if search.steps:
-        console.print(f"  searched at the {level:g} level, corrected for every shape and "
-                      "family tried:")
-        console.print(table)
+        out.print(f"  searched at the {level:g} level, corrected for every shape and "
+                  "family tried:")
+        out.print(table)
     else:
-        console.print(f"  nothing along an axis or in time passes the {level:g} level "
-                      "(corrected for every shape and family tried)")
+        out.print(f"  nothing along an axis or in time passes the {level:g} level "
+                  "(corrected for every shape and family tried)")
         for c in search.last_considered[:2]:
-            console.print(f"    closest: {c.term.name}, {escape(c.reason)}")
+            out.print(f"    closest: {c.term.name}, {escape(c.reason)}")
     for name, p in mapped.dropped:
-        console.print(f"  dropped {name}: a partial fit of the maps, no longer significant "
-                      f"beside them (p = {format_p(p)})")
+        out.print(f"  dropped {name}: a partial fit of the maps, no longer significant "
+                  f"beside them (p = {format_p(p)})")
     if mapped.fit is not None:
-        console.print(f"  chi2 with the library's effects {mapped.chi2_before:.1f}, with the "
-                      f"maps {mapped.chi2_after:.1f}: {escape(d.final.describe())}")
-    console.print()
+        out.print(f"  chi2 with the library's effects {mapped.chi2_before:.1f}, with the "
+                  f"maps {mapped.chi2_after:.1f}: {escape(d.final.describe())}")
+    out.print()
 
 
 def print_map_effect(e: MapEffect) -> None:
     """One map effect: its sentence, value, further parameters."""
     v = e.value
     unit_value = f"{v.value * UM_PER_MM:+.2f} ± {e.std * UM_PER_MM:.2f} µm"
-    console.print(f"  [bold]{e.name}[/] = {unit_value}: {escape(e.sentence())}")
+    out.print(f"  [bold]{e.name}[/] = {unit_value}: {escape(e.sentence())}")
     extra = {k: val for k, val in v.extra.items() if val is not None and not (
         isinstance(val, float) and math.isnan(val))}
     if e.term.family == "lead_screw_cyclic":
-        console.print(f"    pitch {extra['pitch_mm']:.4g} ± {extra.get('pitch_std_mm', 0):.2g} mm, "
-                      f"phase {extra['phase_deg']:+.1f} ± {extra.get('phase_std_deg', 0):.1f}° "
-                      f"(p = {format_p(e.p_value)})")
+        out.print(f"    pitch {extra['pitch_mm']:.4g} ± {extra.get('pitch_std_mm', 0):.2g} mm, "
+                  f"phase {extra['phase_deg']:+.1f} ± {extra.get('phase_std_deg', 0):.1f}° "
+                  f"(p = {format_p(e.p_value)})")
     elif e.term.family == "hysteresis":
         std = extra.get("build_up_std_mm")
-        console.print(f"    builds up over {extra['build_up_mm']:.3g}"
-                      + (f" ± {std:.2g}" if std is not None else "")
-                      + f" mm of travel after a reversal (p = {format_p(e.p_value)})")
+        out.print(f"    builds up over {extra['build_up_mm']:.3g}"
+                  + (f" ± {std:.2g}" if std is not None else "")
+                  + f" mm of travel after a reversal (p = {format_p(e.p_value)})")
     else:
-        console.print(f"    (p = {format_p(e.p_value)})")
+        out.print(f"    (p = {format_p(e.p_value)})")
     if e.alternatives:
         alts = ", ".join(f"{a.name} (chi2 {a.delta_chi2:+.1f})" for a in e.alternatives)
-        console.print(f"    [yellow]explained equally well by[/]: {alts}")
+        out.print(f"    [yellow]explained equally well by[/]: {alts}")
 
 
 def _spark(values: np.ndarray, top: float) -> str:
@@ -105,10 +103,10 @@ def print_axis_map(m: AxisMap) -> None:
     q = np.array(m.positions_mm)
     fwd, rev = np.array(m.forward_mm), np.array(m.reverse_mm)
     u_f, u_r = np.array(m.u_forward_mm), np.array(m.u_reverse_mm)
-    console.print(f"  [bold]{m.axis} axis map[/] ({escape(m.source)}): {len(q)} positions "
-                  f"{q[0]:+g} to {q[-1]:+g} mm, actual minus commanded, zero at "
-                  f"{m.reference_mm:+g} mm forward; band ±u (k = 1)"
-                  + (f"; without {', '.join(m.excludes)}" if m.excludes else ""))
+    out.print(f"  [bold]{m.axis} axis map[/] ({escape(m.source)}): {len(q)} positions "
+              f"{q[0]:+g} to {q[-1]:+g} mm, actual minus commanded, zero at "
+              f"{m.reference_mm:+g} mm forward; band ±u (k = 1)"
+              + (f"; without {', '.join(m.excludes)}" if m.excludes else ""))
     pitch = m.extra.get("pitch_mm")
     if pitch:
         start = m.reference_mm if q[0] <= m.reference_mm <= q[-1] - pitch else q[0]
@@ -118,48 +116,48 @@ def print_axis_map(m: AxisMap) -> None:
         wanted = np.linspace(q[0], q[-1], min(MAP_ROWS, len(q)))
         stretch = np.ones(len(q), dtype=bool)
     pick = np.unique(np.abs(q[None, :] - wanted[:, None]).argmin(axis=1))
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
+    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("q (mm)", "forward (µm)", "reverse (µm)"):
         table.add_column(col, justify="right")
     for k in pick:
         table.add_row(f"{q[k]:+.2f}", f"{fwd[k] * UM_PER_MM:+.2f} ± {u_f[k] * UM_PER_MM:.2f}",
                       f"{rev[k] * UM_PER_MM:+.2f} ± {u_r[k] * UM_PER_MM:.2f}")
-    console.print(table)
+    out.print(table)
     part = fwd[stretch]
     edges = np.linspace(0, len(part), min(PROFILE_WIDTH, len(part)) + 1).astype(int)
     cells = np.array([part[a:b].mean() for a, b in zip(edges[:-1], edges[1:], strict=True)])
     lo, hi = float(fwd.min()), float(fwd.max())
     where = (f"two periods from {q[stretch][0]:+.2f} mm; it repeats every {pitch:.4g} mm "
              f"to {q[-1]:+g} mm" if pitch else f"{q[0]:+g} to {q[-1]:+g} mm")
-    console.print(f"    forward: {_spark(cells - lo, hi - lo)}  ({where}; "
-                  f"{lo * UM_PER_MM:+.1f} to {hi * UM_PER_MM:+.1f} µm, "
-                  f"band up to ±{float(u_f.max()) * UM_PER_MM:.2f} µm)")
+    out.print(f"    forward: {_spark(cells - lo, hi - lo)}  ({where}; "
+              f"{lo * UM_PER_MM:+.1f} to {hi * UM_PER_MM:+.1f} µm, "
+              f"band up to ±{float(u_f.max()) * UM_PER_MM:.2f} µm)")
     if not np.allclose(fwd, rev):
         gap = rev - fwd
-        console.print(f"    reverse minus forward: {float(gap.mean()) * UM_PER_MM:+.2f} µm "
-                      "(the lost motion)")
+        out.print(f"    reverse minus forward: {float(gap.mean()) * UM_PER_MM:+.2f} µm "
+                  "(the lost motion)")
 
 
 def print_profiles(d: Diagnosis) -> None:
     if not d.profiles:
         return
     changed = d.final is not d.base or bool(d.effects)
-    console.print("[bold]Misfit along each scanned leg[/] (rms of the residuals per "
-                  "position bin; one character per bin"
-                  + (", before and after the effects found)" if changed else ")"))
+    out.print("[bold]Misfit along each scanned leg[/] (rms of the residuals per "
+              "position bin; one character per bin"
+              + (", before and after the effects found)" if changed else ")"))
     sigma = d.noise.sigma_mm
     for p in d.profiles:
         top = float(np.nanmax(p.rms_before_mm))
         leg = AXES[p.leg]
         span = f"q {p.q_mm[0]:+g}..{p.q_mm[-1]:+g} mm"
-        console.print(f"  {leg} leg, {span}, scale 0..{top * UM_PER_MM:.1f} µm "
-                      f"(noise {sigma * UM_PER_MM:.2g} µm)")
-        console.print(f"    before {p.spark(width=PROFILE_WIDTH, top=top)}  "
-                      f"{_beyond(p, sigma, False)}")
+        out.print(f"  {leg} leg, {span}, scale 0..{top * UM_PER_MM:.1f} µm "
+                  f"(noise {sigma * UM_PER_MM:.2g} µm)")
+        out.print(f"    before {p.spark(width=PROFILE_WIDTH, top=top)}  "
+                  f"{_beyond(p, sigma, False)}")
         if changed:
-            console.print(f"    after  {p.spark(after=True, width=PROFILE_WIDTH, top=top)}  "
-                          f"{_beyond(p, sigma, True)}")
-    console.print()
+            out.print(f"    after  {p.spark(after=True, width=PROFILE_WIDTH, top=top)}  "
+                      f"{_beyond(p, sigma, True)}")
+    out.print()
 
 
 def _beyond(p: LegProfile, sigma: float, after: bool) -> str:
@@ -176,22 +174,22 @@ def print_proposals(d: Diagnosis, machine_file: str) -> None:
     proposals = d.proposals
     if not proposals:
         return
-    console.print("[bold]What would tell them apart[/]")
+    out.print("[bold]What would tell them apart[/]")
     by_scan: dict[str, list] = {}
     for p in proposals:
         by_scan.setdefault(p.command(machine_file), []).append(p)
     for command, group in by_scan.items():
         first = group[0]
         if first.first == "the effects found":
-            console.print(f"  a scan along each leg would show an error along q: every "
-                          f"{first.step_mm:g} mm from {first.from_mm:+g} to {first.to_mm:+g} "
-                          f"mm, up and back down (`{command}`)")
+            out.print(f"  a scan along each leg would show an error along q: every "
+                      f"{first.step_mm:g} mm from {first.from_mm:+g} to {first.to_mm:+g} "
+                      f"mm, up and back down (`{command}`)")
         elif not command:
             for p in group:
-                console.print(f"  {escape(p.describe(machine_file))}")
+                out.print(f"  {escape(p.describe(machine_file))}")
         else:
             pairs = "; ".join(f"{p.first} from {p.second} (expected chi-square gap "
                               f"{p.expected_gap:.0f}, now {p.now_gap:+.1f})" for p in group)
-            console.print(f"  to separate {escape(pairs)}: {first.scan_words()} "
-                          f"(`{command}`)")
-    console.print()
+            out.print(f"  to separate {escape(pairs)}: {first.scan_words()} "
+                      f"(`{command}`)")
+    out.print()

@@ -7,6 +7,7 @@ plain calls), OpenSSL's hashes, tempfile, and the protocol for a readings refit.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 
@@ -41,10 +42,11 @@ def readings(tmp_path_factory):
     return root
 
 
-def run(*args: object) -> tuple[set[str], str]:
+def run(*args: object, env: dict[str, str] | None = None) -> tuple[set[str], str]:
     """The modules loaded by the command, and what it printed."""
     proc = subprocess.run([sys.executable, "-c", PROBE, *map(str, args)], capture_output=True,
-                          text=True, timeout=120)
+                          text=True, timeout=120, env=None if env is None else
+                          {**os.environ, **env})
     assert proc.returncode == 0, proc.stderr
     *printed, last = proc.stdout.splitlines()
     out = json.loads(last)
@@ -74,7 +76,12 @@ def loaded(modules: set[str], prefixes: tuple[str, ...]) -> set[str]:
 def test_refit_of_readings(readings):
     as_json = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml", "--json")
     assert not loaded(as_json, ("rich", "ogacq.protocol", "ogacq.diagnose", *NEVER))
-    on_terminal = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml")
+    # its text to a pipe: written as rich would, without rich (cli/text_out.py)
+    to_pipe = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml")
+    assert not loaded(to_pipe, ("rich", "ogacq.protocol", *NEVER))
+    # to a terminal (FORCE_COLOR makes rich take the pipe for one): rich draws it
+    on_terminal, _ = run("refit", readings / "r.csv", "-m", readings / "m.toml",
+                         env={"FORCE_COLOR": "1"})
     assert "rich.table" in on_terminal  # the probe sees what the command loads
     assert not loaded(on_terminal, ("ogacq.protocol", *NEVER))
 
