@@ -213,8 +213,9 @@ class TextTable:
         return table
 
     def lines(self, width: int) -> list[str]:
-        """The table at its natural width as rich draws it; CannotVouch when it is wider
-        than ``width`` (rich would shrink its columns) or has edges."""
+        """The table as rich draws it in ``width`` cells: its columns at their natural
+        widths, or shrunk as rich shrinks them and their cells wrapped; CannotVouch for
+        a table with edges or a column narrower than its padding."""
         if self.show_edge or not self.columns:
             raise CannotVouch("table")
         count = len(self.columns)
@@ -226,10 +227,10 @@ class TextTable:
         widths = [max(max(len(line) for line in text.split("\n")) for text in column)
                   + sum(pad) for column, pad in zip(zip(*texts, strict=True), pads,
                                                      strict=True)]
-        widths = [w or 1 for w in widths]
+        widths = _fitted([w or 1 for w in widths], width - (count - 1))
+        if any(w - left - right < 1 for w, (left, right) in zip(widths, pads, strict=True)):
+            raise CannotVouch("a column narrower than its padding")
         table_width = sum(widths) + count - 1
-        if table_width > width:
-            raise CannotVouch("a table wider than the console")
         out = wrapped(markup_text(self.title), table_width, "center") if self.title else []
         for index, row in enumerate(texts):
             out += self._row_lines(row, widths, pads, header=index == 0)
@@ -252,6 +253,45 @@ class TextTable:
             cells[k] = blank + cells[k] if header else cells[k] + blank
         divider = _HEAD_DIVIDER if header else _BODY_DIVIDER
         return [divider.join(cell[k] for cell in cells) for k in range(height)]
+
+
+def _fitted(widths: list[int], room: int) -> list[int]:
+    """The columns' widths in ``room`` cells, as rich.table.Table shrinks them: the
+    widest columns first, down to the next widest, then all of them alike
+    (``_calculate_column_widths``, ``_collapse_widths``, ``rich._ratio.ratio_reduce``)."""
+    excess = sum(widths) - room
+    while excess > 0:
+        widest = max(widths)
+        next_widest = max((w for w in widths if w != widest), default=0)
+        if widest == next_widest or not widest:
+            break
+        ratios = [1 if w == widest else 0 for w in widths]
+        widths = _ratio_reduce(excess, ratios, [min(excess, widest - next_widest)] * len(widths),
+                               widths)
+        excess = sum(widths) - room
+    if excess > 0:
+        widths = _ratio_reduce(excess, [1] * len(widths), widths, widths)
+    return widths
+
+
+def _ratio_reduce(total: int, ratios: list[int], maximums: list[int],
+                  values: list[int]) -> list[int]:
+    """``total`` taken from ``values`` in proportion to ``ratios``, at most ``maximums``
+    each, rounded as rich rounds it (Python's round of the same quotient)."""
+    ratios = [ratio if maximum else 0 for ratio, maximum in zip(ratios, maximums, strict=True)]
+    total_ratio = sum(ratios)
+    if not total_ratio:
+        return values[:]
+    result = []
+    for ratio, maximum, value in zip(ratios, maximums, values, strict=True):
+        if ratio and total_ratio > 0:
+            taken = min(maximum, round(ratio * total / total_ratio))
+            result.append(value - taken)
+            total -= taken
+            total_ratio -= ratio
+        else:
+            result.append(value)
+    return result
 
 
 def plain_width() -> int | None:

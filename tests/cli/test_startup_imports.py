@@ -95,5 +95,6 @@ def test_diagnose_of_readings(readings):
     assert diagnosis["effects"]
     assert any(p["measurement"] == "scan" for p in diagnosis["proposals"]), printed
     assert not loaded(as_json, ("rich", *NEVER))
+    # its text to a pipe, the search table shrunk to 80 columns: without rich
     assert not loaded(modules_after("diagnose", readings / "r.csv", "-m",
-                                    readings / "m.toml"), NEVER)
+                                    readings / "m.toml"), ("rich", *NEVER))

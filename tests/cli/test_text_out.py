@@ -132,7 +132,7 @@ def test_tables_are_drawn_as_rich_draws_them():
             continue
         assert ours == expected, (table, width)
         compared += 1
-    assert compared > 150 and left_to_rich > 20
+    assert compared > 200  # shrunk or not; a column squeezed below its padding is rich's
 
 
 def test_the_output_goes_to_rich_where_it_cannot_vouch(capsys, monkeypatch):
