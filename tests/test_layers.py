@@ -189,4 +189,4 @@ def test_only_the_command_line_talks_to_the_terminal():
     outside = {m: sorted(n for n in imported_names(m) if n.split(".")[0] in TERMINAL)
                for m in modules() if entry_of(m) not in ("ogacq.cli", "ogacq.__main__")}
     assert not {m: names for m, names in outside.items() if names}
-    assert any(n.split(".")[0] == "typer" for n in imported_names("ogacq.cli.app"))
+    assert any(n.split(".")[0] == "typer" for n in imported_names("ogacq.cli.typer_app"))
