@@ -216,8 +216,9 @@ class TextTable:
         """The table as rich draws it in ``width`` cells: its columns at their natural
         widths, or shrunk as rich shrinks them and their cells wrapped; CannotVouch for
         a table with edges or a column narrower than its padding."""
-        if self.show_edge or not self.columns:
-            raise CannotVouch("table")
+        if self.show_edge or not self.columns or \
+                any(len(row) > len(self.columns) for row in self.rows):
+            raise CannotVouch("table")  # rich adds a column for a row's extra cell
         count = len(self.columns)
         pads = [(0 if k == 0 and not self.pad_edge else 1,
                  0 if k == count - 1 and not self.pad_edge else 1) for k in range(count)]
@@ -231,12 +232,12 @@ class TextTable:
         if any(w - left - right < 1 for w, (left, right) in zip(widths, pads, strict=True)):
             raise CannotVouch("a column narrower than its padding")
         table_width = sum(widths) + count - 1
-        out = wrapped(markup_text(self.title), table_width, "center") if self.title else []
+        drawn = wrapped(markup_text(self.title), table_width, "center") if self.title else []
         for index, row in enumerate(texts):
-            out += self._row_lines(row, widths, pads, header=index == 0)
+            drawn += self._row_lines(row, widths, pads, header=index == 0)
             if index == 0:
-                out.append(_HEAD_CROSS.join(_HEAD_RULE * w for w in widths))
-        return out
+                drawn.append(_HEAD_CROSS.join(_HEAD_RULE * w for w in widths))
+        return drawn
 
     def _row_lines(self, row: list[str], widths: list[int], pads: list[tuple[int, int]],
                    header: bool) -> list[str]:
