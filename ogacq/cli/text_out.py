@@ -297,7 +297,10 @@ def _ratio_reduce(total: int, ratios: list[int], maximums: list[int],
 
 def plain_width() -> int | None:
     """The width rich's console would print at when it prints plain text (not a
-    terminal, by rich.console.Console.is_terminal's rules); None on a terminal."""
+    terminal, by rich.console.Console.is_terminal's rules); None on a terminal, and
+    on Windows, whose legacy console rich measures otherwise."""
+    if sys.platform == "win32":
+        return None
     compatible = os.environ.get("TTY_COMPATIBLE", "")
     if compatible == "1":
         return None
@@ -345,6 +348,9 @@ class TextOutput:
                 sys.stdout.write("".join(line + "\n" for line in lines))
                 sys.stdout.flush()
                 return
+        self.rich_print(item)
+
+    def rich_print(self, item: str | TextTable) -> None:
         from ogacq.cli.plain import console
 
         # a console of this moment's width and terminal, as rich's own decides them
