@@ -172,6 +172,7 @@ def modules(stderr: str) -> set[str]:
     ("refit", "r.csv", "-m", "m.toml", "--params", "both", "--method", "linear"),
     ("refit", "missing.csv", "-m", "m.toml"),
     ("diagnose", "r.csv", "-m", "r.csv"),
+    ("refit", "r.csv", "-m", "m.toml", "--json", "--log-file", "no/such/folder/run.log"),
 ])
 def test_the_same_output_without_typer(files, words):
     fast, slow = ogacq(files, *words), ogacq(files, *words, slow=True)
