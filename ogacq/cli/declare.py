@@ -10,8 +10,11 @@ the same declarations, so the two cannot disagree on a name, a flag or a choice.
 
 from __future__ import annotations
 
+import inspect
+import typing
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Annotated, Any
 
 
 @dataclass(frozen=True, init=False)
@@ -44,3 +47,19 @@ class Argument:
 
 
 Declaration = Option | Argument
+
+
+def annotated_parameters(
+        function: Callable[..., Any]) -> list[tuple[inspect.Parameter, Any, list[Any]]]:
+    """Each parameter of ``function`` with its type and the metadata its ``Annotated``
+    annotation carries (none when it is not Annotated), the annotations resolved."""
+    hints = typing.get_type_hints(function, include_extras=True)
+    found = []
+    for parameter in inspect.signature(function).parameters.values():
+        hint = hints.get(parameter.name, parameter.annotation)
+        if typing.get_origin(hint) is Annotated:
+            base, *metadata = typing.get_args(hint)
+            found.append((parameter, base, metadata))
+        else:
+            found.append((parameter, hint, []))
+    return found

@@ -24,10 +24,10 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Any
 
 from ogacq.cli.command_table import COMMANDS, LazyCommandSpec
-from ogacq.cli.declare import Argument, Option
+from ogacq.cli.declare import Argument, Option, annotated_parameters
 from ogacq.cli.log_options import apply_log_options
 
 # The root's own options, which ``global_options_first`` has put before the command.
@@ -60,13 +60,8 @@ class Declared:
 def declared_parameters(function: Callable[..., Any]) -> list[Declared] | None:
     """Each parameter of ``function`` with its declaration and plain type; None when
     one is not declared with ``ogacq.cli.declare`` or has a type not known here."""
-    hints = typing.get_type_hints(function, include_extras=True)
     declared = []
-    for parameter in inspect.signature(function).parameters.values():
-        hint = hints.get(parameter.name)
-        if typing.get_origin(hint) is not Annotated:
-            return None
-        base, *metadata = typing.get_args(hint)
+    for parameter, base, metadata in annotated_parameters(function):
         declarations = [m for m in metadata if isinstance(m, Option | Argument)]
         kind = _plain_kind(base)
         if len(declarations) != 1 or kind is None:

@@ -13,7 +13,6 @@ from __future__ import annotations
 import functools
 import importlib
 import inspect
-import typing
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar
 
@@ -22,7 +21,7 @@ from typer.core import TyperCommand, TyperGroup
 
 from ogacq.cli.coercion import plain_runtime_param
 from ogacq.cli.command_table import LazyCommandSpec, LazyGroupSpec
-from ogacq.cli.declare import Argument, Option
+from ogacq.cli.declare import Argument, Option, annotated_parameters
 
 if TYPE_CHECKING:  # typer vendors its own click
     from typer._click import Command, Context, Parameter
@@ -45,18 +44,14 @@ def with_typer_declarations(function: Callable[..., Any]) -> Callable[..., Any]:
     """``function`` as typer reads it: each ``ogacq.cli.declare`` declaration in its
     annotations made typer's own (typer takes the signature from ``__signature__``).
     A function declared with typer's own is returned as it is."""
-    hints = typing.get_type_hints(function, include_extras=True)
-    signature = inspect.signature(function)
     parameters = []
     declared_here = False
-    for parameter in signature.parameters.values():
-        hint = hints.get(parameter.name, parameter.annotation)
-        if typing.get_origin(hint) is Annotated:
-            base, *metadata = typing.get_args(hint)
+    for parameter, base, metadata in annotated_parameters(function):
+        if metadata:
             converted = [_typer_declaration(meta) for meta in metadata]
             declared_here |= converted != metadata
-            hint = Annotated[(base, *converted)]
-        parameters.append(parameter.replace(annotation=hint))
+            parameter = parameter.replace(annotation=Annotated[(base, *converted)])
+        parameters.append(parameter)
     if not declared_here:
         return function
 
@@ -64,8 +59,8 @@ def with_typer_declarations(function: Callable[..., Any]) -> Callable[..., Any]:
     def command(*args: Any, **kwargs: Any) -> Any:
         return function(*args, **kwargs)
 
-    command.__signature__ = signature.replace(  # type: ignore[attr-defined]
-        parameters=parameters, return_annotation=hints.get("return", None))
+    command.__signature__ = inspect.signature(function).replace(  # type: ignore[attr-defined]
+        parameters=parameters, return_annotation=None)
     command.__annotations__ = {p.name: p.annotation for p in parameters}
     return command
 
