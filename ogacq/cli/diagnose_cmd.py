@@ -48,8 +48,8 @@ def diagnose_command(
     except DiagnosisError as exc:
         raise InputError(file, str(exc)) from None
     check_result(result.final_fit)
-    # The terminal rendering (rich) and the history (sessions) are imported only
-    # when used: start-up is most of a short campaign's diagnosis.
+    # The text rendering and the history (sessions) are imported only when used:
+    # start-up is most of a short campaign's diagnosis.
     if as_json:
         print(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
