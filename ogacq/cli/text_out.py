@@ -93,11 +93,15 @@ def markup_text(markup: str) -> str:
 
 def _follow_tag(name: str, open_tags: list[str]) -> None:
     """Keep the open tags as rich does; a close rich would refuse is left to rich."""
+    if name.startswith("@"):  # a handler rich parses (literal_eval) when it is closed
+        raise CannotVouch("markup")
     if not name.startswith("/"):
-        open_tags.append(" ".join(name.lower().split()))
+        # rich matches a close by Style.normalize, which is this for a name it cannot
+        # parse and at least as lenient for one it can: a match here is one for rich
+        open_tags.append(name.strip().lower())
         return
-    closing = " ".join(name[1:].strip().lower().split())
-    if name.startswith(("@", "/@")) or not open_tags:
+    closing = name[1:].strip().lower()
+    if not open_tags:
         raise CannotVouch("markup")
     if not closing:
         open_tags.pop()
