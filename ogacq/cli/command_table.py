@@ -8,8 +8,10 @@ commands marked ``fast`` without typer.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import importlib
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from typing import Any
 
 
 @dataclass(frozen=True)
@@ -21,6 +23,13 @@ class LazyCommandSpec:
     # parsed by ogacq.cli.fast_path without typer: the module declares its options with
     # ogacq.cli.declare and imports neither typer nor rich (tests/cli/test_fast_path.py)
     fast: bool = False
+
+
+def import_target(target: str) -> Callable[..., Any]:
+    """The function a ``"module:function"`` target names, its module imported."""
+    module, _, name = target.partition(":")
+    function: Callable[..., Any] = getattr(importlib.import_module(module), name)
+    return function
 
 
 @dataclass(frozen=True)

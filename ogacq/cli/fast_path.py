@@ -15,7 +15,6 @@ line to typer (the tests compare the two).
 
 from __future__ import annotations
 
-import importlib
 import inspect
 import os
 import types
@@ -26,13 +25,10 @@ from enum import Enum
 from pathlib import Path
 from typing import Any
 
-from ogacq.cli.command_table import COMMANDS, LazyCommandSpec
+from ogacq.cli.command_table import COMMANDS, LazyCommandSpec, import_target
 from ogacq.cli.declare import Argument, Option, annotated_parameters
-from ogacq.cli.log_options import apply_log_options
+from ogacq.cli.log_options import LOG_FILE_OPTION, VERBOSE_FLAGS, apply_log_options
 
-# The root's own options, which ``global_options_first`` has put before the command.
-VERBOSE = ("--verbose", "-v")
-LOG_FILE = "--log-file"
 NO_FAST_PATH = "OGACQ_NO_FAST_PATH"
 COMPLETION = "_OGACQ_COMPLETE"  # click's completion: typer answers it
 
@@ -165,11 +161,12 @@ def _root_options(argv: Sequence[str]) -> tuple[bool, Path | None, int] | None:
     verbose, log_file, k = False, None, 0
     while k < len(argv) and argv[k].startswith("-"):
         word = argv[k]
-        if word in VERBOSE:
+        if word in VERBOSE_FLAGS:
             verbose = True
-        elif word.startswith(f"{LOG_FILE}=") and log_file is None and word != f"{LOG_FILE}=":
+        elif word.startswith(f"{LOG_FILE_OPTION}=") and log_file is None \
+                and word.partition("=")[2]:
             log_file = Path(word.partition("=")[2])
-        elif word == LOG_FILE and log_file is None and k + 1 < len(argv) \
+        elif word == LOG_FILE_OPTION and log_file is None and k + 1 < len(argv) \
                 and argv[k + 1] not in ("", "-"):
             log_file = Path(argv[k + 1])
             k += 1
@@ -191,8 +188,7 @@ def fast_call(argv: Sequence[str]) -> Callable[[], None] | None:
     spec = COMMANDS.get(argv[k]) if k < len(argv) else None
     if not isinstance(spec, LazyCommandSpec) or not spec.fast:
         return None
-    module, _, name = spec.target.partition(":")
-    function = getattr(importlib.import_module(module), name)
+    function = import_target(spec.target)
     parameters = declared_parameters(function)
     keywords = parse(parameters, argv[k + 1:]) if parameters is not None else None
     if keywords is None:

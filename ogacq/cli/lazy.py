@@ -11,7 +11,6 @@ of ``"module:function"`` targets.
 from __future__ import annotations
 
 import functools
-import importlib
 import inspect
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
 from typing import TYPE_CHECKING, Annotated, Any, ClassVar
@@ -20,7 +19,7 @@ import typer
 from typer.core import TyperCommand, TyperGroup
 
 from ogacq.cli.coercion import plain_runtime_param
-from ogacq.cli.command_table import LazyCommandSpec, LazyGroupSpec
+from ogacq.cli.command_table import LazyCommandSpec, LazyGroupSpec, import_target
 from ogacq.cli.declare import Argument, Option, annotated_parameters
 
 if TYPE_CHECKING:  # typer vendors its own click
@@ -28,8 +27,7 @@ if TYPE_CHECKING:  # typer vendors its own click
 
 
 def load_function(target: str) -> Callable[..., Any]:
-    module, _, name = target.partition(":")
-    return with_typer_declarations(getattr(importlib.import_module(module), name))
+    return with_typer_declarations(import_target(target))
 
 
 def _typer_declaration(meta: object) -> object:

@@ -37,8 +37,9 @@ def apply_log_options(verbose: bool, log_file: Path | None) -> None:
     root.setLevel(logging.DEBUG)
 
 
-_FLAGS = ("--verbose", "-v")
-_WITH_VALUE = ("--log-file",)
+# the root's own options: declared by typer_app's callback, parsed by the fast path
+VERBOSE_FLAGS = ("--verbose", "-v")
+LOG_FILE_OPTION = "--log-file"
 
 
 def global_options_first(argv: list[str]) -> list[str]:
@@ -53,9 +54,9 @@ def global_options_first(argv: list[str]) -> list[str]:
         if word == "--":
             rest += argv[k:]
             break
-        if word in _FLAGS or word.startswith(tuple(f"{o}=" for o in _WITH_VALUE)):
+        if word in VERBOSE_FLAGS or word.startswith(f"{LOG_FILE_OPTION}="):
             front.append(word)
-        elif word in _WITH_VALUE and k + 1 < len(argv):
+        elif word == LOG_FILE_OPTION and k + 1 < len(argv):
             front += argv[k:k + 2]
             k += 1
         else:

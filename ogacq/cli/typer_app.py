@@ -18,7 +18,7 @@ from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own c
 from ogacq import __version__
 from ogacq.cli.command_table import COMMANDS, EXIT_CODES, FILE_FORMATS
 from ogacq.cli.lazy import LazyCommands
-from ogacq.cli.log_options import apply_log_options
+from ogacq.cli.log_options import LOG_FILE_OPTION, VERBOSE_FLAGS, apply_log_options
 from ogacq.cli.repeated_warnings import say_pending_repeats
 from ogacq.cli.say import say
 
@@ -47,10 +47,10 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
                                                 is_eager=True, help="Show the version.")]
           = False,
           verbose: Annotated[bool, typer.Option(
-              "--verbose", "-v", help="Also print info messages (retries, reconnections, "
+              *VERBOSE_FLAGS, help="Also print info messages (retries, reconnections, "
                                       "steps) on the terminal, not only warnings.")] = False,
           log_file: Annotated[Path | None, typer.Option(
-              "--log-file", help="Append every log message, with its time, to this file "
+              LOG_FILE_OPTION, help="Append every log message, with its time, to this file "
                                  "(debug messages included).")] = None) -> None:
     apply_log_options(verbose, log_file)
 

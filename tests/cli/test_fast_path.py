@@ -16,7 +16,7 @@ import pytest
 import typer
 
 from ogacq.cli import lazy
-from ogacq.cli.command_table import COMMANDS, LazyCommandSpec
+from ogacq.cli.command_table import COMMANDS, LazyCommandSpec, import_target
 from ogacq.cli.fast_path import declared_parameters, fast_call, parse
 from ogacq.io.tables import write_readings
 from tests.diagnose.campaigns import layout, simulate
@@ -57,10 +57,7 @@ LEFT_TO_TYPER = [
 
 
 def _plain_function(name: str) -> Any:
-    import importlib
-
-    module, _, attribute = FAST[name].target.partition(":")
-    return getattr(importlib.import_module(module), attribute)
+    return import_target(FAST[name].target)
 
 
 def typer_keywords(name: str, words: list[str]) -> dict[str, Any]:
