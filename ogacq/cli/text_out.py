@@ -3,16 +3,17 @@ goes to a file or a pipe.
 
 Importing rich's console and tables costs about a third of numpy's import: a good
 part of a short refit. Where rich would print plain text anyway (not a terminal),
-these commands' lines and tables are written here, exactly as rich 13-14 writes
-them: console markup dropped (``rich.markup``: a tag is ``[`` then a letter, ``#``,
-``/`` or ``@``; ``\\[`` is a bracket), lines soft-wrapped at the console's width as
+these commands' lines and tables are written here as rich 14 writes them: console
+markup dropped (``rich.markup``: a tag is ``[`` then a letter, ``#``, ``/`` or ``@``;
+``\\[`` is a bracket), lines soft-wrapped at the console's width as
 ``rich._wrap.divide_line`` breaks them, and tables in rich's HEAVY_HEAD box, their
-columns at their natural widths (``rich.table.Table._calculate_column_widths`` when
-the table fits). On a terminal, and wherever this module cannot vouch for the result
-(a table wider than the console, whose columns rich would shrink; a character whose
-width on the terminal is not one cell; markup rich would refuse; an encoding other
-than UTF-8, where rich draws ASCII boxes), rich prints, as before.
-``tests/cli/test_text_out.py`` holds the two equal, byte for byte.
+columns at their natural widths or shrunk as ``rich.table.Table`` shrinks a table wider
+than the console (``_calculate_column_widths``, ``_collapse_widths``,
+``rich._ratio.ratio_reduce``). On a terminal, and wherever this module cannot vouch for
+the result (a character whose width on the terminal is not one cell, markup rich would
+refuse, a column squeezed below its padding, an encoding other than UTF-8, where rich
+draws ASCII boxes), rich prints, as before. ``tests/cli/test_text_out.py`` holds the
+two equal, byte for byte, against the rich the project installs.
 """
 
 from __future__ import annotations
