@@ -67,7 +67,8 @@ def campaign_end(session_path: Path, fit: FitResult, *, simulated: bool,
     """The end of the campaign recorded in ``session_path`` (``fit``: its identified
     offsets); ``report``: the page already written (the demo's); ``rehearsal_writeback``:
     the offsets can be written to the simulator still running (the wizard's)."""
-    from ogacq.record.document import build_record, session_record_id  # not at start-up
+    from ogacq.record.document import build_record  # not at start-up
+    from ogacq.record.identity import session_record_id
 
     session = load_session(session_path)
     try:

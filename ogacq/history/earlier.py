@@ -16,7 +16,7 @@ from typing import Any
 
 from ogacq.errors import InputError
 from ogacq.record.context import calibration_context
-from ogacq.record.document import session_record_id
+from ogacq.record.identity import session_record_id
 from ogacq.session.store import LoadedSession
 
 log = logging.getLogger("ogacq.history")

@@ -22,7 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ogacq.errors import OgacqError
-from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack
+from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack, event_key
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
@@ -159,6 +159,14 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
     session not finished gives nothing: its campaign's result comes when it does)."""
 
     def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
+        from ogacq.history.store import Recorded
+        from ogacq.record.identity import session_record_id
+
+        record_id = session_record_id(session)
+        keys = [event_key("calibration", record_id), event_key("diagnosis", record_id)]
+        present = history.present(keys)
+        if present == keys:  # a diagnosis is kept once per record: nothing to build
+            return Recorded(present=present)
         record = session_record(session)
         where = str(session.path.resolve())
         done = history.record_calibration(record, session_path=where)

@@ -373,6 +373,14 @@ class History:
         return Recorded(new=[key])
 
     # ------------------------------------------------------------------ reading
+    def present(self, keys: list[str]) -> list[str]:
+        """Those of the event ``keys`` (``entries.event_key``) already recorded."""
+        e = s.events
+        with self._guard("read the events"), self._transaction(write=False) as conn:
+            found = set(conn.execute(select(e.c.event_key)
+                                     .where(e.c.event_key.in_(keys))).scalars())
+        return [key for key in keys if key in found]
+
     def machines(self) -> list[Machine]:
         with self._guard("read the machines"), self._transaction(write=False) as conn:
             rows = conn.execute(select(s.machines).order_by(s.machines.c.name,

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime as dt
-import hashlib
 import math
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
@@ -28,12 +27,12 @@ from ogacq import __version__
 from ogacq.campaign.run import recorded_identification
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
-from ogacq.io.dates import moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import effect_of
 from ogacq.record.context import CalibrationContext, calibration_context
 from ogacq.record.evaluation import evaluate
+from ogacq.record.identity import record_id, session_digest
 from ogacq.session.convert import session_machine
 from ogacq.session.header import SessionHeader
 from ogacq.session.offsets_in_force import offsets_in_force
@@ -47,27 +46,6 @@ FORMAT = "ogacq-record/1"
 # whose campaign file and operator left it out.
 NOT_IN_SESSION = "the session does not record {what} (recorded before ogacq asked for it)"
 NOT_GIVEN = "{what}: not given when the campaign ran"
-
-
-def record_id(header_line: bytes, date: str | None) -> str:
-    """``OGQ-<date>-<first 8 hex of the SHA-256 of the session's header line>``: the
-    header holds the session's creation time, station and plan, so the same session
-    always gives the same id and two sessions never share one (no source: the
-    project's own rule, docs/calibration-record.md section 5)."""
-    digest = hashlib.sha256(header_line.rstrip(b"\r\n")).hexdigest()[:8]
-    return f"OGQ-{compact_date(date)}-{digest}"
-
-
-def compact_date(date: str | None) -> str:
-    """``2026-01-10T09:00:00`` -> ``20260110``; ``undated`` when there is no date."""
-    day = moment_or_none(date)
-    return f"{day.year:04d}{day.month:02d}{day.day:02d}" if day is not None else "undated"
-
-
-def session_record_id(session: LoadedSession) -> str:
-    """The id the record of ``session`` has (without building the record)."""
-    header_line, _ = _session_digest(session)
-    return record_id(header_line, _text(calibration_context(session).date))
 
 
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
@@ -93,7 +71,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     The fit a campaign ran is not that one (the record evaluates the result the
     session recorded, so a record built later from the file is the same).
     """
-    header_line, sha256 = _session_digest(session)
+    header_line, sha256 = session_digest(session)
     header = session.header
     machine = dict(header.machine or {})
     context = calibration_context(session)
@@ -165,23 +143,13 @@ def simulated(header: SessionHeader) -> bool | None:
     return True if header.simulator else None
 
 
-def _session_digest(session: LoadedSession) -> tuple[bytes, str]:
-    """The header line and the SHA-256 of the session file as it was loaded."""
-    try:
-        with open(session.path, "rb") as f:
-            data = f.read(session.size_bytes) if session.size_bytes else f.read()
-    except OSError as exc:
-        raise InputError(session.path, f"cannot read session: {exc.strerror or exc}") from None
-    return data.split(b"\n", 1)[0], hashlib.sha256(data).hexdigest()
-
-
 def _session_reference(session: LoadedSession, sha256: str | None = None) -> dict[str, Any]:
     """Where the record's evidence is: the session file (absolute path), its SHA-256
     as loaded, its number of records after the header, how it vouches for them
     (``integrity``: sealed, checksummed or unchecked) and the records the user
     accepted as edited (``ogacq.session.seal``)."""
     if sha256 is None:
-        _, sha256 = _session_digest(session)
+        _, sha256 = session_digest(session)
     integrity = session.integrity.to_json()
     return {"path": str(Path(session.path).resolve()), "sha256": sha256,
             "records": len(session.records), "integrity": integrity["integrity"],

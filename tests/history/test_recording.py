@@ -5,12 +5,22 @@ to add the session later."""
 from __future__ import annotations
 
 import json
+import shutil
 import socket
 import sqlite3
+import subprocess
+import sys
+from pathlib import Path
 
+from ogacq.history.entries import event_key
+from ogacq.history.location import parse_location
+from ogacq.history.store import History
+from ogacq.record.identity import session_record_id
 from ogacq.session.store import load_session
 from tests.history.test_e2e import campaign
 from tests.writeback.conftest import ogacq_here
+
+GOLDEN_SESSION = Path(__file__).resolve().parents[1] / "golden" / "session.jsonl"
 
 
 def closed_port() -> int:
@@ -56,3 +66,36 @@ def test_adding_to_a_database_of_another_application_is_refused_untouched(tmp_pa
                                   "holds other tables (orders); give an empty database or an "
                                   "ogacq history")
     assert other.read_bytes() == before
+
+
+# `diagnose` of a session run as a user runs it, saying afterwards whether the record's
+# uncertainty evaluation was imported (it is, whenever the record is built).
+DIAGNOSE_PROBE = (
+    "import sys\n"
+    "from ogacq.cli.app import main\n"
+    "code = main(sys.argv[1:])\n"
+    "built = 'ogacq.record.evaluation' in sys.modules\n"
+    "print('record built' if built else 'record not built', file=sys.stderr)\n"
+    "sys.exit(code)\n")
+
+
+def test_a_session_diagnosed_again_is_found_recorded_without_building_its_record(tmp_path):
+    session, history = tmp_path / "session.jsonl", tmp_path / "history.sqlite"
+    shutil.copy(GOLDEN_SESSION, session)
+
+    def diagnose() -> subprocess.CompletedProcess[str]:
+        return subprocess.run([sys.executable, "-c", DIAGNOSE_PROBE, "diagnose", str(session),
+                               "--history", str(history), "--json"],
+                              capture_output=True, text=True, timeout=300, check=False)
+
+    first, again = diagnose(), diagnose()
+    assert first.returncode == 0 and again.returncode == 0, first.stderr + again.stderr
+    assert "history: 1 calibration, 1 diagnosis recorded" in first.stderr
+    assert "record built" in first.stderr.splitlines()
+    assert "history: nothing new recorded" in again.stderr
+    assert "record not built" in again.stderr.splitlines()
+    assert json.loads(again.stdout) == json.loads(first.stdout)
+    record_id = session_record_id(load_session(session))
+    keys = [event_key("calibration", record_id), event_key("diagnosis", record_id)]
+    with History.open(parse_location(str(history), "the test")) as opened:
+        assert opened.present([*keys, event_key("diagnosis", "OGQ-none")]) == keys

@@ -11,7 +11,8 @@ import shutil
 import pytest
 
 from ogacq.cli.app import main
-from ogacq.record.document import FORMAT, build_record, record_id
+from ogacq.record.document import FORMAT, build_record
+from ogacq.record.identity import record_id
 from ogacq.session.store import load_session
 from tests.record.pages import page_text, unshown
 from tests.record.sessions import (
