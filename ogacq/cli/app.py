@@ -23,7 +23,7 @@ from ogacq.cli.command_table import EXIT_CODES  # noqa: E402
 from ogacq.cli.fast_path import fast_call  # noqa: E402
 from ogacq.cli.log_options import global_options_first  # noqa: E402
 from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats  # noqa: E402
-from ogacq.cli.say import say  # noqa: E402
+from ogacq.cli.say import SIGPIPE_EXIT, reader_gone, say  # noqa: E402
 from ogacq.errors import OgacqError  # noqa: E402
 
 __all__ = ["EXIT_CODES", "main"]
@@ -60,6 +60,11 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("ogacq: interrupted", file=sys.stderr, flush=True)
         return 130
+    except BrokenPipeError as exc:
+        if not reader_gone():  # another pipe (a device's): a fault like any other
+            say("error", _os_error(exc))
+            return 3
+        return SIGPIPE_EXIT
     except OSError as exc:  # the disk's fault, not the user's input: as a StorageError
         say("error", _os_error(exc))
         return 3

@@ -44,7 +44,7 @@ class LazyGroupSpec:
 EXIT_CODES = ("Exit codes: 0 done; 1 declined at a prompt; 2 bad input (a file, an option, a "
               "value); 3 a device failed or cannot be reached, or a campaign stopped (it can "
               "be resumed); 4 refused as unreliable or unsafe (the reasons are printed); "
-              "130 interrupted.")
+              "130 interrupted; 141 the reader of the output left (`| head`).")
 
 FILE_FORMATS = ("Files: machine, campaign, effects and offset-table files, readings and "
                 "deviations CSVs are described in docs/formats.md (in the ogacq repository); "

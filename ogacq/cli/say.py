@@ -1,7 +1,11 @@
-"""The one line on stderr that every error of ``ogacq`` comes down to."""
+"""The one line on stderr that every error of ``ogacq`` comes down to, and the quiet
+end when the reader of its output has left."""
 
 from __future__ import annotations
 
+import os
+import select
+import stat
 import sys
 
 from ogacq.cli.plain import plain
@@ -12,3 +16,36 @@ def say(kind: str, message: str) -> None:
     (it may quote a recorded name, a file's line or a device's reply)."""
     text = " ".join(part.strip() for part in message.splitlines() if part.strip())
     print(f"ogacq: {kind}: {plain(text)}", file=sys.stderr, flush=True)
+
+
+# What a shell reports for a process its pipe's reader left (128 + SIGPIPE), as
+# `git log | head` does: nothing went wrong that the user needs to hear of.
+SIGPIPE_EXIT = 141
+
+
+def reader_gone() -> bool:
+    """Whether standard output's reader has left (``ogacq history | head``): the
+    system marks the writing end of a pipe or socket whose reader closed with an
+    error (``poll``). Then standard output is pointed at the null device, so that the
+    interpreter's last flush finds nowhere to fail (Python's documentation, "Note on
+    SIGPIPE")."""
+    try:
+        fd = sys.stdout.fileno()
+        poller = select.poll()  # not on Windows, where a pipe has no SIGPIPE either
+    except (AttributeError, OSError, ValueError):
+        return False
+    poller.register(fd, select.POLLOUT)
+    if not any(events & (select.POLLERR | select.POLLHUP) for _, events in poller.poll(0)):
+        return False
+    os.dup2(os.open(os.devnull, os.O_WRONLY), fd)
+    return True
+
+
+def pointed_at_null_device() -> bool:
+    """Whether standard output is the null device: where rich points it when the
+    reader left (``Console.on_broken_pipe``), before its exit 1."""
+    try:
+        here, null = os.fstat(sys.stdout.fileno()), os.stat(os.devnull)
+    except (AttributeError, OSError, ValueError):
+        return False
+    return stat.S_ISCHR(here.st_mode) and here.st_rdev == null.st_rdev

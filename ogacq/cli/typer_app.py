@@ -20,7 +20,7 @@ from ogacq.cli.command_table import COMMANDS, EXIT_CODES, FILE_FORMATS
 from ogacq.cli.lazy import LazyCommands
 from ogacq.cli.log_options import LOG_FILE_OPTION, VERBOSE_FLAGS, apply_log_options
 from ogacq.cli.repeated_warnings import say_pending_repeats
-from ogacq.cli.say import say
+from ogacq.cli.say import SIGPIPE_EXIT, pointed_at_null_device, reader_gone, say
 
 
 class OgacqCommands(LazyCommands):
@@ -66,6 +66,12 @@ def run_app(argv: list[str]) -> int:
             say_pending_repeats()  # before the command's last word
     except typer.Exit as exc:
         return exc.exit_code
+    except SystemExit as exc:
+        # click's exit 1 when standard output's reader left, or rich's (which points
+        # standard output at the null device first)
+        if exc.code == 1 and (reader_gone() or pointed_at_null_device()):
+            return SIGPIPE_EXIT
+        raise
     except typer.Abort:
         print("ogacq: aborted", file=sys.stderr, flush=True)
         return 130
