@@ -15,15 +15,14 @@ from ogacq.campaign.campaign_file import Campaign, read_campaign
 from ogacq.campaign.station import DeviceStation, open_station
 from ogacq.campaign.traceability import check_instruments, header_entries, read_environment
 from ogacq.compensation.applied import TargetCorrection
-from ogacq.identify.fit import FitResult, evaluate, fit
-from ogacq.identify.plausibility import check_observations, check_result
+from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
-from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.deadline import DeadlineStation, default_deadline_s
 from ogacq.protocol.plan import ProtocolConfig, SetGauges, reading_steps
 from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer
 from ogacq.protocol.station import Station
-from ogacq.session.convert import machine_dict, session_observations
+from ogacq.session.convert import machine_dict
+from ogacq.session.identification import identify_session
 from ogacq.session.records import (
     EnvironmentRecord,
     OperatorRecord,
@@ -50,30 +49,6 @@ class CampaignOutcome:
     fit: FitResult
     hidden: dict[str, float] | None  # the simulator's truth, when simulated
     simulated: bool = False  # run on the built-in simulator, not on the machine
-
-
-def identify_session(session: LoadedSession) -> FitResult:
-    """The joint offsets from every raw reading, by the exact nonlinear fit."""
-    obs = session_observations(session)
-    check_observations(obs, PARAM_SETS["offsets"])
-    result = fit(obs, PARAM_SETS["offsets"])
-    check_result(result)
-    return result
-
-
-def recorded_identification(session: LoadedSession) -> FitResult:
-    """The joint offsets the campaign recorded when it finished, with their residuals
-    and statistics on the session's readings; identified afresh when the session
-    records none (a campaign stopped before its end, an imported table)."""
-    recorded = session.result
-    names = PARAM_SETS["offsets"]
-    if recorded is None or recorded.params != "offsets":
-        return identify_session(session)
-    try:
-        values = recorded.values(names)
-    except (KeyError, TypeError, ValueError):  # a result of another shape: not ours to read
-        return identify_session(session)
-    return evaluate(session_observations(session), names, values)
 
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,

@@ -24,7 +24,6 @@ from pathlib import Path
 from typing import Any
 
 from ogacq import __version__
-from ogacq.campaign.run import recorded_identification
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.io.errors import InputError
@@ -35,6 +34,7 @@ from ogacq.record.evaluation import evaluate
 from ogacq.record.identity import record_id, session_digest
 from ogacq.session.convert import session_machine
 from ogacq.session.header import SessionHeader
+from ogacq.session.identification import recorded_identification
 from ogacq.session.offsets_in_force import offsets_in_force
 from ogacq.session.state import campaign_status, completeness
 from ogacq.session.store import LoadedSession

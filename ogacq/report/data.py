@@ -21,7 +21,7 @@ which the record calls). What stays here is what no record carries:
   records a crash cut; and the validation campaign's status and fit (the record
   keeps only its results).
 The identification is the campaign's own, as it recorded it
-(:func:`ogacq.campaign.run.recorded_identification`), as the record's is, so the
+(:func:`ogacq.session.identification.recorded_identification`), as the record's is, so the
 analysis shows the numbers the campaign printed and the record states.
 """
 
@@ -35,7 +35,6 @@ from typing import Any
 import numpy as np
 
 from ogacq import __version__
-from ogacq.campaign.run import recorded_identification
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.observations import Deviation, Observations, averaged_deviations
 from ogacq.io.dates import local_time_text
@@ -44,6 +43,7 @@ from ogacq.model.measurement import POSTURE_NAMES
 from ogacq.model.parameters import AXES, PARAM_INDEX, effect_of
 from ogacq.report.diagnosis_view import DiagnosisView
 from ogacq.session.convert import session_machine
+from ogacq.session.identification import recorded_identification
 from ogacq.session.records import FaultRecord, ResumeRecord
 from ogacq.session.state import CampaignStatus, campaign_status
 from ogacq.session.store import LoadedSession

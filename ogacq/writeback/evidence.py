@@ -21,12 +21,12 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ogacq.campaign.run import identify_session
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult, StopReason
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
 from ogacq.session.convert import session_observations
+from ogacq.session.identification import identify_session
 from ogacq.session.offsets_in_force import offsets_in_force, stations
 from ogacq.session.store import LoadedSession
 

@@ -7,7 +7,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ogacq.campaign.run import identify_session
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
@@ -18,6 +17,7 @@ from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.document import build_record
 from ogacq.report.page import recorded_verdict
 from ogacq.session.convert import import_readings, session_observations
+from ogacq.session.identification import identify_session
 from ogacq.session.store import load_session
 from ogacq.writeback.evidence import evidence_from_session
 from tests.cli.helpers import run_ogacq

@@ -8,9 +8,9 @@ import json
 
 import ogacq.record.document as document
 import ogacq.report.data as report_data
-from ogacq.campaign.run import recorded_identification
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.record.document import build_record
+from ogacq.session.identification import recorded_identification
 from ogacq.session.store import load_session
 
 ISSUED = "2026-01-10T10:41:07+01:00"

@@ -7,12 +7,12 @@ import json
 
 import pytest
 
-from ogacq.campaign.run import identify_session, recorded_identification
 from ogacq.model.gauges import GAUGE_KEYS, GAUGES, Gauge
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, Read, StabilityRule, planned_layout
 from ogacq.protocol.runner import CampaignRunner
 from ogacq.protocol.station import GaugeValue
+from ogacq.session.identification import identify_session, recorded_identification
 from ogacq.session.records import (
     EndRecord,
     FaultRecord,

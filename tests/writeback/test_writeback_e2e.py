@@ -9,11 +9,12 @@ import numpy as np
 import pytest
 
 from ogacq.campaign.campaign_file import read_campaign
-from ogacq.campaign.run import recorded_identification, run_campaign
+from ogacq.campaign.run import run_campaign
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.observations import averaged_deviations, readings_observations
 from ogacq.model.parameters import AXES, vector
 from ogacq.session.convert import session_layout, session_machine, session_observations
+from ogacq.session.identification import recorded_identification
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.writeback.conftest import controller_offsets, sim_campaign, simulator

@@ -35,7 +35,7 @@ from ogacq.campaign.guided import (
     start_rehearsal,
 )
 from ogacq.campaign.inventory import KnownGauge, load_inventory, unreadable_inventory
-from ogacq.campaign.run import CampaignOutcome, gauges_read_by_eye, identify_session
+from ogacq.campaign.run import CampaignOutcome, gauges_read_by_eye
 from ogacq.campaign.station import DeviceStation
 from ogacq.campaign.traceability import simulated_gauges
 from ogacq.cli.campaign_end import CampaignEnd, NextStep, campaign_end
@@ -74,6 +74,7 @@ from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, 
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.protocol.station import GaugeValue, Station
 from ogacq.session.convert import session_machine
+from ogacq.session.identification import identify_session
 from ogacq.session.records import (
     EnvironmentRecord,
     FaultRecord,
