@@ -122,22 +122,24 @@ def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: Gau
     p = np.minimum(1.0, p * np.array([searched[n] for n in sizes]))
     _, bic = information_criteria(cands.rss, cands.rank, problem.n_data, noise)
     _, bic_now = information_criteria(current.rss, current.rank, problem.n_data, noise)
+    # Python scalars, once: the loop below reads hundreds of candidates
+    values, rss, finite = cands.value_tuples(), cands.rss.tolist(), np.isfinite(cands.rss)
+    f_of, p_of, bic_of = f_stat.tolist(), p.tolist(), bic.tolist()
     out = []
     for k, added in enumerate(cands.extras):
         if not full[k]:
             reason = "not determined by these data beside the model"
-        elif not np.isfinite(cands.rss[k]):
+        elif not finite[k]:
             reason = "puts a posture out of reach"
         elif not plausible[k]:
             reason = "needs an implausible value"
-        elif p[k] >= alpha:
-            reason = f"not significant (p = {p[k]:.2g} after {searched[len(added)]} candidates)"
-        elif bic[k] >= bic_now:
+        elif p_of[k] >= alpha:
+            reason = f"not significant (p = {p_of[k]:.2g} after {searched[len(added)]} candidates)"
+        elif bic_of[k] >= bic_now:
             reason = "does not pay for its parameters (BIC)"
         else:
             reason = ""
-        out.append(Considered(added, tuple(map(float, cands.values(k))), float(cands.rss[k]),
-                              float(f_stat[k]), float(p[k]), float(bic[k]), reason))
+        out.append(Considered(added, values[k], rss[k], f_of[k], p_of[k], bic_of[k], reason))
     return out
 
 
