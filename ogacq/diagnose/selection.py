@@ -157,9 +157,14 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
     # The best pair holding the best single: that single plus a second effect.
     extension = min((c for c in considered if c.eligible and len(c.added) == 2
                      and single.added[0] in c.added), key=lambda c: c.rss, default=None)
-    models = {single.added: full(single), pair.added: full(pair)}
-    if extension is not None:
-        models[extension.added] = full(extension)
+    models: dict[tuple[str, ...], Model] = {}
+
+    def model(c: Considered) -> Model:
+        """``full(c)``, made when first asked for: the choice below often needs only
+        one or two of the three (each a verdict with its cell tests)."""
+        if c.added not in models:
+            models[c.added] = full(c)
+        return models[c.added]
 
     def beats(better: Considered | None, candidates: int) -> bool:
         """Better than ``single`` (by its one more parameter) beyond what the best of
@@ -167,19 +172,19 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
         as in the backward check."""
         if better is None:
             return False
-        bigger = models[better.added]
+        bigger = model(better)
         _, p = nested_test(single.rss, better.rss, 1, bigger.verdict.dof, noise)
         return p * candidates < alpha
 
     n_pairs = sum(len(c.added) == 2 for c in considered)
     n_second = sum(len(c.added) == 2 and single.added[0] in c.added for c in considered)
     if beats(pair, n_pairs):
-        return pair, models[pair.added]
+        return pair, model(pair)
     if extension is not None and beats(extension, n_second):
-        return extension, models[extension.added]
-    if models[single.added].verdict.consistent or not models[pair.added].verdict.consistent:
-        return single, models[single.added]
-    return pair, models[pair.added]
+        return extension, model(extension)
+    if model(single).verdict.consistent or not model(pair).verdict.consistent:
+        return single, model(single)
+    return pair, model(pair)
 
 
 def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = LEVEL,
