@@ -47,6 +47,9 @@ class Model:
     rss: float  # weighted
     rank: int  # parameters the data determine
     verdict: Verdict
+    # unweighted, of ``names`` at ``theta``, when evaluated here (the verdict's): where
+    # the misfit sits is found with the same one
+    jacobian: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -64,7 +67,7 @@ def evaluate(problem: Problem, noise: GaugeNoise, effects: tuple[str, ...],
     rss = float(np.sum(problem.weighted(residuals[None]) ** 2))
     jac = problem.jacobian(theta, BASE_MODEL + effects, weighted=False)
     return Model(effects, theta, residuals, rss, rank,
-                 judge(problem.obs, residuals, jac, rank, noise, alpha))
+                 judge(problem.obs, residuals, jac, rank, noise, alpha), jac)
 
 
 @dataclass(frozen=True)
