@@ -27,7 +27,7 @@ from ogacq.identify.fit import Weighting
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
-from ogacq.model.parameters import AXES, PARAM_NAMES, effect_of, indices
+from ogacq.model.parameters import AXES, NOMINAL, PARAM_INDEX, PARAM_NAMES, effect_of, indices
 
 _DRIFT = indices([f"thermal_drift.{a}" for a in AXES])
 # each parameter's plausible range, by its position in the full vector: gathered for a
@@ -124,6 +124,29 @@ class CandidateFits:
     def values(self, k: int) -> np.ndarray:
         return self.theta[k, indices(self.extras[k])]
 
+    @cached_property
+    def _by_size(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The candidates grouped by how many parameters they add: (their rows, the
+        positions of their parameters in the full vector (rows, size)), so that a
+        whole batch's values are one gather (a step weighs hundreds of candidates)."""
+        sizes = np.array([len(e) for e in self.extras], dtype=int)
+        out = []
+        for size in dict.fromkeys(sizes.tolist()):
+            rows = np.flatnonzero(sizes == size)
+            at = np.array([[PARAM_INDEX[n] for n in self.extras[k]] for k in rows.tolist()],
+                          dtype=int).reshape(len(rows), size)
+            out.append((rows, at))
+        return out
+
+    def value_tuples(self) -> list[tuple[float, ...]]:
+        """Each candidate's :meth:`values` as Python floats."""
+        out: list[tuple[float, ...]] = [()] * len(self.extras)
+        for rows, at in self._by_size:
+            for k, values in zip(rows.tolist(), self.theta[rows[:, None], at].tolist(),
+                                 strict=True):
+                out[k] = tuple(values)
+        return out
+
     def full_rank(self) -> np.ndarray:
         sizes = np.array([len(self.model) + len(e) for e in self.extras])
         return self.rank == sizes
@@ -132,10 +155,9 @@ class CandidateFits:
         """Candidates whose fitted values lie within each effect's plausible range:
         an explanation needing a 20 % gauge gain error is no explanation."""
         out = np.ones(len(self.extras), dtype=bool)
-        for k, extra in enumerate(self.extras):
-            for name, value in zip(extra, self.values(k), strict=True):
-                kind = effect_of(name)
-                out[k] &= abs(value - kind.nominal) <= kind.plausible_range
+        for rows, at in self._by_size:
+            within = np.abs(self.theta[rows[:, None], at] - NOMINAL[at]) <= _PLAUSIBLE_RANGE[at]
+            out[rows] = within.all(axis=1)
         return out
 
 

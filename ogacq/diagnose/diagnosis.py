@@ -310,7 +310,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     # From the Jacobian's R factor: the same inner products as the Jacobian itself,
     # every effect's column (30 rows instead of one per reading).
     seen = capability(design.factors[1], everything, noise.sigma_mm, problem.n_data)
-    located = locate(obs, base.residuals, problem.jacobian(base.theta, BASE_MODEL, False),
+    located = locate(obs, base.residuals, _unweighted_jacobian(problem, base),
                      noise.sigma_mm, problem.labels)
 
     selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects,
@@ -323,8 +323,8 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
         claimed = evaluate(problem, noise, selection.final.effects, final_fit.theta,
                            final_fit.identifiability.rank, alpha)
     remaining = located if claimed is base else locate(
-        obs, claimed.residuals, problem.jacobian(claimed.theta, claimed.names, False),
-        noise.sigma_mm, problem.labels)
+        obs, claimed.residuals, _unweighted_jacobian(problem, claimed), noise.sigma_mm,
+        problem.labels)
 
     inflation = float(np.sqrt(noise_scale(claimed)))
     effects = _effects(obs, problem, noise, claimed, final_fit, inflation, separate)
@@ -364,6 +364,14 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     return Diagnosis(obs.source, obs.kind, len(obs), noise, seen, selection, claimed, share,
                      base_fit, final_fit, located, remaining, all_effects, inflation,
                      _postures_per_leg(problem), plans, mapped, profiles, sides)
+
+
+def _unweighted_jacobian(problem: Problem, model: Model) -> np.ndarray:
+    """The model's unweighted Jacobian at its solution: the one its verdict was judged
+    with, else evaluated now."""
+    if model.jacobian is not None:
+        return model.jacobian
+    return problem.jacobian(model.theta, model.names, False)
 
 
 def _postures_per_leg(problem: Problem) -> int:

@@ -35,7 +35,9 @@ class GroupSpace:
         first = np.full(n_groups, len(obs))
         np.minimum.at(first, groups.group, np.arange(len(obs)))
         kept = np.sort(first)  # one reading per group, in the order of the readings
-        self.layout = obs.layout.subset(np.isin(np.arange(len(obs)), kept))
+        one_each = np.zeros(len(obs), dtype=bool)
+        one_each[kept] = True
+        self.layout = obs.layout.subset(one_each)
         self._order = groups.group[kept]  # the group of each kept reading
         means = groups.group_means(obs.values)
         within = obs.values - means[groups.group]

@@ -217,8 +217,10 @@ def _approach_differences(labels: RowLabels, residuals: np.ndarray,
     that cell, the most read first). Cells and sides are counted with array
     operations: a scan has a thousand cells."""
     gauges = labels.gauge
-    cell_keys = np.char.add(np.char.add(gauges.astype(str), "\\0"),
-                            labels.posture.astype(str))
+    # a cell's code from its gauge's and its posture's (the cells' order does not
+    # matter: they are listed by first reading below)
+    postures, posture = np.unique(labels.posture.astype(str), return_inverse=True)
+    cell_keys = (labels.gauge_axis * 3 + labels.leg) * len(postures) + posture.ravel()
     cells, first, cell = np.unique(cell_keys, return_index=True, return_inverse=True)
     cell = cell.ravel()
     sides, side = np.unique(labels.approach.astype(str), return_inverse=True)

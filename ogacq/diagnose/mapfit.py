@@ -28,7 +28,7 @@ from ogacq.identify.noise import GaugeNoise
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import JointHistory, MapTerm, axis_map, tabulation_step, terms_json
 from ogacq.model.gauges import AXES
-from ogacq.model.joint_sensitivity import joint_sensitivity
+from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.parameters import indices
 
 ITERATIONS = 6
@@ -71,12 +71,18 @@ class MapFit:
 
 
 def map_columns(problem: Problem, theta: np.ndarray, terms: list[MapTerm],
-                history: JointHistory) -> np.ndarray:
-    """(n, K) the terms' columns at ``theta``, unweighted."""
+                history: JointHistory,
+                sensitivity: tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]] | None
+                = None) -> np.ndarray:
+    """(n, K) the terms' columns at ``theta``, unweighted. ``sensitivity``: the
+    readings' ``joint_sensitivity`` at ``theta`` and its ``along()``, when the caller
+    holds them."""
     if not terms:
         return np.zeros((len(problem.obs), 0))
-    sens = joint_sensitivity(theta, problem.obs.layout, problem.obs.machine)
-    along = sens.along()
+    if sensitivity is None:
+        sens = joint_sensitivity(theta, problem.obs.layout, problem.obs.machine)
+        sensitivity = sens, sens.along()
+    sens, along = sensitivity
     gauge = problem.obs.layout.gauge
     return np.vstack([term_columns(t, history, sens, along, gauge) for t in terms]).T
 

@@ -303,6 +303,9 @@ class ScanSignatures:
         self.machine, self.noise, self.theta = machine, noise, theta
         self.names, self.terms = names, terms
         self._plans: dict[tuple[float, int], tuple[Problem, JointHistory]] = {}
+        # each scan's joint sensitivities at theta, asked for by every pair's columns
+        self._sensitivity: dict[tuple[float, int],
+                                tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]] = {}
 
     def plan(self, step: float, cycles: int) -> tuple[Problem, JointHistory]:
         key = (step, cycles)
@@ -313,6 +316,16 @@ class ScanSignatures:
                                                     np.zeros(len(layout))), self.noise)
             self._plans[key] = (problem, JointHistory.of(layout))
         return self._plans[key]
+
+    def sensitivity(self, step: float, cycles: int,
+                    ) -> tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]:
+        """The scan's ``joint_sensitivity`` at theta and its ``along()``, found once."""
+        key = (step, cycles)
+        if key not in self._sensitivity:
+            layout = self.plan(step, cycles)[0].obs.layout
+            sens = joint_sensitivity(self.theta, layout, self.machine)
+            self._sensitivity[key] = (sens, sens.along())
+        return self._sensitivity[key]
 
     def gap(self, step: float, cycles: int, first: tuple[np.ndarray, list[str], list[MapTerm]],
             second: tuple[np.ndarray, list[str], list[MapTerm]]) -> float:
@@ -327,7 +340,8 @@ class ScanSignatures:
         def columns(names: list[str], terms: list[MapTerm]) -> np.ndarray:
             lib = problem.jacobian(self.theta, tuple(names)) if names else \
                 np.zeros((len(problem.obs), 0))
-            maps = problem.weighted(map_columns(problem, self.theta, terms, history).T).T \
+            maps = problem.weighted(map_columns(problem, self.theta, terms, history,
+                                                self.sensitivity(step, cycles)).T).T \
                 if terms else np.zeros((len(problem.obs), 0))
             return np.column_stack([lib, maps])
 

@@ -40,9 +40,15 @@ def nested_tests(rss_small: float, rss_big: np.ndarray, added: np.ndarray,
     misfit = rss_big / dof
     by_misfit = misfit > noise.variance
     f_stat = np.where(by_misfit, gain / np.where(by_misfit, misfit, 1.0), gain / noise.variance)
-    p_noise = (f_sf(k, noise.dof, f_stat) if noise.measured and noise.dof is not None
-               else chi2_sf(k, f_stat * k))
-    p = np.where(by_misfit, f_sf(k, dof, f_stat), p_noise)
+    # each tail only where it is taken: they are series and fractions per value, and a
+    # selection step tests hundreds of candidates
+    k, dof, f_stat, by_misfit = np.broadcast_arrays(k, dof, f_stat, by_misfit)
+    p = np.empty(f_stat.shape)
+    p[by_misfit] = f_sf(k[by_misfit], dof[by_misfit], f_stat[by_misfit])
+    by_noise = ~by_misfit
+    k_n, f_n = k[by_noise], f_stat[by_noise]
+    p[by_noise] = (f_sf(k_n, noise.dof, f_n) if noise.measured and noise.dof is not None
+                   else chi2_sf(k_n, f_n * k_n))
     return np.where(valid, f_stat, 0.0), np.where(valid, p, 1.0)
 
 

@@ -29,9 +29,21 @@ from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import NOMINAL, indices
 
 
-def _cells(labels: RowLabels) -> np.ndarray:
-    return np.char.add(np.char.add(labels.gauge.astype(str), " at "),
-                       labels.posture.astype(str))
+def _cells(labels: RowLabels) -> tuple[list[str], np.ndarray]:
+    """The cells read ("y_x at max"), in order of their first reading, and each
+    reading's cell (index into them): codes rather than a name per reading (a scan has
+    thousands of readings, and numpy's string functions cost a command 1.5 ms of
+    import)."""
+    postures = labels.posture.astype(str)
+    names, posture = np.unique(postures, return_inverse=True)
+    code = (labels.gauge_axis * 3 + labels.leg) * len(names) + posture.ravel()
+    _, first, cell = np.unique(code, return_index=True, return_inverse=True)
+    order = np.argsort(first)
+    rank = np.empty(len(order), dtype=int)
+    rank[order] = np.arange(len(order))
+    gauges = labels.gauge
+    return ([f"{gauges[k]} at {postures[k]}" for k in first[order].tolist()],
+            rank[cell.ravel()])
 
 
 def _subset(layout: ReadingsLayout, keep: np.ndarray) -> ReadingsLayout:
@@ -62,14 +74,14 @@ def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Mode
     if not claimed.effects:
         return None
     obs = problem.obs
-    cells = _cells(problem.labels)
+    names, cells = _cells(problem.labels)
     gain = (base.residuals**2 - claimed.residuals**2) / (
         np.ones(len(obs)) if obs.raw else np.diag(obs.noise_cov))
-    top = max(dict.fromkeys(cells.tolist()), key=lambda c: gain[cells == c].sum())
+    top = max(range(len(names)), key=lambda c: gain[cells == c].sum())
     keep = cells != top
     rest = Problem(_without(obs, keep), noise)
     if rest.n_data <= len(claimed.names):
-        return top
+        return names[top]
     start = claimed.theta.copy()
     start[indices(claimed.effects)] = NOMINAL[indices(claimed.effects)]
     offsets = fit_many(rest, start, BASE_MODEL, [()])
@@ -78,4 +90,4 @@ def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Mode
     _, p = nested_test(float(offsets.rss[0]), float(effects.rss[0]),
                        int(effects.rank[0] - offsets.rank[0]), dof, noise)
     searched = comb(len(EFFECT_PARAMETERS), len(claimed.effects))
-    return top if p * searched >= alpha else None
+    return names[top] if p * searched >= alpha else None

@@ -47,6 +47,9 @@ class Model:
     rss: float  # weighted
     rank: int  # parameters the data determine
     verdict: Verdict
+    # unweighted, of ``names`` at ``theta``, when evaluated here (the verdict's): where
+    # the misfit sits is found with the same one
+    jacobian: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -64,7 +67,7 @@ def evaluate(problem: Problem, noise: GaugeNoise, effects: tuple[str, ...],
     rss = float(np.sum(problem.weighted(residuals[None]) ** 2))
     jac = problem.jacobian(theta, BASE_MODEL + effects, weighted=False)
     return Model(effects, theta, residuals, rss, rank,
-                 judge(problem.obs, residuals, jac, rank, noise, alpha))
+                 judge(problem.obs, residuals, jac, rank, noise, alpha), jac)
 
 
 @dataclass(frozen=True)
@@ -122,22 +125,24 @@ def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: Gau
     p = np.minimum(1.0, p * np.array([searched[n] for n in sizes]))
     _, bic = information_criteria(cands.rss, cands.rank, problem.n_data, noise)
     _, bic_now = information_criteria(current.rss, current.rank, problem.n_data, noise)
+    # Python scalars, once: the loop below reads hundreds of candidates
+    values, rss, finite = cands.value_tuples(), cands.rss.tolist(), np.isfinite(cands.rss)
+    f_of, p_of, bic_of = f_stat.tolist(), p.tolist(), bic.tolist()
     out = []
     for k, added in enumerate(cands.extras):
         if not full[k]:
             reason = "not determined by these data beside the model"
-        elif not np.isfinite(cands.rss[k]):
+        elif not finite[k]:
             reason = "puts a posture out of reach"
         elif not plausible[k]:
             reason = "needs an implausible value"
-        elif p[k] >= alpha:
-            reason = f"not significant (p = {p[k]:.2g} after {searched[len(added)]} candidates)"
-        elif bic[k] >= bic_now:
+        elif p_of[k] >= alpha:
+            reason = f"not significant (p = {p_of[k]:.2g} after {searched[len(added)]} candidates)"
+        elif bic_of[k] >= bic_now:
             reason = "does not pay for its parameters (BIC)"
         else:
             reason = ""
-        out.append(Considered(added, tuple(map(float, cands.values(k))), float(cands.rss[k]),
-                              float(f_stat[k]), float(p[k]), float(bic[k]), reason))
+        out.append(Considered(added, values[k], rss[k], f_of[k], p_of[k], bic_of[k], reason))
     return out
 
 
@@ -155,9 +160,14 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
     # The best pair holding the best single: that single plus a second effect.
     extension = min((c for c in considered if c.eligible and len(c.added) == 2
                      and single.added[0] in c.added), key=lambda c: c.rss, default=None)
-    models = {single.added: full(single), pair.added: full(pair)}
-    if extension is not None:
-        models[extension.added] = full(extension)
+    models: dict[tuple[str, ...], Model] = {}
+
+    def model(c: Considered) -> Model:
+        """``full(c)``, made when first asked for: the choice below often needs only
+        one or two of the three (each a verdict with its cell tests)."""
+        if c.added not in models:
+            models[c.added] = full(c)
+        return models[c.added]
 
     def beats(better: Considered | None, candidates: int) -> bool:
         """Better than ``single`` (by its one more parameter) beyond what the best of
@@ -165,19 +175,19 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
         as in the backward check."""
         if better is None:
             return False
-        bigger = models[better.added]
+        bigger = model(better)
         _, p = nested_test(single.rss, better.rss, 1, bigger.verdict.dof, noise)
         return p * candidates < alpha
 
     n_pairs = sum(len(c.added) == 2 for c in considered)
     n_second = sum(len(c.added) == 2 and single.added[0] in c.added for c in considered)
     if beats(pair, n_pairs):
-        return pair, models[pair.added]
+        return pair, model(pair)
     if extension is not None and beats(extension, n_second):
-        return extension, models[extension.added]
-    if models[single.added].verdict.consistent or not models[pair.added].verdict.consistent:
-        return single, models[single.added]
-    return pair, models[pair.added]
+        return extension, model(extension)
+    if model(single).verdict.consistent or not model(pair).verdict.consistent:
+        return single, model(single)
+    return pair, model(pair)
 
 
 def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = LEVEL,

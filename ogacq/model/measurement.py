@@ -272,6 +272,8 @@ _DRHO_SLICE, _DRIFT_SLICE = as_slice(_DRHO_AT), as_slice(_DRIFT_AT)
 _GEOMETRY_AT = np.concatenate([_SQUARENESS_AT, _AXIS_OFFSET_AT, _LEG_LENGTH_AT])
 # every gauge's gain
 _GSCALE_AT = np.array(sorted({int(_GSCALE[g.indices]) for g in GAUGES}))
+_SQUARENESS_SET, _AXIS_OFFSET_SET, _DRIFT_SET, _GSCALE_SET = (
+    frozenset(at.tolist()) for at in (_SQUARENESS_AT, _AXIS_OFFSET_AT, _DRIFT_AT, _GSCALE_AT))
 
 
 def _joint_position_tangents(q: np.ndarray, approach: np.ndarray, free: np.ndarray,
@@ -368,12 +370,14 @@ class _EvaluationPlan:
         fr = np.array(free, dtype=int)
         self.free = fr
         self.drho = _joint_position_tangents(self.q, self.appr, fr)  # (poses, P, 3)
-        self.tilts = bool(np.isin(fr, _SQUARENESS_AT).any())
+        # which free entries are of which kind, by set lookups over the few free
+        # positions (np.isin costs more than a small plan's arithmetic)
+        self.tilts = not _SQUARENESS_SET.isdisjoint(free)
         self.do = axis_line_tangents(NOMINAL[None], fr)[1] \
-            if np.isin(fr, _AXIS_OFFSET_AT).any() else None
+            if not _AXIS_OFFSET_SET.isdisjoint(free) else None
         dlegs = leg_length_tangents(fr)
         self.dlegs = dlegs if dlegs.any() else None
-        drift = np.isin(fr, _DRIFT_AT)
+        drift = np.array([k in _DRIFT_SET for k in free], dtype=bool)
         # gauges are set at t = 0: no drift there; a reading's drift derivative is
         # its time (see _joint_position_tangents). None: no drift free.
         self.set_without_drift = ~drift if drift.any() else None
@@ -385,7 +389,8 @@ class _EvaluationPlan:
         dfrac = (fr[None, :] == self.gauge_position[:, None]).astype(float)  # (G, P)
         self.dfrac = dfrac if dfrac.any() else None
         # (not _GSCALE: its unused diagonal holds 0, a joint offset's position)
-        self.gain_columns = np.flatnonzero(np.isin(fr, _GSCALE_AT))
+        self.gain_columns = np.array([c for c, k in enumerate(free) if k in _GSCALE_SET],
+                                     dtype=np.intp)
         self.dgain = (fr[self.gain_columns][None, :] == self.gauge_scale[:, None]) * 1e-6 \
             if len(self.gain_columns) else None  # (n, columns)
 

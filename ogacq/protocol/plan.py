@@ -278,24 +278,22 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
     if config.is_scan:
         yield from _scan_steps(config, machine)
         return
-    last_q = np.zeros(3)
-    side = np.zeros(3, dtype=int)
+    last_q = _ORIGIN
+    side = [0, 0, 0]
     for leg in config.legs:
         i = AXES.index(leg)
         gauges = tuple(g.key for g in gauges_on(leg))
-        first_tcp = posture_tcp(i, config.postures[0], machine)
-        first_q = nominal_q(first_tcp, machine.leg_length_mm)
+        # each posture's joints and TCP, computed once for all the cycles
+        poses = _poses(i, config.postures, machine)
         # Gauges are set at the leg's first posture: go there first.
+        first_q, first_tcp = poses[0]
         yield from _approach(first_q, first_tcp, config, last_q, side, config.approach)
         last_q = first_q
         yield SetGauges(leg, gauges)
-        # each posture's TCP and joints, computed once for all the cycles
-        tcps = [posture_tcp(i, posture, machine) for posture in config.postures]
-        qs = [nominal_q(tcp, machine.leg_length_mm) for tcp in tcps]
         labels = [posture_label(posture) for posture in config.postures]
         for cycle in range(1, config.cycles + 1):
             for k in range(len(config.postures)):
-                tcp, q = tcps[k], qs[k]
+                q, tcp = poses[k]
                 sides = ("from_below", "from_above") if config.approach == "both" \
                     else (config.approach,)
                 for how in sides:
@@ -303,7 +301,7 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
                     last_q = q
                     tag = "" if len(sides) == 1 else f"/{how}"
                     yield Read(f"{leg}/c{cycle}/p{k + 1}{tag}", leg, gauges, cycle,
-                               labels[k], _t(q), _t(tcp), _t(side))
+                               labels[k], q, tcp, (side[0], side[1], side[2]))
 
 
 # A scan's runs per cycle, by approach: (name, direction, how its first target is reached).
@@ -314,65 +312,75 @@ _SCAN_RUNS = {
     "from_above": (("down", -1, "from_above"),),
 }
 
+# The plan's joint coordinates and TCPs are tuples of Python floats (what the steps
+# carry), sides a list of Python ints: a 1 mm scan walks thousands of moves, where a
+# numpy call or conversion per move made its layout several times slower.
+Pose = tuple[tuple[float, float, float], tuple[float, float, float]]
+_ORIGIN = (0.0, 0.0, 0.0)
+
+
+def _poses(leg: int, postures: Sequence[str | float], machine: MachineSpec) -> list[Pose]:
+    """(joints, TCP) of each posture of a leg's test, the joints from one
+    ``nominal_q`` of them all (row by row the same arithmetic)."""
+    tcps = np.array([posture_tcp(leg, posture, machine) for posture in postures],
+                    dtype=float).reshape(-1, 3)
+    qs = nominal_q(tcps, machine.leg_length_mm)
+    return [((q[0], q[1], q[2]), (tcp[0], tcp[1], tcp[2]))
+            for q, tcp in zip(qs.tolist(), tcps.tolist(), strict=True)]
+
 
 def _scan_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
     """Each leg: set the gauges at Zero and read them there, then ``cycles`` times
     the runs of the scan (up and back down for both directions)."""
     targets = scan_targets(config, machine)
-    last_q = np.zeros(3)
-    side = np.zeros(3, dtype=int)
+    last_q = _ORIGIN
+    side = [0, 0, 0]
     for leg in config.legs:
         i = AXES.index(leg)
         gauges = tuple(g.key for g in gauges_on(leg))
-        zero_tcp = posture_tcp(i, "zero", machine)
-        zero_q = nominal_q(zero_tcp, machine.leg_length_mm)
+        # the Zero posture, then each target's joints and TCP, computed once for all
+        # the runs that visit it
+        (zero_q, zero_tcp), *poses = _poses(i, ["zero", *targets], machine)
         yield from _approach(zero_q, zero_tcp, config, last_q, side, "sequence")
         last_q = zero_q
         yield SetGauges(leg, gauges)
-        yield Read(f"{leg}/set", leg, gauges, 1, "zero", _t(zero_q), _t(zero_tcp), _t(side))
-        # each target's TCP and joints, computed once for all the runs that visit it
-        tcps = [posture_tcp(i, target, machine) for target in targets]
-        qs = [nominal_q(tcp, machine.leg_length_mm) for tcp in tcps]
+        yield Read(f"{leg}/set", leg, gauges, 1, "zero", zero_q, zero_tcp,
+                   (side[0], side[1], side[2]))
         labels = [posture_label(target) for target in targets]
         for cycle in range(1, config.cycles + 1):
             for run, direction, first in _SCAN_RUNS[config.approach]:
                 order = range(len(targets)) if direction > 0 else \
                     range(len(targets) - 1, -1, -1)
                 for n, k in enumerate(order):
-                    tcp, q = tcps[k], qs[k]
+                    q, tcp = poses[k]
                     yield from _approach(q, tcp, config, last_q, side,
                                          first if n == 0 else "sequence")
                     last_q = q
                     yield Read(f"{leg}/c{cycle}/{run}/p{k + 1}", leg, gauges, cycle,
-                               labels[k], _t(q), _t(tcp), _t(side))
+                               labels[k], q, tcp, (side[0], side[1], side[2]))
 
 
-def _approach(q: np.ndarray, tcp: np.ndarray, config: ProtocolConfig, last_q: np.ndarray,
-              side: np.ndarray, how: str) -> Iterator[Move]:
+def _approach(q: tuple[float, float, float], tcp: tuple[float, float, float],
+              config: ProtocolConfig, last_q: tuple[float, float, float], side: list[int],
+              how: str) -> Iterator[Move]:
     """Moves that bring the joints to ``q`` from the side ``how`` asks; updates ``side``."""
     if how in ("from_below", "from_above"):
         sign = 1 if how == "from_below" else -1
-        before = q - sign * config.overshoot_mm
-        yield Move(_t(before), _t(tcp), "approach")
-        side[:] = sign
+        before = q[0] - sign * config.overshoot_mm, q[1] - sign * config.overshoot_mm, \
+            q[2] - sign * config.overshoot_mm
+        yield Move(before, tcp, "approach")
+        side[:] = [sign] * 3
     else:
         # np.sign(np.round(q - last_q, 9)) where not zero, in Python floats: np.round is
         # rint(d * 1e9) / 1e9, positive exactly when d * 1e9 exceeds 0.5 (as
-        # approach_from_sequence has it); a numpy call per move made a 1 mm scan's
-        # layout 14 ms
-        for k, (to, since) in enumerate(zip(q.tolist(), last_q.tolist(), strict=True)):
+        # approach_from_sequence has it)
+        for k, (to, since) in enumerate(zip(q, last_q, strict=True)):
             nanometres = (to - since) * 1e9
             if nanometres > 0.5:
                 side[k] = 1
             elif nanometres < -0.5:
                 side[k] = -1
-    yield Move(_t(q), _t(tcp), "posture")
-
-
-def _t(v: Sequence[float] | np.ndarray) -> tuple:
-    if isinstance(v, np.ndarray) and v.dtype.kind in "fiu":
-        return tuple(v.tolist())  # the same Python floats and ints, at once
-    return tuple(float(x) if isinstance(x, float | np.floating) else int(x) for x in v)
+    yield Move(q, tcp, "posture")
 
 
 def reading_steps(config: ProtocolConfig, machine: MachineSpec) -> list[Read]:
