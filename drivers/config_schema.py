@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import json
 import math
 import re
 import tomllib
@@ -484,7 +483,7 @@ def _chosen(kind: Kind, value: Any) -> Table:
 
 def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
     if isinstance(kind, FilePath):
-        return json.dumps(_relative(Path(value), folder))
+        return _basic_string(_relative(Path(value), folder))
     if isinstance(kind, ListOf):
         return "[" + ", ".join(_literal(kind.item, v, (*path, i), folder)
                                for i, v in enumerate(value)) + "]"
@@ -503,11 +502,20 @@ def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
         return repr(value)  # repr round-trips a float exactly and is valid TOML
     if isinstance(value, int):
         return str(value)
-    return json.dumps(str(value))  # a JSON string is a TOML basic string
+    return _basic_string(str(value))
 
 
 def _key(key: str) -> str:
-    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _basic_string(key)
+
+
+def _basic_string(text: str) -> str:
+    """``text`` as a TOML basic string, which a JSON string is (TOML v1.0.0, "String":
+    the same escapes). json is imported here, for writing: reading a file needs none
+    of it."""
+    import json
+
+    return json.dumps(text)
 
 
 def _relative(path: Path, folder: Path | None) -> str:
