@@ -105,6 +105,8 @@ class FilePath:
 
 @dataclass(frozen=True)
 class ListOf:
+    """A list whose items are each of ``item``."""
+
     item: Kind
 
 
@@ -119,6 +121,8 @@ class MapOf:
 
 @dataclass(frozen=True)
 class Field:
+    """A key of a table, its kind, and how the built object names and holds it."""
+
     key: str
     kind: Kind
     required: bool = False
@@ -133,6 +137,8 @@ class Field:
 
 @dataclass(frozen=True)
 class Table:
+    """A table of declared keys, built into an object (``build``) or a dict."""
+
     fields: tuple[Field, ...]
     build: Callable[..., Any] | None = None  # called with the given fields; None: a dict
     noun: str = "key"  # what a key of this table is, for messages ("axis")
@@ -143,6 +149,8 @@ class Table:
 
 @dataclass(frozen=True)
 class TableArray:
+    """An array of tables (``[[name]]``), each of ``table``."""
+
     table: Table
 
 

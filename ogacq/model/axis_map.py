@@ -45,6 +45,8 @@ AXIS_MAP_FORMAT = "ogacq-axis-map/1"
 
 @dataclass(frozen=True)
 class AxisMap:
+    """The error map of one actuator, forward and reverse (the module's docstring)."""
+
     axis: str
     positions_mm: tuple[float, ...]
     forward_mm: tuple[float, ...]

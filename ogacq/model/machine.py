@@ -63,6 +63,9 @@ GAUGE_STEP_RANGE_MM = (1e-6, 0.1)
 
 @dataclass(frozen=True)
 class MachineSpec:
+    """A machine's nominal geometry and gauges (the machine file, INTERCHANGE.md), with
+    its identity and acceptance tolerances."""
+
     leg_length_mm: float
     rho_min_mm: float
     rho_max_mm: float
