@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import dataclasses
 import datetime
-import json
 import math
 import re
 import tomllib
@@ -106,6 +105,8 @@ class FilePath:
 
 @dataclass(frozen=True)
 class ListOf:
+    """A list whose items are each of ``item``."""
+
     item: Kind
 
 
@@ -120,6 +121,8 @@ class MapOf:
 
 @dataclass(frozen=True)
 class Field:
+    """A key of a table, its kind, and how the built object names and holds it."""
+
     key: str
     kind: Kind
     required: bool = False
@@ -134,6 +137,8 @@ class Field:
 
 @dataclass(frozen=True)
 class Table:
+    """A table of declared keys, built into an object (``build``) or a dict."""
+
     fields: tuple[Field, ...]
     build: Callable[..., Any] | None = None  # called with the given fields; None: a dict
     noun: str = "key"  # what a key of this table is, for messages ("axis")
@@ -144,6 +149,8 @@ class Table:
 
 @dataclass(frozen=True)
 class TableArray:
+    """An array of tables (``[[name]]``), each of ``table``."""
+
     table: Table
 
 
@@ -484,7 +491,7 @@ def _chosen(kind: Kind, value: Any) -> Table:
 
 def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
     if isinstance(kind, FilePath):
-        return json.dumps(_relative(Path(value), folder))
+        return _basic_string(_relative(Path(value), folder))
     if isinstance(kind, ListOf):
         return "[" + ", ".join(_literal(kind.item, v, (*path, i), folder)
                                for i, v in enumerate(value)) + "]"
@@ -503,11 +510,20 @@ def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
         return repr(value)  # repr round-trips a float exactly and is valid TOML
     if isinstance(value, int):
         return str(value)
-    return json.dumps(str(value))  # a JSON string is a TOML basic string
+    return _basic_string(str(value))
 
 
 def _key(key: str) -> str:
-    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else json.dumps(key)
+    return key if re.fullmatch(r"[A-Za-z0-9_-]+", key) else _basic_string(key)
+
+
+def _basic_string(text: str) -> str:
+    """``text`` as a TOML basic string, which a JSON string is (TOML v1.0.0, "String":
+    the same escapes). json is imported here, for writing: reading a file needs none
+    of it."""
+    import json
+
+    return json.dumps(text)
 
 
 def _relative(path: Path, folder: Path | None) -> str:

@@ -34,7 +34,7 @@ LAYERS: list[tuple[str, ...]] = [
      "ogacq_drivers.input_link"),
     ("ogacq_drivers.axes", "ogacq_drivers.indicators"),
     ("ogacq_drivers.sim",),  # device emulators speaking the wire protocols
-    ("ogacq", "ogacq.errors", "ogacq.io", "ogacq.io.errors", "ogacq.io.text",
+    ("ogacq", "ogacq.errors", "ogacq.logs", "ogacq.io", "ogacq.io.errors", "ogacq.io.text",
      "ogacq.io.toml_file"),
     ("ogacq.model",),
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it

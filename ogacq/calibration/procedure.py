@@ -19,7 +19,6 @@ they held: a real drive keeps its parameters when ogacq is killed.
 from __future__ import annotations
 
 import contextlib
-import logging
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -37,6 +36,7 @@ from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError, Refused
+from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.protocol.runner import Observer
@@ -62,7 +62,7 @@ from ogacq.writeback.policy import (
     plan_write,
 )
 
-log = logging.getLogger(__name__)
+log = logger(__name__)
 
 class CalibrationUI(Protocol):
     """What the procedure shows and asks (the command line renders it)."""

@@ -17,7 +17,6 @@ an identified joint offset is only meaningful relative to them.
 from __future__ import annotations
 
 import contextlib
-import logging
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
@@ -42,6 +41,7 @@ from ogacq.campaign.campaign_file import (
     GaugeSpec,
     SimulatorSpec,
 )
+from ogacq.logs import logger
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
@@ -53,7 +53,7 @@ from ogacq.writeback.table import read_offset_table
 if TYPE_CHECKING:
     from ogacq.sim.stack import SimulatorStack
 
-log = logging.getLogger(__name__)
+log = logger(__name__)
 
 
 @dataclass

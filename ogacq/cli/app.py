@@ -22,9 +22,9 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 from ogacq.cli.command_table import EXIT_CODES  # noqa: E402
 from ogacq.cli.fast_path import fast_call  # noqa: E402
 from ogacq.cli.log_options import global_options_first  # noqa: E402
-from ogacq.cli.repeated_warnings import configure_logging, say_pending_repeats  # noqa: E402
 from ogacq.cli.say import SIGPIPE_EXIT, reader_gone, say  # noqa: E402
 from ogacq.errors import OgacqError  # noqa: E402
+from ogacq.logs import before_first_logger, setup_now  # noqa: E402
 
 __all__ = ["EXIT_CODES", "main"]
 
@@ -36,21 +36,39 @@ def _os_error(exc: OSError) -> str:
     return f"{where}: {exc.strerror or exc}" if where else str(exc.strerror or exc)
 
 
+def _configure_logging() -> None:
+    from ogacq.cli.repeated_warnings import configure_logging
+
+    configure_logging()
+
+
+def _say_pending_repeats() -> None:
+    """The count of a warning still being repeated, if anything could log."""
+    if "logging" in sys.modules:  # else nothing made a logger, nor a handler
+        from ogacq.cli.repeated_warnings import say_pending_repeats
+
+        say_pending_repeats()
+
+
 def _run(argv: list[str]) -> int:
     call = fast_call(argv)
     if call is None:
+        setup_now()  # typer's commands log from any module (drivers, pymodbus): at once
         from ogacq.cli.typer_app import run_app
 
         return run_app(argv)
     try:
         call()
     finally:
-        say_pending_repeats()  # before the command's last word
+        _say_pending_repeats()  # before the command's last word
     return 0
 
 
 def main(argv: list[str] | None = None) -> int:
-    configure_logging()
+    # Warnings on stderr, one line each: installed when the first ogacq logger is made
+    # (ogacq.logs), so that a refit or a diagnosis that logs nothing never imports
+    # logging; at once for every other command (``_run``).
+    before_first_logger(_configure_logging)
     argv = global_options_first(sys.argv[1:] if argv is None else list(argv))
     try:
         return _run(argv)

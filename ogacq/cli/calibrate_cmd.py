@@ -38,7 +38,8 @@ from ogacq.cli.plain import plain
 from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.io.text import read_text
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, Tolerances
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
+from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.runner import CampaignStopped
 
 RUNS_FOLDER = Path("ogacq-runs")

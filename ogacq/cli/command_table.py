@@ -16,6 +16,8 @@ from typing import Any
 
 @dataclass(frozen=True)
 class LazyCommandSpec:
+    """A command of the table: where its function is, and what the group's help says."""
+
     target: str  # "module:function"
     # the first paragraph of the function's docstring, which the group's help lists
     # (tests/cli/test_lazy_commands.py holds the two the same)
@@ -34,6 +36,8 @@ def import_target(target: str) -> Callable[..., Any]:
 
 @dataclass(frozen=True)
 class LazyGroupSpec:
+    """A group of sub-commands (``ogacq history ...``): its help and its commands."""
+
     help: str
     commands: Mapping[str, str]  # sub-command name -> "module:function"
     # the sub-command run when the first word names none (``ogacq history MACHINE``)

@@ -37,11 +37,8 @@ from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import parse_moment
 from ogacq.io.machine_file import write_machine
 from ogacq.io.text import read_text
-from ogacq.model.machine import (
-    PAPER_PROTOTYPE_DIGITAL,
-    PAPER_PROTOTYPE_DIGITAL_NOTE,
-    Tolerances,
-)
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
+from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session

@@ -3,7 +3,6 @@ what physics was left out (INTERCHANGE.md)."""
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 from typing import Annotated
 
@@ -48,9 +47,11 @@ def diagnose_command(
     except DiagnosisError as exc:
         raise InputError(file, str(exc)) from None
     check_result(result.final_fit)
-    # The text rendering and the history (sessions) are imported only when used:
-    # start-up is most of a short campaign's diagnosis.
+    # The JSON or text rendering and the history (sessions) are imported only when
+    # used: start-up is most of a short campaign's diagnosis.
     if as_json:
+        import json
+
         print(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
         from ogacq.cli.render_diagnosis import print_diagnosis

@@ -195,7 +195,8 @@ def fast_call(argv: Sequence[str]) -> Callable[[], None] | None:
         return None
 
     def call() -> None:
-        apply_log_options(verbose, log_file)
+        if verbose or log_file is not None:  # else logging waits for a logger (ogacq.logs)
+            apply_log_options(verbose, log_file)
         function(**keywords)
 
     return call

@@ -8,16 +8,21 @@ a campaign afterwards.
 
 from __future__ import annotations
 
-import logging
 from pathlib import Path
 
-from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
 from ogacq.errors import InputError
+from ogacq.logs import setup_now
 
 LOG_FILE_FORMAT = "%(asctime)s %(levelname)s %(name)s: %(message)s"
 
 
 def apply_log_options(verbose: bool, log_file: Path | None) -> None:
+    # logging imported here: the root options' names below are read by every command
+    import logging
+
+    from ogacq.cli.repeated_warnings import RepeatCollapsingHandler
+
+    setup_now()  # the terminal's handler, whose level is set here
     root = logging.getLogger()
     terminal_level = logging.INFO if verbose else logging.WARNING
     for handler in root.handlers:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
@@ -68,7 +67,9 @@ def refit(
                          f"({result.stop_reason.describe()}); try --method linear or check "
                          "the data")
     check_result(result)
-    if as_json:
+    if as_json:  # json, or the text rendering below, imported only when used
+        import json
+
         print(json.dumps({**result.to_json(params.value), **loaded.state_json()}))
         return
     from ogacq.cli.render_fit import print_fit, print_notes

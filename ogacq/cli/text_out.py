@@ -181,6 +181,8 @@ def wrapped(text: str, width: int, justify: str = "default",
 
 @dataclass
 class _Column:
+    """A column of a TextTable: its header and how its cells are laid out."""
+
     header: str
     justify: Justify
     overflow: str

@@ -10,16 +10,16 @@ the record says so.
 
 from __future__ import annotations
 
-import logging
 from pathlib import Path
 from typing import Any
 
 from ogacq.errors import InputError
+from ogacq.logs import logger
 from ogacq.record.context import calibration_context
 from ogacq.record.identity import session_record_id
 from ogacq.session.store import LoadedSession
 
-log = logging.getLogger("ogacq.history")
+log = logger("ogacq.history")
 
 
 def earlier_calibrations(option: str | None, session: LoadedSession,

@@ -15,7 +15,6 @@ same: the controller was changed.
 
 from __future__ import annotations
 
-import logging
 import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
@@ -23,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from ogacq.errors import OgacqError
 from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack, event_key
+from ogacq.logs import logger
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
@@ -33,7 +33,7 @@ if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at s
     from ogacq.history.location import HistoryLocation
     from ogacq.history.store import History, Recorded
 
-log = logging.getLogger("ogacq.history")
+log = logger("ogacq.history")
 
 Say = Callable[[str], None]
 

@@ -64,6 +64,9 @@ class CellTest:
 
 @dataclass(frozen=True)
 class Verdict:
+    """Whether a fit's residuals are within the gauge noise: the test, its statistic
+    and p, and the worst cell."""
+
     state: str  # "consistent", "inconsistent" or "undetermined"
     test: str  # "chi-square", "lack-of-fit F" or "none"
     statistic: float  # chi2, or F

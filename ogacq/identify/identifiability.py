@@ -24,6 +24,9 @@ RANK_TOLERANCE = 1e-8
 
 @dataclass
 class Identifiability:
+    """What the readings determine of the fitted parameters: rank, conditioning, the
+    correlated pairs (INTERCHANGE.md), and why any are not identified."""
+
     names: tuple[str, ...]
     rank: int
     condition_number: float

@@ -4,7 +4,6 @@ what every output must say about it (partial, edited: ``ogacq.session.state``)."
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,9 +22,6 @@ from ogacq.model.machine import MachineSpec
 if TYPE_CHECKING:
     from ogacq.session.state import Completeness
     from ogacq.session.store import LoadedSession
-
-log = logging.getLogger(__name__)
-
 
 @dataclass(frozen=True)
 class LoadedInput:
@@ -114,8 +110,11 @@ def _session_input(path: Path, machine: MachineSpec | None, machine_path: str | 
 
     session = load_session(path, accept_edited=accept_edited)
     state = require_complete(session, partial)
-    for warning in session.warnings:
-        log.warning(warning)
+    if session.warnings:  # logging imported where a file has something to say
+        from ogacq.logs import logger
+
+        for warning in session.warnings:
+            logger(__name__).warning(warning)
     recorded = session_machine(session)
     if machine is not None and not other_geometry:
         given, own = geometry_dict(machine), geometry_dict(recorded)

@@ -8,7 +8,7 @@ reads as before."""
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ogacq_drivers.config_schema import (
     Field,
@@ -21,7 +21,10 @@ from ogacq_drivers.config_schema import (
 )
 from ogacq.io.atomic import write_atomically
 from ogacq.io.toml_file import input_error, load_toml
-from ogacq.model.machine import DECISION_RULES, MachineSpec, Tolerances
+from ogacq.model.machine import DECISION_RULES, MachineSpec
+
+if TYPE_CHECKING:
+    from ogacq.model.tolerances import Tolerances
 
 MAX_LENGTH_MM = 1e5  # 100 m: beyond any machine this tool calibrates
 _LENGTH = number(maximum=MAX_LENGTH_MM)
@@ -56,6 +59,8 @@ MACHINE_FILE = Table((
 
 
 def _tolerances(table: dict[str, Any]) -> Tolerances:
+    from ogacq.model.tolerances import Tolerances  # a file stating them builds the class
+
     per = {k: v for k, v in table.items() if k in DEVIATION_NAMES}
     return Tolerances(table.get("default_mm"), per,
                       table.get("decision_rule", "guard-band"))

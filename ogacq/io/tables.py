@@ -53,6 +53,8 @@ _BOUNDS = {"t_s": MAX_TIME_S, "reading_mm": MAX_LENGTH_MM, "value_mm": MAX_LENGT
 
 @dataclass
 class ReadingsTable:
+    """A readings CSV's columns (docs/formats.md), one row per reading."""
+
     t_s: np.ndarray
     cycle: np.ndarray
     leg: np.ndarray
@@ -333,6 +335,8 @@ _BLANK_LINE = re.compile(r"\n[ \t]*(\n|$)")
 
 @dataclass(frozen=True)
 class _PlainFile:
+    """A plain file cut into its header and rows."""
+
     header: list[str]
     body: str  # the rows, one a line
     n_rows: int

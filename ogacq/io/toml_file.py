@@ -8,7 +8,6 @@ from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.config_schema import Issue, Source, Table, load, parse_document
-from ogacq.io.dates import toml_date_error
 from ogacq.io.errors import InputError
 from ogacq.io.text import read_text
 
@@ -33,6 +32,9 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
     except InputError as exc:
         # tomllib says "Invalid date or datetime" or "Expected newline" of a bad date:
         # the date rule says what is wrong with it, naming the key and the value
+        # (imported here: the rule's patterns are compiled for a file refused only)
+        from ogacq.io.dates import toml_date_error
+
         lines = content.splitlines()
         if exc.line is not None and 0 < exc.line <= len(lines):
             found = toml_date_error(path, exc.problem, lines[exc.line - 1], exc.line)

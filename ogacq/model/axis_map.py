@@ -30,7 +30,6 @@ tables interpolate); outside them it holds its end values.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -46,6 +45,8 @@ AXIS_MAP_FORMAT = "ogacq-axis-map/1"
 
 @dataclass(frozen=True)
 class AxisMap:
+    """The error map of one actuator, forward and reverse (the module's docstring)."""
+
     axis: str
     positions_mm: tuple[float, ...]
     forward_mm: tuple[float, ...]
@@ -145,6 +146,7 @@ class AxisMap:
         """SHA-256 of the canonical JSON: the identity a session that applied the map
         records, so that a table changed afterwards is told from the one used."""
         import hashlib  # here: its OpenSSL binding is 3 ms of every diagnosis's start-up
+        import json
 
         canonical = json.dumps(self.to_json(), sort_keys=True, separators=(",", ":"),
                                allow_nan=False)

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
-from dataclasses import dataclass, field, replace
-from types import MappingProxyType
+from dataclasses import dataclass, replace
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # a machine file's [tolerances]: the class built only for one
+    from ogacq.model.tolerances import Tolerances
 
 DECISION_RULES = ("guard-band", "simple")
 # Steel legs when the machine file does not say: the linear expansion coefficient
@@ -16,45 +18,6 @@ STEEL_EXPANSION_PPM_PER_K = 11.5
 REFERENCE_TEMPERATURE_C = 20.0
 
 
-@dataclass(frozen=True)
-class Tolerances:
-    """Acceptance of the leg-parallelism deviations (docs/calibration-record.md 4):
-    every deviation within +/- ``default_mm`` unless ``per_deviation`` names its own
-    (``{"dx_y+": 0.015}``); judged by ``decision_rule`` (ILAC-G8:09/2019: a guard
-    band w = U, or the simple rule)."""
-
-    default_mm: float | None = None
-    per_deviation: Mapping[str, float] = field(default_factory=dict)
-    decision_rule: str = "guard-band"
-
-    def __post_init__(self) -> None:
-        # read-only, and hashable with the machine that holds it
-        object.__setattr__(self, "per_deviation",
-                           MappingProxyType(dict(self.per_deviation)))
-        if self.decision_rule not in DECISION_RULES:
-            raise ValueError(f"decision_rule must be one of {', '.join(DECISION_RULES)}, "
-                             f"got {self.decision_rule!r}")
-
-    def __hash__(self) -> int:
-        return hash((self.default_mm, tuple(sorted(self.per_deviation.items())),
-                     self.decision_rule))
-
-    def __eq__(self, other: object) -> bool:
-        return isinstance(other, Tolerances) and (
-            self.default_mm, dict(self.per_deviation), self.decision_rule) == (
-            other.default_mm, dict(other.per_deviation), other.decision_rule)
-
-    def of(self, deviation: str) -> float | None:
-        """The tolerance of one deviation ("dx_y+"), None when none is set."""
-        return self.per_deviation.get(deviation, self.default_mm)
-
-    def to_json(self) -> dict:
-        out: dict = {"decision_rule": self.decision_rule}
-        if self.default_mm is not None:
-            out["deviation_mm"] = self.default_mm
-        return {**out, **dict(self.per_deviation)}
-
-
 # A dial indicator's graduation is 0.01 mm (0.1 mm on the coarsest), a digital
 # indicator's step 0.01 to 0.0001 mm and a length gauge's down to 0.00001 mm; its
 # repeatability lies in the same span (Mitutoyo catalogue, "Indicators"; no other source).
@@ -63,6 +26,9 @@ GAUGE_STEP_RANGE_MM = (1e-6, 0.1)
 
 @dataclass(frozen=True)
 class MachineSpec:
+    """A machine's nominal geometry and gauges (the machine file, INTERCHANGE.md), with
+    its identity and acceptance tolerances."""
+
     leg_length_mm: float
     rho_min_mm: float
     rho_max_mm: float

@@ -23,6 +23,9 @@ AXIS_PAIRS = ("xy", "xz", "yz")
 
 @dataclass(frozen=True)
 class EffectKind:
+    """One kind of model parameter (``squareness``): its unit, where it acts, its
+    nominal value and the magnitude beyond which a value is implausible."""
+
     name: str
     unit: str
     wheres: tuple[str, ...]

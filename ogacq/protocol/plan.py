@@ -67,6 +67,8 @@ class StabilityRule:
 
 @dataclass(frozen=True)
 class ProtocolConfig:
+    """How a campaign reads: legs, postures, cycles, approach, settling and scan."""
+
     legs: tuple[str, ...] = AXES
     postures: tuple[str | float, ...] = ("zero", "max", "min", "zero")
     cycles: int = 3

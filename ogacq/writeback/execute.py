@@ -16,7 +16,6 @@ Order of work, each step checked before the next:
 from __future__ import annotations
 
 import contextlib
-import logging
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -24,13 +23,14 @@ from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.preflight import check_home, check_identity
 from ogacq_drivers.errors import DriverError
 from ogacq.io.errors import InputError, StorageError
+from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.model.units import signed_per_axis as _fmt
 from ogacq.writeback.audit import AuditLog, new_operation_id
 from ogacq.writeback.policy import OffsetPlan
 from ogacq.writeback.table import read_offset_table, write_offset_table
 
-log = logging.getLogger(__name__)
+log = logger(__name__)
 
 
 class WriteBackError(DriverError):

@@ -18,7 +18,6 @@ its ``operation`` id (``maps-write-...``, ``maps-restore-...``).
 from __future__ import annotations
 
 import contextlib
-import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -26,6 +25,7 @@ from typing import Any, Literal
 
 from ogacq_drivers.errors import DriverError
 from ogacq.io.errors import InputError, StorageError
+from ogacq.logs import logger
 from ogacq.model.axis_map import AxisMap
 from ogacq.session.records import MapsRecord
 from ogacq.session.store import LoadedSession
@@ -33,7 +33,7 @@ from ogacq.writeback.audit import AuditLog, intents_and_outcomes, new_operation_
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table, write_maps_table
 from ogacq.writeback.policy import Refusal
 
-log = logging.getLogger(__name__)
+log = logger(__name__)
 
 Action = Literal["write", "restore"]
 

@@ -21,7 +21,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import logging
 import os
 import tempfile
 import time
@@ -31,10 +30,11 @@ from pathlib import Path
 from typing import Any
 
 from ogacq.io.errors import InputError
+from ogacq.logs import logger
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
 
-log = logging.getLogger(__name__)
+log = logger(__name__)
 
 FORMAT = "ogacq-maps/1"
 

@@ -16,7 +16,6 @@ atomically (a crash leaves the old file or the new one, never half of one).
 from __future__ import annotations
 
 import contextlib
-import logging
 import os
 import time
 from dataclasses import dataclass, field
@@ -26,9 +25,10 @@ from typing import Any
 from ogacq_drivers.config_schema import Field, Table, dump, load, number, text
 from ogacq.io.atomic import write_atomically
 from ogacq.io.toml_file import read_toml
+from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 
-log = logging.getLogger(__name__)
+log = logger(__name__)
 
 FORMAT = "ogacq-offsets/1"
 HEADER = """Software joint offsets (mm), applied by ogacq to every commanded position:
