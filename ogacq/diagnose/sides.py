@@ -117,10 +117,8 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
     for k, axis in enumerate(joints):
         flipped = tuple(-s if j == k else s for j, s in enumerate(best))
         gain = (fits[flipped][1] - rss) / noise.variance
-        without = tuple(n for n in backlash if n != backlash[axis])
-        cost = (float(fit_many(variant, theta, BASE_MODEL, [without]).rss[0]) - rss) \
-            / noise.variance
-        if gain > BETTER_BY and cost > SIGNIFICANT:
+        if gain > BETTER_BY and _backlash_cost(variant, theta, backlash, axis, rss) \
+                / noise.variance > SIGNIFICANT:
             choices.append(SideChoice(axis, best[k], int(rows[:, axis].sum()), gain))
         else:
             taken[k] = 0
@@ -129,6 +127,15 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
         return obs, problem, choices
     resolved = _with_side(obs, trial(tuple(taken)))
     return resolved, Problem(resolved, noise), choices
+
+
+def _backlash_cost(variant: Problem, theta: np.ndarray, backlash: tuple[str, ...], axis: int,
+                   rss: float) -> float:
+    """By how much the weighted sum of squares ``rss`` of the joint offsets and the
+    three backlashes rises when joint ``axis``'s backlash is left out: fitted only
+    when a side is favoured (a side not favoured is not taken whatever it is)."""
+    without = tuple(n for n in backlash if n != backlash[axis])
+    return float(fit_many(variant, theta, BASE_MODEL, [without]).rss[0]) - rss
 
 
 def _with_side(obs: Observations, side: np.ndarray) -> Observations:
