@@ -27,14 +27,14 @@ before its first reading; it records neither today, so sessions are treated alik
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL
 from ogacq.identify.noise import GaugeNoise
-from ogacq.identify.observations import Observations, readings_observations
+from ogacq.identify.observations import Observations
 from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import joint_sensitivity
 
@@ -108,7 +108,7 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
     combos = list(itertools.product((1, -1), repeat=len(joints)))
     fits = {}
     for signs in combos:
-        variant = Problem(_with_side(obs, trial(signs)), noise)
+        variant = problem.with_side(trial(signs))
         fits[signs] = (variant, float(fit_many(variant, theta, BASE_MODEL, [backlash]).rss[0]))
     best = min(combos, key=lambda c: fits[c][1])
     variant, rss = fits[best]
@@ -125,8 +125,8 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
             choices.append(SideChoice(axis, 0, int(rows[:, axis].sum()), gain))
     if not any(taken):
         return obs, problem, choices
-    resolved = _with_side(obs, trial(tuple(taken)))
-    return resolved, Problem(resolved, noise), choices
+    resolved = variant if taken == list(best) else problem.with_side(trial(tuple(taken)))
+    return resolved.obs, resolved, choices
 
 
 def _backlash_cost(variant: Problem, theta: np.ndarray, backlash: tuple[str, ...], axis: int,
@@ -136,8 +136,3 @@ def _backlash_cost(variant: Problem, theta: np.ndarray, backlash: tuple[str, ...
     when a side is favoured (a side not favoured is not taken whatever it is)."""
     without = tuple(n for n in backlash if n != backlash[axis])
     return float(fit_many(variant, theta, BASE_MODEL, [without]).rss[0]) - rss
-
-
-def _with_side(obs: Observations, side: np.ndarray) -> Observations:
-    layout = replace(obs.layout, side=side)
-    return readings_observations(obs.machine, layout, obs.values, obs.source)

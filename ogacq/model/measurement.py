@@ -15,7 +15,7 @@ that depends on the side a posture was approached from.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import TYPE_CHECKING
 
@@ -203,6 +203,16 @@ class ReadingsLayout:
         used last: what a fit's repeated evaluations share."""
         return {}
 
+    def with_side(self, side: np.ndarray) -> ReadingsLayout:
+        """This layout with the model's lost-motion ``side`` replaced. What it has
+        computed of the rest (repeat groups, which are the recorded approach's, and
+        the gauges' one-hot) is the same and is shared, not computed again."""
+        out = replace(self, side=side)
+        for name in _SIDE_FREE:
+            if name in self.__dict__:  # computed (functools.cached_property keeps it there)
+                out.__dict__[name] = self.__dict__[name]
+        return out
+
     def subset(self, mask: np.ndarray) -> ReadingsLayout:
         """The readings selected by ``mask``. Each kept gauge keeps the posture it was
         set at, even when the reading taken there is dropped."""
@@ -229,6 +239,10 @@ class ReadingsLayout:
         for name in POSTURE_NAMES:
             out[np.isclose(along, posture_tcp(0, name, machine)[0], atol=1e-6)] = name
         return out
+
+
+# ReadingsLayout's computed properties that do not read ``side`` (``with_side``)
+_SIDE_FREE = ("repeat_group", "repeat_size", "repeat_order", "gauge_onehot", "gauge_counts")
 
 
 # the parameters' positions as index arrays: numpy gathers with them without converting
