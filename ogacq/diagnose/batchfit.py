@@ -118,8 +118,11 @@ class Problem:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
         (analytic), weighted unless asked otherwise."""
         jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))[0]
-        if not weighted:
-            return jac
+        return self.weighted_jacobian(jac) if weighted else jac
+
+    def weighted_jacobian(self, jac: np.ndarray) -> np.ndarray:
+        """The weighting of :meth:`jacobian` applied to an unweighted Jacobian (m, p)
+        of the observations the caller holds (a fit's at its solution)."""
         if self._sums is None:
             return self.weighting.jac(jac[None])[0]
         return self._sums.weighted(jac.T).T
