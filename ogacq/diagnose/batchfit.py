@@ -14,8 +14,9 @@ noise.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 
 import numpy as np
@@ -57,6 +58,19 @@ class Problem:
         self.n_data = len(obs) - obs.n_nuisance  # independent observations
         # raw readings: zeros and weighting by sums, on the calling thread (gaugesums.py)
         self._sums = GaugeSums(obs, self.weighting) if obs.raw else None
+
+    def with_side(self, side: np.ndarray) -> Problem:
+        """This problem with the model's lost-motion side replaced
+        (``ReadingsLayout.with_side``): the weighting, the gauge sums and the repeat
+        groups' space and the rows' labels read the recorded approach, the gauges
+        and the values, never the side, so they are shared (the weighting still
+        names the first observations; they differ in nothing it reads)."""
+        obs = replace(self.obs, layout=self.obs.layout.with_side(side))
+        out = copy.copy(self)
+        out.obs = obs
+        if self.group_space is not None:
+            out.__dict__["group_space"] = self.group_space.with_side(obs)
+        return out
 
     def predict(self, theta: np.ndarray) -> np.ndarray:
         """(B, m) predictions. Rows with thermal drift need every reading's pose
@@ -104,8 +118,11 @@ class Problem:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
         (analytic), weighted unless asked otherwise."""
         jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))[0]
-        if not weighted:
-            return jac
+        return self.weighted_jacobian(jac) if weighted else jac
+
+    def weighted_jacobian(self, jac: np.ndarray) -> np.ndarray:
+        """The weighting of :meth:`jacobian` applied to an unweighted Jacobian (m, p)
+        of the observations the caller holds (a fit's at its solution)."""
         if self._sums is None:
             return self.weighting.jac(jac[None])[0]
         return self._sums.weighted(jac.T).T

@@ -303,7 +303,8 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     # a side unknown before a joint's first recorded move, resolved where its lost
     # motion decides it (the joint offsets' fit is the same either way)
     obs, problem, sides = resolve_sides(obs, noise, problem, base_fit.theta)
-    base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha)
+    base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha,
+                    _fit_jacobian(base_fit, obs, BASE_MODEL))
 
     everything = BASE_MODEL + EFFECT_PARAMETERS
     design = Design(everything, problem.jacobian(base.theta, everything))
@@ -321,7 +322,8 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
                                     or share >= PARTIAL_SHARE):
         final_fit = _refit(obs, selection.final.names, noise, selection.final.theta)
         claimed = evaluate(problem, noise, selection.final.effects, final_fit.theta,
-                           final_fit.identifiability.rank, alpha)
+                           final_fit.identifiability.rank, alpha,
+                           _fit_jacobian(final_fit, obs, selection.final.names))
     remaining = located if claimed is base else locate(
         obs, claimed.residuals, _unweighted_jacobian(problem, claimed), noise.sigma_mm,
         problem.labels)
@@ -364,6 +366,17 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     return Diagnosis(obs.source, obs.kind, len(obs), noise, seen, selection, claimed, share,
                      base_fit, final_fit, located, remaining, all_effects, inflation,
                      _postures_per_leg(problem), plans, mapped, profiles, sides)
+
+
+def _fit_jacobian(result: FitResult, obs: Observations, names: tuple[str, ...],
+                  ) -> np.ndarray | None:
+    """The unweighted Jacobian of ``names`` at the fit's solution on ``obs``: the one
+    its last step evaluated (``identify.fit``: the same call at the same point), when
+    it fitted these very observations (not those before their sides were resolved)
+    and these names in this order; else None."""
+    if result.observations is not obs or result.names != names or result.method != "exact":
+        return None
+    return result.jacobian
 
 
 def _unweighted_jacobian(problem: Problem, model: Model) -> np.ndarray:

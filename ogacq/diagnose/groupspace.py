@@ -12,6 +12,7 @@ instead of every reading.
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 
 import numpy as np
@@ -35,6 +36,7 @@ class GroupSpace:
         first = np.full(n_groups, len(obs))
         np.minimum.at(first, groups.group, np.arange(len(obs)))
         kept = np.sort(first)  # one reading per group, in the order of the readings
+        self._kept = kept
         one_each = np.zeros(len(obs), dtype=bool)
         one_each[kept] = True
         self.layout = obs.layout.subset(one_each)
@@ -48,6 +50,15 @@ class GroupSpace:
         self._scale = groups.mean_scale[self._order] * np.sqrt(groups.size[self._order])
         zeros = np.eye(self.layout.n_gauges)[self.layout.gauge] * self._scale[:, None]
         self._zeros = zeros / np.sqrt(np.sum(zeros**2, axis=0))  # orthonormal columns
+
+    def with_side(self, obs: Observations) -> GroupSpace:
+        """This space for ``obs``, the same readings with another lost-motion side
+        (``ReadingsLayout.with_side``): the groups, their means and the zeros' basis
+        are the same; only the model's layout takes the new side."""
+        out = copy.copy(self)
+        out.obs = obs
+        out.layout = self.layout.with_side(obs.layout.lost_motion_side[self._kept])
+        return out
 
     def __len__(self) -> int:
         return len(self._order)

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -52,6 +52,9 @@ class MapFit:
     jacobian: np.ndarray  # (n, p + K) unweighted: the library's, then the maps'
     verdict: Verdict
     converged: bool
+    # (n,) weighted, of which ``rss`` is the sum of squares: what a linearisation about
+    # this fit starts from (``mapswap.linearised``)
+    weighted_residuals: np.ndarray = field(repr=False, compare=False)
 
     @property
     def p(self) -> int:
@@ -90,7 +93,10 @@ def map_columns(problem: Problem, theta: np.ndarray, terms: list[MapTerm],
 def fit_with_maps(problem: Problem, noise: GaugeNoise, names: tuple[str, ...],
                   theta0: np.ndarray, terms: list[MapTerm], history: JointHistory,
                   coefficients0: np.ndarray | None = None, alpha: float = LEVEL,
-                  iterations: int = ITERATIONS) -> MapFit:
+                  iterations: int = ITERATIONS, jacobian0: np.ndarray | None = None) -> MapFit:
+    """The library parameters ``names`` and the map ``terms`` fitted together from
+    ``theta0`` (``jacobian0``: the unweighted Jacobian of ``names`` there, when the
+    caller holds it)."""
     obs = problem.obs
     theta = np.asarray(theta0, dtype=float).copy()
     free = indices(names)
@@ -98,8 +104,9 @@ def fit_with_maps(problem: Problem, noise: GaugeNoise, names: tuple[str, ...],
     coef = np.zeros(k_total) if coefficients0 is None else np.asarray(coefficients0, float)
     ranges = plausible_ranges(list(names))
     converged = False
-    for _ in range(iterations):
-        jac = problem.jacobian(theta, names, weighted=False)
+    for iteration in range(iterations):
+        jac = jacobian0 if iteration == 0 and jacobian0 is not None else \
+            problem.jacobian(theta, names, weighted=False)
         cols = map_columns(problem, theta, terms, history)
         x = np.column_stack([jac, cols])
         resid = obs.values - problem.predict(theta[None])[0] - cols @ coef
@@ -135,7 +142,7 @@ def fit_with_maps(problem: Problem, noise: GaugeNoise, names: tuple[str, ...],
     split = np.cumsum([0] + [t.size for t in terms])
     return MapFit(names, theta, list(terms),
                   [coef[split[k]:split[k + 1]] for k in range(len(terms))], covariance,
-                  residuals, float(rw @ rw), rank, x, verdict, converged)
+                  residuals, float(rw @ rw), rank, x, verdict, converged, rw)
 
 
 def as_fit_result(fitted: MapFit, library: FitResult) -> FitResult:

@@ -192,7 +192,8 @@ def _backward(problem: Problem, noise: GaugeNoise, claimed: Model, terms: list[M
         return claimed.names, dropped
     theta = claimed.theta
     maps = problem.weighted(map_columns(problem, theta, terms, history).T).T
-    lib = problem.jacobian(theta, claimed.names)
+    lib = problem.jacobian(theta, claimed.names) if claimed.jacobian is None \
+        else problem.weighted_jacobian(claimed.jacobian)
     # the readings as seen from the offsets with every effect at nominal
     target = problem.weighted_residuals(theta[None])[0] + sum(
         (lib[:, claimed.names.index(e)] * (theta[PARAM_INDEX[e]] - NOMINAL[PARAM_INDEX[e]])
@@ -228,7 +229,7 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
     """Search, refit and judge the maps beside the library's ``claimed`` model."""
     history = JointHistory.of(problem.obs.layout)
     search, space = search_maps(problem, noise, claimed.theta, claimed.names, claimed.rss,
-                                claimed.verdict.consistent, alpha)
+                                claimed.verdict.consistent, alpha, jacobian=claimed.jacobian)
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}
     terms = search.terms
@@ -240,7 +241,9 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
         names, dropped = _backward(problem, noise, claimed, terms, history, alpha)
         for name, _ in dropped:
             theta0[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
-        fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha)
+        # the claimed model's Jacobian is the start's when no effect was dropped
+        fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha,
+                               jacobian0=None if dropped else claimed.jacobian)
     inflation = 1.0
     if fitted is not None and math.isfinite(fitted.verdict.chi2_dof):
         inflation = math.sqrt(max(1.0, fitted.verdict.chi2_dof))
@@ -273,7 +276,7 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
     fitted = outcome.fit
     if fitted is None:  # the library's model, as a map fit without maps
         fitted = fit_with_maps(problem, noise, claimed.names, claimed.theta, [], history,
-                               iterations=1)
+                               iterations=1, jacobian0=claimed.jacobian)
     library_effects = tuple(n for n in fitted.names if n not in BASE_MODEL)
     if not library_effects and not fitted.terms:
         return

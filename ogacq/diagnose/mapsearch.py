@@ -444,15 +444,18 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
 def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
                 names: tuple[str, ...], rss: float, consistent: bool,
                 alpha: float = LEVEL, max_terms: int = MAX_TERMS,
-                space: MapSpace | None = None) -> tuple[MapSearch, MapSpace | None]:
+                space: MapSpace | None = None, jacobian: np.ndarray | None = None,
+                ) -> tuple[MapSearch, MapSpace | None]:
     """Forward selection of map terms beside the model ``names`` fitted at ``theta``
-    (weighted rss ``rss``); ``consistent``: whether that model is within the noise
+    (weighted rss ``rss``; ``jacobian``: its unweighted Jacobian there, when the
+    caller holds it); ``consistent``: whether that model is within the noise
     (the search then runs at the stricter level). Returns the search and the space
     grown by the terms added (None when nothing could be searched)."""
     level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
     if not problem.obs.raw:
         return MapSearch((), level), None
-    space = space if space is not None else MapSpace(problem, theta, names, rss)
+    space = space if space is not None else MapSpace(problem, theta, names, rss,
+                                                     jacobian=jacobian)
     # with the display's rounding repeated by the cycles (not dithered by the gauge's
     # scatter), the posture means' errors are the rounding of a signal that varies
     # smoothly along q: a structure of its own, which the maps would fit

@@ -52,7 +52,8 @@ class MapSpace:
     parameter vector ``theta``, and map columns in that space."""
 
     def __init__(self, problem: Problem, theta: np.ndarray, names: tuple[str, ...],
-                 rss: float, history: JointHistory | None = None) -> None:
+                 rss: float, history: JointHistory | None = None,
+                 jacobian: np.ndarray | None = None) -> None:
         obs = problem.obs
         assert obs.raw, "error maps are searched in raw readings"
         self.problem = problem
@@ -62,7 +63,9 @@ class MapSpace:
         assert groups is not None
         self.groups = groups
         self.history = history if history is not None else JointHistory.of(obs.layout)
-        jw = problem.jacobian(self.theta, names)
+        # the model's unweighted Jacobian at theta, when its caller holds it
+        jw = problem.jacobian(self.theta, names) if jacobian is None \
+            else problem.weighted_jacobian(jacobian)
         self.basis = _orthonormal(jw)
         r = problem.weighted_residuals(self.theta[None])[0]
         self.r = r - self.basis @ (self.basis.T @ r)  # the model's own directions out

@@ -156,13 +156,12 @@ class _Projector:
 def linearised(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: JointHistory,
                inflation: float) -> _Linear:
     theta = fitted.theta
-    lib = problem.jacobian(theta, fitted.names)
+    # the fit's own Jacobian and weighted residual at its solution, weighted as
+    # evaluating them again would
+    lib = problem.weighted_jacobian(fitted.jacobian[:, :fitted.p])
     maps = problem.weighted(fitted.jacobian[:, fitted.p:].T).T if fitted.terms \
         else np.zeros((len(lib), 0))
-    cols = map_columns(problem, theta, fitted.terms, history)
-    raw = problem.obs.values - problem.predict(theta[None])[0] - cols @ np.concatenate(
-        fitted.coefficients + [np.zeros(0)])
-    r = problem.weighted(raw[None])[0]
+    r = fitted.weighted_residuals
     return _Linear(problem, fitted.names, fitted.terms, np.column_stack([lib, maps]), r,
                    float(r @ r), noise.variance * inflation**2, theta, fitted.coefficients,
                    history)

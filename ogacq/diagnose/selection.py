@@ -61,11 +61,15 @@ class Model:
 
 
 def evaluate(problem: Problem, noise: GaugeNoise, effects: tuple[str, ...],
-             theta: np.ndarray, rank: int, alpha: float = LEVEL) -> Model:
-    """The fitted model with its full verdict (overall test and worst cell)."""
+             theta: np.ndarray, rank: int, alpha: float = LEVEL,
+             jacobian: np.ndarray | None = None) -> Model:
+    """The fitted model with its full verdict (overall test and worst cell).
+    ``jacobian``: the unweighted Jacobian of its names at ``theta`` on
+    ``problem.obs`` when the caller holds it (an exact fit's last), else evaluated."""
     residuals = problem.residuals(theta[None])[0]
     rss = float(np.sum(problem.weighted(residuals[None]) ** 2))
-    jac = problem.jacobian(theta, BASE_MODEL + effects, weighted=False)
+    jac = problem.jacobian(theta, BASE_MODEL + effects, weighted=False) if jacobian is None \
+        else jacobian
     return Model(effects, theta, residuals, rss, rank,
                  judge(problem.obs, residuals, jac, rank, noise, alpha), jac)
 

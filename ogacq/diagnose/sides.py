@@ -27,14 +27,14 @@ before its first reading; it records neither today, so sessions are treated alik
 from __future__ import annotations
 
 import itertools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL
 from ogacq.identify.noise import GaugeNoise
-from ogacq.identify.observations import Observations, readings_observations
+from ogacq.identify.observations import Observations
 from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import joint_sensitivity
 
@@ -108,7 +108,7 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
     combos = list(itertools.product((1, -1), repeat=len(joints)))
     fits = {}
     for signs in combos:
-        variant = Problem(_with_side(obs, trial(signs)), noise)
+        variant = problem.with_side(trial(signs))
         fits[signs] = (variant, float(fit_many(variant, theta, BASE_MODEL, [backlash]).rss[0]))
     best = min(combos, key=lambda c: fits[c][1])
     variant, rss = fits[best]
@@ -117,20 +117,22 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
     for k, axis in enumerate(joints):
         flipped = tuple(-s if j == k else s for j, s in enumerate(best))
         gain = (fits[flipped][1] - rss) / noise.variance
-        without = tuple(n for n in backlash if n != backlash[axis])
-        cost = (float(fit_many(variant, theta, BASE_MODEL, [without]).rss[0]) - rss) \
-            / noise.variance
-        if gain > BETTER_BY and cost > SIGNIFICANT:
+        if gain > BETTER_BY and _backlash_cost(variant, theta, backlash, axis, rss) \
+                / noise.variance > SIGNIFICANT:
             choices.append(SideChoice(axis, best[k], int(rows[:, axis].sum()), gain))
         else:
             taken[k] = 0
             choices.append(SideChoice(axis, 0, int(rows[:, axis].sum()), gain))
     if not any(taken):
         return obs, problem, choices
-    resolved = _with_side(obs, trial(tuple(taken)))
-    return resolved, Problem(resolved, noise), choices
+    resolved = variant if taken == list(best) else problem.with_side(trial(tuple(taken)))
+    return resolved.obs, resolved, choices
 
 
-def _with_side(obs: Observations, side: np.ndarray) -> Observations:
-    layout = replace(obs.layout, side=side)
-    return readings_observations(obs.machine, layout, obs.values, obs.source)
+def _backlash_cost(variant: Problem, theta: np.ndarray, backlash: tuple[str, ...], axis: int,
+                   rss: float) -> float:
+    """By how much the weighted sum of squares ``rss`` of the joint offsets and the
+    three backlashes rises when joint ``axis``'s backlash is left out: fitted only
+    when a side is favoured (a side not favoured is not taken whatever it is)."""
+    without = tuple(n for n in backlash if n != backlash[axis])
+    return float(fit_many(variant, theta, BASE_MODEL, [without]).rss[0]) - rss

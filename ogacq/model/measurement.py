@@ -15,8 +15,8 @@ that depends on the side a posture was approached from.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
-from functools import cached_property
+from dataclasses import dataclass, replace
+from functools import cached_property, lru_cache
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -198,10 +198,26 @@ class ReadingsLayout:
         return self.gauge_onehot.sum(axis=0)
 
     @cached_property
+    def evaluation_poses(self) -> dict:
+        """The poses' indices every evaluation plan of these readings shares
+        (``_PoseIndex``), by whether time matters."""
+        return {}
+
+    @cached_property
     def evaluation_plans(self) -> dict:
         """The model's evaluation plans for these readings (``_plan``), most recently
         used last: what a fit's repeated evaluations share."""
         return {}
+
+    def with_side(self, side: np.ndarray) -> ReadingsLayout:
+        """This layout with the model's lost-motion ``side`` replaced. What it has
+        computed of the rest (repeat groups, which are the recorded approach's, and
+        the gauges' one-hot) is the same and is shared, not computed again."""
+        out = replace(self, side=side)
+        for name in _SIDE_FREE:
+            if name in self.__dict__:  # computed (functools.cached_property keeps it there)
+                out.__dict__[name] = self.__dict__[name]
+        return out
 
     def subset(self, mask: np.ndarray) -> ReadingsLayout:
         """The readings selected by ``mask``. Each kept gauge keeps the posture it was
@@ -229,6 +245,10 @@ class ReadingsLayout:
         for name in POSTURE_NAMES:
             out[np.isclose(along, posture_tcp(0, name, machine)[0], atol=1e-6)] = name
         return out
+
+
+# ReadingsLayout's computed properties that do not read ``side`` (``with_side``)
+_SIDE_FREE = ("repeat_group", "repeat_size", "repeat_order", "gauge_onehot", "gauge_counts")
 
 
 # the parameters' positions as index arrays: numpy gathers with them without converting
@@ -320,17 +340,16 @@ class _Fixed:
             and bool((self.key == key).all())
 
 
-class _EvaluationPlan:
-    """What :func:`_evaluate` needs of a layout that no parameter value changes: the
-    distinct poses, where each reading and gauge setting finds its coordinates
-    among them (flat indices, one gather each), and for a free set the derivatives
-    that are constants (joint positions, line offsets, leg lengths, which readings
-    a drift, gauge position or gain acts on). Built once per layout, free set and
-    whether drift makes time matter; a fit evaluates the model a handful of times
-    with the same ones, so none of it is redone per evaluation."""
+class _PoseIndex:
+    """What every evaluation plan of a layout shares, whatever is free: the distinct
+    poses, and where each reading and gauge setting finds its coordinates among them
+    (flat indices, one gather each). Built once per layout and whether drift makes
+    time matter (``ReadingsLayout.evaluation_poses``)."""
 
-    def __init__(self, layout: ReadingsLayout, free: tuple[int, ...] | None,
-                 timed: bool) -> None:
+    __slots__ = ("q", "appr", "t", "n", "gauge", "p_index", "r_index", "gauge_position",
+                 "gauge_scale")
+
+    def __init__(self, layout: ReadingsLayout, timed: bool) -> None:
         n = len(layout)
         if timed:  # drift: a pose per reading time
             self.q, self.appr, self.t, rows = layout.timed_poses
@@ -352,8 +371,25 @@ class _EvaluationPlan:
                                        at_setting * 9 + set_leg * 4])
         self.gauge_position = _GPOS_AT[set_leg]  # (G,)
         self.gauge_scale = _GSCALE[j, i]  # (n,)
-        # the parts remembered between evaluations: those that read no free entry
-        # (a fit changes only those), keyed on the entries they read
+
+
+def _pose_index(layout: ReadingsLayout, timed: bool) -> _PoseIndex:
+    known = layout.evaluation_poses
+    index = known.get(timed)
+    if index is None:
+        index = known[timed] = _PoseIndex(layout, timed)
+    return index
+
+
+class _FreeSet:
+    """What an evaluation plan needs of its free set alone, whatever the layout:
+    which parts of an evaluation read no free entry (remembered between
+    evaluations, keyed on the entries they read), and the derivatives and columns
+    that are constants (line offsets, leg lengths, which columns are drifts or
+    gains). Made once per free set (``_free_set``) and shared by the plans of every
+    layout, so its arrays are read-only."""
+
+    def __init__(self, free: tuple[int, ...] | None) -> None:
         free_entries = set() if free is None else set(free)
         self.keeps_lines, self.keeps_joint_terms, self.keeps_frac, self.keeps_gain = (
             free_entries.isdisjoint(at.tolist())
@@ -363,34 +399,79 @@ class _EvaluationPlan:
                                  (_JOINT_TERMS_AT, self.keeps_joint_terms),
                                  (_GPOS_AT, self.keeps_frac), (_GSCALE_AT, self.keeps_gain))
              if kept] + [np.zeros(0, dtype=int)])))
-        self._fixed: _Fixed | None = None
         self.free: np.ndarray | None = None
         if free is None:
             return
-        fr = np.array(free, dtype=int)
+        fr = _read_only(np.array(free, dtype=int))
         self.free = fr
-        self.drho = _joint_position_tangents(self.q, self.appr, fr)  # (poses, P, 3)
         # which free entries are of which kind, by set lookups over the few free
         # positions (np.isin costs more than a small plan's arithmetic)
         self.tilts = not _SQUARENESS_SET.isdisjoint(free)
-        self.do = axis_line_tangents(NOMINAL[None], fr)[1] \
+        self.do = _read_only(axis_line_tangents(NOMINAL[None], fr)[1]) \
             if not _AXIS_OFFSET_SET.isdisjoint(free) else None
         dlegs = leg_length_tangents(fr)
-        self.dlegs = dlegs if dlegs.any() else None
+        self.dlegs = _read_only(dlegs) if dlegs.any() else None
         drift = np.array([k in _DRIFT_SET for k in free], dtype=bool)
+        self.drifts = bool(drift.any())
         # gauges are set at t = 0: no drift there; a reading's drift derivative is
         # its time (see _joint_position_tangents). None: no drift free.
-        self.set_without_drift = ~drift if drift.any() else None
+        self.set_without_drift = _read_only(~drift) if self.drifts else None
+        self.drift_columns = _read_only(np.flatnonzero(drift))
+        # (not _GSCALE: its unused diagonal holds 0, a joint offset's position)
+        self.gain_columns = _read_only(np.array(
+            [c for c, k in enumerate(free) if k in _GSCALE_SET], dtype=np.intp))
+
+
+@lru_cache(maxsize=256)
+def _free_set(free: tuple[int, ...] | None) -> _FreeSet:
+    """:class:`_FreeSet` of ``free``, a pure function of it: a diagnosis asks for the
+    same free sets on several layouts (the readings, their repeat groups, a side
+    resolved)."""
+    return _FreeSet(free)
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.setflags(write=False)
+    return a
+
+
+class _EvaluationPlan:
+    """What :func:`_evaluate` needs of a layout that no parameter value changes: its
+    poses' indices (:class:`_PoseIndex`), and for a free set the derivatives that
+    are constants (joint positions, line offsets, leg lengths, which readings a
+    drift, gauge position or gain acts on; :class:`_FreeSet`). Built once per
+    layout, free set and whether drift makes time matter; a fit evaluates the model
+    a handful of times with the same ones, so none of it is redone per evaluation."""
+
+    def __init__(self, layout: ReadingsLayout, free: tuple[int, ...] | None,
+                 timed: bool) -> None:
+        poses = _pose_index(layout, timed)
+        self.q, self.appr, self.t, self.n, self.gauge = \
+            poses.q, poses.appr, poses.t, poses.n, poses.gauge
+        self.p_index, self.r_index = poses.p_index, poses.r_index
+        self.gauge_position, self.gauge_scale = poses.gauge_position, poses.gauge_scale
+        # the parts remembered between evaluations: those that read no free entry
+        # (a fit changes only those), keyed on the entries they read
+        kind = _free_set(free)
+        self.keeps_lines, self.keeps_joint_terms, self.keeps_frac, self.keeps_gain = \
+            kind.keeps_lines, kind.keeps_joint_terms, kind.keeps_frac, kind.keeps_gain
+        self.key_at = kind.key_at
+        self._fixed: _Fixed | None = None
+        self.free: np.ndarray | None = kind.free
+        if kind.free is None:
+            return
+        fr = kind.free
+        self.drho = _joint_position_tangents(self.q, self.appr, fr)  # (poses, P, 3)
+        self.tilts, self.do, self.dlegs = kind.tilts, kind.do, kind.dlegs
+        self.set_without_drift = kind.set_without_drift
         # only the columns a drift or a gauge's gain acts on, each (n,) per column: a
         # (n, P) array of ones and zeros would cost a long campaign megabytes per plan
-        self.drift_columns = np.flatnonzero(drift)
+        self.drift_columns = kind.drift_columns
         # a reading's hours, for its coordinates along the leg and the gauge axis
-        self.hours = np.tile(layout.t_s / 3600.0, 2)[:, None] if drift.any() else None
+        self.hours = np.tile(layout.t_s / 3600.0, 2)[:, None] if kind.drifts else None
         dfrac = (fr[None, :] == self.gauge_position[:, None]).astype(float)  # (G, P)
         self.dfrac = dfrac if dfrac.any() else None
-        # (not _GSCALE: its unused diagonal holds 0, a joint offset's position)
-        self.gain_columns = np.array([c for c, k in enumerate(free) if k in _GSCALE_SET],
-                                     dtype=np.intp)
+        self.gain_columns = kind.gain_columns
         self.dgain = (fr[self.gain_columns][None, :] == self.gauge_scale[:, None]) * 1e-6 \
             if len(self.gain_columns) else None  # (n, columns)
 

@@ -420,14 +420,22 @@ def _shared_layout(config: ProtocolConfig, machine: MachineSpec, seconds_per_pos
 
 def _layout(config: ProtocolConfig, machine: MachineSpec,
             seconds_per_posture: float) -> ReadingsLayout:
-    rows = [(k, step, gauge) for k, step in enumerate(reading_steps(config, machine))
-            for gauge in step.gauges]
-    parsed = {key: Gauge.parse(key) for key in {gauge for _, _, gauge in rows}}
-    gauges = [parsed[gauge] for _, _, gauge in rows]
+    reads = reading_steps(config, machine)
+    keys = [gauge for step in reads for gauge in step.gauges]
+    parsed = {key: Gauge.parse(key) for key in set(keys)}
+    gauges = [parsed[key] for key in keys]
+    # a reading step's values converted once and repeated for each of its gauges (a
+    # scan reads hundreds of postures): the same values as converting every row
+    count = [len(step.gauges) for step in reads]
+
+    def each(values: list, dtype: type) -> np.ndarray:
+        return np.repeat(np.array(values, dtype=dtype), count, axis=0)
+
     return ReadingsLayout.build(
-        q_mm=[step.q_mm for _, step, _ in rows], leg=[AXES.index(g.leg) for g in gauges],
-        gauge_axis=[AXES.index(g.axis) for g in gauges],
-        t_s=[k * seconds_per_posture for k, _, _ in rows],
-        cycle=[step.cycle for _, step, _ in rows], tcp_mm=[step.tcp_mm for _, step, _ in rows],
-        approach=[step.approach for _, step, _ in rows],
-        posture=[step.posture for _, step, _ in rows])
+        q_mm=each([step.q_mm for step in reads], float).reshape(-1, 3),
+        leg=[AXES.index(g.leg) for g in gauges], gauge_axis=[AXES.index(g.axis) for g in gauges],
+        t_s=each([k * seconds_per_posture for k in range(len(reads))], float),
+        cycle=each([step.cycle for step in reads], int),
+        tcp_mm=each([step.tcp_mm for step in reads], float).reshape(-1, 3),
+        approach=each([step.approach for step in reads], int).reshape(-1, 3),
+        posture=each([step.posture for step in reads], object))

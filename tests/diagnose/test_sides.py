@@ -8,6 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import fit
@@ -59,3 +60,30 @@ def test_resolving_the_side_fits_the_backlash_better_than_leaving_it_in_the_midd
     names = ("joint_offset.x", "joint_offset.y", "joint_offset.z", "backlash.x")
     middle = fit_verdict(fit(obs, names, weighting="gls", noise=d.noise))
     assert d.final.statistic < middle.statistic - 5
+
+
+def test_a_problem_with_another_side_is_the_one_built_anew_with_it():
+    """Problem.with_side shares the weighting, gauge sums and repeat groups (none reads
+    the side): every quantity a fit reads is the one a problem built from scratch
+    with that side gives, to the last digit."""
+    _, obs = csv_campaign(3)
+    problem = Problem(obs)
+    side = obs.layout.lost_motion_side.copy()
+    side[:2, 0] = 1  # the resolved side of the two first readings
+    shared = problem.with_side(side)
+    fresh = Problem(readings_observations(MACHINE, replace(obs.layout, side=side), obs.values),
+                    problem.noise)
+    theta = vector({**OFFSETS, "backlash.x": BACKLASH})[None]
+    names = ("joint_offset.x", "joint_offset.y", "joint_offset.z", "backlash.x")
+    assert shared.obs.layout.side is side and problem.obs.layout.side is None
+    assert shared.obs.layout.repeat_group is problem.obs.layout.repeat_group
+    # the side matters here: the backlash acts on the two readings it moved
+    assert not np.array_equal(shared.residuals(theta), problem.residuals(theta))
+    assert np.array_equal(shared.residuals(theta), fresh.residuals(theta))
+    assert np.array_equal(shared.weighted_residuals(theta), fresh.weighted_residuals(theta))
+    assert np.array_equal(shared.jacobian(theta[0], names), fresh.jacobian(theta[0], names))
+    assert shared.group_space is not None and fresh.group_space is not None
+    assert np.array_equal(shared.group_space.residuals(theta), fresh.group_space.residuals(theta))
+    assert np.array_equal(shared.group_space.jacobian_at(theta[0], names),
+                          fresh.group_space.jacobian_at(theta[0], names))
+    assert shared.group_space.constant_rss == fresh.group_space.constant_rss
