@@ -31,17 +31,12 @@ from ogacq.model.parameters import NOMINAL, indices
 
 def _cells(labels: RowLabels) -> tuple[list[str], np.ndarray]:
     """The cells read ("y_x at max"), in order of their first reading, and each
-    reading's cell (index into them): codes rather than a name per reading (a scan has
-    thousands of readings, and numpy's string functions cost a command 1.5 ms of
-    import)."""
-    postures = labels.posture.astype(str)
-    names, posture = np.unique(postures, return_inverse=True)
-    code = (labels.gauge_axis * 3 + labels.leg) * len(names) + posture.ravel()
-    _, first, cell = np.unique(code, return_index=True, return_inverse=True)
+    reading's cell (index into them)."""
+    _, first, cell = np.unique(labels.cell_codes(), return_index=True, return_inverse=True)
     order = np.argsort(first)
     rank = np.empty(len(order), dtype=int)
     rank[order] = np.arange(len(order))
-    gauges = labels.gauge
+    gauges, postures = labels.gauge, labels.posture.astype(str)
     return ([f"{gauges[k]} at {postures[k]}" for k in first[order].tolist()],
             rank[cell.ravel()])
 

@@ -113,8 +113,9 @@ def _session_input(path: Path, machine: MachineSpec | None, machine_path: str | 
     if session.warnings:  # logging imported where a file has something to say
         from ogacq.logs import logger
 
+        log = logger(__name__)
         for warning in session.warnings:
-            logger(__name__).warning(warning)
+            log.warning(warning)
     recorded = session_machine(session)
     if machine is not None and not other_geometry:
         given, own = geometry_dict(machine), geometry_dict(recorded)
