@@ -18,17 +18,18 @@ def say(kind: str, message: str) -> None:
     print(f"ogacq: {kind}: {plain(text)}", file=sys.stderr, flush=True)
 
 
-# What a shell reports for a process its pipe's reader left (128 + SIGPIPE), as
-# `git log | head` does: nothing went wrong that the user needs to hear of.
+# What a shell reports for a process its pipe's reader left, as `git log | head` does:
+# nothing went wrong that the user needs to hear of. 128 + N for a command ended by
+# signal N (bash(1), "EXIT STATUS"); SIGPIPE is 13 (signal(7)).
 SIGPIPE_EXIT = 141
 
 
 def reader_gone() -> bool:
     """Whether standard output's reader has left (``ogacq history | head``): the
-    system marks the writing end of a pipe or socket whose reader closed with an
-    error (``poll``). Then standard output is pointed at the null device, so that the
-    interpreter's last flush finds nowhere to fail (Python's documentation, "Note on
-    SIGPIPE")."""
+    system marks the writing end of a pipe whose reading end closed with POLLERR
+    (poll(2)), and a socket whose peer closed with POLLHUP. Then standard output is
+    pointed at the null device, so that the interpreter's last flush finds nowhere to
+    fail (Python's documentation, "Note on SIGPIPE")."""
     try:
         fd = sys.stdout.fileno()
         poller = select.poll()  # not on Windows, where a pipe has no SIGPIPE either
@@ -43,7 +44,8 @@ def reader_gone() -> bool:
 
 def pointed_at_null_device() -> bool:
     """Whether standard output is the null device: where rich points it when the
-    reader left (``Console.on_broken_pipe``), before its exit 1."""
+    reader left (rich 14, ``Console.on_broken_pipe``), before its exit 1; click
+    (8.x, ``Command.main``) exits 1 too, leaving standard output as it was."""
     try:
         here, null = os.fstat(sys.stdout.fileno()), os.stat(os.devnull)
     except (AttributeError, OSError, ValueError):
