@@ -151,6 +151,9 @@ class _Drive:
         self.requests: list[bytes] = []  # every request PDU, as received
         self.lock = threading.RLock()
         self.powered = True
+        #: The next this many requests are answered exception 6, "server device busy",
+        #: and not executed (Modbus Application Protocol V1.1b3 §7).
+        self.busy_replies = 0
 
     def power_off(self) -> None:
         """Switched off: a request still on its way (sent before the line was cut)
@@ -165,6 +168,9 @@ class _Drive:
                 return bytes([pdu[0] | 0x80, defines.SLAVE_DEVICE_FAILURE])
             self.requests.append(bytes(pdu))
             fc = pdu[0]
+            if self.busy_replies > 0:
+                self.busy_replies -= 1
+                return bytes([fc | 0x80, defines.SLAVE_DEVICE_BUSY])
             if fc not in self.functions:
                 return bytes([fc | 0x80, defines.ILLEGAL_FUNCTION])
             if fc == 8:  # diagnostics, sub-function 0: return query data (echo)
