@@ -45,6 +45,8 @@ from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError
 log = logging.getLogger(__name__)
 
 Targets = Mapping[str, float] | Sequence[float]
+#: Registers one FC 3 request may read (Modbus Application Protocol V1.1b3 §6.3).
+MAX_READ_REGISTERS = 125
 
 
 @dataclass(frozen=True)
@@ -656,14 +658,19 @@ class AxisController:
     # ================================================================ internals: registers
 
     def _plan_reads(self, names: Iterable[str]) -> list[_Block]:
-        """Contiguous read requests covering ``names`` (gaps up to the profile's limit)."""
+        """Contiguous read requests covering ``names`` (gaps up to the profile's limit),
+        none longer than the 125 registers one FC 3 request may ask for (Modbus
+        Application Protocol V1.1b3 §6.3: quantity 1 to 125, else exception 3)."""
         specs = sorted((self.profile.value(n) for n in names), key=lambda s: s.address)
         blocks: list[_Block] = []
         gap = self.profile.status.max_gap_registers
         for spec in specs:
-            if blocks and spec.address - (blocks[-1].address + blocks[-1].count) <= gap:
+            end = spec.address + spec.words
+            if blocks and spec.address - (blocks[-1].address + blocks[-1].count) <= gap \
+                    and max(end, blocks[-1].address + blocks[-1].count) - blocks[-1].address \
+                    <= MAX_READ_REGISTERS:
                 last = blocks[-1]
-                end = max(last.address + last.count, spec.address + spec.words)
+                end = max(last.address + last.count, end)
                 blocks[-1] = _Block(last.address, end - last.address, (*last.names, spec.name))
             else:
                 blocks.append(_Block(spec.address, spec.words, (spec.name,)))
