@@ -45,6 +45,8 @@ from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError
 log = logging.getLogger(__name__)
 
 Targets = Mapping[str, float] | Sequence[float]
+#: Registers one FC 3 request may read (Modbus Application Protocol V1.1b3 §6.3).
+MAX_READ_REGISTERS = 125
 
 
 @dataclass(frozen=True)
@@ -151,6 +153,11 @@ class AxisController:
         # switched off and on: an incremental encoder then counts from anywhere).
         self._homed_latch = {a: False for a in self.axes}
         self._losses_at_home = {a: 0 for a in self.axes}
+        # Whether this client itself switched the axis's power stage off (disable, stop,
+        # alarm reset) since it last enabled it. A drive seen with its servo off that this
+        # client did not switch off was switched off and on, or faulted: a drive with no
+        # homed flag then counts as unhomed (see _make_poll).
+        self._servo_off_by_client = {a: True for a in self.axes}
         #: Axes whose home offset was written but not yet made effective by a homing.
         self.rehome_required: set[str] = set()
         self._blocks = self._plan_reads(self.profile.status_values())
@@ -204,12 +211,21 @@ class AxisController:
         """Servo on (and whatever the profile needs before: Modbus control, CiA 402 states)."""
         chosen = self._axes(axes)
         self._forget_written(chosen)
+        # Look before switching on: a drive that went off without this client's doing
+        # (switched off and on between two polls) must be seen off, or the homing latch
+        # of a drive with no homed flag would outlive its reference.
+        for axis in chosen:
+            self._poll(axis, self._flag_blocks)
         self._run("enable", chosen, common={"enable_timeout_s": timeout_s})
+        for axis in chosen:
+            self._servo_off_by_client[axis] = False
 
     def disable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
         """Servo off."""
         chosen = self._axes(axes)
         self._forget_written(chosen)
+        for axis in chosen:
+            self._servo_off_by_client[axis] = True
         self._run("disable", chosen, common={"enable_timeout_s": timeout_s})
 
     def home(
@@ -298,7 +314,8 @@ class AxisController:
             self._run("move", self._longest_travel_first(targets), per_axis=params)
             if not wait:
                 return {axis: self._as_status(poll) for axis, poll in before.items()}
-            return self.wait_in_position(targets, timeout_s=timeout_s)
+            return self.wait_in_position(targets, timeout_s=timeout_s,
+                                         require_homed=require_homed)
         except DriverError:
             # The axes start together: one failing must not leave the others going.
             self._stop_after_failure(tuple(targets))
@@ -328,9 +345,14 @@ class AxisController:
                 for axis, q in self._targets(targets_mm).items()}
 
     def wait_in_position(
-        self, targets_mm: Targets | Iterable[str] | None = None, *, timeout_s: float | None = None
+        self, targets_mm: Targets | Iterable[str] | None = None, *, timeout_s: float | None = None,
+        require_homed: bool = True,
     ) -> dict[str, AxisStatus]:
-        """Poll until every axis is in position (and at its target, if given) and not moving."""
+        """Poll until every axis is in position (and at its target, if given) and not moving.
+
+        An axis whose servo goes off on the way, or (``require_homed``) that stops being
+        homed, raises at once: a drive switched off and on mid-move stands "in position"
+        at a counter that restarted, which no arrival may be taken from."""
         targets: dict[str, float | None]
         if targets_mm is None:
             targets = dict.fromkeys(self.axes)
@@ -367,6 +389,16 @@ class AxisController:
                         code=poll.alarm_code,
                         where=self._where(axis),
                     )
+                if not poll.flags["servo_on"] or (require_homed and not poll.homed):
+                    lost = "its servo went off" if not poll.flags["servo_on"] else \
+                        "it is no longer homed"
+                    raise DeviceFault(
+                        f"axis {axis}: {lost} while waiting for in-position (switched off "
+                        "and on, an emergency stop or another master?); its position is "
+                        "not vouched for",
+                        code="servo_off" if not poll.flags["servo_on"] else "not_homed",
+                        where=self._where(axis),
+                    )
                 target = targets[axis]
                 if poll.settled and poll.position_mm is not None and (
                         target is None or abs(poll.position_mm - target) <= tolerance):
@@ -390,6 +422,8 @@ class AxisController:
         """Stop every axis (all are tried even if one fails; the first error is raised after)."""
         errors: list[DriverError] = []
         chosen = self._axes(axes)
+        for axis in chosen:  # a CiA 402 quick stop may end in "switch on disabled"
+            self._servo_off_by_client[axis] = True
         command = self.profile.commands["stop"]
         for steps in (command.start, command.finish):
             for axis in chosen:
@@ -400,6 +434,9 @@ class AxisController:
                     errors.append(exc)
         if errors:
             raise errors[0]
+        for axis in chosen:  # stopped in "quick stop active" (605Ah 5-8): still switched on
+            if self._poll(axis, self._flag_blocks).flags["servo_on"]:
+                self._servo_off_by_client[axis] = False
 
     def _stop_after_failure(self, axes: Sequence[str]) -> None:
         try:
@@ -416,6 +453,8 @@ class AxisController:
         if cleared:
             log.info("resetting alarms %s", {a: hex(c) for a, c in cleared.items()})
             self._forget_written(tuple(cleared))
+            for axis in cleared:
+                self._servo_off_by_client[axis] = True  # a CiA 402 reset leaves it disabled
             self._run("alarm_reset", tuple(cleared))
         return cleared
 
@@ -619,14 +658,19 @@ class AxisController:
     # ================================================================ internals: registers
 
     def _plan_reads(self, names: Iterable[str]) -> list[_Block]:
-        """Contiguous read requests covering ``names`` (gaps up to the profile's limit)."""
+        """Contiguous read requests covering ``names`` (gaps up to the profile's limit),
+        none longer than the 125 registers one FC 3 request may ask for (Modbus
+        Application Protocol V1.1b3 §6.3: quantity 1 to 125, else exception 3)."""
         specs = sorted((self.profile.value(n) for n in names), key=lambda s: s.address)
         blocks: list[_Block] = []
         gap = self.profile.status.max_gap_registers
         for spec in specs:
-            if blocks and spec.address - (blocks[-1].address + blocks[-1].count) <= gap:
+            end = spec.address + spec.words
+            if blocks and spec.address - (blocks[-1].address + blocks[-1].count) <= gap \
+                    and max(end, blocks[-1].address + blocks[-1].count) - blocks[-1].address \
+                    <= MAX_READ_REGISTERS:
                 last = blocks[-1]
-                end = max(last.address + last.count, spec.address + spec.words)
+                end = max(last.address + last.count, end)
                 blocks[-1] = _Block(last.address, end - last.address, (*last.names, spec.name))
             else:
                 blocks.append(_Block(spec.address, spec.words, (spec.name,)))
@@ -657,6 +701,16 @@ class AxisController:
         fault = any(flags[f] for f in self.profile.status.fault_flags)
         if fault:
             self._forget_written([axis])
+        if "homed" not in flags and not flags["servo_on"] and not fault \
+                and self._homed_latch[axis] and not self._servo_off_by_client[axis]:
+            # Switched off, not by this client and not by a fault it sees: a power cycle
+            # (the drive starts in "switch on disabled" and its incremental encoder counts
+            # from wherever the axis stands) or another master. The drive cannot say
+            # whether it kept its reference, so this client no longer vouches for it.
+            # (A fault is the caller's to judge: the campaign re-homes after an alarm.)
+            log.warning("%s: servo found off without a disable from this client; the "
+                        "homing no longer counts", self._where(axis))
+            self._homed_latch[axis] = False
         alarm_name = self.profile.status.alarm_code
         if alarm_name in values:
             alarm_code = int(values[alarm_name])

@@ -10,10 +10,15 @@ Timing rules:
 - the pymodbus client is built with ``retries=0``: a request is sent once, and
   ``timeout_s`` bounds each attempt;
 - reads are idempotent, so :class:`ModbusLink` repeats them itself, at most
-  ``read_retries`` times, on a missing answer only; a dead device therefore
+  ``read_retries`` times, on a missing answer; a dead device therefore
   reports within ``timeout_s × (read_retries + 1)`` plus the connection attempt;
+- a read answered with exception 6 "server device busy" is asked again after
+  ``timeout_s``, at most ``read_retries`` times too: the Modbus Application
+  Protocol V1.1b3 §7 says the server is engaged in a long-duration command and
+  "the client should retransmit the message later";
 - writes are never repeated: on a real controller a write may act on an edge
-  (home, start a move), so the caller reads back whether it was taken.
+  (home, start a move), so the caller reads back whether it was taken. A write
+  answered "busy" was not executed (§7 again); it is reported as such, not re-sent.
 
 Every write is logged at INFO with the device, address and values.
 """
@@ -59,6 +64,11 @@ EXCEPTION_NAMES = {
     10: "gateway path unavailable",
     11: "gateway target did not respond",
 }
+
+
+def _bare(exc: DriverError) -> str:
+    """An error's message without the ``where`` prefix it was given."""
+    return str(exc).removeprefix(f"{exc.where}: ")
 
 
 @dataclass(frozen=True)
@@ -238,6 +248,15 @@ class ModbusLink:
             self._reads += 1
             try:
                 return self._execute(device_id, what, call)
+            except DeviceBusy as exc:
+                if attempt == attempts:
+                    raise DeviceBusy(f"{_bare(exc)}, still after {attempts} attempt(s) "
+                                     f"{self.timeout_s:g} s apart", code=6,
+                                     where=exc.where) from None
+                self._retries += 1
+                log.warning("%s: %s: device busy (exception 6), asking again in %g s (%d/%d)",
+                            self.where(device_id), what, self.timeout_s, attempt, attempts - 1)
+                time.sleep(self.timeout_s)
             except DeviceTimeout:
                 if attempt == attempts:
                     self._losses += 1
@@ -302,6 +321,9 @@ class ModbusLink:
         self._writes += 1
         try:
             self._execute(device_id, what, call)
+        except DeviceBusy as exc:
+            raise DeviceBusy(f"{_bare(exc)}: the device did not execute it; not re-sent",
+                             code=6, where=exc.where) from None
         except DeviceTimeout as exc:
             self._losses += 1
             # The write may or may not have been executed: say so, the caller reads back.

@@ -78,6 +78,8 @@ AXIS_NAMES = ("x", "y", "z")
 #: holding registers (3), write coil (5), write register (6), diagnostics (8, not
 #: used by this client), write registers (16). Modbus Application Protocol V1.1b3 §6.
 SUPPORTED_FUNCTIONS = (1, 3, 5, 6, 8, 16)
+#: Registers one FC 16 request may write: 1 to 123 (Modbus Application Protocol V1.1b3 §6.12).
+MAX_WRITE_REGISTERS = 123
 
 
 class ProfileError(InputError):
@@ -720,6 +722,11 @@ class _Checks:
                         or a.address + a.words != b.address:
                     raise self.fail(f"{key}.to", f"{prev!r} and {nxt!r} are not contiguous "
                                     "registers")
+            count = sum(values[n].words for n in refs)
+            if count > MAX_WRITE_REGISTERS:
+                raise self.fail(f"{key}.to", f"{count} registers: one FC 16 request writes "
+                                f"{MAX_WRITE_REGISTERS} at most (Modbus Application Protocol "
+                                "V1.1b3 §6.12)")
             vals = tuple(self._step_value(v, values[n], f"{key}.value[{i}]")
                          for i, (n, v) in enumerate(zip(refs, given, strict=True)))
             return CommandStep(op, to=tuple(refs), value=vals, edge=s.get("edge", False))

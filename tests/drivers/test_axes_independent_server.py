@@ -245,7 +245,8 @@ def test_kinco_sequences_at_its_own_addresses_over_rtu() -> None:
     bridge = PtyBridge(baudrate=None).start()
     server = EmulatorServer("rtu", serial_path=bridge.server_path,
                             baudrate=profile.transport.baudrate)
-    drives = {a: server.add(u, Cia402Drive, addresses=Cia402Drive.KINCO, high_first=True)
+    drives = {a: server.add(u, Cia402Drive, addresses=Cia402Drive.KINCO,
+                                 speed_in_dec=True)
               for a, u in profile.device_ids.items()}
     server.start()
     link = ModbusLink.for_profile(profile, transport="rtu", serial_port=bridge.client_path,
@@ -261,7 +262,8 @@ def test_kinco_sequences_at_its_own_addresses_over_rtu() -> None:
                                  fc06(0x3100, 0x0F), fc06(0x3500, 1)]
         n = len(x.requests)
         c.move_to({"x": 1.5}, speed_mm_s=20.0)
-        assert _writes(x, n) == [fc16(0x4A00, 0, 2000), fc16(0x4000, 0, 150),
+        # 20 mm/s = 2000 increments/s = 32768 DEC; 32-bit values low word first [FD3/CD3 §12.3]
+        assert _writes(x, n) == [fc16(0x4A00, 32768, 0), fc16(0x4000, 150, 0),
                                  fc06(0x3100, 0x1F), fc06(0x3100, 0x0F)]
         n = len(x.requests)
         c.stop(["x"])

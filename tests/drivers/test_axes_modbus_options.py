@@ -102,3 +102,36 @@ def test_the_simulator_serves_the_kinco_map_over_rtu() -> None:
     finally:
         link.close()
         server.stop()
+
+
+def test_status_reads_stay_within_125_registers_a_request() -> None:
+    """FC 3 reads 1 to 125 registers (Modbus Application Protocol V1.1b3 §6.3): status
+    values chained within the profile's gap allowance get a second request beyond it."""
+    raw = tomllib.loads(Path(load_profile("iai-pcon").source).read_text(encoding="utf-8"))
+    raw["status"]["max_gap_registers"] = 32
+    link = ModbusLink.for_profile(load_profile("iai-pcon"), transport="tcp", port=1)
+
+    def reads(offsets: list[int]) -> tuple[tuple[int, int], ...]:
+        for i, offset in enumerate(offsets):  # each 32 registers after the one before
+            raw["values"][f"far_{i}"] = {"address": 0x9000 + offset, "function": "holding",
+                                         "type": "u16", "unit": "raw", "access": "r"}
+            raw["flags"][f"far_{i}"] = {"value": f"far_{i}", "bit": 0}
+        return AxisController(parse_profile(raw, source="variant"), link).status_reads
+
+    assert reads([40, 73, 106, 124]) == ((0x9000, 125),)
+    assert reads([40, 73, 106, 139]) == ((0x9000, 107), (0x9000 + 139, 1))
+
+
+def test_a_write_block_beyond_123_registers_is_refused_when_the_profile_loads() -> None:
+    """FC 16 writes 1 to 123 registers (V1.1b3 §6.12)."""
+    raw = tomllib.loads(Path(load_profile("iai-pcon").source).read_text(encoding="utf-8"))
+    names = [f"block_{i}" for i in range(62)]  # 62 × 2 = 124 registers
+    for i, name in enumerate(names):
+        raw["values"][name] = {"address": 0xA000 + 2 * i, "function": "holding",
+                               "type": "s32", "unit": "raw", "access": "rw"}
+    raw["commands"]["move"]["start"] = [{"op": "write_block", "to": names,
+                                         "value": [0] * len(names), "edge": True}]
+    with pytest.raises(ProfileError, match=r"\[commands.move.start\[0\].to\] 124 registers"):
+        parse_profile(raw, source="iai-pcon variant")
+    raw["commands"]["move"]["start"][0].update(to=names[:61], value=[0] * 61)
+    parse_profile(raw, source="iai-pcon variant")  # 122 registers: one request

@@ -61,7 +61,8 @@ def _broken(tmp_path: Path, old: str, new: str, base: str = "iai-pcon") -> Path:
             "values.position_actual.address",
             "must be a whole number",
         ),
-        ("bit = 12 }  # SV [ME0162 DSS1]", "bit = 16 }", "flags.servo_on.bit", "must be 0..15"),
+        ('"device_status_1", bit = 12 }', '"device_status_1", bit = 16 }', "flags.servo_on.bit",
+         "must be 0..15"),
         (
             'value = "expansion_status", bit = 5',
             'value = "status_ext", bit = 5',

@@ -151,6 +151,9 @@ class _Drive:
         self.requests: list[bytes] = []  # every request PDU, as received
         self.lock = threading.RLock()
         self.powered = True
+        #: The next this many requests are answered exception 6, "server device busy",
+        #: and not executed (Modbus Application Protocol V1.1b3 §7).
+        self.busy_replies = 0
 
     def power_off(self) -> None:
         """Switched off: a request still on its way (sent before the line was cut)
@@ -165,6 +168,9 @@ class _Drive:
                 return bytes([pdu[0] | 0x80, defines.SLAVE_DEVICE_FAILURE])
             self.requests.append(bytes(pdu))
             fc = pdu[0]
+            if self.busy_replies > 0:
+                self.busy_replies -= 1
+                return bytes([fc | 0x80, defines.SLAVE_DEVICE_BUSY])
             if fc not in self.functions:
                 return bytes([fc | 0x80, defines.ILLEGAL_FUNCTION])
             if fc == 8:  # diagnostics, sub-function 0: return query data (echo)
@@ -323,8 +329,10 @@ class Cia402Drive(_Drive):
                0x607A: 2, 0x607C: 2, 0x6081: 2}
 
     #: Kinco FD's Modbus addresses of the objects it maps (Kinco FD servo driver user
-    #: manual, Modbus address table; 0x3100/0x3200 quoted in issue 11, the others
-    #: recalled, as in kinco-fd.toml). Objects it leaves out are not served.
+    #: manual, Modbus address table; 0x3100/0x3200 in the FD3/CD3 manual's §12.3 example
+    #: frames, the others recalled, as in kinco-fd.toml). Objects it leaves out are not
+    #: served. Kinco sends 32-bit values low word first (the same §12.3 FC 0x10 example)
+    #: and takes speeds in DEC (``speed_in_dec``).
     KINCO = {0x6040: 0x3100, 0x6041: 0x3200, 0x6060: 0x3500, 0x6064: 0x3700,
              0x607A: 0x4000, 0x6081: 0x4A00}
 
@@ -334,11 +342,15 @@ class Cia402Drive(_Drive):
 
     def __init__(self, slave, *, functions: tuple[int, ...] = (3, 6, 16),  # type: ignore[no-untyped-def]
                  home_sign: int = -1, addresses: dict[int, int] | None = None,
-                 high_first: bool = False, quick_stop_option_code: int = 2) -> None:
+                 high_first: bool = False, quick_stop_option_code: int = 2,
+                 speed_in_dec: bool = False) -> None:
         super().__init__(slave)
         self.functions = functions
         self.home_sign = home_sign  # position at the home point = home_sign × home offset
         self.high_first = high_first
+        # Kinco FD5/FD5P object tables: DEC = RPM × 512 × R / 1875 (R increments per
+        # revolution), so 1 increment/s is 512 × 60 / 1875 DEC whatever R
+        self.counts_per_s_per_speed_unit = 1875 / (512 * 60) if speed_in_dec else 1.0
         # object index -> Modbus address (at the index, unless the drive maps them elsewhere)
         self.at = dict(addresses) if addresses else {i: i for i in self.OBJECTS}
         for index, address in self.at.items():
@@ -509,7 +521,8 @@ class Cia402Drive(_Drive):
                     self.state, self.error = "fault", 0x8612
                     self.motion.cancel()
                     return
-                self.motion.go(float(target), float(self.obj(0x6081)))
+                self.motion.go(float(target),
+                               self.obj(0x6081) * self.counts_per_s_per_speed_unit)
                 self.ack = True
 
     def _physical_zero(self) -> float:
