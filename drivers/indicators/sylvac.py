@@ -16,7 +16,9 @@ The reply has no fixed width, so a lost digit still leaves a valid frame. A
 lost fractional digit is caught because the number of decimals is pinned to
 one value (default 3 in mm, 0.001 mm; 5 in inch, 0.00005 in; the gauge's
 RES2 setting). A digit lost from the integer part cannot be detected from the
-frame alone; the 7E2 line's parity is the only guard there.
+frame alone; the 7E2 line's parity is the only guard there, and only because the
+driver has the kernel check it (pyserial leaves it unchecked: see
+:func:`ogacq_drivers.indicators.base.flag_line_errors`).
 
 At power-on the instrument sends one identification line, ``SY`` instrument
 ``.`` option {``.`` option} CR, e.g. ``SY235.1`` (same manual, "Identification"):
