@@ -30,7 +30,14 @@ from typing import Any
 
 import pytest
 
-from ogacq_drivers.errors import DeviceFault, DeviceTimeout, FrameError, UnitError
+from ogacq_drivers.errors import (
+    DeviceBusy,
+    DeviceFault,
+    DeviceTimeout,
+    DriverError,
+    FrameError,
+    UnitError,
+)
 from ogacq_drivers.indicators import open_indicator
 
 INCH = Decimal("25.4")  # mm per inch, exact by definition
@@ -207,3 +214,22 @@ def test_uwave_frames_of_other_transmitters_and_status(far_end: list[ScriptedPty
     end.push(b"ST10001FFFFFFFFFF04\r")
     with pytest.raises(DeviceFault, match="04"):
         gauge.read()
+
+
+def test_uwave_without_a_channel_refuses_once_two_transmitters_are_heard(
+    far_end: list[ScriptedPty],
+) -> None:
+    """UW: a data frame names its transmitter (DT1 GG CC). A gauge set up with no channel
+    takes the one transmitter it hears; once a second one is heard, no frame can be
+    vouched for as this gauge's, so the reading stops instead of taking another leg's
+    value."""
+    gauge, end = _gauge(far_end, "uwave", [], unit="mm")
+    end.push(b"DT10001+00000011.88M\r")
+    assert gauge.read().value_mm == 11.88
+    end.push(b"DT10002+00000022.22M\r")
+    with pytest.raises(DriverError, match="0001 and 0002.*set its channel") as caught:
+        gauge.read()
+    assert not isinstance(caught.value, FrameError | DeviceBusy)  # not retried as garble
+    end.push(b"DT10001+00000011.88M\r")
+    with pytest.raises(DriverError, match="0001 and 0002"):
+        gauge.read()  # nor is the first one known to be this gauge's any more
