@@ -233,3 +233,14 @@ def test_uwave_without_a_channel_refuses_once_two_transmitters_are_heard(
     end.push(b"DT10001+00000011.88M\r")
     with pytest.raises(DriverError, match="0001 and 0002"):
         gauge.read()  # nor is the first one known to be this gauge's any more
+
+
+def test_sylvac_identification_of_another_maker_is_not_a_value(
+    far_end: list[ScriptedPty],
+) -> None:
+    """Sylvac's own Opto-RS page (Sylvac Power manual, p. 15, "Identification") writes
+    the line "XX" instrument "." OPT1 {"." OPT2} CR with "XX: Manufacturer" (the Bowers
+    copy, p. 12, shows Sylvac's "SY"): an instrument sold under another maker's letters
+    identifies itself with them when switched on, and that line is not a garbled reply."""
+    gauge, _ = _gauge(far_end, "sylvac", [b"KA203.2.1\r+1.000\r"], unit="mm")
+    assert gauge.read().value_mm == 1.0
