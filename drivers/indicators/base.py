@@ -14,6 +14,7 @@
 from __future__ import annotations
 
 import logging
+import os
 import time
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator
@@ -38,6 +39,7 @@ try:  # termios.error is not an OSError, and pyserial lets it escape from tcflus
 
     _LINK_FAILURES: tuple[type[BaseException], ...] = (OSError, termios.error)
 except ImportError:  # pragma: no cover - Windows
+    termios = None  # type: ignore[assignment]
     _LINK_FAILURES = (OSError,)
 
 log = logging.getLogger(__name__)
@@ -255,6 +257,51 @@ class FrameReader:
         return None
 
 
+# What a byte received with a parity or framing error (or a break) is read as once
+# flag_line_errors() has set the port up: termios(3), "If neither IGNPAR nor PARMRK is
+# set, read a character with a parity error or framing error as \0". No frame of any
+# gauge protocol here has a NUL in it.
+LINE_ERROR_BYTE = 0
+
+
+def flag_line_errors(link: serial.Serial, *, where: str) -> bool:
+    """Have the kernel read a byte received with a parity or framing error as NUL.
+
+    pyserial (3.5, serialposix ``_reconfigure_port``) clears INPCK each time it
+    configures a port, and Linux then passes such a byte on as if it were good (n_tty
+    ``n_tty_receive_parity_error``; the 8250 UART driver does not even look for
+    parity and framing errors without INPCK): the 7E2 parity of a Sylvac line guarded
+    nothing, and a wrong baud rate gave plausible characters. Setting INPCK (IGNPAR and
+    PARMRK clear) turns each such byte into a NUL, which no frame grammar accepts.
+    Links without a terminal (``socket://``, ``loop://``, ``rfc2217://``, Windows) are
+    left alone. Returns whether the port is a terminal set so.
+    """
+    fd = getattr(link, "fd", None)
+    if termios is None or not isinstance(fd, int) or fd < 0 or not os.isatty(fd):
+        return False
+    with link_errors(where, "setting up parity and framing checks"):
+        attributes = termios.tcgetattr(fd)
+        iflag = attributes[0]
+        wanted = (iflag | termios.INPCK) & ~(termios.IGNPAR | termios.PARMRK)
+        if wanted != iflag:
+            attributes[0] = wanted
+            termios.tcsetattr(fd, termios.TCSANOW, attributes)
+    return True
+
+
+def refuse_line_errors(frame: bytes, *, where: str) -> bytes:
+    """``frame`` unless it holds a byte the kernel flagged (:func:`flag_line_errors`)."""
+    if LINE_ERROR_BYTE in frame:
+        raise FrameError(
+            "a byte arrived with a parity or framing error (read as NUL): check the line "
+            "settings (baud rate, data bits, parity, stop bits) against the gauge's and "
+            "the cable; a break (cable plugged in or powered up) reads the same",
+            where=where,
+            frame=frame,
+        )
+    return frame
+
+
 @contextmanager
 def link_errors(where: str, action: str) -> Iterator[None]:
     """Turn transport failures (pyserial, OS, termios) into :class:`LinkError`."""
@@ -295,11 +342,16 @@ class SerialIndicator:
             log.debug("%s: link timeout %r -> %s s", where, link.timeout, POLL_S)
             with link_errors(where, "configuring the link"):
                 link.timeout = POLL_S
+        # After the timeout above: pyserial clears INPCK whenever it reconfigures.
+        self._flags_line_errors = flag_line_errors(link, where=where)
         self._reader = FrameReader(link, where=where)
         self._cut_by_flush = False  # set by drivers of pushed streams when they flush
 
     def flush_input(self) -> None:
-        """Discard whatever the gauge sent before now."""
+        """Discard whatever the gauge sent before now (and set the port to flag line
+        errors again, should anything have reconfigured it since)."""
+        if self._flags_line_errors:
+            flag_line_errors(self.link, where=self.where)
         self._reader.discard()
 
     def close(self) -> None:
@@ -326,7 +378,7 @@ class SerialIndicator:
             self.link.write(data)
 
     def _read_frame(self, deadline: float) -> bytes:
-        return self._reader.read_frame(deadline)
+        return refuse_line_errors(self._reader.read_frame(deadline), where=self.where)
 
     def _read_decoded(self, deadline: float, decode: Callable[..., T]) -> tuple[bytes, T]:
         """The next frame and what ``decode`` makes of it. On a line the device

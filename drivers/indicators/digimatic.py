@@ -29,6 +29,11 @@ mm" and is what this decoder follows.
 The frame carries its unit, so the value is converted from it; a configured unit
 that differs is only a warning (the number stays right, in mm).
 
+What no frame can show (99MAF600B, 6.2.1, "Tips"): at 0.00005 in a display has seven
+digits, and a six-digit frame generally leaves out the highest (the tens of inches)
+unless the instrument is set to send it; a value of 10 in or more then reads 10 in
+short. Use Digimatic 2 (eight digits) or mm for such a range.
+
 Bridges either answer any byte with one frame (polled) or stream a frame every
 ~10 ms (streaming, so old frames pile up unread).
 """

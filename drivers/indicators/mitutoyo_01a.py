@@ -4,7 +4,10 @@ The USB-ITN cable answers the same frames, but over USB (it is a HID device,
 not a serial port, whatever ../shared/spec/INSTRUMENTS.md's "virtual-COM mode"
 suggests): see :mod:`ogacq_drivers.indicators.usb_itn`.
 
-Request: the channel digit and CR (``1\\r``). Reply, 13 bytes::
+Request: the channel digit and CR (``1\\r``). Reply, 13 bytes (Mitutoyo QM-Height
+manual No. 99MAF600B, 6.2.2 "USB data output specifications", p. 67: D1 code "0",
+D2 channel, D3 item "A", D4 sign, D5-D12 data with a floating decimal point, D13 CR;
+9600 bps, 8 data bits, no parity, 1 stop bit)::
 
     0 <channel> A <sign> <8 characters, floating decimal point> CR
     01A+0000.123\\r     01A+000.1234\\r (inch)     02A-001.2340\\r
@@ -138,13 +141,20 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
     return encode_reply(value, decimals=decimals, channel=channel or "1")
 
 
-#: The frames of INSTRUMENTS.md, 01A (the error codes there are one informal source, L).
+#: The frames of the QM-Height manual and of INSTRUMENTS.md, 01A (the error codes there
+#: are one informal source, L).
+_QM = "QM-Height manual 99MAF600B, 6.2.2 p. 67"
 CODEC = Codec(
     decode,
     encode,
     examples=(
-        Example(b"01A+0000.123\r", "INSTRUMENTS.md 01A: mm, 0.001", value_mm=0.123),
-        Example(b"01A+000.1234\r", "INSTRUMENTS.md 01A: inch", value_mm=3.13436, unit="inch"),
+        Example(b"01A+0000.125\r", f"{_QM}: mm at 0.005, 0.125", value_mm=0.125),
+        Example(b"01A+00.12345\r", f"{_QM}: inch at 0.00005, 0.12345", value_mm=3.13563,
+                unit="inch"),
+        Example(b"01A+0000.123\r", f"{_QM}: mm at 0.001, 0.123 (and INSTRUMENTS.md)",
+                value_mm=0.123),
+        Example(b"01A+000.1234\r", f"{_QM}: inch at 0.0001, 0.1234 (and INSTRUMENTS.md)",
+                value_mm=3.13436, unit="inch"),
         Example(b"01A-001.2340\r", "INSTRUMENTS.md 01A", value_mm=-31.3436, unit="inch"),
         Example(b"911\r", "INSTRUMENTS.md 01A errors: no data from the gauge",
                 error=DeviceFault),

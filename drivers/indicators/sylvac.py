@@ -16,11 +16,15 @@ The reply has no fixed width, so a lost digit still leaves a valid frame. A
 lost fractional digit is caught because the number of decimals is pinned to
 one value (default 3 in mm, 0.001 mm; 5 in inch, 0.00005 in; the gauge's
 RES2 setting). A digit lost from the integer part cannot be detected from the
-frame alone; the 7E2 line's parity is the only guard there.
+frame alone; the 7E2 line's parity is the only guard there, and only because the
+driver has the kernel check it (pyserial leaves it unchecked: see
+:func:`ogacq_drivers.indicators.base.flag_line_errors`).
 
 At power-on the instrument sends one identification line, ``SY`` instrument
 ``.`` option {``.`` option} CR, e.g. ``SY235.1`` (same manual, "Identification"):
-it is recorded and skipped, not counted as a garbled reply.
+it is recorded and skipped, not counted as a garbled reply. ``SY`` is Sylvac's own
+mark: Sylvac's generic Opto-RS page (Sylvac Power manual, p. 15) writes the field
+``XX``, "Manufacturer", so any two capital letters are taken as the maker's.
 """
 
 from __future__ import annotations
@@ -61,8 +65,10 @@ ERROR_MEANINGS = {
 
 _VALUE = re.compile(rb"([+\- ])([0-9]{1,9})\.([0-9]{1,7})([<=>]?)\r")
 _ERROR = re.compile(rb"ERR([0-9])\r")
-# "SY" | instrument (203, 235, 233...) | "." | OPT1 | {"." | OPT2} | CR
-_IDENTIFICATION = re.compile(rb"SY([0-9A-Za-z]+)((?:\.[0-9A-Za-z]+)+)\r")
+# "SY" (the maker, "XX" in the Sylvac Power manual p. 15) | instrument (203, 235,
+# 233...) | "." | OPT1 | {"." | OPT2} | CR. A value starts with its sign, an error
+# with "ERR" and no ".": neither can match.
+_IDENTIFICATION = re.compile(rb"[A-Z]{2}([0-9A-Za-z]+)((?:\.[0-9A-Za-z]+)+)\r")
 
 
 @dataclass(frozen=True, slots=True)

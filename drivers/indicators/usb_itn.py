@@ -26,7 +26,10 @@ several cables repeats transfer for transfer:
   (the second script notes ``918`` "until data is available again": busy).
 
 The value has no unit (an 01A frame): the unit is recorded at setup and the
-decimals must fit it, as for every 01A interface.
+decimals must fit it, as for every 01A interface. The cable carries one gauge, so a
+value names channel 1, always (pytuyo skips the first two characters as "always
+1A"; Mitutoyo's QM-Height manual 99MAF600B, 6.2.2, USB data output: D2 channel
+No. "1" (fixed)): a reply naming another channel is refused, not read.
 """
 
 from __future__ import annotations
@@ -47,7 +50,7 @@ from ogacq_drivers.indicators.base import (
     check_unit,
     checked_reading,
 )
-from ogacq_drivers.indicators.mitutoyo_01a import decode_reply, encode_reply
+from ogacq_drivers.indicators.mitutoyo_01a import Reply01A, decode_reply, encode_reply
 from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
 log = logging.getLogger(__name__)
@@ -65,6 +68,7 @@ REQUEST_COMMAND = 0x03  # data: command + CR (pytuyo)
 READ_COMMAND = b"1\r"
 INFO_COMMAND = b"V\r"
 MESSAGE_VALUE, MESSAGE_INFO, MESSAGE_STATUS = "0", "1", "9"  # first character (pytuyo)
+CABLE_CHANNEL = "1"  # "always 1A" (pytuyo); 99MAF600B 6.2.2: D2 channel "1" (fixed)
 MAX_MESSAGE_BYTES = 64  # a reply is 13 bytes; anything longer without CR is garbage
 POLL_MS = 20  # longest one interrupt read blocks before the deadline is re-checked
 
@@ -91,8 +95,18 @@ def decode(frame: bytes, *, where: str = "") -> Decoded:
     message = classify(frame, where=where)
     if message.kind == MESSAGE_INFO:
         raise FrameError("device information where a value was asked", where=where, frame=frame)
-    reply = decode_reply(frame, where=where)  # 91x raise, classified
+    reply = cable_reply(frame, where=where)  # 91x raise, classified
     return Decoded(reply.value, reply.decimals, None, reply.channel)
+
+
+def cable_reply(frame: bytes, *, where: str = "") -> Reply01A:
+    """The 01A reply of a value message, which must name the cable's one channel."""
+    reply = decode_reply(frame, where=where)
+    if reply.channel != CABLE_CHANNEL:
+        raise FrameError(
+            f"reply names channel {reply.channel}; a USB-ITN cable's gauge is channel "
+            f"{CABLE_CHANNEL}", where=where, frame=frame)
+    return reply
 
 
 def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
@@ -239,7 +253,7 @@ class UsbItn:
             raise FrameError(
                 "device information where a value was asked", where=self.where, frame=message.raw
             )
-        reply = decode_reply(message.raw, where=self.where)  # 91x raise, classified
+        reply = cable_reply(message.raw, where=self.where)  # 91x raise, classified
         return checked_reading(reply.value, reply.decimals, message.raw, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,
                                where=self.where)

@@ -216,7 +216,9 @@ class UWaveReceiver(SerialIndicator):
     """Readings pushed by a U-WAVE-R receiver for one transmitter.
 
     ``channel`` selects the transmitter: ``"CC"`` (any group) or ``"GGCC"``;
-    ``None`` takes frames from any transmitter (the reading records which).
+    ``None`` takes the frames of the one transmitter the receiver hears (the reading
+    records which). Once frames of a second transmitter arrive, a gauge with no channel
+    could be reading either one, so every read fails until the channel is given.
     ``read`` returns the next pushed frame in arrival order; call
     ``flush_input`` (``read_stable`` does) to drop frames pushed before now.
     """
@@ -244,6 +246,8 @@ class UWaveReceiver(SerialIndicator):
         self.channel = channel
         self._cut_by_flush = True  # opening may land mid-frame, as a flush does
         self._last_unit: Unit | None = None
+        self._heard: str | None = None  # with no channel: the transmitter heard first
+        self._second: str | None = None  # ... and another one heard after it
 
     def flush_input(self) -> None:
         super().flush_input()
@@ -261,6 +265,7 @@ class UWaveReceiver(SerialIndicator):
             if not self._is_mine(decoded.gauge_id):
                 log.debug("%s: ignoring frame from transmitter %s", self.where, decoded.gauge_id)
                 continue
+            self._check_one_transmitter(decoded.gauge_id)
             if isinstance(decoded, UWaveStatus):
                 if decoded.is_warning:
                     log.warning(
@@ -297,6 +302,23 @@ class UWaveReceiver(SerialIndicator):
                     self.unit,
                 )
         return decoded.unit
+
+    def _check_one_transmitter(self, gauge_id: str) -> None:
+        """With no channel set, the receiver must carry one transmitter only: with two,
+        a frame cannot be vouched for as this gauge's (it may be another leg's)."""
+        if self.channel is not None:
+            return
+        if self._heard is None:
+            self._heard = gauge_id
+        elif gauge_id != self._heard and self._second is None:
+            self._second = gauge_id
+        if self._second is not None:  # for good: neither one is known to be this gauge's
+            raise DriverError(
+                f"frames from transmitters {self._heard} and {self._second} reach this "
+                "receiver and the gauge has no channel: set its channel (CC or GGCC) to the "
+                "transmitter fitted to this gauge",
+                where=self.where,
+            )
 
     def _is_mine(self, gauge_id: str) -> bool:
         if self.channel is None:

@@ -23,7 +23,7 @@ from ogacq_drivers.errors import (
     UnitError,
 )
 from ogacq_drivers.indicators import open_indicator, read_stable
-from ogacq_drivers.indicators.usb_itn import Message, UsbItn, classify
+from ogacq_drivers.indicators.usb_itn import CODEC, Message, UsbItn, classify
 from ogacq_drivers.sim.gauges import Fault
 from ogacq_drivers.sim.usb_itn import UsbItnEndpoint
 
@@ -192,3 +192,17 @@ def test_messages_are_classified_by_their_first_character(raw: bytes, kind: str)
 def test_other_messages_are_frame_errors(raw: bytes):
     with pytest.raises(FrameError):
         classify(raw, where="itn")
+
+
+def test_a_reply_for_another_channel_is_refused(cable):
+    """A USB-ITN carries one gauge: its replies are channel 1, always (pytuyo: the first
+    two characters of a value are "always 1A"; QM-Height manual 99MAF600B, 6.2.2 USB
+    data output: D2 channel No. "1" (fixed)). A reply naming another channel is not
+    this cable's gauge answering, so it is refused, not read."""
+    endpoint, gauge = cable
+    endpoint.answer_next_with(b"02A+0001.233\r")
+    with pytest.raises(FrameError, match=f"{WHERE}: .*channel 2"):
+        gauge.read()
+    assert gauge.read().value_mm == 1.233  # the next reply is the cable's own again
+    with pytest.raises(FrameError, match="channel 2"):
+        CODEC.decode(b"02A+0001.233\r")
