@@ -42,6 +42,7 @@ __all__ = [
     "read_stable",
     "register",
     "registered",
+    "same_indicator",
     "unregister",
 ]
 
@@ -55,6 +56,7 @@ _BUILT_IN: dict[str, Backend] = {
         simulator="ogacq_drivers.sim.mitutoyo_01a:Mitutoyo01ADevice",
         hints=ConnectionHints(_SERIAL_PORTS, channel="a multiplexer's channel (1-9, A-Z)"),
         settings=LinkSettings(baudrate=9600, bytesize=8, parity="N", stopbits=1),
+        same_indicator="ogacq_drivers.indicators.mitutoyo_01a:same_indicator",
     ),
     "digimatic": Backend(
         "raw Digimatic frames from a USB bridge (polled or streaming)",
@@ -76,6 +78,7 @@ _BUILT_IN: dict[str, Backend] = {
                  "press it when a gauge is tested.",
             channel="the transmitter: CC, or GGCC with its group"),
         settings=LinkSettings(baudrate=57600, bytesize=8, parity="N", stopbits=1),
+        same_indicator="ogacq_drivers.indicators.uwave:same_indicator",
     ),
     "sylvac": Backend(
         "Sylvac Opto-RS duplex cable",
@@ -178,6 +181,18 @@ def codec(protocol: str) -> Codec:
     """Import and return the codec of ``protocol``."""
     found: Codec = load(backend(protocol).codec)
     return found
+
+
+def same_indicator(protocol: str, a: str | None, b: str | None) -> bool:
+    """Whether two gauges of ``protocol`` on one port, set to channels ``a`` and ``b``
+    (None: not set), may read the same indicator: as the driver picks frames, not as
+    the channels are spelled (01A's unset channel is channel 1; U-WAVE's ``02`` is
+    group 00's ``0002`` too). A protocol without channels has one indicator per port."""
+    entry = backend(protocol)
+    if not entry.same_indicator:
+        return True
+    meet: bool = load(entry.same_indicator)(a, b)
+    return meet
 
 
 def open_indicator(

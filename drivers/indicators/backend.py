@@ -145,6 +145,11 @@ class Backend:
     (``driver(link, where=, unit=, owns_link=, ...)``) opened with ``settings``;
     "usb" and "input": the driver opens its own device from the port string (its
     ``open`` class method), and ``settings`` is unused.
+
+    ``same_indicator``: for a protocol with channels, a function ``(a, b) -> bool``
+    saying whether gauges set to channels ``a`` and ``b`` (None: not set) of one port
+    may read the same indicator, as its driver picks frames; "" for a protocol without
+    channels, where every gauge on a port is the one indicator there.
     """
 
     description: str
@@ -154,12 +159,15 @@ class Backend:
     hints: ConnectionHints
     settings: LinkSettings = field(default_factory=LinkSettings)
     kind: Kind = "serial"
+    same_indicator: str = ""
 
     def __post_init__(self) -> None:
         if not self.description.strip():
             raise ValueError("describe the protocol (the wizard lists it)")
         for part in ("driver", "codec", "simulator"):
             _check_part(part, getattr(self, part))
+        if self.same_indicator:
+            _check_part("same_indicator", self.same_indicator)
         if self.kind not in KINDS:
             raise ValueError(f"kind must be one of {', '.join(KINDS)}, got {self.kind!r}")
 

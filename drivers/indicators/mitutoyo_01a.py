@@ -74,6 +74,12 @@ def encode_request(channel: str = "1") -> bytes:
     return raw + b"\r"
 
 
+def same_indicator(a: str | None, b: str | None) -> bool:
+    """Whether gauges set to channels ``a`` and ``b`` of one port are asked the same
+    request: a gauge with no channel is asked channel 1 (:class:`Mitutoyo01A`'s default)."""
+    return (a or "1") == (b or "1")
+
+
 def encode_reply(value: float | Decimal, *, decimals: int, channel: str = "1") -> bytes:
     """The reply frame for ``value`` (display unit) shown with ``decimals`` places.
 

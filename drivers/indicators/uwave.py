@@ -132,6 +132,17 @@ def encode_data(
     return f"DT1{gauge_id}{sign}{field}{letter}\r".encode("ascii")
 
 
+def same_indicator(a: str | None, b: str | None) -> bool:
+    """Whether gauges set to channels ``a`` and ``b`` of one receiver may take the same
+    transmitter's frames: no channel takes any (until a second transmitter is heard),
+    ``CC`` any group's channel CC, ``GGCC`` that one (``UWaveReceiver._is_mine``)."""
+    if a is None or b is None:
+        return True
+    if len(a) == 2 or len(b) == 2:
+        return a[-2:] == b[-2:]
+    return a == b
+
+
 def encode_status(code: str, *, gauge_id: str = "0000", transmitter_id: str = UNKNOWN_ID) -> bytes:
     """A 19-character status frame, e.g. ``encode_status("04") ==
     b"ST10000FFFFFFFFFF04\\r"``."""
@@ -321,8 +332,4 @@ class UWaveReceiver(SerialIndicator):
             )
 
     def _is_mine(self, gauge_id: str) -> bool:
-        if self.channel is None:
-            return True
-        if len(self.channel) == 2:
-            return gauge_id[2:] == self.channel
-        return gauge_id == self.channel
+        return same_indicator(self.channel, gauge_id)

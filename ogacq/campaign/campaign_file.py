@@ -113,7 +113,7 @@ from ogacq_drivers.config_schema import (
     text_among,
     whole,
 )
-from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
+from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL, same_indicator
 from ogacq.io.dates import local_moment, moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
@@ -606,12 +606,17 @@ def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
             raise src.fail(("gauges", k), "", f"gauge {g.gauge} needs {missing!r} (how "
                            "and where it is read)")
         leg = Gauge.parse(g.gauge).leg
+        # by what the driver asks for, not by spelling: 01A's unset channel is channel 1
         same_leg = [(other, seen[other.gauge]) for other in gauges[:k]
-                    if (other.port, other.channel) == (g.port, g.channel)
+                    if other.port == g.port and other.protocol == g.protocol
+                    and same_indicator(g.protocol, other.channel, g.channel)
                     and Gauge.parse(other.gauge).leg == leg]
         if same_leg:
-            where = f"port {g.port}" + (f" channel {g.channel}" if g.channel else "")
             other, other_line = same_leg[0]
+            where = f"port {g.port}" + (f" channel {g.channel}" if g.channel else "")
+            if other.channel != g.channel:
+                where += (f" (channel {other.channel or 'not set'} and "
+                          f"{g.channel or 'not set'} read the same {g.protocol} indicator)")
             raise InputError(src.path, f"gauges {other.gauge} (line {other_line}) and "
                              f"{g.gauge} of the {leg} leg both on {where}: the two gauges of a "
                              "leg each need their own port or channel (one indicator may serve "

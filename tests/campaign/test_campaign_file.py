@@ -48,6 +48,29 @@ def test_bad_campaign_refused_with_line(tmp_path, text, line, words):
     assert not (tmp_path / "s.jsonl").exists()
 
 
+@pytest.mark.parametrize(("protocol", "first", "second", "said"), [
+    # 01A: a gauge with no channel is asked channel 1 (the driver's default)
+    ("mitutoyo-01a", None, "1", "(channel not set and 1 read the same mitutoyo-01a indicator)"),
+    # U-WAVE: "01" takes channel 01 of any group, group 00's "0001" among them
+    ("uwave", '"0001"', '"01"', "(channel 0001 and 01 read the same uwave indicator)"),
+])
+def test_one_indicator_spelled_two_ways_refused(tmp_path, protocol, first, second, said):
+    """The two gauges of a leg on one port are told apart by what the driver asks
+    for, not by how the channel is written."""
+    gauges = ""
+    for c, key in enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z"), 1):
+        channel = {1: first, 2: second}.get(c, f'"000{c}"' if protocol == "uwave" else str(c))
+        gauges += (f'[[gauges]]\ngauge = "{key}"\nprotocol = "{protocol}"\n'
+                   f'port = "/dev/ttyUSB0"\n' + (f"channel = {channel}\n" if channel else ""))
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(HEAD + CONTROLLER + gauges)
+    proc = run_ogacq("run", path)
+    assert proc.returncode == 2, proc.stdout + proc.stderr
+    assert "gauges y_x (line 6) and z_x of the x leg both on port /dev/ttyUSB0" in proc.stderr
+    assert said in proc.stderr
+
+
 def test_two_protocols_on_one_port_refused(tmp_path):
     (tmp_path / "machine.toml").write_text(MACHINE)
     path = tmp_path / "campaign.toml"

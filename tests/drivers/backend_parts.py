@@ -36,6 +36,13 @@ def missing_parts(name: str, entry: Backend) -> list[str]:
         find = part("hints.find", entry.hints.find)
         if find is not None and not callable(find):
             problems.append(f"{name}: hints.find names no function")
+    if bool(entry.hints.channel) != bool(entry.same_indicator):
+        problems.append(f"{name}: hints.channel and same_indicator go together (a protocol "
+                        "with channels says which of them reach one indicator)")
+    elif entry.same_indicator:
+        same = part("same_indicator", entry.same_indicator)
+        if same is not None and not callable(same):
+            problems.append(f"{name}: same_indicator names no function")
     return problems
 
 

@@ -12,7 +12,14 @@ from pathlib import Path
 import pytest
 
 from ogacq_drivers.errors import DriverError
-from ogacq_drivers.indicators import BACKENDS, codec, register, registered, unregister
+from ogacq_drivers.indicators import (
+    BACKENDS,
+    codec,
+    register,
+    registered,
+    same_indicator,
+    unregister,
+)
 from ogacq_drivers.indicators.backend import Backend, Codec, ConnectionHints, Example
 from ogacq_drivers.indicators.mitutoyo_01a import decode
 from ogacq.campaign.campaign_file import GaugeSpec
@@ -27,6 +34,24 @@ PROTOCOLS = list(BACKENDS)
 @pytest.mark.parametrize("protocol", PROTOCOLS)
 def test_every_backend_has_every_part(protocol: str):
     assert missing_parts(protocol, BACKENDS[protocol]) == []
+
+
+@pytest.mark.parametrize(("protocol", "a", "b", "same"), [
+    ("mitutoyo-01a", None, "1", True),     # the driver asks an unset channel as 1
+    ("mitutoyo-01a", None, "2", False),
+    ("mitutoyo-01a", "A", "B", False),
+    ("uwave", "02", "0002", True),         # CC takes that channel of every group
+    ("uwave", "02", "0102", True),
+    ("uwave", "0002", "0102", False),      # two groups' channel 02
+    ("uwave", "01", "02", False),
+    ("uwave", None, "0102", True),         # an unset channel takes whichever it hears
+    ("sylvac", "1", "2", True),            # no channels: one indicator per port
+    ("digimatic", None, None, True),
+])
+def test_same_indicator_is_what_the_driver_asks_for(protocol: str, a: str | None,
+                                                    b: str | None, same: bool):
+    assert same_indicator(protocol, a, b) is same
+    assert same_indicator(protocol, b, a) is same
 
 
 def test_a_backend_lacking_a_part_is_caught():
