@@ -13,6 +13,10 @@ from ogacq.io.errors import InputError
 
 def decode_text(data: bytes, path: str | Path) -> str:
     """``data`` (the content of ``path``, or its first lines) as text."""
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        raise InputError(path, "UTF-16 text (it begins with the byte order mark "
+                         f"{data[:2].hex(' ').upper()}: a spreadsheet's \"Unicode text\"?); "
+                         "save the file as UTF-8", 1)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:

@@ -4,6 +4,7 @@ through their declared schemas (``ogacq_drivers.config_schema``), every error an
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
@@ -37,10 +38,22 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
 
         lines = content.splitlines()
         if exc.line is not None and 0 < exc.line <= len(lines):
-            found = toml_date_error(path, exc.problem, lines[exc.line - 1], exc.line)
+            line_text = lines[exc.line - 1]
+            found = toml_date_error(path, exc.problem, line_text, exc.line)
             if found is not None:
                 raise found from None
+            comma = _DECIMAL_COMMA.match(line_text)
+            if comma is not None:
+                raise InputError(path, f"{comma['key']} = {comma['value']}: a decimal comma; "
+                                 "TOML writes a number's decimals after a point: "
+                                 f"{comma['key']} = {comma['value'].replace(',', '.')}",
+                                 exc.line) from None
         raise
+
+
+# ``key = 0,05``: what tomllib says only "Expected newline" of
+_DECIMAL_COMMA = re.compile(r"[ \t]*(?P<key>[A-Za-z0-9_.\-\"]+)[ \t]*=[ \t]*"
+                            r"(?P<value>[+-]?[0-9]+,[0-9]+)[ \t]*(#.*)?$")
 
 
 def load_toml(path: str | Path, schema: Table, what: str) -> tuple[Any, Source]:
