@@ -25,7 +25,7 @@ import numpy as np
 from ogacq.identify.observations import Deviation
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
-from ogacq.io.text import decode_text, read_text
+from ogacq.io.text import check_line_ends, decode_text, read_text
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
@@ -80,7 +80,7 @@ def sniff(path: str | Path) -> str:
             first = decode_text(first_bytes, path)
             if first.lstrip().startswith("{"):
                 return "session"
-            _check_line_ends(path, first)
+            check_line_ends(path, first)
             header = {h.strip() for h in next(csv.reader([first]), [])}
             if "name" in header:
                 return "deviations"
@@ -93,17 +93,6 @@ def sniff(path: str | Path) -> str:
     raise InputError(path, _unrecognised_header(first, second), 1)
 
 
-def _check_line_ends(path: Path, text: str) -> None:
-    """Refuse a carriage return that ends no CRLF: the line end of classic Mac OS, which
-    the formats do not take (docs/formats.md, "Text": LF or CRLF)."""
-    lone = _LONE_CR.search(text)
-    if lone is not None:
-        raise InputError(path, "a line ends in a lone carriage return (CR, the line end of "
-                         "classic Mac OS): lines end in LF or CRLF; save the file with Unix "
-                         "or Windows line ends", text.count("\n", 0, lone.start()) + 1)
-
-
-_LONE_CR = re.compile(r"\r(?!\n)")
 # The field separators of spreadsheets in locales whose decimal mark is a comma
 _OTHER_SEPARATORS = {";": ("';'", "a spreadsheet's export in a locale writing decimal commas?"),
                      "\t": ("tabs", "a spreadsheet's text export?")}
@@ -190,7 +179,7 @@ def _read_csv(path: Path, text: str | None) -> tuple[list[str], list[tuple[int, 
     try:
         if text is None:
             text = read_text(path)
-        _check_line_ends(path, text)
+        check_line_ends(path, text)
         reader = csv.reader(io.StringIO(text, newline=""))
         header = [h.strip() for h in next(reader, [])]
         rows = [(reader.line_num, row) for row in reader if "".join(row).strip()]
@@ -442,7 +431,7 @@ def read_readings(path: str | Path) -> ReadingsTable:
         text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
-    _check_line_ends(path, text)
+    check_line_ends(path, text)
     plain = _plain_table(text) if text.count("\n") > SMALL_FILE_ROWS else None
     table = plain if plain is not None else _table_by_rows(path, text)
     _check_repeats(path, table)

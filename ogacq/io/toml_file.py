@@ -10,7 +10,7 @@ from typing import Any
 
 from ogacq_drivers.config_schema import Issue, Source, Table, load, parse_document
 from ogacq.io.errors import InputError
-from ogacq.io.text import read_text
+from ogacq.io.text import check_line_ends, read_text
 
 
 def input_error(issue: Issue) -> InputError:
@@ -36,6 +36,7 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
         # (imported here: the rule's patterns are compiled for a file refused only)
         from ogacq.io.dates import toml_date_error
 
+        check_line_ends(path, content)  # tomllib: "Expected newline" (TOML's are LF, CRLF)
         lines = content.splitlines()
         if exc.line is not None and 0 < exc.line <= len(lines):
             line_text = lines[exc.line - 1]

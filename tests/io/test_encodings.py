@@ -129,3 +129,13 @@ def test_a_session_line_in_another_encoding_names_its_byte(tmp_path):
     assert str(caught.value) == (f"{session}:1: not an ogacq session (line 1 is not valid JSON: "
                                  f"not UTF-8 text (byte 0xfc at column {column})); give the "
                                  "session.jsonl a campaign wrote")
+
+
+def test_a_lone_carriage_return_in_toml_is_named_not_expected_newline(paper_dir, tmp_path):
+    machine = tmp_path / "machine.toml"
+    machine.write_bytes((paper_dir / "machine.toml").read_bytes().replace(b"\n", b"\r"))
+    with pytest.raises(InputError) as caught:
+        read_machine(machine)
+    assert str(caught.value) == (f"{machine}:1: a line ends in a lone carriage return (CR, the "
+                                 "line end of classic Mac OS): lines end in LF or CRLF; save the "
+                                 "file with Unix or Windows line ends")
