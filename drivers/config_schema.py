@@ -272,11 +272,14 @@ def parse_document(source: Source) -> dict[str, Any]:
         return tomllib.loads(source.text)
     except ValueError as exc:  # TOMLDecodeError; or an integer of over 4300 digits
         match = re.search(r"line (\d+)", str(exc))
+        line = int(match.group(1)) if match else None
         problem = (f"not valid TOML: {str(exc).split(' (at')[0]}"
                    if isinstance(exc, tomllib.TOMLDecodeError)
                    else "not valid TOML: a number of thousands of digits")
-        raise source.error(Issue(source.path, "", problem, problem,
-                                 int(match.group(1)) if match else None)) from None
+        if line is None and "(at end of document)" in str(exc):  # tomllib names no line
+            line = max(1, len(source.text.splitlines()))
+            problem += " (the file ends there: cut short?)"
+        raise source.error(Issue(source.path, "", problem, problem, line)) from None
 
 
 # --------------------------------------------------------------------------- loading

@@ -89,6 +89,7 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
 from __future__ import annotations
 
 import datetime
+import re
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -537,7 +538,29 @@ def _controller(src: Source, spec: ControllerSpec) -> ControllerSpec:
                        f"{spec.profile!r} keeps the joint offsets in the controller ({kind}); "
                        "a software offset table does not apply")
     _check_unit_ids(src, spec, profile.device_ids)
+    _check_tcp_ports(src, spec)
     return spec
+
+
+_IPV4 = re.compile(r"[0-9]{1,3}(\.[0-9]{1,3}){3}")
+
+
+def _check_tcp_ports(src: Source, spec: ControllerSpec) -> None:
+    """An endpoint that cannot be one: a TCP port beyond 16 bits (RFC 793 3.1: ports
+    0..65535), or an IP address without its port (read as a serial device, it failed
+    as "cannot connect", exit 3, for a slip of the file's). 502 is Modbus TCP's port
+    (IANA's port registry: 502/tcp "mbap", Modbus Application Protocol)."""
+    where: list[tuple[tuple[str, ...], str]] = (
+        [(("controller", "port"), spec.port)] if spec.port else [])
+    where += [(("controller", "axes", a, "port"), e.port) for a, e in spec.axes.items() if e.port]
+    for key, port in where:
+        _, sep, number = port.rpartition(":")
+        if sep and number.isdigit() and not port.startswith("/") and int(number) > 65535:
+            raise src.fail(key, "", f"port {port!r}: TCP port {number} is beyond 65535 "
+                           "(Modbus TCP's is 502)")
+        if _IPV4.fullmatch(port.strip()):
+            raise src.fail(key, "", f"port {port!r} is an IP address without its port: Modbus "
+                           f"TCP is host:port ({port.strip()}:502 for Modbus's own port)")
 
 
 def _check_profile(src: Source, key: tuple[str, ...], name: str) -> Profile:

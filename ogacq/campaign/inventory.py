@@ -17,6 +17,7 @@ from ogacq_drivers.config_schema import Field, Table, TableArray, dump, text
 from ogacq.campaign.campaign_file import CERTIFICATE_FIELDS, GaugeIdentity
 from ogacq.io.atomic import write_atomically
 from ogacq.io.data_folder import data_folder
+from ogacq.io.errors import InputError
 from ogacq.io.toml_file import load_toml
 
 INVENTORY_NAME = "instruments.toml"
@@ -87,8 +88,16 @@ def load_inventory(path: Path | None = None) -> Inventory:
     path = path or data_folder() / INVENTORY_NAME
     if not path.exists():
         return Inventory(path)
-    given, _ = load_toml(path, INVENTORY_FILE, "the instruments inventory")
-    known = {g.serial: g for g in given.get("gauges", [])}
+    given, source = load_toml(path, INVENTORY_FILE, "the instruments inventory")
+    known: dict[str, KnownGauge] = {}
+    for k, gauge in enumerate(given.get("gauges", [])):
+        if gauge.serial in known:  # which one the wizard would offer is not for us to guess
+            first = [g.serial for g in known.values()].index(gauge.serial)
+            raise InputError(path, f"serial {gauge.serial!r} twice (gauges[{first}] at line "
+                             f"{source.line(('gauges', first, 'serial'))}): one entry a gauge; "
+                             "delete the one that is out of date",
+                             source.line(("gauges", k, "serial")))
+        known[gauge.serial] = gauge
     return Inventory(path, given.get("operator", ""), known)
 
 

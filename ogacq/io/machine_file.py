@@ -7,6 +7,7 @@ reads as before."""
 
 from __future__ import annotations
 
+import unicodedata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -74,6 +75,7 @@ def _tolerance_table(tolerances: Tolerances) -> dict[str, Any]:
 
 def read_machine(path: str | Path) -> MachineSpec:
     values, source = load_toml(path, MACHINE_FILE, "the machine file")
+    _check_identity(values, source)  # a file's; a session's recorded machine reads as it was
     return _machine(values, source, default_name=Path(str(path)).stem)
 
 
@@ -106,6 +108,25 @@ def machine_dict(machine: MachineSpec) -> dict[str, Any]:
 def geometry_dict(machine: MachineSpec) -> dict[str, Any]:
     """The keys that say the geometry (identity and acceptance left out)."""
     return {k: v for k, v in machine_dict(machine).items() if k in GEOMETRY_KEYS}
+
+
+def _check_identity(values: dict, source: Source) -> None:
+    """A name and serial as the history, the record and every one-line output show
+    them: not blank (a blank name records a machine named after nothing, which the
+    history refuses), one line without control characters."""
+    for key in ("name", "serial"):
+        value = values.get(key)
+        if value is None:
+            continue
+        if not value.strip():
+            raise source.fail((key,), "is blank: give the machine's " + (
+                "name, or leave the key out for the file's name" if key == "name"
+                else "serial number, or leave the key out"))
+        control = next((c for c in value if unicodedata.category(c) == "Cc"), None)
+        if control is not None:
+            said = ", a line break" if control in "\n\r" else ""
+            raise source.fail((key,), f"= {value!r} holds a control character (U+"
+                              f"{ord(control):04X}{said}): write it on one line")
 
 
 def _machine(values: dict, source: Source, default_name: str) -> MachineSpec:

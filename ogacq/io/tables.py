@@ -25,7 +25,7 @@ import numpy as np
 from ogacq.identify.observations import Deviation
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
-from ogacq.io.text import decode_text, read_text
+from ogacq.io.text import check_line_ends, decode_text, read_text
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
@@ -71,28 +71,116 @@ class ReadingsTable:
 
 
 def sniff(path: str | Path) -> str:
-    """"readings", "deviations" or "session" from the file's first line."""
+    """"readings", "deviations" or "session" from the file's first line (and its second,
+    to say what a file of neither format holds)."""
     path = Path(path)
     try:
         with path.open("rb") as fh:
-            first = decode_text(fh.readline(), path)
+            first_bytes = fh.readline()
+            first = decode_text(first_bytes, path)
+            if first.lstrip().startswith("{"):
+                return "session"
+            check_line_ends(path, first)
+            header = {h.strip() for h in next(csv.reader([first]), [])}
+            if "name" in header:
+                return "deviations"
+            if header & {"leg", "gauge_axis"}:
+                return "readings"
+            # decoded with the first, for a wrong byte's line number
+            second = decode_text(first_bytes + fh.readline(), path)[len(first):]
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
-    if first.lstrip().startswith("{"):
-        return "session"
-    header = {h.strip() for h in next(csv.reader([first]), [])}
-    if "name" in header:
-        return "deviations"
-    if header & {"leg", "gauge_axis"}:
-        return "readings"
-    raise InputError(path, "unrecognised header: expected a readings CSV "
-                     f"({', '.join(READINGS_COLUMNS)}) or a deviations CSV (name,value_mm)", 1)
+    raise InputError(path, _unrecognised_header(first, second), 1)
+
+
+# The field separators of spreadsheets in locales whose decimal mark is a comma
+_OTHER_SEPARATORS = {";": ("';'", "a spreadsheet's export in a locale writing decimal commas?"),
+                     "\t": ("tabs", "a spreadsheet's text export?")}
+_DECIMAL_COMMA = re.compile(r"[ \t]*\"?[+-]?[0-9]+,[0-9]+\"?[ \t]*", re.ASCII)
+# A column named with its unit apart: "reading (mm)", "value [mm]", "Reading mm"
+_UNIT_APART = re.compile(r"[ \t]*[(\[]?[ \t]*mm[ \t]*[)\]]?[ \t]*$")
+
+
+def _format_columns(cells: set[str]) -> tuple[str, tuple[str, ...]] | None:
+    """Which format a header's (normalised) names belong to, if any."""
+    if "name" in cells:
+        return "a deviations CSV", DEVIATIONS_COLUMNS
+    if cells & {"leg", "gauge_axis"}:
+        return "a readings CSV", READINGS_COLUMNS
+    return None
+
+
+def _normalised(name: str) -> str:
+    """A column's name as the format would write it: lowercase, the unit joined by '_'."""
+    name = name.strip().strip('"').lower()
+    if _UNIT_APART.search(name) and not name.endswith("_mm"):
+        name = _UNIT_APART.sub("", name) + "_mm"
+    return re.sub(r"[ \t]+", "_", name)
+
+
+def _separator_problem(first: str, second: str) -> str | None:
+    """Words for a header whose fields are separated otherwise than by ',' (a
+    spreadsheet's export in a locale writing decimal commas), none if it is not one."""
+    for separator, (said, why) in _OTHER_SEPARATORS.items():
+        cells = {_normalised(c) for c in first.split(separator)}
+        found = _format_columns(cells) if len(cells) > 1 else None
+        if found is None:
+            continue
+        commas = any(_DECIMAL_COMMA.fullmatch(c) for c in second.strip().split(separator))
+        return (f"fields are separated by {said}"
+                + (" and decimals written with ','" if commas else "")
+                + f" ({why}): {found[0]} uses ',' between "
+                "fields and '.' in numbers; export it again with those, or replace them")
+    return None
+
+
+def _renamed_column(header: Sequence[str], column: str) -> str | None:
+    """Words for a header cell that is ``column`` written otherwise."""
+    for cell in header:
+        if cell != column and _normalised(cell) == column:
+            return (f"column {cell!r} is the format's {column!r} named otherwise: name it "
+                    f"{column!r} (lowercase, the unit joined by '_')")
+    return None
+
+
+def _unrecognised_header(first: str, second: str) -> str:
+    """What line 1 of a file that is neither CSV format nor a session holds, and what
+    the formats want."""
+    line = first.rstrip("\r\n")
+    expected = (f"a readings CSV ({', '.join(READINGS_COLUMNS)}) or a deviations CSV "
+                "(name,value_mm)")
+    if not first:
+        return f"empty file: expected {expected}"
+    if not line.strip():
+        return f"empty first line: the file begins with its header row, {expected}"
+    if line.lstrip().startswith("#"):
+        return (f"line 1 is a comment ({_shown(line)}): the file begins with its header row, "
+                f"{expected}, and holds no comment lines; delete it")
+    problem = _separator_problem(first, second)
+    if problem is not None:
+        return problem
+    header = [h.strip() for h in next(csv.reader([first]), [])]
+    found = _format_columns({_normalised(h) for h in header})
+    if found is not None:
+        for column in found[1]:
+            renamed = _renamed_column(header, column)
+            if renamed is not None:
+                return renamed
+    return f"unrecognised header {_shown(line)}: expected {expected}"
+
+
+def _shown(text: str, most: int = 60) -> str:
+    """``text`` quoted, cut at ``most`` characters."""
+    return repr(text[:most] + ("..." if len(text) > most else ""))
 
 
 def _read_csv(path: Path, text: str | None) -> tuple[list[str], list[tuple[int, list[str]]]]:
     """The header and the rows that hold something, each with its line."""
     try:
-        reader = csv.reader(io.StringIO(read_text(path) if text is None else text, newline=""))
+        if text is None:
+            text = read_text(path)
+        check_line_ends(path, text)
+        reader = csv.reader(io.StringIO(text, newline=""))
         header = [h.strip() for h in next(reader, [])]
         rows = [(reader.line_num, row) for row in reader if "".join(row).strip()]
     except OSError as exc:
@@ -111,7 +199,8 @@ def _check_units(path: Path, header: list[str], required: Sequence[str]) -> None
                                  f"convert and name it {col[: -len(suffix)]}_mm", 1)
 
 
-def _check_columns(path: Path, header: list[str], required: Sequence[str]) -> None:
+def _check_columns(path: Path, header: list[str], required: Sequence[str],
+                   first_row: str = "") -> None:
     """Refuse a header without a required column (one without its unit said so), or
     with a column twice."""
     missing = [c for c in required if c not in header]
@@ -120,10 +209,22 @@ def _check_columns(path: Path, header: list[str], required: Sequence[str]) -> No
         if col.endswith("_mm") and col[:-3] in header:
             raise InputError(path, f"column {col[:-3]!r} has no unit: values must be in mm and "
                              f"the column named {col!r}", 1)
-        raise InputError(path, f"missing column {col!r} (header has: {', '.join(header)})", 1)
+        raise InputError(path, _renamed_column(header, col)
+                         or _missing_column(header, col, first_row), 1)
     if len(set(header)) != len(header):
         dup = next(h for h in header if header.count(h) > 1)
         raise InputError(path, f"column {dup!r} appears twice in the header", 1)
+
+
+def _missing_column(header: list[str], column: str, first_row: str) -> str:
+    if header and header[0].lstrip().startswith("#"):
+        return (f"line 1 is a comment ({_shown(','.join(header))}): the file begins with its "
+                "header row and holds no comment lines; delete it")
+    if len(header) == 1:  # one field: separated otherwise than by ','?
+        problem = _separator_problem(header[0], first_row)
+        if problem is not None:
+            return problem
+    return f"missing column {column!r} (header has: {', '.join(header)})"
 
 
 def _rows(path: Path, required: Sequence[str], text: str | None = None,
@@ -132,7 +233,7 @@ def _rows(path: Path, required: Sequence[str], text: str | None = None,
     if not header:
         raise InputError(path, "empty file: no header row", 1)
     _check_units(path, header, required)
-    _check_columns(path, header, required)
+    _check_columns(path, header, required, ",".join(rows[0][1]) if rows else "")
     if not rows:
         raise InputError(path, "no data rows after the header", 2)
     return header, rows
@@ -190,9 +291,22 @@ def read_deviations(path: str | Path) -> list[tuple[str, float]]:
                              line) from None
         if name in seen:
             raise InputError(path, f"{name} appears twice (first at line {seen[name]})", line)
+        _check_one_form(path, line, name, seen)
         seen[name] = line
         out.append((name, _number(path, line, "value_mm", row[at["value_mm"]])))
     return out
+
+
+def _check_one_form(path: Path, line: int, name: str, seen: dict[str, int]) -> None:
+    """Refuse a gauge's Max minus Min (``dx_y``) beside its deviations relative to Zero
+    (``dx_y+``, ``dx_y-``): the one is the difference of the others, and would count
+    the same readings twice."""
+    gauge = name.rstrip("+-")
+    other = [n for n in ((gauge + "+", gauge + "-") if name == gauge else (gauge,)) if n in seen]
+    if other:
+        raise InputError(path, f"{name} and {other[0]} (line {seen[other[0]]}) give the same "
+                         f"gauge's deviations twice: {gauge} (Max minus Min) is {gauge}+ minus "
+                         f"{gauge}-; give a gauge's in one form", line)
 
 
 def _axis(path: Path, line: int, column: str, text: str) -> int:
@@ -317,8 +431,62 @@ def read_readings(path: str | Path) -> ReadingsTable:
         text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read: {exc.strerror or exc}") from None
+    check_line_ends(path, text)
     plain = _plain_table(text) if text.count("\n") > SMALL_FILE_ROWS else None
-    return plain if plain is not None else _table_by_rows(path, text)
+    table = plain if plain is not None else _table_by_rows(path, text)
+    _check_repeats(path, table)
+    _check_gauge_travel(path, table)
+    return table
+
+
+def _gauge_name(leg: int, gauge_axis: int) -> str:
+    return f"{AXES[gauge_axis]}_{AXES[leg]}"
+
+
+def _check_repeats(path: Path, table: ReadingsTable) -> None:
+    """Refuse a gauge read twice at one time: a gauge takes one reading at a time, so
+    such a row is a copy (a spreadsheet's pasted twice) that would count as a repeat
+    of the measurement. A file whose times are all equal records none: not checked."""
+    t = table.t_s
+    if len(t) < 2 or np.all(t == t[0]):
+        return
+    order = np.lexsort((table.lines, table.gauge_axis, table.leg, t))
+    same = ((t[order[1:]] == t[order[:-1]]) & (table.leg[order[1:]] == table.leg[order[:-1]])
+            & (table.gauge_axis[order[1:]] == table.gauge_axis[order[:-1]]))
+    if same.any():
+        later, earlier = order[1:][same], order[:-1][same]
+        k = int(np.argmin(table.lines[later]))
+        row, first = int(later[k]), int(earlier[k])
+        raise InputError(path, f"gauge {_gauge_name(table.leg[row], table.gauge_axis[row])} "
+                         f"read again at t_s {t[row]:g}, as at line {table.lines[first]}: a "
+                         "gauge takes one reading at a time, so a row is repeated (copied "
+                         "twice?); remove the copy", int(table.lines[row]))
+
+
+def _check_gauge_travel(path: Path, table: ReadingsTable) -> None:
+    """Refuse a reading farther from its gauge's others (their median) than any
+    indicator travels: a gauge's overflow or error value ("9999.999"), or a column
+    not in mm. Named by its line; the span of a gauge's readings is checked with every
+    input (``ogacq.identify.plausibility``)."""
+    from ogacq.identify.plausibility import MAX_GAUGE_TRAVEL_MM
+
+    codes = table.leg * len(AXES) + table.gauge_axis
+    medians = np.zeros(len(codes))
+    for code in range(len(AXES) ** 2):  # (np.unique of numbers imports numpy.ma)
+        mine = codes == code
+        if not mine.any():
+            continue
+        values = np.sort(table.reading_mm[mine])  # (so would np.median)
+        medians[mine] = (values[(len(values) - 1) // 2] + values[len(values) // 2]) / 2
+    far = np.abs(table.reading_mm - medians) > MAX_GAUGE_TRAVEL_MM
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        raise InputError(path, f"reading_mm: {table.reading_mm[k]:.10g} is "
+                         f"{abs(table.reading_mm[k] - medians[k]):g} mm from gauge "
+                         f"{_gauge_name(table.leg[k], table.gauge_axis[k])}'s median reading "
+                         f"({medians[k]:g} mm), beyond the {MAX_GAUGE_TRAVEL_MM:g} mm travel "
+                         "of any indicator: a gauge's overflow or error value (read it again, "
+                         "or remove the row), or readings not in mm?", int(table.lines[k]))
 
 
 # Below this, the row reader is the faster: numpy's reader costs ~5 ms the first time

@@ -6,6 +6,7 @@ named by its first wrong byte's line and column, so the user knows what to fix."
 from __future__ import annotations
 
 import codecs
+import re
 from pathlib import Path
 
 from ogacq.io.errors import InputError
@@ -13,6 +14,10 @@ from ogacq.io.errors import InputError
 
 def decode_text(data: bytes, path: str | Path) -> str:
     """``data`` (the content of ``path``, or its first lines) as text."""
+    if data.startswith((codecs.BOM_UTF16_LE, codecs.BOM_UTF16_BE)):
+        raise InputError(path, "UTF-16 text (it begins with the byte order mark "
+                         f"{data[:2].hex(' ').upper()}: a spreadsheet's \"Unicode text\"?); "
+                         "save the file as UTF-8", 1)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:
@@ -33,3 +38,16 @@ def read_text(path: str | Path) -> str:
 def strip_bom(data: bytes) -> bytes:
     """Bytes read line by line (sessions: JSON lines) without a leading BOM."""
     return data.removeprefix(codecs.BOM_UTF8)
+
+
+def check_line_ends(path: str | Path, text: str) -> None:
+    """Refuse a carriage return that ends no CRLF: the line end of classic Mac OS, which
+    the formats do not take (docs/formats.md, "Text": LF or CRLF; TOML 1.0 the same)."""
+    lone = _LONE_CR.search(text)
+    if lone is not None:
+        raise InputError(path, "a line ends in a lone carriage return (CR, the line end of "
+                         "classic Mac OS): lines end in LF or CRLF; save the file with Unix "
+                         "or Windows line ends", text.count("\n", 0, lone.start()) + 1)
+
+
+_LONE_CR = re.compile(r"\r(?!\n)")

@@ -4,12 +4,13 @@ through their declared schemas (``ogacq_drivers.config_schema``), every error an
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.config_schema import Issue, Source, Table, load, parse_document
 from ogacq.io.errors import InputError
-from ogacq.io.text import read_text
+from ogacq.io.text import check_line_ends, read_text
 
 
 def input_error(issue: Issue) -> InputError:
@@ -35,12 +36,25 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
         # (imported here: the rule's patterns are compiled for a file refused only)
         from ogacq.io.dates import toml_date_error
 
+        check_line_ends(path, content)  # tomllib: "Expected newline" (TOML's are LF, CRLF)
         lines = content.splitlines()
         if exc.line is not None and 0 < exc.line <= len(lines):
-            found = toml_date_error(path, exc.problem, lines[exc.line - 1], exc.line)
+            line_text = lines[exc.line - 1]
+            found = toml_date_error(path, exc.problem, line_text, exc.line)
             if found is not None:
                 raise found from None
+            comma = _DECIMAL_COMMA.match(line_text)
+            if comma is not None:
+                raise InputError(path, f"{comma['key']} = {comma['value']}: a decimal comma; "
+                                 "TOML writes a number's decimals after a point: "
+                                 f"{comma['key']} = {comma['value'].replace(',', '.')}",
+                                 exc.line) from None
         raise
+
+
+# ``key = 0,05``: what tomllib says only "Expected newline" of
+_DECIMAL_COMMA = re.compile(r"[ \t]*(?P<key>[A-Za-z0-9_.\-\"]+)[ \t]*=[ \t]*"
+                            r"(?P<value>[+-]?[0-9]+,[0-9]+)[ \t]*(#.*)?$")
 
 
 def load_toml(path: str | Path, schema: Table, what: str) -> tuple[Any, Source]:

@@ -132,6 +132,9 @@ def _decode(line: bytes) -> tuple[_Line | None, str | None]:
     """(the line decoded, None), or (None, why it cannot be read)."""
     try:
         content = json.loads(line)
+    except UnicodeDecodeError as exc:  # a byte an editor wrote in another encoding, or a disk's
+        return None, (f"not valid JSON: not UTF-8 text (byte 0x{line[exc.start]:02x} at "
+                      f"column {len(line[:exc.start].decode(errors='replace')) + 1})")
     except ValueError:
         return None, "not valid JSON"
     if not isinstance(content, dict):

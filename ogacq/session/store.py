@@ -488,7 +488,10 @@ def lock_holder(path: str | Path) -> str | None:
 def _not_a_session(path: Path, scan: Scan) -> InputError:
     """Why a file is not a session, said before anything about its later lines: a
     readings CSV given for a session is not a "corrupt record"."""
-    if (1, "not valid JSON") in scan.problems or not scan.size_bytes:
+    first = [problem for line, problem in scan.problems if line == 1]
+    if first and first[0].startswith("not valid JSON: "):  # says which byte
+        why = f"line 1 is {first[0]}"
+    elif (1, "not valid JSON") in scan.problems or not scan.size_bytes:
         why = "line 1 is not a JSON record"
     else:
         why = "no session header on line 1"

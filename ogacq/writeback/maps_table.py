@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from ogacq.io.errors import InputError
+from ogacq.io.text import read_text
 from ogacq.logs import logger
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
@@ -67,14 +68,17 @@ def read_maps_table(path: str | Path) -> MapsTable:
     """The file at ``path``; a missing file means no maps (nothing applied)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8-sig")
+        text = read_text(path)  # UTF-8 (a BOM dropped), a wrong byte named by its line
     except FileNotFoundError:
         return MapsTable(path, {}, exists=False)
     except OSError as exc:
         raise InputError(path, f"cannot read the maps file ({exc.strerror or exc})") from None
     try:
         data = json.loads(text)
-    except ValueError as exc:
+    except json.JSONDecodeError as exc:
+        raise InputError(path, f"the maps file is not JSON: {exc.msg} at column {exc.colno}",
+                         exc.lineno) from None
+    except ValueError as exc:  # an integer of thousands of digits
         raise InputError(path, f"the maps file is not JSON ({exc})") from None
     if not isinstance(data, dict) or data.get("format") != FORMAT:
         raise InputError(path, f"not an {FORMAT} maps file")

@@ -27,6 +27,12 @@ ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
     (HEAD + CONTROLLER + ALL_GAUGES + '[stability]\ntimeout_s = nan\n', 37,
      "stability.timeout_s must be a finite number, got nan"),
     (HEAD + '[simulator]\nspeed = inf\n', 4, "simulator.speed must be a finite number"),
+    # endpoints that cannot be: refused as the file's slip (exit 2), not "cannot connect"
+    (HEAD + CONTROLLER.replace("127.0.0.1:1", "127.0.0.1:99999") + ALL_GAUGES, 5,
+     "port '127.0.0.1:99999': TCP port 99999 is beyond 65535 (Modbus TCP's is 502)"),
+    (HEAD + CONTROLLER.replace("127.0.0.1:1", "192.168.0.10") + ALL_GAUGES, 5,
+     "port '192.168.0.10' is an IP address without its port: Modbus TCP is host:port "
+     "(192.168.0.10:502 for Modbus's own port)"),
     # real or simulated, said once: the real ports were silently ignored before
     (HEAD + CONTROLLER + '[simulator]\nseed = 1\n', 6,
      "a [simulator] table and real ports ([controller] 127.0.0.1:1)"),

@@ -185,3 +185,19 @@ def test_engine_writes_what_it_reads() -> None:
     import tomllib
 
     assert load(_SCHEMA, tomllib.loads(written), Source("f", _issue_error, written)) == value
+
+
+@pytest.mark.parametrize(("text_", "words"), [
+    ('format = "ogacq-offsets/1"\n[joint_o', "Expected ']' at the end of a table declaration"),
+    ('format = "ogacq-offsets/1"\n[joint_offset_mm]\nx = "1.2', "Unterminated string"),
+])
+def test_a_toml_file_cut_short_names_its_last_line(tmp_path: Path, text_: str,
+                                                   words: str) -> None:
+    """tomllib names no line for a problem "at end of document": a file cut short (a
+    copy interrupted, a disk full) is named by its last line and said to end there."""
+    path = tmp_path / "offsets.toml"
+    path.write_text(text_)
+    with pytest.raises(InputError) as caught:
+        read_offset_table(path)
+    assert str(caught.value) == (f"{path}:{len(text_.splitlines())}: not valid TOML: {words} "
+                                 "(the file ends there: cut short?)")

@@ -30,3 +30,27 @@ def test_every_real_indicator_is_accepted(tmp_path, step):
     path = tmp_path / "machine.toml"
     path.write_text(GEOMETRY + f"gauge_resolution_mm = {step}\n")
     assert read_machine(path).gauge_resolution_mm == float(step)
+
+
+@pytest.mark.parametrize("line, words", [
+    # a blank name replaced the file's name by nothing: the run's record then named no
+    # machine and `ogacq history add` failed with a traceback
+    ('name = "  "', "name is blank: give the machine's name, or leave the key out for the "
+                    "file's name"),
+    ('serial = ""', "serial is blank: give the machine's serial number, or leave the key out"),
+    ('name = "OG-1\\ncell 3"', "name = 'OG-1\\ncell 3' holds a control character (U+000A, a "
+                               "line break): write it on one line"),
+])
+def test_a_name_the_history_cannot_show_is_refused(tmp_path, line, words):
+    path = tmp_path / "machine.toml"
+    path.write_text(GEOMETRY + "gauge_resolution_mm = 0.01\n" + line + "\n")
+    with pytest.raises(InputError) as refused:
+        read_machine(path)
+    assert str(refused.value) == f"{path}:5: {words}"
+
+
+def test_a_name_with_quotes_slashes_and_accents_is_kept_as_written(tmp_path):
+    path = tmp_path / "machine.toml"
+    path.write_text(GEOMETRY + 'gauge_resolution_mm = 0.01\nname = "OG \\"1\\"/cell 3 – Jürgen"\n',
+                    encoding="utf-8")
+    assert read_machine(path).name == 'OG "1"/cell 3 – Jürgen'

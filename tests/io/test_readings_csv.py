@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from ogacq.io.errors import InputError
-from ogacq.io.tables import read_readings, write_readings
+from ogacq.io.tables import read_deviations, read_readings, sniff, write_readings
 from ogacq.model.machine import PAPER_PROTOTYPE as M
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
@@ -147,3 +147,108 @@ def test_a_plain_file_with_a_bad_row_is_named_by_its_line(tmp_path, table_lines,
     with pytest.raises(InputError, match=words) as refused:
         read_readings(path)
     assert f":{row + 1}:" in str(refused.value)
+
+
+def _written(tmp_path, lines, name="export.csv", separator=",", decimal="."):
+    path = tmp_path / name
+    path.write_text("\n".join(separator.join(cell.replace(".", decimal) for cell in line.split(","))
+                              for line in lines) + "\n")
+    return path
+
+
+SEPARATED = ("{}: a readings CSV uses ',' between fields and '.' in numbers; export it again "
+             "with those, or replace them")
+
+
+@pytest.mark.parametrize(("separator", "decimal", "found"), [
+    (";", ",", "fields are separated by ';' and decimals written with ',' (a spreadsheet's "
+               "export in a locale writing decimal commas?)"),
+    (";", ".", "fields are separated by ';' (a spreadsheet's export in a locale writing "
+               "decimal commas?)"),
+    ("\t", ".", "fields are separated by tabs (a spreadsheet's text export?)"),
+])
+def test_another_separator_is_said_not_guessed(tmp_path, table_lines, separator, decimal, found):
+    """Neither read as the format (INTERCHANGE.md: ',' and '.'), nor refused as an
+    "unrecognised header": what was found and what the format wants, by the sniffer and
+    by the reader (``ogacq session import``)."""
+    path = _written(tmp_path, table_lines[2], separator=separator, decimal=decimal)
+    for read in (sniff, read_readings):
+        with pytest.raises(InputError) as caught:
+            read(path)
+        assert str(caught.value) == f"{path}:1: {SEPARATED.format(found)}"
+
+
+@pytest.mark.parametrize(("first", "words"), [
+    ("# exported by DataLogger 2.1", "line 1 is a comment ('# exported by DataLogger 2.1'): the "
+     "file begins with its header row"),
+    ("T_S,CYCLE,LEG,GAUGE_AXIS,TCP_X,TCP_Y,TCP_Z,Q_X,Q_Y,Q_Z,READING_MM", "column 'T_S' is the "
+     "format's 't_s' named otherwise: name it 't_s' (lowercase, the unit joined by '_')"),
+    ("t_s,cycle,leg,gauge_axis,tcp_x,tcp_y,tcp_z,q_x,q_y,q_z,reading (mm)", "column 'reading "
+     "(mm)' is the format's 'reading_mm' named otherwise: name it 'reading_mm'"),
+])
+def test_a_header_written_otherwise_is_named(tmp_path, table_lines, first, words):
+    """By the reader, and by the sniffer where it cannot tell a readings CSV (a header
+    with ``leg`` is one: its reader then names the column)."""
+    lines = table_lines[2]
+    path = _written(tmp_path, [first, *(lines if first.startswith("#") else lines[1:])])
+    readers = (read_readings,) if "leg," in first else (sniff, read_readings)
+    for read in readers:
+        with pytest.raises(InputError) as caught:
+            read(path)
+        assert str(caught.value).startswith(f"{path}:1: {words}")
+
+
+def test_a_row_pasted_twice_is_refused(tmp_path, table_lines):
+    """Every row twice would count each reading as a repeat of the measurement (a
+    smaller std from the same data); a gauge reads once at a time."""
+    lines = table_lines[2]
+    path = _written(tmp_path, lines + lines[5:7])
+    gauge = "{}_{}".format(*lines[5].split(",")[3:1:-1])
+    t_s = float(lines[5].split(",")[0])
+    with pytest.raises(InputError) as caught:
+        read_readings(path)
+    assert str(caught.value) == (f"{path}:{len(lines) + 1}: gauge {gauge} read again at t_s "
+                                 f"{t_s:g}, as at line 6: a gauge takes one reading at a time, "
+                                 "so a row is repeated (copied twice?); remove the copy")
+
+
+def test_times_all_equal_record_none_and_rows_may_repeat(tmp_path, table_lines):
+    """A hand-made file with t_s all 0: the Zero posture read twice a cycle gives the
+    same row twice, a repeat of the measurement, not a copy."""
+    rows = [line.split(",") for line in table_lines[2]]
+    path = _written(tmp_path, [",".join(rows[0])] + [",".join(["0", *r[1:]]) for r in
+                                                      rows[1:] + rows[1:3]])
+    assert len(read_readings(path).reading_mm) == len(rows) + 1
+
+
+@pytest.mark.parametrize("overflow", ["9999.999", "-9999.999"])
+def test_a_gauges_overflow_value_is_named_by_its_line(tmp_path, table_lines, overflow):
+    """A logger's overflow or error value among a gauge's readings: its line, before the
+    span check (which names no line) refuses the whole gauge."""
+    layout, values, lines = table_lines
+    path = _with(tmp_path, lines, 9, 10, overflow)
+    leg, gauge = layout.leg[8], layout.gauge_axis[8]
+    others = np.sort(np.round(np.where(np.arange(len(values)) == 8, float(overflow), values),
+                              6)[(layout.leg == leg) & (layout.gauge_axis == gauge)])
+    median = (others[(len(others) - 1) // 2] + others[len(others) // 2]) / 2
+    with pytest.raises(InputError) as caught:
+        read_readings(path)
+    assert str(caught.value) == (
+        f"{path}:10: reading_mm: {overflow} is {abs(float(overflow) - median):g} mm from gauge "
+        f"{'xyz'[gauge]}_{'xyz'[leg]}'s median reading ({median:g} mm), beyond the 50.8 mm "
+        "travel of any indicator: a gauge's overflow or error value (read it again, or remove "
+        "the row), or readings not in mm?")
+
+
+def test_a_gauges_deviations_in_both_forms_are_refused(tmp_path):
+    """dx_y is dx_y+ minus dx_y-: given beside them it counts the same readings twice."""
+    path = tmp_path / "deviations.csv"
+    path.write_text("name,value_mm\ndx_y+,0.1\ndy_x+,0.2\ndx_y-,0.05\ndx_y,0.05\n")
+    with pytest.raises(InputError) as caught:
+        read_deviations(path)
+    assert str(caught.value) == (f"{path}:5: dx_y and dx_y+ (line 2) give the same gauge's "
+                                 "deviations twice: dx_y (Max minus Min) is dx_y+ minus dx_y-; "
+                                 "give a gauge's in one form")
+    path.write_text("name,value_mm\ndx_y,0.05\ndy_x-,0.2\ndy_x,0.1\n")
+    with pytest.raises(InputError, match=r":4: dy_x and dy_x- \(line 3\)"):
+        read_deviations(path)

@@ -110,3 +110,14 @@ def test_a_broken_inventory_is_named_with_its_line(tmp_path):
     with pytest.raises(InputError, match=r"instruments\.toml:3: gauges\[0\]\.due must be a "
                                          r"date"):
         load_inventory(tmp_path / "instruments.toml")
+
+
+def test_a_serial_twice_in_the_inventory_is_refused(tmp_path):
+    """A hand-edited inventory with two entries for one gauge: the later one silently won."""
+    (tmp_path / "instruments.toml").write_text('[[gauges]]\nserial = "A"\ndue = 2027-01-01\n'
+                                               '[[gauges]]\nserial = "A"\ndue = 2026-01-01\n')
+    with pytest.raises(InputError) as caught:
+        load_inventory(tmp_path / "instruments.toml")
+    assert str(caught.value) == (f"{tmp_path / 'instruments.toml'}:5: serial 'A' twice "
+                                 "(gauges[0] at line 2): one entry a gauge; delete the one "
+                                 "that is out of date")

@@ -91,3 +91,22 @@ def test_a_campaign_resumed_with_other_maps_is_refused(tmp_path):
     with SessionWriter.append_to(session.path) as writer:
         writer.write(StationRecord(description={"controller": {"maps": other.identity()}}))
     check_same_maps(load_session(session.path), other)
+
+
+def test_a_maps_file_saved_in_another_encoding_or_cut_short_is_named_by_line(tmp_path):
+    """A cp1252 byte (an editor's save) raised UnicodeDecodeError, a traceback; a file
+    cut short named its line only inside json's words."""
+    path = tmp_path / "maps.json"
+    write_maps_table(path, {"x": screw_map("x")}, session="s")
+    written = path.read_bytes()
+    edited = written.replace(b'"session": "s"', '"session": "Jürgen"'.encode("cp1252"))
+    path.write_bytes(edited)
+    at = edited.index(b"\xfc")  # the file is ASCII: a byte is a column
+    line, column = edited.count(b"\n", 0, at) + 1, at - edited.rfind(b"\n", 0, at)
+    with pytest.raises(InputError) as caught:
+        read_maps_table(path)
+    assert str(caught.value) == (f"{path}:{line}: not UTF-8 text (byte 0xfc at column "
+                                 f"{column}); save the file as UTF-8")
+    path.write_bytes(written[:40])
+    with pytest.raises(InputError, match=rf"^{path}:\d+: the maps file is not JSON: "):
+        read_maps_table(path)
