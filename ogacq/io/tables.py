@@ -444,23 +444,27 @@ def _gauge_name(leg: int, gauge_axis: int) -> str:
 
 
 def _check_repeats(path: Path, table: ReadingsTable) -> None:
-    """Refuse a gauge read twice at one time: a gauge takes one reading at a time, so
-    such a row is a copy (a spreadsheet's pasted twice) that would count as a repeat
-    of the measurement. A file whose times are all equal records none: not checked."""
+    """Refuse a row that copies another: the same gauge at the same time, posture,
+    cycle and reading (a spreadsheet's rows pasted twice) would count as one more
+    repeat of the measurement. Rows that share a time only are left alone: a
+    hand-made file may write coarse times. A file whose times are all equal records
+    none: not checked."""
     t = table.t_s
     if len(t) < 2 or np.all(t == t[0]):
         return
-    order = np.lexsort((table.lines, table.gauge_axis, table.leg, t))
-    same = ((t[order[1:]] == t[order[:-1]]) & (table.leg[order[1:]] == table.leg[order[:-1]])
-            & (table.gauge_axis[order[1:]] == table.gauge_axis[order[:-1]]))
+    columns = (t, table.leg, table.gauge_axis, table.cycle, *table.q_mm.T, table.reading_mm)
+    order = np.lexsort((table.lines, *reversed(columns)))
+    same = np.ones(len(t) - 1, dtype=bool)
+    for column in columns:
+        same &= column[order[1:]] == column[order[:-1]]
     if same.any():
         later, earlier = order[1:][same], order[:-1][same]
         k = int(np.argmin(table.lines[later]))
         row, first = int(later[k]), int(earlier[k])
         raise InputError(path, f"gauge {_gauge_name(table.leg[row], table.gauge_axis[row])} "
-                         f"read again at t_s {t[row]:g}, as at line {table.lines[first]}: a "
-                         "gauge takes one reading at a time, so a row is repeated (copied "
-                         "twice?); remove the copy", int(table.lines[row]))
+                         f"read again at t_s {t[row]:g}, at the same posture, cycle and "
+                         f"reading as at line {table.lines[first]}: a row is repeated "
+                         "(copied twice?); remove the copy", int(table.lines[row]))
 
 
 def _check_gauge_travel(path: Path, table: ReadingsTable) -> None:

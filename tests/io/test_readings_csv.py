@@ -208,8 +208,20 @@ def test_a_row_pasted_twice_is_refused(tmp_path, table_lines):
     with pytest.raises(InputError) as caught:
         read_readings(path)
     assert str(caught.value) == (f"{path}:{len(lines) + 1}: gauge {gauge} read again at t_s "
-                                 f"{t_s:g}, as at line 6: a gauge takes one reading at a time, "
-                                 "so a row is repeated (copied twice?); remove the copy")
+                                 f"{t_s:g}, at the same posture, cycle and reading as at line "
+                                 "6: a row is repeated (copied twice?); remove the copy")
+
+
+def test_coarse_times_shared_by_two_postures_are_not_copies(tmp_path, table_lines):
+    """Times written to the minute: a gauge read at two postures within one minute
+    shares its t_s, which says nothing against the readings."""
+    rows = [line.split(",") for line in table_lines[2]]
+    coarse = [",".join(rows[0])] + [",".join([f"{60 * (float(r[0]) // 60):g}", *r[1:]])
+                                    for r in rows[1:]]
+    path = _written(tmp_path, coarse)
+    table = read_readings(path)
+    assert len(table.reading_mm) == len(rows) - 1
+    assert len(set(table.t_s)) < len(table.t_s) // 2  # the times did coincide
 
 
 def test_times_all_equal_record_none_and_rows_may_repeat(tmp_path, table_lines):
