@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -14,13 +14,14 @@ from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.errors import InputError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
+from ogacq.history.entries import RecordError, check_record
 from ogacq.history.location import history_for_session, history_to_read
-from ogacq.history.recording import record_session, writebacks_of
+from ogacq.history.recording import record_session, session_record, writebacks_of
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
 from ogacq.history.store import History
 from ogacq.session.state import completeness
-from ogacq.session.store import load_session
+from ogacq.session.store import LoadedSession, load_session
 
 ReadHistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
@@ -103,6 +104,16 @@ def show(
         typer.echo(f"plot: {plot}")
 
 
+def _record_for_history(session: LoadedSession) -> dict[str, Any]:
+    """The session's record, refused (before anything is written) when the history
+    cannot file it: a session recorded from a machine file whose name was blank."""
+    try:
+        return check_record(session_record(session))
+    except RecordError as exc:
+        raise InputError(session.path, f"{exc}: the history files calibrations by machine, "
+                         "so this session cannot enter one") from None
+
+
 def add(
     sessions: Annotated[list[Path], typer.Argument(
         help="Session files of finished campaigns (their write-backs come along).")],
@@ -123,10 +134,11 @@ def add(
         if not state.complete and not writebacks_of(session):
             raise Refused(f"{session.path}: {state.describe()}: a calibration enters the "
                           "history when its campaign completes; nothing was recorded")
-    for session, location in zip(loaded, locations, strict=True):
+    records = [_record_for_history(session) for session in loaded]
+    for session, record, location in zip(loaded, records, locations, strict=True):
         assert location is not None
         with History.open(location) as db:
-            recorded = record_session(db, session)
+            recorded = record_session(db, session, record)
         what = ", ".join(recorded.new) if recorded.new else "already recorded"
         state = completeness(session)
         if not state.complete:

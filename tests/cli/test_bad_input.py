@@ -9,13 +9,18 @@ here fails ``test_every_command_has_bad_inputs``.
 from __future__ import annotations
 
 import shutil
+from dataclasses import replace
 from pathlib import Path
 
 import pytest
 
 from ogacq.cli.app import EXIT_CODES, OgacqCommands, main
 from ogacq.cli.lazy import LazyGroupSpec
+from ogacq.io.tables import write_readings
+from ogacq.model.machine import PAPER_PROTOTYPE
+from ogacq.session.convert import import_readings
 from ogacq.session.store import SessionWriter
+from tests.uncertainty.campaigns import papers_campaign
 
 PAPER = Path(__file__).resolve().parents[2] / "ogacq" / "examples" / "paper"
 MISSING = "missing.toml"  # in the test's folder, never created
@@ -119,7 +124,10 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
     "history add": [(["missing.jsonl"], 2, "missing.jsonl"),
                     (["deviations.csv"], 2, "not an ogacq session"),
                     (["session.jsonl", "--history", "none"], 2, "no history to add to"),
-                    (["session.jsonl", "--history", "h.sqlite"], 4, "campaign completes")],
+                    (["session.jsonl", "--history", "h.sqlite"], 4, "campaign completes"),
+                    # recorded before a blank machine name was refused: no machine to file under
+                    (["nameless.jsonl", "--history", "h.sqlite"], 2,
+                     "names no machine: the history files calibrations by machine")],
     "session show": [(["missing.jsonl"], 2, "missing.jsonl"),
                      (["deviations.csv"], 2, "deviations.csv")],
     "session export": [(["session.jsonl", "/nonexistent/dir/o.csv"], 2, "/nonexistent/dir"),
@@ -159,6 +167,10 @@ def folder(tmp_path_factory) -> Path:
     (folder / "broken.toml").write_text("leg_length_mm = [\n")
     (folder / "machine.png").write_bytes(b"\x89PNG\r\n\x1a\n")  # a plot not to overwrite
     SessionWriter.create(folder / "session.jsonl", {"machine": {}, "plan": None}).close()
+    obs, _ = papers_campaign()
+    write_readings(folder / "readings.csv", obs.layout, obs.values)
+    nameless = replace(PAPER_PROTOTYPE, name="")
+    import_readings(folder / "readings.csv", nameless, folder / "nameless.jsonl")
     return folder
 
 
