@@ -18,7 +18,7 @@ from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.selection import Model
-from ogacq.identify.consistency import LEVEL, format_p
+from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
 
@@ -33,22 +33,24 @@ def _value(value: float, std: float, unit: str) -> str:
     return f"{value:+.{digits}f} ± {std_text} {unit}"
 
 
-def _verdict_line(title: str, model: Model) -> str:
-    v = model.verdict
+def _judged(title: str, v: Verdict) -> str:
     colour = "green" if v.consistent else "red"
     return f"{title}: [{colour}]{v.describe()}[/]"
+
+
+def _verdict_line(title: str, model: Model) -> str:
+    return _judged(title, model.verdict)
 
 
 def _final_line(title: str, d: Diagnosis) -> str:
-    v = d.final
-    colour = "green" if v.consistent else "red"
-    return f"{title}: [{colour}]{v.describe()}[/]"
+    return _judged(title, d.final)
 
 
 def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     out.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
               f"{d.noise.describe()}")
     out.print(_verdict_line("joint offsets only", d.selection.base))
+    _print_outliers(d)
     if d.outcome == "consistent":
         out.print("The joint-offset model reproduces these recordings within the gauge "
                   "noise: nothing is left to explain.")
@@ -74,6 +76,26 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     _print_offsets(d)
     for caveat in d.caveats():
         out.print(f"[yellow]note[/]: {shown(caveat)}")
+
+
+def _print_outliers(d: Diagnosis) -> None:
+    """Readings far from their repeats: said before any physics, which they are not."""
+    if d.outliers is None:
+        return
+    found = d.outliers.readings
+    one = len(found) == 1
+    out.print(f"[yellow]{'One reading lies' if one else f'{len(found)} readings lie'} far "
+              f"from {'its' if one else 'their'} repeats, which agree among themselves[/] "
+              "(a value misread or typed wrong, or the gauge knocked between cycles?):")
+    for r in found:
+        out.print(f"  {r.gauge} at {shown(r.posture)}, cycle {r.cycle} (t_s {r.t_s:g}): "
+                  f"{r.value_mm:.6g} mm, {r.deviation_mm * UM_PER_MM:+.1f} µm from what its "
+                  f"{r.n_others} repeats give (p = {format_p(r.p_value)} over "
+                  f"{d.outliers.tested} readings tested)")
+    out.print(_judged(f"  without {'it' if one else 'them'}, joint offsets only",
+                      d.outliers.verdict_without))
+    out.print(f"  check {'it' if one else 'them'}, or measure that posture again; the rest "
+              "of this diagnosis keeps every reading")
 
 
 def _print_location(title: str, loc: Location) -> None:

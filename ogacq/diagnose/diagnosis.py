@@ -37,6 +37,7 @@ from ogacq.diagnose.mapfit import as_fit_result
 from ogacq.diagnose.maps import MapEffect, MapOutcome, map_diagnosis
 from ogacq.diagnose.mapswap import exploration
 from ogacq.diagnose.outcome import outcome_label
+from ogacq.diagnose.outliers import Outliers, find_outliers
 from ogacq.diagnose.profile import LegProfile, leg_profiles
 from ogacq.diagnose.robustness import resting_cell
 from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
@@ -131,6 +132,7 @@ class Diagnosis:
     mapped: MapOutcome | None = None  # the map search (None: not run)
     profiles: tuple[LegProfile, ...] = ()  # residuals along each scanned leg
     sides: list[SideChoice] = field(default_factory=list)  # unknown sides resolved
+    outliers: Outliers | None = None  # readings far from their agreeing repeats
 
     @property
     def base(self) -> Verdict:
@@ -230,7 +232,9 @@ class Diagnosis:
         with an error map), ``proposals`` (scans that would separate explanations
         these readings cannot tell apart), ``coverage`` (how densely each axis was
         read, whether maps were searched), ``profiles`` (residuals along each scanned
-        leg, before and after) and ``chi2`` (before and after the maps, with p)."""
+        leg, before and after), ``chi2`` (before and after the maps, with p) and
+        ``outliers`` (readings far from their repeats, which agree among themselves,
+        with the joint offsets' verdict without them)."""
         effects = [e.to_json() for e in self.effects]
         if self.unexplained is not None:
             entry_: dict[str, Any] = {"effect": "unexplained", "where": self.unexplained,
@@ -260,6 +264,8 @@ class Diagnosis:
                                      "chi2_gain": round(c.gain_chi2, 2)} for c in self.sides]
         if self.profiles:
             out["profiles"] = [p.to_json() for p in self.profiles]
+        if self.outliers is not None:
+            out["outliers"] = self.outliers.to_json()
         return out
 
     def chi2_json(self) -> dict:
@@ -305,6 +311,8 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     obs, problem, sides = resolve_sides(obs, noise, problem, base_fit.theta)
     base = evaluate(problem, noise, (), base_fit.theta, base_fit.identifiability.rank, alpha,
                     _fit_jacobian(base_fit, obs, BASE_MODEL))
+    # model-free, before any effect is tried: a slip of one reading is no physics
+    outliers = find_outliers(obs, problem.labels, noise, alpha, BASE_MODEL)
 
     everything = BASE_MODEL + EFFECT_PARAMETERS
     design = Design(everything, problem.jacobian(base.theta, everything))
@@ -365,7 +373,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     profiles = leg_profiles(obs, base.residuals, final_residuals)
     return Diagnosis(obs.source, obs.kind, len(obs), noise, seen, selection, claimed, share,
                      base_fit, final_fit, located, remaining, all_effects, inflation,
-                     _postures_per_leg(problem), plans, mapped, profiles, sides)
+                     _postures_per_leg(problem), plans, mapped, profiles, sides, outliers)
 
 
 def _fit_jacobian(result: FitResult, obs: Observations, names: tuple[str, ...],

@@ -36,7 +36,7 @@ def test_json_contract(files):
     # keys beyond INTERCHANGE.md's may only be added (the maps' search and results)
     assert contract <= set(out)
     assert set(out) - contract <= {"maps", "proposals", "coverage", "chi2", "profiles",
-                                   "unknown_sides"}
+                                   "unknown_sides", "outliers"}
     assert set(out["base"]) == set(out["final"]) == {"chi2_dof", "rms_mm", "consistent"}
     assert out["base"]["consistent"] is False and out["final"]["consistent"] is True
     assert out["noise_mm"] == pytest.approx(0.00202, abs=1e-5)
