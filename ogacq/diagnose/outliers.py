@@ -92,7 +92,9 @@ def outlying_readings(obs: Observations, labels: RowLabels, noise: GaugeNoise,
     count = int(tested.sum())
     if not count:
         return [], 0
-    most = max(1, int(MOST_GROUPS_SHARE * len(np.unique(layout.repeat_group[tested]))))
+    # (bincount, not np.unique: that imports numpy.ma, a start-up cost of every diagnose)
+    groups_tested = int(np.count_nonzero(np.bincount(layout.repeat_group[tested])))
+    most = max(1, int(MOST_GROUPS_SHARE * groups_tested))
     keep = np.ones(len(obs), dtype=bool)
     found: list[OutlyingReading] = []
     while len(found) <= most:
@@ -117,7 +119,7 @@ def _worst(x: np.ndarray, t_s: np.ndarray, group: np.ndarray, gauge: np.ndarray,
     """The reading farthest from its repeats, when it is out at ``alpha`` (its p-value
     times ``count``) and its repeats agree without it: (its row, how far from what
     they give, the corrected p-value, how many they are); else None."""
-    group = np.unique(group, return_inverse=True)[1].ravel()
+    group = np.cumsum(np.bincount(group) > 0)[group] - 1  # numbered 0.. again, none empty
     size = np.bincount(group)
     tested = size[group] >= 3
     repeats = _RepeatsFit(x, t_s, group, size, gauge)
