@@ -20,6 +20,7 @@ import contextlib
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ogacq_drivers.axes.controller import AxisController
@@ -328,6 +329,7 @@ def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
             log.warning("offset table %s does not exist yet: software offsets are zero "
                         "(`ogacq offsets write` creates it)", spec.offsets_file)
         software = table.offsets_mm
+        _check_software_offsets(table.path, software, profile)
     with contextlib.ExitStack() as stack:
         # one link per distinct endpoint: the three axes on one bus, or a drive per address
         links: dict[str, ModbusLink] = {}
@@ -341,6 +343,20 @@ def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
             per_axis[axis] = links[endpoint]
         yield AxisController(profile, per_axis, device_ids=spec.device_ids(),
                              software_offsets_mm=software)
+
+
+def _check_software_offsets(path: Path, offsets_mm: dict[str, float],
+                            profile: Profile) -> None:
+    """An offset larger than the axis's whole travel is no joint offset of this
+    machine (a hand edit, another machine's table): every target would be sent that
+    far off, past the soft limits the joint coordinates were checked against."""
+    low, high = profile.limits.min_mm, profile.limits.max_mm
+    for axis, offset in offsets_mm.items():
+        if abs(offset) > high - low:
+            raise InputError(path, f"joint_offset_mm.{axis} = {offset} mm is more than the "
+                             f"{axis} axis's whole travel ({high - low:g} mm, the profile's "
+                             f"soft limits [{low:g}, {high:g}] mm): not an offset of this "
+                             "machine; check the file (`ogacq offsets write` writes it)")
 
 
 def _controller_description(spec: ControllerSpec, controller: AxisController) -> dict[str, Any]:

@@ -73,3 +73,20 @@ def test_campaign_offsets_file_refused_with_line(tmp_path, controller, line, wor
     with pytest.raises(InputError) as bad:
         read_campaign(path)
     assert f"{path}:{line}:" in str(bad.value) and words in str(bad.value)
+
+
+def test_an_offset_beyond_the_axis_travel_moves_nothing(tmp_path):
+    """A table hand-edited or taken from another machine: an offset longer than the
+    whole travel would send every target past the soft limits the joint coordinates
+    were checked against. Refused naming the file, before any link is opened."""
+    from ogacq.campaign.station import open_controller
+
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = tmp_path / "campaign.toml"
+    path.write_text(campaign_text('[controller]\nprofile = "iai-pcon"\nport = "/dev/ttyUSB9"\n'
+                                  'offsets_file = "offsets.toml"\n'))
+    write_offset_table(tmp_path / "offsets.toml", {"x": 0.25, "y": 9999.999, "z": -1.5})
+    with pytest.raises(InputError) as bad, open_controller(read_campaign(path).controller):
+        pass
+    assert str(bad.value).startswith(f"{tmp_path / 'offsets.toml'}: joint_offset_mm.y = "
+                                     "9999.999 mm is more than the y axis's whole travel")
