@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ogacq.identify.consistency import Verdict, fit_verdict
+from ogacq.identify.consistency import LEVEL, Verdict, fit_verdict, format_p
 from ogacq.identify.fit import FitResult, StopReason
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
@@ -53,6 +53,9 @@ class Evidence:
     model: str = "joint offsets"  # or "diagnosis: ..." naming the effects fitted beside
     # effects of the model the controller cannot compensate: they remain, mechanically
     uncompensated: list[str] = field(default_factory=list)
+    # readings far from their repeats, which agree among themselves (a misread, a
+    # gauge knocked between cycles): each described, none when there is none
+    outliers: list[str] = field(default_factory=list)
 
     @property
     def converged(self) -> bool:
@@ -68,7 +71,8 @@ class Evidence:
                 "residual_rms_mm": self.residual_rms_mm,
                 "readings": self.readings, "finished": self.finished,
                 "in_force_mm": self.in_force_mm, "profile": self.profile,
-                "model": self.model, "uncompensated": self.uncompensated}
+                "model": self.model, "uncompensated": self.uncompensated,
+                "outliers": self.outliers}
 
 
 def evidence_from_session(session: LoadedSession, from_diagnosis: bool = False) -> Evidence:
@@ -110,7 +114,21 @@ def evidence_of(session: LoadedSession, result: FitResult, verdict: Verdict, mod
         finished=session.finished, in_force_mm=in_force.offsets_mm,
         in_force_consistent=in_force.consistent,
         profile=controllers[0].get("profile"), port=controllers[0].get("port"),
-        model=model, uncompensated=uncompensated)
+        model=model, uncompensated=uncompensated, outliers=_outliers(result))
+
+
+def _outliers(result: FitResult) -> list[str]:
+    """The readings of the fit that lie far from their repeats while those agree
+    (``diagnose/outliers.py``, at the verdict's level): a slip no model explains,
+    which also inflates a noise measured from the repeats until a fit passes."""
+    from ogacq.diagnose.locate import row_labels
+    from ogacq.diagnose.outliers import outlying_readings
+
+    obs = result.observations
+    found, tested = outlying_readings(obs, row_labels(obs), result.noise, LEVEL)
+    return [f"{r.gauge} at {r.posture}, cycle {r.cycle} (t_s {r.t_s:g}): "
+            f"{r.deviation_mm:+.4f} mm from its {r.n_others} repeats "
+            f"(p = {format_p(r.p_value)} over {tested} readings)" for r in found]
 
 
 def _diagnosed(session: LoadedSession) -> tuple[FitResult, Verdict, list[str]]:

@@ -168,6 +168,17 @@ def _refuse_inconsistent(evidence: Evidence, facts: ControllerFacts) -> Refusal 
                    f"{evidence.model} fit: {evidence.verdict.describe()}; {hint}")
 
 
+def _refuse_outliers(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
+    if not evidence.outliers:
+        return None
+    one = len(evidence.outliers) == 1
+    return Refusal("outlier", f"{'a reading lies' if one else 'readings lie'} far from "
+                   f"{'its' if one else 'their'} repeats, which agree among themselves "
+                   f"(a misread, or the gauge knocked between cycles): "
+                   f"{'; '.join(evidence.outliers)}; check the setup and run the campaign "
+                   "again (`ogacq diagnose` on the session says more)")
+
+
 def _refuse_other_profile(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:
     if evidence.profile is None or evidence.profile == facts.profile:
         return None
@@ -178,7 +189,7 @@ def _refuse_other_profile(evidence: Evidence, facts: ControllerFacts) -> Refusal
 
 # The checks of the evidence alone, in the order the operator reads their refusals.
 _EVIDENCE_CHECKS = (_refuse_incomplete, _refuse_not_converged, _refuse_unidentifiable,
-                    _refuse_inconsistent, _refuse_other_profile)
+                    _refuse_inconsistent, _refuse_outliers, _refuse_other_profile)
 
 
 @dataclass(frozen=True)

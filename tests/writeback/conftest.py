@@ -120,9 +120,11 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
                       effects: Mapping[str, float] | None = None, legs=(0, 1, 2),
                       postures=("zero", "max", "min", "zero"), noise_mm: float = 0.001,
                       in_force_mm: Mapping[str, float] | None = None, profile: str = "cia402",
-                      seed: int = 0, header_extra: Mapping | None = None) -> Path:
+                      seed: int = 0, header_extra: Mapping | None = None,
+                      slip: tuple[int, float] | None = None) -> Path:
     """A finished campaign's session, made with the exact model instead of a machine:
-    what a real campaign records, in a fraction of a second."""
+    what a real campaign records, in a fraction of a second. ``slip``: (row, mm) one
+    reading off by that much (misread, or the gauge knocked and set back)."""
     machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.001)
     lay = planned_layout(ProtocolConfig(legs=tuple(AXES[i] for i in legs),
                                         postures=tuple(postures)), machine)
@@ -135,6 +137,8 @@ def synthetic_session(path: Path, campaign_path: Path, *, offsets_mm: Mapping[st
     values = clean + rng.uniform(3.0, 9.0, lay.n_gauges)[lay.gauge] \
         + rng.normal(0.0, noise_mm, len(lay))
     values = np.round(values / 0.001) * 0.001
+    if slip is not None:
+        values[slip[0]] += slip[1]
     in_force = dict(in_force_mm) if in_force_mm is not None else dict.fromkeys(AXES, 0.0)
     header = {"machine": {"leg_length_mm": 310.25, "rho_min_mm": -100.0, "rho_max_mm": 60.0,
                           "gauge_resolution_mm": 0.001},

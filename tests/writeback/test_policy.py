@@ -32,7 +32,7 @@ BAD = Verdict("inconsistent", "chi-square", 4000.0, 63, None, 0.0, 0.0, LEVEL, 4
 
 def evidence(identified, *, std=0.001, verdict=GOOD, identifiable=True, in_force=ZEROS,
              finished=True, converged=True, in_force_consistent=True,
-             profile="cia402") -> Evidence:
+             profile="cia402", outliers=()) -> Evidence:
     return Evidence(
         session_path=Path("s.jsonl"), identified_mm=dict(zip(AXES, identified, strict=True)),
         std_mm=dict.fromkeys(AXES, std), verdict=verdict, identifiable=identifiable,
@@ -40,7 +40,8 @@ def evidence(identified, *, std=0.001, verdict=GOOD, identifiable=True, in_force
         fit_stop=StopReason.COST_STALLED if converged else StopReason.MAX_ITERATIONS,
         residual_rms_mm=0.001, readings=72, finished=finished,
         in_force_mm=None if in_force is None else dict(in_force),
-        in_force_consistent=in_force_consistent, profile=profile, port="p")
+        in_force_consistent=in_force_consistent, profile=profile, port="p",
+        outliers=list(outliers))
 
 
 def codes(plan) -> list[str]:
@@ -68,6 +69,8 @@ def test_new_offset_is_the_one_in_force_minus_the_identified_rounded_to_the_regi
     ({"in_force": None}, "unknown_baseline"),
     ({"in_force_consistent": False}, "mixed_baseline"),
     ({"profile": "iai-pcon"}, "other_profile"),
+    ({"outliers": ["z_x at zero, cycle 2 (t_s 80): +0.0300 mm from its 4 repeats"]},
+     "outlier"),
 ])
 def test_each_unreliable_result_is_refused_with_its_reason(kwargs, code):
     plan = plan_write(evidence((0.5, -0.5, 0.2), **kwargs), ZEROS, CIA)

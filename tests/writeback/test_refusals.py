@@ -59,6 +59,9 @@ def refused_and_untouched(ran, session_path, campaign, code: str) -> None:
     # the machine is out of square by 1 mrad: offsets alone cannot fit the readings
     ("inconsistent", {"effects": {"squareness.xy": 1.0}}, (), "NOT within the gauge noise"),
     ("too_large", {}, ("--max-change-mm", "1.0"), "exceed the 1 mm limit"),
+    # one reading 2 mm off: the noise measured from the repeats swells until the offsets
+    # alone pass, and only the reading's distance from its agreeing repeats tells
+    ("outlier", {"slip": (33, 2.0)}, (), "far from its repeats, which agree"),
 ])
 def test_unreliable_result_is_refused_and_nothing_written(
         tmp_path, capsys, monkeypatch, campaign, code, session_kw, options, words):
