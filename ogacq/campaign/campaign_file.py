@@ -120,7 +120,7 @@ from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
 from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
-from ogacq.model.instrument import Instrument
+from ogacq.model.instrument import MAX_CERTIFICATE_U_MM, Instrument
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import (
@@ -608,6 +608,11 @@ def _check_identity(src: Source, k: int, g: GaugeSpec) -> None:
     if g.uncertainty_k is not None and g.uncertainty_mm is None:
         raise src.fail(("gauges", k, "uncertainty_k"), "", f"gauge {g.gauge}: uncertainty_k "
                        "without uncertainty_mm (the certificate's U)")
+    if g.uncertainty_mm is not None and g.uncertainty_mm > MAX_CERTIFICATE_U_MM:
+        raise src.fail(("gauges", k, "uncertainty_mm"), "", f"gauge {g.gauge}: uncertainty_mm = "
+                       f"{g.uncertainty_mm:g} mm is more than an indicator's certificate "
+                       f"states (at most {MAX_CERTIFICATE_U_MM:g} mm): micrometres written as "
+                       "mm?")
 
 
 def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,

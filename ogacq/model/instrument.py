@@ -16,6 +16,11 @@ from typing import Any
 
 from ogacq.io.dates import date_or_none
 
+# The largest expanded uncertainty an indicator's certificate may state: the coarsest
+# dial indicator's graduation (0.1 mm, GAUGE_STEP_RANGE_MM in model/machine.py; no
+# other source). A larger U is micrometres written as millimetres.
+MAX_CERTIFICATE_U_MM = 0.1
+
 
 @dataclass(frozen=True)
 class Instrument:

@@ -58,7 +58,9 @@ def test_adding_to_a_database_of_another_application_is_refused_untouched(tmp_pa
     from ogacq.session.records import EndRecord
     from ogacq.session.store import SessionWriter
 
-    with SessionWriter.create(session, {"machine": {}, "plan": None}) as writer:
+    machine = {"name": "OG-1", "leg_length_mm": 310.25, "rho_min_mm": -100.0,
+               "rho_max_mm": 60.0, "gauge_resolution_mm": 0.001}
+    with SessionWriter.create(session, {"machine": machine, "plan": None}) as writer:
         writer.write(EndRecord(status="complete"))  # a finished one: partial is refused
     ran = ogacq_here(capsys, monkeypatch, "history", "add", session, "--history", other)
     assert ran.returncode == 3
