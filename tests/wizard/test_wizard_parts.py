@@ -218,4 +218,6 @@ def test_the_wizard_makes_a_machine_file_from_questions(tmp_path, monkeypatch):
     assert (machine.leg_length_mm, machine.rho_min_mm, machine.rho_max_mm,
             machine.gauge_resolution_mm) == (400, -120, 80, 0.001)
     assert "rho_min_mm < 0 < rho_max_mm" in shown.getvalue()
-    assert "could not convert string to float: 'abc'" in shown.getvalue()
+    # in words, not Python's "could not convert string to float"
+    assert "'abc' is not a number: type a length in mm" in shown.getvalue()
+    assert "convert" not in shown.getvalue()

@@ -57,7 +57,15 @@ from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_report, offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
-from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
+from ogacq.cli.wizard.ui import (
+    InputClosed,
+    Option,
+    Screen,
+    detail,
+    log_on_screen,
+    times,
+    typed_number,
+)
 from ogacq.history.recording import record_campaign
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
@@ -389,7 +397,7 @@ class _Wizard:
         with self.gate.immediate():
             try:
                 value = self._questions().ask_temperature(
-                    "Ambient temperature now, at the end, °C (Enter: not measured)")
+                    "Ambient temperature now, at the end, °C")
             except InputClosed:
                 return None
         if value is None:
@@ -454,9 +462,9 @@ class _Wizard:
             leg_length_mm = s.ask_parsed("Leg length (mm, the parallelogram's)", _length,
                                          f"{base.leg_length_mm:g}")
             rho_min_mm = s.ask_parsed("Joint travel below the zero posture, for Min "
-                                      "(mm, negative)", float, f"{base.rho_min_mm:g}")
+                                      "(mm, negative)", _travel, f"{base.rho_min_mm:g}")
             rho_max_mm = s.ask_parsed("Joint travel above the zero posture, for Max "
-                                      "(mm, positive)", float, f"{base.rho_max_mm:g}")
+                                      "(mm, positive)", _travel, f"{base.rho_max_mm:g}")
             gauge_resolution_mm = s.ask_parsed(
                 "Gauge display step (mm: 0.01 dial, 0.001 digital)", _length,
                 f"{base.gauge_resolution_mm:g}")
@@ -774,10 +782,14 @@ def _how_read(campaign: Campaign, by_eye: set[str]) -> str:
 
 
 def _length(text: str) -> float:
-    value = float(text)
-    if not 0 < value < float("inf"):
+    value = typed_number(text.strip().removesuffix("mm"), "a length in mm (for example 310.25)")
+    if not value > 0:
         raise ValueError(f"a positive length in mm, got {text}")
     return value
+
+
+def _travel(text: str) -> float:
+    return typed_number(text.strip().removesuffix("mm"), "a travel in mm (for example -100)")
 
 
 @dataclass(frozen=True)
