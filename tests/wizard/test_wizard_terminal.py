@@ -325,7 +325,7 @@ def test_quit_at_the_first_question_names_the_rehearsal_command(tmp_path, wizard
 def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizards):
     """A gauge typed in for the first time with a certificate already past due: the
     wizard says so before anything moves; the reason given is recorded and the gauge
-    is remembered in the inventory."""
+    is remembered in the inventory. Ctrl-C at a question loses no answer given."""
     w = start(wizards, tmp_path / "run", "--cycles", "1", "--indicators", "6")
     w.answer(r"Register map of the controller")
     w.answer(r"Controller port")
@@ -335,7 +335,17 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     w.answer(r"Is this the machine you are calibrating\?")
     w.answer(r"Machine name", "OG-1 cell 3")
     w.answer(r"Machine serial number", "OG-2026-0017")
+    # Ctrl-C at a question, then resume: the questions come again, each answer given
+    # before the pause offered (Enter keeps it), none lost
+    w.expect(r"Operator \(your name\)")
+    w.ctrl_c()
+    w.answer(r"Resume or quit\?", "r")
+    w.expect(r"answers given before the pause are offered again")
+    w.answer(r"Machine name .{0,20}OG-1 cell 3")
+    w.answer(r"Machine serial number .{0,20}OG-2026-0017")
     w.answer(r"Operator \(your name\)", "J. Martin")
+    w.answer(r"Ambient temperature now, °C", "twenty")  # refused in words
+    w.expect(r"'twenty' is not a number: type a temperature in °C")
     w.answer(r"Ambient temperature now, °C", "22,5")
     w.answer(r"Serial number of gauge y_x", "12345678")
     w.expect(r"12345678 is new")
