@@ -40,6 +40,12 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     w.expect(r"simulated gauge y_x")
     w.connect_with_defaults()
     w.measure_in_place(24)  # six left in place: one stop at the start, none per leg
+    # Ctrl-C at the last question: a pause, then the question again (it went on to the
+    # result with the temperature unrecorded)
+    w.expect(r"Ambient temperature now, at the end, °C")
+    w.ctrl_c()
+    w.expect(r"Paused\S* after the last reading, before the result")
+    w.answer(r"Resume or quit\?", "r")
     w.end_temperature("21,5")
     w.expect(r"Joint offsets identified from 72 readings \(mm\)")
     # each offset with its U (k = 2): two significant digits, the value at its place

@@ -393,11 +393,15 @@ class _Wizard:
         return self.questions
 
     def _end_temperature(self, station: DeviceStation) -> EnvironmentRecord | None:
-        """Asked once the last reading is taken, before the result."""
+        """Asked once the last reading is taken, before the result; Ctrl-C there pauses
+        and asks again (it went on to the result, the temperature unrecorded)."""
+        def ask() -> float | None:
+            return self._questions().ask_temperature("Ambient temperature now, at the end, °C")
+
         with self.gate.immediate():
             try:
-                value = self._questions().ask_temperature(
-                    "Ambient temperature now, at the end, °C")
+                value = pausable(self.screen, "after the last reading, before the result",
+                                 ask, self.session_path)
             except InputClosed:
                 return None
         if value is None:

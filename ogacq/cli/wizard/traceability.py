@@ -121,13 +121,14 @@ class TraceabilityQuestions:
         # first question, and each answer given before the pause is offered again
         self._answered: dict[str, str] = {}
 
-    def _ask(self, key: str, question: str, parse: Callable[[str], T],
+    def _ask(self, key: str | None, question: str, parse: Callable[[str], T],
              default: str | None = None, unset: str = "") -> T:
         """``question`` until ``parse`` takes the answer; the answer given to ``key``
-        before a pause is offered instead of ``default``. ``unset`` says what Enter
-        does when nothing is offered ("not recorded"): said only then, since with an
-        answer offered Enter takes it."""
-        offered = self._answered.get(key, default) or None
+        before a pause is offered instead of ``default`` (``key`` None: a question of
+        its own moment, nothing offered from before). ``unset`` says what Enter does
+        when nothing is offered ("not recorded"): said only then, since with an answer
+        offered Enter takes it."""
+        offered = (self._answered.get(key, default) if key else default) or None
         text = f"{question} (Enter: {unset})" if unset and offered is None else question
         while True:
             answer = self.screen.ask(text, offered)
@@ -136,7 +137,8 @@ class TraceabilityQuestions:
             except ValueError as exc:
                 self.screen.problem(str(exc))
                 continue
-            self._answered[key] = answer
+            if key:
+                self._answered[key] = answer
             return value
 
     def ask(self, machine: MachineSpec, indicators: Sequence[Indicator],
@@ -154,7 +156,7 @@ class TraceabilityQuestions:
                              default=self.inventory.operator or None)
         if operator:
             self.inventory.operator = operator
-        ambient = self.ask_temperature("Ambient temperature now, °C")
+        ambient = self.ask_temperature("Ambient temperature now, °C", key="ambient")
         trace = Traceability(machine, operator, ambient)
         if self.inventory.gauges:
             s.note("Gauges met before: " + "; ".join(
@@ -167,11 +169,12 @@ class TraceabilityQuestions:
         trace.override_expired = self._check_due(trace, indicators, on)
         return trace
 
-    def ask_temperature(self, question: str) -> float | None:
+    def ask_temperature(self, question: str, key: str | None = None) -> float | None:
+        """A temperature now (``key``: as :meth:`_ask`)."""
         hint = f"{self.ambient_hint_c:g}" if self.ambient_hint_c is not None else None
         if hint is not None:
             self.screen.note(f"(rehearsal: the simulated shop is at {hint} °C)")
-        return self._ask(question, question, temperature, hint, unset="not measured")
+        return self._ask(key, question, temperature, hint, unset="not measured")
 
     def _identify(self, indicator: Indicator) -> dict[str, Any]:
         s = self.screen
