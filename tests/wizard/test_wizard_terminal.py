@@ -156,8 +156,16 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
     w.expect(r"Joint offsets identified from 24 readings")
     w.verdict()
     w.answer(r"Write these offsets", "n")
-    w.answer(r"Write the calibration record now", "n")
-    assert w.finish() == 0
+    # Ctrl-C at an offer after the result: a pause (it quit without a word); a quit
+    # there still ends with the verdict, the record id and what is left to do
+    w.expect(r"Write the calibration record now")
+    w.ctrl_c()
+    w.answer(r"Resume or quit\?", "q")
+    w.expect(r"verdict: within the gauge noise")
+    w.expect(r"record: OGQ-\d{8}-[0-9a-f]{8}")
+    w.expect(r"next: ogacq report ")
+    w.expect(r"Stopped here: the campaign is complete and saved")
+    assert w.finish() == 130
     session = load_session(w.session)
     faults = session.of_type(FaultRecord)
     assert len(faults) == 3 and {f.gauge for f in faults} == {"z_x"}

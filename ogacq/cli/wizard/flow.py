@@ -195,24 +195,41 @@ class _Wizard:
         except (KeyboardInterrupt, OperatorQuit):
             s.say(f"\nNot written. Later: ogacq offsets write {shown(outcome.session_path)}")
         folder = outcome.session_path.parent / "report"
-        report = offer_report(s, outcome.session_path, folder, history=self.options.history)
+        report: Path | None = None
         validation: CampaignOutcome | None = None
-        if written and self.campaign is not None:
-            try:
+        # Ctrl-C at an offer below pauses (it quit without a word, the verdict, the
+        # record id and the next commands unsaid); a quit there ends with them
+        try:
+            report = pausable(s, "before the calibration record", lambda: offer_report(
+                s, outcome.session_path, folder, history=self.options.history))
+            if written and self.campaign is not None:
                 validation = self._offer_validation(outcome)
-            except OperatorQuit:
+            if validation is not None and report is not None:
+                as_left = validation.session_path
+                report = None  # until issued as found and as left
+                report = pausable(s, "before the record as found and as left",
+                                  lambda: offer_report(s, outcome.session_path, folder,
+                                                       as_left, self.options.history))
+        except OperatorQuit:
+            if self.session_path != outcome.session_path:  # inside the validation campaign
                 self._say_quit()
                 return EXIT_QUIT
-            if validation is not None and report is not None:
-                report = offer_report(s, outcome.session_path, folder,
-                                      validation.session_path, self.options.history)
-        end = replace(end, steps=self._next_steps(end, outcome, written, validation, report),
-                      report=report)
-        s.say()
-        for line in end.lines():
-            s.say(shown(line), soft_wrap=True)
+            self._say_end(replace(end, steps=self._next_steps(end, outcome, written,
+                                                              validation, report),
+                                  report=report))
+            s.say("Stopped here: the campaign is complete and saved; what is left to do is "
+                  "above.")
+            return EXIT_QUIT
+        self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
+                                                          report), report=report))
         s.say("[bold green]Calibration campaign complete.[/]")
         return EXIT_DONE
+
+    def _say_end(self, end: CampaignEnd) -> None:
+        """The verdict, the record's id and the next commands."""
+        self.screen.say()
+        for line in end.lines():
+            self.screen.say(shown(line), soft_wrap=True)
 
     def _offer_validation(self, calibration: CampaignOutcome) -> CampaignOutcome | None:
         """The same plan run again, the offsets as written: what remains (ISO/IEC
@@ -220,8 +237,9 @@ class _Wizard:
         session of the campaign's series (``session-2.jsonl``)."""
         s = self.screen
         assert self.campaign is not None
-        if not s.confirm("Run a validation campaign now (the same plan, the offsets as "
-                         "written: what remains of them)?", default=True):
+        if not pausable(s, "before the validation campaign", lambda: s.confirm(
+                "Run a validation campaign now (the same plan, the offsets as written: what "
+                "remains of them)?", default=True)):
             s.say("Not run. Later, with the gauges in place: [bold]"
                   + shown(f"ogacq run {self.campaign.path}") + "[/]"
                   + (" (on the machine: the rehearsal's simulator stops with the wizard)"
