@@ -398,6 +398,9 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     w.expect(r"Offsets remaining after the write-back from 24 readings")
     w.answer(r"Write the calibration record now \(as found and as left", "y")
     w.expect(r"record OGQ-\d{8}-[0-9a-f]{8} revision 2: ")
+    # the end gives the validation's verdict beside the calibration's
+    w.expect(r"verdict: ")
+    w.expect(r"validation: (NOT )?within the gauge noise .*session-2\.jsonl")
     w.expect(r"next: open ")
     w.expect(r"\(the record as found and as left\)")
     w.expect(r"Calibration campaign complete")

@@ -67,6 +67,7 @@ from ogacq.cli.wizard.ui import (
     typed_number,
 )
 from ogacq.history.recording import record_campaign
+from ogacq.identify.consistency import fit_verdict
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
@@ -216,19 +217,24 @@ class _Wizard:
                 return EXIT_QUIT
             self._say_end(replace(end, steps=self._next_steps(end, outcome, written,
                                                               validation, report),
-                                  report=report))
+                                  report=report), validation)
             s.say("Stopped here: the campaign is complete and saved; what is left to do is "
                   "above.")
             return EXIT_QUIT
         self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
-                                                          report), report=report))
+                                                          report), report=report), validation)
         s.say("[bold green]Calibration campaign complete.[/]")
         return EXIT_DONE
 
-    def _say_end(self, end: CampaignEnd) -> None:
-        """The verdict, the record's id and the next commands."""
+    def _say_end(self, end: CampaignEnd, validation: CampaignOutcome | None) -> None:
+        """The verdict, the validation's beside it (the machine as left: the calibration's
+        alone read as the last word), the record's id and the next commands."""
+        lines = end.lines()
+        if validation is not None:
+            lines.insert(1, f"validation: {fit_verdict(validation.fit).summary()} "
+                            f"({validation.session_path})")
         self.screen.say()
-        for line in end.lines():
+        for line in lines:
             self.screen.say(shown(line), soft_wrap=True)
 
     def _offer_validation(self, calibration: CampaignOutcome) -> CampaignOutcome | None:
