@@ -113,8 +113,16 @@ class Screen:
 
     def choose(self, question: str, options: Sequence[Option], default: str | None = None,
                ) -> str:
-        """One of the options' keys, typed (case does not matter)."""
+        """One of the options' keys, typed (case does not matter), or the first word of
+        its label as listed ("cia402", "six", "retry", "quit"): what a person reads on
+        the line is what they type."""
         keys = {o.key.lower(): o.key for o in options}
+        named: dict[str, list[str]] = {}
+        for o in options:
+            name = o.label.split(maxsplit=1)[0].rstrip(":,").lower() if o.label.strip() else ""
+            named.setdefault(name, []).append(o.key)
+        keys |= {name: found[0] for name, found in named.items()
+                 if name and len(found) == 1 and name not in keys}
         for option in options:
             self.out.print(f"  [bold cyan]{shown(option.key)}[/]  {shown(option.label)}")
         while True:
