@@ -4,9 +4,10 @@ flags, its offsets states, and the same as JSON."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any
 
+from rich.console import Console
 from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
@@ -171,8 +172,7 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     # per calibration instead of a column cut off.
     console.print(_who_title(machine, where, calibrations), highlight=False)
     who = _who_table(calibrations)
-    natural = console.measure(who, options=console.options.update_width(10_000)).maximum
-    if natural <= console.width:
+    if _fits(console, who):
         console.print(who)
     else:
         for block in _who_blocks(calibrations):
@@ -189,39 +189,64 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
         console.print(shown(events_note), highlight=False)
 
 
-def _offsets_states_table(machine: Machine, where: str, states: Sequence[OffsetState],
-                          current: OffsetState | None,
-                          machine_states: Sequence[MachineState]) -> Table:
+def _fits(console: Console, table: Table) -> bool:
+    """Whether ``table`` fits the terminal whole: rich would otherwise squeeze its
+    columns, down to nothing for some (a value lost, not wrapped)."""
+    natural = console.measure(table, options=console.options.update_width(10_000)).maximum
+    return natural <= console.width
+
+
+def _print_rows(console: Console, title: str, columns: Sequence[str],
+                rows: Sequence[Sequence[str]], rest: Callable[[Sequence[str]], str]) -> None:
+    """A table of text cells (already ``shown``), or where it does not fit the
+    terminal, a block per row: its first three cells on a line, ``rest`` of the row
+    in words below them."""
+    table = Table(title=title, show_edge=False, header_style="bold", title_justify="left")
+    for column in columns:
+        table.add_column(column, justify="right" if column in ("x", "y", "z") else "left",
+                         no_wrap=column in ("state", "when", "record"))
+    for row in rows:
+        table.add_row(*row)
+    if _fits(console, table):
+        console.print(table)
+        return
+    console.print(title, highlight=False)
+    for row in rows:
+        console.print("  ".join(row[:3]) + "\n    " + rest(row), highlight=False)
+
+
+def _print_offsets_states(console: Console, machine: Machine, where: str,
+                          states: Sequence[OffsetState], current: OffsetState | None,
+                          machine_states: Sequence[MachineState]) -> None:
     """Each offsets state: which write-back or restore left it, and what became of it."""
     fate = {v.state_id: v.fate for v in machine_states if v.fate}
-    table = Table(title=f"{shown(machine.describe())}: offsets states in {shown(where)} (o, mm)",
-                  show_edge=False, header_style="bold", title_justify="left")
-    for column in ("state", "when", "what", "record", "x", "y", "z", "status"):
-        table.add_column(column, justify="right" if column in "xyz" else "left",
-                         no_wrap=column in ("state", "when", "record"))
     in_force = current.state_id if current is not None else None
+    rows = []
     for v in states:
         mark = ", in force" if v.state_id == in_force else ""
         told = f"; {fate[v.state_id]}" if v.state_id in fate else ""
-        table.add_row(shown(v.state_id), shown(v.at or "-"),
-                      shown(f"{_stage(v)} {v.action} {v.operation}"), shown(v.record_id),
-                      *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
-                        for a in "xyz"), shown(v.status + mark + told))
-    return table
+        rows.append([shown(v.state_id), shown(v.at or "-"), shown(v.record_id),
+                     shown(f"{_stage(v)} {v.action} {v.operation}"),
+                     *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
+                       for a in "xyz"), shown(v.status + mark + told)])
+    _print_rows(console, f"{shown(machine.describe())}: offsets states in {shown(where)} "
+                         "(o, mm)",
+                ("state", "when", "record", "what", "x", "y", "z", "status"), rows,
+                lambda r: f"{r[3]}: x {r[4]}, y {r[5]}, z {r[6]} mm; {r[7]}")
 
 
-def _maps_states_table(machine: Machine, maps: Sequence[MachineState]) -> Table:
+def _print_maps_states(console: Console, machine: Machine,
+                       maps: Sequence[MachineState]) -> None:
     """Each maps state: the error maps ogacq applies, by checksum."""
-    table = Table(title=f"{machine.describe()}: maps states (the error maps ogacq applies)",
-                  show_edge=False, header_style="bold", title_justify="left")
-    for column in ("state", "when", "what", "record", "axes", "checksum", "status"):
-        table.add_column(column, no_wrap=column in ("state", "when", "record"))
-    for m in maps:
-        table.add_row(m.state_id, m.at or "-", f"{m.stage} {m.action} {m.operation}",
-                      m.record_id, ", ".join(sorted(m.maps or {})) or "none",
-                      (m.maps_checksum or "-")[:12],
-                      m.status + (f"; {m.fate}" if m.fate else ""))
-    return table
+    rows = [[shown(m.state_id), shown(m.at or "-"), shown(m.record_id),
+             shown(f"{m.stage} {m.action} {m.operation}"),
+             shown(", ".join(sorted(m.maps or {})) or "none"),
+             shown((m.maps_checksum or "-")[:12]),
+             shown(m.status + (f"; {m.fate}" if m.fate else ""))] for m in maps]
+    _print_rows(console, f"{shown(machine.describe())}: maps states (the error maps ogacq "
+                         "applies)",
+                ("state", "when", "record", "what", "axes", "checksum", "status"), rows,
+                lambda r: f"{r[3]}: axes {r[4]}, checksum {r[5]}; {r[6]}")
 
 
 def _stage(state: OffsetState) -> str:
@@ -231,11 +256,11 @@ def _stage(state: OffsetState) -> str:
 def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
                  current: OffsetState | None,
                  machine_states: Sequence[MachineState] = ()) -> None:
-    console = new_console()
-    console.print(_offsets_states_table(machine, where, states, current, machine_states))
+    console = new_console()  # per call: the terminal's width as it is now
+    _print_offsets_states(console, machine, where, states, current, machine_states)
     maps = [v for v in machine_states if v.kind == "maps"]
     if maps:
-        console.print(_maps_states_table(machine, maps))
+        _print_maps_states(console, machine, maps)
     if machine_states:
         console.print(f"compare two: ogacq history {machine.name!r} --states --diff STATE STATE",
                       highlight=False)

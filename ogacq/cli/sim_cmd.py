@@ -26,6 +26,7 @@ from ogacq.cli.options import (
 )
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.cli.render import print_sim
+from ogacq.errors import InputError
 from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import read_machine, write_machine
 from ogacq.model.gauges import GAUGE_KEYS
@@ -74,6 +75,12 @@ def sim(
         check_output_file(write_campaign, "--write-campaign", force=force)
         if machine is None:
             machine_out = write_campaign.parent / "machine.toml"
+            if machine_out.exists() and not force:
+                # the file `ogacq init machine` writes: say why sim would write it at all
+                raise InputError(machine_out, "exists, and --write-campaign writes the "
+                                 "simulated machine's file beside the campaign file: give "
+                                 f"--machine {machine_out} to simulate that machine, another "
+                                 "folder, or --force to replace it")
             check_output_file(machine_out, "--write-campaign folder", force=force)
     simulated = SimulatorSpec(seed=seed, effects=effects, speed=speed, profile=profile.value,
                               gauge_protocol=gauge_protocol.value,

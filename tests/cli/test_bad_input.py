@@ -89,6 +89,8 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
             (["--port", "70000"], 2, "--port"),
             (["--profile", "iai-pcon", "--port", "1502"], 2, "--port"),
             (["--write-campaign", "machine.toml"], 2, "--force"),
+            # the machine file beside it exists (`ogacq init machine`): why, and the way out
+            (["--write-campaign", "c.toml"], 2, "give --machine machine.toml to simulate"),
             (["--write-campaign", "/nonexistent/dir/c.toml"], 2, "/nonexistent/dir")],
     "init": [(["banana"], 2, "'banana'"),
              (["machine", "machine.toml"], 2, "--force"),

@@ -11,7 +11,12 @@ import pytest
 from rich.console import Console
 
 from ogacq.campaign.inventory import KnownGauge, load_inventory
-from ogacq.cli.wizard.traceability import Indicator, TraceabilityQuestions, temperature
+from ogacq.cli.wizard.traceability import (
+    Indicator,
+    TraceabilityQuestions,
+    _positive,
+    temperature,
+)
 from ogacq.cli.wizard.ui import Screen
 from ogacq.errors import InputError
 from ogacq.model.machine import PAPER_PROTOTYPE
@@ -121,3 +126,31 @@ def test_a_serial_twice_in_the_inventory_is_refused(tmp_path):
     assert str(caught.value) == (f"{tmp_path / 'instruments.toml'}:5: serial 'A' twice "
                                  "(gauges[0] at line 2): one entry a gauge; delete the one "
                                  "that is out of date")
+
+
+def test_a_serial_typed_again_that_is_known_takes_the_known_gauge(tmp_path, monkeypatch):
+    """The typo was in the serial: typed again, it names a gauge met before, which is
+    taken as known; the answers given for the typo never overwrite its certificate."""
+    indicators = [Indicator("gauge y_x (/dev/ttyUSB0)", ("y_x",))]
+    ask(monkeypatch, tmp_path, ["", "", "SN9", "Sylvac", "", "C-1", "2025-06-01",
+                                "2026-06-01", "0.002", "", ""], indicators)
+    known = load_inventory(tmp_path / "instruments.toml").find("SN9")
+    trace, shown = ask(monkeypatch, tmp_path, [
+        "", "",
+        "SN6", "Mitutoyo", "", "C-9", "", "", "0,004", "",  # a serial mistyped
+        "n", "SN9"], indicators)  # not right: SN9, the gauge met before
+    assert "OK  SN9: Sylvac, certificate C-1" in shown
+    assert trace.identities["y_x"] == known.identity()
+    inventory = load_inventory(tmp_path / "instruments.toml")
+    assert inventory.find("SN9") == known and inventory.find("SN6") is None
+
+
+def test_numbers_refused_in_words():
+    for typed in ("twenty", "2O", "nan", "inf"):
+        with pytest.raises(ValueError, match=rf"'{typed}' is not a number: type a "
+                                             r"temperature in °C \(for example 20\.5\)"):
+            temperature(typed)
+    assert _positive("0,0015 mm") == 0.0015
+    with pytest.raises(ValueError, match=r"'1\.5 µm' is not a number: type the "
+                                         r"certificate's U in mm \(for example 0\.0015"):
+        _positive("1.5 µm")

@@ -218,4 +218,31 @@ def test_the_wizard_makes_a_machine_file_from_questions(tmp_path, monkeypatch):
     assert (machine.leg_length_mm, machine.rho_min_mm, machine.rho_max_mm,
             machine.gauge_resolution_mm) == (400, -120, 80, 0.001)
     assert "rho_min_mm < 0 < rho_max_mm" in shown.getvalue()
-    assert "could not convert string to float: 'abc'" in shown.getvalue()
+    # in words, not Python's "could not convert string to float"
+    assert "'abc' is not a number: type a length in mm" in shown.getvalue()
+    assert "convert" not in shown.getvalue()
+
+
+def test_a_choice_is_its_key_or_the_first_word_of_its_label(monkeypatch):
+    """What a technician reads on the line is what they type: 'cia402', 'six', 'quit'
+    choose as the numbers and letters do; a word two labels share chooses neither."""
+    import io
+
+    from rich.console import Console
+
+    from ogacq.cli.wizard.ui import Option, Screen
+
+    answers = iter(["CIA402", "six", "2", "Quit", "mitutoyo", "read", "m"])
+    monkeypatch.setattr("builtins.input", lambda prompt="": next(answers))
+    shown = io.StringIO()
+    screen = Screen(Console(file=shown, width=100))
+    profiles = [Option("1", "cia402"), Option("2", "iai-pcon")]
+    assert screen.choose("Register map", profiles) == "1"
+    indicators = [Option("6", "six, two per leg, left in place"), Option("2", "two, moved")]
+    assert screen.choose("How many indicators?", indicators) == "6"
+    assert screen.choose("How many indicators?", indicators) == "2"
+    assert screen.choose("Resume or quit?", [Option("r", "resume"), Option("q", "quit")]) == "q"
+    read = [Option("1", "mitutoyo-01a: Mitutoyo 01A ASCII"), Option("r", "read y_x by eye"),
+            Option("m", "read z_x by eye")]
+    assert screen.choose("How?", read) == "m"  # 'mitutoyo' and 'read' refused first
+    assert shown.getvalue().count("type one of: 1, r, m") == 2

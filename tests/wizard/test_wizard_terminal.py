@@ -40,6 +40,12 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     w.expect(r"simulated gauge y_x")
     w.connect_with_defaults()
     w.measure_in_place(24)  # six left in place: one stop at the start, none per leg
+    # Ctrl-C at the last question: a pause, then the question again (it went on to the
+    # result with the temperature unrecorded)
+    w.expect(r"Ambient temperature now, at the end, °C")
+    w.ctrl_c()
+    w.expect(r"Paused\S* after the last reading, before the result")
+    w.answer(r"Resume or quit\?", "r")
     w.end_temperature("21,5")
     w.expect(r"Joint offsets identified from 72 readings \(mm\)")
     # each offset with its U (k = 2): two significant digits, the value at its place
@@ -150,8 +156,16 @@ def test_silent_gauge_is_named_and_retry_continues(tmp_path, wizards):
     w.expect(r"Joint offsets identified from 24 readings")
     w.verdict()
     w.answer(r"Write these offsets", "n")
-    w.answer(r"Write the calibration record now", "n")
-    assert w.finish() == 0
+    # Ctrl-C at an offer after the result: a pause (it quit without a word); a quit
+    # there still ends with the verdict, the record id and what is left to do
+    w.expect(r"Write the calibration record now")
+    w.ctrl_c()
+    w.answer(r"Resume or quit\?", "q")
+    w.expect(r"verdict: within the gauge noise")
+    w.expect(r"record: OGQ-\d{8}-[0-9a-f]{8}")
+    w.expect(r"next: ogacq report ")
+    w.expect(r"Stopped here: the campaign is complete and saved")
+    assert w.finish() == 130
     session = load_session(w.session)
     faults = session.of_type(FaultRecord)
     assert len(faults) == 3 and {f.gauge for f in faults} == {"z_x"}
@@ -325,7 +339,7 @@ def test_quit_at_the_first_question_names_the_rehearsal_command(tmp_path, wizard
 def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizards):
     """A gauge typed in for the first time with a certificate already past due: the
     wizard says so before anything moves; the reason given is recorded and the gauge
-    is remembered in the inventory."""
+    is remembered in the inventory. Ctrl-C at a question loses no answer given."""
     w = start(wizards, tmp_path / "run", "--cycles", "1", "--indicators", "6")
     w.answer(r"Register map of the controller")
     w.answer(r"Controller port")
@@ -335,7 +349,17 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     w.answer(r"Is this the machine you are calibrating\?")
     w.answer(r"Machine name", "OG-1 cell 3")
     w.answer(r"Machine serial number", "OG-2026-0017")
+    # Ctrl-C at a question, then resume: the questions come again, each answer given
+    # before the pause offered (Enter keeps it), none lost
+    w.expect(r"Operator \(your name\)")
+    w.ctrl_c()
+    w.answer(r"Resume or quit\?", "r")
+    w.expect(r"answers given before the pause are offered again")
+    w.answer(r"Machine name .{0,20}OG-1 cell 3")
+    w.answer(r"Machine serial number .{0,20}OG-2026-0017")
     w.answer(r"Operator \(your name\)", "J. Martin")
+    w.answer(r"Ambient temperature now, °C", "twenty")  # refused in words
+    w.expect(r"'twenty' is not a number: type a temperature in °C")
     w.answer(r"Ambient temperature now, °C", "22,5")
     w.answer(r"Serial number of gauge y_x", "12345678")
     w.expect(r"12345678 is new")
@@ -374,6 +398,9 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     w.expect(r"Offsets remaining after the write-back from 24 readings")
     w.answer(r"Write the calibration record now \(as found and as left", "y")
     w.expect(r"record OGQ-\d{8}-[0-9a-f]{8} revision 2: ")
+    # the end gives the validation's verdict beside the calibration's
+    w.expect(r"verdict: ")
+    w.expect(r"validation: (NOT )?within the gauge noise .*session-2\.jsonl")
     w.expect(r"next: open ")
     w.expect(r"\(the record as found and as left\)")
     w.expect(r"Calibration campaign complete")

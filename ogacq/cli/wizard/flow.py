@@ -57,8 +57,17 @@ from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_report, offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
-from ogacq.cli.wizard.ui import InputClosed, Option, Screen, detail, log_on_screen, times
+from ogacq.cli.wizard.ui import (
+    InputClosed,
+    Option,
+    Screen,
+    detail,
+    log_on_screen,
+    times,
+    typed_number,
+)
 from ogacq.history.recording import record_campaign
+from ogacq.identify.consistency import fit_verdict
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine, write_machine
@@ -187,24 +196,46 @@ class _Wizard:
         except (KeyboardInterrupt, OperatorQuit):
             s.say(f"\nNot written. Later: ogacq offsets write {shown(outcome.session_path)}")
         folder = outcome.session_path.parent / "report"
-        report = offer_report(s, outcome.session_path, folder, history=self.options.history)
+        report: Path | None = None
         validation: CampaignOutcome | None = None
-        if written and self.campaign is not None:
-            try:
+        # Ctrl-C at an offer below pauses (it quit without a word, the verdict, the
+        # record id and the next commands unsaid); a quit there ends with them
+        try:
+            report = pausable(s, "before the calibration record", lambda: offer_report(
+                s, outcome.session_path, folder, history=self.options.history))
+            if written and self.campaign is not None:
                 validation = self._offer_validation(outcome)
-            except OperatorQuit:
+            if validation is not None and report is not None:
+                as_left = validation.session_path
+                report = None  # until issued as found and as left
+                report = pausable(s, "before the record as found and as left",
+                                  lambda: offer_report(s, outcome.session_path, folder,
+                                                       as_left, self.options.history))
+        except OperatorQuit:
+            if self.session_path != outcome.session_path:  # inside the validation campaign
                 self._say_quit()
                 return EXIT_QUIT
-            if validation is not None and report is not None:
-                report = offer_report(s, outcome.session_path, folder,
-                                      validation.session_path, self.options.history)
-        end = replace(end, steps=self._next_steps(end, outcome, written, validation, report),
-                      report=report)
-        s.say()
-        for line in end.lines():
-            s.say(shown(line), soft_wrap=True)
+            self._say_end(replace(end, steps=self._next_steps(end, outcome, written,
+                                                              validation, report),
+                                  report=report), validation)
+            s.say("Stopped here: the campaign is complete and saved; what is left to do is "
+                  "above.")
+            return EXIT_QUIT
+        self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
+                                                          report), report=report), validation)
         s.say("[bold green]Calibration campaign complete.[/]")
         return EXIT_DONE
+
+    def _say_end(self, end: CampaignEnd, validation: CampaignOutcome | None) -> None:
+        """The verdict, the validation's beside it (the machine as left: the calibration's
+        alone read as the last word), the record's id and the next commands."""
+        lines = end.lines()
+        if validation is not None:
+            lines.insert(1, f"validation: {fit_verdict(validation.fit).summary()} "
+                            f"({validation.session_path})")
+        self.screen.say()
+        for line in lines:
+            self.screen.say(shown(line), soft_wrap=True)
 
     def _offer_validation(self, calibration: CampaignOutcome) -> CampaignOutcome | None:
         """The same plan run again, the offsets as written: what remains (ISO/IEC
@@ -212,8 +243,9 @@ class _Wizard:
         session of the campaign's series (``session-2.jsonl``)."""
         s = self.screen
         assert self.campaign is not None
-        if not s.confirm("Run a validation campaign now (the same plan, the offsets as "
-                         "written: what remains of them)?", default=True):
+        if not pausable(s, "before the validation campaign", lambda: s.confirm(
+                "Run a validation campaign now (the same plan, the offsets as written: what "
+                "remains of them)?", default=True)):
             s.say("Not run. Later, with the gauges in place: [bold]"
                   + shown(f"ogacq run {self.campaign.path}") + "[/]"
                   + (" (on the machine: the rehearsal's simulator stops with the wizard)"
@@ -385,11 +417,15 @@ class _Wizard:
         return self.questions
 
     def _end_temperature(self, station: DeviceStation) -> EnvironmentRecord | None:
-        """Asked once the last reading is taken, before the result."""
+        """Asked once the last reading is taken, before the result; Ctrl-C there pauses
+        and asks again (it went on to the result, the temperature unrecorded)."""
+        def ask() -> float | None:
+            return self._questions().ask_temperature("Ambient temperature now, at the end, °C")
+
         with self.gate.immediate():
             try:
-                value = self._questions().ask_temperature(
-                    "Ambient temperature now, at the end, °C (Enter: not measured)")
+                value = pausable(self.screen, "after the last reading, before the result",
+                                 ask, self.session_path)
             except InputClosed:
                 return None
         if value is None:
@@ -454,9 +490,9 @@ class _Wizard:
             leg_length_mm = s.ask_parsed("Leg length (mm, the parallelogram's)", _length,
                                          f"{base.leg_length_mm:g}")
             rho_min_mm = s.ask_parsed("Joint travel below the zero posture, for Min "
-                                      "(mm, negative)", float, f"{base.rho_min_mm:g}")
+                                      "(mm, negative)", _travel, f"{base.rho_min_mm:g}")
             rho_max_mm = s.ask_parsed("Joint travel above the zero posture, for Max "
-                                      "(mm, positive)", float, f"{base.rho_max_mm:g}")
+                                      "(mm, positive)", _travel, f"{base.rho_max_mm:g}")
             gauge_resolution_mm = s.ask_parsed(
                 "Gauge display step (mm: 0.01 dial, 0.001 digital)", _length,
                 f"{base.gauge_resolution_mm:g}")
@@ -774,10 +810,14 @@ def _how_read(campaign: Campaign, by_eye: set[str]) -> str:
 
 
 def _length(text: str) -> float:
-    value = float(text)
-    if not 0 < value < float("inf"):
+    value = typed_number(text.strip().removesuffix("mm"), "a length in mm (for example 310.25)")
+    if not value > 0:
         raise ValueError(f"a positive length in mm, got {text}")
     return value
+
+
+def _travel(text: str) -> float:
+    return typed_number(text.strip().removesuffix("mm"), "a travel in mm (for example -100)")
 
 
 @dataclass(frozen=True)

@@ -12,19 +12,21 @@ from __future__ import annotations
 import datetime
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypeVar
 
 from ogacq.campaign.inventory import Inventory, KnownGauge
 from ogacq.campaign.traceability import expired_instruments
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.pause import OperatorQuit
-from ogacq.cli.wizard.ui import Option, Screen
+from ogacq.cli.wizard.ui import Option, Screen, typed_number
 from ogacq.io.dates import DateError, parse_date
 from ogacq.model.instrument import Instrument
 from ogacq.model.machine import MachineSpec
 
 # The shop-floor range a temperature is accepted in (as the campaign file's)
 LOWEST_C, HIGHEST_C = -40.0, 80.0
+
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -59,10 +61,10 @@ class Traceability:
 
 def temperature(text: str) -> float | None:
     """A typed temperature in degC (a decimal comma is fine); empty: not measured."""
-    text = text.strip().replace(",", ".").removesuffix("°C").removesuffix("C").strip()
+    text = text.strip().removesuffix("°C").removesuffix("C").strip()
     if not text:
         return None
-    value = float(text)
+    value = typed_number(text, "a temperature in °C (for example 20.5)")
     if not LOWEST_C <= value <= HIGHEST_C:
         raise ValueError(f"a temperature in °C between {LOWEST_C:g} and {HIGHEST_C:g}, got "
                          f"{text}")
@@ -82,20 +84,22 @@ def _date(key: str) -> Callable[[str], datetime.date | None]:
 
 
 def _positive(text: str) -> float | None:
-    text = text.strip().replace(",", ".")
+    """The certificate's U in mm (the unit may follow); empty: not known."""
+    text = text.strip().removesuffix("mm").strip()
     if not text:
         return None
-    value = float(text)
+    value = typed_number(text, "the certificate's U in mm (for example 0.0015 for "
+                               "1.5 µm)")
     if not 0 < value < 10:
         raise ValueError(f"a positive number (mm), got {text}")
     return value
 
 
 def _coverage(text: str) -> float | None:
-    text = text.strip().replace(",", ".")
+    text = text.strip()
     if not text:
         return None
-    value = float(text)
+    value = typed_number(text, "the certificate's coverage factor k (usually 2)")
     if not 1 <= value <= 10:
         raise ValueError(f"a coverage factor between 1 and 10 (usually 2), got {text}")
     return value
@@ -113,20 +117,46 @@ class TraceabilityQuestions:
         # gauges known without the inventory (a rehearsal's simulated ones)
         self.known = {g.serial: g for g in known}
         self.ambient_hint_c = ambient_hint_c
+        # what was answered, by question: Ctrl-C then "resume" asks again from the
+        # first question, and each answer given before the pause is offered again
+        self._answered: dict[str, str] = {}
+
+    def _ask(self, key: str | None, question: str, parse: Callable[[str], T],
+             default: str | None = None, unset: str = "") -> T:
+        """``question`` until ``parse`` takes the answer; the answer given to ``key``
+        before a pause is offered instead of ``default`` (``key`` None: a question of
+        its own moment, nothing offered from before). ``unset`` says what Enter does
+        when nothing is offered ("not recorded"): said only then, since with an answer
+        offered Enter takes it."""
+        offered = (self._answered.get(key, default) if key else default) or None
+        text = f"{question} (Enter: {unset})" if unset and offered is None else question
+        while True:
+            answer = self.screen.ask(text, offered)
+            try:
+                value = parse(answer)
+            except ValueError as exc:
+                self.screen.problem(str(exc))
+                continue
+            if key:
+                self._answered[key] = answer
+            return value
 
     def ask(self, machine: MachineSpec, indicators: Sequence[Indicator],
             on: datetime.date) -> Traceability:
         s = self.screen
         s.say("Who, what and when: recorded in the session and the report (Enter leaves a "
               "value unrecorded).")
+        if self._answered:
+            s.note("The answers given before the pause are offered again: Enter keeps each.")
         if not machine.serial:
-            name = s.ask("Machine name", machine.name or None)
-            serial = s.ask("Machine serial number (Enter: not recorded)")
+            name = self._ask("machine", "Machine name", str, default=machine.name or None)
+            serial = self._ask("serial", "Machine serial number", str, unset="not recorded")
             machine = replace(machine, name=name or machine.name, serial=serial)
-        operator = s.ask("Operator (your name)", self.inventory.operator or None)
+        operator = self._ask("operator", "Operator (your name)", str,
+                             default=self.inventory.operator or None)
         if operator:
             self.inventory.operator = operator
-        ambient = self.ask_temperature("Ambient temperature now, °C (Enter: not measured)")
+        ambient = self.ask_temperature("Ambient temperature now, °C", key="ambient")
         trace = Traceability(machine, operator, ambient)
         if self.inventory.gauges:
             s.note("Gauges met before: " + "; ".join(
@@ -139,40 +169,52 @@ class TraceabilityQuestions:
         trace.override_expired = self._check_due(trace, indicators, on)
         return trace
 
-    def ask_temperature(self, question: str) -> float | None:
+    def ask_temperature(self, question: str, key: str | None = None) -> float | None:
+        """A temperature now (``key``: as :meth:`_ask`)."""
         hint = f"{self.ambient_hint_c:g}" if self.ambient_hint_c is not None else None
         if hint is not None:
             self.screen.note(f"(rehearsal: the simulated shop is at {hint} °C)")
-        return self.screen.ask_parsed(question, temperature, hint)
+        return self._ask(key, question, temperature, hint, unset="not measured")
 
     def _identify(self, indicator: Indicator) -> dict[str, Any]:
         s = self.screen
-        serial = s.ask(f"Serial number of {indicator.label} (Enter: not recorded)",
-                       indicator.serial or None)
+        serial = self._ask(f"serial of {indicator.gauges}", f"Serial number of {indicator.label}",
+                           str, default=indicator.serial or None, unset="not recorded")
         if not serial:
             return {}
-        known = self.known.get(serial) or self.inventory.find(serial)
+        known = self._known(serial)
         if known is not None:
             s.ok(f"{serial}: {known.summary()}")
             return known.identity()
         s.say(f"{shown(serial)} is new: its make, model and calibration certificate "
               "(Enter: not recorded).")
-        gauge = self._confirmed(self._new_gauge(serial), indicator)
-        self.inventory.remember(gauge)
-        return gauge.identity()
+        return self._confirmed(self._new_gauge(serial), indicator).identity()
 
-    def _confirmed(self, gauge: KnownGauge, indicator: Indicator) -> KnownGauge:
+    def _known(self, serial: str) -> KnownGauge | None:
+        """The gauge of this serial met before (or a rehearsal's simulated one)."""
+        return self.known.get(serial) or self.inventory.find(serial)
+
+    def _confirmed(self, gauge: KnownGauge, indicator: Indicator,
+                   usable: Callable[[KnownGauge], bool] = lambda known: True) -> KnownGauge:
         """A new gauge as typed, shown whole and confirmed before it is remembered
-        (instruments.toml keeps it for every later campaign): a typo is typed again."""
+        (instruments.toml keeps it for every later campaign): a typo is typed again. The
+        serial typed again may be a gauge met before (the typo was in the serial): that
+        one is taken as it is known (when ``usable``), never overwritten by the answers
+        given for the typo."""
         s = self.screen
         while True:
             s.say(f"  {shown(gauge.serial)}: {shown(gauge.summary())}")
             if s.confirm("  Is this right? It is remembered for the next campaigns "
                          "(n: type it again)"):
+                self.inventory.remember(gauge)
                 return gauge
             serial = ""
             while not serial:
                 serial = s.ask(f"Serial number of {indicator.label}", gauge.serial)
+            known = self._known(serial)
+            if known is not None and usable(known):
+                s.ok(f"{serial}: {known.summary()}")
+                return known
             gauge = self._new_gauge(serial, gauge)
 
     def _new_gauge(self, serial: str, typed: KnownGauge | None = None) -> KnownGauge:
@@ -184,36 +226,38 @@ class TraceabilityQuestions:
         def offered(value: object) -> str | None:
             return None if value in (None, "") else str(value)
 
-        make = s.ask("  Make", offered(before.make))
-        model = s.ask("  Model", offered(before.model))
-        certificate = s.ask("  Calibration certificate number", offered(before.certificate))
-        calibrated = s.ask_parsed("  Calibrated on (YYYY-MM-DD)", _date("calibrated"),
-                                  offered(before.calibrated))
+        def ask(what: str, question: str, parse: Callable[[str], T]) -> T:
+            return self._ask(f"{serial} {what}", question, parse,
+                             offered(getattr(before, what)))
+
+        make = ask("make", "  Make", str)
+        model = ask("model", "  Model", str)
+        certificate = ask("certificate", "  Calibration certificate number", str)
+        calibrated = ask("calibrated", "  Calibrated on (YYYY-MM-DD)", _date("calibrated"))
         while True:
-            due = s.ask_parsed("  Calibration due (YYYY-MM-DD)", _date("due"),
-                                 offered(before.due))
+            due = ask("due", "  Calibration due (YYYY-MM-DD)", _date("due"))
             if due is None or calibrated is None or due > calibrated:
                 break
             s.problem(f"the due date must come after the calibration ({calibrated})")
-        uncertainty, k = self._certificate_u(certificate, before)
+        uncertainty, k = self._certificate_u(serial, certificate, before)
         return KnownGauge(serial, make=make, model=model, certificate=certificate,
                           calibrated=calibrated, due=due, uncertainty_mm=uncertainty,
                           uncertainty_k=k)
 
-    def _certificate_u(self, certificate: str, before: KnownGauge,
+    def _certificate_u(self, serial: str, certificate: str, before: KnownGauge,
                        ) -> tuple[float | None, float | None]:
         """The certificate's U and k. A certificate given without its U is said plainly
         (the gauge's calibration then stays out of the uncertainty budget) and left so
         only when confirmed."""
         s = self.screen
         while True:
-            uncertainty = s.ask_parsed("  Certificate's expanded uncertainty U (mm)", _positive,
-                                       None if before.uncertainty_mm is None
-                                       else f"{before.uncertainty_mm:g}")
+            uncertainty = self._ask(f"{serial} U", "  Certificate's expanded uncertainty U (mm)",
+                                    _positive, None if before.uncertainty_mm is None
+                                    else f"{before.uncertainty_mm:g}")
             if uncertainty is not None:
                 default_k = f"{before.uncertainty_k:g}" if before.uncertainty_k else "2"
-                return uncertainty, s.ask_parsed("  Its coverage factor k", _coverage,
-                                                 default_k)
+                return uncertainty, self._ask(f"{serial} k", "  Its coverage factor k",
+                                              _coverage, default_k)
             if not certificate:
                 return None, None
             s.problem("no U: without the certificate's expanded uncertainty this gauge's "
@@ -256,11 +300,12 @@ class TraceabilityQuestions:
         serial = s.ask(f"Serial number of {indicator.label}")
         if not serial:
             return {}
-        known = self.known.get(serial) or self.inventory.find(serial)
-        if known is not None and (known.due is None or known.due >= on):
+        def usable(gauge: KnownGauge) -> bool:
+            return gauge.due is None or gauge.due >= on
+
+        known = self._known(serial)
+        if known is not None and usable(known):
             s.ok(f"{serial}: {known.summary()}")
             return known.identity()
         s.say(f"{shown(serial)}: its calibration certificate.")
-        gauge = self._confirmed(self._new_gauge(serial, known), indicator)
-        self.inventory.remember(gauge)
-        return gauge.identity()
+        return self._confirmed(self._new_gauge(serial, known), indicator, usable).identity()

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import logging
+import math
 import os
 import select
 import sys
@@ -112,8 +113,16 @@ class Screen:
 
     def choose(self, question: str, options: Sequence[Option], default: str | None = None,
                ) -> str:
-        """One of the options' keys, typed (case does not matter)."""
+        """One of the options' keys, typed (case does not matter), or the first word of
+        its label as listed ("cia402", "six", "retry", "quit"): what a person reads on
+        the line is what they type."""
         keys = {o.key.lower(): o.key for o in options}
+        named: dict[str, list[str]] = {}
+        for o in options:
+            name = o.label.split(maxsplit=1)[0].rstrip(":,").lower() if o.label.strip() else ""
+            named.setdefault(name, []).append(o.key)
+        keys |= {name: found[0] for name, found in named.items()
+                 if name and len(found) == 1 and name not in keys}
         for option in options:
             self.out.print(f"  [bold cyan]{shown(option.key)}[/]  {shown(option.label)}")
         while True:
@@ -241,12 +250,26 @@ def times(count: int, noun: str = "") -> str:
     return "once" if count == 1 else f"{count} times"
 
 
+def typed_number(text: str, expected: str) -> float:
+    """A number typed by a person (a decimal comma is fine); otherwise a ValueError in
+    words, ``expected`` saying what to type ("a temperature in °C, for example 20.5"),
+    never Python's "could not convert string to float". Not a number (nan) and
+    infinity are refused: no comparison with them means anything."""
+    try:
+        value = float(text.strip().replace(",", "."))
+    except ValueError:
+        raise ValueError(f"{text.strip()!r} is not a number: type {expected}") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{text.strip()!r} is not a number: type {expected}")
+    return value
+
+
 def parse_mm(text: str) -> float:
     """A length typed by a person: ``5.71``, ``5,71`` (decimal comma), ``-0.02``."""
-    cleaned = text.strip().lower().removesuffix("mm").strip().replace(",", ".")
+    cleaned = text.strip().lower().removesuffix("mm").strip()
     if not cleaned:
         raise ValueError("type the value shown, in mm (for example 5.71)")
     try:
-        return float(cleaned)
+        return typed_number(cleaned, "the value shown, in mm (for example 5.71)")
     except ValueError:
         raise ValueError(f"{text!r} is not a number of mm (for example 5.71)") from None
