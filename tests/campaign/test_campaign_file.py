@@ -20,7 +20,7 @@ ALL_GAUGES = "".join(gauge(k, "/dev/ttyUSB0", c) for c, k in
      "gauges y_x (line 6) and z_x of the x leg both on port /dev/ttyUSB0 channel 1"),
     (HEAD + CONTROLLER + ALL_GAUGES.replace('port = "/dev/ttyUSB0"\nchannel = 2\n',
                                             'port = "/dev/ttyUSB0"\nchannel = 2\n'
-                                            'uncertainty_mm = 1.5\n'), 14,
+                                            'uncertainty_mm = 1.5\n'), 16,
      "gauge z_x: uncertainty_mm = 1.5 mm is more than an indicator's certificate states "
      "(at most 0.1 mm): micrometres written as mm?"),
     (HEAD + CONTROLLER + ALL_GAUGES.replace('gauge = "y_z"', 'gauge = "z_z"'), 32,
