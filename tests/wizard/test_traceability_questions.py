@@ -154,3 +154,6 @@ def test_numbers_refused_in_words():
     with pytest.raises(ValueError, match=r"'1\.5 µm' is not a number: type the "
                                          r"certificate's U in mm \(for example 0\.0015"):
         _positive("1.5 µm")
+    with pytest.raises(ValueError, match=r"1\.5 mm is more than an indicator's certificate "
+                                         r"states \(at most 0\.1 mm\): micrometres written"):
+        _positive("1.5")

@@ -20,7 +20,7 @@ from ogacq.cli.plain import shown
 from ogacq.cli.wizard.pause import OperatorQuit
 from ogacq.cli.wizard.ui import Option, Screen, typed_number
 from ogacq.io.dates import DateError, parse_date
-from ogacq.model.instrument import Instrument
+from ogacq.model.instrument import MAX_CERTIFICATE_U_MM, Instrument
 from ogacq.model.machine import MachineSpec
 
 # The shop-floor range a temperature is accepted in (as the campaign file's)
@@ -90,8 +90,12 @@ def _positive(text: str) -> float | None:
         return None
     value = typed_number(text, "the certificate's U in mm (for example 0.0015 for "
                                "1.5 µm)")
-    if not 0 < value < 10:
+    if not value > 0:
         raise ValueError(f"a positive number (mm), got {text}")
+    if value > MAX_CERTIFICATE_U_MM:
+        raise ValueError(f"{value:g} mm is more than an indicator's certificate states (at "
+                         f"most {MAX_CERTIFICATE_U_MM:g} mm): micrometres written as mm? type "
+                         "it in mm (for example 0.0015 for 1.5 µm)")
     return value
 
 
