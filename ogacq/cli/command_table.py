@@ -60,7 +60,8 @@ OFFSETS_HELP = ("Joint offsets on the controller: show the identified ones again
 SESSION_HELP = "Look at, export, import, check and salvage sessions."
 MAPS_HELP = ("The error maps ogacq applies to every target (written by `ogacq calibrate`): "
              "show them with their ISO 230-2 figures, restore the ones a write replaced.")
-HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq history MACHINE` "
+HISTORY_HELP = ("Each machine's calibrations over time, in a database: `ogacq history` lists "
+                "the machines; `ogacq history MACHINE` "
                 "(the same as `ogacq history show MACHINE`) lists them with each parameter's U "
                 "and flags a drift larger than U; `ogacq history add SESSION...` records "
                 "sessions afterwards. The history is --history URL_OR_PATH (an SQLite file or "

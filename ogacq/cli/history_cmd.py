@@ -15,7 +15,7 @@ from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.errors import InputError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import RecordError, check_record
-from ogacq.history.location import history_for_session, history_to_read
+from ogacq.history.location import HistoryLocation, history_for_session, history_to_read
 from ogacq.history.recording import record_session, session_record, writebacks_of
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
@@ -36,8 +36,9 @@ AddHistoryOption = Annotated[str | None, typer.Option(
 
 
 def show(
-    machine: Annotated[str, typer.Argument(help="The machine's name (or its serial), as "
-                                                "its machine file gives it.")],
+    machine: Annotated[str | None, typer.Argument(
+        help="The machine's name (or its serial), as its machine file gives it; none: the "
+             "machines the history holds.")] = None,
     history: ReadHistoryOption = None,
     states: Annotated[bool, typer.Option(
         "--states", help="List the offsets each write-back and restore found and left on "
@@ -59,13 +60,11 @@ def show(
     The history is --history, else $OGACQ_HISTORY, else history.sqlite in ogacq's data
     folder ($OGACQ_HOME, default ~/.local/share/ogacq).
     """
-    if plot is not None:
-        if plot.suffix.lower() != ".png":
-            raise InputError(plot, "the plot is a PNG image: name it FILE.png")
-        check_output_file(plot, "--plot", force=force)
-    if diff is not None and not states:
-        raise InputError("--diff", "compares two states: give it with --states")
+    _check_show_options(machine, states, diff, plot, force)
     location = history_to_read(history)
+    if machine is None:
+        _list_machines(location, as_json)
+        return
     with History.open(location, create=False) as db:
         found = db.find_machine(machine)
         if states:
@@ -102,6 +101,42 @@ def show(
     render.print_calibrations(found, where, calibrations, drifts, events, written, moves)
     if plot is not None:
         typer.echo(f"plot: {plot}")
+
+
+def _check_show_options(machine: str | None, states: bool, diff: tuple[str, str] | None,
+                        plot: Path | None, force: bool) -> None:
+    """The options of ``history show`` that cannot go together, refused before the
+    history is opened."""
+    if plot is not None:
+        if plot.suffix.lower() != ".png":
+            raise InputError(plot, "the plot is a PNG image: name it FILE.png")
+        check_output_file(plot, "--plot", force=force)
+    if diff is not None and not states:
+        raise InputError("--diff", "compares two states: give it with --states")
+    if machine is None and (states or plot is not None):
+        raise InputError("--states" if states else "--plot", "is about one machine: give its "
+                         "name (`ogacq history` alone lists them)")
+
+
+def _list_machines(location: HistoryLocation, as_json: bool) -> None:
+    """The machines the history holds, each with its calibrations' count and the last
+    one's date: what a technician who forgot a machine's exact name needs."""
+    with History.open(location, create=False) as db:
+        listed = [(m, db.calibrations(m)) for m in db.machines()]
+    rows = [{"name": m.name, "serial": m.serial or None, "calibrations": len(cals),
+             "last": max((c.date for c in cals if c.date), default=None)}
+            for m, cals in listed]
+    if as_json:
+        typer.echo(json.dumps({"history": location.describe(), "machines": rows}))
+        return
+    typer.echo(f"machines in history {location.describe()}:" if rows else
+               f"history {location.describe()} holds no machine yet")
+    for (m, _), row in zip(listed, rows, strict=True):
+        count = row["calibrations"]
+        last = f", the last {row['last']}" if row["last"] else ""
+        typer.echo(f"  {m.describe()}: {count} calibration{'s' if count != 1 else ''}{last}")
+    if rows:
+        typer.echo(f"`ogacq history \"{rows[0]['name']}\"` lists a machine's calibrations")
 
 
 def _record_for_history(session: LoadedSession) -> dict[str, Any]:

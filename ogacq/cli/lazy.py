@@ -104,8 +104,10 @@ class FlagGroup(TyperGroup):
         return flags_without_value(super().get_params(ctx))
 
     def parse_args(self, ctx: Context, args: list[str]) -> list[str]:
-        if self.default_command and args and args[0] not in self.commands \
-                and args[0] not in ctx.help_option_names:
+        # with no word at all too: `ogacq history` lists the machines, where click
+        # would print the group's help and exit 2
+        if self.default_command and (not args or (args[0] not in self.commands
+                                                  and args[0] not in ctx.help_option_names)):
             args = [self.default_command, *args]
         return super().parse_args(ctx, args)
 

@@ -199,6 +199,8 @@ def history_to_read(option: str | None, folder: Path | None = None) -> HistoryLo
     if candidate.is_file():
         return HistoryLocation(URL.create("sqlite", database=str(candidate.absolute())),
                                LEGACY_ORIGIN)
-    raise InputError("--history", f"no history yet in {default.describe()} (ogacq's data "
+    # named after the option only when it was given (`--history none`)
+    raise InputError("--history" if option is not None else None,
+                     f"no history yet in {default.describe()} (ogacq's data "
                      f"folder, ${DATA_VARIABLE}): nothing was recorded on this account; give "
                      f"--history URL_OR_PATH or set {ENVIRONMENT_VARIABLE} to read another")

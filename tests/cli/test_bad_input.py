@@ -117,6 +117,7 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
     "maps restore": [(["missing.jsonl"], 2, "missing.jsonl"),
                      (["session.jsonl"], 2, "nothing to restore")],
     "history show": [(["OG-1"], 2, "no history yet"),
+                     ([], 2, "no history yet"),
                      (["OG-1", "--history", "nope.sqlite"], 3, "no history here"),
                      (["OG-1", "--history", "machine.toml"], 3, "file is not a database"),
                      (["OG-1", "--history", "mysql://u@h/db"], 2, "'mysql' is not supported"),

@@ -1,0 +1,41 @@
+"""``ogacq history`` with no machine lists the machines the history holds (it printed
+the group's help and exited 2): the technician who forgot a machine's exact name."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from ogacq.cli.app import main
+from ogacq.history.entries import WriteBack
+from ogacq.history.location import parse_location
+from ogacq.history.store import History
+
+GOLDEN = Path(__file__).resolve().parents[1] / "golden" / "session.jsonl"
+RECORD = {"format": "ogacq-record/1", "id": "OGQ-20260110-00000001",
+          "machine": {"name": "OG-1 cell 3", "serial": "OG-2026-0017"},
+          "date": "2026-01-10T09:00:00"}
+
+
+def test_the_machines_are_listed_with_their_calibrations(tmp_path, capsys):
+    path = tmp_path / "history.sqlite"
+    with History.open(parse_location(str(path), "--history")) as db:
+        db.record_writeback(RECORD, WriteBack(
+            "write-1", "write", "done", {"x": 0.0, "y": 0.0, "z": 0.0},
+            {"x": -0.03, "y": -1.35, "z": 1.07}, "cia402", 1000.0))
+    assert main(["history", "add", str(GOLDEN), "--history", str(path)]) == 0
+    capsys.readouterr()
+    assert main(["history", "--history", str(path), "--json"]) == 0
+    listed = json.loads(capsys.readouterr().out)
+    by_name = {m["name"]: m for m in listed["machines"]}
+    assert by_name["OG-1 cell 3"] == {"name": "OG-1 cell 3", "serial": "OG-2026-0017",
+                                      "calibrations": 0, "last": None}
+    [golden] = [m for name, m in by_name.items() if name != "OG-1 cell 3"]
+    assert golden["calibrations"] == 1 and golden["last"]
+    assert main(["history", "--history", str(path)]) == 0
+    text = capsys.readouterr().out
+    assert f"machines in history {path}" in text
+    assert "OG-1 cell 3 (serial OG-2026-0017): 0 calibrations" in text
+    assert f"{golden['name']}" in text and "1 calibration, the last " in text
+    assert main(["history", "--history", str(path), "--states"]) == 2
+    assert "is about one machine" in capsys.readouterr().err
