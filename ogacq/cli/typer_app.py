@@ -32,7 +32,10 @@ class OgacqCommands(LazyCommands):
 # table is not imported to complete a command's name.
 app = typer.Typer(cls=OgacqCommands, add_completion=True, no_args_is_help=True,
                   rich_markup_mode=None,
-                  help="Acquisition and calibration for Orthoglide-type parallel machines.",
+                  help="Acquisition and calibration for Orthoglide-type parallel machines.\n\n"
+                       "New here? `ogacq demo` rehearses a whole calibration on the built-in "
+                       "simulated machine; `ogacq wizard` guides one on a real machine, step "
+                       "by step (`ogacq wizard --simulator` rehearses it first).",
                   epilog=f"{EXIT_CODES}\n\n{FILE_FORMATS}")
 
 
