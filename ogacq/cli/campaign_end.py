@@ -10,11 +10,12 @@ same id.
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ogacq.diagnose.outliers import described_outliers
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
 from ogacq.record.calibration_record import CalibrationRecord
@@ -80,7 +81,8 @@ def campaign_end(session_path: Path, fit: FitResult, *, simulated: bool,
     verdict = fit_verdict(fit)
     steps = next_steps(session, verdict, fit.identifiability.identifiable,
                        simulated=simulated, report=report,
-                       rehearsal_writeback=rehearsal_writeback)
+                       rehearsal_writeback=rehearsal_writeback,
+                       outliers=described_outliers(fit))
     return CampaignEnd(session.path, record, verdict, steps, report)
 
 
@@ -99,8 +101,10 @@ def validation_of(session: LoadedSession) -> Path | None:
 
 def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
                simulated: bool, report: Path | None = None,
-               rehearsal_writeback: bool = False) -> tuple[NextStep, ...]:
-    """What to do now, most useful first."""
+               rehearsal_writeback: bool = False, outliers: Sequence[str] = (),
+               ) -> tuple[NextStep, ...]:
+    """What to do now, most useful first. ``outliers``: readings far from their
+    agreeing repeats, which no write-back should follow unseen."""
     path = session.path
     calibrated = validation_of(session)
     if calibrated is not None:
@@ -112,6 +116,12 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
     if verdict.state == "inconsistent":
         steps.insert(0, NextStep(f"ogacq diagnose {path}", "what the joint offsets leave "
                                  "out: look before writing anything"))
+        return tuple(steps)
+    if outliers:
+        steps.insert(0, NextStep(f"ogacq diagnose {path}", f"{len(outliers)} reading"
+                                 f"{'s lie' if len(outliers) > 1 else ' lies'} far from "
+                                 "its repeats, which agree (a misread, a knocked gauge: "
+                                 f"{outliers[0]}): check the setup before writing anything"))
         return tuple(steps)
     if not (verdict.consistent and identifiable):
         return tuple(steps)

@@ -23,10 +23,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ogacq.diagnose.locate import RowLabels
-from ogacq.identify.consistency import Verdict, fit_verdict
+from ogacq.diagnose.locate import RowLabels, row_labels
+from ogacq.identify.consistency import LEVEL, Verdict, fit_verdict, format_p
 from ogacq.identify.distributions import chi2_sf, f_sf, normal_sf
-from ogacq.identify.fit import fit
+from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 
@@ -209,3 +209,14 @@ def find_outliers(obs: Observations, labels: RowLabels, noise: GaugeNoise, alpha
     kept_noise = noise if noise.source == "machine file" else noise_for(kept)
     result = fit(kept, names, method="exact", weighting="gls", noise=kept_noise)
     return Outliers(tuple(named), tested, fit_verdict(result, alpha))
+
+
+def described_outliers(result: FitResult, level: float = LEVEL) -> list[str]:
+    """The readings of a fit that lie far from their repeats while those agree, each
+    in words: a slip no model explains, which also swells a noise measured from the
+    repeats until the fit passes (the write-back and a campaign's end say so)."""
+    obs = result.observations
+    found, tested = outlying_readings(obs, row_labels(obs), result.noise, level)
+    return [f"{r.gauge} at {r.posture}, cycle {r.cycle} (t_s {r.t_s:g}): "
+            f"{r.deviation_mm:+.4f} mm from its {r.n_others} repeats "
+            f"(p = {format_p(r.p_value)} over {tested} readings)" for r in found]

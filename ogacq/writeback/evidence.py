@@ -21,7 +21,8 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ogacq.identify.consistency import LEVEL, Verdict, fit_verdict, format_p
+from ogacq.diagnose.outliers import described_outliers
+from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult, StopReason
 from ogacq.io.errors import InputError
 from ogacq.model.parameters import AXES
@@ -114,21 +115,7 @@ def evidence_of(session: LoadedSession, result: FitResult, verdict: Verdict, mod
         finished=session.finished, in_force_mm=in_force.offsets_mm,
         in_force_consistent=in_force.consistent,
         profile=controllers[0].get("profile"), port=controllers[0].get("port"),
-        model=model, uncompensated=uncompensated, outliers=_outliers(result))
-
-
-def _outliers(result: FitResult) -> list[str]:
-    """The readings of the fit that lie far from their repeats while those agree
-    (``diagnose/outliers.py``, at the verdict's level): a slip no model explains,
-    which also inflates a noise measured from the repeats until a fit passes."""
-    from ogacq.diagnose.locate import row_labels
-    from ogacq.diagnose.outliers import outlying_readings
-
-    obs = result.observations
-    found, tested = outlying_readings(obs, row_labels(obs), result.noise, LEVEL)
-    return [f"{r.gauge} at {r.posture}, cycle {r.cycle} (t_s {r.t_s:g}): "
-            f"{r.deviation_mm:+.4f} mm from its {r.n_others} repeats "
-            f"(p = {format_p(r.p_value)} over {tested} readings)" for r in found]
+        model=model, uncompensated=uncompensated, outliers=described_outliers(result))
 
 
 def _diagnosed(session: LoadedSession) -> tuple[FitResult, Verdict, list[str]]:

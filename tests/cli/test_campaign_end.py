@@ -115,3 +115,28 @@ def test_what_the_record_will_lack_is_named_gauge_by_gauge(tmp_path):
         "gauge z_x has a certificate without its expanded uncertainty ([[gauges]] "
         "uncertainty_mm and uncertainty_k): its calibration is left out of the uncertainty "
         "budget, which the record will mark incomplete"]
+
+
+def test_a_reading_far_from_its_repeats_sends_the_end_to_diagnose_not_to_a_write(tmp_path):
+    """A slip of 2 mm swells the noise measured from the repeats until the offsets alone
+    pass: the campaign's end names the reading and points at diagnose, never at
+    `offsets write`."""
+    from ogacq.cli.campaign_end import next_steps
+    from ogacq.diagnose.outliers import described_outliers
+    from ogacq.identify.consistency import fit_verdict
+    from ogacq.session.identification import identify_session
+
+    (tmp_path / "campaign.toml").write_text("")
+    steps_of = {}
+    for name, slip in (("clean", None), ("slipped", (33, 2.0))):
+        path = synthetic_session(tmp_path / f"{name}.jsonl", tmp_path / "campaign.toml",
+                                 offsets_mm={"x": 0.3, "y": -0.2, "z": 0.1}, slip=slip)
+        session = load_session(path)
+        fit = identify_session(session)
+        assert fit_verdict(fit).consistent
+        steps_of[name] = next_steps(session, fit_verdict(fit), True, simulated=False,
+                                    outliers=described_outliers(fit))
+    assert steps_of["clean"][0].command.startswith("ogacq offsets write")
+    first = steps_of["slipped"][0]
+    assert first.command.startswith("ogacq diagnose") and "1 reading lies far" in first.why
+    assert not any("offsets write" in s.command for s in steps_of["slipped"])
