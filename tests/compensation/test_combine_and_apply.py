@@ -8,6 +8,7 @@ import pytest
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
+from ogacq.compensation.linuxcnc import linuxcnc_tables
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
 
@@ -77,3 +78,23 @@ def test_targets_corrected_by_the_side_they_are_approached_from():
     # at the end of the travel the target is held, and the reading says where it landed
     assert c.command((-100.0, 0.0, 5.0))[0] == -100.0
     assert c.nominal((-100.0, 0.0, 5.0), (-100.0, 0.0, 5.0))[0] == pytest.approx(-99.98)
+
+
+def test_positions_a_rounding_apart_are_one_point_of_the_sum():
+    """A diagnosis map over positions rounded to 1e-9 mm and a library map over the same
+    span unrounded (what ``ogacq calibrate`` gave: ``-100.098353198`` and
+    ``-100.09835319823402``) add up on one point there, not two: LinuxCNC refuses a
+    nominal that does not increase ("compensation values must increase", the motion
+    module's EMCMOT_SET_JOINT_COMP) and the tables would list it twice."""
+    span = np.linspace(-100.0983531982340, 56.1, 41)
+    rounded = np.round(span, 9)
+    assert rounded[0] != span[0]  # the case: a nanometre's fraction apart
+    diagnosed = AxisMap("x", tuple(rounded), (0.001,) * 41, (0.001,) * 41, (0.0005,) * 41,
+                        (0.0005,) * 41, source="screw", excludes=("encoder_scale.x",))
+    effects = {"encoder_scale.x": EffectValue("encoder_scale.x", 300.0, 10.0)}
+    maps = effect_maps(effects, MACHINE, spans={"x": (float(span[0]), float(span[-1]))})
+    out = compensation([diagnosed], maps, effects)["x"].axis_map
+    assert np.min(np.diff(out.positions_mm)) > 1e-6
+    nominals = [float(line.split()[0]) for line in
+                linuxcnc_tables({"x": out}).files["x.comp"].splitlines()]
+    assert all(b > a for a, b in zip(nominals, nominals[1:], strict=False))
