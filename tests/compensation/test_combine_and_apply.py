@@ -32,6 +32,9 @@ def test_library_effects_as_a_map_and_the_constant_to_the_offset():
             model = 400e-6 * q - a * 0.02 / 2
             assert m.error_mm(q, a) + maps["x"].offset_shift_mm == pytest.approx(model)
     assert m.u_forward_mm[0] == pytest.approx(100 * 20e-6)  # |q - ref| u_s at q = -100
+    # said as the record states a result: U = 2 u to two significant digits, the value
+    # to its decimal place, k stated (JCGM 100:2008 7.2.6; it was "+400.0 ± 20.0 ppm")
+    assert m.source == "encoder scale +400 ± 40 ppm (k = 2), backlash 20.0 ± 2.0 µm (k = 2)"
 
 
 def test_a_diagnosis_map_with_the_model_s_trend_is_not_corrected_twice():
