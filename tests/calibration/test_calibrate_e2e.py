@@ -221,6 +221,19 @@ def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatc
     assert states[-1].maps == {}  # the maps state the restore left: none
 
 
+def test_an_effects_file_that_does_not_load_is_refused_before_the_folder(tmp_path, capsys):
+    """Named as given, nothing started: it was copied into the folder first, the error
+    named the copy, and the same command with the file corrected 'continued' with the
+    copy, failing again (found by the records34 audit)."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text("garbage[\n")
+    folder = tmp_path / "run"
+    assert main(["calibrate", "--simulator", "--effects", str(bad), "--out", str(folder),
+                 "--yes", "--history", "none"]) == 2
+    assert f"{bad}:1: not valid TOML" in capsys.readouterr().err
+    assert not (folder / "procedure.jsonl").exists()
+
+
 def test_maps_shown_and_restored_by_hand(straight, capsys, monkeypatch):
     """After the procedure (last: it changes the straight run's maps file)."""
     session = straight / "calibration.jsonl"
