@@ -143,6 +143,11 @@ def test_ends_validated_with_the_map_the_offsets_and_the_record(straight):
     span_mm = after["range_mm"][1] - after["range_mm"][0]
     assert after["E_mm"] == pytest.approx(abs(left["value"]) * 1e-6 * span_mm, abs=2e-6), after
     assert record["writeback"] and record["compensation"]["outcome"] in KEPT
+    # the page: the diagnosis the procedure made of the calibration campaign (it said
+    # "no diagnosis was given") and the maps written beside the offsets
+    page = (straight / "report" / "report.html").read_text()
+    assert "no diagnosis was given" not in page and "squareness.xy" in page
+    assert "Error maps (ogacq calibrate" in page
 
 
 def test_killed_at_two_points_it_resumes_to_the_same_end(straight, tmp_path):
