@@ -102,13 +102,36 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
         raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
+    earlier = _earlier_issue(folder / RECORD_NAME)
     if record is None:
         record = build_record(calibration, validation=validation, history=history,
                               history_why=history_why, fit=data.identified,
                               validation_fit=data.validation_identified)
+        record = _with_compensation_of(record, earlier)
     # issued beside an earlier issue of the same record: its next revision, or itself
-    record = issue(record, _earlier_issue(folder / RECORD_NAME))
+    record = issue(record, earlier)
     return write_report(build_report(data, record), folder)
+
+
+def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
+    """``record`` with the ``compensation`` ``ogacq calibrate`` put in an earlier issue
+    of it (the same campaign, the same validation session): only the procedure knows
+    the maps it wrote, so re-issuing its record (``ogacq report ... --pdf`` into its
+    folder) must not drop them (it issued a revision saying "removed compensation")."""
+    try:
+        old = json.loads(earlier) if earlier is not None else None
+    except ValueError:
+        return record
+    if not isinstance(old, dict) or not isinstance(old.get("compensation"), dict) \
+            or "compensation" in record or old.get("id") != record.get("id") \
+            or _sha(old.get("session")) != _sha(record.get("session")) \
+            or _sha(old.get("validation_session")) != _sha(record.get("validation_session")):
+        return record
+    return {**record, "compensation": old["compensation"]}
+
+
+def _sha(reference: Any) -> Any:
+    return reference.get("sha256") if isinstance(reference, dict) else None
 
 
 def _earlier_issue(path: Path) -> bytes | None:

@@ -19,6 +19,7 @@ from PIL import Image
 from ogacq.cli.app import main
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.identify.observations import averaged_deviations
+from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.records import EndRecord, FaultRecord
 from ogacq.session.store import SessionWriter, load_session
@@ -254,3 +255,27 @@ def test_a_record_issued_again_with_other_content_is_a_revision(sessions, tmp_pa
     assert json.loads(record_file.read_text()) == second  # no revision 3 for nothing
     write_session_report(calibration, out)  # back to the first content: a new issue
     assert json.loads(record_file.read_text())["revision"] == 3
+
+
+def test_calibrate_s_record_issued_again_keeps_the_maps_it_wrote(sessions, tmp_path):
+    """``ogacq report S --after V --pdf`` into ``ogacq calibrate``'s report folder (it
+    prints no PDF) re-issues its record: the maps the procedure wrote stay in it (only
+    the procedure knows them); it issued revision 2 saying "removed compensation".
+    With another validation session they are not carried (their figures are not its)."""
+    calibration, validation = (load_session(path) for path in sessions)
+    out = tmp_path / "report"
+    compensation = {"procedure": "C-20261128-abcdef", "outcome": "validated",
+                    "maps": {"x": {"source": "encoder scale +408 ± 35 ppm (k = 2)",
+                                   "checksum": "2138"}}}
+    record = build_record(calibration, validation=validation, compensation=compensation)
+    write_session_report(calibration, out, validation=validation, record=record)
+    first = (out / "record.json").read_bytes()
+    write_session_report(calibration, out, validation=validation)  # what report does
+    again = json.loads((out / "record.json").read_text())
+    assert again["compensation"] == compensation
+    assert (out / "record.json").read_bytes() == first  # the same content: no revision
+    assert "Error maps (ogacq calibrate C-20261128-abcdef)" in _text(
+        (out / "report.html").read_text(encoding="utf-8"))
+    write_session_report(calibration, out)  # without the validation: not its figures
+    third = json.loads((out / "record.json").read_text())
+    assert "compensation" not in third and "removed compensation" in third["changes"]
