@@ -15,7 +15,9 @@ from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
 from ogacq.io.text import read_text
+from ogacq.record.context import calibration_context
 from ogacq.record.document import build_record
+from ogacq.record.identity import session_digest
 from ogacq.record.revision import issue
 from ogacq.report import (
     RECORD_NAME,
@@ -61,6 +63,7 @@ def report_command(
     check_output_folder(folder, "--out")
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
+    check_pair(calibration, validation)
     given = _read_diagnosis(diagnosis) if diagnosis is not None else None
     # the files read first; then whether they may be reported (the page says so)
     for loaded in (calibration, validation):
@@ -132,6 +135,28 @@ def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict
 
 def _sha(reference: Any) -> Any:
     return reference.get("sha256") if isinstance(reference, dict) else None
+
+
+def check_pair(calibration: LoadedSession, validation: LoadedSession | None) -> None:
+    """A campaign's session, and with ``--after`` another one of the same machine run
+    after it (its as-left measurement); InputError naming the file otherwise. It took
+    ``ogacq calibrate``'s procedure log as a campaign (refused as partial, exit 4), and
+    the campaign itself or another machine's as its validation."""
+    for loaded, what in ((calibration, "SESSION"), (validation, "--after")):
+        if loaded is not None and loaded.header.procedure is not None:
+            raise InputError(loaded.path, f"is the log of an `ogacq calibrate` procedure, not "
+                             f"a campaign's session: give {what} the calibration.jsonl or "
+                             "validation.jsonl beside it (its record is in report/)")
+    if validation is None:
+        return
+    if session_digest(validation)[0] == session_digest(calibration)[0]:
+        raise InputError(validation.path, "--after is the calibration campaign itself: give "
+                         "the validation campaign run after the write-back")
+    found, left = calibration_context(calibration), calibration_context(validation)
+    if found.machine_serial and left.machine_serial \
+            and found.machine_serial != left.machine_serial:
+        raise InputError(validation.path, f"--after is a campaign of machine serial "
+                         f"{left.machine_serial}, the calibration's is {found.machine_serial}")
 
 
 def _earlier_issue(path: Path) -> bytes | None:

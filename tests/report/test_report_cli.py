@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from ogacq.calibration.log import ProcedureLog
 from ogacq.cli.app import main
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.identify.observations import averaged_deviations
@@ -187,7 +188,8 @@ def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tm
     assert (tmp_path / "torn-report" / "deviations.png").stat().st_size > 1000
 
 
-@pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis"])
+@pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis",
+                                  "procedure log", "itself after"])
 def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
     calibration, _ = sessions
     args: list[object]
@@ -202,6 +204,14 @@ def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
     elif case == "missing":
         path = tmp_path / "nowhere.jsonl"
         args, named = [path], "cannot read session"
+    elif case == "procedure log":  # ogacq calibrate's: it was refused as partial, exit 4
+        ProcedureLog.create(tmp_path, {"mode": "simulator"}).close()
+        path = tmp_path / "procedure.jsonl"
+        args, named = [path], "is the log of an `ogacq calibrate` procedure"
+    elif case == "itself after":  # the as-found campaign as its own as-left one
+        path = tmp_path / "copy.jsonl"
+        path.write_bytes(calibration.read_bytes())
+        args, named = [calibration, "--after", path], "--after is the calibration campaign"
     else:
         path = tmp_path / "diagnosis.json"
         path.write_text(json.dumps({"noise_mm": 0.001, "final": {"consistent": True}}))
