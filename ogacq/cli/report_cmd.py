@@ -15,10 +15,12 @@ from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
 from ogacq.io.text import read_text
+from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.context import calibration_context
 from ogacq.record.document import build_record
 from ogacq.record.identity import session_digest
 from ogacq.record.revision import issue
+from ogacq.record.sections import SessionReference
 from ogacq.report import (
     RECORD_NAME,
     DiagnosisFormatError,
@@ -122,19 +124,21 @@ def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict
     the maps it wrote, so re-issuing its record (``ogacq report ... --pdf`` into its
     folder) must not drop them (it issued a revision saying "removed compensation")."""
     try:
-        old = json.loads(earlier) if earlier is not None else None
-    except ValueError:
+        old = CalibrationRecord.from_json(json.loads(earlier)) if earlier is not None \
+            else None
+    except (ValueError, TypeError, AttributeError):
         return record
-    if not isinstance(old, dict) or not isinstance(old.get("compensation"), dict) \
-            or "compensation" in record or old.get("id") != record.get("id") \
-            or _sha(old.get("session")) != _sha(record.get("session")) \
-            or _sha(old.get("validation_session")) != _sha(record.get("validation_session")):
+    new = CalibrationRecord.from_json(record)
+    if old is None or not old.compensation or new.compensation is not None \
+            or old.id != new.id \
+            or old.session_reference.sha256 != new.session_reference.sha256 \
+            or _sha(old.validation_reference) != _sha(new.validation_reference):
         return record
-    return {**record, "compensation": old["compensation"]}
+    return {**record, "compensation": dict(old.compensation)}
 
 
-def _sha(reference: Any) -> Any:
-    return reference.get("sha256") if isinstance(reference, dict) else None
+def _sha(reference: SessionReference | None) -> str | None:
+    return reference.sha256 if reference is not None else None
 
 
 def check_pair(calibration: LoadedSession, validation: LoadedSession | None) -> None:
