@@ -126,6 +126,7 @@ def calibrate(
         report = write_session_report(
             load_session(outcome.evidence), folder / "report",
             validation=load_session(outcome.validation) if outcome.validation else None,
+            diagnosis=_campaign_diagnosis(folder), diagnosis_source=folder / LOG_NAME,
             record=outcome.record)
         record_calibrate(outcome.evidence, history, outcome.record, outcome.procedure,
                          outcome.details, validation=outcome.validation, location=where)
@@ -137,6 +138,20 @@ def calibrate(
     print_outcome(outcome, report)
     if outcome.exit_code:
         raise typer.Exit(outcome.exit_code)
+
+
+def _campaign_diagnosis(folder: Path) -> dict | None:
+    """The diagnosis the procedure made of its calibration campaign (its log's), for
+    the record's Diagnosis section: without it the record said "no diagnosis was
+    given" of a campaign whose diagnosis chose the maps it states."""
+    from ogacq.session.records import CalibrateRecord
+    from ogacq.session.store import load_session
+
+    for step in reversed(load_session(folder / LOG_NAME).of_type(CalibrateRecord)):
+        if step.step == "diagnosis" and step.details.get("role") == "calibration":
+            found = step.details.get("diagnosis")
+            return found if isinstance(found, dict) else None
+    return None
 
 
 def _folder(campaign: Path | None, simulator: bool, out: Path | None,
@@ -219,7 +234,13 @@ def _resumed_setup(folder: Path) -> Setup:
 
 
 def _read(path: Path) -> str:
+    """The effects file's text, checked before it is copied into the folder: a copy that
+    does not load would stop every resume of the procedure, and name the copy."""
+    from ogacq.sim.truth import random_truth, read_effects
+
     try:
-        return read_text(path)
+        text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None
+    read_effects(path, random_truth(0))  # InputError naming the file and line
+    return text

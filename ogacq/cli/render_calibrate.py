@@ -25,6 +25,7 @@ from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.report.formatting import measure
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
 
@@ -59,11 +60,13 @@ class TerminalUI:
 
     def diagnosis(self, role: str, diagnosis: Diagnosis) -> None:
         self._stack.close()
+        # as the record's Diagnosis table: value ± std (k = 1), the value to the std's
+        # decimal place (JCGM 100:2008 7.2.6; it was "+408.3 ± 18 ppm")
         effects = "; ".join(e.sentence() if isinstance(e, MapEffect)
-                            else f"{e.name} {e.value:+.4g} ± {e.std:.2g} {e.unit}"
+                            else f"{e.name} {measure(e.value, e.std, e.unit)}"
                             for e in diagnosis.effects) or "none"
-        console.print(f"diagnosis of the {role} campaign: {diagnosis.outcome}; effects: "
-                      f"{effects}", highlight=False)
+        console.print(f"diagnosis of the {role} campaign: {diagnosis.outcome}; effects "
+                      f"(value ± std, k = 1): {effects}", highlight=False)
         console.print(f"  {diagnosis.final.describe()}", highlight=False)
 
     def separation(self, plan: SeparatingPlan, speed: float | None) -> None:

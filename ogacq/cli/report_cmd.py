@@ -15,8 +15,12 @@ from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
 from ogacq.io.text import read_text
+from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.context import calibration_context
 from ogacq.record.document import build_record
+from ogacq.record.identity import session_digest
 from ogacq.record.revision import issue
+from ogacq.record.sections import SessionReference
 from ogacq.report import (
     RECORD_NAME,
     DiagnosisFormatError,
@@ -61,6 +65,7 @@ def report_command(
     check_output_folder(folder, "--out")
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
+    check_pair(calibration, validation)
     given = _read_diagnosis(diagnosis) if diagnosis is not None else None
     # the files read first; then whether they may be reported (the page says so)
     for loaded in (calibration, validation):
@@ -102,13 +107,60 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
         raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
+    earlier = _earlier_issue(folder / RECORD_NAME)
     if record is None:
         record = build_record(calibration, validation=validation, history=history,
                               history_why=history_why, fit=data.identified,
                               validation_fit=data.validation_identified)
+        record = _with_compensation_of(record, earlier)
     # issued beside an earlier issue of the same record: its next revision, or itself
-    record = issue(record, _earlier_issue(folder / RECORD_NAME))
+    record = issue(record, earlier)
     return write_report(build_report(data, record), folder)
+
+
+def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
+    """``record`` with the ``compensation`` ``ogacq calibrate`` put in an earlier issue
+    of it (the same campaign, the same validation session): only the procedure knows
+    the maps it wrote, so re-issuing its record (``ogacq report ... --pdf`` into its
+    folder) must not drop them (it issued a revision saying "removed compensation")."""
+    try:
+        old = CalibrationRecord.from_json(json.loads(earlier)) if earlier is not None \
+            else None
+    except (ValueError, TypeError, AttributeError):
+        return record
+    new = CalibrationRecord.from_json(record)
+    if old is None or not old.compensation or new.compensation is not None \
+            or old.id != new.id \
+            or old.session_reference.sha256 != new.session_reference.sha256 \
+            or _sha(old.validation_reference) != _sha(new.validation_reference):
+        return record
+    return {**record, "compensation": dict(old.compensation)}
+
+
+def _sha(reference: SessionReference | None) -> str | None:
+    return reference.sha256 if reference is not None else None
+
+
+def check_pair(calibration: LoadedSession, validation: LoadedSession | None) -> None:
+    """A campaign's session, and with ``--after`` another one of the same machine run
+    after it (its as-left measurement); InputError naming the file otherwise. It took
+    ``ogacq calibrate``'s procedure log as a campaign (refused as partial, exit 4), and
+    the campaign itself or another machine's as its validation."""
+    for loaded, what in ((calibration, "SESSION"), (validation, "--after")):
+        if loaded is not None and loaded.header.procedure is not None:
+            raise InputError(loaded.path, f"is the log of an `ogacq calibrate` procedure, not "
+                             f"a campaign's session: give {what} the calibration.jsonl or "
+                             "validation.jsonl beside it (its record is in report/)")
+    if validation is None:
+        return
+    if session_digest(validation)[0] == session_digest(calibration)[0]:
+        raise InputError(validation.path, "--after is the calibration campaign itself: give "
+                         "the validation campaign run after the write-back")
+    found, left = calibration_context(calibration), calibration_context(validation)
+    if found.machine_serial and left.machine_serial \
+            and found.machine_serial != left.machine_serial:
+        raise InputError(validation.path, f"--after is a campaign of machine serial "
+                         f"{left.machine_serial}, the calibration's is {found.machine_serial}")
 
 
 def _earlier_issue(path: Path) -> bytes | None:

@@ -30,6 +30,11 @@ from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import moved_terms_json
 from ogacq.model.parameters import AXES
 
+# Positions closer than this are one point of a sum: a map rounded to 1e-9 mm and one
+# over the same span unrounded differ by less (LinuxCNC refuses a nominal that does not
+# increase; every table would list the point twice). Far below any table's spacing.
+SAME_POSITION_MM = 1e-6
+
 # The signature each carried effect leaves in a map, per side: (forward, reverse) as
 # functions of q (see ogacq.compensation.effects: e = s q - a b / 2).
 SIGNATURES = {
@@ -98,8 +103,10 @@ def without(m: AxisMap, carried: Iterable[str]) -> tuple[AxisMap, tuple[str, ...
 
 
 def summed(axis: str, maps: Sequence[AxisMap], reference_mm: float) -> AxisMap:
-    """The maps added on the union of their positions."""
+    """The maps added on the union of their positions (those ``SAME_POSITION_MM``
+    apart taken once)."""
     q = np.unique(np.concatenate([np.asarray(m.positions_mm, float) for m in maps]))
+    q = q[np.concatenate([[True], np.diff(q) > SAME_POSITION_MM])]
     fwd = np.sum([m.error_mm(q, 1) for m in maps], axis=0)
     rev = np.sum([m.error_mm(q, -1) for m in maps], axis=0)
     u_f = np.sqrt(np.sum([np.interp(q, m.positions_mm, m.u_forward_mm) ** 2 for m in maps],

@@ -30,9 +30,11 @@ from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
+from ogacq.uncertainty.reporting import headline
 
 COMPENSABLE = ("encoder_scale", "backlash")
 PPM = 1e-6
+COVERAGE_K = 2.0  # the record's k (ogacq.uncertainty.budget.COVERAGE_FACTOR, JCGM 100 6.3.3)
 # The grid a library effect's map is tabulated on: its errors are linear or constant
 # in q, so any grid holds them exactly; this one suits the tables it is resampled to.
 MAP_STEP_MM = 5.0
@@ -64,6 +66,13 @@ def map_positions(machine: MachineSpec, step_mm: float = MAP_STEP_MM,
     lo, hi = (machine.rho_min_mm, machine.rho_max_mm) if span_mm is None else span_mm
     count = int(math.ceil((hi - lo) / step_mm - 1e-9)) + 1
     return np.linspace(lo, hi, count)
+
+
+def _stated(value: float, std: float, unit: str, *, sign: bool = True) -> str:
+    """The effect as the record states a result: ``+408 ± 35 ppm (k = 2)``, U = 2 u to
+    two significant digits and the value to its decimal place (JCGM 100:2008 7.2.6,
+    ``ogacq.uncertainty.reporting``); the map's u stays the std (k = 1)."""
+    return str(headline(value, COVERAGE_K * std, COVERAGE_K, unit, sign=sign))
 
 
 @dataclass(frozen=True)
@@ -100,8 +109,9 @@ def effect_maps(effects: Mapping[str, EffectValue], machine: MachineSpec, *,
         dq = q - ref
         u_fwd = np.abs(dq) * u_s  # zero at the reference forward, as the map is
         u_rev = np.hypot(np.abs(dq) * u_s, u_b)
-        parts = [f"encoder scale {scale.value:+.1f} ± {scale.std:.1f} ppm" if scale else "",
-                 f"backlash {b * UM_PER_MM:.1f} ± {u_b * UM_PER_MM:.1f} µm" if lost else ""]
+        parts = [f"encoder scale {_stated(scale.value, scale.std, 'ppm')}" if scale else "",
+                 f"backlash {_stated(b * UM_PER_MM, u_b * UM_PER_MM, 'µm', sign=False)}"
+                 if lost else ""]
         names = tuple(e.name for e in (scale, lost) if e is not None)
         out[axis] = EffectMap(AxisMap(
             axis=axis, positions_mm=tuple(float(v) for v in q),

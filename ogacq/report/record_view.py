@@ -419,6 +419,52 @@ def writebacks(record: CalibrationRecord) -> list[dict[str, Any]]:
     return out
 
 
+OUTCOME_KIND = {"validated": "ok", "improved": "warn", "restored": "bad"}
+ISO230_FIGURES = ("A", "B", "R", "E", "M")  # ISO 230-2:2014 clause 3, per axis
+
+
+def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
+    """What ``ogacq calibrate`` wrote beside the offsets (docs/calibration-record.md 5,
+    ``compensation``): its outcome, the error maps and their checksums, the ISO 230-2
+    figures of each axis before and after, the tables exported; None without it."""
+    comp = record.compensation
+    if not comp:
+        return None
+    outcome = shown(comp.get("outcome"))
+    writes = comp.get("writes") or {}
+    maps = comp.get("maps") or {}
+    maps_table = table(["axis", "the map corrects", "checksum (SHA-256)"],
+                       [[a, shown(m.get("source")), shown(m.get("checksum"))]
+                        for a, m in sorted(maps.items())]) if maps else None
+    iso = comp.get("iso230_2") or {}
+    rows: list[list[Cell]] = []
+    for axis in sorted({*(iso.get("before") or {}), *(iso.get("after") or {})}):
+        for stage, words_ in (("before", "before"),
+                              ("after", "after (the validation campaign)")):
+            fig = (iso.get(stage) or {}).get(axis)
+            if fig:
+                rows.append([axis, words_, *(_um(fig.get(f"{k}_mm")) for k in ISO230_FIGURES)])
+    figures = table(["axis", "when", *(f"{k} (µm)" for k in ISO230_FIGURES)], rows,
+                    [False, False, *(True,) * len(ISO230_FIGURES)]) if rows else None
+    tables = [f"{shown(t.get('format'))}: " + (", ".join(map(str, t.get("files") or ()))
+                                               or f"not written: {shown(t.get('problem'))}")
+              for t in comp.get("tables") or ()]
+    return {"badge": Badge(f"calibrate {outcome}", OUTCOME_KIND.get(outcome, "info")),
+            "procedure": shown(comp.get("procedure")), "reason": shown(comp.get("reason"), ""),
+            "writes": ", ".join(f"{k} {v}" for k, v in writes.items() if v) or "none",
+            "restores": ", ".join(f"{k} {v}" for k, v in (comp.get("restores") or {}).items()
+                                  if v),
+            "maps": maps_table, "figures": figures,
+            "compensated": ", ".join(comp.get("compensated") or ()) or "none",
+            "uncompensated": ", ".join(comp.get("uncompensated") or ()) or "none",
+            "tables": tables}
+
+
+def _um(value_mm: Any) -> str:
+    """An ISO 230-2 figure in micrometres, to 0.01 µm (as the tables' comments)."""
+    return f"{value_mm * 1000:.2f}" if isinstance(value_mm, int | float) else NOT_RECORDED
+
+
 def record_view(record: CalibrationRecord) -> dict[str, Any]:
     """The template's values for the record's sections."""
     missing = record.missing or {}
@@ -433,6 +479,7 @@ def record_view(record: CalibrationRecord) -> dict[str, Any]:
         "budget_complete": record.budget_complete,
         "monte_carlo": monte_carlo(record), "history": history(record),
         "overrides": overrides(record), "record_writes": writebacks(record),
+        "compensation": compensation(record),
         "page_footer": css_string(f"Calibration record {revision_label(record)}"),
         "record_label": revision_label(record),
     }

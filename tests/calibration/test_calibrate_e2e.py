@@ -143,6 +143,11 @@ def test_ends_validated_with_the_map_the_offsets_and_the_record(straight):
     span_mm = after["range_mm"][1] - after["range_mm"][0]
     assert after["E_mm"] == pytest.approx(abs(left["value"]) * 1e-6 * span_mm, abs=2e-6), after
     assert record["writeback"] and record["compensation"]["outcome"] in KEPT
+    # the page: the diagnosis the procedure made of the calibration campaign (it said
+    # "no diagnosis was given") and the maps written beside the offsets
+    page = (straight / "report" / "report.html").read_text()
+    assert "no diagnosis was given" not in page and "squareness.xy" in page
+    assert "Error maps (ogacq calibrate" in page
 
 
 def test_killed_at_two_points_it_resumes_to_the_same_end(straight, tmp_path):
@@ -219,6 +224,19 @@ def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatc
     assert any(f.startswith("restored by calibrate") and "grew" in f for f in fates), fates
     assert any(f.startswith("restore by calibrate") for f in fates), fates
     assert states[-1].maps == {}  # the maps state the restore left: none
+
+
+def test_an_effects_file_that_does_not_load_is_refused_before_the_folder(tmp_path, capsys):
+    """Named as given, nothing started: it was copied into the folder first, the error
+    named the copy, and the same command with the file corrected 'continued' with the
+    copy, failing again (found by the records34 audit)."""
+    bad = tmp_path / "bad.toml"
+    bad.write_text("garbage[\n")
+    folder = tmp_path / "run"
+    assert main(["calibrate", "--simulator", "--effects", str(bad), "--out", str(folder),
+                 "--yes", "--history", "none"]) == 2
+    assert f"{bad}:1: not valid TOML" in capsys.readouterr().err
+    assert not (folder / "procedure.jsonl").exists()
 
 
 def test_maps_shown_and_restored_by_hand(straight, capsys, monkeypatch):

@@ -8,6 +8,7 @@ import pytest
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
+from ogacq.compensation.linuxcnc import linuxcnc_tables
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
 
@@ -31,6 +32,9 @@ def test_library_effects_as_a_map_and_the_constant_to_the_offset():
             model = 400e-6 * q - a * 0.02 / 2
             assert m.error_mm(q, a) + maps["x"].offset_shift_mm == pytest.approx(model)
     assert m.u_forward_mm[0] == pytest.approx(100 * 20e-6)  # |q - ref| u_s at q = -100
+    # said as the record states a result: U = 2 u to two significant digits, the value
+    # to its decimal place, k stated (JCGM 100:2008 7.2.6; it was "+400.0 ± 20.0 ppm")
+    assert m.source == "encoder scale +400 ± 40 ppm (k = 2), backlash 20.0 ± 2.0 µm (k = 2)"
 
 
 def test_a_diagnosis_map_with_the_model_s_trend_is_not_corrected_twice():
@@ -77,3 +81,23 @@ def test_targets_corrected_by_the_side_they_are_approached_from():
     # at the end of the travel the target is held, and the reading says where it landed
     assert c.command((-100.0, 0.0, 5.0))[0] == -100.0
     assert c.nominal((-100.0, 0.0, 5.0), (-100.0, 0.0, 5.0))[0] == pytest.approx(-99.98)
+
+
+def test_positions_a_rounding_apart_are_one_point_of_the_sum():
+    """A diagnosis map over positions rounded to 1e-9 mm and a library map over the same
+    span unrounded (what ``ogacq calibrate`` gave: ``-100.098353198`` and
+    ``-100.09835319823402``) add up on one point there, not two: LinuxCNC refuses a
+    nominal that does not increase ("compensation values must increase", the motion
+    module's EMCMOT_SET_JOINT_COMP) and the tables would list it twice."""
+    span = np.linspace(-100.0983531982340, 56.1, 41)
+    rounded = np.round(span, 9)
+    assert rounded[0] != span[0]  # the case: a nanometre's fraction apart
+    diagnosed = AxisMap("x", tuple(rounded), (0.001,) * 41, (0.001,) * 41, (0.0005,) * 41,
+                        (0.0005,) * 41, source="screw", excludes=("encoder_scale.x",))
+    effects = {"encoder_scale.x": EffectValue("encoder_scale.x", 300.0, 10.0)}
+    maps = effect_maps(effects, MACHINE, spans={"x": (float(span[0]), float(span[-1]))})
+    out = compensation([diagnosed], maps, effects)["x"].axis_map
+    assert np.min(np.diff(out.positions_mm)) > 1e-6
+    nominals = [float(line.split()[0]) for line in
+                linuxcnc_tables({"x": out}).files["x.comp"].splitlines()]
+    assert all(b > a for a, b in zip(nominals, nominals[1:], strict=False))

@@ -16,9 +16,11 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from ogacq.calibration.log import ProcedureLog
 from ogacq.cli.app import main
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.identify.observations import averaged_deviations
+from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.records import EndRecord, FaultRecord
 from ogacq.session.store import SessionWriter, load_session
@@ -186,7 +188,8 @@ def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tm
     assert (tmp_path / "torn-report" / "deviations.png").stat().st_size > 1000
 
 
-@pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis"])
+@pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis",
+                                  "procedure log", "itself after"])
 def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
     calibration, _ = sessions
     args: list[object]
@@ -201,6 +204,14 @@ def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
     elif case == "missing":
         path = tmp_path / "nowhere.jsonl"
         args, named = [path], "cannot read session"
+    elif case == "procedure log":  # ogacq calibrate's: it was refused as partial, exit 4
+        ProcedureLog.create(tmp_path, {"mode": "simulator"}).close()
+        path = tmp_path / "procedure.jsonl"
+        args, named = [path], "is the log of an `ogacq calibrate` procedure"
+    elif case == "itself after":  # the as-found campaign as its own as-left one
+        path = tmp_path / "copy.jsonl"
+        path.write_bytes(calibration.read_bytes())
+        args, named = [calibration, "--after", path], "--after is the calibration campaign"
     else:
         path = tmp_path / "diagnosis.json"
         path.write_text(json.dumps({"noise_mm": 0.001, "final": {"consistent": True}}))
@@ -254,3 +265,27 @@ def test_a_record_issued_again_with_other_content_is_a_revision(sessions, tmp_pa
     assert json.loads(record_file.read_text()) == second  # no revision 3 for nothing
     write_session_report(calibration, out)  # back to the first content: a new issue
     assert json.loads(record_file.read_text())["revision"] == 3
+
+
+def test_calibrate_s_record_issued_again_keeps_the_maps_it_wrote(sessions, tmp_path):
+    """``ogacq report S --after V --pdf`` into ``ogacq calibrate``'s report folder (it
+    prints no PDF) re-issues its record: the maps the procedure wrote stay in it (only
+    the procedure knows them); it issued revision 2 saying "removed compensation".
+    With another validation session they are not carried (their figures are not its)."""
+    calibration, validation = (load_session(path) for path in sessions)
+    out = tmp_path / "report"
+    compensation = {"procedure": "C-20261128-abcdef", "outcome": "validated",
+                    "maps": {"x": {"source": "encoder scale +408 ± 35 ppm (k = 2)",
+                                   "checksum": "2138"}}}
+    record = build_record(calibration, validation=validation, compensation=compensation)
+    write_session_report(calibration, out, validation=validation, record=record)
+    first = (out / "record.json").read_bytes()
+    write_session_report(calibration, out, validation=validation)  # what report does
+    again = json.loads((out / "record.json").read_text())
+    assert again["compensation"] == compensation
+    assert (out / "record.json").read_bytes() == first  # the same content: no revision
+    assert "Error maps (ogacq calibrate C-20261128-abcdef)" in _text(
+        (out / "report.html").read_text(encoding="utf-8"))
+    write_session_report(calibration, out)  # without the validation: not its figures
+    third = json.loads((out / "record.json").read_text())
+    assert "compensation" not in third and "removed compensation" in third["changes"]

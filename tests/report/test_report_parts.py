@@ -183,6 +183,40 @@ def test_what_the_record_holds_the_page_takes_from_the_record(session_path):
     assert "Deviations per leg and posture" in text and "residual rms" in text
 
 
+def test_the_maps_calibrate_wrote_are_on_the_page(session_path):
+    """``ogacq calibrate``'s ``compensation`` (docs/calibration-record.md 5) is an
+    adjustment: the page states it beside the offsets' (ISO/IEC 17025:2017 7.8.4.1 d);
+    the record held it in record.json only, the page said nothing of the maps written."""
+    session = load_session(session_path)
+    figures = {"A_mm": 0.0710642, "B_mm": 0.0, "R_mm": 0.0070619, "E_mm": 0.0654133,
+               "M_mm": 0.0654133}
+    compensation = {
+        "procedure": "C-20261128-fafde9", "outcome": "improved", "reason": "better than before",
+        "writes": {"offsets": "write-81bd009e", "maps": "maps-write-db716973"},
+        "restores": {}, "maps": {"x": {"source": "encoder scale +408 ± 35 ppm (k = 2)",
+                                       "checksum": "2138706"}},
+        "compensated": ["encoder_scale.x"], "uncompensated": ["squareness.xy"],
+        "iso230_2": {"before": {"x": figures},
+                     "after": {"x": figures | {"A_mm": 0.0164401, "E_mm": 0.0066396}}},
+        "tables": [{"format": "linuxcnc", "files": ["tables/linuxcnc/x.comp"], "problem": None},
+                   {"format": "fanuc", "files": [], "problem": "too many points"}]}
+    record = build_record(session, compensation=compensation)
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", render_page(collect(session), (), record)))
+    assert "Error maps (ogacq calibrate C-20261128-fafde9)" in text
+    assert "calibrate improved better than before" in text
+    assert "offsets write-81bd009e, maps maps-write-db716973" in text
+    assert "Corrected by the maps: encoder_scale.x; left uncompensated" in text
+    assert "squareness.xy" in text
+    assert "x encoder scale +408 ± 35 ppm (k = 2) 2138706" in text
+    assert "x before 71.06 0.00 7.06 65.41 65.41" in text  # µm, as the tables' comments
+    assert "x after (the validation campaign) 16.44 0.00 7.06 6.64 65.41" in text
+    assert "linuxcnc: tables/linuxcnc/x.comp" in text
+    assert "fanuc: not written: too many points" in text
+    # a record without it (ogacq report of a campaign) has no such section
+    assert "Error maps (ogacq calibrate" not in render_page(collect(session), (),
+                                                            build_record(session))
+
+
 def test_a_scans_error_maps_are_drawn_and_stated(tmp_path):
     """A scan of a machine with a cyclic error on its x screw, diagnosed here: the
     report states the map's place and shape, the chi-square before and after, and

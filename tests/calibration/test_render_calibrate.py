@@ -1,0 +1,27 @@
+"""What ``ogacq calibrate`` prints of a diagnosis, against the record's rule."""
+
+from __future__ import annotations
+
+import io
+from types import SimpleNamespace
+
+from rich.console import Console
+
+from ogacq.cli import render_calibrate
+
+
+def test_a_diagnosis_effect_is_rounded_to_its_std_and_says_it_is_one(monkeypatch):
+    """The value to the decimal place of its std (two significant digits, JCGM 100:2008
+    7.2.6), as the record's Diagnosis table (value ± std) shows it: it printed
+    "+408.3 ± 18 ppm" and "+0.5007 ± 0.015 mrad", with no word of what ± was."""
+    out = io.StringIO()
+    monkeypatch.setattr(render_calibrate, "console", Console(file=out, width=300))
+    effects = [SimpleNamespace(name="encoder_scale.x", value=408.3, std=17.6, unit="ppm"),
+               SimpleNamespace(name="squareness.xy", value=0.5007, std=0.0152, unit="mrad")]
+    diagnosis = SimpleNamespace(outcome="explained", effects=effects,
+                                final=SimpleNamespace(describe=lambda: "within the noise"))
+    ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
+    ui.diagnosis("calibration", diagnosis)  # type: ignore[arg-type]
+    text = out.getvalue()
+    assert ("effects (value ± std, k = 1): encoder_scale.x +408 ± 18 ppm; "
+            "squareness.xy +0.501 ± 0.015 mrad") in text, text
