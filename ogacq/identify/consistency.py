@@ -16,7 +16,8 @@ posture's mean (lack of fit) and the scatter of the cycles about it (pure error)
   (the repeats' scatter over the cycles plus the rounding they share), with the
   Satterthwaite degrees of freedom of that sum. Identical repeats do not show a
   scatter of zero: the largest scatter under which they would read identically 1
-  time in 100 stands for it (``noise.identical_repeats_scatter``).
+  time in 100 stands for it beside the whole rounding, shared by the repeats
+  (``noise.identical_repeats_scatter``).
 - Tabulated deviations: chi-square against their covariance (eq. 13-14).
 
 A misfit confined to one gauge at one posture (a knocked stand, a sticking spindle)
@@ -235,12 +236,12 @@ def _noise_notes(noise: GaugeNoise) -> list[str]:
                      f"round alike, so a posture mean is known to about ±{mean_sd:.1f} µm "
                      "however many cycles; a misfit smaller than that cannot be told "
                      "from rounding")
-    if noise.measured and noise.pure_error_ss is not None and \
-            read_identically(noise.pure_error_ss, noise.step_mm):
+    if noise.measured and noise.pure_error_ss is not None and noise.dof and \
+            read_identically(noise.pure_error_ss, noise.dof, noise.step_mm):
         scatter_um = (noise.scatter_mm or 0.0) * UM_PER_MM
         notes.append("the repeats read identically: the gauge scatters less than its "
-                     f"display shows, and the fit is judged against the rounding and a "
-                     f"scatter of {scatter_um:.2g} µm, the largest under which so many "
+                     f"display shows, and the fit is judged against the whole rounding and "
+                     f"a scatter of {scatter_um:.2g} µm, the largest under which so many "
                      f"repeats read identically {IDENTICAL_REPEATS_LEVEL:.0%} of the time")
     stated, seen = noise.scatter_mm, noise.repeats_scatter_mm
     if not noise.measured and stated is not None and seen is not None and seen > 2 * stated:
