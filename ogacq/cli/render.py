@@ -57,6 +57,11 @@ def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycle
     if pred.mc_std is not None:
         console.print(f"Monte-Carlo: {pred.converged_fraction:.1%} of fits converged, "
                       f"{pred.mc_seconds:.2f} s")
+        if pred.ran_off_fraction:
+            from ogacq.identify.accuracy import RAN_OFF_RANGES
+            console.print(f"  {pred.ran_off_fraction:.1%} ran off beyond {RAN_OFF_RANGES:g} "
+                          "times a parameter's plausible range (a direction these readings "
+                          "do not bound): left out of the std and bias")
 
 
 def print_sim(info: dict) -> None:

@@ -37,6 +37,12 @@ OTHERS_AGREE_LEVEL = 0.1
 # Named in at most this share of the repeat groups: beyond it the disagreement is
 # the campaign's, not a few readings'.
 MOST_GROUPS_SHARE = 0.25
+# A display's rounding error lies within half a step either way, so its variance about
+# the true value is at most step^2 / 4 (two levels half a step off, equally often: a
+# machine resting at a division's edge). Repeats of a coarse display that agree but
+# for one reading a step off are that, not a slip: the reading is judged against no
+# less than this variance. A fine display (step well under the scatter) is unaffected.
+ROUNDING_VARIANCE_BOUND = 0.25
 
 
 @dataclass(frozen=True)
@@ -135,6 +141,7 @@ def _worst(x: np.ndarray, t_s: np.ndarray, group: np.ndarray, gauge: np.ndarray,
         variance = np.full(len(x), np.inf)
         variance[usable] = (float(np.sum(repeats.residual**2))
                             - repeats.residual[usable] ** 2 / spare[usable]) / dof_noise
+    variance = np.maximum(variance, ROUNDING_VARIANCE_BOUND * noise.step_mm**2)
     usable &= variance > 0
     t2 = np.zeros(len(x))
     t2[usable] = repeats.residual[usable] ** 2 / (variance[usable] * spare[usable])

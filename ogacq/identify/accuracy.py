@@ -24,6 +24,13 @@ from ogacq.model.parameters import NOMINAL, effect_of, indices, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 CHUNK = 1000  # trials per vectorised batch: bounds memory at a few hundred MB
+# A trial ending beyond this many times a parameter's plausible range has run off along
+# a direction the readings do not bound (a travel of a few mm leaves the offsets and
+# the lengths free to grow together: the exact model's legs lengthen to 1e12 mm, the
+# cost still falling). No real machine is there, and a plan whose std is below the
+# plausible range (an identifiable one) puts no trial there (100 std: p < 1e-300), so
+# only such unbounded trials are left out of the std and the bias, and counted.
+RAN_OFF_RANGES = 100.0
 
 
 @dataclass
@@ -39,6 +46,7 @@ class AccuracyPrediction:
     mc_bias: np.ndarray | None = None
     converged_fraction: float | None = None
     mc_seconds: float | None = None
+    ran_off_fraction: float | None = None  # trials beyond RAN_OFF_RANGES, left out
 
     def to_json(self) -> dict:
         out = {
@@ -53,12 +61,18 @@ class AccuracyPrediction:
         if self.mc_std is not None and self.mc_bias is not None:
             out["monte_carlo"] = {
                 "trials": self.trials,
-                "std": dict(zip(self.names, map(float, self.mc_std), strict=True)),
-                "bias": dict(zip(self.names, map(float, self.mc_bias), strict=True)),
+                "std": dict(zip(self.names, map(_finite, self.mc_std), strict=True)),
+                "bias": dict(zip(self.names, map(_finite, self.mc_bias), strict=True)),
                 "converged_fraction": self.converged_fraction,
                 "seconds": self.mc_seconds,
+                "ran_off_fraction": self.ran_off_fraction,
             }
         return out
+
+
+def _finite(value: float) -> float | None:
+    """A number for JSON: None where no trial was left to give one."""
+    return float(value) if np.isfinite(value) else None
 
 
 def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float] = (),
@@ -119,7 +133,13 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
             on_trials(hi, trials)
     pred.mc_seconds = time.perf_counter() - start
     pred.trials = trials
-    pred.mc_std = estimates.std(axis=0, ddof=1)
-    pred.mc_bias = estimates.mean(axis=0) - theta_true[free]
-    pred.converged_fraction = float(converged.mean())
+    bound = RAN_OFF_RANGES * np.array([effect_of(n).plausible_range for n in names])
+    kept = np.all(np.abs(estimates - NOMINAL[free]) <= bound, axis=1)
+    pred.ran_off_fraction = float(1.0 - kept.mean())
+    with np.errstate(invalid="ignore", divide="ignore"):  # NaN when none is kept
+        pred.mc_std = estimates[kept].std(axis=0, ddof=1) if kept.sum() > 1 else \
+            np.full(len(free), np.nan)
+        pred.mc_bias = estimates[kept].mean(axis=0) - theta_true[free] if kept.any() else \
+            np.full(len(free), np.nan)
+    pred.converged_fraction = float((converged & kept).mean())
     return pred

@@ -14,8 +14,10 @@ posture's mean (lack of fit) and the scatter of the cycles about it (pure error)
 - Noise measured from the repeats: the lack-of-fit F-test of the posture means
   against that measurement; its denominator is the variance of a posture mean
   (the repeats' scatter over the cycles plus the rounding they share), with the
-  Satterthwaite degrees of freedom of that sum. Identical repeats leave the
-  rounding alone, known from the display step: the test is then a chi-square.
+  Satterthwaite degrees of freedom of that sum. Identical repeats do not show a
+  scatter of zero: the largest scatter under which they would read identically 1
+  time in 100 stands for it beside the whole rounding, shared by the repeats
+  (``noise.identical_repeats_scatter``).
 - Tabulated deviations: chi-square against their covariance (eq. 13-14).
 
 A misfit confined to one gauge at one posture (a knocked stand, a sticking spindle)
@@ -35,7 +37,13 @@ import numpy as np
 
 from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.fit import FitResult, Weighting
-from ogacq.identify.noise import GaugeNoise, GroupWhitener, noise_for
+from ogacq.identify.noise import (
+    IDENTICAL_REPEATS_LEVEL,
+    GaugeNoise,
+    GroupWhitener,
+    noise_for,
+    read_identically,
+)
 from ogacq.identify.observations import DEVIATION_NAME, Observations
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
@@ -228,9 +236,13 @@ def _noise_notes(noise: GaugeNoise) -> list[str]:
                      f"round alike, so a posture mean is known to about ±{mean_sd:.1f} µm "
                      "however many cycles; a misfit smaller than that cannot be told "
                      "from rounding")
-    if noise.measured and noise.scatter_mm == 0.0:
+    if noise.measured and noise.pure_error_ss is not None and noise.dof and \
+            read_identically(noise.pure_error_ss, noise.dof, noise.step_mm):
+        scatter_um = (noise.scatter_mm or 0.0) * UM_PER_MM
         notes.append("the repeats read identically: the gauge scatters less than its "
-                     "display shows, and the fit is judged against the rounding alone")
+                     f"display shows, and the fit is judged against the whole rounding and "
+                     f"a scatter of {scatter_um:.2g} µm, the largest under which so many "
+                     f"repeats read identically {IDENTICAL_REPEATS_LEVEL:.0%} of the time")
     stated, seen = noise.scatter_mm, noise.repeats_scatter_mm
     if not noise.measured and stated is not None and seen is not None and seen > 2 * stated:
         notes.append(f"the repeats scatter {seen * UM_PER_MM:.2g} µm, more than the "

@@ -47,3 +47,23 @@ def test_a_watched_monte_carlo_draws_the_same_trials():
     assert [d for d, _ in told] == sorted(d for d, _ in told)
     np.testing.assert_allclose(watched.mc_std, quiet.mc_std, rtol=1e-9)
     np.testing.assert_allclose(watched.mc_bias, quiet.mc_bias, rtol=1e-9, atol=1e-12)
+
+
+def test_trials_that_run_off_along_an_unbounded_direction_are_left_out_and_counted():
+    """A travel of +-2 mm leaves the offsets and the lengths free to grow together
+    (the exact model's legs lengthen without bound, the cost still falling): trials
+    ran to 1e12 mm and made the Monte-Carlo std 1e12 mm. They are counted apart; the
+    std of the rest stays within what a machine could have, and the JSON has no NaN."""
+    import json
+
+    from ogacq.model.machine import MachineSpec
+
+    narrow = MachineSpec(310.25, -2.0, 1.5, gauge_resolution_mm=0.001,
+                         gauge_repeatability_mm=0.002)
+    obs = planned_observations(narrow, postures=("zero", "max", "min", "zero"), cycles=3)
+    pred = predict_accuracy(obs, PARAM_SETS["both"], 0.002, trials=300, rounding_mm=0.001)
+    assert not pred.identifiability.identifiable
+    assert np.all(np.abs(pred.mc_std) < 100 * 10.0) and np.all(np.abs(pred.mc_bias) < 1000)
+    assert pred.ran_off_fraction is not None and 0 < pred.ran_off_fraction < 1
+    assert pred.converged_fraction <= 1 - pred.ran_off_fraction
+    json.dumps(pred.to_json(), allow_nan=False)
