@@ -73,3 +73,32 @@ def offsets_residual_rms(effects: Mapping[str, float], machine: MachineSpec = MA
         vector({**OFFSETS, **effects}))
     fitted = fit(readings_observations(machine, lay, clean), PARAM_SETS["offsets"])
     return fitted.residual_rms_mm
+
+
+def assert_axis_errors_match_reference(machine: MachineSpec, lay: ReadingsLayout,
+                                       offsets: tuple[float, float, float]) -> np.ndarray:
+    """The simulator's exact readings with the joint ``offsets``, a cyclic screw error
+    on x, a screw map on y, z's rail bowed toward x and a hysteresis on y, against the
+    independent geometry of ``reference_model`` (its leg length must be the
+    machine's): the same to 1e-8 mm, each gauge's zero aside. Returns the reference's
+    readings, for the caller to check the errors show."""
+    from ogacq.sim.physics import true_coordinates
+    from ogacq.sim.truth import Hysteresis, LeadScrewError, RailBow, ScrewMap, SimTruth
+    from tests.diagnose import reference_model as ref
+
+    truth = SimTruth(vector({f"joint_offset.{a}": v for a, v in zip("xyz", offsets,
+                                                                    strict=True)}),
+                     lead_screw={0: LeadScrewError(0.005, 5.0, 30.0)},
+                     screw_map={1: ScrewMap((0.0, 0.01, 0.02))},
+                     rail_bow={2: RailBow("x", 0.01)}, hysteresis={1: Hysteresis(0.02, 6.0)})
+    physics = ref.Physics(offsets=offsets, cyclic={0: (0.005, 5.0, 30.0)},
+                          polynomial={1: (0.0, 0.01, 0.02)},
+                          bow={2: (0, 0.01, machine.rho_min_mm, machine.rho_max_mm)},
+                          hysteresis={1: (0.02, 6.0)})
+    ours = true_coordinates(truth, lay, machine)
+    theirs = ref.readings(lay.q_mm, lay.leg, lay.gauge_axis, physics)
+    gauge = ref.gauge_index(lay.leg, lay.gauge_axis)
+    diff = ours - theirs
+    diff -= (np.bincount(gauge, weights=diff) / np.bincount(gauge))[gauge]
+    assert np.max(np.abs(diff)) < 1e-8
+    return theirs

@@ -19,7 +19,6 @@ from ogacq.io.tables import write_readings
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import vector
-from ogacq.sim.physics import true_coordinates
 from ogacq.sim.readings import simulated_readings
 from ogacq.sim.truth import Hysteresis, LeadScrewError, RailBow, ScrewMap, SimTruth, WarmUp
 from tests.cli.helpers import run_ogacq
@@ -30,6 +29,7 @@ from tests.diagnose.campaigns import (
     NOISE_MM,
     OFFSETS,
     STEP_MM,
+    assert_axis_errors_match_reference,
     layout,
 )
 from tests.diagnose.test_diagnose_cli import MACHINE_TOML
@@ -228,18 +228,7 @@ def test_the_simulators_axis_errors_are_the_reference_models():
     """Every axis error of the simulator, through its exact model, against the
     independent geometry of ``reference_model``: the same readings to 1e-8 mm."""
     lay = layout(scan_step_mm=4.0, cycles=2)
-    truth = SimTruth(vector(OFFSETS), lead_screw={0: LeadScrewError(0.005, 5.0, 30.0)},
-                     screw_map={1: ScrewMap((0.0, 0.01, 0.02))},
-                     rail_bow={2: RailBow("x", 0.01)}, hysteresis={1: Hysteresis(0.02, 6.0)})
-    physics = ref.Physics(offsets=(2.0, 2.0, -2.0), cyclic={0: (0.005, 5.0, 30.0)},
-                          polynomial={1: (0.0, 0.01, 0.02)}, bow={2: (0, 0.01, -100.0, 60.0)},
-                          hysteresis={1: (0.02, 6.0)})
-    ours = true_coordinates(truth, lay, MACHINE)
-    theirs = ref.readings(lay.q_mm, lay.leg, lay.gauge_axis, physics)
-    gauge = ref.gauge_index(lay.leg, lay.gauge_axis)
-    diff = ours - theirs
-    diff -= (np.bincount(gauge, weights=diff) / np.bincount(gauge))[gauge]
-    assert np.max(np.abs(diff)) < 1e-8
+    theirs = assert_axis_errors_match_reference(MACHINE, lay, (2.0, 2.0, -2.0))
     assert np.ptp(theirs) > 0.01  # the errors are there to be seen
 
 

@@ -12,12 +12,11 @@ import pytest
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.fit import fit
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import PARAM_SETS, vector
+from ogacq.model.parameters import PARAM_SETS
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
-from ogacq.sim.physics import true_coordinates
 from ogacq.sim.readings import simulated_readings
-from ogacq.sim.truth import Hysteresis, LeadScrewError, RailBow, ScrewMap, SimTruth
 from tests.diagnose import reference_model as ref
+from tests.diagnose.campaigns import assert_axis_errors_match_reference
 
 OFFSETS = (1.5, -3.0, 4.0)
 SMALL = MachineSpec(120.0, -30.0, 20.0, gauge_resolution_mm=0.001,
@@ -42,18 +41,7 @@ def test_readings_on_another_geometry_are_the_independent_models(
     monkeypatch.setattr(ref, "L", machine.leg_length_mm)
     lo, hi = machine.rho_min_mm, machine.rho_max_mm
     lay = planned_layout(ProtocolConfig(scan_step_mm=(hi - lo) / 20, cycles=2), machine)
-    truth = SimTruth(vector(_offsets_truth()), lead_screw={0: LeadScrewError(0.005, 5.0, 30.0)},
-                     screw_map={1: ScrewMap((0.0, 0.01, 0.02))},
-                     rail_bow={2: RailBow("x", 0.01)}, hysteresis={1: Hysteresis(0.02, 6.0)})
-    physics = ref.Physics(offsets=OFFSETS, cyclic={0: (0.005, 5.0, 30.0)},
-                          polynomial={1: (0.0, 0.01, 0.02)}, bow={2: (0, 0.01, lo, hi)},
-                          hysteresis={1: (0.02, 6.0)})
-    ours = true_coordinates(truth, lay, machine)
-    theirs = ref.readings(lay.q_mm, lay.leg, lay.gauge_axis, physics)
-    gauge = ref.gauge_index(lay.leg, lay.gauge_axis)
-    diff = ours - theirs
-    diff -= (np.bincount(gauge, weights=diff) / np.bincount(gauge))[gauge]
-    assert np.max(np.abs(diff)) < 1e-8
+    theirs = assert_axis_errors_match_reference(machine, lay, OFFSETS)
     assert np.ptp(theirs) > 1.0  # offsets of mm on these postures move the readings
 
 
