@@ -25,7 +25,13 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from ogacq_drivers.axes.profile import load_profile
-from ogacq.calibration.compensate import Compensation, compensation_of, evidence_for, export
+from ogacq.calibration.compensate import (
+    TABLES_FOLDER,
+    Compensation,
+    compensation_of,
+    evidence_for,
+    export,
+)
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.separate import SeparatingPlan, separating_plan
@@ -36,6 +42,7 @@ from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError, Refused
+from ogacq.io.atomic import write_atomically
 from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
@@ -405,6 +412,9 @@ class Procedure:
         details: dict[str, Any] = {"procedure": self.log.procedure, "outcome": outcome,
                                    "reason": reason, "writes": written or {},
                                    "restores": restored or {}}
+        if outcome in NOT_APPLIED:
+            mark_tables_not_applied(self.setup.folder / TABLES_FOLDER, self.log.procedure,
+                                    outcome, reason)
         record = None
         if comp is not None and evidence is not None:
             details.update(compensation=comp.to_json(),
@@ -430,6 +440,24 @@ class Procedure:
         return Outcome(self.setup.folder, self.log.procedure, outcome, reason,
                        evidence.path if evidence else None,
                        validation.path if validation else None, record, details)
+
+
+# Outcomes after which the exported tables hold maps no controller runs with.
+NOT_APPLIED = ("refused", "declined", "restored")
+NOT_APPLIED_FILE = "NOT-APPLIED.txt"
+
+
+def mark_tables_not_applied(tables: Path, procedure: str, outcome: str, reason: str) -> None:
+    """Say, beside the exported tables, that they were not applied: they stay as the
+    evidence of what was proposed, and a technician who finds them must not load them
+    into a controller."""
+    if not tables.is_dir():
+        return
+    write_atomically(tables / NOT_APPLIED_FILE, (
+        f"NOT APPLIED. These compensation tables were computed by ogacq calibrate "
+        f"{procedure}, which ended {outcome}: {reason}.\n"
+        "Do not load them into a controller: the machine does not run with them.\n"
+        "They are kept as the evidence of what was proposed.\n").encode())
 
 
 def tables_only(comp: Compensation) -> Compensation:

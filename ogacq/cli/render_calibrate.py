@@ -12,8 +12,8 @@ from typing import Any
 import typer
 from rich.table import Table
 
-from ogacq.calibration.compensate import Compensation
-from ogacq.calibration.procedure import Outcome
+from ogacq.calibration.compensate import TABLES_FOLDER, Compensation
+from ogacq.calibration.procedure import NOT_APPLIED_FILE, Outcome
 from ogacq.calibration.separate import SeparatingPlan
 from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
@@ -159,6 +159,10 @@ def print_outcome(outcome: Outcome, report: Path | None) -> None:
              "nothing to correct": "nothing to correct"}.get(outcome.outcome, outcome.outcome)
     stream = sys.stderr if outcome.exit_code else sys.stdout
     print(f"calibration {outcome.procedure}: {words}: {plain(outcome.reason)}", file=stream)
+    marked = outcome.folder / TABLES_FOLDER / NOT_APPLIED_FILE
+    if marked.is_file():  # tables a technician must not load: said where they lie
+        print(plain(f"the tables in {marked.parent} were not applied ({marked.name} says "
+                    "why): do not load them into a controller"), file=stream)
     record_id = CalibrationRecord.from_json(outcome.record).id if outcome.record else None
     if record_id or report is not None:
         print("record: " + " ".join(plain(part) for part in (

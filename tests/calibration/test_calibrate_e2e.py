@@ -123,6 +123,7 @@ def test_ends_validated_with_the_map_the_offsets_and_the_record(straight):
     for name in ("linuxcnc/x.comp", "linuxcnc/linuxcnc.ini", "fanuc/fanuc.txt",
                  "siemens/AX_EEC.INI", "csv/compensation.csv"):
         assert (straight / "tables" / name).is_file(), name
+    assert not (straight / "tables" / "NOT-APPLIED.txt").exists()  # applied: no warning
     # the validation: within the noise, offsets left near zero, the scale's error gone
     validation = step(straight, "validation", role="validation")
     assert within_noise(validation["verdict"]), validation["verdict"]
@@ -224,6 +225,10 @@ def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatc
     assert any(f.startswith("restored by calibrate") and "grew" in f for f in fates), fates
     assert any(f.startswith("restore by calibrate") for f in fates), fates
     assert states[-1].maps == {}  # the maps state the restore left: none
+    # the tables of the maps restored stay as evidence, marked for no one to load them
+    marker = folder / "tables" / "NOT-APPLIED.txt"
+    assert "ended restored" in marker.read_text() and "Do not load them" in marker.read_text()
+    assert f"the tables in {folder / 'tables'} were not applied" in end
 
 
 def test_an_effects_file_that_does_not_load_is_refused_before_the_folder(tmp_path, capsys):
