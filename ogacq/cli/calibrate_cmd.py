@@ -236,11 +236,11 @@ def _resumed_setup(folder: Path) -> Setup:
 def _read(path: Path) -> str:
     """The effects file's text, checked before it is copied into the folder: a copy that
     does not load would stop every resume of the procedure, and name the copy."""
-    from ogacq.sim.truth import random_truth, read_effects
+    from ogacq.sim.truth import effects_from_text, random_truth
 
     try:
         text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None
-    read_effects(path, random_truth(0))  # InputError naming the file and line
+    effects_from_text(text, path, random_truth(0))  # InputError naming the file and line
     return text

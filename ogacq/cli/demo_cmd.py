@@ -204,7 +204,14 @@ def _date_option(given: str | None) -> datetime.datetime | None:
 
 
 def _read_effects(path: Path) -> str:
+    """The effects file's text, checked before anything is written: a file that does not
+    load was copied into the new folder first, the error named the copy and the folder
+    left behind refused the same command again."""
+    from ogacq.sim.truth import effects_from_text, random_truth
+
     try:
-        return read_text(path)
+        text = read_text(path)
     except OSError as exc:
         raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None
+    effects_from_text(text, path, random_truth(0))  # InputError naming the file and line
+    return text

@@ -27,6 +27,12 @@ def read_toml(path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
         raise
     except OSError as exc:
         raise InputError(path, f"cannot read {what}: {exc.strerror or exc}") from None
+    return parse_toml_text(content, path, what)
+
+
+def parse_toml_text(content: str, path: str | Path, what: str) -> tuple[dict[str, Any], Source]:
+    """``content``, read before from ``path`` (a pipe can be read only once), parsed as
+    :func:`read_toml` parses a file, its errors naming ``path``."""
     source = Source(str(path), input_error, content, what)
     try:
         return parse_document(source), source

@@ -45,9 +45,9 @@ from typing import Any
 
 import numpy as np
 
-from ogacq_drivers.config_schema import Field, ListOf, MapOf, Table, number, text
+from ogacq_drivers.config_schema import Field, ListOf, MapOf, Table, load, number, text
 from ogacq.errors import InputError
-from ogacq.io.toml_file import load_toml
+from ogacq.io.toml_file import load_toml, parse_toml_text
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, EFFECTS, PARAM_INDEX, vector
 
@@ -277,6 +277,17 @@ def read_effects(path: str | Path, base: SimTruth) -> SimTruth:
     """``base`` with the effects file's entries applied on top (a nan or inf effect
     would crash the simulated gauges: the schema refuses them)."""
     given, _ = load_toml(path, EFFECTS_FILE, "the effects file")
+    return _with_effects(given, base, path)
+
+
+def effects_from_text(text: str, path: str | Path, base: SimTruth) -> SimTruth:
+    """As :func:`read_effects`, of the text read before from ``path`` (checked before it
+    is copied anywhere; a pipe can be read only once), its errors naming ``path``."""
+    data, source = parse_toml_text(text, path, "the effects file")
+    return _with_effects(load(EFFECTS_FILE, data, source), base, path)
+
+
+def _with_effects(given: dict[str, Any], base: SimTruth, path: str | Path) -> SimTruth:
     theta = base.theta.copy()
     for effect in EFFECTS:
         for where, value in given.get(effect.name, {}).items():

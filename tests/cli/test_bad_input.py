@@ -38,6 +38,8 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
              (["--profile", "nope", "--out", "demo"], 2, "'nope'"),
              (["--speed", "0", "--out", "demo"], 2, "--speed"),
              (["--effects", MISSING, "--out", "demo"], 2, MISSING),
+             # checked before the folder is made: it named the copy, left the folder
+             (["--effects", "broken.toml", "--out", "demo"], 2, "broken.toml:1: not valid TOML"),
              (["--out", "machine.toml"], 2, "not a folder"),
              (["--out", "/proc/nope"], 2, "/proc/nope"),
              (["--date", "10/01/2026", "--out", "demo"], 2, "--date"),
