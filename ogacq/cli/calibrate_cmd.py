@@ -37,10 +37,10 @@ from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import plain
 from ogacq.errors import InputError, Refused
 from ogacq.io.machine_file import read_machine, write_machine
-from ogacq.io.text import read_text
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.runner import CampaignStopped
+from ogacq.sim.truth import read_effects_text
 
 RUNS_FOLDER = Path("ogacq-runs")
 SIM_TOLERANCE_MM = 0.020  # the rehearsal's acceptance, as `ogacq demo` states it (no source)
@@ -197,7 +197,7 @@ def _new_setup(folder: Path, campaign_path: Path | None, simulator: bool,
         folder.mkdir(parents=True, exist_ok=True)
         setup = station_setup(folder, campaign, scan_step_mm=scan_step_mm, separate=separate)
         return setup
-    effects_text = _read(effects) if effects is not None else None
+    effects_text = read_effects_text(effects) if effects is not None else None
     folder.mkdir(parents=True, exist_ok=True)
     machine = replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
                       tolerances=Tolerances(default_mm=SIM_TOLERANCE_MM))
@@ -231,16 +231,3 @@ def _resumed_setup(folder: Path) -> Setup:
                            operator=str(described.get("operator") or _login_name()),
                            override_expired=str(described.get("override_expired") or ""),
                            scan_step_mm=scan, separate=separate)
-
-
-def _read(path: Path) -> str:
-    """The effects file's text, checked before it is copied into the folder: a copy that
-    does not load would stop every resume of the procedure, and name the copy."""
-    from ogacq.sim.truth import effects_from_text, random_truth
-
-    try:
-        text = read_text(path)
-    except OSError as exc:
-        raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None
-    effects_from_text(text, path, random_truth(0))  # InputError naming the file and line
-    return text

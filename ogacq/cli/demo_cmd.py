@@ -36,12 +36,12 @@ from ogacq.history.recording import record_campaign
 from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import parse_moment
 from ogacq.io.machine_file import write_machine
-from ogacq.io.text import read_text
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
+from ogacq.sim.truth import read_effects_text
 
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
@@ -95,7 +95,7 @@ def demo(
         raise InputError(folder, "exists and is not empty; choose another --out")
     check_output_folder(folder, "--out")
     # Read now, as text: a process substitution (a pipe) can be read only once.
-    effects_text = _read_effects(effects) if effects is not None else None
+    effects_text = read_effects_text(effects) if effects is not None else None
     folder.mkdir(parents=True, exist_ok=True)
     machine = replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
                       tolerances=Tolerances(default_mm=DEMO_TOLERANCE_MM))
@@ -201,17 +201,3 @@ def _date_option(given: str | None) -> datetime.datetime | None:
     if given is None:
         return None
     return parse_moment(given, source=None, key="--date", zone=False)
-
-
-def _read_effects(path: Path) -> str:
-    """The effects file's text, checked before anything is written: a file that does not
-    load was copied into the new folder first, the error named the copy and the folder
-    left behind refused the same command again."""
-    from ogacq.sim.truth import effects_from_text, random_truth
-
-    try:
-        text = read_text(path)
-    except OSError as exc:
-        raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None
-    effects_from_text(text, path, random_truth(0))  # InputError naming the file and line
-    return text

@@ -47,6 +47,7 @@ import numpy as np
 
 from ogacq_drivers.config_schema import Field, ListOf, MapOf, Table, load, number, text
 from ogacq.errors import InputError
+from ogacq.io.text import read_text
 from ogacq.io.toml_file import load_toml, parse_toml_text
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, EFFECTS, PARAM_INDEX, vector
@@ -285,6 +286,18 @@ def effects_from_text(text: str, path: str | Path, base: SimTruth) -> SimTruth:
     is copied anywhere; a pipe can be read only once), its errors naming ``path``."""
     data, source = parse_toml_text(text, path, "the effects file")
     return _with_effects(load(EFFECTS_FILE, data, source), base, path)
+
+
+def read_effects_text(path: Path) -> str:
+    """The effects file's text, read once (a pipe such as ``<(...)`` can be read only
+    once) and checked before the caller copies it into a run's folder: a copy that does
+    not load would name the copy, and stop every resume of the run."""
+    try:
+        text = read_text(path)
+    except OSError as exc:
+        raise InputError(path, f"cannot read the effects file ({exc.strerror or exc})") from None
+    effects_from_text(text, path, random_truth(0))  # InputError naming the file and line
+    return text
 
 
 def _with_effects(given: dict[str, Any], base: SimTruth, path: str | Path) -> SimTruth:
