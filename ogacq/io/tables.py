@@ -26,6 +26,7 @@ from ogacq.identify.observations import Deviation
 from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import InputError
 from ogacq.io.text import check_line_ends, decode_text, read_text
+from ogacq.model.gauges import Gauge
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
@@ -439,10 +440,6 @@ def read_readings(path: str | Path) -> ReadingsTable:
     return table
 
 
-def _gauge_name(leg: int, gauge_axis: int) -> str:
-    return f"{AXES[gauge_axis]}_{AXES[leg]}"
-
-
 def _check_repeats(path: Path, table: ReadingsTable) -> None:
     """Refuse a row that copies another: the same gauge at the same time, posture,
     cycle and reading (a spreadsheet's rows pasted twice) would count as one more
@@ -461,7 +458,7 @@ def _check_repeats(path: Path, table: ReadingsTable) -> None:
         later, earlier = order[1:][same], order[:-1][same]
         k = int(np.argmin(table.lines[later]))
         row, first = int(later[k]), int(earlier[k])
-        raise InputError(path, f"gauge {_gauge_name(table.leg[row], table.gauge_axis[row])} "
+        raise InputError(path, f"gauge {Gauge.at(table.gauge_axis[row], table.leg[row]).key} "
                          f"read again at t_s {t[row]:g}, at the same posture, cycle and "
                          f"reading as at line {table.lines[first]}: a row is repeated "
                          "(copied twice?); remove the copy", int(table.lines[row]))
@@ -487,7 +484,7 @@ def _check_gauge_travel(path: Path, table: ReadingsTable) -> None:
         k = int(np.flatnonzero(far)[0])
         raise InputError(path, f"reading_mm: {table.reading_mm[k]:.10g} is "
                          f"{abs(table.reading_mm[k] - medians[k]):g} mm from gauge "
-                         f"{_gauge_name(table.leg[k], table.gauge_axis[k])}'s median reading "
+                         f"{Gauge.at(table.gauge_axis[k], table.leg[k]).key}'s median reading "
                          f"({medians[k]:g} mm), beyond the {MAX_GAUGE_TRAVEL_MM:g} mm travel "
                          "of any indicator: a gauge's overflow or error value (read it again, "
                          "or remove the row), or readings not in mm?", int(table.lines[k]))
