@@ -88,9 +88,7 @@ def _print_outliers(d: Diagnosis) -> None:
               f"from {'its' if one else 'their'} repeats, which agree among themselves[/] "
               "(a value misread or typed wrong, or the gauge knocked between cycles?):")
     for r in found:
-        out.print(f"  {r.gauge} at {shown(r.posture)}, cycle {r.cycle} (t_s {r.t_s:g}): "
-                  f"{r.value_mm:.6g} mm, {r.deviation_mm * UM_PER_MM:+.1f} µm from what its "
-                  f"{r.n_others} repeats give (p = {format_p(r.p_value)} over "
+        out.print(f"  {shown(r.describe())} (p = {format_p(r.p_value)} over "
                   f"{d.outliers.tested} readings tested)")
     out.print(_judged(f"  without {'it' if one else 'them'}, joint offsets only",
                       d.outliers.verdict_without))

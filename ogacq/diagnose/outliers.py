@@ -29,6 +29,7 @@ from ogacq.identify.distributions import chi2_sf, f_sf, normal_sf
 from ogacq.identify.fit import FitResult, fit
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
+from ogacq.model.units import UM_PER_MM
 
 # The repeats left must agree at this level, or the group moved as a whole (a drift,
 # an effect of the cycle) and no one reading of it is to blame; well above the test's
@@ -62,6 +63,13 @@ class OutlyingReading:
     @property
     def deviation_mm(self) -> float:
         return self.value_mm - self.others_mean_mm
+
+    def describe(self) -> str:
+        """Which reading and how far out: ``z_x at zero, cycle 2 (t_s 80): 10.765 mm,
+        +1999.8 µm from what its 4 repeats give``."""
+        return (f"{self.gauge} at {self.posture}, cycle {self.cycle} (t_s {self.t_s:g}): "
+                f"{self.value_mm:.6g} mm, {self.deviation_mm * UM_PER_MM:+.1f} µm from what "
+                f"its {self.n_others} repeats give")
 
     def to_json(self) -> dict:
         return {"gauge": self.gauge, "posture": self.posture, "cycle": self.cycle,
@@ -224,6 +232,5 @@ def described_outliers(result: FitResult, level: float = LEVEL) -> list[str]:
     repeats until the fit passes (the write-back and a campaign's end say so)."""
     obs = result.observations
     found, tested = outlying_readings(obs, row_labels(obs), result.noise, level)
-    return [f"{r.gauge} at {r.posture}, cycle {r.cycle} (t_s {r.t_s:g}): "
-            f"{r.deviation_mm:+.4f} mm from its {r.n_others} repeats "
-            f"(p = {format_p(r.p_value)} over {tested} readings)" for r in found]
+    return [f"{r.describe()} (p = {format_p(r.p_value)} over {tested} readings tested)"
+            for r in found]
