@@ -218,9 +218,7 @@ def find_outliers(obs: Observations, labels: RowLabels, noise: GaugeNoise, alpha
         return None
     keep = np.ones(len(obs), dtype=bool)
     keep[[r.index for r in named]] = False
-    kept = Observations(obs.machine, obs.layout.subset(keep), obs.values[keep],
-                        [label for label, k in zip(obs.labels, keep, strict=True) if k],
-                        source=obs.source, kind=obs.kind)
+    kept = obs.kept(keep)
     kept_noise = noise if noise.source == "machine file" else noise_for(kept)
     result = fit(kept, names, method="exact", weighting="gls", noise=kept_noise)
     return Outliers(tuple(named), tested, fit_verdict(result, alpha))

@@ -12,7 +12,6 @@ disturbance there is named as an equally good explanation.
 
 from __future__ import annotations
 
-from dataclasses import replace
 from math import comb
 
 import numpy as np
@@ -24,8 +23,6 @@ from ogacq.diagnose.nested import nested_test
 from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
-from ogacq.identify.observations import Observations, readings_observations
-from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import NOMINAL, indices
 
 
@@ -41,27 +38,6 @@ def _cells(labels: RowLabels) -> tuple[list[str], np.ndarray]:
             rank[cell.ravel()])
 
 
-def _subset(layout: ReadingsLayout, keep: np.ndarray) -> ReadingsLayout:
-    """The kept readings with every gauge still set where it was. (``layout.subset``
-    re-derives each gauge's setting from its first kept reading, which moves the
-    gauge plane when that reading is dropped.)"""
-    return replace(layout, q_mm=layout.q_mm[keep], leg=layout.leg[keep],
-                   gauge_axis=layout.gauge_axis[keep], t_s=layout.t_s[keep],
-                   cycle=layout.cycle[keep], tcp_mm=layout.tcp_mm[keep],
-                   approach=layout.approach[keep], gauge=layout.gauge[keep],
-                   posture=None if layout.posture is None else layout.posture[keep],
-                   side=None if layout.side is None else layout.side[keep])
-
-
-def _without(obs: Observations, keep: np.ndarray) -> Observations:
-    if obs.combination is None:
-        return readings_observations(obs.machine, _subset(obs.layout, keep), obs.values[keep],
-                                     obs.source)
-    return Observations(obs.machine, obs.layout, obs.values[keep],
-                        [lab for lab, k in zip(obs.labels, keep, strict=True) if k],
-                        obs.combination[keep], obs.source, obs.kind)
-
-
 def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Model,
                  alpha: float = LEVEL) -> str | None:
     """The cell (``"y_x at max"``) without which the claimed effects lose their
@@ -74,7 +50,7 @@ def resting_cell(problem: Problem, noise: GaugeNoise, base: Model, claimed: Mode
         np.ones(len(obs)) if obs.raw else np.diag(obs.noise_cov))
     top = max(range(len(names)), key=lambda c: gain[cells == c].sum())
     keep = cells != top
-    rest = Problem(_without(obs, keep), noise)
+    rest = Problem(obs.kept(keep), noise)
     if rest.n_data <= len(claimed.names):
         return names[top]
     start = claimed.theta.copy()

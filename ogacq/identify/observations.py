@@ -96,6 +96,16 @@ class Observations:
     def __len__(self) -> int:
         return len(self.values)
 
+    def kept(self, keep: np.ndarray) -> Observations:
+        """The observations the boolean mask ``keep`` selects; raw readings keep each
+        gauge set where it was (``ReadingsLayout.subset``), deviations their layout."""
+        if self.combination is None:
+            return readings_observations(self.machine, self.layout.subset(keep),
+                                         self.values[keep], self.source)
+        return Observations(self.machine, self.layout, self.values[keep],
+                            [lab for lab, k in zip(self.labels, keep, strict=True) if k],
+                            self.combination[keep], self.source, self.kind)
+
     @property
     def n_nuisance(self) -> int:
         """Unknown gauge zeros fitted alongside the parameters."""

@@ -3,16 +3,18 @@ exact fit, and the capability table agrees with its identifiability."""
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from ogacq.diagnose.batchfit import Design, Problem, fit_many
 from ogacq.diagnose.gaugesums import GaugeSums
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, pairs, singles
-from ogacq.diagnose.robustness import _without
 from ogacq.diagnose.visibility import capability
 from ogacq.identify.fit import fit
 from ogacq.identify.identifiability import assess
+from ogacq.identify.observations import readings_observations
 from tests.diagnose.campaigns import NOISE_MM, layout, simulate
 
 
@@ -85,7 +87,7 @@ def test_diagnosis_weighting_is_the_fit_weighting(campaign):
     raw = problem.jacobian(base.theta, names, weighted=False)
     assert np.allclose(problem.jacobian(base.theta, names), problem.weighting.jac(raw[None])[0],
                        rtol=0, atol=1e-12)
-    rest = _without(obs, obs.layout.gauge != 0)  # gauge 0 keeps its key, no reading
+    rest = _no_reading_of_gauge_0(obs)
     sums = GaugeSums(rest, Problem(rest).weighting)
     y = x[:, obs.layout.gauge != 0]
     expected = np.stack([np.bincount(rest.layout.gauge, weights=row,
@@ -121,3 +123,17 @@ def test_capability_from_the_r_factor_is_the_capability_from_the_jacobian(campai
         assert other.std == pytest.approx(seen.std, rel=1e-9)
         assert other.absorbed == pytest.approx(seen.absorbed, rel=1e-9, abs=1e-12)
         assert [a for a, _ in other.aliases] == [a for a, _ in seen.aliases]
+
+
+def _no_reading_of_gauge_0(obs):
+    """The readings without gauge 0's, the gauge still in the layout (its key and
+    setting) with no reading left: the edge GaugeSums must take."""
+    keep = obs.layout.gauge != 0
+    lay = obs.layout
+    layout = replace(lay, q_mm=lay.q_mm[keep], leg=lay.leg[keep],
+                     gauge_axis=lay.gauge_axis[keep], t_s=lay.t_s[keep],
+                     cycle=lay.cycle[keep], tcp_mm=lay.tcp_mm[keep],
+                     approach=lay.approach[keep], gauge=lay.gauge[keep],
+                     posture=None if lay.posture is None else lay.posture[keep],
+                     side=None if lay.side is None else lay.side[keep])
+    return readings_observations(obs.machine, layout, obs.values[keep], obs.source)
