@@ -10,8 +10,10 @@ from __future__ import annotations
 import os
 import shutil
 import tempfile
+import unicodedata
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
 import pytest
 
@@ -22,6 +24,13 @@ FLAGS = ("--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
          "--disable-extensions", "--hide-scrollbars", "--force-device-scale-factor=1")
 WINDOW = (1200, 1000)  # css px: the page's 1120 px column and its margins
+
+
+def page_text(page: Any) -> str:
+    """A printed page's text, its whitespace runs made one space. NFKC: Chromium's
+    font sets "ff" and "fi" as ligatures, which the text layer gives as U+FB00 and
+    U+FB01, so a record id holding "ff" (1 in ~37 hex ids) read as another id."""
+    return " ".join(unicodedata.normalize("NFKC", page.extract_text()).split())
 
 
 def need_chromium() -> None:

@@ -14,7 +14,7 @@ from PIL import Image, ImageStat
 
 from ogacq.cli.report_cmd import write_session_report
 from ogacq.session.store import load_session
-from tests.record.browser import WINDOW, chromium, need_chromium
+from tests.record.browser import WINDOW, chromium, need_chromium, page_text
 from tests.record.pages import gum, printed, unshown
 from tests.record.sessions import HISTORY, INSTRUMENTS, OPERATOR, OVERRIDE_REASON
 
@@ -106,7 +106,7 @@ def test_the_printout_is_a4_with_the_record_id_on_every_page(browser, report, tm
     (tmp_path / "record.pdf").write_bytes(pdf)
     pages = PdfReader(io.BytesIO(pdf)).pages
     assert len(pages) >= 2
-    texts = [" ".join(page.extract_text().split()) for page in pages]
+    texts = [page_text(page) for page in pages]
     for number, (page, text) in enumerate(zip(pages, texts, strict=True), start=1):
         size = (float(page.mediabox.width), float(page.mediabox.height))
         assert size == pytest.approx(A4_PT, abs=1.0)

@@ -10,7 +10,7 @@ import pytest
 from ogacq.cli.app import main
 from ogacq.report.printing import BROWSER_ENV
 from tests.cli.helpers import run_ogacq
-from tests.record.browser import need_chromium
+from tests.record.browser import need_chromium, page_text
 
 
 def test_report_pdf_prints_the_record(campaign_sessions, tmp_path):
@@ -25,7 +25,7 @@ def test_report_pdf_prints_the_record(campaign_sessions, tmp_path):
     pages = PdfReader(out / "report.pdf").pages
     assert len(pages) >= 2
     for number, page in enumerate(pages, start=1):
-        text = " ".join(page.extract_text().split())
+        text = page_text(page)
         assert f"Calibration record {record['id']}" in text
         assert f"page {number} of {len(pages)}" in text
         assert float(page.mediabox.height) == pytest.approx(841.9, abs=1.0)  # A4
