@@ -9,7 +9,8 @@ at a target is ``map.error_mm - applied_mm``.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import unicodedata
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -33,6 +34,9 @@ class AxisTable:
     # where the table's own correction changes: its points, and for a staircase the
     # position just before each step (the residual is largest there)
     probes_mm: tuple[float, ...] = ()
+    # the distance between the table's points where the format spaces them evenly
+    # (None: the map's own positions): what a finer grid would have to beat
+    spacing_mm: float | None = None
 
     def targets(self) -> np.ndarray:
         """The targets the figures are computed at: the map's positions and the
@@ -78,4 +82,41 @@ def figures_block(tables: dict[str, AxisTable], comment: str) -> list[str]:
     for axis, table in tables.items():
         lines.append(f"{comment}   {axis} before: {table.before().line()}")
         lines.append(f"{comment}   {axis} after (predicted, this table): {table.after().line()}")
+    return lines
+
+
+# Where a line ends for some reader of a controller file: LF, CR, VT, FF, NEL, the file,
+# group and record separators, U+2028 and U+2029 (Python's str.splitlines, which follows
+# Unicode's line boundaries: UAX #14 mandatory breaks). Each is replaced, never kept.
+# Every other character that does not print (Unicode categories C*: controls, format
+# characters such as U+202E that reorder what a screen shows, unassigned, private use,
+# surrogates) is replaced too: a controller's editor shows such text unlike ogacq.
+_NOT_PRINTED = ("Cc", "Cf", "Cn", "Co", "Cs", "Zl", "Zp")
+MAX_TEXT = 200  # characters of a title or a comment kept (no source: one screen line)
+REPLACEMENT = "?"
+
+
+def one_line(text: str, forbidden: str = "") -> str:
+    """``text`` as one printable line for a controller file: every line break and
+    non-printing character, and each of the format's own ``forbidden`` characters
+    (its comment and section marks), replaced by ``?``; cut at MAX_TEXT characters."""
+    out = "".join(REPLACEMENT if unicodedata.category(c) in _NOT_PRINTED or c in forbidden
+                  else c for c in text)
+    return out[:MAX_TEXT]
+
+
+K = 2.0  # the coverage factor of the U a table carries
+
+
+def uncertainty_block(maps: Mapping[str, AxisMap], comment: str) -> list[str]:
+    """The maps' expanded uncertainty (k = 2) at each of their points and each side,
+    as comment lines: what a table whose format has no column for it carries. U is
+    the map's, from the fit's covariance (``AxisMap``); between points it applies to
+    the table's interpolation of the values as it does to the map's."""
+    lines = [f"{comment} expanded uncertainty U (k = {K:g}) of the map, mm, from the fit's "
+             "covariance: axis, position, U toward +, U toward -"]
+    for axis, m in maps.items():
+        lines += [f"{comment}   {axis} {q:.3f} {K * uf:.6f} {K * ur:.6f}"
+                  for q, uf, ur in zip(m.positions_mm, m.u_forward_mm, m.u_reverse_mm,
+                                       strict=True)]
     return lines
