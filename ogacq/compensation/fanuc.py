@@ -264,6 +264,6 @@ def fanuc_tables(maps: Mapping[str, AxisMap], options: FanucOptions = FanucOptio
             if s.neg_values and s.neg_dir_no is not None:
                 row += f"   {s.neg_dir_no + k:22d}  {s.neg_values[k]:+3d}"
             lines.append(row)
-    lines += ["", *figures_block(axes, "#"), *uncertainty_block(maps, "#")]
+    lines += ["", *figures_block(axes, "#"), *uncertainty_block(axes, "#")]
     name = "fanuc.txt" if options.bidirectional else "fanuc-backlash.txt"
     return ControllerTables(FORMAT, {name: "\n".join(lines) + "\n"}, axes)

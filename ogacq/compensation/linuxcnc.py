@@ -141,6 +141,6 @@ def linuxcnc_tables(maps: Mapping[str, AxisMap], options: LinuxCncOptions = Linu
         ini += ["", f"[JOINT_{joints[axis]}]", f"; axis {axis}: {safe_text(m.source or 'map')}",
                 f"COMP_FILE = {name}", f"COMP_FILE_TYPE = {options.file_type}",
                 f"; {notes[0]} (a BACKLASH = {reversal:.4f} alone would correct its mean only)"]
-    ini += ["", *figures_block(axes, ";"), *uncertainty_block(maps, ";")]
+    ini += ["", *figures_block(axes, ";"), *uncertainty_block(axes, ";")]
     files["linuxcnc.ini"] = "\n".join(ini) + "\n"
     return ControllerTables(FORMAT, files, axes)

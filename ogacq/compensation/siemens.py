@@ -150,6 +150,6 @@ def siemens_tables(maps: Mapping[str, AxisMap], options: SiemensOptions = Siemen
                   f"$AA_ENC_COMP_IS_MODULO[{e},{s.name}]=0",
                   f"; reversal: MD32450 $MA_BACKLASH[{e}] = {s.backlash_mm:.{DECIMALS}f} (axis "
                   f"{s.name}; positive: the encoder leads the machine part)"]
-    lines += [*figures_block(axes, ";"), *uncertainty_block(maps, ";"), "M17"]
+    lines += [*figures_block(axes, ";"), *uncertainty_block(axes, ";"), "M17"]
     return ControllerTables(FORMAT, {"AX_EEC.INI": "\n".join(lines) + "\n"}, axes)
 

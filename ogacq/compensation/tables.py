@@ -19,6 +19,7 @@ from ogacq.compensation.iso230 import Iso230Figures, map_figures
 from ogacq.model.axis_map import AxisMap
 
 Applied = Callable[[np.ndarray, int], np.ndarray]
+K = 2.0  # the coverage factor of the U a table carries
 
 
 class TableError(ValueError):
@@ -57,6 +58,19 @@ class AxisTable:
                        tuple(float(v) for v in np.interp(q, m.positions_mm, m.u_forward_mm)),
                        tuple(float(v) for v in np.interp(q, m.positions_mm, m.u_reverse_mm)),
                        m.reference_mm, "residual")
+
+    def grid_residual_mm(self) -> float:
+        """The most the table leaves of the map (its grid's interpolation, staircase,
+        resampling or rounding), either side."""
+        r = self.residual_map()
+        return float(np.max(np.abs(np.concatenate([r.forward_mm, r.reverse_mm]))))
+
+    def u_mm(self, q: np.ndarray, side: int) -> np.ndarray:
+        """The table's expanded uncertainty (k = 2) at ``q``: the map's U there plus the
+        most its grid leaves of the map (``uncertainty_block``)."""
+        m = self.axis_map
+        u = np.interp(q, m.positions_mm, m.u_forward_mm if side > 0 else m.u_reverse_mm)
+        return K * u + self.grid_residual_mm()
 
     def before(self) -> Iso230Figures:
         return map_figures(self.axis_map, self.targets())
@@ -105,18 +119,19 @@ def one_line(text: str, forbidden: str = "") -> str:
     return out[:MAX_TEXT]
 
 
-K = 2.0  # the coverage factor of the U a table carries
-
-
-def uncertainty_block(maps: Mapping[str, AxisMap], comment: str) -> list[str]:
-    """The maps' expanded uncertainty (k = 2) at each of their points and each side,
-    as comment lines: what a table whose format has no column for it carries. U is
-    the map's, from the fit's covariance (``AxisMap``); between points it applies to
-    the table's interpolation of the values as it does to the map's."""
+def uncertainty_block(tables: Mapping[str, AxisTable], comment: str) -> list[str]:
+    """Each map's expanded uncertainty (k = 2) at each of its points and each side, and
+    what the table's grid leaves of the map between its own points, as comment lines:
+    what a table whose format has no column for it carries. U is the map's, from the
+    fit's covariance (``AxisMap``); the table's U at a position is it plus the grid's
+    residual (a known deviation, added linearly: ``AxisTable.u_mm``)."""
     lines = [f"{comment} expanded uncertainty U (k = {K:g}) of the map, mm, from the fit's "
              "covariance: axis, position, U toward +, U toward -"]
-    for axis, m in maps.items():
+    for axis, table in tables.items():
+        m = table.axis_map
         lines += [f"{comment}   {axis} {q:.3f} {K * uf:.6f} {K * ur:.6f}"
                   for q, uf, ur in zip(m.positions_mm, m.u_forward_mm, m.u_reverse_mm,
                                        strict=True)]
+        lines.append(f"{comment}   {axis}: between its points this table's grid leaves up to "
+                     f"{table.grid_residual_mm():.6f} mm of the map: add it to U there")
     return lines

@@ -183,3 +183,19 @@ def test_each_table_says_its_sign_and_carries_the_map_u(tmp_path, name):
             assert f"x,{q:.6f}," in text and f",{2 * max(uf, ur):.6f}," in text
         else:
             assert f"x {q:.3f} {2 * uf:.6f} {2 * ur:.6f}" in text
+    if name != "csv":  # the map itself, linear between its points: nothing left between
+        assert "x: between its points this table's grid leaves up to" in text
+
+
+@pytest.mark.parametrize("name", ["linuxcnc", "fanuc", "siemens", "csv"])
+def test_the_table_u_holds_what_its_grid_leaves_of_the_map(name):
+    """Between a table's points its grid (interpolation, staircase, resampling) leaves
+    part of the map: the table's U there covers it, beside the map's own U."""
+    m = screw_map(pitch_mm=24.0, amplitude_mm=0.004, step=0.5, u_mm=1e-5)
+    fmt = TABLE_FORMATS[name]
+    table = fmt.tables({"x": m}, "", fmt.options[0])[0].axes["x"]
+    q = np.linspace(-100.0, 60.0, 1601)
+    for side in (1, -1):
+        left = np.abs(m.error_mm(q, side) - table.applied(q, side))
+        assert np.all(left <= table.u_mm(q, side) + 1e-12), name
+    assert (table.grid_residual_mm() > 1e-4) == (name == "fanuc")  # its 2 mm staircase
