@@ -19,7 +19,7 @@ import contextlib
 import os
 import shutil
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -104,7 +104,12 @@ def _export(staging: Path, folder: Path, fmt: TableFormat, options: Any,
     refused = "; ".join(v.reason for v in verdicts.values() if v.reason) or None
     if not carried:
         return Exported(fmt.name, (), {}, refused, verdicts)
-    (tables,) = fmt.tables(carried, title, options)
+    try:
+        (tables,) = fmt.tables(carried, title, options)
+    except TableError as exc:  # the axes together, when each alone fitted: said all the same
+        why = f"{fmt.name}: {exc}"
+        return Exported(fmt.name, (), {}, why, {a: replace(v, written=False, reason=v.reason
+                                                           or why) for a, v in verdicts.items()})
     (staging / fmt.name).mkdir(exist_ok=True)
     for name, text in tables.files.items():
         write_atomically(staging / fmt.name / name, text.encode("utf-8"))

@@ -6,6 +6,7 @@ nowhere else, goes from a campaign file through the export."""
 from __future__ import annotations
 
 from collections.abc import Iterator
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -199,3 +200,22 @@ def test_the_table_u_holds_what_its_grid_leaves_of_the_map(name):
         left = np.abs(m.error_mm(q, side) - table.applied(q, side))
         assert np.all(left <= table.u_mm(q, side) + 1e-12), name
     assert (table.grid_residual_mm() > 1e-4) == (name == "fanuc")  # its 2 mm staircase
+
+
+def test_axes_that_fit_alone_but_not_together_are_refused_with_the_reason(tmp_path):
+    """A format whose file cannot hold the axes together (a point budget shared by the
+    axes, as FANUC's position numbers are) says so and writes nothing of itself."""
+    def shared_budget(maps, options, *, title=""):
+        if len(maps) > 1:
+            raise TableError(f"{len(maps)} axes share 100 points")
+        return throwaway_format.write(maps, options, title=title)
+
+    register(replace(throwaway_format.FORMAT, write=shared_budget))
+    try:
+        (out,) = export_tables(tmp_path / "tables", {"x": smooth_map(), "y": smooth_map("y")},
+                               formats=(throwaway_format.NAME,))
+    finally:
+        del TABLE_FORMATS[throwaway_format.NAME]
+    assert out.files == () and out.problem == "throwaway: 2 axes share 100 points"
+    assert not any(v.written for v in out.axes.values())
+    assert not (tmp_path / "tables" / throwaway_format.NAME).exists()
