@@ -65,10 +65,13 @@ TABLE_FORMATS: dict[str, TableFormat] = {}
 
 
 def register(table_format: TableFormat) -> None:
+    """One more format (or one replaced by name), a choice of every campaign file read
+    after."""
     TABLE_FORMATS[table_format.name] = table_format
 
 
 def known() -> str:
+    """The names registered, for a message."""
     return ", ".join(TABLE_FORMATS)
 
 
@@ -78,7 +81,7 @@ _NO_POINT_LIMIT = 10**6
 def _linuxcnc_finer(options: linuxcnc.LinuxCncOptions, spacing_mm: float,
                     ) -> linuxcnc.LinuxCncOptions:
     # LinuxCNC's nominals are the map's positions, resampled evenly only beyond its
-    # limit: a spacing is a count here, which the writer turns into even nominals
+    # 256 triplets: here evenly at the spacing asked, however many that takes
     return replace(options, max_triplets=_NO_POINT_LIMIT, spacing_mm=spacing_mm)
 
 
