@@ -13,12 +13,7 @@ from ogacq.errors import InputError
 from ogacq.session.records import MapsRecord, StationRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.writeback.audit import AuditLog
-from ogacq.writeback.maps import (
-    execute_maps_plan,
-    maps_operations,
-    plan_maps_restore,
-    plan_maps_write,
-)
+from ogacq.writeback.maps import MapsFile
 from ogacq.writeback.maps_table import maps_checksum, read_maps_table, write_maps_table
 from tests.compensation.maps import screw_map
 
@@ -48,30 +43,29 @@ def test_write_audited_read_back_and_restored(tmp_path):
     path = tmp_path / "maps.json"
     old = write_maps_table(path, {"y": screw_map("y")})
     session = _session(tmp_path)
-    plan = plan_maps_write({"x": screw_map("x")}, read_maps_table(path),
-                           in_force_checksum=old.checksum)
+    target = MapsFile(path)
+    plan = target.plan_write({"x": screw_map("x")}, in_force_checksum=old.checksum)
     assert not plan.refused and set(plan.new_maps) == {"x", "y"}  # y kept
     assert "the maps of y stay" in plan.notes[0]
     with AuditLog(session) as audit:
-        done = execute_maps_plan(plan, audit, confirmed_by="--yes")
-    assert read_maps_table(path).checksum == done.new_checksum == plan.new_checksum
+        target.execute(plan, audit, confirmed_by="--yes")
+    assert target.held() == read_maps_table(path).checksum == plan.new_checksum
     stages = [r.stage for r in load_session(session.path).of_type(MapsRecord)]
     assert stages == ["intent", "done"]
-    (op,) = maps_operations(load_session(session.path))
+    (op,) = MapsFile.operations(load_session(session.path))
     assert op.status == "done" and op.old_checksum == old.checksum
     assert set(op.old_maps) == {"y"}  # what restore needs is in the intent
-    back = plan_maps_restore(op, read_maps_table(path))
+    back = target.plan_restore(op, target.held())
     assert not back.refused
     with AuditLog(load_session(session.path)) as audit:
-        execute_maps_plan(back, audit, confirmed_by="--yes")
+        target.execute(back, audit, confirmed_by="--yes")
     assert read_maps_table(path).checksum == old.checksum
 
 
 def test_a_file_changed_since_the_campaign_is_stale(tmp_path):
     path = tmp_path / "maps.json"
     write_maps_table(path, {"y": screw_map("y")})
-    plan = plan_maps_write({"x": screw_map("x")}, read_maps_table(path),
-                           in_force_checksum=maps_checksum({}))
+    plan = MapsFile(path).plan_write({"x": screw_map("x")}, in_force_checksum=maps_checksum({}))
     assert [r.code for r in plan.refusals] == ["stale"]
 
 
