@@ -307,7 +307,7 @@ class Procedure:
                 if half is None or write_in_force(target, ops, held) is not None \
                         or target.same(held, half.old_state):
                     continue
-                self.ui.say(f"the {target.noun} hold what write {half.operation} left "
+                self.ui.say(f"the {target.noun} hold what {half.operation} left "
                             f"half-way ({target.describe(held)}): its old values are put "
                             "back before it is written again")
                 restore(target, half, session, audit, "calibrate (own write cut half-way)")
