@@ -59,6 +59,7 @@ from ogacq.writeback.policy import ControllerFacts, OffsetPlan, WritePolicy, pla
 from ogacq.writeback.write_target import (
     AnyTarget,
     TargetPlan,
+    found_in_force,
     left_half_way,
     present,
     restore,
@@ -477,7 +478,7 @@ def _write_once(target: AnyTarget, plan: TargetPlan, session: LoadedSession,
     that left them (done, or killed before its ``done`` record) is the one made."""
     if not plan.nothing_to_do:
         return target.execute(plan, audit, confirmed_by)
-    op = write_in_force(target, target.operations(session), target.held())
+    op = found_in_force(target, session, audit)
     return op.operation if op is not None else None
 
 

@@ -205,6 +205,13 @@ class MapsFile:
         log.info("maps %s done: %s", operation, back.checksum[:12])
         return operation
 
+    def record_found(self, op: MapsOperation, held: str, audit: AuditLog) -> None:
+        table = read_maps_table(self.path)
+        audit.record_maps("done", operation=op.operation, action=op.action,
+                          file=str(self.path), new_checksum=held,
+                          axes={a: m.checksum() for a, m in table.maps.items()},
+                          found="read back after the write was cut short")
+
     def _write_and_read_back(self, plan: MapsPlan, audit: AuditLog, operation: str,
                              ) -> MapsTable:
         try:

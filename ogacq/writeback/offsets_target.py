@@ -73,3 +73,12 @@ class ControllerOffsets:
         self.outcome = execute_plan(self.controller, plan, audit, options,
                                     offsets_file=self.offsets_file)
         return self.outcome.operation
+
+    def record_found(self, op: Operation, held: Offsets, audit: AuditLog) -> None:
+        facts = self.facts
+        audit.record("done", operation=op.operation, action=op.action, old_mm=op.old_mm,
+                     new_mm=held, takes_effect=facts.takes_effect, rehomed=False,
+                     home_positions_mm=None, nvm_saved=False,
+                     offsets_file=str(self.offsets_file) if self.offsets_file else None,
+                     survives_power_cycle=self.offsets_file is not None,
+                     found="read back after the write was cut short")

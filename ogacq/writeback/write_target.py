@@ -84,6 +84,11 @@ class WriteTarget(Protocol[State, Op, Plan]):
     def execute(self, plan: Plan, audit: AuditLog, confirmed_by: str) -> str:
         """Carry ``plan`` out with read-back and audit records: its operation id."""
 
+    def record_found(self, op: Op, held: State, audit: AuditLog) -> None:
+        """The ``done`` record of an operation cut short whose new state was read back
+        from the target afterwards: the audit, and the history after it, then say what
+        is in force."""
+
 
 class NotRestored(DriverError):
     """A restore whose read-back is not the previous state: what is held is said."""
@@ -132,8 +137,10 @@ def restore(target: WriteTarget[State, Op, Plan], op: Op, session: LoadedSession
         raise Refused(f"cannot restore the {target.noun}: "
                       + "; ".join(r.message for r in plan.refusals))
     operation: str | None
+    earlier = None
     if plan.nothing_to_do:
-        operation = _restore_of(target.operations(session), op)
+        earlier = _restore_of(target.operations(session), op)
+        operation = earlier.operation if earlier is not None else None
     else:
         operation = target.execute(plan, audit, confirmed_by)
     back = target.held()
@@ -141,12 +148,25 @@ def restore(target: WriteTarget[State, Op, Plan], op: Op, session: LoadedSession
         raise NotRestored(f"the {target.noun} were not restored: read back "
                           f"{target.describe(back)}, not the previous "
                           f"{target.describe(op.old_state)}")
+    if earlier is not None and earlier.status != "done":
+        target.record_found(earlier, back, audit)
     return operation
 
 
-def _restore_of(ops: Sequence[Op], op: Op) -> str | None:
+def found_in_force(target: WriteTarget[State, Op, Plan], session: LoadedSession,
+                   audit: AuditLog) -> Op | None:
+    """The write that left what the target holds (``write_in_force``), its ``done``
+    recorded now when it was cut short before: read back, it is in force."""
+    held = target.held()
+    op = write_in_force(target, target.operations(session), held)
+    if op is not None and op.status != "done":
+        target.record_found(op, held, audit)
+    return op
+
+
+def _restore_of(ops: Sequence[Op], op: Op) -> Op | None:
     """The restore of ``op`` in the audit (done or cut short: the read-back decides)."""
     for other in reversed(ops):
         if other.action == "restore" and getattr(other, "restores", None) == op.operation:
-            return other.operation
+            return other
     return None

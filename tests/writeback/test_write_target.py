@@ -12,6 +12,7 @@ import pytest
 from ogacq_drivers.axes.controller import AxisController
 from ogacq.campaign.campaign_file import SimulatorSpec
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
+from ogacq.history.recording import writebacks_of
 from ogacq.model.machine import MachineSpec
 from ogacq.session.records import MapsRecord, OffsetsRecord
 from ogacq.session.store import LoadedSession, SessionWriter, load_session
@@ -21,6 +22,7 @@ from ogacq.writeback.maps_table import maps_checksum, write_maps_table
 from ogacq.writeback.offsets_target import ControllerOffsets
 from ogacq.writeback.write_target import (
     NotRestored,
+    found_in_force,
     left_half_way,
     restore,
     write_in_force,
@@ -70,6 +72,12 @@ def test_a_write_killed_before_its_done_record_counts_as_written(tmp_path, contr
     (op,) = target.operations(session)
     assert op.status == "interrupted"
     assert write_in_force(target, [op], target.held()) is op
+    with AuditLog(session) as audit:
+        assert found_in_force(target, session, audit) == op
+    session = load_session(session.path)  # read back: the audit now says it is in force
+    (op,) = target.operations(session)
+    assert op.status == "done" and op.new_mm == NEW
+    assert writebacks_of(session)[0].status == "done"  # and so does the history
     with AuditLog(session) as audit:
         restored = restore(target, op, session, audit, "test")
     assert restored is not None and restored.startswith("restore-")
