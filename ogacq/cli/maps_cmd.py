@@ -20,9 +20,10 @@ from ogacq.cli.options import HistoryOption, JsonOption
 from ogacq.cli.plain import plain
 from ogacq.compensation.iso230 import map_figures
 from ogacq.errors import InputError, Refused
-from ogacq.session.store import load_session
+from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import AuditLog
-from ogacq.writeback.maps import MapsFile
+from ogacq.writeback.endpoint_lock import holding, maps_key
+from ogacq.writeback.maps import MapsFile, MapsOperation
 from ogacq.writeback.maps_table import read_maps_table
 from ogacq.writeback.write_target import restore as restore_target
 
@@ -70,6 +71,12 @@ def restore(
                          "to restore")
     op = writes[-1]
     target = MapsFile(op.path)
+    with holding([maps_key(op.path)]):  # not while a campaign applies them
+        _restore_maps(session, op, target, yes=yes, history=history)
+
+
+def _restore_maps(session: LoadedSession, op: MapsOperation, target: MapsFile, *, yes: bool,
+                  history: str | None) -> None:
     plan = target.plan_restore(op, target.held())
     typer.echo(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
                f"{plan.new_checksum[:12]} (back to before {op.operation}; "
