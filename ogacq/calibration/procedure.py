@@ -292,7 +292,13 @@ class Procedure:
         with open_controller(spec) as controller:
             yield (ControllerOffsets(controller, spec.offsets_file,
                                      WriteOptions(port=spec.port or None)),
-                   MapsFile(spec.maps_file) if spec.maps_file is not None else None)
+                   MapsFile(spec.maps_file, self._owner) if spec.maps_file is not None
+                   else None)
+
+    @property
+    def _owner(self) -> tuple[str, str]:
+        """The machine the maps are bound to: its name and serial."""
+        return self.setup.machine.name, self.setup.machine.serial
 
     def _undo_half_written(self, audited: LoadedSession) -> None:
         """A write of this procedure killed half-way (x and y written, z not yet) left

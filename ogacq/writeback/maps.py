@@ -24,13 +24,21 @@ from pathlib import Path
 from typing import Any, Literal
 
 from ogacq_drivers.errors import DriverError
-from ogacq.io.errors import InputError, StorageError
+from ogacq.errors import OgacqError
+from ogacq.io.errors import StorageError
 from ogacq.logs import logger
 from ogacq.model.axis_map import AxisMap
 from ogacq.session.records import MapsRecord
 from ogacq.session.store import LoadedSession
 from ogacq.writeback.audit import AuditLog, intents_and_outcomes, new_operation_id
-from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table, write_maps_table
+from ogacq.writeback.maps_table import (
+    MAX_MAP_MM,
+    MapsTable,
+    Owner,
+    maps_checksum,
+    read_maps_table,
+    write_maps_table,
+)
 from ogacq.writeback.policy import Refusal
 
 log = logger(__name__)
@@ -124,10 +132,15 @@ class MapsFile:
     the checksum of the maps it holds, read from the disk each time."""
 
     path: Path
+    #: the machine (name, serial) the maps are bound to; None: the one the file names
+    owner: Owner | None = None
     noun = "maps"
 
     def held(self) -> str:
-        return read_maps_table(self.path).checksum
+        return self.table().checksum
+
+    def table(self) -> MapsTable:
+        return read_maps_table(self.path, owner=self.owner)
 
     def same(self, a: str, b: str) -> bool:
         return a == b
@@ -149,8 +162,16 @@ class MapsFile:
         """Replace the file's maps by ``new_maps`` (axes it does not name keep theirs).
         ``in_force_checksum``: the maps the campaign ran with; a file holding others
         changed since (a later write, a hand): refused as stale."""
-        current = read_maps_table(self.path)
+        current = self.table()
         refusals = []
+        largest = {a: max(abs(v) for v in (*m.forward_mm, *m.reverse_mm))
+                   for a, m in new_maps.items() if m.positions_mm}
+        beyond = {a: v for a, v in largest.items() if not v <= MAX_MAP_MM}
+        if beyond:
+            refusals.append(Refusal("too_large", "maps reaching " + ", ".join(
+                f"{a} {v:g} mm" for a, v in beyond.items()) + f" exceed the {MAX_MAP_MM:g} "
+                "mm limit of the offsets' gate: implausible for this machine; check the "
+                "set-up"))
         if in_force_checksum is not None and current.checksum != in_force_checksum:
             refusals.append(Refusal("stale", f"the maps file {current.path} changed since the "
                                     f"campaign (then {in_force_checksum[:12]}, now "
@@ -164,7 +185,7 @@ class MapsFile:
     def plan_restore(self, op: MapsOperation, held: str) -> MapsPlan:
         """Put back the maps an earlier write (its intent record) replaced; refused when
         the file holds neither what that write wrote nor what it found."""
-        current = read_maps_table(self.path)
+        current = self.table()
         refusals = []
         if current.checksum not in (op.new_checksum, op.old_checksum):
             refusals.append(Refusal("stale", f"the maps file no longer holds what "
@@ -177,7 +198,7 @@ class MapsFile:
 
     def execute(self, plan: MapsPlan, audit: AuditLog, confirmed_by: str) -> str:
         """Write ``plan`` (approved) and verify it by reading the file back."""
-        now = read_maps_table(plan.path)
+        now = self.table()
         if now.checksum != plan.current.checksum:
             raise MapsWriteError(f"the maps file {plan.path} changed since the plan was made: "
                                  "nothing written; show the plan again", written=False)
@@ -205,8 +226,17 @@ class MapsFile:
         log.info("maps %s done: %s", operation, back.checksum[:12])
         return operation
 
+    def _owner(self, current: MapsTable) -> Owner:
+        """The machine to bind the maps written to: this target's, else the one the
+        file named (a restore by hand keeps it)."""
+        if self.owner is not None:
+            return self.owner
+        named = current.about.get("machine")
+        return (str(named.get("name", "")), str(named.get("serial", ""))) \
+            if isinstance(named, dict) else ("", "")
+
     def record_found(self, op: MapsOperation, held: str, audit: AuditLog) -> None:
-        table = read_maps_table(self.path)
+        table = self.table()
         audit.record_maps("done", operation=op.operation, action=op.action,
                           file=str(self.path), new_checksum=held,
                           axes={a: m.checksum() for a, m in table.maps.items()},
@@ -217,14 +247,14 @@ class MapsFile:
         try:
             back = write_maps_table(plan.path, plan.new_maps,
                                     session=str(audit.session.path.resolve()),
-                                    action=plan.action)
+                                    action=plan.action, owner=self._owner(plan.current))
             if back.checksum != plan.new_checksum:
                 raise OSError(f"read back checksum {back.checksum[:12]}, wrote "
                               f"{plan.new_checksum[:12]}")
             return back
-        except (OSError, InputError) as exc:
+        except (OSError, OgacqError) as exc:
             held: str | None = None
-            with contextlib.suppress(InputError, OSError):
+            with contextlib.suppress(OgacqError, OSError):
                 held = read_maps_table(plan.path).checksum
             with contextlib.suppress(StorageError):
                 audit.record_maps("failed", operation=operation, action=plan.action,
