@@ -96,6 +96,7 @@ class OffsetPlan:
     # write: the offsets in force during the campaign the new ones are computed from
     baseline_mm: dict[str, float] = field(default_factory=dict)
     restores_operation: str | None = None  # restore: the write it undoes
+    restores_unfinished: bool = False  # restore: that write failed or was cut short
 
     @property
     def current_mm(self) -> dict[str, float]:
@@ -324,7 +325,8 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
         notes.append("the write-back saved its values to non-volatile memory: save the "
                      "restored ones too (--save-nvm), or a power cycle brings them back")
     return OffsetPlan("restore", facts, changes, tuple(refusals), tuple(notes),
-                      restores_operation=operation.operation)
+                      restores_operation=operation.operation,
+                      restores_unfinished=operation.status != "done")
 
 
 def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: Mapping[str, float],
