@@ -22,7 +22,7 @@ import contextlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ogacq_drivers.axes.profile import load_profile
 from ogacq.calibration.compensate import (
@@ -53,6 +53,7 @@ from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import AuditLog, operations
 from ogacq.writeback.execute import WriteOptions
 from ogacq.writeback.maps import MapsFile, MapsPlan
+from ogacq.writeback.maps_binding import check_maps_in_force
 from ogacq.writeback.maps_table import maps_checksum
 from ogacq.writeback.offsets_target import ControllerOffsets
 from ogacq.writeback.policy import ControllerFacts, OffsetPlan, WritePolicy, plan_write
@@ -65,6 +66,9 @@ from ogacq.writeback.write_target import (
     restore,
     write_in_force,
 )
+
+if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not at start-up
+    from ogacq.history.location import HistoryLocation
 
 log = logger(__name__)
 
@@ -102,10 +106,12 @@ class Outcome:
 
 
 def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
-              calibration_session: Path | None = None) -> Outcome:
+              calibration_session: Path | None = None,
+              history: HistoryLocation | None = None) -> Outcome:
     """Run the procedure in ``setup.folder`` (``resume``: continue its log).
     ``calibration_session``: a finished campaign of this machine, in its present
-    state, to start from (``ogacq demo`` hands over the one it ran)."""
+    state, to start from (``ogacq demo`` hands over the one it ran). ``history``: the
+    one the procedure records into, whose last maps state the maps file must hold."""
     log_ = ProcedureLog.reopen(setup.folder) if resume else \
         ProcedureLog.create(setup.folder, setup.describe())
     if calibration_session is not None and log_.last("campaign", role="calibration") is None:
@@ -119,7 +125,7 @@ def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
             ui.say(f"calibration {log_.procedure} already finished: {done.details.get('outcome')}")
             return _outcome_of(setup, log_)
         with _machine(setup, log_) as stack:
-            return Procedure(setup, ui, log_, stack).run()
+            return Procedure(setup, ui, log_, stack, history).run()
     finally:
         log_.close()
 
@@ -138,7 +144,9 @@ def _machine(setup: Setup, log_: ProcedureLog) -> Iterator[Any]:
 
 
 class Procedure:
-    def __init__(self, setup: Setup, ui: CalibrationUI, log_: ProcedureLog, stack: Any) -> None:
+    def __init__(self, setup: Setup, ui: CalibrationUI, log_: ProcedureLog, stack: Any,
+                 history: HistoryLocation | None = None) -> None:
+        self.history = history
         self.setup = setup
         self.ui = ui
         self.log = log_
@@ -149,6 +157,7 @@ class Procedure:
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
         self._give_back_drive_state()
+        self._check_maps_file()
         first = self._campaign("calibration", self.setup.protocol)
         evidence, diagnosis = first, self._diagnosis("calibration", first)
         plan = self._separation(diagnosis, first)
@@ -176,6 +185,13 @@ class Procedure:
         if judgement.worse:
             restored = self._restore(first, written, judgement)
         return self._finish(comp, first, validation, judgement, written, restored)
+
+    def _check_maps_file(self) -> None:
+        """The maps file holds what the history says this machine holds, before
+        anything moves: not deleted, emptied, or another calibration's."""
+        if self.controller.maps_file is not None:
+            check_maps_in_force(MapsFile(self.controller.maps_file, self._owner).table(),
+                                *self._owner, self.history)
 
     def _controller_spec(self) -> ControllerSpec:
         spec = self.setup.controller
