@@ -218,25 +218,12 @@ def window_trial(root: Path, window: str, external: Path | None, ctrl_c: bool) -
 
 @contextlib.contextmanager
 def external_controller(root: Path):
-    """``ogacq sim`` serving the controller and gauges, its campaign file with a maps
-    file; stopped by its process id."""
-    campaign = root / "station.toml"
-    proc = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--effects",
-                             str(root / "effects.toml"), "--seed", "3", "--speed", "50",
-                             "--write-campaign", str(campaign), "--json"],
-                            stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
-    try:
-        proc.stdout.readline()
-        campaign.write_text(campaign.read_text().replace(
-            "[controller]\n", '[controller]\nmaps_file = "maps.json"\n', 1))
-        yield campaign
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
+    """``ogacq sim`` serving the controller and gauges, and a campaign file talking to
+    it with a maps file (the tests' own)."""
+    from tests.writeback.conftest import sim_campaign, simulator
+
+    with simulator(root / "ext", "cia402", 3, SCALE[0]) as info:
+        yield sim_campaign(root / "ext", info, name="station", maps_file="maps.json")
 
 
 def windows() -> None:

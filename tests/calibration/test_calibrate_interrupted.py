@@ -14,8 +14,6 @@ change'.
 from __future__ import annotations
 
 import contextlib
-import json
-import selectors
 import signal
 import subprocess
 import sys
@@ -29,39 +27,17 @@ from ogacq.campaign.station import open_controller
 from ogacq.session.records import CalibrateRecord, MapsRecord, OffsetsRecord
 from ogacq.session.store import load_session
 from ogacq.writeback.maps_table import maps_checksum, read_maps_table
+from tests.writeback.conftest import sim_campaign, simulator
 
 EFFECTS = "[squareness]\nxy = 0.5\n[encoder_scale]\nx = 400.0\n"
 
 
 @contextlib.contextmanager
 def served(folder: Path) -> Iterator[Path]:
-    """``ogacq sim`` in its own process and the campaign file that talks to it (with a
-    maps file); stopped by its process id."""
-    folder.mkdir(parents=True, exist_ok=True)
-    (folder / "effects.toml").write_text(EFFECTS)
-    campaign = folder / "station.toml"
-    log = (folder / "sim.log").open("w")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "ogacq", "sim", "--effects", str(folder / "effects.toml"),
-         "--seed", "3", "--speed", "50", "--write-campaign", str(campaign), "--json"],
-        stdout=subprocess.PIPE, stderr=log, text=True)
-    try:
-        selector = selectors.DefaultSelector()
-        selector.register(proc.stdout, selectors.EVENT_READ)  # type: ignore[arg-type]
-        assert selector.select(timeout=60), "ogacq sim did not start"
-        json.loads(proc.stdout.readline())  # type: ignore[union-attr]
-        text = campaign.read_text()
-        campaign.write_text(text.replace("[controller]\n", '[controller]\nmaps_file = '
-                                         '"maps.json"\n', 1))
-        yield campaign
-    finally:
-        proc.send_signal(signal.SIGINT)
-        try:
-            proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-        log.close()
+    """``ogacq sim`` in its own process hiding EFFECTS, and a campaign file that talks
+    to it, with a maps file."""
+    with simulator(folder, "cia402", 3, EFFECTS) as info:
+        yield sim_campaign(folder, info, name="station", maps_file="maps.json")
 
 
 def interrupted(window: str, *args: str | Path) -> subprocess.CompletedProcess:
@@ -120,8 +96,9 @@ def test_killed_after_the_maps_file_was_replaced_on_the_simulator(tmp_path):
     assert resumed.returncode == 4, resumed.stderr[-2000:]
     assert "RESTORED to the previous state" in resumed.stderr
     assert read_maps_table(folder / "maps.json").checksum == maps_checksum({})
-    maps_done = [r.details["action"] for r in
+    maps_done = [(r.details["action"], "found" in r.details) for r in
                  load_session(folder / "calibration.jsonl").of_type(MapsRecord)
                  if r.stage == "done"]
-    assert maps_done == ["restore"]  # the write killed before its record, then restored
+    # the write killed before its record, found in force by the resume, then restored
+    assert maps_done == [("write", True), ("restore", False)]
     assert steps(folder)["restored"]["maps"]

@@ -15,7 +15,12 @@ from ogacq.model.parameters import AXES
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.emulators.drives import Cia402Drive, EmulatorServer
-from tests.writeback.conftest import controller_offsets, ogacq_here, synthetic_session
+from tests.writeback.conftest import (
+    controller_offsets,
+    emulated_campaign,
+    ogacq_here,
+    synthetic_session,
+)
 from tests.writeback.test_nvm_offer import OFFSETS
 
 pytestmark = pytest.mark.filterwarnings("ignore:isSet:DeprecationWarning")
@@ -27,15 +32,7 @@ def turned(tmp_path):
     server = EmulatorServer("tcp")
     for unit in (1, 2, 3):
         server.add(unit, Cia402Drive, home_sign=+1)
-    port = server.start()
-    gauges = "".join(f'\n[[gauges]]\ngauge = "{k}"\nprotocol = "mitutoyo-01a"\n'
-                     f'port = "/dev/ttyUSB{n}"\n'
-                     for n, k in enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")))
-    (tmp_path / "machine.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
-                                           "rho_max_mm = 60.0\ngauge_resolution_mm = 0.001\n")
-    campaign = tmp_path / "campaign.toml"
-    campaign.write_text(f'machine = "machine.toml"\n[controller]\nprofile = "cia402"\n'
-                        f'port = "127.0.0.1:{port}"\n' + gauges)
+    campaign = emulated_campaign(tmp_path, server.start())
     try:
         yield campaign
     finally:
