@@ -40,6 +40,7 @@ from ogacq.writeback.policy import (
     plan_write,
 )
 from ogacq.writeback.target import controller_of, session_controller
+from ogacq.writeback.write_target import found_in_force
 from ogacq.writeback.write_target import restore as restore_target
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when the history is used, not at start-up
@@ -132,9 +133,12 @@ def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: Au
     """Refuse, ask, then write (pre-flight, written, read back, audited)."""
     options = _approve(plan, audit, spec, yes=yes, force=force, save_nvm=save_nvm,
                        rehome=rehome)
+    target = ControllerOffsets(controller, spec.offsets_file, options or WriteOptions())
     if options is None:
+        # held already: an earlier write of the session cut short before its done
+        # record left them, and the audit (and the history) now say so
+        found_in_force(target, audit.session, audit)
         return
-    target = ControllerOffsets(controller, spec.offsets_file, options)
     # a WriteBackError (a DriverError) says what the controller holds now
     target.execute(plan, audit, options.confirmed_by)
     assert target.outcome is not None
