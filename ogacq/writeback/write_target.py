@@ -42,6 +42,8 @@ class TargetOperation(Protocol[State_co]):
     def old_state(self) -> State_co: ...  # what it replaced
     @property
     def new_state(self) -> State_co: ...  # what it wrote: read back when done, else intended
+    @property
+    def restores(self) -> str | None: ...  # a restore: the operation it undoes
 
 
 class TargetPlan(Protocol):
@@ -167,6 +169,6 @@ def found_in_force(target: WriteTarget[State, Op, Plan], session: LoadedSession,
 def _restore_of(ops: Sequence[Op], op: Op) -> Op | None:
     """The restore of ``op`` in the audit (done or cut short: the read-back decides)."""
     for other in reversed(ops):
-        if other.action == "restore" and getattr(other, "restores", None) == op.operation:
+        if other.action == "restore" and other.restores == op.operation:
             return other
     return None
