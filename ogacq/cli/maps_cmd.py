@@ -72,10 +72,10 @@ def restore(
     op = writes[-1]
     target = MapsFile(op.path)
     with holding([maps_key(op.path)]):  # not while a campaign applies them
-        _restore_maps(session, op, target, yes=yes, history=history)
+        _confirm_and_restore(session, op, target, yes=yes, history=history)
 
 
-def _restore_maps(session: LoadedSession, op: MapsOperation, target: MapsFile, *, yes: bool,
+def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: MapsFile, *, yes: bool,
                   history: str | None) -> None:
     plan = target.plan_restore(op, target.held())
     typer.echo(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
