@@ -17,9 +17,10 @@ from typing import TYPE_CHECKING
 
 from ogacq.errors import InputError, OgacqError
 from ogacq.logs import logger
-from ogacq.writeback.maps_table import MapsTable, maps_checksum
+from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when a history is given, not at start-up
+    from ogacq.campaign.campaign_file import Campaign
     from ogacq.history.location import HistoryLocation
     from ogacq.history.store import MapState
 
@@ -55,6 +56,23 @@ def check_maps_in_force(table: MapsTable, name: str, serial: str,
                      "maps restore`")
 
 
+def check_campaign_maps(campaign: Campaign, option: str | None) -> None:
+    """``check_maps_in_force`` for a campaign about to run with a maps file, against the
+    history it will be recorded into (``--history``, the environment or the default)."""
+    spec = campaign.controller
+    if spec is None or spec.maps_file is None:
+        return
+    from ogacq.history.location import history_for_session
+
+    try:
+        location = history_for_session(option, campaign.session)
+    except OgacqError:  # said again, and not fatal, when the campaign is recorded
+        return
+    machine = campaign.machine
+    check_maps_in_force(read_maps_table(spec.maps_file, owner=(machine.name, machine.serial)),
+                        machine.name, machine.serial, location)
+
+
 def _same_file(recorded: str, path: Path) -> bool:
     return os.path.realpath(recorded) == os.path.realpath(path)
 
@@ -62,6 +80,9 @@ def _same_file(recorded: str, path: Path) -> bool:
 def _maps_states(location: HistoryLocation, name: str, serial: str) -> list[MapState]:
     from ogacq.history.store import History
 
+    database = location.url.database or ""
+    if location.url.drivername.startswith("sqlite") and not os.path.exists(database):
+        return []  # no history yet: nothing recorded to compare with
     try:
         with History.open(location, create=False) as db:
             machines = [m for m in db.machines()

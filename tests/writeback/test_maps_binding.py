@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import pytest
 
+from ogacq.campaign.campaign_file import read_campaign
 from ogacq.errors import InputError
 from ogacq.history.entries import MapsWriteBack
 from ogacq.history.location import parse_location
@@ -13,6 +14,7 @@ from ogacq.history.store import History
 from ogacq.writeback.maps_binding import check_maps_in_force
 from ogacq.writeback.maps_table import maps_checksum, read_maps_table, write_maps_table
 from tests.compensation.maps import screw_map
+from tests.writeback.conftest import ogacq_here, sim_campaign, simulator
 
 RECORD = {"format": "ogacq-record/1", "id": "OGQ-20260110-00000001",
           "machine": {"name": "Ortho", "serial": "7"}, "date": "2026-01-10T09:00:00"}
@@ -46,3 +48,25 @@ def test_a_maps_file_not_what_the_history_says_is_refused(tmp_path):
     check_maps_in_force(read_maps_table(path), "Other", "8", location)
     check_maps_in_force(read_maps_table(tmp_path / "elsewhere.json"), *OWNER, location)
     check_maps_in_force(read_maps_table(path), *OWNER, None)
+
+
+def test_a_run_with_its_maps_file_gone_is_refused_before_anything_moves(
+        tmp_path, capsys, monkeypatch):
+    """``ogacq run`` of a campaign whose maps file the history says holds a map: the
+    file deleted, the campaign ran uncompensated with exit 0."""
+    with simulator(tmp_path, "cia402", 3) as info:
+        campaign = sim_campaign(tmp_path, info, name="c", maps_file="maps.json")
+        location = parse_location(str(tmp_path / "h.sqlite"), "--history")
+        name = read_campaign(campaign).machine.name
+        with History.open(location) as db:
+            db.record_maps_writeback({**RECORD, "machine": {"name": name, "serial": ""}},
+                                     MapsWriteBack("maps-write-1", "write", "done",
+                                                   str(tmp_path / "maps.json"), (),
+                                                   maps_checksum({}),
+                                                   (screw_map("x").to_json(),), "abcd",
+                                                   1000.0))
+        ran = ogacq_here(capsys, monkeypatch, "run", campaign, "--history",
+                         tmp_path / "h.sqlite")
+        assert ran.returncode == 2, ran.stderr
+        assert "holds no file" in ran.stderr and "maps-write-1" in ran.stderr
+        assert not (tmp_path / "c.jsonl").exists()  # nothing ran
