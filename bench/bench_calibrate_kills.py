@@ -9,6 +9,22 @@ and the largest difference of its offsets and map from the uninterrupted run's
 against their combined uncertainty.
 
     python bench/bench_calibrate_kills.py [RUNS] [KILLS] [SEED] [--cyclic] [--keep=DIR]
+    python bench/bench_calibrate_kills.py --windows [--external-only] [--ctrl-c]
+
+``--windows``: kills aimed at every window between a write to the machine and its
+audit record (tests/calibration/interrupt.py: the offsets sent, half-written, read
+back and re-homed, the maps file replaced; in the write and in the restore), on an
+external controller (an ``ogacq sim`` process, whose drives keep what was written:
+nothing is given back) and on ``--simulator``, the validation made worse on purpose
+so that the resume must restore. Printed per trial: the window, the outcome, what the
+controller and the maps file hold at the end against what they held before; counted:
+wrong final states and a "RESTORED" said over a state that is not the one before.
+``--ctrl-c``: an interrupt (KeyboardInterrupt) instead of SIGKILL. Last run (issue 36,
+2 cores shared): SIGKILL and Ctrl-C alike, 16 trials each, 14 stopped in their window
+(the external controller's calibration writes no map: its two maps windows are not
+reached), 0 wrong final states, 0 false "RESTORED"; main before the fix: the first
+external trial ended "RESTORED" with x -1.54, y -1.09, z +1.20 mm still on the
+controller.
 
 The hidden physics: a squareness and an encoder scale (about 30 s per run on 2
 cores; defaults: 6 runs, 3 kills, seed 1); with ``--cyclic``, a squareness and a
@@ -19,6 +35,7 @@ of runs that did not reach its end are copied there.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import shutil
 import signal
@@ -150,5 +167,100 @@ def main() -> None:
               f"({runs * kills} kills)")
 
 
+WINDOWS = ("offsets-sent", "offsets-half", "offsets-done", "maps-done",
+           "restore-offsets-sent", "restore-offsets-half", "restore-offsets-done",
+           "restore-maps-done")
+
+
+def interrupted(window: str, args: list[str], ctrl_c: bool = False,
+                ) -> subprocess.CompletedProcess:
+    """``ogacq ARGS`` stopped at ``window``, its validation made worse on purpose."""
+    return subprocess.run([sys.executable, "-m", "tests.calibration.interrupt", window,
+                           "--flip", *(["--ctrl-c"] if ctrl_c else []), "--", *args],
+                          capture_output=True, text=True, timeout=900)
+
+
+def external_state(campaign: Path) -> tuple[dict[str, float], str]:
+    from ogacq.campaign.campaign_file import read_campaign
+    from ogacq.campaign.station import open_controller
+
+    spec = read_campaign(campaign).controller
+    with open_controller(spec) as controller:
+        offsets = {a: round(v, 4) for a, v in controller.read_offsets().items()}
+    return offsets, read_maps_table(spec.maps_file).checksum[:12]
+
+
+def simulated_state(folder: Path) -> tuple[dict[str, float], str]:
+    """What the simulated drives hold at the end: the process is gone, so its audit's
+    last operation read back (a done one), and the maps file, which outlives it."""
+    from ogacq.writeback.audit import operations
+
+    ops = [op for op in operations(load_session(folder / "calibration.jsonl"))
+           if op.status == "done"]
+    offsets = {a: round(v, 4) for a, v in ops[-1].new_mm.items()} if ops else {}
+    return offsets, read_maps_table(folder / "maps.json").checksum[:12]
+
+
+def window_trial(root: Path, window: str, external: Path | None, ctrl_c: bool) -> tuple:
+    folder = root / f"{'ext' if external else 'sim'}-{window}{'-c' if ctrl_c else ''}"
+    first = ["calibrate", *( [str(external)] if external else
+                             ["--simulator", "--effects", str(root / "effects.toml"),
+                              "--seed", "3", "--speed", "50"]),
+             "--out", str(folder), "--yes", "--no-separate", "--history", "none"]
+    before = external_state(external) if external else ({}, "")
+    stopped = interrupted(window, first, ctrl_c)
+    reached = stopped.returncode in (-signal.SIGKILL, 130)
+    resumed = interrupted("none", ["calibrate", "--resume", str(folder), "--yes",
+                                   "--history", "none"])
+    end = external_state(external) if external else simulated_state(folder)
+    if not external:  # the simulator starts each run from zero offsets and no maps
+        before = ({a: 0.0 for a in end[0]}, read_maps_table(root / "none.json").checksum[:12])
+    said_restored = "RESTORED to the previous state" in resumed.stderr
+    right = end == before
+    return reached, resumed.returncode, said_restored, right, before, end, \
+        resumed.stderr.strip().splitlines()[-1][:160] if resumed.stderr.strip() else ""
+
+
+@contextlib.contextmanager
+def external_controller(root: Path):
+    """``ogacq sim`` serving the controller and gauges, and a campaign file talking to
+    it with a maps file (the tests' own)."""
+    from tests.writeback.conftest import sim_campaign, simulator
+
+    with simulator(root / "ext", "cia402", 3, SCALE[0]) as info:
+        yield sim_campaign(root / "ext", info, name="station", maps_file="maps.json")
+
+
+def windows() -> None:
+    ctrl_c = "--ctrl-c" in sys.argv
+    paths = (True,) if "--external-only" in sys.argv else (True, False)
+    wrong = false_restored = reached_count = trials = 0
+    with tempfile.TemporaryDirectory() as tmp:
+        root = Path(tmp)
+        (root / "effects.toml").write_text(SCALE[0])
+        for external in paths:
+            with contextlib.ExitStack() as stack:
+                campaign = stack.enter_context(external_controller(root)) if external \
+                    else None
+                for window in WINDOWS:
+                    reached, code, said, right, before, end, last = window_trial(
+                        root, window, campaign, ctrl_c)
+                    trials += 1
+                    reached_count += reached
+                    wrong += not right
+                    false_restored += said and not right
+                    print(f"{'external' if external else 'simulator'} {window}: "
+                          f"{'stopped there' if reached else 'not reached'}; resume exit "
+                          f"{code}{', said RESTORED' if said else ''}; before {before}, end "
+                          f"{end}{'' if right else '  <-- WRONG'}", flush=True)
+                    if not right or code not in (0, 4):
+                        print(f"   {last}")
+    print(f"{trials} trials, {reached_count} stopped in their window: {wrong} wrong final "
+          f"states, {false_restored} false RESTORED")
+
+
 if __name__ == "__main__":
-    main()
+    if "--windows" in sys.argv:
+        windows()
+    else:
+        main()

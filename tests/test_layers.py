@@ -25,7 +25,8 @@ PACKAGES = {"ogacq_drivers": "drivers", "ogacq": "ogacq"}  # installed name -> f
 # - ogacq.protocol.plan: the plan is what identification, accuracy prediction and
 #   separation derive their layouts of readings from; the runner executing it records
 #   into sessions, so the rest of ogacq.protocol sits with the session.
-# - ogacq.writeback.table, ogacq.writeback.maps_table: the offset table and the maps
+# - ogacq.writeback.table, ogacq.writeback.maps_table, ogacq.writeback.endpoint_lock: the
+#   offset table, the maps file and the lock on a controller and its maps file: the maps
 #   file, opened with the controller by the station and loaded by every campaign,
 #   while the rest of writeback decides from finished campaigns.
 LAYERS: list[tuple[str, ...]] = [
@@ -40,7 +41,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
-     "ogacq.writeback.maps_table", "ogacq.uncertainty", "ogacq.compensation"),
+     "ogacq.writeback.maps_table", "ogacq.writeback.endpoint_lock", "ogacq.uncertainty",
+     "ogacq.compensation"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign.campaign_file",
      "ogacq.campaign.templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.campaign.station", "ogacq.diagnose"),

@@ -22,7 +22,7 @@ import contextlib
 from collections.abc import Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ogacq_drivers.axes.profile import load_profile
 from ogacq.calibration.compensate import (
@@ -50,24 +50,25 @@ from ogacq.protocol.runner import Observer
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.writeback.audit import AuditLog, Operation, operations
-from ogacq.writeback.execute import WriteOptions, execute_plan, preflight
-from ogacq.writeback.maps import (
-    MapsOperation,
-    MapsPlan,
-    execute_maps_plan,
-    maps_operations,
-    plan_maps_restore,
-    plan_maps_write,
+from ogacq.writeback.audit import AuditLog, operations
+from ogacq.writeback.execute import WriteOptions
+from ogacq.writeback.maps import MapsFile, MapsPlan
+from ogacq.writeback.maps_binding import check_maps_in_force
+from ogacq.writeback.maps_table import maps_checksum
+from ogacq.writeback.offsets_target import ControllerOffsets
+from ogacq.writeback.policy import ControllerFacts, OffsetPlan, WritePolicy, plan_write
+from ogacq.writeback.write_target import (
+    AnyTarget,
+    TargetPlan,
+    found_in_force,
+    left_half_way,
+    present,
+    restore,
+    write_in_force,
 )
-from ogacq.writeback.maps_table import maps_checksum, read_maps_table
-from ogacq.writeback.policy import (
-    ControllerFacts,
-    OffsetPlan,
-    WritePolicy,
-    plan_restore,
-    plan_write,
-)
+
+if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not at start-up
+    from ogacq.history.location import HistoryLocation
 
 log = logger(__name__)
 
@@ -105,10 +106,12 @@ class Outcome:
 
 
 def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
-              calibration_session: Path | None = None) -> Outcome:
+              calibration_session: Path | None = None,
+              history: HistoryLocation | None = None) -> Outcome:
     """Run the procedure in ``setup.folder`` (``resume``: continue its log).
     ``calibration_session``: a finished campaign of this machine, in its present
-    state, to start from (``ogacq demo`` hands over the one it ran)."""
+    state, to start from (``ogacq demo`` hands over the one it ran). ``history``: the
+    one the procedure records into, whose last maps state the maps file must hold."""
     log_ = ProcedureLog.reopen(setup.folder) if resume else \
         ProcedureLog.create(setup.folder, setup.describe())
     if calibration_session is not None and log_.last("campaign", role="calibration") is None:
@@ -122,7 +125,7 @@ def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
             ui.say(f"calibration {log_.procedure} already finished: {done.details.get('outcome')}")
             return _outcome_of(setup, log_)
         with _machine(setup, log_) as stack:
-            return Procedure(setup, ui, log_, stack).run()
+            return Procedure(setup, ui, log_, stack, history).run()
     finally:
         log_.close()
 
@@ -141,7 +144,9 @@ def _machine(setup: Setup, log_: ProcedureLog) -> Iterator[Any]:
 
 
 class Procedure:
-    def __init__(self, setup: Setup, ui: CalibrationUI, log_: ProcedureLog, stack: Any) -> None:
+    def __init__(self, setup: Setup, ui: CalibrationUI, log_: ProcedureLog, stack: Any,
+                 history: HistoryLocation | None = None) -> None:
+        self.history = history
         self.setup = setup
         self.ui = ui
         self.log = log_
@@ -152,6 +157,7 @@ class Procedure:
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
         self._give_back_drive_state()
+        self._check_maps_file()
         first = self._campaign("calibration", self.setup.protocol)
         evidence, diagnosis = first, self._diagnosis("calibration", first)
         plan = self._separation(diagnosis, first)
@@ -159,13 +165,15 @@ class Procedure:
             evidence = self._campaign("separating", plan.protocol)
             diagnosis = self._diagnosis("separating", evidence)
         comp = self._compensation(diagnosis, evidence)
-        with self._plans(diagnosis, evidence, comp) as (offsets, maps):
-            if self.log.last("confirmed") is None:
-                stop = self._approve(comp, offsets, maps)
-                if stop is not None:
-                    return stop
-            # audited in the calibration campaign's session, whose record this is
-            written = self._write(first, offsets, maps)
+        if self.log.last("confirmed") is not None and self.log.last("written") is None:
+            self._undo_half_written(first)  # before planning again from what is held
+        offsets, maps = self._plans(diagnosis, evidence, comp)
+        if self.log.last("confirmed") is None:
+            stop = self._approve(comp, offsets, maps)
+            if stop is not None:
+                return stop
+        # audited in the calibration campaign's session, whose record this is
+        written = self._write(first, offsets, maps)
         # the calibration campaign's plan again: its record compares as found and as left
         validation = self._campaign("validation", self.setup.protocol)
         judgement = self._judge(comp, first, validation, "validation")
@@ -178,6 +186,13 @@ class Procedure:
             restored = self._restore(first, written, judgement)
         return self._finish(comp, first, validation, judgement, written, restored)
 
+    def _check_maps_file(self) -> None:
+        """The maps file holds what the history says this machine holds, before
+        anything moves: not deleted, emptied, or another calibration's."""
+        if self.controller.maps_file is not None:
+            check_maps_in_force(MapsFile(self.controller.maps_file, self._owner).table(),
+                                *self._owner, self.history)
+
     def _controller_spec(self) -> ControllerSpec:
         spec = self.setup.controller
         if self.stack is None:
@@ -187,7 +202,10 @@ class Procedure:
 
     def _give_back_drive_state(self) -> None:
         """On a restarted simulator, the offsets its drives held when the process died
-        (the audit of the session that wrote them); a real drive keeps its own."""
+        (the audit of the session that wrote them); a real drive keeps its own. A write
+        killed before its outcome was recorded may have reached the drive: it is given
+        back its new values, the state a real drive may be left in that the procedure
+        must then find written."""
         if self.stack is None or not self.log.steps:
             return
         held: dict[str, float] | None = None
@@ -195,7 +213,8 @@ class Procedure:
         path = Path(first.details["session"]) if first is not None else None
         if path is not None and path.is_file():  # its audit holds the writes and restores
             for op in operations(load_session(path)):
-                held = dict(op.new_mm) if op.status == "done" else dict(op.old_mm)
+                held = dict(op.old_mm if op.status == "failed" else op.new_mm) \
+                    if op.held_mm is None else dict(op.held_mm)
         if held is None:
             return
         with open_controller(self.controller) as controller:
@@ -270,21 +289,55 @@ class Procedure:
         self.log.add("compensation", **comp.to_json())
         return comp
 
-    @contextlib.contextmanager
     def _plans(self, diagnosis: Diagnosis, evidence: LoadedSession, comp: Compensation,
-               ) -> Iterator[tuple[OffsetPlan, MapsPlan | None]]:
-        spec = self.controller
-        with open_controller(spec) as controller:
-            facts = ControllerFacts.of(controller.profile)
+               ) -> tuple[OffsetPlan, MapsPlan | None]:
+        with self._targets() as (offsets_target, maps_target):
+            facts = offsets_target.facts
             self.resolution_mm = facts.resolution_mm
             offsets = plan_write(evidence_for(diagnosis, evidence, comp.shift_mm),
-                                 controller.read_offsets(), facts, WritePolicy())
+                                 offsets_target.held(), facts, WritePolicy())
         maps = None
-        if comp.maps and spec.maps_file is not None:
-            maps = plan_maps_write(comp.maps, read_maps_table(spec.maps_file),
-                                   in_force_checksum=comp.in_force_checksum
-                                   or maps_checksum({}))
-        yield offsets, maps
+        if comp.maps and maps_target is not None:
+            maps = maps_target.plan_write(comp.maps, in_force_checksum=comp.in_force_checksum
+                                          or maps_checksum({}))
+        return offsets, maps
+
+    @contextlib.contextmanager
+    def _targets(self) -> Iterator[tuple[ControllerOffsets, MapsFile | None]]:
+        """The controller's offsets (the controller open) and the maps file, if any."""
+        spec = self.controller
+        with open_controller(spec) as controller:
+            yield (ControllerOffsets(controller, spec.offsets_file,
+                                     WriteOptions(port=spec.port or None)),
+                   MapsFile(spec.maps_file, self._owner) if spec.maps_file is not None
+                   else None)
+
+    @property
+    def _owner(self) -> tuple[str, str]:
+        """The machine the maps are bound to: its name and serial."""
+        return self.setup.machine.name, self.setup.machine.serial
+
+    def _undo_half_written(self, audited: LoadedSession) -> None:
+        """A write of this procedure killed half-way (x and y written, z not yet) left
+        a state that is its own, not a later change: its old values are put back,
+        audited, so that the write is planned again from the state it replaced."""
+        session = load_session(audited.path)
+        undone = False
+        with AuditLog(session) as audit, self._targets() as targets:
+            for target in present(*targets):
+                ops = target.operations(session)
+                held = target.held()
+                half = left_half_way(target, ops, held)
+                if half is None or write_in_force(target, ops, held) is not None \
+                        or target.same(held, half.old_state):
+                    continue
+                self.ui.say(f"the {target.noun} hold what {half.operation} left "
+                            f"half-way ({target.describe(held)}): its old values are put "
+                            "back before it is written again")
+                restore(target, half, session, audit, "calibrate (own write cut half-way)")
+                undone = True
+        if undone:
+            self.ui.recorded(audited.path)
 
     def _approve(self, comp: Compensation, offsets: OffsetPlan,
                  maps: MapsPlan | None) -> Outcome | None:
@@ -316,21 +369,13 @@ class Procedure:
             raise Refused("nothing written: " + "; ".join(r.message for r in refusals))
         written: dict[str, str | None] = {"offsets": None, "maps": None}
         session = load_session(audited.path)
-        with AuditLog(session) as audit:
-            if not offsets.nothing_to_do:
-                with open_controller(self.controller) as controller:
-                    options = WriteOptions(confirmed_by=by, port=self.controller.port or None)
-                    preflight(controller, offsets, options)
-                    outcome = execute_plan(controller, offsets, audit, options,
-                                           offsets_file=self.controller.offsets_file)
-                    written["offsets"] = outcome.operation
-            else:  # written before the process was killed: its audit names it
-                written["offsets"] = _done_write(operations(session), offsets)
-            if maps is not None and not maps.nothing_to_do:
-                written["maps"] = execute_maps_plan(maps, audit, confirmed_by=by).operation
-            elif maps is not None:
-                written["maps"] = _done_maps_write(maps_operations(session), maps)
-        self.ui.recorded(audited.path)
+        try:
+            with AuditLog(session) as audit, self._targets() as (offsets_target, maps_target):
+                written["offsets"] = _write_once(offsets_target, offsets, session, audit, by)
+                if maps_target is not None and maps is not None:
+                    written["maps"] = _write_once(maps_target, maps, session, audit, by)
+        finally:
+            self.ui.recorded(audited.path)
         self.log.add("written", **written)
         self.ui.say("written: " + ", ".join(f"{k} ({v})" for k, v in written.items() if v))
         return written
@@ -346,6 +391,7 @@ class Procedure:
 
     def _restore(self, audited: LoadedSession, written: dict[str, str | None],
                  judgement: Judgement) -> dict[str, str | None]:
+        """Put back what the procedure wrote, each said restored only once read back."""
         done = self.log.last("restored")
         if done is not None:
             return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
@@ -354,47 +400,18 @@ class Procedure:
                     "state")
         session = load_session(audited.path)
         restored: dict[str, str | None] = {"offsets": None, "maps": None}
-        with AuditLog(session) as audit:
-            if written.get("offsets"):
-                op = next(o for o in operations(session) if o.operation == written["offsets"])
-                restored["offsets"] = self._restore_offsets(op, audit, session)
-            if written.get("maps") and self.controller.maps_file is not None:
-                op_m = next(o for o in maps_operations(session)
-                            if o.operation == written["maps"])
-                restored["maps"] = self._restore_maps(op_m, audit, session)
-        self.ui.recorded(audited.path)
+        try:
+            with AuditLog(session) as audit, self._targets() as targets:
+                for target in present(*targets):
+                    if written.get(target.noun):
+                        op = next(o for o in target.operations(session)
+                                  if o.operation == written[target.noun])
+                        restored[target.noun] = restore(target, op, session, audit,
+                                                        "calibrate (validation worse)")
+        finally:
+            self.ui.recorded(audited.path)
         self.log.add("restored", reason=reason, **restored)
         return restored
-
-    def _restore_offsets(self, op: Operation, audit: AuditLog,
-                         session: LoadedSession) -> str | None:
-        with open_controller(self.controller) as controller:
-            plan = plan_restore(op, controller.read_offsets(),
-                                ControllerFacts.of(controller.profile))
-            if plan.refused:
-                raise Refused("cannot restore the offsets: "
-                              + "; ".join(r.message for r in plan.refusals))
-            if plan.nothing_to_do:  # restored before the kill
-                return next((o.operation for o in reversed(operations(session))
-                             if o.action == "restore" and o.status == "done"), None)
-            options = WriteOptions(confirmed_by="calibrate (validation worse)",
-                                   port=self.controller.port or None)
-            preflight(controller, plan, options)
-            return execute_plan(controller, plan, audit, options,
-                                offsets_file=self.controller.offsets_file).operation
-
-    def _restore_maps(self, op: MapsOperation, audit: AuditLog,
-                      session: LoadedSession) -> str | None:
-        assert self.controller.maps_file is not None
-        plan = plan_maps_restore(op, read_maps_table(self.controller.maps_file))
-        if plan.refused:
-            raise Refused("cannot restore the maps: "
-                          + "; ".join(r.message for r in plan.refusals))
-        if plan.nothing_to_do:
-            return next((o.operation for o in reversed(maps_operations(session))
-                         if o.action == "restore" and o.status == "done"), None)
-        return execute_maps_plan(plan, audit,
-                                 confirmed_by="calibrate (validation worse)").operation
 
     def _finish(self, comp: Compensation, evidence: LoadedSession, validation: LoadedSession,
                 judgement: Judgement, written: dict[str, str | None],
@@ -478,22 +495,14 @@ def _plan_of(session: LoadedSession) -> ProtocolConfig:
     return ProtocolConfig.from_dict(dict(session.header.plan))
 
 
-def _done_write(ops: list[Operation], plan: OffsetPlan) -> str | None:
-    """The write of the audit that left what the controller holds (a write done before
-    the process was killed)."""
-    for op in reversed(ops):
-        if op.action == "write" and op.status == "done" and all(
-                plan.facts.same(op.new_mm[a], plan.current_mm[a]) for a in AXES):
-            return op.operation
-    return None
-
-
-def _done_maps_write(ops: list[MapsOperation], plan: MapsPlan) -> str | None:
-    for op in reversed(ops):
-        if op.action == "write" and op.status == "done" and \
-                op.new_checksum == plan.current.checksum:
-            return op.operation
-    return None
+def _write_once(target: AnyTarget, plan: TargetPlan, session: LoadedSession,
+                audit: AuditLog, confirmed_by: str) -> str | None:
+    """Carry ``plan`` out, unless the target holds its values already: then the write
+    that left them (done, or killed before its ``done`` record) is the one made."""
+    if not plan.nothing_to_do:
+        return target.execute(plan, audit, confirmed_by)
+    op = found_in_force(target, session, audit)
+    return op.operation if op is not None else None
 
 
 def _outcome_of(setup: Setup, log_: ProcedureLog) -> Outcome:

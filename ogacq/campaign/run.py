@@ -148,7 +148,8 @@ def maps_in_force(campaign: Campaign) -> MapsTable | None:
     spec = campaign.controller
     if spec is None or spec.maps_file is None:
         return None
-    return read_maps_table(spec.maps_file)
+    return read_maps_table(spec.maps_file,  # the maps of this machine only
+                           owner=(campaign.machine.name, campaign.machine.serial))
 
 
 def recorded_maps(session: LoadedSession) -> dict[str, Any] | None:

@@ -49,6 +49,7 @@ from ogacq.protocol.plan import Read, SettleRule, StabilityRule
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.protocol.station import GaugeReadings, GaugeValue, SettledGauge
 from ogacq.session.records import ReconnectRecord, Record, ReferenceRecord
+from ogacq.writeback.endpoint_lock import controller_keys, holding, maps_key
 from ogacq.writeback.table import read_offset_table
 
 if TYPE_CHECKING:
@@ -331,6 +332,11 @@ def open_controller(spec: ControllerSpec) -> Iterator[AxisController]:
         software = table.offsets_mm
         _check_software_offsets(table.path, software, profile)
     with contextlib.ExitStack() as stack:
+        # one process at a time moves or writes these drives and the maps they apply
+        units = {**profile.device_ids, **spec.device_ids()}
+        stack.enter_context(holding([
+            *controller_keys({a: spec.port_of(a) for a in profile.device_ids}, units),
+            *([maps_key(spec.maps_file)] if spec.maps_file is not None else [])]))
         # one link per distinct endpoint: the three axes on one bus, or a drive per address
         links: dict[str, ModbusLink] = {}
         per_axis: dict[str, ModbusLink] = {}

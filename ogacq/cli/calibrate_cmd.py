@@ -110,7 +110,7 @@ def calibrate(
                     where="the simulator" if setup.simulated else spec.endpoints(),
                     offsets_file=str(spec.offsets_file) if spec.offsets_file else None)
     try:
-        outcome = run_procedure(setup, ui, resume=resuming)
+        outcome = run_procedure(setup, ui, resume=resuming, history=where)
     except CampaignStopped as stop:
         typer.echo(f"ogacq: campaign {stop.status}: {plain(stop.reason)}", err=True)
         typer.echo(f"ogacq: the procedure is saved: continue it with `ogacq calibrate "

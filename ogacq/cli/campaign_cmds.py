@@ -23,6 +23,7 @@ from ogacq.history.recording import record_campaign
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.series import next_session
 from ogacq.session.store import load_session
+from ogacq.writeback.maps_binding import check_campaign_maps
 
 log = logging.getLogger("ogacq")
 
@@ -49,6 +50,7 @@ def run(
         campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
     campaign.session = _session_for(campaign.session, session)
+    check_campaign_maps(campaign, history)  # the maps the history says are in force
     outcome = execute(lambda obs: run_campaign(
         campaign, observer=obs, set_gauges=operator_for(campaign, obs),
         checked=lambda: warn_traceability(campaign)), campaign.session, quiet=as_json)
@@ -68,6 +70,7 @@ def resume(
     if reason:
         campaign.override_expired = reason
     operator_for(campaign)  # refuses, before anything opens, one that needs an operator
+    check_campaign_maps(campaign, history)
     outcome = execute(lambda obs: run_campaign(
         campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs),
         checked=lambda: warn_traceability(campaign)), loaded.path, quiet=as_json)

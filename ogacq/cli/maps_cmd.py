@@ -20,10 +20,12 @@ from ogacq.cli.options import HistoryOption, JsonOption
 from ogacq.cli.plain import plain
 from ogacq.compensation.iso230 import map_figures
 from ogacq.errors import InputError, Refused
-from ogacq.session.store import load_session
+from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import AuditLog
-from ogacq.writeback.maps import execute_maps_plan, maps_operations, plan_maps_restore
+from ogacq.writeback.endpoint_lock import holding, maps_key
+from ogacq.writeback.maps import MapsFile, MapsOperation
 from ogacq.writeback.maps_table import read_maps_table
+from ogacq.writeback.write_target import restore as restore_target
 
 EXIT_DECLINED = 1
 SessionArgument = Annotated[Path, typer.Argument(
@@ -33,7 +35,7 @@ SessionArgument = Annotated[Path, typer.Argument(
 def show(session_path: SessionArgument, as_json: JsonOption = False) -> None:
     """The session's maps writes, and the maps the file holds now with their figures."""
     session = load_session(session_path)
-    ops = maps_operations(session)
+    ops = MapsFile.operations(session)
     if not ops:
         raise InputError(session.path, "no maps write is recorded in this session")
     table = read_maps_table(ops[-1].path)
@@ -63,12 +65,19 @@ def restore(
 ) -> None:
     """Put back the maps the session's last maps write replaced."""
     session = load_session(session_path)
-    writes = [o for o in maps_operations(session) if o.action == "write"]
+    writes = [o for o in MapsFile.operations(session) if o.action == "write"]
     if not writes:
         raise InputError(session.path, "no maps write is recorded in this session: nothing "
                          "to restore")
     op = writes[-1]
-    plan = plan_maps_restore(op, read_maps_table(op.path))
+    target = MapsFile(op.path)
+    with holding([maps_key(op.path)]):  # not while a campaign applies them
+        _confirm_and_restore(session, op, target, yes=yes, history=history)
+
+
+def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: MapsFile, *, yes: bool,
+                  history: str | None) -> None:
+    plan = target.plan_restore(op, target.held())
     typer.echo(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
                f"{plan.new_checksum[:12]} (back to before {op.operation}; "
                f"{', '.join(plan.new_maps) or 'no maps'})")
@@ -85,10 +94,13 @@ def restore(
         if not ok:
             typer.echo("nothing restored", err=True)
             raise typer.Exit(EXIT_DECLINED)
-    with AuditLog(session) as audit:
-        done = execute_maps_plan(plan, audit, confirmed_by="--yes" if yes else "prompt")
-    typer.echo(f"restored: {done.operation}, read back {done.new_checksum[:12]}")
-    from ogacq.history.recording import record_writebacks
+    try:
+        with AuditLog(session) as audit:
+            done = restore_target(target, op, session, audit,
+                                  "--yes" if yes else "prompt")
+        typer.echo(f"restored: {done}, read back {target.held()[:12]}")
+    finally:
+        from ogacq.history.recording import record_writebacks
 
-    with contextlib.suppress(InputError):
-        record_writebacks(session.path, history)
+        with contextlib.suppress(InputError):
+            record_writebacks(session.path, history)

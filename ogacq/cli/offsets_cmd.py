@@ -23,23 +23,25 @@ from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
 from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
-from ogacq.errors import DriverError, InputError, OgacqError, Refused
+from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.recording import record_writebacks
 from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import AuditLog, last_write, operations
 from ogacq.writeback.evidence import evidence_from_session
-from ogacq.writeback.execute import WriteOptions, execute_plan, preflight
+from ogacq.writeback.execute import WriteOptions
+from ogacq.writeback.offsets_target import ControllerOffsets
 from ogacq.writeback.policy import (
     DEFAULT_MAX_CHANGE_MM,
     ControllerFacts,
     OffsetPlan,
     WritePolicy,
-    plan_restore,
     plan_return,
     plan_write,
 )
 from ogacq.writeback.target import controller_of, session_controller
+from ogacq.writeback.write_target import found_in_force
+from ogacq.writeback.write_target import restore as restore_target
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when the history is used, not at start-up
     from ogacq.history.location import HistoryLocation
@@ -95,14 +97,14 @@ def _ask(question: str) -> bool:
         return False
 
 
-def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
-                         spec: ControllerSpec, *,
-                         yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
-    """Refuse, ask, then write: the part ``write`` and ``restore`` share. ``audit`` is
-    open: this command holds the session, so no campaign runs on it meanwhile."""
+def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bool,
+             force: bool, save_nvm: bool, rehome: bool) -> WriteOptions | None:
+    """Refuse, ask: the options to write with, None when there is nothing to write.
+    ``audit`` is open: this command holds the session, so no campaign runs on it
+    meanwhile."""
     if plan.nothing_to_do:
         typer.echo(f"the controller already holds these offsets: nothing to {plan.action}")
-        return
+        return None
     summary = {"action": plan.action, "current_mm": plan.current_mm, "new_mm": plan.new_mm}
     if plan.refused:
         render.print_refusals(plan, forced=force)
@@ -120,18 +122,27 @@ def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: Au
             typer.echo("nothing written", err=True)
             raise typer.Exit(EXIT_DECLINED)
     save_nvm = save_nvm or _offer_nvm(plan, yes=yes)
-    options = WriteOptions(save_nvm=save_nvm, rehome=rehome,
-                           forced=tuple(r.code for r in plan.refusals),
-                           confirmed_by="--yes" if yes else "prompt", port=spec.port)
-    try:
-        preflight(controller, plan, options)
-    except DriverError as exc:
-        audit.record("refused", **summary, reasons=[f"pre-flight: {exc}"],
-                     codes=["preflight"])
-        raise DriverError(f"pre-flight check, nothing written: {exc}") from None
+    return WriteOptions(save_nvm=save_nvm, rehome=rehome,
+                        forced=tuple(r.code for r in plan.refusals),
+                        confirmed_by="--yes" if yes else "prompt", port=spec.port)
+
+
+def _approve_and_execute(controller: AxisController, plan: OffsetPlan, audit: AuditLog,
+                         spec: ControllerSpec, *,
+                         yes: bool, force: bool, save_nvm: bool, rehome: bool) -> None:
+    """Refuse, ask, then write (pre-flight, written, read back, audited)."""
+    options = _approve(plan, audit, spec, yes=yes, force=force, save_nvm=save_nvm,
+                       rehome=rehome)
+    target = ControllerOffsets(controller, spec.offsets_file, options or WriteOptions())
+    if options is None:
+        # held already: an earlier write of the session cut short before its done
+        # record left them, and the audit (and the history) now say so
+        found_in_force(target, audit.session, audit)
+        return
     # a WriteBackError (a DriverError) says what the controller holds now
-    outcome = execute_plan(controller, plan, audit, options, offsets_file=spec.offsets_file)
-    render.print_outcome(outcome)
+    target.execute(plan, audit, options.confirmed_by)
+    assert target.outcome is not None
+    render.print_outcome(target.outcome)
 
 
 def show(
@@ -268,11 +279,18 @@ def restore(
                          "to restore")
     with _recorded_after(session, history), \
             controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
-        plan = plan_restore(operation, controller.read_offsets(),
-                            ControllerFacts.of(controller.profile))
+        target = ControllerOffsets(controller, spec.offsets_file)
+        plan = target.plan_restore(operation, target.held())
         render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec))
-        _approve_and_execute(controller, plan, audit, spec, yes=yes, force=force,
-                             save_nvm=save_nvm, rehome=not no_home)
+        options = _approve(plan, audit, spec, yes=yes, force=force, save_nvm=save_nvm,
+                           rehome=not no_home)
+        if options is None:
+            return
+        target.options = options
+        # said restored only once the controller, read back, holds the old values
+        restore_target(target, operation, session, audit, options.confirmed_by, forced=force)
+        if target.outcome is not None:
+            render.print_outcome(target.outcome)
 
 
 def _restore_state(machine_name: str, wanted: str, history: str | None,

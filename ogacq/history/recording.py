@@ -23,11 +23,10 @@ from typing import TYPE_CHECKING, Any
 from ogacq.errors import OgacqError
 from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack, event_key
 from ogacq.logs import logger
-from ogacq.session.records import OffsetsRecord
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.audit import operations
-from ogacq.writeback.maps import maps_operations
+from ogacq.writeback.maps import MapsFile
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
@@ -51,12 +50,8 @@ def session_record(session: LoadedSession) -> dict[str, Any]:
 
 def writebacks_of(session: LoadedSession) -> list[WriteBack]:
     """The write-backs and restores the session's audit records describe."""
-    restores = {}
-    for record in session.of_type(OffsetsRecord):
-        if record.stage == "intent" and record.details.get("operation"):
-            restores[record.details["operation"]] = record.details.get("restores")
     return [WriteBack(op.operation, op.action, op.status, op.old_mm, op.new_mm, op.profile,
-                      op.wall, restores.get(op.operation)) for op in operations(session)]
+                      op.wall, op.restores) for op in operations(session)]
 
 
 def maps_writebacks_of(session: LoadedSession) -> list[MapsWriteBack]:
@@ -64,7 +59,7 @@ def maps_writebacks_of(session: LoadedSession) -> list[MapsWriteBack]:
     return [MapsWriteBack(op.operation, op.action, op.status, str(op.path),
                           tuple(m.to_json() for m in op.old_maps.values()), op.old_checksum,
                           tuple(m.to_json() for m in op.new_maps.values()), op.new_checksum,
-                          op.wall, op.restores) for op in maps_operations(session)]
+                          op.wall, op.restores) for op in MapsFile.operations(session)]
 
 
 def record_session(history: History, session: LoadedSession,

@@ -87,6 +87,16 @@ class Operation:
     #: the values written outlive a power cycle (a table, or saved to NVM); None: not
     #: recorded (a write-back before issue 25, or one that did not finish)
     survives_power_cycle: bool | None = None
+    restores: str | None = None  # a restore: the write (or history state) it undoes
+    held_mm: dict[str, float] | None = None  # failed: what the controller held after it
+
+    @property
+    def old_state(self) -> dict[str, float]:
+        return self.old_mm
+
+    @property
+    def new_state(self) -> dict[str, float]:
+        return self.new_mm
 
     def as_mapping(self) -> dict[str, Any]:
         return {"operation": self.operation, "action": self.action, "status": self.status,
@@ -127,8 +137,15 @@ def operations(session: LoadedSession) -> list[Operation]:
                              intent.details.get("profile"),
                              bool(outcome and outcome.details.get("nvm_saved", False)),
                              intent.wall,
-                             outcome.details.get("survives_power_cycle") if outcome else None))
+                             outcome.details.get("survives_power_cycle") if outcome else None,
+                             intent.details.get("restores"),
+                             _held_after(outcome) if status == "failed" else None))
     return out
+
+
+def _held_after(outcome: OffsetsRecord | None) -> dict[str, float] | None:
+    held = outcome.details.get("held_mm") if outcome else None
+    return dict(held) if isinstance(held, dict) else None
 
 
 def last_write(session: LoadedSession) -> Operation | None:

@@ -94,9 +94,15 @@ def preflight(controller: AxisController, plan: OffsetPlan, options: WriteOption
     """Before anything is written: the status is plausible and, where the offset acts
     at homing, the drive shows the home offset it holds with the profile's sign and
     word order (a homing with the old offset, checked). Raises DriverError
-    (a PreflightError names the profile field)."""
+    (a PreflightError names the profile field).
+
+    Not that homing before the restore of a write that did not finish: what the drive
+    holds is that write's, whose own check at homing may be what failed (a home offset
+    sign opposite the profile's, on a drive that homes where it stands); checked first,
+    it refused the only way back to the values held before. The restore is checked at
+    its own homing, with the old values."""
     check_identity(controller)
-    if plan.facts.kind == "home_offset" and options.rehome:
+    if plan.facts.kind == "home_offset" and options.rehome and not plan.restores_unfinished:
         controller.enable()
         controller.home()
         check_home(controller)

@@ -96,6 +96,7 @@ class OffsetPlan:
     # write: the offsets in force during the campaign the new ones are computed from
     baseline_mm: dict[str, float] = field(default_factory=dict)
     restores_operation: str | None = None  # restore: the write it undoes
+    restores_unfinished: bool = False  # restore: that write failed or was cut short
 
     @property
     def current_mm(self) -> dict[str, float]:
@@ -301,9 +302,9 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
     refusals: list[Refusal] = []
 
     def expected(axis: str) -> bool:
-        # a write that did not finish may have changed some axes only
-        return facts.same(current[axis], written[axis]) or (
-            operation.status != "done" and facts.same(current[axis], old[axis]))
+        # a write (or a restore of it) cut short may have changed some axes only; an
+        # axis back at its old value is restored already, whoever put it there
+        return facts.same(current[axis], written[axis]) or facts.same(current[axis], old[axis])
 
     nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
     if not nothing and not all(expected(a) for a in AXES):
@@ -324,7 +325,8 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
         notes.append("the write-back saved its values to non-volatile memory: save the "
                      "restored ones too (--save-nvm), or a power cycle brings them back")
     return OffsetPlan("restore", facts, changes, tuple(refusals), tuple(notes),
-                      restores_operation=operation.operation)
+                      restores_operation=operation.operation,
+                      restores_unfinished=operation.status != "done")
 
 
 def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: Mapping[str, float],

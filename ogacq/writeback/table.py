@@ -77,13 +77,13 @@ def write_offset_table(path: str | Path, offsets_mm: dict[str, float], *,
         "session": session, "action": action, "joint_offset_mm": values}, header=HEADER)
     path.parent.mkdir(parents=True, exist_ok=True)
     write_atomically(path, content.encode("utf-8"))
-    _fsync_folder(path.parent)
+    fsync_folder(path.parent)
     log.info("offset table %s written (%s): %s", path, action,
              ", ".join(f"{a} {v:+.6f} mm" for a, v in values.items()))
     return read_offset_table(path)
 
 
-def _fsync_folder(folder: Path) -> None:
+def fsync_folder(folder: Path) -> None:
     """Make the rename itself durable (POSIX); a no-op where folders cannot be opened."""
     try:
         fd = os.open(folder, os.O_RDONLY)

@@ -37,16 +37,22 @@ FAST_STABILITY = "\n[stability]\nreadings = 2\ntolerance_mm = 0.003\ntimeout_s =
 
 
 @contextlib.contextmanager
-def simulator(folder: Path, profile: str, seed: int) -> Iterator[dict]:
+def simulator(folder: Path, profile: str, seed: int, effects: str | None = None,
+              ) -> Iterator[dict]:
     """``ogacq sim`` in its own process (its controller keeps written offsets while it
-    lives); yields where it serves; stopped by its process id."""
+    lives), hiding ``effects`` (TOML) when given; yields where it serves; stopped by
+    its process id."""
     folder.mkdir(parents=True, exist_ok=True)
     machine = folder / "machine.toml"
     machine.write_text(MACHINE)
+    hidden: list[str] = []
+    if effects is not None:
+        (folder / "effects.toml").write_text(effects)
+        hidden = ["--effects", str(folder / "effects.toml")]
     log = (folder / f"sim-{profile}.log").open("w")
     proc = subprocess.Popen(
         [sys.executable, "-m", "ogacq", "sim", "--profile", profile, "--seed", str(seed),
-         "--speed", str(SPEED), "--machine", str(machine), "--json"],
+         "--speed", str(SPEED), "--machine", str(machine), "--json", *hidden],
         stdout=subprocess.PIPE, stderr=log, text=True)
     try:
         selector = selectors.DefaultSelector()
@@ -66,7 +72,7 @@ def simulator(folder: Path, profile: str, seed: int) -> Iterator[dict]:
 
 
 def sim_campaign(folder: Path, info: Mapping, *, name: str, offsets_file: str | None = None,
-                 extra: str = FAST_STABILITY) -> Path:
+                 extra: str = FAST_STABILITY, maps_file: str | None = None) -> Path:
     """A campaign file talking to a running ``ogacq sim`` through [controller] and
     [[gauges]], the way one talks to hardware; its session is ``NAME.jsonl``."""
     m = info["modbus"]
@@ -76,6 +82,8 @@ def sim_campaign(folder: Path, info: Mapping, *, name: str, offsets_file: str | 
         controller = f'port = "{m["port"]}"\nbaudrate = {m["baudrate"]}\n'
     if offsets_file:
         controller += f'offsets_file = "{offsets_file}"\n'
+    if maps_file:
+        controller += f'maps_file = "{maps_file}"\n'
     gauges = "".join(f'\n[[gauges]]\ngauge = "{key}"\nprotocol = "{g["protocol"]}"\n'
                      f'port = "{g["port"]}"\n' for key, g in info["gauges"].items())
     path = folder / f"{name}.toml"
@@ -83,6 +91,20 @@ def sim_campaign(folder: Path, info: Mapping, *, name: str, offsets_file: str | 
                     f'profile = "{m["profile"]}"\n{controller}\n[protocol]\n'
                     f"settle_s = {SETTLE_S}\n{extra}{gauges}")
     return path
+
+
+def emulated_campaign(folder: Path, port: int | None) -> Path:
+    """A campaign file whose controller is a drive emulator serving on ``port`` (its
+    gauges named, never opened by the write-backs)."""
+    gauges = "".join(f'\n[[gauges]]\ngauge = "{k}"\nprotocol = "mitutoyo-01a"\n'
+                     f'port = "/dev/ttyUSB{n}"\n'
+                     for n, k in enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")))
+    (folder / "machine.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
+                                         "rho_max_mm = 60.0\ngauge_resolution_mm = 0.001\n")
+    campaign = folder / "campaign.toml"
+    campaign.write_text(f'machine = "machine.toml"\n[controller]\nprofile = "cia402"\n'
+                        f'port = "127.0.0.1:{port}"\n' + gauges)
+    return campaign
 
 
 def ogacq(*args: str | Path, stdin: str = "", timeout: float = 120,

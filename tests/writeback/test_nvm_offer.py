@@ -14,7 +14,12 @@ from ogacq.record.document import build_record
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.emulators.drives import Cia402Drive, EmulatorServer
-from tests.writeback.conftest import controller_offsets, ogacq_here, synthetic_session
+from tests.writeback.conftest import (
+    controller_offsets,
+    emulated_campaign,
+    ogacq_here,
+    synthetic_session,
+)
 
 pytestmark = pytest.mark.filterwarnings("ignore:isSet:DeprecationWarning")
 
@@ -25,15 +30,7 @@ OFFSETS = {"x": 0.8, "y": -0.6, "z": 1.2}
 def emulated(tmp_path):
     server = EmulatorServer("tcp")
     drives = {a: server.add(u, Cia402Drive) for a, u in {"x": 1, "y": 2, "z": 3}.items()}
-    port = server.start()
-    gauges = "".join(f'\n[[gauges]]\ngauge = "{k}"\nprotocol = "mitutoyo-01a"\n'
-                     f'port = "/dev/ttyUSB{n}"\n'
-                     for n, k in enumerate(("y_x", "z_x", "x_y", "z_y", "x_z", "y_z")))
-    (tmp_path / "machine.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
-                                           "rho_max_mm = 60.0\ngauge_resolution_mm = 0.001\n")
-    campaign = tmp_path / "campaign.toml"
-    campaign.write_text(f'machine = "machine.toml"\n[controller]\nprofile = "cia402"\n'
-                        f'port = "127.0.0.1:{port}"\n' + gauges)
+    campaign = emulated_campaign(tmp_path, server.start())
     try:
         yield drives, campaign
     finally:

@@ -172,3 +172,13 @@ def test_a_fit_with_no_redundancy_is_not_called_consistent():
     assert verdict.dof <= 0 and not verdict.consistent and verdict.state == "undetermined"
     assert "no redundancy" in verdict.describe()
     assert verdict.to_json()["chi2_dof"] is None
+
+
+def test_a_restore_cut_half_way_is_finished_even_of_a_done_write():
+    """A restore killed after x was put back, y and z not yet: the write it undoes had
+    finished, and the axis already back at its old value is no later change (it was
+    refused as stale, leaving the controller half restored)."""
+    written = Operation("write-1", "write", "done", ZEROS, {"x": -0.5, "y": 0.5, "z": -0.2},
+                        "cia402", nvm_saved=False, wall=None)
+    half = plan_restore(written, {"x": 0.0, "y": 0.5, "z": -0.2}, CIA)
+    assert not half.refused and half.new_mm == ZEROS
