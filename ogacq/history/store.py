@@ -381,6 +381,18 @@ class History:
                                      .where(e.c.event_key.in_(keys))).scalars())
         return [key for key in keys if key in found]
 
+    def records_seen(self, record_id: str) -> int | None:
+        """The most records the history saw in the session of ``record_id`` (its events'
+        records count them): a session file holding fewer lost its tail. None when the
+        history holds nothing of it."""
+        e = s.events
+        with self._guard("read the events"), self._transaction(write=False) as conn:
+            records = conn.execute(select(e.c.record).where(e.c.record_id == record_id)).scalars()
+            counts = [CalibrationRecord.from_json(r).session_reference.records for r in records
+                      if isinstance(r, dict)]
+        seen = [count for count in counts if count is not None]
+        return max(seen) if seen else None
+
     def machines(self) -> list[Machine]:
         with self._guard("read the machines"), self._transaction(write=False) as conn:
             rows = conn.execute(select(s.machines).order_by(s.machines.c.name,
