@@ -118,6 +118,7 @@ from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL, same_indicator
 from ogacq.io.dates import local_moment, moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
+from ogacq.io.names import name_problem
 from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
 from ogacq.model.instrument import MAX_CERTIFICATE_U_MM, Instrument
@@ -456,6 +457,9 @@ def read_campaign(path: str | Path) -> Campaign:
                         deadline_s=given.get("deadline_s"),
                         operator=given.get("operator", "").strip(),
                         environment=given.get("environment"))
+    operator_problem = name_problem(campaign.operator)
+    if operator_problem is not None:  # recorded, printed and filed as a name is
+        raise src.fail(("operator",), f"= {campaign.operator[:60]!r} {operator_problem}")
     override = given.get("override", {}).get("expired_gauges")
     if override is not None:
         if not override.strip():

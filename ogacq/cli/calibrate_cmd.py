@@ -38,6 +38,7 @@ from ogacq.cli.plain import plain
 from ogacq.errors import InputError, Refused
 from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_text, read_machine
+from ogacq.io.names import checked_name
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
 from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.runner import CampaignStopped
@@ -93,6 +94,7 @@ def calibrate(
     (resume it); 4 refused, or the write restored after a worse validation.
     """
     reason = override_reason(override_expired)
+    operator = checked_name(operator, "--operator") if operator is not None else None
     if effects is not None and campaign is not None:
         raise InputError("--effects", "is the simulator's: give it with --simulator")
     files = _simulator_files(seed, effects) if simulator and resume is None else {}
@@ -254,7 +256,7 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     effects_path = (folder / EFFECTS_FILE).resolve() if EFFECTS_FILE in files else None
     spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile)
     return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
-                           spec, operator=(operator or _login_name()).strip(),
+                           spec, operator=operator or _login_name(),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, today=datetime.date.today())
 

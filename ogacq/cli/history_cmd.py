@@ -12,7 +12,7 @@ import typer
 from ogacq.cli import render_history as render
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
-from ogacq.errors import InputError, Refused
+from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import RecordError, check_record
 from ogacq.history.location import HistoryLocation, history_for_session, history_to_read
@@ -155,15 +155,22 @@ def _record_for_history(session: LoadedSession) -> dict[str, Any]:
                          "so this session cannot enter one") from None
 
 
+def _seen_more(session: LoadedSession, location: HistoryLocation) -> tuple[int, str] | None:
+    """(line, why) when the history saw more records of the session than its file holds;
+    None too when there is no history yet (it saw nothing), made by the recording."""
+    try:
+        with History.open(location, create=False) as db:
+            return cut_tail(db, session)
+    except OgacqError:
+        return None
+
+
 def _vouched_for(session: LoadedSession, location: HistoryLocation,
                  accept_unsealed: bool) -> LoadedSession:
     """The session, refused when it cannot vouch for all it held (seals stripped, a torn
     record, not closed, fewer records than the history saw) unless the user accepts it
     as it stands: then with that among its edits, which its record carries."""
-    found = unsealed(session)
-    if found is None:
-        with History.open(location) as db:
-            found = cut_tail(db, session)
+    found = unsealed(session) or _seen_more(session, location)
     if found is None:
         return session
     line, problem = found

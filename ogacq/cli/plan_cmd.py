@@ -17,6 +17,15 @@ from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
 from ogacq.protocol.plan import APPROACHES, ProtocolConfig, check_postures, scan_targets
 
+# The campaign file's own bounds (ogacq/campaign/campaign_file.py: cycles 1..1000, noise_mm
+# at most 1 mm, beyond any indicator): a plan predicts a campaign that can be run.
+MAX_CYCLES = 1000
+MAX_NOISE_MM = 1.0
+# Beyond a million trials the Monte-Carlo's own scatter on a std (about 1/sqrt(2 n)) is
+# under 0.1 %, far below what the analytic prediction beside it already says; a larger
+# number only runs for hours (no source: the project's own bound).
+MAX_TRIALS = 1_000_000
+
 
 def parse_postures(text: str, rho_min: float, rho_max: float) -> list[str | float]:
     out: list[str | float] = []
@@ -82,7 +91,8 @@ def plan(
     postures: Annotated[str, typer.Option(
         help="Postures of each leg's test, in order: zero, max, min or a position in mm.")]
     = "zero,max,min,zero",
-    cycles: Annotated[int, typer.Option(min=1, help="Repeats of the postures per leg.")] = 3,
+    cycles: Annotated[int, typer.Option(min=1, max=MAX_CYCLES,
+                                        help="Repeats of the postures per leg.")] = 3,
     scan_step: Annotated[float | None, typer.Option(
         help="A scan instead of --postures: a reading every this many mm along each "
              "leg's axis, up and back down.")] = None,
@@ -98,7 +108,8 @@ def plan(
         help="Geometry to predict at, parameters in mm or mrad separated by commas, e.g. "
              "'joint_offset.x=0.5, joint_offset.z=-1'.")] = None,
     trials: Annotated[int, typer.Option(
-        min=0, help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
+        min=0, max=MAX_TRIALS,
+        help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
     = 10000,
     seed: Annotated[int, seed_option("Seed of the simulated noise.")] = 0,
     as_json: JsonOption = False,
@@ -107,8 +118,10 @@ def plan(
     spec = read_machine(machine)
     sigma = noise if noise is not None else (spec.gauge_repeatability_mm
                                             or spec.gauge_resolution_mm)
-    if sigma <= 0:
-        raise InputError("--noise", f"must be positive, got {sigma:g} mm")
+    if not 0 < sigma <= MAX_NOISE_MM:
+        raise InputError("--noise" if noise is not None else machine,
+                         f"the gauge noise must be above 0 and at most {MAX_NOISE_MM:g} mm "
+                         f"(beyond any indicator), got {sigma:g} mm")
     if approach not in APPROACHES:
         raise InputError("--approach", f"{approach!r} is not one of {', '.join(APPROACHES)}")
     if scan_step is None and scan_range is not None:

@@ -394,12 +394,12 @@ def _header_seals(line: bytes) -> tuple[bool, bool]:
     """Whether a session's first line says its records are chained, and whether it
     announces a closed record at the end of each writer's turn."""
     try:
-        header = json.loads(line)
+        first = json.loads(line)  # the raw line: its keys as written, before any typing
     except ValueError:
         return True, False
-    if not isinstance(header, dict):
+    if not isinstance(first, dict):
         return True, False
-    return "integrity" in header, header.get(CLOSING_KEY) == CLOSED
+    return "integrity" in first, first.get(CLOSING_KEY) == CLOSED
 
 
 def _next_seq(lines: list[bytes]) -> int:
