@@ -21,14 +21,12 @@ from __future__ import annotations
 import contextlib
 import json
 import socket
-import sqlite3
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import JSON, Connection, Engine, create_engine, event, func, inspect, select
-from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
 
 from ogacq import __version__
@@ -220,6 +218,8 @@ class History:
         except ValueError:  # the check's own report names damaged text
             found = ["its report is not even text"]
         except SQLAlchemyError as exc:
+            import sqlite3  # an SQLite history's only: here, the dialect in use loaded it
+
             if isinstance(getattr(exc, "orig", None), sqlite3.OperationalError):
                 raise HistoryError(self.location, f"cannot open ({_first_line(exc)})") from None
             raise HistoryError(self.location, f"cannot be read ({_first_line(exc)}): nothing is "
@@ -555,8 +555,14 @@ def _map_state_rows(maps: MapsWriteBack, machine: tuple[str, str], event_id: int
 
 def _insert(conn: Connection, table: s.Table) -> Any:
     """The dialect's INSERT, which has ON CONFLICT DO NOTHING on both backends."""
-    return (postgresql.insert(table) if conn.dialect.name == "postgresql"
-            else sqlite.insert(table))
+    # only the dialect in use is imported (a history in SQLite loads no PostgreSQL code)
+    if conn.dialect.name == "postgresql":
+        from sqlalchemy.dialects import postgresql
+
+        return postgresql.insert(table)
+    from sqlalchemy.dialects import sqlite
+
+    return sqlite.insert(table)
 
 
 def _machine_id(conn: Connection, identity: tuple[str, str]) -> int:
