@@ -41,7 +41,7 @@ from typing import Any, TypeVar
 
 from ogacq import __version__
 from ogacq.errors import Refused
-from ogacq.io.atomic import write_new_file
+from ogacq.io.atomic import write_atomically, write_new_file
 from ogacq.io.errors import InputError, StorageError
 from ogacq.io.text import strip_bom
 from ogacq.session.header import SessionHeader
@@ -153,9 +153,10 @@ class SessionLock:
         except BlockingIOError:
             raise InputError(path, f"in use by {self.holder_of(path)}: one writer at a time; "
                              "wait until it has finished") from None
-        with contextlib.suppress(OSError):  # only a refusal's message depends on it
-            self._note.write_text(f"{' '.join(['ogacq', *sys.argv[1:3]])} (pid {os.getpid()}) "
-                                  f"since {time.strftime('%H:%M:%S')}\n", encoding="utf-8")
+        with contextlib.suppress(StorageError):  # only a refusal's message depends on it
+            write_atomically(self._note, f"{' '.join(['ogacq', *sys.argv[1:3]])} (pid "
+                             f"{os.getpid()}) since {time.strftime('%H:%M:%S')}\n"
+                             .encode())
 
     @staticmethod
     def holder_of(path: Path) -> str:
