@@ -127,6 +127,7 @@ from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import (
     APPROACHES,
     SETTLES,
+    PlanError,
     ProtocolConfig,
     StabilityRule,
     check_postures,
@@ -506,7 +507,7 @@ def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
     try:
         config = ProtocolConfig(stability=StabilityRule(**stability), **given)
         check_postures(config, machine)
-    except ValueError as exc:
+    except PlanError as exc:
         key = next((k for k in ("scan_step_mm", "scan_from_mm", "scan_to_mm", "postures",
                                 "approach", "cycles", "legs", "overshoot_mm")
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")

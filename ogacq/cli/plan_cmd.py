@@ -15,7 +15,13 @@ from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
-from ogacq.protocol.plan import APPROACHES, ProtocolConfig, check_postures, scan_targets
+from ogacq.protocol.plan import (
+    APPROACHES,
+    PlanError,
+    ProtocolConfig,
+    check_postures,
+    scan_targets,
+)
 
 # The campaign file's own bounds (ogacq/campaign/campaign_file.py: cycles 1..1000, noise_mm
 # at most 1 mm, beyond any indicator): a plan predicts a campaign that can be run.
@@ -133,7 +139,7 @@ def plan(
             cycles=cycles, approach=approach, scan_step_mm=scan_step, scan_from_mm=start,
             scan_to_mm=end)
         check_postures(protocol, spec)
-    except ValueError as exc:
+    except PlanError as exc:
         raise InputError("--scan-step" if scan_step is not None else "--postures",
                          str(exc)) from None
     obs = planned_observations(spec, protocol=protocol)
