@@ -22,6 +22,13 @@ EFFECTS = "[joint_offset]\nx = 0.2\n"
 
 
 @pytest.fixture
+def effects(tmp_path: Path) -> Path:
+    path = tmp_path / "effects-given.toml"
+    path.write_text(EFFECTS)
+    return path
+
+
+@pytest.fixture
 def started(monkeypatch):
     """The setups the procedure was started with, each stopped at once."""
     setups = []
@@ -44,9 +51,8 @@ def killed_at_start_up(folder: Path, effects: Path) -> None:
 
 
 def test_the_same_command_starts_again_where_a_start_up_kill_left(tmp_path, capsys,
-                                                                  monkeypatch, started):
-    effects = tmp_path / "effects-given.toml"
-    effects.write_text(EFFECTS)
+                                                                  monkeypatch, started,
+                                                                  effects):
     folder = tmp_path / "run"
     killed_at_start_up(folder, effects)
     ran = ogacq_here(capsys, monkeypatch, "calibrate", "--simulator", "--seed", SEED,
@@ -59,9 +65,8 @@ def test_the_same_command_starts_again_where_a_start_up_kill_left(tmp_path, caps
 
 
 def test_resume_of_a_folder_killed_before_its_log_says_what_to_do(tmp_path, capsys,
-                                                                   monkeypatch, started):
-    effects = tmp_path / "effects-given.toml"
-    effects.write_text(EFFECTS)
+                                                                   monkeypatch, started,
+                                                                   effects):
     folder = tmp_path / "run"
     killed_at_start_up(folder, effects)
     ran = ogacq_here(capsys, monkeypatch, "calibrate", "--resume", folder, "--yes")
@@ -70,9 +75,8 @@ def test_resume_of_a_folder_killed_before_its_log_says_what_to_do(tmp_path, caps
     assert not started
 
 
-def test_a_log_with_its_header_alone_is_resumed(tmp_path, capsys, monkeypatch, started):
-    effects = tmp_path / "effects-given.toml"
-    effects.write_text(EFFECTS)
+def test_a_log_with_its_header_alone_is_resumed(tmp_path, capsys, monkeypatch, started,
+                                                 effects):
     folder = tmp_path / "run"
     ogacq_here(capsys, monkeypatch, "calibrate", "--simulator", "--seed", SEED, "--effects",
                effects, "--out", folder, "--yes", "--history", "none")
