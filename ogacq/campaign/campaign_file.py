@@ -606,7 +606,12 @@ def _check_environment(src: Source, campaign: Campaign) -> None:
 
 
 def _check_identity(src: Source, k: int, g: GaugeSpec) -> None:
-    """A certificate's dates in order."""
+    """A gauge's identity names (``ogacq.io.names``: recorded and printed as a name is);
+    a certificate's dates in order."""
+    for key in ("make", "model", "serial", "certificate"):
+        problem = name_problem(getattr(g, key))
+        if problem is not None:
+            raise src.fail(("gauges", k, key), f"= {getattr(g, key)[:60]!r} {problem}")
     if g.calibrated is not None and g.due is not None and g.due <= g.calibrated:
         raise src.fail(("gauges", k, "due"), "", f"gauge {g.gauge}: due {g.due.isoformat()} "
                        f"is not after calibrated {g.calibrated.isoformat()}")

@@ -19,10 +19,12 @@ written: a tail cut off at a line end leaves a file whose every record is as
 written. So each writer ends its turn with a ``closed`` record (a campaign, its
 resume, a write-back's audit), and the header announces it (``"closing":
 "closed"``): a session that announces it and does not end with one either has a
-writer now (its lock), or was cut after its last record, or its last writer was
-killed before it closed (:class:`Closure`: the file alone cannot tell these two
-apart, so neither is vouched for). The ``closed`` records are the store's, as
-``seq`` and ``crc`` are: they are checked in the chain and not loaded as records.
+writer now (its lock), or its last writer was killed before it closed, or the file
+was cut after its last record (:class:`Closure`: the file alone cannot tell a kill
+from a cut, so neither is vouched for; the history's own count of the session's
+records finds a cut that ends at an earlier writer's ``closed`` record). The
+``closed`` records are the store's, as ``seq`` and ``crc`` are: they are checked in
+the chain and not loaded as records.
 
 Older sessions are told by their header: one with a ``crc`` but no
 ``integrity`` was written with per-record checksums (no chain): every record

@@ -96,3 +96,16 @@ def test_an_effects_file_with_a_screw_lead_no_screw_has_is_refused(capsys, monke
     line = one_line(ran.stderr)
     assert ran.returncode == 2 and "effects.toml:3: lead_screw.x.pitch_mm" in line, line
     assert not out.exists()
+
+
+def test_a_gauge_identity_that_does_not_show_as_stored_is_refused(capsys, monkeypatch,
+                                                                   tmp_path):
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    campaign = tmp_path / "campaign.toml"
+    serial = json.dumps("SN 12\u202e34")
+    campaign.write_text('machine = "machine.toml"\n[simulator]\nseed = 1\n\n[[gauges]]\n'
+                        f'gauge = "y_x"\nserial = {serial}\n')
+    ran = ogacq_here(capsys, monkeypatch, "run", campaign)
+    line = one_line(ran.stderr)
+    assert ran.returncode == 2 and "campaign.toml:7:" in line and "serial" in line and \
+        "U+202E" in line, line
