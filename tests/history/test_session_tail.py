@@ -9,6 +9,7 @@ stripped (an edited reading then passes every check) and a torn one, unless told
 from __future__ import annotations
 
 import json
+import os
 import sqlite3
 from pathlib import Path
 
@@ -92,11 +93,11 @@ def test_a_stripped_seal_and_an_edited_reading_are_refused_unless_accepted(
     refused = ogacq_here(capsys, monkeypatch, "history", "add", stripped)
     assert refused.returncode == 4 and "stripped.jsonl:1: unchecked" in refused.stderr, \
         refused.stderr
-    assert not (Path.cwd() / "history.sqlite").exists()
+    assert not (Path(os.environ["OGACQ_HOME"]) / "history.sqlite").exists()  # nothing made
 
     accepted = ogacq_here(capsys, monkeypatch, "history", "add", stripped, "--accept-unsealed")
     assert accepted.returncode == 0 and "taken as it stands" in accepted.stdout, accepted.stderr
-    home = Path(__import__("os").environ["OGACQ_HOME"])
+    home = Path(os.environ["OGACQ_HOME"])
     (record,) = [r for r in history_records(home) if r["session"]["path"] == str(stripped)]
     assert record["session"]["integrity"] == "unchecked"
     assert "without the chained seals" in record["session"]["edited"][0]["problem"]
