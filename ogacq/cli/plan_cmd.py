@@ -14,7 +14,7 @@ from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
+from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS, effect_of
 from ogacq.protocol.plan import (
     APPROACHES,
     PlanError,
@@ -87,6 +87,13 @@ def parse_truth(text: str | None) -> dict[str, float]:
             truth[name] = float(value)
         except ValueError:
             raise InputError("--assume", f"{item!r} needs a number after '='") from None
+        # the geometry is predicted at: within the range a real machine has (the
+        # effects table, ogacq/model/parameters.py); 1e308 or nan stopped the SVD
+        effect = effect_of(name)
+        if not abs(truth[name] - effect.nominal) <= effect.plausible_range:
+            raise InputError("--assume", f"{name} = {truth[name]:g} {effect.unit} is beyond "
+                             f"what a real machine has ({effect.nominal:g} ± "
+                             f"{effect.plausible_range:g} {effect.unit})")
     return truth
 
 

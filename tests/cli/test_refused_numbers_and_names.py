@@ -25,7 +25,8 @@ def one_line(stderr: str) -> str:
 
 @pytest.mark.parametrize(("option", "value"), [
     ("--noise", "1e308"), ("--cycles", str(10**40)), ("--trials", str(10**40)),
-    ("--cycles", "1e40"), ("--trials", "1e40")])
+    ("--cycles", "1e40"), ("--trials", "1e40"), ("--assume", "joint_offset.x=1e308"),
+    ("--assume", "squareness.xy=nan")])
 def test_plan_refuses_numbers_no_campaign_can_have(option, value, capsys, monkeypatch):
     ran = ogacq_here(capsys, monkeypatch, "plan", "-m", PAPER_MACHINE, option, value,
                      "--trials" if option != "--trials" else "--cycles",
