@@ -172,15 +172,21 @@ def history_for_session(option: str | None, session_path: Path | None = None,
     """The history a command working on a session records into (the same whichever
     session: ``session_path`` is kept for the callers' sake); None when recording
     is switched off."""
+    if recording_off(option):
+        return None
     named = _named(option)
     if named is None:
         location = default_location()
         _make_folder(Path(location.url.database or "").parent)
         return location
-    value, origin = named
-    if value.strip().lower() in DISABLED:
-        return None
-    return parse_location(value, origin)
+    return parse_location(*named)
+
+
+def recording_off(option: str | None) -> bool:
+    """Whether the option, else the environment, switches the history off (``none``):
+    known before anything of the history is imported."""
+    named = _named(option)
+    return named is not None and named[0].strip().lower() in DISABLED
 
 
 def _make_folder(folder: Path) -> None:

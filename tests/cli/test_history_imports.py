@@ -17,6 +17,8 @@ def test_diagnose_without_a_history_imports_no_database_layer(tmp_path):
     modules, _ = run("diagnose", GOLDEN_SESSION, "--history", "none", "--json",
                      env={"OGACQ_HOME": str(tmp_path / "home")})
     assert not loaded(modules, DATABASE)
+    # nor what recording reads (the write-back audit, the drives' profiles behind it)
+    assert not loaded(modules, ("ogacq.history.recording", "ogacq.writeback"))
 
 
 def test_diagnose_into_an_sqlite_history_imports_no_postgresql(tmp_path):
