@@ -20,6 +20,7 @@ from typing import Any
 from ogacq_drivers.axes.profile import load_profile
 from ogacq.campaign.campaign_file import Campaign, ControllerSpec, SimulatorSpec, campaign_text
 from ogacq.campaign.traceability import simulated_gauges
+from ogacq.io.atomic import write_atomically
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig
 
@@ -69,11 +70,11 @@ class Setup:
                             environment=self.environment,
                             override_expired=self.override_expired)
         if self.campaign_path is None and not path.exists():
-            path.write_text(campaign_text(
+            write_atomically(path, campaign_text(
                 replace(campaign, controller=None),
                 comment=f"written by `ogacq calibrate`: its {role} campaign. The procedure "
                         f"applies the maps in {MAPS_FILE} to every target (resume it with "
-                        "`ogacq calibrate --resume`, which applies them)"), encoding="utf-8")
+                        "`ogacq calibrate --resume`, which applies them)").encode("utf-8"))
         return campaign
 
     def scan_protocol(self, step_mm: float | None = None) -> ProtocolConfig:

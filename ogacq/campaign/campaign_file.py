@@ -121,6 +121,7 @@ from ogacq.compensation.formats import TABLE_FORMATS
 from ogacq.io.dates import local_moment, moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
+from ogacq.io.names import name_problem
 from ogacq.io.toml_file import load_toml
 from ogacq.model.gauges import GAUGE_KEYS, Gauge
 from ogacq.model.instrument import MAX_CERTIFICATE_U_MM, Instrument
@@ -129,6 +130,7 @@ from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import (
     APPROACHES,
     SETTLES,
+    PlanError,
     ProtocolConfig,
     StabilityRule,
     check_postures,
@@ -464,6 +466,9 @@ def read_campaign(path: str | Path) -> Campaign:
                         deadline_s=given.get("deadline_s"),
                         operator=given.get("operator", "").strip(),
                         environment=given.get("environment"))
+    operator_problem = name_problem(campaign.operator)
+    if operator_problem is not None:  # recorded, printed and filed as a name is
+        raise src.fail(("operator",), f"= {campaign.operator[:60]!r} {operator_problem}")
     override = given.get("override", {}).get("expired_gauges")
     if override is not None:
         if not override.strip():
@@ -510,7 +515,7 @@ def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
     try:
         config = ProtocolConfig(stability=StabilityRule(**stability), **given)
         check_postures(config, machine)
-    except ValueError as exc:
+    except PlanError as exc:
         key = next((k for k in ("scan_step_mm", "scan_from_mm", "scan_to_mm", "postures",
                                 "approach", "cycles", "legs", "overshoot_mm")
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
@@ -609,7 +614,12 @@ def _check_environment(src: Source, campaign: Campaign) -> None:
 
 
 def _check_identity(src: Source, k: int, g: GaugeSpec) -> None:
-    """A certificate's dates in order."""
+    """A gauge's identity names (``ogacq.io.names``: recorded and printed as a name is);
+    a certificate's dates in order."""
+    for key in ("make", "model", "serial", "certificate"):
+        problem = name_problem(getattr(g, key))
+        if problem is not None:
+            raise src.fail(("gauges", k, key), f"= {getattr(g, key)[:60]!r} {problem}")
     if g.calibrated is not None and g.due is not None and g.due <= g.calibrated:
         raise src.fail(("gauges", k, "due"), "", f"gauge {g.gauge}: due {g.due.isoformat()} "
                        f"is not after calibrated {g.calibrated.isoformat()}")

@@ -36,13 +36,16 @@ from ogacq.cli.options import (
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import plain
 from ogacq.errors import InputError, Refused
-from ogacq.io.machine_file import read_machine, write_machine
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
+from ogacq.io.atomic import write_atomically
+from ogacq.io.machine_file import machine_text, read_machine
+from ogacq.io.names import checked_name
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
 from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.sim.truth import read_effects_text
 
 RUNS_FOLDER = Path("ogacq-runs")
+MACHINE_FILE, EFFECTS_FILE = "machine.toml", "effects.toml"  # --simulator's, in the folder
 SIM_TOLERANCE_MM = 0.020  # the rehearsal's acceptance, as `ogacq demo` states it (no source)
 
 
@@ -91,12 +94,16 @@ def calibrate(
     (resume it); 4 refused, or the write restored after a worse validation.
     """
     reason = override_reason(override_expired)
-    folder, resuming = _folder(campaign, simulator, out, resume)
+    operator = checked_name(operator, "--operator") if operator is not None else None
+    if effects is not None and campaign is not None:
+        raise InputError("--effects", "is the simulator's: give it with --simulator")
+    files = _simulator_files(seed, effects) if simulator and resume is None else {}
+    folder, resuming = _folder(campaign, simulator, out, resume, files)
     if not yes and not sys.stdin.isatty():
         raise Refused("calibrate writes to the controller and asks first: without a terminal "
                       "to confirm on, give --yes (unattended stations)")
     setup = _resumed_setup(folder) if resuming else _new_setup(
-        folder, campaign, simulator, effects, seed, profile.value, speed, scan_step_mm,
+        folder, campaign, files, seed, profile.value, speed, scan_step_mm,
         not no_separate, operator, reason)
     from ogacq.calibration.procedure import calibrate as run_procedure
     from ogacq.cli.render_calibrate import TerminalUI, print_outcome
@@ -155,25 +162,59 @@ def _campaign_diagnosis(folder: Path) -> dict | None:
 
 
 def _folder(campaign: Path | None, simulator: bool, out: Path | None,
-            resume: Path | None) -> tuple[Path, bool]:
+            resume: Path | None, files: dict[str, bytes]) -> tuple[Path, bool]:
+    """The procedure's folder, and whether it continues one. ``files``: what this
+    command writes into a new folder before its log (a folder a kill left holding
+    those alone is started again)."""
     if resume is not None:
         if campaign is not None or simulator or out is not None:
             raise InputError("--resume", "continues a procedure as it was started: give it "
                              "alone (no campaign file, --simulator or --out)")
-        if not (resume / LOG_NAME).is_file():
-            raise InputError(resume, f"no calibration procedure here (no {LOG_NAME})")
+        if not _has_header(resume / LOG_NAME):
+            raise InputError(resume, f"no calibration procedure here (no {LOG_NAME}, or one "
+                             "without its header: stopped before it started); start it again "
+                             f"with the command that made it and --out {resume}")
         return resume, True
     if (campaign is None) == (not simulator):
         raise InputError("--simulator" if campaign is None else str(campaign),
                          "give a station's campaign file, or --simulator (not both)")
     folder = out or RUNS_FOLDER / f"calibrate-{time.strftime('%Y%m%d-%H%M%S')}"
     check_output_folder(folder, "--out")
-    if (folder / LOG_NAME).is_file():
+    if _has_header(folder / LOG_NAME):
         return folder, True  # the same command again: it continues
     if folder.is_dir() and any(folder.iterdir()):
-        raise InputError(folder, "exists and is not empty (and holds no procedure); choose "
-                         "another --out")
+        _clear_start_up(folder, files)
     return folder, False
+
+
+def _has_header(log_path: Path) -> bool:
+    """Whether the procedure's log holds its whole header (a kill between its creation
+    and its first write leaves it empty)."""
+    try:
+        with open(log_path, "rb") as log_file:
+            return log_file.readline().endswith(b"\n")
+    except OSError:
+        return False
+
+
+def _clear_start_up(folder: Path, files: dict[str, bytes]) -> None:
+    """Start again in a folder a kill in calibrate's first seconds left (issue 36.5):
+    it holds only what this same command writes before its log has a header (those
+    files as it writes them, a log without its header, a write's temporary), which
+    are cleared; anything else refuses the folder."""
+    leftovers = []
+    for entry in folder.iterdir():
+        name = entry.name
+        ours = (name in files and entry.is_file() and entry.read_bytes() == files[name]) or \
+            (name in (LOG_NAME, f"{LOG_NAME}.lock") and not _has_header(folder / LOG_NAME)) or \
+            (name.startswith(".") and name.endswith(".tmp") and entry.is_file())
+        if not ours:
+            raise InputError(folder, "exists and is not empty (and holds no procedure); "
+                             "choose another --out")
+        if name not in files:
+            leftovers.append(entry)
+    for entry in leftovers:
+        entry.unlink()
 
 
 def _login_name() -> str:
@@ -183,13 +224,25 @@ def _login_name() -> str:
         return "calibrate"
 
 
-def _new_setup(folder: Path, campaign_path: Path | None, simulator: bool,
-               effects: Path | None, seed: int, profile: str, speed: float,
-               scan_step_mm: float, separate: bool, operator: str | None,
-               reason: str) -> Setup:
+def _simulated_machine(seed: int) -> MachineSpec:
+    return replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
+                   tolerances=Tolerances(default_mm=SIM_TOLERANCE_MM))
+
+
+def _simulator_files(seed: int, effects: Path | None) -> dict[str, bytes]:
+    """The files ``--simulator`` writes into a new folder: its machine file and a copy
+    of the effects file (read once: a pipe can be read only once)."""
+    files = {MACHINE_FILE: machine_text(_simulated_machine(seed),
+                                        PAPER_PROTOTYPE_DIGITAL_NOTE).encode("utf-8")}
+    if effects is not None:
+        files[EFFECTS_FILE] = read_effects_text(effects).encode("utf-8")
+    return files
+
+
+def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes], seed: int,
+               profile: str, speed: float, scan_step_mm: float, separate: bool,
+               operator: str | None, reason: str) -> Setup:
     if campaign_path is not None:
-        if effects is not None:
-            raise InputError("--effects", "is the simulator's: give it with --simulator")
         campaign = read_campaign(campaign_path)
         if campaign.simulator is not None or campaign.controller is None:
             raise InputError(campaign_path, "names the built-in simulator: calibrate it with "
@@ -197,18 +250,13 @@ def _new_setup(folder: Path, campaign_path: Path | None, simulator: bool,
         folder.mkdir(parents=True, exist_ok=True)
         setup = station_setup(folder, campaign, scan_step_mm=scan_step_mm, separate=separate)
         return setup
-    effects_text = read_effects_text(effects) if effects is not None else None
     folder.mkdir(parents=True, exist_ok=True)
-    machine = replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
-                      tolerances=Tolerances(default_mm=SIM_TOLERANCE_MM))
-    machine_path = write_machine(folder / "machine.toml", machine, PAPER_PROTOTYPE_DIGITAL_NOTE)
-    effects_path = None
-    if effects_text is not None:
-        effects_path = (folder / "effects.toml").resolve()
-        effects_path.write_text(effects_text, encoding="utf-8")
+    for name, data in files.items():
+        write_atomically(folder / name, data)
+    effects_path = (folder / EFFECTS_FILE).resolve() if EFFECTS_FILE in files else None
     spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile)
-    return simulator_setup(folder, machine, machine_path.resolve(), spec,
-                           operator=(operator or _login_name()).strip(),
+    return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
+                           spec, operator=operator or _login_name(),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, today=datetime.date.today())
 

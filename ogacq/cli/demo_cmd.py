@@ -36,6 +36,7 @@ from ogacq.history.recording import record_campaign
 from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import parse_moment
 from ogacq.io.machine_file import write_machine
+from ogacq.io.names import checked_name
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.model.tolerances import Tolerances
 from ogacq.protocol.plan import ProtocolConfig
@@ -96,6 +97,7 @@ def demo(
     check_output_folder(folder, "--out")
     # Read now, as text: a process substitution (a pipe) can be read only once.
     effects_text = read_effects_text(effects) if effects is not None else None
+    operator_name = checked_name(operator or _login_name(), "--operator")
     folder.mkdir(parents=True, exist_ok=True)
     machine = replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
                       tolerances=Tolerances(default_mm=DEMO_TOLERANCE_MM))
@@ -112,7 +114,7 @@ def demo(
         simulator=SimulatorSpec(seed=seed, effects=effects_path, speed=speed,
                                 profile=profile.value, date=rehearsed,
                                 ambient_c=ambient_c),
-        override_expired=reason, operator=(operator or _login_name()).strip()),
+        override_expired=reason, operator=operator_name),
         comment="written by `ogacq demo`").encode("utf-8"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
                err=not sys.stdout.isatty())

@@ -59,7 +59,10 @@ def diagnose_command(
 
         print_notes(loaded.notes())
         print_diagnosis(result, machine_file=str(machine or file))
-    if loaded.session is not None and not other_geometry:
+    from ogacq.history.location import recording_off
+
+    if loaded.session is not None and not other_geometry and not recording_off(history):
+        # the recording (its write-back readers, their profiles) imported only to record
         from ogacq.history.recording import record_diagnosis
 
         record_diagnosis(file, result.to_json(), history, accept_edited=accept_edited)

@@ -12,7 +12,7 @@ import typer
 from ogacq.cli import render_history as render
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
-from ogacq.errors import InputError, Refused
+from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import RecordError, check_record
 from ogacq.history.location import HistoryLocation, history_for_session, history_to_read
@@ -20,7 +20,8 @@ from ogacq.history.recording import record_session, session_record, writebacks_o
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
 from ogacq.history.store import History
-from ogacq.session.state import completeness
+from ogacq.history.tail import cut_tail
+from ogacq.session.state import completeness, taken_as_it_stands, unsealed
 from ogacq.session.store import LoadedSession, load_session
 
 ReadHistoryOption = Annotated[str | None, typer.Option(
@@ -33,6 +34,11 @@ AddHistoryOption = Annotated[str | None, typer.Option(
     help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
          "$OGACQ_HISTORY, else history.sqlite in ogacq's data folder ($OGACQ_HOME, default "
          "~/.local/share/ogacq).")]
+AcceptUnsealedOption = Annotated[bool, typer.Option(
+    "--accept-unsealed", help="Record a session that cannot vouch for all it held (its "
+                              "seals stripped or older, a torn record, not closed: killed, "
+                              "or its last records removed) as it stands; its record in the "
+                              "history says so.")]
 
 
 def show(
@@ -149,11 +155,38 @@ def _record_for_history(session: LoadedSession) -> dict[str, Any]:
                          "so this session cannot enter one") from None
 
 
+def _seen_more(session: LoadedSession, location: HistoryLocation) -> tuple[int, str] | None:
+    """(line, why) when the history saw more records of the session than its file holds;
+    None too when there is no history yet (it saw nothing), made by the recording."""
+    try:
+        with History.open(location, create=False) as db:
+            return cut_tail(db, session)
+    except OgacqError:
+        return None
+
+
+def _vouched_for(session: LoadedSession, location: HistoryLocation,
+                 accept_unsealed: bool) -> LoadedSession:
+    """The session, refused when it cannot vouch for all it held (seals stripped, a torn
+    record, not closed, fewer records than the history saw) unless the user accepts it
+    as it stands: then with that among its edits, which its record carries."""
+    found = unsealed(session) or _seen_more(session, location)
+    if found is None:
+        return session
+    line, problem = found
+    if not accept_unsealed:
+        raise Refused(f"{session.path}:{line}: {problem}; nothing was recorded: "
+                      "--accept-unsealed records it as it stands (its record in the history "
+                      "then says so)")
+    return taken_as_it_stands(session, line, problem)
+
+
 def add(
     sessions: Annotated[list[Path], typer.Argument(
         help="Session files of finished campaigns (their write-backs come along).")],
     history: AddHistoryOption = None,
     accept_edited: AcceptEditedOption = False,
+    accept_unsealed: AcceptUnsealedOption = False,
 ) -> None:
     """Record sessions into the history afterwards: each session's calibration record,
     rebuilt from the file, and the write-backs and restores its audit holds. A session
@@ -169,6 +202,8 @@ def add(
         if not state.complete and not writebacks_of(session):
             raise Refused(f"{session.path}: {state.describe()}: a calibration enters the "
                           "history when its campaign completes; nothing was recorded")
+    loaded = [_vouched_for(session, location, accept_unsealed)
+              for session, location in zip(loaded, locations, strict=True) if location]
     records = [_record_for_history(session) for session in loaded]
     for session, record, location in zip(loaded, records, locations, strict=True):
         assert location is not None
@@ -178,4 +213,6 @@ def add(
         state = completeness(session)
         if not state.complete:
             what += f"; no calibration: {state.describe()}"
+        for note in session.integrity.notes():
+            what += f"; {note}"
         typer.echo(f"{session.path}: {what} ({location.describe()})")

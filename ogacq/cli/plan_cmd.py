@@ -14,8 +14,23 @@ from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS
-from ogacq.protocol.plan import APPROACHES, ProtocolConfig, check_postures, scan_targets
+from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS, effect_of
+from ogacq.protocol.plan import (
+    APPROACHES,
+    PlanError,
+    ProtocolConfig,
+    check_postures,
+    scan_targets,
+)
+
+# The campaign file's own bounds (ogacq/campaign/campaign_file.py: cycles 1..1000, noise_mm
+# at most 1 mm, beyond any indicator): a plan predicts a campaign that can be run.
+MAX_CYCLES = 1000
+MAX_NOISE_MM = 1.0
+# Beyond a million trials the Monte-Carlo's own scatter on a std (about 1/sqrt(2 n)) is
+# under 0.1 %, far below what the analytic prediction beside it already says; a larger
+# number only runs for hours (no source: the project's own bound).
+MAX_TRIALS = 1_000_000
 
 
 def parse_postures(text: str, rho_min: float, rho_max: float) -> list[str | float]:
@@ -72,6 +87,13 @@ def parse_truth(text: str | None) -> dict[str, float]:
             truth[name] = float(value)
         except ValueError:
             raise InputError("--assume", f"{item!r} needs a number after '='") from None
+        # the geometry is predicted at: within the range a real machine has (the
+        # effects table, ogacq/model/parameters.py); 1e308 or nan stopped the SVD
+        effect = effect_of(name)
+        if not abs(truth[name] - effect.nominal) <= effect.plausible_range:
+            raise InputError("--assume", f"{name} = {truth[name]:g} {effect.unit} is beyond "
+                             f"what a real machine has ({effect.nominal:g} ± "
+                             f"{effect.plausible_range:g} {effect.unit})")
     return truth
 
 
@@ -82,7 +104,8 @@ def plan(
     postures: Annotated[str, typer.Option(
         help="Postures of each leg's test, in order: zero, max, min or a position in mm.")]
     = "zero,max,min,zero",
-    cycles: Annotated[int, typer.Option(min=1, help="Repeats of the postures per leg.")] = 3,
+    cycles: Annotated[int, typer.Option(min=1, max=MAX_CYCLES,
+                                        help="Repeats of the postures per leg.")] = 3,
     scan_step: Annotated[float | None, typer.Option(
         help="A scan instead of --postures: a reading every this many mm along each "
              "leg's axis, up and back down.")] = None,
@@ -98,7 +121,8 @@ def plan(
         help="Geometry to predict at, parameters in mm or mrad separated by commas, e.g. "
              "'joint_offset.x=0.5, joint_offset.z=-1'.")] = None,
     trials: Annotated[int, typer.Option(
-        min=0, help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
+        min=0, max=MAX_TRIALS,
+        help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
     = 10000,
     seed: Annotated[int, seed_option("Seed of the simulated noise.")] = 0,
     as_json: JsonOption = False,
@@ -107,8 +131,10 @@ def plan(
     spec = read_machine(machine)
     sigma = noise if noise is not None else (spec.gauge_repeatability_mm
                                             or spec.gauge_resolution_mm)
-    if sigma <= 0:
-        raise InputError("--noise", f"must be positive, got {sigma:g} mm")
+    if not 0 < sigma <= MAX_NOISE_MM:
+        raise InputError("--noise" if noise is not None else machine,
+                         f"the gauge noise must be above 0 and at most {MAX_NOISE_MM:g} mm "
+                         f"(beyond any indicator), got {sigma:g} mm")
     if approach not in APPROACHES:
         raise InputError("--approach", f"{approach!r} is not one of {', '.join(APPROACHES)}")
     if scan_step is None and scan_range is not None:
@@ -120,7 +146,7 @@ def plan(
             cycles=cycles, approach=approach, scan_step_mm=scan_step, scan_from_mm=start,
             scan_to_mm=end)
         check_postures(protocol, spec)
-    except ValueError as exc:
+    except PlanError as exc:
         raise InputError("--scan-step" if scan_step is not None else "--postures",
                          str(exc)) from None
     obs = planned_observations(spec, protocol=protocol)

@@ -14,8 +14,9 @@ from ogacq.cli.render import print_session
 from ogacq.io.machine_file import read_machine
 from ogacq.session.convert import export_readings, import_readings
 from ogacq.session.seal import UNCHECKED
-from ogacq.session.state import completeness, require_complete, session_notes
+from ogacq.session.state import completeness, require_complete, session_notes, unproven_end
 from ogacq.session.store import (
+    LoadedSession,
     check_writable,
     load_session,
     salvage_session,
@@ -63,7 +64,8 @@ def import_(
 
 def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
     """Check every record (sequence, chain, checksum, fields): what is wrong, and where;
-    and whether the campaign finished. Exit 2 when a record is corrupt or edited."""
+    whether the file ends where its last writer closed it; and whether the campaign
+    finished. Exit 2 when a record is corrupt or edited, or the end is not closed."""
     scan = scan_session(session)
     for warning in scan.warnings:
         typer.echo(f"warning: {warning}")
@@ -81,8 +83,30 @@ def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> Non
         typer.echo(f"{session}: {total} records, unchecked: written before ogacq checksummed "
                    "its records (an edit to it cannot be found)")
         return
-    typer.echo(f"{session}: {total} records, every one as written ({scan.mode}); "
+    open_end = unproven_end(loaded) or _history_says_cut(loaded)
+    if open_end is not None:
+        typer.echo(f"{session}: {total} records as written ({scan.mode}), but {open_end}; "
+                   f"{completeness(loaded).describe()}")
+        raise typer.Exit(2)
+    closed = ", closed by its last writer" if loaded.closure.closed else ""
+    typer.echo(f"{session}: {total} records, every one as written ({scan.mode}{closed}); "
                f"{completeness(loaded).describe()}")
+
+
+def _history_says_cut(session: LoadedSession) -> str | None:
+    """Why the history's own count says the session lost records at its end, when the
+    history of this account holds it (a history that cannot be read says nothing)."""
+    from ogacq.errors import OgacqError
+    from ogacq.history.location import history_to_read
+    from ogacq.history.store import History
+    from ogacq.history.tail import cut_tail
+
+    try:
+        with History.open(history_to_read(None, session.path.parent), create=False) as history:
+            found = cut_tail(history, session)
+    except OgacqError:
+        return None
+    return None if found is None else found[1]
 
 
 def salvage(

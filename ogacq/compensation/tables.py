@@ -16,14 +16,20 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ogacq.compensation.iso230 import Iso230Figures, map_figures
+from ogacq.errors import InputError
 from ogacq.model.axis_map import AxisMap
 
 Applied = Callable[[np.ndarray, int], np.ndarray]
 K = 2.0  # the coverage factor of the U a table carries
 
 
-class TableError(ValueError):
-    """The map does not fit the format's limits (the message says which and why)."""
+class TableError(InputError, ValueError):
+    """The map does not fit the format's limits, or an option of the format is not one
+    it takes (the message says which and why); a ValueError as well, as its callers
+    took it before it joined the root."""
+
+    def __init__(self, problem: str) -> None:
+        super().__init__(None, problem)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from datetime import datetime
 from typing import Any
 
+from ogacq.errors import InputError
 from ogacq.model.gauges import AXES
 from ogacq.model.instrument import finite_number as _number
 from ogacq.record.calibration_record import CalibrationRecord
@@ -23,8 +24,12 @@ from ogacq.record.sections import ResultEntry
 RECORD_FORMAT = "ogacq-record/1"
 
 
-class RecordError(ValueError):
-    """A record that is not an ``ogacq-record/1`` document the history can hold."""
+class RecordError(InputError, ValueError):
+    """A record that is not an ``ogacq-record/1`` document the history can hold (a
+    ValueError as well, as its callers took it before it joined the root)."""
+
+    def __init__(self, problem: str) -> None:
+        super().__init__(None, problem)
 
 
 @dataclass(frozen=True)

@@ -25,13 +25,14 @@ import os
 import re
 from dataclasses import dataclass
 from pathlib import Path
-
-from sqlalchemy.engine import URL, make_url
-from sqlalchemy.exc import ArgumentError
+from typing import TYPE_CHECKING
 
 from ogacq.errors import InputError
 from ogacq.io.data_folder import ENVIRONMENT_VARIABLE as DATA_VARIABLE
 from ogacq.io.data_folder import data_folder
+
+if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not for `none`
+    from sqlalchemy.engine import URL
 
 ENVIRONMENT_VARIABLE = "OGACQ_HISTORY"
 DEFAULT_FILE = "history.sqlite"
@@ -65,8 +66,10 @@ def parse_location(value: str, origin: str) -> HistoryLocation:
     if not text:
         raise InputError(origin, "is empty: give a database URL or an SQLite file's path")
     if "://" not in text:
-        return HistoryLocation(URL.create("sqlite", database=str(Path(text).expanduser()
-                                                                   .absolute())), origin)
+        return _sqlite_file(Path(text).expanduser().absolute(), origin)
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
     try:
         url = make_url(text)
     except (ArgumentError, ValueError) as exc:
@@ -155,8 +158,13 @@ LEGACY_ORIGIN = "the current folder"
 
 def default_location() -> HistoryLocation:
     """``history.sqlite`` in ogacq's data folder (created when first recorded into)."""
-    path = (data_folder() / DEFAULT_FILE).absolute()
-    return HistoryLocation(URL.create("sqlite", database=str(path)), DEFAULT_ORIGIN)
+    return _sqlite_file((data_folder() / DEFAULT_FILE).absolute(), DEFAULT_ORIGIN)
+
+
+def _sqlite_file(path: Path, origin: str) -> HistoryLocation:
+    from sqlalchemy.engine import URL
+
+    return HistoryLocation(URL.create("sqlite", database=str(path)), origin)
 
 
 def history_for_session(option: str | None, session_path: Path | None = None,
@@ -164,15 +172,21 @@ def history_for_session(option: str | None, session_path: Path | None = None,
     """The history a command working on a session records into (the same whichever
     session: ``session_path`` is kept for the callers' sake); None when recording
     is switched off."""
+    if recording_off(option):
+        return None
     named = _named(option)
     if named is None:
         location = default_location()
         _make_folder(Path(location.url.database or "").parent)
         return location
-    value, origin = named
-    if value.strip().lower() in DISABLED:
-        return None
-    return parse_location(value, origin)
+    return parse_location(*named)
+
+
+def recording_off(option: str | None) -> bool:
+    """Whether the option, else the environment, switches the history off (``none``):
+    known before anything of the history is imported."""
+    named = _named(option)
+    return named is not None and named[0].strip().lower() in DISABLED
 
 
 def _make_folder(folder: Path) -> None:
@@ -197,8 +211,7 @@ def history_to_read(option: str | None, folder: Path | None = None) -> HistoryLo
         return default
     candidate = (folder or Path.cwd()) / DEFAULT_FILE
     if candidate.is_file():
-        return HistoryLocation(URL.create("sqlite", database=str(candidate.absolute())),
-                               LEGACY_ORIGIN)
+        return _sqlite_file(candidate.absolute(), LEGACY_ORIGIN)
     # named after the option only when it was given (`--history none`)
     raise InputError("--history" if option is not None else None,
                      f"no history yet in {default.describe()} (ogacq's data "

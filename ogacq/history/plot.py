@@ -98,7 +98,9 @@ def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
     by_date = all(when is not None for _, when in dated)
     xs_of = [when if by_date else index + 1 for index, (_, when) in enumerate(dated)]
     index_of = {c.record_id: index for index, c in enumerate(calibrations)}
-    fig.suptitle(title, fontsize=11)
+    # the title holds a machine's name as given: '$' in it is text, not mathtext (a
+    # name with "$...$" stopped the figure with a ParseSyntaxException)
+    fig.suptitle(title, fontsize=11, parse_math=False)
     for ax, name in zip(axes, names, strict=False):
         unit, scale = shown_unit(name)
         xs: list[Any] = []

@@ -104,20 +104,21 @@ def record_after(session_path: Path, option: str | None, action: str, *,
     holds no write-back (said). ``accept_edited``: the user accepted the session's
     edits (its record says so)."""
     try:
-        from ogacq.history.location import history_for_session
+        if location is None:
+            from ogacq.history.location import history_for_session
+
+            try:
+                location = history_for_session(option, session_path)
+            except OgacqError as exc:
+                log.warning("%s not recorded in the history: %s", action, exc)
+                return None
+            if location is None:  # `none`: SQLAlchemy is never imported
+                return None
         from ogacq.history.store import History
     except ImportError as exc:  # an install without SQLAlchemy: the session is kept all the same
         log.warning("%s not recorded in the history: %s; add it later with `ogacq history add "
                     "%s`", action, exc, session_path)
         return None
-    if location is None:
-        try:
-            location = history_for_session(option, session_path)
-        except OgacqError as exc:
-            log.warning("%s not recorded in the history: %s", action, exc)
-            return None
-        if location is None:
-            return None
     try:
         session = load_session(session_path, accept_edited=accept_edited)
         state = completeness(session)

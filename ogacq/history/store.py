@@ -21,14 +21,12 @@ from __future__ import annotations
 import contextlib
 import json
 import socket
-import sqlite3
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from sqlalchemy import JSON, Connection, Engine, create_engine, event, func, inspect, select
-from sqlalchemy.dialects import postgresql, sqlite
 from sqlalchemy.exc import SQLAlchemyError
 
 from ogacq import __version__
@@ -220,6 +218,8 @@ class History:
         except ValueError:  # the check's own report names damaged text
             found = ["its report is not even text"]
         except SQLAlchemyError as exc:
+            import sqlite3  # an SQLite history's only: here, the dialect in use loaded it
+
             if isinstance(getattr(exc, "orig", None), sqlite3.OperationalError):
                 raise HistoryError(self.location, f"cannot open ({_first_line(exc)})") from None
             raise HistoryError(self.location, f"cannot be read ({_first_line(exc)}): nothing is "
@@ -380,6 +380,18 @@ class History:
             found = set(conn.execute(select(e.c.event_key)
                                      .where(e.c.event_key.in_(keys))).scalars())
         return [key for key in keys if key in found]
+
+    def records_seen(self, record_id: str) -> int | None:
+        """The most records the history saw in the session of ``record_id`` (its events'
+        records count them): a session file holding fewer lost its tail. None when the
+        history holds nothing of it."""
+        e = s.events
+        with self._guard("read the events"), self._transaction(write=False) as conn:
+            records = conn.execute(select(e.c.record).where(e.c.record_id == record_id)).scalars()
+            counts = [CalibrationRecord.from_json(r).session_reference.records for r in records
+                      if isinstance(r, dict)]
+        seen = [count for count in counts if count is not None]
+        return max(seen) if seen else None
 
     def machines(self) -> list[Machine]:
         with self._guard("read the machines"), self._transaction(write=False) as conn:
@@ -543,8 +555,14 @@ def _map_state_rows(maps: MapsWriteBack, machine: tuple[str, str], event_id: int
 
 def _insert(conn: Connection, table: s.Table) -> Any:
     """The dialect's INSERT, which has ON CONFLICT DO NOTHING on both backends."""
-    return (postgresql.insert(table) if conn.dialect.name == "postgresql"
-            else sqlite.insert(table))
+    # only the dialect in use is imported (a history in SQLite loads no PostgreSQL code)
+    if conn.dialect.name == "postgresql":
+        from sqlalchemy.dialects import postgresql
+
+        return postgresql.insert(table)
+    from sqlalchemy.dialects import sqlite
+
+    return sqlite.insert(table)
 
 
 def _machine_id(conn: Connection, identity: tuple[str, str]) -> int:

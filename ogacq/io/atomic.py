@@ -1,6 +1,12 @@
 """Writing a file whole or not at all: a full disk, a read-only file system or a
 crash mid-write leaves the old file (or none), never a truncated one, and nothing
-in the way of a retry.
+in the way of a retry. Every file ogacq writes goes through here (sessions are
+appended through their store): ``tests/io/test_one_atomic_writer.py`` finds any
+other write in the source.
+
+The data reaches the disk before the file takes its name (fsync), and the name
+itself after (an fsync of the folder: POSIX makes a rename durable only then, so a
+power loss right after would otherwise leave the old file, or none).
 
 The file gets the permissions a plain ``open()`` would give it (0666 less the umask;
 those of the file it replaces, when there is one), not the temporary file's private
@@ -36,6 +42,8 @@ def write_atomically(path: str | Path, data: bytes) -> None:
             fh.flush()
             os.fsync(fh.fileno())
         os.replace(tmp, path)
+        tmp = None
+        fsync_folder(path.parent)
     except OSError as exc:
         if tmp is not None:
             with contextlib.suppress(OSError):
@@ -67,6 +75,7 @@ def write_new_file(path: str | Path, data: bytes) -> None:
                 raise FileExistsError(17, "File exists", str(path)) from None
             os.rename(tmp, path)
             tmp = None
+        fsync_folder(path.parent)
     except FileExistsError:
         raise InputError(path, "exists; not overwriting it") from None
     except OSError as exc:
@@ -75,6 +84,21 @@ def write_new_file(path: str | Path, data: bytes) -> None:
         if tmp is not None:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+
+
+def fsync_folder(folder: Path) -> None:
+    """Make a rename or a new name in ``folder`` durable (POSIX: fsync of the folder);
+    nothing where a folder cannot be opened or synced (some file systems refuse it,
+    and the file's own data is on the disk already)."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        with contextlib.suppress(OSError):
+            os.fsync(fd)
+    finally:
+        os.close(fd)
 
 
 def _mode_for(path: Path) -> int:

@@ -7,7 +7,6 @@ reads as before."""
 
 from __future__ import annotations
 
-import unicodedata
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -21,6 +20,7 @@ from ogacq_drivers.config_schema import (
     text,
 )
 from ogacq.io.atomic import write_atomically
+from ogacq.io.names import name_problem
 from ogacq.io.toml_file import input_error, load_toml
 from ogacq.model.machine import DECISION_RULES, MachineSpec
 
@@ -116,7 +116,7 @@ def geometry_dict(machine: MachineSpec) -> dict[str, Any]:
 def _check_identity(values: dict, source: Source) -> None:
     """A name and serial as the history, the record and every one-line output show
     them: not blank (a blank name records a machine named after nothing, which the
-    history refuses), one line without control characters."""
+    history refuses), and a name (``ogacq.io.names``)."""
     for key in ("name", "serial"):
         value = values.get(key)
         if value is None:
@@ -125,11 +125,9 @@ def _check_identity(values: dict, source: Source) -> None:
             raise source.fail((key,), "is blank: give the machine's " + (
                 "name, or leave the key out for the file's name" if key == "name"
                 else "serial number, or leave the key out"))
-        control = next((c for c in value if unicodedata.category(c) == "Cc"), None)
-        if control is not None:
-            said = ", a line break" if control in "\n\r" else ""
-            raise source.fail((key,), f"= {value!r} holds a control character (U+"
-                              f"{ord(control):04X}{said}): write it on one line")
+        problem = name_problem(value)
+        if problem is not None:
+            raise source.fail((key,), f"= {value[:60]!r} {problem}")
 
 
 def _check_stem(stem: str, source: Source) -> None:

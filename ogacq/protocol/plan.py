@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from ogacq.errors import InputError
 from ogacq.model.gauges import Gauge, gauges_on
 from ogacq.model.kinematics import nominal_q
 from ogacq.model.machine import MachineSpec
@@ -53,6 +54,15 @@ SETTLES = ("stable", "fixed")
 # A guard against a typo (a step in um written as mm), no source: a scan of more
 # postures per leg than this is refused before anything moves.
 MAX_SCAN_POSTURES = 100_000
+
+
+class PlanError(InputError, ValueError):
+    """A plan no campaign can run (its approach, cycles, legs, settle, postures or scan):
+    an input error, which a caller names with the option or the key it came from; a
+    ValueError as well, as every caller took it before it was typed."""
+
+    def __init__(self, problem: str) -> None:
+        super().__init__(None, problem)
 
 
 @dataclass(frozen=True)
@@ -88,17 +98,17 @@ class ProtocolConfig:
 
     def __post_init__(self) -> None:
         if self.approach not in APPROACHES:
-            raise ValueError(f"approach must be one of {', '.join(APPROACHES)}, "
-                             f"got {self.approach!r}")
+            raise PlanError(f"approach must be one of {', '.join(APPROACHES)}, "
+                            f"got {self.approach!r}")
         if self.cycles < 1:
-            raise ValueError(f"cycles must be at least 1, got {self.cycles}")
+            raise PlanError(f"cycles must be at least 1, got {self.cycles}")
         bad = [leg for leg in self.legs if leg not in AXES]
         if bad:
-            raise ValueError(f"legs must be among x, y, z, got {bad}")
+            raise PlanError(f"legs must be among x, y, z, got {bad}")
         if self.settle not in SETTLES:
-            raise ValueError(f"settle must be one of {', '.join(SETTLES)}, got {self.settle!r}")
+            raise PlanError(f"settle must be one of {', '.join(SETTLES)}, got {self.settle!r}")
         if self.scan_step_mm is not None and not self.scan_step_mm > 0:
-            raise ValueError(f"scan_step_mm must be positive, got {self.scan_step_mm:g}")
+            raise PlanError(f"scan_step_mm must be positive, got {self.scan_step_mm:g}")
 
     @property
     def is_scan(self) -> bool:
@@ -223,14 +233,14 @@ def _check_scan(config: ProtocolConfig, machine: MachineSpec) -> None:
     start, end = scan_range(config, machine)
     for key, value in (("scan_from_mm", start), ("scan_to_mm", end)):
         if not machine.rho_min_mm <= value <= machine.rho_max_mm:
-            raise ValueError(f"{key} {value:g} mm is outside the workspace "
-                             f"{machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm")
+            raise PlanError(f"{key} {value:g} mm is outside the workspace "
+                            f"{machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm")
     if not start < end:
-        raise ValueError(f"scan_from_mm {start:g} mm must be below scan_to_mm {end:g} mm")
+        raise PlanError(f"scan_from_mm {start:g} mm must be below scan_to_mm {end:g} mm")
     count = (end - start) / config.scan_step_mm + 1
     if count > MAX_SCAN_POSTURES:
-        raise ValueError(f"scan_step_mm {config.scan_step_mm:g} mm makes {count:.0f} postures "
-                         f"per leg (at most {MAX_SCAN_POSTURES}); is the step in mm?")
+        raise PlanError(f"scan_step_mm {config.scan_step_mm:g} mm makes {count:.0f} postures "
+                        f"per leg (at most {MAX_SCAN_POSTURES}); is the step in mm?")
 
 
 def check_postures(config: ProtocolConfig, machine: MachineSpec) -> None:
@@ -240,15 +250,15 @@ def check_postures(config: ProtocolConfig, machine: MachineSpec) -> None:
     for posture in () if config.is_scan else config.postures:
         if isinstance(posture, str):
             if posture not in ("zero", "max", "min"):
-                raise ValueError(f"posture {posture!r} is not zero, max, min or a number in mm")
+                raise PlanError(f"posture {posture!r} is not zero, max, min or a number in mm")
             continue
         if not machine.rho_min_mm <= posture <= machine.rho_max_mm:
-            raise ValueError(f"posture {posture:g} mm is outside the workspace "
-                             f"{machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm")
+            raise PlanError(f"posture {posture:g} mm is outside the workspace "
+                            f"{machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm")
     if config.approach != "sequence":
         reach = max(abs(machine.rho_min_mm), abs(machine.rho_max_mm)) + config.overshoot_mm
         if reach >= machine.leg_length_mm:
-            raise ValueError("overshoot_mm takes the postures beyond the workspace")
+            raise PlanError("overshoot_mm takes the postures beyond the workspace")
         _check_overshoot(config, machine)
 
 
@@ -265,13 +275,13 @@ def _check_overshoot(config: ProtocolConfig, machine: MachineSpec) -> None:
         along = [float(posture_tcp(0, p, machine)[0]) for p in config.postures]
         lowest, highest = min(along), max(along)
     if below and lowest - config.overshoot_mm < machine.rho_min_mm - 1e-9:
-        raise ValueError(f"approach {config.approach}: the posture {lowest:g} mm is approached "
-                         f"from {lowest - config.overshoot_mm:g} mm, below rho_min "
-                         f"{machine.rho_min_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
+        raise PlanError(f"approach {config.approach}: the posture {lowest:g} mm is approached "
+                        f"from {lowest - config.overshoot_mm:g} mm, below rho_min "
+                        f"{machine.rho_min_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
     if above and highest + config.overshoot_mm > machine.rho_max_mm + 1e-9:
-        raise ValueError(f"approach {config.approach}: the posture {highest:g} mm is approached "
-                         f"from {highest + config.overshoot_mm:g} mm, above rho_max "
-                         f"{machine.rho_max_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
+        raise PlanError(f"approach {config.approach}: the posture {highest:g} mm is approached "
+                        f"from {highest + config.overshoot_mm:g} mm, above rho_max "
+                        f"{machine.rho_max_mm:g} mm (overshoot_mm {config.overshoot_mm:g})")
 
 
 def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:

@@ -28,6 +28,7 @@ class SessionHeader(NamedJson):
 
     format: str | None = None  # "ogacq-session/1"
     integrity: str | None = None  # the seal the records carry (ogacq.session.seal)
+    closing: str | None = None  # "closed": each writer's turn ends with a closed record
     software: str | None = None  # "ogacq 0.1.0"
     created: str | None = None  # when the session was started, ISO 8601 with offset
     machine: JsonObject | None = None  # the machine file as the campaign read it
@@ -44,10 +45,10 @@ class SessionHeader(NamedJson):
     procedure: JsonObject | None = None  # ogacq calibrate's log: its procedure
     # each named key and the JSON type this version writes it as (dict: an object)
     NAMED: ClassVar[Mapping[str, type]] = {
-        "format": str, "integrity": str, "software": str, "created": str, "machine": dict,
-        "machine_file": str, "campaign_file": str, "simulated": bool, "station": dict,
-        "plan": dict, "identity": dict, "instruments": list, "date": str, "simulator": dict,
-        "wizard": dict, "procedure": dict}
+        "format": str, "integrity": str, "closing": str, "software": str, "created": str,
+        "machine": dict, "machine_file": str, "campaign_file": str, "simulated": bool,
+        "station": dict, "plan": dict, "identity": dict, "instruments": list, "date": str,
+        "simulator": dict, "wizard": dict, "procedure": dict}
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)

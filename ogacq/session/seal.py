@@ -14,6 +14,18 @@ edit is found whichever keys it touched, unless whoever made it recomputed every
 checksum after it: CRC-32 finds a disk's and an editor's changes, it is not a
 signature.
 
+The seals prove every record up to the last one, not that the last one is the last
+written: a tail cut off at a line end leaves a file whose every record is as
+written. So each writer ends its turn with a ``closed`` record (a campaign, its
+resume, a write-back's audit), and the header announces it (``"closing":
+"closed"``): a session that announces it and does not end with one either has a
+writer now (its lock), or its last writer was killed before it closed, or the file
+was cut after its last record (:class:`Closure`: the file alone cannot tell a kill
+from a cut, so neither is vouched for; the history's own count of the session's
+records finds a cut that ends at an earlier writer's ``closed`` record). The
+``closed`` records are the store's, as ``seq`` and ``crc`` are: they are checked in
+the chain and not loaded as records.
+
 Older sessions are told by their header: one with a ``crc`` but no
 ``integrity`` was written with per-record checksums (no chain): every record
 must still carry its ``seq`` and ``crc``; one with neither was written before
@@ -49,6 +61,10 @@ CHECKSUMMED = "checksummed"  # every record with seq and crc (before the chain)
 UNCHECKED = "unchecked"  # written before the checksums
 
 _STORE_KEYS = ("seq", "prev", "crc")
+
+# The record that ends each writer's turn, and the header key that announces it.
+CLOSED = "closed"
+CLOSING_KEY = "closing"
 
 
 def line_crc(line: bytes) -> str:
@@ -99,6 +115,30 @@ class Integrity:
 
 
 @dataclass(frozen=True)
+class Closure:
+    """Whether the session's file ends where its last writer ended it: ``announced``
+    (its header says each writer closes), ``closed`` (it ends with a ``closed``
+    record), the line of its last record, and the line of a torn record a crash
+    left after it (dropped on loading)."""
+
+    announced: bool
+    closed: bool
+    last_line: int
+    torn_line: int | None = None
+
+    def problem(self) -> str | None:
+        """Why the file's end cannot be vouched for, or None."""
+        if self.torn_line is not None:
+            return (f"line {self.torn_line} is a torn record: its writer was stopped "
+                    "mid-write (killed, or a power loss)")
+        if self.announced and not self.closed:
+            return (f"not closed after line {self.last_line}: its last writer was killed "
+                    "before it closed the session, or the records after that line were "
+                    "removed")
+        return None
+
+
+@dataclass(frozen=True)
 class Scan:
     """Every line of a session file judged (see the module's docstring)."""
 
@@ -110,6 +150,7 @@ class Scan:
     warnings: list[str]
     size_bytes: int
     header_seal: str | None = None  # the header's ``integrity``, when it has one
+    closure: Closure = Closure(announced=False, closed=False, last_line=0)
 
     @property
     def untouched(self) -> list[tuple[int, dict[str, Any]]]:
@@ -188,6 +229,8 @@ class _Scanner:
         self.edited: list[tuple[int, str]] = []
         self.changed: set[int] = set()
         self.warnings: list[str] = []
+        self.torn_line: int | None = None
+        self.closed = False  # the last record read is a closed record
 
     def scan(self) -> Scan:
         last = max((k for k, line in enumerate(self.lines, 1) if line.strip()), default=0)
@@ -210,10 +253,12 @@ class _Scanner:
                     self.warnings.append(
                         f"{self.path}:{number}: dropped a torn last record ({len(line)} "
                         f"bytes: {line[:60].decode(errors='replace')!r})")
+                    self.torn_line = number
                 else:
                     assert problem is not None
                     self.problems.append((number, problem))
                     previous = (number, line, False)
+                    self.closed = False
                 continue
             content, seq = decoded.content, decoded.seq
             if isinstance(seq, int) and not isinstance(seq, bool) and seq in seen:
@@ -236,9 +281,14 @@ class _Scanner:
             elif mode == UNCHECKED:
                 expected = None
             previous = (number, line, not own)
-            self.records.append((number, content))
+            self.closed = content.get("type") == CLOSED
+            if not self.closed:  # the store's own record, checked in the chain above
+                self.records.append((number, content))
+        announced = first is not None and first.content.get(CLOSING_KEY) == CLOSED
+        closure = Closure(announced, self.closed, previous[0] if previous else 0,
+                          self.torn_line)
         return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
-                    self.warnings, len(self.raw), seal)
+                    self.warnings, len(self.raw), seal, closure)
 
     @staticmethod
     def _own_seal(number: int, line: _Line, mode: str) -> str | None:

@@ -14,13 +14,14 @@ read (partial, edited, an older format); :func:`state_json` the same for JSON.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ogacq.errors import OgacqError, Refused
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
 from ogacq.session.convert import session_machine
 from ogacq.session.records import EndRecord, FaultRecord, Record, ResumeRecord
+from ogacq.session.seal import SEALED
 from ogacq.session.store import LoadedSession, lock_holder
 
 COMPLETE = "complete"
@@ -133,6 +134,37 @@ def completeness(session: LoadedSession, *, probe_lock: bool = True) -> Complete
     if last is None:
         return Completeness(readings, planned, NO_END)
     return Completeness(readings, planned, last.status, last.reason)
+
+
+def unproven_end(session: LoadedSession) -> str | None:
+    """Why the session's file may not end where its last writer ended it (a torn record,
+    or no ``closed`` record after the last: killed, or cut), or None: closed, written
+    now by the writer holding its lock, or written before the closed records."""
+    problem = session.closure.problem()
+    if problem is None or session.closure.torn_line is not None:
+        return problem
+    return None if lock_holder(session.path) is not None else problem
+
+
+def unsealed(session: LoadedSession) -> tuple[int, str] | None:
+    """(line, why) a session cannot vouch for all it held, edits aside (those are the
+    integrity's): written without the chained seals, or an end not closed; None when
+    it can."""
+    if session.integrity.mode != SEALED:
+        return 1, f"{session.integrity.mode}: written without the chained seals (a seal " \
+                  "stripped, or an older ogacq): an edit or a removed record cannot be found"
+    problem = unproven_end(session)
+    if problem is None:
+        return None
+    closure = session.closure
+    return (closure.torn_line or closure.last_line), problem
+
+
+def taken_as_it_stands(session: LoadedSession, line: int, problem: str) -> LoadedSession:
+    """``session`` with ``problem`` among the edits the user accepted: every output and
+    the record (so the history) then say it."""
+    edited = (*session.integrity.edited, (line, problem))
+    return replace(session, integrity=replace(session.integrity, edited=edited))
 
 
 def require_complete(session: LoadedSession, partial: bool) -> Completeness:

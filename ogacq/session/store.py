@@ -41,7 +41,7 @@ from typing import Any, TypeVar
 
 from ogacq import __version__
 from ogacq.errors import Refused
-from ogacq.io.atomic import write_new_file
+from ogacq.io.atomic import write_atomically, write_new_file
 from ogacq.io.errors import InputError, StorageError
 from ogacq.io.text import strip_bom
 from ogacq.session.header import SessionHeader
@@ -56,7 +56,10 @@ from ogacq.session.records import (
     record_from_json,
 )
 from ogacq.session.seal import (
+    CLOSED,
+    CLOSING_KEY,
     SEAL,
+    Closure,
     Integrity,
     Scan,
     line_crc,
@@ -80,6 +83,8 @@ class LoadedSession:
     size_bytes: int = 0  # of the file as read: a writer checks nobody wrote since
     # the header's format, and the edits the user accepted (ogacq.session.seal)
     integrity: Integrity = field(default_factory=Integrity)
+    # whether the file ends where its last writer closed it (ogacq.session.seal)
+    closure: Closure = field(default_factory=lambda: Closure(False, False, 0))
 
     def of_type(self, kind: type[R]) -> list[R]:
         return [r for r in self.records if isinstance(r, kind)]
@@ -148,9 +153,10 @@ class SessionLock:
         except BlockingIOError:
             raise InputError(path, f"in use by {self.holder_of(path)}: one writer at a time; "
                              "wait until it has finished") from None
-        with contextlib.suppress(OSError):  # only a refusal's message depends on it
-            self._note.write_text(f"{' '.join(['ogacq', *sys.argv[1:3]])} (pid {os.getpid()}) "
-                                  f"since {time.strftime('%H:%M:%S')}\n", encoding="utf-8")
+        with contextlib.suppress(StorageError):  # only a refusal's message depends on it
+            write_atomically(self._note, f"{' '.join(['ogacq', *sys.argv[1:3]])} (pid "
+                             f"{os.getpid()}) since {time.strftime('%H:%M:%S')}\n"
+                             .encode())
 
     @staticmethod
     def holder_of(path: Path) -> str:
@@ -222,7 +228,8 @@ class SessionWriter:
     disk is fixed."""
 
     def __init__(self, path: Path, fd: int, next_seq: int, lock: SessionLock | None = None,
-                 *, prev: str | None = None, chained: bool = True) -> None:
+                 *, prev: str | None = None, chained: bool = True,
+                 closing: bool = True) -> None:
         self.path = path
         self._lock = lock or SessionLock(path, fd)
         self._fd = fd
@@ -233,6 +240,7 @@ class SessionWriter:
         # (its header has no seal) goes on without one, as its records were written
         self._prev = prev
         self._chained = chained
+        self._closing = closing  # the header announces a closed record at each close
         self._syncer = _Syncer(fd)
         self._syncer.start()
 
@@ -292,9 +300,10 @@ class SessionWriter:
             os.close(fd)
             raise
         lines = [line for line in raw.split(b"\n") if line.strip()]
-        chained = _sealed_header(lines[0]) if lines else True
+        chained, closing = _header_seals(lines[0]) if lines else (True, True)
         return cls(path, fd, _next_seq(lines), lock,
-                   prev=line_crc(lines[-1]) if lines and chained else None, chained=chained)
+                   prev=line_crc(lines[-1]) if lines and chained else None, chained=chained,
+                   closing=closing)
 
     @classmethod
     def reopen(cls, session: LoadedSession) -> SessionWriter:
@@ -348,11 +357,17 @@ class SessionWriter:
             os.ftruncate(self._fd, self._size)
 
     def close(self) -> None:
-        """Release the session; a last fsync that fails raises StorageError after it
-        is released."""
+        """End this writer's turn with a ``closed`` record (where the header announces
+        one) and release the session; a record or a last fsync that fails raises
+        StorageError after it is released."""
         if self._closed:
             return
         self._closed = True
+        if self._closing and self._syncer.error is None:
+            # a record that cannot be written (a full disk) leaves the session saying it
+            # is not closed; what was recorded before stands
+            with contextlib.suppress(StorageError):
+                self._write({"type": CLOSED, "wall": round(time.time(), 3)})
         self._syncer.finish()  # the last fsync, before the file is closed
         self._lock.release()
         os.close(self._fd)
@@ -369,19 +384,23 @@ class SessionWriter:
 def new_header(header: dict[str, Any]) -> dict[str, Any]:
     """A new session's first record: its format, seal, software and creation time, then
     ``header`` (machine, station, plan, ...)."""
-    given = {k: v for k, v in header.items() if k not in ("type", "format", "integrity")}
-    return {"type": "session", "format": FORMAT, "integrity": SEAL,
+    given = {k: v for k, v in header.items()
+             if k not in ("type", "format", "integrity", CLOSING_KEY)}
+    return {"type": "session", "format": FORMAT, "integrity": SEAL, CLOSING_KEY: CLOSED,
             "software": f"ogacq {__version__}",
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), **given}
 
 
-def _sealed_header(line: bytes) -> bool:
-    """Whether a session's first line says its records are chained."""
+def _header_seals(line: bytes) -> tuple[bool, bool]:
+    """Whether a session's first line says its records are chained, and whether it
+    announces a closed record at the end of each writer's turn."""
     try:
-        header = json.loads(line)
+        first = json.loads(line)  # the raw line: its keys as written, before any typing
     except ValueError:
-        return True
-    return not isinstance(header, dict) or "integrity" in header
+        return True, False
+    if not isinstance(first, dict):
+        return True, False
+    return "integrity" in first, first.get(CLOSING_KEY) == CLOSED
 
 
 def _next_seq(lines: list[bytes]) -> int:
@@ -418,6 +437,7 @@ def write_session(path: str | Path, header: dict[str, Any], records: list[Record
     for record in records:
         fields = record.to_json()
         lines.append({"type": fields.pop("type"), "wall": fields.pop("wall", wall), **fields})
+    lines.append({"type": CLOSED, "wall": wall})
     write_new_file(path, sealed_bytes(new_header(header), lines))
     return path
 
@@ -462,7 +482,7 @@ def load_session(path: str | Path, *, accept_edited: bool = False) -> LoadedSess
     return LoadedSession(path, SessionHeader.from_json(records[0]),
                          [record_from_json(r) for r in records[1:]],
                          scan.warnings, scan.size_bytes,
-                         Integrity(scan.mode, tuple(scan.edited)))
+                         Integrity(scan.mode, tuple(scan.edited)), scan.closure)
 
 
 def lock_holder(path: str | Path) -> str | None:
@@ -516,9 +536,13 @@ def salvage_session(path: str | Path, out: str | Path) -> tuple[int, list[tuple[
     given = kept[0][1]  # sealed again (an older session's header gains its seal)
     header: dict[str, Any] = {k: given[k] for k in ("type", "format") if k in given}
     header["integrity"] = SEAL
-    header.update((k, v) for k, v in given.items() if k not in ("type", "format", "integrity"))
+    header[CLOSING_KEY] = CLOSED
+    header.update((k, v) for k, v in given.items()
+                  if k not in ("type", "format", "integrity", CLOSING_KEY))
     records = [r for _, r in kept[1:]]
+    wall = round(time.time(), 3)
     records.append(SalvageRecord(source=str(Path(path).resolve()), left_out=tuple(left_out),
-                                 wall=round(time.time(), 3)).to_json())
+                                 wall=wall).to_json())
+    records.append({"type": CLOSED, "wall": wall})
     write_new_file(Path(out), sealed_bytes(header, records))
     return len(kept), left_out

@@ -237,6 +237,10 @@ def _per_axis(fields: tuple[Field, ...], build: Callable[..., Any]) -> MapOf:
 # ogacq/model/parameters.py: a machine beyond it is not one to simulate); the
 # gauges' noise; the axes' errors outside the library. The other maxima are an order
 # of magnitude beyond a real machine's (no source).
+# A screw's cyclic error repeats every lead: no screw that drives an axis has a lead
+# under a tenth of a millimetre (ISO 261's finest metric pitch is 0.2 mm), and a shorter
+# "pitch" is not a screw but noise folded onto the postures (1e-9 mm was accepted).
+MIN_SCREW_PITCH_MM = 0.1
 EFFECTS_FILE = Table((
     *(Field(e.name, MapOf(number(minimum=e.nominal - e.plausible_range,
                                  maximum=e.nominal + e.plausible_range),
@@ -245,7 +249,7 @@ EFFECTS_FILE = Table((
     Field("gauges", Table((Field("noise_mm", number(minimum=0.0, maximum=1.0)),))),
     Field("lead_screw", _per_axis((
         Field("amplitude_mm", number(minimum=-1.0, maximum=1.0), required=True),
-        Field("pitch_mm", number(positive=True, maximum=1000.0), required=True),
+        Field("pitch_mm", number(minimum=MIN_SCREW_PITCH_MM, maximum=1000.0), required=True),
         Field("phase_deg", number(minimum=-360.0, maximum=360.0)),
     ), LeadScrewError)),
     Field("screw_map", _per_axis((

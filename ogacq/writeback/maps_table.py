@@ -36,7 +36,6 @@ from ogacq.io.text import decode_text
 from ogacq.logs import logger
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
-from ogacq.writeback.table import fsync_folder
 
 log = logger(__name__)
 
@@ -209,7 +208,6 @@ def write_maps_table(path: str | Path, maps: Mapping[str, AxisMap], *, session: 
         "maps": [m.to_json() for m in ordered.values()],
         "checksums": {a: m.checksum() for a, m in ordered.items()}}, indent=1) + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomically(path, content.encode("utf-8"))
-    fsync_folder(path.parent)
+    write_atomically(path, content.encode("utf-8"))  # its folder synced too
     log.info("maps file %s written (%s): %s", path, action, maps_checksum(ordered)[:12])
     return read_maps_table(path, owner=owner)

@@ -15,8 +15,6 @@ atomically (a crash leaves the old file or the new one, never half of one).
 
 from __future__ import annotations
 
-import contextlib
-import os
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -76,21 +74,7 @@ def write_offset_table(path: str | Path, offsets_mm: dict[str, float], *,
         "format": FORMAT, "written": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
         "session": session, "action": action, "joint_offset_mm": values}, header=HEADER)
     path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomically(path, content.encode("utf-8"))
-    fsync_folder(path.parent)
+    write_atomically(path, content.encode("utf-8"))  # its folder synced too
     log.info("offset table %s written (%s): %s", path, action,
              ", ".join(f"{a} {v:+.6f} mm" for a, v in values.items()))
     return read_offset_table(path)
-
-
-def fsync_folder(folder: Path) -> None:
-    """Make the rename itself durable (POSIX); a no-op where folders cannot be opened."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        with contextlib.suppress(OSError):
-            os.fsync(fd)
-    finally:
-        os.close(fd)

@@ -104,7 +104,7 @@ def test_offset_table_written_value_round_trips_and_nan_is_refused(tmp_path: Pat
     ("[joint_offset]\nx = nan\n", 2, "joint_offset.x must be a finite number, got nan"),
     ("[gauges]\nnoise_mm = -1\n", 2, "gauges.noise_mm must be 0..1, got -1"),
     ("[lead_screw.x]\namplitude_mm = 0.01\npitch_mm = 0\n", 3,
-     "lead_screw.x.pitch_mm must be positive, got 0"),
+     "lead_screw.x.pitch_mm must be 0.1..1000, got 0"),
     ("[lead_screw.x]\namplitude_mm = 0.01\n", 1, "[lead_screw.x] needs 'pitch_mm'"),
     ("[wobble]\nx = 1\n", 1, "unknown effect 'wobble' in the effects file"),
 ])

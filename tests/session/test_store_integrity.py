@@ -36,6 +36,13 @@ def make_session(path, n: int = 8):
     return path
 
 
+def killed(path) -> bytes:
+    """The session as its writer left it had it been killed before closing it: without
+    its last line, the ``closed`` record."""
+    raw = path.read_bytes()
+    return raw[:raw.rstrip(b"\n").rfind(b"\n") + 1]
+
+
 def values(path) -> list[float]:
     return [r.reading_mm for r in load_session(path).readings]
 
@@ -88,7 +95,7 @@ def test_a_complete_last_record_without_its_newline_is_kept(tmp_path):
 
 def test_a_torn_last_record_is_dropped_with_a_warning_and_cut_before_appending(tmp_path):
     path = make_session(tmp_path / "s.jsonl")
-    raw = path.read_bytes()
+    raw = killed(path)
     path.write_bytes(raw[:-30])
     session = load_session(path)
     assert len(session.readings) == 7 and "torn last record" in session.warnings[0]

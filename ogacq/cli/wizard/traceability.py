@@ -20,6 +20,7 @@ from ogacq.cli.plain import shown
 from ogacq.cli.wizard.pause import OperatorQuit
 from ogacq.cli.wizard.ui import Option, Screen, typed_number
 from ogacq.io.dates import DateError, parse_date
+from ogacq.io.names import parsed_name
 from ogacq.model.instrument import MAX_CERTIFICATE_U_MM, Instrument
 from ogacq.model.machine import MachineSpec
 
@@ -156,7 +157,7 @@ class TraceabilityQuestions:
             name = self._ask("machine", "Machine name", str, default=machine.name or None)
             serial = self._ask("serial", "Machine serial number", str, unset="not recorded")
             machine = replace(machine, name=name or machine.name, serial=serial)
-        operator = self._ask("operator", "Operator (your name)", str,
+        operator = self._ask("operator", "Operator (your name)", parsed_name,
                              default=self.inventory.operator or None)
         if operator:
             self.inventory.operator = operator

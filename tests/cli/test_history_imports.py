@@ -1,0 +1,36 @@
+"""Issue 35.6: the history's database layer is imported only when a history is used,
+and then only the dialect in use. ``diagnose SESSION --history none`` and ``ogacq run
+--history none`` paid SQLAlchemy with both its dialects before reading ``none`` (about
+60 % of the diagnosis's CPU). Kept by *what* is loaded, never by a timing, in the way
+of tests/cli/test_startup_imports.py."""
+
+from __future__ import annotations
+
+from tests.cli.test_startup_imports import GOLDEN_SESSION, loaded, run
+from tests.history.test_e2e import campaign
+
+DATABASE = ("sqlalchemy",)
+POSTGRESQL = ("sqlalchemy.dialects.postgresql", "psycopg", "psycopg2")
+
+
+def test_diagnose_without_a_history_imports_no_database_layer(tmp_path):
+    modules, _ = run("diagnose", GOLDEN_SESSION, "--history", "none", "--json",
+                     env={"OGACQ_HOME": str(tmp_path / "home")})
+    assert not loaded(modules, DATABASE)
+    # nor what recording reads (the write-back audit, the drives' profiles behind it)
+    assert not loaded(modules, ("ogacq.history.recording", "ogacq.writeback"))
+
+
+def test_diagnose_into_an_sqlite_history_imports_no_postgresql(tmp_path):
+    modules, _ = run("diagnose", GOLDEN_SESSION, "--history", tmp_path / "h.sqlite", "--json",
+                     env={"OGACQ_HOME": str(tmp_path / "home")})
+    assert loaded(modules, ("sqlalchemy.dialects.sqlite",))  # it did record
+    assert not loaded(modules, POSTGRESQL)
+
+
+def test_a_campaign_run_without_a_history_imports_no_database_layer(tmp_path):
+    path = campaign(tmp_path / "c", 0)
+    modules, _ = run("run", path, "--history", "none", "--json",
+                     env={"OGACQ_HOME": str(tmp_path / "home")})
+    assert (tmp_path / "c" / "session.jsonl").is_file()
+    assert not loaded(modules, DATABASE)
