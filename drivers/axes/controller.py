@@ -47,7 +47,7 @@ from ogacq_drivers.axes.cia402 import (
 )
 from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.profile import CommandStep, Profile, ValueSpec, counts_to_mm, mm_to_counts
-from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, PreflightError
 
 log = logging.getLogger(__name__)
 
@@ -959,6 +959,19 @@ class AxisController:
                                     where=self._where(axis))
             time.sleep(self.poll_interval_s)
 
+    def _refuse_mirrored_home(self, axis: str, command: str, seen: float, at: float) -> None:
+        """Done at the opposite of the home value the profile predicts: the drive applies
+        its home offset with the other sign. A drive that homes at once (CiA 402
+        methods 35, 37) shows it before any motion; said now, not as a timeout."""
+        offset = self.profile.offset
+        field = "offset.sign" if offset.kind == "home_offset" else "codec.word_order"
+        fix = (f"change offset.sign to {-offset.sign:+d}" if offset.kind == "home_offset"
+               else "check codec.word_order")
+        raise PreflightError(
+            f"{command} {axis}: the drive reports done at {seen:+.4f} mm, the opposite of "
+            f"the {at:+.4f} mm the profile predicts: {fix} in profile "
+            f"{self.profile.name!r}", field=field, where=self._where(axis))
+
     def _wait_any(
         self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
         timeout_s: float,
@@ -1006,8 +1019,11 @@ class AxisController:
                 )
             if any(status.flags[f] for f in step.any):
                 return status
-            if status.flags[step.done] and abs(self._counter_position(status) - at) <= tolerance:
+            seen = self._counter_position(status)
+            if status.flags[step.done] and abs(seen - at) <= tolerance:
                 return status  # finished before the first poll
+            if status.flags[step.done] and abs(at) > tolerance and abs(seen + at) <= tolerance:
+                self._refuse_mirrored_home(axis, command, seen, at)
             if time.monotonic() >= deadline:
                 raise DeviceTimeout(
                     f"{command} {axis}: not acknowledged within {timeout_s:g} s "

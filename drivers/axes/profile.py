@@ -301,6 +301,17 @@ class TemperatureSpec:
 
 
 @dataclass(frozen=True)
+class KnownValue:
+    """A 32-bit register whose value the drive's kind fixes (``[word_order_check]``):
+    ``value & mask == equals`` in the right word order; the pre-flight reads it before
+    anything moves, since a value the client wrote reads back alike in either order."""
+
+    value: str
+    mask: int
+    equals: int
+
+
+@dataclass(frozen=True)
 class Profile:
     name: str
     family: Literal["iai-robo", "cia402"]
@@ -320,6 +331,7 @@ class Profile:
     commands: dict[str, Command]
     sim: SimSpec
     temperature: TemperatureSpec | None = None
+    word_order_check: KnownValue | None = None
 
     @property
     def endpoint_per_axis(self) -> bool:
@@ -480,7 +492,10 @@ PROFILE_FILE = Table((*_required(
     Field("machine", text()),
     Field("degc_per_count", number(positive=True), required=True),
     Field("axis", text(*AXIS_NAMES)),
-), build=TemperatureSpec))))
+), build=TemperatureSpec)), Field("word_order_check", Table(_required(
+    # optional: a 32-bit raw value whose masked value the drive's kind fixes
+    ("value", text()), ("mask", whole(minimum=1, maximum=0xFFFFFFFF)),
+    ("equals", whole(minimum=0, maximum=0xFFFFFFFF))), build=KnownValue))))
 
 
 # --------------------------------------------------------------------------- loading
@@ -568,7 +583,22 @@ class _Checks:
             commands=self.commands(top["commands"], values, flags),
             sim=top["sim"],
             temperature=self.temperature(top.get("temperature"), values),
+            word_order_check=self.word_order_check(top.get("word_order_check"), values),
         )
+
+    def word_order_check(self, check: KnownValue | None, values: Mapping[str, ValueSpec],
+                         ) -> KnownValue | None:
+        if check is None:
+            return None
+        self._value_ref(check.value, values, "word_order_check.value", readable=True)
+        spec = values[check.value]
+        if spec.words != 2 or spec.unit != "raw" or spec.function != "holding":
+            raise self.fail("word_order_check.value", f"{check.value!r} must be a raw 32-bit "
+                            "holding register (u32 or s32)")
+        if check.equals & ~check.mask:
+            raise self.fail("word_order_check.equals", f"{check.equals:#x} has bits outside "
+                            f"the mask {check.mask:#x}")
+        return check
 
     def temperature(self, spec: TemperatureSpec | None, values: Mapping[str, ValueSpec],
                     ) -> TemperatureSpec | None:
