@@ -206,7 +206,9 @@ def _new_setup(folder: Path, campaign_path: Path | None, simulator: bool,
     if effects_text is not None:
         effects_path = (folder / "effects.toml").resolve()
         effects_path.write_text(effects_text, encoding="utf-8")
-    spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile)
+    # a rehearsal of the procedure, not of the gauges' line timing: the lines at --speed
+    spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile,
+                         line_at_speed=True)
     return simulator_setup(folder, machine, machine_path.resolve(), spec,
                            operator=(operator or _login_name()).strip(),
                            override_expired=reason, scan_step_mm=scan_step_mm,
