@@ -164,8 +164,12 @@ def test_stable_reading_flushes_stale_frames(rig: Rig):
     rig.gauge.read()  # the gauge has now shown 1.233
     rig.values["mm"] = 2.5  # the axes moved
     rig.endpoint.set_fault(Fault.STALE, count=6)  # six frames of 1.233 pile up unread
-    time.sleep(0.02)
-    assert rig.gauge.link.in_waiting > 0  # they are there to be read...
+    # they are there to be read (waited for, not slept on: a loaded machine's endpoint
+    # thread may push its first frame later than any fixed pause)...
+    deadline = time.monotonic() + 30.0
+    while rig.gauge.link.in_waiting == 0:
+        assert time.monotonic() < deadline, "the stale frames never arrived"
+        time.sleep(0.001)
     stable = read_stable(rig.gauge, n=3, tolerance_mm=0.002, timeout_s=2)
     assert [r.value_mm for r in stable.readings] == [2.5, 2.5, 2.5]  # ...and none was used
 
