@@ -223,10 +223,12 @@ def test_a_gauge_that_never_comes_to_rest_ends_at_the_bound_and_the_record_says_
     taken afresh afterwards, as after a fixed wait."""
     campaign = _ringing_campaign(
         tmp_path, "stable", cycles=1, postures='postures = ["zero", "max", "min"]\n',
-        stability="[stability]\nreadings = 2\ntolerance_mm = 0.05\ntimeout_s = 5\n")
+        stability="[stability]\nreadings = 2\ntolerance_mm = 0.05\ntimeout_s = 5\n",
+        simulator='gauge_layout = "multiplexer"\n')
     with open_station(campaign) as station:
         station.prepare()
         truth = station.simulator.machine.truth
+        _Metered(station, per_read_s=0.08)  # the bound measures the rest on any machine
         settled = station.read_settled
 
         def then_ringing(step, gauges, rule):
