@@ -69,7 +69,9 @@ STATUS_MEANINGS = {
 # arrive (the instrument did not answer, the radio lost the frame, the transmitter
 # dropped out, nothing came from the instrument): a data frame the receiver pushes
 # after one is a new measurement, so a read waits on for it until its deadline and
-# names the status only if none comes. 02 (an instrument error), 50, 51, 99 and any
+# names the status only if none comes (an independent reader's notes of a live
+# capture, leank-spc's U-Wave guide, see status frames among the data frames of a
+# working receiver and read on past them). 02 (an instrument error), 50, 51, 99 and any
 # code not listed concern the instrument or the receiver themselves, which we
 # cannot vouch for: they stop the read at once.
 READING_LOST = frozenset({"01", "03", "04", "05"})
