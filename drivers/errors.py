@@ -86,6 +86,15 @@ class DeviceFault(DriverError):
         super().__init__(message, where=where)
 
 
+class PreflightError(DeviceFault):
+    """The drive is not what its profile says (drivers/axes/preflight.py); names the
+    profile field to change."""
+
+    def __init__(self, message: str, *, field: str, where: str) -> None:
+        super().__init__(message, code="preflight", where=where)
+        self.field = field
+
+
 class DeviceBusy(DeviceFault):
     """The device says it is busy (``918``): the request may be retried shortly."""
 

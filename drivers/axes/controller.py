@@ -33,14 +33,21 @@ from __future__ import annotations
 import logging
 import math
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from numbers import Real
 from typing import Any, Literal
 
+from ogacq_drivers.axes.cia402 import (
+    MOST_TRANSITIONS,
+    TARGET_REACHED,
+    TOWARDS_OPERATION,
+    DriveState,
+    drive_state,
+)
 from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.profile import CommandStep, Profile, ValueSpec, counts_to_mm, mm_to_counts
-from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, PreflightError
 
 log = logging.getLogger(__name__)
 
@@ -878,6 +885,9 @@ class AxisController:
             elif step.op == "wait":
                 timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_flag(axis, command, step.flag, step.state, timeout)
+            elif step.op == "cia402_enable":
+                timeout = float(self._resolve(step.timeout_s, params, command))
+                self._enable_cia402(axis, command, step, timeout)
             else:
                 self._confirm(axis, command, step, params)
 
@@ -903,6 +913,64 @@ class AxisController:
                     where=self._where(axis),
                 )
             time.sleep(self.poll_interval_s)
+
+    def _enable_cia402(self, axis: str, command: str, step: CommandStep, timeout_s: float) -> None:
+        """Walk the CiA 402 state machine to "operation enabled" from the state the drive
+        reports, one transition at a time, each awaited (``timeout_s``) before the next:
+        a drive already enabled is sent nothing (never shutdown, transition 8)."""
+        word = int(self._read_value(axis, step.status))
+        for _ in range(MOST_TRANSITIONS + 2):  # + quick stop active and not ready
+            state = drive_state(word)
+            if state is DriveState.OPERATION_ENABLED:
+                return
+            if state in (DriveState.FAULT, DriveState.FAULT_REACTION_ACTIVE, None):
+                what = f"statusword {word:#06x}, no CiA 402 state" if state is None \
+                    else state.value
+                raise DeviceFault(f"{command} {axis}: the drive reports {what}; reset its "
+                                  "alarm first", code="fault", where=self._where(axis))
+            assert state is not None
+            if state is DriveState.NOT_READY_TO_SWITCH_ON or (
+                    state is DriveState.QUICK_STOP_ACTIVE and not word & TARGET_REACHED):
+                # transition 1 is the drive's own; 16 is taken once the drive stands
+                done = _left(state) if state is DriveState.NOT_READY_TO_SWITCH_ON \
+                    else _left_or_standing(state)
+                word = self._await_statusword(axis, command, step, done,
+                                              f"leaving {state.value}", timeout_s)
+                continue
+            control, transition = TOWARDS_OPERATION[state]
+            self._write_value(axis, step.to[0], control,
+                              what=f"{command} {axis} (transition {transition})")
+            word = self._await_statusword(axis, command, step, _left(state),
+                                          f"leaving {state.value}", timeout_s)
+        raise DeviceFault(f"{command} {axis}: statusword {word:#06x} after every transition "
+                          "to operation enabled", code="servo_off", where=self._where(axis))
+
+    def _await_statusword(self, axis: str, command: str, step: CommandStep,
+                          done: Callable[[int], bool], awaited: str, timeout_s: float) -> int:
+        """Poll the statusword until ``done`` holds for it; the word."""
+        deadline = time.monotonic() + timeout_s
+        while True:
+            word = int(self._read_value(axis, step.status))
+            if done(word):
+                return word
+            if time.monotonic() >= deadline:
+                raise DeviceTimeout(f"{command} {axis}: {awaited} not seen within "
+                                    f"{timeout_s:g} s (statusword {word:#06x})",
+                                    where=self._where(axis))
+            time.sleep(self.poll_interval_s)
+
+    def _refuse_mirrored_home(self, axis: str, command: str, seen: float, at: float) -> None:
+        """Done at the opposite of the home value the profile predicts: the drive applies
+        its home offset with the other sign. A drive that homes at once (CiA 402
+        methods 35, 37) shows it before any motion; said now, not as a timeout."""
+        offset = self.profile.offset
+        field = "offset.sign" if offset.kind == "home_offset" else "codec.word_order"
+        fix = (f"change offset.sign to {-offset.sign:+d}" if offset.kind == "home_offset"
+               else "check codec.word_order")
+        raise PreflightError(
+            f"{command} {axis}: the drive reports done at {seen:+.4f} mm, the opposite of "
+            f"the {at:+.4f} mm the profile predicts: {fix} in profile "
+            f"{self.profile.name!r}", field=field, where=self._where(axis))
 
     def _wait_any(
         self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
@@ -951,8 +1019,11 @@ class AxisController:
                 )
             if any(status.flags[f] for f in step.any):
                 return status
-            if status.flags[step.done] and abs(self._counter_position(status) - at) <= tolerance:
+            seen = self._counter_position(status)
+            if status.flags[step.done] and abs(seen - at) <= tolerance:
                 return status  # finished before the first poll
+            if status.flags[step.done] and abs(at) > tolerance and abs(seen + at) <= tolerance:
+                self._refuse_mirrored_home(axis, command, seen, at)
             if time.monotonic() >= deadline:
                 raise DeviceTimeout(
                     f"{command} {axis}: not acknowledged within {timeout_s:g} s "
@@ -961,3 +1032,14 @@ class AxisController:
                     where=self._where(axis),
                 )
             time.sleep(self.poll_interval_s)
+
+
+def _left(state: DriveState) -> Callable[[int], bool]:
+    """Whether a statusword codes another state than ``state``."""
+    return lambda word: drive_state(word) is not state
+
+
+def _left_or_standing(state: DriveState) -> Callable[[int], bool]:
+    """Left ``state``, or standing (target reached) in it: a drive in quick stop active
+    takes enable operation (transition 16) once it stands."""
+    return lambda word: drive_state(word) is not state or bool(word & TARGET_REACHED)

@@ -6,7 +6,9 @@ profile with the wrong home-offset sign homes and runs silently off by twice
 the offset. Neither shows in the client's own bookkeeping, so this module looks
 where they do show, and before anything is commanded that could lurch:
 
-1. ``check_identity`` (nothing moves, before homing): the status words form a
+1. ``check_identity`` (nothing moves, before homing): a 32-bit register whose value
+   the drive's kind fixes (``[word_order_check]``: CiA 402's device type, profile
+   number 402 in its low word) reads it in the profile's word order; the status words form a
    pattern the family can show (a CiA 402 statusword is one of its state
    patterns; no axis is in position and moving at once); the position read
    twice at rest agrees within one register step; and every 32-bit value read
@@ -46,6 +48,7 @@ import logging
 import time
 from collections.abc import Iterable
 
+from ogacq_drivers.axes.cia402 import drive_state
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.profile import (
     Profile,
@@ -54,31 +57,9 @@ from ogacq_drivers.axes.profile import (
     mm_to_counts,
     words_to_int,
 )
-from ogacq_drivers.errors import DeviceFault, DriverError
+from ogacq_drivers.errors import DeviceFault, DriverError, PreflightError
 
 log = logging.getLogger(__name__)
-
-#: CiA 402 statusword state patterns: (mask, value) [CiA 402-2 (IEC 61800-7-201),
-#: statusword bits 0-3, 5, 6 "state coding" table].
-CIA402_STATES = (
-    (0x4F, 0x00, "not ready to switch on"),
-    (0x4F, 0x40, "switch on disabled"),
-    (0x6F, 0x21, "ready to switch on"),
-    (0x6F, 0x23, "switched on"),
-    (0x6F, 0x27, "operation enabled"),
-    (0x6F, 0x07, "quick stop active"),
-    (0x4F, 0x0F, "fault reaction active"),
-    (0x4F, 0x08, "fault"),
-)
-
-
-class PreflightError(DeviceFault):
-    """The drive is not what the profile says; names the profile field to change."""
-
-    def __init__(self, message: str, *, field: str, where: str) -> None:
-        super().__init__(message, code="preflight", where=where)
-        self.field = field
-
 
 #: The probe's speed in counts/s: 0x00010000, whose words swapped read 0x00000001.
 PROBE_SPEED_COUNTS_S = 0x10000
@@ -142,16 +123,51 @@ def check_plausible(controller: AxisController, axes: Iterable[str] | None = Non
                 field="codec.word_order", where=controller.where(axis))
 
 
+def _swap_words(value: int) -> int:
+    return ((value & 0xFFFF) << 16) | (value >> 16 & 0xFFFF)
+
+
+def check_word_order(controller: AxisController, axes: Iterable[str] | None = None) -> None:
+    """The profile's ``[word_order_check]`` register holds the value the drive's kind fixes
+    in the profile's word order: refused, naming ``codec.word_order``, when it does so
+    only with the words the other way round; nothing is written or moved. (Without such
+    a register the word order shows only in a value far from 0, :func:`check_plausible`,
+    or, where every value read is 0 or -1, in the probe move.)"""
+    profile = controller.profile
+    check = profile.word_order_check
+    if check is None:
+        return
+    for axis in controller.chosen_axes(axes):
+        value = int(controller.read_raw(axis, check.value)) & 0xFFFFFFFF
+        if value & check.mask == check.equals:
+            continue
+        swapped = _swap_words(value)
+        reads = (f"pre-flight {axis}: {check.value} reads {value:#010x}, not the "
+                 f"{check.equals:#x} (mask {check.mask:#x}) a drive of this kind holds")
+        if swapped & check.mask == check.equals:
+            raise PreflightError(
+                f"{reads}; with its words the other way round it reads {swapped:#010x}: change "
+                f"codec.word_order (now {profile.codec.word_order!r}) in profile "
+                f"{profile.name!r}; nothing was commanded",
+                field="codec.word_order", where=controller.where(axis))
+        raise PreflightError(
+            f"{reads}: check values.{check.value}.address and axes.device_ids in profile "
+            f"{profile.name!r} (or delete [word_order_check] for a drive that does not map "
+            "it); nothing was commanded",
+            field=f"values.{check.value}.address", where=controller.where(axis))
+
+
 def check_identity(controller: AxisController, axes: Iterable[str] | None = None) -> None:
     """Status pattern plausible for the family; the position read twice agrees (at rest);
-    every 32-bit value within the machine's travel (:func:`check_plausible`)."""
+    every 32-bit value within the machine's travel (:func:`check_plausible`); the word
+    order of the profile's known value (:func:`check_word_order`)."""
     profile = controller.profile
     for axis in controller.chosen_axes(axes):
         where = controller.where(axis)
         first = controller.read_status([axis])[axis]
         if profile.family == "cia402":
             word = int(controller.read_raw(axis, "statusword"))
-            if not any(word & mask == value for mask, value, _ in CIA402_STATES):
+            if drive_state(word) is None:
                 raise PreflightError(
                     f"pre-flight {axis}: statusword {word:#06x} is no CiA 402 state: the device "
                     f"is not a CiA 402 drive at these addresses (check the profile's "
@@ -172,6 +188,7 @@ def check_identity(controller: AxisController, axes: Iterable[str] | None = None
                 "address and codec.word_order",
                 field="codec.word_order", where=where)
     check_plausible(controller, axes)
+    check_word_order(controller, axes)
 
 
 def check_home(controller: AxisController, axes: Iterable[str] | None = None) -> None:

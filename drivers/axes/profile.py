@@ -210,7 +210,7 @@ class FlagSpec:
 class CommandStep:
     """One step of a command sequence (see the profile files for the step language)."""
 
-    op: Literal["write", "write_block", "wait", "confirm"]
+    op: Literal["write", "write_block", "wait", "confirm", "cia402_enable"]
     to: tuple[str, ...] = ()
     value: tuple[Any, ...] = ()
     edge: bool = False
@@ -227,6 +227,8 @@ class CommandStep:
     any: tuple[str, ...] = ()
     done: str = ""
     at: float | str = ""
+    #: The statusword a ``cia402_enable`` step reads the drive's state from.
+    status: str = ""
 
 
 @dataclass(frozen=True)
@@ -299,6 +301,17 @@ class TemperatureSpec:
 
 
 @dataclass(frozen=True)
+class KnownValue:
+    """A 32-bit register whose value the drive's kind fixes (``[word_order_check]``):
+    ``value & mask == equals`` in the right word order; the pre-flight reads it before
+    anything moves, since a value the client wrote reads back alike in either order."""
+
+    value: str
+    mask: int
+    equals: int
+
+
+@dataclass(frozen=True)
 class Profile:
     name: str
     family: Literal["iai-robo", "cia402"]
@@ -318,6 +331,7 @@ class Profile:
     commands: dict[str, Command]
     sim: SimSpec
     temperature: TemperatureSpec | None = None
+    word_order_check: KnownValue | None = None
 
     @property
     def endpoint_per_axis(self) -> bool:
@@ -406,6 +420,11 @@ _STEP = Variants("op", {
                    Field("done", text(), required=True),
                    Field("at", Value((float, str)), required=True),
                    Field("timeout_s", _TIMEOUT_OR_PARAM)),
+    # the CiA 402 state machine walked to "operation enabled" from the state the
+    # statusword reports (drivers/axes/cia402.py); timeout_s bounds each transition
+    "cia402_enable": _op("cia402_enable", Field("to", text(), required=True),
+                         Field("status", text(), required=True),
+                         Field("timeout_s", _TIMEOUT_OR_PARAM)),
 })
 
 
@@ -473,7 +492,10 @@ PROFILE_FILE = Table((*_required(
     Field("machine", text()),
     Field("degc_per_count", number(positive=True), required=True),
     Field("axis", text(*AXIS_NAMES)),
-), build=TemperatureSpec))))
+), build=TemperatureSpec)), Field("word_order_check", Table(_required(
+    # optional: a 32-bit raw value whose masked value the drive's kind fixes
+    ("value", text()), ("mask", whole(minimum=1, maximum=0xFFFFFFFF)),
+    ("equals", whole(minimum=0, maximum=0xFFFFFFFF))), build=KnownValue))))
 
 
 # --------------------------------------------------------------------------- loading
@@ -561,7 +583,22 @@ class _Checks:
             commands=self.commands(top["commands"], values, flags),
             sim=top["sim"],
             temperature=self.temperature(top.get("temperature"), values),
+            word_order_check=self.word_order_check(top.get("word_order_check"), values),
         )
+
+    def word_order_check(self, check: KnownValue | None, values: Mapping[str, ValueSpec],
+                         ) -> KnownValue | None:
+        if check is None:
+            return None
+        self._value_ref(check.value, values, "word_order_check.value", readable=True)
+        spec = values[check.value]
+        if spec.words != 2 or spec.unit != "raw" or spec.function != "holding":
+            raise self.fail("word_order_check.value", f"{check.value!r} must be a raw 32-bit "
+                            "holding register (u32 or s32)")
+        if check.equals & ~check.mask:
+            raise self.fail("word_order_check.equals", f"{check.equals:#x} has bits outside "
+                            f"the mask {check.mask:#x}")
+        return check
 
     def temperature(self, spec: TemperatureSpec | None, values: Mapping[str, ValueSpec],
                     ) -> TemperatureSpec | None:
@@ -711,25 +748,7 @@ class _Checks:
                                      "edge and skip_unchanged exclude each other")
             return CommandStep(op, to=(to,), value=(value,), edge=edge, skip_unchanged=skip)
         if op == "write_block":
-            names, given = s["to"], s["value"]
-            if not names or len(names) != len(given):
-                raise self.fail(key, "'to' and 'value' must be non-empty lists of equal length")
-            refs = [self._value_ref(n, values, f"{key}.to[{i}]", writable=True)
-                    for i, n in enumerate(names)]
-            for prev, nxt in zip(refs, refs[1:], strict=False):
-                a, b = values[prev], values[nxt]
-                if a.function != "holding" or b.function != "holding" \
-                        or a.address + a.words != b.address:
-                    raise self.fail(f"{key}.to", f"{prev!r} and {nxt!r} are not contiguous "
-                                    "registers")
-            count = sum(values[n].words for n in refs)
-            if count > MAX_WRITE_REGISTERS:
-                raise self.fail(f"{key}.to", f"{count} registers: one FC 16 request writes "
-                                f"{MAX_WRITE_REGISTERS} at most (Modbus Application Protocol "
-                                "V1.1b3 §6.12)")
-            vals = tuple(self._step_value(v, values[n], f"{key}.value[{i}]")
-                         for i, (n, v) in enumerate(zip(refs, given, strict=True)))
-            return CommandStep(op, to=tuple(refs), value=vals, edge=s.get("edge", False))
+            return self._write_block_step(s, key, values)
         if op == "wait":
             if ("until" in s) == ("flag" in s) or ("flag" in s) != ("state" in s):
                 raise self.fail(key, "a wait names 'flag' and 'state', or 'until' (a list of "
@@ -743,6 +762,12 @@ class _Checks:
                                 for f, v in alternative.items())
                           for i, alternative in enumerate(s["until"]))
             return CommandStep(op, until=until, timeout_s=timeout)
+        if op == "cia402_enable":
+            return CommandStep(op, to=(self._value_ref(s["to"], values, f"{key}.to",
+                                                       writable=True),),
+                               status=self._value_ref(s["status"], values, f"{key}.status",
+                                                   readable=True),
+                               timeout_s=timeout)
         any_flags = tuple(self._flag_ref(f, flags, f"{key}.any[{i}]")
                           for i, f in enumerate(s["any"]))
         at = s["at"]
@@ -751,6 +776,28 @@ class _Checks:
         return CommandStep(op, any=any_flags, done=self._flag_ref(s["done"], flags,
                                                                   f"{key}.done"),
                            at=at, timeout_s=timeout)
+
+    def _write_block_step(self, s: dict[str, Any], key: str,
+                          values: Mapping[str, ValueSpec]) -> CommandStep:
+        names, given = s["to"], s["value"]
+        if not names or len(names) != len(given):
+            raise self.fail(key, "'to' and 'value' must be non-empty lists of equal length")
+        refs = [self._value_ref(n, values, f"{key}.to[{i}]", writable=True)
+                for i, n in enumerate(names)]
+        for prev, nxt in zip(refs, refs[1:], strict=False):
+            a, b = values[prev], values[nxt]
+            if a.function != "holding" or b.function != "holding" \
+                    or a.address + a.words != b.address:
+                raise self.fail(f"{key}.to", f"{prev!r} and {nxt!r} are not contiguous "
+                                "registers")
+        count = sum(values[n].words for n in refs)
+        if count > MAX_WRITE_REGISTERS:
+            raise self.fail(f"{key}.to", f"{count} registers: one FC 16 request writes "
+                            f"{MAX_WRITE_REGISTERS} at most (Modbus Application Protocol "
+                            "V1.1b3 §6.12)")
+        vals = tuple(self._step_value(v, values[n], f"{key}.value[{i}]")
+                     for i, (n, v) in enumerate(zip(refs, given, strict=True)))
+        return CommandStep("write_block", to=tuple(refs), value=vals, edge=s.get("edge", False))
 
     def _flag_ref(self, name: str, flags: Mapping[str, FlagSpec], key: str) -> str:
         if name not in flags:

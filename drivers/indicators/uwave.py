@@ -30,7 +30,7 @@ from decimal import ROUND_HALF_EVEN, Decimal
 
 import serial
 
-from ogacq_drivers.errors import DeviceFault, DriverError, FrameError
+from ogacq_drivers.errors import DeviceFault, DeviceTimeout, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
 from ogacq_drivers.indicators.base import (
     Reading,
@@ -52,8 +52,7 @@ BATTERY_LOW = "00"
 # Codes of 99MAL216A section 6.1 (the list issue 12 quotes). The wording of 00, 01,
 # 03, 04, 05 follows INSTRUMENTS.md; for 02, 50, 51 and 99 we had no text of the
 # manual at hand (no source for the wording), so the message gives the code and
-# points to the manual. Every code but 00 stops the reading: a status we cannot
-# vouch for must not let a campaign carry on as if the gauge were fine.
+# points to the manual.
 STATUS_MEANINGS = {
     "00": "transmitter battery low",
     "01": "instrument not responding (check the gauge and its U-WAVE-T)",
@@ -65,6 +64,17 @@ STATUS_MEANINGS = {
     "51": "transmitter status 51 (see the U-WAVE-R manual 99MAL216A, 6.1)",
     "99": "receiver error 99 (see the U-WAVE-R manual 99MAL216A, 6.1)",
 }
+# What each status says of the readings, from its meaning above: 00 is a warning
+# only (the data frames carry on). 01, 03, 04 and 05 report a reading that did not
+# arrive (the instrument did not answer, the radio lost the frame, the transmitter
+# dropped out, nothing came from the instrument): a data frame the receiver pushes
+# after one is a new measurement, so a read waits on for it until its deadline and
+# names the status only if none comes (an independent reader's notes of a live
+# capture, leank-spc's U-Wave guide, see status frames among the data frames of a
+# working receiver and read on past them). 02 (an instrument error), 50, 51, 99 and any
+# code not listed concern the instrument or the receiver themselves, which we
+# cannot vouch for: they stop the read at once.
+READING_LOST = frozenset({"01", "03", "04", "05"})
 
 _DATA = re.compile(rb"DT1([0-9]{2})([0-9]{2})([+-])([0-9.]{11})([MI0])\r")
 _VALUE_FIELD = re.compile(rb"[0-9]+(?:\.[0-9]+)?")
@@ -103,8 +113,13 @@ class UWaveStatus:
 
     @property
     def is_warning(self) -> bool:
-        """Battery low still lets readings through; everything else stops them."""
+        """Battery low still lets readings through."""
         return self.code == BATTERY_LOW
+
+    @property
+    def reading_lost(self) -> bool:
+        """A reading that did not arrive: the next data frame is a new one (READING_LOST)."""
+        return self.code in READING_LOST
 
 
 def encode_data(
@@ -267,12 +282,20 @@ class UWaveReceiver(SerialIndicator):
     def read(self, timeout_s: float | None = None) -> Reading:
         """The next reading pushed for this transmitter.
 
-        Raises :class:`DeviceFault` (code = status code) for a status frame
-        other than battery low, which is only logged.
+        Battery low is only logged. A status saying a reading was lost (READING_LOST)
+        is logged and the read waits on for the next data frame: :class:`DeviceFault`
+        (code = status code) only when none comes before the deadline. Any other
+        status raises it at once.
         """
         deadline = self._deadline(timeout_s)
+        lost: UWaveStatus | None = None
         while True:
-            frame, decoded = self._read_decoded(deadline, decode_frame)
+            try:
+                frame, decoded = self._read_decoded(deadline, decode_frame)
+            except DeviceTimeout as exc:
+                if lost is None:
+                    raise
+                raise status_fault(lost, where=self.where) from exc
             if not self._is_mine(decoded.gauge_id):
                 log.debug("%s: ignoring frame from transmitter %s", self.where, decoded.gauge_id)
                 continue
@@ -282,6 +305,11 @@ class UWaveReceiver(SerialIndicator):
                     log.warning(
                         "%s: %s (transmitter %s)", self.where, decoded.meaning, decoded.gauge_id
                     )
+                    continue
+                if decoded.reading_lost:
+                    log.warning("%s: %s (transmitter %s); waiting for its next reading",
+                                self.where, decoded.meaning, decoded.gauge_id)
+                    lost = decoded
                     continue
                 raise status_fault(decoded, where=self.where)
             unit = self._unit_of(decoded, frame)

@@ -22,16 +22,37 @@ class SimClock:
         self._real_start = time.monotonic()
         self._lock = threading.Lock()
         self._extra_s = 0.0
+        self._held_at: float | None = None  # simulated time it stands at while held
 
     def now(self) -> float:
         """Simulated seconds since the clock started."""
         with self._lock:
-            return (time.monotonic() - self._real_start) * self.speed + self._extra_s
+            return self._running() if self._held_at is None else self._held_at
+
+    def _running(self) -> float:
+        return (time.monotonic() - self._real_start) * self.speed + self._extra_s
 
     def advance(self, seconds: float) -> None:
         """Jump simulated time forward (tests use it to skip waits without sleeping)."""
         with self._lock:
             self._extra_s += seconds
+            if self._held_at is not None:
+                self._held_at += seconds
+
+    def hold(self) -> None:
+        """Stand still until :meth:`release` (only :meth:`advance` moves it): a test
+        then looks at the simulated machine mid-move however slowly a loaded machine
+        runs the test, with no race against real time."""
+        with self._lock:
+            if self._held_at is None:
+                self._held_at = self._running()
+
+    def release(self) -> None:
+        """Run on from where it was held."""
+        with self._lock:
+            if self._held_at is not None:
+                self._extra_s += self._held_at - self._running()
+                self._held_at = None
 
 
 #: The last stretch before a deadline that is spun rather than slept: the OS

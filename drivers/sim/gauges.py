@@ -392,13 +392,16 @@ class SimSetup:
 
     ``transport``: how a serial gauge is served (a protocol may insist on its own);
     ``push_period_s``: how often the simulated operator presses the data button of a
-    gauge that sends a value per press (U-WAVE, the keyboard cable), None for never.
+    gauge that sends a value per press (U-WAVE, the keyboard cable), None for never;
+    ``line_speed``: how many times faster than its baud rate a serial line runs (a
+    rehearsal at ``speed`` asks for as much; 1: the real line).
     """
 
     resolution_mm: float = 0.001
     transport: Transport = "pty"
     name: str | None = None
     push_period_s: float | None = None
+    line_speed: float = 1.0
 
 
 class SimulatedInstrument(Protocol):
@@ -455,7 +458,8 @@ class SerialDevice:
         """The stack's gauge of this protocol."""
         return GaugeEndpoint(protocol, source, resolution_mm=cls.shown_resolution_mm(
             setup.resolution_mm), transport=setup.transport, name=setup.name,
-            period_s=setup.push_period_s if cls.PRESSED else None)
+            period_s=setup.push_period_s if cls.PRESSED else None,
+            line_speed=setup.line_speed)
 
     @classmethod
     def shown_resolution_mm(cls, resolution_mm: float) -> float:
@@ -526,8 +530,10 @@ class GaugeEndpoint(SimulatedGauge):
     ``{channel: source}`` serves several channels (01A multiplexer channels
     ``"1"``..; U-WAVE transmitters ``"GGCC"``). ``resolution_mm`` is the display
     resolution in mm; ``unit`` the display unit. ``baud`` (default: the protocol's)
-    paces the bytes. A free-running device (Digimatic bridge, U-WAVE receiver) pushes
-    a frame per channel every ``period_s`` if given, and on :meth:`trigger`. Other
+    paces the bytes, ``line_speed`` times faster than it runs (an accelerated
+    rehearsal's line: the same frames, each byte's time divided). A free-running
+    device (Digimatic bridge, U-WAVE receiver) pushes a frame per channel every
+    ``period_s`` if given, and on :meth:`trigger`. Other
     keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``).
     """
 
@@ -543,6 +549,7 @@ class GaugeEndpoint(SimulatedGauge):
         transport: Transport = "pty",
         period_s: float | None = None,
         name: str | None = None,
+        line_speed: float = 1.0,
         **options: Any,
     ) -> None:
         device_class = simulator_of(protocol)
@@ -560,8 +567,10 @@ class GaugeEndpoint(SimulatedGauge):
         settings: LinkSettings = BACKENDS[protocol].settings
         if baud is not None:
             settings = replace(settings, baudrate=baud)
+        if not line_speed > 0:
+            raise ValueError(f"line_speed must be positive, got {line_speed}")
         self.settings = settings
-        self.byte_time_s = settings.byte_time_s
+        self.byte_time_s = settings.byte_time_s / line_speed
         if callable(value_source):
             self.channels: dict[str, ValueSource] = {
                 channel if channel is not None else device_class.DEFAULT_CHANNEL: value_source

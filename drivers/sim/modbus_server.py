@@ -289,6 +289,9 @@ _SW_TARGET_REACHED, _SW_BIT12 = 0x0400, 0x1000
 _CW_SWITCH_ON, _CW_ENABLE_VOLTAGE, _CW_QUICK_STOP, _CW_ENABLE_OPERATION = 0x01, 0x02, 0x04, 0x08
 _CW_NEW_SETPOINT, _CW_RELATIVE, _CW_FAULT_RESET, _CW_HALT = 0x10, 0x40, 0x80, 0x100
 _MODE_PROFILE_POSITION, _MODE_HOMING = 1, 6
+# CiA 301 1000h device type: profile 402 (0x0192) in bits 0-15; bits 16-23 the drive
+# type, 02h a servo drive [CiA 402-2, device type]
+_DEVICE_TYPE_SERVO = 0x0002_0192
 
 _STATE_WORDS = {
     "switch_on_disabled": _SW_SWITCH_ON_DISABLED,
@@ -340,6 +343,8 @@ class _CiaAxis(_SimulatedAxis):
         self.nvm_saves = 0
         self.put("profile_velocity", model.speed_mm_s)
         self.put("mode", _MODE_PROFILE_POSITION)
+        if "device_type" in profile.values:
+            self.put("device_type", _DEVICE_TYPE_SERVO)
 
     @property
     def mode(self) -> int:

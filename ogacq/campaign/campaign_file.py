@@ -265,6 +265,9 @@ class SimulatorSpec:
     # simulated legs expand with it)
     date: datetime.datetime | None = None
     ambient_c: float = 20.0
+    # the gauges' serial lines run `speed` times faster too (each byte's time divided
+    # by it, the frames still real): a rehearsal that is not about the line's timing
+    line_at_speed: bool = False
 
     def header(self) -> dict[str, Any]:
         """The session header's ``simulator`` entry: what a resume restarts."""
@@ -274,6 +277,8 @@ class SimulatorSpec:
                "gauge_protocols": dict(self.gauge_protocols), "ambient_c": self.ambient_c}
         if self.date is not None:  # a rehearsed date, not the calendar's
             out.update(date=self.date.isoformat(), simulated_date=True)
+        if self.line_at_speed:
+            out.update(line_at_speed=True)
         return out
 
     @classmethod
@@ -286,7 +291,8 @@ class SimulatorSpec:
                    gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
                    gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
                    date=moment_or_none(entry.get("date")),
-                   ambient_c=float(entry.get("ambient_c", 20.0)))
+                   ambient_c=float(entry.get("ambient_c", 20.0)),
+                   line_at_speed=bool(entry.get("line_at_speed", False)))
 
 
 @dataclass
@@ -435,6 +441,7 @@ _SIMULATOR = Table((
           decode=lambda table: tuple(sorted(table.items())), encode=dict),
     Field("date", MOMENT, decode=moment_or_none),
     Field("ambient_c", _TEMPERATURE),
+    Field("line_at_speed", TRUTH),
 ), build=SimulatorSpec)
 
 CAMPAIGN_FILE = Table((

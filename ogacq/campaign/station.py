@@ -300,7 +300,9 @@ def start_simulator(machine: MachineSpec, sim: SimulatorSpec, *, modbus_port: in
                                           gauge_layout=sim.gauge_layout,
                                           gauge_protocol=sim.gauge_protocol,
                                           gauge_protocols=dict(sim.gauge_protocols),
-                                          modbus_port=modbus_port)).start()
+                                          modbus_port=modbus_port,
+                                          line_speed=sim.speed if sim.line_at_speed
+                                          else 1.0)).start()
 
 
 def simulator_endpoints(simulator: SimulatorStack) -> tuple[ControllerSpec, list[GaugeSpec]]:

@@ -254,7 +254,9 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     for name, data in files.items():
         write_atomically(folder / name, data)
     effects_path = (folder / EFFECTS_FILE).resolve() if EFFECTS_FILE in files else None
-    spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile)
+    # a rehearsal of the procedure, not of the gauges' line timing: the lines at --speed
+    spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile,
+                         line_at_speed=True)
     return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
                            spec, operator=operator or _login_name(),
                            override_expired=reason, scan_step_mm=scan_step_mm,

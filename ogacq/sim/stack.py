@@ -54,6 +54,9 @@ class SimulatorConfig:
     # the shop's temperature, degC: what the controller's temperature registers show
     # (the truth's legs are already expanded to it, see SimTruth.at_temperature)
     ambient_c: float = 20.0
+    # how many times faster than their baud rates the gauges' serial lines run (a
+    # rehearsal not about the line's timing asks for `speed`; 1: the real lines)
+    line_speed: float = 1.0
 
 
 # Gauges that push their values (U-WAVE's DATA button, the keyboard cable's switch):
@@ -62,12 +65,12 @@ PUSH_PERIOD_S = 0.05
 
 
 def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: float,
-               transport: str, name: str) -> SimulatedGauge:
+               transport: str, name: str, line_speed: float = 1.0) -> SimulatedGauge:
     """The simulated endpoint serving one gauge of ``protocol`` (any of ``BACKENDS``:
     its backend names the simulated instrument), not yet started."""
     return simulated_gauge(protocol, source, SimSetup(
         resolution_mm=resolution_mm, transport=transport_of(transport), name=name,
-        push_period_s=PUSH_PERIOD_S))
+        push_period_s=PUSH_PERIOD_S, line_speed=line_speed))
 
 
 # The fastest ringing (Hz of real time) the simulated gauges sample well enough for a
@@ -116,7 +119,7 @@ class SimulatorStack:
             mux = GaugeEndpoint("mitutoyo-01a", {channels[k]: sources[k] for k in GAUGE_KEYS},
                                 resolution_mm=m.gauge_resolution_mm,
                                 transport=transport_of(config.gauge_transport),
-                                name="sim multiplexer")
+                                name="sim multiplexer", line_speed=config.line_speed)
             self.gauges = dict.fromkeys(GAUGE_KEYS, mux)
             self.channels = dict(channels)
         elif config.gauge_layout == "separate":
@@ -124,7 +127,7 @@ class SimulatorStack:
                 self.gauges[key] = make_gauge(
                     config.gauge_protocols.get(key, config.gauge_protocol), sources[key],
                     resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
-                    name=f"sim gauge {key}")
+                    name=f"sim gauge {key}", line_speed=config.line_speed)
                 self.channels[key] = None
         elif config.gauge_layout == "moved":
             self._mounted_leg = AXES[0]
@@ -132,7 +135,7 @@ class SimulatorStack:
                 indicator = make_gauge(
                     config.gauge_protocol, self._mounted_source(keys, sources),
                     resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
-                    name=f"sim indicator {number}")
+                    name=f"sim indicator {number}", line_speed=config.line_speed)
                 self.gauges.update(dict.fromkeys(keys, indicator))
                 self.channels.update(dict.fromkeys(keys))
         else:

@@ -201,3 +201,31 @@ def test_bad_axis_endpoints_refused(tmp_path, axes, words):
                     + ALL_GAUGES)
     with pytest.raises(InputError, match=words):
         read_campaign(path)
+
+
+def test_a_rehearsal_asks_for_its_gauge_lines_at_its_speed(tmp_path):
+    """`[simulator] line_at_speed = true`: each gauge's serial line runs `speed` times
+    faster than its baud rate (the same frames on the same pty, each byte's time
+    divided); a resumed session's header asks for it again. Without it, the real line."""
+    from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
+    from ogacq.campaign.station import start_simulator
+    from tests.campaign.conftest import write_campaign
+
+    for line_at_speed, divided_by in ((True, 50.0), (False, 1.0)):
+        extra = "line_at_speed = true\n" if line_at_speed else ""
+        path = write_campaign(tmp_path / str(line_at_speed), speed=50)
+        path.write_text(path.read_text().replace("[protocol]", extra + "[protocol]"))
+        campaign = read_campaign(path)
+        assert campaign.simulator is not None
+        assert campaign.simulator.line_at_speed is line_at_speed
+        header = campaign.simulator.header()
+        assert ("line_at_speed" in header) is line_at_speed  # unchanged when not asked
+        assert SimulatorSpec.from_header(header) == campaign.simulator
+        stack = start_simulator(campaign.machine, campaign.simulator)
+        try:
+            for gauge in stack.gauges.values():
+                line = gauge.settings.byte_time_s  # type: ignore[attr-defined]
+                paced = gauge.byte_time_s  # type: ignore[attr-defined]
+                assert paced == pytest.approx(line / divided_by)
+        finally:
+            stack.close()

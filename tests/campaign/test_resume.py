@@ -12,6 +12,7 @@ from ogacq.session.records import GaugesSetRecord, ResumeRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import run_ogacq
+from tests.interrupts import sigint_as_at_a_terminal
 
 # What one reading off by one display count (1 um) moves an offset in the papers'
 # 72-reading campaign: about a quarter of a micrometre.
@@ -25,9 +26,10 @@ def readings_on_disk(path) -> int:
 
 
 def start(*args):
-    return subprocess.Popen([sys.executable, "-m", "ogacq", *map(str, args)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            start_new_session=True)
+    with sigint_as_at_a_terminal():  # a Ctrl-C reaches it in a suite run in background
+        return subprocess.Popen([sys.executable, "-m", "ogacq", *map(str, args)],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                                start_new_session=True)
 
 
 def kill_after(proc, session, n_readings, timeout_s=60.0):

@@ -37,13 +37,14 @@ SETTLE = "settle_s = 8.0\nsettle_window_s = 1.0\n"
 
 
 def _ringing_campaign(tmp_path, settle: str, cycles: int = 2, postures: str = "",
-                      stability: str = ""):
+                      stability: str = "", simulator: str = ""):
     (tmp_path / "effects.toml").write_text(RINGING)
     path = write_campaign(tmp_path, seed=2, speed=10, extra=(
         f'legs = ["x"]\ncycles = {cycles}\nsettle = "{settle}"\n' + postures + SETTLE
         + stability))
     text = path.read_text().replace("settle_s = 0.5\n", "")
-    path.write_text(text.replace("[simulator]\n", '[simulator]\neffects = "effects.toml"\n'))
+    path.write_text(text.replace("[simulator]\n", '[simulator]\neffects = "effects.toml"\n'
+                                 + simulator))
     return read_campaign(path)
 
 
@@ -62,6 +63,54 @@ class _Clocked:
                 return reading
 
             indicator.read = logged
+
+
+class _Metered:
+    """Machine time metered by the gauges' exchanges while they settle: the simulator's
+    clock held at the end of each move, and moved on ``per_read_s`` at each read of
+    the settle that follows, so that neither the ringing left when it starts nor the
+    values it sees per second of machine time depend on how fast a loaded machine runs
+    the test (at speed 10 in real time, a settle took more than 6.4 s of machine time
+    at load 8-11 on 2 cores: too few values per window). With the gauges read in turn
+    on one line the reads, and so the times they sample, are the same on every run.
+    The moves themselves run on the simulator's clock."""
+
+    def __init__(self, station, per_read_s: float) -> None:
+        clock = station.simulator.clock
+        move, read_settled = station.move, station.read_settled
+        settling = threading.Event()
+
+        def moved(*args, **kwargs):
+            clock.release()
+            out = move(*args, **kwargs)
+            clock.hold()
+            # as if the arrival had been seen 0.1 s after the axes stopped, as at speed
+            # 10 on an idle machine, however late a loaded one saw it
+            stopped = station.simulator.motion.stopped_at_s()
+            late = clock.now() - (stopped + 0.1) if stopped is not None else 0.0
+            if late > 0:
+                clock.advance(-late)
+            return out
+
+        def held(*args, **kwargs):
+            clock.hold()
+            settling.set()
+            try:
+                return read_settled(*args, **kwargs)
+            finally:
+                settling.clear()
+                clock.release()
+
+        station.move, station.read_settled = moved, held
+        for indicator in dict.fromkeys(station.indicators.values()):
+            read = indicator.read
+
+            def metered(*args, _read=read, **kwargs):
+                if settling.is_set():
+                    clock.advance(per_read_s)
+                return _read(*args, **kwargs)
+
+            indicator.read = metered
 
 
 def _run_campaign(campaign, station):
@@ -120,13 +169,15 @@ def test_stable_settle_ends_early_leaving_no_ringing_above_the_gauge_noise(tmp_p
     agreement within the tolerance read up to about a micrometre of ringing into its
     readings; this one leaves under a third of the gauge's own uncertainty, and ends
     well before the fixed wait."""
-    campaign = _ringing_campaign(tmp_path, "stable")
+    campaign = _ringing_campaign(tmp_path, "stable", simulator='gauge_layout = "multiplexer"\n')
     assert campaign.protocol.stability.tolerance_mm == 0.002
     with open_station(campaign) as station:
         station.prepare()
         machine = station.simulator.machine
         assert machine.truth.vibration.amplitude_mm == 0.02  # the effects file's ringing
         ringing = _RingingLeft(station)
+        # the two gauges in turn: a value of each every 0.16 s, as at speed 10
+        _Metered(station, per_read_s=0.08)
         session = _run_campaign(campaign, station)
     assert session.header.plan["settle"] == "stable"
     assert session.header.plan["settle_window_s"] == 1.0
@@ -186,10 +237,12 @@ def test_a_gauge_that_never_comes_to_rest_ends_at_the_bound_and_the_record_says_
     taken afresh afterwards, as after a fixed wait."""
     campaign = _ringing_campaign(
         tmp_path, "stable", cycles=1, postures='postures = ["zero", "max", "min"]\n',
-        stability="[stability]\nreadings = 2\ntolerance_mm = 0.05\ntimeout_s = 5\n")
+        stability="[stability]\nreadings = 2\ntolerance_mm = 0.05\ntimeout_s = 5\n",
+        simulator='gauge_layout = "multiplexer"\n')
     with open_station(campaign) as station:
         station.prepare()
         truth = station.simulator.machine.truth
+        _Metered(station, per_read_s=0.08)  # the bound measures the rest on any machine
         settled = station.read_settled
 
         def then_ringing(step, gauges, rule):

@@ -22,6 +22,7 @@ from ogacq.io.machine_file import read_machine
 from ogacq.model.gauges import GAUGE_KEYS
 from ogacq.model.machine import PAPER_PROTOTYPE
 from tests.cli.helpers import run_ogacq
+from tests.interrupts import sigint_as_at_a_terminal
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "ogacq" / "examples"
 
@@ -73,10 +74,11 @@ def test_a_campaign_written_by_sim_runs_against_it(tmp_path):
     """`ogacq sim --port N --write-campaign FILE`, then `ogacq run FILE`; the session
     exports to a readings CSV that is replaced only with --force."""
     campaign = tmp_path / "sim.toml"
-    sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--json", "--speed", "100",
-                            "--port", str(_free_port()), "--write-campaign", str(campaign)],
-                           stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                           start_new_session=True)
+    with sigint_as_at_a_terminal():  # stopped by Ctrl-C below
+        sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--json", "--speed",
+                                "100", "--port", str(_free_port()), "--write-campaign",
+                                str(campaign)], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                               text=True, start_new_session=True)
     try:
         ready, _, _ = select.select([sim.stdout], [], [], 30)
         assert ready, "ogacq sim printed nothing"

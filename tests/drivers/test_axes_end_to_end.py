@@ -132,21 +132,27 @@ def test_soft_limit_alarm_then_reset(ready: Rig) -> None:
 
 def test_stop_interrupts_a_move_and_recovery_does_not_resume_it(ready: Rig) -> None:
     c, model = ready.controller, ready.model
-    # 18 s simulated, 0.36 s real: long enough to still be moving after the slowest
-    # move start (CiA 402 over paced RTU: a status check and the set-point handshake)
+    clock = model.clock
+    # the machine held still while the test looks, so that it is mid-move however late
+    # a loaded machine runs the requests (CiA 402 over paced RTU: a status check and the
+    # set-point handshake took longer than the move once)
+    clock.hold()
     c.move_to({"x": -90.0}, speed_mm_s=5.0, wait=False)
+    clock.advance(2.0)  # 10 mm of the 90 (after its ramp up)
     assert c.read_status(["x"])["x"].moving
     c.stop()
     stopped = model.raw_position_mm("x")
     assert -90.0 < stopped < 0.0
     assert not model.has_paused_move("x")  # cancelled, not paused
+    clock.advance(1.0)  # settled where it stopped
     # the campaign's recovery path: alarm reset, enable (a CiA 402 quick stop disables)
     c.reset_alarms()
     c.enable()
     status = c.wait_in_position(["x"], timeout_s=2.0)["x"]
     assert not status.moving and status.position_mm == pytest.approx(stopped, abs=0.011)
-    time.sleep(0.1)  # 5 s simulated: a resumed move would be 25 mm further
+    clock.advance(5.0)  # a resumed move would be 25 mm further
     assert model.raw_position_mm("x") == stopped
+    clock.release()
     assert c.move_to({"x": 5.0})["x"].position_mm == pytest.approx(5.0)
 
 

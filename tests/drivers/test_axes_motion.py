@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 
 import pytest
 
@@ -149,3 +150,15 @@ def test_thread_safe_under_concurrent_calls() -> None:
     for t in threads:
         t.join()
     assert not errors
+
+
+def test_a_held_clock_stands_still_until_released_and_runs_on_from_there() -> None:
+    running = SimClock(speed=50.0)
+    running.hold()
+    held = running.now()
+    time.sleep(0.02)  # 1 s of simulated time, had it run
+    assert running.now() == held
+    running.advance(2.0)
+    assert running.now() == held + 2.0
+    running.release()
+    assert held + 2.0 <= running.now() < held + 2.0 + 50.0 * 60  # on, from there

@@ -9,9 +9,13 @@ from pathlib import Path
 import pytest
 
 from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, run_preflight
 from ogacq_drivers.axes.profile import Profile, load_profile, parse_profile
 from tests.drivers.drive_rig import simulated_drive
+from tests.emulators.drives import Cia402Drive, EmulatorServer
+
+pytestmark = pytest.mark.filterwarnings("ignore:isSet:DeprecationWarning")
 
 
 def _variant(name: str, table: str, **values: object) -> Profile:
@@ -30,7 +34,7 @@ def test_a_drive_as_the_profile_says_passes(name: str) -> None:
         assert [model.raw_position_mm(a) for a in "xyz"] == pytest.approx([1.0] * 3, abs=0.011)
 
 
-def test_wrong_word_order_stops_at_the_probe_move() -> None:
+def test_wrong_word_order_stops_before_the_probe_move() -> None:
     drive = load_profile("cia402")
     client = _variant("cia402", "codec", word_order="high_first")
     with simulated_drive(drive, client) as (c, model, _server, _link):
@@ -83,3 +87,29 @@ def test_a_device_that_is_no_cia402_drive_is_named() -> None:
         with pytest.raises(PreflightError, match="is no CiA 402 state") as caught:
             check_identity(c, ["x"])
         assert caught.value.field == "values.statusword.address"
+
+
+def test_a_drive_that_homes_at_once_shows_the_opposite_sign_as_such() -> None:
+    """The independent emulator applies its home offset with the sign opposite to the
+    profile's and homes where it stands (as CiA 402 methods 35 and 37: no motion to
+    see): the homing after an offset write names offset.sign at once, not "not
+    acknowledged" after the acknowledge timeout."""
+    server = EmulatorServer("tcp")
+    drive = server.add(1, Cia402Drive, home_sign=+1)
+    profile = load_profile("cia402")  # sign -1
+    link = ModbusLink.for_profile(profile, transport="tcp", host="127.0.0.1",
+                                  port=server.start())
+    try:
+        c = AxisController(profile, link, axes=["x"])
+        c.enable()
+        c.home()  # home offset 0: either sign reads 0
+        c.write_offsets({"x": 0.25})
+        with pytest.raises(PreflightError, match=r"done at \+0.2500 mm, the opposite of the "
+                                                 r"-0.2500 mm.*change offset.sign to \+1",
+                           ) as caught:
+            c.home()
+    finally:
+        link.close()
+        server.stop()
+    assert caught.value.field == "offset.sign"
+    assert drive.physical_counts() == 0.0  # it never moved

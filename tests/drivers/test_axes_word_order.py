@@ -16,7 +16,7 @@ import pytest
 
 from ogacq_drivers.axes.controller import AxisController
 from ogacq_drivers.axes.modbus_link import ModbusLink
-from ogacq_drivers.axes.preflight import PreflightError, probe_move
+from ogacq_drivers.axes.preflight import PreflightError, check_identity, probe_move
 from ogacq_drivers.axes.profile import load_profile
 from ogacq.campaign.station import DeviceStation
 from tests.emulators.drives import Cia402Drive, EmulatorServer
@@ -98,3 +98,41 @@ def test_where_nothing_read_can_tell_the_probe_cannot_lurch() -> None:
     assert refused.value.field == "codec.word_order"
     assert abs(drive.physical_counts()) <= 3  # counts: 0.03 mm, not a lurch
     assert drive.motion.speed <= 1.0  # it read 1 count/s
+
+
+def test_where_every_value_reads_the_same_the_device_type_decides_before_homing() -> None:
+    """Counter 0, home offset 0 (both word orders read them alike): the device type,
+    profile number 402 in its low word [CiA 301 1000h], read high word first names the
+    word order before the homing, the probe or any write."""
+    server = EmulatorServer("tcp")
+    drives = {a: server.add(u, Cia402Drive, high_first=True)
+              for a, u in {"x": 1, "y": 2, "z": 3}.items()}
+    port = server.start()
+    assert port is not None
+    station = station_on(drives, port)
+    try:
+        with pytest.raises(PreflightError, match="change codec.word_order") as refused:
+            station.prepare()
+    finally:
+        station.controller.link.close()
+        server.stop()
+    assert refused.value.field == "codec.word_order"
+    assert "device_type reads 0x01920002" in str(refused.value)
+    writes = [pdu for d in drives.values() for pdu in d.requests if pdu[0] in (5, 6, 15, 16)]
+    assert writes == [] and all(not d.events for d in drives.values())
+
+
+def test_a_device_type_of_no_cia402_drive_is_named() -> None:
+    server = EmulatorServer("tcp")
+    drive = server.add(1, Cia402Drive)
+    drive.put(0x1000, 0x0002_0191)  # CiA 401, an I/O module at the drive's address
+    profile = load_profile("cia402")
+    link = ModbusLink.for_profile(profile, transport="tcp", host="127.0.0.1",
+                                  port=server.start())
+    try:
+        with pytest.raises(PreflightError, match="check values.device_type.address") as refused:
+            check_identity(AxisController(profile, link, axes=["x"]))
+    finally:
+        link.close()
+        server.stop()
+    assert refused.value.field == "values.device_type.address"

@@ -235,14 +235,21 @@ def test_uwave_filters_transmitters_and_skips_battery_warnings(caplog: pytest.Lo
     assert "battery low" in caplog.text
 
 
-def test_uwave_status_stops_the_reading():
-    link = ScriptedLink(pushed=b"ST10000FFFFFFFFFF04\rST100001234567890" b"01\r")
+def test_uwave_status_of_a_lost_reading_is_named_when_no_reading_follows():
+    link = ScriptedLink(pushed=b"ST10000FFFFFFFFFF04\r")
     gauge = UWaveReceiver(link, where="uw", unit="mm", timeout_s=0.05)  # type: ignore[arg-type]
     with pytest.raises(DeviceFault, match="uw.*disconnected") as fault:
         gauge.read()
     assert fault.value.code == "04"
-    with pytest.raises(DeviceFault, match="uw.*not responding.*id 1234567890"):
+
+
+@pytest.mark.parametrize("code", ["02", "50", "51", "99", "07"])
+def test_uwave_status_of_the_instrument_or_receiver_stops_the_reading(code: str):
+    link = ScriptedLink(pushed=b"ST100001234567890" + code.encode() + b"\rDT10000+0000001.000M\r")
+    gauge = UWaveReceiver(link, where="uw", unit="mm", timeout_s=0.05)  # type: ignore[arg-type]
+    with pytest.raises(DeviceFault, match="uw.*id 1234567890") as fault:
         gauge.read()
+    assert fault.value.code == code
 
 
 def test_uwave_unit_zero_takes_the_configured_unit_and_checks_its_decimals():

@@ -110,3 +110,21 @@ def _request_then_answer(gauge: Any, master: int, frame: bytes) -> None:
         gauge.read()
     finally:
         helper.join()
+
+
+@pytest.mark.parametrize("code", ["01", "03", "04", "05"])
+def test_uwave_reading_after_a_status_of_a_lost_reading_is_taken(
+    pty_pair: tuple[int, str], code: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """U-WAVE-R statuses 01, 03, 04, 05 say a reading did not arrive (99MAL216A 6.1, as
+    drivers/indicators/uwave.py quotes it): the data frame the receiver pushes after
+    one is a new reading, taken; the status is logged, not a stop."""
+    master, path = pty_pair
+    gauge: Any = open_indicator("uwave", path, unit="mm", where=f"uwave on {path}")
+    try:
+        os.write(master, b"ST10000FFFFFFFFFF" + code.encode() + b"\rDT10000+00000011.88M\r")
+        reading = gauge.read(timeout_s=30.0)  # bounded; both frames are already written
+    finally:
+        gauge.close()
+    assert reading.value_mm == pytest.approx(11.88)
+    assert f"uwave on {path}" in caplog.text and "waiting for its next reading" in caplog.text

@@ -325,8 +325,8 @@ class Cia402Drive(_Drive):
     not homed; RAM parameters (home offset) come back from its non-volatile memory.
     """
 
-    OBJECTS = {0x1010: 2, 0x603F: 1, 0x6040: 1, 0x6041: 1, 0x6060: 1, 0x6061: 1, 0x6064: 2,
-               0x607A: 2, 0x607C: 2, 0x6081: 2}
+    OBJECTS = {0x1000: 2, 0x1010: 2, 0x603F: 1, 0x6040: 1, 0x6041: 1, 0x6060: 1, 0x6061: 1,
+               0x6064: 2, 0x607A: 2, 0x607C: 2, 0x6081: 2}
 
     #: Kinco FD's Modbus addresses of the objects it maps (Kinco FD servo driver user
     #: manual, Modbus address table; 0x3100/0x3200 in the FD3/CD3 manual's §12.3 example
@@ -335,6 +335,10 @@ class Cia402Drive(_Drive):
     #: and takes speeds in DEC (``speed_in_dec``).
     KINCO = {0x6040: 0x3100, 0x6041: 0x3200, 0x6060: 0x3500, 0x6064: 0x3700,
              0x607A: 0x4000, 0x6081: 0x4A00}
+
+    #: CiA 301 1000h device type: device profile number 402 (0x0192) in bits 0-15,
+    #: drive type 02h (servo drive) in bits 16-23 [CiA 402-2 device type]
+    DEVICE_TYPE = 0x0002_0192
 
     STATUS = {"switch_on_disabled": 0x0040, "ready_to_switch_on": 0x0021,
               "switched_on": 0x0023, "operation_enabled": 0x0027,
@@ -374,6 +378,7 @@ class Cia402Drive(_Drive):
         self.limits: tuple[int, int] | None = (-10200, 6200)
         self.events: list[tuple[int, str]] = []  # (requests received so far, what happened)
         self.put(0x6060, 1)
+        self.put(0x1000, self.DEVICE_TYPE)
 
     # ---------------------------------------------------------------- memory
     def obj(self, index: int) -> int:

@@ -10,17 +10,22 @@ from pathlib import Path
 import pexpect
 import pytest
 
+from tests.interrupts import sigint_as_at_a_terminal
+
 # The simulator runs fast and reads settle quickly: a campaign takes seconds.
 FAST = ["--seed", "3", "--speed", "50", "--settle-s", "0.5", "--stability-timeout-s", "1"]
 ANSI = re.compile(r"\x1b\[[0-9;?]*[A-Za-z]")
 SHOWN = r"simulated gauge(?: [xyz]_[xyz])? shows (-?\d+\.\d+)"  # a rehearsal's hint
+# The longest wait for what the wizard shows next: a bound that fails on a hang only
+# (30 s ran out at load 8-11 on 2 cores, where a campaign step takes that long).
+WAIT_S = 300.0
 
 
 class Wizard:
     """``ogacq wizard --simulator`` in a new folder, or ``resume=`` a session."""
 
     def __init__(self, folder: Path, *args: str, resume: Path | None = None,
-                 timeout_s: float = 30) -> None:
+                 timeout_s: float = WAIT_S) -> None:
         self.folder = folder
         self.session = folder / "session.jsonl"
         self.indicators_given = "--indicators" in args  # then never asked
@@ -30,10 +35,11 @@ class Wizard:
         env.pop("NO_COLOR", None)
         start = ["--resume", str(resume)] if resume else \
             ["--simulator", *FAST, "--out", str(folder)]
-        self.child = pexpect.spawn(
-            sys.executable, ["-m", "ogacq", "wizard", *start, *args],
-            env=env, dimensions=(50, 120), encoding="utf-8", timeout=timeout_s,
-            codec_errors="replace")
+        with sigint_as_at_a_terminal():  # its Ctrl-C tests, in a suite run in background
+            self.child = pexpect.spawn(
+                sys.executable, ["-m", "ogacq", "wizard", *start, *args],
+                env=env, dimensions=(50, 120), encoding="utf-8", timeout=timeout_s,
+                codec_errors="replace")
         self.transcript: list[str] = []
 
     def expect(self, pattern: str, timeout_s: float | None = None) -> re.Match:
@@ -72,7 +78,7 @@ class Wizard:
     def ctrl_c(self) -> None:
         self.child.sendintr()
 
-    def finish(self, timeout_s: float = 30) -> int:
+    def finish(self, timeout_s: float = WAIT_S) -> int:
         self.child.expect(pexpect.EOF, timeout=timeout_s)
         self.transcript.append(ANSI.sub("", self.child.before or ""))
         self.child.close()

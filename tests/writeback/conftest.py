@@ -27,6 +27,7 @@ from ogacq.protocol.plan import ProtocolConfig, planned_layout
 from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.store import SessionWriter
 from tests.campaign.conftest import MACHINE
+from tests.interrupts import sigint_as_at_a_terminal
 
 SPEED = 50.0  # simulated time runs this much faster
 # The external simulator's clock is its own: the campaign settles in real seconds,
@@ -50,10 +51,11 @@ def simulator(folder: Path, profile: str, seed: int, effects: str | None = None,
         (folder / "effects.toml").write_text(effects)
         hidden = ["--effects", str(folder / "effects.toml")]
     log = (folder / f"sim-{profile}.log").open("w")
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "ogacq", "sim", "--profile", profile, "--seed", str(seed),
-         "--speed", str(SPEED), "--machine", str(machine), "--json", *hidden],
-        stdout=subprocess.PIPE, stderr=log, text=True)
+    with sigint_as_at_a_terminal():  # stopped by Ctrl-C below
+        proc = subprocess.Popen(
+            [sys.executable, "-m", "ogacq", "sim", "--profile", profile, "--seed", str(seed),
+             "--speed", str(SPEED), "--machine", str(machine), "--json", *hidden],
+            stdout=subprocess.PIPE, stderr=log, text=True)
     try:
         selector = selectors.DefaultSelector()
         selector.register(proc.stdout, selectors.EVENT_READ)
