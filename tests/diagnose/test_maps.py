@@ -97,6 +97,27 @@ def test_cyclic_screw_error_on_a_scan_is_named_and_measured(tmp_path):
     assert len(text.splitlines()) < 200
 
 
+def test_a_pitch_the_positions_cannot_resolve_is_said_unresolved_not_given_a_number():
+    """A 2.0 mm cyclic error read every 1 mm sits at the positions' Nyquist pitch: the
+    periodogram's best is at the band's 2.5 mm edge (it was reported as 2.5 ± 0.017
+    mm, its map adding error). It is said to be unresolved, with no std, and no map of
+    a wrong pitch is proposed; found, its pitch would have to be within 2 %."""
+    obs, _ = campaign(3, lead_screw={0: LeadScrewError(0.005, 2.0, 30.0)})
+    d = diagnose(obs)
+    cyclic = [e for e in d.map_effects if e.term.family == "lead_screw_cyclic"]
+    for e in cyclic:
+        assert abs(e.value.extra["pitch_mm"] - 2.0) < 0.02 * 2.0
+    if not cyclic:
+        considered = [c for step in d.mapped.search.steps for c in step.considered] \
+            + d.mapped.search.last_considered
+        edge = [c for c in considered if c.term.name == "lead_screw_cyclic.x"]
+        assert edge and all("unresolved (below the band's 2.5 mm edge" in c.reason
+                            for c in edge)
+    x = d.mapped.search.coverage[0]
+    assert x.pitch_band_mm[0] == pytest.approx(2.5)
+    assert "cyclic pitches resolved from 2.5 to" in x.describe()
+
+
 def test_smooth_screw_map_on_a_scan():
     """A cubic error of the y screw, 50 um at q = -100 mm: a smooth map; its slope over
     the travel may stay with the encoder scale the library found (the map is then
