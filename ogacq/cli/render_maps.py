@@ -82,6 +82,9 @@ def print_map_effect(e: MapEffect) -> None:
     if e.alternatives:
         alts = ", ".join(f"{a.name} (chi2 {a.delta_chi2:+.1f})" for a in e.alternatives)
         out.print(f"    [yellow]explained equally well by[/]: {alts}")
+    why = e.not_established()
+    if why is not None:
+        out.print(f"    [red]{escape(why)}[/]")
 
 
 def _spark(values: np.ndarray, top: float) -> str:

@@ -5,6 +5,9 @@
            corrected for the library's size as the library's own backward check)
         -> the final model refitted: the library's parameters by the exact model, the
            maps beside them (mapfit.py)
+        -> only when that fit is within the gauge noise are the maps established and
+           tabulated; else they are named "not established", with what would establish
+           them, and no table (and so no ISO 230-2 figure) is made of them
         -> each map's value, std and further parameters; one AxisMap per axis
         -> alternatives both ways and the scans that would separate them (mapswap.py)
 """
@@ -77,6 +80,19 @@ class MapEffect:
     separations: list = field(default_factory=list)
     model_spread: float = 0.0
     local_disturbance: str | None = None
+    # whether the final fit with it is within the gauge noise: a map beside a misfit
+    # nothing explains may stand for that misfit, and is not presented as found
+    established: bool = True
+
+    def not_established(self) -> str | None:
+        """Why this map is not taken as found, and what would establish it (None when
+        it is)."""
+        if self.established:
+            return None
+        return ("not established: the final fit is NOT within the gauge noise, so this map "
+                "may stand in for the misfit left; no table is made of it. What would "
+                "establish it: that misfit explained, or a scan of this axis, denser, "
+                "at irregular positions and from both sides, whose fit is within the noise")
 
     @property
     def name(self) -> str:
@@ -118,7 +134,7 @@ class MapEffect:
                 "unit": self.unit, "alternatives": [entry(a.name) for a in self.alternatives],
                 "family": "error map", "p_value": float(f"{self.p_value:.3g}"),
                 "delta_chi2": round(self.delta_chi2, 1), "located": self.sentence(),
-                **self.value.extra}
+                "established": self.established, **self.value.extra}
 
 
 @dataclass
@@ -141,6 +157,12 @@ class MapOutcome:
     def found(self) -> bool:
         return self.fit is not None
 
+    @property
+    def established(self) -> bool:
+        """Maps were found and the final fit with them is within the gauge noise: only
+        then are they tabulated (``maps``, ``maps_over``, ``value_at``)."""
+        return self.fit is not None and self.fit.verdict.consistent
+
     def maps_over(self, spans: Mapping[int, tuple[float, float]],
                   zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
         """The maps tabulated over what the campaign read of each axis widened to
@@ -151,7 +173,7 @@ class MapOutcome:
         (which grows with the distance from the reference). Zero at ``zero_at`` (axis
         -> q) where given, the band relative to it. ``extra["measured_mm"]`` says where
         the readings were."""
-        if self.fit is None:
+        if not self.established:
             return ()
         covs = {c.axis: c for c in self.search.coverage}
         ranges = {}
@@ -170,7 +192,7 @@ class MapOutcome:
         """The axis's map (its along-the-line terms summed, as the diagnosis fitted them,
         zero at their reference) at ``q_mm`` approached forward: the constant a map
         made zero elsewhere (``maps_over``'s ``zero_at``) hands to the joint offset."""
-        if self.fit is None:
+        if self.fit is None or not self.established:
             return 0.0
         total = 0.0
         at = np.array([q_mm])
@@ -248,6 +270,7 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
     if fitted is not None and math.isfinite(fitted.verdict.chi2_dof):
         inflation = math.sqrt(max(1.0, fitted.verdict.chi2_dof))
     effects = []
+    established = fitted is not None and fitted.verdict.consistent
     if fitted is not None:
         added = {s.added.term.name: s for s in search.steps}
         for k, term in enumerate(fitted.terms):
@@ -256,11 +279,11 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
                                * inflation**2, step.added.shape_std * inflation)
             effects.append(MapEffect(term, value, value.std, step.added.p_value,
                                      (step.rss_before - step.rss_after) / noise.variance,
-                                     coverage=covs.get(term.axis)))
+                                     coverage=covs.get(term.axis), established=established))
     maps = axis_maps(fitted, inflation, {a: (c.from_mm, c.to_mm) for a, c in covs.items()},
                      {a: c.step_mm for a, c in covs.items()},
                      {s.added.term.name: s.added.shape_std for s in search.steps}) \
-        if fitted is not None else ()
+        if fitted is not None and established else ()
     outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
                          (fitted.rss if fitted is not None else claimed.rss) / noise.variance,
                          inflation)

@@ -97,6 +97,23 @@ def test_cyclic_screw_error_on_a_scan_is_named_and_measured(tmp_path):
     assert len(text.splitlines()) < 200
 
 
+def test_no_map_is_presented_as_found_while_the_final_fit_is_not_within_the_noise():
+    """A 5 mm cyclic error on x, found, beside a 2 mm one on y that a 1 mm scan cannot
+    resolve: the fit with the x map is still NOT within the gauge noise, so the map
+    is named "not established" with what would establish it, and no table (nor any
+    ISO 230-2 figure made from one) is handed on."""
+    obs, _ = campaign(4, lead_screw={0: LeadScrewError(0.005, 5.0, 30.0),
+                                     1: LeadScrewError(0.006, 2.0, 0.0)})
+    d = diagnose(obs)
+    assert not d.final.consistent
+    found = d.map_effects
+    assert found and not any(e.established for e in found)
+    assert all(e.to_json()["established"] is False for e in found)
+    assert "not established" in found[0].not_established()
+    assert d.maps == () and d.maps_over({"x": (-100.0, 60.0)}) == ()
+    assert d.map_value_at("x", 10.0) == 0.0
+
+
 def test_a_pitch_the_positions_cannot_resolve_is_said_unresolved_not_given_a_number():
     """A 2.0 mm cyclic error read every 1 mm sits at the positions' Nyquist pitch: the
     periodogram's best is at the band's 2.5 mm edge (it was reported as 2.5 ± 0.017
