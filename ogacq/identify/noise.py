@@ -330,8 +330,11 @@ def _estimate_noise(obs: Observations) -> GaugeNoise:
         scatter = sigma_from_scatter(ss / dof, step)
     stated = obs.machine.gauge_repeatability_mm
     if stated is not None and measured is not None and scatter is not None:
+        # only a stated noise above the scatter is replaced: repeats that scatter more
+        # may hold physics that varies between them (a drift, a wind-up after other
+        # travels), which the model must explain, not the noise absorb
         p = stated_noise_p(stated, step, *measured)
-        if p is not None and p < STATED_NOISE_LEVEL:
+        if p is not None and p < STATED_NOISE_LEVEL and scatter < stated:
             return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
                               step, scatter, shared_rounding_variance(scatter, step),
                               measured[1], measured[0], refuted_mm=stated, refuted_p=p)
