@@ -52,6 +52,8 @@ def print_coverage(d: Diagnosis) -> None:
                   "(corrected for every shape and family tried)")
         for c in search.last_considered[:2]:
             out.print(f"    closest: {c.term.name}, {escape(c.reason)}")
+    if mapped.rival is not None:
+        out.print(f"  [yellow]explained as well[/]: {escape(mapped.rival.describe())}")
     for name, p in mapped.dropped:
         out.print(f"  dropped {name}: a partial fit of the maps, no longer significant "
                   f"beside them (p = {format_p(p)})")
