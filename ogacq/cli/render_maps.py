@@ -52,6 +52,8 @@ def print_coverage(d: Diagnosis) -> None:
                   "(corrected for every shape and family tried)")
         for c in search.last_considered[:2]:
             out.print(f"    closest: {c.term.name}, {escape(c.reason)}")
+    if mapped.rival is not None:
+        out.print(f"  [yellow]explained as well[/]: {escape(mapped.rival.describe())}")
     for name, p in mapped.dropped:
         out.print(f"  dropped {name}: a partial fit of the maps, no longer significant "
                   f"beside them (p = {format_p(p)})")
@@ -82,6 +84,9 @@ def print_map_effect(e: MapEffect) -> None:
     if e.alternatives:
         alts = ", ".join(f"{a.name} (chi2 {a.delta_chi2:+.1f})" for a in e.alternatives)
         out.print(f"    [yellow]explained equally well by[/]: {alts}")
+    why = e.not_established()
+    if why is not None:
+        out.print(f"    [red]{escape(why)}[/]")
 
 
 def _spark(values: np.ndarray, top: float) -> str:

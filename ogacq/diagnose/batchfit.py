@@ -263,12 +263,13 @@ class _Space:
             # G rows: decomposed directly, whatever the caller holds
             design = Design(names, space.jacobian_at(theta_start, names))
             residuals, constant = space.residuals, space.constant_rss
+            start = space.start_at(theta_start)  # where every candidate starts
         else:
             if jac is None or not set(names) <= set(jac.names):
                 jac = Design(names, problem.jacobian(theta_start, names))
             design, residuals, constant = jac, problem.weighted_residuals, 0.0
+            start = residuals(theta_start[None])[0]
         q, r = design.factors
-        start = residuals(theta_start[None])[0]  # where every candidate starts
         return cls(residuals, {n: k for k, n in enumerate(design.names)}, q, r,
                    _along(start[None], q)[0], float(np.sum(start**2)), constant)
 

@@ -345,7 +345,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     if separate and not base.verdict.consistent and (
             seen.invisible() or seen.alias_groups() or seen.saturated):
         plans = plan_capabilities(obs.machine, claimed.theta, noise.sigma_mm)
-    mapped = map_diagnosis(problem, noise, claimed, alpha, separate) \
+    mapped = map_diagnosis(problem, noise, claimed, alpha, separate, base) \
         if maps and obs.raw else None
     all_effects: list[EffectFound | MapEffect] = list(effects)
     final_residuals = claimed.residuals

@@ -14,12 +14,14 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Sequence
+from functools import cached_property
 
 import numpy as np
 
+from ogacq.diagnose.posenodes import PoseNodes, pose_nodes
 from ogacq.identify.fit import Weighting
 from ogacq.identify.observations import Observations
-from ogacq.model.measurement import predict_coordinates, predict_jacobian
+from ogacq.model.measurement import ReadingsLayout, predict_coordinates, predict_jacobian
 from ogacq.model.parameters import indices
 
 
@@ -50,6 +52,8 @@ class GroupSpace:
         self._scale = groups.mean_scale[self._order] * np.sqrt(groups.size[self._order])
         zeros = np.eye(self.layout.n_gauges)[self.layout.gauge] * self._scale[:, None]
         self._zeros = zeros / np.sqrt(np.sum(zeros**2, axis=0))  # orthonormal columns
+        # the exact prediction at the last fit's start, at every group and at the nodes
+        self._reference: tuple[np.ndarray, np.ndarray] | None = None
 
     def with_side(self, obs: Observations) -> GroupSpace:
         """This space for ``obs``, the same readings with another lost-motion side
@@ -58,6 +62,9 @@ class GroupSpace:
         out = copy.copy(self)
         out.obs = obs
         out.layout = self.layout.with_side(obs.layout.lost_motion_side[self._kept])
+        for derived in ("_nodes", "_node_layout"):  # the tracks follow the sides
+            out.__dict__.pop(derived, None)
+        out._reference = None
         return out
 
     def __len__(self) -> int:
@@ -69,9 +76,37 @@ class GroupSpace:
 
     def residuals(self, theta: np.ndarray) -> np.ndarray:
         """(B, G) weighted residual coordinates: their squared norm plus
-        ``constant_rss`` is the weighted residual sum of squares."""
-        predicted = predict_coordinates(theta, self.layout, self.obs.machine)
-        return self._project((self._mean - predicted) * self._scale)
+        ``constant_rss`` is the weighted residual sum of squares. A dense scan's
+        are evaluated at its nodes (``posenodes.py``): the change from the exact
+        prediction at the fit's start (``start_at``), interpolated."""
+        return self._project((self._mean - self._predicted(theta)) * self._scale)
+
+    def start_at(self, theta: np.ndarray) -> np.ndarray:
+        """(G,) the exact residual coordinates at a fit's start ``theta`` (N,), kept as
+        the reference the residuals near it are interpolated from."""
+        predicted = predict_coordinates(theta[None], self.layout, self.obs.machine)
+        nodes = self._nodes
+        self._reference = None if nodes is None else (predicted, predicted[:, nodes.nodes])
+        return self._project((self._mean - predicted) * self._scale)[0]
+
+    def _predicted(self, theta: np.ndarray) -> np.ndarray:
+        nodes = self._nodes
+        if nodes is None or self._reference is None:
+            return predict_coordinates(theta, self.layout, self.obs.machine)
+        full, at_nodes = self._reference
+        change = predict_coordinates(theta, self._node_layout, self.obs.machine) - at_nodes
+        return full + nodes.interpolate(change)
+
+    @cached_property
+    def _nodes(self) -> PoseNodes | None:
+        return pose_nodes(self.layout)
+
+    @cached_property
+    def _node_layout(self) -> ReadingsLayout:
+        assert self._nodes is not None
+        keep = np.zeros(len(self.layout), dtype=bool)
+        keep[self._nodes.nodes] = True
+        return self.layout.subset(keep)
 
     def jacobian_at(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
         """(G, p) the weighted Jacobian of the named parameters at ``theta`` (without

@@ -5,6 +5,9 @@
            corrected for the library's size as the library's own backward check)
         -> the final model refitted: the library's parameters by the exact model, the
            maps beside them (mapfit.py)
+        -> only when that fit is within the gauge noise are the maps established and
+           tabulated; else they are named "not established", with what would establish
+           them, and no table (and so no ISO 230-2 figure) is made of them
         -> each map's value, std and further parameters; one AxisMap per axis
         -> alternatives both ways and the scans that would separate them (mapswap.py)
 """
@@ -18,7 +21,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ogacq.diagnose.alternatives import Alternative
+from ogacq.diagnose.alternatives import SWAP_CHI2, Alternative
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
 from ogacq.diagnose.mapfit import (
@@ -77,6 +80,19 @@ class MapEffect:
     separations: list = field(default_factory=list)
     model_spread: float = 0.0
     local_disturbance: str | None = None
+    # whether the final fit with it is within the gauge noise: a map beside a misfit
+    # nothing explains may stand for that misfit, and is not presented as found
+    established: bool = True
+
+    def not_established(self) -> str | None:
+        """Why this map is not taken as found, and what would establish it (None when
+        it is)."""
+        if self.established:
+            return None
+        return ("not established: the final fit is NOT within the gauge noise, so this map "
+                "may stand in for the misfit left; no table is made of it. What would "
+                "establish it: that misfit explained, or a scan of this axis, denser, "
+                "at irregular positions and from both sides, whose fit is within the noise")
 
     @property
     def name(self) -> str:
@@ -118,7 +134,36 @@ class MapEffect:
                 "unit": self.unit, "alternatives": [entry(a.name) for a in self.alternatives],
                 "family": "error map", "p_value": float(f"{self.p_value:.3g}"),
                 "delta_chi2": round(self.delta_chi2, 1), "located": self.sentence(),
-                **self.value.extra}
+                "established": self.established, **self.value.extra}
+
+
+@dataclass(frozen=True)
+class Rival:
+    """The explanation not chosen that fits the readings as well: library effects with
+    maps found beside them, against maps alone searched from the joint offsets.
+    ``chosen``/``other``: each as (values, library names, map terms) of what it adds to
+    the joint offsets; ``delta_chi2``: the other's chi-square minus the chosen one's;
+    ``p_library``: the library effects' nested test beside the maps alone (corrected
+    for the library's size): the test that decides between them."""
+
+    chosen: Explanation
+    other: Explanation
+    delta_chi2: float
+    p_library: float
+
+    @staticmethod
+    def label(explanation: Explanation) -> str:
+        names = [*explanation[1], *(t.name for t in explanation[2])]
+        return " + ".join(names) if names else "joint offsets only"
+
+    def describe(self) -> str:
+        library = self.chosen[1] or self.other[1]
+        verdict = (f"chosen: {', '.join(library)} not significant beside the maps alone "
+                   f"(p = {self.p_library:.2g})") if not self.chosen[1] else (
+            f"chosen: {', '.join(library)} significant beside the maps alone "
+            f"(p = {self.p_library:.2g})")
+        return (f"{self.label(self.other)} explains the readings as well "
+                f"(chi2 {self.delta_chi2:+.1f}); {verdict}")
 
 
 @dataclass
@@ -136,10 +181,18 @@ class MapOutcome:
     chi2_before: float  # the library model's chi-square (weighted rss / variance)
     chi2_after: float
     inflation: float = 1.0  # on the maps' std: the final fit's misfit beyond the noise
+    # the other route's explanation when it fits as well (``Rival``), else None
+    rival: Rival | None = None
 
     @property
     def found(self) -> bool:
         return self.fit is not None
+
+    @property
+    def established(self) -> bool:
+        """Maps were found and the final fit with them is within the gauge noise: only
+        then are they tabulated (``maps``, ``maps_over``, ``value_at``)."""
+        return self.fit is not None and self.fit.verdict.consistent
 
     def maps_over(self, spans: Mapping[int, tuple[float, float]],
                   zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
@@ -151,7 +204,7 @@ class MapOutcome:
         (which grows with the distance from the reference). Zero at ``zero_at`` (axis
         -> q) where given, the band relative to it. ``extra["measured_mm"]`` says where
         the readings were."""
-        if self.fit is None:
+        if self.fit is None or not self.established:
             return ()
         covs = {c.axis: c for c in self.search.coverage}
         ranges = {}
@@ -170,7 +223,7 @@ class MapOutcome:
         """The axis's map (its along-the-line terms summed, as the diagnosis fitted them,
         zero at their reference) at ``q_mm`` approached forward: the constant a map
         made zero elsewhere (``maps_over``'s ``zero_at``) hands to the joint offset."""
-        if self.fit is None:
+        if self.fit is None or not self.established:
             return 0.0
         total = 0.0
         at = np.array([q_mm])
@@ -224,30 +277,118 @@ def _backward(problem: Problem, noise: GaugeNoise, claimed: Model, terms: list[M
     return BASE_MODEL + tuple(effects), dropped
 
 
+@dataclass
+class _Route:
+    """The maps searched beside one starting model, its library effects the maps made
+    redundant dropped, the final model refitted with them."""
+
+    start: Model
+    search: MapSearch
+    names: tuple[str, ...]
+    dropped: list[tuple[str, float]]
+    fit: MapFit | None
+
+    @property
+    def rss(self) -> float:
+        return self.start.rss if self.fit is None else self.fit.rss
+
+    @property
+    def consistent(self) -> bool:
+        return self.start.verdict.consistent if self.fit is None else \
+            self.fit.verdict.consistent
+
+    def explanation(self) -> Explanation:
+        """What it adds to the joint offsets: library values, names, map terms."""
+        library = [n for n in self.names if n not in BASE_MODEL]
+        theta = self.start.theta if self.fit is None else self.fit.theta
+        values = [theta[PARAM_INDEX[n]] - NOMINAL[PARAM_INDEX[n]] for n in library]
+        if self.fit is not None:
+            values += [c for coef in self.fit.coefficients for c in coef]
+        return (np.array(values), library, [] if self.fit is None else list(self.fit.terms))
+
+
+def _route(problem: Problem, noise: GaugeNoise, start: Model, alpha: float,
+           history: JointHistory) -> _Route:
+    search, _ = search_maps(problem, noise, start.theta, start.names, start.rss,
+                            start.verdict.consistent, alpha, jacobian=start.jacobian)
+    terms = search.terms
+    if not terms:
+        return _Route(start, search, start.names, [], None)
+    names, dropped = _backward(problem, noise, start, terms, history, alpha)
+    theta0 = start.theta.copy()
+    for name, _ in dropped:
+        theta0[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
+    # the start's Jacobian is the start's when no effect was dropped
+    fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha,
+                           jacobian0=None if dropped else start.jacobian)
+    return _Route(start, search, names, dropped, fitted)
+
+
+def _library_beside_maps(problem: Problem, noise: GaugeNoise, library: _Route,
+                         alone: _Route, history: JointHistory) -> tuple[float, int]:
+    """p of the library effects of ``library`` added to the maps found alone (both
+    fitted together), corrected for the library's size as the backward check is,
+    and the rank they add (0: the maps hold them, as a screw map holds a scale)."""
+    assert alone.fit is not None
+    effects = [n for n in library.names if n not in BASE_MODEL]
+    theta0 = alone.fit.theta.copy()
+    theta = library.start.theta if library.fit is None else library.fit.theta
+    for n in effects:
+        theta0[PARAM_INDEX[n]] = theta[PARAM_INDEX[n]]
+    both = fit_with_maps(problem, noise, BASE_MODEL + tuple(effects), theta0, alone.fit.terms,
+                         history, iterations=1)
+    added = both.rank - alone.fit.rank
+    _, p = nested_test(alone.fit.rss, both.rss, max(added, 1), problem.n_data - both.rank,
+                       noise)
+    return min(1.0, p * len(EFFECT_PARAMETERS)), added
+
+
+def _chosen_route(problem: Problem, noise: GaugeNoise, library: _Route, base: Model | None,
+                  alpha: float, history: JointHistory) -> tuple[_Route, Rival | None]:
+    """The library's route, or the maps searched from the joint offsets alone where
+    those are fewer, within the noise, and the library's effects are not significant
+    beside them: a combination of library effects and maps is not chosen over fewer
+    maps without a test that prefers it. When both fit as well (their chi-square
+    within ``SWAP_CHI2``), the other is the rival, to be named with the scan that
+    separates them."""
+    effects = [n for n in library.names if n not in BASE_MODEL]
+    if base is None or not effects or library.fit is None:
+        return library, None  # no library effect, or no map beside them
+    alone = _route(problem, noise, base, alpha, history)
+    # only a simpler explanation is weighed against the library's: a backlash is not
+    # renamed a hysteresis of no length, which is the same physics
+    if alone.fit is None or not alone.consistent or \
+            len(alone.fit.terms) >= len(effects) + len(library.fit.terms):
+        return library, None
+    p, added = _library_beside_maps(problem, noise, library, alone, history)
+    scale = noise.variance * max(1.0, alone.fit.verdict.chi2_dof)
+    if p >= alpha:
+        chosen, other = alone, library
+        chosen.dropped = [(n, p) for n in library.start.effects]
+    else:
+        chosen, other = library, alone
+    gap = (other.rss - chosen.rss) / scale
+    # the maps alone holding the library's effects, no measurement tells them apart
+    rival = Rival(chosen.explanation(), other.explanation(), gap, p) \
+        if gap < SWAP_CHI2 and added > 0 else None
+    return chosen, rival
+
+
 def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: float = LEVEL,
-                  separate: bool = True) -> MapOutcome:
-    """Search, refit and judge the maps beside the library's ``claimed`` model."""
+                  separate: bool = True, base: Model | None = None) -> MapOutcome:
+    """Search, refit and judge the maps beside the library's ``claimed`` model, and
+    beside the joint offsets alone (``base``) where the library claimed effects."""
     history = JointHistory.of(problem.obs.layout)
-    search, space = search_maps(problem, noise, claimed.theta, claimed.names, claimed.rss,
-                                claimed.verdict.consistent, alpha, jacobian=claimed.jacobian)
+    library = _route(problem, noise, claimed, alpha, history)
+    route, rival = _chosen_route(problem, noise, library, base, alpha, history)
+    search, fitted, dropped = route.search, route.fit, route.dropped
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}
-    terms = search.terms
-    fitted: MapFit | None = None
-    dropped: list[tuple[str, float]] = []
-    names = claimed.names
-    theta0 = claimed.theta.copy()
-    if terms:
-        names, dropped = _backward(problem, noise, claimed, terms, history, alpha)
-        for name, _ in dropped:
-            theta0[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
-        # the claimed model's Jacobian is the start's when no effect was dropped
-        fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha,
-                               jacobian0=None if dropped else claimed.jacobian)
     inflation = 1.0
     if fitted is not None and math.isfinite(fitted.verdict.chi2_dof):
         inflation = math.sqrt(max(1.0, fitted.verdict.chi2_dof))
     effects = []
+    established = fitted is not None and fitted.verdict.consistent
     if fitted is not None:
         added = {s.added.term.name: s for s in search.steps}
         for k, term in enumerate(fitted.terms):
@@ -256,14 +397,13 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
                                * inflation**2, step.added.shape_std * inflation)
             effects.append(MapEffect(term, value, value.std, step.added.p_value,
                                      (step.rss_before - step.rss_after) / noise.variance,
-                                     coverage=covs.get(term.axis)))
+                                     coverage=covs.get(term.axis), established=established))
     maps = axis_maps(fitted, inflation, {a: (c.from_mm, c.to_mm) for a, c in covs.items()},
                      {a: c.step_mm for a, c in covs.items()},
                      {s.added.term.name: s.added.shape_std for s in search.steps}) \
-        if fitted is not None else ()
+        if fitted is not None and established else ()
     outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
-                         (fitted.rss if fitted is not None else claimed.rss) / noise.variance,
-                         inflation)
+                         route.rss / noise.variance, inflation, rival)
     if separate and problem.obs.raw and search.coverage:
         _honesty(problem, noise, claimed, outcome, history, inflation)
     return outcome
@@ -310,6 +450,11 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
                 other = (_swap_coefficients(lin, None, term, replace=k), [], [term])
             proposals.append(propose(signatures, effect.name, alt.name, one, other,
                                      alt.delta_chi2))
+    rival = outcome.rival
+    if rival is not None:
+        proposals.append(propose(signatures, Rival.label(rival.chosen),
+                                 Rival.label(rival.other), rival.chosen, rival.other,
+                                 rival.delta_chi2))
     outcome.proposals = proposals
 
 

@@ -10,8 +10,14 @@ effects found, the maps found so far):
   (Astrophys. Space Sci. 39, 1976) and J. D. Scargle (ApJ 263, 1982), here with
   the joint's sensitivity and the model's own directions taken out, on a grid five
   times finer than the record's resolution 1 / span (J. T. VanderPlas, "Understanding
-  the Lomb-Scargle periodogram", ApJS 236, 2018, section 7.1), from three periods
-  over the span to 2.5 readings per period; the peak refined between grid points;
+  the Lomb-Scargle periodogram", ApJS 236, 2018, section 7.1), over the band the
+  positions resolve and the physics allows (``pitch_band``): from three periods over
+  the span down to 2.5 distinct positions per period, and no shorter than the
+  shortest screw lead; the grid's sums over binned positions (``mapbins.py``), so
+  that it costs the positions, not the readings; the peak refined between grid
+  points on the exact columns. A best pitch at the band's edge is not resolved: the
+  true one may lie beyond it (aliased, or the smooth map's), so it is said so, with
+  no std, and not added;
 * the smooth screw map as a cubic spline, its number of knots chosen by the
   Bayesian information criterion;
 * hysteresis building up over a length chosen on a grid (0, a constant backlash,
@@ -45,6 +51,7 @@ import numpy as np
 
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums
 from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import nested_tests
 from ogacq.identify.consistency import LEVEL
@@ -61,7 +68,12 @@ from ogacq.model.units import UM_PER_MM
 MIN_POSITIONS = 10
 OVERSAMPLE = 5  # periodogram grid: this many frequencies per resolution element
 MIN_PERIODS = 3.0  # over the span: a longer period is the smooth map's
-SAMPLES_PER_PERIOD = 2.5  # above Nyquist's 2, so a peak is not at the grid's edge
+SAMPLES_PER_PERIOD = 2.5  # distinct positions per period: above Nyquist's 2
+# The shortest cyclic error searched for: the shortest lead of the ball screws that
+# drive machine axes (ISO 3408-2's nominal leads, as makers' catalogues list them,
+# start at 1 mm, e.g. THK's miniature BNK0401). A denser scan is not searched at
+# shorter pitches it could resolve: none is physics this model has.
+SHORTEST_LEAD_MM = 1.0
 KNOTS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
 BUILD_UP_MM = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 WARM_UP_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # of the campaign's duration
@@ -103,6 +115,13 @@ class AxisCoverage:
     def span_mm(self) -> float:
         return self.to_mm - self.from_mm
 
+    @property
+    def pitch_band_mm(self) -> tuple[float, float]:
+        """The cyclic pitches these positions resolve: 2.5 distinct positions a
+        period (never shorter than a screw's lead) to three periods over the span."""
+        return (max(SAMPLES_PER_PERIOD * self.step_mm, SHORTEST_LEAD_MM),
+                self.span_mm / MIN_PERIODS)
+
     def describe(self) -> str:
         name = AXES[self.axis]
         if self.dense and self.display_limited_mm is not None:
@@ -111,9 +130,12 @@ class AxisCoverage:
                     "repeats round alike and the rounding follows the readings along q, "
                     "so it would pass for a map; not searched (a finer indicator would tell)")
         if self.dense:
+            lo, hi = self.pitch_band_mm
+            band = (f"; cyclic pitches resolved from {lo:.3g} to {hi:.3g} mm" if lo < hi
+                    else "; no cyclic pitch resolved")
             return (f"{name} axis read at {self.positions} positions, {self.from_mm:+g} to "
                     f"{self.to_mm:+g} mm, every {self.step_mm:.3g} mm"
-                    + (", from both sides" if self.both_sides else ""))
+                    + (", from both sides" if self.both_sides else "") + band)
         return (f"{name} axis read at {self.positions} positions of its travel only: too few "
                 f"for a map along q (at least {MIN_POSITIONS}; a scan shows one)")
 
@@ -159,6 +181,7 @@ class MapCandidate:
     size_mm: float = 0.0  # its largest displacement: what plausibility judges
     reason: str = ""  # why not taken ("" when eligible)
     shape_std: float = math.nan  # of the shape parameter (pitch mm, build-up mm, tau s)
+    unresolved: str = ""  # why its shape is not resolved (then never added)
     periodogram: Periodogram | None = None
     # its shape refined between the grid's points, with the shape's std: done only for
     # a candidate that is taken (the test is on the grid, whose multiplicity it counts)
@@ -251,15 +274,16 @@ class _Families:
 
     def periodic(self) -> tuple[MapCandidate, Periodogram] | None:
         cov, a = self.cov, self.cov.axis
-        min_pitch = SAMPLES_PER_PERIOD * cov.step_mm
-        max_pitch = cov.span_mm / MIN_PERIODS
+        min_pitch, max_pitch = cov.pitch_band_mm
         if not min_pitch < max_pitch:
             return None
         df = 1.0 / (OVERSAMPLE * cov.span_mm)
         freqs = np.arange(1.0 / max_pitch, 1.0 / min_pitch + df / 2, df)
+        sums = PositionSums(self.space, self.q_rep, self.q_set, self.s_rep, self.s_set,
+                            min_pitch / BINS_PER_PITCH)
         gains = np.empty(len(freqs))
         for lo in range(0, len(freqs), CHUNK):
-            gains[lo:lo + CHUNK] = self._periodic_gain(freqs[lo:lo + CHUNK]).gain
+            gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _trial_functions).gain
         best = int(np.argmax(gains))
         gram = Periodogram(a, 1.0 / freqs, gains)
 
@@ -268,29 +292,34 @@ class _Families:
 
         def refine() -> MapCandidate:
             top = float(freqs[best])
-            if 0 < best < len(freqs) - 1:  # at the grid's edge it is taken as it is
-                found = _golden(at, float(freqs[best - 1]), float(freqs[best + 1]), 20)
-                if at(found) > gains[best]:
-                    top = found
+            found = _golden(at, float(freqs[best - 1]), float(freqs[best + 1]), 20)
+            if at(found) > at(top):
+                top = found
             std_f = _curvature_std(at, top, df / 20, _noise_var(self.space, self.noise))
             term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": 1.0 / top})
             return self._candidate(term, self._periodic_gain(np.array([top])), 0, len(freqs),
                                    1, shape_std=std_f / top**2, periodogram=gram)
 
-        term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": 1.0 / float(freqs[best])})
+        pitch = 1.0 / float(freqs[best])
+        term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": pitch})
+        unresolved = ""
+        if best == len(freqs) - 1:
+            unresolved = (f"pitch unresolved (below the band's {min_pitch:.3g} mm edge: "
+                          f"{SAMPLES_PER_PERIOD:g} distinct positions a period; a denser "
+                          "or irregular scan would resolve it)")
+        elif best == 0:
+            unresolved = (f"pitch unresolved (beyond the band's {max_pitch:.3g} mm edge: "
+                          f"{MIN_PERIODS:g} periods over the span; the smooth map's)")
         grid = self._candidate(term, self._periodic_gain(freqs[best:best + 1]), 0, len(freqs),
-                               1, periodogram=gram, refine=refine)
+                               1, periodogram=gram, refine=None if unresolved else refine,
+                               unresolved=unresolved)
         return grid, gram
 
     def _periodic_gain(self, freqs: np.ndarray) -> Gain:
-        w = 2 * np.pi * freqs[:, None]  # (F, 1)
-        ref = 0.0
-        values = np.stack([
-            np.sin(w * (self.q_rep - ref)) * self.s_rep
-            + np.sin(w * (self.q_set - ref)) * self.s_set,
-            (np.cos(w * (self.q_rep - ref)) - 1.0) * self.s_rep
-            + (np.cos(w * (self.q_set - ref)) - 1.0) * self.s_set], axis=1)  # (F, 2, G)
-        return self.space.gain_grouped(values)
+        """The exact gains at ``freqs``, column by column at every repeat group."""
+        t_rep = _trial_functions(freqs, self.q_rep)  # (F, 2, G)
+        t_set = _trial_functions(freqs, self.q_set)
+        return self.space.gain_grouped(t_rep * self.s_rep + t_set * self.s_set)
 
     def screw_map(self) -> MapCandidate | None:
         cov = self.cov
@@ -369,6 +398,13 @@ class _Families:
                                len(grid), 1)
 
 
+def _trial_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(F, 2, len(q)) the cyclic error's shapes at ``q``: a sine and a cosine less
+    one, zero at q = 0 as ``model/error_maps.py`` makes the lead-screw term."""
+    w = 2 * np.pi * freqs[:, None, None]
+    return np.concatenate([np.sin(w * q), np.cos(w * q) - 1.0], axis=1)
+
+
 def _size_mm(term: MapTerm, coefficients: np.ndarray) -> float:
     """The largest displacement the term makes over its axis's range (both sides)."""
     if term.family == "lead_screw_cyclic":
@@ -428,6 +464,8 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
         size = _size_mm(c.term, c.coefficients)
         if c.rank == 0:
             reason = "nothing of it is left beside the model"
+        elif c.unresolved:
+            reason = c.unresolved
         elif corrected >= level:
             reason = (f"not significant (p = {corrected:.2g} after {c.shapes_tried} shapes "
                       f"and {len(cands)} families)")

@@ -26,7 +26,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ogacq.identify.distributions import chi2_sf
 from ogacq.identify.observations import Observations
+from ogacq.model.units import UM_PER_MM
 
 _HARMONICS = np.arange(1, 4001, dtype=float)
 # Within a repeat group the weight of a difference between repeats is capped at
@@ -49,6 +51,10 @@ MAX_ROOT_STEPS = 100
 # of zero gave them to 3 in 4 campaigns whose few repeats happened to agree (one
 # cycle, two legs: 2 % of all campaigns; bench/bench_unseen.py).
 IDENTICAL_REPEATS_LEVEL = 0.01
+# A stated noise that the repeats' scatter refutes at the verdict's level
+# (consistency.LEVEL, whose module imports this one) is replaced by the measured one:
+# the verdict is then judged against the noise the readings carry.
+STATED_NOISE_LEVEL = 0.01
 
 
 # Up to this many harmonics the series is summed in plain floats: a numpy call on a
@@ -146,6 +152,10 @@ class GaugeNoise:
     dof: int | None = None  # degrees of freedom of a measured noise
     pure_error_ss: float | None = None  # repeats about their means, mm^2
     repeats_scatter_mm: float | None = None  # what the repeats show, beside a stated noise
+    # a stated noise the repeats refuted: the machine file's scatter (mm) and the
+    # two-sided p of the repeats' scatter under it (the measured noise is used then)
+    refuted_mm: float | None = None
+    refuted_p: float | None = None
 
     @property
     def variance(self) -> float:
@@ -186,6 +196,11 @@ class GaugeNoise:
 
     def describe(self) -> str:
         extra = f", {self.dof} dof" if self.dof else ""
+        if self.refuted_mm is not None and self.scatter_mm is not None:
+            extra += (f"; the machine file's {self.refuted_mm * UM_PER_MM:.2g} µm scatter "
+                      f"disagrees with the repeats' {self.scatter_mm * UM_PER_MM:.2g} µm "
+                      "beyond chance "
+                      f"(chi-square, p = {self.refuted_p:.2g}): the repeats' is used")
         if self.rounding_dominated:
             extra += f"; mostly the {self.step_mm:g} mm display step, repeated by the cycles"
         if self.assumed:
@@ -286,6 +301,25 @@ def noise_for(obs: Observations) -> GaugeNoise:
     return noise
 
 
+def stated_noise_p(stated_mm: float, step_mm: float, pure_error_ss: float,
+                   dof: int) -> float | None:
+    """Two-sided p of the repeats' scatter about their means (``pure_error_ss`` over
+    ``dof``) under a stated gauge scatter: ``ss / w`` is chi-square with ``dof``
+    degrees of freedom, ``w`` the variance the stated noise gives a reading about its
+    group's mean (the test of a variance, NIST/SEMATECH e-Handbook of Statistical
+    Methods, 1.3.5.8). None where the repeats cannot test it: the rounding not
+    dithered by the stated scatter (repeats then differ by whole display steps, not
+    Gaussian noise), or repeats that all read identically."""
+    within = within_variance(stated_mm, step_mm)
+    shared = shared_rounding_variance(stated_mm, step_mm)
+    total = stated_mm**2 + step_mm**2 / 12.0
+    if dof <= 0 or within <= 0 or shared > DITHERED_SHARE * total or \
+            read_identically(pure_error_ss, dof, step_mm):
+        return None
+    upper = float(chi2_sf(dof, pure_error_ss / within))
+    return min(1.0, 2.0 * min(upper, 1.0 - upper))
+
+
 def _estimate_noise(obs: Observations) -> GaugeNoise:
     step = obs.machine.gauge_resolution_mm
     measured = pure_error(obs)
@@ -295,6 +329,15 @@ def _estimate_noise(obs: Observations) -> GaugeNoise:
         ss, dof = measured
         scatter = sigma_from_scatter(ss / dof, step)
     stated = obs.machine.gauge_repeatability_mm
+    if stated is not None and measured is not None and scatter is not None:
+        # only a stated noise above the scatter is replaced: repeats that scatter more
+        # may hold physics that varies between them (a drift, a wind-up after other
+        # travels), which the model must explain, not the noise absorb
+        p = stated_noise_p(stated, step, *measured)
+        if p is not None and p < STATED_NOISE_LEVEL and scatter < stated:
+            return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
+                              step, scatter, shared_rounding_variance(scatter, step),
+                              measured[1], measured[0], refuted_mm=stated, refuted_p=p)
     if stated is not None:
         # GaugeNoise.stated's numbers, built at once with what the repeats show
         # (dataclasses.replace costs more than the noise it copies)

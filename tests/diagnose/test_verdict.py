@@ -10,15 +10,18 @@ from scipy import stats
 
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.diagnose.nested import nested_test
-from ogacq.identify.consistency import fit_verdict
+from ogacq.identify.consistency import LEVEL, fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.noise import (
+    STATED_NOISE_LEVEL,
     GaugeNoise,
     identical_pair_probability,
     identical_repeats_scatter,
     noise_for,
+    pure_error,
     shared_rounding_variance,
     sigma_from_scatter,
+    stated_noise_p,
     within_variance,
 )
 from ogacq.identify.observations import deviations_observations, readings_observations
@@ -57,6 +60,27 @@ def test_noise_from_repeats_uses_pure_error_and_the_lack_of_fit_test():
     assert verdict.noise_dof == pytest.approx(52, rel=0.02)
     assert verdict.overall_p == pytest.approx(
         stats.f.sf(verdict.statistic, verdict.dof, verdict.noise_dof))
+
+
+def test_a_stated_noise_the_repeats_refute_is_said_and_the_measured_one_used():
+    """The machine file states 8 um where the gauges scatter 2 um (a reading that
+    averages 16 values carries a quarter of a value's noise): the repeats' scatter
+    refutes it (two-sided chi-square at the verdict's level), the verdict is judged
+    against the repeats' noise and says why; the stated 2 um is kept."""
+    stated_4x = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=STEP_MM,
+                            gauge_repeatability_mm=4 * NOISE_MM)
+    assert STATED_NOISE_LEVEL == LEVEL
+    noise = noise_for(simulate({}, 2, machine=stated_4x))
+    assert noise.measured and noise.refuted_mm == 4 * NOISE_MM
+    assert noise.refuted_p is not None and noise.refuted_p < LEVEL
+    assert 0.0015 < noise.sigma_mm < 0.0028
+    assert "the machine file's 8 µm scatter disagrees with the repeats'" in noise.describe()
+    d = diagnose(simulate({}, 2, machine=stated_4x))
+    assert d.noise.measured and "disagrees" in d.noise.describe()
+    kept = noise_for(simulate({}, 2))
+    assert kept.source == "machine file" and kept.refuted_mm is None
+    p = stated_noise_p(NOISE_MM, STEP_MM, *pure_error(simulate({}, 2)))
+    assert p is not None and p > LEVEL
 
 
 def test_tabulated_deviations_are_judged_against_the_display_step_said_to_be_assumed():

@@ -1,0 +1,45 @@
+"""A dense scan's candidate fits evaluate the model at nodes along each scanned track
+(``diagnose/posenodes.py``): what they change of the predictions is interpolated to
+within a nanometre, and a campaign no denser than the nodes is evaluated as before."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.library import BASE_MODEL
+from ogacq.diagnose.posenodes import pose_nodes
+from ogacq.identify.fit import fit
+from ogacq.model.measurement import predict_coordinates
+from ogacq.model.parameters import PARAM_INDEX
+from tests.diagnose.test_maps import campaign
+
+CHANGES = {"squareness.xy": 0.5, "backlash.z": 0.02, "joint_offset.x": 0.01,
+           "leg_length.y": 0.05, "gauge_position.x": 0.1, "encoder_scale.z": 100.0}
+
+
+def test_a_dense_scan_is_evaluated_at_nodes_to_within_a_nanometre():
+    obs, _ = campaign(1, scan={"scan_step_mm": 0.1, "cycles": 1})
+    space = Problem(obs).group_space
+    assert space is not None
+    nodes = space._nodes
+    assert nodes is not None and len(nodes.nodes) * 4 < len(space)
+    start = fit(obs, BASE_MODEL, method="exact", weighting="gls").theta
+    exact_start = space.start_at(start)  # exact, the reference
+    rng = np.random.default_rng(0)
+    batch = np.repeat(start[None], 6, axis=0)
+    for name, size in CHANGES.items():
+        batch[:, PARAM_INDEX[name]] += rng.normal(0, size, len(batch))
+    exact = predict_coordinates(batch, space.layout, obs.machine)
+    assert np.abs(space._predicted(batch) - exact).max() < 1e-6  # mm
+    # the residual coordinates of the batch, interpolated, beside the exact ones
+    r = space.residuals(batch)
+    assert np.allclose(np.sum(r**2, axis=1),
+                       np.sum(space._project((space._mean - exact) * space._scale) ** 2, axis=1),
+                       rtol=1e-4)
+    assert np.allclose(space.residuals(start[None])[0], exact_start, rtol=0, atol=1e-12)
+
+
+def test_a_scan_no_denser_than_the_nodes_is_evaluated_at_every_group():
+    obs, _ = campaign(1)  # a 1 mm scan
+    assert pose_nodes(Problem(obs).group_space.layout) is None
