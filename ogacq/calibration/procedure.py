@@ -46,6 +46,7 @@ from ogacq.io.atomic import write_atomically
 from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
+from ogacq.protocol.scan_design import sampled_band
 from ogacq.protocol.runner import Observer
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
@@ -231,7 +232,10 @@ class Procedure:
 
     def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
         try:
-            result = diagnose(session_observations(session))
+            # a designed scan's readings searched for the periods its targets sample
+            band = sampled_band(_plan_of(session), self.setup.machine) \
+                if session.header.plan is not None else None
+            result = diagnose(session_observations(session), pitch_band_mm=band)
         except DiagnosisError as exc:
             raise InputError(session.path, str(exc)) from None
         if self.log.last("diagnosis", role=role) is None:
@@ -243,7 +247,9 @@ class Procedure:
 
     def _separation(self, diagnosis: Diagnosis, session: LoadedSession) -> SeparatingPlan:
         plan = separating_plan(diagnosis, session, self.setup.machine,
-                               self.setup.scan_protocol())
+                               self.setup.scan_protocol(),
+                               designed=self.setup.scan_step_mm is None,
+                               budget_s=self.setup.scan_minutes * 60.0)
         if self.log.last("separation") is None:
             speed = self.setup.simulator.speed if self.setup.simulator else None
             self.ui.separation(plan, speed)

@@ -12,10 +12,12 @@ Ambiguous here means one of:
 * an error map is among an effect's alternatives.
 
 Where a map is suspected (the last three) the measurement is a scan of every leg's
-travel, both directions; where only alternatives stand, the plan the diagnosis
-found that separates them (``ogacq.diagnose.separation``). Its duration is
-estimated from the campaign already run on this machine: its machine time per
-reading step, times the plan's reading steps.
+travel, both directions, its targets designed for the machine's drives within the
+time budget (``ogacq.protocol.scan_design``), or every ``--scan-step-mm`` when one is
+given; where only alternatives stand, the plan the diagnosis found that separates
+them (``ogacq.diagnose.separation``). Its duration is estimated from the campaign
+already run on this machine: its machine time per reading step, times the plan's
+reading steps.
 """
 
 from __future__ import annotations
@@ -28,6 +30,7 @@ from ogacq.diagnose.diagnosis import FEW_POSTURES, Diagnosis
 from ogacq.model.error_maps import FAMILIES as MAP_FAMILIES
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
+from ogacq.protocol.scan_design import ScanDesign, design_scan
 from ogacq.session.store import LoadedSession
 
 
@@ -40,13 +43,15 @@ class SeparatingPlan:
     duration_s: float  # estimated machine time
     seconds_per_step: float
     why_none: str = ""
+    design: ScanDesign | None = None  # the designed scan's (None: postures, a fixed step)
 
     def to_json(self) -> dict[str, Any]:
         return {"reasons": list(self.reasons), "kind": self.kind,
                 "protocol": self.protocol.to_dict() if self.protocol else None,
                 "reading_steps": self.steps, "duration_s": round(self.duration_s, 1),
                 "seconds_per_step": round(self.seconds_per_step, 3),
-                "why_none": self.why_none or None}
+                "why_none": self.why_none or None,
+                "design": self.design.to_json() if self.design else None}
 
 
 def ambiguity(diagnosis: Diagnosis) -> tuple[list[str], bool]:
@@ -95,13 +100,20 @@ def seconds_per_step(session: LoadedSession) -> float:
 
 
 def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: MachineSpec,
-                    scan: ProtocolConfig) -> SeparatingPlan:
+                    scan: ProtocolConfig, *, designed: bool = True,
+                    budget_s: float | None = None) -> SeparatingPlan:
     """The measurement that would separate what the diagnosis of ``session`` leaves
-    open (``scan``: the scan to run where a map is suspected)."""
+    open: where a map is suspected the scan designed for ``machine`` within
+    ``budget_s`` of machine time (``designed``), else ``scan``, a scan every step."""
     reasons, suspected = ambiguity(diagnosis)
     rate = seconds_per_step(session)
     if not reasons:
         return SeparatingPlan((), None, "none", 0, 0.0, rate, "the diagnosis is not ambiguous")
+    if suspected and designed:
+        design = design_scan(machine, scan, noise_mm=diagnosis.noise.sigma_mm,
+                             seconds_per_step=rate, budget_s=budget_s)
+        return SeparatingPlan(tuple(reasons), design.protocol, "scan", design.steps,
+                              design.duration_s, rate, design=design)
     if suspected:
         steps = steps_of(scan, machine)
         return SeparatingPlan(tuple(reasons), scan, "scan", steps, steps * rate, rate)

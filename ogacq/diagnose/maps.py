@@ -225,11 +225,13 @@ def _backward(problem: Problem, noise: GaugeNoise, claimed: Model, terms: list[M
 
 
 def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: float = LEVEL,
-                  separate: bool = True) -> MapOutcome:
+                  separate: bool = True,
+                  pitch_band_mm: tuple[float, float] | None = None) -> MapOutcome:
     """Search, refit and judge the maps beside the library's ``claimed`` model."""
     history = JointHistory.of(problem.obs.layout)
     search, space = search_maps(problem, noise, claimed.theta, claimed.names, claimed.rss,
-                                claimed.verdict.consistent, alpha, jacobian=claimed.jacobian)
+                                claimed.verdict.consistent, alpha, jacobian=claimed.jacobian,
+                                pitch_band_mm=pitch_band_mm)
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}
     terms = search.terms

@@ -90,6 +90,9 @@ class AxisCoverage:
     # the display step, when its rounding dominates the gauge's noise (else None): the
     # rounding then follows the signal along q and would pass for a map
     display_limited_mm: float | None = None
+    # the periods its positions sample, when a design states them (irregular positions
+    # resolve periods far below their median spacing: ogacq.protocol.scan_design)
+    pitch_band_mm: tuple[float, float] | None = None
 
     @property
     def dense(self) -> bool:
@@ -253,6 +256,8 @@ class _Families:
         cov, a = self.cov, self.cov.axis
         min_pitch = SAMPLES_PER_PERIOD * cov.step_mm
         max_pitch = cov.span_mm / MIN_PERIODS
+        if cov.pitch_band_mm is not None:
+            min_pitch, max_pitch = cov.pitch_band_mm[0], min(cov.pitch_band_mm[1], max_pitch)
         if not min_pitch < max_pitch:
             return None
         df = 1.0 / (OVERSAMPLE * cov.span_mm)
@@ -445,11 +450,13 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
                 names: tuple[str, ...], rss: float, consistent: bool,
                 alpha: float = LEVEL, max_terms: int = MAX_TERMS,
                 space: MapSpace | None = None, jacobian: np.ndarray | None = None,
+                pitch_band_mm: tuple[float, float] | None = None,
                 ) -> tuple[MapSearch, MapSpace | None]:
     """Forward selection of map terms beside the model ``names`` fitted at ``theta``
     (weighted rss ``rss``; ``jacobian``: its unweighted Jacobian there, when the
     caller holds it); ``consistent``: whether that model is within the noise
-    (the search then runs at the stricter level). Returns the search and the space
+    (the search then runs at the stricter level); ``pitch_band_mm``: the periods the
+    positions sample, as their design states (None: from their spacing). Returns the search and the space
     grown by the terms added (None when nothing could be searched)."""
     level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
     if not problem.obs.raw:
@@ -460,7 +467,8 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
     # scatter), the posture means' errors are the rounding of a signal that varies
     # smoothly along q: a structure of its own, which the maps would fit
     limited = None if noise.dithered else noise.step_mm
-    covs = coverage(problem.obs.layout, space.history.travel_mm, limited)
+    covs = tuple(replace(c, pitch_band_mm=pitch_band_mm) for c in
+                 coverage(problem.obs.layout, space.history.travel_mm, limited))
     search = MapSearch(covs, level)
     search.searched = any(c.searchable for c in covs) or (
         _repeated_in_time(problem.obs.layout) and space.within_groups_tested)

@@ -1,0 +1,86 @@
+"""The designed separating scan: irregular targets that sample every period of the
+band at 4 phases or more (checked here on a grid of its own, finer than the
+design's), the fewest within the budget, what it misses said, its detection limit."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, Screw
+from ogacq.protocol.plan import ProtocolConfig, campaign_steps, reading_steps, scan_targets
+from ogacq.protocol.scan_design import design_scan, sampled_band
+
+MACHINE = PAPER_PROTOTYPE_DIGITAL
+BASE = ProtocolConfig(settle_s=1.0)
+NOISE_MM = 0.0005
+STEP_S = 5.5
+
+
+def _largest_gaps(targets: np.ndarray, periods: np.ndarray) -> np.ndarray:
+    """Each period's largest gap between the targets' phases, a share of the period:
+    computed apart from the design's own function."""
+    out = np.empty(len(periods))
+    for k, p in enumerate(periods):
+        phases = np.sort(np.mod(targets, p) / p)
+        out[k] = np.max(np.diff(np.concatenate([phases, [phases[0] + 1.0]])))
+    return out
+
+
+def _design(**kw):
+    return design_scan(MACHINE, BASE, noise_mm=NOISE_MM, seconds_per_step=STEP_S,
+                       budget_s=40 * 60, **kw)
+
+
+def test_no_lead_stated_samples_every_lead_from_2_to_40_mm_at_4_phases():
+    design = _design()
+    targets = np.array(design.targets_mm)
+    assert design.complete and design.pitch_band_mm == (2.0, 40.0)
+    # every period of the band, on a grid where no phase moves 0.001 of a period
+    freqs = np.arange(1 / 40.0, 1 / 2.0 + 1e-12, 0.001 / np.max(np.abs(targets)))
+    assert len(freqs) > 30_000
+    assert _largest_gaps(targets, 1 / freqs).max() <= 0.25
+    # the issue's target: three legs in at most 450 reading steps, detection <= 1.5 um
+    assert design.steps <= 450 and design.steps == len(reading_steps(
+        design.protocol, MACHINE))
+    assert design.detection_mm["lead_screw_cyclic"] <= 0.0015
+    assert design.detection_mm["hysteresis"] <= 0.0015
+    # a fixed 5 mm step (the scan this replaces) samples a 5 mm lead at one phase
+    uniform = np.array(scan_targets(dataclasses.replace(BASE, scan_step_mm=5.0, approach="both"),
+                                    MACHINE))
+    assert _largest_gaps(uniform, np.array([5.0, 2.5]))[0] == pytest.approx(1.0)
+
+
+def test_the_design_reads_both_ways_over_the_whole_travel_twice():
+    design = _design()
+    reads = [s for s in campaign_steps(design.protocol, MACHINE) if hasattr(s, "step")]
+    x = [r for r in reads if r.leg == "x" and r.posture != "zero"]
+    assert {r.approach[0] for r in x} == {1, -1} and {r.cycle for r in x} == {1, 2}
+    t = design.targets_mm
+    assert (t[0], t[-1]) == (MACHINE.rho_min_mm + 1.0, MACHINE.rho_max_mm - 1.0)
+    assert len(set(np.round(np.diff(t), 3))) > len(t) // 2  # irregular
+    # what the diagnosis of its readings is handed: the band the design found
+    assert sampled_band(design.protocol, MACHINE) == design.pitch_band_mm
+    # recorded in a session's plan and read back
+    assert ProtocolConfig.from_dict(design.protocol.to_dict()) == design.protocol
+
+
+def test_stated_leads_and_their_second_harmonic_are_sampled():
+    machine = dataclasses.replace(MACHINE, screws=(("x", Screw(1.0)), ("y", Screw(5.0)),
+                                                   ("z", Screw(6.35, 3.175))))
+    design = design_scan(machine, BASE, noise_mm=NOISE_MM, seconds_per_step=STEP_S,
+                         budget_s=120 * 60)
+    assert design.required_mm is None  # every axis states its lead
+    assert design.stated_mm == (0.5, 1.0, 1.5875, 2.5, 3.175, 5.0, 6.35)
+    assert _largest_gaps(np.array(design.targets_mm), np.array(design.stated_mm)).max() <= 0.25
+    assert design.complete and not design.unsampled_mm
+
+
+def test_a_budget_too_short_is_said_and_kept():
+    design = design_scan(MACHINE, BASE, noise_mm=NOISE_MM, seconds_per_step=STEP_S,
+                         budget_s=10 * 60)
+    assert design.duration_s <= 10 * 60
+    assert not design.complete and design.pitch_band_mm[0] > 2.0
+    assert any("not covered within the budget" in line for line in design.lines())
