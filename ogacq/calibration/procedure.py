@@ -46,8 +46,8 @@ from ogacq.io.atomic import write_atomically
 from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
-from ogacq.protocol.scan_design import sampled_band
 from ogacq.protocol.runner import Observer
+from ogacq.protocol.scan_design import sampled_band
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session

@@ -99,7 +99,8 @@ class Setup:
                 "offsets_file": str(self.controller.offsets_file)
                 if self.controller.offsets_file else None,
                 "plan": self.protocol.to_dict(), "scan_step_mm": self.scan_step_mm,
-                "scan_minutes": self.scan_minutes, "separate": self.separate, "operator": self.operator,
+                "scan_minutes": self.scan_minutes, "separate": self.separate,
+                "operator": self.operator,
                 "override_expired": self.override_expired, **self.extra}
 
 

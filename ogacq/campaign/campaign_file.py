@@ -679,7 +679,8 @@ def campaign_text(campaign: Campaign, *, comment: str = "",
     stability = plan.pop("stability")
     document = {"machine": campaign.machine_path, "operator": campaign.operator or None,
                 "session": campaign.session, "deadline_s": campaign.deadline_s,
-                "scan_minutes": campaign.scan_minutes, "simulator": campaign.simulator, "controller": campaign.controller,
+                "scan_minutes": campaign.scan_minutes, "simulator": campaign.simulator,
+                "controller": campaign.controller,
                 "gauges": campaign.gauges, "protocol": plan, "stability": stability,
                 "environment": campaign.environment,
                 "override": ({"expired_gauges": campaign.override_expired}

@@ -456,8 +456,9 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
     (weighted rss ``rss``; ``jacobian``: its unweighted Jacobian there, when the
     caller holds it); ``consistent``: whether that model is within the noise
     (the search then runs at the stricter level); ``pitch_band_mm``: the periods the
-    positions sample, as their design states (None: from their spacing). Returns the search and the space
-    grown by the terms added (None when nothing could be searched)."""
+    positions sample, as their design states (None: from their spacing). Returns the
+    search and the space grown by the terms added (None when nothing could be
+    searched)."""
     level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
     if not problem.obs.raw:
         return MapSearch((), level), None

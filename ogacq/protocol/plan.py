@@ -105,7 +105,8 @@ class ProtocolConfig:
             raise ValueError(f"scan_step_mm must be positive, got {self.scan_step_mm:g}")
         if self.scan_targets_mm and self.scan_step_mm is not None:
             raise ValueError("scan_targets_mm and scan_step_mm exclude each other")
-        if any(b <= a for a, b in zip(self.scan_targets_mm, self.scan_targets_mm[1:])):
+        if any(b <= a for a, b in zip(self.scan_targets_mm[:-1], self.scan_targets_mm[1:],
+                                       strict=True)):
             raise ValueError("scan_targets_mm must be ascending, each target once")
 
     @property
