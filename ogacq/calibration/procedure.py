@@ -34,9 +34,9 @@ from ogacq.calibration.compensate import (
 )
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
-from ogacq.calibration.separate import SeparatingPlan, separating_plan
+from ogacq.calibration.separate import SeparatingPlan, not_established, separating_plan
 from ogacq.calibration.setup import Setup
-from ogacq.calibration.validate import Judgement, judge
+from ogacq.calibration.validate import Judgement, judge, where_looked
 from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
@@ -47,7 +47,7 @@ from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.protocol.runner import Observer
-from ogacq.protocol.scan_design import sampled_band
+from ogacq.protocol.scan_design import between_plan, sampled_band
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
@@ -157,8 +157,15 @@ class Procedure:
         evidence, diagnosis = first, self._diagnosis("calibration", first)
         plan = self._separation(diagnosis, first)
         if plan.protocol is not None and self.setup.separate:
-            evidence = self._campaign("separating", plan.protocol)
-            diagnosis = self._diagnosis("separating", evidence)
+            scan = self._campaign("separating", plan.protocol)
+            scanned = self._diagnosis("separating", scan)
+            # maps the scan cannot establish: the offsets go as far as their own
+            # campaign carries them, the maps said to be not established
+            unsettled = not_established(scanned, diagnosis)
+            if unsettled:
+                self._note(unsettled)
+            else:
+                evidence, diagnosis = scan, scanned
         comp = self._compensation(diagnosis, evidence)
         with self._plans(diagnosis, evidence, comp) as (offsets, maps):
             if self.log.last("confirmed") is None:
@@ -170,14 +177,29 @@ class Procedure:
         # the calibration campaign's plan again: its record compares as found and as left
         validation = self._campaign("validation", self.setup.protocol)
         judgement = self._judge(comp, first, validation, "validation")
-        if comp.diagnosis_maps and evidence is not first:
-            # maps a scan found are validated by the same scan
-            scan = self._campaign("validation-scan", _plan_of(evidence))
-            judgement = judgement.merged(self._judge(comp, evidence, scan, "validation-scan"))
+        looked = [validation]
+        if evidence is not first and _plan_of(evidence).is_scan:
+            # at targets between the scan's: an aliased map, or an error its targets
+            # sampled at one phase, fails there instead of confirming itself
+            between = self._campaign("validation-scan",
+                                     between_plan(_plan_of(evidence), self.setup.machine))
+            judgement = judgement.merged(self._judge(comp, evidence, between,
+                                                     "validation-scan"))
+            looked.append(between)
+        judgement = replace(judgement, looked=where_looked(looked, self.setup.machine))
         restored: dict[str, str | None] = {}
         if judgement.worse:
             restored = self._restore(first, written, judgement)
         return self._finish(comp, first, validation, judgement, written, restored)
+
+    def _note(self, text: str) -> None:
+        """Something the end must say (maps not established), logged once."""
+        if self.log.last("note", text=text) is None:
+            self.ui.say(text)
+            self.log.add("note", text=text)
+
+    def _notes(self) -> list[str]:
+        return [str(r.details["text"]) for r in self.log.steps if r.step == "note"]
 
     def _controller_spec(self) -> ControllerSpec:
         spec = self.setup.controller
@@ -406,8 +428,10 @@ class Procedure:
                 restored: dict[str, str | None]) -> Outcome:
         outcome = "restored" if judgement.worse else judgement.outcome
         reason = "; ".join(judgement.reasons) if judgement.worse else (
-            "the validation is within the gauge noise" if outcome == "validated" else
+            "the validation is within the gauge noise " + judgement.looked
+            if outcome == "validated" else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
+        reason = "; ".join([reason, *self._notes()])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
                          judgement=judgement, written=written, restored=restored)
 

@@ -9,9 +9,13 @@ Ambiguous here means one of:
 * an effect a table would correct (an encoder scale, a lost motion) was found from a
   few positions per leg, where an error depending on the position in another way (a
   lead-screw pitch error) passes for it: the diagnosis's own caveat;
-* an error map is among an effect's alternatives.
+* an error map is among an effect's alternatives;
+* the joint offsets rest on a few positions per leg (the papers' three): between
+  them no axis was measured, and an error whose period divides their spacing (a 4 mm
+  lead on the postures 0, +60 and -100 mm) reads the same at each and passes for an
+  offset, which a validation at the same postures confirms.
 
-Where a map is suspected (the last three) the measurement is a scan of every leg's
+Where a map is suspected (the last four) the measurement is a scan of every leg's
 travel, both directions, its targets designed for the machine's drives within the
 time budget (``ogacq.protocol.scan_design``), or every ``--scan-step-mm`` when one is
 given; where only alternatives stand, the plan the diagnosis found that separates
@@ -78,10 +82,16 @@ def ambiguity(diagnosis: Diagnosis) -> tuple[list[str], bool]:
         if effect.local_disturbance:
             reasons.append(f"{effect.name} rests on one cell ({effect.local_disturbance})")
     tabled = compensable_effects(diagnosis)
-    if tabled and diagnosis.postures_per_leg <= FEW_POSTURES:
+    few = diagnosis.postures_per_leg <= FEW_POSTURES
+    if tabled and few:
         suspected = True
         reasons.append(f"{', '.join(tabled)} found from {diagnosis.postures_per_leg} positions "
                        "per leg: a lead-screw error would pass for it there")
+    elif few:
+        suspected = True
+        reasons.append(f"the joint offsets rest on {diagnosis.postures_per_leg} positions per "
+                       "leg: between them no axis was measured, and a lead that divides their "
+                       "spacing reads alike at each and passes for an offset")
     return reasons, suspected
 
 
@@ -129,3 +139,18 @@ def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
     return SeparatingPlan(tuple(reasons), None, "none", 0, 0.0, rate,
                           "none of the plans tried separates them (a measurement of another "
                           "kind is needed)")
+
+
+def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
+    """Why the separating scan's diagnosis cannot be written (empty: it can): its final
+    model is not within the gauge noise, where the calibration campaign's is. Its maps
+    are then not established (an error of another kind, or one its targets cannot
+    resolve), and the offsets go as far as their own campaign carries them."""
+    if scanned.final.consistent or not before.final.consistent:
+        return ""
+    maps = ", ".join(m.source or f"map of {m.axis}" for m in scanned.maps) or "no map"
+    return ("error maps not established: the separating scan's diagnosis (" + maps
+            + ") is NOT within the gauge noise (" + scanned.final.describe()
+            + "); the offsets are those of the calibration campaign, which is; a scan "
+            "that resolves the rest (a longer --scan-minutes, the machine file's "
+            "[screws] leads) would establish the maps")

@@ -49,7 +49,7 @@ from ogacq.model.joint_sensitivity import joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, vector
 from ogacq.model.units import UM_PER_MM
-from ogacq.protocol.plan import ProtocolConfig, planned_layout, reading_steps
+from ogacq.protocol.plan import ProtocolConfig, planned_layout, reading_steps, scan_targets
 
 MIN_PHASES = 4
 LARGEST_PHASE_GAP = 1.0 / MIN_PHASES  # of a period
@@ -337,3 +337,18 @@ def sampled_band(protocol: ProtocolConfig, machine: MachineSpec,
     stated = stated_periods(machine, protocol.legs)
     band, _ = resolved_band(targets, longest, min((*stated, UNSTATED_BAND_MM[0], longest)))
     return band
+
+
+BETWEEN_SEED = 1  # the validation's jitter: fixed, so a resumed procedure reads the same
+
+
+def between_plan(protocol: ProtocolConfig, machine: MachineSpec) -> ProtocolConfig:
+    """The scan that validates a scan's maps at other targets: one between each two of
+    its targets, jittered within the middle 40 % of the gap (irregular, none where the
+    identification read). A map aliased on the first targets, or an error they sampled
+    at one phase, differs there from what it predicts."""
+    targets = np.asarray(scan_targets(protocol, machine), dtype=float)
+    u = np.random.default_rng(BETWEEN_SEED).random(len(targets) - 1)
+    between = np.round(targets[:-1] + (0.3 + 0.4 * u) * np.diff(targets), 3)
+    return replace(protocol, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
+                   scan_targets_mm=tuple(float(t) for t in between))

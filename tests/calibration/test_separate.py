@@ -28,6 +28,21 @@ def test_an_error_map_among_the_alternatives_asks_for_a_scan():
     reasons, suspected = ambiguity(with_effect(diagnosis, "leg_length.x",
                                                ("backlash.x", "screw_map.x")))
     assert suspected and any("screw_map.x" in r and "scan" in r for r in reasons), reasons
-    # a library alternative alone: ambiguous, but the postures plan can separate it
-    reasons, suspected = ambiguity(with_effect(diagnosis, "squareness.xy", ("backlash.z",)))
+    # a library alternative alone, on more postures per leg than the papers' three:
+    # ambiguous, but the postures plan can separate it
+    more = dataclasses.replace(diagnosis, postures_per_leg=5)
+    reasons, suspected = ambiguity(with_effect(more, "squareness.xy", ("backlash.z",)))
     assert reasons and not suspected, reasons
+
+
+def test_offsets_from_the_papers_three_postures_ask_for_a_scan():
+    """A 4 mm lead reads alike at 0, +60 and -100 mm: an offsets-only diagnosis of the
+    papers' protocol is consistent with it in place, and only positions between the
+    postures show it (it was validated at the same postures, the error left)."""
+    diagnosis = diagnose(simulate({}, seed=1))
+    assert diagnosis.outcome == "consistent" and not diagnosis.effects
+    reasons, suspected = ambiguity(diagnosis)
+    assert suspected and any("3 positions per leg" in r and "between them" in r
+                             for r in reasons), reasons
+    more = dataclasses.replace(diagnosis, postures_per_leg=5)
+    assert ambiguity(more) == ([], False)
