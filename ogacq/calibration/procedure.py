@@ -32,6 +32,7 @@ from ogacq.calibration.compensate import (
     evidence_for,
     export,
 )
+from ogacq.calibration.drive_step import drive_step_mm, finer_than_drive
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.separate import SeparatingPlan, not_established, separating_plan
@@ -149,6 +150,8 @@ class Procedure:
         self.stack = stack
         self.controller = self._controller_spec()
         self.resolution_mm = 0.0  # the controller's offset step, once planned
+        # the drives' position step: every corrected target is rounded to it
+        self.drive_step_mm = drive_step_mm(self.controller.profile)
 
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
@@ -167,6 +170,8 @@ class Procedure:
             else:
                 evidence, diagnosis = scan, scanned
         comp = self._compensation(diagnosis, evidence)
+        for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
+            self._note(sentence)
         with self._plans(diagnosis, evidence, comp) as (offsets, maps):
             if self.log.last("confirmed") is None:
                 stop = self._approve(comp, offsets, maps)
@@ -364,7 +369,8 @@ class Procedure:
 
     def _judge(self, comp: Compensation, before: LoadedSession, validation: LoadedSession,
                role: str) -> Judgement:
-        judgement = judge(comp, before, validation, self.setup.machine, self.resolution_mm)
+        judgement = judge(comp, before, validation, self.setup.machine, self.resolution_mm,
+                          self.drive_step_mm)
         if self.log.last("validation", role=role) is None:
             self.ui.validation(judgement)
             self.log.add("validation", role=role, session=str(validation.path),

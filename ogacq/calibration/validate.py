@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ogacq.calibration.compensate import Compensation
+from ogacq.calibration.drive_step import with_drive_step
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
@@ -119,9 +120,12 @@ def _fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]
 
 
 def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
-          machine: MachineSpec, resolution_mm: float = 0.0) -> Judgement:
+          machine: MachineSpec, resolution_mm: float = 0.0,
+          drive_step_mm: float = 0.0) -> Judgement:
     """``resolution_mm``: the step the controller stores offsets with (what a written
-    offset may be off by, on top of the identification's std)."""
+    offset may be off by, on top of the identification's std); ``drive_step_mm``: the
+    drives' position step, which every figure after carries beside it
+    (``ogacq.calibration.drive_step``)."""
     stay = tuple(comp.uncompensated)
     base = PARAM_SETS["offsets"] + stay
     _, v_before = _fit(session_observations(before), base)
@@ -143,6 +147,8 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
     plan = after.header.plan
     band = sampled_band(ProtocolConfig.from_dict(dict(plan)), machine) if plan else None
     figures_after, residual = _after_maps(comp, obs_after, base, machine, band)
+    if drive_step_mm:
+        figures_after = with_drive_step(figures_after, drive_step_mm)
     figures_before = comp.figures_before()
     for a, fig in figures_after.items():
         if a not in figures_before:

@@ -146,6 +146,12 @@ class TerminalUI:
                           f"B {was['B']:.2f} -> {now['B']:.2f} µm, "
                           f"E {was['E']:.2f} -> {now['E']:.2f} µm (ISO 230-2, from the maps)",
                           highlight=False)
+            if fig.get("drive_step_mm"):
+                step = fig["drive_step_mm"] * UM_PER_MM
+                console.print(f"    as left, with the drive's step ({step:g} µm a count: "
+                              "each target is a whole count): A up to "
+                              f"{fig['A_with_step_mm'] * UM_PER_MM:.2f} µm, E up to "
+                              f"{fig['E_with_step_mm'] * UM_PER_MM:.2f} µm", highlight=False)
         for reason in judgement.reasons:
             console.print(f"  worse: {reason}", highlight=False)
 
