@@ -11,7 +11,7 @@ import pytest
 
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, Screw
 from ogacq.protocol.plan import ProtocolConfig, campaign_steps, reading_steps, scan_targets
-from ogacq.protocol.scan_design import design_scan, sampled_band
+from ogacq.protocol.scan_design import between_plan, design_scan, sampled_band
 
 MACHINE = PAPER_PROTOTYPE_DIGITAL
 BASE = ProtocolConfig(settle_s=1.0)
@@ -84,3 +84,18 @@ def test_a_budget_too_short_is_said_and_kept():
     assert design.duration_s <= 10 * 60
     assert not design.complete and design.pitch_band_mm[0] > 2.0
     assert any("not covered within the budget" in line for line in design.lines())
+
+
+def test_the_validation_reads_between_the_targets_identified_from():
+    design = _design()
+    between = between_plan(design.protocol, MACHINE)
+    t, b = np.array(design.targets_mm), np.array(between.scan_targets_mm)
+    assert len(b) == len(t) - 1 and not set(b) & set(t)
+    assert np.all((b > t[:-1]) & (b < t[1:]))  # one inside each gap
+    gaps = (b - t[:-1]) / np.diff(t)
+    assert gaps.min() >= 0.3 - 1e-3 and gaps.max() <= 0.7 + 1e-3
+    assert len(set(np.round(gaps, 2))) > len(b) // 2  # irregular, not the midpoints
+    # a uniform scan's too: none of its targets read again
+    uniform = dataclasses.replace(BASE, scan_step_mm=5.0, approach="both", postures=())
+    assert not set(between_plan(uniform, MACHINE).scan_targets_mm) & set(
+        scan_targets(uniform, MACHINE))
