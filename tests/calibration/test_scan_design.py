@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ogacq.cli.app import main
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, Screw
 from ogacq.protocol.plan import ProtocolConfig, campaign_steps, reading_steps, scan_targets
 from ogacq.protocol.scan_design import between_plan, design_scan, sampled_band
@@ -99,3 +100,15 @@ def test_the_validation_reads_between_the_targets_identified_from():
     uniform = dataclasses.replace(BASE, scan_step_mm=5.0, approach="both", postures=())
     assert not set(between_plan(uniform, MACHINE).scan_targets_mm) & set(
         scan_targets(uniform, MACHINE))
+
+
+def test_plan_prints_the_design_before_anything_moves(tmp_path, capsys):
+    machine = tmp_path / "m.toml"
+    machine.write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\nrho_max_mm = 60.0\n"
+                       "gauge_resolution_mm = 0.001\ngauge_repeatability_mm = 0.0005\n")
+    assert main(["plan", "-m", str(machine), "--trials", "0", "--scan-minutes", "40"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert "separating scan `ogacq calibrate` would design" in out
+    assert "411 reading steps, 38 min of machine time" in out
+    assert "resolves every period from 2 to 40 mm at 4 phases or more" in out
+    assert "detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.7" in out
