@@ -115,7 +115,8 @@ class ScanDesign:
                   f"{self.seconds_per_step:.1f} s a step" if self.seconds_per_step else "")
                + (f" (budget {_minutes(self.budget_s)})" if self.budget_s else ""),
                f"resolves every period from {lo:.3g} to {hi:.3g} mm at {MIN_PHASES} phases or "
-               f"more (largest phase gap {self.worst_gap:.2f} of a period)"]
+               f"more (largest phase gap {self.worst_gap:.2f} of a period)" if lo < hi else
+               f"resolves no band of periods at {MIN_PHASES} phases: too few targets"]
         if self.stated_mm:
             out.append("the machine file's drive periods and their second harmonics: "
                        + ", ".join(f"{p:g}" for p in self.stated_mm) + " mm")
@@ -129,7 +130,8 @@ class ScanDesign:
                        "(a longer --scan-minutes would)")
         out.append(f"detection limit ({DETECTION_SIGMAS:g} sigma at the gauge noise "
                    f"{self.noise_mm * UM_PER_MM:.2g} µm): "
-                   + ", ".join(f"{FAMILY_WORDS[f]} {v * UM_PER_MM:.2g} µm"
+                   + ", ".join(f"{FAMILY_WORDS[f]} {v * UM_PER_MM:.2g} µm" if math.isfinite(v)
+                               else f"{FAMILY_WORDS[f]} not determined (too few targets)"
                                for f, v in self.detection_mm.items()))
         return out
 
@@ -144,7 +146,8 @@ class ScanDesign:
                 "unsampled_mm": list(self.unsampled_mm),
                 "largest_phase_gap": round(self.worst_gap, 4),
                 "noise_mm": self.noise_mm,
-                "detection_mm": {f: round(v, 7) for f, v in self.detection_mm.items()}}
+                "detection_mm": {f: round(v, 7) if math.isfinite(v) else None
+                                 for f, v in self.detection_mm.items()}}
 
 
 FAMILY_WORDS = {"lead_screw_cyclic": "cyclic error", "screw_map": "smooth map",

@@ -87,6 +87,15 @@ def test_a_budget_too_short_is_said_and_kept():
     assert any("not covered within the budget" in line for line in design.lines())
 
 
+def test_a_budget_for_a_handful_of_targets_says_what_it_cannot_determine():
+    design = design_scan(MACHINE, BASE, noise_mm=NOISE_MM, seconds_per_step=45.0,
+                         budget_s=40 * 60)
+    assert len(design.targets_mm) == 4
+    text = " ".join(design.lines())
+    assert "smooth map not determined (too few targets)" in text and "inf" not in text
+    assert design.to_json()["detection_mm"]["screw_map"] is None
+
+
 def test_the_validation_reads_between_the_targets_identified_from():
     design = _design()
     between = between_plan(design.protocol, MACHINE)
