@@ -34,7 +34,13 @@ import numpy as np
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
 from ogacq.model.parameters import AXES, PARAM_INDEX
 from ogacq.protocol.plan import ProtocolConfig, reading_steps, scan_targets
-from ogacq.protocol.scan_design import UNSTATED_BAND_MM, design_scan, resolved_band
+from ogacq.protocol.scan_design import (
+    ALIAS_LIMIT,
+    UNSTATED_BAND_MM,
+    alias_level,
+    design_scan,
+    resolved_band,
+)
 from ogacq.session.records import CalibrateRecord
 from ogacq.session.store import load_session
 from ogacq.sim.truth import random_truth, read_effects
@@ -111,14 +117,15 @@ def run_case(root: Path, name: str, axis: str, pitch_mm: float) -> None:
 
 
 def uniform_step_resolving(band_mm: tuple[float, float]) -> float:
-    """The largest uniform step (0.01 mm grid) whose targets sample the band at 4 phases."""
+    """The largest uniform step (0.01 mm grid) whose targets sample the band at 4 phases,
+    no alias keeping more than ALIAS_LIMIT (the design's own criteria)."""
     m = PAPER_PROTOTYPE_DIGITAL
     for step in np.arange(band_mm[0] / 2, 0.0, -0.01):
         plan = ProtocolConfig(scan_step_mm=round(float(step), 2), approach="both", cycles=2,
                               postures=())
         targets = np.array(scan_targets(plan, m))
         band, _ = resolved_band(targets, band_mm[1], band_mm[0])
-        if band[0] <= band_mm[0] + 1e-9:
+        if band[0] <= band_mm[0] + 1e-9 and alias_level(targets, band_mm[0]) <= ALIAS_LIMIT:
             return round(float(step), 2)
     return 0.0
 

@@ -68,6 +68,9 @@ DESIGN_CYCLES = 2  # the repeats measure the gauge noise
 FEWEST_POSITIONS = 12
 MOST_POSITIONS = 1000
 SEEDS = 16  # jitters tried per count of positions
+# No source: an alias at most half the size of a lead's own peak, which a periodogram
+# then cannot prefer while the noise's share of either is small.
+ALIAS_LIMIT = 0.5
 DETECTION_SIGMAS = 3.0
 SMOOTH_KNOTS = 8  # the smooth map whose detection is stated (a cubic spline)
 BUILD_UP_MM = 4.0  # the wind-up whose detection is stated
@@ -88,6 +91,7 @@ class ScanDesign:
     worst_gap: float  # the largest phase gap over the band and the stated, of a period
     noise_mm: float
     detection_mm: dict[str, float]  # family -> DETECTION_SIGMAS x its amplitude's std
+    alias_level: float = 0.0  # the spectral window's largest sidelobe (alias_level)
 
     @property
     def targets_mm(self) -> tuple[float, ...]:
@@ -115,11 +119,15 @@ class ScanDesign:
                   f"{self.seconds_per_step:.1f} s a step" if self.seconds_per_step else "")
                + (f" (budget {_minutes(self.budget_s)})" if self.budget_s else ""),
                f"resolves every period from {lo:.3g} to {hi:.3g} mm at {MIN_PHASES} phases or "
-               f"more (largest phase gap {self.worst_gap:.2f} of a period)" if lo < hi else
+               f"more (largest phase gap {self.worst_gap:.2f} of a period; an alias keeps at "
+               f"most {self.alias_level:.2f} of a lead's amplitude)" if lo < hi else
                f"resolves no band of periods at {MIN_PHASES} phases: too few targets"]
         if self.stated_mm:
             out.append("the machine file's drive periods and their second harmonics: "
                        + ", ".join(f"{p:g}" for p in self.stated_mm) + " mm")
+        if self.alias_level > ALIAS_LIMIT:
+            out.append(f"an alias keeps {self.alias_level:.2f} of a lead's amplitude: a pitch "
+                       "found may be another's alias (a longer --scan-minutes would tell)")
         if self.unsampled_mm:
             out.append("NOT sampled at 4 phases within the budget: "
                        + ", ".join(f"{p:g} mm" for p in self.unsampled_mm)
@@ -145,6 +153,7 @@ class ScanDesign:
                 "pitch_band_mm": list(self.pitch_band_mm),
                 "unsampled_mm": list(self.unsampled_mm),
                 "largest_phase_gap": round(self.worst_gap, 4),
+                "alias_level": round(self.alias_level, 4),
                 "noise_mm": self.noise_mm,
                 "detection_mm": {f: round(v, 7) if math.isfinite(v) else None
                                  for f, v in self.detection_mm.items()}}
@@ -215,12 +224,26 @@ def _gap_at(targets_mm: np.ndarray, periods: tuple[float, ...]) -> np.ndarray:
     return phase_gaps(targets_mm - targets_mm.mean(), 1.0 / np.asarray(periods))
 
 
+def alias_level(targets_mm: np.ndarray, shortest_mm: float) -> float:
+    """The largest sidelobe of the targets' spectral window |sum exp(2 pi i df t)| / n
+    beyond its main lobe (df from 2 / span) up to twice the band's highest frequency:
+    the share of a period's amplitude that reappears at another period of the band
+    (a uniform step d puts a whole alias at 1 / d)."""
+    span = float(np.ptp(targets_mm)) or 1.0
+    df = np.arange(2.0 / span, 2.0 / shortest_mm, 0.1 / span)
+    window = np.abs(np.exp(2j * np.pi * np.outer(df, targets_mm - targets_mm.mean()))
+                    .sum(axis=1)) / len(targets_mm)
+    return float(window.max()) if len(df) else 1.0
+
+
 def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None,
                   stated: tuple[float, ...]) -> tuple[np.ndarray, float]:
     """The jitter, of ``SEEDS`` tried, whose worst gap over the band and the stated
-    periods is smallest."""
+    periods, and whose alias level, are furthest within their bounds (the larger of
+    the two as a share of its bound: at most 1 meets both)."""
     best: tuple[float, np.ndarray] | None = None
     freqs = None
+    shortest = min((*stated, *(band or ())), default=UNSTATED_BAND_MM[0])
     for seed in range(SEEDS):
         t = stratified_targets(lo, hi, n, seed)
         centred = t - t.mean()
@@ -228,8 +251,9 @@ def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None
             freqs = frequency_grid(t, band, SEARCH_GRID)
         worst = max([float(phase_gaps(centred, freqs).max())] if freqs is not None else [0.0])
         worst = max([worst, *_gap_at(t, stated).tolist()])
-        if best is None or worst < best[0]:
-            best = (worst, t)
+        score = max(worst / LARGEST_PHASE_GAP, alias_level(t, shortest) / ALIAS_LIMIT)
+        if best is None or score < best[0]:
+            best = (score, t)
     assert best is not None
     return best[1], best[0]
 
@@ -256,11 +280,13 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     n = min(FEWEST_POSITIONS, most)
     shortest = min(stated + (required or (longest,)))
     while True:
-        targets, worst = _best_targets(lo, hi, n, required, stated)
+        targets, _ = _best_targets(lo, hi, n, required, stated)
         band, band_gap = resolved_band(targets, longest, shortest)
         unsampled = tuple(p for p, g in zip(stated, _gap_at(targets, stated), strict=True)
                           if g > LARGEST_PHASE_GAP)
-        covered = not unsampled and (required is None or band[0] <= required[0] + 1e-9)
+        aliases = alias_level(targets, shortest)
+        covered = not unsampled and (required is None or band[0] <= required[0] + 1e-9) \
+            and aliases <= ALIAS_LIMIT
         if covered or n >= most:
             break
         n = min(most, max(n + 1, int(n * 1.12)))
@@ -269,7 +295,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     steps = len(reading_steps(protocol, machine))
     detection = detection_limits(protocol, machine, noise_mm, band, stated)
     return ScanDesign(protocol, steps, seconds_per_step, budget_s, required, stated, band,
-                      unsampled, max(gaps), noise_mm, detection)
+                      unsampled, max(gaps), noise_mm, detection, aliases)
 
 
 def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: float,

@@ -12,7 +12,12 @@ import pytest
 from ogacq.cli.app import main
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, Screw
 from ogacq.protocol.plan import ProtocolConfig, campaign_steps, reading_steps, scan_targets
-from ogacq.protocol.scan_design import between_plan, design_scan, sampled_band
+from ogacq.protocol.scan_design import (
+    alias_level,
+    between_plan,
+    design_scan,
+    sampled_band,
+)
 
 MACHINE = PAPER_PROTOTYPE_DIGITAL
 BASE = ProtocolConfig(settle_s=1.0)
@@ -52,6 +57,9 @@ def test_no_lead_stated_samples_every_lead_from_2_to_40_mm_at_4_phases():
     uniform = np.array(scan_targets(dataclasses.replace(BASE, scan_step_mm=5.0, approach="both"),
                                     MACHINE))
     assert _largest_gaps(uniform, np.array([5.0, 2.5]))[0] == pytest.approx(1.0)
+    # and its window repeats every lead at every 5 mm: a whole alias; the design's does not
+    assert alias_level(uniform, 2.0) == pytest.approx(1.0)
+    assert design.alias_level == alias_level(targets, 2.0) <= 0.5
 
 
 def test_the_design_reads_both_ways_over_the_whole_travel_twice():
