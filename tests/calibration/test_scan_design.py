@@ -9,6 +9,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ogacq.campaign.campaign_file import campaign_text, read_campaign
 from ogacq.cli.app import main
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, Screw
 from ogacq.protocol.plan import ProtocolConfig, campaign_steps, reading_steps, scan_targets
@@ -129,3 +130,21 @@ def test_plan_prints_the_design_before_anything_moves(tmp_path, capsys):
     assert "411 reading steps, 38 min of machine time" in out
     assert "resolves every period from 2 to 40 mm at 4 phases or more" in out
     assert "detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.7" in out
+
+
+def test_the_campaign_file_states_the_budget_and_keeps_a_designed_scan(tmp_path):
+    """A station's campaign file: scan_minutes, calibrate's budget; a separating campaign's
+    file (written for the record) keeps the designed targets it ran."""
+    (tmp_path / "m.toml").write_text("leg_length_mm = 310.25\nrho_min_mm = -100.0\n"
+                                     "rho_max_mm = 60.0\ngauge_resolution_mm = 0.001\n")
+    path = tmp_path / "c.toml"
+    path.write_text('machine = "m.toml"\nscan_minutes = 25\n[simulator]\nseed = 1\n')
+    campaign = read_campaign(path)
+    assert campaign.scan_minutes == 25.0
+    design = _design()
+    ran = dataclasses.replace(campaign, protocol=design.protocol)
+    path.write_text(campaign_text(ran))
+    again = read_campaign(path)
+    # the plan as a session records it (a scan has no postures)
+    assert again.protocol.to_dict() == design.protocol.to_dict()
+    assert again.scan_minutes == 25.0
