@@ -62,3 +62,10 @@ def finer_than_drive(maps: Mapping[str, AxisMap], step_mm: float) -> list[str]:
                        "corrected target is rounded to a whole count, which leaves up to "
                        f"{step_mm / 2 * UM_PER_MM:g} µm at a target")
     return out
+
+
+def predicted_with_step(step_mm: float) -> str:
+    """What the predicted figures after leave out: the drive's count at each target."""
+    return (f"the figures after are the maps'; each target is a whole count of the drive "
+            f"({step_mm * UM_PER_MM:g} µm), which adds up to one count to A, B, E and M at "
+            "the commanded targets")

@@ -32,7 +32,11 @@ from ogacq.calibration.compensate import (
     evidence_for,
     export,
 )
-from ogacq.calibration.drive_step import drive_step_mm, finer_than_drive
+from ogacq.calibration.drive_step import (
+    drive_step_mm,
+    finer_than_drive,
+    predicted_with_step,
+)
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.separate import SeparatingPlan, not_established, separating_plan
@@ -172,6 +176,8 @@ class Procedure:
         comp = self._compensation(diagnosis, evidence)
         for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
             self._note(sentence)
+        if comp.maps:
+            self.ui.say(predicted_with_step(self.drive_step_mm))
         with self._plans(diagnosis, evidence, comp) as (offsets, maps):
             if self.log.last("confirmed") is None:
                 stop = self._approve(comp, offsets, maps)

@@ -6,7 +6,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ogacq.calibration.drive_step import drive_step_mm, finer_than_drive, with_drive_step
+from ogacq.calibration.drive_step import (
+    drive_step_mm,
+    finer_than_drive,
+    predicted_with_step,
+    with_drive_step,
+)
 from ogacq.model.axis_map import AxisMap
 
 
@@ -37,3 +42,8 @@ def test_the_figures_after_carry_one_count_beside_them():
     assert x["A_with_step_mm"] == pytest.approx(0.01109)
     assert x["E_with_step_mm"] == pytest.approx(0.01029)
     assert "R_with_step_mm" not in x  # a scatter: the rounding is the same every time
+
+
+def test_the_predicted_figures_say_the_drive_step_they_leave_out():
+    said = predicted_with_step(0.01)
+    assert "whole count of the drive (10 µm)" in said and "A, B, E and M" in said
