@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from ogacq.calibration.separate import ambiguity
+from ogacq.calibration.separate import ambiguity, not_established
 from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.diagnosis import EffectFound, diagnose
 from tests.diagnose.campaigns import simulate
@@ -46,3 +46,24 @@ def test_offsets_from_the_papers_three_postures_ask_for_a_scan():
                              for r in reasons), reasons
     more = dataclasses.replace(diagnosis, postures_per_leg=5)
     assert ambiguity(more) == ([], False)
+
+
+def test_maps_the_scan_cannot_establish_leave_the_offsets_of_the_campaign():
+    """A scan whose diagnosis is NOT within the noise, after a campaign whose is: its
+    maps are said to be not established, and the procedure writes that campaign's
+    offsets (it refused everything, the well-identified offsets included)."""
+    from types import SimpleNamespace
+
+    def verdict(consistent: bool):
+        return SimpleNamespace(consistent=consistent, describe=lambda: "the verdict")
+
+    campaign = SimpleNamespace(final=verdict(True), maps=())
+    scan = SimpleNamespace(final=verdict(False), maps=())
+    said = not_established(scan, campaign)  # type: ignore[arg-type]
+    assert said.startswith("error maps not established: the separating scan's diagnosis "
+                           "(no map) is NOT within the gauge noise (the verdict)"), said
+    assert "--scan-minutes" in said
+    assert not_established(SimpleNamespace(final=verdict(True), maps=()),  # type: ignore
+                           campaign) == ""
+    # neither within the noise: nothing better to fall back on
+    assert not_established(scan, SimpleNamespace(final=verdict(False))) == ""  # type: ignore
