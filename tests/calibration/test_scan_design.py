@@ -11,14 +11,24 @@ import pytest
 
 from ogacq.campaign.campaign_file import campaign_text, read_campaign
 from ogacq.cli.app import main
+from ogacq.diagnose.diagnosis import diagnose
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, Screw
-from ogacq.protocol.plan import ProtocolConfig, campaign_steps, reading_steps, scan_targets
+from ogacq.model.parameters import vector
+from ogacq.protocol.plan import (
+    ProtocolConfig,
+    campaign_steps,
+    planned_layout,
+    reading_steps,
+    scan_targets,
+)
 from ogacq.protocol.scan_design import (
     alias_level,
     between_plan,
     design_scan,
     sampled_band,
 )
+from ogacq.sim.readings import simulated_readings
+from ogacq.sim.truth import LeadScrewError, SimTruth
 
 MACHINE = PAPER_PROTOTYPE_DIGITAL
 BASE = ProtocolConfig(settle_s=1.0)
@@ -148,3 +158,21 @@ def test_the_campaign_file_states_the_budget_and_keeps_a_designed_scan(tmp_path)
     # the plan as a session records it (a scan has no postures)
     assert again.protocol.to_dict() == design.protocol.to_dict()
     assert again.scan_minutes == 25.0
+
+
+def test_the_diagnosis_handed_the_band_finds_a_5_mm_lead_on_the_designed_targets():
+    """A 4 um cyclic error of pitch 5 mm on x, read at the designed targets (0.5 um
+    scatter): searched in the band the design samples, it is found alone and the fit is
+    within the noise; searched from the targets' median spacing (4.6 mm: pitches from
+    11.6 mm), a wrong pitch and smooth maps that are not there."""
+    design = _design()
+    truth = SimTruth(vector({"joint_offset.x": 0.4, "joint_offset.y": -0.3}),
+                     lead_screw={0: LeadScrewError(0.004, 5.0)})
+    obs = simulated_readings(MACHINE, planned_layout(design.protocol, MACHINE), truth,
+                             scatter_mm=NOISE_MM, step_mm=0.0001, seed=5)
+    found = diagnose(obs, pitch_band_mm=sampled_band(design.protocol, MACHINE))
+    assert found.final.consistent and [m.axis for m in found.maps] == ["x"]
+    assert "pitch 4.99" in found.maps[0].source or "pitch 5.00" in found.maps[0].source
+    blind = diagnose(obs)
+    assert not blind.final.consistent and "pitch 5.0" not in " ".join(
+        m.source for m in blind.maps)
