@@ -12,7 +12,7 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_ho
     effects.write_text("[squareness]\nxy = 0.5\n")
     out = tmp_path / "demo"
     # the loop runs the designed scan and the validation between its targets (the papers'
-    # three postures do not see between them): about 130 s here, 25 s before
+    # three postures do not see between them): about 130 s here on a loaded machine
     proc = run_ogacq("demo", "--effects", effects, "--seed", "4", "--speed", "50", "--out", out,
                      "--operator", "J. Martin", timeout=400)
     assert proc.returncode == 0, proc.stderr
