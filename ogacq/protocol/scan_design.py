@@ -260,11 +260,12 @@ def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None
 
 def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
                 seconds_per_step: float = 0.0, budget_s: float | None = None,
-                legs: tuple[str, ...] = AXES) -> ScanDesign:
-    """The separating scan of ``legs`` for ``machine`` (``base``: the campaign's
-    settling and approach settings), its targets the fewest that sample the band
-    within ``budget_s`` of machine time at ``seconds_per_step``."""
-    protocol = replace(base, legs=legs, postures=(), approach="both", cycles=DESIGN_CYCLES,
+                ) -> ScanDesign:
+    """The separating scan for ``machine`` of the legs ``base`` reads (``base``: the
+    campaign's legs, settling and overshoot), its targets the fewest that sample the
+    band within ``budget_s`` of machine time at ``seconds_per_step``."""
+    legs = base.legs
+    protocol = replace(base, postures=(), approach="both", cycles=DESIGN_CYCLES,
                        scan_step_mm=None, scan_from_mm=None, scan_to_mm=None)
     lo = machine.rho_min_mm + protocol.overshoot_mm
     hi = machine.rho_max_mm - protocol.overshoot_mm

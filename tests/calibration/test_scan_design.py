@@ -176,3 +176,12 @@ def test_the_diagnosis_handed_the_band_finds_a_5_mm_lead_on_the_designed_targets
     blind = diagnose(obs)
     assert not blind.final.consistent and "pitch 5.0" not in " ".join(
         m.source for m in blind.maps)
+
+
+def test_a_campaign_of_two_legs_gets_a_scan_of_those_two():
+    design = design_scan(MACHINE, dataclasses.replace(BASE, legs=("x", "z")),
+                         noise_mm=NOISE_MM, seconds_per_step=STEP_S, budget_s=40 * 60)
+    assert design.protocol.legs == ("x", "z")
+    assert {r.leg for r in reading_steps(design.protocol, MACHINE)} == {"x", "z"}
+    # the budget per leg goes further: as many targets as three legs, fewer steps
+    assert design.steps < _design().steps
