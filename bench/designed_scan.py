@@ -69,8 +69,9 @@ def comp_trims(path: Path) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return rows[:, 0], rows[:, 1], rows[:, 2]
 
 
-def landed_error(folder: Path, axis: str, offsets_mm: dict[str, float]) -> dict[str, float]:
-    truth = read_effects(folder / "effects.toml", random_truth(SEED))
+def landed_error(folder: Path, axis: str, offsets_mm: dict[str, float],
+                 seed: int = SEED) -> dict[str, float]:
+    truth = read_effects(folder / "effects.toml", random_truth(seed))
     k = AXES.index(axis)
     drho = float(truth.theta[PARAM_INDEX[f"joint_offset.{axis}"]])
     screw = truth.lead_screw.get(k)
@@ -89,6 +90,8 @@ def landed_error(folder: Path, axis: str, offsets_mm: dict[str, float]) -> dict[
             error = trim + offsets_mm[axis] + drho
             if screw is not None:
                 error = error + screw.error_mm(p)
+            if k in truth.screw_map:
+                error = error + truth.screw_map[k].error_mm(p)
             errors.append(error)
         e = np.concatenate(errors) * 1e3
         key = "" if with_table else "raw_"
@@ -97,12 +100,12 @@ def landed_error(folder: Path, axis: str, offsets_mm: dict[str, float]) -> dict[
     return out
 
 
-def run_case(root: Path, name: str, axis: str, pitch_mm: float) -> None:
+def run_case(root: Path, name: str, axis: str, pitch_mm: float, seed: int) -> None:
     folder = root / name.replace(" ", "-")
     effects = root / f"{axis}.toml"
     effects.write_text(effects_text(axis, pitch_mm))
     done = subprocess.run([sys.executable, "-m", "ogacq", "calibrate", "--simulator",
-                           "--effects", str(effects), "--seed", str(SEED), "--yes",
+                           "--effects", str(effects), "--seed", str(seed), "--yes",
                            "--out", str(folder), "--history", "none"],
                           capture_output=True, text=True)
     steps = {r.step: r.details for r in
@@ -118,7 +121,7 @@ def run_case(root: Path, name: str, axis: str, pitch_mm: float) -> None:
           f"{separating} reading steps; maps written on {sorted(maps) or 'no axis'}")
     print(f"  {finished.get('reason')}")
     for a in AXES:
-        r = landed_error(folder, a, offsets)
+        r = landed_error(folder, a, offsets, seed)
         print(f"  {a}: LinuxCNC table leaves {r['rms']:.2f} um rms about {r['const']:+.2f} um "
               f"(without it {r['raw_rms']:.2f} um rms)")
 
@@ -159,15 +162,13 @@ def main() -> None:
     parser.add_argument("--keep", type=Path, default=None)
     parser.add_argument("--seed", type=int, default=SEED)
     args = parser.parse_args()
-    global SEED
-    SEED = args.seed
     compare_scans()
     with tempfile.TemporaryDirectory() as tmp:
         root = args.keep or Path(tmp)
         root.mkdir(parents=True, exist_ok=True)
         for name, (axis, pitch) in CASES.items():
             if args.only in name:
-                run_case(root, name, axis, pitch)
+                run_case(root, name, axis, pitch, args.seed)
 
 
 if __name__ == "__main__":
