@@ -185,3 +185,16 @@ def test_a_campaign_of_two_legs_gets_a_scan_of_those_two():
     assert {r.leg for r in reading_steps(design.protocol, MACHINE)} == {"x", "z"}
     # the budget per leg goes further: as many targets as three legs, fewer steps
     assert design.steps < _design().steps
+
+
+def test_a_designed_scans_targets_are_checked_before_anything_moves():
+    with pytest.raises(ValueError, match="ascending, each target once"):
+        ProtocolConfig(postures=(), scan_targets_mm=(1.0, 1.0, 2.0))
+    with pytest.raises(ValueError, match="exclude each other"):
+        ProtocolConfig(postures=(), scan_targets_mm=(1.0, 2.0), scan_step_mm=1.0)
+    outside = ProtocolConfig(postures=(), approach="both", scan_targets_mm=(-99.0, 59.5))
+    with pytest.raises(ValueError, match="overshoot"):
+        list(campaign_steps(outside, MACHINE))  # 59.5 + 1 mm past rho_max
+    beyond = ProtocolConfig(postures=(), scan_targets_mm=(-99.0, 61.0))
+    with pytest.raises(ValueError, match="scan_targets_mm 61 mm is outside the workspace"):
+        list(campaign_steps(beyond, MACHINE))
