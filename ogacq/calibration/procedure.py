@@ -39,7 +39,12 @@ from ogacq.calibration.drive_step import (
 )
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
-from ogacq.calibration.separate import SeparatingPlan, not_established, separating_plan
+from ogacq.calibration.separate import (
+    SeparatingPlan,
+    not_established,
+    offsets_carried,
+    separating_plan,
+)
 from ogacq.calibration.setup import Setup
 from ogacq.calibration.validate import Judgement, judge, where_looked
 from ogacq.campaign.campaign_file import ControllerSpec
@@ -168,9 +173,11 @@ class Procedure:
             scanned = self._diagnosis("separating", scan)
             # maps the scan cannot establish: the offsets go as far as their own
             # campaign carries them, the maps said to be not established
-            unsettled = not_established(scanned, diagnosis)
+            carried = offsets_carried(diagnosis)
+            unsettled = not_established(scanned, carried)
             if unsettled:
                 self._note(unsettled)
+                diagnosis = carried
             else:
                 evidence, diagnosis = scan, scanned
         comp = self._compensation(diagnosis, evidence)

@@ -26,7 +26,7 @@ reading steps.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ogacq.calibration.maps import compensable_effects
@@ -141,6 +141,18 @@ def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
                           "kind is needed)")
 
 
+def offsets_carried(diagnosis: Diagnosis) -> Diagnosis:
+    """What the calibration campaign carries when the separating scan contradicts its
+    effects: its joint offsets alone where they are within the gauge noise (an effect
+    found at three postures per leg, which a scan could not confirm, is no ground for
+    offsets: a leg length standing in for a lead's error left them unidentifiable), its
+    whole diagnosis otherwise."""
+    if not diagnosis.base.consistent:
+        return diagnosis
+    return replace(diagnosis, claimed=diagnosis.selection.base, final_fit=diagnosis.base_fit,
+                   effects=[], mapped=None)
+
+
 def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
     """Why the separating scan's diagnosis cannot be written (empty: it can): its final
     model is not within the gauge noise, where the calibration campaign's is. Its maps
@@ -152,5 +164,5 @@ def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
     return ("error maps not established: the separating scan's diagnosis (" + maps
             + ") is NOT within the gauge noise (" + scanned.final.describe()
             + "); the offsets are those of the calibration campaign, which is; a scan "
-            "that resolves the rest (a longer --scan-minutes, the machine file's "
-            "[screws] leads) would establish the maps")
+            "that resolves the rest (a longer --scan-minutes, the leads stated in the "
+            "machine file's screws table) would establish the maps")

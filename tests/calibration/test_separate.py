@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from ogacq.calibration.separate import ambiguity, not_established
+from ogacq.calibration.separate import ambiguity, not_established, offsets_carried
 from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.diagnosis import EffectFound, diagnose
 from tests.diagnose.campaigns import simulate
@@ -67,3 +67,18 @@ def test_maps_the_scan_cannot_establish_leave_the_offsets_of_the_campaign():
                            campaign) == ""
     # neither within the noise: nothing better to fall back on
     assert not_established(scan, SimpleNamespace(final=verdict(False))) == ""  # type: ignore
+
+
+def test_the_campaign_carries_its_offsets_alone_where_they_are_within_the_noise():
+    """A leg length standing in for a lead's error (an alternative of screw_map.x) on
+    three postures: where the scan cannot establish a map, the offsets written are the
+    offsets-only model's (with the leg length they were not identifiable, and the
+    write was refused); a campaign whose offsets alone are not within the noise (a
+    squareness) keeps its whole diagnosis."""
+    plain = diagnose(simulate({}, seed=1))
+    with_length = with_effect(plain, "leg_length.x", ("backlash.x", "screw_map.x"))
+    carried = offsets_carried(with_length)
+    assert carried.effects == [] and carried.final is plain.base
+    assert carried.final_fit is plain.base_fit and carried.maps == ()
+    square = diagnose(simulate({"squareness.xy": 0.5}, seed=1))
+    assert not square.base.consistent and offsets_carried(square) is square
