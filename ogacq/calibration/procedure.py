@@ -168,6 +168,7 @@ class Procedure:
         first = self._campaign("calibration", self.setup.protocol)
         evidence, diagnosis = first, self._diagnosis("calibration", first)
         plan = self._separation(diagnosis, first)
+        unsettled = ""
         if plan.protocol is not None and self.setup.separate:
             scan = self._campaign("separating", plan.protocol)
             scanned = self._diagnosis("separating", scan)
@@ -180,7 +181,7 @@ class Procedure:
                 diagnosis = carried
             else:
                 evidence, diagnosis = scan, scanned
-        comp = self._compensation(diagnosis, evidence)
+        comp = self._compensation(diagnosis, evidence, maps=not unsettled)
         for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
             self._note(sentence)
         if comp.maps:
@@ -297,13 +298,17 @@ class Procedure:
                          **plan.to_json())
         return plan
 
-    def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession) -> Compensation:
+    def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession,
+                      maps: bool = True) -> Compensation:
+        """``maps``: False where the maps are not established (the offsets alone)."""
         done = self.log.last("compensation")
         if done is not None:
             return Compensation.from_json(done.details)
         # the maps go with the coordinate the offsets make, as the register stores them
         register = ControllerFacts.of(load_profile(self.controller.profile)).quantize
         comp = compensation_of(diagnosis, evidence, self.setup.machine, register)
+        if not maps:  # no map stands on a campaign the separating scan contradicts
+            comp = tables_only(comp)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")
         comp = replace(comp, tables=export(self.setup.folder, comp, title))

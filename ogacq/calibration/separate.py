@@ -162,7 +162,7 @@ def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
         return ""
     maps = ", ".join(m.source or f"map of {m.axis}" for m in scanned.maps) or "no map"
     return ("error maps not established: the separating scan's diagnosis (" + maps
-            + ") is NOT within the gauge noise (" + scanned.final.describe()
-            + "); the offsets are those of the calibration campaign, which is; a scan "
+            + ") fits " + scanned.final.describe()
+            + "; the offsets are those of the calibration campaign, within the noise; a scan "
             "that resolves the rest (a longer --scan-minutes, the leads stated in the "
             "machine file's screws table) would establish the maps")

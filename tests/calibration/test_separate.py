@@ -61,7 +61,8 @@ def test_maps_the_scan_cannot_establish_leave_the_offsets_of_the_campaign():
     scan = SimpleNamespace(final=verdict(False), maps=())
     said = not_established(scan, campaign)  # type: ignore[arg-type]
     assert said.startswith("error maps not established: the separating scan's diagnosis "
-                           "(no map) is NOT within the gauge noise (the verdict)"), said
+                           "(no map) fits the verdict; the offsets are those of the "
+                           "calibration campaign"), said
     assert "--scan-minutes" in said
     assert not_established(SimpleNamespace(final=verdict(True), maps=()),  # type: ignore
                            campaign) == ""
