@@ -32,11 +32,21 @@ from ogacq.calibration.compensate import (
     evidence_for,
     export,
 )
+from ogacq.calibration.drive_step import (
+    drive_step_mm,
+    finer_than_drive,
+    predicted_with_step,
+)
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import diagnosis_maps
-from ogacq.calibration.separate import SeparatingPlan, separating_plan
+from ogacq.calibration.separate import (
+    SeparatingPlan,
+    not_established,
+    offsets_carried,
+    separating_plan,
+)
 from ogacq.calibration.setup import Setup
-from ogacq.calibration.validate import Judgement, judge
+from ogacq.calibration.validate import Judgement, judge, where_looked
 from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
@@ -47,6 +57,7 @@ from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.protocol.runner import Observer
+from ogacq.protocol.scan_design import between_plan, sampled_band
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
@@ -153,6 +164,8 @@ class Procedure:
         self.stack = stack
         self.controller = self._controller_spec()
         self.resolution_mm = 0.0  # the controller's offset step, once planned
+        # the drives' position step: every corrected target is rounded to it
+        self.drive_step_mm = drive_step_mm(self.controller.profile)
 
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
@@ -161,10 +174,24 @@ class Procedure:
         first = self._campaign("calibration", self.setup.protocol)
         evidence, diagnosis = first, self._diagnosis("calibration", first)
         plan = self._separation(diagnosis, first)
+        unsettled = ""
         if plan.protocol is not None and self.setup.separate:
-            evidence = self._campaign("separating", plan.protocol)
-            diagnosis = self._diagnosis("separating", evidence)
-        comp = self._compensation(diagnosis, evidence)
+            scan = self._campaign("separating", plan.protocol)
+            scanned = self._diagnosis("separating", scan)
+            # maps the scan cannot establish: the offsets go as far as their own
+            # campaign carries them, the maps said to be not established
+            carried = offsets_carried(diagnosis)
+            unsettled = not_established(scanned, carried)
+            if unsettled:
+                self._note(unsettled)
+                diagnosis = carried
+            else:
+                evidence, diagnosis = scan, scanned
+        comp = self._compensation(diagnosis, evidence, maps=not unsettled)
+        for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
+            self._note(sentence)
+        if comp.maps:
+            self.ui.say(predicted_with_step(self.drive_step_mm))
         if self.log.last("confirmed") is not None and self.log.last("written") is None:
             self._undo_half_written(first)  # before planning again from what is held
         offsets, maps = self._plans(diagnosis, evidence, comp)
@@ -177,10 +204,16 @@ class Procedure:
         # the calibration campaign's plan again: its record compares as found and as left
         validation = self._campaign("validation", self.setup.protocol)
         judgement = self._judge(comp, first, validation, "validation")
-        if comp.diagnosis_maps and evidence is not first:
-            # maps a scan found are validated by the same scan
-            scan = self._campaign("validation-scan", _plan_of(evidence))
-            judgement = judgement.merged(self._judge(comp, evidence, scan, "validation-scan"))
+        looked = [validation]
+        if evidence is not first and _plan_of(evidence).is_scan:
+            # at targets between the scan's: an aliased map, or an error its targets
+            # sampled at one phase, fails there instead of confirming itself
+            between = self._campaign("validation-scan",
+                                     between_plan(_plan_of(evidence), self.setup.machine))
+            judgement = judgement.merged(self._judge(comp, evidence, between,
+                                                     "validation-scan"))
+            looked.append(between)
+        judgement = replace(judgement, looked=where_looked(looked, self.setup.machine))
         restored: dict[str, str | None] = {}
         if judgement.worse:
             restored = self._restore(first, written, judgement)
@@ -192,6 +225,15 @@ class Procedure:
         if self.controller.maps_file is not None:
             check_maps_in_force(MapsFile(self.controller.maps_file, self._owner).table(),
                                 *self._owner, self.history)
+
+    def _note(self, text: str) -> None:
+        """Something the end must say (maps not established), logged once."""
+        if self.log.last("note", text=text) is None:
+            self.ui.say(text)
+            self.log.add("note", text=text)
+
+    def _notes(self) -> list[str]:
+        return [str(r.details["text"]) for r in self.log.steps if r.step == "note"]
 
     def _controller_spec(self) -> ControllerSpec:
         spec = self.setup.controller
@@ -250,7 +292,10 @@ class Procedure:
 
     def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
         try:
-            result = diagnose(session_observations(session))
+            # a designed scan's readings searched for the periods its targets sample
+            band = sampled_band(_plan_of(session), self.setup.machine) \
+                if session.header.plan is not None else None
+            result = diagnose(session_observations(session), pitch_band_mm=band)
         except DiagnosisError as exc:
             raise InputError(session.path, str(exc)) from None
         if self.log.last("diagnosis", role=role) is None:
@@ -262,7 +307,9 @@ class Procedure:
 
     def _separation(self, diagnosis: Diagnosis, session: LoadedSession) -> SeparatingPlan:
         plan = separating_plan(diagnosis, session, self.setup.machine,
-                               self.setup.scan_protocol())
+                               self.setup.scan_protocol(),
+                               designed=self.setup.scan_step_mm is None,
+                               budget_s=self.setup.scan_minutes * 60.0)
         if self.log.last("separation") is None:
             speed = self.setup.simulator.speed if self.setup.simulator else None
             self.ui.separation(plan, speed)
@@ -270,13 +317,17 @@ class Procedure:
                          **plan.to_json())
         return plan
 
-    def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession) -> Compensation:
+    def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession,
+                      maps: bool = True) -> Compensation:
+        """``maps``: False where the maps are not established (the offsets alone)."""
         done = self.log.last("compensation")
         if done is not None:
             return Compensation.from_json(done.details)
         # the maps go with the coordinate the offsets make, as the register stores them
         register = ControllerFacts.of(load_profile(self.controller.profile)).quantize
         comp = compensation_of(diagnosis, evidence, self.setup.machine, register)
+        if not maps:  # no map stands on a campaign the separating scan contradicts
+            comp = tables_only(comp)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")
         comp = replace(comp, tables=export(self.setup.folder, comp, title,
@@ -382,7 +433,8 @@ class Procedure:
 
     def _judge(self, comp: Compensation, before: LoadedSession, validation: LoadedSession,
                role: str) -> Judgement:
-        judgement = judge(comp, before, validation, self.setup.machine, self.resolution_mm)
+        judgement = judge(comp, before, validation, self.setup.machine, self.resolution_mm,
+                          self.drive_step_mm)
         if self.log.last("validation", role=role) is None:
             self.ui.validation(judgement)
             self.log.add("validation", role=role, session=str(validation.path),
@@ -418,8 +470,10 @@ class Procedure:
                 restored: dict[str, str | None]) -> Outcome:
         outcome = "restored" if judgement.worse else judgement.outcome
         reason = "; ".join(judgement.reasons) if judgement.worse else (
-            "the validation is within the gauge noise" if outcome == "validated" else
+            "the validation is within the gauge noise " + judgement.looked
+            if outcome == "validated" else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
+        reason = "; ".join([reason, *self._notes()])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
                          judgement=judgement, written=written, restored=restored)
 

@@ -9,18 +9,24 @@ Ambiguous here means one of:
 * an effect a table would correct (an encoder scale, a lost motion) was found from a
   few positions per leg, where an error depending on the position in another way (a
   lead-screw pitch error) passes for it: the diagnosis's own caveat;
-* an error map is among an effect's alternatives.
+* an error map is among an effect's alternatives;
+* the joint offsets rest on a few positions per leg (the papers' three): between
+  them no axis was measured, and an error whose period divides their spacing (a 4 mm
+  lead on the postures 0, +60 and -100 mm) reads the same at each and passes for an
+  offset, which a validation at the same postures confirms.
 
-Where a map is suspected (the last three) the measurement is a scan of every leg's
-travel, both directions; where only alternatives stand, the plan the diagnosis
-found that separates them (``ogacq.diagnose.separation``). Its duration is
-estimated from the campaign already run on this machine: its machine time per
-reading step, times the plan's reading steps.
+Where a map is suspected (the last four) the measurement is a scan of every leg's
+travel, both directions, its targets designed for the machine's drives within the
+time budget (``ogacq.protocol.scan_design``), or every ``--scan-step-mm`` when one is
+given; where only alternatives stand, the plan the diagnosis found that separates
+them (``ogacq.diagnose.separation``). Its duration is estimated from the campaign
+already run on this machine: its machine time per reading step, times the plan's
+reading steps.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ogacq.calibration.maps import compensable_effects
@@ -28,6 +34,7 @@ from ogacq.diagnose.diagnosis import FEW_POSTURES, Diagnosis
 from ogacq.model.error_maps import FAMILIES as MAP_FAMILIES
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
+from ogacq.protocol.scan_design import ScanDesign, design_scan
 from ogacq.session.store import LoadedSession
 
 
@@ -40,13 +47,15 @@ class SeparatingPlan:
     duration_s: float  # estimated machine time
     seconds_per_step: float
     why_none: str = ""
+    design: ScanDesign | None = None  # the designed scan's (None: postures, a fixed step)
 
     def to_json(self) -> dict[str, Any]:
         return {"reasons": list(self.reasons), "kind": self.kind,
                 "protocol": self.protocol.to_dict() if self.protocol else None,
                 "reading_steps": self.steps, "duration_s": round(self.duration_s, 1),
                 "seconds_per_step": round(self.seconds_per_step, 3),
-                "why_none": self.why_none or None}
+                "why_none": self.why_none or None,
+                "design": self.design.to_json() if self.design else None}
 
 
 def ambiguity(diagnosis: Diagnosis) -> tuple[list[str], bool]:
@@ -73,10 +82,16 @@ def ambiguity(diagnosis: Diagnosis) -> tuple[list[str], bool]:
         if effect.local_disturbance:
             reasons.append(f"{effect.name} rests on one cell ({effect.local_disturbance})")
     tabled = compensable_effects(diagnosis)
-    if tabled and diagnosis.postures_per_leg <= FEW_POSTURES:
+    few = diagnosis.postures_per_leg <= FEW_POSTURES
+    if tabled and few:
         suspected = True
         reasons.append(f"{', '.join(tabled)} found from {diagnosis.postures_per_leg} positions "
                        "per leg: a lead-screw error would pass for it there")
+    elif few:
+        suspected = True
+        reasons.append(f"the joint offsets rest on {diagnosis.postures_per_leg} positions per "
+                       "leg: between them no axis was measured, and a lead that divides their "
+                       "spacing reads alike at each and passes for an offset")
     return reasons, suspected
 
 
@@ -95,13 +110,20 @@ def seconds_per_step(session: LoadedSession) -> float:
 
 
 def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: MachineSpec,
-                    scan: ProtocolConfig) -> SeparatingPlan:
+                    scan: ProtocolConfig, *, designed: bool = True,
+                    budget_s: float | None = None) -> SeparatingPlan:
     """The measurement that would separate what the diagnosis of ``session`` leaves
-    open (``scan``: the scan to run where a map is suspected)."""
+    open: where a map is suspected the scan designed for ``machine`` within
+    ``budget_s`` of machine time (``designed``), else ``scan``, a scan every step."""
     reasons, suspected = ambiguity(diagnosis)
     rate = seconds_per_step(session)
     if not reasons:
         return SeparatingPlan((), None, "none", 0, 0.0, rate, "the diagnosis is not ambiguous")
+    if suspected and designed:
+        design = design_scan(machine, scan, noise_mm=diagnosis.noise.sigma_mm,
+                             seconds_per_step=rate, budget_s=budget_s)
+        return SeparatingPlan(tuple(reasons), design.protocol, "scan", design.steps,
+                              design.duration_s, rate, design=design)
     if suspected:
         steps = steps_of(scan, machine)
         return SeparatingPlan(tuple(reasons), scan, "scan", steps, steps * rate, rate)
@@ -117,3 +139,30 @@ def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
     return SeparatingPlan(tuple(reasons), None, "none", 0, 0.0, rate,
                           "none of the plans tried separates them (a measurement of another "
                           "kind is needed)")
+
+
+def offsets_carried(diagnosis: Diagnosis) -> Diagnosis:
+    """What the calibration campaign carries when the separating scan contradicts its
+    effects: its joint offsets alone where they are within the gauge noise (an effect
+    found at three postures per leg, which a scan could not confirm, is no ground for
+    offsets: a leg length standing in for a lead's error left them unidentifiable), its
+    whole diagnosis otherwise."""
+    if not diagnosis.base.consistent:
+        return diagnosis
+    return replace(diagnosis, claimed=diagnosis.selection.base, final_fit=diagnosis.base_fit,
+                   effects=[], mapped=None)
+
+
+def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
+    """Why the separating scan's diagnosis cannot be written (empty: it can): its final
+    model is not within the gauge noise, where the calibration campaign's is. Its maps
+    are then not established (an error of another kind, or one its targets cannot
+    resolve), and the offsets go as far as their own campaign carries them."""
+    if scanned.final.consistent or not before.final.consistent:
+        return ""
+    maps = ", ".join(m.source or f"map of {m.axis}" for m in scanned.maps) or "no map"
+    return ("error maps not established: the separating scan's diagnosis (" + maps
+            + ") fits " + scanned.final.describe()
+            + "; the offsets are those of the calibration campaign, within the noise; a scan "
+            "that resolves the rest (a longer --scan-minutes, the leads stated in the "
+            "machine file's screws table) would establish the maps")

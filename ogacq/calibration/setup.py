@@ -26,12 +26,16 @@ from ogacq.protocol.plan import ProtocolConfig
 
 MAPS_FILE = "maps.json"
 OFFSETS_FILE = "offsets.toml"
-# The scan a suspected map gets, unless given: every 5 mm, both directions, two cycles
-# (ISO 230-2's bidirectional cycle, shortened from its five): with repeats, the gauge
-# noise is measured rather than assumed from the display step, which with one cycle
-# made the test conservative enough to miss an encoder scale beside a backlash.
-SCAN_STEP_MM = 5.0
+# The scan a suspected map gets with --scan-step-mm: every step, both directions, two
+# cycles (ISO 230-2's bidirectional cycle, shortened from its five): with repeats, the
+# gauge noise is measured rather than assumed from the display step, which with one
+# cycle made the test conservative enough to miss an encoder scale beside a backlash.
+# Without it the scan is designed (ogacq.protocol.scan_design).
 SCAN_CYCLES = 2
+# The machine time a designed separating scan may take: the three legs' scan of every
+# lead from 2 to 40 mm at 4 phases, about 410 reading steps at 5.5 s a step (no
+# source: a shift's break; --scan-minutes and the campaign file's scan_minutes set it).
+SCAN_MINUTES = 40.0
 
 
 @dataclass(frozen=True)
@@ -47,8 +51,9 @@ class Setup:
     environment: Any = None
     override_expired: str = ""
     campaign_path: Path | None = None  # the station's campaign file
-    scan_step_mm: float = SCAN_STEP_MM
+    scan_step_mm: float | None = None  # None: the separating scan is designed
     separate: bool = True  # run the separating measurement when ambiguous
+    scan_minutes: float = SCAN_MINUTES  # the designed scan's machine time budget
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -80,8 +85,9 @@ class Setup:
     def scan_protocol(self, step_mm: float | None = None) -> ProtocolConfig:
         """A scan of every leg's travel, both directions (the separating measurement
         where a map is suspected)."""
-        return replace(self.protocol, scan_step_mm=step_mm or self.scan_step_mm,
-                       approach="both", cycles=SCAN_CYCLES, postures=())
+        return replace(self.protocol, scan_step_mm=step_mm or self.scan_step_mm or 1.0,
+                       approach="both", cycles=SCAN_CYCLES, postures=(),
+                       scan_targets_mm=())
 
     def describe(self) -> dict[str, Any]:
         """What the log's header records of the setup."""
@@ -94,7 +100,8 @@ class Setup:
                 "offsets_file": str(self.controller.offsets_file)
                 if self.controller.offsets_file else None,
                 "plan": self.protocol.to_dict(), "scan_step_mm": self.scan_step_mm,
-                "separate": self.separate, "operator": self.operator,
+                "scan_minutes": self.scan_minutes, "separate": self.separate,
+                "operator": self.operator,
                 "override_expired": self.override_expired, **self.extra}
 
 
@@ -108,19 +115,20 @@ def simulator_controller(folder: Path, profile: str) -> ControllerSpec:
 
 def simulator_setup(folder: Path, machine: MachineSpec, machine_path: Path,
                     simulator: SimulatorSpec, *, operator: str, override_expired: str = "",
-                    scan_step_mm: float = SCAN_STEP_MM, separate: bool = True,
+                    scan_step_mm: float | None = None, separate: bool = True,
+                    scan_minutes: float = SCAN_MINUTES,
                     today: datetime.date | None = None) -> Setup:
     return Setup(folder, machine, machine_path, ProtocolConfig(settle_s=1.0),
                  simulator_controller(folder, simulator.profile),
                  tuple(simulated_gauges(today or datetime.date.today())), simulator,
                  operator=operator, override_expired=override_expired,
-                 scan_step_mm=scan_step_mm, separate=separate)
+                 scan_step_mm=scan_step_mm, separate=separate, scan_minutes=scan_minutes)
 
 
-def station_setup(folder: Path, campaign: Campaign, *, scan_step_mm: float = SCAN_STEP_MM,
-                  separate: bool = True) -> Setup:
+def station_setup(folder: Path, campaign: Campaign, *, scan_step_mm: float | None = None,
+                  separate: bool = True, scan_minutes: float = SCAN_MINUTES) -> Setup:
     assert campaign.controller is not None
     return Setup(folder, campaign.machine, campaign.machine_path, campaign.protocol,
                  campaign.controller, tuple(campaign.gauges), None, campaign.operator,
                  campaign.environment, campaign.override_expired, campaign.path,
-                 scan_step_mm, separate)
+                 scan_step_mm, separate, scan_minutes=scan_minutes)

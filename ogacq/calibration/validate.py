@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 
 from ogacq.calibration.compensate import Compensation
+from ogacq.calibration.drive_step import with_drive_step
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
@@ -42,6 +43,8 @@ from ogacq.model.error_maps import terms_of
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, PARAM_SETS
 from ogacq.model.units import UM_PER_MM
+from ogacq.protocol.plan import ProtocolConfig, reading_steps
+from ogacq.protocol.scan_design import sampled_band
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession
 
@@ -61,6 +64,7 @@ class Judgement:
     figures_before: dict[str, dict[str, Any]]
     figures_after: dict[str, dict[str, Any]]
     residual_effects: dict[str, dict[str, float]] = field(default_factory=dict)
+    looked: str = ""  # where the validation read, and that between those it did not
 
     @property
     def worse(self) -> bool:
@@ -84,7 +88,26 @@ class Judgement:
                 "offsets_after_mm": self.offsets_after_mm,
                 "offsets_after_std_mm": self.offsets_after_std_mm,
                 "figures_before": self.figures_before, "figures_after": self.figures_after,
-                "residual_effects": self.residual_effects}
+                "residual_effects": self.residual_effects, "looked": self.looked}
+
+
+def where_looked(sessions: list[LoadedSession], machine: MachineSpec) -> str:
+    """Where the validation campaigns read each leg, in words: "at N positions of each
+    leg's travel (...); between them not measured"."""
+    parts, total = [], set()
+    for session in sessions:
+        plan = session.header.plan
+        if plan is None:
+            continue
+        reads = reading_steps(ProtocolConfig.from_dict(dict(plan)), machine)
+        own = {(r.leg, round(r.q_mm[AXES.index(r.leg)], 6)) for r in reads}
+        total |= own
+        legs = {r.leg for r in reads}
+        parts.append(f"{len(own) // max(len(legs), 1)} in {session.path.stem}")
+    legs_read = {leg for leg, _ in total}
+    per_leg = len(total) // max(len(legs_read), 1)
+    return (f"at {per_leg} positions of each leg's travel ({', '.join(parts)}); "
+            "between them not measured")
 
 
 def _num(x: float) -> float | None:
@@ -97,9 +120,12 @@ def _fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]
 
 
 def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
-          machine: MachineSpec, resolution_mm: float = 0.0) -> Judgement:
+          machine: MachineSpec, resolution_mm: float = 0.0,
+          drive_step_mm: float = 0.0) -> Judgement:
     """``resolution_mm``: the step the controller stores offsets with (what a written
-    offset may be off by, on top of the identification's std)."""
+    offset may be off by, on top of the identification's std); ``drive_step_mm``: the
+    drives' position step, which every figure after carries beside it
+    (``ogacq.calibration.drive_step``)."""
     stay = tuple(comp.uncompensated)
     base = PARAM_SETS["offsets"] + stay
     _, v_before = _fit(session_observations(before), base)
@@ -118,7 +144,11 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
         if now > was + margin:
             reasons.append(f"the joint offset of {a} left ({drho[a]:+.4f} mm) is larger than "
                            f"the one corrected ({comp.offsets_mm[a]:+.4f} mm)")
-    figures_after, residual = _after_maps(comp, obs_after, base, machine)
+    plan = after.header.plan
+    band = sampled_band(ProtocolConfig.from_dict(dict(plan)), machine) if plan else None
+    figures_after, residual = _after_maps(comp, obs_after, base, machine, band)
+    if drive_step_mm:
+        figures_after = with_drive_step(figures_after, drive_step_mm)
     figures_before = comp.figures_before()
     for a, fig in figures_after.items():
         if a not in figures_before:
@@ -138,8 +168,8 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
 
 
 def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
-                machine: MachineSpec) -> tuple[dict[str, dict[str, Any]],
-                                               dict[str, dict[str, float]]]:
+                machine: MachineSpec, band: tuple[float, float] | None = None,
+                ) -> tuple[dict[str, dict[str, Any]], dict[str, dict[str, float]]]:
     """The ISO 230-2 figures of each compensated axis after: the corrected library
     effects identified again on the validation, and what the maps left: the maps its
     diagnosis finds, else, on an axis it read densely, the written maps' own terms
@@ -151,7 +181,7 @@ def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
               for n in comp.compensated}
     found: tuple[AxisMap, ...] = ()
     if comp.diagnosis_maps:  # maps left are the validation's diagnosis's to find
-        diagnosis = diagnose(obs)
+        diagnosis = diagnose(obs, pitch_band_mm=band)
         found = diagnosis_maps(diagnosis)
         seen = {m.axis for m in found}
         written = {AXES.index(a): (terms_of(m), (m.positions_mm[0], m.positions_mm[-1]),

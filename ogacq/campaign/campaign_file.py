@@ -13,6 +13,8 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     deadline_s = 3600                 # the most working time (moves, settling, readings;
                                       # not the operator's) a run may take; default: the
                                       # plan's steps each taking their whole timeout
+    scan_minutes = 40                 # ogacq calibrate: the machine time its separating
+                                      # scan may take (designed for the machine's screws)
     [controller]
     profile = "cia402"                # or "iai-pcon", "mr-je-c", "kinco-fd", or a file path
     port = "127.0.0.1:502"            # host:port (TCP) or a serial device (RTU), shared
@@ -309,6 +311,7 @@ class Campaign:
     operator: str = ""
     environment: EnvironmentSpec | None = None
     override_expired: str = ""  # the reason to run with a gauge past its due date
+    scan_minutes: float | None = None  # calibrate's separating scan budget (None: default)
     # gauges identified without a [[gauges]] entry (the wizard's, read by eye)
     extra_instruments: list[Instrument] = field(default_factory=list)
 
@@ -421,6 +424,8 @@ _PROTOCOL = Table((
     Field("scan_step_mm", number(positive=True, maximum=_LENGTH_MM)),
     Field("scan_from_mm", number(minimum=-_LENGTH_MM, maximum=_LENGTH_MM)),
     Field("scan_to_mm", number(minimum=-_LENGTH_MM, maximum=_LENGTH_MM)),
+    # a designed scan's targets (ogacq.protocol.scan_design), as ogacq calibrate runs it
+    Field("scan_targets_mm", ListOf(number(minimum=-_LENGTH_MM, maximum=_LENGTH_MM))),
 ))
 
 _STABILITY = Table((
@@ -449,6 +454,8 @@ CAMPAIGN_FILE = Table((
     Field("operator", text()),
     Field("session", FilePath()),
     Field("deadline_s", number(minimum=1.0, maximum=1000 * HOUR_S)),
+    # the machine time ogacq calibrate's designed separating scan may take
+    Field("scan_minutes", number(positive=True, maximum=1000 * 60.0)),
     Field("controller", _CONTROLLER),
     Field("gauges", TableArray(_GAUGE)),
     Field("protocol", _PROTOCOL),
@@ -471,6 +478,7 @@ def read_campaign(path: str | Path) -> Campaign:
                         given.get("session", path.parent / f"sessions/{path.stem}.jsonl"),
                         protocol, simulator=given.get("simulator"),
                         deadline_s=given.get("deadline_s"),
+                        scan_minutes=given.get("scan_minutes"),
                         operator=given.get("operator", "").strip(),
                         environment=given.get("environment"))
     operator_problem = name_problem(campaign.operator)
@@ -523,7 +531,8 @@ def _protocol(src: Source, given: dict, stability: dict, machine: MachineSpec,
         config = ProtocolConfig(stability=StabilityRule(**stability), **given)
         check_postures(config, machine)
     except PlanError as exc:
-        key = next((k for k in ("scan_step_mm", "scan_from_mm", "scan_to_mm", "postures",
+        key = next((k for k in ("scan_targets_mm", "scan_step_mm", "scan_from_mm",
+                                "scan_to_mm", "postures",
                                 "approach", "cycles", "legs", "overshoot_mm")
                     if k in str(exc) or k.rstrip("s") in str(exc)), "postures")
         raise src.fail(("protocol", key), "", str(exc)) from None
@@ -695,7 +704,8 @@ def campaign_text(campaign: Campaign, *, comment: str = "",
     stability = plan.pop("stability")
     document = {"machine": campaign.machine_path, "operator": campaign.operator or None,
                 "session": campaign.session, "deadline_s": campaign.deadline_s,
-                "simulator": campaign.simulator, "controller": campaign.controller,
+                "scan_minutes": campaign.scan_minutes, "simulator": campaign.simulator,
+                "controller": campaign.controller,
                 "gauges": campaign.gauges, "protocol": plan, "stability": stability,
                 "environment": campaign.environment,
                 "override": ({"expired_gauges": campaign.override_expired}

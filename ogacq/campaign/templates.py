@@ -27,8 +27,12 @@ gauge_resolution_mm     the step the gauges display (0.01 dial, 0.001 digital)
 gauge_repeatability_mm  optional: the gauges' scatter when it is known; left out,
                         it is measured from the repeated readings
 Optional, shown commented at the end: the machine's name (default: this file's name)
-and serial number, its legs' expansion coefficient (steel 11.5 ppm/K when left out)
-and the tolerances the deviations are accepted against."""
+and serial number, its legs' expansion coefficient (steel 11.5 ppm/K when left out),
+the tolerances the deviations are accepted against, and each axis's drive: its
+ball screw's lead and, where a belt or gear sits between, the travel per motor
+revolution (the periods of the screw's and the encoder's cyclic errors, which the
+separating scan of `ogacq calibrate` is designed to sample; left out, it samples
+every lead from 2 to 40 mm)."""
 
 MACHINE_FOOTER = """name = "OG-1 cell 3"              # recorded in every session and report
 serial = "OG-2026-0017"
@@ -36,7 +40,10 @@ leg_expansion_ppm_per_k = 11.5    # the legs' linear expansion, 1e-6 /K (steel 1
 [tolerances]                      # acceptance of the deviations dx_y+ ... dy_z-
 deviation_mm = 0.020              # every deviation within +/- this
 "dx_y+" = 0.015                   # a deviation's own tolerance
-decision_rule = "guard-band"      # ILAC-G8: guard-band (pass within T - U) or simple"""
+decision_rule = "guard-band"      # ILAC-G8: guard-band (pass within T - U) or simple
+[screws.x]                        # the x axis's drive (the same for y and z)
+lead_mm = 5.0                     # the ball screw's lead: mm of travel a screw revolution
+revolution_mm = 2.5               # mm a motor (encoder) revolution, if geared or belted"""
 
 CAMPAIGN_HEADER = f"""\
 A campaign file: the machine, the station (controller and six gauges) and the

@@ -22,7 +22,7 @@ from typing import Annotated
 import typer
 
 from ogacq.calibration.log import LOG_NAME, ProcedureLog
-from ogacq.calibration.setup import SCAN_STEP_MM, Setup, simulator_setup, station_setup
+from ogacq.calibration.setup import SCAN_MINUTES, Setup, simulator_setup, station_setup
 from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
@@ -72,8 +72,13 @@ def calibrate(
                                            "stopped.")] = None,
     yes: Annotated[bool, typer.Option(
         "--yes", "-y", help="Write without asking (unattended stations).")] = False,
-    scan_step_mm: Annotated[float, typer.Option(
-        min=0.1, help="Step of the scan run where a map is suspected (mm).")] = SCAN_STEP_MM,
+    scan_step_mm: Annotated[float | None, typer.Option(
+        min=0.1, help="A scan every this many mm where a map is suspected, instead of the "
+                      "designed one (targets at irregular intervals that sample every lead "
+                      "the machine file states, else every lead from 2 to 40 mm).")] = None,
+    scan_minutes: Annotated[float | None, typer.Option(
+        min=1.0, help="The machine time the designed separating scan may take (default: "
+                      f"the campaign file's scan_minutes, else {SCAN_MINUTES:g}).")] = None,
     no_separate: Annotated[bool, typer.Option(
         "--no-separate", help="Do not run the separating measurement an ambiguous "
                               "diagnosis asks for (it is still shown).")] = False,
@@ -104,7 +109,7 @@ def calibrate(
                       "to confirm on, give --yes (unattended stations)")
     setup = _resumed_setup(folder) if resuming else _new_setup(
         folder, campaign, files, seed, profile.value, speed, scan_step_mm,
-        not no_separate, operator, reason)
+        not no_separate, operator, reason, scan_minutes)
     from ogacq.calibration.procedure import calibrate as run_procedure
     from ogacq.cli.render_calibrate import TerminalUI, print_outcome
     from ogacq.history.recording import procedure_history, record_calibrate, record_writebacks
@@ -240,16 +245,17 @@ def _simulator_files(seed: int, effects: Path | None) -> dict[str, bytes]:
 
 
 def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes], seed: int,
-               profile: str, speed: float, scan_step_mm: float, separate: bool,
-               operator: str | None, reason: str) -> Setup:
+               profile: str, speed: float, scan_step_mm: float | None, separate: bool,
+               operator: str | None, reason: str, scan_minutes: float | None = None) -> Setup:
     if campaign_path is not None:
         campaign = read_campaign(campaign_path)
         if campaign.simulator is not None or campaign.controller is None:
             raise InputError(campaign_path, "names the built-in simulator: calibrate it with "
                              "--simulator")
         folder.mkdir(parents=True, exist_ok=True)
-        setup = station_setup(folder, campaign, scan_step_mm=scan_step_mm, separate=separate)
-        return setup
+        return station_setup(folder, campaign, scan_step_mm=scan_step_mm, separate=separate,
+                             scan_minutes=scan_minutes or campaign.scan_minutes
+                             or SCAN_MINUTES)
     folder.mkdir(parents=True, exist_ok=True)
     for name, data in files.items():
         write_atomically(folder / name, data)
@@ -260,7 +266,8 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
                            spec, operator=operator or _login_name(),
                            override_expired=reason, scan_step_mm=scan_step_mm,
-                           separate=separate, today=datetime.date.today())
+                           separate=separate, scan_minutes=scan_minutes or SCAN_MINUTES,
+                           today=datetime.date.today())
 
 
 def _resumed_setup(folder: Path) -> Setup:
@@ -270,14 +277,17 @@ def _resumed_setup(folder: Path) -> Setup:
         described = log_.header.procedure or {}
     finally:
         log_.close()
-    scan = float(described.get("scan_step_mm") or SCAN_STEP_MM)
+    step = described.get("scan_step_mm")
+    scan = float(step) if step else None
+    minutes = float(described.get("scan_minutes") or SCAN_MINUTES)
     separate = bool(described.get("separate", True))
     if described.get("mode") == "station":
         campaign = read_campaign(described["campaign_file"])
-        return station_setup(folder, campaign, scan_step_mm=scan, separate=separate)
+        return station_setup(folder, campaign, scan_step_mm=scan, separate=separate,
+                             scan_minutes=minutes)
     machine_path = Path(described["machine_file"])
     spec = SimulatorSpec.from_header(described["simulator"])
     return simulator_setup(folder, read_machine(machine_path), machine_path, spec,
                            operator=str(described.get("operator") or _login_name()),
                            override_expired=str(described.get("override_expired") or ""),
-                           scan_step_mm=scan, separate=separate)
+                           scan_step_mm=scan, separate=separate, scan_minutes=minutes)

@@ -22,6 +22,7 @@ from ogacq.protocol.plan import (
     check_postures,
     scan_targets,
 )
+from ogacq.protocol.scan_design import design_scan
 
 # The campaign file's own bounds (ogacq/campaign/campaign_file.py: cycles 1..1000, noise_mm
 # at most 1 mm, beyond any indicator): a plan predicts a campaign that can be run.
@@ -31,6 +32,9 @@ MAX_NOISE_MM = 1.0
 # under 0.1 %, far below what the analytic prediction beside it already says; a larger
 # number only runs for hours (no source: the project's own bound).
 MAX_TRIALS = 1_000_000
+# A reading step of a station (move, settle, read two gauges): the issue 37 figure for a
+# real machine; no source beyond it (calibrate measures its own from the campaign).
+STEP_S = 5.5
 
 
 def parse_postures(text: str, rho_min: float, rho_max: float) -> list[str | float]:
@@ -72,7 +76,9 @@ def describe_protocol(protocol: ProtocolConfig, machine: MachineSpec) -> str:
     targets = scan_targets(protocol, machine)
     ways = {"both": "both directions", "sequence": "up and down",
             "from_below": "upwards only", "from_above": "downwards only"}[protocol.approach]
-    return (f"scan {targets[0]:g}..{targets[-1]:g} mm every {protocol.scan_step_mm:g} mm, "
+    every = (f"every {protocol.scan_step_mm:g} mm" if protocol.scan_step_mm is not None
+             else "at irregular intervals")
+    return (f"scan {targets[0]:g}..{targets[-1]:g} mm {every}, "
             f"{ways} ({len(targets)} postures per leg)")
 
 
@@ -125,6 +131,13 @@ def plan(
         help="Monte-Carlo trials of the full nonlinear fit (0: analytic only).")]
     = 10000,
     seed: Annotated[int, seed_option("Seed of the simulated noise.")] = 0,
+    scan_minutes: Annotated[float | None, typer.Option(
+        min=1.0, help="Also show the separating scan `ogacq calibrate` would design for "
+                      "this machine within this much machine time (its targets, the band "
+                      "of leads it resolves, its detection limit per family).")] = None,
+    step_s: Annotated[float, typer.Option(
+        min=0.1, help="With --scan-minutes: the machine time of a reading step (a campaign "
+                      "on the machine measures its own).")] = STEP_S,
     as_json: JsonOption = False,
 ) -> None:
     """Predict the std of each parameter for a planned campaign."""
@@ -154,7 +167,14 @@ def plan(
         pred = predict_accuracy(obs, PARAM_SETS[params.value], sigma,
                                 truth=parse_truth(assume), trials=trials, seed=seed,
                                 rounding_mm=spec.gauge_resolution_mm, on_trials=on_trials)
+    design = None if scan_minutes is None else design_scan(
+        spec, protocol, noise_mm=sigma, seconds_per_step=step_s, budget_s=scan_minutes * 60)
     if as_json:
-        typer.echo(json.dumps(pred.to_json() | {"protocol": protocol.to_dict()}))
+        extra = {"separating_design": design.to_json()} if design is not None else {}
+        typer.echo(json.dumps(pred.to_json() | {"protocol": protocol.to_dict()} | extra))
         return
     print_plan(pred, Path(machine).name, describe_protocol(protocol, spec), cycles)
+    if design is not None:
+        typer.echo("separating scan `ogacq calibrate` would design (ISO 230-2 4.3.2):")
+        for line in design.lines():
+            typer.echo(f"  {line}")

@@ -77,7 +77,8 @@ class TerminalUI:
         if plan.protocol is None:
             console.print(f"  no separating measurement: {plan.why_none}", highlight=False)
             return
-        what = (f"a scan every {plan.protocol.scan_step_mm:g} mm along each leg, both "
+        what = ("the designed scan of each leg" if plan.design is not None else
+                f"a scan every {plan.protocol.scan_step_mm:g} mm along each leg, both "
                 "directions" if plan.kind == "scan"
                 else "postures " + ",".join(str(p) for p in plan.protocol.postures))
         wall = f" (about {_duration(plan.duration_s / speed)} here at {speed:g}x)" if speed \
@@ -85,6 +86,8 @@ class TerminalUI:
         console.print(f"  separating measurement: {what}, {plan.steps} reading steps, about "
                       f"{_duration(plan.duration_s)} of machine time at this machine's "
                       f"{plan.seconds_per_step:.1f} s per step{wall}", highlight=False)
+        for line in plan.design.lines() if plan.design is not None else ():
+            console.print(f"    {line}", highlight=False)
 
     def compensation(self, comp: Compensation, offsets: OffsetPlan,
                      maps: MapsPlan | None) -> None:
@@ -146,6 +149,12 @@ class TerminalUI:
                           f"B {was['B']:.2f} -> {now['B']:.2f} µm, "
                           f"E {was['E']:.2f} -> {now['E']:.2f} µm (ISO 230-2, from the maps)",
                           highlight=False)
+            if fig.get("drive_step_mm"):
+                step = fig["drive_step_mm"] * UM_PER_MM
+                console.print(f"    as left, with the drive's step ({step:g} µm a count: "
+                              "each target is a whole count): A up to "
+                              f"{fig['A_with_step_mm'] * UM_PER_MM:.2f} µm, E up to "
+                              f"{fig['E_with_step_mm'] * UM_PER_MM:.2f} µm", highlight=False)
         for reason in judgement.reasons:
             console.print(f"  worse: {reason}", highlight=False)
 

@@ -299,10 +299,13 @@ def explained_share(base: Model, model: Model, noise: GaugeNoise) -> float:
 
 
 def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_EFFECTS,
-             separate: bool = True, maps: bool = True) -> Diagnosis:
+             separate: bool = True, maps: bool = True,
+             pitch_band_mm: tuple[float, float] | None = None) -> Diagnosis:
     """Diagnose ``obs`` (raw readings or tabulated deviations). ``separate``: also
     search the plans that would tell aliased effects apart; ``maps``: also search
-    errors along each axis and in time beyond the library (raw readings)."""
+    errors along each axis and in time beyond the library (raw readings);
+    ``pitch_band_mm``: the periods a designed scan's positions sample (the cyclic
+    error is searched there; None: from the positions' spacing)."""
     noise = noise_for(obs)
     problem = Problem(obs, noise)
     base_fit = _refit(obs, BASE_MODEL, noise)
@@ -345,7 +348,8 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     if separate and not base.verdict.consistent and (
             seen.invisible() or seen.alias_groups() or seen.saturated):
         plans = plan_capabilities(obs.machine, claimed.theta, noise.sigma_mm)
-    mapped = map_diagnosis(problem, noise, claimed, alpha, separate, base) \
+    mapped = map_diagnosis(problem, noise, claimed, alpha, separate, base,
+                           pitch_band_mm=pitch_band_mm) \
         if maps and obs.raw else None
     all_effects: list[EffectFound | MapEffect] = list(effects)
     final_residuals = claimed.residuals

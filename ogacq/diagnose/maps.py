@@ -308,9 +308,10 @@ class _Route:
 
 
 def _route(problem: Problem, noise: GaugeNoise, start: Model, alpha: float,
-           history: JointHistory) -> _Route:
+           history: JointHistory, band: tuple[float, float] | None) -> _Route:
     search, _ = search_maps(problem, noise, start.theta, start.names, start.rss,
-                            start.verdict.consistent, alpha, jacobian=start.jacobian)
+                            start.verdict.consistent, alpha, jacobian=start.jacobian,
+                            pitch_band_mm=band)
     terms = search.terms
     if not terms:
         return _Route(start, search, start.names, [], None)
@@ -344,7 +345,8 @@ def _library_beside_maps(problem: Problem, noise: GaugeNoise, library: _Route,
 
 
 def _chosen_route(problem: Problem, noise: GaugeNoise, library: _Route, base: Model | None,
-                  alpha: float, history: JointHistory) -> tuple[_Route, Rival | None]:
+                  alpha: float, history: JointHistory, band: tuple[float, float] | None,
+                  ) -> tuple[_Route, Rival | None]:
     """The library's route, or the maps searched from the joint offsets alone where
     those are fewer, within the noise, and the library's effects are not significant
     beside them: a combination of library effects and maps is not chosen over fewer
@@ -354,7 +356,7 @@ def _chosen_route(problem: Problem, noise: GaugeNoise, library: _Route, base: Mo
     effects = [n for n in library.names if n not in BASE_MODEL]
     if base is None or not effects or library.fit is None:
         return library, None  # no library effect, or no map beside them
-    alone = _route(problem, noise, base, alpha, history)
+    alone = _route(problem, noise, base, alpha, history, band)
     # only a simpler explanation is weighed against the library's: a backlash is not
     # renamed a hysteresis of no length, which is the same physics
     if alone.fit is None or not alone.consistent or \
@@ -375,12 +377,15 @@ def _chosen_route(problem: Problem, noise: GaugeNoise, library: _Route, base: Mo
 
 
 def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: float = LEVEL,
-                  separate: bool = True, base: Model | None = None) -> MapOutcome:
+                  separate: bool = True, base: Model | None = None,
+                  pitch_band_mm: tuple[float, float] | None = None) -> MapOutcome:
     """Search, refit and judge the maps beside the library's ``claimed`` model, and
-    beside the joint offsets alone (``base``) where the library claimed effects."""
+    beside the joint offsets alone (``base``) where the library claimed effects;
+    ``pitch_band_mm``: the periods a designed scan's positions sample."""
     history = JointHistory.of(problem.obs.layout)
-    library = _route(problem, noise, claimed, alpha, history)
-    route, rival = _chosen_route(problem, noise, library, base, alpha, history)
+    library = _route(problem, noise, claimed, alpha, history, pitch_band_mm)
+    route, rival = _chosen_route(problem, noise, library, base, alpha, history,
+                                 pitch_band_mm)
     search, fitted, dropped = route.search, route.fit, route.dropped
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}

@@ -102,6 +102,9 @@ class AxisCoverage:
     # the display step, when its rounding dominates the gauge's noise (else None): the
     # rounding then follows the signal along q and would pass for a map
     display_limited_mm: float | None = None
+    # the periods its positions sample, when a design states them (irregular positions
+    # resolve periods far below their median spacing: ogacq.protocol.scan_design)
+    designed_band_mm: tuple[float, float] | None = None
 
     @property
     def dense(self) -> bool:
@@ -118,9 +121,13 @@ class AxisCoverage:
     @property
     def pitch_band_mm(self) -> tuple[float, float]:
         """The cyclic pitches these positions resolve: 2.5 distinct positions a
-        period (never shorter than a screw's lead) to three periods over the span."""
-        return (max(SAMPLES_PER_PERIOD * self.step_mm, SHORTEST_LEAD_MM),
-                self.span_mm / MIN_PERIODS)
+        period, or the band their design states (never shorter than a screw's lead),
+        to three periods over the span."""
+        longest = self.span_mm / MIN_PERIODS
+        if self.designed_band_mm is not None:
+            return (max(self.designed_band_mm[0], SHORTEST_LEAD_MM),
+                    min(self.designed_band_mm[1], longest))
+        return max(SAMPLES_PER_PERIOD * self.step_mm, SHORTEST_LEAD_MM), longest
 
     def describe(self) -> str:
         name = AXES[self.axis]
@@ -483,12 +490,15 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
                 names: tuple[str, ...], rss: float, consistent: bool,
                 alpha: float = LEVEL, max_terms: int = MAX_TERMS,
                 space: MapSpace | None = None, jacobian: np.ndarray | None = None,
+                pitch_band_mm: tuple[float, float] | None = None,
                 ) -> tuple[MapSearch, MapSpace | None]:
     """Forward selection of map terms beside the model ``names`` fitted at ``theta``
     (weighted rss ``rss``; ``jacobian``: its unweighted Jacobian there, when the
     caller holds it); ``consistent``: whether that model is within the noise
-    (the search then runs at the stricter level). Returns the search and the space
-    grown by the terms added (None when nothing could be searched)."""
+    (the search then runs at the stricter level); ``pitch_band_mm``: the periods the
+    positions sample, as their design states (None: from their spacing). Returns the
+    search and the space grown by the terms added (None when nothing could be
+    searched)."""
     level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
     if not problem.obs.raw:
         return MapSearch((), level), None
@@ -498,7 +508,8 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
     # scatter), the posture means' errors are the rounding of a signal that varies
     # smoothly along q: a structure of its own, which the maps would fit
     limited = None if noise.dithered else noise.step_mm
-    covs = coverage(problem.obs.layout, space.history.travel_mm, limited)
+    covs = tuple(replace(c, designed_band_mm=pitch_band_mm) for c in
+                 coverage(problem.obs.layout, space.history.travel_mm, limited))
     search = MapSearch(covs, level)
     search.searched = any(c.searchable for c in covs) or (
         _repeated_in_time(problem.obs.layout) and space.within_groups_tested)

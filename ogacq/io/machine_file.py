@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from ogacq_drivers.config_schema import (
     Field,
+    MapOf,
     Source,
     Table,
     dump,
@@ -22,7 +23,7 @@ from ogacq_drivers.config_schema import (
 from ogacq.io.atomic import write_atomically
 from ogacq.io.names import name_problem
 from ogacq.io.toml_file import input_error, load_toml
-from ogacq.model.machine import DECISION_RULES, MachineSpec
+from ogacq.model.machine import DECISION_RULES, SCREW_AXES, MachineSpec, Screw
 
 if TYPE_CHECKING:
     from ogacq.model.tolerances import Tolerances
@@ -43,6 +44,11 @@ _TOLERANCES = Table((
     *(Field(name, _TOLERANCE) for name in DEVIATION_NAMES),
 ), noun="key")
 
+_SCREW = Table((
+    Field("lead_mm", _LENGTH),
+    Field("revolution_mm", _LENGTH),
+), build=Screw, noun="key")
+
 MACHINE_FILE = Table((
     Field("name", text()),
     Field("serial", text()),
@@ -56,6 +62,10 @@ MACHINE_FILE = Table((
     Field("leg_expansion_ppm_per_k", number(minimum=0.0, maximum=1000.0)),
     Field("tolerances", _TOLERANCES, decode=lambda table: _tolerances(table),
           encode=lambda tolerances: _tolerance_table(tolerances)),
+    # [screws.x] lead_mm, revolution_mm: the periods of the drive's errors, which the
+    # separating scan is designed to sample (ogacq.protocol.scan_design)
+    Field("screws", MapOf(_SCREW, keys=SCREW_AXES, noun="axis"),
+          decode=lambda table: tuple(sorted(table.items())), encode=dict),
 ))
 
 
@@ -105,6 +115,9 @@ def machine_dict(machine: MachineSpec) -> dict[str, Any]:
         out["leg_expansion_ppm_per_k"] = machine.leg_expansion_ppm_per_k
     if machine.tolerances is not None:
         out["tolerances"] = machine.tolerances.to_json()
+    if machine.screws:
+        out["screws"] = {axis: {k: v for k, v in vars(screw).items() if v is not None}
+                         for axis, screw in machine.screws}
     return out
 
 
@@ -147,6 +160,9 @@ def _machine(values: dict, source: Source, default_name: str) -> MachineSpec:
         return MachineSpec(**values)
     except ValueError as exc:
         problem = str(exc).split("; ")[0]
+        if problem.startswith("screws."):  # names its own key: screws.x.lead_mm
+            raise source.fail(tuple(problem.split(" ")[0].split(".")), "",
+                              f"implausible: {problem}") from None
         key = next((f.key for f in MACHINE_FILE.fields if f.key in problem), "rho_max_mm")
         what = "implausible" if key.startswith("gauge_") else "impossible geometry"
         raise source.fail((key,), "", f"{what}: {problem}") from None

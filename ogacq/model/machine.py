@@ -22,6 +22,28 @@ REFERENCE_TEMPERATURE_C = 20.0
 # indicator's step 0.01 to 0.0001 mm and a length gauge's down to 0.00001 mm; its
 # repeatability lies in the same span (Mitutoyo catalogue, "Indicators"; no other source).
 GAUGE_STEP_RANGE_MM = (1e-6, 0.1)
+# Ball screws are made with leads from 1 mm (miniature screws) to 100 mm (high-helix
+# screws for fast axes): THK "Ball Screw" general catalogue, lead tables A15; a
+# gear or belt between motor and screw gives a motor revolution of the same order.
+SCREW_LEAD_RANGE_MM = (0.5, 100.0)
+SCREW_AXES = ("x", "y", "z")
+
+
+@dataclass(frozen=True)
+class Screw:
+    """What the machine file states of one axis's drive: ``lead_mm`` the travel per
+    revolution of its screw and ``revolution_mm`` the travel per revolution of its motor
+    (encoder), where a belt or gear sits between them (None: not stated). A screw's
+    lead error and its wobble repeat every lead; an encoder's interpolation error and
+    a motor's cogging every motor revolution: the periods a separating scan must
+    sample (``ogacq.protocol.scan_design``)."""
+
+    lead_mm: float | None = None
+    revolution_mm: float | None = None
+
+    def periods_mm(self) -> tuple[float, ...]:
+        """The periods an error of this drive repeats with: each stated revolution."""
+        return tuple(sorted({p for p in (self.lead_mm, self.revolution_mm) if p}))
 
 
 @dataclass(frozen=True)
@@ -40,6 +62,8 @@ class MachineSpec:
     # where a number is needed, see ``expansion_ppm_per_k``)
     leg_expansion_ppm_per_k: float | None = None
     tolerances: Tolerances | None = None
+    # each axis's drive as the file states it, by axis name (sorted; a tuple: hashable)
+    screws: tuple[tuple[str, Screw], ...] = ()
 
     def __post_init__(self) -> None:
         problems = self.problems()
@@ -73,7 +97,27 @@ class MachineSpec:
                 0 <= self.leg_expansion_ppm_per_k < 1000):
             out.append("leg_expansion_ppm_per_k must be 0..1000 (steel 11.5), "
                        f"got {self.leg_expansion_ppm_per_k}")
+        return out + self._screw_problems()
+
+    def _screw_problems(self) -> list[str]:
+        out = []
+        low, high = SCREW_LEAD_RANGE_MM
+        for axis, screw in self.screws:
+            if axis not in SCREW_AXES:
+                out.append(f"screws.{axis}: no such axis (x, y or z)")
+                continue
+            for key in ("lead_mm", "revolution_mm"):
+                value = getattr(screw, key)
+                if value is not None and not low <= value <= high:
+                    out.append(f"screws.{axis}.{key} = {value:g} mm is no drive's (screws "
+                               f"advance {low:g} to {high:g} mm a revolution): "
+                               + ("micrometres written as mm?" if value > high else
+                                  "is the unit mm?"))
         return out
+
+    def screw(self, axis: str) -> Screw:
+        """What the file states of ``axis``'s drive (an empty Screw: nothing)."""
+        return dict(self.screws).get(axis, Screw())
 
     @property
     def expansion_ppm_per_k(self) -> float:

@@ -95,6 +95,10 @@ class ProtocolConfig:
     scan_step_mm: float | None = None  # None: the postures above, no scan
     scan_from_mm: float | None = None  # None: the machine's rho_min
     scan_to_mm: float | None = None  # None: the machine's rho_max
+    # a designed scan's targets (joint mm, ascending), instead of every scan_step_mm:
+    # irregular, so that a periodic error is sampled at many phases (ISO 230-2:2014
+    # 4.3.2; ``ogacq.protocol.scan_design``)
+    scan_targets_mm: tuple[float, ...] = ()
 
     def __post_init__(self) -> None:
         if self.approach not in APPROACHES:
@@ -109,10 +113,15 @@ class ProtocolConfig:
             raise PlanError(f"settle must be one of {', '.join(SETTLES)}, got {self.settle!r}")
         if self.scan_step_mm is not None and not self.scan_step_mm > 0:
             raise PlanError(f"scan_step_mm must be positive, got {self.scan_step_mm:g}")
+        if self.scan_targets_mm and self.scan_step_mm is not None:
+            raise PlanError("scan_targets_mm and scan_step_mm exclude each other")
+        if any(b <= a for a, b in zip(self.scan_targets_mm[:-1], self.scan_targets_mm[1:],
+                                       strict=True)):
+            raise PlanError("scan_targets_mm must be ascending, each target once")
 
     @property
     def is_scan(self) -> bool:
-        return self.scan_step_mm is not None
+        return self.scan_step_mm is not None or bool(self.scan_targets_mm)
 
     @property
     def settle_rule(self) -> SettleRule:
@@ -127,7 +136,10 @@ class ProtocolConfig:
                "stability": {"readings": self.stability.readings,
                              "tolerance_mm": self.stability.tolerance_mm,
                              "timeout_s": self.stability.timeout_s}}
-        if self.is_scan:  # a scan replaces the postures
+        if self.scan_targets_mm:  # a designed scan replaces the postures
+            del out["postures"]
+            out["scan_targets_mm"] = list(self.scan_targets_mm)
+        elif self.is_scan:  # a scan replaces the postures
             del out["postures"]
             out.update(scan_step_mm=self.scan_step_mm, scan_from_mm=self.scan_from_mm,
                        scan_to_mm=self.scan_to_mm)
@@ -138,7 +150,8 @@ class ProtocolConfig:
         d = dict(d)
         stability = StabilityRule(**d.pop("stability", {}))
         return cls(legs=tuple(d.pop("legs", AXES)), postures=tuple(d.pop("postures", ())),
-                   stability=stability, **d)
+                   stability=stability,
+                   scan_targets_mm=tuple(d.pop("scan_targets_mm", ())), **d)
 
 
 @dataclass(frozen=True)
@@ -212,7 +225,9 @@ def posture_label(posture: str | float) -> str:
 def scan_targets(config: ProtocolConfig, machine: MachineSpec) -> list[float]:
     """The scan's targets in ascending order, ``scan_step_mm`` apart from its start
     (rounded to 1e-6 mm, so that repeats of a target are the same number); the end
-    is a target when it falls on the grid."""
+    is a target when it falls on the grid; a designed scan's own targets."""
+    if config.scan_targets_mm:
+        return list(config.scan_targets_mm)
     assert config.scan_step_mm is not None
     start, end = scan_range(config, machine)
     count = int(np.floor((end - start) / config.scan_step_mm + 1e-9)) + 1
@@ -222,6 +237,8 @@ def scan_targets(config: ProtocolConfig, machine: MachineSpec) -> list[float]:
 def scan_range(config: ProtocolConfig, machine: MachineSpec) -> tuple[float, float]:
     """The scan's first and last target: as stated, else the whole travel, less the
     overshoot at each end when the approach goes past the targets."""
+    if config.scan_targets_mm:
+        return config.scan_targets_mm[0], config.scan_targets_mm[-1]
     inset = 0.0 if config.approach == "sequence" else config.overshoot_mm
     start = machine.rho_min_mm + inset if config.scan_from_mm is None else config.scan_from_mm
     end = machine.rho_max_mm - inset if config.scan_to_mm is None else config.scan_to_mm
@@ -229,12 +246,15 @@ def scan_range(config: ProtocolConfig, machine: MachineSpec) -> tuple[float, flo
 
 
 def _check_scan(config: ProtocolConfig, machine: MachineSpec) -> None:
-    assert config.scan_step_mm is not None
     start, end = scan_range(config, machine)
-    for key, value in (("scan_from_mm", start), ("scan_to_mm", end)):
+    keys = ("scan_targets_mm",) * 2 if config.scan_targets_mm else ("scan_from_mm", "scan_to_mm")
+    for key, value in zip(keys, (start, end), strict=True):
         if not machine.rho_min_mm <= value <= machine.rho_max_mm:
             raise PlanError(f"{key} {value:g} mm is outside the workspace "
                             f"{machine.rho_min_mm:g}..{machine.rho_max_mm:g} mm")
+    if config.scan_targets_mm:
+        return
+    assert config.scan_step_mm is not None
     if not start < end:
         raise PlanError(f"scan_from_mm {start:g} mm must be below scan_to_mm {end:g} mm")
     count = (end - start) / config.scan_step_mm + 1

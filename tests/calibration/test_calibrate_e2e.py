@@ -141,8 +141,18 @@ def test_ends_validated_with_the_map_the_offsets_and_the_record(straight):
     # fraction of E before holds on every run), and E after is that scale's
     left = validation["residual_effects"]["encoder_scale.x"]
     assert abs(left["value"]) < 5 * left["std"], left
+    # the figures after are the scan's between the separating scan's targets (positions
+    # the map was not identified from), where it has them: its scale left, over its span
+    between = step(straight, "validation", role="validation-scan")
+    left = between["residual_effects"]["encoder_scale.x"]
+    assert abs(left["value"]) < 5 * left["std"], left
     span_mm = after["range_mm"][1] - after["range_mm"][0]
     assert after["E_mm"] == pytest.approx(abs(left["value"]) * 1e-6 * span_mm, abs=2e-6), after
+    # with the drive's step beside it: a target is a whole count (10 um on CiA 402)
+    assert after["drive_step_mm"] == 0.01
+    assert after["E_with_step_mm"] == pytest.approx(after["E_mm"] + 0.01)
+    if finished["outcome"] == "validated":  # it says where it looked
+        assert "between them not measured" in finished["reason"], finished["reason"]
     assert record["writeback"] and record["compensation"]["outcome"] in KEPT
     # the page: the diagnosis the procedure made of the calibration campaign (it said
     # "no diagnosis was given") and the maps written beside the offsets

@@ -10,7 +10,7 @@ import dataclasses
 
 import numpy as np
 
-from ogacq.calibration.separate import ambiguity
+from ogacq.calibration.separate import ambiguity, not_established, offsets_carried
 from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.diagnosis import EffectFound, diagnose
 from tests.diagnose.campaigns import simulate
@@ -28,6 +28,58 @@ def test_an_error_map_among_the_alternatives_asks_for_a_scan():
     reasons, suspected = ambiguity(with_effect(diagnosis, "leg_length.x",
                                                ("backlash.x", "screw_map.x")))
     assert suspected and any("screw_map.x" in r and "scan" in r for r in reasons), reasons
-    # a library alternative alone: ambiguous, but the postures plan can separate it
-    reasons, suspected = ambiguity(with_effect(diagnosis, "squareness.xy", ("backlash.z",)))
+    # a library alternative alone, on more postures per leg than the papers' three:
+    # ambiguous, but the postures plan can separate it
+    more = dataclasses.replace(diagnosis, postures_per_leg=5)
+    reasons, suspected = ambiguity(with_effect(more, "squareness.xy", ("backlash.z",)))
     assert reasons and not suspected, reasons
+
+
+def test_offsets_from_the_papers_three_postures_ask_for_a_scan():
+    """A 4 mm lead reads alike at 0, +60 and -100 mm: an offsets-only diagnosis of the
+    papers' protocol is consistent with it in place, and only positions between the
+    postures show it (it was validated at the same postures, the error left)."""
+    diagnosis = diagnose(simulate({}, seed=1))
+    assert diagnosis.outcome == "consistent" and not diagnosis.effects
+    reasons, suspected = ambiguity(diagnosis)
+    assert suspected and any("3 positions per leg" in r and "between them" in r
+                             for r in reasons), reasons
+    more = dataclasses.replace(diagnosis, postures_per_leg=5)
+    assert ambiguity(more) == ([], False)
+
+
+def test_maps_the_scan_cannot_establish_leave_the_offsets_of_the_campaign():
+    """A scan whose diagnosis is NOT within the noise, after a campaign whose is: its
+    maps are said to be not established, and the procedure writes that campaign's
+    offsets (it refused everything, the well-identified offsets included)."""
+    from types import SimpleNamespace
+
+    def verdict(consistent: bool):
+        return SimpleNamespace(consistent=consistent, describe=lambda: "the verdict")
+
+    campaign = SimpleNamespace(final=verdict(True), maps=())
+    scan = SimpleNamespace(final=verdict(False), maps=())
+    said = not_established(scan, campaign)  # type: ignore[arg-type]
+    assert said.startswith("error maps not established: the separating scan's diagnosis "
+                           "(no map) fits the verdict; the offsets are those of the "
+                           "calibration campaign"), said
+    assert "--scan-minutes" in said
+    assert not_established(SimpleNamespace(final=verdict(True), maps=()),  # type: ignore
+                           campaign) == ""
+    # neither within the noise: nothing better to fall back on
+    assert not_established(scan, SimpleNamespace(final=verdict(False))) == ""  # type: ignore
+
+
+def test_the_campaign_carries_its_offsets_alone_where_they_are_within_the_noise():
+    """A leg length standing in for a lead's error (an alternative of screw_map.x) on
+    three postures: where the scan cannot establish a map, the offsets written are the
+    offsets-only model's (with the leg length they were not identifiable, and the
+    write was refused); a campaign whose offsets alone are not within the noise (a
+    squareness) keeps its whole diagnosis."""
+    plain = diagnose(simulate({}, seed=1))
+    with_length = with_effect(plain, "leg_length.x", ("backlash.x", "screw_map.x"))
+    carried = offsets_carried(with_length)
+    assert carried.effects == [] and carried.final is plain.base
+    assert carried.final_fit is plain.base_fit and carried.maps == ()
+    square = diagnose(simulate({"squareness.xy": 0.5}, seed=1))
+    assert not square.base.consistent and offsets_carried(square) is square

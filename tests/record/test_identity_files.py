@@ -81,6 +81,13 @@ def test_machine_identity_and_tolerances_read_and_round_trip(tmp_path):
      "positive"),
     (GEOMETRY + "[tolerances]\n\"dx_x+\" = 0.01\n", 6, "unknown key 'dx_x+'"),
     (GEOMETRY + "[tolerances]\ndecision_rule = \"lenient\"\n", 6, "must be one of guard-band"),
+    # a drive's lead with its unit (tests/io/test_machine_screws.py)
+    (GEOMETRY + "[screws.x]\nlead_mm = 5000\n", 6,
+     "screws.x.lead_mm = 5000 mm is no drive's (screws advance 0.5 to 100 mm a revolution): "
+     "micrometres written as mm?"),
+    (GEOMETRY + "[screws.y]\nrevolution_mm = 0.01\n", 6, "is the unit mm?"),
+    (GEOMETRY + "[screws.w]\nlead_mm = 5\n", 5, "axis 'w' is not one of x, y, z"),
+    (GEOMETRY + "[screws.x]\npitch_mm = 5\n", 6, "unknown key 'pitch_mm'"),
 ])
 def test_bad_machine_identity_refused_with_line(tmp_path, text, line, words):
     path = _write(tmp_path, "m.toml", text)
