@@ -17,6 +17,8 @@ from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
+    from pathlib import Path
+
     from rich.progress import Progress
 
     from ogacq.campaign.run import CampaignOutcome
@@ -64,7 +66,7 @@ def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycle
                           "do not bound): left out of the std and bias")
 
 
-def print_sim(info: dict) -> None:
+def print_sim(info: dict, campaign: Path | None = None) -> None:
     m = info["modbus"]
     where = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
     console.print(f"[bold]simulated controller[/] ({shown(m['profile'])}, Modbus "
@@ -81,7 +83,11 @@ def print_sim(info: dict) -> None:
     for key, g in info["gauges"].items():
         table.add_row(shown(key), shown(g["port"]), shown(g["protocol"]))
     console.print(table)
-    console.print("running; Ctrl-C to stop")
+    if campaign is not None:  # what the file is for, while this simulator serves
+        console.print(f"running; Ctrl-C to stop. next, in another terminal: ogacq run "
+                      f"{shown(campaign)}", highlight=False)
+    else:
+        console.print("running; Ctrl-C to stop")
 
 
 class CampaignProgress:

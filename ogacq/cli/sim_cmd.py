@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import contextlib
 import json
+import secrets
 import signal
 import threading
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -91,14 +93,20 @@ def sim(
         if write_campaign is not None:
             if machine is None:
                 assert machine_out is not None  # set above, beside the campaign file
+                # ogacq's own file: a serial of its own, so that the history tells this
+                # simulated machine from the demo's and from a real one of the same name
+                spec = replace(spec, serial=f"SIM-{secrets.token_hex(4).upper()}")
                 machine = write_machine(machine_out, spec,
                                         "written by `ogacq sim --write-campaign`")
+                typer.echo(f"ogacq sim: {machine_out} names the simulated machine "
+                           f"{spec.name!r} serial {spec.serial} (its identity in the "
+                           "history)", err=True)
             _write_campaign(write_campaign, stack, spec, machine, speed)
         info = stack.info()
         if as_json:
             typer.echo(json.dumps(info))
         else:
-            print_sim(info)
+            print_sim(info, write_campaign)
         try:
             while not done.wait(0.5):
                 pass

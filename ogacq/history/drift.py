@@ -135,7 +135,7 @@ def changes(calibrations: Sequence[Calibration],
     as left (``written``: :func:`written_by_record`), with its U; those larger than it
     flagged."""
     out: list[Drift] = []
-    for before, after in zip(calibrations, calibrations[1:], strict=False):
+    for before, after in _judged_pairs(calibrations):
         wrote = (written or {}).get(before.record_id, {})
         moved_by = _moved(before, after)
         for name, now in after.parameters.items():
@@ -189,7 +189,7 @@ def controller_changes(calibrations: Sequence[Calibration],
     """Each pair of successive calibrations (oldest first) between which the controller's
     offsets in force moved by more than the write-backs recorded from the earlier."""
     out = []
-    for before, after in zip(calibrations, calibrations[1:], strict=False):
+    for before, after in _judged_pairs(calibrations):
         moved = _moved(before, after)
         wrote = (written or {}).get(before.record_id, {})
         beyond = {name: m - wrote.get(name, 0.0) for name, m in moved.items()
@@ -201,6 +201,16 @@ def controller_changes(calibrations: Sequence[Calibration],
                 dict(after.offsets_in_force_mm),
                 {name: wrote.get(name, 0.0) for name in moved}, beyond))
     return out
+
+
+def _judged_pairs(calibrations: Sequence[Calibration],
+                  ) -> list[tuple[Calibration, Calibration]]:
+    """Successive calibrations whose change says something of a machine: a rehearsal
+    (the demo's or ``--simulator``'s fresh simulator, ``ogacq sim``'s) is never
+    compared, with another rehearsal or with the machine."""
+    return [(before, after) for before, after in
+            zip(calibrations, calibrations[1:], strict=False)
+            if not (before.simulated or after.simulated)]
 
 
 def _moved(before: Calibration, after: Calibration) -> dict[str, float]:

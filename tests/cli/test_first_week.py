@@ -1,0 +1,81 @@
+"""A technician's first week (issue 38), replayed as a newcomer meets it.
+
+38.1: after `ogacq demo`, then `ogacq sim --write-campaign` + `ogacq run`, the
+README's `ogacq history "Orthoglide prototype"` lists both machines of that name
+(the demo's simulator, serial SIM-1, and the machine file `sim` wrote, which now
+carries a serial of its own), each label it prints is taken back, and rehearsals
+raise no drift."""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+import signal
+import subprocess
+import sys
+
+import pytest
+
+from ogacq.history.drift import changes, controller_changes
+from ogacq.io.machine_file import read_machine
+from tests.cli.helpers import run_ogacq
+from tests.history.test_drift import calibration
+
+PROTOTYPE = "Orthoglide prototype"
+
+
+@pytest.mark.slow
+def test_the_readme_history_command_after_demo_sim_and_run(tmp_path):
+    history = tmp_path / "history.sqlite"
+    demo = run_ogacq("demo", "--no-loop", "--speed", "50", "--out", tmp_path / "demo",
+                     "--history", history)
+    assert demo.returncode == 0, demo.stderr
+
+    campaign = tmp_path / "sim.toml"
+    sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", "50",
+                            "--write-campaign", str(campaign)], stdout=subprocess.PIPE,
+                           stderr=subprocess.PIPE, text=True, start_new_session=True,
+                           env={**os.environ, "COLUMNS": "200"})
+    try:
+        said = sim.stderr.readline()  # the identity it gave the machine it wrote
+        served = sim.stdout.readline()
+        while "Ctrl-C" not in served:
+            served = sim.stdout.readline()
+        assert f"next, in another terminal: ogacq run {campaign}" in served
+        serial = read_machine(tmp_path / "machine.toml").serial
+        assert serial.startswith("SIM-") and serial in said
+        # one cycle: this test is about what the history makes of it
+        campaign.write_text(campaign.read_text().replace("cycles = 3", "cycles = 1"))
+        ran = run_ogacq("run", campaign, "--history", history)
+        assert ran.returncode == 0, ran.stderr
+    finally:
+        os.killpg(sim.pid, signal.SIGINT)
+        sim.wait(60)
+
+    shown = run_ogacq("history", PROTOTYPE, "--history", history)
+    assert shown.returncode == 0, shown.stderr
+    out = shown.stdout
+    assert f"{PROTOTYPE} (serial SIM-1)" in out and f"{PROTOTYPE} (serial {serial})" in out
+    assert "! drift" not in out and "outside ogacq" not in out
+
+    listed = run_ogacq("history", "--history", history)
+    assert f"{PROTOTYPE} (serial {serial})" in listed.stdout
+    for typed in (f"{PROTOTYPE} (serial {serial})", serial):  # the label, the serial
+        one = run_ogacq("history", typed, "--history", history, "--states")
+        assert one.returncode == 0, one.stderr
+    several = run_ogacq("history", PROTOTYPE, "--history", history, "--states")
+    assert several.returncode == 2
+    assert f"'{PROTOTYPE} (serial SIM-1)'" in several.stderr  # what to type instead
+
+
+def test_rehearsals_are_never_compared_for_drift():
+    """Each demo's simulator is a new machine under the same serial: 50 um apart is
+    no drift; a real calibration after a rehearsal is not compared with it either."""
+    rehearsal = [dataclasses.replace(c, simulated=True) for c in (
+        calibration("A", "2026-01-10", 0.420, 0.006),
+        calibration("B", "2026-01-11", 0.470, 0.006))]
+    assert changes(rehearsal) == [] and controller_changes(rehearsal) == []
+    real = [rehearsal[1], calibration("C", "2026-02-10", 0.300, 0.006),
+            calibration("D", "2026-03-10", 0.330, 0.006)]
+    assert [(d.from_record, d.to_record, d.flagged) for d in changes(real)] == [
+        ("C", "D", True)]
