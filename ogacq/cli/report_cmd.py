@@ -29,7 +29,7 @@ from ogacq.report import (
     parse_diagnosis,
     write_report,
 )
-from ogacq.report.printing import print_pdf
+from ogacq.report.printing import find_browser, print_pdf
 from ogacq.session.convert import session_observations
 from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
@@ -63,6 +63,7 @@ def report_command(
     then the analysis behind them), record.json with the same record, and the figures."""
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
+    browser = find_browser() if pdf else None  # before the work: none is exit 2
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
     check_pair(calibration, validation)
@@ -84,8 +85,8 @@ def report_command(
                                 diagnosis_source=diagnosis or session,
                                 history=earlier, history_why=why)
     typer.echo(str(page))
-    if pdf:  # after the page is on disk: a missing browser loses nothing
-        typer.echo(str(print_pdf(page, page.with_suffix(".pdf"))))
+    if browser is not None:  # after the page is on disk: a failed print loses nothing
+        typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))
 
 
 def write_session_report(calibration: LoadedSession, folder: Path, *,

@@ -16,6 +16,7 @@ import sys
 
 import pytest
 
+from ogacq.cli.app import main
 from ogacq.history.drift import changes, controller_changes
 from ogacq.io.machine_file import read_machine
 from tests.cli.helpers import run_ogacq
@@ -79,3 +80,18 @@ def test_rehearsals_are_never_compared_for_drift():
             calibration("D", "2026-03-10", 0.330, 0.006)]
     assert [(d.from_record, d.to_record, d.flagged) for d in changes(real)] == [
         ("C", "D", True)]
+
+
+def test_a_value_out_of_range_is_said_with_its_unit_and_metres_are_asked(tmp_path, capsys):
+    """38.8: "squareness.xy must be -20..20, got 45" named no unit; a leg of 0.31025
+    "mm" was refused as an impossible geometry without asking whether it was metres."""
+    effects = tmp_path / "effects.toml"
+    effects.write_text("[squareness]\nxy = 45\n")
+    assert main(["demo", "--effects", str(effects), "--out", str(tmp_path / "d")]) == 2
+    assert "squareness.xy must be -20..20 mrad, got 45 mrad" in capsys.readouterr().err
+    machine = tmp_path / "machine.toml"
+    machine.write_text("leg_length_mm = 0.31025\nrho_min_mm = -100\nrho_max_mm = 60\n"
+                       "gauge_resolution_mm = 0.001\n")
+    assert main(["refit", str(machine), "--machine", str(machine)]) == 2
+    err = capsys.readouterr().err
+    assert f"{machine}:1:" in err and "leg_length_mm = 0.31025 mm: metres? (310.25 mm" in err
