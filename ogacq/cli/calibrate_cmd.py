@@ -53,7 +53,8 @@ def calibrate(
     simulator: Annotated[bool, typer.Option(
         "--simulator", help="Calibrate the built-in simulated machine.")] = False,
     effects: Annotated[Path | None, typer.Option(
-        help="With --simulator: TOML file of the hidden effects (see `ogacq sim`).")] = None,
+        help="With --simulator: TOML file of the hidden effects (format: docs/formats.md, "
+             "\"Effects file\").")] = None,
     seed: Annotated[int, seed_option("With --simulator: seed of the hidden offsets and the "
                                      "noise.")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(

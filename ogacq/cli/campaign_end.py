@@ -135,11 +135,11 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
                              "controller (shown and confirmed first)"))
     if campaign and not simulated:
         steps.insert(1, NextStep(f"ogacq run {campaign}", "then a validation run, recorded "
-                                 f"as {_next_name(Path(campaign), path)}"))
+                                 f"as {next_session_name(Path(campaign), path)}"))
     return tuple(steps)
 
 
-def _next_name(campaign_file: Path, session: Path) -> str:
+def next_session_name(campaign_file: Path, session: Path) -> str:
     """The session a new run of ``campaign_file`` would record into."""
     from ogacq.campaign.campaign_file import read_campaign
     from ogacq.errors import OgacqError

@@ -58,7 +58,8 @@ def default_demo_folder() -> Path:
 
 def demo(
     effects: Annotated[Path | None, typer.Option(
-        help="TOML file of hidden effects the simulated machine has (see `ogacq sim`).")]
+        help="TOML file of hidden effects the simulated machine has (format: "
+             "docs/formats.md, \"Effects file\").")]
     = None,
     seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise (the same "
                                      "default in demo, sim and wizard).")] = DEFAULT_SEED,

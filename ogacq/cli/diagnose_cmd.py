@@ -54,11 +54,14 @@ def diagnose_command(
 
         print(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
-        from ogacq.cli.render_diagnosis import print_diagnosis
+        from ogacq.cli.render_diagnosis import print_diagnosis, print_next
         from ogacq.cli.render_fit import print_notes
 
         print_notes(loaded.notes())
         print_diagnosis(result, machine_file=str(machine or file))
+        if loaded.session is not None:
+            print_next(result, str(file),
+                       controller_gone=loaded.session.header.simulator is not None)
     if loaded.session is not None and not other_geometry:
         from ogacq.history.recording import record_diagnosis
 

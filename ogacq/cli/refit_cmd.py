@@ -75,4 +75,5 @@ def refit(
     from ogacq.cli.render_fit import print_fit, print_notes
 
     print_notes(loaded.notes())
-    print_fit(result, params.value)
+    print_fit(result, params.value, f"ogacq diagnose {file}"
+              + (f" --machine {machine}" if machine is not None else ""))

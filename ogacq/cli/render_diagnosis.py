@@ -78,6 +78,31 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
         out.print(f"[yellow]note[/]: {shown(caveat)}")
 
 
+def print_next(d: Diagnosis, session: str, *, controller_gone: bool = False) -> None:
+    """What to do with a session after its diagnosis, naming it: the write-back of the
+    model that explains it, or what must come first. ``controller_gone``: the session
+    ran on the built-in simulator, which stopped with its command."""
+    if controller_gone and d.outcome in ("consistent", "explained"):
+        step = ("a rehearsal: its simulated controller stopped with the command that ran "
+                "it, so nothing is written from it (`ogacq calibrate --simulator` "
+                "rehearses the write-back)")
+    elif d.outliers is not None and d.outliers.readings:
+        step = ("check the gauges of the readings named above, then run the campaign "
+                "again: nothing is written from readings a knock may have moved")
+    elif d.outcome == "consistent":
+        step = (f"ogacq offsets write {session}   (the joint offsets, shown and confirmed "
+                "first)")
+    elif d.outcome == "explained":
+        step = (f"ogacq offsets write {session} --from-diagnosis   (the joint offsets of "
+                "this model; the effects beside them stay until corrected)")
+    elif d.outcome == "undetermined":
+        return
+    else:
+        step = ("the measurement proposed above: nothing explains these readings well "
+                "enough to write offsets from them")
+    out.print(f"next: {shown(step)}")
+
+
 def _print_outliers(d: Diagnosis) -> None:
     """Readings far from their repeats: said before any physics, which they are not."""
     if d.outliers is None:

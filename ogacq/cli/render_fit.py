@@ -28,7 +28,8 @@ def print_notes(notes: list[str]) -> None:
         out.print(f"[yellow]{shown(note)}[/]")
 
 
-def print_fit(result: FitResult, params_label: str) -> None:
+def print_fit(result: FitResult, params_label: str, diagnose: str = "ogacq diagnose") -> None:
+    """``diagnose``: the command that diagnoses these readings, naming their file."""
     obs = result.observations
     ident = result.identifiability
     out.print(f"[bold]{shown(obs.source or 'data')}[/]: {len(obs)} {obs.kind}, "
@@ -68,5 +69,4 @@ def print_fit(result: FitResult, params_label: str) -> None:
     colour = {"consistent": "green", "inconsistent": "red"}.get(verdict.state, "yellow")
     out.print(f"fit: [{colour}]{verdict.describe()}[/]")
     if verdict.state == "inconsistent":
-        out.print("[yellow]the model leaves something out: run `ogacq diagnose` on the "
-                  "readings[/]")
+        out.print(f"[yellow]the model leaves something out: next, {shown(diagnose)}[/]")

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 from rich.table import Table
 
@@ -140,3 +141,19 @@ def print_history(operations: list[Operation]) -> None:
         console.print(shown(f"  {when} {op.operation} {op.action} [{op.status}]: "
                             + ", ".join(f"{a} {_mm(op.old_mm.get(a))} -> {_mm(op.new_mm.get(a))}"
                                         for a in op.old_mm)), highlight=False)
+
+
+def print_validation_next(campaign: str | None, session: Path, from_diagnosis: bool) -> None:
+    """After a write: the validation run that says whether the offsets took, naming the
+    campaign file and the session it records into."""
+    from ogacq.cli.campaign_end import next_session_name
+
+    if not campaign:
+        console.print(f"next: a validation campaign, then `ogacq report {shown(session)} "
+                      "--after VALIDATION_SESSION`", highlight=False)
+        return
+    model = ("; the effects that stay, named above, still show in its joint-offsets fit: "
+             "`ogacq diagnose` of it judges it with them" if from_diagnosis else "")
+    console.print(f"next: ogacq run {shown(campaign)}   (the validation, recorded as "
+                  f"{shown(next_session_name(Path(campaign), session))}{model}; then "
+                  f"`ogacq report {shown(session)} --after` it)", highlight=False)
