@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-from ogacq.cli.declare import Argument
+import typer
+
 from ogacq.cli.options import (
     AcceptEditedOption,
     HistoryOption,
@@ -24,7 +25,7 @@ from ogacq.model.parameters import PARAM_SETS
 
 
 def diagnose_command(
-    file: Annotated[Path, Argument(help="Readings CSV, deviations CSV or session.")],
+    file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
     other_geometry: OtherGeometryOption = False,
     partial: PartialOption = False,

@@ -9,8 +9,8 @@ from typing import TYPE_CHECKING, Any
 
 from rich.table import Table
 
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import shown
 from ogacq.cli.render_fit import format_number
 from ogacq.model.parameters import effect_of
 from ogacq.record.calibration_record import CalibrationRecord
@@ -206,9 +206,10 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
 
 def print_end(lines: list[str]) -> None:
     """The end of a campaign: the verdict, the record id, the next commands."""
-    console.print()
+    now = Printer()  # at this moment's width
+    now.print()
     for line in lines:
-        console.print(shown(line), highlight=False, soft_wrap=True)  # paths whole
+        now.print(shown(line), highlight=False)  # wrapped between words
 
 
 def _print_context(session: LoadedSession) -> None:

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+from rich.table import Table
 
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.render_maps import (
     print_axis_map,
     print_coverage,
@@ -12,7 +13,6 @@ from ogacq.cli.render_maps import (
     print_profiles,
     print_proposals,
 )
-from ogacq.cli.text_out import TextTable, out
 from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
@@ -21,6 +21,8 @@ from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
+
+out = Printer()
 
 MANY_GROUPS = 12  # beyond this many postures (a scan) only the worst are listed
 SHOWN_GROUPS = 5
@@ -170,7 +172,7 @@ def _print_capability(d: Diagnosis) -> None:
     out.print(f"[bold]What these data can tell beside the joint offsets[/] "
               f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
               f"offsets, {cap.effect_rank} independent effect directions)")
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("effect", "std", "shows from", "unit", "offsets absorb", "aliases"):
         table.add_column(col, justify="left" if col in ("effect", "unit", "aliases")
                          else "right", overflow="fold")
@@ -212,7 +214,7 @@ def _print_search(d: Diagnosis) -> None:
     if not sel.steps:
         out.print("  no effect or pair of effects improves the fit significantly with "
                   "plausible values")
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "rms before", "rms after", "chi2/dof", "p (nested)", "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right", overflow="fold")
     for k, step in enumerate(sel.steps, 1):
@@ -238,7 +240,7 @@ def _print_search(d: Diagnosis) -> None:
 def _print_gauge_rms(d: Diagnosis) -> None:
     gauges = row_labels(d.base_fit.observations).gauge
     models = [d.selection.base] + [s.after for s in d.selection.steps]
-    table = TextTable(title="residual rms per gauge (µm), before and after each step",
+    table = Table(title="residual rms per gauge (µm), before and after each step",
                       show_edge=False, header_style="bold", pad_edge=False)
     table.add_column("gauge")
     table.add_column("offsets", justify="right")

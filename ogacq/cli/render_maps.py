@@ -7,8 +7,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from rich.markup import escape
+from rich.table import Table
 
-from ogacq.cli.text_out import TextTable, escape, out
+from ogacq.cli.plain import Printer
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.profile import SPARK, LegProfile
@@ -16,6 +18,8 @@ from ogacq.identify.consistency import format_p
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.gauges import AXES
 from ogacq.model.units import UM_PER_MM
+
+out = Printer()
 
 MAP_ROWS = 9  # positions of a map shown as numbers; the rest as a profile
 PROFILE_WIDTH = 48
@@ -35,7 +39,7 @@ def print_coverage(d: Diagnosis) -> None:
         out.print()
         return
     level = search.level
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "chi2 before", "chi2 after", "p (nested, corrected)",
                 "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right")
@@ -116,7 +120,7 @@ def print_axis_map(m: AxisMap) -> None:
         wanted = np.linspace(q[0], q[-1], min(MAP_ROWS, len(q)))
         stretch = np.ones(len(q), dtype=bool)
     pick = np.unique(np.abs(q[None, :] - wanted[:, None]).argmin(axis=1))
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("q (mm)", "forward (µm)", "reverse (µm)"):
         table.add_column(col, justify="right")
     for k in pick:
