@@ -26,6 +26,7 @@ from ogacq.calibration.setup import SCAN_STEP_MM, Setup, simulator_setup, statio
 from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     HistoryOption,
     JsonOption,
     OverrideExpiredOption,
@@ -60,7 +61,7 @@ def calibrate(
     profile: Annotated[ProfileChoice, typer.Option(
         help="With --simulator: its controller register map.")] = ProfileChoice["cia402"],
     speed: Annotated[float, typer.Option(min=1.0, help="With --simulator: simulated time "
-                                                       "speed-up.")] = 25.0,
+                                                       "speed-up.")] = DEFAULT_SPEED,
     out: Annotated[Path | None, typer.Option(
         help="The procedure's folder (default: a new folder in ./ogacq-runs named "
              "calibrate-DATE-TIME); "

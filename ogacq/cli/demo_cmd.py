@@ -21,6 +21,7 @@ from ogacq.cli.campaign_cmds import execute, show_outcome
 from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     HistoryOption,
     OverrideExpiredOption,
     ProfileChoice,
@@ -67,7 +68,7 @@ def demo(
         help="Controller register map of the simulated machine.")] = ProfileChoice["cia402"],
     out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
                                              f"{DEMO_FOLDER_HELP}).")] = None,
-    speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
+    speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = DEFAULT_SPEED,
     history: HistoryOption = None,
     date: Annotated[str | None, typer.Option(
         metavar="YYYY-MM-DD[THH:MM]",

@@ -58,6 +58,9 @@ def override_reason(given: str | None) -> str:
 # defaults meets the machine the demo showed. 1, not 0: the demo's seed, whose hidden
 # offsets differ visibly from axis to axis.
 DEFAULT_SEED = 1
+# ... and one pace: the simulated machine's time runs this many times faster than real
+# time in every rehearsal (demo, calibrate --simulator, the wizard's, ogacq sim)
+DEFAULT_SPEED = 25.0
 
 
 def seed_option(help: str) -> Any:

@@ -19,6 +19,7 @@ from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text
 from ogacq.campaign.station import simulator_endpoints, start_simulator
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     GaugeProtocol,
     JsonOption,
     ProfileChoice,
@@ -49,7 +50,8 @@ def sim(
     machine: Annotated[Path | None, typer.Option(
         "--machine", "-m", help="Machine file (default: the papers' prototype).")] = None,
     speed: Annotated[float, typer.Option(
-        min=0.01, help="Simulated time runs this many times faster than real time.")] = 1.0,
+        min=0.01, help="Simulated time runs this many times faster than real time.")
+    ] = DEFAULT_SPEED,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
         help="What the simulated gauges speak.")] = GaugeProtocol[DEFAULT_PROTOCOL],
     gauge: Annotated[list[str] | None, typer.Option(

@@ -112,3 +112,21 @@ def test_the_end_of_a_run_fits_80_columns(tmp_path):
     end = ran.stdout[ran.stdout.index("verdict:"):]
     assert too_wide(end) == [], end
     assert "next: ogacq" in end
+
+
+def test_a_rehearsal_has_one_seed_and_one_pace_and_the_readme_says_them():
+    """--speed was 1 (sim), 20 (wizard) and 25 (demo, calibrate)."""
+    import inspect
+
+    from ogacq.cli.calibrate_cmd import calibrate
+    from ogacq.cli.demo_cmd import demo
+    from ogacq.cli.options import DEFAULT_SEED, DEFAULT_SPEED
+    from ogacq.cli.sim_cmd import sim
+    from ogacq.cli.wizard_cmd import wizard
+
+    for command in (demo, calibrate, sim, wizard):
+        defaults = {n: p.default for n, p in inspect.signature(command).parameters.items()}
+        assert (defaults["seed"], defaults["speed"]) == (DEFAULT_SEED, DEFAULT_SPEED), command
+    table = (ROOT / "README.md").read_text(encoding="utf-8").split("## Defaults", 1)[1]
+    assert f"| `--speed` | {DEFAULT_SPEED:g} " in table and \
+        f"| `--seed` | {DEFAULT_SEED} " in table

@@ -39,7 +39,7 @@ from ogacq.campaign.run import CampaignOutcome, gauges_read_by_eye
 from ogacq.campaign.station import DeviceStation
 from ogacq.campaign.traceability import simulated_gauges
 from ogacq.cli.campaign_end import CampaignEnd, NextStep, campaign_end
-from ogacq.cli.options import DEFAULT_SEED
+from ogacq.cli.options import DEFAULT_SEED, DEFAULT_SPEED
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
@@ -104,7 +104,7 @@ EXIT_QUIT = 130
 class WizardOptions:
     simulator: bool = False
     seed: int = DEFAULT_SEED
-    speed: float = 20.0
+    speed: float = DEFAULT_SPEED
     profile: str = "cia402"
     machine: Path | None = None
     out: Path | None = None
