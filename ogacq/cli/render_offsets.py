@@ -152,8 +152,8 @@ def print_validation_next(campaign: str | None, session: Path, from_diagnosis: b
         console.print(f"next: a validation campaign, then `ogacq report {shown(session)} "
                       "--after VALIDATION_SESSION`", highlight=False)
         return
-    model = ("; the effects that stay, named above, still show in its joint-offsets fit: "
-             "`ogacq diagnose` of it judges it with them" if from_diagnosis else "")
+    model = ("; its end judges it with the effects named above carried over: they stay "
+             "on the machine" if from_diagnosis else "")
     console.print(f"next: ogacq run {shown(campaign)}   (the validation, recorded as "
                   f"{shown(next_session_name(Path(campaign), session))}{model}; then "
                   f"`ogacq report {shown(session)} --after` it)", highlight=False)
