@@ -21,6 +21,7 @@ from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
+from ogacq.report.formatting import measure
 
 out = Printer()
 
@@ -29,10 +30,9 @@ SHOWN_GROUPS = 5
 
 
 def _value(value: float, std: float, unit: str) -> str:
-    digits = max(0, min(6, 2 - int(np.floor(np.log10(std))))) if np.isfinite(std) and std > 0 \
-        else 4
-    std_text = f"{std:.{digits}f}" if np.isfinite(std) else "?"
-    return f"{value:+.{digits}f} ± {std_text} {unit}"
+    """As the record's page writes it: the value at its std's decimal place, the std to
+    two significant digits (one rounding rule on the console and the page)."""
+    return measure(value, std, unit)
 
 
 def _judged(title: str, v: Verdict) -> str:

@@ -16,6 +16,7 @@ from ogacq.history.drift import ControllerChange, Drift, expanded
 from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 from ogacq.model.units import UM_PER_MM
+from ogacq.uncertainty.reporting import rounded, two_digits
 
 DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
 # record id -> parameter -> the change the record's write-backs made
@@ -43,8 +44,9 @@ def _value(calibration: Calibration, name: str, flagged: bool) -> str:
     if p is None:
         return "-"
     u, basis = expanded(p)
-    spread = "" if u is None else (f" ± {u:.4f}" + ("" if basis == "U" else "*"))
-    return f"{p.value_mm:+.4f}{spread}" + (f" {DRIFT_MARK}" if flagged else "")
+    # one rounding rule: the value at its U's decimal place, U to two digits
+    spread = "" if u is None else (f" ± {two_digits(u)}" + ("" if basis == "U" else "*"))
+    return rounded(p.value_mm, u, sign=True) + spread + (f" {DRIFT_MARK}" if flagged else "")
 
 
 def _when(date: str | None) -> str:

@@ -18,6 +18,7 @@ from ogacq.identify.consistency import format_p
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.gauges import AXES
 from ogacq.model.units import UM_PER_MM
+from ogacq.report.formatting import measure
 
 out = Printer()
 
@@ -68,7 +69,7 @@ def print_coverage(d: Diagnosis) -> None:
 def print_map_effect(e: MapEffect) -> None:
     """One map effect: its sentence, value, further parameters."""
     v = e.value
-    unit_value = f"{v.value * UM_PER_MM:+.2f} ± {e.std * UM_PER_MM:.2f} µm"
+    unit_value = measure(v.value * UM_PER_MM, e.std * UM_PER_MM, "µm")
     out.print(f"  [bold]{e.name}[/] = {unit_value}: {escape(e.sentence())}")
     extra = {k: val for k, val in v.extra.items() if val is not None and not (
         isinstance(val, float) and math.isnan(val))}

@@ -130,3 +130,21 @@ def test_a_rehearsal_has_one_seed_and_one_pace_and_the_readme_says_them():
     table = (ROOT / "README.md").read_text(encoding="utf-8").split("## Defaults", 1)[1]
     assert f"| `--speed` | {DEFAULT_SPEED:g} " in table and \
         f"| `--seed` | {DEFAULT_SEED} " in table
+
+
+def test_every_value_with_its_std_is_at_the_std_s_decimal_place(capsys):
+    """One rounding rule on the console as on the page (the demo's effect read
+    "+382.6237 ± 23.8388 ppm" on the console, "+383 ± 24 ppm" on the page): the value
+    at its std's decimal place, the std to two significant digits."""
+    import re
+
+    from ogacq.cli.app import main
+
+    assert main(["diagnose", str(PAPER / "experiment2_12.csv"), "--machine",
+                 str(PAPER / "machine.toml")]) == 0
+    pairs = re.findall(r"([+-]\d+(?:\.(\d+))?) ± (\d+(?:\.(\d+))?)",
+                       " ".join(capsys.readouterr().out.split()))
+    assert pairs
+    for value, value_decimals, std, std_decimals in pairs:
+        assert len(value_decimals) == len(std_decimals), (value, std)
+        assert len(std.replace(".", "").lstrip("0")) == 2, std
