@@ -131,6 +131,18 @@ def trials_progress(label: str) -> Iterator[Callable[[int, int], None] | None]:
 
 
 @contextmanager
+def working(what: str) -> Iterator[None]:
+    """A step of some seconds said while it runs: a spinner with its elapsed time on a
+    terminal (stderr: stdout stays the command's output), nothing to a pipe or a log."""
+    err = new_console(stderr=True)
+    if not err.is_terminal:
+        yield
+        return
+    with err.status(f"{shown(what)}…"):
+        yield
+
+
+@contextmanager
 def campaign_progress(enabled: bool = True) -> Iterator[CampaignProgress]:
     """An observer for the runner: a live bar on a terminal, log lines otherwise."""
     if not enabled:

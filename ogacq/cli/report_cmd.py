@@ -11,6 +11,7 @@ import typer
 
 from ogacq.cli.options import AcceptEditedOption, PartialOption
 from ogacq.cli.outputs import check_output_folder
+from ogacq.cli.render import working
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
@@ -79,11 +80,13 @@ def report_command(
     if given is not None:
         raw, note = given, None
     else:
-        raw, note = _diagnose_here(calibration)
-    page = write_session_report(calibration, folder, validation=validation,
-                                diagnosis=raw, diagnosis_note=note,
-                                diagnosis_source=diagnosis or session,
-                                history=earlier, history_why=why)
+        with working(f"diagnosing {calibration.path.name}"):
+            raw, note = _diagnose_here(calibration)
+    with working("issuing the record: uncertainty budget, Monte-Carlo check, figures"):
+        page = write_session_report(calibration, folder, validation=validation,
+                                    diagnosis=raw, diagnosis_note=note,
+                                    diagnosis_source=diagnosis or session,
+                                    history=earlier, history_why=why)
     typer.echo(str(page))
     if browser is not None:  # after the page is on disk: a failed print loses nothing
         typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))

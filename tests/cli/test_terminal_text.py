@@ -49,7 +49,7 @@ def test_no_private_name_of_typer_click_or_rich_is_imported():
     assert [hit for path in sources for hit in private_names(path)] == []
 
 
-def on_terminal(*args: object, columns: int = WIDTH) -> tuple[int, str]:
+def on_terminal(*args: object, columns: int = WIDTH, term: str = "dumb") -> tuple[int, str]:
     """``ogacq ARGS`` with stdout and stderr on a pseudo-terminal ``columns`` wide: its
     exit code and what the terminal received."""
     controller, terminal = os.openpty()
@@ -57,7 +57,7 @@ def on_terminal(*args: object, columns: int = WIDTH) -> tuple[int, str]:
     env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
     proc = subprocess.Popen([sys.executable, "-m", "ogacq", *map(str, args)],
                             stdin=subprocess.DEVNULL, stdout=terminal, stderr=terminal,
-                            env={**env, "TERM": "dumb"})
+                            env={**env, "TERM": term})
     os.close(terminal)
     received = b""
     while True:
@@ -148,3 +148,19 @@ def test_every_value_with_its_std_is_at_the_std_s_decimal_place(capsys):
     for value, value_decimals, std, std_decimals in pairs:
         assert len(value_decimals) == len(std_decimals), (value, std)
         assert len(std.replace(".", "").lstrip("0")) == 2, std
+
+
+def test_report_says_what_it_is_doing_on_a_terminal_only(tmp_path):
+    """`ogacq report` was silent for 15-18 s: on a terminal a spinner names the step;
+    to a pipe its output is the page's path alone, as before."""
+    session = ROOT / "tests" / "golden" / "session.jsonl"
+    code, text = on_terminal("report", session, "--out", tmp_path / "t", "--history", "none",
+                             term="xterm")
+    assert code == 0, text
+    assert "issuing the record" in text and "diagnosing session.jsonl" in text
+    piped = subprocess.run([sys.executable, "-m", "ogacq", "report", session, "--out",
+                            tmp_path / "p", "--history", "none"], capture_output=True,
+                           text=True, timeout=300)
+    assert piped.returncode == 0, piped.stderr
+    assert "issuing" not in piped.stdout + piped.stderr
+    assert piped.stdout.strip() == str(tmp_path / "p" / "report.html")
