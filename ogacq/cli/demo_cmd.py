@@ -29,6 +29,7 @@ from ogacq.cli.options import (
     seed_option,
 )
 from ogacq.cli.outputs import check_output_folder
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.render import print_demo_diagnosis, print_end
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
@@ -145,9 +146,11 @@ def demo(
     write_session_report(session, folder / "report",  # the record campaign_end built
                          diagnosis=report_diagnosis(diagnosis, session),
                          record=dict(end.built) if end.built is not None else None)
-    typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
-               "report/report.html")
-    record_campaign(outcome.session_path, history, say=typer.echo, record=end.built)
+    now = Printer()  # wrapped between words at the terminal's width
+    now.print(shown(f"written: {folder}/session.jsonl, readings.csv, result.json, "
+                    "diagnosis.json, report/report.html"))
+    record_campaign(outcome.session_path, history, say=lambda text: now.print(shown(text)),
+                    record=end.built)
     if loop:  # the loop below is what comes next, on the simulator still running
         opened = tuple(s for s in end.steps if s.command.startswith("open "))
         end = replace(end, steps=(*opened, NextStep(
