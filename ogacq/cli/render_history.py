@@ -103,7 +103,7 @@ def _who_notes(calibrations: Sequence[Calibration], written: Written) -> list[st
              if written.get(before.record_id)]  # the first campaign after a write-back
     if any(c.simulated for c in calibrations):
         notes.append("SIMULATED: a rehearsal on a simulator, not a calibration of the "
-                     "machine, nor compared with another for drift")
+                     "machine, nor compared with one for drift")
     return notes
 
 

@@ -190,6 +190,8 @@ def controller_changes(calibrations: Sequence[Calibration],
     offsets in force moved by more than the write-backs recorded from the earlier."""
     out = []
     for before, after in _judged_pairs(calibrations):
+        if before.simulated or after.simulated:
+            continue  # each rehearsal may start a new simulator: a new controller
         moved = _moved(before, after)
         wrote = (written or {}).get(before.record_id, {})
         beyond = {name: m - wrote.get(name, 0.0) for name, m in moved.items()
@@ -205,12 +207,14 @@ def controller_changes(calibrations: Sequence[Calibration],
 
 def _judged_pairs(calibrations: Sequence[Calibration],
                   ) -> list[tuple[Calibration, Calibration]]:
-    """Successive calibrations whose change says something of a machine: a rehearsal
-    (the demo's or ``--simulator``'s fresh simulator, ``ogacq sim``'s) is never
-    compared, with another rehearsal or with the machine."""
-    return [(before, after) for before, after in
-            zip(calibrations, calibrations[1:], strict=False)
-            if not (before.simulated or after.simulated)]
+    """Successive calibrations, rehearsals kept apart from the machine's: each list
+    (real, simulated) compared within itself (a rehearsal between two calibrations of
+    the machine does not hide the change between them)."""
+    pairs = []
+    for simulated in (False, True):
+        kind = [c for c in calibrations if bool(c.simulated) == simulated]
+        pairs += list(zip(kind, kind[1:], strict=False))
+    return pairs
 
 
 def _moved(before: Calibration, after: Calibration) -> dict[str, float]:

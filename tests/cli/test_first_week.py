@@ -73,17 +73,22 @@ def test_the_readme_history_command_after_demo_sim_and_run(tmp_path):
     assert f"'{PROTOTYPE} (serial SIM-1)'" in several.stderr  # what to type instead
 
 
-def test_rehearsals_are_never_compared_for_drift():
-    """Each demo's simulator is a new machine under the same serial: 50 um apart is
-    no drift; a real calibration after a rehearsal is not compared with it either."""
-    rehearsal = [dataclasses.replace(c, simulated=True) for c in (
-        calibration("A", "2026-01-10", 0.420, 0.006),
-        calibration("B", "2026-01-11", 0.470, 0.006))]
-    assert changes(rehearsal) == [] and controller_changes(rehearsal) == []
-    real = [rehearsal[1], calibration("C", "2026-02-10", 0.300, 0.006),
-            calibration("D", "2026-03-10", 0.330, 0.006)]
+def test_rehearsals_are_kept_apart_from_the_machine_s_drift_checks():
+    """A rehearsal between two calibrations of the machine is compared with neither
+    (the machine's change is judged from one to the other), and a fresh simulator is
+    no controller "changed outside ogacq"."""
+    rehearsal = dataclasses.replace(calibration("R", "2026-02-01", 0.900, 0.006),
+                                    simulated=True, offsets_in_force_mm={"x": 0.0})
+    real = [dataclasses.replace(calibration("A", "2026-01-10", 0.300, 0.006),
+                                offsets_in_force_mm={"x": 0.3}),
+            rehearsal,
+            dataclasses.replace(calibration("B", "2026-03-10", 0.330, 0.006),
+                                offsets_in_force_mm={"x": 0.3})]
     assert [(d.from_record, d.to_record, d.flagged) for d in changes(real)] == [
-        ("C", "D", True)]
+        ("A", "B", True)]
+    again = dataclasses.replace(rehearsal, record_id="R2", date="2026-02-02",
+                                offsets_in_force_mm={"x": -0.9})
+    assert controller_changes([rehearsal, again]) == []
 
 
 def test_a_value_out_of_range_is_said_with_its_unit_and_metres_are_asked(tmp_path, capsys):
