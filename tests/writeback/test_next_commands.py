@@ -5,6 +5,7 @@ refusal of a fit that leaves something out names the session to diagnose."""
 
 from __future__ import annotations
 
+from tests.cli.test_terminal_text import on_terminal, too_wide
 from tests.writeback.conftest import ogacq, sim_campaign, simulator, synthetic_session
 
 OFFSETS = {"x": 0.8, "y": -0.6, "z": 1.2}
@@ -33,6 +34,9 @@ def test_diagnose_write_and_refusal_name_the_next_command_and_the_file(tmp_path)
         refused = ogacq("offsets", "write", askew, "--yes", "--history", "none")
         assert refused.returncode == 4
         assert f"`ogacq diagnose {askew}`" in refused.stderr
+        # on an 80-column terminal the refusal wraps between words (it was one line)
+        code, seen = on_terminal("offsets", "write", askew, "--yes", "--history", "none")
+        assert code == 4 and too_wide(seen) == [] and "refused (inconsistent)" in seen
 
         written = ogacq("offsets", "write", good, "--yes", "--history", "none")
         assert written.returncode == 0, written.stderr
