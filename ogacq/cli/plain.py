@@ -47,7 +47,10 @@ def console(**options: Any) -> Console:
 class Printer:
     """``print`` through a console made at that moment: rich reads the width (the
     terminal's, ``COLUMNS``) when a console is made, and these lines are wrapped at the
-    width of the moment they are printed."""
+    width of the moment they are printed. ``stderr``: to standard error."""
+
+    def __init__(self, stderr: bool = False) -> None:
+        self.stderr = stderr
 
     def print(self, *objects: Any, **options: Any) -> None:
-        console().print(*objects, **options)
+        console(stderr=self.stderr).print(*objects, **options)

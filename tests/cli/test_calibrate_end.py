@@ -47,7 +47,8 @@ def test_without_a_page_the_report_command_issues_it():
     assert [s.command for s in steps] == [f"ogacq report {FOLDER / 'calibration.jsonl'}"]
 
 
-def test_the_end_names_the_record_and_the_next_command(capsys):
+def test_the_end_names_the_record_and_the_next_command(capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")  # at 80 columns the last line wraps between words
     print_outcome(outcome("validated"), REPORT)
     out = capsys.readouterr().out.splitlines()
     assert out == ["calibration C-20261128-bd947c: validated: the reason",
