@@ -61,3 +61,16 @@ def test_a_restore_ends_on_stderr(capsys):
     captured = capsys.readouterr()
     assert captured.out == ""
     assert "next: ogacq diagnose" in captured.err and RECORD["id"] in captured.err
+
+
+def test_a_long_refusal_fits_80_columns_between_words(capsys, monkeypatch):
+    """The refusal was one line of some 600 characters, cut mid-word by the terminal."""
+    monkeypatch.setenv("COLUMNS", "80")
+    reason = " ".join(["the validation fit is not within the noise and its misfit grew"] * 8)
+    done = Outcome(FOLDER, "C-20261128-bd947c", "refused", reason,
+                   evidence=FOLDER / "calibration.jsonl", record=RECORD)
+    print_outcome(done, REPORT)
+    err = capsys.readouterr().err
+    assert err.splitlines() and all(len(line) <= 80 for line in err.splitlines()), err
+    assert " ".join(err.split()).startswith(f"calibration C-20261128-bd947c: refused, "
+                                            f"nothing written: {reason}")
