@@ -154,6 +154,9 @@ def _list_machines(location: HistoryLocation, as_json: bool) -> None:
         count = row["calibrations"]
         last = f", the last {row['last']}" if row["last"] else ""
         typer.echo(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
+    if any(not m.serial for m, _ in listed):  # its identity is its name: said once
+        typer.echo("a machine with no serial is filed by its name alone: `serial = ...` in "
+                   "its machine file tells it from another of the same name")
     if rows:
         typer.echo(f"`ogacq history {listed[0][0].label!r}` lists a machine's calibrations "
                    "(its name, serial or the label above)")
