@@ -24,7 +24,7 @@ from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.report.formatting import measure
+from ogacq.uncertainty.reporting import measure
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
 

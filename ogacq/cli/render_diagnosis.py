@@ -21,7 +21,7 @@ from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
-from ogacq.report.formatting import measure
+from ogacq.uncertainty.reporting import measure
 
 out = Printer()
 

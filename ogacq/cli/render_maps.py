@@ -18,7 +18,7 @@ from ogacq.identify.consistency import format_p
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.gauges import AXES
 from ogacq.model.units import UM_PER_MM
-from ogacq.report.formatting import measure
+from ogacq.uncertainty.reporting import measure
 
 out = Printer()
 

@@ -27,7 +27,8 @@ code = main(sys.argv[1:])
 print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 """
 
-NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile")
+# the page and its figures (matplotlib: most of a second) are the report's alone
+NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile", "matplotlib", "ogacq.report")
 
 
 @pytest.fixture(scope="module")
