@@ -67,11 +67,14 @@ class Value:
     minimum: float | None = None
     maximum: float | None = None
     positive: bool = False
+    # said with the range in a refusal, where the key's name does not say it (an
+    # effect's "squareness.xy" is in mrad): "must be -20..20 mrad, got 45 mrad"
+    unit: str = ""
 
 
 def number(*, minimum: float | None = None, maximum: float | None = None,
-           positive: bool = False) -> Value:
-    return Value((float,), minimum=minimum, maximum=maximum, positive=positive)
+           positive: bool = False, unit: str = "") -> Value:
+    return Value((float,), minimum=minimum, maximum=maximum, positive=positive, unit=unit)
 
 
 def whole(*, minimum: int | None = None, maximum: int | None = None,
@@ -371,14 +374,15 @@ def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
     if isinstance(given, bool) or not isinstance(given, int | float):
         return given
     low, high = kind.minimum, kind.maximum
+    unit = f" {kind.unit}" if kind.unit else ""
     if kind.positive and not given > 0:
-        raise src.fail(path, f"must be positive, got {given!r}")
+        raise src.fail(path, f"must be positive, got {given!r}{unit}")
     if low is not None and high is not None and not low <= given <= high:
-        raise src.fail(path, f"must be {low:g}..{high:g}, got {given!r}")
+        raise src.fail(path, f"must be {low:g}..{high:g}{unit}, got {given!r}{unit}")
     if low is not None and given < low:
-        raise src.fail(path, f"must be at least {low:g}, got {given!r}")
+        raise src.fail(path, f"must be at least {low:g}{unit}, got {given!r}{unit}")
     if high is not None and given > high:
-        raise src.fail(path, f"must be at most {high:g}, got {given!r}")
+        raise src.fail(path, f"must be at most {high:g}{unit}, got {given!r}{unit}")
     if isinstance(given, int) and float in kind.types and int not in kind.types:
         return float(given)  # a whole number where a number is asked: the same value
     return given

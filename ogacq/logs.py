@@ -1,13 +1,11 @@
-"""The loggers of ogacq's modules, made by :func:`logger`: ``logging`` imported, and the
-command line's handlers installed, when the first one is made.
+"""The loggers of ogacq's modules, made by :func:`logger`: the command line's handlers
+installed first.
 
-A refit or a diagnosis of a CSV logs nothing; importing and configuring ``logging``
-would cost it about 5 % of numpy's import for nothing. So ``ogacq.cli.app`` hands
-its terminal handler to :func:`before_first_logger` on the commands that run
-without typer (refit, diagnose), and it is installed when a module that logs (a
-session's loader, the history) makes its logger, before that logger's first record.
-``drivers`` (which imports nothing of ogacq) and the command line's own modules use
-``logging`` directly: they are loaded where the handlers are installed at once.
+``ogacq.cli.app`` hands its terminal handler to :func:`before_first_logger` and
+installs it (:func:`setup_now`) before a command runs; a module that logs before that
+(one imported by the command line itself) installs it with its first logger, before
+that logger's first record. ``drivers`` (which imports nothing of ogacq) and the
+command line's own modules use ``logging`` directly.
 """
 
 from __future__ import annotations

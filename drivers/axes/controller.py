@@ -188,6 +188,10 @@ class AxisController:
         """Every distinct link: one for a shared bus or gateway, else one per drive."""
         return tuple({id(k): k for k in self._links.values()}.values())
 
+    def link_of(self, axis: str) -> ModbusLink:
+        """The link the axis's drive is reached through."""
+        return self._links[axis]
+
     # ================================================================ status
 
     def read_status(self, axes: Iterable[str] | None = None) -> dict[str, AxisStatus]:

@@ -241,6 +241,31 @@ class ModbusLink:
             )
         return bits[:count]
 
+    def read_identification(self, device_id: int) -> dict[int, str] | None:
+        """FC43 / MEI 14 Read Device Identification, basic stream (read code 1) from
+        object 0: object id -> text (0x00 VendorName, 0x01 ProductCode, 0x02
+        MajorMinorRevision; Modbus Application Protocol V1.1b3 §6.21). None where the
+        device does not answer it: exception 1 (function not implemented), 2 (no such
+        object) or 3 (read code refused), §6.21's exception table, or silence (a drive
+        that ignores functions it lacks). The objects are optional, so asked once,
+        never an error and not counted against the link's health."""
+        what = "read device identification (FC43/14)"
+        try:
+            response = self._execute_once(
+                device_id, what,
+                lambda: self._client.read_device_information(read_code=1, object_id=0,
+                                                             device_id=device_id))
+        except DeviceFault as exc:
+            if exc.code in (1, 2, 3):
+                return None
+            raise
+        except (DeviceTimeout, FrameError):
+            return None
+        objects = getattr(response, "information", {}) or {}
+        # §6.21: the basic objects are ASCII strings
+        return {int(k): (v if isinstance(v, bytes) else bytes(v)).decode("ascii", "replace")
+                for k, v in objects.items() if not isinstance(v, list)}
+
     def _read(self, device_id: int, what: str, call: Callable[[], ModbusPDU]) -> ModbusPDU:
         attempts = self.read_retries + 1
         started = time.monotonic()

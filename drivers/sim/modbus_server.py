@@ -54,6 +54,7 @@ from pymodbus.simulator import DataType, SimData, SimDevice
 
 from ogacq_drivers.axes.profile import Profile, ValueSpec, load_profile
 from ogacq_drivers.errors import LinkError
+from ogacq_drivers.sim.identification import answer_identification
 from ogacq_drivers.sim.motion import MotionModel, Outcome
 from ogacq_drivers.sim.ptybridge import PtyBridge
 
@@ -641,7 +642,8 @@ class ModbusSimServer:
         devices.append(self._catch_all_device())
         server: ModbusTcpServer | ModbusSerialServer
         if self.transport == "tcp":
-            server = ModbusTcpServer(devices, address=(self.host, self.port))
+            server = ModbusTcpServer(devices, address=(self.host, self.port),
+                                     trace_pdu=answer_identification(self.profile.name))
         else:
             server = ModbusSerialServer(
                 devices,
@@ -651,6 +653,7 @@ class ModbusSimServer:
                 parity=self.profile.transport.parity,
                 stopbits=self.profile.transport.stopbits,
                 trace_packet=self._drop_unknown_device_answers,
+                trace_pdu=answer_identification(self.profile.name),
             )
         await server.serve_forever(background=True)
         if self.transport == "tcp":

@@ -48,7 +48,9 @@ class CampaignOutcome:
     session_path: Path
     fit: FitResult
     hidden: dict[str, float] | None  # the simulator's truth, when simulated
-    simulated: bool = False  # run on the built-in simulator, not on the machine
+    simulated: bool = False  # a rehearsal: the built-in simulator, or `ogacq sim`'s drives
+    # the controller stopped with the command (the built-in simulator): nothing to write to
+    controller_gone: bool = False
 
 
 def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
@@ -98,7 +100,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                       "machine_file": str(campaign.machine_path),
                       "campaign_file": str(campaign.path.resolve()),
                       # said once and loudly: a rehearsal is never the machine's record
-                      "simulated": station.simulator is not None,
+                      "simulated": station.description["simulated"],
                       "station": station.description, "plan": campaign.protocol.to_dict(),
                       **header_entries(campaign, station.description["gauges"]),
                       **(header_extra or {})}
@@ -140,7 +142,8 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                                       noise_mm=result.noise.sigma_mm,
                                       noise_source=result.noise.source))
         hidden = station.simulator.machine.truth.hidden() if station.simulator else None
-    return CampaignOutcome(writer.path, result, hidden, station.simulator is not None)
+    return CampaignOutcome(writer.path, result, hidden, station.description["simulated"],
+                           controller_gone=station.simulator is not None)
 
 
 def maps_in_force(campaign: Campaign) -> MapsTable | None:

@@ -17,6 +17,7 @@ an identified joint offset is only meaningful relative to them.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ogacq_drivers.axes.controller import AxisController
+from ogacq_drivers.axes.identification import identify, simulated_by_identity
 from ogacq_drivers.axes.modbus_link import ModbusLink
 from ogacq_drivers.axes.preflight import PreflightError, check_home, check_identity, probe_move
 from ogacq_drivers.axes.profile import Profile, load_profile
@@ -369,6 +371,10 @@ def _check_software_offsets(path: Path, offsets_mm: dict[str, float],
 
 def _controller_description(spec: ControllerSpec, controller: AxisController) -> dict[str, Any]:
     out: dict[str, Any] = {"profile": spec.profile, "port": spec.port,
+                           # one identity whether named or given as a file: the
+                           # write-back compares the name, the checksum traces the content
+                           "profile_name": controller.profile.name,
+                           "profile_sha256": _file_sha256(controller.profile.source),
                            "offset_kind": controller.profile.offset.kind,
                            "reconnect": spec.reconnect.as_dict(),
                            "rehome_after_loss": spec.rehome_after_loss}
@@ -382,6 +388,14 @@ def _controller_description(spec: ControllerSpec, controller: AxisController) ->
     if spec.maps_file is not None:
         out["maps_file"] = str(spec.maps_file)
     return out
+
+
+def _file_sha256(path: str) -> str | None:
+    """The SHA-256 of the file's bytes (None: a profile built in code, no file)."""
+    try:
+        return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError:
+        return None
 
 
 def _gauge_where(gauge: GaugeSpec, specs: Sequence[GaugeSpec]) -> str:
@@ -452,14 +466,17 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
             clock, speed = simulator.clock.now, simulator.clock.speed
         else:
             clock, speed = time.monotonic, 1.0
+        identification = identify(controller)  # who the drives say they are, for the record
         description = {
-            "controller": _controller_description(controller_spec, controller),
+            "controller": _controller_description(controller_spec, controller)
+            | {"identification": identification},
             "gauges": {g.gauge: {"protocol": g.protocol, "port": g.port, "channel": g.channel,
                                  "unit": g.unit, "serial": g.serial}
                        # a resumed campaign (the wizard's too) reopens the gauge at this rate
                        | ({"baudrate": g.baudrate} if g.baudrate is not None else {})
                        for g in gauge_specs},
-            "simulated": simulator is not None,
+            # ogacq sim's controller says so itself, whatever the campaign file names
+            "simulated": simulator is not None or simulated_by_identity(identification),
         }
         station = DeviceStation(controller, indicators, clock, speed, description, simulator,
                                 controller_spec.reconnect,

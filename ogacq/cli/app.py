@@ -1,11 +1,6 @@
-"""The ``ogacq`` command: a command line run, and every error turned into one line
-and the exit code of its kind.
-
-A command marked ``fast`` in the table (refit, diagnose) with a command line the
-fast path can vouch for runs without typer (``ogacq.cli.fast_path``: typer costs a
-short analysis a third of its run); every other line goes to typer's group
-(``ogacq.cli.typer_app``), whose help, completion and usage errors are the same for
-all commands.
+"""The ``ogacq`` command: a command line run through typer's group
+(``ogacq.cli.typer_app``: its help, completion and usage errors the same for every
+command), and every error turned into one line and the exit code of its kind.
 """
 
 from __future__ import annotations
@@ -20,7 +15,6 @@ from typing import Any
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 from ogacq.cli.command_table import EXIT_CODES  # noqa: E402
-from ogacq.cli.fast_path import fast_call  # noqa: E402
 from ogacq.cli.log_options import global_options_first  # noqa: E402
 from ogacq.cli.say import SIGPIPE_EXIT, reader_gone, say  # noqa: E402
 from ogacq.errors import OgacqError  # noqa: E402
@@ -42,32 +36,16 @@ def _configure_logging() -> None:
     configure_logging()
 
 
-def _say_pending_repeats() -> None:
-    """The count of a warning still being repeated, if anything could log."""
-    if "logging" in sys.modules:  # else nothing made a logger, nor a handler
-        from ogacq.cli.repeated_warnings import say_pending_repeats
-
-        say_pending_repeats()
-
-
 def _run(argv: list[str]) -> int:
-    call = fast_call(argv)
-    if call is None:
-        setup_now()  # typer's commands log from any module (drivers, pymodbus): at once
-        from ogacq.cli.typer_app import run_app
+    setup_now()  # the commands log from any module (drivers, pymodbus): at once
+    from ogacq.cli.typer_app import run_app
 
-        return run_app(argv)
-    try:
-        call()
-    finally:
-        _say_pending_repeats()  # before the command's last word
-    return 0
+    return run_app(argv)
 
 
 def main(argv: list[str] | None = None) -> int:
-    # Warnings on stderr, one line each: installed when the first ogacq logger is made
-    # (ogacq.logs), so that a refit or a diagnosis that logs nothing never imports
-    # logging; at once for every other command (``_run``).
+    # Warnings on stderr, one line each: installed before the command runs (``_run``),
+    # or by the first ogacq logger made before that (ogacq.logs).
     before_first_logger(_configure_logging)
     argv = global_options_first(sys.argv[1:] if argv is None else list(argv))
     try:
@@ -89,8 +67,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def __getattr__(name: str) -> Any:
-    """typer's group (``app``, ``OgacqCommands``), imported when asked for: a command
-    that runs on the fast path never loads typer."""
+    """typer's group (``app``, ``OgacqCommands``), imported when asked for (after the
+    BLAS setting above)."""
     if name in ("app", "OgacqCommands"):
         from ogacq.cli import typer_app
 

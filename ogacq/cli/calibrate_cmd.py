@@ -26,6 +26,7 @@ from ogacq.calibration.setup import SCAN_MINUTES, Setup, simulator_setup, statio
 from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     HistoryOption,
     JsonOption,
     OverrideExpiredOption,
@@ -56,13 +57,14 @@ def calibrate(
     simulator: Annotated[bool, typer.Option(
         "--simulator", help="Calibrate the built-in simulated machine.")] = False,
     effects: Annotated[Path | None, typer.Option(
-        help="With --simulator: TOML file of the hidden effects (see `ogacq sim`).")] = None,
+        help="With --simulator: TOML file of the hidden effects (format: docs/formats.md, "
+             "\"Effects file\").")] = None,
     seed: Annotated[int, seed_option("With --simulator: seed of the hidden offsets and the "
                                      "noise.")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="With --simulator: its controller register map.")] = ProfileChoice["cia402"],
     speed: Annotated[float, typer.Option(min=1.0, help="With --simulator: simulated time "
-                                                       "speed-up.")] = 25.0,
+                                                       "speed-up.")] = DEFAULT_SPEED,
     out: Annotated[Path | None, typer.Option(
         help="The procedure's folder (default: a new folder in ./ogacq-runs named "
              "calibrate-DATE-TIME); "

@@ -99,7 +99,9 @@ def warn_traceability(campaign: Campaign) -> None:
 def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None:
     """The end of a campaign: the offsets with their U, the record into the history,
     then the verdict, the record id and what to do next."""
-    end = campaign_end(outcome.session_path, outcome.fit, simulated=outcome.simulated)
+    # `ogacq sim`'s controller still serves: the write-back can be rehearsed on it
+    end = campaign_end(outcome.session_path, outcome.fit, simulated=outcome.simulated,
+                       rehearsal_writeback=not outcome.controller_gone)
     if as_json:
         # the refit object, then what the end of a campaign says in words: the
         # verdict, the record's id and the next commands (a script needs them too)

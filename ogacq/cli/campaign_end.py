@@ -18,9 +18,9 @@ from typing import Any
 from ogacq.diagnose.outliers import described_outliers
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
+from ogacq.model.gauges import AXES
 from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.session.records import OffsetsRecord
-from ogacq.session.series import earlier_in_series, next_session
+from ogacq.session.series import next_session
 from ogacq.session.store import LoadedSession, load_session
 
 log = logging.getLogger("ogacq")
@@ -39,6 +39,9 @@ class CampaignEnd:
     verdict: Verdict
     steps: tuple[NextStep, ...]
     report: Path | None = None  # the page written already (the demo's)
+    # a validation after a write-back from a diagnosis: its fit with that diagnosis's
+    # effects carried over, in words (the joint offsets alone are biased by them)
+    carried: str | None = None
 
     @property
     def record_id(self) -> str:
@@ -55,6 +58,8 @@ class CampaignEnd:
         issued = (f"issued as {self.report.with_name('record.json')}" if self.report
                   else "`ogacq report` issues it: report.html and record.json")
         out = [f"verdict: {self.verdict.summary()}", f"record: {self.record_id} ({issued})"]
+        if self.carried is not None:
+            out.insert(1, self.carried)
         for k, step in enumerate(self.steps):
             lead = "next: " if k == 0 else "      "
             out.append(f"{lead}{step.command}   ({step.why})" if step.command
@@ -83,20 +88,20 @@ def campaign_end(session_path: Path, fit: FitResult, *, simulated: bool,
                        simulated=simulated, report=report,
                        rehearsal_writeback=rehearsal_writeback,
                        outliers=described_outliers(fit))
-    return CampaignEnd(session.path, record, verdict, steps, report)
+    return CampaignEnd(session.path, record, verdict, steps, report, _carried(session))
 
 
-def validation_of(session: LoadedSession) -> Path | None:
-    """The earlier session of the same series whose offsets were written back before
-    this one ran: this campaign validates it."""
-    for earlier in earlier_in_series(Path(session.path)):
-        try:
-            loaded = load_session(earlier)
-        except Exception:  # an unreadable neighbour is no one's calibration
-            continue
-        if any(r.stage == "done" for r in loaded.of_type(OffsetsRecord)):
-            return earlier
-    return None
+def _carried(session: LoadedSession) -> str | None:
+    """The validation judged with the effects its calibration's diagnosis found, in
+    words: the joint offsets left and the verdict (None when none is carried)."""
+    from ogacq.campaign.carried import carried_fit
+
+    carried = carried_fit(session)
+    if carried is None:
+        return None
+    offsets = ", ".join(f"{a} {carried.fit.value(f'joint_offset.{a}'):+.4f}" for a in AXES)
+    return (f"{carried.describe()}: joint offsets left {offsets} mm, "
+            f"{fit_verdict(carried.fit).summary()}")
 
 
 def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
@@ -106,6 +111,8 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
     """What to do now, most useful first. ``outliers``: readings far from their
     agreeing repeats, which no write-back should follow unseen."""
     path = session.path
+    from ogacq.campaign.carried import validation_of
+
     calibrated = validation_of(session)
     if calibrated is not None:
         return (NextStep(f"ogacq report {calibrated} --after {path}",
@@ -135,11 +142,11 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
                              "controller (shown and confirmed first)"))
     if campaign and not simulated:
         steps.insert(1, NextStep(f"ogacq run {campaign}", "then a validation run, recorded "
-                                 f"as {_next_name(Path(campaign), path)}"))
+                                 f"as {next_session_name(Path(campaign), path)}"))
     return tuple(steps)
 
 
-def _next_name(campaign_file: Path, session: Path) -> str:
+def next_session_name(campaign_file: Path, session: Path) -> str:
     """The session a new run of ``campaign_file`` would record into."""
     from ogacq.campaign.campaign_file import read_campaign
     from ogacq.errors import OgacqError

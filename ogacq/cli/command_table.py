@@ -2,8 +2,7 @@
 ``ogacq --help`` lists, without importing typer or any command.
 
 ``ogacq.cli.typer_app`` builds typer's group from this table, importing a command's
-module only when it runs (``ogacq.cli.lazy``); ``ogacq.cli.fast_path`` runs the
-commands marked ``fast`` without typer.
+module only when it runs (``ogacq.cli.lazy``).
 """
 
 from __future__ import annotations
@@ -22,9 +21,6 @@ class LazyCommandSpec:
     # the first paragraph of the function's docstring, which the group's help lists
     # (tests/cli/test_lazy_commands.py holds the two the same)
     summary: str
-    # parsed by ogacq.cli.fast_path without typer: the module declares its options with
-    # ogacq.cli.declare and imports neither typer nor rich (tests/cli/test_fast_path.py)
-    fast: bool = False
 
 
 def import_target(target: str) -> Callable[..., Any]:
@@ -98,10 +94,10 @@ COMMANDS: Mapping[str, LazyCommandSpec | LazyGroupSpec] = {
     "diagnose": LazyCommandSpec(
         "ogacq.cli.diagnose_cmd:diagnose_command",
         "Compare the recordings with the identified model; locate and explain a "
-        "mismatch.", fast=True),
+        "mismatch."),
     "refit": LazyCommandSpec(
         "ogacq.cli.refit_cmd:refit",
-        "Identify joint offsets and/or leg lengths from recorded data.", fast=True),
+        "Identify joint offsets and/or leg lengths from recorded data."),
     "plan": LazyCommandSpec(
         "ogacq.cli.plan_cmd:plan",
         "Predict the std of each parameter for a planned campaign."),

@@ -21,6 +21,7 @@ from ogacq.cli.campaign_cmds import execute, show_outcome
 from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     HistoryOption,
     OverrideExpiredOption,
     ProfileChoice,
@@ -28,6 +29,7 @@ from ogacq.cli.options import (
     seed_option,
 )
 from ogacq.cli.outputs import check_output_folder
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.render import print_demo_diagnosis, print_end
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
@@ -59,7 +61,8 @@ def default_demo_folder() -> Path:
 
 def demo(
     effects: Annotated[Path | None, typer.Option(
-        help="TOML file of hidden effects the simulated machine has (see `ogacq sim`).")]
+        help="TOML file of hidden effects the simulated machine has (format: "
+             "docs/formats.md, \"Effects file\").")]
     = None,
     seed: Annotated[int, seed_option("Seed of the hidden offsets and the noise (the same "
                                      "default in demo, sim and wizard).")] = DEFAULT_SEED,
@@ -67,7 +70,7 @@ def demo(
         help="Controller register map of the simulated machine.")] = ProfileChoice["cia402"],
     out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
                                              f"{DEMO_FOLDER_HELP}).")] = None,
-    speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = 25.0,
+    speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = DEFAULT_SPEED,
     history: HistoryOption = None,
     date: Annotated[str | None, typer.Option(
         metavar="YYYY-MM-DD[THH:MM]",
@@ -145,9 +148,11 @@ def demo(
     write_session_report(session, folder / "report",  # the record campaign_end built
                          diagnosis=report_diagnosis(diagnosis, session),
                          record=dict(end.built) if end.built is not None else None)
-    typer.echo(f"written: {folder}/session.jsonl, readings.csv, result.json, diagnosis.json, "
-               "report/report.html")
-    record_campaign(outcome.session_path, history, say=typer.echo, record=end.built)
+    now = Printer()  # wrapped between words at the terminal's width
+    now.print(shown(f"written: {folder}/session.jsonl, readings.csv, result.json, "
+                    "diagnosis.json, report/report.html"))
+    record_campaign(outcome.session_path, history, say=lambda text: now.print(shown(text)),
+                    record=end.built)
     if loop:  # the loop below is what comes next, on the simulator still running
         opened = tuple(s for s in end.steps if s.command.startswith("open "))
         end = replace(end, steps=(*opened, NextStep(

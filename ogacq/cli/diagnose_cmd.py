@@ -6,7 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-from ogacq.cli.declare import Argument
+import typer
+
 from ogacq.cli.options import (
     AcceptEditedOption,
     HistoryOption,
@@ -24,7 +25,7 @@ from ogacq.model.parameters import PARAM_SETS
 
 
 def diagnose_command(
-    file: Annotated[Path, Argument(help="Readings CSV, deviations CSV or session.")],
+    file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
     other_geometry: OtherGeometryOption = False,
     partial: PartialOption = False,
@@ -54,11 +55,14 @@ def diagnose_command(
 
         print(json.dumps({**result.to_json(), **loaded.state_json()}))
     else:
-        from ogacq.cli.render_diagnosis import print_diagnosis
+        from ogacq.cli.render_diagnosis import print_diagnosis, print_next
         from ogacq.cli.render_fit import print_notes
 
         print_notes(loaded.notes())
         print_diagnosis(result, machine_file=str(machine or file))
+        if loaded.session is not None:
+            print_next(result, str(file),
+                       controller_gone=loaded.session.header.simulator is not None)
     from ogacq.history.location import recording_off
 
     if loaded.session is not None and not other_geometry and not recording_off(history):

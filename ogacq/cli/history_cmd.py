@@ -71,6 +71,9 @@ def show(
     if machine is None:
         _list_machines(location, as_json)
         return
+    if not (states or plot is not None or as_json):
+        _show_each(location, machine)  # a name that fits several machines lists each
+        return
     with History.open(location, create=False) as db:
         found = db.find_machine(machine)
         if states:
@@ -109,6 +112,22 @@ def show(
         typer.echo(f"plot: {plot}")
 
 
+def _show_each(location: HistoryLocation, typed: str) -> None:
+    """Every machine ``typed`` names (two machines may share a name: the demo's
+    simulator and a machine file's), each with its calibrations."""
+    with History.open(location, create=False) as db:
+        found = db.find_machines(typed) or [db.find_machine(typed)]  # none: say which exist
+        each = [(m, db.calibrations(m), db.events(m), written_by_record(db.states(m)))
+                 for m in found]
+    for machine, calibrations, events, written in each:
+        render.print_calibrations(machine, location.describe(), calibrations,
+                                  changes(calibrations, written), events, written,
+                                  controller_changes(calibrations, written))
+    if len(found) > 1:
+        typer.echo(f"{typed!r} names {len(found)} machines: one of them alone is "
+                   f"`ogacq history {found[0].label!r}`")
+
+
 def _check_show_options(machine: str | None, states: bool, diff: tuple[str, str] | None,
                         plot: Path | None, force: bool) -> None:
     """The options of ``history show`` that cannot go together, refused before the
@@ -140,9 +159,13 @@ def _list_machines(location: HistoryLocation, as_json: bool) -> None:
     for (m, _), row in zip(listed, rows, strict=True):
         count = row["calibrations"]
         last = f", the last {row['last']}" if row["last"] else ""
-        typer.echo(f"  {m.describe()}: {count} calibration{'s' if count != 1 else ''}{last}")
+        typer.echo(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
+    if any(not m.serial for m, _ in listed):  # its identity is its name: said once
+        typer.echo("a machine with no serial is filed by its name alone: `serial = ...` in "
+                   "its machine file tells it from another of the same name")
     if rows:
-        typer.echo(f"`ogacq history \"{rows[0]['name']}\"` lists a machine's calibrations")
+        typer.echo(f"`ogacq history {listed[0][0].label!r}` lists a machine's calibrations "
+                   "(its name, serial or the label above)")
 
 
 def _record_for_history(session: LoadedSession) -> dict[str, Any]:

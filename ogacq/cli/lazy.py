@@ -10,64 +10,26 @@ of ``"module:function"`` targets.
 
 from __future__ import annotations
 
-import functools
 import inspect
 from collections.abc import Callable, Iterator, Mapping, MutableMapping
-from typing import TYPE_CHECKING, Annotated, Any, ClassVar
+from typing import Any, ClassVar
 
 import typer
 from typer.core import TyperCommand, TyperGroup
 
-from ogacq.cli.coercion import plain_runtime_param
 from ogacq.cli.command_table import LazyCommandSpec, LazyGroupSpec, import_target
-from ogacq.cli.declare import Argument, Option, annotated_parameters
 
-if TYPE_CHECKING:  # typer vendors its own click
-    from typer._click import Command, Context, Parameter
-
-
-def load_function(target: str) -> Callable[..., Any]:
-    return with_typer_declarations(import_target(target))
-
-
-def _typer_declaration(meta: object) -> object:
-    if isinstance(meta, Option):
-        return typer.Option(*meta.names, **meta.typer_keywords())
-    if isinstance(meta, Argument):
-        return typer.Argument(help=meta.help)
-    return meta
-
-
-def with_typer_declarations(function: Callable[..., Any]) -> Callable[..., Any]:
-    """``function`` as typer reads it: each ``ogacq.cli.declare`` declaration in its
-    annotations made typer's own (typer takes the signature from ``__signature__``).
-    A function declared with typer's own is returned as it is."""
-    parameters = []
-    declared_here = False
-    for parameter, base, metadata in annotated_parameters(function):
-        if metadata:
-            converted = [_typer_declaration(meta) for meta in metadata]
-            declared_here |= converted != metadata
-            parameter = parameter.replace(annotation=Annotated[(base, *converted)])
-        parameters.append(parameter)
-    if not declared_here:
-        return function
-
-    @functools.wraps(function)
-    def command(*args: Any, **kwargs: Any) -> Any:
-        return function(*args, **kwargs)
-
-    command.__signature__ = inspect.signature(function).replace(  # type: ignore[attr-defined]
-        parameters=parameters, return_annotation=None)
-    command.__annotations__ = {p.name: p.annotation for p in parameters}
-    return command
+# typer vendors click as a private package (typer._click) and exports none of these
+# classes: named here by their role, untyped, rather than imported from its insides.
+Command = Any
+Context = Any
+Parameter = Any
 
 
 def flags_without_value(params: list[Parameter]) -> list[Parameter]:
     """typer 0.29's rich help shows a flag's type as if it took a value
     (``--json <bool>``, while ``--json true`` is refused): a flag gets an empty metavar,
-    which that help prints instead of the type. And each parameter of a plain type is
-    coerced without pydantic (``ogacq.cli.coercion``)."""
+    which that help prints instead of the type."""
     for param in params:
         if getattr(param, "is_flag", False) and param.metavar is None:
             param.metavar = ""
@@ -77,9 +39,6 @@ def flags_without_value(params: list[Parameter]) -> list[Parameter]:
             param.metavar = f"<{descriptor.ranged_type_name}>"
         if param.param_type_name == "argument" and param.metavar is None and param.name:
             param.metavar = param.name.upper()  # "SESSION", not click's "{session}"
-        if getattr(param, "_runtime_param", False) is None:
-            # typer's own per-parameter slot (private: no stub declares it)
-            param._runtime_param = plain_runtime_param(param.type_descriptor)  # type: ignore[attr-defined]
     return params
 
 
@@ -114,7 +73,11 @@ class FlagGroup(TyperGroup):
 
 def _command(app: typer.Typer, name: str, function: Callable[..., Any],
              epilog: str | None) -> None:
-    app.command(name, cls=FlagCommand, help=one_paragraph_lines(function.__doc__),
+    help_text = one_paragraph_lines(function.__doc__)
+    # the group's listing shows the first paragraph whole, wrapped (click would cut it
+    # at 45 characters with "...")
+    summary = help_text.split("\n\n")[0] if help_text else None
+    app.command(name, cls=FlagCommand, help=help_text, short_help=summary,
                 epilog=epilog)(function)
 
 
@@ -127,7 +90,7 @@ def build_command(name: str, target: str | LazyCommandSpec | LazyGroupSpec,
                             rich_markup_mode=None,
                             add_completion=False, epilog=epilog)
         for sub_name, sub_target in target.commands.items():
-            _command(group, sub_name, load_function(sub_target), epilog)
+            _command(group, sub_name, import_target(sub_target), epilog)
         flags = typer.main.get_group(group)
         assert isinstance(flags, FlagGroup)  # typer makes the group of the class given
         flags.default_command = target.default
@@ -135,7 +98,7 @@ def build_command(name: str, target: str | LazyCommandSpec | LazyGroupSpec,
     else:
         single = typer.Typer(add_completion=False, rich_markup_mode=None)
         function = target.target if isinstance(target, LazyCommandSpec) else target
-        _command(single, name, load_function(function), epilog)
+        _command(single, name, import_target(function), epilog)
         command = typer.main.get_command(single)
     command.name = name
     return command

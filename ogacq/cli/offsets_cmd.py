@@ -227,6 +227,8 @@ def write(
                           evidence=evidence)
         _approve_and_execute(controller, plan, audit, spec, yes=yes, force=force,
                              save_nvm=save_nvm, rehome=not no_home)
+    render.print_validation_next(str(campaign_path or session.header.campaign_file or ""),
+                                 session.path, from_diagnosis)
 
 
 RestoreSessionArgument = Annotated[Path | None, typer.Argument(

@@ -8,19 +8,19 @@ from enum import StrEnum
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any, cast
 
-from ogacq.cli.declare import Option
+import typer
 
-MachineOption = Annotated[Path, Option("--machine", "-m", help="Machine file (TOML).")]
+MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
 # For files that may record their machine (sessions do, CSVs do not).
-RecordedMachineOption = Annotated[Path | None, Option(
+RecordedMachineOption = Annotated[Path | None, typer.Option(
     "--machine", "-m", help="Machine file (TOML); a session's own is used when left out, "
                             "and one that differs from it is refused (--other-geometry).")]
-OtherGeometryOption = Annotated[bool, Option(
+OtherGeometryOption = Annotated[bool, typer.Option(
     "--other-geometry", help="Reanalyse a session with the --machine file even though it "
                              "differs from the machine the session was recorded with.")]
-JsonOption = Annotated[bool, Option("--json", help="Print one JSON object on stdout.")]
+JsonOption = Annotated[bool, typer.Option("--json", help="Print one JSON object on stdout.")]
 # Where a finished campaign, diagnosis or write-back is recorded (ogacq.history.location).
-HistoryOption = Annotated[str | None, Option(
+HistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
     help="Record into this history: an SQLite file or a PostgreSQL URL "
          "(default: $OGACQ_HISTORY, else history.sqlite in ogacq's data folder, $OGACQ_HOME "
@@ -28,15 +28,15 @@ HistoryOption = Annotated[str | None, Option(
          "nothing).")]
 # A session is analysed only when its campaign finished and its records are as written;
 # these say the user means to analyse it as it stands (ogacq.session.state, .seal).
-PartialOption = Annotated[bool, Option(
+PartialOption = Annotated[bool, typer.Option(
     "--partial", help="Analyse a session whose campaign has not finished (running, stopped or "
                       "killed): every output says 'partial: N of M planned readings', and "
                       "nothing of it enters the history.")]
-AcceptEditedOption = Annotated[bool, Option(
+AcceptEditedOption = Annotated[bool, typer.Option(
     "--accept-edited", help="Analyse a session whose records were changed, removed or added "
                             "after they were written (see `ogacq session check`) as it "
                             "stands; every output and the record say so.")]
-OverrideExpiredOption = Annotated[str | None, Option(
+OverrideExpiredOption = Annotated[str | None, typer.Option(
     "--override-expired", metavar="REASON",
     help="Run although a gauge is past its calibration due date; the reason is recorded "
          "in the session (otherwise such a campaign is refused before anything moves).")]
@@ -58,11 +58,14 @@ def override_reason(given: str | None) -> str:
 # defaults meets the machine the demo showed. 1, not 0: the demo's seed, whose hidden
 # offsets differ visibly from axis to axis.
 DEFAULT_SEED = 1
+# ... and one pace: the simulated machine's time runs this many times faster than real
+# time in every rehearsal (demo, calibrate --simulator, the wizard's, ogacq sim)
+DEFAULT_SPEED = 25.0
 
 
 def seed_option(help: str) -> Any:
     """A random seed: numpy's generators take none below 0, so typer refuses it at parsing."""
-    return Option(min=0, help=help)
+    return typer.Option(min=0, help=help)
 
 
 class IndicatorCount(StrEnum):

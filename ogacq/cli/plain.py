@@ -28,9 +28,8 @@ def plain(value: Any) -> str:
 
 def shown(value: Any) -> str:
     """``value`` for a rich markup string or a table cell: controls shown, brackets
-    escaped (as rich.markup.escape: ``ogacq.cli.text_out.escape``), so it prints as it
-    was recorded."""
-    from ogacq.cli.text_out import escape
+    escaped (rich.markup.escape), so it prints as it was recorded."""
+    from rich.markup import escape
 
     return escape(plain(value))
 
@@ -43,3 +42,15 @@ def console(**options: Any) -> Console:
     from rich.console import Console
 
     return Console(emoji=False, **{"highlight": False, **options})
+
+
+class Printer:
+    """``print`` through a console made at that moment: rich reads the width (the
+    terminal's, ``COLUMNS``) when a console is made, and these lines are wrapped at the
+    width of the moment they are printed. ``stderr``: to standard error."""
+
+    def __init__(self, stderr: bool = False) -> None:
+        self.stderr = stderr
+
+    def print(self, *objects: Any, **options: Any) -> None:
+        console(stderr=self.stderr).print(*objects, **options)

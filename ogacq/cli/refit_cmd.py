@@ -6,7 +6,8 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Annotated
 
-from ogacq.cli.declare import Argument, Option
+import typer
+
 from ogacq.cli.options import (
     AcceptEditedOption,
     JsonOption,
@@ -35,14 +36,14 @@ class Weighting(StrEnum):
 
 
 def refit(
-    file: Annotated[Path, Argument(help="Readings CSV, deviations CSV or session.")],
+    file: Annotated[Path, typer.Argument(help="Readings CSV, deviations CSV or session.")],
     machine: RecordedMachineOption = None,
-    params: Annotated[ParamSet, Option(help="Parameter set to identify.")]
+    params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
     = ParamSet.offsets,
-    method: Annotated[Method, Option(
+    method: Annotated[Method, typer.Option(
         help="linear: the papers' eq. 11; exact: nonlinear fit of the exact model. "
              "auto: linear for tabulated deviations, exact for readings.")] = Method.auto,
-    weighting: Annotated[Weighting, Option(
+    weighting: Annotated[Weighting, typer.Option(
         help="Tabulated deviations: ols (the papers') or gls with their covariance "
              "(eq. 13-14). Readings are always weighted by their own noise (the display "
              "rounding that repeats share).")]
@@ -75,4 +76,5 @@ def refit(
     from ogacq.cli.render_fit import print_fit, print_notes
 
     print_notes(loaded.notes())
-    print_fit(result, params.value)
+    print_fit(result, params.value, f"ogacq diagnose {file}"
+              + (f" --machine {machine}" if machine is not None else ""))

@@ -9,14 +9,16 @@ from typing import TYPE_CHECKING, Any
 
 from rich.table import Table
 
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import shown
 from ogacq.cli.render_fit import format_number
 from ogacq.model.parameters import effect_of
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
 
 if TYPE_CHECKING:  # start-up: refit and diagnose load neither the bar nor the records
+    from pathlib import Path
+
     from rich.progress import Progress
 
     from ogacq.campaign.run import CampaignOutcome
@@ -64,7 +66,7 @@ def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycle
                           "do not bound): left out of the std and bias")
 
 
-def print_sim(info: dict) -> None:
+def print_sim(info: dict, campaign: Path | None = None) -> None:
     m = info["modbus"]
     where = f"{m['host']}:{m['port']}" if m["transport"] == "tcp" else m["port"]
     console.print(f"[bold]simulated controller[/] ({shown(m['profile'])}, Modbus "
@@ -81,7 +83,11 @@ def print_sim(info: dict) -> None:
     for key, g in info["gauges"].items():
         table.add_row(shown(key), shown(g["port"]), shown(g["protocol"]))
     console.print(table)
-    console.print("running; Ctrl-C to stop")
+    if campaign is not None:  # what the file is for, while this simulator serves
+        console.print(f"running; Ctrl-C to stop. next, in another terminal: ogacq run "
+                      f"{shown(campaign)}", highlight=False)
+    else:
+        console.print("running; Ctrl-C to stop")
 
 
 class CampaignProgress:
@@ -122,6 +128,18 @@ def trials_progress(label: str) -> Iterator[Callable[[int, int], None] | None]:
                   console=err, transient=True) as bar:
         task = bar.add_task(label, total=None)
         yield lambda done, total: bar.update(task, completed=done, total=total)
+
+
+@contextmanager
+def working(what: str) -> Iterator[None]:
+    """A step of some seconds said while it runs: a spinner with its elapsed time on a
+    terminal (stderr: stdout stays the command's output), nothing to a pipe or a log."""
+    err = new_console(stderr=True)
+    if not err.is_terminal:
+        yield
+        return
+    with err.status(f"{shown(what)}…"):
+        yield
 
 
 @contextmanager
@@ -200,9 +218,10 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
 
 def print_end(lines: list[str]) -> None:
     """The end of a campaign: the verdict, the record id, the next commands."""
-    console.print()
+    now = Printer()  # at this moment's width
+    now.print()
     for line in lines:
-        console.print(shown(line), highlight=False, soft_wrap=True)  # paths whole
+        now.print(shown(line), highlight=False)  # wrapped between words
 
 
 def _print_context(session: LoadedSession) -> None:

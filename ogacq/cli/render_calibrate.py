@@ -5,7 +5,6 @@ ISO 230-2 figures, the question, the validation and the outcome."""
 from __future__ import annotations
 
 import contextlib
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -18,14 +17,14 @@ from ogacq.calibration.separate import SeparatingPlan
 from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
 from ogacq.cli.campaign_end import NextStep
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import plain, shown
 from ogacq.cli.render import CampaignProgress, campaign_progress
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.report.formatting import measure
+from ogacq.uncertainty.reporting import measure
 from ogacq.writeback.maps import MapsPlan
 from ogacq.writeback.policy import OffsetPlan
 
@@ -169,21 +168,21 @@ def print_outcome(outcome: Outcome, report: Path | None) -> None:
              "restored": "RESTORED to the previous state", "declined": "nothing written",
              "refused": "refused, nothing written",
              "nothing to correct": "nothing to correct"}.get(outcome.outcome, outcome.outcome)
-    stream = sys.stderr if outcome.exit_code else sys.stdout
-    print(f"calibration {outcome.procedure}: {words}: {plain(outcome.reason)}", file=stream)
+    # wrapped between words at the terminal's width (one long line was cut mid-word)
+    say = Printer(stderr=bool(outcome.exit_code)).print
+    say(shown(f"calibration {outcome.procedure}: {words}: {outcome.reason}"))
     marked = outcome.folder / TABLES_FOLDER / NOT_APPLIED_FILE
     if marked.is_file():  # tables a technician must not load: said where they lie
-        print(plain(f"the tables in {marked.parent} were not applied ({marked.name} says "
-                    "why): do not load them into a controller"), file=stream)
+        say(shown(f"the tables in {marked.parent} were not applied ({marked.name} says "
+                  "why): do not load them into a controller"))
     record_id = CalibrationRecord.from_json(outcome.record).id if outcome.record else None
     if record_id or report is not None:
-        print("record: " + " ".join(plain(part) for part in (
-            record_id, f"({report})" if record_id and report else report) if part),
-            file=stream)
+        say(shown("record: " + " ".join(str(part) for part in (
+            record_id, f"({report})" if record_id and report else report) if part)))
     for k, step in enumerate(next_steps(outcome, report)):
         lead = "next: " if k == 0 else "      "
-        print(plain(f"{lead}{step.command}   ({step.why})" if step.command
-                    else f"{lead}{step.why}"), file=stream)
+        say(shown(f"{lead}{step.command}   ({step.why})" if step.command
+                  else f"{lead}{step.why}"))
 
 
 def next_steps(outcome: Outcome, report: Path | None) -> tuple[NextStep, ...]:

@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import numpy as np
+from rich.table import Table
 
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import Printer, shown
 from ogacq.cli.render_maps import (
     print_axis_map,
     print_coverage,
@@ -12,7 +13,6 @@ from ogacq.cli.render_maps import (
     print_profiles,
     print_proposals,
 )
-from ogacq.cli.text_out import TextTable, out
 from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
@@ -21,16 +21,18 @@ from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
+from ogacq.uncertainty.reporting import measure
+
+out = Printer()
 
 MANY_GROUPS = 12  # beyond this many postures (a scan) only the worst are listed
 SHOWN_GROUPS = 5
 
 
 def _value(value: float, std: float, unit: str) -> str:
-    digits = max(0, min(6, 2 - int(np.floor(np.log10(std))))) if np.isfinite(std) and std > 0 \
-        else 4
-    std_text = f"{std:.{digits}f}" if np.isfinite(std) else "?"
-    return f"{value:+.{digits}f} ± {std_text} {unit}"
+    """As the record's page writes it: the value at its std's decimal place, the std to
+    two significant digits (one rounding rule on the console and the page)."""
+    return measure(value, std, unit)
 
 
 def _judged(title: str, v: Verdict) -> str:
@@ -76,6 +78,31 @@ def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     _print_offsets(d)
     for caveat in d.caveats():
         out.print(f"[yellow]note[/]: {shown(caveat)}")
+
+
+def print_next(d: Diagnosis, session: str, *, controller_gone: bool = False) -> None:
+    """What to do with a session after its diagnosis, naming it: the write-back of the
+    model that explains it, or what must come first. ``controller_gone``: the session
+    ran on the built-in simulator, which stopped with its command."""
+    if controller_gone and d.outcome in ("consistent", "explained"):
+        step = ("a rehearsal: its simulated controller stopped with the command that ran "
+                "it, so nothing is written from it (`ogacq calibrate --simulator` "
+                "rehearses the write-back)")
+    elif d.outliers is not None and d.outliers.readings:
+        step = ("check the gauges of the readings named above, then run the campaign "
+                "again: nothing is written from readings a knock may have moved")
+    elif d.outcome == "consistent":
+        step = (f"ogacq offsets write {session}   (the joint offsets, shown and confirmed "
+                "first)")
+    elif d.outcome == "explained":
+        step = (f"ogacq offsets write {session} --from-diagnosis   (the joint offsets of "
+                "this model; the effects beside them stay until corrected)")
+    elif d.outcome == "undetermined":
+        return
+    else:
+        step = ("the measurement proposed above: nothing explains these readings well "
+                "enough to write offsets from them")
+    out.print(f"next: {shown(step)}")
 
 
 def _print_outliers(d: Diagnosis) -> None:
@@ -145,7 +172,7 @@ def _print_capability(d: Diagnosis) -> None:
     out.print(f"[bold]What these data can tell beside the joint offsets[/] "
               f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
               f"offsets, {cap.effect_rank} independent effect directions)")
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("effect", "std", "shows from", "unit", "offsets absorb", "aliases"):
         table.add_column(col, justify="left" if col in ("effect", "unit", "aliases")
                          else "right", overflow="fold")
@@ -187,7 +214,7 @@ def _print_search(d: Diagnosis) -> None:
     if not sel.steps:
         out.print("  no effect or pair of effects improves the fit significantly with "
                   "plausible values")
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "rms before", "rms after", "chi2/dof", "p (nested)", "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right", overflow="fold")
     for k, step in enumerate(sel.steps, 1):
@@ -213,7 +240,7 @@ def _print_search(d: Diagnosis) -> None:
 def _print_gauge_rms(d: Diagnosis) -> None:
     gauges = row_labels(d.base_fit.observations).gauge
     models = [d.selection.base] + [s.after for s in d.selection.steps]
-    table = TextTable(title="residual rms per gauge (µm), before and after each step",
+    table = Table(title="residual rms per gauge (µm), before and after each step",
                       show_edge=False, header_style="bold", pad_edge=False)
     table.add_column("gauge")
     table.add_column("offsets", justify="right")

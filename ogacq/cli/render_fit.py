@@ -1,15 +1,16 @@
-"""refit's account of a fit (and the notes every analysis prints first): plain text
-without rich where it can be (``ogacq.cli.text_out``)."""
+"""refit's account of a fit (and the notes every analysis prints first)."""
 
 from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
 import numpy as np
+from rich.table import Table
 
-from ogacq.cli.plain import shown
-from ogacq.cli.text_out import TextTable, out
+from ogacq.cli.plain import Printer, shown
 from ogacq.model.parameters import effect_of
+
+out = Printer()
 
 if TYPE_CHECKING:
     from ogacq.identify.fit import FitResult
@@ -28,13 +29,14 @@ def print_notes(notes: list[str]) -> None:
         out.print(f"[yellow]{shown(note)}[/]")
 
 
-def print_fit(result: FitResult, params_label: str) -> None:
+def print_fit(result: FitResult, params_label: str, diagnose: str = "ogacq diagnose") -> None:
+    """``diagnose``: the command that diagnoses these readings, naming their file."""
     obs = result.observations
     ident = result.identifiability
     out.print(f"[bold]{shown(obs.source or 'data')}[/]: {len(obs)} {obs.kind}, "
               f"parameters [bold]{params_label}[/], {result.method} fit, "
               f"{result.weighting.upper()}")
-    table = TextTable(show_edge=False, header_style="bold")
+    table = Table(show_edge=False, header_style="bold")
     table.add_column("parameter")
     table.add_column("value", justify="right")
     table.add_column("std (gauge noise)", justify="right")
@@ -68,5 +70,4 @@ def print_fit(result: FitResult, params_label: str) -> None:
     colour = {"consistent": "green", "inconsistent": "red"}.get(verdict.state, "yellow")
     out.print(f"fit: [{colour}]{verdict.describe()}[/]")
     if verdict.state == "inconsistent":
-        out.print("[yellow]the model leaves something out: run `ogacq diagnose` on the "
-                  "readings[/]")
+        out.print(f"[yellow]the model leaves something out: next, {shown(diagnose)}[/]")

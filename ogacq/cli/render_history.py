@@ -16,6 +16,7 @@ from ogacq.history.drift import ControllerChange, Drift, expanded
 from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 from ogacq.model.units import UM_PER_MM
+from ogacq.uncertainty.reporting import rounded, two_digits
 
 DRIFT_MARK = "!"  # beside a value whose change from the previous calibration exceeds U
 # record id -> parameter -> the change the record's write-backs made
@@ -43,8 +44,9 @@ def _value(calibration: Calibration, name: str, flagged: bool) -> str:
     if p is None:
         return "-"
     u, basis = expanded(p)
-    spread = "" if u is None else (f" ± {u:.4f}" + ("" if basis == "U" else "*"))
-    return f"{p.value_mm:+.4f}{spread}" + (f" {DRIFT_MARK}" if flagged else "")
+    # one rounding rule: the value at its U's decimal place, U to two digits
+    spread = "" if u is None else (f" ± {two_digits(u)}" + ("" if basis == "U" else "*"))
+    return rounded(p.value_mm, u, sign=True) + spread + (f" {DRIFT_MARK}" if flagged else "")
 
 
 def _when(date: str | None) -> str:
@@ -100,8 +102,8 @@ def _who_notes(calibrations: Sequence[Calibration], written: Written) -> list[st
              for before, after in zip(calibrations, calibrations[1:], strict=False)
              if written.get(before.record_id)]  # the first campaign after a write-back
     if any(c.simulated for c in calibrations):
-        notes.append("SIMULATED: a rehearsal on the built-in simulator, not a calibration "
-                     "of the machine")
+        notes.append("SIMULATED: a rehearsal on a simulator, not a calibration of the "
+                     "machine, nor compared with one for drift")
     return notes
 
 
@@ -152,7 +154,7 @@ def _events_note(machine: Machine, events: Sequence[Event]) -> str | None:
     if not kinds:
         return None
     counts = {k: kinds.count(k) for k in dict.fromkeys(kinds)}
-    hint = (f" (`ogacq history {machine.name!r} --states`: the offsets written)"
+    hint = (f" (`ogacq history {machine.label!r} --states`: the offsets written)"
             if "write-back" in counts or "restore" in counts else "")
     return "also recorded: " + ", ".join(f"{n} {k}{'s' if n > 1 else ''}"
                                          for k, n in counts.items()) + hint
@@ -262,13 +264,13 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
     if maps:
         _print_maps_states(console, machine, maps)
     if machine_states:
-        console.print(f"compare two: ogacq history {machine.name!r} --states --diff STATE STATE",
-                      highlight=False)
+        console.print(f"compare two: ogacq history {machine.label!r} --states --diff STATE "
+                      "STATE", highlight=False)
     if not states:
         console.print("no write-back of this machine is recorded")
     else:
         console.print(f"go back to one: ogacq offsets restore --machine "
-                      f"{shown(repr(machine.name))} --to STATE (a state above, or a "
+                      f"{shown(repr(machine.label))} --to STATE (a state above, or a "
                       "calibration's record id)", highlight=False)
 
 

@@ -7,8 +7,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from rich.markup import escape
+from rich.table import Table
 
-from ogacq.cli.text_out import TextTable, escape, out
+from ogacq.cli.plain import Printer
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.profile import SPARK, LegProfile
@@ -16,6 +18,9 @@ from ogacq.identify.consistency import format_p
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.gauges import AXES
 from ogacq.model.units import UM_PER_MM
+from ogacq.uncertainty.reporting import measure
+
+out = Printer()
 
 MAP_ROWS = 9  # positions of a map shown as numbers; the rest as a profile
 PROFILE_WIDTH = 48
@@ -35,7 +40,7 @@ def print_coverage(d: Diagnosis) -> None:
         out.print()
         return
     level = search.level
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "chi2 before", "chi2 after", "p (nested, corrected)",
                 "dBIC"):
         table.add_column(col, justify="left" if col == "added" else "right")
@@ -66,7 +71,7 @@ def print_coverage(d: Diagnosis) -> None:
 def print_map_effect(e: MapEffect) -> None:
     """One map effect: its sentence, value, further parameters."""
     v = e.value
-    unit_value = f"{v.value * UM_PER_MM:+.2f} ± {e.std * UM_PER_MM:.2f} µm"
+    unit_value = measure(v.value * UM_PER_MM, e.std * UM_PER_MM, "µm")
     out.print(f"  [bold]{e.name}[/] = {unit_value}: {escape(e.sentence())}")
     extra = {k: val for k, val in v.extra.items() if val is not None and not (
         isinstance(val, float) and math.isnan(val))}
@@ -121,7 +126,7 @@ def print_axis_map(m: AxisMap) -> None:
         wanted = np.linspace(q[0], q[-1], min(MAP_ROWS, len(q)))
         stretch = np.ones(len(q), dtype=bool)
     pick = np.unique(np.abs(q[None, :] - wanted[:, None]).argmin(axis=1))
-    table = TextTable(show_edge=False, header_style="bold", pad_edge=False)
+    table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("q (mm)", "forward (µm)", "reverse (µm)"):
         table.add_column(col, justify="right")
     for k in pick:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from pathlib import Path
 
 from rich.table import Table
 
@@ -90,14 +91,17 @@ def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
 
 
 def print_refusals(plan: OffsetPlan, forced: bool) -> None:
+    # one line each to a log or a pipe; on a terminal wrapped between words (the
+    # terminal would cut a word where its width falls)
+    whole = not err_console.is_terminal
     if forced:
         for refusal in plan.refusals:
             err_console.print(f"ogacq: warning: --force writes past: {shown(refusal.message)}",
-                              highlight=False, soft_wrap=True)
+                              highlight=False, soft_wrap=whole)
         return
     for refusal in plan.refusals:  # the command's one-line refusal follows
         err_console.print(f"ogacq: refused ({shown(refusal.code)}): {shown(refusal.message)}",
-                          highlight=False, soft_wrap=True)
+                          highlight=False, soft_wrap=whole)
 
 
 def print_outcome(outcome: WriteOutcome) -> None:
@@ -140,3 +144,19 @@ def print_history(operations: list[Operation]) -> None:
         console.print(shown(f"  {when} {op.operation} {op.action} [{op.status}]: "
                             + ", ".join(f"{a} {_mm(op.old_mm.get(a))} -> {_mm(op.new_mm.get(a))}"
                                         for a in op.old_mm)), highlight=False)
+
+
+def print_validation_next(campaign: str | None, session: Path, from_diagnosis: bool) -> None:
+    """After a write: the validation run that says whether the offsets took, naming the
+    campaign file and the session it records into."""
+    from ogacq.cli.campaign_end import next_session_name
+
+    if not campaign:
+        console.print(f"next: a validation campaign, then `ogacq report {shown(session)} "
+                      "--after VALIDATION_SESSION`", highlight=False)
+        return
+    model = ("; its end judges it with the effects named above carried over: they stay "
+             "on the machine" if from_diagnosis else "")
+    console.print(f"next: ogacq run {shown(campaign)}   (the validation, recorded as "
+                  f"{shown(next_session_name(Path(campaign), session))}{model}; then "
+                  f"`ogacq report {shown(session)} --after` it)", highlight=False)

@@ -11,6 +11,7 @@ import typer
 
 from ogacq.cli.options import AcceptEditedOption, PartialOption
 from ogacq.cli.outputs import check_output_folder
+from ogacq.cli.render import working
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
@@ -29,7 +30,7 @@ from ogacq.report import (
     parse_diagnosis,
     write_report,
 )
-from ogacq.report.printing import print_pdf
+from ogacq.report.printing import find_browser, print_pdf
 from ogacq.session.convert import session_observations
 from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
@@ -63,6 +64,7 @@ def report_command(
     then the analysis behind them), record.json with the same record, and the figures."""
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
+    browser = find_browser() if pdf else None  # before the work: none is exit 2
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
     check_pair(calibration, validation)
@@ -78,14 +80,16 @@ def report_command(
     if given is not None:
         raw, note = given, None
     else:
-        raw, note = _diagnose_here(calibration)
-    page = write_session_report(calibration, folder, validation=validation,
-                                diagnosis=raw, diagnosis_note=note,
-                                diagnosis_source=diagnosis or session,
-                                history=earlier, history_why=why)
+        with working(f"diagnosing {calibration.path.name}"):
+            raw, note = _diagnose_here(calibration)
+    with working("issuing the record: uncertainty budget, Monte-Carlo check, figures"):
+        page = write_session_report(calibration, folder, validation=validation,
+                                    diagnosis=raw, diagnosis_note=note,
+                                    diagnosis_source=diagnosis or session,
+                                    history=earlier, history_why=why)
     typer.echo(str(page))
-    if pdf:  # after the page is on disk: a missing browser loses nothing
-        typer.echo(str(print_pdf(page, page.with_suffix(".pdf"))))
+    if browser is not None:  # after the page is on disk: a failed print loses nothing
+        typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))
 
 
 def write_session_report(calibration: LoadedSession, folder: Path, *,

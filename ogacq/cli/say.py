@@ -13,9 +13,23 @@ from ogacq.cli.plain import plain
 
 def say(kind: str, message: str) -> None:
     """One line on stderr, whatever line breaks or control characters the message had
-    (it may quote a recorded name, a file's line or a device's reply)."""
+    (it may quote a recorded name, a file's line or a device's reply); on a terminal,
+    that line wrapped at its width between words (the terminal would cut a word)."""
     text = " ".join(part.strip() for part in message.splitlines() if part.strip())
-    print(f"ogacq: {kind}: {plain(text)}", file=sys.stderr, flush=True)
+    line = f"ogacq: {kind}: {plain(text)}"
+    if _is_terminal(sys.stderr):
+        from ogacq.cli.plain import console
+
+        console(stderr=True, markup=False).print(line)
+    else:
+        print(line, file=sys.stderr, flush=True)
+
+
+def _is_terminal(stream: object) -> bool:
+    try:
+        return bool(stream.isatty())  # type: ignore[attr-defined]
+    except (AttributeError, ValueError):
+        return False
 
 
 # What a shell reports for a process its pipe's reader left, as `git log | head` does:

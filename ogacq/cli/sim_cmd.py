@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import contextlib
 import json
+import secrets
 import signal
 import threading
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -17,6 +19,7 @@ from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text
 from ogacq.campaign.station import simulator_endpoints, start_simulator
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     GaugeProtocol,
     JsonOption,
     ProfileChoice,
@@ -47,7 +50,8 @@ def sim(
     machine: Annotated[Path | None, typer.Option(
         "--machine", "-m", help="Machine file (default: the papers' prototype).")] = None,
     speed: Annotated[float, typer.Option(
-        min=0.01, help="Simulated time runs this many times faster than real time.")] = 1.0,
+        min=0.01, help="Simulated time runs this many times faster than real time.")
+    ] = DEFAULT_SPEED,
     gauge_protocol: Annotated[GaugeProtocol, typer.Option(
         help="What the simulated gauges speak.")] = GaugeProtocol[DEFAULT_PROTOCOL],
     gauge: Annotated[list[str] | None, typer.Option(
@@ -91,14 +95,20 @@ def sim(
         if write_campaign is not None:
             if machine is None:
                 assert machine_out is not None  # set above, beside the campaign file
+                # ogacq's own file: a serial of its own, so that the history tells this
+                # simulated machine from the demo's and from a real one of the same name
+                spec = replace(spec, serial=f"SIM-{secrets.token_hex(4).upper()}")
                 machine = write_machine(machine_out, spec,
                                         "written by `ogacq sim --write-campaign`")
+                typer.echo(f"ogacq sim: {machine_out} names the simulated machine "
+                           f"{spec.name!r} serial {spec.serial} (its identity in the "
+                           "history)", err=True)
             _write_campaign(write_campaign, stack, spec, machine, speed)
         info = stack.info()
         if as_json:
             typer.echo(json.dumps(info))
         else:
-            print_sim(info)
+            print_sim(info, write_campaign)
         try:
             while not done.wait(0.5):
                 pass

@@ -1,6 +1,5 @@
 """``ogacq`` as typer's group: every command, its help, completion and click's usage
-errors. ``ogacq.cli.app.main`` comes here for every command line the fast path
-(``ogacq.cli.fast_path``) does not take.
+errors. ``ogacq.cli.app.main`` comes here for every command line.
 
 Command modules define plain functions and never import this module; the group
 imports a command's module only when that command runs (``ogacq.cli.lazy``).
@@ -13,7 +12,6 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from typer._click.exceptions import NoArgsIsHelpError  # typer vendors its own click
 
 from ogacq import __version__
 from ogacq.cli.command_table import COMMANDS, EXIT_CODES, FILE_FORMATS
@@ -78,11 +76,12 @@ def run_app(argv: list[str]) -> int:
     except typer.Abort:
         print("ogacq: aborted", file=sys.stderr, flush=True)
         return 130
-    except NoArgsIsHelpError as exc:  # `ogacq`, `ogacq session`: the help
-        exc.show()
-        return exc.exit_code
     except typer.TyperException as exc:  # click's usage errors: a bad option or value
         ctx = getattr(exc, "ctx", None)
+        if ctx is not None and exc.format_message() == ctx.get_help():
+            # `ogacq`, `ogacq session` alone: click's "error" is the help, shown as is
+            typer.echo(exc.format_message(), err=True)
+            return exc.exit_code
         hint = f" (see `{ctx.command_path} --help`)" if ctx is not None else ""
         say("error", exc.format_message() + hint)
         return exc.exit_code

@@ -10,6 +10,7 @@ import typer
 from ogacq_drivers.indicators import DEFAULT_PROTOCOL
 from ogacq.cli.options import (
     DEFAULT_SEED,
+    DEFAULT_SPEED,
     GaugeProtocol,
     HistoryOption,
     IndicatorCount,
@@ -34,7 +35,8 @@ def wizard(
                             "the instruments.")] = False,
     seed: Annotated[int, seed_option("Simulator: seed of the hidden offsets (as demo and "
                                      "sim).")] = DEFAULT_SEED,
-    speed: Annotated[float, typer.Option(min=1.0, help="Simulator: time speed-up.")] = 20.0,
+    speed: Annotated[float, typer.Option(min=1.0, help="Simulator: time speed-up.")
+                     ] = DEFAULT_SPEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="Simulator: controller register map.")] = ProfileChoice["cia402"],
     machine: Annotated[Path | None, typer.Option(

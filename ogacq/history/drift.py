@@ -135,7 +135,7 @@ def changes(calibrations: Sequence[Calibration],
     as left (``written``: :func:`written_by_record`), with its U; those larger than it
     flagged."""
     out: list[Drift] = []
-    for before, after in zip(calibrations, calibrations[1:], strict=False):
+    for before, after in _judged_pairs(calibrations):
         wrote = (written or {}).get(before.record_id, {})
         moved_by = _moved(before, after)
         for name, now in after.parameters.items():
@@ -189,7 +189,9 @@ def controller_changes(calibrations: Sequence[Calibration],
     """Each pair of successive calibrations (oldest first) between which the controller's
     offsets in force moved by more than the write-backs recorded from the earlier."""
     out = []
-    for before, after in zip(calibrations, calibrations[1:], strict=False):
+    for before, after in _judged_pairs(calibrations):
+        if before.simulated or after.simulated:
+            continue  # each rehearsal may start a new simulator: a new controller
         moved = _moved(before, after)
         wrote = (written or {}).get(before.record_id, {})
         beyond = {name: m - wrote.get(name, 0.0) for name, m in moved.items()
@@ -201,6 +203,18 @@ def controller_changes(calibrations: Sequence[Calibration],
                 dict(after.offsets_in_force_mm),
                 {name: wrote.get(name, 0.0) for name in moved}, beyond))
     return out
+
+
+def _judged_pairs(calibrations: Sequence[Calibration],
+                  ) -> list[tuple[Calibration, Calibration]]:
+    """Successive calibrations, rehearsals kept apart from the machine's: each list
+    (real, simulated) compared within itself (a rehearsal between two calibrations of
+    the machine does not hide the change between them)."""
+    pairs = []
+    for simulated in (False, True):
+        kind = [c for c in calibrations if bool(c.simulated) == simulated]
+        pairs += list(zip(kind, kind[1:], strict=False))
+    return pairs
 
 
 def _moved(before: Calibration, after: Calibration) -> dict[str, float]:

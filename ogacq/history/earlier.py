@@ -45,13 +45,10 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
     this_id = session_record_id(session)
     this_date = context.date.isoformat() if context.date else ""
     with History.open(location, create=False) as history:
-        try:
-            machine = history.find_machine(context.machine_serial or context.machine_name)
-        except InputError:
-            try:
-                machine = history.find_machine(context.machine_name)
-            except InputError:
-                return [], None  # known history, nothing of this machine in it yet
+        machine = history.machine(context.machine_name.strip(),
+                                  (context.machine_serial or "").strip())
+        if machine is None:
+            return [], None  # known history, nothing of this machine in it yet
         entries = history.results_history(machine)
     return [e for e in entries
             if e["id"] != this_id and e.get("date") and e["date"] <= this_date], None

@@ -84,6 +84,12 @@ class Machine:
     def describe(self) -> str:
         return f"{self.name} (serial {self.serial})" if self.serial else self.name
 
+    @property
+    def label(self) -> str:
+        """How a person names this machine and no other of the same name: what
+        ``find_machine`` takes back."""
+        return self.describe() if self.serial else f"{self.name} (no serial)"
+
 
 @dataclass(frozen=True)
 class Calibration:
@@ -399,20 +405,34 @@ class History:
                                                             s.machines.c.serial)).all()
         return [Machine(r.id, r.name, r.serial) for r in rows]
 
-    def find_machine(self, name_or_serial: str) -> Machine:
-        """The machine of that name (or serial); InputError naming those there are."""
-        wanted = name_or_serial.strip()
-        known = self.machines()
-        found = [m for m in known if m.name == wanted] or \
-            [m for m in known if m.serial and m.serial == wanted]
+    def find_machine(self, typed: str) -> Machine:
+        """The one machine ``typed`` names (``find_machines``); InputError naming the
+        machines the history holds, or those the name fits, each as it can be typed."""
+        found = self.find_machines(typed)
         if len(found) == 1:
             return found[0]
         if found:
-            raise InputError(name_or_serial, "names several machines: "
-                             f"{', '.join(m.describe() for m in found)}; give the serial")
-        there = ", ".join(m.describe() for m in known) or "none yet"
-        raise InputError(name_or_serial, f"no such machine in history "
+            raise InputError(typed, f"names {len(found)} machines: "
+                             f"{', '.join(repr(m.label) for m in found)}; give one of "
+                             f"these (`ogacq history {found[0].label!r}`)")
+        there = ", ".join(m.label for m in self.machines()) or "none yet"
+        raise InputError(typed, f"no such machine in history "
                          f"{self.location.describe()} (machines: {there})")
+
+    def find_machines(self, typed: str) -> list[Machine]:
+        """The machines a person means by ``typed``: its label as ``ogacq history``
+        prints it ("NAME (serial SERIAL)", "NAME (no serial)"), else its serial, else
+        every machine of that name."""
+        wanted = typed.strip()
+        known = self.machines()
+        return ([m for m in known if m.label == wanted]
+                or [m for m in known if m.serial and m.serial == wanted]
+                or [m for m in known if m.name == wanted])
+
+    def machine(self, name: str, serial: str) -> Machine | None:
+        """The machine of exactly that identity (a record's), if the history has it."""
+        return next((m for m in self.machines() if (m.name, m.serial) == (name, serial)),
+                    None)
 
     def calibrations(self, machine: Machine) -> list[Calibration]:
         """The machine's calibrations, oldest first (by their campaign date)."""
@@ -522,7 +542,7 @@ class History:
                              "written to a controller: nothing of it to restore (`ogacq offsets "
                              "write SESSION` writes it)")
         raise InputError(wanted, f"no offsets state or calibration {wanted} for "
-                         f"{machine.describe()} (`ogacq history {machine.name} --states` "
+                         f"{machine.describe()} (`ogacq history {machine.label!r} --states` "
                          "lists them)")
 
 

@@ -22,6 +22,9 @@ REFERENCE_TEMPERATURE_C = 20.0
 # indicator's step 0.01 to 0.0001 mm and a length gauge's down to 0.00001 mm; its
 # repeatability lies in the same span (Mitutoyo catalogue, "Indicators"; no other source).
 GAUGE_STEP_RANGE_MM = (1e-6, 0.1)
+# No parallel machine's leg or travel is under a millimetre: such a value in the machine
+# file was written in metres (no source).
+MACHINE_LENGTH_FLOOR_MM = 1.0
 # Ball screws are made with leads from 1 mm (miniature screws) to 100 mm (high-helix
 # screws for fast axes): THK "Ball Screw" general catalogue, lead tables A15; a
 # gear or belt between motor and screw gives a motor revolution of the same order.
@@ -73,6 +76,11 @@ class MachineSpec:
     def problems(self) -> list[str]:
         """What makes this geometry impossible, in words (empty when fine)."""
         out = []
+        for key in ("leg_length_mm", "rho_min_mm", "rho_max_mm"):
+            value = getattr(self, key)
+            if 0 < abs(value) < MACHINE_LENGTH_FLOOR_MM:  # a leg, a travel shorter than 1 mm
+                out.append(f"{key} = {value:g} mm: metres? ({value * 1000:g} mm: the machine "
+                           "file's lengths are in millimetres)")
         if not self.leg_length_mm > 0:
             out.append(f"leg_length_mm must be positive, got {self.leg_length_mm}")
         if not self.rho_min_mm < 0 < self.rho_max_mm:
@@ -81,7 +89,7 @@ class MachineSpec:
         if self.leg_length_mm > 0 and max(abs(self.rho_min_mm), abs(self.rho_max_mm)) >= \
                 self.leg_length_mm:
             out.append("the Max/Min postures must lie within one leg length of the zero posture "
-                       f"(|rho| < {self.leg_length_mm})")
+                       f"(|rho| < {self.leg_length_mm} mm)")
         for key in ("gauge_resolution_mm", "gauge_repeatability_mm"):
             value = getattr(self, key)
             if value is None:

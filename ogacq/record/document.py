@@ -216,12 +216,22 @@ def _method(session: LoadedSession, result: FitResult | None,
             "noise_mm": number(result.noise.sigma_mm), "noise_source": result.noise.source},
         "software": _text(session.header.software),
         "record_software": f"ogacq {__version__}",
+        "controller": _controller(session),
         "decision_rule": (tolerances.get("decision_rule")
                           if isinstance(tolerances, Mapping) else None),
         # what the identified offsets are relative to (q = raw - o): the write-back
         # plans from it, the history compares calibrations by it
         **_offsets_in_force(session),
     }
+
+
+def _controller(session: LoadedSession) -> dict[str, Any]:
+    """The controller the campaign ran with: its profile and what each drive said it is
+    (Read Device Identification: vendor, product, revision; null where a drive did not
+    answer it, and the whole null for sessions recorded before it was asked)."""
+    controller = (session.header.station or {}).get("controller") or {}
+    return {"profile": _text(controller.get("profile")),
+            "identification": controller.get("identification")}
 
 
 def _offsets_in_force(session: LoadedSession) -> dict[str, Any]:

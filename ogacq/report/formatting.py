@@ -8,27 +8,17 @@ import math
 from typing import TypeGuard
 
 from ogacq.model.units import UM_PER_MM
-from ogacq.uncertainty.reporting import expanded_mm, result_entry, result_headline
+from ogacq.uncertainty.reporting import (  # the console's rule too
+    decimals_for,
+    expanded_mm,
+    measure,
+    result_entry,
+    result_headline,
+)
 
 
 def finite(x: float | None) -> TypeGuard[float]:
     return x is not None and math.isfinite(x)
-
-
-def decimals_for(std: float | None, default: int = 4) -> int:
-    """Decimals that show the std to two significant digits (0 to 6)."""
-    if not finite(std) or std <= 0:
-        return default
-    return max(0, min(6, 1 - math.floor(math.log10(std))))
-
-
-def measure(value: float, std: float | None, unit: str) -> str:
-    """``+0.03586 ± 0.00057 mm``; a value the data do not determine (infinite or unknown
-    std) reads ``not determined``: the fit's number for it is arbitrary."""
-    if not finite(value) or not finite(std):
-        return "not determined"
-    digits = decimals_for(std)
-    return f"{value:+.{digits}f} ± {std:.{digits}f} {unit}"
 
 
 def signed(value: float | None, digits: int = 4) -> str:

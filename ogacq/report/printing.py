@@ -25,11 +25,17 @@ QUIET_FLAGS = ("--headless", "--disable-gpu", "--disable-quic", "--no-first-run"
 
 
 class PrintError(OgacqError):
-    """The PDF could not be printed: no browser, or the browser failed. A fault of the
-    station, not of the user's input (exit 3, like a disk that cannot be written);
-    the HTML report is written before and stays."""
+    """The browser failed to print the PDF: a fault of the station (exit 3, like a disk
+    that cannot be written); the HTML report is written before and stays."""
 
     exit_code = 3
+
+
+class NoBrowser(PrintError):
+    """No browser to print with: the station's set-up, found before any work starts
+    (exit 2, as a missing file is)."""
+
+    exit_code = 2
 
 
 def find_browser() -> str:
@@ -39,16 +45,17 @@ def find_browser() -> str:
     if named:
         found = shutil.which(named)
         if found is None:
-            raise PrintError(f"{BROWSER_ENV}={named} is not an executable browser: "
-                             "cannot print the PDF")
+            raise NoBrowser(f"{BROWSER_ENV}={named} is not an executable browser: "
+                            "cannot print the PDF")
         return found
     for name in BROWSER_NAMES:
         found = shutil.which(name)
         if found is not None:
             return found
-    raise PrintError(f"no Chromium found to print the PDF (looked for {', '.join(BROWSER_NAMES)} "
-                     f"on the PATH, and {BROWSER_ENV}); install Chromium (Debian: apt-get "
-                     "install chromium) or print report.html from a browser")
+    raise NoBrowser(f"no Chromium found to print the PDF (looked for {', '.join(BROWSER_NAMES)} "
+                    f"on the PATH, and {BROWSER_ENV}); install Chromium (Debian: apt-get "
+                    "install chromium), or leave out --pdf and print report.html from a "
+                    "browser")
 
 
 def browser_flags(user_data_dir: str | Path) -> list[str]:

@@ -243,7 +243,7 @@ def _per_axis(fields: tuple[Field, ...], build: Callable[..., Any]) -> MapOf:
 MIN_SCREW_PITCH_MM = 0.1
 EFFECTS_FILE = Table((
     *(Field(e.name, MapOf(number(minimum=e.nominal - e.plausible_range,
-                                 maximum=e.nominal + e.plausible_range),
+                                 maximum=e.nominal + e.plausible_range, unit=e.unit),
                           keys=e.wheres, noun="entry"))
       for e in EFFECTS),
     Field("gauges", Table((Field("noise_mm", number(minimum=0.0, maximum=1.0)),))),

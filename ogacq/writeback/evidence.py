@@ -114,7 +114,9 @@ def evidence_of(session: LoadedSession, result: FitResult, verdict: Verdict, mod
         residual_rms_mm=result.residual_rms_mm, readings=len(session.readings),
         finished=session.finished, in_force_mm=in_force.offsets_mm,
         in_force_consistent=in_force.consistent,
-        profile=controllers[0].get("profile"), port=controllers[0].get("port"),
+        # the profile's own name (a profile file is recorded by its path as well)
+        profile=controllers[0].get("profile_name") or controllers[0].get("profile"),
+        port=controllers[0].get("port"),
         model=model, uncompensated=uncompensated, outliers=described_outliers(result))
 
 

@@ -162,9 +162,9 @@ def _refuse_inconsistent(evidence: Evidence, facts: ControllerFacts) -> Refusal 
     if evidence.verdict.consistent:
         return None
     hint = ("the model leaves something out" if evidence.uncompensated else
-            "the joint-offset model leaves something out (run `ogacq diagnose` on the "
-            "session; when it explains the readings, `--from-diagnosis` writes the "
-            "offsets of its model)")
+            "the joint-offset model leaves something out (run `ogacq diagnose "
+            f"{evidence.session_path}`; when it explains the readings, `--from-diagnosis` "
+            "writes the offsets of its model)")
     return Refusal("inconsistent" if evidence.verdict.judged else "unjudged",
                    f"{evidence.model} fit: {evidence.verdict.describe()}; {hint}")
 
@@ -177,7 +177,7 @@ def _refuse_outliers(evidence: Evidence, facts: ControllerFacts) -> Refusal | No
                    f"{'its' if one else 'their'} repeats, which agree among themselves "
                    f"(a misread, or the gauge knocked between cycles): "
                    f"{'; '.join(evidence.outliers)}; check the setup and run the campaign "
-                   "again (`ogacq diagnose` on the session says more)")
+                   f"again (`ogacq diagnose {evidence.session_path}` says more)")
 
 
 def _refuse_other_profile(evidence: Evidence, facts: ControllerFacts) -> Refusal | None:

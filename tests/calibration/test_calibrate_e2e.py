@@ -202,6 +202,7 @@ def test_killed_at_two_points_it_resumes_to_the_same_end(straight, tmp_path):
 
 
 def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatch, capsys):
+    monkeypatch.setenv("COLUMNS", "250")  # its end wraps at the terminal's width
     made = procedure.compensation_of
 
     def wrong_sign(*args, **kwargs):

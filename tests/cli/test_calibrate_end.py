@@ -47,7 +47,8 @@ def test_without_a_page_the_report_command_issues_it():
     assert [s.command for s in steps] == [f"ogacq report {FOLDER / 'calibration.jsonl'}"]
 
 
-def test_the_end_names_the_record_and_the_next_command(capsys):
+def test_the_end_names_the_record_and_the_next_command(capsys, monkeypatch):
+    monkeypatch.setenv("COLUMNS", "200")  # at 80 columns the last line wraps between words
     print_outcome(outcome("validated"), REPORT)
     out = capsys.readouterr().out.splitlines()
     assert out == ["calibration C-20261128-bd947c: validated: the reason",
@@ -60,3 +61,16 @@ def test_a_restore_ends_on_stderr(capsys):
     captured = capsys.readouterr()
     assert captured.out == ""
     assert "next: ogacq diagnose" in captured.err and RECORD["id"] in captured.err
+
+
+def test_a_long_refusal_fits_80_columns_between_words(capsys, monkeypatch):
+    """The refusal was one line of some 600 characters, cut mid-word by the terminal."""
+    monkeypatch.setenv("COLUMNS", "80")
+    reason = " ".join(["the validation fit is not within the noise and its misfit grew"] * 8)
+    done = Outcome(FOLDER, "C-20261128-bd947c", "refused", reason,
+                   evidence=FOLDER / "calibration.jsonl", record=RECORD)
+    print_outcome(done, REPORT)
+    err = capsys.readouterr().err
+    assert err.splitlines() and all(len(line) <= 80 for line in err.splitlines()), err
+    assert " ".join(err.split()).startswith(f"calibration C-20261128-bd947c: refused, "
+                                            f"nothing written: {reason}")

@@ -7,7 +7,9 @@ from tests.cli.helpers import run_ogacq
 from tests.recovery import recovered
 
 
-def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_home):
+def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_home,
+                                                              monkeypatch):
+    monkeypatch.setenv("COLUMNS", "250")  # rich folds a path wider than the terminal
     effects = tmp_path / "effects.toml"
     effects.write_text("[squareness]\nxy = 0.5\n")
     out = tmp_path / "demo"

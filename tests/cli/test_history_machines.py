@@ -37,5 +37,8 @@ def test_the_machines_are_listed_with_their_calibrations(tmp_path, capsys):
     assert f"machines in history {path}" in text
     assert "OG-1 cell 3 (serial OG-2026-0017): 0 calibrations" in text
     assert f"{golden['name']}" in text and "1 calibration, the last " in text
+    # the golden session's machine has no serial: its label says so, and what gives one
+    assert f"{golden['name']} (no serial): 1 calibration" in text
+    assert "a machine with no serial is filed by its name alone" in " ".join(text.split())
     assert main(["history", "--history", str(path), "--states"]) == 2
     assert "is about one machine" in capsys.readouterr().err

@@ -9,7 +9,7 @@ import subprocess
 import sys
 
 from ogacq.cli.app import OgacqCommands
-from ogacq.cli.lazy import LazyCommandSpec, LazyGroupSpec, load_function, one_paragraph_lines
+from ogacq.cli.lazy import LazyCommandSpec, LazyGroupSpec, import_target, one_paragraph_lines
 
 PROBE = """
 import json, sys
@@ -55,5 +55,5 @@ def test_each_summary_is_its_commands_first_paragraph():
     must not drift apart."""
     for name, spec in OgacqCommands.table.items():
         if isinstance(spec, LazyCommandSpec):
-            doc = one_paragraph_lines(load_function(spec.target).__doc__) or ""
+            doc = one_paragraph_lines(import_target(spec.target).__doc__) or ""
             assert spec.summary == doc.split("\n\n")[0], name

@@ -53,9 +53,9 @@ def test_a_broken_pipe_elsewhere_is_an_error_with_its_line(tmp_path, monkeypatch
     # standard output is read (pytest's capture): the broken pipe is a device's
     from ogacq.cli import app
 
-    def broken() -> None:
+    def broken(argv: list[str]) -> int:
         raise BrokenPipeError(32, "Broken pipe")
 
-    monkeypatch.setattr(app, "fast_call", lambda argv: broken)
+    monkeypatch.setattr(app, "_run", broken)
     assert app.main(["refit", TABLE]) == 3
     assert capsys.readouterr().err == "ogacq: error: Broken pipe\n"

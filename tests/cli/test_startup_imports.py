@@ -1,9 +1,8 @@
 """What a 72-reading ``refit`` and ``diagnose`` import (issue 27's start-up): kept by
 *what* is loaded, never by a timing. The modules named here are each milliseconds of
-a command whose whole run is about 0.15 s (refit) and 0.25 s (diagnose): the terminal
-rendering (rich) under --json, numpy's masked arrays (np.unique's and np.median's
-plain calls), OpenSSL's hashes, tempfile, the protocol for a readings refit, and logging
-when a CSV is analysed (nothing logs)."""
+a short analysis: rich's tables under --json, numpy's masked arrays (np.unique's and
+np.median's plain calls), OpenSSL's hashes, tempfile, the protocol for a readings
+refit."""
 
 from __future__ import annotations
 
@@ -15,7 +14,6 @@ from pathlib import Path
 
 import pytest
 
-from ogacq.cli.fast_path import NO_FAST_PATH
 from ogacq.io.tables import write_readings
 from tests.diagnose.campaigns import layout, simulate
 from tests.diagnose.test_diagnose_cli import MACHINE_TOML
@@ -29,10 +27,8 @@ code = main(sys.argv[1:])
 print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 """
 
-# typer (and its click) too: refit and diagnose take the fast path (cli/fast_path.py)
-NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile", "typer", "click")
-# nothing logs when a CSV is analysed: logging waits for the first logger (ogacq/logs.py)
-NOT_FOR_A_CSV = ("logging",)
+# the page and its figures (matplotlib: most of a second) are the report's alone
+NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile", "matplotlib", "ogacq.report")
 
 
 @pytest.fixture(scope="module")
@@ -82,16 +78,11 @@ def loaded(modules: set[str], prefixes: tuple[str, ...]) -> set[str]:
 
 def test_refit_of_readings(readings):
     as_json = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml", "--json")
-    assert not loaded(as_json, ("rich", "ogacq.protocol", "ogacq.diagnose", *NEVER,
-                                *NOT_FOR_A_CSV))
-    # its text to a pipe: written as rich would, without rich (cli/text_out.py)
+    assert not loaded(as_json, ("rich.table", "ogacq.protocol", "ogacq.diagnose", *NEVER))
+    # its text: rich draws it, to a pipe as to a terminal
     to_pipe = modules_after("refit", readings / "r.csv", "-m", readings / "m.toml")
-    assert not loaded(to_pipe, ("rich", "ogacq.protocol", *NEVER, *NOT_FOR_A_CSV))
-    # to a terminal (FORCE_COLOR makes rich take the pipe for one): rich draws it
-    on_terminal, _ = run("refit", readings / "r.csv", "-m", readings / "m.toml",
-                         env={"FORCE_COLOR": "1"})
-    assert "rich.table" in on_terminal  # the probe sees what the command loads
-    assert not loaded(on_terminal, ("ogacq.protocol", *NEVER))
+    assert "rich.table" in to_pipe  # the probe sees what the command loads
+    assert not loaded(to_pipe, ("ogacq.protocol", *NEVER))
 
 
 def test_diagnose_of_readings(readings):
@@ -102,24 +93,20 @@ def test_diagnose_of_readings(readings):
     diagnosis = json.loads(printed)
     assert diagnosis["effects"]
     assert any(p["measurement"] == "scan" for p in diagnosis["proposals"]), printed
-    assert not loaded(as_json, ("rich", *NEVER, *NOT_FOR_A_CSV))
-    # its text to a pipe, the search table shrunk to 80 columns: without rich
+    assert not loaded(as_json, ("rich.table", *NEVER))
     assert not loaded(modules_after("diagnose", readings / "r.csv", "-m",
-                                    readings / "m.toml"), ("rich", *NEVER, *NOT_FOR_A_CSV))
+                                    readings / "m.toml"), NEVER)
 
 
-def test_a_session_warns_on_the_fast_path_as_on_typers(tmp_path):
-    """A session's warning (a torn last record) on refit's fast path, where logging is
-    imported only when the session's loader makes its logger: one line, as every
-    command prints a warning (the terminal's handler installed before that record)."""
+def test_a_session_warns_in_one_line(tmp_path):
+    """A session's warning (a torn last record) on refit: one line, as every command
+    prints a warning (the terminal's handler installed before that record)."""
     torn = tmp_path / "torn.jsonl"
     torn.write_bytes(GOLDEN_SESSION.read_bytes() + b'{"seq": 99, "kind": "rea')
     line = len(GOLDEN_SESSION.read_bytes().splitlines()) + 1
-    for env in ({}, {NO_FAST_PATH: "1"}):
-        proc = subprocess.run([sys.executable, "-m", "ogacq", "refit", torn, "--json"],
-                              capture_output=True, text=True, timeout=120,
-                              env={**os.environ, **env})
-        assert proc.returncode == 0, proc.stderr
-        assert proc.stderr.splitlines() == [
-            f"ogacq: warning: {torn}:{line}: dropped a torn last record (24 bytes: "
-            """'{"seq": 99, "kind": "rea')"""], (env, proc.stderr)
+    proc = subprocess.run([sys.executable, "-m", "ogacq", "refit", torn, "--json"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.splitlines() == [
+        f"ogacq: warning: {torn}:{line}: dropped a torn last record (24 bytes: "
+        """'{"seq": 99, "kind": "rea')"""], proc.stderr

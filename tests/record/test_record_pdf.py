@@ -32,20 +32,22 @@ def test_report_pdf_prints_the_record(campaign_sessions, tmp_path):
     assert not list(out.glob(".*partial"))
 
 
-def test_without_a_browser_the_page_is_written_and_the_pdf_refused(campaign_sessions, tmp_path,
-                                                                  monkeypatch, capsys):
+def test_without_a_browser_the_pdf_is_refused_before_any_work(campaign_sessions, tmp_path,
+                                                             monkeypatch, capsys):
+    """The station's set-up, like a missing file: exit 2 before the report's seconds of
+    work, and nothing written (issue 38.8: it was exit 3, after the page)."""
     monkeypatch.setenv("PATH", str(tmp_path / "empty"))  # no browser on it
     monkeypatch.delenv(BROWSER_ENV, raising=False)
     out = tmp_path / "out"
-    assert main(["report", str(campaign_sessions[0]), "--out", str(out), "--pdf"]) == 3
+    assert main(["report", str(campaign_sessions[0]), "--out", str(out), "--pdf"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("ogacq: error: no Chromium found to print the PDF")
     assert len(err.splitlines()) == 1 and "apt-get install chromium" in err
-    assert (out / "report.html").exists() and (out / "record.json").exists()
-    assert not (out / "report.pdf").exists()
+    assert "leave out --pdf" in err
+    assert not (out / "report.html").exists() and not (out / "report.pdf").exists()
 
     monkeypatch.setenv(BROWSER_ENV, str(tmp_path / "no-such-browser"))
     assert main(["report", str(campaign_sessions[0]), "--out", str(tmp_path / "b"),
-                 "--pdf"]) == 3
+                 "--pdf"]) == 2
     assert f"{BROWSER_ENV}={tmp_path / 'no-such-browser'} is not an executable" in \
         capsys.readouterr().err

@@ -13,7 +13,7 @@ import pytest
 
 from ogacq.campaign.campaign_file import read_campaign
 from ogacq.record.context import calibration_context
-from ogacq.session.records import EndRecord, FaultRecord, OperatorRecord
+from ogacq.session.records import EndRecord, FaultRecord, OffsetsRecord, OperatorRecord
 from ogacq.session.store import load_session
 from tests.wizard.terminal import SHOWN, Wizard
 
@@ -56,7 +56,8 @@ def test_full_guided_calibration_to_a_result(tmp_path, wizards):
     w.expect(r"identifiable: every offset is determined")
     w.verdict()
     w.expect(r" \(.* test, combined p = ")
-    w.answer(r"Write these offsets to the controller now\?", "n")
+    # one confirmation, the write-back's own (it was asked twice: issue 38.3)
+    w.answer(r"Write these offsets to the controller and re-home", "n")
     w.expect(r"Not written \(rehearsal")
     w.expect(r"ogacq offsets write SESSION")
     # the record offered, written; no validation offered (nothing was written)
@@ -113,7 +114,6 @@ def test_two_indicators_moved_from_leg_to_leg(tmp_path, wizards):
     # the write-back, then the save offered (the profile can): declined, and said what
     # a power cycle then does before the job is called complete
     w.verdict()
-    w.answer(r"Write these offsets to the controller now\?", "y")
     w.answer(r"Write these offsets to the controller and re-home", "y")
     w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
     w.expect(r"not in the drive's non-volatile")
@@ -204,6 +204,38 @@ def test_ctrl_c_pauses_resumes_then_quits_and_ogacq_resume_completes(tmp_path, w
     session = load_session(w.session)
     keys = [(r.step, r.gauge.key) for r in session.readings]
     assert session.finished and len(keys) == len(set(keys)) == 24
+
+
+def test_a_rehearsal_quit_at_its_result_writes_and_validates_when_resumed(tmp_path, wizards):
+    """Ctrl-C after the result, then `ogacq wizard --resume`: the write-back answered
+    yes wrote nothing (the session's campaign file starts a simulator inside each
+    command: exit 2) and named a command that failed the same way. Resumed, the
+    rehearsal's simulator starts again, the write asks once, and the validation runs."""
+    w = start(wizards, tmp_path / "run", "--cycles", "1")
+    w.connect_with_defaults()
+    w.measure_in_place(8)
+    w.end_temperature()
+    w.verdict()
+    w.answer(r"Write these offsets to the controller and re-home", "n")
+    w.expect(r"Write the calibration record now")
+    w.ctrl_c()
+    w.answer(r"Resume or quit\?", "q")
+    assert w.finish() == 130
+
+    again = start(wizards, tmp_path / "run", resume=w.session)
+    again.verdict()
+    again.answer(r"Write these offsets to the controller and re-home", "y")
+    again.answer(r"Save them to the drive's non-volatile memory too\?", "n")
+    again.answer(r"Write the calibration record now", "n")
+    again.answer(r"Run a validation campaign now", "y")
+    again.expect(r"Validation campaign, recorded in ")
+    again.measure_in_place(8)
+    again.end_temperature()
+    again.expect(r"Offsets remaining after the write-back from 24 readings")
+    again.expect(r"Calibration campaign complete")
+    assert again.finish() == 0
+    stages = [r.stage for r in load_session(w.session).of_type(OffsetsRecord)]
+    assert stages == ["declined", "intent", "done"]
 
 
 def test_dial_indicators_read_by_eye_out_of_range_refused_then_accepted(tmp_path, wizards):
@@ -385,7 +417,6 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     # into session-2.jsonl, one stop to check the six gauges, what remains of the
     # offsets, and the record issued again as found and as left (its revision 2)
     w.verdict()
-    w.answer(r"Write these offsets", "y")
     w.answer(r"Write these offsets to the controller and re-home", "y")
     w.answer(r"Save them to the drive's non-volatile memory too\?", "n")
     w.answer(r"Write the calibration record now", "y")

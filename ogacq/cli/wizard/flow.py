@@ -39,7 +39,7 @@ from ogacq.campaign.run import CampaignOutcome, gauges_read_by_eye
 from ogacq.campaign.station import DeviceStation
 from ogacq.campaign.traceability import simulated_gauges
 from ogacq.cli.campaign_end import CampaignEnd, NextStep, campaign_end
-from ogacq.cli.options import DEFAULT_SEED
+from ogacq.cli.options import DEFAULT_SEED, DEFAULT_SPEED
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
@@ -104,7 +104,7 @@ EXIT_QUIT = 130
 class WizardOptions:
     simulator: bool = False
     seed: int = DEFAULT_SEED
-    speed: float = 20.0
+    speed: float = DEFAULT_SPEED
     profile: str = "cia402"
     machine: Path | None = None
     out: Path | None = None
@@ -194,7 +194,10 @@ class _Wizard:
             written = offer_writeback(s, outcome.session_path, writable, controller_file,
                                       rehearsal=rehearsal, history=self.options.history)
         except (KeyboardInterrupt, OperatorQuit):
-            s.say(f"\nNot written. Later: ogacq offsets write {shown(outcome.session_path)}")
+            s.say("\nNot written" + (" (rehearsal: the simulated controller stops with the "
+                                     "wizard)." if rehearsal else
+                                     f". Later: ogacq offsets write "
+                                     f"{shown(outcome.session_path)}"))
         folder = outcome.session_path.parent / "report"
         report: Path | None = None
         validation: CampaignOutcome | None = None
@@ -373,6 +376,16 @@ class _Wizard:
         s.say("[bold]ogacq wizard[/]: continuing a campaign.")
         s.say(f"{shown(session.path)}: {len(session.readings)} readings recorded.")
         if session.finished:
+            if h.simulator is not None:
+                # a rehearsal stopped at its result: its simulator again (the same seed,
+                # the offsets as before the write), so the write-back and the validation
+                # the wizard offers have a controller, as in the rehearsal itself
+                self._start_rehearsal(cleanup, campaign,
+                                      SimulatorSpec.from_header(dict(h.simulator)))
+                assert self.rehearsal is not None
+                campaign.controller = self.rehearsal.controller
+                campaign.gauges = list(self.rehearsal.gauges)
+                self.campaign = campaign
             return CampaignOutcome(session.path, identify_session(session), None)
         check_writable(session.path, resuming=True)  # before the operator checks anything
         station = ([r.description for r in session.of_type(StationRecord)]

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -76,22 +75,6 @@ def show_result(screen: Screen, outcome: CampaignOutcome, record: Mapping[str, A
     return writable
 
 
-def _writeback_command_exists() -> bool:
-    """``ogacq offsets write`` is there (it is being built beside the wizard)."""
-    if importlib.util.find_spec("ogacq.writeback") is None:
-        return False
-    try:
-        import typer.main
-
-        from ogacq.cli.app import app
-
-        group = typer.main.get_command(app)
-        offsets = getattr(group, "commands", {}).get("offsets")
-        return offsets is not None and "write" in getattr(offsets, "commands", {})
-    except Exception:
-        return False
-
-
 def offer_writeback(screen: Screen, session: Path, writable: bool,
                     campaign: Path | None = None, rehearsal: bool = False,
                     history: str | None = None) -> bool:
@@ -110,22 +93,22 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
         screen.say(f"When the cause is fixed and a new campaign is consistent, write the "
                    f"offsets with: {shown(typed)}")
         return False
-    if not _writeback_command_exists():
-        screen.say(f"To write these offsets to the controller, run:\n  [bold]{shown(typed)}[/]")
-        return False
-    if not screen.confirm("Write these offsets to the controller now? (the old and new "
-                          "values are shown before anything is written)", default=False):
-        if rehearsal:
-            screen.say("Not written (rehearsal: the simulated controller stops with the "
-                       "wizard). On the machine: [bold]ogacq offsets write SESSION[/]")
-        else:
-            screen.say(f"Not written. Later: [bold]{shown(typed)}[/]")
-        return False
+    # one confirmation: the write-back's own, once it has shown the old and new values
+    screen.say("The write-back: the controller's offsets and the new ones, then your "
+               "confirmation.")
     from ogacq.cli.app import main
+    from ogacq.cli.offsets_cmd import EXIT_DECLINED
 
     code = main(command)
+    later = ("rehearsal: the simulated controller stops with the wizard; on the machine, "
+             "[bold]ogacq offsets write SESSION[/]" if rehearsal else
+             f"later: [bold]{shown(typed)}[/]")
+    if code == EXIT_DECLINED:
+        screen.say(f"Not written ({later}).")
+        return False
     if code != 0:
-        screen.problem(f"the write-back stopped (exit {code}); run it again with: {typed}")
+        screen.problem(f"the write-back stopped (exit {code}): nothing more is written "
+                       f"here ({later})")
         return False
     _say_what_a_power_cycle_does(screen, session, rehearsal)
     return True

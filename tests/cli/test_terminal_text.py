@@ -1,0 +1,166 @@
+"""One rendering layer for terminal text (issues 38.6 and 35.7): rich wraps every line
+at the terminal's width between words, stderr's errors included, and no module
+leans on a private (``_``-prefixed) name of typer, click or rich.
+
+At 80 columns no line the commands write is wider than the terminal: a wider one is
+cut by the terminal wherever the 80th column falls, mid-word ("cam-paign"), which is
+what a technician saw at the end of a run and in the errors."""
+
+from __future__ import annotations
+
+import ast
+import fcntl
+import os
+import struct
+import subprocess
+import sys
+import termios
+from pathlib import Path
+
+import pytest
+
+from tests.campaign.conftest import write_campaign
+
+ROOT = Path(__file__).resolve().parents[2]
+PAPER = ROOT / "ogacq" / "examples" / "paper"
+WIDTH = 80
+PRIVATE_OF = ("typer", "click", "rich")
+
+
+def private_names(path: Path) -> list[str]:
+    """The ``_``-prefixed modules or names of typer, click or rich ``path`` imports."""
+    found = []
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.ImportFrom) and node.module:
+            parts = node.module.split(".")
+            if parts[0] in PRIVATE_OF and (
+                    any(p.startswith("_") for p in parts)
+                    or any(a.name.startswith("_") for a in node.names)):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno} from {node.module}")
+        elif isinstance(node, ast.Import):
+            found += [f"{path.relative_to(ROOT)}:{node.lineno} import {a.name}"
+                      for a in node.names if a.name.split(".")[0] in PRIVATE_OF
+                      and any(p.startswith("_") for p in a.name.split("."))]
+    return found
+
+
+def test_no_private_name_of_typer_click_or_rich_is_imported():
+    sources = [*(ROOT / "ogacq").rglob("*.py"), *(ROOT / "drivers").rglob("*.py")]
+    assert [hit for path in sources for hit in private_names(path)] == []
+
+
+def on_terminal(*args: object, columns: int = WIDTH, term: str = "dumb") -> tuple[int, str]:
+    """``ogacq ARGS`` with stdout and stderr on a pseudo-terminal ``columns`` wide: its
+    exit code and what the terminal received."""
+    controller, terminal = os.openpty()
+    fcntl.ioctl(terminal, termios.TIOCSWINSZ, struct.pack("HHHH", 24, columns, 0, 0))
+    env = {k: v for k, v in os.environ.items() if k not in ("COLUMNS", "LINES")}
+    proc = subprocess.Popen([sys.executable, "-m", "ogacq", *map(str, args)],
+                            stdin=subprocess.DEVNULL, stdout=terminal, stderr=terminal,
+                            env={**env, "TERM": term})
+    os.close(terminal)
+    received = b""
+    while True:
+        try:
+            chunk = os.read(controller, 65536)
+        except OSError:  # EIO: the process closed the terminal's last descriptor
+            break
+        if not chunk:
+            break
+        received += chunk
+    os.close(controller)
+    return proc.wait(60), received.decode("utf-8", "replace").replace("\r\n", "\n")
+
+
+def too_wide(text: str, columns: int = WIDTH) -> list[str]:
+    return [line for line in text.splitlines() if len(line) > columns]
+
+
+@pytest.mark.parametrize("args", [
+    ["refit", PAPER / "experiment2_12.csv", "--machine", PAPER / "machine.toml"],
+    ["diagnose", PAPER / "experiment2_12.csv", "--machine", PAPER / "machine.toml"],
+    ["session", "--help"],
+])
+def test_a_command_fits_the_terminal(args):
+    code, text = on_terminal(*args)
+    assert code == 0, text
+    assert too_wide(text) == [], text
+    # a summary cut short: `session --help` cut its commands' at 45 characters
+    assert [line for line in text.splitlines()[1:] if line.endswith("...")] == []
+
+
+def test_an_error_wraps_between_words_on_a_terminal_and_is_one_line_to_a_pipe(tmp_path):
+    missing = tmp_path / "a-folder-with-a-rather-long-name-as-shop-floor-paths-have"
+    code, text = on_terminal("refit", missing / "readings.csv", "--machine",
+                             PAPER / "machine.toml")
+    assert code == 2 and too_wide(text) == [] and len(text.splitlines()) > 1, text
+    assert " ".join(text.split()).startswith("ogacq: error: ")
+    piped = subprocess.run([sys.executable, "-m", "ogacq", "refit", missing / "readings.csv",
+                            "--machine", PAPER / "machine.toml"], capture_output=True,
+                           text=True, timeout=60)
+    assert piped.returncode == 2 and piped.stderr.count("\n") == 1  # a log's one line
+
+
+def test_the_end_of_a_run_fits_80_columns(tmp_path):
+    """The verdict, the record and the next commands, as the issue found them cut."""
+    campaign = write_campaign(tmp_path / "c", seed=3, extra="cycles = 1\n[stability]\n"
+                                                            "readings = 2\n")
+    ran = subprocess.run([sys.executable, "-m", "ogacq", "run", campaign, "--history",
+                          "none"], capture_output=True, text=True, timeout=300,
+                         env={**os.environ, "COLUMNS": str(WIDTH)})
+    assert ran.returncode == 0, ran.stderr
+    end = ran.stdout[ran.stdout.index("verdict:"):]
+    assert too_wide(end) == [], end
+    assert "next: ogacq" in end
+
+
+def test_a_rehearsal_has_one_seed_and_one_pace_and_the_readme_says_them():
+    """--speed was 1 (sim), 20 (wizard) and 25 (demo, calibrate)."""
+    import inspect
+
+    from ogacq.cli.calibrate_cmd import calibrate
+    from ogacq.cli.demo_cmd import demo
+    from ogacq.cli.options import DEFAULT_SEED, DEFAULT_SPEED
+    from ogacq.cli.sim_cmd import sim
+    from ogacq.cli.wizard_cmd import wizard
+
+    for command in (demo, calibrate, sim, wizard):
+        defaults = {n: p.default for n, p in inspect.signature(command).parameters.items()}
+        assert (defaults["seed"], defaults["speed"]) == (DEFAULT_SEED, DEFAULT_SPEED), command
+    table = (ROOT / "README.md").read_text(encoding="utf-8").split("## Defaults", 1)[1]
+    assert f"| `--speed` | {DEFAULT_SPEED:g} " in table and \
+        f"| `--seed` | {DEFAULT_SEED} " in table
+
+
+def test_every_value_with_its_std_is_at_the_std_s_decimal_place(capsys):
+    """One rounding rule on the console as on the page (the demo's effect read
+    "+382.6237 ± 23.8388 ppm" on the console, "+383 ± 24 ppm" on the page): the value
+    at its std's decimal place, the std to two significant digits."""
+    import re
+
+    from ogacq.cli.app import main
+
+    assert main(["diagnose", str(PAPER / "experiment2_12.csv"), "--machine",
+                 str(PAPER / "machine.toml")]) == 0
+    pairs = re.findall(r"([+-]\d+(?:\.(\d+))?) ± (\d+(?:\.(\d+))?)",
+                       " ".join(capsys.readouterr().out.split()))
+    assert pairs
+    for value, value_decimals, std, std_decimals in pairs:
+        assert len(value_decimals) == len(std_decimals), (value, std)
+        assert len(std.replace(".", "").lstrip("0")) == 2, std
+
+
+def test_report_says_what_it_is_doing_on_a_terminal_only(tmp_path):
+    """`ogacq report` was silent for 15-18 s: on a terminal a spinner names the step;
+    to a pipe its output is the page's path alone, as before."""
+    session = ROOT / "tests" / "golden" / "session.jsonl"
+    code, text = on_terminal("report", session, "--out", tmp_path / "t", "--history", "none",
+                             term="xterm")
+    assert code == 0, text
+    assert "issuing the record" in text and "diagnosing session.jsonl" in text
+    piped = subprocess.run([sys.executable, "-m", "ogacq", "report", session, "--out",
+                            tmp_path / "p", "--history", "none"], capture_output=True,
+                           text=True, timeout=300)
+    assert piped.returncode == 0, piped.stderr
+    assert "issuing" not in piped.stdout + piped.stderr
+    assert piped.stdout.strip() == str(tmp_path / "p" / "report.html")
