@@ -206,8 +206,10 @@ def evidence_for(diagnosis: Diagnosis, session: LoadedSession,
     return evidence_of(session, diagnosis.final_fit, diagnosis.final, model, stay, shift_mm)
 
 
-def export(folder: Path, comp: Compensation, title: str) -> list[dict[str, Any]]:
-    """Every table format of the new maps into ``folder/tables``."""
+def export(folder: Path, comp: Compensation, title: str,
+           formats: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
+    """The table formats chosen (None: every one) of the new maps into ``folder/tables``."""
     if not comp.maps:
         return []
-    return [e.to_json() for e in export_tables(folder / TABLES_FOLDER, comp.maps, title=title)]
+    return [e.to_json() for e in export_tables(folder / TABLES_FOLDER, comp.maps, title=title,
+                                               formats=formats)]

@@ -260,7 +260,8 @@ class Procedure:
         comp = compensation_of(diagnosis, evidence, self.setup.machine, register)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")
-        comp = replace(comp, tables=export(self.setup.folder, comp, title))
+        comp = replace(comp, tables=export(self.setup.folder, comp, title,
+                                           self.controller.tables))
         if comp.maps and self.controller.maps_file is None:
             self.ui.say("the controller names no maps_file: the maps are exported as tables "
                         "only (add maps_file to [controller] for ogacq to apply them); what "

@@ -35,6 +35,8 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
     maps_file = "maps.json"           # error maps ogacq applies to every target it
                                       # commands (the drives hold no table), written by
                                       # `ogacq calibrate`
+    tables = ["linuxcnc", "csv"]      # the compensation table formats `ogacq calibrate`
+                                      # writes (ogacq.compensation.formats); default all
     [[gauges]]
     gauge = "y_x"                     # along y on the x leg
     protocol = "mitutoyo-01a"         # a protocol of ogacq_drivers.indicators.BACKENDS
@@ -115,6 +117,7 @@ from ogacq_drivers.config_schema import (
     whole,
 )
 from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL, same_indicator
+from ogacq.compensation.formats import TABLE_FORMATS
 from ogacq.io.dates import local_moment, moment_or_none
 from ogacq.io.errors import InputError
 from ogacq.io.machine_file import read_machine
@@ -224,6 +227,8 @@ class ControllerSpec:
     # An axis that lost its position reference (a drive switched off and on) is homed
     # again unattended; False: the campaign stops, resumable, for someone to home it.
     rehome_after_loss: bool = True
+    # The compensation table formats `calibrate` writes (None: every one registered).
+    tables: tuple[str, ...] | None = None
 
     @property
     def reconnect(self) -> ReconnectPolicy:
@@ -354,6 +359,9 @@ _CONTROLLER = Table((
     Field("reconnect_attempts", whole(minimum=0, maximum=100)),
     Field("reconnect_backoff_s", number(minimum=0.0, maximum=HOUR_S)),
     Field("rehome_after_loss", TRUTH),
+    # the formats TABLE_FORMATS holds when a file is read (a format registered later is
+    # a choice too)
+    Field("tables", ListOf(text_among(TABLE_FORMATS.keys())), decode=tuple, encode=list),
 ), build=ControllerSpec)
 
 # A temperature a shop floor may have: beyond it, a typo (a Fahrenheit value, a sign)

@@ -47,8 +47,9 @@ machine file it names with `ogacq init machine`.
 
 deadline_s, [controller] baudrate (RTU), [controller.axes] (one endpoint per axis),
 offsets_file (profiles without an offset register), maps_file (the error maps
-`ogacq calibrate` writes, applied to every target), [[gauges]] channel, serial and
-baudrate, and a [simulator] table (instead of hardware) may be added.
+`ogacq calibrate` writes, applied to every target), tables (the compensation table
+formats it writes, e.g. ["linuxcnc", "csv"]; default all), [[gauges]] channel,
+serial and baudrate, and a [simulator] table (instead of hardware) may be added.
 
 Traceability (recorded in the session; format: docs/formats.md):
 operator = "J. Martin"           who runs the calibration

@@ -112,7 +112,10 @@ class TerminalUI:
             table.add_row(axis, m.source, map_figures(m).line(), residual.line())
         console.print(table)
         for t in comp.tables:
-            where = ", ".join(Path(f).name for f in t["files"]) or f"not written: {t['problem']}"
+            said = [", ".join(Path(f).name for f in t["files"])] if t["files"] else []
+            if t["problem"]:  # the format, or some of its axes, not written: why
+                said.append(f"not written: {t['problem']}")
+            where = "; ".join(said)
             console.print(f"  {t['format']} table: {shown(where)}", highlight=False)
         if maps is not None:
             console.print(f"maps file {shown(maps.path)}: {maps.current.checksum[:12]} -> "

@@ -1,73 +1,240 @@
-"""Every table format written into one folder, with the ISO 230-2 figures beside.
+"""Every table format chosen written into one folder, with the ISO 230-2 figures
+beside, and only where the table does not make the axis worse.
 
-``export_tables(folder, maps)`` writes ``linuxcnc/``, ``fanuc/``, ``siemens/`` and
-``csv/`` (each format's files, the figures in their comments or, for LinuxCNC
-whose table file takes no comments, in the INI fragment beside it) and returns
-what was written with each axis's figures before and after (predicted).
+``export_tables(folder, maps)`` writes one sub-folder per format of ``TABLE_FORMATS``
+(``ogacq.compensation.formats``; all of them unless the campaign file chose some).
+Each axis's table is judged before it is written: its values plausible and within
+the format's bounds, and the residual it leaves, predicted on the format's own grid
+as the controller applies it, better than no table (ISO 230-2 E smaller, A no
+larger). An axis whose table would be worse, or would leave the error as it is (a
+grid whose points fall on the same phase of a screw's period), is left out of that
+format and the reason said: for a grid too coarse, the spacing the map would need.
+The folder is written whole into a temporary folder beside it, then renamed: a crash
+leaves the old tables or the new ones, never a mixture.
 """
 
 from __future__ import annotations
 
+import contextlib
+import os
+import shutil
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
-from ogacq.compensation.fanuc import FanucOptions, fanuc_tables
-from ogacq.compensation.linuxcnc import LinuxCncOptions, linuxcnc_tables
-from ogacq.compensation.plain_csv import csv_tables
-from ogacq.compensation.siemens import SiemensOptions, siemens_tables
-from ogacq.compensation.tables import ControllerTables, TableError
+from ogacq.compensation.formats import TABLE_FORMATS, TableFormat, known
+from ogacq.compensation.iso230 import Iso230Figures
+from ogacq.compensation.tables import AxisTable, TableError
+from ogacq.io.atomic import write_atomically
+from ogacq.io.errors import StorageError
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.units import UM_PER_MM
 
-FORMATS = ("linuxcnc", "fanuc", "siemens", "csv")
+# Beyond this a table value is no error a machine in service has: the largest size the
+# diagnosis finds plausible for a map (1 mm of hysteresis, ogacq/diagnose/mapsearch.py
+# PLAUSIBLE_MM) and the library's 1 mm backlash. No source beyond those.
+PLAUSIBLE_VALUE_MM = 1.0
+# Figures closer than this are the same: far below any figure's meaning, above the
+# floating point's noise.
+SAME_MM = 1e-9
+HALVINGS = 6  # finer grids tried, each half the last, for the spacing a map would need
+
+
+@dataclass(frozen=True)
+class AxisVerdict:
+    """One axis of one format: written or not, why not, and the figures predicted."""
+
+    axis: str
+    written: bool
+    reason: str | None = None
+    before: Iso230Figures | None = None
+    after: Iso230Figures | None = None
+
+    def to_json(self) -> dict[str, Any]:
+        return {"written": self.written, "reason": self.reason,
+                "before": self.before.to_json() if self.before else None,
+                "after": self.after.to_json() if self.after else None}
 
 
 @dataclass(frozen=True)
 class Exported:
     format: str
     files: tuple[Path, ...]
-    figures: dict[str, dict[str, Any]]  # axis -> {"before": ..., "after": ...}
-    problem: str | None = None  # the map does not fit this format (nothing written)
+    figures: dict[str, dict[str, Any]]  # axis written -> {"before": ..., "after": ...}
+    problem: str | None = None  # why an axis (or the whole format) was not written
+    axes: dict[str, AxisVerdict] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         return {"format": self.format, "files": [str(f) for f in self.files],
-                "figures": self.figures, "problem": self.problem}
+                "figures": self.figures, "problem": self.problem,
+                "axes": {a: v.to_json() for a, v in self.axes.items()}}
 
 
-def tables_of(fmt: str, maps: Mapping[str, AxisMap], title: str) -> list[ControllerTables]:
-    """The format's tables: FANUC's twice, with the negative-direction table (3605#0)
-    and with the backlash parameter 1851 instead, for a control without the option."""
-    if fmt == "linuxcnc":
-        return [linuxcnc_tables(maps, LinuxCncOptions(), title=title)]
-    if fmt == "fanuc":
-        return [fanuc_tables(maps, FanucOptions(), title=title),
-                fanuc_tables(maps, FanucOptions(bidirectional=False), title=title)]
-    if fmt == "siemens":
-        return [siemens_tables(maps, SiemensOptions(), title=title)]
-    if fmt == "csv":
-        return [csv_tables(maps, title=title)]
-    raise ValueError(f"unknown table format {fmt!r}; known: {', '.join(FORMATS)}")
+def chosen_formats(names: tuple[str, ...] | None) -> tuple[TableFormat, ...]:
+    """The formats named (None: every one registered), an unknown name refused."""
+    if names is None:
+        return tuple(TABLE_FORMATS.values())
+    unknown = [n for n in names if n not in TABLE_FORMATS]
+    if unknown:
+        raise TableError(f"unknown table format {unknown[0]!r}; known: {known()}")
+    return tuple(TABLE_FORMATS[n] for n in names)
 
 
 def export_tables(folder: Path, maps: Mapping[str, AxisMap], *, title: str = "",
-                  formats: tuple[str, ...] = FORMATS) -> list[Exported]:
-    out = []
-    for fmt in formats:
-        try:
-            variants = tables_of(fmt, maps, title)
-        except TableError as exc:  # said, and the other formats still written
-            out.append(Exported(fmt, (), {}, str(exc)))
-            continue
-        where = folder / fmt
-        where.mkdir(parents=True, exist_ok=True)
-        for tables in variants:
-            written = []
-            for name, text in tables.files.items():
-                path = where / name
-                path.write_text(text, encoding="utf-8")
-                written.append(path)
-            figures = {a: {"before": t.before().to_json(), "after": t.after().to_json()}
-                       for a, t in tables.axes.items()}
-            out.append(Exported(fmt, tuple(written), figures))
+                  formats: tuple[str, ...] | None = None) -> list[Exported]:
+    """Each format's tables of ``maps`` into ``folder/<format>/``, ``folder`` replaced
+    whole (module docstring)."""
+    chosen = chosen_formats(formats)
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    staging = _staging_beside(folder)
+    try:
+        out = [_export(staging, folder, f, options, maps, title)
+               for f in chosen for options in f.options]
+        _replace(staging, folder)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
     return out
+
+
+def _export(staging: Path, folder: Path, fmt: TableFormat, options: Any,
+            maps: Mapping[str, AxisMap], title: str) -> Exported:
+    verdicts = {a: judge(fmt, options, m, title) for a, m in maps.items()}
+    carried = {a: maps[a] for a, v in verdicts.items() if v.written}
+    refused = "; ".join(v.reason for v in verdicts.values() if v.reason) or None
+    if not carried:
+        return Exported(fmt.name, (), {}, refused, verdicts)
+    try:
+        (tables,) = fmt.tables(carried, title, options)
+    except TableError as exc:  # the axes together, when each alone fitted: said all the same
+        why = f"{fmt.name}: {exc}"
+        return Exported(fmt.name, (), {}, why, {a: replace(v, written=False, reason=v.reason
+                                                           or why) for a, v in verdicts.items()})
+    (staging / fmt.name).mkdir(exist_ok=True)
+    for name, text in tables.files.items():
+        write_atomically(staging / fmt.name / name, text.encode("utf-8"))
+    figures = {a: {"before": t.before().to_json(), "after": t.after().to_json()}
+               for a, t in tables.axes.items()}
+    return Exported(fmt.name, tuple(folder / fmt.name / n for n in tables.files), figures,
+                    refused, verdicts)
+
+
+def judge(fmt: TableFormat, options: Any, m: AxisMap, title: str = "") -> AxisVerdict:
+    """Whether ``fmt`` may hold the map of one axis: its values plausible and within
+    the format's bound, and the table not worse than none (module docstring)."""
+    problem = _out_of_bounds(fmt, m)
+    if problem is not None:
+        return AxisVerdict(m.axis, False, problem)
+    try:
+        table = _table(fmt, options, m, title)
+    except TableError as exc:
+        return AxisVerdict(m.axis, False, f"{fmt.name}: {exc}")
+    before, after = table.before(), table.after()
+    if _carries(before, after):
+        return AxisVerdict(m.axis, True, None, before, after)
+    return AxisVerdict(m.axis, False, _why_not(fmt, options, m, title, table, before, after),
+                       before, after)
+
+
+def _table(fmt: TableFormat, options: Any, m: AxisMap, title: str) -> AxisTable:
+    (tables,) = fmt.tables({m.axis: m}, title, options)
+    return tables.axes[m.axis]
+
+
+def _out_of_bounds(fmt: TableFormat, m: AxisMap) -> str | None:
+    """A value no machine has, or one the format cannot hold: with the axis, the value
+    and where."""
+    values = [(abs(v), v, q) for column in (m.forward_mm, m.reverse_mm)
+              for v, q in zip(column, m.positions_mm, strict=True)]
+    size, value, q = max(values)
+    bounds = [(PLAUSIBLE_VALUE_MM, "the most a machine in service could have: check the "
+               "diagnosis")]
+    if fmt.limits.max_value_mm is not None:
+        bounds.append((fmt.limits.max_value_mm, f"the most a {fmt.name} value holds "
+                       f"({fmt.limits.source})"))
+    for bound, what in bounds:
+        if size > bound:
+            return (f"{fmt.name}: axis {m.axis}: an error of {value:.6g} mm at {q:g} mm in "
+                    f"the map ({m.source or 'no source given'}) is beyond {bound:g} mm, "
+                    f"{what}; not written")
+    return None
+
+
+def _carries(before: Iso230Figures, after: Iso230Figures) -> bool:
+    """The table takes some of the error away and makes no figure worse."""
+    return after.E < before.E - SAME_MM and after.A <= before.A + SAME_MM
+
+
+def _why_not(fmt: TableFormat, options: Any, m: AxisMap, title: str, table: AxisTable,
+               before: Iso230Figures, after: Iso230Figures) -> str:
+    um = UM_PER_MM
+    words = (f"{fmt.name}: axis {m.axis}: its table is predicted no better than none (A "
+             f"{before.A * um:.2f} -> {after.A * um:.2f} µm, E {before.E * um:.2f} -> "
+             f"{after.E * um:.2f} µm); not written")
+    spacing = table.spacing_mm
+    if spacing is None or fmt.limits.finer is None:
+        return words
+    span = m.positions_mm[-1] - m.positions_mm[0]
+    grid = f"the format's grid, {fmt.limits.spacing}, gives {spacing:g} mm over {span:g} mm"
+    needed = needed_spacing(fmt, options, m, title, spacing)
+    if needed is None:
+        return (f"{words}: {grid}; no spacing down to {spacing / 2 ** HALVINGS:g} mm carries "
+                f"the map ({m.source or 'no source given'})")
+    return (f"{words}: the map ({m.source or 'no source given'}) needs a spacing <= "
+            f"{needed:g} mm ({_points(span, needed)} points); {grid}")
+
+
+def needed_spacing(fmt: TableFormat, options: Any, m: AxisMap, title: str,
+                   spacing_mm: float) -> float | None:
+    """The largest of ``spacing_mm`` / 2, / 4, ... whose table carries the map (None:
+    none of them)."""
+    assert fmt.limits.finer is not None
+    for k in range(1, HALVINGS + 1):
+        finer = spacing_mm / 2 ** k
+        try:
+            table = _table(fmt, fmt.limits.finer(options, finer), m, title)
+        except TableError:
+            continue
+        if _carries(table.before(), table.after()):
+            return finer
+    return None
+
+
+def _points(span_mm: float, spacing_mm: float) -> int:
+    return int(-(-span_mm // spacing_mm)) + 1
+
+
+def _staging_beside(folder: Path) -> Path:
+    """A new folder beside ``folder`` (a leftover of a crashed export removed first),
+    with the permissions a plain mkdir gives."""
+    staging = folder.with_name(f".{folder.name}.{os.getpid()}.tmp")
+    shutil.rmtree(staging, ignore_errors=True)
+    try:
+        staging.mkdir()
+    except OSError as exc:
+        raise StorageError(staging, exc) from None
+    return staging
+
+
+def _replace(staging: Path, folder: Path) -> None:
+    """``staging`` renamed ``folder``; an old ``folder`` moved aside first and removed
+    after, the parent folder forced to the disk between."""
+    old = staging.with_suffix(".old")
+    shutil.rmtree(old, ignore_errors=True)
+    try:
+        if folder.exists():
+            os.rename(folder, old)
+        os.rename(staging, folder)
+        _sync_folder(folder.parent)
+    except OSError as exc:
+        raise StorageError(folder, exc) from None
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def _sync_folder(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        with contextlib.suppress(OSError):  # a file system without folder fsync
+            os.fsync(fd)
+    finally:
+        os.close(fd)

@@ -31,7 +31,15 @@ number of positions per axis on a given control: ``FanucOptions`` holds them (th
 defaults: -7..+7 per position, as the classic Series 0/16/18 pitch error screen
 takes, and 128 positions per axis), to be set from the control's own manual.
 The output is a sheet of parameters and values to key in (or to make a parameter
-tape from): no tape format is written, for want of a source for it.
+tape from): no tape format is written, for want of a source for it. Its text (the
+title) is one ``#`` comment line (``safe_text``): a line break, and the characters
+a FANUC tape gives a meaning to, ``%`` (the tape's start and end) and ``(`` ``)`` (a
+comment's control-out and control-in), are replaced, so that a tape made from the
+sheet cannot end or start inside a name (FANUC Series 16i/18i-PB Operator's Manual
+B-63684EN/01, 13 "Program configuration": a block ends at LF; FANUC Data Server
+Operator's Manual B-62694EN/03, "Format of NC program": ``%`` the tape start and end,
+the program number ``O`` the block after it, comments in parentheses; an ``O`` only
+counts at the start of a block, which a name without line breaks never is).
 """
 
 from __future__ import annotations
@@ -48,10 +56,18 @@ from ogacq.compensation.tables import (
     ControllerTables,
     TableError,
     figures_block,
+    one_line,
+    uncertainty_block,
 )
 from ogacq.model.axis_map import AxisMap
 
 FORMAT = "fanuc"
+SIGN = "each value is an increment of the correction, minus the error (actual - commanded)"
+
+
+def safe_text(text: str) -> str:
+    """``text`` as the rest of one comment line of the sheet (the module's docstring)."""
+    return one_line(text, "%()")
 
 
 @dataclass(frozen=True)
@@ -210,12 +226,13 @@ def fanuc_sheets(maps: Mapping[str, AxisMap], options: FanucOptions = FanucOptio
 def fanuc_tables(maps: Mapping[str, AxisMap], options: FanucOptions = FanucOptions(), *,
                  title: str = "") -> ControllerTables:
     sheets = fanuc_sheets(maps, options)
-    axes = {s.axis: AxisTable(s.axis, maps[s.axis], _applied(s),
-                              probes_mm=_probes(s)) for s in sheets}
-    lines = [f"# {title}" if title else "# ogacq compensation",
+    axes = {s.axis: AxisTable(s.axis, maps[s.axis], _applied(s), probes_mm=_probes(s),
+                              spacing_mm=s.interval_mm) for s in sheets}
+    lines = [f"# {safe_text(title)}" if title else "# ogacq compensation",
              "# FANUC pitch error compensation (parameters 3620-3627; values are increments per",
              "# interval in the compensation unit, the correction = minus the error; absolute",
-             "# compensation 0 at the reference position). Key in per axis:"]
+             "# compensation 0 at the reference position). Key in per axis:",
+             f"# sign: {SIGN}"]
     for s in sheets:
         lines += ["", f"axis {s.axis}",
                   f"  3620 reference position number            = {s.ref_no}",
@@ -247,6 +264,6 @@ def fanuc_tables(maps: Mapping[str, AxisMap], options: FanucOptions = FanucOptio
             if s.neg_values and s.neg_dir_no is not None:
                 row += f"   {s.neg_dir_no + k:22d}  {s.neg_values[k]:+3d}"
             lines.append(row)
-    lines += ["", *figures_block(axes, "#")]
+    lines += ["", *figures_block(axes, "#"), *uncertainty_block(axes, "#")]
     name = "fanuc.txt" if options.bidirectional else "fanuc-backlash.txt"
     return ControllerTables(FORMAT, {name: "\n".join(lines) + "\n"}, axes)

@@ -28,6 +28,13 @@ function manuals (MD32450 BACKLASH):
   forward errors, on the assumption that the backlash compensation brings the
   negative direction onto them (what varies of the reversal along the travel stays,
   and the predicted figures show it).
+* "The size of the compensation value is not limited" (6FC5397-1BP40-3BA1, 4.4.2):
+  the format bounds no value; ogacq's plausibility bound applies
+  (``ogacq.compensation.formats``).
+
+Text (the title) is one comment line (``safe_text``): a line break would make it a
+line of the file, and ``%`` (``%_N_`` starts a file or a section of an archive) and
+``;`` (a comment) are replaced as well.
 """
 
 from __future__ import annotations
@@ -44,11 +51,19 @@ from ogacq.compensation.tables import (
     ControllerTables,
     TableError,
     figures_block,
+    one_line,
+    uncertainty_block,
 )
 from ogacq.model.axis_map import AxisMap
 
 FORMAT = "siemens"
 DECIMALS = 6
+SIGN = "each value is the error itself (actual - commanded), which the control subtracts"
+
+
+def safe_text(text: str) -> str:
+    """``text`` as the rest of one ``;`` comment line (the module's docstring)."""
+    return one_line(text, "%;")
 
 
 @dataclass(frozen=True)
@@ -118,10 +133,11 @@ def siemens_tables(maps: Mapping[str, AxisMap], options: SiemensOptions = Siemen
         sheet = siemens_axis(m, options, names[axis])
         sheets.append(sheet)
         axes[axis] = AxisTable(axis, m, _applied(sheet),
-                               probes_mm=tuple(float(v) for v in sheet.positions_mm()))
-    lines = ["%_N_AX_EEC_INI", f"; {title}" if title else "; ogacq compensation",
+                               probes_mm=tuple(float(v) for v in sheet.positions_mm()),
+                               spacing_mm=sheet.step_mm)
+    lines = ["%_N_AX_EEC_INI", f"; {safe_text(title)}" if title else "; ogacq compensation",
              "; measuring system error compensation (K3, interpolatory compensation): the "
-             "value is the error, actual - commanded, mm", "CHANDATA(1)"]
+             "value is the error, actual - commanded, mm", f"; sign: {SIGN}", "CHANDATA(1)"]
     for s in sheets:
         lines.append(f"; axis {s.axis} -> {s.name}: {len(s.values_mm)} points, needs "
                      f"MD38000 $MA_MM_ENC_COMP_MAX_POINTS[{e}] >= {len(s.values_mm)}, "
@@ -134,11 +150,6 @@ def siemens_tables(maps: Mapping[str, AxisMap], options: SiemensOptions = Siemen
                   f"$AA_ENC_COMP_IS_MODULO[{e},{s.name}]=0",
                   f"; reversal: MD32450 $MA_BACKLASH[{e}] = {s.backlash_mm:.{DECIMALS}f} (axis "
                   f"{s.name}; positive: the encoder leads the machine part)"]
-    lines += [*figures_block(axes, ";"), "M17"]
+    lines += [*figures_block(axes, ";"), *uncertainty_block(axes, ";"), "M17"]
     return ControllerTables(FORMAT, {"AX_EEC.INI": "\n".join(lines) + "\n"}, axes)
 
-
-def siemens_sheets(maps: Mapping[str, AxisMap], options: SiemensOptions = SiemensOptions(),
-                   ) -> list[SiemensAxis]:
-    names = dict(options.axis_names or {"x": "X1", "y": "Y1", "z": "Z1"})
-    return [siemens_axis(m, options, names[a]) for a, m in maps.items()]

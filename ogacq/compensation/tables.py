@@ -9,7 +9,8 @@ at a target is ``map.error_mm - applied_mm``.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import unicodedata
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -19,6 +20,7 @@ from ogacq.errors import InputError
 from ogacq.model.axis_map import AxisMap
 
 Applied = Callable[[np.ndarray, int], np.ndarray]
+K = 2.0  # the coverage factor of the U a table carries
 
 
 class TableError(InputError, ValueError):
@@ -39,6 +41,9 @@ class AxisTable:
     # where the table's own correction changes: its points, and for a staircase the
     # position just before each step (the residual is largest there)
     probes_mm: tuple[float, ...] = ()
+    # the distance between the table's points where the format spaces them evenly
+    # (None: the map's own positions): what a finer grid would have to beat
+    spacing_mm: float | None = None
 
     def targets(self) -> np.ndarray:
         """The targets the figures are computed at: the map's positions and the
@@ -59,6 +64,19 @@ class AxisTable:
                        tuple(float(v) for v in np.interp(q, m.positions_mm, m.u_forward_mm)),
                        tuple(float(v) for v in np.interp(q, m.positions_mm, m.u_reverse_mm)),
                        m.reference_mm, "residual")
+
+    def grid_residual_mm(self) -> float:
+        """The most the table leaves of the map (its grid's interpolation, staircase,
+        resampling or rounding), either side."""
+        r = self.residual_map()
+        return float(np.max(np.abs(np.concatenate([r.forward_mm, r.reverse_mm]))))
+
+    def u_mm(self, q: np.ndarray, side: int) -> np.ndarray:
+        """The table's expanded uncertainty (k = 2) at ``q``: the map's U there plus the
+        most its grid leaves of the map (``uncertainty_block``)."""
+        m = self.axis_map
+        u = np.interp(q, m.positions_mm, m.u_forward_mm if side > 0 else m.u_reverse_mm)
+        return K * u + self.grid_residual_mm()
 
     def before(self) -> Iso230Figures:
         return map_figures(self.axis_map, self.targets())
@@ -84,4 +102,42 @@ def figures_block(tables: dict[str, AxisTable], comment: str) -> list[str]:
     for axis, table in tables.items():
         lines.append(f"{comment}   {axis} before: {table.before().line()}")
         lines.append(f"{comment}   {axis} after (predicted, this table): {table.after().line()}")
+    return lines
+
+
+# Where a line ends for some reader of a controller file: LF, CR, VT, FF, NEL, the file,
+# group and record separators, U+2028 and U+2029 (Python's str.splitlines, which follows
+# Unicode's line boundaries: UAX #14 mandatory breaks). Each is replaced, never kept.
+# Every other character that does not print (Unicode categories C*: controls, format
+# characters such as U+202E that reorder what a screen shows, unassigned, private use,
+# surrogates) is replaced too: a controller's editor shows such text unlike ogacq.
+_NOT_PRINTED = ("Cc", "Cf", "Cn", "Co", "Cs", "Zl", "Zp")
+MAX_TEXT = 200  # characters of a title or a comment kept (no source: one screen line)
+REPLACEMENT = "?"
+
+
+def one_line(text: str, forbidden: str = "") -> str:
+    """``text`` as one printable line for a controller file: every line break and
+    non-printing character, and each of the format's own ``forbidden`` characters
+    (its comment and section marks), replaced by ``?``; cut at MAX_TEXT characters."""
+    out = "".join(REPLACEMENT if unicodedata.category(c) in _NOT_PRINTED or c in forbidden
+                  else c for c in text)
+    return out[:MAX_TEXT]
+
+
+def uncertainty_block(tables: Mapping[str, AxisTable], comment: str) -> list[str]:
+    """Each map's expanded uncertainty (k = 2) at each of its points and each side, and
+    what the table's grid leaves of the map between its own points, as comment lines:
+    what a table whose format has no column for it carries. U is the map's, from the
+    fit's covariance (``AxisMap``); the table's U at a position is it plus the grid's
+    residual (a known deviation, added linearly: ``AxisTable.u_mm``)."""
+    lines = [f"{comment} expanded uncertainty U (k = {K:g}) of the map, mm, from the fit's "
+             "covariance: axis, position, U toward +, U toward -"]
+    for axis, table in tables.items():
+        m = table.axis_map
+        lines += [f"{comment}   {axis} {q:.3f} {K * uf:.6f} {K * ur:.6f}"
+                  for q, uf, ur in zip(m.positions_mm, m.u_forward_mm, m.u_reverse_mm,
+                                       strict=True)]
+        lines.append(f"{comment}   {axis}: between its points this table's grid leaves up to "
+                     f"{table.grid_residual_mm():.6f} mm of the map: add it to U there")
     return lines

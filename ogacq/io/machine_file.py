@@ -76,7 +76,10 @@ def _tolerance_table(tolerances: Tolerances) -> dict[str, Any]:
 def read_machine(path: str | Path) -> MachineSpec:
     values, source = load_toml(path, MACHINE_FILE, "the machine file")
     _check_identity(values, source)  # a file's; a session's recorded machine reads as it was
-    return _machine(values, source, default_name=Path(str(path)).stem)
+    stem = Path(str(path)).stem
+    if "name" not in values:
+        _check_stem(stem, source)
+    return _machine(values, source, default_name=stem)
 
 
 def machine_from_mapping(data: dict, path: str | Path = "<machine>") -> MachineSpec:
@@ -125,6 +128,17 @@ def _check_identity(values: dict, source: Source) -> None:
         problem = name_problem(value)
         if problem is not None:
             raise source.fail((key,), f"= {value[:60]!r} {problem}")
+
+
+def _check_stem(stem: str, source: Source) -> None:
+    """A file without ``name`` names the machine after its stem, which then goes where
+    a name goes (the history, the record, the controller tables' titles): one printable
+    line, as ``name`` must be."""
+    bad = next((c for c in stem if not c.isprintable()), None)
+    if bad is not None:
+        raise source.fail((), "", f"has no name, and its file name {stem!r} holds U+"
+                          f"{ord(bad):04X}, which does not print: give the machine's name "
+                          "(name = \"...\") or rename the file")
 
 
 def _machine(values: dict, source: Source, default_name: str) -> MachineSpec:

@@ -446,9 +446,7 @@ def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
                 rows.append([axis, words_, *(_um(fig.get(f"{k}_mm")) for k in ISO230_FIGURES)])
     figures = table(["axis", "when", *(f"{k} (µm)" for k in ISO230_FIGURES)], rows,
                     [False, False, *(True,) * len(ISO230_FIGURES)]) if rows else None
-    tables = [f"{shown(t.get('format'))}: " + (", ".join(map(str, t.get("files") or ()))
-                                               or f"not written: {shown(t.get('problem'))}")
-              for t in comp.get("tables") or ()]
+    tables = [f"{shown(t.get('format'))}: {_table_outcome(t)}" for t in comp.get("tables") or ()]
     return {"badge": Badge(f"calibrate {outcome}", OUTCOME_KIND.get(outcome, "info")),
             "procedure": shown(comp.get("procedure")), "reason": shown(comp.get("reason"), ""),
             "writes": ", ".join(f"{k} {v}" for k, v in writes.items() if v) or "none",
@@ -458,6 +456,15 @@ def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
             "compensated": ", ".join(comp.get("compensated") or ()) or "none",
             "uncompensated": ", ".join(comp.get("uncompensated") or ()) or "none",
             "tables": tables}
+
+
+def _table_outcome(table: dict[str, Any]) -> str:
+    """The files a format wrote and, when the format or some of its axes were not
+    written, why."""
+    said = [", ".join(map(str, table["files"]))] if table.get("files") else []
+    if table.get("problem"):
+        said.append(f"not written: {shown(table.get('problem'))}")
+    return "; ".join(said)
 
 
 def _um(value_mm: Any) -> str:

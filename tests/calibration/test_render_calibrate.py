@@ -25,3 +25,22 @@ def test_a_diagnosis_effect_is_rounded_to_its_std_and_says_it_is_one(monkeypatch
     text = out.getvalue()
     assert ("effects (value ± std, k = 1): encoder_scale.x +408 ± 18 ppm; "
             "squareness.xy +0.501 ± 0.015 mrad") in text, text
+
+
+def test_a_format_that_left_an_axis_out_says_which_and_why(monkeypatch):
+    """A format that wrote some axes and not another shows both: it showed its files
+    only, and the reason went unsaid."""
+    from tests.compensation.maps import screw_map
+
+    out = io.StringIO()
+    monkeypatch.setattr(render_calibrate, "console", Console(file=out, width=300))
+    monkeypatch.setattr(render_calibrate.render_offsets, "print_plan", lambda *a, **k: None)
+    tables = [{"format": "fanuc", "files": ["/f/tables/fanuc/fanuc.txt"],
+               "problem": "fanuc: axis y: needs a spacing <= 1 mm"},
+              {"format": "siemens", "files": [], "problem": "siemens: axis x: beyond 1 mm"}]
+    comp = SimpleNamespace(uncompensated=(), maps={"x": screw_map()}, tables=tables)
+    ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
+    ui.compensation(comp, SimpleNamespace(refusals=[]), None)  # type: ignore[arg-type]
+    text = out.getvalue()
+    assert "fanuc table: fanuc.txt; not written: fanuc: axis y: needs a spacing <= 1 mm" in text
+    assert "siemens table: not written: siemens: axis x: beyond 1 mm" in text

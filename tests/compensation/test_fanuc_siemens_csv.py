@@ -136,7 +136,8 @@ def test_csv_columns_and_sign():
     m = screw_map()
     text = csv_tables({"x": m}).files["compensation.csv"]
     rows = [line for line in text.splitlines() if not line.startswith("#")]
-    assert rows[0] == "axis,nominal_mm,forward_mm,reverse_mm,U_mm"
+    assert rows[0] == ("axis,nominal_mm,forward_mm,reverse_mm,U_mm,correction_forward_mm,"
+                       "correction_reverse_mm")
     data = [r.split(",") for r in rows[1:]]
     assert len(data) == len(m.positions_mm)
     nominals = [float(r[1]) for r in data]
@@ -144,3 +145,6 @@ def test_csv_columns_and_sign():
     k = nominals.index(50.0)
     assert float(data[k][2]) == pytest.approx(m.error_mm(50.0, 1), abs=1e-6)
     assert float(data[k][4]) == pytest.approx(2 * 1.5 * 0.0008, abs=1e-6)  # k = 2
+    # the sign said by the columns themselves: the correction is minus the error
+    assert float(data[k][5]) == pytest.approx(-m.error_mm(50.0, 1), abs=1e-6)
+    assert float(data[k][6]) == pytest.approx(-m.error_mm(50.0, -1), abs=1e-6)

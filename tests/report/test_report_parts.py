@@ -199,7 +199,9 @@ def test_the_maps_calibrate_wrote_are_on_the_page(session_path):
         "iso230_2": {"before": {"x": figures},
                      "after": {"x": figures | {"A_mm": 0.0164401, "E_mm": 0.0066396}}},
         "tables": [{"format": "linuxcnc", "files": ["tables/linuxcnc/x.comp"], "problem": None},
-                   {"format": "fanuc", "files": [], "problem": "too many points"}]}
+                   {"format": "fanuc", "files": [], "problem": "too many points"},
+                   {"format": "siemens", "files": ["tables/siemens/AX_EEC.INI"],
+                    "problem": "siemens: axis y: predicted no better than none"}]}
     record = build_record(session, compensation=compensation)
     text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", render_page(collect(session), (), record)))
     assert "Error maps (ogacq calibrate C-20261128-fafde9)" in text
@@ -212,6 +214,9 @@ def test_the_maps_calibrate_wrote_are_on_the_page(session_path):
     assert "x after (the validation campaign) 16.44 0.00 7.06 6.64 65.41" in text
     assert "linuxcnc: tables/linuxcnc/x.comp" in text
     assert "fanuc: not written: too many points" in text
+    # an axis left out of a format that wrote the others: both said
+    assert ("siemens: tables/siemens/AX_EEC.INI; not written: siemens: axis y: predicted no "
+            "better than none") in text
     # a record without it (ogacq report of a campaign) has no such section
     assert "Error maps (ogacq calibrate" not in render_page(collect(session), (),
                                                             build_record(session))
