@@ -51,7 +51,7 @@ import numpy as np
 
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
-from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums
+from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
 from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import nested_tests
 from ogacq.identify.consistency import LEVEL
@@ -102,6 +102,9 @@ class AxisCoverage:
     # the display step, when its rounding dominates the gauge's noise (else None): the
     # rounding then follows the signal along q and would pass for a map
     display_limited_mm: float | None = None
+    # the shortest period the positions alias to a constant (mapbins.alias_pitch_mm):
+    # the step of uniform positions, less for irregular ones (None: the step)
+    alias_mm: float | None = None
 
     @property
     def dense(self) -> bool:
@@ -117,10 +120,12 @@ class AxisCoverage:
 
     @property
     def pitch_band_mm(self) -> tuple[float, float]:
-        """The cyclic pitches these positions resolve: 2.5 distinct positions a
-        period (never shorter than a screw's lead) to three periods over the span."""
-        return (max(SAMPLES_PER_PERIOD * self.step_mm, SHORTEST_LEAD_MM),
-                self.span_mm / MIN_PERIODS)
+        """The cyclic pitches these positions resolve: 2.5 times the shortest period
+        they alias (uniform positions: 2.5 a period; irregular ones, as ISO 230-2
+        places its targets, resolve shorter pitches than their mean step), never
+        shorter than a screw's lead, to three periods over the span."""
+        alias = self.step_mm if self.alias_mm is None else self.alias_mm
+        return (max(SAMPLES_PER_PERIOD * alias, SHORTEST_LEAD_MM), self.span_mm / MIN_PERIODS)
 
     def describe(self) -> str:
         name = AXES[self.axis]
@@ -151,9 +156,11 @@ def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
         sides = layout.approach[own, a] if own.any() else layout.approach[:, a]
         both = bool((sides > 0).any() and (sides < 0).any())
         finite = travel_mm[:, a][np.isfinite(travel_mm[:, a]) & (travel_mm[:, a] > 0)]
+        alias = alias_pitch_mm(q_own, SHORTEST_LEAD_MM / SAMPLES_PER_PERIOD) \
+            if len(q_own) >= MIN_POSITIONS else None
         out.append(AxisCoverage(a, len(q_own), float(q_all.min()), float(q_all.max()), step,
                                 both, float(finite.min()) if len(finite) else math.inf,
-                                display_limited_mm))
+                                display_limited_mm, alias))
     return tuple(out)
 
 
@@ -220,6 +227,13 @@ class MapSearch:
     @property
     def terms(self) -> list[MapTerm]:
         return [s.added.term for s in self.steps]
+
+    @property
+    def unresolved(self) -> list[MapCandidate]:
+        """Cyclic errors seen beyond the noise at the last step but at the band's edge:
+        their pitch lies beyond what the positions resolve, so none is given."""
+        last = self.last_considered or (self.steps[-1].considered if self.steps else [])
+        return [c for c in last if c.unresolved and c.p_value < self.level]
 
 
 def _noise_var(space: MapSpace, noise: GaugeNoise) -> float:
