@@ -108,11 +108,12 @@ ALIAS_WINDOW = 0.5
 def alias_pitch_mm(positions: np.ndarray, highest_mm: float, oversample: int = 5) -> float:
     """The shortest period that distinct ``positions`` cannot tell from a constant:
     1 / the lowest frequency past the main lobe where their spectral window
-    ``|sum exp(2 pi i f q)|^2 / K^2`` reaches ``ALIAS_WINDOW`` (J. T. VanderPlas,
-    ApJS 236, 2018, section 4: the window's peaks are where a sinusoid's power is
-    aliased). Uniform positions: their step, exactly. None found up to the frequency
-    of ``highest_mm``: that period. A cyclic error is then resolved only within half
-    of that frequency, where no alias of another in the band falls."""
+    ``|sum exp(2 pi i f q)|^2 / K^2`` reaches ``ALIAS_WINDOW`` (the window function of
+    irregular sampling, J. T. VanderPlas, ApJS 236, 2018: its peaks are where a
+    sinusoid's power is aliased). Uniform positions: their step, exactly. None found
+    up to the frequency of ``highest_mm``: that period. A cyclic error is then
+    resolved only below half of that frequency, where no alias of another in the band
+    falls (``AxisCoverage.pitch_band_mm`` keeps 2.5 a period, a margin over 2)."""
     q = np.sort(np.asarray(positions, dtype=float))
     gaps = np.diff(q)
     if len(gaps) == 0:
