@@ -57,6 +57,9 @@ def print_coverage(d: Diagnosis) -> None:
                   "(corrected for every shape and family tried)")
         for c in search.last_considered[:2]:
             out.print(f"    closest: {c.term.name}, {escape(c.reason)}")
+    for c in search.unresolved:
+        out.print(f"  [yellow]{c.term.name}[/]: a cyclic error beyond the noise (p = "
+                  f"{format_p(c.p_value)}), its {escape(c.unresolved)}")
     if mapped.rival is not None:
         out.print(f"  [yellow]explained as well[/]: {escape(mapped.rival.describe())}")
     for name, p in mapped.dropped:

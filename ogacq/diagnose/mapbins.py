@@ -25,6 +25,7 @@ repeats (up and down, the cycles, every gauge of a posture) cost nothing.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 
 import numpy as np
@@ -96,6 +97,39 @@ class PositionSums:
         z = np.einsum("fkn,gn->fkg", t, self.a)
         cc -= np.einsum("fkg,flg,g->fkl", z, z, 1.0 / self.zero_norm2)
         return _gains(cc, cb, cr)
+
+
+# The spectral window's height (of its main lobe's 1) at which positions no longer
+# tell a frequency from one shifted by that much: half its power (no source: a choice;
+# uniform positions reach 1 at the reciprocal of their step).
+ALIAS_WINDOW = 0.5
+
+
+def alias_pitch_mm(positions: np.ndarray, highest_mm: float, oversample: int = 5) -> float:
+    """The shortest period that distinct ``positions`` cannot tell from a constant:
+    1 / the lowest frequency past the main lobe where their spectral window
+    ``|sum exp(2 pi i f q)|^2 / K^2`` reaches ``ALIAS_WINDOW`` (the window function of
+    irregular sampling, J. T. VanderPlas, ApJS 236, 2018: its peaks are where a
+    sinusoid's power is aliased). Uniform positions: their step, exactly. None found
+    up to the frequency of ``highest_mm``: that period. A cyclic error is then
+    resolved only below half of that frequency, where no alias of another in the band
+    falls (``AxisCoverage.pitch_band_mm`` keeps 2.5 a period, a margin over 2)."""
+    q = np.sort(np.asarray(positions, dtype=float))
+    gaps = np.diff(q)
+    if len(gaps) == 0:
+        return math.inf
+    if np.allclose(gaps, gaps[0], rtol=0.0, atol=2e-6):  # to the positions' rounding
+        return float(gaps[0])
+    span = float(q[-1] - q[0])
+    df = 1.0 / (oversample * span)
+    freqs = np.arange(2.0 / span, 1.0 / highest_mm + df / 2, df)
+    for lo in range(0, len(freqs), 64):
+        f = freqs[lo:lo + 64, None]
+        window = np.abs(np.exp(2j * np.pi * f * (q - q[0])).mean(axis=1)) ** 2
+        hit = np.flatnonzero(window >= ALIAS_WINDOW)
+        if len(hit):
+            return 1.0 / float(f[hit[0], 0])
+    return highest_mm
 
 
 def _bins(q: np.ndarray, width_mm: float) -> tuple[np.ndarray, np.ndarray]:

@@ -51,7 +51,7 @@ import numpy as np
 
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
-from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums
+from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
 from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import nested_tests
 from ogacq.identify.consistency import LEVEL
@@ -105,6 +105,9 @@ class AxisCoverage:
     # the periods its positions sample, when a design states them (irregular positions
     # resolve periods far below their median spacing: ogacq.protocol.scan_design)
     designed_band_mm: tuple[float, float] | None = None
+    # the shortest period the positions alias to a constant (mapbins.alias_pitch_mm):
+    # the step of uniform positions, less for irregular ones (None: the step)
+    alias_mm: float | None = None
 
     @property
     def dense(self) -> bool:
@@ -120,14 +123,17 @@ class AxisCoverage:
 
     @property
     def pitch_band_mm(self) -> tuple[float, float]:
-        """The cyclic pitches these positions resolve: 2.5 distinct positions a
-        period, or the band their design states (never shorter than a screw's lead),
-        to three periods over the span."""
+        """The cyclic pitches these positions resolve: the band their design states,
+        else 2.5 times the shortest period they alias (uniform positions: 2.5 a period;
+        irregular ones, as ISO 230-2 places its targets, resolve shorter pitches than
+        their mean step); never shorter than a screw's lead, to three periods over the
+        span."""
         longest = self.span_mm / MIN_PERIODS
         if self.designed_band_mm is not None:
             return (max(self.designed_band_mm[0], SHORTEST_LEAD_MM),
                     min(self.designed_band_mm[1], longest))
-        return max(SAMPLES_PER_PERIOD * self.step_mm, SHORTEST_LEAD_MM), longest
+        alias = self.step_mm if self.alias_mm is None else self.alias_mm
+        return max(SAMPLES_PER_PERIOD * alias, SHORTEST_LEAD_MM), longest
 
     def describe(self) -> str:
         name = AXES[self.axis]
@@ -158,9 +164,11 @@ def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
         sides = layout.approach[own, a] if own.any() else layout.approach[:, a]
         both = bool((sides > 0).any() and (sides < 0).any())
         finite = travel_mm[:, a][np.isfinite(travel_mm[:, a]) & (travel_mm[:, a] > 0)]
+        alias = alias_pitch_mm(q_own, SHORTEST_LEAD_MM / SAMPLES_PER_PERIOD) \
+            if len(q_own) >= MIN_POSITIONS else None
         out.append(AxisCoverage(a, len(q_own), float(q_all.min()), float(q_all.max()), step,
                                 both, float(finite.min()) if len(finite) else math.inf,
-                                display_limited_mm))
+                                display_limited_mm, alias))
     return tuple(out)
 
 
@@ -227,6 +235,13 @@ class MapSearch:
     @property
     def terms(self) -> list[MapTerm]:
         return [s.added.term for s in self.steps]
+
+    @property
+    def unresolved(self) -> list[MapCandidate]:
+        """Cyclic errors seen beyond the noise at the last step but at the band's edge:
+        their pitch lies beyond what the positions resolve, so none is given."""
+        last = self.last_considered or (self.steps[-1].considered if self.steps else [])
+        return [c for c in last if c.unresolved and c.p_value < self.level]
 
 
 def _noise_var(space: MapSpace, noise: GaugeNoise) -> float:

@@ -12,7 +12,7 @@ group. The interpolation's error is an eighth of the spacing squared times the
 change's curvature along ``q``: for a change of 0.1 mm over the 310 mm legs (whose
 curvature is at most change / leg^2) at 0.5 mm spacing, 3e-8 mm; changes of
 micrometres to tenths of a millimetre in every parameter kind at once move a
-prediction by under 1e-6 mm (tests/diagnose/test_posenodes.py).
+prediction by under 1e-6 mm (tests/diagnose/test_scan_positions.py).
 
 Tracks whose positions are no denser than the spacing (the papers' postures, a scan
 of 1 mm steps) are all nodes, and a campaign that gains less than ``MIN_GAIN`` from

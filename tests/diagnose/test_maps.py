@@ -131,6 +131,7 @@ def test_a_pitch_the_positions_cannot_resolve_is_said_unresolved_not_given_a_num
         edge = [c for c in considered if c.term.name == "lead_screw_cyclic.x"]
         assert edge and all("unresolved (below the band's 2.5 mm edge" in c.reason
                             for c in edge)
+    assert [c.term.name for c in d.mapped.search.unresolved] == ["lead_screw_cyclic.x"]
     x = d.mapped.search.coverage[0]
     assert x.pitch_band_mm[0] == pytest.approx(2.5)
     assert "cyclic pitches resolved from 2.5 to" in x.describe()

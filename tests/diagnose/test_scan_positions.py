@@ -1,13 +1,19 @@
-"""A dense scan's candidate fits evaluate the model at nodes along each scanned track
-(``diagnose/posenodes.py``): what they change of the predictions is interpolated to
-within a nanometre, and a campaign no denser than the nodes is evaluated as before."""
+"""What a scan's positions allow: a dense scan's candidate fits evaluate the model at
+nodes along each scanned track (``diagnose/posenodes.py``), what they change of the
+predictions interpolated to within a nanometre, a campaign no denser than the nodes
+evaluated as before; irregular positions resolve shorter pitches than their mean
+step (``mapbins.alias_pitch_mm``)."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.library import BASE_MODEL
+from ogacq.diagnose.mapbins import alias_pitch_mm
+from ogacq.diagnose.mapsearch import AxisCoverage
 from ogacq.diagnose.posenodes import pose_nodes
 from ogacq.identify.fit import fit
 from ogacq.model.measurement import predict_coordinates
@@ -43,3 +49,18 @@ def test_a_dense_scan_is_evaluated_at_nodes_to_within_a_nanometre():
 def test_a_scan_no_denser_than_the_nodes_is_evaluated_at_every_group():
     obs, _ = campaign(1)  # a 1 mm scan
     assert pose_nodes(Problem(obs).group_space.layout) is None
+
+
+def test_irregular_positions_resolve_pitches_their_mean_step_would_alias():
+    """ISO 230-2 places its targets at irregular intervals so that periodic errors are
+    sampled: positions every 5 mm on average, each moved by up to a step, alias no
+    period near 5 mm (uniform ones alias their step exactly), so the band searched
+    reaches down to pitches the median step would have cut off."""
+    uniform = np.arange(-100.0, 60.0 + 1e-9, 5.0)
+    assert alias_pitch_mm(uniform, 0.4) == 5.0
+    rng = np.random.default_rng(3)
+    irregular = uniform + rng.uniform(0.0, 5.0, len(uniform))
+    assert alias_pitch_mm(irregular, 0.4) < 2.0
+    cov = AxisCoverage(0, len(irregular), -100.0, 65.0, 5.0, True, math.inf,
+                       alias_mm=alias_pitch_mm(irregular, 0.4))
+    assert cov.pitch_band_mm[0] < 5.0 < 2.5 * 5.0
