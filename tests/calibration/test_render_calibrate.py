@@ -44,3 +44,25 @@ def test_a_format_that_left_an_axis_out_says_which_and_why(monkeypatch):
     text = out.getvalue()
     assert "fanuc table: fanuc.txt; not written: fanuc: axis y: needs a spacing <= 1 mm" in text
     assert "siemens table: not written: siemens: axis x: beyond 1 mm" in text
+
+
+def test_the_designed_scan_is_printed_before_it_moves(monkeypatch):
+    """calibrate shows the separating scan's design (targets, steps, machine time, the
+    band of leads, the detection limits) before the scan moves an axis."""
+    from ogacq.calibration.separate import SeparatingPlan
+    from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
+    from ogacq.protocol.plan import ProtocolConfig
+    from ogacq.protocol.scan_design import design_scan
+
+    out = io.StringIO()
+    monkeypatch.setattr(render_calibrate, "console", Console(file=out, width=300))
+    design = design_scan(PAPER_PROTOTYPE_DIGITAL, ProtocolConfig(), noise_mm=0.0005,
+                         seconds_per_step=5.5, budget_s=2400)
+    plan = SeparatingPlan(("the joint offsets rest on 3 positions per leg",), design.protocol,
+                          "scan", design.steps, design.duration_s, 5.5, design=design)
+    render_calibrate.TerminalUI(yes=True, on_recorded=None).separation(plan, 25.0)
+    text = out.getvalue()
+    assert "separating measurement: the designed scan of each leg, 411 reading steps" in text
+    assert "34 targets from -99 to +59 mm at irregular intervals" in text
+    assert "resolves every period from 2 to 40 mm at 4 phases or more" in text
+    assert "detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.72 µm" in text
