@@ -13,12 +13,14 @@ evaluated"), with the record's reason, never left blank or shown as zero.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from typing import Any
 
 import numpy as np
 from markupsafe import Markup
 
+from ogacq.identify.consistency import format_p
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.sections import ResultEntry, SessionReference
 from ogacq.report.cells import Badge, Cell, Lines, Table, table
@@ -321,8 +323,15 @@ def verdict(record: CalibrationRecord) -> Table | None:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
     # so, and each p named (p_combined repeats p: shown once)
-    shown = {VERDICT_WORDS.get(k, k): v for k, v in found.fields.items() if k != "p_combined"}
+    # a p-value as the terminal says it (3 digits, 2.8e-16; not 0.00000000000000028)
+    shown = {VERDICT_WORDS.get(k, k): format_p(v) if _is_p(k, v) else v
+             for k, v in found.fields.items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
+
+
+def _is_p(key: str, value: Any) -> bool:
+    return (key == "p" or key.startswith("p_")) and isinstance(value, float) \
+        and math.isfinite(value)
 
 
 def acceptance(record: CalibrationRecord) -> dict[str, Any]:

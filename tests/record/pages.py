@@ -57,7 +57,7 @@ def gum(value: float, U: float) -> tuple[str, str]:
 
 # The results a person reads: rounded by the headline rule (record.json keeps every
 # digit); each number's spelling on the page.
-ROUNDED = ("results.", "validation_results.", "acceptance.", "budget.")
+ROUNDED = ("results.", "validation_results.", "acceptance.", "budget.", "verdict.")
 
 
 def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
@@ -65,6 +65,10 @@ def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
     acceptance's deviations and the budget's contributions): a value at its U's decimal
     place, u, U and the fit std to two significant digits, the effective dof whole."""
     *where, key = path.split(".")
+    if where == ["verdict"]:  # a p-value as the terminal says it (format_p)
+        from ogacq.identify.consistency import format_p
+
+        return format_p(value) if key == "p" or key.startswith("p_") else None
     if key in ("U_mm", "u_mm", "std_mm") and value:
         return two_significant(value)
     if key == "dof_eff":

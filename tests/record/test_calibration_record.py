@@ -103,3 +103,17 @@ def test_the_history_and_the_page_read_a_hand_edited_record():
         with pytest.raises(RecordError) as raised:
             check_record(HAND_EDITED | edit)
         assert str(raised.value) == message
+
+
+def test_the_page_says_a_p_value_as_the_terminal_does():
+    """One quantity, one face (issue 38.6): the verdict's p read 0.00000000000000028 on
+    the page where the terminal said 2.8e-16."""
+    from ogacq.report.record_view import verdict
+
+    found = verdict(CalibrationRecord.from_json(
+        {"verdict": {"state": "inconsistent", "p": 2.8e-16, "p_overall": 0.5,
+                     "chi2_dof": 3.2}}))
+    assert found is not None
+    rows = dict((str(a), str(b)) for a, b in found.rows)
+    assert rows["combined p (overall and worst cell, Bonferroni)"] == "2.8e-16"
+    assert rows["overall p"] == "0.5" and rows["χ² per dof"] == "3.2"
