@@ -17,8 +17,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, ClassVar
 
+from ogacq.record.compensation import CompensationSection
+from ogacq.record.declared import read
 from ogacq.record.sections import (
     Acceptance,
     HistoryEntry,
@@ -62,7 +65,7 @@ class CalibrationRecord(NamedJson):
     session: JsonObject | None = None  # path, sha256, records, integrity, edited
     validation_session: JsonObject | None = None  # the same, of the as-left campaign
     validation_results: JsonObject | None = None  # as results, of the as-left campaign
-    compensation: JsonObject | None = None  # calibrate's: procedure, outcome, writes, ...
+    compensation: JsonObject | None = None  # as written; read: compensation_section
     missing: JsonObject | None = None  # what the record lacks, and why
     revision: int | None = None  # 1 for the first issue
     revises: JsonObject | None = None  # from revision 2: revision, issued, sha256
@@ -118,6 +121,14 @@ class CalibrationRecord(NamedJson):
     @property
     def acceptance_read(self) -> Acceptance:
         return Acceptance.from_json(self.acceptance)
+
+    @cached_property
+    def compensation_section(self) -> CompensationSection | None:
+        """What ``ogacq calibrate`` wrote beside the offsets, None when the record does
+        not say (RecordSectionError naming the key when it holds something else than
+        ``compensation`` declares)."""
+        found = self.as_written("compensation")
+        return None if found is None else read(CompensationSection, found, "compensation")
 
     @property
     def history_entries(self) -> tuple[HistoryEntry, ...]:

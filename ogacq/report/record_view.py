@@ -20,6 +20,7 @@ import numpy as np
 from markupsafe import Markup
 
 from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.compensation import Iso230Stages, TableExported
 from ogacq.record.sections import ResultEntry, SessionReference
 from ogacq.report.cells import Badge, Cell, Lines, Table, table
 from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
@@ -427,43 +428,49 @@ def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
     """What ``ogacq calibrate`` wrote beside the offsets (docs/calibration-record.md 5,
     ``compensation``): its outcome, the error maps and their checksums, the ISO 230-2
     figures of each axis before and after, the tables exported; None without it."""
-    comp = record.compensation
-    if not comp:
+    comp = record.compensation_section
+    if comp is None:
         return None
-    outcome = shown(comp.get("outcome"))
-    writes = comp.get("writes") or {}
-    maps = comp.get("maps") or {}
+    outcome = shown(comp.outcome)
     maps_table = table(["axis", "the map corrects", "checksum (SHA-256)"],
-                       [[a, shown(m.get("source")), shown(m.get("checksum"))]
-                        for a, m in sorted(maps.items())]) if maps else None
-    iso = comp.get("iso230_2") or {}
-    rows: list[list[Cell]] = []
-    for axis in sorted({*(iso.get("before") or {}), *(iso.get("after") or {})}):
-        for stage, words_ in (("before", "before"),
-                              ("after", "after (the validation campaign)")):
-            fig = (iso.get(stage) or {}).get(axis)
-            if fig:
-                rows.append([axis, words_, *(_um(fig.get(f"{k}_mm")) for k in ISO230_FIGURES)])
-    figures = table(["axis", "when", *(f"{k} (µm)" for k in ISO230_FIGURES)], rows,
-                    [False, False, *(True,) * len(ISO230_FIGURES)]) if rows else None
-    tables = [f"{shown(t.get('format'))}: {_table_outcome(t)}" for t in comp.get("tables") or ()]
+                       [[a, shown(m.source), shown(m.checksum)]
+                        for a, m in sorted(comp.maps.items())]) if comp.maps else None
+    figures = _iso230_table(comp.iso230_2)
     return {"badge": Badge(f"calibrate {outcome}", OUTCOME_KIND.get(outcome, "info")),
-            "procedure": shown(comp.get("procedure")), "reason": shown(comp.get("reason"), ""),
-            "writes": ", ".join(f"{k} {v}" for k, v in writes.items() if v) or "none",
-            "restores": ", ".join(f"{k} {v}" for k, v in (comp.get("restores") or {}).items()
-                                  if v),
+            "procedure": shown(comp.procedure), "reason": shown(comp.reason, ""),
+            "writes": _operations(comp.writes) or "none",
+            "restores": _operations(comp.restores),
             "maps": maps_table, "figures": figures,
-            "compensated": ", ".join(comp.get("compensated") or ()) or "none",
-            "uncompensated": ", ".join(comp.get("uncompensated") or ()) or "none",
-            "tables": tables}
+            "compensated": ", ".join(comp.compensated) or "none",
+            "uncompensated": ", ".join(comp.uncompensated) or "none",
+            "tables": [f"{shown(t.format)}: {_table_outcome(t)}" for t in comp.tables]}
 
 
-def _table_outcome(table: dict[str, Any]) -> str:
+def _operations(by_target: Mapping[str, str | None]) -> str:
+    """``offsets write-81bd009e, maps maps-write-db716973``: the targets an operation
+    wrote (or restored), by its id."""
+    return ", ".join(f"{target} {operation}" for target, operation in by_target.items()
+                     if operation)
+
+
+def _iso230_table(stages: Iso230Stages) -> Table | None:
+    """Each axis's ISO 230-2 figures before and after, in µm; None when none."""
+    rows: list[list[Cell]] = []
+    for axis in sorted({*stages.before, *stages.after}):
+        for stage, when in ((stages.before, "before"),
+                            (stages.after, "after (the validation campaign)")):
+            if axis in stage:
+                rows.append([axis, when, *(_um(v) for v in stage[axis].in_order())])
+    return table(["axis", "when", *(f"{k} (µm)" for k in ISO230_FIGURES)], rows,
+                 [False, False, *(True,) * len(ISO230_FIGURES)]) if rows else None
+
+
+def _table_outcome(exported: TableExported) -> str:
     """The files a format wrote and, when the format or some of its axes were not
     written, why."""
-    said = [", ".join(map(str, table["files"]))] if table.get("files") else []
-    if table.get("problem"):
-        said.append(f"not written: {shown(table.get('problem'))}")
+    said = [", ".join(exported.files)] if exported.files else []
+    if exported.problem:
+        said.append(f"not written: {shown(exported.problem)}")
     return "; ".join(said)
 
 
