@@ -25,7 +25,7 @@ from typing import Any, TypeVar
 
 from ogacq.errors import InputError
 
-__all__ = ["RecordSectionError", "Section", "read", "read_all", "written"]
+__all__ = ["RecordSectionError", "Section", "read", "read_all", "read_lists", "written"]
 
 S = TypeVar("S", bound="Section")
 
@@ -46,6 +46,10 @@ class Section:
 
     extra: Mapping[str, Any] = field(default_factory=dict, repr=False)
     order: tuple[str, ...] = field(default=(), repr=False)
+
+    def holds(self, key: str) -> bool:
+        """Whether the JSON has ``key`` at all (null included)."""
+        return key in (self.order or written(self))
 
 
 BOOKKEEPING = frozenset({"extra", "order"})
@@ -86,6 +90,15 @@ def read_all(cls: type[S], value: Any, key: str) -> tuple[S, ...]:
     if not isinstance(value, list):
         raise RecordSectionError(key, f"must be a list, got {_shown(value)}")
     return tuple(read(cls, v, f"{key}[{i}]") for i, v in enumerate(value))
+
+
+def read_lists(cls: type[S], value: Any, key: str) -> dict[str, tuple[S, ...]]:
+    """An object of lists of sections (``budget``: parameter -> its contributions)."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
+    return {str(k): read_all(cls, v, f"{key}.{k}") for k, v in value.items()}
 
 
 def written(section: Section) -> dict[str, Any]:
