@@ -49,7 +49,6 @@ from ogacq.session.state import CampaignStatus, campaign_status
 from ogacq.session.store import LoadedSession
 
 POSTURE_OF_SIGN = {"+": "max", "-": "min"}
-Z95 = 1.959964  # two-sided 95 % of the normal distribution
 
 
 @dataclass(frozen=True)
@@ -58,10 +57,6 @@ class ParameterRow:
     unit: str
     value: float
     std: float  # NaN or inf when the data do not determine it
-
-    @property
-    def ci95_half(self) -> float:
-        return Z95 * self.std
 
 
 @dataclass(frozen=True)
