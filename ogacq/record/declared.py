@@ -36,6 +36,7 @@ class RecordSectionError(InputError, ValueError):
 
     def __init__(self, key: str, problem: str) -> None:
         self.key = key
+        self.problem_of_key = problem  # without the key: "must be a list, got text (...)"
         super().__init__(None, f"the calibration record's {key} {problem}")
 
 

@@ -132,6 +132,10 @@ def test_text_from_the_session_is_escaped(session_path, tmp_path):
     (lambda d: d["final"].update(consistent="yes"), "final.consistent"),
     (lambda d: d["effects"][0].update(value="big"), "effects[0].value"),
     (lambda d: d.update(noise_mm=None), "diagnosis.noise_mm"),
+    # a profile's value that is not a number: named (float() raised a bare ValueError)
+    (lambda d: d.update(profiles=[{"leg": "x", "q_mm": ["one"], "gauges": {}}]),
+     "diagnosis.profiles[0].q_mm[0] must be a number"),
+    (lambda d: d.update(chi2={"final": {"statistic": 1.0}}), "diagnosis.chi2.final.p is missing"),
 ])
 def test_a_malformed_diagnosis_names_the_key(change, message):
     data = json.loads(json.dumps(DIAGNOSIS))
