@@ -17,6 +17,7 @@ import jinja2
 
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.declared import written
 from ogacq.report.cells import Badge, Cell, Lines, Table
 from ogacq.report.cells import table as _table
 from ogacq.report.data import FitSummary, ParameterRow, ReportData, status_notes
@@ -293,12 +294,12 @@ def _provenance(data: ReportData) -> Table:
         ["campaign length (station clock)", duration(p.campaign_time_s)],
         ["machine", machine_words(p.machine)], ["machine file", p.machine_file or "-"],
         ["campaign file", p.campaign_file or "-"], ["simulated machine", simulated]]
-    if p.plan:
+    if p.plan is not None and written(p.plan):
         plan = p.plan
-        rows.append(["plan", f"legs {', '.join(map(str, plan.get('legs', [])))}; postures "
-                             f"{' → '.join(map(str, plan.get('postures', [])))}; "
-                             f"{plan.get('cycles', '?')} cycles; approach "
-                             f"{plan.get('approach', '?')}"])
+        rows.append(["plan", f"legs {', '.join(plan.legs)}; postures "
+                             f"{' → '.join(plan.postures)}; "
+                             f"{'?' if plan.cycles is None else plan.cycles} cycles; approach "
+                             f"{plan.approach or '?'}"])
     rows += [[what, desc] for what, desc in (*p.station, *p.other)]
     rows += [["resumed", r] for r in p.resumes]
     rows += [["fault", f] for f in data.faults]
@@ -322,7 +323,7 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     p = data.provenance
     fit = data.fit
     typed = CalibrationRecord.from_json(record)
-    machine = typed.machine_named.name or p.machine.get("name") or p.machine_file or "machine"
+    machine = typed.machine_named.name or p.machine_name or p.machine_file or "machine"
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
     status = recorded_status(typed, data.faults)
