@@ -14,6 +14,7 @@ from matplotlib.text import Text
 
 from ogacq.cli.report_cmd import report_diagnosis
 from ogacq.diagnose.diagnosis import diagnose
+from ogacq.errors import InputError
 from ogacq.io.tables import write_readings
 from ogacq.model.parameters import vector
 from ogacq.record.document import build_record
@@ -125,6 +126,20 @@ def test_text_from_the_session_is_escaped(session_path, tmp_path):
     assert "<img src=x" not in html
     assert "&lt;img src=x onerror=alert(1)&gt;" in html
     assert "shop &amp; &lt;floor&gt;.toml" in html
+
+
+def test_a_header_plan_of_another_shape_names_the_session_and_the_key(session_path, tmp_path):
+    """The page states the header's plan through its declaration: a plan whose legs are
+    not a list is said with the file and the key (it printed the string's letters)."""
+    lines = session_path.read_text().splitlines(keepends=True)
+    header = json.loads(lines[0])
+    header.pop("crc")
+    header["plan"] = {"legs": "xyz", "postures": ["zero", "max"], "cycles": 3}
+    path = tmp_path / "odd-plan.jsonl"
+    path.write_text(json.dumps(header) + "\n" + "".join(lines[1:]))
+    with pytest.raises(InputError, match=re.escape(f"{path}: the header's plan.legs must be "
+                                                   "a list, got text ('xyz')")):
+        collect(load_session(path, accept_edited=True))
 
 
 @pytest.mark.parametrize(("change", "message"), [
