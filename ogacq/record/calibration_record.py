@@ -17,8 +17,21 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from functools import cached_property
+from typing import Any, ClassVar, TypeVar
 
+from ogacq.record.compensation import CompensationSection
+from ogacq.record.declared import Section, read, read_all, read_lists
+from ogacq.record.declared_sections import (
+    BudgetRow,
+    CampaignSection,
+    InstrumentEntry,
+    MethodSection,
+    OverrideEntry,
+    Revises,
+    SessionFile,
+    WriteBackEntry,
+)
 from ogacq.record.sections import (
     Acceptance,
     HistoryEntry,
@@ -31,6 +44,8 @@ from ogacq.record.sections import (
 from ogacq.session.json_document import JsonObject, NamedJson
 
 __all__ = ["CalibrationRecord"]
+
+S = TypeVar("S", bound=Section)
 
 
 @dataclass(frozen=True)
@@ -62,7 +77,7 @@ class CalibrationRecord(NamedJson):
     session: JsonObject | None = None  # path, sha256, records, integrity, edited
     validation_session: JsonObject | None = None  # the same, of the as-left campaign
     validation_results: JsonObject | None = None  # as results, of the as-left campaign
-    compensation: JsonObject | None = None  # calibrate's: procedure, outcome, writes, ...
+    compensation: JsonObject | None = None  # as written; read: compensation_section
     missing: JsonObject | None = None  # what the record lacks, and why
     revision: int | None = None  # 1 for the first issue
     revises: JsonObject | None = None  # from revision 2: revision, issued, sha256
@@ -118,6 +133,55 @@ class CalibrationRecord(NamedJson):
     @property
     def acceptance_read(self) -> Acceptance:
         return Acceptance.from_json(self.acceptance)
+
+    # --- the sections declared once (ogacq.record.declared): each None (or empty)
+    # when the record does not have it, a RecordSectionError naming the key when it
+    # holds something else than its declaration
+    def _section(self, cls: type[S], key: str) -> S | None:
+        found = self.as_written(key)
+        return None if found is None else read(cls, found, key)
+
+    @cached_property
+    def compensation_section(self) -> CompensationSection | None:
+        """What ``ogacq calibrate`` wrote beside the offsets."""
+        return self._section(CompensationSection, "compensation")
+
+    @cached_property
+    def campaign_section(self) -> CampaignSection:
+        return self._section(CampaignSection, "campaign") or CampaignSection()
+
+    @cached_property
+    def method_section(self) -> MethodSection:
+        return self._section(MethodSection, "method") or MethodSection()
+
+    @cached_property
+    def revises_section(self) -> Revises | None:
+        return self._section(Revises, "revises")
+
+    @cached_property
+    def session_file(self) -> SessionFile:
+        return self._section(SessionFile, "session") or SessionFile()
+
+    @cached_property
+    def validation_session_file(self) -> SessionFile | None:
+        return self._section(SessionFile, "validation_session")
+
+    @cached_property
+    def instrument_entries(self) -> tuple[InstrumentEntry, ...]:
+        return read_all(InstrumentEntry, self.as_written("instruments"), "instruments")
+
+    @cached_property
+    def override_entries(self) -> tuple[OverrideEntry, ...]:
+        return read_all(OverrideEntry, self.as_written("overrides"), "overrides")
+
+    @cached_property
+    def writeback_entries(self) -> tuple[WriteBackEntry, ...]:
+        return read_all(WriteBackEntry, self.as_written("writeback"), "writeback")
+
+    @cached_property
+    def budget_rows(self) -> dict[str, tuple[BudgetRow, ...]]:
+        """Each parameter's contributions, in the record's order."""
+        return read_lists(BudgetRow, self.as_written("budget"), "budget")
 
     @property
     def history_entries(self) -> tuple[HistoryEntry, ...]:

@@ -56,10 +56,9 @@ class Report:
 
 
 def planned_legs(data: ReportData) -> tuple[str, ...]:
-    plan = data.provenance.plan or {}
-    legs = plan.get("legs")
-    if isinstance(legs, list) and all(leg in AXES for leg in legs):
-        return tuple(legs)
+    plan = data.provenance.plan
+    if plan is not None and plan.holds("legs") and all(leg in AXES for leg in plan.legs):
+        return plan.legs
     return AXES
 
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -41,15 +41,21 @@ from ogacq.io.dates import local_time_text
 from ogacq.io.errors import InputError
 from ogacq.model.measurement import POSTURE_NAMES
 from ogacq.model.parameters import AXES, PARAM_INDEX, effect_of
+from ogacq.record.declared import RecordSectionError, Section, read
+from ogacq.record.sections import RecordMachine
 from ogacq.report.diagnosis_view import DiagnosisView
 from ogacq.session.convert import session_machine
 from ogacq.session.identification import recorded_identification
+from ogacq.session.json_document import JsonObject
 from ogacq.session.records import FaultRecord, ResumeRecord
 from ogacq.session.state import CampaignStatus, campaign_status
 from ogacq.session.store import LoadedSession
 
 POSTURE_OF_SIGN = {"+": "max", "-": "min"}
-Z95 = 1.959964  # two-sided 95 % of the normal distribution
+# how a campaign that did not finish ended, in words
+UNFINISHED_WORDS = {"stopped": "stopped before its end", "interrupted": "was interrupted",
+                    "incomplete": "did not finish (no end record)"}
+S = TypeVar("S", bound=Section)
 
 
 @dataclass(frozen=True)
@@ -58,10 +64,6 @@ class ParameterRow:
     unit: str
     value: float
     std: float  # NaN or inf when the data do not determine it
-
-    @property
-    def ci95_half(self) -> float:
-        return Z95 * self.std
 
 
 @dataclass(frozen=True)
@@ -131,12 +133,13 @@ class Provenance:
     software: str  # that recorded the session
     created: str
     machine: dict[str, Any]
+    machine_name: str | None  # the machine file's name
     machine_file: str | None
     campaign_file: str | None
     station: tuple[tuple[str, str], ...]  # (what, description)
     simulated: bool
     simulator: dict[str, Any] | None
-    plan: dict[str, Any] | None
+    plan: PlanSummary | None
     resumes: tuple[str, ...]
     campaign_time_s: float | None  # station clock at the last reading
     other: tuple[tuple[str, str], ...]  # header entries of other tools (the wizard's, ...)
@@ -174,21 +177,49 @@ class ReportData:
 
 # --- the session as a campaign ------------------------------------------------------------
 
+@dataclass(frozen=True)
+class PlanSummary(Section):
+    """The header's ``plan`` (``ProtocolConfig.to_dict``) as the page states it; a
+    scan has no postures."""
+
+    legs: tuple[str, ...] = ()
+    postures: tuple[str, ...] = ()
+    cycles: int | None = None
+    approach: str | None = None
+
+
+@dataclass(frozen=True)
+class StationSummary(Section):
+    """The header's ``station``: the controller and gauges opened, each a table as
+    recorded; every other key (a deadline, the integrity, ...) kept in ``extra``."""
+
+    controller: Any = None
+    gauges: Any = None
+    simulated: Any = None
+
+
+def _header_section(session: LoadedSession, cls: type[S], key: str,
+                    found: JsonObject | None) -> S | None:
+    """The header's ``key`` (``found``, None when absent), an InputError naming the
+    file and the key when it is not what ogacq writes."""
+    try:
+        return None if found is None else read(cls, found, key)
+    except RecordSectionError as exc:
+        raise InputError(session.path, f"the header's {exc.key} {exc.problem_of_key}") from None
+
+
 def provenance(session: LoadedSession) -> Provenance:
     h = session.header
-    station = h.station or {}
+    station = _header_section(session, StationSummary, "station", h.station) or StationSummary()
     described: list[tuple[str, str]] = []
-    controller = station.get("controller")
-    if isinstance(controller, dict):
-        described.append(("axis controller", _describe(controller)))
-    gauges = station.get("gauges")
-    if isinstance(gauges, dict):
-        for name, g in gauges.items():
+    if isinstance(station.controller, dict):
+        described.append(("axis controller", _describe(station.controller)))
+    if isinstance(station.gauges, dict):
+        for name, g in station.gauges.items():
             described.append((f"gauge {name}", _describe(g) if isinstance(g, dict) else str(g)))
-    for key, value in station.items():
-        if key not in ("controller", "gauges", "simulated"):
-            described.append((key.replace("_", " "), _describe(value)
-                              if isinstance(value, dict) else str(value)))
+    for key, value in station.extra.items():
+        described.append((key.replace("_", " "), _describe(value)
+                          if isinstance(value, dict) else str(value)))
     resumes = tuple(f"{local_time_text(r.wall)} with {r.software}"
                     for r in session.of_type(ResumeRecord))
     times = [r.t_s for r in session.readings]
@@ -196,10 +227,11 @@ def provenance(session: LoadedSession) -> Provenance:
     return Provenance(
         session_path=str(session.path), software=h.software or "unknown",
         created=h.created or "unknown",
-        machine=dict(h.machine or {}), machine_file=h.machine_file,
+        machine=dict(h.machine or {}), machine_name=RecordMachine.from_json(h.machine).name,
+        machine_file=h.machine_file,
         campaign_file=h.campaign_file, station=tuple(described),
-        simulated=bool(station.get("simulated")) or simulator is not None,
-        simulator=simulator, plan=dict(h.plan) if h.plan is not None else None,
+        simulated=bool(station.simulated) or simulator is not None,
+        simulator=simulator, plan=_header_section(session, PlanSummary, "plan", h.plan),
         resumes=resumes, campaign_time_s=max(times) if times else None,
         other=tuple((key.replace("_", " "), _describe_value(value))
                     for key, value in h.to_json().items()
@@ -283,18 +315,20 @@ def deviation_rows(result: FitResult, validation: FitResult | None) -> tuple[Dev
     before = _named(obs)
     after = _named(replace(obs, values=result.residuals))
     noise = _deviation_noise(obs, result.noise.sigma_mm)
-    measured: dict[str, float] = {}
-    measured_noise: dict[str, float] = {}
+    # a deviation the fit or the validation does not have: NaN, None (not measured)
+    measured: dict[str, float | None] = dict.fromkeys(before)
+    measured_noise: dict[str, float | None] = dict.fromkeys(before)
     if validation is not None:
-        measured = _named(validation.observations)
-        measured_noise = _deviation_noise(validation.observations, validation.noise.sigma_mm)
+        measured |= _named(validation.observations)
+        measured_noise |= _deviation_noise(validation.observations, validation.noise.sigma_mm)
+    unknown = dict.fromkeys(before, float("nan"))
+    noise, after = unknown | noise, unknown | after
     rows = []
     for name, value in before.items():
         deviation = Deviation.parse(name)
         rows.append(DeviationRow(name, deviation.gauge.leg, deviation.gauge.axis,
-                                 deviation.posture, value,
-                                 noise.get(name, float("nan")), after.get(name, float("nan")),
-                                 measured.get(name), measured_noise.get(name)))
+                                 deviation.posture, value, noise[name], after[name],
+                                 measured[name], measured_noise[name]))
     order = {leg: k for k, leg in enumerate(AXES)}
     return tuple(sorted(rows, key=lambda r: (order[r.leg], r.posture != "max", r.gauge_axis)))
 
@@ -338,9 +372,7 @@ def status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
     if not status.complete:
         planned = f" of {status.planned} planned" if status.planned else ""
         why = f" ({status.reason})" if status.reason else ""
-        state = {"stopped": "stopped before its end", "interrupted": "was interrupted",
-                 "incomplete": "did not finish (no end record)"}.get(status.status,
-                                                                     status.status)
+        state = UNFINISHED_WORDS.get(status.status, status.status)
         notes.append(f"This {what} {state}{why}: {status.readings} readings{planned}. "
                      "Everything below comes from the readings on file only; legs or "
                      "postures that were not read cannot show.")

@@ -12,11 +12,12 @@ separate explanations), ``coverage``, ``chi2`` (before and after the maps) and
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Any, Literal, overload
+from typing import Any
 
 from ogacq.diagnose.outcome import outcome_label
 from ogacq.errors import InputError
 from ogacq.model.axis_map import AxisMap
+from ogacq.record.declared import RecordSectionError, Section, read
 
 
 class DiagnosisFormatError(InputError):
@@ -115,146 +116,168 @@ class DiagnosisView:
                              self.base.consistent or self.base.chi2_dof is not None)
 
 
-@overload
-def _number(d: dict, key: str, where: str, optional: Literal[False] = False) -> float: ...
+# --- the JSON, declared once (ogacq.record.declared) -----------------------------------
+
+@dataclass(frozen=True)
+class _Agreement(Section):
+    consistent: bool
+    chi2_dof: float | None = None
+    rms_mm: float | None = None
 
 
-@overload
-def _number(d: dict, key: str, where: str, optional: bool) -> float | None: ...
+@dataclass(frozen=True)
+class _Located(Section):
+    share: float
+    leg: str | None = None
+    gauge_axis: str | None = None
 
 
-def _number(d: dict, key: str, where: str, optional: bool = False) -> float | None:
-    value = d.get(key)
-    if value is None and optional:
-        return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise DiagnosisFormatError(f"{where}.{key} must be a number, got {value!r}")
-    return float(value)
+@dataclass(frozen=True)
+class _Alternative(Section):
+    effect: str
+    where: str = "?"
 
 
-def _object(d: Any, where: str) -> dict:
-    if not isinstance(d, dict):
-        raise DiagnosisFormatError(f"{where} must be an object, got {type(d).__name__}")
-    return d
+@dataclass(frozen=True)
+class _Effect(Section):
+    effect: str  # a name like "squareness"
+    where: str = ""
+    value: float | None = None
+    std: float | None = None
+    unit: str | None = None
+    alternatives: tuple[_Alternative, ...] = ()
+    separated_by: tuple[str, ...] = ()
+    located: str | None = None
 
 
-def _verdict(d: Any, where: str) -> ModelAgreement:
-    d = _object(d, where)
-    if not isinstance(d.get("consistent"), bool):
-        raise DiagnosisFormatError(f"{where}.consistent must be true or false")
-    return ModelAgreement(_number(d, "chi2_dof", where, True), _number(d, "rms_mm", where, True),
-                      d["consistent"])
+@dataclass(frozen=True)
+class _Parameters(Section):
+    joint_offset: dict[str, float | None] = field(default_factory=dict)
 
 
-def _alternative(a: Any) -> str:
-    if isinstance(a, dict) and "effect" in a:
-        return f"{a['effect']}.{a.get('where', '?')}"
-    return str(a)
+@dataclass(frozen=True)
+class _Proposal(Section):
+    text: str | None = None
 
 
-def _effect(d: Any, k: int) -> EffectFound:
-    where = f"effects[{k}]"
-    d = _object(d, where)
-    if not isinstance(d.get("effect"), str):
-        raise DiagnosisFormatError(f"{where}.effect must be a name like 'squareness'")
-    alternatives = d.get("alternatives") or []
-    separated = d.get("separated_by") or []
-    if not isinstance(alternatives, list) or not isinstance(separated, list):
-        raise DiagnosisFormatError(f"{where}.alternatives must be a list")
-    located = d.get("located")
-    return EffectFound(d["effect"], str(d.get("where", "")),
-                       _number(d, "value", where, True), _number(d, "std", where, True),
-                       str(d.get("unit") or "-"), tuple(_alternative(a) for a in alternatives),
-                       tuple(str(s) for s in separated),
-                       str(located) if isinstance(located, str) else None)
+@dataclass(frozen=True)
+class _Coverage(Section):
+    """How one axis was read; the values are shown as written."""
+
+    axis: Any = None
+    positions: Any = None
+    maps_searched: Any = None
+    from_mm: Any = None
+    to_mm: Any = None
+    step_mm: Any = None
 
 
-def _list(d: dict, key: str) -> list:
-    value = d.get(key) or []
-    if not isinstance(value, list):
-        raise DiagnosisFormatError(f"{key} must be a list")
-    return value
+@dataclass(frozen=True)
+class _Chi2(Section):
+    p: float
+    statistic: float | None = None
+    dof: int | None = None
+    consistent: bool | None = None
 
 
-def _maps(d: dict) -> tuple[AxisMap, ...]:
+@dataclass(frozen=True)
+class _GaugeProfile(Section):
+    before_um: tuple[float | None, ...]  # null: no reading in that bin
+    after_um: tuple[float | None, ...]
+
+
+@dataclass(frozen=True)
+class _Profile(Section):
+    q_mm: tuple[float | None, ...]
+    leg: str | None = None
+    gauges: dict[str, _GaugeProfile] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class _Diagnosis(Section):
+    """INTERCHANGE.md's diagnosis object, and the optional keys the module names."""
+
+    noise_mm: float
+    base: _Agreement
+    final: _Agreement
+    located: tuple[_Located, ...] = ()
+    effects: tuple[_Effect, ...] = ()
+    parameters: _Parameters = field(default_factory=_Parameters)
+    caveats: tuple[Any, ...] = ()
+    maps: tuple[Any, ...] = ()  # ogacq-axis-map/1 objects, read by AxisMap.from_json
+    proposals: tuple[_Proposal, ...] = ()
+    coverage: tuple[_Coverage, ...] = ()
+    chi2: dict[str, _Chi2] = field(default_factory=dict)  # base, library, final
+    profiles: tuple[_Profile, ...] = ()
+
+
+def _agreement(d: _Agreement) -> ModelAgreement:
+    return ModelAgreement(_float(d.chi2_dof), _float(d.rms_mm), d.consistent)
+
+
+def _float(value: float | None) -> float | None:
+    return None if value is None else float(value)
+
+
+def _effect(d: _Effect) -> EffectFound:
+    return EffectFound(d.effect, d.where, _float(d.value), _float(d.std), d.unit or "-",
+                       tuple(f"{a.effect}.{a.where}" for a in d.alternatives),
+                       d.separated_by, d.located)
+
+
+def _maps(found: tuple[Any, ...]) -> tuple[AxisMap, ...]:
     out = []
-    for k, m in enumerate(_list(d, "maps")):
+    for k, m in enumerate(found):
+        if not isinstance(m, dict):
+            raise DiagnosisFormatError(f"maps[{k}] must be an object, got {type(m).__name__}")
         try:
-            out.append(AxisMap.from_json(_object(m, f"maps[{k}]"), f"maps[{k}]"))
+            out.append(AxisMap.from_json(m, f"maps[{k}]"))
         except (InputError, ValueError) as exc:
             raise DiagnosisFormatError(f"maps[{k}]: {exc}") from None
     return tuple(out)
 
 
-def _floats(values: Any, where: str) -> tuple[float, ...]:
-    if not isinstance(values, list):
-        raise DiagnosisFormatError(f"{where} must be a list of numbers")
+def _floats(values: tuple[float | None, ...]) -> tuple[float, ...]:
+    """A profile's values, an empty bin (null) as NaN."""
     return tuple(float("nan") if v is None else float(v) for v in values)
 
 
-def _profiles(d: dict) -> tuple[LegProfileView, ...]:
-    out = []
-    for k, p in enumerate(_list(d, "profiles")):
-        where = f"profiles[{k}]"
-        p = _object(p, where)
-        gauges = _object(p.get("gauges") or {}, f"{where}.gauges")
-        out.append(LegProfileView(
-            str(p.get("leg")), _floats(p.get("q_mm"), f"{where}.q_mm"),
-            {g: _floats(_object(v, g).get("before_um"), f"{where}.{g}") for g, v in gauges.items()},
-            {g: _floats(_object(v, g).get("after_um"), f"{where}.{g}") for g, v in gauges.items()}))
-    return tuple(out)
+def _profile(p: _Profile) -> LegProfileView:
+    return LegProfileView(str(p.leg), _floats(p.q_mm),
+                          {g: _floats(v.before_um) for g, v in p.gauges.items()},
+                          {g: _floats(v.after_um) for g, v in p.gauges.items()})
 
 
-def _chi2(d: dict) -> dict[str, ModelChi2]:
-    out = {}
-    for key, v in _object(d.get("chi2") or {}, "chi2").items():
-        v = _object(v, f"chi2.{key}")
-        out[str(key)] = ModelChi2(_number(v, "statistic", f"chi2.{key}", True),
-                                  int(v.get("dof") or 0),
-                                  float(_number(v, "p", f"chi2.{key}") or 0.0),
-                                  bool(v.get("consistent")))
-    return out
-
-
-def _coverage(d: dict) -> tuple[str, ...]:
-    out = []
-    for c in _list(d, "coverage"):
-        if not isinstance(c, dict):
-            continue
-        where = f"{c.get('axis')} axis: {c.get('positions')} positions read"
-        if c.get("maps_searched"):
-            where += (f", {c.get('from_mm')} to {c.get('to_mm')} mm every "
-                      f"{c.get('step_mm')} mm: searched for maps along it")
-        else:
-            where += ": too few for a map along it (a scan would show one)"
-        out.append(where)
-    return tuple(out)
+def _coverage(c: _Coverage) -> str:
+    where = f"{c.axis} axis: {c.positions} positions read"
+    if c.maps_searched:
+        return where + (f", {c.from_mm} to {c.to_mm} mm every {c.step_mm} mm: searched "
+                        "for maps along it")
+    return where + ": too few for a map along it (a scan would show one)"
 
 
 def parse_diagnosis(data: Any) -> DiagnosisView:
     """Check ``data`` against INTERCHANGE.md's diagnosis object; raises
     DiagnosisFormatError naming the first key that is wrong."""
-    d = _object(data, "diagnosis")
-    for key in ("noise_mm", "base", "final"):
-        if key not in d:
-            raise DiagnosisFormatError(f"the diagnosis has no '{key}' (see `ogacq diagnose "
-                                       "--json`)")
-    located = []
-    for k, g in enumerate(d.get("located") or []):
-        g = _object(g, f"located[{k}]")
-        located.append(MisfitShare(str(g.get("leg")), str(g.get("gauge_axis")),
-                                   _number(g, "share", f"located[{k}]")))
-    offsets = _object(d.get("parameters") or {}, "parameters").get("joint_offset") or {}
-    caveats = d.get("caveats") or []
+    if isinstance(data, dict):
+        for key in ("noise_mm", "base", "final"):
+            if key not in data:
+                raise DiagnosisFormatError(f"the diagnosis has no '{key}' (see `ogacq "
+                                           "diagnose --json`)")
+    try:
+        d = read(_Diagnosis, data, "diagnosis")
+    except RecordSectionError as exc:
+        raise DiagnosisFormatError(f"{exc.key} {exc.problem_of_key}") from None
     return DiagnosisView(
-        noise_mm=_number(d, "noise_mm", "diagnosis"),
-        base=_verdict(d["base"], "base"), final=_verdict(d["final"], "final"),
-        located=tuple(located),
-        effects=tuple(_effect(e, k) for k, e in enumerate(d.get("effects") or [])),
-        offsets_mm={str(a): float(v) for a, v in _object(offsets, "parameters.joint_offset")
-                    .items() if isinstance(v, int | float)},
-        caveats=tuple(str(c) for c in caveats) if isinstance(caveats, list) else (),
-        maps=_maps(d),
-        proposals=tuple(str(p.get("text")) for p in _list(d, "proposals")
-                        if isinstance(p, dict) and p.get("text")),
-        coverage=_coverage(d), chi2=_chi2(d), profiles=_profiles(d))
+        noise_mm=float(d.noise_mm), base=_agreement(d.base), final=_agreement(d.final),
+        located=tuple(MisfitShare(str(g.leg), str(g.gauge_axis), float(g.share))
+                      for g in d.located),
+        effects=tuple(_effect(e) for e in d.effects),
+        offsets_mm={a: float(v) for a, v in d.parameters.joint_offset.items()
+                    if v is not None},
+        caveats=tuple(str(c) for c in d.caveats), maps=_maps(d.maps),
+        proposals=tuple(p.text for p in d.proposals if p.text),
+        coverage=tuple(_coverage(c) for c in d.coverage),
+        chi2={key: ModelChi2(_float(v.statistic), v.dof or 0, float(v.p), bool(v.consistent))
+              for key, v in d.chi2.items()},
+        profiles=tuple(_profile(p) for p in d.profiles))

@@ -263,6 +263,7 @@ class _Whiskers:
     def of(cls, summary: FitSummary, names: Sequence[str],
            given: Mapping[str, float | None] | None) -> _Whiskers:
         rows = tuple(summary.row(n) for n in names)
+        expanded = dict.fromkeys(names) | dict(given or {})  # None: U not evaluated
         value = np.array([r.value if r and finite(r.std) else np.nan for r in rows])
         half = np.full(len(rows), np.nan)
         texts = []
@@ -271,7 +272,7 @@ class _Whiskers:
             if r is None or not finite(r.std):
                 texts.append("not determined by these readings")
                 continue
-            U = (given or {}).get(r.name)
+            U = expanded[r.name]
             if U is None:
                 fallback = True
                 half[k] = 2 * r.std

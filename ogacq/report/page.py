@@ -17,6 +17,7 @@ import jinja2
 
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.declared import written
 from ogacq.report.cells import Badge, Cell, Lines, Table
 from ogacq.report.cells import table as _table
 from ogacq.report.data import FitSummary, ParameterRow, ReportData, status_notes
@@ -51,10 +52,9 @@ class Figure(NamedTuple):
 def recorded_status(record: CalibrationRecord, faults: tuple[str, ...] = ()) -> CampaignStatus:
     """The campaign's status as the record states it (``campaign``: status, readings,
     planned, reason), with the faults the session lists (the record has none)."""
-    campaign = record.campaign or {}
-    return CampaignStatus(str(campaign.get("status") or "incomplete"),
-                          int(campaign.get("readings") or 0), campaign.get("planned"),
-                          campaign.get("reason"), faults, ())
+    campaign = record.campaign_section
+    return CampaignStatus(campaign.status or "incomplete", campaign.readings or 0,
+                          campaign.planned, campaign.reason, faults, ())
 
 
 def status_badge(status: CampaignStatus) -> Badge:
@@ -69,12 +69,11 @@ def session_notes(record: Mapping[str, Any]) -> list[str]:
     from ogacq.session.seal import Integrity
 
     typed = CalibrationRecord.from_json(record)
-    campaign = typed.campaign or {}
-    session = typed.session or {}
-    edited = tuple((int(e.get("line") or 0), str(e.get("problem"))) for e in
-                   session.get("edited") or () if isinstance(e, Mapping))
-    notes = [campaign["partial"]] if campaign.get("partial") else []
-    return notes + Integrity(str(session.get("integrity") or "sealed"), edited).notes()
+    session = typed.session_file
+    edited = tuple((e.line or 0, str(e.problem)) for e in session.edited)
+    partial = typed.campaign_section.partial
+    notes = [partial] if partial else []
+    return notes + Integrity(session.integrity or "sealed", edited).notes()
 
 
 def recorded_verdict(record: CalibrationRecord) -> tuple[str, str]:
@@ -86,11 +85,14 @@ def recorded_verdict(record: CalibrationRecord) -> tuple[str, str]:
     return verdict.state or "undetermined", verdict.text or ""
 
 
+VERDICT_KIND = {"consistent": "ok", "inconsistent": "bad"}  # the badge of a verdict's state
+
+
 def misfit_sentence(verdict: tuple[str, str]) -> tuple[str, str]:
     """(badge kind, sentence): the record's verdict (``recorded_verdict``) and what it
     means for the offsets."""
     state, text = verdict
-    kind = {"consistent": "ok", "inconsistent": "bad"}.get(state, "info")
+    kind = VERDICT_KIND.get(state, "info")
     meaning = {"ok": "the joint offsets explain the readings.",
                "bad": "the model leaves something out, so the offsets alone will not make "
                       "the machine accurate (see the diagnosis).",
@@ -256,9 +258,11 @@ def _diagnosis(d: DiagnosisView, fit: FitSummary | None) -> dict[str, Any]:
                                 [False, True, False, False][:len(header)])
     out |= _along_axes(d)
     if d.offsets_mm and d.named_effects:
-        base = {p.name.split(".")[-1]: p.value for p in fit.parameters} if fit else {}
+        # an axis the fit did not identify: None, "-"
+        base = dict.fromkeys(d.offsets_mm) | ({p.name.split(".")[-1]: p.value
+                                               for p in fit.parameters} if fit else {})
         out["offsets_compared"] = _table(["axis", "offsets only", "with the effects"], [
-            [a, signed(base.get(a), 5), signed(v, 5)] for a, v in sorted(d.offsets_mm.items())],
+            [a, signed(base[a], 5), signed(v, 5)] for a, v in sorted(d.offsets_mm.items())],
             [False, True, True])
     return out
 
@@ -270,9 +274,9 @@ def _along_axes(d: DiagnosisView) -> dict[str, Any]:
              "final": "with the maps too (final)"}
     rows: list[list[Cell]] = []
     for key, title in names.items():
-        v = d.chi2.get(key)
-        if v is None:
+        if key not in d.chi2:
             continue
+        v = d.chi2[key]
         rows.append([title, plain(v.statistic, 1), str(v.dof), f"{v.p:.3g}",
                      Badge("within noise", "ok") if v.consistent
                      else Badge("not within noise", "bad")])
@@ -290,12 +294,12 @@ def _provenance(data: ReportData) -> Table:
         ["campaign length (station clock)", duration(p.campaign_time_s)],
         ["machine", machine_words(p.machine)], ["machine file", p.machine_file or "-"],
         ["campaign file", p.campaign_file or "-"], ["simulated machine", simulated]]
-    if p.plan:
+    if p.plan is not None and written(p.plan):
         plan = p.plan
-        rows.append(["plan", f"legs {', '.join(map(str, plan.get('legs', [])))}; postures "
-                             f"{' → '.join(map(str, plan.get('postures', [])))}; "
-                             f"{plan.get('cycles', '?')} cycles; approach "
-                             f"{plan.get('approach', '?')}"])
+        rows.append(["plan", f"legs {', '.join(plan.legs)}; postures "
+                             f"{' → '.join(plan.postures)}; "
+                             f"{'?' if plan.cycles is None else plan.cycles} cycles; approach "
+                             f"{plan.approach or '?'}"])
     rows += [[what, desc] for what, desc in (*p.station, *p.other)]
     rows += [["resumed", r] for r in p.resumes]
     rows += [["fault", f] for f in data.faults]
@@ -319,8 +323,7 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     p = data.provenance
     fit = data.fit
     typed = CalibrationRecord.from_json(record)
-    machine = ((typed.machine or {}).get("name") or p.machine.get("name")
-               or p.machine_file or "machine")
+    machine = typed.machine_named.name or p.machine_name or p.machine_file or "machine"
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
     status = recorded_status(typed, data.faults)

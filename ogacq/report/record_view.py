@@ -22,7 +22,10 @@ from markupsafe import Markup
 
 from ogacq.identify.consistency import format_p
 from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.record.sections import ResultEntry, SessionReference
+from ogacq.record.compensation import Iso230Stages, TableExported
+from ogacq.record.declared import written
+from ogacq.record.declared_sections import SessionFile
+from ogacq.record.sections import ResultEntry
 from ogacq.report.cells import Badge, Cell, Lines, Table, table
 from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
 
@@ -100,9 +103,10 @@ def rows_table(rows: Sequence[Mapping[str, Any]], empty: str = NOT_RECORDED,
     keys = list(first)
     for row in rows:
         keys += [k for k in row if k not in keys]
-    body: list[list[Cell]] = [[cell(k, row.get(k), empty) for k in keys] for row in rows]
-    numeric = [all(isinstance(r.get(k), int | float) and not isinstance(r.get(k), bool)
-                   for r in rows if r.get(k) is not None) for k in keys]
+    filled = [{**dict.fromkeys(keys), **row} for row in rows]  # a key a row lacks: None
+    body: list[list[Cell]] = [[cell(k, row[k], empty) for k in keys] for row in filled]
+    numeric = [all(isinstance(r[k], int | float) and not isinstance(r[k], bool)
+                   for r in filled if r[k] is not None) for k in keys]
     return table([words(k) for k in keys], body, numeric)
 
 
@@ -122,10 +126,10 @@ def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
 
 def identification(record: CalibrationRecord) -> Table:
     machine = record.machine_named
-    campaign = record.campaign or {}
-    session = record.session_reference
-    planned = f" of {shown(campaign.get('planned'))} planned" if campaign.get("planned") else ""
-    reason = f" ({campaign['reason']})" if campaign.get("reason") else ""
+    campaign = record.campaign_section
+    session = record.session_file
+    planned = f" of {shown(campaign.planned)} planned" if campaign.planned else ""
+    reason = f" ({campaign.reason})" if campaign.reason else ""
     rehearsed = " (a simulated date: a rehearsal)" if record.date_simulated else ""
     rows: list[list[Cell]] = [
         ["record", shown(record.id)],
@@ -137,17 +141,17 @@ def identification(record: CalibrationRecord) -> Table:
         ["machine serial number", shown(machine.serial)],
         ["machine description", shown(machine.file)],
         ["operator", shown(record.operator)],
-        ["campaign", f"{shown(campaign.get('status'))}{reason}: "
-                     f"{shown(campaign.get('readings'))} readings{planned}"],
+        ["campaign", f"{shown(campaign.status)}{reason}: "
+                     f"{shown(campaign.readings)} readings{planned}"],
         ["session file", shown(session.path)],
         ["session SHA-256", shown(session.sha256)],
         ["session records", shown(session.records)],
         *_integrity_rows("session", session),
     ]
-    if campaign.get("partial"):
+    if campaign.partial:
         rows.insert(rows.index(["session file", shown(session.path)]),
-                    ["campaign not finished", shown(campaign["partial"])])
-    validation = record.validation_reference
+                    ["campaign not finished", shown(campaign.partial)])
+    validation = record.validation_session_file
     if validation is not None:
         rows += [["as-left session file", shown(validation.path)],
                  ["as-left session SHA-256", shown(validation.sha256)],
@@ -170,13 +174,13 @@ def _revision_rows(record: CalibrationRecord) -> list[list[Cell]]:
     if "revision" not in record:
         return []
     rows: list[list[Cell]] = [["revision", shown(record.revision)]]
-    revises = record.revises
+    revises = record.revises_section
     if revises is not None:
-        rows.append(["replaces", f"revision {shown(revises.get('revision'))} issued "
-                                 f"{shown(revises.get('issued'))} (its record.json SHA-256 "
-                                 f"{shown(revises.get('sha256'))})"])
+        rows.append(["replaces", f"revision {shown(revises.revision)} issued "
+                                 f"{shown(revises.issued)} (its record.json SHA-256 "
+                                 f"{shown(revises.sha256)})"])
         changes = [str(c) for c in record.changes or ()]
-        rows.append([f"changed since revision {shown(revises.get('revision'))}",
+        rows.append([f"changed since revision {shown(revises.revision)}",
                      Lines(tuple(changes)) if changes else "nothing named"])
     return rows
 
@@ -189,39 +193,37 @@ INTEGRITY_WORDS = {
 }
 
 
-def _integrity_rows(what: str, session: SessionReference) -> list[list[Cell]]:
+def _integrity_rows(what: str, session: SessionFile) -> list[list[Cell]]:
     """The session's integrity and the records the user accepted as edited."""
-    written = session.fields
-    if "integrity" not in written:
+    if not session.holds("integrity"):
         return []
-    mode = written.get("integrity")
+    mode = session.integrity
     rows: list[list[Cell]] = [[f"{what} integrity",
                                f"{shown(mode)}: {INTEGRITY_WORDS.get(str(mode), '')}"]]
-    rows += [[f"{what} edited record", f"line {shown(e.get('line'))}: {shown(e.get('problem'))} "
+    rows += [[f"{what} edited record", f"line {shown(e.line)}: {shown(e.problem)} "
                                        "(accepted as it stands, --accept-edited)"]
-             for e in written.get("edited") or () if isinstance(e, Mapping)]
+             for e in session.edited]
     return rows
 
 
 def instruments(record: CalibrationRecord) -> Table | None:
     """The gauges with their certificates; an expired one is marked, with its override."""
-    found = [i for i in record.instruments or () if isinstance(i, Mapping)]
+    found = record.instrument_entries
     if not found:
         return None
-    overrides = {str(o.get("subject", "")).split(" ")[0]: o
-                 for o in record.overrides or ()
-                 if isinstance(o, Mapping) and o.get("what") == "expired-gauge"}
+    overridden = {(o.subject or "").split(" ")[0] for o in record.override_entries
+                  if o.what == "expired-gauge"}
     shown_keys = ["gauge", "make", "model", "serial", "certificate", "calibrated", "due",
                   "uncertainty_mm", "uncertainty_k", "resolution_mm"]
-    extra = [k for i in found for k in i if k not in shown_keys and k != "expired"]
-    header = [words(k) for k in shown_keys + list(dict.fromkeys(extra))] + ["certificate status"]
+    each = [written(i) for i in found]
+    keys = list(dict.fromkeys([*shown_keys, *(k for i in each for k in i if k != "expired")]))
+    header = [words(k) for k in keys] + ["certificate status"]
     rows: list[list[Cell]] = []
     kinds = []
-    for instrument in found:
-        row: list[Cell] = [shown(instrument.get(k)) for k in shown_keys]
-        row += [shown(instrument.get(k)) for k in dict.fromkeys(extra)]
-        expired = instrument.get("expired")
-        override = overrides.get(str(instrument.get("gauge")))
+    for instrument, values in zip(found, each, strict=True):
+        row: list[Cell] = [shown(values[k]) if k in values else NOT_RECORDED for k in keys]
+        expired = instrument.expired
+        override = str(instrument.gauge) in overridden
         if expired:
             row.append(Badge("EXPIRED, used under override" if override else "EXPIRED", "bad"))
         elif expired is False:
@@ -245,30 +247,26 @@ def environment(record: CalibrationRecord) -> Table | None:
 
 
 def method(record: CalibrationRecord) -> Table:
-    m = record.method or {}
+    m = record.method_section
     rows: list[list[Cell]] = []
-    protocol = m.get("protocol")
+    protocol = m.protocol
     if isinstance(protocol, Mapping):
         rows += [[f"protocol: {words(k)}", shown(v)] for k, v in protocol.items()]
     else:
         rows.append(["protocol", shown(protocol)])
-    rows.append(["parameters identified", shown(m.get("params"))])
-    ident = m.get("identification")
+    rows.append(["parameters identified", shown(m.params)])
+    ident = m.identification
     if isinstance(ident, Mapping):
         rows += [[f"identification: {words(k)}", shown(v)] for k, v in ident.items()]
     else:
         rows.append(["identification", shown(ident, NOT_EVALUATED)])
-    rows += [["recorded by", shown(m.get("software"))],
-             ["record made by", shown(m.get("record_software"))],
-             ["decision rule", shown(m.get("decision_rule"))]]
-    if "offsets_in_force_mm" in m:
+    rows += [["recorded by", shown(m.software)],
+             ["record made by", shown(m.record_software)],
+             ["decision rule", shown(m.decision_rule)]]
+    if m.holds("offsets_in_force_mm"):
         rows.append(["joint offsets in force (the controller's, read at every start)",
-                     _offsets_in_force(m.get("offsets_in_force_mm"),
-                                       m.get("offsets_in_force_consistent"))])
-    rows += [[words(k), shown(v)] for k, v in m.items()
-             if k not in ("protocol", "params", "identification", "software",
-                          "record_software", "decision_rule", "offsets_in_force_mm",
-                          "offsets_in_force_consistent")]
+                     _offsets_in_force(m.offsets_in_force_mm, m.offsets_in_force_consistent)])
+    rows += [[words(k), shown(v)] for k, v in m.extra.items()]
     return table(None, rows)
 
 
@@ -302,12 +300,19 @@ def results(entries: Sequence[ResultEntry]) -> Table | None:
                      two_digits(r.u_mm) if r.u_mm is not None else NOT_EVALUATED,
                      two_digits(r.std_mm) if r.std_mm is not None else "not determined",
                      _dof(r.dof_eff, r.u_mm)]
-                    + [rounded(r.fields.get(k), r.U_mm, sign=True)
-                       if k.endswith("_mm") and isinstance(r.fields.get(k), int | float)
-                       else cell(k, r.fields.get(k), NOT_EVALUATED) for k in extra])
+                    + [_extra_cell(k, v, r.U_mm)
+                       for k, v in (dict.fromkeys(extra) | dict(r.fields)).items()
+                       if k in extra])
     header = ["parameter", "value ± U", "u (mm)", "fit std (mm)", "effective dof"]
     return table(header + [words(k) for k in extra], rows,
                  [False, True, True, True, True] + [False] * len(extra))
+
+
+def _extra_cell(key: str, value: Any, U_mm: float | None) -> Cell:
+    """A result's other value: a length at U's decimal place, the rest as recorded."""
+    if key.endswith("_mm") and isinstance(value, int | float):
+        return rounded(value, U_mm, sign=True)
+    return cell(key, value, NOT_EVALUATED)
 
 
 def _dof(dof: float | None, u: float | None) -> str:
@@ -351,25 +356,24 @@ def acceptance(record: CalibrationRecord) -> dict[str, Any]:
 def _deviation_row(row: Mapping[str, Any]) -> dict[str, Any]:
     """An acceptance row as a person reads it: the deviation at U's decimal place and U
     to two significant digits (JCGM 100:2008 7.2.6; record.json keeps every digit)."""
-    U = row.get("U_mm")
     out = dict(row)
-    if isinstance(row.get("value_mm"), float) and isinstance(U, float):
-        out["value_mm"] = rounded(row["value_mm"], U, sign=True)
+    filled = {"value_mm": None, "U_mm": None} | out  # a key the row lacks: None
+    value, U = filled["value_mm"], filled["U_mm"]
+    if isinstance(value, float) and isinstance(U, float):
+        out["value_mm"] = rounded(value, U, sign=True)
     if isinstance(U, float):
         out["U_mm"] = two_digits(U)
     return out
 
 
 def budget(record: CalibrationRecord) -> list[tuple[str, Table]]:
-    found = record.budget
-    if not found:
-        return []
+    found = record.budget_rows
     first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
              "evaluated")
     # each contribution u to two significant digits, as u_c and U are (JCGM 100:2008
     # 7.2.6); the inputs and sensitivities as recorded
-    return [(name, rows_table([{**r, "u_mm": two_digits(r["u_mm"])}
-                               if isinstance(r.get("u_mm"), float) else r for r in rows],
+    return [(name, rows_table([{**written(r), "u_mm": two_digits(r.u_mm)}
+                               if isinstance(r.u_mm, float) else written(r) for r in rows],
                               NOT_EVALUATED, first)) for name, rows in found.items()]
 
 
@@ -381,8 +385,10 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
     scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
     per = {k: v for k, v in found.items() if isinstance(v, Mapping)}
     names = list(dict.fromkeys(n for values in per.values() for n in values))
-    rows: list[list[Cell]] = [[name] + [shown(values.get(name), NOT_EVALUATED)
-                                        for values in per.values()] for name in names]
+    # a parameter a figure lacks: None, "not evaluated"
+    filled = [dict.fromkeys(names) | dict(values) for values in per.values()]
+    rows: list[list[Cell]] = [[name] + [shown(values[name], NOT_EVALUATED) for values in filled]
+                              for name in names]
     return (pairs_table(scalars, NOT_EVALUATED),
             table(["parameter"] + [words(k) for k in per], rows,
                   [False] + [True] * len(per)))
@@ -396,9 +402,10 @@ def history(record: CalibrationRecord) -> Table | None:
     rows: list[list[Cell]] = []
     for entry in found:
         row: list[Cell] = [shown(entry.id), shown(entry.date)]
-        by_name = {r.name: r for r in entry.results}
+        by_name: dict[str, ResultEntry | None] = dict.fromkeys(names)
+        by_name |= {r.name: r for r in entry.results}
         for name in names:
-            r = by_name.get(name)
+            r = by_name[name]
             line = entry_headline(r.fields if r is not None else None)
             row.append("-" if r is None or not r.fields
                        else f"{line.value} ± {line.U}" if line.U else line.value)
@@ -408,24 +415,30 @@ def history(record: CalibrationRecord) -> Table | None:
 
 
 def overrides(record: CalibrationRecord) -> Table | None:
-    found = record.overrides
+    found = record.override_entries
     if not found:
         return None
-    return rows_table(found, first=("what", "subject", "due", "reason", "operator"))
+    return rows_table([written(o) for o in found],
+                      first=("what", "subject", "due", "reason", "operator"))
 
 
 def writebacks(record: CalibrationRecord) -> list[dict[str, Any]]:
     out = []
-    for w in record.writeback or ():
-        old, new = w.get("old_mm") or {}, w.get("new_mm") or {}
-        kind = {"done": "ok", "failed": "bad"}.get(w.get("status"), "warn")
+    for w in record.writeback_entries:
+        kind = WRITE_KIND.get(str(w.status), "warn")
+        axes = sorted({*w.old_mm, *w.new_mm})
+        old, new = dict.fromkeys(axes) | w.old_mm, dict.fromkeys(axes) | w.new_mm
         out.append({
-            "badge": Badge(f"{shown(w.get('action'))} {shown(w.get('status'))}", kind),
-            "when": shown(w.get("when")), "details": shown(w.get("details")),
+            "badge": Badge(f"{shown(w.action)} {shown(w.status)}", kind),
+            "when": shown(w.when), "details": shown(w.details),
             "table": table(["joint offset", "before (mm)", "after (mm)"],
-                           [[a, signed_shown(old.get(a), "-"), signed_shown(new.get(a), "-")]
-                            for a in sorted({*old, *new})], [False, True, True])})
+                           [[a, signed_shown(old[a], "-"), signed_shown(new[a], "-")]
+                            for a in axes], [False, True, True])})
     return out
+
+
+WRITE_KIND = {"done": "ok", "failed": "bad"}
+
 
 
 OUTCOME_KIND = {"validated": "ok", "improved": "warn", "restored": "bad"}
@@ -436,43 +449,50 @@ def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
     """What ``ogacq calibrate`` wrote beside the offsets (docs/calibration-record.md 5,
     ``compensation``): its outcome, the error maps and their checksums, the ISO 230-2
     figures of each axis before and after, the tables exported; None without it."""
-    comp = record.compensation
-    if not comp:
+    comp = record.compensation_section
+    if comp is None:
         return None
-    outcome = shown(comp.get("outcome"))
-    writes = comp.get("writes") or {}
-    maps = comp.get("maps") or {}
+    outcome = shown(comp.outcome)
     maps_table = table(["axis", "the map corrects", "checksum (SHA-256)"],
-                       [[a, shown(m.get("source")), shown(m.get("checksum"))]
-                        for a, m in sorted(maps.items())]) if maps else None
-    iso = comp.get("iso230_2") or {}
-    rows: list[list[Cell]] = []
-    for axis in sorted({*(iso.get("before") or {}), *(iso.get("after") or {})}):
-        for stage, words_ in (("before", "before"),
-                              ("after", "after (the validation campaign)")):
-            fig = (iso.get(stage) or {}).get(axis)
-            if fig:
-                rows.append([axis, words_, *(_um(fig.get(f"{k}_mm")) for k in ISO230_FIGURES)])
-    figures = table(["axis", "when", *(f"{k} (µm)" for k in ISO230_FIGURES)], rows,
-                    [False, False, *(True,) * len(ISO230_FIGURES)]) if rows else None
-    tables = [f"{shown(t.get('format'))}: {_table_outcome(t)}" for t in comp.get("tables") or ()]
-    return {"badge": Badge(f"calibrate {outcome}", OUTCOME_KIND.get(outcome, "info")),
-            "procedure": shown(comp.get("procedure")), "reason": shown(comp.get("reason"), ""),
-            "writes": ", ".join(f"{k} {v}" for k, v in writes.items() if v) or "none",
-            "restores": ", ".join(f"{k} {v}" for k, v in (comp.get("restores") or {}).items()
-                                  if v),
+                       [[a, shown(m.source), shown(m.checksum)]
+                        for a, m in sorted(comp.maps.items())]) if comp.maps else None
+    figures = _iso230_table(comp.iso230_2)
+    return {"badge": Badge(f"calibrate {outcome}",
+                           OUTCOME_KIND.get(outcome, "info")),
+            "procedure": shown(comp.procedure), "reason": shown(comp.reason, ""),
+            "writes": _operations(comp.writes) or "none",
+            "restores": _operations(comp.restores),
             "maps": maps_table, "figures": figures,
-            "compensated": ", ".join(comp.get("compensated") or ()) or "none",
-            "uncompensated": ", ".join(comp.get("uncompensated") or ()) or "none",
-            "tables": tables}
+            "compensated": ", ".join(comp.compensated) or "none",
+            "uncompensated": ", ".join(comp.uncompensated) or "none",
+            "tables": [f"{shown(t.format)}: {_table_outcome(t)}" for t in comp.tables]}
 
 
-def _table_outcome(table: dict[str, Any]) -> str:
+def _operations(by_target: Mapping[str, str | None]) -> str:
+    """``offsets write-81bd009e, maps maps-write-db716973``: the targets an operation
+    wrote (or restored), by its id."""
+    return ", ".join(f"{target} {operation}" for target, operation in by_target.items()
+                     if operation)
+
+
+def _iso230_table(stages: Iso230Stages) -> Table | None:
+    """Each axis's ISO 230-2 figures before and after, in µm; None when none."""
+    rows: list[list[Cell]] = []
+    for axis in sorted({*stages.before, *stages.after}):
+        for stage, when in ((stages.before, "before"),
+                            (stages.after, "after (the validation campaign)")):
+            if axis in stage:
+                rows.append([axis, when, *(_um(v) for v in stage[axis].in_order())])
+    return table(["axis", "when", *(f"{k} (µm)" for k in ISO230_FIGURES)], rows,
+                 [False, False, *(True,) * len(ISO230_FIGURES)]) if rows else None
+
+
+def _table_outcome(exported: TableExported) -> str:
     """The files a format wrote and, when the format or some of its axes were not
     written, why."""
-    said = [", ".join(map(str, table["files"]))] if table.get("files") else []
-    if table.get("problem"):
-        said.append(f"not written: {shown(table.get('problem'))}")
+    said = [", ".join(exported.files)] if exported.files else []
+    if exported.problem:
+        said.append(f"not written: {shown(exported.problem)}")
     return "; ".join(said)
 
 

@@ -136,13 +136,5 @@ class SimMachine:
         return share * vibration.envelope_mm(since) * float(
             np.sin(2 * np.pi * vibration.frequency_hz * since + phase))
 
-    def ringing_envelope_mm(self) -> float:
-        """The largest ringing any gauge may show now: what a reading taken now could
-        be off by (tests check the stable settle against it)."""
-        stopped = self.encoders.stopped_at_s()
-        if stopped is None:
-            return float("inf")
-        return self.truth.vibration.envelope_mm(self.clock.now() - stopped)
-
     def value_source(self, gauge_axis: int, leg: int) -> Callable[[], float]:
         return lambda: self.gauge_value_mm(gauge_axis, leg)

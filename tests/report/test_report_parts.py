@@ -14,6 +14,7 @@ from matplotlib.text import Text
 
 from ogacq.cli.report_cmd import report_diagnosis
 from ogacq.diagnose.diagnosis import diagnose
+from ogacq.errors import InputError
 from ogacq.io.tables import write_readings
 from ogacq.model.parameters import vector
 from ogacq.record.document import build_record
@@ -127,11 +128,29 @@ def test_text_from_the_session_is_escaped(session_path, tmp_path):
     assert "shop &amp; &lt;floor&gt;.toml" in html
 
 
+def test_a_header_plan_of_another_shape_names_the_session_and_the_key(session_path, tmp_path):
+    """The page states the header's plan through its declaration: a plan whose legs are
+    not a list is said with the file and the key (it printed the string's letters)."""
+    lines = session_path.read_text().splitlines(keepends=True)
+    header = json.loads(lines[0])
+    header.pop("crc")
+    header["plan"] = {"legs": "xyz", "postures": ["zero", "max"], "cycles": 3}
+    path = tmp_path / "odd-plan.jsonl"
+    path.write_text(json.dumps(header) + "\n" + "".join(lines[1:]))
+    with pytest.raises(InputError, match=re.escape(f"{path}: the header's plan.legs must be "
+                                                   "a list, got text ('xyz')")):
+        collect(load_session(path, accept_edited=True))
+
+
 @pytest.mark.parametrize(("change", "message"), [
     (lambda d: d.pop("base"), "no 'base'"),
     (lambda d: d["final"].update(consistent="yes"), "final.consistent"),
     (lambda d: d["effects"][0].update(value="big"), "effects[0].value"),
     (lambda d: d.update(noise_mm=None), "diagnosis.noise_mm"),
+    # a profile's value that is not a number: named (float() raised a bare ValueError)
+    (lambda d: d.update(profiles=[{"leg": "x", "q_mm": ["one"], "gauges": {}}]),
+     "diagnosis.profiles[0].q_mm[0] must be a number"),
+    (lambda d: d.update(chi2={"final": {"statistic": 1.0}}), "diagnosis.chi2.final.p is missing"),
 ])
 def test_a_malformed_diagnosis_names_the_key(change, message):
     data = json.loads(json.dumps(DIAGNOSIS))

@@ -1,0 +1,165 @@
+"""A record's inner sections declared once, as frozen dataclasses: ``read`` builds one
+from the record's JSON, every key checked against its annotation, and ``written``
+gives the same JSON back (the keys in the order read, the values as written).
+
+The annotation says the JSON: ``str``, ``bool``, ``int``, ``float`` (an int read as
+written, so ``1`` stays ``1``), ``Any`` (kept as written), ``X | None`` (null
+allowed), ``tuple[X, ...]`` (a list), ``dict[str, X]`` (an object, its keys chosen by
+the writer) and another :class:`Section` (a nested object). A field without a
+default must be there; one with a default may be absent, and is then not written
+back. A key the declaration does not name is kept in ``extra`` (a newer or
+hand-edited record), so nothing read is lost.
+
+A value of another type than declared is a :class:`RecordSectionError` naming the
+key (``compensation.tables[1].files``): the report states what the record holds,
+and a section it cannot read is said, not shown as something else.
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from collections.abc import Mapping
+from dataclasses import MISSING, dataclass, field, fields
+from typing import Any, TypeVar
+
+from ogacq.errors import InputError
+
+__all__ = ["RecordSectionError", "Section", "read", "read_all", "read_lists", "written"]
+
+S = TypeVar("S", bound="Section")
+
+
+class RecordSectionError(InputError, ValueError):
+    """A section of a calibration record that is not what ``ogacq-record/1`` writes:
+    the key and what is wrong (a hand-edited or damaged record.json)."""
+
+    def __init__(self, key: str, problem: str) -> None:
+        self.key = key
+        self.problem_of_key = problem  # without the key: "must be a list, got text (...)"
+        super().__init__(None, f"the calibration record's {key} {problem}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class Section:
+    """The base of a declared section: what the record held beyond the declaration,
+    and the order of its keys (empty: the declared fields, then ``extra``)."""
+
+    extra: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    order: tuple[str, ...] = field(default=(), repr=False)
+
+    def holds(self, key: str) -> bool:
+        """Whether the JSON has ``key`` at all (null included)."""
+        return key in (self.order or written(self))
+
+
+BOOKKEEPING = frozenset({"extra", "order"})
+
+
+Declared = tuple[tuple[str, Any, bool], ...]
+_DECLARED: dict[type, Declared] = {}  # by class: its annotations resolved once
+
+
+def _declared(cls: type[Section]) -> Declared:
+    """Each declared field: its key, its annotation, whether the JSON must have it."""
+    if cls not in _DECLARED:
+        hints = typing.get_type_hints(cls)
+        _DECLARED[cls] = tuple((f.name, hints[f.name],
+                                f.default is MISSING and f.default_factory is MISSING)
+                               for f in fields(cls) if f.name not in BOOKKEEPING)
+    return _DECLARED[cls]
+
+
+def read(cls: type[S], value: Any, key: str) -> S:
+    """The section ``cls`` from the JSON ``value`` found at ``key``."""
+    if not isinstance(value, Mapping):
+        raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
+    named: dict[str, Any] = {}
+    for name, hint, required in _declared(cls):
+        if name in value:
+            named[name] = _value(hint, value[name], f"{key}.{name}")
+        elif required:
+            raise RecordSectionError(f"{key}.{name}", "is missing")
+    extra = {k: v for k, v in value.items() if k not in named}
+    return cls(**named, extra=extra, order=tuple(value))
+
+
+def read_all(cls: type[S], value: Any, key: str) -> tuple[S, ...]:
+    """A list of sections ``cls`` (null: none)."""
+    if value is None:
+        return ()
+    if not isinstance(value, list):
+        raise RecordSectionError(key, f"must be a list, got {_shown(value)}")
+    return tuple(read(cls, v, f"{key}[{i}]") for i, v in enumerate(value))
+
+
+def read_lists(cls: type[S], value: Any, key: str) -> dict[str, tuple[S, ...]]:
+    """An object of lists of sections (``budget``: parameter -> its contributions)."""
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping):
+        raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
+    return {str(k): read_all(cls, v, f"{key}.{k}") for k, v in value.items()}
+
+
+def written(section: Section) -> dict[str, Any]:
+    """The JSON object of ``section``, as it was read (or declared, when built)."""
+    declared = {name: hint for name, hint, _ in _declared(type(section))}
+    keys = section.order or (*declared, *section.extra)
+    return {k: _json(getattr(section, k)) if k in declared else section.extra[k]
+            for k in keys if k in declared or k in section.extra}
+
+
+def _value(hint: Any, value: Any, key: str) -> Any:
+    """``value`` read as ``hint`` says, or RecordSectionError naming ``key``."""
+    if hint is Any:
+        return value
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if origin in (types.UnionType, typing.Union):
+        if value is None and type(None) in args:
+            return None
+        (inner,) = (a for a in args if a is not type(None))
+        return _value(inner, value, key)
+    if origin is tuple:
+        if not isinstance(value, list):
+            raise RecordSectionError(key, f"must be a list, got {_shown(value)}")
+        return tuple(_value(args[0], v, f"{key}[{i}]") for i, v in enumerate(value))
+    if origin is dict:
+        if not isinstance(value, Mapping):
+            raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
+        return {str(k): _value(args[1], v, f"{key}.{k}") for k, v in value.items()}
+    if isinstance(hint, type) and issubclass(hint, Section):
+        return read(hint, value, key)
+    return _scalar(hint, value, key)
+
+
+# The JSON type each scalar annotation takes (a bool is not a number: JSON's true is
+# not 1 to a reader of the record).
+SCALARS: dict[type, tuple[tuple[type, ...], str]] = {
+    str: ((str,), "text"), bool: ((bool,), "true or false"), int: ((int,), "a whole number"),
+    float: ((int, float), "a number")}
+
+
+def _scalar(hint: type, value: Any, key: str) -> Any:
+    expected, what = SCALARS[hint]
+    if isinstance(value, expected) and (hint is bool or not isinstance(value, bool)):
+        return value
+    raise RecordSectionError(key, f"must be {what}, got {_shown(value)}")
+
+
+def _json(value: Any) -> Any:
+    if isinstance(value, Section):
+        return written(value)
+    if isinstance(value, tuple):
+        return [_json(v) for v in value]
+    if isinstance(value, dict):
+        return {k: _json(v) for k, v in value.items()}
+    return value
+
+
+def _shown(value: Any) -> str:
+    """A wrong value in a message: its JSON type and a short form of it."""
+    text = repr(value)
+    kind = {dict: "an object", list: "a list", str: "text", bool: "true or false",
+            type(None): "null"}.get(type(value), "a number")
+    return f"{kind} ({text[:40]}{'...' if len(text) > 40 else ''})"
