@@ -168,7 +168,7 @@ def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
             if len(q_own) >= MIN_POSITIONS else None
         out.append(AxisCoverage(a, len(q_own), float(q_all.min()), float(q_all.max()), step,
                                 both, float(finite.min()) if len(finite) else math.inf,
-                                display_limited_mm, alias))
+                                display_limited_mm, alias_mm=alias))
     return tuple(out)
 
 
