@@ -362,6 +362,8 @@ class History:
                 .returning(s.events.c.id))
             event_id = inserted.scalar_one_or_none()
             if event_id is None:  # recorded before (here or by another station)
+                if writeback is not None or maps is not None:
+                    _found_done(conn, key, writeback or maps)
                 return Recorded(present=[key])
             if parameters:
                 rows = [{"event_id": event_id, "name": p.name, "value_mm": p.value_mm,
@@ -571,6 +573,23 @@ def _map_state_rows(maps: MapsWriteBack, machine: tuple[str, str], event_id: int
              "stage": stage, "checksum": checksum, "maps": clean_json([dict(m) for m in values])}
             for stage, checksum, values in (("before", maps.old_checksum, maps.old_maps),
                                             ("after", maps.new_checksum, maps.new_maps))]
+
+
+def _found_done(conn: Connection, key: str, write: WriteBack | MapsWriteBack) -> None:
+    """A write recorded as failed or interrupted (a Ctrl-C, a kill before its outcome)
+    and recorded again as done, once read back in force by a resumed procedure: the
+    history says what the machine holds, not the first word it was given."""
+    if write.status != "done":
+        return
+    e = s.events
+    row = conn.execute(select(e.c.id, e.c.details).where(e.c.event_key == key)).one()
+    details = dict(row.details or {})
+    if details.get("status") == "done":
+        return
+    conn.execute(e.update().where(e.c.id == row.id).values(details={**details,
+                                                                    "status": "done"}))
+    states = s.offset_states if isinstance(write, WriteBack) else s.map_states
+    conn.execute(states.update().where(states.c.event_id == row.id).values(status="done"))
 
 
 def _insert(conn: Connection, table: s.Table) -> Any:

@@ -111,3 +111,35 @@ def test_history_states_on_the_command_line(tmp_path, capsys, monkeypatch):
     assert main(["history", "Ortho", "--history", str(path), "--diff", ids[0], ids[3]]) == 2
     assert main(["history", "Ortho", "--history", str(path), "--states", "--diff", "S-nope",
                  ids[3]]) == 2
+
+
+@pytest.mark.parametrize("backend", ["sqlite", "postgresql"])
+def test_a_write_recorded_failed_then_found_done_is_in_force(tmp_path, request, backend):
+    """A Ctrl-C between the write and its audit's 'done' records it failed; the resumed
+    procedure reads it back in force and records it done: the history's current state
+    is then that write's (it kept the first status and named the state before)."""
+    where = str(tmp_path / "h.sqlite") if backend == "sqlite" \
+        else request.getfixturevalue("postgres_url")
+    old, new = {"x": 0.0, "y": 0.0, "z": 0.0}, {"x": -0.03, "y": -1.35, "z": 1.07}
+    old_maps, new_maps = (), (screw_map("x").to_json(),)
+    with History.open(parse_location(where, "--history")) as db:
+        db.record_writeback(RECORD, WriteBack("write-1", "write", "failed", old, new,
+                                              "cia402", 1000.0))
+        db.record_maps_writeback(RECORD, MapsWriteBack("maps-write-1", "write", "failed",
+                                                       "maps.json", old_maps, "e3b0",
+                                                       new_maps, "abcd", 1001.0))
+        machine = db.machines()[0]
+        assert db.current_state(machine) is None
+        db.record_writeback(RECORD, WriteBack("write-1", "write", "done", old, new,
+                                              "cia402", 1000.0))
+        db.record_maps_writeback(RECORD, MapsWriteBack("maps-write-1", "write", "done",
+                                                       "maps.json", old_maps, "e3b0",
+                                                       new_maps, "abcd", 1001.0))
+        held = db.current_state(machine)
+        assert held is not None and held.operation == "write-1" and held.offsets_mm == new
+        maps_after = [m for m in db.map_states(machine) if m.stage == "after"]
+        assert [m.status for m in maps_after] == ["done"]
+        # a later word of failure does not undo what was read back in force
+        db.record_writeback(RECORD, WriteBack("write-1", "write", "failed", old, new,
+                                              "cia402", 1000.0))
+        assert db.current_state(machine) == held
