@@ -89,7 +89,8 @@ def session_lines(path: Path) -> list[dict[str, Any]]:
         for key in ("seq", "prev", "crc"):
             line.pop(key, None)
         if isinstance(line.get("source"), str):
-            for port in ports:
+            # the longest first: /dev/pts/4 is the start of /dev/pts/45 ("PORT5")
+            for port in sorted(ports, key=len, reverse=True):
                 line["source"] = line["source"].replace(port, PORT)
     return lines
 
