@@ -1,7 +1,8 @@
 """Issue 26's fault matrix, a lean row each: what is recorded is whole and true.
 
 One simulated campaign (module fixture) recorded by a machine named ``Cell [/3]``,
-an operator ``J. [/x] Martin :x:`` with an escape sequence in the name, in a folder
+an operator ``J. [/x] Martin :x:`` (one with a terminal escape in the name is refused
+where it is typed, issue 36.6), in a folder
 ``runs [/y]``; then, through the real commands: an edited session refused by every
 analysis, a cut one said partial everywhere and kept out of the history, recorded
 text printed as it is, malformed history URLs in one line, and the numbers of the
@@ -24,9 +25,9 @@ from tests.campaign.conftest import write_campaign
 from tests.cli.helpers import on_read_only, run_ogacq, with_file_size_limit
 
 MACHINE_NAME = "Cell [/3]"
-OPERATOR = "J. [/x] Martin :x: \x1b[2J"  # rich markup, an emoji code, a terminal escape
-OPERATOR_TOML = "J. [/x] Martin :x: \\u001b[2J"
-OPERATOR_SHOWN = "J. [/x] Martin :x: \\x1b[2J"  # as every command prints it
+OPERATOR = "J. [/x] Martin :x:"  # rich markup, an emoji code
+OPERATOR_TOML = OPERATOR
+OPERATOR_SHOWN = OPERATOR  # as every command prints it
 
 
 @pytest.fixture(scope="module")
@@ -42,6 +43,17 @@ def recorded(tmp_path_factory) -> Path:
     assert "Traceback" not in ran.stderr and "\x1b" not in ran.stdout + ran.stderr
     assert str(folder / "session.jsonl") in " ".join(ran.stdout.split())
     return folder / "session.jsonl"
+
+
+def test_an_operator_with_a_terminal_escape_is_refused_where_it_is_typed(tmp_path):
+    """Issue 36.6: the name is refused in one line naming the character, before anything
+    runs; it is never recorded, so no command has it to print."""
+    path = write_campaign(tmp_path / "escape", seed=3, speed=100)
+    path.write_text('operator = "J. Martin \\u001b[2J"\n' + path.read_text())
+    ran = run_ogacq("run", path, "--history", "none")
+    assert ran.returncode == 2, ran.stderr
+    assert "U+001B" in one_line(ran.stderr) and "\x1b[2J" not in ran.stderr
+    assert not (tmp_path / "escape" / "session.jsonl").exists()
 
 
 def here(capsys, *args: object) -> tuple[int, str, str]:
