@@ -33,7 +33,7 @@ def started(monkeypatch):
     """The setups the procedure was started with, each stopped at once."""
     setups = []
 
-    def stop_at_once(setup, ui, *, resume):
+    def stop_at_once(setup, ui, *, resume, history=None):
         setups.append((setup, resume))
         raise Refused("stopped by the test before any campaign")
 
