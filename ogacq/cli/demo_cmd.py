@@ -114,9 +114,11 @@ def demo(
         folder / "campaign.toml", machine, machine_path,
         folder / "session.jsonl", ProtocolConfig(settle_s=1.0),
         gauges=simulated_gauges(datetime.date.today()),
+        # a rehearsal of the procedure, not of the gauges' line timing: the lines at
+        # --speed, as calibrate --simulator runs them
         simulator=SimulatorSpec(seed=seed, effects=effects_path, speed=speed,
                                 profile=profile.value, date=rehearsed,
-                                ambient_c=ambient_c),
+                                ambient_c=ambient_c, line_at_speed=True),
         override_expired=reason, operator=operator_name),
         comment="written by `ogacq demo`").encode("utf-8"))
     typer.echo(f"demo: simulated machine (seed {seed}, {profile.value}), campaign in {folder}/",
