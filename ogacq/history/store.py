@@ -362,8 +362,9 @@ class History:
                 .returning(s.events.c.id))
             event_id = inserted.scalar_one_or_none()
             if event_id is None:  # recorded before (here or by another station)
-                if writeback is not None or maps is not None:
-                    _found_done(conn, key, writeback or maps)
+                write = writeback if writeback is not None else maps
+                if write is not None:
+                    _found_done(conn, key, write)
                 return Recorded(present=[key])
             if parameters:
                 rows = [{"event_id": event_id, "name": p.name, "value_mm": p.value_mm,
