@@ -74,21 +74,26 @@ def calibrated(root: Path, args: list[str]) -> Path:
 
     The write is refused when the diagnosis's model is not within the noise at the 1 %
     level, which a correct model's campaign is once in a hundred (its timing moves the
-    readings; seen once, p = 0.004): that refusal alone gets one more campaign, so this
-    fails on it once in ten thousand runs, and on anything else at once."""
+    readings; seen once, p = 0.004), or when a reading lies far from its repeats at that
+    level (seen once under load, p = 0.0004): such a refusal alone gets one more
+    campaign, so this fails on it once in ten thousand runs, and on anything else at
+    once."""
     for attempt in ("cal", "cal-again"):
         folder = root / attempt
         code = main(["calibrate", *args, "--out", str(folder)])
-        if not (code == 4 and refused_as_inconsistent(folder)):
+        if not (code == 4 and refused_by_chance(folder)):
             break
     assert code == 0
     return folder
 
 
-def refused_as_inconsistent(folder: Path) -> bool:
-    """The procedure refused the write for the verdict alone."""
+def refused_by_chance(folder: Path) -> bool:
+    """The procedure refused the write for a test at its level alone: the verdict, or a
+    reading named far from its repeats."""
     refused = [r.details for r in log_steps(folder) if r.step == "refused"]
-    return bool(refused) and refused[-1].get("codes") == ["inconsistent"]
+    return bool(refused) and set(refused[-1].get("codes") or ()) <= {"inconsistent",
+                                                                     "outlier"} \
+        and bool(refused[-1].get("codes"))
 
 
 @pytest.fixture(scope="module")
@@ -179,7 +184,7 @@ def test_killed_at_two_points_it_resumes_to_the_same_end(straight, tmp_path):
         deadline = time.monotonic() + 240
         while not when() and run.poll() is None and time.monotonic() < deadline:
             time.sleep(0.05)
-        if run.poll() is not None and refused_as_inconsistent(folder):
+        if run.poll() is not None and refused_by_chance(folder):
             pytest.skip("the write was refused: the model not within the noise at the 1 % "
                         "level (a correct campaign's once in a hundred); no kill after it")
         assert run.poll() is None, "the procedure ended before the kill point"
@@ -214,11 +219,14 @@ def test_a_write_made_worse_is_restored_by_calibrate_itself(tmp_path, monkeypatc
         return dataclasses.replace(comp, maps=flipped)
 
     monkeypatch.setattr(procedure, "compensation_of", wrong_sign)
-    folder = tmp_path / "cal"
-    history = tmp_path / "history.sqlite"
-    code = main(["calibrate", "--simulator", "--effects", str(effects_file(tmp_path)),
-                 "--seed", SEED, "--out", str(folder), *FAST, "--no-separate",
-                 "--history", str(history)])
+    for attempt in ("cal", "cal-again"):  # a refusal by chance alone: once more
+        folder, history = tmp_path / attempt, tmp_path / f"{attempt}.sqlite"
+        capsys.readouterr()
+        code = main(["calibrate", "--simulator", "--effects", str(effects_file(tmp_path)),
+                     "--seed", SEED, "--out", str(folder), *FAST, "--no-separate",
+                     "--history", str(history)])
+        if not (code == 4 and refused_by_chance(folder)):
+            break
     assert code == 4  # restored: refused as unsafe
     end = capsys.readouterr().err
     assert re.search(r"^record: OGQ-\d{8}-[0-9a-f]{8} \(", end, re.M), end
