@@ -146,12 +146,13 @@ def _check_identity(values: dict, source: Source) -> None:
 def _check_stem(stem: str, source: Source) -> None:
     """A file without ``name`` names the machine after its stem, which then goes where
     a name goes (the history, the record, the controller tables' titles): one printable
-    line, as ``name`` must be."""
+    line, as ``name`` must be (``name_problem``: its length too), and printable."""
     bad = next((c for c in stem if not c.isprintable()), None)
-    if bad is not None:
-        raise source.fail((), "", f"has no name, and its file name {stem!r} holds U+"
-                          f"{ord(bad):04X}, which does not print: give the machine's name "
-                          "(name = \"...\") or rename the file")
+    problem = f"holds U+{ord(bad):04X}, which does not print" if bad is not None \
+        else name_problem(stem)
+    if problem is not None:
+        raise source.fail((), "", f"has no name, and its file name {stem[:60]!r} {problem}: "
+                          "give the machine's name (name = \"...\") or rename the file")
 
 
 def _machine(values: dict, source: Source, default_name: str) -> MachineSpec:
