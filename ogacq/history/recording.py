@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ogacq.errors import OgacqError
-from ogacq.history.entries import MapsWriteBack, RecordError, WriteBack, event_key
+from ogacq.history.entries import MapsWriteBack, WriteBack, event_key
 from ogacq.logs import logger
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
@@ -128,7 +128,7 @@ def record_after(session_path: Path, option: str | None, action: str, *,
             return None
         with History.open(location) as history:
             recorded = (record_with or record_session)(history, session)
-    except (OgacqError, RecordError, ValueError, OSError) as exc:
+    except (OgacqError, ValueError, OSError) as exc:
         log.warning("%s not recorded in the history: %s; %s", action, exc,
                     _later(session_path, location))
         return None
