@@ -347,7 +347,7 @@ def _amplitude_std(term: MapTerm, history: JointHistory, s_r: np.ndarray, s_s: n
         cov = np.linalg.inv(normal)
     except np.linalg.LinAlgError:
         return math.inf
-    if term.family == "screw_map":
+    if term.kind.pointwise:  # a smooth map: its values along q
         grid = np.linspace(lo, hi, 101)
         basis = term.shape_of(grid, np.ones_like(grid), np.full_like(grid, np.inf),
                               np.zeros_like(grid))  # (k, 101)
