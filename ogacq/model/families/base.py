@@ -176,13 +176,8 @@ class MapFamily(ABC, Generic[S]):
 @dataclass(frozen=True)
 class MapTerm:
     """One family on one axis with its shape fixed: linear in its amplitudes.
-
     ``shape`` holds the family's shape parameters as its JSON form has them (floats),
-    ``params`` the same typed by the family (``MapFamily.Shape``): ``pitch_mm``
-    (cyclic), ``from_mm``/``to_mm``/``knots`` (screw map, rail bow), ``detrended``
-    (screw map: made orthogonal to a slope over its range, which an encoder scale in
-    the model carries), ``toward`` (rail bow: the world axis the joint moves along),
-    ``length_mm`` (hysteresis), ``tau_s`` (warm-up)."""
+    ``params`` the same typed by the family (``MapFamily.Shape``, in its module)."""
 
     family: str
     axis: int
@@ -212,10 +207,6 @@ class MapTerm:
         return self.kind.tabulated
 
     @property
-    def toward(self) -> int:
-        return int(self.shape["toward"])
-
-    @property
     def where(self) -> str:
         return self.kind.where(self)
 
@@ -242,8 +233,6 @@ class MapTerm:
 
     @property
     def shape_parameters(self) -> int:
-        """Its shape parameters estimated from the readings (pitch, build-up length,
-        time constant): degrees of freedom the fit spends beside its amplitudes."""
         return self.kind.shape_parameters(self)
 
     @property
