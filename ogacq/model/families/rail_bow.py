@@ -43,6 +43,7 @@ class RailBow(MapFamily[RailBowShape]):
         return sensitivity.across(term.axis, self.params(term).toward)
 
     def value_extra(self, term: MapTerm, shape_std: float) -> dict:
+        # the range as the term holds it: the JSON's form (an int stays one)
         return {"toward": AXES[self.params(term).toward], "from_mm": term.shape["from_mm"],
                 "to_mm": term.shape["to_mm"]}
 
