@@ -1,9 +1,10 @@
 """Search the residuals for errors along each axis and in time that the effect
-library lacks (``model/error_maps.py``), after the library search.
+library lacks (``model/families/``), after the library search.
 
-Where a campaign reads a joint at enough positions (a scan), every family is tried
-on every such axis beside the current model (the joint offsets, the library's
-effects found, the maps found so far):
+Where a campaign reads a joint at enough positions (a scan), every family of the
+registry is tried on every such axis beside the current model (the joint offsets,
+the library's effects found, the maps found so far), at the shapes its module
+declares (``MapFamily.search``), the built-in ones:
 
 * the cyclic lead-screw error by a periodogram: the gain of a sine and a cosine
   of ``q`` at every trial frequency, the least-squares spectrum of N. R. Lomb
