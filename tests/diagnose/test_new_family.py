@@ -71,6 +71,17 @@ def test_a_family_is_known_only_while_registered():
         MapTerm(throwaway_family.NAME, 1, {"at_mm": 0.0})
 
 
+def test_the_simulator_takes_a_term_along_a_joints_line_by_its_own_shape(rail_step):
+    step = (MapTerm(rail_step.name, 0, {"at_mm": 0.0}), (0.002,))
+    truth = SimTruth(vector(OFFSETS), map_terms=(step,))
+    q = np.array([[-1.0, 5.0, 5.0], [1.0, 5.0, 5.0]])
+    assert truth.disturbed_q(q) - q == pytest.approx(np.array([[-0.002, 0, 0], [0, 0, 0]]))
+    assert truth.at_temperature(MACHINE, 25.0).map_terms == (step,)
+    bow = MapTerm("rail_bow", 0, {"from_mm": -100.0, "to_mm": 60.0, "toward": 1})
+    with pytest.raises(ValueError, match="rail_bow.xy: only errors along a joint's line"):
+        SimTruth(vector(OFFSETS), map_terms=((bow, (0.01,)),))
+
+
 def test_a_shape_is_typed_and_its_json_form_kept():
     term = MapTerm("screw_map", 2, {"from_mm": -100.0, "to_mm": 60.0, "knots": 4.0,
                                     "detrended": 1.0})
