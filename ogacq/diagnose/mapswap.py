@@ -40,6 +40,7 @@ from ogacq.diagnose.separation import SEPARATES_CHI2
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
 from ogacq.model.error_maps import JointHistory, MapTerm
+from ogacq.model.families import FAMILIES
 from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.machine import MachineSpec
@@ -56,18 +57,11 @@ SCANS = ((2.0, 1), (1.0, 1), (1.0, 3), (0.5, 3))
 
 def swap_families(covs: tuple[AxisCoverage, ...], names: tuple[str, ...],
                   taken: set[str]) -> list[MapTerm]:
-    """Map terms fitted whatever the campaign: each axis's cubic screw map (without its
-    slope when the model has that axis's encoder scale) and each rail's bow."""
-    out = []
-    for cov in covs:
-        axis = AXES[cov.axis]
-        out.append(MapTerm("screw_map", cov.axis, {
-            "from_mm": cov.from_mm, "to_mm": cov.to_mm, "knots": 0,
-            "detrended": float(f"encoder_scale.{axis}" in names)}))
-        for toward in range(3):
-            if toward != cov.axis:
-                out.append(MapTerm("rail_bow", cov.axis, {
-                    "from_mm": cov.from_mm, "to_mm": cov.to_mm, "toward": toward}))
+    """Map terms fitted whatever the campaign, each family's ``swap_terms`` on every
+    axis (a cubic screw map, without its slope when the model has that axis's encoder
+    scale, and each rail's bow)."""
+    out = [t for cov in covs for family in FAMILIES.values()
+           for t in family.swap_terms(cov.axis, cov.from_mm, cov.to_mm, names)]
     return [t for t in out if t.name not in taken and f"{t.family}.{AXES[t.axis]}" not in taken]
 
 

@@ -165,6 +165,12 @@ class MapFamily(ABC, Generic[S]):
         that effect when both are fitted taken back)."""
         return term
 
+    def swap_terms(self, axis: int, from_mm: float, to_mm: float,
+                   fitted: tuple[str, ...]) -> list[MapTerm]:
+        """The terms fitted on an axis read over ``from_mm..to_mm`` whatever the
+        campaign, weighed as the alternatives of the library's effects (none: [])."""
+        return []
+
     def search(self, axis: SearchedAxis) -> list[ShapeGrid]:
         """The candidates to try on ``axis``, each a grid of shapes (none: []). A
         periodic family's pitch is searched by the periodogram instead."""

@@ -53,8 +53,12 @@ class RailBow(MapFamily[RailBowShape]):
     def size_words(self, value: MapValue) -> str:
         return f"sagitta about {value.value * UM_PER_MM:+.2g} µm"
 
+    def swap_terms(self, axis: int, from_mm: float, to_mm: float,
+                   fitted: tuple[str, ...]) -> list[MapTerm]:
+        # toward each of the other two axes
+        return [MapTerm(self.name, axis, {"from_mm": from_mm, "to_mm": to_mm, "toward": toward})
+                for toward in range(3) if toward != axis]
+
     def search(self, axis: SearchedAxis) -> list[ShapeGrid]:
-        # toward each of the other two axes: one shape each
-        return [ShapeGrid((MapTerm(self.name, axis.axis, {
-            "from_mm": axis.from_mm, "to_mm": axis.to_mm, "toward": toward}),))
-            for toward in range(3) if toward != axis.axis]
+        return [ShapeGrid((term,)) for term in
+                self.swap_terms(axis.axis, axis.from_mm, axis.to_mm, axis.fitted)]

@@ -110,12 +110,21 @@ class Smooth(MapFamily[SmoothShape]):
             return replace(term, shape={**term.shape, "detrended": 0.0})
         return term
 
+    def _term(self, axis: int, from_mm: float, to_mm: float, knots: int,
+              fitted: tuple[str, ...]) -> MapTerm:
+        # without its slope where the model has the axis's encoder scale
+        detrend = f"encoder_scale.{AXES[axis]}" in fitted
+        return MapTerm(self.name, axis, {"from_mm": from_mm, "to_mm": to_mm, "knots": knots,
+                                         "detrended": float(detrend)})
+
+    def swap_terms(self, axis: int, from_mm: float, to_mm: float,
+                   fitted: tuple[str, ...]) -> list[MapTerm]:
+        return [self._term(axis, from_mm, to_mm, 0, fitted)]  # a cubic
+
     def search(self, axis: SearchedAxis) -> list[ShapeGrid]:
-        detrend = f"encoder_scale.{AXES[axis.axis]}" in axis.fitted
         # more positions than the spline has functions, twice over
         choices = [k for k in KNOTS if k + 4 <= axis.positions // 2]
         if not choices:
             return []
-        return [ShapeGrid(tuple(MapTerm(self.name, axis.axis, {
-            "from_mm": axis.from_mm, "to_mm": axis.to_mm, "knots": k,
-            "detrended": float(detrend)}) for k in choices), by_bic=True)]
+        return [ShapeGrid(tuple(self._term(axis.axis, axis.from_mm, axis.to_mm, k, axis.fitted)
+                                for k in choices), by_bic=True)]
