@@ -39,8 +39,10 @@ def session_layout(session: LoadedSession) -> tuple[ReadingsLayout, np.ndarray]:
 def session_observations(session: LoadedSession, machine: MachineSpec | None = None,
                          ) -> Observations:
     layout, values = session_layout(session)
+    # how many gauge values each reading averaged, where the session recorded it
+    averaged = np.array([r.averaged or 0 for r in session.readings], dtype=int)
     return readings_observations(machine or session_machine(session), layout, values,
-                                 str(session.path))
+                                 str(session.path), averaged if averaged.any() else None)
 
 
 def export_readings(session: LoadedSession, path: str | Path) -> int:

@@ -23,6 +23,7 @@ from ogacq.protocol.station import (
     GaugeValue,
     SettledGauge,
 )
+from ogacq.session.convert import session_observations
 from ogacq.session.records import FaultRecord, SettleRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.sim.truth import Vibration
@@ -340,6 +341,9 @@ def test_fixed_settle_waits_the_time_where_something_moved_only(tmp_path):
     readings = load_session(campaign.session).readings
     assert {r.averaged for r in readings} == {campaign.protocol.stability.readings}
     assert all(r.averaged_sd_mm is not None and r.averaged_sd_mm >= 0 for r in readings)
+    # and the analysis of the session knows them (the noise of an averaged reading)
+    obs = session_observations(load_session(campaign.session), campaign.machine)
+    assert obs.averaged is not None and list(obs.averaged) == [r.averaged for r in readings]
 
 
 def test_the_gauges_of_a_posture_are_read_at_once_through_their_endpoints(tmp_path):
