@@ -344,6 +344,8 @@ def test_fixed_settle_waits_the_time_where_something_moved_only(tmp_path):
     # and the analysis of the session knows them (the noise of an averaged reading)
     obs = session_observations(load_session(campaign.session), campaign.machine)
     assert obs.averaged is not None and list(obs.averaged) == [r.averaged for r in readings]
+    assert obs.averaged_sd_mm is not None and \
+        list(obs.averaged_sd_mm) == [r.averaged_sd_mm for r in readings]
 
 
 def test_the_gauges_of_a_posture_are_read_at_once_through_their_endpoints(tmp_path):

@@ -27,19 +27,22 @@ VALUES = 16  # the median a stable settle averaged on the issue's independent ma
 
 def averaged_campaign(seed: int, *, values: int = VALUES, correlated: bool = False,
                       machine: MachineSpec = MACHINE, postures=("zero", "max", "min", "zero"),
-                      cycles: int = 3, counts: bool = True) -> Observations:
+                      cycles: int = 3, counts: bool = True, noise_mm: float = NOISE_MM,
+                      ) -> Observations:
     """A campaign whose every reading is the mean of ``values`` displayed values of a
-    gauge scattering NOISE_MM per value: independent values, or ``correlated`` (one
+    gauge scattering ``noise_mm`` per value: independent values, or ``correlated`` (one
     value shown ``values`` times: a display that updates once per settle)."""
     lay = layout(postures, machine=machine, cycles=cycles)
     clean = readings_observations(machine, lay, np.zeros(len(lay))).predict(vector(OFFSETS))
     rng = np.random.default_rng(seed)
     true = clean + rng.uniform(2.0, 10.0, lay.n_gauges)[lay.gauge]
-    noise = rng.normal(0.0, NOISE_MM, (len(lay), 1 if correlated else values))
+    noise = rng.normal(0.0, noise_mm, (len(lay), 1 if correlated else values))
     shown = np.round((true[:, None] + noise) / STEP_MM) * STEP_MM
-    readings = np.broadcast_to(shown, (len(lay), values)).mean(axis=1)
-    return readings_observations(machine, lay, readings, "averaged",
-                                 np.full(len(lay), values) if counts else None)
+    every = np.broadcast_to(shown, (len(lay), values))
+    spread = every.std(axis=1, ddof=1) if values > 1 else np.full(len(lay), np.nan)
+    return readings_observations(machine, lay, every.mean(axis=1), "averaged",
+                                 np.full(len(lay), values) if counts else None,
+                                 spread if counts else None)
 
 
 @pytest.mark.parametrize(("sigma", "step"), [(0.0005, 0.001), (0.0002, 0.01), (0.003, 0.01)])
@@ -85,6 +88,29 @@ def test_readings_of_independent_values_show_the_floor_and_the_repeats_noise_is_
     assert "stated 2 µm per value, 16 values a reading → ≥ 0.51 µm" in text, text
     assert "as independent values would" in text, text
     assert fit_verdict(fit(obs, PARAM_SETS["offsets"])).consistent
+
+
+def test_the_noise_measured_from_averaged_readings_is_a_means_not_a_rounded_values():
+    """The issue's case: 0.5 µm a value on a 1 µm display, 16 values a reading. The
+    repeats scatter 0.14 µm; inverted as one rounded value's, that was a gauge far
+    quieter than its step whose whole 0.29 µm rounding repeats, so a true model's F
+    per dof was 0.07-0.23. The values' own scatter within each reading shows the
+    rounding dithered: the noise is the readings' 0.14 µm and the F about 1."""
+    quiet = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=STEP_MM,
+                        gauge_repeatability_mm=0.0005)
+    f_per_dof = []
+    for seed in range(6):
+        obs = averaged_campaign(seed, machine=quiet, noise_mm=0.0005)
+        noise = noise_for(obs)
+        assert noise.measured and noise.sigma_mm == pytest.approx(0.00014, rel=0.25)
+        assert noise.dithered and not noise.rounding_dominated
+        assert noise.scatter_mm == pytest.approx(0.0005, rel=0.1)  # a value's, within readings
+        f_per_dof.append(fit_verdict(fit(obs, PARAM_SETS["offsets"])).chi2_dof)
+    assert 0.5 < float(np.mean(f_per_dof)) < 2.0, f_per_dof
+    # a display that updates once per settle: its readings' values show no scatter, so
+    # the whole rounding is taken to repeat, as for readings of one value
+    one = noise_for(averaged_campaign(1, machine=quiet, noise_mm=0.0005, correlated=True))
+    assert one.sigma_mm >= STEP_MM / math.sqrt(12)
 
 
 def test_a_reading_whose_values_are_one_keeps_the_stated_noise_and_says_why():
