@@ -8,6 +8,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Annotated, Any
 
+import numpy as np
 import typer
 
 from ogacq.cli.options import JsonOption, MachineOption, ParamSet, seed_option
@@ -115,6 +116,9 @@ class PlanNoise:
     scatter_mm: float
     source: str  # "--noise", "machine file", "repeated readings", "display rounding"
     says: str
+    # readings rounded to the display step (False: means of values whose rounding the
+    # scatter dithered, measured so: their noise holds what is left of it)
+    rounded: bool = True
 
     def to_json(self) -> dict[str, Any]:
         return {"noise_mm": self.scatter_mm, "noise_source": self.source}
@@ -165,6 +169,12 @@ def _measured_noise(spec: MachineSpec, path: Path) -> PlanNoise:
         raise InputError(path, "holds no repeated readings to measure the gauge noise "
                                "from (each posture read in one cycle, or tabulated "
                                "deviations)")
+    if unstated.averaged is not None and unstated.averaged.max() > 1 and found.dithered:
+        # means of values the scatter dithers: a reading's whole noise, not rounded again
+        return PlanNoise(found.sigma_mm, "repeated readings", (
+            f"gauge noise {found.sigma_mm * UM_PER_MM:.2g} µm a reading (the mean of "
+            f"{int(np.median(unstated.averaged))} values), measured from the repeats of "
+            f"{path} ({found.dof} dof)"), rounded=False)
     return PlanNoise(found.scatter_mm, "repeated readings", (
         f"gauge noise {found.scatter_mm * UM_PER_MM:.2g} µm a reading, measured from "
         f"the repeats of {path} ({found.dof} dof)"))
@@ -242,7 +252,8 @@ def plan(
     with trials_progress("Monte-Carlo trials of the nonlinear fit") as on_trials:
         pred = predict_accuracy(obs, PARAM_SETS[params.value], sigma,
                                 truth=parse_truth(assume), trials=trials, seed=seed,
-                                rounding_mm=spec.gauge_resolution_mm, on_trials=on_trials)
+                                rounding_mm=spec.gauge_resolution_mm if gauge.rounded
+                                else None, on_trials=on_trials)
     # with no scatter known, the design's detection limits are at the rounding's noise
     design_noise = sigma or GaugeNoise.stated(0.0, spec.gauge_resolution_mm).sigma_mm
     design = None if scan_minutes is None else design_scan(

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
+from ogacq.identify.fit import fit
 from ogacq.identify.noise import noise_for
 from ogacq.model.machine import PAPER_PROTOTYPE
 from ogacq.model.parameters import PARAM_SETS
@@ -63,18 +64,29 @@ def test_a_stated_noise_is_used_and_said_per_value(capsys, monkeypatch, tmp_path
     assert "gauge noise 2 µm a value, stated in m.toml" in " ".join(ran.stdout.split())
 
 
-def test_the_noise_an_earlier_campaigns_repeats_show_is_used_when_given(capsys, monkeypatch):
+def test_the_noise_an_earlier_campaigns_repeats_show_is_used_when_given(capsys, monkeypatch,
+                                                                       tmp_path):
+    """The golden session's readings are means of 3 values whose rounding the scatter
+    dithers: the plan predicts with a reading's whole noise, not rounded again; its
+    std is the one the session's own fit found."""
     obs = session_observations(load_session(SESSION))
     measured = noise_for(replace(obs, machine=replace(obs.machine,
                                                       gauge_repeatability_mm=None)))
-    assert measured.measured and measured.scatter_mm is not None
-    out = _plan(capsys, monkeypatch, PAPER / "machine.toml", "--noise-from", SESSION)
+    assert measured.measured and measured.dithered and obs.averaged is not None
+    machine = tmp_path / "m.toml"  # the session's own machine
+    machine.write_text("".join(f"{k} = {v}\n" for k, v in obs.machine.__dict__.items()
+                               if k in ("leg_length_mm", "rho_min_mm", "rho_max_mm",
+                                        "gauge_resolution_mm")))
+    out = _plan(capsys, monkeypatch, machine, "--noise-from", SESSION)
     assert out["noise_source"] == "repeated readings"
-    assert out["noise_mm"] == pytest.approx(measured.scatter_mm)
-    ran = ogacq_here(capsys, monkeypatch, "plan", "-m", PAPER / "machine.toml",
+    assert out["noise_mm"] == pytest.approx(measured.sigma_mm)
+    own = fit(obs, PARAM_SETS["offsets"])
+    np.testing.assert_allclose(list(out["analytic_std"].values()), own.std, rtol=0.05)
+    ran = ogacq_here(capsys, monkeypatch, "plan", "-m", machine,
                      "--trials", "0", "--noise-from", SESSION)
     text = " ".join(ran.stdout.split())
-    assert "µm a reading, measured from the repeats of" in text and "(52 dof)" in text, text
+    assert "µm a reading (the mean of 3 values), measured from the repeats of" in text, text
+    assert "(52 dof)" in text, text
 
 
 @pytest.mark.parametrize(("extra", "named"), [
