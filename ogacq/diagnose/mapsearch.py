@@ -54,7 +54,7 @@ from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
 from ogacq.diagnose.mapspace import Gain, MapSpace
-from ogacq.diagnose.nested import nested_tests
+from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.error_maps import MapTerm
@@ -348,9 +348,9 @@ class _Families:
         """The grid's best shape beside the model, its count the shapes tried."""
         gains = [self.space.gain_of(t) for t in grid.terms]
         if grid.by_bic:
-            log_n = math.log(max(self.space.problem.n_data, 2))
-            best = int(np.argmin([-float(g.gain[0]) / self.noise.variance
-                                  + int(g.rank[0]) * log_n for g in gains]))
+            n_data = self.space.problem.n_data
+            best = int(np.argmin([bic_change(float(g.gain[0]), int(g.rank[0]), n_data,
+                                             self.noise) for g in gains]))
         else:
             best = int(np.argmax([float(g.gain[0]) for g in gains]))
         term = grid.terms[best]
@@ -436,11 +436,10 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
     ranks = np.array([c.rank for c in cands])
     dof = space.dof - ranks
     _, p = nested_tests(space.rss, space.rss - gains, ranks, dof, noise)
-    log_n = math.log(max(space.problem.n_data, 2))
     out = []
     for k, c in enumerate(cands):
         corrected = min(1.0, float(p[k]) * c.shapes_tried * len(cands))
-        bic = -c.gain / noise.variance + (c.rank + c.shape_parameters) * log_n
+        bic = bic_change(c.gain, c.rank + c.shape_parameters, space.problem.n_data, noise)
         size = c.term.size_mm(c.coefficients)
         if c.rank == 0:
             reason = "nothing of it is left beside the model"
