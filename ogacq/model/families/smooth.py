@@ -91,8 +91,8 @@ class Smooth(MapFamily[SmoothShape]):
         q, g = self._over_range(term, 801)
         e = coef @ g
         k = int(np.argmax(np.abs(e)))
-        # the range as the term holds it: the JSON's form (an int stays one)
         std = float(math.sqrt(max(g[:, k] @ cov @ g[:, k], 0.0)))
+        # the range as the term holds it: the JSON's form (an int stays one)
         return MapValue(float(e[k]), std, {
             "at_mm": round(float(q[k]), 3), "from_mm": term.shape["from_mm"],
             "to_mm": term.shape["to_mm"], "knots": s.knots,
