@@ -104,7 +104,8 @@ class CalibrationUI(Protocol):
 class Outcome:
     folder: Path
     procedure: str
-    outcome: str  # validated, improved, restored, nothing to correct, declined, refused
+    # validated, not shown, improved, restored, nothing to correct, declined, refused
+    outcome: str
     reason: str
     evidence: Path | None = None
     validation: Path | None = None
@@ -472,6 +473,10 @@ class Procedure:
         reason = "; ".join(judgement.reasons) if judgement.worse else (
             "the validation is within the gauge noise " + judgement.looked
             if outcome == "validated" else
+            "; ".join(["the validation is within the gauge noise " + judgement.looked
+                       + ", but its test does not see every correction go wrong",
+                       *judgement.not_shown()])
+            if outcome == "not shown" else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
         reason = "; ".join([reason, *self._notes()])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
