@@ -56,7 +56,7 @@ GRID = 41  # points per stretch at which the correction's size there is taken
 @dataclass(frozen=True)
 class AxisSight:
     """How far one validation sees an axis's correction: per stretch of the axis's
-    range (``edges_mm``), the smallest error of the correction's shape there that its
+    travel (``edges_mm``), the smallest error of the correction's shape there that its
     test would reject at even odds (inf: none it can see; 0: nothing to show there)."""
 
     axis: str
@@ -79,7 +79,7 @@ class AxisSight:
 
     def merged(self, other: AxisSight) -> AxisSight:
         """Two validations of the same correction: a stretch is seen when either sees
-        it (the limits are on the same edges: the map's range)."""
+        it (the limits are on the same edges: the joint's travel)."""
         if other.edges_mm != self.edges_mm:
             return self if self.worst_mm <= other.worst_mm else other
         return AxisSight(self.axis, self.correction_mm, self.edges_mm,
@@ -90,8 +90,8 @@ class AxisSight:
     def seen_where(self) -> str:
         """The stretches seen, joined where they touch: "q from -20 to +0 mm"."""
         runs: list[list[float]] = []
-        for (lo, hi), seen in zip(zip(self.edges_mm, self.edges_mm[1:]), self.seen,
-                                  strict=True):
+        spans = zip(self.edges_mm[:-1], self.edges_mm[1:], strict=True)
+        for (lo, hi), seen in zip(spans, self.seen, strict=True):
             if not seen:
                 continue
             if runs and math.isclose(runs[-1][1], lo):
@@ -105,7 +105,8 @@ class AxisSight:
         size = self.correction_mm * UM_PER_MM
         noise = self.noise_mm * UM_PER_MM
         if self.shown:
-            return (f"the {self.axis} correction ({size:.2g} µm) is shown over its range: "
+            return (f"the {self.axis} correction ({size:.2g} µm about its mean) is shown over "
+                    "the travel: "
                     f"an error of its size anywhere would fail the validation's test "
                     f"(limit at most {self.worst_mm * UM_PER_MM:.2g} µm at its "
                     f"{noise:.2g} µm noise)")
@@ -117,7 +118,8 @@ class AxisSight:
                   else "an error of any size")
         more = (f"about {times:.0f} times the readings there" if math.isfinite(times)
                 else "readings that see this joint there")
-        return (f"the {self.axis} correction ({size:.2g} µm) is not shown: the validation "
+        return (f"the {self.axis} correction ({size:.2g} µm about its mean) is not shown: the "
+                "validation "
                 + (f"sees an error of its size only over {where}" if where else
                    "sees an error of its size nowhere along the axis")
                 + f"; elsewhere {passed} would pass its test (at its {noise:.2g} µm noise: "

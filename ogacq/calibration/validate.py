@@ -84,8 +84,7 @@ class Judgement:
         sees it; the figures of the scan where it has them."""
         outcome = min(self.outcome, other.outcome, key=OUTCOMES.index)
         sight = merged(self.sight, other.sight)
-        if outcome in ("not shown", "validated"):
-            outcome = "validated" if shown(sight) else "not shown"
+        outcome = outcome_of(outcome == "worse", outcome != "improved", sight)
         return replace(self, outcome=outcome, reasons=self.reasons + other.reasons,
                        figures_after={**self.figures_after, **other.figures_after},
                        residual_effects={**self.residual_effects, **other.residual_effects},
@@ -106,6 +105,17 @@ class Judgement:
                 "figures_before": self.figures_before, "figures_after": self.figures_after,
                 "residual_effects": self.residual_effects, "looked": self.looked,
                 "sight": {a: s.to_json() for a, s in self.sight.items()}}
+
+
+def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> str:
+    """A validation's outcome: worse (with reasons), else improved when its fit is not
+    within the noise, else validated when its test sees every correction go wrong
+    (``sight``) and not shown when it does not."""
+    if worse:
+        return "worse"
+    if not within_noise:
+        return "improved"
+    return "validated" if shown(sight) else "not shown"
 
 
 def where_looked(sessions: list[LoadedSession], machine: MachineSpec) -> str:
@@ -177,8 +187,7 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
             reasons.append(f"axis {a}: systematic positioning error E grew from "
                            f"{was * UM_PER_MM:.1f} to {now * UM_PER_MM:.1f} µm (ISO 230-2)")
     sight = sights(comp.maps, result, v_after, machine) if v_after.consistent else {}
-    outcome = "worse" if reasons else "improved" if not v_after.consistent else \
-        "validated" if shown(sight) else "not shown"
+    outcome = outcome_of(bool(reasons), v_after.consistent, sight)
     p_value = v_after.p_value if math.isfinite(v_after.p_value) else None
     return Judgement(outcome, tuple(reasons), {**v_after.to_json(), "text": v_after.describe(),
                                                "state": v_after.state, "p_value": p_value},
