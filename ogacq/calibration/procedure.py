@@ -471,12 +471,11 @@ class Procedure:
                 restored: dict[str, str | None]) -> Outcome:
         outcome = "restored" if judgement.worse else judgement.outcome
         reason = "; ".join(judgement.reasons) if judgement.worse else (
-            "the validation is within the gauge noise " + judgement.looked
-            if outcome == "validated" else
             "; ".join(["the validation is within the gauge noise " + judgement.looked
-                       + ", but its test does not see every correction go wrong",
-                       *judgement.not_shown()])
-            if outcome == "not shown" else
+                       + ("" if outcome == "validated" else
+                          ", but its test would not see every correction go wrong"),
+                       *judgement.seen()])
+            if outcome in ("validated", "not shown") else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
         reason = "; ".join([reason, *self._notes()])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,

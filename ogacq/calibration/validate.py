@@ -90,9 +90,10 @@ class Judgement:
                        residual_effects={**self.residual_effects, **other.residual_effects},
                        sight=sight)
 
-    def not_shown(self) -> list[str]:
-        """Each correction the validation does not show, in words."""
-        return [s.sentence() for s in self.sight.values() if not s.shown]
+    def seen(self) -> list[str]:
+        """What the validation shows of each correction, in words: where it would see
+        one of its size go wrong, and its limit elsewhere."""
+        return [s.sentence() for s in self.sight.values()]
 
     def to_json(self) -> dict[str, Any]:
         return {"outcome": self.outcome, "reasons": list(self.reasons),

@@ -80,6 +80,11 @@ def test_a_correction_it_sees_everywhere_is_validated(validation):
     sight = sights({"y": cyclic_map(0.1)}, result, verdict, MACHINE)["y"]
     assert sight.shown, sight.limits_mm
     assert outcome_of(False, True, {"y": sight}) == "validated"
+    # its limit said beside "validated"
+    assert sight.sentence().startswith("the y correction (95 µm about its mean) is shown "
+                                       "over the travel: an error of its size anywhere "
+                                       "would fail the validation's test (limit at most "), \
+        sight.sentence()
     # the limits are the correction's shape's, whatever its size: the same stretches
     small = sights({"y": cyclic_map(0.004)}, result, verdict, MACHINE)["y"]
     assert small.limits_mm == pytest.approx(sight.limits_mm, rel=1e-6)
@@ -104,6 +109,6 @@ def test_two_validations_show_what_either_sees():
     blind = AxisSight("y", 0.004, edges, (0.03, 0.05), 0.0008)
     merged = one.merged(replace(blank, sight={"y": blind}))
     assert merged.outcome == "not shown"
-    assert merged.not_shown()[0].startswith("the y correction (4 µm about its mean) is not "
+    assert merged.seen()[0].startswith("the y correction (4 µm about its mean) is not "
                                             "shown: the validation sees an error of its "
                                             "size only over q from -100 to -20 mm")
