@@ -65,17 +65,19 @@ def table_line(folder: Path, name: str, axis: str, seed: int) -> str:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--only", default="")
+    parser.add_argument("--only", default="", help="the leads whose name holds this")
     parser.add_argument("--seed", type=int, default=SEED)
-    parser.add_argument("--keep", type=Path, default=None)
+    parser.add_argument("--keep", type=Path, default=None, help="the runs' folder")
     args = parser.parse_args()
-    with tempfile.TemporaryDirectory() as tmp:
-        root = args.keep or Path(tmp)
-        root.mkdir(parents=True, exist_ok=True)
-        for name, (axis, pitch) in LEADS.items():
-            if args.only in name:
-                run_case(root, name, axis, pitch, args.seed)
-                print(table_line(root / name.replace(" ", "-"), name, axis, args.seed))
+    root = args.keep or Path(tempfile.mkdtemp(prefix="lead-table-"))
+    root.mkdir(parents=True, exist_ok=True)
+    chosen = {name: case for name, case in LEADS.items() if args.only in name}
+    lines = []
+    for name, (axis, pitch) in chosen.items():
+        run_case(root, name, axis, pitch, args.seed)
+        lines.append(table_line(root / name.replace(" ", "-"), name, axis, args.seed))
+    print("\n".join(lines))
+    print(f"runs kept in {root}")
 
 
 if __name__ == "__main__":
