@@ -8,13 +8,16 @@ LinuxCNC table leaves against the simulator's truth over the whole travel
 
 Run: python bench/lead_table.py [--only 20.0] [--seed 1] [--keep FOLDER]
 
-Seen (seed 1, 2026-12, issue 37): every map is "not shown", exit 0: the validation's
-gauges see a joint's error along its line only over the 16 mm it moves while the
-other legs are driven (elsewhere through a sensitivity of 0.03-0.13), so an error
-of the map's size beyond that stretch would pass its test (limits 50-90 µm). The
-tables leave 0.2-0.9 µm rms of 2.83 on 4 to 10 mm leads; a 20 mm lead is found
-within 2 % or said unresolved (seed 2: 14.98 and 20.39 mm fit alike, no map, the
-offsets written; before: 15.08 mm, 3.5 µm rms left, "validated").
+Seen (2026-12, issue 37; each run's readings differ with the simulator's timing):
+every map "not shown", exit 0: the validation's gauges see a joint's error along its
+line only over the 16 mm it moves while the other legs are driven (q -11 to +7 mm of
+the nine stretches; elsewhere through a sensitivity of 0.03-0.13), so beyond it an
+error of 30-110 µm would pass its test. Pitches written (seed 1) 5.015, 6.36, 3.998,
+9.974 and 19.96 mm (seed 2: 20.07), the LinuxCNC tables leaving 0.53, 0.20, 0.26,
+0.22, 0.17 (0.42) µm rms of 2.83. An earlier seed-2 run's scan (readings as the
+simulator's timing gave them then) peaked at 15 mm: 15.08 mm was written, 3.5 µm rms
+left, "validated"; its readings now give "pitch unresolved: 14.98 and 20.39 mm fit
+alike", no map, the offsets written.
 """
 
 from __future__ import annotations
