@@ -179,8 +179,8 @@ def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
     else:
         why = ("the separating scan sees a cyclic error whose pitch it does not resolve ("
                + "; ".join(f"{AXES[c.term.axis]} axis: {c.unresolved}" for c in unresolved)
-               + f"), so its maps ({maps}) would be a guess beyond where its readings see "
-               "the joint")
+               + "): a map of either pitch, or one in its place, would be a guess beyond "
+               "where its readings see the joint")
         would = ("a measurement that sees the joint over its whole travel (a positioning "
                  "test along the axis, ISO 230-2)")
     return (f"error maps not established: {why}; the offsets are those of the calibration "
