@@ -20,9 +20,10 @@ what takes the statistic's mean to its critical value at the verdict's level (ab
 even odds of a rejection: the noncentral chi-square's mean is its dof plus the
 noncentrality; Johnson, Kotz and Balakrishnan, *Continuous Univariate
 Distributions* 2, 2nd ed., 1995, ch. 29). The limit of a stretch is the size of the
-correction's shape there at which the test reaches it. The stretches are the spans of
-the smooth map whose detection the scan's design states (a smooth map that wrong in
-one span need not be in the others: ``scan_design.SMOOTH_KNOTS``).
+correction's shape there at which the test reaches it. The travel is cut into
+``STRETCHES`` equal stretches, each about as long as the stretch the other legs move
+a joint through (160 mm of travel: 18 mm), so that what they see is one stretch and
+not a share of every one.
 """
 
 from __future__ import annotations
@@ -44,9 +45,10 @@ from ogacq.model.joint_sensitivity import joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
-from ogacq.protocol.scan_design import SMOOTH_KNOTS
 
-STRETCHES = SMOOTH_KNOTS + 1
+# No source: a choice, the travel of the papers' prototype (-100 to +60 mm) cut into
+# stretches about as long as the 16 mm the other legs move a joint through.
+STRETCHES = 9
 # A stretch where the correction is below this share of its largest value corrects
 # next to nothing there: nothing of it to show (no source: a choice).
 NEGLIGIBLE = 0.01
@@ -165,8 +167,9 @@ def sights(maps: dict[str, AxisMap], result: FitResult, verdict: Verdict,
     for axis, m in maps.items():
         a = AXES.index(axis)
         q, q_set = history.q_mm[:, a], history.setting_q_mm[:, a]
-        e_r = m.error_mm(q, history.side[:, a])
-        e_s = m.error_mm(q_set, history.setting_side[:, a])
+        # about its mean, as its size is taken: the constant is the joint offset's
+        e_r = m.error_mm(q, history.side[:, a]) - _mean(m)
+        e_s = m.error_mm(q_set, history.setting_side[:, a]) - _mean(m)
         # the joint's travel, the same stretches for every validation of the correction
         lo, hi = machine.rho_min_mm, machine.rho_max_mm
         edges = np.linspace(lo, hi, STRETCHES + 1)
@@ -196,8 +199,11 @@ def _largest(m: AxisMap, lo: float, hi: float) -> float:
     """The correction's largest value from ``lo`` to ``hi``, either direction, less its
     mean over the map's range (a constant is the joint offset's)."""
     grid = np.linspace(lo, hi, GRID)
-    mean = float(np.mean(np.concatenate([m.forward_mm, m.reverse_mm])))
-    return float(max(np.max(np.abs(m.error_mm(grid, d) - mean)) for d in (1, -1)))
+    return float(max(np.max(np.abs(m.error_mm(grid, d) - _mean(m))) for d in (1, -1)))
+
+
+def _mean(m: AxisMap) -> float:
+    return float(np.mean(np.concatenate([m.forward_mm, m.reverse_mm])))
 
 
 def _noncentrality_needed(verdict: Verdict) -> float:
