@@ -363,16 +363,29 @@ def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
         raise src.fail(path, f"must be {names}, got {_shown(given)}")
     if isinstance(given, datetime.date):
         return given
+    _check_representable(given, path, src)
+    if kind.choices and given not in kind.choices:
+        raise src.fail(path, _one_of(kind.choices, given))
+    if isinstance(given, bool) or not isinstance(given, int | float):
+        return given
+    _check_range(kind, given, path, src)
+    if isinstance(given, int) and float in kind.types and int not in kind.types:
+        return float(given)  # a whole number where a number is asked: the same value
+    return given
+
+
+def _check_representable(given: Any, path: KeyPath, src: Source) -> None:
+    """A number the project can hold: finite, an integer within TOML's 64 bits."""
     if isinstance(given, float) and not math.isfinite(given):
         raise src.fail(path, f"must be a finite number, got {given!r}")
     if isinstance(given, int) and not isinstance(given, bool) and \
             not INT64[0] <= given <= INT64[1]:
         raise src.fail(path, f"must be a whole number of at most 19 digits (a 64-bit TOML "
                              f"integer), got one of {len(str(abs(given)))} digits")
-    if kind.choices and given not in kind.choices:
-        raise src.fail(path, _one_of(kind.choices, given))
-    if isinstance(given, bool) or not isinstance(given, int | float):
-        return given
+
+
+def _check_range(kind: Value, given: float, path: KeyPath, src: Source) -> None:
+    """The number within the key's bounds, said with its unit."""
     low, high = kind.minimum, kind.maximum
     unit = f" {kind.unit}" if kind.unit else ""
     if kind.positive and not given > 0:
@@ -383,9 +396,6 @@ def _scalar(kind: Value, given: Any, path: KeyPath, src: Source) -> Any:
         raise src.fail(path, f"must be at least {low:g}{unit}, got {given!r}{unit}")
     if high is not None and given > high:
         raise src.fail(path, f"must be at most {high:g}{unit}, got {given!r}{unit}")
-    if isinstance(given, int) and float in kind.types and int not in kind.types:
-        return float(given)  # a whole number where a number is asked: the same value
-    return given
 
 
 def _shown(value: Any) -> str:

@@ -28,7 +28,9 @@ PACKAGES = {"ogacq_drivers": "drivers", "ogacq": "ogacq"}  # installed name -> f
 # - ogacq.writeback.table, ogacq.writeback.maps_table, ogacq.writeback.endpoint_lock: the
 #   offset table, the maps file and the lock on a controller and its maps file: the maps
 #   file, opened with the controller by the station and loaded by every campaign,
-#   while the rest of writeback decides from finished campaigns.
+#   while the rest of writeback decides from finished campaigns. And
+#   ogacq.writeback.outcome, the words of the audit trail and of calibrate's end, which
+#   the campaigns and the history read in sessions and records.
 LAYERS: list[tuple[str, ...]] = [
     ("ogacq_drivers", "ogacq_drivers.errors", "ogacq_drivers.config_schema"),
     ("ogacq_drivers.link", "ogacq_drivers.usb_net", "ogacq_drivers.usb_link",
@@ -41,8 +43,8 @@ LAYERS: list[tuple[str, ...]] = [
     ("ogacq.protocol.plan",),  # the one plan: every layout of readings derives from it
     # computed from the model alone, and the files read without a campaign
     ("ogacq.identify", "ogacq.sim", "ogacq.io.machine_file", "ogacq.writeback.table",
-     "ogacq.writeback.maps_table", "ogacq.writeback.endpoint_lock", "ogacq.uncertainty",
-     "ogacq.compensation"),
+     "ogacq.writeback.maps_table", "ogacq.writeback.endpoint_lock", "ogacq.writeback.outcome",
+     "ogacq.uncertainty", "ogacq.compensation"),
     ("ogacq.protocol", "ogacq.session", "ogacq.io.tables", "ogacq.campaign.campaign_file",
      "ogacq.campaign.templates", "ogacq.record", "ogacq.record.context", "ogacq.history"),
     ("ogacq.io.loading", "ogacq.campaign.station", "ogacq.diagnose"),

@@ -107,6 +107,14 @@ class _Block:
     names: tuple[str, ...]
 
 
+def _soft_limits(profile: Profile, given: tuple[float, float] | None) -> tuple[float, float]:
+    """The station's soft limits, else the profile's; refused when empty."""
+    low, high = given or (profile.limits.min_mm, profile.limits.max_mm)
+    if not low < high:
+        raise ValueError(f"soft limits [{low}, {high}] mm are empty")
+    return float(low), float(high)
+
+
 class AxisController:
     """Enable, home, move, poll, stop, reset alarms and handle joint offsets of three axes."""
 
@@ -129,32 +137,15 @@ class AxisController:
         unknown = [a for a in self.axes if a not in self.device_ids]
         if unknown:
             raise ValueError(f"profile {profile.name!r} has no device id for axes {unknown}")
-        # One link for all axes (one bus or gateway), or one per axis (a drive per address).
-        if isinstance(link, ModbusLink):
-            self._links = dict.fromkeys(self.axes, link)
-        else:
-            missing = [a for a in self.axes if a not in link]
-            if missing:
-                raise ValueError(f"no Modbus endpoint for axes {missing}")
-            self._links = {a: link[a] for a in self.axes}
+        self._links = self._links_of(link)
         #: The first axis's link (all of them where the axes share one).
         self.link = self._links[self.axes[0]]
         for axis in self.axes:
             self._links[axis].check_device_id(self.device_ids[axis])
-        low, high = soft_limits_mm or (profile.limits.min_mm, profile.limits.max_mm)
-        if not low < high:
-            raise ValueError(f"soft limits [{low}, {high}] mm are empty")
-        self.soft_limits_mm = (float(low), float(high))
+        self.soft_limits_mm = _soft_limits(profile, soft_limits_mm)
         self.speed_mm_s = speed_mm_s or profile.motion.speed_mm_s
         self.poll_interval_s = poll_interval_s
-        self._software_offsets = {a: 0.0 for a in self.axes}
-        if software_offsets_mm:
-            if profile.offset.kind != "software":
-                raise ValueError(
-                    f"profile {profile.name!r} keeps offsets in the drive ({profile.offset.kind}); "
-                    "a software offset table does not apply"
-                )
-            self._software_offsets.update(self._per_axis(software_offsets_mm, "software offsets"))
+        self._software_offsets = self._software_offsets_of(software_offsets_mm)
         # Set once this client saw a homing through; used where the profile has no homed
         # bit, and only while the drive was never out of reach since (it may have been
         # switched off and on: an incremental encoder then counts from anywhere).
@@ -168,20 +159,46 @@ class AxisController:
         #: Axes whose home offset was written but not yet made effective by a homing.
         self.rehome_required: set[str] = set()
         self._blocks = self._plan_reads(self.profile.status_values())
-        flag_values = [v for v in self.profile.status_values() if v != profile.status.position]
-        # Polling the flags alone saves requests only when the position sits apart.
-        flag_blocks = self._plan_reads(flag_values)
-        if len(flag_blocks) < len(self._blocks):
-            self._flag_blocks = flag_blocks
-            self._position_blocks = self._plan_reads([profile.status.position])
-        else:
-            self._flag_blocks, self._position_blocks = self._blocks, []
+        self._flag_blocks, self._position_blocks = self._flag_and_position_blocks()
         # (axis, value name) -> registers (or coil state) this client last wrote there.
         self._written: dict[tuple[str, str], tuple[int | bool, ...]] = {}
         # Joint coordinate each axis was last seen at (any status read with its position):
         # only to start the longest move first, never to decide anything else.
         self._last_seen_q: dict[str, float] = {}
         self._written_failures = 0
+
+    def _links_of(self, link: ModbusLink | Mapping[str, ModbusLink]) -> dict[str, ModbusLink]:
+        """One link for all axes (one bus or gateway), or one per axis (a drive per
+        address)."""
+        if isinstance(link, ModbusLink):
+            return dict.fromkeys(self.axes, link)
+        missing = [a for a in self.axes if a not in link]
+        if missing:
+            raise ValueError(f"no Modbus endpoint for axes {missing}")
+        return {a: link[a] for a in self.axes}
+
+    def _software_offsets_of(self, given: Mapping[str, float] | None) -> dict[str, float]:
+        """The software offset table's values per axis (0 where none is given); only a
+        profile that keeps its offsets in software has one."""
+        offsets = dict.fromkeys(self.axes, 0.0)
+        if given:
+            if self.profile.offset.kind != "software":
+                raise ValueError(
+                    f"profile {self.profile.name!r} keeps offsets in the drive "
+                    f"({self.profile.offset.kind}); a software offset table does not apply"
+                )
+            offsets.update(self._per_axis(given, "software offsets"))
+        return offsets
+
+    def _flag_and_position_blocks(self) -> tuple[list[_Block], list[_Block]]:
+        """The reads that poll an axis's flags, and those of its position: apart only
+        where polling the flags alone saves requests (the position sits apart)."""
+        position = self.profile.status.position
+        flag_blocks = self._plan_reads([v for v in self.profile.status_values()
+                                        if v != position])
+        if len(flag_blocks) < len(self._blocks):
+            return flag_blocks, self._plan_reads([position])
+        return self._blocks, []
 
     @property
     def links(self) -> tuple[ModbusLink, ...]:
@@ -364,70 +381,89 @@ class AxisController:
         An axis whose servo goes off on the way, or (``require_homed``) that stops being
         homed, raises at once: a drive switched off and on mid-move stands "in position"
         at a counter that restarted, which no arrival may be taken from."""
-        targets: dict[str, float | None]
-        if targets_mm is None:
-            targets = dict.fromkeys(self.axes)
-        elif isinstance(targets_mm, Mapping):
-            targets = dict(self._targets(targets_mm))
-        else:  # axis names, or a value per axis
-            given = list(targets_mm)
-            names = [a for a in given if isinstance(a, str)]
-            numbers = [float(v) for v in given if isinstance(v, Real)]
-            if len(names) == len(given):
-                targets = dict.fromkeys(self._axes(names))
-            elif len(numbers) == len(given):
-                targets = dict(self._targets(numbers))
-            else:
-                raise ValueError(f"targets {given}: axis names or a value per axis, not both")
+        targets = self._wait_targets(targets_mm)
         timeout = timeout_s or self.profile.timing.move_timeout_s
         tolerance = self._position_tolerance_mm()
         deadline = time.monotonic() + timeout
-        # Axes still on their way are polled by their flag words only; an axis that
-        # says it is in position has its position read, and is done once at target.
         arrived: dict[str, AxisStatus] = {}
         while True:
             for axis in [a for a in targets if a not in arrived]:
-                values = self._read_values(axis, self._flag_blocks)
-                poll = self._make_poll(axis, values)
-                if poll.settled and poll.position_mm is None:
-                    values |= self._read_values(axis, self._position_blocks)
-                    poll = self._make_poll(axis, values)
-                if poll.fault:
-                    at = "" if poll.position_mm is None else f" at {poll.position_mm:.3f} mm"
-                    raise DeviceFault(
-                        f"axis {axis} in alarm {poll.alarm_code:#x}{at} while waiting for "
-                        "in-position",
-                        code=poll.alarm_code,
-                        where=self._where(axis),
-                    )
-                if not poll.flags["servo_on"] or (require_homed and not poll.homed):
-                    lost = "its servo went off" if not poll.flags["servo_on"] else \
-                        "it is no longer homed"
-                    raise DeviceFault(
-                        f"axis {axis}: {lost} while waiting for in-position (switched off "
-                        "and on, an emergency stop or another master?); its position is "
-                        "not vouched for",
-                        code="servo_off" if not poll.flags["servo_on"] else "not_homed",
-                        where=self._where(axis),
-                    )
-                target = targets[axis]
-                if poll.settled and poll.position_mm is not None and (
-                        target is None or abs(poll.position_mm - target) <= tolerance):
-                    arrived[axis] = self._as_status(poll)
+                status = self._arrival(axis, targets[axis], tolerance, require_homed)
+                if status is not None:
+                    arrived[axis] = status
             if len(arrived) == len(targets):
                 return {axis: arrived[axis] for axis in targets}
             if time.monotonic() >= deadline:
-                pending = [self._status(a) for a in targets if a not in arrived]
-                detail = "; ".join(
-                    f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
-                    f"moving={s.moving}, in_position={s.in_position}"
-                    for s in pending
-                )
-                raise DeviceTimeout(
-                    f"not in position within {timeout:g} s: {detail}",
-                    where=self._where(pending[0].axis),
-                )
+                raise self._not_in_position(targets, arrived, timeout)
             time.sleep(self.poll_interval_s)
+
+    def _wait_targets(self, targets_mm: Targets | Iterable[str] | None,
+                      ) -> dict[str, float | None]:
+        """The axes to wait for and each one's target (None: in position anywhere)."""
+        if targets_mm is None:
+            return dict.fromkeys(self.axes)
+        if isinstance(targets_mm, Mapping):
+            return dict(self._targets(targets_mm))
+        given = list(targets_mm)  # axis names, or a value per axis
+        names = [a for a in given if isinstance(a, str)]
+        numbers = [float(v) for v in given if isinstance(v, Real)]
+        if len(names) == len(given):
+            return dict.fromkeys(self._axes(names))
+        if len(numbers) == len(given):
+            return dict(self._targets(numbers))
+        raise ValueError(f"targets {given}: axis names or a value per axis, not both")
+
+    def _arrival(self, axis: str, target: float | None, tolerance: float,
+                 require_homed: bool) -> AxisStatus | None:
+        """The axis's status once it is in position at ``target``, else None. An axis on
+        its way is polled by its flag words only; one that says it is in position has
+        its position read too."""
+        values = self._read_values(axis, self._flag_blocks)
+        poll = self._make_poll(axis, values)
+        if poll.settled and poll.position_mm is None:
+            values |= self._read_values(axis, self._position_blocks)
+            poll = self._make_poll(axis, values)
+        self._check_vouched(axis, poll, require_homed)
+        if poll.settled and poll.position_mm is not None and (
+                target is None or abs(poll.position_mm - target) <= tolerance):
+            return self._as_status(poll)
+        return None
+
+    def _check_vouched(self, axis: str, poll: _Poll, require_homed: bool) -> None:
+        """Raise if the axis is in alarm, its servo went off or (``require_homed``) it
+        is no longer homed: no arrival may be taken from it then."""
+        if poll.fault:
+            at = "" if poll.position_mm is None else f" at {poll.position_mm:.3f} mm"
+            raise DeviceFault(
+                f"axis {axis} in alarm {poll.alarm_code:#x}{at} while waiting for "
+                "in-position",
+                code=poll.alarm_code,
+                where=self._where(axis),
+            )
+        servo_off = not poll.flags["servo_on"]
+        if servo_off or (require_homed and not poll.homed):
+            lost = "its servo went off" if servo_off else "it is no longer homed"
+            raise DeviceFault(
+                f"axis {axis}: {lost} while waiting for in-position (switched off "
+                "and on, an emergency stop or another master?); its position is "
+                "not vouched for",
+                code="servo_off" if servo_off else "not_homed",
+                where=self._where(axis),
+            )
+
+    def _not_in_position(self, targets: dict[str, float | None],
+                         arrived: dict[str, AxisStatus], timeout: float) -> DeviceTimeout:
+        """The timeout naming each axis not arrived: where it is, its target, its flags."""
+        pending = [self._status(a) for a in targets if a not in arrived]
+        detail = "; ".join(
+            f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
+            f"moving={s.moving}, in_position={s.in_position}"
+            for s in pending
+        )
+        return DeviceTimeout(
+            f"not in position within {timeout:g} s: {detail}",
+            where=self._where(pending[0].axis),
+        )
 
     def stop(self, axes: Iterable[str] | None = None) -> None:
         """Stop every axis (all are tried even if one fails; the first error is raised after)."""

@@ -47,6 +47,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Iterable
+from dataclasses import dataclass
 
 from ogacq_drivers.axes.cia402 import drive_state
 from ogacq_drivers.axes.controller import AxisController
@@ -231,13 +232,8 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
     profile = controller.profile
     chosen = controller.chosen_axes(axes)
     start = {a: s.position_mm for a, s in controller.read_status(chosen).items()}
-    low, high = controller.soft_limits_mm
-    targets = {a: q + probe_mm if q + probe_mm <= high else q - probe_mm
-               for a, q in start.items()}
-    if any(not low <= t <= high for t in targets.values()):
-        raise ValueError(f"pre-flight: no room for a {probe_mm} mm probe move within "
-                         f"the soft limits [{low:g}, {high:g}] mm")
-    slack = max(_step_mm(controller), profile.motion.in_position_band_mm) + 1e-9
+    targets = _probe_targets(controller, start, probe_mm)
+    probe = _Probe(controller, chosen, start, targets, probe_mm)
     speed = probe_speed_mm_s(controller)
     # the right word order arrives in a blink (the drive's own ramps and speed limit
     # aside); the wrong one moves one count a second and is seen at its first
@@ -254,26 +250,7 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
     deadline = time.monotonic() + limit
     done: set[str] = set()
     while len(done) < len(chosen):
-        for axis in [a for a in chosen if a not in done]:
-            try:
-                status = controller.read_status([axis])[axis]
-            except DriverError:
-                controller.stop_quietly(chosen)
-                raise
-            q = status.position_mm
-            lo, hi = sorted((start[axis], targets[axis]))
-            if not lo - slack <= q <= hi + slack or status.fault:
-                controller.stop_quietly(chosen)
-                seen = (f"alarm {status.alarm_code:#x}" if status.fault
-                        else f"position {q:+.4f} mm")
-                raise PreflightError(
-                    f"pre-flight {axis}: during a {probe_mm:g} mm probe move from "
-                    f"{start[axis]:+.4f} mm the drive showed {seen}, outside the way to "
-                    f"{targets[axis]:+.4f} mm: the 32-bit word order is wrong; change "
-                    f"codec.word_order in profile {profile.name!r}",
-                    field="codec.word_order", where=controller.where(axis))
-            if status.in_position and not status.moving and abs(q - targets[axis]) <= slack:
-                done.add(axis)
+        done |= {axis for axis in chosen if axis not in done and probe.arrived(axis)}
         if len(done) < len(chosen):
             if time.monotonic() > deadline:
                 controller.stop_quietly(chosen)
@@ -286,6 +263,58 @@ def probe_move(controller: AxisController, probe_mm: float = 1.0,
                     where=controller.where(chosen[0]))
             time.sleep(controller.poll_interval_s)
     log.info("pre-flight: probe move of %g mm read back on %s", probe_mm, ", ".join(chosen))
+
+
+def _probe_targets(controller: AxisController, start: dict[str, float],
+                   probe_mm: float) -> dict[str, float]:
+    """Each axis ``probe_mm`` up, or down where up leaves the soft limits."""
+    low, high = controller.soft_limits_mm
+    targets = {a: q + probe_mm if q + probe_mm <= high else q - probe_mm
+               for a, q in start.items()}
+    if any(not low <= t <= high for t in targets.values()):
+        raise ValueError(f"pre-flight: no room for a {probe_mm} mm probe move within "
+                         f"the soft limits [{low:g}, {high:g}] mm")
+    return targets
+
+
+@dataclass(frozen=True)
+class _Probe:
+    """A probe move under way, watched axis by axis."""
+
+    controller: AxisController
+    chosen: tuple[str, ...]
+    start: dict[str, float]
+    targets: dict[str, float]
+    probe_mm: float
+
+    @property
+    def slack(self) -> float:
+        """How far beside its way an axis may read: a count, or the in-position band."""
+        return max(_step_mm(self.controller),
+                   self.controller.profile.motion.in_position_band_mm) + 1e-9
+
+    def arrived(self, axis: str) -> bool:
+        """Whether the axis is at its target; every axis stopped, and the word order
+        named, when it reads off the way from its start to its target or in alarm."""
+        controller, start, target = self.controller, self.start[axis], self.targets[axis]
+        try:
+            status = controller.read_status([axis])[axis]
+        except DriverError:
+            controller.stop_quietly(self.chosen)
+            raise
+        q, slack = status.position_mm, self.slack
+        lo, hi = sorted((start, target))
+        if not lo - slack <= q <= hi + slack or status.fault:
+            controller.stop_quietly(self.chosen)
+            seen = (f"alarm {status.alarm_code:#x}" if status.fault
+                    else f"position {q:+.4f} mm")
+            raise PreflightError(
+                f"pre-flight {axis}: during a {self.probe_mm:g} mm probe move from "
+                f"{start:+.4f} mm the drive showed {seen}, outside the way to "
+                f"{target:+.4f} mm: the 32-bit word order is wrong; change "
+                f"codec.word_order in profile {controller.profile.name!r}",
+                field="codec.word_order", where=controller.where(axis))
+        return status.in_position and not status.moving and abs(q - target) <= slack
 
 
 def run_preflight(controller: AxisController, *, probe_mm: float = 1.0) -> None:

@@ -67,6 +67,7 @@ from ogacq.writeback.maps import MapsFile, MapsPlan
 from ogacq.writeback.maps_binding import check_maps_in_force
 from ogacq.writeback.maps_table import maps_checksum
 from ogacq.writeback.offsets_target import ControllerOffsets
+from ogacq.writeback.outcome import Stage, WriteOutcome
 from ogacq.writeback.policy import ControllerFacts, OffsetPlan, WritePolicy, plan_write
 from ogacq.writeback.write_target import (
     AnyTarget,
@@ -104,8 +105,7 @@ class CalibrationUI(Protocol):
 class Outcome:
     folder: Path
     procedure: str
-    # validated, not shown, improved, restored, nothing to correct, declined, refused
-    outcome: str
+    outcome: str  # a WriteOutcome: validated, not shown, improved, restored, ...
     reason: str
     evidence: Path | None = None
     validation: Path | None = None
@@ -114,7 +114,9 @@ class Outcome:
 
     @property
     def exit_code(self) -> int:
-        return {"declined": 1, "refused": 4, "restored": 4}.get(self.outcome, 0)
+        codes: dict[str, int] = {WriteOutcome.DECLINED: 1, WriteOutcome.REFUSED: 4,
+                                 WriteOutcome.RESTORED: 4}
+        return codes.get(self.outcome, 0)
 
 
 def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
@@ -256,7 +258,7 @@ class Procedure:
         path = Path(first.details["session"]) if first is not None else None
         if path is not None and path.is_file():  # its audit holds the writes and restores
             for op in operations(load_session(path)):
-                held = dict(op.old_mm if op.status == "failed" else op.new_mm) \
+                held = dict(op.old_mm if op.status == Stage.FAILED else op.new_mm) \
                     if op.held_mm is None else dict(op.held_mm)
         if held is None:
             return
@@ -399,13 +401,13 @@ class Procedure:
             reason = "; ".join(r.message for r in refusals)
             self.log.add("refused", reasons=[r.message for r in refusals],
                          codes=[r.code for r in refusals])
-            return self._end("refused", reason)
+            return self._end(WriteOutcome.REFUSED, reason)
         if offsets.nothing_to_do and (maps is None or maps.nothing_to_do):
-            return self._end("nothing to correct", "the controller and the maps file already "
-                             "hold what this calibration would write")
+            return self._end(WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps "
+                             "file already hold what this calibration would write")
         if not self.ui.yes and not self.ui.confirm("Write these offsets and maps?"):
             self.log.add("declined")
-            return self._end("declined", "the operator declined the write")
+            return self._end(WriteOutcome.DECLINED, "the operator declined the write")
         self.log.add("confirmed", by="--yes" if self.ui.yes else "prompt")
         return None
 
@@ -469,13 +471,13 @@ class Procedure:
     def _finish(self, comp: Compensation, evidence: LoadedSession, validation: LoadedSession,
                 judgement: Judgement, written: dict[str, str | None],
                 restored: dict[str, str | None]) -> Outcome:
-        outcome = "restored" if judgement.worse else judgement.outcome
+        outcome = WriteOutcome.RESTORED if judgement.worse else judgement.outcome
         reason = "; ".join(judgement.reasons) if judgement.worse else (
             "; ".join(["the validation is within the gauge noise " + judgement.looked
-                       + ("" if outcome == "validated" else
+                       + ("" if outcome == WriteOutcome.VALIDATED else
                           ", but its test would not see every correction go wrong"),
                        *judgement.seen()])
-            if outcome in ("validated", "not shown") else
+            if outcome in (WriteOutcome.VALIDATED, WriteOutcome.NOT_SHOWN) else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
         reason = "; ".join([reason, *self._notes()])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
@@ -519,7 +521,7 @@ class Procedure:
 
 
 # Outcomes after which the exported tables hold maps no controller runs with.
-NOT_APPLIED = ("refused", "declined", "restored")
+NOT_APPLIED = (WriteOutcome.REFUSED, WriteOutcome.DECLINED, WriteOutcome.RESTORED)
 NOT_APPLIED_FILE = "NOT-APPLIED.txt"
 
 

@@ -667,22 +667,7 @@ def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
             missing = "protocol" if not g.protocol else "port"
             raise src.fail(("gauges", k), "", f"gauge {g.gauge} needs {missing!r} (how "
                            "and where it is read)")
-        leg = Gauge.parse(g.gauge).leg
-        # by what the driver asks for, not by spelling: 01A's unset channel is channel 1
-        same_leg = [(other, seen[other.gauge]) for other in gauges[:k]
-                    if other.port == g.port and other.protocol == g.protocol
-                    and same_indicator(g.protocol, other.channel, g.channel)
-                    and Gauge.parse(other.gauge).leg == leg]
-        if same_leg:
-            other, other_line = same_leg[0]
-            where = f"port {g.port}" + (f" channel {g.channel}" if g.channel else "")
-            if other.channel != g.channel:
-                where += (f" (channel {other.channel or 'not set'} and "
-                          f"{g.channel or 'not set'} read the same {g.protocol} indicator)")
-            raise InputError(src.path, f"gauges {other.gauge} (line {other_line}) and "
-                             f"{g.gauge} of the {leg} leg both on {where}: the two gauges of a "
-                             "leg each need their own port or channel (one indicator may serve "
-                             "one gauge per leg, moved from leg to leg)", line)
+        _check_own_indicator(src, g, gauges[:k], seen, line)
         first_on_port = next((other for other in gauges[:k] if other.port == g.port), None)
         if first_on_port is not None and first_on_port.protocol != g.protocol:
             raise InputError(src.path, f"gauge {g.gauge} on port {g.port} is {g.protocol} but "
@@ -690,6 +675,29 @@ def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
                              f"{first_on_port.protocol}: one port speaks one protocol", line)
         seen[g.gauge] = line
     return gauges
+
+
+def _check_own_indicator(src: Source, g: GaugeSpec, before: list[GaugeSpec],
+                         seen: dict[str, int | None], line: int | None) -> None:
+    """Refuse a gauge read by the same indicator as an earlier gauge of its leg: the two
+    gauges of a leg are read at once."""
+    leg = Gauge.parse(g.gauge).leg
+    # by what the driver asks for, not by spelling: 01A's unset channel is channel 1
+    same_leg = [other for other in before
+                if other.port == g.port and other.protocol == g.protocol
+                and same_indicator(g.protocol, other.channel, g.channel)
+                and Gauge.parse(other.gauge).leg == leg]
+    if not same_leg:
+        return
+    other = same_leg[0]
+    where = f"port {g.port}" + (f" channel {g.channel}" if g.channel else "")
+    if other.channel != g.channel:
+        where += (f" (channel {other.channel or 'not set'} and "
+                  f"{g.channel or 'not set'} read the same {g.protocol} indicator)")
+    raise InputError(src.path, f"gauges {other.gauge} (line {seen[other.gauge]}) and "
+                     f"{g.gauge} of the {leg} leg both on {where}: the two gauges of a "
+                     "leg each need their own port or channel (one indicator may serve "
+                     "one gauge per leg, moved from leg to leg)", line)
 
 
 # --------------------------------------------------------------------------- writing

@@ -21,6 +21,7 @@ from ogacq.session.convert import session_observations
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.series import earlier_in_series
 from ogacq.session.store import LoadedSession, load_session
+from ogacq.writeback.outcome import Stage
 
 
 @dataclass(frozen=True)
@@ -45,7 +46,7 @@ def validation_of(session: LoadedSession) -> Path | None:
             loaded = load_session(earlier)
         except Exception:  # an unreadable neighbour is no one's calibration
             continue
-        if any(r.stage == "done" for r in loaded.of_type(OffsetsRecord)):
+        if any(r.stage == Stage.DONE for r in loaded.of_type(OffsetsRecord)):
             return earlier
     return None
 

@@ -95,23 +95,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
         if station.simulator is not None and station.simulator.moves_indicators:
             set_gauges = _simulated_operator(station.simulator, campaign, recorded_before,
                                              set_gauges)
-        if resume is None:
-            header = {"machine": machine_dict(campaign.machine),
-                      "machine_file": str(campaign.machine_path),
-                      "campaign_file": str(campaign.path.resolve()),
-                      # said once and loudly: a rehearsal is never the machine's record
-                      "simulated": station.description["simulated"],
-                      "station": station.description, "plan": campaign.protocol.to_dict(),
-                      **header_entries(campaign, station.description["gauges"]),
-                      **(header_extra or {})}
-            if station.simulator is not None and campaign.simulator is not None:
-                header["simulator"] = campaign.simulator.header()
-            writer = SessionWriter.create(campaign.session, header)
-            recorded: set[tuple[str, str]] = set()
-        else:
-            writer = SessionWriter.reopen(resume)
-            writer.write(StationRecord(description=station.description))
-            recorded = resume.recorded()
+        writer, recorded = _session_writer(campaign, station, resume, header_extra)
         with writer:
             for record in (*overrides, environment):
                 if record is not None:
@@ -127,23 +111,57 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges, previous=previous,
                                     check_first=bool(previous),
-                                    correction=TargetCorrection(
-                                        maps.maps, (campaign.machine.rho_min_mm,
-                                                    campaign.machine.rho_max_mm))
-                                    if maps is not None and maps.maps else None)
+                                    correction=_target_correction(campaign, maps))
             runner.run()
-            at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))
-            ended = at_end(station)
-            if ended is not None:
-                writer.write(ended)
-            session = load_session(writer.path)
-            result = identify_session(session)
-            writer.write(ResultRecord(params="offsets", refit=result.to_json("offsets"),
-                                      noise_mm=result.noise.sigma_mm,
-                                      noise_source=result.noise.source))
+            result = _close_campaign(campaign, station, writer, environment_at_end)
         hidden = station.simulator.machine.truth.hidden() if station.simulator else None
     return CampaignOutcome(writer.path, result, hidden, station.description["simulated"],
                            controller_gone=station.simulator is not None)
+
+
+def _session_writer(campaign: Campaign, station: DeviceStation, resume: LoadedSession | None,
+                    header_extra: dict[str, Any] | None,
+                    ) -> tuple[SessionWriter, set[tuple[str, str]]]:
+    """The session to record into, and the (step, gauge) readings it holds: a new one
+    with its header, or the resumed one told of the station it reopens with."""
+    if resume is not None:
+        writer = SessionWriter.reopen(resume)
+        writer.write(StationRecord(description=station.description))
+        return writer, resume.recorded()
+    header = {"machine": machine_dict(campaign.machine),
+              "machine_file": str(campaign.machine_path),
+              "campaign_file": str(campaign.path.resolve()),
+              # said once and loudly: a rehearsal is never the machine's record
+              "simulated": station.description["simulated"],
+              "station": station.description, "plan": campaign.protocol.to_dict(),
+              **header_entries(campaign, station.description["gauges"]),
+              **(header_extra or {})}
+    if station.simulator is not None and campaign.simulator is not None:
+        header["simulator"] = campaign.simulator.header()
+    return SessionWriter.create(campaign.session, header), set()
+
+
+def _target_correction(campaign: Campaign, maps: MapsTable | None) -> TargetCorrection | None:
+    """The maps in force applied to every target (None: no maps file, or an empty one)."""
+    if maps is None or not maps.maps:
+        return None
+    return TargetCorrection(maps.maps, (campaign.machine.rho_min_mm,
+                                        campaign.machine.rho_max_mm))
+
+
+def _close_campaign(campaign: Campaign, station: DeviceStation, writer: SessionWriter,
+                    environment_at_end: EnvironmentAsker | None) -> FitResult:
+    """After the last reading: the temperatures at the end, then the campaign's own
+    identification, recorded."""
+    at_end = environment_at_end or (lambda st: read_environment(campaign, st, "end"))
+    ended = at_end(station)
+    if ended is not None:
+        writer.write(ended)
+    result = identify_session(load_session(writer.path))
+    writer.write(ResultRecord(params="offsets", refit=result.to_json("offsets"),
+                              noise_mm=result.noise.sigma_mm,
+                              noise_source=result.noise.source))
+    return result
 
 
 def maps_in_force(campaign: Campaign) -> MapsTable | None:

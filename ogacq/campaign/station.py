@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import math
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field, replace
@@ -36,6 +37,7 @@ from ogacq_drivers.errors import DeviceTimeout, DriverError, InputError, LinkErr
 from ogacq_drivers.indicators import backend, open_indicator
 from ogacq_drivers.indicators.base import StableReading
 from ogacq_drivers.indicators.concurrent import ConcurrentReader
+from ogacq_drivers.indicators.rest import sample_variance
 from ogacq_drivers.link import open_link
 from ogacq.campaign.campaign_file import (
     AxisEndpoint,
@@ -255,7 +257,11 @@ class DeviceStation:
 
 def _gauge_value(stable: StableReading) -> GaugeValue:
     frame = stable.readings[-1].frame.decode("ascii", errors="replace").strip()
-    return GaugeValue(stable.value_mm, frame, stable.where)
+    values = [r.value_mm for r in stable.readings]
+    sd = math.sqrt(sample_variance(values)) if len(values) > 1 else None
+    # 0.1 nm: below any indicator's step, so the session holds no float noise
+    return GaugeValue(stable.value_mm, frame, stable.where, len(values),
+                      None if sd is None else round(sd, 7))
 
 
 def is_modbus_tcp(where: str) -> bool:

@@ -31,6 +31,7 @@ from ogacq.writeback.audit import AuditLog, last_write, operations
 from ogacq.writeback.evidence import evidence_from_session
 from ogacq.writeback.execute import WriteOptions
 from ogacq.writeback.offsets_target import ControllerOffsets
+from ogacq.writeback.outcome import Stage
 from ogacq.writeback.policy import (
     DEFAULT_MAX_CHANGE_MM,
     ControllerFacts,
@@ -109,7 +110,7 @@ def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bo
     if plan.refused:
         render.print_refusals(plan, forced=force)
     if plan.refused and not force:
-        audit.record("refused", **summary, reasons=[r.message for r in plan.refusals],
+        audit.record(Stage.REFUSED, **summary, reasons=[r.message for r in plan.refusals],
                      codes=[r.code for r in plan.refusals])
         raise Refused(f"nothing written; --force {plan.action}s anyway")
     if not yes:
@@ -118,7 +119,7 @@ def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bo
         target = ("the software offset table" if plan.facts.kind == "software"
                   else "the controller")
         if not _ask(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
-            audit.record("declined", **summary)
+            audit.record(Stage.DECLINED, **summary)
             typer.echo("nothing written", err=True)
             raise typer.Exit(EXIT_DECLINED)
     save_nvm = save_nvm or _offer_nvm(plan, yes=yes)

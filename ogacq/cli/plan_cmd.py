@@ -3,18 +3,23 @@
 from __future__ import annotations
 
 import json
+import math
+from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
+import numpy as np
 import typer
 
 from ogacq.cli.options import JsonOption, MachineOption, ParamSet, seed_option
 from ogacq.cli.render import print_plan, trials_progress
 from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
+from ogacq.identify.noise import GaugeNoise
 from ogacq.io.machine_file import read_machine
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import PARAM_INDEX, PARAM_SETS, effect_of
+from ogacq.model.units import UM_PER_MM
 from ogacq.protocol.plan import (
     APPROACHES,
     PlanError,
@@ -103,6 +108,78 @@ def parse_truth(text: str | None) -> dict[str, float]:
     return truth
 
 
+@dataclass(frozen=True)
+class PlanNoise:
+    """The gauge scatter a plan predicts with (before the display's rounding, which the
+    prediction adds) and where it came from, in words."""
+
+    scatter_mm: float
+    source: str  # "--noise", "machine file", "repeated readings", "display rounding"
+    says: str
+    # readings rounded to the display step (False: means of values whose rounding the
+    # scatter dithered, measured so: their noise holds what is left of it)
+    rounded: bool = True
+
+    def to_json(self) -> dict[str, Any]:
+        return {"noise_mm": self.scatter_mm, "noise_source": self.source}
+
+
+def plan_noise(spec: MachineSpec, machine: str, noise: float | None,
+               noise_from: Path | None) -> PlanNoise:
+    """The noise to predict with: given, measured from the repeats of an earlier
+    campaign's readings, stated in the machine file, else none but the display's
+    rounding (step / sqrt(12) a reading, shared by the cycles: the prediction's
+    ``GaugeNoise.stated(0, step)``). The display step itself is no noise: a gauge
+    reads to its step and scatters by what it scatters (issue 38: the plan assumed
+    10 µm where the diagnosis measured 2.9 µm, the rounding of a quiet gauge)."""
+    step_um = spec.gauge_resolution_mm * UM_PER_MM
+    if noise is not None:
+        return PlanNoise(noise, "--noise", f"gauge noise {noise * UM_PER_MM:.3g} µm a "
+                         "reading (--noise)")
+    if noise_from is not None:
+        return _measured_noise(spec, noise_from)
+    stated = spec.gauge_repeatability_mm
+    if stated is not None:
+        return PlanNoise(stated, "machine file", f"gauge noise {stated * UM_PER_MM:.3g} µm "
+                         f"a value, stated in {machine} (a reading that averages several "
+                         "values scatters less: --noise-from an earlier session measures "
+                         "it)")
+    return PlanNoise(0.0, "display rounding", (
+        f"gauge noise not stated in {machine} (gauge_repeatability_mm) nor given: "
+        f"predicted for the {step_um:g} µm display step's rounding alone "
+        f"({step_um / math.sqrt(12.0):.2g} µm a reading, every cycle rounding alike: a "
+        "gauge far quieter than its step), without a Monte-Carlo (its trials would all "
+        "round alike); --noise MM or --noise-from an earlier session for the gauge's own"))
+
+
+def _measured_noise(spec: MachineSpec, path: Path) -> PlanNoise:
+    """The gauge scatter the repeats of an earlier campaign's readings show (a session,
+    its own machine's display; a readings CSV, this machine's), whatever its machine
+    file states."""
+    from ogacq.identify.noise import noise_for
+    from ogacq.io.loading import load_input
+    from ogacq.io.tables import sniff
+
+    if not path.exists():
+        raise InputError(path, "no such file")
+    obs = load_input(path, None if sniff(path) == "session" else spec).observations
+    unstated = replace(obs, machine=replace(obs.machine, gauge_repeatability_mm=None))
+    found = noise_for(unstated)
+    if not found.measured or found.scatter_mm is None:
+        raise InputError(path, "holds no repeated readings to measure the gauge noise "
+                               "from (each posture read in one cycle, or tabulated "
+                               "deviations)")
+    if unstated.averaged is not None and unstated.averaged.max() > 1 and found.dithered:
+        # means of values the scatter dithers: a reading's whole noise, not rounded again
+        return PlanNoise(found.sigma_mm, "repeated readings", (
+            f"gauge noise {found.sigma_mm * UM_PER_MM:.2g} µm a reading (the mean of "
+            f"{int(np.median(unstated.averaged))} values), measured from the repeats of "
+            f"{path} ({found.dof} dof)"), rounded=False)
+    return PlanNoise(found.scatter_mm, "repeated readings", (
+        f"gauge noise {found.scatter_mm * UM_PER_MM:.2g} µm a reading, measured from "
+        f"the repeats of {path} ({found.dof} dof)"))
+
+
 def plan(
     machine: MachineOption,
     params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
@@ -121,8 +198,12 @@ def plan(
         help="How each posture is approached: sequence, from_below, from_above, both.")]
     = "sequence",
     noise: Annotated[float | None, typer.Option(
-        help="Gauge noise sigma in mm (default: the machine file's repeatability, "
-             "else its resolution).")] = None,
+        help="Gauge noise sigma in mm, the display's rounding added (default: "
+             "--noise-from, else the machine file's gauge_repeatability_mm, else the "
+             "rounding alone, a floor).")] = None,
+    noise_from: Annotated[Path | None, typer.Option(
+        help="An earlier campaign's session or readings CSV: predict with the gauge noise "
+             "its repeats show.")] = None,
     assume: Annotated[str | None, typer.Option(
         help="Geometry to predict at, parameters in mm or mrad separated by commas, e.g. "
              "'joint_offset.x=0.5, joint_offset.z=-1'.")] = None,
@@ -142,10 +223,13 @@ def plan(
 ) -> None:
     """Predict the std of each parameter for a planned campaign."""
     spec = read_machine(machine)
-    sigma = noise if noise is not None else (spec.gauge_repeatability_mm
-                                            or spec.gauge_resolution_mm)
-    if not 0 < sigma <= MAX_NOISE_MM:
-        raise InputError("--noise" if noise is not None else machine,
+    if noise is not None and noise_from is not None:
+        raise InputError("--noise-from", "give the noise (--noise) or where to measure it "
+                                         "(--noise-from), not both")
+    gauge = plan_noise(spec, Path(machine).name, noise, noise_from)
+    sigma = gauge.scatter_mm
+    if not 0 <= sigma <= MAX_NOISE_MM or (sigma == 0 and gauge.source == "--noise"):
+        raise InputError("--noise" if noise is not None else noise_from or machine,
                          f"the gauge noise must be above 0 and at most {MAX_NOISE_MM:g} mm "
                          f"(beyond any indicator), got {sigma:g} mm")
     if approach not in APPROACHES:
@@ -163,17 +247,24 @@ def plan(
         raise InputError("--scan-step" if scan_step is not None else "--postures",
                          str(exc)) from None
     obs = planned_observations(spec, protocol=protocol)
+    if sigma == 0:  # the rounding alone: the analytic floor, no trials to draw
+        trials = 0
     with trials_progress("Monte-Carlo trials of the nonlinear fit") as on_trials:
         pred = predict_accuracy(obs, PARAM_SETS[params.value], sigma,
                                 truth=parse_truth(assume), trials=trials, seed=seed,
-                                rounding_mm=spec.gauge_resolution_mm, on_trials=on_trials)
+                                rounding_mm=spec.gauge_resolution_mm if gauge.rounded
+                                else None, on_trials=on_trials)
+    # with no scatter known, the design's detection limits are at the rounding's noise
+    design_noise = sigma or GaugeNoise.stated(0.0, spec.gauge_resolution_mm).sigma_mm
     design = None if scan_minutes is None else design_scan(
-        spec, protocol, noise_mm=sigma, seconds_per_step=step_s, budget_s=scan_minutes * 60)
+        spec, protocol, noise_mm=design_noise, seconds_per_step=step_s,
+        budget_s=scan_minutes * 60)
     if as_json:
         extra = {"separating_design": design.to_json()} if design is not None else {}
-        typer.echo(json.dumps(pred.to_json() | {"protocol": protocol.to_dict()} | extra))
+        typer.echo(json.dumps(pred.to_json() | gauge.to_json()
+                              | {"protocol": protocol.to_dict()} | extra))
         return
-    print_plan(pred, Path(machine).name, describe_protocol(protocol, spec), cycles)
+    print_plan(pred, Path(machine).name, describe_protocol(protocol, spec), cycles, gauge.says)
     if design is not None:
         typer.echo("separating scan `ogacq calibrate` would design (ISO 230-2 4.3.2):")
         for line in design.lines():

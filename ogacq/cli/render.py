@@ -33,9 +33,10 @@ console = new_console()
 
 
 def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycles: int,
-               ) -> None:
+               noise: str) -> None:
+    """``noise``: the gauge noise predicted with and where it came from, in words."""
     console.print(f"[bold]{shown(machine_name)}[/]: {shown(postures)}, {cycles} cycles per leg, "
-                  f"{pred.n_readings} readings, gauge noise {pred.noise_mm:g} mm")
+                  f"{pred.n_readings} readings; {shown(noise)}")
     table = Table(show_edge=False, header_style="bold")
     table.add_column("parameter")
     table.add_column("std analytic", justify="right")

@@ -26,6 +26,7 @@ from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import measure
 from ogacq.writeback.maps import MapsPlan
+from ogacq.writeback.outcome import WriteOutcome
 from ogacq.writeback.policy import OffsetPlan
 
 console = new_console()
@@ -164,13 +165,16 @@ class TerminalUI:
 def print_outcome(outcome: Outcome, report: Path | None) -> None:
     """The procedure's end, as every campaign's: the outcome, the record's id and page,
     and the next command."""
-    words = {"validated": "validated", "improved": "kept (better, not within the noise)",
-             "restored": "RESTORED to the previous state", "declined": "nothing written",
-             "refused": "refused, nothing written",
-             "nothing to correct": "nothing to correct"}.get(outcome.outcome, outcome.outcome)
+    words: dict[str, str] = {WriteOutcome.VALIDATED: "validated",
+        WriteOutcome.IMPROVED: "kept (better, not within the noise)",
+        WriteOutcome.RESTORED: "RESTORED to the previous state",
+        WriteOutcome.DECLINED: "nothing written",
+        WriteOutcome.REFUSED: "refused, nothing written",
+        WriteOutcome.NOTHING_TO_CORRECT: "nothing to correct"}
+    said = words.get(outcome.outcome, outcome.outcome)
     # wrapped between words at the terminal's width (one long line was cut mid-word)
     say = Printer(stderr=bool(outcome.exit_code)).print
-    say(shown(f"calibration {outcome.procedure}: {words}: {outcome.reason}"))
+    say(shown(f"calibration {outcome.procedure}: {said}: {outcome.reason}"))
     marked = outcome.folder / TABLES_FOLDER / NOT_APPLIED_FILE
     if marked.is_file():  # tables a technician must not load: said where they lie
         say(shown(f"the tables in {marked.parent} were not applied ({marked.name} says "
@@ -193,15 +197,15 @@ def next_steps(outcome: Outcome, report: Path | None) -> tuple[NextStep, ...]:
               NextStep(f"ogacq report {evidence}", "the calibration record")
               if evidence is not None else None)
     steps: list[NextStep | None]
-    if outcome.outcome == "improved":
+    if outcome.outcome == WriteOutcome.IMPROVED:
         steps = [NextStep(f"ogacq diagnose {validation}", "what the correction left, in "
                           "the validation campaign") if validation is not None else None,
                  NextStep("", "a second `ogacq calibrate` starts from the corrections now "
                               "in force and corrects what is left"),
                  record]
-    elif outcome.outcome in ("restored", "refused"):
+    elif outcome.outcome in (WriteOutcome.RESTORED, WriteOutcome.REFUSED):
         why = ("the correction made it worse and the previous state is back: what the "
-               "calibration campaign shows" if outcome.outcome == "restored" else
+               "calibration campaign shows" if outcome.outcome == WriteOutcome.RESTORED else
                "nothing was written (the reasons above): what the calibration campaign shows")
         steps = [NextStep(f"ogacq diagnose {evidence}", why) if evidence is not None else None,
                  record]

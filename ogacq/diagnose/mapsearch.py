@@ -54,7 +54,7 @@ from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
 from ogacq.diagnose.mapspace import Gain, MapSpace
-from ogacq.diagnose.nested import nested_tests
+from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.error_maps import MapTerm
@@ -353,14 +353,13 @@ class _Families:
         choices = [k for k in KNOTS if k + 4 <= cov.positions // 2]
         if not choices:
             return None
-        var = self.noise.variance
-        log_n = math.log(max(self.space.problem.n_data, 2))
+        n_data = self.space.problem.n_data
         best: tuple[float, MapTerm, Gain] | None = None
         for knots in choices:
             term = MapTerm("screw_map", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
                                                   "knots": knots, "detrended": float(detrend)})
             gain = self.space.gain_of(term)
-            bic = -float(gain.gain[0]) / var + int(gain.rank[0]) * log_n
+            bic = bic_change(float(gain.gain[0]), int(gain.rank[0]), n_data, self.noise)
             if best is None or bic < best[0]:
                 best = (bic, term, gain)
         assert best is not None
@@ -507,11 +506,10 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
     ranks = np.array([c.rank for c in cands])
     dof = space.dof - ranks
     _, p = nested_tests(space.rss, space.rss - gains, ranks, dof, noise)
-    log_n = math.log(max(space.problem.n_data, 2))
     out = []
     for k, c in enumerate(cands):
         corrected = min(1.0, float(p[k]) * c.shapes_tried * len(cands))
-        bic = -c.gain / noise.variance + (c.rank + c.shape_parameters) * log_n
+        bic = bic_change(c.gain, c.rank + c.shape_parameters, space.problem.n_data, noise)
         size = _size_mm(c.term, c.coefficients)
         if c.rank == 0:
             reason = "nothing of it is left beside the model"

@@ -4,12 +4,16 @@ against the same gauge noise as the verdict (``ogacq/identify/consistency.py``).
 
 from __future__ import annotations
 
-from typing import overload
+import math
+from typing import TypeVar
 
 import numpy as np
 
 from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.noise import GaugeNoise
+
+#: a float, or an array of candidates' values
+ArrayOrFloat = TypeVar("ArrayOrFloat", float, np.ndarray)
 
 
 def nested_test(rss_small: float, rss_big: float, added: int, dof_big: int,
@@ -52,19 +56,18 @@ def nested_tests(rss_small: float, rss_big: np.ndarray, added: np.ndarray,
     return np.where(valid, f_stat, 0.0), np.where(valid, p, 1.0)
 
 
-@overload
-def information_criteria(rss: float, n_params: int, n_data: int, noise: GaugeNoise,
-                         ) -> tuple[float, float]: ...
+def bic_change(rss_drop: ArrayOrFloat, added_params: ArrayOrFloat, n_data: int,
+               noise: GaugeNoise) -> ArrayOrFloat:
+    """The Bayesian information criterion's change (G. Schwarz, Ann. Stat. 6, 1978)
+    when a model with ``added_params`` more parameters lowers the residual sum of
+    squares by ``rss_drop``, the noise taken as known: negative when the bigger model
+    pays for its parameters. Element-wise for arrays of candidates. The one place the
+    BIC is computed: the effect selection and the map search judge by it alike."""
+    return -rss_drop / noise.variance + added_params * math.log(max(n_data, 2))
 
 
-@overload
-def information_criteria(rss: np.ndarray, n_params: int | np.ndarray, n_data: int,
-                         noise: GaugeNoise) -> tuple[np.ndarray, np.ndarray]: ...
-
-
-def information_criteria(rss: float | np.ndarray, n_params: int | np.ndarray, n_data: int,
-                         noise: GaugeNoise) -> tuple[float | np.ndarray, float | np.ndarray]:
-    """(AIC, BIC) up to a common constant, the noise taken as known; element-wise for
-    arrays of candidates."""
-    chi2 = rss / noise.variance
-    return chi2 + 2.0 * n_params, chi2 + n_params * float(np.log(max(n_data, 2)))
+def aic_change(rss_drop: ArrayOrFloat, added_params: ArrayOrFloat,
+               noise: GaugeNoise) -> ArrayOrFloat:
+    """Akaike's criterion's change, as :func:`bic_change` (H. Akaike, IEEE Trans. Autom.
+    Control 19, 1974)."""
+    return -rss_drop / noise.variance + 2.0 * added_params

@@ -28,7 +28,7 @@ import numpy as np
 
 from ogacq.diagnose.batchfit import CandidateFits, Design, Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, label, pairs, singles
-from ogacq.diagnose.nested import information_criteria, nested_test, nested_tests
+from ogacq.diagnose.nested import aic_change, bic_change, nested_test, nested_tests
 from ogacq.identify.consistency import LEVEL, Verdict, judge
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
@@ -83,7 +83,7 @@ class Considered:
     rss: float
     f_stat: float
     p_value: float  # nested test against the current model, Bonferroni-corrected
-    bic: float
+    delta_bic: float  # the BIC's change from the current model
     reason: str  # "" when eligible, else why not
 
     @property
@@ -127,8 +127,7 @@ def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: Gau
     dof = problem.n_data - cands.rank
     f_stat, p = nested_tests(current.rss, cands.rss, cands.rank - current.rank, dof, noise)
     p = np.minimum(1.0, p * np.array([searched[n] for n in sizes]))
-    _, bic = information_criteria(cands.rss, cands.rank, problem.n_data, noise)
-    _, bic_now = information_criteria(current.rss, current.rank, problem.n_data, noise)
+    bic = bic_change(current.rss - cands.rss, cands.rank - current.rank, problem.n_data, noise)
     # Python scalars, once: the loop below reads hundreds of candidates
     values, rss, finite = cands.value_tuples(), cands.rss.tolist(), np.isfinite(cands.rss)
     f_of, p_of, bic_of = f_stat.tolist(), p.tolist(), bic.tolist()
@@ -142,7 +141,7 @@ def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: Gau
             reason = "needs an implausible value"
         elif p_of[k] >= alpha:
             reason = f"not significant (p = {p_of[k]:.2g} after {searched[len(added)]} candidates)"
-        elif bic_of[k] >= bic_now:
+        elif bic_of[k] >= 0:
             reason = "does not pay for its parameters (BIC)"
         else:
             reason = ""
@@ -221,12 +220,12 @@ def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = L
             selection.last_considered = sorted(considered, key=lambda c: c.rss)
             break
         chosen, after = choice
-        aic0, bic0 = information_criteria(current.rss, current.rank, problem.n_data, noise)
-        aic1, bic1 = information_criteria(after.rss, after.rank, problem.n_data, noise)
+        drop, added = current.rss - after.rss, after.rank - current.rank
         runners = sorted((c for c in considered if c.added != chosen.added and c.eligible),
                          key=lambda c: c.rss)[:SHOWN_RUNNERS_UP]
         selection.steps.append(SelectionStep(current, after, chosen.added, chosen.f_stat,
-                                    chosen.p_value, aic1 - aic0, bic1 - bic0, runners))
+                                    chosen.p_value, aic_change(drop, added, noise),
+                                    bic_change(drop, added, problem.n_data, noise), runners))
         current = after
     selection.final = _backward(problem, noise, current, alpha, selection)
     return selection

@@ -21,6 +21,7 @@ from ogacq.errors import InputError
 from ogacq.history.store import Event, MapState, OffsetState
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.gauges import AXES
+from ogacq.writeback.outcome import WriteOutcome
 
 
 @dataclass(frozen=True)
@@ -58,9 +59,10 @@ def fates(events: Sequence[Event]) -> dict[str, str]:
         reason = d.get("reason")
         for op in (d.get("writes") or {}).values():
             if op:
-                out[str(op)] = (f"validated by calibrate {name}" if outcome == "validated"
+                out[str(op)] = (f"validated by calibrate {name}"
+                                if outcome == WriteOutcome.VALIDATED
                                 else f"restored by calibrate {name}: {reason}"
-                                if outcome == "restored"
+                                if outcome == WriteOutcome.RESTORED
                                 else f"calibrate {name}: {outcome}" + (f" ({reason})"
                                                                          if reason else ""))
         for op in (d.get("restores") or {}).values():

@@ -23,10 +23,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
 from ogacq.identify.distributions import chi2_sf
+from ogacq.identify.noise_averaged import AveragedReadings, averaged_readings, tail_p
 from ogacq.identify.observations import Observations
 from ogacq.model.units import UM_PER_MM
 
@@ -156,6 +158,9 @@ class GaugeNoise:
     # two-sided p of the repeats' scatter under it (the measured noise is used then)
     refuted_mm: float | None = None
     refuted_p: float | None = None
+    # a stated noise of readings that average several values: the floor their count
+    # gives beside the repeats' scatter (noise_averaged.py)
+    averaged: AveragedReadings | None = None
 
     @property
     def variance(self) -> float:
@@ -197,10 +202,15 @@ class GaugeNoise:
     def describe(self) -> str:
         extra = f", {self.dof} dof" if self.dof else ""
         if self.refuted_mm is not None and self.scatter_mm is not None:
+            # readings that average several values: the line of their count sets a
+            # reading's scatter beside the floor, one figure for the repeats
+            seen = ("the repeats" if self.averaged is not None else
+                    f"the repeats' {self.scatter_mm * UM_PER_MM:.2g} µm")
             extra += (f"; the machine file's {self.refuted_mm * UM_PER_MM:.2g} µm scatter "
-                      f"disagrees with the repeats' {self.scatter_mm * UM_PER_MM:.2g} µm "
-                      "beyond chance "
-                      f"(chi-square, p = {self.refuted_p:.2g}): the repeats' is used")
+                      f"disagrees with {seen} beyond chance (chi-square, "
+                      f"{tail_p(self.refuted_p or 0.0)}): the repeats' is used")
+        if self.averaged is not None:
+            extra += f"; {self.averaged.describe()}"
         if self.rounding_dominated:
             extra += f"; mostly the {self.step_mm:g} mm display step, repeated by the cycles"
         if self.assumed:
@@ -329,29 +339,69 @@ def _estimate_noise(obs: Observations) -> GaugeNoise:
         ss, dof = measured
         scatter = sigma_from_scatter(ss / dof, step)
     stated = obs.machine.gauge_repeatability_mm
-    if stated is not None and measured is not None and scatter is not None:
+    if stated is not None:
+        p = None if measured is None else stated_noise_p(stated, step, *measured)
+        # the stated noise is a value's: a reading that averages several has a floor
+        # below it, said beside the repeats' scatter (noise_averaged.py)
+        averaged = averaged_readings(
+            obs.averaged, stated, within_variance(stated, step),
+            shared_rounding_variance(stated, step), measured, testable=p is not None,
+            level=STATED_NOISE_LEVEL)
         # only a stated noise above the scatter is replaced: repeats that scatter more
         # may hold physics that varies between them (a drift, a wind-up after other
         # travels), which the model must explain, not the noise absorb
-        p = stated_noise_p(stated, step, *measured)
-        if p is not None and p < STATED_NOISE_LEVEL and scatter < stated:
-            return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
-                              step, scatter, shared_rounding_variance(scatter, step),
-                              measured[1], measured[0], refuted_mm=stated, refuted_p=p)
-    if stated is not None:
+        if p is not None and p < STATED_NOISE_LEVEL and scatter is not None \
+                and measured is not None and scatter < stated:
+            return _measured_noise(obs, step, measured, scatter, refuted_mm=stated,
+                                   refuted_p=p, averaged=averaged)
         # GaugeNoise.stated's numbers, built at once with what the repeats show
         # (dataclasses.replace costs more than the noise it copies)
         return GaugeNoise(math.hypot(stated, step / math.sqrt(12.0)), "machine file", step,
                           stated, shared_rounding_variance(stated, step) if shared else 0.0,
-                          repeats_scatter_mm=scatter)
+                          repeats_scatter_mm=scatter, averaged=averaged)
     if measured is not None and read_identically(*measured, step):
         return _identical_repeats_noise(obs, step, measured[1])
     if measured is not None:
         assert scatter is not None
-        return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
-                          step, scatter, shared_rounding_variance(scatter, step), measured[1],
-                          measured[0])
+        return _measured_noise(obs, step, measured, scatter)
     return GaugeNoise(step, "gauge resolution", step)
+
+
+def _measured_noise(obs: Observations, step: float, measured: tuple[float, int],
+                    scatter: float, **said: Any) -> GaugeNoise:
+    """The noise the repeats show: a reading's scatter about its repeats' mean and the
+    rounding the repeats share, ``c`` of a gauge value's scatter. Readings of one value
+    each: that scatter is the repeats' own (``scatter``, their variance inverted). Where
+    the readings average several values, the values' own scatter within each reading
+    (the session's ``averaged_sd_mm``: at one position, rounded as one value is) gives
+    it: the repeats then scatter as means do, which, inverted as one value's, made a
+    gauge far quieter than its step whose whole rounding repeats (issue 37.7: 0.29 µm
+    for readings of 16 values of 0.5 µm on a 1 µm display, which scatter 0.14 µm; a
+    true model's F per dof 0.07-0.23). Correlated values only lower the values' scatter
+    within a reading, so ``c`` is then larger: the noise errs high, not low."""
+    ss, dof = measured
+    per_value = _value_scatter(obs, step)
+    if per_value is None:
+        return GaugeNoise(math.hypot(scatter, step / math.sqrt(12.0)), "repeated readings",
+                          step, scatter, shared_rounding_variance(scatter, step), dof, ss,
+                          **said)
+    shared = shared_rounding_variance(per_value, step)
+    return GaugeNoise(math.sqrt(ss / dof + shared), "repeated readings", step, per_value,
+                      shared, dof, ss, **said)
+
+
+def _value_scatter(obs: Observations, step: float) -> float | None:
+    """A gauge value's scatter (before its rounding) from the values the readings are
+    the means of: their sample variances pooled by their dof, inverted as one value's
+    (``sigma_from_scatter``); None where no reading recorded two values or more."""
+    counts, spread = obs.averaged, obs.averaged_sd_mm
+    if counts is None or spread is None:
+        return None
+    use = (counts >= 2) & np.isfinite(spread)
+    if not use.any():
+        return None
+    dof = counts[use] - 1
+    return sigma_from_scatter(float(np.sum(dof * spread[use] ** 2) / np.sum(dof)), step)
 
 
 def group_whitener(obs: Observations, noise: GaugeNoise) -> GroupWhitener:

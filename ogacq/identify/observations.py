@@ -76,6 +76,11 @@ class Observations:
     combination: np.ndarray | None = None
     source: str = ""
     kind: str = "readings"  # "readings" or "deviations"
+    # (n,) how many gauge values each raw reading is the mean of, 0 where not recorded
+    # (a session's ``averaged``); None: not known for any (``noise_averaged.py``)
+    averaged: np.ndarray | None = field(default=None, compare=False, repr=False)
+    # (n,) the sample standard deviation of those values (mm), NaN where not recorded
+    averaged_sd_mm: np.ndarray | None = field(default=None, compare=False, repr=False)
     noise_cov: np.ndarray = field(init=False)
     # what is computed from these observations and reused (their noise, their
     # weighting's groups), each kept with the inputs it was computed from and
@@ -100,8 +105,10 @@ class Observations:
         """The observations the boolean mask ``keep`` selects; raw readings keep each
         gauge set where it was (``ReadingsLayout.subset``), deviations their layout."""
         if self.combination is None:
-            return readings_observations(self.machine, self.layout.subset(keep),
-                                         self.values[keep], self.source)
+            return readings_observations(
+                self.machine, self.layout.subset(keep), self.values[keep], self.source,
+                None if self.averaged is None else self.averaged[keep],
+                None if self.averaged_sd_mm is None else self.averaged_sd_mm[keep])
         return Observations(self.machine, self.layout, self.values[keep],
                             [lab for lab, k in zip(self.labels, keep, strict=True) if k],
                             self.combination[keep], self.source, self.kind)
@@ -139,11 +146,12 @@ class Observations:
 
 
 def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values: ArrayLike,
-                          source: str = "") -> Observations:
+                          source: str = "", averaged: np.ndarray | None = None,
+                          averaged_sd_mm: np.ndarray | None = None) -> Observations:
     names = layout.gauge_names()
     labels = [f"{names[g]}@{k + 1}" for k, g in enumerate(layout.gauge.tolist())]
     return Observations(machine, layout, np.asarray(values, dtype=float), labels, None, source,
-                        "readings")
+                        "readings", averaged, averaged_sd_mm)
 
 
 def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],

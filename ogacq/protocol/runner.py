@@ -396,7 +396,8 @@ class CampaignRunner:
             step=step.step, gauge=Gauge.parse(gauge), cycle=step.cycle, posture=step.posture,
             t_s=round(self.station.campaign_time_s(), 3),
             q_mm=self._commanded_q or step.q_mm, tcp_mm=step.tcp_mm, approach=step.approach,
-            reading_mm=value.value_mm, raw=value.raw, source=value.where))
+            reading_mm=value.value_mm, raw=value.raw, source=value.where,
+            averaged=value.averaged, averaged_sd_mm=value.averaged_sd_mm))
         self.recorded.add((step.step, gauge))
         self._values.setdefault(step.step, {})[gauge] = value.value_mm
         self._last_step = step.step

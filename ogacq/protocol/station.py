@@ -29,6 +29,13 @@ class GaugeValue:
     value_mm: float
     raw: str  # the frame as received, for the record
     where: str  # port/channel the value came from
+    # the gauge values ``value_mm`` is the mean of (the settle's two windows at rest,
+    # or a stable reading's agreeing values) and their sample standard deviation (mm;
+    # None for one value): what the noise of an averaged reading is derived from
+    # (ogacq/identify/noise_averaged.py). None where nothing was averaged by ogacq
+    # (a value typed by eye).
+    averaged: int | None = None
+    averaged_sd_mm: float | None = None
 
 
 @dataclass(frozen=True)

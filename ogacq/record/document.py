@@ -80,14 +80,9 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     result, why_no_fit = (fit, None) if fit is not None else _identify(session)
     if why_no_fit:
         missing["results"] = why_no_fit
-    as_left, why_no_left, left = None, None, None
-    if validation is not None:
-        left, why_no_left = ((validation_fit, None) if validation_fit is not None
-                             else _identify(validation))
-        if left is not None:
-            as_left = (left, calibration_context(validation))
-        else:
-            why_no_left = f"the as-left campaign: {why_no_left}"
+    left, why_no_left = _as_left(validation, validation_fit)
+    as_left = (left, calibration_context(validation)) \
+        if left is not None and validation is not None else None
     evaluation = evaluate(result, context, as_left, why_no_left, machine=_machine(session))
 
     record: dict[str, Any] = {
@@ -118,17 +113,36 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
         "validation_results": (_results(left, evaluation.validation_results)
                                if left is not None else None),
     }
-    why_none = NOT_GIVEN if "identity" in session.header else NOT_IN_SESSION
-    if record["operator"] is None:
-        missing.setdefault("operator", why_none.format(what="the operator"))
-    if record["machine"]["serial"] is None:
-        missing["machine serial"] = why_none.format(what="the machine's serial number")
+    _said_missing(record, session, missing)
     if history is None and history_why:
         missing["history"] = history_why
     record["missing"] = missing | evaluation.missing
     if compensation is not None:
         record["compensation"] = plain(compensation)
     return record
+
+
+def _as_left(validation: LoadedSession | None, validation_fit: FitResult | None,
+             ) -> tuple[FitResult | None, str | None]:
+    """The as-left campaign's identification, or why there is none (None, None: no
+    as-left campaign)."""
+    if validation is None:
+        return None, None
+    if validation_fit is not None:
+        return validation_fit, None
+    left, why_not = _identify(validation)
+    return (left, None) if left is not None else (None, f"the as-left campaign: {why_not}")
+
+
+def _said_missing(record: Mapping[str, Any], session: LoadedSession,
+                  missing: dict[str, str]) -> None:
+    """The operator and the machine's serial, where the record has none: why (not
+    given when the campaign ran, or a session from before ogacq asked)."""
+    why_none = NOT_GIVEN if "identity" in session.header else NOT_IN_SESSION
+    if record["operator"] is None:
+        missing.setdefault("operator", why_none.format(what="the operator"))
+    if record["machine"]["serial"] is None:
+        missing["machine serial"] = why_none.format(what="the machine's serial number")
 
 
 # --- the parts ----------------------------------------------------------------------------

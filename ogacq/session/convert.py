@@ -39,8 +39,14 @@ def session_layout(session: LoadedSession) -> tuple[ReadingsLayout, np.ndarray]:
 def session_observations(session: LoadedSession, machine: MachineSpec | None = None,
                          ) -> Observations:
     layout, values = session_layout(session)
+    # how many gauge values each reading averaged and their scatter, where recorded
+    rows = session.readings
+    averaged = np.array([r.averaged or 0 for r in rows], dtype=int)
+    spread = np.array([np.nan if r.averaged_sd_mm is None else r.averaged_sd_mm for r in rows])
+    known = averaged.any()
     return readings_observations(machine or session_machine(session), layout, values,
-                                 str(session.path))
+                                 str(session.path), averaged if known else None,
+                                 spread if known else None)
 
 
 def export_readings(session: LoadedSession, path: str | Path) -> int:

@@ -80,6 +80,11 @@ class ReadingRecord(Record):
     reading_mm: float
     raw: str | None = None  # the frame as received
     source: str | None = None  # port/channel the value came from
+    # how many gauge values reading_mm is the mean of, and their sample standard
+    # deviation (mm); None in sessions before they were recorded, for a value typed by
+    # eye, and for one value's spread
+    averaged: int | None = None
+    averaged_sd_mm: float | None = None
 
     # What each key must hold for the code that reads it.
     _CHECKS: ClassVar[dict[str, Any]] = {
@@ -109,6 +114,10 @@ class ReadingRecord(Record):
             out["raw"] = self.raw
         if self.source is not None:
             out["source"] = self.source
+        if self.averaged is not None:
+            out["averaged"] = self.averaged
+        if self.averaged_sd_mm is not None:
+            out["averaged_sd_mm"] = self.averaged_sd_mm
         return out
 
     @classmethod
@@ -124,12 +133,18 @@ class ReadingRecord(Record):
                     bad = ["gauge (its leg and gauge_axis disagree)"]
         if "posture" in d and not isinstance(d["posture"], str):
             bad.append("posture")
+        if "averaged" in d and not (_integer(d["averaged"]) and d["averaged"] >= 1):
+            bad.append("averaged (a count of values, 1 or more)")
+        if "averaged_sd_mm" in d and not (_finite(d["averaged_sd_mm"])
+                                          and d["averaged_sd_mm"] >= 0):
+            bad.append("averaged_sd_mm")
         if bad:
             raise ValueError(f"reading without a valid {', '.join(bad)}")
         return cls(wall=d.get("wall"), step=d["step"], gauge=gauge, cycle=d["cycle"],
                    posture=d.get("posture"), t_s=d["t_s"], q_mm=tuple(d["q_mm"]),
                    tcp_mm=tuple(d["tcp_mm"]), approach=tuple(d["approach"]),
-                   reading_mm=d["reading_mm"], raw=d.get("raw"), source=d.get("source"))
+                   reading_mm=d["reading_mm"], raw=d.get("raw"), source=d.get("source"),
+                   averaged=d.get("averaged"), averaged_sd_mm=d.get("averaged_sd_mm"))
 
 
 @dataclass(frozen=True, kw_only=True)

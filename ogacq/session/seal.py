@@ -231,6 +231,12 @@ class _Scanner:
         self.warnings: list[str] = []
         self.torn_line: int | None = None
         self.closed = False  # the last record read is a closed record
+        # the chain as read so far: the first line of each sequence number, the number
+        # the next record should carry (None, unchecked: after a record without one), and
+        # the last line read (its number, its bytes, whether as written)
+        self.seen: dict[int, tuple[int, dict[str, Any]]] = {}
+        self.expected: int | None = 0
+        self.previous: tuple[int, bytes, bool] | None = None
 
     def scan(self) -> Scan:
         last = max((k for k, line in enumerate(self.lines, 1) if line.strip()), default=0)
@@ -239,56 +245,69 @@ class _Scanner:
         if seal is not None and seal not in SEALS:
             self.problems.append((1, f"sealed as {seal!r}, which this ogacq does not know "
                                      "(written by a newer one): update ogacq"))
-        seen: dict[int, tuple[int, dict[str, Any]]] = {}
-        expected: int | None = 0  # unchecked: None after a record without a number
-        previous: tuple[int, bytes, bool] | None = None  # (line, bytes, as written)
         for number, line in enumerate(self.lines, 1):
             if not line.strip():
                 continue
             decoded, problem = _decode(line)
             if decoded is None:
-                if number == last and not self.raw.endswith(b"\n"):
-                    # cut by a crash mid-write (a line goes out whole, its newline last):
-                    # dropped, the rest stands
-                    self.warnings.append(
-                        f"{self.path}:{number}: dropped a torn last record ({len(line)} "
-                        f"bytes: {line[:60].decode(errors='replace')!r})")
-                    self.torn_line = number
-                else:
-                    assert problem is not None
-                    self.problems.append((number, problem))
-                    previous = (number, line, False)
-                    self.closed = False
-                continue
-            content, seq = decoded.content, decoded.seq
-            if isinstance(seq, int) and not isinstance(seq, bool) and seq in seen:
-                first_line, earlier = seen[seq]
-                if earlier == content:
-                    self.warnings.append(f"{self.path}:{number}: dropped a copy of line "
-                                         f"{first_line}")
-                    continue  # the chain goes on from the original
-            own = self._own_seal(number, decoded, mode)
-            if own:
-                self.changed.add(number)
-                self.edited.append((number, own))
-            else:
-                where = self._placement(number, decoded, mode, seen, expected, previous)
-                if where:
-                    self.edited.append((number, where))
-            if isinstance(seq, int) and not isinstance(seq, bool):
-                seen.setdefault(seq, (number, content))
-                expected = seq + 1
-            elif mode == UNCHECKED:
-                expected = None
-            previous = (number, line, not own)
-            self.closed = content.get("type") == CLOSED
-            if not self.closed:  # the store's own record, checked in the chain above
-                self.records.append((number, content))
+                self._undecodable(number, line, number == last, problem)
+            elif not self._a_copy(number, decoded):
+                self._chained(number, line, decoded, mode)
         announced = first is not None and first.content.get(CLOSING_KEY) == CLOSED
-        closure = Closure(announced, self.closed, previous[0] if previous else 0,
+        closure = Closure(announced, self.closed, self.previous[0] if self.previous else 0,
                           self.torn_line)
         return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
                     self.warnings, len(self.raw), seal, closure)
+
+    def _undecodable(self, number: int, line: bytes, last: bool, problem: str | None) -> None:
+        """A line that is no record: a torn last one is dropped (a line goes out whole,
+        its newline last, so a crash mid-write cuts only the last), and the rest stands;
+        anywhere else it is a problem."""
+        if last and not self.raw.endswith(b"\n"):
+            self.warnings.append(
+                f"{self.path}:{number}: dropped a torn last record ({len(line)} "
+                f"bytes: {line[:60].decode(errors='replace')!r})")
+            self.torn_line = number
+            return
+        assert problem is not None
+        self.problems.append((number, problem))
+        self.previous = (number, line, False)
+        self.closed = False
+
+    def _a_copy(self, number: int, line: _Line) -> bool:
+        """A record written twice (same number, same content): dropped, said, and the
+        chain goes on from the original."""
+        seq = line.seq
+        if not isinstance(seq, int) or isinstance(seq, bool) or seq not in self.seen:
+            return False
+        first_line, earlier = self.seen[seq]
+        if earlier != line.content:
+            return False
+        self.warnings.append(f"{self.path}:{number}: dropped a copy of line {first_line}")
+        return True
+
+    def _chained(self, number: int, raw: bytes, line: _Line, mode: str) -> None:
+        """A record: its own seal, then its place in the chain, checked; kept unless it
+        is the store's own closed record."""
+        content, seq = line.content, line.seq
+        own = self._own_seal(number, line, mode)
+        if own:
+            self.changed.add(number)
+            self.edited.append((number, own))
+        else:
+            where = self._placement(number, line, mode, self.seen, self.expected,
+                                    self.previous)
+            if where:
+                self.edited.append((number, where))
+        if isinstance(seq, int) and not isinstance(seq, bool):
+            self.seen.setdefault(seq, (number, content))
+            self.expected = seq + 1
+        elif mode == UNCHECKED:
+            self.expected = None
+        self.previous = (number, raw, not own)
+        self.closed = content.get("type") == CLOSED
+        if not self.closed:  # the store's own record, checked in the chain above
+            self.records.append((number, content))
 
     @staticmethod
     def _own_seal(number: int, line: _Line, mode: str) -> str | None:

@@ -177,27 +177,12 @@ def _budgets(names: Sequence[str], values: np.ndarray, operator: np.ndarray,
              determined: np.ndarray, unidentified: Sequence[str] = (),
              why_unidentified: str = "") -> tuple[OutputBudget, ...]:
     """Each output's rows: every source's sensitivity through ``operator`` (q, m)."""
-    sensitivities = []
-    for source in sources:
-        if source.readings:
-            sensitivities.append(space.reading_spread(operator, source.shared))
-        elif source.vector is not None:
-            sensitivities.append(operator @ source.vector)
-        else:
-            sensitivities.append(np.array([1.0 if n.startswith("joint_offset.") else 0.0
-                                           for n in names]))
+    sensitivities = [_sensitivity(source, names, operator, space) for source in sources]
     offset = mean_temperature_offset(inputs)
     thermal = next((k for k, s in enumerate(sources) if s.name == "temperature range"), None)
     out = []
     for q, name in enumerate(names):
-        rows = []
-        for source, c in zip(sources, sensitivities, strict=True):
-            if source.direct and not name.startswith("joint_offset."):
-                continue  # only offsets are written to the controller's registers
-            u = None if source.u_input is None else abs(float(c[q])) * source.u_input
-            rows.append(BudgetRow(source.name, source.gum_type, source.distribution,
-                                  source.u_input, source.unit, float(c[q]), u, source.dof,
-                                  source.evaluated, source.note))
+        rows = _rows(name, q, sources, sensitivities)
         contributions = [(r.u_mm, r.dof) for r in rows if r.u_mm is not None]
         u_c = math.sqrt(sum(u**2 for u, _ in contributions))
         correction = None if offset is None or thermal is None else \
@@ -211,6 +196,31 @@ def _budgets(names: Sequence[str], values: np.ndarray, operator: np.ndarray,
                                 welch_satterthwaite(u_c, contributions), correction,
                                 bool(determined[q]), name not in unidentified, note))
     return tuple(out)
+
+
+def _sensitivity(source: Source, names: Sequence[str], operator: np.ndarray,
+                 space: ObservationSpace) -> np.ndarray:
+    """How much each output moves per unit of the source: through the readings it
+    spreads over, through its own vector of them, or (a direct one) 1 on each offset."""
+    if source.readings:
+        return space.reading_spread(operator, source.shared)
+    if source.vector is not None:
+        return operator @ source.vector
+    return np.array([1.0 if n.startswith("joint_offset.") else 0.0 for n in names])
+
+
+def _rows(name: str, q: int, sources: Sequence[Source],
+          sensitivities: Sequence[np.ndarray]) -> list[BudgetRow]:
+    """Output ``q``'s row of each source that acts on it."""
+    rows = []
+    for source, c in zip(sources, sensitivities, strict=True):
+        if source.direct and not name.startswith("joint_offset."):
+            continue  # only offsets are written to the controller's registers
+        u = None if source.u_input is None else abs(float(c[q])) * source.u_input
+        rows.append(BudgetRow(source.name, source.gum_type, source.distribution,
+                              source.u_input, source.unit, float(c[q]), u, source.dof,
+                              source.evaluated, source.note))
+    return rows
 
 
 def uncertainty_budget(obs: Observations, result: FitResult, inputs: BudgetInputs) -> Budget:

@@ -19,6 +19,7 @@ from ogacq.errors import StorageError
 from ogacq.io.dates import local_time_text
 from ogacq.session.records import MapsRecord, OffsetsRecord
 from ogacq.session.store import LoadedSession, SessionWriter
+from ogacq.writeback.outcome import ENDS, Stage
 
 
 class AuditLog:
@@ -29,19 +30,19 @@ class AuditLog:
         self.session = session
         self._writer: SessionWriter | None = None
 
-    def record(self, stage: str, **fields: Any) -> None:
+    def record(self, stage: Stage, **fields: Any) -> None:
         self._open()
         assert self._writer is not None
         self._writer.write(OffsetsRecord(stage=stage, details=fields))
-        if stage == "intent":  # what to restore is on the disk before the controller is touched
+        if stage == Stage.INTENT:  # what to restore is on the disk before the controller is touched
             self._writer.sync()
 
-    def record_maps(self, stage: str, **fields: Any) -> None:
+    def record_maps(self, stage: Stage, **fields: Any) -> None:
         """A stage of a maps write (``ogacq.writeback.maps``), the intent fsynced alike."""
         self._open()
         assert self._writer is not None
         self._writer.write(MapsRecord(stage=stage, details=fields))
-        if stage == "intent":
+        if stage == Stage.INTENT:
             self._writer.sync()
 
     def close(self) -> None:
@@ -78,7 +79,7 @@ class Operation:
 
     operation: str
     action: str
-    status: str  # done, failed, interrupted (an intent with no outcome: the process died)
+    status: Stage  # done, failed, interrupted (an intent with no outcome: the process died)
     old_mm: dict[str, float]
     new_mm: dict[str, float]  # as read back when done, else as intended
     profile: str | None
@@ -118,9 +119,9 @@ def intents_and_outcomes(records: Iterable[StagedRecord],
         op = record.details.get("operation")
         if not op:
             continue
-        if record.stage == "intent":
+        if record.stage == Stage.INTENT:
             intents[op] = record
-        elif record.stage in ("done", "failed"):
+        elif record.stage in ENDS:
             outcomes[op] = record
     return [(op, intent, outcomes.get(op)) for op, intent in intents.items()]
 
@@ -129,8 +130,8 @@ def operations(session: LoadedSession) -> list[Operation]:
     """Write-backs and restores recorded in the session, oldest first."""
     out = []
     for op, intent, outcome in intents_and_outcomes(session.of_type(OffsetsRecord)):
-        status = outcome.stage if outcome else "interrupted"
-        new = outcome.details["new_mm"] if outcome and status == "done" \
+        status = Stage(outcome.stage) if outcome else Stage.INTERRUPTED
+        new = outcome.details["new_mm"] if outcome and status == Stage.DONE \
             else intent.details["new_mm"]
         out.append(Operation(op, intent.details.get("action", "write"), status,
                              dict(intent.details["old_mm"]), dict(new),
@@ -139,7 +140,7 @@ def operations(session: LoadedSession) -> list[Operation]:
                              intent.wall,
                              outcome.details.get("survives_power_cycle") if outcome else None,
                              intent.details.get("restores"),
-                             _held_after(outcome) if status == "failed" else None))
+                             _held_after(outcome) if status == Stage.FAILED else None))
     return out
 
 
@@ -160,7 +161,7 @@ class OffsetsWrite:
 
     when: str
     action: str  # "write" or "restore"
-    status: str  # "done", "failed", "interrupted"
+    status: Stage  # done, failed, interrupted
     old_mm: dict[str, float]
     new_mm: dict[str, float]  # as read back when done, else as intended
     details: str  # controller profile, saved to non-volatile memory, operation id

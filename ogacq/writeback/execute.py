@@ -27,6 +27,7 @@ from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.model.units import signed_per_axis as _fmt
 from ogacq.writeback.audit import AuditLog, new_operation_id
+from ogacq.writeback.outcome import Stage
 from ogacq.writeback.policy import OffsetPlan
 from ogacq.writeback.table import read_offset_table, write_offset_table
 
@@ -145,7 +146,7 @@ def _record_intent(audit: AuditLog, plan: OffsetPlan, options: WriteOptions,
     """The intent, fsynced, before anything is written: its operation id."""
     operation = new_operation_id(plan.action)
     try:
-        audit.record("intent", operation=operation, action=plan.action,
+        audit.record(Stage.INTENT, operation=operation, action=plan.action,
                      profile=plan.facts.profile, port=options.port, offset_kind=plan.facts.kind,
                      offsets_file=str(offsets_file) if offsets_file else None,
                      old_mm=now, new_mm=plan.new_mm, baseline_mm=plan.baseline_mm or None,
@@ -210,7 +211,7 @@ def _record_failure(controller: AxisController, plan: OffsetPlan, audit: AuditLo
     error = str(exc) or type(exc).__name__
     # the intent (fsynced) already holds what restore needs, should the disk refuse this
     with contextlib.suppress(StorageError):
-        audit.record("failed", operation=operation, action=plan.action, error=error,
+        audit.record(Stage.FAILED, operation=operation, action=plan.action, error=error,
                      held_mm=held, nvm_saved=nvm_saved, rehomed=rehomed)
     log.error("offsets %s failed: %s (held now: %s)", operation, error, held)
     return held
@@ -233,7 +234,7 @@ _REPORTED = (DriverError, ValueError, OSError, InputError)
 def _record_done(audit: AuditLog, plan: OffsetPlan, operation: str, outcome: WriteOutcome,
                  ) -> None:
     try:
-        audit.record("done", operation=operation, action=plan.action, old_mm=outcome.old_mm,
+        audit.record(Stage.DONE, operation=operation, action=plan.action, old_mm=outcome.old_mm,
                      new_mm=outcome.new_mm, takes_effect=outcome.takes_effect,
                      rehomed=outcome.rehomed, home_positions_mm=outcome.home_positions_mm,
                      nvm_saved=outcome.nvm_saved,

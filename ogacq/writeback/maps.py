@@ -39,6 +39,7 @@ from ogacq.writeback.maps_table import (
     read_maps_table,
     write_maps_table,
 )
+from ogacq.writeback.outcome import Stage
 from ogacq.writeback.policy import Refusal
 
 log = logger(__name__)
@@ -97,7 +98,7 @@ class MapsPlan:
 class MapsOperation:
     operation: str
     action: str
-    status: str  # done, failed, interrupted
+    status: Stage  # done, failed, interrupted
     path: Path
     old_maps: dict[str, AxisMap]
     old_checksum: str
@@ -117,8 +118,8 @@ class MapsOperation:
 
 def _operation(op: str, intent: MapsRecord, outcome: MapsRecord | None) -> MapsOperation:
     d = intent.details
-    status = outcome.stage if outcome else "interrupted"
-    new = outcome.details.get("new_checksum") if outcome and status == "done" \
+    status = Stage(outcome.stage) if outcome else Stage.INTERRUPTED
+    new = outcome.details.get("new_checksum") if outcome and status == Stage.DONE \
         else d.get("new_checksum")
     return MapsOperation(op, str(d.get("action", "write")), status,
                          Path(str(d.get("file", ""))), _maps_of(d.get("old_maps")),
@@ -191,7 +192,7 @@ class MapsFile:
             refusals.append(Refusal("stale", f"the maps file no longer holds what "
                                     f"{op.operation} wrote (now {current.checksum[:12]}): "
                                     "restoring would undo a later change"))
-        notes = () if op.status == "done" else (
+        notes = () if op.status == Stage.DONE else (
             f"maps write {op.operation} did not finish ({op.status})",)
         return MapsPlan("restore", current.path, current, dict(op.old_maps),
                         tuple(refusals), notes, op.operation)
@@ -204,7 +205,7 @@ class MapsFile:
                                  "nothing written; show the plan again", written=False)
         operation = new_operation_id(f"maps-{plan.action}")
         try:
-            audit.record_maps("intent", operation=operation, action=plan.action,
+            audit.record_maps(Stage.INTENT, operation=operation, action=plan.action,
                               file=str(plan.path), old_maps=_maps_json(now.maps),
                               old_checksum=now.checksum, new_maps=_maps_json(plan.new_maps),
                               new_checksum=plan.new_checksum,
@@ -216,7 +217,7 @@ class MapsFile:
                                  "maps file was not touched", written=False) from None
         back = self._write_and_read_back(plan, audit, operation)
         try:
-            audit.record_maps("done", operation=operation, action=plan.action,
+            audit.record_maps(Stage.DONE, operation=operation, action=plan.action,
                               file=str(plan.path), new_checksum=back.checksum,
                               axes={a: m.checksum() for a, m in back.maps.items()})
         except StorageError as exc:
@@ -237,7 +238,7 @@ class MapsFile:
 
     def record_found(self, op: MapsOperation, held: str, audit: AuditLog) -> None:
         table = self.table()
-        audit.record_maps("done", operation=op.operation, action=op.action,
+        audit.record_maps(Stage.DONE, operation=op.operation, action=op.action,
                           file=str(self.path), new_checksum=held,
                           axes={a: m.checksum() for a, m in table.maps.items()},
                           found="read back after the write was cut short")
@@ -257,7 +258,7 @@ class MapsFile:
             with contextlib.suppress(OgacqError, OSError):
                 held = read_maps_table(plan.path).checksum
             with contextlib.suppress(StorageError):
-                audit.record_maps("failed", operation=operation, action=plan.action,
+                audit.record_maps(Stage.FAILED, operation=operation, action=plan.action,
                                   error=str(exc), held_checksum=held)
             raise MapsWriteError(f"maps {plan.action} {operation} failed: {exc}. The file "
                                  f"holds {held[:12] if held else 'unknown'}; the old maps are "

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING
 from ogacq.errors import InputError, OgacqError
 from ogacq.logs import logger
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
+from ogacq.writeback.outcome import Stage
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when a history is given, not at start-up
     from ogacq.campaign.campaign_file import Campaign
@@ -37,7 +38,7 @@ def check_maps_in_force(table: MapsTable, name: str, serial: str,
               if v.maps_file and _same_file(v.maps_file, table.path)]
     if not states:
         return
-    done = [k for k, v in enumerate(states) if v.stage == "after" and v.status == "done"]
+    done = [k for k, v in enumerate(states) if v.stage == "after" and v.status == Stage.DONE]
     if not done:
         return
     last = states[done[-1]]

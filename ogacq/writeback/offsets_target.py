@@ -15,6 +15,7 @@ from ogacq.model.units import signed_per_axis
 from ogacq.session.store import LoadedSession
 from ogacq.writeback.audit import AuditLog, Operation, operations
 from ogacq.writeback.execute import WriteOptions, WriteOutcome, execute_plan, preflight
+from ogacq.writeback.outcome import Stage
 from ogacq.writeback.policy import ControllerFacts, OffsetPlan, plan_restore
 from ogacq.writeback.table import read_offset_table
 
@@ -66,7 +67,7 @@ class ControllerOffsets:
             preflight(self.controller, plan, options)
         except DriverError as exc:
             with contextlib.suppress(StorageError):
-                audit.record("refused", action=plan.action, current_mm=plan.current_mm,
+                audit.record(Stage.REFUSED, action=plan.action, current_mm=plan.current_mm,
                              new_mm=plan.new_mm, reasons=[f"pre-flight: {exc}"],
                              codes=["preflight"])
             raise DriverError(f"pre-flight check, nothing written: {exc}") from None
@@ -76,7 +77,7 @@ class ControllerOffsets:
 
     def record_found(self, op: Operation, held: Offsets, audit: AuditLog) -> None:
         facts = self.facts
-        audit.record("done", operation=op.operation, action=op.action, old_mm=op.old_mm,
+        audit.record(Stage.DONE, operation=op.operation, action=op.action, old_mm=op.old_mm,
                      new_mm=held, takes_effect=facts.takes_effect, rehomed=False,
                      home_positions_mm=None, nvm_saved=False,
                      offsets_file=str(self.offsets_file) if self.offsets_file else None,

@@ -17,6 +17,7 @@ from ogacq_drivers.axes.profile import Profile
 from ogacq.model.parameters import AXES
 from ogacq.model.units import signed_per_axis as _fmt
 from ogacq.writeback.audit import Operation
+from ogacq.writeback.outcome import Stage
 
 if TYPE_CHECKING:  # the evidence module pulls in the fit and scipy; the CLI imports this one
     from ogacq.writeback.evidence import Evidence
@@ -319,14 +320,14 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
                                 f"{facts.profile!r}"))
     refusals += _margin_refusals({c.axis: c.new_mm for c in changes}, facts)
     notes = []
-    if operation.status != "done":
+    if operation.status != Stage.DONE:
         notes.append(f"write-back {operation.operation} did not finish ({operation.status})")
     if operation.nvm_saved and facts.has_nvm:
         notes.append("the write-back saved its values to non-volatile memory: save the "
                      "restored ones too (--save-nvm), or a power cycle brings them back")
     return OffsetPlan("restore", facts, changes, tuple(refusals), tuple(notes),
                       restores_operation=operation.operation,
-                      restores_unfinished=operation.status != "done")
+                      restores_unfinished=operation.status != Stage.DONE)
 
 
 def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: Mapping[str, float],

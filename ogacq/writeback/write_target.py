@@ -23,6 +23,7 @@ from typing import Any, Protocol, TypeVar
 from ogacq.errors import DriverError, Refused
 from ogacq.session.store import LoadedSession
 from ogacq.writeback.audit import AuditLog
+from ogacq.writeback.outcome import Stage
 from ogacq.writeback.policy import Refusal
 
 State = TypeVar("State")
@@ -120,7 +121,7 @@ def left_half_way(target: WriteTarget[State, Op, Plan], ops: Sequence[Op],
     """The write of the audit that did not finish and left ``held`` part old, part new
     (x and y written, z not yet): its own state, not a later change."""
     for op in reversed(ops):
-        if op.action == "write" and op.status != "done" and target.between(held, op):
+        if op.action == "write" and op.status != Stage.DONE and target.between(held, op):
             return op
     return None
 
@@ -150,7 +151,7 @@ def restore(target: WriteTarget[State, Op, Plan], op: Op, session: LoadedSession
         raise NotRestored(f"the {target.noun} were not restored: read back "
                           f"{target.describe(back)}, not the previous "
                           f"{target.describe(op.old_state)}")
-    if earlier is not None and earlier.status != "done":
+    if earlier is not None and earlier.status != Stage.DONE:
         target.record_found(earlier, back, audit)
     return operation
 
@@ -161,7 +162,7 @@ def found_in_force(target: WriteTarget[State, Op, Plan], session: LoadedSession,
     recorded now when it was cut short before: read back, it is in force."""
     held = target.held()
     op = write_in_force(target, target.operations(session), held)
-    if op is not None and op.status != "done":
+    if op is not None and op.status != Stage.DONE:
         target.record_found(op, held, audit)
     return op
 

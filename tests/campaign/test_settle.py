@@ -23,6 +23,7 @@ from ogacq.protocol.station import (
     GaugeValue,
     SettledGauge,
 )
+from ogacq.session.convert import session_observations
 from ogacq.session.records import FaultRecord, SettleRecord
 from ogacq.session.store import SessionWriter, load_session
 from ogacq.sim.truth import Vibration
@@ -131,6 +132,8 @@ class _RingingLeft:
         self.sampled: dict[str, list[float]] = {g: [] for g in station.indicators}
         self.index: dict[int, tuple[str, int]] = {}  # id(reading) -> its sample
         self.left: list[tuple[str, float]] = []
+        # each reading's gauge values as the settle (or a reading afresh) averaged them
+        self.averaged: list[tuple[str, list[float]]] = []
         vibration = machine.vibration_mm
 
         def sampled(gauge_axis, leg):  # the simulated gauge samples once per request
@@ -158,6 +161,7 @@ class _RingingLeft:
                     samples = [self.sampled[g][i] for g, i in
                                (self.index[id(r)] for r in stable.readings)]
                     self.left.append((gauge, float(np.mean(samples))))
+                    self.averaged.append((gauge, [r.value_mm for r in stable.readings]))
             return out
 
         reader.settle_many = lambda *args, **kwargs: kept(settle_many(*args, **kwargs))
@@ -206,6 +210,18 @@ def test_stable_settle_ends_early_leaving_no_ringing_above_the_gauge_noise(tmp_p
     assert all(abs(left) < u[g] / 3 for g, left in ringing.left), (ringing.left, u)
     # the ringing was visible, far above the tolerance, in the values the gauges read
     assert max(abs(v) for v in ringing.sampled["y_x"] + ringing.sampled["z_x"]) > 0.01
+    # each reading records how many values it is the mean of, and their scatter: what
+    # the noise of an averaged reading is derived from (issue 37.7)
+    recorded = sorted((r.gauge.key, r.averaged, r.averaged_sd_mm) for r in session.readings)
+    averaged = sorted((g, len(v), round(float(np.std(v, ddof=1)), 7))
+                      for g, v in ringing.averaged)
+    assert recorded == pytest.approx(averaged, abs=1e-9)
+    # two windows of five values at least where the settle ended at rest; read afresh
+    # after the bound, the stability rule's agreeing values
+    assert {r.averaged for r in session.readings if records[r.step].ended == "bound"} == \
+        {campaign.protocol.stability.readings}
+    assert min(r.averaged for r in session.readings
+               if records[r.step].ended == "stable") >= 2 * 5
 
 
 def test_a_ringing_sampled_too_sparsely_to_judge_is_waited_out(tmp_path):
@@ -321,6 +337,15 @@ def test_fixed_settle_waits_the_time_where_something_moved_only(tmp_path):
     assert [r.rule for r in records] == ["fixed"] * 4 + ["none"] + ["fixed"] * 3
     assert waits == [8.0] * 7
     assert {r.waited_s for r in records if r.rule == "fixed"} == {8.0}
+    # a fixed settle's reading is the mean of the stability rule's agreeing values
+    readings = load_session(campaign.session).readings
+    assert {r.averaged for r in readings} == {campaign.protocol.stability.readings}
+    assert all(r.averaged_sd_mm is not None and r.averaged_sd_mm >= 0 for r in readings)
+    # and the analysis of the session knows them (the noise of an averaged reading)
+    obs = session_observations(load_session(campaign.session), campaign.machine)
+    assert obs.averaged is not None and list(obs.averaged) == [r.averaged for r in readings]
+    assert obs.averaged_sd_mm is not None and \
+        list(obs.averaged_sd_mm) == [r.averaged_sd_mm for r in readings]
 
 
 def test_the_gauges_of_a_posture_are_read_at_once_through_their_endpoints(tmp_path):

@@ -110,7 +110,7 @@ def test_a_campaign_writes_the_session_it_wrote(tmp_path):
 
     def loose(path: tuple[str, ...]) -> float | None:
         """Where the real-time reading, not the arithmetic, sets a difference."""
-        if path[0] == "reading_mm":
+        if path[0] in ("reading_mm", "averaged_sd_mm"):  # the values, and their scatter
             return 10 * noise
         if path[:2] in (("refit", "parameters"), ("refit", "std")):
             return 10 * std
@@ -121,8 +121,9 @@ def test_a_campaign_writes_the_session_it_wrote(tmp_path):
         return None
 
     # when each record was written, how long a settle waited, the frame the gauge sent;
-    # the checksum of the profile file (its content is the driver's, not the campaign's)
-    timing = frozenset({"wall", "t_s", "waited_s", "raw", "profile_sha256"})
+    # the checksum of the profile file (its content is the driver's, not the campaign's);
+    # how many values a reading averaged, which is how its settle ended
+    timing = frozenset({"wall", "t_s", "waited_s", "raw", "profile_sha256", "averaged"})
     settle_keys = {key: kind(line[key]) for line in golden if line["type"] == "settle"
                    for key in line}
     for k, (expected, actual) in enumerate(zip(golden[1:], written[1:], strict=True), 1):

@@ -3,6 +3,7 @@ step, gauge and posture, and the recorded result is what later stages use."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 
 import pytest
@@ -38,8 +39,13 @@ READING = ReadingRecord(step="x/c1/p2", gauge=Gauge("y", "x"), cycle=1, posture=
                         source="/dev/ttyUSB0")
 
 
+# a reading that averaged 16 gauge values, as a stable settle records it (issue 37.7)
+AVERAGED = dataclasses.replace(READING, averaged=16, averaged_sd_mm=0.0004)
+
+
 @pytest.mark.parametrize("record", [
     READING,
+    AVERAGED,
     ReadingRecord(step="import/1", gauge=Gauge("z", "y"), cycle=2, posture=None, t_s=0.0,
                   q_mm=(0.0, 0.0, 0.0), tcp_mm=(0.0, 0.0, 0.0), approach=(0, 0, 0),
                   reading_mm=1.0),
@@ -89,9 +95,21 @@ def test_a_reading_keeps_the_wire_keys_of_the_session_format():
                                        "reading_mm", "raw", "source"]
 
 
+def test_an_averaged_reading_adds_its_count_and_scatter_after_the_keys_it_had():
+    """Two optional keys: a session without them (written before, or a value typed by
+    eye) reads as before, with nothing averaged said."""
+    assert list(AVERAGED.to_json())[-2:] == ["averaged", "averaged_sd_mm"]
+    assert (AVERAGED.to_json()["averaged"], AVERAGED.to_json()["averaged_sd_mm"]) == \
+        (16, 0.0004)
+    old = ReadingRecord.from_json(READING.to_json())
+    assert (old.averaged, old.averaged_sd_mm) == (None, None)
+
+
 @pytest.mark.parametrize(("change", "named"), [
     ({"gauge": "x_x"}, "gauge"), ({"leg": "y"}, "disagree"), ({"cycle": 1.5}, "cycle"),
     ({"posture": 3}, "posture"), ({"reading_mm": float("nan")}, "reading_mm"),
+    ({"averaged": 0}, "averaged"), ({"averaged": 2.5}, "averaged"),
+    ({"averaged_sd_mm": -0.001}, "averaged_sd_mm"),
 ])
 def test_a_reading_missing_what_later_stages_need_is_refused(change, named):
     with pytest.raises(ValueError, match=f"reading without a valid .*{named}"):

@@ -140,8 +140,9 @@ def _say_what_a_power_cycle_does(screen: Screen, session: Path, rehearsal: bool)
     drive (the session's record of it says), so the job is not called done unsaid."""
     from ogacq.session.records import OffsetsRecord
     from ogacq.session.store import load_session
+    from ogacq.writeback.outcome import Stage
 
-    done = [r for r in load_session(session).of_type(OffsetsRecord) if r.stage == "done"]
+    done = [r for r in load_session(session).of_type(OffsetsRecord) if r.stage == Stage.DONE]
     if not done or done[-1].details.get("survives_power_cycle") is not False:
         return
     where = " (rehearsal: the simulated drive)" if rehearsal else ""
