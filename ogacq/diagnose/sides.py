@@ -20,13 +20,14 @@ two do), the joint offsets and the backlashes are fitted with every combination 
 sides taken as from below or from above; a side is kept when its combination fits
 best, better than with that side flipped, and than with that joint in the middle, by
 more than the 1 % point of chi-square with one degree of freedom, and that joint's
-backlash is as significant there; otherwise it stays unknown (the middle of the lost
-motion: half a backlash off whichever end it was at, where a wrong side would be a
-whole one). A side is never taken merely because it is the less wrong of the two
-ends: a joint left in the middle, its lost motion building up over the travel
-(hysteresis, which a constant backlash fits only roughly), fits one end better than
-the other and the middle best (issue 37: a wind-up read unhomed was taken as from
-below and propped up by a leg length and a warm-up).
+backlash is as significant there (both bars times the fit's reduced chi-square where
+a constant backlash does not fit within the noise); otherwise it stays unknown (the
+middle of the lost motion: half a backlash off whichever end it was at, where a
+wrong side would be a whole one). A side is never taken merely because it is the
+less wrong of the two ends: a joint left in the middle, its lost motion building up
+over the travel (hysteresis, which a constant backlash fits only roughly), fits one
+end better than the other and the middle best (issue 37: a wind-up read unhomed was
+taken as from below and propped up by a leg length and a warm-up).
 
 The recorded approach is left as it is (the repeat groups, the verdict of the joint
 offsets, which have no lost motion, do not change): the model's side is the
@@ -124,15 +125,21 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
     fits = {signs: misfit(signs) for signs in combos}
     best = min(combos, key=lambda c: fits[c][1])
     variant, rss = fits[best]
+    # the lost motion the sides are tried with is a constant backlash: where it does
+    # not fit within the noise (a wind-up, a cyclic error), every difference between
+    # sides grows with its misfit; the bars grow with it (the fit's reduced
+    # chi-square, Birge's ratio: R. T. Birge, Phys. Rev. 40, 207, 1932)
+    spread = max(1.0, rss / noise.variance
+                 / max(problem.n_data - len(BASE_MODEL) - len(backlash), 1))
     choices = []
     taken = list(best)
     for k, axis in enumerate(joints):
         flipped = tuple(-s if j == k else s for j, s in enumerate(best))
         gain = (fits[flipped][1] - rss) / noise.variance
-        if gain > BETTER_BY and _backlash_cost(variant, theta, backlash, axis, rss) \
-                / noise.variance > SIGNIFICANT and \
+        if gain > BETTER_BY * spread and _backlash_cost(variant, theta, backlash, axis, rss) \
+                / noise.variance > SIGNIFICANT * spread and \
                 (misfit(tuple(0 if j == k else s for j, s in enumerate(best)))[1] - rss) \
-                / noise.variance > BETTER_BY:
+                / noise.variance > BETTER_BY * spread:
             choices.append(SideChoice(axis, best[k], int(rows[:, axis].sum()), gain))
         else:
             taken[k] = 0
