@@ -5,6 +5,8 @@ reach 1.5 um said; and a smooth map of a few micrometres found on the design."""
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
 from ogacq.diagnose.diagnosis import diagnose
@@ -12,7 +14,7 @@ from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
 from ogacq.model.measurement import predict_jacobian
 from ogacq.model.parameters import AXES, indices, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
-from ogacq.protocol.scan_design import design_scan, sampled_band
+from ogacq.protocol.scan_design import ScanDesign, design_scan, sampled_band
 from ogacq.sim.physics import true_coordinates
 from ogacq.sim.readings import simulated_readings
 from ogacq.sim.truth import SCREW_MAP_UNIT_MM, ScrewMap, SimTruth
@@ -22,7 +24,8 @@ NOISE_MM = 0.0005
 STEP_S = 5.5
 
 
-def _design(minutes: float):
+@lru_cache(maxsize=2)  # a design is a pure function of the machine and the budget
+def _design(minutes: float) -> ScanDesign:
     return design_scan(MACHINE, ProtocolConfig(settle_s=1.0), noise_mm=NOISE_MM,
                        seconds_per_step=STEP_S, budget_s=minutes * 60)
 
