@@ -40,10 +40,11 @@ rms of the least visible such shape (the smallest generalised eigenvalue of the 
 matrix against the maps' rms over the travel), one shape as the other families' one
 amplitude. It is set by the sensitivity, not by where the targets are: a leg's gauges
 read across its own axis, so its joint's error reaches them only through the other
-legs' tilt (at most 0.13 of it on the built-in machine, none near mid-travel), and
-the other legs' scans move it over a sixth of its travel. Denser targets at the ends
-or mid-travel, tried, moved the figure by under 5 %; it falls as the square root of
-the reading steps (bench/designed_scan.py prints it against the budget).
+legs' tilt (at most 0.13 of it on the built-in machine, none near the Zero posture),
+and the other legs' scans move it over a sixth of its travel. Targets twice as dense
+near the ends or mid-travel, tried, raised the figure (2.2 against 2.0 um); it falls
+as the square root of the reading steps (bench/bench_smooth_map.py prints it against
+the budget).
 """
 
 from __future__ import annotations
