@@ -20,9 +20,10 @@ Run: python bench/bench_hysteresis.py [seeds, default 20] [--lost UM] [--build-u
 
 Seen (2026-12, 20 seeds, 25 um over 15 mm): homed 20/20 within 20 %, a thermal drift
 beside it once (seed 7), median errors 0.8 % and 1.5 %; unhomed the same (before the
-sides were weighed against the joint's middle, 5 seeds of 5 had z taken as from below,
-the fit NOT within the noise, a backlash, a leg length and a warm-up beside a build-up
-14 % long); the designed scan (411 steps) 20/20, nothing else, 0.7 % and 1.4 %.
+sides were weighed against the joint's middle, 5 seeds of 5 had the fit NOT within the
+noise, a leg length and a warm-up, and in 3 a backlash, beside a build-up 14 % long:
+z taken as from below); the designed scan (411 steps) 20/20, nothing else, 0.7 % and
+1.4 %.
 """
 
 from __future__ import annotations
