@@ -303,6 +303,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     stated = stated_periods(machine, legs)
     per_leg = 1 + 2 * DESIGN_CYCLES  # steps per target and leg, and the Zero reading
     most = MOST_POSITIONS
+    timed = bool(budget_s) and seconds_per_step > 0
     if budget_s and seconds_per_step > 0:
         most = max(3, min(most, int((budget_s / seconds_per_step / len(legs) - 1)
                                     // (per_leg - 1))))
@@ -322,8 +323,10 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
         protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
         detection = detection_limits(protocol, machine, noise_mm, band, stated)
         wanted = targets_for_detection(detection, n)
-        if wanted <= n or wanted > most:
-            break  # reached, or out of the budget's reach: the fewest that sample the band
+        if wanted <= n or wanted > most or not timed:
+            # reached, or beyond the budget's reach (or no budget in machine time to
+            # grow within): the fewest that sample the band
+            break
         n = wanted
     gaps = [band_gap, *[g for g in _gap_at(targets, stated) if g <= LARGEST_PHASE_GAP]]
     steps = len(reading_steps(protocol, machine))

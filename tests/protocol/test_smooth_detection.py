@@ -105,3 +105,13 @@ def test_a_smooth_map_of_3_um_on_one_axis_is_found_on_the_designed_scan():
     left = truth_rest - _beyond_line(inside, mapped)
     assert np.sqrt(np.mean(truth_rest ** 2)) > 0.0028
     assert np.sqrt(np.mean(left ** 2)) < 0.5 * np.sqrt(np.mean(truth_rest ** 2))
+
+
+def test_a_design_without_its_machine_time_grows_no_further_than_the_band_needs():
+    """Where a reading step's time is not known, the budget bounds nothing: the design
+    keeps the fewest targets that sample the band and says what 1.5 um would need."""
+    design = design_scan(MACHINE, ProtocolConfig(settle_s=1.0), noise_mm=NOISE_MM,
+                         seconds_per_step=0.0, budget_s=40 * 60)
+    assert design.steps == _design(40).steps == 411 and design.target_steps == 771
+    assert "1.5 µm in every family would need about 771 reading steps" in " ".join(
+        design.lines())
