@@ -332,12 +332,16 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
             table.add_row(f"unexplained at {e['where']}", "-", "-", "-", "", "")
             continue
         alternatives = ", ".join(f"{a['effect']}.{a['where']}" for a in e["alternatives"])
+        # one face for one quantity: the value and the truth at the std's decimal place,
+        # the std to two digits, as every later line says it (it was "+382.6237 |
+        # 23.8388" here, then "+383 ± 24 ppm"; JCGM 100:2008 7.2.6)
         truth = hidden.get(name)
-        table.add_row(name, f"{e['value']:+.4f}", f"{e['std']:.4f}",
-                      "-" if truth is None else f"{truth:+.4f}", e["unit"], alternatives)
+        table.add_row(name, rounded(e["value"], e["std"], sign=True), two_digits(e["std"]),
+                      rounded(truth, e["std"], sign=True), e["unit"], alternatives)
     for name, value in hidden.items():
         if not name.startswith("joint_offset.") and name not in found:
-            table.add_row(name, "not found", "", f"{value:+.4f}", effect_of(name).unit, "")
+            table.add_row(name, "not found", "", format_number(value), effect_of(name).unit,
+                          "")
     console.print(table)
     console.print(f"with these effects the fit is {d.final.describe()}", highlight=False)
     offsets = diagnosis["parameters"]["joint_offset"]
