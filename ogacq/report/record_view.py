@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from markupsafe import Markup
 
+from ogacq.history.entries import parameter_unit
 from ogacq.identify.consistency import format_p
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.compensation import Iso230Stages, TableExported
@@ -400,18 +401,19 @@ def history(record: CalibrationRecord) -> Table | None:
         return None
     names = list(dict.fromkeys(r.name for e in found for r in e.results))
     rows: list[list[Cell]] = []
+    units = {n: parameter_unit(n) for n in names}  # as the figure beside it draws them
     for entry in found:
         row: list[Cell] = [shown(entry.id), shown(entry.date)]
         by_name: dict[str, ResultEntry | None] = dict.fromkeys(names)
         by_name |= {r.name: r for r in entry.results}
         for name in names:
             r = by_name[name]
-            line = entry_headline(r.fields if r is not None else None)
+            line = entry_headline(r.fields if r is not None else None, units[name])
             row.append("-" if r is None or not r.fields
                        else f"{line.value} ± {line.U}" if line.U else line.value)
         rows.append(row)
-    return table(["record", "date"] + [f"{n} (mm) ± U (k = 2)" for n in names], rows,
-                 [False, False] + [True] * len(names))
+    return table(["record", "date"] + [f"{n} ({units[n]}) ± U (k = 2)" for n in names],
+                 rows, [False, False] + [True] * len(names))
 
 
 def overrides(record: CalibrationRecord) -> Table | None:
