@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ogacq.cli.verdict_text import one_line
 from ogacq.diagnose.outliers import described_outliers
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
@@ -57,7 +58,7 @@ class CampaignEnd:
         """Plain text (escape it before rich sees it)."""
         issued = (f"issued as {self.report.with_name('record.json')}" if self.report
                   else "`ogacq report` issues it: report.html and record.json")
-        out = [f"verdict: {self.verdict.summary()}", f"record: {self.record_id} ({issued})"]
+        out = [f"verdict: {one_line(self.verdict)}", f"record: {self.record_id} ({issued})"]
         if self.carried is not None:
             out.insert(1, self.carried)
         for k, step in enumerate(self.steps):
@@ -101,7 +102,7 @@ def _carried(session: LoadedSession) -> str | None:
         return None
     offsets = ", ".join(f"{a} {carried.fit.value(f'joint_offset.{a}'):+.4f}" for a in AXES)
     return (f"{carried.describe()}: joint offsets left {offsets} mm, "
-            f"{fit_verdict(carried.fit).summary()}")
+            f"{one_line(fit_verdict(carried.fit))}")
 
 
 def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,

@@ -12,6 +12,7 @@ from rich.table import Table
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render_fit import format_number
+from ogacq.cli.verdict_text import paragraph
 from ogacq.model.parameters import effect_of
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
@@ -316,9 +317,9 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
     diagnosis = d.to_json()
     if d.outcome == "consistent":
         console.print(f"diagnosis: the joint offsets explain the readings, "
-                      f"{d.base.describe()}: nothing left out", highlight=False)
+                      f"{paragraph(d.base)}: nothing left out", highlight=False)
         return
-    console.print(f"[yellow]diagnosis: the joint offsets alone: {d.base.describe()}[/]",
+    console.print(f"[yellow]diagnosis: the joint offsets alone: {paragraph(d.base)}[/]",
                   highlight=False)
     table = Table(show_edge=False, header_style="bold", title="physics found by the diagnosis")
     for column in ("effect", "found", "std", "hidden truth", "unit", "alternatives"):
@@ -343,7 +344,7 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
             table.add_row(name, "not found", "", format_number(value), effect_of(name).unit,
                           "")
     console.print(table)
-    console.print(f"with these effects the fit is {d.final.describe()}", highlight=False)
+    console.print(f"with these effects the fit is {paragraph(d.final)}", highlight=False)
     offsets = diagnosis["parameters"]["joint_offset"]
     console.print("joint offsets of the final model: " + ", ".join(
         f"{a} {offsets[a]:+.4f} (truth {hidden.get(f'joint_offset.{a}', 0.0):+.4f})"

@@ -20,6 +20,7 @@ from ogacq.cli.campaign_end import NextStep
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render import CampaignProgress, campaign_progress
+from ogacq.cli.verdict_text import paragraph, recorded_paragraph
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.model.units import UM_PER_MM
@@ -66,7 +67,7 @@ class TerminalUI:
                             for e in diagnosis.effects) or "none"
         console.print(f"diagnosis of the {role} campaign: {diagnosis.outcome}; effects "
                       f"(value ± std, k = 1): {effects}", highlight=False)
-        console.print(f"  {diagnosis.final.describe()}", highlight=False)
+        console.print(f"  {paragraph(diagnosis.final)}", highlight=False)
 
     def separation(self, plan: SeparatingPlan, speed: float | None) -> None:
         if not plan.reasons:
@@ -136,7 +137,8 @@ class TerminalUI:
 
     def validation(self, judgement: Judgement) -> None:
         self._stack.close()
-        console.print(f"validation: {judgement.outcome}; {judgement.verdict['text']}",
+        console.print(f"validation: {judgement.outcome}; "
+                      f"{recorded_paragraph(judgement.verdict)}",
                       highlight=False)
         left = ", ".join(f"{a} {v:+.4f}" for a, v in judgement.offsets_after_mm.items())
         console.print(f"  joint offsets left: {left} mm", highlight=False)
