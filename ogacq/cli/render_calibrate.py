@@ -16,7 +16,7 @@ from ogacq.calibration.procedure import NOT_APPLIED_FILE, Outcome
 from ogacq.calibration.separate import SeparatingPlan
 from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
-from ogacq.cli.campaign_end import NextStep
+from ogacq.cli.campaign_end import NextStep, step_lines
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render import CampaignProgress, campaign_progress
@@ -181,10 +181,8 @@ def print_outcome(outcome: Outcome, report: Path | None) -> None:
     if record_id or report is not None:
         say(shown("record: " + " ".join(str(part) for part in (
             record_id, f"({report})" if record_id and report else report) if part)))
-    for k, step in enumerate(next_steps(outcome, report)):
-        lead = "next: " if k == 0 else "      "
-        say(shown(f"{lead}{step.command}   ({step.why})" if step.command
-                  else f"{lead}{step.why}"))
+    for line in step_lines(next_steps(outcome, report)):
+        say(shown(line))
 
 
 def next_steps(outcome: Outcome, report: Path | None) -> tuple[NextStep, ...]:

@@ -5,35 +5,24 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
 from ogacq.cli.options import AcceptEditedOption, PartialOption
 from ogacq.cli.outputs import check_output_folder
-from ogacq.cli.render import working
-from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
 from ogacq.io.text import read_text
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.context import calibration_context
-from ogacq.record.document import build_record
 from ogacq.record.identity import session_digest
-from ogacq.record.revision import issue
-from ogacq.record.sections import SessionReference
-from ogacq.report import (
-    RECORD_NAME,
-    DiagnosisFormatError,
-    build_report,
-    collect,
-    parse_diagnosis,
-    write_report,
-)
-from ogacq.report.printing import find_browser, print_pdf
-from ogacq.session.convert import session_observations
-from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
+
+if TYPE_CHECKING:  # loaded once the command has said what it does (numpy, matplotlib)
+    from ogacq.diagnose.diagnosis import Diagnosis
+    from ogacq.record.sections import SessionReference
+    from ogacq.report import Report
 
 
 def report_command(
@@ -54,7 +43,7 @@ def report_command(
              "folder; none: no history).")] = None,
     pdf: Annotated[bool, typer.Option(
         "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
-                      "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
+                      "(on the PATH, or named by OGACQ_BROWSER); exit 2 when there is none.")
     ] = False,
     partial: PartialOption = False,
     accept_edited: AcceptEditedOption = False,
@@ -62,9 +51,10 @@ def report_command(
     """Write the calibration record: report.html (identification, instruments,
     environment, method, results with their uncertainty, acceptance, budget, history,
     then the analysis behind them), record.json with the same record, and the figures."""
+    from ogacq.session.state import require_complete, session_notes
+
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
-    browser = find_browser() if pdf else None  # before the work: none is exit 2
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
     check_pair(calibration, validation)
@@ -75,6 +65,17 @@ def report_command(
             state = require_complete(loaded, partial)
             for line in session_notes(loaded, state):
                 typer.echo(f"ogacq: warning: {loaded.path}: {line}", err=True)
+    browser = _browser() if pdf else None  # before the work: none is exit 2
+    # some seconds of work (the analysis's and the figures' libraries loaded, the
+    # diagnosis, the budget's Monte-Carlo check, the figures drawn), once the inputs
+    # are found good: said on stderr, where the page's path on stdout stays the first
+    # line a script reads (it was silent for 15-18 s on a busy machine)
+    typer.echo(f"ogacq report: issuing the record of {session}: its diagnosis, uncertainty "
+               "budget, Monte-Carlo check and figures", err=True)
+    from ogacq.cli.campaign_end import step_lines
+    from ogacq.cli.render import print_end, working
+    from ogacq.cli.report_next import after_report
+
     earlier, why = earlier_calibrations(history, calibration)
     raw: dict[str, Any] | None
     if given is not None:
@@ -83,13 +84,26 @@ def report_command(
         with working(f"diagnosing {calibration.path.name}"):
             raw, note = _diagnose_here(calibration)
     with working("issuing the record: uncertainty budget, Monte-Carlo check, figures"):
-        page = write_session_report(calibration, folder, validation=validation,
-                                    diagnosis=raw, diagnosis_note=note,
-                                    diagnosis_source=diagnosis or session,
-                                    history=earlier, history_why=why)
+        page, report = _issue_report(calibration, folder, validation=validation,
+                                     diagnosis=raw, diagnosis_note=note,
+                                     diagnosis_source=diagnosis or session,
+                                     history=earlier, history_why=why)
     typer.echo(str(page))
     if browser is not None:  # after the page is on disk: a failed print loses nothing
+        from ogacq.report.printing import print_pdf  # loaded by _browser already
+
         typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))
+    # what to do once it is read: every command ends with the next one (issue 38.5)
+    steps = after_report(calibration, validation, CalibrationRecord.from_json(report.record),
+                         report.data.identified, report.data.validation_identified)
+    print_end(step_lines(steps))
+
+
+def _browser() -> str:
+    """The headless Chromium ``--pdf`` prints with (InputError when there is none)."""
+    from ogacq.report.printing import find_browser  # the report package: matplotlib
+
+    return find_browser()
 
 
 def write_session_report(calibration: LoadedSession, folder: Path, *,
@@ -105,6 +119,32 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
     ``history``: the machine's earlier calibrations (docs/calibration-record.md 5),
     ``history_why``: why there are none to give; ``record``: the record already built
     (``ogacq calibrate`` adds its compensation to it)."""
+    return _issue_report(calibration, folder, validation=validation, diagnosis=diagnosis,
+                         diagnosis_note=diagnosis_note, diagnosis_source=diagnosis_source,
+                         history=history, history_why=history_why, record=record)[0]
+
+
+def _issue_report(calibration: LoadedSession, folder: Path, *,
+                  validation: LoadedSession | None = None,
+                  diagnosis: dict[str, Any] | None = None,
+                  diagnosis_note: str | None = None,
+                  diagnosis_source: Path | None = None,
+                  history: list[dict[str, Any]] | None = None,
+                  history_why: str | None = None,
+                  record: dict[str, Any] | None = None) -> tuple[Path, Report]:
+    """:func:`write_session_report`, and the report written (its data: what the next
+    step is decided from)."""
+    from ogacq.record.document import build_record
+    from ogacq.record.revision import issue
+    from ogacq.report import (
+        RECORD_NAME,
+        DiagnosisFormatError,
+        build_report,
+        collect,
+        parse_diagnosis,
+        write_report,
+    )
+
     try:
         view = parse_diagnosis(diagnosis) if diagnosis is not None else None
     except DiagnosisFormatError as exc:
@@ -118,8 +158,8 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
                               validation_fit=data.validation_identified)
         record = _with_compensation_of(record, earlier)
     # issued beside an earlier issue of the same record: its next revision, or itself
-    record = issue(record, earlier)
-    return write_report(build_report(data, record), folder)
+    report = build_report(data, issue(record, earlier))
+    return write_report(report, folder), report
 
 
 def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
@@ -183,10 +223,10 @@ def report_of(session: Path, folder: Path, validation: Path | None = None,
     after = load_session(validation) if validation is not None else None
     earlier, why = earlier_calibrations(history, calibration)
     raw, note = _diagnose_here(calibration)
-    page = write_session_report(calibration, folder, validation=after, diagnosis=raw,
-                                diagnosis_note=note, diagnosis_source=session,
-                                history=earlier, history_why=why)
-    return page, json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
+    page, report = _issue_report(calibration, folder, validation=after, diagnosis=raw,
+                                 diagnosis_note=note, diagnosis_source=session,
+                                 history=earlier, history_why=why)
+    return page, json.loads(report.record_json())  # as record.json holds it
 
 
 def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any]:
@@ -222,6 +262,9 @@ def _read_diagnosis(path: Path) -> dict:
 
 def _diagnose_here(session: LoadedSession) -> tuple[dict[str, Any] | None, str | None]:
     """The diagnosis of the session's readings, or (None, why there is none)."""
+    from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
+    from ogacq.session.convert import session_observations
+
     if not session.readings:
         return None, "no diagnosis: the session holds no readings"
     try:
