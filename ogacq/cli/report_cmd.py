@@ -23,6 +23,7 @@ if TYPE_CHECKING:  # loaded once the command has said what it does (numpy, matpl
     from ogacq.diagnose.diagnosis import Diagnosis
     from ogacq.record.sections import SessionReference
     from ogacq.report import Report
+    from ogacq.report.diagnosis_view import DiagnosisView
 
 
 def report_command(
@@ -59,6 +60,8 @@ def report_command(
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
     check_pair(calibration, validation)
     given = _read_diagnosis(diagnosis) if diagnosis is not None else None
+    if given is not None:
+        _diagnosis_view(given, diagnosis)  # a malformed one refused before the work
     # the files read first; then whether they may be reported (the page says so)
     for loaded in (calibration, validation):
         if loaded is not None:
@@ -136,19 +139,10 @@ def _issue_report(calibration: LoadedSession, folder: Path, *,
     step is decided from)."""
     from ogacq.record.document import build_record
     from ogacq.record.revision import issue
-    from ogacq.report import (
-        RECORD_NAME,
-        DiagnosisFormatError,
-        build_report,
-        collect,
-        parse_diagnosis,
-        write_report,
-    )
+    from ogacq.report import RECORD_NAME, build_report, collect, write_report
 
-    try:
-        view = parse_diagnosis(diagnosis) if diagnosis is not None else None
-    except DiagnosisFormatError as exc:
-        raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
+    view = _diagnosis_view(diagnosis, diagnosis_source or calibration.path) \
+        if diagnosis is not None else None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
     earlier = _earlier_issue(folder / RECORD_NAME)
@@ -160,6 +154,17 @@ def _issue_report(calibration: LoadedSession, folder: Path, *,
     # issued beside an earlier issue of the same record: its next revision, or itself
     report = build_report(data, issue(record, earlier))
     return write_report(report, folder), report
+
+
+def _diagnosis_view(diagnosis: dict[str, Any], source: Path) -> DiagnosisView:
+    """The diagnosis JSON read as the page reads it; InputError naming ``source`` and
+    the key it lacks."""
+    from ogacq.report import DiagnosisFormatError, parse_diagnosis
+
+    try:
+        return parse_diagnosis(diagnosis)
+    except DiagnosisFormatError as exc:
+        raise InputError(source, f"diagnosis: {exc}") from None
 
 
 def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
