@@ -176,24 +176,25 @@ def prediction_gap(predicted: Iso230Figures, after: dict[str, Any]) -> str | Non
     (``ogacq.compensation.iso230``): A is the error left, E, widened by two u either
     side. The prediction is the written map with its error taken away, so its A is
     four u of that map (measured densely by the scan); the validation identifies
-    what is left afresh, from its own readings, often fewer at fewer positions: its
-    u, not the machine, makes most of its A. An encoder-scale calibration predicted A
-    6.90 µm and its validation measured 13.08 µm, with no comment."""
+    what is left afresh, from its own readings, often fewer at fewer positions: an E
+    within the predicted band and its own u, not the machine, make its A larger. An
+    encoder-scale calibration predicted A 6.90 µm and its validation measured
+    13.08 µm, with no comment."""
     was, now = predicted.A * UM_PER_MM, float(after["A_mm"]) * UM_PER_MM
     if now <= was:
         return None
     left = float(after["E_mm"]) * UM_PER_MM
-    if left > was:
-        return (f"A {now:.2f} µm against {was:.2f} µm predicted: the error left, E "
-                f"{left:.2f} µm, is beyond the prediction's band: the correction left part "
-                "of the error")
-    u_now = float(after.get("u_max_mm", after["R_mm"] / 4)) * UM_PER_MM
     u_was = predicted.R / 4 * UM_PER_MM
-    return (f"A {now:.2f} µm against {was:.2f} µm predicted: the error left is E "
-            f"{left:.2f} µm; the rest is two u either side of it, this validation's own "
-            f"uncertainty of what is left (u up to {u_now:.2f} µm from its readings, where "
-            f"the written map's was {u_was:.2f} µm): how well it checks the axis, not an "
-            "error of the machine")
+    said = (f"A {now:.2f} µm against {was:.2f} µm predicted (no error left, two u either "
+            f"side: the written map's u {u_was:.2f} µm)")
+    if left > was:
+        return (f"{said}: E {left:.2f} µm is left, beyond that band: the correction left "
+                "part of the error")
+    u_now = float(after.get("u_max_mm", after["R_mm"] / 4)) * UM_PER_MM
+    return (f"{said}: this validation finds E {left:.2f} µm left, within that band, with "
+            f"two u of its own measure either side (u up to {u_now:.2f} µm)"
+            + (": how well it checks the axis, not an error of the machine"
+               if u_now > u_was else ""))
 
 
 def print_outcome(outcome: Outcome, report: Path | None) -> None:

@@ -49,16 +49,16 @@ def _shown(monkeypatch, after: dict) -> str:
 def test_a_validation_whose_own_uncertainty_widens_a_says_so(monkeypatch):
     after = _left(6.0, 0.0034)  # E 0.96 µm left, measured to 3.4 µm
     text = _shown(monkeypatch, after)
-    assert ("A 14.56 µm against 2.40 µm predicted: the error left is E 0.96 µm; the rest is "
-            "two u either side of it, this validation's own uncertainty of what is left (u "
-            "up to 3.40 µm from its readings, where the written map's was 0.60 µm): how "
-            "well it checks the axis, not an error of the machine") in text, text
+    assert ("A 14.56 µm against 2.40 µm predicted (no error left, two u either side: the "
+            "written map's u 0.60 µm): this validation finds E 0.96 µm left, within that "
+            "band, with two u of its own measure either side (u up to 3.40 µm): how well "
+            "it checks the axis, not an error of the machine") in text, text
 
 
 def test_an_error_left_beyond_the_predicted_band_is_said_to_be_one(monkeypatch):
     text = _shown(monkeypatch, _left(60.0, 0.0002))  # E 9.6 µm, well measured
-    assert "the error left, E 9.60 µm, is beyond the prediction's band: the correction left " \
-           "part of the error" in text, text
+    assert "the written map's u 0.60 µm): E 9.60 µm is left, beyond that band: the " \
+           "correction left part of the error" in text, text
 
 
 def test_a_validation_within_the_prediction_needs_no_words(monkeypatch):
