@@ -59,8 +59,9 @@ def report_command(
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
     check_pair(calibration, validation)
-    given = _read_diagnosis(diagnosis) if diagnosis is not None else None
-    if given is not None:
+    given = None
+    if diagnosis is not None:
+        given = _read_diagnosis(diagnosis)
         _diagnosis_view(given, diagnosis)  # a malformed one refused before the work
     # the files read first; then whether they may be reported (the page says so)
     for loaded in (calibration, validation):
