@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, TypedDict, Unpack
 
 import typer
 
@@ -110,22 +110,27 @@ def _browser() -> str:
     return find_browser()
 
 
-def write_session_report(calibration: LoadedSession, folder: Path, *,
-                         validation: LoadedSession | None = None,
-                         diagnosis: dict[str, Any] | None = None,
-                         diagnosis_note: str | None = None,
-                         diagnosis_source: Path | None = None,
-                         history: list[dict[str, Any]] | None = None,
-                         history_why: str | None = None,
-                         record: dict[str, Any] | None = None) -> Path:
+class ReportInputs(TypedDict, total=False):
+    """What a report is issued from beside its campaign's session (every keyword of
+    :func:`write_session_report`)."""
+
+    validation: LoadedSession | None
+    diagnosis: dict[str, Any] | None
+    diagnosis_note: str | None
+    diagnosis_source: Path | None
+    history: list[dict[str, Any]] | None
+    history_why: str | None
+    record: dict[str, Any] | None
+
+
+def write_session_report(calibration: LoadedSession, folder: Path,
+                         **inputs: Unpack[ReportInputs]) -> Path:
     """Write the report of ``calibration`` into ``folder``; returns the HTML file.
     ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``;
     ``history``: the machine's earlier calibrations (docs/calibration-record.md 5),
     ``history_why``: why there are none to give; ``record``: the record already built
     (``ogacq calibrate`` adds its compensation to it)."""
-    return _issue_report(calibration, folder, validation=validation, diagnosis=diagnosis,
-                         diagnosis_note=diagnosis_note, diagnosis_source=diagnosis_source,
-                         history=history, history_why=history_why, record=record)[0]
+    return _issue_report(calibration, folder, **inputs)[0]
 
 
 def _issue_report(calibration: LoadedSession, folder: Path, *,
