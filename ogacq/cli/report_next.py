@@ -40,11 +40,11 @@ def after_report(calibration: LoadedSession, validation: LoadedSession | None,
                              f"which wrote the corrections and judged them itself "
                              f"({compensation.outcome})"),)
     if validation is not None:
-        if validation_fit is not None and not fit_verdict(validation_fit).consistent:
+        if validation_fit is not None and not _validated(validation, validation_fit):
             return (NextStep(f"ogacq diagnose {validation.path}", "the validation is not "
                              "within the gauge noise: what the write-back left"),)
         return (NextStep("", "nothing more: the record states the machine as found and as "
-                             "left by the validation (`--pdf` prints it)"),)
+                             "left by the validation"),)
     if fit is None:
         return (NextStep("", "nothing to write from this campaign: its joint offsets "
                              "could not be identified (the record says why)"),)
@@ -66,6 +66,19 @@ def after_report(calibration: LoadedSession, validation: LoadedSession | None,
     why = (verdict.summary() if not verdict.consistent else
            "; ".join(fit.identifiability.reasons) or "not every offset is determined")
     return (NextStep("", f"nothing to write from {path.name}: {why}"),)
+
+
+def _validated(validation: LoadedSession, fit: FitResult) -> bool:
+    """Whether the validation is within the noise, judged as its own end judges it:
+    after a write-back from a diagnosis, with that diagnosis's effects carried over (its
+    joint offsets alone are biased by them, issue 38.4)."""
+    from ogacq.campaign.carried import carried_fit
+    from ogacq.identify.consistency import fit_verdict
+
+    if fit_verdict(fit).consistent:
+        return True
+    carried = carried_fit(validation)  # a diagnosis of the calibration: only when needed
+    return carried is not None and fit_verdict(carried.fit).consistent
 
 
 def _validation_of_written(calibration: LoadedSession) -> tuple[NextStep, ...]:

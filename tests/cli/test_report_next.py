@@ -111,3 +111,25 @@ def test_the_command_loads_the_figures_libraries_only_after_saying_so():
     ran = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
                          timeout=60, check=True)
     assert ran.stdout.strip() == "[]"
+
+
+def test_a_validation_after_a_write_from_the_diagnosis_is_judged_with_its_effects(
+        sessions, tmp_path):
+    """After `offsets write --from-diagnosis` the squareness stays: the validation's
+    joint offsets alone are NOT within the noise, with the squareness carried over they
+    are (issue 38.4): the record as found and as left is the end, not a diagnosis."""
+    session = tmp_path / "session.jsonl"
+    session.write_bytes(sessions["square"].read_bytes())
+    with AuditLog(load_session(session)) as log:
+        log.record("intent", operation="write-1", action="write", profile="cia402",
+                   old_mm=OLD, new_mm=NEW)
+        log.record("done", operation="write-1", action="write", old_mm=OLD, new_mm=NEW)
+    obs = simulate({"squareness.xy": 1.0}, 4, offsets={f"joint_offset.{a}": 0.002
+                                                       for a in "xyz"})
+    write_readings(tmp_path / "after.csv", obs.layout, obs.values)
+    validation = import_readings(tmp_path / "after.csv", MACHINE, tmp_path / "session-2.jsonl")
+    from ogacq.identify.consistency import fit_verdict
+
+    assert not fit_verdict(recorded_identification(load_session(validation))).consistent
+    ((command, why),) = _steps(session, validation)
+    assert command == "" and why.startswith("nothing more: the record states the machine")
