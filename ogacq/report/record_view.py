@@ -329,8 +329,10 @@ def verdict(record: CalibrationRecord) -> Table | None:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
     # so, and each p named (p_combined repeats p: shown once)
-    # a p-value as the terminal says it (3 digits, 2.8e-16; not 0.00000000000000028)
-    shown = {VERDICT_WORDS.get(k, k): format_p(v) if _is_p(k, v) else v
+    # a p-value as the terminal says it (3 digits, 2.8e-16; not 0.00000000000000028),
+    # the misfit per dof too (its text's "per dof 532", not 532.2801 beside it)
+    shown = {VERDICT_WORDS.get(k, k): format_p(v) if _is_p(k, v)
+             else f"{v:.3g}" if k == "chi2_dof" and isinstance(v, float) else v
              for k, v in found.fields.items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
 

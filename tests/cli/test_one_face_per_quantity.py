@@ -65,3 +65,15 @@ def test_the_pages_chi_square_table_writes_p_as_the_verdict_does(scaled):
     assert base.p < 1e-4  # the case where the two faces differed
     assert re.search(rf"joint offsets only [\d.]+ {base.dof} {re.escape(format_p(base.p))} ",
                      text), text[text.find("joint offsets only"):][:200]
+
+
+def test_the_pages_verdict_writes_the_misfit_per_dof_as_its_text_does(scaled):
+    """The record's verdict table said "χ² per dof 532.2801" beside its text's "per dof
+    532": both to three significant digits now (record.json keeps its four decimals)."""
+    _, session = scaled
+    record = build_record(session)
+    per_dof = record["verdict"]["chi2_dof"]
+    assert per_dof != float(f"{per_dof:.3g}")  # the case where the two faces differed
+    html = build_report(collect(session), record).html
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", html))
+    assert f"χ² per dof {per_dof:.3g} " in text and f"per dof {per_dof:.3g}," in text
