@@ -39,6 +39,14 @@ def sessions(tmp_path_factory) -> dict[str, Path]:
             "square": _session(folder, "square", {"squareness.xy": 1.0})}
 
 
+def _write_offsets(session: Path) -> None:
+    """An `offsets write` recorded done in ``session``, as its audit records it."""
+    with AuditLog(load_session(session)) as log:
+        log.record("intent", operation="write-1", action="write", profile="cia402",
+                   old_mm=OLD, new_mm=NEW)
+        log.record("done", operation="write-1", action="write", old_mm=OLD, new_mm=NEW)
+
+
 def _steps(session: Path, validation: Path | None = None) -> list[tuple[str, str]]:
     loaded = load_session(session)
     after = load_session(validation) if validation is not None else None
@@ -64,10 +72,7 @@ def test_offsets_written_wait_for_their_validation_then_its_record(sessions, tmp
     once the validation ran (the next session of its series), the record with it."""
     session = tmp_path / "session.jsonl"
     session.write_bytes(sessions["clean"].read_bytes())
-    with AuditLog(load_session(session)) as log:
-        log.record("intent", operation="write-1", action="write", profile="cia402",
-                   old_mm=OLD, new_mm=NEW)
-        log.record("done", operation="write-1", action="write", old_mm=OLD, new_mm=NEW)
+    _write_offsets(session)
     ((command, why),) = _steps(session)
     assert command == ""  # no campaign file to run it from: said in words
     assert f"a validation campaign, then `ogacq report {session} --after" in why
@@ -120,10 +125,7 @@ def test_a_validation_after_a_write_from_the_diagnosis_is_judged_with_its_effect
     are (issue 38.4): the record as found and as left is the end, not a diagnosis."""
     session = tmp_path / "session.jsonl"
     session.write_bytes(sessions["square"].read_bytes())
-    with AuditLog(load_session(session)) as log:
-        log.record("intent", operation="write-1", action="write", profile="cia402",
-                   old_mm=OLD, new_mm=NEW)
-        log.record("done", operation="write-1", action="write", old_mm=OLD, new_mm=NEW)
+    _write_offsets(session)
     obs = simulate({"squareness.xy": 1.0}, 4, offsets={f"joint_offset.{a}": 0.002
                                                        for a in "xyz"})
     write_readings(tmp_path / "after.csv", obs.layout, obs.values)
