@@ -180,7 +180,7 @@ def _measured_noise(spec: MachineSpec, path: Path) -> PlanNoise:
         f"the repeats of {path} ({found.dof} dof)"))
 
 
-def _checked_noise(spec: MachineSpec, machine: str, noise: float | None,
+def _checked_noise(spec: MachineSpec, machine: Path | str, noise: float | None,
                    noise_from: Path | None) -> PlanNoise:
     """The plan's noise, refused (naming the option or file) where no gauge has it."""
     if noise is not None and noise_from is not None:
