@@ -77,15 +77,29 @@ def calibrated(root: Path, args: list[str]) -> Path:
     level, which a correct model's campaign is once in a hundred (its timing moves the
     readings; seen once, p = 0.004), or when a reading lies far from its repeats at that
     level (seen once under load, p = 0.0004): such a refusal alone gets one more
-    campaign, so this fails on it once in ten thousand runs, and on anything else at
-    once."""
+    campaign, as does a separating scan judged not within the noise by chance alone
+    (``scan_judged_by_chance``): this fails on them once in ten thousand runs, and on
+    anything else at once."""
     for attempt in ("cal", "cal-again"):
         folder = root / attempt
         code = main(["calibrate", *args, "--out", str(folder)])
-        if not (code == 4 and refused_by_chance(folder)):
+        if not ((code == 4 and refused_by_chance(folder)) or scan_judged_by_chance(folder)):
             break
     assert code == 0
     return folder
+
+
+def scan_judged_by_chance(folder: Path) -> bool:
+    """The separating scan's diagnosis not within the noise at the 1 % level, yet far
+    from what a model left wrong gives (p > 1e-6): once in a hundred runs of a right
+    model (seen under load, p = 0.0116 with the timing's readings), and then its maps
+    are not established, the offsets alone written."""
+    scans = [r.details for r in log_steps(folder) if r.step == "diagnosis"
+             and r.details.get("role") == "separating"]
+    if not scans:
+        return False
+    final = scans[-1]["diagnosis"].get("chi2", {}).get("final", {})
+    return final.get("consistent") is False and (final.get("p") or 0.0) > 1e-6
 
 
 def refused_by_chance(folder: Path) -> bool:
