@@ -36,6 +36,15 @@ def ogacq_home(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.Mon
     return home
 
 
+@pytest.fixture(autouse=True)
+def one_command() -> None:
+    """Each test a command of its own: the first verdict it prints is said in full
+    (``ogacq/cli/verdict_text.py``: once a command, as ``run_app`` starts each)."""
+    from ogacq.cli.verdict_text import new_command
+
+    new_command()
+
+
 @pytest.fixture(scope="session")
 def paper_dir() -> Path:
     return PAPER

@@ -105,7 +105,7 @@ class CalibrationUI(Protocol):
 class Outcome:
     folder: Path
     procedure: str
-    outcome: str  # a WriteOutcome: validated, improved, restored, nothing to correct, ...
+    outcome: str  # a WriteOutcome: validated, not shown, improved, restored, ...
     reason: str
     evidence: Path | None = None
     validation: Path | None = None
@@ -473,8 +473,11 @@ class Procedure:
                 restored: dict[str, str | None]) -> Outcome:
         outcome = WriteOutcome.RESTORED if judgement.worse else judgement.outcome
         reason = "; ".join(judgement.reasons) if judgement.worse else (
-            "the validation is within the gauge noise " + judgement.looked
-            if outcome == WriteOutcome.VALIDATED else
+            "; ".join(["the validation is within the gauge noise " + judgement.looked
+                       + ("" if outcome == WriteOutcome.VALIDATED else
+                          ", but its test would not see every correction go wrong"),
+                       *judgement.seen()])
+            if outcome in (WriteOutcome.VALIDATED, WriteOutcome.NOT_SHOWN) else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
         reason = "; ".join([reason, *self._notes()])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,

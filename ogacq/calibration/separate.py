@@ -33,6 +33,7 @@ from ogacq.calibration.maps import compensable_effects
 from ogacq.diagnose.diagnosis import FEW_POSTURES, Diagnosis
 from ogacq.model.error_maps import FAMILIES as MAP_FAMILIES
 from ogacq.model.machine import MachineSpec
+from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
 from ogacq.protocol.scan_design import ScanDesign, design_scan
 from ogacq.session.store import LoadedSession
@@ -154,15 +155,33 @@ def offsets_carried(diagnosis: Diagnosis) -> Diagnosis:
 
 
 def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
-    """Why the separating scan's diagnosis cannot be written (empty: it can): its final
-    model is not within the gauge noise, where the calibration campaign's is. Its maps
-    are then not established (an error of another kind, or one its targets cannot
-    resolve), and the offsets go as far as their own campaign carries them."""
-    if scanned.final.consistent or not before.final.consistent:
+    """Why the separating scan's diagnosis cannot be written (empty: it can), where the
+    calibration campaign's is within the gauge noise (the offsets then go as far as
+    their own campaign carries them, the maps said to be not established):
+
+    * its final model is not within the gauge noise: an error of another kind, or one
+      its targets cannot resolve;
+    * it sees a cyclic error beyond the noise whose pitch it does not resolve (another
+      pitch fits alike: ``mapsearch._rival_pitch``): a map of either pitch, or a smooth
+      map standing in for it, is a guess where the readings do not see the joint (a
+      15 mm pitch written for a 20 mm lead left 3.5 µm rms of 2.8; a smooth map in its
+      place, 16 µm)."""
+    if not before.final.consistent:
+        return ""
+    unresolved = [] if scanned.mapped is None else scanned.mapped.search.unresolved
+    if scanned.final.consistent and not unresolved:
         return ""
     maps = ", ".join(m.source or f"map of {m.axis}" for m in scanned.maps) or "no map"
-    return ("error maps not established: the separating scan's diagnosis (" + maps
-            + ") fits " + scanned.final.describe()
-            + "; the offsets are those of the calibration campaign, within the noise; a scan "
-            "that resolves the rest (a longer --scan-minutes, the leads stated in the "
-            "machine file's screws table) would establish the maps")
+    if not scanned.final.consistent:
+        why = f"the separating scan's diagnosis ({maps}) fits {scanned.final.describe()}"
+        would = ("a scan that resolves the rest (a longer --scan-minutes, the leads stated "
+                 "in the machine file's screws table)")
+    else:
+        why = ("the separating scan sees a cyclic error whose pitch it does not resolve ("
+               + "; ".join(f"{AXES[c.term.axis]} axis: {c.unresolved}" for c in unresolved)
+               + "): a map of either pitch, or one in its place, would be a guess beyond "
+               "where its readings see the joint")
+        would = ("a measurement that sees the joint over its whole travel (a positioning "
+                 "test along the axis, ISO 230-2)")
+    return (f"error maps not established: {why}; the offsets are those of the calibration "
+            f"campaign, within the noise; {would} would establish the maps")

@@ -14,8 +14,12 @@ before, and restored, when any of these holds (each with its reason):
   effects identified again and what the maps left (``_after_maps``), exceeds the one
   before by more than three combined uncertainties of the maps.
 
-Otherwise it is ``validated`` when the fit is within the noise, and ``improved``
-(kept, not within the noise) when it is not but nothing got worse.
+Otherwise it is ``validated`` when the fit is within the noise and its test would
+have seen every correction go wrong, ``not shown`` when the fit is within the noise
+but an error of a correction's size would pass the test somewhere along its axis
+(``ogacq.calibration.sight``: where it sees, its limit elsewhere, what would show it),
+and ``improved`` (kept, not within the noise) when the fit is not within the noise
+but nothing got worse.
 """
 
 from __future__ import annotations
@@ -29,6 +33,7 @@ import numpy as np
 from ogacq.calibration.compensate import Compensation
 from ogacq.calibration.drive_step import with_drive_step
 from ogacq.calibration.maps import diagnosis_maps
+from ogacq.calibration.sight import AxisSight, merged, shown, sights
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
 from ogacq.compensation.iso230 import map_figures
@@ -49,11 +54,13 @@ from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession
 
 SIGMAS = 3.0  # how far beyond the combined uncertainty "worse" starts
+# from the worst to the best; "not shown": within the noise, a correction not seen
+OUTCOMES = ("worse", "improved", "not shown", "validated")
 
 
 @dataclass(frozen=True)
 class Judgement:
-    outcome: str  # validated, improved, worse
+    outcome: str  # one of OUTCOMES
     reasons: tuple[str, ...]  # why worse (empty otherwise)
     verdict: dict[str, Any]  # of the validation fit
     chi2_dof_before: float
@@ -65,6 +72,7 @@ class Judgement:
     figures_after: dict[str, dict[str, Any]]
     residual_effects: dict[str, dict[str, float]] = field(default_factory=dict)
     looked: str = ""  # where the validation read, and that between those it did not
+    sight: dict[str, AxisSight] = field(default_factory=dict)  # how far it sees each map
 
     @property
     def worse(self) -> bool:
@@ -72,12 +80,20 @@ class Judgement:
 
     def merged(self, other: Judgement) -> Judgement:
         """Two validations of one write (the calibration plan, a scan): worse when either
-        is, validated when both are; the figures of the scan where it has them."""
-        order = ("worse", "improved", "validated")
-        outcome = min(self.outcome, other.outcome, key=order.index)
+        is, within the noise when both are, and then a correction shown where either
+        sees it; the figures of the scan where it has them."""
+        outcome = min(self.outcome, other.outcome, key=OUTCOMES.index)
+        sight = merged(self.sight, other.sight)
+        outcome = outcome_of(outcome == "worse", outcome != "improved", sight)
         return replace(self, outcome=outcome, reasons=self.reasons + other.reasons,
                        figures_after={**self.figures_after, **other.figures_after},
-                       residual_effects={**self.residual_effects, **other.residual_effects})
+                       residual_effects={**self.residual_effects, **other.residual_effects},
+                       sight=sight)
+
+    def seen(self) -> list[str]:
+        """What the validation shows of each correction, in words: where it would see
+        one of its size go wrong, and its limit elsewhere."""
+        return [s.sentence() for s in self.sight.values()]
 
     def to_json(self) -> dict[str, Any]:
         return {"outcome": self.outcome, "reasons": list(self.reasons),
@@ -88,7 +104,19 @@ class Judgement:
                 "offsets_after_mm": self.offsets_after_mm,
                 "offsets_after_std_mm": self.offsets_after_std_mm,
                 "figures_before": self.figures_before, "figures_after": self.figures_after,
-                "residual_effects": self.residual_effects, "looked": self.looked}
+                "residual_effects": self.residual_effects, "looked": self.looked,
+                "sight": {a: s.to_json() for a, s in self.sight.items()}}
+
+
+def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> str:
+    """A validation's outcome: worse (with reasons), else improved when its fit is not
+    within the noise, else validated when its test sees every correction go wrong
+    (``sight``) and not shown when it does not."""
+    if worse:
+        return "worse"
+    if not within_noise:
+        return "improved"
+    return "validated" if shown(sight) else "not shown"
 
 
 def where_looked(sessions: list[LoadedSession], machine: MachineSpec) -> str:
@@ -159,12 +187,13 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
         if now > was + margin:
             reasons.append(f"axis {a}: systematic positioning error E grew from "
                            f"{was * UM_PER_MM:.1f} to {now * UM_PER_MM:.1f} µm (ISO 230-2)")
-    outcome = "worse" if reasons else "validated" if v_after.consistent else "improved"
+    sight = sights(comp.maps, result, v_after, machine) if v_after.consistent else {}
+    outcome = outcome_of(bool(reasons), v_after.consistent, sight)
     p_value = v_after.p_value if math.isfinite(v_after.p_value) else None
     return Judgement(outcome, tuple(reasons), {**v_after.to_json(), "text": v_after.describe(),
                                                "state": v_after.state, "p_value": p_value},
                      v_before.chi2_dof, v_after.chi2_dof, dict(comp.offsets_mm), drho, drho_std,
-                     figures_before, figures_after, residual)
+                     figures_before, figures_after, residual, sight=sight)
 
 
 def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],

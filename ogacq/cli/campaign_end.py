@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from ogacq.cli.verdict_text import one_line
 from ogacq.diagnose.outliers import described_outliers
 from ogacq.identify.consistency import Verdict, fit_verdict
 from ogacq.identify.fit import FitResult
@@ -57,14 +58,18 @@ class CampaignEnd:
         """Plain text (escape it before rich sees it)."""
         issued = (f"issued as {self.report.with_name('record.json')}" if self.report
                   else "`ogacq report` issues it: report.html and record.json")
-        out = [f"verdict: {self.verdict.summary()}", f"record: {self.record_id} ({issued})"]
+        out = [f"verdict: {one_line(self.verdict)}", f"record: {self.record_id} ({issued})"]
         if self.carried is not None:
             out.insert(1, self.carried)
-        for k, step in enumerate(self.steps):
-            lead = "next: " if k == 0 else "      "
-            out.append(f"{lead}{step.command}   ({step.why})" if step.command
-                       else f"{lead}{step.why}")
-        return out
+        return out + step_lines(self.steps)
+
+
+def step_lines(steps: Sequence[NextStep]) -> list[str]:
+    """The next steps as every command ends with them: ``next: COMMAND   (why)``, the
+    others below it (plain text)."""
+    return [("next: " if k == 0 else "      ")
+            + (f"{step.command}   ({step.why})" if step.command else step.why)
+            for k, step in enumerate(steps)]
 
 
 def campaign_end(session_path: Path, fit: FitResult, *, simulated: bool,
@@ -101,15 +106,16 @@ def _carried(session: LoadedSession) -> str | None:
         return None
     offsets = ", ".join(f"{a} {carried.fit.value(f'joint_offset.{a}'):+.4f}" for a in AXES)
     return (f"{carried.describe()}: joint offsets left {offsets} mm, "
-            f"{fit_verdict(carried.fit).summary()}")
+            f"{one_line(fit_verdict(carried.fit))}")
 
 
 def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
                simulated: bool, report: Path | None = None,
                rehearsal_writeback: bool = False, outliers: Sequence[str] = (),
-               ) -> tuple[NextStep, ...]:
+               reported: bool = False) -> tuple[NextStep, ...]:
     """What to do now, most useful first. ``outliers``: readings far from their
-    agreeing repeats, which no write-back should follow unseen."""
+    agreeing repeats, which no write-back should follow unseen; ``reported``: the
+    record was just issued (``ogacq report``): no step to issue or open it."""
     path = session.path
     from ogacq.campaign.carried import validation_of
 
@@ -118,8 +124,9 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
         return (NextStep(f"ogacq report {calibrated} --after {path}",
                          f"the record of {calibrated.name}: as found, and as left by this "
                          "validation"),)
-    steps = [NextStep(f"open {report}", "the calibration record") if report is not None
-             else NextStep(f"ogacq report {path}", "the calibration record")]
+    steps = [] if reported else [
+        NextStep(f"open {report}", "the calibration record") if report is not None
+        else NextStep(f"ogacq report {path}", "the calibration record")]
     if verdict.state == "inconsistent":
         steps.insert(0, NextStep(f"ogacq diagnose {path}", "what the joint offsets leave "
                                  "out: look before writing anything"))

@@ -180,6 +180,41 @@ def _measured_noise(spec: MachineSpec, path: Path) -> PlanNoise:
         f"the repeats of {path} ({found.dof} dof)"))
 
 
+def _checked_noise(spec: MachineSpec, machine: Path | str, noise: float | None,
+                   noise_from: Path | None) -> PlanNoise:
+    """The plan's noise, refused (naming the option or file) where no gauge has it."""
+    if noise is not None and noise_from is not None:
+        raise InputError("--noise-from", "give the noise (--noise) or where to measure it "
+                                         "(--noise-from), not both")
+    gauge = plan_noise(spec, Path(machine).name, noise, noise_from)
+    sigma = gauge.scatter_mm
+    if not 0 <= sigma <= MAX_NOISE_MM or (sigma == 0 and gauge.source == "--noise"):
+        raise InputError("--noise" if noise is not None else noise_from or machine,
+                         f"the gauge noise must be above 0 and at most {MAX_NOISE_MM:g} mm "
+                         f"(beyond any indicator), got {sigma:g} mm")
+    return gauge
+
+
+def _planned_protocol(spec: MachineSpec, postures: str, cycles: int, approach: str,
+                      scan_step: float | None, scan_range: str | None) -> ProtocolConfig:
+    """The campaign the plan predicts, its options checked against the machine."""
+    if approach not in APPROACHES:
+        raise InputError("--approach", f"{approach!r} is not one of {', '.join(APPROACHES)}")
+    if scan_step is None and scan_range is not None:
+        raise InputError("--scan-range", "needs --scan-step (the step of the scan)")
+    start, end = parse_range(scan_range)
+    try:
+        protocol = ProtocolConfig(
+            postures=tuple(parse_postures(postures, spec.rho_min_mm, spec.rho_max_mm)),
+            cycles=cycles, approach=approach, scan_step_mm=scan_step, scan_from_mm=start,
+            scan_to_mm=end)
+        check_postures(protocol, spec)
+    except PlanError as exc:
+        raise InputError("--scan-step" if scan_step is not None else "--postures",
+                         str(exc)) from None
+    return protocol
+
+
 def plan(
     machine: MachineOption,
     params: Annotated[ParamSet, typer.Option(help="Parameter set to identify.")]
@@ -223,29 +258,9 @@ def plan(
 ) -> None:
     """Predict the std of each parameter for a planned campaign."""
     spec = read_machine(machine)
-    if noise is not None and noise_from is not None:
-        raise InputError("--noise-from", "give the noise (--noise) or where to measure it "
-                                         "(--noise-from), not both")
-    gauge = plan_noise(spec, Path(machine).name, noise, noise_from)
+    gauge = _checked_noise(spec, machine, noise, noise_from)
     sigma = gauge.scatter_mm
-    if not 0 <= sigma <= MAX_NOISE_MM or (sigma == 0 and gauge.source == "--noise"):
-        raise InputError("--noise" if noise is not None else noise_from or machine,
-                         f"the gauge noise must be above 0 and at most {MAX_NOISE_MM:g} mm "
-                         f"(beyond any indicator), got {sigma:g} mm")
-    if approach not in APPROACHES:
-        raise InputError("--approach", f"{approach!r} is not one of {', '.join(APPROACHES)}")
-    if scan_step is None and scan_range is not None:
-        raise InputError("--scan-range", "needs --scan-step (the step of the scan)")
-    start, end = parse_range(scan_range)
-    try:
-        protocol = ProtocolConfig(
-            postures=tuple(parse_postures(postures, spec.rho_min_mm, spec.rho_max_mm)),
-            cycles=cycles, approach=approach, scan_step_mm=scan_step, scan_from_mm=start,
-            scan_to_mm=end)
-        check_postures(protocol, spec)
-    except PlanError as exc:
-        raise InputError("--scan-step" if scan_step is not None else "--postures",
-                         str(exc)) from None
+    protocol = _planned_protocol(spec, postures, cycles, approach, scan_step, scan_range)
     obs = planned_observations(spec, protocol=protocol)
     if sigma == 0:  # the rounding alone: the analytic floor, no trials to draw
         trials = 0

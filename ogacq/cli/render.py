@@ -12,6 +12,7 @@ from rich.table import Table
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render_fit import format_number
+from ogacq.cli.verdict_text import paragraph
 from ogacq.model.parameters import effect_of
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import expanded_mm, result_headline, rounded, two_digits
@@ -317,9 +318,9 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
     diagnosis = d.to_json()
     if d.outcome == "consistent":
         console.print(f"diagnosis: the joint offsets explain the readings, "
-                      f"{d.base.describe()}: nothing left out", highlight=False)
+                      f"{paragraph(d.base)}: nothing left out", highlight=False)
         return
-    console.print(f"[yellow]diagnosis: the joint offsets alone: {d.base.describe()}[/]",
+    console.print(f"[yellow]diagnosis: the joint offsets alone: {paragraph(d.base)}[/]",
                   highlight=False)
     table = Table(show_edge=False, header_style="bold", title="physics found by the diagnosis")
     for column in ("effect", "found", "std", "hidden truth", "unit", "alternatives"):
@@ -333,14 +334,18 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
             table.add_row(f"unexplained at {e['where']}", "-", "-", "-", "", "")
             continue
         alternatives = ", ".join(f"{a['effect']}.{a['where']}" for a in e["alternatives"])
+        # one face for one quantity: the value and the truth at the std's decimal place,
+        # the std to two digits, as every later line says it (it was "+382.6237 |
+        # 23.8388" here, then "+383 ± 24 ppm"; JCGM 100:2008 7.2.6)
         truth = hidden.get(name)
-        table.add_row(name, f"{e['value']:+.4f}", f"{e['std']:.4f}",
-                      "-" if truth is None else f"{truth:+.4f}", e["unit"], alternatives)
+        table.add_row(name, rounded(e["value"], e["std"], sign=True), two_digits(e["std"]),
+                      rounded(truth, e["std"], sign=True), e["unit"], alternatives)
     for name, value in hidden.items():
         if not name.startswith("joint_offset.") and name not in found:
-            table.add_row(name, "not found", "", f"{value:+.4f}", effect_of(name).unit, "")
+            table.add_row(name, "not found", "", format_number(value), effect_of(name).unit,
+                          "")
     console.print(table)
-    console.print(f"with these effects the fit is {d.final.describe()}", highlight=False)
+    console.print(f"with these effects the fit is {paragraph(d.final)}", highlight=False)
     offsets = diagnosis["parameters"]["joint_offset"]
     console.print("joint offsets of the final model: " + ", ".join(
         f"{a} {offsets[a]:+.4f} (truth {hidden.get(f'joint_offset.{a}', 0.0):+.4f})"

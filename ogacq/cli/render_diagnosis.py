@@ -13,6 +13,7 @@ from ogacq.cli.render_maps import (
     print_profiles,
     print_proposals,
 )
+from ogacq.cli.verdict_text import paragraph
 from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
@@ -37,7 +38,7 @@ def _value(value: float, std: float, unit: str) -> str:
 
 def _judged(title: str, v: Verdict) -> str:
     colour = "green" if v.consistent else "red"
-    return f"{title}: [{colour}]{v.describe()}[/]"
+    return f"{title}: [{colour}]{paragraph(v)}[/]"
 
 
 def _verdict_line(title: str, model: Model) -> str:
@@ -268,7 +269,7 @@ def _print_outcome_line(d: Diagnosis) -> None:
         if d.selection.final.effects:
             out.print(f"  the best set tried, {label(d.selection.final.effects)}, removes "
                       f"only {d.explained_share:.0%} of the misfit beyond the noise "
-                      f"({d.selection.final.verdict.describe()})")
+                      f"({paragraph(d.selection.final.verdict)})")
 
 
 def _print_effect(e: EffectFound, d: Diagnosis, machine_file: str) -> None:

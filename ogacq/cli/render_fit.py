@@ -8,6 +8,7 @@ import numpy as np
 from rich.table import Table
 
 from ogacq.cli.plain import Printer, shown
+from ogacq.cli.verdict_text import paragraph
 from ogacq.model.parameters import effect_of
 
 out = Printer()
@@ -68,6 +69,6 @@ def print_fit(result: FitResult, params_label: str, diagnose: str = "ogacq diagn
 
     verdict = fit_verdict(result)
     colour = {"consistent": "green", "inconsistent": "red"}.get(verdict.state, "yellow")
-    out.print(f"fit: [{colour}]{verdict.describe()}[/]")
+    out.print(f"fit: [{colour}]{paragraph(verdict)}[/]")
     if verdict.state == "inconsistent":
         out.print(f"[yellow]the model leaves something out: next, {shown(diagnose)}[/]")

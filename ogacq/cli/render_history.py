@@ -13,6 +13,7 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
 from ogacq.history.drift import ControllerChange, Drift, expanded
+from ogacq.history.entries import parameter_unit
 from ogacq.history.states import MachineState
 from ogacq.history.store import Calibration, Event, Machine, OffsetState
 from ogacq.model.units import UM_PER_MM
@@ -113,12 +114,18 @@ def _values_table(calibrations: Sequence[Calibration], drifts: Sequence[Drift],
     names = list(dict.fromkeys(n for c in calibrations for n in c.parameters))
     flagged = {(d.to_record, d.parameter) for d in drifts if d.flagged}
     joint = all(n.startswith("joint_offset.") for n in names)
-    values = Table(title=f"identified {'joint offsets ' if joint else ''}(mm ± U, k = 2; "
+    # one unit per quantity, as the figure (--plot) draws it: the title's mm when every
+    # column is a length, else each column's own unit in its header
+    units = {n: parameter_unit(n) for n in names}
+    in_mm = all(u == "mm" for u in units.values())
+    values = Table(title=f"identified {'joint offsets ' if joint else ''}"
+                         f"({'mm ± U' if in_mm else 'value ± U'}, k = 2; "
                          f"{DRIFT_MARK} changed by more than U)",
                    show_edge=False, header_style="bold", title_justify="left")
     values.add_column("date")  # wraps before its time, never a value cut off
     for name in names:
-        values.add_column(shown(_short(name)), justify="right", no_wrap=True)
+        header = _short(name) if in_mm else f"{_short(name)} ({units[name]})"
+        values.add_column(shown(header), justify="right", no_wrap=True)
     for c in calibrations:
         values.add_row(shown(_when(c.date)), *(_value(c, n, (c.record_id, n) in flagged)
                                                for n in names))

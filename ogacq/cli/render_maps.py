@@ -11,6 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ogacq.cli.plain import Printer
+from ogacq.cli.verdict_text import paragraph
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
 from ogacq.diagnose.profile import SPARK, LegProfile
@@ -67,7 +68,7 @@ def print_coverage(d: Diagnosis) -> None:
                   f"beside them (p = {format_p(p)})")
     if mapped.fit is not None:
         out.print(f"  chi2 with the library's effects {mapped.chi2_before:.1f}, with the "
-                  f"maps {mapped.chi2_after:.1f}: {escape(d.final.describe())}")
+                  f"maps {mapped.chi2_after:.1f}: {escape(paragraph(d.final))}")
     out.print()
 
 

@@ -10,6 +10,7 @@ from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
+from ogacq.cli.verdict_text import paragraph
 from ogacq.writeback.audit import Operation
 from ogacq.writeback.evidence import Evidence
 from ogacq.writeback.execute import WriteOutcome
@@ -44,7 +45,7 @@ def print_evidence(evidence: Evidence) -> None:
                   highlight=False)
     verdict = evidence.verdict
     colour = "green" if verdict.consistent else "red"
-    console.print(f"{shown(evidence.model)} fit: [{colour}]{shown(verdict.describe())}[/]",
+    console.print(f"{shown(evidence.model)} fit: [{colour}]{shown(paragraph(verdict))}[/]",
                   highlight=False)
     if evidence.identifiable:
         console.print("identifiable: every joint offset is determined by this campaign")

@@ -5,35 +5,25 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any, TypedDict, Unpack
 
 import typer
 
 from ogacq.cli.options import AcceptEditedOption, PartialOption
 from ogacq.cli.outputs import check_output_folder
-from ogacq.cli.render import working
-from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError
 from ogacq.history.earlier import earlier_calibrations
 from ogacq.io.text import read_text
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.context import calibration_context
-from ogacq.record.document import build_record
 from ogacq.record.identity import session_digest
-from ogacq.record.revision import issue
-from ogacq.record.sections import SessionReference
-from ogacq.report import (
-    RECORD_NAME,
-    DiagnosisFormatError,
-    build_report,
-    collect,
-    parse_diagnosis,
-    write_report,
-)
-from ogacq.report.printing import find_browser, print_pdf
-from ogacq.session.convert import session_observations
-from ogacq.session.state import require_complete, session_notes
 from ogacq.session.store import LoadedSession, load_session
+
+if TYPE_CHECKING:  # loaded once the command has said what it does (numpy, matplotlib)
+    from ogacq.diagnose.diagnosis import Diagnosis
+    from ogacq.record.sections import SessionReference
+    from ogacq.report import Report
+    from ogacq.report.diagnosis_view import DiagnosisView
 
 
 def report_command(
@@ -54,7 +44,7 @@ def report_command(
              "folder; none: no history).")] = None,
     pdf: Annotated[bool, typer.Option(
         "--pdf", help="Also print the page to report.pdf (A4) with a headless Chromium "
-                      "(on the PATH, or named by OGACQ_BROWSER); exit 3 when there is none.")
+                      "(on the PATH, or named by OGACQ_BROWSER); exit 2 when there is none.")
     ] = False,
     partial: PartialOption = False,
     accept_edited: AcceptEditedOption = False,
@@ -62,19 +52,34 @@ def report_command(
     """Write the calibration record: report.html (identification, instruments,
     environment, method, results with their uncertainty, acceptance, budget, history,
     then the analysis behind them), record.json with the same record, and the figures."""
+    from ogacq.session.state import require_complete, session_notes
+
     folder = out if out is not None else session.parent / f"{session.stem}-report"
     check_output_folder(folder, "--out")
-    browser = find_browser() if pdf else None  # before the work: none is exit 2
     calibration = load_session(session, accept_edited=accept_edited)
     validation = load_session(after, accept_edited=accept_edited) if after is not None else None
     check_pair(calibration, validation)
-    given = _read_diagnosis(diagnosis) if diagnosis is not None else None
+    given = None
+    if diagnosis is not None:
+        given = _read_diagnosis(diagnosis)
+        _diagnosis_view(given, diagnosis)  # a malformed one refused before the work
     # the files read first; then whether they may be reported (the page says so)
     for loaded in (calibration, validation):
         if loaded is not None:
             state = require_complete(loaded, partial)
             for line in session_notes(loaded, state):
                 typer.echo(f"ogacq: warning: {loaded.path}: {line}", err=True)
+    browser = _browser() if pdf else None  # before the work: none is exit 2
+    # some seconds of work (the analysis's and the figures' libraries loaded, the
+    # diagnosis, the budget's Monte-Carlo check, the figures drawn), once the inputs
+    # are found good: said on stderr, where the page's path on stdout stays the first
+    # line a script reads (it was silent for 15-18 s on a busy machine)
+    typer.echo(f"ogacq report: issuing the record of {session}: its diagnosis, uncertainty "
+               "budget, Monte-Carlo check and figures", err=True)
+    from ogacq.cli.campaign_end import step_lines
+    from ogacq.cli.render import print_end, working
+    from ogacq.cli.report_next import after_report
+
     earlier, why = earlier_calibrations(history, calibration)
     raw: dict[str, Any] | None
     if given is not None:
@@ -83,32 +88,67 @@ def report_command(
         with working(f"diagnosing {calibration.path.name}"):
             raw, note = _diagnose_here(calibration)
     with working("issuing the record: uncertainty budget, Monte-Carlo check, figures"):
-        page = write_session_report(calibration, folder, validation=validation,
-                                    diagnosis=raw, diagnosis_note=note,
-                                    diagnosis_source=diagnosis or session,
-                                    history=earlier, history_why=why)
+        page, report = _issue_report(calibration, folder, validation=validation,
+                                     diagnosis=raw, diagnosis_note=note,
+                                     diagnosis_source=diagnosis or session,
+                                     history=earlier, history_why=why)
     typer.echo(str(page))
     if browser is not None:  # after the page is on disk: a failed print loses nothing
+        from ogacq.report.printing import print_pdf  # loaded by _browser already
+
         typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))
+    # what to do once it is read: every command ends with the next one (issue 38.5)
+    steps = after_report(calibration, validation, CalibrationRecord.from_json(report.record),
+                         report.data.identified, report.data.validation_identified)
+    print_end(step_lines(steps))
 
 
-def write_session_report(calibration: LoadedSession, folder: Path, *,
-                         validation: LoadedSession | None = None,
-                         diagnosis: dict[str, Any] | None = None,
-                         diagnosis_note: str | None = None,
-                         diagnosis_source: Path | None = None,
-                         history: list[dict[str, Any]] | None = None,
-                         history_why: str | None = None,
-                         record: dict[str, Any] | None = None) -> Path:
+def _browser() -> str:
+    """The headless Chromium ``--pdf`` prints with (InputError when there is none)."""
+    from ogacq.report.printing import find_browser  # the report package: matplotlib
+
+    return find_browser()
+
+
+class ReportInputs(TypedDict, total=False):
+    """What a report is issued from beside its campaign's session (every keyword of
+    :func:`write_session_report`)."""
+
+    validation: LoadedSession | None
+    diagnosis: dict[str, Any] | None
+    diagnosis_note: str | None
+    diagnosis_source: Path | None
+    history: list[dict[str, Any]] | None
+    history_why: str | None
+    record: dict[str, Any] | None
+
+
+def write_session_report(calibration: LoadedSession, folder: Path,
+                         **inputs: Unpack[ReportInputs]) -> Path:
     """Write the report of ``calibration`` into ``folder``; returns the HTML file.
     ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``;
     ``history``: the machine's earlier calibrations (docs/calibration-record.md 5),
     ``history_why``: why there are none to give; ``record``: the record already built
     (``ogacq calibrate`` adds its compensation to it)."""
-    try:
-        view = parse_diagnosis(diagnosis) if diagnosis is not None else None
-    except DiagnosisFormatError as exc:
-        raise InputError(diagnosis_source or calibration.path, f"diagnosis: {exc}") from None
+    return _issue_report(calibration, folder, **inputs)[0]
+
+
+def _issue_report(calibration: LoadedSession, folder: Path, *,
+                  validation: LoadedSession | None = None,
+                  diagnosis: dict[str, Any] | None = None,
+                  diagnosis_note: str | None = None,
+                  diagnosis_source: Path | None = None,
+                  history: list[dict[str, Any]] | None = None,
+                  history_why: str | None = None,
+                  record: dict[str, Any] | None = None) -> tuple[Path, Report]:
+    """:func:`write_session_report`, and the report written (its data: what the next
+    step is decided from)."""
+    from ogacq.record.document import build_record
+    from ogacq.record.revision import issue
+    from ogacq.report import RECORD_NAME, build_report, collect, write_report
+
+    view = _diagnosis_view(diagnosis, diagnosis_source or calibration.path) \
+        if diagnosis is not None else None
     data = collect(calibration, validation=validation, diagnosis=view,
                    diagnosis_note=diagnosis_note)
     earlier = _earlier_issue(folder / RECORD_NAME)
@@ -118,8 +158,19 @@ def write_session_report(calibration: LoadedSession, folder: Path, *,
                               validation_fit=data.validation_identified)
         record = _with_compensation_of(record, earlier)
     # issued beside an earlier issue of the same record: its next revision, or itself
-    record = issue(record, earlier)
-    return write_report(build_report(data, record), folder)
+    report = build_report(data, issue(record, earlier))
+    return write_report(report, folder), report
+
+
+def _diagnosis_view(diagnosis: dict[str, Any], source: Path) -> DiagnosisView:
+    """The diagnosis JSON read as the page reads it; InputError naming ``source`` and
+    the key it lacks."""
+    from ogacq.report import DiagnosisFormatError, parse_diagnosis
+
+    try:
+        return parse_diagnosis(diagnosis)
+    except DiagnosisFormatError as exc:
+        raise InputError(source, f"diagnosis: {exc}") from None
 
 
 def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
@@ -183,10 +234,10 @@ def report_of(session: Path, folder: Path, validation: Path | None = None,
     after = load_session(validation) if validation is not None else None
     earlier, why = earlier_calibrations(history, calibration)
     raw, note = _diagnose_here(calibration)
-    page = write_session_report(calibration, folder, validation=after, diagnosis=raw,
-                                diagnosis_note=note, diagnosis_source=session,
-                                history=earlier, history_why=why)
-    return page, json.loads((folder / RECORD_NAME).read_text(encoding="utf-8"))
+    page, report = _issue_report(calibration, folder, validation=after, diagnosis=raw,
+                                 diagnosis_note=note, diagnosis_source=session,
+                                 history=earlier, history_why=why)
+    return page, json.loads(report.record_json())  # as record.json holds it
 
 
 def report_diagnosis(result: Diagnosis, session: LoadedSession) -> dict[str, Any]:
@@ -222,6 +273,9 @@ def _read_diagnosis(path: Path) -> dict:
 
 def _diagnose_here(session: LoadedSession) -> tuple[dict[str, Any] | None, str | None]:
     """The diagnosis of the session's readings, or (None, why there is none)."""
+    from ogacq.diagnose.diagnosis import DiagnosisError, diagnose
+    from ogacq.session.convert import session_observations
+
     if not session.readings:
         return None, "no diagnosis: the session holds no readings"
     try:

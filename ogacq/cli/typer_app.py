@@ -19,6 +19,7 @@ from ogacq.cli.lazy import LazyCommands
 from ogacq.cli.log_options import LOG_FILE_OPTION, VERBOSE_FLAGS, apply_log_options
 from ogacq.cli.repeated_warnings import say_pending_repeats
 from ogacq.cli.say import SIGPIPE_EXIT, pointed_at_null_device, reader_gone, say
+from ogacq.cli.verdict_text import new_command
 
 
 class OgacqCommands(LazyCommands):
@@ -59,6 +60,7 @@ def _root(version: Annotated[bool, typer.Option("--version", callback=_version,
 def run_app(argv: list[str]) -> int:
     """Run ``argv`` through typer: click's own outcomes (an exit, an abort, the help,
     a usage error) become exit codes here; ogacq's errors go up to ``main``."""
+    new_command()  # its first verdict said in full (ogacq/cli/verdict_text.py)
     try:
         try:
             # Outside standalone mode click returns typer.Exit's code instead of exiting.

@@ -50,6 +50,7 @@ from typing import Any
 
 import numpy as np
 
+from ogacq.diagnose.alternatives import SWAP_CHI2
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
@@ -79,6 +80,7 @@ SHORTEST_LEAD_MM = 1.0
 MAX_TERMS = 4
 STRICTER_WHEN_CONSISTENT = 10.0
 CHUNK = 64  # trial frequencies per batch
+RIVALS = "pitch unresolved: "  # how a pitch between rival peaks is said (_rival_pitch)
 
 
 @dataclass(frozen=True)
@@ -326,6 +328,8 @@ class _Families:
         elif best == 0:
             unresolved = (f"pitch unresolved (beyond the band's {max_pitch:.3g} mm edge: "
                           f"{MIN_PERIODS:g} periods over the span; the smooth map's)")
+        else:
+            unresolved = _rival_pitch(freqs, gains, best, self.space, self.noise)
         grid = self._candidate(term, self._periodic_gain(freqs[best:best + 1]), 0, len(freqs),
                                1, periodogram=gram, refine=None if unresolved else refine,
                                unresolved=unresolved)
@@ -384,6 +388,31 @@ class _Families:
                                          _noise_var(self.space, self.noise))
         return self._candidate(term, gain, 0, len(values), term.shape_parameters,
                                shape_std=std)
+
+
+def _rival_pitch(freqs: np.ndarray, gains: np.ndarray, best: int, space: MapSpace,
+                 noise: GaugeNoise) -> str:
+    """Why the best pitch is not resolved (empty: it is): another peak of the
+    periodogram, apart from the best's, fits within ``SWAP_CHI2`` of it (the swap
+    test's three-sigma rule), in units of the variance the best leaves. Readings that
+    see a joint strongly only over a stretch shorter than the period (the other legs'
+    gauges, over the 16 mm the joint moves while those legs are driven) fit a 15 mm
+    pitch there about as well as a 20 mm one."""
+    if len(gains) < 3:
+        return ""
+    var = max(noise.variance, (space.rss - float(gains[best])) / max(space.dof - 2, 1))
+    inner = (gains[1:-1] >= gains[:-2]) & (gains[1:-1] >= gains[2:])
+    peaks = np.flatnonzero(np.concatenate([[gains[0] > gains[1]], inner,
+                                           [gains[-1] > gains[-2]]]))
+    apart = np.abs(peaks - best) >= OVERSAMPLE  # beyond the best's own main lobe
+    close = peaks[apart & (gains[best] - gains[peaks] < SWAP_CHI2 * var)]
+    if not len(close):
+        return ""
+    rival = int(close[np.argmax(gains[close])])
+    return (f"{RIVALS}{1.0 / freqs[best]:.4g} and {1.0 / freqs[rival]:.4g} mm fit "
+            f"alike (chi-square {(gains[best] - gains[rival]) / var:.2g} apart, under "
+            f"{SWAP_CHI2:g}); positions that see this joint over its whole travel would "
+            "tell them apart")
 
 
 def _trial_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -458,6 +487,17 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
     return out
 
 
+def _unresolved_first(judged: list[MapCandidate], level: float) -> bool:
+    """Whether the step's best explanation by the BIC, of those beyond the noise, is a
+    cyclic error whose pitch lies between rival peaks: nothing is taken then, for
+    whatever else were taken would stand in for it, fitted where the readings see the
+    joint and a guess beyond (a smooth map of 16 µm, a hysteresis, for a 4 µm error of
+    20 mm pitch)."""
+    seen = [c for c in judged if c.p_value < level and c.rank > 0]
+    best = min(seen, key=lambda c: c.delta_bic, default=None)
+    return best is not None and best.unresolved.startswith(RIVALS)
+
+
 def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
                 names: tuple[str, ...], rss: float, consistent: bool,
                 alpha: float = LEVEL, max_terms: int = MAX_TERMS,
@@ -495,7 +535,7 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
         if not search.periodograms:
             search.periodograms = grams
         eligible = [c for c in judged if c.eligible]
-        if not eligible:
+        if not eligible or _unresolved_first(judged, level):
             search.last_considered = sorted(judged, key=lambda c: c.delta_bic)
             break
         chosen = min(eligible, key=lambda c: c.delta_bic).refined()

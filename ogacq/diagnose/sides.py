@@ -9,15 +9,26 @@ motion (side 0), half a backlash from where the joint really was, on one side or
 the other. With a backlash in the machine, those readings then misfit by half of
 it, and a leg length can fit the campaign better than the backlash that is there.
 
-The side is a nuisance: one unknown sign per joint. It matters only through the
-joint's lost motion, so it is resolved where it does: for each joint whose readings
-before its first move see its position (a Zero posture does not: there its leg is
-parallel to the axis), the joint offsets and the backlashes are fitted with
-every combination of sides taken as from below or from above; a side is kept
-when its combination fits best, better than with that side flipped by more than the
-1 % point of chi-square with one degree of freedom, and that joint's backlash is as
-significant there; otherwise it stays unknown (the middle of the lost motion: half a
-backlash off whichever side it was, where a wrong side would be a whole one).
+The side is a nuisance: one unknown per joint. A joint that has not moved since
+the machine was switched on, or since a move nobody recorded, need not be at either
+end of its lost motion: it is anywhere within it (a drive that stopped part way
+through a reversal, a wind-up half built up; the simulator puts such a joint in the
+middle). It matters only through the joint's lost motion, so it is resolved where it
+does: for each joint whose readings before its first move see its position (at a
+Zero posture the leg's own joint does not, its leg parallel to the axis; the other
+two do), the joint offsets and the backlashes are fitted with every combination of
+sides taken as from below or from above; a side is kept when its combination fits
+best, better than with that side flipped, and than with that joint in the middle, by
+more than the 1 % point of chi-square with one degree of freedom, and that joint's
+backlash is as significant there (both bars times the fit's reduced chi-square where
+a constant backlash does not fit within the noise); otherwise it stays unknown (the
+middle of the lost motion: half a backlash off whichever end it was at, where a
+wrong side would be a whole one). A side is never taken merely because it is the
+less wrong of the two ends: a joint left in the middle, its lost motion building up
+over the travel (hysteresis, which a constant backlash fits only roughly), fits one
+end better than the other and the middle best (issue 37: a wind-up read unhomed was
+taken as from below and propped up by a leg length and a warm-up).
+
 The recorded approach is left as it is (the repeat groups, the verdict of the joint
 offsets, which have no lost motion, do not change): the model's side is the
 layout's ``side``. A session could tell the side from its homing and the moves
@@ -63,11 +74,11 @@ class SideChoice:
         if self.side == 0:
             return (f"joint {name}: the side it was approached from before its first "
                     f"recorded move is unknown ({self.readings} readings); neither side fits "
-                    "its lost motion better")
+                    "its lost motion clearly better than the other or than its middle")
         way = "below" if self.side > 0 else "above"
         return (f"joint {name}: the side before its first recorded move is unknown "
                 f"({self.readings} readings); taken as from {way}, where its backlash fits "
-                f"better by chi-square {self.gain_chi2:.1f}")
+                f"better by chi-square {self.gain_chi2:.1f} (and better than in its middle)")
 
 
 def unknown_rows(obs: Observations) -> np.ndarray:
@@ -83,9 +94,10 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
     """``obs`` with each joint's unknown side resolved where its lost motion decides it
     (``theta``: the joint offsets' fit). Every combination of the unknown joints'
     sides is fitted with the joint offsets and the three backlashes; a joint's side
-    is taken from the best combination when flipping it alone fits worse by more
-    than ``BETTER_BY`` and its backlash is significant there (dropping it costs more
-    than chi-square's 1 % point of one degree of freedom)."""
+    is taken from the best combination when flipping it alone, or putting it alone in
+    the middle of its lost motion, fits worse by more than ``BETTER_BY`` and its
+    backlash is significant there (dropping it costs more than chi-square's 1 % point
+    of one degree of freedom)."""
     if not obs.raw:
         return obs, problem, []
     unknown = unknown_rows(obs)
@@ -105,20 +117,29 @@ def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
             out[rows[:, axis], axis] = sign
         return out
 
-    combos = list(itertools.product((1, -1), repeat=len(joints)))
-    fits = {}
-    for signs in combos:
+    def misfit(signs: tuple[int, ...]) -> tuple[Problem, float]:
         variant = problem.with_side(trial(signs))
-        fits[signs] = (variant, float(fit_many(variant, theta, BASE_MODEL, [backlash]).rss[0]))
+        return variant, float(fit_many(variant, theta, BASE_MODEL, [backlash]).rss[0])
+
+    combos = list(itertools.product((1, -1), repeat=len(joints)))
+    fits = {signs: misfit(signs) for signs in combos}
     best = min(combos, key=lambda c: fits[c][1])
     variant, rss = fits[best]
+    # the lost motion the sides are tried with is a constant backlash: where it does
+    # not fit within the noise (a wind-up, a cyclic error), every difference between
+    # sides grows with its misfit; the bars grow with it (the fit's reduced
+    # chi-square, Birge's ratio: R. T. Birge, Phys. Rev. 40, 207, 1932)
+    spread = max(1.0, rss / noise.variance
+                 / max(problem.n_data - len(BASE_MODEL) - len(backlash), 1))
     choices = []
     taken = list(best)
     for k, axis in enumerate(joints):
         flipped = tuple(-s if j == k else s for j, s in enumerate(best))
         gain = (fits[flipped][1] - rss) / noise.variance
-        if gain > BETTER_BY and _backlash_cost(variant, theta, backlash, axis, rss) \
-                / noise.variance > SIGNIFICANT:
+        if gain > BETTER_BY * spread and _backlash_cost(variant, theta, backlash, axis, rss) \
+                / noise.variance > SIGNIFICANT * spread and \
+                (misfit(tuple(0 if j == k else s for j, s in enumerate(best)))[1] - rss) \
+                / noise.variance > BETTER_BY * spread:
             choices.append(SideChoice(axis, best[k], int(rows[:, axis].sum()), gain))
         else:
             taken[k] = 0

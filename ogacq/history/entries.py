@@ -18,6 +18,7 @@ from typing import Any
 from ogacq.errors import InputError
 from ogacq.model.gauges import AXES
 from ogacq.model.instrument import finite_number as _number
+from ogacq.model.parameters import EFFECT_BY_NAME
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.sections import ResultEntry
 
@@ -40,6 +41,14 @@ class Parameter:
     expanded_mm: float | None  # U = k u_c (JCGM 100:2008 6.2.1)
     k: float | None
     std_mm: float | None = None  # the fit's standard deviation (type A, JCGM 100:2008 4.2)
+
+
+def parameter_unit(name: str) -> str:
+    """The unit a parameter is stated in, in the history's table and its figure alike:
+    its effect's (``EffectKind.unit``: mm for a length), mm for a name this version
+    does not know (the history holds lengths in mm)."""
+    effect = EFFECT_BY_NAME.get(name.partition(".")[0])
+    return effect.unit if effect is not None else "mm"
 
 
 @dataclass(frozen=True)

@@ -4,8 +4,10 @@
 One panel per parameter: its value at each calibration with its expanded
 uncertainty U (k = 2) as error bars; where U is unknown, 2 std of the fit stand in
 (a hollow marker, as the drift flags judge it: ``drift.expanded``), and where
-neither is known no bar is drawn and the point says so. A length is shown in µm,
-another parameter in its own unit (``EffectKind.unit``). Optionally marked: the
+neither is known no bar is drawn and the point says so. Each parameter in the unit
+the history's table states it in (``entries.parameter_unit``: a length in mm, as the
+controller, the write-back and the record state an offset; it was drawn in µm beside a
+table in mm). Optionally marked: the
 write-backs between calibrations (the value as found, then as left), the flagged
 drifts from the state as left, and the calibration a report is about. Drawn on
 matplotlib's Agg canvas (no display needed)."""
@@ -22,11 +24,9 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ogacq.history.drift import Drift, expanded
-from ogacq.history.entries import Parameter, parameters_in
+from ogacq.history.entries import Parameter, parameter_unit, parameters_in
 from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import wall_time
-from ogacq.model.parameters import EFFECT_BY_NAME
-from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 
 DPI = 110
@@ -74,15 +74,6 @@ def recorded_calibrations(record: Mapping[str, Any] | CalibrationRecord
     return [c for _, c in sorted(dated, key=lambda pair: pair[0])]  # stable: ties as given
 
 
-def shown_unit(name: str) -> tuple[str, float]:
-    """The unit a parameter is drawn in and its factor from the record's value: µm for
-    a length (mm in the record), else the effect's own unit."""
-    effect = EFFECT_BY_NAME.get(name.partition(".")[0])
-    if effect is None or effect.unit == "mm":
-        return "µm", UM_PER_MM
-    return effect.unit, 1.0
-
-
 def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
                    drifts: Sequence[Drift] = (),
                    written: Mapping[str, Mapping[str, float]] | None = None,
@@ -102,7 +93,7 @@ def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
     # name with "$...$" stopped the figure with a ParseSyntaxException)
     fig.suptitle(title, fontsize=11, parse_math=False)
     for ax, name in zip(axes, names, strict=False):
-        unit, scale = shown_unit(name)
+        unit = parameter_unit(name)
         xs: list[Any] = []
         ys, errs, guessed, unknown = [], [], [], []
         for index, c in enumerate(calibrations):
@@ -111,8 +102,8 @@ def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
                 continue
             u, basis = expanded(p)
             xs.append(xs_of[index])
-            ys.append(p.value_mm * scale)
-            errs.append((u or 0.0) * scale)
+            ys.append(p.value_mm)
+            errs.append(u or 0.0)
             guessed.append(u is not None and basis != "U")
             unknown.append(u is None)
             if current is not None and c.record_id == current:
@@ -134,19 +125,21 @@ def history_figure(title: str, calibrations: Sequence[PlottedCalibration],
             if wrote is None or p is None or index == len(calibrations) - 1:
                 continue
             x = xs_of[index]
-            ax.plot([x, x], [p.value_mm * scale, (p.value_mm + wrote) * scale], "--",
+            ax.plot([x, x], [p.value_mm, p.value_mm + wrote], "--",
                     color=WRITTEN_COLOUR, lw=1.5, zorder=3)
-            ax.plot([x], [(p.value_mm + wrote) * scale], "^", color=WRITTEN_COLOUR, ms=7,
+            ax.plot([x], [p.value_mm + wrote], "^", color=WRITTEN_COLOUR, ms=7,
                     zorder=5, label="as left by a write-back")
         for d in drifts:
             if d.parameter != name or not d.flagged:
                 continue
             i, j = index_of[d.from_record], index_of[d.to_record]
-            y0 = (calibrations[i].parameters[name].value_mm + d.shift_mm) * scale
-            y1 = calibrations[j].parameters[name].value_mm * scale
+            y0 = calibrations[i].parameters[name].value_mm + d.shift_mm
+            y1 = calibrations[j].parameters[name].value_mm
             ax.plot([xs_of[i], xs_of[j]], [y0, y1], "-", color=DRIFT_COLOUR, lw=2.5, zorder=4,
                     label="change > U of the change")
         ax.set_ylabel(f"{name}\n({unit})", fontsize=9)
+        # the values as the table writes them (1.3505), never "1e-3 + 1.35" on the axis
+        ax.ticklabel_format(axis="y", style="plain", useOffset=False)
         ax.grid(True, alpha=0.3)
         ax.margins(x=0.08, y=0.25)
         handles, labels = ax.get_legend_handles_labels()

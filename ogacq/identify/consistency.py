@@ -116,7 +116,8 @@ class Verdict:
         name = "chi2" if self.test == "chi-square" else "F"
         denominator = (f", {self.noise_dof:.0f}" if self.noise_dof is not None else "")
         text = (f"{self.headline()} ({self.test} test: {name}({self.dof}{denominator}) = "
-                f"{self.statistic:.4g}, overall p = {format_p(self.overall_p)}; per dof "
+                f"{self.statistic:.4g}{self._denominator_words()}, overall p = "
+                f"{format_p(self.overall_p)}; per dof "
                 f"{self.chi2_dof:.3g}, rms {self.rms_mm * UM_PER_MM:.3g} µm, noise "
                 f"{self.noise.sigma_mm * UM_PER_MM:.3g} µm from the {self.noise.source})")
         if self.worst_cell is not None:
@@ -125,6 +126,19 @@ class Verdict:
                      f"cell p = {format_p(c.p_value)} over {c.cells} cells; combined p = "
                      f"{format_p(self.p_value)}")
         return text + f"; judged at the {self.level:g} level"
+
+    def _denominator_words(self) -> str:
+        """What the F test's second number counts where it is no count of readings: the
+        effective degrees of freedom of a posture mean's noise, of which the repeats
+        measure a part and the display's rounding, known, makes up the rest
+        (Satterthwaite): "F(11, 17897)" for 72 readings read as a misprint."""
+        measured = self.noise.dof
+        # near the repeats' own count (52 of 72 readings: 55) it reads as that count
+        if self.noise_dof is None or measured is None or self.noise_dof < 1.5 * measured:
+            return ""
+        return (f" ({self.noise_dof:.0f}: the noise's effective degrees of freedom, "
+                f"{measured} from the repeats' scatter and the rest from the display's "
+                "rounding, which is known; Satterthwaite)")
 
     def summary(self) -> str:
         """One line for the end of a campaign: the state and the p it was judged by."""

@@ -1,6 +1,6 @@
 """Numbers as a person reads them: a parameter's headline is its value with the
 expanded uncertainty of the record (``ogacq.uncertainty.reporting``, the one rule);
-a detail (a diagnosis's effect) with as many decimals as its std allows."""
+a detail (a diagnosis's effect) by the same rule, its std in place of U."""
 
 from __future__ import annotations
 
@@ -9,7 +9,6 @@ from typing import TypeGuard
 
 from ogacq.model.units import UM_PER_MM
 from ogacq.uncertainty.reporting import (  # the console's rule too
-    decimals_for,
     expanded_mm,
     measure,
     result_entry,
@@ -45,5 +44,5 @@ def duration(seconds: float | None) -> str:
 
 
 
-__all__ = ["UM_PER_MM", "decimals_for", "duration", "expanded_mm", "finite", "measure",
+__all__ = ["UM_PER_MM", "duration", "expanded_mm", "finite", "measure",
            "plain", "result_entry", "result_headline", "signed", "um"]

@@ -15,6 +15,7 @@ from typing import Any, NamedTuple
 
 import jinja2
 
+from ogacq.identify.consistency import format_p
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.declared import written
@@ -277,7 +278,8 @@ def _along_axes(d: DiagnosisView) -> dict[str, Any]:
         if key not in d.chi2:
             continue
         v = d.chi2[key]
-        rows.append([title, plain(v.statistic, 1), str(v.dof), f"{v.p:.3g}",
+        # the p as the verdict's text says it (4.6e-13 there, 4.58e-13 here before)
+        rows.append([title, plain(v.statistic, 1), str(v.dof), format_p(v.p),
                      Badge("within noise", "ok") if v.consistent
                      else Badge("not within noise", "bad")])
     return {"axes_coverage": list(d.coverage), "proposals": list(d.proposals),

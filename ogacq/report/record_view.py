@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 from markupsafe import Markup
 
+from ogacq.history.entries import parameter_unit
 from ogacq.identify.consistency import format_p
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.compensation import Iso230Stages, TableExported
@@ -328,8 +329,10 @@ def verdict(record: CalibrationRecord) -> Table | None:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
     # so, and each p named (p_combined repeats p: shown once)
-    # a p-value as the terminal says it (3 digits, 2.8e-16; not 0.00000000000000028)
-    shown = {VERDICT_WORDS.get(k, k): format_p(v) if _is_p(k, v) else v
+    # a p-value as the terminal says it (3 digits, 2.8e-16; not 0.00000000000000028),
+    # the misfit per dof too (its text's "per dof 532", not 532.2801 beside it)
+    shown = {VERDICT_WORDS.get(k, k): format_p(v) if _is_p(k, v)
+             else f"{v:.3g}" if k == "chi2_dof" and isinstance(v, float) else v
              for k, v in found.fields.items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
 
@@ -400,18 +403,19 @@ def history(record: CalibrationRecord) -> Table | None:
         return None
     names = list(dict.fromkeys(r.name for e in found for r in e.results))
     rows: list[list[Cell]] = []
+    units = {n: parameter_unit(n) for n in names}  # as the figure beside it draws them
     for entry in found:
         row: list[Cell] = [shown(entry.id), shown(entry.date)]
         by_name: dict[str, ResultEntry | None] = dict.fromkeys(names)
         by_name |= {r.name: r for r in entry.results}
         for name in names:
             r = by_name[name]
-            line = entry_headline(r.fields if r is not None else None)
+            line = entry_headline(r.fields if r is not None else None, units[name])
             row.append("-" if r is None or not r.fields
                        else f"{line.value} ± {line.U}" if line.U else line.value)
         rows.append(row)
-    return table(["record", "date"] + [f"{n} (mm) ± U (k = 2)" for n in names], rows,
-                 [False, False] + [True] * len(names))
+    return table(["record", "date"] + [f"{n} ({units[n]}) ± U (k = 2)" for n in names],
+                 rows, [False, False] + [True] * len(names))
 
 
 def overrides(record: CalibrationRecord) -> Table | None:

@@ -141,19 +141,12 @@ def expanded_mm(results: Mapping[str, Any] | None, name: str) -> float | None:
         and math.isfinite(U) else None
 
 
-# A detail's value with its std (a diagnosis's effect, on the console and the page):
-# as many decimals as show the std to two significant digits.
-def decimals_for(std: float | None, default: int = 4) -> int:
-    """Decimals that show the std to two significant digits (0 to 6)."""
-    if not _finite(std) or std is None or std <= 0:
-        return default
-    return max(0, min(6, 1 - math.floor(math.log10(std))))
-
-
+# A detail's value with its std (a diagnosis's effect, on the console and the page).
 def measure(value: float, std: float | None, unit: str) -> str:
     """``+0.03586 ± 0.00057 mm``; a value the data do not determine (infinite or unknown
     std) reads ``not determined``: the fit's number for it is arbitrary."""
     if not _finite(value) or not _finite(std) or std is None:
         return "not determined"
-    digits = decimals_for(std)
-    return f"{value:+.{digits}f} ± {std:.{digits}f} {unit}"
+    # the one rule of every headline (a std of 100 ppm gave "+2908 ± 100" here and
+    # "+2910" where the same effect's value was rounded beside it)
+    return f"{rounded(value, std, sign=True)} ± {two_digits(std)} {unit}"

@@ -35,6 +35,9 @@ class WriteOutcome(StrEnum):
     the record's and the history's words)."""
 
     VALIDATED = "validated"  # the validation campaign is within the gauge noise
+    # within the noise, but its test would not see a map of its size go wrong along all
+    # of its axis (ogacq.calibration.sight): kept, exit 0
+    NOT_SHOWN = "not shown"
     IMPROVED = "improved"  # better than before, kept, but not within the noise
     RESTORED = "restored"  # the validation was worse: the previous state written back
     NOTHING_TO_CORRECT = "nothing to correct"  # the controller already holds it

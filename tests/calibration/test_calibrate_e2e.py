@@ -41,8 +41,9 @@ SEED = "3"
 # A validation is judged at the 1 % level: one run in a hundred of a machine put right is
 # called "improved" (kept, not within the noise at 1 %). What holds on every run: kept,
 # and within the noise at 1e-6 (a correction that did not work leaves p far below: the
-# campaigns before it fit with p < 1e-10).
-KEPT = ("validated", "improved")
+# campaigns before it fit with p < 1e-10). A map is "not shown" (kept) where the
+# validation's gauges see its joint too little to tell it wrong (ogacq.calibration.sight).
+KEPT = ("validated", "not shown", "improved")
 
 
 def within_noise(verdict: dict) -> bool:
@@ -76,15 +77,29 @@ def calibrated(root: Path, args: list[str]) -> Path:
     level, which a correct model's campaign is once in a hundred (its timing moves the
     readings; seen once, p = 0.004), or when a reading lies far from its repeats at that
     level (seen once under load, p = 0.0004): such a refusal alone gets one more
-    campaign, so this fails on it once in ten thousand runs, and on anything else at
-    once."""
+    campaign, as does a separating scan judged not within the noise by chance alone
+    (``scan_judged_by_chance``): this fails on them once in ten thousand runs, and on
+    anything else at once."""
     for attempt in ("cal", "cal-again"):
         folder = root / attempt
         code = main(["calibrate", *args, "--out", str(folder)])
-        if not (code == 4 and refused_by_chance(folder)):
+        if not ((code == 4 and refused_by_chance(folder)) or scan_judged_by_chance(folder)):
             break
     assert code == 0
     return folder
+
+
+def scan_judged_by_chance(folder: Path) -> bool:
+    """The separating scan's diagnosis not within the noise at the 1 % level, yet far
+    from what a model left wrong gives (p > 1e-6): once in a hundred runs of a right
+    model (seen under load, p = 0.0116 with the timing's readings), and then its maps
+    are not established, the offsets alone written."""
+    scans = [r.details for r in log_steps(folder) if r.step == "diagnosis"
+             and r.details.get("role") == "separating"]
+    if not scans:
+        return False
+    final = scans[-1]["diagnosis"].get("chi2", {}).get("final", {})
+    return final.get("consistent") is False and (final.get("p") or 0.0) > 1e-6
 
 
 def refused_by_chance(folder: Path) -> bool:
@@ -275,17 +290,23 @@ def test_maps_shown_and_restored_by_hand(straight, capsys, monkeypatch):
     assert read_maps_table(straight / "maps.json").maps == {}
 
 
-def test_a_cyclic_screw_error_is_mapped_and_validated(tmp_path):
+def test_a_cyclic_screw_error_is_mapped_and_not_shown_beyond_where_it_is_seen(tmp_path):
     """Squareness and a lead screw's periodic error (8 um, 20 mm pitch; the seed's x
     offset 1.24 mm): the scan (every 5 mm: four readings a period) maps the screw, the
     map is written with the offsets, moved with them, and both validations find it gone,
     the squareness left as it is. A map left where the campaign's coordinate had it
-    (the screw 1.24 mm off under it) left 6 of 16 um and was not within the noise."""
+    (the screw 1.24 mm off under it) left 6 of 16 um and was not within the noise.
+    The validation sees the x joint along its line only over the 16 mm it moves while
+    the other legs are driven: beyond, an error of the map's size would pass its test,
+    so the map is kept "not shown" (it said "validated")."""
     text = "[squareness]\nxy = 0.5\n[lead_screw.x]\namplitude_mm = 0.008\npitch_mm = 20.0\n"
     folder = calibrated(tmp_path, ["--simulator", "--effects", str(effects_file(tmp_path, text)),
                                    "--seed", SEED, "--speed", "50", "--scan-step-mm", "5",
                                    "--yes", "--history", "none"])
-    assert step(folder, "finished")["outcome"] in KEPT
+    finished = step(folder, "finished")
+    assert finished["outcome"] == "not shown", finished
+    assert "the x correction (" in finished["reason"] and "is not shown: the validation " \
+        "sees an error of its size only over q from -11 to +7 mm" in finished["reason"]
     for role in ("validation", "validation-scan"):
         verdict = step(folder, "validation", role=role)["verdict"]
         assert within_noise(verdict), (role, verdict)

@@ -19,7 +19,8 @@ def test_a_diagnosis_effect_is_rounded_to_its_std_and_says_it_is_one(monkeypatch
     effects = [SimpleNamespace(name="encoder_scale.x", value=408.3, std=17.6, unit="ppm"),
                SimpleNamespace(name="squareness.xy", value=0.5007, std=0.0152, unit="mrad")]
     diagnosis = SimpleNamespace(outcome="explained", effects=effects,
-                                final=SimpleNamespace(describe=lambda: "within the noise"))
+                                final=SimpleNamespace(describe=lambda: "within the noise",
+                                                      judged=True))
     ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
     ui.diagnosis("calibration", diagnosis)  # type: ignore[arg-type]
     text = out.getvalue()

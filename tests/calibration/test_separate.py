@@ -57,15 +57,15 @@ def test_maps_the_scan_cannot_establish_leave_the_offsets_of_the_campaign():
     def verdict(consistent: bool):
         return SimpleNamespace(consistent=consistent, describe=lambda: "the verdict")
 
-    campaign = SimpleNamespace(final=verdict(True), maps=())
-    scan = SimpleNamespace(final=verdict(False), maps=())
+    campaign = SimpleNamespace(final=verdict(True), maps=(), mapped=None)
+    scan = SimpleNamespace(final=verdict(False), maps=(), mapped=None)
     said = not_established(scan, campaign)  # type: ignore[arg-type]
     assert said.startswith("error maps not established: the separating scan's diagnosis "
                            "(no map) fits the verdict; the offsets are those of the "
                            "calibration campaign"), said
     assert "--scan-minutes" in said
-    assert not_established(SimpleNamespace(final=verdict(True), maps=()),  # type: ignore
-                           campaign) == ""
+    assert not_established(SimpleNamespace(final=verdict(True), maps=(),  # type: ignore
+                                           mapped=None), campaign) == ""
     # neither within the noise: nothing better to fall back on
     assert not_established(scan, SimpleNamespace(final=verdict(False))) == ""  # type: ignore
 
@@ -83,3 +83,24 @@ def test_the_campaign_carries_its_offsets_alone_where_they_are_within_the_noise(
     assert carried.final_fit is plain.base_fit and carried.maps == ()
     square = diagnose(simulate({"squareness.xy": 0.5}, seed=1))
     assert not square.base.consistent and offsets_carried(square) is square
+
+
+def test_a_pitch_between_rival_peaks_leaves_the_maps_not_established():
+    """The separating scan within the noise, but seeing a cyclic error whose pitch it
+    does not resolve (20.4 or 34.7 mm): no map of it is written, and no smooth map in
+    its place (seen: a 16 µm smooth map for a 4 µm error of 20 mm lead); the offsets
+    are the calibration campaign's."""
+    from types import SimpleNamespace
+
+    from ogacq.diagnose.mapsearch import RIVALS
+
+    term = SimpleNamespace(axis=1)
+    seen = SimpleNamespace(term=term, unresolved=RIVALS + "20.39 and 34.73 mm fit alike")
+    within = SimpleNamespace(consistent=True, describe=lambda: "within")
+    scan = SimpleNamespace(final=within, maps=(),
+                           mapped=SimpleNamespace(search=SimpleNamespace(unresolved=[seen])))
+    said = not_established(scan, SimpleNamespace(final=within))  # type: ignore[arg-type]
+    assert said.startswith("error maps not established: the separating scan sees a cyclic "
+                           "error whose pitch it does not resolve (y axis: pitch unresolved: "
+                           "20.39 and 34.73 mm"), said
+    assert "positioning test along the axis" in said

@@ -152,7 +152,8 @@ def test_every_value_with_its_std_is_at_the_std_s_decimal_place(capsys):
 
 def test_report_says_what_it_is_doing_on_a_terminal_only(tmp_path):
     """`ogacq report` was silent for 15-18 s: on a terminal a spinner names the step;
-    to a pipe its output is the page's path alone, as before."""
+    to a pipe one line on stderr says the work, and the output's first line is the
+    page's path, as before (then the next command)."""
     session = ROOT / "tests" / "golden" / "session.jsonl"
     code, text = on_terminal("report", session, "--out", tmp_path / "t", "--history", "none",
                              term="xterm")
@@ -162,5 +163,6 @@ def test_report_says_what_it_is_doing_on_a_terminal_only(tmp_path):
                             tmp_path / "p", "--history", "none"], capture_output=True,
                            text=True, timeout=300)
     assert piped.returncode == 0, piped.stderr
-    assert "issuing" not in piped.stdout + piped.stderr
-    assert piped.stdout.strip() == str(tmp_path / "p" / "report.html")
+    assert len(piped.stderr.splitlines()) == 1 and "issuing the record" in piped.stderr
+    assert piped.stdout.splitlines()[0] == str(tmp_path / "p" / "report.html")
+    assert "\nnext: " in piped.stdout  # the end: wrapped at 80 columns to a pipe

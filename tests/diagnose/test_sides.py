@@ -1,20 +1,25 @@
 """A joint's side before its first recorded move is unknown, not "none": a readings
 CSV that starts at Max (the machine homed, the move there not recorded) with a
-backlash in the drive."""
+backlash in the drive; a machine not homed, its joints in the middle of a lost
+motion that builds up with the travel."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.observations import readings_observations
+from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import approach_from_sequence, predict_coordinates
 from ogacq.model.parameters import vector
+from ogacq.sim.readings import simulated_readings
+from ogacq.sim.truth import Hysteresis, SimTruth
 from tests.diagnose.campaigns import MACHINE, NOISE_MM, OFFSETS, STEP_MM, layout
 
 BACKLASH = 0.05
@@ -48,7 +53,10 @@ def test_the_side_before_the_first_move_is_resolved_or_left_unknown_never_guesse
         if x.side:
             assert "taken as from below" in " ".join(d.caveats())
             assert d.to_json()["unknown_sides"][0]["taken"] == 1
-    assert taken >= 3
+    # at Max the x joint moves its own leg's gauges by 0.13 of its lost motion: its
+    # middle fits within chi-square 7 of the end it came from in 4 seeds of 5, and a
+    # side is not taken that the data do not prefer to the middle as well
+    assert taken >= 1
 
 
 def test_resolving_the_side_fits_the_backlash_better_than_leaving_it_in_the_middle():
@@ -87,3 +95,29 @@ def test_a_problem_with_another_side_is_the_one_built_anew_with_it():
     assert np.array_equal(shared.group_space.jacobian_at(theta[0], names),
                           fresh.group_space.jacobian_at(theta[0], names))
     assert shared.group_space.constant_rss == fresh.group_space.constant_rss
+
+
+@pytest.mark.parametrize("seed", [1, 6])
+def test_a_wind_up_read_unhomed_is_found_without_taking_a_side_the_joints_were_not_at(seed):
+    """Issue 37: 25 um of lost motion building up over 15 mm on z, a scan every 2 mm up
+    and back down, the machine not homed: before their first move the joints are in
+    the middle of their lost motion (the simulator's), which y's and z's gauges on the
+    x leg see at Zero. An end fits the first readings better than the other end (a
+    constant backlash, not the wind-up, is what the sides are tried with), but not
+    better than the middle: no side is taken, and the wind-up comes back within 20 %
+    of its amplitude and its length, alone. Taking z from below had the fit NOT
+    within the noise, the length 18.7 mm, a backlash, a leg length and a warm-up
+    beside it. Seed 6: z's end beat its middle by more than chi-square's 1 % point,
+    on a fit where the constant backlash misfits the wind-up by several times the
+    noise: the bars grow with that misfit."""
+    machine = MachineSpec(310.25, -100.0, 60.0, gauge_resolution_mm=0.0001,
+                          gauge_repeatability_mm=0.0005)
+    truth = SimTruth(vector(OFFSETS), hysteresis={2: Hysteresis(0.025, 15.0)})
+    obs = simulated_readings(machine, layout(machine=machine, scan_step_mm=2.0, cycles=1),
+                             truth, scatter_mm=0.0005, step_mm=0.0001, seed=seed)
+    d = diagnose(obs)
+    assert {c.axis: c.side for c in d.sides} == {1: 0, 2: 0}
+    assert [e.name for e in d.effects] == ["hysteresis.z"] and d.final.consistent
+    [wind_up] = [e for e in d.map_effects if e.name == "hysteresis.z"]
+    assert abs(wind_up.value.value / 0.025 - 1) <= 0.2
+    assert abs(wind_up.value.extra["build_up_mm"] / 15.0 - 1) <= 0.2

@@ -88,8 +88,9 @@ def test_the_plot_marks_the_write_back(tmp_path):
 
 def test_a_records_history_is_drawn_by_the_same_figure_with_itself_marked():
     """The report's figure: a record's earlier calibrations then itself, read as the
-    history reads records; a length in µm, a squareness in its own mrad; no U and no
-    std is said on the panel, not drawn as a zero bar."""
+    history reads records; a length in mm as the tables state it (it was drawn in µm),
+    a squareness in its own mrad; no U and no std is said on the panel, not drawn as a
+    zero bar."""
     def results(x: float, U: float | None, squareness: float | None = None) -> dict:
         out = {"joint_offset": {"x": {"value_mm": x, "U_mm": U, "std_mm": None}}}
         if squareness is not None:
@@ -107,13 +108,15 @@ def test_a_records_history_is_drawn_by_the_same_figure_with_itself_marked():
     assert [c.record_id for c in calibrations] == ["R-1", "R-2", "R-3"]
     figure = history_figure("this machine", calibrations, current="R-3")
     offset, squareness = figure.axes[:2]
-    assert offset.get_ylabel() == "joint_offset.x\n(µm)"
+    assert offset.get_ylabel() == "joint_offset.x\n(mm)"
     assert squareness.get_ylabel() == "squareness.xy\n(mrad)"
     labels = [t.get_text() for t in offset.get_legend().get_texts()]
     assert labels == ["this calibration", "value ± U"]
     assert [t.get_text() for t in offset.texts] == ["U not evaluated"]  # R-1 only
-    drawn = offset.lines[0].get_ydata()  # the current calibration's ring, in µm
-    assert list(drawn) == [425.0]
+    drawn = offset.lines[0].get_ydata()  # the current calibration's ring, in mm
+    assert list(drawn) == [0.425]
+    figure.canvas.draw()  # the axis's numbers as the table's, no offset text beside them
+    assert offset.yaxis.get_offset_text().get_text() == ""
 
 
 def in_force(c: Calibration, x: float) -> Calibration:

@@ -68,6 +68,8 @@ def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
     if where == ["verdict"]:  # a p-value as the terminal says it (format_p)
         from ogacq.identify.consistency import format_p
 
+        if key == "chi2_dof":  # as the verdict's text says it: "per dof 1.46"
+            return f"{value:.3g}"
         return format_p(value) if key == "p" or key.startswith("p_") else None
     if key in ("U_mm", "u_mm", "std_mm") and value:
         return two_significant(value)

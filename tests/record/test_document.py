@@ -95,7 +95,7 @@ def test_report_writes_the_record_the_page_shows(campaign_sessions, tmp_path, ca
     _, with_context = campaign_sessions
     out = tmp_path / "out"
     assert main(["report", str(with_context), "--out", str(out)]) == 0
-    assert capsys.readouterr().out.strip() == str(out / "report.html")
+    assert capsys.readouterr().out.splitlines()[0] == str(out / "report.html")
     record = json.loads((out / "record.json").read_text(encoding="utf-8"))
     page = (out / "report.html").read_text(encoding="utf-8")
     text = page_text(page)

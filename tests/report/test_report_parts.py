@@ -162,7 +162,9 @@ def test_a_malformed_diagnosis_names_the_key(change, message):
 def test_values_are_shown_with_the_decimals_their_std_allows():
     assert measure(0.035860, 0.000569, "mm") == "+0.03586 ± 0.00057 mm"
     assert measure(0.5128, 0.0108, "mrad") == "+0.513 ± 0.011 mrad"
-    assert measure(21643.4, 2394.2, "ppm") == "+21643 ± 2394 ppm"
+    # the std to two significant digits above 100 too (it was "+21643 ± 2394 ppm")
+    assert measure(21643.4, 2394.2, "ppm") == "+21600 ± 2400 ppm"
+    assert measure(0.03586, 0.00996, "mm") == "+0.036 ± 0.010 mm"
     assert measure(1.2, np.inf, "mm") == "not determined"
 
 

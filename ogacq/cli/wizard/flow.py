@@ -41,6 +41,7 @@ from ogacq.campaign.traceability import simulated_gauges
 from ogacq.cli.campaign_end import CampaignEnd, NextStep, campaign_end
 from ogacq.cli.options import DEFAULT_SEED, DEFAULT_SPEED
 from ogacq.cli.plain import shown
+from ogacq.cli.verdict_text import one_line
 from ogacq.cli.wizard.by_eye import ByEyeReadings, ReadingCounter
 from ogacq.cli.wizard.connect import (
     StationChoice,
@@ -234,7 +235,7 @@ class _Wizard:
         alone read as the last word), the record's id and the next commands."""
         lines = end.lines()
         if validation is not None:
-            lines.insert(1, f"validation: {fit_verdict(validation.fit).summary()} "
+            lines.insert(1, f"validation: {one_line(fit_verdict(validation.fit))} "
                             f"({validation.session_path})")
         self.screen.say()
         for line in lines:

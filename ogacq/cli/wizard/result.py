@@ -11,6 +11,7 @@ from rich.table import Table
 
 from ogacq.campaign.run import CampaignOutcome
 from ogacq.cli.plain import shown
+from ogacq.cli.verdict_text import one_line
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
 from ogacq.record.calibration_record import CalibrationRecord
@@ -63,10 +64,10 @@ def show_result(screen: Screen, outcome: CampaignOutcome, record: Mapping[str, A
             screen.say(f"     {shown(reason)}")
     verdict = fit_verdict(fit)
     if verdict.consistent:
-        screen.ok(f"fit {verdict.summary()}")
+        screen.ok(f"fit {one_line(verdict)}")
     else:
         writable = False
-        screen.problem(f"fit {verdict.summary()}")
+        screen.problem(f"fit {one_line(verdict)}")
         if verdict.state == "inconsistent":
             screen.say("     something the model leaves out (a loose stand, play, a bent "
                        f"leg). Look before writing: ogacq diagnose "
