@@ -376,8 +376,9 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
                                                         "knots": SMOOTH_KNOTS})],
                  "hysteresis": [MapTerm("hysteresis", a, {"length_mm": BUILD_UP_MM})]}
         for family, family_terms in terms.items():
+            # a smooth map's line is the offset's and the scale's
             taken = _orthonormal(np.column_stack([offsets, scales[:, a]])) \
-                if family == "screw_map" else nuisance
+                if family_terms[0].kind.pointwise else nuisance
             worst = max(_amplitude_std(t, history, s_r[:, a], setting[:, a], layout.gauge,
                                        taken, lo, hi) for t in family_terms)
             out[family] = max(out.get(family, 0.0), DETECTION_SIGMAS * noise_mm * worst)
@@ -399,7 +400,7 @@ def _amplitude_std(term: MapTerm, history: JointHistory, s_r: np.ndarray, s_s: n
     cols = (at_reading * s_r[None] + at_setting[:, gauge] * s_s[None]).T  # (n, k)
     cols = cols - nuisance @ (nuisance.T @ cols)
     normal = cols.T @ cols
-    if term.family == "screw_map":
+    if term.kind.pointwise:  # a smooth map: its values along q
         return _least_visible_rms(term, normal, lo, hi)
     try:
         cov = np.linalg.inv(normal)
