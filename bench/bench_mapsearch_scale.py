@@ -15,11 +15,18 @@ For each: CPU seconds of ``diagnose`` (one warm run), peak traced memory (a seco
 run under tracemalloc, which numpy's arrays report to), what was found; then the
 ratio dense / 1 mm. Target: the ratio <= 2, the dense scan < 10 s and < 500 MiB.
 Run: python bench/bench_mapsearch_scale.py [readings, default 72000]
+
+The BLAS runs on one thread, as ``ogacq diagnose`` runs it (``ogacq/cli/app.py``:
+``OPENBLAS_NUM_THREADS``, unless set), so that the CPU seconds are the command's and not
+those of a second BLAS thread spinning beside the first; set the variable to compare.
 """
 
 from __future__ import annotations
 
+import os
 import sys
+
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # before numpy is imported
 import time
 from functools import partial
 from pathlib import Path
@@ -68,7 +75,8 @@ def main() -> None:
               f"| {found(d)}; final {'within' if d.final.consistent else 'NOT within'} "
               "the noise")
     (ref_s, ref_mib), (dense_s, dense_mib) = rows["1 mm"], rows["dense"]
-    print(f"dense / 1 mm: CPU {dense_s / ref_s:.2f}x, memory {dense_mib / ref_mib:.2f}x "
+    print(f"BLAS threads: {os.environ['OPENBLAS_NUM_THREADS']}; "
+          f"dense / 1 mm: CPU {dense_s / ref_s:.2f}x, memory {dense_mib / ref_mib:.2f}x "
           "(targets: <= 2x, < 10 s, < 500 MiB)")
 
 

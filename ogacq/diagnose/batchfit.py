@@ -259,7 +259,11 @@ class _Space:
         """The space of the repeat groups' means or of every observation, for
         candidates freeing at most ``names``."""
         space = problem.group_space if on_groups else None
-        if space is not None:
+        nodes = space.node_space(theta_start) if space is not None else None
+        if nodes is not None:  # a dense scan: its nodes' rows (posenodes.NodeSpace)
+            design = Design(names, nodes.jacobian(theta_start, np.array(indices(names))))
+            residuals, constant, start = nodes.residuals, nodes.constant, nodes.start
+        elif space is not None:
             # G rows: decomposed directly, whatever the caller holds
             design = Design(names, space.jacobian_at(theta_start, names))
             residuals, constant = space.residuals, space.constant_rss

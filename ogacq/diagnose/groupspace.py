@@ -18,7 +18,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ogacq.diagnose.posenodes import PoseNodes, pose_nodes
+from ogacq.diagnose.posenodes import NodeSpace, PoseNodes, node_rows, pose_nodes
 from ogacq.identify.fit import Weighting
 from ogacq.identify.observations import Observations
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates, predict_jacobian
@@ -88,6 +88,21 @@ class GroupSpace:
         nodes = self._nodes
         self._reference = None if nodes is None else (predicted, predicted[:, nodes.nodes])
         return self._project((self._mean - predicted) * self._scale)[0]
+
+    def node_space(self, theta: np.ndarray) -> NodeSpace | None:
+        """A dense scan's fits from ``theta`` (N,) in the compressed rows of its nodes
+        (``posenodes.NodeSpace``): the same sums of squares as :meth:`residuals`
+        from :meth:`start_at` there, at the cost of the nodes, not of the groups.
+        None where the groups are no denser than the nodes."""
+        nodes = self._nodes
+        if nodes is None:
+            return None
+        predicted = predict_coordinates(np.asarray(theta, dtype=float)[None], self.layout,
+                                        self.obs.machine)[0]
+        start = self._project((self._mean - predicted) * self._scale)
+        rows = node_rows(nodes, self._scale, start, self.layout.gauge)
+        return NodeSpace(rows, self._node_layout, self.obs.machine, predicted[nodes.nodes],
+                         self.constant_rss)
 
     def _predicted(self, theta: np.ndarray) -> np.ndarray:
         nodes = self._nodes

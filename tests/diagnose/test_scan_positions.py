@@ -9,8 +9,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pytest
 
-from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL
 from ogacq.diagnose.mapbins import alias_pitch_mm
 from ogacq.diagnose.mapsearch import AxisCoverage
@@ -64,3 +65,33 @@ def test_irregular_positions_resolve_pitches_their_mean_step_would_alias():
     cov = AxisCoverage(0, len(irregular), -100.0, 65.0, 5.0, True, math.inf,
                        alias_mm=alias_pitch_mm(irregular, 0.4))
     assert cov.pitch_band_mm[0] < 5.0 < 2.5 * 5.0
+
+
+def test_a_dense_scans_candidate_fits_cost_its_nodes_and_give_the_groups_sums():
+    """The candidates' fits of a dense scan run in a few rows per pair of neighbouring
+    nodes (``posenodes.NodeSpace``), not its thousands of groups, with the sums of
+    squares the groups give (``GroupSpace.residuals``) to the rounding."""
+    obs, _ = campaign(1, scan={"scan_step_mm": 0.1, "cycles": 1})
+    problem = Problem(obs)
+    space = problem.group_space
+    assert space is not None and space._nodes is not None
+    start = fit(obs, BASE_MODEL, method="exact", weighting="gls").theta
+    nodes = space.node_space(start)
+    assert nodes is not None
+    assert len(nodes.rows.data) <= 2 * len(space._nodes.nodes) < len(space) / 2
+    rng = np.random.default_rng(1)
+    batch = np.repeat(start[None], 6, axis=0)
+    for name, size in CHANGES.items():
+        batch[:, PARAM_INDEX[name]] += rng.normal(0, size, len(batch))
+    space.start_at(start)
+    on_groups = np.sum(space.residuals(batch) ** 2, axis=1) + space.constant_rss
+    on_rows = np.sum(nodes.residuals(batch) ** 2, axis=1) + nodes.constant
+    assert np.allclose(on_rows, on_groups, rtol=1e-9, atol=0)
+    assert np.sum(nodes.start**2) + nodes.constant == pytest.approx(
+        np.sum(space.start_at(start) ** 2) + space.constant_rss, rel=1e-12)
+    # a fit there is the fit on the groups
+    extras = [("squareness.xy",), ("backlash.z", "leg_length.y")]
+    fits = fit_many(problem, start, BASE_MODEL, extras)
+    exact = [fit(obs, BASE_MODEL + e, method="exact", weighting="gls", theta0=fits.theta[k])
+             for k, e in enumerate(extras)]
+    assert np.allclose(fits.rss, [e.rss for e in exact], rtol=1e-6, atol=0)
