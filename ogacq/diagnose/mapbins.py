@@ -123,12 +123,17 @@ def alias_pitch_mm(positions: np.ndarray, highest_mm: float, oversample: int = 5
     span = float(q[-1] - q[0])
     df = 1.0 / (oversample * span)
     freqs = np.arange(2.0 / span, 1.0 / highest_mm + df / 2, df)
+    phase = 2j * np.pi * (q - q[0])
+    turn = np.exp(phase * df)  # one step of the grid: each next frequency a product
     for lo in range(0, len(freqs), 64):
-        f = freqs[lo:lo + 64, None]
-        window = np.abs(np.exp(2j * np.pi * f * (q - q[0])).mean(axis=1)) ** 2
+        f = freqs[lo:lo + 64]
+        terms = np.empty((len(f), len(q)), dtype=complex)
+        terms[0] = np.exp(phase * f[0])  # exact at each chunk's start
+        terms[1:] = turn
+        window = np.abs(np.cumprod(terms, axis=0).mean(axis=1)) ** 2
         hit = np.flatnonzero(window >= ALIAS_WINDOW)
         if len(hit):
-            return 1.0 / float(f[hit[0], 0])
+            return 1.0 / float(f[hit[0]])
     return highest_mm
 
 

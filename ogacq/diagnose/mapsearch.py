@@ -45,6 +45,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -75,6 +76,10 @@ SAMPLES_PER_PERIOD = 2.5  # distinct positions per period: above Nyquist's 2
 # shorter pitches it could resolve: none is physics this model has.
 SHORTEST_LEAD_MM = 1.0
 KNOTS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
+# Knot counts whose BIC on binned positions lies within this many knots' price
+# (log n each) of the best are weighed again exactly: ten times the binning's largest
+# error seen (no source: bench/bench_mapsearch_scale.py's dense scan).
+SPLINE_MARGIN_KNOTS = 2
 BUILD_UP_MM = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
 WARM_UP_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # of the campaign's duration
 MAX_TERMS = 4
@@ -288,6 +293,17 @@ class _Families:
         self.q_set = h.setting_q_mm[self.gauge_rep, cov.axis]
         s_r, s_s = space.along
         self.s_rep, self.s_set = s_r[self.rep, cov.axis], s_s[self.rep, cov.axis]
+        self._sums_by_bin: dict[float, PositionSums] = {}
+
+    def _sums(self, bin_mm: float) -> PositionSums:
+        """The axis's columns' weights summed over positions binned at ``bin_mm``
+        (``mapbins.py``), made once for the periodogram and the spline's knots."""
+        made = self._sums_by_bin.get(bin_mm)
+        if made is None:
+            made = PositionSums(self.space, self.q_rep, self.q_set, self.s_rep, self.s_set,
+                                bin_mm)
+            self._sums_by_bin[bin_mm] = made
+        return made
 
     def _candidate(self, term: MapTerm, gain: Gain, k: int, tried: int, shape_params: int,
                    **kw: Any) -> MapCandidate:
@@ -301,8 +317,7 @@ class _Families:
             return None
         df = 1.0 / (OVERSAMPLE * cov.span_mm)
         freqs = np.arange(1.0 / max_pitch, 1.0 / min_pitch + df / 2, df)
-        sums = PositionSums(self.space, self.q_rep, self.q_set, self.s_rep, self.s_set,
-                            min_pitch / BINS_PER_PITCH)
+        sums = self._sums(min_pitch / BINS_PER_PITCH)
         gains = np.empty(len(freqs))
         for lo in range(0, len(freqs), CHUNK):
             gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _trial_functions).gain
@@ -351,16 +366,25 @@ class _Families:
             return None
         var = self.noise.variance
         log_n = math.log(max(self.space.problem.n_data, 2))
-        best: tuple[float, MapTerm, Gain] | None = None
-        for knots in choices:
-            term = MapTerm("screw_map", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
-                                                  "knots": knots, "detrended": float(detrend)})
-            gain = self.space.gain_of(term)
-            bic = -float(gain.gain[0]) / var + int(gain.rank[0]) * log_n
-            if best is None or bic < best[0]:
-                best = (bic, term, gain)
-        assert best is not None
-        return self._candidate(best[1], best[2], 0, len(choices), 0)
+        terms = [MapTerm("screw_map", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
+                                                 "knots": k, "detrended": float(detrend)})
+                 for k in choices]
+
+        def bic(gain: Gain) -> float:
+            return -float(gain.gain[0]) / var + int(gain.rank[0]) * log_n
+
+        # Every choice weighed on the positions' sums (exact where the positions are
+        # no more than the bins, as a scan's at 1 mm; binned at a 32nd of the shortest
+        # lead on a denser one, which moves a gain by a few units of the noise's
+        # variance: 2.1 at most on the 72,000-reading bench), then those within two
+        # knots' price of the best weighed exactly, and the best of them taken.
+        sums = self._sums(SHORTEST_LEAD_MM / BINS_PER_PITCH)
+        binned = [bic(sums.gain(np.zeros(1), partial(_shape_functions, t))) for t in terms]
+        near = [t for t, b in zip(terms, binned, strict=True)
+                if b <= min(binned) + SPLINE_MARGIN_KNOTS * log_n]
+        exact = [(bic(g), t, g) for t in near for g in [self.space.gain_of(t)]]
+        _, term, gain = min(exact, key=lambda e: e[0])
+        return self._candidate(term, gain, 0, len(choices), 0)
 
     def hysteresis(self) -> MapCandidate | None:
         cov = self.cov
@@ -425,6 +449,13 @@ def _trial_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
     one, zero at q = 0 as ``model/error_maps.py`` makes the lead-screw term."""
     w = 2 * np.pi * freqs[:, None, None]
     return np.concatenate([np.sin(w * q), np.cos(w * q) - 1.0], axis=1)
+
+
+def _shape_functions(term: MapTerm, _freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(1, k, len(q)) a shape of ``q`` alone (the screw map's) as ``PositionSums``
+    takes trial functions."""
+    n = len(q)
+    return term.shape_of(q, np.zeros(n), np.full(n, np.inf), np.zeros(n))[None]
 
 
 def _size_mm(term: MapTerm, coefficients: np.ndarray) -> float:

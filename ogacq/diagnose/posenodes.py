@@ -61,9 +61,7 @@ def pose_nodes(layout: ReadingsLayout, spacing_mm: float = NODE_SPACING_MM) -> P
     leg = np.asarray(layout.leg)
     q = layout.q_mm
     own = q[np.arange(n), leg]
-    keys = np.column_stack([layout.gauge, leg, layout.lost_motion_side])
-    _, track = np.unique(keys, axis=0, return_inverse=True)
-    track = track.reshape(-1)
+    track = row_codes(np.column_stack([layout.gauge, leg, layout.lost_motion_side]))
     order = np.lexsort((own, track))
     t_sorted, q_sorted = track[order], own[order]
     is_node = _spaced(t_sorted, q_sorted, spacing_mm)
@@ -91,6 +89,18 @@ def pose_nodes(layout: ReadingsLayout, spacing_mm: float = NODE_SPACING_MM) -> P
     right[order] = index_of[right_s]
     weight[order] = weight_s
     return PoseNodes(np.sort(order[node_pos]), left, right, weight)
+
+
+def row_codes(keys: np.ndarray) -> np.ndarray:
+    """(n,) each row of integer ``keys`` (n, c) numbered by its rank among the distinct
+    rows in lexicographic order: ``np.unique(keys, axis=0, return_inverse=True)``'s
+    numbers, from one key per row (a mixed radix) instead of a sort of the rows."""
+    keys = np.asarray(keys, dtype=np.int64)
+    code = np.zeros(len(keys), dtype=np.int64)
+    for column in keys.T:
+        low = column.min(initial=0)
+        code = code * (int(column.max(initial=0)) - int(low) + 1) + (column - low)
+    return np.unique(code, return_inverse=True)[1].reshape(-1)
 
 
 def _spaced(track: np.ndarray, q: np.ndarray, spacing_mm: float) -> np.ndarray:
@@ -182,8 +192,10 @@ def node_rows(nodes: PoseNodes, scale: np.ndarray, y: np.ndarray,
     the readings' millimetres, would swamp ``lost``), and ``gauge`` (G,),
     interpolated by ``nodes``."""
     left, right, w = _intervals(nodes)
-    pairs, block = np.unique(np.column_stack([left, right]), axis=0, return_inverse=True)
+    first, block = np.unique(left * len(nodes.nodes) + right, return_index=True,
+                             return_inverse=True)[1:]
     block = block.reshape(-1)
+    pairs = np.column_stack([left[first], right[first]])
     n_blocks = len(pairs)
     x = np.column_stack([scale * (1.0 - w), scale * w])  # a group's row of S I
 

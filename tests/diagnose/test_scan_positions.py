@@ -7,6 +7,7 @@ step (``mapbins.alias_pitch_mm``)."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -14,11 +15,13 @@ import pytest
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL
 from ogacq.diagnose.mapbins import alias_pitch_mm
-from ogacq.diagnose.mapsearch import AxisCoverage
+from ogacq.diagnose.mapsearch import KNOTS, AxisCoverage, _Families, coverage
+from ogacq.diagnose.mapspace import MapSpace
 from ogacq.diagnose.posenodes import pose_nodes
 from ogacq.identify.fit import fit
 from ogacq.model.measurement import predict_coordinates
 from ogacq.model.parameters import PARAM_INDEX
+from ogacq.sim.truth import ScrewMap
 from tests.diagnose.test_maps import campaign
 
 CHANGES = {"squareness.xy": 0.5, "backlash.z": 0.02, "joint_offset.x": 0.01,
@@ -95,3 +98,31 @@ def test_a_dense_scans_candidate_fits_cost_its_nodes_and_give_the_groups_sums():
     exact = [fit(obs, BASE_MODEL + e, method="exact", weighting="gls", theta0=fits.theta[k])
              for k, e in enumerate(extras)]
     assert np.allclose(fits.rss, [e.rss for e in exact], rtol=1e-6, atol=0)
+
+
+def test_a_dense_scans_spline_knots_are_weighed_on_its_positions_and_chosen_exactly(
+        monkeypatch):
+    """The smooth map's knot counts are weighed on the positions' binned sums and only
+    those near the best again on every group: the choice is the one every count
+    weighed exactly makes, at a few exact weighings instead of eleven."""
+    obs, _ = campaign(2, scan={"scan_step_mm": 0.1, "cycles": 1},
+                      screw_map={1: ScrewMap((0.004, -0.003, 0.002))})
+    problem = Problem(obs)
+    start = fit(obs, BASE_MODEL, method="exact", weighting="gls")
+    space = MapSpace(problem, start.theta, BASE_MODEL, start.rss)
+    log_n = math.log(problem.n_data)
+    exact_weighings = []
+    weigh = MapSpace.gain_of
+    monkeypatch.setattr(MapSpace, "gain_of",
+                        lambda self, term: exact_weighings.append(term) or weigh(self, term))
+    for cov in coverage(obs.layout, space.history.travel_mm):
+        exact_weighings.clear()
+        found = _Families(space, cov, BASE_MODEL, problem.noise).screw_map()
+        assert found is not None
+        every = [replace(found.term, shape={**found.term.shape, "knots": k})
+                 for k in KNOTS if k + 4 <= cov.positions // 2]
+        assert len(exact_weighings) < len(every) / 2
+        bics = [-float(g.gain[0]) / problem.noise.variance + int(g.rank[0]) * log_n
+                for g in (weigh(space, t) for t in every)]
+        assert found.term == every[int(np.argmin(bics))]
+        assert found.gain == pytest.approx(float(weigh(space, found.term).gain[0]), rel=1e-12)
