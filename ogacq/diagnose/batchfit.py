@@ -117,7 +117,14 @@ class Problem:
                  weighted: bool = True) -> np.ndarray:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
         (analytic), weighted unless asked otherwise."""
-        jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))[0]
+        theta = np.asarray(theta, float)
+        free = np.array(indices(names), dtype=int)
+        # a dense scan's from its nodes (GroupSpace.reading_jacobian), where time
+        # does not move the poses
+        jac = self.group_space.reading_jacobian(theta, free) \
+            if self.group_space is not None and not theta[_DRIFT].any() else None
+        if jac is None:
+            jac = self.obs.jacobian(theta[None], free)[0]
         return self.weighted_jacobian(jac) if weighted else jac
 
     def weighted_jacobian(self, jac: np.ndarray) -> np.ndarray:

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from ogacq.diagnose.batchfit import Problem, fit_many
-from ogacq.diagnose.library import BASE_MODEL
+from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS
 from ogacq.diagnose.mapbins import alias_pitch_mm
 from ogacq.diagnose.mapsearch import KNOTS, AxisCoverage, _Families, coverage
 from ogacq.diagnose.mapspace import MapSpace
@@ -126,3 +126,30 @@ def test_a_dense_scans_spline_knots_are_weighed_on_its_positions_and_chosen_exac
                 for g in (weigh(space, t) for t in every)]
         assert found.term == every[int(np.argmin(bics))]
         assert found.gain == pytest.approx(float(weigh(space, found.term).gain[0]), rel=1e-12)
+
+
+def test_a_dense_scans_jacobian_is_its_nodes_interpolated_a_drifts_scaled_by_each_time():
+    """Every reading's derivatives of a dense scan come from its nodes (a derivative
+    is a change per unit, interpolated as the predictions' changes are), to a few
+    1e-5 of each column's largest; a drift's, a time factor of the pose's, at each
+    reading's own time. A 1 mm scan, a theta with drift: evaluated at every reading."""
+    obs, _ = campaign(1, scan={"scan_step_mm": 0.1, "cycles": 2})
+    problem = Problem(obs)
+    start = fit(obs, BASE_MODEL, method="exact", weighting="gls").theta
+    names = BASE_MODEL + EFFECT_PARAMETERS
+    free = np.array([PARAM_INDEX[n] for n in names])
+    at_nodes = problem.group_space.reading_jacobian(start, free)
+    exact = obs.jacobian(start[None], free)[0]
+    largest = np.abs(exact).max(axis=0)
+    assert np.all(np.abs(at_nodes - exact) <= 1e-4 * largest + 1e-15)
+    drift = [k for k, n in enumerate(names) if n.startswith("thermal_drift")]
+    late = obs.layout.t_s > obs.layout.t_s.max() / 2
+    assert np.all(np.abs(at_nodes[late][:, drift] - exact[late][:, drift])
+                  <= 1e-4 * largest[drift])
+    assert np.array_equal(problem.jacobian(start, names, weighted=False), at_nodes)
+    drifting = start.copy()
+    drifting[PARAM_INDEX["thermal_drift.x"]] = 0.001
+    assert np.array_equal(problem.jacobian(drifting, names, weighted=False),
+                          obs.jacobian(drifting[None], free)[0])
+    coarse, _ = campaign(1)
+    assert Problem(coarse).group_space.reading_jacobian(start, free) is None
