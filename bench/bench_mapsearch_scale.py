@@ -11,7 +11,7 @@ error of 5 um and 5 mm pitch on the x screw, 2 um gauge scatter on a 1 um displa
 - ``1 mm``: a 1 mm step, cycles repeated to the size (the reference);
 - ``dense``: one cycle at the step that gives the same number of readings.
 
-For each: CPU seconds of ``diagnose`` (one warm run), peak traced memory (a second
+For each: CPU seconds of ``diagnose`` (the least of three warm runs), peak traced memory (a second
 run under tracemalloc, which numpy's arrays report to), what was found; then the
 ratio dense / 1 mm. Target: the ratio <= 2, the dense scan < 10 s and < 500 MiB.
 Run: python bench/bench_mapsearch_scale.py [readings, default 72000]
@@ -23,6 +23,7 @@ those of a second BLAS thread spinning beside the first; set the variable to com
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 
@@ -43,6 +44,8 @@ from ogacq.protocol.plan import ProtocolConfig, planned_layout  # noqa: E402
 from ogacq.sim.readings import simulated_readings  # noqa: E402
 from ogacq.sim.truth import LeadScrewError, SimTruth  # noqa: E402
 
+REPEATS = 3
+
 
 def scan(step_mm: float, cycles: int, seed: int = 1) -> Observations:
     layout = planned_layout(ProtocolConfig(scan_step_mm=step_mm, cycles=cycles), MACHINE)
@@ -52,10 +55,15 @@ def scan(step_mm: float, cycles: int, seed: int = 1) -> Observations:
                               seed=seed)
 
 
-def cpu_seconds(obs: Observations) -> tuple[float, object]:
-    start = time.process_time()
-    d = diagnose(obs)
-    return time.process_time() - start, d
+def cpu_seconds(obs: Observations, repeats: int = REPEATS) -> tuple[float, object]:
+    """The least CPU time of ``repeats`` diagnoses (a machine shared with other work
+    slows some runs, never speeds one up) and the diagnosis."""
+    best = math.inf
+    for _ in range(repeats):
+        start = time.process_time()
+        d = diagnose(obs)
+        best = min(best, time.process_time() - start)
+    return best, d
 
 
 def main() -> None:

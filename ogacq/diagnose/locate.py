@@ -239,7 +239,7 @@ def _approach_differences(labels: RowLabels, residuals: np.ndarray,
     present = count > 0
     eligible = (present.sum(axis=1) >= 2) & (
         ~present[:, unknown].any(axis=1) if len(unknown) else True)
-    out = []
+    out: list[ApproachDifference] = []
     # in order of the gauges' first appearance, then of the cells' (as a loop over
     # gauges and their postures would list them)
     gauge_rank = {g: k for k, g in enumerate(dict.fromkeys(gauges.tolist()))}

@@ -320,7 +320,7 @@ class _Families:
         sums = self._sums(min_pitch / BINS_PER_PITCH)
         gains = np.empty(len(freqs))
         for lo in range(0, len(freqs), CHUNK):
-            gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _trial_functions).gain
+            gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _grid_functions).gain
         best = int(np.argmax(gains))
         gram = Periodogram(a, 1.0 / freqs, gains)
 
@@ -456,6 +456,21 @@ def _shape_functions(term: MapTerm, _freqs: np.ndarray, q: np.ndarray) -> np.nda
     takes trial functions."""
     n = len(q)
     return term.shape_of(q, np.zeros(n), np.full(n, np.inf), np.zeros(n))[None]
+
+
+def _grid_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``_trial_functions`` at evenly spaced ``freqs`` (a chunk of the periodogram's
+    grid), each next frequency's phases the last one's times one step's: a complex
+    product where a sine and a cosine cost ten times more (exact at the chunk's
+    first frequency, within a few hundred roundings at its last: only the grid's
+    scan uses it, the candidate taken is weighed on the exact columns)."""
+    phase = 2j * np.pi * q
+    terms = np.empty((len(freqs), len(q)), dtype=complex)
+    terms[0] = np.exp(phase * freqs[0])
+    if len(freqs) > 1:
+        terms[1:] = np.exp(phase * (freqs[1] - freqs[0]))
+    z = np.cumprod(terms, axis=0)
+    return np.stack([z.imag, z.real - 1.0], axis=1)
 
 
 def _size_mm(term: MapTerm, coefficients: np.ndarray) -> float:

@@ -15,7 +15,14 @@ import pytest
 from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS
 from ogacq.diagnose.mapbins import alias_pitch_mm
-from ogacq.diagnose.mapsearch import KNOTS, AxisCoverage, _Families, coverage
+from ogacq.diagnose.mapsearch import (
+    KNOTS,
+    AxisCoverage,
+    _Families,
+    _grid_functions,
+    _trial_functions,
+    coverage,
+)
 from ogacq.diagnose.mapspace import MapSpace
 from ogacq.diagnose.posenodes import pose_nodes
 from ogacq.identify.fit import fit
@@ -153,3 +160,18 @@ def test_a_dense_scans_jacobian_is_its_nodes_interpolated_a_drifts_scaled_by_eac
                           obs.jacobian(drifting[None], free)[0])
     coarse, _ = campaign(1)
     assert Problem(coarse).group_space.reading_jacobian(start, free) is None
+
+
+def test_the_periodograms_grid_is_its_trial_functions_by_products_of_one_step():
+    """The grid's sines and cosines are each next frequency's phases as products of one
+    step's (a complex product, not a sine and a cosine per position and frequency):
+    the trial functions to within roundings, over a chunk of the grid on a dense
+    scan's positions."""
+    q = np.arange(-100.0, 210.0, 0.0269)
+    span = float(np.ptp(q))
+    df = 1.0 / (5 * span)
+    freqs = np.arange(1.0 / 103.0, 1.0 + df / 2, df)[:64]
+    assert np.allclose(_grid_functions(freqs, q), _trial_functions(freqs, q),
+                       rtol=0, atol=1e-11)
+    assert np.allclose(_grid_functions(freqs[:1], q), _trial_functions(freqs[:1], q),
+                       rtol=0, atol=1e-14)
