@@ -14,6 +14,12 @@ curvature is at most change / leg^2) at 0.5 mm spacing, 3e-8 mm; changes of
 micrometres to tenths of a millimetre in every parameter kind at once move a
 prediction by under 1e-6 mm (tests/diagnose/test_scan_positions.py).
 
+The fits then need no sum over the groups either: the interpolated change enters
+the weighted residuals linearly, so the groups between two nodes are compressed
+once into two rows (``NodeRows``) and a candidate costs its nodes (``NodeSpace``),
+with the same sums of squares. The readings' Jacobian is the nodes' interpolated
+the same way (``GroupSpace.reading_jacobian``).
+
 Tracks whose positions are no denser than the spacing (the papers' postures, a scan
 of 1 mm steps) are all nodes, and a campaign that gains less than ``MIN_GAIN`` from
 the nodes is evaluated at every group: the same numbers as before.
