@@ -117,7 +117,14 @@ class Problem:
                  weighted: bool = True) -> np.ndarray:
         """(m, p) derivatives of the observations by the named parameters at ``theta``
         (analytic), weighted unless asked otherwise."""
-        jac = self.obs.jacobian(np.asarray(theta, float)[None], indices(names))[0]
+        theta = np.asarray(theta, float)
+        free = np.array(indices(names), dtype=int)
+        # a dense scan's from its nodes (GroupSpace.reading_jacobian), where time
+        # does not move the poses
+        jac = self.group_space.reading_jacobian(theta, free) \
+            if self.group_space is not None and not theta[_DRIFT].any() else None
+        if jac is None:
+            jac = self.obs.jacobian(theta[None], free)[0]
         return self.weighted_jacobian(jac) if weighted else jac
 
     def weighted_jacobian(self, jac: np.ndarray) -> np.ndarray:
@@ -259,7 +266,11 @@ class _Space:
         """The space of the repeat groups' means or of every observation, for
         candidates freeing at most ``names``."""
         space = problem.group_space if on_groups else None
-        if space is not None:
+        nodes = space.node_space(theta_start) if space is not None else None
+        if nodes is not None:  # a dense scan: its nodes' rows (posenodes.NodeSpace)
+            design = Design(names, nodes.jacobian(theta_start, np.array(indices(names))))
+            residuals, constant, start = nodes.residuals, nodes.constant, nodes.start
+        elif space is not None:
             # G rows: decomposed directly, whatever the caller holds
             design = Design(names, space.jacobian_at(theta_start, names))
             residuals, constant = space.residuals, space.constant_rss

@@ -14,15 +14,18 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Sequence
+from dataclasses import replace
 from functools import cached_property
 
 import numpy as np
 
-from ogacq.diagnose.posenodes import PoseNodes, pose_nodes
+from ogacq.diagnose.posenodes import NodeSpace, PoseNodes, node_rows, pose_nodes
 from ogacq.identify.fit import Weighting
 from ogacq.identify.observations import Observations
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates, predict_jacobian
-from ogacq.model.parameters import indices
+from ogacq.model.parameters import AXES, indices
+
+_DRIFT = np.array(indices([f"thermal_drift.{a}" for a in AXES]))
 
 
 class GroupSpace:
@@ -62,7 +65,8 @@ class GroupSpace:
         out = copy.copy(self)
         out.obs = obs
         out.layout = self.layout.with_side(obs.layout.lost_motion_side[self._kept])
-        for derived in ("_nodes", "_node_layout"):  # the tracks follow the sides
+        for derived in ("_nodes", "_node_layout", "_node_layout_at_an_hour"):  # the
+            # tracks follow the sides
             out.__dict__.pop(derived, None)
         out._reference = None
         return out
@@ -89,6 +93,21 @@ class GroupSpace:
         self._reference = None if nodes is None else (predicted, predicted[:, nodes.nodes])
         return self._project((self._mean - predicted) * self._scale)[0]
 
+    def node_space(self, theta: np.ndarray) -> NodeSpace | None:
+        """A dense scan's fits from ``theta`` (N,) in the compressed rows of its nodes
+        (``posenodes.NodeSpace``): the same sums of squares as :meth:`residuals`
+        from :meth:`start_at` there, at the cost of the nodes, not of the groups.
+        None where the groups are no denser than the nodes."""
+        nodes = self._nodes
+        if nodes is None:
+            return None
+        predicted = predict_coordinates(np.asarray(theta, dtype=float)[None], self.layout,
+                                        self.obs.machine)[0]
+        start = self._project((self._mean - predicted) * self._scale)
+        rows = node_rows(nodes, self._scale, start, self.layout.gauge)
+        return NodeSpace(rows, self._node_layout, self.obs.machine, predicted[nodes.nodes],
+                         self.constant_rss)
+
     def _predicted(self, theta: np.ndarray) -> np.ndarray:
         nodes = self._nodes
         if nodes is None or self._reference is None:
@@ -107,6 +126,44 @@ class GroupSpace:
         keep = np.zeros(len(self.layout), dtype=bool)
         keep[self._nodes.nodes] = True
         return self.layout.subset(keep)
+
+    def reading_jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray | None:
+        """(n, p) every reading's unweighted Jacobian by the parameters at positions
+        ``free`` at ``theta`` (N,), without drift, for a dense scan: evaluated at the
+        nodes and interpolated along each track, as :meth:`residuals` interpolates a
+        prediction's change (a derivative is such a change per unit), and set at each
+        of a group's readings. A drift's column is a reading's derivative by its joint
+        offset's part at the reading's pose times the reading's hours, a factor of
+        time alone: evaluated an hour in and interpolated, then scaled by each
+        reading's hours. None where there are no nodes, or a group's readings do not
+        share their lost motion's side (the model's side resolved apart)."""
+        nodes = self._nodes
+        if nodes is None:
+            return None
+        readings = self.obs.layout
+        row = self._row_of_reading
+        if not np.array_equal(readings.lost_motion_side,
+                              self.layout.lost_motion_side[row]):
+            return None
+        at_nodes = predict_jacobian(np.asarray(theta, dtype=float)[None],
+                                    self._node_layout_at_an_hour, self.obs.machine, free)[0]
+        out = nodes.interpolate(at_nodes.T).T[row]
+        drift = np.flatnonzero(np.isin(free, _DRIFT))
+        out[:, drift] *= (readings.t_s / 3600.0)[:, None]
+        return out
+
+    @cached_property
+    def _row_of_reading(self) -> np.ndarray:
+        """(n,) each reading's group's row in :attr:`layout`."""
+        row_of_group = np.empty(len(self._order), dtype=int)
+        row_of_group[self._order] = np.arange(len(self._order))
+        return row_of_group[self._groups.group]
+
+    @cached_property
+    def _node_layout_at_an_hour(self) -> ReadingsLayout:
+        """The nodes read an hour in: a drift's derivative is then its factor of pose."""
+        layout = self._node_layout
+        return replace(layout, t_s=np.full(len(layout), 3600.0))
 
     def jacobian_at(self, theta: np.ndarray, names: Sequence[str]) -> np.ndarray:
         """(G, p) the weighted Jacobian of the named parameters at ``theta`` (without

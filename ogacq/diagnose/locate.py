@@ -239,19 +239,25 @@ def _approach_differences(labels: RowLabels, residuals: np.ndarray,
     present = count > 0
     eligible = (present.sum(axis=1) >= 2) & (
         ~present[:, unknown].any(axis=1) if len(unknown) else True)
-    out = []
+    out: list[ApproachDifference] = []
     # in order of the gauges' first appearance, then of the cells' (as a loop over
     # gauges and their postures would list them)
     gauge_rank = {g: k for k, g in enumerate(dict.fromkeys(gauges.tolist()))}
-    order = sorted(np.flatnonzero(eligible), key=lambda c: (gauge_rank[gauges[first[c]]],
-                                                            first[c]))
-    for c in order:
-        # the two sides read most often; among equals, the first in sorted order
-        ranked = np.argsort(-count[c], kind="stable")[:2]
-        a, b = ranked
-        std = sigma_mm * np.sqrt(1 / count[c, a] + 1 / count[c, b])
+    candidates = np.flatnonzero(eligible)
+    rank = np.array([gauge_rank[g] for g in gauges[first[candidates]].tolist()], dtype=int)
+    listed = candidates[np.lexsort((first[candidates], rank))]
+    if not len(listed):  # (a single side has no second to rank)
+        return out
+    # the two sides read most often; among equals, the first in sorted order (one sort
+    # of every cell's counts: a dense scan has as many cells as readings)
+    ranked = np.argsort(-count[listed], axis=1, kind="stable")[:, :2]
+    a, b = ranked[:, 0], ranked[:, 1]
+    n_a, n_b = count[listed, a], count[listed, b]
+    std = sigma_mm * np.sqrt(1 / n_a + 1 / n_b)
+    difference = total[listed, a] / n_a - total[listed, b] / n_b
+    for c, side_a, side_b, d, s in zip(listed.tolist(), a.tolist(), b.tolist(),
+                                       difference.tolist(), std.tolist(), strict=True):
         out.append(ApproachDifference(
             str(gauges[first[c]]), str(labels.posture[first[c]]),
-            (str(sides[a]), str(sides[b])),
-            float(total[c, a] / count[c, a] - total[c, b] / count[c, b]), float(std)))
+            (str(sides[side_a]), str(sides[side_b])), d, s))
     return out

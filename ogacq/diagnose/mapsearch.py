@@ -46,6 +46,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -77,6 +78,10 @@ SAMPLES_PER_PERIOD = 2.5  # distinct positions per period: above Nyquist's 2
 # start at 1 mm, e.g. THK's miniature BNK0401). A denser scan is not searched at
 # shorter pitches it could resolve: none is physics this model has.
 SHORTEST_LEAD_MM = 1.0
+# Shapes of q alone whose BIC on binned positions lies within this many knots' price
+# (log n each) of the best are weighed again exactly: ten times the binning's largest
+# error seen (no source: bench/bench_mapsearch_scale.py's dense scan).
+SPLINE_MARGIN_KNOTS = 2
 MAX_TERMS = 4
 STRICTER_WHEN_CONSISTENT = 10.0
 CHUNK = 64  # trial frequencies per batch
@@ -284,6 +289,17 @@ class _Families:
         self.q_set = h.setting_q_mm[self.gauge_rep, cov.axis]
         s_r, s_s = space.along
         self.s_rep, self.s_set = s_r[self.rep, cov.axis], s_s[self.rep, cov.axis]
+        self._sums_by_bin: dict[float, PositionSums] = {}
+
+    def _sums(self, bin_mm: float) -> PositionSums:
+        """The axis's columns' weights summed over positions binned at ``bin_mm``
+        (``mapbins.py``), made once for the periodogram and the spline's knots."""
+        made = self._sums_by_bin.get(bin_mm)
+        if made is None:
+            made = PositionSums(self.space, self.q_rep, self.q_set, self.s_rep, self.s_set,
+                                bin_mm)
+            self._sums_by_bin[bin_mm] = made
+        return made
 
     def _candidate(self, term: MapTerm, gain: Gain, k: int, tried: int, shape_params: int,
                    **kw: Any) -> MapCandidate:
@@ -297,11 +313,10 @@ class _Families:
             return None
         df = 1.0 / (OVERSAMPLE * cov.span_mm)
         freqs = np.arange(1.0 / max_pitch, 1.0 / min_pitch + df / 2, df)
-        sums = PositionSums(self.space, self.q_rep, self.q_set, self.s_rep, self.s_set,
-                            min_pitch / BINS_PER_PITCH)
+        sums = self._sums(min_pitch / BINS_PER_PITCH)
         gains = np.empty(len(freqs))
         for lo in range(0, len(freqs), CHUNK):
-            gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _trial_functions).gain
+            gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _grid_functions).gain
         best = int(np.argmax(gains))
         gram = Periodogram(a, 1.0 / freqs, gains)
 
@@ -350,18 +365,36 @@ class _Families:
 
     def best(self, grid: ShapeGrid) -> MapCandidate:
         """The grid's best shape beside the model, its count the shapes tried."""
-        gains = [self.space.gain_of(t) for t in grid.terms]
+        weighed = self._near_best_binned(grid) if grid.by_bic and grid.of_q_alone \
+            else grid.terms
+        gains = [self.space.gain_of(t) for t in weighed]
         if grid.by_bic:
             n_data = self.space.problem.n_data
             best = int(np.argmin([bic_change(float(g.gain[0]), int(g.rank[0]), n_data,
                                              self.noise) for g in gains]))
         else:
             best = int(np.argmax([float(g.gain[0]) for g in gains]))
-        term = grid.terms[best]
-        refine = None if grid.refine is None else \
-            (lambda: self._refined(grid, best, gains[best]))
-        return self._candidate(term, gains[best], 0, len(grid.terms), term.shape_parameters,
+        term, gain = weighed[best], gains[best]
+        at = grid.terms.index(term)  # its place in the grid, between its neighbours
+        refine = None if grid.refine is None else (lambda: self._refined(grid, at, gain))
+        return self._candidate(term, gain, 0, len(grid.terms), term.shape_parameters,
                                refine=refine)
+
+    def _near_best_binned(self, grid: ShapeGrid) -> list[MapTerm]:
+        """The grid's shapes worth weighing exactly: every one weighed first on the
+        positions' sums (exact where the positions are no more than the bins, as a
+        scan's at 1 mm; binned at a 32nd of the shortest lead on a denser one, which
+        moves a gain by a few units of the noise's variance: 2.1 at most on the
+        72,000-reading bench), those within ``SPLINE_MARGIN_KNOTS`` amplitudes' price
+        of the best kept."""
+        sums = self._sums(SHORTEST_LEAD_MM / BINS_PER_PITCH)
+        n_data = self.space.problem.n_data
+        binned = [bic_change(float(g.gain[0]), int(g.rank[0]), n_data, self.noise)
+                  for t in grid.terms
+                  for g in [sums.gain(np.zeros(1), partial(_shape_functions, t))]]
+        margin = SPLINE_MARGIN_KNOTS * math.log(max(n_data, 2))
+        return [t for t, b in zip(grid.terms, binned, strict=True)
+                if b <= min(binned) + margin]
 
     def _refined(self, grid: ShapeGrid, best: int, gain: Gain) -> MapCandidate:
         """The best shape's parameter ``grid.refine`` refined between its neighbours on
@@ -420,6 +453,28 @@ def _trial_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
     one, zero at q = 0 as ``model/error_maps.py`` makes the lead-screw term."""
     w = 2 * np.pi * freqs[:, None, None]
     return np.concatenate([np.sin(w * q), np.cos(w * q) - 1.0], axis=1)
+
+
+def _shape_functions(term: MapTerm, _freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """(1, k, len(q)) a shape of ``q`` alone (the screw map's) as ``PositionSums``
+    takes trial functions."""
+    n = len(q)
+    return term.shape_of(q, np.zeros(n), np.full(n, np.inf), np.zeros(n))[None]
+
+
+def _grid_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
+    """``_trial_functions`` at evenly spaced ``freqs`` (a chunk of the periodogram's
+    grid), each next frequency's phases the last one's times one step's: a complex
+    product where a sine and a cosine cost ten times more (exact at the chunk's
+    first frequency, within a few hundred roundings at its last: only the grid's
+    scan uses it, the candidate taken is weighed on the exact columns)."""
+    phase = 2j * np.pi * q
+    terms = np.empty((len(freqs), len(q)), dtype=complex)
+    terms[0] = np.exp(phase * freqs[0])
+    if len(freqs) > 1:
+        terms[1:] = np.exp(phase * (freqs[1] - freqs[0]))
+    z = np.cumprod(terms, axis=0)
+    return np.stack([z.imag, z.real - 1.0], axis=1)
 
 
 def _repeated_in_time(layout: ReadingsLayout) -> bool:

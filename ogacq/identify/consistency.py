@@ -358,8 +358,13 @@ def _group_cells(obs: Observations, group: np.ndarray, n_groups: int) -> np.ndar
     along = tcp[np.arange(len(lay)), lay.leg]
     first = np.zeros(n_groups, dtype=int)
     first[group[::-1]] = np.arange(len(group))[::-1]
-    return np.array([f"{AXES[lay.gauge_axis[i]]}_{AXES[lay.leg[i]]} at "
-                     f"{posture_name(along[i], obs.machine)}" for i in first])
+    # each distinct position named once and joined to its gauge and leg by array
+    # operations: a dense scan has as many groups as readings
+    positions, at = np.unique(along[first], return_inverse=True)
+    names = np.array([posture_name(p, obs.machine) for p in positions.tolist()], dtype=str)
+    gauges = np.array([f"{g}_{leg} at " for g in AXES for leg in AXES], dtype=str)
+    which = lay.gauge_axis[first] * len(AXES) + lay.leg[first]
+    return np.char.add(gauges[which], names[at.reshape(-1)])
 
 
 def posture_name(position_mm: float, machine: MachineSpec) -> str:

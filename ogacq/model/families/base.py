@@ -64,11 +64,13 @@ class ShapeGrid:
     count): the best by gain, or by the BIC with each shape's rank (``by_bic``: the
     shapes differ in their number of amplitudes); ``refine`` names the shape parameter
     refined between the best one's neighbours (on a log scale, with its std) once the
-    candidate is taken."""
+    candidate is taken; ``of_q_alone``: its shapes depend on the position alone, so a
+    dense scan's may be weighed first on the positions' binned sums."""
 
     terms: tuple[MapTerm, ...]
     by_bic: bool = False
     refine: str | None = None
+    of_q_alone: bool = False
 
 
 class MapFamily(ABC, Generic[S]):

@@ -127,4 +127,4 @@ class Smooth(MapFamily[SmoothShape]):
         if not choices:
             return []
         return [ShapeGrid(tuple(self._term(axis.axis, axis.from_mm, axis.to_mm, k, axis.fitted)
-                                for k in choices), by_bic=True)]
+                                for k in choices), by_bic=True, of_q_alone=True)]
