@@ -31,10 +31,10 @@ def test_the_readme_history_command_after_demo_sim_and_run(tmp_path):
     demo = run_ogacq("demo", "--no-loop", "--speed", "50", "--out", tmp_path / "demo",
                      "--history", history)
     assert demo.returncode == 0, demo.stderr
-    # its end fits the terminal: a wider line is cut mid-word (issue 38.6)
+    # it fits the terminal, its end as every line: a wider line is cut mid-word (issue
+    # 38.6; "closing the loop ... in FOLDER/calibrate/" was one line of 125 characters)
     width = int(os.environ.get("COLUMNS", "80"))
-    end = demo.stdout[demo.stdout.index("written:"):]
-    assert [line for line in end.splitlines() if len(line) > width] == [], end
+    assert [line for line in demo.stdout.splitlines() if len(line) > width] == []
 
     campaign = tmp_path / "sim.toml"
     sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", "50",
