@@ -160,7 +160,7 @@ def _list_machines(location: HistoryLocation, as_json: bool) -> None:
     for (m, _), row in zip(listed, rows, strict=True):
         count = row["calibrations"]
         # the date as the machine's table writes it (2026-12-06 21:53)
-        last = f", the last {row['last'][:16].replace('T', ' ')}" if row["last"] else ""
+        last = f", the last {str(row['last'])[:16].replace('T', ' ')}" if row["last"] else ""
         _say(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
     if any(not m.serial for m, _ in listed):  # its identity is its name: said once
         _say("a machine with no serial is filed by its name alone: `serial = ...` in its "

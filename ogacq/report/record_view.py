@@ -402,7 +402,7 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
     names = list(dict.fromkeys(n for values in per.values() for n in values))
     # a parameter a figure lacks: None, "not evaluated"
     filled = [dict.fromkeys(names) | dict(values) for values in per.values()]
-    rows: list[list[Cell]] = [[name] + [shown(values[name], NOT_EVALUATED) for values in filled]
+    rows: list[list[Cell]] = [[name, *(shown(values[name], NOT_EVALUATED) for values in filled)]
                               for name in names]
     return (pairs_table(scalars, NOT_EVALUATED),
             table(["parameter"] + [words(k) for k in per], rows,

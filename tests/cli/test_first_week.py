@@ -53,6 +53,9 @@ def test_the_readme_history_command_after_demo_sim_and_run(tmp_path):
         campaign.write_text(campaign.read_text().replace("cycles = 3", "cycles = 1"))
         ran = run_ogacq("run", campaign, "--history", history)
         assert ran.returncode == 0, ran.stderr
+        # a rehearsal, on `ogacq sim`'s drives, not the built-in simulator (38.2)
+        said = " ".join(ran.stdout.split())
+        assert "SIMULATED a rehearsal on a simulator: not a calibration" in said, said
     finally:
         os.killpg(sim.pid, signal.SIGINT)
         sim.wait(60)

@@ -166,3 +166,21 @@ def test_report_says_what_it_is_doing_on_a_terminal_only(tmp_path):
     assert len(piped.stderr.splitlines()) == 1 and "issuing the record" in piped.stderr
     assert piped.stdout.splitlines()[0] == str(tmp_path / "p" / "report.html")
     assert "\nnext: " in piped.stdout  # the end: wrapped at 80 columns to a pipe
+
+
+def test_the_search_table_wraps_between_effect_names(capsys, monkeypatch):
+    """At 80 columns the library search's "added" column was folded inside a name
+    ("encoder_scale." over "y"): each name is whole on its line now, every line within
+    the width."""
+    from ogacq.cli.render_diagnosis import print_diagnosis
+    from ogacq.diagnose.diagnosis import diagnose
+    from tests.diagnose.campaigns import simulate
+
+    monkeypatch.setenv("COLUMNS", str(WIDTH))
+    found = diagnose(simulate({"encoder_scale.x": 3000.0, "encoder_scale.z": 2000.0}, 1))
+    assert [s.label for s in found.selection.steps] == ["encoder_scale.x + encoder_scale.z"]
+    print_diagnosis(found)
+    out = capsys.readouterr().out
+    table = out[out.index("Search"):out.index("residual rms per gauge")]
+    assert too_wide(out) == [] and "encoder_scale.x +" in table, table
+    assert "│ encoder_scale.z " in table, table
