@@ -12,7 +12,7 @@ import typer
 from ogacq.cli import render_history as render
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
-from ogacq.cli.plain import Printer, shown
+from ogacq.cli.plain import print_wrapped
 from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import RecordError, check_record
@@ -110,7 +110,7 @@ def show(
         return
     render.print_calibrations(found, where, calibrations, drifts, events, written, moves)
     if plot is not None:
-        _say(f"plot: {plot}")
+        print_wrapped(f"plot: {plot}")
 
 
 def _show_each(location: HistoryLocation, typed: str) -> None:
@@ -125,7 +125,7 @@ def _show_each(location: HistoryLocation, typed: str) -> None:
                                   changes(calibrations, written), events, written,
                                   controller_changes(calibrations, written))
     if len(found) > 1:
-        _say(f"{typed!r} names {len(found)} machines: one of them alone is "
+        print_wrapped(f"{typed!r} names {len(found)} machines: one of them alone is "
              f"`ogacq history {found[0].label!r}`")
 
 
@@ -155,18 +155,18 @@ def _list_machines(location: HistoryLocation, as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps({"history": location.describe(), "machines": rows}))
         return
-    _say(f"machines in history {location.describe()}:" if rows else
+    print_wrapped(f"machines in history {location.describe()}:" if rows else
          f"history {location.describe()} holds no machine yet")
     for (m, _), row in zip(listed, rows, strict=True):
         count = row["calibrations"]
         # the date as the machine's table writes it (2026-12-06 21:53)
         last = f", the last {str(row['last'])[:16].replace('T', ' ')}" if row["last"] else ""
-        _say(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
+        print_wrapped(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
     if any(not m.serial for m, _ in listed):  # its identity is its name: said once
-        _say("a machine with no serial is filed by its name alone: `serial = ...` in its "
+        print_wrapped("a machine with no serial is filed by its name alone: `serial = ...` in its "
              "machine file tells it from another of the same name")
     if rows:
-        _say(f"`ogacq history {listed[0][0].label!r}` lists a machine's calibrations (its "
+        print_wrapped(f"`ogacq history {listed[0][0].label!r}` lists a machine's calibrations (its "
              "name, serial or the label above)")
 
 
@@ -240,10 +240,4 @@ def add(
             what += f"; no calibration: {state.describe()}"
         for note in session.integrity.notes():
             what += f"; {note}"
-        _say(f"{session.path}: {what} ({location.describe()})")
-
-
-def _say(text: str) -> None:
-    """A line of text wrapped between words at the terminal's width (80 to a pipe): a
-    wider line is cut by the terminal mid-word."""
-    Printer().print(shown(text), highlight=False)
+        print_wrapped(f"{session.path}: {what} ({location.describe()})")
