@@ -184,3 +184,20 @@ def test_the_search_table_wraps_between_effect_names(capsys, monkeypatch):
     table = out[out.index("Search"):out.index("residual rms per gauge")]
     assert too_wide(out) == [] and "encoder_scale.x +" in table, table
     assert "│ encoder_scale.z " in table, table
+
+
+def test_session_check_and_init_fit_80_columns(tmp_path, capsys, monkeypatch):
+    """`session check`'s one line (its last) was 100-130 characters with a session's
+    path, and `init`'s too: wrapped between words now, to a pipe as on a terminal."""
+    from ogacq.cli.app import main
+
+    monkeypatch.setenv("COLUMNS", str(WIDTH))
+    golden = ROOT / "tests" / "golden" / "session.jsonl"
+    assert main(["session", "check", str(golden)]) == 0
+    out = capsys.readouterr().out
+    assert too_wide(out) == [] and "every one as written" in " ".join(out.split()), out
+    deep = tmp_path / "a-folder-with-a-rather-long-name-as-shop-floor-paths-have"
+    deep.mkdir()
+    assert main(["init", "campaign", str(deep / "campaign.toml")]) == 0
+    out = capsys.readouterr().out
+    assert too_wide(out) == [] and "then `ogacq run" in " ".join(out.split()), out
