@@ -17,7 +17,12 @@ from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import RecordError, check_record
 from ogacq.history.location import HistoryLocation, history_for_session, history_to_read
-from ogacq.history.recording import record_session, session_record, writebacks_of
+from ogacq.history.recording import (
+    filed_by_name,
+    record_session,
+    session_record,
+    writebacks_of,
+)
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
 from ogacq.history.store import History
@@ -233,6 +238,7 @@ def add(
     for session, record, location in zip(loaded, records, locations, strict=True):
         assert location is not None
         with History.open(location) as db:
+            first_met = filed_by_name(db, session)
             recorded = record_session(db, session, record)
         what = ", ".join(recorded.new) if recorded.new else "already recorded"
         state = completeness(session)
@@ -241,3 +247,5 @@ def add(
         for note in session.integrity.notes():
             what += f"; {note}"
         print_wrapped(f"{session.path}: {what} ({location.describe()})")
+        if first_met is not None and recorded.new:
+            print_wrapped(first_met)

@@ -127,7 +127,7 @@ def record_after(session_path: Path, option: str | None, action: str, *,
                 "recorded when it completes")
             return None
         with History.open(location) as history:
-            first_met = _filed_by_name(history, session)
+            first_met = filed_by_name(history, session)
             recorded = (record_with or record_session)(history, session)
     except (OgacqError, ValueError, OSError) as exc:
         log.warning("%s not recorded in the history: %s; %s", action, exc,
@@ -143,7 +143,7 @@ def record_after(session_path: Path, option: str | None, action: str, *,
     return recorded
 
 
-def _filed_by_name(history: History, session: LoadedSession) -> str | None:
+def filed_by_name(history: History, session: LoadedSession) -> str | None:
     """What a machine without a serial is filed as, said the first time this history
     meets it: its name is then its identity ("NAME (no serial)"), the same at every later
     campaign; a serial given later makes it a new machine here. A user's machine file
