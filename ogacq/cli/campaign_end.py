@@ -147,7 +147,7 @@ def next_steps(session: LoadedSession, verdict: Verdict, identifiable: bool, *,
         return tuple(steps)
     steps.insert(0, NextStep(f"ogacq offsets write {path}", "write the offsets to the "
                              "controller (shown and confirmed first)"))
-    if campaign and not simulated:
+    if campaign and (rehearsal_writeback or not simulated):  # `ogacq sim`'s still serves
         steps.insert(1, NextStep(f"ogacq run {campaign}", "then a validation run, recorded "
                                  f"as {next_session_name(Path(campaign), path)}"))
     return tuple(steps)

@@ -175,8 +175,8 @@ def _close_the_loop(folder: Path, campaign: Campaign, session: Path,
     from ogacq.history.recording import procedure_history, record_calibrate, record_writebacks
 
     assert campaign.simulator is not None
-    typer.echo("\nclosing the loop (as `ogacq calibrate` does): write, validate, keep or "
-               f"restore, in {folder}/calibrate/")
+    print_end([f"closing the loop (as `ogacq calibrate` does): write, validate, keep or "
+               f"restore, in {folder}/calibrate/"])  # wrapped between words
     setup = simulator_setup(folder / "calibrate", campaign.machine, campaign.machine_path,
                             campaign.simulator, operator=campaign.operator,
                             override_expired=campaign.override_expired)

@@ -12,11 +12,17 @@ import typer
 from ogacq.cli import render_history as render
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
+from ogacq.cli.plain import print_wrapped
 from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.drift import changes, controller_changes, written_by_record
 from ogacq.history.entries import RecordError, check_record
 from ogacq.history.location import HistoryLocation, history_for_session, history_to_read
-from ogacq.history.recording import record_session, session_record, writebacks_of
+from ogacq.history.recording import (
+    filed_by_name,
+    record_session,
+    session_record,
+    writebacks_of,
+)
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
 from ogacq.history.store import History
@@ -109,7 +115,7 @@ def show(
         return
     render.print_calibrations(found, where, calibrations, drifts, events, written, moves)
     if plot is not None:
-        typer.echo(f"plot: {plot}")
+        print_wrapped(f"plot: {plot}")
 
 
 def _show_each(location: HistoryLocation, typed: str) -> None:
@@ -124,8 +130,8 @@ def _show_each(location: HistoryLocation, typed: str) -> None:
                                   changes(calibrations, written), events, written,
                                   controller_changes(calibrations, written))
     if len(found) > 1:
-        typer.echo(f"{typed!r} names {len(found)} machines: one of them alone is "
-                   f"`ogacq history {found[0].label!r}`")
+        print_wrapped(f"{typed!r} names {len(found)} machines: one of them alone is "
+             f"`ogacq history {found[0].label!r}`")
 
 
 def _check_show_options(machine: str | None, states: bool, diff: tuple[str, str] | None,
@@ -154,18 +160,19 @@ def _list_machines(location: HistoryLocation, as_json: bool) -> None:
     if as_json:
         typer.echo(json.dumps({"history": location.describe(), "machines": rows}))
         return
-    typer.echo(f"machines in history {location.describe()}:" if rows else
-               f"history {location.describe()} holds no machine yet")
+    print_wrapped(f"machines in history {location.describe()}:" if rows else
+         f"history {location.describe()} holds no machine yet")
     for (m, _), row in zip(listed, rows, strict=True):
         count = row["calibrations"]
-        last = f", the last {row['last']}" if row["last"] else ""
-        typer.echo(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
+        # the date as the machine's table writes it (2026-12-06 21:53)
+        last = f", the last {str(row['last'])[:16].replace('T', ' ')}" if row["last"] else ""
+        print_wrapped(f"  {m.label}: {count} calibration{'s' if count != 1 else ''}{last}")
     if any(not m.serial for m, _ in listed):  # its identity is its name: said once
-        typer.echo("a machine with no serial is filed by its name alone: `serial = ...` in "
-                   "its machine file tells it from another of the same name")
+        print_wrapped("a machine with no serial is filed by its name alone: `serial = ...` in its "
+             "machine file tells it from another of the same name")
     if rows:
-        typer.echo(f"`ogacq history {listed[0][0].label!r}` lists a machine's calibrations "
-                   "(its name, serial or the label above)")
+        print_wrapped(f"`ogacq history {listed[0][0].label!r}` lists a machine's calibrations (its "
+             "name, serial or the label above)")
 
 
 def _record_for_history(session: LoadedSession) -> dict[str, Any]:
@@ -231,6 +238,7 @@ def add(
     for session, record, location in zip(loaded, records, locations, strict=True):
         assert location is not None
         with History.open(location) as db:
+            first_met = filed_by_name(db, session)
             recorded = record_session(db, session, record)
         what = ", ".join(recorded.new) if recorded.new else "already recorded"
         state = completeness(session)
@@ -238,4 +246,6 @@ def add(
             what += f"; no calibration: {state.describe()}"
         for note in session.integrity.notes():
             what += f"; {note}"
-        typer.echo(f"{session.path}: {what} ({location.describe()})")
+        print_wrapped(f"{session.path}: {what} ({location.describe()})")
+        if first_met is not None and recorded.new:
+            print_wrapped(first_met)

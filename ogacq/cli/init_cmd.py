@@ -10,6 +10,7 @@ import typer
 
 from ogacq.campaign.templates import campaign_template, machine_template
 from ogacq.cli.outputs import ForceOption, check_output_file
+from ogacq.cli.plain import print_wrapped
 from ogacq.io.atomic import write_atomically
 
 
@@ -32,11 +33,11 @@ def init(
     check_output_file(path, "FILE", force=force)
     if kind is FileKind.machine:
         write_atomically(path, machine_template().encode("utf-8"))
-        typer.echo(f"machine file written to {path}: edit its values")
+        print_wrapped(f"machine file written to {path}: edit its values")
         return
     machine_path = machine or path.parent / "machine.toml"
     write_atomically(path, campaign_template(path, machine_path).encode("utf-8"))
-    typer.echo(f"campaign file written to {path}: set its ports, then `ogacq run {path}`")
+    print_wrapped(f"campaign file written to {path}: set its ports, then `ogacq run {path}`")
     if not machine_path.exists():
-        typer.echo(f"it names the machine file {machine_path}, not there yet: "
-                   f"`ogacq init machine {machine_path}`")
+        print_wrapped(f"it names the machine file {machine_path}, not there yet: "
+                      f"`ogacq init machine {machine_path}`")

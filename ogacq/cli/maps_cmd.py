@@ -17,7 +17,7 @@ from typing import Annotated
 import typer
 
 from ogacq.cli.options import HistoryOption, JsonOption
-from ogacq.cli.plain import plain
+from ogacq.cli.plain import plain, print_wrapped
 from ogacq.compensation.iso230 import map_figures
 from ogacq.errors import InputError, Refused
 from ogacq.session.store import LoadedSession, load_session
@@ -49,13 +49,13 @@ def show(session_path: SessionArgument, as_json: JsonOption = False) -> None:
                        for o in ops]}))
         return
     for o in ops:
-        typer.echo(f"{o.operation} ({o.action}, {o.status}): {o.old_checksum[:12]} -> "
-                   f"{o.new_checksum[:12]}")
-    typer.echo(f"maps file {plain(table.path)}: {table.checksum[:12]}"
-               + ("" if table.maps else " (no maps)"))
+        print_wrapped(f"{o.operation} ({o.action}, {o.status}): {o.old_checksum[:12]} -> "
+                      f"{o.new_checksum[:12]}")
+    print_wrapped(f"maps file {plain(table.path)}: {table.checksum[:12]}"
+                  + ("" if table.maps else " (no maps)"))
     for axis, m in table.maps.items():
-        typer.echo(f"  {axis}: {m.source or 'map'}; ISO 230-2: "
-                   f"{map_figures(m).line()}")
+        print_wrapped(f"  {axis}: {m.source or 'map'}; ISO 230-2: "
+                      f"{map_figures(m).line()}")
 
 
 def restore(
@@ -78,11 +78,11 @@ def restore(
 def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: MapsFile, *, yes: bool,
                   history: str | None) -> None:
     plan = target.plan_restore(op, target.held())
-    typer.echo(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
-               f"{plan.new_checksum[:12]} (back to before {op.operation}; "
-               f"{', '.join(plan.new_maps) or 'no maps'})")
+    print_wrapped(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
+                  f"{plan.new_checksum[:12]} (back to before {op.operation}; "
+                  f"{', '.join(plan.new_maps) or 'no maps'})")
     if plan.nothing_to_do:
-        typer.echo("the maps file already holds these maps: nothing to restore")
+        print_wrapped("the maps file already holds these maps: nothing to restore")
         return
     if plan.refused:
         raise Refused("nothing restored: " + "; ".join(r.message for r in plan.refusals))
@@ -98,7 +98,7 @@ def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: Maps
         with AuditLog(session) as audit:
             done = restore_target(target, op, session, audit,
                                   "--yes" if yes else "prompt")
-        typer.echo(f"restored: {done}, read back {target.held()[:12]}")
+        print_wrapped(f"restored: {done}, read back {target.held()[:12]}")
     finally:
         from ogacq.history.recording import record_writebacks
 

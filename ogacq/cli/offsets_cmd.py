@@ -23,6 +23,7 @@ from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
 from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
+from ogacq.cli.plain import print_wrapped
 from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.recording import record_writebacks
 from ogacq.session.state import require_complete, session_notes
@@ -104,7 +105,7 @@ def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bo
     ``audit`` is open: this command holds the session, so no campaign runs on it
     meanwhile."""
     if plan.nothing_to_do:
-        typer.echo(f"the controller already holds these offsets: nothing to {plan.action}")
+        print_wrapped(f"the controller already holds these offsets: nothing to {plan.action}")
         return None
     summary = {"action": plan.action, "current_mm": plan.current_mm, "new_mm": plan.new_mm}
     if plan.refused:
@@ -179,12 +180,12 @@ def show(
     render.print_plan(plan, port=spec.port, offsets_file=_table_name(spec), evidence=evidence)
     render.print_history(history)
     if plan.nothing_to_do:
-        typer.echo("the controller already holds these offsets")
+        print_wrapped("the controller already holds these offsets")
     elif plan.refused:
         for refusal in plan.refusals:
-            typer.echo(f"would refuse ({refusal.code}): {refusal.message}")
+            print_wrapped(f"would refuse ({refusal.code}): {refusal.message}")
     else:
-        typer.echo("`ogacq offsets write` would write these")
+        print_wrapped("`ogacq offsets write` would write these")
 
 
 def _analysed(path: Path, partial: bool, accept_edited: bool, *, say: bool = True,
@@ -314,8 +315,8 @@ def _restore_state(machine_name: str, wanted: str, history: str | None,
                          f"{state.state_id} is not on this computer: restore from the station "
                          "that holds it")
     session = load_session(Path(state.session_path))
-    typer.echo(f"{found.describe()}: back to offsets state {state.state_id} ({state.stage} "
-               f"{state.action} {state.operation}, {state.at or 'undated'})")
+    print_wrapped(f"{found.describe()}: back to offsets state {state.state_id} ({state.stage} "
+                  f"{state.action} {state.operation}, {state.at or 'undated'})")
     with _recorded_after(session, history, location), \
             controller_of(session, campaign_path, save_nvm) as (spec, audit, controller):
         try:

@@ -54,3 +54,9 @@ class Printer:
 
     def print(self, *objects: Any, **options: Any) -> None:
         console(stderr=self.stderr).print(*objects, **options)
+
+
+def print_wrapped(text: str) -> None:
+    """A line of text on stdout as it is (no markup), wrapped between words at the
+    terminal's width (80 columns to a pipe): a wider line the terminal cuts mid-word."""
+    Printer().print(shown(text), highlight=False)

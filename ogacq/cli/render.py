@@ -214,7 +214,8 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
                   f"{result.noise.describe()}; session {shown(outcome.session_path)}",
                   highlight=False)
     if getattr(outcome, "simulated", False):
-        console.print("[bold reverse] SIMULATED [/] a rehearsal on the built-in simulator: "
+        # the built-in one or `ogacq sim`'s, whose drives say so (issue 38.2)
+        console.print("[bold reverse] SIMULATED [/] a rehearsal on a simulator: "
                       "not a calibration of the machine", highlight=False)
 
 

@@ -215,14 +215,22 @@ def _print_search(d: Diagnosis) -> None:
     if not sel.steps:
         out.print("  no effect or pair of effects improves the fit significantly with "
                   "plausible values")
+    rows = [(str(k), step.label, f"{step.before.verdict.rms_mm * UM_PER_MM:.2f} µm",
+             f"{step.after.verdict.rms_mm * UM_PER_MM:.2f} µm",
+             f"{step.before.verdict.chi2_dof:.3g} → {step.after.verdict.chi2_dof:.3g}",
+             format_p(step.p_value), f"{step.delta_bic:+.1f}")
+            for k, step in enumerate(sel.steps, 1)]
+    # each cell whole on its line, the effects added wrapping between names (folded to
+    # narrow columns at 80 columns it read "encoder_scale." over "y"); the headers wrap
+    widest = [max((len(part) + 2 for row in rows for part in row[i].split(" + ")), default=0)
+              if i == 1 else max((len(row[i]) for row in rows), default=0) for i in range(7)]
     table = Table(show_edge=False, header_style="bold", pad_edge=False)
-    for col in ("step", "added", "rms before", "rms after", "chi2/dof", "p (nested)", "dBIC"):
-        table.add_column(col, justify="left" if col == "added" else "right", overflow="fold")
-    for k, step in enumerate(sel.steps, 1):
-        table.add_row(str(k), step.label, f"{step.before.verdict.rms_mm * UM_PER_MM:.2f} µm",
-                      f"{step.after.verdict.rms_mm * UM_PER_MM:.2f} µm",
-                      f"{step.before.verdict.chi2_dof:.3g} → {step.after.verdict.chi2_dof:.3g}",
-                      format_p(step.p_value), f"{step.delta_bic:+.1f}")
+    for i, col in enumerate(("step", "added", "rms\nbefore", "rms\nafter", "chi2/dof",
+                             "p\n(nested)", "dBIC")):
+        table.add_column(col, justify="left" if col == "added" else "right", overflow="fold",
+                         min_width=widest[i])
+    for row in rows:
+        table.add_row(*row)
     if sel.steps:
         out.print(table)
         _print_gauge_rms(d)

@@ -97,15 +97,47 @@ def _record_words(c: Calibration) -> str:
     return shown(c.record_id) + (" SIMULATED" if c.simulated else "")
 
 
-def _who_notes(calibrations: Sequence[Calibration], written: Written) -> list[str]:
-    """Which campaign validates which write-back; whether any is a rehearsal."""
+def _who_notes(calibrations: Sequence[Calibration], written: Written,
+               events: Sequence[Event] = ()) -> list[str]:
+    """Which campaign validates which write-back, and what biases its offsets listed
+    alone; whether any is a rehearsal."""
+    left = _left_on_machine(events)
     notes = [f"{after.record_id} validates the write-back made from {before.record_id}"
+             + _biased(before, after, left.get(before.record_id, []))
              for before, after in zip(calibrations, calibrations[1:], strict=False)
              if written.get(before.record_id)]  # the first campaign after a write-back
     if any(c.simulated for c in calibrations):
         notes.append("SIMULATED: a rehearsal on a simulator, not a calibration of the "
                      "machine, nor compared with one for drift")
     return notes
+
+
+def _left_on_machine(events: Sequence[Event]) -> dict[str, list[str]]:
+    """record id -> the effects its diagnosis explained the readings with (the
+    diagnosis's JSON, INTERCHANGE.md: ``final.consistent``, ``effects``): a write-back
+    corrects the joint offsets only, so they stay on the machine."""
+    out = {}
+    for e in events:
+        found = e.details or {}
+        effects = [f"{x.get('effect')}.{x.get('where')}" for x in found.get("effects") or []
+                   if isinstance(x, dict) and x.get("effect") != "unexplained"]
+        if e.kind == "diagnosis" and (found.get("final") or {}).get("consistent") and effects:
+            out[e.record_id] = effects
+    return out
+
+
+def _biased(before: Calibration, after: Calibration, effects: Sequence[str]) -> str:
+    """Why the validation's joint offsets listed here are not what the write-back left,
+    where the calibration's diagnosis found effects beside them (issue 38.4: a
+    squareness gave -0.025/-0.031/+0.023 mm, a write-back that looked failed)."""
+    if not effects:
+        return ""
+    judged = (f"`ogacq report {before.session_path} --after {after.session_path}` judges "
+              "it with them carried over" if before.session_path and after.session_path
+              else "its record judges it with them carried over")
+    return (f": its joint offsets below are fitted alone, biased by {', '.join(effects)}, "
+            f"which the diagnosis of {before.record_id} found and a write-back leaves on "
+            f"the machine; {judged}")
 
 
 def _values_table(calibrations: Sequence[Calibration], drifts: Sequence[Drift],
@@ -186,7 +218,7 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     else:
         for block in _who_blocks(calibrations):
             console.print(block, highlight=False)
-    for line in _who_notes(calibrations, written):
+    for line in _who_notes(calibrations, written, events):
         console.print(shown(line), highlight=False)
     console.print(_values_table(calibrations, drifts, written))
     for line in _drift_notes(calibrations, drifts, written):

@@ -45,6 +45,9 @@ def after_report(calibration: LoadedSession, validation: LoadedSession | None,
                              "within the gauge noise: what the write-back left"),)
         return (NextStep("", "nothing more: the record states the machine as found and as "
                              "left by the validation"),)
+    procedure = _procedure_page(calibration)
+    if procedure is not None:
+        return procedure
     if fit is None:
         return (NextStep("", "nothing to write from this campaign: its joint offsets "
                              "could not be identified (the record says why)"),)
@@ -66,6 +69,31 @@ def after_report(calibration: LoadedSession, validation: LoadedSession | None,
     why = (verdict.summary() if not verdict.consistent else
            "; ".join(fit.identifiability.reasons) or "not every offset is determined")
     return (NextStep("", f"nothing to write from {path.name}: {why}"),)
+
+
+def _procedure_page(session: LoadedSession) -> tuple[NextStep, ...] | None:
+    """A campaign of an ``ogacq calibrate`` procedure (its separating scan, its
+    validation), reported alone: the procedure wrote and judged what it found, and its
+    record, as found and as left, is the procedure's own (its log beside the session
+    names it). None for any other campaign. Reported alone, calibrate's validation
+    sent the technician to diagnose it or to write its offsets."""
+    from ogacq.calibration.log import LOG_NAME
+    from ogacq.session.records import CalibrateRecord
+    from ogacq.session.store import load_session
+
+    log = Path(session.path).parent / LOG_NAME
+    try:
+        steps = load_session(log).of_type(CalibrateRecord) if log.is_file() else []
+    except Exception:  # an unreadable log names no campaign
+        return None
+    if not any(Path(str(r.details.get("session", ""))).name == Path(session.path).name
+               for r in steps):
+        return None
+    page = log.parent / "report" / "report.html"
+    why = (f"{Path(session.path).name} is a campaign of the `ogacq calibrate` procedure "
+           f"logged in {log}, which wrote the corrections and judged them itself")
+    return (NextStep(f"open {page}", f"its record, as found and as left: {why}"),) \
+        if page.is_file() else (NextStep("", f"nothing more here: {why}"),)
 
 
 def _validated(validation: LoadedSession, fit: FitResult) -> bool:

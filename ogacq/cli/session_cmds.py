@@ -10,6 +10,7 @@ import typer
 
 from ogacq.cli.options import AcceptEditedOption, MachineOption, PartialOption
 from ogacq.cli.outputs import ForceOption, check_new_file, check_output_file
+from ogacq.cli.plain import print_wrapped
 from ogacq.cli.render import print_session
 from ogacq.io.machine_file import read_machine
 from ogacq.session.convert import export_readings, import_readings
@@ -45,9 +46,9 @@ def export(
     loaded = load_session(session, accept_edited=accept_edited)
     state = require_complete(loaded, partial)
     for note in session_notes(loaded, state):
-        typer.echo(note)
+        print_wrapped(note)
     count = export_readings(loaded, out)
-    typer.echo(f"{count} readings written to {out}")
+    print_wrapped(f"{count} readings written to {out}")
 
 
 def import_(
@@ -59,7 +60,7 @@ def import_(
     check_new_file(out, "OUT")  # its folder too: a session import makes no folders
     check_writable(out)
     path = import_readings(readings, read_machine(machine), out)
-    typer.echo(f"session written to {path}")
+    print_wrapped(f"session written to {path}")
 
 
 def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> None:
@@ -68,29 +69,29 @@ def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> Non
     finished. Exit 2 when a record is corrupt or edited, or the end is not closed."""
     scan = scan_session(session)
     for warning in scan.warnings:
-        typer.echo(f"warning: {warning}")
+        print_wrapped(f"warning: {warning}")
     for line, problem in sorted(scan.problems + scan.edited):
-        typer.echo(f"{session}:{line}: {problem}")
+        typer.echo(f"{session}:{line}: {problem}")  # FILE:LINE: one line, as editors read it
     total = len(scan.records) + len(scan.problems)
     if scan.problems or scan.edited:
         bad = len(scan.problems) + len(scan.changed)
-        typer.echo(f"{len(scan.problems)} corrupt and {len(scan.edited)} edited records of "
-                   f"{total}; `ogacq session salvage {session} NEW` keeps the "
-                   f"{total - bad} as written")
+        print_wrapped(f"{len(scan.problems)} corrupt and {len(scan.edited)} edited records of "
+                      f"{total}; `ogacq session salvage {session} NEW` keeps the "
+                      f"{total - bad} as written")
         raise typer.Exit(2)
     loaded = load_session(session)  # the header too
     if scan.mode == UNCHECKED:
-        typer.echo(f"{session}: {total} records, unchecked: written before ogacq checksummed "
-                   "its records (an edit to it cannot be found)")
+        print_wrapped(f"{session}: {total} records, unchecked: written before ogacq checksummed "
+                      "its records (an edit to it cannot be found)")
         return
     open_end = unproven_end(loaded) or _history_says_cut(loaded)
     if open_end is not None:
-        typer.echo(f"{session}: {total} records as written ({scan.mode}), but {open_end}; "
-                   f"{completeness(loaded).describe()}")
+        print_wrapped(f"{session}: {total} records as written ({scan.mode}), but {open_end}; "
+                      f"{completeness(loaded).describe()}")
         raise typer.Exit(2)
     closed = ", closed by its last writer" if loaded.closure.closed else ""
-    typer.echo(f"{session}: {total} records, every one as written ({scan.mode}{closed}); "
-               f"{completeness(loaded).describe()}")
+    print_wrapped(f"{session}: {total} records, every one as written ({scan.mode}{closed}); "
+                  f"{completeness(loaded).describe()}")
 
 
 def _history_says_cut(session: LoadedSession) -> str | None:
@@ -118,5 +119,5 @@ def salvage(
     check_new_file(out, "OUT")
     kept, dropped = salvage_session(session, out)
     for line, problem in dropped:
-        typer.echo(f"left out {session}:{line}: {problem}")
-    typer.echo(f"{kept} records written to {out}; {len(dropped)} left out")
+        typer.echo(f"left out {session}:{line}: {problem}")  # FILE:LINE: one line
+    print_wrapped(f"{kept} records written to {out}; {len(dropped)} left out")

@@ -127,6 +127,7 @@ def record_after(session_path: Path, option: str | None, action: str, *,
                 "recorded when it completes")
             return None
         with History.open(location) as history:
+            first_met = filed_by_name(history, session)
             recorded = (record_with or record_session)(history, session)
     except (OgacqError, ValueError, OSError) as exc:
         log.warning("%s not recorded in the history: %s; %s", action, exc,
@@ -137,7 +138,24 @@ def record_after(session_path: Path, option: str | None, action: str, *,
                     type(exc).__name__, exc, _later(session_path, location))
         return None
     say(f"history: {_summary(recorded)} recorded in {location.describe()}")
+    if first_met is not None and recorded.new:
+        say(first_met)
     return recorded
+
+
+def filed_by_name(history: History, session: LoadedSession) -> str | None:
+    """What a machine without a serial is filed as, said the first time this history
+    meets it: its name is then its identity ("NAME (no serial)"), the same at every later
+    campaign; a serial given later makes it a new machine here. A user's machine file
+    is never rewritten to add one. None for a machine with a serial, or one met before."""
+    machine = session.header.machine or {}
+    name, serial = str(machine.get("name") or "").strip(), machine.get("serial")
+    if not name or serial or history.machine(name, "") is not None:
+        return None
+    where = session.header.machine_file or "its machine file"
+    return (f"history: {name!r} has no serial: filed as '{name} (no serial)', its identity "
+            f"in this history from now on; `serial = \"...\"` in {where} tells it from "
+            "another machine of that name (filed then as a new machine)")
 
 
 def record_campaign(session_path: Path, option: str | None, *, say: Say = _say,

@@ -373,11 +373,22 @@ def budget(record: CalibrationRecord) -> list[tuple[str, Table]]:
     found = record.budget_rows
     first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
              "evaluated")
-    # each contribution u to two significant digits, as u_c and U are (JCGM 100:2008
-    # 7.2.6); the inputs and sensitivities as recorded
-    return [(name, rows_table([{**written(r), "u_mm": two_digits(r.u_mm)}
-                               if isinstance(r.u_mm, float) else written(r) for r in rows],
-                              NOT_EVALUATED, first)) for name, rows in found.items()]
+    return [(name, rows_table([_budget_row(written(r)) for r in rows], NOT_EVALUATED, first))
+            for name, rows in found.items()]
+
+
+def _budget_row(row: dict[str, Any]) -> dict[str, Any]:
+    """A budget row as a person reads it: each uncertainty (the input's u, the
+    contribution u) to two significant digits, as u_c and U are (JCGM 100:2008 7.2.6),
+    the sensitivity to three (enough to give the contribution's two); the page printed
+    "0.000288675 mm" and "1.110040519". record.json keeps every digit."""
+    out = dict(row)
+    for key in ("u_input", "u_mm"):
+        if isinstance(out.get(key), float):
+            out[key] = two_digits(out[key])
+    if isinstance(out.get("sensitivity"), float):
+        out["sensitivity"] = f"{out['sensitivity']:.3g}"
+    return out
 
 
 def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
@@ -386,15 +397,35 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
     if not found:
         return None
     scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
-    per = {k: v for k, v in found.items() if isinstance(v, Mapping)}
+    per = {k: _check_figures(k, v, found.get("u_c_mm") or {}) for k, v in found.items()
+           if isinstance(v, Mapping)}
     names = list(dict.fromkeys(n for values in per.values() for n in values))
     # a parameter a figure lacks: None, "not evaluated"
     filled = [dict.fromkeys(names) | dict(values) for values in per.values()]
-    rows: list[list[Cell]] = [[name] + [shown(values[name], NOT_EVALUATED) for values in filled]
+    rows: list[list[Cell]] = [[name, *(shown(values[name], NOT_EVALUATED) for values in filled)]
                               for name in names]
     return (pairs_table(scalars, NOT_EVALUATED),
             table(["parameter"] + [words(k) for k in per], rows,
                   [False] + [True] * len(per)))
+
+
+def _check_figures(key: str, values: Mapping[str, Any], u_c: Mapping[str, Any],
+                   ) -> dict[str, Any]:
+    """One figure of the Monte-Carlo check per parameter, rounded as the budget's are:
+    a u to two significant digits, the mean and the interval's ends at the decimal
+    place of the budget's u_c, the ratio to two decimals (judged against 10 %); the page
+    printed nine digits of each. record.json keeps every digit."""
+    def one(name: str, value: Any) -> Any:
+        if key in ("u_mm", "u_c_mm") and isinstance(value, float):
+            return two_digits(value)
+        if key == "ratio" and isinstance(value, float):
+            return f"{value:.2f}"
+        u = u_c.get(name)
+        if key.startswith(("mean", "interval")) and isinstance(u, float):
+            ends = value if isinstance(value, list | tuple) else [value]
+            return ", ".join(rounded(v, u, sign=key.startswith("mean")) for v in ends)
+        return value
+    return {name: one(name, value) for name, value in values.items()}
 
 
 def history(record: CalibrationRecord) -> Table | None:

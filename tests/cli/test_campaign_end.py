@@ -140,3 +140,26 @@ def test_a_reading_far_from_its_repeats_sends_the_end_to_diagnose_not_to_a_write
     first = steps_of["slipped"][0]
     assert first.command.startswith("ogacq diagnose") and "1 reading lies far" in first.why
     assert not any("offsets write" in s.command for s in steps_of["slipped"])
+
+
+def test_a_campaign_against_ogacq_sim_names_its_validation_run(tmp_path):
+    """`ogacq sim`'s drives say "ogacq simulator", so its campaign is a rehearsal; but
+    they still serve once the run ends: the end names the write-back and the validation
+    run, as on a machine (it said only the write, its validation left unsaid). The
+    built-in simulator stops with its command: nothing to write to."""
+    from ogacq.cli.campaign_end import next_steps
+    from ogacq.identify.consistency import fit_verdict
+    from ogacq.session.identification import identify_session
+
+    campaign = tmp_path / "campaign.toml"
+    campaign.write_text("")
+    session = load_session(synthetic_session(tmp_path / "session.jsonl", campaign,
+                                             offsets_mm={"x": 0.3, "y": -0.2, "z": 0.1}))
+    verdict = fit_verdict(identify_session(session))
+    assert verdict.consistent
+    served = next_steps(session, verdict, True, simulated=True, rehearsal_writeback=True)
+    assert [s.command for s in served[:2]] == [
+        f"ogacq offsets write {session.path}", f"ogacq run {campaign.resolve()}"]
+    gone = next_steps(session, verdict, True, simulated=True)
+    assert not any(s.command.startswith(("ogacq offsets", "ogacq run")) for s in gone)
+    assert "stopped with the command" in gone[-1].why

@@ -43,3 +43,40 @@ def test_a_parameter_of_another_unit_says_it_in_its_column_as_on_its_panel(capsy
     assert "(value ± U, k = 2;" in out and "mm ± U" not in out
     assert "x (mm)" in out and "squareness.xy (mrad)" in out
     assert _units_of(history_figure("OG-1", history)) == ["(mm)", "(mrad)"]
+
+
+def test_a_validation_after_a_diagnosis_that_found_effects_says_its_offsets_are_biased(
+        capsys, monkeypatch):
+    """Issue 38.4 in the history: a validation after a write-back whose campaign's
+    diagnosis found a squareness listed its joint offsets fitted alone (-0.025 mm, a
+    write-back that looked failed), without a word. The note says they are biased by the
+    effect, and which command judges them with it carried over; a diagnosis that found
+    nothing beside the offsets adds no words."""
+    import dataclasses
+
+    from ogacq.cli import render_history
+    from ogacq.history.store import Event, Machine
+    from tests.history.test_drift import calibration
+
+    monkeypatch.setenv("COLUMNS", "400")
+    before = dataclasses.replace(calibration("A", "2026-01-10", 0.300, 0.006),
+                                 session_path="/shop/s.jsonl")
+    after = dataclasses.replace(calibration("B", "2026-01-10", -0.025, 0.006),
+                                session_path="/shop/s-2.jsonl")
+    written = {"A": {"joint_offset.x": -0.3}}
+    diagnosis = {"final": {"consistent": True},
+                 "effects": [{"effect": "squareness", "where": "xy", "value": 0.5}]}
+
+    def notes(found: dict) -> str:
+        render_history.print_calibrations(
+            Machine(1, "OG-1", "S1"), "h.sqlite", [before, after], [],
+            [Event("diagnosis", "A", "2026-01-10", None, "/shop/s.jsonl", found)], written)
+        return " ".join(capsys.readouterr().out.split())
+
+    said = notes(diagnosis)
+    assert ("B validates the write-back made from A: its joint offsets below are fitted "
+            "alone, biased by squareness.xy, which the diagnosis of A found and a "
+            "write-back leaves on the machine; `ogacq report /shop/s.jsonl --after "
+            "/shop/s-2.jsonl` judges it with them carried over") in said
+    plain = notes({"final": {"consistent": True}, "effects": []})
+    assert "B validates the write-back made from A " in plain + " " and "biased" not in plain

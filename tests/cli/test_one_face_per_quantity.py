@@ -77,3 +77,20 @@ def test_the_pages_verdict_writes_the_misfit_per_dof_as_its_text_does(scaled):
     html = build_report(collect(session), record).html
     text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", html))
     assert f"χ² per dof {per_dof:.3g} " in text and f"per dof {per_dof:.3g}," in text
+
+
+def test_the_pages_budget_and_monte_carlo_check_are_rounded_as_u_is(scaled):
+    """The budget printed each input as recorded ("0.000288675 mm", a sensitivity
+    "1.110040519") and the Monte-Carlo check nine digits of every figure: a u now to two
+    significant digits, the sensitivity to three, the check's mean and interval at the
+    budget's u_c's decimal place. record.json keeps every digit."""
+    _, session = scaled
+    record = build_record(session)
+    rows = [r for rows in record["budget"].values() for r in rows]
+    resolution = next(r for r in rows if r["source"] == "display resolution")
+    assert resolution["u_input"] == pytest.approx(0.001 / 12 ** 0.5, abs=1e-9)
+    html = build_report(collect(session), record).html
+    text = re.sub(r"\s+", " ", re.sub(r"<[^>]+>", " ", html))
+    budget = text[text.index("Uncertainty budget"):text.index("History")]
+    assert "Monte-Carlo check" in budget and "rectangular 0.00029 mm" in budget, budget
+    assert re.findall(r"\d\.\d{6,}", budget) == [], budget

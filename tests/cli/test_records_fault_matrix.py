@@ -64,7 +64,9 @@ def here(capsys, *args: object) -> tuple[int, str, str]:
 
 
 def one_line(err: str) -> str:
-    lines = err.strip().splitlines()
+    # `ogacq report` says its work first, a line of its own (README), then any problem
+    lines = [line for line in err.strip().splitlines()
+             if not line.startswith("ogacq report: issuing the record of ")]
     assert len(lines) == 1 and "Traceback" not in err, err
     return lines[0]
 

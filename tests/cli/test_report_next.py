@@ -135,3 +135,27 @@ def test_a_validation_after_a_write_from_the_diagnosis_is_judged_with_its_effect
     assert not fit_verdict(recorded_identification(load_session(validation))).consistent
     ((command, why),) = _steps(session, validation)
     assert command == "" and why.startswith("nothing more: the record states the machine")
+
+
+def test_a_campaign_of_calibrates_procedure_reported_alone_points_to_its_record(
+        sessions, tmp_path):
+    """calibrate's validation.jsonl reported alone sent the technician to diagnose it
+    (or to write its offsets): the procedure logged beside it wrote and judged what it
+    found, and its record as found and as left is the procedure's own page."""
+    import shutil
+
+    from ogacq.calibration.log import ProcedureLog
+
+    validation = tmp_path / "validation.jsonl"
+    shutil.copyfile(sessions["square"], validation)
+    assert _steps(validation)[0][0] == f"ogacq diagnose {validation}"  # alone, unknown
+    log = ProcedureLog.create(tmp_path, {"mode": "simulator"})
+    log.add("campaign", session=str(validation))
+    log.close()
+    (command, why), = _steps(validation)
+    assert command == "" and "nothing more here: validation.jsonl is a campaign of the " \
+        "`ogacq calibrate` procedure" in why and str(tmp_path / "procedure.jsonl") in why
+    page = tmp_path / "report" / "report.html"
+    page.parent.mkdir()
+    page.write_text("<html></html>")
+    assert _steps(validation)[0][0] == f"open {page}"

@@ -166,3 +166,38 @@ def test_report_says_what_it_is_doing_on_a_terminal_only(tmp_path):
     assert len(piped.stderr.splitlines()) == 1 and "issuing the record" in piped.stderr
     assert piped.stdout.splitlines()[0] == str(tmp_path / "p" / "report.html")
     assert "\nnext: " in piped.stdout  # the end: wrapped at 80 columns to a pipe
+
+
+def test_the_search_table_wraps_between_effect_names(capsys, monkeypatch):
+    """At 80 columns the library search's "added" column was folded inside a name
+    ("encoder_scale." over "y"): each name is whole on its line now, every line within
+    the width."""
+    from ogacq.cli.render_diagnosis import print_diagnosis
+    from ogacq.diagnose.diagnosis import diagnose
+    from tests.diagnose.campaigns import simulate
+
+    monkeypatch.setenv("COLUMNS", str(WIDTH))
+    found = diagnose(simulate({"encoder_scale.x": 3000.0, "encoder_scale.z": 2000.0}, 1))
+    assert [s.label for s in found.selection.steps] == ["encoder_scale.x + encoder_scale.z"]
+    print_diagnosis(found)
+    out = capsys.readouterr().out
+    table = out[out.index("Search"):out.index("residual rms per gauge")]
+    assert too_wide(out) == [] and "encoder_scale.x +" in table, table
+    assert "│ encoder_scale.z " in table, table
+
+
+def test_session_check_and_init_fit_80_columns(tmp_path, capsys, monkeypatch):
+    """`session check`'s one line (its last) was 100-130 characters with a session's
+    path, and `init`'s too: wrapped between words now, to a pipe as on a terminal."""
+    from ogacq.cli.app import main
+
+    monkeypatch.setenv("COLUMNS", str(WIDTH))
+    golden = ROOT / "tests" / "golden" / "session.jsonl"
+    assert main(["session", "check", str(golden)]) == 0
+    out = capsys.readouterr().out
+    assert too_wide(out) == [] and "every one as written" in " ".join(out.split()), out
+    deep = tmp_path / "a-folder-with-a-rather-long-name-as-shop-floor-paths-have"
+    deep.mkdir()
+    assert main(["init", "campaign", str(deep / "campaign.toml")]) == 0
+    out = capsys.readouterr().out
+    assert too_wide(out) == [] and "then `ogacq run" in " ".join(out.split()), out

@@ -63,7 +63,7 @@ def test_terminal_account(files):
     text = " ".join(proc.stdout.split())
     assert "NOT within the gauge noise" in text and "p =" in text
     assert "Where the misfit" in text
-    assert "squareness.xy" in text and "rms before" in text
+    assert "squareness.xy" in text and "Search:" in text  # the search table shown
     assert re.search(r"(?<!NOT )within the gauge noise", text)  # with the squareness
 
 

@@ -101,3 +101,35 @@ def test_a_session_diagnosed_again_is_found_recorded_without_building_its_record
     keys = [event_key("calibration", record_id), event_key("diagnosis", record_id)]
     with History.open(parse_location(str(history), "the test")) as opened:
         assert opened.present([*keys, event_key("diagnosis", "OGQ-none")]) == keys
+
+
+def test_a_machine_without_a_serial_is_told_its_identity_the_first_time(tmp_path):
+    """Issue 38.1: a machine file without a serial is filed by its name. The first
+    campaign the history meets of it says so, and how a serial tells it from another of
+    that name; later campaigns file under the same label, unsaid. The user's machine
+    file is not rewritten."""
+    from ogacq.history.recording import record_campaign
+    from tests.writeback.conftest import synthetic_session
+
+    machine = {"leg_length_mm": 310.25, "rho_min_mm": -100.0, "rho_max_mm": 60.0,
+               "gauge_resolution_mm": 0.001, "name": "OG-1 cell 3"}
+    (tmp_path / "campaign.toml").write_text("")
+    history = tmp_path / "history.sqlite"
+    said: list[list[str]] = []
+    for n, header in enumerate(({"machine": machine, "machine_file": "cell3.toml"},
+                                {"machine": machine},
+                                {"machine": {**machine, "serial": "OG-2026-0017"}})):
+        path = synthetic_session(tmp_path / f"s{n}.jsonl", tmp_path / "campaign.toml",
+                                 offsets_mm={"x": 0.1, "y": 0.0, "z": 0.0}, seed=n,
+                                 header_extra=header)
+        said.append([])
+        record_campaign(path, str(history), say=said[-1].append)
+    first, again, with_serial = said
+    assert first[-1] == ("history: 'OG-1 cell 3' has no serial: filed as 'OG-1 cell 3 (no "
+                         "serial)', its identity in this history from now on; `serial = "
+                         "\"...\"` in cell3.toml tells it from another machine of that name "
+                         "(filed then as a new machine)")
+    assert len(again) == 1 and len(with_serial) == 1  # met before; a serial of its own
+    with History.open(parse_location(str(history), "--history")) as db:
+        assert [m.label for m in db.machines()] == ["OG-1 cell 3 (no serial)",
+                                                    "OG-1 cell 3 (serial OG-2026-0017)"]

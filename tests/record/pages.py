@@ -57,13 +57,32 @@ def gum(value: float, U: float) -> tuple[str, str]:
 
 # The results a person reads: rounded by the headline rule (record.json keeps every
 # digit); each number's spelling on the page.
-ROUNDED = ("results.", "validation_results.", "acceptance.", "budget.", "verdict.")
+ROUNDED = ("results.", "validation_results.", "acceptance.", "budget.", "verdict.",
+           "monte_carlo.")
+
+
+def check_spelling(path: str, value: float, record: dict) -> str | None:
+    """A figure of the Monte-Carlo check as the page writes it: a u to two significant
+    digits, the ratio to two decimals, the mean (signed) and the interval's ends at the
+    decimal place of the budget's u_c."""
+    _, figure, rest = path.split(".", 2)
+    if figure in ("u_mm", "u_c_mm") and value:
+        return two_significant(value)
+    if figure == "ratio":
+        return f"{value:.2f}"
+    u = record["monte_carlo"].get("u_c_mm", {}).get(rest.split("[")[0])
+    if figure not in ("mean_mm", "interval_95_mm") or not u:
+        return None
+    text = gum(value, u)[0]
+    return text if figure == "mean_mm" else text.removeprefix("+")
 
 
 def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
     """How the page writes a number a person reads as a result (``results``, and the
     acceptance's deviations and the budget's contributions): a value at its U's decimal
     place, u, U and the fit std to two significant digits, the effective dof whole."""
+    if path.startswith("monte_carlo."):
+        return check_spelling(path, value, record)
     *where, key = path.split(".")
     if where == ["verdict"]:  # a p-value as the terminal says it (format_p)
         from ogacq.identify.consistency import format_p
@@ -71,8 +90,10 @@ def rounded_spelling(path: str, value: Any, record: dict) -> str | None:
         if key == "chi2_dof":  # as the verdict's text says it: "per dof 1.46"
             return f"{value:.3g}"
         return format_p(value) if key == "p" or key.startswith("p_") else None
-    if key in ("U_mm", "u_mm", "std_mm") and value:
+    if key in ("U_mm", "u_mm", "std_mm", "u_input") and value:
         return two_significant(value)
+    if key == "sensitivity":  # to three significant digits, enough for u's two
+        return f"{value:.3g}"
     if key == "dof_eff":
         return f"{value:.0f}"
     if key not in ("value_mm", "temperature_correction_mm"):

@@ -12,6 +12,7 @@ import sys
 import pytest
 
 from ogacq.campaign.campaign_file import read_campaign
+from ogacq.io.machine_file import read_machine
 from ogacq.record.context import calibration_context
 from ogacq.session.records import EndRecord, FaultRecord, OffsetsRecord, OperatorRecord
 from ogacq.session.store import load_session
@@ -447,6 +448,12 @@ def test_a_new_expired_gauge_is_refused_until_a_reason_is_given(tmp_path, wizard
     context = calibration_context(session)
     assert (context.machine_name, context.machine_serial, context.operator) == (
         "OG-1 cell 3", "OG-2026-0017", "J. Martin")
+    # the identity answered, into the machine file the wizard wrote in its folder, said:
+    # a later campaign of that file is the same machine in the history (issue 38.1)
+    machine = read_machine(tmp_path / "run" / "machine.toml")
+    assert (machine.name, machine.serial) == ("OG-1 cell 3", "OG-2026-0017")
+    assert "now names the machine 'OG-1 cell 3' serial OG-2026-0017" in " ".join(
+        "".join(w.transcript).split())
     y_x = context.instrument("y_x")
     assert (y_x.make, y_x.certificate, y_x.uncertainty_mm, y_x.uncertainty_k) == (
         "Mitutoyo", "DKD-K-12345", 0.0015, 2.0)

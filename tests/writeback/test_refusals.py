@@ -93,8 +93,11 @@ def test_show_says_why_it_would_refuse_and_writes_nothing(tmp_path, capsys, monk
     identified = shown["evidence"]["identified_mm"]  # biased by the squareness
     assert shown["plan"]["new_mm"] == pytest.approx({a: -v for a, v in identified.items()},
                                                     abs=0.005)
+    monkeypatch.setenv("COLUMNS", "80")
     human = ogacq_here(capsys, monkeypatch, "offsets", "show", session)
     assert "would refuse (inconsistent)" in human.stdout
+    # the refusal, its last lines, wrapped between words (it was one line of 300)
+    assert [line for line in human.stdout.splitlines() if len(line) > 80] == []
     assert controller_offsets(campaign) == ZEROS
     assert load_session(session).of_type(OffsetsRecord) == []
 

@@ -341,6 +341,9 @@ class _Wizard:
             machine, _indicators(choice, protocol.legs, rehearsal=self.rehearsal is not None),
             datetime.date.today()))
         _apply(campaign, trace, choice.by_eye)
+        if _keep_identity(machine_path, folder, machine, trace.machine):
+            s.note(f"{shown(machine_path)} now names the machine '{shown(trace.machine.name)}' "
+                   f"serial {shown(trace.machine.serial)}: its identity in the history")
         self.session_path = campaign.session
         readings = sum(len(step.gauges) for step in reading_steps(protocol, machine))
         postures = " → ".join(p.title() if isinstance(p, str) else f"{p:g} mm"
@@ -800,6 +803,22 @@ def _indicators(choice: StationChoice, legs: Sequence[str], *, rehearsal: bool =
     out += [Indicator(f"dial gauge {key}", (key,))
             for key in gauges_of(legs) if key in choice.by_eye]
     return out
+
+
+def _keep_identity(path: Path, folder: Path, read: MachineSpec, answered: MachineSpec,
+                   ) -> bool:
+    """The name and serial the operator answered, into the machine file the wizard
+    wrote in its own folder (a rehearsal's, or one described by answering questions),
+    so that a later campaign of that file is the same machine in the history (issue
+    38.1); a machine file the operator named is theirs, never rewritten. Whether it
+    was written."""
+    own = path.resolve() == (folder / "machine.toml").resolve()
+    if not own or not answered.serial or (answered.name, answered.serial) == (read.name,
+                                                                              read.serial):
+        return False
+    write_machine(path, answered, "written by `ogacq wizard`: the machine as described, its "
+                                  "name and serial as the operator answered")
+    return True
 
 
 def _apply(campaign: Campaign, trace: Traceability, by_eye: set[str]) -> None:
