@@ -240,11 +240,15 @@ def _method(session: LoadedSession, result: FitResult | None,
 
 
 def _controller(session: LoadedSession) -> dict[str, Any]:
-    """The controller the campaign ran with: its profile and what each drive said it is
-    (Read Device Identification: vendor, product, revision; null where a drive did not
-    answer it, and the whole null for sessions recorded before it was asked)."""
+    """The controller the campaign ran with: its profile as named, the profile's own
+    name and its file's SHA-256 (one identity whether built in or given as a file; null
+    for sessions recorded before they were), and what each drive said it is (Read
+    Device Identification: vendor, product, revision; null where a drive did not answer
+    it, and the whole null for sessions recorded before it was asked)."""
     controller = (session.header.station or {}).get("controller") or {}
     return {"profile": _text(controller.get("profile")),
+            "profile_name": _text(controller.get("profile_name")),
+            "profile_sha256": _text(controller.get("profile_sha256")),
             "identification": controller.get("identification")}
 
 

@@ -20,7 +20,10 @@ def test_report_pdf_prints_the_record(campaign_sessions, tmp_path):
     out = tmp_path / "out"
     proc = run_ogacq("report", campaign_sessions[1], "--out", out, "--pdf")
     assert proc.returncode == 0, proc.stderr
-    assert proc.stdout.split() == [str(out / "report.html"), str(out / "report.pdf")]
+    # the page's and the PDF's paths first, then the next command (issue 38.5)
+    lines = proc.stdout.splitlines()
+    assert lines[:2] == [str(out / "report.html"), str(out / "report.pdf")], proc.stdout
+    assert any(line.startswith("next:") for line in lines[2:]), proc.stdout
     record = json.loads((out / "record.json").read_text(encoding="utf-8"))
     pages = PdfReader(out / "report.pdf").pages
     assert len(pages) >= 2
