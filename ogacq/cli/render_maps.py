@@ -44,7 +44,9 @@ def print_coverage(d: Diagnosis) -> None:
     table = Table(show_edge=False, header_style="bold", pad_edge=False)
     for col in ("step", "added", "chi2 before", "chi2 after", "p (nested, corrected)",
                 "dBIC"):
-        table.add_column(col, justify="left" if col == "added" else "right")
+        # a term's name whole (the headers fold instead): "lead_screw_cycli…" named nothing
+        table.add_column(col, justify="left" if col == "added" else "right",
+                         no_wrap=col == "added", overflow="fold")
     for k, step in enumerate(search.steps, 1):
         table.add_row(str(k), step.added.term.name, f"{step.rss_before / d.noise.variance:.1f}",
                       f"{step.rss_after / d.noise.variance:.1f}", format_p(step.added.p_value),

@@ -201,3 +201,21 @@ def test_session_check_and_init_fit_80_columns(tmp_path, capsys, monkeypatch):
     assert main(["init", "campaign", str(deep / "campaign.toml")]) == 0
     out = capsys.readouterr().out
     assert too_wide(out) == [] and "then `ogacq run" in " ".join(out.split()), out
+
+
+def test_the_map_search_table_names_each_term_whole(capsys, monkeypatch):
+    """At 80 columns the map search's "added" column cut a term's name
+    ("lead_screw_cycli…"): the name is whole, its headers fold instead, every line
+    within the width."""
+    from ogacq.cli.render_maps import print_coverage
+    from ogacq.diagnose.diagnosis import diagnose
+    from ogacq.sim.truth import LeadScrewError
+    from tests.diagnose.test_maps import campaign
+
+    monkeypatch.setenv("COLUMNS", str(WIDTH))
+    obs, _ = campaign(5, lead_screw={0: LeadScrewError(0.005, 5.0, 30.0)})
+    found = diagnose(obs)
+    assert found.mapped is not None and found.mapped.search.steps
+    print_coverage(found)
+    out = capsys.readouterr().out
+    assert too_wide(out) == [] and "lead_screw_cyclic.x" in out, out
