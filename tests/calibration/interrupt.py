@@ -15,7 +15,9 @@ WINDOW (each in a write, or in a restore with ``restore-`` before it):
 
 ``--flip``: the maps of ``ogacq calibrate`` turned in sign, and its offsets put
 turned too, so that its validation is worse and it restores (as
-tests/calibration/test_calibrate_e2e.py does with the maps).
+tests/calibration/test_calibrate_e2e.py does with the maps). ``--flip-first``: the
+maps of the first compensation this process computes turned in sign (the first
+round's, not the second round's: tests/calibration/test_second_round.py).
 """
 
 from __future__ import annotations
@@ -44,6 +46,17 @@ def flipped(comp: Any) -> Any:
                        m.reference_mm, "sign turned on purpose")
             for a, m in comp.maps.items()}
     return dataclasses.replace(comp, maps=maps)
+
+
+def flipped_first(made: Any) -> Any:
+    """``made`` (a compensation_of) whose first result has its maps turned in sign."""
+    calls = []
+
+    def first_wrong(*args: Any, **kwargs: Any) -> Any:
+        calls.append(1)
+        comp = made(*args, **kwargs)
+        return flipped(comp) if len(calls) == 1 else comp
+    return first_wrong
 
 
 def skewed(evidence: Any) -> Any:
@@ -107,6 +120,8 @@ def run(argv: list[str]) -> int:
         made, identified = procedure.compensation_of, procedure.evidence_for
         procedure.compensation_of = lambda *a, **k: flipped(made(*a, **k))  # type: ignore[assignment]
         procedure.evidence_for = lambda *a, **k: skewed(identified(*a, **k))  # type: ignore[assignment]
+    if "--flip-first" in options:
+        procedure.compensation_of = flipped_first(procedure.compensation_of)  # type: ignore[assignment]
     return main(args)
 
 

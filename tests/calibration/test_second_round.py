@@ -1,0 +1,134 @@
+"""A second write round after the validation between the scan's targets shows the first
+round's maps wrong: restored, the scan and that validation diagnosed together, written
+and validated once more, within the scan's time budget; killed in the second round's
+validation, it resumes to the same end without writing again.
+
+The first round's map is made wrong on purpose (its sign turned: tests.calibration.
+interrupt --flip-first), the second round's is the diagnosis's own. Without the second
+round the procedure ended restored, exit 4, the machine left as found."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from ogacq.calibration import procedure
+from ogacq.cli.app import main
+from ogacq.session.records import MapsRecord, OffsetsRecord
+from ogacq.session.store import load_session
+from ogacq.writeback.maps_table import read_maps_table
+from tests.calibration.interrupt import flipped_first
+from tests.calibration.test_calibrate_e2e import (
+    EFFECTS,
+    KEPT,
+    SCALE_PPM,
+    effects_file,
+    log_steps,
+    refused_by_chance,
+    step,
+)
+
+ARGS = ("--seed", "3", "--speed", "100", "--scan-step-mm", "20", "--yes", "--history", "none")
+
+
+def calibrate(folder: Path, effects: Path, *more: str) -> int:
+    return main(["calibrate", "--simulator", "--effects", str(effects), *ARGS,
+                 "--out", str(folder), *more])
+
+
+@pytest.fixture(scope="module")
+def second(tmp_path_factory) -> Path:
+    root = tmp_path_factory.mktemp("second")
+    effects = effects_file(root, EFFECTS)
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
+        for attempt in ("cal", "cal-again"):  # a refusal by chance alone: once more
+            folder = root / attempt
+            code = calibrate(folder, effects)
+            if not (code == 4 and refused_by_chance(folder)):
+                break
+    assert code == 0, step(folder, "finished")
+    return folder
+
+
+def test_a_first_round_shown_wrong_between_targets_is_corrected_by_a_second(second):
+    finished = step(second, "finished")
+    assert finished["outcome"] in KEPT, finished
+    assert "second round" in finished["reason"] and "were restored" in finished["reason"]
+    first = step(second, "validation", role="validation-scan")
+    assert first["outcome"] == "worse", first
+    assert step(second, "restored")["maps"]  # the first round's map put back
+    # the second diagnosis read the scan and the validation between its targets
+    together = step(second, "diagnosis", role="separating + validation-scan")
+    assert "separating.jsonl + " in together["session"], together["session"]
+    assert step(second, "compensation", round=2)["compensated"] == ["encoder_scale.x"]
+    # written as the first: confirmed, read back, audited in the calibration campaign
+    assert step(second, "confirmed", round=2) and step(second, "written", round=2)["maps"]
+    audit = load_session(second / "calibration.jsonl")
+    assert [r.details["action"] for r in audit.of_type(OffsetsRecord)
+            if r.stage == "done"] == ["write", "restore", "write"]
+    assert [r.details["action"] for r in audit.of_type(MapsRecord)
+            if r.stage == "done"] == ["write", "restore", "write"]
+    # validated once more, between the targets neither round read
+    again = step(second, "validation", role="validation-scan-2")
+    assert again["outcome"] != "worse", again
+    scan = load_session(second / "validation-scan-2.jsonl").header.plan
+    read = {t for name in ("separating", "validation-scan")
+            for t in load_session(second / f"{name}.jsonl").header.plan
+            .get("scan_targets_mm", ())}
+    assert scan and not read & set(scan["scan_targets_mm"])
+    # the map in force is the encoder scale's, of its sign
+    (m,) = read_maps_table(second / "maps.json").maps.values()
+    slope = (m.error_mm(50.0, 1) - m.error_mm(-50.0, 1)) / 100.0 * 1e6
+    assert abs(slope - SCALE_PPM) < 0.25 * SCALE_PPM, slope
+
+
+def test_no_second_round_beyond_the_scan_budget(tmp_path, monkeypatch):
+    """--scan-minutes 1: the second validation's scan would take longer; the first round
+    ends restored, and says why no second was taken."""
+    monkeypatch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
+    for attempt in ("cal", "cal-again"):
+        folder = tmp_path / attempt
+        code = calibrate(folder, effects_file(tmp_path, EFFECTS), "--scan-minutes", "1")
+        if not (code == 4 and refused_by_chance(folder)):
+            break
+    assert code == 4
+    finished = step(folder, "finished")
+    assert finished["outcome"] == "restored"
+    assert "no second round: its validation scan would take about" in finished["reason"]
+    assert not any(r.details.get("round") for r in log_steps(folder))
+
+
+def test_killed_in_the_second_validation_it_resumes_to_the_same_end(second, tmp_path):
+    folder = tmp_path / "cal"
+    effects = effects_file(tmp_path, EFFECTS)
+    args = [sys.executable, "-m", "tests.calibration.interrupt", "none", "--flip-first", "--",
+            "calibrate", "--simulator", "--effects", str(effects), *ARGS, "--out",
+            str(folder)]
+    path = folder / "validation-scan-2.jsonl"
+    run = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 240
+    while run.poll() is None and time.monotonic() < deadline and not (
+            path.is_file() and path.read_text().count('"type":"reading"') >= 6):
+        time.sleep(0.05)
+    if run.poll() is not None and refused_by_chance(folder):
+        pytest.skip("the write was refused by chance (the 1 % level): no second round")
+    assert run.poll() is None, "the procedure ended before the kill point"
+    os.kill(run.pid, signal.SIGKILL)
+    run.wait()
+    done = subprocess.run([sys.executable, "-m", "ogacq", "calibrate", "--resume",
+                           str(folder), "--yes", "--history", "none"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    steps = log_steps(folder)
+    assert [r.details.get("round") for r in steps if r.step == "written"] == [None, 2]
+    assert sum(r.step == "restored" for r in steps) == 1
+    assert step(folder, "finished")["outcome"] in KEPT
+    assert step(folder, "compensation", round=2)["offsets_mm"] == pytest.approx(
+        step(second, "compensation", round=2)["offsets_mm"], abs=0.003)
