@@ -3,9 +3,15 @@
     calibration campaign -> diagnosis -> (ambiguous: the separating measurement,
     shown with its duration, run, diagnosed) -> the compensation (offsets and maps,
     every table exported) -> shown, confirmed -> written (audited, read back) ->
-    validation campaign (the same plan) -> judged against the one before ->
-    worse: the previous state restored, with the reason -> the record (as found,
-    as left, the ISO 230-2 figures) -> done
+    validation campaign (the same plan, and targets between the scan's) -> judged
+    against the one before -> worse: the previous state restored, with the reason
+    -> (worse between the scan's targets: a second round, once, within the scan's
+    budget: the scan and that validation diagnosed together, written, validated;
+    ``ogacq.calibration.second_round``) -> the record (as found, as left, the ISO
+    230-2 figures) -> done
+
+The second round's steps carry ``round: 2`` in the log; the first's carry none, so
+each round finds its own steps on a resume.
 
 Each step is recorded in the procedure's log when done (``ogacq.calibration.log``);
 a run that finds a log continues at the first step not done: a campaign stopped
