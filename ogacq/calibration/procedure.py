@@ -103,6 +103,7 @@ if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not at start
     from ogacq.history.location import HistoryLocation
 
 log = logger(__name__)
+Stop = tuple[str, str]  # why a round writes nothing: the end's outcome and its reason
 
 class CalibrationUI(Protocol):
     """What the procedure shows and asks (the command line renders it)."""
@@ -217,22 +218,23 @@ class Procedure:
         between = between_plan(_plan_of(evidence), self.setup.machine) \
             if evidence is not first and _plan_of(evidence).is_scan else None
         done = self._round(first, diagnosis, evidence, comp, between)
-        if isinstance(done, Outcome):
-            return done
+        if isinstance(done, tuple):
+            return self._end(*done)
         if shown_wrong(done.between) and done.comp.maps:
             again = self._second_round(first, evidence, done)
-            if isinstance(again, Outcome):
-                return again
-            done = again or done
+            if isinstance(again, tuple):  # the first round's end stands, restored
+                self._note(f"no second write ({again[0]}): {again[1]}")
+            elif again is not None:
+                done = again
         return self._finish(done.comp, first, done.validation, done.judgement, done.written,
                             done.restored)
 
     def _round(self, first: LoadedSession, diagnosis: Diagnosis, evidence: LoadedSession,
-               comp: Compensation, between: ProtocolConfig | None) -> RoundDone | Outcome:
+               comp: Compensation, between: ProtocolConfig | None) -> RoundDone | Stop:
         """Write ``comp`` (shown, confirmed, read back, audited in the calibration
         campaign's session, whose record this is), validate it at the papers' postures
         and, ``between``, at targets the evidence did not read; restored when worse.
-        An Outcome where the write is refused, declined or has nothing to do."""
+        A Stop where the write is refused, declined or has nothing to do."""
         for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
             self._note(sentence)
         if comp.maps:
@@ -267,7 +269,7 @@ class Procedure:
                          between_session)
 
     def _second_round(self, first: LoadedSession, scan: LoadedSession,
-                      done: RoundDone) -> RoundDone | Outcome | None:
+                      done: RoundDone) -> RoundDone | Stop | None:
         """The scan and the validation between its targets diagnosed together, written
         and validated once more (``ogacq.calibration.second_round``); None where it is
         not taken (said why)."""
@@ -491,20 +493,22 @@ class Procedure:
             self.ui.recorded(audited.path)
 
     def _approve(self, comp: Compensation, offsets: OffsetPlan,
-                 maps: MapsPlan | None) -> Outcome | None:
+                 maps: MapsPlan | None) -> Stop | None:
+        """Shown and confirmed: None; else why nothing is written (the end's outcome
+        and reason)."""
         self.ui.compensation(comp, offsets, maps)
         refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
         if refusals:
             reason = "; ".join(r.message for r in refusals)
             self.log.add("refused", **self._mark(), reasons=[r.message for r in refusals],
                          codes=[r.code for r in refusals])
-            return self._end(WriteOutcome.REFUSED, reason)
+            return WriteOutcome.REFUSED, reason
         if offsets.nothing_to_do and (maps is None or maps.nothing_to_do):
-            return self._end(WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps "
-                             "file already hold what this calibration would write")
+            return (WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps file "
+                    "already hold what this calibration would write")
         if not self.ui.yes and not self.ui.confirm("Write these offsets and maps?"):
             self.log.add("declined", **self._mark())
-            return self._end(WriteOutcome.DECLINED, "the operator declined the write")
+            return WriteOutcome.DECLINED, "the operator declined the write"
         self.log.add("confirmed", **self._mark(), by="--yes" if self.ui.yes else "prompt")
         return None
 
