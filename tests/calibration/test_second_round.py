@@ -9,6 +9,7 @@ round the procedure ended restored, exit 4, the machine left as found."""
 
 from __future__ import annotations
 
+import io
 import os
 import signal
 import subprocess
@@ -132,3 +133,29 @@ def test_killed_in_the_second_validation_it_resumes_to_the_same_end(second, tmp_
     assert step(folder, "finished")["outcome"] in KEPT
     assert step(folder, "compensation", round=2)["offsets_mm"] == pytest.approx(
         step(second, "compensation", round=2)["offsets_mm"], abs=0.003)
+
+
+class Terminal(io.StringIO):
+    """Answers typed at a terminal."""
+
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_second_round_declined_leaves_the_first_round_s_end_restored(tmp_path,
+                                                                        monkeypatch):
+    """Asked twice: the first write confirmed, the second declined: the end is the first
+    round's, restored (exit 4), with its record, and says the second was declined."""
+    monkeypatch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
+    monkeypatch.setattr(sys, "stdin", Terminal("y\nn\n"))
+    folder = tmp_path / "cal"
+    code = main(["calibrate", "--simulator", "--effects", str(effects_file(tmp_path, EFFECTS)),
+                 *(a for a in ARGS if a != "--yes"), "--out", str(folder)])
+    if code == 4 and refused_by_chance(folder):
+        pytest.skip("the first write was refused by chance (the 1 % level)")
+    assert code == 4
+    finished = step(folder, "finished")
+    assert finished["outcome"] == "restored" and finished["record_id"], finished
+    assert "no second write (declined): the operator declined the write" in finished["reason"]
+    assert step(folder, "declined", round=2) is not None
+    assert [r.details.get("round") for r in log_steps(folder) if r.step == "written"] == [None]
