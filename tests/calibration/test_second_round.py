@@ -17,11 +17,13 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from ogacq.calibration import procedure
+from ogacq.calibration.together import sent_targets
 from ogacq.cli.app import main
-from ogacq.session.records import MapsRecord, OffsetsRecord
+from ogacq.session.records import MapsRecord, MoveRecord, OffsetsRecord
 from ogacq.session.store import load_session
 from ogacq.writeback.maps_table import read_maps_table
 from tests.calibration.interrupt import flipped_first
@@ -159,3 +161,15 @@ def test_a_second_round_declined_leaves_the_first_round_s_end_restored(tmp_path,
     assert "no second write (declined): the operator declined the write" in finished["reason"]
     assert step(folder, "declined", round=2) is not None
     assert [r.details.get("round") for r in log_steps(folder) if r.step == "written"] == [None]
+
+
+def test_readings_under_a_map_are_fitted_where_their_drive_was_sent(second):
+    """The first round's validation ran with its map applied: each target sent is the
+    map's correction of the reading's q (up to 40 um at the end of the travel), the last
+    move's ``commanded_mm`` before it."""
+    session = load_session(second / "validation-scan.jsonl")
+    sent = sent_targets(session)
+    q = np.array([r.q_mm for r in session.readings])
+    assert 0.01 < np.abs(sent - q)[:, 0].max() < 0.1
+    moves = session.of_type(MoveRecord)
+    assert {tuple(m.commanded_mm) for m in moves if m.commanded_mm} >= {tuple(t) for t in sent}
