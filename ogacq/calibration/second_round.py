@@ -11,9 +11,10 @@ together``: each reading where its drive was sent, in the scan's frame of offset
 which the restore put back). The compensation of that diagnosis is written once more,
 as the first (shown, confirmed, read back, audited), and validated once more: at the
 papers' postures, and between the targets the second diagnosis read (positions
-neither round was identified from). At most one extra round, and only where its
-measurement fits the time budget of the separating scan (``--scan-minutes``): the
-second validation's scan, at this machine's time per reading step.
+neither round was identified from, as many as the first validation's). At most one
+extra round, and only where its measurement fits the time budget of the separating
+scan (``--scan-minutes``): the second validation's scan, at this machine's time per
+reading step.
 
 Not taken (and said why) where the scan ran with maps applied (its readings then hold
 the machine's error less those maps, the readings together its whole error: one
@@ -79,8 +80,12 @@ def together_band(together: ProtocolConfig, machine: MachineSpec,
 
 
 def second_validation(together: ProtocolConfig, machine: MachineSpec) -> ProtocolConfig:
-    """The second round's scan validation: between the targets of both sessions."""
-    return between_plan(together, machine)
+    """The second round's scan validation: between the targets of both sessions, every
+    other one (as many as the first validation's, about the scan's machine time: a
+    designed scan fills the budget, and a validation of twice its targets would leave
+    no second round within it)."""
+    between = between_plan(together, machine)
+    return replace(between, scan_targets_mm=between.scan_targets_mm[::2])
 
 
 def why_not(scan: LoadedSession, validation: ProtocolConfig, machine: MachineSpec,
