@@ -9,6 +9,7 @@ round the procedure ended restored, exit 4, the machine left as found."""
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import os
 import signal
@@ -21,8 +22,11 @@ import numpy as np
 import pytest
 
 from ogacq.calibration import procedure
+from ogacq.calibration.second_round import why_not
 from ogacq.calibration.together import sent_targets
 from ogacq.cli.app import main
+from ogacq.protocol.plan import ProtocolConfig
+from ogacq.session.convert import session_machine
 from ogacq.session.records import MapsRecord, MoveRecord, OffsetsRecord
 from ogacq.session.store import load_session
 from ogacq.writeback.maps_table import read_maps_table
@@ -173,3 +177,19 @@ def test_readings_under_a_map_are_fitted_where_their_drive_was_sent(second):
     assert 0.01 < np.abs(sent - q)[:, 0].max() < 0.1
     moves = session.of_type(MoveRecord)
     assert {tuple(m.commanded_mm) for m in moves if m.commanded_mm} >= {tuple(t) for t in sent}
+
+
+def test_no_second_round_where_the_scan_ran_with_maps_applied(second):
+    """Its readings then hold the error less those maps, the readings together the whole
+    error: one compensation cannot stand on both."""
+    scan = load_session(second / "separating.jsonl")
+    validation = ProtocolConfig.from_dict(
+        dict(load_session(second / "validation-scan-2.jsonl").header.plan or {}))
+    machine = session_machine(scan)
+    assert why_not(scan, validation, machine, scan, budget_s=1e9) == ""
+    station = dict(scan.header.station or {})
+    controller = {**station["controller"], "maps": {"file": "maps.json", "checksum": "0" * 64}}
+    mapped = dataclasses.replace(scan, header=dataclasses.replace(
+        scan.header, station={**station, "controller": controller}))
+    assert why_not(mapped, validation, machine, scan, budget_s=1e9).startswith(
+        "no second round: the separating scan ran with maps applied")
