@@ -153,7 +153,7 @@ def test_the_path_check_sees_a_wrong_path():
 # --- "How to add": the common changes, each with the files it touches -----------------------
 
 COMMON_CHANGES = ("A gauge protocol", "A drive profile", "An effect", "A report section",
-                  "A command", "A table format")
+                  "A command", "A table format", "An error-map family")
 _FILES_LINE = "Files to touch:"
 # names that are one file wherever they are said: the repository's root files, and a
 # file ogacq writes (``record.json`` beside the report)

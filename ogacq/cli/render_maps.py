@@ -79,17 +79,8 @@ def print_map_effect(e: MapEffect) -> None:
     out.print(f"  [bold]{e.name}[/] = {unit_value}: {escape(e.sentence())}")
     extra = {k: val for k, val in v.extra.items() if val is not None and not (
         isinstance(val, float) and math.isnan(val))}
-    if e.term.family == "lead_screw_cyclic":
-        out.print(f"    pitch {extra['pitch_mm']:.4g} ± {extra.get('pitch_std_mm', 0):.2g} mm, "
-                  f"phase {extra['phase_deg']:+.1f} ± {extra.get('phase_std_deg', 0):.1f}° "
-                  f"(p = {format_p(e.p_value)})")
-    elif e.term.family == "hysteresis":
-        std = extra.get("build_up_std_mm")
-        out.print(f"    builds up over {extra['build_up_mm']:.3g}"
-                  + (f" ± {std:.2g}" if std is not None else "")
-                  + f" mm of travel after a reversal (p = {format_p(e.p_value)})")
-    else:
-        out.print(f"    (p = {format_p(e.p_value)})")
+    detail = e.term.kind.detail(extra)
+    out.print(f"    {escape(detail)}{' ' if detail else ''}(p = {format_p(e.p_value)})")
     if e.alternatives:
         alts = ", ".join(f"{a.name} (chi2 {a.delta_chi2:+.1f})" for a in e.alternatives)
         out.print(f"    [yellow]explained equally well by[/]: {alts}")

@@ -32,8 +32,8 @@ from ogacq.model.axis_map import AxisMap
 from ogacq.model.units import UM_PER_MM
 
 # Beyond this a table value is no error a machine in service has: the largest size the
-# diagnosis finds plausible for a map (1 mm of hysteresis, ogacq/diagnose/mapsearch.py
-# PLAUSIBLE_MM) and the library's 1 mm backlash. No source beyond those.
+# diagnosis finds plausible for a map (1 mm of hysteresis: each family's plausible_mm,
+# ogacq/model/families/) and the library's 1 mm backlash. No source beyond those.
 PLAUSIBLE_VALUE_MM = 1.0
 # Figures closer than this are the same: far below any figure's meaning, above the
 # floating point's noise.

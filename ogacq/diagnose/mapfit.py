@@ -168,59 +168,6 @@ def as_fit_result(fitted: MapFit, library: FitResult) -> FitResult:
                    else StopReason.MAX_ITERATIONS)
 
 
-# --- what each term is worth ------------------------------------------------------------
-
-@dataclass(frozen=True)
-class MapValue:
-    """A term's headline value with its std (mm), and its further parameters."""
-
-    value: float
-    std: float
-    extra: dict
-
-
-def term_value(term: MapTerm, coef: np.ndarray, cov: np.ndarray, shape_std: float,
-               ) -> MapValue:
-    if term.family == "lead_screw_cyclic":
-        a, b = float(coef[0]), float(coef[1])
-        amp = math.hypot(a, b)
-        grad = np.array([a, b]) / max(amp, 1e-300)
-        amp_std = float(math.sqrt(max(grad @ cov @ grad, 0.0)))
-        phase = math.atan2(b, a)
-        gphase = np.array([-b, a]) / max(amp**2, 1e-300)
-        phase_std = float(math.sqrt(max(gphase @ cov @ gphase, 0.0)))
-        return MapValue(amp, amp_std, {
-            "pitch_mm": round(term.shape["pitch_mm"], 6),
-            "pitch_std_mm": _rounded(shape_std),
-            "phase_deg": round(math.degrees(phase), 3),
-            "phase_std_deg": _rounded(math.degrees(phase_std))})
-    if term.family == "screw_map":
-        lo, hi = term.shape["from_mm"], term.shape["to_mm"]
-        q = np.linspace(lo, hi, 801)
-        g = term.shape_of(q, np.ones(len(q)), np.full(len(q), np.inf), np.zeros(len(q)))
-        e = coef @ g
-        k = int(np.argmax(np.abs(e)))
-        std = float(math.sqrt(max(g[:, k] @ cov @ g[:, k], 0.0)))
-        return MapValue(float(e[k]), std, {
-            "at_mm": round(float(q[k]), 3), "from_mm": lo, "to_mm": hi,
-            "knots": int(term.shape["knots"]),
-            "slope_in_encoder_scale": bool(term.shape.get("detrended"))})
-    std = float(math.sqrt(max(cov[0, 0], 0.0)))
-    if term.family == "hysteresis":
-        return MapValue(float(coef[0]), std, {
-            "build_up_mm": round(term.shape["length_mm"], 4),
-            "build_up_std_mm": _rounded(shape_std)})
-    if term.family == "rail_bow":
-        return MapValue(float(coef[0]), std, {
-            "toward": AXES[term.toward], "from_mm": term.shape["from_mm"],
-            "to_mm": term.shape["to_mm"]})
-    return MapValue(float(coef[0]), std, {"time_constant_s": round(term.shape["tau_s"], 1)})
-
-
-def _rounded(x: float) -> float | None:
-    return round(float(x), 6) if math.isfinite(x) else None
-
-
 def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, float]],
               steps: dict[int, float], shape_std: dict[str, float] | None = None,
               zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
@@ -230,8 +177,7 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
     axis's ``zero_at`` (``error_maps.axis_map``)."""
     out = []
     for axis in range(3):
-        ks = [k for k, t in enumerate(fitted.terms) if t.along and t.axis == axis
-              and t.family != "warm_up"]
+        ks = [k for k, t in enumerate(fitted.terms) if t.tabulated and t.axis == axis]
         if not ks:
             continue
         terms = [fitted.terms[k] for k in ks]
@@ -243,11 +189,8 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
         lo, hi = ranges[axis]
         extra: dict = {"families": [t.family for t in terms], "terms": terms_json(terms)}
         for t in terms:
-            if t.family == "hysteresis":
-                extra["hysteresis_build_up_mm"] = round(t.shape["length_mm"], 4)
-            if t.family == "lead_screw_cyclic":
-                extra["pitch_mm"] = round(t.shape["pitch_mm"], 6)
-        source = "; ".join(_source(t) for t in terms)
+            extra.update(t.kind.table_extra(t))
+        source = "; ".join(t.kind.source(t) for t in terms)
         stds = [(shape_std or {}).get(t.name, math.nan) * inflation for t in terms]
         out.append(axis_map(terms, [fitted.coefficients[k] for k in ks], cov, lo, hi,
                             tabulation_step(terms, steps.get(axis)), source=source,
@@ -255,10 +198,3 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
                             zero_at=(zero_at or {}).get(axis)))
     return tuple(out)
 
-
-def _source(term: MapTerm) -> str:
-    if term.family == "lead_screw_cyclic":
-        return f"cyclic lead-screw error, pitch {term.shape['pitch_mm']:.3f} mm"
-    if term.family == "screw_map":
-        return f"smooth screw map (cubic spline, {int(term.shape['knots'])} inner knots)"
-    return f"hysteresis building up over {term.shape['length_mm']:.3g} mm (wound-up values)"

@@ -26,11 +26,9 @@ from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
 from ogacq.diagnose.mapfit import (
     MapFit,
-    MapValue,
     axis_maps,
     fit_with_maps,
     map_columns,
-    term_value,
 )
 from ogacq.diagnose.mapsearch import AxisCoverage, MapSearch, search_maps
 from ogacq.diagnose.mapswap import (
@@ -50,17 +48,13 @@ from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import JointHistory, MapTerm
+from ogacq.model.families import MapValue
 from ogacq.model.gauges import AXES
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
-from ogacq.model.units import UM_PER_MM
 
 UNIT_MM = "mm"
 # what an explanation adds to the rest of a model: values, library names, map terms
 Explanation = tuple[np.ndarray, list[str], list[MapTerm]]
-# the families' words in a sentence
-WORDS = {"lead_screw_cyclic": "cyclic lead-screw error", "screw_map": "smooth screw map",
-         "hysteresis": "hysteresis building up with travel", "rail_bow": "rail bow",
-         "warm_up": "joint offset settling in time"}
 
 
 @dataclass
@@ -113,20 +107,7 @@ class MapEffect:
         where = f"{AXES[t.axis]} axis"
         if self.coverage is not None:
             where += f", q from {self.coverage.from_mm:+g} to {self.coverage.to_mm:+g} mm"
-        size = f"about {abs(v.value) * UM_PER_MM:.2g} µm"
-        if t.family == "lead_screw_cyclic":
-            what = f"{WORDS[t.family]} of pitch {t.shape['pitch_mm']:.4g} mm"
-        elif t.family == "screw_map":
-            what = f"{WORDS[t.family]}, largest at {v.extra['at_mm']:+g} mm"
-        elif t.family == "hysteresis":
-            what = f"{WORDS[t.family]} (over {t.shape['length_mm']:.2g} mm)"
-            size = f"lost motion about {abs(v.value) * UM_PER_MM:.2g} µm"
-        elif t.family == "rail_bow":
-            what = f"{WORDS[t.family]} toward {AXES[t.toward]}"
-            size = f"sagitta about {v.value * UM_PER_MM:+.2g} µm"
-        else:
-            what = f"{WORDS[t.family]} (time constant {t.shape['tau_s']:.0f} s)"
-        return f"{where}, {what}, {size}"
+        return f"{where}, {t.kind.sentence(t, v)}, {t.kind.size_words(v)}"
 
     def to_json(self) -> dict:
         std = round(float(self.std), 6) if math.isfinite(self.std) else None
@@ -228,7 +209,7 @@ class MapOutcome:
         total = 0.0
         at = np.array([q_mm])
         for term, coef in zip(self.fit.terms, self.fit.coefficients, strict=True):
-            if term.axis == axis and term.along and term.family != "warm_up":
+            if term.axis == axis and term.tabulated:
                 shape = term.shape_of(at, np.ones(1), np.full(1, np.inf), np.zeros(1))
                 total += float(coef @ shape[:, 0])
         return total
@@ -398,8 +379,8 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
         added = {s.added.term.name: s for s in search.steps}
         for k, term in enumerate(fitted.terms):
             step = added[term.name]
-            value = term_value(term, fitted.coefficients[k], fitted.term_covariance(k)
-                               * inflation**2, step.added.shape_std * inflation)
+            value = term.kind.value(term, fitted.coefficients[k], fitted.term_covariance(k)
+                                    * inflation**2, step.added.shape_std * inflation)
             effects.append(MapEffect(term, value, value.std, step.added.p_value,
                                      (step.rss_before - step.rss_after) / noise.variance,
                                      coverage=covs.get(term.axis), established=established))

@@ -1,9 +1,10 @@
 """Search the residuals for errors along each axis and in time that the effect
-library lacks (``model/error_maps.py``), after the library search.
+library lacks (``model/families/``), after the library search.
 
-Where a campaign reads a joint at enough positions (a scan), every family is tried
-on every such axis beside the current model (the joint offsets, the library's
-effects found, the maps found so far):
+Where a campaign reads a joint at enough positions (a scan), every family of the
+registry is tried on every such axis beside the current model (the joint offsets,
+the library's effects found, the maps found so far), at the shapes its module
+declares (``MapFamily.search``), the built-in ones:
 
 * the cyclic lead-screw error by a periodogram: the gain of a sine and a cosine
   of ``q`` at every trial frequency, the least-squares spectrum of N. R. Lomb
@@ -58,6 +59,7 @@ from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.error_maps import MapTerm
+from ogacq.model.families import FAMILIES, SearchedAxis, ShapeGrid
 from ogacq.model.gauges import AXES
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.units import UM_PER_MM
@@ -75,15 +77,7 @@ SAMPLES_PER_PERIOD = 2.5  # distinct positions per period: above Nyquist's 2
 # start at 1 mm, e.g. THK's miniature BNK0401). A denser scan is not searched at
 # shorter pitches it could resolve: none is physics this model has.
 SHORTEST_LEAD_MM = 1.0
-KNOTS = (0, 1, 2, 3, 4, 6, 8, 12, 16, 24, 32)
-BUILD_UP_MM = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
-WARM_UP_FRACTIONS = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # of the campaign's duration
 MAX_TERMS = 4
-# Beyond these sizes a map is no explanation a machine in service would have (no
-# source: orders of magnitude beyond the worst rolled screws' lead error, about
-# 0.2 mm per 300 mm, and the library's 1 mm backlash).
-PLAUSIBLE_MM = {"lead_screw_cyclic": 0.1, "screw_map": 0.5, "hysteresis": 1.0,
-                "rail_bow": 0.5, "warm_up": 1.0}
 STRICTER_WHEN_CONSISTENT = 10.0
 CHUNK = 64  # trial frequencies per batch
 RIVALS = "pitch unresolved: "  # how a pitch between rival peaks is said (_rival_pitch)
@@ -296,7 +290,7 @@ class _Families:
         return MapCandidate(term, float(gain.gain[k]), int(gain.rank[k]),
                             gain.coefficients[k], tried, shape_params, **kw)
 
-    def periodic(self) -> tuple[MapCandidate, Periodogram] | None:
+    def periodic(self, family: str) -> tuple[MapCandidate, Periodogram] | None:
         cov, a = self.cov, self.cov.axis
         min_pitch, max_pitch = cov.pitch_band_mm
         if not min_pitch < max_pitch:
@@ -320,12 +314,12 @@ class _Families:
             if at(found) > at(top):
                 top = found
             std_f = _curvature_std(at, top, df / 20, _noise_var(self.space, self.noise))
-            term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": 1.0 / top})
+            term = MapTerm(family, a, {"pitch_mm": 1.0 / top})
             return self._candidate(term, self._periodic_gain(np.array([top])), 0, len(freqs),
                                    1, shape_std=std_f / top**2, periodogram=gram)
 
         pitch = 1.0 / float(freqs[best])
-        term = MapTerm("lead_screw_cyclic", a, {"pitch_mm": pitch})
+        term = MapTerm(family, a, {"pitch_mm": pitch})
         unresolved = ""
         if best == len(freqs) - 1:
             unresolved = (f"pitch unresolved (below the band's {min_pitch:.3g} mm edge: "
@@ -347,80 +341,53 @@ class _Families:
         t_set = _trial_functions(freqs, self.q_set)
         return self.space.gain_grouped(t_rep * self.s_rep + t_set * self.s_set)
 
-    def screw_map(self) -> MapCandidate | None:
+    def searched(self, duration_s: float) -> SearchedAxis:
         cov = self.cov
-        detrend = f"encoder_scale.{AXES[cov.axis]}" in self.names
-        choices = [k for k in KNOTS if k + 4 <= cov.positions // 2]
-        if not choices:
-            return None
-        n_data = self.space.problem.n_data
-        best: tuple[float, MapTerm, Gain] | None = None
-        for knots in choices:
-            term = MapTerm("screw_map", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
-                                                  "knots": knots, "detrended": float(detrend)})
-            gain = self.space.gain_of(term)
-            bic = bic_change(float(gain.gain[0]), int(gain.rank[0]), n_data, self.noise)
-            if best is None or bic < best[0]:
-                best = (bic, term, gain)
-        assert best is not None
-        return self._candidate(best[1], best[2], 0, len(choices), 0)
-
-    def hysteresis(self) -> MapCandidate | None:
-        cov = self.cov
-        if not cov.both_sides or not math.isfinite(cov.shortest_travel_mm):
-            return None
         travel = self.space.history.travel_mm[:, cov.axis]
         longest = float(np.max(travel[np.isfinite(travel)], initial=0.0))
-        grid = [b for b in BUILD_UP_MM if b <= longest / 2]
-        if not grid:
-            return None
+        return SearchedAxis(cov.axis, cov.positions, cov.from_mm, cov.to_mm, cov.both_sides,
+                            cov.shortest_travel_mm, longest, duration_s, self.names)
 
-        def gain_at(length: float) -> Gain:
-            return self.space.gain_of(MapTerm("hysteresis", cov.axis, {"length_mm": length}))
-
-        gains = [gain_at(b) for b in grid]
-        best = int(np.argmax([float(g.gain[0]) for g in gains]))
-
-        def refine() -> MapCandidate:
-            length, gain = grid[best], gains[best]
-            std = math.nan
-            if 0 < best < len(grid) - 1 and grid[best - 1] > 0:
-                def of_log(x: float) -> float:
-                    return float(gain_at(math.exp(x)).gain[0])
-
-                x = _golden(of_log, math.log(grid[best - 1]), math.log(grid[best + 1]), 16)
-                refined = gain_at(math.exp(x))
-                if refined.gain[0] >= gain.gain[0]:
-                    length, gain = math.exp(x), refined
-                std = length * _curvature_std(of_log, math.log(length), 0.05,
-                                              _noise_var(self.space, self.noise))
-            term = MapTerm("hysteresis", cov.axis, {"length_mm": length})
-            return self._candidate(term, gain, 0, len(grid), int(length > 0), shape_std=std)
-
-        term = MapTerm("hysteresis", cov.axis, {"length_mm": grid[best]})
-        return self._candidate(term, gains[best], 0, len(grid), int(grid[best] > 0),
+    def best(self, grid: ShapeGrid) -> MapCandidate:
+        """The grid's best shape beside the model, its count the shapes tried."""
+        gains = [self.space.gain_of(t) for t in grid.terms]
+        if grid.by_bic:
+            n_data = self.space.problem.n_data
+            best = int(np.argmin([bic_change(float(g.gain[0]), int(g.rank[0]), n_data,
+                                             self.noise) for g in gains]))
+        else:
+            best = int(np.argmax([float(g.gain[0]) for g in gains]))
+        term = grid.terms[best]
+        refine = None if grid.refine is None else \
+            (lambda: self._refined(grid, best, gains[best]))
+        return self._candidate(term, gains[best], 0, len(grid.terms), term.shape_parameters,
                                refine=refine)
 
-    def rail_bows(self) -> list[MapCandidate]:
-        cov = self.cov
-        out = []
-        for toward in range(3):
-            if toward == cov.axis:
-                continue
-            term = MapTerm("rail_bow", cov.axis, {"from_mm": cov.from_mm, "to_mm": cov.to_mm,
-                                                 "toward": toward})
-            out.append(self._candidate(term, self.space.gain_of(term), 0, 1, 0))
-        return out
+    def _refined(self, grid: ShapeGrid, best: int, gain: Gain) -> MapCandidate:
+        """The best shape's parameter ``grid.refine`` refined between its neighbours on
+        a log scale (a build-up length), with its std from the gain's curvature."""
+        name = grid.refine
+        assert name is not None
+        values = [t.shape[name] for t in grid.terms]
+        term = grid.terms[best]
 
-    def warm_up(self, duration_s: float) -> MapCandidate | None:
-        if duration_s <= 0:
-            return None
-        grid = [f * duration_s for f in WARM_UP_FRACTIONS]
-        gains = [(self.space.gain_of(MapTerm("warm_up", self.cov.axis, {"tau_s": tau})), tau)
-                 for tau in grid]
-        gain, tau = max(gains, key=lambda g: float(g[0].gain[0]))
-        return self._candidate(MapTerm("warm_up", self.cov.axis, {"tau_s": tau}), gain, 0,
-                               len(grid), 1)
+        def at(value: float) -> MapTerm:
+            return replace(term, shape={**term.shape, name: value})
+
+        std = math.nan
+        if 0 < best < len(values) - 1 and values[best - 1] > 0:
+            def of_log(x: float) -> float:
+                return float(self.space.gain_of(at(math.exp(x))).gain[0])
+
+            x = _golden(of_log, math.log(values[best - 1]), math.log(values[best + 1]), 16)
+            refined = self.space.gain_of(at(math.exp(x)))
+            if refined.gain[0] >= gain.gain[0]:
+                term, gain = at(math.exp(x)), refined
+            value = term.shape[name]
+            std = value * _curvature_std(of_log, math.log(value), 0.05,
+                                         _noise_var(self.space, self.noise))
+        return self._candidate(term, gain, 0, len(values), term.shape_parameters,
+                               shape_std=std)
 
 
 def _rival_pitch(freqs: np.ndarray, gains: np.ndarray, best: int, space: MapSpace,
@@ -455,18 +422,6 @@ def _trial_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
     return np.concatenate([np.sin(w * q), np.cos(w * q) - 1.0], axis=1)
 
 
-def _size_mm(term: MapTerm, coefficients: np.ndarray) -> float:
-    """The largest displacement the term makes over its axis's range (both sides)."""
-    if term.family == "lead_screw_cyclic":
-        return float(np.hypot(coefficients[0], coefficients[1]))
-    if term.family in ("hysteresis", "rail_bow", "warm_up"):
-        return float(abs(coefficients[0]))
-    lo, hi = term.shape["from_mm"], term.shape["to_mm"]
-    q = np.linspace(lo, hi, 401)
-    shape = term.shape_of(q, np.ones(len(q)), np.full(len(q), np.inf), np.zeros(len(q)))
-    return float(np.max(np.abs(coefficients @ shape)))
-
-
 def _repeated_in_time(layout: ReadingsLayout) -> bool:
     """Whether postures were read again later (cycles): time is then separable from
     position."""
@@ -476,25 +431,29 @@ def _repeated_in_time(layout: ReadingsLayout) -> bool:
 def _candidates(space: MapSpace, covs: tuple[AxisCoverage, ...], names: tuple[str, ...],
                 noise: GaugeNoise, taken: set[str], grams: list[Periodogram]) -> list[MapCandidate]:
     layout = space.problem.obs.layout
+    duration = float(np.ptp(layout.t_s))
     out: list[MapCandidate] = []
     for cov in covs:
         if not cov.searchable:
             continue
         fam = _Families(space, cov, names, noise)
-        found: list[MapCandidate | None] = []
-        periodic = fam.periodic()
-        if periodic is not None:
-            found.append(periodic[0])
-            grams.append(periodic[1])
-        found += [fam.screw_map(), fam.hysteresis(), *fam.rail_bows()]
-        out += [c for c in found if c is not None and c.term.name not in taken]
+        for family in FAMILIES.values():
+            if family.in_time:
+                continue
+            if family.periodic:
+                periodic = fam.periodic(family.name)
+                if periodic is not None:
+                    out.append(periodic[0])
+                    grams.append(periodic[1])
+                continue
+            out += [fam.best(grid) for grid in family.search(fam.searched(duration))]
     if _repeated_in_time(layout) and space.within_groups_tested:
         for cov in covs:
             fam = _Families(space, cov, names, noise)
-            warm = fam.warm_up(float(np.ptp(layout.t_s)))
-            if warm is not None and warm.term.name not in taken:
-                out.append(warm)
-    return out
+            axis = fam.searched(duration)
+            out += [fam.best(grid) for family in FAMILIES.values() if family.in_time
+                    for grid in family.search(axis)]
+    return [c for c in out if c.term.name not in taken]
 
 
 def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
@@ -510,7 +469,7 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
     for k, c in enumerate(cands):
         corrected = min(1.0, float(p[k]) * c.shapes_tried * len(cands))
         bic = bic_change(c.gain, c.rank + c.shape_parameters, space.problem.n_data, noise)
-        size = _size_mm(c.term, c.coefficients)
+        size = c.term.size_mm(c.coefficients)
         if c.rank == 0:
             reason = "nothing of it is left beside the model"
         elif c.unresolved:
@@ -520,7 +479,7 @@ def _judge(cands: list[MapCandidate], space: MapSpace, noise: GaugeNoise,
                       f"and {len(cands)} families)")
         elif bic >= 0:
             reason = "does not pay for its parameters (BIC)"
-        elif size > PLAUSIBLE_MM[c.term.family]:
+        elif size > c.term.kind.plausible_mm:
             reason = f"needs an implausible size ({size * UM_PER_MM:.0f} µm)"
         else:
             reason = ""

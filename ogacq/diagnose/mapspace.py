@@ -107,10 +107,8 @@ class MapSpace:
 
     def grouped(self, term: MapTerm) -> bool:
         """Whether the term's columns are constant over every repeat group."""
-        if term.family == "warm_up":
-            return False
-        if term.family != "hysteresis":
-            return True  # a shape of q and the side: both part of the group's key
+        if term.kind.grouped is not None:  # a shape of q and the side: the group's key
+            return term.kind.grouped
         cols = self.unweighted(term)
         means = self.groups.group_means(cols)[:, self.groups.group]
         return bool(np.allclose(cols, means, rtol=0.0, atol=1e-12 * max(
@@ -215,12 +213,7 @@ def term_columns(term: MapTerm, history: JointHistory, sensitivity: JointSensiti
     a = term.axis
     shape_r = term.shape_of(h.q_mm[rows, a], h.side[rows, a], h.travel_mm[rows, a],
                             h.t_s[rows])
-    if term.family == "rail_bow":
-        s_r, s_s = sensitivity.across(a, term.toward)
-    else:
-        s_r, s_s = along[0][:, a], along[1][:, a]
-    if term.family == "warm_up":  # set at t = 0: nothing at the settings yet
-        return shape_r * s_r[rows]
+    s_r, s_s = term.kind.sensitivities(term, sensitivity, along)
     shape_s = term.shape_of(h.setting_q_mm[:, a], h.setting_side[:, a],
                             h.setting_travel_mm[:, a], np.zeros(len(h.setting_q_mm)))
     return shape_r * s_r[rows] + shape_s[:, gauge[rows]] * s_s[rows]

@@ -26,7 +26,7 @@ computed with the exact model on the scan's planned readings; ``ogacq plan
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
@@ -34,12 +34,13 @@ import numpy as np
 from ogacq.diagnose.alternatives import SWAP_CHI2, Alternative
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapfit import MapFit, map_columns
-from ogacq.diagnose.mapsearch import PLAUSIBLE_MM, AxisCoverage, _size_mm
+from ogacq.diagnose.mapsearch import AxisCoverage
 from ogacq.diagnose.mapspace import term_columns
 from ogacq.diagnose.separation import SEPARATES_CHI2
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
 from ogacq.model.error_maps import JointHistory, MapTerm
+from ogacq.model.families import FAMILIES
 from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.machine import MachineSpec
@@ -56,18 +57,11 @@ SCANS = ((2.0, 1), (1.0, 1), (1.0, 3), (0.5, 3))
 
 def swap_families(covs: tuple[AxisCoverage, ...], names: tuple[str, ...],
                   taken: set[str]) -> list[MapTerm]:
-    """Map terms fitted whatever the campaign: each axis's cubic screw map (without its
-    slope when the model has that axis's encoder scale) and each rail's bow."""
-    out = []
-    for cov in covs:
-        axis = AXES[cov.axis]
-        out.append(MapTerm("screw_map", cov.axis, {
-            "from_mm": cov.from_mm, "to_mm": cov.to_mm, "knots": 0,
-            "detrended": float(f"encoder_scale.{axis}" in names)}))
-        for toward in range(3):
-            if toward != cov.axis:
-                out.append(MapTerm("rail_bow", cov.axis, {
-                    "from_mm": cov.from_mm, "to_mm": cov.to_mm, "toward": toward}))
+    """Map terms fitted whatever the campaign, each family's ``swap_terms`` on every
+    axis (a cubic screw map, without its slope when the model has that axis's encoder
+    scale, and each rail's bow)."""
+    out = [t for cov in covs for family in FAMILIES.values()
+           for t in family.swap_terms(cov.axis, cov.from_mm, cov.to_mm, names)]
     return [t for t in out if t.name not in taken and f"{t.family}.{AXES[t.axis]}" not in taken]
 
 
@@ -187,19 +181,16 @@ def library_swaps(lin: _Linear, effects: tuple[str, ...],
         beside = _Projector(rest)
         found = []
         for candidate in candidates:
-            # in place of an axis's encoder scale, its map takes the slope too
-            term = replace(candidate, shape={**candidate.shape, "detrended": 0.0}) \
-                if candidate.family == "screw_map" and \
-                name == f"encoder_scale.{AXES[candidate.axis]}" else candidate
+            term = candidate.kind.in_place_of(candidate, name)
             rss, coef = beside.fit(target, np.column_stack([rest, block(term)]))
             delta = (rss - lin.rss) / lin.var
             amplitude = coef[-term.size:]
-            if delta < SWAP_CHI2 and _size_mm(term, amplitude) <= PLAUSIBLE_MM[term.family]:
+            if delta < SWAP_CHI2 and term.size_mm(amplitude) <= term.kind.plausible_mm:
                 theta = lin.theta.copy()
                 theta[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
                 lib = [n for n in lin.names if n != name]
                 theta[[PARAM_INDEX[n] for n in lib]] += coef[:len(lib)]
-                found.append((term, Alternative(term.name, _size_mm(term, amplitude),
+                found.append((term, Alternative(term.name, term.size_mm(amplitude),
                                                 float(delta), theta)))
         out[name] = sorted(found, key=lambda t: t[1].delta_chi2)
     return out
@@ -236,8 +227,8 @@ def map_swaps(lin: _Linear, library: tuple[str, ...],
                 continue
             rss, coef = beside.fit(target, np.column_stack([rest, blocks[other.name]]))
             delta = (rss - lin.rss) / lin.var
-            size = _size_mm(other, coef[-other.size:])
-            if delta < SWAP_CHI2 and size <= PLAUSIBLE_MM[other.family]:
+            size = other.size_mm(coef[-other.size:])
+            if delta < SWAP_CHI2 and size <= other.kind.plausible_mm:
                 found.append(Alternative(other.name, size, float(delta), lin.theta))
         out[term.name] = sorted(found, key=lambda a: a.delta_chi2)
     return out

@@ -8,21 +8,11 @@ errors that vary along its travel, which calibration engineers map with a laser
 and correct with a compensation table (ISO 230-2:2014 measures them position by
 position, in both directions):
 
-* ``lead_screw_cyclic``: the screw's periodic error, ``A sin(2 pi q / P + phase)``,
-  one revolution of the screw being its period P (the lead) or a harmonic of it;
-* ``screw_map``: a smooth error along the travel (the cumulative lead error of the
-  screw, its thermal growth pattern), a cubic spline in ``q``;
-* ``hysteresis``: lost motion that builds up with the travel ``s`` since the last
-  reversal, ``B (1 - exp(-s / length))`` (the first-order law of friction-driven
-  wind-up, Dahl's model: P. R. Dahl, "A solid friction model", Aerospace Corp.
-  TOR-0158(3107-18)-1, 1968); its zero-length limit is the library's constant
-  backlash;
-* ``rail_bow``: the rail's straightness, the joint moving across its line by a
-  parabola over the travel (its constant and linear parts are the library's axis
-  offsets and squareness);
-* ``warm_up``: a joint offset that settles with time, ``D (1 - exp(-t / tau))``
-  (the library's thermal drift is its linear start);
-* ``leg_growth``: a leg's length that settles likewise.
+a cyclic lead-screw error, a smooth screw map, hysteresis building up with the
+travel since a reversal, a rail's bow, a joint offset settling in time: the families,
+one module each in ``ogacq/model/families/`` (their registry, ``FAMILIES``, and what
+each declares: ``families/base.py``). Here: each joint's history at each reading, and
+the table (``AxisMap``) of an axis's fitted terms.
 
 Each family is linear in its amplitudes once its shape (pitch, knots, build-up
 length, time constant) is fixed: :meth:`MapTerm.columns` gives the displacement per
@@ -38,16 +28,17 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
 from ogacq.model.axis_map import AxisMap
+from ogacq.model.families import FAMILIES as FAMILIES
+from ogacq.model.families import MapTerm as MapTerm
+from ogacq.model.families.smooth import cubic_bspline as cubic_bspline
 from ogacq.model.gauges import AXES
 from ogacq.model.measurement import ReadingsLayout
 
-ALONG_FAMILIES = ("lead_screw_cyclic", "screw_map", "hysteresis")
-FAMILIES = (*ALONG_FAMILIES, "rail_bow", "warm_up", "leg_growth")
 # The overshoot of a plan's approach moves when a layout does not say it (the
 # default of ``ProtocolConfig.overshoot_mm``; no source beyond the plan): the travel
 # since the reversal hidden in an approach from below or above.
@@ -121,146 +112,11 @@ def travel_since_reversal(q_mm: np.ndarray, side: np.ndarray,
     return np.where((side != 0) & seen_reset, since, np.inf)
 
 
-# --- the families' shapes -----------------------------------------------------------
-
-def cubic_bspline(x: np.ndarray, knots: np.ndarray) -> np.ndarray:
-    """(K, n) the cubic B-spline basis on the clamped knot vector (``knots`` the breaks
-    from the first to the last, ascending) at ``x``, by the Cox-de Boor recursion
-    (C. de Boor, A Practical Guide to Splines, 1978, ch. IX); values outside the
-    breaks continue the end polynomials (a table holds its end values anyway)."""
-    x = np.asarray(x, dtype=float)
-    t = np.concatenate([[knots[0]] * 3, knots, [knots[-1]] * 3])
-    # degree 0: the interval each x lies in, the last one closed, ends extended
-    k0 = np.clip(np.searchsorted(knots, x, side="right") - 1, 0, len(knots) - 2) + 3
-    basis = (np.arange(len(t) - 1)[:, None] == k0[None, :]).astype(float)
-    for degree in range(1, 4):
-        left_den = t[degree:-1] - t[:-degree - 1]
-        right_den = t[degree + 1:] - t[1:-degree]
-        with np.errstate(invalid="ignore", divide="ignore"):
-            left = np.where(left_den[:, None] > 0,
-                            (x[None, :] - t[:-degree - 1, None]) / left_den[:, None], 0.0)
-            right = np.where(right_den[:, None] > 0,
-                             (t[degree + 1:, None] - x[None, :]) / right_den[:, None], 0.0)
-        basis = left * basis[:-1] + right * basis[1:]
-    return basis
-
-
-@dataclass(frozen=True)
-class MapTerm:
-    """One family on one axis with its shape fixed: linear in its amplitudes.
-
-    ``shape`` holds the family's shape parameters: ``pitch_mm`` (cyclic),
-    ``from_mm``/``to_mm``/``knots`` (screw map, rail bow), ``detrended`` (screw map:
-    made orthogonal to a slope over its range, which an encoder scale in the model
-    carries), ``toward`` (rail bow: the world axis the joint moves along),
-    ``length_mm`` (hysteresis), ``tau_s`` (warm-up)."""
-
-    family: str
-    axis: int
-    shape: Mapping[str, float] = field(default_factory=dict)
-    reference_mm: float = 0.0
-
-    def __post_init__(self) -> None:
-        if self.family not in FAMILIES:
-            raise ValueError(f"unknown error-map family {self.family!r}")
-
-    @property
-    def along(self) -> bool:
-        """Moves the joint along its own line (what an axis map compensates)."""
-        return self.family in ALONG_FAMILIES or self.family == "warm_up"
-
-    @property
-    def toward(self) -> int:
-        return int(self.shape["toward"])
-
-    @property
-    def where(self) -> str:
-        if self.family == "rail_bow":
-            return AXES[self.axis] + AXES[self.toward]
-        return AXES[self.axis]
-
-    @property
-    def name(self) -> str:
-        return f"{self.family}.{self.where}"
-
-    def _spline_knots(self) -> np.ndarray:
-        return np.linspace(self.shape["from_mm"], self.shape["to_mm"],
-                           int(self.shape["knots"]) + 2)
-
-    def shape_of(self, q: np.ndarray, side: np.ndarray, travel: np.ndarray,
-                 t_s: np.ndarray) -> np.ndarray:
-        """(k, n) the displacement per unit amplitude at joint coordinates ``q`` (n,),
-        sides ``side``, travels since reversal ``travel`` and times ``t_s``; zero at
-        the reference approached forward (along-the-line families)."""
-        q = np.asarray(q, dtype=float)
-        ref = self.reference_mm
-        if self.family == "lead_screw_cyclic":
-            w = 2 * np.pi / self.shape["pitch_mm"]
-            return np.array([np.sin(w * (q - ref)), np.cos(w * (q - ref)) - 1.0])
-        if self.family == "screw_map":
-            knots = self._spline_knots()
-            basis = cubic_bspline(q, knots) - cubic_bspline(np.array([ref]), knots)
-            # the basis sums to one: less one function it spans the rest once
-            basis = basis[1:]
-            if self.shape.get("detrended"):  # the slope is the encoder scale's
-                grid = np.linspace(knots[0], knots[-1], 401) - ref
-                on_grid = cubic_bspline(grid + ref, knots)[1:] - \
-                    cubic_bspline(np.array([ref]), knots)[1:]
-                slope = on_grid @ grid / (grid @ grid)
-                basis = basis - slope[:, None] * (q - ref)[None, :]
-            return basis
-        if self.family == "hysteresis":
-            length = self.shape["length_mm"]
-            side = np.asarray(side, dtype=float)
-            with np.errstate(over="ignore"):
-                wound = 1.0 if length <= 0 else 1.0 - 2.0 * np.exp(-np.asarray(travel) / length)
-            # the joint lags behind its direction of travel; zero when wound forward
-            return ((1.0 - side * wound) / 2.0)[None]
-        if self.family == "rail_bow":
-            lo, hi = self.shape["from_mm"], self.shape["to_mm"]
-            xi = (2.0 * q - (lo + hi)) / (hi - lo)
-            return (1.0 - xi**2)[None]  # the sagitta: 1 mid-travel, 0 at the ends
-        # warm_up, leg_growth: settling with time
-        return (1.0 - np.exp(-np.asarray(t_s, dtype=float) / self.shape["tau_s"]))[None]
-
-    def columns(self, history: JointHistory) -> tuple[np.ndarray, np.ndarray]:
-        """(k, n) at each reading's pose and (k, G) at each gauge's setting pose."""
-        a = self.axis
-        at_reading = self.shape_of(history.q_mm[:, a], history.side[:, a],
-                                   history.travel_mm[:, a], history.t_s)
-        at_setting = self.shape_of(history.setting_q_mm[:, a], history.setting_side[:, a],
-                                   history.setting_travel_mm[:, a],
-                                   np.zeros(len(history.setting_q_mm)))
-        return at_reading, at_setting
-
-    @property
-    def shape_parameters(self) -> int:
-        """Its shape parameters estimated from the readings (pitch, build-up length,
-        time constant): degrees of freedom the fit spends beside its amplitudes."""
-        if self.family in ("lead_screw_cyclic", "warm_up"):
-            return 1
-        if self.family == "hysteresis":
-            return int(self.shape["length_mm"] > 0)
-        return 0
-
-    @property
-    def size(self) -> int:
-        if self.family == "lead_screw_cyclic":
-            return 2
-        if self.family == "screw_map":
-            return int(self.shape["knots"]) + 3
-        return 1
-
-
 def tabulation_step(terms: list[MapTerm], scan_step_mm: float | None) -> float:
     """A table's step that represents the terms by linear interpolation: the scan's
-    step or 1 mm, finer for a cyclic error (20 points per period: the chord misses a
-    sine by 1.2 % of its amplitude, 1 - cos(pi / 20))."""
-    step = min(scan_step_mm or 1.0, 1.0)
-    for term in terms:
-        if term.family == "lead_screw_cyclic":
-            step = min(step, term.shape["pitch_mm"] / 20.0)
-    return step
+    step or 1 mm, finer where a family's shape asks (``MapFamily.table_step_mm``: a
+    cyclic error's)."""
+    return min(scan_step_mm or 1.0, 1.0, *(t.kind.table_step_mm(t) for t in terms))
 
 
 def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: np.ndarray,
@@ -298,16 +154,10 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
     slip = np.zeros(len(q))  # variance from the shapes' own uncertainty
     for term, c, std in zip(terms, coefficients, shape_std or [math.nan] * len(terms),
                             strict=True):
-        if term.family == "lead_screw_cyclic" and math.isfinite(std):
-            pitch = term.shape["pitch_mm"]
-            w = 2 * np.pi / pitch
-
-            def d_pitch(x: np.ndarray, c: np.ndarray = c, w: float = w,
-                        pitch: float = pitch, term: MapTerm = term) -> np.ndarray:
-                delta = x - term.reference_mm
-                return (c[0] * np.cos(w * delta) - c[1] * np.sin(w * delta)) * delta * (-w / pitch)
-
-            slip += ((d_pitch(q) - d_pitch(np.array([ref]))) * std) ** 2
+        slope_q = term.kind.shape_slope(term, c, q)
+        slope_ref = term.kind.shape_slope(term, c, np.array([ref]))
+        if slope_q is not None and slope_ref is not None and math.isfinite(std):
+            slip += ((slope_q - slope_ref) * std) ** 2
     out = {}
     for side in (1, -1):
         g = design(side)  # (k, Q)

@@ -302,11 +302,9 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
         (min(UNSTATED_BAND_MM[0], longest), longest)
     stated = stated_periods(machine, legs)
     per_leg = 1 + 2 * DESIGN_CYCLES  # steps per target and leg, and the Zero reading
-    most = MOST_POSITIONS
     timed = bool(budget_s) and seconds_per_step > 0
-    if budget_s and seconds_per_step > 0:
-        most = max(3, min(most, int((budget_s / seconds_per_step / len(legs) - 1)
-                                    // (per_leg - 1))))
+    most = _most_positions(budget_s if timed else None, seconds_per_step, len(legs),
+                           per_leg)
     n = min(FEWEST_POSITIONS, most)
     shortest = min(stated + (required or (longest,)))
     while True:
@@ -315,8 +313,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
         unsampled = tuple(p for p, g in zip(stated, _gap_at(targets, stated), strict=True)
                           if g > LARGEST_PHASE_GAP)
         aliases = alias_level(targets, shortest)
-        covered = not unsampled and (required is None or band[0] <= required[0] + 1e-9) \
-            and aliases <= ALIAS_LIMIT
+        covered = not unsampled and _band_reached(band, required) and aliases <= ALIAS_LIMIT
         if not covered and n < most:
             n = min(most, max(n + 1, int(n * 1.12)))
             continue
@@ -333,6 +330,21 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     needed = len(legs) * (1 + (per_leg - 1) * wanted) if n < wanted <= MOST_POSITIONS else 0
     return ScanDesign(protocol, steps, seconds_per_step, budget_s, required, stated, band,
                       unsampled, max(gaps), noise_mm, detection, aliases, needed)
+
+
+def _most_positions(budget_s: float | None, seconds_per_step: float, legs: int,
+                    per_leg: int) -> int:
+    """The most targets a leg's scan may have: those the budget of machine time holds
+    (each target ``per_leg`` steps, each leg one more), none beyond ``MOST_POSITIONS``."""
+    if budget_s is None:
+        return MOST_POSITIONS
+    return max(3, min(MOST_POSITIONS,
+                      int((budget_s / seconds_per_step / legs - 1) // (per_leg - 1))))
+
+
+def _band_reached(band: tuple[float, float], required: tuple[float, float] | None) -> bool:
+    """The targets resolve the band of leads required (none: the stated leads only)."""
+    return required is None or band[0] <= required[0] + 1e-9
 
 
 def targets_for_detection(detection_mm: dict[str, float], n: int) -> int:
@@ -376,8 +388,9 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
                                                         "knots": SMOOTH_KNOTS})],
                  "hysteresis": [MapTerm("hysteresis", a, {"length_mm": BUILD_UP_MM})]}
         for family, family_terms in terms.items():
+            # a smooth map's line is the offset's and the scale's
             taken = _orthonormal(np.column_stack([offsets, scales[:, a]])) \
-                if family == "screw_map" else nuisance
+                if family_terms[0].kind.pointwise else nuisance
             worst = max(_amplitude_std(t, history, s_r[:, a], setting[:, a], layout.gauge,
                                        taken, lo, hi) for t in family_terms)
             out[family] = max(out.get(family, 0.0), DETECTION_SIGMAS * noise_mm * worst)
@@ -399,7 +412,7 @@ def _amplitude_std(term: MapTerm, history: JointHistory, s_r: np.ndarray, s_s: n
     cols = (at_reading * s_r[None] + at_setting[:, gauge] * s_s[None]).T  # (n, k)
     cols = cols - nuisance @ (nuisance.T @ cols)
     normal = cols.T @ cols
-    if term.family == "screw_map":
+    if term.kind.pointwise:  # a smooth map: its values along q
         return _least_visible_rms(term, normal, lo, hi)
     try:
         cov = np.linalg.inv(normal)

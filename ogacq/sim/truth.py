@@ -31,9 +31,12 @@ library (so that the diagnosis can be shown physics it does not know)::
     frequency_hz = 20.0
 
 Each axis error is the displacement of its joint, actual minus commanded, with the
-sign and shape of ``ogacq/model/error_maps.py``'s families (which the diagnosis
-fits): the along-the-line errors added to the commanded ``q`` before the exact
-model, the bow moving the joint centre across its line.
+sign and shape of ``ogacq/model/families/``'s families (which the diagnosis fits), each
+written here again on its own so that the diagnosis is checked against independent
+physics: the along-the-line errors added to the commanded ``q`` before the exact
+model, the bow moving the joint centre across its line. A family registered later (a
+plugin's, a test's) is simulated by its own shape: ``SimTruth.map_terms``, a term with
+its amplitudes.
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ from ogacq_drivers.config_schema import Field, ListOf, MapOf, Table, load, numbe
 from ogacq.errors import InputError
 from ogacq.io.text import read_text
 from ogacq.io.toml_file import load_toml, parse_toml_text
+from ogacq.model.families import MapTerm
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, EFFECTS, PARAM_INDEX, vector
 
@@ -160,6 +164,15 @@ class SimTruth:
     rail_bow: dict[int, RailBow] = field(default_factory=dict)
     hysteresis: dict[int, Hysteresis] = field(default_factory=dict)
     warm_up: dict[int, WarmUp] = field(default_factory=dict)
+    # along-the-line errors of any family, by its own shape (MapTerm.shape_of) times
+    # its amplitudes
+    map_terms: tuple[tuple[MapTerm, tuple[float, ...]], ...] = ()
+
+    def __post_init__(self) -> None:
+        for term, _ in self.map_terms:
+            if not term.along:
+                raise ValueError(f"{term.name}: only errors along a joint's line are "
+                                 "simulated by their shape")
 
     def hidden(self) -> dict[str, float]:
         """The non-nominal entries: what a calibration should find."""
@@ -177,12 +190,12 @@ class SimTruth:
         # the rest of the physics as it was (an effects file's [vibration] included)
         return SimTruth(theta, self.noise_mm, dict(self.lead_screw), self.vibration,
                         dict(self.screw_map), dict(self.rail_bow), dict(self.hysteresis),
-                        dict(self.warm_up))
+                        dict(self.warm_up), self.map_terms)
 
     @property
     def has_axis_errors(self) -> bool:
         return bool(self.lead_screw or self.screw_map or self.rail_bow or self.hysteresis
-                    or self.warm_up)
+                    or self.warm_up or self.map_terms)
 
     def disturbed_q(self, q_mm: np.ndarray, side: np.ndarray | None = None,
                     travel_mm: np.ndarray | None = None,
@@ -208,6 +221,9 @@ class SimTruth:
         if t_s is not None:
             for axis, warm in self.warm_up.items():
                 out[..., axis] += warm.error_mm(np.asarray(t_s))
+        for term, amplitudes in self.map_terms:
+            out[..., term.axis] += _term_error_mm(term, amplitudes, q[..., term.axis],
+                                                  side, travel_mm, t_s)
         return out
 
     def across_mm(self, q_mm: np.ndarray, machine: MachineSpec) -> np.ndarray:
@@ -218,6 +234,23 @@ class SimTruth:
         for axis, bow in self.rail_bow.items():
             out[..., axis, AXES.index(bow.toward)] += bow.across_mm(q[..., axis], machine)
         return out
+
+
+def _term_error_mm(term: MapTerm, amplitudes: tuple[float, ...], q: np.ndarray,
+                   side: np.ndarray | None, travel_mm: np.ndarray | None,
+                   t_s: np.ndarray | float | None) -> np.ndarray:
+    """A term's displacement at ``q`` (any shape); an unknown side taken as forward
+    and an unknown travel as long, as a table is read, and no time as t = 0."""
+    a, shape = term.axis, np.shape(q)
+
+    def flat(values: np.ndarray | float | None, default: float) -> np.ndarray:
+        given = default if values is None else values
+        return np.broadcast_to(np.asarray(given, dtype=float), shape).ravel()
+
+    along = term.shape_of(np.ravel(q), flat(None if side is None else side[..., a], 1.0),
+                          flat(None if travel_mm is None else travel_mm[..., a], np.inf),
+                          flat(t_s, 0.0))
+    return (np.asarray(amplitudes, dtype=float) @ along).reshape(shape)
 
 
 def random_truth(seed: int, offsets_mm: float = 1.5, noise_mm: float = 0.001) -> SimTruth:
@@ -321,4 +354,5 @@ def _with_effects(given: dict[str, Any], base: SimTruth, path: str | Path) -> Si
                                    f"{AXES[axis]} (a bow moves the joint across its line)")
     return SimTruth(theta, noise, axes("lead_screw", base.lead_screw),
                     given.get("vibration", base.vibration), axes("screw_map", base.screw_map),
-                    bows, axes("hysteresis", base.hysteresis), axes("warm_up", base.warm_up))
+                    bows, axes("hysteresis", base.hysteresis), axes("warm_up", base.warm_up),
+                    base.map_terms)
