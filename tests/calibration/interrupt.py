@@ -13,6 +13,7 @@ WINDOW (each in a write, or in a restore with ``restore-`` before it):
 - ``maps-done``: the maps file replaced, the ``done`` record about to be written;
 - ``none``: no interruption.
 
+``--second``: at the window of the second such write (a calibration's second round).
 ``--flip``: the maps of ``ogacq calibrate`` turned in sign, and its offsets put
 turned too, so that its validation is worse and it restores (as
 tests/calibration/test_calibrate_e2e.py does with the maps). ``--flip-first``: the
@@ -66,13 +67,18 @@ def skewed(evidence: Any) -> Any:
         a: -v - math.copysign(SKEW_MM, v) for a, v in evidence.identified_mm.items()})
 
 
-def arm(window: str, ctrl_c: bool) -> None:
-    """Patch the write path to stop at ``window`` (``restore-WINDOW``: in a restore)."""
+def arm(window: str, ctrl_c: bool, nth: int = 1) -> None:
+    """Patch the write path to stop at ``window`` (``restore-WINDOW``: in a restore) of
+    the ``nth`` such write (2: a calibration's second round)."""
     action, _, where = window.partition("-") if window.startswith("restore-") \
         else ("write", "", window)
     doing: dict[str, str] = {}
+    reached = [0]
 
     def stop() -> None:
+        reached[0] += 1
+        if reached[0] < nth:
+            return
         if ctrl_c:
             raise KeyboardInterrupt
         os.kill(os.getpid(), signal.SIGKILL)
@@ -115,7 +121,7 @@ def run(argv: list[str]) -> int:
     options, args = argv[:split], argv[split + 1:]
     window = options[0]
     if window != "none":
-        arm(window, "--ctrl-c" in options)
+        arm(window, "--ctrl-c" in options, 2 if "--second" in options else 1)
     if "--flip" in options:
         made, identified = procedure.compensation_of, procedure.evidence_for
         procedure.compensation_of = lambda *a, **k: flipped(made(*a, **k))  # type: ignore[assignment]

@@ -25,6 +25,7 @@ from ogacq.calibration import procedure
 from ogacq.calibration.second_round import why_not
 from ogacq.calibration.together import sent_targets
 from ogacq.cli.app import main
+from ogacq.model.axis_map import AxisMap
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import session_machine
 from ogacq.session.records import MapsRecord, MoveRecord, OffsetsRecord
@@ -193,3 +194,31 @@ def test_no_second_round_where_the_scan_ran_with_maps_applied(second):
         scan.header, station={**station, "controller": controller}))
     assert why_not(mapped, validation, machine, scan, budget_s=1e9).startswith(
         "no second round: the separating scan ran with maps applied")
+
+
+@pytest.mark.parametrize("window", ["offsets-half", "maps-done"])
+def test_killed_in_the_second_write_it_resumes_to_written_once(second, tmp_path, window):
+    """Killed with the second round's offsets half written (x and y, not z), or its maps
+    file replaced before its record: the resume puts back or finds its own write, and
+    writes the second round once."""
+    folder = tmp_path / "cal"
+    killed = subprocess.run([sys.executable, "-m", "tests.calibration.interrupt", window,
+                             "--second", "--flip-first", "--", "calibrate", "--simulator",
+                             "--effects", str(effects_file(tmp_path, EFFECTS)), *ARGS,
+                             "--out", str(folder)], capture_output=True, text=True,
+                            timeout=300)
+    if killed.returncode == 4 and refused_by_chance(folder):
+        pytest.skip("the first write was refused by chance (the 1 % level)")
+    assert killed.returncode == -signal.SIGKILL, killed.stderr[-2000:]
+    assert step(folder, "confirmed", round=2)
+    done = subprocess.run([sys.executable, "-m", "ogacq", "calibrate", "--resume",
+                           str(folder), "--yes", "--history", "none"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    steps = log_steps(folder)
+    assert [r.details.get("round") for r in steps if r.step == "written"] == [None, 2]
+    assert step(folder, "finished")["outcome"] in KEPT
+    # the maps file holds the second round's map, not the first's (sign-turned)
+    (m,) = step(folder, "compensation", round=2)["maps"]
+    assert read_maps_table(folder / "maps.json").maps["x"].checksum() == \
+        AxisMap.from_json(m).checksum()
