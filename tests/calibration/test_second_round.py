@@ -222,3 +222,30 @@ def test_killed_in_the_second_write_it_resumes_to_written_once(second, tmp_path,
     (m,) = step(folder, "compensation", round=2)["maps"]
     assert read_maps_table(folder / "maps.json").maps["x"].checksum() == \
         AxisMap.from_json(m).checksum()
+
+
+def test_no_second_write_where_the_readings_together_find_nothing_to_correct(
+        tmp_path, monkeypatch):
+    """The readings together diagnosed without an effect or a map (their effects taken
+    off on purpose): nothing is written a second time; the first round's end stands,
+    restored, and says why."""
+    monkeypatch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
+    diagnosed = procedure.diagnose
+
+    def nothing_together(obs, **kwargs):
+        found = diagnosed(obs, **kwargs)
+        return dataclasses.replace(found, effects=[], mapped=None) if " + " in obs.source \
+            else found
+
+    monkeypatch.setattr(procedure, "diagnose", nothing_together)
+    for attempt in ("cal", "cal-again"):
+        folder = tmp_path / attempt
+        code = calibrate(folder, effects_file(tmp_path, EFFECTS))
+        if not (code == 4 and refused_by_chance(folder)):
+            break
+    assert code == 4
+    finished = step(folder, "finished")
+    assert finished["outcome"] == "restored", finished
+    assert "no second write: the scan and its validation together find nothing a map " \
+        "corrects" in finished["reason"], finished["reason"]
+    assert [r.details.get("round") for r in log_steps(folder) if r.step == "written"] == [None]
