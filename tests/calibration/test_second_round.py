@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import dataclasses
 import io
+import json
 import os
 import signal
 import subprocess
@@ -72,6 +73,11 @@ def test_a_first_round_shown_wrong_between_targets_is_corrected_by_a_second(seco
     first = step(second, "validation", role="validation-scan")
     assert first["outcome"] == "worse", first
     assert step(second, "restored")["maps"]  # the first round's map put back
+    # the record: as left after the second round, both rounds' writes in its audit
+    record = json.loads((second / "report" / "record.json").read_text())
+    assert record["id"] == finished["record_id"]
+    assert record["compensation"]["writes"] == {
+        k: v for k, v in step(second, "written", round=2).items() if k != "round"}
     # the second diagnosis read the scan and the validation between its targets
     together = step(second, "diagnosis", role="separating + validation-scan")
     assert "separating.jsonl + " in together["session"], together["session"]
