@@ -51,17 +51,34 @@ def calibrate(folder: Path, effects: Path, *more: str) -> int:
                  "--out", str(folder), *more])
 
 
+def first_round_wrong(root: Path, *more: str) -> tuple[Path, int]:
+    """``calibrate`` in this process with its first round's maps sign-turned (patched by
+    the caller): its folder and exit code; a refusal by chance alone gets once more."""
+    for attempt in ("cal", "cal-again"):
+        folder = root / attempt
+        code = calibrate(folder, effects_file(root, EFFECTS), *more)
+        if not (code == 4 and refused_by_chance(folder)):
+            break
+    return folder, code
+
+
+def resumed_to_the_second_round(folder: Path) -> list:
+    """``calibrate --resume FOLDER`` ended kept, the second round written once: its log."""
+    done = subprocess.run([sys.executable, "-m", "ogacq", "calibrate", "--resume",
+                           str(folder), "--yes", "--history", "none"],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    steps = log_steps(folder)
+    assert [r.details.get("round") for r in steps if r.step == "written"] == [None, 2]
+    assert step(folder, "finished")["outcome"] in KEPT
+    return steps
+
+
 @pytest.fixture(scope="module")
 def second(tmp_path_factory) -> Path:
-    root = tmp_path_factory.mktemp("second")
-    effects = effects_file(root, EFFECTS)
     with pytest.MonkeyPatch.context() as patch:
         patch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
-        for attempt in ("cal", "cal-again"):  # a refusal by chance alone: once more
-            folder = root / attempt
-            code = calibrate(folder, effects)
-            if not (code == 4 and refused_by_chance(folder)):
-                break
+        folder, code = first_round_wrong(tmp_path_factory.mktemp("second"))
     assert code == 0, step(folder, "finished")
     return folder
 
@@ -107,11 +124,7 @@ def test_no_second_round_beyond_the_scan_budget(tmp_path, monkeypatch):
     """--scan-minutes 1: the second validation's scan would take longer; the first round
     ends restored, and says why no second was taken."""
     monkeypatch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
-    for attempt in ("cal", "cal-again"):
-        folder = tmp_path / attempt
-        code = calibrate(folder, effects_file(tmp_path, EFFECTS), "--scan-minutes", "1")
-        if not (code == 4 and refused_by_chance(folder)):
-            break
+    folder, code = first_round_wrong(tmp_path, "--scan-minutes", "1")
     assert code == 4
     finished = step(folder, "finished")
     assert finished["outcome"] == "restored"
@@ -136,14 +149,8 @@ def test_killed_in_the_second_validation_it_resumes_to_the_same_end(second, tmp_
     assert run.poll() is None, "the procedure ended before the kill point"
     os.kill(run.pid, signal.SIGKILL)
     run.wait()
-    done = subprocess.run([sys.executable, "-m", "ogacq", "calibrate", "--resume",
-                           str(folder), "--yes", "--history", "none"],
-                          capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr[-2000:]
-    steps = log_steps(folder)
-    assert [r.details.get("round") for r in steps if r.step == "written"] == [None, 2]
+    steps = resumed_to_the_second_round(folder)
     assert sum(r.step == "restored" for r in steps) == 1
-    assert step(folder, "finished")["outcome"] in KEPT
     assert step(folder, "compensation", round=2)["offsets_mm"] == pytest.approx(
         step(second, "compensation", round=2)["offsets_mm"], abs=0.003)
 
@@ -217,13 +224,7 @@ def test_killed_in_the_second_write_it_resumes_to_written_once(second, tmp_path,
         pytest.skip("the first write was refused by chance (the 1 % level)")
     assert killed.returncode == -signal.SIGKILL, killed.stderr[-2000:]
     assert step(folder, "confirmed", round=2)
-    done = subprocess.run([sys.executable, "-m", "ogacq", "calibrate", "--resume",
-                           str(folder), "--yes", "--history", "none"],
-                          capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr[-2000:]
-    steps = log_steps(folder)
-    assert [r.details.get("round") for r in steps if r.step == "written"] == [None, 2]
-    assert step(folder, "finished")["outcome"] in KEPT
+    resumed_to_the_second_round(folder)
     # the maps file holds the second round's map, not the first's (sign-turned)
     (m,) = step(folder, "compensation", round=2)["maps"]
     assert read_maps_table(folder / "maps.json").maps["x"].checksum() == \
@@ -244,11 +245,7 @@ def test_no_second_write_where_the_readings_together_find_nothing_to_correct(
             else found
 
     monkeypatch.setattr(procedure, "diagnose", nothing_together)
-    for attempt in ("cal", "cal-again"):
-        folder = tmp_path / attempt
-        code = calibrate(folder, effects_file(tmp_path, EFFECTS))
-        if not (code == 4 and refused_by_chance(folder)):
-            break
+    folder, code = first_round_wrong(tmp_path)
     assert code == 4
     finished = step(folder, "finished")
     assert finished["outcome"] == "restored", finished
