@@ -3,9 +3,15 @@
     calibration campaign -> diagnosis -> (ambiguous: the separating measurement,
     shown with its duration, run, diagnosed) -> the compensation (offsets and maps,
     every table exported) -> shown, confirmed -> written (audited, read back) ->
-    validation campaign (the same plan) -> judged against the one before ->
-    worse: the previous state restored, with the reason -> the record (as found,
-    as left, the ISO 230-2 figures) -> done
+    validation campaign (the same plan, and targets between the scan's) -> judged
+    against the one before -> worse: the previous state restored, with the reason
+    -> (worse between the scan's targets: a second round, once, within the scan's
+    budget: the scan and that validation diagnosed together, written, validated;
+    ``ogacq.calibration.second_round``) -> the record (as found, as left, the ISO
+    230-2 figures) -> done
+
+The second round's steps carry ``round: 2`` in the log; the first's carry none, so
+each round finds its own steps on a resume.
 
 Each step is recorded in the procedure's log when done (``ogacq.calibration.log``);
 a run that finds a log continues at the first step not done: a campaign stopped
@@ -38,7 +44,19 @@ from ogacq.calibration.drive_step import (
     predicted_with_step,
 )
 from ogacq.calibration.log import ProcedureLog
-from ogacq.calibration.maps import diagnosis_maps
+from ogacq.calibration.maps import compensable_effects, diagnosis_maps
+from ogacq.calibration.second_round import (
+    ROUND,
+    TOGETHER,
+    VALIDATION,
+    VALIDATION_SCAN,
+    RoundDone,
+    second_validation,
+    shown_wrong,
+    together_band,
+    together_protocol,
+    why_not,
+)
 from ogacq.calibration.separate import (
     SeparatingPlan,
     not_established,
@@ -46,12 +64,14 @@ from ogacq.calibration.separate import (
     separating_plan,
 )
 from ogacq.calibration.setup import Setup
+from ogacq.calibration.together import observations_together
 from ogacq.calibration.validate import Judgement, judge, where_looked
 from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError, Refused
+from ogacq.identify.observations import Observations
 from ogacq.io.atomic import write_atomically
 from ogacq.logs import logger
 from ogacq.model.parameters import AXES
@@ -83,6 +103,7 @@ if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not at start
     from ogacq.history.location import HistoryLocation
 
 log = logger(__name__)
+Stop = tuple[str, str]  # why a round writes nothing: the end's outcome and its reason
 
 class CalibrationUI(Protocol):
     """What the procedure shows and asks (the command line renders it)."""
@@ -169,6 +190,7 @@ class Procedure:
         self.resolution_mm = 0.0  # the controller's offset step, once planned
         # the drives' position step: every corrected target is rounded to it
         self.drive_step_mm = drive_step_mm(self.controller.profile)
+        self.round = 1  # the write round: 2 after a first one shown wrong between targets
 
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
@@ -191,36 +213,100 @@ class Procedure:
             else:
                 evidence, diagnosis = scan, scanned
         comp = self._compensation(diagnosis, evidence, maps=not unsettled)
+        # at targets between the scan's: an aliased map, or an error its targets
+        # sampled at one phase, fails there instead of confirming itself
+        between = between_plan(_plan_of(evidence), self.setup.machine) \
+            if evidence is not first and _plan_of(evidence).is_scan else None
+        done = self._round(first, diagnosis, evidence, comp, between)
+        if isinstance(done, tuple):
+            return self._end(*done)
+        if shown_wrong(done.between) and done.comp.maps:
+            again = self._second_round(first, evidence, done)
+            if isinstance(again, tuple):  # the first round's end stands, restored
+                self._note(f"no second write ({again[0]}): {again[1]}")
+            elif again is not None:
+                done = again
+        return self._finish(done.comp, first, done.validation, done.judgement, done.written,
+                            done.restored)
+
+    def _round(self, first: LoadedSession, diagnosis: Diagnosis, evidence: LoadedSession,
+               comp: Compensation, between: ProtocolConfig | None) -> RoundDone | Stop:
+        """Write ``comp`` (shown, confirmed, read back, audited in the calibration
+        campaign's session, whose record this is), validate it at the papers' postures
+        and, ``between``, at targets the evidence did not read; restored when worse.
+        A Stop where the write is refused, declined or has nothing to do."""
         for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
             self._note(sentence)
         if comp.maps:
             self.ui.say(predicted_with_step(self.drive_step_mm))
-        if self.log.last("confirmed") is not None and self.log.last("written") is None:
+        ours = self._this_round()
+        if self.log.last("confirmed", **ours) is not None \
+                and self.log.last("written", **ours) is None:
             self._undo_half_written(first)  # before planning again from what is held
         offsets, maps = self._plans(diagnosis, evidence, comp)
-        if self.log.last("confirmed") is None:
+        if self.log.last("confirmed", **ours) is None:
             stop = self._approve(comp, offsets, maps)
             if stop is not None:
                 return stop
-        # audited in the calibration campaign's session, whose record this is
         written = self._write(first, offsets, maps)
         # the calibration campaign's plan again: its record compares as found and as left
-        validation = self._campaign("validation", self.setup.protocol)
-        judgement = self._judge(comp, first, validation, "validation")
+        role, role_between = ("validation", "validation-scan") if self.round == 1 \
+            else (VALIDATION, VALIDATION_SCAN)
+        validation = self._campaign(role, self.setup.protocol)
+        judgement = self._judge(comp, first, validation, role)
         looked = [validation]
-        if evidence is not first and _plan_of(evidence).is_scan:
-            # at targets between the scan's: an aliased map, or an error its targets
-            # sampled at one phase, fails there instead of confirming itself
-            between = self._campaign("validation-scan",
-                                     between_plan(_plan_of(evidence), self.setup.machine))
-            judgement = judgement.merged(self._judge(comp, evidence, between,
-                                                     "validation-scan"))
-            looked.append(between)
+        between_judged = between_session = None
+        if between is not None:
+            between_session = self._campaign(role_between, between)
+            between_judged = self._judge(comp, evidence, between_session, role_between)
+            judgement = judgement.merged(between_judged)
+            looked.append(between_session)
         judgement = replace(judgement, looked=where_looked(looked, self.setup.machine))
         restored: dict[str, str | None] = {}
         if judgement.worse:
             restored = self._restore(first, written, judgement)
-        return self._finish(comp, first, validation, judgement, written, restored)
+        return RoundDone(comp, validation, judgement, written, restored, between_judged,
+                         between_session)
+
+    def _second_round(self, first: LoadedSession, scan: LoadedSession,
+                      done: RoundDone) -> RoundDone | Stop | None:
+        """The scan and the validation between its targets diagnosed together, written
+        and validated once more (``ogacq.calibration.second_round``); None where it is
+        not taken (said why)."""
+        assert done.between_session is not None
+        machine = self.setup.machine
+        together = together_protocol(_plan_of(scan), _plan_of(done.between_session),
+                                     machine)
+        validation = second_validation(together, machine)
+        why = why_not(scan, validation, machine, first, self.setup.scan_minutes * 60.0)
+        if why:
+            self._note(why)
+            return None
+        sessions = [scan, done.between_session]
+        try:
+            obs = observations_together(sessions)
+        except InputError as exc:
+            self._note(f"no second round: {exc}")
+            return None
+        self._note("the first round's maps were wrong between the scan's targets ("
+                   + "; ".join(done.between.reasons if done.between else ())
+                   + ") and were restored; second round: the scan and that validation "
+                   "diagnosed together")
+        self.round = ROUND
+        diagnosis = self._diagnosed(TOGETHER, obs, together_band(together, machine),
+                                    " + ".join(str(s.path) for s in sessions))
+        unresolved = diagnosis.mapped.search.unresolved if diagnosis.mapped else []
+        corrects = diagnosis.maps or compensable_effects(diagnosis)
+        if not diagnosis.final.consistent or unresolved or not corrects:
+            self._note("no second write: the scan and its validation together "
+                       + ("fit " + diagnosis.final.describe()
+                          if not diagnosis.final.consistent else
+                          "leave a pitch unresolved" if unresolved else "find nothing a "
+                          "map corrects"))
+            self.round = 1
+            return None
+        return self._round(first, diagnosis, scan, self._compensation(diagnosis, scan),
+                           validation)
 
     def _check_maps_file(self) -> None:
         """The maps file holds what the history says this machine holds, before
@@ -234,6 +320,15 @@ class Procedure:
         if self.log.last("note", text=text) is None:
             self.ui.say(text)
             self.log.add("note", text=text)
+
+    def _mark(self) -> dict[str, Any]:
+        """What this round's steps carry in the log: the second its number, the first
+        nothing (logs before a second round existed read the same)."""
+        return {"round": self.round} if self.round > 1 else {}
+
+    def _this_round(self) -> dict[str, Any]:
+        """What a lookup of this round's steps in the log matches."""
+        return {"round": self.round if self.round > 1 else None}
 
     def _notes(self) -> list[str]:
         return [str(r.details["text"]) for r in self.log.steps if r.step == "note"]
@@ -294,16 +389,20 @@ class Procedure:
         return load_session(path)
 
     def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
+        # a designed scan's readings searched for the periods its targets sample
+        band = sampled_band(_plan_of(session), self.setup.machine) \
+            if session.header.plan is not None else None
+        return self._diagnosed(role, session_observations(session), band, str(session.path))
+
+    def _diagnosed(self, role: str, obs: Observations, band: tuple[float, float] | None,
+                   source: str) -> Diagnosis:
         try:
-            # a designed scan's readings searched for the periods its targets sample
-            band = sampled_band(_plan_of(session), self.setup.machine) \
-                if session.header.plan is not None else None
-            result = diagnose(session_observations(session), pitch_band_mm=band)
+            result = diagnose(obs, pitch_band_mm=band)
         except DiagnosisError as exc:
-            raise InputError(session.path, str(exc)) from None
+            raise InputError(source, str(exc)) from None
         if self.log.last("diagnosis", role=role) is None:
             self.ui.diagnosis(role, result)
-            self.log.add("diagnosis", role=role, session=str(session.path),
+            self.log.add("diagnosis", role=role, session=source,
                          outcome=result.outcome, diagnosis=result.to_json(),
                          maps=[m.to_json() for m in diagnosis_maps(result)])
         return result
@@ -323,7 +422,7 @@ class Procedure:
     def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession,
                       maps: bool = True) -> Compensation:
         """``maps``: False where the maps are not established (the offsets alone)."""
-        done = self.log.last("compensation")
+        done = self.log.last("compensation", **self._this_round())
         if done is not None:
             return Compensation.from_json(done.details)
         # the maps go with the coordinate the offsets make, as the register stores them
@@ -340,7 +439,7 @@ class Procedure:
                         "only (add maps_file to [controller] for ogacq to apply them); what "
                         "they would correct stays, and the offsets are written without them")
             comp = tables_only(comp)
-        self.log.add("compensation", **comp.to_json())
+        self.log.add("compensation", **self._mark(), **comp.to_json())
         return comp
 
     def _plans(self, diagnosis: Diagnosis, evidence: LoadedSession, comp: Compensation,
@@ -394,29 +493,32 @@ class Procedure:
             self.ui.recorded(audited.path)
 
     def _approve(self, comp: Compensation, offsets: OffsetPlan,
-                 maps: MapsPlan | None) -> Outcome | None:
+                 maps: MapsPlan | None) -> Stop | None:
+        """Shown and confirmed: None; else why nothing is written (the end's outcome
+        and reason)."""
         self.ui.compensation(comp, offsets, maps)
         refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
         if refusals:
             reason = "; ".join(r.message for r in refusals)
-            self.log.add("refused", reasons=[r.message for r in refusals],
+            self.log.add("refused", **self._mark(), reasons=[r.message for r in refusals],
                          codes=[r.code for r in refusals])
-            return self._end(WriteOutcome.REFUSED, reason)
+            return WriteOutcome.REFUSED, reason
         if offsets.nothing_to_do and (maps is None or maps.nothing_to_do):
-            return self._end(WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps "
-                             "file already hold what this calibration would write")
+            return (WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps file "
+                    "already hold what this calibration would write")
         if not self.ui.yes and not self.ui.confirm("Write these offsets and maps?"):
-            self.log.add("declined")
-            return self._end(WriteOutcome.DECLINED, "the operator declined the write")
-        self.log.add("confirmed", by="--yes" if self.ui.yes else "prompt")
+            self.log.add("declined", **self._mark())
+            return WriteOutcome.DECLINED, "the operator declined the write"
+        self.log.add("confirmed", **self._mark(), by="--yes" if self.ui.yes else "prompt")
         return None
 
     def _write(self, audited: LoadedSession, offsets: OffsetPlan,
                maps: MapsPlan | None) -> dict[str, str | None]:
-        done = self.log.last("written")
+        done = self.log.last("written", **self._this_round())
         if done is not None:
             return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
-        by = (self.log.last("confirmed") or self.log.steps[-1]).details.get("by", "prompt")
+        by = (self.log.last("confirmed", **self._this_round())
+              or self.log.steps[-1]).details.get("by", "prompt")
         # planned again on a resume: what the controller and the file hold may have moved
         refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
         if refusals and not (offsets.nothing_to_do and (maps is None or maps.nothing_to_do)):
@@ -430,7 +532,7 @@ class Procedure:
                     written["maps"] = _write_once(maps_target, maps, session, audit, by)
         finally:
             self.ui.recorded(audited.path)
-        self.log.add("written", **written)
+        self.log.add("written", **self._mark(), **written)
         self.ui.say("written: " + ", ".join(f"{k} ({v})" for k, v in written.items() if v))
         return written
 
@@ -447,7 +549,7 @@ class Procedure:
     def _restore(self, audited: LoadedSession, written: dict[str, str | None],
                  judgement: Judgement) -> dict[str, str | None]:
         """Put back what the procedure wrote, each said restored only once read back."""
-        done = self.log.last("restored")
+        done = self.log.last("restored", **self._this_round())
         if done is not None:
             return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
         reason = "; ".join(judgement.reasons)
@@ -465,7 +567,7 @@ class Procedure:
                                                         "calibrate (validation worse)")
         finally:
             self.ui.recorded(audited.path)
-        self.log.add("restored", reason=reason, **restored)
+        self.log.add("restored", **self._mark(), reason=reason, **restored)
         return restored
 
     def _finish(self, comp: Compensation, evidence: LoadedSession, validation: LoadedSession,

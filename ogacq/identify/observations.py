@@ -154,6 +154,46 @@ def readings_observations(machine: MachineSpec, layout: ReadingsLayout, values: 
                         "readings", averaged, averaged_sd_mm)
 
 
+# the per-reading arrays of a ReadingsLayout, concatenated as they are across sessions
+_PER_READING = ("q_mm", "leg", "gauge_axis", "t_s", "cycle", "tcp_mm", "approach")
+
+
+def readings_together(parts: Sequence[Observations], source: str = "") -> Observations:
+    """The raw readings of several sessions of one machine fitted as one: each part's
+    gauges keep their own unknown zeros (a gauge set again is another zero), its
+    joint coordinates are as given (already in one frame: ``ogacq.calibration.
+    together``). Repeats are grouped within a part only, a gauge being its part's."""
+    if not parts or any(not p.raw for p in parts):
+        raise ValueError("only raw readings are fitted together (deviations are one "
+                         "session's)")
+    layouts = [p.layout for p in parts]
+    first_gauge = np.cumsum([0] + [lay.n_gauges for lay in layouts[:-1]])
+    postures = [lay.posture for lay in layouts]
+    layout = ReadingsLayout(
+        **{name: np.concatenate([getattr(lay, name) for lay in layouts])
+           for name in _PER_READING},
+        gauge=np.concatenate([lay.gauge + g for lay, g in zip(layouts, first_gauge,
+                                                               strict=True)]),
+        gauge_keys=tuple(k for lay in layouts for k in lay.gauge_keys),
+        setting_q_mm=np.concatenate([lay.setting_q_mm for lay in layouts]),
+        posture=None if any(p is None for p in postures)
+        else np.concatenate([p for p in postures if p is not None]))
+    return readings_observations(parts[0].machine, layout,
+                                 np.concatenate([p.values for p in parts]), source,
+                                 *_averaged_together(parts))
+
+
+def _averaged_together(parts: Sequence[Observations],
+                       ) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """What each reading of the parts averaged and its scatter, where every part knows."""
+    averaged = [p.averaged for p in parts]
+    spread = [p.averaged_sd_mm for p in parts]
+    if any(a is None for a in averaged) or any(s is None for s in spread):
+        return None, None
+    return (np.concatenate([a for a in averaged if a is not None]),
+            np.concatenate([s for s in spread if s is not None]))
+
+
 def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],
                             source: str = "") -> Observations:
     """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min).

@@ -13,9 +13,12 @@ WINDOW (each in a write, or in a restore with ``restore-`` before it):
 - ``maps-done``: the maps file replaced, the ``done`` record about to be written;
 - ``none``: no interruption.
 
+``--second``: at the window of the second such write (a calibration's second round).
 ``--flip``: the maps of ``ogacq calibrate`` turned in sign, and its offsets put
 turned too, so that its validation is worse and it restores (as
-tests/calibration/test_calibrate_e2e.py does with the maps).
+tests/calibration/test_calibrate_e2e.py does with the maps). ``--flip-first``: the
+maps of the first compensation this process computes turned in sign (the first
+round's, not the second round's: tests/calibration/test_second_round.py).
 """
 
 from __future__ import annotations
@@ -46,6 +49,17 @@ def flipped(comp: Any) -> Any:
     return dataclasses.replace(comp, maps=maps)
 
 
+def flipped_first(made: Any) -> Any:
+    """``made`` (a compensation_of) whose first result has its maps turned in sign."""
+    calls = []
+
+    def first_wrong(*args: Any, **kwargs: Any) -> Any:
+        calls.append(1)
+        comp = made(*args, **kwargs)
+        return flipped(comp) if len(calls) == 1 else comp
+    return first_wrong
+
+
 def skewed(evidence: Any) -> Any:
     """The evidence with each identified offset turned in sign and 0.3 mm further:
     written, each axis is left twice as far off as it was found, and 0.3 mm more."""
@@ -53,13 +67,18 @@ def skewed(evidence: Any) -> Any:
         a: -v - math.copysign(SKEW_MM, v) for a, v in evidence.identified_mm.items()})
 
 
-def arm(window: str, ctrl_c: bool) -> None:
-    """Patch the write path to stop at ``window`` (``restore-WINDOW``: in a restore)."""
+def arm(window: str, ctrl_c: bool, nth: int = 1) -> None:
+    """Patch the write path to stop at ``window`` (``restore-WINDOW``: in a restore) of
+    the ``nth`` such write (2: a calibration's second round)."""
     action, _, where = window.partition("-") if window.startswith("restore-") \
         else ("write", "", window)
     doing: dict[str, str] = {}
+    reached = [0]
 
     def stop() -> None:
+        reached[0] += 1
+        if reached[0] < nth:
+            return
         if ctrl_c:
             raise KeyboardInterrupt
         os.kill(os.getpid(), signal.SIGKILL)
@@ -102,11 +121,13 @@ def run(argv: list[str]) -> int:
     options, args = argv[:split], argv[split + 1:]
     window = options[0]
     if window != "none":
-        arm(window, "--ctrl-c" in options)
+        arm(window, "--ctrl-c" in options, 2 if "--second" in options else 1)
     if "--flip" in options:
         made, identified = procedure.compensation_of, procedure.evidence_for
         procedure.compensation_of = lambda *a, **k: flipped(made(*a, **k))  # type: ignore[assignment]
         procedure.evidence_for = lambda *a, **k: skewed(identified(*a, **k))  # type: ignore[assignment]
+    if "--flip-first" in options:
+        procedure.compensation_of = flipped_first(procedure.compensation_of)  # type: ignore[assignment]
     return main(args)
 
 
