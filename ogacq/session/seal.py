@@ -145,7 +145,6 @@ class Scan:
     changed: frozenset[int]  # lines of ``edited`` whose own content is not as written
     warnings: list[str]
     size_bytes: int
-    header_seal: str | None = None  # the header's ``integrity``, when it has one
     closure: Closure = Closure(announced=False, closed=False, last_line=0)
 
     @property
@@ -250,7 +249,7 @@ class _Scanner:
         closure = Closure(announced, self.closed, self.previous[0] if self.previous else 0,
                           self.torn_line)
         return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
-                    self.warnings, len(self.raw), seal, closure)
+                    self.warnings, len(self.raw), closure)
 
     def _undecodable(self, number: int, line: bytes, last: bool, problem: str | None) -> None:
         """A line that is no record: a torn last one is dropped (a line goes out whole,
