@@ -59,7 +59,6 @@ VALUE_TYPES: dict[str, tuple[int, bool]] = {  # type -> (registers, signed)
     "s32": (2, True),
 }
 UNITS = ("mm", "mm/s", "raw")
-STEP_OPS = ("write", "write_block", "wait", "confirm")
 COMMANDS_REQUIRED = ("enable", "disable", "home", "move", "stop", "alarm_reset")
 FLAGS_REQUIRED = ("servo_on", "in_position", "moving")
 #: Parameters a command step may reference as "$name"; the controller fills them.

@@ -103,7 +103,7 @@ def _history_says_cut(session: LoadedSession) -> str | None:
     from ogacq.history.tail import cut_tail
 
     try:
-        with History.open(history_to_read(None, session.path.parent), create=False) as history:
+        with History.open(history_to_read(None), create=False) as history:
             found = cut_tail(history, session)
     except OgacqError:
         return None

@@ -6,8 +6,6 @@ environment variable, else ``history.sqlite`` in ogacq's data folder
 (``$OGACQ_HOME``, default ``~/.local/share/ogacq``: ``ogacq/io/data_folder.py``),
 so that every run, demo and wizard of this account accumulates in one history
 wherever it was started. ``none`` (or ``off``) in either place records nothing.
-Reading (``ogacq history``) also finds a ``history.sqlite`` in the current folder
-when the data folder holds none yet (earlier versions kept one beside each session).
 
 A value with ``://`` is a URL (``postgresql://user@host/db``,
 ``sqlite:////abs/path.sqlite``); anything else is the path of an SQLite file. A
@@ -153,7 +151,6 @@ def _named(option: str | None) -> tuple[str, str] | None:
 
 
 DEFAULT_ORIGIN = "ogacq's data folder"
-LEGACY_ORIGIN = "the current folder"
 
 
 def default_location() -> HistoryLocation:
@@ -199,19 +196,15 @@ def _make_folder(folder: Path) -> None:
         folder.mkdir(mode=0o700, parents=True, exist_ok=True)
 
 
-def history_to_read(option: str | None, folder: Path | None = None) -> HistoryLocation:
-    """The history ``ogacq history`` reads: named, else the data folder's, else (an
-    older ogacq's) ``history.sqlite`` in ``folder`` (default: the current one);
-    InputError saying where it looked otherwise."""
+def history_to_read(option: str | None) -> HistoryLocation:
+    """The history ``ogacq history`` reads: named, else the data folder's; InputError
+    saying where it looked otherwise."""
     named = _named(option)
     if named is not None and named[0].strip().lower() not in DISABLED:
         return parse_location(*named)
     default = default_location()
     if Path(default.url.database or "").is_file():
         return default
-    candidate = (folder or Path.cwd()) / DEFAULT_FILE
-    if candidate.is_file():
-        return _sqlite_file(candidate.absolute(), LEGACY_ORIGIN)
     # named after the option only when it was given (`--history none`)
     raise InputError("--history" if option is not None else None,
                      f"no history yet in {default.describe()} (ogacq's data "

@@ -130,9 +130,6 @@ map_states = Table(
     Column("maps", JSON),  # [ogacq-axis-map/1, ...]
 )
 
-TABLES = tuple(metadata.tables)
-
-
 def _create(table: Table) -> Callable[[Connection], None]:
     """A migration step: create ``table`` as this schema declares it (each backend's
     own DDL, indexes included)."""

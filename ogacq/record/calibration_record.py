@@ -15,10 +15,10 @@ inner keys more than one module reads is also given as a typed value
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, ClassVar, TypeVar
+from typing import Any, TypeVar
 
 from ogacq.record.compensation import CompensationSection
 from ogacq.record.declared import Section, read, read_all, read_lists
@@ -82,16 +82,6 @@ class CalibrationRecord(NamedJson):
     revision: int | None = None  # 1 for the first issue
     revises: JsonObject | None = None  # from revision 2: revision, issued, sha256
     changes: Sequence[Any] | None = None  # what differs from the issue it revises
-    # each named key and the JSON type this version writes it as (dict: an object)
-    NAMED: ClassVar[Mapping[str, type]] = {
-        "format": str, "id": str, "issued": str, "machine": dict, "operator": str,
-        "date": str, "date_simulated": bool, "simulated": bool, "instruments": list,
-        "environment": dict, "campaign": dict, "method": dict, "results": dict,
-        "budget": dict, "budget_complete": bool, "monte_carlo": dict, "acceptance": dict,
-        "verdict": dict, "overrides": list, "writeback": list, "history": list,
-        "session": dict, "validation_session": dict, "validation_results": dict,
-        "compensation": dict, "missing": dict, "revision": int, "revises": dict,
-        "changes": list}
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)
@@ -205,5 +195,3 @@ class CalibrationRecord(NamedJson):
         """This calibration as a history entry (id, date, results)."""
         return HistoryEntry(self.id, self.date, self.result_entries)
 
-
-CalibrationRecord.check_named()

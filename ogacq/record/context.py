@@ -44,14 +44,6 @@ class Environment:
     end: Temperatures | None = None
 
     @property
-    def ambient_change_c(self) -> float | None:
-        """End minus start ambient temperature, when both were recorded."""
-        if self.start is None or self.end is None or self.start.ambient_c is None \
-                or self.end.ambient_c is None:
-            return None
-        return self.end.ambient_c - self.start.ambient_c
-
-    @property
     def temperature_c(self) -> float | None:
         """The legs' temperature the campaign ran at: the machine's when measured,
         else the ambient (start and end averaged when both are known)."""

@@ -2,13 +2,10 @@
 from the record's JSON, every key checked against its annotation, and ``written``
 gives the same JSON back (the keys in the order read, the values as written).
 
-The annotation says the JSON: ``str``, ``bool``, ``int``, ``float`` (an int read as
-written, so ``1`` stays ``1``), ``Any`` (kept as written), ``X | None`` (null
-allowed), ``tuple[X, ...]`` (a list), ``dict[str, X]`` (an object, its keys chosen by
-the writer) and another :class:`Section` (a nested object). A field without a
-default must be there; one with a default may be absent, and is then not written
-back. A key the declaration does not name is kept in ``extra`` (a newer or
-hand-edited record), so nothing read is lost.
+The annotation says the JSON (``ogacq.io.declared``), another :class:`Section` a
+nested object. A field without a default must be there; one with a default may be
+absent, and is then not written back. A key the declaration does not name is kept
+in ``extra`` (a newer or hand-edited record), so nothing read is lost.
 
 A value of another type than declared is a :class:`RecordSectionError` naming the
 key (``compensation.tables[1].files``): the report states what the record holds,
@@ -17,13 +14,13 @@ and a section it cannot read is said, not shown as something else.
 
 from __future__ import annotations
 
-import types
 import typing
 from collections.abc import Mapping
 from dataclasses import MISSING, dataclass, field, fields
 from typing import Any, TypeVar
 
 from ogacq.errors import InputError
+from ogacq.io.declared import checked, shown
 
 __all__ = ["RecordSectionError", "Section", "read", "read_all", "read_lists", "written"]
 
@@ -73,7 +70,7 @@ def _declared(cls: type[Section]) -> Declared:
 def read(cls: type[S], value: Any, key: str) -> S:
     """The section ``cls`` from the JSON ``value`` found at ``key``."""
     if not isinstance(value, Mapping):
-        raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
+        raise RecordSectionError(key, f"must be an object, got {shown(value)}")
     named: dict[str, Any] = {}
     for name, hint, required in _declared(cls):
         if name in value:
@@ -89,7 +86,7 @@ def read_all(cls: type[S], value: Any, key: str) -> tuple[S, ...]:
     if value is None:
         return ()
     if not isinstance(value, list):
-        raise RecordSectionError(key, f"must be a list, got {_shown(value)}")
+        raise RecordSectionError(key, f"must be a list, got {shown(value)}")
     return tuple(read(cls, v, f"{key}[{i}]") for i, v in enumerate(value))
 
 
@@ -98,7 +95,7 @@ def read_lists(cls: type[S], value: Any, key: str) -> dict[str, tuple[S, ...]]:
     if value is None:
         return {}
     if not isinstance(value, Mapping):
-        raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
+        raise RecordSectionError(key, f"must be an object, got {shown(value)}")
     return {str(k): read_all(cls, v, f"{key}.{k}") for k, v in value.items()}
 
 
@@ -112,39 +109,12 @@ def written(section: Section) -> dict[str, Any]:
 
 def _value(hint: Any, value: Any, key: str) -> Any:
     """``value`` read as ``hint`` says, or RecordSectionError naming ``key``."""
-    if hint is Any:
-        return value
-    origin, args = typing.get_origin(hint), typing.get_args(hint)
-    if origin in (types.UnionType, typing.Union):
-        if value is None and type(None) in args:
-            return None
-        (inner,) = (a for a in args if a is not type(None))
-        return _value(inner, value, key)
-    if origin is tuple:
-        if not isinstance(value, list):
-            raise RecordSectionError(key, f"must be a list, got {_shown(value)}")
-        return tuple(_value(args[0], v, f"{key}[{i}]") for i, v in enumerate(value))
-    if origin is dict:
-        if not isinstance(value, Mapping):
-            raise RecordSectionError(key, f"must be an object, got {_shown(value)}")
-        return {str(k): _value(args[1], v, f"{key}.{k}") for k, v in value.items()}
-    if isinstance(hint, type) and issubclass(hint, Section):
-        return read(hint, value, key)
-    return _scalar(hint, value, key)
+    return checked(hint, value, key, RecordSectionError, _section)
 
 
-# The JSON type each scalar annotation takes (a bool is not a number: JSON's true is
-# not 1 to a reader of the record).
-SCALARS: dict[type, tuple[tuple[type, ...], str]] = {
-    str: ((str,), "text"), bool: ((bool,), "true or false"), int: ((int,), "a whole number"),
-    float: ((int, float), "a number")}
-
-
-def _scalar(hint: type, value: Any, key: str) -> Any:
-    expected, what = SCALARS[hint]
-    if isinstance(value, expected) and (hint is bool or not isinstance(value, bool)):
-        return value
-    raise RecordSectionError(key, f"must be {what}, got {_shown(value)}")
+def _section(hint: Any, value: Any, key: str) -> Any:
+    assert issubclass(hint, Section), f"{key}: {hint} is no section"
+    return read(hint, value, key)
 
 
 def _json(value: Any) -> Any:
@@ -155,11 +125,3 @@ def _json(value: Any) -> Any:
     if isinstance(value, dict):
         return {k: _json(v) for k, v in value.items()}
     return value
-
-
-def _shown(value: Any) -> str:
-    """A wrong value in a message: its JSON type and a short form of it."""
-    text = repr(value)
-    kind = {dict: "an object", list: "a list", str: "text", bool: "true or false",
-            type(None): "null"}.get(type(value), "a number")
-    return f"{kind} ({text[:40]}{'...' if len(text) > 40 else ''})"

@@ -51,7 +51,7 @@ class SessionFile(Section):
     path: str | None = None
     sha256: str | None = None
     records: int | None = None
-    integrity: str | None = None  # sealed, checksummed, unchecked (absent: before them)
+    integrity: str | None = None  # sealed or unchecked (absent: before them)
     edited: tuple[EditedRecord, ...] = ()
 
 

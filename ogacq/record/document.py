@@ -160,7 +160,7 @@ def simulated(header: SessionHeader) -> bool | None:
 def _session_reference(session: LoadedSession, sha256: str | None = None) -> dict[str, Any]:
     """Where the record's evidence is: the session file (absolute path), its SHA-256
     as loaded, its number of records after the header, how it vouches for them
-    (``integrity``: sealed, checksummed or unchecked) and the records the user
+    (``integrity``: sealed or unchecked) and the records the user
     accepted as edited (``ogacq.session.seal``)."""
     if sha256 is None:
         _, sha256 = session_digest(session)

@@ -104,7 +104,6 @@ class DeviationRow:
     noise_mm: float  # 1 sigma of this deviation from the gauge noise (averaging included)
     after_predicted_mm: float
     after_measured_mm: float | None = None
-    after_noise_mm: float | None = None
 
 
 @dataclass(frozen=True)
@@ -317,10 +316,8 @@ def deviation_rows(result: FitResult, validation: FitResult | None) -> tuple[Dev
     noise = _deviation_noise(obs, result.noise.sigma_mm)
     # a deviation the fit or the validation does not have: NaN, None (not measured)
     measured: dict[str, float | None] = dict.fromkeys(before)
-    measured_noise: dict[str, float | None] = dict.fromkeys(before)
     if validation is not None:
         measured |= _named(validation.observations)
-        measured_noise |= _deviation_noise(validation.observations, validation.noise.sigma_mm)
     unknown = dict.fromkeys(before, float("nan"))
     noise, after = unknown | noise, unknown | after
     rows = []
@@ -328,7 +325,7 @@ def deviation_rows(result: FitResult, validation: FitResult | None) -> tuple[Dev
         deviation = Deviation.parse(name)
         rows.append(DeviationRow(name, deviation.gauge.leg, deviation.gauge.axis,
                                  deviation.posture, value, noise[name], after[name],
-                                 measured[name], measured_noise[name]))
+                                 measured[name]))
     order = {leg: k for k, leg in enumerate(AXES)}
     return tuple(sorted(rows, key=lambda r: (order[r.leg], r.posture != "max", r.gauge_axis)))
 

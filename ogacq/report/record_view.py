@@ -189,7 +189,6 @@ def _revision_rows(record: CalibrationRecord) -> list[list[Cell]]:
 # How a session vouches for its records (ogacq.session.seal), in a reader's words.
 INTEGRITY_WORDS = {
     "sealed": "every record numbered, checksummed and chained to the one before",
-    "checksummed": "every record numbered and checksummed (an older format, not chained)",
     "unchecked": "written before ogacq checksummed its records: an edit cannot be found",
 }
 

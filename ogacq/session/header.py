@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, ClassVar
+from typing import Any
 
 from ogacq.session.json_document import JsonObject, NamedJson
 
@@ -43,12 +43,6 @@ class SessionHeader(NamedJson):
     simulator: JsonObject | None = None  # the simulator's settings (seed, effects, ...)
     wizard: JsonObject | None = None  # what the wizard recorded of its run
     procedure: JsonObject | None = None  # ogacq calibrate's log: its procedure
-    # each named key and the JSON type this version writes it as (dict: an object)
-    NAMED: ClassVar[Mapping[str, type]] = {
-        "format": str, "integrity": str, "closing": str, "software": str, "created": str,
-        "machine": dict, "machine_file": str, "campaign_file": str, "simulated": bool,
-        "station": dict, "plan": dict, "identity": dict, "instruments": list, "date": str,
-        "simulator": dict, "wizard": dict, "procedure": dict}
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)
@@ -60,5 +54,3 @@ class SessionHeader(NamedJson):
         gauges = (self.station or {}).get("gauges")
         return gauges if isinstance(gauges, Mapping) else {}
 
-
-SessionHeader.check_named()

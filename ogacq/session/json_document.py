@@ -10,7 +10,8 @@ computed from the JSON do not depend on the type).
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import typing
+from collections.abc import Mapping, Sequence
 from dataclasses import fields
 from typing import Any, ClassVar, Self, cast
 
@@ -26,12 +27,24 @@ def json_type_is(value: Any, expected: type) -> bool:
 
 
 class NamedJson:
-    """The mixin of a frozen dataclass whose fields are ``NAMED``'s keys, then ``extra``
-    (a JsonObject) and ``order`` (a tuple of keys)."""
+    """The mixin of a frozen dataclass whose fields are the named keys, each annotated
+    ``T | None`` with ``T`` its JSON type (``str``, ``bool``, ``int``, ``JsonObject``
+    an object, ``Sequence[Any]`` a list), then ``extra`` (a JsonObject) and ``order``
+    (a tuple of keys)."""
 
-    NAMED: ClassVar[Mapping[str, type]]  # each named key and its JSON type
     extra: JsonObject
     order: tuple[str, ...]
+    _named: ClassVar[dict[str, type]]  # by class, from its annotations once
+
+    @classmethod
+    def named(cls) -> dict[str, type]:
+        """Each named key and its JSON type (dict: an object), from the annotations."""
+        if "_named" not in cls.__dict__:
+            hints = typing.get_type_hints(cls)
+            cls._named = {f.name: _JSON_TYPES[next(a for a in typing.get_args(hints[f.name])
+                                                   if a is not type(None))]
+                          for f in fields(cast(Any, cls)) if f.name not in ("extra", "order")}
+        return cls._named
 
     @classmethod
     def from_json(cls, document: JsonObject) -> Self:
@@ -39,7 +52,7 @@ class NamedJson:
         named: dict[str, Any] = {}
         extra: dict[str, Any] = {}
         for key, value in document.items():
-            expected = cls.NAMED.get(key)
+            expected = cls.named().get(key)
             if expected is not None and (value is None or json_type_is(value, expected)):
                 named[key] = value
             else:
@@ -48,7 +61,7 @@ class NamedJson:
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object, exactly as it was read (keys in their order)."""
-        keys = self.order or (*(n for n in self.NAMED if getattr(self, n) is not None),
+        keys = self.order or (*(n for n in self.named() if getattr(self, n) is not None),
                               *self.extra)
         return {key: self.extra[key] if key in self.extra else getattr(self, key)
                 for key in keys}
@@ -57,8 +70,7 @@ class NamedJson:
         """Whether the object has ``key`` at all (null included)."""
         return key in (self.order or self.to_json())
 
-    @classmethod
-    def check_named(cls) -> None:
-        """NAMED and the dataclass's fields name the same keys (run at import)."""
-        names = {f.name for f in fields(cast(Any, cls))} - {"extra", "order"}
-        assert set(cls.NAMED) == names, (cls.__name__, set(cls.NAMED) ^ names)
+
+# A named key's annotation (``T | None``) and the JSON type it is read as.
+_JSON_TYPES: dict[Any, type] = {str: str, bool: bool, int: int, JsonObject: dict,
+                                Sequence[Any]: list}

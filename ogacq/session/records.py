@@ -1,26 +1,53 @@
-"""The records of a session, typed: every writer builds one of these and every reader
-gets one back, so a record's keys are spelled in this module only.
+"""The records of a session, typed and declared once: every writer builds one of
+these and every reader gets one back, so a record's keys are spelled in this module
+only.
 
 On disk each record is one JSON object whose ``type`` names its class here; the
-store adds ``seq``, ``prev`` and ``crc`` (``ogacq.session.seal``). ``from_json``
-checks what later stages rely on (a reading's step, gauge, posture and numbers)
-and raises ``ValueError`` naming what is wrong, which the store reports with the
-line. Records of a kind this
-version does not know load as :class:`OtherRecord`, untouched.
+store adds ``seq``, ``prev`` and ``crc`` (``ogacq.session.seal``). A record's keys
+are its fields, in their order (``wall`` after ``type``); each field's annotation
+says its JSON (``ogacq.io.declared``). A field holding its default is left out,
+unless :data:`ALWAYS` written or written :func:`with_` another that is.
+``from_json`` refuses a value of another type, a missing key without a default and
+a value a field's :func:`must` refuses, with a ``ValueError`` naming the key, which
+the store reports with the line. Records of a kind this version does not know load
+as :class:`OtherRecord`, untouched.
 """
 
 from __future__ import annotations
 
-import math
+import contextlib
+import dataclasses
+import typing
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
-from typing import Any, ClassVar, TypeGuard
+from dataclasses import MISSING, dataclass, field
+from typing import Any, ClassVar, TypeVar
 
-from ogacq.model.gauges import AXES, Gauge
+from ogacq.io.declared import Finite, checked
+from ogacq.model.gauges import Gauge
 
 FORMAT = "ogacq-session/1"
 
-Triple = tuple[float, float, float]
+Triple = tuple[Finite, Finite, Finite]
+R = TypeVar("R", bound="Record")
+
+ALWAYS = {"always": True}  # written even when it holds its default (null)
+
+
+def with_(key: str) -> dict[str, str]:
+    """Written whenever ``key`` is (an end's reason with whether the axes stopped)."""
+    return {"with": key}
+
+
+def must(test: Callable[[Any], bool], words: str) -> dict[str, Any]:
+    """A value (not null) ``test`` refuses is refused, ``words`` saying what it must be."""
+    return {"must": (test, words)}
+
+
+def _required(f: dataclasses.Field[Any]) -> bool:
+    return f.default is MISSING and f.default_factory is MISSING
+
+
+_HINTS: dict[type, dict[str, Any]] = {}  # by class: its annotations resolved once
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -32,7 +59,13 @@ class Record:
 
     def fields(self) -> dict[str, Any]:
         """The record's own keys, as written after ``type`` and ``wall``."""
-        raise NotImplementedError
+        out: dict[str, Any] = {}
+        for f in dataclasses.fields(self)[1:]:  # after wall
+            value, partner = getattr(self, f.name), f.metadata.get("with")
+            if partner in out if partner else (_required(f) or f.metadata.get("always")
+                                                or value != f.default):
+                out[f.name] = _json(value)
+        return out
 
     def to_json(self) -> dict[str, Any]:
         out: dict[str, Any] = {"type": self.KIND}
@@ -40,23 +73,46 @@ class Record:
             out["wall"] = self.wall
         return {**out, **self.fields()}
 
+    @classmethod
+    def refused(cls, key: str, problem: str) -> ValueError:
+        return ValueError(f"{cls.KIND or 'record'} without a valid {key}: {problem}")
 
-def _finite(value: Any) -> TypeGuard[float]:
-    """A JSON number that is one: finite, and an integer of 64 bits at most (a 400-digit
-    one would overflow every float it meets)."""
-    if isinstance(value, bool):
-        return False
-    if isinstance(value, int):
-        return -(2**63) <= value < 2**63
-    return isinstance(value, float) and math.isfinite(value)
+    @classmethod
+    def from_json(cls: type[R], d: Mapping[str, Any]) -> R:
+        if cls not in _HINTS:
+            _HINTS[cls] = typing.get_type_hints(cls, include_extras=True)
+        named: dict[str, Any] = {}
+        for f in dataclasses.fields(cls):
+            if f.name not in d:
+                if _required(f):
+                    raise cls.refused(f.name, "it is missing")
+                continue
+            value = checked(_HINTS[cls][f.name], d[f.name], f.name, cls.refused, cls._nested)
+            test, words = f.metadata.get("must", (None, ""))
+            if test is not None and value is not None and not test(value):
+                raise cls.refused(f.name, f"must be {words}")
+            named[f.name] = value
+        return cls(**named)
+
+    @classmethod
+    def _wall(cls, d: Mapping[str, Any]) -> float | None:
+        """The time of a record whose other keys are read by hand."""
+        return checked(float | None, d.get("wall"), "wall", cls.refused)
+
+    @classmethod
+    def _nested(cls, hint: Any, value: Any, key: str) -> Any:
+        """A field of a class other than JSON's: a gauge, by its key."""
+        assert hint is Gauge, f"{key}: {hint} has no reader"
+        if isinstance(value, str):
+            with contextlib.suppress(ValueError):
+                return Gauge.parse(value)
+        raise cls.refused(key, f"{value!r} is not a gauge")
 
 
-def _integer(value: Any) -> bool:
-    return isinstance(value, int) and not isinstance(value, bool) and -(2**63) <= value < 2**63
-
-
-def _triple(value: Any, check: Callable[[Any], bool]) -> bool:
-    return isinstance(value, list) and len(value) == 3 and all(check(v) for v in value)
+def _json(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return [_json(v) for v in value]
+    return value
 
 
 def _rest(d: Mapping[str, Any], *named: str) -> dict[str, Any]:
@@ -66,34 +122,30 @@ def _rest(d: Mapping[str, Any], *named: str) -> dict[str, Any]:
 
 @dataclass(frozen=True, kw_only=True)
 class ReadingRecord(Record):
-    """One stable gauge value, taken at a step of the plan."""
+    """One stable gauge value, taken at a step of the plan; its gauge's ``leg`` and
+    ``gauge_axis`` are written after it."""
 
     KIND: ClassVar[str] = "reading"
     step: str  # the plan's id of the step, "x/c1/p2"
     gauge: Gauge
     cycle: int
-    posture: str | None  # the plan's label ("zero", "max", "+12mm"); None when imported
-    t_s: float  # station clock since the campaign started
+    posture: str | None = None  # the plan's label ("zero", "max", "+12mm"); None imported
+    t_s: Finite  # station clock since the campaign started
     q_mm: Triple  # joint coordinates as commanded
     tcp_mm: Triple
-    approach: tuple[int, int, int]  # side each joint came from: +1 below, -1 above
-    reading_mm: float
+    # side each joint came from: +1 below, -1 above
+    approach: tuple[int, int, int] = field(metadata=must(
+        lambda a: set(a) <= {-1, 0, 1}, "-1, 0 or +1 for each joint"))
+    reading_mm: Finite
     raw: str | None = None  # the frame as received
     source: str | None = None  # port/channel the value came from
     # how many gauge values reading_mm is the mean of, and their sample standard
     # deviation (mm); None in sessions before they were recorded, for a value typed by
     # eye, and for one value's spread
-    averaged: int | None = None
-    averaged_sd_mm: float | None = None
-
-    # What each key must hold for the code that reads it.
-    _CHECKS: ClassVar[dict[str, Any]] = {
-        "step": lambda v: isinstance(v, str), "gauge": lambda v: isinstance(v, str),
-        "leg": lambda v: v in AXES, "gauge_axis": lambda v: v in AXES, "cycle": _integer,
-        "t_s": _finite, "q_mm": lambda v: _triple(v, _finite),
-        "tcp_mm": lambda v: _triple(v, _finite),
-        "approach": lambda v: _triple(v, lambda a: a in (-1, 0, 1)), "reading_mm": _finite,
-    }
+    averaged: int | None = field(default=None, metadata=must(
+        lambda n: n >= 1, "a count of values, 1 or more"))
+    averaged_sd_mm: Finite | None = field(default=None, metadata=must(
+        lambda sd: sd >= 0, "0 or more"))
 
     @property
     def leg(self) -> str:
@@ -104,47 +156,16 @@ class ReadingRecord(Record):
         return self.gauge.axis
 
     def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"step": self.step, "gauge": self.gauge.key, "leg": self.leg,
-                               "gauge_axis": self.gauge_axis, "cycle": self.cycle}
-        if self.posture is not None:
-            out["posture"] = self.posture
-        out.update(t_s=self.t_s, q_mm=list(self.q_mm), tcp_mm=list(self.tcp_mm),
-                   approach=list(self.approach), reading_mm=self.reading_mm)
-        if self.raw is not None:
-            out["raw"] = self.raw
-        if self.source is not None:
-            out["source"] = self.source
-        if self.averaged is not None:
-            out["averaged"] = self.averaged
-        if self.averaged_sd_mm is not None:
-            out["averaged_sd_mm"] = self.averaged_sd_mm
-        return out
+        out = super().fields()
+        return {"step": out.pop("step"), "gauge": out.pop("gauge").key, "leg": self.leg,
+                "gauge_axis": self.gauge_axis, **out}
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> ReadingRecord:
-        bad = [k for k, ok in cls._CHECKS.items() if k not in d or not ok(d[k])]
-        if not bad:
-            try:
-                gauge = Gauge.parse(d["gauge"])
-            except ValueError:
-                bad = ["gauge"]
-            else:
-                if (gauge.axis, gauge.leg) != (d["gauge_axis"], d["leg"]):
-                    bad = ["gauge (its leg and gauge_axis disagree)"]
-        if "posture" in d and not isinstance(d["posture"], str):
-            bad.append("posture")
-        if "averaged" in d and not (_integer(d["averaged"]) and d["averaged"] >= 1):
-            bad.append("averaged (a count of values, 1 or more)")
-        if "averaged_sd_mm" in d and not (_finite(d["averaged_sd_mm"])
-                                          and d["averaged_sd_mm"] >= 0):
-            bad.append("averaged_sd_mm")
-        if bad:
-            raise ValueError(f"reading without a valid {', '.join(bad)}")
-        return cls(wall=d.get("wall"), step=d["step"], gauge=gauge, cycle=d["cycle"],
-                   posture=d.get("posture"), t_s=d["t_s"], q_mm=tuple(d["q_mm"]),
-                   tcp_mm=tuple(d["tcp_mm"]), approach=tuple(d["approach"]),
-                   reading_mm=d["reading_mm"], raw=d.get("raw"), source=d.get("source"),
-                   averaged=d.get("averaged"), averaged_sd_mm=d.get("averaged_sd_mm"))
+        reading = super().from_json(d)
+        if (d.get("leg"), d.get("gauge_axis")) != (reading.leg, reading.gauge_axis):
+            raise cls.refused("gauge", "its leg and gauge_axis disagree with it")
+        return reading
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -156,33 +177,12 @@ class MoveRecord(Record):
     # being where the joints were meant to land
     commanded_mm: Triple | None = None
 
-    def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"q_mm": list(self.q_mm), "purpose": self.purpose}
-        if self.commanded_mm is not None:
-            out["commanded_mm"] = list(self.commanded_mm)
-        return out
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> MoveRecord:
-        commanded = d.get("commanded_mm")
-        return cls(wall=d.get("wall"), q_mm=tuple(d.get("q_mm") or ()),
-                   purpose=str(d.get("purpose", "")),
-                   commanded_mm=tuple(commanded) if commanded else None)
-
 
 @dataclass(frozen=True, kw_only=True)
 class GaugesSetRecord(Record):
     KIND: ClassVar[str] = "gauges_set"
     leg: str
     gauges: tuple[str, ...]
-
-    def fields(self) -> dict[str, Any]:
-        return {"leg": self.leg, "gauges": list(self.gauges)}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> GaugesSetRecord:
-        return cls(wall=d.get("wall"), leg=str(d.get("leg", "")),
-                   gauges=tuple(d.get("gauges") or ()))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -191,29 +191,12 @@ class FaultRecord(Record):
 
     KIND: ClassVar[str] = "fault"
     during: str  # "move" or "read"
+    step: str | None = None  # a read's
+    gauge: str | None = field(default=None, metadata=with_("step"))  # a read's
     attempt: int | None
     error: str  # the exception's class name
     message: str
-    step: str | None = None  # a read's
-    gauge: str | None = None  # a read's
     q_mm: Triple | None = None  # a move's target
-
-    def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"during": self.during}
-        if self.step is not None:
-            out.update(step=self.step, gauge=self.gauge)
-        out.update(attempt=self.attempt, error=self.error, message=self.message)
-        if self.q_mm is not None:
-            out["q_mm"] = list(self.q_mm)
-        return out
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> FaultRecord:
-        q = d.get("q_mm")
-        return cls(wall=d.get("wall"), during=str(d.get("during", "")),
-                   attempt=d.get("attempt"), error=str(d.get("error", "")),
-                   message=str(d.get("message", "fault")), step=d.get("step"),
-                   gauge=d.get("gauge"), q_mm=tuple(q) if q else None)
 
     def describe(self) -> str:
         where = " ".join(str(v) for v in (self.during, self.step, self.gauge) if v)
@@ -228,22 +211,8 @@ class EndRecord(Record):
     KIND: ClassVar[str] = "end"
     status: str
     reason: str | None = None
-    axes_stopped: bool | None = None
+    axes_stopped: bool | None = field(default=None, metadata=with_("reason"))
     readings: int | None = None
-
-    def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"status": self.status}
-        if self.reason is not None:
-            out.update(reason=self.reason, axes_stopped=self.axes_stopped)
-        if self.readings is not None:
-            out["readings"] = self.readings
-        return out
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> EndRecord:
-        return cls(wall=d.get("wall"), status=str(d.get("status", "incomplete")),
-                   reason=d.get("reason"), axes_stopped=d.get("axes_stopped"),
-                   readings=d.get("readings"))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -252,13 +221,10 @@ class ResultRecord(Record):
 
     KIND: ClassVar[str] = "result"
     params: str
-    refit: dict[str, Any]
+    refit: dict[str, Any] = field(metadata=must(
+        lambda r: isinstance(r.get("parameters"), dict), "an object with its parameters"))
     noise_mm: float
     noise_source: str
-
-    def fields(self) -> dict[str, Any]:
-        return {"params": self.params, "refit": self.refit, "noise_mm": self.noise_mm,
-                "noise_source": self.noise_source}
 
     def values(self, names: tuple[str, ...]) -> list[float]:
         """The recorded values of parameters ``names`` ("joint_offset.x", ...);
@@ -269,29 +235,12 @@ class ResultRecord(Record):
             out.append(float(self.refit["parameters"][effect][where]))
         return out
 
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> ResultRecord:
-        refit = d.get("refit")
-        if not isinstance(refit, dict) or not isinstance(refit.get("parameters"), dict):
-            raise ValueError("result without a valid refit")
-        return cls(wall=d.get("wall"), params=str(d.get("params", "offsets")), refit=refit,
-                   noise_mm=d.get("noise_mm", math.nan),
-                   noise_source=str(d.get("noise_source", "")))
-
 
 @dataclass(frozen=True, kw_only=True)
 class ResumeRecord(Record):
     KIND: ClassVar[str] = "resume"
     software: str
     after_records: int
-
-    def fields(self) -> dict[str, Any]:
-        return {"software": self.software, "after_records": self.after_records}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> ResumeRecord:
-        return cls(wall=d.get("wall"), software=str(d.get("software", "?")),
-                   after_records=int(d.get("after_records", 0)))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -306,12 +255,13 @@ class StationRecord(Record):
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> StationRecord:
-        return cls(wall=d.get("wall"), description=_rest(d))
+        return cls(wall=cls._wall(d), description=_rest(d))
 
 
 @dataclass(frozen=True, kw_only=True)
 class _HeadedRecord(Record):
-    """A record named by one key (``HEAD``) and holding whatever else its writer notes."""
+    """A record named by one key (``HEAD``, text) and holding whatever else its writer
+    notes."""
 
     HEAD: ClassVar[str] = ""
     details: dict[str, Any] = field(default_factory=dict)
@@ -321,8 +271,9 @@ class _HeadedRecord(Record):
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> Any:
-        return cls(wall=d.get("wall"), details=_rest(d, cls.HEAD),
-                   **{cls.HEAD: str(d.get(cls.HEAD, ""))})
+        head = checked(str, d.get(cls.HEAD), cls.HEAD, cls.refused)
+        return cls(wall=cls._wall(d), details=_rest(d, cls.HEAD),
+                   **{cls.HEAD: head})
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -377,26 +328,8 @@ class ReconnectRecord(Record):
     positions_mm: dict[str, float] | None = None
     alarms: dict[str, int] | None = None
 
-    def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"connected": self.connected, "attempts": self.attempts}
-        extra = {"message": self.message, "axes_stopped": self.axes_stopped,
-                 "positions_mm": self.positions_mm, "alarms": self.alarms}
-        return {**out, **{k: v for k, v in extra.items() if v is not None}}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> ReconnectRecord:
-        return cls(wall=d.get("wall"), connected=bool(d.get("connected")),
-                   attempts=int(d.get("attempts") or 0), message=d.get("message"),
-                   axes_stopped=d.get("axes_stopped"), positions_mm=d.get("positions_mm"),
-                   alarms=d.get("alarms"))
-
 
 ENVIRONMENT_STAGES = ("start", "end")
-ENVIRONMENT_SOURCES = ("typed", "sensor", "simulator")
-
-
-def _temperature(value: Any) -> float | None:
-    return float(value) if _finite(value) else None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -405,25 +338,11 @@ class EnvironmentRecord(Record):
     came from: typed by the operator, read from a sensor, or the simulator's."""
 
     KIND: ClassVar[str] = "environment"
-    stage: str  # "start" or "end"
-    ambient_c: float | None
-    machine_c: float | None = None
-    source: str = "typed"
-
-    def fields(self) -> dict[str, Any]:
-        return {"stage": self.stage, "ambient_c": self.ambient_c,
-                "machine_c": self.machine_c, "source": self.source}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> EnvironmentRecord:
-        if d.get("stage") not in ENVIRONMENT_STAGES:
-            raise ValueError(f"environment without a valid stage ({', '.join(ENVIRONMENT_STAGES)})")
-        for key in ("ambient_c", "machine_c"):
-            if d.get(key) is not None and _temperature(d[key]) is None:
-                raise ValueError(f"environment with an invalid {key}")
-        return cls(wall=d.get("wall"), stage=d["stage"], ambient_c=_temperature(d.get("ambient_c")),
-                   machine_c=_temperature(d.get("machine_c")),
-                   source=str(d.get("source") or "typed"))
+    stage: str = field(metadata=must(lambda s: s in ENVIRONMENT_STAGES,
+                                     " or ".join(ENVIRONMENT_STAGES)))
+    ambient_c: Finite | None
+    machine_c: Finite | None = field(default=None, metadata=ALWAYS)
+    source: str = field(default="typed", metadata=ALWAYS)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -434,22 +353,9 @@ class OverrideRecord(Record):
     KIND: ClassVar[str] = "override"
     what: str
     subject: str
+    due: str | None = field(default=None, metadata=ALWAYS)  # YYYY-MM-DD
     reason: str
-    due: str | None = None  # YYYY-MM-DD
-    operator: str | None = None
-
-    def fields(self) -> dict[str, Any]:
-        return {"what": self.what, "subject": self.subject, "due": self.due,
-                "reason": self.reason, "operator": self.operator}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> OverrideRecord:
-        if not isinstance(d.get("what"), str) or not isinstance(d.get("reason"), str):
-            raise ValueError("override without its what and reason")
-        return cls(wall=d.get("wall"), what=d["what"], subject=str(d.get("subject") or ""),
-                   reason=d["reason"], due=d.get("due") if isinstance(d.get("due"), str)
-                   else None, operator=d.get("operator") if isinstance(d.get("operator"), str)
-                   else None)
+    operator: str | None = field(default=None, metadata=ALWAYS)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -467,36 +373,11 @@ class SettleRecord(Record):
     step: str
     rule: str
     ended: str
-    waited_s: float
+    waited_s: Finite
     values: dict[str, int] | None = None
     unsettled: tuple[str, ...] = ()
     reference: tuple[str, ...] = ()
-    u_mm: dict[str, float] | None = None
-
-    def fields(self) -> dict[str, Any]:
-        out: dict[str, Any] = {"step": self.step, "rule": self.rule, "ended": self.ended,
-                               "waited_s": self.waited_s}
-        if self.values is not None:
-            out["values"] = self.values
-        if self.unsettled:
-            out["unsettled"] = list(self.unsettled)
-        if self.reference:
-            out["reference"] = list(self.reference)
-        if self.u_mm is not None:
-            out["u_mm"] = self.u_mm
-        return out
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> SettleRecord:
-        waited = d.get("waited_s")
-        u_mm = d.get("u_mm")
-        return cls(wall=d.get("wall"), step=str(d.get("step", "")), rule=str(d.get("rule", "")),
-                   ended=str(d.get("ended", "")),
-                   waited_s=float(waited) if _finite(waited) else math.nan,
-                   values=d.get("values"), unsettled=tuple(d.get("unsettled") or ()),
-                   reference=tuple(d.get("reference") or ()),
-                   u_mm={str(g): float(u) for g, u in u_mm.items() if _finite(u)}
-                   if isinstance(u_mm, dict) else None)
+    u_mm: dict[str, Finite] | None = None
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -513,26 +394,9 @@ class ReferenceRecord(Record):
     cause: str | None = None  # what lost the drive: "reconnect", "alarm", "resume"
     axes: dict[str, Any] | None = None  # per axis: position_mm, homed, reasons
     step: str | None = None  # the check posture: the plan's step read again
-    differences_mm: dict[str, float] | None = None  # per gauge: now minus as recorded
-    tolerance_mm: float | None = None
+    differences_mm: dict[str, Finite] | None = None  # per gauge: now minus as recorded
+    tolerance_mm: Finite | None = None
     message: str | None = None
-
-    def fields(self) -> dict[str, Any]:
-        extra = {"cause": self.cause, "axes": self.axes, "step": self.step,
-                 "differences_mm": self.differences_mm, "tolerance_mm": self.tolerance_mm,
-                 "message": self.message}
-        return {"event": self.event, **{k: v for k, v in extra.items() if v is not None}}
-
-    @classmethod
-    def from_json(cls, d: Mapping[str, Any]) -> ReferenceRecord:
-        differences = d.get("differences_mm")
-        return cls(wall=d.get("wall"), event=str(d.get("event", "")), cause=d.get("cause"),
-                   axes=d.get("axes") if isinstance(d.get("axes"), dict) else None,
-                   step=d.get("step"),
-                   differences_mm={str(g): float(v) for g, v in differences.items()
-                                   if _finite(v)} if isinstance(differences, dict) else None,
-                   tolerance_mm=d.get("tolerance_mm") if _finite(d.get("tolerance_mm"))
-                   else None, message=d.get("message"))
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -550,11 +414,14 @@ class SalvageRecord(Record):
 
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> SalvageRecord:
-        entries = given if isinstance(given := d.get("left_out"), list) else []
-        return cls(wall=d.get("wall"), source=str(d.get("source", "")),
-                   left_out=tuple((int(e.get("line", 0)), str(e.get("problem", "")))
-                                  for e in entries if isinstance(e, dict)
-                                  and _integer(e.get("line", 0))))
+        entries = checked(tuple[dict[str, Any], ...], d.get("left_out", []), "left_out",
+                          cls.refused)
+        return cls(wall=cls._wall(d),
+                   source=checked(str, d.get("source"), "source", cls.refused),
+                   left_out=tuple(
+                       (checked(int, e.get("line"), f"left_out[{i}].line", cls.refused),
+                        checked(str, e.get("problem"), f"left_out[{i}].problem", cls.refused))
+                       for i, e in enumerate(entries)))
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -26,11 +26,11 @@ records finds a cut that ends at an earlier writer's ``closed`` record). The
 ``closed`` records are the store's, as ``seq`` and ``crc`` are: they are checked in
 the chain and not loaded as records.
 
-Older sessions are told by their header: one with a ``crc`` but no
-``integrity`` was written with per-record checksums (no chain): every record
-must still carry its ``seq`` and ``crc``; one with neither was written before
-the checksums, and says so (:class:`Integrity`). A record with a chain checksum
-under a header that has lost its seal means the header was edited.
+A session whose header has no ``integrity`` (its seals stripped, or written before
+them) is ``unchecked`` and says so (:class:`Integrity`); a record with a chain
+checksum under such a header means the header was edited. (The per-record
+checksums without a chain of 0.1.0's development, 23-27 November 2026, are read as
+unchecked: nothing released wrote them.)
 
 Each problem is one of three kinds: a line that cannot be read (not JSON, not a
 record of its type: ``problems``), a readable record that is not as it was
@@ -57,8 +57,7 @@ SEAL = "crc32-chain/1"
 SEALS = (SEAL,)
 
 SEALED = "sealed"  # every record with seq, prev and crc, chained
-CHECKSUMMED = "checksummed"  # every record with seq and crc (before the chain)
-UNCHECKED = "unchecked"  # written before the checksums
+UNCHECKED = "unchecked"  # the header without a seal
 
 _STORE_KEYS = ("seq", "prev", "crc")
 
@@ -104,9 +103,6 @@ class Integrity:
         if self.mode == UNCHECKED:
             out.append("unchecked: a session written before ogacq checksummed its records "
                        "(an edit to it cannot be found)")
-        elif self.mode == CHECKSUMMED:
-            out.append("older session format: each record checksummed, not chained (a record "
-                       "removed at the end cannot be found)")
         return out
 
     def to_json(self) -> dict[str, Any]:
@@ -149,7 +145,6 @@ class Scan:
     changed: frozenset[int]  # lines of ``edited`` whose own content is not as written
     warnings: list[str]
     size_bytes: int
-    header_seal: str | None = None  # the header's ``integrity``, when it has one
     closure: Closure = Closure(announced=False, closed=False, last_line=0)
 
     @property
@@ -202,12 +197,9 @@ def parses(line: bytes) -> bool:
 
 
 def _mode(first: _Line | None) -> tuple[str, str | None]:
-    if first is None or first.content.get("type") != "session":
-        return UNCHECKED, None
-    seal = first.content.get("integrity")
-    if seal is not None:
-        return SEALED, seal
-    return (CHECKSUMMED if first.crc != "missing" or first.seq is not None else UNCHECKED), None
+    seal = None if first is None or first.content.get("type") != "session" \
+        else first.content.get("integrity")
+    return (UNCHECKED, None) if seal is None else (SEALED, seal)
 
 
 def scan_session(path: str | Path) -> Scan:
@@ -257,7 +249,7 @@ class _Scanner:
         closure = Closure(announced, self.closed, self.previous[0] if self.previous else 0,
                           self.torn_line)
         return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
-                    self.warnings, len(self.raw), seal, closure)
+                    self.warnings, len(self.raw), closure)
 
     def _undecodable(self, number: int, line: bytes, last: bool, problem: str | None) -> None:
         """A line that is no record: a torn last one is dropped (a line goes out whole,
@@ -323,11 +315,8 @@ class _Scanner:
             return "has no checksum (crc): every record of this session had one"
         if not isinstance(line.seq, int) or isinstance(line.seq, bool):
             return "has no sequence number (seq): every record of this session had one"
-        if mode == SEALED and number > 1 and line.prev is None:
+        if number > 1 and line.prev is None:
             return "has no chain checksum (prev): every record of this session had one"
-        if mode == CHECKSUMMED and line.prev is not None:
-            return ("carries a chain checksum under a header without a seal: the header "
-                    "was edited")
         return None
 
     @staticmethod

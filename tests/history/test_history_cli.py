@@ -69,10 +69,14 @@ def test_the_table_lists_the_calibrations_and_flags_the_drift(history_file, caps
     assert any(line.startswith(f"! drift: joint_offset.x +0.0460 mm from {records[1]['id']}")
                for line in lines)
     assert "1 write-back" in out
-    # the same, found in the current folder, and by the serial
-    monkeypatch.chdir(path.parent)
-    code, again, _ = run(capsys, "history", "OG-2026-0017")
+    # the same by the serial; a history.sqlite in the current folder is not the
+    # account's (the data folder's is): none is read
+    code, again, _ = run(capsys, "history", "OG-2026-0017", "--history", path)
     assert code == 0 and again == out
+    monkeypatch.chdir(path.parent)
+    assert path.name == "history.sqlite"
+    code, _, err = run(capsys, "history", "OG-2026-0017")
+    assert code == 2 and "no history yet in" in err, err
 
 
 def test_json_plot_and_states(history_file, capsys, tmp_path):

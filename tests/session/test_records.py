@@ -22,6 +22,7 @@ from ogacq.session.records import (
     OffsetsRecord,
     OperatorRecord,
     OtherRecord,
+    OverrideRecord,
     ReadingRecord,
     ResultRecord,
     ResumeRecord,
@@ -184,3 +185,37 @@ def test_the_recorded_result_is_used_and_a_session_without_one_is_fitted(tmp_pat
     assert used.values.tolist() == recorded.values(used.names)
     assert used.residual_rms_mm == pytest.approx(fitted.residual_rms_mm, rel=1e-6)
     assert used.std == pytest.approx(fitted.std, rel=1e-6)
+
+
+@pytest.mark.parametrize(("line", "named"), [
+    # each of these was read as something else before the records were declared once
+    ({"type": "end"}, "end without a valid status: it is missing"),
+    ({"type": "move", "q_mm": [1.0, 2.0], "purpose": "posture"}, "move without a valid q_mm"),
+    ({"type": "fault", "during": "read", "attempt": "2", "error": "E", "message": "m"},
+     "fault without a valid attempt: must be a whole number"),
+    ({"type": "environment", "stage": "start", "ambient_c": 20.0, "source": None},
+     "environment without a valid source"),
+    ({"type": "settle", "step": "s", "rule": "stable", "ended": "stable", "waited_s": 1.0,
+      "u_mm": {"y_x": 1e400}}, r"settle without a valid u_mm\.y_x: must be a finite number"),
+    ({"type": "override", "what": "w", "reason": "r", "subject": "y_x", "due": 20270101},
+     "override without a valid due: must be text"),
+    ({"type": "offsets", "stage": 3}, "offsets without a valid stage"),
+    ({"type": "salvage", "source": "a", "left_out": [{"line": "1", "problem": "p"}]},
+     r"salvage without a valid left_out\[0\]\.line"),
+    ({"type": "gauges_set", "leg": "x", "gauges": ["y_x"], "wall": "noon"},
+     "gauges_set without a valid wall"),
+])
+def test_a_value_of_another_type_is_refused_naming_its_key(line, named):
+    with pytest.raises(ValueError, match=named):
+        record_from_json(line)
+
+
+def test_the_pairs_are_written_together_and_the_nulls_where_declared():
+    assert EndRecord(status="stopped", reason="r").to_json() == {
+        "type": "end", "status": "stopped", "reason": "r", "axes_stopped": None}
+    assert list(FaultRecord(during="read", attempt=None, error="E", message="m",
+                            step="s").to_json()) == [
+        "type", "during", "step", "gauge", "attempt", "error", "message"]
+    assert OverrideRecord(what="w", subject="s", reason="r").to_json() == {
+        "type": "override", "what": "w", "subject": "s", "due": None, "reason": "r",
+        "operator": None}

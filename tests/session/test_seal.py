@@ -13,7 +13,7 @@ import zlib
 import pytest
 
 from ogacq.session.records import EndRecord, ReadingRecord
-from ogacq.session.seal import CHECKSUMMED, SEAL, UNCHECKED
+from ogacq.session.seal import SEAL, UNCHECKED
 from ogacq.session.store import SessionEdited, SessionWriter, load_session, scan_session
 
 
@@ -123,10 +123,9 @@ def test_a_line_written_twice_is_dropped_and_the_chain_goes_on(sealed):
     assert len(session.readings) == 6 and "dropped a copy of line 4" in session.warnings[0]
 
 
-def test_a_session_with_checksums_before_the_chain_loads_and_says_so(tmp_path):
-    """Sessions written between the checksums and the chain: seq and crc on every
-    line, no prev, no integrity in the header. They load, say they are older, and
-    one without its crc is still an edit; appending keeps their format."""
+def test_checksums_without_the_chain_are_no_format_of_their_own(tmp_path):
+    """Per-record checksums without a seal in the header (0.1.0's development only):
+    read as unchecked, a record changed after it was written still refused."""
     header = {"type": "session", "format": "ogacq-session/1", "machine": {}, "plan": None}
     records = [header, *({"type": "reading", "wall": 1.0, **reading(k).to_json()}
                          for k in range(3))]
@@ -136,14 +135,11 @@ def test_a_session_with_checksums_before_the_chain_loads_and_says_so(tmp_path):
     path = tmp_path / "older.jsonl"
     write_lines(path, records)
     session = load_session(path)
-    assert session.integrity.mode == CHECKSUMMED
-    assert "older session format" in session.integrity.notes()[0]
-    with SessionWriter.append_to(path) as writer:
-        writer.write(EndRecord(status="complete"))
-    assert "prev" not in lines_of(path)[-1] and load_session(path).finished
-    records[2].pop("crc")
+    assert session.integrity.mode == UNCHECKED
+    assert session.integrity.notes()[0].startswith("unchecked: ")
+    records[2]["reading_mm"] += 0.05
     write_lines(path, records)
-    with pytest.raises(SessionEdited, match=r"older\.jsonl:3: has no checksum"):
+    with pytest.raises(SessionEdited, match=r"older\.jsonl:3: fails its checksum"):
         load_session(path)
 
 
