@@ -381,13 +381,13 @@ def _budget_row(row: dict[str, Any]) -> dict[str, Any]:
     contribution u) to two significant digits, as u_c and U are (JCGM 100:2008 7.2.6),
     the sensitivity to three (enough to give the contribution's two); the page printed
     "0.000288675 mm" and "1.110040519". record.json keeps every digit."""
-    out = dict(row)
-    for key in ("u_input", "u_mm"):
-        if isinstance(out.get(key), float):
-            out[key] = two_digits(out[key])
-    if isinstance(out.get("sensitivity"), float):
-        out["sensitivity"] = f"{out['sensitivity']:.3g}"
-    return out
+    def one(key: str, value: Any) -> Any:
+        if key in ("u_input", "u_mm") and isinstance(value, float):
+            return two_digits(value)
+        if key == "sensitivity" and isinstance(value, float):
+            return f"{value:.3g}"
+        return value
+    return {key: one(key, value) for key, value in row.items()}
 
 
 def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
@@ -396,8 +396,8 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
     if not found:
         return None
     scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
-    per = {k: _check_figures(k, v, found.get("u_c_mm") or {}) for k, v in found.items()
-           if isinstance(v, Mapping)}
+    u_c = next((v for k, v in found.items() if k == "u_c_mm" and isinstance(v, Mapping)), {})
+    per = {k: _check_figures(k, v, u_c) for k, v in found.items() if isinstance(v, Mapping)}
     names = list(dict.fromkeys(n for values in per.values() for n in values))
     # a parameter a figure lacks: None, "not evaluated"
     filled = [dict.fromkeys(names) | dict(values) for values in per.values()]
@@ -419,11 +419,12 @@ def _check_figures(key: str, values: Mapping[str, Any], u_c: Mapping[str, Any],
             return two_digits(value)
         if key == "ratio" and isinstance(value, float):
             return f"{value:.2f}"
-        u = u_c.get(name)
-        if key.startswith(("mean", "interval")) and isinstance(u, float):
+        if key.startswith(("mean", "interval")) and name in u_floats:
             ends = value if isinstance(value, list | tuple) else [value]
-            return ", ".join(rounded(v, u, sign=key.startswith("mean")) for v in ends)
+            return ", ".join(rounded(v, u_floats[name], sign=key.startswith("mean"))
+                             for v in ends)
         return value
+    u_floats = {name: u for name, u in u_c.items() if isinstance(u, float)}
     return {name: one(name, value) for name, value in values.items()}
 
 
