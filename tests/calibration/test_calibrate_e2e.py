@@ -89,13 +89,13 @@ def calibrated(root: Path, args: list[str]) -> Path:
     return folder
 
 
-def scan_judged_by_chance(folder: Path) -> bool:
-    """The separating scan's diagnosis not within the noise at the 1 % level, yet far
-    from what a model left wrong gives (p > 1e-6): once in a hundred runs of a right
-    model (seen under load, p = 0.0116 with the timing's readings), and then its maps
-    are not established, the offsets alone written."""
+def scan_judged_by_chance(folder: Path, role: str = "separating") -> bool:
+    """The separating scan's diagnosis (or another ``role``'s) not within the noise at
+    the 1 % level, yet far from what a model left wrong gives (p > 1e-6): once in a
+    hundred runs of a right model (seen under load, p = 0.0116 with the timing's
+    readings), and then its maps are not established, the offsets alone written."""
     scans = [r.details for r in log_steps(folder) if r.step == "diagnosis"
-             and r.details.get("role") == "separating"]
+             and r.details.get("role") == role]
     if not scans:
         return False
     final = scans[-1]["diagnosis"].get("chi2", {}).get("final", {})
