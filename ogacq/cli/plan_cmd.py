@@ -12,6 +12,7 @@ import numpy as np
 import typer
 
 from ogacq.cli.options import JsonOption, MachineOption, ParamSet, seed_option
+from ogacq.cli.plain import print_wrapped
 from ogacq.cli.render import print_plan, trials_progress
 from ogacq.errors import InputError
 from ogacq.identify.accuracy import planned_observations, predict_accuracy
@@ -282,5 +283,5 @@ def plan(
     print_plan(pred, Path(machine).name, describe_protocol(protocol, spec), cycles, gauge.says)
     if design is not None:
         typer.echo("separating scan `ogacq calibrate` would design (ISO 230-2 4.3.2):")
-        for line in design.lines():
-            typer.echo(f"  {line}")
+        for line in design.lines():  # wrapped at the width: a 200-character line was cut
+            print_wrapped(f"  {line}")

@@ -219,3 +219,17 @@ def test_the_map_search_table_names_each_term_whole(capsys, monkeypatch):
     print_coverage(found)
     out = capsys.readouterr().out
     assert too_wide(out) == [] and "lead_screw_cyclic.x" in out, out
+
+
+def test_plans_separating_design_fits_80_columns(capsys, monkeypatch):
+    """`plan --scan-minutes` printed the design's lines whole (up to 200 characters):
+    wrapped between words now, the machine time still said."""
+    from ogacq.cli.app import main
+
+    monkeypatch.setenv("COLUMNS", str(WIDTH))
+    machine = Path(__file__).parents[2] / "ogacq" / "examples" / "machine.toml"
+    assert main(["plan", "--machine", str(machine), "--trials", "0",
+                 "--scan-minutes", "40"]) == 0
+    out = capsys.readouterr().out
+    assert too_wide(out) == [], out
+    assert "min of machine time" in " ".join(out.split())
