@@ -383,7 +383,7 @@ class AxisController:
         at a counter that restarted, which no arrival may be taken from."""
         targets = self._wait_targets(targets_mm)
         timeout = timeout_s or self.profile.timing.move_timeout_s
-        tolerance = self._position_tolerance_mm()
+        tolerance = self.position_tolerance_mm()
         deadline = time.monotonic() + timeout
         arrived: dict[str, AxisStatus] = {}
         while True:
@@ -673,7 +673,9 @@ class AxisController:
             return 0.0
         return spec.sign * float(self.read_raw(axis, spec.value))
 
-    def _position_tolerance_mm(self) -> float:
+    def position_tolerance_mm(self) -> float:
+        """How far from a target an axis may read and be at it: a count, or the
+        in-position band."""
         one_count = 1.0 / self.profile.codec.counts_per_mm
         return max(self.profile.motion.in_position_band_mm, one_count) + 1e-9
 
@@ -1008,7 +1010,7 @@ class AxisController:
         """Read back that an edge-triggered write was taken; never re-send it."""
         timeout_s = float(self._resolve(step.timeout_s, params, command))
         at = float(self._resolve(step.at, params, command))
-        tolerance = self._position_tolerance_mm()
+        tolerance = self.position_tolerance_mm()
         deadline = time.monotonic() + timeout_s
         while True:
             status = self._status(axis)
