@@ -213,7 +213,7 @@ class AxisController:
 
     def read_status(self, axes: Iterable[str] | None = None) -> dict[str, AxisStatus]:
         """Status of each axis: one block read per contiguous register run and device."""
-        return {axis: self._status(axis) for axis in self._axes(axes)}
+        return {axis: self._status(axis) for axis in self.chosen_axes(axes)}
 
     @property
     def status_reads(self) -> tuple[tuple[int, int], ...]:
@@ -224,20 +224,20 @@ class AxisController:
         """Joint coordinates q in mm (one position read per axis)."""
         name = self.profile.status.position
         return {
-            axis: self._counter_to_q(axis, float(self._read_value(axis, name)))
-            for axis in self._axes(axes)
+            axis: self._counter_to_q(axis, float(self.read_raw(axis, name)))
+            for axis in self.chosen_axes(axes)
         }
 
     def read_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
         """Alarm / error code per axis (0 = none)."""
         name = self.profile.status.alarm_code
-        return {axis: int(self._read_value(axis, name)) for axis in self._axes(axes)}
+        return {axis: int(self.read_raw(axis, name)) for axis in self.chosen_axes(axes)}
 
     # ================================================================ commands
 
     def enable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
         """Servo on (and whatever the profile needs before: Modbus control, CiA 402 states)."""
-        chosen = self._axes(axes)
+        chosen = self.chosen_axes(axes)
         self._forget_written(chosen)
         # Look before switching on: a drive that went off without this client's doing
         # (switched off and on between two polls) must be seen off, or the homing latch
@@ -250,7 +250,7 @@ class AxisController:
 
     def disable(self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None) -> None:
         """Servo off."""
-        chosen = self._axes(axes)
+        chosen = self.chosen_axes(axes)
         self._forget_written(chosen)
         for axis in chosen:
             self._servo_off_by_client[axis] = True
@@ -260,13 +260,13 @@ class AxisController:
         self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None
     ) -> dict[str, AxisStatus]:
         """Home the axes together and wait for the home end; applies a pending home offset."""
-        chosen = self._axes(axes)
+        chosen = self.chosen_axes(axes)
         self._forget_written(chosen)
         params: dict[str, dict[str, Any]] = {}
         for axis in chosen:
             self._homed_latch[axis] = False
             params[axis] = {
-                "home_position_mm": self._counter_at_home(axis),
+                "home_position_mm": self.counter_at_home_mm(axis),
                 "home_timeout_s": timeout_s,
             }
         self._run("home", chosen, per_axis=params)
@@ -301,7 +301,7 @@ class AxisController:
             for axis, q in targets.items():
                 if not low <= q <= high:
                     raise ValueError(
-                        f"{self._where(axis)}: move {axis} to {q:.3f} mm refused: outside the "
+                        f"{self.where(axis)}: move {axis} to {q:.3f} mm refused: outside the "
                         f"soft limits [{low:g}, {high:g}] mm"
                     )
         # Waiting, the positions are read on arrival: the check needs the flags only.
@@ -313,7 +313,7 @@ class AxisController:
                     f"move {axis} refused: axis in alarm {status.alarm_code:#x}; "
                     "reset alarms first",
                     code=status.alarm_code,
-                    where=self._where(axis),
+                    where=self.where(axis),
                 )
             if not status.flags["servo_on"] or not status.flags.get("quick_stop", True):
                 # CiA 402 "quick stop active" keeps bit 2 (operation enabled) set but
@@ -322,13 +322,13 @@ class AxisController:
                     f"move {axis} refused: servo is off (or the drive is in quick stop); "
                     "enable first",
                     code="servo_off",
-                    where=self._where(axis),
+                    where=self.where(axis),
                 )
             if require_homed and not status.homed:
                 raise DeviceFault(
                     f"move {axis} refused: axis not homed; home first",
                     code="not_homed",
-                    where=self._where(axis),
+                    where=self.where(axis),
                 )
         speed = speed_mm_s or self.speed_mm_s
         params = {
@@ -346,7 +346,7 @@ class AxisController:
                                          require_homed=require_homed)
         except DriverError:
             # The axes start together: one failing must not leave the others going.
-            self._stop_after_failure(tuple(targets))
+            self.stop_quietly(tuple(targets))
             raise
 
     def _longest_travel_first(self, targets: Mapping[str, float]) -> tuple[str, ...]:
@@ -383,7 +383,7 @@ class AxisController:
         at a counter that restarted, which no arrival may be taken from."""
         targets = self._wait_targets(targets_mm)
         timeout = timeout_s or self.profile.timing.move_timeout_s
-        tolerance = self._position_tolerance_mm()
+        tolerance = self.position_tolerance_mm()
         deadline = time.monotonic() + timeout
         arrived: dict[str, AxisStatus] = {}
         while True:
@@ -408,7 +408,7 @@ class AxisController:
         names = [a for a in given if isinstance(a, str)]
         numbers = [float(v) for v in given if isinstance(v, Real)]
         if len(names) == len(given):
-            return dict.fromkeys(self._axes(names))
+            return dict.fromkeys(self.chosen_axes(names))
         if len(numbers) == len(given):
             return dict(self._targets(numbers))
         raise ValueError(f"targets {given}: axis names or a value per axis, not both")
@@ -438,7 +438,7 @@ class AxisController:
                 f"axis {axis} in alarm {poll.alarm_code:#x}{at} while waiting for "
                 "in-position",
                 code=poll.alarm_code,
-                where=self._where(axis),
+                where=self.where(axis),
             )
         servo_off = not poll.flags["servo_on"]
         if servo_off or (require_homed and not poll.homed):
@@ -448,7 +448,7 @@ class AxisController:
                 "and on, an emergency stop or another master?); its position is "
                 "not vouched for",
                 code="servo_off" if servo_off else "not_homed",
-                where=self._where(axis),
+                where=self.where(axis),
             )
 
     def _not_in_position(self, targets: dict[str, float | None],
@@ -462,13 +462,13 @@ class AxisController:
         )
         return DeviceTimeout(
             f"not in position within {timeout:g} s: {detail}",
-            where=self._where(pending[0].axis),
+            where=self.where(pending[0].axis),
         )
 
     def stop(self, axes: Iterable[str] | None = None) -> None:
         """Stop every axis (all are tried even if one fails; the first error is raised after)."""
         errors: list[DriverError] = []
-        chosen = self._axes(axes)
+        chosen = self.chosen_axes(axes)
         for axis in chosen:  # a CiA 402 quick stop may end in "switch on disabled"
             self._servo_off_by_client[axis] = True
         command = self.profile.commands["stop"]
@@ -485,7 +485,8 @@ class AxisController:
             if self._poll(axis, self._flag_blocks).flags["servo_on"]:
                 self._servo_off_by_client[axis] = False
 
-    def _stop_after_failure(self, axes: Sequence[str]) -> None:
+    def stop_quietly(self, axes: Sequence[str]) -> None:
+        """Stop ``axes``, logging (not raising) a failure: another error is the one to report."""
         try:
             self.stop(axes)
         except DriverError as exc:  # the original failure is the one to report
@@ -514,12 +515,12 @@ class AxisController:
 
     def read_offsets(self, axes: Iterable[str] | None = None) -> dict[str, float]:
         """Joint zero offsets o in mm (q = p - o); on CiA 402, those the next homing applies."""
-        chosen = self._axes(axes)
+        chosen = self.chosen_axes(axes)
         spec = self.profile.offset
         if spec.kind == "software":
             return {a: self._software_offsets[a] for a in chosen}
         # counter at the home point = sign × home_offset = -o
-        return {a: -spec.sign * float(self._read_value(a, spec.value)) for a in chosen}
+        return {a: -spec.sign * float(self.read_raw(a, spec.value)) for a in chosen}
 
     def write_offsets(
         self, offsets_mm: Mapping[str, float], *, force: bool = False
@@ -555,7 +556,7 @@ class AxisController:
                 raise DeviceFault(
                     f"offsets not written: servo on for {on}; disable first",
                     code="servo_on",
-                    where=self._where(on[0]),
+                    where=self.where(on[0]),
                 )
         tolerance = 1.0 / self.profile.codec.counts_per_mm
         stored: dict[str, float] = {}
@@ -563,19 +564,19 @@ class AxisController:
             register_mm = -spec.sign * offset
             log.info(
                 "%s: home offset %s: %+.4f -> %+.4f mm (object %+.4f mm)",
-                self._where(axis),
+                self.where(axis),
                 axis,
                 old[axis],
                 offset,
                 register_mm,
             )
             self._write_value(axis, spec.value, register_mm, what=f"write_offsets {axis}")
-            back = float(self._read_value(axis, spec.value))
+            back = float(self.read_raw(axis, spec.value))
             if abs(back - register_mm) > tolerance / 2:
                 raise DeviceFault(
                     f"home offset {axis}: wrote {register_mm:+.4f} mm, read back {back:+.4f} mm",
                     code="readback",
-                    where=self._where(axis),
+                    where=self.where(axis),
                 )
             stored[axis] = -spec.sign * back  # what the drive holds, in counts
             self.rehome_required.add(axis)
@@ -589,26 +590,14 @@ class AxisController:
                 f"profile {self.profile.name!r} has nothing to save to non-volatile "
                 "memory (offsets are kept in the tool's configuration)"
             )
-        for axis in self._axes(axes):
+        for axis in self.chosen_axes(axes):
             log.warning(
                 "%s: saving parameters to non-volatile memory (limited write endurance)",
-                self._where(axis),
+                self.where(axis),
             )
             self._write_value(axis, spec.value, spec.signature, what=f"save_to_nvm {axis}")
 
     # ================================================================ for the pre-flight check
-
-    def chosen_axes(self, axes: Iterable[str] | None = None) -> tuple[str, ...]:
-        """``axes`` checked against this controller's (all of them for None)."""
-        return self._axes(axes)
-
-    def where(self, axis: str) -> str:
-        """Endpoint, device id and axis, for messages."""
-        return self._where(axis)
-
-    def read_raw(self, axis: str, name: str) -> float | int | bool:
-        """One named value of the profile, decoded (for checks outside the status poll)."""
-        return self._read_value(axis, name)
 
     def read_temperatures(self) -> dict[str, float]:
         """The temperatures the profile's ``[temperature]`` registers hold, degC
@@ -621,16 +610,8 @@ class AxisController:
         for key in ("ambient", "machine"):
             name = getattr(spec, key)
             if name:
-                out[key] = int(self._read_value(spec.axis, name)) * spec.degc_per_count
+                out[key] = int(self.read_raw(spec.axis, name)) * spec.degc_per_count
         return out
-
-    def counter_mm(self, status: AxisStatus) -> float:
-        """The controller's own position counter behind a status (software offset added)."""
-        return self._counter_position(status)
-
-    def counter_at_home_mm(self, axis: str) -> float:
-        """Where the position counter must read at the home point after a homing."""
-        return self._counter_at_home(axis)
 
     @property
     def reports_reference(self) -> bool:
@@ -641,7 +622,7 @@ class AxisController:
     def forget_reference(self, axes: Iterable[str] | None = None) -> None:
         """This client no longer vouches for the axes' homing: no move until :meth:`home`
         (where the drive reports its own homing, the drive's word still decides)."""
-        for axis in self._axes(axes):
+        for axis in self.chosen_axes(axes):
             self._homed_latch[axis] = False
 
     def _latched_homed(self, axis: str) -> bool:
@@ -650,13 +631,10 @@ class AxisController:
             self._homed_latch[axis] = False
         return self._homed_latch[axis]
 
-    def stop_quietly(self, axes: Sequence[str]) -> None:
-        """Stop ``axes``, logging (not raising) a failure: another error is the one to report."""
-        self._stop_after_failure(axes)
-
     # ================================================================ internals: coordinates
 
-    def _axes(self, axes: Iterable[str] | None) -> tuple[str, ...]:
+    def chosen_axes(self, axes: Iterable[str] | None = None) -> tuple[str, ...]:
+        """``axes`` checked against this controller's (all of them for None)."""
         if axes is None:
             return self.axes
         chosen = tuple(axes)
@@ -668,7 +646,7 @@ class AxisController:
     def _per_axis(self, values: Mapping[str, float], what: str) -> dict[str, float]:
         out = {}
         for axis, value in values.items():
-            self._axes([axis])
+            self.chosen_axes([axis])
             if not math.isfinite(value):
                 raise ValueError(f"{what}: {axis} = {value} is not a finite number")
             out[axis] = float(value)
@@ -688,18 +666,21 @@ class AxisController:
     def _counter_to_q(self, axis: str, counter: float) -> float:
         return counter - self._software_offsets[axis]
 
-    def _counter_at_home(self, axis: str) -> float:
+    def counter_at_home_mm(self, axis: str) -> float:
         """Where the position counter will read at the home point after this homing."""
         spec = self.profile.offset
         if spec.kind == "software":
             return 0.0
-        return spec.sign * float(self._read_value(axis, spec.value))
+        return spec.sign * float(self.read_raw(axis, spec.value))
 
-    def _position_tolerance_mm(self) -> float:
+    def position_tolerance_mm(self) -> float:
+        """How far from a target an axis may read and be at it: a count, or the
+        in-position band."""
         one_count = 1.0 / self.profile.codec.counts_per_mm
         return max(self.profile.motion.in_position_band_mm, one_count) + 1e-9
 
-    def _where(self, axis: str) -> str:
+    def where(self, axis: str) -> str:
+        """Endpoint, device id and axis, for messages."""
         return f"{self._links[axis].where(self.device_ids[axis])} (axis {axis})"
 
     # ================================================================ internals: registers
@@ -756,13 +737,13 @@ class AxisController:
             # whether it kept its reference, so this client no longer vouches for it.
             # (A fault is the caller's to judge: the campaign re-homes after an alarm.)
             log.warning("%s: servo found off without a disable from this client; the "
-                        "homing no longer counts", self._where(axis))
+                        "homing no longer counts", self.where(axis))
             self._homed_latch[axis] = False
         alarm_name = self.profile.status.alarm_code
         if alarm_name in values:
             alarm_code = int(values[alarm_name])
         else:
-            alarm_code = int(self._read_value(axis, alarm_name)) if fault else 0
+            alarm_code = int(self.read_raw(axis, alarm_name)) if fault else 0
         position = values.get(self.profile.status.position)
         return _Poll(
             axis=axis,
@@ -788,10 +769,12 @@ class AxisController:
             flags=poll.flags,
         )
 
-    def _counter_position(self, status: AxisStatus) -> float:
+    def counter_mm(self, status: AxisStatus) -> float:
+        """The controller's own position counter behind a status (software offset added)."""
         return status.position_mm + self._software_offsets[status.axis]
 
-    def _read_value(self, axis: str, name: str) -> float | int | bool:
+    def read_raw(self, axis: str, name: str) -> float | int | bool:
+        """One named value of the profile, decoded (for checks outside the status poll)."""
         spec = self.profile.value(name)
         device, link = self.device_ids[axis], self._links[axis]
         if spec.function == "coil":
@@ -934,31 +917,15 @@ class AxisController:
     def _wait_flag(
         self, axis: str, command: str, flag: str, state: bool, timeout_s: float
     ) -> _Poll:
-        deadline = time.monotonic() + timeout_s
-        tolerate_fault = flag in self.profile.status.fault_flags
-        while True:
-            status = self._poll(axis, self._flag_blocks)
-            if status.flags[flag] == state:
-                return status
-            if status.fault and not tolerate_fault:
-                raise DeviceFault(
-                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting for "
-                    f"{flag}={state}",
-                    code=status.alarm_code,
-                    where=self._where(axis),
-                )
-            if time.monotonic() >= deadline:
-                raise DeviceTimeout(
-                    f"{command} {axis}: {flag} did not become {state} within {timeout_s:g} s",
-                    where=self._where(axis),
-                )
-            time.sleep(self.poll_interval_s)
+        return self._wait_any(axis, command, (((flag, state),),), timeout_s,
+                              waiting=f" for {flag}={state}",
+                              late=f"{flag} did not become {state}")
 
     def _enable_cia402(self, axis: str, command: str, step: CommandStep, timeout_s: float) -> None:
         """Walk the CiA 402 state machine to "operation enabled" from the state the drive
         reports, one transition at a time, each awaited (``timeout_s``) before the next:
         a drive already enabled is sent nothing (never shutdown, transition 8)."""
-        word = int(self._read_value(axis, step.status))
+        word = int(self.read_raw(axis, step.status))
         for _ in range(MOST_TRANSITIONS + 2):  # + quick stop active and not ready
             state = drive_state(word)
             if state is DriveState.OPERATION_ENABLED:
@@ -967,7 +934,7 @@ class AxisController:
                 what = f"statusword {word:#06x}, no CiA 402 state" if state is None \
                     else state.value
                 raise DeviceFault(f"{command} {axis}: the drive reports {what}; reset its "
-                                  "alarm first", code="fault", where=self._where(axis))
+                                  "alarm first", code="fault", where=self.where(axis))
             assert state is not None
             if state is DriveState.NOT_READY_TO_SWITCH_ON or (
                     state is DriveState.QUICK_STOP_ACTIVE and not word & TARGET_REACHED):
@@ -983,20 +950,20 @@ class AxisController:
             word = self._await_statusword(axis, command, step, _left(state),
                                           f"leaving {state.value}", timeout_s)
         raise DeviceFault(f"{command} {axis}: statusword {word:#06x} after every transition "
-                          "to operation enabled", code="servo_off", where=self._where(axis))
+                          "to operation enabled", code="servo_off", where=self.where(axis))
 
     def _await_statusword(self, axis: str, command: str, step: CommandStep,
                           done: Callable[[int], bool], awaited: str, timeout_s: float) -> int:
         """Poll the statusword until ``done`` holds for it; the word."""
         deadline = time.monotonic() + timeout_s
         while True:
-            word = int(self._read_value(axis, step.status))
+            word = int(self.read_raw(axis, step.status))
             if done(word):
                 return word
             if time.monotonic() >= deadline:
                 raise DeviceTimeout(f"{command} {axis}: {awaited} not seen within "
                                     f"{timeout_s:g} s (statusword {word:#06x})",
-                                    where=self._where(axis))
+                                    where=self.where(axis))
             time.sleep(self.poll_interval_s)
 
     def _refuse_mirrored_home(self, axis: str, command: str, seen: float, at: float) -> None:
@@ -1010,14 +977,15 @@ class AxisController:
         raise PreflightError(
             f"{command} {axis}: the drive reports done at {seen:+.4f} mm, the opposite of "
             f"the {at:+.4f} mm the profile predicts: {fix} in profile "
-            f"{self.profile.name!r}", field=field, where=self._where(axis))
+            f"{self.profile.name!r}", field=field, where=self.where(axis))
 
     def _wait_any(
         self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
-        timeout_s: float,
+        timeout_s: float, *, waiting: str = "", late: str = "",
     ) -> _Poll:
         """Poll until the flags match one of the ``until`` alternatives (all of its
-        flag states at once); an alarm ends the wait unless an alternative asks for it."""
+        flag states at once); an alarm ends the wait unless an alternative asks for it.
+        ``waiting``, ``late``: the words of a wait on one flag."""
         deadline = time.monotonic() + timeout_s
         tolerate_fault = any(flag in self.profile.status.fault_flags
                              for alternative in until for flag, _ in alternative)
@@ -1028,17 +996,12 @@ class AxisController:
                 return status
             if status.fault and not tolerate_fault:
                 raise DeviceFault(
-                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting",
-                    code=status.alarm_code, where=self._where(axis))
+                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting{waiting}",
+                    code=status.alarm_code, where=self.where(axis))
             if time.monotonic() >= deadline:
-                wanted = " or ".join(
-                    "(" + ", ".join(f"{f}={v}" for f, v in alternative) + ")"
-                    for alternative in until)
-                seen = ", ".join(f"{f}={status.flags[f]}" for f in dict.fromkeys(
-                    f for alternative in until for f, _ in alternative))
-                raise DeviceTimeout(
-                    f"{command} {axis}: none of {wanted} within {timeout_s:g} s "
-                    f"(last seen {seen})", where=self._where(axis))
+                missed, seen = (late, "") if late else _unmet(until, status.flags)
+                raise DeviceTimeout(f"{command} {axis}: {missed} within {timeout_s:g} s{seen}",
+                                    where=self.where(axis))
             time.sleep(self.poll_interval_s)
 
     def _confirm(
@@ -1047,7 +1010,7 @@ class AxisController:
         """Read back that an edge-triggered write was taken; never re-send it."""
         timeout_s = float(self._resolve(step.timeout_s, params, command))
         at = float(self._resolve(step.at, params, command))
-        tolerance = self._position_tolerance_mm()
+        tolerance = self.position_tolerance_mm()
         deadline = time.monotonic() + timeout_s
         while True:
             status = self._status(axis)
@@ -1055,11 +1018,11 @@ class AxisController:
                 raise DeviceFault(
                     f"{command} {axis}: refused with alarm {status.alarm_code:#x}",
                     code=status.alarm_code,
-                    where=self._where(axis),
+                    where=self.where(axis),
                 )
             if any(status.flags[f] for f in step.any):
                 return status
-            seen = self._counter_position(status)
+            seen = self.counter_mm(status)
             if status.flags[step.done] and abs(seen - at) <= tolerance:
                 return status  # finished before the first poll
             if status.flags[step.done] and abs(at) > tolerance and abs(seen + at) <= tolerance:
@@ -1069,9 +1032,20 @@ class AxisController:
                     f"{command} {axis}: not acknowledged within {timeout_s:g} s "
                     f"(none of {', '.join(step.any)} set, not at {at:.3f} mm); "
                     "the command was not re-sent",
-                    where=self._where(axis),
+                    where=self.where(axis),
                 )
             time.sleep(self.poll_interval_s)
+
+
+def _unmet(until: Sequence[Sequence[tuple[str, bool]]],
+           flags: Mapping[str, bool]) -> tuple[str, str]:
+    """The words of a wait for any of ``until`` that timed out: what was awaited, and
+    the flags last seen."""
+    wanted = " or ".join("(" + ", ".join(f"{f}={v}" for f, v in alternative) + ")"
+                         for alternative in until)
+    seen = ", ".join(f"{f}={flags[f]}" for f in dict.fromkeys(
+        f for alternative in until for f, _ in alternative))
+    return f"none of {wanted}", f" (last seen {seen})"
 
 
 def _left(state: DriveState) -> Callable[[int], bool]:

@@ -113,8 +113,6 @@ class ModbusLink:
         self.transport = transport
         self.timeout_s = timeout_s
         self.read_retries = read_retries
-        self.baudrate = baudrate
-        self.bits_per_byte = 1 + bytesize + (0 if parity == "N" else 1) + stopbits
         self._client: ModbusTcpClient | ModbusSerialClient
         if transport == "tcp":
             self.endpoint = f"modbus tcp {host}:{port}"

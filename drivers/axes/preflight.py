@@ -287,12 +287,6 @@ class _Probe:
     targets: dict[str, float]
     probe_mm: float
 
-    @property
-    def slack(self) -> float:
-        """How far beside its way an axis may read: a count, or the in-position band."""
-        return max(_step_mm(self.controller),
-                   self.controller.profile.motion.in_position_band_mm) + 1e-9
-
     def arrived(self, axis: str) -> bool:
         """Whether the axis is at its target; every axis stopped, and the word order
         named, when it reads off the way from its start to its target or in alarm."""
@@ -302,7 +296,7 @@ class _Probe:
         except DriverError:
             controller.stop_quietly(self.chosen)
             raise
-        q, slack = status.position_mm, self.slack
+        q, slack = status.position_mm, controller.position_tolerance_mm()
         lo, hi = sorted((start, target))
         if not lo - slack <= q <= hi + slack or status.fault:
             controller.stop_quietly(self.chosen)

@@ -71,8 +71,7 @@ def assess_reference(controller: AxisController, paths: Mapping[str, Path] | Non
     """Each axis's reference as the drive shows it now (reads only, nothing written)."""
     low, high = controller.soft_limits_mm
     margin = controller.profile.limits.margin_mm
-    slack = max(controller.profile.motion.in_position_band_mm,
-                1.0 / controller.profile.codec.counts_per_mm) + 1e-9
+    slack = controller.position_tolerance_mm()
     out: dict[str, AxisReference] = {}
     statuses = controller.read_status(axes)
     for axis, status in statuses.items():

@@ -49,6 +49,9 @@ Unit = Literal["mm", "inch"]
 UNITS: tuple[Unit, ...] = ("mm", "inch")
 MM_PER_INCH = Decimal("25.4")
 
+_TERMINATORS = frozenset(b"\r\n")
+_MAX_FRAME_BYTES = 64
+
 # Longest a low-level read blocks before the driver re-checks its deadline; a
 # read returns as soon as a byte arrives, so this wastes no line time.
 POLL_S = 0.02
@@ -184,79 +187,6 @@ def to_mm(value: Decimal, unit: Unit) -> float:
     return float(mm) + 0.0  # + 0.0 turns -0.0 into 0.0
 
 
-class FrameReader:
-    """Reads terminator-delimited frames from a link, against a deadline.
-
-    Never a fixed-length read: bytes are read as they arrive, and bytes after a
-    terminator are kept for the next frame. Empty segments (the LF of a CR LF
-    pair) are skipped. Every transport failure becomes a :class:`LinkError`.
-    """
-
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        terminators: bytes = b"\r\n",
-        max_frame_bytes: int = 64,
-    ) -> None:
-        self.link = link
-        self.where = where
-        self._terminators = frozenset(terminators)
-        self._max_frame_bytes = max_frame_bytes
-        self._buffer = bytearray()
-
-    def discard(self) -> None:
-        """Drop everything received so far (ours and the OS input queue)."""
-        self._buffer.clear()
-        with link_errors(self.where, "flushing input"):
-            self.link.reset_input_buffer()
-
-    def read_frame(self, deadline: float) -> bytes:
-        """The next frame including its terminator; DeviceTimeout at ``deadline``
-        (a ``time.monotonic()`` value)."""
-        while True:
-            frame = self._take_frame()
-            if frame is not None:
-                return frame
-            with link_errors(self.where, "reading"):
-                waiting = self.link.in_waiting
-                # Bytes already here are used even at the deadline.
-                if not waiting and time.monotonic() >= deadline:
-                    break
-                # All waiting bytes at once; otherwise block for one byte,
-                # which returns as soon as it arrives.
-                chunk = self.link.read(waiting or 1)
-            self._buffer += chunk
-        partial = bytes(self._buffer)
-        self._buffer.clear()
-        if partial:
-            raise DeviceTimeout(
-                f"incomplete frame at the deadline, got {partial!r}", where=self.where
-            )
-        raise DeviceTimeout("no reply before the deadline", where=self.where)
-
-    def _take_frame(self) -> bytes | None:
-        buffer = self._buffer
-        start = 0
-        while start < len(buffer) and buffer[start] in self._terminators:
-            start += 1
-        if start:
-            del buffer[:start]
-        for index, byte in enumerate(buffer):
-            if byte in self._terminators:
-                frame = bytes(buffer[: index + 1])
-                del buffer[: index + 1]
-                return frame
-        if len(buffer) > self._max_frame_bytes:
-            junk = bytes(buffer)
-            buffer.clear()
-            raise FrameError(
-                f"no terminator within {self._max_frame_bytes} bytes", where=self.where, frame=junk
-            )
-        return None
-
-
 # What a byte received with a parity or framing error (or a break) is read as once
 # flag_line_errors() has set the port up: termios(3), "If neither IGNPAR nor PARMRK is
 # set, read a character with a parity error or framing error as \0". No frame of any
@@ -319,6 +249,10 @@ class SerialIndicator:
 
     The driver receives an open link (it never opens one) and a ``where`` name
     used in every error. ``owns_link`` says whether :meth:`close` closes it.
+    Frames are read terminator-delimited against a deadline, never by a
+    fixed-length read: bytes are read as they arrive, and bytes after a
+    terminator are kept for the next frame. Empty segments (the LF of a CR LF
+    pair) are skipped. Every transport failure becomes a :class:`LinkError`.
     """
 
     #: Reply deadline when ``read`` is given none.
@@ -344,7 +278,7 @@ class SerialIndicator:
                 link.timeout = POLL_S
         # After the timeout above: pyserial clears INPCK whenever it reconfigures.
         self._flags_line_errors = flag_line_errors(link, where=where)
-        self._reader = FrameReader(link, where=where)
+        self._buffer = bytearray()
         self._cut_by_flush = False  # set by drivers of pushed streams when they flush
 
     def flush_input(self) -> None:
@@ -352,7 +286,9 @@ class SerialIndicator:
         errors again, should anything have reconfigured it since)."""
         if self._flags_line_errors:
             flag_line_errors(self.link, where=self.where)
-        self._reader.discard()
+        self._buffer.clear()
+        with link_errors(self.where, "flushing input"):
+            self.link.reset_input_buffer()
 
     def close(self) -> None:
         """Close the link if this driver opened it (through the factory)."""
@@ -378,7 +314,49 @@ class SerialIndicator:
             self.link.write(data)
 
     def _read_frame(self, deadline: float) -> bytes:
-        return refuse_line_errors(self._reader.read_frame(deadline), where=self.where)
+        """The next frame including its terminator, unless it holds a byte the kernel
+        flagged (:func:`flag_line_errors`); DeviceTimeout at ``deadline`` (a
+        ``time.monotonic()`` value)."""
+        while True:
+            frame = self._take_frame()
+            if frame is not None:
+                return refuse_line_errors(frame, where=self.where)
+            with link_errors(self.where, "reading"):
+                waiting = self.link.in_waiting
+                # Bytes already here are used even at the deadline.
+                if not waiting and time.monotonic() >= deadline:
+                    break
+                # All waiting bytes at once; otherwise block for one byte,
+                # which returns as soon as it arrives.
+                chunk = self.link.read(waiting or 1)
+            self._buffer += chunk
+        partial = bytes(self._buffer)
+        self._buffer.clear()
+        if partial:
+            raise DeviceTimeout(
+                f"incomplete frame at the deadline, got {partial!r}", where=self.where
+            )
+        raise DeviceTimeout("no reply before the deadline", where=self.where)
+
+    def _take_frame(self) -> bytes | None:
+        buffer = self._buffer
+        start = 0
+        while start < len(buffer) and buffer[start] in _TERMINATORS:
+            start += 1
+        if start:
+            del buffer[:start]
+        for index, byte in enumerate(buffer):
+            if byte in _TERMINATORS:
+                frame = bytes(buffer[: index + 1])
+                del buffer[: index + 1]
+                return frame
+        if len(buffer) > _MAX_FRAME_BYTES:
+            junk = bytes(buffer)
+            buffer.clear()
+            raise FrameError(
+                f"no terminator within {_MAX_FRAME_BYTES} bytes", where=self.where, frame=junk
+            )
+        return None
 
     def _read_decoded(self, deadline: float, decode: Callable[..., T]) -> tuple[bytes, T]:
         """The next frame and what ``decode`` makes of it. On a line the device

@@ -72,10 +72,16 @@ class ConcurrentReader:
     def read_stable_many(self, gauges: Sequence[str], n: int, tolerance_mm: float,
                          timeout_s: float) -> dict[str, StableReading | DriverError]:
         """A stable reading of each gauge (:func:`read_stable`), or the error it raised."""
-        def one(gauge: str) -> StableReading:
-            return read_stable(self.indicators[gauge], n, tolerance_mm, timeout_s)
+        def line(group: list[str]) -> dict[str, StableReading | DriverError]:
+            out: dict[str, StableReading | DriverError] = {}
+            for gauge in group:
+                try:
+                    out[gauge] = read_stable(self.indicators[gauge], n, tolerance_mm, timeout_s)
+                except DriverError as exc:
+                    out[gauge] = exc
+            return out
 
-        return self._per_line(gauges, one)
+        return self._gathered(gauges, line)
 
     def settle_many(self, gauges: Sequence[str], *, window_s: float, bound_s: float,
                     display_step_mm: float, clock: Clock) -> dict[str, Settled | DriverError]:
@@ -84,34 +90,23 @@ class ConcurrentReader:
         ``clock`` has passed since the call. A gauge without a rest reference yet
         reads to the bound and measures it over the bound's second half."""
         start = clock()
-        by_line = line_groups({g: self.indicators[g] for g in gauges})
 
         def line(group: list[str]) -> dict[str, Settled | DriverError]:
             judges = {g: RestJudge(window_s, display_step_mm, self.rest.get(g)) for g in group}
             return _settle_line(self.indicators, judges, bound_s=bound_s, clock=clock,
                                 start=start, stop=self._stop)
 
-        out: dict[str, Settled | DriverError] = {}
-        for result in self._map(line, by_line):
-            out.update(result)
+        out = self._gathered(gauges, line)
         for gauge, settled in out.items():
             if isinstance(settled, Settled) and settled.measured and settled.reference:
                 self.rest[gauge] = settled.reference
-        return {g: out[g] for g in gauges}
+        return out
 
     # ------------------------------------------------------------------ internals
-    def _per_line(self, gauges: Sequence[str], one: Callable[[str], T],
-                  ) -> dict[str, T | DriverError]:
-        def line(group: list[str]) -> dict[str, T | DriverError]:
-            out: dict[str, T | DriverError] = {}
-            for gauge in group:
-                try:
-                    out[gauge] = one(gauge)
-                except DriverError as exc:
-                    out[gauge] = exc
-            return out
-
-        out: dict[str, T | DriverError] = {}
+    def _gathered(self, gauges: Sequence[str], line: Callable[[list[str]], dict[str, T]],
+                  ) -> dict[str, T]:
+        """``line`` of each line's gauges (the lines read in parallel), in ``gauges``' order."""
+        out: dict[str, T] = {}
         for result in self._map(line, line_groups({g: self.indicators[g] for g in gauges})):
             out.update(result)
         return {g: out[g] for g in gauges}

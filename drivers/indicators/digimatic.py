@@ -82,7 +82,6 @@ def encode_frame(
     decimals: int,
     unit: Unit = "mm",
     inch_nibble: str = "1",
-    terminator: bytes = b"\r\n",
     digimatic2: bool = False,
 ) -> bytes:
     """The frame for ``value`` in ``unit`` with ``decimals`` places (a Digimatic 2
@@ -109,7 +108,7 @@ def encode_frame(
     sign = "8" if shown < 0 else "0"
     text = f"{digits:0{width}d}"
     head = f"8F{text[:2]}" if digimatic2 else "FFFF"
-    return f"{head}{sign}{text[-DIGITS:]}{decimals}{unit_nibble}".encode("ascii") + terminator
+    return f"{head}{sign}{text[-DIGITS:]}{decimals}{unit_nibble}".encode("ascii") + b"\r\n"
 
 
 def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:

@@ -15,7 +15,6 @@ leaves the old tables or the new ones, never a mixture.
 
 from __future__ import annotations
 
-import contextlib
 import os
 import shutil
 from collections.abc import Mapping
@@ -26,7 +25,7 @@ from typing import Any
 from ogacq.compensation.formats import TABLE_FORMATS, TableFormat, known
 from ogacq.compensation.iso230 import Iso230Figures
 from ogacq.compensation.tables import AxisTable, TableError
-from ogacq.io.atomic import write_atomically
+from ogacq.io.atomic import fsync_folder, write_atomically
 from ogacq.io.errors import StorageError
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.units import UM_PER_MM
@@ -225,16 +224,7 @@ def _replace(staging: Path, folder: Path) -> None:
         if folder.exists():
             os.rename(folder, old)
         os.rename(staging, folder)
-        _sync_folder(folder.parent)
+        fsync_folder(folder.parent)
     except OSError as exc:
         raise StorageError(folder, exc) from None
     shutil.rmtree(old, ignore_errors=True)
-
-
-def _sync_folder(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        with contextlib.suppress(OSError):  # a file system without folder fsync
-            os.fsync(fd)
-    finally:
-        os.close(fd)

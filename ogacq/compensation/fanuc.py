@@ -120,10 +120,6 @@ def _interval(span_mm: float, options: FanucOptions) -> float:
     return float(max(1, math.ceil(span_mm / options.max_points - 1e-9)))
 
 
-def _increments(absolute_units: np.ndarray) -> np.ndarray:
-    return np.diff(absolute_units)
-
-
 def _quantized(correction_mm: np.ndarray, unit_mm: float) -> np.ndarray:
     return np.round(correction_mm / unit_mm).astype(int)
 
@@ -152,8 +148,8 @@ def fanuc_axis(m: AxisMap, options: FanucOptions, first_point: int,
     worst = 0
     for magnification in range(1, options.max_magnification + 1):
         step = unit * magnification
-        fwd = _increments(_quantized(correction_fwd, step))
-        rev = _increments(_quantized(correction_rev, step))
+        fwd = np.diff(_quantized(correction_fwd, step))
+        rev = np.diff(_quantized(correction_rev, step))
         worst = int(max(np.abs(fwd).max(), np.abs(rev).max() if options.bidirectional else 0))
         if worst <= options.value_limit:
             break

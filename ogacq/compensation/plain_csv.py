@@ -15,10 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import numpy as np
-
 from ogacq.compensation.tables import (
-    Applied,
     AxisTable,
     ControllerTables,
     K,
@@ -38,16 +35,9 @@ def safe_text(text: str) -> str:
     return one_line(text)
 
 
-def _applied(m: AxisMap) -> Applied:
-    def applied(x: np.ndarray, side: int) -> np.ndarray:
-        return m.error_mm(x, side)
-
-    return applied
-
-
 def csv_tables(maps: Mapping[str, AxisMap], options: None = None, *,
                title: str = "") -> ControllerTables:
-    axes = {a: AxisTable(a, m, _applied(m)) for a, m in maps.items()}
+    axes = {a: AxisTable(a, m, m.error_mm) for a, m in maps.items()}  # the map itself, applied
     lines = [f"# {safe_text(title)}" if title else "# ogacq compensation",
              "# errors, actual - commanded (mm), approached toward + (forward) and toward - "
              f"(reverse), linear between nominals; U: k = {K:g}", f"# sign: {SIGN}",

@@ -628,19 +628,16 @@ def _fmt(v: np.ndarray) -> str:
     return "(" + ", ".join(f"{x:.3f}" for x in v) + ")"
 
 
-def write_readings(path: str | Path, layout: ReadingsLayout, readings_mm: np.ndarray,
-                   with_approach: bool = True) -> None:
+def write_readings(path: str | Path, layout: ReadingsLayout, readings_mm: np.ndarray) -> None:
     """The readings CSV of INTERCHANGE.md (plus the approach side, ignored by others)."""
-    header = list(READINGS_COLUMNS) + (list(APPROACH_COLUMNS) if with_approach else [])
     out = io.StringIO(newline="")
     w = csv.writer(out)
-    w.writerow(header)
+    w.writerow(READINGS_COLUMNS + APPROACH_COLUMNS)
     for k in range(len(layout)):
         row = [f"{layout.t_s[k]:.3f}", int(layout.cycle[k]), AXES[layout.leg[k]],
                AXES[layout.gauge_axis[k]], *(f"{v:.6f}" for v in layout.tcp_mm[k]),
-               *(f"{v:.6f}" for v in layout.q_mm[k]), f"{readings_mm[k]:.6f}"]
-        if with_approach:
-            row += [int(v) for v in layout.approach[k]]
+               *(f"{v:.6f}" for v in layout.q_mm[k]), f"{readings_mm[k]:.6f}",
+               *(int(v) for v in layout.approach[k])]
         w.writerow(row)
     # whole or not at all: a full disk leaves the file as it was (or none)
     write_atomically(path, out.getvalue().encode("utf-8"))

@@ -20,7 +20,7 @@ from typing import Any
 from ogacq.errors import OgacqError, Refused
 from ogacq.protocol.plan import ProtocolConfig, reading_steps
 from ogacq.session.convert import session_machine
-from ogacq.session.records import EndRecord, FaultRecord, Record, ResumeRecord
+from ogacq.session.records import EndRecord, FaultRecord, ResumeRecord
 from ogacq.session.seal import SEALED
 from ogacq.session.store import LoadedSession, lock_holder
 
@@ -97,22 +97,23 @@ class CampaignStatus:
 def campaign_status(session: LoadedSession) -> CampaignStatus:
     """The last end record's status, or ``incomplete`` when there is none, or when the
     campaign was resumed after it and has not ended since."""
-    ends = session.of_type(EndRecord)
-    last = ends[-1] if ends else None
-    if last is None:
-        status, reason = "incomplete", None
-    else:
-        status, reason = last.status, last.reason
-        if _last_index(session, EndRecord) < _last_index(session, ResumeRecord):
-            status, reason = "incomplete", None
+    last = _last_end(session)
+    status, reason = (last.status, last.reason) if last else ("incomplete", None)
     faults = tuple(f.describe() for f in session.of_type(FaultRecord))
     return CampaignStatus(status, len(session.readings), planned_readings(session), reason,
                           faults, tuple(session.warnings))
 
 
-def _last_index(session: LoadedSession, kind: type[Record]) -> int:
-    found = [k for k, r in enumerate(session.records) if isinstance(r, kind)]
-    return found[-1] if found else -1
+def _last_end(session: LoadedSession) -> EndRecord | None:
+    """The last end record after the last resume: a resumed campaign's earlier stop is
+    history."""
+    last: EndRecord | None = None
+    for record in session.records:
+        if isinstance(record, ResumeRecord):
+            last = None
+        elif isinstance(record, EndRecord):
+            last = record
+    return last
 
 
 def completeness(session: LoadedSession, *, probe_lock: bool = True) -> Completeness:
@@ -124,13 +125,7 @@ def completeness(session: LoadedSession, *, probe_lock: bool = True) -> Complete
     holder = lock_holder(session.path) if probe_lock else None
     if holder is not None:
         return Completeness(readings, planned, RUNNING, holder=holder)
-    # the last word after the last resume: a resumed campaign's earlier stop is history
-    last: EndRecord | None = None
-    for record in session.records:
-        if isinstance(record, ResumeRecord):
-            last = None
-        elif isinstance(record, EndRecord):
-            last = record
+    last = _last_end(session)
     if last is None:
         return Completeness(readings, planned, NO_END)
     return Completeness(readings, planned, last.status, last.reason)

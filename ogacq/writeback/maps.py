@@ -230,11 +230,7 @@ class MapsFile:
     def _owner(self, current: MapsTable) -> Owner:
         """The machine to bind the maps written to: this target's, else the one the
         file named (a restore by hand keeps it)."""
-        if self.owner is not None:
-            return self.owner
-        named = current.about.get("machine")
-        return (str(named.get("name", "")), str(named.get("serial", ""))) \
-            if isinstance(named, dict) else ("", "")
+        return self.owner or current.owner or ("", "")
 
     def record_found(self, op: MapsOperation, held: str, audit: AuditLog) -> None:
         table = self.table()

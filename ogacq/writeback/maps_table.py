@@ -40,6 +40,7 @@ from ogacq.model.parameters import AXES
 log = logger(__name__)
 
 FORMAT = "ogacq-maps/1"
+Owner = tuple[str, str]  # the machine's name and serial
 
 
 def maps_checksum(maps: Mapping[str, AxisMap]) -> str:
@@ -59,6 +60,13 @@ class MapsTable:
     def checksum(self) -> str:
         return maps_checksum(self.maps)
 
+    @property
+    def owner(self) -> Owner | None:
+        """The machine (name, serial) the file names; None where it names none."""
+        named = self.about.get("machine")
+        return (str(named.get("name", "")), str(named.get("serial", ""))) \
+            if isinstance(named, dict) else None
+
     def identity(self) -> dict[str, Any]:
         """What a session records of the maps it ran with."""
         return {"file": str(self.path), "exists": self.exists, "checksum": self.checksum,
@@ -72,8 +80,6 @@ KEYS = frozenset({"format", "written", "session", "action", "machine", "maps", "
 #: The gate of the offsets (``ogacq offsets write --max-change-mm`` default): a map moves
 #: each target by its value, and no error a map corrects is larger on this machine type.
 MAX_MAP_MM = 2.0
-
-Owner = tuple[str, str]  # the machine's name and serial
 
 
 def read_maps_table(path: str | Path, *, owner: Owner | None = None) -> MapsTable:
@@ -184,9 +190,7 @@ def _maps_in(path: Path, document: dict[str, Any]) -> dict[str, AxisMap]:
 def _check_owner(table: MapsTable, owner: Owner) -> None:
     """The maps of this machine (name and serial as its machine file says), not those
     of another copied in."""
-    written = table.about.get("machine")
-    named = (str(written.get("name", "")), str(written.get("serial", ""))) \
-        if isinstance(written, dict) else None
+    named = table.owner
     if named != owner:
         said = f"{named[0] or 'no name'}, serial {named[1] or 'none'}" if named else \
             "no machine"

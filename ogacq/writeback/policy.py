@@ -114,7 +114,7 @@ class OffsetPlan:
     @property
     def nothing_to_do(self) -> bool:
         """The controller already holds the new values."""
-        return all(self.facts.same(c.current_mm, c.new_mm) for c in self.changes)
+        return _nothing_to_do(self.changes, self.facts)
 
     def to_json(self) -> dict:
         return {"action": self.action, "profile": self.facts.profile,
@@ -307,8 +307,7 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
         # axis back at its old value is restored already, whoever put it there
         return facts.same(current[axis], written[axis]) or facts.same(current[axis], old[axis])
 
-    nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
-    if not nothing and not all(expected(a) for a in AXES):
+    if not _nothing_to_do(changes, facts) and not all(expected(a) for a in AXES):
         refusals.append(Refusal(
             "stale",
             f"the controller no longer holds what write-back {operation.operation} wrote "
@@ -344,9 +343,8 @@ def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: M
         raise ValueError(f"offsets state {state} recorded no usable values")
     current = {a: float(current_mm[a]) for a in AXES}
     changes = tuple(AxisChange(a, current[a], facts.quantize(float(target[a]))) for a in AXES)
-    nothing = all(facts.same(c.current_mm, c.new_mm) for c in changes)
     refusals: list[Refusal] = []
-    if expected_mm is not None and not nothing and not all(
+    if expected_mm is not None and not _nothing_to_do(changes, facts) and not all(
             (e := expected_mm.get(a)) is not None and facts.same(current[a], float(e))
             for a in AXES):
         recorded = ", ".join(f"{a} {expected_mm[a]:+.4f}" if expected_mm.get(a) is not None
