@@ -46,6 +46,7 @@ from ogacq.protocol.scan_design import (
     alias_level,
     design_scan,
     resolved_band,
+    smooth_allocation,
 )
 from ogacq.session.records import CalibrateRecord
 from ogacq.session.store import load_session
@@ -56,6 +57,7 @@ from ogacq.writeback.maps_table import read_maps_table
 SEED = 1  # calibrate's default (--seed)
 CASES = {"5.0 mm on x": ("x", 5.0), "6.35 mm on y": ("y", 6.35), "4.0 mm on z": ("z", 4.0)}
 STEP_S = 5.5  # a reading step of a real station (the issue's figure)
+MOST_TARGETS_450 = 37  # the most targets of three legs' scan in 450 reading steps
 
 
 def effects_text(axis: str, pitch_mm: float) -> str:
@@ -152,6 +154,18 @@ def compare_scans() -> None:
           f"at {STEP_S} s a step; band {design.pitch_band_mm[0]:g}-"
           f"{design.pitch_band_mm[1]:g} mm; detection (3 sigma at 0.5 um) "
           + ", ".join(f"{f} {v * 1e3:.2f} um" for f, v in design.detection_mm.items()))
+    equal = design_scan(m, base, noise_mm=0.0005)  # no machine time: equal strata
+    print(f"the same count in equal strata: {equal.steps} reading steps, smooth map "
+          f"{equal.detection_mm['screw_map'] * 1e3:.2f} um")
+    allocation = smooth_allocation(dataclasses.replace(
+        design.protocol, scan_targets_mm=(design.targets_mm[0], design.targets_mm[-1])), m,
+        0.0005)
+    for targets in (len(design.targets_mm), MOST_TARGETS_450):
+        print(f"smooth map, {targets} targets ({3 * (1 + 4 * targets)} reading steps): no "
+              f"placing below {allocation.bound_mm(targets, 0.0005) * 1e3:.3f} um (the dual "
+              "bound); the E-optimal allocation itself, as weights "
+              f"{allocation.allocated_mm(targets, 0.0005) * 1e3:.3f}"
+              " um")
     print(f"uniform scan resolving the same band: every {step:g} mm, {n} reading steps, "
           f"{n * STEP_S / 3600:.1f} h at {STEP_S} s a step")
 

@@ -200,7 +200,10 @@ class ScanDesign:
             out.append(f"{DETECTION_TARGET_MM * UM_PER_MM:g} µm in every family would need "
                        f"about {self.target_steps} reading steps"
                        + (f" ({_minutes(self.target_steps * self.seconds_per_step)}: a longer "
-                          "--scan-minutes)" if self.seconds_per_step else ""))
+                          "--scan-minutes)" if self.seconds_per_step else "")
+                       + ("; gauges of a finer display would need far fewer: the display's "
+                          "rounding, not their scatter, sets these limits"
+                          if self.rounding_repeated else ""))
         if self.smooth_bound_mm:
             out.append(f"no placing of {len(self.targets_mm)} targets along the travel sees "
                        f"the smooth map below {self.smooth_bound_mm * UM_PER_MM:.2g} µm (the "
@@ -662,6 +665,14 @@ class SmoothAllocation:
         above = np.minimum(below + 1, len(self.candidates_mm) - 1)
         weights = np.bincount(below, 1.0 - (at - below), len(self.candidates_mm)) + \
             np.bincount(above, at - below, len(self.candidates_mm))
+        return self._limit(weights, noise_mm)
+
+    def allocated_mm(self, targets: int, noise_mm: float) -> float:
+        """The limit of the allocation itself, ``targets`` targets' worth of weight: what
+        the relaxation reaches (whole targets cannot place fractions)."""
+        return self._limit(targets * self.weights, noise_mm)
+
+    def _limit(self, weights: np.ndarray, noise_mm: float) -> float:
         least = min(_schur_least(m, self.shapes) for m in
                     self.setting + np.einsum("s,asij->aij", weights, self.per_target))
         return DETECTION_SIGMAS * noise_mm / math.sqrt(least) if least > 0 else math.inf

@@ -117,6 +117,7 @@ def test_a_display_of_10_um_counts_each_targets_repeats_once():
     assert "most of it the 0.01 mm display's rounding, which a target's repeats share" in text
     # beyond any count the design tries, what 1.5 um would take is said all the same
     assert said.target_steps > 12_000 and "1.5 µm in every family would need about" in text
+    assert "gauges of a finer display would need far fewer" in text
     assert said.smooth_bound_mm > 0.0015 and "no placing of 36 targets" in text
 
 
