@@ -410,9 +410,9 @@ class _Placed:
 @dataclass
 class _Scan:
     """The targets of ``n`` strata placed for a machine: equal strata, or strata cut
-    partly by where the smooth map is seen (:class:`SmoothAllocation`), the one with
-    the least worst detection limit among those that keep every period sampled as
-    the equal strata keep them."""
+    partly by where the smooth map is seen (:class:`SmoothAllocation`): of their
+    jitters, the one the allocation finds sees the map best among those that keep
+    every period sampled, where its limits beat the equal strata's."""
 
     machine: MachineSpec
     ends: ProtocolConfig  # the scan's protocol, its targets its two ends
@@ -460,7 +460,10 @@ class _Scan:
             if limit >= floor:  # every period sampled as the equal strata do
                 break
             if _score(targets, self.required, self.stated) <= 1.0 and self.covers(targets):
-                return _Placed(targets, self._detection(targets))
+                placed = _Placed(targets, self._detection(targets))
+                if max(placed.detection.values()) < max(detection.values()):
+                    return placed
+                break
         return _Placed(equal, detection)
 
     def _detection(self, targets: np.ndarray) -> dict[str, float]:
