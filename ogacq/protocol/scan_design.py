@@ -187,7 +187,7 @@ class ScanDesign:
         out.append(f"detection limit ({DETECTION_SIGMAS:g} sigma at the gauge noise "
                    f"{self.noise_mm * UM_PER_MM:.2g} µm"
                    + (f", most of it the {self.display_step_mm:g} mm display's rounding, "
-                      "which a target's repeats share: each target counts about once"
+                      "which a posture's cycles share: they count about once"
                       if self.rounding_repeated else "") + "): "
                    + ", ".join(f"{FAMILY_WORDS[f]} {v * UM_PER_MM:.2g} µm" if math.isfinite(v)
                                else f"{FAMILY_WORDS[f]} not determined (too few targets)"

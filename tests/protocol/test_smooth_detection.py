@@ -99,10 +99,10 @@ def test_no_placing_of_the_targets_beats_the_bound_the_design_states():
         assert exact >= bound, (targets, exact, bound)
 
 
-def test_a_display_of_10_um_counts_each_targets_repeats_once():
-    """On a 10 um display a gauge repeating to 0.5 um rounds a target's cycles alike: the
-    limits count each target once (the diagnosis's own covariance, c(sigma, s)), not
-    each reading. Were the same 2.4 um independent (a 1 um display), the two cycles would
+def test_a_display_of_10_um_counts_a_postures_cycles_once():
+    """On a 10 um display a gauge repeating to 0.5 um rounds a posture's cycles alike: the
+    limits count them once (the diagnosis's own covariance, c(sigma, s)), not each
+    reading. Were the same 2.4 um independent (a 1 um display), the two cycles would
     halve the variance: the limits come out sqrt 2 smaller."""
     design = _design(40)
     dial = dataclasses.replace(MACHINE, gauge_resolution_mm=0.01)
@@ -114,7 +114,8 @@ def test_a_display_of_10_um_counts_each_targets_repeats_once():
     said = design_scan(dial, ProtocolConfig(settle_s=1.0), noise_mm=0.0024,
                        seconds_per_step=STEP_S, budget_s=40 * 60)
     text = " ".join(said.lines())
-    assert "most of it the 0.01 mm display's rounding, which a target's repeats share" in text
+    assert ("most of it the 0.01 mm display's rounding, which a posture's cycles share: they "
+            "count about once") in text
     # beyond any count the design tries, what 1.5 um would take is said all the same
     assert said.target_steps > 12_000 and "1.5 µm in every family would need about" in text
     assert "gauges of a finer display would need far fewer" in text
