@@ -28,14 +28,15 @@ design here does so for every period a drive can have:
   gauge noise the verdict needs);
 * ``n`` is the fewest that sample the band, within the time budget; a budget too
   small for it gives the most the budget allows, and what that leaves unsampled is
-  said; then more, toward ``DETECTION_TARGET_MM`` in every family, as far as the
-  budget holds them.
+  said; more where that reaches ``DETECTION_TARGET_MM`` in every family within the
+  budget, else what would is said.
 
 The detection limit of each family is ``DETECTION_SIGMAS`` times the std of its
 amplitude at the gauge noise, from the design's normal matrix: each family's columns
 (``ogacq.model.error_maps``) through the joint sensitivities of the planned readings,
-less what the joint offsets take (``C' (I - P_B) C``), the readings weighed by the
-diagnosis's own covariance (``identify.noise``): the part of the display's rounding
+less what the joint offsets and each gauge's zero take (``C' (I - P_B) C``; the
+diagnosis fits both), the readings weighed by the diagnosis's own covariance
+(``identify.noise``): the part of the display's rounding
 that the gauge's scatter does not dither away is shared by a posture's repeats, so on
 a 10 um display the cycles of a posture count about once. A smooth map's constant is
 its joint offset's and its slope its axis's encoder scale's, exactly: its limit is
@@ -44,15 +45,17 @@ least visible such shape (the smallest generalised eigenvalue of the normal matr
 against the maps' rms over the travel), one shape as the other families' one
 amplitude.
 
-That limit is set by where the targets are: a leg's gauges read across its own axis,
-so its joint's error reaches them only through the legs' tilt (at most 0.13 of it on
-the built-in machine, none near the Zero posture), and the other legs' scans move it
-over a sixth of its travel only. Within a budget the strata are therefore cut partly
-by where the map is seen (:class:`SmoothAllocation`, the E-optimal allocation of its
-information over candidate targets), as long as every period stays sampled: on the
-built-in machine 34 targets go from 2.0 um in equal strata to 1.45 um. Where a budget
-falls short of ``DETECTION_TARGET_MM`` the design says what would reach it and the
-bound no placing of its targets beats (the allocation's dual).
+That limit is set by the sensitivity and by where the targets are: a leg's gauges read
+across its own axis, so its joint's error reaches them only through the legs' tilt (at
+most 0.13 of it on the built-in machine, none near the Zero posture), the other legs'
+scans move it over a sixth of its travel only, and there each gauge's zero takes its
+constant. Within a budget the strata are therefore cut partly by where the map is
+seen (:class:`SmoothAllocation`, the E-optimal allocation of its information over
+candidate targets), as long as every period stays sampled: on the built-in machine at
+a 0.5 um gauge, 34 targets go from 2.35 um in equal strata to 1.87 um, and no placing
+of them goes below 1.76 um (of 37 targets, 447 steps: 1.68 um), so that 1.5 um takes
+675 steps. Where a budget falls short of ``DETECTION_TARGET_MM`` the design says what
+would reach it and that bound (the allocation's dual).
 """
 
 from __future__ import annotations
@@ -110,8 +113,8 @@ BUILD_UP_MM = 4.0  # the wind-up whose detection is stated
 # that allocation's weight rather than in length that are tried (the rest keeps every
 # period's phases spread), and each candidate's weight spread over a target's jitter.
 # No source beyond the built-in machine, where they bring the 40-minute design's 34
-# targets from 2.01 to 1.45 um (the cyclic limit from 0.72 to 0.88 um), every phase
-# bound kept; no placing of 34 targets goes below 1.39 um (the allocation's bound).
+# targets from 2.35 to 1.87 um (the cyclic limit from 0.77 to 0.80 um), every phase
+# bound kept; no placing of 34 targets goes below 1.76 um (the allocation's bound).
 CANDIDATE_STEP_MM = 1.0
 INFORMED_SHARES = (0.5, 0.7, 0.85, 1.0)
 SPREAD_MM = 2.0
@@ -350,8 +353,8 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     """The separating scan for ``machine`` of the legs ``base`` reads (``base``: the
     campaign's legs, settling and overshoot): its targets the fewest that sample the
     band within ``budget_s`` of machine time at ``seconds_per_step``, placed where the
-    smooth map is seen best within those bounds, and more toward
-    ``DETECTION_TARGET_MM`` as far as the budget holds them."""
+    smooth map is seen best within those bounds, more where that reaches
+    ``DETECTION_TARGET_MM`` within the budget."""
     legs = base.legs
     protocol = replace(base, postures=(), approach="both", cycles=DESIGN_CYCLES,
                        scan_step_mm=None, scan_from_mm=None, scan_to_mm=None)
@@ -377,9 +380,11 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     while True:
         placed = scan.placed(n, covered and timed)
         wanted = targets_for_detection(placed.detection, n)
-        if wanted <= n or not timed or n >= most:
-            break  # reached, or as far as the budget goes (none known: the fewest)
-        n = min(wanted, most)
+        if wanted <= n or wanted > most or not timed:
+            # reached, or beyond the budget's reach (or no budget in machine time to
+            # grow within): the fewest that sample the band
+            break
+        n = wanted
     targets = placed.targets
     protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
     band, band_gap = resolved_band(targets, longest, shortest)
@@ -564,13 +569,17 @@ class _Rows:
 
     @property
     def offsets(self) -> np.ndarray:
-        """(n, 3) each joint offset's column: the same shift everywhere."""
-        return self.whiten((self.s_r + self.s_s).T).T
+        """(n, 3 + G) each joint offset's column (the same shift everywhere), and each
+        gauge's zero (every reading of that gauge: a gauge reads from where it was set,
+        a constant the fit takes for each gauge as the diagnosis does)."""
+        lay = self.layout
+        zeros = np.eye(lay.n_gauges)[lay.gauge]
+        return self.whiten(np.column_stack([self.s_r + self.s_s, zeros]).T).T
 
     def nuisance(self, axis: int) -> np.ndarray:
-        """(n, 4) the offsets and the axis's encoder scale: a shift in proportion to q
-        (parameters.py's encoder_scale, its column in the model's Jacobian up to the
-        ppm unit), a smooth map's slope."""
+        """(n, 4 + G) the offsets, the gauges' zeros and the axis's encoder scale: a
+        shift in proportion to q (parameters.py's encoder_scale, its column in the
+        model's Jacobian up to the ppm unit), a smooth map's slope."""
         lay = self.layout
         scale = self.s_r[:, axis] * lay.q_mm[:, axis] + \
             self.s_s[:, axis] * lay.setting_q_mm[lay.gauge, axis]

@@ -141,8 +141,8 @@ def test_plan_prints_the_design_before_anything_moves(tmp_path, capsys):
     assert "separating scan `ogacq calibrate` would design" in out
     assert "411 reading steps, 38 min of machine time" in out
     assert "resolves every period from 2 to 40 mm at 4 phases or more" in out
-    assert ("detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.88 µm, "
-            "smooth map 1.5 µm") in out
+    assert ("detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.8 µm, "
+            "smooth map 1.9 µm") in out
 
 
 def test_the_campaign_file_states_the_budget_and_keeps_a_designed_scan(tmp_path):
