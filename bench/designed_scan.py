@@ -49,13 +49,16 @@ from pathlib import Path
 
 import numpy as np
 
+from ogacq.model.kinematics import nominal_q
 from ogacq.model.machine import PAPER_PROTOTYPE, PAPER_PROTOTYPE_DIGITAL
+from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import AXES, PARAM_INDEX
 from ogacq.protocol.plan import ProtocolConfig, reading_steps, scan_targets
 from ogacq.protocol.scan_design import (
     ALIAS_LIMIT,
     UNSTATED_BAND_MM,
     alias_level,
+    allocation_of,
     design_scan,
     resolved_band,
     smooth_allocation,
@@ -181,6 +184,11 @@ def compare_scans() -> None:
               " um")
     print(f"uniform scan resolving the same band: every {step:g} mm, {n} reading steps, "
           f"{n * STEP_S / 3600:.1f} h at {STEP_S} s a step")
+    for offsets in ((0.0,), (0.0, 5.0, -5.0), (0.0, 10.0, -10.0)):
+        bound, reached = off_axis_bound(offsets)
+        print(f"postures with the TCP moved {', '.join(f'{t:+g}' for t in offsets)} mm across "
+              f"the leg, 450 reading steps: smooth map no placing below {bound * 1e3:.2f} um, "
+              f"the allocation {reached * 1e3:.2f} um")
     # the example machine's 10 um dial at the noise calibrate measured on it (2.4 um)
     dial = design_scan(PAPER_PROTOTYPE, base, noise_mm=DIAL_NOISE_MM, seconds_per_step=STEP_S,
                        budget_s=40 * 60)
@@ -188,6 +196,40 @@ def compare_scans() -> None:
           + ", ".join(f"{f} {v * 1e3:.2f} um" for f, v in dial.detection_mm.items())
           + f"; no placing below {dial.smooth_bound_mm * 1e3:.2f} um on the smooth map; "
           f"1.5 um would need {dial.target_steps} reading steps")
+
+
+def off_axis_bound(offsets_mm: tuple[float, ...] = (0.0,),
+                   visits: int = 149) -> tuple[float, float]:
+    """The bound no allocation of ``visits`` reading steps per leg beats on the smooth map,
+    and what the E-optimal allocation itself reaches (as weights)
+    (0.5 um gauge, 1 um display), over candidate postures every 2 mm along each leg
+    with the TCP moved ``offsets_mm`` across it, toward either other axis (the protocol
+    has no such posture: what one would bring). A leg's gauges then read the leg line
+    about half the offset away from where they were set: 10 mm keeps a 12.7 mm gauge
+    set mid-range within it (``ReadingExpectations.gauge_range_mm``)."""
+    m = PAPER_PROTOTYPE_DIGITAL
+    lo, hi = m.rho_min_mm + 1.0, m.rho_max_mm - 1.0
+    along = np.arange(lo, hi + 1e-9, 2.0)
+    postures = [(s, k, t) for t in offsets_mm for k in ((1, 2) if t else (1,)) for s in along]
+    q, leg, axis, at = [], [], [], []
+    for i in range(3):
+        tcps = [np.zeros(3)]
+        for s, k, t in postures:
+            p = np.zeros(3)
+            p[i], p[(i + k) % 3] = s, t
+            tcps.append(p)
+        joints = nominal_q(np.array(tcps), m.leg_length_mm)
+        for c, joint in enumerate(joints):
+            for j in range(3):
+                if j != i:
+                    q.append(joint)
+                    leg.append(i)
+                    axis.append(j)
+                    at.append(c - 1)  # the first, at Zero, sets the gauges
+    layout = ReadingsLayout.build(q, leg, axis)
+    allocation = allocation_of(layout, m, 0.0005, np.array(at), np.arange(len(postures)),
+                               (0, 1, 2), (lo, hi))
+    return allocation.bound_mm(visits, 0.0005), allocation.allocated_mm(visits, 0.0005)
 
 
 def main() -> None:

@@ -717,26 +717,37 @@ def smooth_allocation(protocol: ProtocolConfig, machine: MachineSpec,
     candidates = np.round(np.linspace(lo, hi, count), 3)
     grid = replace(protocol, scan_targets_mm=tuple(float(c) for c in candidates))
     layout = planned_layout(grid, machine)
-    rows = _Rows.of(layout, machine, noise_mm)
-    history = JointHistory.of(layout)
     setting = layout.posture == "zero"
     at = np.searchsorted(candidates, layout.q_mm[np.arange(len(layout)), layout.leg])
     at = np.where(setting, -1, np.clip(at, 0, count - 1))
+    return allocation_of(layout, machine, noise_mm, at, candidates,
+                         tuple(AXES.index(leg) for leg in protocol.legs), (lo, hi))
+
+
+def allocation_of(layout: ReadingsLayout, machine: MachineSpec, noise_mm: float,
+                  at: np.ndarray, candidates_mm: np.ndarray, axes: tuple[int, ...],
+                  travel_mm: tuple[float, float]) -> SmoothAllocation:
+    """The allocation over the candidate postures of ``layout``: ``at`` (n,) each
+    reading's candidate (-1: the gauges' setting readings, which every design has),
+    ``candidates_mm`` what each is called by, the smooth maps of ``axes`` over
+    ``travel_mm``."""
+    rows = _Rows.of(layout, machine, noise_mm)
+    history = JointHistory.of(layout)
+    setting = at < 0
     blocks, settings, sizes = [], [], []
-    for leg in protocol.legs:
-        a = AXES.index(leg)
-        term = _smooth_term(a, lo, hi)
-        shapes = rows.of_term(term, history) @ _unit_shapes(term, lo, hi)
+    for a in axes:
+        term = _smooth_term(a, *travel_mm)
+        shapes = rows.of_term(term, history) @ _unit_shapes(term, *travel_mm)
         x = np.column_stack([shapes, rows.nuisance(a)])
         outer = x[:, :, None] * x[:, None, :]
-        per = np.zeros((count, x.shape[1], x.shape[1]))
+        per = np.zeros((len(candidates_mm), x.shape[1], x.shape[1]))
         np.add.at(per, at[~setting], outer[~setting])
         blocks.append(per)
         settings.append(outer[setting].sum(axis=0))
         sizes.append(shapes.shape[1])
     per_target, setting_info = np.array(blocks), np.array(settings)
     weights, best, zero = _allocate(per_target, setting_info, sizes[0])
-    return SmoothAllocation(candidates, weights, best, zero, per_target, setting_info,
+    return SmoothAllocation(candidates_mm, weights, best, zero, per_target, setting_info,
                             sizes[0])
 
 
