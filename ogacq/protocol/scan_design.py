@@ -213,7 +213,8 @@ class ScanDesign:
                        f"the smooth map below {self.smooth_bound_mm * UM_PER_MM:.2g} µm (the "
                        "bound of its information-optimal allocation): a leg's gauges read "
                        "across its axis, so its joint's error along the axis reaches them "
-                       "only through the legs' tilt")
+                       "only through the legs' tilt; a positioning test along the axis's "
+                       "own line (ISO 230-2) sees it whole")
         return out
 
     def to_json(self) -> dict[str, Any]:
