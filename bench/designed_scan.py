@@ -26,16 +26,19 @@ the 0.01 mm offset register's step and the offsets' identification). Seed 2 on x
 pitch 4.977 mm, 0.80 um rms left. Designed 411 steps (38 min at 5.5 s) against a
 uniform 0.66 mm scan of 2883 steps (4.4 h).
 
-Seen (seed 1, 2026-12-07, the strata placed for the smooth map): at 5.5 s and 0.5 um,
-411 steps reach 1.45 um on the smooth map (equal strata 2.01 um; no placing of 34
-targets below 1.39 um, of 37 targets, 447 steps, below 1.33 um), cyclic 0.88 um,
-hysteresis 0.78 um. On the simulator (about 2 s a step, its repeats showing 0.6-0.9
-um) the 40 minutes hold 579-591 steps, which the design takes toward 1.5 um: all three
-exit 0 ("not shown": the validation's gauges see the joint's error over 16 mm only), a
-map only on the axis with the error, the LinuxCNC tables leaving 0.23, 0.07 and 0.38
-um rms of 2.83. The example machine's 10 um dial at the 2.4 um calibrate measured:
-cyclic 5.7, smooth 9.8, hysteresis 5.4 um in 435 steps (each posture's cycles
-counted once: they round alike), 1.5 um needing some 19,000 steps.
+Seen (seed 1, 2026-12-07, the strata placed for the smooth map, each gauge's zero
+taken out as the diagnosis does): at 5.5 s and 0.5 um, 411 steps reach 1.87 um on the
+smooth map (equal strata 2.35 um; no placing of 34 targets goes below 1.76 um, of 37
+targets, 447 steps, below 1.68 um: 1.5 um is beyond any placing along the axes in 450
+steps, and takes 675), cyclic 0.80 um, hysteresis 0.74 um. Postures with the TCP moved
+across the leg (none in the protocol) would bring it to 1.25 um (+-5 mm) or 0.91 um
+(+-10 mm) in 450 steps. On the simulator: 5.0 mm on x and 6.35 mm on y in 411 steps,
+4.0 mm on z in 1167 (its repeats showed less noise: 1.5 um within its 40 minutes at
+about 2 s a step), all exit 0 ("not shown": the validation's gauges see the joint's
+error over 16 mm only), a map only on the axis with the error, the LinuxCNC tables
+leaving 0.29, 0.44 and 0.53 um rms of 2.83. The example machine's 10 um dial at the
+2.4 um calibrate measured: cyclic 5.4, smooth 12.8, hysteresis 5.0 um in 411 steps
+(each posture's cycles counted once: they round alike), 1.5 um needing some 31,000.
 """
 
 from __future__ import annotations
