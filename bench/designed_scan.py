@@ -19,11 +19,26 @@ from 2 to 40 mm at 4 phases.
 
 Run: python bench/designed_scan.py [--only 5.0] [--keep FOLDER] [--seed 1]
 
-Seen (seed 1, 2026-12): all three validated (exit 0), 411 reading steps each, a map
-only on the axis with the error; the LinuxCNC tables leave 0.40, 0.19 and 0.63 um rms
-of 2.83 (about a constant of 1-3 um: the 0.01 mm offset register's step). Seed 2 on x:
+Seen (seed 1, 2026-12, before the strata were placed for the smooth map): all three
+validated (exit 0), 411 reading steps each, a map only on the axis with the error; the
+LinuxCNC tables leave 0.40, 0.19 and 0.63 um rms of 2.83 (about a constant of 1-3 um:
+the 0.01 mm offset register's step and the offsets' identification). Seed 2 on x:
 pitch 4.977 mm, 0.80 um rms left. Designed 411 steps (38 min at 5.5 s) against a
 uniform 0.66 mm scan of 2883 steps (4.4 h).
+
+Seen (seed 1, 2026-12-07, the strata placed for the smooth map, each gauge's zero
+taken out as the diagnosis does): at 5.5 s and 0.5 um, 411 steps reach 1.87 um on the
+smooth map (equal strata 2.35 um; no placing of 34 targets goes below 1.76 um, of 37
+targets, 447 steps, below 1.68 um: 1.5 um is beyond any placing along the axes in 450
+steps, and takes 675), cyclic 0.80 um, hysteresis 0.74 um. Postures with the TCP moved
+across the leg (none in the protocol) would bring it to 1.25 um (+-5 mm) or 0.91 um
+(+-10 mm) in 450 steps. On the simulator: 5.0 mm on x and 6.35 mm on y in 411 steps,
+4.0 mm on z in 1167 (its repeats showed less noise: 1.5 um within its 40 minutes at
+about 2 s a step), all exit 0 ("not shown": the validation's gauges see the joint's
+error over 16 mm only), a map only on the axis with the error, the LinuxCNC tables
+leaving 0.29, 0.44 and 0.53 um rms of 2.83. The example machine's 10 um dial at the
+2.4 um calibrate measured: cyclic 5.4, smooth 12.8, hysteresis 5.0 um in 411 steps
+(each posture's cycles counted once: they round alike), 1.5 um needing some 31,000.
 """
 
 from __future__ import annotations
@@ -37,15 +52,19 @@ from pathlib import Path
 
 import numpy as np
 
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
+from ogacq.model.kinematics import nominal_q
+from ogacq.model.machine import PAPER_PROTOTYPE, PAPER_PROTOTYPE_DIGITAL
+from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import AXES, PARAM_INDEX
 from ogacq.protocol.plan import ProtocolConfig, reading_steps, scan_targets
 from ogacq.protocol.scan_design import (
     ALIAS_LIMIT,
     UNSTATED_BAND_MM,
     alias_level,
+    allocation_of,
     design_scan,
     resolved_band,
+    smooth_allocation,
 )
 from ogacq.session.records import CalibrateRecord
 from ogacq.session.store import load_session
@@ -56,6 +75,8 @@ from ogacq.writeback.maps_table import read_maps_table
 SEED = 1  # calibrate's default (--seed)
 CASES = {"5.0 mm on x": ("x", 5.0), "6.35 mm on y": ("y", 6.35), "4.0 mm on z": ("z", 4.0)}
 STEP_S = 5.5  # a reading step of a real station (the issue's figure)
+MOST_TARGETS_450 = 37  # the most targets of three legs' scan in 450 reading steps
+DIAL_NOISE_MM = 0.0024  # calibrate's noise on the example machine's 10 um dial
 
 
 def effects_text(axis: str, pitch_mm: float) -> str:
@@ -152,8 +173,66 @@ def compare_scans() -> None:
           f"at {STEP_S} s a step; band {design.pitch_band_mm[0]:g}-"
           f"{design.pitch_band_mm[1]:g} mm; detection (3 sigma at 0.5 um) "
           + ", ".join(f"{f} {v * 1e3:.2f} um" for f, v in design.detection_mm.items()))
+    equal = design_scan(m, base, noise_mm=0.0005)  # no machine time: equal strata
+    print(f"the same count in equal strata: {equal.steps} reading steps, smooth map "
+          f"{equal.detection_mm['screw_map'] * 1e3:.2f} um")
+    allocation = smooth_allocation(dataclasses.replace(
+        design.protocol, scan_targets_mm=(design.targets_mm[0], design.targets_mm[-1])), m,
+        0.0005)
+    for targets in (len(design.targets_mm), MOST_TARGETS_450):
+        print(f"smooth map, {targets} targets ({3 * (1 + 4 * targets)} reading steps): no "
+              f"placing below {allocation.bound_mm(targets, 0.0005) * 1e3:.3f} um (the dual "
+              "bound); the E-optimal allocation itself, as weights "
+              f"{allocation.allocated_mm(targets, 0.0005) * 1e3:.3f}"
+              " um")
     print(f"uniform scan resolving the same band: every {step:g} mm, {n} reading steps, "
           f"{n * STEP_S / 3600:.1f} h at {STEP_S} s a step")
+    for offsets in ((0.0,), (0.0, 5.0, -5.0), (0.0, 10.0, -10.0)):
+        bound, reached = off_axis_bound(offsets)
+        print(f"postures with the TCP moved {', '.join(f'{t:+g}' for t in offsets)} mm across "
+              f"the leg, 450 reading steps: smooth map no placing below {bound * 1e3:.2f} um, "
+              f"the allocation {reached * 1e3:.2f} um")
+    # the example machine's 10 um dial at the noise calibrate measured on it (2.4 um)
+    dial = design_scan(PAPER_PROTOTYPE, base, noise_mm=DIAL_NOISE_MM, seconds_per_step=STEP_S,
+                       budget_s=40 * 60)
+    print(f"10 um dial at {DIAL_NOISE_MM * 1e3:g} um: {dial.steps} reading steps, detection "
+          + ", ".join(f"{f} {v * 1e3:.2f} um" for f, v in dial.detection_mm.items())
+          + f"; no placing below {dial.smooth_bound_mm * 1e3:.2f} um on the smooth map; "
+          f"1.5 um would need {dial.target_steps} reading steps")
+
+
+def off_axis_bound(offsets_mm: tuple[float, ...] = (0.0,),
+                   visits: int = 149) -> tuple[float, float]:
+    """The bound no allocation of ``visits`` reading steps per leg beats on the smooth map,
+    and what the E-optimal allocation itself reaches (as weights)
+    (0.5 um gauge, 1 um display), over candidate postures every 2 mm along each leg
+    with the TCP moved ``offsets_mm`` across it, toward either other axis (the protocol
+    has no such posture: what one would bring). A leg's gauges then read the leg line
+    about half the offset away from where they were set: 10 mm keeps a 12.7 mm gauge
+    set mid-range within it (``ReadingExpectations.gauge_range_mm``)."""
+    m = PAPER_PROTOTYPE_DIGITAL
+    lo, hi = m.rho_min_mm + 1.0, m.rho_max_mm - 1.0
+    along = np.arange(lo, hi + 1e-9, 2.0)
+    postures = [(s, k, t) for t in offsets_mm for k in ((1, 2) if t else (1,)) for s in along]
+    q, leg, axis, at = [], [], [], []
+    for i in range(3):
+        tcps = [np.zeros(3)]
+        for s, k, t in postures:
+            p = np.zeros(3)
+            p[i], p[(i + k) % 3] = s, t
+            tcps.append(p)
+        joints = nominal_q(np.array(tcps), m.leg_length_mm)
+        for c, joint in enumerate(joints):
+            for j in range(3):
+                if j != i:
+                    q.append(joint)
+                    leg.append(i)
+                    axis.append(j)
+                    at.append(c - 1)  # the first, at Zero, sets the gauges
+    layout = ReadingsLayout.build(q, leg, axis)
+    allocation = allocation_of(layout, m, 0.0005, np.array(at), np.arange(len(postures)),
+                               (0, 1, 2), (lo, hi))
+    return allocation.bound_mm(visits, 0.0005), allocation.allocated_mm(visits, 0.0005)
 
 
 def main() -> None:

@@ -28,40 +28,57 @@ design here does so for every period a drive can have:
   gauge noise the verdict needs);
 * ``n`` is the fewest that sample the band, within the time budget; a budget too
   small for it gives the most the budget allows, and what that leaves unsampled is
-  said.
+  said; more where that reaches ``DETECTION_TARGET_MM`` in every family within the
+  budget, else what would is said.
 
 The detection limit of each family is ``DETECTION_SIGMAS`` times the std of its
 amplitude at the gauge noise, from the design's normal matrix: each family's columns
 (``ogacq.model.error_maps``) through the joint sensitivities of the planned readings,
-less what the joint offsets take (``C' (I - P_B) C``). A smooth map's constant is
-its joint offset's and its slope its axis's encoder scale's, exactly: its
-limit is stated for the rest, the map less its straight line over the travel, as the
-rms of the least visible such shape (the smallest generalised eigenvalue of the normal
-matrix against the maps' rms over the travel), one shape as the other families' one
-amplitude. It is set by the sensitivity, not by where the targets are: a leg's gauges
-read across its own axis, so its joint's error reaches them only through the other
-legs' tilt (at most 0.13 of it on the built-in machine, none near the Zero posture),
-and the other legs' scans move it over a sixth of its travel. Targets twice as dense
-near the ends or mid-travel, tried, raised the figure (2.2 against 2.0 um); it falls
-as the square root of the reading steps (bench/bench_smooth_map.py prints it against
-the budget).
+less what the joint offsets and each gauge's zero take (``C' (I - P_B) C``; the
+diagnosis fits both), the readings weighed by the diagnosis's own covariance
+(``identify.noise``): the part of the display's rounding
+that the gauge's scatter does not dither away is shared by a posture's repeats, so on
+a 10 um display the cycles of a posture count about once. A smooth map's constant is
+its joint offset's and its slope its axis's encoder scale's, exactly: its limit is
+stated for the rest, the map less its straight line over the travel, as the rms of the
+least visible such shape (the smallest generalised eigenvalue of the normal matrix
+against the maps' rms over the travel), one shape as the other families' one
+amplitude.
+
+That limit is set by the sensitivity and by where the targets are: a leg's gauges read
+across its own axis, so its joint's error reaches them only through the legs' tilt (at
+most 0.13 of it on the built-in machine, none near the Zero posture), the other legs'
+scans move it over a sixth of its travel only, and there each gauge's zero takes its
+constant. Within a budget the strata are therefore cut partly by where the map is
+seen (:class:`SmoothAllocation`, the E-optimal allocation of its information over
+candidate targets), as long as every period stays sampled: on the built-in machine at
+a 0.5 um gauge, 34 targets go from 2.35 um in equal strata to 1.87 um, and no placing
+of them goes below 1.76 um (of 37 targets, 447 steps: 1.68 um), so that 1.5 um takes
+675 steps. Where a budget falls short of ``DETECTION_TARGET_MM`` the design says what
+would reach it and that bound (the allocation's dual).
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, replace
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
+from ogacq.identify.noise import GaugeNoise, GroupWhitener, shared_rounding_variance
+from ogacq.identify.observations import Observations
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.joint_sensitivity import joint_sensitivity
 from ogacq.model.machine import MachineSpec
+from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import AXES, vector
 from ogacq.model.units import UM_PER_MM
 from ogacq.protocol.plan import ProtocolConfig, planned_layout, reading_steps, scan_targets
 
+Strata = tuple[np.ndarray, np.ndarray]  # (cumulative share, position) along the travel
 MIN_PHASES = 4
 LARGEST_PHASE_GAP = 1.0 / MIN_PHASES  # of a period
 # Every lead of a ball screw on a machine of this size, when the file states none:
@@ -91,6 +108,19 @@ DETECTION_TARGET_MM = 0.0015
 TARGETS_MARGIN = 1.05
 SMOOTH_KNOTS = 8  # the smooth map whose detection is stated (a cubic spline)
 BUILD_UP_MM = 4.0  # the wind-up whose detection is stated
+# Where the smooth map is seen: the candidates its allocation is solved on (a target's
+# information changes little over a millimetre), the shares of the strata cut equal in
+# that allocation's weight rather than in length that are tried (the rest keeps every
+# period's phases spread), and each candidate's weight spread over a target's jitter.
+# No source beyond the built-in machine, where they bring the 40-minute design's 34
+# targets from 2.35 to 1.87 um (the cyclic limit from 0.77 to 0.80 um), every phase
+# bound kept; no placing of 34 targets goes below 1.76 um (the allocation's bound).
+CANDIDATE_STEP_MM = 1.0
+INFORMED_SHARES = (0.5, 0.7, 0.85, 1.0)
+SPREAD_MM = 2.0
+ALLOCATION_ROUNDS = 300
+ALLOCATION_GAP = 0.02  # the dual bound within 2 % of the allocation's own limit: done
+SOFT_MIN = 30.0  # eigenvalues 10 % above the least weigh e^-3 of it in the soft minimum
 
 
 @dataclass(frozen=True)
@@ -110,6 +140,10 @@ class ScanDesign:
     detection_mm: dict[str, float]  # family -> DETECTION_SIGMAS x its amplitude's std
     alias_level: float = 0.0  # the spectral window's largest sidelobe (alias_level)
     target_steps: int = 0  # the reading steps DETECTION_TARGET_MM would need (0: reached)
+    # the least smooth-map limit any placing of these targets reaches (0: not asked)
+    smooth_bound_mm: float = 0.0
+    display_step_mm: float = 0.0
+    rounding_repeated: bool = False  # most of a reading's noise its repeats share
 
     @property
     def targets_mm(self) -> tuple[float, ...]:
@@ -155,7 +189,10 @@ class ScanDesign:
                        f"{self.required_mm[1]:g} mm, is not covered within the budget "
                        "(a longer --scan-minutes would)")
         out.append(f"detection limit ({DETECTION_SIGMAS:g} sigma at the gauge noise "
-                   f"{self.noise_mm * UM_PER_MM:.2g} µm): "
+                   f"{self.noise_mm * UM_PER_MM:.2g} µm"
+                   + (f", most of it the {self.display_step_mm:g} mm display's rounding, "
+                      "which a posture's cycles share: they count about once"
+                      if self.rounding_repeated else "") + "): "
                    + ", ".join(f"{FAMILY_WORDS[f]} {v * UM_PER_MM:.2g} µm" if math.isfinite(v)
                                else f"{FAMILY_WORDS[f]} not determined (too few targets)"
                                for f, v in self.detection_mm.items()))
@@ -167,7 +204,17 @@ class ScanDesign:
             out.append(f"{DETECTION_TARGET_MM * UM_PER_MM:g} µm in every family would need "
                        f"about {self.target_steps} reading steps"
                        + (f" ({_minutes(self.target_steps * self.seconds_per_step)}: a longer "
-                          "--scan-minutes)" if self.seconds_per_step else ""))
+                          "--scan-minutes)" if self.seconds_per_step else "")
+                       + ("; gauges of a finer display would need far fewer: the display's "
+                          "rounding, not their scatter, sets these limits"
+                          if self.rounding_repeated else ""))
+        if self.smooth_bound_mm:
+            out.append(f"no placing of {len(self.targets_mm)} targets along the travel sees "
+                       f"the smooth map below {self.smooth_bound_mm * UM_PER_MM:.2g} µm (the "
+                       "bound of its information-optimal allocation): a leg's gauges read "
+                       "across its axis, so its joint's error along the axis reaches them "
+                       "only through the legs' tilt; a positioning test along the axis's "
+                       "own line (ISO 230-2) sees it whole")
         return out
 
     def to_json(self) -> dict[str, Any]:
@@ -183,6 +230,7 @@ class ScanDesign:
                 "alias_level": round(self.alias_level, 4),
                 "noise_mm": self.noise_mm,
                 "detection_target_steps": self.target_steps or None,
+                "smooth_bound_mm": round(self.smooth_bound_mm, 7) or None,
                 "detection_mm": {f: round(v, 7) if math.isfinite(v) else None
                                  for f, v in self.detection_mm.items()}}
 
@@ -235,14 +283,18 @@ def stated_periods(machine: MachineSpec, legs: tuple[str, ...]) -> tuple[float, 
                          for p in machine.screw(a).periods_mm() for h in HARMONICS}))
 
 
-def stratified_targets(lo: float, hi: float, n: int, seed: int) -> np.ndarray:
+def stratified_targets(lo: float, hi: float, n: int, seed: int,
+                       strata: Strata | None = None) -> np.ndarray:
     """``n`` targets from ``lo`` to ``hi``: both ends, and one in each of the ``n - 2``
-    equal strata between, jittered within its middle 80 % (so that neighbours stay a
-    fifth of a stratum apart), rounded to the micrometre."""
+    strata between, jittered within its middle 80 % (so that neighbours stay a fifth of
+    a stratum apart), rounded to the micrometre. The strata are equal in length, or in
+    the share ``strata`` (cumulative share, position) gives them."""
     inner = n - 2
-    width = (hi - lo) / inner
     u = np.random.default_rng(seed).random(inner)
-    t = lo + (np.arange(inner) + 0.1 + 0.8 * u) * width
+    if strata is None:
+        t = lo + (np.arange(inner) + 0.1 + 0.8 * u) * ((hi - lo) / inner)
+    else:
+        t = np.interp((np.arange(inner) + 0.1 + 0.8 * u) / inner, *strata)
     return np.round(np.concatenate([[lo], t, [hi]]), 3)
 
 
@@ -264,34 +316,46 @@ def alias_level(targets_mm: np.ndarray, shortest_mm: float) -> float:
     return float(window.max()) if len(df) else 1.0
 
 
-def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None,
-                  stated: tuple[float, ...]) -> tuple[np.ndarray, float]:
-    """The jitter, of ``SEEDS`` tried, whose worst gap over the band and the stated
-    periods, and whose alias level, are furthest within their bounds (the larger of
-    the two as a share of its bound: at most 1 meets both)."""
-    best: tuple[float, np.ndarray] | None = None
-    freqs = None
-    shortest = min((*stated, *(band or ())), default=UNSTATED_BAND_MM[0])
+def _jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
+             ) -> Iterator[np.ndarray]:
+    """The ``SEEDS`` jitters of the strata (none with two targets in a micrometre)."""
     for seed in range(SEEDS):
-        t = stratified_targets(lo, hi, n, seed)
-        centred = t - t.mean()
-        if band is not None and freqs is None:
-            freqs = frequency_grid(t, band, SEARCH_GRID)
-        worst = max([float(phase_gaps(centred, freqs).max())] if freqs is not None else [0.0])
-        worst = max([worst, *_gap_at(t, stated).tolist()])
-        score = max(worst / LARGEST_PHASE_GAP, alias_level(t, shortest) / ALIAS_LIMIT)
-        if best is None or score < best[0]:
-            best = (score, t)
-    assert best is not None
-    return best[1], best[0]
+        t = stratified_targets(lo, hi, n, seed, strata)
+        if np.all(np.diff(t) > 0.0):
+            yield t
+
+
+def _score(targets_mm: np.ndarray, band: tuple[float, float] | None,
+           stated: tuple[float, ...]) -> float:
+    """The targets' worst phase gap over the band (on the coarser search grid) and the
+    stated periods, and their alias level, the larger of the two as a share of its
+    bound: at most 1 meets both."""
+    worst = 0.0
+    if band is not None:
+        freqs = frequency_grid(targets_mm, band, SEARCH_GRID)
+        worst = float(phase_gaps(targets_mm - targets_mm.mean(), freqs).max())
+    worst = max([worst, *_gap_at(targets_mm, stated).tolist()])
+    shortest = min((*stated, *(band or ())), default=UNSTATED_BAND_MM[0])
+    return max(worst / LARGEST_PHASE_GAP, alias_level(targets_mm, shortest) / ALIAS_LIMIT)
+
+
+@lru_cache(maxsize=64)  # a design tries counts upward; designs of one machine share them
+def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None,
+                  stated: tuple[float, ...]) -> np.ndarray:
+    """The jitter of equal strata furthest within the bounds (read-only: shared)."""
+    best = min(_jitters(lo, hi, n), key=lambda t: _score(t, band, stated))
+    best.flags.writeable = False
+    return best
 
 
 def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
                 seconds_per_step: float = 0.0, budget_s: float | None = None,
                 ) -> ScanDesign:
     """The separating scan for ``machine`` of the legs ``base`` reads (``base``: the
-    campaign's legs, settling and overshoot), its targets the fewest that sample the
-    band within ``budget_s`` of machine time at ``seconds_per_step``."""
+    campaign's legs, settling and overshoot): its targets the fewest that sample the
+    band within ``budget_s`` of machine time at ``seconds_per_step``, placed where the
+    smooth map is seen best within those bounds, more where that reaches
+    ``DETECTION_TARGET_MM`` within the budget."""
     legs = base.legs
     protocol = replace(base, postures=(), approach="both", cycles=DESIGN_CYCLES,
                        scan_step_mm=None, scan_from_mm=None, scan_to_mm=None)
@@ -307,29 +371,112 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
                            per_leg)
     n = min(FEWEST_POSITIONS, most)
     shortest = min(stated + (required or (longest,)))
+    scan = _Scan(machine, replace(protocol, scan_targets_mm=(lo, hi)), noise_mm, required,
+                 stated, longest, shortest)
+    while True:  # the fewest equal strata that sample the band
+        covered = scan.covers(_best_targets(lo, hi, n, required, stated))
+        if covered or n >= most:
+            break
+        n = min(most, max(n + 1, int(n * 1.12)))
     while True:
-        targets, _ = _best_targets(lo, hi, n, required, stated)
-        band, band_gap = resolved_band(targets, longest, shortest)
-        unsampled = tuple(p for p, g in zip(stated, _gap_at(targets, stated), strict=True)
-                          if g > LARGEST_PHASE_GAP)
-        aliases = alias_level(targets, shortest)
-        covered = not unsampled and _band_reached(band, required) and aliases <= ALIAS_LIMIT
-        if not covered and n < most:
-            n = min(most, max(n + 1, int(n * 1.12)))
-            continue
-        protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
-        detection = detection_limits(protocol, machine, noise_mm, band, stated)
-        wanted = targets_for_detection(detection, n)
+        placed = scan.placed(n, covered and timed)
+        wanted = targets_for_detection(placed.detection, n)
         if wanted <= n or wanted > most or not timed:
             # reached, or beyond the budget's reach (or no budget in machine time to
             # grow within): the fewest that sample the band
             break
         n = wanted
-    gaps = [band_gap, *[g for g in _gap_at(targets, stated) if g <= LARGEST_PHASE_GAP]]
+    targets = placed.targets
+    protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
+    band, band_gap = resolved_band(targets, longest, shortest)
+    stated_gaps = _gap_at(targets, stated)
+    unsampled = tuple(p for p, g in zip(stated, stated_gaps, strict=True)
+                      if g > LARGEST_PHASE_GAP)
+    gaps = [band_gap, *[g for g in stated_gaps if g <= LARGEST_PHASE_GAP]]
     steps = len(reading_steps(protocol, machine))
-    needed = len(legs) * (1 + (per_leg - 1) * wanted) if n < wanted <= MOST_POSITIONS else 0
+    finite = all(math.isfinite(v) for v in placed.detection.values())
+    needed = len(legs) * (1 + (per_leg - 1) * wanted) if finite and wanted > n else 0
+    smooth = placed.detection.get("screw_map", 0.0)
+    # said where no placing of these targets would reach the target either
+    bound = scan.allocation().bound_mm(n, noise_mm) \
+        if timed and finite and smooth > DETECTION_TARGET_MM else 0.0
+    bound = bound if bound > DETECTION_TARGET_MM else 0.0
+    step = machine.gauge_resolution_mm
     return ScanDesign(protocol, steps, seconds_per_step, budget_s, required, stated, band,
-                      unsampled, max(gaps), noise_mm, detection, aliases, needed)
+                      unsampled, max(gaps), noise_mm, placed.detection,
+                      alias_level(targets, shortest), needed, bound, step,
+                      reading_noise(noise_mm, step).rounding_dominated)
+
+
+@dataclass(frozen=True)
+class _Placed:
+    targets: np.ndarray
+    detection: dict[str, float]
+
+
+@dataclass
+class _Scan:
+    """The targets of ``n`` strata placed for a machine: equal strata, or strata cut
+    partly by where the smooth map is seen (:class:`SmoothAllocation`): of their
+    jitters, the one the allocation finds sees the map best among those that keep
+    every period sampled, where its limits beat the equal strata's."""
+
+    machine: MachineSpec
+    ends: ProtocolConfig  # the scan's protocol, its targets its two ends
+    noise_mm: float
+    required: tuple[float, float] | None
+    stated: tuple[float, ...]
+    longest: float
+    shortest: float
+
+    def allocation(self) -> SmoothAllocation:
+        try:
+            hash(self.machine)
+        except TypeError:  # a field that does not hash by value: found afresh
+            return smooth_allocation.__wrapped__(self.ends, self.machine, self.noise_mm)
+        return smooth_allocation(self.ends, self.machine, self.noise_mm)
+
+    def covers(self, targets: np.ndarray) -> bool:
+        """Every stated period and the band required sampled (on the fine grid), no
+        alias beyond its bound."""
+        band, _ = resolved_band(targets, self.longest, self.shortest)
+        return all(g <= LARGEST_PHASE_GAP for g in _gap_at(targets, self.stated)) and \
+            _band_reached(band, self.required) and \
+            alias_level(targets, self.shortest) <= ALIAS_LIMIT
+
+    def placed(self, n: int, informed: bool) -> _Placed:
+        """The targets of ``n`` strata: placed for the smooth map where ``informed``
+        (within a budget, every period sampled), else equal."""
+        lo, hi = self.ends.scan_targets_mm
+        equal = _best_targets(lo, hi, n, self.required, self.stated)
+        detection = self._detection(equal)
+        worst = max(detection.values())
+        if informed and DETECTION_TARGET_MM < worst < math.inf:
+            return self._informed(n, equal, detection)
+        return _Placed(equal, detection)  # no need, no period to spare, or too few targets
+
+    def _informed(self, n: int, equal: np.ndarray, detection: dict[str, float]) -> _Placed:
+        lo, hi = self.ends.scan_targets_mm
+        allocation = self.allocation()
+        floor = allocation.limit_mm(equal, self.noise_mm)
+        tried = sorted(((allocation.limit_mm(t, self.noise_mm), k, t)
+                        for share in INFORMED_SHARES
+                        for k, t in enumerate(_jitters(lo, hi, n, allocation.strata_edges(
+                            share, lo, hi)))), key=lambda c: c[:2])
+        for limit, _, targets in tried:  # the smooth map's best first, if it keeps
+            if limit >= floor:  # every period sampled as the equal strata do
+                break
+            if _score(targets, self.required, self.stated) <= 1.0 and self.covers(targets):
+                placed = _Placed(targets, self._detection(targets))
+                if max(placed.detection.values()) < max(detection.values()):
+                    return placed
+                break
+        return _Placed(equal, detection)
+
+    def _detection(self, targets: np.ndarray) -> dict[str, float]:
+        protocol = replace(self.ends, scan_targets_mm=tuple(float(t) for t in targets))
+        band, _ = resolved_band(targets, self.longest, self.shortest)
+        return detection_limits(protocol, self.machine, self.noise_mm, band, self.stated)
 
 
 def _most_positions(budget_s: float | None, seconds_per_step: float, legs: int,
@@ -366,35 +513,90 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
     """Per family, ``DETECTION_SIGMAS`` times the std of its amplitude on the worst
     scanned axis: a cyclic error's (over periods across the band and the stated ones),
     the rms over the travel of a smooth map's least visible shape less its line, a
-    hysteresis' lost motion."""
+    hysteresis' lost motion; the readings weighed as the diagnosis weighs them, the
+    display's rounding shared by each posture's repeats (:func:`reading_noise`)."""
     layout = planned_layout(protocol, machine)
     history = JointHistory.of(layout)
-    sens = joint_sensitivity(vector(), layout, machine)
-    s_r, s_s = sens.along()
-    setting = s_s  # a gauge stays where it was set: its setting pose's sensitivity
+    rows = _Rows.of(layout, machine, noise_mm)
+    nuisance = _orthonormal(rows.offsets)
     lo, hi = protocol.scan_targets_mm[0], protocol.scan_targets_mm[-1]
-    offsets = s_r + setting  # each joint offset's column: the same shift everywhere
-    # each encoder scale's: a shift in proportion to q (parameters.py's encoder_scale,
-    # its column in the model's Jacobian up to the ppm unit), a smooth map's slope
-    scales = s_r * layout.q_mm + setting * layout.setting_q_mm[layout.gauge]
-    nuisance = _orthonormal(offsets)
     periods = sorted({*np.geomspace(band_mm[0], band_mm[1], 12).tolist(), *stated_mm})
     out: dict[str, float] = {}
     for leg in protocol.legs:
         a = AXES.index(leg)
         terms = {"lead_screw_cyclic": [MapTerm("lead_screw_cyclic", a, {"pitch_mm": p})
                                        for p in periods],
-                 "screw_map": [MapTerm("screw_map", a, {"from_mm": lo, "to_mm": hi,
-                                                        "knots": SMOOTH_KNOTS})],
+                 "screw_map": [_smooth_term(a, lo, hi)],
                  "hysteresis": [MapTerm("hysteresis", a, {"length_mm": BUILD_UP_MM})]}
         for family, family_terms in terms.items():
             # a smooth map's line is the offset's and the scale's
-            taken = _orthonormal(np.column_stack([offsets, scales[:, a]])) \
-                if family_terms[0].kind.pointwise else nuisance
-            worst = max(_amplitude_std(t, history, s_r[:, a], setting[:, a], layout.gauge,
-                                       taken, lo, hi) for t in family_terms)
+            taken = _orthonormal(rows.nuisance(a)) if family_terms[0].kind.pointwise \
+                else nuisance
+            worst = max(_amplitude_std(rows.of_term(t, history), taken, t, lo, hi)
+                        for t in family_terms)
             out[family] = max(out.get(family, 0.0), DETECTION_SIGMAS * noise_mm * worst)
     return out
+
+
+def reading_noise(noise_mm: float, step_mm: float) -> GaugeNoise:
+    """A reading's noise as the design counts it: ``noise_mm`` in all, of which the part
+    of the display's rounding that the gauge's scatter does not dither away repeats
+    with the cycles of a posture (``identify.noise``: ``c(sigma, s)``, the diagnosis's
+    own covariance), the scatter being what the rounding's ``s^2 / 12`` leaves of it.
+    On a 10 um display with a gauge repeating to 0.5 um the cycles' repeats round alike
+    and carry one reading's worth; on a 1 um one they are independent."""
+    scatter = math.sqrt(max(noise_mm**2 - step_mm**2 / 12.0, 0.0))
+    shared = min(shared_rounding_variance(scatter, step_mm), noise_mm**2)
+    return GaugeNoise(noise_mm, "design", step_mm, scatter, shared)
+
+
+@dataclass(frozen=True)
+class _Rows:
+    """A layout's readings as the detection limits weigh them: each joint's columns
+    (per unit of its displacement at the reading and at the gauge's setting), and the
+    whitening that makes a unit of every whitened reading one noise."""
+
+    s_r: np.ndarray  # (n, 3) along each joint's line, at the reading
+    s_s: np.ndarray  # (n, 3) at the gauge's setting pose
+    layout: ReadingsLayout
+    whiten: Callable[[np.ndarray], np.ndarray]  # along the last axis: (..., n)
+
+    @classmethod
+    def of(cls, layout: ReadingsLayout, machine: MachineSpec, noise_mm: float) -> _Rows:
+        s_r, s_s = joint_sensitivity(vector(), layout, machine).along()
+        noise = reading_noise(noise_mm, machine.gauge_resolution_mm)
+        whiten = GroupWhitener(Observations(machine, layout, np.zeros(len(layout)), []), noise)
+        return cls(s_r, s_s, layout, whiten)
+
+    @property
+    def offsets(self) -> np.ndarray:
+        """(n, 3 + G) each joint offset's column (the same shift everywhere), and each
+        gauge's zero (every reading of that gauge: a gauge reads from where it was set,
+        a constant the fit takes for each gauge as the diagnosis does)."""
+        lay = self.layout
+        zeros = np.eye(lay.n_gauges)[lay.gauge]
+        return self.whiten(np.column_stack([self.s_r + self.s_s, zeros]).T).T
+
+    def nuisance(self, axis: int) -> np.ndarray:
+        """(n, 4 + G) the offsets, the gauges' zeros and the axis's encoder scale: a
+        shift in proportion to q (parameters.py's encoder_scale, its column in the
+        model's Jacobian up to the ppm unit), a smooth map's slope."""
+        lay = self.layout
+        scale = self.s_r[:, axis] * lay.q_mm[:, axis] + \
+            self.s_s[:, axis] * lay.setting_q_mm[lay.gauge, axis]
+        return np.column_stack([self.offsets, self.whiten(scale)])
+
+    def of_term(self, term: MapTerm, history: JointHistory) -> np.ndarray:
+        """(n, k) the term's columns: its displacement through the joint's sensitivity."""
+        at_reading, at_setting = term.columns(history)
+        a = term.axis
+        cols = at_reading * self.s_r[None, :, a] + \
+            at_setting[:, self.layout.gauge] * self.s_s[None, :, a]
+        return self.whiten(cols).T
+
+
+def _smooth_term(axis: int, lo: float, hi: float) -> MapTerm:
+    return MapTerm("screw_map", axis, {"from_mm": lo, "to_mm": hi, "knots": SMOOTH_KNOTS})
 
 
 def _orthonormal(columns: np.ndarray) -> np.ndarray:
@@ -402,18 +604,16 @@ def _orthonormal(columns: np.ndarray) -> np.ndarray:
     return u[:, s > s[0] * 1e-10]
 
 
-def _amplitude_std(term: MapTerm, history: JointHistory, s_r: np.ndarray, s_s: np.ndarray,
-                   gauge: np.ndarray, nuisance: np.ndarray, lo: float, hi: float) -> float:
-    """The std of the term's amplitude per unit reading noise, the nuisance directions
-    taken out: a cyclic error's amplitude (either quadrature: the larger), the rms over
-    ``lo..hi`` of a smooth map's least visible shape less its line, a lost motion's
-    value."""
-    at_reading, at_setting = term.columns(history)
-    cols = (at_reading * s_r[None] + at_setting[:, gauge] * s_s[None]).T  # (n, k)
+def _amplitude_std(cols: np.ndarray, nuisance: np.ndarray, term: MapTerm, lo: float,
+                   hi: float) -> float:
+    """The std of the term's amplitude per unit reading noise from its whitened
+    columns (n, k), the nuisance directions taken out: a cyclic error's amplitude
+    (either quadrature: the larger), the rms over ``lo..hi`` of a smooth map's least
+    visible shape less its line, a lost motion's value."""
     cols = cols - nuisance @ (nuisance.T @ cols)
     normal = cols.T @ cols
     if term.kind.pointwise:  # a smooth map: its values along q
-        return _least_visible_rms(term, normal, lo, hi)
+        return _least_visible_rms(normal, _unit_shapes(term, lo, hi))
     try:
         cov = np.linalg.inv(normal)
     except np.linalg.LinAlgError:
@@ -421,13 +621,12 @@ def _amplitude_std(term: MapTerm, history: JointHistory, s_r: np.ndarray, s_s: n
     return float(np.sqrt(max(float(np.max(np.diag(cov))), 0.0)))
 
 
-def _least_visible_rms(term: MapTerm, normal: np.ndarray, lo: float, hi: float) -> float:
-    """1 / sqrt of the smallest eigenvalue of ``normal`` (the map's coefficients, the
-    offsets and scales taken out) against the Gram matrix of its shapes less their
-    line over ``lo..hi``: the rms of the smooth map, its line apart, that the readings
-    see least, per unit of their noise. The line's directions are the nuisance's (the
-    offset's constant, the scale's slope): both matrices are blind to them, so the
-    problem is solved on the shapes' rest."""
+def _unit_shapes(term: MapTerm, lo: float, hi: float) -> np.ndarray:
+    """(k, p) the map's coefficients of shapes whose rest beyond their line over
+    ``lo..hi`` is of unit rms and orthogonal: the eigenvectors of the Gram matrix of its
+    shapes less their line, scaled. The line's directions are the nuisance's (the
+    offset's constant, the scale's slope), which the normal matrix is blind to as
+    well, so they are left out."""
     grid = np.linspace(lo, hi, 101)
     basis = term.shape_of(grid, np.ones_like(grid), np.full_like(grid, np.inf),
                           np.zeros_like(grid))  # (k, 101)
@@ -436,11 +635,180 @@ def _least_visible_rms(term: MapTerm, normal: np.ndarray, lo: float, hi: float) 
     gram = rest @ rest.T / len(grid)
     size, directions = np.linalg.eigh(gram)
     kept = size > size.max() * 1e-9
-    whiten = directions[:, kept] / np.sqrt(size[kept])  # coefficients of unit-rms shapes
-    seen = np.linalg.eigvalsh(whiten.T @ normal @ whiten)
+    return directions[:, kept] / np.sqrt(size[kept])
+
+
+def _least_visible_rms(normal: np.ndarray, unit_shapes: np.ndarray) -> float:
+    """1 / sqrt of the smallest eigenvalue of ``normal`` (the map's coefficients, the
+    offsets and scales taken out) on the unit-rms shapes: the rms of the smooth map,
+    its line apart, that the readings see least, per unit of their noise."""
+    seen = np.linalg.eigvalsh(unit_shapes.T @ normal @ unit_shapes)
     if seen[0] <= seen[-1] * 1e-10 or seen[0] <= 0.0:
         return math.inf  # a shape the readings do not see at all: too few targets
     return float(1.0 / math.sqrt(seen[0]))
+
+
+@dataclass(frozen=True)
+class SmoothAllocation:
+    """Where along the travel the smooth map's least visible shape is seen: the
+    allocation of the targets over candidates every ``CANDIDATE_STEP_MM`` that
+    maximises the smallest eigenvalue of its normal matrix (E-optimal: the criterion
+    of the limit itself; Pukelsheim, "Optimal Design of Experiments", 1993, ch. 6),
+    every leg read at each target as the design reads it, the joint offsets and the
+    encoder scale taken out, on the worst axis. Found by multiplicative steps on the
+    soft minimum of the eigenvalues (Silvey, Titterington and Torsney's algorithm,
+    Commun. Stat. A7, 1978, on that criterion), and bounded from its dual: for any
+    mixture of unit shapes ``u_k`` (weights ``alpha_k``) the smallest eigenvalue of
+    any design of ``n`` targets is at most ``sum alpha_k u_k' (Z + n M_s) u_k`` at the
+    best single candidate ``s``, which no allocation, on the grid or between, beats."""
+
+    candidates_mm: np.ndarray  # (S,)
+    weights: np.ndarray  # (S,) summing to one
+    best_seen: float  # the dual's largest information of one target, per unit noise^2
+    setting_seen: float  # what the gauges' setting readings add to it
+    per_target: np.ndarray  # (A, S, d, d) each axis's information of a target there
+    setting: np.ndarray  # (A, d, d) of the gauges' setting readings
+    shapes: int  # the first coordinates of d: the map's unit shapes
+
+    def limit_mm(self, targets_mm: np.ndarray, noise_mm: float) -> float:
+        """The smooth map's limit at these targets, their information taken linearly
+        between the candidates' (a proxy of :func:`detection_limits` that costs no
+        layout: what the strata are chosen by)."""
+        at = np.interp(targets_mm, self.candidates_mm, np.arange(len(self.candidates_mm)))
+        below = np.floor(at).astype(int)
+        above = np.minimum(below + 1, len(self.candidates_mm) - 1)
+        weights = np.bincount(below, 1.0 - (at - below), len(self.candidates_mm)) + \
+            np.bincount(above, at - below, len(self.candidates_mm))
+        return self._limit(weights, noise_mm)
+
+    def allocated_mm(self, targets: int, noise_mm: float) -> float:
+        """The limit of the allocation itself, ``targets`` targets' worth of weight: what
+        the relaxation reaches (whole targets cannot place fractions)."""
+        return self._limit(targets * self.weights, noise_mm)
+
+    def _limit(self, weights: np.ndarray, noise_mm: float) -> float:
+        least = min(_schur_least(m, self.shapes) for m in
+                    self.setting + np.einsum("s,asij->aij", weights, self.per_target))
+        return DETECTION_SIGMAS * noise_mm / math.sqrt(least) if least > 0 else math.inf
+
+    def bound_mm(self, targets: int, noise_mm: float) -> float:
+        """The least smooth-map limit any allocation of ``targets`` targets reaches."""
+        seen = self.setting_seen + targets * self.best_seen
+        return DETECTION_SIGMAS * noise_mm / math.sqrt(seen) if seen > 0 else math.inf
+
+    def strata_edges(self, share: float, lo: float, hi: float) -> tuple[np.ndarray, np.ndarray]:
+        """(cumulative share, position): ``share`` of the strata cut equal in the
+        allocation's weight (each candidate's spread over ``SPREAD_MM``, a target's
+        jitter), the rest equal in length."""
+        x = np.linspace(lo, hi, 2001)
+        kernel = np.exp(-0.5 * ((x[None] - self.candidates_mm[:, None]) / SPREAD_MM) ** 2)
+        kernel /= kernel.sum(axis=1, keepdims=True)
+        density = (1.0 - share) / len(x) + share * (self.weights @ kernel)
+        cumulative = np.concatenate([[0.0], np.cumsum(density[1:] + density[:-1])])
+        return cumulative / cumulative[-1], x
+
+
+@lru_cache(maxsize=4)  # one machine and its legs' travel, every count of targets tried
+def smooth_allocation(protocol: ProtocolConfig, machine: MachineSpec,
+                      noise_mm: float) -> SmoothAllocation:
+    """The allocation for the scan ``protocol`` reads (its legs, cycles and ends),
+    its targets replaced by every candidate."""
+    lo, hi = protocol.scan_targets_mm[0], protocol.scan_targets_mm[-1]
+    count = max(2, int(round((hi - lo) / CANDIDATE_STEP_MM)) + 1)
+    candidates = np.round(np.linspace(lo, hi, count), 3)
+    grid = replace(protocol, scan_targets_mm=tuple(float(c) for c in candidates))
+    layout = planned_layout(grid, machine)
+    setting = layout.posture == "zero"
+    at = np.searchsorted(candidates, layout.q_mm[np.arange(len(layout)), layout.leg])
+    at = np.where(setting, -1, np.clip(at, 0, count - 1))
+    return allocation_of(layout, machine, noise_mm, at, candidates,
+                         tuple(AXES.index(leg) for leg in protocol.legs), (lo, hi))
+
+
+def allocation_of(layout: ReadingsLayout, machine: MachineSpec, noise_mm: float,
+                  at: np.ndarray, candidates_mm: np.ndarray, axes: tuple[int, ...],
+                  travel_mm: tuple[float, float]) -> SmoothAllocation:
+    """The allocation over the candidate postures of ``layout``: ``at`` (n,) each
+    reading's candidate (-1: the gauges' setting readings, which every design has),
+    ``candidates_mm`` what each is called by, the smooth maps of ``axes`` over
+    ``travel_mm``."""
+    rows = _Rows.of(layout, machine, noise_mm)
+    history = JointHistory.of(layout)
+    setting = at < 0
+    blocks, settings, sizes = [], [], []
+    for a in axes:
+        term = _smooth_term(a, *travel_mm)
+        shapes = rows.of_term(term, history) @ _unit_shapes(term, *travel_mm)
+        x = np.column_stack([shapes, rows.nuisance(a)])
+        outer = x[:, :, None] * x[:, None, :]
+        per = np.zeros((len(candidates_mm), x.shape[1], x.shape[1]))
+        np.add.at(per, at[~setting], outer[~setting])
+        blocks.append(per)
+        settings.append(outer[setting].sum(axis=0))
+        sizes.append(shapes.shape[1])
+    per_target, setting_info = np.array(blocks), np.array(settings)
+    weights, best, zero = _allocate(per_target, setting_info, sizes[0])
+    return SmoothAllocation(candidates_mm, weights, best, zero, per_target, setting_info,
+                            sizes[0])
+
+
+def _allocate(per_target: np.ndarray, setting: np.ndarray,
+              shapes: int) -> tuple[np.ndarray, float, float]:
+    """(weights, the dual's best single target's information, the settings' part of
+    the dual) for ``per_target`` (A, S, d, d): each axis's information of one target,
+    its first ``shapes`` coordinates the map's unit shapes, the rest the nuisance;
+    ``setting`` (A, d, d) what the gauges' setting readings add. Mirror ascent (the
+    exponentiated gradient, its step falling as one over the root of the rounds) on the
+    soft minimum of every axis's eigenvalues."""
+    count = per_target.shape[1]
+    weights = np.full(count, 1.0 / count)
+    best, held, found = math.inf, 0.0, (0.0, weights)
+    for round_ in range(ALLOCATION_ROUNDS):
+        least, gain, zero = _soft_least(weights, per_target, setting, shapes)
+        if gain.max() < best:  # the tightest bound met on the way
+            best, held = float(gain.max()), zero
+        if least > found[0]:  # and the best allocation
+            found = (least, weights)
+        if best < found[0] * (1.0 + ALLOCATION_GAP):
+            break
+        weights = weights * np.exp(gain / gain.max() / math.sqrt(round_ + 1))
+        weights /= weights.sum()
+    return found[1], best, held
+
+
+def _schur(normal: np.ndarray, shapes: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The eigenvalues and eigenvectors of the information on the first ``shapes``
+    coordinates once the rest (the nuisance) is fitted alongside, and the nuisance's
+    regression on them."""
+    taken = np.linalg.solve(normal[shapes:, shapes:], normal[shapes:, :shapes])
+    values, vectors = np.linalg.eigh(normal[:shapes, :shapes] - normal[:shapes, shapes:] @ taken)
+    return values, vectors, taken
+
+
+def _schur_least(normal: np.ndarray, shapes: int) -> float:
+    return float(_schur(normal, shapes)[0][0])
+
+
+def _soft_least(weights: np.ndarray, per_target: np.ndarray, setting: np.ndarray,
+                shapes: int) -> tuple[float, np.ndarray, float]:
+    """The least eigenvalue of the allocation's information (per unit weight) over the
+    axes, each target's gain in the soft minimum's direction (its gradient, and the dual
+    bound's terms: ``sum alpha_k u_k' M_s u_k``), and the settings' term of that sum."""
+    normal = np.einsum("s,asij->aij", weights, per_target)
+    seen, vectors = [], []
+    for m in normal:
+        values, v, taken = _schur(m, shapes)
+        seen.append(values)
+        vectors.append(np.vstack([v, -taken @ v]))  # each shape with its best nuisance
+    least = float(np.min(seen))
+    gain, zero, total = np.zeros(per_target.shape[1]), 0.0, 0.0
+    for values, u, m_s, z in zip(seen, vectors, per_target, setting, strict=True):
+        alpha = np.exp(-SOFT_MIN * (values / least - 1.0))
+        mixed = (u * alpha) @ u.T  # sum_k alpha_k u_k u_k'
+        gain += np.tensordot(m_s, mixed, axes=([1, 2], [0, 1]))
+        zero += float(np.sum(z * mixed))
+        total += float(alpha.sum())
+    return least, gain / total, zero / total
 
 
 def sampled_band(protocol: ProtocolConfig, machine: MachineSpec,

@@ -66,4 +66,5 @@ def test_the_designed_scan_is_printed_before_it_moves(monkeypatch):
     assert "separating measurement: the designed scan of each leg, 411 reading steps" in text
     assert "34 targets from -99 to +59 mm at irregular intervals" in text
     assert "resolves every period from 2 to 40 mm at 4 phases or more" in text
-    assert "detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.72 µm" in text
+    assert ("detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.8 µm, "
+            "smooth map 1.9 µm") in text
