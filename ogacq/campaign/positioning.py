@@ -13,9 +13,12 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import json
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
 
 from ogacq_drivers.errors import DriverError
 from ogacq.campaign.campaign_file import Campaign
@@ -23,6 +26,7 @@ from ogacq.campaign.run import check_same_maps, maps_in_force, target_correction
 from ogacq.campaign.station import DeviceStation, open_station
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.errors import InputError, StorageError
+from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_dict
 from ogacq.model.parameters import AXES
 from ogacq.protocol.positioning import (
@@ -177,3 +181,25 @@ def session_result(session: LoadedSession, *, net_of_drive: bool = False,
                 for r in session.of_type(PositionRecord)]
     plan = PositioningPlan.from_json(dict(session.header.extra["positioning"]))
     return positioning_result(plan.axis, readings, net_of_drive=net_of_drive)
+
+
+def positioning_document(session: LoadedSession, drive_step_mm: float) -> dict[str, Any]:
+    """What ``ogacq positioning --json`` prints and writes beside the session: the plan,
+    the figures actual minus target, and (where maps were in force and the drive rounds
+    its targets) the figures less that rounding, with the drive's step."""
+    raw = session_result(session)
+    out: dict[str, Any] = {"session": str(session.path),
+                           "simulated": bool(session.header.simulated),
+                           "plan": session.header.extra["positioning"],
+        "drive_step_mm": drive_step_mm, **raw.to_json()}
+    net = session_result(session, net_of_drive=True)
+    if not np.allclose(net.mean_mm, raw.mean_mm, atol=1e-9):
+        out["net_of_drive_step"] = net.to_json()
+    return out
+
+
+def write_document(session: LoadedSession, document: dict[str, Any]) -> Path:
+    """The document as JSON beside the session (its name, ``.json``), whole or not."""
+    path = session.path.with_suffix(".json")
+    write_atomically(path, (json.dumps(document, indent=1) + "\n").encode("utf-8"))
+    return path

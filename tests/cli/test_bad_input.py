@@ -63,6 +63,10 @@ BAD_INPUTS: dict[str, list[tuple[list[str], int, str]]] = {
                   (["--simulator", "--out", "cal", "--override-expired", " "], 2,
                    "--override-expired"),
                   (["--simulator", "--out", "cal"], 4, "--yes")],
+    "positioning": [([MISSING], 2, MISSING),
+                    (["machine.toml"], 2, "machine.toml"),
+                    ([MISSING, "--axis", "w"], 2, "--axis"),
+                    ([MISSING, "--runs", "1"], 2, "--runs")],
     "diagnose": [(["missing.csv", "-m", "machine.toml"], 2, "missing.csv"),
                  # a session without its end record: analysed only with --partial (4)
                  (["session.jsonl"], 4, "partial: 0 readings"),

@@ -73,8 +73,8 @@ AVERAGED = dataclasses.replace(READING, averaged=16, averaged_sd_mm=0.0004)
                  values={"y_x": 64, "z_x": 20}, unsettled=("y_x",),
                  u_mm={"y_x": 0.0011, "z_x": 0.0009}),
     SettleRecord(step="x/c2/p1", rule="none", ended="not moved", waited_s=0.0),
-    PositionRecord(axis="x", run=2, direction=-1, target_mm=-41.23, commanded_mm=-41.24, meant_mm=-41.2339,
-                   scale_mm=-40.8122, t_s=31.5, raw="01A-040.8122", averaged=12,
+    PositionRecord(axis="x", run=2, direction=-1, target_mm=-41.23, commanded_mm=-41.24,
+                   meant_mm=-41.2339, scale_mm=-40.8122, t_s=31.5, raw="01A-040.8122", averaged=12,
                    averaged_sd_mm=0.0002),
 ])
 def test_every_record_reads_back_as_written(record):
