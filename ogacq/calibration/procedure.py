@@ -45,6 +45,7 @@ from ogacq.calibration.drive_step import (
 )
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import compensable_effects, diagnosis_maps
+from ogacq.calibration.scale_check import scale_check
 from ogacq.calibration.second_round import (
     ROUND,
     TOGETHER,
@@ -67,6 +68,7 @@ from ogacq.calibration.setup import Setup
 from ogacq.calibration.together import observations_together
 from ogacq.calibration.validate import Judgement, judge, where_looked
 from ogacq.campaign.campaign_file import ControllerSpec
+from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
@@ -76,6 +78,7 @@ from ogacq.io.atomic import write_atomically
 from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
+from ogacq.protocol.positioning import PositioningResult, positioning_plan
 from ogacq.protocol.runner import Observer
 from ogacq.protocol.scan_design import between_plan, sampled_band
 from ogacq.record.document import build_record
@@ -248,6 +251,8 @@ class Procedure:
             stop = self._approve(comp, offsets, maps)
             if stop is not None:
                 return stop
+        # each corrected axis with a scale: its positioning test before the write
+        before = {a: self._positioning("before", a) for a in self._scaled(comp)}
         written = self._write(first, offsets, maps)
         # the calibration campaign's plan again: its record compares as found and as left
         role, role_between = ("validation", "validation-scan") if self.round == 1 \
@@ -261,7 +266,13 @@ class Procedure:
             between_judged = self._judge(comp, evidence, between_session, role_between)
             judgement = judgement.merged(between_judged)
             looked.append(between_session)
-        judgement = replace(judgement, looked=where_looked(looked, self.setup.machine))
+        checks = {a: scale_check(b, self._positioning("after", a), comp.maps[a])
+                  for a, b in before.items()}
+        judgement = replace(judgement.with_scales(checks, comp.maps, self.setup.machine),
+                            looked=where_looked(looked, self.setup.machine))
+        if checks:
+            self.log.add("scales", **self._mark(), checks={a: c.to_json()
+                                                          for a, c in checks.items()})
         restored: dict[str, str | None] = {}
         if judgement.worse:
             restored = self._restore(first, written, judgement)
@@ -387,6 +398,31 @@ class Procedure:
             run_campaign(campaign, observer=self.ui.observer(role), simulator=self.stack)
         self.log.add("campaign", role=role, status="finished", session=str(path))
         return load_session(path)
+
+    def _scaled(self, comp: Compensation) -> list[str]:
+        """The axes whose map is written and along which a scale is mounted."""
+        return [a for a in AXES if a in comp.maps and a in self.setup.axis_scales]
+
+    def _positioning(self, when: str, axis: str) -> PositioningResult:
+        """The ``axis``'s positioning test by its scale ``when`` ("before", "after") this
+        round's write, run (or continued, or read back) in its own session; its figures
+        less what the drive's rounding moved the joint."""
+        role = f"positioning-{when}-{axis}" + ("" if self.round == 1 else f"-{self.round}")
+        path = self.setup.folder / f"{role}.jsonl"
+        if self.log.last("campaign", role=role, status="finished") is None:
+            campaign = self.setup.campaign(role, self.setup.protocol)
+            plan = positioning_plan(self.setup.machine, axis, runs=self.setup.scale_runs,
+                                    drive_step_mm=self.drive_step_mm)
+            if self.log.last("campaign", role=role, status="started") is None:
+                self.log.add("campaign", role=role, status="started", session=str(path),
+                             plan=plan.to_json())
+            self.ui.say(f"{when} the write: the {axis} axis's positioning test by its scale "
+                        f"(ISO 230-2, {len(plan.targets_mm)} targets, {plan.runs} runs each "
+                        f"way): {path}")
+            run_positioning(campaign, plan, path, simulator=self.stack,
+                            observer=self.ui.observer(role))
+            self.log.add("campaign", role=role, status="finished", session=str(path))
+        return session_result(load_session(path), net_of_drive=True)
 
     def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
         # a designed scan's readings searched for the periods its targets sample
