@@ -8,8 +8,9 @@ the deviation at targets over the whole travel, sampled at every lead's phases.
 
 After the write, at each target and direction, the mean deviation must lie within its
 tolerance: the map's own expanded uncertainty there (U, k = 2, the table's) combined
-with twice the standard uncertainty of the measured deviation (the runs' scatter
-pooled over every target, over the square root of the runs). A map is known about
+with twice the standard uncertainty of the measured deviation (``PositioningResult.u_mm``: the
+runs' scatter pooled over every target over the square root of the runs, and the
+scale's display step). A map is known about
 its reference position (its u is nought there: the gauges are set at it), and the
 scale reads up to a constant: so the deviations are taken from the one the test
 finds at the map's reference (interpolated between its targets), whose own
@@ -124,20 +125,15 @@ def scale_check(before: PositioningResult, after: PositioningResult,
     targets = after.targets_mm
     u_map = np.maximum(np.interp(targets, axis_map.positions_mm, axis_map.u_forward_mm),
                        np.interp(targets, axis_map.positions_mm, axis_map.u_reverse_mm))
-    u_mean = _pooled_s(after) / math.sqrt(after.runs)
+    u_mean = after.u_mm
     # the deviation and its u from the reference's: two measured means
     tolerance = 2.0 * np.sqrt(u_map**2 + 2.0 * u_mean**2)
     at_reference = float(np.interp(axis_map.reference_mm, targets, after.mean_mm))
     up, down = after.up_mm - at_reference, after.down_mm - at_reference
     worst = np.where(np.abs(up) >= np.abs(down), up, down)
     # E and A of two tests differ by chance by a few of their means' u, each side
-    margin = SIGMAS * 2.0 * math.hypot(u_mean, _pooled_s(before) / math.sqrt(before.runs))
+    margin = SIGMAS * 2.0 * math.hypot(u_mean, before.u_mm)
     return ScaleCheck(after.axis, tuple(float(t) for t in targets),
                       tuple(float(d) for d in worst), tuple(float(t) for t in tolerance),
                       before.figures.to_json(), after.figures.to_json(), margin, after.runs)
 
-
-def _pooled_s(result: PositioningResult) -> float:
-    """The runs' scatter pooled over every target and direction (one s at a target of
-    two runs has one degree of freedom: pooled, as many as the targets)."""
-    return float(np.sqrt(np.mean(np.concatenate([result.s_up_mm, result.s_down_mm]) ** 2)))

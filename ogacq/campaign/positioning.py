@@ -180,7 +180,10 @@ def session_result(session: LoadedSession, *, net_of_drive: bool = False,
     readings = [ScaleReading(r.run, r.direction, r.target_mm, r.scale_mm, r.meant_mm)
                 for r in session.of_type(PositionRecord)]
     plan = PositioningPlan.from_json(dict(session.header.extra["positioning"]))
-    return positioning_result(plan.axis, readings, net_of_drive=net_of_drive)
+    scales = (session.header.station or {}).get("axis_scales") or {}
+    step = float((scales.get(plan.axis) or {}).get("resolution_mm") or 0.0)
+    return positioning_result(plan.axis, readings, net_of_drive=net_of_drive,
+                              display_step_mm=step)
 
 
 def positioning_document(session: LoadedSession, drive_step_mm: float) -> dict[str, Any]:

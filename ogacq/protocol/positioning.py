@@ -182,16 +182,32 @@ class PositioningResult:
     runs: int
     figures: Iso230Figures
     reference_mm: float  # the scale's value taken as zero deviation (their mean)
+    display_step_mm: float = 0.0  # the scale's
 
     @property
     def mean_mm(self) -> np.ndarray:
         """The mean bidirectional deviation at each target."""
         return (self.up_mm + self.down_mm) / 2.0
 
-    def u_mean_mm(self) -> np.ndarray:
-        """The standard uncertainty of each direction's mean deviation: its s over the
-        square root of the runs (at each target, the larger of the two directions')."""
-        return np.maximum(self.s_up_mm, self.s_down_mm) / math.sqrt(self.runs)
+    @property
+    def pooled_s_mm(self) -> float:
+        """The runs' scatter pooled over every target and direction (one target's s of
+        two runs has one degree of freedom; pooled, as many as the targets)."""
+        return float(np.sqrt(np.mean(np.concatenate([self.s_up_mm, self.s_down_mm]) ** 2)))
+
+    @property
+    def noise_dof(self) -> int:
+        return 2 * len(self.targets_mm) * (self.runs - 1)
+
+    @property
+    def u_mm(self) -> float:
+        """The standard uncertainty of a mean deviation at a target: the pooled scatter
+        over the square root of the runs, and the display step's rounding (a
+        rectangular distribution of its width, JCGM 100:2008 F.2.2.1), not reduced by
+        the runs: a scale whose noise is below its step repeats its rounding, and its
+        runs then agree to the digit (s nought) about a value up to half a step off."""
+        return math.hypot(self.pooled_s_mm / math.sqrt(self.runs),
+                          self.display_step_mm / math.sqrt(12.0))
 
     def to_json(self) -> dict[str, Any]:
         return {"axis": self.axis, "runs": self.runs,
@@ -232,7 +248,8 @@ class ScaleReading:
 
 
 def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
-                       net_of_drive: bool = False) -> PositioningResult:
+                       net_of_drive: bool = False, display_step_mm: float = 0.0,
+                       ) -> PositioningResult:
     """The figures of a test's readings (every target read in both directions; two runs
     at least, for the s): actual minus target, or (``net_of_drive``) minus where the
     drive's step meant the joint to land. ValueError naming what is missing."""
@@ -262,7 +279,7 @@ def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
     (up, s_up), (down, s_down) = mean_s(1), mean_s(-1)
     figures = iso230_figures(axis, targets, up, down, s_up, s_down, s_source=S_SOURCE)
     return PositioningResult(axis, targets, up, down, s_up, s_down, len(runs), figures,
-                             reference)
+                             reference, display_step_mm)
 
 
 def deviation_words(result: PositioningResult) -> str:
