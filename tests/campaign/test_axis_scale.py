@@ -6,6 +6,7 @@ whole travel."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 
 import numpy as np
@@ -14,10 +15,13 @@ import pytest
 from ogacq.campaign.campaign_file import read_campaign, scale_name
 from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.station import open_gauges, simulator_scales, start_simulator
+from ogacq.cli.app import main
 from ogacq.errors import InputError
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.protocol.positioning import positioning_plan
-from ogacq.session.records import PositionRecord
+from ogacq.protocol.runner import CampaignStopped
+from ogacq.session.records import MoveRecord, PositionRecord
+from ogacq.session.store import load_session
 from tests.campaign.conftest import CONTROLLER, HEAD, MACHINE, gauge, write_campaign
 
 ALL_GAUGES = "".join(gauge(k, f"/dev/ttyUSB{n}") for n, k in
@@ -115,3 +119,42 @@ def test_the_positioning_test_recovers_a_cyclic_screw_error(tmp_path):
     a, b, _ = np.linalg.lstsq(design, result.mean_mm, rcond=None)[0]
     assert abs(np.hypot(a, b) - 0.004) < 0.0004
     assert 0.008 - 0.0015 < result.figures.E < 0.008 + 0.0015
+
+
+def test_a_positioning_test_stopped_half_way_continues_and_writes_its_figures(tmp_path,
+                                                                              capsys):
+    """Interrupted after 20 readings (recorded, the axes stopped), the same command
+    continues it: every target read once per run and direction, the first one left
+    approached from its run's own start, and the figures printed and written as JSON."""
+    campaign_path = write_campaign(tmp_path, speed=200, extra="[axis_scale.y]\n")
+    campaign_path.write_text(campaign_path.read_text().replace(
+        "[simulator]\n", "[simulator]\nline_at_speed = true\n"))
+    campaign = read_campaign(campaign_path)
+    plan = positioning_plan(campaign.machine, "y", runs=2, drive_step_mm=0.01)
+    session = tmp_path / "positioning-y.jsonl"
+
+    def stop_at_20(progress):
+        if progress.done == 20:
+            raise KeyboardInterrupt
+
+    with pytest.raises(CampaignStopped):
+        run_positioning(campaign, plan, session, observer=stop_at_20)
+    assert len(load_session(session).of_type(PositionRecord)) == 20
+    assert main(["positioning", str(campaign_path), "--axis", "y", "--runs", "2", "--json"]) == 0
+    printed = json.loads(capsys.readouterr().out.splitlines()[-1])
+    done = load_session(session)
+    keys = [(r.run, r.direction, r.target_mm) for r in done.of_type(PositionRecord)]
+    assert len(keys) == len(set(keys)) == plan.readings and done.finished
+    first_left = plan_steps_read(plan)[20]
+    moves = [m for m in done.of_type(MoveRecord)]
+    resumed = next(k for k, m in enumerate(moves) if m.purpose == "overrun" and k > 20)
+    assert moves[resumed].q_mm[1] == pytest.approx(min(plan.targets_mm) - plan.overrun_mm
+                                                   if first_left.direction > 0 else
+                                                   max(plan.targets_mm) + plan.overrun_mm)
+    written = json.loads(session.with_suffix(".json").read_text())
+    assert written == printed and written["iso230_2"]["standard"] == "ISO 230-2:2014, clause 3"
+    assert written["drive_step_mm"] == 0.01 and len(written["targets_mm"]) == len(plan.targets_mm)
+
+
+def plan_steps_read(plan):
+    return [s for s in plan.steps() if s.read]
