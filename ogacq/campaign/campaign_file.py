@@ -196,26 +196,20 @@ class GaugeSpec(GaugeIdentity):
 
 
 @dataclass(frozen=True)
-class AxisScaleSpec(GaugeIdentity):
+class AxisScaleSpec(GaugeSpec):
     """A length-measuring instrument along one actuator (``[axis_scale.x]``): a linear
     scale or a long-stroke indicator whose probe rides on the carriage, read through the
-    gauge drivers as any gauge is. It reads the joint's actual displacement along its
-    line, up to a constant: what ISO 230-2's positioning test measures."""
+    gauge drivers as any gauge is (a gauge's keys but ``gauge``). It reads the joint's
+    actual displacement along its line, up to a constant: what ISO 230-2's positioning
+    test measures."""
 
-    protocol: str = ""  # "" only in a [simulator] campaign: the simulator's scale
-    port: str = ""
-    channel: str | None = None
-    unit: str = "mm"
-    serial: str = ""
-    baudrate: int | None = None
+    gauge: str = ""  # the name it is opened under: as_gauge's
     # its display step (the simulator's: 1 µm, a linear scale on a counter)
     resolution_mm: float = 0.001
 
-    def as_gauge(self, axis: str) -> GaugeSpec:
+    def as_gauge(self, axis: str) -> AxisScaleSpec:
         """The scale as the gauge drivers open it (``scale_x`` in messages)."""
-        return GaugeSpec(scale_name(axis), self.protocol, self.port, self.channel, self.unit,
-                         self.serial, self.baudrate, **{
-                             f.name: getattr(self, f.name) for f in fields(GaugeIdentity)})
+        return replace(self, gauge=scale_name(axis))
 
 
 def scale_name(axis: str) -> str:
@@ -695,11 +689,11 @@ def _check_environment(src: Source, campaign: Campaign) -> None:
 
 
 def _check_identity(src: Source, at: tuple[str | int, ...],
-                    g: GaugeSpec | AxisScaleSpec) -> None:
+                    g: GaugeSpec) -> None:
     """A gauge's (or an axis scale's, at its table ``at``) identity names
     (``ogacq.io.names``: recorded and printed as a name is); a certificate's dates in
     order."""
-    name = f"gauge {g.gauge}" if isinstance(g, GaugeSpec) else f"the {at[-1]} axis scale"
+    name = f"the {at[-1]} axis scale" if isinstance(g, AxisScaleSpec) else f"gauge {g.gauge}"
     for key in ("make", "model", "serial", "certificate"):
         problem = name_problem(getattr(g, key))
         if problem is not None:
