@@ -47,7 +47,7 @@ from ogacq.protocol.scan_design import (
     stratified_targets,
 )
 
-# ISO 230-2:2014 4.3.4: five runs in each direction at each target.
+# ISO 230-2:2014 4.3 (its standard test cycle): five runs in each direction at each target.
 ISO_RUNS = 5
 FEWEST_TARGETS = 5  # ISO 230-2:2014 4.3.2: at least five targets
 MOST_TARGETS = 400  # no source: beyond it a typo (a travel in um), refused
