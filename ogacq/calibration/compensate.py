@@ -127,19 +127,9 @@ def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
     in_force, checksum = in_force_maps(session)
     # tabulated over the travel the offsets make, zero where their zero will be
     spans, zero_at = _spans(diagnosis, machine)
-    scales = scales or {}
-    measured = {a for a, f in scales.items() if f.found is not None or f.flat}
-    by_scale = {a: f.found for a, f in scales.items() if f.found is not None}
-    found = tuple(m for m in diagnosis.maps_over(spans, zero_at) if m.axis not in measured) \
-        + tuple(by_scale[a].over(spans[a], zero_at[a]) for a in sorted(by_scale))
+    found, taken = _along(diagnosis, scales or {}, spans, zero_at)
     per_axis = compensation(found, effect_maps(effects, machine, spans=spans,
                                                references=zero_at), effects, in_force)
-    # the diagnosis's maps, fitted zero at the reference, less their value there (its
-    # value there stays in the offset where a scale's map replaces it: the offsets were
-    # identified with it)
-    taken = {a: diagnosis.map_value_at(a, zero_at[a]) + (
-        float(by_scale[a].error_mm(np.array([zero_at[a]]))[0]) if a in by_scale else 0.0)
-        for a in AXES}
     shift = {a: (per_axis[a].offset_shift_mm if a in per_axis else 0.0) + taken[a]
              for a in AXES}
     campaign_maps = {**{a: m for a, m in in_force.items() if a not in per_axis},
@@ -153,6 +143,24 @@ def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
         tuple(m.source or f"map of {m.axis}" for m in diagnosis_maps(diagnosis)), checksum,
         dict(evidence.identified_mm), dict(evidence.std_mm),
         {n: {"value": e.value, "std": e.std} for n, e in model_effects(diagnosis).items()})
+
+
+def _along(diagnosis: Diagnosis, scales: Mapping[str, ScaleFit],
+           spans: dict[str, tuple[float, float]], zero_at: dict[str, float],
+           ) -> tuple[tuple[AxisMap, ...], dict[str, float]]:
+    """The maps along the axes, tabulated over ``spans`` and zero at ``zero_at``: the
+    diagnosis's, but where a scale measured its axis the scale's; and per axis the
+    maps' value at ``zero_at``, which goes to the offset (a diagnosis's map, fitted zero
+    at its reference, stays in the offset where a scale's replaces it: the offsets were
+    identified with it)."""
+    measured = {a for a, f in scales.items() if f.found is not None or f.flat}
+    by_scale = {a: f.found for a, f in scales.items() if f.found is not None}
+    found = tuple(m for m in diagnosis.maps_over(spans, zero_at) if m.axis not in measured) \
+        + tuple(by_scale[a].over(spans[a], zero_at[a]) for a in sorted(by_scale))
+    taken = {a: diagnosis.map_value_at(a, zero_at[a]) + (
+        float(by_scale[a].error_mm(np.array([zero_at[a]]))[0]) if a in by_scale else 0.0)
+        for a in AXES}
+    return found, taken
 
 
 # How far beyond the travel moved by the final model's joint offsets the maps are
