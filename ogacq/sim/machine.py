@@ -148,9 +148,10 @@ class SimMachine:
         return joint_travel_mm(self.truth, axis, q, side, travel, self.clock.now())
 
     def scale_source(self, axis: int, noise_mm: float) -> Callable[[], float]:
-        """What a scale along actuator ``axis`` reads: the joint's place, its own zero
-        (a scale's counter is zeroed where it is mounted: here at the joint's zero), its
-        own noise (seeded apart from the gauges') and the carriage's ringing along it."""
+        """What a scale along actuator ``axis`` reads: the joint's place counted from its
+        nominal zero (rho = L; a scale's counter is zeroed wherever it is mounted, and a
+        test reads it up to that constant), its own noise (seeded apart from the gauges')
+        and the carriage's ringing along it."""
         rng = np.random.default_rng([self._seed, 30, axis])
         lock = threading.Lock()
 
