@@ -24,6 +24,7 @@ from ogacq_drivers.errors import DriverError
 from ogacq.campaign.campaign_file import Campaign
 from ogacq.campaign.run import check_same_maps, maps_in_force, target_correction
 from ogacq.campaign.station import DeviceStation, open_station
+from ogacq.campaign.traceability import check_instruments
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.errors import InputError, StorageError
 from ogacq.io.atomic import write_atomically
@@ -37,7 +38,13 @@ from ogacq.protocol.positioning import (
     positioning_result,
 )
 from ogacq.protocol.runner import CampaignStopped, Observer, Progress
-from ogacq.session.records import EndRecord, MoveRecord, PositionRecord, SettleRecord
+from ogacq.session.records import (
+    EndRecord,
+    MoveRecord,
+    OverrideRecord,
+    PositionRecord,
+    SettleRecord,
+)
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
 
 if TYPE_CHECKING:
@@ -57,6 +64,12 @@ def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Pat
     if resume is not None and resume.finished:
         return resume
     check_writable(session_path, resuming=resume is not None)
+    # the scale within its certificate on the test's date, or overridden with a reason
+    scale = campaign.axis_scales.get(plan.axis)
+    overrides = check_instruments(dataclasses.replace(
+        campaign, gauges=[scale.as_gauge(plan.axis)] if scale is not None else [],
+        extra_instruments=[]), overridden=[
+            r.subject for r in resume.of_type(OverrideRecord)] if resume is not None else ())
     maps = maps_in_force(campaign)
     if resume is not None:
         check_same_maps(resume, maps)
@@ -72,6 +85,8 @@ def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Pat
         writer = SessionWriter.reopen(resume) if resume is not None \
             else SessionWriter.create(session_path, header)
         with writer:
+            for record in overrides:
+                writer.write(record)
             station.record_event = writer.write
             done = {(r.run, r.direction, round(r.target_mm, 6))
                     for r in (resume.of_type(PositionRecord) if resume else ())}

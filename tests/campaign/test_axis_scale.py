@@ -16,7 +16,7 @@ from ogacq.campaign.campaign_file import read_campaign, scale_name
 from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.station import open_gauges, simulator_scales, start_simulator
 from ogacq.cli.app import main
-from ogacq.errors import InputError
+from ogacq.errors import InputError, Refused
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.protocol.positioning import positioning_plan
 from ogacq.protocol.runner import CampaignStopped
@@ -158,3 +158,13 @@ def test_a_positioning_test_stopped_half_way_continues_and_writes_its_figures(tm
 
 def plan_steps_read(plan):
     return [s for s in plan.steps() if s.read]
+
+
+def test_a_scale_past_its_certificate_is_refused_before_anything_moves(tmp_path):
+    campaign_path = write_campaign(tmp_path, extra='[axis_scale.x]\nserial = "AT-1"\n'
+                                   "calibrated = 2024-01-10\ndue = 2025-01-10\n")
+    campaign = read_campaign(campaign_path)
+    plan = positioning_plan(campaign.machine, "x", runs=2, drive_step_mm=0.01)
+    with pytest.raises(Refused, match="gauge scale_x .*AT-1.* past the due date"):
+        run_positioning(campaign, plan, tmp_path / "positioning.jsonl")
+    assert not (tmp_path / "positioning.jsonl").exists()
