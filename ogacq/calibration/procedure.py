@@ -304,7 +304,8 @@ class Procedure:
             return None
         sessions = [scan, done.between_session]
         try:
-            obs = observations_together(sessions)
+            # each reading where its drive was sent, the joint there with its scale's error
+            obs = with_scale_maps(observations_together(sessions), self.scales)
         except InputError as exc:
             self._note(f"no second round: {exc}")
             return None
