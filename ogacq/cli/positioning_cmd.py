@@ -40,7 +40,8 @@ def positioning(
     M, and writes them as JSON beside the session.
 
     Exit 0: measured; 2 no scale declared for the axis or a bad file; 3 a device failed
-    (run the same command again to continue)."""
+    (run the same command again to continue); 4 the scale past its certificate's due
+    date (the campaign file's [override] expired_gauges runs it all the same)."""
     if axis not in ("x", "y", "z"):
         raise InputError("--axis", f"is x, y or z, got {axis!r}")
     campaign = read_campaign(campaign_file)
