@@ -26,10 +26,12 @@ leave the error of the last millimetres in place, where the papers' postures rea
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from ogacq.calibration.maps import (
     compensable_effects,
@@ -37,6 +39,7 @@ from ogacq.calibration.maps import (
     model_effects,
     uncompensated_effects,
 )
+from ogacq.calibration.scale_map import ScaleFit
 from ogacq.campaign.run import recorded_maps
 from ogacq.compensation.combine import compensation, with_offsets
 from ogacq.compensation.effects import effect_maps
@@ -108,20 +111,26 @@ def in_force_maps(session: LoadedSession) -> tuple[dict[str, AxisMap], str | Non
 
 
 def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: MachineSpec,
-                    register: Register | None = None) -> Compensation:
+                    register: Register | None = None,
+                    scales: Mapping[str, ScaleFit] | None = None) -> Compensation:
     """The offsets and maps that correct what the diagnosis of ``session`` found, the
     maps in the controller coordinate the offsets make. ``register``: the value the
-    controller stores for an offset (its step); None: as given."""
+    controller stores for an offset (its step); None: as given. ``scales``: what each
+    axis scale measured before (``ogacq.calibration.scale_map``), in the campaign's
+    coordinate: on its axis, the cyclic error it found is the map instead of the
+    diagnosis's, and where it found nothing, no map is (the scale reads the joint over
+    its whole travel, the legs' gauges over a sixth of it). The joint offsets stay the
+    legs' (their diagnosis made with the scales' maps known, ``with_scale_maps``), the
+    maps' values where the offsets' zero will be added to them, as a diagnosis's are:
+    the scale reads up to a constant."""
     effects = compensable_effects(diagnosis)
     in_force, checksum = in_force_maps(session)
     # tabulated over the travel the offsets make, zero where their zero will be
     spans, zero_at = _spans(diagnosis, machine)
-    found = diagnosis.maps_over(spans, zero_at)
+    found, taken = _along(diagnosis, scales or {}, spans, zero_at)
     per_axis = compensation(found, effect_maps(effects, machine, spans=spans,
                                                references=zero_at), effects, in_force)
-    # the diagnosis's maps, fitted zero at the reference, less their value there
-    taken = {m.axis: diagnosis.map_value_at(m.axis, zero_at[m.axis]) for m in found}
-    shift = {a: per_axis[a].offset_shift_mm + taken.get(a, 0.0) if a in per_axis else 0.0
+    shift = {a: (per_axis[a].offset_shift_mm if a in per_axis else 0.0) + taken[a]
              for a in AXES}
     campaign_maps = {**{a: m for a, m in in_force.items() if a not in per_axis},
                      **{a: c.axis_map for a, c in per_axis.items()}}
@@ -134,6 +143,24 @@ def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
         tuple(m.source or f"map of {m.axis}" for m in diagnosis_maps(diagnosis)), checksum,
         dict(evidence.identified_mm), dict(evidence.std_mm),
         {n: {"value": e.value, "std": e.std} for n, e in model_effects(diagnosis).items()})
+
+
+def _along(diagnosis: Diagnosis, scales: Mapping[str, ScaleFit],
+           spans: dict[str, tuple[float, float]], zero_at: dict[str, float],
+           ) -> tuple[tuple[AxisMap, ...], dict[str, float]]:
+    """The maps along the axes, tabulated over ``spans`` and zero at ``zero_at``: the
+    diagnosis's, but where a scale measured its axis the scale's; and per axis the
+    maps' value at ``zero_at``, which goes to the offset (a diagnosis's map, fitted zero
+    at its reference, stays in the offset where a scale's replaces it: the offsets were
+    identified with it)."""
+    measured = {a for a, f in scales.items() if f.found is not None or f.flat}
+    by_scale = {a: f.found for a, f in scales.items() if f.found is not None}
+    found = tuple(m for m in diagnosis.maps_over(spans, zero_at) if m.axis not in measured) \
+        + tuple(by_scale[a].over(spans[a], zero_at[a]) for a in sorted(by_scale))
+    taken = {a: diagnosis.map_value_at(a, zero_at[a]) + (
+        float(by_scale[a].error_mm(np.array([zero_at[a]]))[0]) if a in by_scale else 0.0)
+        for a in AXES}
+    return found, taken
 
 
 # How far beyond the travel moved by the final model's joint offsets the maps are

@@ -45,6 +45,8 @@ from ogacq.calibration.drive_step import (
 )
 from ogacq.calibration.log import ProcedureLog
 from ogacq.calibration.maps import compensable_effects, diagnosis_maps
+from ogacq.calibration.scale_check import scale_check
+from ogacq.calibration.scale_map import ScaleFit, fit_scale, with_scale_maps
 from ogacq.calibration.second_round import (
     ROUND,
     TOGETHER,
@@ -67,6 +69,7 @@ from ogacq.calibration.setup import Setup
 from ogacq.calibration.together import observations_together
 from ogacq.calibration.validate import Judgement, judge, where_looked
 from ogacq.campaign.campaign_file import ControllerSpec
+from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
@@ -76,6 +79,7 @@ from ogacq.io.atomic import write_atomically
 from ogacq.logs import logger
 from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
+from ogacq.protocol.positioning import PositioningResult, positioning_plan
 from ogacq.protocol.runner import Observer
 from ogacq.protocol.scan_design import between_plan, sampled_band
 from ogacq.record.document import build_record
@@ -191,12 +195,21 @@ class Procedure:
         # the drives' position step: every corrected target is rounded to it
         self.drive_step_mm = drive_step_mm(self.controller.profile)
         self.round = 1  # the write round: 2 after a first one shown wrong between targets
+        # each axis scale's test before the first write, and what it found along its axis
+        self.before: dict[str, PositioningResult] = {}
+        self.scales: dict[str, ScaleFit] = {}
 
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
         self._give_back_drive_state()
         self._check_maps_file()
         first = self._campaign("calibration", self.setup.protocol)
+        # each axis scale's positioning test before anything is written: the cyclic error
+        # it finds is that axis's map, known to the legs' diagnoses (each reading's joint
+        # where that error put it), and its figures the "before" of the validation by it
+        self.before = {a: self._positioning("before", a) for a in AXES
+                       if a in self.setup.axis_scales}
+        self.scales = self._scale_fits()
         evidence, diagnosis = first, self._diagnosis("calibration", first)
         plan = self._separation(diagnosis, first)
         unsettled = ""
@@ -248,6 +261,7 @@ class Procedure:
             stop = self._approve(comp, offsets, maps)
             if stop is not None:
                 return stop
+        before = {a: self.before[a] for a in self._scaled(comp)}
         written = self._write(first, offsets, maps)
         # the calibration campaign's plan again: its record compares as found and as left
         role, role_between = ("validation", "validation-scan") if self.round == 1 \
@@ -261,7 +275,13 @@ class Procedure:
             between_judged = self._judge(comp, evidence, between_session, role_between)
             judgement = judgement.merged(between_judged)
             looked.append(between_session)
-        judgement = replace(judgement, looked=where_looked(looked, self.setup.machine))
+        checks = {a: scale_check(b, self._positioning("after", a), comp.maps[a])
+                  for a, b in before.items()}
+        judgement = replace(judgement.with_scales(checks, comp.maps, self.setup.machine),
+                            looked=where_looked(looked, self.setup.machine))
+        if checks:
+            self.log.add("scales", **self._mark(), checks={a: c.to_json()
+                                                          for a, c in checks.items()})
         restored: dict[str, str | None] = {}
         if judgement.worse:
             restored = self._restore(first, written, judgement)
@@ -284,7 +304,8 @@ class Procedure:
             return None
         sessions = [scan, done.between_session]
         try:
-            obs = observations_together(sessions)
+            # each reading where its drive was sent, the joint there with its scale's error
+            obs = with_scale_maps(observations_together(sessions), self.scales)
         except InputError as exc:
             self._note(f"no second round: {exc}")
             return None
@@ -388,11 +409,47 @@ class Procedure:
         self.log.add("campaign", role=role, status="finished", session=str(path))
         return load_session(path)
 
+    def _scaled(self, comp: Compensation) -> list[str]:
+        """The axes whose map is written and along which a scale is mounted."""
+        return [a for a in AXES if a in comp.maps and a in self.setup.axis_scales]
+
+    def _scale_fits(self) -> dict[str, ScaleFit]:
+        """What each axis scale's test before found along its axis (said, logged once)."""
+        fits = {a: fit_scale(r) for a, r in self.before.items()}
+        if fits and self.log.last("scale maps") is None:
+            for fit in fits.values():
+                self.ui.say(fit.sentence())
+            self.log.add("scale maps", fits={a: f.to_json() for a, f in fits.items()})
+        return fits
+
+    def _positioning(self, when: str, axis: str) -> PositioningResult:
+        """The ``axis``'s positioning test by its scale ``when`` ("before", "after") this
+        round's write, run (or continued, or read back) in its own session; its figures
+        less what the drive's rounding moved the joint."""
+        role = f"positioning-{when}-{axis}" + ("" if self.round == 1 or when == "before"
+                                                else f"-{self.round}")
+        path = self.setup.folder / f"{role}.jsonl"
+        if self.log.last("campaign", role=role, status="finished") is None:
+            campaign = self.setup.campaign(role, self.setup.protocol)
+            plan = positioning_plan(self.setup.machine, axis, runs=self.setup.scale_runs,
+                                    drive_step_mm=self.drive_step_mm)
+            if self.log.last("campaign", role=role, status="started") is None:
+                self.log.add("campaign", role=role, status="started", session=str(path),
+                             plan=plan.to_json())
+            self.ui.say(f"{when} the write: the {axis} axis's positioning test by its scale "
+                        f"(ISO 230-2, {len(plan.targets_mm)} targets, {plan.runs} runs each "
+                        f"way): {path}")
+            run_positioning(campaign, plan, path, simulator=self.stack,
+                            observer=self.ui.observer(role))
+            self.log.add("campaign", role=role, status="finished", session=str(path))
+        return session_result(load_session(path), net_of_drive=True)
+
     def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
         # a designed scan's readings searched for the periods its targets sample
         band = sampled_band(_plan_of(session), self.setup.machine) \
             if session.header.plan is not None else None
-        return self._diagnosed(role, session_observations(session), band, str(session.path))
+        return self._diagnosed(role, with_scale_maps(session_observations(session),
+                                                     self.scales), band, str(session.path))
 
     def _diagnosed(self, role: str, obs: Observations, band: tuple[float, float] | None,
                    source: str) -> Diagnosis:
@@ -427,8 +484,10 @@ class Procedure:
             return Compensation.from_json(done.details)
         # the maps go with the coordinate the offsets make, as the register stores them
         register = ControllerFacts.of(load_profile(self.controller.profile)).quantize
-        comp = compensation_of(diagnosis, evidence, self.setup.machine, register)
-        if not maps:  # no map stands on a campaign the separating scan contradicts
+        comp = compensation_of(diagnosis, evidence, self.setup.machine, register, self.scales)
+        if not maps and not any(f.found for f in self.scales.values()):
+            # no map stands on a campaign the separating scan contradicts (a scale's
+            # does: it measured its axis itself)
             comp = tables_only(comp)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")

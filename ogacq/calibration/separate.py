@@ -182,6 +182,7 @@ def not_established(scanned: Diagnosis, before: Diagnosis) -> str:
                + "): a map of either pitch, or one in its place, would be a guess beyond "
                "where its readings see the joint")
         would = ("a measurement that sees the joint over its whole travel (a positioning "
-                 "test along the axis, ISO 230-2)")
+                 "test along the axis, ISO 230-2, by a scale along its actuator: "
+                 "[axis_scale.AXIS] in the campaign file, `ogacq positioning`)")
     return (f"error maps not established: {why}; the offsets are those of the calibration "
             f"campaign, within the noise; {would} would establish the maps")

@@ -18,11 +18,18 @@ from pathlib import Path
 from typing import Any
 
 from ogacq_drivers.axes.profile import load_profile
-from ogacq.campaign.campaign_file import Campaign, ControllerSpec, SimulatorSpec, campaign_text
+from ogacq.campaign.campaign_file import (
+    AxisScaleSpec,
+    Campaign,
+    ControllerSpec,
+    SimulatorSpec,
+    campaign_text,
+)
 from ogacq.campaign.traceability import simulated_gauges
 from ogacq.io.atomic import write_atomically
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig
+from ogacq.protocol.positioning import ISO_RUNS
 
 MAPS_FILE = "maps.json"
 OFFSETS_FILE = "offsets.toml"
@@ -55,6 +62,10 @@ class Setup:
     separate: bool = True  # run the separating measurement when ambiguous
     scan_minutes: float = SCAN_MINUTES  # the designed scan's machine time budget
     extra: dict[str, Any] = field(default_factory=dict)
+    # scales along the actuators: the maps written on their axes are validated by
+    # ISO 230-2's positioning test (ogacq.calibration.scale_check), in this many runs
+    axis_scales: dict[str, AxisScaleSpec] = field(default_factory=dict)
+    scale_runs: int = ISO_RUNS
 
     @property
     def simulated(self) -> bool:
@@ -73,7 +84,8 @@ class Setup:
                             controller=self.controller, gauges=list(self.gauges),
                             simulator=self.simulator, operator=self.operator,
                             environment=self.environment,
-                            override_expired=self.override_expired)
+                            override_expired=self.override_expired,
+                            axis_scales=dict(self.axis_scales))
         if self.campaign_path is None and not path.exists():
             write_atomically(path, campaign_text(
                 replace(campaign, controller=None),
@@ -102,7 +114,9 @@ class Setup:
                 "plan": self.protocol.to_dict(), "scan_step_mm": self.scan_step_mm,
                 "scan_minutes": self.scan_minutes, "separate": self.separate,
                 "operator": self.operator,
-                "override_expired": self.override_expired, **self.extra}
+                "override_expired": self.override_expired,
+                **({"axis_scales": sorted(self.axis_scales), "scale_runs": self.scale_runs}
+                   if self.axis_scales else {}), **self.extra}
 
 
 def simulator_controller(folder: Path, profile: str) -> ControllerSpec:
@@ -117,18 +131,24 @@ def simulator_setup(folder: Path, machine: MachineSpec, machine_path: Path,
                     simulator: SimulatorSpec, *, operator: str, override_expired: str = "",
                     scan_step_mm: float | None = None, separate: bool = True,
                     scan_minutes: float = SCAN_MINUTES,
-                    today: datetime.date | None = None) -> Setup:
+                    today: datetime.date | None = None, scale_runs: int = ISO_RUNS) -> Setup:
+    """``simulator.axis_scales``: the axes the simulator serves a scale along."""
+    scales = {a: AxisScaleSpec(resolution_mm=simulator.scale_resolution_mm)
+              for a in simulator.axis_scales}
     return Setup(folder, machine, machine_path, ProtocolConfig(settle_s=1.0),
                  simulator_controller(folder, simulator.profile),
                  tuple(simulated_gauges(today or datetime.date.today())), simulator,
                  operator=operator, override_expired=override_expired,
-                 scan_step_mm=scan_step_mm, separate=separate, scan_minutes=scan_minutes)
+                 scan_step_mm=scan_step_mm, separate=separate, scan_minutes=scan_minutes,
+                 axis_scales=scales, scale_runs=scale_runs)
 
 
 def station_setup(folder: Path, campaign: Campaign, *, scan_step_mm: float | None = None,
-                  separate: bool = True, scan_minutes: float = SCAN_MINUTES) -> Setup:
+                  separate: bool = True, scan_minutes: float = SCAN_MINUTES,
+                  scale_runs: int = ISO_RUNS) -> Setup:
     assert campaign.controller is not None
     return Setup(folder, campaign.machine, campaign.machine_path, campaign.protocol,
                  campaign.controller, tuple(campaign.gauges), None, campaign.operator,
                  campaign.environment, campaign.override_expired, campaign.path,
-                 scan_step_mm, separate, scan_minutes=scan_minutes)
+                 scan_step_mm, separate, scan_minutes=scan_minutes,
+                 axis_scales=dict(campaign.axis_scales), scale_runs=scale_runs)

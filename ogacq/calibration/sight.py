@@ -66,6 +66,8 @@ class AxisSight:
     edges_mm: tuple[float, ...]
     limits_mm: tuple[float, ...]
     noise_mm: float  # the noise of the test the limits are of
+    # seen by the axis's scale (ogacq.calibration.scale_check): what it found, in words
+    by_scale: str = ""
 
     @property
     def seen(self) -> tuple[bool, ...]:
@@ -82,6 +84,9 @@ class AxisSight:
     def merged(self, other: AxisSight) -> AxisSight:
         """Two validations of the same correction: a stretch is seen when either sees
         it (the limits are on the same edges: the joint's travel)."""
+        scale = self if self.by_scale else other if other.by_scale else None
+        if scale is not None:  # the scale's test judges the axis over its whole travel
+            return scale
         if other.edges_mm != self.edges_mm:
             return self if self.worst_mm <= other.worst_mm else other
         return AxisSight(self.axis, self.correction_mm, self.edges_mm,
@@ -104,6 +109,8 @@ class AxisSight:
 
     def sentence(self) -> str:
         """What the validation shows of this correction, in words."""
+        if self.by_scale:
+            return self.by_scale
         size = self.correction_mm * UM_PER_MM
         noise = self.noise_mm * UM_PER_MM
         if self.shown:
@@ -126,15 +133,18 @@ class AxisSight:
                    "sees an error of its size nowhere along the axis")
                 + f"; elsewhere {passed} would pass its test (at its {noise:.2g} µm noise: "
                 "its gauges see this joint there through a small sensitivity). What would "
-                f"show it: {more}, or a positioning test along this axis's own line over "
-                "its travel (ISO 230-2)")
+                f"show it: {more}, or an axis scale along the {self.axis} actuator "
+                f"([axis_scale.{self.axis}] in the campaign file; --axis-scales on the "
+                "simulator): calibrate then validates the map by ISO 230-2's positioning "
+                "test over the whole travel (`ogacq positioning` runs it alone)")
 
     def to_json(self) -> dict[str, Any]:
         return {"axis": self.axis, "correction_mm": round(self.correction_mm, 7),
                 "edges_mm": [round(e, 4) for e in self.edges_mm],
                 "limits_mm": [round(v, 7) if math.isfinite(v) else None
                               for v in self.limits_mm],
-                "noise_mm": self.noise_mm, "shown": self.shown}
+                "noise_mm": self.noise_mm, "shown": self.shown,
+                **({"by": "axis scale"} if self.by_scale else {})}
 
 
 def shown(sights: dict[str, AxisSight]) -> bool:
@@ -173,13 +183,13 @@ def sights(maps: dict[str, AxisMap], result: FitResult, verdict: Verdict,
         # the joint's travel, the same stretches for every validation of the correction
         lo, hi = machine.rho_min_mm, machine.rho_max_mm
         edges = np.linspace(lo, hi, STRETCHES + 1)
-        size = _largest(m, lo, hi)
+        size = largest_correction(m, lo, hi)
         limits = []
         for k, (x0, x1) in enumerate(zip(edges[:-1], edges[1:], strict=True)):
             # the first and last stretches take in what lies beyond the travel's ends
             bounds = (-math.inf if k == 0 else x0, math.inf if k == STRETCHES - 1 else x1)
             inside_r, inside_s = _within(q, *bounds), _within(q_set, *bounds)
-            there = _largest(m, float(x0), float(x1))
+            there = largest_correction(m, float(x0), float(x1))
             if there <= NEGLIGIBLE * size:
                 limits.append(0.0)
                 continue
@@ -195,7 +205,7 @@ def _within(q: np.ndarray, lo: float, hi: float) -> np.ndarray:
     return ((q >= lo) & (q < hi)).astype(float)
 
 
-def _largest(m: AxisMap, lo: float, hi: float) -> float:
+def largest_correction(m: AxisMap, lo: float, hi: float) -> float:
     """The correction's largest value from ``lo`` to ``hi``, either direction, less its
     mean over the map's range (a constant is the joint offset's)."""
     grid = np.linspace(lo, hi, GRID)

@@ -33,7 +33,8 @@ import numpy as np
 from ogacq.calibration.compensate import Compensation
 from ogacq.calibration.drive_step import with_drive_step
 from ogacq.calibration.maps import diagnosis_maps
-from ogacq.calibration.sight import AxisSight, merged, shown, sights
+from ogacq.calibration.scale_check import ScaleCheck
+from ogacq.calibration.sight import AxisSight, largest_correction, merged, shown, sights
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
 from ogacq.compensation.iso230 import map_figures
@@ -74,6 +75,8 @@ class Judgement:
     residual_effects: dict[str, dict[str, float]] = field(default_factory=dict)
     looked: str = ""  # where the validation read, and that between those it did not
     sight: dict[str, AxisSight] = field(default_factory=dict)  # how far it sees each map
+    # each scaled axis's positioning tests before and after (ogacq.calibration.scale_check)
+    scales: dict[str, ScaleCheck] = field(default_factory=dict)
 
     @property
     def worse(self) -> bool:
@@ -106,7 +109,25 @@ class Judgement:
                 "offsets_after_std_mm": self.offsets_after_std_mm,
                 "figures_before": self.figures_before, "figures_after": self.figures_after,
                 "residual_effects": self.residual_effects, "looked": self.looked,
-                "sight": {a: s.to_json() for a, s in self.sight.items()}}
+                "sight": {a: s.to_json() for a, s in self.sight.items()},
+                **({"scales": {a: c.to_json() for a, c in self.scales.items()}}
+                   if self.scales else {})}
+
+    def with_scales(self, checks: dict[str, ScaleCheck], maps: dict[str, AxisMap],
+                    machine: MachineSpec) -> Judgement:
+        """This judgement with what each axis's scale found of its map: worse where the
+        scale finds E or A grown, the axis's sight the scale's (whole travel) instead of
+        the legs'."""
+        if not checks:
+            return self
+        lo, hi = machine.rho_min_mm, machine.rho_max_mm
+        sight = dict(self.sight)
+        for axis, check in checks.items():
+            sight[axis] = check.sight(largest_correction(maps[axis], lo, hi), machine)
+        reasons = self.reasons + tuple(c.worse for c in checks.values() if c.worse)
+        outcome = outcome_of(bool(reasons), self.outcome in ("validated", "not shown"), sight)
+        return replace(self, outcome=outcome, reasons=reasons, sight=sight,
+                       scales={**self.scales, **checks})
 
 
 def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> str:

@@ -56,6 +56,12 @@ port); the campaign then waits for the operator at each leg (see `ogacq run`).
                                       # moves (see [override])
     uncertainty_mm = 0.0015           # the certificate's expanded uncertainty U ...
     uncertainty_k = 2.0               # ... and its coverage factor k
+    [axis_scale.x]                    # optional: a length-measuring instrument along the x
+                                      # actuator (a linear scale, a long-stroke indicator) for
+                                      # `ogacq positioning` and calibrate's validation
+    protocol = "mitutoyo-01a"         # read as a gauge is (the same keys as [[gauges]] but
+    port = "/dev/ttyUSB6"             # `gauge`); in a [simulator] campaign none of them: the
+    resolution_mm = 0.001             # simulator serves it. resolution_mm: its display step
     [protocol]
     postures = ["zero", "max", "min", "zero"]
     cycles = 3
@@ -189,6 +195,28 @@ class GaugeSpec(GaugeIdentity):
         return self.identity_given(self.serial)
 
 
+@dataclass(frozen=True)
+class AxisScaleSpec(GaugeSpec):
+    """A length-measuring instrument along one actuator (``[axis_scale.x]``): a linear
+    scale or a long-stroke indicator whose probe rides on the carriage, read through the
+    gauge drivers as any gauge is (a gauge's keys but ``gauge``). It reads the joint's
+    actual displacement along its line, up to a constant: what ISO 230-2's positioning
+    test measures."""
+
+    gauge: str = ""  # the name it is opened under: as_gauge's
+    # its display step (the simulator's: 1 µm, a linear scale on a counter)
+    resolution_mm: float = 0.001
+
+    def as_gauge(self, axis: str) -> AxisScaleSpec:
+        """The scale as the gauge drivers open it (``scale_x`` in messages)."""
+        return replace(self, gauge=scale_name(axis))
+
+
+def scale_name(axis: str) -> str:
+    """How an axis scale is named where gauges are (a driver's messages, a session)."""
+    return f"scale_{axis}"
+
+
 ENVIRONMENT_SENSORS = ("controller",)
 
 
@@ -270,6 +298,10 @@ class SimulatorSpec:
     # the gauges' serial lines run `speed` times faster too (each byte's time divided
     # by it, the frames still real): a rehearsal that is not about the line's timing
     line_at_speed: bool = False
+    # the axes along which the simulator serves a scale (the campaign's [axis_scale.x]
+    # tables, or calibrate's --axis-scales), and their display step
+    axis_scales: tuple[str, ...] = ()
+    scale_resolution_mm: float = AxisScaleSpec.resolution_mm
 
     def header(self) -> dict[str, Any]:
         """The session header's ``simulator`` entry: what a resume restarts."""
@@ -281,6 +313,9 @@ class SimulatorSpec:
             out.update(date=self.date.isoformat(), simulated_date=True)
         if self.line_at_speed:
             out.update(line_at_speed=True)
+        if self.axis_scales:
+            out.update(axis_scales=list(self.axis_scales),
+                       scale_resolution_mm=self.scale_resolution_mm)
         return out
 
     @classmethod
@@ -294,7 +329,10 @@ class SimulatorSpec:
                    gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
                    date=moment_or_none(entry.get("date")),
                    ambient_c=float(entry.get("ambient_c", 20.0)),
-                   line_at_speed=bool(entry.get("line_at_speed", False)))
+                   line_at_speed=bool(entry.get("line_at_speed", False)),
+                   axis_scales=tuple(entry.get("axis_scales", ())),
+                   scale_resolution_mm=float(entry.get("scale_resolution_mm",
+                                                       AxisScaleSpec.resolution_mm)))
 
 
 @dataclass
@@ -314,6 +352,8 @@ class Campaign:
     scan_minutes: float | None = None  # calibrate's separating scan budget (None: default)
     # gauges identified without a [[gauges]] entry (the wizard's, read by eye)
     extra_instruments: list[Instrument] = field(default_factory=list)
+    # [axis_scale.x]: a length-measuring instrument along an actuator, per axis
+    axis_scales: dict[str, AxisScaleSpec] = field(default_factory=dict)
 
     def campaign_date(self) -> datetime.datetime:
         """The campaign's date: the simulator's rehearsed one, or now (local time)."""
@@ -401,6 +441,21 @@ _GAUGE = Table((
     *CERTIFICATE_FIELDS,
 ), build=GaugeSpec)
 
+_AXIS_SCALE = Table((
+    # required without [simulator] (checked with the file's line in _axis_scales)
+    Field("protocol", PROTOCOL_NAME),
+    Field("port", text()),
+    Field("channel", Value((str, int)), decode=str),
+    Field("unit", text("mm", "inch")),  # as set on the scale's display
+    Field("serial", text()),
+    Field("baudrate", _BAUDRATE),
+    # a display step of 1 µm to 0.1 mm: the gauge drivers read a mm display of one to
+    # three decimals (drivers/indicators/base.py DEFAULT_DECIMALS: four would pass for
+    # an inch display); beyond 0.1 mm, a unit slip (no source)
+    Field("resolution_mm", number(minimum=0.001, maximum=0.1)),
+    *CERTIFICATE_FIELDS,
+), build=AxisScaleSpec)
+
 _ENVIRONMENT = Table((
     Field("ambient_c", _TEMPERATURE),
     Field("machine_c", _TEMPERATURE),
@@ -458,6 +513,7 @@ CAMPAIGN_FILE = Table((
     Field("scan_minutes", number(positive=True, maximum=1000 * 60.0)),
     Field("controller", _CONTROLLER),
     Field("gauges", TableArray(_GAUGE)),
+    Field("axis_scale", MapOf(_AXIS_SCALE, keys=AXES, noun="axis"), attr="axis_scales"),
     Field("protocol", _PROTOCOL),
     Field("stability", _STABILITY),
     Field("simulator", _SIMULATOR),
@@ -508,6 +564,7 @@ def read_campaign(path: str | Path) -> Campaign:
         raise src.fail((), "missing [controller] (profile and port), or a [simulator] table")
     campaign.gauges = _gauges(src, given.get("gauges", []),
                               simulated=campaign.simulator is not None)
+    campaign.axis_scales = _axis_scales(src, given.get("axis_scales", {}), campaign)
     _check_environment(src, campaign)
     if campaign.simulator is None:
         wanted = {f"{a}_{leg}" for leg in protocol.legs for a in "xyz" if a != leg}
@@ -549,6 +606,8 @@ def _check_simulated_only(src: Source, given: dict) -> None:
         real.append(f"[controller] {spec.endpoints() or spec.profile}")
     real += [f"gauge {g.gauge} on {g.port or g.protocol}" for g in given.get("gauges", [])
              if g.port or g.protocol]
+    real += [f"{a} axis scale on {s.port or s.protocol}"
+             for a, s in given.get("axis_scales", {}).items() if s.port or s.protocol]
     if real:
         raise src.fail(("simulator",), "", f"a [simulator] table and real ports "
                        f"({', '.join(real[:3])}{', ...' if len(real) > 3 else ''}): a campaign "
@@ -629,21 +688,24 @@ def _check_environment(src: Source, campaign: Campaign) -> None:
                        "temperatures (ambient_c, machine_c) instead")
 
 
-def _check_identity(src: Source, k: int, g: GaugeSpec) -> None:
-    """A gauge's identity names (``ogacq.io.names``: recorded and printed as a name is);
-    a certificate's dates in order."""
+def _check_identity(src: Source, at: tuple[str | int, ...],
+                    g: GaugeSpec) -> None:
+    """A gauge's (or an axis scale's, at its table ``at``) identity names
+    (``ogacq.io.names``: recorded and printed as a name is); a certificate's dates in
+    order."""
+    name = f"the {at[-1]} axis scale" if isinstance(g, AxisScaleSpec) else f"gauge {g.gauge}"
     for key in ("make", "model", "serial", "certificate"):
         problem = name_problem(getattr(g, key))
         if problem is not None:
-            raise src.fail(("gauges", k, key), f"= {getattr(g, key)[:60]!r} {problem}")
+            raise src.fail((*at, key), f"= {getattr(g, key)[:60]!r} {problem}")
     if g.calibrated is not None and g.due is not None and g.due <= g.calibrated:
-        raise src.fail(("gauges", k, "due"), "", f"gauge {g.gauge}: due {g.due.isoformat()} "
+        raise src.fail((*at, "due"), "", f"{name}: due {g.due.isoformat()} "
                        f"is not after calibrated {g.calibrated.isoformat()}")
     if g.uncertainty_k is not None and g.uncertainty_mm is None:
-        raise src.fail(("gauges", k, "uncertainty_k"), "", f"gauge {g.gauge}: uncertainty_k "
+        raise src.fail((*at, "uncertainty_k"), "", f"{name}: uncertainty_k "
                        "without uncertainty_mm (the certificate's U)")
     if g.uncertainty_mm is not None and g.uncertainty_mm > MAX_CERTIFICATE_U_MM:
-        raise src.fail(("gauges", k, "uncertainty_mm"), "", f"gauge {g.gauge}: uncertainty_mm = "
+        raise src.fail((*at, "uncertainty_mm"), "", f"{name}: uncertainty_mm = "
                        f"{g.uncertainty_mm:g} mm is more than an indicator's certificate "
                        f"states (at most {MAX_CERTIFICATE_U_MM:g} mm): micrometres written as "
                        "mm?")
@@ -659,7 +721,7 @@ def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
         if g.gauge in seen:
             raise InputError(src.path, f"gauge {g.gauge} appears twice (first on line "
                              f"{seen[g.gauge]})", line)
-        _check_identity(src, k, g)
+        _check_identity(src, ("gauges", k), g)
         if not g.protocol or not g.port:
             if simulated and not g.protocol and not g.port:
                 seen[g.gauge] = line  # the simulator's gauge, identified here
@@ -675,6 +737,32 @@ def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
                              f"{first_on_port.protocol}: one port speaks one protocol", line)
         seen[g.gauge] = line
     return gauges
+
+
+def _axis_scales(src: Source, scales: dict[str, AxisScaleSpec], campaign: Campaign,
+                 ) -> dict[str, AxisScaleSpec]:
+    """Each scale with its link (on a station) or none (the simulator serves it, and is
+    told which axes); a scale's port not a leg gauge's."""
+    for axis, scale in scales.items():
+        _check_identity(src, ("axis_scale", axis), scale)
+        if campaign.simulator is not None:
+            continue  # _check_simulated_only refused a port or a protocol
+        if not scale.protocol or not scale.port:
+            missing = "protocol" if not scale.protocol else "port"
+            raise src.fail(("axis_scale", axis), "", f"the {axis} axis scale needs "
+                           f"{missing!r} (how and where it is read)")
+        shared = next((g.gauge for g in campaign.gauges
+                       if (g.port, g.channel) == (scale.port, scale.channel)), None)
+        if shared is not None:
+            raise src.fail(("axis_scale", axis, "port"), "", f"the {axis} axis scale is on "
+                           f"{scale.port} as gauge {shared} is: each is read on its own port "
+                           "or channel")
+    if campaign.simulator is not None and scales:
+        campaign.simulator = replace(campaign.simulator, axis_scales=tuple(sorted(scales)))
+        steps = {s.resolution_mm for s in scales.values()}
+        if len(steps) == 1:
+            campaign.simulator = replace(campaign.simulator, scale_resolution_mm=steps.pop())
+    return scales
 
 
 def _check_own_indicator(src: Source, g: GaugeSpec, before: list[GaugeSpec],
@@ -714,7 +802,8 @@ def campaign_text(campaign: Campaign, *, comment: str = "",
                 "session": campaign.session, "deadline_s": campaign.deadline_s,
                 "scan_minutes": campaign.scan_minutes, "simulator": campaign.simulator,
                 "controller": campaign.controller,
-                "gauges": campaign.gauges, "protocol": plan, "stability": stability,
+                "gauges": campaign.gauges, "axis_scales": campaign.axis_scales or None,
+                "protocol": plan, "stability": stability,
                 "environment": campaign.environment,
                 "override": ({"expired_gauges": campaign.override_expired}
                              if campaign.override_expired else None)}

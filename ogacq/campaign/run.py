@@ -111,7 +111,7 @@ def run_campaign(campaign: Campaign, *, observer: Observer | None = None,
                                     recorded=recorded, observer=observer,
                                     set_gauges=set_gauges, previous=previous,
                                     check_first=bool(previous),
-                                    correction=_target_correction(campaign, maps))
+                                    correction=target_correction(campaign, maps))
             runner.run()
             result = _close_campaign(campaign, station, writer, environment_at_end)
         hidden = station.simulator.machine.truth.hidden() if station.simulator else None
@@ -141,7 +141,7 @@ def _session_writer(campaign: Campaign, station: DeviceStation, resume: LoadedSe
     return SessionWriter.create(campaign.session, header), set()
 
 
-def _target_correction(campaign: Campaign, maps: MapsTable | None) -> TargetCorrection | None:
+def target_correction(campaign: Campaign, maps: MapsTable | None) -> TargetCorrection | None:
     """The maps in force applied to every target (None: no maps file, or an empty one)."""
     if maps is None or not maps.maps:
         return None

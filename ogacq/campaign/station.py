@@ -41,10 +41,12 @@ from ogacq_drivers.indicators.rest import sample_variance
 from ogacq_drivers.link import open_link
 from ogacq.campaign.campaign_file import (
     AxisEndpoint,
+    AxisScaleSpec,
     Campaign,
     ControllerSpec,
     GaugeSpec,
     SimulatorSpec,
+    scale_name,
 )
 from ogacq.logs import logger
 from ogacq.model.machine import MachineSpec
@@ -149,6 +151,33 @@ class DeviceStation:
                              r.waited_s, r.values,
                              None if r.reference is None else r.reference.u_mm, r.measured)
                 for g, r in out.items()}
+
+    def read_scale(self, axis: str, rule: SettleRule, stability: StabilityRule,
+                   ) -> tuple[GaugeValue, SettledGauge]:
+        """The scale along ``axis`` read from now until at rest by ``rule`` (its display
+        step in the rule), as a leg's gauges are after a move; one not at rest within
+        the bound is read afresh by ``stability``. Its value and how it settled; a
+        DriverError when it cannot be read."""
+        name = scale_name(axis)
+        if name not in self.indicators:
+            raise InputError("axis_scale", f"no scale along the {axis} axis is declared "
+                             f"([axis_scale.{axis}] in the campaign file)")
+        out = self._gauge_reader().settle_many(
+            [name], window_s=rule.window_s, bound_s=rule.bound_s,
+            display_step_mm=rule.display_step_mm, clock=self.clock_s)[name]
+        if isinstance(out, DriverError):
+            raise out
+        settled = SettledGauge(None if out.reading is None else _gauge_value(out.reading),
+                               out.waited_s, out.values,
+                               None if out.reference is None else out.reference.u_mm,
+                               out.measured)
+        if settled.value is not None:
+            return settled.value, settled
+        again = self._gauge_reader().read_stable_many(
+            [name], stability.readings, stability.tolerance_mm, stability.timeout_s)[name]
+        if isinstance(again, DriverError):
+            raise again
+        return _gauge_value(again), settled
 
     def _gauge_reader(self) -> ConcurrentReader:
         if self._reader is None:
@@ -310,7 +339,17 @@ def start_simulator(machine: MachineSpec, sim: SimulatorSpec, *, modbus_port: in
                                           gauge_protocols=dict(sim.gauge_protocols),
                                           modbus_port=modbus_port,
                                           line_speed=sim.speed if sim.line_at_speed
-                                          else 1.0)).start()
+                                          else 1.0, axis_scales=sim.axis_scales,
+                                          scale_resolution_mm=sim.scale_resolution_mm)
+                          ).start()
+
+
+def simulator_scales(simulator: SimulatorStack) -> dict[str, AxisScaleSpec]:
+    """Scale specs pointing at a running simulator's axis scales."""
+    return {axis: AxisScaleSpec(protocol=s["protocol"], port=s["port"],
+                                serial=f"sim-scale-{axis}",
+                                resolution_mm=simulator.config.scale_resolution_mm)
+            for axis, s in simulator.info().get("axis_scales", {}).items()}
 
 
 def simulator_endpoints(simulator: SimulatorStack) -> tuple[ControllerSpec, list[GaugeSpec]]:
@@ -467,7 +506,11 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
             raise InputError(campaign.path, "missing [controller] (profile and port), or a "
                              "[simulator] table")
         controller = stack.enter_context(open_controller(controller_spec))
-        indicators = stack.enter_context(open_gauges(gauge_specs))
+        # the axis scales are opened as gauges are, named scale_x beside them
+        scales = simulator_scales(simulator) if simulator is not None \
+            else campaign.axis_scales
+        scale_specs = [s.as_gauge(a) for a, s in scales.items()]
+        indicators = stack.enter_context(open_gauges([*gauge_specs, *scale_specs]))
         if simulator is not None:
             clock, speed = simulator.clock.now, simulator.clock.speed
         else:
@@ -484,6 +527,11 @@ def open_station(campaign: Campaign, simulator: SimulatorStack | None = None,
             # ogacq sim's controller says so itself, whatever the campaign file names
             "simulated": simulator is not None or simulated_by_identity(identification),
         }
+        if scales:
+            description["axis_scales"] = {
+                a: {"protocol": s.protocol, "port": s.port, "channel": s.channel,
+                    "unit": s.unit, "serial": s.serial, "resolution_mm": s.resolution_mm}
+                for a, s in scales.items()}
         station = DeviceStation(controller, indicators, clock, speed, description, simulator,
                                 controller_spec.reconnect,
                                 rehome_after_loss=controller_spec.rehome_after_loss)

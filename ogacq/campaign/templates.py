@@ -57,6 +57,9 @@ offsets_file (profiles without an offset register), maps_file (the error maps
 `ogacq calibrate` writes, applied to every target), tables (the compensation table
 formats it writes, e.g. ["linuxcnc", "csv"]; default all), [[gauges]] channel,
 serial and baudrate, and a [simulator] table (instead of hardware) may be added.
+[axis_scale.x] protocol, port, resolution_mm (and the [[gauges]] identity keys): a
+scale along an actuator, for ISO 230-2's positioning test (`ogacq positioning`) and
+`ogacq calibrate`'s maps and their validation along the whole travel.
 
 Traceability (recorded in the session; format: docs/formats.md):
 operator = "J. Martin"           who runs the calibration

@@ -42,6 +42,7 @@ from ogacq.io.machine_file import machine_text, read_machine
 from ogacq.io.names import checked_name
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
 from ogacq.model.tolerances import Tolerances
+from ogacq.protocol.positioning import ISO_RUNS
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.sim.truth import read_effects_text
 
@@ -81,6 +82,14 @@ def calibrate(
     scan_minutes: Annotated[float | None, typer.Option(
         min=1.0, help="The machine time the designed separating scan may take (default: "
                       f"the campaign file's scan_minutes, else {SCAN_MINUTES:g}).")] = None,
+    axis_scales: Annotated[str, typer.Option(
+        metavar="AXES", help="With --simulator: the axes (e.g. x,y,z) along which a scale is "
+                             "mounted; a map written on such an axis is validated by ISO "
+                             "230-2's positioning test over its whole travel (on a station: "
+                             "the campaign file's [axis_scale.x] tables).")] = "",
+    scale_runs: Annotated[int, typer.Option(
+        min=2, max=50, help="Runs each way of each axis scale's positioning test "
+                            "(ISO 230-2: five).")] = ISO_RUNS,
     no_separate: Annotated[bool, typer.Option(
         "--no-separate", help="Do not run the separating measurement an ambiguous "
                               "diagnosis asks for (it is still shown).")] = False,
@@ -102,6 +111,7 @@ def calibrate(
     """
     reason = override_reason(override_expired)
     operator = checked_name(operator, "--operator") if operator is not None else None
+    scales = _scale_axes(axis_scales, simulator)
     if effects is not None and campaign is not None:
         raise InputError("--effects", "is the simulator's: give it with --simulator")
     files = _simulator_files(seed, effects) if simulator and resume is None else {}
@@ -111,7 +121,7 @@ def calibrate(
                       "to confirm on, give --yes (unattended stations)")
     setup = _resumed_setup(folder) if resuming else _new_setup(
         folder, campaign, files, seed, profile.value, speed, scan_step_mm,
-        not no_separate, operator, reason, scan_minutes)
+        not no_separate, operator, reason, scan_minutes, scales, scale_runs)
     from ogacq.calibration.procedure import calibrate as run_procedure
     from ogacq.cli.render_calibrate import TerminalUI, print_outcome
     from ogacq.history.recording import procedure_history, record_calibrate, record_writebacks
@@ -152,6 +162,18 @@ def calibrate(
     print_outcome(outcome, report)
     if outcome.exit_code:
         raise typer.Exit(outcome.exit_code)
+
+
+def _scale_axes(given: str, simulator: bool) -> tuple[str, ...]:
+    """``--axis-scales``'s axes (the simulator's only: a station's are in its file)."""
+    axes = tuple(sorted({a.strip() for a in given.split(",") if a.strip()}))
+    bad = [a for a in axes if a not in ("x", "y", "z")]
+    if bad:
+        raise InputError("--axis-scales", f"names axes x, y or z, got {', '.join(bad)}")
+    if axes and not simulator:
+        raise InputError("--axis-scales", "is the simulator's: on a station, declare each "
+                         "scale in the campaign file ([axis_scale.x], its protocol and port)")
+    return axes
 
 
 def _campaign_diagnosis(folder: Path) -> dict | None:
@@ -248,7 +270,8 @@ def _simulator_files(seed: int, effects: Path | None) -> dict[str, bytes]:
 
 def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes], seed: int,
                profile: str, speed: float, scan_step_mm: float | None, separate: bool,
-               operator: str | None, reason: str, scan_minutes: float | None = None) -> Setup:
+               operator: str | None, reason: str, scan_minutes: float | None = None,
+               scales: tuple[str, ...] = (), scale_runs: int = ISO_RUNS) -> Setup:
     if campaign_path is not None:
         campaign = read_campaign(campaign_path)
         if campaign.simulator is not None or campaign.controller is None:
@@ -257,19 +280,19 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
         folder.mkdir(parents=True, exist_ok=True)
         return station_setup(folder, campaign, scan_step_mm=scan_step_mm, separate=separate,
                              scan_minutes=scan_minutes or campaign.scan_minutes
-                             or SCAN_MINUTES)
+                             or SCAN_MINUTES, scale_runs=scale_runs)
     folder.mkdir(parents=True, exist_ok=True)
     for name, data in files.items():
         write_atomically(folder / name, data)
     effects_path = (folder / EFFECTS_FILE).resolve() if EFFECTS_FILE in files else None
     # a rehearsal of the procedure, not of the gauges' line timing: the lines at --speed
     spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile,
-                         line_at_speed=True)
+                         line_at_speed=True, axis_scales=scales)
     return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
                            spec, operator=operator or _login_name(),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, scan_minutes=scan_minutes or SCAN_MINUTES,
-                           today=datetime.date.today())
+                           today=datetime.date.today(), scale_runs=scale_runs)
 
 
 def _resumed_setup(folder: Path) -> Setup:
@@ -283,13 +306,15 @@ def _resumed_setup(folder: Path) -> Setup:
     scan = float(step) if step else None
     minutes = float(described.get("scan_minutes") or SCAN_MINUTES)
     separate = bool(described.get("separate", True))
+    runs = int(described.get("scale_runs") or ISO_RUNS)
     if described.get("mode") == "station":
         campaign = read_campaign(described["campaign_file"])
         return station_setup(folder, campaign, scan_step_mm=scan, separate=separate,
-                             scan_minutes=minutes)
+                             scan_minutes=minutes, scale_runs=runs)
     machine_path = Path(described["machine_file"])
     spec = SimulatorSpec.from_header(described["simulator"])
     return simulator_setup(folder, read_machine(machine_path), machine_path, spec,
                            operator=str(described.get("operator") or _login_name()),
                            override_expired=str(described.get("override_expired") or ""),
-                           scan_step_mm=scan, separate=separate, scan_minutes=minutes)
+                           scan_step_mm=scan, separate=separate, scan_minutes=minutes,
+                           scale_runs=runs)

@@ -91,6 +91,12 @@ COMMANDS: Mapping[str, LazyCommandSpec | LazyGroupSpec] = {
         "controllers' formats with their ISO 230-2 figures, a validation campaign, "
         "the record as found and as left; the previous state restored when the "
         "validation is worse, with the reason."),
+    "positioning": LazyCommandSpec(
+        "ogacq.cli.positioning_cmd:positioning",
+        "Test an axis's positioning with a scale along its actuator (ISO 230-2:2014): "
+        "irregular targets over the travel, both directions, several runs, only that axis "
+        "moving; prints the accuracy A, repeatability R, reversal B, systematic error E and "
+        "M, and writes them as JSON beside the session."),
     "diagnose": LazyCommandSpec(
         "ogacq.cli.diagnose_cmd:diagnose_command",
         "Compare the recordings with the identified model; locate and explain a "

@@ -400,6 +400,31 @@ class ReferenceRecord(Record):
 
 
 @dataclass(frozen=True, kw_only=True)
+class PositionRecord(Record):
+    """One reading of an ISO 230-2 positioning test (``ogacq.campaign.positioning``):
+    the scale along ``axis`` at ``target_mm`` (where the joint is meant to be),
+    approached in ``direction`` (+1 upward, -1 downward) in run ``run``;
+    ``commanded_mm`` the target the drive took (the maps' correction, rounded to its
+    step), ``meant_mm`` where that meant the joint to land (``TargetCorrection.nominal``:
+    the target and the drive's rounding)."""
+
+    KIND: ClassVar[str] = "position"
+    axis: str = field(metadata=must(lambda a: a in ("x", "y", "z"), "x, y or z"))
+    run: int = field(metadata=must(lambda n: n >= 1, "1 or more"))
+    direction: int = field(metadata=must(lambda d: d in (-1, 1), "-1 or +1"))
+    target_mm: Finite
+    commanded_mm: Finite | None = None
+    meant_mm: Finite | None = None
+    scale_mm: Finite
+    t_s: Finite  # station clock since the test started
+    raw: str | None = None  # the frame as received
+    averaged: int | None = field(default=None, metadata=must(
+        lambda n: n >= 1, "a count of values, 1 or more"))
+    averaged_sd_mm: Finite | None = field(default=None, metadata=must(
+        lambda sd: sd >= 0, "0 or more"))
+
+
+@dataclass(frozen=True, kw_only=True)
 class SalvageRecord(Record):
     """The last record of a session ``ogacq session salvage`` wrote: the damaged file
     it came from, and the lines of it left out with why."""
@@ -443,7 +468,7 @@ KINDS: dict[str, Any] = {cls.KIND: cls for cls in (
     ReadingRecord, MoveRecord, GaugesSetRecord, FaultRecord, EndRecord, ResultRecord,
     ResumeRecord, StationRecord, OperatorRecord, OffsetsRecord, ReconnectRecord,
     EnvironmentRecord, OverrideRecord, SettleRecord, ReferenceRecord, SalvageRecord,
-    MapsRecord, CalibrateRecord)}
+    MapsRecord, CalibrateRecord, PositionRecord)}
 
 
 def record_from_json(d: Mapping[str, Any]) -> Record:

@@ -21,7 +21,7 @@ from ogacq.model.gauges import GAUGE_INDICES
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import AXES, PARAM_INDEX
-from ogacq.sim.physics import true_coordinates
+from ogacq.sim.physics import joint_travel_mm, true_coordinates
 from ogacq.sim.truth import SimTruth
 
 GAUGE_STROKE_MM = 12.7  # a common indicator stroke: zeros sit near mid-range
@@ -138,3 +138,26 @@ class SimMachine:
 
     def value_source(self, gauge_axis: int, leg: int) -> Callable[[], float]:
         return lambda: self.gauge_value_mm(gauge_axis, leg)
+
+    def joint_mm(self, axis: int) -> float:
+        """Where joint ``axis`` actually is now along its line, from its zero (noise-free):
+        what a scale along its actuator reads up to the scale's own zero."""
+        q = np.array([self.encoders.raw_position_mm(b) for b in AXES])
+        side = np.array([self.encoders.last_direction(b) for b in AXES])
+        travel = np.array([_travel_since_reversal(self.encoders, b) for b in AXES])
+        return joint_travel_mm(self.truth, axis, q, side, travel, self.clock.now())
+
+    def scale_source(self, axis: int, noise_mm: float) -> Callable[[], float]:
+        """What a scale along actuator ``axis`` reads: the joint's place counted from its
+        nominal zero (rho = L; a scale's counter is zeroed wherever it is mounted, and a
+        test reads it up to that constant), its own noise (seeded apart from the gauges')
+        and the carriage's ringing along it."""
+        rng = np.random.default_rng([self._seed, 30, axis])
+        lock = threading.Lock()
+
+        def read() -> float:
+            with lock:
+                noise = float(rng.normal(0.0, noise_mm)) if noise_mm else 0.0
+            return self.joint_mm(axis) + noise + self.vibration_mm(axis, (axis + 1) % 3)
+
+        return read

@@ -18,7 +18,10 @@ from ogacq.model.error_maps import JointHistory
 from ogacq.model.joint_sensitivity import predict_displaced
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout, predict_coordinates
+from ogacq.model.parameters import PARAM_INDEX
 from ogacq.sim.truth import SimTruth
+
+S_PER_H = 3600.0
 
 
 def true_coordinates(truth: SimTruth, layout: ReadingsLayout, machine: MachineSpec,
@@ -38,3 +41,20 @@ def true_coordinates(truth: SimTruth, layout: ReadingsLayout, machine: MachineSp
         return predict_coordinates(truth.theta, moved, machine)
     return predict_displaced(truth.theta, moved, machine, truth.across_mm(layout.q_mm, machine),
                              truth.across_mm(layout.setting_q_mm, machine))
+
+
+def joint_travel_mm(truth: SimTruth, axis: int, q_mm: np.ndarray, side: np.ndarray,
+                    travel_mm: np.ndarray, t_s: float) -> float:
+    """Where joint ``axis`` actually is along its line, from its zero (``rho - L``), the
+    joints commanded to ``q_mm`` (3,), each last moved from ``side`` (3,) over
+    ``travel_mm`` (3,) since its reversal, at ``t_s``: what a scale along the actuator
+    reads up to its own zero. The measurement model's joint position
+    (``ogacq.model.measurement``: the encoder scale, the joint offset, its drift and the
+    lost motion) written again, of the disturbed ``q``."""
+    theta, name = truth.theta, "xyz"[axis]
+    q = truth.disturbed_q(np.asarray(q_mm, float), np.asarray(side), np.asarray(travel_mm),
+                          t_s)[axis]
+    scale = theta[PARAM_INDEX[f"encoder_scale.{name}"]] * 1e-6
+    return float(q * (1.0 + scale) + theta[PARAM_INDEX[f"joint_offset.{name}"]]
+                 + theta[PARAM_INDEX[f"thermal_drift.{name}"]] * t_s / S_PER_H
+                 - 0.5 * side[axis] * theta[PARAM_INDEX[f"backlash.{name}"]])

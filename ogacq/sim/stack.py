@@ -32,6 +32,11 @@ from ogacq.model.parameters import AXES
 from ogacq.sim.machine import SimMachine
 from ogacq.sim.truth import SimTruth
 
+# A linear scale's scatter read on its counter at rest: 0.3 µm (no source: an order of
+# magnitude; a third of its 1 µm display step, which it dithers so that a mean of its
+# values is biased by the rounding at most 0.05 µm).
+SCALE_NOISE_MM = 0.0003
+
 
 @dataclass
 class SimulatorConfig:
@@ -57,6 +62,11 @@ class SimulatorConfig:
     # how many times faster than their baud rates the gauges' serial lines run (a
     # rehearsal not about the line's timing asks for `speed`; 1: the real lines)
     line_speed: float = 1.0
+    # the axes with a scale along the actuator (ISO 230-2's positioning test), served
+    # as gauges of gauge_protocol, their display step and noise
+    axis_scales: tuple[str, ...] = ()
+    scale_resolution_mm: float = 0.001
+    scale_noise_mm: float = SCALE_NOISE_MM
 
 
 # Gauges that push their values (U-WAVE's DATA button, the keyboard cable's switch):
@@ -141,6 +151,14 @@ class SimulatorStack:
         else:
             raise ValueError(f"gauge_layout must be 'separate', 'multiplexer' or 'moved', "
                              f"got {config.gauge_layout!r}")
+        # each axis scale on its own line, reading the same simulated machine
+        self.scales: dict[str, SimulatedGauge] = {
+            axis: make_gauge(config.gauge_protocol,
+                             self.machine.scale_source(AXES.index(axis), config.scale_noise_mm),
+                             resolution_mm=config.scale_resolution_mm,
+                             transport=config.gauge_transport, name=f"sim {axis} axis scale",
+                             line_speed=config.line_speed)
+            for axis in config.axis_scales}
         self._started = False
 
     def start(self) -> SimulatorStack:
@@ -197,7 +215,8 @@ class SimulatorStack:
         return lambda: by_leg[self._mounted_leg]()
 
     def _endpoints(self) -> list[Any]:
-        return list({id(g): g for g in self.gauges.values()}.values())
+        return list({id(g): g for g in [*self.gauges.values(), *self.scales.values()]
+                     }.values())
 
     def info(self) -> dict[str, Any]:
         """Where to connect, as ``ogacq sim --json`` prints it."""
@@ -208,4 +227,6 @@ class SimulatorStack:
             "gauges": {key: {"port": g.port, "protocol": g.protocol}
                        | ({"channel": self.channels[key]} if self.channels[key] else {})
                        for key, g in self.gauges.items()},
+            **({"axis_scales": {axis: {"port": g.port, "protocol": g.protocol}
+                                for axis, g in self.scales.items()}} if self.scales else {}),
         }

@@ -73,6 +73,8 @@ def test_a_4_um_map_is_seen_only_where_the_other_legs_move_the_joint(validation)
                            "validation sees an error of its size only over q from -11 to "
                            "+7 mm"), said
     assert "ISO 230-2" in said and "times the readings there" in said
+    # what would show it: a scale along the actuator, as the campaign file declares it
+    assert "an axis scale along the y actuator ([axis_scale.y]" in said
 
 
 def test_a_correction_it_sees_everywhere_is_validated(validation):

@@ -23,6 +23,7 @@ from ogacq.session.records import (
     OperatorRecord,
     OtherRecord,
     OverrideRecord,
+    PositionRecord,
     ReadingRecord,
     ResultRecord,
     ResumeRecord,
@@ -72,6 +73,9 @@ AVERAGED = dataclasses.replace(READING, averaged=16, averaged_sd_mm=0.0004)
                  values={"y_x": 64, "z_x": 20}, unsettled=("y_x",),
                  u_mm={"y_x": 0.0011, "z_x": 0.0009}),
     SettleRecord(step="x/c2/p1", rule="none", ended="not moved", waited_s=0.0),
+    PositionRecord(axis="x", run=2, direction=-1, target_mm=-41.23, commanded_mm=-41.24,
+                   meant_mm=-41.2339, scale_mm=-40.8122, t_s=31.5, raw="01A-040.8122", averaged=12,
+                   averaged_sd_mm=0.0002),
 ])
 def test_every_record_reads_back_as_written(record):
     on_disk = json.loads(json.dumps({**record.to_json(), "wall": 1.5}))
@@ -219,3 +223,13 @@ def test_the_pairs_are_written_together_and_the_nulls_where_declared():
     assert OverrideRecord(what="w", subject="s", reason="r").to_json() == {
         "type": "override", "what": "w", "subject": "s", "due": None, "reason": "r",
         "operator": None}
+
+
+@pytest.mark.parametrize(("change", "named"), [
+    ({"direction": 0}, "direction"), ({"axis": "w"}, "axis"), ({"run": 0}, "run"),
+    ({"scale_mm": "1.0"}, "scale_mm")])
+def test_a_positioning_reading_out_of_its_kind_is_refused(change, named):
+    good = PositionRecord(axis="y", run=1, direction=1, target_mm=3.0, scale_mm=3.001,
+                          t_s=1.0).to_json()
+    with pytest.raises(ValueError, match=f"valid {named}"):
+        record_from_json({**good, **change})
