@@ -373,19 +373,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     shortest = min(stated + (required or (longest,)))
     scan = _Scan(machine, replace(protocol, scan_targets_mm=(lo, hi)), noise_mm, required,
                  stated, longest, shortest)
-    while True:  # the fewest equal strata that sample the band
-        covered = scan.covers(_best_targets(lo, hi, n, required, stated))
-        if covered or n >= most:
-            break
-        n = min(most, max(n + 1, int(n * 1.12)))
-    while True:
-        placed = scan.placed(n, covered and timed)
-        wanted = targets_for_detection(placed.detection, n)
-        if wanted <= n or wanted > most or not timed:
-            # reached, or beyond the budget's reach (or no budget in machine time to
-            # grow within): the fewest that sample the band
-            break
-        n = wanted
+    n, placed, wanted = _counted_and_placed(scan, n, most, timed)
     targets = placed.targets
     protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
     band, band_gap = resolved_band(targets, longest, shortest)
@@ -406,6 +394,27 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
                       unsampled, max(gaps), noise_mm, placed.detection,
                       alias_level(targets, shortest), needed, bound, step,
                       reading_noise(noise_mm, step).rounding_dominated)
+
+
+def _counted_and_placed(scan: _Scan, n: int, most: int, timed: bool,
+                        ) -> tuple[int, _Placed, int]:
+    """The fewest equal strata that sample the band (from ``n``, at most ``most``),
+    placed, and grown while that reaches the detection target within the budget; with
+    the count the detection target wants."""
+    lo, hi = scan.ends.scan_targets_mm
+    while True:
+        covered = scan.covers(_best_targets(lo, hi, n, scan.required, scan.stated))
+        if covered or n >= most:
+            break
+        n = min(most, max(n + 1, int(n * 1.12)))
+    while True:
+        placed = scan.placed(n, covered and timed)
+        wanted = targets_for_detection(placed.detection, n)
+        if wanted <= n or wanted > most or not timed:
+            # reached, or beyond the budget's reach (or no budget in machine time to
+            # grow within): the fewest that sample the band
+            return n, placed, wanted
+        n = wanted
 
 
 @dataclass(frozen=True)
