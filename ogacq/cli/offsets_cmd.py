@@ -24,6 +24,7 @@ from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
 from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
 from ogacq.cli.plain import print_wrapped
+from ogacq.cli.render_fit import print_notes
 from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.recording import record_writebacks
 from ogacq.session.state import require_complete, session_notes
@@ -195,7 +196,7 @@ def _analysed(path: Path, partial: bool, accept_edited: bool, *, say: bool = Tru
     session = load_session(path, accept_edited=accept_edited)
     state = require_complete(session, partial)
     if say:
-        render.print_notes(session_notes(session, state))
+        print_notes(session_notes(session, state))
     return session
 
 

@@ -18,7 +18,6 @@ from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.maps import MapEffect
-from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
@@ -30,29 +29,15 @@ MANY_GROUPS = 12  # beyond this many postures (a scan) only the worst are listed
 SHOWN_GROUPS = 5
 
 
-def _value(value: float, std: float, unit: str) -> str:
-    """As the record's page writes it: the value at its std's decimal place, the std to
-    two significant digits (one rounding rule on the console and the page)."""
-    return measure(value, std, unit)
-
-
 def _judged(title: str, v: Verdict) -> str:
     colour = "green" if v.consistent else "red"
     return f"{title}: [{colour}]{paragraph(v)}[/]"
 
 
-def _verdict_line(title: str, model: Model) -> str:
-    return _judged(title, model.verdict)
-
-
-def _final_line(title: str, d: Diagnosis) -> str:
-    return _judged(title, d.final)
-
-
 def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     out.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
               f"{d.noise.describe()}")
-    out.print(_verdict_line("joint offsets only", d.selection.base))
+    out.print(_judged("joint offsets only", d.selection.base.verdict))
     _print_outliers(d)
     if d.outcome == "consistent":
         out.print("The joint-offset model reproduces these recordings within the gauge "
@@ -264,13 +249,13 @@ def _print_gauge_rms(d: Diagnosis) -> None:
 def _print_outcome_line(d: Diagnosis) -> None:
     """Explained, partly explained or unexplained, and by how much."""
     if d.outcome == "explained":
-        out.print(_final_line("[bold]with the effects found[/]", d))
+        out.print(_judged("[bold]with the effects found[/]", d.final))
     elif d.outcome == "partly explained":
         out.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
                   f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
                   "the noise; their std are inflated by the remaining misfit "
                   f"(x{d.std_inflation:.2f}).")
-        out.print(_final_line("with them", d))
+        out.print(_judged("with them", d.final))
     else:
         out.print("[red]Unexplained[/]: nothing in the effect library brings the fit "
                   "within the gauge noise, so no effect is named.")
@@ -282,7 +267,7 @@ def _print_outcome_line(d: Diagnosis) -> None:
 
 def _print_effect(e: EffectFound, d: Diagnosis, machine_file: str) -> None:
     """One effect found: its value, what its std holds, and what else explains it."""
-    out.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
+    out.print(f"  [bold]{e.name}[/] = {measure(e.value, e.std, e.unit)}")
     if e.model_spread > 0.2 * e.std:
         out.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
                   "much when another effect is swapped for its alternative)")
@@ -329,7 +314,7 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
 def _print_offsets(d: Diagnosis) -> None:
     f = d.final_fit
     std = {n: f.std[k] * d.std_inflation for k, n in enumerate(f.names) if n in BASE_MODEL}
-    parts = [f"{n.split('.')[1]} {_value(f.value(n), std[n], 'mm')}" for n in BASE_MODEL]
+    parts = [f"{n.split('.')[1]} {measure(f.value(n), std[n], 'mm')}" for n in BASE_MODEL]
     out.print("joint offsets (final model): " + ", ".join(parts))
     # The offsets absorb what the effects do not: with an alias in an effect's place
     # they move, and writing them back should wait for the alias to be settled.

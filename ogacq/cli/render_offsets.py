@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
@@ -10,6 +9,7 @@ from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown
+from ogacq.cli.render_fit import format_number as _mm  # a value in mm, '-' if none
 from ogacq.cli.verdict_text import paragraph
 from ogacq.writeback.audit import Operation
 from ogacq.writeback.evidence import Evidence
@@ -18,19 +18,6 @@ from ogacq.writeback.policy import OffsetPlan
 
 console = new_console()
 err_console = new_console(stderr=True)
-
-
-def _mm(value: float | None, digits: int = 4) -> str:
-    if not isinstance(value, int | float) or isinstance(value, bool) or \
-            not math.isfinite(value):
-        return "-"
-    return f"{value:+.{digits}f}"
-
-
-def print_notes(notes: list[str]) -> None:
-    """What the session is, said before its evidence: partial, edited."""
-    for note in notes:
-        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
 
 
 def _where(plan: OffsetPlan, port: str, offsets_file: str | None) -> str:

@@ -12,7 +12,7 @@ import contextlib
 import datetime
 import re
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -384,21 +384,14 @@ class _Wizard:
                 # a rehearsal stopped at its result: its simulator again (the same seed,
                 # the offsets as before the write), so the write-back and the validation
                 # the wizard offers have a controller, as in the rehearsal itself
-                self._start_rehearsal(cleanup, campaign,
-                                      SimulatorSpec.from_header(dict(h.simulator)))
-                assert self.rehearsal is not None
-                campaign.controller = self.rehearsal.controller
-                campaign.gauges = list(self.rehearsal.gauges)
+                self._rehearse_again(cleanup, campaign, h.simulator)
                 self.campaign = campaign
             return CampaignOutcome(session.path, identify_session(session), None)
         check_writable(session.path, resuming=True)  # before the operator checks anything
         station = ([r.description for r in session.of_type(StationRecord)]
                    or [dict(h.station or {})])[-1]
         if h.simulator is not None:
-            self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(dict(h.simulator)))
-            assert self.rehearsal is not None
-            campaign.controller = self.rehearsal.controller
-            campaign.gauges = list(self.rehearsal.gauges)
+            self._rehearse_again(cleanup, campaign, h.simulator)
         else:
             c = station.get("controller") or {}
             axes = {a: AxisEndpoint(e.get("port"), e.get("device_id"))
@@ -456,6 +449,14 @@ class _Wizard:
         if self.options.faults:
             self.injector = FaultInjector(self.options.faults, self.rehearsal.stack)
             self.injector.check(0)
+
+    def _rehearse_again(self, cleanup: contextlib.ExitStack, campaign: Campaign,
+                        recorded: Mapping[str, Any]) -> None:
+        """A rehearsal's session continued: its simulator again, as its station."""
+        self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(dict(recorded)))
+        assert self.rehearsal is not None
+        campaign.controller = self.rehearsal.controller
+        campaign.gauges = list(self.rehearsal.gauges)
 
     def _initial_machine(self, folder: Path) -> tuple[MachineSpec | None, Path | None]:
         if self.options.machine is not None:
@@ -534,10 +535,7 @@ class _Wizard:
             except (DriverError, InputError, ValueError, OSError) as exc:
                 s.problem(f"the controller on {campaign.controller.endpoints()} does not answer: "
                           f"{exc}")
-                if s.choose("What now?", [Option("r", "retry"),
-                                          Option("q", "quit (the session stays resumable)")],
-                            default="r") == "q":
-                    raise OperatorQuit() from None
+                self._retry_or_quit()
         tested: set[tuple[str, str | None]] = set()
         for spec in list(campaign.gauges):
             if spec.gauge in self.by_eye or (spec.port, spec.channel) in tested:
@@ -704,10 +702,7 @@ class _Wizard:
         if stop.status == "interrupted":
             s.say(f"[bold yellow]Stopped at once[/] ({shown(stop.reason)}). The axes were stopped; "
                   "every reading so far is saved.")
-            if s.choose("Resume or quit?", [Option("r", "resume where it stopped"),
-                                             Option("q", "quit (the session stays resumable)")],
-                        default="r") == "q":
-                raise OperatorQuit()
+            self._retry_or_quit("Resume or quit?", "resume where it stopped")
             return
         fault = self._last_fault()
         if fault and fault.during == "read" and fault.gauge:
@@ -721,10 +716,7 @@ class _Wizard:
         s.problem(f"The campaign stopped: {stop.reason}")
         s.say("     The axes were stopped and every reading so far is saved. Clear the cause "
               "(an alarm, an obstacle, the emergency stop) before retrying.")
-        if s.choose("What now?", [Option("r", "retry"),
-                                  Option("q", "quit (the session stays resumable)")],
-                    default="r") == "q":
-            raise OperatorQuit()
+        self._retry_or_quit()
 
     def _after_failure(self, exc: DriverError) -> None:
         s = self.screen
@@ -734,10 +726,14 @@ class _Wizard:
             self._gauge_menu(match.group(1))
             return
         s.say("     Check the controller's power and cable, and that no alarm is on.")
-        if s.choose("What now?", [Option("r", "retry"),
-                                  Option("q", "quit (the session stays resumable)")],
-                    default="r") == "q":
-            raise OperatorQuit()
+        self._retry_or_quit()
+
+    def _retry_or_quit(self, question: str = "What now?", retry: str = "retry") -> None:
+        """Return to retry; OperatorQuit to quit."""
+        if self.screen.choose(question, [Option("r", retry),
+                                         Option("q", "quit (the session stays resumable)")],
+                              default="r") == "q":
+            raise OperatorQuit() from None
 
     def _describe_step(self, step_id: str) -> str:
         """``x/c1/p2`` as the technician knows it: x leg, cycle 1, Max posture."""

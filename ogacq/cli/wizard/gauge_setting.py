@@ -132,15 +132,7 @@ class LegSetter:
             for line in leg_instructions(step.leg):
                 s.say(f"  • {shown(line)}")
             s.say(Text(leg_drawing(step.leg, s.out.width)))
-        travel = max(self.travel_mm(g) for g in every.gauges)
-        s.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm from "
-              "where you set it.")
-        while True:
-            try:
-                if self._set_and_check(every):
-                    return
-            except KeyboardInterrupt:
-                self.pause("while setting the gauges")
+        self._set_until_checked(every, "while setting the gauges")
 
     def _still_set(self, step: SetGauges) -> bool:
         """A later leg, its gauges set at the start: checked without stopping; True when
@@ -148,10 +140,9 @@ class LegSetter:
         if any(not self._station().can_read(g) for g in step.gauges):
             return False  # switched to reading by eye since: its dial needs a value here
         checks = [self._check(g) for g in step.gauges]
+        for failed in (c for c in checks if c.problem):
+            self.screen.problem(failed.problem)
         if any(c.problem for c in checks):
-            for check in checks:
-                if check.problem:
-                    self.screen.problem(check.problem)
             return False
         values = {c.gauge: c.value_mm for c in checks}
         self.screen.ok(f"{step.leg} leg: gauges " + ", ".join(
@@ -173,15 +164,19 @@ class LegSetter:
         s.say()
         s.say(Text(leg_drawing(step.leg, s.out.width)))
         s.say()
+        self._set_until_checked(step, f"while setting the gauges of the {step.leg} leg")
+
+    def _set_until_checked(self, step: SetGauges, where: str) -> None:
+        """The travel the cycles ask, then set and checked until done; Ctrl-C pauses."""
         travel = max(self.travel_mm(g) for g in step.gauges)
-        s.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm from "
-              "where you set it.")
+        self.screen.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm "
+                        "from where you set it.")
         while True:
             try:
                 if self._set_and_check(step):
                     return
             except KeyboardInterrupt:
-                self.pause(f"while setting the gauges of the {step.leg} leg")
+                self.pause(where)
 
     def _moved_here(self, step: SetGauges) -> list[str]:
         """Which indicator each gauge is, when indicators go from leg to leg."""
