@@ -22,7 +22,13 @@ from ogacq_drivers.axes.controller import AxisController
 from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
-from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
+from ogacq.cli.options import (
+    AcceptEditedOption,
+    HistoryOption,
+    JsonOption,
+    PartialOption,
+    confirmed,
+)
 from ogacq.cli.plain import print_wrapped
 from ogacq.cli.render_fit import print_notes
 from ogacq.errors import InputError, OgacqError, Refused
@@ -87,17 +93,9 @@ def _offer_nvm(plan: OffsetPlan, *, yes: bool) -> bool:
         return False
     if yes:
         return False
-    return _ask("Save them to the drive's non-volatile memory too? Unsaved, switching the "
+    return confirmed("Save them to the drive's non-volatile memory too? Unsaved, switching the "
                 "drive off and on brings back the offsets it saved before (the memory "
                 "takes a limited number of writes: save only values you keep)")
-
-
-def _ask(question: str) -> bool:
-    try:
-        return typer.confirm(question, default=False)
-    except typer.Abort:  # end of input, Ctrl-C or Ctrl-D at the prompt
-        typer.echo("", err=True)
-        return False
 
 
 def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bool,
@@ -120,7 +118,7 @@ def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bo
                   if rehome and plan.facts.takes_effect == "at_next_homing" else "")
         target = ("the software offset table" if plan.facts.kind == "software"
                   else "the controller")
-        if not _ask(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
+        if not confirmed(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
             audit.record(Stage.DECLINED, **summary)
             typer.echo("nothing written", err=True)
             raise typer.Exit(EXIT_DECLINED)

@@ -54,6 +54,15 @@ def override_reason(given: str | None) -> str:
     return given.strip()
 
 
+def confirmed(question: str) -> bool:
+    """A yes/no question, no by default; the end of input or Ctrl-C at it is a no."""
+    try:
+        return typer.confirm(question, default=False)
+    except typer.Abort:
+        typer.echo("", err=True)  # the prompt's line ended
+        return False
+
+
 # One default for every simulated machine (demo, sim, wizard): a rehearsal with the
 # defaults meets the machine the demo showed. 1, not 0: the demo's seed, whose hidden
 # offsets differ visibly from axis to axis.

@@ -8,7 +8,6 @@ import contextlib
 from pathlib import Path
 from typing import Any
 
-import typer
 from rich.table import Table
 
 from ogacq.calibration.compensate import TABLES_FOLDER, Compensation
@@ -17,6 +16,7 @@ from ogacq.calibration.separate import SeparatingPlan
 from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
 from ogacq.cli.campaign_end import NextStep, step_lines
+from ogacq.cli.options import confirmed
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render import CampaignProgress, campaign_progress
@@ -133,11 +133,7 @@ class TerminalUI:
                 console.print(f"  would refuse ({r.code}): {r.message}", highlight=False)
 
     def confirm(self, question: str) -> bool:
-        try:
-            return typer.confirm(question, default=False)
-        except typer.Abort:
-            typer.echo("", err=True)
-            return False
+        return confirmed(question)
 
     def validation(self, judgement: Judgement) -> None:
         self._stack.close()
