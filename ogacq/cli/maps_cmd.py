@@ -1,11 +1,5 @@
-"""``ogacq maps show|restore``: the error maps ogacq applies, and undoing a maps write.
-
-The maps are written by ``ogacq calibrate`` (audited in its calibration campaign's
-session); ``show`` lists that session's maps writes and what the maps file holds
-now, with each axis's ISO 230-2 figures; ``restore`` puts back the maps the
-session's last maps write replaced: shown, confirmed, written atomically, read
-back by checksum, audited in the session and recorded in the history.
-"""
+"""``ogacq maps show|restore``: the error maps ogacq applies (written by ``ogacq
+calibrate``, audited in its session), and undoing the session's last maps write."""
 
 from __future__ import annotations
 

@@ -1,11 +1,7 @@
 """``ogacq offsets show|write|restore``: the identified joint offsets onto the controller.
 
-Each takes the campaign's session (the identified offsets, and where the audit
-records go) and the campaign file naming the controller (default: the one the
-session was run with). Exit codes: 0 done (or nothing to do), 1 declined at
-the prompt, 2 bad input, 3 the controller failed (the message says what it
-holds), 4 refused as unreliable (the reasons are printed; ``--force``
-overrides).
+Exit codes: 0 done (or nothing to do), 1 declined at the prompt, 2 bad input, 3 the
+controller failed (the message says what it holds), 4 refused as unreliable.
 """
 
 from __future__ import annotations

@@ -1,12 +1,6 @@
-"""Step 1: connect the instruments.
-
-List the serial ports with their descriptions (plus the simulator's ports in
-a rehearsal; pseudo-terminals and ``socket://`` URLs are never listed, so a
-typed port or URL is always accepted), check that the axis controller
-answers, and test-read each gauge: six left in place, or the papers' two
-indicators moved from leg to leg. Every check can be retried, changed, or
-skipped with a reason; a gauge can be switched to reading by eye.
-"""
+"""Step 1: connect the instruments: the ports listed (a typed port or URL always
+accepted: pseudo-terminals and ``socket://`` are never listed), the controller
+checked, each gauge test-read; each check retried, changed, or skipped with a reason."""
 
 from __future__ import annotations
 

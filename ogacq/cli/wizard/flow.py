@@ -1,10 +1,5 @@
-"""The wizard from start to result: connect, machine, measure, result.
-
-Each step can be retried or skipped with a reason (kept in the session);
-Ctrl-C pauses (resume or quit, the session stays resumable); a campaign that
-stops (a silent gauge, an axis fault) says what stopped it and offers retry,
-reading that gauge by eye, or quit.
-"""
+"""The wizard from start to result: connect, machine, measure, result; a step
+retried or skipped with a reason, Ctrl-C a pause, a stop said with what to do."""
 
 from __future__ import annotations
 
@@ -219,14 +214,15 @@ class _Wizard:
             if self.session_path != outcome.session_path:  # inside the validation campaign
                 self._say_quit()
                 return EXIT_QUIT
-            self._say_end(replace(end, steps=self._next_steps(end, outcome, written,
-                                                              validation, report),
-                                  report=report), validation)
+            stopped = True
+        else:
+            stopped = False
+        self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
+                                                          report), report=report), validation)
+        if stopped:
             s.say("Stopped here: the campaign is complete and saved; what is left to do is "
                   "above.")
             return EXIT_QUIT
-        self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
-                                                          report), report=report), validation)
         s.say("[bold green]Calibration campaign complete.[/]")
         return EXIT_DONE
 

@@ -1,13 +1,6 @@
-"""Setting the two gauges of a leg: where they go, live values, and the check.
-
-The runner calls this when the machine is at the leg's Zero posture and the
-gauges must be set (``SetGauges``). Six indicators left in place are all set
-once, at the first leg (Zero is the machine's centre for every leg), and only
-checked, without a stop, at the others. The technician sees a plain instruction
-and a drawing, the gauges' values updating in place while the stands are
-adjusted, then a check on Enter: each gauge answers, is steady, and has
-enough travel on both sides for what the cycles will ask of it.
-"""
+"""Setting the gauges at a leg's Zero posture (``SetGauges``): an instruction and a
+drawing, live values while the stands are adjusted, then on Enter a check that each
+answers, is steady, and has the travel the cycles will ask both ways."""
 
 from __future__ import annotations
 
@@ -25,7 +18,7 @@ from ogacq_drivers.errors import DriverError
 from ogacq.cli.plain import shown
 from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
 from ogacq.cli.wizard.guided_station import GuidedStation
-from ogacq.cli.wizard.ui import Option, Screen, detail, keys, parse_mm
+from ogacq.cli.wizard.ui import Keys, Option, Screen, detail, parse_mm
 from ogacq.model.expected_readings import ReadingExpectations, travel_needed_mm
 from ogacq.model.gauges import Gauge, gauges_on
 from ogacq.model.machine import MachineSpec
@@ -243,7 +236,7 @@ class LegSetter:
     def _live_values(self, gauges: Sequence[str]) -> None:
         """Values updating in place until Enter."""
         station = self._station()
-        with keys() as reader:
+        with Keys() as reader:
             if not reader.interactive:
                 self.screen.say(self._table(gauges, {g: self._read(station, g)
                                                      for g in gauges}))

@@ -1,11 +1,6 @@
-"""The station as the wizard runs it: the campaign's own station, plus
-checkpoints for Ctrl-C (the run is inside ``InterruptGate.deferred``), gauges
-read by eye, and single reads for live values.
-
-The runner hands it the plan step of each reading, so a typed reading is asked
-for with its posture and cycle, and each reading feeds the expected ranges the
-next ones are checked against.
-"""
+"""The station as the wizard runs it: the campaign's own, plus Ctrl-C checkpoints,
+gauges read by eye, and single reads for live values; each reading feeds the ranges
+the next ones are checked against."""
 
 from __future__ import annotations
 

@@ -1,11 +1,6 @@
-"""The wizard's traceability questions: who calibrates which machine, with which
-gauges (their identity and certificate, offered from the inventory of gauges met
-before), at what temperature; and the refusal of a gauge past its due date,
-which only a stated reason overrides (recorded in the session).
-
-Everything may be left unrecorded with Enter, and is then recorded as unknown:
-the uncertainty budget and the record say so, rather than guessing.
-"""
+"""The wizard's traceability questions: machine, operator, gauges (offered from the
+inventory), temperature; a gauge past its due date refused unless a reason is given.
+Enter leaves an answer unrecorded: the budget and the record say so, not a guess."""
 
 from __future__ import annotations
 

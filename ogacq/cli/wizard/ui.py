@@ -229,12 +229,6 @@ class Keys:
         return data.decode(errors="replace")
 
 
-@contextlib.contextmanager
-def keys() -> Iterator[Keys]:
-    with Keys() as reader:
-        yield reader
-
-
 def detail(exc: Exception) -> str:
     """A driver error's message without the device name in front, for sentences
     that already name the device."""
