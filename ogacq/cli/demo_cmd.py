@@ -49,14 +49,9 @@ from ogacq.sim.truth import read_effects_text
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
 RUNS_FOLDER = Path("ogacq-runs")
-DEMO_FOLDER_HELP = "a new folder in ./ogacq-runs named demo-DATE-TIME"
 # The rehearsal's acceptance: every leg-parallelism deviation within +/- 20 um, judged
 # with the guard band (no source: a stated example, as a machine file would state it)
 DEMO_TOLERANCE_MM = 0.020
-
-
-def default_demo_folder() -> Path:
-    return RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
 def demo(
@@ -68,8 +63,8 @@ def demo(
                                      "default in demo, sim and wizard).")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="Controller register map of the simulated machine.")] = ProfileChoice["cia402"],
-    out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
-                                             f"{DEMO_FOLDER_HELP}).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Folder to write (default: a new folder "
+                                             "in ./ogacq-runs named demo-DATE-TIME).")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = DEFAULT_SPEED,
     history: HistoryOption = None,
     date: Annotated[str | None, typer.Option(
@@ -93,8 +88,9 @@ def demo(
     them (and the error maps a table would hold), validate with a second campaign and
     keep or restore them, as `ogacq calibrate` does."""
     reason = override_reason(override_expired)
-    rehearsed = _date_option(date)
-    folder = out or default_demo_folder()
+    rehearsed = None if date is None else parse_moment(date, source=None, key="--date",
+                                                       zone=False)
+    folder = out or RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
     if folder.is_dir() and any(folder.iterdir()):
         raise InputError(folder, "exists and is not empty; choose another --out")
     check_output_folder(folder, "--out")
@@ -204,9 +200,3 @@ def _login_name() -> str:
         return getpass.getuser()
     except (KeyError, OSError):  # no user name in the environment or the password file
         return "demo"
-
-
-def _date_option(given: str | None) -> datetime.datetime | None:
-    if given is None:
-        return None
-    return parse_moment(given, source=None, key="--date", zone=False)

@@ -82,14 +82,11 @@ def print_refusals(plan: OffsetPlan, forced: bool) -> None:
     # one line each to a log or a pipe; on a terminal wrapped between words (the
     # terminal would cut a word where its width falls)
     whole = not err_console.is_terminal
-    if forced:
-        for refusal in plan.refusals:
-            err_console.print(f"ogacq: warning: --force writes past: {shown(refusal.message)}",
-                              highlight=False, soft_wrap=whole)
-        return
-    for refusal in plan.refusals:  # the command's one-line refusal follows
-        err_console.print(f"ogacq: refused ({shown(refusal.code)}): {shown(refusal.message)}",
-                          highlight=False, soft_wrap=whole)
+    for refusal in plan.refusals:  # unforced, the command's one-line refusal follows
+        said = ("warning: --force writes past" if forced
+                else f"refused ({shown(refusal.code)})")
+        err_console.print(f"ogacq: {said}: {shown(refusal.message)}", highlight=False,
+                          soft_wrap=whole)
 
 
 def print_outcome(outcome: WriteOutcome) -> None:

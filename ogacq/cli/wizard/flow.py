@@ -49,7 +49,7 @@ from ogacq.cli.wizard.connect import (
 )
 from ogacq.cli.wizard.gauge_setting import LegSetter, RunHandles
 from ogacq.cli.wizard.guided_station import GuidedStation
-from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
+from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, closed_is_quit, pausable, pause_menu
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_report, offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
@@ -75,9 +75,9 @@ from ogacq.model.machine import (
     MachineSpec,
 )
 from ogacq.protocol import runner
-from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
+from ogacq.protocol.plan import ProtocolConfig, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped
-from ogacq.protocol.station import GaugeValue, Station
+from ogacq.protocol.station import Station
 from ogacq.session.convert import session_machine
 from ogacq.session.identification import identify_session
 from ogacq.session.records import (
@@ -615,7 +615,7 @@ class _Wizard:
             def wrap(works: Station, device: DeviceStation, writer: SessionWriter,
                      ) -> GuidedStation:
                 station = GuidedStation(works, device, self.gate, expectations=expectations,
-                                        by_eye=self.by_eye, ask_reading=self._typed(ask_reading),
+                                        by_eye=self.by_eye, ask_reading=ask_reading,
                                         on_pause=lambda: pause_here(
                                             f"after reading {counter.done} of {counter.total}"))
                 handles.station = station
@@ -654,26 +654,12 @@ class _Wizard:
             session = load_session(session_path) if session_path.exists() else None
 
     def _asking(self, setter: LegSetter) -> Callable[[SetGauges], None]:
-        """The gauge setting asks the technician: Ctrl-C there pauses at once, and a
-        closed terminal stops the campaign as a quit (recorded, resumable)."""
+        """The gauge setting asks the technician: Ctrl-C there pauses at once."""
         def set_gauges(step: SetGauges) -> None:
-            with self.gate.immediate():
-                try:
-                    setter(step)
-                except InputClosed:
-                    raise OperatorQuit("the terminal closed") from None
+            with self.gate.immediate(), closed_is_quit():
+                setter(step)
 
         return set_gauges
-
-    @staticmethod
-    def _typed(ask: ByEyeReadings) -> Callable[[str, Read], GaugeValue]:
-        def ask_reading(gauge: str, step: Read) -> GaugeValue:
-            try:
-                return ask(gauge, step)
-            except InputClosed:
-                raise OperatorQuit("the terminal closed") from None
-
-        return ask_reading
 
     def _observer(self, display: CycleProgress) -> Callable[[runner.Progress], None]:
         if self.injector is None:

@@ -84,6 +84,15 @@ class InterruptGate:
         return pending
 
 
+@contextlib.contextmanager
+def closed_is_quit() -> Iterator[None]:
+    """A terminal closed while the campaign asks: stopped as a quit (recorded, resumable)."""
+    try:
+        yield
+    except InputClosed:
+        raise OperatorQuit("the terminal closed") from None
+
+
 def pause_menu(screen: Screen, where: str, session: Path | None = None) -> None:
     """Return to resume; raise :class:`OperatorQuit` to quit. Ctrl-C here quits."""
     screen.stop_live()

@@ -130,16 +130,14 @@ class TraceabilityQuestions:
         offered Enter takes it."""
         offered = (self._answered.get(key, default) if key else default) or None
         text = f"{question} (Enter: {unset})" if unset and offered is None else question
-        while True:
-            answer = self.screen.ask(text, offered)
-            try:
-                value = parse(answer)
-            except ValueError as exc:
-                self.screen.problem(str(exc))
-                continue
+
+        def kept(answer: str) -> T:
+            value = parse(answer)
             if key:
                 self._answered[key] = answer
             return value
+
+        return self.screen.ask_parsed(text, kept, offered)
 
     def ask(self, machine: MachineSpec, indicators: Sequence[Indicator],
             on: datetime.date) -> Traceability:
