@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # rich only where something is drawn: app.py's error line needs none
     from rich.console import Console
+    from rich.table import Table
 
 # C0 controls but tab and newline, DEL and the C1 controls (ECMA-48 5.2: the
 # introducers of the terminal's escape sequences, ESC and CSI among them)
@@ -44,6 +45,19 @@ def console(**options: Any) -> Console:
     return Console(emoji=False, **{"highlight": False, **options})
 
 
+def table_of(*columns: str, fold: bool = False, **options: Any) -> Table:
+    """A table as every command draws one (no edge, bold headers) with these columns; one
+    written ``">value"`` is right-justified, as format's ``>`` aligns: numbers line up.
+    ``fold``: a long cell folds onto the next line, never cut."""
+    from rich.table import Table
+
+    table = Table(show_edge=False, header_style="bold", **options)
+    for column in columns:
+        table.add_column(column.removeprefix(">"), overflow="fold" if fold else "ellipsis",
+                         justify="right" if column.startswith(">") else "left")
+    return table
+
+
 class Printer:
     """``print`` through a console made at that moment: rich reads the width (the
     terminal's, ``COLUMNS``) when a console is made, and these lines are wrapped at the
@@ -59,4 +73,4 @@ class Printer:
 def print_wrapped(text: str) -> None:
     """A line of text on stdout as it is (no markup), wrapped between words at the
     terminal's width (80 columns to a pipe): a wider line the terminal cuts mid-word."""
-    Printer().print(shown(text), highlight=False)
+    Printer().print(shown(text))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from rich.table import Table
 
-from ogacq.cli.plain import Printer, shown
+from ogacq.cli.plain import Printer, shown, table_of
 from ogacq.cli.render_maps import (
     print_axis_map,
     print_coverage,
@@ -158,10 +158,8 @@ def _print_capability(d: Diagnosis) -> None:
     out.print(f"[bold]What these data can tell beside the joint offsets[/] "
               f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
               f"offsets, {cap.effect_rank} independent effect directions)")
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
-    for col in ("effect", "std", "shows from", "unit", "offsets absorb", "aliases"):
-        table.add_column(col, justify="left" if col in ("effect", "unit", "aliases")
-                         else "right", overflow="fold")
+    table = table_of("effect", ">std", ">shows from", "unit", ">offsets absorb", "aliases",
+                     fold=True, pad_edge=False)
     for name, v in cap.visibility.items():
         if not v.visible:
             table.add_row(name, "-", "[red]not seen[/]", v.unit, "-", "")
@@ -234,10 +232,8 @@ def _print_search(d: Diagnosis) -> None:
 def _print_gauge_rms(d: Diagnosis) -> None:
     gauges = row_labels(d.base_fit.observations).gauge
     models = [d.selection.base] + [s.after for s in d.selection.steps]
-    table = Table(title="residual rms per gauge (µm), before and after each step",
-                      show_edge=False, header_style="bold", pad_edge=False)
-    table.add_column("gauge")
-    table.add_column("offsets", justify="right")
+    table = table_of("gauge", ">offsets", pad_edge=False,
+                     title="residual rms per gauge (µm), before and after each step")
     for step in d.selection.steps:
         table.add_column(f"+ {step.label}", justify="right", overflow="fold")
     per_model = [m.rms_by_gauge(gauges) for m in models]

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.history.drift import ControllerChange, Drift, expanded
 from ogacq.history.entries import parameter_unit
 from ogacq.history.states import MachineState
@@ -211,23 +211,23 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     # Two tables, so each fits a terminal of 80 columns: who and how, then the values;
     # where the first does not fit whole (a long operator, a SIMULATED mark), a block
     # per calibration instead of a column cut off.
-    console.print(_who_title(machine, where, calibrations), highlight=False)
+    console.print(_who_title(machine, where, calibrations))
     who = _who_table(calibrations)
     if _fits(console, who):
         console.print(who)
     else:
         for block in _who_blocks(calibrations):
-            console.print(block, highlight=False)
+            console.print(block)
     for line in _who_notes(calibrations, written, events):
-        console.print(shown(line), highlight=False)
+        console.print(shown(line))
     console.print(_values_table(calibrations, drifts, written))
     for line in _drift_notes(calibrations, drifts, written):
-        console.print(line, highlight=False)
+        console.print(line)
     for move in controller_moves:
-        console.print(f"[yellow]{shown(move.describe())}[/]", highlight=False)
+        console.print(f"[yellow]{shown(move.describe())}[/]")
     events_note = _events_note(machine, events)
     if events_note:
-        console.print(shown(events_note), highlight=False)
+        console.print(shown(events_note))
 
 
 def _fits(console: Console, table: Table) -> bool:
@@ -251,9 +251,9 @@ def _print_rows(console: Console, title: str, columns: Sequence[str],
     if _fits(console, table):
         console.print(table)
         return
-    console.print(title, highlight=False)
+    console.print(title)
     for row in rows:
-        console.print("  ".join(row[:3]) + "\n    " + rest(row), highlight=False)
+        console.print("  ".join(row[:3]) + "\n    " + rest(row))
 
 
 def _print_offsets_states(console: Console, machine: Machine, where: str,
@@ -304,13 +304,13 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
         _print_maps_states(console, machine, maps)
     if machine_states:
         console.print(f"compare two: ogacq history {machine.label!r} --states --diff STATE "
-                      "STATE", highlight=False)
+                      "STATE")
     if not states:
         console.print("no write-back of this machine is recorded")
     else:
         console.print(f"go back to one: ogacq offsets restore --machine "
                       f"{shown(repr(machine.label))} --to STATE (a state above, or a "
-                      "calibration's record id)", highlight=False)
+                      "calibration's record id)")
 
 
 def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
@@ -354,11 +354,8 @@ def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
     a, b = compared["from"], compared["to"]
     console.print(f"{shown(machine.describe())}: from {a['state']} ({a['at'] or 'undated'}, "
                   f"{a['stage']} {a['action']} {a['operation']}) to {b['state']} "
-                  f"({b['at'] or 'undated'}, {b['stage']} {b['action']} {b['operation']})",
-                  highlight=False)
-    table = Table(show_edge=False, header_style="bold")
-    for column in ("axis", "offset from", "offset to", "change", "map"):
-        table.add_column(column, justify="left" if column in ("axis", "map") else "right")
+                  f"({b['at'] or 'undated'}, {b['stage']} {b['action']} {b['operation']})")
+    table = table_of("axis", ">offset from", ">offset to", ">change", "map")
     for axis, o in compared["offsets_mm"].items():
         m = compared["maps"][axis]
         if m["change"] == "none":
@@ -371,4 +368,4 @@ def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
                               for v in (o["from"], o["to"], o["change"])), words)
     console.print(table)
     if not compared["maps_known"]:
-        console.print("no maps state is recorded at or before these states", highlight=False)
+        console.print("no maps state is recorded at or before these states")

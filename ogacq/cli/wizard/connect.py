@@ -18,7 +18,7 @@ from ogacq.campaign.station import (  # as the campaign connects
     open_controller,
     open_gauges,
 )
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
 from ogacq.model.parameters import AXES
@@ -106,16 +106,11 @@ def _protocol_devices() -> list[DetectedPort]:
 
 
 def show_ports(screen: Screen, ports: Sequence[DetectedPort]) -> None:
-    from rich.table import Table
-
     if not ports:
         screen.say("No serial port is listed. Type the port of each device "
                    "(/dev/ttyUSB0, COM3, socket://host:port, or host:port for Modbus TCP).")
         return
-    table = Table(show_edge=False, header_style="bold", title="Ports found", title_justify="left")
-    table.add_column("#", justify="right")
-    table.add_column("port")
-    table.add_column("description")
+    table = table_of(">#", "port", "description", title="Ports found", title_justify="left")
     for number, port in enumerate(ports, 1):
         table.add_row(str(number), shown(port.device), shown(port.description))
     screen.say(table)

@@ -15,7 +15,7 @@ from rich.table import Table
 from rich.text import Text
 
 from ogacq_drivers.errors import DriverError
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
 from ogacq.cli.wizard.guided_station import GuidedStation
 from ogacq.cli.wizard.ui import Keys, Option, Screen, detail, parse_mm
@@ -269,11 +269,7 @@ class LegSetter:
         return Group(self._table(gauges, latest), hint)
 
     def _table(self, gauges: Sequence[str], latest: dict) -> Table:
-        table = Table(show_edge=False, header_style="bold")
-        table.add_column("gauge")
-        table.add_column("reads", justify="right")
-        table.add_column(f"plunger travel 0 … {self.gauge_range_mm:g} mm")
-        table.add_column("")
+        table = table_of("gauge", ">reads", f"plunger travel 0 … {self.gauge_range_mm:g} mm", "")
         for gauge in gauges:
             value, error = latest[gauge]
             if value is None:

@@ -26,7 +26,7 @@ from ogacq.errors import InputError
 
 T = TypeVar("T")
 
-console = new_console(highlight=False)
+console = new_console()
 
 
 class InputClosed(InputError):
