@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -106,7 +106,9 @@ def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None
     if as_json:
         # the refit object, then what the end of a campaign says in words: the
         # verdict, the record's id and the next commands (a script needs them too)
-        typer.echo(json.dumps({**outcome_json(outcome),
+        typer.echo(json.dumps({"session": str(outcome.session_path),
+                               **outcome.fit.to_json("offsets"), "hidden": outcome.hidden,
+                               "simulated": outcome.simulated,
                                "verdict": {k: v if not isinstance(v, float) or math.isfinite(v)
                                            else None for k, v in end.verdict.to_record().items()},
                                "record_id": end.record_id if end.built else None,
@@ -131,16 +133,3 @@ def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path,
             typer.echo(f"ogacq: the session is saved: continue it with `ogacq resume "
                        f"{session}`", err=True)
             raise typer.Exit(stop.exit_code) from None
-
-
-def outcome_json(outcome: CampaignOutcome) -> dict[str, Any]:
-    return {"session": str(outcome.session_path), **outcome.fit.to_json("offsets"),
-            "hidden": outcome.hidden, "simulated": outcome.simulated}
-
-
-def show_outcome(outcome: CampaignOutcome, as_json: bool,
-                 record: Mapping[str, Any] | None = None) -> None:
-    if as_json:
-        typer.echo(json.dumps(outcome_json(outcome)))
-        return
-    print_outcome(outcome, record or {})

@@ -17,7 +17,7 @@ import typer
 from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.traceability import simulated_gauges
-from ogacq.cli.campaign_cmds import execute, show_outcome
+from ogacq.cli.campaign_cmds import execute
 from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.options import (
     DEFAULT_SEED,
@@ -30,7 +30,7 @@ from ogacq.cli.options import (
 )
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import Printer, shown
-from ogacq.cli.render import print_demo_diagnosis, print_end
+from ogacq.cli.render import print_demo_diagnosis, print_end, print_outcome
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
@@ -136,7 +136,7 @@ def demo(
         .encode("utf-8"))
     report = folder / "report" / "report.html"
     end = campaign_end(outcome.session_path, outcome.fit, simulated=True, report=report)
-    show_outcome(outcome, as_json=False, record=end.record)
+    print_outcome(outcome, end.record)
     # The rest of the story when the joint offsets alone do not fit: what the
     # diagnosis finds, beside the simulator's hidden truth; the report shows the same.
     diagnosis = diagnose(session_observations(session))

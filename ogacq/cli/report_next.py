@@ -63,11 +63,9 @@ def after_report(calibration: LoadedSession, validation: LoadedSession | None,
 
 
 def _procedure_page(session: LoadedSession) -> tuple[NextStep, ...] | None:
-    """A campaign of an ``ogacq calibrate`` procedure (its separating scan, its
-    validation), reported alone: the procedure wrote and judged what it found, and its
-    record, as found and as left, is the procedure's own (its log beside the session
-    names it). None for any other campaign. Reported alone, calibrate's validation
-    sent the technician to diagnose it or to write its offsets."""
+    """A campaign of an ``ogacq calibrate`` procedure, reported alone: the procedure's
+    record is the one to read (its log beside the session names it); None for any
+    other campaign."""
     from ogacq.calibration.log import LOG_NAME
     from ogacq.session.records import CalibrateRecord
     from ogacq.session.store import load_session

@@ -170,9 +170,7 @@ class _Wizard:
             return self._finish(outcome)
 
     def _finish(self, outcome: CampaignOutcome) -> int:
-        """Step 4: the result with U, the record into the history, then what comes next,
-        offered here: the write-back, the record, a validation campaign; and last the
-        verdict, the record's id and the next command."""
+        """Step 4: the result, then the write-back, the record and a validation offered."""
         s = self.screen
         s.heading("Result", "step 4 of 4")
         rehearsal = self.rehearsal is not None

@@ -91,10 +91,8 @@ class LegSetter:
 
     # -------------------------------------------------------- six indicators left in place
     def _six_in_place(self) -> bool:
-        """Every gauge of the plan on its own link, read by the station, and every leg's
-        gauges set at the same posture (a first posture of Zero: the machine's centre
-        for every leg): then the six are set once, at the first leg, and not asked for
-        again (the papers' two indicators, or a dial read by eye, are set leg by leg)."""
+        """Whether the six are set once, at the first leg: each on its own link, and the
+        first posture Zero, the machine's centre for every leg."""
         gauges = [g for step in self._settings() for g in step.gauges]
         if len(self.config.legs) < 2 or any(not self._station().can_read(g) for g in gauges):
             return False

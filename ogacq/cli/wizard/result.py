@@ -74,10 +74,8 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
                     campaign: Path | None = None, rehearsal: bool = False,
                     history: str | None = None) -> bool:
     """Offer ``ogacq offsets write`` (run here, with its own confirmation), or say it;
-    True when the offsets were written. ``campaign`` names the controller when the
-    session's campaign file cannot (a rehearsal: the simulator the file starts does
-    not outlive the command); ``history``: the wizard's --history, where the
-    write-back is recorded too."""
+    True when written. ``campaign`` names the controller where the session's cannot
+    (a rehearsal's simulator does not outlive the command that starts it)."""
     command = ["offsets", "write", str(session)]
     if campaign is not None:
         command += ["--campaign", str(campaign)]

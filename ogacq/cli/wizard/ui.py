@@ -189,12 +189,8 @@ def log_on_screen(screen: Screen) -> Iterator[None]:
 
 
 class Keys:
-    """Single key presses while a live display runs (cbreak: no echo, Ctrl-C still works).
-
-    ``None`` from :meth:`poll` means no key within the timeout. When the input
-    is not a terminal, :attr:`interactive` is False and callers fall back to
-    asking for a line.
-    """
+    """Single key presses while a live display runs (cbreak: no echo, Ctrl-C still works);
+    not on a terminal, :attr:`interactive` is False and callers ask for a line."""
 
     def __init__(self) -> None:
         self._fd = sys.stdin.fileno() if sys.stdin and not sys.stdin.closed else -1
