@@ -47,8 +47,6 @@ def override_reason(given: str | None) -> str:
     if given is None:
         return ""
     if not given.strip():
-        import typer  # the commands that take the option run on typer's path
-
         raise typer.BadParameter("give the reason (what makes the measurement valid all "
                                  "the same)", param_hint="--override-expired")
     return given.strip()

@@ -68,29 +68,28 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'s' if n != 1 else ''}"
 
 
-def _who_title(machine: Machine, where: str, calibrations: Sequence[Calibration]) -> str:
-    return (f"{shown(machine.describe())}: "
-            f"{_plural(len(calibrations), 'calibration')} in {shown(where)}")
-
-
-def _who_table(calibrations: Sequence[Calibration]) -> Table:
-    """Who calibrated and how it came out, one row per calibration."""
+def _print_who(console: Console, machine: Machine, where: str,
+               calibrations: Sequence[Calibration]) -> None:
+    """Who calibrated and how it came out, a row per calibration; where the table does
+    not fit whole (a long operator, a SIMULATED mark), a block per calibration instead
+    of a column cut off."""
+    console.print(f"{shown(machine.describe())}: "
+                  f"{_plural(len(calibrations), 'calibration')} in {shown(where)}")
+    rows = [(shown(_when(c.date)), _record_words(c), shown(c.operator or "-"),
+             shown(verdict_words(c.verdict)), shown(acceptance_words(c)), _ambient(c))
+            for c in calibrations]
     table = Table(show_edge=False, header_style="bold")
     for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
         table.add_column(column, no_wrap=column in ("date", "record"), min_width=len(column),
                          justify="right" if column == "ambient" else "left")
-    for c in calibrations:
-        table.add_row(shown(_when(c.date)), _record_words(c), shown(c.operator or "-"),
-                      shown(verdict_words(c.verdict)), shown(acceptance_words(c)), _ambient(c))
-    return table
-
-
-def _who_blocks(calibrations: Sequence[Calibration]) -> list[str]:
-    """The same, a block per calibration: for a terminal the table does not fit."""
-    return [f"{shown(_when(c.date))}  {_record_words(c)}\n"
-            f"    operator {shown(c.operator or '-')}; fit {shown(verdict_words(c.verdict))}; "
-            f"acceptance {shown(acceptance_words(c))}; ambient {_ambient(c)}"
-            for c in calibrations]
+    for row in rows:
+        table.add_row(*row)
+    if _fits(console, table):
+        console.print(table)
+        return
+    for date, record, operator, fit, acceptance, ambient in rows:
+        console.print(f"{date}  {record}\n    operator {operator}; fit {fit}; acceptance "
+                      f"{acceptance}; ambient {ambient}")
 
 
 def _record_words(c: Calibration) -> str:
@@ -208,16 +207,8 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     judged from the state as left."""
     console = new_console()  # per call: the terminal's width as it is now
     written = written or {}
-    # Two tables, so each fits a terminal of 80 columns: who and how, then the values;
-    # where the first does not fit whole (a long operator, a SIMULATED mark), a block
-    # per calibration instead of a column cut off.
-    console.print(_who_title(machine, where, calibrations))
-    who = _who_table(calibrations)
-    if _fits(console, who):
-        console.print(who)
-    else:
-        for block in _who_blocks(calibrations):
-            console.print(block)
+    # two tables, so each fits a terminal of 80 columns: who and how, then the values
+    _print_who(console, machine, where, calibrations)
     for line in _who_notes(calibrations, written, events):
         console.print(shown(line))
     console.print(_values_table(calibrations, drifts, written))
