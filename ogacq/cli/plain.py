@@ -1,11 +1,9 @@
 """Recorded text on the terminal as it is: data, never markup, never a control sequence.
 
-Whatever a session, a history, a file or a device gives (a machine's name, an
-operator, a path, a gauge's reply, a stop's reason) goes through :func:`shown`
-before it meets rich's markup (``[/3]`` in a name is text, not a closing tag) and
-through :func:`plain` before any other output (an escape sequence in a name does
-not move the cursor, clear the screen or retitle the terminal). Every rich console
-is made by :func:`console`, which leaves emoji codes such as ``:x:`` as typed.
+What a session, a history, a file or a device gives goes through :func:`shown` before
+rich's markup (``[/3]`` in a name is text, not a closing tag) and :func:`plain` before
+any other output (an escape sequence in a name does not move the cursor or retitle the
+terminal). Every rich console is made by :func:`console`.
 """
 
 from __future__ import annotations

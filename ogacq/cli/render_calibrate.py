@@ -138,11 +138,9 @@ class TerminalUI:
         console.print(f"  joint offsets left: {left} mm")
         for axis, fig in judgement.figures_after.items():
             before = judgement.figures_before.get(axis, {})
-            was = {n: before.get(f"{n}_mm", 0) * UM_PER_MM for n in "ABE"}
-            now = {n: fig[f"{n}_mm"] * UM_PER_MM for n in "ABE"}
-            console.print(f"  axis {axis}: A {was['A']:.2f} -> {now['A']:.2f} µm, "
-                          f"B {was['B']:.2f} -> {now['B']:.2f} µm, "
-                          f"E {was['E']:.2f} -> {now['E']:.2f} µm (ISO 230-2, from the maps)")
+            figures = ", ".join(f"{n} {before.get(f'{n}_mm', 0) * UM_PER_MM:.2f} -> "
+                                f"{fig[f'{n}_mm'] * UM_PER_MM:.2f} µm" for n in "ABE")
+            console.print(f"  axis {axis}: {figures} (ISO 230-2, from the maps)")
             if fig.get("drive_step_mm"):
                 step = fig["drive_step_mm"] * UM_PER_MM
                 console.print(f"    as left, with the drive's step ({step:g} µm a count: "

@@ -1,9 +1,6 @@
-"""What the technician sees and types: headings, menus, questions, key presses.
-
-Every question loops until the answer makes sense and says what it expects;
-nothing here raises on a typo. A live display (progress bar, gauge values)
-is stopped before any question, so prompts never fight with redraws.
-"""
+"""What the technician sees and types: each question asked until the answer makes sense
+(it says what it expects; a typo raises nothing), and a live display stopped before
+any question, so prompts never fight with redraws."""
 
 from __future__ import annotations
 
