@@ -195,7 +195,7 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
     # in the noise's unit: one unit on the line
     console.print(f"residual rms {result.residual_rms_mm:.2g} mm, gauge noise "
                   f"{result.noise.describe()}; session {shown(outcome.session_path)}")
-    if getattr(outcome, "simulated", False):
+    if outcome.simulated:
         # the built-in one or `ogacq sim`'s, whose drives say so (issue 38.2)
         console.print("[bold reverse] SIMULATED [/] a rehearsal on a simulator: "
                       "not a calibration of the machine")

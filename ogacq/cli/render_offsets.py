@@ -84,8 +84,7 @@ def print_outcome(outcome: WriteOutcome) -> None:
                   + shown(", ".join(f"{a} {_mm(v)}" for a, v in outcome.new_mm.items())) + " mm")
     if outcome.offsets_file is not None:
         console.print(f"software offset table {shown(outcome.offsets_file)}: every campaign "
-                      "with this "
-                      "campaign file now applies it")
+                      "with this campaign file now applies it")
     if outcome.rehomed and outcome.home_positions_mm is not None:
         console.print("re-homed: at the home point the axes read "
                       + shown(", ".join(f"{a} {_mm(q, 3)}" for a, q in

@@ -356,14 +356,11 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
                 Option("m", f"read {name} by eye instead (type its values)"),
                 Option("s", "skip this test (give a reason)"),
             ], default="r")
-            if choice == "m":
+            if choice in ("m", "s"):  # by eye, or this link as it is, for a reason
+                why = f"read {name} by eye" if choice == "m" else f"skip the test of {name}"
                 notes.append({"step": "gauge test", "gauge": gauge, "port": port,
-                              "reason": screen.reason(f"read {name} by eye")})
-                return None
-            if choice == "s":
-                notes.append({"step": "gauge test", "gauge": gauge, "port": port,
-                              "reason": screen.reason(f"skip the test of {name}")})
-                return spec
+                              "reason": screen.reason(why)})
+                return None if choice == "m" else spec
             if choice == "c":  # the suggested port stays the default
                 break
 
