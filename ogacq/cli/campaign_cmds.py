@@ -6,9 +6,9 @@ from __future__ import annotations
 import json
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated
 
 import typer
 
@@ -22,7 +22,7 @@ from ogacq.cli.render import CampaignProgress, campaign_progress, print_end, pri
 from ogacq.history.recording import record_campaign
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.series import next_session
-from ogacq.session.store import load_session
+from ogacq.session.store import LoadedSession, load_session
 from ogacq.writeback.maps_binding import check_campaign_maps
 
 log = logging.getLogger("ogacq")
@@ -46,15 +46,7 @@ def run(
     asked to set them at each leg when indicators move from leg to leg."""
     reason = override_reason(override_expired)
     campaign = read_campaign(campaign_file)
-    if reason:
-        campaign.override_expired = reason
-    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
-    campaign.session = _session_for(campaign.session, session)
-    check_campaign_maps(campaign, history)  # the maps the history says are in force
-    outcome = execute(lambda obs: run_campaign(
-        campaign, observer=obs, set_gauges=operator_for(campaign, obs),
-        checked=lambda: warn_traceability(campaign)), campaign.session, quiet=as_json)
-    finish(outcome, as_json, history)
+    _run_checked(campaign, None, reason, as_json, history, session)
 
 
 def resume(
@@ -66,14 +58,23 @@ def resume(
     """Continue an interrupted campaign where it stopped."""
     reason = override_reason(override_expired)
     loaded = load_session(session)
-    campaign = resumable_campaign(loaded)
+    _run_checked(resumable_campaign(loaded), loaded, reason, as_json, history)
+
+
+def _run_checked(campaign: Campaign, resume: LoadedSession | None, reason: str,
+                 as_json: bool, history: str | None, session: Path | None = None) -> None:
+    """A campaign run or resumed once what it needs is checked, before anything opens:
+    an operator where indicators move, the session it records into (a new run), the
+    maps the history says are in force."""
     if reason:
         campaign.override_expired = reason
-    operator_for(campaign)  # refuses, before anything opens, one that needs an operator
+    operator_for(campaign)  # refuses one that needs an operator
+    if resume is None:
+        campaign.session = _session_for(campaign.session, session)
     check_campaign_maps(campaign, history)
     outcome = execute(lambda obs: run_campaign(
-        campaign, resume=loaded, observer=obs, set_gauges=operator_for(campaign, obs),
-        checked=lambda: warn_traceability(campaign)), loaded.path, quiet=as_json)
+        campaign, resume=resume, observer=obs, set_gauges=operator_for(campaign, obs),
+        checked=lambda: warn_traceability(campaign)), campaign.session, quiet=as_json)
     finish(outcome, as_json, history)
 
 
@@ -105,7 +106,9 @@ def finish(outcome: CampaignOutcome, as_json: bool, history: str | None) -> None
     if as_json:
         # the refit object, then what the end of a campaign says in words: the
         # verdict, the record's id and the next commands (a script needs them too)
-        typer.echo(json.dumps({**outcome_json(outcome),
+        typer.echo(json.dumps({"session": str(outcome.session_path),
+                               **outcome.fit.to_json("offsets"), "hidden": outcome.hidden,
+                               "simulated": outcome.simulated,
                                "verdict": {k: v if not isinstance(v, float) or math.isfinite(v)
                                            else None for k, v in end.verdict.to_record().items()},
                                "record_id": end.record_id if end.built else None,
@@ -130,16 +133,3 @@ def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path,
             typer.echo(f"ogacq: the session is saved: continue it with `ogacq resume "
                        f"{session}`", err=True)
             raise typer.Exit(stop.exit_code) from None
-
-
-def outcome_json(outcome: CampaignOutcome) -> dict[str, Any]:
-    return {"session": str(outcome.session_path), **outcome.fit.to_json("offsets"),
-            "hidden": outcome.hidden, "simulated": outcome.simulated}
-
-
-def show_outcome(outcome: CampaignOutcome, as_json: bool,
-                 record: Mapping[str, Any] | None = None) -> None:
-    if as_json:
-        typer.echo(json.dumps(outcome_json(outcome)))
-        return
-    print_outcome(outcome, record or {})

@@ -1,11 +1,6 @@
-"""The end of every campaign (run, resume, demo, the wizard): the verdict (the one of
-``ogacq/identify/consistency.py``), the record's id and the next command, and the
-record the history stores, built once.
-
-The record's id does not depend on when it is issued (``ogacq report`` issues it
-as ``record.json``), so it can be said before: the page and the history carry the
-same id.
-"""
+"""The end of every campaign (run, resume, demo, the wizard): the verdict, the
+record's id (independent of when ``ogacq report`` issues it, so said before) and the
+next command, and the record the history stores, built once."""
 
 from __future__ import annotations
 

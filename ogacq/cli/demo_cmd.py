@@ -17,7 +17,7 @@ import typer
 from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text, read_campaign
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.traceability import simulated_gauges
-from ogacq.cli.campaign_cmds import execute, show_outcome
+from ogacq.cli.campaign_cmds import execute
 from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.options import (
     DEFAULT_SEED,
@@ -30,7 +30,7 @@ from ogacq.cli.options import (
 )
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import Printer, shown
-from ogacq.cli.render import print_demo_diagnosis, print_end
+from ogacq.cli.render import print_demo_diagnosis, print_end, print_outcome
 from ogacq.cli.report_cmd import report_diagnosis, write_session_report
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
@@ -49,14 +49,9 @@ from ogacq.sim.truth import read_effects_text
 # Under the folder the command was started in, one level down: the runs gather in one
 # place (ignored by git) instead of beside the package, where a search would pack them.
 RUNS_FOLDER = Path("ogacq-runs")
-DEMO_FOLDER_HELP = "a new folder in ./ogacq-runs named demo-DATE-TIME"
 # The rehearsal's acceptance: every leg-parallelism deviation within +/- 20 um, judged
 # with the guard band (no source: a stated example, as a machine file would state it)
 DEMO_TOLERANCE_MM = 0.020
-
-
-def default_demo_folder() -> Path:
-    return RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
 
 
 def demo(
@@ -68,8 +63,8 @@ def demo(
                                      "default in demo, sim and wizard).")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="Controller register map of the simulated machine.")] = ProfileChoice["cia402"],
-    out: Annotated[Path | None, typer.Option(help="Folder to write (default: "
-                                             f"{DEMO_FOLDER_HELP}).")] = None,
+    out: Annotated[Path | None, typer.Option(help="Folder to write (default: a new folder "
+                                             "in ./ogacq-runs named demo-DATE-TIME).")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="Simulated time speed-up.")] = DEFAULT_SPEED,
     history: HistoryOption = None,
     date: Annotated[str | None, typer.Option(
@@ -93,8 +88,9 @@ def demo(
     them (and the error maps a table would hold), validate with a second campaign and
     keep or restore them, as `ogacq calibrate` does."""
     reason = override_reason(override_expired)
-    rehearsed = _date_option(date)
-    folder = out or default_demo_folder()
+    rehearsed = None if date is None else parse_moment(date, source=None, key="--date",
+                                                       zone=False)
+    folder = out or RUNS_FOLDER / f"demo-{time.strftime('%Y%m%d-%H%M%S')}"
     if folder.is_dir() and any(folder.iterdir()):
         raise InputError(folder, "exists and is not empty; choose another --out")
     check_output_folder(folder, "--out")
@@ -140,7 +136,7 @@ def demo(
         .encode("utf-8"))
     report = folder / "report" / "report.html"
     end = campaign_end(outcome.session_path, outcome.fit, simulated=True, report=report)
-    show_outcome(outcome, as_json=False, record=end.record)
+    print_outcome(outcome, end.record)
     # The rest of the story when the joint offsets alone do not fit: what the
     # diagnosis finds, beside the simulator's hidden truth; the report shows the same.
     diagnosis = diagnose(session_observations(session))
@@ -204,9 +200,3 @@ def _login_name() -> str:
         return getpass.getuser()
     except (KeyError, OSError):  # no user name in the environment or the password file
         return "demo"
-
-
-def _date_option(given: str | None) -> datetime.datetime | None:
-    if given is None:
-        return None
-    return parse_moment(given, source=None, key="--date", zone=False)

@@ -1,11 +1,6 @@
-"""The operator of a scripted campaign whose indicators move from leg to leg.
-
-`ogacq run` needs nobody when the six gauges stay mounted. When one indicator
-serves a gauge on several legs (the papers' two indicators), the campaign stops
-at each leg's Zero posture, says which indicator goes where, and waits for
-Enter. Without a terminal to ask on, such a campaign is refused before anything
-moves.
-"""
+"""The operator of a scripted campaign whose indicators move from leg to leg (the
+papers' two): told at each leg's Zero posture where each goes; refused before
+anything moves without a terminal to ask on."""
 
 from __future__ import annotations
 

@@ -1,10 +1,6 @@
-"""``ogacq --verbose`` and ``ogacq --log-file FILE``: what the log says, and where.
-
-The terminal shows warnings (``configure_logging`` in ``repeated_warnings``), or with
-``--verbose`` also the info records (a retry, a reconnect, a step started); the log
-file gets every record, debug included, each with its time, for whoever investigates
-a campaign afterwards.
-"""
+"""``ogacq --verbose`` and ``ogacq --log-file FILE``: the terminal's warnings (with
+info records too), and every record with its time into the file, for whoever
+investigates a campaign afterwards."""
 
 from __future__ import annotations
 

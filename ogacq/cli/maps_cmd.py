@@ -1,11 +1,5 @@
-"""``ogacq maps show|restore``: the error maps ogacq applies, and undoing a maps write.
-
-The maps are written by ``ogacq calibrate`` (audited in its calibration campaign's
-session); ``show`` lists that session's maps writes and what the maps file holds
-now, with each axis's ISO 230-2 figures; ``restore`` puts back the maps the
-session's last maps write replaced: shown, confirmed, written atomically, read
-back by checksum, audited in the session and recorded in the history.
-"""
+"""``ogacq maps show|restore``: the error maps ogacq applies (written by ``ogacq
+calibrate``, audited in its session), and undoing the session's last maps write."""
 
 from __future__ import annotations
 
@@ -16,7 +10,7 @@ from typing import Annotated
 
 import typer
 
-from ogacq.cli.options import HistoryOption, JsonOption
+from ogacq.cli.options import HistoryOption, JsonOption, confirmed
 from ogacq.cli.plain import plain, print_wrapped
 from ogacq.compensation.iso230 import map_figures
 from ogacq.errors import InputError, Refused
@@ -75,8 +69,8 @@ def restore(
         _confirm_and_restore(session, op, target, yes=yes, history=history)
 
 
-def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: MapsFile, *, yes: bool,
-                  history: str | None) -> None:
+def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: MapsFile, *,
+                         yes: bool, history: str | None) -> None:
     plan = target.plan_restore(op, target.held())
     print_wrapped(f"maps file {plain(plan.path)}: {plan.current.checksum[:12]} -> "
                   f"{plan.new_checksum[:12]} (back to before {op.operation}; "
@@ -86,14 +80,9 @@ def _confirm_and_restore(session: LoadedSession, op: MapsOperation, target: Maps
         return
     if plan.refused:
         raise Refused("nothing restored: " + "; ".join(r.message for r in plan.refusals))
-    if not yes:
-        try:
-            ok = typer.confirm("Restore these maps?", default=False)
-        except typer.Abort:
-            ok = False
-        if not ok:
-            typer.echo("nothing restored", err=True)
-            raise typer.Exit(EXIT_DECLINED)
+    if not yes and not confirmed("Restore these maps?"):
+        typer.echo("nothing restored", err=True)
+        raise typer.Exit(EXIT_DECLINED)
     try:
         with AuditLog(session) as audit:
             done = restore_target(target, op, session, audit,

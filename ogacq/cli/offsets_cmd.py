@@ -1,11 +1,7 @@
 """``ogacq offsets show|write|restore``: the identified joint offsets onto the controller.
 
-Each takes the campaign's session (the identified offsets, and where the audit
-records go) and the campaign file naming the controller (default: the one the
-session was run with). Exit codes: 0 done (or nothing to do), 1 declined at
-the prompt, 2 bad input, 3 the controller failed (the message says what it
-holds), 4 refused as unreliable (the reasons are printed; ``--force``
-overrides).
+Exit codes: 0 done (or nothing to do), 1 declined at the prompt, 2 bad input, 3 the
+controller failed (the message says what it holds), 4 refused as unreliable.
 """
 
 from __future__ import annotations
@@ -22,8 +18,15 @@ from ogacq_drivers.axes.controller import AxisController
 from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.station import open_controller
 from ogacq.cli import render_offsets as render
-from ogacq.cli.options import AcceptEditedOption, HistoryOption, JsonOption, PartialOption
+from ogacq.cli.options import (
+    AcceptEditedOption,
+    HistoryOption,
+    JsonOption,
+    PartialOption,
+    confirmed,
+)
 from ogacq.cli.plain import print_wrapped
+from ogacq.cli.render_fit import print_notes
 from ogacq.errors import InputError, OgacqError, Refused
 from ogacq.history.recording import record_writebacks
 from ogacq.session.state import require_complete, session_notes
@@ -86,17 +89,9 @@ def _offer_nvm(plan: OffsetPlan, *, yes: bool) -> bool:
         return False
     if yes:
         return False
-    return _ask("Save them to the drive's non-volatile memory too? Unsaved, switching the "
+    return confirmed("Save them to the drive's non-volatile memory too? Unsaved, switching the "
                 "drive off and on brings back the offsets it saved before (the memory "
                 "takes a limited number of writes: save only values you keep)")
-
-
-def _ask(question: str) -> bool:
-    try:
-        return typer.confirm(question, default=False)
-    except typer.Abort:  # end of input, Ctrl-C or Ctrl-D at the prompt
-        typer.echo("", err=True)
-        return False
 
 
 def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bool,
@@ -119,7 +114,7 @@ def _approve(plan: OffsetPlan, audit: AuditLog, spec: ControllerSpec, *, yes: bo
                   if rehome and plan.facts.takes_effect == "at_next_homing" else "")
         target = ("the software offset table" if plan.facts.kind == "software"
                   else "the controller")
-        if not _ask(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
+        if not confirmed(f"{plan.action.capitalize()} these offsets to {target}{homing}?"):
             audit.record(Stage.DECLINED, **summary)
             typer.echo("nothing written", err=True)
             raise typer.Exit(EXIT_DECLINED)
@@ -195,7 +190,7 @@ def _analysed(path: Path, partial: bool, accept_edited: bool, *, say: bool = Tru
     session = load_session(path, accept_edited=accept_edited)
     state = require_complete(session, partial)
     if say:
-        render.print_notes(session_notes(session, state))
+        print_notes(session_notes(session, state))
     return session
 
 

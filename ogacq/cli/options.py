@@ -47,11 +47,18 @@ def override_reason(given: str | None) -> str:
     if given is None:
         return ""
     if not given.strip():
-        import typer  # the commands that take the option run on typer's path
-
         raise typer.BadParameter("give the reason (what makes the measurement valid all "
                                  "the same)", param_hint="--override-expired")
     return given.strip()
+
+
+def confirmed(question: str) -> bool:
+    """A yes/no question, no by default; the end of input or Ctrl-C at it is a no."""
+    try:
+        return typer.confirm(question, default=False)
+    except typer.Abort:
+        typer.echo("", err=True)  # the prompt's line ended
+        return False
 
 
 # One default for every simulated machine (demo, sim, wizard): a rehearsal with the

@@ -1,11 +1,9 @@
 """Recorded text on the terminal as it is: data, never markup, never a control sequence.
 
-Whatever a session, a history, a file or a device gives (a machine's name, an
-operator, a path, a gauge's reply, a stop's reason) goes through :func:`shown`
-before it meets rich's markup (``[/3]`` in a name is text, not a closing tag) and
-through :func:`plain` before any other output (an escape sequence in a name does
-not move the cursor, clear the screen or retitle the terminal). Every rich console
-is made by :func:`console`, which leaves emoji codes such as ``:x:`` as typed.
+What a session, a history, a file or a device gives goes through :func:`shown` before
+rich's markup (``[/3]`` in a name is text, not a closing tag) and :func:`plain` before
+any other output (an escape sequence in a name does not move the cursor or retitle the
+terminal). Every rich console is made by :func:`console`.
 """
 
 from __future__ import annotations
@@ -15,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # rich only where something is drawn: app.py's error line needs none
     from rich.console import Console
+    from rich.table import Table
 
 # C0 controls but tab and newline, DEL and the C1 controls (ECMA-48 5.2: the
 # introducers of the terminal's escape sequences, ESC and CSI among them)
@@ -44,6 +43,19 @@ def console(**options: Any) -> Console:
     return Console(emoji=False, **{"highlight": False, **options})
 
 
+def table_of(*columns: str, fold: bool = False, **options: Any) -> Table:
+    """A table as every command draws one (no edge, bold headers) with these columns; one
+    written ``">value"`` is right-justified, as format's ``>`` aligns: numbers line up.
+    ``fold``: a long cell folds onto the next line, never cut."""
+    from rich.table import Table
+
+    table = Table(show_edge=False, header_style="bold", **options)
+    for column in columns:
+        table.add_column(column.removeprefix(">"), overflow="fold" if fold else "ellipsis",
+                         justify="right" if column.startswith(">") else "left")
+    return table
+
+
 class Printer:
     """``print`` through a console made at that moment: rich reads the width (the
     terminal's, ``COLUMNS``) when a console is made, and these lines are wrapped at the
@@ -59,4 +71,4 @@ class Printer:
 def print_wrapped(text: str) -> None:
     """A line of text on stdout as it is (no markup), wrapped between words at the
     terminal's width (80 columns to a pipe): a wider line the terminal cuts mid-word."""
-    Printer().print(shown(text), highlight=False)
+    Printer().print(shown(text))

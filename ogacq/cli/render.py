@@ -7,9 +7,7 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
-from rich.table import Table
-
-from ogacq.cli.plain import Printer, shown
+from ogacq.cli.plain import Printer, shown, table_of
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render_fit import format_number
 from ogacq.cli.verdict_text import paragraph
@@ -38,13 +36,9 @@ def print_plan(pred: AccuracyPrediction, machine_name: str, postures: str, cycle
     """``noise``: the gauge noise predicted with and where it came from, in words."""
     console.print(f"[bold]{shown(machine_name)}[/]: {shown(postures)}, {cycles} cycles per leg, "
                   f"{pred.n_readings} readings; {shown(noise)}")
-    table = Table(show_edge=False, header_style="bold")
-    table.add_column("parameter")
-    table.add_column("std analytic", justify="right")
-    if pred.mc_std is not None:
-        table.add_column(f"std Monte-Carlo ({pred.trials} fits)", justify="right")
-        table.add_column("bias", justify="right")
-    table.add_column("unit")
+    monte_carlo = [f">std Monte-Carlo ({pred.trials} fits)", ">bias"]
+    table = table_of("parameter", ">std analytic",
+                     *(monte_carlo if pred.mc_std is not None else []), "unit")
     for k, name in enumerate(pred.names):
         row = [name, f"{pred.analytic_std[k]:.4f}"]
         if pred.mc_std is not None and pred.mc_bias is not None:
@@ -78,16 +72,13 @@ def print_sim(info: dict, campaign: Path | None = None) -> None:
         at = f"{a['host']}:{a['port']}" if a["transport"] == "tcp" else a["port"]
         console.print(f"  axis {shown(axis)}: {shown(at)}, device id "
                       f"{shown(a['device_ids'][axis])}")
-    table = Table(show_edge=False, header_style="bold")
-    table.add_column("gauge")
-    table.add_column("port")
-    table.add_column("protocol")
+    table = table_of("gauge", "port", "protocol")
     for key, g in info["gauges"].items():
         table.add_row(shown(key), shown(g["port"]), shown(g["protocol"]))
     console.print(table)
     if campaign is not None:  # what the file is for, while this simulator serves
         console.print(f"running; Ctrl-C to stop. next, in another terminal: ogacq run "
-                      f"{shown(campaign)}", highlight=False)
+                      f"{shown(campaign)}")
     else:
         console.print("running; Ctrl-C to stop")
 
@@ -154,8 +145,7 @@ def campaign_progress(enabled: bool = True) -> Iterator[CampaignProgress]:
         err = new_console(stderr=True)
 
         def log_line(progress: RunnerProgress) -> None:
-            err.print(f"\\[{progress.done}/{progress.total}] {shown(progress.message)}",
-                      highlight=False)
+            err.print(f"\\[{progress.done}/{progress.total}] {shown(progress.message)}")
 
         yield CampaignProgress(log_line)
         return
@@ -185,16 +175,9 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
     simulator's truth beside them in a rehearsal."""
     result = outcome.fit
     results = CalibrationRecord.from_json(record).results or {}
-    table = Table(show_edge=False, header_style="bold",
-                  title=f"identified joint offsets ({len(result.observations)} readings)")
-    table.add_column("parameter")
-    table.add_column("identified", justify="right")
-    table.add_column("U", justify="right")
-    table.add_column("k", justify="right")
-    if outcome.hidden is not None:
-        table.add_column("hidden truth", justify="right")
-        table.add_column("error", justify="right")
-    table.add_column("unit")
+    table = table_of("parameter", ">identified", ">U", ">k",
+                     *([">hidden truth", ">error"] if outcome.hidden is not None else []), "unit",
+                     title=f"identified joint offsets ({len(result.observations)} readings)")
     incomplete = False
     for name, value in zip(result.names, result.values, strict=True):
         line = result_headline(results, name, float(value), effect_of(name).unit)
@@ -208,15 +191,14 @@ def print_outcome(outcome: CampaignOutcome, record: Mapping[str, Any]) -> None:
     console.print(table)
     console.print("U: the expanded uncertainty of the record's budget (k = 2: about 95 %)"
                   + ("; [yellow]budget incomplete: U leaves out what was not recorded "
-                     "(see the record's budget)[/]" if incomplete else ""), highlight=False)
+                     "(see the record's budget)[/]" if incomplete else ""))
     # in the noise's unit: one unit on the line
     console.print(f"residual rms {result.residual_rms_mm:.2g} mm, gauge noise "
-                  f"{result.noise.describe()}; session {shown(outcome.session_path)}",
-                  highlight=False)
-    if getattr(outcome, "simulated", False):
+                  f"{result.noise.describe()}; session {shown(outcome.session_path)}")
+    if outcome.simulated:
         # the built-in one or `ogacq sim`'s, whose drives say so (issue 38.2)
         console.print("[bold reverse] SIMULATED [/] a rehearsal on a simulator: "
-                      "not a calibration of the machine", highlight=False)
+                      "not a calibration of the machine")
 
 
 def print_end(lines: list[str]) -> None:
@@ -224,7 +206,7 @@ def print_end(lines: list[str]) -> None:
     now = Printer()  # at this moment's width
     now.print()
     for line in lines:
-        now.print(shown(line), highlight=False)  # wrapped between words
+        now.print(shown(line))  # wrapped between words
 
 
 def _print_context(session: LoadedSession) -> None:
@@ -236,23 +218,21 @@ def _print_context(session: LoadedSession) -> None:
     console.print(f"machine {shown(c.machine_name or '(no name)')}, serial "
                   f"{shown(c.machine_serial or 'not recorded')}; operator "
                   f"{shown(c.operator or 'not recorded')}; date {shown(date)}"
-                  + (" (rehearsed on the simulator)" if c.simulated_date else ""),
-                  highlight=False)
+                  + (" (rehearsed on the simulator)" if c.simulated_date else ""))
     for i in c.instruments:
         if i.certificate or i.due:
             state = {True: "EXPIRED", False: "valid", None: "?"}[c.expired(i)]
             console.print(f"  gauge {shown(i.label)}: certificate {shown(i.certificate or '?')}"
-                          f", due {shown(i.due or '?')} ({state})", highlight=False)
+                          f", due {shown(i.due or '?')} ({state})")
     env = c.environment
     if env.start or env.end:
         words = [f"{stage} {t.ambient_c if t.ambient_c is not None else '?'} °C ambient"
                  + (f", {t.machine_c} °C machine" if t.machine_c is not None else "")
                  + f" ({t.source})" for stage, t in (("start", env.start), ("end", env.end))
                  if t is not None]
-        console.print("temperature: " + shown("; ".join(words)), highlight=False)
+        console.print("temperature: " + shown("; ".join(words)))
     for o in c.overrides:
-        console.print(f"override ({shown(o.what)}) {shown(o.subject)}: {shown(o.reason)}",
-                      highlight=False)
+        console.print(f"override ({shown(o.what)}) {shown(o.subject)}: {shown(o.reason)}")
 
 
 def print_session(session: LoadedSession, state: Completeness | None = None) -> None:
@@ -271,9 +251,9 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
     console.print(f"[bold]{shown(session.path)}[/]: {shown(header.software or '?')}, "
                   f"created {shown(header.created or '?')}, status [bold]{shown(status)}[/]")
     if state is not None and not state.complete:
-        console.print(f"[yellow]{shown(state.describe())}[/]", highlight=False)
+        console.print(f"[yellow]{shown(state.describe())}[/]")
     for note in session.integrity.notes():
-        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
+        console.print(f"[yellow]{shown(note)}[/]")
     machine = header.machine or {}
     console.print(f"machine: L = {shown(machine.get('leg_length_mm'))} mm, postures "
                   f"{shown(machine.get('rho_min_mm'))}..{shown(machine.get('rho_max_mm'))} mm, "
@@ -290,8 +270,7 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
                   f"{len(session.of_type(MoveRecord))}, faults: {len(faults)}, resumed: "
                   f"{len(session.of_type(ResumeRecord))} times")
     for fault in faults[-3:]:
-        console.print(f"  fault during {shown(fault.during)}: {shown(fault.message)}",
-                      highlight=False)
+        console.print(f"  fault during {shown(fault.during)}: {shown(fault.message)}")
     for ref in session.of_type(ReferenceRecord):  # after a loss of a drive: the reference
         said = f"  reference {ref.event}" + (f" ({ref.cause})" if ref.cause else "")
         if ref.differences_mm:
@@ -300,9 +279,9 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
                      "expected")
         elif ref.message:
             said += f": {ref.message}"
-        console.print(said, highlight=False, markup=False)
+        console.print(said, markup=False)
     if ends and ends[-1].reason:
-        console.print(f"stopped because: {shown(ends[-1].reason)}", highlight=False)
+        console.print(f"stopped because: {shown(ends[-1].reason)}")
     if session.result is not None:
         refit = session.result.refit
         for name, where in refit["parameters"].items():
@@ -311,7 +290,7 @@ def print_session(session: LoadedSession, state: Completeness | None = None) -> 
                 # a look at what the session holds: its fit's std, named so (the
                 # headline U is the record's, `ogacq report`)
                 console.print(f"  {shown(name)}.{shown(axis)} = {format_number(value)} mm (fit std "
-                              f"{two_digits(std)} mm)", highlight=False)
+                              f"{two_digits(std)} mm)")
 
 
 def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
@@ -319,14 +298,11 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
     diagnosis = d.to_json()
     if d.outcome == "consistent":
         console.print(f"diagnosis: the joint offsets explain the readings, "
-                      f"{paragraph(d.base)}: nothing left out", highlight=False)
+                      f"{paragraph(d.base)}: nothing left out")
         return
-    console.print(f"[yellow]diagnosis: the joint offsets alone: {paragraph(d.base)}[/]",
-                  highlight=False)
-    table = Table(show_edge=False, header_style="bold", title="physics found by the diagnosis")
-    for column in ("effect", "found", "std", "hidden truth", "unit", "alternatives"):
-        table.add_column(column, justify="left" if column in ("effect", "unit", "alternatives")
-                         else "right")
+    console.print(f"[yellow]diagnosis: the joint offsets alone: {paragraph(d.base)}[/]")
+    table = table_of("effect", ">found", ">std", ">hidden truth", "unit", "alternatives",
+                     title="physics found by the diagnosis")
     found = set()
     for e in diagnosis["effects"]:
         name = f"{e['effect']}.{e['where']}"
@@ -346,7 +322,7 @@ def print_demo_diagnosis(d: Diagnosis, hidden: dict[str, float]) -> None:
             table.add_row(name, "not found", "", format_number(value), effect_of(name).unit,
                           "")
     console.print(table)
-    console.print(f"with these effects the fit is {paragraph(d.final)}", highlight=False)
+    console.print(f"with these effects the fit is {paragraph(d.final)}")
     offsets = diagnosis["parameters"]["joint_offset"]
     console.print("joint offsets of the final model: " + ", ".join(
         f"{a} {offsets[a]:+.4f} (truth {hidden.get(f'joint_offset.{a}', 0.0):+.4f})"

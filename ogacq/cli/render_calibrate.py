@@ -8,16 +8,14 @@ import contextlib
 from pathlib import Path
 from typing import Any
 
-import typer
-from rich.table import Table
-
 from ogacq.calibration.compensate import TABLES_FOLDER, Compensation
 from ogacq.calibration.procedure import NOT_APPLIED_FILE, Outcome
 from ogacq.calibration.separate import SeparatingPlan
 from ogacq.calibration.validate import Judgement
 from ogacq.cli import render_offsets
 from ogacq.cli.campaign_end import NextStep, step_lines
-from ogacq.cli.plain import Printer, shown
+from ogacq.cli.options import confirmed
+from ogacq.cli.plain import Printer, shown, table_of
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render import CampaignProgress, campaign_progress
 from ogacq.cli.verdict_text import paragraph, recorded_paragraph
@@ -56,7 +54,7 @@ class TerminalUI:
         self._stack.close()
 
     def say(self, text: str) -> None:
-        console.print(text, highlight=False)
+        console.print(text)
 
     def observer(self, role: str) -> CampaignProgress:
         self._stack.close()
@@ -71,16 +69,16 @@ class TerminalUI:
                             else f"{e.name} {measure(e.value, e.std, e.unit)}"
                             for e in diagnosis.effects) or "none"
         console.print(f"diagnosis of the {role} campaign: {diagnosis.outcome}; effects "
-                      f"(value ± std, k = 1): {effects}", highlight=False)
-        console.print(f"  {paragraph(diagnosis.final)}", highlight=False)
+                      f"(value ± std, k = 1): {effects}")
+        console.print(f"  {paragraph(diagnosis.final)}")
 
     def separation(self, plan: SeparatingPlan, speed: float | None) -> None:
         if not plan.reasons:
             console.print("the diagnosis is not ambiguous: no separating measurement")
             return
-        console.print("the diagnosis is ambiguous: " + "; ".join(plan.reasons), highlight=False)
+        console.print("the diagnosis is ambiguous: " + "; ".join(plan.reasons))
         if plan.protocol is None:
-            console.print(f"  no separating measurement: {plan.why_none}", highlight=False)
+            console.print(f"  no separating measurement: {plan.why_none}")
             return
         what = ("the designed scan of each leg" if plan.design is not None else
                 f"a scan every {plan.protocol.scan_step_mm:g} mm along each leg, both "
@@ -90,26 +88,24 @@ class TerminalUI:
             else ""
         console.print(f"  separating measurement: {what}, {plan.steps} reading steps, about "
                       f"{_duration(plan.duration_s)} of machine time at this machine's "
-                      f"{plan.seconds_per_step:.1f} s per step{wall}", highlight=False)
+                      f"{plan.seconds_per_step:.1f} s per step{wall}")
         for line in plan.design.lines() if plan.design is not None else ():
-            console.print(f"    {line}", highlight=False)
+            console.print(f"    {line}")
 
     def compensation(self, comp: Compensation, offsets: OffsetPlan,
                      maps: MapsPlan | None) -> None:
         render_offsets.print_plan(offsets, port=self.where, offsets_file=self.offsets_file)
         for r in offsets.refusals:
-            console.print(f"  would refuse ({r.code}): {r.message}", highlight=False)
+            console.print(f"  would refuse ({r.code}): {r.message}")
         if comp.uncompensated:
             console.print("stays uncompensated (no table corrects it): "
-                          + ", ".join(comp.uncompensated), highlight=False)
+                          + ", ".join(comp.uncompensated))
         if not comp.maps:
             console.print("no error map to write")
             return
-        table = Table(title="error maps (ISO 230-2:2014 figures of each axis; s = the map's "
-                            "u, k = 1)", show_edge=False, header_style="bold",
-                      title_justify="left")
-        for column in ("axis", "from", "before", "after (predicted: ogacq applies it)"):
-            table.add_column(column)
+        table = table_of("axis", "from", "before", "after (predicted: ogacq applies it)",
+                         title="error maps (ISO 230-2:2014 figures of each axis; s = the "
+                               "map's u, k = 1)", title_justify="left")
         for axis, m in comp.maps.items():
             residual = map_figures(m.__class__(
                 m.axis, m.positions_mm, tuple(0.0 for _ in m.positions_mm),
@@ -123,49 +119,40 @@ class TerminalUI:
             if t["problem"]:  # the format, or some of its axes, not written: why
                 said.append(f"not written: {t['problem']}")
             where = "; ".join(said)
-            console.print(f"  {t['format']} table: {shown(where)}", highlight=False)
+            console.print(f"  {t['format']} table: {shown(where)}")
         if maps is not None:
             console.print(f"maps file {shown(maps.path)}: {maps.current.checksum[:12]} -> "
                           f"{maps.new_checksum[:12]}"
-                          + ("" if not maps.nothing_to_do else " (already there)"),
-                          highlight=False)
+                          + ("" if not maps.nothing_to_do else " (already there)"))
             for r in maps.refusals:
-                console.print(f"  would refuse ({r.code}): {r.message}", highlight=False)
+                console.print(f"  would refuse ({r.code}): {r.message}")
 
     def confirm(self, question: str) -> bool:
-        try:
-            return typer.confirm(question, default=False)
-        except typer.Abort:
-            typer.echo("", err=True)
-            return False
+        return confirmed(question)
 
     def validation(self, judgement: Judgement) -> None:
         self._stack.close()
         console.print(f"validation: {judgement.outcome}; "
-                      f"{recorded_paragraph(judgement.verdict)}",
-                      highlight=False)
+                      f"{recorded_paragraph(judgement.verdict)}")
         left = ", ".join(f"{a} {v:+.4f}" for a, v in judgement.offsets_after_mm.items())
-        console.print(f"  joint offsets left: {left} mm", highlight=False)
+        console.print(f"  joint offsets left: {left} mm")
         for axis, fig in judgement.figures_after.items():
             before = judgement.figures_before.get(axis, {})
-            was = {n: before.get(f"{n}_mm", 0) * UM_PER_MM for n in "ABE"}
-            now = {n: fig[f"{n}_mm"] * UM_PER_MM for n in "ABE"}
-            console.print(f"  axis {axis}: A {was['A']:.2f} -> {now['A']:.2f} µm, "
-                          f"B {was['B']:.2f} -> {now['B']:.2f} µm, "
-                          f"E {was['E']:.2f} -> {now['E']:.2f} µm (ISO 230-2, from the maps)",
-                          highlight=False)
+            figures = ", ".join(f"{n} {before.get(f'{n}_mm', 0) * UM_PER_MM:.2f} -> "
+                                f"{fig[f'{n}_mm'] * UM_PER_MM:.2f} µm" for n in "ABE")
+            console.print(f"  axis {axis}: {figures} (ISO 230-2, from the maps)")
             if fig.get("drive_step_mm"):
                 step = fig["drive_step_mm"] * UM_PER_MM
                 console.print(f"    as left, with the drive's step ({step:g} µm a count: "
                               "each target is a whole count): A up to "
                               f"{fig['A_with_step_mm'] * UM_PER_MM:.2f} µm, E up to "
-                              f"{fig['E_with_step_mm'] * UM_PER_MM:.2f} µm", highlight=False)
+                              f"{fig['E_with_step_mm'] * UM_PER_MM:.2f} µm")
             predicted = self._predicted.get(axis)
             gap = prediction_gap(predicted, fig) if predicted is not None else None
             if gap is not None:
-                console.print(f"    {gap}", highlight=False)
+                console.print(f"    {gap}")
         for reason in judgement.reasons:
-            console.print(f"  worse: {reason}", highlight=False)
+            console.print(f"  worse: {reason}")
 
     def recorded(self, session_path: Path) -> None:
         self._on_recorded(session_path)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from rich.table import Table
 
-from ogacq.cli.plain import Printer, shown
+from ogacq.cli.plain import Printer, shown, table_of
 from ogacq.cli.render_maps import (
     print_axis_map,
     print_coverage,
@@ -18,7 +18,6 @@ from ogacq.diagnose.diagnosis import Diagnosis, EffectFound
 from ogacq.diagnose.library import BASE_MODEL, label, unit
 from ogacq.diagnose.locate import Location, row_labels
 from ogacq.diagnose.maps import MapEffect
-from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL, Verdict, format_p
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.model.units import UM_PER_MM
@@ -30,29 +29,15 @@ MANY_GROUPS = 12  # beyond this many postures (a scan) only the worst are listed
 SHOWN_GROUPS = 5
 
 
-def _value(value: float, std: float, unit: str) -> str:
-    """As the record's page writes it: the value at its std's decimal place, the std to
-    two significant digits (one rounding rule on the console and the page)."""
-    return measure(value, std, unit)
-
-
 def _judged(title: str, v: Verdict) -> str:
     colour = "green" if v.consistent else "red"
     return f"{title}: [{colour}]{paragraph(v)}[/]"
 
 
-def _verdict_line(title: str, model: Model) -> str:
-    return _judged(title, model.verdict)
-
-
-def _final_line(title: str, d: Diagnosis) -> str:
-    return _judged(title, d.final)
-
-
 def print_diagnosis(d: Diagnosis, machine_file: str = "M.toml") -> None:
     out.print(f"[bold]{shown(d.source or 'data')}[/]: {d.n_observations} {d.kind}; gauge noise "
               f"{d.noise.describe()}")
-    out.print(_verdict_line("joint offsets only", d.selection.base))
+    out.print(_judged("joint offsets only", d.selection.base.verdict))
     _print_outliers(d)
     if d.outcome == "consistent":
         out.print("The joint-offset model reproduces these recordings within the gauge "
@@ -173,10 +158,8 @@ def _print_capability(d: Diagnosis) -> None:
     out.print(f"[bold]What these data can tell beside the joint offsets[/] "
               f"({cap.n_data} independent {d.kind}, {cap.dof_after_offsets} left after the "
               f"offsets, {cap.effect_rank} independent effect directions)")
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
-    for col in ("effect", "std", "shows from", "unit", "offsets absorb", "aliases"):
-        table.add_column(col, justify="left" if col in ("effect", "unit", "aliases")
-                         else "right", overflow="fold")
+    table = table_of("effect", ">std", ">shows from", "unit", ">offsets absorb", "aliases",
+                     fold=True, pad_edge=False)
     for name, v in cap.visibility.items():
         if not v.visible:
             table.add_row(name, "-", "[red]not seen[/]", v.unit, "-", "")
@@ -249,10 +232,8 @@ def _print_search(d: Diagnosis) -> None:
 def _print_gauge_rms(d: Diagnosis) -> None:
     gauges = row_labels(d.base_fit.observations).gauge
     models = [d.selection.base] + [s.after for s in d.selection.steps]
-    table = Table(title="residual rms per gauge (µm), before and after each step",
-                      show_edge=False, header_style="bold", pad_edge=False)
-    table.add_column("gauge")
-    table.add_column("offsets", justify="right")
+    table = table_of("gauge", ">offsets", pad_edge=False,
+                     title="residual rms per gauge (µm), before and after each step")
     for step in d.selection.steps:
         table.add_column(f"+ {step.label}", justify="right", overflow="fold")
     per_model = [m.rms_by_gauge(gauges) for m in models]
@@ -264,13 +245,13 @@ def _print_gauge_rms(d: Diagnosis) -> None:
 def _print_outcome_line(d: Diagnosis) -> None:
     """Explained, partly explained or unexplained, and by how much."""
     if d.outcome == "explained":
-        out.print(_final_line("[bold]with the effects found[/]", d))
+        out.print(_judged("[bold]with the effects found[/]", d.final))
     elif d.outcome == "partly explained":
         out.print(f"[yellow]No set of library effects brings the fit within the noise.[/] "
                   f"The effects below remove {d.explained_share:.0%} of the misfit beyond "
                   "the noise; their std are inflated by the remaining misfit "
                   f"(x{d.std_inflation:.2f}).")
-        out.print(_final_line("with them", d))
+        out.print(_judged("with them", d.final))
     else:
         out.print("[red]Unexplained[/]: nothing in the effect library brings the fit "
                   "within the gauge noise, so no effect is named.")
@@ -282,7 +263,7 @@ def _print_outcome_line(d: Diagnosis) -> None:
 
 def _print_effect(e: EffectFound, d: Diagnosis, machine_file: str) -> None:
     """One effect found: its value, what its std holds, and what else explains it."""
-    out.print(f"  [bold]{e.name}[/] = {_value(e.value, e.std, e.unit)}")
+    out.print(f"  [bold]{e.name}[/] = {measure(e.value, e.std, e.unit)}")
     if e.model_spread > 0.2 * e.std:
         out.print(f"    (std includes ±{e.model_spread:.3g} {e.unit}: the value moves that "
                   "much when another effect is swapped for its alternative)")
@@ -329,7 +310,7 @@ def _print_outcome(d: Diagnosis, machine_file: str) -> None:
 def _print_offsets(d: Diagnosis) -> None:
     f = d.final_fit
     std = {n: f.std[k] * d.std_inflation for k, n in enumerate(f.names) if n in BASE_MODEL}
-    parts = [f"{n.split('.')[1]} {_value(f.value(n), std[n], 'mm')}" for n in BASE_MODEL]
+    parts = [f"{n.split('.')[1]} {measure(f.value(n), std[n], 'mm')}" for n in BASE_MODEL]
     out.print("joint offsets (final model): " + ", ".join(parts))
     # The offsets absorb what the effects do not: with an alias in an effect's place
     # they move, and writing them back should wait for the alias to be settled.

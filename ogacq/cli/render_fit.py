@@ -5,9 +5,8 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 import numpy as np
-from rich.table import Table
 
-from ogacq.cli.plain import Printer, shown
+from ogacq.cli.plain import Printer, shown, table_of
 from ogacq.cli.verdict_text import paragraph
 from ogacq.model.parameters import effect_of
 
@@ -37,12 +36,8 @@ def print_fit(result: FitResult, params_label: str, diagnose: str = "ogacq diagn
     out.print(f"[bold]{shown(obs.source or 'data')}[/]: {len(obs)} {obs.kind}, "
               f"parameters [bold]{params_label}[/], {result.method} fit, "
               f"{result.weighting.upper()}")
-    table = Table(show_edge=False, header_style="bold")
-    table.add_column("parameter")
-    table.add_column("value", justify="right")
-    table.add_column("std (gauge noise)", justify="right")
-    table.add_column("std (from residuals)", justify="right")
-    table.add_column("unit")
+    table = table_of("parameter", ">value", ">std (gauge noise)", ">std (from residuals)",
+                     "unit")
     scale = result.sigma_mm / result.noise.sigma_mm if np.isfinite(result.sigma_mm) else np.nan
     if not obs.raw:
         scale /= np.sqrt(2.0)  # a deviation is a difference of two readings

@@ -11,7 +11,7 @@ from rich.console import Console
 from rich.table import Table
 
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.history.drift import ControllerChange, Drift, expanded
 from ogacq.history.entries import parameter_unit
 from ogacq.history.states import MachineState
@@ -68,29 +68,28 @@ def _plural(n: int, word: str) -> str:
     return f"{n} {word}{'s' if n != 1 else ''}"
 
 
-def _who_title(machine: Machine, where: str, calibrations: Sequence[Calibration]) -> str:
-    return (f"{shown(machine.describe())}: "
-            f"{_plural(len(calibrations), 'calibration')} in {shown(where)}")
-
-
-def _who_table(calibrations: Sequence[Calibration]) -> Table:
-    """Who calibrated and how it came out, one row per calibration."""
+def _print_who(console: Console, machine: Machine, where: str,
+               calibrations: Sequence[Calibration]) -> None:
+    """Who calibrated and how it came out, a row per calibration; where the table does
+    not fit whole (a long operator, a SIMULATED mark), a block per calibration instead
+    of a column cut off."""
+    console.print(f"{shown(machine.describe())}: "
+                  f"{_plural(len(calibrations), 'calibration')} in {shown(where)}")
+    rows = [(shown(_when(c.date)), _record_words(c), shown(c.operator or "-"),
+             shown(verdict_words(c.verdict)), shown(acceptance_words(c)), _ambient(c))
+            for c in calibrations]
     table = Table(show_edge=False, header_style="bold")
     for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
         table.add_column(column, no_wrap=column in ("date", "record"), min_width=len(column),
                          justify="right" if column == "ambient" else "left")
-    for c in calibrations:
-        table.add_row(shown(_when(c.date)), _record_words(c), shown(c.operator or "-"),
-                      shown(verdict_words(c.verdict)), shown(acceptance_words(c)), _ambient(c))
-    return table
-
-
-def _who_blocks(calibrations: Sequence[Calibration]) -> list[str]:
-    """The same, a block per calibration: for a terminal the table does not fit."""
-    return [f"{shown(_when(c.date))}  {_record_words(c)}\n"
-            f"    operator {shown(c.operator or '-')}; fit {shown(verdict_words(c.verdict))}; "
-            f"acceptance {shown(acceptance_words(c))}; ambient {_ambient(c)}"
-            for c in calibrations]
+    for row in rows:
+        table.add_row(*row)
+    if _fits(console, table):
+        console.print(table)
+        return
+    for date, record, operator, fit, acceptance, ambient in rows:
+        console.print(f"{date}  {record}\n    operator {operator}; fit {fit}; acceptance "
+                      f"{acceptance}; ambient {ambient}")
 
 
 def _record_words(c: Calibration) -> str:
@@ -208,26 +207,18 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
     judged from the state as left."""
     console = new_console()  # per call: the terminal's width as it is now
     written = written or {}
-    # Two tables, so each fits a terminal of 80 columns: who and how, then the values;
-    # where the first does not fit whole (a long operator, a SIMULATED mark), a block
-    # per calibration instead of a column cut off.
-    console.print(_who_title(machine, where, calibrations), highlight=False)
-    who = _who_table(calibrations)
-    if _fits(console, who):
-        console.print(who)
-    else:
-        for block in _who_blocks(calibrations):
-            console.print(block, highlight=False)
+    # two tables, so each fits a terminal of 80 columns: who and how, then the values
+    _print_who(console, machine, where, calibrations)
     for line in _who_notes(calibrations, written, events):
-        console.print(shown(line), highlight=False)
+        console.print(shown(line))
     console.print(_values_table(calibrations, drifts, written))
     for line in _drift_notes(calibrations, drifts, written):
-        console.print(line, highlight=False)
+        console.print(line)
     for move in controller_moves:
-        console.print(f"[yellow]{shown(move.describe())}[/]", highlight=False)
+        console.print(f"[yellow]{shown(move.describe())}[/]")
     events_note = _events_note(machine, events)
     if events_note:
-        console.print(shown(events_note), highlight=False)
+        console.print(shown(events_note))
 
 
 def _fits(console: Console, table: Table) -> bool:
@@ -251,9 +242,9 @@ def _print_rows(console: Console, title: str, columns: Sequence[str],
     if _fits(console, table):
         console.print(table)
         return
-    console.print(title, highlight=False)
+    console.print(title)
     for row in rows:
-        console.print("  ".join(row[:3]) + "\n    " + rest(row), highlight=False)
+        console.print("  ".join(row[:3]) + "\n    " + rest(row))
 
 
 def _print_offsets_states(console: Console, machine: Machine, where: str,
@@ -304,13 +295,13 @@ def print_states(machine: Machine, where: str, states: Sequence[OffsetState],
         _print_maps_states(console, machine, maps)
     if machine_states:
         console.print(f"compare two: ogacq history {machine.label!r} --states --diff STATE "
-                      "STATE", highlight=False)
+                      "STATE")
     if not states:
         console.print("no write-back of this machine is recorded")
     else:
         console.print(f"go back to one: ogacq offsets restore --machine "
                       f"{shown(repr(machine.label))} --to STATE (a state above, or a "
-                      "calibration's record id)", highlight=False)
+                      "calibration's record id)")
 
 
 def calibrations_json(machine: Machine, calibrations: Sequence[Calibration],
@@ -354,11 +345,8 @@ def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
     a, b = compared["from"], compared["to"]
     console.print(f"{shown(machine.describe())}: from {a['state']} ({a['at'] or 'undated'}, "
                   f"{a['stage']} {a['action']} {a['operation']}) to {b['state']} "
-                  f"({b['at'] or 'undated'}, {b['stage']} {b['action']} {b['operation']})",
-                  highlight=False)
-    table = Table(show_edge=False, header_style="bold")
-    for column in ("axis", "offset from", "offset to", "change", "map"):
-        table.add_column(column, justify="left" if column in ("axis", "map") else "right")
+                  f"({b['at'] or 'undated'}, {b['stage']} {b['action']} {b['operation']})")
+    table = table_of("axis", ">offset from", ">offset to", ">change", "map")
     for axis, o in compared["offsets_mm"].items():
         m = compared["maps"][axis]
         if m["change"] == "none":
@@ -371,4 +359,4 @@ def print_diff(machine: Machine, compared: dict[str, Any]) -> None:
                               for v in (o["from"], o["to"], o["change"])), words)
     console.print(table)
     if not compared["maps_known"]:
-        console.print("no maps state is recorded at or before these states", highlight=False)
+        console.print("no maps state is recorded at or before these states")

@@ -10,7 +10,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ogacq.cli.plain import Printer
+from ogacq.cli.plain import Printer, table_of
 from ogacq.cli.verdict_text import paragraph
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
@@ -123,9 +123,7 @@ def print_axis_map(m: AxisMap) -> None:
         wanted = np.linspace(q[0], q[-1], min(MAP_ROWS, len(q)))
         stretch = np.ones(len(q), dtype=bool)
     pick = np.unique(np.abs(q[None, :] - wanted[:, None]).argmin(axis=1))
-    table = Table(show_edge=False, header_style="bold", pad_edge=False)
-    for col in ("q (mm)", "forward (µm)", "reverse (µm)"):
-        table.add_column(col, justify="right")
+    table = table_of(">q (mm)", ">forward (µm)", ">reverse (µm)", pad_edge=False)
     for k in pick:
         table.add_row(f"{q[k]:+.2f}", f"{fwd[k] * UM_PER_MM:+.2f} ± {u_f[k] * UM_PER_MM:.2f}",
                       f"{rev[k] * UM_PER_MM:+.2f} ± {u_r[k] * UM_PER_MM:.2f}")

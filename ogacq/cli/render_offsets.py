@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import math
 import time
 from pathlib import Path
 
-from rich.table import Table
-
 from ogacq.cli.plain import console as new_console
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
+from ogacq.cli.render_fit import format_number as _mm  # a value in mm, '-' if none
 from ogacq.cli.verdict_text import paragraph
 from ogacq.writeback.audit import Operation
 from ogacq.writeback.evidence import Evidence
@@ -20,19 +18,6 @@ console = new_console()
 err_console = new_console(stderr=True)
 
 
-def _mm(value: float | None, digits: int = 4) -> str:
-    if not isinstance(value, int | float) or isinstance(value, bool) or \
-            not math.isfinite(value):
-        return "-"
-    return f"{value:+.{digits}f}"
-
-
-def print_notes(notes: list[str]) -> None:
-    """What the session is, said before its evidence: partial, edited."""
-    for note in notes:
-        console.print(f"[yellow]{shown(note)}[/]", highlight=False)
-
-
 def _where(plan: OffsetPlan, port: str, offsets_file: str | None) -> str:
     if plan.facts.kind == "software":
         return f"software offset table {offsets_file or '(none configured)'}"
@@ -41,34 +26,26 @@ def _where(plan: OffsetPlan, port: str, offsets_file: str | None) -> str:
 
 def print_evidence(evidence: Evidence) -> None:
     console.print(f"[bold]{shown(evidence.session_path)}[/]: {evidence.readings} readings"
-                  + ("" if evidence.finished else " [yellow](campaign not finished)[/]"),
-                  highlight=False)
+                  + ("" if evidence.finished else " [yellow](campaign not finished)[/]"))
     verdict = evidence.verdict
     colour = "green" if verdict.consistent else "red"
-    console.print(f"{shown(evidence.model)} fit: [{colour}]{shown(paragraph(verdict))}[/]",
-                  highlight=False)
+    console.print(f"{shown(evidence.model)} fit: [{colour}]{shown(paragraph(verdict))}[/]")
     if evidence.identifiable:
         console.print("identifiable: every joint offset is determined by this campaign")
     else:
         console.print("[red]not identifiable[/]: "
-                      + shown("; ".join(evidence.identifiability_reasons) or "rank deficient"),
-                      highlight=False)
+                      + shown("; ".join(evidence.identifiability_reasons) or "rank deficient"))
 
 
 def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
                evidence: Evidence | None = None) -> None:
     title = (f"joint offsets o (mm, q = raw - o): {plan.action} to "
              f"{_where(plan, port, offsets_file)}")
-    table = Table(title=shown(title), show_edge=False, header_style="bold", title_justify="left")
-    table.add_column("axis")
-    if evidence is not None:
-        table.add_column("in force during campaign", justify="right")
-        table.add_column("identified drho", justify="right")
-        table.add_column("fit std", justify="right")  # the noise alone: U is the record's
-    table.add_column("table now" if plan.facts.kind == "software" else "controller now",
-                     justify="right")
-    table.add_column("new", justify="right")
-    table.add_column("change", justify="right")
+    # the fit std: the noise alone (U is the record's)
+    campaign = [">in force during campaign", ">identified drho", ">fit std"]
+    table = table_of("axis", *(campaign if evidence is not None else []),
+                     ">table now" if plan.facts.kind == "software" else ">controller now",
+                     ">new", ">change", title=shown(title), title_justify="left")
     for change in plan.changes:
         row = [shown(change.axis)]
         if evidence is not None:
@@ -83,42 +60,35 @@ def print_plan(plan: OffsetPlan, *, port: str, offsets_file: str | None,
             else "applied by ogacq to every commanded position from the next command on")
     prefix = ("new offsets = in force during the campaign - identified; "
               if plan.action == "write" else "restored offsets: ")
-    console.print(prefix + when, highlight=False)
+    console.print(prefix + when)
     for note in plan.notes:
-        console.print(f"note: {shown(note)}", highlight=False)
+        console.print(f"note: {shown(note)}")
     if plan.restores_operation:
         console.print(f"restores the values write-back {shown(plan.restores_operation)} "
-                      "replaced", highlight=False)
+                      "replaced")
 
 
 def print_refusals(plan: OffsetPlan, forced: bool) -> None:
     # one line each to a log or a pipe; on a terminal wrapped between words (the
     # terminal would cut a word where its width falls)
     whole = not err_console.is_terminal
-    if forced:
-        for refusal in plan.refusals:
-            err_console.print(f"ogacq: warning: --force writes past: {shown(refusal.message)}",
-                              highlight=False, soft_wrap=whole)
-        return
-    for refusal in plan.refusals:  # the command's one-line refusal follows
-        err_console.print(f"ogacq: refused ({shown(refusal.code)}): {shown(refusal.message)}",
-                          highlight=False, soft_wrap=whole)
+    for refusal in plan.refusals:  # unforced, the command's one-line refusal follows
+        said = ("warning: --force writes past" if forced
+                else f"refused ({shown(refusal.code)})")
+        err_console.print(f"ogacq: {said}: {shown(refusal.message)}", soft_wrap=whole)
 
 
 def print_outcome(outcome: WriteOutcome) -> None:
     done = "restored" if outcome.action == "restore" else "written"
     console.print(f"[green]{done}[/] and read back ({shown(outcome.operation)}): "
-                  + shown(", ".join(f"{a} {_mm(v)}" for a, v in outcome.new_mm.items())) + " mm",
-                  highlight=False)
+                  + shown(", ".join(f"{a} {_mm(v)}" for a, v in outcome.new_mm.items())) + " mm")
     if outcome.offsets_file is not None:
         console.print(f"software offset table {shown(outcome.offsets_file)}: every campaign "
-                      "with this "
-                      "campaign file now applies it", highlight=False)
+                      "with this campaign file now applies it")
     if outcome.rehomed and outcome.home_positions_mm is not None:
         console.print("re-homed: at the home point the axes read "
                       + shown(", ".join(f"{a} {_mm(q, 3)}" for a, q in
-                                        outcome.home_positions_mm.items())) + " mm (= -o)",
-                      highlight=False)
+                                        outcome.home_positions_mm.items())) + " mm (= -o)")
     elif outcome.pending_homing:
         console.print("[yellow]not re-homed: the new offsets take effect at the next homing "
                       "(every campaign homes first)[/]")
@@ -128,7 +98,7 @@ def print_outcome(outcome: WriteOutcome) -> None:
         console.print("[yellow]NOT saved to non-volatile memory: switching the drive off and on "
                       "brings back the offsets it saved before[/] (`ogacq offsets write "
                       "--save-nvm` saves them; a campaign after a power cycle then homes with "
-                      "the old ones)", highlight=False)
+                      "the old ones)")
     if outcome.action == "write":
         console.print("old and new values are recorded in the session (`ogacq offsets "
                       "restore` puts the old ones back)")
@@ -144,7 +114,7 @@ def print_history(operations: list[Operation]) -> None:
         when = time.strftime("%Y-%m-%d %H:%M:%S", time.localtime(op.wall)) if op.wall else "?"
         console.print(shown(f"  {when} {op.operation} {op.action} [{op.status}]: "
                             + ", ".join(f"{a} {_mm(op.old_mm.get(a))} -> {_mm(op.new_mm.get(a))}"
-                                        for a in op.old_mm)), highlight=False)
+                                        for a in op.old_mm)))
 
 
 def print_validation_next(campaign: str | None, session: Path, from_diagnosis: bool) -> None:
@@ -154,10 +124,10 @@ def print_validation_next(campaign: str | None, session: Path, from_diagnosis: b
 
     if not campaign:
         console.print(f"next: a validation campaign, then `ogacq report {shown(session)} "
-                      "--after VALIDATION_SESSION`", highlight=False)
+                      "--after VALIDATION_SESSION`")
         return
     model = ("; its end judges it with the effects named above carried over: they stay "
              "on the machine" if from_diagnosis else "")
     console.print(f"next: ogacq run {shown(campaign)}   (the validation, recorded as "
                   f"{shown(next_session_name(Path(campaign), session))}{model}; then "
-                  f"`ogacq report {shown(session)} --after` it)", highlight=False)
+                  f"`ogacq report {shown(session)} --after` it)")

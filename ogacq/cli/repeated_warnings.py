@@ -1,11 +1,5 @@
-"""Warnings as the command line prints them: one line each, and a warning repeated
-back to back printed once, then counted.
-
-A gauge sending garbage is read again and again while a stable value is awaited:
-each frame is discarded with a warning, thousands per failed reading, which bury
-everything else. Repeats are told apart from new warnings up to their numbers (a
-garbled frame's digits differ from frame to frame, an attempt counter counts).
-"""
+"""Warnings one line each, a repeat printed once then counted: a gauge sending garbage
+warns thousands of times a failed reading. A repeat is the same up to its numbers."""
 
 from __future__ import annotations
 

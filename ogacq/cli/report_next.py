@@ -1,15 +1,6 @@
 """What a technician does after reading the record ``ogacq report`` issued (issue
 38.5): every command ends with the next one, naming the file, or says why there is
-nothing more.
-
-In order: a record whose procedure wrote and validated (``ogacq calibrate``'s, its
-``compensation``) is complete; a record as found and as left (``--after``) is complete
-when its validation is within the noise, else its validation is what to look at; a
-validation campaign reported alone belongs to its calibration's record (``--after``);
-a campaign whose offsets were written waits for its validation; otherwise the steps
-at a campaign's end (``campaign_end.next_steps``): the diagnosis, the write-back, or
-nothing to write and why.
-"""
+nothing more."""
 
 from __future__ import annotations
 
@@ -72,11 +63,9 @@ def after_report(calibration: LoadedSession, validation: LoadedSession | None,
 
 
 def _procedure_page(session: LoadedSession) -> tuple[NextStep, ...] | None:
-    """A campaign of an ``ogacq calibrate`` procedure (its separating scan, its
-    validation), reported alone: the procedure wrote and judged what it found, and its
-    record, as found and as left, is the procedure's own (its log beside the session
-    names it). None for any other campaign. Reported alone, calibrate's validation
-    sent the technician to diagnose it or to write its offsets."""
+    """A campaign of an ``ogacq calibrate`` procedure, reported alone: the procedure's
+    record is the one to read (its log beside the session names it); None for any
+    other campaign."""
     from ogacq.calibration.log import LOG_NAME
     from ogacq.session.records import CalibrateRecord
     from ogacq.session.store import load_session

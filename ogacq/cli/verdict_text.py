@@ -1,17 +1,9 @@
-"""The consistency verdict on the terminal, explained once a command (issue 38.6).
+"""The consistency verdict on the terminal, explained once a command (issue 38.6: the
+demo and ``calibrate`` said the whole paragraph four or five times a run).
 
-A command may state several verdicts: the demo its campaign's fit with the joint
-offsets alone, with the effects found, at its end, then the loop's diagnoses and
-validations; ``calibrate`` one per campaign. Each was the whole paragraph ("lack-of-fit
-F test: F(11, 52) = ..., overall p ...; worst cell ...; combined p ...; judged at the
-0.01 level"), four or five times a run. The first verdict a command states is that
-paragraph (which test, each p, the level: how every later one was judged); each
-later verdict is one line, its words and its p, referring to it. The end of a
-campaign, when no paragraph came before it, keeps its one line with the test and the
-level (``Verdict.summary``).
-
-One command a process: ``ogacq.cli.typer_app.run_app`` starts every command with
-:func:`new_command`.
+The first verdict a command states is the paragraph (which test, each p, the level);
+each later one is its words and its p, referring to it. ``typer_app.run_app`` starts
+every command with :func:`new_command`.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from ogacq.cli.options import (
     seed_option,
 )
 from ogacq.cli.outputs import check_output_folder
-from ogacq.cli.wizard import WizardOptions, run_wizard
+from ogacq.cli.wizard.flow import WizardOptions, run_wizard
 from ogacq.sim.faults import parse_fault
 
 

@@ -10,6 +10,7 @@ left afresh from its own, fewer readings: its u makes most of its A."""
 from __future__ import annotations
 
 import io
+import re
 from types import SimpleNamespace
 
 import numpy as np
@@ -53,6 +54,8 @@ def test_a_validation_whose_own_uncertainty_widens_a_says_so(monkeypatch):
             "written map's u 0.60 µm): this validation finds E 0.96 µm left, within that "
             "band, with two u of its own measure either side (u up to 3.40 µm): how well "
             "it checks the axis, not an error of the machine") in text, text
+    assert re.search(r"axis x: A \d+\.\d\d -> 14\.56 µm, B \d+\.\d\d -> \d+\.\d\d µm, "
+                     r"E \d+\.\d\d -> 0\.96 µm \(ISO 230-2, from the maps\)", text), text
 
 
 def test_an_error_left_beyond_the_predicted_band_is_said_to_be_one(monkeypatch):

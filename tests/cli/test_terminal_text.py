@@ -233,3 +233,17 @@ def test_plans_separating_design_fits_80_columns(capsys, monkeypatch):
     out = capsys.readouterr().out
     assert too_wide(out) == [], out
     assert "min of machine time" in " ".join(out.split())
+
+
+def test_end_of_input_at_a_yes_no_question_is_a_no_on_a_line_of_its_own(capsys, monkeypatch):
+    """Ctrl-D at `offsets write`'s, `maps restore`'s or calibrate's question: no, and the
+    prompt's line ended, so the command's next word starts a line (maps restore's
+    "nothing restored" followed the prompt on its line)."""
+    import io
+
+    from ogacq.cli.options import confirmed
+
+    monkeypatch.setattr("sys.stdin", io.StringIO(""))
+    assert confirmed("Restore these maps?") is False
+    said = capsys.readouterr()
+    assert said.out.startswith("Restore these maps? [y/N]") and said.err == "\n"

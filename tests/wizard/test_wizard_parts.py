@@ -246,3 +246,23 @@ def test_a_choice_is_its_key_or_the_first_word_of_its_label(monkeypatch):
             Option("m", "read z_x by eye")]
     assert screen.choose("How?", read) == "m"  # 'mitutoyo' and 'read' refused first
     assert shown.getvalue().count("type one of: 1, r, m") == 2
+
+
+def test_a_terminal_closed_at_a_typed_reading_quits_the_campaign():
+    """End of input while a dial's value is asked stops the campaign as a quit (the
+    runner records it, the session stays resumable), never as an input error."""
+    from ogacq.cli.wizard.guided_station import GuidedStation
+    from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit
+    from ogacq.cli.wizard.ui import InputClosed
+    from ogacq.protocol.plan import StabilityRule
+
+    def closed(gauge, step):
+        raise InputClosed("the terminal closed")
+
+    step = reading_steps(ProtocolConfig(cycles=1), MACHINE)[0]
+    station = GuidedStation(None, None, InterruptGate(),  # nothing read over a link
+                            expectations=ReadingExpectations(MACHINE, max_offset_mm=2.0,
+                                                             repeat_tolerance_mm=0.05),
+                            by_eye={"y_x"}, ask_reading=closed, on_pause=lambda: None)
+    with pytest.raises(OperatorQuit, match="the terminal closed"):
+        list(station.read_gauges(step, ["y_x"], StabilityRule()))

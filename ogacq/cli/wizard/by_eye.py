@@ -1,11 +1,6 @@
-"""Dial indicators read by eye (the papers' own 10 um gauges were).
-
-The wizard says which posture the machine is at and which dial to read,
-shows the range the value is expected in (earlier readings at the same
-posture, else the model from the gauge's setting value), and refuses a value
-outside it once: typing the same value again keeps it, since a person who
-re-read the dial may be right and the fit will judge.
-"""
+"""Dial indicators read by eye (the papers' own 10 um gauges were): a value outside
+the expected range is refused once; typed again it is kept (a person who re-read
+the dial may be right, and the fit will judge)."""
 
 from __future__ import annotations
 

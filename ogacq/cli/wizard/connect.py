@@ -1,12 +1,6 @@
-"""Step 1: connect the instruments.
-
-List the serial ports with their descriptions (plus the simulator's ports in
-a rehearsal; pseudo-terminals and ``socket://`` URLs are never listed, so a
-typed port or URL is always accepted), check that the axis controller
-answers, and test-read each gauge: six left in place, or the papers' two
-indicators moved from leg to leg. Every check can be retried, changed, or
-skipped with a reason; a gauge can be switched to reading by eye.
-"""
+"""Step 1: connect the instruments: the ports listed (a typed port or URL always
+accepted: pseudo-terminals and ``socket://`` are never listed), the controller
+checked, each gauge test-read; each check retried, changed, or skipped with a reason."""
 
 from __future__ import annotations
 
@@ -24,7 +18,7 @@ from ogacq.campaign.station import (  # as the campaign connects
     open_controller,
     open_gauges,
 )
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.cli.wizard.ui import Option, Screen, detail
 from ogacq.model.gauges import MOVED_INDICATORS, Gauge, gauges_on
 from ogacq.model.parameters import AXES
@@ -112,16 +106,11 @@ def _protocol_devices() -> list[DetectedPort]:
 
 
 def show_ports(screen: Screen, ports: Sequence[DetectedPort]) -> None:
-    from rich.table import Table
-
     if not ports:
         screen.say("No serial port is listed. Type the port of each device "
                    "(/dev/ttyUSB0, COM3, socket://host:port, or host:port for Modbus TCP).")
         return
-    table = Table(show_edge=False, header_style="bold", title="Ports found", title_justify="left")
-    table.add_column("#", justify="right")
-    table.add_column("port")
-    table.add_column("description")
+    table = table_of(">#", "port", "description", title="Ports found", title_justify="left")
     for number, port in enumerate(ports, 1):
         table.add_row(str(number), shown(port.device), shown(port.description))
     screen.say(table)
@@ -252,23 +241,13 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
 
     controller = {port: "the controller's" for port in controller_ports if port}
     if _indicator_count(screen, indicators, rehearsal_indicators) == 2:
-        return _moved_indicators(screen, ports, legs, protocol, notes, controller)
-
-    chosen: dict[str, GaugeSpec] = {}
-    by_eye: set[str] = set()
-    free = [p for p in ports if not p.suggested_for]
+        screen.say("Type each indicator's port (a number from the list, a device or a URL), "
+                   "or [bold]m[/] to read it by eye.")
+        return _ports_of(screen, ports, _moved_indicators(legs), protocol, notes, controller)
     screen.say("Type each gauge's port (a number from the list, a device or a URL), or "
                "[bold]m[/] to read that gauge by eye.")
-    for gauge in keys:
-        taken = controller | {s.port: f"gauge {s.gauge}'s" for s in chosen.values()}
-        guess = suggested.get(gauge) or next((p for p in free if p.device not in taken), None)
-        spec = _one_gauge(screen, gauge, protocol, ports, taken,
-                          guess.device if guess else None, notes)
-        if spec is None:
-            by_eye.add(gauge)
-        else:
-            chosen[gauge] = spec
-    return chosen, by_eye
+    return _ports_of(screen, ports, [_Served((g,), g, f"gauge {g}") for g in keys], protocol,
+                     notes, controller)
 
 
 def show_hints(screen: Screen, protocol: str) -> None:
@@ -298,31 +277,47 @@ def _indicator_count(screen: Screen, known: int | None, rehearsal: int | None) -
                        f"with {count}, start again with --indicators {count}")
 
 
-def _moved_indicators(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[str],
-                      protocol: str, notes: list[dict[str, str]],
-                      controller: dict[str, str],
-                      ) -> tuple[dict[str, GaugeSpec], set[str]]:
+@dataclass(frozen=True)
+class _Served:
+    """What one port serves: a gauge, or an indicator moved from leg to leg."""
+
+    gauges: tuple[str, ...]
+    suggested_for: str  # as DetectedPort.suggested_for names it
+    name: str  # "gauge x_y", "indicator 1"
+    label: str | None = None  # the port question (default: the gauge's)
+
+
+def _moved_indicators(legs: Sequence[str]) -> list[_Served]:
     """Two indicators, each serving one gauge on every leg (same port, its own zero
     on each leg): one port question and one test read per indicator."""
+    served = []
+    for number, keys in enumerate(MOVED_INDICATORS, 1):
+        gauges = tuple(g for g in keys if Gauge.parse(g).leg in legs)
+        label = f"Indicator {number} (" + ", ".join(
+            f"along {Gauge.parse(g).axis} on the {Gauge.parse(g).leg} leg" for g in gauges) + ")"
+        served.append(_Served(gauges, f"indicator {number}", f"indicator {number}", label))
+    return served
+
+
+def _ports_of(screen: Screen, ports: Sequence[DetectedPort], served: Sequence[_Served],
+              protocol: str, notes: list[dict[str, str]], taken: dict[str, str],
+              ) -> tuple[dict[str, GaugeSpec], set[str]]:
+    """Each one's port, asked and test-read (``taken``: ports already in use, by whom);
+    the gauges' specs and those read by eye."""
     chosen: dict[str, GaugeSpec] = {}
     by_eye: set[str] = set()
     free = [p for p in ports if not p.suggested_for]
-    screen.say("Type each indicator's port (a number from the list, a device or a URL), "
-               "or [bold]m[/] to read it by eye.")
-    for number, served in enumerate(MOVED_INDICATORS, 1):
-        gauges = [g for g in served if Gauge.parse(g).leg in legs]
-        taken = controller | {s.port: f"indicator {number - 1}'s" for s in chosen.values()}
-        guess = next((p for p in ports if p.suggested_for == f"indicator {number}"), None) \
+    for one in served:
+        guess = next((p for p in ports if p.suggested_for == one.suggested_for), None) \
             or next((p for p in free if p.device not in taken), None)
-        label = f"Indicator {number} (" + ", ".join(
-            f"along {Gauge.parse(g).axis} on the {Gauge.parse(g).leg} leg" for g in gauges) + ")"
-        spec = _one_gauge(screen, gauges[0], protocol, ports, taken,
-                          guess.device if guess else None, notes, label=label,
-                          name=f"indicator {number}")
+        spec = _one_gauge(screen, one.gauges[0], protocol, ports, taken,
+                          guess.device if guess else None, notes, label=one.label,
+                          name=one.name)
         if spec is None:
-            by_eye.update(gauges)
+            by_eye.update(one.gauges)
         else:
-            chosen.update({g: replace(spec, gauge=g) for g in gauges})
+            chosen.update({g: replace(spec, gauge=g) for g in one.gauges})
+            taken = taken | {spec.port: f"{one.name}'s"}
     return chosen, by_eye
 
 
@@ -361,14 +356,11 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
                 Option("m", f"read {name} by eye instead (type its values)"),
                 Option("s", "skip this test (give a reason)"),
             ], default="r")
-            if choice == "m":
+            if choice in ("m", "s"):  # by eye, or this link as it is, for a reason
+                why = f"read {name} by eye" if choice == "m" else f"skip the test of {name}"
                 notes.append({"step": "gauge test", "gauge": gauge, "port": port,
-                              "reason": screen.reason(f"read {name} by eye")})
-                return None
-            if choice == "s":
-                notes.append({"step": "gauge test", "gauge": gauge, "port": port,
-                              "reason": screen.reason(f"skip the test of {name}")})
-                return spec
+                              "reason": screen.reason(why)})
+                return None if choice == "m" else spec
             if choice == "c":  # the suggested port stays the default
                 break
 

@@ -1,9 +1,5 @@
-"""Where the two gauges of a leg go, as plain text (any terminal shows it).
-
-Left: the leg from the side, with the gauges half-way between the tool end
-and the joint (the papers' Step 1). Right: a section through the leg at the
-gauges, looking along the leg, with each gauge's plunger along its axis.
-"""
+"""Where the two gauges of a leg go, as plain text (any terminal shows it): half-way
+between the tool end and the joint (the papers' Step 1)."""
 
 from __future__ import annotations
 

@@ -1,10 +1,5 @@
-"""The wizard from start to result: connect, machine, measure, result.
-
-Each step can be retried or skipped with a reason (kept in the session);
-Ctrl-C pauses (resume or quit, the session stays resumable); a campaign that
-stops (a silent gauge, an axis fault) says what stopped it and offers retry,
-reading that gauge by eye, or quit.
-"""
+"""The wizard from start to result: connect, machine, measure, result; a step
+retried or skipped with a reason, Ctrl-C a pause, a stop said with what to do."""
 
 from __future__ import annotations
 
@@ -12,7 +7,7 @@ import contextlib
 import datetime
 import re
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -54,7 +49,7 @@ from ogacq.cli.wizard.connect import (
 )
 from ogacq.cli.wizard.gauge_setting import LegSetter, RunHandles
 from ogacq.cli.wizard.guided_station import GuidedStation
-from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, pausable, pause_menu
+from ogacq.cli.wizard.pause import InterruptGate, OperatorQuit, closed_is_quit, pausable, pause_menu
 from ogacq.cli.wizard.progress import CycleProgress
 from ogacq.cli.wizard.result import offer_report, offer_writeback, show_result
 from ogacq.cli.wizard.traceability import Indicator, Traceability, TraceabilityQuestions
@@ -80,9 +75,9 @@ from ogacq.model.machine import (
     MachineSpec,
 )
 from ogacq.protocol import runner
-from ogacq.protocol.plan import ProtocolConfig, Read, SetGauges, StabilityRule, reading_steps
+from ogacq.protocol.plan import ProtocolConfig, SetGauges, StabilityRule, reading_steps
 from ogacq.protocol.runner import CampaignStopped
-from ogacq.protocol.station import GaugeValue, Station
+from ogacq.protocol.station import Station
 from ogacq.session.convert import session_machine
 from ogacq.session.identification import identify_session
 from ogacq.session.records import (
@@ -175,9 +170,7 @@ class _Wizard:
             return self._finish(outcome)
 
     def _finish(self, outcome: CampaignOutcome) -> int:
-        """Step 4: the result with U, the record into the history, then what comes next,
-        offered here: the write-back, the record, a validation campaign; and last the
-        verdict, the record's id and the next command."""
+        """Step 4: the result, then the write-back, the record and a validation offered."""
         s = self.screen
         s.heading("Result", "step 4 of 4")
         rehearsal = self.rehearsal is not None
@@ -219,14 +212,15 @@ class _Wizard:
             if self.session_path != outcome.session_path:  # inside the validation campaign
                 self._say_quit()
                 return EXIT_QUIT
-            self._say_end(replace(end, steps=self._next_steps(end, outcome, written,
-                                                              validation, report),
-                                  report=report), validation)
+            stopped = True
+        else:
+            stopped = False
+        self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
+                                                          report), report=report), validation)
+        if stopped:
             s.say("Stopped here: the campaign is complete and saved; what is left to do is "
                   "above.")
             return EXIT_QUIT
-        self._say_end(replace(end, steps=self._next_steps(end, outcome, written, validation,
-                                                          report), report=report), validation)
         s.say("[bold green]Calibration campaign complete.[/]")
         return EXIT_DONE
 
@@ -384,21 +378,14 @@ class _Wizard:
                 # a rehearsal stopped at its result: its simulator again (the same seed,
                 # the offsets as before the write), so the write-back and the validation
                 # the wizard offers have a controller, as in the rehearsal itself
-                self._start_rehearsal(cleanup, campaign,
-                                      SimulatorSpec.from_header(dict(h.simulator)))
-                assert self.rehearsal is not None
-                campaign.controller = self.rehearsal.controller
-                campaign.gauges = list(self.rehearsal.gauges)
+                self._rehearse_again(cleanup, campaign, h.simulator)
                 self.campaign = campaign
             return CampaignOutcome(session.path, identify_session(session), None)
         check_writable(session.path, resuming=True)  # before the operator checks anything
         station = ([r.description for r in session.of_type(StationRecord)]
                    or [dict(h.station or {})])[-1]
         if h.simulator is not None:
-            self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(dict(h.simulator)))
-            assert self.rehearsal is not None
-            campaign.controller = self.rehearsal.controller
-            campaign.gauges = list(self.rehearsal.gauges)
+            self._rehearse_again(cleanup, campaign, h.simulator)
         else:
             c = station.get("controller") or {}
             axes = {a: AxisEndpoint(e.get("port"), e.get("device_id"))
@@ -456,6 +443,14 @@ class _Wizard:
         if self.options.faults:
             self.injector = FaultInjector(self.options.faults, self.rehearsal.stack)
             self.injector.check(0)
+
+    def _rehearse_again(self, cleanup: contextlib.ExitStack, campaign: Campaign,
+                        recorded: Mapping[str, Any]) -> None:
+        """A rehearsal's session continued: its simulator again, as its station."""
+        self._start_rehearsal(cleanup, campaign, SimulatorSpec.from_header(dict(recorded)))
+        assert self.rehearsal is not None
+        campaign.controller = self.rehearsal.controller
+        campaign.gauges = list(self.rehearsal.gauges)
 
     def _initial_machine(self, folder: Path) -> tuple[MachineSpec | None, Path | None]:
         if self.options.machine is not None:
@@ -534,10 +529,7 @@ class _Wizard:
             except (DriverError, InputError, ValueError, OSError) as exc:
                 s.problem(f"the controller on {campaign.controller.endpoints()} does not answer: "
                           f"{exc}")
-                if s.choose("What now?", [Option("r", "retry"),
-                                          Option("q", "quit (the session stays resumable)")],
-                            default="r") == "q":
-                    raise OperatorQuit() from None
+                self._retry_or_quit()
         tested: set[tuple[str, str | None]] = set()
         for spec in list(campaign.gauges):
             if spec.gauge in self.by_eye or (spec.port, spec.channel) in tested:
@@ -621,7 +613,7 @@ class _Wizard:
             def wrap(works: Station, device: DeviceStation, writer: SessionWriter,
                      ) -> GuidedStation:
                 station = GuidedStation(works, device, self.gate, expectations=expectations,
-                                        by_eye=self.by_eye, ask_reading=self._typed(ask_reading),
+                                        by_eye=self.by_eye, ask_reading=ask_reading,
                                         on_pause=lambda: pause_here(
                                             f"after reading {counter.done} of {counter.total}"))
                 handles.station = station
@@ -660,26 +652,12 @@ class _Wizard:
             session = load_session(session_path) if session_path.exists() else None
 
     def _asking(self, setter: LegSetter) -> Callable[[SetGauges], None]:
-        """The gauge setting asks the technician: Ctrl-C there pauses at once, and a
-        closed terminal stops the campaign as a quit (recorded, resumable)."""
+        """The gauge setting asks the technician: Ctrl-C there pauses at once."""
         def set_gauges(step: SetGauges) -> None:
-            with self.gate.immediate():
-                try:
-                    setter(step)
-                except InputClosed:
-                    raise OperatorQuit("the terminal closed") from None
+            with self.gate.immediate(), closed_is_quit():
+                setter(step)
 
         return set_gauges
-
-    @staticmethod
-    def _typed(ask: ByEyeReadings) -> Callable[[str, Read], GaugeValue]:
-        def ask_reading(gauge: str, step: Read) -> GaugeValue:
-            try:
-                return ask(gauge, step)
-            except InputClosed:
-                raise OperatorQuit("the terminal closed") from None
-
-        return ask_reading
 
     def _observer(self, display: CycleProgress) -> Callable[[runner.Progress], None]:
         if self.injector is None:
@@ -704,10 +682,7 @@ class _Wizard:
         if stop.status == "interrupted":
             s.say(f"[bold yellow]Stopped at once[/] ({shown(stop.reason)}). The axes were stopped; "
                   "every reading so far is saved.")
-            if s.choose("Resume or quit?", [Option("r", "resume where it stopped"),
-                                             Option("q", "quit (the session stays resumable)")],
-                        default="r") == "q":
-                raise OperatorQuit()
+            self._retry_or_quit("Resume or quit?", "resume where it stopped")
             return
         fault = self._last_fault()
         if fault and fault.during == "read" and fault.gauge:
@@ -721,10 +696,7 @@ class _Wizard:
         s.problem(f"The campaign stopped: {stop.reason}")
         s.say("     The axes were stopped and every reading so far is saved. Clear the cause "
               "(an alarm, an obstacle, the emergency stop) before retrying.")
-        if s.choose("What now?", [Option("r", "retry"),
-                                  Option("q", "quit (the session stays resumable)")],
-                    default="r") == "q":
-            raise OperatorQuit()
+        self._retry_or_quit()
 
     def _after_failure(self, exc: DriverError) -> None:
         s = self.screen
@@ -734,10 +706,14 @@ class _Wizard:
             self._gauge_menu(match.group(1))
             return
         s.say("     Check the controller's power and cable, and that no alarm is on.")
-        if s.choose("What now?", [Option("r", "retry"),
-                                  Option("q", "quit (the session stays resumable)")],
-                    default="r") == "q":
-            raise OperatorQuit()
+        self._retry_or_quit()
+
+    def _retry_or_quit(self, question: str = "What now?", retry: str = "retry") -> None:
+        """Return to retry; OperatorQuit to quit."""
+        if self.screen.choose(question, [Option("r", retry),
+                                         Option("q", "quit (the session stays resumable)")],
+                              default="r") == "q":
+            raise OperatorQuit() from None
 
     def _describe_step(self, step_id: str) -> str:
         """``x/c1/p2`` as the technician knows it: x leg, cycle 1, Max posture."""

@@ -1,13 +1,6 @@
-"""Setting the two gauges of a leg: where they go, live values, and the check.
-
-The runner calls this when the machine is at the leg's Zero posture and the
-gauges must be set (``SetGauges``). Six indicators left in place are all set
-once, at the first leg (Zero is the machine's centre for every leg), and only
-checked, without a stop, at the others. The technician sees a plain instruction
-and a drawing, the gauges' values updating in place while the stands are
-adjusted, then a check on Enter: each gauge answers, is steady, and has
-enough travel on both sides for what the cycles will ask of it.
-"""
+"""Setting the gauges at a leg's Zero posture (``SetGauges``): an instruction and a
+drawing, live values while the stands are adjusted, then on Enter a check that each
+answers, is steady, and has the travel the cycles will ask both ways."""
 
 from __future__ import annotations
 
@@ -22,10 +15,10 @@ from rich.table import Table
 from rich.text import Text
 
 from ogacq_drivers.errors import DriverError
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.cli.wizard.drawing import leg_drawing, leg_instructions
 from ogacq.cli.wizard.guided_station import GuidedStation
-from ogacq.cli.wizard.ui import Option, Screen, detail, keys, parse_mm
+from ogacq.cli.wizard.ui import Keys, Option, Screen, detail, parse_mm
 from ogacq.model.expected_readings import ReadingExpectations, travel_needed_mm
 from ogacq.model.gauges import Gauge, gauges_on
 from ogacq.model.machine import MachineSpec
@@ -98,10 +91,8 @@ class LegSetter:
 
     # -------------------------------------------------------- six indicators left in place
     def _six_in_place(self) -> bool:
-        """Every gauge of the plan on its own link, read by the station, and every leg's
-        gauges set at the same posture (a first posture of Zero: the machine's centre
-        for every leg): then the six are set once, at the first leg, and not asked for
-        again (the papers' two indicators, or a dial read by eye, are set leg by leg)."""
+        """Whether the six are set once, at the first leg: each on its own link, and the
+        first posture Zero, the machine's centre for every leg."""
         gauges = [g for step in self._settings() for g in step.gauges]
         if len(self.config.legs) < 2 or any(not self._station().can_read(g) for g in gauges):
             return False
@@ -132,15 +123,7 @@ class LegSetter:
             for line in leg_instructions(step.leg):
                 s.say(f"  • {shown(line)}")
             s.say(Text(leg_drawing(step.leg, s.out.width)))
-        travel = max(self.travel_mm(g) for g in every.gauges)
-        s.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm from "
-              "where you set it.")
-        while True:
-            try:
-                if self._set_and_check(every):
-                    return
-            except KeyboardInterrupt:
-                self.pause("while setting the gauges")
+        self._set_until_checked(every, "while setting the gauges")
 
     def _still_set(self, step: SetGauges) -> bool:
         """A later leg, its gauges set at the start: checked without stopping; True when
@@ -148,10 +131,9 @@ class LegSetter:
         if any(not self._station().can_read(g) for g in step.gauges):
             return False  # switched to reading by eye since: its dial needs a value here
         checks = [self._check(g) for g in step.gauges]
+        for failed in (c for c in checks if c.problem):
+            self.screen.problem(failed.problem)
         if any(c.problem for c in checks):
-            for check in checks:
-                if check.problem:
-                    self.screen.problem(check.problem)
             return False
         values = {c.gauge: c.value_mm for c in checks}
         self.screen.ok(f"{step.leg} leg: gauges " + ", ".join(
@@ -173,15 +155,19 @@ class LegSetter:
         s.say()
         s.say(Text(leg_drawing(step.leg, s.out.width)))
         s.say()
+        self._set_until_checked(step, f"while setting the gauges of the {step.leg} leg")
+
+    def _set_until_checked(self, step: SetGauges, where: str) -> None:
+        """The travel the cycles ask, then set and checked until done; Ctrl-C pauses."""
         travel = max(self.travel_mm(g) for g in step.gauges)
-        s.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm from "
-              "where you set it.")
+        self.screen.say(f"During the cycles each reading will move by up to ±{travel:.2f} mm "
+                        "from where you set it.")
         while True:
             try:
                 if self._set_and_check(step):
                     return
             except KeyboardInterrupt:
-                self.pause(f"while setting the gauges of the {step.leg} leg")
+                self.pause(where)
 
     def _moved_here(self, step: SetGauges) -> list[str]:
         """Which indicator each gauge is, when indicators go from leg to leg."""
@@ -248,7 +234,7 @@ class LegSetter:
     def _live_values(self, gauges: Sequence[str]) -> None:
         """Values updating in place until Enter."""
         station = self._station()
-        with keys() as reader:
+        with Keys() as reader:
             if not reader.interactive:
                 self.screen.say(self._table(gauges, {g: self._read(station, g)
                                                      for g in gauges}))
@@ -281,11 +267,7 @@ class LegSetter:
         return Group(self._table(gauges, latest), hint)
 
     def _table(self, gauges: Sequence[str], latest: dict) -> Table:
-        table = Table(show_edge=False, header_style="bold")
-        table.add_column("gauge")
-        table.add_column("reads", justify="right")
-        table.add_column(f"plunger travel 0 … {self.gauge_range_mm:g} mm")
-        table.add_column("")
+        table = table_of("gauge", ">reads", f"plunger travel 0 … {self.gauge_range_mm:g} mm", "")
         for gauge in gauges:
             value, error = latest[gauge]
             if value is None:

@@ -1,11 +1,6 @@
-"""The station as the wizard runs it: the campaign's own station, plus
-checkpoints for Ctrl-C (the run is inside ``InterruptGate.deferred``), gauges
-read by eye, and single reads for live values.
-
-The runner hands it the plan step of each reading, so a typed reading is asked
-for with its posture and cycle, and each reading feeds the expected ranges the
-next ones are checked against.
-"""
+"""The station as the wizard runs it: the campaign's own, plus Ctrl-C checkpoints,
+gauges read by eye, and single reads for live values; each reading feeds the ranges
+the next ones are checked against."""
 
 from __future__ import annotations
 
@@ -15,7 +10,7 @@ from typing import Any
 from ogacq_drivers.errors import DriverError
 from ogacq_drivers.indicators.base import read_stable
 from ogacq.campaign.station import DeviceStation
-from ogacq.cli.wizard.pause import InterruptGate
+from ogacq.cli.wizard.pause import InterruptGate, closed_is_quit
 from ogacq.model.expected_readings import ReadingExpectations
 from ogacq.protocol.plan import Read, SettleRule, StabilityRule
 from ogacq.protocol.station import (
@@ -65,7 +60,7 @@ class GuidedStation(StationWrapper):
             yield gauge, value
         for gauge in gauges:
             if gauge in self.by_eye:
-                with self.gate.immediate():
+                with self.gate.immediate(), closed_is_quit():
                     typed = self._ask_reading(gauge, step)
                 self.expectations.observe(gauge, step.q_mm, typed.value_mm)
                 yield gauge, typed

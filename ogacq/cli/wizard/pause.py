@@ -1,12 +1,8 @@
-"""Ctrl-C: pause, then resume or quit, with the session left resumable.
-
-At a question, Ctrl-C interrupts at once. While the campaign runs by itself
-(moves, readings, records) it is deferred to the next checkpoint, the start
-of the next move, settle or reading, so a pause never cuts a Modbus exchange,
-a serial frame or a session record in half, and the axes are at rest when the
-technician is asked what to do. A second Ctrl-C while waiting for the
-checkpoint interrupts at once (the runner then stops the axes and records it).
-"""
+"""Ctrl-C: pause, then resume or quit, the session left resumable. At a question it
+interrupts at once; while the campaign runs by itself it waits for the next move,
+settle or reading, so a pause never cuts a Modbus exchange, a serial frame or a record
+in half and the axes are at rest; a second Ctrl-C meanwhile interrupts at once (the
+runner stops the axes and records it)."""
 
 from __future__ import annotations
 
@@ -82,6 +78,15 @@ class InterruptGate:
     def take_pending(self) -> bool:
         pending, self.pending = self.pending, False
         return pending
+
+
+@contextlib.contextmanager
+def closed_is_quit() -> Iterator[None]:
+    """A terminal closed while the campaign asks: stopped as a quit (recorded, resumable)."""
+    try:
+        yield
+    except InputClosed:
+        raise OperatorQuit("the terminal closed") from None
 
 
 def pause_menu(screen: Screen, where: str, session: Path | None = None) -> None:

@@ -7,10 +7,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from rich.table import Table
 
 from ogacq.campaign.run import CampaignOutcome
-from ogacq.cli.plain import shown
+from ogacq.cli.plain import shown, table_of
 from ogacq.cli.verdict_text import one_line
 from ogacq.cli.wizard.ui import Screen
 from ogacq.identify.consistency import fit_verdict
@@ -28,12 +27,7 @@ def show_result(screen: Screen, outcome: CampaignOutcome, record: Mapping[str, A
     results = CalibrationRecord.from_json(record).results
     truth = truth and outcome.hidden is not None
     screen.say(f"[bold]{title} from {len(fit.observations)} readings (mm)[/]")
-    table = Table(show_edge=False, header_style="bold")
-    table.add_column("joint")
-    table.add_column("offset", justify="right")
-    table.add_column("± U (k = 2)", justify="right")
-    if truth:
-        table.add_column("simulator's truth", justify="right")
+    table = table_of("joint", ">offset", ">± U (k = 2)", *([">simulator's truth"] if truth else []))
     incomplete = False
     for name, value, std in zip(fit.names, fit.values, fit.std, strict=True):
         line = result_headline(results, name, float(value), "mm")
@@ -80,10 +74,8 @@ def offer_writeback(screen: Screen, session: Path, writable: bool,
                     campaign: Path | None = None, rehearsal: bool = False,
                     history: str | None = None) -> bool:
     """Offer ``ogacq offsets write`` (run here, with its own confirmation), or say it;
-    True when the offsets were written. ``campaign`` names the controller when the
-    session's campaign file cannot (a rehearsal: the simulator the file starts does
-    not outlive the command); ``history``: the wizard's --history, where the
-    write-back is recorded too."""
+    True when written. ``campaign`` names the controller where the session's cannot
+    (a rehearsal's simulator does not outlive the command that starts it)."""
     command = ["offsets", "write", str(session)]
     if campaign is not None:
         command += ["--campaign", str(campaign)]

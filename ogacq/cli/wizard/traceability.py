@@ -1,11 +1,6 @@
-"""The wizard's traceability questions: who calibrates which machine, with which
-gauges (their identity and certificate, offered from the inventory of gauges met
-before), at what temperature; and the refusal of a gauge past its due date,
-which only a stated reason overrides (recorded in the session).
-
-Everything may be left unrecorded with Enter, and is then recorded as unknown:
-the uncertainty budget and the record say so, rather than guessing.
-"""
+"""The wizard's traceability questions: machine, operator, gauges (offered from the
+inventory), temperature; a gauge past its due date refused unless a reason is given.
+Enter leaves an answer unrecorded: the budget and the record say so, not a guess."""
 
 from __future__ import annotations
 
@@ -129,22 +124,18 @@ class TraceabilityQuestions:
     def _ask(self, key: str | None, question: str, parse: Callable[[str], T],
              default: str | None = None, unset: str = "") -> T:
         """``question`` until ``parse`` takes the answer; the answer given to ``key``
-        before a pause is offered instead of ``default`` (``key`` None: a question of
-        its own moment, nothing offered from before). ``unset`` says what Enter does
-        when nothing is offered ("not recorded"): said only then, since with an answer
-        offered Enter takes it."""
+        before a pause offered instead of ``default``. ``unset``: what Enter does when
+        nothing is offered ("not recorded")."""
         offered = (self._answered.get(key, default) if key else default) or None
         text = f"{question} (Enter: {unset})" if unset and offered is None else question
-        while True:
-            answer = self.screen.ask(text, offered)
-            try:
-                value = parse(answer)
-            except ValueError as exc:
-                self.screen.problem(str(exc))
-                continue
+
+        def kept(answer: str) -> T:
+            value = parse(answer)
             if key:
                 self._answered[key] = answer
             return value
+
+        return self.screen.ask_parsed(text, kept, offered)
 
     def ask(self, machine: MachineSpec, indicators: Sequence[Indicator],
             on: datetime.date) -> Traceability:
@@ -201,11 +192,9 @@ class TraceabilityQuestions:
 
     def _confirmed(self, gauge: KnownGauge, indicator: Indicator,
                    usable: Callable[[KnownGauge], bool] = lambda known: True) -> KnownGauge:
-        """A new gauge as typed, shown whole and confirmed before it is remembered
-        (instruments.toml keeps it for every later campaign): a typo is typed again. The
+        """A new gauge shown whole and confirmed before instruments.toml remembers it; a
         serial typed again may be a gauge met before (the typo was in the serial): that
-        one is taken as it is known (when ``usable``), never overwritten by the answers
-        given for the typo."""
+        one is taken as known (when ``usable``), never overwritten by the typo's answers."""
         s = self.screen
         while True:
             s.say(f"  {shown(gauge.serial)}: {shown(gauge.summary())}")

@@ -1,9 +1,6 @@
-"""What the technician sees and types: headings, menus, questions, key presses.
-
-Every question loops until the answer makes sense and says what it expects;
-nothing here raises on a typo. A live display (progress bar, gauge values)
-is stopped before any question, so prompts never fight with redraws.
-"""
+"""What the technician sees and types: each question asked until the answer makes sense
+(it says what it expects; a typo raises nothing), and a live display stopped before
+any question, so prompts never fight with redraws."""
 
 from __future__ import annotations
 
@@ -26,7 +23,7 @@ from ogacq.errors import InputError
 
 T = TypeVar("T")
 
-console = new_console(highlight=False)
+console = new_console()
 
 
 class InputClosed(InputError):
@@ -189,12 +186,8 @@ def log_on_screen(screen: Screen) -> Iterator[None]:
 
 
 class Keys:
-    """Single key presses while a live display runs (cbreak: no echo, Ctrl-C still works).
-
-    ``None`` from :meth:`poll` means no key within the timeout. When the input
-    is not a terminal, :attr:`interactive` is False and callers fall back to
-    asking for a line.
-    """
+    """Single key presses while a live display runs (cbreak: no echo, Ctrl-C still works);
+    not on a terminal, :attr:`interactive` is False and callers ask for a line."""
 
     def __init__(self) -> None:
         self._fd = sys.stdin.fileno() if sys.stdin and not sys.stdin.closed else -1
@@ -227,12 +220,6 @@ class Keys:
         if not data:
             raise InputClosed("the terminal closed")
         return data.decode(errors="replace")
-
-
-@contextlib.contextmanager
-def keys() -> Iterator[Keys]:
-    with Keys() as reader:
-        yield reader
 
 
 def detail(exc: Exception) -> str:
