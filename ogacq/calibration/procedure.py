@@ -171,24 +171,17 @@ def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
         done = log_.finished
         if done is not None:
             ui.say(f"calibration {log_.procedure} already finished: {done.details.get('outcome')}")
-            return _outcome_of(setup, log_)
-        with _machine(setup, log_) as stack:
+            return _outcome_of(setup.folder, log_.procedure, done.details)
+        with _machine(setup) as stack:
             return Procedure(setup, ui, log_, stack, history).run()
     finally:
         log_.close()
 
 
-@contextlib.contextmanager
-def _machine(setup: Setup, log_: ProcedureLog) -> Iterator[Any]:
+def _machine(setup: Setup) -> contextlib.AbstractContextManager[Any]:
     """The simulator serving the whole procedure (None on a station)."""
-    if setup.simulator is None:
-        yield None
-        return
-    stack = start_simulator(setup.machine, setup.simulator)
-    try:
-        yield stack
-    finally:
-        stack.close()
+    return contextlib.nullcontext() if setup.simulator is None else \
+        contextlib.closing(start_simulator(setup.machine, setup.simulator))
 
 
 class Procedure:
@@ -283,12 +276,14 @@ class Procedure:
         judgement = replace(judgement.with_scales(checks, comp.maps, self.setup.machine),
                             looked=where_looked(looked, self.setup.machine))
         if checks:
-            self._tell(Step.SCALES, lambda: None, {"checks": {a: c.to_json()
-                                                             for a, c in checks.items()}},
-                       round=self._round_key)
+            self.log.once(Step.SCALES, lambda: {"checks": {a: c.to_json()
+                                                          for a, c in checks.items()}},
+                          round=self._round_key)
         restored: dict[str, str | None] = {}
         if judgement.worse:
-            restored = self._restore(first, written, judgement)
+            restored = _operations(self.log.once(
+                Step.RESTORED, lambda: self._restore(first, written, judgement),
+                round=self._round_key))
         return RoundDone(comp, validation, judgement, written, restored, between_judged,
                          between_session)
 
@@ -614,14 +609,8 @@ class Procedure:
         return judgement
 
     def _restore(self, audited: LoadedSession, written: dict[str, str | None],
-                 judgement: Judgement) -> dict[str, str | None]:
+                 judgement: Judgement) -> Details:
         """Put back what the procedure wrote, each said restored only once read back."""
-        return _operations(self.log.once(
-            Step.RESTORED, lambda: self._put_back(audited, written, judgement),
-            round=self._round_key))
-
-    def _put_back(self, audited: LoadedSession, written: dict[str, str | None],
-                  judgement: Judgement) -> Details:
         reason = "; ".join(judgement.reasons)
         self.ui.say(f"the validation is worse than before: {reason}. Restoring the previous "
                     "state")
@@ -658,9 +647,9 @@ class Procedure:
              evidence: LoadedSession | None = None, validation: LoadedSession | None = None,
              judgement: Judgement | None = None, written: dict[str, str | None] | None = None,
              restored: dict[str, str | None] | None = None) -> Outcome:
-        details: dict[str, Any] = {"procedure": self.log.procedure, "outcome": outcome,
-                                   "reason": reason, "writes": written or {},
-                                   "restores": restored or {}}
+        head = {"procedure": self.log.procedure, "outcome": outcome, "reason": reason,
+                "writes": written or {}, "restores": restored or {}}
+        details: dict[str, Any] = dict(head)
         if outcome in NOT_APPLIED:
             mark_tables_not_applied(self.setup.folder / TABLES_FOLDER, self.log.procedure,
                                     outcome, reason)
@@ -668,10 +657,8 @@ class Procedure:
         if comp is not None and evidence is not None:
             details.update(compensation=comp.to_json(),
                            validation=judgement.to_json() if judgement else None)
-            summary = {"procedure": self.log.procedure, "outcome": outcome, "reason": reason,
-                       "writes": written or {}, "restores": restored or {},
-                       "maps": {a: {"source": m.source, "checksum": m.checksum()}
-                                for a, m in comp.maps.items()},
+            summary = {**head, "maps": {a: {"source": m.source, "checksum": m.checksum()}
+                                        for a, m in comp.maps.items()},
                        "compensated": list(comp.compensated),
                        "uncompensated": list(comp.uncompensated),
                        "iso230_2": {"before": comp.figures_before(),
@@ -737,12 +724,9 @@ def _write_once(target: AnyTarget, plan: TargetPlan, session: LoadedSession,
     return op.operation if op is not None else None
 
 
-def _outcome_of(setup: Setup, log_: ProcedureLog) -> Outcome:
-    """A finished procedure's outcome, as its log says."""
-    done = log_.finished
-    assert done is not None
-    d = done.details
-    return Outcome(setup.folder, log_.procedure, WriteOutcome(d["outcome"]), str(d.get("reason")),
+def _outcome_of(folder: Path, procedure: str, d: Details) -> Outcome:
+    """A finished procedure's outcome, as its log's end says."""
+    return Outcome(folder, procedure, WriteOutcome(d["outcome"]), str(d.get("reason")),
                    Path(d["evidence"]) if d.get("evidence") else None,
                    Path(d["validation"]) if d.get("validation") else None)
 
