@@ -20,7 +20,7 @@ from ogacq.model.gauges import AXES
 from ogacq.model.instrument import finite_number as _number
 from ogacq.model.parameters import EFFECT_BY_NAME
 from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.record.sections import ResultEntry
+from ogacq.record.sections import NamedResult
 
 RECORD_FORMAT = "ogacq-record/1"
 
@@ -105,7 +105,7 @@ def clean_json(value: Any) -> Any:
 
 def check_record(record: Any) -> dict[str, Any]:
     """The record, checked for what the history reads from it; RecordError naming
-    what is missing."""
+    what is missing, RecordSectionError the key of a section of another shape."""
     if not isinstance(record, Mapping):
         raise RecordError("a record is a JSON object")
     typed = CalibrationRecord.from_json(record)
@@ -113,9 +113,11 @@ def check_record(record: Any) -> dict[str, Any]:
         raise RecordError(f"not an {RECORD_FORMAT} record (format {typed.as_written('format')!r})")
     if not typed.id:
         raise RecordError("the record has no id")
-    name = typed.machine_named.name
+    name = typed.machine_section.name
     if name is None or not name.strip():
         raise RecordError(f"record {typed.id} names no machine")
+    # every section the history reads: one of another shape said before anything is written
+    _ = record_columns(typed), parameters_of(typed), typed.offsets_in_force_mm
     return dict(record)
 
 
@@ -126,14 +128,14 @@ def _typed(record: Mapping[str, Any] | CalibrationRecord) -> CalibrationRecord:
 def machine_of(record: Mapping[str, Any] | CalibrationRecord) -> tuple[str, str]:
     """(name, serial) of the record's machine (checked by ``check_record``); the serial
     is "" when none is given."""
-    machine = _typed(record).machine_named
+    machine = _typed(record).machine_section
     return str(machine.name).strip(), (machine.serial or "").strip()
 
 
-def parameters_in(entries: Sequence[ResultEntry]) -> list[Parameter]:
+def parameters_in(entries: Sequence[NamedResult]) -> list[Parameter]:
     """The parameters of a record's (or a history entry's) ``results`` that have a value."""
-    return [Parameter(e.name, e.value_mm, e.u_mm, e.U_mm, e.k, e.std_mm)
-            for e in entries if e.value_mm is not None]
+    return [Parameter(n.name, e.value_mm, e.u_mm, e.U_mm, e.k, e.std_mm)
+            for n in entries if (e := n.entry).value_mm is not None]
 
 
 def parameters_of(record: Mapping[str, Any] | CalibrationRecord) -> list[Parameter]:
@@ -144,17 +146,14 @@ def parameters_of(record: Mapping[str, Any] | CalibrationRecord) -> list[Paramet
 
 def ambient_of(record: Mapping[str, Any] | CalibrationRecord) -> float | None:
     """The ambient temperature at the start (else at the end) of the campaign, degC."""
-    environment = _typed(record).environment or {}
-    for stage in ("start", "end"):
-        entry = environment.get(stage)
-        if isinstance(entry, Mapping) and _number(entry.get("ambient_c")) is not None:
-            return float(entry["ambient_c"])
-    return None
+    stages = _typed(record).environment_stages
+    return next((float(t.ambient_c) for stage in ("start", "end") if stage in stages
+                 and (t := stages[stage]) is not None and t.ambient_c is not None), None)
 
 
 def acceptance_decision(record: Mapping[str, Any] | CalibrationRecord) -> str | None:
     """The as-found decision (pass, fail, undecided), None when not recorded."""
-    return _typed(record).acceptance_read.as_found.decision
+    return _typed(record).acceptance_section.as_found.decision
 
 
 def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
@@ -166,13 +165,12 @@ def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
 def record_columns(record: Mapping[str, Any] | CalibrationRecord) -> dict[str, Any]:
     """The event columns a record fills (every kind of event carries its record's)."""
     typed = _typed(record)
-    session = typed.session_reference
-    software = (typed.method or {}).get("software")
+    session = typed.session_file
     return {
         "record_id": typed.id,
         "campaign_date": typed.date or None,
         "operator": typed.operator or None,
-        "software": str(software) if software else None,
+        "software": typed.method_section.software or None,
         "session_path": session.path or None,
         "session_sha256": session.sha256 or None,
         "verdict": clean_json(typed.as_written("verdict")),

@@ -397,7 +397,7 @@ class History:
         e = s.events
         with self._guard("read the events"), self._transaction(write=False) as conn:
             records = conn.execute(select(e.c.record).where(e.c.record_id == record_id)).scalars()
-            counts = [CalibrationRecord.from_json(r).session_reference.records for r in records
+            counts = [CalibrationRecord.from_json(r).session_file.records for r in records
                       if isinstance(r, dict)]
         seen = [count for count in counts if count is not None]
         return max(seen) if seen else None

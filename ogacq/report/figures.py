@@ -21,9 +21,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from ogacq.io.declared import Finite
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
+from ogacq.record.declared import Section, read
+from ogacq.report.cells import Fallback
 from ogacq.report.data import (
     DeviationRow,
     FitSummary,
@@ -38,7 +41,7 @@ from ogacq.uncertainty.reporting import headline, two_digits
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType  # read by the type checker only
 
-LEG_COLOUR = {"x": "#D55E00", "y": "#009E73", "z": "#0072B2"}
+LEG_COLOUR = Fallback({"x": "#D55E00", "y": "#009E73", "z": "#0072B2"}, lambda _: "black")
 LEG_MARKER = {"x": "o", "y": "s", "z": "^"}
 BEFORE_COLOUR = "#5d6d7e"
 PREDICTED_COLOUR = "#E69F00"
@@ -48,6 +51,13 @@ DPI = 110
 STYLE: dict[RcKeyType, Any] = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
                                 "figure.titlesize": 12, "legend.fontsize": 9,
                                 "axes.spines.top": False, "axes.spines.right": False}
+
+
+@dataclass(frozen=True)
+class MapShape(Section):
+    """An error map's ``extra``: a cyclic map's pitch (``ogacq.model.families.cyclic``)."""
+
+    pitch_mm: Finite | None = None
 
 
 @dataclass(frozen=True)
@@ -220,7 +230,7 @@ def _leg_spans(ax: Axes, series: ResidualSeries, names: bool = True) -> None:
                 ax.text((series.number[start] + series.number[k - 1]) / 2, 1.0,
                         f"{legs[start]} leg", transform=ax.get_xaxis_transform(),
                         ha="center", va="bottom", fontsize=9,
-                        color=LEG_COLOUR.get(legs[start], "black"))
+                        color=LEG_COLOUR[legs[start]])
             start = k
 
 
@@ -395,8 +405,8 @@ def maps_figure(maps: Sequence[AxisMap]) -> Figure:
             q = np.array(m.positions_mm)
             fwd, rev = np.array(m.forward_mm), np.array(m.reverse_mm)
             u_f, u_r = np.array(m.u_forward_mm), np.array(m.u_reverse_mm)
-            colour = LEG_COLOUR.get(m.axis, "black")
-            pitch = m.extra.get("pitch_mm") if isinstance(m.extra, dict) else None
+            colour = LEG_COLOUR[m.axis]
+            pitch = read(MapShape, m.extra, f"maps.{m.axis}.extra").pitch_mm
             lo = m.reference_mm if pitch and q[0] <= m.reference_mm <= q[-1] - 2 * pitch \
                 else q[0]
             span = 2 * pitch if pitch else (q[-1] - q[0]) / 4
@@ -436,7 +446,7 @@ def profiles_figure(profiles: Sequence[LegProfileView], noise_mm: float) -> Figu
                 _band(ax, noise_mm, UM_PER_MM, "gauge noise ±2σ")
                 for gauge, values in series.items():
                     ax.plot(q, np.array(values), lw=0.9, marker=".", ms=2,
-                            color=LEG_COLOUR.get(gauge.split("_")[0], "black"),
+                            color=LEG_COLOUR[gauge.split("_")[0]],
                             alpha=0.85, label=f"gauge {gauge}")
                 ax.axhline(0, color="black", lw=0.6)
                 ax.set_title(f"{p.leg} leg: {title}", loc="left")
