@@ -1,8 +1,10 @@
 """What goes into the history's rows: read from a record (``ogacq-record/1``,
-docs/calibration-record.md section 5) and from a write-back's audit.
+docs/calibration-record.md section 5) and from a write-back's audit; and what the
+store reads back (machines, calibrations, events, states).
 
-Pure functions and plain data: the store writes what these return, the tests
-check them without a database.
+Pure functions and plain data, without SQLAlchemy: the store writes what these
+return, the tests check them without a database, and a command imports them without
+the database layer.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import hashlib
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
@@ -89,6 +91,113 @@ class MapsWriteBack:
     @property
     def kind(self) -> str:
         return "map-restore" if self.action == "restore" else "map-write"
+
+
+# --- what the history holds, read back (History.machines, calibrations, states, ...)
+
+@dataclass(frozen=True)
+class Machine:
+    id: int
+    name: str
+    serial: str
+
+    def describe(self) -> str:
+        return f"{self.name} (serial {self.serial})" if self.serial else self.name
+
+    @property
+    def label(self) -> str:
+        """How a person names this machine and no other of the same name: what
+        ``find_machine`` takes back."""
+        return self.describe() if self.serial else f"{self.name} (no serial)"
+
+
+@dataclass(frozen=True)
+class Calibration:
+    record_id: str
+    date: str | None
+    operator: str | None
+    verdict: dict[str, Any] | None
+    acceptance_decision: str | None
+    acceptance: dict[str, Any] | None
+    ambient_c: float | None
+    parameters: dict[str, Parameter]
+    session_path: str | None
+    session_sha256: str | None
+    instruments: list[Any] | None = None
+    environment: dict[str, Any] | None = None
+    overrides: list[Any] | None = None
+    station: str | None = None
+    simulated: bool | None = None  # a rehearsal on the simulator (None: not said)
+    # the joint offsets the controller held during the campaign, the same at every start
+    # (None: the record does not say, or they changed between starts)
+    offsets_in_force_mm: dict[str, float] | None = None
+
+
+@dataclass(frozen=True)
+class Event:
+    kind: str
+    record_id: str
+    date: str | None
+    operator: str | None
+    session_path: str | None
+    details: dict[str, Any] | None
+
+
+@dataclass(frozen=True)
+class OffsetState:
+    state_id: str
+    stage: str  # before, after
+    at: str | None
+    wall: float | None
+    operation: str
+    action: str
+    status: str
+    profile: str | None
+    offsets_mm: dict[str, float | None]
+    record_id: str
+    session_path: str | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return {"state": self.state_id, "stage": self.stage, "at": self.at,
+                "operation": self.operation, "action": self.action, "status": self.status,
+                "profile": self.profile, "offsets_mm": self.offsets_mm,
+                "record": self.record_id, "session": self.session_path}
+
+
+@dataclass(frozen=True)
+class MapState:
+    state_id: str
+    stage: str  # before, after
+    at: str | None
+    wall: float | None
+    operation: str
+    action: str
+    status: str
+    maps_file: str | None
+    checksum: str | None
+    maps: list[dict[str, Any]]  # ogacq-axis-map/1 each
+    record_id: str
+    session_path: str | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return {"state": self.state_id, "stage": self.stage, "at": self.at,
+                "operation": self.operation, "action": self.action, "status": self.status,
+                "maps_file": self.maps_file, "checksum": self.checksum,
+                "axes": [m.get("axis") for m in self.maps], "record": self.record_id,
+                "session": self.session_path}
+
+
+@dataclass
+class Recorded:
+    """What one call recorded: the keys written, and those already there."""
+
+    new: list[str] = field(default_factory=list)
+    present: list[str] = field(default_factory=list)
+
+    def __iadd__(self, other: Recorded) -> Recorded:
+        self.new += other.new
+        self.present += other.present
+        return self
 
 
 def clean_json(value: Any) -> Any:

@@ -21,7 +21,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ogacq.errors import OgacqError
-from ogacq.history.entries import MapsWriteBack, WriteBack, event_key
+from ogacq.history.entries import MapsWriteBack, Recorded, WriteBack, event_key
 from ogacq.logs import logger
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
@@ -30,7 +30,7 @@ from ogacq.writeback.maps import MapsFile
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
-    from ogacq.history.store import History, Recorded
+    from ogacq.history.store import History
 
 log = logger("ogacq.history")
 
@@ -66,8 +66,6 @@ def record_session(history: History, session: LoadedSession,
                    record: Mapping[str, Any] | None = None) -> Recorded:
     """The session's calibration (when its campaign completed) and every write-back of
     its audit, offsets and maps (each once)."""
-    from ogacq.history.store import Recorded
-
     record = dict(record) if record is not None else session_record(session)
     where = str(session.path.resolve())
     done = Recorded()
@@ -173,7 +171,6 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
     session not finished gives nothing: its campaign's result comes when it does)."""
 
     def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
-        from ogacq.history.store import Recorded
         from ogacq.record.identity import session_record_id
 
         record_id = session_record_id(session)
