@@ -34,7 +34,7 @@ from ogacq.report.data import (
     ParameterRow,
     ResidualSeries,
 )
-from ogacq.report.diagnosis_view import LegProfileView
+from ogacq.report.diagnosis_view import LegProfile
 from ogacq.report.formatting import finite
 from ogacq.uncertainty.reporting import headline, two_digits
 
@@ -432,7 +432,7 @@ def maps_figure(maps: Sequence[AxisMap]) -> Figure:
     return fig
 
 
-def profiles_figure(profiles: Sequence[LegProfileView], noise_mm: float) -> Figure:
+def profiles_figure(profiles: Sequence[LegProfile], noise_mm: float) -> Figure:
     """Residuals along each scanned leg's joint coordinate, each gauge's mean per
     position, with the joint offsets only and with the effects found."""
     with matplotlib.rc_context(STYLE):
@@ -440,12 +440,14 @@ def profiles_figure(profiles: Sequence[LegProfileView], noise_mm: float) -> Figu
         fig = Figure(figsize=(10, 0.8 + 2.4 * rows), layout="constrained")
         axes = fig.subplots(rows, 2, squeeze=False, sharey=True)
         for (before, after), p in zip(axes, profiles, strict=True):
-            q = np.array(p.q_mm)
-            for ax, series, title in ((before, p.before_um, "joint offsets only"),
-                                      (after, p.after_um, "with the effects found")):
+            q = np.array(p.q_mm, dtype=float)  # an empty bin (null) as NaN
+            for ax, series, title in (
+                    (before, {g: v.before_um for g, v in p.gauges.items()}, "joint offsets only"),
+                    (after, {g: v.after_um for g, v in p.gauges.items()},
+                     "with the effects found")):
                 _band(ax, noise_mm, UM_PER_MM, "gauge noise ±2σ")
                 for gauge, values in series.items():
-                    ax.plot(q, np.array(values), lw=0.9, marker=".", ms=2,
+                    ax.plot(q, np.array(values, dtype=float), lw=0.9, marker=".", ms=2,
                             color=LEG_COLOUR[gauge.split("_")[0]],
                             alpha=0.85, label=f"gauge {gauge}")
                 ax.axhline(0, color="black", lw=0.6)

@@ -227,9 +227,9 @@ def _identifiability(fit: FitSummary) -> Table:
 
 
 def _effect_row(e: EffectFound) -> list[Cell]:
-    value = ("-" if e.value is None else measure(e.value, e.std, e.unit))
+    value = ("-" if e.value is None else measure(e.value, e.std, e.unit or "-"))
     if e.alternatives:
-        alternatives = ("explained equally well by " + ", ".join(e.alternatives)
+        alternatives = ("explained equally well by " + ", ".join(e.alternative_names)
                         + ": not separable with this campaign")
     elif e.unexplained:
         alternatives = "no known effect explains this part of the misfit: look at that gauge"
@@ -260,7 +260,7 @@ def _diagnosis(d: DiagnosisView, fit: FitSummary | None) -> dict[str, Any]:
         "located": None, "effects": None, "offsets_compared": None}
     if d.located and not d.base.consistent:
         out["located"] = _table(["gauge", "leg", "along", "share of the misfit"], [
-            [g.gauge, g.leg, g.gauge_axis, f"{g.share:.0%}"] for g in d.located],
+            [g.gauge, str(g.leg), str(g.gauge_axis), f"{g.share:.0%}"] for g in d.located],
             [False, False, False, True])
     if d.effects:
         ambiguous = any(e.alternatives for e in d.effects)
@@ -290,7 +290,7 @@ def _along_axes(d: DiagnosisView) -> dict[str, Any]:
             continue
         v = d.chi2[key]
         # the p as the verdict's text says it (4.6e-13 there, 4.58e-13 here before)
-        rows.append([title, plain(v.statistic, 1), str(v.dof), format_p(v.p),
+        rows.append([title, plain(v.statistic, 1), str(v.dof or 0), format_p(v.p),
                      Badge("within noise", "ok") if v.consistent
                      else Badge("not within noise", "bad")])
     return {"axes_coverage": list(d.coverage), "proposals": list(d.proposals),
