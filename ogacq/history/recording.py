@@ -25,8 +25,6 @@ from ogacq.history.entries import MapsWriteBack, Recorded, WriteBack, event_key
 from ogacq.logs import logger
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.writeback.audit import operations
-from ogacq.writeback.maps import MapsFile
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
@@ -50,12 +48,18 @@ def session_record(session: LoadedSession) -> dict[str, Any]:
 
 def writebacks_of(session: LoadedSession) -> list[WriteBack]:
     """The write-backs and restores the session's audit records describe."""
+    # the audit's readers (and the drives' profiles behind them) imported only here: a
+    # diagnosis of a finished campaign records none of them
+    from ogacq.writeback.audit import operations
+
     return [WriteBack(op.operation, op.action, op.status, op.old_mm, op.new_mm, op.profile,
                       op.wall, op.restores) for op in operations(session)]
 
 
 def maps_writebacks_of(session: LoadedSession) -> list[MapsWriteBack]:
     """The maps writes and restores the session's audit records describe."""
+    from ogacq.writeback.maps import MapsFile
+
     return [MapsWriteBack(op.operation, op.action, op.status, str(op.path),
                           tuple(m.to_json() for m in op.old_maps.values()), op.old_checksum,
                           tuple(m.to_json() for m in op.new_maps.values()), op.new_checksum,

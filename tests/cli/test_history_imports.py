@@ -32,6 +32,17 @@ def test_diagnose_into_an_sqlite_history_imports_no_postgresql(tmp_path):
     assert not loaded(modules, POSTGRESQL)
 
 
+def test_a_diagnosis_the_history_holds_already_reads_no_write_back_audit(tmp_path):
+    """A finished campaign's diagnosis records no write-back: the audit's readers (and
+    the drives' profiles behind them) are not imported to find it recorded."""
+    history = tmp_path / "h.sqlite"
+    for _ in range(2):
+        modules, _ = run("diagnose", GOLDEN_SESSION, "--history", history, "--json",
+                         env={"OGACQ_HOME": str(tmp_path / "home")})
+    assert loaded(modules, ("ogacq.history.store",))  # it did read the history
+    assert not loaded(modules, ("ogacq.writeback",))
+
+
 def test_a_campaign_run_without_a_history_imports_no_database_layer(tmp_path):
     path = campaign(tmp_path / "c", 0)
     modules, _ = run("run", path, "--history", "none", "--json",
