@@ -388,7 +388,9 @@ class History:
             rows = conn.execute(select(e.c.record_id, e.c.campaign_date, e.c.record).where(
                 e.c.machine_id == machine.id, e.c.kind == "calibration")).all()
         entries = [{"id": r.record_id, "date": r.campaign_date,
-                    "results": (r.record or {}).get("results") or {}} for r in rows]
+                    "results": CalibrationRecord.from_json(
+                        r.record if isinstance(r.record, dict) else {}).results or {}}
+                   for r in rows]
         return sorted(entries, key=lambda v: (v["date"] or "", v["id"]))
 
     def states(self, machine: Machine) -> list[OffsetState]:
