@@ -9,7 +9,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from ogacq.record.declared import Section, written
+from ogacq.record.declared import Section
 
 __all__ = ["Acceptance", "AcceptanceStage", "BudgetRow", "CampaignSection", "EditedRecord",
            "HistoryEntry", "InstrumentEntry", "MethodSection", "NamedResult", "OverrideEntry",
@@ -151,10 +151,6 @@ class NamedResult:
 
     name: str
     entry: ResultEntry
-
-    def fields(self) -> dict[str, Any]:
-        """Every key of the entry as written."""
-        return written(self.entry)
 
 
 def named_results(results: Results) -> tuple[NamedResult, ...]:

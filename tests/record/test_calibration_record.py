@@ -57,7 +57,8 @@ def test_the_typed_sections_of_a_record_and_what_they_keep_as_written():
     x, z = record.result_entries
     assert (x.name, x.entry.value_mm, x.entry.u_mm, x.entry.U_mm, x.entry.k) == (
         "joint_offset.x", 0.25, 0.01, 0.02, 2)
-    assert x.fields()["note"] == "edited" and (z.name, z.entry.value_mm) == ("joint_offset.z", None)
+    assert x.entry.extra == {"note": "edited"} and (z.name, z.entry.value_mm) == (
+        "joint_offset.z", None)
     assert record.verdict_section is None
     acceptance = record.acceptance_section
     assert (acceptance.rule, acceptance.as_found.decision, acceptance.as_found.extra) == (
