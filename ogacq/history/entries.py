@@ -144,7 +144,10 @@ class Event:
 
 
 @dataclass(frozen=True)
-class OffsetState:
+class State:
+    """What an offsets state and a maps state both say: the write or restore that found
+    (``before``) or left (``after``) it."""
+
     state_id: str
     stage: str  # before, after
     at: str | None
@@ -152,27 +155,28 @@ class OffsetState:
     operation: str
     action: str
     status: str
+
+    def _as_mapping(self, own: dict[str, Any], record_id: str,
+                    session_path: str | None) -> dict[str, Any]:
+        return {"state": self.state_id, "stage": self.stage, "at": self.at,
+                "operation": self.operation, "action": self.action, "status": self.status,
+                **own, "record": record_id, "session": session_path}
+
+
+@dataclass(frozen=True)
+class OffsetState(State):
     profile: str | None
     offsets_mm: dict[str, float | None]
     record_id: str
     session_path: str | None
 
     def as_mapping(self) -> dict[str, Any]:
-        return {"state": self.state_id, "stage": self.stage, "at": self.at,
-                "operation": self.operation, "action": self.action, "status": self.status,
-                "profile": self.profile, "offsets_mm": self.offsets_mm,
-                "record": self.record_id, "session": self.session_path}
+        return self._as_mapping({"profile": self.profile, "offsets_mm": self.offsets_mm},
+                                self.record_id, self.session_path)
 
 
 @dataclass(frozen=True)
-class MapState:
-    state_id: str
-    stage: str  # before, after
-    at: str | None
-    wall: float | None
-    operation: str
-    action: str
-    status: str
+class MapState(State):
     maps_file: str | None
     checksum: str | None
     maps: list[dict[str, Any]]  # ogacq-axis-map/1 each
@@ -180,11 +184,9 @@ class MapState:
     session_path: str | None
 
     def as_mapping(self) -> dict[str, Any]:
-        return {"state": self.state_id, "stage": self.stage, "at": self.at,
-                "operation": self.operation, "action": self.action, "status": self.status,
-                "maps_file": self.maps_file, "checksum": self.checksum,
-                "axes": [m.get("axis") for m in self.maps], "record": self.record_id,
-                "session": self.session_path}
+        return self._as_mapping({"maps_file": self.maps_file, "checksum": self.checksum,
+                                 "axes": [m.get("axis") for m in self.maps]},
+                                self.record_id, self.session_path)
 
 
 @dataclass
