@@ -382,22 +382,9 @@ def budget(record: CalibrationRecord) -> list[tuple[str, Table]]:
     found = record.budget_rows
     first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
              "evaluated")
-    return [(name, rows_table([_budget_row(written(r)) for r in rows], NOT_EVALUATED, first))
+    return [(name, rows_table([{k: _figure(k, v) for k, v in written(r).items()}
+                               for r in rows], NOT_EVALUATED, first))
             for name, rows in found.items()]
-
-
-def _budget_row(row: dict[str, Any]) -> dict[str, Any]:
-    """A budget row as a person reads it: each uncertainty (the input's u, the
-    contribution u) to two significant digits, as u_c and U are (JCGM 100:2008 7.2.6),
-    the sensitivity to three (enough to give the contribution's two); the page printed
-    "0.000288675 mm" and "1.110040519". record.json keeps every digit."""
-    def one(key: str, value: Any) -> Any:
-        if key in ("u_input", "u_mm") and isinstance(value, float):
-            return two_digits(value)
-        if key == "sensitivity" and isinstance(value, float):
-            return f"{value:.3g}"
-        return value
-    return {key: one(key, value) for key, value in row.items()}
 
 
 def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
@@ -407,7 +394,10 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
         return None
     scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
     u_c = next((v for k, v in found.items() if k == "u_c_mm" and isinstance(v, Mapping)), {})
-    per = {k: _check_figures(k, v, u_c) for k, v in found.items() if isinstance(v, Mapping)}
+    u_floats = Fallback[float | None]({n: u for n, u in u_c.items() if isinstance(u, float)},
+                                      lambda _: None)
+    per = {k: {n: _figure(k, v, u_floats[n]) for n, v in values.items()}
+           for k, values in found.items() if isinstance(values, Mapping)}
     names = list(dict.fromkeys(n for values in per.values() for n in values))
     # a parameter a figure lacks: None, "not evaluated"
     filled = [dict.fromkeys(names) | dict(values) for values in per.values()]
@@ -418,24 +408,24 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
                   [False] + [True] * len(per)))
 
 
-def _check_figures(key: str, values: Mapping[str, Any], u_c: Mapping[str, Any],
-                   ) -> dict[str, Any]:
-    """One figure of the Monte-Carlo check per parameter, rounded as the budget's are:
-    a u to two significant digits, the mean and the interval's ends at the decimal
-    place of the budget's u_c, the ratio to two decimals (judged against 10 %); the page
-    printed nine digits of each. record.json keeps every digit."""
-    def one(name: str, value: Any) -> Any:
-        if key in ("u_mm", "u_c_mm") and isinstance(value, float):
-            return two_digits(value)
-        if key == "ratio" and isinstance(value, float):
-            return f"{value:.2f}"
-        if key.startswith(("mean", "interval")) and name in u_floats:
-            ends = value if isinstance(value, list | tuple) else [value]
-            return ", ".join(rounded(v, u_floats[name], sign=key.startswith("mean"))
-                             for v in ends)
-        return value
-    u_floats = {name: u for name, u in u_c.items() if isinstance(u, float)}
-    return {name: one(name, value) for name, value in values.items()}
+PLACES = {"sensitivity": ".3g", "ratio": ".2f"}
+
+
+def _figure(key: str, value: Any, u_c: float | None = None) -> Any:
+    """A figure of the budget or of the Monte-Carlo check as a person reads it: an
+    uncertainty (the input's u, a contribution, u_c) to two significant digits, as U is
+    (JCGM 100:2008 7.2.6); a sensitivity to three (enough to give the contribution's
+    two); the check's ratio to two decimals (judged against 10 %), its mean and its
+    interval's ends at the decimal place of the budget's u_c. The page printed
+    "0.000288675 mm" and "1.110040519"; record.json keeps every digit."""
+    if key in ("u_input", "u_mm", "u_c_mm") and isinstance(value, float):
+        return two_digits(value)
+    if key in PLACES and isinstance(value, float):
+        return f"{value:{PLACES[key]}}"
+    if key.startswith(("mean", "interval")) and u_c is not None:
+        ends = value if isinstance(value, list | tuple) else [value]
+        return ", ".join(rounded(v, u_c, sign=key.startswith("mean")) for v in ends)
+    return value
 
 
 def history(record: CalibrationRecord) -> Table | None:
