@@ -129,7 +129,6 @@ class Location:
     groups: list[GroupShare]
     trends: list[TimeTrend]
     approach: list[ApproachDifference]
-    total_chi2: float
 
     def level(self, level: str) -> list[GroupShare]:
         return sorted((g for g in self.groups if g.level == level), key=lambda g: -g.share)
@@ -200,7 +199,7 @@ def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
                 float(expected_sum[k] / total_expected) if total_expected else 0.0,
                 float(chi2_sum[k]), float(expected_sum[k])))
     return Location(groups, _trends(labels, residuals, sigma_mm),
-                    _approach_differences(labels, residuals, sigma_mm), total)
+                    _approach_differences(labels, residuals, sigma_mm))
 
 
 def _trends(labels: RowLabels, residuals: np.ndarray, sigma_mm: float) -> list[TimeTrend]:

@@ -65,9 +65,3 @@ def bic_change(rss_drop: ArrayOrFloat, added_params: ArrayOrFloat, n_data: int,
     BIC is computed: the effect selection and the map search judge by it alike."""
     return -rss_drop / noise.variance + added_params * math.log(max(n_data, 2))
 
-
-def aic_change(rss_drop: ArrayOrFloat, added_params: ArrayOrFloat,
-               noise: GaugeNoise) -> ArrayOrFloat:
-    """Akaike's criterion's change, as :func:`bic_change` (H. Akaike, IEEE Trans. Autom.
-    Control 19, 1974)."""
-    return -rss_drop / noise.variance + 2.0 * added_params

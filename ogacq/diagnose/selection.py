@@ -28,13 +28,12 @@ import numpy as np
 
 from ogacq.diagnose.batchfit import CandidateFits, Design, Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, label, pairs, singles
-from ogacq.diagnose.nested import aic_change, bic_change, nested_test, nested_tests
+from ogacq.diagnose.nested import bic_change, nested_test, nested_tests
 from ogacq.identify.consistency import LEVEL, Verdict, judge
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
 
 MAX_EFFECTS = 4  # beyond this a "diagnosis" is a curve fit
-SHOWN_RUNNERS_UP = 5
 
 
 @dataclass
@@ -100,9 +99,7 @@ class SelectionStep:
     added: tuple[str, ...]
     f_stat: float
     p_value: float
-    delta_aic: float
     delta_bic: float
-    runners_up: list[Considered]
 
     @property
     def label(self) -> str:
@@ -221,11 +218,9 @@ def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = L
             break
         chosen, after = choice
         drop, added = current.rss - after.rss, after.rank - current.rank
-        runners = sorted((c for c in considered if c.added != chosen.added and c.eligible),
-                         key=lambda c: c.rss)[:SHOWN_RUNNERS_UP]
         selection.steps.append(SelectionStep(current, after, chosen.added, chosen.f_stat,
-                                    chosen.p_value, aic_change(drop, added, noise),
-                                    bic_change(drop, added, problem.n_data, noise), runners))
+                                    chosen.p_value,
+                                    bic_change(drop, added, problem.n_data, noise)))
         current = after
     selection.final = _backward(problem, noise, current, alpha, selection)
     return selection

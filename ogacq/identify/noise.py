@@ -93,19 +93,11 @@ def within_variance(sigma_mm: float, step_mm: float) -> float:
     return max(total - shared_rounding_variance(sigma_mm, step_mm), 0.0)
 
 
-def _within_variance_slope(sigma_mm: float, step_mm: float) -> float:
-    """d within_variance / d sigma: ``2 sigma + 4 sigma sum_k exp(-a k^2)`` (the
-    series of ``c`` differentiated term by term, ``da/dsigma = 2 a / sigma``);
-    positive for sigma > 0, so the inversion below has one root."""
-    if step_mm <= 0:
-        return 2.0 * sigma_mm
-    return 2.0 * sigma_mm + 4.0 * sigma_mm * _exp_sums(sigma_mm, step_mm)[1]
-
-
 def _within_variance_and_slope(sigma_mm: float, step_mm: float) -> tuple[float, float]:
-    """:func:`within_variance` and :func:`_within_variance_slope` from one sum of the
-    series (the same expressions, so the same doubles): the inversion below needs
-    both at every step."""
+    """:func:`within_variance` and its derivative by sigma, ``2 sigma + 4 sigma
+    sum_k exp(-a k^2)`` (the series of ``c`` differentiated term by term, ``da/dsigma =
+    2 a / sigma``; positive for sigma > 0, so the inversion below has one root), from
+    one sum of the series: the inversion needs both at every step."""
     if step_mm <= 0:
         return max(sigma_mm**2 + step_mm**2 / 12.0, 0.0), 2.0 * sigma_mm
     damped_over_k2, damped = _exp_sums(sigma_mm, step_mm)
