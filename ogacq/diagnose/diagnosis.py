@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ogacq.diagnose.alternatives import Alternative, alternatives, noise_scale
+from ogacq.diagnose.alternatives import Alternative, alternatives
 from ogacq.diagnose.batchfit import Design, Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, unit
 from ogacq.diagnose.locate import Location, locate
@@ -339,7 +339,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
         obs, claimed.residuals, _unweighted_jacobian(problem, claimed), noise.sigma_mm,
         problem.labels)
 
-    inflation = float(np.sqrt(noise_scale(claimed)))
+    inflation = claimed.verdict.inflation
     effects = _effects(obs, problem, noise, claimed, final_fit, inflation, separate)
     cell = resting_cell(problem, noise, base, claimed, alpha)
     for effect in effects:
@@ -361,8 +361,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
         fitted = mapped.fit
         final_fit = as_fit_result(fitted, final_fit)
         final_residuals = fitted.residuals
-        inflation = float(np.sqrt(max(1.0, fitted.verdict.chi2_dof)
-                                  if np.isfinite(fitted.verdict.chi2_dof) else 1.0))
+        inflation = fitted.verdict.inflation
         dropped = {name for name, _ in mapped.dropped}
         kept = [e for e in effects if e.name not in dropped]
         for effect in kept:  # their values beside the maps

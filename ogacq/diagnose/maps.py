@@ -370,9 +370,7 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
     search, fitted, dropped = route.search, route.fit, route.dropped
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}
-    inflation = 1.0
-    if fitted is not None and math.isfinite(fitted.verdict.chi2_dof):
-        inflation = math.sqrt(max(1.0, fitted.verdict.chi2_dof))
+    inflation = 1.0 if fitted is None else fitted.verdict.inflation
     effects = []
     established = fitted is not None and fitted.verdict.consistent
     if fitted is not None:
@@ -479,7 +477,5 @@ def maps_left(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
     problem = Problem(obs, noise)
     terms = [t for a in sorted(todo) for t in todo[a][0]]
     fitted = fit_with_maps(problem, noise, names, theta, terms, JointHistory.of(obs.layout))
-    chi2_dof = fitted.verdict.chi2_dof
-    inflation = math.sqrt(max(1.0, chi2_dof)) if math.isfinite(chi2_dof) else 1.0
-    return axis_maps(fitted, inflation, {a: todo[a][1] for a in todo},
+    return axis_maps(fitted, fitted.verdict.inflation, {a: todo[a][1] for a in todo},
                      {a: dense[a].step_mm for a in todo}, zero_at={a: todo[a][2] for a in todo})

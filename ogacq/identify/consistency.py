@@ -104,6 +104,12 @@ class Verdict:
             return math.nan
         return self.statistic if self.test == "lack-of-fit F" else self.statistic / self.dof
 
+    @property
+    def inflation(self) -> float:
+        """The Birge ratio, at least 1: the factor on a std for the misfit left unexplained."""
+        chi2_dof = self.chi2_dof
+        return math.sqrt(max(1.0, chi2_dof)) if math.isfinite(chi2_dof) else 1.0
+
     def headline(self) -> str:
         """Three words for a table: the same words everywhere."""
         return {"consistent": "within the gauge noise",
