@@ -447,15 +447,10 @@ def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
     """The amplitudes of ``term`` fitted in place of library effect ``name`` or of the
     model's map term number ``replace``."""
     if name is not None:
-        keep = [k for k, n in enumerate(lin.names) if n != name] + \
-            list(range(len(lin.names), lin.columns.shape[1]))
-        target = lin.residual + lin.signature_of_effect(name)
+        keep, target = lin.without_effect(name)
     else:
         assert replace is not None
-        start = len(lin.names) + sum(t.size for t in lin.terms[:replace])
-        keep = [j for j in range(lin.columns.shape[1])
-                if not start <= j < start + lin.terms[replace].size]
-        target = lin.residual + lin.signature_of_term(replace)
+        keep, target = lin.without_term(replace)
     _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
     return coef[-term.size:]
 

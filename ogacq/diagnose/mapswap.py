@@ -93,19 +93,21 @@ class _Linear:
         cols = term_columns(term, self.history, sens, along, self.problem.obs.layout.gauge)
         return self.problem.weighted(cols).T
 
-    def column_of(self, name: str) -> np.ndarray:
-        return self.columns[:, self.names.index(name)]
-
-    def term_block(self, k: int) -> np.ndarray:
-        start = len(self.names) + sum(t.size for t in self.terms[:k])
-        return self.columns[:, start:start + self.terms[k].size]
-
-    def signature_of_effect(self, name: str) -> np.ndarray:
+    def without_effect(self, name: str) -> tuple[list[int], np.ndarray]:
+        """The columns but library effect ``name``'s, and the residual with its
+        signature back in: what a swap for it is fitted to."""
+        keep = [k for k, n in enumerate(self.names) if n != name] + \
+            list(range(len(self.names), self.columns.shape[1]))
         k = PARAM_INDEX[name]
-        return self.column_of(name) * (self.theta[k] - NOMINAL[k])
+        signature = self.columns[:, self.names.index(name)] * (self.theta[k] - NOMINAL[k])
+        return keep, self.residual + signature
 
-    def signature_of_term(self, k: int) -> np.ndarray:
-        return self.term_block(k) @ self.coefficients[k]
+    def without_term(self, k: int) -> tuple[list[int], np.ndarray]:
+        """As :meth:`without_effect` for the model's map term number ``k``."""
+        start = len(self.names) + sum(t.size for t in self.terms[:k])
+        stop = start + self.terms[k].size
+        keep = [j for j in range(self.columns.shape[1]) if not start <= j < stop]
+        return keep, self.residual + self.columns[:, start:stop] @ self.coefficients[k]
 
     def refit(self, target: np.ndarray, columns: np.ndarray) -> tuple[float, np.ndarray]:
         """Residual sum of squares of ``target`` after fitting ``columns``, and the
@@ -174,9 +176,7 @@ def library_swaps(lin: _Linear, effects: tuple[str, ...],
         return blocks[key]
 
     for name in effects:
-        keep = [k for k, n in enumerate(lin.names) if n != name] + \
-            list(range(len(lin.names), lin.columns.shape[1]))
-        target = lin.residual + lin.signature_of_effect(name)
+        keep, target = lin.without_effect(name)
         rest = lin.columns[:, keep]
         beside = _Projector(rest)
         found = []
@@ -206,10 +206,7 @@ def map_swaps(lin: _Linear, library: tuple[str, ...],
         np.zeros((len(lin.residual), 0))
     blocks = {t.name: lin.term_columns(t) for t in candidates}
     for k, term in enumerate(lin.terms):
-        start = len(lin.names) + sum(t.size for t in lin.terms[:k])
-        keep = [j for j in range(lin.columns.shape[1])
-                if not start <= j < start + term.size]
-        target = lin.residual + lin.signature_of_term(k)
+        keep, target = lin.without_term(k)
         rest = lin.columns[:, keep]
         beside = _Projector(rest)
         found = []
