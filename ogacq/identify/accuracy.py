@@ -125,8 +125,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
         y = clean + rng.normal(0.0, noise_mm, (hi - lo, len(clean)))
         if rounding_mm:
             y = np.round(y / rounding_mm) * rounding_mm
-        theta, _, conv, _ = gauss_newton(obs, y, free, NOMINAL, w, rank,
-                                      tolerance=tolerance)
+        theta, conv = gauss_newton(obs, y, free, NOMINAL, w, rank, tolerance=tolerance)
         estimates[lo:hi] = theta[:, free]
         converged[lo:hi] = conv
         if on_trials is not None:

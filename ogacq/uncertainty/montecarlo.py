@@ -111,8 +111,8 @@ def monte_carlo(obs: Observations, result: FitResult, inputs: BudgetInputs, *,
             estimates[lo:lo + count] = result.values + (y - obs.values) @ linear.T
             converged[lo:lo + count] = True
         else:
-            theta, _, conv, _ = gauss_newton(obs, y, free, result.theta, weighting,
-                                             result.identifiability.rank, tolerance=tolerance)
+            theta, conv = gauss_newton(obs, y, free, result.theta, weighting,
+                                       result.identifiability.rank, tolerance=tolerance)
             estimates[lo:lo + count] = theta[:, free]
             converged[lo:lo + count] = conv
         if inputs.register_step_mm is not None:
