@@ -227,19 +227,14 @@ class Diagnosis:
         return {"leg": AXES[p.leg], "from_mm": lo, "to_mm": hi}
 
     def to_json(self) -> dict:
-        """INTERCHANGE.md's object, plus (keys beyond the contract): each map effect's
-        further parameters in its entry, ``maps`` (one ogacq-axis-map/1 per actuator
-        with an error map), ``proposals`` (scans that would separate explanations
-        these readings cannot tell apart), ``coverage`` (how densely each axis was
-        read, whether maps were searched), ``profiles`` (residuals along each scanned
-        leg, before and after), ``chi2`` (before and after the maps, with p) and
-        ``outliers`` (readings far from their repeats, which agree among themselves,
-        with the joint offsets' verdict without them)."""
+        """INTERCHANGE.md's object, plus keys beyond the contract (docs/formats.md): each
+        map effect's further parameters, ``maps``, ``proposals``, ``coverage``,
+        ``unknown_sides``, ``profiles``, ``chi2`` and ``outliers``."""
         effects = [e.to_json() for e in self.effects]
         if self.unexplained is not None:
             entry_: dict[str, Any] = {"effect": "unexplained", "where": self.unexplained,
-                                      "value": None,
-                      "std": None, "unit": "-", "alternatives": []}
+                                      "value": None, "std": None, "unit": "-",
+                                      "alternatives": []}
             along = self.unexplained_along()
             if along is not None:
                 entry_["along"] = along

@@ -89,8 +89,7 @@ def shared_rounding_variance(sigma_mm: float, step_mm: float) -> float:
 
 def within_variance(sigma_mm: float, step_mm: float) -> float:
     """Variance of a reading about its repeat group's mean error (mm^2)."""
-    total = sigma_mm**2 + step_mm**2 / 12.0
-    return max(total - shared_rounding_variance(sigma_mm, step_mm), 0.0)
+    return _within_variance_and_slope(sigma_mm, step_mm)[0]
 
 
 def _within_variance_and_slope(sigma_mm: float, step_mm: float) -> tuple[float, float]:
@@ -269,18 +268,12 @@ def _identical_repeats_noise(obs: Observations, step_mm: float, dof: int) -> Gau
                       scatter, rounding, dof, 0.0)
 
 
-def repeat_groups(obs: Observations) -> np.ndarray:
-    """For each raw reading, the index of its group of repeats: same gauge, same
-    joint coordinates, same approach side (the cycles of one posture)."""
-    return obs.layout.repeat_group
-
-
 def pure_error(obs: Observations) -> tuple[float, int] | None:
     """(sum of squares, dof) of the readings about their repeat groups' means: the
     scatter of the cycles, which needs no model."""
     if not obs.raw:
         return None
-    group = repeat_groups(obs)
+    group = obs.layout.repeat_group
     size = obs.layout.repeat_size
     dof = len(obs) - len(size)
     if dof <= 0:
