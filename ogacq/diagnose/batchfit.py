@@ -148,38 +148,20 @@ class CandidateFits:
     def values(self, k: int) -> np.ndarray:
         return self.theta[k, indices(self.extras[k])]
 
-    @cached_property
-    def _by_size(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """The candidates grouped by how many parameters they add: (their rows, the
-        positions of their parameters in the full vector (rows, size)), so that a
-        whole batch's values are one gather (a step weighs hundreds of candidates)."""
-        sizes = np.array([len(e) for e in self.extras], dtype=int)
-        out = []
-        for size in dict.fromkeys(sizes.tolist()):
-            rows = np.flatnonzero(sizes == size)
-            at = np.array([[PARAM_INDEX[n] for n in self.extras[k]] for k in rows.tolist()],
-                          dtype=int).reshape(len(rows), size)
-            out.append((rows, at))
-        return out
-
-    def value_tuples(self) -> list[tuple[float, ...]]:
-        """Each candidate's :meth:`values` as Python floats."""
-        out: list[tuple[float, ...]] = [()] * len(self.extras)
-        for rows, at in self._by_size:
-            for k, values in zip(rows.tolist(), self.theta[rows[:, None], at].tolist(),
-                                 strict=True):
-                out[k] = tuple(values)
-        return out
-
     def full_rank(self) -> np.ndarray:
         sizes = np.array([len(self.model) + len(e) for e in self.extras])
         return self.rank == sizes
 
     def plausible(self) -> np.ndarray:
         """Candidates whose fitted values lie within each effect's plausible range:
-        an explanation needing a 20 % gauge gain error is no explanation."""
+        an explanation needing a 20 % gauge gain error is no explanation. The candidates
+        adding as many parameters are judged as one gather (a step weighs hundreds)."""
         out = np.ones(len(self.extras), dtype=bool)
-        for rows, at in self._by_size:
+        sizes = np.array([len(e) for e in self.extras], dtype=int)
+        for size in dict.fromkeys(sizes.tolist()):
+            rows = np.flatnonzero(sizes == size)
+            at = np.array([[PARAM_INDEX[n] for n in self.extras[k]] for k in rows.tolist()],
+                          dtype=int).reshape(len(rows), size)
             within = np.abs(self.theta[rows[:, None], at] - NOMINAL[at]) <= _PLAUSIBLE_RANGE[at]
             out[rows] = within.all(axis=1)
         return out
