@@ -89,11 +89,8 @@ def row_labels(obs: Observations) -> RowLabels:
 class GroupShare:
     level: str
     key: str
-    n: int
     share: float  # of the misfit
     expected_share: float  # under noise alone
-    chi2: float  # the group's misfit in units of the noise variance
-    expected_chi2: float
 
     @property
     def excess(self) -> float:
@@ -189,15 +186,12 @@ def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
         if len(distinct) < 2:
             continue
         which = which.ravel()
-        count = np.bincount(which)
         chi2_sum = np.bincount(which, weights=chi2)
         expected_sum = np.bincount(which, weights=expected)
         for k in np.argsort(first):  # in order of appearance
             groups.append(GroupShare(
-                level, str(distinct[k]), int(count[k]),
-                float(chi2_sum[k] / total) if total else 0.0,
-                float(expected_sum[k] / total_expected) if total_expected else 0.0,
-                float(chi2_sum[k]), float(expected_sum[k])))
+                level, str(distinct[k]), float(chi2_sum[k] / total) if total else 0.0,
+                float(expected_sum[k] / total_expected) if total_expected else 0.0))
     return Location(groups, _trends(labels, residuals, sigma_mm),
                     _approach_differences(labels, residuals, sigma_mm))
 

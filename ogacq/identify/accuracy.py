@@ -36,7 +36,6 @@ RAN_OFF_RANGES = 100.0
 @dataclass
 class AccuracyPrediction:
     names: tuple[str, ...]
-    truth: np.ndarray
     noise_mm: float
     n_readings: int
     analytic_std: np.ndarray
@@ -104,8 +103,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
     w = Weighting(obs, "ols", noise)
     jw = w.jac(obs.jacobian(theta_true[None], free))[0]
     ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
-    pred = AccuracyPrediction(names, theta_true[free], noise_mm, len(obs),
-                              np.sqrt(np.diag(cov)), ident)
+    pred = AccuracyPrediction(names, noise_mm, len(obs), np.sqrt(np.diag(cov)), ident)
     if trials <= 0:
         return pred
 
