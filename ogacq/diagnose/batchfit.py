@@ -184,8 +184,7 @@ class Design:
 
 
 def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
-             candidates: Sequence[Sequence[str]], iterations: int = CHORD_ITERATIONS,
-             jac: Design | None = None) -> CandidateFits:
+             candidates: Sequence[Sequence[str]], jac: Design | None = None) -> CandidateFits:
     """Fit ``model + extra`` for every extra of ``candidates``, each started from
     ``theta_start`` (the model's own solution). ``jac``: the weighted Jacobian at
     ``theta_start`` when the caller already holds one covering the names fitted on every
@@ -214,8 +213,7 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
             rows = np.array([k for k in chosen if len(extras[k]) == size])
             cols = np.array([[space.position[n] for n in model + extras[k]] for k in rows],
                             dtype=int)
-            theta, rss, rank = _chord(space, theta_start, cols,
-                                      np.array([free[k] for k in rows]), iterations)
+            theta, rss, rank = _chord(space, theta_start, cols, np.array([free[k] for k in rows]))
             out.theta[rows], out.rss[rows], out.rank[rows] = theta, rss, rank
     return out
 
@@ -273,7 +271,7 @@ def _along(r: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def _chord(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.ndarray,
-           iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The chord fits of candidates of one size in ``space``, a chunk at a time so
     that the (B, m) arrays stay within ``CHUNK_VALUES`` however long the campaign.
     Each candidate's fit is independent of the others'."""
@@ -284,13 +282,13 @@ def _chord(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.nd
     chunk = max(1, CHUNK_VALUES // max(len(space.q), 1))
     for lo in range(0, batch, chunk):
         part = slice(lo, lo + chunk)
-        theta[part], rss[part], rank[part] = _chord_chunk(
-            space, theta_start, cols[part], free[part], iterations)
+        theta[part], rss[part], rank[part] = _chord_chunk(space, theta_start, cols[part],
+                                                          free[part])
     return theta, rss + space.constant, rank
 
 
 def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.ndarray,
-                 iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Chord Gauss-Newton of a batch in ``space``, every candidate from ``theta_start``."""
     batch, p = cols.shape
     ranges = _PLAUSIBLE_RANGE[free]  # (B, p)
@@ -304,7 +302,7 @@ def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free:
     along = np.repeat(space.start[None], batch, axis=0)  # residuals' coordinates along q
     rss = np.full(batch, space.start_rss)
     moving = np.arange(batch)  # candidates whose last step lowered their cost
-    for iteration in range(iterations):
+    for iteration in range(CHORD_ITERATIONS):
         coef = np.einsum("bkj,bk->bj", u[moving], along[moving]) * inv_s[moving]
         step = np.einsum("bjp,bj->bp", vt[moving], coef) * ranges[moving]
         trial = theta[moving]
@@ -319,6 +317,6 @@ def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free:
         theta[moving], rss[moving] = trial[better], rss_trial[better]
         if not len(moving):
             break
-        if iteration + 1 < iterations:
+        if iteration + 1 < CHORD_ITERATIONS:
             along[moving] = _along(r_trial[better], space.q)
     return theta, rss, keep.sum(axis=1)

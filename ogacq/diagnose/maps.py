@@ -290,9 +290,9 @@ class _Route:
 
 def _route(problem: Problem, noise: GaugeNoise, start: Model, alpha: float,
            history: JointHistory, band: tuple[float, float] | None) -> _Route:
-    search, _ = search_maps(problem, noise, start.theta, start.names, start.rss,
-                            start.verdict.consistent, alpha, jacobian=start.jacobian,
-                            pitch_band_mm=band)
+    search = search_maps(problem, noise, start.theta, start.names, start.rss,
+                         start.verdict.consistent, alpha, jacobian=start.jacobian,
+                         pitch_band_mm=band)
     terms = search.terms
     if not terms:
         return _Route(start, search, start.names, [], None)

@@ -82,7 +82,7 @@ SHORTEST_LEAD_MM = 1.0
 # (log n each) of the best are weighed again exactly: ten times the binning's largest
 # error seen (no source: bench/bench_mapsearch_scale.py's dense scan).
 SPLINE_MARGIN_KNOTS = 2
-MAX_TERMS = 4
+MAX_TERMS = 4  # map terms added at most
 STRICTER_WHEN_CONSISTENT = 10.0
 CHUNK = 64  # trial frequencies per batch
 RIVALS = "pitch unresolved: "  # how a pitch between rival peaks is said (_rival_pitch)
@@ -540,22 +540,17 @@ def _unresolved_first(judged: list[MapCandidate], level: float) -> bool:
 
 def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
                 names: tuple[str, ...], rss: float, consistent: bool,
-                alpha: float = LEVEL, max_terms: int = MAX_TERMS,
-                space: MapSpace | None = None, jacobian: np.ndarray | None = None,
-                pitch_band_mm: tuple[float, float] | None = None,
-                ) -> tuple[MapSearch, MapSpace | None]:
+                alpha: float = LEVEL, jacobian: np.ndarray | None = None,
+                pitch_band_mm: tuple[float, float] | None = None) -> MapSearch:
     """Forward selection of map terms beside the model ``names`` fitted at ``theta``
     (weighted rss ``rss``; ``jacobian``: its unweighted Jacobian there, when the
     caller holds it); ``consistent``: whether that model is within the noise
     (the search then runs at the stricter level); ``pitch_band_mm``: the periods the
-    positions sample, as their design states (None: from their spacing). Returns the
-    search and the space grown by the terms added (None when nothing could be
-    searched)."""
+    positions sample, as their design states (None: from their spacing)."""
     level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
     if not problem.obs.raw:
-        return MapSearch((), level), None
-    space = space if space is not None else MapSpace(problem, theta, names, rss,
-                                                     jacobian=jacobian)
+        return MapSearch((), level)
+    space = MapSpace(problem, theta, names, rss, jacobian=jacobian)
     # with the display's rounding repeated by the cycles (not dithered by the gauge's
     # scatter), the posture means' errors are the rounding of a signal that varies
     # smoothly along q: a structure of its own, which the maps would fit
@@ -566,9 +561,9 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
     search.searched = any(c.searchable for c in covs) or (
         _repeated_in_time(problem.obs.layout) and space.within_groups_tested)
     if not search.searched:
-        return search, space
+        return search
     taken: set[str] = set()
-    while len(search.steps) < max_terms:
+    while len(search.steps) < MAX_TERMS:
         judged = _judge(_candidates(space, covs, names, noise, taken), space, noise, level)
         eligible = [c for c in judged if c.eligible]
         if not eligible or _unresolved_first(judged, level):
@@ -580,4 +575,4 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
         search.steps.append(MapStep(chosen, sorted(judged, key=lambda c: c.delta_bic),
                                     before, space.rss))
         taken.add(chosen.term.name)
-    return search, space
+    return search

@@ -58,7 +58,6 @@ class MapSpace:
         assert obs.raw, "error maps are searched in raw readings"
         self.problem = problem
         self.theta = np.asarray(theta, dtype=float)
-        self.names = names
         groups = problem.weighting.groups
         assert groups is not None
         self.groups = groups
