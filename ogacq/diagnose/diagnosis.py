@@ -40,7 +40,7 @@ from ogacq.diagnose.outcome import outcome_label
 from ogacq.diagnose.outliers import Outliers, find_outliers
 from ogacq.diagnose.profile import LegProfile, leg_profiles
 from ogacq.diagnose.robustness import resting_cell
-from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
+from ogacq.diagnose.selection import Model, Selection, evaluate, select
 from ogacq.diagnose.separation import (
     PlanOption,
     PlanSignatures,
@@ -293,9 +293,9 @@ def explained_share(base: Model, model: Model, noise: GaugeNoise) -> float:
     return 1.0 if before <= 0 else float(np.clip(1.0 - excess(model) / before, 0.0, 1.0))
 
 
-def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_EFFECTS,
-             separate: bool = True, maps: bool = True,
-             pitch_band_mm: tuple[float, float] | None = None) -> Diagnosis:
+def diagnose(obs: Observations, *, alpha: float = LEVEL, separate: bool = True,
+             maps: bool = True, pitch_band_mm: tuple[float, float] | None = None,
+             ) -> Diagnosis:
     """Diagnose ``obs`` (raw readings or tabulated deviations). ``separate``: also
     search the plans that would tell aliased effects apart; ``maps``: also search
     errors along each axis and in time beyond the library (raw readings);
@@ -320,8 +320,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     located = locate(obs, base.residuals, _unweighted_jacobian(problem, base),
                      noise.sigma_mm, problem.labels)
 
-    selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects,
-                       design=design)
+    selection = select(problem, noise, base, alpha=alpha, design=design)
     share = explained_share(base, selection.final, noise)
     claimed, final_fit = base, base_fit
     if selection.final.effects and (selection.final.verdict.consistent
@@ -344,8 +343,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
             seen.invisible() or seen.alias_groups() or seen.saturated):
         plans = plan_capabilities(obs.machine, claimed.theta, noise.sigma_mm)
     mapped = map_diagnosis(problem, noise, claimed, alpha, separate, base,
-                           pitch_band_mm=pitch_band_mm) \
-        if maps and obs.raw else None
+                           pitch_band_mm=pitch_band_mm) if maps and obs.raw else None
     all_effects: list[EffectFound | MapEffect] = list(effects)
     final_residuals = claimed.residuals
     if mapped is not None:

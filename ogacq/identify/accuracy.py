@@ -18,7 +18,6 @@ from ogacq.identify.fit import Weighting, design_rank, gauss_newton
 from ogacq.identify.identifiability import Identifiability, assess
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
-from ogacq.model.gauges import AXES
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import NOMINAL, effect_of, indices, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
@@ -75,13 +74,12 @@ def _finite(value: float) -> float | None:
 
 
 def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float] = (),
-                         cycles: int = 3, legs: Sequence[int] = (0, 1, 2),
-                         protocol: ProtocolConfig | None = None) -> Observations:
+                         cycles: int = 3, protocol: ProtocolConfig | None = None,
+                         ) -> Observations:
     """The readings a plan takes (values zero): ``protocol`` (a scan too), else the
-    ``postures`` of ``legs`` repeated ``cycles`` times."""
+    ``postures`` of every leg repeated ``cycles`` times."""
     if protocol is None:
-        protocol = ProtocolConfig(legs=tuple(AXES[i] for i in legs), postures=tuple(postures),
-                                  cycles=cycles)
+        protocol = ProtocolConfig(postures=tuple(postures), cycles=cycles)
     layout = planned_layout(protocol, machine)
     return readings_observations(machine, layout, np.zeros(len(layout)), "plan")
 

@@ -497,14 +497,12 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
                       iterations, stop, end)
 
 
-def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
-             weighting: str = "ols", noise: GaugeNoise | None = None) -> FitResult:
+def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float]) -> FitResult:
     """The exact fit's result at ``values`` already identified (a campaign's recorded
     result), without iterating: residuals, covariance and identifiability there."""
     names = tuple(names)
     free = indices(names)
-    noise = noise or noise_for(obs)
-    w = Weighting(obs, weighting, noise)
+    w = Weighting(obs, "ols", noise_for(obs))
     theta = NOMINAL.copy()
     theta[free] = np.asarray(values, dtype=float)
     rank = design_rank(w.jac(_linear_jacobian(obs, names, free, NOMINAL))[0], _ranges(free))

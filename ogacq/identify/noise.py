@@ -182,13 +182,11 @@ class GaugeNoise:
         return self.shared_var >= ROUNDING_DOMINATES * self.variance
 
     @classmethod
-    def stated(cls, scatter_mm: float, step_mm: float, *, repeats: bool = True,
-               source: str = "machine file") -> GaugeNoise:
-        """A gauge that scatters ``scatter_mm`` behind a display of ``step_mm``;
-        ``repeats``: readings repeat postures, so they share the rounding."""
-        shared = shared_rounding_variance(scatter_mm, step_mm) if repeats else 0.0
-        return cls(math.hypot(scatter_mm, step_mm / math.sqrt(12.0)), source, step_mm,
-                   scatter_mm, shared)
+    def stated(cls, scatter_mm: float, step_mm: float) -> GaugeNoise:
+        """A gauge that scatters ``scatter_mm`` behind a display of ``step_mm``, its
+        readings repeating postures, so sharing the rounding."""
+        return cls(math.hypot(scatter_mm, step_mm / math.sqrt(12.0)), "machine file", step_mm,
+                   scatter_mm, shared_rounding_variance(scatter_mm, step_mm))
 
     def describe(self) -> str:
         extra = f", {self.dof} dof" if self.dof else ""
@@ -231,15 +229,15 @@ def identical_pair_probability(sigma_mm: float, step_mm: float) -> float:
     return max(inside - 2.0 * tau * (1.0 / math.sqrt(2.0 * math.pi) - density), 0.0)
 
 
-def identical_repeats_scatter(groups: int, step_mm: float,
-                              level: float = IDENTICAL_REPEATS_LEVEL) -> float:
+def identical_repeats_scatter(groups: int, step_mm: float) -> float:
     """The largest gauge scatter under which ``groups`` repeat groups all read
-    identically with probability ``level``. Each group is counted by one pair of its
-    readings (a group of more agrees less often than one pair of it), so the scatter
-    found is, if anything, too large: the verdict errs toward 'within the noise'."""
+    identically with probability ``IDENTICAL_REPEATS_LEVEL``. Each group is counted by
+    one pair of its readings (a group of more agrees less often than one pair of it), so
+    the scatter found is, if anything, too large: the verdict errs toward 'within the
+    noise'."""
     if groups <= 0 or step_mm <= 0:
         return 0.0
-    target = level ** (1.0 / groups)
+    target = IDENTICAL_REPEATS_LEVEL ** (1.0 / groups)
     low, high = 0.0, step_mm
     while identical_pair_probability(high, step_mm) > target:
         high *= 2.0
