@@ -61,10 +61,9 @@ class JointHistory:
     setting_travel_mm: np.ndarray
 
     @classmethod
-    def of(cls, layout: ReadingsLayout, overshoot_mm: float = DEFAULT_OVERSHOOT_MM,
-           ) -> JointHistory:
+    def of(cls, layout: ReadingsLayout) -> JointHistory:
         side = np.asarray(layout.lost_motion_side, dtype=int)
-        travel = travel_since_reversal(layout.q_mm, side, overshoot_mm)
+        travel = travel_since_reversal(layout.q_mm, side)
         # a gauge is set at its first reading's pose (ReadingsLayout.build), and its
         # history there is that reading's
         first = np.full(layout.n_gauges, -1)

@@ -15,14 +15,8 @@ from typing import Any
 
 from ogacq.identify.fit import FitResult
 from ogacq.model.gauges import Gauge
+from ogacq.model.machine import STEEL_EXPANSION_PPM_PER_K
 
-# ISO 1:2022: the standard reference temperature for geometrical product
-# specification and verification is 20 degC; the machine's nominal leg length is
-# taken to hold there.
-REFERENCE_TEMPERATURE_C = 20.0
-# Steel legs: 11.5e-6 /K, the value docs/calibration-record.md section 1 names as the
-# machine file's default (typical carbon steel, 10.8..12.5 ppm/K).
-STEEL_EXPANSION_PPM_PER_K = 11.5
 # The ambient temperature is typed from a shop thermometer whose maker typically
 # states +/-0.5 degC: taken as rectangular limits, u = 0.5 / sqrt(3) = 0.29 degC
 # (JCGM 100:2008 4.3.7), rounded up to 0.3 degC. A calibrated thermometer's

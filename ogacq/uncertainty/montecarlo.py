@@ -32,9 +32,10 @@ import numpy as np
 
 from ogacq.identify.fit import FitResult, Weighting, gauss_newton
 from ogacq.identify.observations import Observations
+from ogacq.model.machine import REFERENCE_TEMPERATURE_C
 from ogacq.model.parameters import indices
 from ogacq.uncertainty.budget import Budget, solution_operator, uncertainty_budget
-from ogacq.uncertainty.inputs import REFERENCE_TEMPERATURE_C, BudgetInputs
+from ogacq.uncertainty.inputs import BudgetInputs
 from ogacq.uncertainty.sources import LEG_LENGTHS, calibration_span
 
 CHUNK = 1000  # draws per vectorised batch: bounds memory on long campaigns
