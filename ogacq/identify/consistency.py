@@ -37,6 +37,7 @@ import numpy as np
 
 from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.fit import FitResult, Weighting
+from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import (
     IDENTICAL_REPEATS_LEVEL,
     GaugeNoise,
@@ -56,7 +57,6 @@ from ogacq.model.units import UM_PER_MM
 # claimed on a machine that has none.
 LEVEL = 0.01
 SATTERTHWAITE_CAP = 1e6  # beyond this the denominator is known: chi-square
-RANK_TOLERANCE = 1e-8
 
 
 @dataclass(frozen=True)
