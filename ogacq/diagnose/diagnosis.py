@@ -57,6 +57,7 @@ from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES, PARAM_INDEX, nested
+from ogacq.model.units import json_number
 
 SEPARATED_ALTERNATIVES = 4  # per effect, the closest ones get a separating plan
 # When no set of effects brings the fit within the noise, those found are still
@@ -99,13 +100,12 @@ class EffectFound:
         return bool(self.alternatives) or self.local_disturbance is not None
 
     def to_json(self) -> dict:
-        std = round(float(self.std), 6) if np.isfinite(self.std) else None
         alternatives = [entry(a.name) for a in self.alternatives]
         if self.local_disturbance is not None:
             gauge = self.local_disturbance.split(" at ")[0]
             alternatives.append({"effect": "unexplained", "where": gauge})
-        return {**entry(self.name), "value": round(float(self.value), 6), "std": std,
-                "unit": self.unit, "alternatives": alternatives}
+        return {**entry(self.name), "value": round(float(self.value), 6),
+                "std": json_number(self.std, 6), "unit": self.unit, "alternatives": alternatives}
 
 
 @dataclass

@@ -15,7 +15,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -51,6 +50,7 @@ from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.families import MapValue
 from ogacq.model.gauges import AXES
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
+from ogacq.model.units import json_number
 
 UNIT_MM = "mm"
 # what an explanation adds to the rest of a model: values, library names, map terms
@@ -110,9 +110,9 @@ class MapEffect:
         return f"{where}, {t.kind.sentence(t, v)}, {t.kind.size_words(v)}"
 
     def to_json(self) -> dict:
-        std = round(float(self.std), 6) if math.isfinite(self.std) else None
-        return {**entry(self.name), "value": round(float(self.value.value), 6), "std": std,
-                "unit": self.unit, "alternatives": [entry(a.name) for a in self.alternatives],
+        return {**entry(self.name), "value": round(float(self.value.value), 6),
+                "std": json_number(self.std, 6), "unit": self.unit,
+                "alternatives": [entry(a.name) for a in self.alternatives],
                 "family": "error map", "p_value": float(f"{self.p_value:.3g}"),
                 "delta_chi2": round(self.delta_chi2, 1), "located": self.sentence(),
                 "established": self.established, **self.value.extra}

@@ -45,6 +45,7 @@ from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX, effect_of
+from ogacq.model.units import json_number
 from ogacq.protocol.plan import ProtocolConfig, planned_layout, scan_targets
 
 # Below this share of its own size a signature is wholly absorbed by the other
@@ -271,14 +272,10 @@ class Proposal:
         return {"separates": [self.first, self.second], "measurement": "scan",
                 "step_mm": self.step_mm, "from_mm": self.from_mm, "to_mm": self.to_mm,
                 "directions": "up and down", "cycles": self.cycles,
-                "expected_chi2_gap": _finite(self.expected_gap, 1),
-                "now_chi2_gap": _finite(self.now_gap, 2),
+                "expected_chi2_gap": json_number(self.expected_gap, 1),
+                "now_chi2_gap": json_number(self.now_gap, 2),
                 "command": self.command(machine_file) or None,
                 "text": self.describe(machine_file)}
-
-
-def _finite(x: float, digits: int) -> float | None:
-    return round(float(x), digits) if math.isfinite(x) else None
 
 
 class ScanSignatures:
