@@ -16,7 +16,7 @@ import numpy as np
 
 from ogacq.identify.consistency import posture_name
 from ogacq.identify.distributions import normal_sf
-from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.identify.observations import DEVIATION_NAME, POSTURE_OF_SIGN, Observations
 from ogacq.model.gauges import Gauge
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.parameters import AXES
@@ -81,7 +81,7 @@ def row_labels(obs: Observations) -> RowLabels:
     return RowLabels(
         np.array([AXES.index(m.group(2)) for m in parsed]),
         np.array([AXES.index(m.group(1)) for m in parsed]),
-        np.array([{"+": "max", "-": "min", "": "max-min"}[m.group(3)] for m in parsed]),
+        np.array([POSTURE_OF_SIGN[m.group(3)] for m in parsed]),
         np.ones(n, dtype=int), np.zeros(n), np.full(n, ""))
 
 

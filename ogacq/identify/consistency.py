@@ -45,7 +45,7 @@ from ogacq.identify.noise import (
     noise_for,
     read_identically,
 )
-from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.identify.observations import DEVIATION_NAME, POSTURE_OF_SIGN, Observations
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
@@ -392,8 +392,7 @@ def _deviation_cell(obs: Observations, rw: np.ndarray, basis: np.ndarray,
     worst = None
     for k, label in enumerate(obs.labels):
         m = DEVIATION_NAME.match(label)
-        name = f"{m.group(1)}_{m.group(2)} at " + {"+": "max", "-": "min", "": "max-min"}[
-            m.group(3)] if m else label
+        name = f"{m.group(1)}_{m.group(2)} at {POSTURE_OF_SIGN[m.group(3)]}" if m else label
         names.append(name)
         chi2 = float(residual[k] ** 2 / (noise.variance * cov[k, k]))
         p = _cell_p(np.array([[resid_cov[k, k] / cov[k, k]]]), chi2, None)
