@@ -1,0 +1,41 @@
+"""The suite's files go to the workers longest first (tests/balance.py)."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+
+from tests.balance import COMMITTED, file_totals, longest_first
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+@dataclass
+class Item:
+    nodeid: str
+
+
+def test_the_longest_file_goes_first_and_each_file_keeps_its_order():
+    items = [Item(n) for n in ("tests/a.py::one", "tests/a.py::two", "tests/b.py::one",
+                               "tests/c.py::one[x]", "tests/c.py::one[y]", "tests/d.py::one")]
+    seconds = {"tests/c.py": 90.0, "tests/a.py": 5.0, "tests/gone.py": 400.0}
+    ordered = [i.nodeid for i in longest_first(items, seconds)]
+    assert ordered == ["tests/c.py::one[x]", "tests/c.py::one[y]", "tests/a.py::one",
+                       "tests/a.py::two", "tests/b.py::one", "tests/d.py::one"]
+
+
+def test_a_file_s_seconds_are_its_tests_together():
+    assert file_totals([("tests/a.py::one", 1.5), ("tests/b.py::x[1]", 2.0),
+                        ("tests/a.py::two", 0.5)]) == {"tests/a.py": 2.0, "tests/b.py": 2.0}
+
+
+def test_xdist_keeps_the_order_and_a_fresh_clone_knows_the_long_files():
+    """xdist's default puts the files with the most tests first, whatever the collection's
+    order: the suite's addopts turn it off. The committed seconds name files that exist."""
+    addopts = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["pytest"][
+        "ini_options"]["addopts"].split()
+    assert "--no-loadscope-reorder" in addopts and "loadfile" in addopts
+    seconds = json.loads(COMMITTED.read_text())
+    assert seconds and all((ROOT / name).is_file() for name in seconds)
