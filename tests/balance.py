@@ -22,11 +22,13 @@ from __future__ import annotations
 import json
 from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Protocol, TypeVar
+from typing import Any, Protocol, TypeVar
 
 import pytest
 
 CACHE_KEY = "ogacq/file_seconds"
+WORKER_KEY = "ogacq_file_seconds"
+_READ = pytest.StashKey[dict[str, float]]()  # what the controller read, once
 COMMITTED = Path(__file__).with_name("file_seconds.json")
 
 
@@ -52,6 +54,15 @@ def longest_first(items: Sequence[Item], seconds: Mapping[str, float]) -> list[I
                                            first_seen[file_of(item.nodeid)]))
 
 
+def for_worker(node: Any) -> None:
+    """Hand an xdist worker (``node``, its controller's WorkerController) the seconds its
+    controller read, the same to every worker."""
+    stash = node.config.stash
+    if _READ not in stash:
+        stash[_READ] = known_seconds(node.config)
+    node.workerinput[WORKER_KEY] = stash[_READ]
+
+
 def file_totals(durations: Iterable[tuple[str, float]]) -> dict[str, float]:
     """Seconds per file: the sum of its tests' setup, call and teardown."""
     totals: dict[str, float] = {}
@@ -61,7 +72,13 @@ def file_totals(durations: Iterable[tuple[str, float]]) -> dict[str, float]:
 
 
 def known_seconds(config: pytest.Config) -> dict[str, float]:
-    """The committed seconds, overridden by this checkout's last run where it knows."""
+    """The committed seconds, overridden by this checkout's last run where it knows. An
+    xdist worker takes the controller's (``for_worker``): each worker reading the cache
+    itself could read another run's write, collect in another order, and xdist stops a
+    run whose workers' collections differ."""
+    worker = getattr(config, "workerinput", None)
+    if worker is not None and WORKER_KEY in worker:
+        return dict(worker[WORKER_KEY])
     seconds: dict[str, float] = json.loads(COMMITTED.read_text()) if COMMITTED.is_file() \
         else {}
     cache = getattr(config, "cache", None)  # None under -p no:cacheprovider

@@ -2,11 +2,19 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from ogacq.io.machine_file import read_machine
-from tests.balance import file_totals, known_seconds, longest_first, remember, whole_suite
+from tests.balance import (
+    file_totals,
+    for_worker,
+    known_seconds,
+    longest_first,
+    remember,
+    whole_suite,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "ogacq" / "examples" / "paper"
@@ -33,6 +41,11 @@ _durations: list[tuple[str, float]] = []
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
     items[:] = longest_first(items, known_seconds(config))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node: Any) -> None:  # xdist's controller, per worker
+    for_worker(node)
 
 
 def pytest_runtest_logreport(report: pytest.TestReport) -> None:

@@ -6,8 +6,16 @@ import json
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from types import SimpleNamespace
 
-from tests.balance import COMMITTED, file_totals, longest_first
+from tests.balance import (
+    COMMITTED,
+    WORKER_KEY,
+    file_totals,
+    for_worker,
+    known_seconds,
+    longest_first,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,3 +47,16 @@ def test_xdist_keeps_the_order_and_a_fresh_clone_knows_the_long_files():
     assert "--no-loadscope-reorder" in addopts and "loadfile" in addopts
     seconds = json.loads(COMMITTED.read_text())
     assert seconds and all((ROOT / name).is_file() for name in seconds)
+
+
+def test_every_worker_orders_by_what_the_controller_read(request):
+    """The controller reads the seconds once and hands each worker the same: a worker that
+    read the cache itself could find another run's write and collect in another order."""
+    nodes = [SimpleNamespace(config=request.config, workerinput={}) for _ in range(2)]
+    for node in nodes:
+        for_worker(node)
+    first, second = (node.workerinput[WORKER_KEY] for node in nodes)
+    assert first is second and first
+    handed = {"tests/x.py": 5.0}
+    worker = SimpleNamespace(workerinput={WORKER_KEY: handed}, cache=None)
+    assert known_seconds(worker) == handed  # not the committed file's, nor a cache's
