@@ -29,6 +29,10 @@ nothing in 4 (the fit within the noise without). +7.5/-5.25 um (2.92 um rms): a
 smooth map in 15/15, mostly without inner knots, leaving 1.25-1.49 um (the bumps' 15
 mm width is finer than the diagnosis can afford at this noise). The 771-step design,
 +5/-3.5 um: 11/15 smooth maps, 2 cyclic, 2 nothing.
+The figures above predate the limit with each gauge's zero taken out (2026-12-07,
+as the diagnosis fits it): equal strata then give 2.35 um at 411 steps, the strata
+placed where the smooth map is seen 1.87 um, no placing along the travel below 1.68
+um at 450 steps; 1.5 um takes about 675 steps (bench/designed_scan.py).
 """
 
 from __future__ import annotations

@@ -29,12 +29,24 @@ Then, in the same process, loading a 72,000-reading CSV into observations
 (``np.loadtxt(..., dtype=str)``: every field, as a file with letter columns needs);
 target (issue 27) <= 1.3x.
 
+Then (issue 35.6) the commands a technician runs on a campaign's session, by their CPU
+time (the process's user + system, which a load that comes and goes disturbs less than
+the wall clock): ``ogacq --help``, and ``refit`` and ``diagnose`` of a 72-reading
+session (tests/golden/session.jsonl) with the DEFAULT history (``history.sqlite`` in
+ogacq's data folder, ``$OGACQ_HOME`` a fresh folder here), beside ``python -c "import
+numpy"`` in the same run; ``diagnose`` twice: the first of a session records its record
+and diagnosis (the record's uncertainty budget and Monte-Carlo check built), again finds
+them there. Targets: --help <= 1.5x numpy's import, refit and diagnose <= 2.5x. Then
+where diagnose's time goes: its imports by top-level package (``-X importtime``).
+
 Run: python bench/bench_startup.py [runs, default 7] [--compile-each-run]
 """
 
 from __future__ import annotations
 
 import os
+import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -51,6 +63,11 @@ from ogacq.io.machine_file import write_machine  # noqa: E402
 from ogacq.io.tables import write_readings  # noqa: E402
 
 TARGETS_S = {"refit": 0.5, "diagnose": 1.0}
+GOLDEN_SESSION = Path(__file__).resolve().parents[1] / "tests" / "golden" / "session.jsonl"
+NUMPY = "python -c 'import numpy'"
+# CPU time against numpy's import (issue 35.6)
+CPU_TARGETS = {"ogacq --help": 1.5, "ogacq refit SESSION": 2.5,
+               "ogacq diagnose SESSION, first": 2.5, "ogacq diagnose SESSION, again": 2.5}
 LIBRARY_FLOOR = "numpy + typer + rich"
 
 
@@ -171,7 +188,71 @@ def main() -> None:
         print(f"   diagnose's analysis alone  {analysis:.3f} s (first call, imports done): "
               f"numpy's import + it = {floor:.3f} s, {floor / numpy_s:.2f}x numpy's import, "
               f"the floor of `ogacq diagnose` with no ogacq import and no output")
+        session_cpu(tmp, runs, env)
         csv_load(tmp, runs)
+
+
+def cpu_s(argv: list[str], env: dict[str, str]) -> float:
+    """The command's CPU time, user and system, its children's included."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(argv, check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                   env=env)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return after.ru_utime - before.ru_utime + after.ru_stime - before.ru_stime
+
+
+def session_cpu(tmp: str, runs: int, env: dict[str, str]) -> None:
+    """--help, refit and diagnose of a 72-reading session with the default history, by
+    CPU time beside numpy's import, interleaved; then diagnose's imports by package."""
+    session = Path(tmp, "session.jsonl")
+    shutil.copyfile(GOLDEN_SESSION, session)
+    python = sys.executable
+    ogacq = [python, "-m", "ogacq"]
+    commands = {NUMPY: [python, "-c", "import numpy"], "ogacq --help": [*ogacq, "--help"],
+                "ogacq refit SESSION": [*ogacq, "refit", str(session)],
+                "ogacq diagnose SESSION, first": [*ogacq, "diagnose", str(session)],
+                "ogacq diagnose SESSION, again": [*ogacq, "diagnose", str(session)]}
+    home = Path(tmp, "home")  # the data folder: its history.sqlite is the default
+    at_home = {**env, "OGACQ_HOME": str(home)}
+    for argv in commands.values():  # untimed: the bytecode written
+        cpu_s(argv, at_home)
+    times: dict[str, list[float]] = {label: [] for label in commands}
+    for _ in range(runs):
+        for label, argv in commands.items():
+            if label.endswith("first"):  # a history that has not seen the session
+                shutil.rmtree(home, ignore_errors=True)
+            times[label].append(cpu_s(argv, at_home))
+    numpy_s = statistics.median(times[NUMPY])
+    print(f"72-reading session, the default history, CPU time (user + system), {runs} runs "
+          "each, interleaved, median (min-max):")
+    for label, t in times.items():
+        line = f"   {label:32s} {statistics.median(t):.3f} s ({min(t):.3f}-{max(t):.3f})"
+        if label in CPU_TARGETS:
+            ratio = statistics.median(t) / numpy_s
+            line += (f", {ratio:.2f}x numpy's import (target <= {CPU_TARGETS[label]:g}x: "
+                     f"{'met' if ratio <= CPU_TARGETS[label] else 'NOT met'})")
+        print(line)
+    shutil.rmtree(home, ignore_errors=True)
+    print("   where `ogacq diagnose SESSION, first` goes: its imports by package "
+          "(-X importtime, each module's own, not timed above):")
+    for package, seconds in imports_by_package(commands["ogacq diagnose SESSION, first"],
+                                               at_home)[:8]:
+        print(f"      {package:20s} {seconds:.3f} s")
+
+
+def imports_by_package(argv: list[str], env: dict[str, str]) -> list[tuple[str, float]]:
+    """The command's imports, each module's own time summed by its top-level package,
+    largest first."""
+    err = subprocess.run([argv[0], "-X", "importtime", *argv[1:]], check=True,
+                         stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                         env=env).stderr
+    by_package: dict[str, float] = {}
+    for line in err.splitlines():
+        if line.startswith("import time:") and "cumulative" not in line:
+            self_us, _, name = line.removeprefix("import time:").split("|")
+            package = name.strip().split(".")[0]
+            by_package[package] = by_package.get(package, 0.0) + int(self_us) / 1e6
+    return sorted(by_package.items(), key=lambda item: -item[1])
 
 
 def csv_load(tmp: str, runs: int) -> None:

@@ -89,7 +89,12 @@ class Judgement:
         outcome = min(self.outcome, other.outcome, key=OUTCOMES.index)
         sight = merged(self.sight, other.sight)
         outcome = outcome_of(outcome == "worse", outcome != "improved", sight)
+        # the verdict said is the one that decides: a fit not within the noise is not
+        # described by the other's "within the gauge noise"
+        verdict = other.verdict if other.outcome == "improved" != self.outcome \
+            else self.verdict
         return replace(self, outcome=outcome, reasons=self.reasons + other.reasons,
+                       verdict=verdict,
                        figures_after={**self.figures_after, **other.figures_after},
                        residual_effects={**self.residual_effects, **other.residual_effects},
                        sight=sight)

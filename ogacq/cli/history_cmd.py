@@ -5,11 +5,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Any
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
-from ogacq.cli import render_history as render
 from ogacq.cli.options import AcceptEditedOption, JsonOption
 from ogacq.cli.outputs import ForceOption, check_output_file
 from ogacq.cli.plain import print_wrapped
@@ -25,10 +24,13 @@ from ogacq.history.recording import (
 )
 from ogacq.history.states import diff as states_diff
 from ogacq.history.states import find, timeline
-from ogacq.history.store import History
 from ogacq.history.tail import cut_tail
+from ogacq.record.declared import RecordSectionError
 from ogacq.session.state import completeness, taken_as_it_stands, unsealed
 from ogacq.session.store import LoadedSession, load_session
+
+if TYPE_CHECKING:
+    from ogacq.history.store import History
 
 ReadHistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
@@ -45,6 +47,14 @@ AcceptUnsealedOption = Annotated[bool, typer.Option(
                               "seals stripped or older, a torn record, not closed: killed, "
                               "or its last records removed) as it stands; its record in the "
                               "history says so.")]
+
+
+def _opened(location: HistoryLocation, *, create: bool = False) -> History:
+    """The history at ``location``: SQLAlchemy and the dialect in use are imported here,
+    when a history is read or written, not for ``--help``."""
+    from ogacq.history.store import History
+
+    return History.open(location, create=create)
 
 
 def show(
@@ -72,6 +82,8 @@ def show(
     The history is --history, else $OGACQ_HISTORY, else history.sqlite in ogacq's data
     folder ($OGACQ_HOME, default ~/.local/share/ogacq).
     """
+    from ogacq.cli import render_history as render  # with the history's types, when used
+
     _check_show_options(machine, states, diff, plot, force)
     location = history_to_read(history)
     if machine is None:
@@ -80,7 +92,7 @@ def show(
     if not (states or plot is not None or as_json):
         _show_each(location, machine)  # a name that fits several machines lists each
         return
-    with History.open(location, create=False) as db:
+    with _opened(location) as db:
         found = db.find_machine(machine)
         if states:
             listed = db.states(found)
@@ -121,7 +133,9 @@ def show(
 def _show_each(location: HistoryLocation, typed: str) -> None:
     """Every machine ``typed`` names (two machines may share a name: the demo's
     simulator and a machine file's), each with its calibrations."""
-    with History.open(location, create=False) as db:
+    from ogacq.cli import render_history as render
+
+    with _opened(location) as db:
         found = db.find_machines(typed) or [db.find_machine(typed)]  # none: say which exist
         each = [(m, db.calibrations(m), db.events(m), written_by_record(db.states(m)))
                  for m in found]
@@ -152,7 +166,7 @@ def _check_show_options(machine: str | None, states: bool, diff: tuple[str, str]
 def _list_machines(location: HistoryLocation, as_json: bool) -> None:
     """The machines the history holds, each with its calibrations' count and the last
     one's date: what a technician who forgot a machine's exact name needs."""
-    with History.open(location, create=False) as db:
+    with _opened(location) as db:
         listed = [(m, db.calibrations(m)) for m in db.machines()]
     rows = [{"name": m.name, "serial": m.serial or None, "calibrations": len(cals),
              "last": max((c.date for c in cals if c.date), default=None)}
@@ -180,7 +194,7 @@ def _record_for_history(session: LoadedSession) -> dict[str, Any]:
     cannot file it: a session recorded from a machine file whose name was blank."""
     try:
         return check_record(session_record(session))
-    except RecordError as exc:
+    except (RecordError, RecordSectionError) as exc:
         raise InputError(session.path, f"{exc}: the history files calibrations by machine, "
                          "so this session cannot enter one") from None
 
@@ -189,7 +203,7 @@ def _seen_more(session: LoadedSession, location: HistoryLocation) -> tuple[int, 
     """(line, why) when the history saw more records of the session than its file holds;
     None too when there is no history yet (it saw nothing), made by the recording."""
     try:
-        with History.open(location, create=False) as db:
+        with _opened(location) as db:
             return cut_tail(db, session)
     except OgacqError:
         return None
@@ -237,7 +251,7 @@ def add(
     records = [_record_for_history(session) for session in loaded]
     for session, record, location in zip(loaded, records, locations, strict=True):
         assert location is not None
-        with History.open(location) as db:
+        with _opened(location, create=True) as db:
             first_met = filed_by_name(db, session)
             recorded = record_session(db, session, record)
         what = ", ".join(recorded.new) if recorded.new else "already recorded"

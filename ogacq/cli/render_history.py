@@ -13,9 +13,8 @@ from rich.table import Table
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.plain import shown, table_of
 from ogacq.history.drift import ControllerChange, Drift, expanded
-from ogacq.history.entries import parameter_unit
+from ogacq.history.entries import Calibration, Event, Machine, OffsetState, parameter_unit
 from ogacq.history.states import MachineState
-from ogacq.history.store import Calibration, Event, Machine, OffsetState
 from ogacq.model.units import UM_PER_MM
 from ogacq.uncertainty.reporting import rounded, two_digits
 

@@ -21,7 +21,7 @@ from ogacq.session.store import LoadedSession, load_session
 
 if TYPE_CHECKING:  # loaded once the command has said what it does (numpy, matplotlib)
     from ogacq.diagnose.diagnosis import Diagnosis
-    from ogacq.record.sections import SessionReference
+    from ogacq.record.sections import SessionFile
     from ogacq.report import Report
     from ogacq.report.diagnosis_view import DiagnosisView
 
@@ -178,21 +178,20 @@ def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict
     of it (the same campaign, the same validation session): only the procedure knows
     the maps it wrote, so re-issuing its record (``ogacq report ... --pdf`` into its
     folder) must not drop them (it issued a revision saying "removed compensation")."""
+    new = CalibrationRecord.from_json(record)
     try:
         old = CalibrationRecord.from_json(json.loads(earlier)) if earlier is not None \
             else None
-    except (ValueError, TypeError, AttributeError):
-        return record
-    new = CalibrationRecord.from_json(record)
-    if old is None or not old.compensation or new.compensation is not None \
-            or old.id != new.id \
-            or old.session_reference.sha256 != new.session_reference.sha256 \
-            or _sha(old.validation_reference) != _sha(new.validation_reference):
+        if old is None or not old.compensation or new.compensation is not None \
+                or old.id != new.id or old.session_file.sha256 != new.session_file.sha256 \
+                or _sha(old.validation_session_file) != _sha(new.validation_session_file):
+            return record
+    except (ValueError, TypeError, AttributeError):  # not a record of this version
         return record
     return {**record, "compensation": dict(old.compensation)}
 
 
-def _sha(reference: SessionReference | None) -> str | None:
+def _sha(reference: SessionFile | None) -> str | None:
     return reference.sha256 if reference is not None else None
 
 

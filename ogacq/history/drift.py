@@ -35,12 +35,9 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any, Literal
+from typing import Any, Literal
 
-from ogacq.history.entries import Parameter
-
-if TYPE_CHECKING:  # the types only: a report drawing a history needs no database
-    from ogacq.history.store import Calibration, OffsetState
+from ogacq.history.entries import Calibration, OffsetState, Parameter
 
 COVERAGE_K = 2.0  # for a std standing in for u_c (JCGM 100:2008 6.2.1)
 # Offsets read back from a controller are the same number when equal; this only keeps

@@ -51,4 +51,4 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
             return [], None  # known history, nothing of this machine in it yet
         entries = history.results_history(machine)
     return [e for e in entries
-            if e["id"] != this_id and e.get("date") and e["date"] <= this_date], None
+            if e["id"] != this_id and e["date"] and e["date"] <= this_date], None

@@ -1,8 +1,10 @@
 """What goes into the history's rows: read from a record (``ogacq-record/1``,
-docs/calibration-record.md section 5) and from a write-back's audit.
+docs/calibration-record.md section 5) and from a write-back's audit; and what the
+store reads back (machines, calibrations, events, states).
 
-Pure functions and plain data: the store writes what these return, the tests
-check them without a database.
+Pure functions and plain data, without SQLAlchemy: the store writes what these
+return, the tests check them without a database, and a command imports them without
+the database layer.
 """
 
 from __future__ import annotations
@@ -11,7 +13,7 @@ import hashlib
 import math
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from datetime import datetime
 from typing import Any
 
@@ -20,7 +22,7 @@ from ogacq.model.gauges import AXES
 from ogacq.model.instrument import finite_number as _number
 from ogacq.model.parameters import EFFECT_BY_NAME
 from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.record.sections import ResultEntry
+from ogacq.record.sections import NamedResult
 
 RECORD_FORMAT = "ogacq-record/1"
 
@@ -91,6 +93,115 @@ class MapsWriteBack:
         return "map-restore" if self.action == "restore" else "map-write"
 
 
+# --- what the history holds, read back (History.machines, calibrations, states, ...)
+
+@dataclass(frozen=True)
+class Machine:
+    id: int
+    name: str
+    serial: str
+
+    def describe(self) -> str:
+        return f"{self.name} (serial {self.serial})" if self.serial else self.name
+
+    @property
+    def label(self) -> str:
+        """How a person names this machine and no other of the same name: what
+        ``find_machine`` takes back."""
+        return self.describe() if self.serial else f"{self.name} (no serial)"
+
+
+@dataclass(frozen=True)
+class Calibration:
+    record_id: str
+    date: str | None
+    operator: str | None
+    verdict: dict[str, Any] | None
+    acceptance_decision: str | None
+    acceptance: dict[str, Any] | None
+    ambient_c: float | None
+    parameters: dict[str, Parameter]
+    session_path: str | None
+    session_sha256: str | None
+    instruments: list[Any] | None = None
+    environment: dict[str, Any] | None = None
+    overrides: list[Any] | None = None
+    station: str | None = None
+    simulated: bool | None = None  # a rehearsal on the simulator (None: not said)
+    # the joint offsets the controller held during the campaign, the same at every start
+    # (None: the record does not say, or they changed between starts)
+    offsets_in_force_mm: dict[str, float] | None = None
+
+
+@dataclass(frozen=True)
+class Event:
+    kind: str
+    record_id: str
+    date: str | None
+    operator: str | None
+    session_path: str | None
+    details: dict[str, Any] | None
+
+
+@dataclass(frozen=True)
+class State:
+    """What an offsets state and a maps state both say: the write or restore that found
+    (``before``) or left (``after``) it."""
+
+    state_id: str
+    stage: str  # before, after
+    at: str | None
+    wall: float | None
+    operation: str
+    action: str
+    status: str
+
+    def _as_mapping(self, own: dict[str, Any], record_id: str,
+                    session_path: str | None) -> dict[str, Any]:
+        return {"state": self.state_id, "stage": self.stage, "at": self.at,
+                "operation": self.operation, "action": self.action, "status": self.status,
+                **own, "record": record_id, "session": session_path}
+
+
+@dataclass(frozen=True)
+class OffsetState(State):
+    profile: str | None
+    offsets_mm: dict[str, float | None]
+    record_id: str
+    session_path: str | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return self._as_mapping({"profile": self.profile, "offsets_mm": self.offsets_mm},
+                                self.record_id, self.session_path)
+
+
+@dataclass(frozen=True)
+class MapState(State):
+    maps_file: str | None
+    checksum: str | None
+    maps: list[dict[str, Any]]  # ogacq-axis-map/1 each
+    record_id: str
+    session_path: str | None
+
+    def as_mapping(self) -> dict[str, Any]:
+        return self._as_mapping({"maps_file": self.maps_file, "checksum": self.checksum,
+                                 "axes": [m.get("axis") for m in self.maps]},
+                                self.record_id, self.session_path)
+
+
+@dataclass
+class Recorded:
+    """What one call recorded: the keys written, and those already there."""
+
+    new: list[str] = field(default_factory=list)
+    present: list[str] = field(default_factory=list)
+
+    def __iadd__(self, other: Recorded) -> Recorded:
+        self.new += other.new
+        self.present += other.present
+        return self
+
+
 def clean_json(value: Any) -> Any:
     """``value`` with every non-finite float as None: JSON has no NaN, and
     PostgreSQL's json type refuses it."""
@@ -105,7 +216,7 @@ def clean_json(value: Any) -> Any:
 
 def check_record(record: Any) -> dict[str, Any]:
     """The record, checked for what the history reads from it; RecordError naming
-    what is missing."""
+    what is missing, RecordSectionError the key of a section of another shape."""
     if not isinstance(record, Mapping):
         raise RecordError("a record is a JSON object")
     typed = CalibrationRecord.from_json(record)
@@ -113,9 +224,11 @@ def check_record(record: Any) -> dict[str, Any]:
         raise RecordError(f"not an {RECORD_FORMAT} record (format {typed.as_written('format')!r})")
     if not typed.id:
         raise RecordError("the record has no id")
-    name = typed.machine_named.name
+    name = typed.machine_section.name
     if name is None or not name.strip():
         raise RecordError(f"record {typed.id} names no machine")
+    # every section the history reads: one of another shape said before anything is written
+    _ = record_columns(typed), parameters_of(typed), typed.offsets_in_force_mm
     return dict(record)
 
 
@@ -126,14 +239,14 @@ def _typed(record: Mapping[str, Any] | CalibrationRecord) -> CalibrationRecord:
 def machine_of(record: Mapping[str, Any] | CalibrationRecord) -> tuple[str, str]:
     """(name, serial) of the record's machine (checked by ``check_record``); the serial
     is "" when none is given."""
-    machine = _typed(record).machine_named
+    machine = _typed(record).machine_section
     return str(machine.name).strip(), (machine.serial or "").strip()
 
 
-def parameters_in(entries: Sequence[ResultEntry]) -> list[Parameter]:
+def parameters_in(entries: Sequence[NamedResult]) -> list[Parameter]:
     """The parameters of a record's (or a history entry's) ``results`` that have a value."""
-    return [Parameter(e.name, e.value_mm, e.u_mm, e.U_mm, e.k, e.std_mm)
-            for e in entries if e.value_mm is not None]
+    return [Parameter(n.name, e.value_mm, e.u_mm, e.U_mm, e.k, e.std_mm)
+            for n in entries if (e := n.entry).value_mm is not None]
 
 
 def parameters_of(record: Mapping[str, Any] | CalibrationRecord) -> list[Parameter]:
@@ -144,17 +257,14 @@ def parameters_of(record: Mapping[str, Any] | CalibrationRecord) -> list[Paramet
 
 def ambient_of(record: Mapping[str, Any] | CalibrationRecord) -> float | None:
     """The ambient temperature at the start (else at the end) of the campaign, degC."""
-    environment = _typed(record).environment or {}
-    for stage in ("start", "end"):
-        entry = environment.get(stage)
-        if isinstance(entry, Mapping) and _number(entry.get("ambient_c")) is not None:
-            return float(entry["ambient_c"])
-    return None
+    stages = _typed(record).environment_stages
+    return next((float(t.ambient_c) for stage in ("start", "end") if stage in stages
+                 and (t := stages[stage]) is not None and t.ambient_c is not None), None)
 
 
 def acceptance_decision(record: Mapping[str, Any] | CalibrationRecord) -> str | None:
     """The as-found decision (pass, fail, undecided), None when not recorded."""
-    return _typed(record).acceptance_read.as_found.decision
+    return _typed(record).acceptance_section.as_found.decision
 
 
 def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
@@ -166,13 +276,12 @@ def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
 def record_columns(record: Mapping[str, Any] | CalibrationRecord) -> dict[str, Any]:
     """The event columns a record fills (every kind of event carries its record's)."""
     typed = _typed(record)
-    session = typed.session_reference
-    software = (typed.method or {}).get("software")
+    session = typed.session_file
     return {
         "record_id": typed.id,
         "campaign_date": typed.date or None,
         "operator": typed.operator or None,
-        "software": str(software) if software else None,
+        "software": typed.method_section.software or None,
         "session_path": session.path or None,
         "session_sha256": session.sha256 or None,
         "verdict": clean_json(typed.as_written("verdict")),

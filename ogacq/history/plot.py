@@ -28,6 +28,7 @@ from ogacq.history.entries import Parameter, parameter_unit, parameters_in
 from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import wall_time
 from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.sections import named_results
 
 DPI = 110
 VALUE_COLOUR = "#1f5fa8"
@@ -66,7 +67,7 @@ def recorded_calibrations(record: Mapping[str, Any] | CalibrationRecord
         else CalibrationRecord.from_json(record)
     entries = [*typed.history_entries, typed.as_history_entry()]
     found = [RecordedCalibration(str(e.id), e.date or None,
-                                 {p.name: p for p in parameters_in(e.results)})
+                                 {p.name: p for p in parameters_in(named_results(e.results))})
              for e in entries]
     dated = [(when, c) for c in found if (when := wall_time(c.date)) is not None]
     if len(dated) < len(found):

@@ -21,16 +21,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ogacq.errors import OgacqError
-from ogacq.history.entries import MapsWriteBack, WriteBack, event_key
+from ogacq.history.entries import MapsWriteBack, Recorded, WriteBack, event_key
 from ogacq.logs import logger
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
-from ogacq.writeback.audit import operations
-from ogacq.writeback.maps import MapsFile
 
 if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
-    from ogacq.history.store import History, Recorded
+    from ogacq.history.store import History
 
 log = logger("ogacq.history")
 
@@ -50,12 +48,18 @@ def session_record(session: LoadedSession) -> dict[str, Any]:
 
 def writebacks_of(session: LoadedSession) -> list[WriteBack]:
     """The write-backs and restores the session's audit records describe."""
+    # the audit's readers (and the drives' profiles behind them) imported only here: a
+    # diagnosis of a finished campaign records none of them
+    from ogacq.writeback.audit import operations
+
     return [WriteBack(op.operation, op.action, op.status, op.old_mm, op.new_mm, op.profile,
                       op.wall, op.restores) for op in operations(session)]
 
 
 def maps_writebacks_of(session: LoadedSession) -> list[MapsWriteBack]:
     """The maps writes and restores the session's audit records describe."""
+    from ogacq.writeback.maps import MapsFile
+
     return [MapsWriteBack(op.operation, op.action, op.status, str(op.path),
                           tuple(m.to_json() for m in op.old_maps.values()), op.old_checksum,
                           tuple(m.to_json() for m in op.new_maps.values()), op.new_checksum,
@@ -66,8 +70,6 @@ def record_session(history: History, session: LoadedSession,
                    record: Mapping[str, Any] | None = None) -> Recorded:
     """The session's calibration (when its campaign completed) and every write-back of
     its audit, offsets and maps (each once)."""
-    from ogacq.history.store import Recorded
-
     record = dict(record) if record is not None else session_record(session)
     where = str(session.path.resolve())
     done = Recorded()
@@ -173,7 +175,6 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
     session not finished gives nothing: its campaign's result comes when it does)."""
 
     def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
-        from ogacq.history.store import Recorded
         from ogacq.record.identity import session_record_id
 
         record_id = session_record_id(session)

@@ -25,6 +25,7 @@ and why.
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 from sqlalchemy import (
     JSON,
@@ -99,36 +100,35 @@ parameters = Table(
     Column("std_mm", Float),  # the fit's std (stands in when there is no budget)
 )
 
+def _state_columns() -> list[Column[Any]]:
+    """What an offsets state and a maps state both hold, in this order (new columns for
+    each table: a Column belongs to one)."""
+    return [
+        Column("state_id", String(32), primary_key=True),
+        Column("event_id", ForeignKey(events.c.id), nullable=False, index=True),
+        Column("machine_id", ForeignKey(machines.c.id), nullable=False, index=True),
+        Column("stage", String(10), nullable=False),  # before, after
+        Column("at", String(40)),  # local ISO time of the operation
+        Column("wall", Float),  # the same as a Unix time, for ordering
+        Column("operation", String(80), nullable=False),
+        Column("action", String(20), nullable=False),  # write, restore
+        Column("status", String(20), nullable=False),  # done, failed, interrupted
+    ]
+
+
 offset_states = Table(
-    "ogacq_offset_states", metadata,
-    Column("state_id", String(32), primary_key=True),
-    Column("event_id", ForeignKey(events.c.id), nullable=False, index=True),
-    Column("machine_id", ForeignKey(machines.c.id), nullable=False, index=True),
-    Column("stage", String(10), nullable=False),  # before, after
-    Column("at", String(40)),  # local ISO time of the operation
-    Column("wall", Float),  # the same as a Unix time, for ordering
-    Column("operation", String(80), nullable=False),
-    Column("action", String(20), nullable=False),  # write, restore
-    Column("status", String(20), nullable=False),  # done, failed, interrupted
+    "ogacq_offset_states", metadata, *_state_columns(),
     Column("profile", String(80)),
     Column("x_mm", Float), Column("y_mm", Float), Column("z_mm", Float),
 )
 
 map_states = Table(
-    "ogacq_map_states", metadata,
-    Column("state_id", String(32), primary_key=True),
-    Column("event_id", ForeignKey(events.c.id), nullable=False, index=True),
-    Column("machine_id", ForeignKey(machines.c.id), nullable=False, index=True),
-    Column("stage", String(10), nullable=False),  # before, after
-    Column("at", String(40)),
-    Column("wall", Float),
-    Column("operation", String(80), nullable=False),
-    Column("action", String(20), nullable=False),  # write, restore
-    Column("status", String(20), nullable=False),  # done, failed, interrupted
+    "ogacq_map_states", metadata, *_state_columns(),
     Column("maps_file", Text),
     Column("checksum", String(64)),  # ogacq.writeback.maps_table.maps_checksum
     Column("maps", JSON),  # [ogacq-axis-map/1, ...]
 )
+
 
 def _create(table: Table) -> Callable[[Connection], None]:
     """A migration step: create ``table`` as this schema declares it (each backend's

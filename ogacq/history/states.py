@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ogacq.errors import InputError
-from ogacq.history.store import Event, MapState, OffsetState
+from ogacq.history.entries import Event, MapState, OffsetState
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.gauges import AXES
 from ogacq.writeback.outcome import WriteOutcome

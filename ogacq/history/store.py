@@ -22,7 +22,6 @@ import contextlib
 import json
 import socket
 from collections.abc import Iterator, Mapping
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -33,8 +32,14 @@ from ogacq import __version__
 from ogacq.errors import InputError, StorageError
 from ogacq.history import schema as s
 from ogacq.history.entries import (
+    Calibration,
+    Event,
+    Machine,
+    MapState,
     MapsWriteBack,
+    OffsetState,
     Parameter,
+    Recorded,
     WriteBack,
     check_record,
     clean_json,
@@ -73,111 +78,6 @@ class HistoryError(StorageError):
         self.location = location
         self.path = location.describe()
         Exception.__init__(self, f"history {self.path}: {problem}")
-
-
-@dataclass(frozen=True)
-class Machine:
-    id: int
-    name: str
-    serial: str
-
-    def describe(self) -> str:
-        return f"{self.name} (serial {self.serial})" if self.serial else self.name
-
-    @property
-    def label(self) -> str:
-        """How a person names this machine and no other of the same name: what
-        ``find_machine`` takes back."""
-        return self.describe() if self.serial else f"{self.name} (no serial)"
-
-
-@dataclass(frozen=True)
-class Calibration:
-    record_id: str
-    date: str | None
-    operator: str | None
-    verdict: dict[str, Any] | None
-    acceptance_decision: str | None
-    acceptance: dict[str, Any] | None
-    ambient_c: float | None
-    parameters: dict[str, Parameter]
-    session_path: str | None
-    session_sha256: str | None
-    instruments: list[Any] | None = None
-    environment: dict[str, Any] | None = None
-    overrides: list[Any] | None = None
-    station: str | None = None
-    simulated: bool | None = None  # a rehearsal on the simulator (None: not said)
-    # the joint offsets the controller held during the campaign, the same at every start
-    # (None: the record does not say, or they changed between starts)
-    offsets_in_force_mm: dict[str, float] | None = None
-
-
-@dataclass(frozen=True)
-class Event:
-    kind: str
-    record_id: str
-    date: str | None
-    operator: str | None
-    session_path: str | None
-    details: dict[str, Any] | None
-
-
-@dataclass(frozen=True)
-class OffsetState:
-    state_id: str
-    stage: str  # before, after
-    at: str | None
-    wall: float | None
-    operation: str
-    action: str
-    status: str
-    profile: str | None
-    offsets_mm: dict[str, float | None]
-    record_id: str
-    session_path: str | None
-
-    def as_mapping(self) -> dict[str, Any]:
-        return {"state": self.state_id, "stage": self.stage, "at": self.at,
-                "operation": self.operation, "action": self.action, "status": self.status,
-                "profile": self.profile, "offsets_mm": self.offsets_mm,
-                "record": self.record_id, "session": self.session_path}
-
-
-@dataclass(frozen=True)
-class MapState:
-    state_id: str
-    stage: str  # before, after
-    at: str | None
-    wall: float | None
-    operation: str
-    action: str
-    status: str
-    maps_file: str | None
-    checksum: str | None
-    maps: list[dict[str, Any]]  # ogacq-axis-map/1 each
-    record_id: str
-    session_path: str | None
-
-    def as_mapping(self) -> dict[str, Any]:
-        return {"state": self.state_id, "stage": self.stage, "at": self.at,
-                "operation": self.operation, "action": self.action, "status": self.status,
-                "maps_file": self.maps_file, "checksum": self.checksum,
-                "axes": [m.get("axis") for m in self.maps], "record": self.record_id,
-                "session": self.session_path}
-
-
-@dataclass
-class Recorded:
-    """What one call recorded: the keys written, and those already there."""
-
-    new: list[str] = field(default_factory=list)
-    present: list[str] = field(default_factory=list)
-
-    def __iadd__(self, other: Recorded) -> Recorded:
-        self.new += other.new
-        self.present += other.present
-        return self
 
 
 def _first_line(exc: BaseException) -> str:
@@ -397,7 +297,7 @@ class History:
         e = s.events
         with self._guard("read the events"), self._transaction(write=False) as conn:
             records = conn.execute(select(e.c.record).where(e.c.record_id == record_id)).scalars()
-            counts = [CalibrationRecord.from_json(r).session_reference.records for r in records
+            counts = [CalibrationRecord.from_json(r).session_file.records for r in records
                       if isinstance(r, dict)]
         seen = [count for count in counts if count is not None]
         return max(seen) if seen else None
@@ -488,7 +388,9 @@ class History:
             rows = conn.execute(select(e.c.record_id, e.c.campaign_date, e.c.record).where(
                 e.c.machine_id == machine.id, e.c.kind == "calibration")).all()
         entries = [{"id": r.record_id, "date": r.campaign_date,
-                    "results": (r.record or {}).get("results") or {}} for r in rows]
+                    "results": CalibrationRecord.from_json(
+                        r.record if isinstance(r.record, dict) else {}).results or {}}
+                   for r in rows]
         return sorted(entries, key=lambda v: (v["date"] or "", v["id"]))
 
     def states(self, machine: Machine) -> list[OffsetState]:

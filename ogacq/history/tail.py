@@ -6,9 +6,13 @@ file holding fewer records than the history saw lost its tail."""
 
 from __future__ import annotations
 
-from ogacq.history.store import History
+from typing import TYPE_CHECKING
+
 from ogacq.record.identity import session_record_id
 from ogacq.session.store import LoadedSession
+
+if TYPE_CHECKING:  # SQLAlchemy is imported when a history is opened
+    from ogacq.history.store import History
 
 
 def cut_tail(history: History, session: LoadedSession) -> tuple[int, str] | None:

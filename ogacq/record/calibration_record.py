@@ -7,10 +7,10 @@ same keys in the same order with the same values, so the document, its SHA-256 a
 its revisions (``ogacq.record.revision``) do not depend on this type. The sections
 read by another module are named; every other key, and a named one of another type
 than this version writes (a hand-edited file), is kept in ``extra`` where it was (the
-named attribute then None, as for a key the record does not have). A section whose
-inner keys more than one module reads is also given as a typed value
-(``ogacq.record.sections``: ``machine_named``, ``result_entries``, ``verdict_read``,
-...), read from the JSON as tolerantly as the readers did by hand.
+named attribute then None, as for a key the record does not have). Every section is
+also given typed, declared once (``ogacq.record.sections``: ``machine_section``,
+``result_entries``, ``verdict_section``, ...); one of another shape is a
+``RecordSectionError`` naming its key (``results.joint_offset.x.U_mm``).
 """
 
 from __future__ import annotations
@@ -18,34 +18,31 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any, TypeVar
+from typing import Any
 
 from ogacq.record.compensation import CompensationSection
-from ogacq.record.declared import Section, read, read_all, read_lists
-from ogacq.record.declared_sections import (
-    BudgetRow,
-    CampaignSection,
-    InstrumentEntry,
-    MethodSection,
-    OverrideEntry,
-    Revises,
-    SessionFile,
-    WriteBackEntry,
-)
+from ogacq.record.declared import read_as
 from ogacq.record.sections import (
     Acceptance,
+    BudgetRow,
+    CampaignSection,
     HistoryEntry,
+    InstrumentEntry,
+    MethodSection,
+    NamedResult,
+    OverrideEntry,
     RecordMachine,
-    ResultEntry,
-    SessionReference,
+    Results,
+    Revises,
+    SessionFile,
+    Temperatures,
     Verdict,
-    result_entries,
+    WriteBackEntry,
+    named_results,
 )
 from ogacq.session.json_document import JsonObject, NamedJson
 
 __all__ = ["CalibrationRecord"]
-
-S = TypeVar("S", bound=Section)
 
 
 @dataclass(frozen=True)
@@ -92,106 +89,103 @@ class CalibrationRecord(NamedJson):
         for those who keep a section as recorded, or name a wrong value in an error."""
         return self.extra[key] if key in self.extra else getattr(self, key, None)
 
-    # --- the sections as typed values ---------------------------------------------
-    @property
-    def machine_named(self) -> RecordMachine:
-        return RecordMachine.from_json(self.machine)
-
-    @property
-    def session_reference(self) -> SessionReference:
-        return SessionReference.from_json(self.session)
-
-    @property
-    def validation_reference(self) -> SessionReference | None:
-        """The as-left session, None when the record has none."""
-        return SessionReference.from_json(self.validation_session) \
-            if self.validation_session else None
-
-    @property
-    def result_entries(self) -> tuple[ResultEntry, ...]:
-        return result_entries(self.results)
-
-    @property
-    def validation_result_entries(self) -> tuple[ResultEntry, ...]:
-        return result_entries(self.validation_results)
-
-    @property
-    def verdict_read(self) -> Verdict | None:
-        """The verdict, None when the record has none (no fit)."""
-        return Verdict.from_json(self.verdict) if self.verdict else None
-
-    @property
-    def acceptance_read(self) -> Acceptance:
-        return Acceptance.from_json(self.acceptance)
-
-    # --- the sections declared once (ogacq.record.declared): each None (or empty)
+    # --- the sections declared once (ogacq.record.sections): each None (or empty)
     # when the record does not have it, a RecordSectionError naming the key when it
     # holds something else than its declaration
-    def _section(self, cls: type[S], key: str) -> S | None:
-        found = self.as_written(key)
-        return None if found is None else read(cls, found, key)
+    def _typed(self, hint: Any, key: str) -> Any:
+        return read_as(hint, self.as_written(key), key)
+
+    @cached_property
+    def machine_section(self) -> RecordMachine:
+        return self._typed(RecordMachine, "machine") or RecordMachine()
 
     @cached_property
     def compensation_section(self) -> CompensationSection | None:
         """What ``ogacq calibrate`` wrote beside the offsets."""
-        return self._section(CompensationSection, "compensation")
+        return self._typed(CompensationSection, "compensation")
 
     @cached_property
     def campaign_section(self) -> CampaignSection:
-        return self._section(CampaignSection, "campaign") or CampaignSection()
+        return self._typed(CampaignSection, "campaign") or CampaignSection()
 
     @cached_property
     def method_section(self) -> MethodSection:
-        return self._section(MethodSection, "method") or MethodSection()
+        return self._typed(MethodSection, "method") or MethodSection()
 
     @cached_property
     def revises_section(self) -> Revises | None:
-        return self._section(Revises, "revises")
+        return self._typed(Revises, "revises")
 
     @cached_property
     def session_file(self) -> SessionFile:
-        return self._section(SessionFile, "session") or SessionFile()
+        return self._typed(SessionFile, "session") or SessionFile()
 
     @cached_property
     def validation_session_file(self) -> SessionFile | None:
-        return self._section(SessionFile, "validation_session")
+        return self._typed(SessionFile, "validation_session")
+
+    @cached_property
+    def verdict_section(self) -> Verdict | None:
+        """The verdict, None when the record has none (no fit)."""
+        return self._typed(Verdict, "verdict")
+
+    @cached_property
+    def acceptance_section(self) -> Acceptance:
+        return self._typed(Acceptance, "acceptance") or Acceptance()
+
+    @cached_property
+    def environment_stages(self) -> dict[str, Temperatures | None]:
+        """The temperatures at each stage (start, end); None: not recorded."""
+        return self._typed(dict[str, Temperatures | None], "environment") or {}
+
+    @cached_property
+    def missing_reasons(self) -> dict[str, str]:
+        """What the record lacks, and why."""
+        return self._typed(dict[str, str], "missing") or {}
+
+    @cached_property
+    def result_entries(self) -> tuple[NamedResult, ...]:
+        return named_results(self._typed(Results, "results") or {})
+
+    @cached_property
+    def validation_result_entries(self) -> tuple[NamedResult, ...]:
+        return named_results(self._typed(Results, "validation_results") or {})
 
     @cached_property
     def instrument_entries(self) -> tuple[InstrumentEntry, ...]:
-        return read_all(InstrumentEntry, self.as_written("instruments"), "instruments")
+        return self._typed(tuple[InstrumentEntry, ...], "instruments") or ()
 
     @cached_property
     def override_entries(self) -> tuple[OverrideEntry, ...]:
-        return read_all(OverrideEntry, self.as_written("overrides"), "overrides")
+        return self._typed(tuple[OverrideEntry, ...], "overrides") or ()
 
     @cached_property
     def writeback_entries(self) -> tuple[WriteBackEntry, ...]:
-        return read_all(WriteBackEntry, self.as_written("writeback"), "writeback")
+        return self._typed(tuple[WriteBackEntry, ...], "writeback") or ()
+
+    @cached_property
+    def history_entries(self) -> tuple[HistoryEntry, ...]:
+        """The earlier calibrations the record holds, in its order."""
+        return self._typed(tuple[HistoryEntry, ...], "history") or ()
 
     @cached_property
     def budget_rows(self) -> dict[str, tuple[BudgetRow, ...]]:
         """Each parameter's contributions, in the record's order."""
-        return read_lists(BudgetRow, self.as_written("budget"), "budget")
-
-    @property
-    def history_entries(self) -> tuple[HistoryEntry, ...]:
-        """The earlier calibrations the record holds, in its order."""
-        return HistoryEntry.all_of(self.history)
+        return self._typed(dict[str, tuple[BudgetRow, ...]], "budget") or {}
 
     @property
     def offsets_in_force_mm(self) -> dict[str, float] | None:
         """The controller's joint offsets during the campaign (``method``), the same at
         every start; None when not recorded, changed between starts, or not numbers."""
-        method = self.method or {}
-        found = method.get("offsets_in_force_mm")
-        if method.get("offsets_in_force_consistent") is not True or not isinstance(found, dict):
+        method = self.method_section
+        found = method.offsets_in_force_mm
+        if method.offsets_in_force_consistent is not True or found is None \
+                or any(v is None for v in found.values()):
             return None
-        if not all(isinstance(v, int | float) and not isinstance(v, bool)
-                   for v in found.values()):
-            return None
-        return {str(a): float(v) for a, v in found.items()}
+        return {a: float(v) for a, v in found.items() if v is not None}
 
     def as_history_entry(self) -> HistoryEntry:
         """This calibration as a history entry (id, date, results)."""
-        return HistoryEntry(self.id, self.date, self.result_entries)
+        results = self._typed(Results, "results") or {}
+        return HistoryEntry(id=self.id, date=self.date, results=results)
 

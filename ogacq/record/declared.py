@@ -22,7 +22,7 @@ from typing import Any, TypeVar
 from ogacq.errors import InputError
 from ogacq.io.declared import checked, shown
 
-__all__ = ["RecordSectionError", "Section", "read", "read_all", "read_lists", "written"]
+__all__ = ["RecordSectionError", "Section", "read", "read_as", "written"]
 
 S = TypeVar("S", bound="Section")
 
@@ -81,22 +81,10 @@ def read(cls: type[S], value: Any, key: str) -> S:
     return cls(**named, extra=extra, order=tuple(value))
 
 
-def read_all(cls: type[S], value: Any, key: str) -> tuple[S, ...]:
-    """A list of sections ``cls`` (null: none)."""
-    if value is None:
-        return ()
-    if not isinstance(value, list):
-        raise RecordSectionError(key, f"must be a list, got {shown(value)}")
-    return tuple(read(cls, v, f"{key}[{i}]") for i, v in enumerate(value))
-
-
-def read_lists(cls: type[S], value: Any, key: str) -> dict[str, tuple[S, ...]]:
-    """An object of lists of sections (``budget``: parameter -> its contributions)."""
-    if value is None:
-        return {}
-    if not isinstance(value, Mapping):
-        raise RecordSectionError(key, f"must be an object, got {shown(value)}")
-    return {str(k): read_all(cls, v, f"{key}.{k}") for k, v in value.items()}
+def read_as(hint: Any, value: Any, key: str) -> Any:
+    """The JSON ``value`` found at ``key`` read as ``hint`` says (``tuple[Entry, ...]``,
+    ``dict[str, Entry]``, ...); null: None."""
+    return None if value is None else _value(hint, value, key)
 
 
 def written(section: Section) -> dict[str, Any]:

@@ -48,7 +48,8 @@ def issue(record: Mapping[str, Any], previous: bytes | None) -> dict[str, Any]:
     assert previous is not None
     revision = _revision(earlier) + 1
     return {**record, "revision": revision,
-            "revises": {"revision": revision - 1, "issued": earlier.get("issued"),
+            "revises": {"revision": revision - 1,
+                        "issued": CalibrationRecord.from_json(earlier).as_written("issued"),
                         "sha256": hashlib.sha256(previous).hexdigest()},
             "changes": differences(content(earlier), content(record))}
 
@@ -60,7 +61,8 @@ def _earlier_issue(previous: bytes | None, record_id: Any) -> dict[str, Any] | N
         earlier = json.loads(previous.decode("utf-8"))
     except (UnicodeDecodeError, ValueError):
         return None  # not a record: nothing to revise (the file is replaced whole)
-    if not isinstance(earlier, dict) or earlier.get("id") != record_id:
+    if not isinstance(earlier, dict) or CalibrationRecord.from_json(earlier).as_written("id") \
+            != record_id:
         return None
     return earlier
 

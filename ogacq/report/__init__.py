@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,6 +25,7 @@ from ogacq.io.atomic import write_atomically
 from ogacq.io.errors import StorageError
 from ogacq.model.parameters import AXES
 from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.sections import NamedResult
 from ogacq.report.data import FitSummary, ReportData, collect
 from ogacq.report.diagnosis_view import DiagnosisFormatError, DiagnosisView, parse_diagnosis
 from ogacq.report.figures import (
@@ -37,8 +38,9 @@ from ogacq.report.figures import (
     profiles_figure,
     residuals_figure,
 )
-from ogacq.report.formatting import expanded_mm, um
+from ogacq.report.formatting import um
 from ogacq.report.page import render_page
+from ogacq.report.record_view import by_name
 
 REPORT_NAME = "report.html"
 RECORD_NAME = "record.json"
@@ -85,8 +87,8 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
             "Identified joint offsets with their expanded uncertainty U (k = 2) as "
             "whiskers, and U itself.",
             png_bytes(parameters_figure(
-                fit, validation, _expanded(typed.results, fit),
-                _expanded(typed.validation_results, validation)))))
+                fit, validation, _expanded(typed.result_entries, fit),
+                _expanded(typed.validation_result_entries, validation)))))
     if data.diagnosis is not None and len(data.diagnosis_steps) > 1:
         out.append(FigureFile(
             "diagnosis.png", "Residuals before and after each effect",
@@ -118,11 +120,12 @@ def figures_for(data: ReportData, record: Mapping[str, Any]) -> tuple[FigureFile
     return tuple(out)
 
 
-def _expanded(results: Any, fit: FitSummary | None) -> dict[str, float | None]:
+def _expanded(results: Sequence[NamedResult], fit: FitSummary | None,
+              ) -> dict[str, float | None]:
     """U of each parameter of ``fit``, from the record's ``results``."""
-    if fit is None:
-        return {}
-    return {p.name: expanded_mm(results, p.name) for p in fit.parameters}
+    found = by_name(results)
+    return {p.name: found[p.name].U_mm if p.name in found else None
+            for p in fit.parameters} if fit is not None else {}
 
 
 def build_report(data: ReportData, record: Mapping[str, Any]) -> Report:

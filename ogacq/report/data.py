@@ -43,6 +43,7 @@ from ogacq.model.measurement import POSTURE_NAMES
 from ogacq.model.parameters import AXES, PARAM_INDEX, effect_of
 from ogacq.record.declared import RecordSectionError, Section, read
 from ogacq.record.sections import RecordMachine
+from ogacq.report.cells import Fallback
 from ogacq.report.diagnosis_view import DiagnosisView
 from ogacq.session.convert import session_machine
 from ogacq.session.identification import recorded_identification
@@ -53,8 +54,9 @@ from ogacq.session.store import LoadedSession
 
 POSTURE_OF_SIGN = {"+": "max", "-": "min"}
 # how a campaign that did not finish ended, in words
-UNFINISHED_WORDS = {"stopped": "stopped before its end", "interrupted": "was interrupted",
-                    "incomplete": "did not finish (no end record)"}
+UNFINISHED_WORDS = Fallback({"stopped": "stopped before its end",
+                             "interrupted": "was interrupted",
+                             "incomplete": "did not finish (no end record)"}, str)
 S = TypeVar("S", bound=Section)
 
 
@@ -210,6 +212,7 @@ def _header_section(session: LoadedSession, cls: type[S], key: str,
 def provenance(session: LoadedSession) -> Provenance:
     h = session.header
     station = _header_section(session, StationSummary, "station", h.station) or StationSummary()
+    machine = _header_section(session, RecordMachine, "machine", h.machine) or RecordMachine()
     described: list[tuple[str, str]] = []
     if isinstance(station.controller, dict):
         described.append(("axis controller", _describe(station.controller)))
@@ -226,7 +229,7 @@ def provenance(session: LoadedSession) -> Provenance:
     return Provenance(
         session_path=str(session.path), software=h.software or "unknown",
         created=h.created or "unknown",
-        machine=dict(h.machine or {}), machine_name=RecordMachine.from_json(h.machine).name,
+        machine=dict(h.machine or {}), machine_name=machine.name,
         machine_file=h.machine_file,
         campaign_file=h.campaign_file, station=tuple(described),
         simulated=bool(station.simulated) or simulator is not None,
@@ -369,7 +372,7 @@ def status_notes(status: CampaignStatus, what: str = "campaign") -> list[str]:
     if not status.complete:
         planned = f" of {status.planned} planned" if status.planned else ""
         why = f" ({status.reason})" if status.reason else ""
-        state = UNFINISHED_WORDS.get(status.status, status.status)
+        state = UNFINISHED_WORDS[status.status]
         notes.append(f"This {what} {state}{why}: {status.readings} readings{planned}. "
                      "Everything below comes from the readings on file only; legs or "
                      "postures that were not read cannot show.")

@@ -21,9 +21,12 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from ogacq.io.declared import Finite
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES
 from ogacq.model.units import UM_PER_MM
+from ogacq.record.declared import Section, read
+from ogacq.report.cells import Fallback
 from ogacq.report.data import (
     DeviationRow,
     FitSummary,
@@ -31,14 +34,14 @@ from ogacq.report.data import (
     ParameterRow,
     ResidualSeries,
 )
-from ogacq.report.diagnosis_view import LegProfileView
+from ogacq.report.diagnosis_view import LegProfile
 from ogacq.report.formatting import finite
 from ogacq.uncertainty.reporting import headline, two_digits
 
 if TYPE_CHECKING:
     from matplotlib.typing import RcKeyType  # read by the type checker only
 
-LEG_COLOUR = {"x": "#D55E00", "y": "#009E73", "z": "#0072B2"}
+LEG_COLOUR = Fallback({"x": "#D55E00", "y": "#009E73", "z": "#0072B2"}, lambda _: "black")
 LEG_MARKER = {"x": "o", "y": "s", "z": "^"}
 BEFORE_COLOUR = "#5d6d7e"
 PREDICTED_COLOUR = "#E69F00"
@@ -48,6 +51,13 @@ DPI = 110
 STYLE: dict[RcKeyType, Any] = {"font.size": 10, "axes.titlesize": 11, "axes.labelsize": 10,
                                 "figure.titlesize": 12, "legend.fontsize": 9,
                                 "axes.spines.top": False, "axes.spines.right": False}
+
+
+@dataclass(frozen=True)
+class MapShape(Section):
+    """An error map's ``extra``: a cyclic map's pitch (``ogacq.model.families.cyclic``)."""
+
+    pitch_mm: Finite | None = None
 
 
 @dataclass(frozen=True)
@@ -220,7 +230,7 @@ def _leg_spans(ax: Axes, series: ResidualSeries, names: bool = True) -> None:
                 ax.text((series.number[start] + series.number[k - 1]) / 2, 1.0,
                         f"{legs[start]} leg", transform=ax.get_xaxis_transform(),
                         ha="center", va="bottom", fontsize=9,
-                        color=LEG_COLOUR.get(legs[start], "black"))
+                        color=LEG_COLOUR[legs[start]])
             start = k
 
 
@@ -395,8 +405,8 @@ def maps_figure(maps: Sequence[AxisMap]) -> Figure:
             q = np.array(m.positions_mm)
             fwd, rev = np.array(m.forward_mm), np.array(m.reverse_mm)
             u_f, u_r = np.array(m.u_forward_mm), np.array(m.u_reverse_mm)
-            colour = LEG_COLOUR.get(m.axis, "black")
-            pitch = m.extra.get("pitch_mm") if isinstance(m.extra, dict) else None
+            colour = LEG_COLOUR[m.axis]
+            pitch = read(MapShape, m.extra, f"maps.{m.axis}.extra").pitch_mm
             lo = m.reference_mm if pitch and q[0] <= m.reference_mm <= q[-1] - 2 * pitch \
                 else q[0]
             span = 2 * pitch if pitch else (q[-1] - q[0]) / 4
@@ -422,7 +432,7 @@ def maps_figure(maps: Sequence[AxisMap]) -> Figure:
     return fig
 
 
-def profiles_figure(profiles: Sequence[LegProfileView], noise_mm: float) -> Figure:
+def profiles_figure(profiles: Sequence[LegProfile], noise_mm: float) -> Figure:
     """Residuals along each scanned leg's joint coordinate, each gauge's mean per
     position, with the joint offsets only and with the effects found."""
     with matplotlib.rc_context(STYLE):
@@ -430,13 +440,15 @@ def profiles_figure(profiles: Sequence[LegProfileView], noise_mm: float) -> Figu
         fig = Figure(figsize=(10, 0.8 + 2.4 * rows), layout="constrained")
         axes = fig.subplots(rows, 2, squeeze=False, sharey=True)
         for (before, after), p in zip(axes, profiles, strict=True):
-            q = np.array(p.q_mm)
-            for ax, series, title in ((before, p.before_um, "joint offsets only"),
-                                      (after, p.after_um, "with the effects found")):
+            q = np.array(p.q_mm, dtype=float)  # an empty bin (null) as NaN
+            for ax, series, title in (
+                    (before, {g: v.before_um for g, v in p.gauges.items()}, "joint offsets only"),
+                    (after, {g: v.after_um for g, v in p.gauges.items()},
+                     "with the effects found")):
                 _band(ax, noise_mm, UM_PER_MM, "gauge noise ±2σ")
                 for gauge, values in series.items():
-                    ax.plot(q, np.array(values), lw=0.9, marker=".", ms=2,
-                            color=LEG_COLOUR.get(gauge.split("_")[0], "black"),
+                    ax.plot(q, np.array(values, dtype=float), lw=0.9, marker=".", ms=2,
+                            color=LEG_COLOUR[gauge.split("_")[0]],
                             alpha=0.85, label=f"gauge {gauge}")
                 ax.axhline(0, color="black", lw=0.6)
                 ax.set_title(f"{p.leg} leg: {title}", loc="left")

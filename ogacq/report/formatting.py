@@ -1,6 +1,5 @@
-"""Numbers as a person reads them: a parameter's headline is its value with the
-expanded uncertainty of the record (``ogacq.uncertainty.reporting``, the one rule);
-a detail (a diagnosis's effect) by the same rule, its std in place of U."""
+"""Numbers as a person reads them; a detail (a diagnosis's effect) by the rule of
+``ogacq.uncertainty.reporting``, its std in place of U."""
 
 from __future__ import annotations
 
@@ -8,12 +7,7 @@ import math
 from typing import TypeGuard
 
 from ogacq.model.units import UM_PER_MM
-from ogacq.uncertainty.reporting import (  # the console's rule too
-    expanded_mm,
-    measure,
-    result_entry,
-    result_headline,
-)
+from ogacq.uncertainty.reporting import measure  # the console's rule too
 
 
 def finite(x: float | None) -> TypeGuard[float]:
@@ -43,6 +37,4 @@ def duration(seconds: float | None) -> str:
     return f"{minutes} min {secs:02d} s" if minutes else f"{secs} s"
 
 
-
-__all__ = ["UM_PER_MM", "duration", "expanded_mm", "finite", "measure",
-           "plain", "result_entry", "result_headline", "signed", "um"]
+__all__ = ["UM_PER_MM", "duration", "finite", "measure", "plain", "signed", "um"]

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import base64
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from typing import Any, NamedTuple
 
 import jinja2
@@ -19,7 +20,8 @@ from ogacq.identify.consistency import format_p
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.declared import written
-from ogacq.report.cells import Badge, Cell, Lines, Table
+from ogacq.record.sections import ResultEntry
+from ogacq.report.cells import Badge, Cell, Fallback, Lines, Table, kinds, spaced
 from ogacq.report.cells import table as _table
 from ogacq.report.data import FitSummary, ParameterRow, ReportData, status_notes
 from ogacq.report.diagnosis_view import DiagnosisView, EffectFound
@@ -29,11 +31,17 @@ from ogacq.report.formatting import (
     finite,
     measure,
     plain,
-    result_headline,
     signed,
     um,
 )
-from ogacq.report.record_view import css_string, record_view, revision_label, shown
+from ogacq.report.record_view import (
+    by_name,
+    css_string,
+    entry_headline,
+    record_view,
+    revision_label,
+    shown,
+)
 from ogacq.session.state import CampaignStatus
 from ogacq.uncertainty.reporting import two_digits
 
@@ -64,15 +72,14 @@ def status_badge(status: CampaignStatus) -> Badge:
     return Badge(f"campaign {status.status}", "bad" if status.status == "stopped" else "warn")
 
 
-def session_notes(record: Mapping[str, Any]) -> list[str]:
+def session_notes(record: CalibrationRecord) -> list[str]:
     """What the record says about its session before anything else: partial (the
     campaign did not finish), edited (accepted as it stands), an older format."""
     from ogacq.session.seal import Integrity
 
-    typed = CalibrationRecord.from_json(record)
-    session = typed.session_file
+    session = record.session_file
     edited = tuple((e.line or 0, str(e.problem)) for e in session.edited)
-    partial = typed.campaign_section.partial
+    partial = record.campaign_section.partial
     notes = [partial] if partial else []
     return notes + Integrity(session.integrity or "sealed", edited).notes()
 
@@ -80,20 +87,20 @@ def session_notes(record: Mapping[str, Any]) -> list[str]:
 def recorded_verdict(record: CalibrationRecord) -> tuple[str, str]:
     """The record's verdict (``verdict``: the one consistency test's, as every command
     states it): its state and its sentence; undetermined without one."""
-    verdict = record.verdict_read
+    verdict = record.verdict_section
     if verdict is None:
         return "undetermined", ""
     return verdict.state or "undetermined", verdict.text or ""
 
 
-VERDICT_KIND = {"consistent": "ok", "inconsistent": "bad"}  # the badge of a verdict's state
+VERDICT_KIND = kinds({"consistent": "ok", "inconsistent": "bad"})  # a verdict's state's badge
 
 
 def misfit_sentence(verdict: tuple[str, str]) -> tuple[str, str]:
     """(badge kind, sentence): the record's verdict (``recorded_verdict``) and what it
     means for the offsets."""
     state, text = verdict
-    kind = VERDICT_KIND.get(state, "info")
+    kind = VERDICT_KIND[state]
     meaning = {"ok": "the joint offsets explain the readings.",
                "bad": "the model leaves something out, so the offsets alone will not make "
                       "the machine accurate (see the diagnosis).",
@@ -122,30 +129,33 @@ def diagnosis_sentence(d: DiagnosisView) -> tuple[str, str]:
                    f"sits at {d.unexplained_where or '?'}")
 
 
-def _offsets_inline(fit: FitSummary, results: Mapping[str, Any] | None,
+def _offsets_inline(fit: FitSummary, results: Mapping[str, ResultEntry],
                     ) -> list[tuple[str, str]]:
     """``x +0.0347 ± 0.0035 mm (k = 2)``: each offset's headline, its U the record's."""
     return [(p.name.split(".")[-1], _headline(p, results)) for p in fit.parameters]
 
 
-def _headline(p: ParameterRow, results: Mapping[str, Any] | None) -> str:
+def _headline(p: ParameterRow, results: Mapping[str, ResultEntry]) -> str:
+    """The parameter's value as identified, its U the record's."""
     if not finite(p.std):
         return "not determined"
-    return str(result_headline(results, p.name, p.value, p.unit))
+    recorded = results[p.name] if p.name in results else ResultEntry()
+    return str(entry_headline(replace(recorded, value_mm=p.value), p.unit))
 
 
-MACHINE_WORDS = {"leg_length_mm": ("leg length", "mm"), "rho_min_mm": ("Min posture", "mm"),
-                 "rho_max_mm": ("Max posture", "mm"),
-                 "gauge_resolution_mm": ("gauge resolution", "mm"),
-                 "gauge_repeatability_mm": ("gauge repeatability", "mm"),
-                 "leg_expansion_ppm_per_k": ("legs' expansion", "ppm/K")}
+MACHINE_WORDS = Fallback({"leg_length_mm": ("leg length", "mm"),
+                          "rho_min_mm": ("Min posture", "mm"), "rho_max_mm": ("Max posture", "mm"),
+                          "gauge_resolution_mm": ("gauge resolution", "mm"),
+                          "gauge_repeatability_mm": ("gauge repeatability", "mm"),
+                          "leg_expansion_ppm_per_k": ("legs' expansion", "ppm/K")},
+                         lambda key: (spaced(key), ""))
 
 
 def machine_words(machine: dict) -> str:
     """``leg length 310.25 mm, Min posture -100.0 mm, ...``; unknown keys as they are."""
     parts = []
     for key, value in machine.items():
-        words, unit = MACHINE_WORDS.get(key, (key.replace("_", " "), ""))
+        words, unit = MACHINE_WORDS[key]
         if isinstance(value, dict):  # a table of the machine file ([tolerances])
             parts.append(f"{words} ({shown(value)})")
         else:
@@ -186,11 +196,12 @@ def _parameters(fit: FitSummary, validation: FitSummary | None,
     header += ["remaining after write-back (validation)"] if validation else []
     rows: list[list[Cell]] = []
     for p in fit.parameters:
-        row: list[Cell] = [p.name, _headline(p, record.results),
+        row: list[Cell] = [p.name, _headline(p, by_name(record.result_entries)),
                            f"{two_digits(p.std)} {p.unit}" if finite(p.std) else "-"]
         if validation is not None:
             other = validation.row(p.name)
-            row.append(_headline(other, record.validation_results) if other else "-")
+            row.append(_headline(other, by_name(record.validation_result_entries))
+                       if other else "-")
         rows.append(row)
     return _table(header, rows, [False, True, True] + ([True] if validation else []))
 
@@ -216,9 +227,9 @@ def _identifiability(fit: FitSummary) -> Table:
 
 
 def _effect_row(e: EffectFound) -> list[Cell]:
-    value = ("-" if e.value is None else measure(e.value, e.std, e.unit))
+    value = ("-" if e.value is None else measure(e.value, e.std, e.unit or "-"))
     if e.alternatives:
-        alternatives = ("explained equally well by " + ", ".join(e.alternatives)
+        alternatives = ("explained equally well by " + ", ".join(e.alternative_names)
                         + ": not separable with this campaign")
     elif e.unexplained:
         alternatives = "no known effect explains this part of the misfit: look at that gauge"
@@ -249,7 +260,7 @@ def _diagnosis(d: DiagnosisView, fit: FitSummary | None) -> dict[str, Any]:
         "located": None, "effects": None, "offsets_compared": None}
     if d.located and not d.base.consistent:
         out["located"] = _table(["gauge", "leg", "along", "share of the misfit"], [
-            [g.gauge, g.leg, g.gauge_axis, f"{g.share:.0%}"] for g in d.located],
+            [g.gauge, str(g.leg), str(g.gauge_axis), f"{g.share:.0%}"] for g in d.located],
             [False, False, False, True])
     if d.effects:
         ambiguous = any(e.alternatives for e in d.effects)
@@ -279,7 +290,7 @@ def _along_axes(d: DiagnosisView) -> dict[str, Any]:
             continue
         v = d.chi2[key]
         # the p as the verdict's text says it (4.6e-13 there, 4.58e-13 here before)
-        rows.append([title, plain(v.statistic, 1), str(v.dof), format_p(v.p),
+        rows.append([title, plain(v.statistic, 1), str(v.dof or 0), format_p(v.p),
                      Badge("within noise", "ok") if v.consistent
                      else Badge("not within noise", "bad")])
     return {"axes_coverage": list(d.coverage), "proposals": list(d.proposals),
@@ -325,7 +336,7 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
     p = data.provenance
     fit = data.fit
     typed = CalibrationRecord.from_json(record)
-    machine = typed.machine_named.name or p.machine_name or p.machine_file or "machine"
+    machine = typed.machine_section.name or p.machine_name or p.machine_file or "machine"
     validation_fit = data.validation.fit if data.validation is not None else None
     deviations, deviations_after = _deviations(data)
     status = recorded_status(typed, data.faults)
@@ -336,24 +347,24 @@ def render_page(data: ReportData, figures: Sequence[FigureFile],
                  + (" (SIMULATED)" if p.simulated else ""),
         "status": status, "status_badge": status_badge(status), "um": um,
         "notes": status_notes(status) + list(data.notes),
-        "session_notes": session_notes(record),
-        "figures": {f.name.removesuffix(".png"): Figure(base64.b64encode(f.png).decode("ascii"),
-                                                         f.description, f.name)
-                    for f in figures},
+        "session_notes": session_notes(typed),
+        "figures": Fallback[Figure | None]({f.name.removesuffix(".png"): Figure(
+            base64.b64encode(f.png).decode("ascii"), f.description, f.name) for f in figures},
+            lambda _: None),
         "deviations": deviations, "deviations_after": deviations_after,
         "validation_fit": validation_fit,
         "provenance": _provenance(data)}
     if fit is not None:
         kind, sentence = misfit_sentence(recorded_verdict(typed))
-        context |= {"offsets": _offsets_inline(fit, typed.results),
+        context |= {"offsets": _offsets_inline(fit, by_name(typed.result_entries)),
                     "fit_badge": _fit_badge(kind),
                     "fit_sentence": sentence,
                     "glance_condition": f"{fit.condition_number:.3g}",
                     "parameters": _parameters(fit, validation_fit, typed),
                     "residuals": _residuals(fit), "identifiability": _identifiability(fit)}
     if validation_fit is not None:
-        context["validation_offsets"] = _offsets_inline(validation_fit,
-                                                        typed.validation_results)
+        context["validation_offsets"] = _offsets_inline(
+            validation_fit, by_name(typed.validation_result_entries))
     if data.diagnosis is not None:
         context |= _diagnosis(data.diagnosis, fit)
     return _TEMPLATES.get_template("report.html.j2").render(context)

@@ -41,7 +41,7 @@ class NoBrowser(PrintError):
 def find_browser() -> str:
     """The Chromium to print with: ``$OGACQ_BROWSER``, else the first of
     :data:`BROWSER_NAMES` on the PATH; PrintError naming what was looked for."""
-    named = os.environ.get(BROWSER_ENV)
+    named = os.getenv(BROWSER_ENV)
     if named:
         found = shutil.which(named)
         if found is None:

@@ -25,16 +25,15 @@ from ogacq.identify.consistency import format_p
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.compensation import Iso230Stages, TableExported
 from ogacq.record.declared import written
-from ogacq.record.declared_sections import SessionFile
-from ogacq.record.sections import ResultEntry
-from ogacq.report.cells import Badge, Cell, Lines, Table, table
-from ogacq.uncertainty.reporting import entry_headline, rounded, two_digits
+from ogacq.record.sections import NamedResult, ResultEntry, SessionFile, named_results
+from ogacq.report.cells import Badge, Cell, Fallback, Lines, Table, kinds, spaced, table
+from ogacq.uncertainty.reporting import Headline, headline, rounded, two_digits
 
 NOT_RECORDED = "not recorded"
 NOT_EVALUATED = "not evaluated"
 
 # Column and row names for the record's keys; other keys read with spaces for "_".
-WORDS = {
+WORDS = Fallback({
     "value_mm": "value (mm)", "std_mm": "fit std (mm)", "u_mm": "u (mm)",
     "U_mm": "U (mm)", "k": "k", "u_input": "input u", "ambient_c": "ambient (°C)",
     "machine_c": "machine (°C)", "uncertainty_mm": "certificate U (mm)",
@@ -51,18 +50,19 @@ WORDS = {
     "u_c_mm": "budget u_c (mm)", "mean_mm": "mean (mm)", "interval_95_mm": "95 % interval (mm)",
     "ratio": "u / u_c", "agrees_within_10_percent": "agrees within 10 %",
     "converged_fraction": "converged fraction", "seconds": "time (s)",
-}
-VERDICT_WORDS = {"p": "combined p (overall and worst cell, Bonferroni)",
-                 "p_overall": "overall p", "p_worst_cell": "worst cell's p (over the cells)",
-                 "worst_cell": "worst cell"}
+}, spaced)
+VERDICT_WORDS = Fallback({"p": "combined p (overall and worst cell, Bonferroni)",
+                          "p_overall": "overall p",
+                          "p_worst_cell": "worst cell's p (over the cells)",
+                          "worst_cell": "worst cell"}, str)
 # A null that is not an unknown: degrees of freedom of a type B input are infinite
 # (JCGM 100:2008 G.4.2), and the uncertainty package writes them as null.
 NULL_WORDS = {"dof": "∞", "dof_eff": "∞"}
-DECISION_KIND = {"pass": "ok", "fail": "bad", "undecided": "warn"}
+DECISION_KIND = kinds({"pass": "ok", "fail": "bad", "undecided": "warn"})
 
 
 def words(key: str) -> str:
-    return WORDS.get(key, key.replace("_", " "))
+    return WORDS[key]
 
 
 def shown(value: Any, empty: str = NOT_RECORDED) -> str:
@@ -95,7 +95,7 @@ def signed_shown(value: Any, empty: str = NOT_EVALUATED) -> str:
 
 def decision_badge(decision: Any) -> Badge:
     text = shown(decision, NOT_EVALUATED)
-    return Badge(text, DECISION_KIND.get(text, "info"))
+    return Badge(text, DECISION_KIND[text])
 
 
 def rows_table(rows: Sequence[Mapping[str, Any]], empty: str = NOT_RECORDED,
@@ -115,7 +115,9 @@ def cell(key: str, value: Any, empty: str) -> Cell:
     """One value of a table; a decision as its badge."""
     if key == "decision":
         return decision_badge(value)
-    return shown(value, NULL_WORDS.get(key, empty))
+    if key in NULL_WORDS:
+        return shown(value, NULL_WORDS[key])
+    return shown(value, empty)
 
 
 def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
@@ -126,7 +128,7 @@ def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
 # --- the sections -------------------------------------------------------------------------
 
 def identification(record: CalibrationRecord) -> Table:
-    machine = record.machine_named
+    machine = record.machine_section
     campaign = record.campaign_section
     session = record.session_file
     planned = f" of {shown(campaign.planned)} planned" if campaign.planned else ""
@@ -187,10 +189,10 @@ def _revision_rows(record: CalibrationRecord) -> list[list[Cell]]:
 
 
 # How a session vouches for its records (ogacq.session.seal), in a reader's words.
-INTEGRITY_WORDS = {
+INTEGRITY_WORDS = Fallback({
     "sealed": "every record numbered, checksummed and chained to the one before",
     "unchecked": "written before ogacq checksummed its records: an edit cannot be found",
-}
+}, lambda _: "")
 
 
 def _integrity_rows(what: str, session: SessionFile) -> list[list[Cell]]:
@@ -199,7 +201,7 @@ def _integrity_rows(what: str, session: SessionFile) -> list[list[Cell]]:
         return []
     mode = session.integrity
     rows: list[list[Cell]] = [[f"{what} integrity",
-                               f"{shown(mode)}: {INTEGRITY_WORDS.get(str(mode), '')}"]]
+                               f"{shown(mode)}: {INTEGRITY_WORDS[str(mode)]}"]]
     rows += [[f"{what} edited record", f"line {shown(e.line)}: {shown(e.problem)} "
                                        "(accepted as it stands, --accept-edited)"]
              for e in session.edited]
@@ -237,13 +239,11 @@ def instruments(record: CalibrationRecord) -> Table | None:
 
 
 def environment(record: CalibrationRecord) -> Table | None:
-    found = record.environment
+    found = record.environment_stages
     if not found:
         return None
-    if all(isinstance(v, Mapping) or v is None for v in found.values()):
-        stages = [{"stage": stage, **(values or {})} for stage, values in found.items()]
-        return rows_table(stages, first=("stage",))
-    return pairs_table(found)
+    return rows_table([{"stage": stage, **(written(values) if values else {})}
+                       for stage, values in found.items()], first=("stage",))
 
 
 def method(record: CalibrationRecord) -> Table:
@@ -288,24 +288,34 @@ HEADLINE_KEYS = ("value_mm", "U_mm", "k", "unit")
 DETAIL_KEYS = ("u_mm", "std_mm", "dof_eff")
 
 
-def results(entries: Sequence[ResultEntry]) -> Table | None:
+def results(entries: Sequence[NamedResult]) -> Table | None:
     """One row per parameter of ``results`` (or ``validation_results``)."""
     if not entries:
         return None
-    extra = list(dict.fromkeys(k for r in entries for k in r.fields
+    each = [(n.name, n.entry, written(n.entry)) for n in entries]
+    extra = list(dict.fromkeys(k for _, _, fields in each for k in fields
                                if k not in HEADLINE_KEYS + DETAIL_KEYS))
     rows: list[list[Cell]] = []
-    for r in entries:
-        rows.append([r.name, str(entry_headline(r.fields)),
+    for name, r, fields in each:
+        rows.append([name, str(entry_headline(r)),
                      two_digits(r.u_mm) if r.u_mm is not None else NOT_EVALUATED,
                      two_digits(r.std_mm) if r.std_mm is not None else "not determined",
                      _dof(r.dof_eff, r.u_mm)]
                     + [_extra_cell(k, v, r.U_mm)
-                       for k, v in (dict.fromkeys(extra) | dict(r.fields)).items()
-                       if k in extra])
+                       for k, v in (dict.fromkeys(extra) | fields).items() if k in extra])
     header = ["parameter", "value ± U", "u (mm)", "fit std (mm)", "effective dof"]
     return table(header + [words(k) for k in extra], rows,
                  [False, True, True, True, True] + [False] * len(extra))
+
+
+def entry_headline(entry: ResultEntry, unit: str = "mm") -> Headline:
+    """The headline of one parameter of the record's ``results`` (value ± U, k)."""
+    return headline(entry.value_mm, entry.U_mm, entry.k, entry.unit or unit,
+                    complete=entry.complete is not False)
+
+
+def by_name(entries: Sequence[NamedResult]) -> dict[str, ResultEntry]:
+    return {n.name: n.entry for n in entries}
 
 
 def _extra_cell(key: str, value: Any, U_mm: float | None) -> Cell:
@@ -323,16 +333,16 @@ def _dof(dof: float | None, u: float | None) -> str:
 
 
 def verdict(record: CalibrationRecord) -> Table | None:
-    found = record.verdict_read
+    found = record.verdict_section
     if found is None:
         return None
     # the verdict's p combines the overall test and the worst cell (Bonferroni): said
     # so, and each p named (p_combined repeats p: shown once)
     # a p-value as the terminal says it (3 digits, 2.8e-16; not 0.00000000000000028),
     # the misfit per dof too (its text's "per dof 532", not 532.2801 beside it)
-    shown = {VERDICT_WORDS.get(k, k): format_p(v) if _is_p(k, v)
+    shown = {VERDICT_WORDS[k]: format_p(v) if _is_p(k, v)
              else f"{v:.3g}" if k == "chi2_dof" and isinstance(v, float) else v
-             for k, v in found.fields.items() if k != "p_combined"}
+             for k, v in written(found).items() if k != "p_combined"}
     return pairs_table(shown, NOT_EVALUATED)
 
 
@@ -342,7 +352,7 @@ def _is_p(key: str, value: Any) -> bool:
 
 
 def acceptance(record: CalibrationRecord) -> dict[str, Any]:
-    found = record.acceptance_read
+    found = record.acceptance_section
     stages = []
     for stage, title in ((found.as_found, "As found (this campaign)"),
                          (found.as_left, "As left (after the write-back)")):
@@ -350,8 +360,8 @@ def acceptance(record: CalibrationRecord) -> dict[str, Any]:
         stages.append({"title": title, "badge": decision_badge(stage.decision),
                        "why": stage.why,
                        "table": rows_table(rows, NOT_EVALUATED) if rows else None,
-                       "others": pairs_table(stage.others, NOT_EVALUATED)
-                       if stage.others else None})
+                       "others": pairs_table(stage.extra, NOT_EVALUATED)
+                       if stage.extra else None})
     return {"rule": shown(found.rule), "stages": stages}
 
 
@@ -372,22 +382,9 @@ def budget(record: CalibrationRecord) -> list[tuple[str, Table]]:
     found = record.budget_rows
     first = ("source", "type", "distribution", "u_input", "unit", "sensitivity", "u_mm",
              "evaluated")
-    return [(name, rows_table([_budget_row(written(r)) for r in rows], NOT_EVALUATED, first))
+    return [(name, rows_table([{k: _figure(k, v) for k, v in written(r).items()}
+                               for r in rows], NOT_EVALUATED, first))
             for name, rows in found.items()]
-
-
-def _budget_row(row: dict[str, Any]) -> dict[str, Any]:
-    """A budget row as a person reads it: each uncertainty (the input's u, the
-    contribution u) to two significant digits, as u_c and U are (JCGM 100:2008 7.2.6),
-    the sensitivity to three (enough to give the contribution's two); the page printed
-    "0.000288675 mm" and "1.110040519". record.json keeps every digit."""
-    def one(key: str, value: Any) -> Any:
-        if key in ("u_input", "u_mm") and isinstance(value, float):
-            return two_digits(value)
-        if key == "sensitivity" and isinstance(value, float):
-            return f"{value:.3g}"
-        return value
-    return {key: one(key, value) for key, value in row.items()}
 
 
 def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
@@ -397,7 +394,10 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
         return None
     scalars = {k: v for k, v in found.items() if not isinstance(v, Mapping)}
     u_c = next((v for k, v in found.items() if k == "u_c_mm" and isinstance(v, Mapping)), {})
-    per = {k: _check_figures(k, v, u_c) for k, v in found.items() if isinstance(v, Mapping)}
+    u_floats = Fallback[float | None]({n: u for n, u in u_c.items() if isinstance(u, float)},
+                                      lambda _: None)
+    per = {k: {n: _figure(k, v, u_floats[n]) for n, v in values.items()}
+           for k, values in found.items() if isinstance(values, Mapping)}
     names = list(dict.fromkeys(n for values in per.values() for n in values))
     # a parameter a figure lacks: None, "not evaluated"
     filled = [dict.fromkeys(names) | dict(values) for values in per.values()]
@@ -408,41 +408,40 @@ def monte_carlo(record: CalibrationRecord) -> tuple[Table, Table] | None:
                   [False] + [True] * len(per)))
 
 
-def _check_figures(key: str, values: Mapping[str, Any], u_c: Mapping[str, Any],
-                   ) -> dict[str, Any]:
-    """One figure of the Monte-Carlo check per parameter, rounded as the budget's are:
-    a u to two significant digits, the mean and the interval's ends at the decimal
-    place of the budget's u_c, the ratio to two decimals (judged against 10 %); the page
-    printed nine digits of each. record.json keeps every digit."""
-    def one(name: str, value: Any) -> Any:
-        if key in ("u_mm", "u_c_mm") and isinstance(value, float):
-            return two_digits(value)
-        if key == "ratio" and isinstance(value, float):
-            return f"{value:.2f}"
-        if key.startswith(("mean", "interval")) and name in u_floats:
-            ends = value if isinstance(value, list | tuple) else [value]
-            return ", ".join(rounded(v, u_floats[name], sign=key.startswith("mean"))
-                             for v in ends)
-        return value
-    u_floats = {name: u for name, u in u_c.items() if isinstance(u, float)}
-    return {name: one(name, value) for name, value in values.items()}
+PLACES = {"sensitivity": ".3g", "ratio": ".2f"}
+
+
+def _figure(key: str, value: Any, u_c: float | None = None) -> Any:
+    """A figure of the budget or of the Monte-Carlo check as a person reads it: an
+    uncertainty (the input's u, a contribution, u_c) to two significant digits, as U is
+    (JCGM 100:2008 7.2.6); a sensitivity to three (enough to give the contribution's
+    two); the check's ratio to two decimals (judged against 10 %), its mean and its
+    interval's ends at the decimal place of the budget's u_c. The page printed
+    "0.000288675 mm" and "1.110040519"; record.json keeps every digit."""
+    if key in ("u_input", "u_mm", "u_c_mm") and isinstance(value, float):
+        return two_digits(value)
+    if key in PLACES and isinstance(value, float):
+        return f"{value:{PLACES[key]}}"
+    if key.startswith(("mean", "interval")) and u_c is not None:
+        ends = value if isinstance(value, list | tuple) else [value]
+        return ", ".join(rounded(v, u_c, sign=key.startswith("mean")) for v in ends)
+    return value
 
 
 def history(record: CalibrationRecord) -> Table | None:
     found = record.history_entries
     if not found:
         return None
-    names = list(dict.fromkeys(r.name for e in found for r in e.results))
+    each = [(e, {r.name: r.entry for r in named_results(e.results)}) for e in found]
+    names = list(dict.fromkeys(n for _, results in each for n in results))
     rows: list[list[Cell]] = []
     units = {n: parameter_unit(n) for n in names}  # as the figure beside it draws them
-    for entry in found:
+    for entry, results in each:
         row: list[Cell] = [shown(entry.id), shown(entry.date)]
-        by_name: dict[str, ResultEntry | None] = dict.fromkeys(names)
-        by_name |= {r.name: r for r in entry.results}
         for name in names:
-            r = by_name[name]
-            line = entry_headline(r.fields if r is not None else None, units[name])
-            row.append("-" if r is None or not r.fields
+            line = entry_headline(results[name], units[name]) \
+                if name in results and written(results[name]) else None
+            row.append("-" if line is None
                        else f"{line.value} ± {line.U}" if line.U else line.value)
         rows.append(row)
     return table(["record", "date"] + [f"{n} ({units[n]}) ± U (k = 2)" for n in names],
@@ -460,7 +459,7 @@ def overrides(record: CalibrationRecord) -> Table | None:
 def writebacks(record: CalibrationRecord) -> list[dict[str, Any]]:
     out = []
     for w in record.writeback_entries:
-        kind = WRITE_KIND.get(str(w.status), "warn")
+        kind = WRITE_KIND[str(w.status)]
         axes = sorted({*w.old_mm, *w.new_mm})
         old, new = dict.fromkeys(axes) | w.old_mm, dict.fromkeys(axes) | w.new_mm
         out.append({
@@ -472,11 +471,8 @@ def writebacks(record: CalibrationRecord) -> list[dict[str, Any]]:
     return out
 
 
-WRITE_KIND = {"done": "ok", "failed": "bad"}
-
-
-
-OUTCOME_KIND = {"validated": "ok", "improved": "warn", "restored": "bad"}
+WRITE_KIND = kinds({"done": "ok", "failed": "bad"}, "warn")
+OUTCOME_KIND = kinds({"validated": "ok", "improved": "warn", "restored": "bad"})
 ISO230_FIGURES = ("A", "B", "R", "E", "M")  # ISO 230-2:2014 clause 3, per axis
 
 
@@ -492,8 +488,7 @@ def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
                        [[a, shown(m.source), shown(m.checksum)]
                         for a, m in sorted(comp.maps.items())]) if comp.maps else None
     figures = _iso230_table(comp.iso230_2)
-    return {"badge": Badge(f"calibrate {outcome}",
-                           OUTCOME_KIND.get(outcome, "info")),
+    return {"badge": Badge(f"calibrate {outcome}", OUTCOME_KIND[outcome]),
             "procedure": shown(comp.procedure), "reason": shown(comp.reason, ""),
             "writes": _operations(comp.writes) or "none",
             "restores": _operations(comp.restores),
@@ -536,11 +531,28 @@ def _um(value_mm: Any) -> str:
     return f"{value_mm * 1000:.2f}" if isinstance(value_mm, int | float) else NOT_RECORDED
 
 
+# What the page says of a section the record holds nothing of, where its ``missing``
+# does not say why.
+UNSAID = {"instruments": "no instrument is recorded", "environment": "no temperature is recorded",
+          "results": "nothing was identified", "uncertainty": "no budget",
+          "overrides": "overrides are not recorded", "monte_carlo": "no Monte-Carlo check"}
+
+
+def why_missing(missing: Mapping[str, str]) -> dict[str, str]:
+    """Why each section is empty: the record's reason, else the page's words; the
+    Monte-Carlo check's, the uncertainty's when the record gives none of its own."""
+    check = next((missing[k] for k in ("monte_carlo", "uncertainty") if k in missing),
+                 UNSAID["monte_carlo"])
+    return UNSAID | dict(missing) | {"monte_carlo": check}
+
+
 def record_view(record: CalibrationRecord) -> dict[str, Any]:
     """The template's values for the record's sections."""
-    missing = record.missing or {}
+    missing = record.missing_reasons
     return {
-        "rec": record.to_json(), "identification": identification(record),
+        "rec": record, "revises": record.revises_section,
+        "identification": identification(record), "record_missing": missing,
+        "why_missing": why_missing(missing),
         "missing": [(words(k), v) for k, v in missing.items()],
         "instruments": instruments(record), "environment": environment(record),
         "method": method(record), "results": results(record.result_entries),

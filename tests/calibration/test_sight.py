@@ -108,6 +108,13 @@ def test_two_validations_show_what_either_sees():
     one, other = replace(blank, sight={"y": postures}), replace(blank, sight={"y": scan})
     assert one.merged(other).outcome == "validated"
     assert replace(one, outcome="improved").merged(other).outcome == "improved"
+    # the verdict said with "improved" is the one not within the noise, whichever it is
+    within, beyond = {"text": "within the gauge noise"}, {"text": "not within the noise"}
+    for first, second in ((replace(one, verdict=within),
+                           replace(other, outcome="improved", verdict=beyond)),
+                          (replace(one, outcome="improved", verdict=beyond),
+                           replace(other, verdict=within))):
+        assert first.merged(second).verdict == beyond
     blind = AxisSight("y", 0.004, edges, (0.03, 0.05), 0.0008)
     merged = one.merged(replace(blank, sight={"y": blind}))
     assert merged.outcome == "not shown"

@@ -6,6 +6,10 @@ of tests/cli/test_startup_imports.py."""
 
 from __future__ import annotations
 
+import json
+import subprocess
+import sys
+
 from tests.cli.test_startup_imports import GOLDEN_SESSION, loaded, run
 from tests.history.test_e2e import campaign
 
@@ -28,9 +32,37 @@ def test_diagnose_into_an_sqlite_history_imports_no_postgresql(tmp_path):
     assert not loaded(modules, POSTGRESQL)
 
 
+def test_a_diagnosis_the_history_holds_already_reads_no_write_back_audit(tmp_path):
+    """A finished campaign's diagnosis records no write-back: the audit's readers (and
+    the drives' profiles behind them) are not imported to find it recorded."""
+    history = tmp_path / "h.sqlite"
+    for _ in range(2):
+        modules, _ = run("diagnose", GOLDEN_SESSION, "--history", history, "--json",
+                         env={"OGACQ_HOME": str(tmp_path / "home")})
+    assert loaded(modules, ("ogacq.history.store",))  # it did read the history
+    assert not loaded(modules, ("ogacq.writeback",))
+
+
 def test_a_campaign_run_without_a_history_imports_no_database_layer(tmp_path):
     path = campaign(tmp_path / "c", 0)
     modules, _ = run("run", path, "--history", "none", "--json",
                      env={"OGACQ_HOME": str(tmp_path / "home")})
     assert (tmp_path / "c" / "session.jsonl").is_file()
     assert not loaded(modules, DATABASE)
+
+
+def test_no_command_imports_the_database_layer_before_it_runs():
+    """`ogacq history --help` (and every command's module) loads no SQLAlchemy: the
+    history's types are plain data (``ogacq.history.entries``), its store opened when a
+    history is read or written."""
+    from ogacq.cli.command_table import COMMANDS, LazyGroupSpec
+
+    modules = sorted({target.partition(":")[0] for spec in COMMANDS.values()
+                      for target in (spec.commands.values() if isinstance(spec, LazyGroupSpec)
+                                     else (spec.target,))})
+    probe = (f"import json, sys\nimport {', '.join(modules)}\n"
+             "print(json.dumps(sorted(sys.modules)))")
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                          timeout=120, check=True)
+    assert "ogacq.cli.history_cmd" in json.loads(done.stdout)  # the probe sees them
+    assert not loaded(set(json.loads(done.stdout)), DATABASE)

@@ -1,9 +1,11 @@
 """The calibration record as a type (ogacq.record.calibration_record): record.json read
-and written back exactly, unknown keys and unexpected types included."""
+and written back exactly, unknown keys and unexpected types included; its sections
+read typed, one of another shape refused naming its key."""
 
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -35,48 +37,83 @@ def test_unknown_keys_and_unexpected_types_are_kept_where_they_were():
     assert record.history == [{"id": "OGQ-1"}]
 
 
-HAND_EDITED = {
+EDITED = {
     "format": "ogacq-record/1", "id": "OGQ-20260110-00000001",
-    "machine": {"name": " OG-1 ", "serial": 17},
+    "machine": {"name": " OG-1 ", "serial": "17", "leg_length_mm": 310.25},
     "results": {"joint_offset": {"x": {"value_mm": 0.25, "u_mm": 0.01, "U_mm": 0.02, "k": 2,
                                        "std_mm": None, "note": "edited"},
-                                 "y": "not an entry", "z": {"value_mm": "0.3"}},
-                "broken_group": [1, 2]},
-    "verdict": ["consistent"],  # not an object: kept as written, not read as a verdict
-    "acceptance": {"rule": "guard-band", "as_found": {"decision": "pass", "rows": [3]},
-                   "as_left": "not an object"},
+                                 "z": {"value_mm": None}}},
+    "acceptance": {"rule": "guard-band", "as_found": {"decision": "pass", "rows": [],
+                                                      "rule": "guard-band"}},
+    "environment": {"start": {"ambient_c": 20.5, "machine_c": None}, "end": None},
     "history": [{"id": "OGQ-20250101-00000002", "date": "2025-01-01",
-                 "results": {"joint_offset": {"x": {"value_mm": 0.2, "U_mm": 0.03}}}},
-                "not an entry"],
+                 "results": {"joint_offset": {"x": {"value_mm": 0.2, "U_mm": 0.03}}}}],
 }
 
 
-def test_the_typed_sections_of_a_hand_edited_record():
-    """What is not of the shape the record writes reads as absent, as the readers
-    read it by hand; the rest is read."""
-    record = CalibrationRecord.from_json(HAND_EDITED)
-    assert json.dumps(record.to_json()) == json.dumps(HAND_EDITED)
+def test_the_typed_sections_of_a_record_and_what_they_keep_as_written():
+    record = CalibrationRecord.from_json(EDITED)
+    assert json.dumps(record.to_json()) == json.dumps(EDITED)
     x, z = record.result_entries
-    assert (x.name, x.value_mm, x.u_mm, x.U_mm, x.k, x.std_mm) == (
-        "joint_offset.x", 0.25, 0.01, 0.02, 2.0, None)
-    assert x.fields["note"] == "edited" and (z.name, z.value_mm) == ("joint_offset.z", None)
-    assert record.verdict is None and record.verdict_read is None
-    assert record.as_written("verdict") == ["consistent"]
-    acceptance = record.acceptance_read
-    assert (acceptance.rule, acceptance.as_found.decision, acceptance.as_found.rows) == (
-        "guard-band", "pass", ())
+    assert (x.name, x.entry.value_mm, x.entry.u_mm, x.entry.U_mm, x.entry.k) == (
+        "joint_offset.x", 0.25, 0.01, 0.02, 2)
+    assert x.entry.extra == {"note": "edited"} and (z.name, z.entry.value_mm) == (
+        "joint_offset.z", None)
+    assert record.verdict_section is None
+    acceptance = record.acceptance_section
+    assert (acceptance.rule, acceptance.as_found.decision, acceptance.as_found.extra) == (
+        "guard-band", "pass", {"rule": "guard-band"})
     assert acceptance.as_left.decision is None and acceptance.as_left.rows == ()
     (earlier,) = record.history_entries
-    assert (earlier.id, earlier.date, [r.U_mm for r in earlier.results]) == (
-        "OGQ-20250101-00000002", "2025-01-01", [0.03])
-    assert (record.machine_named.name, record.machine_named.serial) == (" OG-1 ", "17")
-    assert record.validation_reference is None and record.session_reference.path is None
+    assert (earlier.id, earlier.date, earlier.results["joint_offset"]["x"].U_mm) == (
+        "OGQ-20250101-00000002", "2025-01-01", 0.03)
+    assert (record.machine_section.name, record.machine_section.serial) == (" OG-1 ", "17")
+    assert record.machine_section.extra == {"leg_length_mm": 310.25}
+    assert record.environment_stages["start"].ambient_c == 20.5  # type: ignore[union-attr]
+    assert record.validation_session_file is None and record.session_file.path is None
 
 
-def test_the_history_and_the_page_read_a_hand_edited_record():
+# a section of another shape than the record writes (a hand-edited record.json): its key
+SHAPES = [
+    ({"machine": {"name": "OG-1", "serial": 17}}, "machine.serial",
+     "must be text, got a number"),
+    ({"results": {"joint_offset": {"y": "not an entry"}}}, "results.joint_offset.y",
+     "must be an object, got text"),
+    ({"results": {"joint_offset": {"z": {"value_mm": "0.3"}}}}, "results.joint_offset.z.value_mm",
+     "must be a number, got text"),
+    ({"acceptance": {"as_left": "not an object"}}, "acceptance.as_left",
+     "must be an object, got text"),
+    ({"environment": {"start": {"ambient_c": "warm"}}}, "environment.start.ambient_c",
+     "must be a number, got text"),
+    ({"history": ["not an entry"]}, "history[0]", "must be an object, got text"),
+    ({"session": {"records": "12"}}, "session.records", "must be a whole number, got text"),
+]
+
+
+@pytest.mark.parametrize(("edit", "key", "problem"), SHAPES)
+def test_the_history_and_the_page_refuse_a_section_of_another_shape_naming_its_key(
+        edit, key, problem):
+    from ogacq.history.entries import check_record
+    from ogacq.record.declared import RecordSectionError
+    from ogacq.report.record_view import record_view
+
+    record = EDITED | edit
+    assert json.dumps(CalibrationRecord.from_json(record).to_json()) == json.dumps(record)
+    said = f"the calibration record's {key} {problem}"
+    with pytest.raises(RecordSectionError) as raised:
+        record_view(CalibrationRecord.from_json(record))
+    assert str(raised.value).startswith(said) and raised.value.exit_code == 2
+    if key.split(".")[0].split("[")[0] in ("machine", "results", "acceptance", "environment",
+                                          "session"):
+        with pytest.raises(RecordSectionError, match=re.escape(said)):
+            check_record(record)
+
+
+def test_the_history_and_the_page_read_an_edited_record():
     from ogacq.history.entries import (
         RecordError,
         acceptance_decision,
+        ambient_of,
         check_record,
         machine_of,
         parameters_of,
@@ -85,15 +122,15 @@ def test_the_history_and_the_page_read_a_hand_edited_record():
     from ogacq.history.plot import recorded_calibrations
     from ogacq.report.record_view import record_view
 
-    assert check_record(HAND_EDITED) == HAND_EDITED
-    assert machine_of(HAND_EDITED) == ("OG-1", "17")
-    assert [(p.name, p.value_mm, p.expanded_mm) for p in parameters_of(HAND_EDITED)] == [
+    assert check_record(EDITED) == EDITED
+    assert machine_of(EDITED) == ("OG-1", "17")
+    assert [(p.name, p.value_mm, p.expanded_mm) for p in parameters_of(EDITED)] == [
         ("joint_offset.x", 0.25, 0.02)]
-    assert acceptance_decision(HAND_EDITED) == "pass"
-    assert record_columns(HAND_EDITED)["verdict"] == ["consistent"]  # kept as recorded
-    assert [c.record_id for c in recorded_calibrations(HAND_EDITED)] == [
+    assert acceptance_decision(EDITED) == "pass" and ambient_of(EDITED) == 20.5
+    assert record_columns(EDITED)["acceptance"] == EDITED["acceptance"]  # kept as recorded
+    assert [c.record_id for c in recorded_calibrations(EDITED)] == [
         "OGQ-20250101-00000002", "OGQ-20260110-00000001"]
-    view = record_view(CalibrationRecord.from_json(HAND_EDITED))
+    view = record_view(CalibrationRecord.from_json(EDITED))
     assert view["verdict"] is None and view["results"] is not None
     assert view["acceptance"]["stages"][0]["why"] is None
     for edit, message in (({"format": 1}, "not an ogacq-record/1 record (format 1)"),
@@ -101,7 +138,7 @@ def test_the_history_and_the_page_read_a_hand_edited_record():
                           ({"machine": {"name": "  "}},
                            "record OGQ-20260110-00000001 names no machine")):
         with pytest.raises(RecordError) as raised:
-            check_record(HAND_EDITED | edit)
+            check_record(EDITED | edit)
         assert str(raised.value) == message
 
 
