@@ -112,7 +112,7 @@ STARTED, FINISHED = "started", "finished"  # a campaign step's status
 
 
 @dataclass
-class Stopped(Exception):  # noqa: N818 (a round's end, not an error)
+class Stopped(Exception):  # a round's end, not an error
     """A round writes nothing (refused, declined, nothing to correct): why."""
 
     outcome: WriteOutcome
