@@ -174,10 +174,11 @@ def _diagnosis_view(diagnosis: dict[str, Any], source: Path) -> DiagnosisView:
 
 
 def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
-    """``record`` with the ``compensation`` ``ogacq calibrate`` put in an earlier issue
-    of it (the same campaign, the same validation session): only the procedure knows
-    the maps it wrote, so re-issuing its record (``ogacq report ... --pdf`` into its
-    folder) must not drop them (it issued a revision saying "removed compensation")."""
+    """``record`` with the ``compensation`` (and ``axis_scales``) ``ogacq calibrate``
+    put in an earlier issue of it (the same campaign, the same validation session):
+    only the procedure knows the maps it wrote and the scales' tests it judged them by,
+    so re-issuing its record (``ogacq report ... --pdf`` into its folder) must not drop
+    them (it issued a revision saying "removed compensation")."""
     new = CalibrationRecord.from_json(record)
     try:
         old = CalibrationRecord.from_json(json.loads(earlier)) if earlier is not None \
@@ -188,7 +189,8 @@ def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict
             return record
     except (ValueError, TypeError, AttributeError):  # not a record of this version
         return record
-    return {**record, "compensation": dict(old.compensation)}
+    return {**record, "compensation": dict(old.compensation),
+            **({"axis_scales": dict(old.axis_scales)} if old.axis_scales else {})}
 
 
 def _sha(reference: SessionFile | None) -> str | None:
