@@ -31,6 +31,7 @@ from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_dict
 from ogacq.model.parameters import AXES
 from ogacq.protocol.positioning import (
+    SESSION_KIND,
     PositioningPlan,
     PositioningStep,
     session_result,
@@ -48,16 +49,13 @@ from ogacq.session.store import LoadedSession, SessionWriter, check_writable, lo
 if TYPE_CHECKING:
     from ogacq.sim.stack import SimulatorStack
 
-KIND = "positioning"  # the session header's "kind": not a campaign of the legs
-
-
 def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Path, *,
                     simulator: SimulatorStack | None = None,
                     observer: Observer | None = None) -> LoadedSession:
     """Run (or continue) the test ``plan`` into ``session_path``; the finished session.
     Raises CampaignStopped (recorded, resumable) when a device fails."""
     resume = load_session(session_path) if session_path.exists() else None
-    if resume is not None and resume.header.extra.get("kind") != KIND:
+    if resume is not None and resume.header.kind != SESSION_KIND:
         raise InputError(session_path, "is not a positioning test's session")
     if resume is not None and resume.finished:
         return resume
@@ -75,7 +73,7 @@ def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Pat
         station.prepare()
         if maps is not None:  # the identity of the maps every target is corrected with
             station.description["controller"]["maps"] = maps.identity()
-        header = {"kind": KIND, "machine": machine_dict(campaign.machine),
+        header = {"kind": SESSION_KIND, "machine": machine_dict(campaign.machine),
                   "machine_file": str(campaign.machine_path),
                   "campaign_file": str(campaign.path.resolve()),
                   "simulated": station.description["simulated"],
@@ -206,7 +204,7 @@ def positioning_document(session: LoadedSession, drive_step_mm: float) -> dict[s
     raw = session_result(session)
     out: dict[str, Any] = {"session": str(session.path),
                            "simulated": bool(session.header.simulated),
-                           "plan": session.header.extra["positioning"],
+                           "plan": session.header.positioning or {},
         "drive_step_mm": drive_step_mm, **raw.to_json()}
     net = session_result(session, net_of_drive=True)
     if not np.allclose(net.mean_mm, raw.mean_mm, atol=1e-9):

@@ -200,13 +200,21 @@ def _sha(reference: SessionFile | None) -> str | None:
 def check_pair(calibration: LoadedSession, validation: LoadedSession | None) -> None:
     """A campaign's session, and with ``--after`` another one of the same machine run
     after it (its as-left measurement); InputError naming the file otherwise. It took
-    ``ogacq calibrate``'s procedure log as a campaign (refused as partial, exit 4), and
-    the campaign itself or another machine's as its validation."""
+    ``ogacq calibrate``'s procedure log as a campaign (refused as partial, exit 4), an
+    axis's positioning test as a campaign that identified nothing, and the campaign
+    itself or another machine's as its validation."""
+    from ogacq.protocol.positioning import SESSION_KIND
+
     for loaded, what in ((calibration, "SESSION"), (validation, "--after")):
         if loaded is not None and loaded.header.procedure is not None:
             raise InputError(loaded.path, f"is the log of an `ogacq calibrate` procedure, not "
                              f"a campaign's session: give {what} the calibration.jsonl or "
                              "validation.jsonl beside it (its record is in report/)")
+        if loaded is not None and loaded.header.kind == SESSION_KIND:
+            raise InputError(loaded.path, "is an axis's positioning test by its scale (ogacq "
+                             "positioning), not a campaign of the legs: its ISO 230-2 figures "
+                             f"are in {loaded.path.with_suffix('.json').name} beside it; in "
+                             "ogacq calibrate, its record holds them (report/)")
     if validation is None:
         return
     if session_digest(validation)[0] == session_digest(calibration)[0]:

@@ -57,6 +57,7 @@ MOST_TARGETS = 400  # no source: beyond it a typo (a travel in um), refused
 # reversal, "to ensure normal behaviour of the machine"): 2 mm, a few times any lost
 # motion of a ball screw (no source: a choice within the travel's margin).
 OVERRUN_MM = 2.0
+SESSION_KIND = "positioning"  # its session header's "kind": not a campaign of the legs
 SEEDS = 16  # jitters tried per count of targets (as the separating scan's design)
 S_SOURCE = "the scatter of the runs at each target (ISO 230-2's s), the scale's reading"
 
@@ -297,7 +298,7 @@ def session_result(session: LoadedSession, *, net_of_drive: bool = False,
     what is missing)."""
     readings = [ScaleReading(r.run, r.direction, r.target_mm, r.scale_mm, r.meant_mm)
                 for r in session.of_type(PositionRecord)]
-    plan = PositioningPlan.from_json(dict(session.header.extra["positioning"]))
+    plan = PositioningPlan.from_json(dict(session.header.positioning or {}))
     scales = (session.header.station or {}).get("axis_scales") or {}
     step = float((scales.get(plan.axis) or {}).get("resolution_mm") or 0.0)
     return positioning_result(plan.axis, readings, net_of_drive=net_of_drive,

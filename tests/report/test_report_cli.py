@@ -190,7 +190,7 @@ def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tm
 
 
 @pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis",
-                                  "procedure log", "itself after"])
+                                  "procedure log", "positioning test", "itself after"])
 def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
     calibration, _ = sessions
     args: list[object]
@@ -209,6 +209,10 @@ def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
         ProcedureLog.create(tmp_path, {"mode": "simulator"}).close()
         path = tmp_path / "procedure.jsonl"
         args, named = [path], "is the log of an `ogacq calibrate` procedure"
+    elif case == "positioning test":  # ogacq positioning's: reported as nothing identified
+        path = tmp_path / "positioning-x.jsonl"
+        SessionWriter.create(path, {"kind": "positioning", "positioning": {"axis": "x"}}).close()
+        args, named = [path], "is an axis's positioning test by its scale (ogacq positioning)"
     elif case == "itself after":  # the as-found campaign as its own as-left one
         path = tmp_path / "copy.jsonl"
         path.write_bytes(calibration.read_bytes())
