@@ -556,9 +556,9 @@ def _scale_found(found: ScaleFound | None) -> str:
     if found.pitch_mm is None:
         return ("no cyclic error it resolves, though the axis is not flat within the "
                 "scale's noise")
-    return (f"a cyclic error of pitch {shown(found.pitch_mm)} ± "
-            f"{shown(2 * (found.pitch_std_mm or 0.0))} mm (k = 2), amplitude "
-            f"{_um(found.amplitude_mm)} µm: this axis's map")
+    U = 2 * found.pitch_std_mm if found.pitch_std_mm is not None else None
+    return (f"a cyclic error of pitch {rounded(found.pitch_mm, U)} ± {two_digits(U)} mm "
+            f"(k = 2), amplitude {_um(found.amplitude_mm)} µm: this axis's map")
 
 
 def _operations(by_target: Mapping[str, str | None]) -> str:

@@ -333,7 +333,7 @@ def test_calibrate_s_record_issued_again_keeps_its_axis_scales_and_shows_them(se
     text = _text(html).replace("&#39;", "'")
     assert "Positioning of each actuator by its axis scale (ISO 230-2:2014)" in text
     assert "shown: 31 of 31 targets within the map's U and the test's own" in text
-    assert "a cyclic error of pitch 5.001 ± 0.004 mm (k = 2), amplitude 4.10 µm" in text
+    assert "a cyclic error of pitch 5.0010 ± 0.0040 mm (k = 2), amplitude 4.10 µm" in text
     assert _row_numbers(html, "before the write")[:5] == [12.3, 1.1, 2.1, 8.5, 7.9]
     assert _row_numbers(html, "after the write")[:5] == [3.1, 1.0, 2.0, 1.2, 1.1]
     assert "AT-42" in text and "C-9" in text
