@@ -79,8 +79,10 @@ def print_sim(info: dict, campaign: Path | None = None) -> None:
         table.add_row(f"{shown(axis)} axis scale", shown(g["port"]), shown(g["protocol"]))
     console.print(table)
     if campaign is not None:  # what the file is for, while this simulator serves
+        scaled = "".join(f" (or ogacq positioning {shown(campaign)} --axis {shown(axis)})"
+                         for axis in list(info.get("axis_scales", {}))[:1])
         console.print(f"running; Ctrl-C to stop. next, in another terminal: ogacq run "
-                      f"{shown(campaign)}")
+                      f"{shown(campaign)}{scaled}")
     else:
         console.print("running; Ctrl-C to stop")
 

@@ -20,7 +20,7 @@ def test_sim_serves_the_scales_and_its_campaign_file_declares_them(tmp_path):
     sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--axis-scales", "z,x",
                             "--write-campaign", str(campaign)], stdout=subprocess.PIPE,
                            stderr=subprocess.PIPE, text=True, start_new_session=True,
-                           env={**os.environ, "COLUMNS": "200"})
+                           env={**os.environ, "COLUMNS": "1000"})  # one line each
     try:
         served = ""
         while "Ctrl-C" not in served:
@@ -28,6 +28,7 @@ def test_sim_serves_the_scales_and_its_campaign_file_declares_them(tmp_path):
             assert line, sim.stderr.read()
             served += line
         assert "x axis scale" in served and "z axis scale" in served
+        assert f"ogacq positioning {campaign} --axis x" in " ".join(served.split())
         scales = read_campaign(campaign).axis_scales
         assert set(scales) == {"x", "z"} and scales["x"].port != scales["z"].port
         assert scales["x"].port in served and scales["x"].serial == "sim-scale-x"
