@@ -34,7 +34,7 @@ from numpy_floor import OffsetsFloor  # noqa: E402
 
 from ogacq.diagnose.diagnosis import diagnose  # noqa: E402
 from ogacq.identify.fit import fit  # noqa: E402
-from ogacq.identify.noise import noise_for, repeat_groups  # noqa: E402
+from ogacq.identify.noise import noise_for  # noqa: E402
 from ogacq.identify.observations import Observations, readings_observations  # noqa: E402
 from ogacq.model.machine import MachineSpec  # noqa: E402
 from ogacq.model.parameters import PARAM_SETS, vector  # noqa: E402
@@ -63,7 +63,7 @@ def floor_of(obs: Observations) -> OffsetsFloor:
     """The floor's inputs: the layout's arrays and the same noise model's numbers."""
     lay, noise = obs.layout, noise_for(obs)
     return OffsetsFloor(lay.q_mm, lay.leg, lay.gauge_axis, lay.gauge, lay.setting_q_mm,
-                        repeat_groups(obs), obs.values, MACHINE.leg_length_mm,
+                        lay.repeat_group, obs.values, MACHINE.leg_length_mm,
                         noise.within_var, noise.shared_var, noise.variance)
 
 

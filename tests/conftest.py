@@ -2,10 +2,19 @@ import os
 import shutil
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from ogacq.io.machine_file import read_machine
+from tests.balance import (
+    file_totals,
+    for_worker,
+    known_seconds,
+    longest_first,
+    remember,
+    whole_suite,
+)
 
 ROOT = Path(__file__).resolve().parents[1]
 PAPER = ROOT / "ogacq" / "examples" / "paper"
@@ -24,6 +33,28 @@ def pytest_configure(config: pytest.Config) -> None:
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     shutil.rmtree(_SUITE_HOME, ignore_errors=True)
+
+
+# The files longest first (tests/balance.py): both workers busy to the end of a run.
+_durations: list[tuple[str, float]] = []
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    items[:] = longest_first(items, known_seconds(config))
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_configure_node(node: Any) -> None:  # xdist's controller, per worker
+    for_worker(node)
+
+
+def pytest_runtest_logreport(report: pytest.TestReport) -> None:
+    _durations.append((report.nodeid, report.duration))
+
+
+def pytest_sessionfinish(session: pytest.Session, exitstatus: int) -> None:
+    if whole_suite(session.config, exitstatus):
+        remember(session.config, file_totals(_durations))
 
 
 @pytest.fixture(autouse=True)

@@ -148,38 +148,20 @@ class CandidateFits:
     def values(self, k: int) -> np.ndarray:
         return self.theta[k, indices(self.extras[k])]
 
-    @cached_property
-    def _by_size(self) -> list[tuple[np.ndarray, np.ndarray]]:
-        """The candidates grouped by how many parameters they add: (their rows, the
-        positions of their parameters in the full vector (rows, size)), so that a
-        whole batch's values are one gather (a step weighs hundreds of candidates)."""
-        sizes = np.array([len(e) for e in self.extras], dtype=int)
-        out = []
-        for size in dict.fromkeys(sizes.tolist()):
-            rows = np.flatnonzero(sizes == size)
-            at = np.array([[PARAM_INDEX[n] for n in self.extras[k]] for k in rows.tolist()],
-                          dtype=int).reshape(len(rows), size)
-            out.append((rows, at))
-        return out
-
-    def value_tuples(self) -> list[tuple[float, ...]]:
-        """Each candidate's :meth:`values` as Python floats."""
-        out: list[tuple[float, ...]] = [()] * len(self.extras)
-        for rows, at in self._by_size:
-            for k, values in zip(rows.tolist(), self.theta[rows[:, None], at].tolist(),
-                                 strict=True):
-                out[k] = tuple(values)
-        return out
-
     def full_rank(self) -> np.ndarray:
         sizes = np.array([len(self.model) + len(e) for e in self.extras])
         return self.rank == sizes
 
     def plausible(self) -> np.ndarray:
         """Candidates whose fitted values lie within each effect's plausible range:
-        an explanation needing a 20 % gauge gain error is no explanation."""
+        an explanation needing a 20 % gauge gain error is no explanation. The candidates
+        adding as many parameters are judged as one gather (a step weighs hundreds)."""
         out = np.ones(len(self.extras), dtype=bool)
-        for rows, at in self._by_size:
+        sizes = np.array([len(e) for e in self.extras], dtype=int)
+        for size in dict.fromkeys(sizes.tolist()):
+            rows = np.flatnonzero(sizes == size)
+            at = np.array([[PARAM_INDEX[n] for n in self.extras[k]] for k in rows.tolist()],
+                          dtype=int).reshape(len(rows), size)
             within = np.abs(self.theta[rows[:, None], at] - NOMINAL[at]) <= _PLAUSIBLE_RANGE[at]
             out[rows] = within.all(axis=1)
         return out
@@ -202,8 +184,7 @@ class Design:
 
 
 def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
-             candidates: Sequence[Sequence[str]], iterations: int = CHORD_ITERATIONS,
-             jac: Design | None = None) -> CandidateFits:
+             candidates: Sequence[Sequence[str]], jac: Design | None = None) -> CandidateFits:
     """Fit ``model + extra`` for every extra of ``candidates``, each started from
     ``theta_start`` (the model's own solution). ``jac``: the weighted Jacobian at
     ``theta_start`` when the caller already holds one covering the names fitted on every
@@ -232,8 +213,7 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
             rows = np.array([k for k in chosen if len(extras[k]) == size])
             cols = np.array([[space.position[n] for n in model + extras[k]] for k in rows],
                             dtype=int)
-            theta, rss, rank = _chord(space, theta_start, cols,
-                                      np.array([free[k] for k in rows]), iterations)
+            theta, rss, rank = _chord(space, theta_start, cols, np.array([free[k] for k in rows]))
             out.theta[rows], out.rss[rows], out.rank[rows] = theta, rss, rank
     return out
 
@@ -291,7 +271,7 @@ def _along(r: np.ndarray, q: np.ndarray) -> np.ndarray:
 
 
 def _chord(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.ndarray,
-           iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The chord fits of candidates of one size in ``space``, a chunk at a time so
     that the (B, m) arrays stay within ``CHUNK_VALUES`` however long the campaign.
     Each candidate's fit is independent of the others'."""
@@ -302,13 +282,13 @@ def _chord(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.nd
     chunk = max(1, CHUNK_VALUES // max(len(space.q), 1))
     for lo in range(0, batch, chunk):
         part = slice(lo, lo + chunk)
-        theta[part], rss[part], rank[part] = _chord_chunk(
-            space, theta_start, cols[part], free[part], iterations)
+        theta[part], rss[part], rank[part] = _chord_chunk(space, theta_start, cols[part],
+                                                          free[part])
     return theta, rss + space.constant, rank
 
 
 def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free: np.ndarray,
-                 iterations: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Chord Gauss-Newton of a batch in ``space``, every candidate from ``theta_start``."""
     batch, p = cols.shape
     ranges = _PLAUSIBLE_RANGE[free]  # (B, p)
@@ -322,7 +302,7 @@ def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free:
     along = np.repeat(space.start[None], batch, axis=0)  # residuals' coordinates along q
     rss = np.full(batch, space.start_rss)
     moving = np.arange(batch)  # candidates whose last step lowered their cost
-    for iteration in range(iterations):
+    for iteration in range(CHORD_ITERATIONS):
         coef = np.einsum("bkj,bk->bj", u[moving], along[moving]) * inv_s[moving]
         step = np.einsum("bjp,bj->bp", vt[moving], coef) * ranges[moving]
         trial = theta[moving]
@@ -337,6 +317,6 @@ def _chord_chunk(space: _Space, theta_start: np.ndarray, cols: np.ndarray, free:
         theta[moving], rss[moving] = trial[better], rss_trial[better]
         if not len(moving):
             break
-        if iteration + 1 < iterations:
+        if iteration + 1 < CHORD_ITERATIONS:
             along[moving] = _along(r_trial[better], space.q)
     return theta, rss, keep.sum(axis=1)

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from ogacq.diagnose.alternatives import Alternative, alternatives, noise_scale
+from ogacq.diagnose.alternatives import Alternative, alternatives
 from ogacq.diagnose.batchfit import Design, Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, unit
 from ogacq.diagnose.locate import Location, locate
@@ -40,7 +40,7 @@ from ogacq.diagnose.outcome import outcome_label
 from ogacq.diagnose.outliers import Outliers, find_outliers
 from ogacq.diagnose.profile import LegProfile, leg_profiles
 from ogacq.diagnose.robustness import resting_cell
-from ogacq.diagnose.selection import MAX_EFFECTS, Model, Selection, evaluate, select
+from ogacq.diagnose.selection import Model, Selection, evaluate, select
 from ogacq.diagnose.separation import (
     PlanOption,
     PlanSignatures,
@@ -57,6 +57,7 @@ from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.parameters import AXES, PARAM_INDEX, nested
+from ogacq.model.units import json_number
 
 SEPARATED_ALTERNATIVES = 4  # per effect, the closest ones get a separating plan
 # When no set of effects brings the fit within the noise, those found are still
@@ -99,13 +100,12 @@ class EffectFound:
         return bool(self.alternatives) or self.local_disturbance is not None
 
     def to_json(self) -> dict:
-        std = round(float(self.std), 6) if np.isfinite(self.std) else None
         alternatives = [entry(a.name) for a in self.alternatives]
         if self.local_disturbance is not None:
             gauge = self.local_disturbance.split(" at ")[0]
             alternatives.append({"effect": "unexplained", "where": gauge})
-        return {**entry(self.name), "value": round(float(self.value), 6), "std": std,
-                "unit": self.unit, "alternatives": alternatives}
+        return {**entry(self.name), "value": round(float(self.value), 6),
+                "std": json_number(self.std, 6), "unit": self.unit, "alternatives": alternatives}
 
 
 @dataclass
@@ -227,19 +227,14 @@ class Diagnosis:
         return {"leg": AXES[p.leg], "from_mm": lo, "to_mm": hi}
 
     def to_json(self) -> dict:
-        """INTERCHANGE.md's object, plus (keys beyond the contract): each map effect's
-        further parameters in its entry, ``maps`` (one ogacq-axis-map/1 per actuator
-        with an error map), ``proposals`` (scans that would separate explanations
-        these readings cannot tell apart), ``coverage`` (how densely each axis was
-        read, whether maps were searched), ``profiles`` (residuals along each scanned
-        leg, before and after), ``chi2`` (before and after the maps, with p) and
-        ``outliers`` (readings far from their repeats, which agree among themselves,
-        with the joint offsets' verdict without them)."""
+        """INTERCHANGE.md's object, plus keys beyond the contract (docs/formats.md): each
+        map effect's further parameters, ``maps``, ``proposals``, ``coverage``,
+        ``unknown_sides``, ``profiles``, ``chi2`` and ``outliers``."""
         effects = [e.to_json() for e in self.effects]
         if self.unexplained is not None:
             entry_: dict[str, Any] = {"effect": "unexplained", "where": self.unexplained,
-                                      "value": None,
-                      "std": None, "unit": "-", "alternatives": []}
+                                      "value": None, "std": None, "unit": "-",
+                                      "alternatives": []}
             along = self.unexplained_along()
             if along is not None:
                 entry_["along"] = along
@@ -298,9 +293,9 @@ def explained_share(base: Model, model: Model, noise: GaugeNoise) -> float:
     return 1.0 if before <= 0 else float(np.clip(1.0 - excess(model) / before, 0.0, 1.0))
 
 
-def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_EFFECTS,
-             separate: bool = True, maps: bool = True,
-             pitch_band_mm: tuple[float, float] | None = None) -> Diagnosis:
+def diagnose(obs: Observations, *, alpha: float = LEVEL, separate: bool = True,
+             maps: bool = True, pitch_band_mm: tuple[float, float] | None = None,
+             ) -> Diagnosis:
     """Diagnose ``obs`` (raw readings or tabulated deviations). ``separate``: also
     search the plans that would tell aliased effects apart; ``maps``: also search
     errors along each axis and in time beyond the library (raw readings);
@@ -325,8 +320,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
     located = locate(obs, base.residuals, _unweighted_jacobian(problem, base),
                      noise.sigma_mm, problem.labels)
 
-    selection = select(problem, noise, base, alpha=alpha, max_effects=max_effects,
-                       design=design)
+    selection = select(problem, noise, base, alpha=alpha, design=design)
     share = explained_share(base, selection.final, noise)
     claimed, final_fit = base, base_fit
     if selection.final.effects and (selection.final.verdict.consistent
@@ -339,7 +333,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
         obs, claimed.residuals, _unweighted_jacobian(problem, claimed), noise.sigma_mm,
         problem.labels)
 
-    inflation = float(np.sqrt(noise_scale(claimed)))
+    inflation = claimed.verdict.inflation
     effects = _effects(obs, problem, noise, claimed, final_fit, inflation, separate)
     cell = resting_cell(problem, noise, base, claimed, alpha)
     for effect in effects:
@@ -349,8 +343,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
             seen.invisible() or seen.alias_groups() or seen.saturated):
         plans = plan_capabilities(obs.machine, claimed.theta, noise.sigma_mm)
     mapped = map_diagnosis(problem, noise, claimed, alpha, separate, base,
-                           pitch_band_mm=pitch_band_mm) \
-        if maps and obs.raw else None
+                           pitch_band_mm=pitch_band_mm) if maps and obs.raw else None
     all_effects: list[EffectFound | MapEffect] = list(effects)
     final_residuals = claimed.residuals
     if mapped is not None:
@@ -361,8 +354,7 @@ def diagnose(obs: Observations, *, alpha: float = LEVEL, max_effects: int = MAX_
         fitted = mapped.fit
         final_fit = as_fit_result(fitted, final_fit)
         final_residuals = fitted.residuals
-        inflation = float(np.sqrt(max(1.0, fitted.verdict.chi2_dof)
-                                  if np.isfinite(fitted.verdict.chi2_dof) else 1.0))
+        inflation = fitted.verdict.inflation
         dropped = {name for name, _ in mapped.dropped}
         kept = [e for e in effects if e.name not in dropped]
         for effect in kept:  # their values beside the maps

@@ -16,7 +16,7 @@ import numpy as np
 
 from ogacq.identify.consistency import posture_name
 from ogacq.identify.distributions import normal_sf
-from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.identify.observations import DEVIATION_NAME, POSTURE_OF_SIGN, Observations
 from ogacq.model.gauges import Gauge
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.parameters import AXES
@@ -81,7 +81,7 @@ def row_labels(obs: Observations) -> RowLabels:
     return RowLabels(
         np.array([AXES.index(m.group(2)) for m in parsed]),
         np.array([AXES.index(m.group(1)) for m in parsed]),
-        np.array([{"+": "max", "-": "min", "": "max-min"}[m.group(3)] for m in parsed]),
+        np.array([POSTURE_OF_SIGN[m.group(3)] for m in parsed]),
         np.ones(n, dtype=int), np.zeros(n), np.full(n, ""))
 
 
@@ -89,11 +89,8 @@ def row_labels(obs: Observations) -> RowLabels:
 class GroupShare:
     level: str
     key: str
-    n: int
     share: float  # of the misfit
     expected_share: float  # under noise alone
-    chi2: float  # the group's misfit in units of the noise variance
-    expected_chi2: float
 
     @property
     def excess(self) -> float:
@@ -129,7 +126,6 @@ class Location:
     groups: list[GroupShare]
     trends: list[TimeTrend]
     approach: list[ApproachDifference]
-    total_chi2: float
 
     def level(self, level: str) -> list[GroupShare]:
         return sorted((g for g in self.groups if g.level == level), key=lambda g: -g.share)
@@ -190,17 +186,14 @@ def locate(obs: Observations, residuals: np.ndarray, jac: np.ndarray,
         if len(distinct) < 2:
             continue
         which = which.ravel()
-        count = np.bincount(which)
         chi2_sum = np.bincount(which, weights=chi2)
         expected_sum = np.bincount(which, weights=expected)
         for k in np.argsort(first):  # in order of appearance
             groups.append(GroupShare(
-                level, str(distinct[k]), int(count[k]),
-                float(chi2_sum[k] / total) if total else 0.0,
-                float(expected_sum[k] / total_expected) if total_expected else 0.0,
-                float(chi2_sum[k]), float(expected_sum[k])))
+                level, str(distinct[k]), float(chi2_sum[k] / total) if total else 0.0,
+                float(expected_sum[k] / total_expected) if total_expected else 0.0))
     return Location(groups, _trends(labels, residuals, sigma_mm),
-                    _approach_differences(labels, residuals, sigma_mm), total)
+                    _approach_differences(labels, residuals, sigma_mm))
 
 
 def _trends(labels: RowLabels, residuals: np.ndarray, sigma_mm: float) -> list[TimeTrend]:

@@ -59,10 +59,9 @@ class PositionSums:
             summed at their nodes."""
             flat_r = np.atleast_2d(weights_r)
             flat_s = np.atleast_2d(weights_s)
-            out = np.stack([np.bincount(node_r, weights=wr, minlength=n)
-                            + np.bincount(node_s, weights=ws, minlength=n)
-                            for wr, ws in zip(flat_r, flat_s, strict=True)])
-            return out
+            return np.stack([np.bincount(node_r, weights=wr, minlength=n)
+                             + np.bincount(node_s, weights=ws, minlength=n)
+                             for wr, ws in zip(flat_r, flat_s, strict=True)])
 
         # c.v for v in the residual and the model's directions: u_g = m v - m^2 beta / |zero|^2
         vectors = np.vstack([space.r_groups[None], space.basis_groups])  # (1 + p, G)

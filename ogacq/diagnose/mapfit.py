@@ -92,57 +92,57 @@ def map_columns(problem: Problem, theta: np.ndarray, terms: list[MapTerm],
 
 def fit_with_maps(problem: Problem, noise: GaugeNoise, names: tuple[str, ...],
                   theta0: np.ndarray, terms: list[MapTerm], history: JointHistory,
-                  coefficients0: np.ndarray | None = None, alpha: float = LEVEL,
-                  iterations: int = ITERATIONS, jacobian0: np.ndarray | None = None) -> MapFit:
+                  alpha: float = LEVEL, iterations: int = ITERATIONS,
+                  jacobian0: np.ndarray | None = None) -> MapFit:
     """The library parameters ``names`` and the map ``terms`` fitted together from
     ``theta0`` (``jacobian0``: the unweighted Jacobian of ``names`` there, when the
     caller holds it)."""
-    obs = problem.obs
     theta = np.asarray(theta0, dtype=float).copy()
     free = indices(names)
-    k_total = sum(t.size for t in terms)
-    coef = np.zeros(k_total) if coefficients0 is None else np.asarray(coefficients0, float)
+    coef = np.zeros(sum(t.size for t in terms))
     ranges = plausible_ranges(list(names))
     converged = False
     for iteration in range(iterations):
-        jac = jacobian0 if iteration == 0 and jacobian0 is not None else \
-            problem.jacobian(theta, names, weighted=False)
-        cols = map_columns(problem, theta, terms, history)
-        x = np.column_stack([jac, cols])
-        resid = obs.values - problem.predict(theta[None])[0] - cols @ coef
-        xw = problem.weighted(x.T).T
-        rw = problem.weighted(resid[None])[0]
-        scale = np.concatenate([ranges, 1.0 / np.maximum(np.linalg.norm(xw[:, len(names):],
-                                                                        axis=0), 1e-300)])
-        u, s, vt = np.linalg.svd(xw * scale, full_matrices=False)
-        keep = s > s[0] * RANK_TOLERANCE
+        _, _, rw, scale, (u, s, vt, keep) = _linearised(problem, names, theta, terms, history,
+                                                         coef, ranges,
+                                                         jacobian0 if iteration == 0 else None)
         step = (vt[keep].T @ ((u[:, keep].T @ rw) / s[keep])) * scale
         theta[free] += step[:len(names)]
         coef = coef + step[len(names):]
         if np.all(np.abs(step) <= STEP_TOLERANCE * scale):
             converged = True
             break
-    jac = problem.jacobian(theta, names, weighted=False)
-    cols = map_columns(problem, theta, terms, history)
-    x = np.column_stack([jac, cols])
-    raw = obs.values - problem.predict(theta[None])[0] - cols @ coef
+    x, raw, rw, scale, (_, s, vt, keep) = _linearised(problem, names, theta, terms, history,
+                                                      coef, ranges, None)
     residuals = problem.remove_zeros(raw[None])[0]
-    rw = problem.weighted(raw[None])[0]
-    xw = problem.weighted(x.T).T
-    scale = np.concatenate([ranges, 1.0 / np.maximum(np.linalg.norm(xw[:, len(names):],
-                                                                    axis=0), 1e-300)])
-    u, s, vt = np.linalg.svd(xw * scale, full_matrices=False)
-    keep = s > s[0] * RANK_TOLERANCE
     rank = int(keep.sum())
     inv = (vt[keep].T / s[keep] ** 2) @ vt[keep]
     covariance = noise.variance * inv * scale[:, None] * scale[None, :]
     # a shape found from the readings (a pitch) spends a degree of freedom as well
-    verdict = judge(obs, residuals, x, rank + sum(t.shape_parameters for t in terms), noise,
+    verdict = judge(problem.obs, residuals, x, rank + sum(t.shape_parameters for t in terms), noise,
                     alpha)
     split = np.cumsum([0] + [t.size for t in terms])
     return MapFit(names, theta, list(terms),
                   [coef[split[k]:split[k + 1]] for k in range(len(terms))], covariance,
                   residuals, float(rw @ rw), rank, x, verdict, converged, rw)
+
+
+def _linearised(problem: Problem, names: tuple[str, ...], theta: np.ndarray,
+                terms: list[MapTerm], history: JointHistory, coef: np.ndarray,
+                ranges: np.ndarray, jac: np.ndarray | None,
+                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, tuple]:
+    """At ``theta``: the columns (library, then maps; ``jac`` the library's when known),
+    the residuals, the weighted ones, the columns' scales, the scaled weighted SVD."""
+    jac = problem.jacobian(theta, names, weighted=False) if jac is None else jac
+    cols = map_columns(problem, theta, terms, history)
+    x = np.column_stack([jac, cols])
+    raw = problem.obs.values - problem.predict(theta[None])[0] - cols @ coef
+    xw = problem.weighted(x.T).T
+    rw = problem.weighted(raw[None])[0]
+    scale = np.concatenate([ranges, 1.0 / np.maximum(np.linalg.norm(xw[:, len(names):],
+                                                                    axis=0), 1e-300)])
+    u, s, vt = np.linalg.svd(xw * scale, full_matrices=False)
+    return x, raw, rw, scale, (u, s, vt, s > s[0] * RANK_TOLERANCE)
 
 
 def as_fit_result(fitted: MapFit, library: FitResult) -> FitResult:

@@ -15,7 +15,6 @@
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
@@ -51,6 +50,7 @@ from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.families import MapValue
 from ogacq.model.gauges import AXES
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
+from ogacq.model.units import json_number
 
 UNIT_MM = "mm"
 # what an explanation adds to the rest of a model: values, library names, map terms
@@ -110,9 +110,9 @@ class MapEffect:
         return f"{where}, {t.kind.sentence(t, v)}, {t.kind.size_words(v)}"
 
     def to_json(self) -> dict:
-        std = round(float(self.std), 6) if math.isfinite(self.std) else None
-        return {**entry(self.name), "value": round(float(self.value.value), 6), "std": std,
-                "unit": self.unit, "alternatives": [entry(a.name) for a in self.alternatives],
+        return {**entry(self.name), "value": round(float(self.value.value), 6),
+                "std": json_number(self.std, 6), "unit": self.unit,
+                "alternatives": [entry(a.name) for a in self.alternatives],
                 "family": "error map", "p_value": float(f"{self.p_value:.3g}"),
                 "delta_chi2": round(self.delta_chi2, 1), "located": self.sentence(),
                 "established": self.established, **self.value.extra}
@@ -290,9 +290,9 @@ class _Route:
 
 def _route(problem: Problem, noise: GaugeNoise, start: Model, alpha: float,
            history: JointHistory, band: tuple[float, float] | None) -> _Route:
-    search, _ = search_maps(problem, noise, start.theta, start.names, start.rss,
-                            start.verdict.consistent, alpha, jacobian=start.jacobian,
-                            pitch_band_mm=band)
+    search = search_maps(problem, noise, start.theta, start.names, start.rss,
+                         start.verdict.consistent, alpha, jacobian=start.jacobian,
+                         pitch_band_mm=band)
     terms = search.terms
     if not terms:
         return _Route(start, search, start.names, [], None)
@@ -370,9 +370,7 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
     search, fitted, dropped = route.search, route.fit, route.dropped
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}
-    inflation = 1.0
-    if fitted is not None and math.isfinite(fitted.verdict.chi2_dof):
-        inflation = math.sqrt(max(1.0, fitted.verdict.chi2_dof))
+    inflation = 1.0 if fitted is None else fitted.verdict.inflation
     effects = []
     established = fitted is not None and fitted.verdict.consistent
     if fitted is not None:
@@ -449,15 +447,10 @@ def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
     """The amplitudes of ``term`` fitted in place of library effect ``name`` or of the
     model's map term number ``replace``."""
     if name is not None:
-        keep = [k for k, n in enumerate(lin.names) if n != name] + \
-            list(range(len(lin.names), lin.columns.shape[1]))
-        target = lin.residual + lin.signature_of_effect(name)
+        keep, target = lin.without_effect(name)
     else:
         assert replace is not None
-        start = len(lin.names) + sum(t.size for t in lin.terms[:replace])
-        keep = [j for j in range(lin.columns.shape[1])
-                if not start <= j < start + lin.terms[replace].size]
-        target = lin.residual + lin.signature_of_term(replace)
+        keep, target = lin.without_term(replace)
     _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
     return coef[-term.size:]
 
@@ -479,7 +472,5 @@ def maps_left(obs: Observations, names: tuple[str, ...], theta: np.ndarray,
     problem = Problem(obs, noise)
     terms = [t for a in sorted(todo) for t in todo[a][0]]
     fitted = fit_with_maps(problem, noise, names, theta, terms, JointHistory.of(obs.layout))
-    chi2_dof = fitted.verdict.chi2_dof
-    inflation = math.sqrt(max(1.0, chi2_dof)) if math.isfinite(chi2_dof) else 1.0
-    return axis_maps(fitted, inflation, {a: todo[a][1] for a in todo},
+    return axis_maps(fitted, fitted.verdict.inflation, {a: todo[a][1] for a in todo},
                      {a: dense[a].step_mm for a in todo}, zero_at={a: todo[a][2] for a in todo})

@@ -82,7 +82,7 @@ SHORTEST_LEAD_MM = 1.0
 # (log n each) of the best are weighed again exactly: ten times the binning's largest
 # error seen (no source: bench/bench_mapsearch_scale.py's dense scan).
 SPLINE_MARGIN_KNOTS = 2
-MAX_TERMS = 4
+MAX_TERMS = 4  # map terms added at most
 STRICTER_WHEN_CONSISTENT = 10.0
 CHUNK = 64  # trial frequencies per batch
 RIVALS = "pitch unresolved: "  # how a pitch between rival peaks is said (_rival_pitch)
@@ -174,15 +174,6 @@ def coverage(layout: ReadingsLayout, travel_mm: np.ndarray,
 
 
 @dataclass(frozen=True)
-class Periodogram:
-    """The gain of a cyclic error at each trial period (mm^2, weighted)."""
-
-    axis: int
-    pitch_mm: np.ndarray
-    gain: np.ndarray
-
-
-@dataclass(frozen=True)
 class MapCandidate:
     """A family at its best shape beside the current model."""
 
@@ -198,7 +189,6 @@ class MapCandidate:
     reason: str = ""  # why not taken ("" when eligible)
     shape_std: float = math.nan  # of the shape parameter (pitch mm, build-up mm, tau s)
     unresolved: str = ""  # why its shape is not resolved (then never added)
-    periodogram: Periodogram | None = None
     # its shape refined between the grid's points, with the shape's std: done only for
     # a candidate that is taken (the test is on the grid, whose multiplicity it counts)
     refine: Callable[[], MapCandidate] | None = field(default=None, repr=False,
@@ -230,7 +220,6 @@ class MapSearch:
     level: float
     steps: list[MapStep] = field(default_factory=list)
     last_considered: list[MapCandidate] = field(default_factory=list)
-    periodograms: list[Periodogram] = field(default_factory=list)
     searched: bool = False  # any axis dense enough (or time spread) to search at all
 
     @property
@@ -301,12 +290,12 @@ class _Families:
             self._sums_by_bin[bin_mm] = made
         return made
 
-    def _candidate(self, term: MapTerm, gain: Gain, k: int, tried: int, shape_params: int,
+    def _candidate(self, term: MapTerm, gain: Gain, tried: int, shape_params: int,
                    **kw: Any) -> MapCandidate:
-        return MapCandidate(term, float(gain.gain[k]), int(gain.rank[k]),
-                            gain.coefficients[k], tried, shape_params, **kw)
+        return MapCandidate(term, float(gain.gain[0]), int(gain.rank[0]),
+                            gain.coefficients[0], tried, shape_params, **kw)
 
-    def periodic(self, family: str) -> tuple[MapCandidate, Periodogram] | None:
+    def periodic(self, family: str) -> MapCandidate | None:
         cov, a = self.cov, self.cov.axis
         min_pitch, max_pitch = cov.pitch_band_mm
         if not min_pitch < max_pitch:
@@ -318,7 +307,6 @@ class _Families:
         for lo in range(0, len(freqs), CHUNK):
             gains[lo:lo + CHUNK] = sums.gain(freqs[lo:lo + CHUNK], _grid_functions).gain
         best = int(np.argmax(gains))
-        gram = Periodogram(a, 1.0 / freqs, gains)
 
         def at(f: float) -> float:
             return float(self._periodic_gain(np.array([f])).gain[0])
@@ -330,12 +318,11 @@ class _Families:
                 top = found
             std_f = _curvature_std(at, top, df / 20, _noise_var(self.space, self.noise))
             term = MapTerm(family, a, {"pitch_mm": 1.0 / top})
-            return self._candidate(term, self._periodic_gain(np.array([top])), 0, len(freqs),
-                                   1, shape_std=std_f / top**2, periodogram=gram)
+            return self._candidate(term, self._periodic_gain(np.array([top])), len(freqs),
+                                   1, shape_std=std_f / top**2)
 
         pitch = 1.0 / float(freqs[best])
         term = MapTerm(family, a, {"pitch_mm": pitch})
-        unresolved = ""
         if best == len(freqs) - 1:
             unresolved = (f"pitch unresolved (below the band's {min_pitch:.3g} mm edge: "
                           f"{SAMPLES_PER_PERIOD:g} distinct positions a period; a denser "
@@ -345,10 +332,9 @@ class _Families:
                           f"{MIN_PERIODS:g} periods over the span; the smooth map's)")
         else:
             unresolved = _rival_pitch(freqs, gains, best, self.space, self.noise)
-        grid = self._candidate(term, self._periodic_gain(freqs[best:best + 1]), 0, len(freqs),
-                               1, periodogram=gram, refine=None if unresolved else refine,
+        return self._candidate(term, self._periodic_gain(freqs[best:best + 1]), len(freqs),
+                               1, refine=None if unresolved else refine,
                                unresolved=unresolved)
-        return grid, gram
 
     def _periodic_gain(self, freqs: np.ndarray) -> Gain:
         """The exact gains at ``freqs``, column by column at every repeat group."""
@@ -377,7 +363,7 @@ class _Families:
         term, gain = weighed[best], gains[best]
         at = grid.terms.index(term)  # its place in the grid, between its neighbours
         refine = None if grid.refine is None else (lambda: self._refined(grid, at, gain))
-        return self._candidate(term, gain, 0, len(grid.terms), term.shape_parameters,
+        return self._candidate(term, gain, len(grid.terms), term.shape_parameters,
                                refine=refine)
 
     def _near_best_binned(self, grid: ShapeGrid) -> list[MapTerm]:
@@ -419,7 +405,7 @@ class _Families:
             value = term.shape[name]
             std = value * _curvature_std(of_log, math.log(value), 0.05,
                                          _noise_var(self.space, self.noise))
-        return self._candidate(term, gain, 0, len(values), term.shape_parameters,
+        return self._candidate(term, gain, len(values), term.shape_parameters,
                                shape_std=std)
 
 
@@ -484,7 +470,7 @@ def _repeated_in_time(layout: ReadingsLayout) -> bool:
 
 
 def _candidates(space: MapSpace, covs: tuple[AxisCoverage, ...], names: tuple[str, ...],
-                noise: GaugeNoise, taken: set[str], grams: list[Periodogram]) -> list[MapCandidate]:
+                noise: GaugeNoise, taken: set[str]) -> list[MapCandidate]:
     layout = space.problem.obs.layout
     duration = float(np.ptp(layout.t_s))
     out: list[MapCandidate] = []
@@ -498,8 +484,7 @@ def _candidates(space: MapSpace, covs: tuple[AxisCoverage, ...], names: tuple[st
             if family.periodic:
                 periodic = fam.periodic(family.name)
                 if periodic is not None:
-                    out.append(periodic[0])
-                    grams.append(periodic[1])
+                    out.append(periodic)
                 continue
             out += [fam.best(grid) for grid in family.search(fam.searched(duration))]
     if _repeated_in_time(layout) and space.within_groups_tested:
@@ -555,22 +540,17 @@ def _unresolved_first(judged: list[MapCandidate], level: float) -> bool:
 
 def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
                 names: tuple[str, ...], rss: float, consistent: bool,
-                alpha: float = LEVEL, max_terms: int = MAX_TERMS,
-                space: MapSpace | None = None, jacobian: np.ndarray | None = None,
-                pitch_band_mm: tuple[float, float] | None = None,
-                ) -> tuple[MapSearch, MapSpace | None]:
+                alpha: float = LEVEL, jacobian: np.ndarray | None = None,
+                pitch_band_mm: tuple[float, float] | None = None) -> MapSearch:
     """Forward selection of map terms beside the model ``names`` fitted at ``theta``
     (weighted rss ``rss``; ``jacobian``: its unweighted Jacobian there, when the
     caller holds it); ``consistent``: whether that model is within the noise
     (the search then runs at the stricter level); ``pitch_band_mm``: the periods the
-    positions sample, as their design states (None: from their spacing). Returns the
-    search and the space grown by the terms added (None when nothing could be
-    searched)."""
+    positions sample, as their design states (None: from their spacing)."""
     level = alpha / STRICTER_WHEN_CONSISTENT if consistent else alpha
     if not problem.obs.raw:
-        return MapSearch((), level), None
-    space = space if space is not None else MapSpace(problem, theta, names, rss,
-                                                     jacobian=jacobian)
+        return MapSearch((), level)
+    space = MapSpace(problem, theta, names, rss, jacobian=jacobian)
     # with the display's rounding repeated by the cycles (not dithered by the gauge's
     # scatter), the posture means' errors are the rounding of a signal that varies
     # smoothly along q: a structure of its own, which the maps would fit
@@ -581,14 +561,10 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
     search.searched = any(c.searchable for c in covs) or (
         _repeated_in_time(problem.obs.layout) and space.within_groups_tested)
     if not search.searched:
-        return search, space
+        return search
     taken: set[str] = set()
-    while len(search.steps) < max_terms:
-        grams: list[Periodogram] = []
-        judged = _judge(_candidates(space, covs, names, noise, taken, grams), space, noise,
-                        level)
-        if not search.periodograms:
-            search.periodograms = grams
+    while len(search.steps) < MAX_TERMS:
+        judged = _judge(_candidates(space, covs, names, noise, taken), space, noise, level)
         eligible = [c for c in judged if c.eligible]
         if not eligible or _unresolved_first(judged, level):
             search.last_considered = sorted(judged, key=lambda c: c.delta_bic)
@@ -599,4 +575,4 @@ def search_maps(problem: Problem, noise: GaugeNoise, theta: np.ndarray,
         search.steps.append(MapStep(chosen, sorted(judged, key=lambda c: c.delta_bic),
                                     before, space.rss))
         taken.add(chosen.term.name)
-    return search, space
+    return search

@@ -52,17 +52,15 @@ class MapSpace:
     parameter vector ``theta``, and map columns in that space."""
 
     def __init__(self, problem: Problem, theta: np.ndarray, names: tuple[str, ...],
-                 rss: float, history: JointHistory | None = None,
-                 jacobian: np.ndarray | None = None) -> None:
+                 rss: float, jacobian: np.ndarray | None = None) -> None:
         obs = problem.obs
         assert obs.raw, "error maps are searched in raw readings"
         self.problem = problem
         self.theta = np.asarray(theta, dtype=float)
-        self.names = names
         groups = problem.weighting.groups
         assert groups is not None
         self.groups = groups
-        self.history = history if history is not None else JointHistory.of(obs.layout)
+        self.history = JointHistory.of(obs.layout)
         # the model's unweighted Jacobian at theta, when its caller holds it
         jw = problem.jacobian(self.theta, names) if jacobian is None \
             else problem.weighted_jacobian(jacobian)

@@ -45,6 +45,7 @@ from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX, effect_of
+from ogacq.model.units import json_number
 from ogacq.protocol.plan import ProtocolConfig, planned_layout, scan_targets
 
 # Below this share of its own size a signature is wholly absorbed by the other
@@ -93,19 +94,21 @@ class _Linear:
         cols = term_columns(term, self.history, sens, along, self.problem.obs.layout.gauge)
         return self.problem.weighted(cols).T
 
-    def column_of(self, name: str) -> np.ndarray:
-        return self.columns[:, self.names.index(name)]
-
-    def term_block(self, k: int) -> np.ndarray:
-        start = len(self.names) + sum(t.size for t in self.terms[:k])
-        return self.columns[:, start:start + self.terms[k].size]
-
-    def signature_of_effect(self, name: str) -> np.ndarray:
+    def without_effect(self, name: str) -> tuple[list[int], np.ndarray]:
+        """The columns but library effect ``name``'s, and the residual with its
+        signature back in: what a swap for it is fitted to."""
+        keep = [k for k, n in enumerate(self.names) if n != name] + \
+            list(range(len(self.names), self.columns.shape[1]))
         k = PARAM_INDEX[name]
-        return self.column_of(name) * (self.theta[k] - NOMINAL[k])
+        signature = self.columns[:, self.names.index(name)] * (self.theta[k] - NOMINAL[k])
+        return keep, self.residual + signature
 
-    def signature_of_term(self, k: int) -> np.ndarray:
-        return self.term_block(k) @ self.coefficients[k]
+    def without_term(self, k: int) -> tuple[list[int], np.ndarray]:
+        """As :meth:`without_effect` for the model's map term number ``k``."""
+        start = len(self.names) + sum(t.size for t in self.terms[:k])
+        stop = start + self.terms[k].size
+        keep = [j for j in range(self.columns.shape[1]) if not start <= j < stop]
+        return keep, self.residual + self.columns[:, start:stop] @ self.coefficients[k]
 
     def refit(self, target: np.ndarray, columns: np.ndarray) -> tuple[float, np.ndarray]:
         """Residual sum of squares of ``target`` after fitting ``columns``, and the
@@ -174,9 +177,7 @@ def library_swaps(lin: _Linear, effects: tuple[str, ...],
         return blocks[key]
 
     for name in effects:
-        keep = [k for k, n in enumerate(lin.names) if n != name] + \
-            list(range(len(lin.names), lin.columns.shape[1]))
-        target = lin.residual + lin.signature_of_effect(name)
+        keep, target = lin.without_effect(name)
         rest = lin.columns[:, keep]
         beside = _Projector(rest)
         found = []
@@ -206,10 +207,7 @@ def map_swaps(lin: _Linear, library: tuple[str, ...],
         np.zeros((len(lin.residual), 0))
     blocks = {t.name: lin.term_columns(t) for t in candidates}
     for k, term in enumerate(lin.terms):
-        start = len(lin.names) + sum(t.size for t in lin.terms[:k])
-        keep = [j for j in range(lin.columns.shape[1])
-                if not start <= j < start + term.size]
-        target = lin.residual + lin.signature_of_term(k)
+        keep, target = lin.without_term(k)
         rest = lin.columns[:, keep]
         beside = _Projector(rest)
         found = []
@@ -274,14 +272,10 @@ class Proposal:
         return {"separates": [self.first, self.second], "measurement": "scan",
                 "step_mm": self.step_mm, "from_mm": self.from_mm, "to_mm": self.to_mm,
                 "directions": "up and down", "cycles": self.cycles,
-                "expected_chi2_gap": _finite(self.expected_gap, 1),
-                "now_chi2_gap": _finite(self.now_gap, 2),
+                "expected_chi2_gap": json_number(self.expected_gap, 1),
+                "now_chi2_gap": json_number(self.now_gap, 2),
                 "command": self.command(machine_file) or None,
                 "text": self.describe(machine_file)}
-
-
-def _finite(x: float, digits: int) -> float | None:
-    return round(float(x), digits) if math.isfinite(x) else None
 
 
 class ScanSignatures:

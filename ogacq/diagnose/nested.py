@@ -25,8 +25,7 @@ def nested_test(rss_small: float, rss_big: float, added: int, dof_big: int,
     model is itself within the noise this is the likelihood-ratio test; when it is
     not, an effect is only credited with what it explains beyond the remaining
     misfit (the classical F-test), so that a partial fit of an unknown error is
-    not mistaken for the effect.
-    """
+    not mistaken for the effect."""
     f_stat, p = nested_tests(rss_small, np.array([rss_big]), np.array([added]),
                              np.array([dof_big]), noise)
     return float(f_stat[0]), float(p[0])
@@ -65,9 +64,3 @@ def bic_change(rss_drop: ArrayOrFloat, added_params: ArrayOrFloat, n_data: int,
     BIC is computed: the effect selection and the map search judge by it alike."""
     return -rss_drop / noise.variance + added_params * math.log(max(n_data, 2))
 
-
-def aic_change(rss_drop: ArrayOrFloat, added_params: ArrayOrFloat,
-               noise: GaugeNoise) -> ArrayOrFloat:
-    """Akaike's criterion's change, as :func:`bic_change` (H. Akaike, IEEE Trans. Autom.
-    Control 19, 1974)."""
-    return -rss_drop / noise.variance + 2.0 * added_params

@@ -56,7 +56,7 @@ class PoseNodes:
         return at_nodes[:, self.left] * (1.0 - self.weight) + at_nodes[:, self.right] * self.weight
 
 
-def pose_nodes(layout: ReadingsLayout, spacing_mm: float = NODE_SPACING_MM) -> PoseNodes | None:
+def pose_nodes(layout: ReadingsLayout) -> PoseNodes | None:
     """The nodes of a layout of one reading per group (None: too few saved). A track:
     one gauge, one leg, the same approach sides, ordered by the leg's own joint; a
     group whose joints are not where its neighbouring nodes put them (within
@@ -70,7 +70,7 @@ def pose_nodes(layout: ReadingsLayout, spacing_mm: float = NODE_SPACING_MM) -> P
     track = row_codes(np.column_stack([layout.gauge, leg, layout.lost_motion_side]))
     order = np.lexsort((own, track))
     t_sorted, q_sorted = track[order], own[order]
-    is_node = _spaced(t_sorted, q_sorted, spacing_mm)
+    is_node = _spaced(t_sorted, q_sorted, NODE_SPACING_MM)
     for _ in range(3):  # a group off its track's line becomes a node
         if is_node.sum() * MIN_GAIN > n:
             return None

@@ -28,13 +28,12 @@ import numpy as np
 
 from ogacq.diagnose.batchfit import CandidateFits, Design, Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, label, pairs, singles
-from ogacq.diagnose.nested import aic_change, bic_change, nested_test, nested_tests
+from ogacq.diagnose.nested import bic_change, nested_test, nested_tests
 from ogacq.identify.consistency import LEVEL, Verdict, judge
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
 
 MAX_EFFECTS = 4  # beyond this a "diagnosis" is a curve fit
-SHOWN_RUNNERS_UP = 5
 
 
 @dataclass
@@ -79,11 +78,8 @@ class Considered:
     """One candidate addition at one step."""
 
     added: tuple[str, ...]
-    values: tuple[float, ...]
     rss: float
-    f_stat: float
     p_value: float  # nested test against the current model, Bonferroni-corrected
-    delta_bic: float  # the BIC's change from the current model
     reason: str  # "" when eligible, else why not
 
     @property
@@ -98,11 +94,8 @@ class SelectionStep:
     before: Model
     after: Model
     added: tuple[str, ...]
-    f_stat: float
     p_value: float
-    delta_aic: float
     delta_bic: float
-    runners_up: list[Considered]
 
     @property
     def label(self) -> str:
@@ -125,12 +118,12 @@ def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: Gau
     sizes = np.array([len(e) for e in cands.extras])
     searched = {size: int(np.sum(sizes == size)) for size in set(sizes.tolist())}
     dof = problem.n_data - cands.rank
-    f_stat, p = nested_tests(current.rss, cands.rss, cands.rank - current.rank, dof, noise)
+    _, p = nested_tests(current.rss, cands.rss, cands.rank - current.rank, dof, noise)
     p = np.minimum(1.0, p * np.array([searched[n] for n in sizes]))
     bic = bic_change(current.rss - cands.rss, cands.rank - current.rank, problem.n_data, noise)
     # Python scalars, once: the loop below reads hundreds of candidates
-    values, rss, finite = cands.value_tuples(), cands.rss.tolist(), np.isfinite(cands.rss)
-    f_of, p_of, bic_of = f_stat.tolist(), p.tolist(), bic.tolist()
+    rss, finite, p_of, bic_of = cands.rss.tolist(), np.isfinite(cands.rss), p.tolist(), \
+        bic.tolist()
     out = []
     for k, added in enumerate(cands.extras):
         if not full[k]:
@@ -145,7 +138,7 @@ def _consider(cands: CandidateFits, current: Model, problem: Problem, noise: Gau
             reason = "does not pay for its parameters (BIC)"
         else:
             reason = ""
-        out.append(Considered(added, values[k], rss[k], f_of[k], p_of[k], bic_of[k], reason))
+        out.append(Considered(added, rss[k], p_of[k], reason))
     return out
 
 
@@ -221,11 +214,8 @@ def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = L
             break
         chosen, after = choice
         drop, added = current.rss - after.rss, after.rank - current.rank
-        runners = sorted((c for c in considered if c.added != chosen.added and c.eligible),
-                         key=lambda c: c.rss)[:SHOWN_RUNNERS_UP]
-        selection.steps.append(SelectionStep(current, after, chosen.added, chosen.f_stat,
-                                    chosen.p_value, aic_change(drop, added, noise),
-                                    bic_change(drop, added, problem.n_data, noise), runners))
+        selection.steps.append(SelectionStep(current, after, chosen.added, chosen.p_value,
+                                             bic_change(drop, added, problem.n_data, noise)))
         current = after
     selection.final = _backward(problem, noise, current, alpha, selection)
     return selection

@@ -28,7 +28,6 @@ class Visibility:
     name: str
     std: float  # beside the joint offsets, at the verdict noise; inf: not seen at all
     absorbed: float  # fraction of its signature (sum of squares) the offsets absorb
-    offset_correlation: float  # largest |correlation| of its estimate with an offset
     aliases: tuple[tuple[str, float], ...]  # effects with a correlated visible part
 
     @property
@@ -116,15 +115,14 @@ def capability(jw: np.ndarray, names: tuple[str, ...], sigma_mm: float,
                                 (*BASE_MODEL, name), sigma_mm)
             std = float(np.sqrt(cov[-1, -1])) if ident.rank == len(BASE_MODEL) + 1 \
                 else float("inf")
-            offset_corr = float(np.max(np.abs(ident.correlation[-1, :-1])))
         else:
-            std, offset_corr = float("inf"), 1.0
+            std = float("inf")
         aliases = tuple((EFFECT_PARAMETERS[j], float(corr[k, j]))
                         for j in np.argsort(-np.abs(corr[k]))
                         if j != k and seen[j] and abs(corr[k, j]) > ALIAS_CORRELATION)
         absorbed = 1.0 - (rest_norm[k] / raw_norm[k]) ** 2 if raw_norm[k] > 0 else 1.0
         visibility[name] = Visibility(name, std if np.isfinite(std) else float("inf"),
-                                      float(absorbed), offset_corr, aliases)
+                                      float(absorbed), aliases)
 
     seen_rest = rest[:, seen] * scale[seen]
     sv = np.linalg.svd(seen_rest, compute_uv=False) if seen.any() else np.zeros(0)

@@ -18,7 +18,6 @@ from ogacq.identify.fit import Weighting, design_rank, gauss_newton
 from ogacq.identify.identifiability import Identifiability, assess
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
-from ogacq.model.gauges import AXES
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import NOMINAL, effect_of, indices, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
@@ -36,7 +35,6 @@ RAN_OFF_RANGES = 100.0
 @dataclass
 class AccuracyPrediction:
     names: tuple[str, ...]
-    truth: np.ndarray
     noise_mm: float
     n_readings: int
     analytic_std: np.ndarray
@@ -76,13 +74,12 @@ def _finite(value: float) -> float | None:
 
 
 def planned_observations(machine: MachineSpec, *, postures: Sequence[str | float] = (),
-                         cycles: int = 3, legs: Sequence[int] = (0, 1, 2),
-                         protocol: ProtocolConfig | None = None) -> Observations:
+                         cycles: int = 3, protocol: ProtocolConfig | None = None,
+                         ) -> Observations:
     """The readings a plan takes (values zero): ``protocol`` (a scan too), else the
-    ``postures`` of ``legs`` repeated ``cycles`` times."""
+    ``postures`` of every leg repeated ``cycles`` times."""
     if protocol is None:
-        protocol = ProtocolConfig(legs=tuple(AXES[i] for i in legs), postures=tuple(postures),
-                                  cycles=cycles)
+        protocol = ProtocolConfig(postures=tuple(postures), cycles=cycles)
     layout = planned_layout(protocol, machine)
     return readings_observations(machine, layout, np.zeros(len(layout)), "plan")
 
@@ -104,8 +101,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
     w = Weighting(obs, "ols", noise)
     jw = w.jac(obs.jacobian(theta_true[None], free))[0]
     ident, cov = assess(jw, w.noise_cov(), names, noise.sigma_mm)
-    pred = AccuracyPrediction(names, theta_true[free], noise_mm, len(obs),
-                              np.sqrt(np.diag(cov)), ident)
+    pred = AccuracyPrediction(names, noise_mm, len(obs), np.sqrt(np.diag(cov)), ident)
     if trials <= 0:
         return pred
 
@@ -125,8 +121,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
         y = clean + rng.normal(0.0, noise_mm, (hi - lo, len(clean)))
         if rounding_mm:
             y = np.round(y / rounding_mm) * rounding_mm
-        theta, _, conv, _ = gauss_newton(obs, y, free, NOMINAL, w, rank,
-                                      tolerance=tolerance)
+        theta, conv = gauss_newton(obs, y, free, NOMINAL, w, rank, tolerance=tolerance)
         estimates[lo:hi] = theta[:, free]
         converged[lo:hi] = conv
         if on_trials is not None:

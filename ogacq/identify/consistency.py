@@ -37,6 +37,7 @@ import numpy as np
 
 from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.fit import FitResult, Weighting
+from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import (
     IDENTICAL_REPEATS_LEVEL,
     GaugeNoise,
@@ -44,7 +45,7 @@ from ogacq.identify.noise import (
     noise_for,
     read_identically,
 )
-from ogacq.identify.observations import DEVIATION_NAME, Observations
+from ogacq.identify.observations import DEVIATION_NAME, POSTURE_OF_SIGN, Observations
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
@@ -56,7 +57,6 @@ from ogacq.model.units import UM_PER_MM
 # claimed on a machine that has none.
 LEVEL = 0.01
 SATTERTHWAITE_CAP = 1e6  # beyond this the denominator is known: chi-square
-RANK_TOLERANCE = 1e-8
 
 
 @dataclass(frozen=True)
@@ -103,6 +103,12 @@ class Verdict:
         if not self.judged:
             return math.nan
         return self.statistic if self.test == "lack-of-fit F" else self.statistic / self.dof
+
+    @property
+    def inflation(self) -> float:
+        """The Birge ratio, at least 1: the factor on a std for the misfit left unexplained."""
+        chi2_dof = self.chi2_dof
+        return math.sqrt(max(1.0, chi2_dof)) if math.isfinite(chi2_dof) else 1.0
 
     def headline(self) -> str:
         """Three words for a table: the same words everywhere."""
@@ -386,8 +392,7 @@ def _deviation_cell(obs: Observations, rw: np.ndarray, basis: np.ndarray,
     worst = None
     for k, label in enumerate(obs.labels):
         m = DEVIATION_NAME.match(label)
-        name = f"{m.group(1)}_{m.group(2)} at " + {"+": "max", "-": "min", "": "max-min"}[
-            m.group(3)] if m else label
+        name = f"{m.group(1)}_{m.group(2)} at {POSTURE_OF_SIGN[m.group(3)]}" if m else label
         names.append(name)
         chi2 = float(residual[k] ** 2 / (noise.variance * cov[k, k]))
         p = _cell_p(np.array([[resid_cov[k, k] / cov[k, k]]]), chi2, None)

@@ -166,34 +166,39 @@ class _Weighted:
 
 
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
-                 weighting: Weighting, rank: int | None = None,
-                 max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
-                 at_start: tuple[np.ndarray, np.ndarray] | None = None,
-                 ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray]:
+                 weighting: Weighting, rank: int | None = None, *,
+                 tolerance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fit ``free`` entries for each row of ``y`` (B, m), starting every row from the
-    full vector ``theta0`` (N,). Returns the full parameter vectors (B, N), the
-    iterations used, a converged mask and the Jacobian (B, m, p) at the returned
-    vectors. ``rank``: how many directions the data determine (all, when not
-    given); ``tolerance``: per-parameter step at which to stop (default:
-    ``STEP_TOLERANCE`` of the plausible ranges); ``at_start``: the predictions
-    (1, m) and Jacobian (1, m, p) at ``theta0`` when the caller already has them.
+    full vector ``theta0`` (N,): the full parameter vectors (B, N) and a converged
+    mask. ``rank``: how many directions the data determine (all, when not given);
+    ``tolerance``: per-parameter step at which to stop (at least ``STEP_TOLERANCE`` of
+    the plausible ranges).
 
-    A trial's predictions and Jacobian come from one evaluation of the model: an
-    accepted step needs both, and a rejected one (rare) wastes little."""
-    return _iterate(obs, y, free, theta0, weighting, rank, max_iterations, tolerance,
-                    at_start)[:4]
+    Each iteration: the steps of the rows still moving, taken (halved where they made
+    things worse). A trial's predictions and Jacobian come from one evaluation of the
+    model: an accepted step needs both, and a rejected one (rare) wastes little."""
+    rank = len(free) if rank is None else rank
+    ranges = _ranges(free)
+    tol = np.maximum(tolerance, ranges * STEP_TOLERANCE)
+    rows = _batch_start(obs, y, free, theta0, weighting)
+    for _ in range(MAX_ITERATIONS):
+        act, step = _batch_steps(rows, weighting, ranges, rank)
+        if not len(act):
+            break
+        _take_steps(rows, obs, y, free, weighting, act, step, tol)
+        if rows.converged.all():
+            break
+    return rows.theta, rows.converged
 
 
 @dataclass
 class _Batch:
-    """The rows of a batched fit where they stand: vectors, predictions, Jacobians,
-    weighted residuals and costs, which rows have converged, and the weighted Jacobian
-    with its SVD while known. Mutable on purpose: an accepted step updates its rows in
-    place (a copy of every array per step would cost a Monte-Carlo more than its
-    arithmetic)."""
+    """The rows of a batched fit where they stand: vectors, Jacobians, weighted residuals
+    and costs, which rows have converged, and the weighted Jacobian with its SVD while
+    known. Mutable on purpose: an accepted step updates its rows in place (a copy of
+    every array per step would cost a Monte-Carlo more than its arithmetic)."""
 
     theta: np.ndarray  # (B, N)
-    pred: np.ndarray  # (B, m)
     jac: np.ndarray  # (B, m, p)
     white: np.ndarray  # (B, m): the next step starts from them
     cost: np.ndarray  # (B,)
@@ -206,21 +211,14 @@ class _Batch:
 
 
 def _batch_start(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
-                 weighting: Weighting, at_start: tuple[np.ndarray, np.ndarray] | None,
-                 weighted_start_jac: np.ndarray | None,
-                 start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None) -> _Batch:
+                 weighting: Weighting) -> _Batch:
     batch = y.shape[0]
     theta = np.repeat(np.asarray(theta0, dtype=float)[None], batch, axis=0)
     # Every row starts at the same point: one evaluation serves them all.
-    start, start_jac = obs.predict_and_jacobian(theta[:1], free) if at_start is None \
-        else at_start
-    pred = np.repeat(start, batch, axis=0)
-    one_start = batch == 1 and at_start is not None
-    jw_here = weighted_start_jac if one_start else None
-    white = weighting.residual(y - pred)
-    return _Batch(theta, pred, np.repeat(start_jac, batch, axis=0), white,
-                  (white**2).sum(axis=1), np.zeros(batch, dtype=bool), jw_here,
-                  start_svd if one_start and jw_here is not None else None)
+    start, start_jac = obs.predict_and_jacobian(theta[:1], free)
+    white = weighting.residual(y - np.repeat(start, batch, axis=0))
+    return _Batch(theta, np.repeat(start_jac, batch, axis=0), white,
+                  (white**2).sum(axis=1), np.zeros(batch, dtype=bool), None, None)
 
 
 def _batch_steps(rows: _Batch, weighting: Weighting, ranges: np.ndarray,
@@ -237,21 +235,6 @@ def _batch_steps(rows: _Batch, weighting: Weighting, ranges: np.ndarray,
         rows.svd_here = reduced_svd(rows.jw_here * ranges)
     act = np.arange(len(rows.cost))
     return act, _solve(rows.jw_here, rows.white, ranges, rank, rows.svd_here)
-
-
-def _drop_negligible(rows: _Batch, act: np.ndarray, step: np.ndarray, tol: np.ndarray,
-                     at_default: bool) -> tuple[np.ndarray, np.ndarray]:
-    """A step far below the tolerance changes nothing a double of these readings could
-    show: the row is at its minimum where it stands, and is not moved (nor the model
-    evaluated) for it. Only at the default tolerance: a caller that states its own (a
-    Monte-Carlo's) gets exactly the steps it asked for."""
-    if not at_default:
-        return act, step
-    negligible = (np.abs(step) < tol * NEGLIGIBLE_STEP).all(axis=1)
-    if not negligible.any():
-        return act, step
-    rows.converged[act[negligible]] = True
-    return act[~negligible], step[~negligible]
 
 
 def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray,
@@ -282,7 +265,7 @@ def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray
         ok = trial_cost <= before * (1 + 1e-12) + 1e-300
         if whole and ok.all():  # the usual case: every row takes its full step
             rows.converged = small | (trial_cost >= before * (1 - 1e-12))
-            rows.theta, rows.pred, rows.cost = trial, trial_pred, trial_cost
+            rows.theta, rows.cost = trial, trial_cost
             rows.white, rows.jac = trial_white, trial_jac
             rows.moved()
             return
@@ -290,8 +273,7 @@ def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray
         stalled = trial_cost[ok] >= rows.cost[accepted] * (1 - 1e-12)
         if len(accepted):
             rows.moved()
-        rows.theta[accepted], rows.pred[accepted] = trial[ok], trial_pred[ok]
-        rows.cost[accepted] = trial_cost[ok]
+        rows.theta[accepted], rows.cost[accepted] = trial[ok], trial_cost[ok]
         rows.white[accepted], rows.jac[accepted] = trial_white[ok], trial_jac[ok]
         rows.converged[accepted] = small[ok] | stalled
         todo = todo[~ok]
@@ -299,50 +281,6 @@ def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray
             return
         scale[todo] *= 0.5
     rows.converged[act[todo]] = True  # no step lowers the cost: at the minimum
-
-
-def _iterate(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
-             weighting: Weighting, rank: int | None = None,
-             max_iterations: int = MAX_ITERATIONS, tolerance: np.ndarray | None = None,
-             at_start: tuple[np.ndarray, np.ndarray] | None = None,
-             weighted_start_jac: np.ndarray | None = None,
-             start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None,
-             start_white: np.ndarray | None = None,
-             ) -> tuple[np.ndarray, int, np.ndarray, np.ndarray, np.ndarray, _Weighted | None]:
-    """:func:`gauss_newton`, then the predictions (B, m) at the returned vectors, which
-    the last accepted evaluation already made (a fit's residuals need no other), and
-    ``weighting.jac`` of the returned Jacobian with the SVD of it times the ranges
-    when the last step formed them (None otherwise). ``weighted_start_jac``:
-    ``weighting.jac`` of ``at_start``'s Jacobian, and ``start_svd`` the reduced SVD
-    of it times the ranges, when the caller has them (one row only), and
-    ``start_white`` ``weighting.residual`` of the residuals at ``at_start``.
-
-    Each iteration: the steps of the rows still moving, the negligible ones dropped,
-    the rest taken (halved where they made things worse)."""
-    rank = len(free) if rank is None else rank
-    if y.shape[0] == 1 and tolerance is None:
-        theta, iterations, stop, jac, pred, known = _iterate_one(
-            obs, y, free, theta0, weighting, rank, max_iterations, at_start,
-            weighted_start_jac, start_svd, start_white)
-        return theta, iterations, np.array([stop.converged]), jac, pred, known
-    ranges = _ranges(free)
-    tol = ranges * STEP_TOLERANCE if tolerance is None else np.maximum(
-        tolerance, ranges * STEP_TOLERANCE)
-    rows = _batch_start(obs, y, free, theta0, weighting, at_start, weighted_start_jac,
-                        start_svd)
-    iterations = 0
-    while iterations < max_iterations:
-        iterations += 1
-        act, step = _batch_steps(rows, weighting, ranges, rank)
-        act, step = _drop_negligible(rows, act, step, tol, tolerance is None)
-        if not len(act):
-            break
-        _take_steps(rows, obs, y, free, weighting, act, step, tol)
-        if rows.converged.all():
-            break
-    known = None if rows.jw_here is None or rows.svd_here is None \
-        else _Weighted(rows.jw_here, rows.svd_here)
-    return rows.theta, iterations, rows.converged, rows.jac, rows.pred, known
 
 
 @dataclass(frozen=True)
@@ -387,15 +325,15 @@ def _descend_one(obs: Observations, y: np.ndarray, free: np.ndarray, weighting: 
 
 
 def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
-                 weighting: Weighting, rank: int, max_iterations: int,
+                 weighting: Weighting, rank: int,
                  at_start: tuple[np.ndarray, np.ndarray] | None,
                  weighted_start_jac: np.ndarray | None,
                  start_svd: tuple[np.ndarray, np.ndarray, np.ndarray] | None,
                  start_white: np.ndarray | None = None,
                  ) -> tuple[np.ndarray, int, StopReason, np.ndarray, np.ndarray, _Weighted | None]:
-    """:func:`_iterate` for one row at the default tolerance (a refit): the same steps,
-    decisions and arithmetic, the cost compared as a plain float and without the
-    masks and gathers a batch needs, which cost a refit of a few dozen readings
+    """:func:`gauss_newton` for one row at the default tolerance (a refit): the same
+    steps, decisions and arithmetic, the cost compared as a plain float and without
+    the masks and gathers a batch needs, which cost a refit of a few dozen readings
     more than its arithmetic; and why it stopped instead of a converged mask.
     ``start_white``: ``weighting.residual`` of the residuals at ``at_start``, when
     the caller has it."""
@@ -418,7 +356,7 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
     cost = _cost(white)
     stop = StopReason.MAX_ITERATIONS  # unless it stops for another reason first
     iterations = 0
-    while iterations < max_iterations:
+    while iterations < MAX_ITERATIONS:
         iterations += 1
         if jw_here is None:
             jw_here = weighting.jac(jac)
@@ -426,7 +364,7 @@ def _iterate_one(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
             svd_here = reduced_svd(jw_here * ranges)
         step = _solve(jw_here, white, ranges, rank, svd_here)
         if _all_below(step, negligible_below):
-            stop = StopReason.NEGLIGIBLE_STEP  # at the minimum where it stands (see _iterate)
+            stop = StopReason.NEGLIGIBLE_STEP  # at the minimum where it stands
             break
         taken = _descend_one(obs, y, free, weighting, at, theta, cost, step, tol_list)
         if isinstance(taken, StopReason):
@@ -541,8 +479,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         iterations, stop = 1, StopReason.LINEAR_STEP
     else:
         th, iterations, stop, jac, pred, end = _iterate_one(
-            obs, y, free, theta0, w, rank, MAX_ITERATIONS, at_start, jw_start, start_svd,
-            start_white)
+            obs, y, free, theta0, w, rank, at_start, jw_start, start_svd, start_white)
         if rank < len(names):
             # Some parameters act only once others have moved the geometry (a gauge's
             # position or gain matters only on a tilted leg): judge the rank again
@@ -552,7 +489,7 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
             if rank_there > rank:
                 rank = rank_there
                 th, more, stop, jac, pred, end = _iterate_one(obs, y, free, th[0], w, rank,
-                                                              MAX_ITERATIONS, None, None, None)
+                                                              None, None, None)
                 iterations += more
         theta = th[0]
         residuals = obs.remove_zeros(y - pred)[0]
@@ -560,14 +497,12 @@ def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
                       iterations, stop, end)
 
 
-def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float], *,
-             weighting: str = "ols", noise: GaugeNoise | None = None) -> FitResult:
+def evaluate(obs: Observations, names: Sequence[str], values: Sequence[float]) -> FitResult:
     """The exact fit's result at ``values`` already identified (a campaign's recorded
     result), without iterating: residuals, covariance and identifiability there."""
     names = tuple(names)
     free = indices(names)
-    noise = noise or noise_for(obs)
-    w = Weighting(obs, weighting, noise)
+    w = Weighting(obs, "ols", noise_for(obs))
     theta = NOMINAL.copy()
     theta[free] = np.asarray(values, dtype=float)
     rank = design_rank(w.jac(_linear_jacobian(obs, names, free, NOMINAL))[0], _ranges(free))

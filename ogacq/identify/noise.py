@@ -89,23 +89,14 @@ def shared_rounding_variance(sigma_mm: float, step_mm: float) -> float:
 
 def within_variance(sigma_mm: float, step_mm: float) -> float:
     """Variance of a reading about its repeat group's mean error (mm^2)."""
-    total = sigma_mm**2 + step_mm**2 / 12.0
-    return max(total - shared_rounding_variance(sigma_mm, step_mm), 0.0)
-
-
-def _within_variance_slope(sigma_mm: float, step_mm: float) -> float:
-    """d within_variance / d sigma: ``2 sigma + 4 sigma sum_k exp(-a k^2)`` (the
-    series of ``c`` differentiated term by term, ``da/dsigma = 2 a / sigma``);
-    positive for sigma > 0, so the inversion below has one root."""
-    if step_mm <= 0:
-        return 2.0 * sigma_mm
-    return 2.0 * sigma_mm + 4.0 * sigma_mm * _exp_sums(sigma_mm, step_mm)[1]
+    return _within_variance_and_slope(sigma_mm, step_mm)[0]
 
 
 def _within_variance_and_slope(sigma_mm: float, step_mm: float) -> tuple[float, float]:
-    """:func:`within_variance` and :func:`_within_variance_slope` from one sum of the
-    series (the same expressions, so the same doubles): the inversion below needs
-    both at every step."""
+    """:func:`within_variance` and its derivative by sigma, ``2 sigma + 4 sigma
+    sum_k exp(-a k^2)`` (the series of ``c`` differentiated term by term, ``da/dsigma =
+    2 a / sigma``; positive for sigma > 0, so the inversion below has one root), from
+    one sum of the series: the inversion needs both at every step."""
     if step_mm <= 0:
         return max(sigma_mm**2 + step_mm**2 / 12.0, 0.0), 2.0 * sigma_mm
     damped_over_k2, damped = _exp_sums(sigma_mm, step_mm)
@@ -191,13 +182,11 @@ class GaugeNoise:
         return self.shared_var >= ROUNDING_DOMINATES * self.variance
 
     @classmethod
-    def stated(cls, scatter_mm: float, step_mm: float, *, repeats: bool = True,
-               source: str = "machine file") -> GaugeNoise:
-        """A gauge that scatters ``scatter_mm`` behind a display of ``step_mm``;
-        ``repeats``: readings repeat postures, so they share the rounding."""
-        shared = shared_rounding_variance(scatter_mm, step_mm) if repeats else 0.0
-        return cls(math.hypot(scatter_mm, step_mm / math.sqrt(12.0)), source, step_mm,
-                   scatter_mm, shared)
+    def stated(cls, scatter_mm: float, step_mm: float) -> GaugeNoise:
+        """A gauge that scatters ``scatter_mm`` behind a display of ``step_mm``, its
+        readings repeating postures, so sharing the rounding."""
+        return cls(math.hypot(scatter_mm, step_mm / math.sqrt(12.0)), "machine file", step_mm,
+                   scatter_mm, shared_rounding_variance(scatter_mm, step_mm))
 
     def describe(self) -> str:
         extra = f", {self.dof} dof" if self.dof else ""
@@ -240,15 +229,15 @@ def identical_pair_probability(sigma_mm: float, step_mm: float) -> float:
     return max(inside - 2.0 * tau * (1.0 / math.sqrt(2.0 * math.pi) - density), 0.0)
 
 
-def identical_repeats_scatter(groups: int, step_mm: float,
-                              level: float = IDENTICAL_REPEATS_LEVEL) -> float:
+def identical_repeats_scatter(groups: int, step_mm: float) -> float:
     """The largest gauge scatter under which ``groups`` repeat groups all read
-    identically with probability ``level``. Each group is counted by one pair of its
-    readings (a group of more agrees less often than one pair of it), so the scatter
-    found is, if anything, too large: the verdict errs toward 'within the noise'."""
+    identically with probability ``IDENTICAL_REPEATS_LEVEL``. Each group is counted by
+    one pair of its readings (a group of more agrees less often than one pair of it), so
+    the scatter found is, if anything, too large: the verdict errs toward 'within the
+    noise'."""
     if groups <= 0 or step_mm <= 0:
         return 0.0
-    target = level ** (1.0 / groups)
+    target = IDENTICAL_REPEATS_LEVEL ** (1.0 / groups)
     low, high = 0.0, step_mm
     while identical_pair_probability(high, step_mm) > target:
         high *= 2.0
@@ -277,18 +266,12 @@ def _identical_repeats_noise(obs: Observations, step_mm: float, dof: int) -> Gau
                       scatter, rounding, dof, 0.0)
 
 
-def repeat_groups(obs: Observations) -> np.ndarray:
-    """For each raw reading, the index of its group of repeats: same gauge, same
-    joint coordinates, same approach side (the cycles of one posture)."""
-    return obs.layout.repeat_group
-
-
 def pure_error(obs: Observations) -> tuple[float, int] | None:
     """(sum of squares, dof) of the readings about their repeat groups' means: the
     scatter of the cycles, which needs no model."""
     if not obs.raw:
         return None
-    group = repeat_groups(obs)
+    group = obs.layout.repeat_group
     size = obs.layout.repeat_size
     dof = len(obs) - len(size)
     if dof <= 0:

@@ -54,10 +54,11 @@ class Deviation:
     @property
     def posture(self) -> str:
         return POSTURE_OF_SIGN[self.sign]
+
+
 # The order of eq. 11 of the 2008 paper, per leg pair (dX_Y+, dY_X+, dX_Y-, dY_X-).
 PAPER_ORDER_12 = ("dx_y+", "dy_x+", "dx_y-", "dy_x-", "dx_z+", "dz_x+", "dx_z-", "dz_x-",
                   "dy_z+", "dz_y+", "dy_z-", "dz_y-")
-PAPER_ORDER_6 = ("dx_y", "dx_z", "dy_x", "dy_z", "dz_x", "dz_y")
 
 
 @dataclass

@@ -61,10 +61,9 @@ class JointHistory:
     setting_travel_mm: np.ndarray
 
     @classmethod
-    def of(cls, layout: ReadingsLayout, overshoot_mm: float = DEFAULT_OVERSHOOT_MM,
-           ) -> JointHistory:
+    def of(cls, layout: ReadingsLayout) -> JointHistory:
         side = np.asarray(layout.lost_motion_side, dtype=int)
-        travel = travel_since_reversal(layout.q_mm, side, overshoot_mm)
+        travel = travel_since_reversal(layout.q_mm, side)
         # a gauge is set at its first reading's pose (ReadingsLayout.build), and its
         # history there is that reading's
         first = np.full(layout.n_gauges, -1)
@@ -170,37 +169,6 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
                    u_reverse_mm=tuple(out[-1][1].tolist()),
                    reference_mm=ref, source=source, excludes=excludes,
                    extra=dict(extra or {}))
-
-
-def library_axis_maps(values: Mapping[str, float], std: Mapping[str, float],
-                      from_mm: float, to_mm: float, step_mm: float = 1.0,
-                      ) -> tuple[AxisMap, ...]:
-    """The library effects a controller compensates along an axis, as ``AxisMap``:
-    ``encoder_scale.a`` (ppm; the error ``q s 1e-6``, zero at q = 0) and
-    ``backlash.a`` (mm). The joint offsets stay offsets. A backlash ``b`` puts the
-    joint ``b / 2`` short of the target from either side about the offset
-    (``measurement.py``); the map is zero forward, ``+b`` reverse, so the joint
-    offset that goes with it is ``b / 2`` smaller: ``extra["joint_offset_change_mm"]``
-    says by how much (to add to the identified offset when both are compensated)."""
-    out = []
-    q = np.round(np.arange(from_mm, to_mm + step_mm / 2, step_mm), 9)
-    for a in AXES:
-        scale = values.get(f"encoder_scale.{a}", 0.0)
-        lost = values.get(f"backlash.{a}", 0.0)
-        if not scale and not lost:
-            continue
-        u_scale = std.get(f"encoder_scale.{a}", 0.0) * np.abs(q) * 1e-6
-        u_lost = std.get(f"backlash.{a}", 0.0)
-        forward = q * scale * 1e-6
-        reverse = forward + lost
-        sources = [n for n, v in ((f"encoder_scale.{a}", scale), (f"backlash.{a}", lost)) if v]
-        out.append(AxisMap(
-            axis=a, positions_mm=tuple(q.tolist()), forward_mm=tuple(forward.tolist()),
-            reverse_mm=tuple(reverse.tolist()), u_forward_mm=tuple(u_scale.tolist()),
-            u_reverse_mm=tuple(np.hypot(u_scale, u_lost).tolist()),
-            source="library: " + ", ".join(sources),
-            extra={"joint_offset_change_mm": -lost / 2.0} if lost else {}))
-    return tuple(out)
 
 
 # --- a map's terms, kept beside its table --------------------------------------------

@@ -30,11 +30,8 @@ _DL = [PARAM_INDEX[f"leg_length.{a}"] for a in "xyz"]
 
 
 def axis_lines(theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Unit directions ``u`` and base points ``o`` of the three actuator lines.
-
-    ``theta``: (..., N) full parameter vectors. Returns two (..., 3, 3) arrays,
-    row ``i`` for actuator ``i``.
-    """
+    """Unit directions ``u`` and base points ``o`` (..., 3, 3) of the three actuator
+    lines of parameter vectors ``theta`` (..., N), row ``i`` for actuator ``i``."""
     shape = theta.shape[:-1]
     s_xy, s_xz, s_yz = (np.sin(theta[..., k] * 1e-3) for k in _SQ)
     u = np.zeros(shape + (3, 3))
@@ -100,8 +97,7 @@ def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
     Subtracting the sphere equations pairwise leaves a line; the TCP is where
     it meets the first sphere, on the origin side of the plane through the
     joint centres (the assembly mode of the papers). Returns NaN where the legs
-    cannot meet; callers decide whether that is an error.
-    """
+    cannot meet; callers decide whether that is an error."""
     # Coordinates first, each a contiguous (3, ...) array: one numpy call does a
     # vector's three components (a fit evaluates a few dozen poses, where every call
     # costs more than its arithmetic; a Monte-Carlo evaluates millions, where
@@ -164,8 +160,7 @@ def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.nd
     matrix (rows ``a_i = p - r_i``) is the same for every parameter. Its inverse has
     the columns ``a_2 x a_3``, ``a_3 x a_1``, ``a_1 x a_2`` over the determinant
     (Cramer): computed once per pose, NaN where the legs cannot meet. Exact, and
-    independent of the assembly mode ``forward`` picked.
-    """
+    independent of the assembly mode ``forward`` picked."""
     legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
     rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr)
     if dlegs is not None:
@@ -204,11 +199,9 @@ def _sqrt_or_nan(x: np.ndarray) -> np.ndarray:
 
 
 def inverse(p: np.ndarray, u: np.ndarray, o: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
-    """Joint positions ``rho`` (..., 3) that put the TCP at ``p`` (..., 3).
-
-    Nominal assembly mode: each joint beyond the TCP along its own axis. NaN
-    where a leg cannot reach ``p``.
-    """
+    """Joint positions ``rho`` (..., 3) that put the TCP at ``p`` (..., 3), each joint
+    beyond the TCP along its own axis (the nominal assembly mode); NaN where a leg
+    cannot reach ``p``."""
     d = p[..., None, :] - o
     along = np.einsum("...ik,...ik->...i", d, u)
     rest = legs_mm**2 - np.einsum("...ik,...ik->...i", d, d) + along**2

@@ -12,9 +12,11 @@ if TYPE_CHECKING:  # a machine file's [tolerances]: the class built only for one
 DECISION_RULES = ("guard-band", "simple")
 # Steel legs when the machine file does not say: the linear expansion coefficient
 # of carbon steel, 11.5e-6 /K (about 10..13e-6 /K across carbon steels; no single
-# normative source, a handbook figure).
+# normative source, a handbook figure), the default docs/calibration-record.md
+# section 1 names.
 STEEL_EXPANSION_PPM_PER_K = 11.5
-# The reference temperature of dimensional measurements (ISO 1:2022, 20 degC).
+# The reference temperature of dimensional measurements (ISO 1:2022, 20 degC): the
+# machine's nominal leg length is taken to hold there.
 REFERENCE_TEMPERATURE_C = 20.0
 
 

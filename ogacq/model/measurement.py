@@ -576,10 +576,8 @@ def _plan(layout: ReadingsLayout, free: np.ndarray | None, timed: bool) -> _Eval
 
 def predict_coordinates(theta: np.ndarray, layout: ReadingsLayout,
                         machine: MachineSpec) -> np.ndarray:
-    """Predicted gauge readings up to each gauge's zero: (B, n), or (n,) for 1-D theta.
-
-    NaN marks readings whose posture the legs cannot reach.
-    """
+    """Predicted gauge readings up to each gauge's zero: (B, n), or (n,) for 1-D theta;
+    NaN where the legs cannot reach the posture."""
     theta = np.asarray(theta, dtype=float)
     out, _ = _evaluate(theta[None] if theta.ndim == 1 else theta, layout, machine, None)
     return out[0] if theta.ndim == 1 else out

@@ -51,10 +51,9 @@ class Decision:
     why: str
 
     def to_json(self) -> dict:
-        out = {"deviation": self.deviation, "value_mm": _round(self.value_mm),
-               "U_mm": _round(self.U_mm), "tolerance_mm": _round(self.tolerance_mm),
-               "decision": self.decision, "why": self.why}
-        return out
+        return {"deviation": self.deviation, "value_mm": _round(self.value_mm),
+                "U_mm": _round(self.U_mm), "tolerance_mm": _round(self.tolerance_mm),
+                "decision": self.decision, "why": self.why}
 
 
 @dataclass(frozen=True)

@@ -15,14 +15,8 @@ from typing import Any
 
 from ogacq.identify.fit import FitResult
 from ogacq.model.gauges import Gauge
+from ogacq.model.machine import STEEL_EXPANSION_PPM_PER_K
 
-# ISO 1:2022: the standard reference temperature for geometrical product
-# specification and verification is 20 degC; the machine's nominal leg length is
-# taken to hold there.
-REFERENCE_TEMPERATURE_C = 20.0
-# Steel legs: 11.5e-6 /K, the value docs/calibration-record.md section 1 names as the
-# machine file's default (typical carbon steel, 10.8..12.5 ppm/K).
-STEEL_EXPANSION_PPM_PER_K = 11.5
 # The ambient temperature is typed from a shop thermometer whose maker typically
 # states +/-0.5 degC: taken as rectangular limits, u = 0.5 / sqrt(3) = 0.29 degC
 # (JCGM 100:2008 4.3.7), rounded up to 0.3 degC. A calibrated thermometer's
@@ -75,12 +69,12 @@ class BudgetInputs:
     register_step_mm: float | None = None
 
     def __post_init__(self) -> None:
-        _non_negative("gauge_noise_mm", self.gauge_noise_mm)
-        _positive("resolution_mm", self.resolution_mm)
-        _positive("leg_length_mm", self.leg_length_mm)
-        _non_negative("thermometer_u_c", self.thermometer_u_c)
-        _non_negative("leg_expansion_ppm_per_k", self.leg_expansion_ppm_per_k)
-        _positive("register_step_mm", self.register_step_mm)
+        _finite_number("gauge_noise_mm", self.gauge_noise_mm)
+        _finite_number("resolution_mm", self.resolution_mm, zero_allowed=False)
+        _finite_number("leg_length_mm", self.leg_length_mm, zero_allowed=False)
+        _finite_number("thermometer_u_c", self.thermometer_u_c)
+        _finite_number("leg_expansion_ppm_per_k", self.leg_expansion_ppm_per_k)
+        _finite_number("register_step_mm", self.register_step_mm, zero_allowed=False)
         if self.gauge_noise_dof is not None and not (
                 isinstance(self.gauge_noise_dof, int) and self.gauge_noise_dof >= 1):
             raise ValueError(f"gauge_noise_dof must be a whole number >= 1 (or None when the "
@@ -99,7 +93,7 @@ class BudgetInputs:
                 Gauge.parse(key)
             except ValueError as exc:
                 raise ValueError(f"calibration_u_mm: {exc}") from None
-            _non_negative(f"calibration_u_mm[{key!r}]", u)
+            _finite_number(f"calibration_u_mm[{key!r}]", u)
             checked[key] = None if u is None else float(u)
         object.__setattr__(self, "calibration_u_mm", MappingProxyType(checked))
 
@@ -132,15 +126,11 @@ class BudgetInputs:
         return self.leg_expansion_ppm_per_k * 1e-6 * self.leg_length_mm
 
 
-def _non_negative(name: str, value: float | None) -> None:
+def _finite_number(name: str, value: float | None, *, zero_allowed: bool = True) -> None:
+    """``value`` (None: not known) a finite number >= 0, or > 0 unless ``zero_allowed``."""
     if value is None:
         return
-    if not (isinstance(value, int | float) and math.isfinite(value) and value >= 0):
-        raise ValueError(f"{name} must be a finite number >= 0, got {value!r}")
-
-
-def _positive(name: str, value: float | None) -> None:
-    if value is None:
-        return
-    if not (isinstance(value, int | float) and math.isfinite(value) and value > 0):
-        raise ValueError(f"{name} must be a finite number > 0, got {value!r}")
+    if not (isinstance(value, int | float) and math.isfinite(value)
+            and (value >= 0 if zero_allowed else value > 0)):
+        raise ValueError(f"{name} must be a finite number {'>=' if zero_allowed else '>'} 0, "
+                         f"got {value!r}")

@@ -32,9 +32,10 @@ import numpy as np
 
 from ogacq.identify.fit import FitResult, Weighting, gauss_newton
 from ogacq.identify.observations import Observations
+from ogacq.model.machine import REFERENCE_TEMPERATURE_C
 from ogacq.model.parameters import indices
 from ogacq.uncertainty.budget import Budget, solution_operator, uncertainty_budget
-from ogacq.uncertainty.inputs import REFERENCE_TEMPERATURE_C, BudgetInputs
+from ogacq.uncertainty.inputs import BudgetInputs
 from ogacq.uncertainty.sources import LEG_LENGTHS, calibration_span
 
 CHUNK = 1000  # draws per vectorised batch: bounds memory on long campaigns
@@ -111,8 +112,8 @@ def monte_carlo(obs: Observations, result: FitResult, inputs: BudgetInputs, *,
             estimates[lo:lo + count] = result.values + (y - obs.values) @ linear.T
             converged[lo:lo + count] = True
         else:
-            theta, _, conv, _ = gauss_newton(obs, y, free, result.theta, weighting,
-                                             result.identifiability.rank, tolerance=tolerance)
+            theta, conv = gauss_newton(obs, y, free, result.theta, weighting,
+                                       result.identifiability.rank, tolerance=tolerance)
             estimates[lo:lo + count] = theta[:, free]
             converged[lo:lo + count] = conv
         if inputs.register_step_mm is not None:

@@ -47,8 +47,7 @@ def fixed(value: float, decimals: int, *, sign: bool = False) -> str:
     rounded = round(value, decimals)
     if rounded == 0:
         rounded = 0.0
-    text = f"{rounded:{'+' if sign else ''}.{max(decimals, 0)}f}"
-    return text
+    return f"{rounded:{'+' if sign else ''}.{max(decimals, 0)}f}"
 
 
 @dataclass(frozen=True)

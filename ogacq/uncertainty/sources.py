@@ -43,8 +43,9 @@ import numpy as np
 
 from ogacq.identify.noise import shared_rounding_variance
 from ogacq.identify.observations import Observations
+from ogacq.model.machine import REFERENCE_TEMPERATURE_C
 from ogacq.model.parameters import AXES, indices
-from ogacq.uncertainty.inputs import REFERENCE_TEMPERATURE_C, BudgetInputs
+from ogacq.uncertainty.inputs import BudgetInputs
 
 INFINITE_DOF = math.inf
 LEG_LENGTHS = tuple(f"leg_length.{a}" for a in AXES)

@@ -1,7 +1,7 @@
 """A second write round after the validation between the scan's targets shows the first
 round's maps wrong: restored, the scan and that validation diagnosed together, written
 and validated once more, within the scan's time budget; killed in the second round's
-validation, it resumes to the same end without writing again.
+write, then in its validation, it resumes to the same end without writing again.
 
 The first round's map is made wrong on purpose (its sign turned: tests.calibration.
 interrupt --flip-first), the second round's is the diagnosis's own. Without the second
@@ -141,29 +141,6 @@ def test_no_second_round_beyond_the_scan_budget(tmp_path, monkeypatch):
     assert not any(r.details.get("round") for r in log_steps(folder))
 
 
-def test_killed_in_the_second_validation_it_resumes_to_the_same_end(second, tmp_path):
-    folder = tmp_path / "cal"
-    effects = effects_file(tmp_path, EFFECTS)
-    args = [sys.executable, "-m", "tests.calibration.interrupt", "none", "--flip-first", "--",
-            "calibrate", "--simulator", "--effects", str(effects), *ARGS, "--out",
-            str(folder)]
-    path = folder / "validation-scan-2.jsonl"
-    run = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    deadline = time.monotonic() + 240
-    while run.poll() is None and time.monotonic() < deadline and not (
-            path.is_file() and path.read_text().count('"type":"reading"') >= 6):
-        time.sleep(0.05)
-    if run.poll() is not None and ended_by_chance(folder):
-        pytest.skip("a test at the 1 % level alone ended it by chance: no second round")
-    assert run.poll() is None, "the procedure ended before the kill point"
-    os.kill(run.pid, signal.SIGKILL)
-    run.wait()
-    steps = resumed_to_the_second_round(folder)
-    assert sum(r.step == "restored" for r in steps) == 1
-    assert step(folder, "compensation", round=2)["offsets_mm"] == pytest.approx(
-        step(second, "compensation", round=2)["offsets_mm"], abs=0.003)
-
-
 class Terminal(io.StringIO):
     """Answers typed at a terminal."""
 
@@ -218,23 +195,41 @@ def test_no_second_round_where_the_scan_ran_with_maps_applied(second):
         "no second round: the separating scan ran with maps applied")
 
 
-def test_killed_in_the_second_write_it_resumes_to_written_once(second, tmp_path):
-    """Killed with the second round's offsets half written (x and y, not z): the resume
-    puts back its own write and writes the second round once. (The maps file replaced
-    before its record is the first round's window too, the same log steps:
-    test_calibrate_interrupted.py; one window here keeps the suite's time.)"""
-    window = "offsets-half"
+def test_killed_in_the_second_write_then_in_its_validation_it_resumes_to_the_same_end(
+        second, tmp_path):
+    """Killed with the second round's offsets half written (x and y, not z), resumed, and
+    killed again in the second round's validation: the first resume puts back its own
+    write and writes the second round once, the second resumes the validation without
+    writing again; the end is the uninterrupted run's. (The maps file replaced before its
+    record is the first round's window too, the same log steps:
+    test_calibrate_interrupted.py; one window here keeps the suite's time. The two kills
+    were two calibrations, each from the start.)"""
     folder = tmp_path / "cal"
-    killed = subprocess.run([sys.executable, "-m", "tests.calibration.interrupt", window,
-                             "--second", "--flip-first", "--", "calibrate", "--simulator",
-                             "--effects", str(effects_file(tmp_path, EFFECTS)), *ARGS,
-                             "--out", str(folder)], capture_output=True, text=True,
+    killed = subprocess.run([sys.executable, "-m", "tests.calibration.interrupt",
+                             "offsets-half", "--second", "--flip-first", "--", "calibrate",
+                             "--simulator", "--effects", str(effects_file(tmp_path, EFFECTS)),
+                             *ARGS, "--out", str(folder)], capture_output=True, text=True,
                             timeout=300)
     if killed.returncode == 4 and ended_by_chance(folder):
         pytest.skip("a test at the 1 % level alone ended it by chance: no second round")
     assert killed.returncode == -signal.SIGKILL, killed.stderr[-2000:]
     assert step(folder, "confirmed", round=2)
-    resumed_to_the_second_round(folder)
+    # resumed (the sign-turned first round is in its log), killed in the second validation
+    path = folder / "validation-scan-2.jsonl"
+    run = subprocess.Popen([sys.executable, "-m", "ogacq", "calibrate", "--resume",
+                            str(folder), "--yes", "--history", "none"],
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 240
+    while run.poll() is None and time.monotonic() < deadline and not (
+            path.is_file() and path.read_text().count('"type":"reading"') >= 6):
+        time.sleep(0.05)
+    assert run.poll() is None, "the resumed procedure ended before the kill point"
+    os.kill(run.pid, signal.SIGKILL)
+    run.wait()
+    steps = resumed_to_the_second_round(folder)
+    assert sum(r.step == "restored" for r in steps) == 1
+    assert step(folder, "compensation", round=2)["offsets_mm"] == pytest.approx(
+        step(second, "compensation", round=2)["offsets_mm"], abs=0.003)
     # the maps file holds the second round's map, not the first's (sign-turned)
     (m,) = step(folder, "compensation", round=2)["maps"]
     assert read_maps_table(folder / "maps.json").maps["x"].checksum() == \

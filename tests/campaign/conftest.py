@@ -20,10 +20,19 @@ def gauge(key: str, port: str, channel: int | None = None) -> str:
 
 
 def write_campaign(folder: Path, *, seed: int = 3, speed: float = 50, noise: float | None = None,
-                   profile: str = "cia402", extra: str = "") -> Path:
+                   profile: str = "cia402", extra: str = "", line_at_speed: bool = False,
+                   ) -> Path:
+    """A simulated campaign file (and its machine file) in ``folder``.
+
+    ``line_at_speed``: the gauges' serial lines run ``speed`` times faster than their baud
+    rates, as ``calibrate --simulator`` runs them: for a test of what a campaign records
+    and concludes, not of the line's timing nor of a kill raced against the readings
+    (a whole campaign's wait on its lines, about 2.6 s at 9600 baud, then takes 0.05 s)."""
     folder.mkdir(parents=True, exist_ok=True)
     (folder / "machine.toml").write_text(MACHINE)
     sim = f"seed = {seed}\nspeed = {speed}\nprofile = \"{profile}\"\n"
+    if line_at_speed:
+        sim += "line_at_speed = true\n"
     if noise is not None:
         sim += f"noise_mm = {noise}\n"
     path = folder / "campaign.toml"

@@ -17,7 +17,8 @@ from tests.writeback.conftest import FAST_STABILITY, ogacq_here
 
 def test_a_rehearsal_is_marked_simulated_everywhere(campaign_dir, capsys, monkeypatch):
     monkeypatch.setenv("COLUMNS", "200")
-    path = write_campaign(campaign_dir, seed=3, extra="cycles = 1\n" + FAST_STABILITY)
+    path = write_campaign(campaign_dir, seed=3, extra="cycles = 1\n" + FAST_STABILITY,
+                          line_at_speed=True)
     history = campaign_dir / "history.sqlite"
     ran = ogacq_here(capsys, monkeypatch, "run", path, "--history", history)
     assert ran.returncode == 0, ran.stderr

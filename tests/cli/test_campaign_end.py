@@ -44,7 +44,8 @@ def test_run_again_with_session_warns_first_and_ends_with_what_to_do(
     # a first use: ogacq's data folder does not exist yet (made, for its owner only)
     ogacq_home = ogacq_home / "first use"
     monkeypatch.setenv("OGACQ_HOME", str(ogacq_home))
-    path = write_campaign(campaign_dir, seed=3, extra="cycles = 1\n" + FAST_STABILITY)
+    path = write_campaign(campaign_dir, seed=3, extra="cycles = 1\n" + FAST_STABILITY,
+                          line_at_speed=True)
     first = ogacq_here(capsys, monkeypatch, "run", path)
     assert first.returncode == 0, first.stderr
     # missing traceability said when the run starts, not first found in record.json

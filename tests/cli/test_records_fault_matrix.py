@@ -34,7 +34,7 @@ OPERATOR_SHOWN = OPERATOR  # as every command prints it
 def recorded(tmp_path_factory) -> Path:
     """A finished simulated campaign in ``runs [/y]``, its history beside it."""
     folder = tmp_path_factory.mktemp("matrix") / "runs [/y]"
-    path = write_campaign(folder, seed=3, speed=100)
+    path = write_campaign(folder, seed=3, speed=100, line_at_speed=True)
     machine = folder / "machine.toml"
     machine.write_text(f'name = "{MACHINE_NAME}"\nserial = "SN [b]"\n' + machine.read_text())
     path.write_text(f'operator = "{OPERATOR_TOML}"\n' + path.read_text())

@@ -103,8 +103,8 @@ def test_an_error_wraps_between_words_on_a_terminal_and_is_one_line_to_a_pipe(tm
 
 def test_the_end_of_a_run_fits_80_columns(tmp_path):
     """The verdict, the record and the next commands, as the issue found them cut."""
-    campaign = write_campaign(tmp_path / "c", seed=3, extra="cycles = 1\n[stability]\n"
-                                                            "readings = 2\n")
+    campaign = write_campaign(tmp_path / "c", seed=3, line_at_speed=True,
+                              extra="cycles = 1\n[stability]\nreadings = 2\n")
     ran = subprocess.run([sys.executable, "-m", "ogacq", "run", campaign, "--history",
                           "none"], capture_output=True, text=True, timeout=300,
                          env={**os.environ, "COLUMNS": str(WIDTH)})

@@ -21,7 +21,6 @@ from ogacq.model.error_maps import (
     MapTerm,
     axis_map,
     cubic_bspline,
-    library_axis_maps,
     travel_since_reversal,
 )
 from ogacq.model.joint_sensitivity import joint_sensitivity, predict_displaced
@@ -143,7 +142,7 @@ def test_hysteresis_of_zero_length_is_the_librarys_backlash():
     assert np.allclose(wound, shape)
 
 
-def test_axis_maps_from_terms_and_from_the_library():
+def test_axis_maps_from_terms():
     cyclic = MapTerm("lead_screw_cyclic", 0, {"pitch_mm": 5.0})
     lag = MapTerm("hysteresis", 0, {"length_mm": 3.0})
     coefficients = [np.array([0.004, 0.002]), np.array([0.02])]
@@ -157,14 +156,6 @@ def test_axis_maps_from_terms_and_from_the_library():
     assert np.allclose(np.array(table.reverse_mm) - table.forward_mm, 0.02)  # lost motion
     u = np.array(table.u_forward_mm)
     assert u[q == 0.0] == pytest.approx(0.0, abs=1e-15) and u[0] > u[len(q) // 2]
-
-    maps = library_axis_maps({"encoder_scale.y": 100.0, "backlash.y": 0.01},
-                             {"encoder_scale.y": 10.0, "backlash.y": 0.001}, -100.0, 60.0)
-    [y] = maps
-    assert y.axis == "y" and y.extra["joint_offset_change_mm"] == -0.005
-    assert y.error_mm(-100.0, 1) == pytest.approx(-0.01) and y.error_mm(50.0, -1) == \
-        pytest.approx(0.005 + 0.01)
-    assert library_axis_maps({}, {}, -100.0, 60.0) == ()
 
 
 def test_effects_file_takes_the_axis_errors(tmp_path: Path):

@@ -34,7 +34,7 @@ VALIDATION_EFFECTS = "[joint_offset]\nx = 0.0012\ny = -0.0008\nz = 0.0005\n"
 
 
 def _campaign(folder: Path, effects: str) -> Path:
-    path = write_campaign(folder, seed=3)
+    path = write_campaign(folder, seed=3, line_at_speed=True)
     (folder / "effects.toml").write_text(effects)
     text = path.read_text().replace("[simulator]\n", '[simulator]\neffects = "effects.toml"\n')
     path.write_text(text)

@@ -32,7 +32,7 @@ except StorageError as exc:
 
 
 def test_a_full_disk_mid_campaign_stops_in_one_line_and_resume_completes(tmp_path):
-    path = write_campaign(tmp_path, seed=5, extra="cycles = 1\n" + FAST)
+    path = write_campaign(tmp_path, seed=5, extra="cycles = 1\n" + FAST, line_at_speed=True)
     session_path = tmp_path / "session.jsonl"
     # room for the header and some readings (a few hundred bytes each), not for all 24
     ran = with_file_size_limit(6_000, "run", path)

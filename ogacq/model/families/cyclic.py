@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from ogacq.model.families.base import MapFamily, MapTerm, MapValue
+from ogacq.model.units import json_number
 
 
 @dataclass(frozen=True)
@@ -54,9 +55,9 @@ class Cyclic(MapFamily[CyclicShape]):
         phase_std = float(math.sqrt(max(gphase @ cov @ gphase, 0.0)))
         return MapValue(amp, amp_std, {
             "pitch_mm": round(self.params(term).pitch_mm, 6),
-            "pitch_std_mm": rounded(shape_std),
+            "pitch_std_mm": json_number(shape_std, 6),
             "phase_deg": round(math.degrees(phase), 3),
-            "phase_std_deg": rounded(math.degrees(phase_std))})
+            "phase_std_deg": json_number(math.degrees(phase_std), 6)})
 
     def sentence(self, term: MapTerm, value: MapValue) -> str:
         return f"{self.words} of pitch {self.params(term).pitch_mm:.4g} mm"
@@ -84,8 +85,3 @@ class Cyclic(MapFamily[CyclicShape]):
         delta = q - term.reference_mm
         c = coefficients
         return (c[0] * np.cos(w * delta) - c[1] * np.sin(w * delta)) * delta * (-w / pitch)
-
-
-def rounded(x: float) -> float | None:
-    """A std for the JSON: None when not finite (not determined)."""
-    return round(float(x), 6) if math.isfinite(x) else None

@@ -14,8 +14,7 @@ from typing import Any
 import numpy as np
 
 from ogacq.model.families.base import MapFamily, MapTerm, MapValue, SearchedAxis, ShapeGrid
-from ogacq.model.families.cyclic import rounded
-from ogacq.model.units import UM_PER_MM
+from ogacq.model.units import UM_PER_MM, json_number
 
 # the build-up lengths tried: 0 (a constant backlash) to 32 mm, doubling
 BUILD_UP_MM = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0, 8.0, 16.0, 32.0)
@@ -47,7 +46,7 @@ class Hysteresis(MapFamily[HysteresisShape]):
 
     def value_extra(self, term: MapTerm, shape_std: float) -> dict:
         return {"build_up_mm": round(self.params(term).length_mm, 4),
-                "build_up_std_mm": rounded(shape_std)}
+                "build_up_std_mm": json_number(shape_std, 6)}
 
     def sentence(self, term: MapTerm, value: MapValue) -> str:
         return f"{self.words} (over {self.params(term).length_mm:.2g} mm)"
