@@ -53,11 +53,11 @@ def test_a_5_mm_lead_is_mapped_by_its_scale_and_validated_along_the_whole_travel
     assert check["shown"] and check["within"] == len(check["targets_mm"])
     assert "shown by its axis scale along the whole travel" in finished["reason"]
     # the record and its page carry the scales' tests: before and after on x (its map),
-    # before only on y, each scale's identity
+    # before only on y and z, each scale's identity
     record = CalibrationRecord.from_json(
         json.loads((folder / "report" / "record.json").read_text()))
     scales = record.axis_scale_entries
-    assert set(scales) == {"x", "y"} and scales["y"].after is None
+    assert set(scales) == {"x", "y", "z"} and scales["y"].after is scales["z"].after is None
     x = scales["x"]
     assert x.validation is not None and x.validation.shown and x.after is not None
     assert x.instrument.gauge == "scale_x" and written(x.instrument)["serial"] == "sim-scale-x"
