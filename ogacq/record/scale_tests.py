@@ -71,9 +71,13 @@ def _test(session: LoadedSession) -> dict[str, Any]:
 def _instrument(session: LoadedSession, axis: str) -> dict[str, Any]:
     """The scale as the test's session recorded it, and whether it was past its due
     date on the test's date (a session from before its instrument was recorded: the
-    serial its station opened it with, ``calibration_context``'s)."""
+    serial and display step its station opened it with)."""
     context = calibration_context(session)
-    scale = context.instrument(f"scale_{axis}") or Instrument(f"scale_{axis}")
+    scale = context.instrument(f"scale_{axis}")
+    if scale is None:
+        opened = ((session.header.station or {}).get("axis_scales") or {}).get(axis) or {}
+        scale = Instrument(f"scale_{axis}", serial=opened.get("serial") or None,
+                           resolution_mm=opened.get("resolution_mm"))
     return dict(scale.to_json(), expired=context.expired(scale))
 
 
