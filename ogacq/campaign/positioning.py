@@ -21,21 +21,20 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ogacq_drivers.errors import DriverError
-from ogacq.campaign.campaign_file import Campaign
+from ogacq.campaign.campaign_file import AxisScaleSpec, Campaign
 from ogacq.campaign.run import check_same_maps, maps_in_force, target_correction
 from ogacq.campaign.station import DeviceStation, open_station
-from ogacq.campaign.traceability import check_instruments
+from ogacq.campaign.traceability import check_instruments, header_entries
 from ogacq.compensation.applied import TargetCorrection
 from ogacq.errors import InputError, StorageError
 from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_dict
 from ogacq.model.parameters import AXES
 from ogacq.protocol.positioning import (
+    SESSION_KIND,
     PositioningPlan,
-    PositioningResult,
     PositioningStep,
-    ScaleReading,
-    positioning_result,
+    session_result,
 )
 from ogacq.protocol.runner import CampaignStopped, Observer, Progress
 from ogacq.session.records import (
@@ -50,16 +49,13 @@ from ogacq.session.store import LoadedSession, SessionWriter, check_writable, lo
 if TYPE_CHECKING:
     from ogacq.sim.stack import SimulatorStack
 
-KIND = "positioning"  # the session header's "kind": not a campaign of the legs
-
-
 def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Path, *,
                     simulator: SimulatorStack | None = None,
                     observer: Observer | None = None) -> LoadedSession:
     """Run (or continue) the test ``plan`` into ``session_path``; the finished session.
     Raises CampaignStopped (recorded, resumable) when a device fails."""
     resume = load_session(session_path) if session_path.exists() else None
-    if resume is not None and resume.header.extra.get("kind") != KIND:
+    if resume is not None and resume.header.kind != SESSION_KIND:
         raise InputError(session_path, "is not a positioning test's session")
     if resume is not None and resume.finished:
         return resume
@@ -77,11 +73,12 @@ def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Pat
         station.prepare()
         if maps is not None:  # the identity of the maps every target is corrected with
             station.description["controller"]["maps"] = maps.identity()
-        header = {"kind": KIND, "machine": machine_dict(campaign.machine),
+        header = {"kind": SESSION_KIND, "machine": machine_dict(campaign.machine),
                   "machine_file": str(campaign.machine_path),
                   "campaign_file": str(campaign.path.resolve()),
                   "simulated": station.description["simulated"],
-                  "station": station.description, "positioning": plan.to_json()}
+                  "station": station.description, "positioning": plan.to_json(),
+                  **_traceability(campaign, plan.axis, station.description)}
         writer = SessionWriter.reopen(resume) if resume is not None \
             else SessionWriter.create(session_path, header)
         with writer:
@@ -94,6 +91,18 @@ def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Pat
                          target_correction(campaign, maps), observer)
             test.run()
     return load_session(session_path)
+
+
+def _traceability(campaign: Campaign, axis: str, station: dict[str, Any]) -> dict[str, Any]:
+    """The header's identity (machine, operator), date and the scale as the test's
+    instrument: its identity and certificate as the campaign file gives them, the
+    serial the station opened it with otherwise (the simulator's), its display step."""
+    entries = header_entries(dataclasses.replace(campaign, gauges=[], extra_instruments=[]),
+                             {})
+    opened = station["axis_scales"][axis]
+    gauge = (campaign.axis_scales.get(axis) or AxisScaleSpec()).as_gauge(axis)
+    gauge = dataclasses.replace(gauge, serial=gauge.serial or str(opened["serial"] or ""))
+    return entries | {"instruments": [gauge.instrument(opened["resolution_mm"]).to_json()]}
 
 
 @dataclass
@@ -188,19 +197,6 @@ class _Test:
                                    f"{name}: scale {value.value_mm:+.4f} mm"))
 
 
-def session_result(session: LoadedSession, *, net_of_drive: bool = False,
-                   ) -> PositioningResult:
-    """The figures of a positioning test's session (``positioning_result``; ValueError:
-    what is missing)."""
-    readings = [ScaleReading(r.run, r.direction, r.target_mm, r.scale_mm, r.meant_mm)
-                for r in session.of_type(PositionRecord)]
-    plan = PositioningPlan.from_json(dict(session.header.extra["positioning"]))
-    scales = (session.header.station or {}).get("axis_scales") or {}
-    step = float((scales.get(plan.axis) or {}).get("resolution_mm") or 0.0)
-    return positioning_result(plan.axis, readings, net_of_drive=net_of_drive,
-                              display_step_mm=step)
-
-
 def positioning_document(session: LoadedSession, drive_step_mm: float) -> dict[str, Any]:
     """What ``ogacq positioning --json`` prints and writes beside the session: the plan,
     the figures actual minus target, and (where maps were in force and the drive rounds
@@ -208,7 +204,7 @@ def positioning_document(session: LoadedSession, drive_step_mm: float) -> dict[s
     raw = session_result(session)
     out: dict[str, Any] = {"session": str(session.path),
                            "simulated": bool(session.header.simulated),
-                           "plan": session.header.extra["positioning"],
+                           "plan": session.header.positioning or {},
         "drive_step_mm": drive_step_mm, **raw.to_json()}
     net = session_result(session, net_of_drive=True)
     if not np.allclose(net.mean_mm, raw.mean_mm, atol=1e-9):

@@ -31,7 +31,9 @@ from ogacq.cli.options import (
     JsonOption,
     OverrideExpiredOption,
     ProfileChoice,
+    axis_scales_option,
     override_reason,
+    scale_axes,
     seed_option,
 )
 from ogacq.cli.outputs import check_output_folder
@@ -82,11 +84,10 @@ def calibrate(
     scan_minutes: Annotated[float | None, typer.Option(
         min=1.0, help="The machine time the designed separating scan may take (default: "
                       f"the campaign file's scan_minutes, else {SCAN_MINUTES:g}).")] = None,
-    axis_scales: Annotated[str, typer.Option(
-        metavar="AXES", help="With --simulator: the axes (e.g. x,y,z) along which a scale is "
-                             "mounted; a map written on such an axis is validated by ISO "
-                             "230-2's positioning test over its whole travel (on a station: "
-                             "the campaign file's [axis_scale.x] tables).")] = "",
+    axis_scales: Annotated[str, axis_scales_option(
+        "With --simulator: the axes (e.g. x,y,z) along which a scale is mounted; a map "
+        "written on such an axis is validated by ISO 230-2's positioning test over its "
+        "whole travel (on a station: the campaign file's [axis_scale.x] tables).")] = "",
     scale_runs: Annotated[int, typer.Option(
         min=2, max=50, help="Runs each way of each axis scale's positioning test "
                             "(ISO 230-2: five).")] = ISO_RUNS,
@@ -145,14 +146,19 @@ def calibrate(
     report = None
     if outcome.record is not None and outcome.evidence is not None:
         from ogacq.cli.report_cmd import write_session_report
+        from ogacq.record.scale_tests import axis_scales_section
         from ogacq.session.store import load_session
 
+        # the positioning tests by the axis scales, as the procedure's log holds them
+        tested = axis_scales_section(load_session(folder / LOG_NAME))
+        record = outcome.record if tested is None else {**outcome.record,
+                                                        "axis_scales": tested}
         report = write_session_report(
             load_session(outcome.evidence), folder / "report",
             validation=load_session(outcome.validation) if outcome.validation else None,
             diagnosis=_campaign_diagnosis(folder), diagnosis_source=folder / LOG_NAME,
-            record=outcome.record)
-        record_calibrate(outcome.evidence, history, outcome.record, outcome.procedure,
+            record=record)
+        record_calibrate(outcome.evidence, history, record, outcome.procedure,
                          outcome.details, validation=outcome.validation, location=where)
     if as_json:
         typer.echo(json.dumps({"folder": str(folder), "procedure": outcome.procedure,
@@ -166,10 +172,7 @@ def calibrate(
 
 def _scale_axes(given: str, simulator: bool) -> tuple[str, ...]:
     """``--axis-scales``'s axes (the simulator's only: a station's are in its file)."""
-    axes = tuple(sorted({a.strip() for a in given.split(",") if a.strip()}))
-    bad = [a for a in axes if a not in ("x", "y", "z")]
-    if bad:
-        raise InputError("--axis-scales", f"names axes x, y or z, got {', '.join(bad)}")
+    axes = scale_axes(given)
     if axes and not simulator:
         raise InputError("--axis-scales", "is the simulator's: on a station, declare each "
                          "scale in the campaign file ([axis_scale.x], its protocol and port)")

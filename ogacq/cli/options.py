@@ -52,6 +52,22 @@ def override_reason(given: str | None) -> str:
     return given.strip()
 
 
+def axis_scales_option(help: str) -> Any:
+    """``--axis-scales AXES``: the axes along which the simulator serves a scale."""
+    return typer.Option("--axis-scales", metavar="AXES", help=help)
+
+
+def scale_axes(given: str) -> tuple[str, ...]:
+    """``--axis-scales``'s axes, sorted and once each; InputError naming another."""
+    from ogacq.errors import InputError
+
+    axes = tuple(sorted({a.strip() for a in given.split(",") if a.strip()}))
+    bad = [a for a in axes if a not in ("x", "y", "z")]
+    if bad:
+        raise InputError("--axis-scales", f"names axes x, y or z, got {', '.join(bad)}")
+    return axes
+
+
 def confirmed(question: str) -> bool:
     """A yes/no question, no by default; the end of input or Ctrl-C at it is a no."""
     try:

@@ -56,7 +56,7 @@ def positioning(
         campaign.controller.profile if campaign.controller is not None else "cia402"
     step = drive_step_mm(profile)
     plan = positioning_plan(campaign.machine, axis, runs=runs, drive_step_mm=step)
-    if session.exists() and load_session(session).header.extra.get("positioning") \
+    if session.exists() and load_session(session).header.positioning \
             not in (None, plan.to_json()):
         raise InputError(session, "holds a positioning test of another plan: give --out")
     if not as_json:

@@ -75,10 +75,14 @@ def print_sim(info: dict, campaign: Path | None = None) -> None:
     table = table_of("gauge", "port", "protocol")
     for key, g in info["gauges"].items():
         table.add_row(shown(key), shown(g["port"]), shown(g["protocol"]))
+    for axis, g in info.get("axis_scales", {}).items():  # each scale on a line of its own
+        table.add_row(f"{shown(axis)} axis scale", shown(g["port"]), shown(g["protocol"]))
     console.print(table)
     if campaign is not None:  # what the file is for, while this simulator serves
+        scaled = "".join(f" (or ogacq positioning {shown(campaign)} --axis {shown(axis)})"
+                         for axis in list(info.get("axis_scales", {}))[:1])
         console.print(f"running; Ctrl-C to stop. next, in another terminal: ogacq run "
-                      f"{shown(campaign)}")
+                      f"{shown(campaign)}{scaled}")
     else:
         console.print("running; Ctrl-C to stop")
 

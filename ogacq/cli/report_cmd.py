@@ -174,10 +174,11 @@ def _diagnosis_view(diagnosis: dict[str, Any], source: Path) -> DiagnosisView:
 
 
 def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict[str, Any]:
-    """``record`` with the ``compensation`` ``ogacq calibrate`` put in an earlier issue
-    of it (the same campaign, the same validation session): only the procedure knows
-    the maps it wrote, so re-issuing its record (``ogacq report ... --pdf`` into its
-    folder) must not drop them (it issued a revision saying "removed compensation")."""
+    """``record`` with the ``compensation`` (and ``axis_scales``) ``ogacq calibrate``
+    put in an earlier issue of it (the same campaign, the same validation session):
+    only the procedure knows the maps it wrote and the scales' tests it judged them by,
+    so re-issuing its record (``ogacq report ... --pdf`` into its folder) must not drop
+    them (it issued a revision saying "removed compensation")."""
     new = CalibrationRecord.from_json(record)
     try:
         old = CalibrationRecord.from_json(json.loads(earlier)) if earlier is not None \
@@ -188,7 +189,8 @@ def _with_compensation_of(record: dict[str, Any], earlier: bytes | None) -> dict
             return record
     except (ValueError, TypeError, AttributeError):  # not a record of this version
         return record
-    return {**record, "compensation": dict(old.compensation)}
+    return {**record, "compensation": dict(old.compensation),
+            **({"axis_scales": dict(old.axis_scales)} if old.axis_scales else {})}
 
 
 def _sha(reference: SessionFile | None) -> str | None:
@@ -198,13 +200,21 @@ def _sha(reference: SessionFile | None) -> str | None:
 def check_pair(calibration: LoadedSession, validation: LoadedSession | None) -> None:
     """A campaign's session, and with ``--after`` another one of the same machine run
     after it (its as-left measurement); InputError naming the file otherwise. It took
-    ``ogacq calibrate``'s procedure log as a campaign (refused as partial, exit 4), and
-    the campaign itself or another machine's as its validation."""
+    ``ogacq calibrate``'s procedure log as a campaign (refused as partial, exit 4), an
+    axis's positioning test as a campaign that identified nothing, and the campaign
+    itself or another machine's as its validation."""
+    from ogacq.protocol.positioning import SESSION_KIND
+
     for loaded, what in ((calibration, "SESSION"), (validation, "--after")):
         if loaded is not None and loaded.header.procedure is not None:
             raise InputError(loaded.path, f"is the log of an `ogacq calibrate` procedure, not "
                              f"a campaign's session: give {what} the calibration.jsonl or "
                              "validation.jsonl beside it (its record is in report/)")
+        if loaded is not None and loaded.header.kind == SESSION_KIND:
+            raise InputError(loaded.path, "is an axis's positioning test by its scale (ogacq "
+                             "positioning), not a campaign of the legs: its ISO 230-2 figures "
+                             f"are in {loaded.path.with_suffix('.json').name} beside it; in "
+                             "ogacq calibrate, its record holds them (report/)")
     if validation is None:
         return
     if session_digest(validation)[0] == session_digest(calibration)[0]:

@@ -16,15 +16,17 @@ import typer
 from ogacq_drivers.axes.profile import load_profile
 from ogacq_drivers.indicators import BACKENDS, DEFAULT_PROTOCOL
 from ogacq.campaign.campaign_file import Campaign, SimulatorSpec, campaign_text
-from ogacq.campaign.station import simulator_endpoints, start_simulator
+from ogacq.campaign.station import simulator_endpoints, simulator_scales, start_simulator
 from ogacq.cli.options import (
     DEFAULT_SEED,
     DEFAULT_SPEED,
     GaugeProtocol,
     JsonOption,
     ProfileChoice,
+    axis_scales_option,
     per_axis_profiles,
     profile_help,
+    scale_axes,
     seed_option,
 )
 from ogacq.cli.outputs import ForceOption, check_output_file
@@ -65,6 +67,10 @@ def sim(
         help="Write a campaign file that runs against this simulator (`ogacq run FILE` "
              "while it serves); without --machine, the machine file goes beside it as "
              "machine.toml.")] = None,
+    axis_scales: Annotated[str, axis_scales_option(
+        "The axes (e.g. x,y,z) along which a scale is served, each on its own line "
+        "(ISO 230-2's positioning test: `ogacq positioning`, `ogacq calibrate`); "
+        "--write-campaign declares them.")] = "",
     force: ForceOption = False,
     as_json: JsonOption = False,
 ) -> None:
@@ -88,7 +94,8 @@ def sim(
             check_output_file(machine_out, "--write-campaign folder", force=force)
     simulated = SimulatorSpec(seed=seed, effects=effects, speed=speed, profile=profile.value,
                               gauge_protocol=gauge_protocol.value,
-                              gauge_protocols=tuple(sorted(_per_gauge(gauge or []).items())))
+                              gauge_protocols=tuple(sorted(_per_gauge(gauge or []).items())),
+                              axis_scales=scale_axes(axis_scales))
     done = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: done.set())
     with contextlib.closing(start_simulator(spec, simulated, modbus_port=port or 0)) as stack:
@@ -137,7 +144,8 @@ def _write_campaign(path: Path, stack: SimulatorStack, machine: MachineSpec,
     protocol = ProtocolConfig(settle_s=ProtocolConfig.settle_s / speed)
     campaign = Campaign(path, machine, machine_path,
                         path.parent / "sessions" / f"{path.stem}.jsonl", protocol,
-                        controller=controller, gauges=gauges)
+                        controller=controller, gauges=gauges,
+                        axis_scales=simulator_scales(stack))
     write_atomically(path, campaign_text(  # whole or not at all: a full disk leaves no half
         campaign, comment="written by `ogacq sim --write-campaign`: talks to that simulator "
                           "while it runs").encode("utf-8"))

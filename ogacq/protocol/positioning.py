@@ -46,6 +46,8 @@ from ogacq.protocol.scan_design import (
     stated_periods,
     stratified_targets,
 )
+from ogacq.session.records import PositionRecord
+from ogacq.session.store import LoadedSession
 
 # ISO 230-2:2014 4.3 (its standard test cycle): five runs in each direction at each target.
 ISO_RUNS = 5
@@ -55,6 +57,7 @@ MOST_TARGETS = 400  # no source: beyond it a typo (a travel in um), refused
 # reversal, "to ensure normal behaviour of the machine"): 2 mm, a few times any lost
 # motion of a ball screw (no source: a choice within the travel's margin).
 OVERRUN_MM = 2.0
+SESSION_KIND = "positioning"  # its session header's "kind": not a campaign of the legs
 SEEDS = 16  # jitters tried per count of targets (as the separating scan's design)
 S_SOURCE = "the scatter of the runs at each target (ISO 230-2's s), the scale's reading"
 
@@ -287,3 +290,16 @@ def deviation_words(result: PositioningResult) -> str:
     k = int(np.argmax(np.abs(result.mean_mm)))
     return (f"largest mean deviation {result.mean_mm[k] * UM_PER_MM:+.2f} µm at "
             f"{result.targets_mm[k]:+.3f} mm")
+
+
+def session_result(session: LoadedSession, *, net_of_drive: bool = False,
+                   ) -> PositioningResult:
+    """The figures of a positioning test's session (``positioning_result``; ValueError:
+    what is missing)."""
+    readings = [ScaleReading(r.run, r.direction, r.target_mm, r.scale_mm, r.meant_mm)
+                for r in session.of_type(PositionRecord)]
+    plan = PositioningPlan.from_json(dict(session.header.positioning or {}))
+    scales = (session.header.station or {}).get("axis_scales") or {}
+    step = float((scales.get(plan.axis) or {}).get("resolution_mm") or 0.0)
+    return positioning_result(plan.axis, readings, net_of_drive=net_of_drive,
+                              display_step_mm=step)

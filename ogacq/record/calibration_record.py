@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
 
+from ogacq.record.axis_scales import AxisScaleEntry
 from ogacq.record.compensation import CompensationSection
 from ogacq.record.declared import read_as
 from ogacq.record.sections import (
@@ -75,6 +76,9 @@ class CalibrationRecord(NamedJson):
     validation_session: JsonObject | None = None  # the same, of the as-left campaign
     validation_results: JsonObject | None = None  # as results, of the as-left campaign
     compensation: JsonObject | None = None  # as written; read: compensation_section
+    # each axis's positioning tests by its scale (only where scales were used); read:
+    # axis_scale_entries
+    axis_scales: JsonObject | None = None
     missing: JsonObject | None = None  # what the record lacks, and why
     revision: int | None = None  # 1 for the first issue
     revises: JsonObject | None = None  # from revision 2: revision, issued, sha256
@@ -103,6 +107,11 @@ class CalibrationRecord(NamedJson):
     def compensation_section(self) -> CompensationSection | None:
         """What ``ogacq calibrate`` wrote beside the offsets."""
         return self._typed(CompensationSection, "compensation")
+
+    @cached_property
+    def axis_scale_entries(self) -> dict[str, AxisScaleEntry]:
+        """Each axis's positioning tests by its scale (empty: no scale was used)."""
+        return self._typed(dict[str, AxisScaleEntry], "axis_scales") or {}
 
     @cached_property
     def campaign_section(self) -> CampaignSection:

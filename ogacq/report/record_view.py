@@ -22,10 +22,17 @@ from markupsafe import Markup
 
 from ogacq.history.entries import parameter_unit
 from ogacq.identify.consistency import format_p
+from ogacq.record.axis_scales import AxisScaleEntry, ScaleFound
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.compensation import Iso230Stages, TableExported
 from ogacq.record.declared import written
-from ogacq.record.sections import NamedResult, ResultEntry, SessionFile, named_results
+from ogacq.record.sections import (
+    InstrumentEntry,
+    NamedResult,
+    ResultEntry,
+    SessionFile,
+    named_results,
+)
 from ogacq.report.cells import Badge, Cell, Fallback, Lines, Table, kinds, spaced, table
 from ogacq.uncertainty.reporting import Headline, headline, rounded, two_digits
 
@@ -213,8 +220,14 @@ def instruments(record: CalibrationRecord) -> Table | None:
     found = record.instrument_entries
     if not found:
         return None
-    overridden = {(o.subject or "").split(" ")[0] for o in record.override_entries
-                  if o.what == "expired-gauge"}
+    return instruments_table(found, {(o.subject or "").split(" ")[0]
+                                     for o in record.override_entries
+                                     if o.what == "expired-gauge"})
+
+
+def instruments_table(found: Sequence[InstrumentEntry], overridden: set[str]) -> Table:
+    """Instruments with their certificates, one a row; an expired one marked, and said
+    used under override where its gauge is ``overridden``."""
     shown_keys = ["gauge", "make", "model", "serial", "certificate", "calibrated", "due",
                   "uncertainty_mm", "uncertainty_k", "resolution_mm"]
     each = [written(i) for i in found]
@@ -498,6 +511,56 @@ def compensation(record: CalibrationRecord) -> dict[str, Any] | None:
             "tables": [f"{shown(t.format)}: {_table_outcome(t)}" for t in comp.tables]}
 
 
+SCALE_KIND = kinds({"shown": "ok", "not shown": "warn", "worse": "bad"})
+
+
+def axis_scales(record: CalibrationRecord) -> list[dict[str, Any]]:
+    """Each axis's positioning tests by its scale (``axis_scales``): what the test
+    before found, how the test after judged the map, the figures before and after in
+    µm, the scale's identity and certificate; empty without scales."""
+    out = []
+    for axis, entry in sorted(record.axis_scale_entries.items()):
+        rows: list[list[Cell]] = [
+            [when, str(test.targets), str(test.runs), *(_um(v) for v in
+                                                        test.iso230_2.in_order()),
+             shown(test.session.path)]
+            for when, test in (("before the write", entry.before),
+                               ("after the write", entry.after)) if test is not None]
+        out.append({
+            "axis": axis, "badge": _scale_badge(entry), "found": _scale_found(entry.found),
+            "figures": table(["when", "targets", "runs", *(f"{k} (µm)" for k in ISO230_FIGURES),
+                              "session"], rows,
+                             [False, True, True, *(True,) * len(ISO230_FIGURES)]),
+            # a scale's expired certificate is overridden in its test's session, not
+            # the campaign's: said expired, its override in that session
+            "instrument": instruments_table((entry.instrument,), set())})
+    return out
+
+
+def _scale_badge(entry: AxisScaleEntry) -> Badge:
+    check = entry.validation
+    if check is None:
+        return Badge("no map written on this axis: tested before the write only", "info")
+    state = "worse" if check.worse else "shown" if check.shown else "not shown"
+    said = f"{check.within} of {check.targets} targets within the map's U and the test's own"
+    return Badge(f"{state}: {check.worse}" if check.worse else f"{state}: {said}",
+                 SCALE_KIND[state])
+
+
+def _scale_found(found: ScaleFound | None) -> str:
+    """What the test before found along the axis, in words."""
+    if found is None:
+        return NOT_RECORDED
+    if found.flat:
+        return "flat: no error along the axis beyond the scale's noise, no map"
+    if found.pitch_mm is None:
+        return ("no cyclic error it resolves, though the axis is not flat within the "
+                "scale's noise")
+    U = 2 * found.pitch_std_mm if found.pitch_std_mm is not None else None
+    return (f"a cyclic error of pitch {rounded(found.pitch_mm, U)} ± {two_digits(U)} mm "
+            f"(k = 2), amplitude {_um(found.amplitude_mm)} µm: this axis's map")
+
+
 def _operations(by_target: Mapping[str, str | None]) -> str:
     """``offsets write-81bd009e, maps maps-write-db716973``: the targets an operation
     wrote (or restored), by its id."""
@@ -562,7 +625,7 @@ def record_view(record: CalibrationRecord) -> dict[str, Any]:
         "budget_complete": record.budget_complete,
         "monte_carlo": monte_carlo(record), "history": history(record),
         "overrides": overrides(record), "record_writes": writebacks(record),
-        "compensation": compensation(record),
+        "compensation": compensation(record), "axis_scales": axis_scales(record),
         "page_footer": css_string(f"Calibration record {revision_label(record)}"),
         "record_label": revision_label(record),
     }

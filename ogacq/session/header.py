@@ -43,6 +43,8 @@ class SessionHeader(NamedJson):
     simulator: JsonObject | None = None  # the simulator's settings (seed, effects, ...)
     wizard: JsonObject | None = None  # what the wizard recorded of its run
     procedure: JsonObject | None = None  # ogacq calibrate's log: its procedure
+    kind: str | None = None  # "positioning": an axis's test by its scale, not the legs'
+    positioning: JsonObject | None = None  # that test's plan (PositioningPlan.to_json)
     # every other key, and a named one of an unexpected type, as written
     extra: JsonObject = field(default_factory=dict)
     # the keys in the order written (empty: the named attributes given, then extra)

@@ -10,6 +10,7 @@ it over a sixth of the travel: "not shown" at best, bench/lead_table.py).
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -21,6 +22,8 @@ from ogacq.cli.app import main
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
 from ogacq.protocol.positioning import ScaleReading, positioning_result
+from ogacq.record.calibration_record import CalibrationRecord
+from ogacq.record.declared import written
 from ogacq.writeback.maps_table import read_maps_table
 from tests.calibration.test_calibrate_e2e import effects_file, step
 
@@ -49,6 +52,22 @@ def test_a_5_mm_lead_is_mapped_by_its_scale_and_validated_along_the_whole_travel
     check = step(folder, "scales")["checks"]["x"]
     assert check["shown"] and check["within"] == len(check["targets_mm"])
     assert "shown by its axis scale along the whole travel" in finished["reason"]
+    # the record and its page carry the scales' tests: before and after on x (its map),
+    # before only on y and z, each scale's identity
+    record = CalibrationRecord.from_json(
+        json.loads((folder / "report" / "record.json").read_text()))
+    scales = record.axis_scale_entries
+    assert set(scales) == {"x", "y", "z"} and scales["y"].after is scales["z"].after is None
+    x = scales["x"]
+    assert x.validation is not None and x.validation.shown and x.after is not None
+    assert x.instrument.gauge == "scale_x" and written(x.instrument)["serial"] == "sim-scale-x"
+    assert x.before.iso230_2.E_mm == check["iso230_2"]["before"]["E_mm"]
+    assert x.after.iso230_2.A_mm == check["iso230_2"]["after"]["A_mm"]
+    assert x.found is not None and x.found.pitch_mm == found["pitch_mm"]
+    assert scales["y"].found is not None and scales["y"].found.flat
+    page = (folder / "report" / "report.html").read_text()
+    assert "Positioning of each actuator by its axis scale" in page
+    assert f"{x.after.iso230_2.A_mm * 1000:.2f}" in page and "sim-scale-y" in page
 
 
 # --------------------------------------------------------------------- the 1-D fit

@@ -70,7 +70,7 @@ def _open_rig(case: Case, transport: str) -> Rig:
         case.protocol, lambda: values["mm"], transport=transport, baud=TEST_BAUD, **case.endpoint
     ).start()
     gauge = open_indicator(
-        case.protocol, endpoint.port, unit="mm", where=WHERE, timeout_s=0.25, **case.driver
+        case.protocol, endpoint.port, unit="mm", where=WHERE, timeout_s=5.0, **case.driver
     )
     return Rig(case, endpoint, gauge, values)
 
@@ -137,7 +137,7 @@ def test_reads_the_displayed_value(rig: Rig):
     assert reading.where == WHERE and reading.unit == "mm"
     rig.values["mm"] = -0.5
     _settle(rig)
-    assert read_stable(rig.gauge, n=2, tolerance_mm=0.001, timeout_s=2).value_mm == -0.5
+    assert read_stable(rig.gauge, n=2, tolerance_mm=0.001, timeout_s=10).value_mm == -0.5
 
 
 @ALL
@@ -170,7 +170,7 @@ def test_stable_reading_flushes_stale_frames(rig: Rig):
     while rig.gauge.link.in_waiting == 0:
         assert time.monotonic() < deadline, "the stale frames never arrived"
         time.sleep(0.001)
-    stable = read_stable(rig.gauge, n=3, tolerance_mm=0.002, timeout_s=2)
+    stable = read_stable(rig.gauge, n=3, tolerance_mm=0.002, timeout_s=10)
     assert [r.value_mm for r in stable.readings] == [2.5, 2.5, 2.5]  # ...and none was used
 
 
@@ -179,7 +179,7 @@ def test_stable_reading_flushes_stale_frames(rig: Rig):
 def test_split_frame_is_reassembled(rig: Rig):
     rig.endpoint.set_fault(Fault.SPLIT, pause_s=0.04)
     _settle(rig)
-    reading = rig.gauge.read(timeout_s=1)
+    reading = rig.gauge.read(timeout_s=10)
     assert reading.value_mm == 1.233 and reading.frame.rstrip(b"\r\n").isascii()
 
 
@@ -194,12 +194,13 @@ def test_silence_is_a_timeout_naming_the_gauge(rig: Rig):
     start = time.monotonic()
     with pytest.raises(DeviceTimeout, match=WHERE):
         rig.gauge.read(timeout_s=0.06)
-    assert time.monotonic() - start < 0.2
+    # the 0.06 s deadline kept, not the driver's 5 s (a loaded machine may add a second)
+    assert time.monotonic() - start < 2.5
     with pytest.raises(DeviceTimeout, match=WHERE):
         read_stable(rig.gauge, n=3, timeout_s=0.06)
     rig.endpoint.clear_fault()
     _settle(rig)
-    assert rig.gauge.read(timeout_s=1).value_mm == 1.233
+    assert rig.gauge.read(timeout_s=10).value_mm == 1.233
 
 
 @ALL
@@ -211,7 +212,7 @@ def test_garbled_frame_is_a_frame_error_then_recovers(rig: Rig):
         for _ in range(2):  # a stream may first yield the tail cut by the flush
             rig.gauge.read()
     rig.endpoint.clear_fault(Fault.GARBLED)
-    assert read_stable(rig.gauge, n=2, tolerance_mm=0.001, timeout_s=2).value_mm == 1.233
+    assert read_stable(rig.gauge, n=2, tolerance_mm=0.001, timeout_s=10).value_mm == 1.233
 
 
 @ALL
@@ -222,7 +223,7 @@ def test_unplug_mid_read_is_a_link_error(fresh_rig: Rig):
     with pytest.raises(LinkError, match=f"{WHERE}.*unplugged"):
         _settle(rig)
         for _ in range(3):
-            rig.gauge.read(timeout_s=1)
+            rig.gauge.read(timeout_s=10)
     assert rig.endpoint.unplugged
 
 
@@ -290,7 +291,7 @@ def test_01a_busy_for_too_long_is_device_busy(rig: Rig):
     rig.gauge.busy_retry_delay_s = 0.01
     try:
         with pytest.raises(DeviceBusy, match=WHERE):
-            rig.gauge.read(timeout_s=1)
+            rig.gauge.read(timeout_s=10)
     finally:
         rig.gauge.busy_retry_delay_s = 0.05
     assert rig.endpoint.requests_received - before == 1 + rig.gauge.busy_retries
@@ -300,7 +301,7 @@ def test_01a_busy_for_too_long_is_device_busy(rig: Rig):
 @BOTH
 def test_uwave_battery_low_is_only_a_warning(rig: Rig, caplog: pytest.LogCaptureFixture):
     rig.endpoint.set_fault(Fault.ERROR, code="00", count=2)
-    assert read_stable(rig.gauge, n=3, tolerance_mm=0.001, timeout_s=1).value_mm == 1.233
+    assert read_stable(rig.gauge, n=3, tolerance_mm=0.001, timeout_s=10).value_mm == 1.233
     assert "battery low" in caplog.text
 
 
@@ -339,7 +340,7 @@ def test_uwave_receiver_with_two_transmitters():
         gauge = open_indicator("uwave", receiver.port, unit="mm", channel="02", where="uw2")
         try:
             receiver.trigger()
-            reading = gauge.read(timeout_s=1)
+            reading = gauge.read(timeout_s=10)
             assert (reading.value_mm, reading.channel) == (2.0, "0002")
         finally:
             gauge.close()

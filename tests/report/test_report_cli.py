@@ -190,7 +190,7 @@ def test_a_stopped_or_torn_campaign_still_renders_with_a_clear_note(sessions, tm
 
 
 @pytest.mark.parametrize("case", ["csv", "no header", "missing", "bad diagnosis",
-                                  "procedure log", "itself after"])
+                                  "procedure log", "positioning test", "itself after"])
 def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
     calibration, _ = sessions
     args: list[object]
@@ -209,6 +209,10 @@ def test_bad_input_gives_one_line_and_exit_2(sessions, tmp_path, capsys, case):
         ProcedureLog.create(tmp_path, {"mode": "simulator"}).close()
         path = tmp_path / "procedure.jsonl"
         args, named = [path], "is the log of an `ogacq calibrate` procedure"
+    elif case == "positioning test":  # ogacq positioning's: reported as nothing identified
+        path = tmp_path / "positioning-x.jsonl"
+        SessionWriter.create(path, {"kind": "positioning", "positioning": {"axis": "x"}}).close()
+        args, named = [path], "is an axis's positioning test by its scale (ogacq positioning)"
     elif case == "itself after":  # the as-found campaign as its own as-left one
         path = tmp_path / "copy.jsonl"
         path.write_bytes(calibration.read_bytes())
@@ -290,3 +294,46 @@ def test_calibrate_s_record_issued_again_keeps_the_maps_it_wrote(sessions, tmp_p
     write_session_report(calibration, out)  # without the validation: not its figures
     third = json.loads((out / "record.json").read_text())
     assert "compensation" not in third and "removed compensation" in third["changes"]
+
+
+SCALE_X = {"x": {
+    "instrument": {"gauge": "scale_x", "make": "Mitutoyo", "model": "AT715", "serial": "AT-42",
+                   "certificate": "C-9", "calibrated": None, "due": None,
+                   "uncertainty_mm": 0.002, "uncertainty_k": 2.0, "resolution_mm": 0.001,
+                   "expired": None},
+    "before": {"session": {"path": "/p/positioning-before-x.jsonl", "sha256": "ab",
+                           "records": 130}, "targets": 31, "runs": 2,
+               "iso230_2": {"A_mm": 0.0123, "B_mm": 0.0011, "R_mm": 0.0021, "E_mm": 0.0085,
+                            "M_mm": 0.0079}},
+    "found": {"flat": False, "pitch_mm": 5.001, "pitch_std_mm": 0.002,
+              "amplitude_mm": 0.0041},
+    "after": {"session": {"path": "/p/positioning-after-x.jsonl", "sha256": "cd",
+                          "records": 130}, "targets": 31, "runs": 2,
+              "iso230_2": {"A_mm": 0.0031, "B_mm": 0.001, "R_mm": 0.002, "E_mm": 0.0012,
+                           "M_mm": 0.0011}},
+    "validation": {"shown": True, "within": 31, "targets": 31, "worse": None}}}
+
+
+def test_calibrate_s_record_issued_again_keeps_its_axis_scales_and_shows_them(sessions,
+                                                                              tmp_path):
+    """The scales' tests ``ogacq calibrate`` put in its record (``axis_scales``) stay in
+    it when ``ogacq report`` issues it again into its folder, and its page shows a
+    table per axis: the figures before and after in µm, the verdict, the scale."""
+    calibration, validation = (load_session(path) for path in sessions)
+    out = tmp_path / "report"
+    record = {**build_record(calibration, validation=validation,
+                             compensation={"procedure": "C-1", "outcome": "validated"}),
+              "axis_scales": SCALE_X}
+    write_session_report(calibration, out, validation=validation, record=record)
+    first = (out / "record.json").read_bytes()
+    write_session_report(calibration, out, validation=validation)  # what report does
+    assert json.loads(first)["axis_scales"] == SCALE_X
+    assert (out / "record.json").read_bytes() == first  # kept: no revision
+    html = (out / "report.html").read_text(encoding="utf-8")
+    text = _text(html).replace("&#39;", "'")
+    assert "Positioning of each actuator by its axis scale (ISO 230-2:2014)" in text
+    assert "shown: 31 of 31 targets within the map's U and the test's own" in text
+    assert "a cyclic error of pitch 5.0010 ± 0.0040 mm (k = 2), amplitude 4.10 µm" in text
+    assert _row_numbers(html, "before the write")[:5] == [12.3, 1.1, 2.1, 8.5, 7.9]
+    assert _row_numbers(html, "after the write")[:5] == [3.1, 1.0, 2.0, 1.2, 1.1]
+    assert "AT-42" in text and "C-9" in text
