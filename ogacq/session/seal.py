@@ -43,6 +43,7 @@ accepts the session as it stands.
 from __future__ import annotations
 
 import json
+import threading
 import zlib
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -216,6 +217,7 @@ def _mode(first: _Line | None) -> tuple[str, str | None]:
 # the same bytes decode the same, so only the lines not read before are decoded again.
 # The few files read last are kept (a long process reads many sessions).
 _DECODED: OrderedDict[Path, dict[bytes, Decoded]] = OrderedDict()
+_DECODED_LOCK = threading.Lock()  # a session read in two threads at once: each decodes
 DECODED_FILES = 4
 
 
@@ -226,12 +228,14 @@ def scan_session(path: str | Path) -> Scan:
     except OSError as exc:
         raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
     key = path.resolve()
-    known = _DECODED.pop(key, {})
+    with _DECODED_LOCK:
+        known = _DECODED.pop(key, {})
     scanner = _Scanner(path, raw, known)
     scan = scanner.scan()
-    _DECODED[key] = scanner.decoded
-    while len(_DECODED) > DECODED_FILES:
-        _DECODED.popitem(last=False)
+    with _DECODED_LOCK:
+        _DECODED[key] = scanner.decoded
+        while len(_DECODED) > DECODED_FILES:
+            _DECODED.popitem(last=False)
     return scan
 
 
