@@ -69,9 +69,17 @@ class FigureFile:
 
 
 def png_bytes(fig: Figure) -> bytes:
-    FigureCanvasAgg(fig)
+    canvas = FigureCanvasAgg(fig)
+    # The layout placed once, at the resolution printed, then fixed: savefig would
+    # otherwise draw the whole figure once without output only to place it (its
+    # layout engine's pass), then again to print it.
+    fig.set_dpi(DPI)
+    engine = fig.get_layout_engine()
+    if engine is not None:
+        engine.execute(fig)
+        fig.set_layout_engine("none")
     buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=DPI)
+    canvas.print_png(buffer)
     return buffer.getvalue()
 
 

@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import MISSING, dataclass, field
 from typing import Any, ClassVar, TypeVar
 
-from ogacq.io.declared import Finite, checked
+from ogacq.io.declared import Finite, Reader, checked, reader
 from ogacq.model.gauges import Gauge
 
 FORMAT = "ogacq-session/1"
@@ -47,7 +47,20 @@ def _required(f: dataclasses.Field[Any]) -> bool:
     return f.default is MISSING and f.default_factory is MISSING
 
 
-_HINTS: dict[type, dict[str, Any]] = {}  # by class: its annotations resolved once
+# Each field of a record class as its JSON is read: key, its annotation's reader, whether
+# it must be there, and its must's test and words; resolved once per class (a session's
+# thousands of lines of a few kinds each read the same fields).
+Plan = tuple[tuple[str, Reader, bool, Callable[[Any], bool] | None, str], ...]
+_PLANS: dict[type, Plan] = {}
+
+
+def _plan(cls: type[Record]) -> Plan:
+    if cls not in _PLANS:
+        hints = typing.get_type_hints(cls, include_extras=True)
+        _PLANS[cls] = tuple((f.name, reader(hints[f.name]), _required(f),
+                             *f.metadata.get("must", (None, "")))
+                            for f in dataclasses.fields(cls))
+    return _PLANS[cls]
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -79,19 +92,17 @@ class Record:
 
     @classmethod
     def from_json(cls: type[R], d: Mapping[str, Any]) -> R:
-        if cls not in _HINTS:
-            _HINTS[cls] = typing.get_type_hints(cls, include_extras=True)
+        refused, nested = cls.refused, cls._nested
         named: dict[str, Any] = {}
-        for f in dataclasses.fields(cls):
-            if f.name not in d:
-                if _required(f):
-                    raise cls.refused(f.name, "it is missing")
+        for name, read, required, test, words in _plan(cls):
+            if name not in d:
+                if required:
+                    raise refused(name, "it is missing")
                 continue
-            value = checked(_HINTS[cls][f.name], d[f.name], f.name, cls.refused, cls._nested)
-            test, words = f.metadata.get("must", (None, ""))
+            value = read(d[name], name, refused, nested)
             if test is not None and value is not None and not test(value):
-                raise cls.refused(f.name, f"must be {words}")
-            named[f.name] = value
+                raise refused(name, f"must be {words}")
+            named[name] = value
         return cls(**named)
 
     @classmethod

@@ -43,14 +43,16 @@ accepts the session as it stands.
 from __future__ import annotations
 
 import json
+import threading
 import zlib
-from dataclasses import dataclass
+from collections import OrderedDict
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ogacq.io.errors import InputError
 from ogacq.io.text import strip_bom
-from ogacq.session.records import record_from_json
+from ogacq.session.records import Record, record_from_json
 
 # The header's ``integrity``: the seal this version writes, and those it checks.
 SEAL = "crc32-chain/1"
@@ -146,6 +148,8 @@ class Scan:
     warnings: list[str]
     size_bytes: int
     closure: Closure = Closure(announced=False, closed=False, last_line=0)
+    # the typed record of each line of ``records`` but a session header, by line
+    typed: dict[int, Record] = field(default_factory=dict)
 
     @property
     def untouched(self) -> list[tuple[int, dict[str, Any]]]:
@@ -162,9 +166,13 @@ class _Line:
     crc: str  # "ok", "missing", "wrong"
     seq: Any
     prev: Any
+    record: Record | None  # the content typed (None: a session header)
 
 
-def _decode(line: bytes) -> tuple[_Line | None, str | None]:
+Decoded = tuple[_Line | None, str | None]
+
+
+def _decode(line: bytes) -> Decoded:
     """(the line decoded, None), or (None, why it cannot be read)."""
     try:
         content = json.loads(line)
@@ -182,12 +190,13 @@ def _decode(line: bytes) -> tuple[_Line | None, str | None]:
         body = json.dumps(content, separators=(",", ":")).encode("utf-8")
         state = "ok" if crc == f"{zlib.crc32(body):08x}" else "wrong"
     seq, prev = content.pop("seq", None), content.pop("prev", None)
+    record = None
     if content.get("type") != "session":
         try:
-            record_from_json(content)
+            record = record_from_json(content)
         except ValueError as exc:
             return None, str(exc)
-    return _Line(content, state, seq, prev), None
+    return _Line(content, state, seq, prev, record), None
 
 
 def parses(line: bytes) -> bool:
@@ -202,21 +211,43 @@ def _mode(first: _Line | None) -> tuple[str, str | None]:
     return (UNCHECKED, None) if seal is None else (SEALED, seal)
 
 
+# The lines of the sessions read last, decoded, by file and line. A campaign, and a
+# calibration's four, read their session again after each stage appends to it (its fit,
+# its record, the history's): decoding and typing each line is most of a reading, and
+# the same bytes decode the same, so only the lines not read before are decoded again.
+# The few files read last are kept (a long process reads many sessions).
+_DECODED: OrderedDict[Path, dict[bytes, Decoded]] = OrderedDict()
+_DECODED_LOCK = threading.Lock()  # a session read in two threads at once: each decodes
+DECODED_FILES = 4
+
+
 def scan_session(path: str | Path) -> Scan:
     path = Path(path)
     try:
         raw = strip_bom(path.read_bytes())  # a session saved from an editor
     except OSError as exc:
         raise InputError(path, f"cannot read session: {exc.strerror or exc}") from None
-    return _Scanner(path, raw).scan()
+    key = path.resolve()
+    with _DECODED_LOCK:
+        known = _DECODED.pop(key, {})
+    scanner = _Scanner(path, raw, known)
+    scan = scanner.scan()
+    with _DECODED_LOCK:
+        _DECODED[key] = scanner.decoded
+        while len(_DECODED) > DECODED_FILES:
+            _DECODED.popitem(last=False)
+    return scan
 
 
 class _Scanner:
-    def __init__(self, path: Path, raw: bytes) -> None:
+    def __init__(self, path: Path, raw: bytes, known: dict[bytes, Decoded]) -> None:
         self.path = path
         self.raw = raw
         self.lines = raw.split(b"\n")
+        self.known = known  # lines decoded by an earlier reading of the file
+        self.decoded: dict[bytes, Decoded] = {}  # this reading's, for the next one
         self.records: list[tuple[int, dict[str, Any]]] = []
+        self.typed: dict[int, Record] = {}
         self.problems: list[tuple[int, str]] = []
         self.edited: list[tuple[int, str]] = []
         self.changed: set[int] = set()
@@ -232,7 +263,8 @@ class _Scanner:
 
     def scan(self) -> Scan:
         last = max((k for k, line in enumerate(self.lines, 1) if line.strip()), default=0)
-        first, _ = _decode(self.lines[0]) if self.lines and self.lines[0].strip() else (None, None)
+        first, _ = self._decode(self.lines[0]) if self.lines and self.lines[0].strip() \
+            else (None, None)
         mode, seal = _mode(first)
         if seal is not None and seal not in SEALS:
             self.problems.append((1, f"sealed as {seal!r}, which this ogacq does not know "
@@ -240,7 +272,7 @@ class _Scanner:
         for number, line in enumerate(self.lines, 1):
             if not line.strip():
                 continue
-            decoded, problem = _decode(line)
+            decoded, problem = self._decode(line)
             if decoded is None:
                 self._undecodable(number, line, number == last, problem)
             elif not self._a_copy(number, decoded):
@@ -249,7 +281,13 @@ class _Scanner:
         closure = Closure(announced, self.closed, self.previous[0] if self.previous else 0,
                           self.torn_line)
         return Scan(mode, self.records, self.problems, self.edited, frozenset(self.changed),
-                    self.warnings, len(self.raw), closure)
+                    self.warnings, len(self.raw), closure, self.typed)
+
+    def _decode(self, line: bytes) -> Decoded:
+        if line not in self.decoded:
+            known = self.known.get(line)
+            self.decoded[line] = _decode(line) if known is None else known
+        return self.decoded[line]
 
     def _undecodable(self, number: int, line: bytes, last: bool, problem: str | None) -> None:
         """A line that is no record: a torn last one is dropped (a line goes out whole,
@@ -300,6 +338,8 @@ class _Scanner:
         self.closed = content.get("type") == CLOSED
         if not self.closed:  # the store's own record, checked in the chain above
             self.records.append((number, content))
+            if line.record is not None:
+                self.typed[number] = line.record
 
     @staticmethod
     def _own_seal(number: int, line: _Line, mode: str) -> str | None:

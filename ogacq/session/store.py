@@ -475,14 +475,21 @@ def load_session(path: str | Path, *, accept_edited: bool = False) -> LoadedSess
                          number)
     if scan.edited and not accept_edited:
         raise SessionEdited(path, scan.edited)
-    records = [r for _, r in scan.records]
-    if records[0].get("format") != FORMAT:
-        raise InputError(path, f"session format {records[0].get('format')!r} is not "
+    first = scan.records[0][1]
+    if first.get("format") != FORMAT:
+        raise InputError(path, f"session format {first.get('format')!r} is not "
                          f"{FORMAT!r}", 1)
-    return LoadedSession(path, SessionHeader.from_json(records[0]),
-                         [record_from_json(r) for r in records[1:]],
+    return LoadedSession(path, SessionHeader.from_json(first),
+                         [_typed(scan, n, r) for n, r in scan.records[1:]],
                          scan.warnings, scan.size_bytes,
                          Integrity(scan.mode, tuple(scan.edited)), scan.closure)
+
+
+def _typed(scan: Scan, number: int, content: dict[str, Any]) -> Record:
+    """The record of line ``number``, typed as the scan found it (a second ``session``
+    line, which the scan leaves as it is, typed here)."""
+    record = scan.typed.get(number)
+    return record_from_json(content) if record is None else record
 
 
 def lock_holder(path: str | Path) -> str | None:

@@ -4,12 +4,16 @@ INTERCHANGE.md is rendered faithfully, and text from the session is escaped."""
 
 from __future__ import annotations
 
+import io
 import json
+import pickle
 import re
 from pathlib import Path
 
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
 from matplotlib.text import Text
 
 from ogacq.cli.report_cmd import report_diagnosis
@@ -21,9 +25,11 @@ from ogacq.record.document import build_record
 from ogacq.report import build_report, collect, parse_diagnosis
 from ogacq.report.diagnosis_view import DiagnosisFormatError
 from ogacq.report.figures import (
+    DPI,
     deviations_figure,
     maps_figure,
     parameters_figure,
+    png_bytes,
     residuals_figure,
 )
 from ogacq.report.formatting import measure
@@ -91,6 +97,20 @@ def test_the_figures_carry_the_numbers_of_the_session(session_path):
     # without a U (not evaluated), the whiskers are 2 std and say so
     fallback = _texts(parameters_figure(fit))
     assert "(2 std, U not evaluated)" in fallback and "or 2 std" in fallback
+
+
+def test_a_figure_is_placed_as_matplotlib_places_it_and_drawn_once(session_path, monkeypatch):
+    data = collect(load_session(session_path))
+    fig = deviations_figure(data.deviations)  # placed by its layout engine: long labels
+    placed = pickle.loads(pickle.dumps(fig))
+    FigureCanvasAgg(placed)
+    saved = io.BytesIO()
+    placed.savefig(saved, format="png", dpi=DPI)  # matplotlib's own: a pass to place, one to draw
+    draws = []
+    draw = Figure.draw
+    monkeypatch.setattr(Figure, "draw", lambda f, renderer: draws.append(f) or draw(f, renderer))
+    assert png_bytes(fig) == saved.getvalue()
+    assert len(draws) == 1
 
 
 def test_a_diagnosis_is_shown_as_the_json_says(session_path):

@@ -12,6 +12,8 @@ import zlib
 
 import pytest
 
+from ogacq.io.errors import InputError
+from ogacq.session import seal
 from ogacq.session.records import EndRecord, ReadingRecord
 from ogacq.session.seal import SEAL, UNCHECKED
 from ogacq.session.store import SessionEdited, SessionWriter, load_session, scan_session
@@ -180,3 +182,59 @@ def test_salvage_keeps_records_as_written_and_seals_the_new_file(sealed, tmp_pat
     assert [r.reading_mm for r in saved.readings] == [
         r["reading_mm"] for r in records[1:7] if r["seq"] not in (3, 5)]
     assert saved.finished  # the end record was as written
+
+
+# A session read again in the same process: only the lines not read before are decoded
+# (a campaign reads its session after each stage appends to it), and what is read is the
+# file as it is now: a record appended is there, a line changed since is found.
+
+@pytest.fixture
+def decoded(monkeypatch) -> list[bytes]:
+    """Every line decoded from here on."""
+    lines: list[bytes] = []
+    decode = seal._decode
+
+    def counted(line: bytes) -> seal.Decoded:
+        lines.append(line)
+        return decode(line)
+    monkeypatch.setattr(seal, "_decode", counted)
+    return lines
+
+
+def test_a_record_appended_since_is_read_and_only_the_new_lines_decoded(sealed, decoded):
+    first = load_session(sealed)
+    assert len(decoded) == 9  # the header, six readings, the end, the closed record
+    assert load_session(sealed).records == first.records and len(decoded) == 9
+    with SessionWriter.append_to(sealed, first.size_bytes) as writer:
+        writer.write(reading(6))
+    again = load_session(sealed)
+    assert len(decoded) == 9 + 2  # the reading and its writer's closed record
+    assert again.readings[-1].step == "x/c1/p6" and again.size_bytes > first.size_bytes
+    seal._DECODED.clear()  # as a new process reads it
+    assert again.records == load_session(sealed).records
+
+
+def test_a_line_changed_since_the_last_reading_is_found(sealed):
+    load_session(sealed)
+    lines = sealed.read_bytes().split(b"\n")
+    lines[3] = lines[3].replace(b'"reading_mm":5.002', b'"reading_mm":5.092')
+    sealed.write_bytes(b"\n".join(lines))  # same size, same line count
+    with pytest.raises(SessionEdited, match=r"s\.jsonl:4: fails its checksum"):
+        load_session(sealed)
+
+
+def test_a_line_read_as_wrong_before_is_refused_again(sealed):
+    sealed.write_bytes(sealed.read_bytes().replace(b'"cycle":1', b'"cycle":"1"', 1))
+    for _ in range(2):
+        with pytest.raises(InputError, match=r"s\.jsonl:2: corrupt record: reading without a "
+                           "valid cycle: must be a whole number"):
+            load_session(sealed)
+
+
+def test_only_the_files_read_last_are_kept(tmp_path, sealed):
+    for k in range(seal.DECODED_FILES + 2):
+        other = tmp_path / f"o{k}.jsonl"
+        other.write_bytes(sealed.read_bytes())
+        load_session(other)
+    assert len(seal._DECODED) == seal.DECODED_FILES
+    assert (tmp_path / f"o{seal.DECODED_FILES + 1}.jsonl").resolve() in seal._DECODED
