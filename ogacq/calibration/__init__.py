@@ -1,6 +1,6 @@
 """``ogacq calibrate``: from campaign to validated machine, resumable step by step.
 
-- ``log``: the procedure's own append-only log (what was done, what it found);
+- ``log``: the procedure's journal (each step named, run once, replayed on a resume);
 - ``setup``: the folder, the machine, the campaigns and the controller's files, on
   the built-in simulator or on a station's campaign file;
 - ``maps``: the error maps a diagnosis hands over (the one place the diagnosis's

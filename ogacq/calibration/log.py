@@ -1,20 +1,22 @@
-"""The procedure's log: one append-only file of records, as a campaign's session.
+"""The procedure's journal: each step run once, its result replayed after a kill
+(bluesky's plans and checkpoints are the model).
 
 ``procedure.jsonl`` in the procedure's folder holds a header (what was asked:
 the mode, the options, the setup) and one ``calibrate`` record per step done
-(``ogacq.session.records.CalibrateRecord``): a campaign started or finished, a
-diagnosis, the separating measurement planned, the compensation, the operator's
-confirmation, the writes, the validation, a restore, the end. It is written with
-the session store (sequence numbers, checksums, an OS lock, fsync), so a killed
-procedure loses nothing it recorded, and ``ogacq calibrate --resume`` reads it to
-continue at the first step not done.
+(``ogacq.session.records.CalibrateRecord``, its ``step`` a ``Step``). It is written
+with the session store (sequence numbers, checksums, an OS lock, fsync), so a killed
+procedure loses nothing it recorded, and ``ProcedureLog.once`` hands a step's recorded
+result back on ``ogacq calibrate --resume`` instead of running it again: the procedure
+continues at the first step not done, and says nothing twice.
 """
 
 from __future__ import annotations
 
 import secrets
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from enum import StrEnum
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +27,32 @@ from ogacq.session.store import SessionWriter, load_session
 
 LOG_NAME = "procedure.jsonl"
 PROCEDURE_FORMAT = "ogacq-calibrate/1"
+
+Details = dict[str, Any]  # what a step recorded: its key (role, round, ...) and result
+
+
+class Step(StrEnum):
+    """A step of the procedure, as its log names it (a member is the word on disk)."""
+
+    CAMPAIGN = "campaign"  # a campaign (role, status started or finished), its session
+    SCALE_MAPS = "scale maps"  # what each axis scale's test found along its axis
+    DIAGNOSIS = "diagnosis"  # a campaign's diagnosis (role)
+    SEPARATION = "separation"  # the separating measurement planned
+    NOTE = "note"  # something the end must say (text)
+    COMPENSATION = "compensation"  # the offsets and maps to write, the tables exported
+    REFUSED = "refused"  # the gate refused the write: the procedure ends
+    DECLINED = "declined"  # the operator declined it: the procedure ends
+    CONFIRMED = "confirmed"  # the operator (or --yes) confirmed the write
+    WRITTEN = "written"  # the offsets and maps written, read back, audited
+    VALIDATION = "validation"  # a validation campaign judged (role)
+    SCALES = "scales"  # each axis scale's test after the write, against its map
+    RESTORED = "restored"  # the validation was worse: the state before put back
+    FINISHED = "finished"  # the end, its outcome and reason
+
+
+# The step whose record says a step was begun: a resume that finds it without the step
+# itself finds the step cut by the kill (a write half-made), to be undone before it runs.
+BEGUN_BY = {Step.WRITTEN: Step.CONFIRMED}
 
 
 @dataclass
@@ -58,14 +86,29 @@ class ProcedureLog:
         writer = SessionWriter.append_to(path, loaded.size_bytes or None)
         return cls(path, loaded.header, loaded.of_type(CalibrateRecord), writer)
 
-    def add(self, step: str, **details: Any) -> CalibrateRecord:
+    def once(self, step: Step, run: Callable[[], Details], *,
+             cut: Callable[[], None] | None = None, **key: Any) -> Details:
+        """``step`` (``key``: which one, a None value for a key the record leaves out)
+        run once: the details its latest record holds where the log has it, else
+        ``run()``'s, recorded after ``key``. ``cut``: run first where the step was begun
+        and not done (``BEGUN_BY``)."""
+        done = self.last(step, **key)
+        if done is not None:
+            return done.details
+        if cut is not None and self.last(BEGUN_BY[step], **key) is not None:
+            cut()
+        details = run()
+        present = {k: v for k, v in key.items() if v is not None}
+        return self.add(step, **present, **details).details
+
+    def add(self, step: Step, **details: Any) -> CalibrateRecord:
         record = CalibrateRecord(step=step, details=details)
         self.writer.write(record)
         self.writer.sync()  # a step is done once it is on the disk
         self.steps.append(record)
         return record
 
-    def last(self, step: str, **match: Any) -> CalibrateRecord | None:
+    def last(self, step: Step, **match: Any) -> CalibrateRecord | None:
         """The latest record of ``step`` whose details hold ``match``."""
         for record in reversed(self.steps):
             if record.step == step and all(record.details.get(k) == v
@@ -75,7 +118,7 @@ class ProcedureLog:
 
     @property
     def finished(self) -> CalibrateRecord | None:
-        return self.last("finished")
+        return self.last(Step.FINISHED)
 
     def close(self) -> None:
         self.writer.close()

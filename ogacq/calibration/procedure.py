@@ -13,7 +13,8 @@
 The second round's steps carry ``round: 2`` in the log; the first's carry none, so
 each round finds its own steps on a resume.
 
-Each step is recorded in the procedure's log when done (``ogacq.calibration.log``);
+Each step is run once through the procedure's journal (``ogacq.calibration.log``:
+``ProcedureLog.once`` records its result, and hands the recorded one back on a resume);
 a run that finds a log continues at the first step not done: a campaign stopped
 half-way is resumed like any campaign, a write is planned again from what the
 controller and the maps file hold (a write that completed before the kill has
@@ -25,7 +26,7 @@ they held: a real drive keeps its parameters when ogacq is killed.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
@@ -43,7 +44,7 @@ from ogacq.calibration.drive_step import (
     finer_than_drive,
     predicted_with_step,
 )
-from ogacq.calibration.log import ProcedureLog
+from ogacq.calibration.log import Details, ProcedureLog, Step
 from ogacq.calibration.maps import compensable_effects, diagnosis_maps
 from ogacq.calibration.scale_check import scale_check
 from ogacq.calibration.scale_map import ScaleFit, fit_scale, with_scale_maps
@@ -107,7 +108,16 @@ if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not at start
     from ogacq.history.location import HistoryLocation
 
 log = logger(__name__)
-Stop = tuple[str, str]  # why a round writes nothing: the end's outcome and its reason
+STARTED, FINISHED = "started", "finished"  # a campaign step's status
+
+
+@dataclass
+class Stopped(Exception):  # a round's end, not an error
+    """A round writes nothing (refused, declined, nothing to correct): why."""
+
+    outcome: WriteOutcome
+    reason: str
+
 
 class CalibrationUI(Protocol):
     """What the procedure shows and asks (the command line renders it)."""
@@ -130,7 +140,7 @@ class CalibrationUI(Protocol):
 class Outcome:
     folder: Path
     procedure: str
-    outcome: str  # a WriteOutcome: validated, not shown, improved, restored, ...
+    outcome: WriteOutcome
     reason: str
     evidence: Path | None = None
     validation: Path | None = None
@@ -139,8 +149,7 @@ class Outcome:
 
     @property
     def exit_code(self) -> int:
-        codes: dict[str, int] = {WriteOutcome.DECLINED: 1, WriteOutcome.REFUSED: 4,
-                                 WriteOutcome.RESTORED: 4}
+        codes = {WriteOutcome.DECLINED: 1, WriteOutcome.REFUSED: 4, WriteOutcome.RESTORED: 4}
         return codes.get(self.outcome, 0)
 
 
@@ -153,33 +162,26 @@ def calibrate(setup: Setup, ui: CalibrationUI, *, resume: bool,
     one the procedure records into, whose last maps state the maps file must hold."""
     log_ = ProcedureLog.reopen(setup.folder) if resume else \
         ProcedureLog.create(setup.folder, setup.describe())
-    if calibration_session is not None and log_.last("campaign", role="calibration") is None:
+    if calibration_session is not None:
         if not load_session(calibration_session).finished:
             raise InputError(calibration_session, "the campaign to start from did not finish")
-        log_.add("campaign", role="calibration", status="finished",
-                 session=str(calibration_session.resolve()))
+        log_.once(Step.CAMPAIGN, lambda: {"session": str(calibration_session.resolve())},
+                  role="calibration", status=FINISHED)
     try:
         done = log_.finished
         if done is not None:
             ui.say(f"calibration {log_.procedure} already finished: {done.details.get('outcome')}")
-            return _outcome_of(setup, log_)
-        with _machine(setup, log_) as stack:
+            return _outcome_of(setup.folder, log_.procedure, done.details)
+        with _machine(setup) as stack:
             return Procedure(setup, ui, log_, stack, history).run()
     finally:
         log_.close()
 
 
-@contextlib.contextmanager
-def _machine(setup: Setup, log_: ProcedureLog) -> Iterator[Any]:
+def _machine(setup: Setup) -> contextlib.AbstractContextManager[Any]:
     """The simulator serving the whole procedure (None on a station)."""
-    if setup.simulator is None:
-        yield None
-        return
-    stack = start_simulator(setup.machine, setup.simulator)
-    try:
-        yield stack
-    finally:
-        stack.close()
+    return contextlib.nullcontext() if setup.simulator is None else \
+        contextlib.closing(start_simulator(setup.machine, setup.simulator))
 
 
 class Procedure:
@@ -191,7 +193,7 @@ class Procedure:
         self.log = log_
         self.stack = stack
         self.controller = self._controller_spec()
-        self.resolution_mm = 0.0  # the controller's offset step, once planned
+        self.facts = ControllerFacts.of(load_profile(self.controller.profile))
         # the drives' position step: every corrected target is rounded to it
         self.drive_step_mm = drive_step_mm(self.controller.profile)
         self.round = 1  # the write round: 2 after a first one shown wrong between targets
@@ -230,39 +232,33 @@ class Procedure:
         # sampled at one phase, fails there instead of confirming itself
         between = between_plan(_plan_of(evidence), self.setup.machine) \
             if evidence is not first and _plan_of(evidence).is_scan else None
-        done = self._round(first, diagnosis, evidence, comp, between)
-        if isinstance(done, tuple):
-            return self._end(*done)
+        try:
+            done = self._round(first, diagnosis, evidence, comp, between)
+        except Stopped as stop:
+            return self._end(stop.outcome, stop.reason)
         if shown_wrong(done.between) and done.comp.maps:
-            again = self._second_round(first, evidence, done)
-            if isinstance(again, tuple):  # the first round's end stands, restored
-                self._note(f"no second write ({again[0]}): {again[1]}")
-            elif again is not None:
-                done = again
+            try:
+                done = self._second_round(first, evidence, done) or done
+            except Stopped as stop:  # the first round's end stands, restored
+                self._note(f"no second write ({stop.outcome}): {stop.reason}")
         return self._finish(done.comp, first, done.validation, done.judgement, done.written,
                             done.restored)
 
     def _round(self, first: LoadedSession, diagnosis: Diagnosis, evidence: LoadedSession,
-               comp: Compensation, between: ProtocolConfig | None) -> RoundDone | Stop:
+               comp: Compensation, between: ProtocolConfig | None) -> RoundDone:
         """Write ``comp`` (shown, confirmed, read back, audited in the calibration
         campaign's session, whose record this is), validate it at the papers' postures
         and, ``between``, at targets the evidence did not read; restored when worse.
-        A Stop where the write is refused, declined or has nothing to do."""
+        Stopped where the write is refused, declined or has nothing to do."""
         for sentence in finer_than_drive(comp.maps, self.drive_step_mm):
             self._note(sentence)
         if comp.maps:
             self.ui.say(predicted_with_step(self.drive_step_mm))
-        ours = self._this_round()
-        if self.log.last("confirmed", **ours) is not None \
-                and self.log.last("written", **ours) is None:
-            self._undo_half_written(first)  # before planning again from what is held
-        offsets, maps = self._plans(diagnosis, evidence, comp)
-        if self.log.last("confirmed", **ours) is None:
-            stop = self._approve(comp, offsets, maps)
-            if stop is not None:
-                return stop
+        # a write confirmed and cut by a kill is undone before it is planned again
+        written = _operations(self.log.once(
+            Step.WRITTEN, lambda: self._approved_write(first, diagnosis, evidence, comp),
+            cut=lambda: self._undo_half_written(first), round=self._round_key))
         before = {a: self.before[a] for a in self._scaled(comp)}
-        written = self._write(first, offsets, maps)
         # the calibration campaign's plan again: its record compares as found and as left
         role, role_between = ("validation", "validation-scan") if self.round == 1 \
             else (VALIDATION, VALIDATION_SCAN)
@@ -280,19 +276,22 @@ class Procedure:
         judgement = replace(judgement.with_scales(checks, comp.maps, self.setup.machine),
                             looked=where_looked(looked, self.setup.machine))
         if checks:
-            self.log.add("scales", **self._mark(), checks={a: c.to_json()
-                                                          for a, c in checks.items()})
+            self.log.once(Step.SCALES, lambda: {"checks": {a: c.to_json()
+                                                          for a, c in checks.items()}},
+                          round=self._round_key)
         restored: dict[str, str | None] = {}
         if judgement.worse:
-            restored = self._restore(first, written, judgement)
+            restored = _operations(self.log.once(
+                Step.RESTORED, lambda: self._restore(first, written, judgement),
+                round=self._round_key))
         return RoundDone(comp, validation, judgement, written, restored, between_judged,
                          between_session)
 
     def _second_round(self, first: LoadedSession, scan: LoadedSession,
-                      done: RoundDone) -> RoundDone | Stop | None:
+                      done: RoundDone) -> RoundDone | None:
         """The scan and the validation between its targets diagnosed together, written
         and validated once more (``ogacq.calibration.second_round``); None where it is
-        not taken (said why)."""
+        not taken (said why), Stopped where its write is not made."""
         assert done.between_session is not None
         machine = self.setup.machine
         together = together_protocol(_plan_of(scan), _plan_of(done.between_session),
@@ -336,23 +335,26 @@ class Procedure:
             check_maps_in_force(MapsFile(self.controller.maps_file, self._owner).table(),
                                 *self._owner, self.history)
 
+    def _tell(self, step: Step, tell: Callable[[], object], details: Details,
+              **key: Any) -> None:
+        """``step`` told (``tell``) and recorded once: a resume does not tell it again."""
+        def told() -> Details:
+            tell()
+            return details
+        self.log.once(step, told, **key)
+
     def _note(self, text: str) -> None:
         """Something the end must say (maps not established), logged once."""
-        if self.log.last("note", text=text) is None:
-            self.ui.say(text)
-            self.log.add("note", text=text)
+        self._tell(Step.NOTE, lambda: self.ui.say(text), {}, text=text)
 
-    def _mark(self) -> dict[str, Any]:
+    @property
+    def _round_key(self) -> int | None:
         """What this round's steps carry in the log: the second its number, the first
         nothing (logs before a second round existed read the same)."""
-        return {"round": self.round} if self.round > 1 else {}
-
-    def _this_round(self) -> dict[str, Any]:
-        """What a lookup of this round's steps in the log matches."""
-        return {"round": self.round if self.round > 1 else None}
+        return self.round if self.round > 1 else None
 
     def _notes(self) -> list[str]:
-        return [str(r.details["text"]) for r in self.log.steps if r.step == "note"]
+        return [str(r.details["text"]) for r in self.log.steps if r.step == Step.NOTE]
 
     def _controller_spec(self) -> ControllerSpec:
         spec = self.setup.controller
@@ -370,7 +372,7 @@ class Procedure:
         if self.stack is None or not self.log.steps:
             return
         held: dict[str, float] | None = None
-        first = self.log.last("campaign", role="calibration")
+        first = self.log.last(Step.CAMPAIGN, role="calibration")
         path = Path(first.details["session"]) if first is not None else None
         if path is not None and path.is_file():  # its audit holds the writes and restores
             for op in operations(load_session(path)):
@@ -386,28 +388,32 @@ class Procedure:
                         f"({', '.join(f'{a} {held[a]:+.4f}' for a in AXES)} mm)")
 
     def _campaign(self, role: str, protocol: ProtocolConfig) -> LoadedSession:
-        done = self.log.last("campaign", role=role, status="finished")
-        if done is not None:
-            return load_session(done.details["session"])
-        campaign = self.setup.campaign(role, protocol)
-        path = campaign.session
-        if path.exists() and path.stat().st_size == 0:
-            path.unlink()  # killed between creating the file and its first line
-        if path.exists():
-            session = load_session(path)
-            if not session.finished:
-                self.ui.say(f"resuming the {role} campaign ({len(session.readings)} readings "
-                            "on file)")
-                run_campaign(campaign, observer=self.ui.observer(role), resume=session,
-                             simulator=self.stack)
-        else:
-            if self.log.last("campaign", role=role, status="started") is None:
-                self.log.add("campaign", role=role, status="started", session=str(path),
-                             plan=protocol.to_dict())
-            self.ui.say(f"{role} campaign: {path}")
-            run_campaign(campaign, observer=self.ui.observer(role), simulator=self.stack)
-        self.log.add("campaign", role=role, status="finished", session=str(path))
-        return load_session(path)
+        def run() -> Details:
+            campaign = self.setup.campaign(role, protocol)
+            path = campaign.session
+            if path.exists() and path.stat().st_size == 0:
+                path.unlink()  # killed between creating the file and its first line
+            if path.exists():
+                session = load_session(path)
+                if not session.finished:
+                    self.ui.say(f"resuming the {role} campaign ({len(session.readings)} "
+                                "readings on file)")
+                    run_campaign(campaign, observer=self.ui.observer(role), resume=session,
+                                 simulator=self.stack)
+            else:
+                self._started(role, path, protocol.to_dict())
+                self.ui.say(f"{role} campaign: {path}")
+                run_campaign(campaign, observer=self.ui.observer(role), simulator=self.stack)
+            return {"session": str(path)}
+        return load_session(self._finished(role, run))
+
+    def _started(self, role: str, path: Path, plan: Details) -> None:
+        self.log.once(Step.CAMPAIGN, lambda: {"session": str(path), "plan": plan},
+                      role=role, status=STARTED)
+
+    def _finished(self, role: str, run: Callable[[], Details]) -> Path:
+        """The session of the campaign ``role``, ``run`` once (it records its start)."""
+        return Path(self.log.once(Step.CAMPAIGN, run, role=role, status=FINISHED)["session"])
 
     def _scaled(self, comp: Compensation) -> list[str]:
         """The axes whose map is written and along which a scale is mounted."""
@@ -416,10 +422,11 @@ class Procedure:
     def _scale_fits(self) -> dict[str, ScaleFit]:
         """What each axis scale's test before found along its axis (said, logged once)."""
         fits = {a: fit_scale(r) for a, r in self.before.items()}
-        if fits and self.log.last("scale maps") is None:
+        def tell() -> None:
             for fit in fits.values():
                 self.ui.say(fit.sentence())
-            self.log.add("scale maps", fits={a: f.to_json() for a, f in fits.items()})
+        if fits:
+            self._tell(Step.SCALE_MAPS, tell, {"fits": {a: f.to_json() for a, f in fits.items()}})
         return fits
 
     def _positioning(self, when: str, axis: str) -> PositioningResult:
@@ -429,20 +436,19 @@ class Procedure:
         role = f"positioning-{when}-{axis}" + ("" if self.round == 1 or when == "before"
                                                 else f"-{self.round}")
         path = self.setup.folder / f"{role}.jsonl"
-        if self.log.last("campaign", role=role, status="finished") is None:
+
+        def run() -> Details:
             campaign = self.setup.campaign(role, self.setup.protocol)
             plan = positioning_plan(self.setup.machine, axis, runs=self.setup.scale_runs,
                                     drive_step_mm=self.drive_step_mm)
-            if self.log.last("campaign", role=role, status="started") is None:
-                self.log.add("campaign", role=role, status="started", session=str(path),
-                             plan=plan.to_json())
+            self._started(role, path, plan.to_json())
             self.ui.say(f"{when} the write: the {axis} axis's positioning test by its scale "
                         f"(ISO 230-2, {len(plan.targets_mm)} targets, {plan.runs} runs each "
                         f"way): {path}")
             run_positioning(campaign, plan, path, simulator=self.stack,
                             observer=self.ui.observer(role))
-            self.log.add("campaign", role=role, status="finished", session=str(path))
-        return session_result(load_session(path), net_of_drive=True)
+            return {"session": str(path)}
+        return session_result(load_session(self._finished(role, run)), net_of_drive=True)
 
     def _diagnosis(self, role: str, session: LoadedSession) -> Diagnosis:
         # a designed scan's readings searched for the periods its targets sample
@@ -457,11 +463,9 @@ class Procedure:
             result = diagnose(obs, pitch_band_mm=band)
         except DiagnosisError as exc:
             raise InputError(source, str(exc)) from None
-        if self.log.last("diagnosis", role=role) is None:
-            self.ui.diagnosis(role, result)
-            self.log.add("diagnosis", role=role, session=source,
-                         outcome=result.outcome, diagnosis=result.to_json(),
-                         maps=[m.to_json() for m in diagnosis_maps(result)])
+        self._tell(Step.DIAGNOSIS, lambda: self.ui.diagnosis(role, result), {
+            "session": source, "outcome": result.outcome, "diagnosis": result.to_json(),
+            "maps": [m.to_json() for m in diagnosis_maps(result)]}, role=role)
         return result
 
     def _separation(self, diagnosis: Diagnosis, session: LoadedSession) -> SeparatingPlan:
@@ -469,22 +473,24 @@ class Procedure:
                                self.setup.scan_protocol(),
                                designed=self.setup.scan_step_mm is None,
                                budget_s=self.setup.scan_minutes * 60.0)
-        if self.log.last("separation") is None:
-            speed = self.setup.simulator.speed if self.setup.simulator else None
-            self.ui.separation(plan, speed)
-            self.log.add("separation", run=plan.protocol is not None and self.setup.separate,
-                         **plan.to_json())
+        speed = self.setup.simulator.speed if self.setup.simulator else None
+        self._tell(Step.SEPARATION, lambda: self.ui.separation(plan, speed), {
+            "run": plan.protocol is not None and self.setup.separate, **plan.to_json()})
         return plan
 
     def _compensation(self, diagnosis: Diagnosis, evidence: LoadedSession,
                       maps: bool = True) -> Compensation:
-        """``maps``: False where the maps are not established (the offsets alone)."""
-        done = self.log.last("compensation", **self._this_round())
-        if done is not None:
-            return Compensation.from_json(done.details)
+        """``maps``: False where the maps are not established (the offsets alone). As
+        recorded: a resume carries on with the compensation it had made."""
+        return Compensation.from_json(self.log.once(
+            Step.COMPENSATION, lambda: self._compensate(diagnosis, evidence, maps).to_json(),
+            round=self._round_key))
+
+    def _compensate(self, diagnosis: Diagnosis, evidence: LoadedSession,
+                    maps: bool) -> Compensation:
         # the maps go with the coordinate the offsets make, as the register stores them
-        register = ControllerFacts.of(load_profile(self.controller.profile)).quantize
-        comp = compensation_of(diagnosis, evidence, self.setup.machine, register, self.scales)
+        comp = compensation_of(diagnosis, evidence, self.setup.machine, self.facts.quantize,
+                               self.scales)
         if not maps and not any(f.found for f in self.scales.values()):
             # no map stands on a campaign the separating scan contradicts (a scale's
             # does: it measured its axis itself)
@@ -498,16 +504,13 @@ class Procedure:
                         "only (add maps_file to [controller] for ogacq to apply them); what "
                         "they would correct stays, and the offsets are written without them")
             comp = tables_only(comp)
-        self.log.add("compensation", **self._mark(), **comp.to_json())
         return comp
 
     def _plans(self, diagnosis: Diagnosis, evidence: LoadedSession, comp: Compensation,
                ) -> tuple[OffsetPlan, MapsPlan | None]:
         with self._targets() as (offsets_target, maps_target):
-            facts = offsets_target.facts
-            self.resolution_mm = facts.resolution_mm
             offsets = plan_write(evidence_for(diagnosis, evidence, comp.shift_mm),
-                                 offsets_target.held(), facts, WritePolicy())
+                                 offsets_target.held(), offsets_target.facts, WritePolicy())
         maps = None
         if comp.maps and maps_target is not None:
             maps = maps_target.plan_write(comp.maps, in_force_checksum=comp.in_force_checksum
@@ -551,33 +554,35 @@ class Procedure:
         if undone:
             self.ui.recorded(audited.path)
 
+    def _approved_write(self, first: LoadedSession, diagnosis: Diagnosis,
+                        evidence: LoadedSession, comp: Compensation) -> Details:
+        """Planned from what the controller and the maps file hold (again on a resume:
+        it may have moved), shown and confirmed once, written."""
+        offsets, maps = self._plans(diagnosis, evidence, comp)
+        confirmed = self.log.once(Step.CONFIRMED, lambda: self._approve(comp, offsets, maps),
+                                  round=self._round_key)
+        return self._write(first, offsets, maps, str(confirmed.get("by", "prompt")))
+
     def _approve(self, comp: Compensation, offsets: OffsetPlan,
-                 maps: MapsPlan | None) -> Stop | None:
-        """Shown and confirmed: None; else why nothing is written (the end's outcome
-        and reason)."""
+                 maps: MapsPlan | None) -> Details:
+        """Shown and confirmed: by whom; else Stopped (the end's outcome and reason)."""
         self.ui.compensation(comp, offsets, maps)
         refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
+        mark = {"round": self._round_key} if self._round_key else {}
         if refusals:
-            reason = "; ".join(r.message for r in refusals)
-            self.log.add("refused", **self._mark(), reasons=[r.message for r in refusals],
+            self.log.add(Step.REFUSED, **mark, reasons=[r.message for r in refusals],
                          codes=[r.code for r in refusals])
-            return WriteOutcome.REFUSED, reason
+            raise Stopped(WriteOutcome.REFUSED, "; ".join(r.message for r in refusals))
         if offsets.nothing_to_do and (maps is None or maps.nothing_to_do):
-            return (WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps file "
-                    "already hold what this calibration would write")
+            raise Stopped(WriteOutcome.NOTHING_TO_CORRECT, "the controller and the maps "
+                          "file already hold what this calibration would write")
         if not self.ui.yes and not self.ui.confirm("Write these offsets and maps?"):
-            self.log.add("declined", **self._mark())
-            return WriteOutcome.DECLINED, "the operator declined the write"
-        self.log.add("confirmed", **self._mark(), by="--yes" if self.ui.yes else "prompt")
-        return None
+            self.log.add(Step.DECLINED, **mark)
+            raise Stopped(WriteOutcome.DECLINED, "the operator declined the write")
+        return {"by": "--yes" if self.ui.yes else "prompt"}
 
-    def _write(self, audited: LoadedSession, offsets: OffsetPlan,
-               maps: MapsPlan | None) -> dict[str, str | None]:
-        done = self.log.last("written", **self._this_round())
-        if done is not None:
-            return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
-        by = (self.log.last("confirmed", **self._this_round())
-              or self.log.steps[-1]).details.get("by", "prompt")
+    def _write(self, audited: LoadedSession, offsets: OffsetPlan, maps: MapsPlan | None,
+               by: str) -> Details:
         # planned again on a resume: what the controller and the file hold may have moved
         refusals = [*offsets.refusals, *(maps.refusals if maps else ())]
         if refusals and not (offsets.nothing_to_do and (maps is None or maps.nothing_to_do)):
@@ -591,26 +596,21 @@ class Procedure:
                     written["maps"] = _write_once(maps_target, maps, session, audit, by)
         finally:
             self.ui.recorded(audited.path)
-        self.log.add("written", **self._mark(), **written)
         self.ui.say("written: " + ", ".join(f"{k} ({v})" for k, v in written.items() if v))
         return written
 
     def _judge(self, comp: Compensation, before: LoadedSession, validation: LoadedSession,
                role: str) -> Judgement:
-        judgement = judge(comp, before, validation, self.setup.machine, self.resolution_mm,
+        judgement = judge(comp, before, validation, self.setup.machine, self.facts.resolution_mm,
                           self.drive_step_mm)
-        if self.log.last("validation", role=role) is None:
-            self.ui.validation(judgement)
-            self.log.add("validation", role=role, session=str(validation.path),
-                         before=str(before.path), **judgement.to_json())
+        self._tell(Step.VALIDATION, lambda: self.ui.validation(judgement), {
+            "session": str(validation.path), "before": str(before.path),
+            **judgement.to_json()}, role=role)
         return judgement
 
     def _restore(self, audited: LoadedSession, written: dict[str, str | None],
-                 judgement: Judgement) -> dict[str, str | None]:
+                 judgement: Judgement) -> Details:
         """Put back what the procedure wrote, each said restored only once read back."""
-        done = self.log.last("restored", **self._this_round())
-        if done is not None:
-            return {"offsets": done.details.get("offsets"), "maps": done.details.get("maps")}
         reason = "; ".join(judgement.reasons)
         self.ui.say(f"the validation is worse than before: {reason}. Restoring the previous "
                     "state")
@@ -626,13 +626,12 @@ class Procedure:
                                                         "calibrate (validation worse)")
         finally:
             self.ui.recorded(audited.path)
-        self.log.add("restored", **self._mark(), reason=reason, **restored)
-        return restored
+        return {"reason": reason, **restored}
 
     def _finish(self, comp: Compensation, evidence: LoadedSession, validation: LoadedSession,
                 judgement: Judgement, written: dict[str, str | None],
                 restored: dict[str, str | None]) -> Outcome:
-        outcome = WriteOutcome.RESTORED if judgement.worse else judgement.outcome
+        outcome = WriteOutcome.RESTORED if judgement.worse else WriteOutcome(judgement.outcome)
         reason = "; ".join(judgement.reasons) if judgement.worse else (
             "; ".join(["the validation is within the gauge noise " + judgement.looked
                        + ("" if outcome == WriteOutcome.VALIDATED else
@@ -644,13 +643,13 @@ class Procedure:
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
                          judgement=judgement, written=written, restored=restored)
 
-    def _end(self, outcome: str, reason: str, *, comp: Compensation | None = None,
+    def _end(self, outcome: WriteOutcome, reason: str, *, comp: Compensation | None = None,
              evidence: LoadedSession | None = None, validation: LoadedSession | None = None,
              judgement: Judgement | None = None, written: dict[str, str | None] | None = None,
              restored: dict[str, str | None] | None = None) -> Outcome:
-        details: dict[str, Any] = {"procedure": self.log.procedure, "outcome": outcome,
-                                   "reason": reason, "writes": written or {},
-                                   "restores": restored or {}}
+        head = {"procedure": self.log.procedure, "outcome": outcome, "reason": reason,
+                "writes": written or {}, "restores": restored or {}}
+        details: dict[str, Any] = dict(head)
         if outcome in NOT_APPLIED:
             mark_tables_not_applied(self.setup.folder / TABLES_FOLDER, self.log.procedure,
                                     outcome, reason)
@@ -658,10 +657,8 @@ class Procedure:
         if comp is not None and evidence is not None:
             details.update(compensation=comp.to_json(),
                            validation=judgement.to_json() if judgement else None)
-            summary = {"procedure": self.log.procedure, "outcome": outcome, "reason": reason,
-                       "writes": written or {}, "restores": restored or {},
-                       "maps": {a: {"source": m.source, "checksum": m.checksum()}
-                                for a, m in comp.maps.items()},
+            summary = {**head, "maps": {a: {"source": m.source, "checksum": m.checksum()}
+                                        for a, m in comp.maps.items()},
                        "compensated": list(comp.compensated),
                        "uncompensated": list(comp.uncompensated),
                        "iso230_2": {"before": comp.figures_before(),
@@ -672,7 +669,7 @@ class Procedure:
             record = build_record(load_session(evidence.path), validation=validation,
                                   compensation=summary)
             details["validation_record"] = validation.path.name if validation else None
-        self.log.add("finished", outcome=outcome, reason=reason,
+        self.log.add(Step.FINISHED, outcome=outcome, reason=reason,
                      record_id=record["id"] if record else None,
                      evidence=str(evidence.path) if evidence else None,
                      validation=str(validation.path) if validation else None)
@@ -686,7 +683,8 @@ NOT_APPLIED = (WriteOutcome.REFUSED, WriteOutcome.DECLINED, WriteOutcome.RESTORE
 NOT_APPLIED_FILE = "NOT-APPLIED.txt"
 
 
-def mark_tables_not_applied(tables: Path, procedure: str, outcome: str, reason: str) -> None:
+def mark_tables_not_applied(tables: Path, procedure: str, outcome: WriteOutcome,
+                            reason: str) -> None:
     """Say, beside the exported tables, that they were not applied: they stay as the
     evidence of what was proposed, and a technician who finds them must not load them
     into a controller."""
@@ -726,11 +724,14 @@ def _write_once(target: AnyTarget, plan: TargetPlan, session: LoadedSession,
     return op.operation if op is not None else None
 
 
-def _outcome_of(setup: Setup, log_: ProcedureLog) -> Outcome:
-    """A finished procedure's outcome, as its log says."""
-    done = log_.finished
-    assert done is not None
-    d = done.details
-    return Outcome(setup.folder, log_.procedure, str(d.get("outcome")), str(d.get("reason")),
+def _outcome_of(folder: Path, procedure: str, d: Details) -> Outcome:
+    """A finished procedure's outcome, as its log's end says."""
+    return Outcome(folder, procedure, WriteOutcome(d["outcome"]), str(d.get("reason")),
                    Path(d["evidence"]) if d.get("evidence") else None,
                    Path(d["validation"]) if d.get("validation") else None)
+
+
+def _operations(details: Details) -> dict[str, str | None]:
+    """The operation (its audit's name) a write or a restore made on each target, as its
+    step recorded it (None: none)."""
+    return {noun: details.get(noun) for noun in ("offsets", "maps")}
