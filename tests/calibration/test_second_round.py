@@ -53,12 +53,15 @@ def calibrate(folder: Path, effects: Path, *more: str) -> int:
 
 
 def first_round_wrong(root: Path, *more: str) -> tuple[Path, int]:
-    """``calibrate`` in this process with its first round's maps sign-turned (patched by
-    the caller): its folder and exit code; an end by chance alone (``ended_by_chance``)
-    gets once more."""
+    """``calibrate`` in this process with its first round's maps sign-turned: its folder
+    and exit code; an end by chance alone (``ended_by_chance``) gets once more, its first
+    round turned afresh (a patch made once turned only the first attempt's)."""
+    made = procedure.compensation_of
     for attempt in ("cal", "cal-again"):
         folder = root / attempt
-        code = calibrate(folder, effects_file(root, EFFECTS), *more)
+        with pytest.MonkeyPatch.context() as patch:
+            patch.setattr(procedure, "compensation_of", flipped_first(made))
+            code = calibrate(folder, effects_file(root, EFFECTS), *more)
         if not (code == 4 and ended_by_chance(folder)):
             break
     return folder, code
@@ -85,9 +88,7 @@ def resumed_to_the_second_round(folder: Path) -> list:
 
 @pytest.fixture(scope="module")
 def second(tmp_path_factory) -> Path:
-    with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
-        folder, code = first_round_wrong(tmp_path_factory.mktemp("second"))
+    folder, code = first_round_wrong(tmp_path_factory.mktemp("second"))
     assert code == 0, step(folder, "finished")
     return folder
 
@@ -132,7 +133,6 @@ def test_a_first_round_shown_wrong_between_targets_is_corrected_by_a_second(seco
 def test_no_second_round_beyond_the_scan_budget(tmp_path, monkeypatch):
     """--scan-minutes 1: the second validation's scan would take longer; the first round
     ends restored, and says why no second was taken."""
-    monkeypatch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
     folder, code = first_round_wrong(tmp_path, "--scan-minutes", "1")
     assert code == 4
     finished = step(folder, "finished")
@@ -241,7 +241,6 @@ def test_no_second_write_where_the_readings_together_find_nothing_to_correct(
     """The readings together diagnosed without an effect or a map (their effects taken
     off on purpose): nothing is written a second time; the first round's end stands,
     restored, and says why."""
-    monkeypatch.setattr(procedure, "compensation_of", flipped_first(procedure.compensation_of))
     diagnosed = procedure.diagnose
 
     def nothing_together(obs, **kwargs):
