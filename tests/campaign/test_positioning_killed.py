@@ -5,15 +5,12 @@ read, and the figures those of an uninterrupted test within the scale's noise.""
 from __future__ import annotations
 
 import json
-import os
-import signal
-import time
 
 from ogacq.cli.app import main
 from ogacq.session.records import PositionRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import write_campaign
-from tests.campaign.test_resume import start
+from tests.campaign.test_resume import kill_after, start
 
 LEAD_Y = "[lead_screw.y]\namplitude_mm = 0.004\npitch_mm = 6.35\nphase_deg = 40.0\n"
 # The two tests' figures differ by the scale's noise (0.3 µm a value, averaged over a
@@ -30,21 +27,6 @@ def positioning_campaign(folder):
     return path
 
 
-def positions_on_disk(path) -> int:
-    return path.read_bytes().count(b'"type":"position"') if path.exists() else 0
-
-
-def kill_after(proc, session, n_readings, timeout_s=120.0):
-    """SIGKILL the test's process group once ``n_readings`` are on disk."""
-    end = time.monotonic() + timeout_s
-    while positions_on_disk(session) < n_readings:
-        assert proc.poll() is None, proc.stderr.read().decode()
-        assert time.monotonic() < end, "positioning test too slow"
-        time.sleep(0.005)
-    os.killpg(proc.pid, signal.SIGKILL)
-    proc.wait(10)
-
-
 def positioning_json(capsys, *command) -> dict:
     """``ogacq positioning ... --json`` run here (the killed one runs in a process)."""
     assert main([str(c) for c in command]) == 0
@@ -58,7 +40,7 @@ def test_a_killed_positioning_test_resumes_losing_nothing(tmp_path, capsys):
     campaign = positioning_campaign(tmp_path / "killed")
     session = campaign.parent / "positioning-y.jsonl"
     command = ("positioning", campaign, "--axis", "y", "--runs", "2", "--json")
-    kill_after(start(*command), session, KILLED_AT)
+    kill_after(start(*command), session, KILLED_AT, "position")
     before = [(r.run, r.direction, r.target_mm, r.scale_mm)
               for r in load_session(session).of_type(PositionRecord)]
     assert len(before) >= KILLED_AT and not load_session(session).finished

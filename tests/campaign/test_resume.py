@@ -19,10 +19,10 @@ from tests.interrupts import sigint_as_at_a_terminal
 ONE_COUNT_IN_THE_FIT_MM = 3e-4
 
 
-def readings_on_disk(path) -> int:
+def readings_on_disk(path, record_type: str = "reading") -> int:
     if not path.exists():
         return 0
-    return path.read_bytes().count(b'"type":"reading"')
+    return path.read_bytes().count(b'"type":"%s"' % record_type.encode())
 
 
 def start(*args):
@@ -32,11 +32,13 @@ def start(*args):
                                 start_new_session=True)
 
 
-def kill_after(proc, session, n_readings, timeout_s=60.0):
+def kill_after(proc, session, n_readings, record_type="reading", timeout_s=300.0):
+    """SIGKILL the process group once ``n_readings`` records of ``record_type`` are on
+    disk (the deadline only ends a run that never gets there)."""
     end = time.monotonic() + timeout_s
-    while readings_on_disk(session) < n_readings:
+    while readings_on_disk(session, record_type) < n_readings:
         assert proc.poll() is None, proc.stderr.read().decode()
-        assert time.monotonic() < end, "campaign too slow"
+        assert time.monotonic() < end, f"{n_readings} {record_type} records not reached"
         time.sleep(0.005)
     os.killpg(proc.pid, signal.SIGKILL)
     proc.wait(10)
