@@ -7,6 +7,15 @@ from tests.cli.helpers import run_ogacq
 from tests.recovery import recovered
 
 
+def final_rejected_by_chance(diagnosis: dict) -> bool:
+    """The final model rejected at the 1 % level, yet far from what a model left wrong
+    gives (p > 1e-6): once in a hundred runs of a right model; the simulated machine's
+    readings follow its timing, so a loaded machine draws other ones (seen twice in the
+    CI command under load, seed 4)."""
+    final = diagnosis["chi2"]["final"]
+    return not final["consistent"] and (final.get("p") or 0.0) > 1e-6
+
+
 def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_home,
                                                               monkeypatch):
     monkeypatch.setenv("COLUMNS", "250")  # rich folds a path wider than the terminal
@@ -15,17 +24,22 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_ho
     out = tmp_path / "demo"
     # the loop runs the designed scan and the validation between its targets (the papers'
     # three postures do not see between them): about 130 s here on a loaded machine
-    proc = run_ogacq("demo", "--effects", effects, "--seed", "4", "--speed", "50", "--out", out,
-                     "--operator", "J. Martin", timeout=400)
-    assert proc.returncode == 0, proc.stderr
+    for seed in ("4", "5"):  # a final fit rejected at the 1 % level by chance gets once more
+        proc = run_ogacq("demo", "--effects", effects, "--seed", seed, "--speed", "50",
+                         "--out", out / seed, "--operator", "J. Martin", timeout=400)
+        assert proc.returncode == 0, proc.stderr
+        diagnosis = json.loads((out / seed / "diagnosis.json").read_text())
+        if not final_rejected_by_chance(diagnosis):
+            break
+    out = out / seed
     for name in ("session.jsonl", "readings.csv", "result.json", "diagnosis.json",
                  "report/report.html", "report/deviations.png"):
         assert (out / name).is_file(), name
     result = json.loads((out / "result.json").read_text())
     hidden = result["hidden"]
     assert hidden["squareness.xy"] == 0.5
-    diagnosis = json.loads((out / "diagnosis.json").read_text())
-    assert not diagnosis["base"]["consistent"] and diagnosis["final"]["consistent"]
+    assert not diagnosis["base"]["consistent"] and diagnosis["final"]["consistent"], \
+        diagnosis["chi2"]
     found = {f"{e['effect']}.{e['where']}": e for e in diagnosis["effects"]}
     squareness = found["squareness.xy"]
     assert recovered(squareness["value"], 0.5, squareness["std"], compared=1)
@@ -41,7 +55,7 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_ho
     # the report is a complete record: who, which machine, and the acceptance as found
     # (offsets of a millimetre put the deviations far outside the 20 um tolerance)
     record = json.loads((out / "report" / "record.json").read_text())
-    assert record["operator"] == "J. Martin" and record["machine"]["serial"] == "SIM-4"
+    assert record["operator"] == "J. Martin" and record["machine"]["serial"] == f"SIM-{seed}"
     assert not record["missing"], record["missing"]
     assert record["acceptance"]["as_found"]["decision"] == "fail"
     # recorded in the history of ogacq's data folder, where every demo accumulates
