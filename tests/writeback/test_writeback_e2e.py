@@ -10,6 +10,7 @@ import pytest
 
 from ogacq.campaign.campaign_file import read_campaign
 from ogacq.campaign.run import run_campaign
+from ogacq.diagnose.outliers import described_outliers
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.observations import averaged_deviations, readings_observations
 from ogacq.model.parameters import AXES, vector
@@ -63,8 +64,13 @@ def test_campaign_writeback_validation_restore(tmp_path, capsys, monkeypatch, pr
     table = "offsets.toml" if profile == "iai-pcon" else None
     zeros = dict.fromkeys(AXES, 0.0)
     with simulator(tmp_path, profile, seed) as info:
-        first = sim_campaign(tmp_path, info, name="first", offsets_file=table)
-        session, before_fit = run_campaign_file(first)
+        # a reading the write's outlier test rejects at its 1 % level by chance (seen
+        # once in the CI command under load) gets one more campaign, nothing written
+        for name in ("first", "first-again"):
+            first = sim_campaign(tmp_path, info, name=name, offsets_file=table)
+            session, before_fit = run_campaign_file(first)
+            if not described_outliers(before_fit):
+                break
         assert session.header.station["controller"]["offsets_mm"] == zeros
         # within the noise at 1e-6, not the 1 % the verdict uses (one run in a hundred)
         assert fit_verdict(before_fit).p_value > 1e-6
