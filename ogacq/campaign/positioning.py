@@ -11,7 +11,6 @@ the travel less the overrun, which the controller's soft limits hold.
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import json
 from dataclasses import dataclass
@@ -20,13 +19,12 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ogacq_drivers.errors import DriverError
 from ogacq.campaign.campaign_file import AxisScaleSpec, Campaign
 from ogacq.campaign.run import check_same_maps, maps_in_force, target_correction
 from ogacq.campaign.station import DeviceStation, open_station
 from ogacq.campaign.traceability import check_instruments, header_entries
 from ogacq.compensation.applied import TargetCorrection
-from ogacq.errors import InputError, StorageError
+from ogacq.errors import InputError
 from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_dict
 from ogacq.model.parameters import AXES
@@ -36,9 +34,8 @@ from ogacq.protocol.positioning import (
     PositioningStep,
     session_result,
 )
-from ogacq.protocol.runner import CampaignStopped, Observer, Progress
+from ogacq.protocol.runner import Observer, Progress, run_to_end
 from ogacq.session.records import (
-    EndRecord,
     MoveRecord,
     OverrideRecord,
     PositionRecord,
@@ -116,25 +113,7 @@ class _Test:
     observer: Observer | None
 
     def run(self) -> None:
-        try:
-            self._steps()
-            self.writer.write(EndRecord(status="complete", readings=len(self.done)))
-        except KeyboardInterrupt:
-            self._stop("interrupted", "interrupted by the operator (Ctrl-C)")
-            raise CampaignStopped("interrupted by the operator", "interrupted") from None
-        except (DriverError, CampaignStopped) as exc:
-            self._stop("stopped", str(exc))
-            raise CampaignStopped(str(exc)) from exc
-
-    def _stop(self, status: str, reason: str) -> None:
-        try:
-            self.station.stop_axes()
-            stopped = True
-        except DriverError:
-            stopped = False
-        with contextlib.suppress(StorageError):  # what is on file stays valid
-            self.writer.write(EndRecord(status=status, reason=reason, axes_stopped=stopped,
-                                        readings=len(self.done)))
+        run_to_end(self._steps, self.station, self.writer, lambda: len(self.done))
 
     def _steps(self) -> None:
         steps = list(self.plan.steps())

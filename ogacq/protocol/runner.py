@@ -62,6 +62,39 @@ class CampaignStopped(OgacqError):
         super().__init__(reason)
 
 
+def run_to_end(body: Callable[[], None], station: Station, writer: SessionWriter,
+               readings: Callable[[], int]) -> None:
+    """``body`` run to the end and the session's end recorded; on a stop (the operator,
+    a device, a full disk) the axes stopped, why recorded, and CampaignStopped raised."""
+    def stop(status: str, reason: str) -> None:
+        try:
+            station.stop_axes()
+            stopped = True
+        except DriverError:
+            stopped = False
+        # The disk that stopped the run may refuse this too: the session then ends
+        # like one whose process died, and resumes the same way.
+        with contextlib.suppress(StorageError):
+            writer.write(EndRecord(status=status, reason=reason, axes_stopped=stopped,
+                                   readings=readings()))
+
+    try:
+        body()
+        writer.write(EndRecord(status="complete", readings=readings()))
+    except CampaignStopped as stopped:
+        stop(stopped.status, stopped.reason)
+        raise
+    except KeyboardInterrupt:
+        stop("interrupted", "interrupted by the operator (Ctrl-C)")
+        raise CampaignStopped("interrupted by the operator", "interrupted") from None
+    except DriverError as exc:
+        stop("stopped", str(exc))
+        raise CampaignStopped(str(exc)) from exc
+    except StorageError as exc:  # disk full or read-only: what is on file stays valid
+        stop("stopped", str(exc))
+        raise CampaignStopped(str(exc)) from None
+
+
 @dataclass(frozen=True)
 class Progress:
     done: int
@@ -120,33 +153,7 @@ class CampaignRunner:
 
     def run(self) -> None:
         """Run to the end, or raise CampaignStopped after recording why."""
-        try:
-            self._run()
-            self.writer.write(EndRecord(status="complete", readings=len(self.recorded)))
-        except CampaignStopped as stop:
-            self._stop_safely(stop.status, stop.reason)
-            raise
-        except KeyboardInterrupt:
-            self._stop_safely("interrupted", "interrupted by the operator (Ctrl-C)")
-            raise CampaignStopped("interrupted by the operator", "interrupted") from None
-        except DriverError as exc:
-            self._stop_safely("stopped", str(exc))
-            raise CampaignStopped(str(exc)) from exc
-        except StorageError as exc:  # disk full or read-only: what is on file stays valid
-            self._stop_safely("stopped", str(exc))
-            raise CampaignStopped(str(exc)) from None
-
-    def _stop_safely(self, status: str, reason: str) -> None:
-        try:
-            self.station.stop_axes()
-            stopped = True
-        except DriverError:
-            stopped = False
-        # The disk that stopped the campaign may refuse this too: the session then
-        # ends like one whose process died, and resumes the same way.
-        with contextlib.suppress(StorageError):
-            self.writer.write(EndRecord(status=status, reason=reason, axes_stopped=stopped,
-                                        readings=len(self.recorded)))
+        run_to_end(self._run, self.station, self.writer, lambda: len(self.recorded))
 
     def _run(self) -> None:
         if self._check_first:

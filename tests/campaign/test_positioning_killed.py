@@ -11,6 +11,7 @@ from ogacq.session.records import PositionRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import write_campaign
 from tests.campaign.test_resume import kill_after, start
+from tests.cli.helpers import with_file_size_limit
 
 LEAD_Y = "[lead_screw.y]\namplitude_mm = 0.004\npitch_mm = 6.35\nphase_deg = 40.0\n"
 # The two tests' figures differ by the scale's noise (0.3 µm a value, averaged over a
@@ -60,3 +61,22 @@ def test_a_killed_positioning_test_resumes_losing_nothing(tmp_path, capsys):
     # the lead's error is what the figures show, not the kill
     assert 0.006 < resumed["iso230_2"]["E_mm"] < 0.010
     assert json.loads(session.with_suffix(".json").read_text()) == resumed
+
+
+def test_a_full_disk_stops_a_positioning_test_in_one_line_and_it_continues(tmp_path, capsys):
+    """The disk full mid-test: the axes stopped, one line, exit 3, whole records on file;
+    the same command with room continues it to its end."""
+    campaign = positioning_campaign(tmp_path)
+    session = tmp_path / "positioning-y.jsonl"
+    ran = with_file_size_limit(12_000, "positioning", campaign, "--axis", "y", "--runs", "2")
+    assert ran.returncode == 3, ran.stderr
+    assert "Traceback" not in ran.stderr and "File too large" in ran.stderr, ran.stderr
+    on_file = session.read_bytes()
+    assert len(on_file) <= 12_000 and on_file.endswith(b"\n")
+    stopped = load_session(session)
+    assert not stopped.warnings and len(stopped.of_type(PositionRecord)) > 0
+    assert not stopped.finished
+
+    positioning_json(capsys, "positioning", campaign, "--axis", "y", "--runs", "2", "--json")
+    done = load_session(session)
+    assert done.finished and session.read_bytes().startswith(on_file)
