@@ -16,11 +16,11 @@ from ogacq.campaign.campaign_file import read_campaign, scale_name
 from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.station import open_gauges, simulator_scales, start_simulator
 from ogacq.cli.app import main
-from ogacq.errors import InputError, Refused
+from ogacq.errors import InputError, Refused, StorageError
 from ogacq.model.parameters import PARAM_INDEX
 from ogacq.protocol.positioning import positioning_plan
 from ogacq.protocol.runner import CampaignStopped
-from ogacq.session.records import MoveRecord, PositionRecord
+from ogacq.session.records import EndRecord, MoveRecord, PositionRecord
 from ogacq.session.store import load_session
 from tests.campaign.conftest import CONTROLLER, HEAD, MACHINE, gauge, write_campaign
 
@@ -154,6 +154,30 @@ def test_a_positioning_test_stopped_half_way_continues_and_writes_its_figures(tm
     written = json.loads(session.with_suffix(".json").read_text())
     assert written == printed and written["iso230_2"]["standard"] == "ISO 230-2:2014, clause 3"
     assert written["drive_step_mm"] == 0.01 and len(written["targets_mm"]) == len(plan.targets_mm)
+
+
+@pytest.mark.parametrize(("raised", "status"), [
+    (StorageError("positioning-y.jsonl", OSError(28, "No space left on device")), "stopped"),
+    (CampaignStopped("deadline: the campaign's time is up", "deadline"), "deadline")])
+def test_a_positioning_test_stopped_by_the_disk_or_a_deadline_stops_the_axes(
+        tmp_path, raised, status):
+    """A full disk (or a stop of its own kind) mid-test ends as a campaign's does: the
+    axes stopped, the end recorded with its own status, CampaignStopped raised."""
+    campaign_path = write_campaign(tmp_path, speed=200, extra="[axis_scale.y]\n")
+    campaign_path.write_text(campaign_path.read_text().replace(
+        "[simulator]\n", "[simulator]\nline_at_speed = true\n"))
+    campaign = read_campaign(campaign_path)
+    plan = positioning_plan(campaign.machine, "y", runs=2, drive_step_mm=0.01)
+    session = tmp_path / "positioning-y.jsonl"
+
+    def stop_at_5(progress):
+        if progress.done == 5:
+            raise raised
+
+    with pytest.raises(CampaignStopped):
+        run_positioning(campaign, plan, session, observer=stop_at_5)
+    (end,) = load_session(session).of_type(EndRecord)
+    assert (end.status, end.axes_stopped, end.readings) == (status, True, 5)
 
 
 def plan_steps_read(plan):
