@@ -46,8 +46,10 @@ def positioning(
         raise InputError("--axis", f"is x, y or z, got {axis!r}")
     campaign = read_campaign(campaign_file)
     if axis not in campaign.axis_scales:
+        what = "an empty one: the simulator serves it" if campaign.simulator is not None \
+            else "its protocol and port"
         raise InputError(campaign_file, f"declares no scale along the {axis} axis: add an "
-                         f"[axis_scale.{axis}] table (its protocol and port)")
+                         f"[axis_scale.{axis}] table ({what})")
     session = out or campaign.session.parent / f"positioning-{axis}.jsonl"
     if out is None:  # the campaign's session folder, made as a campaign makes it
         session.parent.mkdir(parents=True, exist_ok=True)

@@ -192,3 +192,17 @@ def test_a_scale_past_its_certificate_is_refused_before_anything_moves(tmp_path)
     with pytest.raises(Refused, match="gauge scale_x .*AT-1.* past the due date"):
         run_positioning(campaign, plan, tmp_path / "positioning.jsonl")
     assert not (tmp_path / "positioning.jsonl").exists()
+
+
+@pytest.mark.parametrize(("simulated", "words"), [
+    (True, "add an [axis_scale.z] table (an empty one: the simulator serves it)"),
+    (False, "add an [axis_scale.z] table (its protocol and port)")])
+def test_an_axis_without_a_scale_is_refused_saying_what_to_add(tmp_path, capsys, simulated,
+                                                               words):
+    (tmp_path / "machine.toml").write_text(MACHINE)
+    path = write_campaign(tmp_path, extra="[axis_scale.y]\n") if simulated else \
+        tmp_path / "campaign.toml"
+    if not simulated:
+        path.write_text(HEAD + CONTROLLER + ALL_GAUGES + SCALE)
+    assert main(["positioning", str(path), "--axis", "z"]) == 2
+    assert words in " ".join(capsys.readouterr().err.split())
