@@ -174,7 +174,8 @@ class AxisSight:
         times = (unseen / self.correction_mm) ** 2 if self.correction_mm > 0 else math.inf
         passed = (f"an error up to {worst:.2g} µm" if math.isfinite(worst)
                   else "an error of any size")
-        more = (f"about {times:.0f} times the readings there" if math.isfinite(times)
+        more = (f"about {times:.{1 if times < 10 else 0}f} times the readings there"
+                if math.isfinite(times)
                 else "readings that see this joint there")
         return (f"the {self.axis} correction ({size:.2g} µm about its mean) is not shown: the "
                 "validation "

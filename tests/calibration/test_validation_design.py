@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ogacq.calibration.resolving import resolving_plan
 from ogacq.calibration.validation_design import predicted_sight, validation_plan
 from ogacq.model.error_maps import axis_map, terms_json
 from ogacq.model.families.base import MapTerm
@@ -45,3 +46,14 @@ def test_the_validation_grows_at_the_travels_far_end_until_it_sees_the_period():
 def test_no_periodic_map_no_growth():
     scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
     assert validation_plan(scan, {}, MACHINE, NOISE_MM) == between_plan(scan, MACHINE)
+
+
+def test_a_pitch_left_unresolved_is_read_at_other_phases_in_every_gap():
+    scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
+    scanned = np.asarray(scan_targets(scan, MACHINE))
+    more = np.asarray(resolving_plan(scan, MACHINE).scan_targets_mm)
+    assert len(more) == len(scanned) - 1
+    share = (more - scanned[:-1]) / np.diff(scanned)
+    assert share.min() >= 0.12 and share.max() <= 0.26
+    # clear of the validation's targets between the scan's (0.3-0.7 of each gap)
+    assert not set(more) & set(between_plan(scan, MACHINE).scan_targets_mm)
