@@ -1,14 +1,20 @@
-"""A pitch the separating scan leaves unresolved, read once more at other phases.
+"""A pitch the separating scan leaves unresolved, or too loose for the travel, read
+once more at other phases.
 
 The designed scan samples every lead of its band at four phases, but at the noise a
 machine shows two pitches can still fit its readings alike: found, a 4.0 mm lead on
 z read by the 411-step design at 1.06 µm, "3.99 and 3.854 mm fit alike (chi-square 7.7
 apart, under 9)". The maps were then not established and the procedure ended with
-the offsets alone, the cyclic error left in place. Both pitches predict the same
-readings at the scan's targets and differ between them, so the scan's gaps are read
-once more (one target in each, at a jittered 12-26 % of the gap: clear of the scan's
-own targets and of the validation's), where the machine time allows, and the two
-sessions are diagnosed together (``ogacq.calibration.together``).
+the offsets alone, the cyclic error left in place. And a pitch resolved can still be
+loose for the travel: a 6.35 mm lead found 6.403 ± 0.043 mm slips its phase by an
+eighth of a period over the 100 mm from the map's reference, and its table left
+1.1 µm rms of 2.8 (validated: its uncertainty covers it). Both are settled by more
+readings at other phases: the scan's gaps read once more (one target in each, at a
+jittered 12-26 % of the gap: clear of the scan's own targets), the gaps far from the
+map's reference twice (at 74-88 %: the pitch is read there, in the phase it slips
+by), where the machine time allows; the two sessions are then diagnosed together
+(``ogacq.calibration.together``), and the validation reads between the targets of
+both.
 """
 
 from __future__ import annotations
@@ -17,14 +23,21 @@ from dataclasses import replace
 
 import numpy as np
 
+from ogacq.calibration.maps import diagnosis_maps
+from ogacq.calibration.sight import largest_correction, periodic_modes
 from ogacq.calibration.validation_design import targets_in_gaps
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, scan_targets
 
 RESOLVING = "separating-more"  # the campaign's role
-SHARES = (0.12, 0.26)  # where in each gap (no source: a choice, see the docstring)
+SHARES = ((0.12, 0.26), (0.74, 0.88))  # where in a gap (no source: a choice, see above)
 SEED = 2  # the jitter: fixed, so that a resumed procedure reads the same
+# A periodic map's pitch is loose when its expanded uncertainty (k = 2, the pitch's
+# slip included) somewhere on the travel exceeds this share of the correction's size
+# (no source: a choice; the table then corrects less than half of it there for sure).
+LOOSE = 0.5
+FAR = 0.5  # "far from the reference": beyond this share of the farthest travel
 
 
 def unresolved(diagnosis: Diagnosis) -> bool:
@@ -32,9 +45,30 @@ def unresolved(diagnosis: Diagnosis) -> bool:
     return diagnosis.mapped is not None and bool(diagnosis.mapped.search.unresolved)
 
 
-def resolving_plan(scan: ProtocolConfig, machine: MachineSpec) -> ProtocolConfig:
-    """The scan's gaps, one target in each at other phases than the scan read."""
+def loose_references(diagnosis: Diagnosis, machine: MachineSpec) -> list[float]:
+    """The references of the periodic maps whose pitch is loose for the travel."""
+    lo, hi = machine.rho_min_mm, machine.rho_max_mm
+    out = []
+    for m in diagnosis_maps(diagnosis):
+        if periodic_modes(m) is None:
+            continue
+        expanded = 2.0 * max(max(m.u_forward_mm), max(m.u_reverse_mm))
+        if expanded > LOOSE * largest_correction(m, lo, hi):
+            out.append(m.reference_mm)
+    return out
+
+
+def resolving_plan(scan: ProtocolConfig, machine: MachineSpec,
+                   references_mm: list[float] | None = None) -> ProtocolConfig:
+    """The scan's gaps, one target in each at other phases than the scan read; a second
+    in the gaps far from each of ``references_mm`` (a loose pitch's map's)."""
     scanned = np.asarray(scan_targets(scan, machine), dtype=float)
-    targets = targets_in_gaps(scanned, SHARES, np.random.default_rng(SEED))
+    rng = np.random.default_rng(SEED)
+    targets = targets_in_gaps(scanned, SHARES[0], rng)
+    for reference in references_mm or ():
+        farthest = max(abs(scanned[0] - reference), abs(scanned[-1] - reference))
+        far = [(scanned[0], reference - FAR * farthest),
+               (reference + FAR * farthest, scanned[-1] + 1.0)]
+        targets += targets_in_gaps(scanned, SHARES[1], rng, far)
     return replace(scan, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
-                   scan_targets_mm=tuple(targets))
+                   scan_targets_mm=tuple(sorted(set(targets))))
