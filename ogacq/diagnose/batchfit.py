@@ -56,10 +56,8 @@ class Problem:
 
     def with_side(self, side: np.ndarray) -> Problem:
         """This problem with the model's lost-motion side replaced
-        (``ReadingsLayout.with_side``): the weighting, the gauge sums and the repeat
-        groups' space and the rows' labels read the recorded approach, the gauges
-        and the values, never the side, so they are shared (the weighting still
-        names the first observations; they differ in nothing it reads)."""
+                (``ReadingsLayout.with_side``): everything else reads the recorded approach,
+                the gauges and the values, never the side, so it is shared."""
         obs = replace(self.obs, layout=self.obs.layout.with_side(side))
         out = copy.copy(self)
         out.obs = obs

@@ -152,11 +152,9 @@ class MapSpace:
 
     @property
     def within_groups_tested(self) -> bool:
-        """Whether what varies within the repeat groups (between the cycles) can be
-        tested: only against a stated noise whose rounding the scatter dithers. Repeats
-        rounded alike differ by a few whole display steps, not Gaussian noise (the
-        verdict tests only the posture means then), and a noise measured from the
-        repeats is that very scatter."""
+        """Whether what varies between the cycles can be tested: only against a stated
+                noise whose rounding the scatter dithers (repeats rounded alike differ by whole
+                steps; a noise measured from the repeats is that very scatter)."""
         noise = self.problem.noise
         return noise.dithered and not noise.measured
 

@@ -88,11 +88,9 @@ class Outliers:
 def outlying_readings(obs: Observations, labels: RowLabels, noise: GaugeNoise,
                       alpha: float) -> tuple[list[OutlyingReading], int]:
     """The readings of ``obs`` that disagree with their repeats at level ``alpha``
-    (corrected for the readings tested), and how many were tested (those with at
-    least two repeats); none for tabulated deviations, which have no repeats.
-
-    One at a time, the worst first, each then left out: a slip pulls its gauge's
-    drift and so the readings beside it, which must not be named for it."""
+        (corrected for the readings tested), and how many were tested; none for tabulated
+        deviations. One at a time, the worst first, each then left out: a slip pulls its
+        gauge's drift and so the readings beside it."""
     if not obs.raw:
         return [], 0
     layout = obs.layout

@@ -73,12 +73,10 @@ def unknown_rows(obs: Observations) -> np.ndarray:
 def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
                   theta: np.ndarray) -> tuple[Observations, Problem, list[SideChoice]]:
     """``obs`` with each joint's unknown side resolved where its lost motion decides it
-    (``theta``: the joint offsets' fit). Every combination of the unknown joints'
-    sides is fitted with the joint offsets and the three backlashes; a joint's side
-    is taken from the best combination when flipping it alone, or putting it alone in
-    the middle of its lost motion, fits worse by more than ``BETTER_BY`` and its
-    backlash is significant there (dropping it costs more than chi-square's 1 % point
-    of one degree of freedom)."""
+        (``theta``: the joint offsets' fit): every combination of sides fitted with the
+        offsets and the three backlashes; a side taken from the best one when flipping it,
+        or putting it in the middle, fits worse by ``BETTER_BY`` and its backlash is
+        significant there."""
     if not obs.raw:
         return obs, problem, []
     unknown = unknown_rows(obs)
