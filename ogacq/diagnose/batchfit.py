@@ -56,8 +56,8 @@ class Problem:
 
     def with_side(self, side: np.ndarray) -> Problem:
         """This problem with the model's lost-motion side replaced
-                (``ReadingsLayout.with_side``): everything else reads the recorded approach,
-                the gauges and the values, never the side, so it is shared."""
+        (``ReadingsLayout.with_side``): everything else reads the recorded approach,
+        the gauges and the values, never the side, so it is shared."""
         obs = replace(self.obs, layout=self.obs.layout.with_side(side))
         out = copy.copy(self)
         out.obs = obs
@@ -214,11 +214,11 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
 @dataclass(frozen=True)
 class _Space:
     """Where candidates are fitted: ``residuals`` (B, N) -> (B, m) weighted, the QR
-        factors of the weighted Jacobian at the common start (``q`` (m, k), ``r`` (k, U)
-        of the columns of ``position``), the start's residuals along ``q`` and what
-        every fit there adds to its sum of squares. A candidate's Jacobian is ``q``
-        times its columns of ``r``: its SVD is a (k, p) one, and the m-row products are
-        ``einsum`` sums on the calling thread (gaugesums.py says why)."""
+    factors of the weighted Jacobian at the common start (``q`` (m, k), ``r`` (k, U)
+    of the columns of ``position``), the start's residuals along ``q`` and what
+    every fit there adds to its sum of squares. A candidate's Jacobian is ``q``
+    times its columns of ``r``: its SVD is a (k, p) one, and the m-row products are
+    ``einsum`` sums on the calling thread (gaugesums.py says why)."""
 
     residuals: Callable[[np.ndarray], np.ndarray]
     position: dict[str, int]

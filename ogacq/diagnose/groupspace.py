@@ -125,10 +125,10 @@ class GroupSpace:
 
     def reading_jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray | None:
         """(n, p) every reading's unweighted Jacobian by ``free`` at ``theta`` (N),
-                without drift, for a dense scan: evaluated at the nodes and interpolated as
-                :meth:`residuals` interpolates a change. A drift's column is the joint
-                offset's times the reading's hours: evaluated an hour in, then scaled. None
-                without nodes, or where a group's readings differ in their lost motion's side."""
+        without drift, for a dense scan: evaluated at the nodes and interpolated as
+        :meth:`residuals` interpolates a change. A drift's column is the joint
+        offset's times the reading's hours: evaluated an hour in, then scaled. None
+        without nodes, or where a group's readings differ in their lost motion's side."""
         nodes = self._nodes
         if nodes is None:
             return None

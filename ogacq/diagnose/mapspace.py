@@ -153,8 +153,8 @@ class MapSpace:
     @property
     def within_groups_tested(self) -> bool:
         """Whether what varies between the cycles can be tested: only against a stated
-                noise whose rounding the scatter dithers (repeats rounded alike differ by whole
-                steps; a noise measured from the repeats is that very scatter)."""
+        noise whose rounding the scatter dithers (repeats rounded alike differ by whole
+        steps; a noise measured from the repeats is that very scatter)."""
         noise = self.problem.noise
         return noise.dithered and not noise.measured
 

@@ -88,9 +88,9 @@ class Outliers:
 def outlying_readings(obs: Observations, labels: RowLabels, noise: GaugeNoise,
                       alpha: float) -> tuple[list[OutlyingReading], int]:
     """The readings of ``obs`` that disagree with their repeats at level ``alpha``
-        (corrected for the readings tested), and how many were tested; none for tabulated
-        deviations. One at a time, the worst first, each then left out: a slip pulls its
-        gauge's drift and so the readings beside it."""
+    (corrected for the readings tested), and how many were tested; none for tabulated
+    deviations. One at a time, the worst first, each then left out: a slip pulls its
+    gauge's drift and so the readings beside it."""
     if not obs.raw:
         return [], 0
     layout = obs.layout
@@ -160,9 +160,9 @@ def _worst(x: np.ndarray, t_s: np.ndarray, group: np.ndarray, gauge: np.ndarray,
 
 class _RepeatsFit:
     """The readings fitted with their repeat group's mean and their gauge's slope in
-        time: the residuals and each reading's leverage. The columns are orthogonal, so
-        a leverage is 1/n of the group plus the reading's share of its gauge's centred
-        time squared: no matrix."""
+    time: the residuals and each reading's leverage. The columns are orthogonal, so
+    a leverage is 1/n of the group plus the reading's share of its gauge's centred
+    time squared: no matrix."""
 
     def __init__(self, x: np.ndarray, t_s: np.ndarray, group: np.ndarray,
                  size: np.ndarray, gauge: np.ndarray) -> None:

@@ -147,15 +147,15 @@ DEGENERATE = 1e-10
 @dataclass(frozen=True)
 class NodeRows:
     """A dense scan's weighted group coordinates compressed to a few rows per pair of
-        neighbouring nodes, exactly for residuals ``y - S I d`` (``y`` the weighted group
-        residuals at a reference, ``S`` the groups' whitening, ``I`` the interpolation
-        between nodes, ``d`` a change at the nodes). The groups between two nodes make a
-        block ``X``; with ``X = Q R``, ``|y - X d|^2 = |y|^2 - |Q'y|^2 + |Q'y - R d|^2``,
-        so a sum of squares needs ``R d``, not the groups; a gauge's zero is ``R 1``.
+    neighbouring nodes, exactly for residuals ``y - S I d`` (``y`` the weighted group
+    residuals at a reference, ``S`` the groups' whitening, ``I`` the interpolation
+    between nodes, ``d`` a change at the nodes). The groups between two nodes make a
+    block ``X``; with ``X = Q R``, ``|y - X d|^2 = |y|^2 - |Q'y|^2 + |Q'y - R d|^2``,
+    so a sum of squares needs ``R d``, not the groups; a gauge's zero is ``R 1``.
 
-        ``left``, ``right``: each row's nodes, ``a``, ``b`` its coefficients there;
-        ``data``: ``Q'y``; ``lost``: ``|y|^2 - |Q'y|^2`` (no change at the nodes reaches
-        it); ``zeros`` (R, gauges): the gauges' zero directions, orthonormal."""
+    ``left``, ``right``: each row's nodes, ``a``, ``b`` its coefficients there;
+    ``data``: ``Q'y``; ``lost``: ``|y|^2 - |Q'y|^2`` (no change at the nodes reaches
+    it); ``zeros`` (R, gauges): the gauges' zero directions, orthonormal."""
 
     left: np.ndarray
     right: np.ndarray

@@ -73,10 +73,10 @@ def unknown_rows(obs: Observations) -> np.ndarray:
 def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
                   theta: np.ndarray) -> tuple[Observations, Problem, list[SideChoice]]:
     """``obs`` with each joint's unknown side resolved where its lost motion decides it
-        (``theta``: the joint offsets' fit): every combination of sides fitted with the
-        offsets and the three backlashes; a side taken from the best one when flipping it,
-        or putting it in the middle, fits worse by ``BETTER_BY`` and its backlash is
-        significant there."""
+    (``theta``: the joint offsets' fit): every combination of sides fitted with the
+    offsets and the three backlashes; a side taken from the best one when flipping it,
+    or putting it in the middle, fits worse by ``BETTER_BY`` and its backlash is
+    significant there."""
     if not obs.raw:
         return obs, problem, []
     unknown = unknown_rows(obs)

@@ -169,9 +169,9 @@ def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.
                  weighting: Weighting, rank: int | None = None, *,
                  tolerance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fit ``free`` entries for each row of ``y`` (B, m) from the full vector
-        ``theta0`` (N,): the vectors (B, N) and a converged mask. ``rank``: the
-        directions the data determine (all by default); ``tolerance``: per-parameter
-        step at which to stop (at least ``STEP_TOLERANCE`` of the plausible ranges)."""
+    ``theta0`` (N,): the vectors (B, N) and a converged mask. ``rank``: the
+    directions the data determine (all by default); ``tolerance``: per-parameter
+    step at which to stop (at least ``STEP_TOLERANCE`` of the plausible ranges)."""
     rank = len(free) if rank is None else rank
     ranges = _ranges(free)
     tol = np.maximum(tolerance, ranges * STEP_TOLERANCE)
@@ -236,10 +236,10 @@ def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray
                 weighting: Weighting, act: np.ndarray, step: np.ndarray,
                 tol: np.ndarray) -> None:
     """Move each row in ``act`` by its step, halved where it made things worse; a row
-        no step improves is at its minimum, as is one whose step no longer lowers the
-        cost (ill-conditioned sets jitter along weak directions). The Jacobian is
-        evaluated even where a step ends the fit: the covariance is propagated at the
-        solution itself (before it, a condition number moves in its ninth digit)."""
+    no step improves is at its minimum, as is one whose step no longer lowers the
+    cost (ill-conditioned sets jitter along weak directions). The Jacobian is
+    evaluated even where a step ends the fit: the covariance is propagated at the
+    solution itself (before it, a condition number moves in its ninth digit)."""
     scale = np.ones(len(act))
     todo = np.arange(len(act))
     every = len(act) == len(rows.cost)
@@ -436,12 +436,9 @@ class FitResult:
 def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         weighting: str = "ols", noise: GaugeNoise | None = None,
         theta0: np.ndarray | None = None) -> FitResult:
-    """Identify ``names`` from ``obs``.
-
-    ``method`` "linear" is one step of the linearised model from ``theta0``
-    (the papers' eq. 11 when fitting offsets and lengths to deviations);
-    "exact" iterates the exact model to convergence.
-    """
+    """Identify ``names`` from ``obs``: ``method`` "exact" iterates the exact model to
+    convergence; "linear" is one step of the linearised model from ``theta0`` (the
+    papers' eq. 11 when fitting offsets and lengths to deviations)."""
     if method not in ("linear", "exact"):
         raise ValueError(f"method must be 'linear' or 'exact', got {method!r}")
     names = tuple(names)

@@ -107,9 +107,9 @@ def _within_variance_and_slope(sigma_mm: float, step_mm: float) -> tuple[float, 
 
 def sigma_from_scatter(scatter_var: float, step_mm: float) -> float:
     """The gauge scatter sigma whose rounded repeats scatter with ``scatter_var``:
-        inverts :func:`within_variance` (increasing in sigma) by Newton's method kept in
-        a bracket, bisecting where a step would leave it (no source: the textbook
-        safeguarded Newton), to a few units in the last place."""
+    inverts :func:`within_variance` (increasing in sigma) by Newton's method kept in
+    a bracket, bisecting where a step would leave it (no source: the textbook
+    safeguarded Newton), to a few units in the last place."""
     if scatter_var <= 0.0:
         return 0.0
     low, high = 0.0, math.sqrt(scatter_var) + step_mm  # within_variance(high) >= high^2
@@ -249,10 +249,10 @@ def identical_repeats_scatter(groups: int, step_mm: float) -> float:
 
 def _identical_repeats_noise(obs: Observations, step_mm: float, dof: int) -> GaugeNoise:
     """The noise of repeats that all read identically: ``identical_repeats_scatter`` as
-        the scatter within the groups and the whole rounding shared, a bound on the
-        variance of a mean for every scatter in that range (``c`` never exceeds
-        ``s^2/12``). The scatter alone would dither the rounding and credit a mean with
-        less variance than it has (the 10 um display's 0.3 um gauge: 5 % false alarms)."""
+    the scatter within the groups and the whole rounding shared, a bound on the
+    variance of a mean for every scatter in that range (``c`` never exceeds
+    ``s^2/12``). The scatter alone would dither the rounding and credit a mean with
+    less variance than it has (the 10 um display's 0.3 um gauge: 5 % false alarms)."""
     groups = int(np.count_nonzero(obs.layout.repeat_size > 1))
     scatter = identical_repeats_scatter(groups, step_mm)
     rounding = step_mm**2 / 12.0
@@ -347,12 +347,12 @@ def _estimate_noise(obs: Observations) -> GaugeNoise:
 def _measured_noise(obs: Observations, step: float, measured: tuple[float, int],
                     scatter: float, **said: Any) -> GaugeNoise:
     """The noise the repeats show: their scatter about their means and the rounding
-        they share, ``c`` of one gauge value's scatter: the repeats' own (inverted), or
-        where readings average several values, the values' scatter within each reading
-        (``averaged_sd_mm``). Inverting the means' scatter as one value's made a gauge
-        far quieter than its step (issue 37.7: 0.29 µm for means of 16 values of 0.5 µm on
-        a 1 µm display; a true model's F per dof 0.07-0.23). Correlated values only make
-        ``c`` larger: the noise errs high, not low."""
+    they share, ``c`` of one gauge value's scatter: the repeats' own (inverted), or
+    where readings average several values, the values' scatter within each reading
+    (``averaged_sd_mm``). Inverting the means' scatter as one value's made a gauge
+    far quieter than its step (issue 37.7: 0.29 µm for means of 16 values of 0.5 µm on
+    a 1 µm display; a true model's F per dof 0.07-0.23). Correlated values only make
+    ``c`` larger: the noise errs high, not low."""
     ss, dof = measured
     per_value = _value_scatter(obs, step)
     if per_value is None:

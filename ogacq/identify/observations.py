@@ -63,12 +63,9 @@ PAPER_ORDER_12 = ("dx_y+", "dy_x+", "dx_y-", "dy_x-", "dx_z+", "dz_x+", "dx_z-",
 
 @dataclass
 class Observations:
-    """Observed values ``y = D h(theta) + zeros + noise``.
-
-    ``combination`` is D (None: the readings themselves, each gauge with its own
-    unknown zero). ``noise_cov`` is the noise covariance of ``y`` in units of
-    the gauge variance ``sigma^2``.
-    """
+    """Observed values ``y = D h(theta) + zeros + noise``: ``combination`` is D (None:
+    the readings themselves, each gauge with its own unknown zero); ``noise_cov`` the
+    noise covariance of ``y`` in units of the gauge variance ``sigma^2``."""
 
     machine: MachineSpec
     layout: ReadingsLayout
@@ -197,12 +194,9 @@ def _averaged_together(parts: Sequence[Observations],
 
 def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],
                             source: str = "") -> Observations:
-    """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min).
-
-    The readings they were taken from are laid out as one cycle of the papers'
-    plan (Zero, Max, Min for each leg involved), keeping the gauges named;
-    approach and time are unknown for tabulated data and taken as neutral.
-    """
+    """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min),
+    laid out as one cycle of the papers' plan for the gauges named; approach and time
+    unknown for tabulated data, taken as neutral."""
     # here: the protocol's dataclasses are 3 ms of a readings refit's start-up
     from ogacq.protocol.plan import ProtocolConfig, planned_layout
 

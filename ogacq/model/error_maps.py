@@ -109,11 +109,11 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
              excludes: tuple[str, ...] = (), extra: Mapping | None = None,
              shape_std: list[float] | None = None, zero_at: float | None = None) -> AxisMap:
     """The ``AxisMap`` of one axis from its fitted along-the-line terms: the band
-        (k = 1) from the stacked ``covariance`` and each term's ``shape_std`` (a pitch's
-        phase slips the farther from the reference). Forward moving up after a long run,
-        reverse moving down (a hysteresis wound up: a controller's backlash table; its
-        build-up in ``extra``). ``zero_at``: the reference (the terms' by default); the
-        map less its value there forward, the band that of the difference."""
+    (k = 1) from the stacked ``covariance`` and each term's ``shape_std`` (a pitch's
+    phase slips the farther from the reference). Forward moving up after a long run,
+    reverse moving down (a hysteresis wound up: a controller's backlash table; its
+    build-up in ``extra``). ``zero_at``: the reference (the terms' by default); the
+    map less its value there forward, the band that of the difference."""
     assert terms and all(t.along and t.axis == terms[0].axis for t in terms)
     # a grid through the reference (where the map is zero), ends added
     ref = terms[0].reference_mm if zero_at is None else zero_at
