@@ -1,14 +1,11 @@
 """Which other effects explain these data equally well?
 
-For each effect of the chosen model, every other effect of the library takes its
-place (the rest of the model kept) and the swapped model is fitted. An effect whose
-swapped fit is worse by less than ``SWAP_CHI2`` (in units of the noise variance,
-inflated by what the model leaves unexplained) is an alternative: these data
-cannot tell the two apart. The threshold is a three-sigma rule: if the true effect
-were the alternative, its fit would come out worse than the chosen one's by more
-than 9 only when the noise moves 3 std along their difference (probability
-< 0.14 %), so the truth is named either as the effect or among its alternatives.
-"""
+Each effect of the chosen model is swapped for every other effect of the library
+and refitted; a swap worse by less than ``SWAP_CHI2`` (in noise variances, inflated
+by the misfit left) is an alternative. The threshold is a three-sigma rule: were the
+alternative true, its fit would come out worse by more than 9 only with noise 3 std
+along their difference (< 0.14 %), so the truth is the effect or among its
+alternatives."""
 
 from __future__ import annotations
 

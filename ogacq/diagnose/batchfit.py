@@ -1,16 +1,11 @@
 """Fit many candidate models of one data set at once.
 
-Each candidate frees its own parameters beside a common model (the joint offsets
-and the effects chosen so far), so the candidates do not share a free set and the
-identification engine's ``gauss_newton`` (one free set per batch) does not apply.
-They do share a starting point: the common model's solution. One Jacobian of
-every parameter there, decomposed once (QR), serves all candidates, and the batch
-is iterated with that fixed Jacobian (a chord Gauss-Newton) while each residual is
-the exact model's, evaluated for a chunk of candidates in one vectorised call. At
-the magnitudes of real effects the Jacobian barely changes over a candidate's
-step, so three iterations reach the exact least-squares fit to far below the gauge
-noise.
-"""
+The candidates free different parameters beside a common model, so
+``gauss_newton`` (one free set per batch) does not apply; they share its solution
+as their start. One Jacobian there, decomposed once (QR), serves them all in a chord
+Gauss-Newton whose residuals are the exact model's, a chunk of candidates per
+vectorised call: at real effects' magnitudes the Jacobian barely changes over a
+step, so three iterations reach the exact fit to far below the gauge noise."""
 
 from __future__ import annotations
 
@@ -61,10 +56,8 @@ class Problem:
 
     def with_side(self, side: np.ndarray) -> Problem:
         """This problem with the model's lost-motion side replaced
-        (``ReadingsLayout.with_side``): the weighting, the gauge sums and the repeat
-        groups' space and the rows' labels read the recorded approach, the gauges
-        and the values, never the side, so they are shared (the weighting still
-        names the first observations; they differ in nothing it reads)."""
+        (``ReadingsLayout.with_side``): everything else reads the recorded approach,
+        the gauges and the values, never the side, so it is shared."""
         obs = replace(self.obs, layout=self.obs.layout.with_side(side))
         out = copy.copy(self)
         out.obs = obs
@@ -220,17 +213,12 @@ def fit_many(problem: Problem, theta_start: np.ndarray, model: Sequence[str],
 
 @dataclass(frozen=True)
 class _Space:
-    """Where candidates are fitted: ``residuals`` (B, N) -> (B, m) weighted, the
-    QR factors of the weighted Jacobian there at the common start (``q`` (m, k)
-    orthonormal, ``r`` (k, U), the columns of ``position``), the start's residuals'
-    coordinates along ``q`` and sum of squares, and what every fit there adds to
-    its sum of squares.
-
-    A candidate's columns of the Jacobian are ``q`` times its columns of ``r``, so
-    its singular value decomposition is that of a (k, p) matrix, and what a step
-    needs of a residual vector is its k coordinates along ``q``: no candidate
-    decomposes an (m, p) matrix, and the products over the m rows are ``einsum``
-    sums on the calling thread (gaugesums.py says why that matters)."""
+    """Where candidates are fitted: ``residuals`` (B, N) -> (B, m) weighted, the QR
+    factors of the weighted Jacobian at the common start (``q`` (m, k), ``r`` (k, U)
+    of the columns of ``position``), the start's residuals along ``q`` and what
+    every fit there adds to its sum of squares. A candidate's Jacobian is ``q``
+    times its columns of ``r``: its SVD is a (k, p) one, and the m-row products are
+    ``einsum`` sums on the calling thread (gaugesums.py says why)."""
 
     residuals: Callable[[np.ndarray], np.ndarray]
     position: dict[str, int]

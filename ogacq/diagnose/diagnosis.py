@@ -1,25 +1,7 @@
-"""The diagnosis of one data set: verdict, location, selected effects with their
-alternatives and what would separate them, final refit with std.
-
-    obs -> noise basis -> offsets fit (base) -> verdict -> locate the misfit
-        -> what the data can see of each effect beside the offsets
-        -> forward selection of effects until within the noise
-        -> claim: all of them when the fit is then within the noise; those found
-           when they explain most of the misfit; none when they do not
-        -> exact refit of offsets + claimed effects (std from the gauge noise)
-        -> alternatives of each effect (swap test) -> plans that would separate them
-        -> does the claim rest on one cell? then a disturbance there is an alternative
-        -> "unexplained" with where the rest sits, when the fit is not within noise
-    then, whether or not the library explained them (maps.py):
-        -> errors along each axis and in time the library lacks (cyclic and smooth
-           screw errors, hysteresis that builds up, rail bows, a warm-up), searched
-           where the campaign reads an axis densely enough, added by the same nested
-           tests at a calibrated level; library effects they make redundant dropped;
-           the final model refitted with them; one AxisMap per axis with a map
-        -> which map explains the readings as well as a library effect (and the
-           reverse), and the scan that would tell them apart
-        -> the misfit as a profile along each leg's joint coordinate, before and after
-"""
+"""The diagnosis of one data set (``diagnose``): the verdict, where the misfit sits, the
+library's effects selected until within the noise (claimed only when they explain
+most of the misfit), their alternatives and the plans that would separate them; then
+the error maps beyond the library (``maps.py``) and the misfit along each leg."""
 
 from __future__ import annotations
 

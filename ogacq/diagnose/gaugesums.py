@@ -1,15 +1,11 @@
 """The gauge zeros of raw readings removed, and their residuals weighted, with sums
-per repeat group and per gauge instead of matrix products.
+per repeat group and per gauge instead of products by a (readings x gauges) one-hot.
 
-``identify.fit.Weighting`` and ``Observations.remove_zeros`` project a residual
-onto each gauge's zero with a product by a (readings x gauges) one-hot matrix. On a
-long campaign that product is big enough for the BLAS library to split it over
-threads, and a diagnosis does it for every evaluation of every candidate: on a
-machine whose other cores are busy the threads wait for each other at every call
-(72,000 readings, one core kept busy: 10-11 s per diagnosis against 5-7 s with the
-same work on one thread). The same projections summed gauge by gauge stay on the
-calling thread; their arithmetic is the same up to the order of the additions.
-"""
+On a long campaign that product is big enough for BLAS to split over threads, done
+at every evaluation of every candidate: with the other cores busy the threads wait
+for each other (72,000 readings, one core busy: 10-11 s per diagnosis against 5-7 s
+on one thread). The same sums stay on the calling thread, equal up to the order of
+the additions."""
 
 from __future__ import annotations
 

@@ -1,14 +1,10 @@
 """Candidate fits of raw readings on their repeat groups' means, exactly.
 
-Readings repeated at one gauge, posture and approach side (a repeat group, the
-cycles) share one prediction unless thermal drift is modelled: only the time
-differs between them. Whitened by ``noise.GroupWhitener``, a residual splits into
-its part within the groups, which no parameter can change, and its part along the
-group means, one coordinate per group. The weighted residual sum of squares is
-therefore a constant plus the squared norm of ``G`` coordinates, and a fit needs
-the model at one reading per group: 24 for the papers' plan however many cycles,
-instead of every reading.
-"""
+A repeat group's readings share one prediction unless thermal drift is modelled.
+Whitened by ``noise.GroupWhitener``, a residual's part within the groups is one no
+parameter changes, so the weighted rss is a constant plus the squared norm of ``G``
+group coordinates, and a fit needs the model at one reading per group (24 for the
+papers' plan however many cycles)."""
 
 from __future__ import annotations
 
@@ -128,15 +124,11 @@ class GroupSpace:
         return self.layout.subset(keep)
 
     def reading_jacobian(self, theta: np.ndarray, free: np.ndarray) -> np.ndarray | None:
-        """(n, p) every reading's unweighted Jacobian by the parameters at positions
-        ``free`` at ``theta`` (N,), without drift, for a dense scan: evaluated at the
-        nodes and interpolated along each track, as :meth:`residuals` interpolates a
-        prediction's change (a derivative is such a change per unit), and set at each
-        of a group's readings. A drift's column is a reading's derivative by its joint
-        offset's part at the reading's pose times the reading's hours, a factor of
-        time alone: evaluated an hour in and interpolated, then scaled by each
-        reading's hours. None where there are no nodes, or a group's readings do not
-        share their lost motion's side (the model's side resolved apart)."""
+        """(n, p) every reading's unweighted Jacobian by ``free`` at ``theta`` (N),
+        without drift, for a dense scan: evaluated at the nodes and interpolated as
+        :meth:`residuals` interpolates a change. A drift's column is the joint
+        offset's times the reading's hours: evaluated an hour in, then scaled. None
+        without nodes, or where a group's readings differ in their lost motion's side."""
         nodes = self._nodes
         if nodes is None:
             return None

@@ -1,27 +1,20 @@
 """The periodogram's inner products summed over binned positions, not over readings.
 
-A cyclic candidate's column at a repeat group ``g`` is ``T(q_g) s_g + T(Q_g) S_g``:
-a trial function ``T`` (a sine, a cosine less one) of the joint coordinate at the
-group's reading and at its gauge's setting, times the reading's sensitivities to the
-joint there. Every quantity the gain needs (``mapspace._gains``: the columns with
-the residual, with the model's directions and with each other, each gauge's zero
-taken out as ``MapSpace.group_coordinates`` does) is then a sum over positions of
-``T`` times weights that do not depend on the trial frequency:
+A cyclic candidate's column at a repeat group ``g`` is ``T(q_g) s_g + T(Q_g) S_g``
+(a trial function of the joint coordinate at the reading and at its gauge's
+setting, times the sensitivities there), so every quantity the gain needs
+(``mapspace._gains``) is a sum over positions of ``T`` times weights independent of
+the trial frequency:
 
     c.v      = sum_n T(n) W_v(n)
     c_k.c_l  = sum_n T_k T_l D(n) + sum_(n, j) X(n, j) (T_k(n) T_l(j) + T_l(n) T_k(j))
                - sum_gauge (sum_n T_k(n) A(gauge, n)) (sum_n T_l(n) A(gauge, n)) / |zero|^2
 
-with ``n`` the positions' nodes and ``j`` the settings'. The weights are summed
-once, reading by reading; each trial frequency then costs the number of nodes, not
-of readings. Positions closer than a bin are one node at their mean, which moves a
-reading's phase by at most half a bin: at a bin of ``1 / BINS_PER_PITCH`` of the
-shortest pitch searched the gain is lowered by less than 0.2 % (the sinc of the
-phase's spread), and only the grid's scan uses it: the candidate taken is refined
-and tested on the exact columns. Where the distinct positions are no more than the
-bins would be, each is its own node and the sums are exact: positions a scan
-repeats (up and down, the cycles, every gauge of a posture) cost nothing.
-"""
+(``n`` the positions' nodes, ``j`` the settings'). The weights are summed once;
+each frequency then costs the nodes, not the readings. Positions within a bin are
+one node at their mean: at ``1 / BINS_PER_PITCH`` of the shortest pitch the gain
+drops by under 0.2 % (the sinc of the phase's spread), and the candidate taken is
+tested on the exact columns. Positions no more than the bins are exact."""
 
 from __future__ import annotations
 

@@ -2,14 +2,11 @@
 the maps' amplitudes beside them, fitted together; its verdict, std, the maps as
 ``AxisMap`` tables, and what each effect is worth.
 
-Gauss-Newton on ``y = h(theta) + sum_k M_k c_k``: ``h`` the exact measurement model
-of the library's parameters, ``M_k`` a map term's columns (the joints' sensitivities
-at the current ``theta`` times the term's shape, first order in its micrometre
-displacements: ``model/joint_sensitivity.py``). Weighted as every fit of these
-readings is (``fit.Weighting``: repeat groups whitened, gauge zeros projected out),
-the step truncated to the directions the data determine, columns scaled first (the
-library's by their plausible ranges, the maps' by their norms).
-"""
+Gauss-Newton on ``y = h(theta) + sum_k M_k c_k``, ``M_k`` a term's columns (the
+joints' sensitivities times its shape, first order: ``model/joint_sensitivity.py``),
+weighted as ``fit.Weighting`` does, the step truncated to the directions the data
+determine, columns scaled first (the library's by their plausible ranges, the
+maps' by their norms)."""
 
 from __future__ import annotations
 

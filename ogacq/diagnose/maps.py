@@ -1,16 +1,8 @@
-"""The diagnosis's second look: errors along each axis and in time beside the library.
-
-    library's model (claimed) -> map search (mapsearch.py)
-        -> library effects the maps make redundant dropped (a backward nested test,
-           corrected for the library's size as the library's own backward check)
-        -> the final model refitted: the library's parameters by the exact model, the
-           maps beside them (mapfit.py)
-        -> only when that fit is within the gauge noise are the maps established and
-           tabulated; else they are named "not established", with what would establish
-           them, and no table (and so no ISO 230-2 figure) is made of them
-        -> each map's value, std and further parameters; one AxisMap per axis
-        -> alternatives both ways and the scans that would separate them (mapswap.py)
-"""
+"""The diagnosis's second look: errors along each axis and in time beside the library
+(``mapsearch.py``), library effects they make redundant dropped, the model refitted
+with them (``mapfit.py``); the maps tabulated only when that fit is within the gauge
+noise (else "not established", and no table nor ISO 230-2 figure is made of them);
+alternatives both ways and the scans that would separate them (``mapswap.py``)."""
 
 from __future__ import annotations
 

@@ -1,45 +1,24 @@
 """Search the residuals for errors along each axis and in time that the effect
 library lacks (``model/families/``), after the library search.
 
-Where a campaign reads a joint at enough positions (a scan), every family of the
-registry is tried on every such axis beside the current model (the joint offsets,
-the library's effects found, the maps found so far), at the shapes its module
-declares (``MapFamily.search``), the built-in ones:
+Where a campaign reads a joint at enough positions, every family of the registry is
+tried on that axis beside the current model, at the shapes its module declares
+(``MapFamily.search``). The cyclic lead-screw error is found by a periodogram: the
+least-squares spectrum of N. R. Lomb (Astrophys. Space Sci. 39, 1976) and J. D.
+Scargle (ApJ 263, 1982), with the joint's sensitivity and the model's directions
+taken out, on a grid five times finer than the resolution 1 / span (J. T.
+VanderPlas, ApJS 236, 2018, 7.1), over the band the positions resolve
+(``pitch_band_mm``), summed over binned positions (``mapbins.py``), its peak refined
+on the exact columns. A best pitch at the band's edge is not resolved (the true one
+may lie beyond it): said so, with no std, and not added.
 
-* the cyclic lead-screw error by a periodogram: the gain of a sine and a cosine
-  of ``q`` at every trial frequency, the least-squares spectrum of N. R. Lomb
-  (Astrophys. Space Sci. 39, 1976) and J. D. Scargle (ApJ 263, 1982), here with
-  the joint's sensitivity and the model's own directions taken out, on a grid five
-  times finer than the record's resolution 1 / span (J. T. VanderPlas, "Understanding
-  the Lomb-Scargle periodogram", ApJS 236, 2018, section 7.1), over the band the
-  positions resolve and the physics allows (``pitch_band``): from three periods over
-  the span down to 2.5 distinct positions per period, and no shorter than the
-  shortest screw lead; the grid's sums over binned positions (``mapbins.py``), so
-  that it costs the positions, not the readings; the peak refined between grid
-  points on the exact columns. A best pitch at the band's edge is not resolved: the
-  true one may lie beyond it (aliased, or the smooth map's), so it is said so, with
-  no std, and not added;
-* the smooth screw map as a cubic spline, its number of knots chosen by the
-  Bayesian information criterion;
-* hysteresis building up over a length chosen on a grid (0, a constant backlash,
-  to 32 mm), where the joint was read from both sides;
-* the rail's bow toward each of the other two axes;
-* the joint offset settling with a time constant chosen on a grid, where postures
-  were read again later and against a stated noise that the display's rounding does
-  not dominate (what varies between the cycles cannot be tested otherwise:
-  ``MapSpace.within_groups_tested``).
-
-Each family's best shape is tested against the current model by the library's
-nested test (``nested.py``), its p multiplied by the number of shapes tried and
-then by the number of families tried at that step (Bonferroni: the chance that
-noise alone gets any of them past the level is below the level). A family is
-added when it passes, pays for its parameters by the BIC (shape parameters
-counted) and has a plausible size; the best by the BIC first, then the search goes
-on from there. The level is the verdict's when the library's model is not within
-the noise, and ten times stricter when it is: a search run on every campaign must
-not raise the false alarms of the calibrated verdict (``bench/verdict_calibration.py
---maps`` counts them).
-"""
+Each family's best shape is tested against the current model by the nested test
+(``nested.py``), its p multiplied by the shapes tried and the families tried
+(Bonferroni). A family is added when it passes, pays for its parameters by the BIC
+(shape parameters counted) and has a plausible size; the best by the BIC first,
+then the search goes on. The level is the verdict's, ten times stricter when the
+library's model is within the noise: a search run on every campaign must not raise
+the calibrated verdict's false alarms (``bench/verdict_calibration.py --maps``)."""
 
 from __future__ import annotations
 

@@ -1,25 +1,18 @@
 """Where error-map candidates are tested: the weighted residual of the current model,
 the directions it has fitted, and every candidate's columns in the same space.
 
-A map term is linear in its amplitudes (``model/error_maps.py``), and the joint
-displacements it makes are micrometres, so beside a fitted model its columns are
-the joint sensitivities (``model/joint_sensitivity.py``) times its shape. What a
-candidate would gain is then a projection: the part of the residual along its
-columns once the model's own directions are taken out,
+A map term is linear in its amplitudes and moves the joints by micrometres, so
+beside a fitted model its columns are the joint sensitivities
+(``model/joint_sensitivity.py``) times its shape, and a candidate's gain is a
+projection, exact for the linear model:
 
     gain = r' C (C' P C)^+ C' r,   P = I - B B'   (B: the model's directions)
 
-exact for the linear model, in units of the weighted residual sum of squares.
-
-Columns that are constant over each repeat group (a function of where and from
-which side a reading was taken: every shape along ``q``) are formed at one reading
-per group, in the group coordinates of ``noise.GroupWhitener``: a whitened column
-without a part within the groups has the same inner products with any whitened
-vector as its group coordinates have with that vector's. A periodogram of
-hundreds of trial pitches over 72,000 readings then costs what it costs over the
-campaign's few thousand distinct postures. Columns that vary within a group (time,
-a hysteresis seen after different travels) are weighted reading by reading.
-"""
+Columns constant over each repeat group (every shape along ``q``) are formed at one
+reading per group, in the group coordinates of ``noise.GroupWhitener`` (the same
+inner products with any whitened vector): a periodogram over 72,000 readings costs
+what it does over their few thousand postures. Columns varying within a group
+(time, a hysteresis after different travels) are weighted reading by reading."""
 
 from __future__ import annotations
 
@@ -159,11 +152,9 @@ class MapSpace:
 
     @property
     def within_groups_tested(self) -> bool:
-        """Whether what varies within the repeat groups (between the cycles) can be
-        tested: only against a stated noise whose rounding the scatter dithers. Repeats
-        rounded alike differ by a few whole display steps, not Gaussian noise (the
-        verdict tests only the posture means then), and a noise measured from the
-        repeats is that very scatter."""
+        """Whether what varies between the cycles can be tested: only against a stated
+        noise whose rounding the scatter dithers (repeats rounded alike differ by whole
+        steps; a noise measured from the repeats is that very scatter)."""
         noise = self.problem.noise
         return noise.dithered and not noise.measured
 

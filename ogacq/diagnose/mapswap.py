@@ -2,26 +2,17 @@
 these readings as well as an effect found, and which measurement would tell them
 apart.
 
-The papers' three postures read each joint at five positions (its own leg's Zero,
-Max and Min, and where the other legs' tests retract it), and a leg's own screw
-error moves the leg along itself, seen only through its slope. A smooth error of a
-screw then passes for an encoder scale, a leg length, a backlash or a gauge's
-position. So each library effect of the final model is swapped for each map family
-that can be fitted whatever the campaign (a cubic screw map of each axis, each
-rail's bow), and each map found for each library effect and each other family; a
-swap that fits worse by less than ``alternatives.SWAP_CHI2`` (in units of the noise,
-inflated by what the model leaves unexplained) is an alternative, the same rule as
-between library effects. The swaps are linear about the final model (its effects'
-signatures at their fitted values): a cubic map, a bow and the library's columns
-barely change over micrometres.
-
-For each pair that the readings cannot tell apart a scan is proposed: readings every
-few millimetres along each leg, up and back down (both sides), the coarsest of a
-few steps whose expected chi-square gap between the two explanations makes the
-wrong one fail the three-sigma rule with 95 % probability (``separation.py``'s 26),
-computed with the exact model on the scan's planned readings; ``ogacq plan
---scan-step`` checks the plan itself.
-"""
+The papers' postures read each joint at five positions, where a smooth screw error
+passes for an encoder scale, a leg length, a backlash or a gauge's position. So each
+library effect found is swapped for each map family fittable whatever the campaign
+(a cubic screw map, each rail's bow), and each map for each library effect and other
+family; a swap within ``alternatives.SWAP_CHI2`` is an alternative, the rule between
+library effects. The swaps are linear about the final model: these columns barely
+change over micrometres. For each pair the readings cannot tell apart, a scan is
+proposed (every few millimetres along each leg, up and back down): the coarsest
+whose expected chi-square gap fails the wrong one at the three-sigma rule with 95 %
+probability (``separation.py``), on the exact model; ``ogacq plan --scan-step``
+checks the plan itself."""
 
 from __future__ import annotations
 

@@ -21,11 +21,9 @@ def nested_test(rss_small: float, rss_big: float, added: int, dof_big: int,
     """Does the bigger of two nested models fit significantly better? Returns (F, p).
 
     The improvement per added parameter is compared with the larger of the gauge
-    noise and what the bigger model still leaves unexplained: when the bigger
-    model is itself within the noise this is the likelihood-ratio test; when it is
-    not, an effect is only credited with what it explains beyond the remaining
-    misfit (the classical F-test), so that a partial fit of an unknown error is
-    not mistaken for the effect."""
+    noise and what the bigger model leaves unexplained: the likelihood-ratio test
+    when that model is within the noise, else the classical F-test, so that a
+    partial fit of an unknown error is not mistaken for the effect."""
     f_stat, p = nested_tests(rss_small, np.array([rss_big]), np.array([added]),
                              np.array([dof_big]), noise)
     return float(f_stat[0]), float(p[0])

@@ -1,21 +1,15 @@
 """Single readings that disagree with their repeats: a mis-read dial, a value typed
 wrong, a gauge knocked and set back between two cycles.
 
-Model-free, so that no missing physics can pass for one: the repeats of a posture
-(same gauge, joint coordinates and approach side, ``ReadingsLayout.repeat_group``)
-read the same machine state, so they agree within the gauge noise whatever the
-geometry. A reading is named when it lies far from the mean of its repeats while
-those agree among themselves: a drift or any effect that changes from cycle to
-cycle moves the repeats apart as well, and is left to the rest of the diagnosis.
-
-The repeats are fitted with their group's mean and a slope in time per gauge (a
-machine or gauge warming through the campaign moves the later cycles of every
-posture alike), and each reading is judged by its studentized residual in that fit
-(Cook and Weisberg, "Residuals and Influence in Regression", 1982, 2.2: residual over
-``sigma sqrt(1 - h)``, ``h`` its leverage), ``sigma`` the stated noise or else the
-pooled scatter of every other reading (the externally studentized form); its
-p-value is multiplied by the number of readings tested (Bonferroni).
-"""
+Model-free, so that no missing physics can pass for one: a posture's repeats read
+one machine state. A reading is named when it lies far from its repeats while those
+agree among themselves (an effect that changes from cycle to cycle moves them apart
+as well, and is left to the diagnosis). The repeats are fitted with their group's
+mean and a slope in time per gauge (a warm-up moves every posture's later cycles
+alike), each reading judged by its externally studentized residual (Cook and
+Weisberg, "Residuals and Influence in Regression", 1982, 2.2: residual over
+``sigma sqrt(1 - h)``), ``sigma`` the stated noise or else the pooled scatter of
+every other reading; its p multiplied by the readings tested (Bonferroni)."""
 
 from __future__ import annotations
 
@@ -94,11 +88,9 @@ class Outliers:
 def outlying_readings(obs: Observations, labels: RowLabels, noise: GaugeNoise,
                       alpha: float) -> tuple[list[OutlyingReading], int]:
     """The readings of ``obs`` that disagree with their repeats at level ``alpha``
-    (corrected for the readings tested), and how many were tested (those with at
-    least two repeats); none for tabulated deviations, which have no repeats.
-
-    One at a time, the worst first, each then left out: a slip pulls its gauge's
-    drift and so the readings beside it, which must not be named for it."""
+    (corrected for the readings tested), and how many were tested; none for tabulated
+    deviations. One at a time, the worst first, each then left out: a slip pulls its
+    gauge's drift and so the readings beside it."""
     if not obs.raw:
         return [], 0
     layout = obs.layout
@@ -167,13 +159,10 @@ def _worst(x: np.ndarray, t_s: np.ndarray, group: np.ndarray, gauge: np.ndarray,
 
 
 class _RepeatsFit:
-    """The readings fitted with their repeat group's mean and their gauge's drift (a
-    slope in time, as a machine or gauge warming through the campaign gives, fitted
-    within the groups): the residuals and each reading's leverage.
-
-    The group means and the per-gauge slopes of group-centred time are orthogonal
-    columns, so the fit and its leverages need no matrix: 1/n of the group plus the
-    reading's share of its gauge's centred time squared."""
+    """The readings fitted with their repeat group's mean and their gauge's slope in
+    time: the residuals and each reading's leverage. The columns are orthogonal, so
+    a leverage is 1/n of the group plus the reading's share of its gauge's centred
+    time squared: no matrix."""
 
     def __init__(self, x: np.ndarray, t_s: np.ndarray, group: np.ndarray,
                  size: np.ndarray, gauge: np.ndarray) -> None:

@@ -1,29 +1,16 @@
 """A dense scan's model evaluated at nodes along each scanned track and interpolated.
 
-A candidate fit evaluates the exact model at every repeat group (``groupspace.py``),
-and a scan at a fine step has as many groups as readings: 71,000 at 0.027 mm, where
-the model changes by micrometres over a millimetre. What a fit changes of a
-prediction between two parameter vectors near each other (the effects, and the
-offsets a few micrometres) is smooth along a scanned leg: the same gauge, the same
-approach sides, the leg's own joint moving and the others following it. So the
-change is evaluated at nodes ``NODE_SPACING_MM`` apart along each such track
-and interpolated linearly between them; the reference prediction is exact at every
-group. The interpolation's error is an eighth of the spacing squared times the
-change's curvature along ``q``: for a change of 0.1 mm over the 310 mm legs (whose
-curvature is at most change / leg^2) at 0.5 mm spacing, 3e-8 mm; changes of
-micrometres to tenths of a millimetre in every parameter kind at once move a
-prediction by under 1e-6 mm (tests/diagnose/test_scan_positions.py).
-
-The fits then need no sum over the groups either: the interpolated change enters
-the weighted residuals linearly, so the groups between two nodes are compressed
-once into two rows (``NodeRows``) and a candidate costs its nodes (``NodeSpace``),
-with the same sums of squares. The readings' Jacobian is the nodes' interpolated
-the same way (``GroupSpace.reading_jacobian``).
-
-Tracks whose positions are no denser than the spacing (the papers' postures, a scan
-of 1 mm steps) are all nodes, and a campaign that gains less than ``MIN_GAIN`` from
-the nodes is evaluated at every group: the same numbers as before.
-"""
+A scan at a fine step has as many repeat groups as readings (71,000 at 0.027 mm),
+where the model changes by micrometres over a millimetre. What a fit changes of a
+prediction is smooth along a scanned leg's track (one gauge, one approach side), so
+the change is evaluated at nodes ``NODE_SPACING_MM`` apart and interpolated
+linearly; the reference prediction is exact at every group. The error is an eighth
+of the spacing squared times the change's curvature: 3e-8 mm for 0.1 mm over the
+310 mm legs at 0.5 mm spacing; under 1e-6 mm for every parameter kind at once
+(tests/diagnose/test_scan_positions.py). The groups between two nodes compress into
+two rows (``NodeRows``), so a candidate costs its nodes (``NodeSpace``) with the
+same sums of squares. Tracks no denser than the spacing are all nodes, and a
+campaign gaining less than ``MIN_GAIN`` is evaluated at every group."""
 
 from __future__ import annotations
 
@@ -160,19 +147,15 @@ DEGENERATE = 1e-10
 @dataclass(frozen=True)
 class NodeRows:
     """A dense scan's weighted group coordinates compressed to a few rows per pair of
-    neighbouring nodes, exactly for residuals of the form ``y - S I d``: ``y`` (G,)
-    weighted group residuals at a reference, ``S`` each group's whitening scale,
-    ``I`` the interpolation between nodes (``PoseNodes``) and ``d`` (K,) a change at
-    the nodes. The groups between two nodes (or at one) make a block ``X`` of one or
-    two columns; with ``X = Q R`` (``R`` from the eigenvalues of its Gram matrix),
-    ``|y - X d|^2 = |y|^2 - |Q'y|^2 + |Q'y - R d|^2``, so a candidate's sum of squares
-    needs ``R d`` (two products a row) and not the ``G`` groups; each gauge's zero is
-    ``X 1`` on its blocks, hence ``R 1`` here, and projected out the same way.
+    neighbouring nodes, exactly for residuals ``y - S I d`` (``y`` the weighted group
+    residuals at a reference, ``S`` the groups' whitening, ``I`` the interpolation
+    between nodes, ``d`` a change at the nodes). The groups between two nodes make a
+    block ``X``; with ``X = Q R``, ``|y - X d|^2 = |y|^2 - |Q'y|^2 + |Q'y - R d|^2``,
+    so a sum of squares needs ``R d``, not the groups; a gauge's zero is ``R 1``.
 
-    ``left``, ``right`` (R,): each row's nodes, ``a``, ``b`` its coefficients there;
-    ``data`` (R,): ``Q'y``; ``lost``: ``|y|^2 - |Q'y|^2``, what no change at the nodes
-    can reach (the interpolation's own misfit and the scatter between nodes);
-    ``zeros`` (R, gauges): the gauges' zero directions, orthonormal."""
+    ``left``, ``right``: each row's nodes, ``a``, ``b`` its coefficients there;
+    ``data``: ``Q'y``; ``lost``: ``|y|^2 - |Q'y|^2`` (no change at the nodes reaches
+    it); ``zeros`` (R, gauges): the gauges' zero directions, orthonormal."""
 
     left: np.ndarray
     right: np.ndarray

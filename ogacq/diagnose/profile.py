@@ -1,13 +1,7 @@
-"""Where along each axis the misfit sits: the residuals of a leg's readings as a
-profile along its joint coordinate, before and after the effects found.
-
-A scan reads each leg at hundreds of positions; a breakdown by posture lists each
-of them. Along ``q`` they are one curve per gauge: the mean residual at each
-position (its cycles and both sides together), in bins no wider than the record
-needs (at most ``MAX_BINS`` per leg), before (the joint-offset model) and after (the
-final model). Its rms per bin says where a misfit sits; the bins beyond the noise
-say from where to where.
-"""
+"""Where along each axis the misfit sits: each leg's residuals as a profile along its
+joint coordinate (per gauge the mean residual per bin, at most ``MAX_BINS``), before
+(the joint-offset model) and after (the final model); the bins beyond the noise say
+from where to where."""
 
 from __future__ import annotations
 

@@ -1,14 +1,10 @@
 """Does a claim rest on one cell (one gauge at one posture)?
 
-A stand knocked between two readings or a spindle that sticks once puts all its
-misfit in one cell, and with hundreds of candidate pairs some pair will absorb it.
-Such an explanation is indistinguishable from a local disturbance of that cell.
-So the cell that gains most from the claimed effects is left out and both the
-joint-offset model and the claimed model are refitted without it: if the effects
-are no longer significant (with the same correction for the candidates searched
-as when they were chosen), the data support them only through that cell, and a
-disturbance there is named as an equally good explanation.
-"""
+A stand knocked between two readings puts all its misfit in one cell, and with
+hundreds of candidate pairs some pair absorbs it. So the cell that gains most from
+the claimed effects is left out and both models refitted without it: if the effects
+are then not significant (corrected as when chosen), a disturbance there is named
+as an equally good explanation."""
 
 from __future__ import annotations
 

@@ -1,23 +1,15 @@
 """Which effects to add: forward selection by nested-model tests and an information
-criterion, one effect at a time and in pairs, stopping when the fit is within the
-noise; then a backward check that every effect kept still earns its place.
+criterion, one effect at a time and in pairs, until the fit is within the noise;
+then a backward check that every effect kept still earns its place.
 
-At each step every single effect and every pair of effects is added to the current
-model and fitted (one batched call). An addition is eligible when the data
-determine all its parameters, its values are physically plausible, the nested
-test against the current model is significant after a Bonferroni correction for
-the number of candidates of its size (the best of 351 pairs always improves the
-fit somewhat, and only an improvement beyond what the best of that many chance
-candidates would give is evidence), and the information criterion (BIC) agrees
-that it pays for its parameters.
-
-Among the eligible, parsimony first. The best pair is taken when it beats the best
-single effect by more than the best of all pairs would by chance, or the single
-plus a second effect when that beats it by more than the best of the second
-effects would; else the single when it brings the fit within the noise, or the
-pair when only the pair does (two effects acting together, neither enough
-alone); else the single, and the search goes on from there.
-"""
+An addition is eligible when the data determine its parameters, its values are
+plausible, its nested test is significant after a Bonferroni correction for the
+candidates of its size (the best of 351 pairs always improves the fit somewhat),
+and the BIC agrees it pays for its parameters. Among the eligible, parsimony first:
+the best pair is taken when it beats the best single by more than the best of all
+pairs would by chance, or the single plus a second when that beats it by more than
+the best second would; else the single when it brings the fit within the noise, or
+the pair when only the pair does; else the single, and the search goes on."""
 
 from __future__ import annotations
 

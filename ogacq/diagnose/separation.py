@@ -1,14 +1,10 @@
 """What extra measurement would tell two aliased effects apart?
 
-Two effects are aliases of a campaign when, after the rest of the model has
-absorbed what it can, their signatures on these readings coincide. Other postures
-move the legs through other angles, other approach sides reverse the drives, a
-longer campaign spreads the readings in time: each candidate plan is laid out with
-the exact model and the expected chi-square by which the wrong one of the two would
-fit worse is computed at the fitted values. A plan separates them when that
-expected gap makes the wrong one fail the alternatives' three-sigma rule with 95 %
-probability: sqrt(gap) - 1.645 * 2 >= 3 sigma of the rule, i.e. a gap of 26.
-"""
+Each candidate plan (other postures, approach sides, a longer campaign) is laid out
+with the exact model, and the expected chi-square by which the wrong one of the two
+would fit worse is computed at the fitted values. A plan separates them when that
+gap makes the wrong one fail the alternatives' three-sigma rule with 95 %
+probability: sqrt(gap) - 1.645 * 2 >= 3 sigma of the rule, i.e. a gap of 26."""
 
 from __future__ import annotations
 

@@ -1,39 +1,20 @@
 """The side a joint approached from before its first recorded move: unknown, not
 "none".
 
-A readings CSV records where each joint was, not how it got there: the side of
-each reading is the direction of the joint's last move in the recorded order
-(``measurement.approach_from_sequence``), and before the joint's first recorded move
-there is none. The model takes such a reading at the middle of the joint's lost
-motion (side 0), half a backlash from where the joint really was, on one side or
-the other. With a backlash in the machine, those readings then misfit by half of
-it, and a leg length can fit the campaign better than the backlash that is there.
-
-The side is a nuisance: one unknown per joint. A joint that has not moved since
-the machine was switched on, or since a move nobody recorded, need not be at either
-end of its lost motion: it is anywhere within it (a drive that stopped part way
-through a reversal, a wind-up half built up; the simulator puts such a joint in the
-middle). It matters only through the joint's lost motion, so it is resolved where it
-does: for each joint whose readings before its first move see its position (at a
-Zero posture the leg's own joint does not, its leg parallel to the axis; the other
-two do), the joint offsets and the backlashes are fitted with every combination of
-sides taken as from below or from above; a side is kept when its combination fits
-best, better than with that side flipped, and than with that joint in the middle, by
-more than the 1 % point of chi-square with one degree of freedom, and that joint's
-backlash is as significant there (both bars times the fit's reduced chi-square where
-a constant backlash does not fit within the noise); otherwise it stays unknown (the
-middle of the lost motion: half a backlash off whichever end it was at, where a
-wrong side would be a whole one). A side is never taken merely because it is the
-less wrong of the two ends: a joint left in the middle, its lost motion building up
-over the travel (hysteresis, which a constant backlash fits only roughly), fits one
-end better than the other and the middle best (issue 37: a wind-up read unhomed was
+A readings CSV records where each joint was, not how it got there, so a reading
+before a joint's first recorded move is taken at the middle of its lost motion
+(side 0): with a backlash, such readings misfit by half of it, and a leg length can
+fit better than the backlash that is there. The side is one nuisance unknown per
+joint (a joint unmoved since power-on may be anywhere within its lost motion), so it
+is resolved only where the lost motion decides it (``resolve_sides``); otherwise it
+stays in the middle, half a backlash off where a wrong side would be a whole one. A
+side is never taken merely as the less wrong of the two ends: a wind-up read
+unhomed fits one end better than the other and the middle best (issue 37: it was
 taken as from below and propped up by a leg length and a warm-up).
 
-The recorded approach is left as it is (the repeat groups, the verdict of the joint
-offsets, which have no lost motion, do not change): the model's side is the
-layout's ``side``. A session could tell the side from its homing and the moves
-before its first reading; it records neither today, so sessions are treated alike.
-"""
+The recorded approach is left as it is (repeat groups, the joint offsets' verdict):
+the model's side is the layout's ``side``. Sessions record neither their homing nor
+the moves before their first reading, so they are treated alike."""
 
 from __future__ import annotations
 
@@ -92,12 +73,10 @@ def unknown_rows(obs: Observations) -> np.ndarray:
 def resolve_sides(obs: Observations, noise: GaugeNoise, problem: Problem,
                   theta: np.ndarray) -> tuple[Observations, Problem, list[SideChoice]]:
     """``obs`` with each joint's unknown side resolved where its lost motion decides it
-    (``theta``: the joint offsets' fit). Every combination of the unknown joints'
-    sides is fitted with the joint offsets and the three backlashes; a joint's side
-    is taken from the best combination when flipping it alone, or putting it alone in
-    the middle of its lost motion, fits worse by more than ``BETTER_BY`` and its
-    backlash is significant there (dropping it costs more than chi-square's 1 % point
-    of one degree of freedom)."""
+    (``theta``: the joint offsets' fit): every combination of sides fitted with the
+    offsets and the three backlashes; a side taken from the best one when flipping it,
+    or putting it in the middle, fits worse by ``BETTER_BY`` and its backlash is
+    significant there."""
     if not obs.raw:
         return obs, problem, []
     unknown = unknown_rows(obs)

@@ -2,31 +2,22 @@
 gate, the report, the CLI and the wizard all ask, with one noise (``noise.py``).
 
 The residuals are taken into the space where the readings' errors are independent
-(repeat groups whitened, gauge zeros and the fitted parameters projected out: the
-generalised least-squares residual). There they split into the misfit of each
-posture's mean (lack of fit) and the scatter of the cycles about it (pure error).
+(the generalised least-squares residual), where they split into the misfit of each
+posture's mean (lack of fit) and the cycles' scatter about it (pure error).
 
-- Noise stated in the machine file: chi-square of the whole residual. When the
-  gauge scatters less than the display step dithers (repeats round alike), the
-  scatter within cycles is a few whole-step flips, not Gaussian noise: only the
-  posture means are tested then, against their own variance, which the
-  repeated rounding dominates.
-- Noise measured from the repeats: the lack-of-fit F-test of the posture means
-  against that measurement; its denominator is the variance of a posture mean
-  (the repeats' scatter over the cycles plus the rounding they share), with the
-  Satterthwaite degrees of freedom of that sum. Identical repeats do not show a
-  scatter of zero: the largest scatter under which they would read identically 1
-  time in 100 stands for it beside the whole rounding, shared by the repeats
-  (``noise.identical_repeats_scatter``).
+- Noise stated: chi-square of the whole residual; only the posture means against
+  their own variance when repeats round alike (their scatter is whole-step flips,
+  not Gaussian noise).
+- Noise measured from the repeats: the lack-of-fit F-test of the posture means, its
+  denominator's dof Satterthwaite's (the repeats' scatter plus the rounding they
+  share). Identical repeats stand for the largest scatter under which they would
+  read identically 1 time in 100 (``noise.identical_repeats_scatter``).
 - Tabulated deviations: chi-square against their covariance (eq. 13-14).
 
-A misfit confined to one gauge at one posture (a knocked stand, a sticking spindle)
-hardly moves the overall sum, so the worst such cell is tested too against what
-noise alone would leave in it, Bonferroni-corrected over the cells; the verdict's
-p is the smaller of the two, doubled.
-
-With no redundancy left there is nothing to judge: the verdict is "undetermined".
-"""
+A misfit confined to one gauge at one posture (a knocked stand) hardly moves the
+overall sum, so the worst cell is tested too, Bonferroni-corrected over the cells;
+the verdict's p is the smaller of the two, doubled. With no redundancy left the
+verdict is "undetermined"."""
 
 from __future__ import annotations
 

@@ -168,15 +168,10 @@ class _Weighted:
 def gauss_newton(obs: Observations, y: np.ndarray, free: np.ndarray, theta0: np.ndarray,
                  weighting: Weighting, rank: int | None = None, *,
                  tolerance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Fit ``free`` entries for each row of ``y`` (B, m), starting every row from the
-    full vector ``theta0`` (N,): the full parameter vectors (B, N) and a converged
-    mask. ``rank``: how many directions the data determine (all, when not given);
-    ``tolerance``: per-parameter step at which to stop (at least ``STEP_TOLERANCE`` of
-    the plausible ranges).
-
-    Each iteration: the steps of the rows still moving, taken (halved where they made
-    things worse). A trial's predictions and Jacobian come from one evaluation of the
-    model: an accepted step needs both, and a rejected one (rare) wastes little."""
+    """Fit ``free`` entries for each row of ``y`` (B, m) from the full vector
+    ``theta0`` (N,): the vectors (B, N) and a converged mask. ``rank``: the
+    directions the data determine (all by default); ``tolerance``: per-parameter
+    step at which to stop (at least ``STEP_TOLERANCE`` of the plausible ranges)."""
     rank = len(free) if rank is None else rank
     ranges = _ranges(free)
     tol = np.maximum(tolerance, ranges * STEP_TOLERANCE)
@@ -240,13 +235,11 @@ def _batch_steps(rows: _Batch, weighting: Weighting, ranges: np.ndarray,
 def _take_steps(rows: _Batch, obs: Observations, y: np.ndarray, free: np.ndarray,
                 weighting: Weighting, act: np.ndarray, step: np.ndarray,
                 tol: np.ndarray) -> None:
-    """Move each row in ``act`` by its step, halved where it made things worse (rare,
-    the model is mildly nonlinear); a row no step improves is at its minimum.
-
-    Converged when the step is below tolerance, or when it no longer lowers the cost
-    (ill-conditioned sets jitter along weak directions). The Jacobian is evaluated
-    even where a step ends the fit: the covariance is propagated at the solution
-    itself (at the point before, a condition number moves in its ninth digit)."""
+    """Move each row in ``act`` by its step, halved where it made things worse; a row
+    no step improves is at its minimum, as is one whose step no longer lowers the
+    cost (ill-conditioned sets jitter along weak directions). The Jacobian is
+    evaluated even where a step ends the fit: the covariance is propagated at the
+    solution itself (before it, a condition number moves in its ninth digit)."""
     scale = np.ones(len(act))
     todo = np.arange(len(act))
     every = len(act) == len(rows.cost)
@@ -443,12 +436,9 @@ class FitResult:
 def fit(obs: Observations, names: Sequence[str], *, method: str = "exact",
         weighting: str = "ols", noise: GaugeNoise | None = None,
         theta0: np.ndarray | None = None) -> FitResult:
-    """Identify ``names`` from ``obs``.
-
-    ``method`` "linear" is one step of the linearised model from ``theta0``
-    (the papers' eq. 11 when fitting offsets and lengths to deviations);
-    "exact" iterates the exact model to convergence.
-    """
+    """Identify ``names`` from ``obs``: ``method`` "exact" iterates the exact model to
+    convergence; "linear" is one step of the linearised model from ``theta0`` (the
+    papers' eq. 11 when fitting offsets and lengths to deviations)."""
     if method not in ("linear", "exact"):
         raise ValueError(f"method must be 'linear' or 'exact', got {method!r}")
     names = tuple(names)

@@ -38,11 +38,8 @@ def _row(gauge_axis: int, leg: int, alpha_rad: float) -> np.ndarray:
 def design_matrix(deviation_names: Sequence[str], machine: MachineSpec,
                   angles_deg: tuple[float, float] | None = None) -> np.ndarray:
     """Rows of eq. 11 (or their Max-minus-Min differences) for the named deviations,
-    columns ``joint_offset.x..z, leg_length.x..z``.
-
-    The angles are ``asin(rho / L)`` of the Max and Min postures unless given
-    (the 2008 paper printed rounded ones, 11.0 and -18.7 degrees).
-    """
+    columns ``joint_offset.x..z, leg_length.x..z``; the angles ``asin(rho / L)`` of
+    Max and Min unless given (the 2008 paper printed rounded ones, 11.0 and -18.7 deg)."""
     if angles_deg is None:
         alpha_max, alpha_min = machine.alpha_max_rad, machine.alpha_min_rad
     else:

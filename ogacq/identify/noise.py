@@ -107,12 +107,9 @@ def _within_variance_and_slope(sigma_mm: float, step_mm: float) -> tuple[float, 
 
 def sigma_from_scatter(scatter_var: float, step_mm: float) -> float:
     """The gauge scatter sigma whose rounded repeats scatter with ``scatter_var``:
-    inverts :func:`within_variance` (increasing in sigma). Newton's method kept
-    inside a bracket of the root that every evaluation narrows, bisecting whenever
-    a Newton step would leave it (no source: the textbook safeguarded Newton). It
-    stops once a step no longer moves sigma by more than a few units in the last
-    place: the root the 60 halvings of the bisection it replaces found, in a
-    handful of evaluations."""
+    inverts :func:`within_variance` (increasing in sigma) by Newton's method kept in
+    a bracket, bisecting where a step would leave it (no source: the textbook
+    safeguarded Newton), to a few units in the last place."""
     if scatter_var <= 0.0:
         return 0.0
     low, high = 0.0, math.sqrt(scatter_var) + step_mm  # within_variance(high) >= high^2
@@ -251,14 +248,11 @@ def identical_repeats_scatter(groups: int, step_mm: float) -> float:
 
 
 def _identical_repeats_noise(obs: Observations, step_mm: float, dof: int) -> GaugeNoise:
-    """The noise of repeats that all read identically: a scatter up to
-    ``identical_repeats_scatter`` of the groups, any in that range. The variance of a
-    mean of ``n`` repeats, ``(sigma^2 + s^2/12 - c) / n + c``, is below
-    ``sigma^2 / n + s^2/12`` for every sigma (``c`` never exceeds ``s^2/12``), so the
-    noise is that: the bound as the scatter within the groups, the whole rounding
-    shared. A larger scatter alone would not do: it dithers the rounding, and the
-    mean of a few repeats would be credited with less variance than undithered
-    rounding gives it (the 10 um display's 0.3 um gauge: 5 % false alarms)."""
+    """The noise of repeats that all read identically: ``identical_repeats_scatter`` as
+    the scatter within the groups and the whole rounding shared, a bound on the
+    variance of a mean for every scatter in that range (``c`` never exceeds
+    ``s^2/12``). The scatter alone would dither the rounding and credit a mean with
+    less variance than it has (the 10 um display's 0.3 um gauge: 5 % false alarms)."""
     groups = int(np.count_nonzero(obs.layout.repeat_size > 1))
     scatter = identical_repeats_scatter(groups, step_mm)
     rounding = step_mm**2 / 12.0
@@ -352,16 +346,13 @@ def _estimate_noise(obs: Observations) -> GaugeNoise:
 
 def _measured_noise(obs: Observations, step: float, measured: tuple[float, int],
                     scatter: float, **said: Any) -> GaugeNoise:
-    """The noise the repeats show: a reading's scatter about its repeats' mean and the
-    rounding the repeats share, ``c`` of a gauge value's scatter. Readings of one value
-    each: that scatter is the repeats' own (``scatter``, their variance inverted). Where
-    the readings average several values, the values' own scatter within each reading
-    (the session's ``averaged_sd_mm``: at one position, rounded as one value is) gives
-    it: the repeats then scatter as means do, which, inverted as one value's, made a
-    gauge far quieter than its step whose whole rounding repeats (issue 37.7: 0.29 µm
-    for readings of 16 values of 0.5 µm on a 1 µm display, which scatter 0.14 µm; a
-    true model's F per dof 0.07-0.23). Correlated values only lower the values' scatter
-    within a reading, so ``c`` is then larger: the noise errs high, not low."""
+    """The noise the repeats show: their scatter about their means and the rounding
+    they share, ``c`` of one gauge value's scatter: the repeats' own (inverted), or
+    where readings average several values, the values' scatter within each reading
+    (``averaged_sd_mm``). Inverting the means' scatter as one value's made a gauge
+    far quieter than its step (issue 37.7: 0.29 µm for means of 16 values of 0.5 µm on
+    a 1 µm display; a true model's F per dof 0.07-0.23). Correlated values only make
+    ``c`` larger: the noise errs high, not low."""
     ss, dof = measured
     per_value = _value_scatter(obs, step)
     if per_value is None:

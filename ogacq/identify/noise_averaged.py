@@ -1,36 +1,23 @@
 """The noise of a reading that is the mean of several gauge values, beside the scatter
 its repeats show.
 
-A stable settle's reading is the mean of the values of its two windows at rest
-(``drivers/indicators/rest.py``), a fixed settle's the mean of the stability rule's
-agreeing values; the session records their count per reading (``averaged``). The
-machine file states the noise of one value (``gauge_repeatability_mm``, sigma) behind
-the display step s. Were a reading's n values independent, its variance would be
+A settled reading is the mean of several values, their count recorded
+(``averaged``); the machine file states one value's noise (sigma) behind the display
+step s. Were the n values independent, a reading's variance would be
 
     (sigma^2 + s^2/12 - c) / n + c,   c = c(sigma, s) (``noise.shared_rounding_variance``)
 
-since the part of the rounding that the scatter does not dither never averages away:
-a gauge far quieter than its step shows one value n times and keeps its s / sqrt(12)
-whatever n. That is a floor, not an estimate. A gauge's consecutive values are not
-independent: a drift over the settle, a display or filter that updates slower than it
-is read (several values are then one), and the mean of correlated values varies more
-than the independent formula says (JCGM 100:2008 4.2.7). So the noise of an averaged
-reading lies between that floor and the value's own noise (values fully correlated),
-and only repeats show where. Hence (``noise._estimate_noise``):
-
-- with repeats that can test the stated noise, their scatter is set beside the floor:
-  the verdict uses the repeats' noise when the value's stated noise is above their
-  scatter beyond chance (as before the count was known), and the floor says whether
-  the averaging accounts for it, or the gauges scatter less than stated even for
-  independent values, or a reading's values are not independent;
-- without repeats, the verdict keeps the value's stated noise, the floor said beside
-  it. Judged against the floor, a fit of readings that average correlated values would
-  be called inconsistent on an assumption: issue 37 measured, on a machine written
-  apart from ogacq, settles of 6-32 values (median 16) whose consistent fits showed
-  chi2/dof 0.06-0.31 against the value's noise, 1 to 5 against the floor at 16 values,
-  and a diagnosis would explain that noise with physics. No source for the rule beyond
-  that measurement and GUM 4.2.7.
-"""
+(the undithered rounding never averages away). That is a floor: consecutive values
+are correlated (a drift, a display slower than it is read), and the mean of
+correlated values varies more (JCGM 100:2008 4.2.7), so the truth lies between the
+floor and one value's noise, and only repeats show where. Hence
+(``noise._estimate_noise``): with repeats that can test the stated noise, their
+scatter is set beside the floor (the repeats' noise used when the stated one is
+above it beyond chance); without repeats, the stated noise is kept and the floor
+said beside it. Judged against the floor, fits of correlated values would be called
+inconsistent on an assumption: issue 37 measured settles of 6-32 values whose
+consistent fits showed chi2/dof 0.06-0.31 against the value's noise and 1 to 5
+against the floor at 16 values. No source beyond that measurement and GUM 4.2.7."""
 
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ the shared Zero readings (eq. 13-14 of the 2008 paper: covariance ``sigma^2 D D'
 from __future__ import annotations
 
 import re
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -63,12 +63,9 @@ PAPER_ORDER_12 = ("dx_y+", "dy_x+", "dx_y-", "dy_x-", "dx_z+", "dz_x+", "dx_z-",
 
 @dataclass
 class Observations:
-    """Observed values ``y = D h(theta) + zeros + noise``.
-
-    ``combination`` is D (None: the readings themselves, each gauge with its own
-    unknown zero). ``noise_cov`` is the noise covariance of ``y`` in units of
-    the gauge variance ``sigma^2``.
-    """
+    """Observed values ``y = D h(theta) + zeros + noise``: ``combination`` is D (None:
+    the readings themselves, each gauge with its own unknown zero); ``noise_cov`` the
+    noise covariance of ``y`` in units of the gauge variance ``sigma^2``."""
 
     machine: MachineSpec
     layout: ReadingsLayout
@@ -197,12 +194,9 @@ def _averaged_together(parts: Sequence[Observations],
 
 def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, float]],
                             source: str = "") -> Observations:
-    """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min).
-
-    The readings they were taken from are laid out as one cycle of the papers'
-    plan (Zero, Max, Min for each leg involved), keeping the gauges named;
-    approach and time are unknown for tabulated data and taken as neutral.
-    """
+    """Deviations ``dX_Y+``/``dX_Y-`` (relative to Zero) or ``dX_Y`` (Max minus Min),
+    laid out as one cycle of the papers' plan for the gauges named; approach and time
+    unknown for tabulated data, taken as neutral."""
     # here: the protocol's dataclasses are 3 ms of a readings refit's start-up
     from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
@@ -228,22 +222,25 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
                         source, "deviations")
 
 
+def posture_readings(obs: Observations) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
+    """Each gauge of raw readings as its deviations are named (``dX_Y``) and its
+    readings (boolean masks) at each of the papers' postures it read."""
+    lay = obs.layout
+    postures = lay.posture_names(obs.machine)
+    for j, i in lay.gauge_keys:
+        sel = (lay.gauge_axis == j) & (lay.leg == i)
+        yield f"d{AXES[j]}_{AXES[i]}", {p: hit for p in POSTURE_NAMES
+                                        if (hit := sel & (postures == p)).any()}
+
+
 def averaged_deviations(obs: Observations, form: str = "12") -> Observations:
     """The papers' deviations from raw readings: Max/Min relative to Zero, each
     averaged over cycles (``form`` "12"), or Max minus Min (``form`` "6")."""
     if not obs.raw:
         return obs
-    lay = obs.layout
     named = []
-    postures = lay.posture_names(obs.machine)
-    for j, i in lay.gauge_keys:
-        sel = (lay.gauge_axis == j) & (lay.leg == i)
-        mean = {}
-        for posture in POSTURE_NAMES:
-            hit = postures[sel] == posture
-            if hit.any():
-                mean[posture] = float(obs.values[sel][hit].mean())
-        name = f"d{AXES[j]}_{AXES[i]}"
+    for name, at in posture_readings(obs):
+        mean = {posture: float(obs.values[hit].mean()) for posture, hit in at.items()}
         if form == "6" and {"max", "min"} <= mean.keys():
             named.append((name, mean["max"] - mean["min"]))
         elif form == "12" and "zero" in mean:

@@ -1,15 +1,11 @@
 """Calibration of the consistency test itself: how often does it cry wolf?
 
-Seeded control campaigns (joint offsets and nothing else: the verdict should say
-"consistent") are simulated over a grid of the regimes a shop has, and each
-cell's false-alarm rate is set beside the nominal level with its binomial 95 %
-interval. The same runs with a concealed effect give the test's power.
-
-The readings are the exact model's, plus each gauge's arbitrary zero (which also
-draws the rounding phase at random), Gaussian gauge scatter, and the display's
-rounding. ``bench/verdict_calibration.py`` prints the whole grid; a test runs a
-slice.
-"""
+Seeded control campaigns (joint offsets only: "consistent" expected), simulated
+over the regimes a shop has, each cell's false-alarm rate beside the level with its
+binomial 95 % interval; with a concealed effect, the test's power. Readings: the
+exact model's, each gauge's random zero (the rounding's phase), Gaussian scatter,
+the display's rounding. ``bench/verdict_calibration.py`` prints the grid; a test
+runs a slice."""
 
 from __future__ import annotations
 

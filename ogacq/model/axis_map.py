@@ -1,32 +1,23 @@
 """An error map of one actuator: the value the diagnosis hands to the compensation.
 
-The diagnosis identifies, per actuator, how far the joint really is from where it
-was commanded, as a function of the commanded joint coordinate ``q`` (controller
-coordinate, mm, 0 at the mechanical zero: MODEL.md) and of the direction the
-joint last moved in. Compensation tables (LinuxCNC, Fanuc, Siemens, the plain
-CSV) and ogacq's own correction of the targets it commands are made from this
-one type, so the sign and the reference are fixed here once:
+Every compensation table (LinuxCNC, Fanuc, Siemens, the plain CSV) and ogacq's own
+correction of its targets is made from this one type, so sign and reference are
+fixed here once:
 
-* ``forward_mm[k]`` is the error ``e+(q_k)`` = actual minus commanded joint
-  position when ``q_k`` was approached moving toward +q; ``reverse_mm[k]`` the
-  same approached moving toward -q. A lost motion (backlash) b shows as
-  ``e+ - e- = -b`` for a joint that stops short of the target on each reversal.
+* ``forward_mm[k]`` is the error ``e+(q_k)`` = actual minus commanded joint position
+  at ``q_k`` (controller coordinate, MODEL.md) approached moving toward +q;
+  ``reverse_mm[k]`` toward -q. A backlash b shows as ``e+ - e- = -b``.
 * A controller that corrects the map commands ``q - e(q)`` (to first order).
-* The map is zero at ``reference_mm`` in the forward direction: the constant part
-  of a joint's error is its joint offset, which the offsets carry (never twice).
-  ``excludes`` names the model parameters the map has been made orthogonal to
-  (e.g. ``encoder_scale.x`` when the linear trend stays in the model).
-* ``u_forward_mm``, ``u_reverse_mm`` are standard uncertainties (k = 1) of each
-  point, from the fit's covariance; a table writer multiplies by its k.
-* ``q`` is the controller coordinate of the joint offsets in force when the map was
-  identified. A joint offset written moves that coordinate along the screw (``q = p
-  - o``: the drive's raw position ``p`` is where the screw is, and its errors stay
-  there), so a map is only right with the offsets it was made for: written with new
-  offsets, it is ``moved`` by the coordinate's change (``ogacq.calibration.compensate``).
+* The map is zero at ``reference_mm`` forward: its constant is the joint offset's
+  (never twice). ``excludes`` names the parameters the map is orthogonal to.
+* ``u_forward_mm``, ``u_reverse_mm``: standard uncertainties (k = 1) per point; a
+  table writer multiplies by its k.
+* ``q`` is the coordinate of the joint offsets in force when the map was identified:
+  an offset written moves it along the screw (``q = p - o``, the screw's errors stay
+  at ``p``), so with new offsets the map is ``moved`` (``ogacq.calibration.compensate``).
 
-Between the tabulated positions the map is linear (as LinuxCNC's and Siemens'
-tables interpolate); outside them it holds its end values.
-"""
+Between positions the map is linear (as LinuxCNC's and Siemens' tables
+interpolate); outside them it holds its end values."""
 
 from __future__ import annotations
 

@@ -1,28 +1,14 @@
 """Errors of an axis beyond the effect library: their shapes along the joint
 coordinate ``q``, with the approach side, the travel since the last reversal, and
-time.
+time (the errors ISO 230-2:2014 measures position by position, in both directions).
 
-The effect library (``parameters.py``) describes each joint by constants: an
-offset, a travel scale, a lost motion, a drift rate. A real linear axis also has
-errors that vary along its travel, which calibration engineers map with a laser
-and correct with a compensation table (ISO 230-2:2014 measures them position by
-position, in both directions):
-
-a cyclic lead-screw error, a smooth screw map, hysteresis building up with the
-travel since a reversal, a rail's bow, a joint offset settling in time: the families,
-one module each in ``ogacq/model/families/`` (their registry, ``FAMILIES``, and what
-each declares: ``families/base.py``). Here: each joint's history at each reading, and
-the table (``AxisMap``) of an axis's fitted terms.
-
-Each family is linear in its amplitudes once its shape (pitch, knots, build-up
-length, time constant) is fixed: :meth:`MapTerm.columns` gives the displacement per
-unit of each amplitude for every reading. The diagnosis fits the amplitudes by
-least squares and searches the shapes. Every along-the-line term is zero at the
-reference position approached in the forward direction (``AxisMap``'s
-convention): its constant is the joint offset's.
-
-Sign: a displacement is actual minus commanded joint position, as in ``AxisMap``.
-"""
+The families (cyclic lead-screw error, smooth screw map, hysteresis, rail bow,
+warm-up) are one module each in ``ogacq/model/families/`` (``FAMILIES``,
+``families/base.py``). Here: each joint's history at each reading, and the table
+(``AxisMap``) of an axis's fitted terms. A term is linear in its amplitudes once
+its shape is fixed; every along-the-line term is zero at the reference approached
+forward (its constant is the joint offset's). Sign: actual minus commanded, as in
+``AxisMap``."""
 
 from __future__ import annotations
 
@@ -122,15 +108,12 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
              from_mm: float, to_mm: float, step_mm: float, *, source: str,
              excludes: tuple[str, ...] = (), extra: Mapping | None = None,
              shape_std: list[float] | None = None, zero_at: float | None = None) -> AxisMap:
-    """The ``AxisMap`` of one axis from its fitted along-the-line terms: ``coefficients``
-    per term, ``covariance`` of all of them stacked (standard uncertainty per point
-    from it, k = 1), ``shape_std`` each term's shape parameter's std (a cyclic error's
-    pitch: a phase that slips the farther from the reference, added to the band).
-    Forward is the map approached moving up after a long run, reverse moving down (a
-    hysteresis at its wound-up value: the table of a controller's backlash
-    compensation; how it builds up is in ``extra``). ``zero_at``: the map's reference
-    (the terms' when not given): the map less its value there forward, its band that of
-    the difference (the constant is the joint offset's, uncertainty included)."""
+    """The ``AxisMap`` of one axis from its fitted along-the-line terms: the band
+    (k = 1) from the stacked ``covariance`` and each term's ``shape_std`` (a pitch's
+    phase slips the farther from the reference). Forward moving up after a long run,
+    reverse moving down (a hysteresis wound up: a controller's backlash table; its
+    build-up in ``extra``). ``zero_at``: the reference (the terms' by default); the
+    map less its value there forward, the band that of the difference."""
     assert terms and all(t.along and t.axis == terms[0].axis for t in terms)
     # a grid through the reference (where the map is zero), ends added
     ref = terms[0].reference_mm if zero_at is None else zero_at

@@ -11,7 +11,7 @@ from __future__ import annotations
 import datetime
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from typing import Any
 
 from ogacq.io.dates import date_or_none
@@ -58,32 +58,24 @@ class Instrument:
         return f"{self.gauge} (serial {self.serial})" if self.serial else self.gauge
 
     def to_json(self) -> dict[str, Any]:
-        """The session header's ``instruments`` entry (absent values null)."""
-        return {"gauge": self.gauge, "make": self.make, "model": self.model,
-                "serial": self.serial, "certificate": self.certificate,
-                "calibrated": _iso(self.calibrated), "due": _iso(self.due),
-                "uncertainty_mm": self.uncertainty_mm, "uncertainty_k": self.uncertainty_k,
-                "resolution_mm": self.resolution_mm}
+        """The session header's ``instruments`` entry: every field, dates in ISO form
+        (absent values null)."""
+        return {f.name: _iso(getattr(self, f.name)) for f in fields(self)}
 
     @classmethod
     def from_json(cls, entry: Mapping[str, Any]) -> Instrument:
-        """An ``instruments`` entry read leniently: a value of the wrong kind is unknown."""
-        return cls(gauge=str(entry.get("gauge") or ""), make=_text(entry.get("make")),
-                   model=_text(entry.get("model")), serial=_text(entry.get("serial")),
-                   certificate=_text(entry.get("certificate")),
-                   calibrated=date_or_none(entry.get("calibrated")),
-                   due=date_or_none(entry.get("due")),
-                   uncertainty_mm=finite_number(entry.get("uncertainty_mm")),
-                   uncertainty_k=finite_number(entry.get("uncertainty_k")),
-                   resolution_mm=finite_number(entry.get("resolution_mm")))
+        """An ``instruments`` entry read leniently, each field by its type: a value of
+        the wrong kind is unknown."""
+        return cls(gauge=str(entry.get("gauge") or ""),
+                   **{f.name: _READERS[f.type](entry.get(f.name)) for f in fields(cls)[1:]})
 
 
 def _day(on: datetime.date) -> datetime.date:
     return on.date() if isinstance(on, datetime.datetime) else on
 
 
-def _iso(day: datetime.date | None) -> str | None:
-    return None if day is None else day.isoformat()
+def _iso(value: Any) -> Any:
+    return value.isoformat() if isinstance(value, datetime.date) else value
 
 
 def _text(value: Any) -> str | None:
@@ -96,3 +88,7 @@ def finite_number(value: Any) -> float | None:
         return None
     return float(value) if math.isfinite(value) else None
 
+
+# how ``from_json`` reads a field of each type (the dataclass's annotations, as written)
+_READERS: dict[Any, Any] = {"str | None": _text, "datetime.date | None": date_or_none,
+                            "float | None": finite_number}

@@ -1,25 +1,19 @@
 """How every gauge reading moves when a joint centre moves: the exact measurement
 model differentiated by the joint centres' positions, per reading.
 
-The effect library's joint terms (offset, scale, lost motion, drift) move each joint
-along its own actuator line by the same amount at every pose, or by a fixed rule of
-``q``. Errors a real axis has beyond them (a lead screw's cyclic error, its smooth
-map, hysteresis that builds up with travel, a bowed rail) move a joint by an amount
-that depends on where it is and how it got there, and the bow moves it across its
-line. To first order in such a displacement ``d`` (a few micrometres on joints about
-300 mm from the TCP, so the second order is below 1e-7 mm), a reading changes by
+Errors beyond the library's joint terms (a screw's cyclic error or smooth map, a
+hysteresis, a bowed rail) move a joint by an amount that depends on where it is and
+how it got there, and a bow moves it across its line. To first order in such a
+displacement ``d`` (micrometres on joints 300 mm from the TCP: second order below
+1e-7 mm), a reading changes by
 
     sum over joints a, coordinates c of  at_reading[n, a, c] d_a,c(reading's pose)
                                         + at_setting[n, a, c] d_a,c(gauge's setting pose)
 
-``at_reading`` moves the leg line the gauge reads; ``at_setting`` the plane its gauge
-was set in (a gauge stays where it was set). Both come from the same geometry as
-``measurement._evaluate`` (leg line through the joint centre and the TCP, crossed
-with the gauge's plane), differentiated by hand: the TCP's derivatives are
-``kinematics.forward_tangent``'s. :func:`predict_displaced` is the same geometry
-evaluated with the joint centres moved, exactly, one reading at a time: the
-simulator's bowed rails, and the check of the first-order model.
-"""
+(the leg line the gauge reads; the plane its gauge was set in), differentiated by
+hand from ``measurement._evaluate``'s geometry. :func:`predict_displaced` evaluates
+it exactly with the joint centres moved: the simulator's bowed rails, and the check
+of the first-order model."""
 
 from __future__ import annotations
 

@@ -91,13 +91,10 @@ def joint_centres(rho: np.ndarray, u: np.ndarray, o: np.ndarray) -> np.ndarray:
 
 
 def forward(r: np.ndarray, legs_mm: np.ndarray) -> np.ndarray:
-    """TCP from the three joint centres ``r`` (..., 3, 3) and leg lengths (..., 3)
-    (any shape that broadcasts to ``r``'s leading shape and 3).
-
-    Subtracting the sphere equations pairwise leaves a line; the TCP is where
-    it meets the first sphere, on the origin side of the plane through the
-    joint centres (the assembly mode of the papers). Returns NaN where the legs
-    cannot meet; callers decide whether that is an error."""
+    """TCP from the three joint centres ``r`` (..., 3, 3) and leg lengths (..., 3):
+    the line the sphere equations leave pairwise subtracted, met with the first
+    sphere on the origin side of the joint centres' plane (the papers' assembly mode).
+    NaN where the legs cannot meet; callers decide whether that is an error."""
     # Coordinates first, each a contiguous (3, ...) array: one numpy call does a
     # vector's three components (a fit evaluates a few dozen poses, where every call
     # costs more than its arithmetic; a Monte-Carlo evaluates millions, where
@@ -152,15 +149,11 @@ _AFTER = np.array([2, 0, 1])
 def forward_tangent(r: np.ndarray, p: np.ndarray, legs_mm: np.ndarray, dr: np.ndarray,
                     dlegs: np.ndarray | None) -> np.ndarray:
     """Derivatives ``dp`` (..., P, 3) of :func:`forward`'s TCP ``p`` (..., 3) given
-    those of the joint centres ``dr`` (..., P, 3, 3) and of the leg lengths
-    ``dlegs`` (..., P, 3) (None: no leg length moves).
-
-    Implicit differentiation of the constraints ``|p - r_i|^2 = L_i^2``:
-    ``(p - r_i) . (dp - dr_i) = L_i dL_i``, three linear equations in ``dp`` whose
-    matrix (rows ``a_i = p - r_i``) is the same for every parameter. Its inverse has
-    the columns ``a_2 x a_3``, ``a_3 x a_1``, ``a_1 x a_2`` over the determinant
-    (Cramer): computed once per pose, NaN where the legs cannot meet. Exact, and
-    independent of the assembly mode ``forward`` picked."""
+    those of the joint centres ``dr`` (..., P, 3, 3) and of the leg lengths ``dlegs``
+    (..., P, 3) (None: none moves), by implicit differentiation of ``|p - r_i|^2 =
+    L_i^2``: ``(p - r_i) . (dp - dr_i) = L_i dL_i``, whose matrix (rows ``a_i = p -
+    r_i``) has the inverse ``a_2 x a_3``, ``a_3 x a_1``, ``a_1 x a_2`` over the
+    determinant (Cramer), once per pose. Exact, whatever assembly mode ``forward`` took."""
     legs_to_tcp = p[..., None, :] - r  # (..., 3, 3), row i: p - r_i
     rhs = np.einsum("...ik,...qik->...qi", legs_to_tcp, dr)
     if dlegs is not None:

@@ -1,22 +1,16 @@
 """Acceptance of the leg-parallelism deviations against their tolerances, with a
-stated decision rule (docs/calibration-record.md section 4).
+stated decision rule (docs/calibration-record.md section 4; ILAC-G8:09/2019):
 
-Rules (ILAC-G8:09/2019):
-- "guard-band": guard band ``w = U`` (section 4.2.2, acceptance limit ``T - w``):
-  pass when ``|d| <= T - U``, fail when ``|d| > T + U``, otherwise undecided: the
-  non-binary statement of section 4.2.3, whose zones between the limits (its
-  "conditional pass/fail") say that neither can be stated with the confidence
-  ``U`` carries. Needs ``U``.
-- "simple": simple acceptance, ``w = 0`` (section 4.2.1): pass when ``|d| <= T``,
-  fail otherwise; ``U`` is reported beside it when known.
+- "guard-band": ``w = U`` (4.2.2, limit ``T - w``): pass when ``|d| <= T - U``, fail
+  when ``|d| > T + U``, otherwise undecided (the non-binary statement of 4.2.3).
+  Needs ``U``.
+- "simple": ``w = 0`` (4.2.1): pass when ``|d| <= T``, fail otherwise.
 
-A deviation without a tolerance, or without ``U`` under the guard-band rule, is
-"not evaluated" with the reason; a tolerance whose deviation was not measured too.
-Overall (no source; the contract's rule): fail when any deviation fails; pass only
-when every one passes; otherwise "not evaluated" when evidence is missing for any,
-else "undecided". An absent stage (no measurement) is "not evaluated". Never a
-silent pass.
-"""
+A deviation without a tolerance (or without ``U`` under the guard band), or a
+tolerance without its deviation, is "not evaluated" with the reason. Overall (no
+source; the contract's rule): fail when any fails; pass only when every one passes;
+else "not evaluated" when evidence is missing, else "undecided". Never a silent
+pass."""
 
 from __future__ import annotations
 

@@ -20,9 +20,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ogacq.identify.fit import FitResult, Weighting
-from ogacq.identify.observations import Observations
-from ogacq.model.measurement import POSTURE_NAMES
-from ogacq.model.parameters import AXES, NOMINAL, effect_of, nested
+from ogacq.identify.observations import Observations, posture_readings
+from ogacq.model.parameters import NOMINAL, effect_of, nested
 from ogacq.uncertainty.acceptance import Measured
 from ogacq.uncertainty.inputs import BudgetInputs
 from ogacq.uncertainty.sources import (
@@ -248,21 +247,14 @@ def deviations_operator(obs: Observations) -> tuple[list[str], np.ndarray]:
     deviations are their own (the identity)."""
     if not obs.raw:
         return list(obs.labels), np.eye(len(obs))
-    lay = obs.layout
-    postures = lay.posture_names(obs.machine)
     names, rows = [], []
-    for j, i in lay.gauge_keys:
-        sel = (lay.gauge_axis == j) & (lay.leg == i)
-        means = {}
-        for posture in POSTURE_NAMES:
-            hit = sel & (postures == posture)
-            if hit.any():
-                means[posture] = hit / hit.sum()
+    for name, at in posture_readings(obs):
+        means = {posture: hit / hit.sum() for posture, hit in at.items()}
         if "zero" not in means:
             continue
         for posture, sign in (("max", "+"), ("min", "-")):
             if posture in means:
-                names.append(f"d{AXES[j]}_{AXES[i]}{sign}")
+                names.append(name + sign)
                 rows.append(means[posture] - means["zero"])
     if not names:
         raise ValueError("these readings hold no Zero/Max/Min postures to form deviations from")

@@ -1,38 +1,23 @@
 """The sources of uncertainty, each modelled as what a unit of its input does to the
 observations, so that one linear operator (the fit's solution operator, or the
-deviations' averaging) carries every source to every output the same way.
+deviations' averaging) carries every source to every output the same way
+(JCGM 100:2008 clauses):
 
-How each source is modelled (JCGM 100:2008 clause numbers next to each):
-
-- gauge noise: each reading's own scatter, normal, independent from reading to
-  reading; type A when measured from the cycles' repeats (4.2.2, dof n - groups),
-  type B when stated in the machine file (4.3.1).
-- display resolution: each displayed reading is rounded to the step ``s``: a
-  rectangular error of half-width ``s/2``, ``u = s/sqrt(12)`` (4.3.7, F.2.2.1).
-  Readings repeated at one posture (the cycles) share the true value, so they
-  share the part of the rounding the scatter does not dither away
-  (``ogacq/identify/noise.py``: ``c(sigma, s)``); with a scatter well above the
-  step the rounding is independent per reading, below it the repeats read the
-  same and the rounding never averages out (F.2.2.1's "the same reading" case).
-- gauge calibration: a gauge's certificate bounds its indication error over its
-  range. Modelled as a scale (gain) error of that gauge, normal, with standard
-  uncertainty ``U_cert / k`` over the span that gauge measured (4.3.3): the error
-  of a reading is ``e_g (x - x_set) / span_g``, ``x_set`` the reading where the
-  gauge was set. It is one unknown per gauge, fully correlated over all that
-  gauge's readings (5.2: correlated input quantities) and independent between
-  gauges (each has its own certificate). Its constant part would be absorbed by
-  the gauge's unknown zero anyway.
-- temperature: the legs' length error ``alpha L (T - 20 degC)`` (ISO 1 reference
-  temperature), the same for the three legs (one material, one room). ``T`` is
-  taken rectangular over the range seen between the start and the end of the
-  campaign (4.3.7) plus the thermometer's own standard uncertainty (4.3.3). It
-  reaches the readings through the exact model's derivative by the leg lengths.
-  Its mean, ``alpha L (T_mean - 20)``, is a known systematic effect (3.2.3,
-  3.2.4): the budget states the correction it implies rather than hiding it in u.
-- register rounding: the controller stores an offset in steps; the written value
-  is off by a rectangular error of half-width ``step/2``, ``u = step/sqrt(12)``
-  (4.3.7), sensitivity 1 (the offset as written).
-"""
+- gauge noise: each reading's scatter, normal, independent; type A when measured
+  from the repeats (4.2.2, dof n - groups), type B when stated (4.3.1).
+- display resolution: rectangular, ``u = s/sqrt(12)`` (4.3.7, F.2.2.1); repeats
+  share the part the scatter does not dither (``identify/noise.py``: ``c(sigma,
+  s)``; F.2.2.1's "the same reading" case).
+- gauge calibration: the certificate's ``U_cert / k`` as a scale error of that gauge
+  over the span it measured (4.3.3), ``e_g (x - x_set) / span_g``: fully correlated
+  over its readings (5.2), independent between gauges; its constant part goes into
+  the gauge's zero.
+- temperature: the legs' ``alpha L (T - 20 degC)`` (ISO 1), the same for the three
+  legs, ``T`` rectangular over the range seen (4.3.7) plus the thermometer's u
+  (4.3.3), through the model's derivative by the leg lengths. Its mean is a known
+  systematic effect (3.2.3, 3.2.4): stated as a correction, not hidden in u.
+- register rounding: an offset stored in steps, ``u = step/sqrt(12)`` (4.3.7),
+  sensitivity 1."""
 
 from __future__ import annotations
 
