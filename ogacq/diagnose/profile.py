@@ -52,8 +52,9 @@ class LegProfile:
         ``top`` (mm; the before profile's largest by default)."""
         rms = self.rms_after_mm if after else self.rms_before_mm
         edges = np.linspace(0, len(rms), min(width, len(rms)) + 1).astype(int)
-        cells = [np.sqrt(np.nanmean(rms[a:b] ** 2)) if b > a else math.nan
-                 for a, b in zip(edges[:-1], edges[1:], strict=True)]
+        # a cell of bins none of which was read (a designed scan's sparse targets) blank
+        cells = [np.sqrt(np.nanmean(rms[a:b] ** 2)) if np.isfinite(rms[a:b]).any()
+                 else math.nan for a, b in zip(edges[:-1], edges[1:], strict=True)]
         scale = top if top is not None else float(np.nanmax(self.rms_before_mm))
         out = []
         for c in cells:
