@@ -226,7 +226,7 @@ class Procedure:
         unsettled = ""
         if plan.protocol is not None and self.setup.separate:
             scan = self._campaign("separating", plan.protocol)
-            scanned, read = self._resolved(scan, self._diagnosis("separating", scan))
+            scanned = self._resolved(scan, self._diagnosis("separating", scan))
             # maps the scan cannot establish: the offsets go as far as their own
             # campaign carries them, the maps said to be not established
             carried = offsets_carried(diagnosis)
@@ -239,7 +239,7 @@ class Procedure:
         comp = self._compensation(diagnosis, evidence, maps=not unsettled)
         # at targets between the scan's: an aliased map, or an error its targets
         # sampled at one phase, fails there instead of confirming itself
-        between = self._validation_plan(read, evidence, comp, diagnosis) \
+        between = self._validation_plan(evidence, comp, diagnosis) \
             if evidence is not first and _plan_of(evidence).is_scan else None
         try:
             done = self._round(first, diagnosis, evidence, comp, between)
@@ -253,16 +253,15 @@ class Procedure:
         return self._finish(done.comp, first, done.validation, done.judgement, done.written,
                             done.restored)
 
-    def _resolved(self, scan: LoadedSession, scanned: Diagnosis,
-                  ) -> tuple[Diagnosis, ProtocolConfig]:
+    def _resolved(self, scan: LoadedSession, scanned: Diagnosis) -> Diagnosis:
         """A pitch ``scan`` leaves unresolved or loose for the travel: its gaps read at
         other phases where --scan-minutes leaves the time (``resolving``), both
-        diagnosed together; with the plan of every target read."""
+        diagnosed together."""
         machine = self.setup.machine
         read = _plan_of(scan)
         loose = [] if unresolved(scanned) else loose_references(scanned, machine)
         if not unresolved(scanned) and not loose:
-            return scanned, read
+            return scanned
         why = "a pitch is left unresolved" if not loose else \
             "a pitch is loose for the travel (its map's uncertainty beyond half its size)"
         more = resolving_plan(read, machine, loose)
@@ -272,7 +271,7 @@ class Procedure:
             self._note(f"{why}: reading the scan's gaps at other phases would take "
                        f"{needed / 60:.0f} more minutes of machine time, beyond "
                        f"--scan-minutes {self.setup.scan_budget_s / 60:g}")
-            return scanned, read
+            return scanned
         self._note(f"{why}: the scan's gaps are read at other phases "
                    f"({len(more.scan_targets_mm)} targets, about {needed / 60:.0f} minutes) "
                    "and both diagnosed together")
@@ -281,19 +280,20 @@ class Procedure:
         obs = with_scale_maps(observations_together([scan, extra]), self.scales)
         return self._diagnosed(f"separating + {RESOLVING}", obs,
                                together_band(together, machine),
-                               f"{scan.path} + {extra.path}"), together
+                               f"{scan.path} + {extra.path}")
 
-    def _validation_plan(self, read: ProtocolConfig, evidence: LoadedSession,
-                         comp: Compensation, diagnosis: Diagnosis) -> ProtocolConfig:
-        """The scan validating ``comp``'s maps between the targets ``read``, grown where
-        a periodic map must be seen within --scan-minutes (``validation_design``); on a
-        resume the plan its campaign started with."""
+    def _validation_plan(self, evidence: LoadedSession, comp: Compensation,
+                         diagnosis: Diagnosis) -> ProtocolConfig:
+        """The scan validating ``comp``'s maps between the scan's targets (clear of a
+        resolving scan's too: ``resolving.SHARES``), grown where a periodic map must be
+        seen within --scan-minutes (``validation_design``); on a resume the plan its
+        campaign started with."""
         started = self.log.last(Step.CAMPAIGN, role="validation-scan", status=STARTED)
         if started is not None:
             return ProtocolConfig.from_dict(dict(started.details["plan"]))
         rate = seconds_per_step(evidence)
         most = int(self.setup.scan_budget_s / rate) if rate > 0 else None
-        return validation_plan(read, comp.maps, self.setup.machine,
+        return validation_plan(_plan_of(evidence), comp.maps, self.setup.machine,
                                diagnosis.noise.sigma_mm, most)
 
     def _round(self, first: LoadedSession, diagnosis: Diagnosis, evidence: LoadedSession,

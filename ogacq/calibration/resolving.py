@@ -10,11 +10,11 @@ loose for the travel: a 6.35 mm lead found 6.403 ± 0.043 mm slips its phase by 
 eighth of a period over the 100 mm from the map's reference, and its table left
 1.1 µm rms of 2.8 (validated: its uncertainty covers it). Both are settled by more
 readings at other phases: the scan's gaps read once more (one target in each, at a
-jittered 12-26 % of the gap: clear of the scan's own targets), the gaps far from the
-map's reference twice (at 74-88 %: the pitch is read there, in the phase it slips
-by), where the machine time allows; the two sessions are then diagnosed together
-(``ogacq.calibration.together``), and the validation reads between the targets of
-both.
+jittered 11-19 % of the gap), the gaps far from the map's reference twice (again at
+21-29 %: the pitch is read there, in the phase it slips by), where the machine time
+allows; the two sessions are then diagnosed together
+(``ogacq.calibration.together``). The validation reads between the scan's targets
+elsewhere in each gap.
 """
 
 from __future__ import annotations
@@ -31,7 +31,10 @@ from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, scan_targets
 
 RESOLVING = "separating-more"  # the campaign's role
-SHARES = ((0.12, 0.26), (0.74, 0.88))  # where in a gap (no source: a choice, see above)
+# where in a gap, the first in each and the second in the far ones: clear of the scan's
+# targets (0, 1), of the validation's between them (0.3-0.7) and of its growth's
+# (``validation_design.GROWTHS``). No source: a choice.
+SHARES = ((0.11, 0.19), (0.21, 0.29))
 SEED = 2  # the jitter: fixed, so that a resumed procedure reads the same
 # A periodic map's pitch is loose when its expanded uncertainty (k = 2, the pitch's
 # slip included) somewhere on the travel exceeds this share of the correction's size

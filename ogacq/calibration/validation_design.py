@@ -37,8 +37,8 @@ from ogacq.sim.readings import simulated_readings
 
 # Where in a gap of the scan's targets each growth puts its target: clear of the scan's
 # targets (0 and 1), of the between plan's (0.3-0.7) and of the resolving scan's
-# (``ogacq.calibration.resolving``, 0.12-0.26). No source: a choice.
-GROWTHS = ((0.76, 0.94), (0.02, 0.1))
+# (``ogacq.calibration.resolving``, 0.11-0.29). No source: a choice.
+GROWTHS = ((0.76, 0.94), (0.02, 0.09))
 # A stretch is taken as seen when what the predicted test would pass there leaves at
 # most this share of the correction's size: the readings' own scatter then still
 # leaves it seen (no source: a choice).
