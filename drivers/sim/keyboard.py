@@ -29,6 +29,7 @@ from decimal import Decimal
 from pathlib import Path
 from typing import Any
 
+from ogacq_drivers.atomic import write_atomically
 from ogacq_drivers.indicators import usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
@@ -104,10 +105,11 @@ class KeyboardEndpoint(UsbCableGauge):
         ids = root / "sys" / "class" / "input" / "event0" / "device" / "id"
         ids.mkdir(parents=True)
         # sysfs writes the ids as four hex digits and a newline.
-        (ids / "vendor").write_text(f"{self.ids[0]:04x}\n")
-        (ids / "product").write_text(f"{self.ids[1]:04x}\n")
-        (ids / "bustype").write_text("0003\n")  # BUS_USB
-        (ids.parent / "name").write_text("Mitutoyo USB-ITN (simulated)\n")
+        for path, text in ((ids / "vendor", f"{self.ids[0]:04x}\n"),
+                           (ids / "product", f"{self.ids[1]:04x}\n"),
+                           (ids / "bustype", "0003\n"),  # BUS_USB
+                           (ids.parent / "name", "Mitutoyo USB-ITN (simulated)\n")):
+            write_atomically(path, text.encode("ascii"))
         node = root / "dev" / "input" / "event0"
         node.parent.mkdir(parents=True)
         os.mkfifo(node)
