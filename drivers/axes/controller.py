@@ -309,27 +309,16 @@ class AxisController:
         before = {axis: self._poll(axis, blocks) for axis in targets}
         for axis, status in before.items():
             if status.fault:
-                raise DeviceFault(
-                    f"move {axis} refused: axis in alarm {status.alarm_code:#x}; "
-                    "reset alarms first",
-                    code=status.alarm_code,
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"move {axis} refused: axis in alarm "
+                                  f"{status.alarm_code:#x}; reset alarms first", status.alarm_code)
             if not status.flags["servo_on"] or not status.flags.get("quick_stop", True):
                 # CiA 402 "quick stop active" keeps bit 2 (operation enabled) set but
                 # takes no set-point: a stop, not a state to move from
-                raise DeviceFault(
-                    f"move {axis} refused: servo is off (or the drive is in quick stop); "
-                    "enable first",
-                    code="servo_off",
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"move {axis} refused: servo is off (or the drive is "
+                                  "in quick stop); enable first", "servo_off")
             if require_homed and not status.homed:
-                raise DeviceFault(
-                    f"move {axis} refused: axis not homed; home first",
-                    code="not_homed",
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"move {axis} refused: axis not homed; home first",
+                                  "not_homed")
         speed = speed_mm_s or self.speed_mm_s
         params = {
             axis: {"target_mm": self._q_to_counter(axis, q), "speed_mm_s": speed}
@@ -434,22 +423,15 @@ class AxisController:
         is no longer homed: no arrival may be taken from it then."""
         if poll.fault:
             at = "" if poll.position_mm is None else f" at {poll.position_mm:.3f} mm"
-            raise DeviceFault(
-                f"axis {axis} in alarm {poll.alarm_code:#x}{at} while waiting for "
-                "in-position",
-                code=poll.alarm_code,
-                where=self.where(axis),
-            )
+            raise self._fault(axis, f"axis {axis} in alarm {poll.alarm_code:#x}{at} while "
+                              "waiting for in-position", poll.alarm_code)
         servo_off = not poll.flags["servo_on"]
         if servo_off or (require_homed and not poll.homed):
             lost = "its servo went off" if servo_off else "it is no longer homed"
-            raise DeviceFault(
-                f"axis {axis}: {lost} while waiting for in-position (switched off "
-                "and on, an emergency stop or another master?); its position is "
-                "not vouched for",
-                code="servo_off" if servo_off else "not_homed",
-                where=self.where(axis),
-            )
+            raise self._fault(axis, f"axis {axis}: {lost} while waiting for in-position "
+                              "(switched off and on, an emergency stop or another master?); "
+                              "its position is not vouched for",
+                              "servo_off" if servo_off else "not_homed")
 
     def _not_in_position(self, targets: dict[str, float | None],
                          arrived: dict[str, AxisStatus], timeout: float) -> DeviceTimeout:
@@ -553,11 +535,8 @@ class AxisController:
         if spec.write_when_disabled:
             on = [a for a, s in self.read_status(new).items() if s.servo_on]
             if on:
-                raise DeviceFault(
-                    f"offsets not written: servo on for {on}; disable first",
-                    code="servo_on",
-                    where=self.where(on[0]),
-                )
+                raise self._fault(on[0], f"offsets not written: servo on for {on}; disable "
+                                  "first", "servo_on")
         tolerance = 1.0 / self.profile.codec.counts_per_mm
         stored: dict[str, float] = {}
         for axis, offset in new.items():
@@ -573,11 +552,8 @@ class AxisController:
             self._write_value(axis, spec.value, register_mm, what=f"write_offsets {axis}")
             back = float(self.read_raw(axis, spec.value))
             if abs(back - register_mm) > tolerance / 2:
-                raise DeviceFault(
-                    f"home offset {axis}: wrote {register_mm:+.4f} mm, read back {back:+.4f} mm",
-                    code="readback",
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"home offset {axis}: wrote {register_mm:+.4f} mm, "
+                                  f"read back {back:+.4f} mm", "readback")
             stored[axis] = -spec.sign * back  # what the drive holds, in counts
             self.rehome_required.add(axis)
         return OffsetChange(old, stored, "at_next_homing", written_to_device=True)
@@ -683,6 +659,9 @@ class AxisController:
         """Endpoint, device id and axis, for messages."""
         return f"{self._links[axis].where(self.device_ids[axis])} (axis {axis})"
 
+    def _fault(self, axis: str, message: str, code: int | str) -> DeviceFault:
+        return DeviceFault(message, code=code, where=self.where(axis))
+
     # ================================================================ internals: registers
 
     def _plan_reads(self, names: Iterable[str]) -> list[_Block]:
@@ -783,40 +762,33 @@ class AxisController:
         return self.profile.decode(name, registers)
 
     def _write_value(self, axis: str, name: str, value: Any, *, what: str) -> None:
-        spec = self.profile.value(name)
-        device, link = self.device_ids[axis], self._links[axis]
-        encoded = self.profile.encode(name, value)
-        label = f"{what}: {name}={value}"
-        self._written.pop((axis, name), None)  # unknown until the write succeeds
-        if spec.function == "coil":
-            link.write_coil(device, spec.address, bool(encoded), what=label)
-        elif spec.words == 1 and self.profile.transport.single_register_write:
-            assert isinstance(encoded, list)
-            link.write_register(device, spec.address, encoded[0], what=label)
-        else:  # FC16, also for one register where the drive has no FC6 (MR-JE-C)
-            assert isinstance(encoded, list)
-            link.write_registers(device, spec.address, encoded, what=label)
-        self._remember_written(axis, name, encoded)
+        self._write(axis, (name,), (value,), what=what)
 
-    def _write_block(
-        self, axis: str, names: Sequence[str], values: Sequence[Any], *, what: str
-    ) -> None:
+    def _write(self, axis: str, names: Sequence[str], values: Sequence[Any], *,
+               what: str, block: bool = False) -> None:
+        """Write contiguous values in one request: a coil by FC 5, one register by FC 6
+        where the drive has it, else (and a ``block`` always) FC 16 (also one register
+        on a drive without FC 6, MR-JE-C)."""
         specs: list[ValueSpec] = [self.profile.value(n) for n in names]
-        registers: list[int] = []
-        for name, value in zip(names, values, strict=True):
-            encoded = self.profile.encode(name, value)
-            assert isinstance(encoded, list)
-            registers += encoded
+        device, link, address = self.device_ids[axis], self._links[axis], specs[0].address
+        encoded = [self.profile.encode(n, v) for n, v in zip(names, values, strict=True)]
         label = f"{what}: " + ", ".join(f"{n}={v}" for n, v in zip(names, values, strict=True))
         for name in names:
-            self._written.pop((axis, name), None)
-        self._links[axis].write_registers(
-            self.device_ids[axis], specs[0].address, registers, what=label
-        )
-        at = 0
-        for name, spec in zip(names, specs, strict=True):
-            self._remember_written(axis, name, registers[at : at + spec.words])
-            at += spec.words
+            self._written.pop((axis, name), None)  # unknown until the write succeeds
+        if specs[0].function == "coil" and not block:
+            link.write_coil(device, address, bool(encoded[0]), what=label)
+            self._remember_written(axis, names[0], encoded[0])
+            return
+        registers: list[int] = []
+        for words in encoded:
+            assert isinstance(words, list)  # registers, not a coil: a block is registers
+            registers += words
+        if len(registers) == 1 and self.profile.transport.single_register_write and not block:
+            link.write_register(device, address, registers[0], what=label)
+        else:
+            link.write_registers(device, address, registers, what=label)
+        for name, words in zip(names, encoded, strict=True):
+            self._remember_written(axis, name, words)
 
     # ================================================================ internals: written values
 
@@ -890,18 +862,12 @@ class AxisController:
     ) -> None:
         what = f"{command} {axis}"
         for step in steps:
-            if step.op == "write":
-                value = self._resolve(step.value[0], params, command)
-                if step.skip_unchanged and self._unchanged(axis, step.to[0], value):
-                    continue
-                self._write_value(
-                    axis, step.to[0], value, what=what + (" (edge, sent once)" if step.edge else "")
-                )
-            elif step.op == "write_block":
+            if step.op in ("write", "write_block"):
                 values = [self._resolve(v, params, command) for v in step.value]
-                self._write_block(
-                    axis, step.to, values, what=what + (" (edge, sent once)" if step.edge else "")
-                )
+                if step.skip_unchanged and self._unchanged(axis, step.to[0], values[0]):
+                    continue
+                self._write(axis, step.to, values, block=step.op == "write_block",
+                            what=what + (" (edge, sent once)" if step.edge else ""))
             elif step.op == "wait" and step.until:
                 timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_any(axis, command, step.until, timeout)
@@ -933,8 +899,8 @@ class AxisController:
             if state in (DriveState.FAULT, DriveState.FAULT_REACTION_ACTIVE, None):
                 what = f"statusword {word:#06x}, no CiA 402 state" if state is None \
                     else state.value
-                raise DeviceFault(f"{command} {axis}: the drive reports {what}; reset its "
-                                  "alarm first", code="fault", where=self.where(axis))
+                raise self._fault(axis, f"{command} {axis}: the drive reports {what}; reset "
+                                  "its alarm first", "fault")
             assert state is not None
             if state is DriveState.NOT_READY_TO_SWITCH_ON or (
                     state is DriveState.QUICK_STOP_ACTIVE and not word & TARGET_REACHED):
@@ -949,8 +915,8 @@ class AxisController:
                               what=f"{command} {axis} (transition {transition})")
             word = self._await_statusword(axis, command, step, _left(state),
                                           f"leaving {state.value}", timeout_s)
-        raise DeviceFault(f"{command} {axis}: statusword {word:#06x} after every transition "
-                          "to operation enabled", code="servo_off", where=self.where(axis))
+        raise self._fault(axis, f"{command} {axis}: statusword {word:#06x} after every "
+                          "transition to operation enabled", "servo_off")
 
     def _await_statusword(self, axis: str, command: str, step: CommandStep,
                           done: Callable[[int], bool], awaited: str, timeout_s: float) -> int:
@@ -995,9 +961,8 @@ class AxisController:
                    for alternative in until):
                 return status
             if status.fault and not tolerate_fault:
-                raise DeviceFault(
-                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting{waiting}",
-                    code=status.alarm_code, where=self.where(axis))
+                raise self._fault(axis, f"{command} {axis}: alarm {status.alarm_code:#x} while "
+                                  f"waiting{waiting}", status.alarm_code)
             if time.monotonic() >= deadline:
                 missed, seen = (late, "") if late else _unmet(until, status.flags)
                 raise DeviceTimeout(f"{command} {axis}: {missed} within {timeout_s:g} s{seen}",
@@ -1015,11 +980,8 @@ class AxisController:
         while True:
             status = self._status(axis)
             if status.fault:
-                raise DeviceFault(
-                    f"{command} {axis}: refused with alarm {status.alarm_code:#x}",
-                    code=status.alarm_code,
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"{command} {axis}: refused with alarm "
+                                  f"{status.alarm_code:#x}", status.alarm_code)
             if any(status.flags[f] for f in step.any):
                 return status
             seen = self.counter_mm(status)
