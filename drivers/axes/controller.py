@@ -34,7 +34,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from numbers import Real
 from typing import Any, Literal
 
@@ -183,10 +183,9 @@ class AxisController:
         offsets = dict.fromkeys(self.axes, 0.0)
         if given:
             if self.profile.offset.kind != "software":
-                raise ValueError(
-                    f"profile {self.profile.name!r} keeps offsets in the drive "
-                    f"({self.profile.offset.kind}); a software offset table does not apply"
-                )
+                raise ValueError(f"profile {self.profile.name!r} keeps offsets in the drive "
+                                 f"({self.profile.offset.kind}); a software offset table does "
+                                 "not apply")
             offsets.update(self._per_axis(given, "software offsets"))
         return offsets
 
@@ -223,10 +222,8 @@ class AxisController:
     def read_positions(self, axes: Iterable[str] | None = None) -> dict[str, float]:
         """Joint coordinates q in mm (one position read per axis)."""
         name = self.profile.status.position
-        return {
-            axis: self._counter_to_q(axis, float(self.read_raw(axis, name)))
-            for axis in self.chosen_axes(axes)
-        }
+        return {axis: self._counter_to_q(axis, float(self.read_raw(axis, name)))
+                for axis in self.chosen_axes(axes)}
 
     def read_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
         """Alarm / error code per axis (0 = none)."""
@@ -265,10 +262,8 @@ class AxisController:
         params: dict[str, dict[str, Any]] = {}
         for axis in chosen:
             self._homed_latch[axis] = False
-            params[axis] = {
-                "home_position_mm": self.counter_at_home_mm(axis),
-                "home_timeout_s": timeout_s,
-            }
+            params[axis] = {"home_position_mm": self.counter_at_home_mm(axis),
+                            "home_timeout_s": timeout_s}
         self._run("home", chosen, per_axis=params)
         for axis in chosen:
             self._homed_latch[axis] = True
@@ -300,10 +295,8 @@ class AxisController:
             low, high = self.soft_limits_mm
             for axis, q in targets.items():
                 if not low <= q <= high:
-                    raise ValueError(
-                        f"{self.where(axis)}: move {axis} to {q:.3f} mm refused: outside the "
-                        f"soft limits [{low:g}, {high:g}] mm"
-                    )
+                    raise ValueError(f"{self.where(axis)}: move {axis} to {q:.3f} mm refused: "
+                                     f"outside the soft limits [{low:g}, {high:g}] mm")
         # Waiting, the positions are read on arrival: the check needs the flags only.
         blocks = self._flag_blocks if wait else self._blocks
         before = {axis: self._poll(axis, blocks) for axis in targets}
@@ -320,13 +313,10 @@ class AxisController:
                 raise self._fault(axis, f"move {axis} refused: axis not homed; home first",
                                   "not_homed")
         speed = speed_mm_s or self.speed_mm_s
-        params = {
-            axis: {"target_mm": self._q_to_counter(axis, q), "speed_mm_s": speed}
-            for axis, q in targets.items()
-        }
-        log.info(
-            "move %s at %.1f mm/s", ", ".join(f"{a}={q:.3f}" for a, q in targets.items()), speed
-        )
+        params = {axis: {"target_mm": self._q_to_counter(axis, q), "speed_mm_s": speed}
+                  for axis, q in targets.items()}
+        log.info("move %s at %.1f mm/s", ", ".join(f"{a}={q:.3f}" for a, q in targets.items()),
+                 speed)
         try:
             self._run("move", self._longest_travel_first(targets), per_axis=params)
             if not wait:
@@ -437,15 +427,10 @@ class AxisController:
                          arrived: dict[str, AxisStatus], timeout: float) -> DeviceTimeout:
         """The timeout naming each axis not arrived: where it is, its target, its flags."""
         pending = [self._status(a) for a in targets if a not in arrived]
-        detail = "; ".join(
-            f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
-            f"moving={s.moving}, in_position={s.in_position}"
-            for s in pending
-        )
-        return DeviceTimeout(
-            f"not in position within {timeout:g} s: {detail}",
-            where=self.where(pending[0].axis),
-        )
+        detail = "; ".join(f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
+                           f"moving={s.moving}, in_position={s.in_position}" for s in pending)
+        return DeviceTimeout(f"not in position within {timeout:g} s: {detail}",
+                             where=self.where(pending[0].axis))
 
     def stop(self, axes: Iterable[str] | None = None) -> None:
         """Stop every axis (all are tried even if one fails; the first error is raised after)."""
@@ -519,18 +504,14 @@ class AxisController:
         margin = self.profile.limits.margin_mm
         too_large = {a: o for a, o in new.items() if abs(o) > margin}
         if too_large and not force:
-            raise ValueError(
-                f"offsets {too_large} exceed the {margin:g} mm margin of profile "
-                f"{self.profile.name!r}; pass force=True to write them anyway"
-            )
+            raise ValueError(f"offsets {too_large} exceed the {margin:g} mm margin of profile "
+                             f"{self.profile.name!r}; pass force=True to write them anyway")
         old = self.read_offsets(new)
         spec = self.profile.offset
         if spec.kind == "software":
             self._software_offsets.update(new)
-            log.info(
-                "software offsets %s",
-                ", ".join(f"{a}: {old[a]:+.4f} -> {o:+.4f} mm" for a, o in new.items()),
-            )
+            log.info("software offsets %s",
+                     ", ".join(f"{a}: {old[a]:+.4f} -> {o:+.4f} mm" for a, o in new.items()))
             return OffsetChange(old, new, "now", written_to_device=False)
         if spec.write_when_disabled:
             on = [a for a, s in self.read_status(new).items() if s.servo_on]
@@ -541,14 +522,8 @@ class AxisController:
         stored: dict[str, float] = {}
         for axis, offset in new.items():
             register_mm = -spec.sign * offset
-            log.info(
-                "%s: home offset %s: %+.4f -> %+.4f mm (object %+.4f mm)",
-                self.where(axis),
-                axis,
-                old[axis],
-                offset,
-                register_mm,
-            )
+            log.info("%s: home offset %s: %+.4f -> %+.4f mm (object %+.4f mm)",
+                     self.where(axis), axis, old[axis], offset, register_mm)
             self._write_value(axis, spec.value, register_mm, what=f"write_offsets {axis}")
             back = float(self.read_raw(axis, spec.value))
             if abs(back - register_mm) > tolerance / 2:
@@ -562,15 +537,12 @@ class AxisController:
         """Store the drive parameters in non-volatile memory (explicit request only)."""
         spec = self.profile.nvm
         if spec.kind == "none":
-            raise DriverError(
-                f"profile {self.profile.name!r} has nothing to save to non-volatile "
-                "memory (offsets are kept in the tool's configuration)"
-            )
+            raise DriverError(f"profile {self.profile.name!r} has nothing to save to "
+                              "non-volatile memory (offsets are kept in the tool's "
+                              "configuration)")
         for axis in self.chosen_axes(axes):
-            log.warning(
-                "%s: saving parameters to non-volatile memory (limited write endurance)",
-                self.where(axis),
-            )
+            log.warning("%s: saving parameters to non-volatile memory (limited write "
+                        "endurance)", self.where(axis))
             self._write_value(axis, spec.value, spec.signature, what=f"save_to_nvm {axis}")
 
     # ================================================================ for the pre-flight check
@@ -701,10 +673,8 @@ class AxisController:
         return values
 
     def _make_poll(self, axis: str, values: Mapping[str, float | int]) -> _Poll:
-        flags = {
-            name: self.profile.flag_state(name, int(values[f.value]))
-            for name, f in self.profile.flags.items()
-        }
+        flags = {name: self.profile.flag_state(name, int(values[f.value]))
+                 for name, f in self.profile.flags.items()}
         fault = any(flags[f] for f in self.profile.status.fault_flags)
         if fault:
             self._forget_written([axis])
@@ -724,29 +694,19 @@ class AxisController:
         else:
             alarm_code = int(self.read_raw(axis, alarm_name)) if fault else 0
         position = values.get(self.profile.status.position)
-        return _Poll(
-            axis=axis,
-            flags=flags,
-            fault=fault,
-            alarm_code=alarm_code,
-            homed=flags["homed"] if "homed" in flags else self._latched_homed(axis),
-            position_mm=None if position is None else self._counter_to_q(axis, float(position)),
-        )
+        return _Poll(axis, flags, fault, alarm_code,
+                     homed=flags["homed"] if "homed" in flags else self._latched_homed(axis),
+                     position_mm=None if position is None
+                     else self._counter_to_q(axis, float(position)))
 
     def _as_status(self, poll: _Poll) -> AxisStatus:
         assert poll.position_mm is not None, "a status needs the position read"
         self._last_seen_q[poll.axis] = poll.position_mm
         return AxisStatus(
             axis=poll.axis,
-            position_mm=poll.position_mm,
-            in_position=poll.flags["in_position"],
-            moving=poll.flags["moving"],
-            servo_on=poll.flags["servo_on"],
-            homed=poll.homed,
-            alarm_code=poll.alarm_code,
-            fault=poll.fault,
-            flags=poll.flags,
-        )
+            position_mm=poll.position_mm, in_position=poll.flags["in_position"],
+            moving=poll.flags["moving"], servo_on=poll.flags["servo_on"], homed=poll.homed,
+            alarm_code=poll.alarm_code, fault=poll.fault, flags=poll.flags)
 
     def counter_mm(self, status: AxisStatus) -> float:
         """The controller's own position counter behind a status (software offset added)."""
@@ -819,15 +779,9 @@ class AxisController:
     # ================================================================ internals: sequences
 
     def _params(self, axis: str, given: Mapping[str, Any]) -> dict[str, Any]:
-        timing = self.profile.timing
-        params: dict[str, Any] = {
-            "band_mm": self.profile.motion.in_position_band_mm,
-            "speed_mm_s": self.speed_mm_s,
-            "ack_timeout_s": timing.ack_timeout_s,
-            "enable_timeout_s": timing.enable_timeout_s,
-            "home_timeout_s": timing.home_timeout_s,
-            "move_timeout_s": timing.move_timeout_s,
-        }
+        params: dict[str, Any] = {"band_mm": self.profile.motion.in_position_band_mm,
+                                  "speed_mm_s": self.speed_mm_s,
+                                  **asdict(self.profile.timing)}  # the timeouts
         params.update({k: v for k, v in given.items() if v is not None})
         return params
 
@@ -839,10 +793,8 @@ class AxisController:
         per_axis: Mapping[str, Mapping[str, Any]] | None = None,
     ) -> None:
         """Run a profile command: start steps axis after axis, then finish steps."""
-        params = {
-            axis: self._params(axis, {**(common or {}), **(per_axis or {}).get(axis, {})})
-            for axis in axes
-        }
+        params = {axis: self._params(axis, {**(common or {}), **(per_axis or {}).get(axis, {})})
+                  for axis in axes}
         spec = self.profile.commands[command]
         for axis in axes:
             self._run_steps(command, spec.start, axis, params[axis])
@@ -990,12 +942,9 @@ class AxisController:
             if status.flags[step.done] and abs(at) > tolerance and abs(seen + at) <= tolerance:
                 self._refuse_mirrored_home(axis, command, seen, at)
             if time.monotonic() >= deadline:
-                raise DeviceTimeout(
-                    f"{command} {axis}: not acknowledged within {timeout_s:g} s "
-                    f"(none of {', '.join(step.any)} set, not at {at:.3f} mm); "
-                    "the command was not re-sent",
-                    where=self.where(axis),
-                )
+                raise DeviceTimeout(f"{command} {axis}: not acknowledged within {timeout_s:g} s "
+                                    f"(none of {', '.join(step.any)} set, not at {at:.3f} mm); "
+                                    "the command was not re-sent", where=self.where(axis))
             time.sleep(self.poll_interval_s)
 
 
