@@ -59,10 +59,8 @@ POLL_S = 0.02
 # Decimal places a gauge shows, by display unit. The sets do not overlap, so a
 # gauge switched to inch (0.0001 in / 0.00005 in) cannot pass as a mm gauge at
 # 0.001 mm or coarser. A 0.0001 mm gauge needs ``decimals=4`` spelled out.
-DEFAULT_DECIMALS: dict[str, frozenset[int]] = {
-    "mm": frozenset({1, 2, 3}),
-    "inch": frozenset({4, 5}),
-}
+DEFAULT_DECIMALS: dict[str, frozenset[int]] = {"mm": frozenset({1, 2, 3}),
+                                               "inch": frozenset({4, 5})}
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,15 +143,9 @@ def accepted_decimals(
     other: Unit = "inch" if unit == "mm" else "mm"
     overlap = chosen & DEFAULT_DECIMALS[other]
     if overlap:
-        log.warning(
-            "%s: configured %s with %s decimals, a layout an %s display also uses: "
-            "a gauge switched to %s would not be detected",
-            where,
-            unit,
-            sorted(overlap),
-            other,
-            other,
-        )
+        log.warning("%s: configured %s with %s decimals, a layout an %s display also uses: "
+                    "a gauge switched to %s would not be detected",
+                    where, unit, sorted(overlap), other, other)
     return chosen
 
 
@@ -164,12 +156,10 @@ def check_decimals(
     if decimals in accepted:
         return
     looks_like: Unit = "inch" if decimals in DEFAULT_DECIMALS["inch"] else "mm"
-    raise UnitError(
-        f"frame shows {decimals} decimals but the gauge is configured in {unit} "
-        f"(expects {sorted(accepted)} decimals); the gauge display is probably in "
-        f"{looks_like}: set it back to {unit} or correct the configuration",
-        where=where,
-    )
+    raise UnitError(f"frame shows {decimals} decimals but the gauge is configured in {unit} "
+                    f"(expects {sorted(accepted)} decimals); the gauge display is probably in "
+                    f"{looks_like}: set it back to {unit} or correct the configuration",
+                    where=where)
 
 
 def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
@@ -177,8 +167,21 @@ def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
     """The reading of a decoded frame whose decimals must fit the configured unit (the
     frame itself carries none), stamped now."""
     check_decimals(decimals, unit, accepted, where=where, frame=frame)
+    return reading_of(value, unit, frame, channel=channel, where=where)
+
+
+def reading_of(value: Decimal, unit: Unit, frame: bytes, *, channel: str,
+               where: str) -> Reading:
+    """The reading of a decoded frame's value, displayed in ``unit``, stamped now."""
     return Reading(value_mm=to_mm(value, unit), frame=frame, time_s=time.time(),
                    channel=channel, unit=unit, where=where)
+
+
+def warn_other_unit(shown: Unit, configured: Unit, *, where: str) -> None:
+    """Said once a frame carrying its unit shows another than the configured one."""
+    if shown != configured:
+        log.warning("%s: gauge displays %s but is configured %s; values are converted "
+                    "from the unit in each frame", where, shown, configured)
 
 
 def to_mm(value: Decimal, unit: Unit) -> float:
@@ -222,13 +225,10 @@ def flag_line_errors(link: serial.Serial, *, where: str) -> bool:
 def refuse_line_errors(frame: bytes, *, where: str) -> bytes:
     """``frame`` unless it holds a byte the kernel flagged (:func:`flag_line_errors`)."""
     if LINE_ERROR_BYTE in frame:
-        raise FrameError(
-            "a byte arrived with a parity or framing error (read as NUL): check the line "
-            "settings (baud rate, data bits, parity, stop bits) against the gauge's and "
-            "the cable; a break (cable plugged in or powered up) reads the same",
-            where=where,
-            frame=frame,
-        )
+        raise FrameError("a byte arrived with a parity or framing error (read as NUL): check "
+                         "the line settings (baud rate, data bits, parity, stop bits) against "
+                         "the gauge's and the cable; a break (cable plugged in or powered up) "
+                         "reads the same", where=where, frame=frame)
     return frame
 
 
@@ -238,10 +238,8 @@ def link_errors(where: str, action: str) -> Iterator[None]:
     try:
         yield
     except _LINK_FAILURES as exc:
-        raise LinkError(
-            f"link lost while {action} ({exc}); was the gauge or adapter unplugged?",
-            where=where,
-        ) from exc
+        raise LinkError(f"link lost while {action} ({exc}); was the gauge or adapter "
+                        "unplugged?", where=where) from exc
 
 
 class SerialIndicator:

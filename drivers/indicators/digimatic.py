@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import logging
 import re
-import time
 from dataclasses import dataclass
 from decimal import ROUND_HALF_EVEN, Decimal
 from typing import Literal
@@ -51,7 +50,14 @@ import serial
 
 from ogacq_drivers.errors import DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
-from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
+from ogacq_drivers.indicators.base import (
+    Reading,
+    SerialIndicator,
+    Unit,
+    check_unit,
+    reading_of,
+    warn_other_unit,
+)
 
 log = logging.getLogger(__name__)
 
@@ -204,30 +210,14 @@ class DigimaticBridge(SerialIndicator):
             self._send(POLL_REQUEST)
         frame, decoded = self._read_decoded(deadline, decode_frame)
         self._note_unit(decoded)
-        return Reading(
-            value_mm=to_mm(decoded.value, decoded.unit),
-            frame=frame,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=decoded.unit,
-            where=self.where,
-        )
+        return reading_of(decoded.value, decoded.unit, frame, channel=self.channel,
+                          where=self.where)
 
     def _note_unit(self, decoded: DigimaticFrame) -> None:
         if decoded.unit_nibble == self._last_unit_nibble:
             return
         self._last_unit_nibble = decoded.unit_nibble
         if decoded.unit == "inch":
-            log.info(
-                "%s: gauge reports inch (unit nibble %s); converting to mm",
-                self.where,
-                decoded.unit_nibble,
-            )
-        if decoded.unit != self.unit:
-            log.warning(
-                "%s: gauge displays %s but is configured %s; values are converted from "
-                "the unit in each frame",
-                self.where,
-                decoded.unit,
-                self.unit,
-            )
+            log.info("%s: gauge reports inch (unit nibble %s); converting to mm", self.where,
+                     decoded.unit_nibble)
+        warn_other_unit(decoded.unit, self.unit, where=self.where)
