@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from decimal import Decimal
-from typing import Literal, Protocol, TypeVar, runtime_checkable
+from typing import Literal, Protocol, Self, TypeVar, runtime_checkable
 
 import serial
 
@@ -242,7 +242,34 @@ def link_errors(where: str, action: str) -> Iterator[None]:
                         "unplugged?", where=where) from exc
 
 
-class SerialIndicator:
+class IndicatorDriver:
+    """What every indicator driver shares: the ``where`` its errors name, its read
+    deadline, and being closed at the end of a ``with`` block."""
+
+    #: Reply deadline when ``read`` is given none.
+    default_timeout_s: float = 1.0
+
+    def __init__(self, *, where: str, timeout_s: float | None) -> None:
+        self.where = where
+        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
+
+    def close(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(where={self.where!r})"
+
+    def _deadline(self, timeout_s: float | None) -> float:
+        return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+
+
+class SerialIndicator(IndicatorDriver):
     """Shared plumbing of the serial indicator drivers.
 
     The driver receives an open link (it never opens one) and a ``where`` name
@@ -253,9 +280,6 @@ class SerialIndicator:
     pair) are skipped. Every transport failure becomes a :class:`LinkError`.
     """
 
-    #: Reply deadline when ``read`` is given none.
-    default_timeout_s: float = 1.0
-
     def __init__(
         self,
         link: serial.Serial,
@@ -264,9 +288,8 @@ class SerialIndicator:
         timeout_s: float | None = None,
         owns_link: bool = False,
     ) -> None:
+        super().__init__(where=where, timeout_s=timeout_s)
         self.link = link
-        self.where = where
-        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
         self.owns_link = owns_link
         if link.timeout is None or link.timeout == 0 or link.timeout > 0.1:
             # Reads block at most link.timeout between deadline checks: a
@@ -292,18 +315,6 @@ class SerialIndicator:
         """Close the link if this driver opened it (through the factory)."""
         if self.owns_link:
             self.link.close()
-
-    def __enter__(self) -> SerialIndicator:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}(where={self.where!r})"
-
-    def _deadline(self, timeout_s: float | None) -> float:
-        return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
 
     def _send(self, data: bytes) -> None:
         # No flush() (tcdrain): write() already hands the bytes to the driver,

@@ -174,8 +174,6 @@ class DigimaticBridge(SerialIndicator):
     own unit, which is what the conversion uses (a mismatch is logged).
     """
 
-    default_timeout_s = 1.0
-
     def __init__(
         self,
         link: serial.Serial,

@@ -179,8 +179,6 @@ class Mitutoyo01A(SerialIndicator):
     as they are used from one thread.
     """
 
-    default_timeout_s = 1.0
-
     def __init__(
         self,
         link: serial.Serial,

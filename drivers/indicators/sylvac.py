@@ -188,8 +188,6 @@ class SylvacOptoRS(SerialIndicator):
     places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3).
     """
 
-    default_timeout_s = 1.0
-
     def __init__(
         self,
         link: serial.Serial,

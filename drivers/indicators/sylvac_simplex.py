@@ -38,7 +38,6 @@ REQUEST_PULSE_S = 0.12
 class SylvacSimplex(SylvacOptoRS):
     """A Sylvac gauge on an Opto-RS simplex cable (DTR-pulse request)."""
 
-    default_timeout_s = 1.0
     request_pulse_s = REQUEST_PULSE_S
 
     def _power_cable(self) -> None:

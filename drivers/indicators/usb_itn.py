@@ -44,6 +44,7 @@ from typing import Any
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
 from ogacq_drivers.indicators.base import (
+    IndicatorDriver,
     Reading,
     Unit,
     accepted_decimals,
@@ -137,10 +138,8 @@ def find_cables() -> list[FoundPort]:
             for dev in usb.core.find(find_all=True, idVendor=VENDOR_ID, idProduct=PRODUCT_ID)]
 
 
-class UsbItn:
+class UsbItn(IndicatorDriver):
     """A gauge on a USB-ITN cable, in data mode (an :class:`Indicator`)."""
-
-    default_timeout_s = 1.0
 
     def __init__(
         self,
@@ -153,11 +152,10 @@ class UsbItn:
         timeout_s: float | None = None,
         busy_retry_delay_s: float = 0.05,
     ) -> None:
+        super().__init__(where=where, timeout_s=timeout_s)
         self.device = device
-        self.where = where
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
-        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
         self.busy_retry_delay_s = busy_retry_delay_s
         self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._buffer = bytearray()
@@ -192,7 +190,7 @@ class UsbItn:
     # ------------------------------------------------------------ the contract
     def read(self, timeout_s: float | None = None) -> Reading:
         """Ask for a value and decode it; ``918`` (busy) is asked again until the deadline."""
-        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        deadline = self._deadline(timeout_s)
         busy: DeviceBusy | None = None
         while True:
             try:
@@ -210,8 +208,7 @@ class UsbItn:
 
     def device_info(self, timeout_s: float | None = None) -> str:
         """The cable's identification (``V``), without the leading ``1``."""
-        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
-        message = self._command(INFO_COMMAND, deadline)
+        message = self._command(INFO_COMMAND, self._deadline(timeout_s))
         if message.kind == MESSAGE_STATUS:
             decode_reply(message.raw, where=self.where)  # raises the classified error
         if message.kind != MESSAGE_INFO:
@@ -236,15 +233,6 @@ class UsbItn:
                 self._detached = False
         except Exception as exc:  # closing a vanished device must not hide the first error
             log.debug("%s: releasing the USB device: %s", self.where, exc)
-
-    def __enter__(self) -> UsbItn:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
-
-    def __repr__(self) -> str:
-        return f"UsbItn(where={self.where!r})"
 
     # ---------------------------------------------------------------- the wire
     def _exchange(self, deadline: float) -> Reading:
