@@ -102,9 +102,8 @@ def encode_frame(
     elif unit == "inch" and inch_nibble in ("1", "8"):
         unit_nibble = inch_nibble
     else:
-        raise ValueError(
-            f"unit must be 'mm' or 'inch' (inch nibble 1 or 8), got {unit!r}/{inch_nibble!r}"
-        )
+        raise ValueError(f"unit must be 'mm' or 'inch' (inch nibble 1 or 8), got "
+                         f"{unit!r}/{inch_nibble!r}")
     exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
     shown = exact.quantize(Decimal(1).scaleb(-decimals), rounding=ROUND_HALF_EVEN)
     digits = int(abs(shown).scaleb(decimals))
@@ -122,20 +121,14 @@ def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:
     match = _FRAME.fullmatch(frame)
     if match is None:
         raise FrameError("not a Digimatic frame", where=where, frame=frame)
-    high, sign, digits, point, unit_nibble = (
-        (group or b"").decode("ascii") for group in match.groups()
-    )
+    high, sign, digits, point, unit_nibble = ((group or b"").decode("ascii")
+                                              for group in match.groups())
     decimals = int(point)
     value = Decimal(int(high + digits)).scaleb(-decimals)
     if sign == "8":
         value = -value
-    return DigimaticFrame(
-        value=value,
-        decimals=decimals,
-        unit=UNIT_NIBBLES[unit_nibble],
-        unit_nibble=unit_nibble,
-        digimatic2=match.group(1) is not None,
-    )
+    return DigimaticFrame(value=value, decimals=decimals, unit=UNIT_NIBBLES[unit_nibble],
+                          unit_nibble=unit_nibble, digimatic2=match.group(1) is not None)
 
 
 def decode(frame: bytes, *, where: str = "") -> Decoded:

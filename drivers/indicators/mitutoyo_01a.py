@@ -123,9 +123,8 @@ def decode_reply(frame: bytes, *, where: str = "") -> Reply01A:
         raise FrameError("not a 01A reply", where=where, frame=frame)
     channel, sign, field = match.groups()
     if not _VALUE_FIELD.fullmatch(field):
-        raise FrameError(
-            "01A value field is not digits with one decimal point", where=where, frame=frame
-        )
+        raise FrameError("01A value field is not digits with one decimal point", where=where,
+                         frame=frame)
     try:
         value = Decimal(field.decode("ascii"))
     except InvalidOperation as exc:  # unreachable after the regex; kept as a guard
@@ -226,9 +225,8 @@ class Mitutoyo01A(SerialIndicator):
         if _ERROR.fullmatch(frame):
             decode_reply(frame, where=self.where)  # raises the classified error
         if not _PRINTABLE.fullmatch(frame):
-            raise FrameError(
-                "device information is not printable text", where=self.where, frame=frame
-            )
+            raise FrameError("device information is not printable text", where=self.where,
+                             frame=frame)
         return frame[:-1].decode("ascii").strip()
 
     def _exchange(self, deadline: float) -> Reading:
@@ -237,11 +235,8 @@ class Mitutoyo01A(SerialIndicator):
         frame = self._read_frame(deadline)
         reply = decode_reply(frame, where=self.where)
         if reply.channel != self.channel:
-            raise FrameError(
-                f"reply from channel {reply.channel}, asked channel {self.channel}",
-                where=self.where,
-                frame=frame,
-            )
+            raise FrameError(f"reply from channel {reply.channel}, asked channel {self.channel}",
+                             where=self.where, frame=frame)
         return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,
                                where=self.where)

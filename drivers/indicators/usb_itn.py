@@ -181,11 +181,9 @@ class UsbItn(IndicatorDriver):
             dev.ctrl_transfer(VENDOR_OUT, REQUEST_DATA_MODE, DATA_MODE_KEY, 0)
             answer = bytes(dev.ctrl_transfer(VENDOR_IN, REQUEST_CONFIRM, 0, 0, 1))
         if answer != bytes([CONFIRMED]):
-            raise DriverError(
-                f"the USB-ITN did not confirm data mode (answered {answer!r}, expected "
-                f"{bytes([CONFIRMED])!r}); unplug and replug the cable",
-                where=self.where,
-            )
+            raise DriverError(f"the USB-ITN did not confirm data mode (answered {answer!r}, "
+                              f"expected {bytes([CONFIRMED])!r}); unplug and replug the cable",
+                              where=self.where)
 
     # ------------------------------------------------------------ the contract
     def read(self, timeout_s: float | None = None) -> Reading:
@@ -238,9 +236,8 @@ class UsbItn(IndicatorDriver):
     def _exchange(self, deadline: float) -> Reading:
         message = self._command(READ_COMMAND, deadline)
         if message.kind == MESSAGE_INFO:
-            raise FrameError(
-                "device information where a value was asked", where=self.where, frame=message.raw
-            )
+            raise FrameError("device information where a value was asked", where=self.where,
+                             frame=message.raw)
         reply = cable_reply(message.raw, where=self.where)  # 91x raise, classified
         return checked_reading(reply.value, reply.decimals, message.raw, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,
@@ -257,18 +254,14 @@ class UsbItn(IndicatorDriver):
             if len(self._buffer) > MAX_MESSAGE_BYTES:
                 junk = bytes(self._buffer)
                 self._buffer.clear()
-                raise FrameError(
-                    f"no CR within {MAX_MESSAGE_BYTES} bytes", where=self.where, frame=junk
-                )
+                raise FrameError(f"no CR within {MAX_MESSAGE_BYTES} bytes", where=self.where,
+                                 frame=junk)
             remaining_ms = int((deadline - time.monotonic()) * 1000)
             if remaining_ms <= 0:
                 partial = bytes(self._buffer)
                 self._buffer.clear()
-                detail = (
-                    f"incomplete reply at the deadline, got {partial!r}"
-                    if partial
-                    else "no reply before the deadline"
-                )
+                detail = (f"incomplete reply at the deadline, got {partial!r}" if partial
+                          else "no reply before the deadline")
                 raise DeviceTimeout(detail, where=self.where)
             self._packet(timeout_ms=min(POLL_MS, remaining_ms))
         raw, _, rest = bytes(self._buffer).partition(b"\r")

@@ -61,19 +61,7 @@ KEY_CHARS: dict[int, str] = {
     **{code: str(digit % 10) for digit, code in enumerate(range(2, 12), 1)},  # KEY_1..KEY_0
     12: "-",  # KEY_MINUS
     52: ".",  # KEY_DOT
-    71: "7",
-    72: "8",
-    73: "9",
-    74: "-",
-    75: "4",
-    76: "5",
-    77: "6",
-    78: "+",  # keypad
-    79: "1",
-    80: "2",
-    81: "3",
-    82: "0",
-    83: ".",
+    **dict(zip(range(71, 84), "789-456+1230.", strict=True)),  # the keypad, KEY_KP7..KEY_KPDOT
 }
 CHAR_KEYS: dict[str, int] = {"-": 12, ".": 52, **{str(d % 10): 1 + d for d in range(1, 11)}}
 MAX_LINE = 32  # characters before Enter; more is garbage

@@ -174,38 +174,28 @@ def decode_frame(frame: bytes, *, where: str = "") -> UWaveData | UWaveStatus:
     if status is not None:
         group, channel, ident, code = (part.decode("ascii") for part in status.groups())
         meaning = STATUS_MEANINGS.get(code, f"unknown status {code}")
-        return UWaveStatus(
-            group=group, channel=channel, code=code, meaning=meaning, transmitter_id=ident
-        )
+        return UWaveStatus(group=group, channel=channel, code=code, meaning=meaning,
+                           transmitter_id=ident)
     data = _DATA.fullmatch(frame)
     if data is None:
         raise FrameError("not a U-WAVE data or status frame", where=where, frame=frame)
     group, channel, sign, field, letter = data.groups()
     if not _VALUE_FIELD.fullmatch(field):
-        raise FrameError(
-            "U-WAVE value is not digits with one decimal point", where=where, frame=frame
-        )
+        raise FrameError("U-WAVE value is not digits with one decimal point", where=where,
+                         frame=frame)
     value = Decimal(field.decode("ascii"))
     if sign == b"-":
         value = -value
     decimals = len(field) - field.index(b".") - 1 if b"." in field else 0
-    return UWaveData(
-        group=group.decode("ascii"),
-        channel=channel.decode("ascii"),
-        value=value,
-        decimals=decimals,
-        unit=UNIT_LETTERS[letter],
-    )
+    return UWaveData(group=group.decode("ascii"), channel=channel.decode("ascii"), value=value,
+                     decimals=decimals, unit=UNIT_LETTERS[letter])
 
 
 def status_fault(status: UWaveStatus, *, where: str = "") -> DeviceFault:
     """The error a status frame stops a reading with."""
     ident = "" if status.transmitter_id == UNKNOWN_ID else f", id {status.transmitter_id}"
-    return DeviceFault(
-        f"U-WAVE status {status.code}: {status.meaning} (transmitter {status.gauge_id}{ident})",
-        code=status.code,
-        where=where,
-    )
+    return DeviceFault(f"U-WAVE status {status.code}: {status.meaning} (transmitter "
+                       f"{status.gauge_id}{ident})", code=status.code, where=where)
 
 
 def decode(frame: bytes, *, where: str = "") -> Decoded:
