@@ -629,8 +629,7 @@ class GaugeEndpoint(SimulatedGauge):
         self.byte_time_s = settings.byte_time_s / line_speed
         if callable(value_source):
             self.channels: dict[str, ValueSource] = {
-                channel if channel is not None else device_class.DEFAULT_CHANNEL: value_source
-            }
+                channel if channel is not None else device_class.DEFAULT_CHANNEL: value_source}
         else:
             self.channels = dict(value_source)
             if not self.channels:
@@ -646,9 +645,8 @@ class GaugeEndpoint(SimulatedGauge):
         self.unplugged = False
         self._faults: dict[Fault, _FaultState] = {}
         self._lock = threading.Lock()
-        self._commands: queue.SimpleQueue[tuple[Callable[[], None], threading.Event]] = (
-            queue.SimpleQueue()
-        )
+        self._commands: queue.SimpleQueue[tuple[Callable[[], None], threading.Event]]
+        self._commands = queue.SimpleQueue()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._transport: _PtyTransport | _SocketTransport | None = None
@@ -884,13 +882,10 @@ class GaugeEndpoint(SimulatedGauge):
         """The per-reply faults applying to this reply; counts are consumed."""
         with self._lock:
             active = dict(self._faults)
-            outcome = next(
-                (k for k in (Fault.UNPLUG, Fault.SILENCE, Fault.BUSY, Fault.ERROR) if k in active),
-                None,
-            )
-            applied: dict[Fault, _FaultState] = {
-                k: v for k, v in active.items() if k in (Fault.GARBLED, Fault.SPLIT)
-            }
+            outcome = next((k for k in (Fault.UNPLUG, Fault.SILENCE, Fault.BUSY, Fault.ERROR)
+                            if k in active), None)
+            applied: dict[Fault, _FaultState] = {k: v for k, v in active.items()
+                                                 if k in (Fault.GARBLED, Fault.SPLIT)}
             if outcome is not None:
                 applied[outcome] = active[outcome]
             for kind, state in applied.items():

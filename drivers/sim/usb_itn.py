@@ -50,70 +50,25 @@ class _Stall(Exception):
 
 
 def _descriptors(serial_index: int) -> dict[str, Any]:
-    endpoint = {
-        "bLength": 7,
-        "bDescriptorType": 5,
-        "bEndpointAddress": 0x81,
-        "bmAttributes": 3,
-        "wMaxPacketSize": PACKET_BYTES,
-        "bInterval": 10,
-        "bRefresh": 0,
-        "bSynchAddress": 0,
-        "extra_descriptors": [],
-    }
-    interface = {
-        "bLength": 9,
-        "bDescriptorType": 4,
-        "bInterfaceNumber": 0,
-        "bAlternateSetting": 0,
-        "bNumEndpoints": 1,
-        "bInterfaceClass": 3,
-        "bInterfaceSubClass": 1,
-        "bInterfaceProtocol": 1,
-        "iInterface": 0,
-        "extra_descriptors": [],
-    }  # a HID boot keyboard, as in keyboard mode
-    config = {
-        "bLength": 9,
-        "bDescriptorType": 2,
-        "wTotalLength": 34,
-        "bNumInterfaces": 1,
-        "bConfigurationValue": 1,
-        "iConfiguration": 0,
-        "bmAttributes": 0x80,
-        "bMaxPower": 50,
-        "extra_descriptors": [],
-    }
-    device = {
-        "bLength": 18,
-        "bDescriptorType": 1,
-        "bcdUSB": 0x0110,
-        "bDeviceClass": 0,
-        "bDeviceSubClass": 0,
-        "bDeviceProtocol": 0,
-        "bMaxPacketSize0": 8,
-        "idVendor": usb_itn.VENDOR_ID,
-        "idProduct": usb_itn.PRODUCT_ID,
-        "bcdDevice": 0x0100,
-        "iManufacturer": 1,
-        "iProduct": 2,
-        "iSerialNumber": serial_index,
-        "bNumConfigurations": 1,
-        "address": 7,
-        "bus": 1,
-        "port_number": 1,
-        "port_numbers": [1],
-        "speed": 2,
-    }
-    return {
-        "device": device,
-        "configurations": [
-            {
-                "descriptor": config,
-                "interfaces": [{"descriptor": interface, "endpoints": [endpoint]}],
-            }
-        ],
-    }
+    """The cable's device, configuration, interface and endpoint descriptors (USB 2.0
+    §9.6, as pyusb's backend hands them over)."""
+    endpoint = dict(bLength=7, bDescriptorType=5, bEndpointAddress=0x81, bmAttributes=3,
+                    wMaxPacketSize=PACKET_BYTES, bInterval=10, bRefresh=0, bSynchAddress=0,
+                    extra_descriptors=[])
+    interface = dict(bLength=9, bDescriptorType=4, bInterfaceNumber=0, bAlternateSetting=0,
+                     bNumEndpoints=1, bInterfaceClass=3, bInterfaceSubClass=1,
+                     bInterfaceProtocol=1, iInterface=0,
+                     extra_descriptors=[])  # a HID boot keyboard, as in keyboard mode
+    config = dict(bLength=9, bDescriptorType=2, wTotalLength=34, bNumInterfaces=1,
+                  bConfigurationValue=1, iConfiguration=0, bmAttributes=0x80, bMaxPower=50,
+                  extra_descriptors=[])
+    device = dict(bLength=18, bDescriptorType=1, bcdUSB=0x0110, bDeviceClass=0,
+                  bDeviceSubClass=0, bDeviceProtocol=0, bMaxPacketSize0=8,
+                  idVendor=usb_itn.VENDOR_ID, idProduct=usb_itn.PRODUCT_ID, bcdDevice=0x0100,
+                  iManufacturer=1, iProduct=2, iSerialNumber=serial_index, bNumConfigurations=1,
+                  address=7, bus=1, port_number=1, port_numbers=[1], speed=2)
+    return {"device": device, "configurations": [
+        {"descriptor": config, "interfaces": [{"descriptor": interface, "endpoints": [endpoint]}]}]}
 
 
 class UsbItnEndpoint(UsbCableGauge):
