@@ -51,7 +51,7 @@ from ogacq_drivers.indicators.base import (
     check_unit,
     checked_reading,
 )
-from ogacq_drivers.indicators.mitutoyo_01a import Reply01A, decode_reply, encode_reply
+from ogacq_drivers.indicators.mitutoyo_01a import decode_reply, encode_reply
 from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
 log = logging.getLogger(__name__)
@@ -96,11 +96,10 @@ def decode(frame: bytes, *, where: str = "") -> Decoded:
     message = classify(frame, where=where)
     if message.kind == MESSAGE_INFO:
         raise FrameError("device information where a value was asked", where=where, frame=frame)
-    reply = cable_reply(frame, where=where)  # 91x raise, classified
-    return Decoded(reply.value, reply.decimals, None, reply.channel)
+    return cable_reply(frame, where=where)  # 91x raise, classified
 
 
-def cable_reply(frame: bytes, *, where: str = "") -> Reply01A:
+def cable_reply(frame: bytes, *, where: str = "") -> Decoded:
     """The 01A reply of a value message, which must name the cable's one channel."""
     reply = decode_reply(frame, where=where)
     if reply.channel != CABLE_CHANNEL:
