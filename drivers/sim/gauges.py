@@ -46,7 +46,7 @@ from decimal import Decimal
 from enum import StrEnum
 from typing import Any, ClassVar, Literal, Protocol
 
-from ogacq_drivers.indicators import BACKENDS
+from ogacq_drivers.indicators import BACKENDS, codec
 from ogacq_drivers.indicators.backend import load
 from ogacq_drivers.indicators.base import MM_PER_INCH as EXACT_MM_PER_INCH
 from ogacq_drivers.indicators.base import Unit
@@ -542,8 +542,10 @@ class SerialDevice:
                     inch_code: str) -> bytes:
         """The frame showing ``value`` (display unit) with ``decimals`` places;
         ValueError when the display cannot show it. ``inch_code``: the unit code an
-        inch display uses where the protocol has two (Digimatic's "1" or "8")."""
-        raise NotImplementedError
+        inch display uses where the protocol has two (Digimatic's "1" or "8"). By
+        default the protocol's codec encodes it, as the drivers decode it."""
+        return codec(self.gauge.protocol).encode(value, decimals=decimals, unit=unit,
+                                                 channel=channel)
 
     def overflow_frame(self) -> bytes | None:
         """What it sends for a value its display cannot show (None: nothing)."""
