@@ -442,7 +442,7 @@ class AxisController:
         for steps in (command.start, command.finish):
             for axis in chosen:
                 try:
-                    self._run_steps("stop", steps, axis, self._params(axis, {}))
+                    self._run_steps("stop", steps, axis, self._params({}))
                 except DriverError as exc:
                     log.error("stop %s failed: %s", axis, exc)
                     errors.append(exc)
@@ -778,7 +778,8 @@ class AxisController:
 
     # ================================================================ internals: sequences
 
-    def _params(self, axis: str, given: Mapping[str, Any]) -> dict[str, Any]:
+    def _params(self, given: Mapping[str, Any]) -> dict[str, Any]:
+        """The step parameters: the profile's and this client's, overridden by ``given``."""
         params: dict[str, Any] = {"band_mm": self.profile.motion.in_position_band_mm,
                                   "speed_mm_s": self.speed_mm_s,
                                   **asdict(self.profile.timing)}  # the timeouts
@@ -793,7 +794,7 @@ class AxisController:
         per_axis: Mapping[str, Mapping[str, Any]] | None = None,
     ) -> None:
         """Run a profile command: start steps axis after axis, then finish steps."""
-        params = {axis: self._params(axis, {**(common or {}), **(per_axis or {}).get(axis, {})})
+        params = {axis: self._params({**(common or {}), **(per_axis or {}).get(axis, {})})
                   for axis in axes}
         spec = self.profile.commands[command]
         for axis in axes:
