@@ -225,7 +225,11 @@ class SylvacOptoRS(SerialIndicator):
         deadline = self._deadline(timeout_s)
         self.flush_input()
         self._send(REQUEST)
-        frame = read_reply(lambda: self._read_frame(deadline), where=self.where, skip=REQUEST)
+        return self._reading(read_reply(lambda: self._read_frame(deadline), where=self.where,
+                                        skip=REQUEST))
+
+    def _reading(self, frame: bytes) -> Reading:
+        """The reading of a reply, whose decimals must fit the unit set on the gauge."""
         reply = decode_reply(frame, where=self.where)
         return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,
