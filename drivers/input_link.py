@@ -66,10 +66,8 @@ def resolve_event_device(
     if port == "keyboard":
         found = find_event_devices(vendor_id, product_id)
         if not found:
-            raise LinkError(
-                f"no input device {ids} ({what}): is the cable plugged in and in keyboard mode?",
-                where=where,
-            )
+            raise LinkError(f"no input device {ids} ({what}): is the cable plugged in and in "
+                            "keyboard mode?", where=where)
         if len(found) > 1:
             names = ", ".join(str(p) for p in found)
             raise LinkError(f"several {what} cables ({names}): name one as the port", where=where)
@@ -77,16 +75,11 @@ def resolve_event_device(
     node = Path(port)
     actual = device_ids(node)
     if actual is None:
-        raise LinkError(
-            f"{port} is not an input event device known to the kernel (no {sysfs_dir(node)})",
-            where=where,
-        )
+        raise LinkError(f"{port} is not an input event device known to the kernel (no "
+                        f"{sysfs_dir(node)})", where=where)
     if actual != (vendor_id, product_id):
-        raise LinkError(
-            f"{port} is device {actual[0]:04x}:{actual[1]:04x}, not a {what} ({ids}): "
-            "refusing to read another keyboard",
-            where=where,
-        )
+        raise LinkError(f"{port} is device {actual[0]:04x}:{actual[1]:04x}, not a {what} "
+                        f"({ids}): refusing to read another keyboard", where=where)
     return node
 
 

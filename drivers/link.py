@@ -99,9 +99,8 @@ def open_link(
     settings = settings or LinkSettings()
     where = where or port
     if settings.parity not in _PARITIES:
-        raise LinkError(
-            f"invalid parity {settings.parity!r} for {port} (use N, E or O)", where=where
-        )
+        raise LinkError(f"invalid parity {settings.parity!r} for {port} (use N, E or O)",
+                        where=where)
     local_device = not is_url(port) and os.name == "posix"
     try:
         link = serial.serial_for_url(

@@ -85,9 +85,8 @@ def open_usb_device(port: str, vendor_id: int, product_id: int, *, where: str) -
     ids = f"{vendor_id:04x}:{product_id:04x}"
     backend = _backend(port, where)
     try:
-        found = list(
-            usb_core.find(find_all=True, idVendor=vendor_id, idProduct=product_id, backend=backend)
-        )
+        found = list(usb_core.find(find_all=True, idVendor=vendor_id, idProduct=product_id,
+                                   backend=backend))
     except usb_core.NoBackendError:
         raise LinkError(
             "libusb is not available: install libusb-1.0 (apt install libusb-1.0-0)", where=where
@@ -99,15 +98,12 @@ def open_usb_device(port: str, vendor_id: int, product_id: int, *, where: str) -
         found = [d for d in found if _matches(d, wanted, where)]
     if not found:
         which = f" with {wanted!r}" if wanted else ""
-        raise LinkError(
-            f"no USB device {ids}{which} on {port}: is the cable plugged in (lsusb lists it)?",
-            where=where,
-        )
+        raise LinkError(f"no USB device {ids}{which} on {port}: is the cable plugged in "
+                        "(lsusb lists it)?", where=where)
     if len(found) > 1:
         names = ", ".join(f"usb:{d.bus}.{d.address}" for d in found)
-        raise LinkError(
-            f"{len(found)} USB devices {ids} found ({names}): name one as the port", where=where
-        )
+        raise LinkError(f"{len(found)} USB devices {ids} found ({names}): name one as the port",
+                        where=where)
     log.debug("%s: USB device %s at bus %s address %s", where, ids, found[0].bus, found[0].address)
     return found[0]
 

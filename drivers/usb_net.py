@@ -30,12 +30,8 @@ import usb.core
 # libusb error codes (libusb.h) and the errno pyusb's libusb1 backend pairs with them.
 _ERRORS = {
     "timeout": (usb.core.USBTimeoutError, "Operation timed out", -7, errno.ETIMEDOUT),
-    "no_device": (
-        usb.core.USBError,
-        "No such device (it may have been disconnected)",
-        -4,
-        errno.ENODEV,
-    ),
+    "no_device": (usb.core.USBError, "No such device (it may have been disconnected)", -4,
+                  errno.ENODEV),
     "pipe": (usb.core.USBError, "Pipe error", -9, errno.EPIPE),
 }
 
@@ -144,16 +140,10 @@ class NetBackend(usb.backend.IBackend):
     def ctrl_transfer(self, dev_handle: Any, bmRequestType: int, bRequest: int,  # noqa: N803
                       wValue: int, wIndex: int, data: array[int], timeout: int) -> int:
         outgoing = not bmRequestType & 0x80
-        result = self._call(
-            "ctrl",
-            bmRequestType=bmRequestType,
-            bRequest=bRequest,
-            wValue=wValue,
-            wIndex=wIndex,
-            data=bytes(data).hex() if outgoing else None,
-            length=len(data),
-            timeout_ms=timeout,
-        )
+        result = self._call("ctrl", bmRequestType=bmRequestType, bRequest=bRequest,
+                            wValue=wValue, wIndex=wIndex,
+                            data=bytes(data).hex() if outgoing else None, length=len(data),
+                            timeout_ms=timeout)
         if outgoing:
             return int(result)
         received = bytes.fromhex(result)
@@ -162,9 +152,8 @@ class NetBackend(usb.backend.IBackend):
 
     def intr_read(self, dev_handle: Any, ep: int, intf: int, buff: array[int], timeout: int,
                   ) -> int:
-        received = bytes.fromhex(
-            self._call("intr_read", endpoint=ep, size=len(buff), timeout_ms=timeout)
-        )
+        received = bytes.fromhex(self._call("intr_read", endpoint=ep, size=len(buff),
+                                            timeout_ms=timeout))
         buff[: len(received)] = type(buff)(buff.typecode, received)
         return len(received)
 

@@ -34,7 +34,7 @@ import logging
 import math
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from numbers import Real
 from typing import Any, Literal
 
@@ -183,10 +183,9 @@ class AxisController:
         offsets = dict.fromkeys(self.axes, 0.0)
         if given:
             if self.profile.offset.kind != "software":
-                raise ValueError(
-                    f"profile {self.profile.name!r} keeps offsets in the drive "
-                    f"({self.profile.offset.kind}); a software offset table does not apply"
-                )
+                raise ValueError(f"profile {self.profile.name!r} keeps offsets in the drive "
+                                 f"({self.profile.offset.kind}); a software offset table does "
+                                 "not apply")
             offsets.update(self._per_axis(given, "software offsets"))
         return offsets
 
@@ -223,10 +222,8 @@ class AxisController:
     def read_positions(self, axes: Iterable[str] | None = None) -> dict[str, float]:
         """Joint coordinates q in mm (one position read per axis)."""
         name = self.profile.status.position
-        return {
-            axis: self._counter_to_q(axis, float(self.read_raw(axis, name)))
-            for axis in self.chosen_axes(axes)
-        }
+        return {axis: self._counter_to_q(axis, float(self.read_raw(axis, name)))
+                for axis in self.chosen_axes(axes)}
 
     def read_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
         """Alarm / error code per axis (0 = none)."""
@@ -265,10 +262,8 @@ class AxisController:
         params: dict[str, dict[str, Any]] = {}
         for axis in chosen:
             self._homed_latch[axis] = False
-            params[axis] = {
-                "home_position_mm": self.counter_at_home_mm(axis),
-                "home_timeout_s": timeout_s,
-            }
+            params[axis] = {"home_position_mm": self.counter_at_home_mm(axis),
+                            "home_timeout_s": timeout_s}
         self._run("home", chosen, per_axis=params)
         for axis in chosen:
             self._homed_latch[axis] = True
@@ -300,44 +295,28 @@ class AxisController:
             low, high = self.soft_limits_mm
             for axis, q in targets.items():
                 if not low <= q <= high:
-                    raise ValueError(
-                        f"{self.where(axis)}: move {axis} to {q:.3f} mm refused: outside the "
-                        f"soft limits [{low:g}, {high:g}] mm"
-                    )
+                    raise ValueError(f"{self.where(axis)}: move {axis} to {q:.3f} mm refused: "
+                                     f"outside the soft limits [{low:g}, {high:g}] mm")
         # Waiting, the positions are read on arrival: the check needs the flags only.
         blocks = self._flag_blocks if wait else self._blocks
         before = {axis: self._poll(axis, blocks) for axis in targets}
         for axis, status in before.items():
             if status.fault:
-                raise DeviceFault(
-                    f"move {axis} refused: axis in alarm {status.alarm_code:#x}; "
-                    "reset alarms first",
-                    code=status.alarm_code,
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"move {axis} refused: axis in alarm "
+                                  f"{status.alarm_code:#x}; reset alarms first", status.alarm_code)
             if not status.flags["servo_on"] or not status.flags.get("quick_stop", True):
                 # CiA 402 "quick stop active" keeps bit 2 (operation enabled) set but
                 # takes no set-point: a stop, not a state to move from
-                raise DeviceFault(
-                    f"move {axis} refused: servo is off (or the drive is in quick stop); "
-                    "enable first",
-                    code="servo_off",
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"move {axis} refused: servo is off (or the drive is "
+                                  "in quick stop); enable first", "servo_off")
             if require_homed and not status.homed:
-                raise DeviceFault(
-                    f"move {axis} refused: axis not homed; home first",
-                    code="not_homed",
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"move {axis} refused: axis not homed; home first",
+                                  "not_homed")
         speed = speed_mm_s or self.speed_mm_s
-        params = {
-            axis: {"target_mm": self._q_to_counter(axis, q), "speed_mm_s": speed}
-            for axis, q in targets.items()
-        }
-        log.info(
-            "move %s at %.1f mm/s", ", ".join(f"{a}={q:.3f}" for a, q in targets.items()), speed
-        )
+        params = {axis: {"target_mm": self._q_to_counter(axis, q), "speed_mm_s": speed}
+                  for axis, q in targets.items()}
+        log.info("move %s at %.1f mm/s", ", ".join(f"{a}={q:.3f}" for a, q in targets.items()),
+                 speed)
         try:
             self._run("move", self._longest_travel_first(targets), per_axis=params)
             if not wait:
@@ -434,36 +413,24 @@ class AxisController:
         is no longer homed: no arrival may be taken from it then."""
         if poll.fault:
             at = "" if poll.position_mm is None else f" at {poll.position_mm:.3f} mm"
-            raise DeviceFault(
-                f"axis {axis} in alarm {poll.alarm_code:#x}{at} while waiting for "
-                "in-position",
-                code=poll.alarm_code,
-                where=self.where(axis),
-            )
+            raise self._fault(axis, f"axis {axis} in alarm {poll.alarm_code:#x}{at} while "
+                              "waiting for in-position", poll.alarm_code)
         servo_off = not poll.flags["servo_on"]
         if servo_off or (require_homed and not poll.homed):
             lost = "its servo went off" if servo_off else "it is no longer homed"
-            raise DeviceFault(
-                f"axis {axis}: {lost} while waiting for in-position (switched off "
-                "and on, an emergency stop or another master?); its position is "
-                "not vouched for",
-                code="servo_off" if servo_off else "not_homed",
-                where=self.where(axis),
-            )
+            raise self._fault(axis, f"axis {axis}: {lost} while waiting for in-position "
+                              "(switched off and on, an emergency stop or another master?); "
+                              "its position is not vouched for",
+                              "servo_off" if servo_off else "not_homed")
 
     def _not_in_position(self, targets: dict[str, float | None],
                          arrived: dict[str, AxisStatus], timeout: float) -> DeviceTimeout:
         """The timeout naming each axis not arrived: where it is, its target, its flags."""
         pending = [self._status(a) for a in targets if a not in arrived]
-        detail = "; ".join(
-            f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
-            f"moving={s.moving}, in_position={s.in_position}"
-            for s in pending
-        )
-        return DeviceTimeout(
-            f"not in position within {timeout:g} s: {detail}",
-            where=self.where(pending[0].axis),
-        )
+        detail = "; ".join(f"{s.axis} at {s.position_mm:.3f} mm (target {targets[s.axis]}), "
+                           f"moving={s.moving}, in_position={s.in_position}" for s in pending)
+        return DeviceTimeout(f"not in position within {timeout:g} s: {detail}",
+                             where=self.where(pending[0].axis))
 
     def stop(self, axes: Iterable[str] | None = None) -> None:
         """Stop every axis (all are tried even if one fails; the first error is raised after)."""
@@ -475,7 +442,7 @@ class AxisController:
         for steps in (command.start, command.finish):
             for axis in chosen:
                 try:
-                    self._run_steps("stop", steps, axis, self._params(axis, {}))
+                    self._run_steps("stop", steps, axis, self._params({}))
                 except DriverError as exc:
                     log.error("stop %s failed: %s", axis, exc)
                     errors.append(exc)
@@ -537,47 +504,31 @@ class AxisController:
         margin = self.profile.limits.margin_mm
         too_large = {a: o for a, o in new.items() if abs(o) > margin}
         if too_large and not force:
-            raise ValueError(
-                f"offsets {too_large} exceed the {margin:g} mm margin of profile "
-                f"{self.profile.name!r}; pass force=True to write them anyway"
-            )
+            raise ValueError(f"offsets {too_large} exceed the {margin:g} mm margin of profile "
+                             f"{self.profile.name!r}; pass force=True to write them anyway")
         old = self.read_offsets(new)
         spec = self.profile.offset
         if spec.kind == "software":
             self._software_offsets.update(new)
-            log.info(
-                "software offsets %s",
-                ", ".join(f"{a}: {old[a]:+.4f} -> {o:+.4f} mm" for a, o in new.items()),
-            )
+            log.info("software offsets %s",
+                     ", ".join(f"{a}: {old[a]:+.4f} -> {o:+.4f} mm" for a, o in new.items()))
             return OffsetChange(old, new, "now", written_to_device=False)
         if spec.write_when_disabled:
             on = [a for a, s in self.read_status(new).items() if s.servo_on]
             if on:
-                raise DeviceFault(
-                    f"offsets not written: servo on for {on}; disable first",
-                    code="servo_on",
-                    where=self.where(on[0]),
-                )
+                raise self._fault(on[0], f"offsets not written: servo on for {on}; disable "
+                                  "first", "servo_on")
         tolerance = 1.0 / self.profile.codec.counts_per_mm
         stored: dict[str, float] = {}
         for axis, offset in new.items():
             register_mm = -spec.sign * offset
-            log.info(
-                "%s: home offset %s: %+.4f -> %+.4f mm (object %+.4f mm)",
-                self.where(axis),
-                axis,
-                old[axis],
-                offset,
-                register_mm,
-            )
+            log.info("%s: home offset %s: %+.4f -> %+.4f mm (object %+.4f mm)",
+                     self.where(axis), axis, old[axis], offset, register_mm)
             self._write_value(axis, spec.value, register_mm, what=f"write_offsets {axis}")
             back = float(self.read_raw(axis, spec.value))
             if abs(back - register_mm) > tolerance / 2:
-                raise DeviceFault(
-                    f"home offset {axis}: wrote {register_mm:+.4f} mm, read back {back:+.4f} mm",
-                    code="readback",
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"home offset {axis}: wrote {register_mm:+.4f} mm, "
+                                  f"read back {back:+.4f} mm", "readback")
             stored[axis] = -spec.sign * back  # what the drive holds, in counts
             self.rehome_required.add(axis)
         return OffsetChange(old, stored, "at_next_homing", written_to_device=True)
@@ -586,15 +537,12 @@ class AxisController:
         """Store the drive parameters in non-volatile memory (explicit request only)."""
         spec = self.profile.nvm
         if spec.kind == "none":
-            raise DriverError(
-                f"profile {self.profile.name!r} has nothing to save to non-volatile "
-                "memory (offsets are kept in the tool's configuration)"
-            )
+            raise DriverError(f"profile {self.profile.name!r} has nothing to save to "
+                              "non-volatile memory (offsets are kept in the tool's "
+                              "configuration)")
         for axis in self.chosen_axes(axes):
-            log.warning(
-                "%s: saving parameters to non-volatile memory (limited write endurance)",
-                self.where(axis),
-            )
+            log.warning("%s: saving parameters to non-volatile memory (limited write "
+                        "endurance)", self.where(axis))
             self._write_value(axis, spec.value, spec.signature, what=f"save_to_nvm {axis}")
 
     # ================================================================ for the pre-flight check
@@ -683,6 +631,9 @@ class AxisController:
         """Endpoint, device id and axis, for messages."""
         return f"{self._links[axis].where(self.device_ids[axis])} (axis {axis})"
 
+    def _fault(self, axis: str, message: str, code: int | str) -> DeviceFault:
+        return DeviceFault(message, code=code, where=self.where(axis))
+
     # ================================================================ internals: registers
 
     def _plan_reads(self, names: Iterable[str]) -> list[_Block]:
@@ -722,10 +673,8 @@ class AxisController:
         return values
 
     def _make_poll(self, axis: str, values: Mapping[str, float | int]) -> _Poll:
-        flags = {
-            name: self.profile.flag_state(name, int(values[f.value]))
-            for name, f in self.profile.flags.items()
-        }
+        flags = {name: self.profile.flag_state(name, int(values[f.value]))
+                 for name, f in self.profile.flags.items()}
         fault = any(flags[f] for f in self.profile.status.fault_flags)
         if fault:
             self._forget_written([axis])
@@ -745,29 +694,19 @@ class AxisController:
         else:
             alarm_code = int(self.read_raw(axis, alarm_name)) if fault else 0
         position = values.get(self.profile.status.position)
-        return _Poll(
-            axis=axis,
-            flags=flags,
-            fault=fault,
-            alarm_code=alarm_code,
-            homed=flags["homed"] if "homed" in flags else self._latched_homed(axis),
-            position_mm=None if position is None else self._counter_to_q(axis, float(position)),
-        )
+        return _Poll(axis, flags, fault, alarm_code,
+                     homed=flags["homed"] if "homed" in flags else self._latched_homed(axis),
+                     position_mm=None if position is None
+                     else self._counter_to_q(axis, float(position)))
 
     def _as_status(self, poll: _Poll) -> AxisStatus:
         assert poll.position_mm is not None, "a status needs the position read"
         self._last_seen_q[poll.axis] = poll.position_mm
         return AxisStatus(
             axis=poll.axis,
-            position_mm=poll.position_mm,
-            in_position=poll.flags["in_position"],
-            moving=poll.flags["moving"],
-            servo_on=poll.flags["servo_on"],
-            homed=poll.homed,
-            alarm_code=poll.alarm_code,
-            fault=poll.fault,
-            flags=poll.flags,
-        )
+            position_mm=poll.position_mm, in_position=poll.flags["in_position"],
+            moving=poll.flags["moving"], servo_on=poll.flags["servo_on"], homed=poll.homed,
+            alarm_code=poll.alarm_code, fault=poll.fault, flags=poll.flags)
 
     def counter_mm(self, status: AxisStatus) -> float:
         """The controller's own position counter behind a status (software offset added)."""
@@ -783,40 +722,33 @@ class AxisController:
         return self.profile.decode(name, registers)
 
     def _write_value(self, axis: str, name: str, value: Any, *, what: str) -> None:
-        spec = self.profile.value(name)
-        device, link = self.device_ids[axis], self._links[axis]
-        encoded = self.profile.encode(name, value)
-        label = f"{what}: {name}={value}"
-        self._written.pop((axis, name), None)  # unknown until the write succeeds
-        if spec.function == "coil":
-            link.write_coil(device, spec.address, bool(encoded), what=label)
-        elif spec.words == 1 and self.profile.transport.single_register_write:
-            assert isinstance(encoded, list)
-            link.write_register(device, spec.address, encoded[0], what=label)
-        else:  # FC16, also for one register where the drive has no FC6 (MR-JE-C)
-            assert isinstance(encoded, list)
-            link.write_registers(device, spec.address, encoded, what=label)
-        self._remember_written(axis, name, encoded)
+        self._write(axis, (name,), (value,), what=what)
 
-    def _write_block(
-        self, axis: str, names: Sequence[str], values: Sequence[Any], *, what: str
-    ) -> None:
+    def _write(self, axis: str, names: Sequence[str], values: Sequence[Any], *,
+               what: str, block: bool = False) -> None:
+        """Write contiguous values in one request: a coil by FC 5, one register by FC 6
+        where the drive has it, else (and a ``block`` always) FC 16 (also one register
+        on a drive without FC 6, MR-JE-C)."""
         specs: list[ValueSpec] = [self.profile.value(n) for n in names]
-        registers: list[int] = []
-        for name, value in zip(names, values, strict=True):
-            encoded = self.profile.encode(name, value)
-            assert isinstance(encoded, list)
-            registers += encoded
+        device, link, address = self.device_ids[axis], self._links[axis], specs[0].address
+        encoded = [self.profile.encode(n, v) for n, v in zip(names, values, strict=True)]
         label = f"{what}: " + ", ".join(f"{n}={v}" for n, v in zip(names, values, strict=True))
         for name in names:
-            self._written.pop((axis, name), None)
-        self._links[axis].write_registers(
-            self.device_ids[axis], specs[0].address, registers, what=label
-        )
-        at = 0
-        for name, spec in zip(names, specs, strict=True):
-            self._remember_written(axis, name, registers[at : at + spec.words])
-            at += spec.words
+            self._written.pop((axis, name), None)  # unknown until the write succeeds
+        if specs[0].function == "coil" and not block:
+            link.write_coil(device, address, bool(encoded[0]), what=label)
+            self._remember_written(axis, names[0], encoded[0])
+            return
+        registers: list[int] = []
+        for words in encoded:
+            assert isinstance(words, list)  # registers, not a coil: a block is registers
+            registers += words
+        if len(registers) == 1 and self.profile.transport.single_register_write and not block:
+            link.write_register(device, address, registers[0], what=label)
+        else:
+            link.write_registers(device, address, registers, what=label)
+        for name, words in zip(names, encoded, strict=True):
+            self._remember_written(axis, name, words)
 
     # ================================================================ internals: written values
 
@@ -846,16 +778,11 @@ class AxisController:
 
     # ================================================================ internals: sequences
 
-    def _params(self, axis: str, given: Mapping[str, Any]) -> dict[str, Any]:
-        timing = self.profile.timing
-        params: dict[str, Any] = {
-            "band_mm": self.profile.motion.in_position_band_mm,
-            "speed_mm_s": self.speed_mm_s,
-            "ack_timeout_s": timing.ack_timeout_s,
-            "enable_timeout_s": timing.enable_timeout_s,
-            "home_timeout_s": timing.home_timeout_s,
-            "move_timeout_s": timing.move_timeout_s,
-        }
+    def _params(self, given: Mapping[str, Any]) -> dict[str, Any]:
+        """The step parameters: the profile's and this client's, overridden by ``given``."""
+        params: dict[str, Any] = {"band_mm": self.profile.motion.in_position_band_mm,
+                                  "speed_mm_s": self.speed_mm_s,
+                                  **asdict(self.profile.timing)}  # the timeouts
         params.update({k: v for k, v in given.items() if v is not None})
         return params
 
@@ -867,10 +794,8 @@ class AxisController:
         per_axis: Mapping[str, Mapping[str, Any]] | None = None,
     ) -> None:
         """Run a profile command: start steps axis after axis, then finish steps."""
-        params = {
-            axis: self._params(axis, {**(common or {}), **(per_axis or {}).get(axis, {})})
-            for axis in axes
-        }
+        params = {axis: self._params({**(common or {}), **(per_axis or {}).get(axis, {})})
+                  for axis in axes}
         spec = self.profile.commands[command]
         for axis in axes:
             self._run_steps(command, spec.start, axis, params[axis])
@@ -890,18 +815,12 @@ class AxisController:
     ) -> None:
         what = f"{command} {axis}"
         for step in steps:
-            if step.op == "write":
-                value = self._resolve(step.value[0], params, command)
-                if step.skip_unchanged and self._unchanged(axis, step.to[0], value):
-                    continue
-                self._write_value(
-                    axis, step.to[0], value, what=what + (" (edge, sent once)" if step.edge else "")
-                )
-            elif step.op == "write_block":
+            if step.op in ("write", "write_block"):
                 values = [self._resolve(v, params, command) for v in step.value]
-                self._write_block(
-                    axis, step.to, values, what=what + (" (edge, sent once)" if step.edge else "")
-                )
+                if step.skip_unchanged and self._unchanged(axis, step.to[0], values[0]):
+                    continue
+                self._write(axis, step.to, values, block=step.op == "write_block",
+                            what=what + (" (edge, sent once)" if step.edge else ""))
             elif step.op == "wait" and step.until:
                 timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_any(axis, command, step.until, timeout)
@@ -933,8 +852,8 @@ class AxisController:
             if state in (DriveState.FAULT, DriveState.FAULT_REACTION_ACTIVE, None):
                 what = f"statusword {word:#06x}, no CiA 402 state" if state is None \
                     else state.value
-                raise DeviceFault(f"{command} {axis}: the drive reports {what}; reset its "
-                                  "alarm first", code="fault", where=self.where(axis))
+                raise self._fault(axis, f"{command} {axis}: the drive reports {what}; reset "
+                                  "its alarm first", "fault")
             assert state is not None
             if state is DriveState.NOT_READY_TO_SWITCH_ON or (
                     state is DriveState.QUICK_STOP_ACTIVE and not word & TARGET_REACHED):
@@ -949,8 +868,8 @@ class AxisController:
                               what=f"{command} {axis} (transition {transition})")
             word = self._await_statusword(axis, command, step, _left(state),
                                           f"leaving {state.value}", timeout_s)
-        raise DeviceFault(f"{command} {axis}: statusword {word:#06x} after every transition "
-                          "to operation enabled", code="servo_off", where=self.where(axis))
+        raise self._fault(axis, f"{command} {axis}: statusword {word:#06x} after every "
+                          "transition to operation enabled", "servo_off")
 
     def _await_statusword(self, axis: str, command: str, step: CommandStep,
                           done: Callable[[int], bool], awaited: str, timeout_s: float) -> int:
@@ -995,9 +914,8 @@ class AxisController:
                    for alternative in until):
                 return status
             if status.fault and not tolerate_fault:
-                raise DeviceFault(
-                    f"{command} {axis}: alarm {status.alarm_code:#x} while waiting{waiting}",
-                    code=status.alarm_code, where=self.where(axis))
+                raise self._fault(axis, f"{command} {axis}: alarm {status.alarm_code:#x} while "
+                                  f"waiting{waiting}", status.alarm_code)
             if time.monotonic() >= deadline:
                 missed, seen = (late, "") if late else _unmet(until, status.flags)
                 raise DeviceTimeout(f"{command} {axis}: {missed} within {timeout_s:g} s{seen}",
@@ -1015,11 +933,8 @@ class AxisController:
         while True:
             status = self._status(axis)
             if status.fault:
-                raise DeviceFault(
-                    f"{command} {axis}: refused with alarm {status.alarm_code:#x}",
-                    code=status.alarm_code,
-                    where=self.where(axis),
-                )
+                raise self._fault(axis, f"{command} {axis}: refused with alarm "
+                                  f"{status.alarm_code:#x}", status.alarm_code)
             if any(status.flags[f] for f in step.any):
                 return status
             seen = self.counter_mm(status)
@@ -1028,12 +943,9 @@ class AxisController:
             if status.flags[step.done] and abs(at) > tolerance and abs(seen + at) <= tolerance:
                 self._refuse_mirrored_home(axis, command, seen, at)
             if time.monotonic() >= deadline:
-                raise DeviceTimeout(
-                    f"{command} {axis}: not acknowledged within {timeout_s:g} s "
-                    f"(none of {', '.join(step.any)} set, not at {at:.3f} mm); "
-                    "the command was not re-sent",
-                    where=self.where(axis),
-                )
+                raise DeviceTimeout(f"{command} {axis}: not acknowledged within {timeout_s:g} s "
+                                    f"(none of {', '.join(step.any)} set, not at {at:.3f} mm); "
+                                    "the command was not re-sent", where=self.where(axis))
             time.sleep(self.poll_interval_s)
 
 

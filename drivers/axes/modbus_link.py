@@ -119,15 +119,9 @@ class ModbusLink:
             self._client = ModbusTcpClient(host, port=port, timeout=timeout_s, retries=0)
         else:
             self.endpoint = f"modbus rtu {serial_port} @{baudrate}"
-            self._client = ModbusSerialClient(
-                serial_port,
-                baudrate=baudrate,
-                bytesize=bytesize,
-                parity=parity,
-                stopbits=stopbits,
-                timeout=timeout_s,
-                retries=0,
-            )
+            self._client = ModbusSerialClient(serial_port, baudrate=baudrate, bytesize=bytesize,
+                                              parity=parity, stopbits=stopbits,
+                                              timeout=timeout_s, retries=0)
         self._lock = threading.Lock()
         self._reads = self._writes = self._retries = self._failures = self._losses = 0
 
@@ -145,18 +139,11 @@ class ModbusLink:
     ) -> ModbusLink:
         """A link with the profile's transport defaults; arguments given override them."""
         t = profile.transport
-        return cls(
-            transport=transport or t.default,
-            host=host,
-            port=t.tcp_port if port is None else port,
-            serial_port=serial_port,
-            baudrate=baudrate or t.baudrate,
-            bytesize=t.bytesize,
-            parity=t.parity,
-            stopbits=t.stopbits,
-            timeout_s=timeout_s or t.timeout_s,
-            read_retries=t.read_retries,
-        )
+        return cls(transport=transport or t.default, host=host,
+                   port=t.tcp_port if port is None else port, serial_port=serial_port,
+                   baudrate=baudrate or t.baudrate, bytesize=t.bytesize, parity=t.parity,
+                   stopbits=t.stopbits, timeout_s=timeout_s or t.timeout_s,
+                   read_retries=t.read_retries)
 
     # ------------------------------------------------------------ life cycle
 
@@ -164,9 +151,8 @@ class ModbusLink:
         """Open the connection or port now (requests also connect on demand)."""
         with self._lock:
             if not self._client.connect():
-                raise LinkError(
-                    "cannot connect (refused, unreachable or port busy)", where=self.endpoint
-                )
+                raise LinkError("cannot connect (refused, unreachable or port busy)",
+                                where=self.endpoint)
         log.info("%s: connected", self.endpoint)
         return self
 
@@ -211,32 +197,22 @@ class ModbusLink:
 
     def read_registers(self, device_id: int, address: int, count: int) -> list[int]:
         """FC3 read of ``count`` holding registers."""
-        response = self._read(
-            device_id,
-            f"read {count} holding register(s) at {address:#06x}",
-            lambda: self._client.read_holding_registers(address, count=count, device_id=device_id),
-        )
+        what = f"read {count} holding register(s) at {address:#06x}"
+        response = self._read(device_id, what, lambda: self._client.read_holding_registers(
+            address, count=count, device_id=device_id))
         registers = list(getattr(response, "registers", []))
         if len(registers) != count:
-            raise FrameError(
-                f"read {count} holding register(s) at {address:#06x}: got {len(registers)}",
-                where=self.where(device_id),
-            )
+            raise FrameError(f"{what}: got {len(registers)}", where=self.where(device_id))
         return registers
 
     def read_coils(self, device_id: int, address: int, count: int) -> list[bool]:
-        """FC1 read of ``count`` coils."""
-        response = self._read(
-            device_id,
-            f"read {count} coil(s) at {address:#06x}",
-            lambda: self._client.read_coils(address, count=count, device_id=device_id),
-        )
+        """FC1 read of ``count`` coils (they come packed in bytes: padded to eight)."""
+        what = f"read {count} coil(s) at {address:#06x}"
+        response = self._read(device_id, what, lambda: self._client.read_coils(
+            address, count=count, device_id=device_id))
         bits = list(getattr(response, "bits", []))
         if len(bits) < count:
-            raise FrameError(
-                f"read {count} coil(s) at {address:#06x}: got {len(bits)}",
-                where=self.where(device_id),
-            )
+            raise FrameError(f"{what}: got {len(bits)}", where=self.where(device_id))
         return bits[:count]
 
     def read_identification(self, device_id: int) -> dict[int, str] | None:
@@ -289,58 +265,40 @@ class ModbusLink:
                         where=self.where(device_id),
                     ) from None
                 self._retries += 1
-                log.warning(
-                    "%s: %s: no answer, retrying (%d/%d)",
-                    self.where(device_id),
-                    what,
-                    attempt,
-                    attempts - 1,
-                )
+                log.warning("%s: %s: no answer, retrying (%d/%d)", self.where(device_id), what,
+                            attempt, attempts - 1)
         raise AssertionError("unreachable")
 
     # ------------------------------------------------------------ writes (never retried)
 
     def write_register(self, device_id: int, address: int, value: int, *, what: str) -> None:
         """FC6 write of one register, sent once."""
-        log.info(
-            "%s: write %s: register %#06x <- %#06x", self.where(device_id), what, address, value
-        )
-        self._write(
-            device_id,
-            f"write {what} ({address:#06x})",
-            lambda: self._client.write_register(address, value, device_id=device_id),
-        )
+        self._write(device_id, what, f"register {address:#06x} <- {value:#06x}",
+                    f"({address:#06x})",
+                    lambda: self._client.write_register(address, value, device_id=device_id))
 
     def write_registers(
         self, device_id: int, address: int, values: Sequence[int], *, what: str
     ) -> None:
         """FC16 write of consecutive registers, sent once."""
         shown = " ".join(f"{v:#06x}" for v in values)
-        log.info(
-            "%s: write %s: registers %#06x.. <- [%s]", self.where(device_id), what, address, shown
-        )
-        self._write(
-            device_id,
-            f"write {what} ({len(values)} registers at {address:#06x})",
-            lambda: self._client.write_registers(address, list(values), device_id=device_id),
-        )
+        self._write(device_id, what, f"registers {address:#06x}.. <- [{shown}]",
+                    f"({len(values)} registers at {address:#06x})",
+                    lambda: self._client.write_registers(address, list(values),
+                                                         device_id=device_id))
 
     def write_coil(self, device_id: int, address: int, value: bool, *, what: str) -> None:
         """FC5 write of one coil, sent once."""
-        log.info(
-            "%s: write %s: coil %#06x <- %s",
-            self.where(device_id),
-            what,
-            address,
-            "ON" if value else "OFF",
-        )
-        self._write(
-            device_id,
-            f"write {what} (coil {address:#06x})",
-            lambda: self._client.write_coil(address, value, device_id=device_id),
-        )
+        self._write(device_id, what, f"coil {address:#06x} <- {'ON' if value else 'OFF'}",
+                    f"(coil {address:#06x})",
+                    lambda: self._client.write_coil(address, value, device_id=device_id))
 
-    def _write(self, device_id: int, what: str, call: Callable[[], ModbusPDU]) -> None:
+    def _write(self, device_id: int, what: str, written: str, target: str,
+               call: Callable[[], ModbusPDU]) -> None:
+        """Log ``written`` (the audit of every write), then send the request once;
+        errors say ``write {what} {target}``."""
+        log.info("%s: write %s: %s", self.where(device_id), what, written)
+        what = f"write {what} {target}"
         self._writes += 1
         try:
             self._execute(device_id, what, call)
@@ -350,11 +308,9 @@ class ModbusLink:
         except DeviceTimeout as exc:
             self._losses += 1
             # The write may or may not have been executed: say so, the caller reads back.
-            raise DeviceTimeout(
-                f"{what}: no answer within {self.timeout_s:g} s; not re-sent, "
-                "the device may or may not have taken it",
-                where=exc.where,
-            ) from None
+            raise DeviceTimeout(f"{what}: no answer within {self.timeout_s:g} s; not re-sent, "
+                                "the device may or may not have taken it",
+                                where=exc.where) from None
 
     # ------------------------------------------------------------ error mapping
 
@@ -380,12 +336,10 @@ class ModbusLink:
             except ModbusIOException as exc:
                 text = str(exc)
                 if "device id" in text or "transaction id" in text:
-                    raise FrameError(
-                        f"{what}: answer does not match the request ({text})", where=where
-                    ) from exc
-                raise DeviceTimeout(
-                    f"{what}: no answer within {self.timeout_s:g} s", where=where
-                ) from exc
+                    raise FrameError(f"{what}: answer does not match the request ({text})",
+                                     where=where) from exc
+                raise DeviceTimeout(f"{what}: no answer within {self.timeout_s:g} s",
+                                    where=where) from exc
             except ModbusException as exc:
                 raise FrameError(f"{what}: {exc}", where=where) from exc
             except OSError as exc:

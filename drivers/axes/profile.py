@@ -52,26 +52,14 @@ ValueType = Literal["bool", "u16", "s16", "u32", "s32"]
 Unit = Literal["mm", "mm/s", "raw"]
 
 VALUE_TYPES: dict[str, tuple[int, bool]] = {  # type -> (registers, signed)
-    "bool": (1, False),
-    "u16": (1, False),
-    "s16": (1, True),
-    "u32": (2, False),
-    "s32": (2, True),
+    "bool": (1, False), "u16": (1, False), "s16": (1, True), "u32": (2, False), "s32": (2, True),
 }
 UNITS = ("mm", "mm/s", "raw")
 COMMANDS_REQUIRED = ("enable", "disable", "home", "move", "stop", "alarm_reset")
 FLAGS_REQUIRED = ("servo_on", "in_position", "moving")
 #: Parameters a command step may reference as "$name"; the controller fills them.
-STEP_PARAMETERS = (
-    "target_mm",
-    "band_mm",
-    "speed_mm_s",
-    "home_position_mm",
-    "ack_timeout_s",
-    "enable_timeout_s",
-    "home_timeout_s",
-    "move_timeout_s",
-)
+STEP_PARAMETERS = ("target_mm", "band_mm", "speed_mm_s", "home_position_mm", "ack_timeout_s",
+                   "enable_timeout_s", "home_timeout_s", "move_timeout_s")
 AXIS_NAMES = ("x", "y", "z")
 #: Function codes a profile may list in [transport].functions: read coils (1), read
 #: holding registers (3), write coil (5), write register (6), diagnostics (8, not
@@ -366,9 +354,8 @@ class Profile:
             counts = int(value)
         else:
             counts = mm_to_counts(float(value), scale)
-        return int_to_words(
-            counts, spec.words, word_order=self.codec.word_order, signed=spec.signed
-        )
+        return int_to_words(counts, spec.words, word_order=self.codec.word_order,
+                            signed=spec.signed)
 
     def decode(self, name: str, registers: Sequence[int]) -> float | int:
         """Registers of a value to user units (float for scaled values, int for raw)."""
@@ -521,9 +508,8 @@ def load_profile(name_or_path: str | Path) -> Profile:
     else:
         path = profiles_folder() / f"{text_}.toml"
         if not path.is_file():
-            raise ProfileError(
-                text_, "", f"no such profile; available: {', '.join(available_profiles())}"
-            )
+            raise ProfileError(text_, "", "no such profile; available: "
+                               f"{', '.join(available_profiles())}")
     try:
         raw, _ = read_document(path, "the profile", _profile_error)
     except FileNotFoundError as exc:
@@ -564,26 +550,15 @@ class _Checks:
             raise self.fail("limits", f"min_mm {limits.min_mm} must be below max_mm "
                             f"{limits.max_mm}")
         return Profile(
-            name=top["name"],
-            family=top["family"],
-            description=top["description"],
-            source=self.source,
-            transport=transport,
+            **{key: top[key] for key in ("name", "family", "description", "codec", "motion",
+                                         "timing", "sim")},  # as the schema built them
+            source=self.source, transport=transport, limits=limits, values=values, flags=flags,
             device_ids={a: top["axes"]["device_ids"][a] for a in AXIS_NAMES},
-            codec=top["codec"],
-            values=values,
-            flags=flags,
             status=self.status(top["status"], values, flags),
-            motion=top["motion"],
-            limits=limits,
-            timing=top["timing"],
-            offset=self.offset(top["offset"], values),
-            nvm=self.nvm(top["nvm"], values),
+            offset=self.offset(top["offset"], values), nvm=self.nvm(top["nvm"], values),
             commands=self.commands(top["commands"], values, flags),
-            sim=top["sim"],
             temperature=self.temperature(top.get("temperature"), values),
-            word_order_check=self.word_order_check(top.get("word_order_check"), values),
-        )
+            word_order_check=self.word_order_check(top.get("word_order_check"), values))
 
     def word_order_check(self, check: KnownValue | None, values: Mapping[str, ValueSpec],
                          ) -> KnownValue | None:
@@ -640,10 +615,8 @@ class _Checks:
             for offset in range(spec.words):
                 slot = (spec.function, spec.address + offset)
                 if slot in taken:
-                    raise self.fail(
-                        f"values.{spec.name}.address",
-                        f"{spec.address + offset:#06x} already belongs to {taken[slot]!r}",
-                    )
+                    raise self.fail(f"values.{spec.name}.address", f"{spec.address + offset:#06x} "
+                                    f"already belongs to {taken[slot]!r}")
                 taken[slot] = spec.name
 
     def flags(self, table: dict[str, dict[str, Any]], values: Mapping[str, ValueSpec],
@@ -669,16 +642,9 @@ class _Checks:
         if values[position].unit != "mm":
             raise self.fail("status.position", f"{position!r} must have unit 'mm'")
         for i, name in enumerate(s["fault_flags"]):
-            if name not in flags:
-                raise self.fail(f"status.fault_flags[{i}]", f"no flag named {name!r} in [flags]")
-        return StatusSpec(
-            position=position,
-            alarm_code=self._value_ref(s["alarm_code"], values, "status.alarm_code",
-                                       readable=True),
-            alarm_code_read=s["alarm_code_read"],
-            fault_flags=s["fault_flags"],
-            max_gap_registers=s["max_gap_registers"],
-        )
+            self._flag_ref(name, flags, f"status.fault_flags[{i}]")
+        self._value_ref(s["alarm_code"], values, "status.alarm_code", readable=True)
+        return StatusSpec(**s)  # the schema's keys are its fields
 
     def _value_ref(self, name: str, values: Mapping[str, ValueSpec], key: str, *,
                    readable: bool = False, writable: bool = False) -> str:

@@ -13,7 +13,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import Any
 
 from ogacq_drivers.axes.controller import AxisController
@@ -39,7 +39,7 @@ class ReconnectPolicy:
                 for k in range(self.attempts)]
 
     def as_dict(self) -> dict[str, Any]:
-        return {"attempts": self.attempts, "backoff_s": self.backoff_s}
+        return asdict(self)
 
 
 @dataclass(frozen=True)

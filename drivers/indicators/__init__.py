@@ -27,24 +27,9 @@ from ogacq_drivers.indicators.backend import Backend, Codec, ConnectionHints, lo
 from ogacq_drivers.indicators.base import Indicator, Reading, StableReading, read_stable
 from ogacq_drivers.link import LinkSettings, open_link
 
-__all__ = [
-    "BACKENDS",
-    "DEFAULT_PROTOCOL",
-    "Backend",
-    "ConnectionHints",
-    "Indicator",
-    "Reading",
-    "StableReading",
-    "backend",
-    "codec",
-    "driver_class",
-    "open_indicator",
-    "read_stable",
-    "register",
-    "registered",
-    "same_indicator",
-    "unregister",
-]
+__all__ = ["BACKENDS", "DEFAULT_PROTOCOL", "Backend", "ConnectionHints", "Indicator", "Reading",
+           "StableReading", "backend", "codec", "driver_class", "open_indicator", "read_stable",
+           "register", "registered", "same_indicator", "unregister"]
 
 _SERIAL_PORTS = "a serial device (/dev/ttyUSB0, COM3) or a network port (socket://host:port)"
 
@@ -223,9 +208,8 @@ def open_indicator(
         options["channel"] = channel
     if not entry.serial:
         if link is not None:
-            raise DriverError(
-                f"a {protocol} gauge opens its own device, not a serial link", where=where
-            )
+            raise DriverError(f"a {protocol} gauge opens its own device, not a serial link",
+                              where=where)
         opened: Indicator = cls.open(port, where=where, unit=unit, **options)
         return opened
     owns_link = link is None

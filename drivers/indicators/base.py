@@ -21,7 +21,7 @@ from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass
 from decimal import Decimal
-from typing import Literal, Protocol, TypeVar, runtime_checkable
+from typing import Literal, Protocol, Self, TypeVar, runtime_checkable
 
 import serial
 
@@ -59,10 +59,8 @@ POLL_S = 0.02
 # Decimal places a gauge shows, by display unit. The sets do not overlap, so a
 # gauge switched to inch (0.0001 in / 0.00005 in) cannot pass as a mm gauge at
 # 0.001 mm or coarser. A 0.0001 mm gauge needs ``decimals=4`` spelled out.
-DEFAULT_DECIMALS: dict[str, frozenset[int]] = {
-    "mm": frozenset({1, 2, 3}),
-    "inch": frozenset({4, 5}),
-}
+DEFAULT_DECIMALS: dict[str, frozenset[int]] = {"mm": frozenset({1, 2, 3}),
+                                               "inch": frozenset({4, 5})}
 
 
 @dataclass(frozen=True, slots=True)
@@ -145,15 +143,9 @@ def accepted_decimals(
     other: Unit = "inch" if unit == "mm" else "mm"
     overlap = chosen & DEFAULT_DECIMALS[other]
     if overlap:
-        log.warning(
-            "%s: configured %s with %s decimals, a layout an %s display also uses: "
-            "a gauge switched to %s would not be detected",
-            where,
-            unit,
-            sorted(overlap),
-            other,
-            other,
-        )
+        log.warning("%s: configured %s with %s decimals, a layout an %s display also uses: "
+                    "a gauge switched to %s would not be detected",
+                    where, unit, sorted(overlap), other, other)
     return chosen
 
 
@@ -164,12 +156,10 @@ def check_decimals(
     if decimals in accepted:
         return
     looks_like: Unit = "inch" if decimals in DEFAULT_DECIMALS["inch"] else "mm"
-    raise UnitError(
-        f"frame shows {decimals} decimals but the gauge is configured in {unit} "
-        f"(expects {sorted(accepted)} decimals); the gauge display is probably in "
-        f"{looks_like}: set it back to {unit} or correct the configuration",
-        where=where,
-    )
+    raise UnitError(f"frame shows {decimals} decimals but the gauge is configured in {unit} "
+                    f"(expects {sorted(accepted)} decimals); the gauge display is probably in "
+                    f"{looks_like}: set it back to {unit} or correct the configuration",
+                    where=where)
 
 
 def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
@@ -177,8 +167,21 @@ def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
     """The reading of a decoded frame whose decimals must fit the configured unit (the
     frame itself carries none), stamped now."""
     check_decimals(decimals, unit, accepted, where=where, frame=frame)
+    return reading_of(value, unit, frame, channel=channel, where=where)
+
+
+def reading_of(value: Decimal, unit: Unit, frame: bytes, *, channel: str,
+               where: str) -> Reading:
+    """The reading of a decoded frame's value, displayed in ``unit``, stamped now."""
     return Reading(value_mm=to_mm(value, unit), frame=frame, time_s=time.time(),
                    channel=channel, unit=unit, where=where)
+
+
+def warn_other_unit(shown: Unit, configured: Unit, *, where: str) -> None:
+    """Said once a frame carrying its unit shows another than the configured one."""
+    if shown != configured:
+        log.warning("%s: gauge displays %s but is configured %s; values are converted "
+                    "from the unit in each frame", where, shown, configured)
 
 
 def to_mm(value: Decimal, unit: Unit) -> float:
@@ -222,13 +225,10 @@ def flag_line_errors(link: serial.Serial, *, where: str) -> bool:
 def refuse_line_errors(frame: bytes, *, where: str) -> bytes:
     """``frame`` unless it holds a byte the kernel flagged (:func:`flag_line_errors`)."""
     if LINE_ERROR_BYTE in frame:
-        raise FrameError(
-            "a byte arrived with a parity or framing error (read as NUL): check the line "
-            "settings (baud rate, data bits, parity, stop bits) against the gauge's and "
-            "the cable; a break (cable plugged in or powered up) reads the same",
-            where=where,
-            frame=frame,
-        )
+        raise FrameError("a byte arrived with a parity or framing error (read as NUL): check "
+                         "the line settings (baud rate, data bits, parity, stop bits) against "
+                         "the gauge's and the cable; a break (cable plugged in or powered up) "
+                         "reads the same", where=where, frame=frame)
     return frame
 
 
@@ -238,13 +238,38 @@ def link_errors(where: str, action: str) -> Iterator[None]:
     try:
         yield
     except _LINK_FAILURES as exc:
-        raise LinkError(
-            f"link lost while {action} ({exc}); was the gauge or adapter unplugged?",
-            where=where,
-        ) from exc
+        raise LinkError(f"link lost while {action} ({exc}); was the gauge or adapter "
+                        "unplugged?", where=where) from exc
 
 
-class SerialIndicator:
+class IndicatorDriver:
+    """What every indicator driver shares: the ``where`` its errors name, its read
+    deadline, and being closed at the end of a ``with`` block."""
+
+    #: Reply deadline when ``read`` is given none.
+    default_timeout_s: float = 1.0
+
+    def __init__(self, *, where: str, timeout_s: float | None) -> None:
+        self.where = where
+        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
+
+    def close(self) -> None:
+        raise NotImplementedError
+
+    def __enter__(self) -> Self:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(where={self.where!r})"
+
+    def _deadline(self, timeout_s: float | None) -> float:
+        return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+
+
+class SerialIndicator(IndicatorDriver):
     """Shared plumbing of the serial indicator drivers.
 
     The driver receives an open link (it never opens one) and a ``where`` name
@@ -255,9 +280,6 @@ class SerialIndicator:
     pair) are skipped. Every transport failure becomes a :class:`LinkError`.
     """
 
-    #: Reply deadline when ``read`` is given none.
-    default_timeout_s: float = 1.0
-
     def __init__(
         self,
         link: serial.Serial,
@@ -266,9 +288,8 @@ class SerialIndicator:
         timeout_s: float | None = None,
         owns_link: bool = False,
     ) -> None:
+        super().__init__(where=where, timeout_s=timeout_s)
         self.link = link
-        self.where = where
-        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
         self.owns_link = owns_link
         if link.timeout is None or link.timeout == 0 or link.timeout > 0.1:
             # Reads block at most link.timeout between deadline checks: a
@@ -294,18 +315,6 @@ class SerialIndicator:
         """Close the link if this driver opened it (through the factory)."""
         if self.owns_link:
             self.link.close()
-
-    def __enter__(self) -> SerialIndicator:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
-
-    def __repr__(self) -> str:
-        return f"{type(self).__name__}(where={self.where!r})"
-
-    def _deadline(self, timeout_s: float | None) -> float:
-        return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
 
     def _send(self, data: bytes) -> None:
         # No flush() (tcdrain): write() already hands the bytes to the driver,

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import logging
 import re
-import time
 from dataclasses import dataclass
 from decimal import ROUND_HALF_EVEN, Decimal
 from typing import Literal
@@ -51,7 +50,14 @@ import serial
 
 from ogacq_drivers.errors import DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
-from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, to_mm
+from ogacq_drivers.indicators.base import (
+    Reading,
+    SerialIndicator,
+    Unit,
+    check_unit,
+    reading_of,
+    warn_other_unit,
+)
 
 log = logging.getLogger(__name__)
 
@@ -96,9 +102,8 @@ def encode_frame(
     elif unit == "inch" and inch_nibble in ("1", "8"):
         unit_nibble = inch_nibble
     else:
-        raise ValueError(
-            f"unit must be 'mm' or 'inch' (inch nibble 1 or 8), got {unit!r}/{inch_nibble!r}"
-        )
+        raise ValueError(f"unit must be 'mm' or 'inch' (inch nibble 1 or 8), got "
+                         f"{unit!r}/{inch_nibble!r}")
     exact = Decimal(str(value)) if isinstance(value, float) else Decimal(value)
     shown = exact.quantize(Decimal(1).scaleb(-decimals), rounding=ROUND_HALF_EVEN)
     digits = int(abs(shown).scaleb(decimals))
@@ -116,20 +121,14 @@ def decode_frame(frame: bytes, *, where: str = "") -> DigimaticFrame:
     match = _FRAME.fullmatch(frame)
     if match is None:
         raise FrameError("not a Digimatic frame", where=where, frame=frame)
-    high, sign, digits, point, unit_nibble = (
-        (group or b"").decode("ascii") for group in match.groups()
-    )
+    high, sign, digits, point, unit_nibble = ((group or b"").decode("ascii")
+                                              for group in match.groups())
     decimals = int(point)
     value = Decimal(int(high + digits)).scaleb(-decimals)
     if sign == "8":
         value = -value
-    return DigimaticFrame(
-        value=value,
-        decimals=decimals,
-        unit=UNIT_NIBBLES[unit_nibble],
-        unit_nibble=unit_nibble,
-        digimatic2=match.group(1) is not None,
-    )
+    return DigimaticFrame(value=value, decimals=decimals, unit=UNIT_NIBBLES[unit_nibble],
+                          unit_nibble=unit_nibble, digimatic2=match.group(1) is not None)
 
 
 def decode(frame: bytes, *, where: str = "") -> Decoded:
@@ -168,8 +167,6 @@ class DigimaticBridge(SerialIndicator):
     own unit, which is what the conversion uses (a mismatch is logged).
     """
 
-    default_timeout_s = 1.0
-
     def __init__(
         self,
         link: serial.Serial,
@@ -204,30 +201,14 @@ class DigimaticBridge(SerialIndicator):
             self._send(POLL_REQUEST)
         frame, decoded = self._read_decoded(deadline, decode_frame)
         self._note_unit(decoded)
-        return Reading(
-            value_mm=to_mm(decoded.value, decoded.unit),
-            frame=frame,
-            time_s=time.time(),
-            channel=self.channel,
-            unit=decoded.unit,
-            where=self.where,
-        )
+        return reading_of(decoded.value, decoded.unit, frame, channel=self.channel,
+                          where=self.where)
 
     def _note_unit(self, decoded: DigimaticFrame) -> None:
         if decoded.unit_nibble == self._last_unit_nibble:
             return
         self._last_unit_nibble = decoded.unit_nibble
         if decoded.unit == "inch":
-            log.info(
-                "%s: gauge reports inch (unit nibble %s); converting to mm",
-                self.where,
-                decoded.unit_nibble,
-            )
-        if decoded.unit != self.unit:
-            log.warning(
-                "%s: gauge displays %s but is configured %s; values are converted from "
-                "the unit in each frame",
-                self.where,
-                decoded.unit,
-                self.unit,
-            )
+            log.info("%s: gauge reports inch (unit nibble %s); converting to mm", self.where,
+                     decoded.unit_nibble)
+        warn_other_unit(decoded.unit, self.unit, where=self.where)

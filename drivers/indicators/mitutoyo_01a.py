@@ -24,8 +24,7 @@ import logging
 import re
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass
-from decimal import ROUND_HALF_EVEN, Decimal, InvalidOperation
+from decimal import ROUND_HALF_EVEN, Decimal
 
 import serial
 
@@ -55,15 +54,6 @@ _READING = re.compile(rb"0([0-9A-Z])A([+-])([0-9.]{8})\r")
 _VALUE_FIELD = re.compile(rb"[0-9]+\.[0-9]+")
 _ERROR = re.compile(rb"91([0-9])\r")
 _PRINTABLE = re.compile(rb"[\x20-\x7e]*\r")
-
-
-@dataclass(frozen=True, slots=True)
-class Reply01A:
-    """A decoded 01A value reply (value in the gauge's display unit)."""
-
-    channel: str
-    value: Decimal
-    decimals: int
 
 
 def encode_request(channel: str = "1") -> bytes:
@@ -105,8 +95,9 @@ def encode_error(code: str | int) -> bytes:
     return text.encode("ascii") + b"\r"
 
 
-def decode_reply(frame: bytes, *, where: str = "") -> Reply01A:
-    """Decode one reply frame (terminator included).
+def decode_reply(frame: bytes, *, where: str = "") -> Decoded:
+    """Decode one reply frame (terminator included): the value in the gauge's display
+    unit, which the frame does not name (a gauge setting), and its channel.
 
     Raises :class:`DeviceBusy` for ``918``, :class:`DeviceFault` for other
     ``91x`` codes and :class:`FrameError` for anything off the grammar.
@@ -123,23 +114,16 @@ def decode_reply(frame: bytes, *, where: str = "") -> Reply01A:
         raise FrameError("not a 01A reply", where=where, frame=frame)
     channel, sign, field = match.groups()
     if not _VALUE_FIELD.fullmatch(field):
-        raise FrameError(
-            "01A value field is not digits with one decimal point", where=where, frame=frame
-        )
-    try:
-        value = Decimal(field.decode("ascii"))
-    except InvalidOperation as exc:  # unreachable after the regex; kept as a guard
-        raise FrameError("01A value not a number", where=where, frame=frame) from exc
+        raise FrameError("01A value field is not digits with one decimal point", where=where,
+                         frame=frame)
+    value = Decimal(field.decode("ascii"))  # digits, a point, digits: always a number
     if sign == b"-":
         value = -value
     decimals = len(field) - field.index(b".") - 1
-    return Reply01A(channel=channel.decode("ascii"), value=value, decimals=decimals)
+    return Decoded(value, decimals, None, channel.decode("ascii"))
 
 
-def decode(frame: bytes, *, where: str = "") -> Decoded:
-    """The codec's decode: a reply has no unit field (the unit is a gauge setting)."""
-    reply = decode_reply(frame, where=where)
-    return Decoded(reply.value, reply.decimals, None, reply.channel)
+decode = decode_reply  # the codec's decode
 
 
 def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "") -> bytes:
@@ -178,8 +162,6 @@ class Mitutoyo01A(SerialIndicator):
     4-5 for inch). Several drivers may share one link, one per channel, as long
     as they are used from one thread.
     """
-
-    default_timeout_s = 1.0
 
     def __init__(
         self,
@@ -228,9 +210,8 @@ class Mitutoyo01A(SerialIndicator):
         if _ERROR.fullmatch(frame):
             decode_reply(frame, where=self.where)  # raises the classified error
         if not _PRINTABLE.fullmatch(frame):
-            raise FrameError(
-                "device information is not printable text", where=self.where, frame=frame
-            )
+            raise FrameError("device information is not printable text", where=self.where,
+                             frame=frame)
         return frame[:-1].decode("ascii").strip()
 
     def _exchange(self, deadline: float) -> Reading:
@@ -239,11 +220,8 @@ class Mitutoyo01A(SerialIndicator):
         frame = self._read_frame(deadline)
         reply = decode_reply(frame, where=self.where)
         if reply.channel != self.channel:
-            raise FrameError(
-                f"reply from channel {reply.channel}, asked channel {self.channel}",
-                where=self.where,
-                frame=frame,
-            )
+            raise FrameError(f"reply from channel {reply.channel}, asked channel {self.channel}",
+                             where=self.where, frame=frame)
         return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,
                                where=self.where)

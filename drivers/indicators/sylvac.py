@@ -188,8 +188,6 @@ class SylvacOptoRS(SerialIndicator):
     places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3).
     """
 
-    default_timeout_s = 1.0
-
     def __init__(
         self,
         link: serial.Serial,
@@ -227,7 +225,11 @@ class SylvacOptoRS(SerialIndicator):
         deadline = self._deadline(timeout_s)
         self.flush_input()
         self._send(REQUEST)
-        frame = read_reply(lambda: self._read_frame(deadline), where=self.where, skip=REQUEST)
+        return self._reading(read_reply(lambda: self._read_frame(deadline), where=self.where,
+                                        skip=REQUEST))
+
+    def _reading(self, frame: bytes) -> Reading:
+        """The reading of a reply, whose decimals must fit the unit set on the gauge."""
         reply = decode_reply(frame, where=self.where)
         return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,

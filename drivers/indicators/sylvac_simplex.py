@@ -24,10 +24,9 @@ import time
 from ogacq_drivers.errors import LinkError
 from ogacq_drivers.indicators.base import (
     Reading,
-    checked_reading,
     link_errors,
 )
-from ogacq_drivers.indicators.sylvac import SylvacOptoRS, decode_reply, read_reply
+from ogacq_drivers.indicators.sylvac import SylvacOptoRS, read_reply
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +37,6 @@ REQUEST_PULSE_S = 0.12
 class SylvacSimplex(SylvacOptoRS):
     """A Sylvac gauge on an Opto-RS simplex cable (DTR-pulse request)."""
 
-    default_timeout_s = 1.0
     request_pulse_s = REQUEST_PULSE_S
 
     def _power_cable(self) -> None:
@@ -52,11 +50,7 @@ class SylvacSimplex(SylvacOptoRS):
         self._set_lines("requesting a value (DTR low)", dtr=False)
         time.sleep(self.request_pulse_s)
         self._set_lines("ending the request (DTR high)", dtr=True)
-        frame = read_reply(lambda: self._read_frame(deadline), where=self.where)
-        reply = decode_reply(frame, where=self.where)
-        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._reading(read_reply(lambda: self._read_frame(deadline), where=self.where))
 
     def _set_lines(self, action: str, **lines: bool) -> None:
         try:
@@ -64,11 +58,9 @@ class SylvacSimplex(SylvacOptoRS):
                 setattr(self.link, name, level)
         except OSError as exc:
             if exc.errno in (errno.ENOTTY, errno.EINVAL):
-                raise LinkError(
-                    f"{self.link.port} has no DTR/RTS lines ({exc.strerror}): a simplex cable is "
-                    "asked for values by DTR; use a real serial port or an RFC 2217 server",
-                    where=self.where,
-                ) from exc
+                raise LinkError(f"{self.link.port} has no DTR/RTS lines ({exc.strerror}): a "
+                                "simplex cable is asked for values by DTR; use a real serial "
+                                "port or an RFC 2217 server", where=self.where) from exc
             with link_errors(self.where, action):
                 raise
         except Exception as exc:  # pyserial wraps some failures (rfc2217: SerialException)

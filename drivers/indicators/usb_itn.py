@@ -44,13 +44,14 @@ from typing import Any
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
 from ogacq_drivers.indicators.base import (
+    IndicatorDriver,
     Reading,
     Unit,
     accepted_decimals,
     check_unit,
     checked_reading,
 )
-from ogacq_drivers.indicators.mitutoyo_01a import Reply01A, decode_reply, encode_reply
+from ogacq_drivers.indicators.mitutoyo_01a import decode_reply, encode_reply
 from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
 log = logging.getLogger(__name__)
@@ -95,11 +96,10 @@ def decode(frame: bytes, *, where: str = "") -> Decoded:
     message = classify(frame, where=where)
     if message.kind == MESSAGE_INFO:
         raise FrameError("device information where a value was asked", where=where, frame=frame)
-    reply = cable_reply(frame, where=where)  # 91x raise, classified
-    return Decoded(reply.value, reply.decimals, None, reply.channel)
+    return cable_reply(frame, where=where)  # 91x raise, classified
 
 
-def cable_reply(frame: bytes, *, where: str = "") -> Reply01A:
+def cable_reply(frame: bytes, *, where: str = "") -> Decoded:
     """The 01A reply of a value message, which must name the cable's one channel."""
     reply = decode_reply(frame, where=where)
     if reply.channel != CABLE_CHANNEL:
@@ -137,10 +137,8 @@ def find_cables() -> list[FoundPort]:
             for dev in usb.core.find(find_all=True, idVendor=VENDOR_ID, idProduct=PRODUCT_ID)]
 
 
-class UsbItn:
+class UsbItn(IndicatorDriver):
     """A gauge on a USB-ITN cable, in data mode (an :class:`Indicator`)."""
-
-    default_timeout_s = 1.0
 
     def __init__(
         self,
@@ -153,11 +151,10 @@ class UsbItn:
         timeout_s: float | None = None,
         busy_retry_delay_s: float = 0.05,
     ) -> None:
+        super().__init__(where=where, timeout_s=timeout_s)
         self.device = device
-        self.where = where
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
-        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
         self.busy_retry_delay_s = busy_retry_delay_s
         self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._buffer = bytearray()
@@ -183,16 +180,14 @@ class UsbItn:
             dev.ctrl_transfer(VENDOR_OUT, REQUEST_DATA_MODE, DATA_MODE_KEY, 0)
             answer = bytes(dev.ctrl_transfer(VENDOR_IN, REQUEST_CONFIRM, 0, 0, 1))
         if answer != bytes([CONFIRMED]):
-            raise DriverError(
-                f"the USB-ITN did not confirm data mode (answered {answer!r}, expected "
-                f"{bytes([CONFIRMED])!r}); unplug and replug the cable",
-                where=self.where,
-            )
+            raise DriverError(f"the USB-ITN did not confirm data mode (answered {answer!r}, "
+                              f"expected {bytes([CONFIRMED])!r}); unplug and replug the cable",
+                              where=self.where)
 
     # ------------------------------------------------------------ the contract
     def read(self, timeout_s: float | None = None) -> Reading:
         """Ask for a value and decode it; ``918`` (busy) is asked again until the deadline."""
-        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        deadline = self._deadline(timeout_s)
         busy: DeviceBusy | None = None
         while True:
             try:
@@ -210,8 +205,7 @@ class UsbItn:
 
     def device_info(self, timeout_s: float | None = None) -> str:
         """The cable's identification (``V``), without the leading ``1``."""
-        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
-        message = self._command(INFO_COMMAND, deadline)
+        message = self._command(INFO_COMMAND, self._deadline(timeout_s))
         if message.kind == MESSAGE_STATUS:
             decode_reply(message.raw, where=self.where)  # raises the classified error
         if message.kind != MESSAGE_INFO:
@@ -237,22 +231,12 @@ class UsbItn:
         except Exception as exc:  # closing a vanished device must not hide the first error
             log.debug("%s: releasing the USB device: %s", self.where, exc)
 
-    def __enter__(self) -> UsbItn:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
-
-    def __repr__(self) -> str:
-        return f"UsbItn(where={self.where!r})"
-
     # ---------------------------------------------------------------- the wire
     def _exchange(self, deadline: float) -> Reading:
         message = self._command(READ_COMMAND, deadline)
         if message.kind == MESSAGE_INFO:
-            raise FrameError(
-                "device information where a value was asked", where=self.where, frame=message.raw
-            )
+            raise FrameError("device information where a value was asked", where=self.where,
+                             frame=message.raw)
         reply = cable_reply(message.raw, where=self.where)  # 91x raise, classified
         return checked_reading(reply.value, reply.decimals, message.raw, unit=self.unit,
                                accepted=self._accepted_decimals, channel=self.channel,
@@ -269,18 +253,14 @@ class UsbItn:
             if len(self._buffer) > MAX_MESSAGE_BYTES:
                 junk = bytes(self._buffer)
                 self._buffer.clear()
-                raise FrameError(
-                    f"no CR within {MAX_MESSAGE_BYTES} bytes", where=self.where, frame=junk
-                )
+                raise FrameError(f"no CR within {MAX_MESSAGE_BYTES} bytes", where=self.where,
+                                 frame=junk)
             remaining_ms = int((deadline - time.monotonic()) * 1000)
             if remaining_ms <= 0:
                 partial = bytes(self._buffer)
                 self._buffer.clear()
-                detail = (
-                    f"incomplete reply at the deadline, got {partial!r}"
-                    if partial
-                    else "no reply before the deadline"
-                )
+                detail = (f"incomplete reply at the deadline, got {partial!r}" if partial
+                          else "no reply before the deadline")
                 raise DeviceTimeout(detail, where=self.where)
             self._packet(timeout_ms=min(POLL_MS, remaining_ms))
         raw, _, rest = bytes(self._buffer).partition(b"\r")

@@ -35,6 +35,7 @@ from typing import Any
 from ogacq_drivers.errors import DeviceTimeout, FrameError, LinkError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
 from ogacq_drivers.indicators.base import (
+    IndicatorDriver,
     Reading,
     Unit,
     accepted_decimals,
@@ -60,19 +61,7 @@ KEY_CHARS: dict[int, str] = {
     **{code: str(digit % 10) for digit, code in enumerate(range(2, 12), 1)},  # KEY_1..KEY_0
     12: "-",  # KEY_MINUS
     52: ".",  # KEY_DOT
-    71: "7",
-    72: "8",
-    73: "9",
-    74: "-",
-    75: "4",
-    76: "5",
-    77: "6",
-    78: "+",  # keypad
-    79: "1",
-    80: "2",
-    81: "3",
-    82: "0",
-    83: ".",
+    **dict(zip(range(71, 84), "789-456+1230.", strict=True)),  # the keypad, KEY_KP7..KEY_KPDOT
 }
 CHAR_KEYS: dict[str, int] = {"-": 12, ".": 52, **{str(d % 10): 1 + d for d in range(1, 11)}}
 MAX_LINE = 32  # characters before Enter; more is garbage
@@ -136,7 +125,7 @@ def find_keyboards() -> list[FoundPort]:
             for node in find_event_devices(VENDOR_ID, PRODUCT_ID)]
 
 
-class UsbItnKeyboard:
+class UsbItnKeyboard(IndicatorDriver):
     """A gauge on a USB-ITN cable left in keyboard mode (an :class:`Indicator`)."""
 
     default_timeout_s = 5.0  # someone (or a foot switch) presses the data switch
@@ -152,12 +141,11 @@ class UsbItnKeyboard:
         channel: str = "",
         timeout_s: float | None = None,
     ) -> None:
+        super().__init__(where=where, timeout_s=timeout_s)
         self.fd = fd
         self.node = node
-        self.where = where
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
-        self.timeout_s = self.default_timeout_s if timeout_s is None else timeout_s
         self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._raw = bytearray()  # bytes of an incomplete event
         self._line: list[str] = []
@@ -181,15 +169,12 @@ class UsbItnKeyboard:
     # ------------------------------------------------------------ the contract
     def read(self, timeout_s: float | None = None) -> Reading:
         """The next value typed by the cable."""
-        deadline = time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+        deadline = self._deadline(timeout_s)
         while not self._lines:
             remaining = deadline - time.monotonic()
             if remaining <= 0:
-                raise DeviceTimeout(
-                    "no value typed before the deadline (data switch pressed? cable in "
-                    "keyboard mode?)",
-                    where=self.where,
-                )
+                raise DeviceTimeout("no value typed before the deadline (data switch pressed? "
+                                    "cable in keyboard mode?)", where=self.where)
             self._pump(min(remaining, 0.05))
         line = self._lines.pop(0)
         value, decimals = decode_line(line, where=self.where)
@@ -212,12 +197,6 @@ class UsbItnKeyboard:
             with contextlib.suppress(OSError):
                 os.close(self.fd)  # also ends the grab
             self.fd = -1
-
-    def __enter__(self) -> UsbItnKeyboard:
-        return self
-
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         return f"UsbItnKeyboard(where={self.where!r}, node={self.node!r})"

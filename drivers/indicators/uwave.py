@@ -23,7 +23,6 @@ from __future__ import annotations
 
 import logging
 import re
-import time
 from collections.abc import Iterable
 from dataclasses import dataclass
 from decimal import ROUND_HALF_EVEN, Decimal
@@ -39,7 +38,8 @@ from ogacq_drivers.indicators.base import (
     accepted_decimals,
     check_decimals,
     check_unit,
-    to_mm,
+    reading_of,
+    warn_other_unit,
 )
 
 log = logging.getLogger(__name__)
@@ -174,38 +174,28 @@ def decode_frame(frame: bytes, *, where: str = "") -> UWaveData | UWaveStatus:
     if status is not None:
         group, channel, ident, code = (part.decode("ascii") for part in status.groups())
         meaning = STATUS_MEANINGS.get(code, f"unknown status {code}")
-        return UWaveStatus(
-            group=group, channel=channel, code=code, meaning=meaning, transmitter_id=ident
-        )
+        return UWaveStatus(group=group, channel=channel, code=code, meaning=meaning,
+                           transmitter_id=ident)
     data = _DATA.fullmatch(frame)
     if data is None:
         raise FrameError("not a U-WAVE data or status frame", where=where, frame=frame)
     group, channel, sign, field, letter = data.groups()
     if not _VALUE_FIELD.fullmatch(field):
-        raise FrameError(
-            "U-WAVE value is not digits with one decimal point", where=where, frame=frame
-        )
+        raise FrameError("U-WAVE value is not digits with one decimal point", where=where,
+                         frame=frame)
     value = Decimal(field.decode("ascii"))
     if sign == b"-":
         value = -value
     decimals = len(field) - field.index(b".") - 1 if b"." in field else 0
-    return UWaveData(
-        group=group.decode("ascii"),
-        channel=channel.decode("ascii"),
-        value=value,
-        decimals=decimals,
-        unit=UNIT_LETTERS[letter],
-    )
+    return UWaveData(group=group.decode("ascii"), channel=channel.decode("ascii"), value=value,
+                     decimals=decimals, unit=UNIT_LETTERS[letter])
 
 
 def status_fault(status: UWaveStatus, *, where: str = "") -> DeviceFault:
     """The error a status frame stops a reading with."""
     ident = "" if status.transmitter_id == UNKNOWN_ID else f", id {status.transmitter_id}"
-    return DeviceFault(
-        f"U-WAVE status {status.code}: {status.meaning} (transmitter {status.gauge_id}{ident})",
-        code=status.code,
-        where=where,
-    )
+    return DeviceFault(f"U-WAVE status {status.code}: {status.meaning} (transmitter "
+                       f"{status.gauge_id}{ident})", code=status.code, where=where)
 
 
 def decode(frame: bytes, *, where: str = "") -> Decoded:
@@ -264,9 +254,8 @@ class UWaveReceiver(SerialIndicator):
     ) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         if channel is not None and not re.fullmatch(r"[0-9]{2}|[0-9]{4}", channel):
-            raise DriverError(
-                f"U-WAVE channel is 'CC' or 'GGCC' digits, got {channel!r}", where=where
-            )
+            raise DriverError(f"U-WAVE channel is 'CC' or 'GGCC' digits, got {channel!r}",
+                              where=where)
         self.unit: Unit = check_unit(unit, where=where)
         self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self.channel = channel
@@ -302,9 +291,8 @@ class UWaveReceiver(SerialIndicator):
             self._check_one_transmitter(decoded.gauge_id)
             if isinstance(decoded, UWaveStatus):
                 if decoded.is_warning:
-                    log.warning(
-                        "%s: %s (transmitter %s)", self.where, decoded.meaning, decoded.gauge_id
-                    )
+                    log.warning("%s: %s (transmitter %s)", self.where, decoded.meaning,
+                                decoded.gauge_id)
                     continue
                 if decoded.reading_lost:
                     log.warning("%s: %s (transmitter %s); waiting for its next reading",
@@ -312,34 +300,19 @@ class UWaveReceiver(SerialIndicator):
                     lost = decoded
                     continue
                 raise status_fault(decoded, where=self.where)
-            unit = self._unit_of(decoded, frame)
-            return Reading(
-                value_mm=to_mm(decoded.value, unit),
-                frame=frame,
-                time_s=time.time(),
-                channel=decoded.gauge_id,
-                unit=unit,
-                where=self.where,
-            )
+            return reading_of(decoded.value, self._unit_of(decoded, frame), frame,
+                              channel=decoded.gauge_id, where=self.where)
 
     def _unit_of(self, decoded: UWaveData, frame: bytes) -> Unit:
         """The frame's unit; for unit ``0`` (none sent) the configured one, whose
         decimal layout the value must fit, as with the unit-less 01A frames."""
         if decoded.unit is None:
-            check_decimals(
-                decoded.decimals, self.unit, self._accepted_decimals, where=self.where, frame=frame
-            )
+            check_decimals(decoded.decimals, self.unit, self._accepted_decimals,
+                           where=self.where, frame=frame)
             return self.unit
         if decoded.unit != self._last_unit:
             self._last_unit = decoded.unit
-            if decoded.unit != self.unit:
-                log.warning(
-                    "%s: gauge displays %s but is configured %s; values are converted "
-                    "from the unit in each frame",
-                    self.where,
-                    decoded.unit,
-                    self.unit,
-                )
+            warn_other_unit(decoded.unit, self.unit, where=self.where)
         return decoded.unit
 
     def _check_one_transmitter(self, gauge_id: str) -> None:
@@ -352,12 +325,10 @@ class UWaveReceiver(SerialIndicator):
         elif gauge_id != self._heard and self._second is None:
             self._second = gauge_id
         if self._second is not None:  # for good: neither one is known to be this gauge's
-            raise DriverError(
-                f"frames from transmitters {self._heard} and {self._second} reach this "
-                "receiver and the gauge has no channel: set its channel (CC or GGCC) to the "
-                "transmitter fitted to this gauge",
-                where=self.where,
-            )
+            raise DriverError(f"frames from transmitters {self._heard} and {self._second} "
+                              "reach this receiver and the gauge has no channel: set its "
+                              "channel (CC or GGCC) to the transmitter fitted to this gauge",
+                              where=self.where)
 
     def _is_mine(self, gauge_id: str) -> bool:
         return same_indicator(self.channel, gauge_id)

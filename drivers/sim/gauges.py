@@ -46,7 +46,7 @@ from decimal import Decimal
 from enum import StrEnum
 from typing import Any, ClassVar, Literal, Protocol
 
-from ogacq_drivers.indicators import BACKENDS
+from ogacq_drivers.indicators import BACKENDS, codec
 from ogacq_drivers.indicators.backend import load
 from ogacq_drivers.indicators.base import MM_PER_INCH as EXACT_MM_PER_INCH
 from ogacq_drivers.indicators.base import Unit
@@ -145,9 +145,30 @@ class UsbCableGauge(SimulatedGauge):
 
     CABLE = ""  # for messages: "a USB-ITN cable"
     SHOWS: tuple[Fault, ...] = ()
-    unit: Unit
-    value_source: Callable[[], float]
-    _last_value_mm: float | None
+    #: Sends a value per press of its data switch (the stack's operator presses it).
+    PRESSED = False
+    MAX_DECIMALS = 6  # the 01A reply's 8 characters (the keyboard cable types the same)
+    NAME = ""  # when given none
+
+    def __init__(self, value_source: Callable[[], float], *, resolution_mm: float = 0.001,
+                 unit: Unit = "mm", name: str | None = None) -> None:
+        self.value_source = value_source
+        self.resolution_mm = resolution_mm
+        self.unit: Unit = unit
+        self.name = name or self.NAME
+        self.unplugged = False
+        self._faults: dict[Fault, list[Any]] = {}  # kind -> [code, remaining or None]
+        self._lock = threading.Lock()
+        self._last_value_mm: float | None = None
+
+    @classmethod
+    def simulate(cls, protocol: str, source: ValueSource, setup: SimSetup) -> Any:
+        """The stack's cable (served its own way whatever the setup's transport), its
+        data switch, if it has one, pressed every ``setup.push_period_s``."""
+        pressed: dict[str, Any] = {"period_s": setup.push_period_s} if cls.PRESSED else {}
+        endpoint = cls(source, resolution_mm=setup.resolution_mm, name=setup.name, **pressed)
+        endpoint.protocol = protocol
+        return endpoint
 
     def unplug(self) -> None:
         raise NotImplementedError
@@ -175,6 +196,29 @@ class UsbCableGauge(SimulatedGauge):
         code = self._fault_code(kind, code)
         with self._lock:
             self._faults[kind] = [code, count]
+
+    def _take_faults(self) -> dict[Fault, str]:
+        """The faults applying to this reply, with their codes; counts are consumed
+        (the inch display is a state, not a count of replies)."""
+        with self._lock:
+            taken = {}
+            for kind, state in list(self._faults.items()):
+                taken[kind] = state[0]
+                if state[1] is not None and kind is not Fault.INCH:
+                    state[1] -= 1
+                    if state[1] <= 0:
+                        del self._faults[kind]
+            return taken
+
+    def _shown_now(self, faults: Mapping[Fault, str]) -> tuple[Decimal, int]:
+        """The value the gauge shows now (in inch under ``Fault.INCH``), remembered for
+        a burst of old values."""
+        value = float(self.value_source())
+        self._last_value_mm = value
+        return self._shown(value, "inch" if Fault.INCH in faults else self.unit)
+
+    def _shown(self, value_mm: float, unit: Unit) -> tuple[Decimal, int]:
+        return shown_value(value_mm, unit, self.resolution_mm, self.MAX_DECIMALS)
 
 
 class _PtyTransport:
@@ -371,6 +415,18 @@ def _decimals_for(resolution: float, limit: int) -> int:
     return max(0, min(limit, math.ceil(-math.log10(resolution) - 1e-9)))
 
 
+def shown_value(value_mm: float, unit: Unit, resolution_mm: float,
+                max_decimals: int) -> tuple[Decimal, int]:
+    """What a display of ``resolution_mm`` steps shows of ``value_mm`` in ``unit``, and
+    its decimal places: in mm, rounded to the step; in inch, as many places as the
+    step needs in inch."""
+    if unit == "mm":
+        shown = Decimal(round(value_mm / resolution_mm)) * Decimal(str(resolution_mm))
+        return shown, _decimals_for(resolution_mm, max_decimals)
+    return (Decimal(repr(value_mm / MM_PER_INCH)),
+            _decimals_for(resolution_mm / MM_PER_INCH, max_decimals))
+
+
 def _garble(frame: bytes) -> bytes:
     """Replace the middle byte of the frame body with one no grammar accepts."""
     body = frame.rstrip(b"\r\n")
@@ -486,8 +542,10 @@ class SerialDevice:
                     inch_code: str) -> bytes:
         """The frame showing ``value`` (display unit) with ``decimals`` places;
         ValueError when the display cannot show it. ``inch_code``: the unit code an
-        inch display uses where the protocol has two (Digimatic's "1" or "8")."""
-        raise NotImplementedError
+        inch display uses where the protocol has two (Digimatic's "1" or "8"). By
+        default the protocol's codec encodes it, as the drivers decode it."""
+        return codec(self.gauge.protocol).encode(value, decimals=decimals, unit=unit,
+                                                 channel=channel)
 
     def overflow_frame(self) -> bytes | None:
         """What it sends for a value its display cannot show (None: nothing)."""
@@ -573,8 +631,7 @@ class GaugeEndpoint(SimulatedGauge):
         self.byte_time_s = settings.byte_time_s / line_speed
         if callable(value_source):
             self.channels: dict[str, ValueSource] = {
-                channel if channel is not None else device_class.DEFAULT_CHANNEL: value_source
-            }
+                channel if channel is not None else device_class.DEFAULT_CHANNEL: value_source}
         else:
             self.channels = dict(value_source)
             if not self.channels:
@@ -584,19 +641,14 @@ class GaugeEndpoint(SimulatedGauge):
         self.default_channel = channel if channel is not None else next(iter(self.channels))
         self.resolution_mm = resolution_mm
         self.unit: Unit = unit
-        self._mm_decimals = _decimals_for(resolution_mm, device_class.MAX_DECIMALS)
-        self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH,
-                                            device_class.MAX_DECIMALS)
         self.name = name or f"sim-{protocol}"
 
-        self.frames_sent = 0
         self.requests_received = 0
         self.unplugged = False
         self._faults: dict[Fault, _FaultState] = {}
         self._lock = threading.Lock()
-        self._commands: queue.SimpleQueue[tuple[Callable[[], None], threading.Event]] = (
-            queue.SimpleQueue()
-        )
+        self._commands: queue.SimpleQueue[tuple[Callable[[], None], threading.Event]]
+        self._commands = queue.SimpleQueue()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._transport: _PtyTransport | _SocketTransport | None = None
@@ -820,7 +872,6 @@ class GaugeEndpoint(SimulatedGauge):
             self.send(frame[half:])
         else:
             self.send(frame)
-        self.frames_sent += 1
 
     def _push_all(self) -> None:
         for channel in self.channels:
@@ -833,13 +884,10 @@ class GaugeEndpoint(SimulatedGauge):
         """The per-reply faults applying to this reply; counts are consumed."""
         with self._lock:
             active = dict(self._faults)
-            outcome = next(
-                (k for k in (Fault.UNPLUG, Fault.SILENCE, Fault.BUSY, Fault.ERROR) if k in active),
-                None,
-            )
-            applied: dict[Fault, _FaultState] = {
-                k: v for k, v in active.items() if k in (Fault.GARBLED, Fault.SPLIT)
-            }
+            outcome = next((k for k in (Fault.UNPLUG, Fault.SILENCE, Fault.BUSY, Fault.ERROR)
+                            if k in active), None)
+            applied: dict[Fault, _FaultState] = {k: v for k, v in active.items()
+                                                 if k in (Fault.GARBLED, Fault.SPLIT)}
             if outcome is not None:
                 applied[outcome] = active[outcome]
             for kind, state in applied.items():
@@ -866,13 +914,8 @@ class GaugeEndpoint(SimulatedGauge):
     def _encode_value(
         self, value_mm: float, unit: Unit, channel: str, inch_nibble: str
     ) -> bytes | None:
-        if unit == "mm":
-            decimals = self._mm_decimals
-            steps = round(value_mm / self.resolution_mm)
-            shown = Decimal(steps) * Decimal(str(self.resolution_mm))
-        else:
-            decimals = self._inch_decimals
-            shown = Decimal(repr(value_mm / MM_PER_INCH))
+        shown, decimals = shown_value(value_mm, unit, self.resolution_mm,
+                                      self.device.MAX_DECIMALS)
         try:
             return self.device.value_frame(shown, decimals=decimals, unit=unit,
                                            channel=channel, inch_code=inch_nibble)

@@ -27,19 +27,15 @@ import time
 from collections.abc import Callable
 from decimal import Decimal
 from pathlib import Path
-from typing import Any
 
+from ogacq_drivers.atomic import write_atomically
 from ogacq_drivers.indicators import usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from ogacq_drivers.input_link import EVENT
 from ogacq_drivers.sim.gauges import (
-    MM_PER_INCH,
     Fault,
-    SimSetup,
     UsbCableGauge,
-    ValueSource,
-    _decimals_for,
 )
 
 log = logging.getLogger(__name__)
@@ -64,31 +60,13 @@ class KeyboardEndpoint(UsbCableGauge):
         vendor_id: int = usb_itn.VENDOR_ID,
         product_id: int = usb_itn.PRODUCT_ID,
     ) -> None:
-        self.value_source = value_source
-        self.resolution_mm = resolution_mm
-        self.unit: Unit = unit
+        super().__init__(value_source, resolution_mm=resolution_mm, unit=unit, name=name)
         self.period_s = period_s
-        self.name = name or "sim usb-itn keyboard"
         self.ids = (vendor_id, product_id)
-        self._mm_decimals = _decimals_for(resolution_mm, 6)
-        self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH, 6)
-        self.lines_typed = 0
-        self.unplugged = False
-        self._faults: dict[Fault, list[Any]] = {}
-        self._lock = threading.Lock()
         self._root: Path | None = None
         self._fd = -1
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        self._last_value_mm: float | None = None
-
-    @classmethod
-    def simulate(cls, protocol: str, source: ValueSource, setup: SimSetup) -> KeyboardEndpoint:
-        """The stack's cable, its data switch pressed every ``setup.push_period_s``."""
-        endpoint = cls(source, resolution_mm=setup.resolution_mm, name=setup.name,
-                       period_s=setup.push_period_s)
-        endpoint.protocol = protocol
-        return endpoint
 
     # ---------------------------------------------------------------- lifecycle
     @property
@@ -104,10 +82,11 @@ class KeyboardEndpoint(UsbCableGauge):
         ids = root / "sys" / "class" / "input" / "event0" / "device" / "id"
         ids.mkdir(parents=True)
         # sysfs writes the ids as four hex digits and a newline.
-        (ids / "vendor").write_text(f"{self.ids[0]:04x}\n")
-        (ids / "product").write_text(f"{self.ids[1]:04x}\n")
-        (ids / "bustype").write_text("0003\n")  # BUS_USB
-        (ids.parent / "name").write_text("Mitutoyo USB-ITN (simulated)\n")
+        for path, text in ((ids / "vendor", f"{self.ids[0]:04x}\n"),
+                           (ids / "product", f"{self.ids[1]:04x}\n"),
+                           (ids / "bustype", "0003\n"),  # BUS_USB
+                           (ids.parent / "name", "Mitutoyo USB-ITN (simulated)\n")):
+            write_atomically(path, text.encode("ascii"))
         node = root / "dev" / "input" / "event0"
         node.parent.mkdir(parents=True)
         os.mkfifo(node)
@@ -134,12 +113,14 @@ class KeyboardEndpoint(UsbCableGauge):
         return f"KeyboardEndpoint({self.port if self._root else 'not started'})"
 
     # ------------------------------------------------------------------- faults
+    NAME = "sim usb-itn keyboard"
     CABLE = "a keyboard cable"
     SHOWS = (Fault.SILENCE, Fault.GARBLED, Fault.INCH)
+    PRESSED = True
 
     def _push_stale(self, value_mm: float, count: int) -> None:
         for _ in range(count):
-            self._type(self._text(value_mm, self.unit))
+            self._type(_text(*self._shown(value_mm, self.unit)))
 
     def unplug(self) -> None:
         self.unplugged = True
@@ -147,18 +128,10 @@ class KeyboardEndpoint(UsbCableGauge):
 
     def trigger(self) -> None:
         """The data switch is pressed once."""
-        with self._lock:
-            faults = dict(self._faults)
-            for kind, state in list(self._faults.items()):
-                if state[1] is not None and kind is not Fault.INCH:
-                    state[1] -= 1
-                    if state[1] <= 0:
-                        del self._faults[kind]
+        faults = self._take_faults()
         if Fault.SILENCE in faults or self.unplugged:
             return
-        value = float(self.value_source())
-        self._last_value_mm = value
-        text = self._text(value, "inch" if Fault.INCH in faults else self.unit)
+        text = _text(*self._shown_now(faults))
         if Fault.GARBLED in faults:
             middle = len(text) // 2
             text = text[:middle] + "A" + text[middle + 1 :]
@@ -171,12 +144,6 @@ class KeyboardEndpoint(UsbCableGauge):
             if self.unplugged:
                 return
             self.trigger()
-
-    def _text(self, value_mm: float, unit: Unit) -> str:
-        if unit == "mm":
-            shown = Decimal(round(value_mm / self.resolution_mm)) * Decimal(str(self.resolution_mm))
-            return f"{shown:.{self._mm_decimals}f}"
-        return f"{Decimal(repr(value_mm / MM_PER_INCH)):.{self._inch_decimals}f}"
 
     def _type(self, text: str) -> None:
         now = time.time()
@@ -193,8 +160,6 @@ class KeyboardEndpoint(UsbCableGauge):
                 os.write(self._fd, records)  # < PIPE_BUF: all or nothing
             except BlockingIOError:
                 log.debug("%s: reader lagging, a typed line dropped", self.name)
-                return
-        self.lines_typed += 1
 
     def _unplug_now(self) -> None:
         with self._lock:
@@ -206,3 +171,8 @@ class KeyboardEndpoint(UsbCableGauge):
             with contextlib.suppress(OSError):
                 os.unlink(self._root / "dev" / "input" / "event0")
             shutil.rmtree(self._root / "sys" / "class" / "input" / "event0", ignore_errors=True)
+
+
+def _text(shown: Decimal, decimals: int) -> str:
+    """What the cable types for a shown value."""
+    return f"{shown:.{decimals}f}"

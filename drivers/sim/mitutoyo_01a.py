@@ -9,13 +9,10 @@ information, and ignores anything else (INSTRUMENTS.md, 01A).
 from __future__ import annotations
 
 import logging
-from decimal import Decimal
 
-from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.mitutoyo_01a import (
     BUSY_CODE,
     encode_error,
-    encode_reply,
     encode_request,
 )
 from ogacq_drivers.sim.gauges import LineDevice
@@ -48,10 +45,6 @@ class Mitutoyo01ADevice(LineDevice):
             self.gauge.send(encode_error(NO_DATA))  # nothing on that channel
         else:
             log.debug("%s: ignoring request %r", self.gauge.name, command)
-
-    def value_frame(self, value: Decimal, *, decimals: int, unit: Unit, channel: str,
-                    inch_code: str) -> bytes:
-        return encode_reply(value, decimals=decimals, channel=channel)
 
     def error_frame(self, code: str, channel: str) -> bytes:
         return encode_error(code)

@@ -41,6 +41,7 @@ returns once it is listening, ``stop()`` closes connections and the port.
 from __future__ import annotations
 
 import asyncio
+import dataclasses
 import functools
 import logging
 import threading
@@ -79,15 +80,9 @@ class ServerAddress:
     baudrate: int | None = None  # RTU only
 
     def as_dict(self) -> dict[str, Any]:
-        info: dict[str, Any] = {
-            "transport": self.transport,
-            "host": self.host,
-            "port": self.port,
-            "profile": self.profile,
-            "device_ids": dict(self.device_ids),
-        }
-        if self.baudrate is not None:
-            info["baudrate"] = self.baudrate
+        info = dataclasses.asdict(self)
+        if self.baudrate is None:
+            del info["baudrate"]
         return info
 
 
@@ -158,21 +153,17 @@ class _SimulatedAxis:
             self.put(flag.value, word)
 
     def _names_at(self, function: str, first: int, count: int) -> list[ValueSpec]:
-        last = first + count
-        return [
-            s
-            for s in self.profile.values.values()
-            if s.function == function and s.address < last and first < s.address + s.words
-        ]
+        return [s for s in self.profile.values.values()
+                if s.function == function and s.address < first + count
+                and first < s.address + s.words]
 
     # ---- request entry points (called from the server loop)
 
     def write_registers(self, address: int, values: list[int]) -> ExcCodes | None:
         for offset, word in enumerate(values):
             self.memory.holding[address + offset] = int(word)
-        return self.on_registers_written(
-            [s.name for s in self._names_at("holding", address, len(values))]
-        )
+        return self.on_registers_written([s.name for s in self._names_at("holding", address,
+                                                                         len(values))])
 
     def write_coils(self, address: int, values: list[bool]) -> ExcCodes | None:
         changes: list[tuple[str, bool, bool]] = []
@@ -198,19 +189,10 @@ class _SimulatedAxis:
 class _IaiAxis(_SimulatedAxis):
     """IAI ROBO Cylinder PCON behaviour."""
 
-    required_values = (
-        "modbus_control",
-        "servo_on_command",
-        "home_command",
-        "alarm_reset_command",
-        "pause_command",
-        "decel_stop_command",
-        "position_actual",
-        "alarm_code",
-        "move_target",
-        "move_speed",
-        "move_acceleration",
-    )
+    required_values = ("modbus_control", "servo_on_command", "home_command",
+                       "alarm_reset_command", "pause_command", "decel_stop_command",
+                       "position_actual", "alarm_code", "move_target", "move_speed",
+                       "move_acceleration")
 
     def __init__(self, profile: Profile, model: MotionModel, axis: str, device_id: int) -> None:
         super().__init__(profile, model, axis, device_id)
@@ -271,16 +253,10 @@ class _IaiAxis(_SimulatedAxis):
             self.alarm_code = self.profile.sim.soft_limit_alarm_code
         self.put("position_actual", snap.counter_mm)
         self.put("alarm_code", self.alarm_code)
-        self.put_flags(
-            {
-                "emergency_stop": False,
-                "servo_on": snap.servo_on,
-                "alarm": snap.alarm is not None,
-                "homed": snap.homed,
-                "in_position": snap.servo_on and snap.in_position,
-                "moving": snap.moving,
-            }
-        )
+        self.put_flags({"emergency_stop": False, "servo_on": snap.servo_on,
+                        "alarm": snap.alarm is not None, "homed": snap.homed,
+                        "in_position": snap.servo_on and snap.in_position,
+                        "moving": snap.moving})
 
 
 # CiA 402 statusword state patterns (bits 0-3, 5, 6) and fixed bits.
@@ -298,20 +274,12 @@ _STATE_WORDS = {
     "switch_on_disabled": _SW_SWITCH_ON_DISABLED,
     "ready_to_switch_on": _SW_READY | _SW_QUICK_STOP_OFF | _SW_VOLTAGE,
     "switched_on": _SW_READY | _SW_SWITCHED_ON | _SW_QUICK_STOP_OFF | _SW_VOLTAGE,
-    "operation_enabled": _SW_READY
-    | _SW_SWITCHED_ON
-    | _SW_ENABLED
-    | _SW_QUICK_STOP_OFF
+    "operation_enabled": _SW_READY | _SW_SWITCHED_ON | _SW_ENABLED | _SW_QUICK_STOP_OFF
     | _SW_VOLTAGE,
     "fault": _SW_FAULT,
 }
-_CIA_FLAG_BITS = {
-    "servo_on": 2,
-    "fault": 3,
-    "in_position": 10,
-    "setpoint_ack": 12,
-    "homing_attained": 12,
-}
+_CIA_FLAG_BITS = {"servo_on": 2, "fault": 3, "in_position": 10, "setpoint_ack": 12,
+                  "homing_attained": 12}
 
 
 class _CiaAxis(_SimulatedAxis):
@@ -319,14 +287,8 @@ class _CiaAxis(_SimulatedAxis):
 
     # home_offset, store_parameters, mode_display and error_code are served when the
     # profile maps them (a drive whose map has no source for them leaves them out)
-    required_values = (
-        "controlword",
-        "statusword",
-        "mode",
-        "position_actual",
-        "target_position",
-        "profile_velocity",
-    )
+    required_values = ("controlword", "statusword", "mode", "position_actual",
+                       "target_position", "profile_velocity")
 
     def __init__(self, profile: Profile, model: MotionModel, axis: str, device_id: int) -> None:
         super().__init__(profile, model, axis, device_id)
@@ -355,11 +317,8 @@ class _CiaAxis(_SimulatedAxis):
         if "store_parameters" in names and "store_parameters" in self.profile.values:
             return self._store_parameters()
         if "home_offset" in names:
-            log.info(
-                "%s: home offset set to %.3f mm (effective at the next homing)",
-                self.where,
-                self.get("home_offset"),
-            )
+            log.info("%s: home offset set to %.3f mm (effective at the next homing)",
+                     self.where, self.get("home_offset"))
         if "controlword" in names:
             self._controlword(int(self.get("controlword")))
         return None
@@ -676,21 +635,12 @@ class ModbusSimServer:
 
     def _sim_device(self, device_id: int, unit: _SimulatedAxis) -> SimDevice:
         holding = self._holding_blocks()
-        coils = [
-            SimData(s.address, values=False, datatype=DataType.BITS, readonly=not s.writable)
-            for s in self.profile.values.values()
-            if s.function == "coil"
-        ] or [SimData(0, values=False, datatype=DataType.BITS)]  # pymodbus needs a coil block
-        return SimDevice(
-            device_id,
-            simdata=(
-                coils,
-                [SimData(0, values=False, datatype=DataType.BITS)],
-                holding,
-                [SimData(0, datatype=DataType.INVALID)],
-            ),
-            action=functools.partial(self._on_request, unit),
-        )
+        bits = functools.partial(SimData, values=False, datatype=DataType.BITS)
+        coils = [bits(s.address, readonly=not s.writable) for s in self.profile.values.values()
+                 if s.function == "coil"] or [bits(0)]  # pymodbus needs a coil block
+        return SimDevice(device_id, simdata=(coils, [bits(0)], holding,
+                                             [SimData(0, datatype=DataType.INVALID)]),
+                         action=functools.partial(self._on_request, unit))
 
     def _holding_blocks(self) -> list[SimData]:
         """One SimData per register, with gaps the client may read across served as zeros."""
@@ -698,30 +648,15 @@ class ModbusSimServer:
             (s for s in self.profile.values.values() if s.function == "holding"),
             key=lambda s: s.address,
         )
+        registers = functools.partial(SimData, values=0, datatype=DataType.REGISTERS)
         blocks: list[SimData] = []
         previous_end: int | None = None
         for spec in specs:
             gap = 0 if previous_end is None else spec.address - previous_end
             if previous_end is not None and 0 < gap <= self.profile.status.max_gap_registers:
-                blocks.append(
-                    SimData(
-                        previous_end,
-                        count=gap,
-                        values=0,
-                        datatype=DataType.REGISTERS,
-                        readonly=True,
-                    )
-                )
+                blocks.append(registers(previous_end, count=gap, readonly=True))
             # status words are not writable by the client; writable-only objects read as zero
-            blocks.append(
-                SimData(
-                    spec.address,
-                    count=spec.words,
-                    values=0,
-                    datatype=DataType.REGISTERS,
-                    readonly=not spec.writable,
-                )
-            )
+            blocks.append(registers(spec.address, count=spec.words, readonly=not spec.writable))
             previous_end = spec.address + spec.words
         return blocks
 
@@ -764,9 +699,8 @@ class ModbusSimServer:
             self._refresh_temperatures(unit)
             self._copy_out(unit, function_code, start_address, registers)
         except Exception:
-            log.exception(
-                "%s: simulator failed on function %d at %#06x", unit.where, function_code, address
-            )
+            log.exception("%s: simulator failed on function %d at %#06x", unit.where,
+                          function_code, address)
             return ExcCodes.DEVICE_FAILURE
         return None
 

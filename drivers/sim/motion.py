@@ -163,17 +163,13 @@ class MotionModel:
         limit_margin_mm: float = 2.0,
         initial_raw_mm: Mapping[str, float] | None = None,
     ) -> None:
-        for label, value in (
-            ("speed_mm_s", speed_mm_s),
-            ("accel_mm_s2", accel_mm_s2),
-            ("home_speed_mm_s", home_speed_mm_s),
-        ):
+        for label, value in (("speed_mm_s", speed_mm_s), ("accel_mm_s2", accel_mm_s2),
+                             ("home_speed_mm_s", home_speed_mm_s)):
             if not value > 0:
                 raise ValueError(f"motion model: {label} must be positive, got {value}")
         if settle_s < 0 or home_search_s < 0 or limit_margin_mm < 0:
-            raise ValueError(
-                "motion model: settle_s, home_search_s and limit_margin_mm must be >= 0"
-            )
+            raise ValueError("motion model: settle_s, home_search_s and limit_margin_mm must "
+                             "be >= 0")
         if soft_min_mm >= soft_max_mm:
             raise ValueError(f"motion model: soft limits [{soft_min_mm}, {soft_max_mm}] are empty")
         self.clock = clock
@@ -192,10 +188,8 @@ class MotionModel:
         if unknown:
             raise ValueError(f"motion model: initial position for unknown axes {sorted(unknown)}")
         # the counter of an incremental encoder reads 0 at power-on, wherever the axis is
-        self._axes = {
-            n: _Axis(n, raw_mm=float(initial.get(n, 0.0)), reference_mm=float(initial.get(n, 0.0)))
-            for n in names
-        }
+        self._axes = {n: _Axis(n, raw_mm=float(initial.get(n, 0.0)),
+                               reference_mm=float(initial.get(n, 0.0))) for n in names}
 
     @property
     def axes(self) -> tuple[str, ...]:
@@ -250,21 +244,11 @@ class MotionModel:
             raw = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
             moving = ax.segment is not None
             return AxisSnapshot(
-                axis=axis,
-                time_s=now,
-                raw_mm=raw,
-                counter_mm=raw - ax.reference_mm,
-                moving=moving,
-                in_position=not moving and now >= ax.settled_at_s,
-                homing=moving
-                and ax.segment is not None
-                and ax.segment.home_position_mm is not None,
-                homed=ax.homed,
-                servo_on=ax.servo_on,
-                alarm=ax.alarm,
-                last_direction=ax.last_direction,
-                target_counter_mm=ax.target_counter_mm,
-            )
+                axis=axis, time_s=now, raw_mm=raw, counter_mm=raw - ax.reference_mm,
+                moving=moving, in_position=not moving and now >= ax.settled_at_s,
+                homing=ax.segment is not None and ax.segment.home_position_mm is not None,
+                homed=ax.homed, servo_on=ax.servo_on, alarm=ax.alarm,
+                last_direction=ax.last_direction, target_counter_mm=ax.target_counter_mm)
 
     # ---------------------------------------------------------------- commands
 
@@ -302,14 +286,8 @@ class MotionModel:
             if not low <= raw_target <= high:
                 self._halt(ax, now)
                 ax.alarm = Alarm.SOFT_LIMIT
-                log.warning(
-                    "sim axis %s: target %.3f mm (raw %.3f) outside [%.1f, %.1f]: soft-limit alarm",
-                    axis,
-                    counter_target_mm,
-                    raw_target,
-                    low,
-                    high,
-                )
+                log.warning("sim axis %s: target %.3f mm (raw %.3f) outside [%.1f, %.1f]: "
+                            "soft-limit alarm", axis, counter_target_mm, raw_target, low, high)
                 return Outcome.SOFT_LIMIT
             speed = self._positive(speed_mm_s, self.speed_mm_s)
             accel = self._positive(accel_mm_s2, self.accel_mm_s2)
@@ -329,15 +307,8 @@ class MotionModel:
                 return refused
             ax.homed = False
             ax.paused = None
-            self._start(
-                ax,
-                now,
-                0.0,
-                self.home_speed_mm_s,
-                self.accel_mm_s2,
-                dwell_s=self.home_search_s,
-                home_position_mm=home_position_mm,
-            )
+            self._start(ax, now, 0.0, self.home_speed_mm_s, self.accel_mm_s2,
+                        dwell_s=self.home_search_s, home_position_mm=home_position_mm)
             ax.target_counter_mm = home_position_mm
             return Outcome.STARTED
 
@@ -443,14 +414,9 @@ class MotionModel:
             ax.last_direction = direction
         ax.raw_mm = raw_now
         ax.segment = _Segment(now, raw_now, raw_target, speed, accel, dwell_s, home_position_mm)
-        log.debug(
-            "sim axis %s: %s raw %.3f -> %.3f mm over %.3f s",
-            ax.name,
-            "homing" if home_position_mm is not None else "move",
-            raw_now,
-            raw_target,
-            ax.segment.end_s - now,
-        )
+        log.debug("sim axis %s: %s raw %.3f -> %.3f mm over %.3f s", ax.name,
+                  "homing" if home_position_mm is not None else "move", raw_now, raw_target,
+                  ax.segment.end_s - now)
 
     def _halt(self, ax: _Axis, now: float) -> None:
         if ax.segment is not None:

@@ -77,11 +77,8 @@ class _Direction:
         self.relayed += written
         if written < len(due):
             self.dropped += len(due) - written
-            log.debug(
-                "pty bridge %s: far end not reading, %d bytes dropped",
-                self.name,
-                len(due) - written,
-            )
+            log.debug("pty bridge %s: far end not reading, %d bytes dropped", self.name,
+                      len(due) - written)
 
 
 class PtyBridge:
@@ -128,12 +125,8 @@ class PtyBridge:
         self._stop.clear()
         self._thread = threading.Thread(target=self._relay, name="pty-bridge", daemon=True)
         self._thread.start()
-        log.info(
-            "pty bridge: device side %s, client side %s, %s",
-            self.server_path,
-            self.client_path,
-            f"paced at {self.baudrate} baud" if self.baudrate else "unpaced",
-        )
+        log.info("pty bridge: device side %s, client side %s, %s", self.server_path,
+                 self.client_path, f"paced at {self.baudrate} baud" if self.baudrate else "unpaced")
         return self
 
     def stop(self) -> None:

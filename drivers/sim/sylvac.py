@@ -16,10 +16,8 @@ from __future__ import annotations
 
 import logging
 import time
-from decimal import Decimal
 
-from ogacq_drivers.indicators.base import Unit
-from ogacq_drivers.indicators.sylvac import encode_error, encode_identification, encode_reply
+from ogacq_drivers.indicators.sylvac import encode_error, encode_identification
 from ogacq_drivers.sim import gauges
 from ogacq_drivers.sim.gauges import GaugeEndpoint, LineDevice
 
@@ -48,10 +46,6 @@ class SylvacDuplexDevice(LineDevice):
             self.gauge.unit = "mm" if command == "MM" else "inch"
         else:
             self.gauge.send(encode_error(INCORRECT_COMMAND))
-
-    def value_frame(self, value: Decimal, *, decimals: int, unit: Unit, channel: str,
-                    inch_code: str) -> bytes:
-        return encode_reply(value, decimals=decimals)
 
     def overflow_frame(self) -> bytes | None:
         return encode_error(OUT_OF_RANGE)

@@ -32,12 +32,8 @@ from typing import Any
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.sim.gauges import (
-    MM_PER_INCH,
     Fault,
-    SimSetup,
     UsbCableGauge,
-    ValueSource,
-    _decimals_for,
     _garble,
 )
 
@@ -54,70 +50,25 @@ class _Stall(Exception):
 
 
 def _descriptors(serial_index: int) -> dict[str, Any]:
-    endpoint = {
-        "bLength": 7,
-        "bDescriptorType": 5,
-        "bEndpointAddress": 0x81,
-        "bmAttributes": 3,
-        "wMaxPacketSize": PACKET_BYTES,
-        "bInterval": 10,
-        "bRefresh": 0,
-        "bSynchAddress": 0,
-        "extra_descriptors": [],
-    }
-    interface = {
-        "bLength": 9,
-        "bDescriptorType": 4,
-        "bInterfaceNumber": 0,
-        "bAlternateSetting": 0,
-        "bNumEndpoints": 1,
-        "bInterfaceClass": 3,
-        "bInterfaceSubClass": 1,
-        "bInterfaceProtocol": 1,
-        "iInterface": 0,
-        "extra_descriptors": [],
-    }  # a HID boot keyboard, as in keyboard mode
-    config = {
-        "bLength": 9,
-        "bDescriptorType": 2,
-        "wTotalLength": 34,
-        "bNumInterfaces": 1,
-        "bConfigurationValue": 1,
-        "iConfiguration": 0,
-        "bmAttributes": 0x80,
-        "bMaxPower": 50,
-        "extra_descriptors": [],
-    }
-    device = {
-        "bLength": 18,
-        "bDescriptorType": 1,
-        "bcdUSB": 0x0110,
-        "bDeviceClass": 0,
-        "bDeviceSubClass": 0,
-        "bDeviceProtocol": 0,
-        "bMaxPacketSize0": 8,
-        "idVendor": usb_itn.VENDOR_ID,
-        "idProduct": usb_itn.PRODUCT_ID,
-        "bcdDevice": 0x0100,
-        "iManufacturer": 1,
-        "iProduct": 2,
-        "iSerialNumber": serial_index,
-        "bNumConfigurations": 1,
-        "address": 7,
-        "bus": 1,
-        "port_number": 1,
-        "port_numbers": [1],
-        "speed": 2,
-    }
-    return {
-        "device": device,
-        "configurations": [
-            {
-                "descriptor": config,
-                "interfaces": [{"descriptor": interface, "endpoints": [endpoint]}],
-            }
-        ],
-    }
+    """The cable's device, configuration, interface and endpoint descriptors (USB 2.0
+    §9.6, as pyusb's backend hands them over)."""
+    endpoint = dict(bLength=7, bDescriptorType=5, bEndpointAddress=0x81, bmAttributes=3,
+                    wMaxPacketSize=PACKET_BYTES, bInterval=10, bRefresh=0, bSynchAddress=0,
+                    extra_descriptors=[])
+    interface = dict(bLength=9, bDescriptorType=4, bInterfaceNumber=0, bAlternateSetting=0,
+                     bNumEndpoints=1, bInterfaceClass=3, bInterfaceSubClass=1,
+                     bInterfaceProtocol=1, iInterface=0,
+                     extra_descriptors=[])  # a HID boot keyboard, as in keyboard mode
+    config = dict(bLength=9, bDescriptorType=2, wTotalLength=34, bNumInterfaces=1,
+                  bConfigurationValue=1, iConfiguration=0, bmAttributes=0x80, bMaxPower=50,
+                  extra_descriptors=[])
+    device = dict(bLength=18, bDescriptorType=1, bcdUSB=0x0110, bDeviceClass=0,
+                  bDeviceSubClass=0, bDeviceProtocol=0, bMaxPacketSize0=8,
+                  idVendor=usb_itn.VENDOR_ID, idProduct=usb_itn.PRODUCT_ID, bcdDevice=0x0100,
+                  iManufacturer=1, iProduct=2, iSerialNumber=serial_index, bNumConfigurations=1,
+                  address=7, bus=1, port_number=1, port_numbers=[1], speed=2)
+    return {"device": device, "configurations": [
+        {"descriptor": config, "interfaces": [{"descriptor": interface, "endpoints": [endpoint]}]}]}
 
 
 class UsbItnEndpoint(UsbCableGauge):
@@ -134,18 +85,11 @@ class UsbItnEndpoint(UsbCableGauge):
         serial: str = "SIM0001",
         name: str | None = None,
     ) -> None:
-        self.value_source = value_source
-        self.resolution_mm = resolution_mm
-        self.unit: Unit = unit
+        super().__init__(value_source, resolution_mm=resolution_mm, unit=unit, name=name)
         self.serial = serial
-        self.name = name or "sim usb-itn"
-        self._mm_decimals = _decimals_for(resolution_mm, 6)
-        self._inch_decimals = _decimals_for(resolution_mm / MM_PER_INCH, 6)
         self.requests_received = 0
         # Vendor control transfers as received: (bmRequestType, bRequest, wValue, data).
         self.vendor_transfers: list[tuple[int, int, int, bytes]] = []
-        self.unplugged = False
-        self._faults: dict[Fault, list[Any]] = {}  # kind -> [code, remaining or None]
         self._lock = threading.Condition()
         self._packets: deque[bytes] = deque()
         self._armed = self._data_mode = False
@@ -155,15 +99,7 @@ class UsbItnEndpoint(UsbCableGauge):
         self._port = ""
         self._conns: list[socket.socket] = []
         self._thread: threading.Thread | None = None
-        self._last_value_mm: float | None = None
         self._scripted: deque[bytes] = deque()
-
-    @classmethod
-    def simulate(cls, protocol: str, source: ValueSource, setup: SimSetup) -> UsbItnEndpoint:
-        """The stack's cable (served over ``usbsim://`` whatever the setup's transport)."""
-        endpoint = cls(source, resolution_mm=setup.resolution_mm, name=setup.name)
-        endpoint.protocol = protocol
-        return endpoint
 
     def answer_next_with(self, raw: bytes) -> None:
         """The next value request is answered with ``raw`` (any bytes: garbage tests)."""
@@ -197,13 +133,14 @@ class UsbItnEndpoint(UsbCableGauge):
         return f"UsbItnEndpoint({self._port or 'not started'})"
 
     # ------------------------------------------------------------------- faults
+    NAME = "sim usb-itn"
     CABLE = "a USB-ITN cable"
     SHOWS = (Fault.SILENCE, Fault.ERROR, Fault.BUSY, Fault.GARBLED, Fault.INCH)
 
     def _push_stale(self, value_mm: float, count: int) -> None:
         with self._lock:
             for _ in range(count):
-                self._queue(self._frame(value_mm, self.unit))
+                self._queue(self._frame(*self._shown(value_mm, self.unit)))
 
     def _fault_code(self, kind: Fault, code: str) -> str:
         if kind is Fault.ERROR:
@@ -329,33 +266,15 @@ class UsbItnEndpoint(UsbCableGauge):
         elif Fault.ERROR in faults:
             frame = mitutoyo_01a.encode_error(faults[Fault.ERROR])
         else:
-            value = float(self.value_source())
-            self._last_value_mm = value
-            frame = self._frame(value, "inch" if Fault.INCH in faults else self.unit)
+            frame = self._frame(*self._shown_now(faults))
         if Fault.GARBLED in faults:
             frame = _garble(frame)
         with self._lock:
             self._queue(frame)
 
-    def _take_faults(self) -> dict[Fault, str]:
-        with self._lock:
-            taken = {}
-            for kind, state in list(self._faults.items()):
-                taken[kind] = state[0]
-                if state[1] is not None and kind is not Fault.INCH:
-                    state[1] -= 1
-                    if state[1] <= 0:
-                        del self._faults[kind]
-            return taken
-
-    def _frame(self, value_mm: float, unit: Unit) -> bytes:
-        if unit == "mm":
-            steps = round(value_mm / self.resolution_mm)
-            shown = Decimal(steps) * Decimal(str(self.resolution_mm))
-            return mitutoyo_01a.encode_reply(shown, decimals=self._mm_decimals)
-        return mitutoyo_01a.encode_reply(
-            Decimal(repr(value_mm / MM_PER_INCH)), decimals=self._inch_decimals
-        )
+    @staticmethod
+    def _frame(shown: Decimal, decimals: int) -> bytes:
+        return mitutoyo_01a.encode_reply(shown, decimals=decimals)
 
     def _queue(self, message: bytes) -> None:
         """Split into interrupt packets (caller holds the lock)."""

@@ -10,10 +10,7 @@ and ignores what it receives (INSTRUMENTS.md: the receiver pushes readings).
 
 from __future__ import annotations
 
-from decimal import Decimal
-
-from ogacq_drivers.indicators.base import Unit
-from ogacq_drivers.indicators.uwave import encode_data, encode_status
+from ogacq_drivers.indicators.uwave import encode_status
 from ogacq_drivers.sim.gauges import SerialDevice
 
 
@@ -30,10 +27,6 @@ class UWaveReceiverDevice(SerialDevice):
     def check_channel(cls, channel: str) -> None:
         if not (len(channel) == 4 and channel.isdigit()):
             raise ValueError(f"U-WAVE channel is group and channel 'GGCC', got {channel!r}")
-
-    def value_frame(self, value: Decimal, *, decimals: int, unit: Unit, channel: str,
-                    inch_code: str) -> bytes:
-        return encode_data(value, decimals=decimals, unit=unit, gauge_id=channel)
 
     def error_frame(self, code: str, channel: str) -> bytes:
         return encode_status(code, gauge_id=channel)

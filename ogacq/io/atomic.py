@@ -1,123 +1,33 @@
-"""Writing a file whole or not at all: a full disk, a read-only file system or a
-crash mid-write leaves the old file (or none), never a truncated one, and nothing
-in the way of a retry. Every file ogacq writes goes through here (sessions are
-appended through their store): ``tests/io/test_one_atomic_writer.py`` finds any
-other write in the source.
-
-The data reaches the disk before the file takes its name (fsync), and the name
-itself after (an fsync of the folder: POSIX makes a rename durable only then, so a
-power loss right after would otherwise leave the old file, or none).
-
-The file gets the permissions a plain ``open()`` would give it (0666 less the umask;
-those of the file it replaces, when there is one), not the temporary file's private
-0600: a record is read by the reviewer who signs it, from another account."""
+"""Files written whole or not at all, their errors worded for the user: the writer
+itself is ``ogacq_drivers.atomic``, the project's one (the simulator writes through it
+too, and ``drivers`` never imports ``ogacq``)."""
 
 from __future__ import annotations
 
-import contextlib
-import os
 from pathlib import Path
 
+from ogacq_drivers import atomic
+from ogacq_drivers.atomic import fsync_folder
 from ogacq.io.errors import InputError, StorageError
 
-
-def _temporary_beside(path: Path) -> tuple[int, str]:
-    import tempfile  # here: a command that only reads does not pay for it (1 ms)
-
-    return tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+__all__ = ["fsync_folder", "write_atomically", "write_new_file"]
 
 
 def write_atomically(path: str | Path, data: bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, force it to the disk, then
-    rename it over ``path`` (rename is atomic on POSIX). Raises StorageError, with
+    """Replace ``path`` with ``data`` (see ``ogacq_drivers.atomic``); StorageError, with
     nothing left behind, when any step fails."""
-    path = Path(path)
-    tmp: str | None = None
     try:
-        mode = _mode_for(path)
-        fd, tmp = _temporary_beside(path)
-        os.fchmod(fd, mode)
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-        tmp = None
-        fsync_folder(path.parent)
+        atomic.write_atomically(path, data)
     except OSError as exc:
-        if tmp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-        raise StorageError(path, exc) from None
+        raise StorageError(Path(path), exc) from None
 
 
 def write_new_file(path: str | Path, data: bytes) -> None:
-    """Create ``path`` holding ``data``, whole or not at all, never replacing a file:
-    InputError when ``path`` exists, StorageError (with nothing left behind) when it
-    cannot be written. The data goes to a temporary file beside it first, then takes
-    its name by a hard link, which fails rather than replace (a file system without
-    hard links gets a rename after a last check)."""
-    path = Path(path)
-    tmp: str | None = None
+    """Create ``path`` holding ``data``, never replacing a file: InputError when it
+    exists, StorageError (with nothing left behind) when it cannot be written."""
     try:
-        fd, tmp = _temporary_beside(path)
-        os.fchmod(fd, 0o666 & ~_umask())
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data)
-            fh.flush()
-            os.fsync(fh.fileno())
-        try:
-            os.link(tmp, path)
-        except FileExistsError:
-            raise
-        except OSError:  # no hard links here (FAT): the last check, then the rename
-            if path.exists():
-                raise FileExistsError(17, "File exists", str(path)) from None
-            os.rename(tmp, path)
-            tmp = None
-        fsync_folder(path.parent)
+        atomic.write_new_file(path, data)
     except FileExistsError:
-        raise InputError(path, "exists; not overwriting it") from None
+        raise InputError(Path(path), "exists; not overwriting it") from None
     except OSError as exc:
-        raise StorageError(path, exc) from None
-    finally:
-        if tmp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-
-
-def fsync_folder(folder: Path) -> None:
-    """Make a rename or a new name in ``folder`` durable (POSIX: fsync of the folder);
-    nothing where a folder cannot be opened or synced (some file systems refuse it,
-    and the file's own data is on the disk already)."""
-    try:
-        fd = os.open(folder, os.O_RDONLY)
-    except OSError:
-        return
-    try:
-        with contextlib.suppress(OSError):
-            os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _mode_for(path: Path) -> int:
-    """The permissions of the file ``path`` names, or those a new file gets."""
-    try:
-        return path.stat().st_mode & 0o7777
-    except OSError:
-        return 0o666 & ~_umask()
-
-
-def _umask() -> int:
-    """The process's umask, read without changing it where Linux says it (setting it to
-    read it back would race with another thread creating a file meanwhile)."""
-    try:
-        for line in Path("/proc/self/status").read_text().splitlines():
-            if line.startswith("Umask:"):
-                return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask
+        raise StorageError(Path(path), exc) from None

@@ -8,6 +8,7 @@ import pytest
 
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, FrameError, UnitError
 from ogacq_drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwave
+from ogacq_drivers.indicators.backend import Decoded
 
 # ---------------------------------------------------------------------- 01A
 
@@ -25,7 +26,7 @@ from ogacq_drivers.indicators import base, digimatic, mitutoyo_01a, sylvac, uwav
 )
 def test_01a_decodes_the_spec_frames(frame: bytes, channel: str, value: Decimal, decimals: int):
     reply = mitutoyo_01a.decode_reply(frame)
-    assert reply == mitutoyo_01a.Reply01A(channel=channel, value=value, decimals=decimals)
+    assert reply == Decoded(value=value, decimals=decimals, unit=None, channel=channel)
 
 
 @pytest.mark.parametrize(
