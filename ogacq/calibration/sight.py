@@ -66,6 +66,12 @@ STRETCHES = 9
 # next to nothing there: nothing of it to show (no source: a choice).
 NEGLIGIBLE = 0.01
 GRID = 41  # points per stretch at which the correction's size there is taken
+# A periodic correction is seen by its period only where the validation sees it directly
+# over this many periods: a pitch wrong enough to alias (15.08 mm written for a 20 mm
+# lead, the case the sight was made for) slips by half a period or more over them and
+# fails there, where the period's test, linear in the error, would not see it far off
+# (no source: a choice).
+PERIODS_SEEN = 2.0
 
 
 @dataclass(frozen=True)
@@ -89,11 +95,12 @@ class AxisSight:
 
     @property
     def seen(self) -> tuple[bool, ...]:
-        """Per stretch: seen directly, or by the correction's period (seen directly
-        somewhere, and what its modes may be off by leaving less than its size there)."""
+        """Per stretch: seen directly, or by the correction's period (seen directly over
+        ``PERIODS_SEEN`` of its periods, and what its modes may be off by leaving less
+        than its size there)."""
         direct = self.seen_directly
         period = self.period
-        if period is None or not any(direct):
+        if period is None or self.longest_seen_mm() < PERIODS_SEEN * period.pitch_mm:
             return direct
         return tuple(d or v <= self.correction_mm
                      for d, v in zip(direct, period.bounds_mm, strict=True))
@@ -101,6 +108,15 @@ class AxisSight:
     @property
     def shown(self) -> bool:
         return all(self.seen)
+
+    def longest_seen_mm(self) -> float:
+        """The longest run of stretches seen directly, in mm of travel."""
+        longest = run = 0.0
+        spans = zip(self.edges_mm[:-1], self.edges_mm[1:], strict=True)
+        for (lo, hi), seen in zip(spans, self.seen_directly, strict=True):
+            run = run + (hi - lo) if seen else 0.0
+            longest = max(longest, run)
+        return longest
 
     @property
     def unseen_limit_mm(self) -> float:

@@ -206,3 +206,16 @@ def test_two_validations_bound_a_period_as_the_tighter_does():
     assert both.bounds_mm == (0.004, 0.003) and both.reach_mm == (0.003, 0.002)
     # the modes as found by the one whose bounds are tighter
     assert both.beyond_chance == ("pitch",) and both.found_mm == (0.0, 0.001, 0.003)
+
+
+def test_a_grossly_wrong_pitch_is_not_shown_by_its_period():
+    """The case the sight was made for, on the period's test: a 15.08 mm map written
+    for a 4 µm lead of 20 mm (what the validation reads is what the map leaves)."""
+    lead, written = (MapTerm("lead_screw_cyclic", 0, {"pitch_mm": p}, 0.4)
+                     for p in (20.0, 15.08))
+    truth = SimTruth(vector({}), map_terms=((lead, (0.004, 0.0)),
+                                            (written, (-0.004, 0.0))))
+    result, verdict = validation_of(truth)
+    sight = sights({"x": periodic_map(0.004, 15.08)}, result, verdict, MACHINE)["x"]
+    # seen directly over 18 mm, less than two of its periods: nothing by the period
+    assert sight.seen == sight.seen_directly and not sight.shown, sight.period
