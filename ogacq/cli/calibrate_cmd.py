@@ -11,11 +11,9 @@ confirm on, ``--yes`` is required.
 from __future__ import annotations
 
 import datetime
-import getpass
 import json
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -27,14 +25,17 @@ from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
 from ogacq.cli.options import (
     DEFAULT_SEED,
     DEFAULT_SPEED,
+    RUNS_FOLDER,
     HistoryOption,
     JsonOption,
     OverrideExpiredOption,
     ProfileChoice,
     axis_scales_option,
+    login_name,
     override_reason,
     scale_axes,
     seed_option,
+    simulated_machine,
 )
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import plain
@@ -42,15 +43,12 @@ from ogacq.errors import InputError, Refused
 from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_text, read_machine
 from ogacq.io.names import checked_name
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
-from ogacq.model.tolerances import Tolerances
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.positioning import ISO_RUNS
 from ogacq.protocol.runner import CampaignStopped
 from ogacq.sim.truth import read_effects_text
 
-RUNS_FOLDER = Path("ogacq-runs")
 MACHINE_FILE, EFFECTS_FILE = "machine.toml", "effects.toml"  # --simulator's, in the folder
-SIM_TOLERANCE_MM = 0.020  # the rehearsal's acceptance, as `ogacq demo` states it (no source)
 
 
 def calibrate(
@@ -249,22 +247,10 @@ def _clear_start_up(folder: Path, files: dict[str, bytes]) -> None:
         entry.unlink()
 
 
-def _login_name() -> str:
-    try:
-        return getpass.getuser()
-    except (KeyError, OSError):
-        return "calibrate"
-
-
-def _simulated_machine(seed: int) -> MachineSpec:
-    return replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
-                   tolerances=Tolerances(default_mm=SIM_TOLERANCE_MM))
-
-
 def _simulator_files(seed: int, effects: Path | None) -> dict[str, bytes]:
     """The files ``--simulator`` writes into a new folder: its machine file and a copy
     of the effects file (read once: a pipe can be read only once)."""
-    files = {MACHINE_FILE: machine_text(_simulated_machine(seed),
+    files = {MACHINE_FILE: machine_text(simulated_machine(seed),
                                         PAPER_PROTOTYPE_DIGITAL_NOTE).encode("utf-8")}
     if effects is not None:
         files[EFFECTS_FILE] = read_effects_text(effects).encode("utf-8")
@@ -291,8 +277,8 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     # a rehearsal of the procedure, not of the gauges' line timing: the lines at --speed
     spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile,
                          line_at_speed=True, axis_scales=scales)
-    return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
-                           spec, operator=operator or _login_name(),
+    return simulator_setup(folder, simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
+                           spec, operator=operator or login_name("calibrate"),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, scan_minutes=scan_minutes or SCAN_MINUTES,
                            today=datetime.date.today(), scale_runs=scale_runs)
@@ -317,7 +303,7 @@ def _resumed_setup(folder: Path) -> Setup:
     machine_path = Path(described["machine_file"])
     spec = SimulatorSpec.from_header(described["simulator"])
     return simulator_setup(folder, read_machine(machine_path), machine_path, spec,
-                           operator=str(described.get("operator") or _login_name()),
+                           operator=str(described.get("operator") or login_name("calibrate")),
                            override_expired=str(described.get("override_expired") or ""),
                            scan_step_mm=scan, separate=separate, scan_minutes=minutes,
                            scale_runs=runs)
