@@ -22,6 +22,7 @@ import typer
 from ogacq.calibration.log import LOG_NAME, ProcedureLog
 from ogacq.calibration.setup import SCAN_MINUTES, Setup, simulator_setup, station_setup
 from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
+from ogacq.cli.campaign_cmds import said_if_stopped
 from ogacq.cli.options import (
     DEFAULT_SEED,
     DEFAULT_SPEED,
@@ -45,7 +46,6 @@ from ogacq.io.machine_file import machine_text, read_machine
 from ogacq.io.names import checked_name
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.positioning import ISO_RUNS
-from ogacq.protocol.runner import CampaignStopped
 from ogacq.sim.truth import read_effects_text
 
 MACHINE_FILE, EFFECTS_FILE = "machine.toml", "effects.toml"  # --simulator's, in the folder
@@ -133,17 +133,14 @@ def calibrate(
                     where="the simulator" if setup.simulated else spec.endpoints(),
                     offsets_file=str(spec.offsets_file) if spec.offsets_file else None)
     try:
-        outcome = run_procedure(setup, ui, resume=resuming, history=where)
-    except CampaignStopped as stop:
-        typer.echo(f"ogacq: campaign {stop.status}: {plain(stop.reason)}", err=True)
-        typer.echo(f"ogacq: the procedure is saved: continue it with `ogacq calibrate "
-                   f"--resume {folder}`", err=True)
-        raise typer.Exit(stop.exit_code) from None
+        with said_if_stopped("campaign", "the procedure is saved: continue it with `ogacq "
+                                         f"calibrate --resume {folder}`"):
+            outcome = run_procedure(setup, ui, resume=resuming, history=where)
     finally:
         ui.close()
     report = None
     if outcome.record is not None and outcome.evidence is not None:
-        from ogacq.cli.report_cmd import write_session_report
+        from ogacq.cli.report_cmd import issue_report
         from ogacq.record.scale_tests import axis_scales_section
         from ogacq.session.store import load_session
 
@@ -151,7 +148,7 @@ def calibrate(
         tested = axis_scales_section(load_session(folder / LOG_NAME))
         record = outcome.record if tested is None else {**outcome.record,
                                                         "axis_scales": tested}
-        report = write_session_report(
+        report, _ = issue_report(
             load_session(outcome.evidence), folder / "report",
             validation=load_session(outcome.validation) if outcome.validation else None,
             diagnosis=_campaign_diagnosis(folder), diagnosis_source=folder / LOG_NAME,

@@ -33,7 +33,7 @@ from ogacq.cli.options import (
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.render import print_demo_diagnosis, print_end, print_outcome
-from ogacq.cli.report_cmd import report_diagnosis, write_session_report
+from ogacq.cli.report_cmd import issue_report, report_diagnosis
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.history.recording import record_campaign
@@ -136,9 +136,9 @@ def demo(
     write_atomically(folder / "diagnosis.json",
                      (json.dumps(diagnosis.to_json(), indent=2) + "\n").encode("utf-8"))
     print_demo_diagnosis(diagnosis, outcome.hidden or {})
-    write_session_report(session, folder / "report",  # the record campaign_end built
-                         diagnosis=report_diagnosis(diagnosis, session),
-                         record=dict(end.built) if end.built is not None else None)
+    issue_report(session, folder / "report",  # the record campaign_end built
+                 diagnosis=report_diagnosis(diagnosis, session),
+                 record=dict(end.built) if end.built is not None else None)
     now = Printer()  # wrapped between words at the terminal's width
     now.print(shown(f"written: {folder}/session.jsonl, readings.csv, result.json, "
                     "diagnosis.json, report/report.html"))
@@ -179,7 +179,7 @@ def _close_the_loop(folder: Path, campaign: Campaign, session: Path,
         ui.close()
     report = None
     if done.record is not None and done.evidence is not None:
-        report = write_session_report(
+        report, _ = issue_report(
             load_session(done.evidence), setup.folder / "report",
             validation=load_session(done.validation) if done.validation else None,
             record=done.record)
