@@ -46,6 +46,7 @@ from ogacq.calibration.drive_step import (
 )
 from ogacq.calibration.log import Details, ProcedureLog, Step
 from ogacq.calibration.maps import compensable_effects, diagnosis_maps
+from ogacq.calibration.resolving import RESOLVING, resolving_plan, unresolved
 from ogacq.calibration.scale_check import scale_check
 from ogacq.calibration.scale_map import ScaleFit, fit_scale, with_scale_maps
 from ogacq.calibration.second_round import (
@@ -64,11 +65,14 @@ from ogacq.calibration.separate import (
     SeparatingPlan,
     not_established,
     offsets_carried,
+    seconds_per_step,
     separating_plan,
+    steps_of,
 )
 from ogacq.calibration.setup import Setup
 from ogacq.calibration.together import observations_together
 from ogacq.calibration.validate import Judgement, judge, where_looked
+from ogacq.calibration.validation_design import validation_plan
 from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.run import run_campaign
@@ -82,7 +86,7 @@ from ogacq.model.parameters import AXES
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.protocol.positioning import PositioningResult, positioning_plan
 from ogacq.protocol.runner import Observer
-from ogacq.protocol.scan_design import between_plan, sampled_band
+from ogacq.protocol.scan_design import sampled_band
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession, load_session
@@ -217,7 +221,7 @@ class Procedure:
         unsettled = ""
         if plan.protocol is not None and self.setup.separate:
             scan = self._campaign("separating", plan.protocol)
-            scanned = self._diagnosis("separating", scan)
+            scanned = self._resolved(scan, self._diagnosis("separating", scan))
             # maps the scan cannot establish: the offsets go as far as their own
             # campaign carries them, the maps said to be not established
             carried = offsets_carried(diagnosis)
@@ -230,7 +234,7 @@ class Procedure:
         comp = self._compensation(diagnosis, evidence, maps=not unsettled)
         # at targets between the scan's: an aliased map, or an error its targets
         # sampled at one phase, fails there instead of confirming itself
-        between = between_plan(_plan_of(evidence), self.setup.machine) \
+        between = self._validation_plan(evidence, comp, diagnosis) \
             if evidence is not first and _plan_of(evidence).is_scan else None
         try:
             done = self._round(first, diagnosis, evidence, comp, between)
@@ -243,6 +247,44 @@ class Procedure:
                 self._note(f"no second write ({stop.outcome}): {stop.reason}")
         return self._finish(done.comp, first, done.validation, done.judgement, done.written,
                             done.restored)
+
+    def _resolved(self, scan: LoadedSession, scanned: Diagnosis) -> Diagnosis:
+        """A pitch ``scan`` leaves unresolved: its gaps read at other phases where
+        --scan-minutes leaves the time (``resolving``), both diagnosed together."""
+        if not unresolved(scanned):
+            return scanned
+        machine = self.setup.machine
+        more = resolving_plan(_plan_of(scan), machine)
+        rate = seconds_per_step(scan)
+        spent = steps_of(_plan_of(scan), machine) * rate
+        needed = steps_of(more, machine) * rate
+        if spent + needed > self.setup.scan_budget_s:
+            self._note(f"a pitch is left unresolved: reading the scan's gaps at other phases "
+                       f"would take {needed / 60:.0f} more minutes of machine time, beyond "
+                       f"--scan-minutes {self.setup.scan_budget_s / 60:g}")
+            return scanned
+        self._note("a pitch is left unresolved: the scan's gaps are read at other phases "
+                   f"({len(more.scan_targets_mm)} targets, about {needed / 60:.0f} minutes) "
+                   "and both diagnosed together")
+        extra = self._campaign(RESOLVING, more)
+        together = together_protocol(_plan_of(scan), more, machine)
+        obs = with_scale_maps(observations_together([scan, extra]), self.scales)
+        return self._diagnosed(f"separating + {RESOLVING}", obs,
+                               together_band(together, machine),
+                               f"{scan.path} + {extra.path}")
+
+    def _validation_plan(self, evidence: LoadedSession, comp: Compensation,
+                         diagnosis: Diagnosis) -> ProtocolConfig:
+        """The scan validating ``comp``'s maps, grown where a periodic map must be seen
+        within --scan-minutes (``validation_design``); on a resume the plan its
+        campaign started with."""
+        started = self.log.last(Step.CAMPAIGN, role="validation-scan", status=STARTED)
+        if started is not None:
+            return ProtocolConfig.from_dict(dict(started.details["plan"]))
+        rate = seconds_per_step(evidence)
+        most = int(self.setup.scan_budget_s / rate) if rate > 0 else None
+        return validation_plan(_plan_of(evidence), comp.maps, self.setup.machine,
+                               diagnosis.noise.sigma_mm, most)
 
     def _round(self, first: LoadedSession, diagnosis: Diagnosis, evidence: LoadedSession,
                comp: Compensation, between: ProtocolConfig | None) -> RoundDone:
@@ -297,7 +339,7 @@ class Procedure:
         together = together_protocol(_plan_of(scan), _plan_of(done.between_session),
                                      machine)
         validation = second_validation(together, machine)
-        why = why_not(scan, validation, machine, first, self.setup.scan_minutes * 60.0)
+        why = why_not(scan, validation, machine, first, self.setup.scan_budget_s)
         if why:
             self._note(why)
             return None
@@ -472,7 +514,8 @@ class Procedure:
         plan = separating_plan(diagnosis, session, self.setup.machine,
                                self.setup.scan_protocol(),
                                designed=self.setup.scan_step_mm is None,
-                               budget_s=self.setup.scan_minutes * 60.0)
+                               budget_s=self.setup.scan_budget_s,
+                               grow=self.setup.scan_minutes is not None)
         speed = self.setup.simulator.speed if self.setup.simulator else None
         self._tell(Step.SEPARATION, lambda: self.ui.separation(plan, speed), {
             "run": plan.protocol is not None and self.setup.separate, **plan.to_json()})

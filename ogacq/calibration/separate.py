@@ -112,17 +112,18 @@ def seconds_per_step(session: LoadedSession) -> float:
 
 def separating_plan(diagnosis: Diagnosis, session: LoadedSession, machine: MachineSpec,
                     scan: ProtocolConfig, *, designed: bool = True,
-                    budget_s: float | None = None) -> SeparatingPlan:
+                    budget_s: float | None = None, grow: bool = True) -> SeparatingPlan:
     """The measurement that would separate what the diagnosis of ``session`` leaves
     open: where a map is suspected the scan designed for ``machine`` within
-    ``budget_s`` of machine time (``designed``), else ``scan``, a scan every step."""
+    ``budget_s`` of machine time (``designed``; ``grow``: grown within it toward the
+    detection target), else ``scan``, a scan every step."""
     reasons, suspected = ambiguity(diagnosis)
     rate = seconds_per_step(session)
     if not reasons:
         return SeparatingPlan((), None, "none", 0, 0.0, rate, "the diagnosis is not ambiguous")
     if suspected and designed:
         design = design_scan(machine, scan, noise_mm=diagnosis.noise.sigma_mm,
-                             seconds_per_step=rate, budget_s=budget_s)
+                             seconds_per_step=rate, budget_s=budget_s, grow=grow)
         return SeparatingPlan(tuple(reasons), design.protocol, "scan", design.steps,
                               design.duration_s, rate, design=design)
     if suspected:

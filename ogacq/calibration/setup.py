@@ -60,12 +60,19 @@ class Setup:
     campaign_path: Path | None = None  # the station's campaign file
     scan_step_mm: float | None = None  # None: the separating scan is designed
     separate: bool = True  # run the separating measurement when ambiguous
-    scan_minutes: float = SCAN_MINUTES  # the designed scan's machine time budget
+    # the designed scan's machine time budget given (--scan-minutes, the campaign file):
+    # the scan then grows within it toward its detection target; None: SCAN_MINUTES,
+    # and the scan the fewest targets that sample its band
+    scan_minutes: float | None = None
     extra: dict[str, Any] = field(default_factory=dict)
     # scales along the actuators: the maps written on their axes are validated by
     # ISO 230-2's positioning test (ogacq.calibration.scale_check), in this many runs
     axis_scales: dict[str, AxisScaleSpec] = field(default_factory=dict)
     scale_runs: int = ISO_RUNS
+
+    @property
+    def scan_budget_s(self) -> float:
+        return (self.scan_minutes or SCAN_MINUTES) * 60.0
 
     @property
     def simulated(self) -> bool:
@@ -130,7 +137,7 @@ def simulator_controller(folder: Path, profile: str) -> ControllerSpec:
 def simulator_setup(folder: Path, machine: MachineSpec, machine_path: Path,
                     simulator: SimulatorSpec, *, operator: str, override_expired: str = "",
                     scan_step_mm: float | None = None, separate: bool = True,
-                    scan_minutes: float = SCAN_MINUTES,
+                    scan_minutes: float | None = None,
                     today: datetime.date | None = None, scale_runs: int = ISO_RUNS) -> Setup:
     """``simulator.axis_scales``: the axes the simulator serves a scale along."""
     scales = {a: AxisScaleSpec(resolution_mm=simulator.scale_resolution_mm)
@@ -144,7 +151,7 @@ def simulator_setup(folder: Path, machine: MachineSpec, machine_path: Path,
 
 
 def station_setup(folder: Path, campaign: Campaign, *, scan_step_mm: float | None = None,
-                  separate: bool = True, scan_minutes: float = SCAN_MINUTES,
+                  separate: bool = True, scan_minutes: float | None = None,
                   scale_runs: int = ISO_RUNS) -> Setup:
     assert campaign.controller is not None
     return Setup(folder, campaign.machine, campaign.machine_path, campaign.protocol,

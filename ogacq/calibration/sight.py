@@ -24,13 +24,26 @@ correction's shape there at which the test reaches it. The travel is cut into
 ``STRETCHES`` equal stretches, each about as long as the stretch the other legs move
 a joint through (160 mm of travel: 18 mm), so that what they see is one stretch and
 not a share of every one.
+
+A periodic correction (a screw's cyclic error: every term of its map repeats with the
+screw's revolution) is one shape along the whole travel, and goes wrong as a whole:
+its amplitude, its phase (the map shifted along q) or its pitch (the map stretched
+about its reference, a phase that slips the farther from it). The test is asked, for
+each of the three, how large an error of that kind it would pass at the same even
+odds, and what that error leaves at the worst point of the travel
+(:class:`PeriodSight`). When none leaves as much as the correction's own size, and
+the test sees the correction directly over some stretch, the correction is shown
+over the travel by its period: beyond the stretches seen its values rest on the
+error repeating unchanged each revolution, which the sentence says, with what would
+measure it there (an axis scale).
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from statistics import NormalDist
 from typing import Any
 
 import numpy as np
@@ -40,7 +53,7 @@ from ogacq.identify.consistency import judge as test_of
 from ogacq.identify.distributions import chi2_sf, f_sf
 from ogacq.identify.fit import FitResult
 from ogacq.model.axis_map import AxisMap
-from ogacq.model.error_maps import JointHistory
+from ogacq.model.error_maps import JointHistory, terms_of
 from ogacq.model.joint_sensitivity import joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
@@ -68,14 +81,36 @@ class AxisSight:
     noise_mm: float  # the noise of the test the limits are of
     # seen by the axis's scale (ogacq.calibration.scale_check): what it found, in words
     by_scale: str = ""
+    period: PeriodSight | None = None  # a periodic correction's modes (the docstring)
+
+    @property
+    def seen_directly(self) -> tuple[bool, ...]:
+        return tuple(limit <= self.correction_mm for limit in self.limits_mm)
 
     @property
     def seen(self) -> tuple[bool, ...]:
-        return tuple(limit <= self.correction_mm for limit in self.limits_mm)
+        """Per stretch: seen directly, or by the correction's period (seen directly
+        somewhere, and what its modes may be off by leaving less than its size there)."""
+        direct = self.seen_directly
+        period = self.period
+        if period is None or not any(direct):
+            return direct
+        return tuple(d or v <= self.correction_mm
+                     for d, v in zip(direct, period.bounds_mm, strict=True))
 
     @property
     def shown(self) -> bool:
         return all(self.seen)
+
+    @property
+    def unseen_limit_mm(self) -> float:
+        """The largest error the test would pass where it does not see the correction
+        (directly, or by its period where that is taken)."""
+        by_period = self.period.bounds_mm if self.period and self.seen != self.seen_directly \
+            else (math.inf,) * len(self.limits_mm)
+        return max((min(limit, leaves) for limit, leaves, seen
+                    in zip(self.limits_mm, by_period, self.seen, strict=True) if not seen),
+                   default=0.0)
 
     @property
     def worst_mm(self) -> float:
@@ -89,16 +124,19 @@ class AxisSight:
             return scale
         if other.edges_mm != self.edges_mm:
             return self if self.worst_mm <= other.worst_mm else other
+        period = (self.period.merged(other.period) if self.period and other.period
+                  else self.period or other.period)
         return AxisSight(self.axis, self.correction_mm, self.edges_mm,
                          tuple(min(a, b) for a, b in zip(self.limits_mm, other.limits_mm,
                                                          strict=True)),
-                         min(self.noise_mm, other.noise_mm))
+                         min(self.noise_mm, other.noise_mm), period=period)
 
-    def seen_where(self) -> str:
+    def seen_where(self, directly: bool = False) -> str:
         """The stretches seen, joined where they touch: "q from -20 to +0 mm"."""
         runs: list[list[float]] = []
         spans = zip(self.edges_mm[:-1], self.edges_mm[1:], strict=True)
-        for (lo, hi), seen in zip(spans, self.seen, strict=True):
+        flags = self.seen_directly if directly else self.seen
+        for (lo, hi), seen in zip(spans, flags, strict=True):
             if not seen:
                 continue
             if runs and math.isclose(runs[-1][1], lo):
@@ -113,6 +151,17 @@ class AxisSight:
             return self.by_scale
         size = self.correction_mm * UM_PER_MM
         noise = self.noise_mm * UM_PER_MM
+        by_period = self.period is not None and self.seen != self.seen_directly
+        if self.shown and by_period:
+            assert self.period is not None
+            return (f"the {self.axis} correction ({size:.2g} µm about its mean) is shown "
+                    f"over the travel: directly over {self.seen_where(directly=True)}, "
+                    f"elsewhere by its period ({self.period.pitch_mm:.4g} mm): "
+                    f"{self.period.bound_words()} (at its {noise:.2g} µm noise). Beyond "
+                    "what it reads this holds for an "
+                    "error that repeats unchanged each screw revolution, which the gauges "
+                    f"did not measure there; an axis scale along the {self.axis} actuator "
+                    f"([axis_scale.{self.axis}] in the campaign file) would")
         if self.shown:
             return (f"the {self.axis} correction ({size:.2g} µm about its mean) is shown over "
                     "the travel: "
@@ -120,16 +169,21 @@ class AxisSight:
                     f"(limit at most {self.worst_mm * UM_PER_MM:.2g} µm at its "
                     f"{noise:.2g} µm noise)")
         where = self.seen_where()
-        worst = self.worst_mm * UM_PER_MM
-        times = (self.worst_mm / self.correction_mm) ** 2 if self.correction_mm > 0 \
-            else math.inf
+        unseen = self.unseen_limit_mm
+        worst = unseen * UM_PER_MM
+        times = (unseen / self.correction_mm) ** 2 if self.correction_mm > 0 else math.inf
         passed = (f"an error up to {worst:.2g} µm" if math.isfinite(worst)
                   else "an error of any size")
-        more = (f"about {times:.0f} times the readings there" if math.isfinite(times)
+        more = (f"about {times:.{1 if times < 10 else 0}f} times the readings there"
+                if math.isfinite(times)
                 else "readings that see this joint there")
         return (f"the {self.axis} correction ({size:.2g} µm about its mean) is not shown: the "
                 "validation "
-                + (f"sees an error of its size only over {where}" if where else
+                + (f"finds {self.period.off_words()} and " if self.period
+                   and self.period.beyond_chance else "")
+                + (f"sees an error of its size only over {where}"
+                   + (" (by its period beyond what it reads)" if by_period else "")
+                   if where else
                    "sees an error of its size nowhere along the axis")
                 + f"; elsewhere {passed} would pass its test (at its {noise:.2g} µm noise: "
                 "its gauges see this joint there through a small sensitivity). What would "
@@ -144,7 +198,64 @@ class AxisSight:
                 "limits_mm": [round(v, 7) if math.isfinite(v) else None
                               for v in self.limits_mm],
                 "noise_mm": self.noise_mm, "shown": self.shown,
-                **({"by": "axis scale"} if self.by_scale else {})}
+                **({"by": "axis scale"} if self.by_scale else {}),
+                **({"period": self.period.to_json()} if self.period else {})}
+
+
+# The ways a periodic correction goes wrong as a whole, in the words of a sentence.
+MODES = ("amplitude", "phase", "pitch")
+
+
+@dataclass(frozen=True)
+class PeriodSight:
+    """How far one validation sees a periodic correction go wrong as a whole, per
+    stretch of the travel (the :class:`AxisSight`'s): ``reach_mm``, the most that an
+    error of any mode (``MODES``) its targeted test would pass at even odds leaves
+    there; ``bounds_mm``, the larger of that and what each mode as found leaves there
+    (a stretch is seen by the period where an error of the correction's size would be
+    seen and none as large is found). ``found_mm``: each mode as found, by what it
+    leaves at the travel's worst point; ``beyond_chance``: the modes found off beyond
+    chance."""
+
+    pitch_mm: float  # the correction's longest period
+    reach_mm: tuple[float, ...]
+    bounds_mm: tuple[float, ...]
+    found_mm: tuple[float, float, float]
+    beyond_chance: tuple[str, ...] = ()
+
+    def merged(self, other: PeriodSight) -> PeriodSight:
+        """Two validations: each stretch bounded by the tighter of the two, the modes as
+        the one that bounds them best found them."""
+        best = self if max(self.bounds_mm) <= max(other.bounds_mm) else other
+        return replace(best, reach_mm=_least(self.reach_mm, other.reach_mm),
+                       bounds_mm=_least(self.bounds_mm, other.bounds_mm))
+
+    def bound_words(self) -> str:
+        said = (f"the validation would see an error of its {', '.join(MODES[:-1])} or "
+                f"{MODES[-1]} that left its size there, and finds none (at most "
+                f"{max(self.bounds_mm) * UM_PER_MM:.2g} µm)")
+        return said + (f"; {self.off_words()}, less than its size" if self.beyond_chance
+                       else "")
+
+    def off_words(self) -> str:
+        found = dict(zip(MODES, self.found_mm, strict=True))
+        return ", ".join(f"its {m} found off beyond chance (by {found[m] * UM_PER_MM:.2g} µm "
+                         "at the travel's worst point)" for m in self.beyond_chance)
+
+    def to_json(self) -> dict[str, Any]:
+        return {"pitch_mm": round(self.pitch_mm, 6),
+                "reach_mm": _rounded(self.reach_mm), "bounds_mm": _rounded(self.bounds_mm),
+                "found_mm": {m: round(v, 7) for m, v in zip(MODES, self.found_mm,
+                                                            strict=True)},
+                "beyond_chance": list(self.beyond_chance)}
+
+
+def _least(one: tuple[float, ...], other: tuple[float, ...]) -> tuple[float, ...]:
+    return tuple(min(pair) for pair in zip(one, other, strict=True))
+
+
+def _rounded(values: tuple[float, ...]) -> list[float | None]:
+    return [round(v, 7) if math.isfinite(v) else None for v in values]
 
 
 def shown(sights: dict[str, AxisSight]) -> bool:
@@ -173,6 +284,14 @@ def sights(maps: dict[str, AxisMap], result: FitResult, verdict: Verdict,
                     verdict.noise, verdict.level)
         return v.statistic * v.dof if v.test == "lack-of-fit F" else v.statistic
 
+    def readings_of(a: int) -> Callable[[Shape], np.ndarray]:
+        """What an error of joint ``a`` of a given shape does to every reading."""
+        def readings(shape: Shape) -> np.ndarray:
+            at_setting = shape(history.setting_q_mm[:, a], history.setting_side[:, a])
+            return (shape(history.q_mm[:, a], history.side[:, a]) * s_r[:, a]
+                    + at_setting[gauge] * s_s[:, a])
+        return readings
+
     out = {}
     for axis, m in maps.items():
         a = AXES.index(axis)
@@ -196,9 +315,94 @@ def sights(maps: dict[str, AxisMap], result: FitResult, verdict: Verdict,
             signal = (e_r * inside_r * s_r[:, a] + (e_s * inside_s)[gauge] * s_s[:, a]) / there
             lam = noncentrality(signal)  # of a unit error of the correction's shape there
             limits.append(math.sqrt(needed / lam) if lam > 0 else math.inf)
+        modes = periodic_modes(m)
+        period = None if modes is None else modes.tested(
+            readings_of(a), noncentrality, result.residuals, edges, verdict.level)
         out[axis] = AxisSight(axis, size, tuple(float(e) for e in edges), tuple(limits),
-                              verdict.noise.sigma_mm)
+                              verdict.noise.sigma_mm, period=period)
     return out
+
+
+Shape = Callable[[np.ndarray, np.ndarray], np.ndarray]  # e(q, side), mm
+
+
+@dataclass(frozen=True)
+class PeriodicModes:
+    """A periodic map's ways of going wrong as a whole, each per unit of its error: its
+    amplitude (the map itself about its mean, per unit of relative error), its phase
+    (the map shifted along q, per mm) and its pitch (the map stretched about its
+    reference, per unit of relative pitch error). Taken from the tabulated map, so any
+    sum of periodic terms (a lead and its harmonics) goes wrong alike."""
+
+    pitch_mm: float
+    shapes: tuple[Shape, Shape, Shape]
+
+    def tested(self, readings: Callable[[Shape], np.ndarray],
+               noncentrality: Callable[[np.ndarray], float], residuals: np.ndarray,
+               edges: np.ndarray, level: float) -> PeriodSight:
+        """The three modes fitted together to a validation's ``residuals`` (the targeted
+        test beside its lack of fit: a one-dof test sees a given error with far fewer
+        readings than one spread over hundreds of dof). ``readings`` gives what a mode
+        does to each reading, ``noncentrality`` the test's whitened, projected sum of
+        squares of a vector of readings, whose cross products come by polarisation."""
+        columns = [readings(shape) for shape in self.shapes]
+        normal = np.array([[_inner(noncentrality, u, v) for v in columns] for u in columns])
+        moment = np.array([_inner(noncentrality, u, residuals) for u in columns])
+        # per stretch and mode, the mode's largest value there
+        largest = np.array([[self._largest(shape, x0, x1) for shape in self.shapes]
+                            for x0, x1 in zip(edges[:-1], edges[1:], strict=True)])
+        stretches = len(edges) - 1
+        try:
+            covariance = np.linalg.inv(normal)
+        except np.linalg.LinAlgError:
+            never = (math.inf,) * stretches
+            return PeriodSight(self.pitch_mm, never, never, (0.0, 0.0, 0.0))
+        std = np.sqrt(np.maximum(np.diag(covariance), 0.0))
+        found = covariance @ moment
+        # even odds, and the bound, for a two-sided test at ``level``; "beyond chance"
+        # at it shared by the three modes (Bonferroni)
+        z = NormalDist().inv_cdf(1 - level / 2)
+        z_off = NormalDist().inv_cdf(1 - level / 6)
+        reach = (z * std * largest).max(axis=1)
+        bounds = (np.maximum(np.abs(found), z * std) * largest).max(axis=1)
+        worst = np.abs(found) * largest.max(axis=0)
+        off = tuple(m for m, c, sd in zip(MODES, found, std, strict=True)
+                    if abs(c) > z_off * sd)
+        return PeriodSight(self.pitch_mm, tuple(float(v) for v in reach),
+                           tuple(float(v) for v in bounds),
+                           (float(worst[0]), float(worst[1]), float(worst[2])), off)
+
+    @staticmethod
+    def _largest(shape: Shape, lo: float, hi: float) -> float:
+        grid = np.linspace(lo, hi, GRID)
+        return max(float(np.max(np.abs(shape(grid, np.full(GRID, d))))) for d in (1, -1))
+
+
+def _inner(norm: Callable[[np.ndarray], float], u: np.ndarray, v: np.ndarray) -> float:
+    return (norm(u + v) - norm(u) - norm(v)) / 2
+
+
+def periodic_modes(m: AxisMap) -> PeriodicModes | None:
+    """``m``'s modes when every term it was made from is periodic (None otherwise: a
+    smooth map's values elsewhere rest on nothing it was seen over)."""
+    terms = terms_of(m)
+    if not terms or not all(t.kind.periodic for t in terms):
+        return None
+    pitches = [float(t.shape["pitch_mm"]) for t in terms]
+    reference = terms[0].reference_mm
+    step = min(pitches) / 40  # half the table's step (``Cyclic.table_step_mm``)
+    mean = _mean(m)
+
+    def amplitude(q: np.ndarray, side: np.ndarray) -> np.ndarray:
+        return m.error_mm(q, side) - mean
+
+    def shift(q: np.ndarray, side: np.ndarray) -> np.ndarray:
+        return (m.error_mm(q + step, side) - m.error_mm(q - step, side)) / (2 * step)
+
+    def stretch(q: np.ndarray, side: np.ndarray) -> np.ndarray:
+        return shift(q, side) * (q - reference)
+
+    return PeriodicModes(max(pitches), (amplitude, shift, stretch))
 
 
 def _within(q: np.ndarray, lo: float, hi: float) -> np.ndarray:

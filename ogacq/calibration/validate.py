@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from enum import StrEnum
 from typing import Any
 
 import numpy as np
@@ -56,13 +57,24 @@ from ogacq.session.convert import session_observations
 from ogacq.session.store import LoadedSession
 
 SIGMAS = 3.0  # how far beyond the combined uncertainty "worse" starts
-# from the worst to the best; "not shown": within the noise, a correction not seen
-OUTCOMES = ("worse", "improved", "not shown", "validated")
+
+
+class Outcome(StrEnum):
+    """A validation's outcome, from the worst to the best (the words of calibrate's
+    end: ``WriteOutcome``)."""
+
+    WORSE = "worse"
+    IMPROVED = "improved"  # kept, not within the noise
+    NOT_SHOWN = "not shown"  # within the noise, a correction not seen along its axis
+    VALIDATED = "validated"
+
+
+OUTCOMES = tuple(Outcome)
 
 
 @dataclass(frozen=True)
 class Judgement:
-    outcome: str  # one of OUTCOMES
+    outcome: Outcome
     reasons: tuple[str, ...]  # why worse (empty otherwise)
     verdict: dict[str, Any]  # of the validation fit
     chi2_dof_before: float
@@ -80,7 +92,7 @@ class Judgement:
 
     @property
     def worse(self) -> bool:
-        return self.outcome == "worse"
+        return self.outcome == Outcome.WORSE
 
     def merged(self, other: Judgement) -> Judgement:
         """Two validations of one write (the calibration plan, a scan): worse when either
@@ -88,10 +100,10 @@ class Judgement:
         sees it; the figures of the scan where it has them."""
         outcome = min(self.outcome, other.outcome, key=OUTCOMES.index)
         sight = merged(self.sight, other.sight)
-        outcome = outcome_of(outcome == "worse", outcome != "improved", sight)
+        outcome = outcome_of(outcome == Outcome.WORSE, outcome != Outcome.IMPROVED, sight)
         # the verdict said is the one that decides: a fit not within the noise is not
         # described by the other's "within the gauge noise"
-        verdict = other.verdict if other.outcome == "improved" != self.outcome \
+        verdict = other.verdict if other.outcome == Outcome.IMPROVED != self.outcome \
             else self.verdict
         return replace(self, outcome=outcome, reasons=self.reasons + other.reasons,
                        verdict=verdict,
@@ -105,7 +117,7 @@ class Judgement:
         return [s.sentence() for s in self.sight.values()]
 
     def to_json(self) -> dict[str, Any]:
-        return {"outcome": self.outcome, "reasons": list(self.reasons),
+        return {"outcome": str(self.outcome), "reasons": list(self.reasons),
                 "verdict": self.verdict,
                 "chi2_dof_before": _num(self.chi2_dof_before),
                 "chi2_dof_after": _num(self.chi2_dof_after),
@@ -130,20 +142,21 @@ class Judgement:
         for axis, check in checks.items():
             sight[axis] = check.sight(largest_correction(maps[axis], lo, hi), machine)
         reasons = self.reasons + tuple(c.worse for c in checks.values() if c.worse)
-        outcome = outcome_of(bool(reasons), self.outcome in ("validated", "not shown"), sight)
+        outcome = outcome_of(bool(reasons),
+                             self.outcome in (Outcome.VALIDATED, Outcome.NOT_SHOWN), sight)
         return replace(self, outcome=outcome, reasons=reasons, sight=sight,
                        scales={**self.scales, **checks})
 
 
-def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> str:
+def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> Outcome:
     """A validation's outcome: worse (with reasons), else improved when its fit is not
     within the noise, else validated when its test sees every correction go wrong
     (``sight``) and not shown when it does not."""
     if worse:
-        return "worse"
+        return Outcome.WORSE
     if not within_noise:
-        return "improved"
-    return "validated" if shown(sight) else "not shown"
+        return Outcome.IMPROVED
+    return Outcome.VALIDATED if shown(sight) else Outcome.NOT_SHOWN
 
 
 def where_looked(sessions: list[LoadedSession], machine: MachineSpec) -> str:

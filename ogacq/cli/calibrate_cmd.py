@@ -80,8 +80,10 @@ def calibrate(
                       "designed one (targets at irregular intervals that sample every lead "
                       "the machine file states, else every lead from 2 to 40 mm).")] = None,
     scan_minutes: Annotated[float | None, typer.Option(
-        min=1.0, help="The machine time the designed separating scan may take (default: "
-                      f"the campaign file's scan_minutes, else {SCAN_MINUTES:g}).")] = None,
+        min=1.0, help="The machine time the designed separating scan may take; given (or "
+                      "the campaign file's scan_minutes), the scan grows within it toward "
+                      "its detection target (default: "
+                      f"{SCAN_MINUTES:g}, the fewest targets that sample every lead).")] = None,
     axis_scales: Annotated[str, axis_scales_option(
         "With --simulator: the axes (e.g. x,y,z) along which a scale is mounted; a map "
         "written on such an axis is validated by ISO 230-2's positioning test over its "
@@ -265,8 +267,8 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
                              "--simulator")
         folder.mkdir(parents=True, exist_ok=True)
         return station_setup(folder, campaign, scan_step_mm=scan_step_mm, separate=separate,
-                             scan_minutes=scan_minutes or campaign.scan_minutes
-                             or SCAN_MINUTES, scale_runs=scale_runs)
+                             scan_minutes=scan_minutes or campaign.scan_minutes,
+                             scale_runs=scale_runs)
     folder.mkdir(parents=True, exist_ok=True)
     for name, data in files.items():
         write_atomically(folder / name, data)
@@ -277,7 +279,7 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     return simulator_setup(folder, simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
                            spec, operator=operator or login_name("calibrate"),
                            override_expired=reason, scan_step_mm=scan_step_mm,
-                           separate=separate, scan_minutes=scan_minutes or SCAN_MINUTES,
+                           separate=separate, scan_minutes=scan_minutes,
                            today=datetime.date.today(), scale_runs=scale_runs)
 
 
@@ -290,7 +292,8 @@ def _resumed_setup(folder: Path) -> Setup:
         log_.close()
     step = described.get("scan_step_mm")
     scan = float(step) if step else None
-    minutes = float(described.get("scan_minutes") or SCAN_MINUTES)
+    given = described.get("scan_minutes")
+    minutes = float(given) if given else None
     separate = bool(described.get("separate", True))
     runs = int(described.get("scale_runs") or ISO_RUNS)
     if described.get("mode") == "station":

@@ -350,12 +350,13 @@ def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None
 
 def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
                 seconds_per_step: float = 0.0, budget_s: float | None = None,
-                ) -> ScanDesign:
+                grow: bool = True) -> ScanDesign:
     """The separating scan for ``machine`` of the legs ``base`` reads (``base``: the
     campaign's legs, settling and overshoot): its targets the fewest that sample the
     band within ``budget_s`` of machine time at ``seconds_per_step``, placed where the
     smooth map is seen best within those bounds, more where that reaches
-    ``DETECTION_TARGET_MM`` within the budget."""
+    ``DETECTION_TARGET_MM`` within the budget (``grow``: a budget given for that; not
+    grown, the design says what would reach it)."""
     legs = base.legs
     protocol = replace(base, postures=(), approach="both", cycles=DESIGN_CYCLES,
                        scan_step_mm=None, scan_from_mm=None, scan_to_mm=None)
@@ -373,7 +374,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     shortest = min(stated + (required or (longest,)))
     scan = _Scan(machine, replace(protocol, scan_targets_mm=(lo, hi)), noise_mm, required,
                  stated, longest, shortest)
-    n, placed, wanted = _counted_and_placed(scan, n, most, timed)
+    n, placed, wanted = _counted_and_placed(scan, n, most, timed, grow)
     targets = placed.targets
     protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
     band, band_gap = resolved_band(targets, longest, shortest)
@@ -396,7 +397,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
                       reading_noise(noise_mm, step).rounding_dominated)
 
 
-def _counted_and_placed(scan: _Scan, n: int, most: int, timed: bool,
+def _counted_and_placed(scan: _Scan, n: int, most: int, timed: bool, grow: bool = True,
                         ) -> tuple[int, _Placed, int]:
     """The fewest equal strata that sample the band (from ``n``, at most ``most``),
     placed, and grown while that reaches the detection target within the budget; with
@@ -410,7 +411,7 @@ def _counted_and_placed(scan: _Scan, n: int, most: int, timed: bool,
     while True:
         placed = scan.placed(n, covered and timed)
         wanted = targets_for_detection(placed.detection, n)
-        if wanted <= n or wanted > most or not timed:
+        if wanted <= n or wanted > most or not (timed and grow):
             # reached, or beyond the budget's reach (or no budget in machine time to
             # grow within): the fewest that sample the band
             return n, placed, wanted

@@ -1,0 +1,59 @@
+"""The validation scan grown where a written periodic map would not be seen.
+
+Found: the designed scan's 5 mm lead on x (bench/designed_scan.py), its map right over
+the whole travel (0.48 µm rms of 2.83 left), ended "not shown" beyond q = -64 mm: the
+validation between the scan's targets tests the map's pitch on too few readings far
+from its reference, where "about 2 times the readings there" would have shown it."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ogacq.calibration.resolving import resolving_plan
+from ogacq.calibration.validation_design import predicted_sight, validation_plan
+from ogacq.model.error_maps import axis_map, terms_json
+from ogacq.model.families.base import MapTerm
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL as MACHINE
+from ogacq.protocol.plan import ProtocolConfig, reading_steps, scan_targets
+from ogacq.protocol.scan_design import between_plan, design_scan
+
+NOISE_MM = 0.0009  # the scatter the designed scan's run measured
+
+
+def lead_map(pitch_mm: float = 5.0) -> dict:
+    term = MapTerm("lead_screw_cyclic", 0, {"pitch_mm": pitch_mm}, 0.4)
+    return {"x": axis_map([term], [np.array([0.0045, 0.0])], np.zeros((2, 2)), -100.1, 60.1,
+                          pitch_mm / 20, source="cyclic", extra={"terms": terms_json([term])})}
+
+
+def test_the_validation_grows_at_the_travels_far_end_until_it_sees_the_period():
+    scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
+    between = between_plan(scan, MACHINE)
+    plan = validation_plan(scan, lead_map(), MACHINE, NOISE_MM)
+    added = sorted(set(plan.scan_targets_mm) - set(between.scan_targets_mm))
+    assert added and set(between.scan_targets_mm) <= set(plan.scan_targets_mm)
+    # where the pitch is tested least: the far end from the map's reference (0.4 mm)
+    assert min(added) < -80.0 and np.median(added) < -40.0, added
+    # never where the scan read
+    assert not set(added) & set(scan_targets(scan, MACHINE))
+    assert not predicted_sight(between, lead_map(), MACHINE, NOISE_MM)["x"].shown
+    assert predicted_sight(plan, lead_map(), MACHINE, NOISE_MM)["x"].shown
+    # within the machine time given
+    steps = len(reading_steps(between, MACHINE))
+    assert validation_plan(scan, lead_map(), MACHINE, NOISE_MM, steps) == between
+
+
+def test_no_periodic_map_no_growth():
+    scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
+    assert validation_plan(scan, {}, MACHINE, NOISE_MM) == between_plan(scan, MACHINE)
+
+
+def test_a_pitch_left_unresolved_is_read_at_other_phases_in_every_gap():
+    scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
+    scanned = np.asarray(scan_targets(scan, MACHINE))
+    more = np.asarray(resolving_plan(scan, MACHINE).scan_targets_mm)
+    assert len(more) == len(scanned) - 1
+    share = (more - scanned[:-1]) / np.diff(scanned)
+    assert share.min() >= 0.12 and share.max() <= 0.26
+    # clear of the validation's targets between the scan's (0.3-0.7 of each gap)
+    assert not set(more) & set(between_plan(scan, MACHINE).scan_targets_mm)
