@@ -69,7 +69,11 @@ def report_command(
             state = require_complete(loaded, partial)
             for line in session_notes(loaded, state):
                 typer.echo(f"ogacq: warning: {loaded.path}: {line}", err=True)
-    browser = _browser() if pdf else None  # before the work: none is exit 2
+    browser = None
+    if pdf:  # before the work: none is exit 2 (the report package: matplotlib)
+        from ogacq.report.printing import find_browser, print_pdf
+
+        browser = find_browser()
     # some seconds of work (the analysis's and the figures' libraries loaded, the
     # diagnosis, the budget's Monte-Carlo check, the figures drawn), once the inputs
     # are found good: said on stderr, where the page's path on stdout stays the first
@@ -94,20 +98,11 @@ def report_command(
                                      history=earlier, history_why=why)
     typer.echo(str(page))
     if browser is not None:  # after the page is on disk: a failed print loses nothing
-        from ogacq.report.printing import print_pdf  # loaded by _browser already
-
         typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))
     # what to do once it is read: every command ends with the next one (issue 38.5)
     steps = after_report(calibration, validation, CalibrationRecord.from_json(report.record),
                          report.data.identified, report.data.validation_identified)
     print_end(step_lines(steps))
-
-
-def _browser() -> str:
-    """The headless Chromium ``--pdf`` prints with (InputError when there is none)."""
-    from ogacq.report.printing import find_browser  # the report package: matplotlib
-
-    return find_browser()
 
 
 def issue_report(calibration: LoadedSession, folder: Path, *,
