@@ -11,11 +11,9 @@ confirm on, ``--yes`` is required.
 from __future__ import annotations
 
 import datetime
-import getpass
 import json
 import sys
 import time
-from dataclasses import replace
 from pathlib import Path
 from typing import Annotated
 
@@ -24,17 +22,21 @@ import typer
 from ogacq.calibration.log import LOG_NAME, ProcedureLog
 from ogacq.calibration.setup import SCAN_MINUTES, Setup, simulator_setup, station_setup
 from ogacq.campaign.campaign_file import SimulatorSpec, read_campaign
+from ogacq.cli.campaign_cmds import said_if_stopped
 from ogacq.cli.options import (
     DEFAULT_SEED,
     DEFAULT_SPEED,
+    RUNS_FOLDER,
     HistoryOption,
     JsonOption,
     OverrideExpiredOption,
     ProfileChoice,
     axis_scales_option,
+    login_name,
     override_reason,
     scale_axes,
     seed_option,
+    simulated_machine,
 )
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import plain
@@ -42,15 +44,11 @@ from ogacq.errors import InputError, Refused
 from ogacq.io.atomic import write_atomically
 from ogacq.io.machine_file import machine_text, read_machine
 from ogacq.io.names import checked_name
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE, MachineSpec
-from ogacq.model.tolerances import Tolerances
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.positioning import ISO_RUNS
-from ogacq.protocol.runner import CampaignStopped
 from ogacq.sim.truth import read_effects_text
 
-RUNS_FOLDER = Path("ogacq-runs")
 MACHINE_FILE, EFFECTS_FILE = "machine.toml", "effects.toml"  # --simulator's, in the folder
-SIM_TOLERANCE_MM = 0.020  # the rehearsal's acceptance, as `ogacq demo` states it (no source)
 
 
 def calibrate(
@@ -137,17 +135,14 @@ def calibrate(
                     where="the simulator" if setup.simulated else spec.endpoints(),
                     offsets_file=str(spec.offsets_file) if spec.offsets_file else None)
     try:
-        outcome = run_procedure(setup, ui, resume=resuming, history=where)
-    except CampaignStopped as stop:
-        typer.echo(f"ogacq: campaign {stop.status}: {plain(stop.reason)}", err=True)
-        typer.echo(f"ogacq: the procedure is saved: continue it with `ogacq calibrate "
-                   f"--resume {folder}`", err=True)
-        raise typer.Exit(stop.exit_code) from None
+        with said_if_stopped("campaign", "the procedure is saved: continue it with `ogacq "
+                                         f"calibrate --resume {folder}`"):
+            outcome = run_procedure(setup, ui, resume=resuming, history=where)
     finally:
         ui.close()
     report = None
     if outcome.record is not None and outcome.evidence is not None:
-        from ogacq.cli.report_cmd import write_session_report
+        from ogacq.cli.report_cmd import issue_report
         from ogacq.record.scale_tests import axis_scales_section
         from ogacq.session.store import load_session
 
@@ -155,7 +150,7 @@ def calibrate(
         tested = axis_scales_section(load_session(folder / LOG_NAME))
         record = outcome.record if tested is None else {**outcome.record,
                                                         "axis_scales": tested}
-        report = write_session_report(
+        report, _ = issue_report(
             load_session(outcome.evidence), folder / "report",
             validation=load_session(outcome.validation) if outcome.validation else None,
             diagnosis=_campaign_diagnosis(folder), diagnosis_source=folder / LOG_NAME,
@@ -251,22 +246,10 @@ def _clear_start_up(folder: Path, files: dict[str, bytes]) -> None:
         entry.unlink()
 
 
-def _login_name() -> str:
-    try:
-        return getpass.getuser()
-    except (KeyError, OSError):
-        return "calibrate"
-
-
-def _simulated_machine(seed: int) -> MachineSpec:
-    return replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
-                   tolerances=Tolerances(default_mm=SIM_TOLERANCE_MM))
-
-
 def _simulator_files(seed: int, effects: Path | None) -> dict[str, bytes]:
     """The files ``--simulator`` writes into a new folder: its machine file and a copy
     of the effects file (read once: a pipe can be read only once)."""
-    files = {MACHINE_FILE: machine_text(_simulated_machine(seed),
+    files = {MACHINE_FILE: machine_text(simulated_machine(seed),
                                         PAPER_PROTOTYPE_DIGITAL_NOTE).encode("utf-8")}
     if effects is not None:
         files[EFFECTS_FILE] = read_effects_text(effects).encode("utf-8")
@@ -293,8 +276,8 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     # a rehearsal of the procedure, not of the gauges' line timing: the lines at --speed
     spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile,
                          line_at_speed=True, axis_scales=scales)
-    return simulator_setup(folder, _simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
-                           spec, operator=operator or _login_name(),
+    return simulator_setup(folder, simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
+                           spec, operator=operator or login_name("calibrate"),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, scan_minutes=scan_minutes,
                            today=datetime.date.today(), scale_runs=scale_runs)
@@ -320,7 +303,7 @@ def _resumed_setup(folder: Path) -> Setup:
     machine_path = Path(described["machine_file"])
     spec = SimulatorSpec.from_header(described["simulator"])
     return simulator_setup(folder, read_machine(machine_path), machine_path, spec,
-                           operator=str(described.get("operator") or _login_name()),
+                           operator=str(described.get("operator") or login_name("calibrate")),
                            override_expired=str(described.get("override_expired") or ""),
                            scan_step_mm=scan, separate=separate, scan_minutes=minutes,
                            scale_runs=runs)

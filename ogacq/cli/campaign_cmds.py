@@ -3,10 +3,11 @@ progress and result display ``ogacq demo`` shares with them."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import logging
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated
 
@@ -18,6 +19,7 @@ from ogacq.campaign.traceability import traceability_gaps
 from ogacq.cli.campaign_end import campaign_end
 from ogacq.cli.leg_prompt import operator_for
 from ogacq.cli.options import HistoryOption, JsonOption, OverrideExpiredOption, override_reason
+from ogacq.cli.plain import plain
 from ogacq.cli.render import CampaignProgress, campaign_progress, print_end, print_outcome
 from ogacq.history.recording import record_campaign
 from ogacq.protocol.runner import CampaignStopped
@@ -125,11 +127,18 @@ def execute(start: Callable[[CampaignProgress], CampaignOutcome], session: Path,
             quiet: bool = False) -> CampaignOutcome:
     """Run ``start(observer)`` with progress shown; a stop exits non-zero with its reason
     and the command that continues ``session``."""
-    with campaign_progress(enabled=not quiet) as observer:
-        try:
-            return start(observer)
-        except CampaignStopped as stop:
-            typer.echo(f"ogacq: campaign {stop.status}: {stop.reason}", err=True)
-            typer.echo(f"ogacq: the session is saved: continue it with `ogacq resume "
-                       f"{session}`", err=True)
-            raise typer.Exit(stop.exit_code) from None
+    with campaign_progress(enabled=not quiet) as observer, said_if_stopped(
+            "campaign", f"the session is saved: continue it with `ogacq resume {session}`"):
+        return start(observer)
+
+
+@contextlib.contextmanager
+def said_if_stopped(what: str, then: str) -> Iterator[None]:
+    """A stopped campaign (run, positioning test, procedure) said on stderr: ``what``,
+    its status and reason, then how to continue it (``then``); its exit code."""
+    try:
+        yield
+    except CampaignStopped as stop:
+        typer.echo(f"ogacq: {what} {stop.status}: {plain(stop.reason)}", err=True)
+        typer.echo(f"ogacq: {then}", err=True)
+        raise typer.Exit(stop.exit_code) from None

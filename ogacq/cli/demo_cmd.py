@@ -4,7 +4,6 @@ identification, diagnosis and report -- in a new folder."""
 from __future__ import annotations
 
 import datetime
-import getpass
 import json
 import sys
 import time
@@ -22,16 +21,19 @@ from ogacq.cli.campaign_end import NextStep, campaign_end
 from ogacq.cli.options import (
     DEFAULT_SEED,
     DEFAULT_SPEED,
+    RUNS_FOLDER,
     HistoryOption,
     OverrideExpiredOption,
     ProfileChoice,
+    login_name,
     override_reason,
     seed_option,
+    simulated_machine,
 )
 from ogacq.cli.outputs import check_output_folder
 from ogacq.cli.plain import Printer, shown
 from ogacq.cli.render import print_demo_diagnosis, print_end, print_outcome
-from ogacq.cli.report_cmd import report_diagnosis, write_session_report
+from ogacq.cli.report_cmd import issue_report, report_diagnosis
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.history.recording import record_campaign
@@ -39,19 +41,11 @@ from ogacq.io.atomic import write_atomically
 from ogacq.io.dates import parse_moment
 from ogacq.io.machine_file import write_machine
 from ogacq.io.names import checked_name
-from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL, PAPER_PROTOTYPE_DIGITAL_NOTE
-from ogacq.model.tolerances import Tolerances
+from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL_NOTE
 from ogacq.protocol.plan import ProtocolConfig
 from ogacq.session.convert import export_readings, session_observations
 from ogacq.session.store import load_session
 from ogacq.sim.truth import read_effects_text
-
-# Under the folder the command was started in, one level down: the runs gather in one
-# place (ignored by git) instead of beside the package, where a search would pack them.
-RUNS_FOLDER = Path("ogacq-runs")
-# The rehearsal's acceptance: every leg-parallelism deviation within +/- 20 um, judged
-# with the guard band (no source: a stated example, as a machine file would state it)
-DEMO_TOLERANCE_MM = 0.020
 
 
 def demo(
@@ -96,10 +90,9 @@ def demo(
     check_output_folder(folder, "--out")
     # Read now, as text: a process substitution (a pipe) can be read only once.
     effects_text = read_effects_text(effects) if effects is not None else None
-    operator_name = checked_name(operator or _login_name(), "--operator")
+    operator_name = checked_name(operator or login_name("demo"), "--operator")
     folder.mkdir(parents=True, exist_ok=True)
-    machine = replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
-                      tolerances=Tolerances(default_mm=DEMO_TOLERANCE_MM))
+    machine = simulated_machine(seed)
     machine_path = write_machine(folder / "machine.toml", machine,
                                  PAPER_PROTOTYPE_DIGITAL_NOTE)
     effects_path = None
@@ -143,9 +136,9 @@ def demo(
     write_atomically(folder / "diagnosis.json",
                      (json.dumps(diagnosis.to_json(), indent=2) + "\n").encode("utf-8"))
     print_demo_diagnosis(diagnosis, outcome.hidden or {})
-    write_session_report(session, folder / "report",  # the record campaign_end built
-                         diagnosis=report_diagnosis(diagnosis, session),
-                         record=dict(end.built) if end.built is not None else None)
+    issue_report(session, folder / "report",  # the record campaign_end built
+                 diagnosis=report_diagnosis(diagnosis, session),
+                 record=dict(end.built) if end.built is not None else None)
     now = Printer()  # wrapped between words at the terminal's width
     now.print(shown(f"written: {folder}/session.jsonl, readings.csv, result.json, "
                     "diagnosis.json, report/report.html"))
@@ -186,17 +179,10 @@ def _close_the_loop(folder: Path, campaign: Campaign, session: Path,
         ui.close()
     report = None
     if done.record is not None and done.evidence is not None:
-        report = write_session_report(
+        report, _ = issue_report(
             load_session(done.evidence), setup.folder / "report",
             validation=load_session(done.validation) if done.validation else None,
             record=done.record)
         record_calibrate(done.evidence, history, done.record, done.procedure, done.details,
                          validation=done.validation, say=typer.echo, location=where)
     print_outcome(done, report)
-
-
-def _login_name() -> str:
-    try:
-        return getpass.getuser()
-    except (KeyError, OSError):  # no user name in the environment or the password file
-        return "demo"

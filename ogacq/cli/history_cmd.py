@@ -32,12 +32,8 @@ from ogacq.session.store import LoadedSession, load_session
 if TYPE_CHECKING:
     from ogacq.history.store import History
 
-ReadHistoryOption = Annotated[str | None, typer.Option(
-    "--history", metavar="URL_OR_PATH",
-    help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
-         "$OGACQ_HISTORY, else history.sqlite in ogacq's data folder ($OGACQ_HOME, default "
-         "~/.local/share/ogacq).")]
-AddHistoryOption = Annotated[str | None, typer.Option(
+# the history shown or added to (`none` is no history: ogacq.history.location refuses it)
+TheHistoryOption = Annotated[str | None, typer.Option(
     "--history", metavar="URL_OR_PATH",
     help="The history: an SQLite file, or a postgresql://USER@HOST/DB URL. Default: "
          "$OGACQ_HISTORY, else history.sqlite in ogacq's data folder ($OGACQ_HOME, default "
@@ -61,7 +57,7 @@ def show(
     machine: Annotated[str | None, typer.Argument(
         help="The machine's name (or its serial), as its machine file gives it; none: the "
              "machines the history holds.")] = None,
-    history: ReadHistoryOption = None,
+    history: TheHistoryOption = None,
     states: Annotated[bool, typer.Option(
         "--states", help="List the offsets each write-back and restore found and left on "
                          "the controller (what `ogacq offsets restore --to` takes), the maps "
@@ -199,7 +195,7 @@ def _record_for_history(session: LoadedSession) -> dict[str, Any]:
                          "so this session cannot enter one") from None
 
 
-def _seen_more(session: LoadedSession, location: HistoryLocation) -> tuple[int, str] | None:
+def seen_more(session: LoadedSession, location: HistoryLocation) -> tuple[int, str] | None:
     """(line, why) when the history saw more records of the session than its file holds;
     None too when there is no history yet (it saw nothing), made by the recording."""
     try:
@@ -214,7 +210,7 @@ def _vouched_for(session: LoadedSession, location: HistoryLocation,
     """The session, refused when it cannot vouch for all it held (seals stripped, a torn
     record, not closed, fewer records than the history saw) unless the user accepts it
     as it stands: then with that among its edits, which its record carries."""
-    found = unsealed(session) or _seen_more(session, location)
+    found = unsealed(session) or seen_more(session, location)
     if found is None:
         return session
     line, problem = found
@@ -228,7 +224,7 @@ def _vouched_for(session: LoadedSession, location: HistoryLocation,
 def add(
     sessions: Annotated[list[Path], typer.Argument(
         help="Session files of finished campaigns (their write-backs come along).")],
-    history: AddHistoryOption = None,
+    history: TheHistoryOption = None,
     accept_edited: AcceptEditedOption = False,
     accept_unsealed: AcceptUnsealedOption = False,
 ) -> None:

@@ -167,8 +167,7 @@ def show(
         typer.echo(json.dumps({
             "evidence": evidence.to_json(), "plan": plan.to_json(),
             "controller": {"profile": spec.profile, "port": spec.port,
-                           "offsets_file": str(spec.offsets_file) if spec.offsets_file
-                           else None},
+                           "offsets_file": _table_name(spec)},
             "writes": [op.as_mapping() for op in history]}))
         return
     render.print_evidence(evidence)

@@ -10,6 +10,9 @@ from typing import TYPE_CHECKING, Annotated, Any, cast
 
 import typer
 
+if TYPE_CHECKING:
+    from ogacq.model.machine import MachineSpec
+
 MachineOption = Annotated[Path, typer.Option("--machine", "-m", help="Machine file (TOML).")]
 # For files that may record their machine (sessions do, CSVs do not).
 RecordedMachineOption = Annotated[Path | None, typer.Option(
@@ -84,6 +87,36 @@ DEFAULT_SEED = 1
 # ... and one pace: the simulated machine's time runs this many times faster than real
 # time in every rehearsal (demo, calibrate --simulator, the wizard's, ogacq sim)
 DEFAULT_SPEED = 25.0
+# Under the folder the command was started in, one level down: the runs of demo and
+# calibrate gather in one place (ignored by git) instead of beside the package, where a
+# search would pack them.
+RUNS_FOLDER = Path("ogacq-runs")
+# The rehearsal's acceptance: every leg-parallelism deviation within +/- 20 um, judged
+# with the guard band (no source: a stated example, as a machine file would state it)
+SIM_TOLERANCE_MM = 0.020
+
+
+def simulated_machine(seed: int) -> MachineSpec:
+    """The machine demo and calibrate --simulator rehearse on: the papers' digital
+    prototype, its serial from the seed (the history tells one seed's from another's)."""
+    from dataclasses import replace
+
+    from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL
+    from ogacq.model.tolerances import Tolerances
+
+    return replace(PAPER_PROTOTYPE_DIGITAL, serial=f"SIM-{seed}",
+                   tolerances=Tolerances(default_mm=SIM_TOLERANCE_MM))
+
+
+def login_name(fallback: str) -> str:
+    """Who runs a rehearsal when no --operator names them: the login name, else
+    ``fallback`` (no user name in the environment or the password file)."""
+    import getpass
+
+    try:
+        return getpass.getuser()
+    except (KeyError, OSError):
+        return fallback
 
 
 def seed_option(help: str) -> Any:

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:  # rich only where something is drawn: app.py's error line needs none
     from rich.console import Console
+    from rich.progress import Progress
     from rich.table import Table
 
 # C0 controls but tab and newline, DEL and the C1 controls (ECMA-48 5.2: the
@@ -54,6 +55,16 @@ def table_of(*columns: str, fold: bool = False, **options: Any) -> Table:
         table.add_column(column.removeprefix(">"), overflow="fold" if fold else "ellipsis",
                          justify="right" if column.startswith(">") else "left")
     return table
+
+
+def bar_of(title: str, *, console: Console, transient: bool, last: bool = False) -> Progress:
+    """A progress bar as every command draws one: ``title``, the bar, done of total, the
+    time elapsed; ``last``: then the task's ``last`` field (the last value read)."""
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+    return Progress(TextColumn(title), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
+                    *([TextColumn("{task.fields[last]}")] if last else []), console=console,
+                    transient=transient)
 
 
 class Printer:

@@ -11,6 +11,7 @@ import typer
 from ogacq.calibration.drive_step import drive_step_mm
 from ogacq.campaign.campaign_file import read_campaign
 from ogacq.campaign.positioning import positioning_document, run_positioning, write_document
+from ogacq.cli.campaign_cmds import said_if_stopped
 from ogacq.cli.options import JsonOption
 from ogacq.cli.outputs import check_output_file
 from ogacq.cli.plain import plain
@@ -18,7 +19,6 @@ from ogacq.cli.render import campaign_progress
 from ogacq.errors import InputError
 from ogacq.model.units import UM_PER_MM
 from ogacq.protocol.positioning import ISO_RUNS, positioning_plan
-from ogacq.protocol.runner import CampaignStopped
 from ogacq.session.store import load_session
 
 
@@ -65,14 +65,9 @@ def positioning(
         typer.echo(f"{axis} axis: {len(plan.targets_mm)} targets from "
                    f"{min(plan.targets_mm):+g} to {max(plan.targets_mm):+g} mm, {runs} runs "
                    f"each way ({plan.readings} readings); session {plain(str(session))}")
-    with campaign_progress(enabled=not as_json) as observer:
-        try:
-            done = run_positioning(campaign, plan, session, observer=observer)
-        except CampaignStopped as stop:
-            typer.echo(f"ogacq: positioning test {stop.status}: {stop.reason}", err=True)
-            typer.echo("ogacq: the session is saved: run the same command to continue it",
-                       err=True)
-            raise typer.Exit(stop.exit_code) from None
+    with campaign_progress(enabled=not as_json) as observer, said_if_stopped(
+            "positioning test", "the session is saved: run the same command to continue it"):
+        done = run_positioning(campaign, plan, session, observer=observer)
     document = positioning_document(done, step)
     path = write_document(done, document)
     if as_json:

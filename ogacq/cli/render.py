@@ -7,7 +7,7 @@ from collections.abc import Callable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
-from ogacq.cli.plain import Printer, shown, table_of
+from ogacq.cli.plain import Printer, bar_of, shown, table_of
 from ogacq.cli.plain import console as new_console
 from ogacq.cli.render_fit import format_number
 from ogacq.cli.verdict_text import paragraph
@@ -119,10 +119,7 @@ def trials_progress(label: str) -> Iterator[Callable[[int, int], None] | None]:
     if not err.is_terminal:
         yield None
         return
-    from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
-
-    with Progress(TextColumn(label), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn(),
-                  console=err, transient=True) as bar:
+    with bar_of(label, console=err, transient=True) as bar:
         task = bar.add_task(label, total=None)
         yield lambda done, total: bar.update(task, completed=done, total=total)
 
@@ -153,17 +150,7 @@ def campaign_progress(enabled: bool = True) -> Iterator[CampaignProgress]:
 
         yield CampaignProgress(log_line)
         return
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-    )
-
-    with Progress(TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-                  TimeElapsedColumn(), TextColumn("{task.fields[last]}"),
-                  console=console, transient=False) as bar:
+    with bar_of("{task.description}", console=console, transient=False, last=True) as bar:
         task = bar.add_task("readings", total=None, last="")
 
         def update(progress: RunnerProgress) -> None:

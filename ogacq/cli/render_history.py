@@ -83,8 +83,7 @@ def _print_who(console: Console, machine: Machine, where: str,
                          justify="right" if column == "ambient" else "left")
     for row in rows:
         table.add_row(*row)
-    if _fits(console, table):
-        console.print(table)
+    if _printed_whole(console, table):
         return
     for date, record, operator, fit, acceptance, ambient in rows:
         console.print(f"{date}  {record}\n    operator {operator}; fit {fit}; acceptance "
@@ -220,10 +219,12 @@ def print_calibrations(machine: Machine, where: str, calibrations: Sequence[Cali
         console.print(shown(events_note))
 
 
-def _fits(console: Console, table: Table) -> bool:
-    """Whether ``table`` fits the terminal whole: rich would otherwise squeeze its
-    columns, down to nothing for some (a value lost, not wrapped)."""
+def _printed_whole(console: Console, table: Table) -> bool:
+    """``table`` printed when it fits the terminal whole (whether it did): rich would
+    otherwise squeeze its columns, down to nothing for some (a value lost, not wrapped)."""
     natural = console.measure(table, options=console.options.update_width(10_000)).maximum
+    if natural <= console.width:
+        console.print(table)
     return natural <= console.width
 
 
@@ -238,8 +239,7 @@ def _print_rows(console: Console, title: str, columns: Sequence[str],
                          no_wrap=column in ("state", "when", "record"))
     for row in rows:
         table.add_row(*row)
-    if _fits(console, table):
-        console.print(table)
+    if _printed_whole(console, table):
         return
     console.print(title)
     for row in rows:

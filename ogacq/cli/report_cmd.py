@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any, TypedDict, Unpack
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 
@@ -69,7 +69,11 @@ def report_command(
             state = require_complete(loaded, partial)
             for line in session_notes(loaded, state):
                 typer.echo(f"ogacq: warning: {loaded.path}: {line}", err=True)
-    browser = _browser() if pdf else None  # before the work: none is exit 2
+    browser = None
+    if pdf:  # before the work: none is exit 2 (the report package: matplotlib)
+        from ogacq.report.printing import find_browser, print_pdf
+
+        browser = find_browser()
     # some seconds of work (the analysis's and the figures' libraries loaded, the
     # diagnosis, the budget's Monte-Carlo check, the figures drawn), once the inputs
     # are found good: said on stderr, where the page's path on stdout stays the first
@@ -88,14 +92,12 @@ def report_command(
         with working(f"diagnosing {calibration.path.name}"):
             raw, note = _diagnose_here(calibration)
     with working("issuing the record: uncertainty budget, Monte-Carlo check, figures"):
-        page, report = _issue_report(calibration, folder, validation=validation,
+        page, report = issue_report(calibration, folder, validation=validation,
                                      diagnosis=raw, diagnosis_note=note,
                                      diagnosis_source=diagnosis or session,
                                      history=earlier, history_why=why)
     typer.echo(str(page))
     if browser is not None:  # after the page is on disk: a failed print loses nothing
-        from ogacq.report.printing import print_pdf  # loaded by _browser already
-
         typer.echo(str(print_pdf(page, page.with_suffix(".pdf"), browser)))
     # what to do once it is read: every command ends with the next one (issue 38.5)
     steps = after_report(calibration, validation, CalibrationRecord.from_json(report.record),
@@ -103,37 +105,7 @@ def report_command(
     print_end(step_lines(steps))
 
 
-def _browser() -> str:
-    """The headless Chromium ``--pdf`` prints with (InputError when there is none)."""
-    from ogacq.report.printing import find_browser  # the report package: matplotlib
-
-    return find_browser()
-
-
-class ReportInputs(TypedDict, total=False):
-    """What a report is issued from beside its campaign's session (every keyword of
-    :func:`write_session_report`)."""
-
-    validation: LoadedSession | None
-    diagnosis: dict[str, Any] | None
-    diagnosis_note: str | None
-    diagnosis_source: Path | None
-    history: list[dict[str, Any]] | None
-    history_why: str | None
-    record: dict[str, Any] | None
-
-
-def write_session_report(calibration: LoadedSession, folder: Path,
-                         **inputs: Unpack[ReportInputs]) -> Path:
-    """Write the report of ``calibration`` into ``folder``; returns the HTML file.
-    ``diagnosis`` is the JSON of INTERCHANGE.md, read from ``diagnosis_source``;
-    ``history``: the machine's earlier calibrations (docs/calibration-record.md 5),
-    ``history_why``: why there are none to give; ``record``: the record already built
-    (``ogacq calibrate`` adds its compensation to it)."""
-    return _issue_report(calibration, folder, **inputs)[0]
-
-
-def _issue_report(calibration: LoadedSession, folder: Path, *,
+def issue_report(calibration: LoadedSession, folder: Path, *,
                   validation: LoadedSession | None = None,
                   diagnosis: dict[str, Any] | None = None,
                   diagnosis_note: str | None = None,
@@ -141,8 +113,12 @@ def _issue_report(calibration: LoadedSession, folder: Path, *,
                   history: list[dict[str, Any]] | None = None,
                   history_why: str | None = None,
                   record: dict[str, Any] | None = None) -> tuple[Path, Report]:
-    """:func:`write_session_report`, and the report written (its data: what the next
-    step is decided from)."""
+    """Write the report of ``calibration`` into ``folder``: its HTML file, and the report
+    written (its data: what the next step is decided from). ``diagnosis`` is the JSON of
+    INTERCHANGE.md, read from ``diagnosis_source``; ``history``: the machine's earlier
+    calibrations (docs/calibration-record.md 5), ``history_why``: why there are none to
+    give; ``record``: the record already built (``ogacq calibrate`` adds its compensation
+    to it)."""
     from ogacq.record.document import build_record
     from ogacq.record.revision import issue
     from ogacq.report import RECORD_NAME, build_report, collect, write_report
@@ -243,7 +219,7 @@ def report_of(session: Path, folder: Path, validation: Path | None = None,
     after = load_session(validation) if validation is not None else None
     earlier, why = earlier_calibrations(history, calibration)
     raw, note = _diagnose_here(calibration)
-    page, report = _issue_report(calibration, folder, validation=after, diagnosis=raw,
+    page, report = issue_report(calibration, folder, validation=after, diagnosis=raw,
                                  diagnosis_note=note, diagnosis_source=session,
                                  history=earlier, history_why=why)
     return page, json.loads(report.record_json())  # as record.json holds it

@@ -97,15 +97,13 @@ def check(session: Annotated[Path, typer.Argument(help="Session file.")]) -> Non
 def _history_says_cut(session: LoadedSession) -> str | None:
     """Why the history's own count says the session lost records at its end, when the
     history of this account holds it (a history that cannot be read says nothing)."""
+    from ogacq.cli.history_cmd import seen_more
     from ogacq.errors import OgacqError
     from ogacq.history.location import history_to_read
-    from ogacq.history.store import History
-    from ogacq.history.tail import cut_tail
 
     try:
-        with History.open(history_to_read(None), create=False) as history:
-            found = cut_tail(history, session)
-    except OgacqError:
+        found = seen_more(session, history_to_read(None))
+    except OgacqError:  # no history on this account
         return None
     return None if found is None else found[1]
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 
-from ogacq.cli.report_cmd import write_session_report
+from ogacq.cli.report_cmd import issue_report
 from ogacq.record.document import simulated
 from ogacq.session.header import SessionHeader
 from ogacq.session.store import load_session
@@ -28,7 +28,7 @@ def test_a_rehearsal_is_marked_simulated_everywhere(campaign_dir, capsys, monkey
 
     out = campaign_dir / "report"
     # the report as `ogacq report` writes it (its diagnosis aside)
-    page_path = write_session_report(load_session(session), out)
+    page_path, _ = issue_report(load_session(session), out)
     record = json.loads((out / "record.json").read_text())
     assert record["simulated"] is True
     page = page_path.read_text(encoding="utf-8")

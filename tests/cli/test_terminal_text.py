@@ -247,3 +247,19 @@ def test_end_of_input_at_a_yes_no_question_is_a_no_on_a_line_of_its_own(capsys, 
     assert confirmed("Restore these maps?") is False
     said = capsys.readouterr()
     assert said.out.startswith("Restore these maps? [y/N]") and said.err == "\n"
+
+
+def test_a_stopped_campaign_s_reason_is_shown_not_obeyed(capsys):
+    # a stop's reason may quote a device's reply: run, resume and positioning printed it
+    # raw (calibrate through plain()); now all three say it through one helper
+    import typer
+
+    from ogacq.cli.campaign_cmds import said_if_stopped
+    from ogacq.protocol.runner import CampaignStopped
+
+    stop = CampaignStopped("gauge z_y replied \x1b[2J", "interrupted")
+    with pytest.raises(typer.Exit) as ended, said_if_stopped("campaign", "continue it"):
+        raise stop
+    assert ended.value.exit_code == stop.exit_code
+    assert capsys.readouterr().err == ("ogacq: campaign interrupted: gauge z_y replied "
+                                       "\\x1b[2J\nogacq: continue it\n")

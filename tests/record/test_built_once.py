@@ -8,7 +8,7 @@ import json
 
 import ogacq.record.document as document
 import ogacq.report.data as report_data
-from ogacq.cli.report_cmd import write_session_report
+from ogacq.cli.report_cmd import issue_report
 from ogacq.record.document import build_record
 from ogacq.session.identification import recorded_identification
 from ogacq.session.store import load_session
@@ -38,8 +38,7 @@ def test_the_report_identifies_each_session_once(campaign_sessions, tmp_path, mo
 
     monkeypatch.setattr(document, "recorded_identification", counted)
     monkeypatch.setattr(report_data, "recorded_identification", counted)
-    write_session_report(load_session(with_context), tmp_path,
-                         validation=load_session(plain))
+    issue_report(load_session(with_context), tmp_path, validation=load_session(plain))
     assert sorted(identified) == ["session.jsonl:before", "session.jsonl:with-context"]
     record = json.loads((tmp_path / "record.json").read_text(encoding="utf-8"))
     assert record["results"] and record["validation_results"]

@@ -12,7 +12,7 @@ import re
 import pytest
 from PIL import Image, ImageStat
 
-from ogacq.cli.report_cmd import write_session_report
+from ogacq.cli.report_cmd import issue_report
 from ogacq.session.store import load_session
 from tests.record.browser import WINDOW, chromium, need_chromium, page_text
 from tests.record.pages import gum, printed, unshown
@@ -25,7 +25,7 @@ A4_PT = (595.3, 841.9)  # 210 x 297 mm
 def report(campaign_sessions, tmp_path_factory):
     """The report of the campaign with its context and two earlier calibrations."""
     folder = tmp_path_factory.mktemp("browser")
-    page = write_session_report(load_session(campaign_sessions[1]), folder, history=HISTORY)
+    page, _ = issue_report(load_session(campaign_sessions[1]), folder, history=HISTORY)
     return page, json.loads((folder / "record.json").read_text(encoding="utf-8"))
 
 

@@ -18,7 +18,7 @@ from PIL import Image
 
 from ogacq.calibration.log import ProcedureLog
 from ogacq.cli.app import main
-from ogacq.cli.report_cmd import write_session_report
+from ogacq.cli.report_cmd import issue_report
 from ogacq.identify.observations import averaged_deviations
 from ogacq.record.document import build_record
 from ogacq.session.convert import session_observations
@@ -246,13 +246,13 @@ def test_a_record_issued_again_with_other_content_is_a_revision(sessions, tmp_pa
     calibration, validation = (load_session(path) for path in sessions)
     out = tmp_path / "report"
     record_file = out / "record.json"
-    write_session_report(calibration, out)
+    issue_report(calibration, out)
     first = record_file.read_bytes()
     assert json.loads(first)["revision"] == 1 and "revises" not in json.loads(first)
-    write_session_report(calibration, out)  # the same content: the same issue
+    issue_report(calibration, out)  # the same content: the same issue
     assert record_file.read_bytes() == first
 
-    write_session_report(calibration, out, validation=validation)
+    issue_report(calibration, out, validation=validation)
     second = json.loads(record_file.read_text())
     assert second["id"] == json.loads(first)["id"] and second["revision"] == 2
     assert second["revises"] == {"revision": 1, "issued": json.loads(first)["issued"],
@@ -266,9 +266,9 @@ def test_a_record_issued_again_with_other_content_is_a_revision(sessions, tmp_pa
     assert "changed since revision 1 changed acceptance.as_left added validation_session" \
         in text
 
-    write_session_report(calibration, out, validation=validation)
+    issue_report(calibration, out, validation=validation)
     assert json.loads(record_file.read_text()) == second  # no revision 3 for nothing
-    write_session_report(calibration, out)  # back to the first content: a new issue
+    issue_report(calibration, out)  # back to the first content: a new issue
     assert json.loads(record_file.read_text())["revision"] == 3
 
 
@@ -283,15 +283,15 @@ def test_calibrate_s_record_issued_again_keeps_the_maps_it_wrote(sessions, tmp_p
                     "maps": {"x": {"source": "encoder scale +408 ± 35 ppm (k = 2)",
                                    "checksum": "2138"}}}
     record = build_record(calibration, validation=validation, compensation=compensation)
-    write_session_report(calibration, out, validation=validation, record=record)
+    issue_report(calibration, out, validation=validation, record=record)
     first = (out / "record.json").read_bytes()
-    write_session_report(calibration, out, validation=validation)  # what report does
+    issue_report(calibration, out, validation=validation)  # what report does
     again = json.loads((out / "record.json").read_text())
     assert again["compensation"] == compensation
     assert (out / "record.json").read_bytes() == first  # the same content: no revision
     assert "Error maps (ogacq calibrate C-20261128-abcdef)" in _text(
         (out / "report.html").read_text(encoding="utf-8"))
-    write_session_report(calibration, out)  # without the validation: not its figures
+    issue_report(calibration, out)  # without the validation: not its figures
     third = json.loads((out / "record.json").read_text())
     assert "compensation" not in third and "removed compensation" in third["changes"]
 
@@ -324,9 +324,9 @@ def test_calibrate_s_record_issued_again_keeps_its_axis_scales_and_shows_them(se
     record = {**build_record(calibration, validation=validation,
                              compensation={"procedure": "C-1", "outcome": "validated"}),
               "axis_scales": SCALE_X}
-    write_session_report(calibration, out, validation=validation, record=record)
+    issue_report(calibration, out, validation=validation, record=record)
     first = (out / "record.json").read_bytes()
-    write_session_report(calibration, out, validation=validation)  # what report does
+    issue_report(calibration, out, validation=validation)  # what report does
     assert json.loads(first)["axis_scales"] == SCALE_X
     assert (out / "record.json").read_bytes() == first  # kept: no revision
     html = (out / "report.html").read_text(encoding="utf-8")

@@ -12,7 +12,7 @@ import json
 import shutil
 
 from ogacq_drivers.axes.profile import profiles_folder
-from ogacq.cli.report_cmd import write_session_report
+from ogacq.cli.report_cmd import issue_report
 from ogacq.session.records import OffsetsRecord
 from ogacq.session.store import load_session
 from tests.writeback.conftest import controller_offsets, ogacq_here, sim_campaign, simulator
@@ -50,7 +50,7 @@ def test_a_profile_file_campaign_is_simulated_and_writes_back_through_it(
 
     assert "SIMULATED" in ran.stdout  # the run's end
     assert session.header.simulated is True
-    page = write_session_report(load_session(session.path), tmp_path / "report")
+    page, _ = issue_report(load_session(session.path), tmp_path / "report")
     record = json.loads((tmp_path / "report" / "record.json").read_text())
     assert record["simulated"] is True
     assert record["method"]["controller"]["identification"]["y"]["vendor"] == \

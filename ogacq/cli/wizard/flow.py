@@ -95,7 +95,6 @@ EXIT_DONE = 0
 EXIT_QUIT = 130
 
 
-
 @dataclass
 class WizardOptions:
     simulator: bool = False
@@ -744,20 +743,13 @@ class _Wizard:
             s.say(f"  ogacq resume {shown(path)}            (unattended)")
         s.say(f"  ogacq wizard --resume {shown(path)}   (guided)")
 
-
     def _start_again(self) -> str:
         """The command that starts this wizard again, with what chose its machine."""
         opts = self.options
-        words = ["ogacq wizard"]
-        if opts.simulator:
-            words.append("--simulator")
-        if opts.machine is not None:
-            words.append(f"--machine {opts.machine}")
-        if opts.indicators is not None:
-            words.append(f"--indicators {opts.indicators}")
-        if opts.out is not None:
-            words.append(f"--out {opts.out}")
-        return " ".join(words)
+        given = (("--machine", opts.machine), ("--indicators", opts.indicators),
+                 ("--out", opts.out))
+        return " ".join(["ogacq wizard", *(["--simulator"] if opts.simulator else []),
+                         *(f"{flag} {value}" for flag, value in given if value is not None)])
 
 
 def _indicators(choice: StationChoice, legs: Sequence[str], *, rehearsal: bool = False,

@@ -6,15 +6,9 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 
-from rich.progress import (
-    BarColumn,
-    MofNCompleteColumn,
-    Progress,
-    TaskID,
-    TextColumn,
-    TimeElapsedColumn,
-)
+from rich.progress import Progress, TaskID
 
+from ogacq.cli.plain import bar_of
 from ogacq.cli.wizard.by_eye import ReadingCounter
 from ogacq.cli.wizard.ui import Screen, times
 from ogacq.protocol import runner
@@ -65,10 +59,8 @@ class CycleProgress:
 
     def _show(self, leg: str) -> None:
         if self._bar is None or self._leg != leg or self.screen.live is not self._bar:
-            self._bar = Progress(
-                TextColumn("[bold]{task.description}[/]"), BarColumn(), MofNCompleteColumn(),
-                TimeElapsedColumn(), TextColumn("{task.fields[last]}"),
-                console=self.screen.out, transient=True)
+            self._bar = bar_of("[bold]{task.description}[/]", console=self.screen.out,
+                               transient=True, last=True)
             self._task = self._bar.add_task(f"{leg} leg", total=self._leg_total[leg], last="")
             self._leg = leg
             self.screen.show_live(self._bar)

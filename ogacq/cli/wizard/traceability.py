@@ -44,14 +44,8 @@ class Traceability:
     override_expired: str = ""
 
     def instruments(self, resolution_mm: float | None = None) -> list[Instrument]:
-        return [Instrument(gauge, make=given.get("make") or None,
-                           model=given.get("model") or None,
-                           serial=given.get("serial") or None,
-                           certificate=given.get("certificate") or None,
-                           calibrated=given.get("calibrated"), due=given.get("due"),
-                           uncertainty_mm=given.get("uncertainty_mm"),
-                           uncertainty_k=given.get("uncertainty_k"),
-                           resolution_mm=resolution_mm)
+        # an identity holds only the keys known (KnownGauge.identity): Instrument's own
+        return [Instrument(gauge, resolution_mm=resolution_mm, **given)
                 for gauge, given in self.identities.items()]
 
 
