@@ -429,26 +429,25 @@ CERTIFICATE_FIELDS = (
     Field("uncertainty_k", number(minimum=1.0, maximum=10.0)),
 )
 
-_GAUGE = Table((
-    Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
-    # required without [simulator] (checked with the file's line in _gauges)
+# How a gauge or an axis scale is read: protocol and port required without [simulator]
+# (checked with the file's line in _gauges and _axis_scales); unit as set on its display
+_READ_AS = (
     Field("protocol", PROTOCOL_NAME),
     Field("port", text()),
     Field("channel", Value((str, int)), decode=str),
-    Field("unit", text("mm", "inch")),  # as set on the gauge
+    Field("unit", text("mm", "inch")),
     Field("serial", text()),
     Field("baudrate", _BAUDRATE),
+)
+
+_GAUGE = Table((
+    Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
+    *_READ_AS,
     *CERTIFICATE_FIELDS,
 ), build=GaugeSpec)
 
 _AXIS_SCALE = Table((
-    # required without [simulator] (checked with the file's line in _axis_scales)
-    Field("protocol", PROTOCOL_NAME),
-    Field("port", text()),
-    Field("channel", Value((str, int)), decode=str),
-    Field("unit", text("mm", "inch")),  # as set on the scale's display
-    Field("serial", text()),
-    Field("baudrate", _BAUDRATE),
+    *_READ_AS,
     # a display step of 1 µm to 0.1 mm: the gauge drivers read a mm display of one to
     # three decimals (drivers/indicators/base.py DEFAULT_DECIMALS: four would pass for
     # an inch display); beyond 0.1 mm, a unit slip (no source)
@@ -630,6 +629,13 @@ def _controller(src: Source, spec: ControllerSpec) -> ControllerSpec:
     return spec
 
 
+def is_modbus_tcp(where: str) -> bool:
+    """A controller endpoint ``host:port`` is Modbus TCP; anything else is a serial
+    device (Modbus RTU, which needs a baud rate)."""
+    _, sep, port = where.rpartition(":")
+    return bool(sep) and port.isdigit() and not where.startswith("/")
+
+
 _IPV4 = re.compile(r"[0-9]{1,3}(\.[0-9]{1,3}){3}")
 
 
@@ -642,8 +648,8 @@ def _check_tcp_ports(src: Source, spec: ControllerSpec) -> None:
         [(("controller", "port"), spec.port)] if spec.port else [])
     where += [(("controller", "axes", a, "port"), e.port) for a, e in spec.axes.items() if e.port]
     for key, port in where:
-        _, sep, number = port.rpartition(":")
-        if sep and number.isdigit() and not port.startswith("/") and int(number) > 65535:
+        number = port.rpartition(":")[2]
+        if is_modbus_tcp(port) and int(number) > 65535:
             raise src.fail(key, "", f"port {port!r}: TCP port {number} is beyond 65535 "
                            "(Modbus TCP's is 502)")
         if _IPV4.fullmatch(port.strip()):
@@ -666,9 +672,7 @@ def _check_unit_ids(src: Source, spec: ControllerSpec, profile_ids: dict[str, in
     ids = {**profile_ids, **spec.device_ids()}
     for axis, unit in ids.items():
         port = spec.port_of(axis)
-        _, sep, number_text = port.rpartition(":")
-        serial = not (sep and number_text.isdigit() and not port.startswith("/"))
-        if serial and not 1 <= unit <= 247:
+        if not is_modbus_tcp(port) and not 1 <= unit <= 247:
             raise src.fail(("controller", "axes" if spec.axes else "profile"), "",
                            f"axis {axis}: device id {unit} cannot be addressed over Modbus RTU "
                            f"on {port} (1..247); set controller.axes.{axis}.device_id")

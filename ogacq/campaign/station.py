@@ -46,6 +46,7 @@ from ogacq.campaign.campaign_file import (
     ControllerSpec,
     GaugeSpec,
     SimulatorSpec,
+    is_modbus_tcp,
     scale_name,
 )
 from ogacq.logs import logger
@@ -291,13 +292,6 @@ def _settled(found: Settled) -> SettledGauge:
                         found.waited_s, found.values,
                         None if found.reference is None else found.reference.u_mm,
                         found.measured)
-
-
-def is_modbus_tcp(where: str) -> bool:
-    """A controller endpoint ``host:port`` is Modbus TCP; anything else is a serial
-    device (Modbus RTU, which needs a baud rate)."""
-    _, sep, port = where.rpartition(":")
-    return bool(sep) and port.isdigit() and not where.startswith("/")
 
 
 def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,
