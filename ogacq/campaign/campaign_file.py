@@ -100,6 +100,7 @@ from __future__ import annotations
 
 import datetime
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -320,19 +321,13 @@ class SimulatorSpec:
 
     @classmethod
     def from_header(cls, entry: dict[str, Any]) -> SimulatorSpec:
-        return cls(seed=int(entry.get("seed", 0)),
-                   effects=Path(entry["effects"]) if entry.get("effects") else None,
-                   speed=float(entry.get("speed", 20.0)),
-                   profile=str(entry.get("profile", "cia402")),
-                   gauge_layout=str(entry.get("gauge_layout", "separate")),
-                   gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
-                   gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
-                   date=moment_or_none(entry.get("date")),
-                   ambient_c=float(entry.get("ambient_c", 20.0)),
-                   line_at_speed=bool(entry.get("line_at_speed", False)),
-                   axis_scales=tuple(entry.get("axis_scales", ())),
-                   scale_resolution_mm=float(entry.get("scale_resolution_mm",
-                                                       AxisScaleSpec.resolution_mm)))
+        """The spec ``header`` wrote: each key read as its field's default is typed, but
+        these (noise_mm is not written: a resumed simulator's noise is its seed's)."""
+        read: dict[str, Callable[[Any], Any]] = {
+            "effects": lambda path: Path(path) if path else None, "date": moment_or_none,
+            "gauge_protocols": lambda given: tuple(sorted(given.items()))}
+        return cls(**{f.name: read.get(f.name, type(f.default))(entry[f.name])
+                      for f in fields(cls) if f.name in entry and f.name != "noise_mm"})
 
 
 @dataclass
