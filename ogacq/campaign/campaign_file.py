@@ -100,6 +100,7 @@ from __future__ import annotations
 
 import datetime
 import re
+from collections.abc import Callable
 from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any
@@ -320,19 +321,13 @@ class SimulatorSpec:
 
     @classmethod
     def from_header(cls, entry: dict[str, Any]) -> SimulatorSpec:
-        return cls(seed=int(entry.get("seed", 0)),
-                   effects=Path(entry["effects"]) if entry.get("effects") else None,
-                   speed=float(entry.get("speed", 20.0)),
-                   profile=str(entry.get("profile", "cia402")),
-                   gauge_layout=str(entry.get("gauge_layout", "separate")),
-                   gauge_protocol=str(entry.get("gauge_protocol", DEFAULT_PROTOCOL)),
-                   gauge_protocols=tuple(sorted(entry.get("gauge_protocols", {}).items())),
-                   date=moment_or_none(entry.get("date")),
-                   ambient_c=float(entry.get("ambient_c", 20.0)),
-                   line_at_speed=bool(entry.get("line_at_speed", False)),
-                   axis_scales=tuple(entry.get("axis_scales", ())),
-                   scale_resolution_mm=float(entry.get("scale_resolution_mm",
-                                                       AxisScaleSpec.resolution_mm)))
+        """The spec ``header`` wrote: each key read as its field's default is typed, but
+        these (noise_mm is not written: a resumed simulator's noise is its seed's)."""
+        read: dict[str, Callable[[Any], Any]] = {
+            "effects": lambda path: Path(path) if path else None, "date": moment_or_none,
+            "gauge_protocols": lambda given: tuple(sorted(given.items()))}
+        return cls(**{f.name: read.get(f.name, type(f.default))(entry[f.name])
+                      for f in fields(cls) if f.name in entry and f.name != "noise_mm"})
 
 
 @dataclass
@@ -429,26 +424,25 @@ CERTIFICATE_FIELDS = (
     Field("uncertainty_k", number(minimum=1.0, maximum=10.0)),
 )
 
-_GAUGE = Table((
-    Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
-    # required without [simulator] (checked with the file's line in _gauges)
+# How a gauge or an axis scale is read: protocol and port required without [simulator]
+# (checked with the file's line in _gauges and _axis_scales); unit as set on its display
+_READ_AS = (
     Field("protocol", PROTOCOL_NAME),
     Field("port", text()),
     Field("channel", Value((str, int)), decode=str),
-    Field("unit", text("mm", "inch")),  # as set on the gauge
+    Field("unit", text("mm", "inch")),
     Field("serial", text()),
     Field("baudrate", _BAUDRATE),
+)
+
+_GAUGE = Table((
+    Field("gauge", text(*GAUGE_KEYS), required=True),  # AXIS_LEG: along AXIS on that leg
+    *_READ_AS,
     *CERTIFICATE_FIELDS,
 ), build=GaugeSpec)
 
 _AXIS_SCALE = Table((
-    # required without [simulator] (checked with the file's line in _axis_scales)
-    Field("protocol", PROTOCOL_NAME),
-    Field("port", text()),
-    Field("channel", Value((str, int)), decode=str),
-    Field("unit", text("mm", "inch")),  # as set on the scale's display
-    Field("serial", text()),
-    Field("baudrate", _BAUDRATE),
+    *_READ_AS,
     # a display step of 1 µm to 0.1 mm: the gauge drivers read a mm display of one to
     # three decimals (drivers/indicators/base.py DEFAULT_DECIMALS: four would pass for
     # an inch display); beyond 0.1 mm, a unit slip (no source)
@@ -630,6 +624,13 @@ def _controller(src: Source, spec: ControllerSpec) -> ControllerSpec:
     return spec
 
 
+def is_modbus_tcp(where: str) -> bool:
+    """A controller endpoint ``host:port`` is Modbus TCP; anything else is a serial
+    device (Modbus RTU, which needs a baud rate)."""
+    _, sep, port = where.rpartition(":")
+    return bool(sep) and port.isdigit() and not where.startswith("/")
+
+
 _IPV4 = re.compile(r"[0-9]{1,3}(\.[0-9]{1,3}){3}")
 
 
@@ -642,8 +643,8 @@ def _check_tcp_ports(src: Source, spec: ControllerSpec) -> None:
         [(("controller", "port"), spec.port)] if spec.port else [])
     where += [(("controller", "axes", a, "port"), e.port) for a, e in spec.axes.items() if e.port]
     for key, port in where:
-        _, sep, number = port.rpartition(":")
-        if sep and number.isdigit() and not port.startswith("/") and int(number) > 65535:
+        number = port.rpartition(":")[2]
+        if is_modbus_tcp(port) and int(number) > 65535:
             raise src.fail(key, "", f"port {port!r}: TCP port {number} is beyond 65535 "
                            "(Modbus TCP's is 502)")
         if _IPV4.fullmatch(port.strip()):
@@ -666,9 +667,7 @@ def _check_unit_ids(src: Source, spec: ControllerSpec, profile_ids: dict[str, in
     ids = {**profile_ids, **spec.device_ids()}
     for axis, unit in ids.items():
         port = spec.port_of(axis)
-        _, sep, number_text = port.rpartition(":")
-        serial = not (sep and number_text.isdigit() and not port.startswith("/"))
-        if serial and not 1 <= unit <= 247:
+        if not is_modbus_tcp(port) and not 1 <= unit <= 247:
             raise src.fail(("controller", "axes" if spec.axes else "profile"), "",
                            f"axis {axis}: device id {unit} cannot be addressed over Modbus RTU "
                            f"on {port} (1..247); set controller.axes.{axis}.device_id")

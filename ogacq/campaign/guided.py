@@ -39,9 +39,6 @@ class Rehearsal:
     controller: ControllerSpec
     gauges: list[GaugeSpec]
 
-    def header(self) -> dict[str, Any]:
-        return self.spec.header()
-
     def hidden(self) -> dict[str, float]:
         return self.stack.machine.truth.hidden()
 

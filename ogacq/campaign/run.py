@@ -23,6 +23,7 @@ from ogacq.protocol.runner import CampaignRunner, GaugeSetter, Observer
 from ogacq.protocol.station import Station
 from ogacq.session.convert import machine_dict
 from ogacq.session.identification import identify_session
+from ogacq.session.offsets_in_force import stations
 from ogacq.session.records import (
     EnvironmentRecord,
     OperatorRecord,
@@ -175,9 +176,7 @@ def maps_in_force(campaign: Campaign) -> MapsTable | None:
 
 def recorded_maps(session: LoadedSession) -> dict[str, Any] | None:
     """The maps identity the campaign last ran with (None: none were applied)."""
-    stations = [dict(session.header.station or {}),
-                *(r.description for r in session.of_type(StationRecord))]
-    for station in reversed(stations):
+    for station in reversed(stations(session)):
         controller = station.get("controller") or {}
         if "maps" in controller or "maps_file" in controller:
             return controller.get("maps")

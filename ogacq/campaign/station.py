@@ -36,7 +36,7 @@ from ogacq_drivers.axes.reference import assess_reference
 from ogacq_drivers.errors import DeviceTimeout, DriverError, InputError, LinkError
 from ogacq_drivers.indicators import backend, open_indicator
 from ogacq_drivers.indicators.base import StableReading
-from ogacq_drivers.indicators.concurrent import ConcurrentReader
+from ogacq_drivers.indicators.concurrent import ConcurrentReader, Settled
 from ogacq_drivers.indicators.rest import sample_variance
 from ogacq_drivers.link import open_link
 from ogacq.campaign.campaign_file import (
@@ -46,6 +46,7 @@ from ogacq.campaign.campaign_file import (
     ControllerSpec,
     GaugeSpec,
     SimulatorSpec,
+    is_modbus_tcp,
     scale_name,
 )
 from ogacq.logs import logger
@@ -146,11 +147,7 @@ class DeviceStation:
         out = self._gauge_reader().settle_many(
             gauges, window_s=rule.window_s, bound_s=rule.bound_s,
             display_step_mm=rule.display_step_mm, clock=self.clock_s)
-        return {g: r if isinstance(r, DriverError) else
-                SettledGauge(None if r.reading is None else _gauge_value(r.reading),
-                             r.waited_s, r.values,
-                             None if r.reference is None else r.reference.u_mm, r.measured)
-                for g, r in out.items()}
+        return {g: r if isinstance(r, DriverError) else _settled(r) for g, r in out.items()}
 
     def read_scale(self, axis: str, rule: SettleRule, stability: StabilityRule,
                    ) -> tuple[GaugeValue, SettledGauge]:
@@ -167,10 +164,7 @@ class DeviceStation:
             display_step_mm=rule.display_step_mm, clock=self.clock_s)[name]
         if isinstance(out, DriverError):
             raise out
-        settled = SettledGauge(None if out.reading is None else _gauge_value(out.reading),
-                               out.waited_s, out.values,
-                               None if out.reference is None else out.reference.u_mm,
-                               out.measured)
+        settled = _settled(out)
         if settled.value is not None:
             return settled.value, settled
         again = self._gauge_reader().read_stable_many(
@@ -293,11 +287,11 @@ def _gauge_value(stable: StableReading) -> GaugeValue:
                       None if sd is None else round(sd, 7))
 
 
-def is_modbus_tcp(where: str) -> bool:
-    """A controller endpoint ``host:port`` is Modbus TCP; anything else is a serial
-    device (Modbus RTU, which needs a baud rate)."""
-    _, sep, port = where.rpartition(":")
-    return bool(sep) and port.isdigit() and not where.startswith("/")
+def _settled(found: Settled) -> SettledGauge:
+    return SettledGauge(None if found.reading is None else _gauge_value(found.reading),
+                        found.waited_s, found.values,
+                        None if found.reference is None else found.reference.u_mm,
+                        found.measured)
 
 
 def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,

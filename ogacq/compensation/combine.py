@@ -21,7 +21,7 @@ ran (its readings then show only what is left). The rules:
 from __future__ import annotations
 
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -57,9 +57,8 @@ def zeroed(m: AxisMap) -> tuple[AxisMap, float]:
     c = float(m.error_mm(m.reference_mm, 1))
     if c == 0.0:
         return m, 0.0
-    return AxisMap(m.axis, m.positions_mm, tuple(v - c for v in m.forward_mm),
-                   tuple(v - c for v in m.reverse_mm), m.u_forward_mm, m.u_reverse_mm,
-                   m.reference_mm, m.source, m.excludes, m.extra), c
+    return replace(m, forward_mm=tuple(v - c for v in m.forward_mm),
+                   reverse_mm=tuple(v - c for v in m.reverse_mm)), c
 
 
 def with_offsets(m: AxisMap, moved_mm: float, reference_mm: float = 0.0,
@@ -71,16 +70,13 @@ def with_offsets(m: AxisMap, moved_mm: float, reference_mm: float = 0.0,
     through."""
     if moved_mm == 0.0 and m.reference_mm == reference_mm:
         return m, 0.0
-    moved = m.moved(moved_mm)
     extra = {**m.extra, "moved_with_offsets_mm":
              round(float(m.extra.get("moved_with_offsets_mm", 0.0)) + moved_mm, 9)}
     if m.extra.get("terms"):  # the shapes it was made from, in the new coordinate too
         extra["terms"] = moved_terms_json(list(m.extra["terms"]), moved_mm)
     if m.extra.get("measured_mm"):  # where the readings were
         extra["measured_mm"] = [float(v) + moved_mm for v in m.extra["measured_mm"]]
-    return zeroed(AxisMap(m.axis, moved.positions_mm, moved.forward_mm, moved.reverse_mm,
-                          moved.u_forward_mm, moved.u_reverse_mm, reference_mm, m.source,
-                          m.excludes, extra))
+    return zeroed(replace(m.moved(moved_mm), reference_mm=reference_mm, extra=extra))
 
 
 def without(m: AxisMap, carried: Iterable[str]) -> tuple[AxisMap, tuple[str, ...]]:
@@ -97,9 +93,8 @@ def without(m: AxisMap, carried: Iterable[str]) -> tuple[AxisMap, tuple[str, ...
     coef, *_ = np.linalg.lstsq(basis, y, rcond=None)
     rest = y - basis[:, :-1] @ coef[:-1]
     n = len(q)
-    return AxisMap(m.axis, m.positions_mm, tuple(rest[:n]), tuple(rest[n:]), m.u_forward_mm,
-                   m.u_reverse_mm, m.reference_mm, m.source, (*m.excludes, *todo),
-                   m.extra), tuple(todo)
+    return replace(m, forward_mm=tuple(rest[:n]), reverse_mm=tuple(rest[n:]),
+                   excludes=(*m.excludes, *todo)), tuple(todo)
 
 
 def summed(axis: str, maps: Sequence[AxisMap], reference_mm: float) -> AxisMap:

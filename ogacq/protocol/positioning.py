@@ -36,7 +36,6 @@ import numpy as np
 from ogacq.compensation.iso230 import Iso230Figures, iso230_figures
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
-from ogacq.model.units import UM_PER_MM
 from ogacq.protocol.scan_design import (
     LARGEST_PHASE_GAP,
     SEARCH_GRID,
@@ -283,13 +282,6 @@ def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
     figures = iso230_figures(axis, targets, up, down, s_up, s_down, s_source=S_SOURCE)
     return PositioningResult(axis, targets, up, down, s_up, s_down, len(runs), figures,
                              reference, display_step_mm)
-
-
-def deviation_words(result: PositioningResult) -> str:
-    """The largest mean deviation and where, in words."""
-    k = int(np.argmax(np.abs(result.mean_mm)))
-    return (f"largest mean deviation {result.mean_mm[k] * UM_PER_MM:+.2f} µm at "
-            f"{result.targets_mm[k]:+.3f} mm")
 
 
 def session_result(session: LoadedSession, *, net_of_drive: bool = False,

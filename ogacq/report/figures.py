@@ -418,18 +418,17 @@ def maps_figure(maps: Sequence[AxisMap]) -> Figure:
             lo = m.reference_mm if pitch and q[0] <= m.reference_mm <= q[-1] - 2 * pitch \
                 else q[0]
             span = 2 * pitch if pitch else (q[-1] - q[0]) / 4
+            sides = [(fwd, u_f, colour, "forward", "-")]
+            if not np.allclose(fwd, rev):
+                sides.append((rev, u_r, BEFORE_COLOUR, "reverse", "--"))
             for ax, mask in ((whole, np.ones(len(q), dtype=bool)),
                              (detail, (q >= lo) & (q <= lo + span))):
-                ax.fill_between(q[mask], (fwd - 2 * u_f)[mask] * UM_PER_MM,
-                                (fwd + 2 * u_f)[mask] * UM_PER_MM, color=colour, alpha=0.2,
-                                lw=0, label="forward ±2u")
-                ax.plot(q[mask], fwd[mask] * UM_PER_MM, color=colour, lw=1.2, label="forward")
-                if not np.allclose(fwd, rev):
-                    ax.fill_between(q[mask], (rev - 2 * u_r)[mask] * UM_PER_MM,
-                                    (rev + 2 * u_r)[mask] * UM_PER_MM, color=BEFORE_COLOUR,
-                                    alpha=0.2, lw=0, label="reverse ±2u")
-                    ax.plot(q[mask], rev[mask] * UM_PER_MM, color=BEFORE_COLOUR, lw=1.2,
-                            ls="--", label="reverse")
+                for values, u, tint, side, style in sides:
+                    ax.fill_between(q[mask], (values - 2 * u)[mask] * UM_PER_MM,
+                                    (values + 2 * u)[mask] * UM_PER_MM, color=tint, alpha=0.2,
+                                    lw=0, label=f"{side} ±2u")
+                    ax.plot(q[mask], values[mask] * UM_PER_MM, color=tint, lw=1.2, ls=style,
+                            label=side)
                 ax.axhline(0, color="black", lw=0.6)
                 ax.set_xlabel(f"q{m.axis} (mm)")
             whole.set_ylabel("actual − commanded (µm)")

@@ -255,7 +255,7 @@ def _diagnosis(d: DiagnosisView, fit: FitSummary | None) -> dict[str, Any]:
         "diagnosis_offsets": [(a, f"{signed(v, 5)} mm") for a, v in sorted(d.offsets_mm.items())],
         "models": _table(["model", "residual rms", "χ²/dof", "verdict"], [
             [title, um(v.rms_mm), plain(v.chi2_dof, 2),
-             Badge("within noise", "ok") if v.consistent else Badge("not within noise", "bad")]
+             _fit_badge("ok" if v.consistent else "bad")]
             for title, v in models], [False, True, True, False]),
         "located": None, "effects": None, "offsets_compared": None}
     if d.located and not d.base.consistent:
@@ -291,8 +291,7 @@ def _along_axes(d: DiagnosisView) -> dict[str, Any]:
         v = d.chi2[key]
         # the p as the verdict's text says it (4.6e-13 there, 4.58e-13 here before)
         rows.append([title, plain(v.statistic, 1), str(v.dof or 0), format_p(v.p),
-                     Badge("within noise", "ok") if v.consistent
-                     else Badge("not within noise", "bad")])
+                     _fit_badge("ok" if v.consistent else "bad")])
     return {"axes_coverage": list(d.coverage), "proposals": list(d.proposals),
             "map_chi2": _table(["model", "χ²", "dof", "p", "verdict"], rows,
                                [False, True, True, True, False]) if rows else None}

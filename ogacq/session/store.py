@@ -314,10 +314,7 @@ class SessionWriter:
         return writer
 
     def write(self, record: Record) -> None:
-        """Append ``record``, stamped with the wall-clock time unless it has one."""
-        line = record.to_json()
-        self._write({"type": line.pop("type"), "wall": line.pop("wall", round(time.time(), 3)),
-                     **line})
+        self._write(_stamped(record, round(time.time(), 3)))
 
     def _write(self, record: dict[str, Any]) -> None:
         # The whole line into the OS at once: a killed process cannot lose it after
@@ -381,6 +378,12 @@ class SessionWriter:
         self.close()
 
 
+def _stamped(record: Record, wall: float) -> dict[str, Any]:
+    """``record``'s line, ``wall`` its time unless it has one."""
+    line = record.to_json()
+    return {"type": line.pop("type"), "wall": line.pop("wall", wall), **line}
+
+
 def new_header(header: dict[str, Any]) -> dict[str, Any]:
     """A new session's first record: its format, seal, software and creation time, then
     ``header`` (machine, station, plan, ...)."""
@@ -433,11 +436,7 @@ def write_session(path: str | Path, header: dict[str, Any], records: list[Record
     leaves no file in the way of a retry (StorageError), an existing file is refused."""
     path = Path(path)
     wall = round(time.time(), 3)
-    lines = []
-    for record in records:
-        fields = record.to_json()
-        lines.append({"type": fields.pop("type"), "wall": fields.pop("wall", wall), **fields})
-    lines.append({"type": CLOSED, "wall": wall})
+    lines = [*(_stamped(r, wall) for r in records), {"type": CLOSED, "wall": wall}]
     write_new_file(path, sealed_bytes(new_header(header), lines))
     return path
 

@@ -42,7 +42,7 @@ its amplitudes.
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -188,9 +188,7 @@ class SimTruth:
         for axis in AXES:
             theta[PARAM_INDEX[f"leg_length.{axis}"]] += machine.leg_expansion_mm(temperature_c)
         # the rest of the physics as it was (an effects file's [vibration] included)
-        return SimTruth(theta, self.noise_mm, dict(self.lead_screw), self.vibration,
-                        dict(self.screw_map), dict(self.rail_bow), dict(self.hysteresis),
-                        dict(self.warm_up), self.map_terms)
+        return replace(self, theta=theta)
 
     @property
     def has_axis_errors(self) -> bool:

@@ -31,18 +31,17 @@ class AuditLog:
         self._writer: SessionWriter | None = None
 
     def record(self, stage: Stage, **fields: Any) -> None:
-        self._open()
-        assert self._writer is not None
-        self._writer.write(OffsetsRecord(stage=stage, details=fields))
-        if stage == Stage.INTENT:  # what to restore is on the disk before the controller is touched
-            self._writer.sync()
+        self._append(OffsetsRecord(stage=stage, details=fields))
 
     def record_maps(self, stage: Stage, **fields: Any) -> None:
-        """A stage of a maps write (``ogacq.writeback.maps``), the intent fsynced alike."""
+        """A stage of a maps write (``ogacq.writeback.maps``)."""
+        self._append(MapsRecord(stage=stage, details=fields))
+
+    def _append(self, record: OffsetsRecord | MapsRecord) -> None:
         self._open()
         assert self._writer is not None
-        self._writer.write(MapsRecord(stage=stage, details=fields))
-        if stage == Stage.INTENT:
+        self._writer.write(record)
+        if record.stage == Stage.INTENT:  # what to restore on the disk before the target changes
             self._writer.sync()
 
     def close(self) -> None:
