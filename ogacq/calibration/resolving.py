@@ -25,7 +25,7 @@ import numpy as np
 
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.sight import largest_correction, periodic_modes
-from ogacq.calibration.validation_design import targets_in_gaps
+from ogacq.calibration.validation_design import far_from, targets_in_gaps
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, scan_targets
@@ -40,7 +40,6 @@ SEED = 2  # the jitter: fixed, so that a resumed procedure reads the same
 # slip included) somewhere on the travel exceeds this share of the correction's size
 # (no source: a choice; the table then corrects less than half of it there for sure).
 LOOSE = 0.5
-FAR = 0.5  # "far from the reference": beyond this share of the farthest travel
 
 
 def unresolved(diagnosis: Diagnosis) -> bool:
@@ -69,9 +68,6 @@ def resolving_plan(scan: ProtocolConfig, machine: MachineSpec,
     rng = np.random.default_rng(SEED)
     targets = targets_in_gaps(scanned, SHARES[0], rng)
     for reference in references_mm or ():
-        farthest = max(abs(scanned[0] - reference), abs(scanned[-1] - reference))
-        far = [(scanned[0], reference - FAR * farthest),
-               (reference + FAR * farthest, scanned[-1] + 1.0)]
-        targets += targets_in_gaps(scanned, SHARES[1], rng, far)
+        targets += targets_in_gaps(scanned, SHARES[1], rng, far_from(reference, scanned))
     return replace(scan, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
                    scan_targets_mm=tuple(sorted(set(targets))))

@@ -38,7 +38,7 @@ from ogacq.sim.readings import simulated_readings
 # Where in a gap of the scan's targets each growth puts its target: clear of the scan's
 # targets (0 and 1), of the between plan's (0.3-0.7) and of the resolving scan's
 # (``ogacq.calibration.resolving``, 0.11-0.29). No source: a choice.
-GROWTHS = ((0.76, 0.94), (0.02, 0.09))
+GROWTHS = ((0.76, 0.86), (0.02, 0.09), (0.88, 0.97))
 # A stretch is taken as seen when what the predicted test would pass there leaves at
 # most this share of the correction's size: the readings' own scatter then still
 # leaves it seen (no source: a choice).
@@ -58,11 +58,14 @@ def validation_plan(evidence: ProtocolConfig, maps: dict[str, AxisMap],
         return plan
     scanned = np.asarray(scan_targets(evidence, machine), dtype=float)
     rng = np.random.default_rng(SEED)
+    # the pitch is read far from a map's reference: there in every growth, beside the
+    # stretches not seen
+    far = [span for m in periodic.values() for span in far_from(m.reference_mm, scanned)]
     for growth in GROWTHS:
         short = unseen_stretches(plan, periodic, machine, noise_mm)
         if not short:
             break
-        added = targets_in_gaps(scanned, growth, rng, short)
+        added = targets_in_gaps(scanned, growth, rng, short + far)
         grown = replace(plan, scan_targets_mm=tuple(sorted(set(plan.scan_targets_mm)
                                                           | set(added))))
         if not added or (most_steps is not None
@@ -98,6 +101,18 @@ def unseen_stretches(plan: ProtocolConfig, maps: dict[str, AxisMap],
             if not direct and leaves > MARGIN * sight.correction_mm:
                 out.add(span)
     return sorted(out)
+
+
+# "far from the reference": beyond this share of the farthest target (no source: a
+# choice; the outer half holds some 85 % of what the targets tell of a pitch)
+FAR = 0.5
+
+
+def far_from(reference_mm: float, scanned: np.ndarray) -> list[tuple[float, float]]:
+    """The spans of the scanned targets' range far from ``reference_mm``."""
+    farthest = max(abs(scanned[0] - reference_mm), abs(scanned[-1] - reference_mm))
+    return [(float(scanned[0]), reference_mm - FAR * farthest),
+            (reference_mm + FAR * farthest, float(scanned[-1]) + 1.0)]
 
 
 def targets_in_gaps(scanned: np.ndarray, shares: tuple[float, float],
