@@ -24,7 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from ogacq.calibration.sight import AxisSight, periodic_modes, sights
+from ogacq.calibration.sight import PERIODS_SEEN, AxisSight, periodic_modes, sights
 from ogacq.identify.consistency import fit_verdict
 from ogacq.identify.fit import fit
 from ogacq.identify.noise import noise_for
@@ -88,14 +88,17 @@ def predicted_sight(plan: ProtocolConfig, maps: dict[str, AxisMap], machine: Mac
 
 def unseen_stretches(plan: ProtocolConfig, maps: dict[str, AxisMap],
                      machine: MachineSpec, noise_mm: float) -> list[tuple[float, float]]:
-    """The stretches of the travel where the predicted validation would not see a map,
-    directly or by its period's reach within ``MARGIN`` (what the simulated readings'
-    own test finds of its modes is chance, and left out)."""
+    """The stretches of the travel where the predicted validation would not see a
+    periodic map, directly or by its period's reach within ``MARGIN`` (what the
+    simulated readings' own test finds of its modes is chance, and left out); none for
+    a map it does not see directly over ``PERIODS_SEEN`` periods (more readings far
+    off would not show it)."""
     out: set[tuple[float, float]] = set()
     for sight in predicted_sight(plan, maps, machine, noise_mm).values():
         period = sight.period
-        by_period = period.reach_mm if period is not None and any(sight.seen_directly) \
-            else (np.inf,) * len(sight.limits_mm)
+        if period is None or sight.longest_seen_mm() < PERIODS_SEEN * period.pitch_mm:
+            continue  # not seen by its period however many readings are added far off
+        by_period = period.reach_mm
         spans = zip(sight.edges_mm[:-1], sight.edges_mm[1:], strict=True)
         for span, direct, leaves in zip(spans, sight.seen_directly, by_period, strict=True):
             if not direct and leaves > MARGIN * sight.correction_mm:

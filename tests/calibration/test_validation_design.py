@@ -71,3 +71,12 @@ def test_a_loose_pitch_reads_the_gaps_far_from_its_reference_twice():
     gap = np.searchsorted(scanned, added) - 1
     share = (added - scanned[gap]) / (scanned[gap + 1] - scanned[gap])
     assert share.min() >= 0.21 and share.max() <= 0.29
+
+
+def test_a_lead_longer_than_half_the_stretch_seen_directly_grows_nothing():
+    """A 20 mm lead is seen directly over 18 mm, less than two of its periods: its
+    period never shows it, and readings added far off would be machine time spent for
+    nothing."""
+    scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
+    plan = validation_plan(scan, lead_map(20.0), MACHINE, NOISE_MM)
+    assert plan == between_plan(scan, MACHINE)
