@@ -26,7 +26,7 @@ from ogacq.logs import logger
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
 
-if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
+if TYPE_CHECKING:  # the store is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
     from ogacq.history.store import History
 
@@ -114,10 +114,10 @@ def record_after(session_path: Path, option: str | None, action: str, *,
             except OgacqError as exc:
                 log.warning("%s not recorded in the history: %s", action, exc)
                 return None
-            if location is None:  # `none`: SQLAlchemy is never imported
+            if location is None:  # `none`: nothing of the database is imported
                 return None
         from ogacq.history.store import History
-    except ImportError as exc:  # an install without SQLAlchemy: the session is kept all the same
+    except ImportError as exc:  # an install without its driver: the session is kept all the same
         log.warning("%s not recorded in the history: %s; add it later with `ogacq history add "
                     "%s`", action, exc, session_path)
         return None

@@ -81,8 +81,7 @@ def _same_file(recorded: str, path: Path) -> bool:
 def _maps_states(location: HistoryLocation, name: str, serial: str) -> list[MapState]:
     from ogacq.history.store import History
 
-    database = location.url.database or ""
-    if location.url.drivername.startswith("sqlite") and not os.path.exists(database):
+    if location.path is not None and not location.path.exists():
         return []  # no history yet: nothing recorded to compare with
     try:
         with History.open(location, create=False) as db:

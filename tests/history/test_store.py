@@ -204,8 +204,7 @@ def test_bad_locations_are_input_errors(value, words):
 
 
 def test_a_path_is_an_sqlite_file_and_postgres_gets_psycopg(tmp_path):
-    assert parse_location("h.sqlite", "--history").url.database == \
-        str(Path("h.sqlite").absolute())
+    assert parse_location("h.sqlite", "--history").path == Path("h.sqlite").absolute()
     pg = parse_location("postgresql://u:secret@db.site/ogacq", "--history")
     assert pg.url.drivername == "postgresql+psycopg"
     assert "secret" not in pg.describe()
