@@ -51,11 +51,11 @@ from ogacq.history.entries import (
     parameters_of,
     record_columns,
     state_id,
+    typed_record,
     utc_now,
 )
 from ogacq.history.location import HistoryLocation
 from ogacq.model.gauges import AXES
-from ogacq.record.calibration_record import CalibrationRecord
 
 # What to do with an SQLite history that fails its check: the sqlite3 shell's .recover
 # (SQLite 3.29 and later) copies what can still be read into a new file.
@@ -281,7 +281,7 @@ class History:
         with self._guard("read the events"), self._transaction(write=False) as db:
             records = db.scalars(f"SELECT record FROM {s.events.name} WHERE record_id = :id",
                                  {"id": record_id})
-            counts = [CalibrationRecord.from_json(r).session_file.records for r in records
+            counts = [typed_record(r).session_file.records for r in records
                       if isinstance(r, dict)]
         seen = [count for count in counts if count is not None]
         return max(seen) if seen else None
@@ -335,7 +335,7 @@ class History:
                 p.name, p.value_mm, p.u_mm, p.expanded_mm, p.k, p.std_mm)
         out = []
         for r in rows:
-            record = CalibrationRecord.from_json(r.record if isinstance(r.record, dict) else {})
+            record = typed_record(r.record if isinstance(r.record, dict) else {})
             out.append(Calibration(
                 r.record_id, r.campaign_date, r.operator, r.verdict, r.acceptance_decision,
                 r.acceptance, r.ambient_c, _in_record_order(by_event.get(r.id, {}), r.record),
@@ -370,7 +370,7 @@ class History:
                            "WHERE machine_id = :machine AND kind = 'calibration'",
                            {"machine": machine.id})
         entries = [{"id": r.record_id, "date": r.campaign_date,
-                    "results": CalibrationRecord.from_json(
+                    "results": typed_record(
                         r.record if isinstance(r.record, dict) else {}).results or {}}
                    for r in rows]
         return sorted(entries, key=lambda v: (v["date"] or "", v["id"]))

@@ -45,13 +45,18 @@ def test_diagnose_into_an_sqlite_history_imports_no_database_library(tmp_path, n
 
 def test_a_diagnosis_the_history_holds_already_reads_no_write_back_audit(tmp_path):
     """A finished campaign's diagnosis records no write-back: the audit's readers (and
-    the drives' profiles behind them) are not imported to find it recorded."""
+    the drives' profiles behind them) are not imported to find it recorded, nor the
+    record's types."""
     history = tmp_path / "h.sqlite"
     for _ in range(2):
         modules, _ = run("diagnose", GOLDEN_SESSION, "--history", history, "--json",
                          env={"OGACQ_HOME": str(tmp_path / "home")})
     assert loaded(modules, ("ogacq.history.store",))  # it did read the history
     assert not loaded(modules, ("ogacq.writeback",))
+    # nor any record: the history is asked by the record's id (its building, the
+    # uncertainty's Monte-Carlo, and reading one are a first diagnosis's alone)
+    assert not loaded(modules, ("ogacq.record.calibration_record", "ogacq.record.sections",
+                                "ogacq.uncertainty"))
 
 
 def test_a_campaign_run_without_a_history_imports_no_database_layer(tmp_path):
