@@ -160,6 +160,23 @@ def filed_by_name(history: History, session: LoadedSession) -> str | None:
             "another machine of that name (filed then as a new machine)")
 
 
+def recorded_unchanged(history: History, session: LoadedSession,
+                       record_id: str) -> dict[str, Any] | None:
+    """The record the history stored with the session's calibration (``ogacq run`` and
+    ``history add`` record it), when the session is byte for byte the file it was built
+    from: that record, not built again (its uncertainty's Monte-Carlo check is most of a
+    first diagnosis's CPU). None when the history has none, or the session changed since
+    (a write-back appended: its record says more)."""
+    from ogacq.history.entries import typed_record
+    from ogacq.record.identity import session_digest
+
+    stored = history.calibration_record(record_id)
+    if stored is None:
+        return None
+    _, sha256 = session_digest(session)
+    return stored if typed_record(stored).session_file.sha256 == sha256 else None
+
+
 def record_campaign(session_path: Path, option: str | None, *, say: Say = _say,
                     record: Mapping[str, Any] | None = None) -> None:
     """A finished campaign (run, resume, demo, the wizard); ``record``: its record,
@@ -182,7 +199,7 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
         present = history.present(keys)
         if present == keys:  # a diagnosis is kept once per record: nothing to build
             return Recorded(present=present)
-        record = session_record(session)
+        record = recorded_unchanged(history, session, record_id) or session_record(session)
         where = str(session.path.resolve())
         done = history.record_calibration(record, session_path=where)
         done += history.record_diagnosis(record, diagnosis, session_path=where)

@@ -361,6 +361,13 @@ class History:
                              "AND record_id = :id AND kind = 'calibration'",
                              {"machine": machine.id, "id": record_id})
 
+    def calibration_record(self, record_id: str) -> dict[str, Any] | None:
+        """The record stored whole with the calibration ``record_id``, whichever machine's
+        (a record's id names one session), None when the history has none."""
+        with self._guard("read a record"), self._transaction(write=False) as db:
+            return db.scalar(f"SELECT record FROM {s.events.name} WHERE record_id = :id "
+                             "AND kind = 'calibration'", {"id": record_id})
+
     def results_history(self, machine: Machine) -> list[dict[str, Any]]:
         """The machine's calibrations as ``build_record(history=...)`` takes them
         (docs/calibration-record.md section 5): ``{"id", "date", "results"}`` each,

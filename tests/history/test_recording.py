@@ -12,6 +12,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+from ogacq.history.database import Json
 from ogacq.history.entries import event_key
 from ogacq.history.location import parse_location
 from ogacq.history.store import History
@@ -101,6 +102,40 @@ def test_a_session_diagnosed_again_is_found_recorded_without_building_its_record
     keys = [event_key("calibration", record_id), event_key("diagnosis", record_id)]
     with History.open(parse_location(str(history), "the test")) as opened:
         assert opened.present([*keys, event_key("diagnosis", "OGQ-none")]) == keys
+
+
+def test_a_diagnosis_takes_the_record_the_history_holds_of_the_same_file(tmp_path):
+    """The session's calibration recorded before (``history add``, as ``run`` records
+    it): its first diagnosis stores that record beside its findings, not one built
+    again; a record stored of another state of the file (its SHA-256) is built afresh."""
+    session, history = tmp_path / "session.jsonl", tmp_path / "history.sqlite"
+    shutil.copy(GOLDEN_SESSION, session)
+    added = subprocess.run([sys.executable, "-m", "ogacq", "history", "add", str(session),
+                            "--history", str(history)], capture_output=True, text=True,
+                           timeout=300, check=False)
+    assert added.returncode == 0, added.stderr
+
+    def diagnose() -> subprocess.CompletedProcess[str]:
+        done = subprocess.run([sys.executable, "-c", DIAGNOSE_PROBE, "diagnose", str(session),
+                               "--history", str(history), "--json"],
+                              capture_output=True, text=True, timeout=300, check=False)
+        assert done.returncode == 0, done.stderr
+        assert "history: 1 diagnosis recorded" in done.stderr
+        return done
+
+    assert "record not built" in diagnose().stderr.splitlines()
+    record_id = session_record_id(load_session(session))
+    location = parse_location(str(history), "the test")
+    with History.open(location) as opened:
+        stored = opened.calibration_record(record_id)
+        machine = opened.find_machine("machine (no serial)")
+        assert stored is not None and opened.records(machine, record_id) == stored
+        # the record of another state of the file: its diagnosis builds its own
+        opened.db.execute("DELETE FROM ogacq_events WHERE kind = 'diagnosis'")
+        opened.db.execute("UPDATE ogacq_events SET record = :record WHERE kind = "
+                          "'calibration'", {"record": Json({**stored, "session": {
+                              **stored["session"], "sha256": "0" * 64}})})
+    assert "record built" in diagnose().stderr.splitlines()
 
 
 def test_a_machine_without_a_serial_is_told_its_identity_the_first_time(tmp_path):
