@@ -174,12 +174,14 @@ def postgresql_database(url: URL) -> Database:
     from psycopg.types.json import Json as PgJson
 
     def connect() -> psycopg.Connection[Any]:
-        # the URL's parts and options as libpq's keywords (as SQLAlchemy's psycopg
-        # dialect gave them); an option left empty is libpq's default
-        query = {k: (v[0] if isinstance(v, tuple) else v) for k, v in url.query.items()}
-        conninfo = make_conninfo("", host=url.host, port=url.port, user=url.username,
-                                 password=url.password, dbname=url.database,
-                                 connect_timeout=CONNECT_TIMEOUT_S, **query)
+        # the URL's parts, then its options (``?host=/run/postgresql``, several hosts
+        # joined as libpq lists them), as libpq's keywords: SQLAlchemy's psycopg dialect
+        # gave them so; the timeout last, as its connect_args did
+        options: dict[str, Any] = {"host": url.host, "port": url.port, "user": url.username,
+                                   "password": url.password, "dbname": url.database}
+        options.update({k: ",".join(v) if isinstance(v, tuple) else v
+                        for k, v in url.query.items()})
+        conninfo = make_conninfo("", **{**options, "connect_timeout": CONNECT_TIMEOUT_S})
         return psycopg.connect(conninfo, autocommit=True, row_factory=_pg_row)
 
     return Database("postgresql", connect, (psycopg.Error,), PgJson)

@@ -208,3 +208,13 @@ def test_a_path_is_an_sqlite_file_and_postgres_gets_psycopg(tmp_path):
     pg = parse_location("postgresql://u:secret@db.site/ogacq", "--history")
     assert pg.url.drivername == "postgresql+psycopg"
     assert "secret" not in pg.describe()
+
+
+def test_a_url_s_options_reach_libpq(tmp_path):
+    """``?host=/socket/folder`` (a server on a Unix socket) is the host libpq tries, as
+    SQLAlchemy's psycopg dialect passed the URL's options."""
+    folder = tmp_path / "no-server-here"
+    location = parse_location(f"postgresql://ogacq@/h?host={folder}", "--history")
+    with pytest.raises(StorageError) as caught:
+        History.open(location)
+    assert "cannot open (" in str(caught.value) and str(folder) in str(caught.value)
