@@ -12,7 +12,7 @@ import pytest
 from sqlalchemy import create_engine, text
 
 from ogacq.errors import InputError, StorageError
-from ogacq.history.entries import WriteBack
+from ogacq.history.entries import MapsWriteBack, WriteBack
 from ogacq.history.location import parse_location
 from ogacq.history.store import History
 from tests.history.records import contract_record
@@ -218,3 +218,36 @@ def test_a_url_s_options_reach_libpq(tmp_path):
     with pytest.raises(StorageError) as caught:
         History.open(location)
     assert "cannot open (" in str(caught.value) and str(folder) in str(caught.value)
+
+
+EARLIER = Path(__file__).with_name("earlier_history.sql")
+
+
+def test_a_history_an_earlier_ogacq_wrote_is_read_and_recorded_into(tmp_path):
+    """A history as ogacq wrote it through SQLAlchemy Core (``earlier_history.sql``, the
+    SQLite dump of one: a calibration, an offsets write-back, an interrupted maps write)
+    reads as it did and takes new records: the tables are the same, the JSON the
+    same text (``null`` for None)."""
+    path = tmp_path / "h.sqlite"
+    with sqlite3.connect(path) as conn:
+        conn.executescript(EARLIER.read_text())
+    with History.open(parse_location(str(path), "--history")) as db:
+        machine = db.find_machine("machine (no serial)")
+        [calibration] = db.calibrations(machine)
+        assert calibration.parameters["joint_offset.x"].value_mm == -1.242616
+        assert calibration.verdict["state"] == "consistent"
+        assert [(v.stage, v.offsets_mm["x"]) for v in db.states(machine)] == \
+            [("before", 0.0), ("after", -1.2426)]
+        assert [(v.stage, v.status, len(v.maps)) for v in db.map_states(machine)] == \
+            [("before", "interrupted", 0), ("after", "interrupted", 1)]
+        assert [(v.kind, v.details and v.details["action"]) for v in db.events(machine)] == \
+            [("calibration", None), ("write-back", "write"), ("map-write", "write")]
+        record = db.records(machine, calibration.record_id)
+        assert record is not None and db.calibration_record(calibration.record_id) == record
+        assert db.record_diagnosis(record, {"effects": []}).new == \
+            [f"diagnosis:{calibration.record_id}"]
+        maps = MapsWriteBack("maps-write-1", "write", "done", "maps.json", (), "e3b0",
+                             ({"format": "ogacq-axis-map/1", "axis": "x"},), "abcd",
+                             1768039300.0)
+        assert db.record_maps_writeback(record, maps).present  # found done: said so
+        assert {v.status for v in db.map_states(machine)} == {"done"}
