@@ -22,7 +22,7 @@ import contextlib
 import json
 import re
 import sqlite3
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -80,8 +80,8 @@ def _sqlite_row(cursor: sqlite3.Cursor, values: tuple[Any, ...]) -> Row:
 class Database:
     """One history database, connected on first use; ``errors``: what its driver raises."""
 
-    def __init__(self, backend: str, connect: Any, errors: tuple[type[Exception], ...],
-                 adapt_json: Any) -> None:
+    def __init__(self, backend: str, connect: Callable[[], Any],
+                 errors: tuple[type[Exception], ...], adapt_json: Callable[[Any], Any]) -> None:
         self.backend = backend
         self.errors = errors
         self._connect = connect
@@ -99,7 +99,11 @@ class Database:
                 for k, v in (params or {}).items()}
 
     def _sql(self, sql: str) -> str:
-        return sql if self.backend == "sqlite" else _NAMED.sub(r"%(\1)s", sql)
+        """``sql`` in the driver's parameter style: sqlite3 takes ``:name``, psycopg
+        ``%(name)s`` (and a literal ``%`` doubled)."""
+        if self.backend == "sqlite":
+            return sql
+        return _NAMED.sub(r"%(\1)s", sql.replace("%", "%%"))
 
     def rows(self, sql: str, params: Mapping[str, Any] | None = None) -> list[Row]:
         cursor = self.connection.execute(self._sql(sql), self._params(params))
