@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import json
 import socket
+import sqlite3
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
@@ -97,7 +98,7 @@ class History:
         try:
             if create and location.backend == "sqlite":
                 history._check_sqlite()
-            with history._guard("open"), history._transaction(write=create) as db:
+            with history._guard("open"), history.db.transaction(write=create) as db:
                 history.version = _prepare(db, location, create)
         except BaseException:
             history.close()
@@ -110,8 +111,6 @@ class History:
         path = self.location.describe()
         if not Path(path).is_file() or not Path(path).stat().st_size:
             return
-        import sqlite3  # an SQLite history's driver (the standard library's)
-
         try:
             found = self.db.scalars("PRAGMA quick_check")
         except ValueError:  # the check's own report names damaged text
@@ -171,8 +170,6 @@ class History:
             raise HistoryError(self.location, f"cannot {what}: a stored record is damaged "
                                f"({_first_line(exc)})") from None
 
-    def _transaction(self, *, write: bool) -> contextlib.AbstractContextManager[Database]:
-        return self.db.transaction(write=write)
 
     # ------------------------------------------------------------------ recording
     # ``session_path``: where the session is, as an absolute path, when the record
@@ -234,7 +231,7 @@ class History:
         wall = writeback.wall if writeback else maps.wall if maps else None
         if wall is not None:
             columns["campaign_date"] = local_iso(wall) or columns["campaign_date"]
-        with self._guard(f"record {key}"), self._transaction(write=True) as db:
+        with self._guard(f"record {key}"), self.db.transaction(write=True) as db:
             machine_id = _machine_id(db, machine_of(record))
             row = _json_values({
                 "event_key": key, "machine_id": machine_id, "kind": kind,
@@ -267,7 +264,7 @@ class History:
     def present(self, keys: list[str]) -> list[str]:
         """Those of the event ``keys`` (``entries.event_key``) already recorded."""
         marks = {f"key{i}": key for i, key in enumerate(keys)}
-        with self._guard("read the events"), self._transaction(write=False) as db:
+        with self._guard("read the events"), self.db.transaction(write=False) as db:
             found = set(db.scalars(
                 f"SELECT event_key FROM {s.events.name} "
                 f"WHERE event_key IN ({', '.join(':' + m for m in marks)})", marks)
@@ -278,7 +275,7 @@ class History:
         """The most records the history saw in the session of ``record_id`` (its events'
         records count them): a session file holding fewer lost its tail. None when the
         history holds nothing of it."""
-        with self._guard("read the events"), self._transaction(write=False) as db:
+        with self._guard("read the events"), self.db.transaction(write=False) as db:
             records = db.scalars(f"SELECT record FROM {s.events.name} WHERE record_id = :id",
                                  {"id": record_id})
             counts = [typed_record(r).session_file.records for r in records
@@ -287,7 +284,7 @@ class History:
         return max(seen) if seen else None
 
     def machines(self) -> list[Machine]:
-        with self._guard("read the machines"), self._transaction(write=False) as db:
+        with self._guard("read the machines"), self.db.transaction(write=False) as db:
             rows = db.rows(f"SELECT id, name, serial FROM {s.machines.name} "
                            "ORDER BY name, serial")
         return [Machine(r.id, r.name, r.serial) for r in rows]
@@ -323,7 +320,7 @@ class History:
 
     def calibrations(self, machine: Machine) -> list[Calibration]:
         """The machine's calibrations, oldest first (by their campaign date)."""
-        with self._guard("read the calibrations"), self._transaction(write=False) as db:
+        with self._guard("read the calibrations"), self.db.transaction(write=False) as db:
             rows = db.rows(f"SELECT * FROM {s.events.name} WHERE machine_id = :machine "
                            "AND kind = 'calibration'", {"machine": machine.id})
             params = db.rows(f"SELECT p.* FROM {s.parameters.name} p JOIN {s.events.name} e "
@@ -346,7 +343,7 @@ class History:
     def events(self, machine: Machine) -> list[Event]:
         """Every event of the machine (calibrations, diagnoses, write-backs, restores),
         by date."""
-        with self._guard("read the events"), self._transaction(write=False) as db:
+        with self._guard("read the events"), self.db.transaction(write=False) as db:
             rows = db.rows("SELECT kind, record_id, campaign_date, operator, session_path, "
                            f"details FROM {s.events.name} WHERE machine_id = :machine",
                            {"machine": machine.id})
@@ -356,7 +353,7 @@ class History:
 
     def records(self, machine: Machine, record_id: str) -> dict[str, Any] | None:
         """The record stored whole with the machine's calibration ``record_id``."""
-        with self._guard("read a record"), self._transaction(write=False) as db:
+        with self._guard("read a record"), self.db.transaction(write=False) as db:
             return db.scalar(f"SELECT record FROM {s.events.name} WHERE machine_id = :machine "
                              "AND record_id = :id AND kind = 'calibration'",
                              {"machine": machine.id, "id": record_id})
@@ -364,7 +361,7 @@ class History:
     def calibration_record(self, record_id: str) -> dict[str, Any] | None:
         """The record stored whole with the calibration ``record_id``, whichever machine's
         (a record's id names one session), None when the history has none."""
-        with self._guard("read a record"), self._transaction(write=False) as db:
+        with self._guard("read a record"), self.db.transaction(write=False) as db:
             return db.scalar(f"SELECT record FROM {s.events.name} WHERE record_id = :id "
                              "AND kind = 'calibration'", {"id": record_id})
 
@@ -372,7 +369,7 @@ class History:
         """The machine's calibrations as ``build_record(history=...)`` takes them
         (docs/calibration-record.md section 5): ``{"id", "date", "results"}`` each,
         the results as their records hold them, oldest first."""
-        with self._guard("read the calibrations"), self._transaction(write=False) as db:
+        with self._guard("read the calibrations"), self.db.transaction(write=False) as db:
             rows = db.rows(f"SELECT record_id, campaign_date, record FROM {s.events.name} "
                            "WHERE machine_id = :machine AND kind = 'calibration'",
                            {"machine": machine.id})
@@ -384,7 +381,7 @@ class History:
 
     def states(self, machine: Machine) -> list[OffsetState]:
         """The offsets states of the machine's write-backs and restores, oldest first."""
-        with self._guard("read the offsets states"), self._transaction(write=False) as db:
+        with self._guard("read the offsets states"), self.db.transaction(write=False) as db:
             rows = db.rows(_states_of(s.offset_states), {"machine": machine.id})
         states = [OffsetState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action,
                               r.status, r.profile,
@@ -397,7 +394,7 @@ class History:
         (none in a history of schema 1, which had none)."""
         if self.version < 2:
             return []
-        with self._guard("read the maps states"), self._transaction(write=False) as db:
+        with self._guard("read the maps states"), self.db.transaction(write=False) as db:
             rows = db.rows(_states_of(s.map_states), {"machine": machine.id})
         states = [MapState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action, r.status,
                            r.maps_file, r.checksum, list(r.maps or []), r.record_id,
