@@ -170,7 +170,6 @@ class History:
             raise HistoryError(self.location, f"cannot {what}: a stored record is damaged "
                                f"({_first_line(exc)})") from None
 
-
     # ------------------------------------------------------------------ recording
     # ``session_path``: where the session is, as an absolute path, when the record
     # names it relative to the folder its command ran in.
