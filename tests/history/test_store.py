@@ -4,12 +4,12 @@ a database that is not an ogacq history, or cannot be reached, is one clear erro
 
 from __future__ import annotations
 
+import contextlib
 import sqlite3
 import threading
 from pathlib import Path
 
 import pytest
-from sqlalchemy import create_engine, text
 
 from ogacq.errors import InputError, StorageError
 from ogacq.history.entries import MapsWriteBack, WriteBack
@@ -160,12 +160,10 @@ def test_a_database_that_is_not_an_ogacq_history_is_refused(tmp_path):
 def test_a_newer_schema_is_refused_and_the_version_row_is_there(tmp_path):
     path = tmp_path / "h.sqlite"
     History.open(parse_location(str(path), "--history")).close()
-    engine = create_engine(f"sqlite:///{path}")
-    with engine.begin() as conn:
-        assert conn.execute(text("SELECT value FROM ogacq_schema WHERE key = 'version'")
-                            ).scalar_one() == "2"
-        conn.execute(text("UPDATE ogacq_schema SET value = '7' WHERE key = 'version'"))
-    engine.dispose()
+    with contextlib.closing(sqlite3.connect(path)) as conn, conn:
+        assert conn.execute("SELECT value FROM ogacq_schema WHERE key = 'version'"
+                            ).fetchone() == ("2",)
+        conn.execute("UPDATE ogacq_schema SET value = '7' WHERE key = 'version'")
     with pytest.raises(StorageError, match=r"newer ogacq \(schema 7; this one reads up to 2\)"):
         History.open(parse_location(str(path), "--history"))
 
