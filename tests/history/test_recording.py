@@ -15,6 +15,7 @@ from pathlib import Path
 from ogacq.history.database import Json
 from ogacq.history.entries import event_key
 from ogacq.history.location import parse_location
+from ogacq.history.recording import record_diagnosis
 from ogacq.history.store import History
 from ogacq.record.identity import session_record_id
 from ogacq.session.store import load_session
@@ -102,6 +103,24 @@ def test_a_session_diagnosed_again_is_found_recorded_without_building_its_record
     keys = [event_key("calibration", record_id), event_key("diagnosis", record_id)]
     with History.open(parse_location(str(history), "the test")) as opened:
         assert opened.present([*keys, event_key("diagnosis", "OGQ-none")]) == keys
+
+
+def test_a_diagnosis_the_history_holds_already_does_not_open_it_to_write(tmp_path, capsys,
+                                                                        monkeypatch):
+    """Found by the history opened to read: not checked as one written to is (its every
+    stored record read, ~0.1 s in a history of 600 events), since nothing is written."""
+    session, history = tmp_path / "session.jsonl", tmp_path / "history.sqlite"
+    shutil.copy(GOLDEN_SESSION, session)
+    record_diagnosis(session, {"effects": []}, str(history))
+    assert "history: 1 calibration, 1 diagnosis recorded" in capsys.readouterr().err
+
+    def opened_to_write(_history: History) -> None:
+        raise AssertionError("opened to write")
+
+    monkeypatch.setattr(History, "_check_sqlite", opened_to_write)
+    record_diagnosis(session, {"effects": []}, str(history))
+    assert capsys.readouterr().err.splitlines() == \
+        [f"history: nothing new recorded in {history}"]
 
 
 def test_a_diagnosis_takes_the_record_the_history_holds_of_the_same_file(tmp_path):
