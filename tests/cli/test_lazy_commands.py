@@ -14,6 +14,7 @@ from ogacq.cli.lazy import (
     LazyCommandSpec,
     LazyCommandTable,
     LazyGroupSpec,
+    freeze_once,
     import_target,
     one_paragraph_lines,
 )
@@ -74,12 +75,18 @@ def test_a_command_is_imported_with_the_collector_paused_then_frozen(tmp_path, m
         'import gc\nCOLLECTING = gc.isenabled()\n\n\ndef command() -> None:\n    """Do."""\n')
     monkeypatch.syspath_prepend(str(tmp_path))
     table = LazyCommandTable({"throwaway": LazyCommandSpec("throwaway_cmd:command", "Do.")}, {})
+    other = LazyCommandTable({"other": LazyCommandSpec("throwaway_cmd:command", "Do.")}, {})
+    freeze_once.cache_clear()  # as in a new process
     frozen = gc.get_freeze_count()
     try:
         assert table["throwaway"].name == "throwaway"
         assert sys.modules["throwaway_cmd"].COLLECTING is False
         assert gc.isenabled()
         assert gc.get_freeze_count() > frozen
+        # once per process: a second command built freezes nothing more (the garbage a
+        # process running many commands, the tests, holds is not pinned at each)
+        gc.unfreeze()
+        assert other["other"].name == "other" and gc.get_freeze_count() == 0
     finally:
         gc.unfreeze()
         sys.modules.pop("throwaway_cmd", None)
