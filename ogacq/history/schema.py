@@ -34,8 +34,8 @@ SCHEMA_VERSION = 2
 EVENT_KINDS = ("calibration", "diagnosis", "write-back", "restore", "map-write", "map-restore",
                "calibrate")
 
-# A column's type as each backend declares it. JSON is a document stored whole (SQLite
-# keeps its text); an integer key ``serial`` is numbered by the database.
+# A column's type, as both backends declare it. JSON is a document stored whole
+# (PostgreSQL's json type; SQLite keeps its text under that name, as SQLAlchemy did).
 INTEGER, FLOAT, TEXT, JSON = "INTEGER", "FLOAT", "TEXT", "JSON"
 
 
@@ -71,7 +71,9 @@ class Table:
         return tuple(c.name for c in self.columns if c.type == JSON)
 
     def ddl(self, backend: str) -> list[str]:
-        """CREATE TABLE and its indexes, in ``backend``'s words."""
+        """CREATE TABLE and its indexes, in ``backend``'s words: the statements SQLAlchemy
+        Core 2.0 rendered for this schema on both dialects (compared one by one when it
+        was replaced; ``tests/history/earlier_history.sql`` is a history it made)."""
         lines = []
         for c in self.columns:
             kind = "SERIAL" if c.serial and backend == "postgresql" else c.type
