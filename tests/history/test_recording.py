@@ -187,3 +187,20 @@ def test_a_machine_without_a_serial_is_told_its_identity_the_first_time(tmp_path
     with History.open(parse_location(str(history), "--history")) as db:
         assert [m.label for m in db.machines()] == ["OG-1 cell 3 (no serial)",
                                                     "OG-1 cell 3 (serial OG-2026-0017)"]
+
+
+def test_a_session_diagnosed_twice_into_postgresql(tmp_path, postgres_url):
+    """The same SQL on PostgreSQL: recorded once (calibration and diagnosis), found the
+    second time with the history opened to read."""
+    session = tmp_path / "session.jsonl"
+    shutil.copy(GOLDEN_SESSION, session)
+    said = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", DIAGNOSE_PROBE, "diagnose", str(session),
+                               "--history", postgres_url, "--json"],
+                              capture_output=True, text=True, timeout=300, check=False)
+        assert done.returncode == 0, done.stderr
+        said.append(done.stderr.splitlines())
+    assert said[0][0].startswith("history: 1 calibration, 1 diagnosis recorded in postgresql")
+    assert said[1][0].startswith("history: nothing new recorded in postgresql")
+    assert said[1][-1] == "record not built"
