@@ -20,7 +20,7 @@ from ogacq.logs import logger
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
 from ogacq.writeback.outcome import Stage
 
-if TYPE_CHECKING:  # SQLAlchemy is imported when a history is given, not at start-up
+if TYPE_CHECKING:  # the history is imported when one is given, not at start-up
     from ogacq.campaign.campaign_file import Campaign
     from ogacq.history.location import HistoryLocation
     from ogacq.history.store import MapState
