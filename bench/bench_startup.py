@@ -36,8 +36,11 @@ session (tests/golden/session.jsonl) with the DEFAULT history (``history.sqlite`
 ogacq's data folder, ``$OGACQ_HOME`` a fresh folder here), beside ``python -c "import
 numpy"`` in the same run; ``diagnose`` twice: the first of a session records its record
 and diagnosis (the record's uncertainty budget and Monte-Carlo check built), again finds
-them there. Targets: --help <= 1.5x numpy's import, refit and diagnose <= 2.5x. Then
-where diagnose's time goes: its imports by top-level package (``-X importtime``).
+them there. Targets: --help <= 1.5x numpy's import, refit and diagnose <= 2.5x. Beside
+them the floor no ogacq code sets: a typer command of one path argument that imports
+numpy and prints a rich table (typer 0.29 coerces every value that is not a flag
+through a pydantic TypeAdapter, so pydantic's import is in it too). Then where
+diagnose's time goes: its imports by top-level package (``-X importtime``).
 
 Run: python bench/bench_startup.py [runs, default 7] [--compile-each-run]
 """
@@ -69,6 +72,22 @@ NUMPY = "python -c 'import numpy'"
 CPU_TARGETS = {"ogacq --help": 1.5, "ogacq refit SESSION": 2.5,
                "ogacq diagnose SESSION, first": 2.5, "ogacq diagnose SESSION, again": 2.5}
 LIBRARY_FLOOR = "numpy + typer + rich"
+# The least a command of ogacq's shape costs, without ogacq: numpy imported, one path
+# argument parsed by typer (its pydantic coercion included), a rich table printed.
+COMMAND_FLOOR = "typer command + numpy + table"
+COMMAND_FLOOR_PROGRAM = """
+from pathlib import Path
+import numpy, typer
+from rich.console import Console
+from rich.table import Table
+app = typer.Typer(add_completion=False)
+@app.command()
+def show(file: Path, json: bool = False) -> None:
+    table = Table("file", "value")
+    table.add_row(str(file), str(numpy.zeros(1)[0]))
+    Console().print(table)
+app(["session.jsonl"], standalone_mode=False)
+"""
 
 
 def wall_s(argv: list[str], runs: int, env: dict[str, str]) -> list[float]:
@@ -208,7 +227,9 @@ def session_cpu(tmp: str, runs: int, env: dict[str, str]) -> None:
     shutil.copyfile(GOLDEN_SESSION, session)
     python = sys.executable
     ogacq = [python, "-m", "ogacq"]
-    commands = {NUMPY: [python, "-c", "import numpy"], "ogacq --help": [*ogacq, "--help"],
+    commands = {NUMPY: [python, "-c", "import numpy"],
+                COMMAND_FLOOR: [python, "-c", COMMAND_FLOOR_PROGRAM],
+                "ogacq --help": [*ogacq, "--help"],
                 "ogacq refit SESSION": [*ogacq, "refit", str(session)],
                 "ogacq diagnose SESSION, first": [*ogacq, "diagnose", str(session)],
                 "ogacq diagnose SESSION, again": [*ogacq, "diagnose", str(session)]}
@@ -227,6 +248,8 @@ def session_cpu(tmp: str, runs: int, env: dict[str, str]) -> None:
           "each, interleaved, median (min-max):")
     for label, t in times.items():
         line = f"   {label:32s} {statistics.median(t):.3f} s ({min(t):.3f}-{max(t):.3f})"
+        if label == COMMAND_FLOOR:
+            line += f", {statistics.median(t) / numpy_s:.2f}x numpy's import (no ogacq code)"
         if label in CPU_TARGETS:
             ratio = statistics.median(t) / numpy_s
             line += (f", {ratio:.2f}x numpy's import (target <= {CPU_TARGETS[label]:g}x: "

@@ -36,7 +36,8 @@ def earlier_calibrations(option: str | None, session: LoadedSession,
         return None, f"the history named cannot be used: {exc}"
     if location is None:
         return None, "the history is switched off (--history none)"
-    if location.origin == DEFAULT_ORIGIN and not Path(location.url.database or "").exists():
+    if location.origin == DEFAULT_ORIGIN and location.path is not None \
+            and not location.path.exists():
         return None, (f"no history database yet in ogacq's data folder "
                       f"({location.describe()}); --history names another")
     context = calibration_context(session)

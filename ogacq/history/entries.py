@@ -15,14 +15,16 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ogacq.errors import InputError
 from ogacq.model.gauges import AXES
 from ogacq.model.instrument import finite_number as _number
 from ogacq.model.parameters import EFFECT_BY_NAME
-from ogacq.record.calibration_record import CalibrationRecord
-from ogacq.record.sections import NamedResult
+
+if TYPE_CHECKING:  # the record's types are read when a record is: not to find one there
+    from ogacq.record.calibration_record import CalibrationRecord
+    from ogacq.record.sections import NamedResult
 
 RECORD_FORMAT = "ogacq-record/1"
 
@@ -219,7 +221,7 @@ def check_record(record: Any) -> dict[str, Any]:
     what is missing, RecordSectionError the key of a section of another shape."""
     if not isinstance(record, Mapping):
         raise RecordError("a record is a JSON object")
-    typed = CalibrationRecord.from_json(record)
+    typed = typed_record(record)
     if typed.format != RECORD_FORMAT:
         raise RecordError(f"not an {RECORD_FORMAT} record (format {typed.as_written('format')!r})")
     if not typed.id:
@@ -232,14 +234,18 @@ def check_record(record: Any) -> dict[str, Any]:
     return dict(record)
 
 
-def _typed(record: Mapping[str, Any] | CalibrationRecord) -> CalibrationRecord:
+def typed_record(record: Mapping[str, Any] | CalibrationRecord) -> CalibrationRecord:
+    """A record read as ``CalibrationRecord`` (its module imported only when a record is
+    read: a diagnosis the history holds already reads none)."""
+    from ogacq.record.calibration_record import CalibrationRecord
+
     return record if isinstance(record, CalibrationRecord) else CalibrationRecord.from_json(record)
 
 
 def machine_of(record: Mapping[str, Any] | CalibrationRecord) -> tuple[str, str]:
     """(name, serial) of the record's machine (checked by ``check_record``); the serial
     is "" when none is given."""
-    machine = _typed(record).machine_section
+    machine = typed_record(record).machine_section
     return str(machine.name).strip(), (machine.serial or "").strip()
 
 
@@ -252,19 +258,19 @@ def parameters_in(entries: Sequence[NamedResult]) -> list[Parameter]:
 def parameters_of(record: Mapping[str, Any] | CalibrationRecord) -> list[Parameter]:
     """Every identified parameter of ``results`` (``{"joint_offset": {"x": {...}}}``),
     by its dotted name, in the record's order."""
-    return parameters_in(_typed(record).result_entries)
+    return parameters_in(typed_record(record).result_entries)
 
 
 def ambient_of(record: Mapping[str, Any] | CalibrationRecord) -> float | None:
     """The ambient temperature at the start (else at the end) of the campaign, degC."""
-    stages = _typed(record).environment_stages
+    stages = typed_record(record).environment_stages
     return next((float(t.ambient_c) for stage in ("start", "end") if stage in stages
                  and (t := stages[stage]) is not None and t.ambient_c is not None), None)
 
 
 def acceptance_decision(record: Mapping[str, Any] | CalibrationRecord) -> str | None:
     """The as-found decision (pass, fail, undecided), None when not recorded."""
-    return _typed(record).acceptance_section.as_found.decision
+    return typed_record(record).acceptance_section.as_found.decision
 
 
 def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
@@ -275,7 +281,7 @@ def event_key(kind: str, record_id: str, operation: str | None = None) -> str:
 
 def record_columns(record: Mapping[str, Any] | CalibrationRecord) -> dict[str, Any]:
     """The event columns a record fills (every kind of event carries its record's)."""
-    typed = _typed(record)
+    typed = typed_record(record)
     session = typed.session_file
     return {
         "record_id": typed.id,

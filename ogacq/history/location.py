@@ -1,5 +1,4 @@
-"""Which history database a command uses, and its SQLAlchemy URL: the one place
-that decides it.
+"""Which history database a command uses: the one place that decides it.
 
 Order: the command's ``--history URL_OR_PATH``, else the ``OGACQ_HISTORY``
 environment variable, else ``history.sqlite`` in ogacq's data folder
@@ -8,7 +7,8 @@ so that every run, demo and wizard of this account accumulates in one history
 wherever it was started. ``none`` (or ``off``) in either place records nothing.
 
 A value with ``://`` is a URL (``postgresql://user@host/db``,
-``sqlite:////abs/path.sqlite``); anything else is the path of an SQLite file. A
+``sqlite:////abs/path.sqlite``), read by SQLAlchemy's URL parser; anything else is the
+path of an SQLite file (the default too: no URL, nothing of SQLAlchemy imported). A
 PostgreSQL URL without a driver gets psycopg 3, the driver ogacq installs. A URL
 that cannot be parsed (a port that is not a number, an unclosed ``[`` of an IPv6
 host, a connection option or value libpq does not know) is an InputError naming
@@ -29,7 +29,7 @@ from ogacq.errors import InputError
 from ogacq.io.data_folder import ENVIRONMENT_VARIABLE as DATA_VARIABLE
 from ogacq.io.data_folder import data_folder
 
-if TYPE_CHECKING:  # SQLAlchemy is imported when a history is used, not for `none`
+if TYPE_CHECKING:  # SQLAlchemy's URL is a PostgreSQL history's alone
     from sqlalchemy.engine import URL
 
 ENVIRONMENT_VARIABLE = "OGACQ_HISTORY"
@@ -39,17 +39,21 @@ DISABLED = ("none", "off")
 
 @dataclass(frozen=True)
 class HistoryLocation:
-    url: URL
+    """An SQLite file (``path``) or a PostgreSQL database (``url``)."""
+
     origin: str  # where it was named: "--history", "OGACQ_HISTORY", "ogacq's data folder", ...
+    path: Path | None = None
+    url: URL | None = None
 
     @property
     def backend(self) -> str:
-        return self.url.get_backend_name()
+        return "sqlite" if self.path is not None else "postgresql"
 
     def describe(self) -> str:
         """The URL as it may be printed: the password hidden; an SQLite file by its path."""
-        if self.backend == "sqlite" and self.url.database:
-            return self.url.database
+        if self.path is not None:
+            return str(self.path)
+        assert self.url is not None
         return self.url.render_as_string(hide_password=True)
 
     def option_value(self) -> str:
@@ -86,10 +90,11 @@ def parse_location(value: str, origin: str) -> HistoryLocation:
         if not url.database or url.database == ":memory:":
             raise InputError(origin, "an SQLite history needs a file (sqlite:////PATH): one in "
                              "memory would be lost when the command ends")
+        return _sqlite_file(Path(url.database), origin)  # as given, as it was said
     else:
         raise InputError(origin, f"database {backend!r} is not supported: ogacq keeps its "
                          "history in SQLite (a file) or PostgreSQL")
-    return HistoryLocation(url, origin)
+    return HistoryLocation(origin, url=url)
 
 
 def hide_password(text: str) -> str:
@@ -159,9 +164,7 @@ def default_location() -> HistoryLocation:
 
 
 def _sqlite_file(path: Path, origin: str) -> HistoryLocation:
-    from sqlalchemy.engine import URL
-
-    return HistoryLocation(URL.create("sqlite", database=str(path)), origin)
+    return HistoryLocation(origin, path=path)
 
 
 def history_for_session(option: str | None, session_path: Path | None = None,
@@ -174,7 +177,8 @@ def history_for_session(option: str | None, session_path: Path | None = None,
     named = _named(option)
     if named is None:
         location = default_location()
-        _make_folder(Path(location.url.database or "").parent)
+        assert location.path is not None
+        _make_folder(location.path.parent)
         return location
     return parse_location(*named)
 
@@ -203,7 +207,7 @@ def history_to_read(option: str | None) -> HistoryLocation:
     if named is not None and named[0].strip().lower() not in DISABLED:
         return parse_location(*named)
     default = default_location()
-    if Path(default.url.database or "").is_file():
+    if default.path is not None and default.path.is_file():
         return default
     # named after the option only when it was given (`--history none`)
     raise InputError("--history" if option is not None else None,

@@ -26,7 +26,7 @@ from ogacq.logs import logger
 from ogacq.session.state import completeness
 from ogacq.session.store import LoadedSession, load_session
 
-if TYPE_CHECKING:  # SQLAlchemy is imported when something is recorded, not at start-up
+if TYPE_CHECKING:  # the store is imported when something is recorded, not at start-up
     from ogacq.history.location import HistoryLocation
     from ogacq.history.store import History
 
@@ -98,13 +98,17 @@ def _summary(recorded: Recorded) -> str:
 def record_after(session_path: Path, option: str | None, action: str, *,
                  record_with: Callable[[History, LoadedSession], Recorded] | None = None,
                  location: HistoryLocation | None = None, say: Say = _say,
-                 accept_edited: bool = False) -> Recorded | None:
+                 accept_edited: bool = False,
+                 found_with: Callable[[History, LoadedSession], Recorded | None] | None = None,
+                 ) -> Recorded | None:
     """Record the finished ``session_path`` (``action``: what finished, for the
     messages) into ``location``, else the history the option, the environment or the
     session names; None when recording is switched off or failed (a warning then
     says how to add it later), or when the session's campaign has not finished and
     holds no write-back (said). ``accept_edited``: the user accepted the session's
-    edits (its record says so)."""
+    edits (its record says so). ``found_with``: what the history holds already of
+    what ``record_with`` records, asked first of the history opened to read (None:
+    not all of it), so that nothing to record opens it to write."""
     try:
         if location is None:
             from ogacq.history.location import history_for_session
@@ -114,10 +118,10 @@ def record_after(session_path: Path, option: str | None, action: str, *,
             except OgacqError as exc:
                 log.warning("%s not recorded in the history: %s", action, exc)
                 return None
-            if location is None:  # `none`: SQLAlchemy is never imported
+            if location is None:  # `none`: nothing of the database is imported
                 return None
         from ogacq.history.store import History
-    except ImportError as exc:  # an install without SQLAlchemy: the session is kept all the same
+    except ImportError as exc:  # an install without its driver: the session is kept all the same
         log.warning("%s not recorded in the history: %s; add it later with `ogacq history add "
                     "%s`", action, exc, session_path)
         return None
@@ -128,6 +132,10 @@ def record_after(session_path: Path, option: str | None, action: str, *,
             say(f"history: nothing recorded: {state.describe()}; the campaign's result is "
                 "recorded when it completes")
             return None
+        found = _found(location, session, found_with) if found_with is not None else None
+        if found is not None:
+            say(f"history: {_summary(found)} recorded in {location.describe()}")
+            return found
         with History.open(location) as history:
             first_met = filed_by_name(history, session)
             recorded = (record_with or record_session)(history, session)
@@ -145,6 +153,21 @@ def record_after(session_path: Path, option: str | None, action: str, *,
     return recorded
 
 
+def _found(location: HistoryLocation, session: LoadedSession,
+           found_with: Callable[[History, LoadedSession], Recorded | None]) -> Recorded | None:
+    """``found_with`` asked of the history opened to read: not checked as one opened to
+    write is (its every stored record read: ~0.1 s in a history of 600 events), nor its
+    schema made, since nothing is written. None when it cannot say (no history yet, one
+    it cannot read): the history opened to write says why, where it matters."""
+    from ogacq.history.store import History
+
+    try:
+        with History.open(location, create=False) as history:
+            return found_with(history, session)
+    except (OgacqError, ValueError, OSError):
+        return None
+
+
 def filed_by_name(history: History, session: LoadedSession) -> str | None:
     """What a machine without a serial is filed as, said the first time this history
     meets it: its name is then its identity ("NAME (no serial)"), the same at every later
@@ -158,6 +181,23 @@ def filed_by_name(history: History, session: LoadedSession) -> str | None:
     return (f"history: {name!r} has no serial: filed as '{name} (no serial)', its identity "
             f"in this history from now on; `serial = \"...\"` in {where} tells it from "
             "another machine of that name (filed then as a new machine)")
+
+
+def recorded_unchanged(history: History, session: LoadedSession,
+                       record_id: str) -> dict[str, Any] | None:
+    """The record the history stored with the session's calibration (``ogacq run`` and
+    ``history add`` record it), when the session is byte for byte the file it was built
+    from: that record, not built again (its uncertainty's Monte-Carlo check is most of a
+    first diagnosis's CPU). None when the history has none, or the session changed since
+    (a write-back appended: its record says more)."""
+    from ogacq.history.entries import typed_record
+    from ogacq.record.identity import session_digest
+
+    stored = history.calibration_record(record_id)
+    if stored is None:
+        return None
+    _, sha256 = session_digest(session)
+    return stored if typed_record(stored).session_file.sha256 == sha256 else None
 
 
 def record_campaign(session_path: Path, option: str | None, *, say: Say = _say,
@@ -174,22 +214,31 @@ def record_diagnosis(session_path: Path, diagnosis: Mapping[str, Any],
     """``ogacq diagnose`` of a session: its findings beside the session's record (a
     session not finished gives nothing: its campaign's result comes when it does)."""
 
-    def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
+    def diagnosed(history: History, session: LoadedSession) -> Recorded | None:
+        """The session's calibration and diagnosis, when the history holds both (a
+        diagnosis is kept once per record: nothing to build)."""
         from ogacq.record.identity import session_record_id
 
         record_id = session_record_id(session)
         keys = [event_key("calibration", record_id), event_key("diagnosis", record_id)]
         present = history.present(keys)
-        if present == keys:  # a diagnosis is kept once per record: nothing to build
-            return Recorded(present=present)
-        record = session_record(session)
+        return Recorded(present=present) if present == keys else None
+
+    def with_diagnosis(history: History, session: LoadedSession) -> Recorded:
+        from ogacq.record.identity import session_record_id
+
+        found = diagnosed(history, session)
+        if found is not None:
+            return found
+        record_id = session_record_id(session)
+        record = recorded_unchanged(history, session, record_id) or session_record(session)
         where = str(session.path.resolve())
         done = history.record_calibration(record, session_path=where)
         done += history.record_diagnosis(record, diagnosis, session_path=where)
         return done
 
     record_after(session_path, option, "the diagnosis", record_with=with_diagnosis,
-                 accept_edited=accept_edited)
+                 accept_edited=accept_edited, found_with=diagnosed)
 
 
 def record_calibrate(session_path: Path, option: str | None, record: Mapping[str, Any],

@@ -1,4 +1,6 @@
-"""The history's tables: one schema for SQLite and PostgreSQL (SQLAlchemy Core).
+"""The history's tables: one declaration for SQLite and PostgreSQL, rendered as each
+backend's DDL (the types, keys and indexes SQLAlchemy Core rendered for the histories
+earlier versions created, so that those and new ones are the same tables).
 
 - ``ogacq_schema``: key/value rows; ``application`` says the database is an
   ogacq history, ``version`` which schema it holds, so that a later ogacq can
@@ -24,22 +26,7 @@ and why.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
-
-from sqlalchemy import (
-    JSON,
-    Column,
-    Connection,
-    Float,
-    ForeignKey,
-    Integer,
-    MetaData,
-    String,
-    Table,
-    Text,
-    UniqueConstraint,
-)
+from dataclasses import dataclass
 
 APPLICATION = "ogacq-history"
 SCHEMA_VERSION = 2
@@ -47,97 +34,154 @@ SCHEMA_VERSION = 2
 EVENT_KINDS = ("calibration", "diagnosis", "write-back", "restore", "map-write", "map-restore",
                "calibrate")
 
-metadata = MetaData()
+# A column's type, as both backends declare it. JSON is a document stored whole
+# (PostgreSQL's json type; SQLite keeps its text under that name, as SQLAlchemy did).
+INTEGER, FLOAT, TEXT, JSON = "INTEGER", "FLOAT", "TEXT", "JSON"
 
-schema_info = Table(
-    "ogacq_schema", metadata,
-    Column("key", String(64), primary_key=True),
-    Column("value", String(200), nullable=False),
-)
 
-machines = Table(
-    "ogacq_machines", metadata,
-    Column("id", Integer, primary_key=True, autoincrement=True),
-    Column("name", String(200), nullable=False),
-    Column("serial", String(200), nullable=False),  # "" when the machine file gives none
-    Column("first_recorded", String(40), nullable=False),
-    UniqueConstraint("name", "serial", name="ogacq_machines_identity"),
-)
+def string(length: int) -> str:
+    return f"VARCHAR({length})"
 
-events = Table(
-    "ogacq_events", metadata,
-    Column("id", Integer, primary_key=True, autoincrement=True),
-    Column("event_key", String(240), nullable=False, unique=True),
-    Column("machine_id", ForeignKey(machines.c.id), nullable=False, index=True),
-    Column("kind", String(20), nullable=False),
-    Column("record_id", String(64), nullable=False, index=True),
-    Column("campaign_date", String(40)),  # the calibration's date; a write-back's own time
-    Column("recorded_at", String(40), nullable=False),  # UTC, when the row was written
-    Column("station", String(200)),  # the computer that recorded it
-    Column("software", String(80)),
-    Column("operator", String(200)),
-    Column("session_path", Text),
-    Column("session_sha256", String(64)),
+
+def quoted(name: str) -> str:
+    """A column's name as SQL takes it: ``key`` is a keyword of SQLite's."""
+    return f'"{name}"' if name == "key" else name
+
+
+@dataclass(frozen=True)
+class Column:
+    name: str
+    type: str
+    nullable: bool = True
+    primary_key: bool = False
+    serial: bool = False  # numbered by the database (PostgreSQL's SERIAL, SQLite's rowid)
+    references: str | None = None  # "table (column)"
+    index: bool = False
+    unique: bool = False
+
+
+@dataclass(frozen=True)
+class Table:
+    name: str
+    columns: tuple[Column, ...]
+    unique: tuple[tuple[str, tuple[str, ...]], ...] = ()  # (constraint's name, columns)
+
+    @property
+    def json_columns(self) -> tuple[str, ...]:
+        return tuple(c.name for c in self.columns if c.type == JSON)
+
+    def ddl(self, backend: str) -> list[str]:
+        """CREATE TABLE and its indexes, in ``backend``'s words: the statements SQLAlchemy
+        Core 2.0 rendered for this schema on both dialects (compared one by one when it
+        was replaced; ``tests/history/earlier_history.sql`` is a history it made)."""
+        lines = []
+        for c in self.columns:
+            kind = "SERIAL" if c.serial and backend == "postgresql" else c.type
+            lines.append(f"{quoted(c.name)} {kind}" + (" NOT NULL" if c.primary_key
+                                                       or not c.nullable else ""))
+        keys = [quoted(c.name) for c in self.columns if c.primary_key]
+        lines.append(f"PRIMARY KEY ({', '.join(keys)})")
+        lines += [f"UNIQUE ({c.name})" for c in self.columns if c.unique]
+        lines += [f"CONSTRAINT {name} UNIQUE ({', '.join(columns)})"
+                  for name, columns in self.unique]
+        lines += [f"FOREIGN KEY({c.name}) REFERENCES {c.references}" for c in self.columns
+                  if c.references]
+        body = ",\n\t".join(lines)
+        return [f"CREATE TABLE {self.name} (\n\t{body}\n)",
+                *(f"CREATE INDEX ix_{self.name}_{c.name} ON {self.name} ({c.name})"
+                  for c in self.columns if c.index)]
+
+
+def _key(name: str, references: str) -> Column:
+    return Column(name, INTEGER, nullable=False, references=references, index=True)
+
+
+MACHINE_ID = "ogacq_machines (id)"
+EVENT_ID = "ogacq_events (id)"
+
+schema_info = Table("ogacq_schema", (
+    Column("key", string(64), primary_key=True),
+    Column("value", string(200), nullable=False),
+))
+
+machines = Table("ogacq_machines", (
+    Column("id", INTEGER, primary_key=True, serial=True),
+    Column("name", string(200), nullable=False),
+    Column("serial", string(200), nullable=False),  # "" when the machine file gives none
+    Column("first_recorded", string(40), nullable=False),
+), unique=(("ogacq_machines_identity", ("name", "serial")),))
+
+events = Table("ogacq_events", (
+    Column("id", INTEGER, primary_key=True, serial=True),
+    Column("event_key", string(240), nullable=False, unique=True),
+    _key("machine_id", MACHINE_ID),
+    Column("kind", string(20), nullable=False),
+    Column("record_id", string(64), nullable=False, index=True),
+    Column("campaign_date", string(40)),  # the calibration's date; a write-back's own time
+    Column("recorded_at", string(40), nullable=False),  # UTC, when the row was written
+    Column("station", string(200)),  # the computer that recorded it
+    Column("software", string(80)),
+    Column("operator", string(200)),
+    Column("session_path", TEXT),
+    Column("session_sha256", string(64)),
     Column("verdict", JSON),
-    Column("acceptance_decision", String(20)),  # as found
+    Column("acceptance_decision", string(20)),  # as found
     Column("acceptance", JSON),
     Column("instruments", JSON),
     Column("environment", JSON),
-    Column("ambient_c", Float),  # at the start, for the tables
+    Column("ambient_c", FLOAT),  # at the start, for the tables
     Column("overrides", JSON),
     Column("details", JSON),  # a diagnosis's findings, a write-back's operation
     Column("record", JSON),  # the ogacq-record/1 document, whole
+))
+
+parameters = Table("ogacq_parameters", (
+    Column("event_id", INTEGER, primary_key=True, references=EVENT_ID),
+    Column("name", string(80), primary_key=True),  # "joint_offset.x"
+    Column("value_mm", FLOAT, nullable=False),
+    Column("u_mm", FLOAT),  # standard uncertainty u_c, from the budget
+    Column("expanded_mm", FLOAT),  # U
+    Column("k", FLOAT),
+    Column("std_mm", FLOAT),  # the fit's std (stands in when there is no budget)
+))
+
+# What an offsets state and a maps state both hold, in this order.
+_STATE = (
+    Column("state_id", string(32), primary_key=True),
+    _key("event_id", EVENT_ID),
+    _key("machine_id", MACHINE_ID),
+    Column("stage", string(10), nullable=False),  # before, after
+    Column("at", string(40)),  # local ISO time of the operation
+    Column("wall", FLOAT),  # the same as a Unix time, for ordering
+    Column("operation", string(80), nullable=False),
+    Column("action", string(20), nullable=False),  # write, restore
+    Column("status", string(20), nullable=False),  # done, failed, interrupted
 )
 
-parameters = Table(
-    "ogacq_parameters", metadata,
-    Column("event_id", ForeignKey(events.c.id), primary_key=True),
-    Column("name", String(80), primary_key=True),  # "joint_offset.x"
-    Column("value_mm", Float, nullable=False),
-    Column("u_mm", Float),  # standard uncertainty u_c, from the budget
-    Column("expanded_mm", Float),  # U
-    Column("k", Float),
-    Column("std_mm", Float),  # the fit's std (stands in when there is no budget)
-)
+offset_states = Table("ogacq_offset_states", (
+    *_STATE,
+    Column("profile", string(80)),
+    Column("x_mm", FLOAT), Column("y_mm", FLOAT), Column("z_mm", FLOAT),
+))
 
-def _state_columns() -> list[Column[Any]]:
-    """What an offsets state and a maps state both hold, in this order (new columns for
-    each table: a Column belongs to one)."""
-    return [
-        Column("state_id", String(32), primary_key=True),
-        Column("event_id", ForeignKey(events.c.id), nullable=False, index=True),
-        Column("machine_id", ForeignKey(machines.c.id), nullable=False, index=True),
-        Column("stage", String(10), nullable=False),  # before, after
-        Column("at", String(40)),  # local ISO time of the operation
-        Column("wall", Float),  # the same as a Unix time, for ordering
-        Column("operation", String(80), nullable=False),
-        Column("action", String(20), nullable=False),  # write, restore
-        Column("status", String(20), nullable=False),  # done, failed, interrupted
-    ]
-
-
-offset_states = Table(
-    "ogacq_offset_states", metadata, *_state_columns(),
-    Column("profile", String(80)),
-    Column("x_mm", Float), Column("y_mm", Float), Column("z_mm", Float),
-)
-
-map_states = Table(
-    "ogacq_map_states", metadata, *_state_columns(),
-    Column("maps_file", Text),
-    Column("checksum", String(64)),  # ogacq.writeback.maps_table.maps_checksum
+map_states = Table("ogacq_map_states", (
+    *_STATE,
+    Column("maps_file", TEXT),
+    Column("checksum", string(64)),  # ogacq.writeback.maps_table.maps_checksum
     Column("maps", JSON),  # [ogacq-axis-map/1, ...]
-)
+))
+
+# In the order they are created (a table after those its keys refer to).
+TABLES = (schema_info, machines, events, parameters, offset_states, map_states)
+JSON_COLUMNS = frozenset(name for table in TABLES for name in table.json_columns)
 
 
-def _create(table: Table) -> Callable[[Connection], None]:
-    """A migration step: create ``table`` as this schema declares it (each backend's
-    own DDL, indexes included)."""
-    return lambda conn: table.create(conn)
+def ddl(backend: str, tables: tuple[Table, ...] = TABLES) -> list[str]:
+    """The statements that create ``tables`` in ``backend`` ("sqlite", "postgresql")."""
+    return [statement for table in tables for statement in table.ddl(backend)]
 
 
-# version -> the steps (SQL, or a function of the connection) that bring a database of
-# that version to the next one.
-MIGRATIONS: dict[int, tuple[str | Callable[[Connection], None], ...]] = {
-    1: (_create(map_states),),  # schema 2: the maps states
+# version -> the tables that bring a database of that version to the next one.
+MIGRATIONS: dict[int, tuple[Table, ...]] = {
+    1: (map_states,),  # schema 2: the maps states
 }

@@ -8,7 +8,9 @@ transactions that write start with ``BEGIN IMMEDIATE`` (the file's write lock is
 taken first, and a second station waits for it instead of failing half-way);
 PostgreSQL serialises the first creation of the schema with an advisory lock.
 
-Every database error becomes a ``HistoryError`` (a ``StorageError``: exit 3) in
+The SQL is written once, run on either backend by ``ogacq.history.database`` (the
+standard library's sqlite3, or psycopg for PostgreSQL). Every database error becomes
+a ``HistoryError`` (a ``StorageError``: exit 3) in
 one line naming the database and what could not be done. An SQLite history is
 checked (``PRAGMA quick_check``, SQLite's "PRAGMA Statements" documentation)
 before anything is written to it: one that fails, or whose schema cannot even be
@@ -21,16 +23,15 @@ from __future__ import annotations
 import contextlib
 import json
 import socket
+import sqlite3
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from sqlalchemy import JSON, Connection, Engine, create_engine, event, func, inspect, select
-from sqlalchemy.exc import SQLAlchemyError
-
 from ogacq import __version__
 from ogacq.errors import InputError, StorageError
 from ogacq.history import schema as s
+from ogacq.history.database import Database, Json, postgresql_database, sqlite_database
 from ogacq.history.entries import (
     Calibration,
     Event,
@@ -51,23 +52,16 @@ from ogacq.history.entries import (
     parameters_of,
     record_columns,
     state_id,
+    typed_record,
     utc_now,
 )
 from ogacq.history.location import HistoryLocation
 from ogacq.model.gauges import AXES
-from ogacq.record.calibration_record import CalibrationRecord
 
-# A second station writing to the same SQLite file waits this long for its lock.
-SQLITE_BUSY_TIMEOUT_S = 30.0
-# PostgreSQL: a server that does not answer is said within this many seconds.
-CONNECT_TIMEOUT_S = 10
 # What to do with an SQLite history that fails its check: the sqlite3 shell's .recover
 # (SQLite 3.29 and later) copies what can still be read into a new file.
 REPAIR = ("repair it (`sqlite3 {path} .recover | sqlite3 REPAIRED.sqlite`, then "
           "--history REPAIRED.sqlite) or start another (--history NEW.sqlite)")
-
-# Any 64-bit number: the key of the advisory lock taken while the schema is created.
-SCHEMA_LOCK_KEY = 0x6F67_6171_6869_7374  # "ogaqhist"
 
 
 class HistoryError(StorageError):
@@ -90,9 +84,9 @@ class History:
     """An open history database. ``History.open(location)`` checks it (and creates
     the schema on first use unless ``create=False``); use it as a context manager."""
 
-    def __init__(self, location: HistoryLocation, engine: Engine) -> None:
+    def __init__(self, location: HistoryLocation, db: Database) -> None:
         self.location = location
-        self.engine = engine
+        self.db = db
         self.version = s.SCHEMA_VERSION  # as opened: an older one read as it is
 
     # ------------------------------------------------------------------ opening
@@ -100,15 +94,14 @@ class History:
     def open(cls, location: HistoryLocation, *, create: bool = True) -> History:
         """``create``: the history is opened to be written to (its schema made on first
         use, an SQLite file checked first)."""
-        engine = _engine(location, create)
-        history = cls(location, engine)
+        history = cls(location, _database(location, create))
         try:
             if create and location.backend == "sqlite":
                 history._check_sqlite()
-            with history._guard("open"), history._transaction(write=create) as conn:
-                history.version = _prepare(conn, location, create)
+            with history._guard("open"), history.db.transaction(write=create) as db:
+                history.version = _prepare(db, location, create)
         except BaseException:
-            engine.dispose()
+            history.close()
             raise
         return history
 
@@ -119,14 +112,11 @@ class History:
         if not Path(path).is_file() or not Path(path).stat().st_size:
             return
         try:
-            with self.engine.connect() as conn:
-                found = [row[0] for row in conn.exec_driver_sql("PRAGMA quick_check")]
+            found = self.db.scalars("PRAGMA quick_check")
         except ValueError:  # the check's own report names damaged text
             found = ["its report is not even text"]
-        except SQLAlchemyError as exc:
-            import sqlite3  # an SQLite history's only: here, the dialect in use loaded it
-
-            if isinstance(getattr(exc, "orig", None), sqlite3.OperationalError):
+        except sqlite3.Error as exc:
+            if isinstance(exc, sqlite3.OperationalError):
                 raise HistoryError(self.location, f"cannot open ({_first_line(exc)})") from None
             raise HistoryError(self.location, f"cannot be read ({_first_line(exc)}): nothing is "
                                f"recorded into it; {REPAIR.format(path=path)}") from None
@@ -144,24 +134,25 @@ class History:
         checks cannot see), or None. Every record is read: a history holds a few
         hundred of them."""
         e = s.events
-        columns = [c.name for c in e.columns if isinstance(c.type, JSON)]
+        columns = e.json_columns
         where = "its events"
         try:
-            with self.engine.connect() as conn:
-                if e.name not in inspect(conn).get_table_names():
-                    return None
-                rows = conn.exec_driver_sql(f"SELECT id, {', '.join(columns)} FROM {e.name}")
-                for row in rows:
-                    for column, text in zip(columns, row[1:], strict=True):
-                        where = f"event {row[0]}, {column}"
-                        if text is not None:
-                            json.loads(text)
-        except (SQLAlchemyError, ValueError) as exc:
+            if e.name not in self.db.table_names():
+                return None
+            # as text (named otherwise than the JSON columns, which are read as documents)
+            rows = self.db.rows(f"SELECT id, {', '.join(f'{c} AS {c}_text' for c in columns)} "
+                                f"FROM {e.name}")
+            for row in rows:
+                for column, text in zip(columns, row[1:], strict=True):
+                    where = f"event {row[0]}, {column}"
+                    if isinstance(text, str):
+                        json.loads(text)
+        except self.db.errors + (ValueError,) as exc:
             return f"a stored record is damaged ({where}: {_first_line(exc)})"
         return None
 
     def close(self) -> None:
-        self.engine.dispose()
+        self.db.close()
 
     def __enter__(self) -> History:
         return self
@@ -173,23 +164,11 @@ class History:
     def _guard(self, what: str) -> Iterator[None]:
         try:
             yield
-        except SQLAlchemyError as exc:
+        except self.db.errors as exc:
             raise HistoryError(self.location, f"cannot {what} ({_first_line(exc)})") from None
         except ValueError as exc:  # a stored JSON document damaged (its text, its UTF-8)
             raise HistoryError(self.location, f"cannot {what}: a stored record is damaged "
                                f"({_first_line(exc)})") from None
-
-    @contextlib.contextmanager
-    def _transaction(self, *, write: bool) -> Iterator[Connection]:
-        with self.engine.connect() as conn:
-            if write:
-                conn.info["ogacq_immediate"] = True  # SQLite: BEGIN IMMEDIATE
-            with conn.begin():
-                if write and conn.dialect.name == "postgresql":
-                    # one writer at a time per history: two stations recording the same
-                    # machine's first calibration must not both insert it
-                    conn.execute(select(func.pg_advisory_xact_lock(SCHEMA_LOCK_KEY)))
-                yield conn
 
     # ------------------------------------------------------------------ recording
     # ``session_path``: where the session is, as an absolute path, when the record
@@ -251,61 +230,62 @@ class History:
         wall = writeback.wall if writeback else maps.wall if maps else None
         if wall is not None:
             columns["campaign_date"] = local_iso(wall) or columns["campaign_date"]
-        with self._guard(f"record {key}"), self._transaction(write=True) as conn:
-            machine_id = _machine_id(conn, machine_of(record))
-            inserted = conn.execute(_insert(conn, s.events).values(
-                event_key=key, machine_id=machine_id, kind=kind, recorded_at=utc_now(),
-                station=socket.gethostname(), details=details,
-                record=clean_json(record), **{**columns, "software":
-                                              columns["software"] or f"ogacq {__version__}"})
-                .on_conflict_do_nothing(index_elements=["event_key"])
-                .returning(s.events.c.id))
-            event_id = inserted.scalar_one_or_none()
+        with self._guard(f"record {key}"), self.db.transaction(write=True) as db:
+            machine_id = _machine_id(db, machine_of(record))
+            row = _json_values({
+                "event_key": key, "machine_id": machine_id, "kind": kind,
+                "recorded_at": utc_now(), "station": socket.gethostname(), "details": details,
+                "record": clean_json(record),
+                **{**columns, "software": columns["software"] or f"ogacq {__version__}"}})
+            event_id = db.scalar(
+                f"INSERT INTO {s.events.name} ({', '.join(row)}) "
+                f"VALUES ({', '.join(':' + k for k in row)}) "
+                "ON CONFLICT (event_key) DO NOTHING RETURNING id", row)
             if event_id is None:  # recorded before (here or by another station)
                 write = writeback if writeback is not None else maps
                 if write is not None:
-                    _found_done(conn, key, write)
+                    _found_done(db, key, write)
                 return Recorded(present=[key])
             if parameters:
-                rows = [{"event_id": event_id, "name": p.name, "value_mm": p.value_mm,
-                         "u_mm": p.u_mm, "expanded_mm": p.expanded_mm, "k": p.k,
-                         "std_mm": p.std_mm}
-                        for p in parameters_of(record)]
-                if rows:
-                    conn.execute(s.parameters.insert(), rows)
+                db.insert(s.parameters.name, [
+                    {"event_id": event_id, "name": p.name, "value_mm": p.value_mm,
+                     "u_mm": p.u_mm, "expanded_mm": p.expanded_mm, "k": p.k,
+                     "std_mm": p.std_mm} for p in parameters_of(record)])
             if writeback is not None:
-                conn.execute(s.offset_states.insert(),
-                             _state_rows(writeback, machine_of(record), event_id, machine_id))
+                db.insert(s.offset_states.name,
+                          _state_rows(writeback, machine_of(record), event_id, machine_id))
             if maps is not None:
-                conn.execute(s.map_states.insert(),
-                             _map_state_rows(maps, machine_of(record), event_id, machine_id))
+                db.insert(s.map_states.name, [_json_values(r) for r in _map_state_rows(
+                    maps, machine_of(record), event_id, machine_id)])
         return Recorded(new=[key])
 
     # ------------------------------------------------------------------ reading
     def present(self, keys: list[str]) -> list[str]:
         """Those of the event ``keys`` (``entries.event_key``) already recorded."""
-        e = s.events
-        with self._guard("read the events"), self._transaction(write=False) as conn:
-            found = set(conn.execute(select(e.c.event_key)
-                                     .where(e.c.event_key.in_(keys))).scalars())
+        marks = {f"key{i}": key for i, key in enumerate(keys)}
+        with self._guard("read the events"), self.db.transaction(write=False) as db:
+            found = set(db.scalars(
+                f"SELECT event_key FROM {s.events.name} "
+                f"WHERE event_key IN ({', '.join(':' + m for m in marks)})", marks)
+                if keys else [])
         return [key for key in keys if key in found]
 
     def records_seen(self, record_id: str) -> int | None:
         """The most records the history saw in the session of ``record_id`` (its events'
         records count them): a session file holding fewer lost its tail. None when the
         history holds nothing of it."""
-        e = s.events
-        with self._guard("read the events"), self._transaction(write=False) as conn:
-            records = conn.execute(select(e.c.record).where(e.c.record_id == record_id)).scalars()
-            counts = [CalibrationRecord.from_json(r).session_file.records for r in records
+        with self._guard("read the events"), self.db.transaction(write=False) as db:
+            records = db.scalars(f"SELECT record FROM {s.events.name} WHERE record_id = :id",
+                                 {"id": record_id})
+            counts = [typed_record(r).session_file.records for r in records
                       if isinstance(r, dict)]
         seen = [count for count in counts if count is not None]
         return max(seen) if seen else None
 
     def machines(self) -> list[Machine]:
-        with self._guard("read the machines"), self._transaction(write=False) as conn:
-            rows = conn.execute(select(s.machines).order_by(s.machines.c.name,
-                                                            s.machines.c.serial)).all()
+        with self._guard("read the machines"), self.db.transaction(write=False) as db:
+            rows = db.rows(f"SELECT id, name, serial FROM {s.machines.name} "
+                           "ORDER BY name, serial")
         return [Machine(r.id, r.name, r.serial) for r in rows]
 
     def find_machine(self, typed: str) -> Machine:
@@ -339,19 +319,19 @@ class History:
 
     def calibrations(self, machine: Machine) -> list[Calibration]:
         """The machine's calibrations, oldest first (by their campaign date)."""
-        e = s.events
-        with self._guard("read the calibrations"), self._transaction(write=False) as conn:
-            rows = conn.execute(select(e).where(e.c.machine_id == machine.id,
-                                                e.c.kind == "calibration")).all()
-            params = conn.execute(select(s.parameters).where(
-                s.parameters.c.event_id.in_([r.id for r in rows]))).all() if rows else []
+        with self._guard("read the calibrations"), self.db.transaction(write=False) as db:
+            rows = db.rows(f"SELECT * FROM {s.events.name} WHERE machine_id = :machine "
+                           "AND kind = 'calibration'", {"machine": machine.id})
+            params = db.rows(f"SELECT p.* FROM {s.parameters.name} p JOIN {s.events.name} e "
+                             "ON e.id = p.event_id WHERE e.machine_id = :machine "
+                             "AND e.kind = 'calibration'", {"machine": machine.id})
         by_event: dict[int, dict[str, Parameter]] = {}
         for p in params:
             by_event.setdefault(p.event_id, {})[p.name] = Parameter(
                 p.name, p.value_mm, p.u_mm, p.expanded_mm, p.k, p.std_mm)
         out = []
         for r in rows:
-            record = CalibrationRecord.from_json(r.record if isinstance(r.record, dict) else {})
+            record = typed_record(r.record if isinstance(r.record, dict) else {})
             out.append(Calibration(
                 r.record_id, r.campaign_date, r.operator, r.verdict, r.acceptance_decision,
                 r.acceptance, r.ambient_c, _in_record_order(by_event.get(r.id, {}), r.record),
@@ -362,44 +342,46 @@ class History:
     def events(self, machine: Machine) -> list[Event]:
         """Every event of the machine (calibrations, diagnoses, write-backs, restores),
         by date."""
-        e = s.events
-        with self._guard("read the events"), self._transaction(write=False) as conn:
-            rows = conn.execute(select(e.c.kind, e.c.record_id, e.c.campaign_date,
-                                       e.c.operator, e.c.session_path, e.c.details)
-                                .where(e.c.machine_id == machine.id)).all()
+        with self._guard("read the events"), self.db.transaction(write=False) as db:
+            rows = db.rows("SELECT kind, record_id, campaign_date, operator, session_path, "
+                           f"details FROM {s.events.name} WHERE machine_id = :machine",
+                           {"machine": machine.id})
         return sorted((Event(r.kind, r.record_id, r.campaign_date, r.operator, r.session_path,
                              r.details) for r in rows),
                       key=lambda v: (v.date or "", s.EVENT_KINDS.index(v.kind), v.record_id))
 
     def records(self, machine: Machine, record_id: str) -> dict[str, Any] | None:
         """The record stored whole with the machine's calibration ``record_id``."""
-        e = s.events
-        with self._guard("read a record"), self._transaction(write=False) as conn:
-            return conn.execute(select(e.c.record).where(
-                e.c.machine_id == machine.id, e.c.record_id == record_id,
-                e.c.kind == "calibration")).scalar_one_or_none()
+        with self._guard("read a record"), self.db.transaction(write=False) as db:
+            return db.scalar(f"SELECT record FROM {s.events.name} WHERE machine_id = :machine "
+                             "AND record_id = :id AND kind = 'calibration'",
+                             {"machine": machine.id, "id": record_id})
+
+    def calibration_record(self, record_id: str) -> dict[str, Any] | None:
+        """The record stored whole with the calibration ``record_id``, whichever machine's
+        (a record's id names one session), None when the history has none."""
+        with self._guard("read a record"), self.db.transaction(write=False) as db:
+            return db.scalar(f"SELECT record FROM {s.events.name} WHERE record_id = :id "
+                             "AND kind = 'calibration'", {"id": record_id})
 
     def results_history(self, machine: Machine) -> list[dict[str, Any]]:
         """The machine's calibrations as ``build_record(history=...)`` takes them
         (docs/calibration-record.md section 5): ``{"id", "date", "results"}`` each,
         the results as their records hold them, oldest first."""
-        e = s.events
-        with self._guard("read the calibrations"), self._transaction(write=False) as conn:
-            rows = conn.execute(select(e.c.record_id, e.c.campaign_date, e.c.record).where(
-                e.c.machine_id == machine.id, e.c.kind == "calibration")).all()
+        with self._guard("read the calibrations"), self.db.transaction(write=False) as db:
+            rows = db.rows(f"SELECT record_id, campaign_date, record FROM {s.events.name} "
+                           "WHERE machine_id = :machine AND kind = 'calibration'",
+                           {"machine": machine.id})
         entries = [{"id": r.record_id, "date": r.campaign_date,
-                    "results": CalibrationRecord.from_json(
+                    "results": typed_record(
                         r.record if isinstance(r.record, dict) else {}).results or {}}
                    for r in rows]
         return sorted(entries, key=lambda v: (v["date"] or "", v["id"]))
 
     def states(self, machine: Machine) -> list[OffsetState]:
         """The offsets states of the machine's write-backs and restores, oldest first."""
-        o, e = s.offset_states, s.events
-        with self._guard("read the offsets states"), self._transaction(write=False) as conn:
-            rows = conn.execute(select(o, e.c.record_id, e.c.session_path)
-                                .join(e, e.c.id == o.c.event_id)
-                                .where(o.c.machine_id == machine.id)).all()
+        with self._guard("read the offsets states"), self.db.transaction(write=False) as db:
+            rows = db.rows(_states_of(s.offset_states), {"machine": machine.id})
         states = [OffsetState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action,
                               r.status, r.profile,
                               {a: getattr(r, f"{a}_mm") for a in AXES},
@@ -411,11 +393,8 @@ class History:
         (none in a history of schema 1, which had none)."""
         if self.version < 2:
             return []
-        m, e = s.map_states, s.events
-        with self._guard("read the maps states"), self._transaction(write=False) as conn:
-            rows = conn.execute(select(m, e.c.record_id, e.c.session_path)
-                                .join(e, e.c.id == m.c.event_id)
-                                .where(m.c.machine_id == machine.id)).all()
+        with self._guard("read the maps states"), self.db.transaction(write=False) as db:
+            rows = db.rows(_states_of(s.map_states), {"machine": machine.id})
         states = [MapState(r.state_id, r.stage, r.at, r.wall, r.operation, r.action, r.status,
                            r.maps_file, r.checksum, list(r.maps or []), r.record_id,
                            r.session_path) for r in rows]
@@ -478,94 +457,84 @@ def _map_state_rows(maps: MapsWriteBack, machine: tuple[str, str], event_id: int
                                             ("after", maps.new_checksum, maps.new_maps))]
 
 
-def _found_done(conn: Connection, key: str, write: WriteBack | MapsWriteBack) -> None:
+def _states_of(table: s.Table) -> str:
+    """The states of ``table`` of a machine (``:machine``), each with its event's record
+    and session."""
+    return (f"SELECT o.*, e.record_id, e.session_path FROM {table.name} o "
+            f"JOIN {s.events.name} e ON e.id = o.event_id WHERE o.machine_id = :machine")
+
+
+def _json_values(row: dict[str, Any]) -> dict[str, Any]:
+    """``row`` with each JSON column's value marked as a document (None as JSON's null,
+    as the history has always stored it)."""
+    return {k: Json(v) if k in s.JSON_COLUMNS else v for k, v in row.items()}
+
+
+def _found_done(db: Database, key: str, write: WriteBack | MapsWriteBack) -> None:
     """A write recorded as failed or interrupted (a Ctrl-C, a kill before its outcome)
     and recorded again as done, once read back in force by a resumed procedure: the
     history says what the machine holds, not the first word it was given."""
     if write.status != "done":
         return
-    e = s.events
-    row = conn.execute(select(e.c.id, e.c.details).where(e.c.event_key == key)).one()
+    row = db.rows(f"SELECT id, details FROM {s.events.name} WHERE event_key = :key",
+                  {"key": key})[0]
     details = dict(row.details or {})
     if details.get("status") == "done":
         return
-    conn.execute(e.update().where(e.c.id == row.id).values(details={**details,
-                                                                    "status": "done"}))
+    db.execute(f"UPDATE {s.events.name} SET details = :details WHERE id = :id",
+               {"details": Json({**details, "status": "done"}), "id": row.id})
     states = s.offset_states if isinstance(write, WriteBack) else s.map_states
-    conn.execute(states.update().where(states.c.event_id == row.id).values(status="done"))
+    db.execute(f"UPDATE {states.name} SET status = 'done' WHERE event_id = :id", {"id": row.id})
 
 
-def _insert(conn: Connection, table: s.Table) -> Any:
-    """The dialect's INSERT, which has ON CONFLICT DO NOTHING on both backends."""
-    # only the dialect in use is imported (a history in SQLite loads no PostgreSQL code)
-    if conn.dialect.name == "postgresql":
-        from sqlalchemy.dialects import postgresql
-
-        return postgresql.insert(table)
-    from sqlalchemy.dialects import sqlite
-
-    return sqlite.insert(table)
-
-
-def _machine_id(conn: Connection, identity: tuple[str, str]) -> int:
+def _machine_id(db: Database, identity: tuple[str, str]) -> int:
     name, serial = identity
-    m = s.machines
-    conn.execute(_insert(conn, m).values(name=name, serial=serial, first_recorded=utc_now())
-                 .on_conflict_do_nothing(index_elements=["name", "serial"]))
-    return conn.execute(select(m.c.id).where(m.c.name == name, m.c.serial == serial)
-                        ).scalar_one()
+    m = s.machines.name
+    db.execute(f"INSERT INTO {m} (name, serial, first_recorded) "
+               "VALUES (:name, :serial, :first) ON CONFLICT (name, serial) DO NOTHING",
+               {"name": name, "serial": serial, "first": utc_now()})
+    found: int = db.scalar(f"SELECT id FROM {m} WHERE name = :name AND serial = :serial",
+                           {"name": name, "serial": serial})
+    return found
 
 
-def _engine(location: HistoryLocation, create: bool) -> Engine:
-    url = location.url
-    if location.backend == "sqlite":
-        path = Path(url.database or "")
-        if not path.parent.is_dir():
-            raise HistoryError(location, f"cannot open: there is no folder {path.parent}")
-        if not create and not path.exists():
-            raise HistoryError(location, "no history here (the file does not exist)")
-        if path.exists() and not path.is_file():
-            raise HistoryError(location, "is not a file")
-        engine = create_engine(url, connect_args={"timeout": SQLITE_BUSY_TIMEOUT_S})
-
-        @event.listens_for(engine, "connect")
-        def _connect(dbapi_connection: Any, _record: Any) -> None:
-            # the transactions are begun below, not by the driver (SQLAlchemy 2.0 docs,
-            # pysqlite dialect, "Serializable isolation / Savepoints / Transactional DDL")
-            dbapi_connection.isolation_level = None
-            dbapi_connection.execute("PRAGMA foreign_keys = ON")
-
-        @event.listens_for(engine, "begin")
-        def _begin(conn: Connection) -> None:
-            immediate = conn.info.pop("ogacq_immediate", False)
-            conn.exec_driver_sql("BEGIN IMMEDIATE" if immediate else "BEGIN")
-
-        return engine
-    return create_engine(url, connect_args={"connect_timeout": CONNECT_TIMEOUT_S},
-                         pool_pre_ping=True)
+def _database(location: HistoryLocation, create: bool) -> Database:
+    if location.path is None:
+        assert location.url is not None
+        return postgresql_database(location.url)
+    path = location.path
+    if not path.parent.is_dir():
+        raise HistoryError(location, f"cannot open: there is no folder {path.parent}")
+    if not create and not path.exists():
+        raise HistoryError(location, "no history here (the file does not exist)")
+    if path.exists() and not path.is_file():
+        raise HistoryError(location, "is not a file")
+    return sqlite_database(path)
 
 
-def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> int:
+def _prepare(db: Database, location: HistoryLocation, create: bool) -> int:
     """Check that the database is an ogacq history this version reads; create the
     schema in an empty one (when ``create``); migrate an older one (when ``create``:
     one opened to read is read as its schema stands). Returns the schema version."""
-    tables = set(inspect(conn).get_table_names())
-    if s.schema_info.name not in tables:
+    tables = db.table_names()
+    info_table = s.schema_info.name
+    if info_table not in tables:
         if tables:
             listed = ", ".join(sorted(tables)[:5]) + (", ..." if len(tables) > 5 else "")
             raise HistoryError(location, f"is not an ogacq history: it holds other tables "
                                f"({listed}); give an empty database or an ogacq history")
         if not create:
             raise HistoryError(location, "holds no ogacq history yet (nothing was recorded)")
-        s.metadata.create_all(conn)
-        conn.execute(s.schema_info.insert(), [
+        for statement in s.ddl(db.backend):
+            db.execute(statement)
+        db.insert(info_table, [
             {"key": "application", "value": s.APPLICATION},
             {"key": "version", "value": str(s.SCHEMA_VERSION)},
             {"key": "created", "value": utc_now()},
             {"key": "created_by", "value": f"ogacq {__version__}"}])
         return s.SCHEMA_VERSION
-    info: dict[str, str] = {row.key: row.value for row in conn.execute(
-        select(s.schema_info.c.key, s.schema_info.c.value))}
+    info: dict[str, str] = {row[0]: row[1] for row in db.rows(
+        f'SELECT "key", value FROM {info_table}')}
     if info.get("application") != s.APPLICATION:
         raise HistoryError(location, "is not an ogacq history (its ogacq_schema table says "
                            f"{info.get('application')!r})")
@@ -581,11 +550,8 @@ def _prepare(conn: Connection, location: HistoryLocation, create: bool) -> int:
         if not create:  # read as it is: what a later schema added is simply not there
             return version
         for step in range(version, s.SCHEMA_VERSION):
-            for statement in s.MIGRATIONS[step]:
-                if callable(statement):
-                    statement(conn)
-                else:
-                    conn.exec_driver_sql(statement)
-        conn.execute(s.schema_info.update().where(s.schema_info.c.key == "version")
-                     .values(value=str(s.SCHEMA_VERSION)))
+            for statement in s.ddl(db.backend, s.MIGRATIONS[step]):
+                db.execute(statement)
+        db.execute(f"UPDATE {info_table} SET value = :version WHERE \"key\" = 'version'",
+                   {"version": str(s.SCHEMA_VERSION)})
     return s.SCHEMA_VERSION

@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING
 from ogacq.record.identity import session_record_id
 from ogacq.session.store import LoadedSession
 
-if TYPE_CHECKING:  # SQLAlchemy is imported when a history is opened
+if TYPE_CHECKING:  # the store (its driver) is imported when a history is opened
     from ogacq.history.store import History
 
 

@@ -20,7 +20,7 @@ from ogacq.logs import logger
 from ogacq.writeback.maps_table import MapsTable, maps_checksum, read_maps_table
 from ogacq.writeback.outcome import Stage
 
-if TYPE_CHECKING:  # SQLAlchemy is imported when a history is given, not at start-up
+if TYPE_CHECKING:  # the history is imported when one is given, not at start-up
     from ogacq.campaign.campaign_file import Campaign
     from ogacq.history.location import HistoryLocation
     from ogacq.history.store import MapState
@@ -81,8 +81,7 @@ def _same_file(recorded: str, path: Path) -> bool:
 def _maps_states(location: HistoryLocation, name: str, serial: str) -> list[MapState]:
     from ogacq.history.store import History
 
-    database = location.url.database or ""
-    if location.url.drivername.startswith("sqlite") and not os.path.exists(database):
+    if location.path is not None and not location.path.exists():
         return []  # no history yet: nothing recorded to compare with
     try:
         with History.open(location, create=False) as db:

@@ -4,12 +4,20 @@ matplotlib and jinja2)."""
 
 from __future__ import annotations
 
+import gc
 import json
 import subprocess
 import sys
 
 from ogacq.cli.app import OgacqCommands
-from ogacq.cli.lazy import LazyCommandSpec, LazyGroupSpec, import_target, one_paragraph_lines
+from ogacq.cli.lazy import (
+    LazyCommandSpec,
+    LazyCommandTable,
+    LazyGroupSpec,
+    freeze_once,
+    import_target,
+    one_paragraph_lines,
+)
 
 PROBE = """
 import json, sys
@@ -57,3 +65,28 @@ def test_each_summary_is_its_commands_first_paragraph():
         if isinstance(spec, LazyCommandSpec):
             doc = one_paragraph_lines(import_target(spec.target).__doc__) or ""
             assert spec.summary == doc.split("\n\n")[0], name
+
+
+def test_a_command_is_imported_with_the_collector_paused_then_frozen(tmp_path, monkeypatch):
+    """Its imports trigger no collection (each would scan the whole heap for nothing,
+    ~10 % of a short diagnose's CPU), its objects are frozen out of later ones, and the
+    collector runs again for the command itself."""
+    (tmp_path / "throwaway_cmd.py").write_text(
+        'import gc\nCOLLECTING = gc.isenabled()\n\n\ndef command() -> None:\n    """Do."""\n')
+    monkeypatch.syspath_prepend(str(tmp_path))
+    table = LazyCommandTable({"throwaway": LazyCommandSpec("throwaway_cmd:command", "Do.")}, {})
+    other = LazyCommandTable({"other": LazyCommandSpec("throwaway_cmd:command", "Do.")}, {})
+    freeze_once.cache_clear()  # as in a new process
+    frozen = gc.get_freeze_count()
+    try:
+        assert table["throwaway"].name == "throwaway"
+        assert sys.modules["throwaway_cmd"].COLLECTING is False
+        assert gc.isenabled()
+        assert gc.get_freeze_count() > frozen
+        # once per process: a second command built freezes nothing more (the garbage a
+        # process running many commands, the tests, holds is not pinned at each)
+        gc.unfreeze()
+        assert other["other"].name == "other" and gc.get_freeze_count() == 0
+    finally:
+        gc.unfreeze()
+        sys.modules.pop("throwaway_cmd", None)

@@ -6,10 +6,10 @@ from __future__ import annotations
 import json
 
 import pytest
-from sqlalchemy import create_engine
 
 from ogacq.cli.app import main
 from ogacq.history import schema as s
+from ogacq.history.database import postgresql_database, sqlite_database
 from ogacq.history.entries import MapsWriteBack, WriteBack
 from ogacq.history.location import parse_location
 from ogacq.history.states import diff, find, timeline
@@ -20,15 +20,16 @@ RECORD = {"format": "ogacq-record/1", "id": "OGQ-20260110-00000001",
           "machine": {"name": "Ortho", "serial": "7"}, "date": "2026-01-10T09:00:00"}
 
 
-def schema_1(url) -> None:
+def schema_1(location) -> None:
     """A history as ogacq wrote it before the maps states (schema 1)."""
-    engine = create_engine(url)
-    with engine.begin() as conn:
-        s.metadata.create_all(conn, tables=[t for t in s.metadata.sorted_tables
-                                            if t is not s.map_states])
-        conn.execute(s.schema_info.insert(), [{"key": "application", "value": s.APPLICATION},
-                                              {"key": "version", "value": "1"}])
-    engine.dispose()
+    db = sqlite_database(location.path) if location.path is not None \
+        else postgresql_database(location.url)
+    with db.transaction(write=True):
+        for statement in s.ddl(db.backend, tuple(t for t in s.TABLES if t is not s.map_states)):
+            db.execute(statement)
+        db.insert(s.schema_info.name, [{"key": "application", "value": s.APPLICATION},
+                                       {"key": "version", "value": "1"}])
+    db.close()
 
 
 def record_a_procedure(db: History, *, outcome: str) -> None:
@@ -54,7 +55,7 @@ def test_schema_1_read_as_it_is_then_migrated(tmp_path, request, backend):
     where = str(tmp_path / "h.sqlite") if backend == "sqlite" \
         else request.getfixturevalue("postgres_url")
     location = parse_location(where, "--history")
-    schema_1(location.url)
+    schema_1(location)
     with History.open(location, create=False) as db:  # reading does not change it
         assert db.version == 1 and db.machines() == []
     with History.open(location) as db:  # recording brings it to schema 2

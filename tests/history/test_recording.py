@@ -12,8 +12,10 @@ import subprocess
 import sys
 from pathlib import Path
 
+from ogacq.history.database import Json
 from ogacq.history.entries import event_key
 from ogacq.history.location import parse_location
+from ogacq.history.recording import record_diagnosis
 from ogacq.history.store import History
 from ogacq.record.identity import session_record_id
 from ogacq.session.store import load_session
@@ -103,6 +105,58 @@ def test_a_session_diagnosed_again_is_found_recorded_without_building_its_record
         assert opened.present([*keys, event_key("diagnosis", "OGQ-none")]) == keys
 
 
+def test_a_diagnosis_the_history_holds_already_does_not_open_it_to_write(tmp_path, capsys,
+                                                                        monkeypatch):
+    """Found by the history opened to read: not checked as one written to is (its every
+    stored record read, ~0.1 s in a history of 600 events), since nothing is written."""
+    session, history = tmp_path / "session.jsonl", tmp_path / "history.sqlite"
+    shutil.copy(GOLDEN_SESSION, session)
+    record_diagnosis(session, {"effects": []}, str(history))
+    assert "history: 1 calibration, 1 diagnosis recorded" in capsys.readouterr().err
+
+    def opened_to_write(_history: History) -> None:
+        raise AssertionError("opened to write")
+
+    monkeypatch.setattr(History, "_check_sqlite", opened_to_write)
+    record_diagnosis(session, {"effects": []}, str(history))
+    assert capsys.readouterr().err.splitlines() == \
+        [f"history: nothing new recorded in {history}"]
+
+
+def test_a_diagnosis_takes_the_record_the_history_holds_of_the_same_file(tmp_path):
+    """The session's calibration recorded before (``history add``, as ``run`` records
+    it): its first diagnosis stores that record beside its findings, not one built
+    again; a record stored of another state of the file (its SHA-256) is built afresh."""
+    session, history = tmp_path / "session.jsonl", tmp_path / "history.sqlite"
+    shutil.copy(GOLDEN_SESSION, session)
+    added = subprocess.run([sys.executable, "-m", "ogacq", "history", "add", str(session),
+                            "--history", str(history)], capture_output=True, text=True,
+                           timeout=300, check=False)
+    assert added.returncode == 0, added.stderr
+
+    def diagnose() -> subprocess.CompletedProcess[str]:
+        done = subprocess.run([sys.executable, "-c", DIAGNOSE_PROBE, "diagnose", str(session),
+                               "--history", str(history), "--json"],
+                              capture_output=True, text=True, timeout=300, check=False)
+        assert done.returncode == 0, done.stderr
+        assert "history: 1 diagnosis recorded" in done.stderr
+        return done
+
+    assert "record not built" in diagnose().stderr.splitlines()
+    record_id = session_record_id(load_session(session))
+    location = parse_location(str(history), "the test")
+    with History.open(location) as opened:
+        stored = opened.calibration_record(record_id)
+        machine = opened.find_machine("machine (no serial)")
+        assert stored is not None and opened.records(machine, record_id) == stored
+        # the record of another state of the file: its diagnosis builds its own
+        opened.db.execute("DELETE FROM ogacq_events WHERE kind = 'diagnosis'")
+        opened.db.execute("UPDATE ogacq_events SET record = :record WHERE kind = "
+                          "'calibration'", {"record": Json({**stored, "session": {
+                              **stored["session"], "sha256": "0" * 64}})})
+    assert "record built" in diagnose().stderr.splitlines()
+
+
 def test_a_machine_without_a_serial_is_told_its_identity_the_first_time(tmp_path):
     """Issue 38.1: a machine file without a serial is filed by its name. The first
     campaign the history meets of it says so, and how a serial tells it from another of
@@ -133,3 +187,20 @@ def test_a_machine_without_a_serial_is_told_its_identity_the_first_time(tmp_path
     with History.open(parse_location(str(history), "--history")) as db:
         assert [m.label for m in db.machines()] == ["OG-1 cell 3 (no serial)",
                                                     "OG-1 cell 3 (serial OG-2026-0017)"]
+
+
+def test_a_session_diagnosed_twice_into_postgresql(tmp_path, postgres_url):
+    """The same SQL on PostgreSQL: recorded once (calibration and diagnosis), found the
+    second time with the history opened to read."""
+    session = tmp_path / "session.jsonl"
+    shutil.copy(GOLDEN_SESSION, session)
+    said = []
+    for _ in range(2):
+        done = subprocess.run([sys.executable, "-c", DIAGNOSE_PROBE, "diagnose", str(session),
+                               "--history", postgres_url, "--json"],
+                              capture_output=True, text=True, timeout=300, check=False)
+        assert done.returncode == 0, done.stderr
+        said.append(done.stderr.splitlines())
+    assert said[0][0].startswith("history: 1 calibration, 1 diagnosis recorded in postgresql")
+    assert said[1][0].startswith("history: nothing new recorded in postgresql")
+    assert said[1][-1] == "record not built"

@@ -4,15 +4,15 @@ a database that is not an ogacq history, or cannot be reached, is one clear erro
 
 from __future__ import annotations
 
+import contextlib
 import sqlite3
 import threading
 from pathlib import Path
 
 import pytest
-from sqlalchemy import create_engine, text
 
 from ogacq.errors import InputError, StorageError
-from ogacq.history.entries import WriteBack
+from ogacq.history.entries import MapsWriteBack, WriteBack
 from ogacq.history.location import parse_location
 from ogacq.history.store import History
 from tests.history.records import contract_record
@@ -160,12 +160,10 @@ def test_a_database_that_is_not_an_ogacq_history_is_refused(tmp_path):
 def test_a_newer_schema_is_refused_and_the_version_row_is_there(tmp_path):
     path = tmp_path / "h.sqlite"
     History.open(parse_location(str(path), "--history")).close()
-    engine = create_engine(f"sqlite:///{path}")
-    with engine.begin() as conn:
-        assert conn.execute(text("SELECT value FROM ogacq_schema WHERE key = 'version'")
-                            ).scalar_one() == "2"
-        conn.execute(text("UPDATE ogacq_schema SET value = '7' WHERE key = 'version'"))
-    engine.dispose()
+    with contextlib.closing(sqlite3.connect(path)) as conn, conn:
+        assert conn.execute("SELECT value FROM ogacq_schema WHERE key = 'version'"
+                            ).fetchone() == ("2",)
+        conn.execute("UPDATE ogacq_schema SET value = '7' WHERE key = 'version'")
     with pytest.raises(StorageError, match=r"newer ogacq \(schema 7; this one reads up to 2\)"):
         History.open(parse_location(str(path), "--history"))
 
@@ -204,8 +202,50 @@ def test_bad_locations_are_input_errors(value, words):
 
 
 def test_a_path_is_an_sqlite_file_and_postgres_gets_psycopg(tmp_path):
-    assert parse_location("h.sqlite", "--history").url.database == \
-        str(Path("h.sqlite").absolute())
+    assert parse_location("h.sqlite", "--history").path == Path("h.sqlite").absolute()
     pg = parse_location("postgresql://u:secret@db.site/ogacq", "--history")
     assert pg.url.drivername == "postgresql+psycopg"
     assert "secret" not in pg.describe()
+
+
+def test_a_url_s_options_reach_libpq(tmp_path):
+    """``?host=/socket/folder`` (a server on a Unix socket) is the host libpq tries, as
+    SQLAlchemy's psycopg dialect passed the URL's options."""
+    folder = tmp_path / "no-server-here"
+    location = parse_location(f"postgresql://ogacq@/h?host={folder}", "--history")
+    with pytest.raises(StorageError) as caught:
+        History.open(location)
+    assert "cannot open (" in str(caught.value) and str(folder) in str(caught.value)
+
+
+EARLIER = Path(__file__).with_name("earlier_history.sql")
+
+
+def test_a_history_an_earlier_ogacq_wrote_is_read_and_recorded_into(tmp_path):
+    """A history as ogacq wrote it through SQLAlchemy Core (``earlier_history.sql``, the
+    SQLite dump of one: a calibration, an offsets write-back, an interrupted maps write)
+    reads as it did and takes new records: the tables are the same, the JSON the
+    same text (``null`` for None)."""
+    path = tmp_path / "h.sqlite"
+    with sqlite3.connect(path) as conn:
+        conn.executescript(EARLIER.read_text())
+    with History.open(parse_location(str(path), "--history")) as db:
+        machine = db.find_machine("machine (no serial)")
+        [calibration] = db.calibrations(machine)
+        assert calibration.parameters["joint_offset.x"].value_mm == -1.242616
+        assert calibration.verdict["state"] == "consistent"
+        assert [(v.stage, v.offsets_mm["x"]) for v in db.states(machine)] == \
+            [("before", 0.0), ("after", -1.2426)]
+        assert [(v.stage, v.status, len(v.maps)) for v in db.map_states(machine)] == \
+            [("before", "interrupted", 0), ("after", "interrupted", 1)]
+        assert [(v.kind, v.details and v.details["action"]) for v in db.events(machine)] == \
+            [("calibration", None), ("write-back", "write"), ("map-write", "write")]
+        record = db.records(machine, calibration.record_id)
+        assert record is not None and db.calibration_record(calibration.record_id) == record
+        assert db.record_diagnosis(record, {"effects": []}).new == \
+            [f"diagnosis:{calibration.record_id}"]
+        maps = MapsWriteBack("maps-write-1", "write", "done", "maps.json", (), "e3b0",
+                             ({"format": "ogacq-axis-map/1", "axis": "x"},), "abcd",
+                             1768039300.0)
+        assert db.record_maps_writeback(record, maps).present  # found done: said so
+        assert {v.status for v in db.map_states(machine)} == {"done"}
