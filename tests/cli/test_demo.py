@@ -2,7 +2,10 @@
 
 import json
 import re
+from pathlib import Path
 
+from ogacq.session.records import CalibrateRecord
+from ogacq.session.store import load_session
 from tests.cli.helpers import run_ogacq
 from tests.recovery import recovered
 
@@ -14,6 +17,17 @@ def final_rejected_by_chance(diagnosis: dict) -> bool:
     CI command under load, seed 4)."""
     final = diagnosis["chi2"]["final"]
     return not final["consistent"] and (final.get("p") or 0.0) > 1e-6
+
+
+def loop_rejected_by_chance(calibrate: Path) -> bool:
+    """The loop's validations the same: one not within the noise at the 1 % level yet
+    far from a correction gone wrong (p > 1e-6), none worse (seen once in the CI command
+    under load, seed 4: "improved", where alone it is validated at p = 1)."""
+    verdicts = [r.details["verdict"] for r in
+                load_session(calibrate / "procedure.jsonl").of_type(CalibrateRecord)
+                if r.step == "validation"]
+    return any(not v["consistent"] for v in verdicts) and \
+        all(v["consistent"] or (v["p_value"] or 0.0) > 1e-6 for v in verdicts)
 
 
 def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_home,
@@ -29,7 +43,8 @@ def test_demo_with_concealed_squareness_tells_the_whole_story(tmp_path, ogacq_ho
                          "--out", out / seed, "--operator", "J. Martin", timeout=400)
         assert proc.returncode == 0, proc.stderr
         diagnosis = json.loads((out / seed / "diagnosis.json").read_text())
-        if not final_rejected_by_chance(diagnosis):
+        if not final_rejected_by_chance(diagnosis) and \
+                not loop_rejected_by_chance(out / seed / "calibrate"):
             break
     out = out / seed
     for name in ("session.jsonl", "readings.csv", "result.json", "diagnosis.json",

@@ -21,6 +21,7 @@ from ogacq.history.drift import changes, controller_changes
 from ogacq.io.machine_file import read_machine
 from tests.cli.helpers import run_ogacq
 from tests.history.test_drift import calibration
+from tests.interrupts import sigint_as_at_a_terminal
 
 PROTOTYPE = "Orthoglide prototype"
 
@@ -37,10 +38,11 @@ def test_the_readme_history_command_after_demo_sim_and_run(tmp_path):
     assert [line for line in demo.stdout.splitlines() if len(line) > width] == []
 
     campaign = tmp_path / "sim.toml"
-    sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", "50",
-                            "--write-campaign", str(campaign)], stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True, start_new_session=True,
-                           env={**os.environ, "COLUMNS": "200"})
+    with sigint_as_at_a_terminal():  # the suite may run with SIGINT ignored
+        sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--speed", "50",
+                                "--write-campaign", str(campaign)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               env={**os.environ, "COLUMNS": "200"})
     try:
         said = sim.stderr.readline()  # the identity it gave the machine it wrote
         served = sim.stdout.readline()

@@ -13,14 +13,16 @@ import sys
 from ogacq.campaign.campaign_file import read_campaign
 from ogacq.campaign.station import open_gauges
 from tests.cli.helpers import run_ogacq
+from tests.interrupts import sigint_as_at_a_terminal
 
 
 def test_sim_serves_the_scales_and_its_campaign_file_declares_them(tmp_path):
     campaign = tmp_path / "sim.toml"
-    sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--axis-scales", "z,x",
-                            "--write-campaign", str(campaign)], stdout=subprocess.PIPE,
-                           stderr=subprocess.PIPE, text=True, start_new_session=True,
-                           env={**os.environ, "COLUMNS": "1000"})  # one line each
+    with sigint_as_at_a_terminal():  # the suite may run with SIGINT ignored
+        sim = subprocess.Popen([sys.executable, "-m", "ogacq", "sim", "--axis-scales", "z,x",
+                                "--write-campaign", str(campaign)], stdout=subprocess.PIPE,
+                               stderr=subprocess.PIPE, text=True, start_new_session=True,
+                               env={**os.environ, "COLUMNS": "1000"})  # one line each
     try:
         served = ""
         while "Ctrl-C" not in served:
