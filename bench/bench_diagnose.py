@@ -23,6 +23,7 @@ Run: python bench/bench_diagnose.py [N, default 5] [--dump DIR] [--scipy] [--onl
 from __future__ import annotations
 
 import argparse
+import fcntl
 import os
 import shutil
 import statistics
@@ -130,7 +131,10 @@ def main() -> None:
     parser.add_argument("--scipy", action="store_true")
     parser.add_argument("--only", action="append", default=[])
     args = parser.parse_args()
-    # one fixed folder: the outputs name their files, and dumps of two runs compare
+    # one fixed folder: the outputs name their files, and dumps of two runs compare;
+    # a second run at once waits for the first instead of deleting its folder
+    lock = FOLDER.with_suffix(".lock").open("a")
+    fcntl.flock(lock, fcntl.LOCK_EX)
     folder = FOLDER
     shutil.rmtree(folder, ignore_errors=True)
     folder.mkdir()
@@ -170,6 +174,7 @@ def main() -> None:
             scipy_comparison()
     finally:
         shutil.rmtree(folder, ignore_errors=True)
+        lock.close()  # the lock goes with it
 
 
 def scipy_comparison() -> None:
