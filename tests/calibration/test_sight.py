@@ -184,15 +184,23 @@ def test_targets_at_the_travels_ends_show_a_periodic_correction_over_the_travel(
     assert outcome_of(False, True, {"x": sight}) == "validated"
 
 
-def test_a_wrong_pitch_is_found_and_not_shown():
-    """The validation reads what a 5 mm map leaves of a 5.1 mm lead: its pitch found
-    off beyond chance, by more than the correction's size far from its reference."""
+def sight_of_a_wrong_pitch(amplitude_mm: float, lead_mm: float, written_mm: float,
+                           ) -> AxisSight:
+    """The validation's sight of a map of pitch ``written_mm`` written for a lead of
+    ``lead_mm`` (what it reads is what the map leaves of the lead)."""
     lead, written = (MapTerm("lead_screw_cyclic", 0, {"pitch_mm": p}, 0.4)
-                     for p in (5.1, 5.0))
-    truth = SimTruth(vector({}), map_terms=((lead, (0.0045, 0.0)),
-                                            (written, (-0.0045, 0.0))))
+                     for p in (lead_mm, written_mm))
+    truth = SimTruth(vector({}), map_terms=((lead, (amplitude_mm, 0.0)),
+                                            (written, (-amplitude_mm, 0.0))))
     result, verdict = validation_of(truth)
-    sight = sights({"x": periodic_map(0.0045, 5.0)}, result, verdict, MACHINE)["x"]
+    return sights({"x": periodic_map(amplitude_mm, written_mm)}, result, verdict,
+                  MACHINE)["x"]
+
+
+def test_a_wrong_pitch_is_found_and_not_shown():
+    """A 5 mm map written for a 5.1 mm lead: its pitch found off beyond chance, by more
+    than the correction's size far from its reference."""
+    sight = sight_of_a_wrong_pitch(0.0045, 5.1, 5.0)
     assert sight.period is not None and "pitch" in sight.period.beyond_chance, sight.period
     assert not sight.shown
     assert "finds its pitch found off beyond chance" in sight.sentence()
@@ -210,12 +218,7 @@ def test_two_validations_bound_a_period_as_the_tighter_does():
 
 def test_a_grossly_wrong_pitch_is_not_shown_by_its_period():
     """The case the sight was made for, on the period's test: a 15.08 mm map written
-    for a 4 µm lead of 20 mm (what the validation reads is what the map leaves)."""
-    lead, written = (MapTerm("lead_screw_cyclic", 0, {"pitch_mm": p}, 0.4)
-                     for p in (20.0, 15.08))
-    truth = SimTruth(vector({}), map_terms=((lead, (0.004, 0.0)),
-                                            (written, (-0.004, 0.0))))
-    result, verdict = validation_of(truth)
-    sight = sights({"x": periodic_map(0.004, 15.08)}, result, verdict, MACHINE)["x"]
+    for a 4 µm lead of 20 mm."""
+    sight = sight_of_a_wrong_pitch(0.004, 20.0, 15.08)
     # seen directly over 18 mm, less than two of its periods: nothing by the period
     assert sight.seen == sight.seen_directly and not sight.shown, sight.period
