@@ -126,19 +126,7 @@ def test_a_positioning_test_stopped_half_way_continues_and_writes_its_figures(tm
     """Interrupted after 20 readings (recorded, the axes stopped), the same command
     continues it: every target read once per run and direction, the first one left
     approached from its run's own start, and the figures printed and written as JSON."""
-    campaign_path = write_campaign(tmp_path, speed=200, extra="[axis_scale.y]\n")
-    campaign_path.write_text(campaign_path.read_text().replace(
-        "[simulator]\n", "[simulator]\nline_at_speed = true\n"))
-    campaign = read_campaign(campaign_path)
-    plan = positioning_plan(campaign.machine, "y", runs=2, drive_step_mm=0.01)
-    session = tmp_path / "positioning-y.jsonl"
-
-    def stop_at_20(progress):
-        if progress.done == 20:
-            raise KeyboardInterrupt
-
-    with pytest.raises(CampaignStopped):
-        run_positioning(campaign, plan, session, observer=stop_at_20)
+    campaign_path, plan, session = stopped_y_test(tmp_path, 20, KeyboardInterrupt())
     assert len(load_session(session).of_type(PositionRecord)) == 20
     assert main(["positioning", str(campaign_path), "--axis", "y", "--runs", "2", "--json"]) == 0
     printed = json.loads(capsys.readouterr().out.splitlines()[-1])
@@ -163,6 +151,15 @@ def test_a_positioning_test_stopped_by_the_disk_or_a_deadline_stops_the_axes(
         tmp_path, raised, status):
     """A full disk (or a stop of its own kind) mid-test ends as a campaign's does: the
     axes stopped, the end recorded with its own status, CampaignStopped raised."""
+    _, _, session = stopped_y_test(tmp_path, 5, raised)
+    (end,) = load_session(session).of_type(EndRecord)
+    assert (end.status, end.axes_stopped, end.readings) == (status, True, 5)
+
+
+def stopped_y_test(tmp_path, after: int, raised: BaseException):
+    """A two-run positioning test of y on the simulator, ``raised`` out of its progress
+    after ``after`` readings (CampaignStopped the outcome): its campaign file, plan and
+    session."""
     campaign_path = write_campaign(tmp_path, speed=200, extra="[axis_scale.y]\n")
     campaign_path.write_text(campaign_path.read_text().replace(
         "[simulator]\n", "[simulator]\nline_at_speed = true\n"))
@@ -170,14 +167,13 @@ def test_a_positioning_test_stopped_by_the_disk_or_a_deadline_stops_the_axes(
     plan = positioning_plan(campaign.machine, "y", runs=2, drive_step_mm=0.01)
     session = tmp_path / "positioning-y.jsonl"
 
-    def stop_at_5(progress):
-        if progress.done == 5:
+    def stop(progress):
+        if progress.done == after:
             raise raised
 
     with pytest.raises(CampaignStopped):
-        run_positioning(campaign, plan, session, observer=stop_at_5)
-    (end,) = load_session(session).of_type(EndRecord)
-    assert (end.status, end.axes_stopped, end.readings) == (status, True, 5)
+        run_positioning(campaign, plan, session, observer=stop)
+    return campaign_path, plan, session
 
 
 def plan_steps_read(plan):
