@@ -259,11 +259,13 @@ class Procedure:
         diagnosed together."""
         machine = self.setup.machine
         read = _plan_of(scan)
-        loose = [] if unresolved(scanned) else loose_references(scanned, machine)
-        if not unresolved(scanned) and not loose:
-            return scanned
-        why = "a pitch is left unresolved" if not loose else \
-            "a pitch is loose for the travel (its map's uncertainty beyond half its size)"
+        if unresolved(scanned):
+            loose, why = [], "a pitch is left unresolved"
+        else:
+            loose = loose_references(scanned, machine)
+            why = "a pitch is loose for the travel (its map's uncertainty beyond half its size)"
+            if not loose:
+                return scanned
         more = resolving_plan(read, machine, loose)
         rate = seconds_per_step(scan)
         needed = steps_of(more, machine) * rate

@@ -9,13 +9,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from ogacq.calibration.resolving import resolving_plan
+from ogacq.calibration.resolving import loose_references, resolving_plan
 from ogacq.calibration.validation_design import predicted_sight, validation_plan
+from ogacq.diagnose.diagnosis import diagnose
 from ogacq.model.error_maps import axis_map, terms_json
 from ogacq.model.families.base import MapTerm
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL as MACHINE
-from ogacq.protocol.plan import ProtocolConfig, reading_steps, scan_targets
-from ogacq.protocol.scan_design import between_plan, design_scan
+from ogacq.model.parameters import vector
+from ogacq.protocol.plan import ProtocolConfig, planned_layout, reading_steps, scan_targets
+from ogacq.protocol.scan_design import between_plan, design_scan, sampled_band
+from ogacq.sim.readings import simulated_readings
+from ogacq.sim.truth import LeadScrewError, SimTruth
 
 NOISE_MM = 0.0009  # the scatter the designed scan's run measured
 
@@ -80,3 +84,23 @@ def test_a_lead_longer_than_half_the_stretch_seen_directly_grows_nothing():
     scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
     plan = validation_plan(scan, lead_map(20.0), MACHINE, NOISE_MM)
     assert plan == between_plan(scan, MACHINE)
+
+
+def test_a_pitch_is_loose_for_the_travel_where_the_readings_leave_it_so():
+    """A 4 µm lead of 6.35 mm read by the designed scan at 0.5 µm on the 1 µm display:
+    its map's uncertainty, the pitch's slip over the 100 mm from its reference included
+    (6.33 +- 0.03 mm), is beyond half its size far off, so the scan is read again; a
+    machine without the lead has no map to read again for."""
+    scan = design_scan(MACHINE, ProtocolConfig(), noise_mm=0.0005).protocol
+    layout = planned_layout(scan, MACHINE)
+    band = sampled_band(scan, MACHINE)
+    loose = {}
+    for amplitude in (0.004, 0.0):
+        truth = SimTruth(vector({}), lead_screw={1: LeadScrewError(amplitude, 6.35)}
+                         if amplitude else {})
+        obs = simulated_readings(MACHINE, layout, truth, scatter_mm=0.0005,
+                                 step_mm=MACHINE.gauge_resolution_mm, seed=3)
+        found = diagnose(obs, pitch_band_mm=band)
+        assert [m.axis for m in found.maps] == (["y"] if amplitude else []), found.maps
+        loose[amplitude] = loose_references(found, MACHINE)
+    assert loose == {0.004: [0.0], 0.0: []}
