@@ -173,8 +173,8 @@ class AxisSight:
             return (f"the {self.axis} correction ({size:.2g} µm about its mean) is shown "
                     f"over the travel: directly over {self.seen_where(directly=True)}, "
                     f"elsewhere by its period ({self.period.pitch_mm:.4g} mm): "
-                    f"{self.period.bound_words()} (at its {noise:.2g} µm noise). Beyond "
-                    "what it reads this holds for an "
+                    f"{self.period.bound_words(noise)}. Beyond what it reads this holds "
+                    "for an "
                     "error that repeats unchanged each screw revolution, which the gauges "
                     f"did not measure there; an axis scale along the {self.axis} actuator "
                     f"([axis_scale.{self.axis}] in the campaign file) would")
@@ -246,10 +246,10 @@ class PeriodSight:
         return replace(best, reach_mm=_least(self.reach_mm, other.reach_mm),
                        bounds_mm=_least(self.bounds_mm, other.bounds_mm))
 
-    def bound_words(self) -> str:
+    def bound_words(self, noise_um: float) -> str:
         said = (f"the validation would see an error of its {', '.join(MODES[:-1])} or "
                 f"{MODES[-1]} that left its size there, and finds none (at most "
-                f"{max(self.bounds_mm) * UM_PER_MM:.2g} µm)")
+                f"{max(self.bounds_mm) * UM_PER_MM:.2g} µm, at its {noise_um:.2g} µm noise)")
         return said + (f"; {self.off_words()}, less than its size" if self.beyond_chance
                        else "")
 
