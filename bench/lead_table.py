@@ -71,13 +71,11 @@ def table_line(folder: Path, name: str, axis: str, seed: int) -> str:
     seen = ""
     if sight:
         limits, size = sight["limits_mm"], sight["correction_mm"]
-        period = sight.get("period")  # the stretches the period's test bounds
-        bounds = period["bounds_mm"] if period else [None] * len(limits)
-        seen_in = sum(any(v is not None and v <= size for v in pair)
-                      for pair in zip(limits, bounds, strict=True))
-        seen = (f"; {'shown' if sight['shown'] else 'not shown'}, seen in {seen_in} of "
-                f"{len(limits)} stretches" + (" (by its period beyond those read)"
-                                              if period else ""))
+        seen_in = sum(v is not None and v <= size for v in limits)
+        by_period = sight["shown"] and seen_in < len(limits)
+        seen = (f"; {'shown' if sight['shown'] else 'not shown'}, seen directly in "
+                f"{seen_in} of {len(limits)} stretches"
+                + (", elsewhere by its period" if by_period else ""))
     check = (steps.get("scales", {}).get("checks") or {}).get(axis)
     if check:
         seen = (f"; by the scale {'shown' if check['shown'] else 'not shown'} "
