@@ -80,9 +80,10 @@ def calibrate(
                       "designed one (targets at irregular intervals that sample every lead "
                       "the machine file states, else every lead from 2 to 40 mm).")] = None,
     scan_minutes: Annotated[float | None, typer.Option(
-        min=1.0, help="The machine time the designed separating scan may take; given (or "
-                      "the campaign file's scan_minutes), the scan grows within it toward "
-                      "its detection target (default: "
+        min=1.0, help="The machine time the designed separating scan may take (with its "
+                      "reading again of a pitch left loose), and the validation scan after "
+                      "the write likewise; given (or the campaign file's scan_minutes), the "
+                      "scan grows within it toward its detection target (default: "
                       f"{SCAN_MINUTES:g}, the fewest targets that sample every lead).")] = None,
     axis_scales: Annotated[str, axis_scales_option(
         "With --simulator: the axes (e.g. x,y,z) along which a scale is mounted; a map "
