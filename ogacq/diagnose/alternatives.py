@@ -17,9 +17,8 @@ from ogacq.diagnose.batchfit import Problem, fit_many
 from ogacq.diagnose.library import BASE_MODEL, singles
 from ogacq.diagnose.selection import Model
 from ogacq.identify.noise import GaugeNoise
+from ogacq.identify.search_rules import SWAP_CHI2
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX, indices
-
-SWAP_CHI2 = 9.0
 
 
 @dataclass(frozen=True)

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ogacq.diagnose.alternatives import SWAP_CHI2, Alternative
+from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
 from ogacq.diagnose.mapfit import (
@@ -37,6 +37,7 @@ from ogacq.diagnose.selection import Model
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
+from ogacq.identify.search_rules import SWAP_CHI2
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.families import MapValue

@@ -30,7 +30,6 @@ from typing import Any
 
 import numpy as np
 
-from ogacq.diagnose.alternatives import SWAP_CHI2
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
@@ -38,6 +37,7 @@ from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
+from ogacq.identify.search_rules import OVERSAMPLE, SWAP_CHI2
 from ogacq.model.error_maps import MapTerm
 from ogacq.model.families import FAMILIES, SearchedAxis, ShapeGrid
 from ogacq.model.gauges import AXES
@@ -49,7 +49,6 @@ from ogacq.model.units import UM_PER_MM
 # smooth map more positions than its spline has functions. No source: the smallest
 # record on which these families are determined at all, with a margin.
 MIN_POSITIONS = 10
-OVERSAMPLE = 5  # periodogram grid: this many frequencies per resolution element
 MIN_PERIODS = 3.0  # over the span: a longer period is the smooth map's
 SAMPLES_PER_PERIOD = 2.5  # distinct positions per period: above Nyquist's 2
 # The shortest cyclic error searched for: the shortest lead of the ball screws that

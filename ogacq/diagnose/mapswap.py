@@ -6,7 +6,7 @@ The papers' postures read each joint at five positions, where a smooth screw err
 passes for an encoder scale, a leg length, a backlash or a gauge's position. So each
 library effect found is swapped for each map family fittable whatever the campaign
 (a cubic screw map, each rail's bow), and each map for each library effect and other
-family; a swap within ``alternatives.SWAP_CHI2`` is an alternative, the rule between
+family; a swap within ``search_rules.SWAP_CHI2`` is an alternative, the rule between
 library effects. The swaps are linear about the final model: these columns barely
 change over micrometres. For each pair the readings cannot tell apart, a scan is
 proposed (every few millimetres along each leg, up and back down): the coarsest
@@ -22,7 +22,7 @@ from functools import cached_property
 
 import numpy as np
 
-from ogacq.diagnose.alternatives import SWAP_CHI2, Alternative
+from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapfit import MapFit, map_columns
 from ogacq.diagnose.mapsearch import AxisCoverage
@@ -30,6 +30,7 @@ from ogacq.diagnose.mapspace import term_columns
 from ogacq.diagnose.separation import SEPARATES_CHI2
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import readings_observations
+from ogacq.identify.search_rules import SWAP_CHI2
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.families import FAMILIES
 from ogacq.model.gauges import AXES

@@ -62,7 +62,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 from typing import Any
 
@@ -70,7 +70,16 @@ import numpy as np
 
 from ogacq.identify.noise import GaugeNoise, GroupWhitener, shared_rounding_variance
 from ogacq.identify.observations import Observations
+from ogacq.identify.search_rules import (
+    FOUND_SHARE,
+    LEVEL,
+    OVERSAMPLE,
+    chi2_threshold,
+    found_noncentrality,
+    resolved_noncentrality,
+)
 from ogacq.model.error_maps import JointHistory, MapTerm
+from ogacq.model.families import FAMILIES
 from ogacq.model.joint_sensitivity import joint_sensitivity
 from ogacq.model.machine import MachineSpec
 from ogacq.model.measurement import ReadingsLayout
@@ -144,6 +153,8 @@ class ScanDesign:
     smooth_bound_mm: float = 0.0
     display_step_mm: float = 0.0
     rounding_repeated: bool = False  # most of a reading's noise its repeats share
+    # family -> the size the map search takes at FOUND_SHARE (cyclic_found_mm)
+    found_mm: dict[str, float] = field(default_factory=dict)
 
     @property
     def targets_mm(self) -> tuple[float, ...]:
@@ -196,6 +207,7 @@ class ScanDesign:
                    + ", ".join(f"{FAMILY_WORDS[f]} {v * UM_PER_MM:.2g} µm" if math.isfinite(v)
                                else f"{FAMILY_WORDS[f]} not determined (too few targets)"
                                for f, v in self.detection_mm.items()))
+        out += self._found_lines()
         if math.isfinite(self.detection_mm.get("screw_map", math.inf)):
             out.append("the smooth map's is for its shape beyond a constant and a slope (the "
                        "joint offset's and the encoder scale's), the least visible one of an "
@@ -217,6 +229,18 @@ class ScanDesign:
                        "own line (ISO 230-2) sees it whole")
         return out
 
+    def _found_lines(self) -> list[str]:
+        found = self.found_mm.get("lead_screw_cyclic")
+        if found is None:
+            return []
+        if not math.isfinite(found):
+            return ["a cyclic error's pitch may stay unresolved at any size: a pitch apart "
+                    "from the lead fits alike"]
+        return [f"a cyclic error is found reliably ({FOUND_SHARE:.0%} of them) from about "
+                f"{found * UM_PER_MM:.2g} µm at its worst lead: the search tries every pitch "
+                "of the band, and says a pitch between rival peaks unresolved (the figure "
+                "above is for a pitch known)"]
+
     def to_json(self) -> dict[str, Any]:
         return {"targets_mm": list(self.targets_mm), "cycles": self.protocol.cycles,
                 "reading_steps": self.steps, "duration_s": round(self.duration_s, 1),
@@ -232,7 +256,9 @@ class ScanDesign:
                 "detection_target_steps": self.target_steps or None,
                 "smooth_bound_mm": round(self.smooth_bound_mm, 7) or None,
                 "detection_mm": {f: round(v, 7) if math.isfinite(v) else None
-                                 for f, v in self.detection_mm.items()}}
+                                 for f, v in self.detection_mm.items()},
+                "found_mm": {f: round(v, 7) if math.isfinite(v) else None
+                             for f, v in self.found_mm.items()}}
 
 
 FAMILY_WORDS = {"lead_screw_cyclic": "cyclic error", "screw_map": "smooth map",
@@ -391,10 +417,12 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
         if timed and finite and smooth > DETECTION_TARGET_MM else 0.0
     bound = bound if bound > DETECTION_TARGET_MM else 0.0
     step = machine.gauge_resolution_mm
+    found = {"lead_screw_cyclic": cyclic_found_mm(protocol, machine, noise_mm, band, stated)} \
+        if band[0] < band[1] else {}
     return ScanDesign(protocol, steps, seconds_per_step, budget_s, required, stated, band,
                       unsampled, max(gaps), noise_mm, placed.detection,
                       alias_level(targets, shortest), needed, bound, step,
-                      reading_noise(noise_mm, step).rounding_dominated)
+                      reading_noise(noise_mm, step).rounding_dominated, found)
 
 
 def _counted_and_placed(scan: _Scan, n: int, most: int, timed: bool, grow: bool = True,
@@ -546,6 +574,69 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
                         for t in family_terms)
             out[family] = max(out.get(family, 0.0), DETECTION_SIGMAS * noise_mm * worst)
     return out
+
+
+def cyclic_found_mm(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: float,
+                    band_mm: tuple[float, float], stated_mm: tuple[float, ...] = ()) -> float:
+    """The amplitude of a cyclic error the map search takes at ``FOUND_SHARE``, at the
+    worst lead of the band and the stated ones, on the worst axis
+    (``identify.search_rules``): its test over every pitch of the periodogram and the
+    candidates beside it, and its rule against a rival peak, whose share of the error
+    is the largest any pitch apart from the lead's main lobe captures (the readings
+    weighed as the diagnosis weighs them, the offsets and gauges' zeros taken out)."""
+    layout = planned_layout(protocol, machine)
+    history = JointHistory.of(layout)
+    rows = _Rows.of(layout, machine, noise_mm)
+    nuisance = _orthonormal(rows.offsets)
+    span = protocol.scan_targets_mm[-1] - protocol.scan_targets_mm[0]
+    df = 1.0 / (OVERSAMPLE * span)
+    freqs = np.arange(1.0 / band_mm[1], 1.0 / band_mm[0] + df / 2, df)
+    candidates = len(protocol.legs) * sum(1 for f in FAMILIES.values() if not f.in_time)
+    threshold = max(chi2_threshold(2, LEVEL / (len(freqs) * candidates)),
+                    3 * math.log(len(layout)))  # the BIC's price of a sine, a cosine, a pitch
+    tested = found_noncentrality(2, threshold)
+    periods = sorted({*np.geomspace(band_mm[0], band_mm[1], 12).tolist(), *stated_mm})
+    worst = 0.0
+    for leg in protocol.legs:
+        axis = AXES.index(leg)
+
+        def columns(pitch: float, axis: int = axis) -> np.ndarray:
+            cols = rows.of_term(MapTerm("lead_screw_cyclic", axis, {"pitch_mm": pitch}),
+                                history)
+            return cols - nuisance @ (nuisance.T @ cols)
+
+        bases = np.stack([np.linalg.qr(columns(1.0 / f))[0] for f in freqs])  # (F, n, 2)
+        for period in periods:
+            cols = columns(period)
+            normal = cols.T @ cols
+            try:
+                std = math.sqrt(float(np.max(np.diag(np.linalg.inv(normal)))))
+                unit = cols @ np.linalg.inv(np.linalg.cholesky(normal)).T  # unit-norm signal
+            except np.linalg.LinAlgError:
+                return math.inf
+            captured = np.einsum("fni,nj->fij", bases, unit)
+            # the share a pitch captures at a phase drawn at random: half the trace
+            shares = np.einsum("fij,fij->f", captured, captured) / 2.0
+            sidelobe = _rival_share(shares, freqs, 1.0 / period, OVERSAMPLE * df)
+            worst = max(worst, std * math.sqrt(max(tested, resolved_noncentrality(sidelobe))))
+    return noise_mm * worst
+
+
+def _rival_share(shares: np.ndarray, freqs: np.ndarray, lead: float, lobe: float) -> float:
+    """The largest share a rival peak captures: a local maximum of ``shares`` over
+    ``freqs`` at least ``lobe`` from the lead's frequency, outside the lead's own peak
+    (the slope from it down to its first minimum on either side), as the search's
+    rule takes its rivals (``diagnose.mapsearch._rival_pitch``)."""
+    inner = (shares[1:-1] >= shares[:-2]) & (shares[1:-1] >= shares[2:])
+    peaks = np.flatnonzero(np.concatenate([[shares[0] > shares[1]], inner,
+                                           [shares[-1] > shares[-2]]]))
+    own = int(np.argmin(np.abs(freqs - lead)))
+    while 0 < own < len(shares) - 1 and shares[own + 1] > shares[own]:
+        own += 1
+    while 0 < own < len(shares) - 1 and shares[own - 1] > shares[own]:
+        own -= 1
+    apart = peaks[(peaks != own) & (np.abs(freqs[peaks] - lead) >= lobe)]
+    return float(np.max(shares[apart], initial=0.0))
 
 
 def reading_noise(noise_mm: float, step_mm: float) -> GaugeNoise:

@@ -20,7 +20,8 @@ import numpy as np
 import pytest
 
 from ogacq.diagnose.diagnosis import diagnose
-from ogacq.diagnose.mapsearch import OVERSAMPLE, RIVALS, _rival_pitch
+from ogacq.diagnose.mapsearch import RIVALS, _rival_pitch
+from ogacq.identify.search_rules import OVERSAMPLE
 from ogacq.model.machine import PAPER_PROTOTYPE_DIGITAL as MACHINE
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 from ogacq.protocol.scan_design import design_scan, sampled_band
