@@ -21,7 +21,7 @@ from ogacq.diagnose.mapfit import (
     fit_with_maps,
     map_columns,
 )
-from ogacq.diagnose.mapsearch import AxisCoverage, MapSearch, search_maps
+from ogacq.diagnose.mapsearch import RIVALS, AxisCoverage, MapSearch, search_maps
 from ogacq.diagnose.mapswap import (
     Proposal,
     ScanSignatures,
@@ -46,6 +46,10 @@ from ogacq.model.parameters import NOMINAL, PARAM_INDEX
 from ogacq.model.units import json_number
 
 UNIT_MM = "mm"
+# Library effects and maps together that are not taken as settled while the maps from
+# the joint offsets alone stopped on an unresolved pitch (issue 37: "no combination of
+# three or more effects is chosen over one map without a test that prefers it").
+MANY_TERMS = 3
 # what an explanation adds to the rest of a model: values, library names, map terms
 Explanation = tuple[np.ndarray, list[str], list[MapTerm]]
 
@@ -331,6 +335,12 @@ def _chosen_route(problem: Problem, noise: GaugeNoise, library: _Route, base: Mo
     if base is None or not effects or library.fit is None:
         return library, None  # no library effect, or no map beside them
     alone = _route(problem, noise, base, alpha, history, band)
+    if alone.fit is None and len(effects) + len(library.fit.terms) >= MANY_TERMS:
+        # not settled while the maps alone stopped on a pitch between rival peaks: a
+        # combination stands in for the one error no scan has yet resolved (a 2 um
+        # lead of 22.9 mm beside a bend read as a leg length and three rail bows)
+        library.search.unresolved_alone = [c for c in alone.search.unresolved
+                                           if c.unresolved.startswith(RIVALS)]
     # only a simpler explanation is weighed against the library's: a backlash is not
     # renamed a hysteresis of no length, which is the same physics
     if alone.fit is None or not alone.consistent or \

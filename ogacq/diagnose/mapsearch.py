@@ -199,6 +199,10 @@ class MapSearch:
     steps: list[MapStep] = field(default_factory=list)
     last_considered: list[MapCandidate] = field(default_factory=list)
     searched: bool = False  # any axis dense enough (or time spread) to search at all
+    # cyclic errors the search from the joint offsets alone stopped on, their pitch
+    # between rival peaks, where this search's model holds three terms or more
+    # (``maps._chosen_route``)
+    unresolved_alone: list[MapCandidate] = field(default_factory=list)
 
     @property
     def terms(self) -> list[MapTerm]:
@@ -206,10 +210,12 @@ class MapSearch:
 
     @property
     def unresolved(self) -> list[MapCandidate]:
-        """Cyclic errors seen beyond the noise at the last step but at the band's edge:
-        their pitch lies beyond what the positions resolve, so none is given."""
+        """Cyclic errors seen beyond the noise at the last step but at the band's edge
+        or between rival peaks: their pitch is not resolved, so none is given."""
         last = self.last_considered or (self.steps[-1].considered if self.steps else [])
-        return [c for c in last if c.unresolved and c.p_value < self.level]
+        here = [c for c in last if c.unresolved and c.p_value < self.level]
+        named = {c.term.name for c in here}
+        return here + [c for c in self.unresolved_alone if c.term.name not in named]
 
 
 def _variance_left(space: MapSpace, noise: GaugeNoise, gain: float, params: int) -> float:
