@@ -37,7 +37,7 @@ from ogacq.identify.consistency import LEVEL
 from ogacq.identify.distributions import f_sf
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.axis_map import AxisMap
-from ogacq.model.error_maps import axis_map, tabulation_step, terms_json
+from ogacq.model.error_maps import ShapeSpread, axis_map, tabulation_step, terms_json
 from ogacq.model.families import MapTerm
 from ogacq.model.measurement import ReadingsLayout
 from ogacq.model.parameters import AXES
@@ -89,7 +89,7 @@ class ScaleMap:
                         source=f"{term.kind.source(term)}, by the {self.axis} axis scale",
                         extra={**term.kind.table_extra(term), "terms": terms_json([term]),
                                "measured_by": "axis scale"},
-                        shape_std=[self.pitch_std_mm], zero_at=zero_at_mm)
+                        spreads=[ShapeSpread(self.pitch_std_mm)], zero_at=zero_at_mm)
 
     def sentence(self) -> str:
         return (f"the {self.axis} axis scale measures a cyclic error of "

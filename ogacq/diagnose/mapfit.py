@@ -23,7 +23,15 @@ from ogacq.identify.fit import FitResult, StopReason
 from ogacq.identify.identifiability import RANK_TOLERANCE, judge_covariance, plausible_ranges
 from ogacq.identify.noise import GaugeNoise
 from ogacq.model.axis_map import AxisMap
-from ogacq.model.error_maps import JointHistory, MapTerm, axis_map, tabulation_step, terms_json
+from ogacq.model.error_maps import (
+    NO_SPREAD,
+    JointHistory,
+    MapTerm,
+    ShapeSpread,
+    axis_map,
+    tabulation_step,
+    terms_json,
+)
 from ogacq.model.gauges import AXES
 from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
 from ogacq.model.parameters import indices
@@ -166,11 +174,11 @@ def as_fit_result(fitted: MapFit, library: FitResult) -> FitResult:
 
 
 def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, float]],
-              steps: dict[int, float], shape_std: dict[str, float] | None = None,
+              steps: dict[int, float], spreads: Mapping[str, ShapeSpread] | None = None,
               zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
     """One ``AxisMap`` per axis with a map along its line, its terms summed, the band
     from their joint covariance (times ``inflation``) and their shapes' std
-    (``shape_std`` by term name: a pitch); zero at the terms' reference, or at the
+    (``spreads`` by term name: a pitch's); zero at the terms' reference, or at the
     axis's ``zero_at`` (``error_maps.axis_map``)."""
     out = []
     for axis in range(3):
@@ -188,10 +196,10 @@ def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, f
         for t in terms:
             extra.update(t.kind.table_extra(t))
         source = "; ".join(t.kind.source(t) for t in terms)
-        stds = [(shape_std or {}).get(t.name, math.nan) * inflation for t in terms]
+        spread = [(spreads or {}).get(t.name, NO_SPREAD).scaled(inflation) for t in terms]
         out.append(axis_map(terms, [fitted.coefficients[k] for k in ks], cov, lo, hi,
                             tabulation_step(terms, steps.get(axis)), source=source,
-                            excludes=excludes, extra=extra, shape_std=stds,
+                            excludes=excludes, extra=extra, spreads=spread,
                             zero_at=(zero_at or {}).get(axis)))
     return tuple(out)
 

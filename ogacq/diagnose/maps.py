@@ -191,7 +191,7 @@ class MapOutcome:
             ranges[a] = (min(lo, c.from_mm), max(hi, c.to_mm))
         maps = axis_maps(self.fit, self.inflation, ranges,
                          {a: c.step_mm for a, c in covs.items()},
-                         {s.added.term.name: s.added.shape_std for s in self.search.steps},
+                         {s.added.term.name: s.added.spread for s in self.search.steps},
                          zero_at)
         return tuple(dataclasses.replace(m, extra={**m.extra, "measured_mm": [
             covs[AXES.index(m.axis)].from_mm, covs[AXES.index(m.axis)].to_mm]})
@@ -387,7 +387,7 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
                                      coverage=covs.get(term.axis), established=established))
     maps = axis_maps(fitted, inflation, {a: (c.from_mm, c.to_mm) for a, c in covs.items()},
                      {a: c.step_mm for a, c in covs.items()},
-                     {s.added.term.name: s.added.shape_std for s in search.steps}) \
+                     {s.added.term.name: s.added.spread for s in search.steps}) \
         if fitted is not None and established else ()
     outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
                          route.rss / noise.variance, inflation, rival)

@@ -38,7 +38,7 @@ from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.search_rules import OVERSAMPLE, SWAP_CHI2
-from ogacq.model.error_maps import MapTerm
+from ogacq.model.error_maps import MapTerm, ShapeSpread
 from ogacq.model.families import FAMILIES, SearchedAxis, ShapeGrid
 from ogacq.model.gauges import AXES
 from ogacq.model.measurement import ReadingsLayout
@@ -166,6 +166,9 @@ class MapCandidate:
     size_mm: float = 0.0  # its largest displacement: what plausibility judges
     reason: str = ""  # why not taken ("" when eligible)
     shape_std: float = math.nan  # of the shape parameter (pitch mm, build-up mm, tau s)
+    # the coefficients' change per unit of it along its profile (a pitch's; None: not
+    # known): ``error_maps.ShapeSpread.path``
+    shape_path: np.ndarray | None = field(default=None, compare=False)
     unresolved: str = ""  # why its shape is not resolved (then never added)
     # its shape refined between the grid's points, with the shape's std: done only for
     # a candidate that is taken (the test is on the grid, whose multiplicity it counts)
@@ -182,6 +185,10 @@ class MapCandidate:
     @property
     def eligible(self) -> bool:
         return not self.reason
+
+    @property
+    def spread(self) -> ShapeSpread:
+        return ShapeSpread(self.shape_std, self.shape_path)
 
 
 @dataclass
@@ -308,7 +315,8 @@ class _Families:
                                  int(gain.rank[0]) + 1)
             std_f = _curvature_std(at, top, df / 20, var)
             term = MapTerm(family, a, {"pitch_mm": 1.0 / top})
-            return self._candidate(term, gain, len(freqs), 1, shape_std=std_f / top**2)
+            return self._candidate(term, gain, len(freqs), 1, shape_std=std_f / top**2,
+                                   shape_path=self._profile_path(top, df / 20))
 
         pitch = 1.0 / float(freqs[best])
         term = MapTerm(family, a, {"pitch_mm": pitch})
@@ -324,6 +332,12 @@ class _Families:
         return self._candidate(term, self._periodic_gain(freqs[best:best + 1]), len(freqs),
                                1, refine=None if unresolved else refine,
                                unresolved=unresolved)
+
+    def _profile_path(self, f: float, h: float) -> np.ndarray:
+        """The cyclic term's coefficients' change per mm of pitch along its profile at
+        frequency ``f`` (refitted at f +- h; dP = -df / f^2)."""
+        up, down = (self._periodic_gain(np.array([f + s])).coefficients[0] for s in (h, -h))
+        return np.asarray((up - down) / (2 * h) * -(f * f), dtype=float)
 
     def _periodic_gain(self, freqs: np.ndarray) -> Gain:
         """The exact gains at ``freqs``, column by column at every repeat group."""

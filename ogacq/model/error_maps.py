@@ -97,6 +97,23 @@ def travel_since_reversal(q_mm: np.ndarray, side: np.ndarray,
     return np.where((side != 0) & seen_reset, since, np.inf)
 
 
+@dataclass(frozen=True)
+class ShapeSpread:
+    """A term's shape parameter (a pitch) as known: its std, and how the term's
+    coefficients move along its profile per unit of it (``path``: they are refitted as
+    it moves, so a pitch's error turns the phase about where the readings are, not about
+    the reference; None: taken as still)."""
+
+    std: float
+    path: np.ndarray | None = None
+
+    def scaled(self, factor: float) -> ShapeSpread:
+        return ShapeSpread(self.std * factor, self.path)
+
+
+NO_SPREAD = ShapeSpread(math.nan)
+
+
 def tabulation_step(terms: list[MapTerm], scan_step_mm: float | None) -> float:
     """A table's step that represents the terms by linear interpolation: the scan's
     step or 1 mm, finer where a family's shape asks (``MapFamily.table_step_mm``: a
@@ -107,10 +124,11 @@ def tabulation_step(terms: list[MapTerm], scan_step_mm: float | None) -> float:
 def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: np.ndarray,
              from_mm: float, to_mm: float, step_mm: float, *, source: str,
              excludes: tuple[str, ...] = (), extra: Mapping | None = None,
-             shape_std: list[float] | None = None, zero_at: float | None = None) -> AxisMap:
+             spreads: list[ShapeSpread] | None = None,
+             zero_at: float | None = None) -> AxisMap:
     """The ``AxisMap`` of one axis from its fitted along-the-line terms: the band
-    (k = 1) from the stacked ``covariance`` and each term's ``shape_std`` (a pitch's
-    phase slips the farther from the reference). Forward moving up after a long run,
+    (k = 1) from the stacked ``covariance`` and each term's shape spread (a pitch's
+    phase slips the farther from where the readings hold it). Forward moving up after a long run,
     reverse moving down (a hysteresis wound up: a controller's backlash table; its
     build-up in ``extra``). ``zero_at``: the reference (the terms' by default); the
     map less its value there forward, the band that of the difference."""
@@ -134,12 +152,19 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
 
     coef = np.concatenate(coefficients)
     slip = np.zeros(len(q))  # variance from the shapes' own uncertainty
-    for term, c, std in zip(terms, coefficients, shape_std or [math.nan] * len(terms),
-                            strict=True):
+    for term, c, spread in zip(terms, coefficients, spreads or [NO_SPREAD] * len(terms),
+                               strict=True):
         slope_q = term.kind.shape_slope(term, c, q)
         slope_ref = term.kind.shape_slope(term, c, np.array([ref]))
-        if slope_q is not None and slope_ref is not None and math.isfinite(std):
-            slip += ((slope_q - slope_ref) * std) ** 2
+        if slope_q is None or slope_ref is None or not math.isfinite(spread.std):
+            continue
+        moved = slope_q - slope_ref
+        if spread.path is not None:  # the coefficients refitted along the profile
+            n = len(q)
+            own = term.shape_of(q, np.ones(n), np.full(n, np.inf), np.zeros(n)) - \
+                term.shape_of(np.array([ref]), np.ones(1), np.full(1, np.inf), np.zeros(1))
+            moved = moved + spread.path @ own
+        slip += (moved * spread.std) ** 2
     out = {}
     for side in (1, -1):
         g = design(side)  # (k, Q)

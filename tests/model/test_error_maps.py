@@ -17,8 +17,10 @@ from ogacq_drivers.sim.clock import SimClock
 from ogacq_drivers.sim.motion import MotionModel
 from ogacq.errors import InputError
 from ogacq.model.error_maps import (
+    NO_SPREAD,
     JointHistory,
     MapTerm,
+    ShapeSpread,
     axis_map,
     cubic_bspline,
     travel_since_reversal,
@@ -147,7 +149,7 @@ def test_axis_maps_from_terms():
     lag = MapTerm("hysteresis", 0, {"length_mm": 3.0})
     coefficients = [np.array([0.004, 0.002]), np.array([0.02])]
     table = axis_map([cyclic, lag], coefficients, np.eye(3) * 1e-8, -100.0, 60.0, 0.25,
-                     source="test", shape_std=[0.01, float("nan")])
+                     source="test", spreads=[ShapeSpread(0.01), NO_SPREAD])
     q = np.array(table.positions_mm)
     assert q[0] == -100.0 and q[-1] == 60.0 and 0.0 in q
     assert table.error_mm(0.0, 1) == pytest.approx(0.0, abs=1e-15)  # zero forward at 0
@@ -156,6 +158,26 @@ def test_axis_maps_from_terms():
     assert np.allclose(np.array(table.reverse_mm) - table.forward_mm, 0.02)  # lost motion
     u = np.array(table.u_forward_mm)
     assert u[q == 0.0] == pytest.approx(0.0, abs=1e-15) and u[0] > u[len(q) // 2]
+
+
+def test_a_pitchs_error_turns_the_map_about_where_its_path_holds_it():
+    """Refitted along its profile, a cyclic term's coefficients move with its pitch so
+    that the map stays where the readings hold it: there the pitch's std adds nothing,
+    while taken as still it would slip by the distance from the reference."""
+    cyclic = MapTerm("lead_screw_cyclic", 0, {"pitch_mm": 5.0})
+    c = np.array([0.004, 0.002])
+    held = np.array([-60.0])
+    slope = cyclic.kind.shape_slope(cyclic, c, held)
+    shapes = cyclic.shape_of(held, np.ones(1), np.full(1, np.inf), np.zeros(1))[:, 0]
+    path = -slope[0] * shapes / (shapes @ shapes)  # the least change that holds it there
+
+    def band(spread: ShapeSpread) -> np.ndarray:
+        table = axis_map([cyclic], [c], np.eye(2) * 1e-12, -100.0, 60.0, 0.25, source="t",
+                         spreads=[spread])
+        return np.interp(held, table.positions_mm, table.u_forward_mm)
+
+    still, turned = band(ShapeSpread(0.01)), band(ShapeSpread(0.01, path))
+    assert still[0] > 1e-4 and turned[0] < 1e-3 * still[0], (still, turned)
 
 
 def test_effects_file_takes_the_axis_errors(tmp_path: Path):
