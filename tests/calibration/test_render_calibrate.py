@@ -68,3 +68,13 @@ def test_the_designed_scan_is_printed_before_it_moves(monkeypatch):
     assert "resolves every period from 2 to 40 mm at 4 phases or more" in text
     assert ("detection limit (3 sigma at the gauge noise 0.5 µm): cyclic error 0.8 µm, "
             "smooth map 1.9 µm") in text
+    found = design.found_mm["lead_screw_cyclic"] * 1e3
+    assert f"a cyclic error is found reliably (95% of them) from about {found:.2g} µm" in text
+    # where the scan then finds no map, the end says what it leaves possible
+    monkeypatch.setattr(render_calibrate.render_offsets, "print_plan", lambda *a, **k: None)
+    ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
+    ui.separation(plan, 25.0)
+    ui.compensation(SimpleNamespace(uncompensated=(), maps={}, tables=[]),  # type: ignore[arg-type]
+                    SimpleNamespace(refusals=[]), None)  # type: ignore[arg-type]
+    assert (f"no error map to write: the separating scan finds a cyclic error of about "
+            f"{found:.2g} µm or more (95% of them); a smaller one may remain") in out.getvalue()
