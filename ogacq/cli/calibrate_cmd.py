@@ -10,6 +10,7 @@ confirm on, ``--yes`` is required.
 
 from __future__ import annotations
 
+import dataclasses
 import datetime
 import json
 import sys
@@ -64,6 +65,12 @@ def calibrate(
                                      "noise.")] = DEFAULT_SEED,
     profile: Annotated[ProfileChoice, typer.Option(
         help="With --simulator: its controller register map.")] = ProfileChoice["cia402"],
+    machine: Annotated[Path | None, typer.Option(
+        "--machine", "-m", help="With --simulator: rehearse on this machine file (its legs, "
+                                "travel, gauges' display step, screws' leads) instead of the "
+                                "papers' prototype; its serial taken as SIM-SEED, so that "
+                                "the history keeps the rehearsal apart from the "
+                                "machine.")] = None,
     speed: Annotated[float, typer.Option(min=1.0, help="With --simulator: simulated time "
                                                        "speed-up.")] = DEFAULT_SPEED,
     out: Annotated[Path | None, typer.Option(
@@ -116,7 +123,10 @@ def calibrate(
     scales = _scale_axes(axis_scales, simulator)
     if effects is not None and campaign is not None:
         raise InputError("--effects", "is the simulator's: give it with --simulator")
-    files = _simulator_files(seed, effects) if simulator and resume is None else {}
+    if machine is not None and not simulator:
+        raise InputError("--machine", "is the simulator's: a station's machine file is its "
+                         "campaign file's")
+    files = _simulator_files(seed, effects, machine) if simulator and resume is None else {}
     folder, resuming = _folder(campaign, simulator, out, resume, files)
     if not yes and not sys.stdin.isatty():
         raise Refused("calibrate writes to the controller and asks first: without a terminal "
@@ -247,11 +257,17 @@ def _clear_start_up(folder: Path, files: dict[str, bytes]) -> None:
         entry.unlink()
 
 
-def _simulator_files(seed: int, effects: Path | None) -> dict[str, bytes]:
-    """The files ``--simulator`` writes into a new folder: its machine file and a copy
-    of the effects file (read once: a pipe can be read only once)."""
-    files = {MACHINE_FILE: machine_text(simulated_machine(seed),
-                                        PAPER_PROTOTYPE_DIGITAL_NOTE).encode("utf-8")}
+def _simulator_files(seed: int, effects: Path | None,
+                     machine: Path | None = None) -> dict[str, bytes]:
+    """The files ``--simulator`` writes into a new folder: its machine file (the papers'
+    prototype, or ``machine``'s under the rehearsal's serial) and a copy of the effects
+    file (read once: a pipe can be read only once)."""
+    if machine is None:
+        spec, note = simulated_machine(seed), PAPER_PROTOTYPE_DIGITAL_NOTE
+    else:
+        spec = dataclasses.replace(read_machine(machine), serial=simulated_machine(seed).serial)
+        note = f"A rehearsal on the simulator of {machine} (its serial the rehearsal's)."
+    files = {MACHINE_FILE: machine_text(spec, note).encode("utf-8")}
     if effects is not None:
         files[EFFECTS_FILE] = read_effects_text(effects).encode("utf-8")
     return files
@@ -277,7 +293,8 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
     # a rehearsal of the procedure, not of the gauges' line timing: the lines at --speed
     spec = SimulatorSpec(seed=seed, effects=effects_path, speed=speed, profile=profile,
                          line_at_speed=True, axis_scales=scales)
-    return simulator_setup(folder, simulated_machine(seed), (folder / MACHINE_FILE).resolve(),
+    machine_path = (folder / MACHINE_FILE).resolve()
+    return simulator_setup(folder, read_machine(machine_path), machine_path,
                            spec, operator=operator or login_name("calibrate"),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, scan_minutes=scan_minutes,
