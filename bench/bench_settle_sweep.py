@@ -4,9 +4,8 @@ The papers' campaign (72 readings) on 1 um gauges (display step 0.001 mm, the
 simulator's noise 1 um), on the ringing simulator (`ogacq/sim/truth.py:Vibration`:
 5-10 um at 20 Hz, time constant 0.15 s after every move), run once with
 `settle = "fixed"` and once with `settle = "stable"` for each seed, in real time
-(`--speed` to change it; above x1, the gauges' lines still at their real baud rate,
-the simulated ringing is slowed to what they can sample,
-`ogacq/sim/stack.py:RESOLVABLE_RINGING_HZ`).
+(`--speed` to change it; above x1 the gauges, read more sparsely in machine time,
+show the ringing's mean between their values: `ogacq/sim/machine.py:vibration_mm`).
 
 For each run it prints: the campaign's wall time and the settle time the rule
 took; the identified joint offsets with their std, and stable's shift from fixed

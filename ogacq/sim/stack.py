@@ -10,7 +10,6 @@ are simulated.
 
 from __future__ import annotations
 
-import dataclasses
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -83,37 +82,16 @@ def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: flo
         push_period_s=PUSH_PERIOD_S, line_speed=line_speed))
 
 
-# The fastest ringing (Hz of real time) the simulated gauges sample well enough for a
-# settle by their values to see it: an 01A exchange takes 15.6 ms at 9600 baud, three
-# of them a period at 20 Hz. No source: the simulator's own bound.
-RESOLVABLE_RINGING_HZ = 20.0
-
-
-def _resolvable(truth: SimTruth, line_slowdown: float) -> SimTruth:
-    """The truth a simulator rings with when its gauges' lines run ``line_slowdown``
-    times slower than its physics (its speed over its lines' speed): a ringing of
-    machine frequency f reaches such a gauge at f x line_slowdown of its exchanges,
-    beyond what they can sample, so it rings at most at RESOLVABLE_RINGING_HZ /
-    line_slowdown (amplitude and decay unchanged) and tests the settle, not aliasing.
-    Where the lines keep pace with the physics (a rehearsal with its lines at speed, or
-    real time) the ringing is as stated: capped, a 20 Hz mode became a creep slower
-    than the settle's window (0.8 Hz with its 0.15 s decay at speed 25) that no window
-    covers, and every reading kept about a micrometre of it."""
-    limit = RESOLVABLE_RINGING_HZ / line_slowdown
-    if truth.vibration.frequency_hz <= limit:
-        return truth
-    return dataclasses.replace(truth, vibration=dataclasses.replace(
-        truth.vibration, frequency_hz=limit))
-
-
 class SimulatorStack:
     def __init__(self, config: SimulatorConfig) -> None:
         self.config = config
         self.clock = SimClock(config.speed)
         m = config.machine
         self.motion = MotionModel(self.clock, soft_min_mm=m.rho_min_mm, soft_max_mm=m.rho_max_mm)
-        self.machine = SimMachine(m, _resolvable(config.truth,
-                                                  config.speed / config.line_speed), self.motion,
+        # the ringing as stated at any speed: a gauge shows its mean between two
+        # values (SimMachine.vibration_mm), which does not alias however slowly a
+        # rehearsal at speed reads it
+        self.machine = SimMachine(m, config.truth, self.motion,
                                   self.clock, seed=config.seed)
         profile = load_profile(config.profile)
         if not profile.endpoint_per_axis:

@@ -153,6 +153,22 @@ class Vibration:
         """The largest vibration a gauge can show ``since_stop_s`` after a stop."""
         return self.amplitude_mm * float(np.exp(-max(since_stop_s, 0.0) / self.time_constant_s))
 
+    def mean_mm(self, share: float, phase: float, from_s: float, to_s: float) -> float:
+        """The mean over ``from_s``..``to_s`` after a stop of the ringing of amplitude
+        ``share`` x ``amplitude_mm`` and ``phase`` (its value at ``to_s`` where the span
+        is nil): the integral of ``exp(-a t) sin(w t + phase)`` is ``exp(-a t) (-a
+        sin(w t + phase) - w cos(w t + phase)) / (a^2 + w^2)``."""
+        a, w = 1.0 / self.time_constant_s, 2 * np.pi * self.frequency_hz
+        amplitude = share * self.amplitude_mm
+        if to_s - from_s < 1e-9:
+            return amplitude * float(np.exp(-a * to_s) * np.sin(w * to_s + phase))
+
+        def primitive(t: float) -> float:
+            return float(np.exp(-a * t) * (-a * np.sin(w * t + phase)
+                                           - w * np.cos(w * t + phase)) / (a * a + w * w))
+
+        return amplitude * (primitive(to_s) - primitive(from_s)) / (to_s - from_s)
+
 
 @dataclass
 class SimTruth:
