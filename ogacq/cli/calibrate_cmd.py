@@ -121,11 +121,7 @@ def calibrate(
     reason = override_reason(override_expired)
     operator = checked_name(operator, "--operator") if operator is not None else None
     scales = _scale_axes(axis_scales, simulator)
-    if effects is not None and campaign is not None:
-        raise InputError("--effects", "is the simulator's: give it with --simulator")
-    if machine is not None and not simulator:
-        raise InputError("--machine", "is the simulator's: a station's machine file is its "
-                         "campaign file's")
+    _simulator_options_only_with_it(simulator, campaign, effects, machine)
     files = _simulator_files(seed, effects, machine) if simulator and resume is None else {}
     folder, resuming = _folder(campaign, simulator, out, resume, files)
     if not yes and not sys.stdin.isatty():
@@ -255,6 +251,15 @@ def _clear_start_up(folder: Path, files: dict[str, bytes]) -> None:
             leftovers.append(entry)
     for entry in leftovers:
         entry.unlink()
+
+
+def _simulator_options_only_with_it(simulator: bool, campaign: Path | None,
+                                    effects: Path | None, machine: Path | None) -> None:
+    if effects is not None and campaign is not None:
+        raise InputError("--effects", "is the simulator's: give it with --simulator")
+    if machine is not None and not simulator:
+        raise InputError("--machine", "is the simulator's: a station's machine file is its "
+                         "campaign file's")
 
 
 def _simulator_files(seed: int, effects: Path | None,
