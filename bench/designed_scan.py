@@ -50,11 +50,12 @@ the error; the LinuxCNC tables leave 0.21 / 0.14 / 0.26 um rms (seed 1), 0.18 / 
 (before: 1.1 um, a 0.8 Hz creep left in every reading), at which calibrate's design
 states 0.52 um cyclic, 1.22 um smooth, 0.47 um hysteresis. Those runs sampled the
 ringing at points; with the gauges showing its mean between their values (as now):
-seed 1 0.25 / 0.42 / 0.29 um, all validated; seed 2 x and z validated, y once refused
-(a 3-value setting reading 5 sigma off the 12-value readings' noise left the maps not
-established, and the calibration campaign's leg length the offsets unidentifiable) and
-once "improved" (exit 0, 0.13 um: the validation at 0.19 um sees the table's own
-error). The simulator runs in real time: two runs of one seed differ.
+seed 1 0.25 / 0.42 / 0.29 um and seed 3 0.20 / 0.14 / 0.30 um, all validated; seed 2
+x and z validated, y once refused (a 3-value setting reading 5 sigma off the 12-value
+readings' noise left the maps not established, and the calibration campaign's leg
+length the offsets unidentifiable) and once "improved" (exit 0, 0.13 um: the
+validation at 0.19 um sees the table's own error). The simulator runs in real time:
+two runs of one seed differ.
 """
 
 from __future__ import annotations
