@@ -9,26 +9,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import pytest
-
-from ogacq.calibration import procedure
-from ogacq.errors import Refused
 from ogacq.io.machine_file import read_machine
 from tests.writeback.conftest import ogacq_here
 
 EXAMPLE = Path(__file__).parents[2] / "ogacq" / "examples" / "machine.toml"
-
-
-@pytest.fixture
-def started(monkeypatch):
-    setups = []
-
-    def stop_at_once(setup, ui, *, resume, history=None):
-        setups.append((setup, resume))
-        raise Refused("stopped by the test before any campaign")
-
-    monkeypatch.setattr(procedure, "calibrate", stop_at_once)
-    return setups
 
 
 def test_a_rehearsal_runs_on_the_machine_file_given(tmp_path, capsys, monkeypatch, started):

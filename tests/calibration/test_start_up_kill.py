@@ -11,10 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from ogacq.calibration import procedure
 from ogacq.calibration.log import LOG_NAME, ProcedureLog
 from ogacq.cli.calibrate_cmd import _simulator_files
-from ogacq.errors import Refused
 from tests.writeback.conftest import ogacq_here
 
 SEED = 7
@@ -26,19 +24,6 @@ def effects(tmp_path: Path) -> Path:
     path = tmp_path / "effects-given.toml"
     path.write_text(EFFECTS)
     return path
-
-
-@pytest.fixture
-def started(monkeypatch):
-    """The setups the procedure was started with, each stopped at once."""
-    setups = []
-
-    def stop_at_once(setup, ui, *, resume, history=None):
-        setups.append((setup, resume))
-        raise Refused("stopped by the test before any campaign")
-
-    monkeypatch.setattr(procedure, "calibrate", stop_at_once)
-    return setups
 
 
 def killed_at_start_up(folder: Path, effects: Path) -> None:
