@@ -43,14 +43,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from designed_scan import uniform_step_resolving  # bench/, beside this file
 
 from ogacq.compensation.export import export_tables
 from ogacq.compensation.formats import TABLE_FORMATS
 from ogacq.diagnose.diagnosis import diagnose
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES, vector
-from ogacq.protocol.plan import ProtocolConfig, planned_layout, reading_steps, scan_targets
-from ogacq.protocol.scan_design import ScanDesign, design_scan, resolved_band, sampled_band
+from ogacq.protocol.plan import ProtocolConfig, planned_layout, reading_steps
+from ogacq.protocol.scan_design import ScanDesign, design_scan, sampled_band
 from ogacq.sim.readings import simulated_readings
 from ogacq.sim.truth import LeadScrewError, ScrewMap, SimTruth
 
@@ -301,15 +302,12 @@ def _print_machine_time(scan: Scan) -> None:
     if scan.design is None:
         return
     band = scan.pitch_mm
-    for step in np.arange(band[0] / 2, 0.0, -0.01):  # the largest uniform step resolving it
-        uniform = ProtocolConfig(scan_step_mm=round(float(step), 2), approach="both",
-                                 cycles=scan.protocol.cycles, postures=())
-        targets = np.array(scan_targets(uniform, MACHINE))
-        if resolved_band(targets, band[1], band[0])[0][0] <= band[0] + 1e-9:
-            n = len(reading_steps(uniform, MACHINE))
-            print(f"a uniform scan resolving the same leads ({band[0]:g}-{band[1]:g} mm): "
-                  f"every {step:.2f} mm, {n} reading steps, {n * STEP_S / 3600:.1f} h")
-            return
+    step = uniform_step_resolving(band)  # designed_scan's: 4 phases, no strong alias
+    uniform = ProtocolConfig(scan_step_mm=step, approach="both", cycles=scan.protocol.cycles,
+                             postures=())
+    n = len(reading_steps(uniform, MACHINE))
+    print(f"a uniform scan resolving the same leads ({band[0]:g}-{band[1]:g} mm): every "
+          f"{step:.2f} mm, {n} reading steps, {n * STEP_S / 3600:.1f} h")
 
 
 def _shares(t: Tally) -> str:
