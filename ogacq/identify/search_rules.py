@@ -30,11 +30,10 @@ amplitude's std is sigma_A):
 from __future__ import annotations
 
 import math
-
-import numpy as np
+from statistics import NormalDist
 
 from ogacq.identify.consistency import LEVEL
-from ogacq.identify.distributions import chi2_sf, normal_sf
+from ogacq.identify.distributions import chi2_sf
 
 __all__ = ["FOUND_SHARE", "LEVEL", "OVERSAMPLE", "SWAP_CHI2", "chi2_threshold",
            "found_noncentrality", "resolved_noncentrality"]
@@ -85,13 +84,5 @@ def resolved_noncentrality(sidelobe_share: float, share: float = FOUND_SHARE) ->
     captures it all)."""
     if sidelobe_share >= 1.0:
         return math.inf
-    z = _normal_quantile(share)
+    z = NormalDist().inv_cdf(share)
     return (z + math.sqrt(z * z + SWAP_CHI2)) ** 2 / (1.0 - sidelobe_share)
-
-
-def _normal_quantile(share: float) -> float:
-    lo, hi = -10.0, 10.0
-    for _ in range(100):
-        mid = (lo + hi) / 2.0
-        lo, hi = (mid, hi) if float(np.asarray(normal_sf(mid))) > 1.0 - share else (lo, mid)
-    return (lo + hi) / 2.0
