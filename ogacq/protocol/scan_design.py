@@ -553,9 +553,7 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
     the rms over the travel of a smooth map's least visible shape less its line, a
     hysteresis' lost motion; the readings weighed as the diagnosis weighs them, the
     display's rounding shared by each posture's repeats (:func:`reading_noise`)."""
-    layout = planned_layout(protocol, machine)
-    history = JointHistory.of(layout)
-    rows = _Rows.of(layout, machine, noise_mm)
+    rows, history = _Rows.planned(protocol, machine, noise_mm)
     nuisance = _orthonormal(rows.offsets)
     lo, hi = protocol.scan_targets_mm[0], protocol.scan_targets_mm[-1]
     periods = sorted({*np.geomspace(band_mm[0], band_mm[1], 12).tolist(), *stated_mm})
@@ -584,16 +582,14 @@ def cyclic_found_mm(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: fl
     candidates beside it, and its rule against a rival peak, whose share of the error
     is the largest any pitch apart from the lead's main lobe captures (the readings
     weighed as the diagnosis weighs them, the offsets and gauges' zeros taken out)."""
-    layout = planned_layout(protocol, machine)
-    history = JointHistory.of(layout)
-    rows = _Rows.of(layout, machine, noise_mm)
+    rows, history = _Rows.planned(protocol, machine, noise_mm)
     nuisance = _orthonormal(rows.offsets)
     span = protocol.scan_targets_mm[-1] - protocol.scan_targets_mm[0]
     df = 1.0 / (OVERSAMPLE * span)
     freqs = np.arange(1.0 / band_mm[1], 1.0 / band_mm[0] + df / 2, df)
     candidates = len(protocol.legs) * sum(1 for f in FAMILIES.values() if not f.in_time)
     threshold = max(chi2_threshold(2, LEVEL / (len(freqs) * candidates)),
-                    3 * math.log(len(layout)))  # the BIC's price of a sine, a cosine, a pitch
+                    3 * math.log(len(rows.layout)))  # the BIC's price of a sine, a cosine, a pitch
     tested = found_noncentrality(2, threshold)
     periods = sorted({*np.geomspace(band_mm[0], band_mm[1], 12).tolist(), *stated_mm})
     worst = 0.0
@@ -661,6 +657,13 @@ class _Rows:
     s_s: np.ndarray  # (n, 3) at the gauge's setting pose
     layout: ReadingsLayout
     whiten: Callable[[np.ndarray], np.ndarray]  # along the last axis: (..., n)
+
+    @classmethod
+    def planned(cls, protocol: ProtocolConfig, machine: MachineSpec,
+                noise_mm: float) -> tuple[_Rows, JointHistory]:
+        """The rows of ``protocol``'s planned readings, and their joints' history."""
+        layout = planned_layout(protocol, machine)
+        return cls.of(layout, machine, noise_mm), JointHistory.of(layout)
 
     @classmethod
     def of(cls, layout: ReadingsLayout, machine: MachineSpec, noise_mm: float) -> _Rows:
