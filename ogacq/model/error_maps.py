@@ -151,23 +151,22 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
         return shapes(q, side) - at_ref
 
     coef = np.concatenate(coefficients)
+    designs = {side: design(side) for side in (1, -1)}  # (k, Q) each
+    starts = np.cumsum([0] + [len(c) for c in coefficients])
     slip = np.zeros(len(q))  # variance from the shapes' own uncertainty
-    for term, c, spread in zip(terms, coefficients, spreads or [NO_SPREAD] * len(terms),
-                               strict=True):
+    for k, (term, c, spread) in enumerate(zip(terms, coefficients,
+                                              spreads or [NO_SPREAD] * len(terms),
+                                              strict=True)):
         slope_q = term.kind.shape_slope(term, c, q)
         slope_ref = term.kind.shape_slope(term, c, np.array([ref]))
         if slope_q is None or slope_ref is None or not math.isfinite(spread.std):
             continue
         moved = slope_q - slope_ref
         if spread.path is not None:  # the coefficients refitted along the profile
-            n = len(q)
-            own = term.shape_of(q, np.ones(n), np.full(n, np.inf), np.zeros(n)) - \
-                term.shape_of(np.array([ref]), np.ones(1), np.full(1, np.inf), np.zeros(1))
-            moved = moved + spread.path @ own
+            moved = moved + spread.path @ designs[1][starts[k]:starts[k + 1]]
         slip += (moved * spread.std) ** 2
     out = {}
-    for side in (1, -1):
-        g = design(side)  # (k, Q)
+    for side, g in designs.items():
         values = coef @ g
         var = np.einsum("kq,kl,lq->q", g, covariance, g) + slip
         out[side] = (values, np.sqrt(np.maximum(var, 0.0)))
