@@ -41,6 +41,7 @@ its amplitudes.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -156,16 +157,17 @@ class Vibration:
     def mean_mm(self, share: float, phase: float, from_s: float, to_s: float) -> float:
         """The mean over ``from_s``..``to_s`` after a stop of the ringing of amplitude
         ``share`` x ``amplitude_mm`` and ``phase`` (its value at ``to_s`` where the span
-        is nil): the integral of ``exp(-a t) sin(w t + phase)`` is ``exp(-a t) (-a
-        sin(w t + phase) - w cos(w t + phase)) / (a^2 + w^2)``."""
-        a, w = 1.0 / self.time_constant_s, 2 * np.pi * self.frequency_hz
+        is nil; scalars in ``math``: it runs at every simulated gauge value): the
+        integral of ``exp(-a t) sin(w t + phase)`` is ``exp(-a t) (-a sin(w t + phase)
+        - w cos(w t + phase)) / (a^2 + w^2)``."""
+        a, w = 1.0 / self.time_constant_s, 2 * math.pi * self.frequency_hz
         amplitude = share * self.amplitude_mm
         if to_s - from_s < 1e-9:
-            return amplitude * float(np.exp(-a * to_s) * np.sin(w * to_s + phase))
+            return amplitude * math.exp(-a * to_s) * math.sin(w * to_s + phase)
 
         def primitive(t: float) -> float:
-            return float(np.exp(-a * t) * (-a * np.sin(w * t + phase)
-                                           - w * np.cos(w * t + phase)) / (a * a + w * w))
+            return math.exp(-a * t) * (-a * math.sin(w * t + phase)
+                                       - w * math.cos(w * t + phase)) / (a * a + w * w)
 
         return amplitude * (primitive(to_s) - primitive(from_s)) / (to_s - from_s)
 
