@@ -20,7 +20,7 @@ import contextlib
 import dataclasses
 import itertools
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -331,32 +331,32 @@ class CampaignRunner:
         rule = dataclasses.replace(self.config.settle_rule,
                                    display_step_mm=self.machine.gauge_resolution_mm)
         first: dict[str, GaugeValue | DriverError] = {}
-        if not settle:  # nothing moved since the last reading: nothing rings
+        if rule.kind == "stable":
+            # nothing moved, nothing rings: the rule still reads its two windows, so
+            # that every reading is the mean of as many values (a 3-value reading
+            # beside 12-value ones weighed alike made a scan "NOT within the noise")
+            first = self._settle_stable(step, gauges, rule, moved=settle)
+        elif not settle:
             self.writer.write(SettleRecord(step=step.step, rule="none", ended="not moved",
                                            waited_s=0.0))
-        elif rule.kind == "stable":
-            first = self._settle_stable(step, gauges, rule)
         else:
             self.station.settle(rule.bound_s)
             self.writer.write(SettleRecord(step=step.step, rule="fixed", ended="time",
                                            waited_s=rule.bound_s))
         self._read_gauges(step, gauges, first)
 
-    def _settle_stable(self, step: Read, gauges: list[str], rule: SettleRule,
-                       ) -> dict[str, GaugeValue | DriverError]:
+    def _settle_stable(self, step: Read, gauges: list[str], rule: SettleRule, *,
+                       moved: bool = True) -> dict[str, GaugeValue | DriverError]:
         """Read from in position until the gauges are at rest; their values, or the
         errors that count as each gauge's first attempt."""
-        outcome = self.station.read_settled(step, gauges, rule)
+        outcome, reference, values, waited = self._read_until_rest(step, gauges, rule)
         settled = {g: r for g, r in outcome.items() if isinstance(r, SettledGauge)}
-        waited = max((r.waited_s for r in settled.values()), default=0.0)
-        bound = [g for g, r in settled.items() if r.value is None]
-        reference = tuple(g for g in bound if settled[g].measured_rest)
+        unsettled = tuple(g for g, r in settled.items() if r.value is None)
         u_mm = {g: round(r.u_mm, 7) for g, r in settled.items() if r.u_mm is not None}
+        ended = "bound" if unsettled or reference else "stable" if moved else "not moved"
         self.writer.write(SettleRecord(
-            step=step.step, rule="stable", ended="bound" if bound else "stable",
-            waited_s=round(waited, 4), values={g: r.values for g, r in settled.items()},
-            unsettled=tuple(g for g in bound if g not in reference), reference=reference,
-            u_mm=u_mm or None))
+            step=step.step, rule="stable", ended=ended, waited_s=round(waited, 4),
+            values=values, unsettled=unsettled, reference=reference, u_mm=u_mm or None))
         first: dict[str, GaugeValue | DriverError] = {}
         for gauge, result in outcome.items():
             if isinstance(result, DriverError):
@@ -364,6 +364,26 @@ class CampaignRunner:
             elif result.value is not None:
                 first[gauge] = result.value
         return first
+
+    def _read_until_rest(self, step: Read, gauges: list[str], rule: SettleRule,
+                         ) -> tuple[dict[str, SettledGauge | DriverError], tuple[str, ...],
+                                    dict[str, int], float]:
+        """Each gauge's settle, the gauges that measured their rest over the bound, the
+        values each read and the machine seconds it took. A gauge that measured its rest
+        is read on at once, judged against it, so that its reading is the mean of two
+        windows as every other is, not of the stability rule's few."""
+        outcome = dict(self.station.read_settled(step, gauges, rule))
+        settled = {g: r for g, r in outcome.items() if isinstance(r, SettledGauge)}
+        reference = tuple(g for g, r in settled.items() if r.value is None and r.measured_rest)
+        values = {g: r.values for g, r in settled.items()}
+        waited = _longest(settled.values())
+        if reference:
+            again = self.station.read_settled(step, list(reference), rule)
+            outcome.update(again)
+            read_on = {g: r for g, r in again.items() if isinstance(r, SettledGauge)}
+            values.update({g: values[g] + r.values for g, r in read_on.items()})
+            waited += _longest(read_on.values())
+        return outcome, reference, values, waited
 
     def _read_gauges(self, step: Read, gauges: Sequence[str],
                      first: dict[str, GaugeValue | DriverError]) -> None:
@@ -410,6 +430,11 @@ class CampaignRunner:
         self._last_step = step.step
         self.observer(Progress(len(self.recorded), self._total,
                                f"{step.step} {gauge} = {value.value_mm:.4f} mm"))
+
+
+def _longest(settled: Iterable[SettledGauge]) -> float:
+    """The machine seconds a settle took: its slowest gauge's."""
+    return max((r.waited_s for r in settled), default=0.0)
 
 
 def _fmt(q: tuple[float, float, float]) -> str:

@@ -372,13 +372,15 @@ class OverrideRecord(Record):
 @dataclass(frozen=True, kw_only=True)
 class SettleRecord(Record):
     """How a reading step waited for the machine to come to rest: ``rule`` "stable"
-    (ended "stable", or "bound" when a gauge waited the plan's settle_s: one in
-    ``unsettled`` was never at rest, one in ``reference`` measured its rest scatter
-    there), "fixed" (ended "time") or "none" (ended "not moved": nothing moved since
-    the last reading). ``waited_s``: machine seconds it took; ``values``: gauge
-    values read meanwhile, per gauge; ``u_mm``: per gauge, the standard uncertainty
-    from noise and display step its values were judged against (since the rest rule;
-    a session of the earlier rule has none). The plan in the header states the rule."""
+    (ended "stable"; "not moved" when nothing moved since the last reading, its two
+    windows read all the same; or "bound" when a gauge waited the plan's settle_s:
+    one in ``unsettled`` was never at rest, one in ``reference`` measured its rest
+    scatter there and was then read against it), "fixed" (ended "time") or "none"
+    (ended "not moved", a fixed rule's step that nothing moved before). ``waited_s``:
+    machine seconds it took; ``values``: gauge values read meanwhile, per gauge;
+    ``u_mm``: per gauge, the standard uncertainty from noise and display step its
+    values were judged against (since the rest rule; a session of the earlier rule has
+    none). The plan in the header states the rule."""
 
     KIND: ClassVar[str] = "settle"
     step: str
