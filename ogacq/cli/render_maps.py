@@ -141,6 +141,11 @@ def print_axis_map(m: AxisMap) -> None:
         gap = rev - fwd
         out.print(f"    reverse minus forward: {float(gap.mean()) * UM_PER_MM:+.2f} µm "
                   "(the lost motion)")
+    others = m.extra.get("band_alternatives")
+    if others:
+        named = ", ".join(f"{a['term']} ({a['weight']:.0%})" for a in others)
+        out.print(f"    band widened by what terms the search left out would change "
+                  f"(their weight by the BIC): {escape(named)}")
 
 
 def print_profiles(d: Diagnosis) -> None:

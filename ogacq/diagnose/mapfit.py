@@ -173,8 +173,8 @@ def as_fit_result(fitted: MapFit, library: FitResult) -> FitResult:
                    else StopReason.MAX_ITERATIONS)
 
 
-def axis_maps(fitted: MapFit, inflation: float, ranges: dict[int, tuple[float, float]],
-              steps: dict[int, float], spreads: Mapping[str, ShapeSpread] | None = None,
+def axis_maps(fitted: MapFit, inflation: float, ranges: Mapping[int, tuple[float, float]],
+              steps: Mapping[int, float], spreads: Mapping[str, ShapeSpread] | None = None,
               zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
     """One ``AxisMap`` per axis with a map along its line, its terms summed, the band
     from their joint covariance (times ``inflation``) and their shapes' std

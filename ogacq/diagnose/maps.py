@@ -15,6 +15,7 @@ import numpy as np
 from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
+from ogacq.diagnose.mapaverage import MapAlternative, alternatives, widened
 from ogacq.diagnose.mapfit import (
     MapFit,
     axis_maps,
@@ -161,6 +162,9 @@ class MapOutcome:
     inflation: float = 1.0  # on the maps' std: the final fit's misfit beyond the noise
     # the other route's explanation when it fits as well (``Rival``), else None
     rival: Rival | None = None
+    # terms the search left out that the readings do not rule out: the maps' bands
+    # hold what each would change of them, by its weight (``mapaverage.py``)
+    band_alternatives: tuple[MapAlternative, ...] = ()
 
     @property
     def found(self) -> bool:
@@ -189,13 +193,26 @@ class MapOutcome:
         for a, c in covs.items():
             lo, hi = spans.get(a, (c.from_mm, c.to_mm))
             ranges[a] = (min(lo, c.from_mm), max(hi, c.to_mm))
-        maps = axis_maps(self.fit, self.inflation, ranges,
-                         {a: c.step_mm for a, c in covs.items()},
-                         {s.added.term.name: s.added.spread for s in self.search.steps},
-                         zero_at)
+        maps = self.tabulated(ranges, zero_at)
         return tuple(dataclasses.replace(m, extra={**m.extra, "measured_mm": [
             covs[AXES.index(m.axis)].from_mm, covs[AXES.index(m.axis)].to_mm]})
             for m in maps)
+
+    def tabulated(self, ranges: Mapping[int, tuple[float, float]],
+                  zero_at: Mapping[int, float] | None = None) -> tuple[AxisMap, ...]:
+        """The final fit's maps over ``ranges``, their bands widened by the models the
+        readings do not rule out (``band_alternatives``)."""
+        assert self.fit is not None
+        steps = {c.axis: c.step_mm for c in self.search.coverage}
+        spreads = {s.added.term.name: s.added.spread for s in self.search.steps}
+        maps = axis_maps(self.fit, self.inflation, ranges, steps, spreads, zero_at)
+
+        def tabulate(alt: MapAlternative) -> tuple[AxisMap, ...]:
+            term = alt.candidate.term
+            return axis_maps(alt.fit, max(self.inflation, alt.fit.verdict.inflation), ranges,
+                             steps, {**spreads, term.name: alt.candidate.spread}, zero_at)
+
+        return widened(maps, self.band_alternatives, tabulate)
 
     def value_at(self, axis: int, q_mm: float) -> float:
         """The axis's map (its along-the-line terms summed, as the diagnosis fitted them,
@@ -391,12 +408,11 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
             effects.append(MapEffect(term, value, value.std, step.added.p_value,
                                      (step.rss_before - step.rss_after) / noise.variance,
                                      coverage=covs.get(term.axis), established=established))
-    maps = axis_maps(fitted, inflation, {a: (c.from_mm, c.to_mm) for a, c in covs.items()},
-                     {a: c.step_mm for a, c in covs.items()},
-                     {s.added.term.name: s.added.spread for s in search.steps}) \
-        if fitted is not None and established else ()
-    outcome = MapOutcome(search, fitted, effects, dropped, maps, {}, [], chi2_before,
+    outcome = MapOutcome(search, fitted, effects, dropped, (), {}, [], chi2_before,
                          route.rss / noise.variance, inflation, rival)
+    if fitted is not None and established:
+        outcome.band_alternatives = alternatives(problem, noise, fitted, search, history)
+        outcome.maps = outcome.tabulated({a: (c.from_mm, c.to_mm) for a, c in covs.items()})
     if separate and problem.obs.raw and search.coverage:
         _honesty(problem, noise, claimed, outcome, history, inflation)
     return outcome

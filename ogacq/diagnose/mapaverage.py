@@ -1,0 +1,124 @@
+"""A map's band widened by the models its readings cannot rule out.
+
+The search stops on a model; the terms it left out are not known to be absent, only
+not shown beyond its rules. One that the readings favour but whose pitch lies between
+rival peaks (never added, ``mapsearch._unresolved_first``), or one just short of the
+test, still moves the other maps where it would be fitted: a 1.3 µm lead of 12 mm on
+z left out, the bend fitted on x took part of it and lay 4.9 of its own std from the
+truth (bench/table_coverage.py, seed 4). Each term left at the search's last step is
+fitted beside the chosen model, weighed against it by the BIC (``exp(-dBIC / 2)``: the
+posterior odds of the two models under equal priors, R. E. Kass and A. E. Raftery,
+J. Am. Stat. Assoc. 90, 1995, 773, their eq. 9), and each map's band becomes the
+root mean square of its error about the chosen map over the models so weighed
+(Bayesian model averaging: J. A. Hoeting et al., Stat. Sci. 14, 1999, 382, eq. 2,
+about the chosen map rather than the mean, since the chosen map is what a table
+corrects). Never narrower than the chosen map's own band. The map itself is kept: a
+term the rules did not take is not applied."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.mapfit import MapFit, fit_with_maps
+from ogacq.diagnose.mapsearch import MapCandidate, MapSearch
+from ogacq.diagnose.nested import bic_change
+from ogacq.identify.noise import GaugeNoise
+from ogacq.model.axis_map import AxisMap
+from ogacq.model.error_maps import JointHistory
+
+# An alternative whose weight beside the chosen model is below this is not fitted: its
+# share of a band is under a hundredth of its difference squared (no source).
+WEIGHT_FLOOR = 0.01
+# The most alternatives fitted (the best first by the search's own BIC): each is one
+# refit of the whole model (no source: the search's last step holds about ten).
+MOST = 4
+
+
+@dataclass(frozen=True)
+class MapAlternative:
+    """A term the search left out, fitted beside the chosen model, and its weight."""
+
+    candidate: MapCandidate
+    weight: float  # its posterior probability against the chosen model's alone
+    fit: MapFit
+
+    def to_json(self) -> dict:
+        return {"term": self.candidate.term.name, "weight": round(self.weight, 4)}
+
+
+def odds(delta_bic: float) -> float:
+    """The posterior odds of a model ``delta_bic`` above another (BIC); kept within
+    the doubles where a model is overwhelmingly better."""
+    return math.exp(-0.5 * max(delta_bic, -1400.0))
+
+
+def alternatives(problem: Problem, noise: GaugeNoise, fitted: MapFit, search: MapSearch,
+                 history: JointHistory) -> tuple[MapAlternative, ...]:
+    """The terms of the search's last step that weigh ``WEIGHT_FLOOR`` or more beside
+    ``fitted`` (each refitted with it, its BIC change exact), their weights normalised
+    over the chosen model and them."""
+    chosen = {t.name for t in fitted.terms}
+    fitted_alike: list[tuple[MapCandidate, float, MapFit]] = []
+    for c in search.last_considered:
+        if len(fitted_alike) == MOST:
+            break
+        if c.rank == 0 or c.term.name in chosen or _share(odds(c.delta_bic)) < WEIGHT_FLOOR:
+            continue
+        alt = fit_with_maps(problem, noise, fitted.names, fitted.theta, [*fitted.terms, c.term],
+                            history)
+        change = bic_change(fitted.rss - alt.rss, c.rank + c.shape_parameters,
+                            problem.n_data, noise)
+        fitted_alike.append((c, odds(change), alt))
+    total = 1.0 + sum(o for _, o, _ in fitted_alike)
+    return tuple(MapAlternative(c, o / total, alt) for c, o, alt in fitted_alike
+                 if o / total >= WEIGHT_FLOOR)
+
+
+def _share(odds_: float) -> float:
+    return odds_ / (1.0 + odds_)
+
+
+def widened(maps: Sequence[AxisMap], alternatives_: Sequence[MapAlternative],
+            tabulate: Callable[[MapAlternative], Sequence[AxisMap]]) -> tuple[AxisMap, ...]:
+    """``maps`` with each band the root mean square about it over the chosen model and
+    ``alternatives_`` (``tabulate``: an alternative's maps over the same ranges, zero at
+    the same references); unchanged without alternatives."""
+    if not alternatives_:
+        return tuple(maps)
+    chosen = 1.0 - sum(a.weight for a in alternatives_)
+    variance = {m.axis: {side: chosen * np.square(u) for side, u in _bands(m).items()}
+                for m in maps}
+    for alt in alternatives_:
+        theirs = {m.axis: m for m in tabulate(alt)}
+        for m in maps:
+            other = theirs.get(m.axis)
+            if other is None:  # never so: an alternative holds every chosen term
+                continue
+            at = np.asarray(m.positions_mm)
+            for side, values in _values(m).items():
+                there = np.interp(at, other.positions_mm, _values(other)[side])
+                band = np.interp(at, other.positions_mm, _bands(other)[side])
+                variance[m.axis][side] += alt.weight * (np.square(there - values)
+                                                        + np.square(band))
+    out = []
+    for m in maps:
+        own = _bands(m)
+        u = {side: np.maximum(np.sqrt(v), own[side]) for side, v in variance[m.axis].items()}
+        out.append(dataclasses.replace(
+            m, u_forward_mm=tuple(u[1].tolist()), u_reverse_mm=tuple(u[-1].tolist()),
+            extra={**m.extra, "band_alternatives": [a.to_json() for a in alternatives_]}))
+    return tuple(out)
+
+
+def _values(m: AxisMap) -> dict[int, np.ndarray]:
+    return {1: np.asarray(m.forward_mm), -1: np.asarray(m.reverse_mm)}
+
+
+def _bands(m: AxisMap) -> dict[int, np.ndarray]:
+    return {1: np.asarray(m.u_forward_mm), -1: np.asarray(m.u_reverse_mm)}
