@@ -373,9 +373,10 @@ class OverrideRecord(Record):
 class SettleRecord(Record):
     """How a reading step waited for the machine to come to rest: ``rule`` "stable"
     (ended "stable"; "not moved" when nothing moved since the last reading, its two
-    windows read all the same; or "bound" when a gauge waited the plan's settle_s:
-    one in ``unsettled`` was never at rest, one in ``reference`` measured its rest
-    scatter there and was then read against it), "fixed" (ended "time") or "none"
+    windows read all the same; or "bound" when a gauge waited the plan's settle_s,
+    then was read on for at most as long, judged against its rest: one in
+    ``unsettled`` was not at rest by then either, one in ``reference`` measured its
+    rest scatter over the first bound), "fixed" (ended "time") or "none"
     (ended "not moved", a fixed rule's step that nothing moved before). ``waited_s``:
     machine seconds it took; ``values``: gauge values read meanwhile, per gauge;
     ``u_mm``: per gauge, the standard uncertainty from noise and display step its
