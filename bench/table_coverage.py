@@ -78,6 +78,7 @@ class Tally:
     after_sq: list[float] = field(default_factory=list)
     reasons: list[str] = field(default_factory=list)
     worse: int = 0  # axes whose table leaves more than no table at the validation
+    worse_cases: list[str] = field(default_factory=list)
 
 
 tallies_by_family: dict[str, Tally] = defaultdict(Tally)  # every format's validations
@@ -235,6 +236,12 @@ def _validate(name, written, options, truth, rng, tally: Tally) -> None:
                 t.after_sq += list(residual ** 2)
         for t in (tally, family):
             t.worse += after > before
+        if after > before:
+            tally.worse_cases.append(
+                f"{axis} ({m.source}): rms {math.sqrt(before / (2 * len(q))) * 1e3:.2f} -> "
+                f"{math.sqrt(after / (2 * len(q))) * 1e3:.2f} um, the map's largest "
+                f"{max(map(abs, m.forward_mm)) * 1e3:.2f} um, U up to "
+                f"{K * max(m.u_forward_mm) * 1e3:.2f} um")
 
 
 def main() -> None:
@@ -266,6 +273,8 @@ def main() -> None:
     for name, t in tallies.items():
         for reason in sorted(set(t.reasons))[:3]:
             print(f"  {name} left out: {reason}")
+        for case in t.worse_cases:
+            print(f"  {name} made worse: {case}")
     _print_detection(scan)
     _print_machine_time(scan)
 

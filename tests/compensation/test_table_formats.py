@@ -165,6 +165,26 @@ def test_an_implausible_value_is_refused_with_the_axis_and_the_value(tmp_path, v
     assert not any(line.startswith("y,") for line in csv.splitlines())
 
 
+def test_a_map_within_its_own_band_is_not_written_and_says_why(tmp_path):
+    """Corrected by a map its band could hold from no error, an axis keeps the band's
+    mean square where it had the error's (the map's less the band's): a 5 µm cubic
+    taken for a 0.7 µm lead made an axis worse, 0.4 -> 1.6 µm rms (bench/
+    table_coverage.py, seed 165). Written only where the map's mean square is more
+    than twice its band's."""
+    kept = screw_map("x", amplitude_mm=0.004, scale_ppm=0.0, lost_mm=0.0, u_mm=0.0015)
+    loose = screw_map("y", amplitude_mm=0.004, scale_ppm=0.0, lost_mm=0.0, u_mm=0.0025)
+    # rms 2.8 µm beside bands (k = 1) of 1.9 and 3.2 µm: sqrt(u^2 (1 + 1.5^2) / 2)
+    out = export_tables(tmp_path / "tables", {"x": kept, "y": loose})
+    for e in out:
+        if not e.axes["x"].written:  # a grid that cannot follow the 10 mm lead: said so
+            assert "no better than none" in (e.axes["x"].reason or ""), e.format
+        assert not e.axes["y"].written, e.format
+        reason = e.axes["y"].reason or ""
+        assert "axis y: the map (test screw map) lies within its own band: rms 2.81 µm " \
+            "beside its band's 3.19 µm (k = 1)" in reason, reason
+    assert sum(e.axes["x"].written for e in out) >= 3  # LinuxCNC, SINUMERIK, CSV at least
+
+
 def test_a_bound_the_format_declares_is_kept(tmp_path, throwaway):
     """The throwaway format holds at most 0.5 mm a value (its GridLimits)."""
     m = smooth_map(lost_mm=0.7)  # plausible, beyond the format
