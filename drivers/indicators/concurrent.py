@@ -41,6 +41,9 @@ class Settled:
     values: int  # values read during the settle
     reference: RestReference | None = None
     measured: bool = False
+    # judged against a reference and not at rest by the bound: its last two windows'
+    # mean all the same (RestJudge.last_values), for a caller that reads on no longer
+    unjudged: StableReading | None = None
 
 
 def line_groups(indicators: Mapping[str, Indicator]) -> list[list[str]]:
@@ -156,5 +159,6 @@ def _settle_line(indicators: Mapping[str, Indicator], judges: dict[str, RestJudg
                     measured = judge.rest_from_tail(bound_s / 2)
                     out[gauge] = Settled(None, now, judge.count, measured, measured is not None)
                 else:
-                    out[gauge] = Settled(None, now, judge.count, judge.reference)
+                    out[gauge] = Settled(None, now, judge.count, judge.reference,
+                                         unjudged=judge.last_values())
     return out

@@ -139,6 +139,20 @@ class RestJudge:
         return StableReading(value_mm=sum(mm) / len(mm), spread_mm=max(mm) - min(mm),
                              readings=tuple(both))
 
+    def last_values(self) -> StableReading | None:
+        """The mean of the last two windows' values (at least ``2 * MIN_VALUES`` of the
+        last), not judged: what a gauge reads that was not at rest by the bound, the
+        machine then as still as after a fixed wait; None before any value."""
+        if not self.values:
+            return None
+        end = self.values[-1][0]
+        recent = [r for t, r in self.values if t >= end - 2 * self.window_s]
+        if len(recent) < 2 * MIN_VALUES:
+            recent = [r for _, r in list(self.values)[-2 * MIN_VALUES:]]
+        mm = [r.value_mm for r in recent]
+        return StableReading(value_mm=sum(mm) / len(mm), spread_mm=max(mm) - min(mm),
+                             readings=tuple(recent))
+
     def rest_from_tail(self, since_s: float) -> RestReference | None:
         """The rest reference from the values read from ``since_s`` on (the second half
         of a settle that waited the whole bound)."""

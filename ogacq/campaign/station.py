@@ -291,7 +291,8 @@ def _settled(found: Settled) -> SettledGauge:
     return SettledGauge(None if found.reading is None else _gauge_value(found.reading),
                         found.waited_s, found.values,
                         None if found.reference is None else found.reference.u_mm,
-                        found.measured)
+                        found.measured,
+                        None if found.unjudged is None else _gauge_value(found.unjudged))
 
 
 def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,

@@ -5,13 +5,14 @@ beside, and only where the table does not make the axis worse.
 (``ogacq.compensation.formats``; all of them unless the campaign file chose some).
 Each axis's table is judged before it is written: its values plausible and within
 the format's bounds, the map beyond what its own band could hold from no error (else
-correcting by it is expected to leave more than it takes), and the residual it leaves, predicted on the format's own grid
-as the controller applies it, better than no table (ISO 230-2 E smaller, A no
-larger). An axis whose table would be worse, or would leave the error as it is (a
-grid whose points fall on the same phase of a screw's period), is left out of that
-format and the reason said: for a grid too coarse, the spacing the map would need.
-The folder is written whole into a temporary folder beside it, then renamed: a crash
-leaves the old tables or the new ones, never a mixture.
+correcting by it is expected to leave more than it takes), and the residual it
+leaves, predicted on the format's own grid as the controller applies it, better than
+no table (ISO 230-2 E smaller, A no larger). An axis whose table would be worse, or
+would leave the error as it is (a grid whose points fall on the same phase of a
+screw's period), is left out of that format and the reason said: for a grid too
+coarse, the spacing the map would need. The folder is written whole into a temporary
+folder beside it, then renamed: a crash leaves the old tables or the new ones, never
+a mixture.
 """
 
 from __future__ import annotations

@@ -364,6 +364,12 @@ class CampaignRunner:
                 first[gauge] = result
             elif result.value is not None:
                 first[gauge] = result.value
+            elif gauge in read.read_on and result.unjudged is not None and \
+                    (result.unjudged.averaged or 0) >= self.config.stability.readings:
+                # two bounds and still not at rest by the rule: its last two windows'
+                # mean, as many values as a settled reading, where the stability rule
+                # read three (one such, weighed as a 12-value reading, lay at chi2 23)
+                first[gauge] = result.unjudged
         return first
 
     def _read_until_rest(self, step: Read, gauges: list[str], rule: SettleRule,
@@ -379,15 +385,15 @@ class CampaignRunner:
         at_bound = tuple(g for g, r in settled.items() if r.value is None)
         values = {g: r.values for g, r in settled.items()}
         waited = _longest(settled.values())
-        judged = [g for g in at_bound if settled[g].u_mm is not None]
+        judged = tuple(g for g in at_bound if settled[g].u_mm is not None)
         if judged:
-            again = self.station.read_settled(step, judged, rule)
+            again = self.station.read_settled(step, list(judged), rule)
             outcome.update(again)
             read_on = {g: r for g, r in again.items() if isinstance(r, SettledGauge)}
             values.update({g: values[g] + r.values for g, r in read_on.items()})
             waited += _longest(read_on.values())
         reference = tuple(g for g in at_bound if settled[g].measured_rest)
-        return _UntilRest(outcome, at_bound, reference, values, waited)
+        return _UntilRest(outcome, at_bound, reference, judged, values, waited)
 
     def _read_gauges(self, step: Read, gauges: Sequence[str],
                      first: dict[str, GaugeValue | DriverError]) -> None:
@@ -439,12 +445,13 @@ class CampaignRunner:
 @dataclasses.dataclass(frozen=True)
 class _UntilRest:
     """The gauges of a step read until at rest: each one's settle (or error), those
-    that reached the bound, those of them that measured their rest there, the values
-    each read and the machine seconds it took."""
+    that reached the bound, those of them that measured their rest there, those read
+    on after it, the values each read and the machine seconds it took."""
 
     outcome: dict[str, SettledGauge | DriverError]
     at_bound: tuple[str, ...]
     reference: tuple[str, ...]
+    read_on: tuple[str, ...]
     values: dict[str, int]
     waited_s: float
 

@@ -47,6 +47,8 @@ class SettledGauge:
     values: int  # values read meanwhile
     u_mm: float | None = None  # the uncertainty its values were judged against
     measured_rest: bool = False  # it waited the bound to measure its rest scatter
+    # judged and not at rest by the bound: the mean of its last two windows all the same
+    unjudged: GaugeValue | None = None
 
 
 # Each gauge's value or the error it raised, as each comes.
