@@ -193,13 +193,14 @@ def print_proposals(d: Diagnosis, machine_file: str) -> None:
         if first.first == "the effects found":
             out.print(f"  a scan along each leg would show an error along q: every "
                       f"{first.step_mm:g} mm from {first.from_mm:+g} to {first.to_mm:+g} "
-                      f"mm, up and back down (`{command}`)")
+                      f"mm, up and back down (`{escape(command)}`)")
         elif not command:
             for p in group:
                 out.print(f"  {escape(p.describe(machine_file))}")
         else:
             pairs = "; ".join(f"{p.first} from {p.second} (expected chi-square gap "
                               f"{p.expected_gap:.0f}, now {p.now_gap:+.1f})" for p in group)
+            # the command names the session's path, whatever its folders are called
             out.print(f"  to separate {escape(pairs)}: {first.scan_words()} "
-                      f"(`{command}`)")
+                      f"(`{escape(command)}`)")
     out.print()
