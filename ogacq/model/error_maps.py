@@ -169,6 +169,7 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
     for side, g in designs.items():
         values = coef @ g
         var = np.einsum("kq,kl,lq->q", g, covariance, g) + slip
+        var += _chord_variance(q, values, coef @ (shapes(0.5 * (q[1:] + q[:-1]), side) - at_ref))
         out[side] = (values, np.sqrt(np.maximum(var, 0.0)))
     return AxisMap(axis=AXES[terms[0].axis], positions_mm=tuple(q.tolist()),
                    forward_mm=tuple(out[1][0].tolist()), reverse_mm=tuple(out[-1][0].tolist()),
@@ -176,6 +177,19 @@ def axis_map(terms: list[MapTerm], coefficients: list[np.ndarray], covariance: n
                    u_reverse_mm=tuple(out[-1][1].tolist()),
                    reference_mm=ref, source=source, excludes=excludes,
                    extra=dict(extra or {}))
+
+
+def _chord_variance(q: np.ndarray, values: np.ndarray, at_middles: np.ndarray) -> np.ndarray:
+    """(Q,) what the map's own grid leaves of its terms, as a variance at each point:
+    linear between its points, it misses the terms by the most at a middle; the larger
+    of the two middles beside a point, taken as the bound of a rectangular
+    distribution (a / sqrt(3), JCGM 100:2008 4.3.7). Beside the reference, where the
+    band is nothing, a 6 µm lead's 1.2 % chord was the whole error."""
+    if len(q) < 2:
+        return np.zeros(len(q))
+    gap = np.abs(at_middles - 0.5 * (values[1:] + values[:-1]))
+    bound = np.maximum(np.concatenate([gap, [0.0]]), np.concatenate([[0.0], gap]))
+    return bound**2 / 3.0
 
 
 # --- a map's terms, kept beside its table --------------------------------------------
