@@ -46,12 +46,7 @@ from ogacq.calibration.drive_step import (
 )
 from ogacq.calibration.log import Details, ProcedureLog, Step
 from ogacq.calibration.maps import compensable_effects, diagnosis_maps
-from ogacq.calibration.resolving import (
-    RESOLVING,
-    loose_references,
-    resolving_plan,
-    unresolved,
-)
+from ogacq.calibration.resolving import RESOLVING, resolving_plan, why_read_more
 from ogacq.calibration.scale_check import scale_check
 from ogacq.calibration.scale_map import ScaleFit, fit_scale, with_scale_maps
 from ogacq.calibration.second_round import (
@@ -254,18 +249,15 @@ class Procedure:
                             done.restored)
 
     def _resolved(self, scan: LoadedSession, scanned: Diagnosis) -> Diagnosis:
-        """A pitch ``scan`` leaves unresolved or loose for the travel: its gaps read at
-        other phases where --scan-minutes leaves the time (``resolving``), both
-        diagnosed together."""
+        """A pitch ``scan`` leaves unresolved or loose for the travel, or its fit not
+        within the noise: its gaps read at other phases where --scan-minutes leaves the
+        time (``resolving``), both diagnosed together."""
         machine = self.setup.machine
         read = _plan_of(scan)
-        if unresolved(scanned):
-            loose, why = [], "a pitch is left unresolved"
-        else:
-            loose = loose_references(scanned, machine)
-            why = "a pitch is loose for the travel (its map's uncertainty beyond half its size)"
-            if not loose:
-                return scanned
+        reason = why_read_more(scanned, machine)
+        if reason is None:
+            return scanned
+        why, loose = reason
         more = resolving_plan(read, machine, loose)
         rate = seconds_per_step(scan)
         needed = steps_of(more, machine) * rate
