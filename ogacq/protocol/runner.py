@@ -332,9 +332,10 @@ class CampaignRunner:
                                    display_step_mm=self.machine.gauge_resolution_mm)
         first: dict[str, GaugeValue | DriverError] = {}
         if rule.kind == "stable":
-            # nothing moved, nothing rings: the rule still reads its two windows, so
-            # that every reading is the mean of as many values (a 3-value reading
-            # beside 12-value ones weighed alike made a scan "NOT within the noise")
+            # where nothing moved nothing rings, but the rule reads its two windows all
+            # the same, so that every reading is the mean of as many values (a 3-value
+            # reading beside 12-value ones weighed alike made a scan "NOT within the
+            # noise")
             first = self._settle_stable(step, gauges, rule, moved=settle)
         elif not settle:
             self.writer.write(SettleRecord(step=step.step, rule="none", ended="not moved",
