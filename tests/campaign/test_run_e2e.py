@@ -72,12 +72,18 @@ def test_refit_reads_the_session_and_its_csv_export(ran, tmp_path):
     from_csv = run_ogacq("refit", csv_path, "--machine", machine, "--json", check_json=True)
     a = from_session["parameters"]["joint_offset"]
     b = from_csv["parameters"]["joint_offset"]
-    assert np.allclose([a[k] for k in "xyz"], [b[k] for k in "xyz"], atol=1e-6)
-    # and back: a session imported from the CSV holds the same readings
+    std = from_session["std"]["joint_offset"]
+    # the same readings; the CSV's columns (INTERCHANGE.md) do not carry how many gauge
+    # values each reading averaged nor their scatter, from which the session derives
+    # the display rounding its repeats share (identify/noise.py:_value_scatter): the
+    # weights differ a little, the offsets by a few hundredths of their std (seen:
+    # 15 nm of 660), never by what a calibration would notice
+    assert all(abs(a[k] - b[k]) <= 0.1 * std[k] for k in "xyz"), (a, b, std)
+    # and back: a session imported from the CSV holds the same readings as the CSV
     back = import_readings(csv_path, read_machine(machine), tmp_path / "imported.jsonl")
     again = run_ogacq("refit", back, "--machine", machine, "--json", check_json=True)
     c = again["parameters"]["joint_offset"]
-    assert np.allclose([a[k] for k in "xyz"], [c[k] for k in "xyz"], atol=1e-6)
+    assert np.allclose([b[k] for k in "xyz"], [c[k] for k in "xyz"], atol=1e-6)
 
 
 def test_six_gauges_on_one_multiplexer_port(campaign_dir):
