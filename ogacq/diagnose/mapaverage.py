@@ -3,21 +3,21 @@
 The search stops on a model; the terms it left out are not known to be absent, only
 not shown beyond its rules. One that the readings favour but whose pitch lies between
 rival peaks (never added, ``mapsearch._unresolved_first``), or one just short of the
-test, still moves the other maps where it would be fitted: a 1.3 µm lead of 12 mm on
-z left out, the bend fitted on x took part of it and lay 4.9 of its own std from the
+test, still moves the other maps where it would be fitted: a 1.3 µm lead of 12 mm on z
+left out, the bend fitted on x took part of it and lay 4.9 of its own std from the
 truth (bench/table_coverage.py, seed 4). A term a step weighed nearly as well as the
 one it took moves them too: a 0.7 µm lead of 26 mm, seen strongly over only 16 mm of
 its joint, was taken as a 5 µm cubic, 4.2 of its band from the truth (seed 165). Each
-term left at the search's last step is fitted beside the chosen model, and each term
-a step weighed is fitted in place of the one that step took; each is weighed against
-the chosen model by the BIC (``exp(-dBIC / 2)``: the
-posterior odds of the two models under equal priors, R. E. Kass and A. E. Raftery,
-J. Am. Stat. Assoc. 90, 1995, 773, their eq. 9), and each map's band becomes the
-root mean square of its error about the chosen map over the models so weighed
-(Bayesian model averaging: J. A. Hoeting et al., Stat. Sci. 14, 1999, 382, eq. 2,
-about the chosen map rather than the mean, since the chosen map is what a table
-corrects). Never narrower than the chosen map's own band. The map itself is kept: a
-term the rules did not take is not applied."""
+term left at the search's last step is fitted beside the chosen model, and each term a
+step weighed is fitted in place of the one that step took; each is weighed against the
+chosen model by the BIC (``exp(-dBIC / 2)``: the posterior odds of the two models
+under equal priors, the BIC's approximation of the Bayes factor: R. E. Kass and A. E.
+Raftery, J. Am. Stat. Assoc. 90, 1995, 773), and each map's band becomes the root mean
+square of its error about the chosen map over the models so weighed (the variance of
+Bayesian model averaging: J. A. Hoeting et al., Stat. Sci. 14, 1999, 382; about the
+chosen map rather than the mean, since the chosen map is what a table corrects). Never
+narrower than the chosen map's own band. The map itself is kept: a term the rules did
+not take is not applied."""
 
 from __future__ import annotations
 
