@@ -43,7 +43,7 @@ from ogacq.calibration.scale_map import ScaleFit
 from ogacq.campaign.run import recorded_maps
 from ogacq.compensation.combine import compensation, with_offsets
 from ogacq.compensation.effects import effect_maps
-from ogacq.compensation.export import export_tables
+from ogacq.compensation.export import export_tables, within_its_band
 from ogacq.compensation.iso230 import map_figures
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.model.axis_map import AxisMap
@@ -71,6 +71,8 @@ class Compensation:
     offsets_std_mm: dict[str, float]
     effects: dict[str, dict[str, float]] = field(default_factory=dict)  # name -> value, std
     tables: list[dict[str, Any]] = field(default_factory=list)
+    # the diagnosis's maps not applied, each with why (``export.within_its_band``)
+    not_applied: tuple[str, ...] = ()
 
     def figures_before(self) -> dict[str, dict[str, Any]]:
         return {a: map_figures(m).to_json() for a, m in self.maps.items()}
@@ -84,6 +86,7 @@ class Compensation:
                 "in_force_checksum": self.in_force_checksum,
                 "offsets_mm": self.offsets_mm, "offsets_std_mm": self.offsets_std_mm,
                 "effects": self.effects, "tables": self.tables,
+                "not_applied": list(self.not_applied),
                 "figures_before": self.figures_before()}
 
     @classmethod
@@ -93,7 +96,8 @@ class Compensation:
                    tuple(d.get("compensated") or ()), tuple(d.get("uncompensated") or ()),
                    tuple(d.get("diagnosis_maps") or ()), d.get("in_force_checksum"),
                    dict(d["offsets_mm"]), dict(d["offsets_std_mm"]),
-                   dict(d.get("effects") or {}), list(d.get("tables") or []))
+                   dict(d.get("effects") or {}), list(d.get("tables") or []),
+                   tuple(d.get("not_applied") or ()))
 
 
 def in_force_maps(session: LoadedSession) -> tuple[dict[str, AxisMap], str | None]:
@@ -127,7 +131,7 @@ def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
     in_force, checksum = in_force_maps(session)
     # tabulated over the travel the offsets make, zero where their zero will be
     spans, zero_at = _spans(diagnosis, machine)
-    found, taken = _along(diagnosis, scales or {}, spans, zero_at)
+    found, taken, not_applied = _along(diagnosis, scales or {}, spans, zero_at)
     per_axis = compensation(found, effect_maps(effects, machine, spans=spans,
                                                references=zero_at), effects, in_force)
     shift = {a: (per_axis[a].offset_shift_mm if a in per_axis else 0.0) + taken[a]
@@ -142,25 +146,30 @@ def compensation_of(diagnosis: Diagnosis, session: LoadedSession, machine: Machi
         tuple(uncompensated_effects(diagnosis)),
         tuple(m.source or f"map of {m.axis}" for m in diagnosis_maps(diagnosis)), checksum,
         dict(evidence.identified_mm), dict(evidence.std_mm),
-        {n: {"value": e.value, "std": e.std} for n, e in model_effects(diagnosis).items()})
+        {n: {"value": e.value, "std": e.std} for n, e in model_effects(diagnosis).items()},
+        not_applied=not_applied)
 
 
 def _along(diagnosis: Diagnosis, scales: Mapping[str, ScaleFit],
            spans: dict[str, tuple[float, float]], zero_at: dict[str, float],
-           ) -> tuple[tuple[AxisMap, ...], dict[str, float]]:
+           ) -> tuple[tuple[AxisMap, ...], dict[str, float], tuple[str, ...]]:
     """The maps along the axes, tabulated over ``spans`` and zero at ``zero_at``: the
     diagnosis's, but where a scale measured its axis the scale's; and per axis the
     maps' value at ``zero_at``, which goes to the offset (a diagnosis's map, fitted zero
     at its reference, stays in the offset where a scale's replaces it: the offsets were
-    identified with it)."""
+    identified with it); and why a diagnosis's map is not applied, where one is not."""
     measured = {a for a, f in scales.items() if f.found is not None or f.flat}
     by_scale = {a: f.found for a, f in scales.items() if f.found is not None}
-    found = tuple(m for m in diagnosis.maps_over(spans, zero_at) if m.axis not in measured) \
+    # a map its own band could hold from nothing is not applied: the maps file would
+    # correct by it what no table format writes (``export.within_its_band``)
+    legs = [m for m in diagnosis.maps_over(spans, zero_at) if m.axis not in measured]
+    why_not = {m.axis: within_its_band(m) for m in legs}
+    found = tuple(m for m in legs if why_not[m.axis] is None) \
         + tuple(by_scale[a].over(spans[a], zero_at[a]) for a in sorted(by_scale))
     taken = {a: diagnosis.map_value_at(a, zero_at[a]) + (
         float(by_scale[a].error_mm(np.array([zero_at[a]]))[0]) if a in by_scale else 0.0)
         for a in AXES}
-    return found, taken
+    return found, taken, tuple(f"axis {a}: {w}" for a, w in why_not.items() if w)
 
 
 # How far beyond the travel moved by the final model's joint offsets the maps are

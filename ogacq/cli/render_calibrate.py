@@ -107,6 +107,8 @@ class TerminalUI:
         if comp.uncompensated:
             console.print("stays uncompensated (no table corrects it): "
                           + ", ".join(comp.uncompensated))
+        for why in comp.not_applied:
+            console.print(f"not applied, nor tabulated: {why}")
         if not comp.maps:
             found = self._found_mm
             console.print("no error map to write" + (

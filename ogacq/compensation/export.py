@@ -164,24 +164,31 @@ def _out_of_bounds(fmt: TableFormat, m: AxisMap) -> str | None:
 
 
 def _within_its_band(fmt: TableFormat, m: AxisMap) -> str | None:
-    """A map that its own band could hold from no error at all: corrected by it, an
-    axis is left with the band's mean square (E[(e - m)^2] = u^2, the map unbiased);
-    uncorrected, with the error's, of which the map's mean square less the band's is
-    the unbiased estimate (E[m^2] = e^2 + u^2). The table is expected to help only
-    where the map's mean square is more than twice its band's (k = 1), over the
-    positions it is written at. A 5 µm cubic taken for a 0.7 µm lead seen over 16 mm
-    of its joint, its band as wide, made the axis worse: 0.4 -> 1.6 µm rms
-    (bench/table_coverage.py, seed 165). No source beyond that expectation."""
+    why = within_its_band(m)
+    return None if why is None else f"{fmt.name}: axis {m.axis}: {why}; not written"
+
+
+def within_its_band(m: AxisMap) -> str | None:
+    """Why ``m`` is not worth correcting (None: it is): a map that its own band could
+    hold from no error at all. Corrected by it, an axis is left with the band's mean
+    square (E[(e - m)^2] = u^2, the map unbiased); uncorrected, with the error's, of
+    which the map's mean square less the band's is the unbiased estimate (E[m^2] = e^2
+    + u^2). A correction is expected to help only where the map's mean square is more
+    than twice its band's (k = 1), over the positions it is written at. A 5 µm cubic
+    taken for a 0.7 µm lead seen over 16 mm of its joint, its band as wide, made the
+    axis worse: 0.4 -> 1.6 µm rms (bench/table_coverage.py, seed 165). No source
+    beyond that expectation. The maps file and every table format are judged by it
+    (``calibration/compensate.py``, ``judge``)."""
     values = np.concatenate([m.forward_mm, m.reverse_mm])
     bands = np.concatenate([m.u_forward_mm, m.u_reverse_mm])
     mean_square, band_square = float(np.mean(values**2)), float(np.mean(bands**2))
     if mean_square > 2.0 * band_square:
         return None
     um = UM_PER_MM
-    return (f"{fmt.name}: axis {m.axis}: the map ({m.source or 'no source given'}) lies "
-            f"within its own band: rms {np.sqrt(mean_square) * um:.2f} µm beside its band's "
+    return (f"the map ({m.source or 'no source given'}) lies within its own band: rms "
+            f"{np.sqrt(mean_square) * um:.2f} µm beside its band's "
             f"{np.sqrt(band_square) * um:.2f} µm (k = 1); corrected by it, the axis would "
-            "be expected to keep more error than it has; not written")
+            "be expected to keep more error than it has")
 
 
 def _carries(before: Iso230Figures, after: Iso230Figures) -> bool:

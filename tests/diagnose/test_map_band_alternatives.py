@@ -15,6 +15,7 @@ import dataclasses
 import numpy as np
 import pytest
 
+from ogacq.calibration.compensate import _along
 from ogacq.cli.render_maps import print_axis_map
 from ogacq.compensation.export import export_tables
 from ogacq.diagnose.diagnosis import diagnose
@@ -95,6 +96,11 @@ def test_a_term_weighed_as_well_in_place_of_the_one_taken_widens_its_band(tmp_pa
     for e in export_tables(tmp_path / "tables", {"x": m}):
         assert not e.axes["x"].written and "within its own band" in (e.axes["x"].reason
                                                                      or ""), e.format
+    # nor does calibrate apply it through the maps file, and it says why
+    spans, zero_at = dict.fromkeys(AXES, span), dict.fromkeys(AXES, 0.0)
+    found, _, not_applied = _along(d, {}, spans, zero_at)
+    assert found == () and len(not_applied) == 1, not_applied
+    assert not_applied[0].startswith("axis x: the map (smooth screw map"), not_applied
 
 
 def _map(values: list[float], band: list[float]) -> AxisMap:
