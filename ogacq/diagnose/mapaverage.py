@@ -135,11 +135,10 @@ def widened(maps: Sequence[AxisMap], alternatives_: Sequence[MapAlternative],
             # no map on the axis in that model: there, its error is none
             other = theirs.get(m.axis, _none_like(m))
             at = np.asarray(m.positions_mm)
-            for side, values in _values(m).items():
-                there = np.interp(at, other.positions_mm, _values(other)[side])
+            for side in (1, -1):
+                gap = other.error_mm(at, side) - m.error_mm(at, side)
                 band = np.interp(at, other.positions_mm, _bands(other)[side])
-                variance[m.axis][side] += alt.weight * (np.square(there - values)
-                                                        + np.square(band))
+                variance[m.axis][side] += alt.weight * (np.square(gap) + np.square(band))
     out = []
     for m in maps:
         own = _bands(m)
@@ -154,10 +153,6 @@ def _none_like(m: AxisMap) -> AxisMap:
     zero = (0.0,) * len(m.positions_mm)
     return dataclasses.replace(m, forward_mm=zero, reverse_mm=zero, u_forward_mm=zero,
                                u_reverse_mm=zero)
-
-
-def _values(m: AxisMap) -> dict[int, np.ndarray]:
-    return {1: np.asarray(m.forward_mm), -1: np.asarray(m.reverse_mm)}
 
 
 def _bands(m: AxisMap) -> dict[int, np.ndarray]:
