@@ -266,3 +266,34 @@ def test_a_terminal_closed_at_a_typed_reading_quits_the_campaign():
                             by_eye={"y_x"}, ask_reading=closed, on_pause=lambda: None)
     with pytest.raises(OperatorQuit, match="the terminal closed"):
         list(station.read_gauges(step, ["y_x"], StabilityRule()))
+
+
+def test_a_dial_read_by_eye_waits_after_a_move_and_not_where_nothing_moved():
+    """The runner settles a step nothing moved before as well, so that gauges read by
+    their values average as many values as at every other step; a person reading a
+    dial then has nothing to wait for: the settle's fixed wait only follows a move."""
+    from ogacq.cli.wizard.guided_station import GuidedStation
+    from ogacq.cli.wizard.pause import InterruptGate
+    from ogacq.protocol.plan import SettleRule
+
+    class Inner:
+        waited: list[float] = []
+
+        def move(self, q_mm, timeout_s):
+            return q_mm
+
+        def settle(self, seconds):
+            self.waited.append(seconds)
+
+    inner = Inner()
+    step = reading_steps(ProtocolConfig(cycles=1), MACHINE)[0]
+    station = GuidedStation(inner, None, InterruptGate(),  # type: ignore[arg-type]
+                            expectations=ReadingExpectations(MACHINE, max_offset_mm=2.0,
+                                                             repeat_tolerance_mm=0.05),
+                            by_eye={"y_x"}, ask_reading=None, on_pause=lambda: None)
+    rule = SettleRule("stable", 1.5, 0.1)
+    station.read_settled(step, ["y_x"], rule)  # the first reading: waited
+    station.read_settled(step, ["y_x"], rule)  # read again, nothing moved
+    station.move((0.0, 0.0, 0.0), 10.0)
+    settled = station.read_settled(step, ["y_x"], rule)
+    assert inner.waited == [1.5, 1.5] and settled["y_x"].value is None

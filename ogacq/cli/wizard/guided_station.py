@@ -42,10 +42,12 @@ class GuidedStation(StationWrapper):
         self.expectations = expectations
         self._ask_reading = ask_reading
         self._on_pause = on_pause
+        self._moved = True  # since the last settle: a person waits only after a move
 
     # ------------------------------------------------------------ runner's Station
     def move(self, q_mm: Joints, timeout_s: float) -> Joints:
         self._checkpoint()
+        self._moved = True
         return self.inner.move(q_mm, timeout_s)
 
     def read_gauges(self, step: Read, gauges: Sequence[str], rule: StabilityRule,
@@ -68,9 +70,14 @@ class GuidedStation(StationWrapper):
     def read_settled(self, step: Read, gauges: Sequence[str], rule: SettleRule,
                      ) -> Mapping[str, SettledGauge | DriverError]:
         """Settled by the gauges' values; with a gauge read by eye, by the fixed wait
-        (a person reads the dial once the machine is at rest)."""
+        (a person reads the dial once the machine is at rest), none where nothing moved
+        since the last settle (the runner settles such a step too, so that gauges read
+        by values average as many as at every other)."""
         self._checkpoint()
+        moved, self._moved = self._moved, False
         if any(g in self.by_eye for g in gauges):
+            if not moved:
+                return {g: SettledGauge(None, 0.0, 0) for g in gauges}
             return settle_unjudged(self.inner, gauges, rule)
         out = self.inner.read_settled(step, gauges, rule)
         for gauge, settled in out.items():
