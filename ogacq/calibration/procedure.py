@@ -204,6 +204,9 @@ class Procedure:
         # each axis scale's test before the first write, and what it found along its axis
         self.before: dict[str, PositioningResult] = {}
         self.scales: dict[str, ScaleFit] = {}
+        # what the end says of a designed scan that found no map: the smallest cyclic
+        # error it finds reliably ("validated" holds for errors below it unseen)
+        self.unseen = ""
 
     # ------------------------------------------------------------------ the steps
     def run(self) -> Outcome:
@@ -232,6 +235,7 @@ class Procedure:
             else:
                 evidence, diagnosis = scan, scanned
         comp = self._compensation(diagnosis, evidence, maps=not unsettled)
+        self.unseen = _unseen_below(plan, comp) if not unsettled else ""
         # at targets between the scan's: an aliased map, or an error its targets
         # sampled at one phase, fails there instead of confirming itself
         between = self._validation_plan(evidence, comp, diagnosis) \
@@ -686,7 +690,7 @@ class Procedure:
                        *judgement.seen()])
             if outcome in (WriteOutcome.VALIDATED, WriteOutcome.NOT_SHOWN) else
             "better than before, but not within the gauge noise: " + judgement.verdict["text"])
-        reason = "; ".join([reason, *self._notes()])
+        reason = "; ".join([reason, *self._notes(), *filter(None, [self.unseen])])
         return self._end(outcome, reason, comp=comp, evidence=evidence, validation=validation,
                          judgement=judgement, written=written, restored=restored)
 
@@ -723,6 +727,13 @@ class Procedure:
         return Outcome(self.setup.folder, self.log.procedure, outcome, reason,
                        evidence.path if evidence else None,
                        validation.path if validation else None, record, details)
+
+
+def _unseen_below(plan: SeparatingPlan, comp: Compensation) -> str:
+    """Where a designed separating scan left no map to write: the cyclic error it finds
+    reliably, below which one may remain."""
+    words = plan.design.may_remain() if plan.design is not None and not comp.maps else ""
+    return f"no error map: {words}" if words else ""
 
 
 # Outcomes after which the exported tables hold maps no controller runs with.

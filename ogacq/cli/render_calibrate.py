@@ -5,7 +5,6 @@ ISO 230-2 figures, the question, the validation and the outcome."""
 from __future__ import annotations
 
 import contextlib
-import math
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +22,6 @@ from ogacq.cli.verdict_text import paragraph, recorded_paragraph
 from ogacq.compensation.iso230 import Iso230Figures, map_figures
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.diagnose.maps import MapEffect
-from ogacq.identify.search_rules import FOUND_SHARE
 from ogacq.model.units import UM_PER_MM
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.uncertainty.reporting import measure
@@ -51,9 +49,9 @@ class TerminalUI:
         # each map's figures after as predicted (the write's map, its error taken away):
         # what the validation's figures are said beside
         self._predicted: dict[str, Iso230Figures] = {}
-        # the size of a cyclic error the separating scan finds reliably (its design's):
-        # what "no error map" leaves possible
-        self._found_mm: float | None = None
+        # what "no error map" leaves possible: the cyclic error below the size the
+        # separating scan finds reliably (its design's)
+        self._may_remain = ""
 
     def close(self) -> None:
         self._stack.close()
@@ -97,7 +95,7 @@ class TerminalUI:
         for line in plan.design.lines() if plan.design is not None else ():
             console.print(f"    {line}")
         if plan.design is not None:
-            self._found_mm = plan.design.found_mm.get("lead_screw_cyclic")
+            self._may_remain = plan.design.may_remain()
 
     def compensation(self, comp: Compensation, offsets: OffsetPlan,
                      maps: MapsPlan | None) -> None:
@@ -110,12 +108,8 @@ class TerminalUI:
         for why in comp.not_applied:
             console.print(f"not applied, nor tabulated: {why}")
         if not comp.maps:
-            found = self._found_mm
-            console.print("no error map to write" + (
-                f": the separating scan finds a cyclic error of about "
-                f"{found * UM_PER_MM:.2g} µm or more ({FOUND_SHARE:.0%} of them); a smaller "
-                "one may remain"
-                if found is not None and math.isfinite(found) else ""))
+            console.print("no error map to write" + (f": {self._may_remain}"
+                                                     if self._may_remain else ""))
             return
         table = table_of("axis", "from", "before", "after (predicted: ogacq applies it)",
                          title="error maps (ISO 230-2:2014 figures of each axis; s = the "

@@ -171,6 +171,16 @@ class ScanDesign:
             self.pitch_band_mm[0] <= self.required_mm[0] + 1e-9
             and self.pitch_band_mm[1] >= self.required_mm[1] - 1e-9))
 
+    def may_remain(self) -> str:
+        """What a scan that found no map leaves possible, in words ("" where the design
+        states no size its search finds)."""
+        found = self.found_mm.get("lead_screw_cyclic")
+        if found is None or not math.isfinite(found):
+            return ""
+        return (f"the separating scan finds a cyclic error of about "
+                f"{found * UM_PER_MM:.2g} µm or more ({FOUND_SHARE:.0%} of them); a smaller "
+                "one may remain")
+
     def lines(self) -> list[str]:
         """The design in words, as calibrate and plan print it before anything moves."""
         t = self.targets_mm

@@ -39,7 +39,7 @@ def test_a_format_that_left_an_axis_out_says_which_and_why(monkeypatch):
     tables = [{"format": "fanuc", "files": ["/f/tables/fanuc/fanuc.txt"],
                "problem": "fanuc: axis y: needs a spacing <= 1 mm"},
               {"format": "siemens", "files": [], "problem": "siemens: axis x: beyond 1 mm"}]
-    comp = SimpleNamespace(uncompensated=(), maps={"x": screw_map()}, tables=tables)
+    comp = SimpleNamespace(uncompensated=(), not_applied=(), maps={"x": screw_map()}, tables=tables)
     ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
     ui.compensation(comp, SimpleNamespace(refusals=[]), None)  # type: ignore[arg-type]
     text = out.getvalue()
@@ -74,7 +74,23 @@ def test_the_designed_scan_is_printed_before_it_moves(monkeypatch):
     monkeypatch.setattr(render_calibrate.render_offsets, "print_plan", lambda *a, **k: None)
     ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
     ui.separation(plan, 25.0)
-    ui.compensation(SimpleNamespace(uncompensated=(), maps={}, tables=[]),  # type: ignore[arg-type]
+    ui.compensation(SimpleNamespace(uncompensated=(), not_applied=(), maps={}, tables=[]),  # type: ignore[arg-type]
                     SimpleNamespace(refusals=[]), None)  # type: ignore[arg-type]
     assert (f"no error map to write: the separating scan finds a cyclic error of about "
             f"{found:.2g} µm or more (95% of them); a smaller one may remain") in out.getvalue()
+
+
+def test_the_end_says_what_a_scan_that_found_no_map_leaves_possible():
+    """"validated" after a designed scan that found no map holds for the cyclic errors
+    the scan finds: the end says the size below which one may remain (a 10 µm dial's
+    rehearsal ended "validated" with a 4 µm lead in place, the size said only while
+    the maps were planned)."""
+    from ogacq.calibration.procedure import _unseen_below
+
+    design = SimpleNamespace(may_remain=lambda: "a smaller one may remain")
+    plan = SimpleNamespace(design=design)
+    assert _unseen_below(plan, SimpleNamespace(maps={})) == (  # type: ignore[arg-type]
+        "no error map: a smaller one may remain")
+    assert _unseen_below(plan, SimpleNamespace(maps={"x": 1})) == ""  # type: ignore[arg-type]
+    assert _unseen_below(SimpleNamespace(design=None),  # type: ignore[arg-type]
+                         SimpleNamespace(maps={})) == ""  # type: ignore[arg-type]
