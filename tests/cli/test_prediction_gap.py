@@ -38,7 +38,8 @@ def _shown(monkeypatch, after: dict) -> str:
     monkeypatch.setattr(render_calibrate.render_offsets, "print_plan", lambda *a, **k: None)
     ui = render_calibrate.TerminalUI(yes=True, on_recorded=None)
     written = screw_map(u_mm=0.0004)  # known to 0.4 µm (forward), 0.6 µm (reverse)
-    ui.compensation(SimpleNamespace(uncompensated=(), maps={"x": written}, tables=()),
+    ui.compensation(SimpleNamespace(uncompensated=(), not_applied=(), maps={"x": written},
+                                    tables=()),
                     SimpleNamespace(refusals=[]), None)  # type: ignore[arg-type]
     before = {"x": map_figures(written).to_json()}
     verdict = {"state": "consistent", "p_value": 0.5, "text": "within the gauge noise (...)"}
