@@ -30,6 +30,13 @@ and the scan's machine time beside a uniform scan that resolves the same leads (
 5.5 s a reading step).
 
 Run: python bench/table_coverage.py [--seeds 100] [--scan-step-mm 1]
+
+Seen (300 seeds, 2026-12-07 (s8), a pitch fitted in the final model,
+``diagnose/mappolish.py``), truth / measured within U: LinuxCNC 96.5 / 95.4 %,
+SINUMERIK 97.3 / 96.2 %, FANUC 99.0 / 98.8 %, CSV 95.3 / 95.1 %; cyclic maps 97.8 %,
+smooth maps 95.4 %; no axis made worse in any format. Before it (the pitch of the
+search's step, its std from that step's curvature): 95.5 / 95.0, 96.6 / 95.8,
+99.0 / 98.8, 94.0 / 94.5 %; cyclic 96.5 %; one LinuxCNC axis made worse.
 """
 
 from __future__ import annotations

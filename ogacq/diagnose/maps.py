@@ -22,6 +22,7 @@ from ogacq.diagnose.mapfit import (
     fit_with_maps,
     map_columns,
 )
+from ogacq.diagnose.mappolish import polished
 from ogacq.diagnose.mapsearch import RIVALS, AxisCoverage, MapSearch, search_maps
 from ogacq.diagnose.mapswap import (
     Proposal,
@@ -40,7 +41,7 @@ from ogacq.identify.noise import GaugeNoise, noise_for
 from ogacq.identify.observations import Observations
 from ogacq.identify.search_rules import SWAP_CHI2
 from ogacq.model.axis_map import AxisMap
-from ogacq.model.error_maps import JointHistory, MapTerm
+from ogacq.model.error_maps import JointHistory, MapTerm, ShapeSpread
 from ogacq.model.families import MapValue
 from ogacq.model.gauges import AXES
 from ogacq.model.parameters import NOMINAL, PARAM_INDEX
@@ -165,6 +166,8 @@ class MapOutcome:
     # terms the search left out that the readings do not rule out: the maps' bands
     # hold what each would change of them, by its weight (``mapaverage.py``)
     band_alternatives: tuple[MapAlternative, ...] = ()
+    # each term's shape parameter as known (a pitch's std and profile path), by name
+    spreads: dict[str, ShapeSpread] = field(default_factory=dict)
 
     @property
     def found(self) -> bool:
@@ -204,7 +207,7 @@ class MapOutcome:
         readings do not rule out (``band_alternatives``)."""
         assert self.fit is not None
         steps = {c.axis: c.step_mm for c in self.search.coverage}
-        spreads = {s.added.term.name: s.added.spread for s in self.search.steps}
+        spreads = self.spreads
         maps = axis_maps(self.fit, self.inflation, ranges, steps, spreads, zero_at)
 
         def tabulate(alt: MapAlternative) -> tuple[AxisMap, ...]:
@@ -396,6 +399,9 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
     search, fitted, dropped = route.search, route.fit, route.dropped
     chi2_before = claimed.rss / noise.variance
     covs = {c.axis: c for c in search.coverage}
+    spreads = {s.added.term.name: s.added.spread for s in search.steps}
+    if fitted is not None:
+        fitted, spreads = polished(problem, noise, fitted, history, spreads, alpha)
     inflation = 1.0 if fitted is None else fitted.verdict.inflation
     effects = []
     established = fitted is not None and fitted.verdict.consistent
@@ -404,12 +410,13 @@ def map_diagnosis(problem: Problem, noise: GaugeNoise, claimed: Model, alpha: fl
         for k, term in enumerate(fitted.terms):
             step = added[term.name]
             value = term.kind.value(term, fitted.coefficients[k], fitted.term_covariance(k)
-                                    * inflation**2, step.added.shape_std * inflation)
+                                    * inflation**2, spreads[term.name].std * inflation)
             effects.append(MapEffect(term, value, value.std, step.added.p_value,
                                      (step.rss_before - step.rss_after) / noise.variance,
                                      coverage=covs.get(term.axis), established=established))
     outcome = MapOutcome(search, fitted, effects, dropped, (), {}, [], chi2_before,
-                         route.rss / noise.variance, inflation, rival)
+                         (route.rss if fitted is None else fitted.rss) / noise.variance,
+                         inflation, rival, spreads=spreads)
     if fitted is not None and established:
         outcome.band_alternatives = alternatives(problem, noise, fitted, search, history)
         outcome.maps = outcome.tabulated({a: (c.from_mm, c.to_mm) for a, c in covs.items()})
