@@ -55,7 +55,7 @@ def _when(date: str | None) -> str:
 
 
 def _short(name: str) -> str:
-    return name.removeprefix("joint_offset.") if name.startswith("joint_offset.") else name
+    return name.removeprefix("joint_offset.")
 
 
 def _ambient(calibration: Calibration) -> str:
