@@ -56,12 +56,10 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("ogacq: interrupted", file=sys.stderr, flush=True)
         return 130
-    except BrokenPipeError as exc:
-        if not reader_gone():  # another pipe (a device's): a fault like any other
-            say("error", _os_error(exc))
-            return 3
-        return SIGPIPE_EXIT
     except OSError as exc:  # the disk's fault, not the user's input: as a StorageError
+        # the reader of the output left: quiet; another pipe's (a device's): a fault
+        if isinstance(exc, BrokenPipeError) and reader_gone():
+            return SIGPIPE_EXIT
         say("error", _os_error(exc))
         return 3
 

@@ -126,8 +126,7 @@ class TerminalUI:
             said = [", ".join(Path(f).name for f in t["files"])] if t["files"] else []
             if t["problem"]:  # the format, or some of its axes, not written: why
                 said.append(f"not written: {t['problem']}")
-            where = "; ".join(said)
-            console.print(f"  {t['format']} table: {shown(where)}")
+            console.print(f"  {t['format']} table: {shown('; '.join(said))}")
         if maps is not None:
             console.print(f"maps file {shown(maps.path)}: {maps.current.checksum[:12]} -> "
                           f"{maps.new_checksum[:12]}"

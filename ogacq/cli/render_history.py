@@ -55,7 +55,7 @@ def _when(date: str | None) -> str:
 
 
 def _short(name: str) -> str:
-    return name.removeprefix("joint_offset.") if name.startswith("joint_offset.") else name
+    return name.removeprefix("joint_offset.")
 
 
 def _ambient(calibration: Calibration) -> str:
@@ -74,8 +74,9 @@ def _print_who(console: Console, machine: Machine, where: str,
     of a column cut off."""
     console.print(f"{shown(machine.describe())}: "
                   f"{_plural(len(calibrations), 'calibration')} in {shown(where)}")
-    rows = [(shown(_when(c.date)), _record_words(c), shown(c.operator or "-"),
-             shown(verdict_words(c.verdict)), shown(acceptance_words(c)), _ambient(c))
+    rows = [(shown(_when(c.date)), shown(c.record_id) + (" SIMULATED" if c.simulated else ""),
+             shown(c.operator or "-"), shown(verdict_words(c.verdict)),
+             shown(acceptance_words(c)), _ambient(c))
             for c in calibrations]
     table = Table(show_edge=False, header_style="bold")
     for column in ("date", "record", "operator", "fit", "acceptance", "ambient"):
@@ -88,10 +89,6 @@ def _print_who(console: Console, machine: Machine, where: str,
     for date, record, operator, fit, acceptance, ambient in rows:
         console.print(f"{date}  {record}\n    operator {operator}; fit {fit}; acceptance "
                       f"{acceptance}; ambient {ambient}")
-
-
-def _record_words(c: Calibration) -> str:
-    return shown(c.record_id) + (" SIMULATED" if c.simulated else "")
 
 
 def _who_notes(calibrations: Sequence[Calibration], written: Written,
@@ -257,7 +254,8 @@ def _print_offsets_states(console: Console, machine: Machine, where: str,
         mark = ", in force" if v.state_id == in_force else ""
         told = f"; {fate[v.state_id]}" if v.state_id in fate else ""
         rows.append([shown(v.state_id), shown(v.at or "-"), shown(v.record_id),
-                     shown(f"{_stage(v)} {v.action} {v.operation}"),
+                     shown(f"{'before' if v.stage == 'before' else 'after'} {v.action} "
+                           f"{v.operation}"),
                      *(f"{v.offsets_mm[a]:+.4f}" if v.offsets_mm[a] is not None else "-"
                        for a in "xyz"), shown(v.status + mark + told)])
     _print_rows(console, f"{shown(machine.describe())}: offsets states in {shown(where)} "
@@ -278,10 +276,6 @@ def _print_maps_states(console: Console, machine: Machine,
                          "applies)",
                 ("state", "when", "record", "what", "axes", "checksum", "status"), rows,
                 lambda r: f"{r[3]}: axes {r[4]}, checksum {r[5]}; {r[6]}")
-
-
-def _stage(state: OffsetState) -> str:
-    return "before" if state.stage == "before" else "after"
 
 
 def print_states(machine: Machine, where: str, states: Sequence[OffsetState],

@@ -116,11 +116,9 @@ def sim(
             typer.echo(json.dumps(info))
         else:
             print_sim(info, write_campaign)
-        try:
+        with contextlib.suppress(KeyboardInterrupt):
             while not done.wait(0.5):
                 pass
-        except KeyboardInterrupt:
-            pass
 
 
 def _per_gauge(items: list[str]) -> dict[str, str]:

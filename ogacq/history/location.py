@@ -56,10 +56,6 @@ class HistoryLocation:
         assert self.url is not None
         return self.url.render_as_string(hide_password=True)
 
-    def option_value(self) -> str:
-        """What to give ``--history`` to name this database again (the password hidden)."""
-        return self.describe()
-
 
 def parse_location(value: str, origin: str) -> HistoryLocation:
     """A ``--history`` value (or the environment's) as a location; InputError naming
@@ -68,7 +64,7 @@ def parse_location(value: str, origin: str) -> HistoryLocation:
     if not text:
         raise InputError(origin, "is empty: give a database URL or an SQLite file's path")
     if "://" not in text:
-        return _sqlite_file(Path(text).expanduser().absolute(), origin)
+        return HistoryLocation(origin, path=Path(text).expanduser().absolute())
     from sqlalchemy.engine import make_url
     from sqlalchemy.exc import ArgumentError
 
@@ -90,7 +86,7 @@ def parse_location(value: str, origin: str) -> HistoryLocation:
         if not url.database or url.database == ":memory:":
             raise InputError(origin, "an SQLite history needs a file (sqlite:////PATH): one in "
                              "memory would be lost when the command ends")
-        return _sqlite_file(Path(url.database), origin)  # as given, as it was said
+        return HistoryLocation(origin, path=Path(url.database))  # as given, as it was said
     else:
         raise InputError(origin, f"database {backend!r} is not supported: ogacq keeps its "
                          "history in SQLite (a file) or PostgreSQL")
@@ -160,11 +156,7 @@ DEFAULT_ORIGIN = "ogacq's data folder"
 
 def default_location() -> HistoryLocation:
     """``history.sqlite`` in ogacq's data folder (created when first recorded into)."""
-    return _sqlite_file((data_folder() / DEFAULT_FILE).absolute(), DEFAULT_ORIGIN)
-
-
-def _sqlite_file(path: Path, origin: str) -> HistoryLocation:
-    return HistoryLocation(origin, path=path)
+    return HistoryLocation(DEFAULT_ORIGIN, path=(data_folder() / DEFAULT_FILE).absolute())
 
 
 def history_for_session(option: str | None, session_path: Path | None = None,

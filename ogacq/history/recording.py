@@ -84,7 +84,7 @@ def record_session(history: History, session: LoadedSession,
 
 def _later(session_path: Path, location: HistoryLocation) -> str:
     named = "" if location.origin == "ogacq's data folder" else \
-        f" --history {location.option_value()}"
+        f" --history {location.describe()}"
     return f"add it later with `ogacq history add {session_path}{named}`"
 
 

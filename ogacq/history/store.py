@@ -175,36 +175,25 @@ class History:
     # names it relative to the folder its command ran in.
     def record_calibration(self, record: Mapping[str, Any], *,
                            session_path: str | None = None) -> Recorded:
-        record = check_record(record)
         return self._record("calibration", record, details=None, parameters=True,
                             session_path=session_path)
 
     def record_diagnosis(self, record: Mapping[str, Any], diagnosis: Mapping[str, Any], *,
                          session_path: str | None = None) -> Recorded:
-        record = check_record(record)
         return self._record("diagnosis", record, details=clean_json(dict(diagnosis)),
                             parameters=False, session_path=session_path)
 
     def record_writeback(self, record: Mapping[str, Any], writeback: WriteBack, *,
                          session_path: str | None = None) -> Recorded:
         """A write-back or restore, with the offsets it found and left as states."""
-        record = check_record(record)
-        details = clean_json({"operation": writeback.operation, "action": writeback.action,
-                              "status": writeback.status, "old_mm": dict(writeback.old_mm),
-                              "new_mm": dict(writeback.new_mm), "profile": writeback.profile,
-                              "restores": writeback.restores})
+        details = _fields(writeback, "old_mm", "new_mm", "profile", "restores")
         return self._record(writeback.kind, record, details=details, parameters=False,
                             writeback=writeback, session_path=session_path)
 
     def record_maps_writeback(self, record: Mapping[str, Any], writeback: MapsWriteBack, *,
                               session_path: str | None = None) -> Recorded:
         """A maps write or restore, with the maps it found and left as states."""
-        record = check_record(record)
-        details = clean_json({"operation": writeback.operation, "action": writeback.action,
-                              "status": writeback.status, "maps_file": writeback.maps_file,
-                              "old_checksum": writeback.old_checksum,
-                              "new_checksum": writeback.new_checksum,
-                              "restores": writeback.restores})
+        details = _fields(writeback, "maps_file", "old_checksum", "new_checksum", "restores")
         return self._record(writeback.kind, record, details=details, parameters=False,
                             maps=writeback, session_path=session_path)
 
@@ -213,14 +202,14 @@ class History:
                          session_path: str | None = None) -> Recorded:
         """One ``ogacq calibrate`` procedure's outcome (validated, restored and why),
         naming the write-backs it made."""
-        record = check_record(record)
         return self._record("calibrate", record, details=clean_json(dict(details)),
                             parameters=False, session_path=session_path, operation=procedure)
 
-    def _record(self, kind: str, record: dict[str, Any], *, details: dict[str, Any] | None,
-                parameters: bool, writeback: WriteBack | None = None,
-                maps: MapsWriteBack | None = None, session_path: str | None = None,
-                operation: str | None = None) -> Recorded:
+    def _record(self, kind: str, record: Mapping[str, Any], *,
+                details: dict[str, Any] | None, parameters: bool,
+                writeback: WriteBack | None = None, maps: MapsWriteBack | None = None,
+                session_path: str | None = None, operation: str | None = None) -> Recorded:
+        record = check_record(record)
         operation = (writeback.operation if writeback else maps.operation if maps
                      else operation)
         key = event_key(kind, record["id"], operation)
@@ -428,6 +417,11 @@ class History:
         raise InputError(wanted, f"no offsets state or calibration {wanted} for "
                          f"{machine.describe()} (`ogacq history {machine.label!r} --states` "
                          "lists them)")
+
+
+def _fields(write: WriteBack | MapsWriteBack, *names: str) -> dict[str, Any]:
+    """A write's event details: what it did, then ``names`` of its fields, as JSON."""
+    return clean_json({k: getattr(write, k) for k in ("operation", "action", "status", *names)})
 
 
 def _in_record_order(found: dict[str, Parameter], record: Any) -> dict[str, Parameter]:

@@ -93,10 +93,6 @@ def _band(ax: Axes, sigma_mm: float, scale: float, label: str | None) -> None:
         ax.axhline(y, color="#969696", lw=0.8, ls="--", zorder=0.5)
 
 
-def _tick(row: DeviationRow) -> str:
-    return f"{row.posture.capitalize()}\nalong {row.gauge_axis}\n({row.name})"
-
-
 def _label_format(values: np.ndarray) -> str:
     finite_values = np.abs(values[np.isfinite(values)])
     return "{:+.2f}" if finite_values.size and finite_values.max() < 1 else "{:+.1f}"
@@ -176,7 +172,7 @@ def deviations_figure(rows: Sequence[DeviationRow], legs: Sequence[str] = AXES) 
                 continue
             _before_panel(top, leg, mine)
             _after_panel(bottom, leg, mine, validated)
-            ticks = [_tick(r) for r in mine]
+            ticks = [f"{r.posture.capitalize()}\nalong {r.gauge_axis}\n({r.name})" for r in mine]
             top.set_xticks(np.arange(len(mine)), ticks, fontsize=8.5)
             bottom.set_xticks(np.arange(len(mine)), ticks, fontsize=8.5)
         axes[0, 0].set_ylabel("deviation before (mm)")

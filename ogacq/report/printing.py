@@ -42,16 +42,13 @@ def find_browser() -> str:
     """The Chromium to print with: ``$OGACQ_BROWSER``, else the first of
     :data:`BROWSER_NAMES` on the PATH; PrintError naming what was looked for."""
     named = os.getenv(BROWSER_ENV)
-    if named:
-        found = shutil.which(named)
-        if found is None:
-            raise NoBrowser(f"{BROWSER_ENV}={named} is not an executable browser: "
-                            "cannot print the PDF")
-        return found
-    for name in BROWSER_NAMES:
+    for name in [named] if named else BROWSER_NAMES:
         found = shutil.which(name)
         if found is not None:
             return found
+    if named:
+        raise NoBrowser(f"{BROWSER_ENV}={named} is not an executable browser: "
+                        "cannot print the PDF")
     raise NoBrowser(f"no Chromium found to print the PDF (looked for {', '.join(BROWSER_NAMES)} "
                     f"on the PATH, and {BROWSER_ENV}); install Chromium (Debian: apt-get "
                     "install chromium), or leave out --pdf and print report.html from a "

@@ -137,7 +137,6 @@ def pairs_table(pairs: Mapping[str, Any], empty: str = NOT_RECORDED) -> Table:
 def identification(record: CalibrationRecord) -> Table:
     machine = record.machine_section
     campaign = record.campaign_section
-    session = record.session_file
     planned = f" of {shown(campaign.planned)} planned" if campaign.planned else ""
     reason = f" ({campaign.reason})" if campaign.reason else ""
     rehearsed = " (a simulated date: a rehearsal)" if record.date_simulated else ""
@@ -152,21 +151,13 @@ def identification(record: CalibrationRecord) -> Table:
         ["machine description", shown(machine.file)],
         ["operator", shown(record.operator)],
         ["campaign", f"{shown(campaign.status)}{reason}: "
-                     f"{shown(campaign.readings)} readings{planned}"],
-        ["session file", shown(session.path)],
-        ["session SHA-256", shown(session.sha256)],
-        ["session records", shown(session.records)],
-        *_integrity_rows("session", session),
-    ]
+                     f"{shown(campaign.readings)} readings{planned}"]]
     if campaign.partial:
-        rows.insert(rows.index(["session file", shown(session.path)]),
-                    ["campaign not finished", shown(campaign.partial)])
+        rows.append(["campaign not finished", shown(campaign.partial)])
+    rows += _session_rows("session", record.session_file)
     validation = record.validation_session_file
     if validation is not None:
-        rows += [["as-left session file", shown(validation.path)],
-                 ["as-left session SHA-256", shown(validation.sha256)],
-                 ["as-left session records", shown(validation.records)],
-                 *_integrity_rows("as-left session", validation)]
+        rows += _session_rows("as-left session", validation)
     return table(None, rows)
 
 
@@ -202,13 +193,16 @@ INTEGRITY_WORDS = Fallback({
 }, lambda _: "")
 
 
-def _integrity_rows(what: str, session: SessionFile) -> list[list[Cell]]:
-    """The session's integrity and the records the user accepted as edited."""
+def _session_rows(what: str, session: SessionFile) -> list[list[Cell]]:
+    """The session's file, SHA-256 and records, its integrity and the records the user
+    accepted as edited."""
+    rows: list[list[Cell]] = [[f"{what} file", shown(session.path)],
+                              [f"{what} SHA-256", shown(session.sha256)],
+                              [f"{what} records", shown(session.records)]]
     if not session.holds("integrity"):
-        return []
+        return rows
     mode = session.integrity
-    rows: list[list[Cell]] = [[f"{what} integrity",
-                               f"{shown(mode)}: {INTEGRITY_WORDS[str(mode)]}"]]
+    rows.append([f"{what} integrity", f"{shown(mode)}: {INTEGRITY_WORDS[str(mode)]}"])
     rows += [[f"{what} edited record", f"line {shown(e.line)}: {shown(e.problem)} "
                                        "(accepted as it stands, --accept-edited)"]
              for e in session.edited]
@@ -261,26 +255,23 @@ def environment(record: CalibrationRecord) -> Table | None:
 
 def method(record: CalibrationRecord) -> Table:
     m = record.method_section
-    rows: list[list[Cell]] = []
-    protocol = m.protocol
-    if isinstance(protocol, Mapping):
-        rows += [[f"protocol: {words(k)}", shown(v)] for k, v in protocol.items()]
-    else:
-        rows.append(["protocol", shown(protocol)])
-    rows.append(["parameters identified", shown(m.params)])
-    ident = m.identification
-    if isinstance(ident, Mapping):
-        rows += [[f"identification: {words(k)}", shown(v)] for k, v in ident.items()]
-    else:
-        rows.append(["identification", shown(ident, NOT_EVALUATED)])
-    rows += [["recorded by", shown(m.software)],
-             ["record made by", shown(m.record_software)],
-             ["decision rule", shown(m.decision_rule)]]
+    rows: list[list[Cell]] = [
+        *_named_rows("protocol", m.protocol), ["parameters identified", shown(m.params)],
+        *_named_rows("identification", m.identification, NOT_EVALUATED),
+        ["recorded by", shown(m.software)], ["record made by", shown(m.record_software)],
+        ["decision rule", shown(m.decision_rule)]]
     if m.holds("offsets_in_force_mm"):
         rows.append(["joint offsets in force (the controller's, read at every start)",
                      _offsets_in_force(m.offsets_in_force_mm, m.offsets_in_force_consistent)])
     rows += [[words(k), shown(v)] for k, v in m.extra.items()]
     return table(None, rows)
+
+
+def _named_rows(name: str, value: Any, empty: str = NOT_RECORDED) -> list[list[Cell]]:
+    """One row of ``value``, or a row per key of a table (``protocol: cycles``)."""
+    if isinstance(value, Mapping):
+        return [[f"{name}: {words(k)}", shown(v)] for k, v in value.items()]
+    return [[name, shown(value, empty)]]
 
 
 def _offsets_in_force(offsets: Any, consistent: Any) -> str:

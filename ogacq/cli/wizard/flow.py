@@ -179,9 +179,8 @@ class _Wizard:
         # the session is closed and safe: a history that fails only warns
         record_campaign(outcome.session_path, self.options.history,
                         say=lambda text: s.say(shown(text)), record=end.built)
-        controller_file = None
-        if self.rehearsal is not None and self.campaign is not None:
-            controller_file = rehearsal_controller_file(self.campaign, self.rehearsal)
+        controller_file = (rehearsal_controller_file(self.campaign, self.rehearsal)
+                           if self.rehearsal is not None and self.campaign is not None else None)
         written = False
         try:
             written = offer_writeback(s, outcome.session_path, writable, controller_file,

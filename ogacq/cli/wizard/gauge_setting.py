@@ -281,10 +281,8 @@ class LegSetter:
 
     def _bar(self, value: float, need: float) -> Text:
         span = self.gauge_range_mm
-        cells = []
-        for k in range(BAR_CELLS):
-            centre = (k + 0.5) * span / BAR_CELLS
-            cells.append("-" if need <= centre <= span - need else ".")
+        cells = ["-" if need <= (k + 0.5) * span / BAR_CELLS <= span - need else "."
+                 for k in range(BAR_CELLS)]
         marker = min(BAR_CELLS - 1, max(0, int(value / span * BAR_CELLS)))
         bar = Text("[")
         bar.append("".join(cells[:marker]), style="dim")

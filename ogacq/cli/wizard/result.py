@@ -118,13 +118,11 @@ def offer_report(screen: Screen, session: Path, folder: Path,
         screen.say(f"Not written. Later: [bold]{shown(later)}[/]")
         return None
     from ogacq.cli.report_cmd import report_of  # matplotlib: only when a record is made
+    from ogacq.report.record_view import revision_label
 
     screen.say("Writing the calibration record …")
     page, record = report_of(session, folder, validation, history)
-    issued = CalibrationRecord.from_json(record)
-    revision = issued.revision
-    issue = f" revision {revision}" if revision is not None and revision > 1 else ""
-    screen.ok(f"record {issued.id}{issue}: {page}")
+    screen.ok(f"record {revision_label(CalibrationRecord.from_json(record))}: {page}")
     return page
 
 
