@@ -118,18 +118,11 @@ def _soft_limits(profile: Profile, given: tuple[float, float] | None) -> tuple[f
 class AxisController:
     """Enable, home, move, poll, stop, reset alarms and handle joint offsets of three axes."""
 
-    def __init__(
-        self,
-        profile: Profile,
-        link: ModbusLink | Mapping[str, ModbusLink],
-        *,
-        axes: Iterable[str] | None = None,
-        device_ids: Mapping[str, int] | None = None,
-        software_offsets_mm: Mapping[str, float] | None = None,
-        soft_limits_mm: tuple[float, float] | None = None,
-        speed_mm_s: float | None = None,
-        poll_interval_s: float = 0.002,
-    ) -> None:
+    def __init__(self, profile: Profile, link: ModbusLink | Mapping[str, ModbusLink], *,
+                 axes: Iterable[str] | None = None, device_ids: Mapping[str, int] | None = None,
+                 software_offsets_mm: Mapping[str, float] | None = None,
+                 soft_limits_mm: tuple[float, float] | None = None, speed_mm_s: float | None = None,
+                 poll_interval_s: float = 0.002) -> None:
         self.profile = profile
         self.axes: tuple[str, ...] = tuple(axes) if axes is not None else tuple(profile.device_ids)
         #: Modbus unit id per axis: the profile's, unless the station gives its own.
@@ -272,16 +265,9 @@ class AxisController:
         log.info("homed axes %s", ", ".join(chosen))
         return self.read_status(chosen)
 
-    def move_to(
-        self,
-        targets_mm: Targets,
-        *,
-        speed_mm_s: float | None = None,
-        wait: bool = True,
-        timeout_s: float | None = None,
-        check_limits: bool = True,
-        require_homed: bool = True,
-    ) -> dict[str, AxisStatus]:
+    def move_to(self, targets_mm: Targets, *, speed_mm_s: float | None = None, wait: bool = True,
+                timeout_s: float | None = None, check_limits: bool = True,
+                require_homed: bool = True) -> dict[str, AxisStatus]:
         """Absolute move of one or several axes to joint coordinates q (mm), together.
 
         ``targets_mm`` is ``{"x": 60.0, ...}`` or a sequence aligned with ``axes``.
@@ -786,13 +772,8 @@ class AxisController:
         params.update({k: v for k, v in given.items() if v is not None})
         return params
 
-    def _run(
-        self,
-        command: str,
-        axes: Sequence[str],
-        common: Mapping[str, Any] | None = None,
-        per_axis: Mapping[str, Mapping[str, Any]] | None = None,
-    ) -> None:
+    def _run(self, command: str, axes: Sequence[str], common: Mapping[str, Any] | None = None,
+             per_axis: Mapping[str, Mapping[str, Any]] | None = None) -> None:
         """Run a profile command: start steps axis after axis, then finish steps."""
         params = {axis: self._params({**(common or {}), **(per_axis or {}).get(axis, {})})
                   for axis in axes}
@@ -898,10 +879,8 @@ class AxisController:
             f"the {at:+.4f} mm the profile predicts: {fix} in profile "
             f"{self.profile.name!r}", field=field, where=self.where(axis))
 
-    def _wait_any(
-        self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
-        timeout_s: float, *, waiting: str = "", late: str = "",
-    ) -> _Poll:
+    def _wait_any(self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
+                  timeout_s: float, *, waiting: str = "", late: str = "") -> _Poll:
         """Poll until the flags match one of the ``until`` alternatives (all of its
         flag states at once); an alarm ends the wait unless an alternative asks for it.
         ``waiting``, ``late``: the words of a wait on one flag."""

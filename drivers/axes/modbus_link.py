@@ -88,20 +88,10 @@ class LinkStats:
 class ModbusLink:
     """A Modbus TCP or RTU client with bounded timeouts and errors that name the device."""
 
-    def __init__(
-        self,
-        *,
-        transport: Literal["tcp", "rtu"],
-        host: str = "127.0.0.1",
-        port: int = 502,
-        serial_port: str = "",
-        baudrate: int = 38400,
-        bytesize: int = 8,
-        parity: str = "N",
-        stopbits: int = 1,
-        timeout_s: float = 0.2,
-        read_retries: int = 1,
-    ) -> None:
+    def __init__(self, *, transport: Literal["tcp", "rtu"], host: str = "127.0.0.1",
+                 port: int = 502, serial_port: str = "", baudrate: int = 38400, bytesize: int = 8,
+                 parity: str = "N", stopbits: int = 1, timeout_s: float = 0.2,
+                 read_retries: int = 1) -> None:
         if transport not in ("tcp", "rtu"):
             raise ValueError(f"Modbus link: transport must be 'tcp' or 'rtu', got {transport!r}")
         if not timeout_s > 0:
@@ -126,17 +116,9 @@ class ModbusLink:
         self._reads = self._writes = self._retries = self._failures = self._losses = 0
 
     @classmethod
-    def for_profile(
-        cls,
-        profile: Profile,
-        *,
-        transport: Literal["tcp", "rtu"] | None = None,
-        host: str = "127.0.0.1",
-        port: int | None = None,
-        serial_port: str = "",
-        baudrate: int | None = None,
-        timeout_s: float | None = None,
-    ) -> ModbusLink:
+    def for_profile(cls, profile: Profile, *, transport: Literal["tcp", "rtu"] | None = None,
+                    host: str = "127.0.0.1", port: int | None = None, serial_port: str = "",
+                    baudrate: int | None = None, timeout_s: float | None = None) -> ModbusLink:
         """A link with the profile's transport defaults; arguments given override them."""
         t = profile.transport
         return cls(transport=transport or t.default, host=host,

@@ -180,17 +180,9 @@ def same_indicator(protocol: str, a: str | None, b: str | None) -> bool:
     return meet
 
 
-def open_indicator(
-    protocol: str,
-    port: str,
-    *,
-    unit: str,
-    channel: str | None = None,
-    where: str | None = None,
-    settings: LinkSettings | None = None,
-    link: serial.Serial | None = None,
-    **options: Any,
-) -> Indicator:
+def open_indicator(protocol: str, port: str, *, unit: str, channel: str | None = None,
+                   where: str | None = None, settings: LinkSettings | None = None,
+                   link: serial.Serial | None = None, **options: Any) -> Indicator:
     """Open ``port`` with the protocol's serial settings and return its driver.
 
     ``unit`` is the unit the gauge displays ("mm" or "inch"), recorded at

@@ -280,14 +280,8 @@ class SerialIndicator(IndicatorDriver):
     pair) are skipped. Every transport failure becomes a :class:`LinkError`.
     """
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, timeout_s: float | None = None,
+                 owns_link: bool = False) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.link = link
         self.owns_link = owns_link
@@ -385,12 +379,8 @@ class SerialIndicator(IndicatorDriver):
             return frame, decoded
 
 
-def read_stable(
-    indicator: Indicator,
-    n: int = 3,
-    tolerance_mm: float = 0.002,
-    timeout_s: float = 5.0,
-) -> StableReading:
+def read_stable(indicator: Indicator, n: int = 3, tolerance_mm: float = 0.002,
+                timeout_s: float = 5.0) -> StableReading:
     """Flush stale input, then read until ``n`` consecutive values agree within
     ``tolerance_mm`` (max - min); return their mean.
 

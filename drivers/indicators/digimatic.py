@@ -82,14 +82,8 @@ class DigimaticFrame:
     digimatic2: bool = False  # an eight-digit Digimatic 2 frame
 
 
-def encode_frame(
-    value: float | Decimal,
-    *,
-    decimals: int,
-    unit: Unit = "mm",
-    inch_nibble: str = "1",
-    digimatic2: bool = False,
-) -> bytes:
+def encode_frame(value: float | Decimal, *, decimals: int, unit: Unit = "mm",
+                 inch_nibble: str = "1", digimatic2: bool = False) -> bytes:
     """The frame for ``value`` in ``unit`` with ``decimals`` places (a Digimatic 2
     frame with eight digits when ``digimatic2``).
 
@@ -167,17 +161,9 @@ class DigimaticBridge(SerialIndicator):
     own unit, which is what the conversion uses (a mismatch is logged).
     """
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        mode: Mode = "polled",
-        channel: str = "",
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, mode: Mode = "polled",
+                 channel: str = "", timeout_s: float | None = None,
+                 owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         if mode not in ("polled", "streaming"):
             raise DriverError(f"mode must be 'polled' or 'streaming', got {mode!r}", where=where)

@@ -163,19 +163,10 @@ class Mitutoyo01A(SerialIndicator):
     as they are used from one thread.
     """
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        channel: str = "1",
-        decimals: int | Iterable[int] | None = None,
-        timeout_s: float | None = None,
-        busy_retries: int = 5,
-        busy_retry_delay_s: float = 0.05,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, channel: str = "1",
+                 decimals: int | Iterable[int] | None = None, timeout_s: float | None = None,
+                 busy_retries: int = 5, busy_retry_delay_s: float = 0.05,
+                 owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel

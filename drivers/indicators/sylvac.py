@@ -188,17 +188,9 @@ class SylvacOptoRS(SerialIndicator):
     places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3).
     """
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        decimals: int | Iterable[int] | None = None,
-        channel: str = "",
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str,
+                 decimals: int | Iterable[int] | None = None, channel: str = "",
+                 timeout_s: float | None = None, owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel

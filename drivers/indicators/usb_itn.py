@@ -140,17 +140,9 @@ def find_cables() -> list[FoundPort]:
 class UsbItn(IndicatorDriver):
     """A gauge on a USB-ITN cable, in data mode (an :class:`Indicator`)."""
 
-    def __init__(
-        self,
-        device: Any,
-        *,
-        where: str,
-        unit: str,
-        decimals: int | Iterable[int] | None = None,
-        channel: str = "",
-        timeout_s: float | None = None,
-        busy_retry_delay_s: float = 0.05,
-    ) -> None:
+    def __init__(self, device: Any, *, where: str, unit: str,
+                 decimals: int | Iterable[int] | None = None, channel: str = "",
+                 timeout_s: float | None = None, busy_retry_delay_s: float = 0.05) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.device = device
         self.unit: Unit = check_unit(unit, where=where)

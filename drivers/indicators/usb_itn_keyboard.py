@@ -130,17 +130,9 @@ class UsbItnKeyboard(IndicatorDriver):
 
     default_timeout_s = 5.0  # someone (or a foot switch) presses the data switch
 
-    def __init__(
-        self,
-        fd: int,
-        node: str,
-        *,
-        where: str,
-        unit: str,
-        decimals: int | Iterable[int] | None = None,
-        channel: str = "",
-        timeout_s: float | None = None,
-    ) -> None:
+    def __init__(self, fd: int, node: str, *, where: str, unit: str,
+                 decimals: int | Iterable[int] | None = None, channel: str = "",
+                 timeout_s: float | None = None) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.fd = fd
         self.node = node

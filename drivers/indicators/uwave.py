@@ -122,13 +122,8 @@ class UWaveStatus:
         return self.code in READING_LOST
 
 
-def encode_data(
-    value: float | Decimal,
-    *,
-    decimals: int,
-    unit: Unit | None = "mm",
-    gauge_id: str = "0000",
-) -> bytes:
+def encode_data(value: float | Decimal, *, decimals: int, unit: Unit | None = "mm",
+                gauge_id: str = "0000") -> bytes:
     """A data frame for ``value`` in ``unit`` (None: unit character ``0``);
     ValueError when it does not fit."""
     if not re.fullmatch(r"[0-9]{4}", gauge_id):
@@ -241,17 +236,9 @@ class UWaveReceiver(SerialIndicator):
 
     default_timeout_s = 5.0
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        channel: str | None = None,
-        decimals: int | Iterable[int] | None = None,
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, channel: str | None = None,
+                 decimals: int | Iterable[int] | None = None, timeout_s: float | None = None,
+                 owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         if channel is not None and not re.fullmatch(r"[0-9]{2}|[0-9]{4}", channel):
             raise DriverError(f"U-WAVE channel is 'CC' or 'GGCC' digits, got {channel!r}",

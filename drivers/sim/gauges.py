@@ -595,21 +595,11 @@ class GaugeEndpoint(SimulatedGauge):
     keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``).
     """
 
-    def __init__(
-        self,
-        protocol: str,
-        value_source: ValueSource | Mapping[str, ValueSource],
-        *,
-        resolution_mm: float = 0.001,
-        unit: Unit = "mm",
-        channel: str | None = None,
-        baud: int | None = None,
-        transport: Transport = "pty",
-        period_s: float | None = None,
-        name: str | None = None,
-        line_speed: float = 1.0,
-        **options: Any,
-    ) -> None:
+    def __init__(self, protocol: str, value_source: ValueSource | Mapping[str, ValueSource], *,
+                 resolution_mm: float = 0.001, unit: Unit = "mm", channel: str | None = None,
+                 baud: int | None = None, transport: Transport = "pty",
+                 period_s: float | None = None, name: str | None = None, line_speed: float = 1.0,
+                 **options: Any) -> None:
         device_class = simulator_of(protocol)
         if not (isinstance(device_class, type) and issubclass(device_class, SerialDevice)):
             raise ValueError(f"{protocol} is not served on a serial line: make its gauge "
@@ -718,15 +708,8 @@ class GaugeEndpoint(SimulatedGauge):
         return f"GaugeEndpoint({self.protocol!r}, {where})"
 
     # -------------------------------------------------------------------- faults
-    def set_fault(
-        self,
-        kind: Fault | str,
-        *,
-        code: str = "",
-        count: int | None = None,
-        pause_s: float = 0.05,
-        value_mm: float | None = None,
-    ) -> None:
+    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None,
+                  pause_s: float = 0.05, value_mm: float | None = None) -> None:
         """Switch a fault on (see :class:`Fault`).
 
         ``count`` limits a per-reply fault to the next ``count`` replies (None:

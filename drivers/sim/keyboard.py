@@ -49,17 +49,9 @@ class KeyboardEndpoint(UsbCableGauge):
 
     protocol = "usb-itn-keyboard"
 
-    def __init__(
-        self,
-        value_source: Callable[[], float],
-        *,
-        resolution_mm: float = 0.001,
-        unit: Unit = "mm",
-        period_s: float | None = None,
-        name: str | None = None,
-        vendor_id: int = usb_itn.VENDOR_ID,
-        product_id: int = usb_itn.PRODUCT_ID,
-    ) -> None:
+    def __init__(self, value_source: Callable[[], float], *, resolution_mm: float = 0.001,
+                 unit: Unit = "mm", period_s: float | None = None, name: str | None = None,
+                 vendor_id: int = usb_itn.VENDOR_ID, product_id: int = usb_itn.PRODUCT_ID) -> None:
         super().__init__(value_source, resolution_mm=resolution_mm, unit=unit, name=name)
         self.period_s = period_s
         self.ids = (vendor_id, product_id)

@@ -441,20 +441,11 @@ class ModbusSimServer:
     ...     info = server.address.as_dict()
     """
 
-    def __init__(
-        self,
-        profile: Profile | str,
-        motion: MotionModel,
-        *,
-        transport: Literal["tcp", "rtu"] | None = None,
-        host: str = "127.0.0.1",
-        port: int = 0,
-        serial_port: str | None = None,
-        baudrate: int | None = None,
-        pace: bool = True,
-        axes: Iterable[str] | None = None,
-        temperatures_c: Callable[[], Mapping[str, float]] | None = None,
-    ) -> None:
+    def __init__(self, profile: Profile | str, motion: MotionModel, *,
+                 transport: Literal["tcp", "rtu"] | None = None, host: str = "127.0.0.1",
+                 port: int = 0, serial_port: str | None = None, baudrate: int | None = None,
+                 pace: bool = True, axes: Iterable[str] | None = None,
+                 temperatures_c: Callable[[], Mapping[str, float]] | None = None) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
         self.transport = transport or self.profile.transport.default
@@ -673,16 +664,9 @@ class ModbusSimServer:
             action=no_such_device,
         )
 
-    async def _on_request(
-        self,
-        unit: _SimulatedAxis,
-        function_code: int,
-        start_address: int,
-        address: int,
-        count: int,
-        registers: list[int],
-        set_values: Iterable[int] | Iterable[bool] | None,
-    ) -> ExcCodes | None:
+    async def _on_request(self, unit: _SimulatedAxis, function_code: int, start_address: int,
+                          address: int, count: int, registers: list[int],
+                          set_values: Iterable[int] | Iterable[bool] | None) -> ExcCodes | None:
         if function_code not in self.profile.transport.functions:
             # a drive serving FC 03/08/16 only (MR-JE-C) answers anything else so
             log.info("%s: function %d refused (illegal function)", unit.where, function_code)

@@ -148,21 +148,11 @@ class MotionModel:
     raises :attr:`Alarm.SOFT_LIMIT` and does not move.
     """
 
-    def __init__(
-        self,
-        clock: SimClock,
-        *,
-        axes: Iterable[str] = AXES,
-        speed_mm_s: float = 100.0,
-        accel_mm_s2: float = 2000.0,
-        settle_s: float = 0.02,
-        home_speed_mm_s: float = 50.0,
-        home_search_s: float = 0.5,
-        soft_min_mm: float = -100.0,
-        soft_max_mm: float = 60.0,
-        limit_margin_mm: float = 2.0,
-        initial_raw_mm: Mapping[str, float] | None = None,
-    ) -> None:
+    def __init__(self, clock: SimClock, *, axes: Iterable[str] = AXES, speed_mm_s: float = 100.0,
+                 accel_mm_s2: float = 2000.0, settle_s: float = 0.02, home_speed_mm_s: float = 50.0,
+                 home_search_s: float = 0.5, soft_min_mm: float = -100.0, soft_max_mm: float = 60.0,
+                 limit_margin_mm: float = 2.0,
+                 initial_raw_mm: Mapping[str, float] | None = None) -> None:
         for label, value in (("speed_mm_s", speed_mm_s), ("accel_mm_s2", accel_mm_s2),
                              ("home_speed_mm_s", home_speed_mm_s)):
             if not value > 0:
@@ -265,14 +255,8 @@ class MotionModel:
                 log.debug("sim axis %s: servo %s", axis, "on" if on else "off")
             ax.servo_on = on
 
-    def move_to(
-        self,
-        axis: str,
-        counter_target_mm: float,
-        *,
-        speed_mm_s: float | None = None,
-        accel_mm_s2: float | None = None,
-    ) -> Outcome:
+    def move_to(self, axis: str, counter_target_mm: float, *, speed_mm_s: float | None = None,
+                accel_mm_s2: float | None = None) -> Outcome:
         """Start an absolute move to a counter position (replaces any move under way)."""
         with self._lock:
             now = self.clock.now()
@@ -395,17 +379,8 @@ class MotionModel:
             return Outcome.SERVO_OFF
         return None
 
-    def _start(
-        self,
-        ax: _Axis,
-        now: float,
-        raw_target: float,
-        speed: float,
-        accel: float,
-        *,
-        dwell_s: float,
-        home_position_mm: float | None,
-    ) -> None:
+    def _start(self, ax: _Axis, now: float, raw_target: float, speed: float, accel: float, *,
+               dwell_s: float, home_position_mm: float | None) -> None:
         raw_now = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
         if raw_target != raw_now:
             direction = 1 if raw_target > raw_now else -1

@@ -76,15 +76,8 @@ class UsbItnEndpoint(UsbCableGauge):
 
     protocol = "usb-itn"
 
-    def __init__(
-        self,
-        value_source: Callable[[], float],
-        *,
-        resolution_mm: float = 0.001,
-        unit: Unit = "mm",
-        serial: str = "SIM0001",
-        name: str | None = None,
-    ) -> None:
+    def __init__(self, value_source: Callable[[], float], *, resolution_mm: float = 0.001,
+                 unit: Unit = "mm", serial: str = "SIM0001", name: str | None = None) -> None:
         super().__init__(value_source, resolution_mm=resolution_mm, unit=unit, name=name)
         self.serial = serial
         self.requests_received = 0

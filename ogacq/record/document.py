@@ -49,10 +49,8 @@ NOT_GIVEN = "{what}: not given when the campaign ran"
 
 
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
-                 history: Sequence[Mapping[str, Any]] | None = None,
-                 history_why: str | None = None,
-                 issued: str | None = None,
-                 compensation: Mapping[str, Any] | None = None,
+                 history: Sequence[Mapping[str, Any]] | None = None, history_why: str | None = None,
+                 issued: str | None = None, compensation: Mapping[str, Any] | None = None,
                  fit: FitResult | None = None,
                  validation_fit: FitResult | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
