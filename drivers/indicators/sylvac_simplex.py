@@ -22,10 +22,7 @@ import logging
 import time
 
 from ogacq_drivers.errors import LinkError
-from ogacq_drivers.indicators.base import (
-    Reading,
-    link_errors,
-)
+from ogacq_drivers.indicators.base import Reading, link_errors
 from ogacq_drivers.indicators.sylvac import SylvacOptoRS, read_reply
 
 log = logging.getLogger(__name__)

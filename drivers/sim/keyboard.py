@@ -33,10 +33,7 @@ from ogacq_drivers.indicators import usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from ogacq_drivers.input_link import EVENT
-from ogacq_drivers.sim.gauges import (
-    Fault,
-    UsbCableGauge,
-)
+from ogacq_drivers.sim.gauges import Fault, UsbCableGauge
 
 log = logging.getLogger(__name__)
 

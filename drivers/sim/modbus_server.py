@@ -495,10 +495,8 @@ class ModbusSimServer:
         client_port: int | str = self.port
         if self.transport == "rtu":
             if not self.serial_port:
-                self._bridge = PtyBridge(
-                    baudrate=self.baudrate if self.pace else None,
-                    bits_per_byte=self.profile.transport.bits_per_byte,
-                ).start()
+                self._bridge = PtyBridge(baudrate=self.baudrate if self.pace else None,
+                                         bits_per_byte=self.profile.transport.bits_per_byte).start()
                 listen_on = self._bridge.server_path
                 client_port = self._bridge.client_path
             else:
@@ -521,14 +519,11 @@ class ModbusSimServer:
             )
         if self.transport == "tcp":
             client_port = self.port
-        self._address = ServerAddress(
-            transport=self.transport,
-            host=self.host if self.transport == "tcp" else None,
-            port=client_port,
-            profile=self.profile.name,
-            device_ids={a: self.profile.device_ids[a] for a in self.axes},
-            baudrate=self.baudrate if self.transport == "rtu" else None,
-        )
+        self._address = ServerAddress(transport=self.transport,
+                                      host=self.host if self.transport == "tcp" else None,
+                                      port=client_port, profile=self.profile.name,
+                                      device_ids={a: self.profile.device_ids[a] for a in self.axes},
+                                      baudrate=self.baudrate if self.transport == "rtu" else None)
         log.info("simulated %s controller serving %s", self.profile.name, self._address.as_dict())
         return self._address
 
@@ -595,16 +590,12 @@ class ModbusSimServer:
             server = ModbusTcpServer(devices, address=(self.host, self.port),
                                      trace_pdu=answer_identification(self.profile.name))
         else:
-            server = ModbusSerialServer(
-                devices,
-                port=listen_on,
-                baudrate=self.baudrate,
-                bytesize=self.profile.transport.bytesize,
-                parity=self.profile.transport.parity,
-                stopbits=self.profile.transport.stopbits,
-                trace_packet=self._drop_unknown_device_answers,
-                trace_pdu=answer_identification(self.profile.name),
-            )
+            server = ModbusSerialServer(devices, port=listen_on, baudrate=self.baudrate,
+                                        bytesize=self.profile.transport.bytesize,
+                                        parity=self.profile.transport.parity,
+                                        stopbits=self.profile.transport.stopbits,
+                                        trace_packet=self._drop_unknown_device_answers,
+                                        trace_pdu=answer_identification(self.profile.name))
         await server.serve_forever(background=True)
         if self.transport == "tcp":
             listener = server.transport  # pymodbus keeps its listening asyncio.Server there
@@ -635,10 +626,8 @@ class ModbusSimServer:
 
     def _holding_blocks(self) -> list[SimData]:
         """One SimData per register, with gaps the client may read across served as zeros."""
-        specs = sorted(
-            (s for s in self.profile.values.values() if s.function == "holding"),
-            key=lambda s: s.address,
-        )
+        specs = sorted((s for s in self.profile.values.values() if s.function == "holding"),
+                       key=lambda s: s.address)
         registers = functools.partial(SimData, values=0, datatype=DataType.REGISTERS)
         blocks: list[SimData] = []
         previous_end: int | None = None
@@ -658,11 +647,9 @@ class ModbusSimServer:
             return ExcCodes.GATEWAY_NO_RESPONSE
 
         # registers must be valid for pymodbus to call the action at all
-        return SimDevice(
-            0,
-            simdata=[SimData(0, count=0xFFFF, values=0, datatype=DataType.REGISTERS)],
-            action=no_such_device,
-        )
+        return SimDevice(0,
+                         simdata=[SimData(0, count=0xFFFF, values=0, datatype=DataType.REGISTERS)],
+                         action=no_such_device)
 
     async def _on_request(self, unit: _SimulatedAxis, function_code: int, start_address: int,
                           address: int, count: int, registers: list[int],

@@ -31,11 +31,7 @@ from typing import Any
 
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
-from ogacq_drivers.sim.gauges import (
-    Fault,
-    UsbCableGauge,
-    _garble,
-)
+from ogacq_drivers.sim.gauges import Fault, UsbCableGauge, _garble
 
 log = logging.getLogger(__name__)
 

@@ -9,11 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.identify.observations import (
-    Observations,
-    deviations_observations,
-    readings_observations,
-)
+from ogacq.identify.observations import Observations, deviations_observations, readings_observations
 from ogacq.identify.plausibility import check_observations
 from ogacq.io.errors import InputError
 from ogacq.io.tables import check_table_postures, read_deviations, read_readings, sniff

@@ -10,16 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq_drivers.config_schema import (
-    Field,
-    MapOf,
-    Source,
-    Table,
-    dump,
-    load,
-    number,
-    text,
-)
+from ogacq_drivers.config_schema import Field, MapOf, Source, Table, dump, load, number, text
 from ogacq.io.atomic import write_atomically
 from ogacq.io.names import name_problem
 from ogacq.io.toml_file import input_error, load_toml
