@@ -41,8 +41,7 @@ class LinkSettings:
     ``timeout_s`` is the longest a single low-level read blocks, not a reply
     deadline: drivers loop on short reads until their own deadline, so a small
     value keeps deadlines precise without wasting line time (a read returns as
-    soon as a byte arrives).
-    """
+    soon as a byte arrives)."""
 
     baudrate: int = 9600
     bytesize: int = 8
@@ -94,8 +93,7 @@ def open_link(
 
     Raises :class:`LinkError` naming the port (and ``where``, the gauge or
     controller it serves) when the settings are invalid or the port cannot be
-    opened: missing device, no permission, port in use, refused socket.
-    """
+    opened: missing device, no permission, port in use, refused socket."""
     settings = settings or LinkSettings()
     where = where or port
     if settings.parity not in _PARITIES:

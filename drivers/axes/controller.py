@@ -274,8 +274,7 @@ class AxisController:
         Targets outside the soft limits are refused before anything is sent
         (``check_limits=False`` leaves the check to the controller's own limits).
         With ``wait``, returns the statuses once every axis is in position at its
-        target; without, returns the statuses read just before the move started.
-        """
+        target; without, returns the statuses read just before the move started."""
         targets = self._targets(targets_mm)
         if check_limits:
             low, high = self.soft_limits_mm
@@ -448,8 +447,7 @@ class AxisController:
     def reset_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
         """Reset the axes that are in alarm; returns the codes that were cleared.
 
-        On a CiA 402 drive the reset leaves the power stage off: call :meth:`enable`.
-        """
+        On a CiA 402 drive the reset leaves the power stage off: call :meth:`enable`."""
         cleared = {a: s.alarm_code for a, s in self.read_status(axes).items() if s.fault}
         if cleared:
             log.info("resetting alarms %s", {a: hex(c) for a, c in cleared.items()})
@@ -484,8 +482,7 @@ class AxisController:
         ``force``: the controller's own limits leave that much room only.
         With a home-offset profile, each value is written, read back and
         compared; it takes effect at the next :meth:`home` (nothing moves here).
-        Nothing is saved to non-volatile memory: see :meth:`save_to_nvm`.
-        """
+        Nothing is saved to non-volatile memory: see :meth:`save_to_nvm`."""
         new = self._per_axis(offsets_mm, "offsets")
         margin = self.profile.limits.margin_mm
         too_large = {a: o for a, o in new.items() if abs(o) > margin}

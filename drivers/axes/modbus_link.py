@@ -165,8 +165,7 @@ class ModbusLink:
         RTU: 1..247 (0 is broadcast, never answered; 248..255 reserved): Modbus over
         Serial Line V1.02 §2.2. TCP: 0..255; a device reached directly (not through a
         gateway) is often addressed as 255 (Modbus Messaging on TCP/IP Implementation
-        Guide V1.0b, unit identifier; MR-JE-C's examples use 255).
-        """
+        Guide V1.0b, unit identifier; MR-JE-C's examples use 255)."""
         low, high = (1, 247) if self.transport == "rtu" else (0, 255)
         if not low <= device_id <= high:
             raise ValueError(f"{self.endpoint}: device id {device_id} is outside {low}..{high} "

@@ -191,8 +191,7 @@ def open_indicator(protocol: str, port: str, *, unit: str, channel: str | None =
     overrides the protocol's serial settings; ``link`` reuses an open link
     (several channels of one multiplexer), which the driver then does not own.
     Other keyword ``options`` go to the driver (``timeout_s``, ``decimals``,
-    ``mode="streaming"`` for Digimatic...).
-    """
+    ``mode="streaming"`` for Digimatic...)."""
     entry = backend(protocol)
     where = where or f"{protocol} gauge on {port}"
     cls = driver_class(protocol)

@@ -69,8 +69,7 @@ class Reading:
 
     ``value_mm`` is always in mm; ``unit`` is the unit the gauge displayed in
     (from the frame, or the configured unit when the frame has none); ``frame``
-    is the raw bytes as received, kept for the record.
-    """
+    is the raw bytes as received, kept for the record."""
 
     value_mm: float
     frame: bytes
@@ -110,8 +109,7 @@ class Indicator(Protocol):
     fresh. Free-running sources (streaming Digimatic bridge, U-WAVE receiver)
     return frames in arrival order, so consecutive reads see consecutive
     frames; ``flush_input`` drops what arrived before now, and
-    :func:`read_stable` calls it first.
-    """
+    :func:`read_stable` calls it first."""
 
     where: str
 
@@ -207,8 +205,7 @@ def flag_line_errors(link: serial.Serial, *, where: str) -> bool:
     nothing, and a wrong baud rate gave plausible characters. Setting INPCK (IGNPAR and
     PARMRK clear) turns each such byte into a NUL, which no frame grammar accepts.
     Links without a terminal (``socket://``, ``loop://``, ``rfc2217://``, Windows) are
-    left alone. Returns whether the port is a terminal set so.
-    """
+    left alone. Returns whether the port is a terminal set so."""
     fd = getattr(link, "fd", None)
     if termios is None or not isinstance(fd, int) or fd < 0 or not os.isatty(fd):
         return False
@@ -277,8 +274,7 @@ class SerialIndicator(IndicatorDriver):
     Frames are read terminator-delimited against a deadline, never by a
     fixed-length read: bytes are read as they arrive, and bytes after a
     terminator are kept for the next frame. Empty segments (the LF of a CR LF
-    pair) are skipped. Every transport failure becomes a :class:`LinkError`.
-    """
+    pair) are skipped. Every transport failure becomes a :class:`LinkError`."""
 
     def __init__(self, link: serial.Serial, *, where: str, timeout_s: float | None = None,
                  owns_link: bool = False) -> None:
@@ -387,8 +383,7 @@ def read_stable(indicator: Indicator, n: int = 3, tolerance_mm: float = 0.002,
     A garbled frame or a busy gauge breaks the run of consecutive values and
     reading goes on; other device errors (fault codes, unit, link) propagate at
     once. Raises :class:`DeviceTimeout` naming the gauge when the values never
-    settle within ``timeout_s``.
-    """
+    settle within ``timeout_s``."""
     if n < 1:
         raise ValueError(f"n must be at least 1, got {n}")
     if tolerance_mm < 0:

@@ -87,8 +87,7 @@ def encode_frame(value: float | Decimal, *, decimals: int, unit: Unit = "mm",
     """The frame for ``value`` in ``unit`` with ``decimals`` places (a Digimatic 2
     frame with eight digits when ``digimatic2``).
 
-    Raises ValueError when the value needs more digits than the frame has.
-    """
+    Raises ValueError when the value needs more digits than the frame has."""
     if not 0 <= decimals <= 5:
         raise ValueError(f"Digimatic decimals must be 0..5, got {decimals}")
     if unit == "mm":
@@ -158,8 +157,7 @@ class DigimaticBridge(SerialIndicator):
     """A Digimatic gauge behind a USB bridge, polled or streaming.
 
     ``unit`` is the unit the gauge is expected to display; frames carry their
-    own unit, which is what the conversion uses (a mismatch is logged).
-    """
+    own unit, which is what the conversion uses (a mismatch is logged)."""
 
     def __init__(self, link: serial.Serial, *, where: str, unit: str, mode: Mode = "polled",
                  channel: str = "", timeout_s: float | None = None,

@@ -73,8 +73,7 @@ def same_indicator(a: str | None, b: str | None) -> bool:
 def encode_reply(value: float | Decimal, *, decimals: int, channel: str = "1") -> bytes:
     """The reply frame for ``value`` (display unit) shown with ``decimals`` places.
 
-    Raises ValueError when the value does not fit the 8-character field.
-    """
+    Raises ValueError when the value does not fit the 8-character field."""
     if not 1 <= decimals <= VALUE_WIDTH - 2:
         raise ValueError(f"decimals must be 1..{VALUE_WIDTH - 2}, got {decimals}")
     quantum = Decimal(1).scaleb(-decimals)
@@ -100,8 +99,7 @@ def decode_reply(frame: bytes, *, where: str = "") -> Decoded:
     unit, which the frame does not name (a gauge setting), and its channel.
 
     Raises :class:`DeviceBusy` for ``918``, :class:`DeviceFault` for other
-    ``91x`` codes and :class:`FrameError` for anything off the grammar.
-    """
+    ``91x`` codes and :class:`FrameError` for anything off the grammar."""
     error = _ERROR.fullmatch(frame)
     if error is not None:
         code = "91" + error.group(1).decode("ascii")
@@ -160,8 +158,7 @@ class Mitutoyo01A(SerialIndicator):
     ``unit`` is the unit the gauge displays (a gauge setting the frame does not
     carry); ``decimals`` the decimal places it shows (default: 1-3 for mm,
     4-5 for inch). Several drivers may share one link, one per channel, as long
-    as they are used from one thread.
-    """
+    as they are used from one thread."""
 
     def __init__(self, link: serial.Serial, *, where: str, unit: str, channel: str = "1",
                  decimals: int | Iterable[int] | None = None, timeout_s: float | None = None,

@@ -185,8 +185,7 @@ class SylvacOptoRS(SerialIndicator):
     """A Sylvac gauge on an Opto-RS duplex cable.
 
     ``unit`` is the unit set on the gauge (recorded at setup); ``decimals`` the
-    places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3).
-    """
+    places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3)."""
 
     def __init__(self, link: serial.Serial, *, where: str, unit: str,
                  decimals: int | Iterable[int] | None = None, channel: str = "",

@@ -231,8 +231,7 @@ class UWaveReceiver(SerialIndicator):
     records which). Once frames of a second transmitter arrive, a gauge with no channel
     could be reading either one, so every read fails until the channel is given.
     ``read`` returns the next pushed frame in arrival order; call
-    ``flush_input`` (``read_stable`` does) to drop frames pushed before now.
-    """
+    ``flush_input`` (``read_stable`` does) to drop frames pushed before now."""
 
     default_timeout_s = 5.0
 
@@ -261,8 +260,7 @@ class UWaveReceiver(SerialIndicator):
         Battery low is only logged. A status saying a reading was lost (READING_LOST)
         is logged and the read waits on for the next data frame: :class:`DeviceFault`
         (code = status code) only when none comes before the deadline. Any other
-        status raises it at once.
-        """
+        status raises it at once."""
         deadline = self._deadline(timeout_s)
         lost: UWaveStatus | None = None
         while True:

@@ -78,8 +78,7 @@ class Fault(StrEnum):
     the device disappears: pty master closed / connection dropped).
     One-shot: ``stale`` (``count`` frames of an old value pushed into the line
     at once, as a bridge's buffer would hold them). State: ``inch`` (display in
-    inch; ``code`` "1" or "8" picks the Digimatic unit nibble).
-    """
+    inch; ``code`` "1" or "8" picks the Digimatic unit nibble)."""
 
     SILENCE = "silence"
     ERROR = "error"
@@ -450,8 +449,7 @@ class SimSetup:
     ``push_period_s``: how often the simulated operator presses the data button of a
     gauge that sends a value per press (U-WAVE, the keyboard cable), None for never;
     ``line_speed``: how many times faster than its baud rate a serial line runs (a
-    rehearsal at ``speed`` asks for as much; 1: the real line).
-    """
+    rehearsal at ``speed`` asks for as much; 1: the real line)."""
 
     resolution_mm: float = 0.001
     transport: Transport = "pty"
@@ -488,8 +486,7 @@ class SerialDevice:
     at the baud rate), the faults and the serving thread, and asks the device only
     what the protocol decides. A serial protocol's backend names its subclass as the
     ``simulator``; options given to the endpoint (``streaming=True``) go to the
-    subclass's constructor. Methods run in the endpoint's serving thread.
-    """
+    subclass's constructor. Methods run in the endpoint's serving thread."""
 
     #: The channel a one-channel endpoint serves when none is given.
     DEFAULT_CHANNEL: ClassVar[str] = ""
@@ -592,8 +589,7 @@ class GaugeEndpoint(SimulatedGauge):
     rehearsal's line: the same frames, each byte's time divided). A free-running
     device (Digimatic bridge, U-WAVE receiver) pushes a frame per channel every
     ``period_s`` if given, and on :meth:`trigger`. Other
-    keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``).
-    """
+    keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``)."""
 
     def __init__(self, protocol: str, value_source: ValueSource | Mapping[str, ValueSource], *,
                  resolution_mm: float = 0.001, unit: Unit = "mm", channel: str | None = None,
@@ -715,8 +711,7 @@ class GaugeEndpoint(SimulatedGauge):
         ``count`` limits a per-reply fault to the next ``count`` replies (None:
         until :meth:`clear_fault`); for ``stale`` it is how many old frames to
         queue (default 3), with value ``value_mm`` (default: the last value
-        served). Raises ValueError for a fault the protocol cannot show.
-        """
+        served). Raises ValueError for a fault the protocol cannot show."""
         kind = Fault(kind)
         if kind is Fault.STALE:
             self._call(lambda: self._queue_stale(count or 3, value_mm), wait=True)
@@ -927,8 +922,7 @@ class GaugeEndpoint(SimulatedGauge):
         """Write ``data`` at the line rate: each byte when its last bit would be in.
 
         Scheduling against absolute times (not sleeping a fixed amount per
-        byte) keeps sleep overshoot from accumulating over a frame.
-        """
+        byte) keeps sleep overshoot from accumulating over a frame."""
         transport = self._transport
         if transport is None:
             return

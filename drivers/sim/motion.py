@@ -145,8 +145,7 @@ class MotionModel:
 
     Soft limits apply to the physical (raw) target: a commanded move whose raw
     target is outside ``[soft_min_mm - limit_margin_mm, soft_max_mm + limit_margin_mm]``
-    raises :attr:`Alarm.SOFT_LIMIT` and does not move.
-    """
+    raises :attr:`Alarm.SOFT_LIMIT` and does not move."""
 
     def __init__(self, clock: SimClock, *, axes: Iterable[str] = AXES, speed_mm_s: float = 100.0,
                  accel_mm_s2: float = 2000.0, settle_s: float = 0.02, home_speed_mm_s: float = 50.0,

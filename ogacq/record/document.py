@@ -67,8 +67,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     as the caller already computed it, which must be ``recorded_identification`` of
     that session (the report's data is); None: identified here (a saved file).
     The fit a campaign ran is not that one (the record evaluates the result the
-    session recorded, so a record built later from the file is the same).
-    """
+    session recorded, so a record built later from the file is the same)."""
     header_line, sha256 = session_digest(session)
     header = session.header
     machine = dict(header.machine or {})
