@@ -81,9 +81,7 @@ def _errno_of(exc: BaseException) -> int | None:
     text = str(exc)
     if "Connection refused" in text:
         return errno.ECONNREFUSED
-    if "No such file or directory" in text:
-        return errno.ENOENT
-    return None
+    return errno.ENOENT if "No such file or directory" in text else None
 
 
 def open_link(

@@ -336,9 +336,7 @@ class Profile:
         """Counts per unit for a scaled value, None for raw values."""
         if spec.unit == "mm":
             return self.codec.counts_per_mm
-        if spec.unit == "mm/s":
-            return self.codec.speed_counts_per_mm_s
-        return None
+        return self.codec.speed_counts_per_mm_s if spec.unit == "mm/s" else None
 
     def encode(self, name: str, value: float | int | bool) -> list[int] | bool:
         """A value in user units (mm, mm/s, raw int, bool) to registers (or a coil state)."""

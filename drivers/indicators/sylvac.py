@@ -82,9 +82,7 @@ class SylvacReply:
 
 def decode_identification(frame: bytes) -> str | None:
     """``"SY235.1"`` for the power-on identification line ``SY235.1\\r``; None otherwise."""
-    if _IDENTIFICATION.fullmatch(frame) is None:
-        return None
-    return frame[:-1].decode("ascii")
+    return None if _IDENTIFICATION.fullmatch(frame) is None else frame[:-1].decode("ascii")
 
 
 def encode_identification(instrument: str = "235", *options: str) -> bytes:

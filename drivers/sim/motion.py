@@ -115,9 +115,7 @@ class _Segment:
         else:
             td = t - tr - tf
             done = 0.5 * a * tr * tr + vp * tf + vp * td - 0.5 * a * td * td
-        if t >= self.travel_s:
-            return self.end_raw
-        return self.start_raw + direction * done
+        return self.end_raw if t >= self.travel_s else self.start_raw + direction * done
 
 
 @dataclass
@@ -374,9 +372,7 @@ class MotionModel:
     def _refusal(ax: _Axis) -> Outcome | None:
         if ax.alarm is not None:
             return Outcome.IN_ALARM
-        if not ax.servo_on:
-            return Outcome.SERVO_OFF
-        return None
+        return Outcome.SERVO_OFF if not ax.servo_on else None
 
     def _start(self, ax: _Axis, now: float, raw_target: float, speed: float, accel: float, *,
                dwell_s: float, home_position_mm: float | None) -> None:

@@ -86,9 +86,7 @@ class CalibrationContext:
 
     def expired(self, instrument: Instrument) -> bool | None:
         """Was the instrument past its due date on the campaign's date (None: unknown)?"""
-        if self.date is None:
-            return None
-        return instrument.expired(self.date.date())
+        return None if self.date is None else instrument.expired(self.date.date())
 
     def instrument(self, gauge: str) -> Instrument | None:
         return next((i for i in self.instruments if i.gauge == gauge), None)

@@ -334,14 +334,10 @@ def plain(value: Any) -> Any:
         return value if math.isfinite(value) else None
     if isinstance(value, Path):
         return str(value)
-    if isinstance(value, Iterable):
-        return [plain(v) for v in value]
-    return str(value)
+    return [plain(v) for v in value] if isinstance(value, Iterable) else str(value)
 
 
 def _text(value: Any) -> str | None:
     if value is None or value == "":
         return None
-    if isinstance(value, dt.date | dt.datetime):
-        return value.isoformat()
-    return str(value)
+    return value.isoformat() if isinstance(value, dt.date | dt.datetime) else str(value)

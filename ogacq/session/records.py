@@ -121,9 +121,7 @@ class Record:
 
 
 def _json(value: Any) -> Any:
-    if isinstance(value, tuple):
-        return [_json(v) for v in value]
-    return value
+    return [_json(v) for v in value] if isinstance(value, tuple) else value
 
 
 def _rest(d: Mapping[str, Any], *named: str) -> dict[str, Any]:
