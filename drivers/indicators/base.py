@@ -332,9 +332,8 @@ class SerialIndicator(IndicatorDriver):
         partial = bytes(self._buffer)
         self._buffer.clear()
         if partial:
-            raise DeviceTimeout(
-                f"incomplete frame at the deadline, got {partial!r}", where=self.where
-            )
+            raise DeviceTimeout(f"incomplete frame at the deadline, got {partial!r}",
+                                where=self.where)
         raise DeviceTimeout("no reply before the deadline", where=self.where)
 
     def _take_frame(self) -> bytes | None:
@@ -352,9 +351,8 @@ class SerialIndicator(IndicatorDriver):
         if len(buffer) > _MAX_FRAME_BYTES:
             junk = bytes(buffer)
             buffer.clear()
-            raise FrameError(
-                f"no terminator within {_MAX_FRAME_BYTES} bytes", where=self.where, frame=junk
-            )
+            raise FrameError(f"no terminator within {_MAX_FRAME_BYTES} bytes", where=self.where,
+                             frame=junk)
         return None
 
     def _read_decoded(self, deadline: float, decode: Callable[..., T]) -> tuple[bytes, T]:
@@ -401,9 +399,8 @@ def read_stable(indicator: Indicator, n: int = 3, tolerance_mm: float = 0.002,
                 raise DeviceTimeout("deadline reached", where=indicator.where)
             reading = indicator.read(timeout_s=remaining)
         except (FrameError, DeviceBusy) as exc:
-            log.warning(
-                "%s: discarding a reading while waiting for stability: %s", indicator.where, exc
-            )
+            log.warning("%s: discarding a reading while waiting for stability: %s",
+                        indicator.where, exc)
             last_error = exc
             window.clear()
             continue
@@ -428,6 +425,5 @@ def read_stable(indicator: Indicator, n: int = 3, tolerance_mm: float = 0.002,
         spread_mm = max(values) - min(values)
         # The epsilon keeps quantised values (1.233, 1.235 at 0.002) from failing on float noise.
         if len(window) == n and spread_mm <= tolerance_mm + 1e-9:
-            return StableReading(
-                value_mm=sum(values) / n, spread_mm=spread_mm, readings=tuple(window)
-            )
+            return StableReading(value_mm=sum(values) / n, spread_mm=spread_mm,
+                                 readings=tuple(window))

@@ -148,9 +148,8 @@ class UsbItnKeyboard(IndicatorDriver):
     @classmethod
     def open(cls, port: str, *, where: str, unit: str, **options: Any) -> UsbItnKeyboard:
         """``keyboard`` (the cable with the USB-ITN's ids) or ``/dev/input/eventN``."""
-        node = resolve_event_device(
-            port, VENDOR_ID, PRODUCT_ID, where=where, what="Mitutoyo USB-ITN"
-        )
+        node = resolve_event_device(port, VENDOR_ID, PRODUCT_ID, where=where,
+                                    what="Mitutoyo USB-ITN")
         fd = open_event_device(node, where=where)
         try:
             return cls(fd, str(node), where=where, unit=unit, **options)
@@ -202,9 +201,8 @@ class UsbItnKeyboard(IndicatorDriver):
                 return False
             data = os.read(self.fd, EVENT.size * 64)
         except OSError as exc:  # ENODEV: the kernel removed the device
-            raise LinkError(
-                f"lost {self.node} ({exc.strerror}); was the cable unplugged?", where=self.where
-            ) from exc
+            raise LinkError(f"lost {self.node} ({exc.strerror}); was the cable unplugged?",
+                            where=self.where) from exc
         if not data:
             raise LinkError(f"{self.node} closed; was the cable unplugged?", where=self.where)
         self._raw += data

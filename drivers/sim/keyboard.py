@@ -84,9 +84,8 @@ class KeyboardEndpoint(UsbCableGauge):
         self._fd = os.open(node, os.O_RDWR | os.O_NONBLOCK)
         self._root = root
         if self.period_s:
-            self._thread = threading.Thread(
-                target=self._press_periodically, daemon=True, name=self.name
-            )
+            self._thread = threading.Thread(target=self._press_periodically, daemon=True,
+                                            name=self.name)
             self._thread.start()
         return self
 

@@ -378,17 +378,15 @@ class _CiaAxis(_SimulatedAxis):
         if self.mode == _MODE_HOMING:
             home_offset_mm = (float(self.get("home_offset"))
                               if "home_offset" in self.profile.values else 0.0)
-            outcome = self.model.home(
-                self.axis, home_position_mm=self.profile.offset.sign * home_offset_mm
-            )
+            outcome = self.model.home(self.axis,
+                                      home_position_mm=self.profile.offset.sign * home_offset_mm)
             self._note(outcome, "homing")
         elif self.mode == _MODE_PROFILE_POSITION:
             target = float(self.get("target_position"))
             if cw & _CW_RELATIVE:
                 target += self.model.snapshot(self.axis).target_counter_mm
-            outcome = self.model.move_to(
-                self.axis, target, speed_mm_s=float(self.get("profile_velocity")) or None
-            )
+            outcome = self.model.move_to(self.axis, target,
+                                         speed_mm_s=float(self.get("profile_velocity")) or None)
             self._note(outcome, "set-point")
             self.setpoint_ack = outcome is Outcome.STARTED
         else:
@@ -503,9 +501,8 @@ class ModbusSimServer:
                 client_port = self.serial_port
         self._ready.clear()
         self._failure = None
-        self._thread = threading.Thread(
-            target=self._run, args=(listen_on,), name=f"sim-modbus-{self.profile.name}", daemon=True
-        )
+        self._thread = threading.Thread(target=self._run, args=(listen_on,),
+                                        name=f"sim-modbus-{self.profile.name}", daemon=True)
         self._thread.start()
         if not self._ready.wait(timeout_s) or self._failure is not None:
             failure = self._failure

@@ -164,9 +164,8 @@ class UsbItnEndpoint(UsbCableGauge):
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             with self._lock:
                 self._conns.append(conn)
-            threading.Thread(
-                target=self._serve, args=(conn,), daemon=True, name=f"{self.name} client"
-            ).start()
+            threading.Thread(target=self._serve, args=(conn,), daemon=True,
+                             name=f"{self.name} client").start()
 
     def _serve(self, conn: socket.socket) -> None:
         with contextlib.suppress(OSError), conn.makefile("rwb") as stream:
