@@ -84,9 +84,7 @@ def _errno_of(exc: BaseException) -> int | None:
     return errno.ENOENT if "No such file or directory" in text else None
 
 
-def open_link(
-    port: str, settings: LinkSettings | None = None, *, where: str = ""
-) -> serial.Serial:
+def open_link(port: str, settings: LinkSettings | None = None, *, where: str = "") -> serial.Serial:
     """Open ``port`` with ``settings`` and return the open link.
 
     Raises :class:`LinkError` naming the port (and ``where``, the gauge or

@@ -246,9 +246,8 @@ class AxisController:
             self._servo_off_by_client[axis] = True
         self._run("disable", chosen, common={"enable_timeout_s": timeout_s})
 
-    def home(
-        self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None
-    ) -> dict[str, AxisStatus]:
+    def home(self, axes: Iterable[str] | None = None, *,
+             timeout_s: float | None = None) -> dict[str, AxisStatus]:
         """Home the axes together and wait for the home end; applies a pending home offset."""
         chosen = self.chosen_axes(axes)
         self._forget_written(chosen)
@@ -336,10 +335,9 @@ class AxisController:
                     mm_to_counts(self._q_to_counter(axis, q), counts_per_mm), counts_per_mm))
                 for axis, q in self._targets(targets_mm).items()}
 
-    def wait_in_position(
-        self, targets_mm: Targets | Iterable[str] | None = None, *, timeout_s: float | None = None,
-        require_homed: bool = True,
-    ) -> dict[str, AxisStatus]:
+    def wait_in_position(self, targets_mm: Targets | Iterable[str] | None = None, *,
+                         timeout_s: float | None = None,
+                         require_homed: bool = True) -> dict[str, AxisStatus]:
         """Poll until every axis is in position (and at its target, if given) and not moving.
 
         An axis whose servo goes off on the way, or (``require_homed``) that stops being
@@ -473,9 +471,8 @@ class AxisController:
         # counter at the home point = sign × home_offset = -o
         return {a: -spec.sign * float(self.read_raw(a, spec.value)) for a in chosen}
 
-    def write_offsets(
-        self, offsets_mm: Mapping[str, float], *, force: bool = False
-    ) -> OffsetChange:
+    def write_offsets(self, offsets_mm: Mapping[str, float], *,
+                      force: bool = False) -> OffsetChange:
         """Set joint zero offsets o (mm). Returns old and new values (as stored).
 
         Offsets larger than the profile's limit margin are refused unless
@@ -788,9 +785,8 @@ class AxisController:
                 raise ValueError(f"command {command!r} needs {value} and none was given") from None
         return value
 
-    def _run_steps(
-        self, command: str, steps: Sequence[CommandStep], axis: str, params: Mapping[str, Any]
-    ) -> None:
+    def _run_steps(self, command: str, steps: Sequence[CommandStep], axis: str,
+                   params: Mapping[str, Any]) -> None:
         what = f"{command} {axis}"
         for step in steps:
             if step.op in ("write", "write_block"):
@@ -811,9 +807,8 @@ class AxisController:
             else:
                 self._confirm(axis, command, step, params)
 
-    def _wait_flag(
-        self, axis: str, command: str, flag: str, state: bool, timeout_s: float
-    ) -> _Poll:
+    def _wait_flag(self, axis: str, command: str, flag: str, state: bool,
+                   timeout_s: float) -> _Poll:
         return self._wait_any(axis, command, (((flag, state),),), timeout_s,
                               waiting=f" for {flag}={state}",
                               late=f"{flag} did not become {state}")
@@ -898,9 +893,8 @@ class AxisController:
                                     where=self.where(axis))
             time.sleep(self.poll_interval_s)
 
-    def _confirm(
-        self, axis: str, command: str, step: CommandStep, params: Mapping[str, Any]
-    ) -> AxisStatus:
+    def _confirm(self, axis: str, command: str, step: CommandStep,
+                 params: Mapping[str, Any]) -> AxisStatus:
         """Read back that an edge-triggered write was taken; never re-send it."""
         timeout_s = float(self._resolve(step.timeout_s, params, command))
         at = float(self._resolve(step.at, params, command))

@@ -258,9 +258,8 @@ class ModbusLink:
                     f"({address:#06x})",
                     lambda: self._client.write_register(address, value, device_id=device_id))
 
-    def write_registers(
-        self, device_id: int, address: int, values: Sequence[int], *, what: str
-    ) -> None:
+    def write_registers(self, device_id: int, address: int, values: Sequence[int], *,
+                        what: str) -> None:
         """FC16 write of consecutive registers, sent once."""
         shown = " ".join(f"{v:#06x}" for v in values)
         self._write(device_id, what, f"registers {address:#06x}.. <- [{shown}]",

@@ -129,9 +129,8 @@ def check_unit(unit: str | None, *, where: str) -> Unit:
     raise UnitError(f"unit must be 'mm' or 'inch', got {unit!r}", where=where)
 
 
-def accepted_decimals(
-    unit: Unit, decimals: int | Iterable[int] | None, *, where: str
-) -> frozenset[int]:
+def accepted_decimals(unit: Unit, decimals: int | Iterable[int] | None, *,
+                      where: str) -> frozenset[int]:
     """The decimal layouts accepted from a unit-less frame configured in ``unit``."""
     if decimals is None:
         return DEFAULT_DECIMALS[unit]
@@ -147,9 +146,8 @@ def accepted_decimals(
     return chosen
 
 
-def check_decimals(
-    decimals: int, unit: Unit, accepted: frozenset[int], *, where: str, frame: bytes
-) -> None:
+def check_decimals(decimals: int, unit: Unit, accepted: frozenset[int], *, where: str,
+                   frame: bytes) -> None:
     """Refuse a frame whose decimal layout contradicts the configured unit."""
     if decimals in accepted:
         return

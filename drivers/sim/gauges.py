@@ -179,9 +179,8 @@ class UsbCableGauge(SimulatedGauge):
         """The code a fault is shown with, checked now (not at the next reply)."""
         return code
 
-    def set_fault(
-        self, kind: Fault | str, *, code: str = "", count: int | None = None, **_: Any
-    ) -> None:
+    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None,
+                  **_: Any) -> None:
         kind = Fault(kind)
         if kind is Fault.UNPLUG:
             self.unplug()
@@ -889,9 +888,8 @@ class GaugeEndpoint(SimulatedGauge):
         nibble = inch.code if inch is not None else "1"
         return self._encode_value(value_mm, unit, channel, nibble)
 
-    def _encode_value(
-        self, value_mm: float, unit: Unit, channel: str, inch_nibble: str
-    ) -> bytes | None:
+    def _encode_value(self, value_mm: float, unit: Unit, channel: str,
+                      inch_nibble: str) -> bytes | None:
         shown, decimals = shown_value(value_mm, unit, self.resolution_mm,
                                       self.device.MAX_DECIMALS)
         try:

@@ -684,9 +684,8 @@ class ModbusSimServer:
                 unit.put(name, round(now[key] / spec.degc_per_count))
 
     @staticmethod
-    def _copy_out(
-        unit: _SimulatedAxis, function_code: int, start: int, registers: list[int]
-    ) -> None:
+    def _copy_out(unit: _SimulatedAxis, function_code: int, start: int,
+                  registers: list[int]) -> None:
         """Copy the device state into pymodbus's block (registers, or coils packed 16 a word)."""
         size = len(registers)
         if function_code in _COIL_FUNCTIONS:

@@ -60,10 +60,9 @@ def load_observations(path: str | Path, machine: MachineSpec | None = None,
                       accept_edited=accept_edited).observations
 
 
-def load_input(path: str | Path, machine: MachineSpec | None = None,
-               names: Sequence[str] = (), *, machine_path: str | Path | None = None,
-               other_geometry: bool = False, partial: bool = False,
-               accept_edited: bool = False) -> LoadedInput:
+def load_input(path: str | Path, machine: MachineSpec | None = None, names: Sequence[str] = (), *,
+               machine_path: str | Path | None = None, other_geometry: bool = False,
+               partial: bool = False, accept_edited: bool = False) -> LoadedInput:
     """Observations of ``path`` (readings CSV, deviations CSV or session), checked to be
     plausible millimetres and enough for ``names``.
 

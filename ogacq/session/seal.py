@@ -360,9 +360,8 @@ class _Scanner:
         return None
 
     @staticmethod
-    def _placement(number: int, line: _Line, mode: str,
-                   seen: dict[int, tuple[int, dict[str, Any]]], expected: int | None,
-                   previous: tuple[int, bytes, bool] | None) -> str | None:
+    def _placement(number: int, line: _Line, mode: str, seen: dict[int, tuple[int, dict[str, Any]]],
+                   expected: int | None, previous: tuple[int, bytes, bool] | None) -> str | None:
         """Whether a record as written is where it was written, or what says not."""
         seq = line.seq
         if isinstance(seq, int) and not isinstance(seq, bool):

@@ -227,9 +227,8 @@ class SessionWriter:
     what was recorded before stays valid and the session can be resumed once the
     disk is fixed."""
 
-    def __init__(self, path: Path, fd: int, next_seq: int, lock: SessionLock | None = None,
-                 *, prev: str | None = None, chained: bool = True,
-                 closing: bool = True) -> None:
+    def __init__(self, path: Path, fd: int, next_seq: int, lock: SessionLock | None = None, *,
+                 prev: str | None = None, chained: bool = True, closing: bool = True) -> None:
         self.path = path
         self._lock = lock or SessionLock(path, fd)
         self._fd = fd
