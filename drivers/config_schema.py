@@ -335,8 +335,7 @@ def _table(table: Table, raw: Any, path: KeyPath, src: Source) -> Any:
     for f in table.fields:
         if f.key not in raw:
             if f.required:
-                raise src.fail(path, f"missing {table.noun} {f.key!r}",
-                               f"{label} needs {f.key!r}")
+                raise src.fail(path, f"missing {table.noun} {f.key!r}", f"{label} needs {f.key!r}")
             continue
         value = _load(f.kind, raw[f.key], (*path, f.key), src)
         given[f.name] = f.decode(value) if f.decode else value

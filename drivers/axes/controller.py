@@ -305,8 +305,7 @@ class AxisController:
             self._run("move", self._longest_travel_first(targets), per_axis=params)
             if not wait:
                 return {axis: self._as_status(poll) for axis, poll in before.items()}
-            return self.wait_in_position(targets, timeout_s=timeout_s,
-                                         require_homed=require_homed)
+            return self.wait_in_position(targets, timeout_s=timeout_s, require_homed=require_homed)
         except DriverError:
             # The axes start together: one failing must not leave the others going.
             self.stop_quietly(tuple(targets))
@@ -682,11 +681,10 @@ class AxisController:
     def _as_status(self, poll: _Poll) -> AxisStatus:
         assert poll.position_mm is not None, "a status needs the position read"
         self._last_seen_q[poll.axis] = poll.position_mm
-        return AxisStatus(
-            axis=poll.axis,
-            position_mm=poll.position_mm, in_position=poll.flags["in_position"],
-            moving=poll.flags["moving"], servo_on=poll.flags["servo_on"], homed=poll.homed,
-            alarm_code=poll.alarm_code, fault=poll.fault, flags=poll.flags)
+        return AxisStatus(axis=poll.axis, position_mm=poll.position_mm,
+                          in_position=poll.flags["in_position"], moving=poll.flags["moving"],
+                          servo_on=poll.flags["servo_on"], homed=poll.homed,
+                          alarm_code=poll.alarm_code, fault=poll.fault, flags=poll.flags)
 
     def counter_mm(self, status: AxisStatus) -> float:
         """The controller's own position counter behind a status (software offset added)."""
@@ -810,8 +808,7 @@ class AxisController:
     def _wait_flag(self, axis: str, command: str, flag: str, state: bool,
                    timeout_s: float) -> _Poll:
         return self._wait_any(axis, command, (((flag, state),),), timeout_s,
-                              waiting=f" for {flag}={state}",
-                              late=f"{flag} did not become {state}")
+                              waiting=f" for {flag}={state}", late=f"{flag} did not become {state}")
 
     def _enable_cia402(self, axis: str, command: str, step: CommandStep, timeout_s: float) -> None:
         """Walk the CiA 402 state machine to "operation enabled" from the state the drive

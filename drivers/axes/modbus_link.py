@@ -156,8 +156,7 @@ class ModbusLink:
 
     @property
     def stats(self) -> LinkStats:
-        return LinkStats(self._reads, self._writes, self._retries, self._failures,
-                         self._losses)
+        return LinkStats(self._reads, self._writes, self._retries, self._failures, self._losses)
 
     def check_device_id(self, device_id: int) -> None:
         """Refuse a unit id the transport cannot address.

@@ -601,8 +601,7 @@ class _Checks:
             if spec.function == "coil" and spec.unit != "raw":
                 raise self.fail(f"{key}.unit", "a coil has unit 'raw'")
             if spec.address + spec.words > 0x10000:
-                raise self.fail(f"{key}.address",
-                                f"{spec.address:#x} is outside 0x0000..0xFFFF")
+                raise self.fail(f"{key}.address", f"{spec.address:#x} is outside 0x0000..0xFFFF")
             out[name] = spec
         self._check_overlaps(out)
         return out

@@ -890,8 +890,7 @@ class GaugeEndpoint(SimulatedGauge):
 
     def _encode_value(self, value_mm: float, unit: Unit, channel: str,
                       inch_nibble: str) -> bytes | None:
-        shown, decimals = shown_value(value_mm, unit, self.resolution_mm,
-                                      self.device.MAX_DECIMALS)
+        shown, decimals = shown_value(value_mm, unit, self.resolution_mm, self.device.MAX_DECIMALS)
         try:
             return self.device.value_frame(shown, decimals=decimals, unit=unit,
                                            channel=channel, inch_code=inch_nibble)

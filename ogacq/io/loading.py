@@ -90,8 +90,7 @@ def load_input(path: str | Path, machine: MachineSpec | None = None, names: Sequ
         loaded = LoadedInput(readings_observations(machine, table.layout(), table.reading_mm,
                                                    str(path)))
     else:
-        loaded = _session_input(path, machine, machine_path, other_geometry, partial,
-                                accept_edited)
+        loaded = _session_input(path, machine, machine_path, other_geometry, partial, accept_edited)
     check_observations(loaded.observations, names)
     return loaded
 

@@ -64,8 +64,7 @@ def _tolerances(table: dict[str, Any]) -> Tolerances:
     from ogacq.model.tolerances import Tolerances  # a file stating them builds the class
 
     per = {k: v for k, v in table.items() if k in DEVIATION_NAMES}
-    return Tolerances(table.get("default_mm"), per,
-                      table.get("decision_rule", "guard-band"))
+    return Tolerances(table.get("default_mm"), per, table.get("decision_rule", "guard-band"))
 
 
 def _tolerance_table(tolerances: Tolerances) -> dict[str, Any]:

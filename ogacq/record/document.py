@@ -195,8 +195,7 @@ def _context_sections(context: CalibrationContext, recorded: bool,
     if not instruments:
         missing["instruments"] = why_none.format(what="the instruments")
     elif not any(i["certificate"] for i in instruments):
-        missing["certificates"] = why_none.format(
-            what="the instruments' calibration certificates")
+        missing["certificates"] = why_none.format(what="the instruments' calibration certificates")
     if not any(environment.values()):
         missing["environment"] = why_none.format(what="the temperatures")
     overrides: list[dict[str, Any]] | None = [o.to_json() for o in context.overrides]

@@ -152,8 +152,7 @@ def _acceptance(machine: MachineSpec | None, found: Budget | None, left: Budget 
     def stage(budget: Budget | None, name: str, why: str | None) -> Acceptance:
         if budget is None:
             return evaluate_acceptance(None, {}, rule, name, why_absent=why or "")
-        limits = tolerances_for(list(budget.names), tolerances.default_mm,
-                                tolerances.per_deviation)
+        limits = tolerances_for(list(budget.names), tolerances.default_mm, tolerances.per_deviation)
         return evaluate_acceptance(budget.for_acceptance(), limits, rule, name)
 
     return acceptance_json(stage(found, "as-found", why_found),

@@ -325,8 +325,7 @@ class _Scanner:
             self.changed.add(number)
             self.edited.append((number, own))
         else:
-            where = self._placement(number, line, mode, self.seen, self.expected,
-                                    self.previous)
+            where = self._placement(number, line, mode, self.seen, self.expected, self.previous)
             if where:
                 self.edited.append((number, where))
         if isinstance(seq, int) and not isinstance(seq, bool):

@@ -478,9 +478,8 @@ def load_session(path: str | Path, *, accept_edited: bool = False) -> LoadedSess
         raise InputError(path, f"session format {first.get('format')!r} is not "
                          f"{FORMAT!r}", 1)
     return LoadedSession(path, SessionHeader.from_json(first),
-                         [_typed(scan, n, r) for n, r in scan.records[1:]],
-                         scan.warnings, scan.size_bytes,
-                         Integrity(scan.mode, tuple(scan.edited)), scan.closure)
+                         [_typed(scan, n, r) for n, r in scan.records[1:]], scan.warnings,
+                         scan.size_bytes, Integrity(scan.mode, tuple(scan.edited)), scan.closure)
 
 
 def _typed(scan: Scan, number: int, content: dict[str, Any]) -> Record:
