@@ -43,7 +43,6 @@ from ogacq_drivers.sim.clock import SimClock
 log = logging.getLogger(__name__)
 
 
-
 class Alarm(enum.Enum):
     """Alarms the model raises; the server maps them to the profile's codes."""
 
