@@ -239,11 +239,10 @@ class ModbusLink:
             except DeviceTimeout:
                 if attempt == attempts:
                     self._losses += 1
-                    raise DeviceTimeout(
-                        f"{what}: no answer after {attempts} attempt(s) of {self.timeout_s:g} s "
-                        f"({time.monotonic() - started:.2f} s)",
-                        where=self.where(device_id),
-                    ) from None
+                    took_s = time.monotonic() - started
+                    raise DeviceTimeout(f"{what}: no answer after {attempts} attempt(s) of "
+                                        f"{self.timeout_s:g} s ({took_s:.2f} s)",
+                                        where=self.where(device_id)) from None
                 self._retries += 1
                 log.warning("%s: %s: no answer, retrying (%d/%d)", self.where(device_id), what,
                             attempt, attempts - 1)

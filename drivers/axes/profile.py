@@ -686,10 +686,8 @@ class _Checks:
                 later = steps + (finish if part == "start" else ())
                 for i, step in enumerate(steps):
                     if step.edge and not any(s.op in ("wait", "confirm") for s in later[i + 1 :]):
-                        raise self.fail(
-                            f"{key}.{part}[{i}]",
-                            "an edge-triggered write must be followed by a wait or confirm step",
-                        )
+                        raise self.fail(f"{key}.{part}[{i}]", "an edge-triggered write must be "
+                                        "followed by a wait or confirm step")
             out[name] = Command(name, start, finish)
         return out
 

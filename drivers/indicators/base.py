@@ -405,18 +405,13 @@ def read_stable(indicator: Indicator, n: int = 3, tolerance_mm: float = 0.002,
         except DeviceTimeout as exc:
             if count == 0 and last_error is None:
                 raise
-            detail = (
-                f"last {len(window)} values spread {spread_mm:.6g} mm"
-                if window
-                else "no consecutive values"
-            )
+            detail = (f"last {len(window)} values spread {spread_mm:.6g} mm" if window
+                      else "no consecutive values")
             if last_error is not None:
                 detail += f"; last error: {last_error}"
-            raise DeviceTimeout(
-                f"readings did not settle within {timeout_s:g} s ({count} readings, {detail}, "
-                f"needed {n} within {tolerance_mm:g} mm)",
-                where=indicator.where,
-            ) from exc
+            raise DeviceTimeout(f"readings did not settle within {timeout_s:g} s ({count} "
+                                f"readings, {detail}, needed {n} within {tolerance_mm:g} mm)",
+                                where=indicator.where) from exc
         count += 1
         window.append(reading)
         values = [r.value_mm for r in window]

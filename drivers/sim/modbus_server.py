@@ -105,10 +105,8 @@ class _SimulatedAxis:
     def __init__(self, profile: Profile, model: MotionModel, axis: str, device_id: int) -> None:
         missing = [n for n in self.required_values if n not in profile.values]
         if missing:
-            raise ValueError(
-                f"profile {profile.name!r} ({profile.source}): the {profile.family} simulator "
-                f"needs value(s) {', '.join(missing)}"
-            )
+            raise ValueError(f"profile {profile.name!r} ({profile.source}): the {profile.family} "
+                             f"simulator needs value(s) {', '.join(missing)}")
         self.profile = profile
         self.model = model
         self.axis = axis
@@ -295,10 +293,8 @@ class _CiaAxis(_SimulatedAxis):
         for name, bit in _CIA_FLAG_BITS.items():
             flag = profile.flags.get(name)
             if flag is not None and (flag.value != "statusword" or flag.bit != bit or flag.invert):
-                raise ValueError(
-                    f"profile {profile.name!r}: flag {name!r} must be statusword bit {bit} "
-                    "for the CiA 402 simulator"
-                )
+                raise ValueError(f"profile {profile.name!r}: flag {name!r} must be statusword bit "
+                                 f"{bit} for the CiA 402 simulator")
         self.state = "switch_on_disabled"
         self.controlword = 0
         self.setpoint_ack = False
@@ -448,9 +444,8 @@ class ModbusSimServer:
         self.motion = motion
         self.transport = transport or self.profile.transport.default
         if self.transport not in ("tcp", "rtu"):
-            raise ValueError(
-                f"sim server: transport must be 'tcp' or 'rtu', got {self.transport!r}"
-            )
+            raise ValueError("sim server: transport must be 'tcp' or 'rtu', got "
+                             f"{self.transport!r}")
         if host not in LOOPBACK_HOSTS:
             raise ValueError(f"sim server: binds loopback only, got host {host!r}")
         self.host = host
@@ -509,11 +504,8 @@ class ModbusSimServer:
             self.stop()
             endpoint = listen_on if self.transport == "rtu" else f"{self.host}:{self.port}"
             where = f"sim {self.profile.name} {self.transport} {endpoint}"
-            raise LinkError(
-                "simulated controller could not listen (address in use, or port not "
-                f"available?): {failure}",
-                where=where,
-            )
+            raise LinkError("simulated controller could not listen (address in use, or port not "
+                            f"available?): {failure}", where=where)
         if self.transport == "tcp":
             client_port = self.port
         self._address = ServerAddress(transport=self.transport,
@@ -692,9 +684,8 @@ class ModbusSimServer:
             for address, state in unit.memory.coils.items():
                 index, bit = address // 16 - start, address % 16
                 if 0 <= index < size:
-                    registers[index] = (
-                        (registers[index] | 1 << bit) if state else (registers[index] & ~(1 << bit))
-                    )
+                    registers[index] = ((registers[index] | 1 << bit) if state
+                                        else (registers[index] & ~(1 << bit)))
             return
         for address, word in unit.memory.holding.items():
             if 0 <= address - start < size:

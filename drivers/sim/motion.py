@@ -359,9 +359,8 @@ class MotionModel:
         try:
             return self._axes[axis]
         except KeyError:
-            raise KeyError(
-                f"motion model has no axis {axis!r} (axes: {', '.join(self._axes)})"
-            ) from None
+            raise KeyError(f"motion model has no axis {axis!r} (axes: {', '.join(self._axes)})"
+                           ) from None
 
     @staticmethod
     def _positive(value: float | None, default: float) -> float:
