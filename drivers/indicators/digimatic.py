@@ -136,21 +136,14 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 
 
 # The manuals print the 13 characters; the bridges end them with CR LF.
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"FFFF000012330\r\n", "QM-Height manual 99MAF600B, 6.2.1: 0.123 mm",
-                value_mm=0.123),
-        Example(b"FFFF021076540\r\n", "LSM-6200 manual 99MBC095A, 6.2.1.5: 21.0765 mm",
-                value_mm=21.0765),
-        Example(b"FFFF801234530\r\n", "measuring projector manual 99MBA043A, 6-12: -12.345 mm",
-                value_mm=-12.345),
-        Example(b"8F00000012330\r\n", "99MAF600B, 6.2.1 Digimatic 2 output: 0.123 mm",
-                value_mm=0.123),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"FFFF000012330\r\n", "QM-Height manual 99MAF600B, 6.2.1: 0.123 mm", value_mm=0.123),
+    Example(b"FFFF021076540\r\n", "LSM-6200 manual 99MBC095A, 6.2.1.5: 21.0765 mm",
+            value_mm=21.0765),
+    Example(b"FFFF801234530\r\n", "measuring projector manual 99MBA043A, 6-12: -12.345 mm",
+            value_mm=-12.345),
+    Example(b"8F00000012330\r\n", "99MAF600B, 6.2.1 Digimatic 2 output: 0.123 mm", value_mm=0.123),
+), fixed_width=True)
 
 
 class DigimaticBridge(SerialIndicator):

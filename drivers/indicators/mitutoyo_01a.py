@@ -132,24 +132,16 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 #: The frames of the QM-Height manual and of INSTRUMENTS.md, 01A (the error codes there
 #: are one informal source, L).
 _QM = "QM-Height manual 99MAF600B, 6.2.2 p. 67"
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"01A+0000.125\r", f"{_QM}: mm at 0.005, 0.125", value_mm=0.125),
-        Example(b"01A+00.12345\r", f"{_QM}: inch at 0.00005, 0.12345", value_mm=3.13563,
-                unit="inch"),
-        Example(b"01A+0000.123\r", f"{_QM}: mm at 0.001, 0.123 (and INSTRUMENTS.md)",
-                value_mm=0.123),
-        Example(b"01A+000.1234\r", f"{_QM}: inch at 0.0001, 0.1234 (and INSTRUMENTS.md)",
-                value_mm=3.13436, unit="inch"),
-        Example(b"01A-001.2340\r", "INSTRUMENTS.md 01A", value_mm=-31.3436, unit="inch"),
-        Example(b"911\r", "INSTRUMENTS.md 01A errors: no data from the gauge",
-                error=DeviceFault),
-        Example(b"918\r", "INSTRUMENTS.md 01A errors: busy", error=DeviceBusy),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"01A+0000.125\r", f"{_QM}: mm at 0.005, 0.125", value_mm=0.125),
+    Example(b"01A+00.12345\r", f"{_QM}: inch at 0.00005, 0.12345", value_mm=3.13563, unit="inch"),
+    Example(b"01A+0000.123\r", f"{_QM}: mm at 0.001, 0.123 (and INSTRUMENTS.md)", value_mm=0.123),
+    Example(b"01A+000.1234\r", f"{_QM}: inch at 0.0001, 0.1234 (and INSTRUMENTS.md)",
+            value_mm=3.13436, unit="inch"),
+    Example(b"01A-001.2340\r", "INSTRUMENTS.md 01A", value_mm=-31.3436, unit="inch"),
+    Example(b"911\r", "INSTRUMENTS.md 01A errors: no data from the gauge", error=DeviceFault),
+    Example(b"918\r", "INSTRUMENTS.md 01A errors: busy", error=DeviceBusy),
+), fixed_width=True)
 
 
 class Mitutoyo01A(SerialIndicator):

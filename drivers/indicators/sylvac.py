@@ -160,23 +160,16 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 
 # The manual gives the layout, not example values: the value frames are built from it.
 _MANUAL = "Opto-RS manual (Sylvac / Bowers Opto instruments manual, pp. 12-13)"
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"+12.345\r", f"{_MANUAL}, data format: sign, integer, '.', fraction, CR",
-                value_mm=12.345),
-        Example(b" 0.005\r", f"{_MANUAL}, data format: the sign may be a space",
-                value_mm=0.005),
-        Example(b"-0.04855\r", f"{_MANUAL}, data format: an inch display at 0.00005 in",
-                value_mm=-1.23317, unit="inch"),
-        Example(b"ERR3\r", f"{_MANUAL}, errors: 3 exceeded measurement range",
-                error=DeviceFault),
-        Example(b"SY235.1\r", f"{_MANUAL}, identification: sent at power-on, not a value",
-                error=FrameError),
-    ),
-    fixed_width=False,  # the integer part has as many digits as the value needs
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"+12.345\r", f"{_MANUAL}, data format: sign, integer, '.', fraction, CR",
+            value_mm=12.345),
+    Example(b" 0.005\r", f"{_MANUAL}, data format: the sign may be a space", value_mm=0.005),
+    Example(b"-0.04855\r", f"{_MANUAL}, data format: an inch display at 0.00005 in",
+            value_mm=-1.23317, unit="inch"),
+    Example(b"ERR3\r", f"{_MANUAL}, errors: 3 exceeded measurement range", error=DeviceFault),
+    Example(b"SY235.1\r", f"{_MANUAL}, identification: sent at power-on, not a value",
+            error=FrameError),
+), fixed_width=False)  # the integer part has as many digits as the value needs
 
 
 class SylvacOptoRS(SerialIndicator):

@@ -114,19 +114,14 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
     return encode_reply(value, decimals=decimals, channel=channel or "1")
 
 
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"01A+0000.123\r", "pytuyo: a value message is a whole 01A reply (this one "
-                "from INSTRUMENTS.md)", value_mm=0.123),
-        Example(b"918\r", "pytuyo: 9 starts a status; a second logger script: 918 until data "
-                "is available again", error=DeviceBusy),
-        Example(b"911\r", "pytuyo: 9 starts a status; 911 no data, as on the 01A interfaces "
-                "(INSTRUMENTS.md)", error=DeviceFault),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"01A+0000.123\r", "pytuyo: a value message is a whole 01A reply (this one "
+            "from INSTRUMENTS.md)", value_mm=0.123),
+    Example(b"918\r", "pytuyo: 9 starts a status; a second logger script: 918 until data "
+            "is available again", error=DeviceBusy),
+    Example(b"911\r", "pytuyo: 9 starts a status; 911 no data, as on the 01A interfaces "
+            "(INSTRUMENTS.md)", error=DeviceFault),
+), fixed_width=True)
 
 
 def find_cables() -> list[FoundPort]:

@@ -107,16 +107,11 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 
 
 _NO_SOURCE = "no source for the typed characters (issue 12: the plain grammar)"
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"1.233\n", _NO_SOURCE, value_mm=1.233),
-        Example(b"-0.0500\n", _NO_SOURCE + "; an inch display", value_mm=-1.27, unit="inch"),
-        Example(b"1.2A3\n", _NO_SOURCE + "; a key no value has", error=FrameError),
-    ),
-    fixed_width=False,  # typed as long as the value needs
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"1.233\n", _NO_SOURCE, value_mm=1.233),
+    Example(b"-0.0500\n", _NO_SOURCE + "; an inch display", value_mm=-1.27, unit="inch"),
+    Example(b"1.2A3\n", _NO_SOURCE + "; a key no value has", error=FrameError),
+), fixed_width=False)  # typed as long as the value needs
 
 
 def find_keyboards() -> list[FoundPort]:

@@ -208,19 +208,14 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
     return encode_data(value, decimals=decimals, unit=unit, gauge_id=channel or "0000")
 
 
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"DT10000+00000011.88M\r", "INSTRUMENTS.md U-WAVE-R: +11.88 mm, group 00 "
-                "channel 00", value_mm=11.88),
-        Example(b"DT10000+00000011.880\r", "the frame above with unit character 0, no unit "
-                "sent (U-WAVE-R manual 99MAL216A, 6.1, as quoted in issue 12)", value_mm=11.88),
-        Example(b"ST10102FFFFFFFFFF04\r", "99MAL216A, 6.1 status layout: transmitter 0102 "
-                "disconnected, id unknown", error=DeviceFault),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"DT10000+00000011.88M\r", "INSTRUMENTS.md U-WAVE-R: +11.88 mm, group 00 "
+            "channel 00", value_mm=11.88),
+    Example(b"DT10000+00000011.880\r", "the frame above with unit character 0, no unit "
+            "sent (U-WAVE-R manual 99MAL216A, 6.1, as quoted in issue 12)", value_mm=11.88),
+    Example(b"ST10102FFFFFFFFFF04\r", "99MAL216A, 6.1 status layout: transmitter 0102 "
+            "disconnected, id unknown", error=DeviceFault),
+), fixed_width=True)
 
 
 class UWaveReceiver(SerialIndicator):
