@@ -158,14 +158,6 @@ def check_decimals(decimals: int, unit: Unit, accepted: frozenset[int], *, where
                     where=where)
 
 
-def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
-                    accepted: frozenset[int], channel: str, where: str) -> Reading:
-    """The reading of a decoded frame whose decimals must fit the configured unit (the
-    frame itself carries none), stamped now."""
-    check_decimals(decimals, unit, accepted, where=where, frame=frame)
-    return reading_of(value, unit, frame, channel=channel, where=where)
-
-
 def reading_of(value: Decimal, unit: Unit, frame: bytes, *, channel: str,
                where: str) -> Reading:
     """The reading of a decoded frame's value, displayed in ``unit``, stamped now."""
@@ -262,6 +254,19 @@ class IndicatorDriver:
 
     def _deadline(self, timeout_s: float | None) -> float:
         return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
+
+    def _set_unit(self, unit: str, decimals: int | Iterable[int] | None) -> None:
+        """The unit set on the gauge (recorded at setup), and the decimal layouts a frame
+        without a unit field may show in it (:func:`accepted_decimals`)."""
+        self.unit: Unit = check_unit(unit, where=self.where)
+        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=self.where)
+
+    def _checked(self, value: Decimal, decimals: int, frame: bytes, channel: str) -> Reading:
+        """The reading of a decoded frame whose decimals must fit the configured unit (the
+        frame itself carries none), stamped now."""
+        check_decimals(decimals, self.unit, self._accepted_decimals, where=self.where,
+                       frame=frame)
+        return reading_of(value, self.unit, frame, channel=channel, where=self.where)
 
 
 class SerialIndicator(IndicatorDriver):

@@ -30,14 +30,7 @@ import serial
 
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
-from ogacq_drivers.indicators.base import (
-    Reading,
-    SerialIndicator,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-)
+from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit
 
 log = logging.getLogger(__name__)
 
@@ -163,7 +156,7 @@ class Mitutoyo01A(SerialIndicator):
             self._request = encode_request(channel)
         except ValueError as exc:
             raise DriverError(str(exc), where=where) from None
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+        self._set_unit(unit, decimals)
         self.busy_retries = busy_retries
         self.busy_retry_delay_s = busy_retry_delay_s
 
@@ -202,6 +195,4 @@ class Mitutoyo01A(SerialIndicator):
         if reply.channel != self.channel:
             raise FrameError(f"reply from channel {reply.channel}, asked channel {self.channel}",
                              where=self.where, frame=frame)
-        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(reply.value, reply.decimals, frame, self.channel)

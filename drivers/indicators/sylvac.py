@@ -40,15 +40,7 @@ import serial
 
 from ogacq_drivers.errors import DeviceFault, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
-from ogacq_drivers.indicators.base import (
-    Reading,
-    SerialIndicator,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-    link_errors,
-)
+from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, link_errors
 
 log = logging.getLogger(__name__)
 
@@ -182,11 +174,10 @@ class SylvacOptoRS(SerialIndicator):
                  decimals: int | Iterable[int] | None = None, channel: str = "",
                  timeout_s: float | None = None, owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
-        self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
         if decimals is None:
-            decimals = DEFAULT_DECIMALS[self.unit]
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+            decimals = DEFAULT_DECIMALS[check_unit(unit, where=where)]
+        self._set_unit(unit, decimals)
         self._power_cable()
 
     def _power_cable(self) -> None:
@@ -213,6 +204,4 @@ class SylvacOptoRS(SerialIndicator):
     def _reading(self, frame: bytes) -> Reading:
         """The reading of a reply, whose decimals must fit the unit set on the gauge."""
         reply = decode_reply(frame, where=self.where)
-        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(reply.value, reply.decimals, frame, self.channel)

@@ -43,14 +43,7 @@ from typing import Any
 
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
-from ogacq_drivers.indicators.base import (
-    IndicatorDriver,
-    Reading,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-)
+from ogacq_drivers.indicators.base import IndicatorDriver, Reading, Unit
 from ogacq_drivers.indicators.mitutoyo_01a import decode_reply, encode_reply
 from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
@@ -140,10 +133,9 @@ class UsbItn(IndicatorDriver):
                  timeout_s: float | None = None, busy_retry_delay_s: float = 0.05) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.device = device
-        self.unit: Unit = check_unit(unit, where=where)
+        self._set_unit(unit, decimals)
         self.channel = channel
         self.busy_retry_delay_s = busy_retry_delay_s
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._buffer = bytearray()
         self._endpoint: Any = None
         self._detached = False  # whether we took interface 0 from the kernel's usbhid
@@ -225,9 +217,7 @@ class UsbItn(IndicatorDriver):
             raise FrameError("device information where a value was asked", where=self.where,
                              frame=message.raw)
         reply = cable_reply(message.raw, where=self.where)  # 91x raise, classified
-        return checked_reading(reply.value, reply.decimals, message.raw, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(reply.value, reply.decimals, message.raw, self.channel)
 
     def _command(self, command: bytes, deadline: float) -> Message:
         self.flush_input()

@@ -34,14 +34,7 @@ from typing import Any
 
 from ogacq_drivers.errors import DeviceTimeout, FrameError, LinkError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
-from ogacq_drivers.indicators.base import (
-    IndicatorDriver,
-    Reading,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-)
+from ogacq_drivers.indicators.base import IndicatorDriver, Reading, Unit
 from ogacq_drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
 from ogacq_drivers.input_link import (
     EVENT,
@@ -131,9 +124,8 @@ class UsbItnKeyboard(IndicatorDriver):
         super().__init__(where=where, timeout_s=timeout_s)
         self.fd = fd
         self.node = node
-        self.unit: Unit = check_unit(unit, where=where)
+        self._set_unit(unit, decimals)
         self.channel = channel
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._raw = bytearray()  # bytes of an incomplete event
         self._line: list[str] = []
         self._lines: list[str] = []
@@ -165,9 +157,7 @@ class UsbItnKeyboard(IndicatorDriver):
         line = self._lines.pop(0)
         value, decimals = decode_line(line, where=self.where)
         frame = line.encode("ascii") + b"\n"
-        return checked_reading(value, decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(value, decimals, frame, self.channel)
 
     def flush_input(self) -> None:
         """Drop the lines typed before now; a line cut in the middle is skipped whole."""

@@ -35,9 +35,7 @@ from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
     Unit,
-    accepted_decimals,
     check_decimals,
-    check_unit,
     reading_of,
     warn_other_unit,
 )
@@ -237,8 +235,7 @@ class UWaveReceiver(SerialIndicator):
         if channel is not None and not re.fullmatch(r"[0-9]{2}|[0-9]{4}", channel):
             raise DriverError(f"U-WAVE channel is 'CC' or 'GGCC' digits, got {channel!r}",
                               where=where)
-        self.unit: Unit = check_unit(unit, where=where)
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+        self._set_unit(unit, decimals)
         self.channel = channel
         self._cut_by_flush = True  # opening may land mid-frame, as a flush does
         self._last_unit: Unit | None = None
