@@ -228,12 +228,10 @@ class _IaiAxis(_SimulatedAxis):
             log.info("%s: move ignored: PMSL off or pause on", self.where)
             return None
         accel_g = float(self.get("move_acceleration")) / 100.0
-        outcome = self.model.move_to(
-            self.axis,
-            float(self.get("move_target")),
-            speed_mm_s=float(self.get("move_speed")) or None,
-            accel_mm_s2=accel_g * STANDARD_GRAVITY_MM_S2 if accel_g > 0 else None,
-        )
+        accel = accel_g * STANDARD_GRAVITY_MM_S2 if accel_g > 0 else None
+        outcome = self.model.move_to(self.axis, float(self.get("move_target")),
+                                     speed_mm_s=float(self.get("move_speed")) or None,
+                                     accel_mm_s2=accel)
         self._note(outcome, "move")
         return None
 
