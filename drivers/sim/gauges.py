@@ -110,6 +110,14 @@ class SimulatedGauge:
 
     @property
     def port(self) -> str:
+        """What a client opens; RuntimeError before :meth:`start`."""
+        port = self._started_port()
+        if not port:
+            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
+        return port
+
+    def _started_port(self) -> str:
+        """The port once started, "" before."""
         raise NotImplementedError
 
     def start(self) -> Any:
@@ -657,12 +665,9 @@ class GaugeEndpoint(SimulatedGauge):
         self.period_s = period_s
 
     # ----------------------------------------------------------------- lifecycle
-    @property
-    def port(self) -> str:
-        """What a client opens: the pty slave path or ``socket://127.0.0.1:PORT``."""
-        if self._transport is None:
-            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
-        return self._transport.port
+    def _started_port(self) -> str:
+        """The pty slave path, ``socket://127.0.0.1:PORT`` or ``rfc2217://127.0.0.1:PORT``."""
+        return "" if self._transport is None else self._transport.port
 
     def start(self) -> GaugeEndpoint:
         """Create the pty or socket and start serving in a daemon thread."""

@@ -58,11 +58,8 @@ class KeyboardEndpoint(UsbCableGauge):
         self._thread: threading.Thread | None = None
 
     # ---------------------------------------------------------------- lifecycle
-    @property
-    def port(self) -> str:
-        if self._root is None:
-            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
-        return str(self._root / "dev" / "input" / "event0")
+    def _started_port(self) -> str:
+        return "" if self._root is None else str(self._root / "dev" / "input" / "event0")
 
     def start(self) -> KeyboardEndpoint:
         if self._root is not None:

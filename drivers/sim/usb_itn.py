@@ -96,10 +96,7 @@ class UsbItnEndpoint(UsbCableGauge):
             self._scripted.append(raw)
 
     # ---------------------------------------------------------------- lifecycle
-    @property
-    def port(self) -> str:
-        if not self._port:
-            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
+    def _started_port(self) -> str:
         return self._port
 
     def start(self) -> UsbItnEndpoint:
