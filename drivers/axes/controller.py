@@ -787,6 +787,7 @@ class AxisController:
                    params: Mapping[str, Any]) -> None:
         what = f"{command} {axis}"
         for step in steps:
+            timeout = float(self._resolve(step.timeout_s, params, command))  # a wait's bound
             if step.op in ("write", "write_block"):
                 values = [self._resolve(v, params, command) for v in step.value]
                 if step.skip_unchanged and self._unchanged(axis, step.to[0], values[0]):
@@ -794,13 +795,10 @@ class AxisController:
                 self._write(axis, step.to, values, block=step.op == "write_block",
                             what=what + (" (edge, sent once)" if step.edge else ""))
             elif step.op == "wait" and step.until:
-                timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_any(axis, command, step.until, timeout)
             elif step.op == "wait":
-                timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_flag(axis, command, step.flag, step.state, timeout)
             elif step.op == "cia402_enable":
-                timeout = float(self._resolve(step.timeout_s, params, command))
                 self._enable_cia402(axis, command, step, timeout)
             else:
                 self._confirm(axis, command, step, params)
