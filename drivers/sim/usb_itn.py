@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import logging
 import math
 import socket
 import threading
@@ -32,8 +31,6 @@ from typing import Any
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.sim.gauges import Fault, UsbCableGauge, _garble
-
-log = logging.getLogger(__name__)
 
 PACKET_BYTES = 8  # wMaxPacketSize of the interrupt endpoint: an assumption (no source)
 _INFO = b"1SIM-ITN USB-ITN simulated cable 1.0\r"
