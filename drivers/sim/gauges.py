@@ -828,7 +828,6 @@ class GaugeEndpoint(SimulatedGauge):
     def emit(self, channel: str) -> None:
         """Send ``channel``'s value frame now, or what the faults make of it."""
         faults = self._take_faults()
-        frame: bytes | None
         if Fault.UNPLUG in faults:
             whole = self._value_frame(channel, faults) or b"\r"
             self.send(whole[: max(1, len(whole) // 2)])
@@ -836,12 +835,9 @@ class GaugeEndpoint(SimulatedGauge):
             return
         if Fault.SILENCE in faults:
             return
-        if Fault.BUSY in faults:
-            frame = self.device.error_frame(faults[Fault.BUSY].code, channel)
-        elif Fault.ERROR in faults:
-            frame = self.device.error_frame(faults[Fault.ERROR].code, channel)
-        else:
-            frame = self._value_frame(channel, faults)
+        error = faults.get(Fault.BUSY) or faults.get(Fault.ERROR)  # one of them at most
+        frame = (self._value_frame(channel, faults) if error is None
+                 else self.device.error_frame(error.code, channel))
         if frame is None:
             return
         if Fault.GARBLED in faults:
