@@ -68,9 +68,8 @@ def _tolerances(table: dict[str, Any]) -> Tolerances:
 
 
 def _tolerance_table(tolerances: Tolerances) -> dict[str, Any]:
-    out: dict[str, Any] = {"default_mm": tolerances.default_mm,
-                           "decision_rule": tolerances.decision_rule}
-    return {**out, **dict(tolerances.per_deviation)}
+    return {"default_mm": tolerances.default_mm, "decision_rule": tolerances.decision_rule,
+            **tolerances.per_deviation}
 
 
 def read_machine(path: str | Path) -> MachineSpec:
