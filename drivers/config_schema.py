@@ -335,8 +335,7 @@ def _table(table: Table, raw: Any, path: KeyPath, src: Source) -> Any:
     for f in table.fields:
         if f.key not in raw:
             if f.required:
-                raise src.fail(path, f"missing {table.noun} {f.key!r}",
-                               f"{label} needs {f.key!r}")
+                raise src.fail(path, f"missing {table.noun} {f.key!r}", f"{label} needs {f.key!r}")
             continue
         value = _load(f.kind, raw[f.key], (*path, f.key), src)
         given[f.name] = f.decode(value) if f.decode else value
@@ -400,9 +399,7 @@ def _check_range(kind: Value, given: float, path: KeyPath, src: Source) -> None:
 
 def _shown(value: Any) -> str:
     """A file value as its author wrote it (a date as TOML writes it)."""
-    if isinstance(value, datetime.date):
-        return value.isoformat()
-    return repr(value)
+    return value.isoformat() if isinstance(value, datetime.date) else repr(value)
 
 
 def _is_instance(value: Any, types: tuple[type, ...]) -> bool:
@@ -525,9 +522,7 @@ def _literal(kind: Kind, value: Any, path: KeyPath, folder: Path | None) -> str:
         if not math.isfinite(value):
             raise ValueError(f"{dotted(path)} = {value}: not a finite number")
         return repr(value)  # repr round-trips a float exactly and is valid TOML
-    if isinstance(value, int):
-        return str(value)
-    return _basic_string(str(value))
+    return str(value) if isinstance(value, int) else _basic_string(str(value))
 
 
 def _key(key: str) -> str:

@@ -57,9 +57,8 @@ def find_event_devices(vendor_id: int, product_id: int, root: Path = Path("/")) 
     return found
 
 
-def resolve_event_device(
-    port: str, vendor_id: int, product_id: int, *, where: str, what: str
-) -> Path:
+def resolve_event_device(port: str, vendor_id: int, product_id: int, *, where: str,
+                         what: str) -> Path:
     """The node ``port`` names (``keyboard``: the one with these ids; or a path),
     checked to be ``what`` by its ids. LinkError naming the port otherwise."""
     ids = f"{vendor_id:04x}:{product_id:04x}"

@@ -41,8 +41,7 @@ class LinkSettings:
     ``timeout_s`` is the longest a single low-level read blocks, not a reply
     deadline: drivers loop on short reads until their own deadline, so a small
     value keeps deadlines precise without wasting line time (a read returns as
-    soon as a byte arrives).
-    """
+    soon as a byte arrives)."""
 
     baudrate: int = 9600
     bytesize: int = 8
@@ -82,20 +81,15 @@ def _errno_of(exc: BaseException) -> int | None:
     text = str(exc)
     if "Connection refused" in text:
         return errno.ECONNREFUSED
-    if "No such file or directory" in text:
-        return errno.ENOENT
-    return None
+    return errno.ENOENT if "No such file or directory" in text else None
 
 
-def open_link(
-    port: str, settings: LinkSettings | None = None, *, where: str = ""
-) -> serial.Serial:
+def open_link(port: str, settings: LinkSettings | None = None, *, where: str = "") -> serial.Serial:
     """Open ``port`` with ``settings`` and return the open link.
 
     Raises :class:`LinkError` naming the port (and ``where``, the gauge or
     controller it serves) when the settings are invalid or the port cannot be
-    opened: missing device, no permission, port in use, refused socket.
-    """
+    opened: missing device, no permission, port in use, refused socket."""
     settings = settings or LinkSettings()
     where = where or port
     if settings.parity not in _PARITIES:

@@ -88,9 +88,8 @@ def open_usb_device(port: str, vendor_id: int, product_id: int, *, where: str) -
         found = list(usb_core.find(find_all=True, idVendor=vendor_id, idProduct=product_id,
                                    backend=backend))
     except usb_core.NoBackendError:
-        raise LinkError(
-            "libusb is not available: install libusb-1.0 (apt install libusb-1.0-0)", where=where
-        ) from None
+        raise LinkError("libusb is not available: install libusb-1.0 (apt install libusb-1.0-0)",
+                        where=where) from None
     except (usb_core.USBError, OSError) as exc:
         raise LinkError(f"cannot list USB devices for {port}: {exc}", where=where) from exc
     wanted = port.partition(":")[2] if port.startswith("usb:") else ""

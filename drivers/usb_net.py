@@ -140,10 +140,9 @@ class NetBackend(usb.backend.IBackend):
     def ctrl_transfer(self, dev_handle: Any, bmRequestType: int, bRequest: int,  # noqa: N803
                       wValue: int, wIndex: int, data: array[int], timeout: int) -> int:
         outgoing = not bmRequestType & 0x80
-        result = self._call("ctrl", bmRequestType=bmRequestType, bRequest=bRequest,
-                            wValue=wValue, wIndex=wIndex,
-                            data=bytes(data).hex() if outgoing else None, length=len(data),
-                            timeout_ms=timeout)
+        result = self._call("ctrl", bmRequestType=bmRequestType, bRequest=bRequest, wValue=wValue,
+                            wIndex=wIndex, data=bytes(data).hex() if outgoing else None,
+                            length=len(data), timeout_ms=timeout)
         if outgoing:
             return int(result)
         received = bytes.fromhex(result)

@@ -118,18 +118,11 @@ def _soft_limits(profile: Profile, given: tuple[float, float] | None) -> tuple[f
 class AxisController:
     """Enable, home, move, poll, stop, reset alarms and handle joint offsets of three axes."""
 
-    def __init__(
-        self,
-        profile: Profile,
-        link: ModbusLink | Mapping[str, ModbusLink],
-        *,
-        axes: Iterable[str] | None = None,
-        device_ids: Mapping[str, int] | None = None,
-        software_offsets_mm: Mapping[str, float] | None = None,
-        soft_limits_mm: tuple[float, float] | None = None,
-        speed_mm_s: float | None = None,
-        poll_interval_s: float = 0.002,
-    ) -> None:
+    def __init__(self, profile: Profile, link: ModbusLink | Mapping[str, ModbusLink], *,
+                 axes: Iterable[str] | None = None, device_ids: Mapping[str, int] | None = None,
+                 software_offsets_mm: Mapping[str, float] | None = None,
+                 soft_limits_mm: tuple[float, float] | None = None, speed_mm_s: float | None = None,
+                 poll_interval_s: float = 0.002) -> None:
         self.profile = profile
         self.axes: tuple[str, ...] = tuple(axes) if axes is not None else tuple(profile.device_ids)
         #: Modbus unit id per axis: the profile's, unless the station gives its own.
@@ -253,9 +246,8 @@ class AxisController:
             self._servo_off_by_client[axis] = True
         self._run("disable", chosen, common={"enable_timeout_s": timeout_s})
 
-    def home(
-        self, axes: Iterable[str] | None = None, *, timeout_s: float | None = None
-    ) -> dict[str, AxisStatus]:
+    def home(self, axes: Iterable[str] | None = None, *,
+             timeout_s: float | None = None) -> dict[str, AxisStatus]:
         """Home the axes together and wait for the home end; applies a pending home offset."""
         chosen = self.chosen_axes(axes)
         self._forget_written(chosen)
@@ -272,24 +264,16 @@ class AxisController:
         log.info("homed axes %s", ", ".join(chosen))
         return self.read_status(chosen)
 
-    def move_to(
-        self,
-        targets_mm: Targets,
-        *,
-        speed_mm_s: float | None = None,
-        wait: bool = True,
-        timeout_s: float | None = None,
-        check_limits: bool = True,
-        require_homed: bool = True,
-    ) -> dict[str, AxisStatus]:
+    def move_to(self, targets_mm: Targets, *, speed_mm_s: float | None = None, wait: bool = True,
+                timeout_s: float | None = None, check_limits: bool = True,
+                require_homed: bool = True) -> dict[str, AxisStatus]:
         """Absolute move of one or several axes to joint coordinates q (mm), together.
 
         ``targets_mm`` is ``{"x": 60.0, ...}`` or a sequence aligned with ``axes``.
         Targets outside the soft limits are refused before anything is sent
         (``check_limits=False`` leaves the check to the controller's own limits).
         With ``wait``, returns the statuses once every axis is in position at its
-        target; without, returns the statuses read just before the move started.
-        """
+        target; without, returns the statuses read just before the move started."""
         targets = self._targets(targets_mm)
         if check_limits:
             low, high = self.soft_limits_mm
@@ -321,8 +305,7 @@ class AxisController:
             self._run("move", self._longest_travel_first(targets), per_axis=params)
             if not wait:
                 return {axis: self._as_status(poll) for axis, poll in before.items()}
-            return self.wait_in_position(targets, timeout_s=timeout_s,
-                                         require_homed=require_homed)
+            return self.wait_in_position(targets, timeout_s=timeout_s, require_homed=require_homed)
         except DriverError:
             # The axes start together: one failing must not leave the others going.
             self.stop_quietly(tuple(targets))
@@ -351,10 +334,9 @@ class AxisController:
                     mm_to_counts(self._q_to_counter(axis, q), counts_per_mm), counts_per_mm))
                 for axis, q in self._targets(targets_mm).items()}
 
-    def wait_in_position(
-        self, targets_mm: Targets | Iterable[str] | None = None, *, timeout_s: float | None = None,
-        require_homed: bool = True,
-    ) -> dict[str, AxisStatus]:
+    def wait_in_position(self, targets_mm: Targets | Iterable[str] | None = None, *,
+                         timeout_s: float | None = None,
+                         require_homed: bool = True) -> dict[str, AxisStatus]:
         """Poll until every axis is in position (and at its target, if given) and not moving.
 
         An axis whose servo goes off on the way, or (``require_homed``) that stops being
@@ -462,8 +444,7 @@ class AxisController:
     def reset_alarms(self, axes: Iterable[str] | None = None) -> dict[str, int]:
         """Reset the axes that are in alarm; returns the codes that were cleared.
 
-        On a CiA 402 drive the reset leaves the power stage off: call :meth:`enable`.
-        """
+        On a CiA 402 drive the reset leaves the power stage off: call :meth:`enable`."""
         cleared = {a: s.alarm_code for a, s in self.read_status(axes).items() if s.fault}
         if cleared:
             log.info("resetting alarms %s", {a: hex(c) for a, c in cleared.items()})
@@ -489,17 +470,15 @@ class AxisController:
         # counter at the home point = sign × home_offset = -o
         return {a: -spec.sign * float(self.read_raw(a, spec.value)) for a in chosen}
 
-    def write_offsets(
-        self, offsets_mm: Mapping[str, float], *, force: bool = False
-    ) -> OffsetChange:
+    def write_offsets(self, offsets_mm: Mapping[str, float], *,
+                      force: bool = False) -> OffsetChange:
         """Set joint zero offsets o (mm). Returns old and new values (as stored).
 
         Offsets larger than the profile's limit margin are refused unless
         ``force``: the controller's own limits leave that much room only.
         With a home-offset profile, each value is written, read back and
         compared; it takes effect at the next :meth:`home` (nothing moves here).
-        Nothing is saved to non-volatile memory: see :meth:`save_to_nvm`.
-        """
+        Nothing is saved to non-volatile memory: see :meth:`save_to_nvm`."""
         new = self._per_axis(offsets_mm, "offsets")
         margin = self.profile.limits.margin_mm
         too_large = {a: o for a, o in new.items() if abs(o) > margin}
@@ -702,11 +681,10 @@ class AxisController:
     def _as_status(self, poll: _Poll) -> AxisStatus:
         assert poll.position_mm is not None, "a status needs the position read"
         self._last_seen_q[poll.axis] = poll.position_mm
-        return AxisStatus(
-            axis=poll.axis,
-            position_mm=poll.position_mm, in_position=poll.flags["in_position"],
-            moving=poll.flags["moving"], servo_on=poll.flags["servo_on"], homed=poll.homed,
-            alarm_code=poll.alarm_code, fault=poll.fault, flags=poll.flags)
+        return AxisStatus(axis=poll.axis, position_mm=poll.position_mm,
+                          in_position=poll.flags["in_position"], moving=poll.flags["moving"],
+                          servo_on=poll.flags["servo_on"], homed=poll.homed,
+                          alarm_code=poll.alarm_code, fault=poll.fault, flags=poll.flags)
 
     def counter_mm(self, status: AxisStatus) -> float:
         """The controller's own position counter behind a status (software offset added)."""
@@ -786,13 +764,8 @@ class AxisController:
         params.update({k: v for k, v in given.items() if v is not None})
         return params
 
-    def _run(
-        self,
-        command: str,
-        axes: Sequence[str],
-        common: Mapping[str, Any] | None = None,
-        per_axis: Mapping[str, Mapping[str, Any]] | None = None,
-    ) -> None:
+    def _run(self, command: str, axes: Sequence[str], common: Mapping[str, Any] | None = None,
+             per_axis: Mapping[str, Mapping[str, Any]] | None = None) -> None:
         """Run a profile command: start steps axis after axis, then finish steps."""
         params = {axis: self._params({**(common or {}), **(per_axis or {}).get(axis, {})})
                   for axis in axes}
@@ -810,11 +783,11 @@ class AxisController:
                 raise ValueError(f"command {command!r} needs {value} and none was given") from None
         return value
 
-    def _run_steps(
-        self, command: str, steps: Sequence[CommandStep], axis: str, params: Mapping[str, Any]
-    ) -> None:
+    def _run_steps(self, command: str, steps: Sequence[CommandStep], axis: str,
+                   params: Mapping[str, Any]) -> None:
         what = f"{command} {axis}"
         for step in steps:
+            timeout = float(self._resolve(step.timeout_s, params, command))  # a wait's bound
             if step.op in ("write", "write_block"):
                 values = [self._resolve(v, params, command) for v in step.value]
                 if step.skip_unchanged and self._unchanged(axis, step.to[0], values[0]):
@@ -822,23 +795,18 @@ class AxisController:
                 self._write(axis, step.to, values, block=step.op == "write_block",
                             what=what + (" (edge, sent once)" if step.edge else ""))
             elif step.op == "wait" and step.until:
-                timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_any(axis, command, step.until, timeout)
             elif step.op == "wait":
-                timeout = float(self._resolve(step.timeout_s, params, command))
                 self._wait_flag(axis, command, step.flag, step.state, timeout)
             elif step.op == "cia402_enable":
-                timeout = float(self._resolve(step.timeout_s, params, command))
                 self._enable_cia402(axis, command, step, timeout)
             else:
                 self._confirm(axis, command, step, params)
 
-    def _wait_flag(
-        self, axis: str, command: str, flag: str, state: bool, timeout_s: float
-    ) -> _Poll:
+    def _wait_flag(self, axis: str, command: str, flag: str, state: bool,
+                   timeout_s: float) -> _Poll:
         return self._wait_any(axis, command, (((flag, state),),), timeout_s,
-                              waiting=f" for {flag}={state}",
-                              late=f"{flag} did not become {state}")
+                              waiting=f" for {flag}={state}", late=f"{flag} did not become {state}")
 
     def _enable_cia402(self, axis: str, command: str, step: CommandStep, timeout_s: float) -> None:
         """Walk the CiA 402 state machine to "operation enabled" from the state the drive
@@ -898,10 +866,8 @@ class AxisController:
             f"the {at:+.4f} mm the profile predicts: {fix} in profile "
             f"{self.profile.name!r}", field=field, where=self.where(axis))
 
-    def _wait_any(
-        self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
-        timeout_s: float, *, waiting: str = "", late: str = "",
-    ) -> _Poll:
+    def _wait_any(self, axis: str, command: str, until: Sequence[Sequence[tuple[str, bool]]],
+                  timeout_s: float, *, waiting: str = "", late: str = "") -> _Poll:
         """Poll until the flags match one of the ``until`` alternatives (all of its
         flag states at once); an alarm ends the wait unless an alternative asks for it.
         ``waiting``, ``late``: the words of a wait on one flag."""
@@ -922,9 +888,8 @@ class AxisController:
                                     where=self.where(axis))
             time.sleep(self.poll_interval_s)
 
-    def _confirm(
-        self, axis: str, command: str, step: CommandStep, params: Mapping[str, Any]
-    ) -> AxisStatus:
+    def _confirm(self, axis: str, command: str, step: CommandStep,
+                 params: Mapping[str, Any]) -> AxisStatus:
         """Read back that an edge-triggered write was taken; never re-send it."""
         timeout_s = float(self._resolve(step.timeout_s, params, command))
         at = float(self._resolve(step.at, params, command))

@@ -88,20 +88,10 @@ class LinkStats:
 class ModbusLink:
     """A Modbus TCP or RTU client with bounded timeouts and errors that name the device."""
 
-    def __init__(
-        self,
-        *,
-        transport: Literal["tcp", "rtu"],
-        host: str = "127.0.0.1",
-        port: int = 502,
-        serial_port: str = "",
-        baudrate: int = 38400,
-        bytesize: int = 8,
-        parity: str = "N",
-        stopbits: int = 1,
-        timeout_s: float = 0.2,
-        read_retries: int = 1,
-    ) -> None:
+    def __init__(self, *, transport: Literal["tcp", "rtu"], host: str = "127.0.0.1",
+                 port: int = 502, serial_port: str = "", baudrate: int = 38400, bytesize: int = 8,
+                 parity: str = "N", stopbits: int = 1, timeout_s: float = 0.2,
+                 read_retries: int = 1) -> None:
         if transport not in ("tcp", "rtu"):
             raise ValueError(f"Modbus link: transport must be 'tcp' or 'rtu', got {transport!r}")
         if not timeout_s > 0:
@@ -126,17 +116,9 @@ class ModbusLink:
         self._reads = self._writes = self._retries = self._failures = self._losses = 0
 
     @classmethod
-    def for_profile(
-        cls,
-        profile: Profile,
-        *,
-        transport: Literal["tcp", "rtu"] | None = None,
-        host: str = "127.0.0.1",
-        port: int | None = None,
-        serial_port: str = "",
-        baudrate: int | None = None,
-        timeout_s: float | None = None,
-    ) -> ModbusLink:
+    def for_profile(cls, profile: Profile, *, transport: Literal["tcp", "rtu"] | None = None,
+                    host: str = "127.0.0.1", port: int | None = None, serial_port: str = "",
+                    baudrate: int | None = None, timeout_s: float | None = None) -> ModbusLink:
         """A link with the profile's transport defaults; arguments given override them."""
         t = profile.transport
         return cls(transport=transport or t.default, host=host,
@@ -174,8 +156,7 @@ class ModbusLink:
 
     @property
     def stats(self) -> LinkStats:
-        return LinkStats(self._reads, self._writes, self._retries, self._failures,
-                         self._losses)
+        return LinkStats(self._reads, self._writes, self._retries, self._failures, self._losses)
 
     def check_device_id(self, device_id: int) -> None:
         """Refuse a unit id the transport cannot address.
@@ -183,8 +164,7 @@ class ModbusLink:
         RTU: 1..247 (0 is broadcast, never answered; 248..255 reserved): Modbus over
         Serial Line V1.02 §2.2. TCP: 0..255; a device reached directly (not through a
         gateway) is often addressed as 255 (Modbus Messaging on TCP/IP Implementation
-        Guide V1.0b, unit identifier; MR-JE-C's examples use 255).
-        """
+        Guide V1.0b, unit identifier; MR-JE-C's examples use 255)."""
         low, high = (1, 247) if self.transport == "rtu" else (0, 255)
         if not low <= device_id <= high:
             raise ValueError(f"{self.endpoint}: device id {device_id} is outside {low}..{high} "
@@ -259,11 +239,10 @@ class ModbusLink:
             except DeviceTimeout:
                 if attempt == attempts:
                     self._losses += 1
-                    raise DeviceTimeout(
-                        f"{what}: no answer after {attempts} attempt(s) of {self.timeout_s:g} s "
-                        f"({time.monotonic() - started:.2f} s)",
-                        where=self.where(device_id),
-                    ) from None
+                    took_s = time.monotonic() - started
+                    raise DeviceTimeout(f"{what}: no answer after {attempts} attempt(s) of "
+                                        f"{self.timeout_s:g} s ({took_s:.2f} s)",
+                                        where=self.where(device_id)) from None
                 self._retries += 1
                 log.warning("%s: %s: no answer, retrying (%d/%d)", self.where(device_id), what,
                             attempt, attempts - 1)
@@ -277,9 +256,8 @@ class ModbusLink:
                     f"({address:#06x})",
                     lambda: self._client.write_register(address, value, device_id=device_id))
 
-    def write_registers(
-        self, device_id: int, address: int, values: Sequence[int], *, what: str
-    ) -> None:
+    def write_registers(self, device_id: int, address: int, values: Sequence[int], *,
+                        what: str) -> None:
         """FC16 write of consecutive registers, sent once."""
         shown = " ".join(f"{v:#06x}" for v in values)
         self._write(device_id, what, f"registers {address:#06x}.. <- [{shown}]",

@@ -336,9 +336,7 @@ class Profile:
         """Counts per unit for a scaled value, None for raw values."""
         if spec.unit == "mm":
             return self.codec.counts_per_mm
-        if spec.unit == "mm/s":
-            return self.codec.speed_counts_per_mm_s
-        return None
+        return self.codec.speed_counts_per_mm_s if spec.unit == "mm/s" else None
 
     def encode(self, name: str, value: float | int | bool) -> list[int] | bool:
         """A value in user units (mm, mm/s, raw int, bool) to registers (or a coil state)."""
@@ -603,8 +601,7 @@ class _Checks:
             if spec.function == "coil" and spec.unit != "raw":
                 raise self.fail(f"{key}.unit", "a coil has unit 'raw'")
             if spec.address + spec.words > 0x10000:
-                raise self.fail(f"{key}.address",
-                                f"{spec.address:#x} is outside 0x0000..0xFFFF")
+                raise self.fail(f"{key}.address", f"{spec.address:#x} is outside 0x0000..0xFFFF")
             out[name] = spec
         self._check_overlaps(out)
         return out
@@ -689,10 +686,8 @@ class _Checks:
                 later = steps + (finish if part == "start" else ())
                 for i, step in enumerate(steps):
                     if step.edge and not any(s.op in ("wait", "confirm") for s in later[i + 1 :]):
-                        raise self.fail(
-                            f"{key}.{part}[{i}]",
-                            "an edge-triggered write must be followed by a wait or confirm step",
-                        )
+                        raise self.fail(f"{key}.{part}[{i}]", "an edge-triggered write must be "
+                                        "followed by a wait or confirm step")
             out[name] = Command(name, start, finish)
         return out
 

@@ -180,17 +180,9 @@ def same_indicator(protocol: str, a: str | None, b: str | None) -> bool:
     return meet
 
 
-def open_indicator(
-    protocol: str,
-    port: str,
-    *,
-    unit: str,
-    channel: str | None = None,
-    where: str | None = None,
-    settings: LinkSettings | None = None,
-    link: serial.Serial | None = None,
-    **options: Any,
-) -> Indicator:
+def open_indicator(protocol: str, port: str, *, unit: str, channel: str | None = None,
+                   where: str | None = None, settings: LinkSettings | None = None,
+                   link: serial.Serial | None = None, **options: Any) -> Indicator:
     """Open ``port`` with the protocol's serial settings and return its driver.
 
     ``unit`` is the unit the gauge displays ("mm" or "inch"), recorded at
@@ -199,8 +191,7 @@ def open_indicator(
     overrides the protocol's serial settings; ``link`` reuses an open link
     (several channels of one multiplexer), which the driver then does not own.
     Other keyword ``options`` go to the driver (``timeout_s``, ``decimals``,
-    ``mode="streaming"`` for Digimatic...).
-    """
+    ``mode="streaming"`` for Digimatic...)."""
     entry = backend(protocol)
     where = where or f"{protocol} gauge on {port}"
     cls = driver_class(protocol)

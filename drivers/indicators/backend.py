@@ -55,8 +55,7 @@ class Example:
 
     ``value_mm`` for a value frame (read with ``unit`` set at setup when the frame has
     no unit field); ``error`` for an error or status frame, the exception decoding it
-    raises. ``source`` names the document, or says "no source" and why.
-    """
+    raises. ``source`` names the document, or says "no source" and why."""
 
     frame: bytes
     source: str
@@ -92,8 +91,7 @@ class Codec:
     codec of the table for this). ``encode`` is the frame a device sends for ``value``
     shown with ``decimals`` places (ValueError when it does not fit; ``channel`` ""
     is the protocol's first). ``fixed_width``: every value frame of the grammar has one
-    length, so that a lost byte is always a grammar error.
-    """
+    length, so that a lost byte is always a grammar error."""
 
     decode: Decode
     encode: Encode
@@ -121,8 +119,7 @@ class ConnectionHints:
     know once the protocol is chosen; ``channel``: what a channel names, where the
     protocol has channels; ``find``: ``"module:function"`` returning the attached
     devices (:class:`FoundPort` list) that the system's list of serial ports does not
-    show (USB and input devices), "" when that list is enough.
-    """
+    show (USB and input devices), "" when that list is enough."""
 
     ports: str
     note: str = ""
@@ -149,8 +146,7 @@ class Backend:
     ``same_indicator``: for a protocol with channels, a function ``(a, b) -> bool``
     saying whether gauges set to channels ``a`` and ``b`` (None: not set) of one port
     may read the same indicator, as its driver picks frames; "" for a protocol without
-    channels, where every gauge on a port is the one indicator there.
-    """
+    channels, where every gauge on a port is the one indicator there."""
 
     description: str
     driver: str

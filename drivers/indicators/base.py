@@ -69,8 +69,7 @@ class Reading:
 
     ``value_mm`` is always in mm; ``unit`` is the unit the gauge displayed in
     (from the frame, or the configured unit when the frame has none); ``frame``
-    is the raw bytes as received, kept for the record.
-    """
+    is the raw bytes as received, kept for the record."""
 
     value_mm: float
     frame: bytes
@@ -110,8 +109,7 @@ class Indicator(Protocol):
     fresh. Free-running sources (streaming Digimatic bridge, U-WAVE receiver)
     return frames in arrival order, so consecutive reads see consecutive
     frames; ``flush_input`` drops what arrived before now, and
-    :func:`read_stable` calls it first.
-    """
+    :func:`read_stable` calls it first."""
 
     where: str
 
@@ -131,9 +129,8 @@ def check_unit(unit: str | None, *, where: str) -> Unit:
     raise UnitError(f"unit must be 'mm' or 'inch', got {unit!r}", where=where)
 
 
-def accepted_decimals(
-    unit: Unit, decimals: int | Iterable[int] | None, *, where: str
-) -> frozenset[int]:
+def accepted_decimals(unit: Unit, decimals: int | Iterable[int] | None, *,
+                      where: str) -> frozenset[int]:
     """The decimal layouts accepted from a unit-less frame configured in ``unit``."""
     if decimals is None:
         return DEFAULT_DECIMALS[unit]
@@ -149,9 +146,8 @@ def accepted_decimals(
     return chosen
 
 
-def check_decimals(
-    decimals: int, unit: Unit, accepted: frozenset[int], *, where: str, frame: bytes
-) -> None:
+def check_decimals(decimals: int, unit: Unit, accepted: frozenset[int], *, where: str,
+                   frame: bytes) -> None:
     """Refuse a frame whose decimal layout contradicts the configured unit."""
     if decimals in accepted:
         return
@@ -160,14 +156,6 @@ def check_decimals(
                     f"(expects {sorted(accepted)} decimals); the gauge display is probably in "
                     f"{looks_like}: set it back to {unit} or correct the configuration",
                     where=where)
-
-
-def checked_reading(value: Decimal, decimals: int, frame: bytes, *, unit: Unit,
-                    accepted: frozenset[int], channel: str, where: str) -> Reading:
-    """The reading of a decoded frame whose decimals must fit the configured unit (the
-    frame itself carries none), stamped now."""
-    check_decimals(decimals, unit, accepted, where=where, frame=frame)
-    return reading_of(value, unit, frame, channel=channel, where=where)
 
 
 def reading_of(value: Decimal, unit: Unit, frame: bytes, *, channel: str,
@@ -207,8 +195,7 @@ def flag_line_errors(link: serial.Serial, *, where: str) -> bool:
     nothing, and a wrong baud rate gave plausible characters. Setting INPCK (IGNPAR and
     PARMRK clear) turns each such byte into a NUL, which no frame grammar accepts.
     Links without a terminal (``socket://``, ``loop://``, ``rfc2217://``, Windows) are
-    left alone. Returns whether the port is a terminal set so.
-    """
+    left alone. Returns whether the port is a terminal set so."""
     fd = getattr(link, "fd", None)
     if termios is None or not isinstance(fd, int) or fd < 0 or not os.isatty(fd):
         return False
@@ -268,6 +255,19 @@ class IndicatorDriver:
     def _deadline(self, timeout_s: float | None) -> float:
         return time.monotonic() + (self.timeout_s if timeout_s is None else timeout_s)
 
+    def _set_unit(self, unit: str, decimals: int | Iterable[int] | None) -> None:
+        """The unit set on the gauge (recorded at setup), and the decimal layouts a frame
+        without a unit field may show in it (:func:`accepted_decimals`)."""
+        self.unit: Unit = check_unit(unit, where=self.where)
+        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=self.where)
+
+    def _checked(self, value: Decimal, decimals: int, frame: bytes, channel: str) -> Reading:
+        """The reading of a decoded frame whose decimals must fit the configured unit (the
+        frame itself carries none), stamped now."""
+        check_decimals(decimals, self.unit, self._accepted_decimals, where=self.where,
+                       frame=frame)
+        return reading_of(value, self.unit, frame, channel=channel, where=self.where)
+
 
 class SerialIndicator(IndicatorDriver):
     """Shared plumbing of the serial indicator drivers.
@@ -277,17 +277,10 @@ class SerialIndicator(IndicatorDriver):
     Frames are read terminator-delimited against a deadline, never by a
     fixed-length read: bytes are read as they arrive, and bytes after a
     terminator are kept for the next frame. Empty segments (the LF of a CR LF
-    pair) are skipped. Every transport failure becomes a :class:`LinkError`.
-    """
+    pair) are skipped. Every transport failure becomes a :class:`LinkError`."""
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, timeout_s: float | None = None,
+                 owns_link: bool = False) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.link = link
         self.owns_link = owns_link
@@ -342,9 +335,8 @@ class SerialIndicator(IndicatorDriver):
         partial = bytes(self._buffer)
         self._buffer.clear()
         if partial:
-            raise DeviceTimeout(
-                f"incomplete frame at the deadline, got {partial!r}", where=self.where
-            )
+            raise DeviceTimeout(f"incomplete frame at the deadline, got {partial!r}",
+                                where=self.where)
         raise DeviceTimeout("no reply before the deadline", where=self.where)
 
     def _take_frame(self) -> bytes | None:
@@ -362,9 +354,8 @@ class SerialIndicator(IndicatorDriver):
         if len(buffer) > _MAX_FRAME_BYTES:
             junk = bytes(buffer)
             buffer.clear()
-            raise FrameError(
-                f"no terminator within {_MAX_FRAME_BYTES} bytes", where=self.where, frame=junk
-            )
+            raise FrameError(f"no terminator within {_MAX_FRAME_BYTES} bytes", where=self.where,
+                             frame=junk)
         return None
 
     def _read_decoded(self, deadline: float, decode: Callable[..., T]) -> tuple[bytes, T]:
@@ -385,20 +376,15 @@ class SerialIndicator(IndicatorDriver):
             return frame, decoded
 
 
-def read_stable(
-    indicator: Indicator,
-    n: int = 3,
-    tolerance_mm: float = 0.002,
-    timeout_s: float = 5.0,
-) -> StableReading:
+def read_stable(indicator: Indicator, n: int = 3, tolerance_mm: float = 0.002,
+                timeout_s: float = 5.0) -> StableReading:
     """Flush stale input, then read until ``n`` consecutive values agree within
     ``tolerance_mm`` (max - min); return their mean.
 
     A garbled frame or a busy gauge breaks the run of consecutive values and
     reading goes on; other device errors (fault codes, unit, link) propagate at
     once. Raises :class:`DeviceTimeout` naming the gauge when the values never
-    settle within ``timeout_s``.
-    """
+    settle within ``timeout_s``."""
     if n < 1:
         raise ValueError(f"n must be at least 1, got {n}")
     if tolerance_mm < 0:
@@ -416,33 +402,26 @@ def read_stable(
                 raise DeviceTimeout("deadline reached", where=indicator.where)
             reading = indicator.read(timeout_s=remaining)
         except (FrameError, DeviceBusy) as exc:
-            log.warning(
-                "%s: discarding a reading while waiting for stability: %s", indicator.where, exc
-            )
+            log.warning("%s: discarding a reading while waiting for stability: %s",
+                        indicator.where, exc)
             last_error = exc
             window.clear()
             continue
         except DeviceTimeout as exc:
             if count == 0 and last_error is None:
                 raise
-            detail = (
-                f"last {len(window)} values spread {spread_mm:.6g} mm"
-                if window
-                else "no consecutive values"
-            )
+            detail = (f"last {len(window)} values spread {spread_mm:.6g} mm" if window
+                      else "no consecutive values")
             if last_error is not None:
                 detail += f"; last error: {last_error}"
-            raise DeviceTimeout(
-                f"readings did not settle within {timeout_s:g} s ({count} readings, {detail}, "
-                f"needed {n} within {tolerance_mm:g} mm)",
-                where=indicator.where,
-            ) from exc
+            raise DeviceTimeout(f"readings did not settle within {timeout_s:g} s ({count} "
+                                f"readings, {detail}, needed {n} within {tolerance_mm:g} mm)",
+                                where=indicator.where) from exc
         count += 1
         window.append(reading)
         values = [r.value_mm for r in window]
         spread_mm = max(values) - min(values)
         # The epsilon keeps quantised values (1.233, 1.235 at 0.002) from failing on float noise.
         if len(window) == n and spread_mm <= tolerance_mm + 1e-9:
-            return StableReading(
-                value_mm=sum(values) / n, spread_mm=spread_mm, readings=tuple(window)
-            )
+            return StableReading(value_mm=sum(values) / n, spread_mm=spread_mm,
+                                 readings=tuple(window))

@@ -82,19 +82,12 @@ class DigimaticFrame:
     digimatic2: bool = False  # an eight-digit Digimatic 2 frame
 
 
-def encode_frame(
-    value: float | Decimal,
-    *,
-    decimals: int,
-    unit: Unit = "mm",
-    inch_nibble: str = "1",
-    digimatic2: bool = False,
-) -> bytes:
+def encode_frame(value: float | Decimal, *, decimals: int, unit: Unit = "mm",
+                 inch_nibble: str = "1", digimatic2: bool = False) -> bytes:
     """The frame for ``value`` in ``unit`` with ``decimals`` places (a Digimatic 2
     frame with eight digits when ``digimatic2``).
 
-    Raises ValueError when the value needs more digits than the frame has.
-    """
+    Raises ValueError when the value needs more digits than the frame has."""
     if not 0 <= decimals <= 5:
         raise ValueError(f"Digimatic decimals must be 0..5, got {decimals}")
     if unit == "mm":
@@ -143,41 +136,25 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 
 
 # The manuals print the 13 characters; the bridges end them with CR LF.
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"FFFF000012330\r\n", "QM-Height manual 99MAF600B, 6.2.1: 0.123 mm",
-                value_mm=0.123),
-        Example(b"FFFF021076540\r\n", "LSM-6200 manual 99MBC095A, 6.2.1.5: 21.0765 mm",
-                value_mm=21.0765),
-        Example(b"FFFF801234530\r\n", "measuring projector manual 99MBA043A, 6-12: -12.345 mm",
-                value_mm=-12.345),
-        Example(b"8F00000012330\r\n", "99MAF600B, 6.2.1 Digimatic 2 output: 0.123 mm",
-                value_mm=0.123),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"FFFF000012330\r\n", "QM-Height manual 99MAF600B, 6.2.1: 0.123 mm", value_mm=0.123),
+    Example(b"FFFF021076540\r\n", "LSM-6200 manual 99MBC095A, 6.2.1.5: 21.0765 mm",
+            value_mm=21.0765),
+    Example(b"FFFF801234530\r\n", "measuring projector manual 99MBA043A, 6-12: -12.345 mm",
+            value_mm=-12.345),
+    Example(b"8F00000012330\r\n", "99MAF600B, 6.2.1 Digimatic 2 output: 0.123 mm", value_mm=0.123),
+), fixed_width=True)
 
 
 class DigimaticBridge(SerialIndicator):
     """A Digimatic gauge behind a USB bridge, polled or streaming.
 
     ``unit`` is the unit the gauge is expected to display; frames carry their
-    own unit, which is what the conversion uses (a mismatch is logged).
-    """
+    own unit, which is what the conversion uses (a mismatch is logged)."""
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        mode: Mode = "polled",
-        channel: str = "",
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, mode: Mode = "polled",
+                 channel: str = "", timeout_s: float | None = None,
+                 owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         if mode not in ("polled", "streaming"):
             raise DriverError(f"mode must be 'polled' or 'streaming', got {mode!r}", where=where)

@@ -30,14 +30,7 @@ import serial
 
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
-from ogacq_drivers.indicators.base import (
-    Reading,
-    SerialIndicator,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-)
+from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit
 
 log = logging.getLogger(__name__)
 
@@ -73,8 +66,7 @@ def same_indicator(a: str | None, b: str | None) -> bool:
 def encode_reply(value: float | Decimal, *, decimals: int, channel: str = "1") -> bytes:
     """The reply frame for ``value`` (display unit) shown with ``decimals`` places.
 
-    Raises ValueError when the value does not fit the 8-character field.
-    """
+    Raises ValueError when the value does not fit the 8-character field."""
     if not 1 <= decimals <= VALUE_WIDTH - 2:
         raise ValueError(f"decimals must be 1..{VALUE_WIDTH - 2}, got {decimals}")
     quantum = Decimal(1).scaleb(-decimals)
@@ -100,8 +92,7 @@ def decode_reply(frame: bytes, *, where: str = "") -> Decoded:
     unit, which the frame does not name (a gauge setting), and its channel.
 
     Raises :class:`DeviceBusy` for ``918``, :class:`DeviceFault` for other
-    ``91x`` codes and :class:`FrameError` for anything off the grammar.
-    """
+    ``91x`` codes and :class:`FrameError` for anything off the grammar."""
     error = _ERROR.fullmatch(frame)
     if error is not None:
         code = "91" + error.group(1).decode("ascii")
@@ -134,24 +125,16 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 #: The frames of the QM-Height manual and of INSTRUMENTS.md, 01A (the error codes there
 #: are one informal source, L).
 _QM = "QM-Height manual 99MAF600B, 6.2.2 p. 67"
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"01A+0000.125\r", f"{_QM}: mm at 0.005, 0.125", value_mm=0.125),
-        Example(b"01A+00.12345\r", f"{_QM}: inch at 0.00005, 0.12345", value_mm=3.13563,
-                unit="inch"),
-        Example(b"01A+0000.123\r", f"{_QM}: mm at 0.001, 0.123 (and INSTRUMENTS.md)",
-                value_mm=0.123),
-        Example(b"01A+000.1234\r", f"{_QM}: inch at 0.0001, 0.1234 (and INSTRUMENTS.md)",
-                value_mm=3.13436, unit="inch"),
-        Example(b"01A-001.2340\r", "INSTRUMENTS.md 01A", value_mm=-31.3436, unit="inch"),
-        Example(b"911\r", "INSTRUMENTS.md 01A errors: no data from the gauge",
-                error=DeviceFault),
-        Example(b"918\r", "INSTRUMENTS.md 01A errors: busy", error=DeviceBusy),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"01A+0000.125\r", f"{_QM}: mm at 0.005, 0.125", value_mm=0.125),
+    Example(b"01A+00.12345\r", f"{_QM}: inch at 0.00005, 0.12345", value_mm=3.13563, unit="inch"),
+    Example(b"01A+0000.123\r", f"{_QM}: mm at 0.001, 0.123 (and INSTRUMENTS.md)", value_mm=0.123),
+    Example(b"01A+000.1234\r", f"{_QM}: inch at 0.0001, 0.1234 (and INSTRUMENTS.md)",
+            value_mm=3.13436, unit="inch"),
+    Example(b"01A-001.2340\r", "INSTRUMENTS.md 01A", value_mm=-31.3436, unit="inch"),
+    Example(b"911\r", "INSTRUMENTS.md 01A errors: no data from the gauge", error=DeviceFault),
+    Example(b"918\r", "INSTRUMENTS.md 01A errors: busy", error=DeviceBusy),
+), fixed_width=True)
 
 
 class Mitutoyo01A(SerialIndicator):
@@ -160,22 +143,12 @@ class Mitutoyo01A(SerialIndicator):
     ``unit`` is the unit the gauge displays (a gauge setting the frame does not
     carry); ``decimals`` the decimal places it shows (default: 1-3 for mm,
     4-5 for inch). Several drivers may share one link, one per channel, as long
-    as they are used from one thread.
-    """
+    as they are used from one thread."""
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        channel: str = "1",
-        decimals: int | Iterable[int] | None = None,
-        timeout_s: float | None = None,
-        busy_retries: int = 5,
-        busy_retry_delay_s: float = 0.05,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, channel: str = "1",
+                 decimals: int | Iterable[int] | None = None, timeout_s: float | None = None,
+                 busy_retries: int = 5, busy_retry_delay_s: float = 0.05,
+                 owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
@@ -183,7 +156,7 @@ class Mitutoyo01A(SerialIndicator):
             self._request = encode_request(channel)
         except ValueError as exc:
             raise DriverError(str(exc), where=where) from None
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+        self._set_unit(unit, decimals)
         self.busy_retries = busy_retries
         self.busy_retry_delay_s = busy_retry_delay_s
 
@@ -222,6 +195,4 @@ class Mitutoyo01A(SerialIndicator):
         if reply.channel != self.channel:
             raise FrameError(f"reply from channel {reply.channel}, asked channel {self.channel}",
                              where=self.where, frame=frame)
-        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(reply.value, reply.decimals, frame, self.channel)

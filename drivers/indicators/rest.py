@@ -99,8 +99,7 @@ def rest_reference(values: list[float], display_step_mm: float) -> RestReference
     if len(values) < REST_VALUES:
         return None
     scatter = math.sqrt(sample_variance(values))
-    return RestReference(scatter, math.sqrt(max(scatter**2, display_step_mm**2 / 12)),
-                         len(values))
+    return RestReference(scatter, math.sqrt(max(scatter**2, display_step_mm**2 / 12)), len(values))
 
 
 class RestJudge:

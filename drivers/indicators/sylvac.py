@@ -40,15 +40,7 @@ import serial
 
 from ogacq_drivers.errors import DeviceFault, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example
-from ogacq_drivers.indicators.base import (
-    Reading,
-    SerialIndicator,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-    link_errors,
-)
+from ogacq_drivers.indicators.base import Reading, SerialIndicator, Unit, check_unit, link_errors
 
 log = logging.getLogger(__name__)
 
@@ -82,9 +74,7 @@ class SylvacReply:
 
 def decode_identification(frame: bytes) -> str | None:
     """``"SY235.1"`` for the power-on identification line ``SY235.1\\r``; None otherwise."""
-    if _IDENTIFICATION.fullmatch(frame) is None:
-        return None
-    return frame[:-1].decode("ascii")
+    return None if _IDENTIFICATION.fullmatch(frame) is None else frame[:-1].decode("ascii")
 
 
 def encode_identification(instrument: str = "235", *options: str) -> bytes:
@@ -162,49 +152,32 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 
 # The manual gives the layout, not example values: the value frames are built from it.
 _MANUAL = "Opto-RS manual (Sylvac / Bowers Opto instruments manual, pp. 12-13)"
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"+12.345\r", f"{_MANUAL}, data format: sign, integer, '.', fraction, CR",
-                value_mm=12.345),
-        Example(b" 0.005\r", f"{_MANUAL}, data format: the sign may be a space",
-                value_mm=0.005),
-        Example(b"-0.04855\r", f"{_MANUAL}, data format: an inch display at 0.00005 in",
-                value_mm=-1.23317, unit="inch"),
-        Example(b"ERR3\r", f"{_MANUAL}, errors: 3 exceeded measurement range",
-                error=DeviceFault),
-        Example(b"SY235.1\r", f"{_MANUAL}, identification: sent at power-on, not a value",
-                error=FrameError),
-    ),
-    fixed_width=False,  # the integer part has as many digits as the value needs
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"+12.345\r", f"{_MANUAL}, data format: sign, integer, '.', fraction, CR",
+            value_mm=12.345),
+    Example(b" 0.005\r", f"{_MANUAL}, data format: the sign may be a space", value_mm=0.005),
+    Example(b"-0.04855\r", f"{_MANUAL}, data format: an inch display at 0.00005 in",
+            value_mm=-1.23317, unit="inch"),
+    Example(b"ERR3\r", f"{_MANUAL}, errors: 3 exceeded measurement range", error=DeviceFault),
+    Example(b"SY235.1\r", f"{_MANUAL}, identification: sent at power-on, not a value",
+            error=FrameError),
+), fixed_width=False)  # the integer part has as many digits as the value needs
 
 
 class SylvacOptoRS(SerialIndicator):
     """A Sylvac gauge on an Opto-RS duplex cable.
 
     ``unit`` is the unit set on the gauge (recorded at setup); ``decimals`` the
-    places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3).
-    """
+    places it shows (default 3 for mm, 5 for inch; 2 / 4 for a gauge at RES3)."""
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        decimals: int | Iterable[int] | None = None,
-        channel: str = "",
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str,
+                 decimals: int | Iterable[int] | None = None, channel: str = "",
+                 timeout_s: float | None = None, owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
-        self.unit: Unit = check_unit(unit, where=where)
         self.channel = channel
         if decimals is None:
-            decimals = DEFAULT_DECIMALS[self.unit]
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+            decimals = DEFAULT_DECIMALS[check_unit(unit, where=where)]
+        self._set_unit(unit, decimals)
         self._power_cable()
 
     def _power_cable(self) -> None:
@@ -231,6 +204,4 @@ class SylvacOptoRS(SerialIndicator):
     def _reading(self, frame: bytes) -> Reading:
         """The reading of a reply, whose decimals must fit the unit set on the gauge."""
         reply = decode_reply(frame, where=self.where)
-        return checked_reading(reply.value, reply.decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(reply.value, reply.decimals, frame, self.channel)

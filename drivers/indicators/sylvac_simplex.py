@@ -18,17 +18,11 @@ pseudo-terminal or a raw TCP socket has no DTR: the driver says so at once.
 from __future__ import annotations
 
 import errno
-import logging
 import time
 
 from ogacq_drivers.errors import LinkError
-from ogacq_drivers.indicators.base import (
-    Reading,
-    link_errors,
-)
+from ogacq_drivers.indicators.base import Reading, link_errors
 from ogacq_drivers.indicators.sylvac import SylvacOptoRS, read_reply
-
-log = logging.getLogger(__name__)
 
 #: The manual's minimum is 110 ms; 10 ms margin for the USB adapter's latency.
 REQUEST_PULSE_S = 0.12

@@ -43,14 +43,7 @@ from typing import Any
 
 from ogacq_drivers.errors import DeviceBusy, DeviceFault, DeviceTimeout, DriverError, FrameError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
-from ogacq_drivers.indicators.base import (
-    IndicatorDriver,
-    Reading,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-)
+from ogacq_drivers.indicators.base import IndicatorDriver, Reading, Unit
 from ogacq_drivers.indicators.mitutoyo_01a import decode_reply, encode_reply
 from ogacq_drivers.usb_link import open_usb_device, usb_errors
 
@@ -114,19 +107,14 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
     return encode_reply(value, decimals=decimals, channel=channel or "1")
 
 
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"01A+0000.123\r", "pytuyo: a value message is a whole 01A reply (this one "
-                "from INSTRUMENTS.md)", value_mm=0.123),
-        Example(b"918\r", "pytuyo: 9 starts a status; a second logger script: 918 until data "
-                "is available again", error=DeviceBusy),
-        Example(b"911\r", "pytuyo: 9 starts a status; 911 no data, as on the 01A interfaces "
-                "(INSTRUMENTS.md)", error=DeviceFault),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"01A+0000.123\r", "pytuyo: a value message is a whole 01A reply (this one "
+            "from INSTRUMENTS.md)", value_mm=0.123),
+    Example(b"918\r", "pytuyo: 9 starts a status; a second logger script: 918 until data "
+            "is available again", error=DeviceBusy),
+    Example(b"911\r", "pytuyo: 9 starts a status; 911 no data, as on the 01A interfaces "
+            "(INSTRUMENTS.md)", error=DeviceFault),
+), fixed_width=True)
 
 
 def find_cables() -> list[FoundPort]:
@@ -140,23 +128,14 @@ def find_cables() -> list[FoundPort]:
 class UsbItn(IndicatorDriver):
     """A gauge on a USB-ITN cable, in data mode (an :class:`Indicator`)."""
 
-    def __init__(
-        self,
-        device: Any,
-        *,
-        where: str,
-        unit: str,
-        decimals: int | Iterable[int] | None = None,
-        channel: str = "",
-        timeout_s: float | None = None,
-        busy_retry_delay_s: float = 0.05,
-    ) -> None:
+    def __init__(self, device: Any, *, where: str, unit: str,
+                 decimals: int | Iterable[int] | None = None, channel: str = "",
+                 timeout_s: float | None = None, busy_retry_delay_s: float = 0.05) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.device = device
-        self.unit: Unit = check_unit(unit, where=where)
+        self._set_unit(unit, decimals)
         self.channel = channel
         self.busy_retry_delay_s = busy_retry_delay_s
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._buffer = bytearray()
         self._endpoint: Any = None
         self._detached = False  # whether we took interface 0 from the kernel's usbhid
@@ -238,9 +217,7 @@ class UsbItn(IndicatorDriver):
             raise FrameError("device information where a value was asked", where=self.where,
                              frame=message.raw)
         reply = cable_reply(message.raw, where=self.where)  # 91x raise, classified
-        return checked_reading(reply.value, reply.decimals, message.raw, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(reply.value, reply.decimals, message.raw, self.channel)
 
     def _command(self, command: bytes, deadline: float) -> Message:
         self.flush_input()

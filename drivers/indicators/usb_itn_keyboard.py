@@ -34,14 +34,7 @@ from typing import Any
 
 from ogacq_drivers.errors import DeviceTimeout, FrameError, LinkError
 from ogacq_drivers.indicators.backend import Codec, Decoded, Example, FoundPort
-from ogacq_drivers.indicators.base import (
-    IndicatorDriver,
-    Reading,
-    Unit,
-    accepted_decimals,
-    check_unit,
-    checked_reading,
-)
+from ogacq_drivers.indicators.base import IndicatorDriver, Reading, Unit
 from ogacq_drivers.indicators.usb_itn import PRODUCT_ID, VENDOR_ID
 from ogacq_drivers.input_link import (
     EVENT,
@@ -107,16 +100,11 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
 
 
 _NO_SOURCE = "no source for the typed characters (issue 12: the plain grammar)"
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"1.233\n", _NO_SOURCE, value_mm=1.233),
-        Example(b"-0.0500\n", _NO_SOURCE + "; an inch display", value_mm=-1.27, unit="inch"),
-        Example(b"1.2A3\n", _NO_SOURCE + "; a key no value has", error=FrameError),
-    ),
-    fixed_width=False,  # typed as long as the value needs
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"1.233\n", _NO_SOURCE, value_mm=1.233),
+    Example(b"-0.0500\n", _NO_SOURCE + "; an inch display", value_mm=-1.27, unit="inch"),
+    Example(b"1.2A3\n", _NO_SOURCE + "; a key no value has", error=FrameError),
+), fixed_width=False)  # typed as long as the value needs
 
 
 def find_keyboards() -> list[FoundPort]:
@@ -130,23 +118,14 @@ class UsbItnKeyboard(IndicatorDriver):
 
     default_timeout_s = 5.0  # someone (or a foot switch) presses the data switch
 
-    def __init__(
-        self,
-        fd: int,
-        node: str,
-        *,
-        where: str,
-        unit: str,
-        decimals: int | Iterable[int] | None = None,
-        channel: str = "",
-        timeout_s: float | None = None,
-    ) -> None:
+    def __init__(self, fd: int, node: str, *, where: str, unit: str,
+                 decimals: int | Iterable[int] | None = None, channel: str = "",
+                 timeout_s: float | None = None) -> None:
         super().__init__(where=where, timeout_s=timeout_s)
         self.fd = fd
         self.node = node
-        self.unit: Unit = check_unit(unit, where=where)
+        self._set_unit(unit, decimals)
         self.channel = channel
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
         self._raw = bytearray()  # bytes of an incomplete event
         self._line: list[str] = []
         self._lines: list[str] = []
@@ -156,9 +135,8 @@ class UsbItnKeyboard(IndicatorDriver):
     @classmethod
     def open(cls, port: str, *, where: str, unit: str, **options: Any) -> UsbItnKeyboard:
         """``keyboard`` (the cable with the USB-ITN's ids) or ``/dev/input/eventN``."""
-        node = resolve_event_device(
-            port, VENDOR_ID, PRODUCT_ID, where=where, what="Mitutoyo USB-ITN"
-        )
+        node = resolve_event_device(port, VENDOR_ID, PRODUCT_ID, where=where,
+                                    what="Mitutoyo USB-ITN")
         fd = open_event_device(node, where=where)
         try:
             return cls(fd, str(node), where=where, unit=unit, **options)
@@ -179,9 +157,7 @@ class UsbItnKeyboard(IndicatorDriver):
         line = self._lines.pop(0)
         value, decimals = decode_line(line, where=self.where)
         frame = line.encode("ascii") + b"\n"
-        return checked_reading(value, decimals, frame, unit=self.unit,
-                               accepted=self._accepted_decimals, channel=self.channel,
-                               where=self.where)
+        return self._checked(value, decimals, frame, self.channel)
 
     def flush_input(self) -> None:
         """Drop the lines typed before now; a line cut in the middle is skipped whole."""
@@ -210,9 +186,8 @@ class UsbItnKeyboard(IndicatorDriver):
                 return False
             data = os.read(self.fd, EVENT.size * 64)
         except OSError as exc:  # ENODEV: the kernel removed the device
-            raise LinkError(
-                f"lost {self.node} ({exc.strerror}); was the cable unplugged?", where=self.where
-            ) from exc
+            raise LinkError(f"lost {self.node} ({exc.strerror}); was the cable unplugged?",
+                            where=self.where) from exc
         if not data:
             raise LinkError(f"{self.node} closed; was the cable unplugged?", where=self.where)
         self._raw += data

@@ -35,9 +35,7 @@ from ogacq_drivers.indicators.base import (
     Reading,
     SerialIndicator,
     Unit,
-    accepted_decimals,
     check_decimals,
-    check_unit,
     reading_of,
     warn_other_unit,
 )
@@ -122,13 +120,8 @@ class UWaveStatus:
         return self.code in READING_LOST
 
 
-def encode_data(
-    value: float | Decimal,
-    *,
-    decimals: int,
-    unit: Unit | None = "mm",
-    gauge_id: str = "0000",
-) -> bytes:
+def encode_data(value: float | Decimal, *, decimals: int, unit: Unit | None = "mm",
+                gauge_id: str = "0000") -> bytes:
     """A data frame for ``value`` in ``unit`` (None: unit character ``0``);
     ValueError when it does not fit."""
     if not re.fullmatch(r"[0-9]{4}", gauge_id):
@@ -213,19 +206,14 @@ def encode(value: Decimal, *, decimals: int, unit: Unit = "mm", channel: str = "
     return encode_data(value, decimals=decimals, unit=unit, gauge_id=channel or "0000")
 
 
-CODEC = Codec(
-    decode,
-    encode,
-    examples=(
-        Example(b"DT10000+00000011.88M\r", "INSTRUMENTS.md U-WAVE-R: +11.88 mm, group 00 "
-                "channel 00", value_mm=11.88),
-        Example(b"DT10000+00000011.880\r", "the frame above with unit character 0, no unit "
-                "sent (U-WAVE-R manual 99MAL216A, 6.1, as quoted in issue 12)", value_mm=11.88),
-        Example(b"ST10102FFFFFFFFFF04\r", "99MAL216A, 6.1 status layout: transmitter 0102 "
-                "disconnected, id unknown", error=DeviceFault),
-    ),
-    fixed_width=True,
-)
+CODEC = Codec(decode, encode, examples=(
+    Example(b"DT10000+00000011.88M\r", "INSTRUMENTS.md U-WAVE-R: +11.88 mm, group 00 "
+            "channel 00", value_mm=11.88),
+    Example(b"DT10000+00000011.880\r", "the frame above with unit character 0, no unit "
+            "sent (U-WAVE-R manual 99MAL216A, 6.1, as quoted in issue 12)", value_mm=11.88),
+    Example(b"ST10102FFFFFFFFFF04\r", "99MAL216A, 6.1 status layout: transmitter 0102 "
+            "disconnected, id unknown", error=DeviceFault),
+), fixed_width=True)
 
 
 class UWaveReceiver(SerialIndicator):
@@ -236,28 +224,18 @@ class UWaveReceiver(SerialIndicator):
     records which). Once frames of a second transmitter arrive, a gauge with no channel
     could be reading either one, so every read fails until the channel is given.
     ``read`` returns the next pushed frame in arrival order; call
-    ``flush_input`` (``read_stable`` does) to drop frames pushed before now.
-    """
+    ``flush_input`` (``read_stable`` does) to drop frames pushed before now."""
 
     default_timeout_s = 5.0
 
-    def __init__(
-        self,
-        link: serial.Serial,
-        *,
-        where: str,
-        unit: str,
-        channel: str | None = None,
-        decimals: int | Iterable[int] | None = None,
-        timeout_s: float | None = None,
-        owns_link: bool = False,
-    ) -> None:
+    def __init__(self, link: serial.Serial, *, where: str, unit: str, channel: str | None = None,
+                 decimals: int | Iterable[int] | None = None, timeout_s: float | None = None,
+                 owns_link: bool = False) -> None:
         super().__init__(link, where=where, timeout_s=timeout_s, owns_link=owns_link)
         if channel is not None and not re.fullmatch(r"[0-9]{2}|[0-9]{4}", channel):
             raise DriverError(f"U-WAVE channel is 'CC' or 'GGCC' digits, got {channel!r}",
                               where=where)
-        self.unit: Unit = check_unit(unit, where=where)
-        self._accepted_decimals = accepted_decimals(self.unit, decimals, where=where)
+        self._set_unit(unit, decimals)
         self.channel = channel
         self._cut_by_flush = True  # opening may land mid-frame, as a flush does
         self._last_unit: Unit | None = None
@@ -274,8 +252,7 @@ class UWaveReceiver(SerialIndicator):
         Battery low is only logged. A status saying a reading was lost (READING_LOST)
         is logged and the read waits on for the next data frame: :class:`DeviceFault`
         (code = status code) only when none comes before the deadline. Any other
-        status raises it at once.
-        """
+        status raises it at once."""
         deadline = self._deadline(timeout_s)
         lost: UWaveStatus | None = None
         while True:

@@ -66,8 +66,7 @@ def sleep_until(deadline: float) -> None:
 
     Sleeps until just before it, then spins. The spin holds the GIL for at most
     ``_SPIN_S``, so it is kept for the moments a client waits on (the end of a
-    simulated request or frame); use plain sleeps where lateness cannot be seen.
-    """
+    simulated request or frame); use plain sleeps where lateness cannot be seen."""
     remaining = deadline - time.monotonic()
     if remaining > _SPIN_S:
         time.sleep(remaining - _SPIN_S)

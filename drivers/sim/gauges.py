@@ -78,8 +78,7 @@ class Fault(StrEnum):
     the device disappears: pty master closed / connection dropped).
     One-shot: ``stale`` (``count`` frames of an old value pushed into the line
     at once, as a bridge's buffer would hold them). State: ``inch`` (display in
-    inch; ``code`` "1" or "8" picks the Digimatic unit nibble).
-    """
+    inch; ``code`` "1" or "8" picks the Digimatic unit nibble)."""
 
     SILENCE = "silence"
     ERROR = "error"
@@ -111,6 +110,14 @@ class SimulatedGauge:
 
     @property
     def port(self) -> str:
+        """What a client opens; RuntimeError before :meth:`start`."""
+        port = self._started_port()
+        if not port:
+            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
+        return port
+
+    def _started_port(self) -> str:
+        """The port once started, "" before."""
         raise NotImplementedError
 
     def start(self) -> Any:
@@ -180,9 +187,8 @@ class UsbCableGauge(SimulatedGauge):
         """The code a fault is shown with, checked now (not at the next reply)."""
         return code
 
-    def set_fault(
-        self, kind: Fault | str, *, code: str = "", count: int | None = None, **_: Any
-    ) -> None:
+    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None,
+                  **_: Any) -> None:
         kind = Fault(kind)
         if kind is Fault.UNPLUG:
             self.unplug()
@@ -450,8 +456,7 @@ class SimSetup:
     ``push_period_s``: how often the simulated operator presses the data button of a
     gauge that sends a value per press (U-WAVE, the keyboard cable), None for never;
     ``line_speed``: how many times faster than its baud rate a serial line runs (a
-    rehearsal at ``speed`` asks for as much; 1: the real line).
-    """
+    rehearsal at ``speed`` asks for as much; 1: the real line)."""
 
     resolution_mm: float = 0.001
     transport: Transport = "pty"
@@ -488,8 +493,7 @@ class SerialDevice:
     at the baud rate), the faults and the serving thread, and asks the device only
     what the protocol decides. A serial protocol's backend names its subclass as the
     ``simulator``; options given to the endpoint (``streaming=True``) go to the
-    subclass's constructor. Methods run in the endpoint's serving thread.
-    """
+    subclass's constructor. Methods run in the endpoint's serving thread."""
 
     #: The channel a one-channel endpoint serves when none is given.
     DEFAULT_CHANNEL: ClassVar[str] = ""
@@ -592,24 +596,13 @@ class GaugeEndpoint(SimulatedGauge):
     rehearsal's line: the same frames, each byte's time divided). A free-running
     device (Digimatic bridge, U-WAVE receiver) pushes a frame per channel every
     ``period_s`` if given, and on :meth:`trigger`. Other
-    keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``).
-    """
+    keyword ``options`` go to the device (Digimatic: ``streaming``, ``digimatic2``)."""
 
-    def __init__(
-        self,
-        protocol: str,
-        value_source: ValueSource | Mapping[str, ValueSource],
-        *,
-        resolution_mm: float = 0.001,
-        unit: Unit = "mm",
-        channel: str | None = None,
-        baud: int | None = None,
-        transport: Transport = "pty",
-        period_s: float | None = None,
-        name: str | None = None,
-        line_speed: float = 1.0,
-        **options: Any,
-    ) -> None:
+    def __init__(self, protocol: str, value_source: ValueSource | Mapping[str, ValueSource], *,
+                 resolution_mm: float = 0.001, unit: Unit = "mm", channel: str | None = None,
+                 baud: int | None = None, transport: Transport = "pty",
+                 period_s: float | None = None, name: str | None = None, line_speed: float = 1.0,
+                 **options: Any) -> None:
         device_class = simulator_of(protocol)
         if not (isinstance(device_class, type) and issubclass(device_class, SerialDevice)):
             raise ValueError(f"{protocol} is not served on a serial line: make its gauge "
@@ -672,12 +665,9 @@ class GaugeEndpoint(SimulatedGauge):
         self.period_s = period_s
 
     # ----------------------------------------------------------------- lifecycle
-    @property
-    def port(self) -> str:
-        """What a client opens: the pty slave path or ``socket://127.0.0.1:PORT``."""
-        if self._transport is None:
-            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
-        return self._transport.port
+    def _started_port(self) -> str:
+        """The pty slave path, ``socket://127.0.0.1:PORT`` or ``rfc2217://127.0.0.1:PORT``."""
+        return "" if self._transport is None else self._transport.port
 
     def start(self) -> GaugeEndpoint:
         """Create the pty or socket and start serving in a daemon thread."""
@@ -718,22 +708,14 @@ class GaugeEndpoint(SimulatedGauge):
         return f"GaugeEndpoint({self.protocol!r}, {where})"
 
     # -------------------------------------------------------------------- faults
-    def set_fault(
-        self,
-        kind: Fault | str,
-        *,
-        code: str = "",
-        count: int | None = None,
-        pause_s: float = 0.05,
-        value_mm: float | None = None,
-    ) -> None:
+    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None,
+                  pause_s: float = 0.05, value_mm: float | None = None) -> None:
         """Switch a fault on (see :class:`Fault`).
 
         ``count`` limits a per-reply fault to the next ``count`` replies (None:
         until :meth:`clear_fault`); for ``stale`` it is how many old frames to
         queue (default 3), with value ``value_mm`` (default: the last value
-        served). Raises ValueError for a fault the protocol cannot show.
-        """
+        served). Raises ValueError for a fault the protocol cannot show."""
         kind = Fault(kind)
         if kind is Fault.STALE:
             self._call(lambda: self._queue_stale(count or 3, value_mm), wait=True)
@@ -846,7 +828,6 @@ class GaugeEndpoint(SimulatedGauge):
     def emit(self, channel: str) -> None:
         """Send ``channel``'s value frame now, or what the faults make of it."""
         faults = self._take_faults()
-        frame: bytes | None
         if Fault.UNPLUG in faults:
             whole = self._value_frame(channel, faults) or b"\r"
             self.send(whole[: max(1, len(whole) // 2)])
@@ -854,12 +835,9 @@ class GaugeEndpoint(SimulatedGauge):
             return
         if Fault.SILENCE in faults:
             return
-        if Fault.BUSY in faults:
-            frame = self.device.error_frame(faults[Fault.BUSY].code, channel)
-        elif Fault.ERROR in faults:
-            frame = self.device.error_frame(faults[Fault.ERROR].code, channel)
-        else:
-            frame = self._value_frame(channel, faults)
+        error = faults.get(Fault.BUSY) or faults.get(Fault.ERROR)  # one of them at most
+        frame = (self._value_frame(channel, faults) if error is None
+                 else self.device.error_frame(error.code, channel))
         if frame is None:
             return
         if Fault.GARBLED in faults:
@@ -911,11 +889,9 @@ class GaugeEndpoint(SimulatedGauge):
         nibble = inch.code if inch is not None else "1"
         return self._encode_value(value_mm, unit, channel, nibble)
 
-    def _encode_value(
-        self, value_mm: float, unit: Unit, channel: str, inch_nibble: str
-    ) -> bytes | None:
-        shown, decimals = shown_value(value_mm, unit, self.resolution_mm,
-                                      self.device.MAX_DECIMALS)
+    def _encode_value(self, value_mm: float, unit: Unit, channel: str,
+                      inch_nibble: str) -> bytes | None:
+        shown, decimals = shown_value(value_mm, unit, self.resolution_mm, self.device.MAX_DECIMALS)
         try:
             return self.device.value_frame(shown, decimals=decimals, unit=unit,
                                            channel=channel, inch_code=inch_nibble)
@@ -944,8 +920,7 @@ class GaugeEndpoint(SimulatedGauge):
         """Write ``data`` at the line rate: each byte when its last bit would be in.
 
         Scheduling against absolute times (not sleeping a fixed amount per
-        byte) keeps sleep overshoot from accumulating over a frame.
-        """
+        byte) keeps sleep overshoot from accumulating over a frame."""
         transport = self._transport
         if transport is None:
             return

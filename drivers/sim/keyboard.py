@@ -33,10 +33,7 @@ from ogacq_drivers.indicators import usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from ogacq_drivers.input_link import EVENT
-from ogacq_drivers.sim.gauges import (
-    Fault,
-    UsbCableGauge,
-)
+from ogacq_drivers.sim.gauges import Fault, UsbCableGauge
 
 log = logging.getLogger(__name__)
 
@@ -49,17 +46,9 @@ class KeyboardEndpoint(UsbCableGauge):
 
     protocol = "usb-itn-keyboard"
 
-    def __init__(
-        self,
-        value_source: Callable[[], float],
-        *,
-        resolution_mm: float = 0.001,
-        unit: Unit = "mm",
-        period_s: float | None = None,
-        name: str | None = None,
-        vendor_id: int = usb_itn.VENDOR_ID,
-        product_id: int = usb_itn.PRODUCT_ID,
-    ) -> None:
+    def __init__(self, value_source: Callable[[], float], *, resolution_mm: float = 0.001,
+                 unit: Unit = "mm", period_s: float | None = None, name: str | None = None,
+                 vendor_id: int = usb_itn.VENDOR_ID, product_id: int = usb_itn.PRODUCT_ID) -> None:
         super().__init__(value_source, resolution_mm=resolution_mm, unit=unit, name=name)
         self.period_s = period_s
         self.ids = (vendor_id, product_id)
@@ -69,11 +58,8 @@ class KeyboardEndpoint(UsbCableGauge):
         self._thread: threading.Thread | None = None
 
     # ---------------------------------------------------------------- lifecycle
-    @property
-    def port(self) -> str:
-        if self._root is None:
-            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
-        return str(self._root / "dev" / "input" / "event0")
+    def _started_port(self) -> str:
+        return "" if self._root is None else str(self._root / "dev" / "input" / "event0")
 
     def start(self) -> KeyboardEndpoint:
         if self._root is not None:
@@ -95,9 +81,8 @@ class KeyboardEndpoint(UsbCableGauge):
         self._fd = os.open(node, os.O_RDWR | os.O_NONBLOCK)
         self._root = root
         if self.period_s:
-            self._thread = threading.Thread(
-                target=self._press_periodically, daemon=True, name=self.name
-            )
+            self._thread = threading.Thread(target=self._press_periodically, daemon=True,
+                                            name=self.name)
             self._thread.start()
         return self
 

@@ -10,11 +10,7 @@ from __future__ import annotations
 
 import logging
 
-from ogacq_drivers.indicators.mitutoyo_01a import (
-    BUSY_CODE,
-    encode_error,
-    encode_request,
-)
+from ogacq_drivers.indicators.mitutoyo_01a import BUSY_CODE, encode_error, encode_request
 from ogacq_drivers.sim.gauges import LineDevice
 
 log = logging.getLogger(__name__)

@@ -105,10 +105,8 @@ class _SimulatedAxis:
     def __init__(self, profile: Profile, model: MotionModel, axis: str, device_id: int) -> None:
         missing = [n for n in self.required_values if n not in profile.values]
         if missing:
-            raise ValueError(
-                f"profile {profile.name!r} ({profile.source}): the {profile.family} simulator "
-                f"needs value(s) {', '.join(missing)}"
-            )
+            raise ValueError(f"profile {profile.name!r} ({profile.source}): the {profile.family} "
+                             f"simulator needs value(s) {', '.join(missing)}")
         self.profile = profile
         self.model = model
         self.axis = axis
@@ -230,12 +228,10 @@ class _IaiAxis(_SimulatedAxis):
             log.info("%s: move ignored: PMSL off or pause on", self.where)
             return None
         accel_g = float(self.get("move_acceleration")) / 100.0
-        outcome = self.model.move_to(
-            self.axis,
-            float(self.get("move_target")),
-            speed_mm_s=float(self.get("move_speed")) or None,
-            accel_mm_s2=accel_g * STANDARD_GRAVITY_MM_S2 if accel_g > 0 else None,
-        )
+        accel = accel_g * STANDARD_GRAVITY_MM_S2 if accel_g > 0 else None
+        outcome = self.model.move_to(self.axis, float(self.get("move_target")),
+                                     speed_mm_s=float(self.get("move_speed")) or None,
+                                     accel_mm_s2=accel)
         self._note(outcome, "move")
         return None
 
@@ -295,10 +291,8 @@ class _CiaAxis(_SimulatedAxis):
         for name, bit in _CIA_FLAG_BITS.items():
             flag = profile.flags.get(name)
             if flag is not None and (flag.value != "statusword" or flag.bit != bit or flag.invert):
-                raise ValueError(
-                    f"profile {profile.name!r}: flag {name!r} must be statusword bit {bit} "
-                    "for the CiA 402 simulator"
-                )
+                raise ValueError(f"profile {profile.name!r}: flag {name!r} must be statusword bit "
+                                 f"{bit} for the CiA 402 simulator")
         self.state = "switch_on_disabled"
         self.controlword = 0
         self.setpoint_ack = False
@@ -378,17 +372,15 @@ class _CiaAxis(_SimulatedAxis):
         if self.mode == _MODE_HOMING:
             home_offset_mm = (float(self.get("home_offset"))
                               if "home_offset" in self.profile.values else 0.0)
-            outcome = self.model.home(
-                self.axis, home_position_mm=self.profile.offset.sign * home_offset_mm
-            )
+            outcome = self.model.home(self.axis,
+                                      home_position_mm=self.profile.offset.sign * home_offset_mm)
             self._note(outcome, "homing")
         elif self.mode == _MODE_PROFILE_POSITION:
             target = float(self.get("target_position"))
             if cw & _CW_RELATIVE:
                 target += self.model.snapshot(self.axis).target_counter_mm
-            outcome = self.model.move_to(
-                self.axis, target, speed_mm_s=float(self.get("profile_velocity")) or None
-            )
+            outcome = self.model.move_to(self.axis, target,
+                                         speed_mm_s=float(self.get("profile_velocity")) or None)
             self._note(outcome, "set-point")
             self.setpoint_ack = outcome is Outcome.STARTED
         else:
@@ -441,27 +433,17 @@ class ModbusSimServer:
     ...     info = server.address.as_dict()
     """
 
-    def __init__(
-        self,
-        profile: Profile | str,
-        motion: MotionModel,
-        *,
-        transport: Literal["tcp", "rtu"] | None = None,
-        host: str = "127.0.0.1",
-        port: int = 0,
-        serial_port: str | None = None,
-        baudrate: int | None = None,
-        pace: bool = True,
-        axes: Iterable[str] | None = None,
-        temperatures_c: Callable[[], Mapping[str, float]] | None = None,
-    ) -> None:
+    def __init__(self, profile: Profile | str, motion: MotionModel, *,
+                 transport: Literal["tcp", "rtu"] | None = None, host: str = "127.0.0.1",
+                 port: int = 0, serial_port: str | None = None, baudrate: int | None = None,
+                 pace: bool = True, axes: Iterable[str] | None = None,
+                 temperatures_c: Callable[[], Mapping[str, float]] | None = None) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
         self.transport = transport or self.profile.transport.default
         if self.transport not in ("tcp", "rtu"):
-            raise ValueError(
-                f"sim server: transport must be 'tcp' or 'rtu', got {self.transport!r}"
-            )
+            raise ValueError("sim server: transport must be 'tcp' or 'rtu', got "
+                             f"{self.transport!r}")
         if host not in LOOPBACK_HOSTS:
             raise ValueError(f"sim server: binds loopback only, got host {host!r}")
         self.host = host
@@ -504,40 +486,31 @@ class ModbusSimServer:
         client_port: int | str = self.port
         if self.transport == "rtu":
             if not self.serial_port:
-                self._bridge = PtyBridge(
-                    baudrate=self.baudrate if self.pace else None,
-                    bits_per_byte=self.profile.transport.bits_per_byte,
-                ).start()
+                self._bridge = PtyBridge(baudrate=self.baudrate if self.pace else None,
+                                         bits_per_byte=self.profile.transport.bits_per_byte).start()
                 listen_on = self._bridge.server_path
                 client_port = self._bridge.client_path
             else:
                 client_port = self.serial_port
         self._ready.clear()
         self._failure = None
-        self._thread = threading.Thread(
-            target=self._run, args=(listen_on,), name=f"sim-modbus-{self.profile.name}", daemon=True
-        )
+        self._thread = threading.Thread(target=self._run, args=(listen_on,),
+                                        name=f"sim-modbus-{self.profile.name}", daemon=True)
         self._thread.start()
         if not self._ready.wait(timeout_s) or self._failure is not None:
             failure = self._failure
             self.stop()
             endpoint = listen_on if self.transport == "rtu" else f"{self.host}:{self.port}"
             where = f"sim {self.profile.name} {self.transport} {endpoint}"
-            raise LinkError(
-                "simulated controller could not listen (address in use, or port not "
-                f"available?): {failure}",
-                where=where,
-            )
+            raise LinkError("simulated controller could not listen (address in use, or port not "
+                            f"available?): {failure}", where=where)
         if self.transport == "tcp":
             client_port = self.port
-        self._address = ServerAddress(
-            transport=self.transport,
-            host=self.host if self.transport == "tcp" else None,
-            port=client_port,
-            profile=self.profile.name,
-            device_ids={a: self.profile.device_ids[a] for a in self.axes},
-            baudrate=self.baudrate if self.transport == "rtu" else None,
-        )
+        self._address = ServerAddress(transport=self.transport,
+                                      host=self.host if self.transport == "tcp" else None,
+                                      port=client_port, profile=self.profile.name,
+                                      device_ids={a: self.profile.device_ids[a] for a in self.axes},
+                                      baudrate=self.baudrate if self.transport == "rtu" else None)
         log.info("simulated %s controller serving %s", self.profile.name, self._address.as_dict())
         return self._address
 
@@ -604,16 +577,12 @@ class ModbusSimServer:
             server = ModbusTcpServer(devices, address=(self.host, self.port),
                                      trace_pdu=answer_identification(self.profile.name))
         else:
-            server = ModbusSerialServer(
-                devices,
-                port=listen_on,
-                baudrate=self.baudrate,
-                bytesize=self.profile.transport.bytesize,
-                parity=self.profile.transport.parity,
-                stopbits=self.profile.transport.stopbits,
-                trace_packet=self._drop_unknown_device_answers,
-                trace_pdu=answer_identification(self.profile.name),
-            )
+            server = ModbusSerialServer(devices, port=listen_on, baudrate=self.baudrate,
+                                        bytesize=self.profile.transport.bytesize,
+                                        parity=self.profile.transport.parity,
+                                        stopbits=self.profile.transport.stopbits,
+                                        trace_packet=self._drop_unknown_device_answers,
+                                        trace_pdu=answer_identification(self.profile.name))
         await server.serve_forever(background=True)
         if self.transport == "tcp":
             listener = server.transport  # pymodbus keeps its listening asyncio.Server there
@@ -644,10 +613,8 @@ class ModbusSimServer:
 
     def _holding_blocks(self) -> list[SimData]:
         """One SimData per register, with gaps the client may read across served as zeros."""
-        specs = sorted(
-            (s for s in self.profile.values.values() if s.function == "holding"),
-            key=lambda s: s.address,
-        )
+        specs = sorted((s for s in self.profile.values.values() if s.function == "holding"),
+                       key=lambda s: s.address)
         registers = functools.partial(SimData, values=0, datatype=DataType.REGISTERS)
         blocks: list[SimData] = []
         previous_end: int | None = None
@@ -667,22 +634,13 @@ class ModbusSimServer:
             return ExcCodes.GATEWAY_NO_RESPONSE
 
         # registers must be valid for pymodbus to call the action at all
-        return SimDevice(
-            0,
-            simdata=[SimData(0, count=0xFFFF, values=0, datatype=DataType.REGISTERS)],
-            action=no_such_device,
-        )
+        return SimDevice(0,
+                         simdata=[SimData(0, count=0xFFFF, values=0, datatype=DataType.REGISTERS)],
+                         action=no_such_device)
 
-    async def _on_request(
-        self,
-        unit: _SimulatedAxis,
-        function_code: int,
-        start_address: int,
-        address: int,
-        count: int,
-        registers: list[int],
-        set_values: Iterable[int] | Iterable[bool] | None,
-    ) -> ExcCodes | None:
+    async def _on_request(self, unit: _SimulatedAxis, function_code: int, start_address: int,
+                          address: int, count: int, registers: list[int],
+                          set_values: Iterable[int] | Iterable[bool] | None) -> ExcCodes | None:
         if function_code not in self.profile.transport.functions:
             # a drive serving FC 03/08/16 only (MR-JE-C) answers anything else so
             log.info("%s: function %d refused (illegal function)", unit.where, function_code)
@@ -716,18 +674,16 @@ class ModbusSimServer:
                 unit.put(name, round(now[key] / spec.degc_per_count))
 
     @staticmethod
-    def _copy_out(
-        unit: _SimulatedAxis, function_code: int, start: int, registers: list[int]
-    ) -> None:
+    def _copy_out(unit: _SimulatedAxis, function_code: int, start: int,
+                  registers: list[int]) -> None:
         """Copy the device state into pymodbus's block (registers, or coils packed 16 a word)."""
         size = len(registers)
         if function_code in _COIL_FUNCTIONS:
             for address, state in unit.memory.coils.items():
                 index, bit = address // 16 - start, address % 16
                 if 0 <= index < size:
-                    registers[index] = (
-                        (registers[index] | 1 << bit) if state else (registers[index] & ~(1 << bit))
-                    )
+                    registers[index] = ((registers[index] | 1 << bit) if state
+                                        else (registers[index] & ~(1 << bit)))
             return
         for address, word in unit.memory.holding.items():
             if 0 <= address - start < size:

@@ -43,7 +43,6 @@ from ogacq_drivers.sim.clock import SimClock
 log = logging.getLogger(__name__)
 
 
-
 class Alarm(enum.Enum):
     """Alarms the model raises; the server maps them to the profile's codes."""
 
@@ -115,9 +114,7 @@ class _Segment:
         else:
             td = t - tr - tf
             done = 0.5 * a * tr * tr + vp * tf + vp * td - 0.5 * a * td * td
-        if t >= self.travel_s:
-            return self.end_raw
-        return self.start_raw + direction * done
+        return self.end_raw if t >= self.travel_s else self.start_raw + direction * done
 
 
 @dataclass
@@ -145,24 +142,13 @@ class MotionModel:
 
     Soft limits apply to the physical (raw) target: a commanded move whose raw
     target is outside ``[soft_min_mm - limit_margin_mm, soft_max_mm + limit_margin_mm]``
-    raises :attr:`Alarm.SOFT_LIMIT` and does not move.
-    """
+    raises :attr:`Alarm.SOFT_LIMIT` and does not move."""
 
-    def __init__(
-        self,
-        clock: SimClock,
-        *,
-        axes: Iterable[str] = AXES,
-        speed_mm_s: float = 100.0,
-        accel_mm_s2: float = 2000.0,
-        settle_s: float = 0.02,
-        home_speed_mm_s: float = 50.0,
-        home_search_s: float = 0.5,
-        soft_min_mm: float = -100.0,
-        soft_max_mm: float = 60.0,
-        limit_margin_mm: float = 2.0,
-        initial_raw_mm: Mapping[str, float] | None = None,
-    ) -> None:
+    def __init__(self, clock: SimClock, *, axes: Iterable[str] = AXES, speed_mm_s: float = 100.0,
+                 accel_mm_s2: float = 2000.0, settle_s: float = 0.02, home_speed_mm_s: float = 50.0,
+                 home_search_s: float = 0.5, soft_min_mm: float = -100.0, soft_max_mm: float = 60.0,
+                 limit_margin_mm: float = 2.0,
+                 initial_raw_mm: Mapping[str, float] | None = None) -> None:
         for label, value in (("speed_mm_s", speed_mm_s), ("accel_mm_s2", accel_mm_s2),
                              ("home_speed_mm_s", home_speed_mm_s)):
             if not value > 0:
@@ -265,14 +251,8 @@ class MotionModel:
                 log.debug("sim axis %s: servo %s", axis, "on" if on else "off")
             ax.servo_on = on
 
-    def move_to(
-        self,
-        axis: str,
-        counter_target_mm: float,
-        *,
-        speed_mm_s: float | None = None,
-        accel_mm_s2: float | None = None,
-    ) -> Outcome:
+    def move_to(self, axis: str, counter_target_mm: float, *, speed_mm_s: float | None = None,
+                accel_mm_s2: float | None = None) -> Outcome:
         """Start an absolute move to a counter position (replaces any move under way)."""
         with self._lock:
             now = self.clock.now()
@@ -379,9 +359,8 @@ class MotionModel:
         try:
             return self._axes[axis]
         except KeyError:
-            raise KeyError(
-                f"motion model has no axis {axis!r} (axes: {', '.join(self._axes)})"
-            ) from None
+            raise KeyError(f"motion model has no axis {axis!r} (axes: {', '.join(self._axes)})"
+                           ) from None
 
     @staticmethod
     def _positive(value: float | None, default: float) -> float:
@@ -391,21 +370,10 @@ class MotionModel:
     def _refusal(ax: _Axis) -> Outcome | None:
         if ax.alarm is not None:
             return Outcome.IN_ALARM
-        if not ax.servo_on:
-            return Outcome.SERVO_OFF
-        return None
+        return Outcome.SERVO_OFF if not ax.servo_on else None
 
-    def _start(
-        self,
-        ax: _Axis,
-        now: float,
-        raw_target: float,
-        speed: float,
-        accel: float,
-        *,
-        dwell_s: float,
-        home_position_mm: float | None,
-    ) -> None:
+    def _start(self, ax: _Axis, now: float, raw_target: float, speed: float, accel: float, *,
+               dwell_s: float, home_position_mm: float | None) -> None:
         raw_now = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
         if raw_target != raw_now:
             direction = 1 if raw_target > raw_now else -1

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import logging
 import math
 import socket
 import threading
@@ -31,13 +30,7 @@ from typing import Any
 
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
-from ogacq_drivers.sim.gauges import (
-    Fault,
-    UsbCableGauge,
-    _garble,
-)
-
-log = logging.getLogger(__name__)
+from ogacq_drivers.sim.gauges import Fault, UsbCableGauge, _garble
 
 PACKET_BYTES = 8  # wMaxPacketSize of the interrupt endpoint: an assumption (no source)
 _INFO = b"1SIM-ITN USB-ITN simulated cable 1.0\r"
@@ -76,15 +69,8 @@ class UsbItnEndpoint(UsbCableGauge):
 
     protocol = "usb-itn"
 
-    def __init__(
-        self,
-        value_source: Callable[[], float],
-        *,
-        resolution_mm: float = 0.001,
-        unit: Unit = "mm",
-        serial: str = "SIM0001",
-        name: str | None = None,
-    ) -> None:
+    def __init__(self, value_source: Callable[[], float], *, resolution_mm: float = 0.001,
+                 unit: Unit = "mm", serial: str = "SIM0001", name: str | None = None) -> None:
         super().__init__(value_source, resolution_mm=resolution_mm, unit=unit, name=name)
         self.serial = serial
         self.requests_received = 0
@@ -107,10 +93,7 @@ class UsbItnEndpoint(UsbCableGauge):
             self._scripted.append(raw)
 
     # ---------------------------------------------------------------- lifecycle
-    @property
-    def port(self) -> str:
-        if not self._port:
-            raise RuntimeError(f"{self.name}: start() the endpoint before asking for its port")
+    def _started_port(self) -> str:
         return self._port
 
     def start(self) -> UsbItnEndpoint:
@@ -175,9 +158,8 @@ class UsbItnEndpoint(UsbCableGauge):
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             with self._lock:
                 self._conns.append(conn)
-            threading.Thread(
-                target=self._serve, args=(conn,), daemon=True, name=f"{self.name} client"
-            ).start()
+            threading.Thread(target=self._serve, args=(conn,), daemon=True,
+                             name=f"{self.name} client").start()
 
     def _serve(self, conn: socket.socket) -> None:
         with contextlib.suppress(OSError), conn.makefile("rwb") as stream:

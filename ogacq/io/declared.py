@@ -72,9 +72,7 @@ def _reader(hint: Any) -> Reader:
         return _list_of_each(tuple(_reader(a) for a in args))
     if origin is dict:
         return _object_of(_reader(args[1]))
-    if hint in SCALARS:
-        return _scalar(hint)
-    return _by_nested(hint)
+    return _scalar(hint) if hint in SCALARS else _by_nested(hint)
 
 
 def _finite(inner: Reader) -> Reader:

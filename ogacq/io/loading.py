@@ -9,11 +9,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq.identify.observations import (
-    Observations,
-    deviations_observations,
-    readings_observations,
-)
+from ogacq.identify.observations import Observations, deviations_observations, readings_observations
 from ogacq.identify.plausibility import check_observations
 from ogacq.io.errors import InputError
 from ogacq.io.tables import check_table_postures, read_deviations, read_readings, sniff
@@ -64,10 +60,9 @@ def load_observations(path: str | Path, machine: MachineSpec | None = None,
                       accept_edited=accept_edited).observations
 
 
-def load_input(path: str | Path, machine: MachineSpec | None = None,
-               names: Sequence[str] = (), *, machine_path: str | Path | None = None,
-               other_geometry: bool = False, partial: bool = False,
-               accept_edited: bool = False) -> LoadedInput:
+def load_input(path: str | Path, machine: MachineSpec | None = None, names: Sequence[str] = (), *,
+               machine_path: str | Path | None = None, other_geometry: bool = False,
+               partial: bool = False, accept_edited: bool = False) -> LoadedInput:
     """Observations of ``path`` (readings CSV, deviations CSV or session), checked to be
     plausible millimetres and enough for ``names``.
 
@@ -95,8 +90,7 @@ def load_input(path: str | Path, machine: MachineSpec | None = None,
         loaded = LoadedInput(readings_observations(machine, table.layout(), table.reading_mm,
                                                    str(path)))
     else:
-        loaded = _session_input(path, machine, machine_path, other_geometry, partial,
-                                accept_edited)
+        loaded = _session_input(path, machine, machine_path, other_geometry, partial, accept_edited)
     check_observations(loaded.observations, names)
     return loaded
 

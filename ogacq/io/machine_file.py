@@ -10,16 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from ogacq_drivers.config_schema import (
-    Field,
-    MapOf,
-    Source,
-    Table,
-    dump,
-    load,
-    number,
-    text,
-)
+from ogacq_drivers.config_schema import Field, MapOf, Source, Table, dump, load, number, text
 from ogacq.io.atomic import write_atomically
 from ogacq.io.names import name_problem
 from ogacq.io.toml_file import input_error, load_toml
@@ -73,14 +64,12 @@ def _tolerances(table: dict[str, Any]) -> Tolerances:
     from ogacq.model.tolerances import Tolerances  # a file stating them builds the class
 
     per = {k: v for k, v in table.items() if k in DEVIATION_NAMES}
-    return Tolerances(table.get("default_mm"), per,
-                      table.get("decision_rule", "guard-band"))
+    return Tolerances(table.get("default_mm"), per, table.get("decision_rule", "guard-band"))
 
 
 def _tolerance_table(tolerances: Tolerances) -> dict[str, Any]:
-    out: dict[str, Any] = {"default_mm": tolerances.default_mm,
-                           "decision_rule": tolerances.decision_rule}
-    return {**out, **dict(tolerances.per_deviation)}
+    return {"default_mm": tolerances.default_mm, "decision_rule": tolerances.decision_rule,
+            **tolerances.per_deviation}
 
 
 def read_machine(path: str | Path) -> MachineSpec:

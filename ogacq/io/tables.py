@@ -41,8 +41,7 @@ _OTHER_UNITS = {"_in": "inches", "_inch": "inches", "_um": "micrometres", "_m": 
                 "_cm": "centimetres"}
 
 # A decimal number as a CSV writes it (ASCII only; spaces around it are the writer's)
-_NUMBER = re.compile(r"[ \t]*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t]*",
-                     re.ASCII)
+_NUMBER = re.compile(r"[ \t]*[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?[ \t]*", re.ASCII)
 # Physical bounds (no source: beyond any machine this tool calibrates, as the machine
 # file's lengths): a length in mm, a time in s, a repeat index.
 MAX_LENGTH_MM = 1e5
@@ -537,9 +536,8 @@ def _load_plain(plain: _PlainFile) -> _Columns | None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            words = np.loadtxt(io.StringIO(plain.body), delimiter=",", dtype=str,
-                               comments=None, usecols=[at["leg"], at["gauge_axis"], at["cycle"]],
-                               ndmin=2)
+            words = np.loadtxt(io.StringIO(plain.body), delimiter=",", dtype=str, comments=None,
+                               usecols=[at["leg"], at["gauge_axis"], at["cycle"]], ndmin=2)
             block = np.loadtxt(io.StringIO(plain.body), delimiter=",", dtype=float,
                                comments=None, usecols=[at[c] for c in wanted], ndmin=2)
     except ValueError:  # a field that is not a number, or rows of another width

@@ -47,12 +47,9 @@ class Environment:
     def temperature_c(self) -> float | None:
         """The legs' temperature the campaign ran at: the machine's when measured,
         else the ambient (start and end averaged when both are known)."""
-        values = []
-        for stage in (self.start, self.end):
-            if stage is not None:
-                value = stage.machine_c if stage.machine_c is not None else stage.ambient_c
-                if value is not None:
-                    values.append(value)
+        found = [s.machine_c if s.machine_c is not None else s.ambient_c
+                 for s in (self.start, self.end) if s is not None]
+        values = [v for v in found if v is not None]
         return sum(values) / len(values) if values else None
 
     def to_json(self) -> dict[str, Any]:
@@ -86,9 +83,7 @@ class CalibrationContext:
 
     def expired(self, instrument: Instrument) -> bool | None:
         """Was the instrument past its due date on the campaign's date (None: unknown)?"""
-        if self.date is None:
-            return None
-        return instrument.expired(self.date.date())
+        return None if self.date is None else instrument.expired(self.date.date())
 
     def instrument(self, gauge: str) -> Instrument | None:
         return next((i for i in self.instruments if i.gauge == gauge), None)

@@ -110,6 +110,4 @@ def _json(value: Any) -> Any:
         return written(value)
     if isinstance(value, tuple):
         return [_json(v) for v in value]
-    if isinstance(value, dict):
-        return {k: _json(v) for k, v in value.items()}
-    return value
+    return {k: _json(v) for k, v in value.items()} if isinstance(value, dict) else value

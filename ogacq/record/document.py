@@ -49,10 +49,8 @@ NOT_GIVEN = "{what}: not given when the campaign ran"
 
 
 def build_record(session: LoadedSession, *, validation: LoadedSession | None = None,
-                 history: Sequence[Mapping[str, Any]] | None = None,
-                 history_why: str | None = None,
-                 issued: str | None = None,
-                 compensation: Mapping[str, Any] | None = None,
+                 history: Sequence[Mapping[str, Any]] | None = None, history_why: str | None = None,
+                 issued: str | None = None, compensation: Mapping[str, Any] | None = None,
                  fit: FitResult | None = None,
                  validation_fit: FitResult | None = None) -> dict[str, Any]:
     """The record of the calibration campaign ``session``.
@@ -69,8 +67,7 @@ def build_record(session: LoadedSession, *, validation: LoadedSession | None = N
     as the caller already computed it, which must be ``recorded_identification`` of
     that session (the report's data is); None: identified here (a saved file).
     The fit a campaign ran is not that one (the record evaluates the result the
-    session recorded, so a record built later from the file is the same).
-    """
+    session recorded, so a record built later from the file is the same)."""
     header_line, sha256 = session_digest(session)
     header = session.header
     machine = dict(header.machine or {})
@@ -198,8 +195,7 @@ def _context_sections(context: CalibrationContext, recorded: bool,
     if not instruments:
         missing["instruments"] = why_none.format(what="the instruments")
     elif not any(i["certificate"] for i in instruments):
-        missing["certificates"] = why_none.format(
-            what="the instruments' calibration certificates")
+        missing["certificates"] = why_none.format(what="the instruments' calibration certificates")
     if not any(environment.values()):
         missing["environment"] = why_none.format(what="the temperatures")
     overrides: list[dict[str, Any]] | None = [o.to_json() for o in context.overrides]
@@ -329,22 +325,16 @@ def plain(value: Any) -> Any:
         return {str(k): plain(v) for k, v in value.items()}
     if isinstance(value, dt.date | dt.datetime | dt.time):
         return value.isoformat()
-    if isinstance(value, bool) or value is None or isinstance(value, str):
-        return value
-    if isinstance(value, int):
+    if value is None or isinstance(value, str | int):  # a bool is an int
         return value
     if isinstance(value, float):
         return value if math.isfinite(value) else None
     if isinstance(value, Path):
         return str(value)
-    if isinstance(value, Iterable):
-        return [plain(v) for v in value]
-    return str(value)
+    return [plain(v) for v in value] if isinstance(value, Iterable) else str(value)
 
 
 def _text(value: Any) -> str | None:
     if value is None or value == "":
         return None
-    if isinstance(value, dt.date | dt.datetime):
-        return value.isoformat()
-    return str(value)
+    return value.isoformat() if isinstance(value, dt.date | dt.datetime) else str(value)

@@ -102,7 +102,7 @@ def evaluate(result: FitResult | None, context: CalibrationContext,
 
     found, why_found = None, None
     try:  # a scan has no Zero/Max/Min deviations to accept
-        found = _deviations(result, inputs)
+        found = deviation_budget(result.observations, inputs)
     except ValueError as exc:
         why_found = f"no deviations to judge: {exc}"
     left = None
@@ -110,7 +110,7 @@ def evaluate(result: FitResult | None, context: CalibrationContext,
         v_result, v_context = validation
         try:
             v_inputs = budget_inputs(v_result, v_context)
-            left = _deviations(v_result, v_inputs)
+            left = deviation_budget(v_result.observations, v_inputs)
             out.validation_results = uncertainty_budget(
                 v_result.observations, v_result, v_inputs).to_json()["results"]
         except ValueError as exc:
@@ -122,17 +122,9 @@ def evaluate(result: FitResult | None, context: CalibrationContext,
 def incomplete(budget: Budget) -> str:
     """Which sources were not evaluated, for which parameters: the record's reason
     for an incomplete budget."""
-    parts = []
-    for output in budget.outputs:
-        if output.complete:
-            continue
-        why = ", ".join(output.not_evaluated) or output.note or "not determined"
-        parts.append(f"{output.name}: {why}")
+    parts = [f"{o.name}: {', '.join(o.not_evaluated) or o.note or 'not determined'}"
+             for o in budget.outputs if not o.complete]
     return "incomplete, not evaluated: " + "; ".join(parts)
-
-
-def _deviations(result: FitResult, inputs: BudgetInputs) -> Budget:
-    return deviation_budget(result.observations, inputs)
 
 
 def _acceptance(machine: MachineSpec | None, found: Budget | None, left: Budget | None,
@@ -152,8 +144,7 @@ def _acceptance(machine: MachineSpec | None, found: Budget | None, left: Budget 
     def stage(budget: Budget | None, name: str, why: str | None) -> Acceptance:
         if budget is None:
             return evaluate_acceptance(None, {}, rule, name, why_absent=why or "")
-        limits = tolerances_for(list(budget.names), tolerances.default_mm,
-                                tolerances.per_deviation)
+        limits = tolerances_for(list(budget.names), tolerances.default_mm, tolerances.per_deviation)
         return evaluate_acceptance(budget.for_acceptance(), limits, rule, name)
 
     return acceptance_json(stage(found, "as-found", why_found),

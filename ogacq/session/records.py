@@ -121,9 +121,7 @@ class Record:
 
 
 def _json(value: Any) -> Any:
-    if isinstance(value, tuple):
-        return [_json(v) for v in value]
-    return value
+    return [_json(v) for v in value] if isinstance(value, tuple) else value
 
 
 def _rest(d: Mapping[str, Any], *named: str) -> dict[str, Any]:
@@ -283,8 +281,7 @@ class _HeadedRecord(Record):
     @classmethod
     def from_json(cls, d: Mapping[str, Any]) -> Any:
         head = checked(str, d.get(cls.HEAD), cls.HEAD, cls.refused)
-        return cls(wall=cls._wall(d), details=_rest(d, cls.HEAD),
-                   **{cls.HEAD: head})
+        return cls(wall=cls._wall(d), details=_rest(d, cls.HEAD), **{cls.HEAD: head})
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -325,8 +325,7 @@ class _Scanner:
             self.changed.add(number)
             self.edited.append((number, own))
         else:
-            where = self._placement(number, line, mode, self.seen, self.expected,
-                                    self.previous)
+            where = self._placement(number, line, mode, self.seen, self.expected, self.previous)
             if where:
                 self.edited.append((number, where))
         if isinstance(seq, int) and not isinstance(seq, bool):
@@ -360,9 +359,8 @@ class _Scanner:
         return None
 
     @staticmethod
-    def _placement(number: int, line: _Line, mode: str,
-                   seen: dict[int, tuple[int, dict[str, Any]]], expected: int | None,
-                   previous: tuple[int, bytes, bool] | None) -> str | None:
+    def _placement(number: int, line: _Line, mode: str, seen: dict[int, tuple[int, dict[str, Any]]],
+                   expected: int | None, previous: tuple[int, bytes, bool] | None) -> str | None:
         """Whether a record as written is where it was written, or what says not."""
         seq = line.seq
         if isinstance(seq, int) and not isinstance(seq, bool):

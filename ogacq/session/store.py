@@ -227,9 +227,8 @@ class SessionWriter:
     what was recorded before stays valid and the session can be resumed once the
     disk is fixed."""
 
-    def __init__(self, path: Path, fd: int, next_seq: int, lock: SessionLock | None = None,
-                 *, prev: str | None = None, chained: bool = True,
-                 closing: bool = True) -> None:
+    def __init__(self, path: Path, fd: int, next_seq: int, lock: SessionLock | None = None, *,
+                 prev: str | None = None, chained: bool = True, closing: bool = True) -> None:
         self.path = path
         self._lock = lock or SessionLock(path, fd)
         self._fd = fd
@@ -479,9 +478,8 @@ def load_session(path: str | Path, *, accept_edited: bool = False) -> LoadedSess
         raise InputError(path, f"session format {first.get('format')!r} is not "
                          f"{FORMAT!r}", 1)
     return LoadedSession(path, SessionHeader.from_json(first),
-                         [_typed(scan, n, r) for n, r in scan.records[1:]],
-                         scan.warnings, scan.size_bytes,
-                         Integrity(scan.mode, tuple(scan.edited)), scan.closure)
+                         [_typed(scan, n, r) for n, r in scan.records[1:]], scan.warnings,
+                         scan.size_bytes, Integrity(scan.mode, tuple(scan.edited)), scan.closure)
 
 
 def _typed(scan: Scan, number: int, content: dict[str, Any]) -> Record:
