@@ -25,7 +25,12 @@ from ogacq.protocol.positioning import ScaleReading, positioning_result
 from ogacq.record.calibration_record import CalibrationRecord
 from ogacq.record.declared import written
 from ogacq.writeback.maps_table import read_maps_table
-from tests.calibration.test_calibrate_e2e import effects_file, log_steps, step
+from tests.calibration.test_calibrate_e2e import (
+    effects_file,
+    log_steps,
+    refused_by_chance,
+    step,
+)
 
 LEAD = ("[joint_offset]\nx = 0.4\ny = -0.3\n[lead_screw.x]\namplitude_mm = 0.004\n"
         "pitch_mm = 5.0\n[gauges]\nnoise_mm = 0.0005\n")
@@ -49,7 +54,9 @@ def test_a_5_mm_lead_is_mapped_by_its_scale_and_validated_along_the_whole_travel
         code = main(["calibrate", "--simulator", "--effects",
                      str(effects_file(tmp_path, LEAD)), *SHORT, "--axis-scales", "x,y,z",
                      "--out", str(folder)])
-        if not _validation_judged_by_chance(folder):
+        # the calibration campaign's own fit can be refused by chance too (seen once,
+        # unloaded: combined p = 0.003, nothing located)
+        if not (_validation_judged_by_chance(folder) or refused_by_chance(folder)):
             break
     finished = step(folder, "finished")
     assert code == 0 and finished["outcome"] == "validated", finished["reason"]
