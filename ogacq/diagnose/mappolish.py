@@ -39,14 +39,11 @@ def polished(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: Joint
              spreads: Spreads, alpha: float) -> tuple[MapFit, Spreads]:
     """``fitted`` with each periodic term's pitch at the final model's least squares,
     and ``spreads`` with their std and path from it."""
-    out = dict(spreads)
+    periodic = [k for k, term in enumerate(fitted.terms) if term.kind.periodic]
     for _ in range(ROUNDS):
         moved = False
-        for k, term in enumerate(fitted.terms):
-            if not term.kind.periodic:
-                continue
+        for k in periodic:
             step, spread = _pitch_step(problem, noise, fitted, history, k)
-            out[term.name] = spread
             if not math.isfinite(spread.std) or abs(step) <= MOVED * spread.std:
                 continue
             step = max(-MOST_STEPS * spread.std, min(MOST_STEPS * spread.std, step))
@@ -55,6 +52,10 @@ def polished(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: Joint
                 fitted, moved = better, True
         if not moved:
             break
+    # each std and path where the pitches ended (a last round's move included)
+    out = dict(spreads)
+    for k in periodic:
+        out[fitted.terms[k].name] = _pitch_step(problem, noise, fitted, history, k)[1]
     return fitted, out
 
 
