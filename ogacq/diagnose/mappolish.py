@@ -40,23 +40,35 @@ def polished(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: Joint
     """``fitted`` with each periodic term's pitch at the final model's least squares,
     and ``spreads`` with their std and path from it."""
     periodic = [k for k, term in enumerate(fitted.terms) if term.kind.periodic]
-    for _ in range(ROUNDS):
+    out = dict(spreads)
+    for done in range(ROUNDS + 1):  # the last only measures where the pitches ended
         moved = False
+        basis = _Basis(problem, fitted)
         for k in periodic:
-            step, spread = _pitch_step(problem, noise, fitted, history, k)
-            if not math.isfinite(spread.std) or abs(step) <= MOVED * spread.std:
-                continue
+            step, spread = _pitch_step(problem, noise, fitted, history, k, basis)
+            out[fitted.terms[k].name] = spread
+            if moved or done == ROUNDS or not math.isfinite(spread.std) \
+                    or abs(step) <= MOVED * spread.std:
+                continue  # after a move the basis is the old fit's: the next round
             step = max(-MOST_STEPS * spread.std, min(MOST_STEPS * spread.std, step))
             better = _refitted(problem, noise, fitted, history, k, step, alpha)
             if better is not None:
                 fitted, moved = better, True
         if not moved:
             break
-    # each std and path where the pitches ended (a last round's move included)
-    out = dict(spreads)
-    for k in periodic:
-        out[fitted.terms[k].name] = _pitch_step(problem, noise, fitted, history, k)[1]
     return fitted, out
+
+
+class _Basis:
+    """The final model's weighted columns, scaled, as an orthonormal basis with the
+    SVD that made it: computed once per fit, shared by its periodic terms."""
+
+    def __init__(self, problem: Problem, fitted: MapFit) -> None:
+        xw = problem.weighted(fitted.jacobian.T).T
+        self.scale = 1.0 / np.maximum(np.linalg.norm(xw, axis=0), 1e-300)
+        u, s, vt = np.linalg.svd(xw * self.scale, full_matrices=False)
+        keep = s > s[0] * RANK_TOLERANCE
+        self.u, self.s, self.vt = u[:, keep], s[keep], vt[keep]
 
 
 def _with_pitch(term: MapTerm, pitch_mm: float) -> MapTerm:
@@ -64,7 +76,7 @@ def _with_pitch(term: MapTerm, pitch_mm: float) -> MapTerm:
 
 
 def _pitch_step(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: JointHistory,
-                k: int) -> tuple[float, ShapeSpread]:
+                k: int, basis: _Basis) -> tuple[float, ShapeSpread]:
     """The Gauss-Newton step of term ``k``'s pitch in the full model, its std and the
     path of the term's coefficients per mm of pitch along the profile."""
     term, coef = fitted.terms[k], fitted.coefficients[k]
@@ -73,12 +85,8 @@ def _pitch_step(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: Jo
     up, down = (map_columns(problem, fitted.theta, [_with_pitch(term, pitch + s)], history)
                 for s in (h, -h))
     derivative = (up - down) @ coef / (2 * h)
-    xw = problem.weighted(fitted.jacobian.T).T
     dw = problem.weighted(derivative[None])[0]
-    scale = 1.0 / np.maximum(np.linalg.norm(xw, axis=0), 1e-300)
-    u, s, vt = np.linalg.svd(xw * scale, full_matrices=False)
-    keep = s > s[0] * RANK_TOLERANCE
-    u, s, vt = u[:, keep], s[keep], vt[keep]
+    u, s, vt, scale = basis.u, basis.s, basis.vt, basis.scale
     along = u.T @ dw
     apart = dw - u @ along
     information = float(apart @ apart)
