@@ -280,17 +280,12 @@ def _column_basis(jw: np.ndarray, rank: int) -> np.ndarray:
     return u[:, :keep]
 
 
-def _cell_p(block: np.ndarray, chi2: float, noise_dof: float | None) -> float | None:
-    """Conservative p of a cell's misfit ``sum(l_i chi2_1)`` (``l_i`` the eigenvalues of
-    its block of the residual covariance): at most ``l_max`` times a chi-square (or
-    an F with the noise's dof) with as many dof as nonzero ``l_i``."""
-    p = _cells_p(block[None], np.array([chi2]), noise_dof)[0]
-    return None if np.isnan(p) else float(p)
-
-
 def _cells_p(blocks: np.ndarray, chi2: np.ndarray, noise_dof: float | None) -> np.ndarray:
-    """:func:`_cell_p` of a stack of cells (C, k, k), NaN where nothing is left to test:
-    one eigen-decomposition and one distribution call for all of them."""
+    """Conservative p of each cell's misfit ``sum(l_i chi2_1)`` (``l_i`` the eigenvalues
+    of its block of the residual covariance), for a stack of cells (C, k, k): at most
+    ``l_max`` times a chi-square (or an F with the noise's dof) with as many dof as
+    nonzero ``l_i``; NaN where nothing is left to test. One eigen-decomposition and one
+    distribution call for all of them."""
     eig = np.linalg.eigvalsh(blocks)
     live = eig > 1e-9
     k = live.sum(axis=1)
@@ -379,17 +374,14 @@ def _deviation_cell(obs: Observations, rw: np.ndarray, basis: np.ndarray,
     chol = np.linalg.cholesky(cov)
     residual = chol @ rw  # back from the whitened space
     resid_cov = chol @ (np.eye(len(rw)) - basis @ basis.T) @ chol.T  # units sigma^2
-    names = []
-    worst = None
-    for k, label in enumerate(obs.labels):
-        m = DEVIATION_NAME.match(label)
-        name = f"{m.group(1)}_{m.group(2)} at {POSTURE_OF_SIGN[m.group(3)]}" if m else label
-        names.append(name)
-        chi2 = float(residual[k] ** 2 / (noise.variance * cov[k, k]))
-        p = _cell_p(np.array([[resid_cov[k, k] / cov[k, k]]]), chi2, None)
-        if p is not None and (worst is None or p < worst[1]):
-            worst = (name, p, chi2, float(resid_cov[k, k] / cov[k, k]))
-    if worst is None:
+    expected = resid_cov.diagonal() / cov.diagonal()
+    chi2 = residual**2 / (noise.variance * cov.diagonal())
+    p = _cells_p(expected[:, None, None], chi2, None)
+    if np.all(np.isnan(p)):
         return None
-    name, p, chi2, expected = worst
-    return CellTest(name, chi2, expected, min(1.0, p * len(names)), len(names))
+    worst = int(np.nanargmin(p))  # the first of equals
+    label = obs.labels[worst]
+    m = DEVIATION_NAME.match(label)
+    name = f"{m.group(1)}_{m.group(2)} at {POSTURE_OF_SIGN[m.group(3)]}" if m else label
+    return CellTest(name, float(chi2[worst]), float(expected[worst]),
+                    min(1.0, float(p[worst]) * len(p)), len(p))
