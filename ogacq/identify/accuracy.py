@@ -15,11 +15,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from ogacq.identify.fit import Weighting, design_rank, gauss_newton
-from ogacq.identify.identifiability import Identifiability, assess
+from ogacq.identify.identifiability import Identifiability, assess, plausible_ranges
 from ogacq.identify.noise import GaugeNoise
 from ogacq.identify.observations import Observations, readings_observations
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import NOMINAL, effect_of, indices, vector
+from ogacq.model.parameters import NOMINAL, indices, vector
 from ogacq.protocol.plan import ProtocolConfig, planned_layout
 
 CHUNK = 1000  # trials per vectorised batch: bounds memory at a few hundred MB
@@ -105,7 +105,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
     if trials <= 0:
         return pred
 
-    rank = design_rank(jw, np.array([effect_of(n).plausible_range for n in names]))
+    rank = design_rank(jw, plausible_ranges(names))
     rng = np.random.default_rng(seed)
     clean = obs.predict(theta_true)
     # Steps far below the std change nothing a user would read.
@@ -128,7 +128,7 @@ def predict_accuracy(obs: Observations, names: Sequence[str], noise_mm: float, *
             on_trials(hi, trials)
     pred.mc_seconds = time.perf_counter() - start
     pred.trials = trials
-    bound = RAN_OFF_RANGES * np.array([effect_of(n).plausible_range for n in names])
+    bound = RAN_OFF_RANGES * plausible_ranges(names)
     kept = np.all(np.abs(estimates - NOMINAL[free]) <= bound, axis=1)
     pred.ran_off_fraction = float(1.0 - kept.mean())
     with np.errstate(invalid="ignore", divide="ignore"):  # NaN when none is kept

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from typing import NamedTuple
 
 RULES = ("guard-band", "simple")
@@ -45,9 +45,7 @@ class Decision:
     why: str
 
     def to_json(self) -> dict:
-        return {"deviation": self.deviation, "value_mm": _round(self.value_mm),
-                "U_mm": _round(self.U_mm), "tolerance_mm": _round(self.tolerance_mm),
-                "decision": self.decision, "why": self.why}
+        return {k: json_mm(v) if k.endswith("_mm") else v for k, v in asdict(self).items()}
 
 
 @dataclass(frozen=True)
@@ -145,5 +143,6 @@ def acceptance_json(as_found: Acceptance, as_left: Acceptance) -> dict:
             "as_left": as_left.to_json()}
 
 
-def _round(value: float | None) -> float | None:
-    return None if value is None else round(float(value), 9)
+def json_mm(value: float | None) -> float | None:
+    """A number for JSON, to 1e-9 (mm); None where there is none (JSON has no infinity)."""
+    return None if value is None or not math.isfinite(value) else round(float(value), 9)

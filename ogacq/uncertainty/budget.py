@@ -20,9 +20,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from ogacq.identify.fit import FitResult, Weighting
+from ogacq.identify.identifiability import plausible_ranges
 from ogacq.identify.observations import Observations, posture_readings
-from ogacq.model.parameters import NOMINAL, effect_of, nested
-from ogacq.uncertainty.acceptance import Measured
+from ogacq.model.parameters import NOMINAL, nested
+from ogacq.uncertainty.acceptance import Measured, json_mm
 from ogacq.uncertainty.inputs import BudgetInputs
 from ogacq.uncertainty.sources import (
     ObservationSpace,
@@ -53,9 +54,9 @@ class BudgetRow:
 
     def to_json(self) -> dict:
         return {"source": self.source, "type": self.gum_type,
-                "distribution": self.distribution, "u_input": _round(self.u_input),
-                "unit": self.unit, "sensitivity": _round(self.sensitivity),
-                "u_mm": _round(self.u_mm), "dof": _dof(self.dof),
+                "distribution": self.distribution, "u_input": json_mm(self.u_input),
+                "unit": self.unit, "sensitivity": json_mm(self.sensitivity),
+                "u_mm": json_mm(self.u_mm), "dof": _dof(self.dof),
                 "evaluated": self.evaluated, "note": self.note}
 
 
@@ -93,12 +94,12 @@ class OutputBudget:
 
     def result_json(self) -> dict:
         finite = self.determined and math.isfinite(self.u_c)
-        return {"value_mm": _round(self.value_mm),
-                "u_mm": _round(self.u_c) if finite else None,
-                "U_mm": _round(self.U) if finite else None, "k": self.k,
+        return {"value_mm": json_mm(self.value_mm),
+                "u_mm": json_mm(self.u_c) if finite else None,
+                "U_mm": json_mm(self.U) if finite else None, "k": self.k,
                 "dof_eff": _dof(self.dof_eff), "complete": self.complete,
                 "identified": self.determined and self.identified,
-                "temperature_correction_mm": _round(self.temperature_correction_mm),
+                "temperature_correction_mm": json_mm(self.temperature_correction_mm),
                 "note": self.note}
 
 
@@ -159,7 +160,7 @@ def solution_operator(result: FitResult) -> np.ndarray:
     # (P W): whitening and removal of the gauge zeros, as a matrix on the observations
     whiten = weighting.residual(np.eye(m)).T
     jw = weighting.jac(result.jacobian[None])[0]
-    ranges = np.array([effect_of(n).plausible_range for n in result.names])
+    ranges = plausible_ranges(result.names)
     u, s, vt = np.linalg.svd(jw * ranges, full_matrices=False)
     rank = result.identifiability.rank
     solve = (vt[:rank].T * ranges[:, None]) @ (u[:, :rank] / s[:rank]).T
@@ -276,10 +277,6 @@ def welch_satterthwaite(u_c: float, contributions: Sequence[tuple[float, float]]
     when every contribution has infinite degrees of freedom (type B, G.4.3)."""
     denominator = sum(u**4 / dof for u, dof in contributions if math.isfinite(dof) and u > 0)
     return math.inf if denominator == 0 else u_c**4 / denominator
-
-
-def _round(value: float | None) -> float | None:
-    return None if value is None or not math.isfinite(value) else round(float(value), 9)
 
 
 def _dof(value: float) -> float | None:

@@ -115,8 +115,12 @@ class BudgetInputs:
         return cls(**values)
 
     @property
-    def temperatures_known(self) -> bool:
-        return self.ambient_start_c is not None and self.ambient_end_c is not None
+    def ambient_range_c(self) -> tuple[float, float] | None:
+        """The lowest and highest of the temperatures recorded; None unless both were."""
+        if self.ambient_start_c is None or self.ambient_end_c is None:
+            return None
+        low, high = sorted((self.ambient_start_c, self.ambient_end_c))
+        return low, high
 
     @property
     def alpha_l_mm_per_k(self) -> float | None:

@@ -126,13 +126,12 @@ def monte_carlo(obs: Observations, result: FitResult, inputs: BudgetInputs, *,
     centred = estimates - estimates.mean(axis=0)
     m2 = np.mean(centred**2, axis=0)
     kurtosis = np.mean(centred**4, axis=0) / np.where(m2 > 0, m2**2, 1.0)
+    u_c = np.array([o.u_c for o in budget.outputs])
     # var(s^2)/sigma^4 ~ (kurtosis - 1)/N, so s has relative se sqrt((kurtosis - 1)/(4N))
-    ratio_se = np.sqrt(np.maximum(kurtosis - 1.0, 0.0) / (4.0 * draws)) * sd / \
-        np.array([o.u_c for o in budget.outputs])
+    ratio_se = np.sqrt(np.maximum(kurtosis - 1.0, 0.0) / (4.0 * draws)) * sd / u_c
     return MonteCarlo(result.names, draws, seed, estimates.mean(axis=0), sd,
                       np.quantile(estimates, 0.025, axis=0),
-                      np.quantile(estimates, 0.975, axis=0),
-                      np.array([o.u_c for o in budget.outputs]), ratio_se,
+                      np.quantile(estimates, 0.975, axis=0), u_c, ratio_se,
                       float(converged.mean()), seconds)
 
 
@@ -156,9 +155,8 @@ def perturbations(obs: Observations, theta: np.ndarray, inputs: BudgetInputs,
             vector, _ = calibration_span(obs, g)
             out += rng.normal(0.0, u, (count, 1)) * vector[None]
     alpha_l = inputs.alpha_l_mm_per_k
-    if alpha_l is not None and inputs.temperatures_known:
-        assert inputs.ambient_start_c is not None and inputs.ambient_end_c is not None
-        low, high = sorted((inputs.ambient_start_c, inputs.ambient_end_c))
+    if alpha_l is not None and inputs.ambient_range_c is not None:
+        low, high = inputs.ambient_range_c
         temperature = rng.uniform(low, high, count) + rng.normal(0.0, inputs.thermometer_u_c,
                                                                  count)
         growth = alpha_l * (temperature - REFERENCE_TEMPERATURE_C)

@@ -167,10 +167,10 @@ def thermal_vector(obs: Observations, theta: np.ndarray, inputs: BudgetInputs) -
 
 def temperature(obs: Observations, theta: np.ndarray, inputs: BudgetInputs) -> list[Source]:
     vector = thermal_vector(obs, theta, inputs)
-    coefficient = inputs.leg_expansion_ppm_per_k
+    coefficient, ambient = inputs.leg_expansion_ppm_per_k, inputs.ambient_range_c
     if coefficient is None:
         missing = "legs' expansion coefficient not stated"
-    elif not inputs.temperatures_known:
+    elif ambient is None:
         which = [stage for stage, t in (("start", inputs.ambient_start_c),
                                         ("end", inputs.ambient_end_c)) if t is None]
         missing = f"temperature at {' and '.join(which)} not recorded"
@@ -178,13 +178,12 @@ def temperature(obs: Observations, theta: np.ndarray, inputs: BudgetInputs) -> l
         missing = ""
     legs = (f"legs {coefficient:g} ppm/K x {inputs.leg_length_mm:g} mm" if coefficient
             is not None else "legs")
-    if missing:
+    if missing or ambient is None:
         return [Source("temperature range", "B", "rectangular", "degC", None, vector=vector,
                        note=missing),
                 Source("thermometer", "B", "normal", "degC", None, vector=vector,
                        note=missing)]
-    assert inputs.ambient_start_c is not None and inputs.ambient_end_c is not None
-    low, high = sorted((inputs.ambient_start_c, inputs.ambient_end_c))
+    low, high = ambient
     return [Source("temperature range", "B", "rectangular", "degC",
                    (high - low) / math.sqrt(12.0), vector=vector,
                    note=f"{low:g}..{high:g} degC during the campaign; {legs}"),
@@ -194,10 +193,10 @@ def temperature(obs: Observations, theta: np.ndarray, inputs: BudgetInputs) -> l
 
 def mean_temperature_offset(inputs: BudgetInputs) -> float | None:
     """``T_mean - 20``: the mean temperature's departure from the reference, degC."""
-    if not inputs.temperatures_known or inputs.leg_expansion_ppm_per_k is None:
+    if inputs.ambient_range_c is None or inputs.leg_expansion_ppm_per_k is None:
         return None
-    assert inputs.ambient_start_c is not None and inputs.ambient_end_c is not None
-    return 0.5 * (inputs.ambient_start_c + inputs.ambient_end_c) - REFERENCE_TEMPERATURE_C
+    low, high = inputs.ambient_range_c
+    return 0.5 * (low + high) - REFERENCE_TEMPERATURE_C
 
 
 def register_rounding(inputs: BudgetInputs) -> Source | None:
