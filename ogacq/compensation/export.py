@@ -125,7 +125,9 @@ def _export(staging: Path, folder: Path, fmt: TableFormat, options: Any,
 def judge(fmt: TableFormat, options: Any, m: AxisMap, title: str = "") -> AxisVerdict:
     """Whether ``fmt`` may hold the map of one axis: its values plausible and within
     the format's bound, and the table not worse than none (module docstring)."""
-    problem = _out_of_bounds(fmt, m) or _within_its_band(fmt, m)
+    band = within_its_band(m)
+    problem = _out_of_bounds(fmt, m) or (
+        None if band is None else f"{fmt.name}: axis {m.axis}: {band}; not written")
     if problem is not None:
         return AxisVerdict(m.axis, False, problem)
     try:
@@ -161,11 +163,6 @@ def _out_of_bounds(fmt: TableFormat, m: AxisMap) -> str | None:
                     f"the map ({m.source or 'no source given'}) is beyond {bound:g} mm, "
                     f"{what}; not written")
     return None
-
-
-def _within_its_band(fmt: TableFormat, m: AxisMap) -> str | None:
-    why = within_its_band(m)
-    return None if why is None else f"{fmt.name}: axis {m.axis}: {why}; not written"
 
 
 def within_its_band(m: AxisMap) -> str | None:
@@ -212,7 +209,7 @@ def _why_not(fmt: TableFormat, options: Any, m: AxisMap, title: str, table: Axis
         return (f"{words}: {grid}; no spacing down to {spacing / 2 ** HALVINGS:g} mm carries "
                 f"the map ({m.source or 'no source given'})")
     return (f"{words}: the map ({m.source or 'no source given'}) needs a spacing <= "
-            f"{needed:g} mm ({_points(span, needed)} points); {grid}")
+            f"{needed:g} mm ({int(-(-span // needed)) + 1} points); {grid}")
 
 
 def needed_spacing(fmt: TableFormat, options: Any, m: AxisMap, title: str,
@@ -229,10 +226,6 @@ def needed_spacing(fmt: TableFormat, options: Any, m: AxisMap, title: str,
         if _carries(table.before(), table.after()):
             return finer
     return None
-
-
-def _points(span_mm: float, spacing_mm: float) -> int:
-    return int(-(-span_mm // spacing_mm)) + 1
 
 
 def _staging_beside(folder: Path) -> Path:

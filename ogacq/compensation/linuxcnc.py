@@ -96,9 +96,7 @@ def triplets(m: AxisMap, limit: int = MAX_TRIPLETS, file_type: int = 1,
 def _applied(rows: list[tuple[float, float, float]], file_type: int) -> Applied:
     """The error the controller removes: minus its trim (type 0's loader takes the trim
     as nominal minus actual, LinuxCNC's usrmotLoadComp)."""
-    q = np.array([r[0] for r in rows])
-    fwd = np.array([r[1] for r in rows])
-    rev = np.array([r[2] for r in rows])
+    q, fwd, rev = np.array(rows).T
     if file_type == 0:
         fwd, rev = q - fwd, q - rev
 
