@@ -30,6 +30,7 @@ amplitude's std is sigma_A):
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from statistics import NormalDist
 
 from ogacq.identify.consistency import LEVEL
@@ -45,16 +46,22 @@ OVERSAMPLE = 5  # the periodogram's grid: this many pitches per resolution eleme
 FOUND_SHARE = 0.95  # 1 - beta of a stated detection limit (ISO 11843-1's beta = 0.05)
 
 
-def chi2_threshold(dof: float, p: float) -> float:
-    """x with P(chi-square of ``dof`` > x) = ``p`` (bisection on the survival function)."""
-    lo, hi = 0.0, max(4.0 * dof, 10.0)
-    while float(chi2_sf(dof, hi)) > p:
+def _bracket(short: Callable[[float], bool], hi: float) -> tuple[float, float]:
+    """Where ``short`` turns false, to 1e-9: ``hi`` doubled until past it, then bisected."""
+    lo = 0.0
+    while short(hi):
         hi *= 2.0
     for _ in range(200):
         mid = (lo + hi) / 2.0
-        lo, hi = (mid, hi) if float(chi2_sf(dof, mid)) > p else (lo, mid)
+        lo, hi = (mid, hi) if short(mid) else (lo, mid)
         if hi - lo < 1e-9 * hi:
             break
+    return lo, hi
+
+
+def chi2_threshold(dof: float, p: float) -> float:
+    """x with P(chi-square of ``dof`` > x) = ``p`` (bisection on the survival function)."""
+    lo, hi = _bracket(lambda x: float(chi2_sf(dof, x)) > p, max(4.0 * dof, 10.0))
     return (lo + hi) / 2.0
 
 
@@ -67,15 +74,8 @@ def noncentral_chi2_sf(dof: float, noncentrality: float, x: float) -> float:
 
 def found_noncentrality(dof: float, threshold: float, share: float = FOUND_SHARE) -> float:
     """The noncentrality whose gain passes ``threshold`` with probability ``share``."""
-    lo, hi = 0.0, threshold + 10.0
-    while noncentral_chi2_sf(dof, hi, threshold) < share:
-        hi *= 2.0
-    for _ in range(200):
-        mid = (lo + hi) / 2.0
-        lo, hi = (mid, hi) if noncentral_chi2_sf(dof, mid, threshold) < share else (lo, mid)
-        if hi - lo < 1e-9 * hi:
-            break
-    return hi
+    return _bracket(lambda lam: noncentral_chi2_sf(dof, lam, threshold) < share,
+                    threshold + 10.0)[1]
 
 
 def resolved_noncentrality(sidelobe_share: float, share: float = FOUND_SHARE) -> float:
