@@ -269,6 +269,15 @@ def _rounding_note(wanted_mm: dict[str, float], new_mm: dict[str, float],
             f"{max(residue):.4f} mm remains")
 
 
+def _going_back_refusals(changes: tuple[AxisChange, ...], facts: ControllerFacts,
+                         profile: str | None, where: str) -> list[Refusal]:
+    """Going back to offsets ``where`` (written to, were on) a ``profile`` controller: on
+    a controller of another profile, or beyond its margin."""
+    other = [] if profile in (None, facts.profile) else [Refusal(
+        "other_profile", f"{where} a {profile!r} controller, this one is {facts.profile!r}")]
+    return other + _margin_refusals({c.axis: c.new_mm for c in changes}, facts)
+
+
 def _present(*found: _T | None) -> tuple[_T, ...]:
     return tuple(x for x in found if x is not None)
 
@@ -312,12 +321,8 @@ def plan_restore(operation: Operation, current_mm: Mapping[str, float],
             "stale",
             f"the controller no longer holds what write-back {operation.operation} wrote "
             f"({_fmt(written)}; now {_fmt(current)} mm): restoring would undo a later change"))
-    if operation.profile not in (None, facts.profile):
-        refusals.append(Refusal("other_profile",
-                                f"write-back {operation.operation} went to a "
-                                f"{operation.profile!r} controller, this one is "
-                                f"{facts.profile!r}"))
-    refusals += _margin_refusals({c.axis: c.new_mm for c in changes}, facts)
+    refusals += _going_back_refusals(changes, facts, operation.profile,
+                                     f"write-back {operation.operation} went to")
     notes = []
     if operation.status != Stage.DONE:
         notes.append(f"write-back {operation.operation} did not finish ({operation.status})")
@@ -354,9 +359,5 @@ def plan_return(target_mm: Mapping[str, float | None], state: str, current_mm: M
             f"the controller holds {_fmt(current)} mm, but the history's last write-back "
             f"left {recorded}: a change the history does not know, which going back would "
             "undo"))
-    if profile not in (None, facts.profile):
-        refusals.append(Refusal("other_profile",
-                                f"offsets state {state} was on a {profile!r} controller, this "
-                                f"one is {facts.profile!r}"))
-    refusals += _margin_refusals({c.axis: c.new_mm for c in changes}, facts)
+    refusals += _going_back_refusals(changes, facts, profile, f"offsets state {state} was on")
     return OffsetPlan("restore", facts, changes, tuple(refusals), restores_operation=state)
