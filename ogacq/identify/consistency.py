@@ -36,7 +36,7 @@ from ogacq.identify.noise import (
     noise_for,
     read_identically,
 )
-from ogacq.identify.observations import DEVIATION_NAME, POSTURE_OF_SIGN, Observations
+from ogacq.identify.observations import Deviation, Observations
 from ogacq.model.kinematics import nominal_tcp
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
@@ -380,8 +380,6 @@ def _deviation_cell(obs: Observations, rw: np.ndarray, basis: np.ndarray,
     if np.all(np.isnan(p)):
         return None
     worst = int(np.nanargmin(p))  # the first of equals
-    label = obs.labels[worst]
-    m = DEVIATION_NAME.match(label)
-    name = f"{m.group(1)}_{m.group(2)} at {POSTURE_OF_SIGN[m.group(3)]}" if m else label
-    return CellTest(name, float(chi2[worst]), float(expected[worst]),
-                    min(1.0, float(p[worst]) * len(p)), len(p))
+    deviation = Deviation.parse(obs.labels[worst])  # every label is (deviations_observations)
+    return CellTest(f"{deviation.gauge.key} at {deviation.posture}", float(chi2[worst]),
+                    float(expected[worst]), min(1.0, float(p[worst]) * len(p)), len(p))
