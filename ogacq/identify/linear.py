@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from ogacq.identify.observations import DEVIATION_NAME
+from ogacq.identify.observations import Deviation
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 
@@ -46,13 +46,9 @@ def design_matrix(deviation_names: Sequence[str], machine: MachineSpec,
         alpha_max, alpha_min = (math.radians(a) for a in angles_deg)
     rows = []
     for name in deviation_names:
-        m = DEVIATION_NAME.match(name)
-        if not m:
-            raise ValueError(f"{name!r} is not a deviation name")
-        j, i, sign = AXES.index(m.group(1)), AXES.index(m.group(2)), m.group(3)
-        up = _row(j, i, alpha_max)
-        down = _row(j, i, alpha_min)
-        rows.append({"+": up, "-": down, "": up - down}[sign])
+        deviation = Deviation.parse(name)
+        up, down = (_row(*deviation.gauge.indices, alpha) for alpha in (alpha_max, alpha_min))
+        rows.append({"+": up, "-": down, "": up - down}[deviation.sign])
     return np.array(rows)
 
 
