@@ -9,7 +9,7 @@ the shared Zero readings (eq. 13-14 of the 2008 paper: covariance ``sigma^2 D D'
 from __future__ import annotations
 
 import re
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -222,15 +222,27 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
                         source, "deviations")
 
 
-def posture_readings(obs: Observations) -> Iterator[tuple[str, dict[str, np.ndarray]]]:
-    """Each gauge of raw readings as its deviations are named (``dX_Y``) and its
-    readings (boolean masks) at each of the papers' postures it read."""
+# each form's deviations: the sign of its name, the posture whose mean it is, and the
+# posture whose mean it is taken from
+_FORMS = {"12": (("+", "max", "zero"), ("-", "min", "zero")), "6": (("", "max", "min"),)}
+
+
+def deviation_readings(obs: Observations, form: str = "12",
+                       ) -> list[tuple[str, np.ndarray, np.ndarray]]:
+    """The papers' deviations raw readings form (``form`` "12": Max and Min relative to
+    Zero; "6": Max minus Min), gauge by gauge: each one's name (``dX_Y+``), the readings
+    (boolean masks) whose mean it is and those whose mean it is taken from."""
     lay = obs.layout
     postures = lay.posture_names(obs.machine)
+    out = []
     for j, i in lay.gauge_keys:
         sel = (lay.gauge_axis == j) & (lay.leg == i)
-        yield f"d{AXES[j]}_{AXES[i]}", {p: hit for p in POSTURE_NAMES
-                                        if (hit := sel & (postures == p)).any()}
+        at = {p: hit for p in POSTURE_NAMES if (hit := sel & (postures == p)).any()}
+        out += [(f"d{AXES[j]}_{AXES[i]}{sign}", at[of], at[base])
+                for sign, of, base in _FORMS.get(form, ()) if of in at and base in at]
+    if not out:
+        raise ValueError("these readings hold no Zero/Max/Min postures to form deviations from")
+    return out
 
 
 def averaged_deviations(obs: Observations, form: str = "12") -> Observations:
@@ -238,15 +250,6 @@ def averaged_deviations(obs: Observations, form: str = "12") -> Observations:
     averaged over cycles (``form`` "12"), or Max minus Min (``form`` "6")."""
     if not obs.raw:
         return obs
-    named = []
-    for name, at in posture_readings(obs):
-        mean = {posture: float(obs.values[hit].mean()) for posture, hit in at.items()}
-        if form == "6" and {"max", "min"} <= mean.keys():
-            named.append((name, mean["max"] - mean["min"]))
-        elif form == "12" and "zero" in mean:
-            for posture, sign in (("max", "+"), ("min", "-")):
-                if posture in mean:
-                    named.append((name + sign, mean[posture] - mean["zero"]))
-    if not named:
-        raise ValueError("these readings hold no Zero/Max/Min postures to form deviations from")
+    named = [(name, float(obs.values[of].mean()) - float(obs.values[base].mean()))
+             for name, of, base in deviation_readings(obs, form)]
     return deviations_observations(obs.machine, named, obs.source)

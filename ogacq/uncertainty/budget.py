@@ -21,7 +21,7 @@ import numpy as np
 
 from ogacq.identify.fit import FitResult, Weighting
 from ogacq.identify.identifiability import plausible_ranges
-from ogacq.identify.observations import Observations, posture_readings
+from ogacq.identify.observations import Observations, deviation_readings
 from ogacq.model.parameters import NOMINAL, nested
 from ogacq.uncertainty.acceptance import Measured, json_mm
 from ogacq.uncertainty.inputs import BudgetInputs
@@ -248,18 +248,9 @@ def deviations_operator(obs: Observations) -> tuple[list[str], np.ndarray]:
     deviations are their own (the identity)."""
     if not obs.raw:
         return list(obs.labels), np.eye(len(obs))
-    names, rows = [], []
-    for name, at in posture_readings(obs):
-        means = {posture: hit / hit.sum() for posture, hit in at.items()}
-        if "zero" not in means:
-            continue
-        for posture, sign in (("max", "+"), ("min", "-")):
-            if posture in means:
-                names.append(name + sign)
-                rows.append(means[posture] - means["zero"])
-    if not names:
-        raise ValueError("these readings hold no Zero/Max/Min postures to form deviations from")
-    return names, np.array(rows, dtype=float)
+    formed = deviation_readings(obs)
+    return [name for name, _, _ in formed], np.array(
+        [of / of.sum() - base / base.sum() for _, of, base in formed], dtype=float)
 
 
 def deviation_budget(obs: Observations, inputs: BudgetInputs) -> Budget:
