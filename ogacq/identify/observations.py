@@ -30,6 +30,9 @@ from ogacq.model.parameters import AXES
 
 DEVIATION_NAME = re.compile(r"^d([xyz])_([xyz])([+-]?)$")
 POSTURE_OF_SIGN = {"+": "max", "-": "min", "": "max-min"}
+# a deviation by its sign: the posture whose mean it is, and the one it is taken from
+POSTURES_OF_SIGN = {"+": ("max", "zero"), "-": ("min", "zero"), "": ("max", "min")}
+FORMS = {"12": ("+", "-"), "6": ("",)}  # the papers' two sets of deviations, by their signs
 
 
 @dataclass(frozen=True)
@@ -214,17 +217,12 @@ def deviations_observations(machine: MachineSpec, named: Sequence[tuple[str, flo
              enumerate(zip(layout.gauge_axis, layout.leg, layout.posture, strict=True))}
     D = np.zeros((len(parsed), len(layout)))
     for row, d in enumerate(parsed):
-        first, second = {"+": ("max", "zero"), "-": ("min", "zero"), "": ("max", "min")}[d.sign]
+        first, second = POSTURES_OF_SIGN[d.sign]
         D[row, index[(d.gauge, first)]] = 1.0
         D[row, index[(d.gauge, second)]] = -1.0
     labels = [name for name, _ in named]
     return Observations(machine, layout, np.array([value for _, value in named]), labels, D,
                         source, "deviations")
-
-
-# each form's deviations: the sign of its name, the posture whose mean it is, and the
-# posture whose mean it is taken from
-_FORMS = {"12": (("+", "max", "zero"), ("-", "min", "zero")), "6": (("", "max", "min"),)}
 
 
 def deviation_readings(obs: Observations, form: str = "12",
@@ -239,7 +237,8 @@ def deviation_readings(obs: Observations, form: str = "12",
         sel = (lay.gauge_axis == j) & (lay.leg == i)
         at = {p: hit for p in POSTURE_NAMES if (hit := sel & (postures == p)).any()}
         out += [(f"d{AXES[j]}_{AXES[i]}{sign}", at[of], at[base])
-                for sign, of, base in _FORMS.get(form, ()) if of in at and base in at]
+                for sign, (of, base) in POSTURES_OF_SIGN.items()
+                if sign in FORMS.get(form, ()) and of in at and base in at]
     if not out:
         raise ValueError("these readings hold no Zero/Max/Min postures to form deviations from")
     return out
