@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from ogacq_drivers.axes.controller import AxisController
@@ -60,9 +60,7 @@ class ControllerOffsets:
         return plan_restore(op, held, self.facts)
 
     def execute(self, plan: OffsetPlan, audit: AuditLog, confirmed_by: str) -> str:
-        options = WriteOptions(save_nvm=self.options.save_nvm, rehome=self.options.rehome,
-                               forced=self.options.forced, confirmed_by=confirmed_by,
-                               port=self.options.port)
+        options = replace(self.options, confirmed_by=confirmed_by)
         try:
             preflight(self.controller, plan, options)
         except DriverError as exc:
