@@ -38,12 +38,10 @@ from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.scan_design import (
     LARGEST_PHASE_GAP,
-    SEARCH_GRID,
     UNSTATED_BAND_MM,
-    frequency_grid,
-    phase_gaps,
+    jitters,
     stated_periods,
-    stratified_targets,
+    worst_gap,
 )
 from ogacq.session.records import PositionRecord
 from ogacq.session.store import LoadedSession
@@ -57,7 +55,6 @@ MOST_TARGETS = 400  # no source: beyond it a typo (a travel in um), refused
 # motion of a ball screw (no source: a choice within the travel's margin).
 OVERRUN_MM = 2.0
 SESSION_KIND = "positioning"  # its session header's "kind": not a campaign of the legs
-SEEDS = 16  # jitters tried per count of targets (as the separating scan's design)
 S_SOURCE = "the scatter of the runs at each target (ISO 230-2's s), the scale's reading"
 
 
@@ -138,18 +135,14 @@ def positioning_plan(machine: MachineSpec, axis: str, *, runs: int = ISO_RUNS,
 
 def _targets(lo: float, hi: float, band: tuple[float, float],
              periods: tuple[float, ...]) -> np.ndarray:
-    """The fewest stratified targets (of ``SEEDS`` jitters each count) leaving no phase
-    gap beyond a quarter period over ``band`` and at ``periods``: the count found by
-    doubling, then halving the interval (more targets sample at least as well)."""
-    stated = 1.0 / np.asarray(periods) if periods else np.zeros(0)
+    """The fewest stratified targets (of the separating scan's jitters each count)
+    leaving no phase gap beyond a quarter period over ``band`` and at ``periods``: the
+    count found by doubling, then halving the interval (more targets sample at least as
+    well)."""
 
     def sampling(n: int) -> np.ndarray | None:
-        for seed in range(SEEDS):
-            t = stratified_targets(lo, hi, n, seed)
-            freqs = np.concatenate([frequency_grid(t, band, SEARCH_GRID), stated])
-            if float(phase_gaps(t - t.mean(), freqs).max()) <= LARGEST_PHASE_GAP:
-                return t
-        return None
+        return next((t for t in jitters(lo, hi, n)
+                     if worst_gap(t, band, periods) <= LARGEST_PHASE_GAP), None)
 
     low, high = FEWEST_TARGETS - 1, FEWEST_TARGETS
     found = sampling(high)

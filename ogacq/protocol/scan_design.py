@@ -334,12 +334,6 @@ def stratified_targets(lo: float, hi: float, n: int, seed: int,
     return np.round(np.concatenate([[lo], t, [hi]]), 3)
 
 
-def _gap_at(targets_mm: np.ndarray, periods: tuple[float, ...]) -> np.ndarray:
-    if not periods:
-        return np.zeros(0)
-    return phase_gaps(targets_mm - targets_mm.mean(), 1.0 / np.asarray(periods))
-
-
 def alias_level(targets_mm: np.ndarray, shortest_mm: float) -> float:
     """The largest sidelobe of the targets' spectral window |sum exp(2 pi i df t)| / n
     beyond its main lobe (df from 2 / span) up to twice the band's highest frequency:
@@ -352,8 +346,8 @@ def alias_level(targets_mm: np.ndarray, shortest_mm: float) -> float:
     return float(window.max()) if len(df) else 1.0
 
 
-def _jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
-             ) -> Iterator[np.ndarray]:
+def jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
+            ) -> Iterator[np.ndarray]:
     """The ``SEEDS`` jitters of the strata (none with two targets in a micrometre)."""
     for seed in range(SEEDS):
         t = stratified_targets(lo, hi, n, seed, strata)
@@ -361,25 +355,29 @@ def _jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
             yield t
 
 
+def worst_gap(targets_mm: np.ndarray, band: tuple[float, float] | None,
+              stated: tuple[float, ...]) -> float:
+    """The targets' largest phase gap over the band (None: none; on the coarser search
+    grid) and at the stated periods, as a share of the period."""
+    freqs = frequency_grid(targets_mm, band, SEARCH_GRID) if band is not None else ()
+    return float(phase_gaps(targets_mm - targets_mm.mean(), np.concatenate(
+        [freqs, 1.0 / np.asarray(stated, dtype=float)])).max(initial=0.0))
+
+
 def _score(targets_mm: np.ndarray, band: tuple[float, float] | None,
            stated: tuple[float, ...]) -> float:
-    """The targets' worst phase gap over the band (on the coarser search grid) and the
-    stated periods, and their alias level, the larger of the two as a share of its
-    bound: at most 1 meets both."""
-    worst = 0.0
-    if band is not None:
-        freqs = frequency_grid(targets_mm, band, SEARCH_GRID)
-        worst = float(phase_gaps(targets_mm - targets_mm.mean(), freqs).max())
-    worst = max([worst, *_gap_at(targets_mm, stated).tolist()])
+    """The targets' worst phase gap and their alias level, the larger of the two as a
+    share of its bound: at most 1 meets both."""
     shortest = min((*stated, *(band or ())), default=UNSTATED_BAND_MM[0])
-    return max(worst / LARGEST_PHASE_GAP, alias_level(targets_mm, shortest) / ALIAS_LIMIT)
+    return max(worst_gap(targets_mm, band, stated) / LARGEST_PHASE_GAP,
+               alias_level(targets_mm, shortest) / ALIAS_LIMIT)
 
 
 @lru_cache(maxsize=64)  # a design tries counts upward; designs of one machine share them
 def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None,
                   stated: tuple[float, ...]) -> np.ndarray:
     """The jitter of equal strata furthest within the bounds (read-only: shared)."""
-    best = min(_jitters(lo, hi, n), key=lambda t: _score(t, band, stated))
+    best = min(jitters(lo, hi, n), key=lambda t: _score(t, band, stated))
     best.flags.writeable = False
     return best
 
@@ -414,7 +412,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     targets = placed.targets
     protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
     band, band_gap = resolved_band(targets, longest, shortest)
-    stated_gaps = _gap_at(targets, stated)
+    stated_gaps = phase_gaps(targets - targets.mean(), 1.0 / np.asarray(stated, dtype=float))
     unsampled = tuple(p for p, g in zip(stated, stated_gaps, strict=True)
                       if g > LARGEST_PHASE_GAP)
     gaps = [band_gap, *[g for g in stated_gaps if g <= LARGEST_PHASE_GAP]]
@@ -488,7 +486,7 @@ class _Scan:
         """Every stated period and the band required sampled (on the fine grid), no
         alias beyond its bound."""
         band, _ = resolved_band(targets, self.longest, self.shortest)
-        return all(g <= LARGEST_PHASE_GAP for g in _gap_at(targets, self.stated)) and \
+        return worst_gap(targets, None, self.stated) <= LARGEST_PHASE_GAP and \
             _band_reached(band, self.required) and \
             alias_level(targets, self.shortest) <= ALIAS_LIMIT
 
@@ -509,7 +507,7 @@ class _Scan:
         floor = allocation.limit_mm(equal, self.noise_mm)
         tried = sorted(((allocation.limit_mm(t, self.noise_mm), k, t)
                         for share in INFORMED_SHARES
-                        for k, t in enumerate(_jitters(lo, hi, n, allocation.strata_edges(
+                        for k, t in enumerate(jitters(lo, hi, n, allocation.strata_edges(
                             share, lo, hi)))), key=lambda c: c[:2])
         for limit, _, targets in tried:  # the smooth map's best first, if it keeps
             if limit >= floor:  # every period sampled as the equal strata do
