@@ -476,10 +476,6 @@ class _Scan:
     shortest: float
 
     def allocation(self) -> SmoothAllocation:
-        try:
-            hash(self.machine)
-        except TypeError:  # a field that does not hash by value: found afresh
-            return smooth_allocation.__wrapped__(self.ends, self.machine, self.noise_mm)
         return smooth_allocation(self.ends, self.machine, self.noise_mm)
 
     def covers(self, targets: np.ndarray) -> bool:
@@ -487,7 +483,7 @@ class _Scan:
         alias beyond its bound."""
         band, _ = resolved_band(targets, self.longest, self.shortest)
         return worst_gap(targets, None, self.stated) <= LARGEST_PHASE_GAP and \
-            _band_reached(band, self.required) and \
+            (self.required is None or band[0] <= self.required[0] + 1e-9) and \
             alias_level(targets, self.shortest) <= ALIAS_LIMIT
 
     def placed(self, n: int, informed: bool) -> _Placed:
@@ -535,11 +531,6 @@ def _most_positions(budget_s: float | None, seconds_per_step: float, legs: int,
                       int((budget_s / seconds_per_step / legs - 1) // (per_leg - 1))))
 
 
-def _band_reached(band: tuple[float, float], required: tuple[float, float] | None) -> bool:
-    """The targets resolve the band of leads required (none: the stated leads only)."""
-    return required is None or band[0] <= required[0] + 1e-9
-
-
 def targets_for_detection(detection_mm: dict[str, float], n: int) -> int:
     """The targets that bring every family's limit to ``DETECTION_TARGET_MM``, from
     ``n`` targets' limits: a limit falls as the square root of the readings, which grow
@@ -561,8 +552,7 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
     the rms over the travel of a smooth map's least visible shape less its line, a
     hysteresis' lost motion; the readings weighed as the diagnosis weighs them, the
     display's rounding shared by each posture's repeats (:func:`reading_noise`)."""
-    rows, history = _Rows.planned(protocol, machine, noise_mm)
-    nuisance = _orthonormal(rows.offsets)
+    rows, history, nuisance = _Rows.planned(protocol, machine, noise_mm)
     lo, hi = protocol.scan_targets_mm[0], protocol.scan_targets_mm[-1]
     periods = sorted({*np.geomspace(band_mm[0], band_mm[1], 12).tolist(), *stated_mm})
     out: dict[str, float] = {}
@@ -590,8 +580,7 @@ def cyclic_found_mm(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: fl
     candidates beside it, and its rule against a rival peak, whose share of the error
     is the largest any pitch apart from the lead's main lobe captures (the readings
     weighed as the diagnosis weighs them, the offsets and gauges' zeros taken out)."""
-    rows, history = _Rows.planned(protocol, machine, noise_mm)
-    nuisance = _orthonormal(rows.offsets)
+    rows, history, nuisance = _Rows.planned(protocol, machine, noise_mm)
     span = protocol.scan_targets_mm[-1] - protocol.scan_targets_mm[0]
     df = 1.0 / (OVERSAMPLE * span)
     freqs = np.arange(1.0 / band_mm[1], 1.0 / band_mm[0] + df / 2, df)
@@ -668,10 +657,11 @@ class _Rows:
 
     @classmethod
     def planned(cls, protocol: ProtocolConfig, machine: MachineSpec,
-                noise_mm: float) -> tuple[_Rows, JointHistory]:
-        """The rows of ``protocol``'s planned readings, and their joints' history."""
-        layout = planned_layout(protocol, machine)
-        return cls.of(layout, machine, noise_mm), JointHistory.of(layout)
+                noise_mm: float) -> tuple[_Rows, JointHistory, np.ndarray]:
+        """The rows of ``protocol``'s planned readings, their joints' history and the
+        orthonormal directions of the offsets and the gauges' zeros."""
+        rows = cls.of(planned_layout(protocol, machine), machine, noise_mm)
+        return rows, JointHistory.of(rows.layout), _orthonormal(rows.offsets)
 
     @classmethod
     def of(cls, layout: ReadingsLayout, machine: MachineSpec, noise_mm: float) -> _Rows:
@@ -799,7 +789,7 @@ class SmoothAllocation:
         return self._limit(targets * self.weights, noise_mm)
 
     def _limit(self, weights: np.ndarray, noise_mm: float) -> float:
-        least = min(_schur_least(m, self.shapes) for m in
+        least = min(float(_schur(m, self.shapes)[0][0]) for m in
                     self.setting + np.einsum("s,asij->aij", weights, self.per_target))
         return DETECTION_SIGMAS * noise_mm / math.sqrt(least) if least > 0 else math.inf
 
@@ -895,10 +885,6 @@ def _schur(normal: np.ndarray, shapes: int) -> tuple[np.ndarray, np.ndarray, np.
     taken = np.linalg.solve(normal[shapes:, shapes:], normal[shapes:, :shapes])
     values, vectors = np.linalg.eigh(normal[:shapes, :shapes] - normal[:shapes, shapes:] @ taken)
     return values, vectors, taken
-
-
-def _schur_least(normal: np.ndarray, shapes: int) -> float:
-    return float(_schur(normal, shapes)[0][0])
 
 
 def _soft_least(weights: np.ndarray, per_target: np.ndarray, setting: np.ndarray,
