@@ -234,27 +234,22 @@ class ScaleReading:
     scale_mm: float
     meant_mm: float | None = None
 
-    def position_mm(self, net_of_drive: bool) -> float:
-        """What the deviation is taken against: the target, or (``net_of_drive``) where
-        the drive's rounding meant the joint to land, so that the deviation is what the
-        axis and its maps leave and not the drive's step."""
-        return self.meant_mm if net_of_drive and self.meant_mm is not None \
-            else self.target_mm
-
 
 def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
                        net_of_drive: bool = False, display_step_mm: float = 0.0,
                        ) -> PositioningResult:
     """The figures of a test's readings (every target read in both directions; two runs
     at least, for the s): actual minus target, or (``net_of_drive``) minus where the
-    drive's step meant the joint to land. ValueError naming what is missing."""
+    drive's rounding meant the joint to land: what the axis and its maps leave, not the
+    drive's step. ValueError naming what is missing."""
     if not readings:
         raise ValueError("no readings of the axis scale")
     targets = np.array(sorted({round(r.target_mm, 6) for r in readings}))
     runs = {r.run for r in readings}
     if len(runs) < 2:
         raise ValueError("one run only: ISO 230-2's s needs two runs at least (five)")
-    deviations = [r.scale_mm - r.position_mm(net_of_drive) for r in readings]
+    deviations = [r.scale_mm - (r.meant_mm if net_of_drive and r.meant_mm is not None
+                                else r.target_mm) for r in readings]
     reference = float(np.mean(deviations))
     cells: dict[tuple[float, int], list[float]] = {}
     for r, deviation in zip(readings, deviations, strict=True):
