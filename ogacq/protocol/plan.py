@@ -36,7 +36,7 @@ nothing moved (a posture read again), there is nothing to settle.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from functools import lru_cache
 from typing import Any
 
@@ -132,10 +132,7 @@ class ProtocolConfig:
                "cycles": self.cycles, "approach": self.approach,
                "overshoot_mm": self.overshoot_mm, "settle": self.settle,
                "settle_s": self.settle_s, "settle_window_s": self.settle_window_s,
-               "move_timeout_s": self.move_timeout_s,
-               "stability": {"readings": self.stability.readings,
-                             "tolerance_mm": self.stability.tolerance_mm,
-                             "timeout_s": self.stability.timeout_s}}
+               "move_timeout_s": self.move_timeout_s, "stability": asdict(self.stability)}
         if self.scan_targets_mm:  # a designed scan replaces the postures
             del out["postures"]
             out["scan_targets_mm"] = list(self.scan_targets_mm)
