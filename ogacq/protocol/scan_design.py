@@ -421,7 +421,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     needed = len(legs) * (1 + (per_leg - 1) * wanted) if finite and wanted > n else 0
     smooth = placed.detection.get("screw_map", 0.0)
     # said where no placing of these targets would reach the target either
-    bound = scan.allocation().bound_mm(n, noise_mm) \
+    bound = smooth_allocation(scan.ends, machine, noise_mm).bound_mm(n, noise_mm) \
         if timed and finite and smooth > DETECTION_TARGET_MM else 0.0
     bound = bound if bound > DETECTION_TARGET_MM else 0.0
     step = machine.gauge_resolution_mm
@@ -475,9 +475,6 @@ class _Scan:
     longest: float
     shortest: float
 
-    def allocation(self) -> SmoothAllocation:
-        return smooth_allocation(self.ends, self.machine, self.noise_mm)
-
     def covers(self, targets: np.ndarray) -> bool:
         """Every stated period and the band required sampled (on the fine grid), no
         alias beyond its bound."""
@@ -499,7 +496,7 @@ class _Scan:
 
     def _informed(self, n: int, equal: np.ndarray, detection: dict[str, float]) -> _Placed:
         lo, hi = self.ends.scan_targets_mm
-        allocation = self.allocation()
+        allocation = smooth_allocation(self.ends, self.machine, self.noise_mm)
         floor = allocation.limit_mm(equal, self.noise_mm)
         tried = sorted(((allocation.limit_mm(t, self.noise_mm), k, t)
                         for share in INFORMED_SHARES
