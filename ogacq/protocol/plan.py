@@ -173,13 +173,6 @@ class SettleRule:
     window_s: float
     display_step_mm: float = 0.0
 
-    def describe(self) -> str:
-        if self.kind == "fixed":
-            return f"fixed {self.bound_s:g} s"
-        return (f"stable: two windows of {self.window_s:g} s (ringing of "
-                f"{1 / self.window_s:g} Hz and faster) at rest against the gauge's noise and "
-                f"display step, the reading their mean; at most {self.bound_s:g} s")
-
 
 @dataclass(frozen=True)
 class SetGauges:

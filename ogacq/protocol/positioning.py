@@ -212,10 +212,6 @@ class PositioningResult:
                 "s_up_mm": _rounded(self.s_up_mm), "s_down_mm": _rounded(self.s_down_mm),
                 "iso230_2": self.figures.to_json()}
 
-    def line(self) -> str:
-        return (f"{self.axis} axis, {len(self.targets_mm)} targets x {self.runs} runs each "
-                f"way: {self.figures.line()}")
-
 
 def _rounded(values: np.ndarray) -> list[float]:
     return [round(float(v), 7) for v in values]
