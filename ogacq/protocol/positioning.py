@@ -176,7 +176,6 @@ class PositioningResult:
     s_down_mm: np.ndarray
     runs: int
     figures: Iso230Figures
-    reference_mm: float  # the scale's value taken as zero deviation (their mean)
     display_step_mm: float = 0.0  # the scale's
 
     @property
@@ -265,7 +264,7 @@ def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
     (up, s_up), (down, s_down) = mean_s(1), mean_s(-1)
     figures = iso230_figures(axis, targets, up, down, s_up, s_down, s_source=S_SOURCE)
     return PositioningResult(axis, targets, up, down, s_up, s_down, len(runs), figures,
-                             reference, display_step_mm)
+                             display_step_mm)
 
 
 def session_result(session: LoadedSession, *, net_of_drive: bool = False,
