@@ -86,7 +86,7 @@ def run_positioning(campaign: Campaign, plan: PositioningPlan, session_path: Pat
                     for r in (resume.of_type(PositionRecord) if resume else ())}
             test = _Test(station, writer, plan, campaign, done,
                          target_correction(campaign, maps), observer)
-            test.run()
+            run_to_end(test.run_steps, station, writer, lambda: len(done))
     return load_session(session_path)
 
 
@@ -112,10 +112,7 @@ class _Test:
     correction: TargetCorrection | None
     observer: Observer | None
 
-    def run(self) -> None:
-        run_to_end(self._steps, self.station, self.writer, lambda: len(self.done))
-
-    def _steps(self) -> None:
+    def run_steps(self) -> None:
         steps = list(self.plan.steps())
         lo, hi = min(self.plan.targets_mm), max(self.plan.targets_mm)
         # continued: the first target left is approached from its run's own start

@@ -66,13 +66,12 @@ def parse_range(text: str | None) -> tuple[float | None, float | None]:
     if text is None:
         return None, None
     low, sep, high = text.partition(":")
-    if not sep:
-        raise InputError("--scan-range", f"{text!r} is not FROM:TO in mm, e.g. -50:50")
     try:
-        return (float(low) if low.strip() else None, float(high) if high.strip() else None)
+        if sep:
+            return (float(low) if low.strip() else None, float(high) if high.strip() else None)
     except ValueError:
-        raise InputError("--scan-range", f"{text!r} is not FROM:TO in mm, e.g. -50:50") \
-            from None
+        pass
+    raise InputError("--scan-range", f"{text!r} is not FROM:TO in mm, e.g. -50:50")
 
 
 def describe_protocol(protocol: ProtocolConfig, machine: MachineSpec) -> str:

@@ -73,8 +73,7 @@ def positioning(
     if as_json:
         typer.echo(json.dumps(document))
         return
-    um = {name: document["iso230_2"][f"{name}_mm"] * UM_PER_MM for name in "AEMRB"}
-    typer.echo(f"ISO 230-2 {axis}: A {um['A']:.2f} µm, E {um['E']:.2f} µm, M {um['M']:.2f} "
-               f"µm, R {um['R']:.2f} µm, B {um['B']:.2f} µm (the drive steps "
-               f"{step * UM_PER_MM:g} µm)")
+    typer.echo(f"ISO 230-2 {axis}: " + ", ".join(
+        f"{name} {document['iso230_2'][f'{name}_mm'] * UM_PER_MM:.2f} µm" for name in "AEMRB")
+        + f" (the drive steps {step * UM_PER_MM:g} µm)")
     typer.echo(f"written: {plain(str(path))}")

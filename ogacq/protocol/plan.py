@@ -36,7 +36,7 @@ nothing moved (a posture read again), there is nothing to settle.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from functools import lru_cache
 from typing import Any
 
@@ -132,10 +132,7 @@ class ProtocolConfig:
                "cycles": self.cycles, "approach": self.approach,
                "overshoot_mm": self.overshoot_mm, "settle": self.settle,
                "settle_s": self.settle_s, "settle_window_s": self.settle_window_s,
-               "move_timeout_s": self.move_timeout_s,
-               "stability": {"readings": self.stability.readings,
-                             "tolerance_mm": self.stability.tolerance_mm,
-                             "timeout_s": self.stability.timeout_s}}
+               "move_timeout_s": self.move_timeout_s, "stability": asdict(self.stability)}
         if self.scan_targets_mm:  # a designed scan replaces the postures
             del out["postures"]
             out["scan_targets_mm"] = list(self.scan_targets_mm)
@@ -176,13 +173,6 @@ class SettleRule:
     window_s: float
     display_step_mm: float = 0.0
 
-    def describe(self) -> str:
-        if self.kind == "fixed":
-            return f"fixed {self.bound_s:g} s"
-        return (f"stable: two windows of {self.window_s:g} s (ringing of "
-                f"{1 / self.window_s:g} Hz and faster) at rest against the gauge's noise and "
-                f"display step, the reading their mean; at most {self.bound_s:g} s")
-
 
 @dataclass(frozen=True)
 class SetGauges:
@@ -197,7 +187,6 @@ class Move:
     """Move all three joints to ``q_mm`` (controller coordinates)."""
 
     q_mm: tuple[float, float, float]
-    tcp_mm: tuple[float, float, float]
     purpose: str  # "posture" or "approach" (an overshoot before the posture)
 
 
@@ -318,8 +307,8 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
         # each posture's joints and TCP, computed once for all the cycles
         poses = _poses(i, config.postures, machine)
         # Gauges are set at the leg's first posture: go there first.
-        first_q, first_tcp = poses[0]
-        yield from _approach(first_q, first_tcp, config, last_q, side, config.approach)
+        first_q = poses[0][0]
+        yield from _approach(first_q, config, last_q, side, config.approach)
         last_q = first_q
         yield SetGauges(leg, gauges)
         labels = [posture_label(posture) for posture in config.postures]
@@ -329,7 +318,7 @@ def campaign_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Ste
                 sides = ("from_below", "from_above") if config.approach == "both" \
                     else (config.approach,)
                 for how in sides:
-                    yield from _approach(q, tcp, config, last_q, side, how)
+                    yield from _approach(q, config, last_q, side, how)
                     last_q = q
                     tag = "" if len(sides) == 1 else f"/{how}"
                     yield Read(f"{leg}/c{cycle}/p{k + 1}{tag}", leg, gauges, cycle,
@@ -373,7 +362,7 @@ def _scan_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
         # the Zero posture, then each target's joints and TCP, computed once for all
         # the runs that visit it
         (zero_q, zero_tcp), *poses = _poses(i, ["zero", *targets], machine)
-        yield from _approach(zero_q, zero_tcp, config, last_q, side, "sequence")
+        yield from _approach(zero_q, config, last_q, side, "sequence")
         last_q = zero_q
         yield SetGauges(leg, gauges)
         yield Read(f"{leg}/set", leg, gauges, 1, "zero", zero_q, zero_tcp,
@@ -385,22 +374,21 @@ def _scan_steps(config: ProtocolConfig, machine: MachineSpec) -> Iterator[Step]:
                     range(len(targets) - 1, -1, -1)
                 for n, k in enumerate(order):
                     q, tcp = poses[k]
-                    yield from _approach(q, tcp, config, last_q, side,
+                    yield from _approach(q, config, last_q, side,
                                          first if n == 0 else "sequence")
                     last_q = q
                     yield Read(f"{leg}/c{cycle}/{run}/p{k + 1}", leg, gauges, cycle,
                                labels[k], q, tcp, (side[0], side[1], side[2]))
 
 
-def _approach(q: tuple[float, float, float], tcp: tuple[float, float, float],
-              config: ProtocolConfig, last_q: tuple[float, float, float], side: list[int],
-              how: str) -> Iterator[Move]:
+def _approach(q: tuple[float, float, float], config: ProtocolConfig,
+              last_q: tuple[float, float, float], side: list[int], how: str) -> Iterator[Move]:
     """Moves that bring the joints to ``q`` from the side ``how`` asks; updates ``side``."""
     if how in ("from_below", "from_above"):
         sign = 1 if how == "from_below" else -1
         before = q[0] - sign * config.overshoot_mm, q[1] - sign * config.overshoot_mm, \
             q[2] - sign * config.overshoot_mm
-        yield Move(before, tcp, "approach")
+        yield Move(before, "approach")
         side[:] = [sign] * 3
     else:
         # np.sign(np.round(q - last_q, 9)) where not zero, in Python floats: np.round is
@@ -412,7 +400,7 @@ def _approach(q: tuple[float, float, float], tcp: tuple[float, float, float],
                 side[k] = 1
             elif nanometres < -0.5:
                 side[k] = -1
-    yield Move(q, tcp, "posture")
+    yield Move(q, "posture")
 
 
 def reading_steps(config: ProtocolConfig, machine: MachineSpec) -> list[Read]:

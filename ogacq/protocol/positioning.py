@@ -38,12 +38,10 @@ from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import AXES
 from ogacq.protocol.scan_design import (
     LARGEST_PHASE_GAP,
-    SEARCH_GRID,
     UNSTATED_BAND_MM,
-    frequency_grid,
-    phase_gaps,
+    jitters,
     stated_periods,
-    stratified_targets,
+    worst_gap,
 )
 from ogacq.session.records import PositionRecord
 from ogacq.session.store import LoadedSession
@@ -57,7 +55,6 @@ MOST_TARGETS = 400  # no source: beyond it a typo (a travel in um), refused
 # motion of a ball screw (no source: a choice within the travel's margin).
 OVERRUN_MM = 2.0
 SESSION_KIND = "positioning"  # its session header's "kind": not a campaign of the legs
-SEEDS = 16  # jitters tried per count of targets (as the separating scan's design)
 S_SOURCE = "the scatter of the runs at each target (ISO 230-2's s), the scale's reading"
 
 
@@ -138,18 +135,14 @@ def positioning_plan(machine: MachineSpec, axis: str, *, runs: int = ISO_RUNS,
 
 def _targets(lo: float, hi: float, band: tuple[float, float],
              periods: tuple[float, ...]) -> np.ndarray:
-    """The fewest stratified targets (of ``SEEDS`` jitters each count) leaving no phase
-    gap beyond a quarter period over ``band`` and at ``periods``: the count found by
-    doubling, then halving the interval (more targets sample at least as well)."""
-    stated = 1.0 / np.asarray(periods) if periods else np.zeros(0)
+    """The fewest stratified targets (of the separating scan's jitters each count)
+    leaving no phase gap beyond a quarter period over ``band`` and at ``periods``: the
+    count found by doubling, then halving the interval (more targets sample at least as
+    well)."""
 
     def sampling(n: int) -> np.ndarray | None:
-        for seed in range(SEEDS):
-            t = stratified_targets(lo, hi, n, seed)
-            freqs = np.concatenate([frequency_grid(t, band, SEARCH_GRID), stated])
-            if float(phase_gaps(t - t.mean(), freqs).max()) <= LARGEST_PHASE_GAP:
-                return t
-        return None
+        return next((t for t in jitters(lo, hi, n)
+                     if worst_gap(t, band, periods) <= LARGEST_PHASE_GAP), None)
 
     low, high = FEWEST_TARGETS - 1, FEWEST_TARGETS
     found = sampling(high)
@@ -183,7 +176,6 @@ class PositioningResult:
     s_down_mm: np.ndarray
     runs: int
     figures: Iso230Figures
-    reference_mm: float  # the scale's value taken as zero deviation (their mean)
     display_step_mm: float = 0.0  # the scale's
 
     @property
@@ -219,10 +211,6 @@ class PositioningResult:
                 "s_up_mm": _rounded(self.s_up_mm), "s_down_mm": _rounded(self.s_down_mm),
                 "iso230_2": self.figures.to_json()}
 
-    def line(self) -> str:
-        return (f"{self.axis} axis, {len(self.targets_mm)} targets x {self.runs} runs each "
-                f"way: {self.figures.line()}")
-
 
 def _rounded(values: np.ndarray) -> list[float]:
     return [round(float(v), 7) for v in values]
@@ -241,27 +229,22 @@ class ScaleReading:
     scale_mm: float
     meant_mm: float | None = None
 
-    def position_mm(self, net_of_drive: bool) -> float:
-        """What the deviation is taken against: the target, or (``net_of_drive``) where
-        the drive's rounding meant the joint to land, so that the deviation is what the
-        axis and its maps leave and not the drive's step."""
-        return self.meant_mm if net_of_drive and self.meant_mm is not None \
-            else self.target_mm
-
 
 def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
                        net_of_drive: bool = False, display_step_mm: float = 0.0,
                        ) -> PositioningResult:
     """The figures of a test's readings (every target read in both directions; two runs
     at least, for the s): actual minus target, or (``net_of_drive``) minus where the
-    drive's step meant the joint to land. ValueError naming what is missing."""
+    drive's rounding meant the joint to land: what the axis and its maps leave, not the
+    drive's step. ValueError naming what is missing."""
     if not readings:
         raise ValueError("no readings of the axis scale")
     targets = np.array(sorted({round(r.target_mm, 6) for r in readings}))
     runs = {r.run for r in readings}
     if len(runs) < 2:
         raise ValueError("one run only: ISO 230-2's s needs two runs at least (five)")
-    deviations = [r.scale_mm - r.position_mm(net_of_drive) for r in readings]
+    deviations = [r.scale_mm - (r.meant_mm if net_of_drive and r.meant_mm is not None
+                                else r.target_mm) for r in readings]
     reference = float(np.mean(deviations))
     cells: dict[tuple[float, int], list[float]] = {}
     for r, deviation in zip(readings, deviations, strict=True):
@@ -281,7 +264,7 @@ def positioning_result(axis: str, readings: Sequence[ScaleReading], *,
     (up, s_up), (down, s_down) = mean_s(1), mean_s(-1)
     figures = iso230_figures(axis, targets, up, down, s_up, s_down, s_source=S_SOURCE)
     return PositioningResult(axis, targets, up, down, s_up, s_down, len(runs), figures,
-                             reference, display_step_mm)
+                             display_step_mm)
 
 
 def session_result(session: LoadedSession, *, net_of_drive: bool = False,

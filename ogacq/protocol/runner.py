@@ -106,18 +106,15 @@ Observer = Callable[[Progress], None]
 GaugeSetter = Callable[[SetGauges], None]
 
 
-@dataclass(frozen=True)
-class RetryPolicy:
-    gauge_attempts: int = 3
-    move_attempts: int = 2
-    backoff_s: float = 0.05
+GAUGE_ATTEMPTS = 3
+MOVE_ATTEMPTS = 2
+BACKOFF_S = 0.05  # before a gauge's next attempt, times the attempts made
 
 
 class CampaignRunner:
     def __init__(self, station: Station, writer: SessionWriter, config: ProtocolConfig,
                  machine: MachineSpec, *, recorded: set[tuple[str, str]] | None = None,
                  observer: Observer | None = None, set_gauges: GaugeSetter | None = None,
-                 retry: RetryPolicy | None = None,
                  previous: Sequence[ReadingRecord] = (), check_first: bool = False,
                  correction: TargetCorrection | None = None) -> None:
         """``previous``: the readings a resumed session holds, in order; with
@@ -131,8 +128,10 @@ class CampaignRunner:
         self.recorded = set(recorded or ())
         self.observer = observer or (lambda progress: None)
         self.set_gauges = set_gauges
-        self.retry = retry or RetryPolicy()
         self.correction = correction
+        # the display step is the machine file's: what a still gauge may round by
+        self._settle_rule = dataclasses.replace(config.settle_rule,
+                                                display_step_mm=machine.gauge_resolution_mm)
         self._steps = list(campaign_steps(config, machine))
         self._commanded_q: tuple[float, float, float] | None = None
         self._planned_q: tuple[float, float, float] | None = None
@@ -212,14 +211,13 @@ class CampaignRunner:
                 index += 1
                 continue  # already there (Zero -> Zero between cycles): nothing to command
             try:
-                self._commanded_q, sent = self._send(move.q_mm)
-                self._planned_q = move.q_mm
+                self._command(move.q_mm, move.purpose)
                 moved = True
             except (DeviceFault, DeviceTimeout, LinkError) as exc:  # recover_axes reconnects
                 self.writer.write(FaultRecord(during="move", attempt=attempt,
                                               error=type(exc).__name__, message=str(exc),
                                               q_mm=move.q_mm))
-                if attempt == self.retry.move_attempts or not self.station.recover_axes():
+                if attempt == MOVE_ATTEMPTS or not self.station.recover_axes():
                     raise CampaignStopped(f"move to q = {_fmt(move.q_mm)} mm failed: "
                                           f"{exc}") from exc
                 attempt += 1
@@ -232,19 +230,22 @@ class CampaignRunner:
                     self._check_posture("loss")
                     index = 0
                 continue
-            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=move.purpose,
-                                         commanded_mm=sent))
             index, attempt = index + 1, 1
         return moved
 
-    def _send(self, q_mm: tuple[float, float, float],
-              ) -> tuple[tuple[float, float, float], tuple[float, float, float] | None]:
-        """Command the joints to land at ``q_mm``: where they are meant to be now, and
-        the targets sent when error maps correct them (None when none do)."""
+    def _command(self, q_mm: tuple[float, float, float], purpose: str) -> None:
+        """Command the joints to land at ``q_mm`` and record the move: where they are
+        meant to be now, and the targets sent when error maps correct them (None when
+        none do)."""
+        sent: tuple[float, float, float] | None = None
         if self.correction is None:
-            return self.station.move(q_mm, self.config.move_timeout_s), None
-        sent = self.station.move(self.correction.command(q_mm), self.config.move_timeout_s)
-        return self.correction.nominal(q_mm, sent), sent
+            self._commanded_q = self.station.move(q_mm, self.config.move_timeout_s)
+        else:
+            sent = self.station.move(self.correction.command(q_mm), self.config.move_timeout_s)
+            self._commanded_q = self.correction.nominal(q_mm, sent)
+        self._planned_q = q_mm
+        self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose=purpose,
+                                     commanded_mm=sent))
 
     # ------------------------------------------------------------ check posture
 
@@ -271,10 +272,7 @@ class CampaignRunner:
             return
         recorded = self._values[step.step]
         for move in self._approach_to(step):
-            self._commanded_q, sent = self._send(move.q_mm)
-            self._planned_q = move.q_mm
-            self.writer.write(MoveRecord(q_mm=self._commanded_q, purpose="check",
-                                         commanded_mm=sent))
+            self._command(move.q_mm, "check")
         now = self._read_again(step, list(recorded))
         tolerance = self.check_tolerance_mm()
         differences = {g: round(now[g] - recorded[g], 6) for g in recorded}
@@ -309,8 +307,7 @@ class CampaignRunner:
 
     def _read_again(self, step: Read, gauges: list[str]) -> dict[str, float]:
         """The gauges' values now, settled as a reading is (nothing recorded)."""
-        rule = dataclasses.replace(self.config.settle_rule,
-                                   display_step_mm=self.machine.gauge_resolution_mm)
+        rule = self._settle_rule
         out: dict[str, float] = {}
         if rule.kind == "stable":
             for gauge, settled in self.station.read_settled(step, gauges, rule).items():
@@ -327,9 +324,7 @@ class CampaignRunner:
     def _read_step(self, step: Read, *, settle: bool) -> None:
         """Settle (when something moved) and read the step's gauges not yet on file."""
         gauges = [g for g in step.gauges if (step.step, g) not in self.recorded]
-        # the display step is the machine file's: what a still gauge may round by
-        rule = dataclasses.replace(self.config.settle_rule,
-                                   display_step_mm=self.machine.gauge_resolution_mm)
+        rule = self._settle_rule
         first: dict[str, GaugeValue | DriverError] = {}
         if rule.kind == "stable":
             # where nothing moved nothing rings, but the rule reads its two windows all
@@ -401,7 +396,7 @@ class CampaignRunner:
         """Read ``gauges`` at once, retrying each failed one within bounds; each value is
         recorded as it comes. ``first``: values (or errors) the settle already took."""
         missing = list(gauges)
-        for attempt in range(1, self.retry.gauge_attempts + 1):
+        for attempt in range(1, GAUGE_ATTEMPTS + 1):
             given = [(g, first[g]) for g in missing if g in first] if attempt == 1 else []
             ask = [g for g in missing if g not in dict(given)]
             failed: dict[str, DriverError] = {}
@@ -416,11 +411,11 @@ class CampaignRunner:
             if not failed:
                 return
             missing = [g for g in missing if g in failed]
-            if attempt == self.retry.gauge_attempts:
+            if attempt == GAUGE_ATTEMPTS:
                 error = failed[missing[0]]
                 raise CampaignStopped(f"gauge {missing[0]} at {step.step}: {error} "
                                       f"({attempt} attempts)") from error
-            time.sleep(self.retry.backoff_s * attempt)
+            time.sleep(BACKOFF_S * attempt)
 
     def _read_now(self, step: Read, gauges: list[str],
                   ) -> Iterator[tuple[str, GaugeValue | DriverError]]:

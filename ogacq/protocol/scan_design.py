@@ -334,12 +334,6 @@ def stratified_targets(lo: float, hi: float, n: int, seed: int,
     return np.round(np.concatenate([[lo], t, [hi]]), 3)
 
 
-def _gap_at(targets_mm: np.ndarray, periods: tuple[float, ...]) -> np.ndarray:
-    if not periods:
-        return np.zeros(0)
-    return phase_gaps(targets_mm - targets_mm.mean(), 1.0 / np.asarray(periods))
-
-
 def alias_level(targets_mm: np.ndarray, shortest_mm: float) -> float:
     """The largest sidelobe of the targets' spectral window |sum exp(2 pi i df t)| / n
     beyond its main lobe (df from 2 / span) up to twice the band's highest frequency:
@@ -352,8 +346,8 @@ def alias_level(targets_mm: np.ndarray, shortest_mm: float) -> float:
     return float(window.max()) if len(df) else 1.0
 
 
-def _jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
-             ) -> Iterator[np.ndarray]:
+def jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
+            ) -> Iterator[np.ndarray]:
     """The ``SEEDS`` jitters of the strata (none with two targets in a micrometre)."""
     for seed in range(SEEDS):
         t = stratified_targets(lo, hi, n, seed, strata)
@@ -361,25 +355,29 @@ def _jitters(lo: float, hi: float, n: int, strata: Strata | None = None,
             yield t
 
 
+def worst_gap(targets_mm: np.ndarray, band: tuple[float, float] | None,
+              stated: tuple[float, ...]) -> float:
+    """The targets' largest phase gap over the band (None: none; on the coarser search
+    grid) and at the stated periods, as a share of the period."""
+    freqs = frequency_grid(targets_mm, band, SEARCH_GRID) if band is not None else ()
+    return float(phase_gaps(targets_mm - targets_mm.mean(), np.concatenate(
+        [freqs, 1.0 / np.asarray(stated, dtype=float)])).max(initial=0.0))
+
+
 def _score(targets_mm: np.ndarray, band: tuple[float, float] | None,
            stated: tuple[float, ...]) -> float:
-    """The targets' worst phase gap over the band (on the coarser search grid) and the
-    stated periods, and their alias level, the larger of the two as a share of its
-    bound: at most 1 meets both."""
-    worst = 0.0
-    if band is not None:
-        freqs = frequency_grid(targets_mm, band, SEARCH_GRID)
-        worst = float(phase_gaps(targets_mm - targets_mm.mean(), freqs).max())
-    worst = max([worst, *_gap_at(targets_mm, stated).tolist()])
+    """The targets' worst phase gap and their alias level, the larger of the two as a
+    share of its bound: at most 1 meets both."""
     shortest = min((*stated, *(band or ())), default=UNSTATED_BAND_MM[0])
-    return max(worst / LARGEST_PHASE_GAP, alias_level(targets_mm, shortest) / ALIAS_LIMIT)
+    return max(worst_gap(targets_mm, band, stated) / LARGEST_PHASE_GAP,
+               alias_level(targets_mm, shortest) / ALIAS_LIMIT)
 
 
 @lru_cache(maxsize=64)  # a design tries counts upward; designs of one machine share them
 def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None,
                   stated: tuple[float, ...]) -> np.ndarray:
     """The jitter of equal strata furthest within the bounds (read-only: shared)."""
-    best = min(_jitters(lo, hi, n), key=lambda t: _score(t, band, stated))
+    best = min(jitters(lo, hi, n), key=lambda t: _score(t, band, stated))
     best.flags.writeable = False
     return best
 
@@ -414,7 +412,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     targets = placed.targets
     protocol = replace(protocol, scan_targets_mm=tuple(float(t) for t in targets))
     band, band_gap = resolved_band(targets, longest, shortest)
-    stated_gaps = _gap_at(targets, stated)
+    stated_gaps = phase_gaps(targets - targets.mean(), 1.0 / np.asarray(stated, dtype=float))
     unsampled = tuple(p for p, g in zip(stated, stated_gaps, strict=True)
                       if g > LARGEST_PHASE_GAP)
     gaps = [band_gap, *[g for g in stated_gaps if g <= LARGEST_PHASE_GAP]]
@@ -423,7 +421,7 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     needed = len(legs) * (1 + (per_leg - 1) * wanted) if finite and wanted > n else 0
     smooth = placed.detection.get("screw_map", 0.0)
     # said where no placing of these targets would reach the target either
-    bound = scan.allocation().bound_mm(n, noise_mm) \
+    bound = smooth_allocation(scan.ends, machine, noise_mm).bound_mm(n, noise_mm) \
         if timed and finite and smooth > DETECTION_TARGET_MM else 0.0
     bound = bound if bound > DETECTION_TARGET_MM else 0.0
     step = machine.gauge_resolution_mm
@@ -477,19 +475,12 @@ class _Scan:
     longest: float
     shortest: float
 
-    def allocation(self) -> SmoothAllocation:
-        try:
-            hash(self.machine)
-        except TypeError:  # a field that does not hash by value: found afresh
-            return smooth_allocation.__wrapped__(self.ends, self.machine, self.noise_mm)
-        return smooth_allocation(self.ends, self.machine, self.noise_mm)
-
     def covers(self, targets: np.ndarray) -> bool:
         """Every stated period and the band required sampled (on the fine grid), no
         alias beyond its bound."""
         band, _ = resolved_band(targets, self.longest, self.shortest)
-        return all(g <= LARGEST_PHASE_GAP for g in _gap_at(targets, self.stated)) and \
-            _band_reached(band, self.required) and \
+        return worst_gap(targets, None, self.stated) <= LARGEST_PHASE_GAP and \
+            (self.required is None or band[0] <= self.required[0] + 1e-9) and \
             alias_level(targets, self.shortest) <= ALIAS_LIMIT
 
     def placed(self, n: int, informed: bool) -> _Placed:
@@ -505,11 +496,11 @@ class _Scan:
 
     def _informed(self, n: int, equal: np.ndarray, detection: dict[str, float]) -> _Placed:
         lo, hi = self.ends.scan_targets_mm
-        allocation = self.allocation()
+        allocation = smooth_allocation(self.ends, self.machine, self.noise_mm)
         floor = allocation.limit_mm(equal, self.noise_mm)
         tried = sorted(((allocation.limit_mm(t, self.noise_mm), k, t)
                         for share in INFORMED_SHARES
-                        for k, t in enumerate(_jitters(lo, hi, n, allocation.strata_edges(
+                        for k, t in enumerate(jitters(lo, hi, n, allocation.strata_edges(
                             share, lo, hi)))), key=lambda c: c[:2])
         for limit, _, targets in tried:  # the smooth map's best first, if it keeps
             if limit >= floor:  # every period sampled as the equal strata do
@@ -537,11 +528,6 @@ def _most_positions(budget_s: float | None, seconds_per_step: float, legs: int,
                       int((budget_s / seconds_per_step / legs - 1) // (per_leg - 1))))
 
 
-def _band_reached(band: tuple[float, float], required: tuple[float, float] | None) -> bool:
-    """The targets resolve the band of leads required (none: the stated leads only)."""
-    return required is None or band[0] <= required[0] + 1e-9
-
-
 def targets_for_detection(detection_mm: dict[str, float], n: int) -> int:
     """The targets that bring every family's limit to ``DETECTION_TARGET_MM``, from
     ``n`` targets' limits: a limit falls as the square root of the readings, which grow
@@ -563,8 +549,7 @@ def detection_limits(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: f
     the rms over the travel of a smooth map's least visible shape less its line, a
     hysteresis' lost motion; the readings weighed as the diagnosis weighs them, the
     display's rounding shared by each posture's repeats (:func:`reading_noise`)."""
-    rows, history = _Rows.planned(protocol, machine, noise_mm)
-    nuisance = _orthonormal(rows.offsets)
+    rows, history, nuisance = _Rows.planned(protocol, machine, noise_mm)
     lo, hi = protocol.scan_targets_mm[0], protocol.scan_targets_mm[-1]
     periods = sorted({*np.geomspace(band_mm[0], band_mm[1], 12).tolist(), *stated_mm})
     out: dict[str, float] = {}
@@ -592,8 +577,7 @@ def cyclic_found_mm(protocol: ProtocolConfig, machine: MachineSpec, noise_mm: fl
     candidates beside it, and its rule against a rival peak, whose share of the error
     is the largest any pitch apart from the lead's main lobe captures (the readings
     weighed as the diagnosis weighs them, the offsets and gauges' zeros taken out)."""
-    rows, history = _Rows.planned(protocol, machine, noise_mm)
-    nuisance = _orthonormal(rows.offsets)
+    rows, history, nuisance = _Rows.planned(protocol, machine, noise_mm)
     span = protocol.scan_targets_mm[-1] - protocol.scan_targets_mm[0]
     df = 1.0 / (OVERSAMPLE * span)
     freqs = np.arange(1.0 / band_mm[1], 1.0 / band_mm[0] + df / 2, df)
@@ -670,10 +654,11 @@ class _Rows:
 
     @classmethod
     def planned(cls, protocol: ProtocolConfig, machine: MachineSpec,
-                noise_mm: float) -> tuple[_Rows, JointHistory]:
-        """The rows of ``protocol``'s planned readings, and their joints' history."""
-        layout = planned_layout(protocol, machine)
-        return cls.of(layout, machine, noise_mm), JointHistory.of(layout)
+                noise_mm: float) -> tuple[_Rows, JointHistory, np.ndarray]:
+        """The rows of ``protocol``'s planned readings, their joints' history and the
+        orthonormal directions of the offsets and the gauges' zeros."""
+        rows = cls.of(planned_layout(protocol, machine), machine, noise_mm)
+        return rows, JointHistory.of(rows.layout), _orthonormal(rows.offsets)
 
     @classmethod
     def of(cls, layout: ReadingsLayout, machine: MachineSpec, noise_mm: float) -> _Rows:
@@ -801,7 +786,7 @@ class SmoothAllocation:
         return self._limit(targets * self.weights, noise_mm)
 
     def _limit(self, weights: np.ndarray, noise_mm: float) -> float:
-        least = min(_schur_least(m, self.shapes) for m in
+        least = min(float(_schur(m, self.shapes)[0][0]) for m in
                     self.setting + np.einsum("s,asij->aij", weights, self.per_target))
         return DETECTION_SIGMAS * noise_mm / math.sqrt(least) if least > 0 else math.inf
 
@@ -897,10 +882,6 @@ def _schur(normal: np.ndarray, shapes: int) -> tuple[np.ndarray, np.ndarray, np.
     taken = np.linalg.solve(normal[shapes:, shapes:], normal[shapes:, :shapes])
     values, vectors = np.linalg.eigh(normal[:shapes, :shapes] - normal[:shapes, shapes:] @ taken)
     return values, vectors, taken
-
-
-def _schur_least(normal: np.ndarray, shapes: int) -> float:
-    return float(_schur(normal, shapes)[0][0])
 
 
 def _soft_least(weights: np.ndarray, per_target: np.ndarray, setting: np.ndarray,
