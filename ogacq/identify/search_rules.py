@@ -36,13 +36,18 @@ from statistics import NormalDist
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.distributions import chi2_sf
 
-__all__ = ["FOUND_SHARE", "LEVEL", "OVERSAMPLE", "SWAP_CHI2", "chi2_threshold",
-           "found_noncentrality", "resolved_noncentrality"]
+__all__ = ["FOUND_SHARE", "LEVEL", "OVERSAMPLE", "SHORTEST_LEAD_MM", "SWAP_CHI2",
+           "chi2_threshold", "found_noncentrality", "resolved_noncentrality"]
 
 # The swap test's three-sigma rule: a model that fits within this chi-square of
 # another is not preferred to it (alternatives, rival pitches).
 SWAP_CHI2 = 9.0
 OVERSAMPLE = 5  # the periodogram's grid: this many pitches per resolution element
+# The shortest cyclic error searched for: the shortest lead of the ball screws that
+# drive machine axes (ISO 3408-2's nominal leads, as makers' catalogues list them,
+# start at 1 mm, e.g. THK's miniature BNK0401). A denser scan is not searched at
+# shorter pitches it could resolve: none is physics this model has.
+SHORTEST_LEAD_MM = 1.0
 FOUND_SHARE = 0.95  # 1 - beta of a stated detection limit (ISO 11843-1's beta = 0.05)
 
 

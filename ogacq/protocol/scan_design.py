@@ -19,9 +19,10 @@ design here does so for every period a drive can have:
   checked numerically for every period of the band, on a frequency grid fine enough
   that no phase moves by more than ``PHASE_GRID`` of a period between grid points;
 * the band is every stated drive period (a screw's lead, a motor revolution, from the
-  machine file) and its second harmonic, and, where an axis states none, every lead
-  from 2 to 40 mm (``UNSTATED_BAND_MM``: miniature to high-helix ball screws of a
-  machine this size);
+  machine file) and its second harmonic, and every period from 2 to 40 mm where an
+  axis states none (``UNSTATED_BAND_MM``: miniature to high-helix ball screws of a
+  machine this size), else from the shortest stated one (the search's 1 mm at least):
+  continuous in both cases, since the diagnosis searches a band of pitches;
 * the targets are read up and back down from beyond each end (ISO 230-2 4.3's
   bidirectional cycle: both sides where a lost motion or hysteresis may be, the
   whole travel between reversals for a wind-up), two cycles (the repeats measure the
@@ -74,6 +75,7 @@ from ogacq.identify.search_rules import (
     FOUND_SHARE,
     LEVEL,
     OVERSAMPLE,
+    SHORTEST_LEAD_MM,
     chi2_threshold,
     found_noncentrality,
     resolved_noncentrality,
@@ -140,7 +142,9 @@ class ScanDesign:
     steps: int  # reading steps, every leg
     seconds_per_step: float  # this machine's, measured (0: not known)
     budget_s: float | None  # the time allowed (None: none)
-    required_mm: tuple[float, float] | None  # the unstated band asked for (None: all stated)
+    # the band asked for: 2-40 mm, or from the shortest stated period where all are stated
+    # (None: a design recorded before every design asked for one)
+    required_mm: tuple[float, float] | None
     stated_mm: tuple[float, ...]  # stated periods and their harmonics, to sample
     pitch_band_mm: tuple[float, float]  # every period in it sampled at >= MIN_PHASES
     unsampled_mm: tuple[float, ...]  # stated periods the design misses (budget short)
@@ -397,15 +401,20 @@ def design_scan(machine: MachineSpec, base: ProtocolConfig, *, noise_mm: float,
     lo = machine.rho_min_mm + protocol.overshoot_mm
     hi = machine.rho_max_mm - protocol.overshoot_mm
     longest = min(UNSTATED_BAND_MM[1], (hi - lo) / PERIODS_OVER_TRAVEL)
-    required = None if all(machine.screw(a).lead_mm for a in legs) else \
-        (min(UNSTATED_BAND_MM[0], longest), longest)
     stated = stated_periods(machine, legs)
+    # The band is continuous even where every axis states its lead: the diagnosis
+    # searches a band of pitches, and one sampled only at the stated periods handed it
+    # the longest few (a stated 5 mm lead on 21 targets: 28-40 mm searched, the lead
+    # missed). It starts at the shortest stated period the search takes.
+    shortest_asked = max(min(stated), SHORTEST_LEAD_MM) \
+        if all(machine.screw(a).lead_mm for a in legs) else UNSTATED_BAND_MM[0]
+    required = (min(shortest_asked, longest), longest)
     per_leg = 1 + 2 * DESIGN_CYCLES  # steps per target and leg, and the Zero reading
     timed = bool(budget_s) and seconds_per_step > 0
     most = _most_positions(budget_s if timed else None, seconds_per_step, len(legs),
                            per_leg)
     n = min(FEWEST_POSITIONS, most)
-    shortest = min(stated + (required or (longest,)))
+    shortest = min(stated + required)
     scan = _Scan(machine, replace(protocol, scan_targets_mm=(lo, hi)), noise_mm, required,
                  stated, longest, shortest)
     n, placed, wanted = _counted_and_placed(scan, n, most, timed, grow)
@@ -617,6 +626,8 @@ def _rival_share(shares: np.ndarray, freqs: np.ndarray, lead: float, lobe: float
     ``freqs`` at least ``lobe`` from the lead's frequency, outside the lead's own peak
     (the slope from it down to its first minimum on either side), as the search's
     rule takes its rivals (``diagnose.mapsearch._rival_pitch``)."""
+    if len(shares) < 3:  # a band narrower than the lead's own lobe holds no rival
+        return 0.0
     inner = (shares[1:-1] >= shares[:-2]) & (shares[1:-1] >= shares[2:])
     peaks = np.flatnonzero(np.concatenate([[shares[0] > shares[1]], inner,
                                            [shares[-1] > shares[-2]]]))

@@ -94,7 +94,8 @@ def test_stated_leads_and_their_second_harmonic_are_sampled():
                                                    ("z", Screw(6.35, 3.175))))
     design = design_scan(machine, BASE, noise_mm=NOISE_MM, seconds_per_step=STEP_S,
                          budget_s=120 * 60)
-    assert design.required_mm is None  # every axis states its lead
+    # every axis states its lead: the band from the shortest stated the search takes
+    assert design.required_mm == (1.0, 40.0)
     assert design.stated_mm == (0.5, 1.0, 1.5875, 2.5, 3.175, 5.0, 6.35)
     assert _largest_gaps(np.array(design.targets_mm), np.array(design.stated_mm)).max() <= 0.25
     assert design.complete and not design.unsampled_mm
@@ -216,3 +217,36 @@ def test_a_designed_scans_targets_are_checked_before_anything_moves():
     beyond = ProtocolConfig(postures=(), scan_targets_mm=(-99.0, 61.0))
     with pytest.raises(ValueError, match="scan_targets_mm 61 mm is outside the workspace"):
         list(campaign_steps(beyond, MACHINE))
+
+
+STATED_5 = dataclasses.replace(MACHINE, screws=(("x", Screw(5.0)), ("y", Screw(5.0)),
+                                                ("z", Screw(5.0))))
+
+
+def test_a_machine_that_states_its_leads_gets_a_scan_whose_search_holds_them():
+    """Every axis stating a 5 mm lead: the design sampled 5 and 2.5 mm alone (21
+    targets) and handed the diagnosis the band its targets resolved from 40 mm down,
+    28-40 mm, so a 4 um 5 mm lead was never searched (fit NOT within the noise, no
+    map). The band is now continuous from the shortest stated period."""
+    design = design_scan(STATED_5, BASE, noise_mm=NOISE_MM, seconds_per_step=STEP_S,
+                         budget_s=40 * 60)
+    assert design.complete and design.required_mm == (2.5, 40.0)
+    band = sampled_band(design.protocol, STATED_5)
+    assert band is not None and band[0] <= 2.5 and band[1] == 40.0
+    truth = SimTruth(vector({"joint_offset.x": 0.4, "joint_offset.y": -0.3}),
+                     lead_screw={0: LeadScrewError(0.004, 5.0)})
+    obs = simulated_readings(STATED_5, planned_layout(design.protocol, STATED_5), truth,
+                             scatter_mm=NOISE_MM, step_mm=0.0001, seed=5)
+    found = diagnose(obs, pitch_band_mm=band)
+    assert found.final.consistent and [m.axis for m in found.maps] == ["x"]
+    assert "pitch 5.0" in found.maps[0].source or "pitch 4.9" in found.maps[0].source
+
+
+def test_a_budget_that_leaves_a_band_narrower_than_a_lobe_is_said_not_raised():
+    """Twenty minutes for a machine stating 5 mm leads: the targets resolve 39-40 mm
+    alone, a band of one pitch of the periodogram. Its rival-peak rule raised an
+    IndexError there (so did a 4 and 8 mm screw beside 5 and 6.35 mm ones at 40)."""
+    design = design_scan(STATED_5, BASE, noise_mm=NOISE_MM, seconds_per_step=STEP_S,
+                         budget_s=20 * 60)
+    assert not design.complete
+    assert any("is not covered within the budget" in line for line in design.lines())
