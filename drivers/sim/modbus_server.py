@@ -541,10 +541,6 @@ class ModbusSimServer:
             raise RuntimeError("sim server is not running")
         return self._address
 
-    def info(self) -> dict[str, Any]:
-        """``{"transport", "host", "port", "profile", "device_ids"}`` (+ ``baudrate`` over RTU)."""
-        return self.address.as_dict()
-
     @property
     def bridge(self) -> PtyBridge | None:
         return self._bridge

@@ -64,7 +64,6 @@ class AxisSnapshot:
     """One consistent view of an axis at one instant of simulated time."""
 
     axis: str
-    time_s: float
     raw_mm: float
     counter_mm: float
     moving: bool
@@ -219,10 +218,6 @@ class MotionModel:
             stops = [ax.stopped_at_s for ax in axes if ax.stopped_at_s is not None]
             return max(stops) if stops else None
 
-    def counter_mm(self, axis: str) -> float:
-        """What the controller's position counter shows."""
-        return self.snapshot(axis).counter_mm
-
     def snapshot(self, axis: str) -> AxisSnapshot:
         with self._lock:
             now = self.clock.now()
@@ -230,7 +225,7 @@ class MotionModel:
             raw = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
             moving = ax.segment is not None
             return AxisSnapshot(
-                axis=axis, time_s=now, raw_mm=raw, counter_mm=raw - ax.reference_mm,
+                axis=axis, raw_mm=raw, counter_mm=raw - ax.reference_mm,
                 moving=moving, in_position=not moving and now >= ax.settled_at_s,
                 homing=ax.segment is not None and ax.segment.home_position_mm is not None,
                 homed=ax.homed, servo_on=ax.servo_on, alarm=ax.alarm,

@@ -203,9 +203,10 @@ class SimulatorStack:
 
     def info(self) -> dict[str, Any]:
         """Where to connect, as ``ogacq sim --json`` prints it."""
-        per_axis = {s.axes[0]: s.info() for s in self.servers} if len(self.servers) > 1 else {}
+        per_axis = ({s.axes[0]: s.address.as_dict() for s in self.servers}
+                    if len(self.servers) > 1 else {})
         return {
-            "modbus": self.server.info(),
+            "modbus": self.server.address.as_dict(),
             **({"modbus_axes": per_axis} if per_axis else {}),
             "gauges": {key: {"port": g.port, "protocol": g.protocol}
                        | ({"channel": self.channels[key]} if self.channels[key] else {})
