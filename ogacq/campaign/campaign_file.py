@@ -166,11 +166,12 @@ class GaugeIdentity:
     uncertainty_mm: float | None = None
     uncertainty_k: float | None = None
 
-    def identity_given(self, serial: str) -> dict[str, Any]:
-        """The serial and every identity key known (None and "" are not)."""
-        given = {"serial": serial, **{f.name: getattr(self, f.name)
-                                      for f in fields(GaugeIdentity)}}
-        return {k: v for k, v in given.items() if v not in (None, "")}
+    def identity(self) -> dict[str, Any]:
+        """The serial (each holder's own field) and every identity key known (None and
+        "" are not): to carry them onto another endpoint or holder."""
+        keys = ("serial", *(f.name for f in fields(GaugeIdentity)))
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if f.name in keys and getattr(self, f.name) not in (None, "")}
 
 
 @dataclass(frozen=True)
@@ -185,15 +186,7 @@ class GaugeSpec(GaugeIdentity):
 
     def instrument(self, resolution_mm: float | None = None) -> Instrument:
         """The gauge as a traceable instrument (what the session header records)."""
-        return Instrument(self.gauge, make=self.make or None, model=self.model or None,
-                          serial=self.serial or None, certificate=self.certificate or None,
-                          calibrated=self.calibrated, due=self.due,
-                          uncertainty_mm=self.uncertainty_mm,
-                          uncertainty_k=self.uncertainty_k, resolution_mm=resolution_mm)
-
-    def identity(self) -> dict[str, Any]:
-        """The identity keys given (to carry them onto another endpoint)."""
-        return self.identity_given(self.serial)
+        return Instrument(self.gauge, resolution_mm=resolution_mm, **self.identity())
 
 
 @dataclass(frozen=True)

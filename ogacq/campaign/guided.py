@@ -39,9 +39,6 @@ class Rehearsal:
     controller: ControllerSpec
     gauges: list[GaugeSpec]
 
-    def hidden(self) -> dict[str, float]:
-        return self.stack.machine.truth.hidden()
-
     def shown_value(self, gauge: str) -> float:
         """What a simulated dial shows now, at the machine's resolution."""
         from ogacq.model.expected_readings import gauge_axes

@@ -600,8 +600,8 @@ class _Wizard:
         s.heading("Set the gauges and measure, leg by leg", "step 3 of 4")
         while True:
             if session is not None and session.finished:  # stopped while identifying
-                return CampaignOutcome(session.path, identify_session(session),
-                                       self.rehearsal.hidden() if self.rehearsal else None)
+                hidden = self.rehearsal.stack.machine.truth.hidden() if self.rehearsal else None
+                return CampaignOutcome(session.path, identify_session(session), hidden)
             recorded = session.recorded() if session else set()
             display = CycleProgress(s, steps, protocol, counter, recorded)
             self.gate.on_deferred = display.pausing
