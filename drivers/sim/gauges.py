@@ -136,6 +136,9 @@ class SimulatedGauge:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._started_port() or 'not started'})"
+
     def clear_fault(self, kind: Fault | str | None = None) -> None:
         """Switch one fault off, or all of them."""
         with self._lock:
@@ -276,10 +279,7 @@ class _SocketTransport:
     """A TCP listener on 127.0.0.1 serving one client at a time."""
 
     def __init__(self) -> None:
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind(("127.0.0.1", 0))
-        listener.listen(1)
+        listener = socket.create_server(("127.0.0.1", 0), backlog=1)
         listener.setblocking(False)
         self._listener: socket.socket | None = listener
         self._conn: socket.socket | None = None
