@@ -482,16 +482,11 @@ class ModbusSimServer:
         """Start serving; returns once the server listens (or raises LinkError)."""
         if self._thread is not None:
             return self.address
-        listen_on = self.serial_port or ""
-        client_port: int | str = self.port
-        if self.transport == "rtu":
-            if not self.serial_port:
-                self._bridge = PtyBridge(baudrate=self.baudrate if self.pace else None,
-                                         bits_per_byte=self.profile.transport.bits_per_byte).start()
-                listen_on = self._bridge.server_path
-                client_port = self._bridge.client_path
-            else:
-                client_port = self.serial_port
+        listen_on = client_port = self.serial_port or ""
+        if self.transport == "rtu" and not self.serial_port:
+            self._bridge = PtyBridge(baudrate=self.baudrate if self.pace else None,
+                                     bits_per_byte=self.profile.transport.bits_per_byte).start()
+            listen_on, client_port = self._bridge.server_path, self._bridge.client_path
         self._ready.clear()
         self._failure = None
         self._thread = threading.Thread(target=self._run, args=(listen_on,),
@@ -504,13 +499,12 @@ class ModbusSimServer:
             where = f"sim {self.profile.name} {self.transport} {endpoint}"
             raise LinkError("simulated controller could not listen (address in use, or port not "
                             f"available?): {failure}", where=where)
-        if self.transport == "tcp":
-            client_port = self.port
-        self._address = ServerAddress(transport=self.transport,
-                                      host=self.host if self.transport == "tcp" else None,
-                                      port=client_port, profile=self.profile.name,
+        tcp = self.transport == "tcp"
+        self._address = ServerAddress(transport=self.transport, host=self.host if tcp else None,
+                                      port=self.port if tcp else client_port,
+                                      profile=self.profile.name,
                                       device_ids={a: self.profile.device_ids[a] for a in self.axes},
-                                      baudrate=self.baudrate if self.transport == "rtu" else None)
+                                      baudrate=None if tcp else self.baudrate)
         log.info("simulated %s controller serving %s", self.profile.name, self._address.as_dict())
         return self._address
 
