@@ -295,16 +295,13 @@ def _settled(found: Settled) -> SettledGauge:
                         None if found.unjudged is None else _gauge_value(found.unjudged))
 
 
-def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,
-                     ) -> ModbusLink:
-    """A link to ``endpoint`` (host:port for TCP, else a serial device), the shared
-    ``spec.port`` when not given."""
-    where = spec.port if endpoint is None else endpoint
-    if is_modbus_tcp(where):
-        host, _, port = where.rpartition(":")
+def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str) -> ModbusLink:
+    """A link to ``endpoint`` (host:port for TCP, else a serial device)."""
+    if is_modbus_tcp(endpoint):
+        host, _, port = endpoint.rpartition(":")
         return ModbusLink.for_profile(profile, transport="tcp", host=host, port=int(port),
                                       timeout_s=spec.timeout_s)
-    return ModbusLink.for_profile(profile, transport="rtu", serial_port=where,
+    return ModbusLink.for_profile(profile, transport="rtu", serial_port=endpoint,
                                   baudrate=spec.baudrate, timeout_s=spec.timeout_s)
 
 
