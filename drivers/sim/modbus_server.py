@@ -435,8 +435,7 @@ class ModbusSimServer:
 
     def __init__(self, profile: Profile | str, motion: MotionModel, *,
                  transport: Literal["tcp", "rtu"] | None = None, host: str = "127.0.0.1",
-                 port: int = 0, serial_port: str | None = None, baudrate: int | None = None,
-                 pace: bool = True, axes: Iterable[str] | None = None,
+                 port: int = 0, serial_port: str | None = None, axes: Iterable[str] | None = None,
                  temperatures_c: Callable[[], Mapping[str, float]] | None = None) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
@@ -449,8 +448,7 @@ class ModbusSimServer:
         self.host = host
         self.port = port
         self.serial_port = serial_port
-        self.baudrate = baudrate or self.profile.transport.baudrate
-        self.pace = pace
+        self.baudrate = self.profile.transport.baudrate
         # what the profile's [temperature] registers show: {"ambient": degC, "machine": ...}
         self.temperatures_c = temperatures_c or (lambda: {"ambient": 20.0, "machine": 20.0})
         # the axes behind this endpoint: all (one bus), or one (a drive per address)
@@ -484,7 +482,7 @@ class ModbusSimServer:
             return self.address
         listen_on = client_port = self.serial_port or ""
         if self.transport == "rtu" and not self.serial_port:
-            self._bridge = PtyBridge(baudrate=self.baudrate if self.pace else None,
+            self._bridge = PtyBridge(baudrate=self.baudrate,
                                      bits_per_byte=self.profile.transport.bits_per_byte).start()
             listen_on, client_port = self._bridge.server_path, self._bridge.client_path
         self._ready.clear()
