@@ -136,6 +136,9 @@ class SimulatedGauge:
     def __exit__(self, *exc_info: object) -> None:
         self.close()
 
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self._started_port() or 'not started'})"
+
     def clear_fault(self, kind: Fault | str | None = None) -> None:
         """Switch one fault off, or all of them."""
         with self._lock:
@@ -187,8 +190,7 @@ class UsbCableGauge(SimulatedGauge):
         """The code a fault is shown with, checked now (not at the next reply)."""
         return code
 
-    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None,
-                  **_: Any) -> None:
+    def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None) -> None:
         kind = Fault(kind)
         if kind is Fault.UNPLUG:
             self.unplug()
@@ -276,10 +278,7 @@ class _SocketTransport:
     """A TCP listener on 127.0.0.1 serving one client at a time."""
 
     def __init__(self) -> None:
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind(("127.0.0.1", 0))
-        listener.listen(1)
+        listener = socket.create_server(("127.0.0.1", 0), backlog=1)
         listener.setblocking(False)
         self._listener: socket.socket | None = listener
         self._conn: socket.socket | None = None
@@ -709,16 +708,16 @@ class GaugeEndpoint(SimulatedGauge):
 
     # -------------------------------------------------------------------- faults
     def set_fault(self, kind: Fault | str, *, code: str = "", count: int | None = None,
-                  pause_s: float = 0.05, value_mm: float | None = None) -> None:
+                  pause_s: float = 0.05) -> None:
         """Switch a fault on (see :class:`Fault`).
 
         ``count`` limits a per-reply fault to the next ``count`` replies (None:
-        until :meth:`clear_fault`); for ``stale`` it is how many old frames to
-        queue (default 3), with value ``value_mm`` (default: the last value
-        served). Raises ValueError for a fault the protocol cannot show."""
+        until :meth:`clear_fault`); for ``stale`` it is how many old frames of the
+        last value served to queue (default 3). Raises ValueError for a fault the
+        protocol cannot show."""
         kind = Fault(kind)
         if kind is Fault.STALE:
-            self._call(lambda: self._queue_stale(count or 3, value_mm), wait=True)
+            self._call(lambda: self._queue_stale(count or 3), wait=True)
             return
         if kind is Fault.UNPLUG and count is None:
             count = 1
@@ -738,9 +737,9 @@ class GaugeEndpoint(SimulatedGauge):
         with self._lock:
             self._faults[kind] = _FaultState(code=code, remaining=count, pause_s=pause_s)
 
-    def trigger(self, *, wait: bool = False) -> None:
+    def trigger(self) -> None:
         """Push one frame per channel now (U-WAVE data button; any free-running source)."""
-        self._call(self._push_all, wait=wait)
+        self._call(self._push_all, wait=False)
 
     def unplug(self) -> None:
         """Disappear now: close the pty master or drop the connection and stop listening."""
@@ -899,11 +898,10 @@ class GaugeEndpoint(SimulatedGauge):
             log.warning("%s: %.6g mm is beyond what the display shows", self.name, value_mm)
             return self.device.overflow_frame()
 
-    def _queue_stale(self, count: int, value_mm: float | None) -> None:
+    def _queue_stale(self, count: int) -> None:
         """Frames of an old value, all in the line at once (a bridge's buffer)."""
         channel = self.default_channel
-        if value_mm is None:
-            value_mm = self._last_value_mm.get(channel)
+        value_mm = self._last_value_mm.get(channel)
         if value_mm is None:
             value_mm = float(self.channels[channel]())
         frame = self._encode_value(value_mm, self.unit, channel, "1")

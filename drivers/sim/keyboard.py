@@ -94,9 +94,6 @@ class KeyboardEndpoint(UsbCableGauge):
         if self._root is not None:
             shutil.rmtree(self._root, ignore_errors=True)
 
-    def __repr__(self) -> str:
-        return f"KeyboardEndpoint({self.port if self._root else 'not started'})"
-
     # ------------------------------------------------------------------- faults
     NAME = "sim usb-itn keyboard"
     CABLE = "a keyboard cable"

@@ -435,8 +435,7 @@ class ModbusSimServer:
 
     def __init__(self, profile: Profile | str, motion: MotionModel, *,
                  transport: Literal["tcp", "rtu"] | None = None, host: str = "127.0.0.1",
-                 port: int = 0, serial_port: str | None = None, baudrate: int | None = None,
-                 pace: bool = True, axes: Iterable[str] | None = None,
+                 port: int = 0, serial_port: str | None = None, axes: Iterable[str] | None = None,
                  temperatures_c: Callable[[], Mapping[str, float]] | None = None) -> None:
         self.profile = profile if isinstance(profile, Profile) else load_profile(profile)
         self.motion = motion
@@ -449,8 +448,7 @@ class ModbusSimServer:
         self.host = host
         self.port = port
         self.serial_port = serial_port
-        self.baudrate = baudrate or self.profile.transport.baudrate
-        self.pace = pace
+        self.baudrate = self.profile.transport.baudrate
         # what the profile's [temperature] registers show: {"ambient": degC, "machine": ...}
         self.temperatures_c = temperatures_c or (lambda: {"ambient": 20.0, "machine": 20.0})
         # the axes behind this endpoint: all (one bus), or one (a drive per address)
@@ -482,16 +480,11 @@ class ModbusSimServer:
         """Start serving; returns once the server listens (or raises LinkError)."""
         if self._thread is not None:
             return self.address
-        listen_on = self.serial_port or ""
-        client_port: int | str = self.port
-        if self.transport == "rtu":
-            if not self.serial_port:
-                self._bridge = PtyBridge(baudrate=self.baudrate if self.pace else None,
-                                         bits_per_byte=self.profile.transport.bits_per_byte).start()
-                listen_on = self._bridge.server_path
-                client_port = self._bridge.client_path
-            else:
-                client_port = self.serial_port
+        listen_on = client_port = self.serial_port or ""
+        if self.transport == "rtu" and not self.serial_port:
+            self._bridge = PtyBridge(baudrate=self.baudrate,
+                                     bits_per_byte=self.profile.transport.bits_per_byte).start()
+            listen_on, client_port = self._bridge.server_path, self._bridge.client_path
         self._ready.clear()
         self._failure = None
         self._thread = threading.Thread(target=self._run, args=(listen_on,),
@@ -504,13 +497,12 @@ class ModbusSimServer:
             where = f"sim {self.profile.name} {self.transport} {endpoint}"
             raise LinkError("simulated controller could not listen (address in use, or port not "
                             f"available?): {failure}", where=where)
-        if self.transport == "tcp":
-            client_port = self.port
-        self._address = ServerAddress(transport=self.transport,
-                                      host=self.host if self.transport == "tcp" else None,
-                                      port=client_port, profile=self.profile.name,
+        tcp = self.transport == "tcp"
+        self._address = ServerAddress(transport=self.transport, host=self.host if tcp else None,
+                                      port=self.port if tcp else client_port,
+                                      profile=self.profile.name,
                                       device_ids={a: self.profile.device_ids[a] for a in self.axes},
-                                      baudrate=self.baudrate if self.transport == "rtu" else None)
+                                      baudrate=None if tcp else self.baudrate)
         log.info("simulated %s controller serving %s", self.profile.name, self._address.as_dict())
         return self._address
 
@@ -540,10 +532,6 @@ class ModbusSimServer:
         if self._address is None:
             raise RuntimeError("sim server is not running")
         return self._address
-
-    def info(self) -> dict[str, Any]:
-        """``{"transport", "host", "port", "profile", "device_ids"}`` (+ ``baudrate`` over RTU)."""
-        return self.address.as_dict()
 
     @property
     def bridge(self) -> PtyBridge | None:

@@ -64,7 +64,6 @@ class AxisSnapshot:
     """One consistent view of an axis at one instant of simulated time."""
 
     axis: str
-    time_s: float
     raw_mm: float
     counter_mm: float
     moving: bool
@@ -201,8 +200,7 @@ class MotionModel:
         """How far ``axis`` has moved since it last reversed (a lost motion that builds up
         with travel depends on it); inf before its first reversal."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             if ax.reversed_at_raw_mm is None:
                 return math.inf
             raw = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
@@ -219,18 +217,13 @@ class MotionModel:
             stops = [ax.stopped_at_s for ax in axes if ax.stopped_at_s is not None]
             return max(stops) if stops else None
 
-    def counter_mm(self, axis: str) -> float:
-        """What the controller's position counter shows."""
-        return self.snapshot(axis).counter_mm
-
     def snapshot(self, axis: str) -> AxisSnapshot:
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             raw = ax.raw_mm if ax.segment is None else ax.segment.raw_at(now)
             moving = ax.segment is not None
             return AxisSnapshot(
-                axis=axis, time_s=now, raw_mm=raw, counter_mm=raw - ax.reference_mm,
+                axis=axis, raw_mm=raw, counter_mm=raw - ax.reference_mm,
                 moving=moving, in_position=not moving and now >= ax.settled_at_s,
                 homing=ax.segment is not None and ax.segment.home_position_mm is not None,
                 homed=ax.homed, servo_on=ax.servo_on, alarm=ax.alarm,
@@ -241,8 +234,7 @@ class MotionModel:
     def set_servo(self, axis: str, on: bool) -> None:
         """Servo on/off. Off stops any motion where the axis is (and aborts homing)."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             if not on and ax.segment is not None:
                 self._halt(ax, now)
             if not on:
@@ -255,8 +247,7 @@ class MotionModel:
                 accel_mm_s2: float | None = None) -> Outcome:
         """Start an absolute move to a counter position (replaces any move under way)."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             refused = self._refusal(ax)
             if refused is not None:
                 log.info("sim axis %s: move to %.3f %s", axis, counter_target_mm, refused.value)
@@ -279,8 +270,7 @@ class MotionModel:
     def home(self, axis: str, *, home_position_mm: float = 0.0) -> Outcome:
         """Start homing: go to raw 0, search, then the counter reads ``home_position_mm`` there."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             refused = self._refusal(ax)
             if refused is not None:
                 log.info("sim axis %s: homing %s", axis, refused.value)
@@ -296,8 +286,7 @@ class MotionModel:
         """Stop where the axis is now and cancel the move (and a paused one); a homing
         stopped half way leaves the axis not homed."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             ax.paused = None
             if ax.segment is not None:
                 self._halt(ax, now)
@@ -306,8 +295,7 @@ class MotionModel:
     def pause(self, axis: str) -> None:
         """Stop where the axis is now but keep the move: :meth:`resume` completes it."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             if ax.segment is not None:
                 ax.paused = ax.segment
                 target = ax.target_counter_mm
@@ -318,8 +306,7 @@ class MotionModel:
     def resume(self, axis: str) -> Outcome | None:
         """Go on for the remaining distance of a paused move (None: nothing was paused)."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             seg, ax.paused = ax.paused, None
             if seg is None:
                 return None
@@ -338,8 +325,7 @@ class MotionModel:
     def inject_alarm(self, axis: str, alarm: Alarm = Alarm.OVERLOAD) -> None:
         """A drive fault now: the axis halts where it is and refuses to move until reset."""
         with self._lock:
-            now = self.clock.now()
-            ax = self._update(axis, now)
+            ax, now = self._now(axis)
             if ax.segment is not None:
                 self._halt(ax, now)
             ax.paused = None
@@ -393,6 +379,11 @@ class MotionModel:
             ax.stopped_at_s = now
         ax.target_counter_mm = ax.raw_mm - ax.reference_mm
         ax.settled_at_s = now + self.settle_s
+
+    def _now(self, axis: str) -> tuple[_Axis, float]:
+        """The axis as it is now (the caller holds the lock), and now."""
+        now = self.clock.now()
+        return self._update(axis, now), now
 
     def _update(self, axis: str, now: float) -> _Axis:
         """Finish a segment whose time is up (lazily, at the next query)."""

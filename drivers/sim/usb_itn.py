@@ -99,10 +99,7 @@ class UsbItnEndpoint(UsbCableGauge):
     def start(self) -> UsbItnEndpoint:
         if self._thread is not None:
             return self
-        listener = socket.socket(socket.AF_INET, socket.SOCK_STREAM)
-        listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
-        listener.bind(("127.0.0.1", 0))
-        listener.listen(4)
+        listener = socket.create_server(("127.0.0.1", 0), backlog=4)
         self._listener = listener
         self._port = f"usbsim://127.0.0.1:{listener.getsockname()[1]}"
         self._thread = threading.Thread(target=self._accept, name=self.name, daemon=True)
@@ -111,9 +108,6 @@ class UsbItnEndpoint(UsbCableGauge):
 
     def close(self) -> None:
         self._disconnect()
-
-    def __repr__(self) -> str:
-        return f"UsbItnEndpoint({self._port or 'not started'})"
 
     # ------------------------------------------------------------------- faults
     NAME = "sim usb-itn"

@@ -166,11 +166,12 @@ class GaugeIdentity:
     uncertainty_mm: float | None = None
     uncertainty_k: float | None = None
 
-    def identity_given(self, serial: str) -> dict[str, Any]:
-        """The serial and every identity key known (None and "" are not)."""
-        given = {"serial": serial, **{f.name: getattr(self, f.name)
-                                      for f in fields(GaugeIdentity)}}
-        return {k: v for k, v in given.items() if v not in (None, "")}
+    def identity(self) -> dict[str, Any]:
+        """The serial (each holder's own field) and every identity key known (None and
+        "" are not): to carry them onto another endpoint or holder."""
+        keys = ("serial", *(f.name for f in fields(GaugeIdentity)))
+        return {f.name: getattr(self, f.name) for f in fields(self)
+                if f.name in keys and getattr(self, f.name) not in (None, "")}
 
 
 @dataclass(frozen=True)
@@ -185,15 +186,7 @@ class GaugeSpec(GaugeIdentity):
 
     def instrument(self, resolution_mm: float | None = None) -> Instrument:
         """The gauge as a traceable instrument (what the session header records)."""
-        return Instrument(self.gauge, make=self.make or None, model=self.model or None,
-                          serial=self.serial or None, certificate=self.certificate or None,
-                          calibrated=self.calibrated, due=self.due,
-                          uncertainty_mm=self.uncertainty_mm,
-                          uncertainty_k=self.uncertainty_k, resolution_mm=resolution_mm)
-
-    def identity(self) -> dict[str, Any]:
-        """The identity keys given (to carry them onto another endpoint)."""
-        return self.identity_given(self.serial)
+        return Instrument(self.gauge, resolution_mm=resolution_mm, **self.identity())
 
 
 @dataclass(frozen=True)
@@ -687,11 +680,11 @@ def _check_environment(src: Source, campaign: Campaign) -> None:
                        "temperatures (ambient_c, machine_c) instead")
 
 
-def _check_identity(src: Source, at: tuple[str | int, ...],
-                    g: GaugeSpec) -> None:
+def _check_entry(src: Source, at: tuple[str | int, ...], g: GaugeSpec, *,
+                 simulated: bool) -> None:
     """A gauge's (or an axis scale's, at its table ``at``) identity names
     (``ogacq.io.names``: recorded and printed as a name is); a certificate's dates in
-    order."""
+    order; its link unless simulated (_check_simulated_only refused one there)."""
     name = f"the {at[-1]} axis scale" if isinstance(g, AxisScaleSpec) else f"gauge {g.gauge}"
     for key in ("make", "model", "serial", "certificate"):
         problem = name_problem(getattr(g, key))
@@ -708,6 +701,9 @@ def _check_identity(src: Source, at: tuple[str | int, ...],
                        f"{g.uncertainty_mm:g} mm is more than an indicator's certificate "
                        f"states (at most {MAX_CERTIFICATE_U_MM:g} mm): micrometres written as "
                        "mm?")
+    if not simulated and (not g.protocol or not g.port):
+        missing = "protocol" if not g.protocol else "port"
+        raise src.fail(at, "", f"{name} needs {missing!r} (how and where it is read)")
 
 
 def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
@@ -720,14 +716,10 @@ def _gauges(src: Source, gauges: list[GaugeSpec], *, simulated: bool = False,
         if g.gauge in seen:
             raise InputError(src.path, f"gauge {g.gauge} appears twice (first on line "
                              f"{seen[g.gauge]})", line)
-        _check_identity(src, ("gauges", k), g)
-        if not g.protocol or not g.port:
-            if simulated and not g.protocol and not g.port:
-                seen[g.gauge] = line  # the simulator's gauge, identified here
-                continue
-            missing = "protocol" if not g.protocol else "port"
-            raise src.fail(("gauges", k), "", f"gauge {g.gauge} needs {missing!r} (how "
-                           "and where it is read)")
+        _check_entry(src, ("gauges", k), g, simulated=simulated)
+        if simulated:
+            seen[g.gauge] = line  # the simulator's gauge, identified here
+            continue
         _check_own_indicator(src, g, gauges[:k], seen, line)
         first_on_port = next((other for other in gauges[:k] if other.port == g.port), None)
         if first_on_port is not None and first_on_port.protocol != g.protocol:
@@ -743,13 +735,9 @@ def _axis_scales(src: Source, scales: dict[str, AxisScaleSpec], campaign: Campai
     """Each scale with its link (on a station) or none (the simulator serves it, and is
     told which axes); a scale's port not a leg gauge's."""
     for axis, scale in scales.items():
-        _check_identity(src, ("axis_scale", axis), scale)
+        _check_entry(src, ("axis_scale", axis), scale, simulated=campaign.simulator is not None)
         if campaign.simulator is not None:
-            continue  # _check_simulated_only refused a port or a protocol
-        if not scale.protocol or not scale.port:
-            missing = "protocol" if not scale.protocol else "port"
-            raise src.fail(("axis_scale", axis), "", f"the {axis} axis scale needs "
-                           f"{missing!r} (how and where it is read)")
+            continue
         shared = next((g.gauge for g in campaign.gauges
                        if (g.port, g.channel) == (scale.port, scale.channel)), None)
         if shared is not None:

@@ -23,6 +23,7 @@ from ogacq.campaign.campaign_file import (
 from ogacq.campaign.run import CampaignOutcome, EnvironmentAsker, StationAdapter, run_campaign
 from ogacq.campaign.station import simulator_endpoints, start_simulator
 from ogacq.io.atomic import write_atomically
+from ogacq.model.gauges import Gauge
 from ogacq.protocol.runner import GaugeSetter, Observer
 from ogacq.session.store import LoadedSession
 
@@ -39,14 +40,9 @@ class Rehearsal:
     controller: ControllerSpec
     gauges: list[GaugeSpec]
 
-    def hidden(self) -> dict[str, float]:
-        return self.stack.machine.truth.hidden()
-
     def shown_value(self, gauge: str) -> float:
         """What a simulated dial shows now, at the machine's resolution."""
-        from ogacq.model.expected_readings import gauge_axes
-
-        axis, leg = gauge_axes(gauge)
+        axis, leg = Gauge.parse(gauge).indices
         resolution = self.stack.machine.machine.gauge_resolution_mm
         value = self.stack.machine.gauge_value_mm(axis, leg)
         return round(value / resolution) * resolution

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 from ogacq_drivers.config_schema import Field, Table, TableArray, dump, text
 from ogacq.campaign.campaign_file import CERTIFICATE_FIELDS, GaugeIdentity
@@ -28,10 +27,6 @@ class KnownGauge(GaugeIdentity):
     """A gauge as remembered: its identity and its last certificate."""
 
     serial: str
-
-    def identity(self) -> dict[str, Any]:
-        """The campaign file's [[gauges]] keys it gives (those known)."""
-        return self.identity_given(self.serial)
 
     def summary(self) -> str:
         """"Mitutoyo 543-790B, certificate DKD-K-12345, calibrated 2026-03-01, due

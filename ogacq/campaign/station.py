@@ -295,16 +295,13 @@ def _settled(found: Settled) -> SettledGauge:
                         None if found.unjudged is None else _gauge_value(found.unjudged))
 
 
-def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str | None = None,
-                     ) -> ModbusLink:
-    """A link to ``endpoint`` (host:port for TCP, else a serial device), the shared
-    ``spec.port`` when not given."""
-    where = spec.port if endpoint is None else endpoint
-    if is_modbus_tcp(where):
-        host, _, port = where.rpartition(":")
+def _controller_link(spec: ControllerSpec, profile: Profile, endpoint: str) -> ModbusLink:
+    """A link to ``endpoint`` (host:port for TCP, else a serial device)."""
+    if is_modbus_tcp(endpoint):
+        host, _, port = endpoint.rpartition(":")
         return ModbusLink.for_profile(profile, transport="tcp", host=host, port=int(port),
                                       timeout_s=spec.timeout_s)
-    return ModbusLink.for_profile(profile, transport="rtu", serial_port=where,
+    return ModbusLink.for_profile(profile, transport="rtu", serial_port=endpoint,
                                   baudrate=spec.baudrate, timeout_s=spec.timeout_s)
 
 
@@ -459,24 +456,21 @@ def open_gauges(specs: Sequence[GaugeSpec]) -> Iterator[dict[str, Any]]:
     indicators: dict[str, Any] = {}
     with contextlib.ExitStack() as stack:
         for g in specs:
-            if (g.port, g.channel) in drivers:
-                indicators[g.gauge] = drivers[(g.port, g.channel)]
-                continue
-            where = _gauge_where(g, specs)
-            if not backend(g.protocol).serial:  # a USB cable or input device opens itself
-                indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
-                    g.protocol, g.port, unit=g.unit, channel=g.channel, where=where)
-                stack.callback(indicators[g.gauge].close)
-                continue
-            if g.port not in links:
-                settings = backend(g.protocol).settings
-                if g.baudrate is not None:
-                    settings = replace(settings, baudrate=g.baudrate)
-                links[g.port] = open_link(g.port, settings, where=where)
-                stack.callback(links[g.port].close)
-            indicators[g.gauge] = drivers[(g.port, g.channel)] = open_indicator(
-                g.protocol, g.port, unit=g.unit, channel=g.channel, where=where,
-                link=links[g.port])
+            key = (g.port, g.channel)
+            if key not in drivers:
+                where = _gauge_where(g, specs)
+                serial = backend(g.protocol).serial  # else a USB cable or input device
+                if serial and g.port not in links:
+                    settings = backend(g.protocol).settings
+                    if g.baudrate is not None:
+                        settings = replace(settings, baudrate=g.baudrate)
+                    links[g.port] = open_link(g.port, settings, where=where)
+                    stack.callback(links[g.port].close)
+                drivers[key] = open_indicator(g.protocol, g.port, unit=g.unit, channel=g.channel,
+                                              where=where, link=links[g.port] if serial else None)
+                if not serial:  # it opened itself
+                    stack.callback(drivers[key].close)
+            indicators[g.gauge] = drivers[key]
         yield indicators
 
 

@@ -27,7 +27,6 @@ EXPIRED_GAUGE = "expired-gauge"
 @dataclass(frozen=True)
 class ExpiredInstrument:
     instrument: Instrument
-    on: datetime.date
 
     @property
     def subject(self) -> str:
@@ -43,7 +42,7 @@ class ExpiredInstrument:
 
 def expired_instruments(instruments: Iterable[Instrument], on: datetime.date,
                         ) -> list[ExpiredInstrument]:
-    return [ExpiredInstrument(i, on) for i in instruments if i.expired(on)]
+    return [ExpiredInstrument(i) for i in instruments if i.expired(on)]
 
 
 def check_instruments(campaign: Campaign, *, overridden: Iterable[str] = (),

@@ -45,7 +45,6 @@ class SimulatorConfig:
     speed: float = 20.0
     seed: int = 0
     gauge_protocol: str = "mitutoyo-01a"
-    gauge_transport: str = "pty"  # or "socket" (pyserial socket:// URL)
     # protocol per gauge key, overriding gauge_protocol (a mixed station)
     gauge_protocols: dict[str, str] = field(default_factory=dict)
     # "separate": one port per gauge; "multiplexer": all six on one 01A
@@ -62,10 +61,9 @@ class SimulatorConfig:
     # rehearsal not about the line's timing asks for `speed`; 1: the real lines)
     line_speed: float = 1.0
     # the axes with a scale along the actuator (ISO 230-2's positioning test), served
-    # as gauges of gauge_protocol, their display step and noise
+    # as gauges of gauge_protocol, and their display step (their noise: SCALE_NOISE_MM)
     axis_scales: tuple[str, ...] = ()
     scale_resolution_mm: float = 0.001
-    scale_noise_mm: float = SCALE_NOISE_MM
 
 
 # Gauges that push their values (U-WAVE's DATA button, the keyboard cable's switch):
@@ -74,7 +72,7 @@ PUSH_PERIOD_S = 0.05
 
 
 def make_gauge(protocol: str, source: Callable[[], float], *, resolution_mm: float,
-               transport: str, name: str, line_speed: float = 1.0) -> SimulatedGauge:
+               name: str, transport: str = "pty", line_speed: float = 1.0) -> SimulatedGauge:
     """The simulated endpoint serving one gauge of ``protocol`` (any of ``BACKENDS``:
     its backend names the simulated instrument), not yet started."""
     return simulated_gauge(protocol, source, SimSetup(
@@ -111,7 +109,6 @@ class SimulatorStack:
             channels = {key: str(n) for n, key in enumerate(GAUGE_KEYS, 1)}
             mux = GaugeEndpoint("mitutoyo-01a", {channels[k]: sources[k] for k in GAUGE_KEYS},
                                 resolution_mm=m.gauge_resolution_mm,
-                                transport=transport_of(config.gauge_transport),
                                 name="sim multiplexer", line_speed=config.line_speed)
             self.gauges = dict.fromkeys(GAUGE_KEYS, mux)
             self.channels = dict(channels)
@@ -119,7 +116,7 @@ class SimulatorStack:
             for key in GAUGE_KEYS:
                 self.gauges[key] = make_gauge(
                     config.gauge_protocols.get(key, config.gauge_protocol), sources[key],
-                    resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
+                    resolution_mm=m.gauge_resolution_mm,
                     name=f"sim gauge {key}", line_speed=config.line_speed)
                 self.channels[key] = None
         elif config.gauge_layout == "moved":
@@ -127,7 +124,7 @@ class SimulatorStack:
             for number, keys in enumerate(MOVED_INDICATORS, 1):
                 indicator = make_gauge(
                     config.gauge_protocol, self._mounted_source(keys, sources),
-                    resolution_mm=m.gauge_resolution_mm, transport=config.gauge_transport,
+                    resolution_mm=m.gauge_resolution_mm,
                     name=f"sim indicator {number}", line_speed=config.line_speed)
                 self.gauges.update(dict.fromkeys(keys, indicator))
                 self.channels.update(dict.fromkeys(keys))
@@ -137,10 +134,9 @@ class SimulatorStack:
         # each axis scale on its own line, reading the same simulated machine
         self.scales: dict[str, SimulatedGauge] = {
             axis: make_gauge(config.gauge_protocol,
-                             self.machine.scale_source(AXES.index(axis), config.scale_noise_mm),
+                             self.machine.scale_source(AXES.index(axis), SCALE_NOISE_MM),
                              resolution_mm=config.scale_resolution_mm,
-                             transport=config.gauge_transport, name=f"sim {axis} axis scale",
-                             line_speed=config.line_speed)
+                             name=f"sim {axis} axis scale", line_speed=config.line_speed)
             for axis in config.axis_scales}
         self._started = False
 
@@ -203,9 +199,10 @@ class SimulatorStack:
 
     def info(self) -> dict[str, Any]:
         """Where to connect, as ``ogacq sim --json`` prints it."""
-        per_axis = {s.axes[0]: s.info() for s in self.servers} if len(self.servers) > 1 else {}
+        per_axis = ({s.axes[0]: s.address.as_dict() for s in self.servers}
+                    if len(self.servers) > 1 else {})
         return {
-            "modbus": self.server.info(),
+            "modbus": self.server.address.as_dict(),
             **({"modbus_axes": per_axis} if per_axis else {}),
             "gauges": {key: {"port": g.port, "protocol": g.protocol}
                        | ({"channel": self.channels[key]} if self.channels[key] else {})

@@ -323,7 +323,7 @@ def test_cia402_sim_serves_a_plain_pymodbus_client() -> None:
     """The sequence of shared/checks/sim_contract.py, without any ogacq code on the client side."""
     model = MotionModel(SimClock(speed=50.0))
     with ModbusSimServer("cia402", model, transport="tcp") as server:
-        info = server.info()
+        info = server.address.as_dict()
         assert set(info) == {"transport", "host", "port", "profile", "device_ids"}
         client = ModbusTcpClient(info["host"], port=info["port"], timeout=2, retries=0)
         assert client.connect()
@@ -373,7 +373,7 @@ def test_cia402_sim_serves_a_plain_pymodbus_client() -> None:
 def test_rtu_address_info_and_loopback_only() -> None:
     model = MotionModel(SimClock())
     with ModbusSimServer("iai-pcon", model) as server:
-        info = server.info()
+        info = server.address.as_dict()
         assert info["transport"] == "rtu" and info["host"] is None
         assert info["port"].startswith("/dev/") and info["baudrate"] == 38400
         assert info["device_ids"] == {"x": 1, "y": 2, "z": 3}

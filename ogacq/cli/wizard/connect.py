@@ -246,8 +246,8 @@ def choose_gauges(screen: Screen, ports: Sequence[DetectedPort], legs: Sequence[
         return _ports_of(screen, ports, _moved_indicators(legs), protocol, notes, controller)
     screen.say("Type each gauge's port (a number from the list, a device or a URL), or "
                "[bold]m[/] to read that gauge by eye.")
-    return _ports_of(screen, ports, [_Served((g,), g, f"gauge {g}") for g in keys], protocol,
-                     notes, controller)
+    return _ports_of(screen, ports, [_Served((g,), g, f"gauge {g}", f"Gauge {describe_gauge(g)}")
+                                     for g in keys], protocol, notes, controller)
 
 
 def show_hints(screen: Screen, protocol: str) -> None:
@@ -284,7 +284,7 @@ class _Served:
     gauges: tuple[str, ...]
     suggested_for: str  # as DetectedPort.suggested_for names it
     name: str  # "gauge x_y", "indicator 1"
-    label: str | None = None  # the port question (default: the gauge's)
+    label: str  # the port question
 
 
 def _moved_indicators(legs: Sequence[str]) -> list[_Served]:
@@ -310,9 +310,8 @@ def _ports_of(screen: Screen, ports: Sequence[DetectedPort], served: Sequence[_S
     for one in served:
         guess = next((p for p in ports if p.suggested_for == one.suggested_for), None) \
             or next((p for p in free if p.device not in taken), None)
-        spec = _one_gauge(screen, one.gauges[0], protocol, ports, taken,
-                          guess.device if guess else None, notes, label=one.label,
-                          name=one.name)
+        spec = _one_gauge(screen, one, protocol, ports, taken, guess.device if guess else None,
+                          notes)
         if spec is None:
             by_eye.update(one.gauges)
         else:
@@ -321,13 +320,12 @@ def _ports_of(screen: Screen, ports: Sequence[DetectedPort], served: Sequence[_S
     return chosen, by_eye
 
 
-def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[DetectedPort],
+def _one_gauge(screen: Screen, one: _Served, protocol: str, ports: Sequence[DetectedPort],
                taken: dict[str, str], default: str | None, notes: list[dict[str, str]],
-               label: str | None = None, name: str | None = None) -> GaugeSpec | None:
-    """The gauge's spec once it read (or its test was skipped); None: read by eye.
-    ``label``/``name``: how the question and messages call it (default: the gauge)."""
-    label = label or f"Gauge {describe_gauge(gauge)}"
-    name = name or f"gauge {gauge}"
+               ) -> GaugeSpec | None:
+    """The spec of the gauge (the first) ``one`` serves once it read (or its test was
+    skipped); None: read by eye."""
+    gauge, name = one.gauges[0], one.name
     while True:
         def parse(answer: str) -> str:
             if answer.lower() == "m":
@@ -338,7 +336,7 @@ def _one_gauge(screen: Screen, gauge: str, protocol: str, ports: Sequence[Detect
                                  "(each gauge its own port or channel)")
             return port
 
-        port = screen.ask_parsed(label, parse, default=default)
+        port = screen.ask_parsed(one.label, parse, default=default)
         if port == BY_EYE:
             return None
         spec = GaugeSpec(gauge, protocol, port)

@@ -3,6 +3,8 @@ between the tool end and the joint (the papers' Step 1)."""
 
 from __future__ import annotations
 
+import itertools
+
 from ogacq.model.parameters import AXES
 
 
@@ -47,8 +49,5 @@ def leg_drawing(leg: str, width: int = 80) -> str:
     side_width = max(len(line) for line in side) + 2
     if side_width + max(len(line) for line in section) > width:
         return "\n".join([*side, "", *section])
-    rows = max(len(side), len(section))
-    side += [""] * (rows - len(side))
-    section += [""] * (rows - len(section))
     return "\n".join(f"{a:<{side_width}}{b}".rstrip()
-                     for a, b in zip(side, section, strict=True))
+                     for a, b in itertools.zip_longest(side, section, fillvalue=""))

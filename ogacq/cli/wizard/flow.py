@@ -80,12 +80,12 @@ from ogacq.protocol.runner import CampaignStopped
 from ogacq.protocol.station import Station
 from ogacq.session.convert import session_machine
 from ogacq.session.identification import identify_session
+from ogacq.session.offsets_in_force import stations
 from ogacq.session.records import (
     EnvironmentRecord,
     FaultRecord,
     OperatorRecord,
     ReadingRecord,
-    StationRecord,
 )
 from ogacq.session.series import next_session
 from ogacq.session.store import LoadedSession, SessionWriter, check_writable, load_session
@@ -380,8 +380,7 @@ class _Wizard:
                 self.campaign = campaign
             return CampaignOutcome(session.path, identify_session(session), None)
         check_writable(session.path, resuming=True)  # before the operator checks anything
-        station = ([r.description for r in session.of_type(StationRecord)]
-                   or [dict(h.station or {})])[-1]
+        station = stations(session)[-1]  # the last start's
         if h.simulator is not None:
             self._rehearse_again(cleanup, campaign, h.simulator)
         else:
@@ -600,8 +599,8 @@ class _Wizard:
         s.heading("Set the gauges and measure, leg by leg", "step 3 of 4")
         while True:
             if session is not None and session.finished:  # stopped while identifying
-                return CampaignOutcome(session.path, identify_session(session),
-                                       self.rehearsal.hidden() if self.rehearsal else None)
+                hidden = self.rehearsal.stack.machine.truth.hidden() if self.rehearsal else None
+                return CampaignOutcome(session.path, identify_session(session), hidden)
             recorded = session.recorded() if session else set()
             display = CycleProgress(s, steps, protocol, counter, recorded)
             self.gate.on_deferred = display.pausing

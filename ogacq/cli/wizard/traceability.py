@@ -167,18 +167,23 @@ class TraceabilityQuestions:
         return self._ask(key, question, temperature, hint, unset="not measured")
 
     def _identify(self, indicator: Indicator) -> dict[str, Any]:
-        s = self.screen
         serial = self._ask(f"serial of {indicator.gauges}", f"Serial number of {indicator.label}",
                            str, default=indicator.serial or None, unset="not recorded")
+        return self._identity(indicator, serial, " is new: its make, model and calibration "
+                                                 "certificate (Enter: not recorded).")
+
+    def _identity(self, indicator: Indicator, serial: str, asking: str,
+                  usable: Callable[[KnownGauge], bool] = lambda known: True) -> dict[str, Any]:
+        """The identity of the gauge ``serial`` names: met before (and ``usable``), or
+        asked (``asking`` said after the serial) and confirmed; none without a serial."""
         if not serial:
             return {}
         known = self._known(serial)
-        if known is not None:
-            s.ok(f"{serial}: {known.summary()}")
+        if known is not None and usable(known):
+            self.screen.ok(f"{serial}: {known.summary()}")
             return known.identity()
-        s.say(f"{shown(serial)} is new: its make, model and calibration certificate "
-              "(Enter: not recorded).")
-        return self._confirmed(self._new_gauge(serial), indicator).identity()
+        self.screen.say(f"{shown(serial)}{asking}")
+        return self._confirmed(self._new_gauge(serial, known), indicator, usable).identity()
 
     def _known(self, serial: str) -> KnownGauge | None:
         """The gauge of this serial met before (or a rehearsal's simulated one)."""
@@ -284,16 +289,6 @@ class TraceabilityQuestions:
 
     def _reidentify(self, indicator: Indicator, on: datetime.date) -> dict[str, Any]:
         """Another gauge, or the same with its new certificate."""
-        s = self.screen
-        serial = s.ask(f"Serial number of {indicator.label}")
-        if not serial:
-            return {}
-        def usable(gauge: KnownGauge) -> bool:
-            return gauge.due is None or gauge.due >= on
-
-        known = self._known(serial)
-        if known is not None and usable(known):
-            s.ok(f"{serial}: {known.summary()}")
-            return known.identity()
-        s.say(f"{shown(serial)}: its calibration certificate.")
-        return self._confirmed(self._new_gauge(serial, known), indicator, usable).identity()
+        serial = self.screen.ask(f"Serial number of {indicator.label}")
+        return self._identity(indicator, serial, ": its calibration certificate.",
+                              lambda gauge: gauge.due is None or gauge.due >= on)
