@@ -182,7 +182,8 @@ def _num(x: float) -> float | None:
     return round(float(x), 6) if math.isfinite(x) else None
 
 
-def _fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]:
+def validation_fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]:
+    """``names`` fitted to ``obs`` as a validation fits them (GLS), and its verdict."""
     result = fit(obs, names, method="exact", weighting="gls", noise=noise_for(obs))
     return result, fit_verdict(result)
 
@@ -196,9 +197,9 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
     (``ogacq.calibration.drive_step``)."""
     stay = tuple(comp.uncompensated)
     base = PARAM_SETS["offsets"] + stay
-    _, v_before = _fit(session_observations(before), base)
+    _, v_before = validation_fit(session_observations(before), base)
     obs_after = session_observations(after)
-    result, v_after = _fit(obs_after, base)
+    result, v_after = validation_fit(obs_after, base)
     drho = {a: result.value(f"joint_offset.{a}") for a in AXES}
     drho_std = {a: float(result.std[result.names.index(f"joint_offset.{a}")]) for a in AXES}
     reasons = []
@@ -260,7 +261,7 @@ def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
     fitted again (what is left of them, with its band: a correction that worked leaves
     figures within that band, not none). An axis the validation cannot map has none."""
     names = base + tuple(comp.compensated)
-    result, _ = _fit(obs, names)
+    result, _ = validation_fit(obs, names)
     values = {n: EffectValue(n, result.value(n), float(result.std[result.names.index(n)]))
               for n in comp.compensated}
     found: tuple[AxisMap, ...] = ()
