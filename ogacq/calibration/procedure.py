@@ -57,7 +57,6 @@ from ogacq.calibration.second_round import (
     RoundDone,
     second_validation,
     shown_wrong,
-    together_band,
     together_protocol,
     why_not,
 )
@@ -277,7 +276,7 @@ class Procedure:
         together = together_protocol(read, more, machine)
         obs = with_scale_maps(observations_together([scan, extra]), self.scales)
         return self._diagnosed(f"separating + {RESOLVING}", obs,
-                               together_band(together, machine),
+                               sampled_band(together, machine),
                                f"{scan.path} + {extra.path}")
 
     def _validation_plan(self, evidence: LoadedSession, comp: Compensation,
@@ -363,7 +362,7 @@ class Procedure:
                    + ") and were restored; second round: the scan and that validation "
                    "diagnosed together")
         self.round = ROUND
-        diagnosis = self._diagnosed(TOGETHER, obs, together_band(together, machine),
+        diagnosis = self._diagnosed(TOGETHER, obs, sampled_band(together, machine),
                                     " + ".join(str(s.path) for s in sessions))
         unresolved = diagnosis.mapped.search.unresolved if diagnosis.mapped else []
         corrects = diagnosis.maps or compensable_effects(diagnosis)
