@@ -56,7 +56,6 @@ from ogacq.calibration.second_round import (
     VALIDATION_SCAN,
     RoundDone,
     second_validation,
-    shown_wrong,
     together_protocol,
     why_not,
 )
@@ -243,7 +242,7 @@ class Procedure:
             done = self._round(first, diagnosis, evidence, comp, between)
         except Stopped as stop:
             return self._end(stop.outcome, stop.reason)
-        if shown_wrong(done.between) and done.comp.maps:
+        if done.between is not None and done.between.worse and done.comp.maps:
             try:
                 done = self._second_round(first, evidence, done) or done
             except Stopped as stop:  # the first round's end stands, restored
@@ -307,7 +306,7 @@ class Procedure:
         written = _operations(self.log.once(
             Step.WRITTEN, lambda: self._approved_write(first, diagnosis, evidence, comp),
             cut=lambda: self._undo_half_written(first), round=self._round_key))
-        before = {a: self.before[a] for a in self._scaled(comp)}
+        before = {a: b for a, b in self.before.items() if a in comp.maps}
         # the calibration campaign's plan again: its record compares as found and as left
         role, role_between = ("validation", "validation-scan") if self.round == 1 \
             else (VALIDATION, VALIDATION_SCAN)
@@ -463,10 +462,6 @@ class Procedure:
     def _finished(self, role: str, run: Callable[[], Details]) -> Path:
         """The session of the campaign ``role``, ``run`` once (it records its start)."""
         return Path(self.log.once(Step.CAMPAIGN, run, role=role, status=FINISHED)["session"])
-
-    def _scaled(self, comp: Compensation) -> list[str]:
-        """The axes whose map is written and along which a scale is mounted."""
-        return [a for a in AXES if a in comp.maps and a in self.setup.axis_scales]
 
     def _scale_fits(self) -> dict[str, ScaleFit]:
         """What each axis scale's test before found along its axis (said, logged once)."""

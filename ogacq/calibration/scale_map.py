@@ -156,7 +156,8 @@ def fit_scale(result: PositioningResult) -> ScaleFit:
     n = len(data.y)
     if data.u <= 0 or n <= NUISANCES + 3:
         return ScaleFit(result.axis, None, False, math.nan)
-    rss0 = _rss(data.base(), data.y)
+    base = data.base()
+    rss0 = float(np.sum((data.y - base @ np.linalg.lstsq(base, data.y, rcond=None)[0]) ** 2))
     flat_p = float(f_sf(n - NUISANCES, data.noise_dof, (rss0 / (n - NUISANCES)) / data.u**2))
     found = _scale_map(result, data, rss0)
     return ScaleFit(result.axis, found, found is None and flat_p >= LEVEL, flat_p)
@@ -193,11 +194,6 @@ def _data(result: PositioningResult) -> _Data:
     return _Data(np.concatenate([t, t]), np.concatenate([np.ones_like(t), -np.ones_like(t)]),
                  np.concatenate([result.up_mm, result.down_mm]), result.u_mm,
                  result.noise_dof)
-
-
-def _rss(design: np.ndarray, y: np.ndarray) -> float:
-    coef = np.linalg.lstsq(design, y, rcond=None)[0]
-    return float(np.sum((y - design @ coef) ** 2))
 
 
 def _periodogram(data: _Data, freqs: np.ndarray) -> int:

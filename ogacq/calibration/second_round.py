@@ -59,11 +59,6 @@ class RoundDone:
     between_session: LoadedSession | None = None
 
 
-def shown_wrong(between: Judgement | None) -> bool:
-    """The validation between the scan's targets found the correction worse."""
-    return between is not None and between.worse
-
-
 def together_protocol(scan: ProtocolConfig, between: ProtocolConfig,
                       machine: MachineSpec) -> ProtocolConfig:
     """The scan whose targets are both the scan's and its validation's: what the second

@@ -274,10 +274,6 @@ def _rounded(values: tuple[float, ...]) -> list[float | None]:
     return [round(v, 7) if math.isfinite(v) else None for v in values]
 
 
-def shown(sights: dict[str, AxisSight]) -> bool:
-    return all(s.shown for s in sights.values())
-
-
 def merged(one: dict[str, AxisSight], other: dict[str, AxisSight]) -> dict[str, AxisSight]:
     return {a: one[a].merged(other[a]) if a in one and a in other else one.get(a) or other[a]
             for a in AXES if a in one or a in other}

@@ -35,7 +35,7 @@ from ogacq.calibration.compensate import Compensation
 from ogacq.calibration.drive_step import with_drive_step
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.scale_check import ScaleCheck
-from ogacq.calibration.sight import AxisSight, largest_correction, merged, shown, sights
+from ogacq.calibration.sight import AxisSight, largest_correction, merged, sights
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
 from ogacq.compensation.iso230 import map_figures
@@ -69,9 +69,6 @@ class Outcome(StrEnum):
     VALIDATED = "validated"
 
 
-OUTCOMES = tuple(Outcome)
-
-
 @dataclass(frozen=True)
 class Judgement:
     outcome: Outcome
@@ -98,7 +95,7 @@ class Judgement:
         """Two validations of one write (the calibration plan, a scan): worse when either
         is, within the noise when both are, and then a correction shown where either
         sees it; the figures of the scan where it has them."""
-        outcome = min(self.outcome, other.outcome, key=OUTCOMES.index)
+        outcome = min(self.outcome, other.outcome, key=list(Outcome).index)
         sight = merged(self.sight, other.sight)
         outcome = outcome_of(outcome == Outcome.WORSE, outcome != Outcome.IMPROVED, sight)
         # the verdict said is the one that decides: a fit not within the noise is not
@@ -156,7 +153,7 @@ def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> 
         return Outcome.WORSE
     if not within_noise:
         return Outcome.IMPROVED
-    return Outcome.VALIDATED if shown(sight) else Outcome.NOT_SHOWN
+    return Outcome.VALIDATED if all(s.shown for s in sight.values()) else Outcome.NOT_SHOWN
 
 
 def where_looked(sessions: list[LoadedSession], machine: MachineSpec) -> str:

@@ -11,7 +11,6 @@ confirm on, ``--yes`` is required.
 from __future__ import annotations
 
 import dataclasses
-import datetime
 import json
 import sys
 import time
@@ -303,7 +302,7 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
                            spec, operator=operator or login_name("calibrate"),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, scan_minutes=scan_minutes,
-                           today=datetime.date.today(), scale_runs=scale_runs)
+                           scale_runs=scale_runs)
 
 
 def _resumed_setup(folder: Path) -> Setup:
