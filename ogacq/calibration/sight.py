@@ -140,8 +140,7 @@ class AxisSight:
         period = (self.period.merged(other.period) if self.period and other.period
                   else self.period or other.period)
         return AxisSight(self.axis, self.correction_mm, self.edges_mm,
-                         tuple(min(a, b) for a, b in zip(self.limits_mm, other.limits_mm,
-                                                         strict=True)),
+                         _least(self.limits_mm, other.limits_mm),
                          min(self.noise_mm, other.noise_mm), period=period)
 
     def seen_where(self, directly: bool = False) -> str:
