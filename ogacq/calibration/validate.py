@@ -25,7 +25,7 @@ but nothing got worse.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from typing import Any
 
@@ -114,18 +114,14 @@ class Judgement:
         return [s.sentence() for s in self.sight.values()]
 
     def to_json(self) -> dict[str, Any]:
-        return {"outcome": str(self.outcome), "reasons": list(self.reasons),
-                "verdict": self.verdict,
-                "chi2_dof_before": _num(self.chi2_dof_before),
-                "chi2_dof_after": _num(self.chi2_dof_after),
-                "offsets_before_mm": self.offsets_before_mm,
-                "offsets_after_mm": self.offsets_after_mm,
-                "offsets_after_std_mm": self.offsets_after_std_mm,
-                "figures_before": self.figures_before, "figures_after": self.figures_after,
-                "residual_effects": self.residual_effects, "looked": self.looked,
-                "sight": {a: s.to_json() for a, s in self.sight.items()},
-                **({"scales": {a: c.to_json() for a, c in self.scales.items()}}
-                   if self.scales else {})}
+        """Every field in its order, the scales only where a scale checked an axis."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(outcome=str(self.outcome), reasons=list(self.reasons),
+                   chi2_dof_before=_num(self.chi2_dof_before),
+                   chi2_dof_after=_num(self.chi2_dof_after),
+                   sight={a: s.to_json() for a, s in self.sight.items()},
+                   scales={a: c.to_json() for a, c in self.scales.items()})
+        return out if self.scales else {k: v for k, v in out.items() if k != "scales"}
 
     def with_scales(self, checks: dict[str, ScaleCheck], maps: dict[str, AxisMap],
                     machine: MachineSpec) -> Judgement:
