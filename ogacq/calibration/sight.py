@@ -113,7 +113,7 @@ class AxisSight:
 
     def longest_seen_mm(self) -> float:
         """The longest run of stretches seen directly, in mm of travel."""
-        return max((hi - lo for lo, hi in self._runs(self.seen_directly)), default=0.0)
+        return max((length for _, _, length in self._runs(self.seen_directly)), default=0.0)
 
     @property
     def unseen_limit_mm(self) -> float:
@@ -146,10 +146,10 @@ class AxisSight:
     def seen_where(self, directly: bool = False) -> str:
         """The stretches seen: "q from -20 to +0 mm"."""
         runs = self._runs(self.seen_directly if directly else self.seen)
-        return ", ".join(f"q from {lo:+.0f} to {hi:+.0f} mm" for lo, hi in runs)
+        return ", ".join(f"q from {lo:+.0f} to {hi:+.0f} mm" for lo, hi, _ in runs)
 
     def _runs(self, flags: tuple[bool, ...]) -> list[list[float]]:
-        """The stretches ``flags`` marks, joined where they touch: [from, to] each."""
+        """The stretches ``flags`` marks, joined where they touch: [from, to, length]."""
         runs: list[list[float]] = []
         spans = zip(self.edges_mm[:-1], self.edges_mm[1:], strict=True)
         for (lo, hi), seen in zip(spans, flags, strict=True):
@@ -157,8 +157,9 @@ class AxisSight:
                 continue
             if runs and math.isclose(runs[-1][1], lo):
                 runs[-1][1] = hi
+                runs[-1][2] += hi - lo
             else:
-                runs.append([lo, hi])
+                runs.append([lo, hi, hi - lo])
         return runs
 
     def sentence(self) -> str:
