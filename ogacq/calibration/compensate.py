@@ -43,7 +43,7 @@ from ogacq.calibration.scale_map import ScaleFit
 from ogacq.campaign.run import recorded_maps
 from ogacq.compensation.combine import compensation, with_offsets
 from ogacq.compensation.effects import effect_maps
-from ogacq.compensation.export import export_tables, within_its_band
+from ogacq.compensation.export import within_its_band
 from ogacq.compensation.iso230 import map_figures
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.model.axis_map import AxisMap
@@ -236,12 +236,3 @@ def evidence_for(diagnosis: Diagnosis, session: LoadedSession,
     model = ("diagnosis: joint offsets with " + ", ".join(effects)) if effects \
         else "joint offsets"
     return evidence_of(session, diagnosis.final_fit, diagnosis.final, model, stay, shift_mm)
-
-
-def export(folder: Path, comp: Compensation, title: str,
-           formats: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
-    """The table formats chosen (None: every one) of the new maps into ``folder/tables``."""
-    if not comp.maps:
-        return []
-    return [e.to_json() for e in export_tables(folder / TABLES_FOLDER, comp.maps, title=title,
-                                               formats=formats)]

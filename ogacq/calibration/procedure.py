@@ -37,7 +37,6 @@ from ogacq.calibration.compensate import (
     Compensation,
     compensation_of,
     evidence_for,
-    export,
 )
 from ogacq.calibration.drive_step import (
     drive_step_mm,
@@ -75,6 +74,7 @@ from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
+from ogacq.compensation.export import export_tables
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.identify.observations import Observations
@@ -542,8 +542,10 @@ class Procedure:
             comp = tables_only(comp)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")
-        comp = replace(comp, tables=export(self.setup.folder, comp, title,
-                                           self.controller.tables))
+        # the formats the controller names (None: every one)
+        tables = export_tables(self.setup.folder / TABLES_FOLDER, comp.maps, title=title,
+                               formats=self.controller.tables) if comp.maps else []
+        comp = replace(comp, tables=[e.to_json() for e in tables])
         if comp.maps and self.controller.maps_file is None:
             self.ui.say("the controller names no maps_file: the maps are exported as tables "
                         "only (add maps_file to [controller] for ogacq to apply them); what "
