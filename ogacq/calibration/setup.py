@@ -82,10 +82,7 @@ class Setup:
         ``validation``), its session ``ROLE.jsonl`` in the folder; on the simulator its
         file ``ROLE.toml`` is written there for the record."""
         session = self.folder / f"{role}.jsonl"
-        if self.campaign_path is not None:
-            path = self.campaign_path
-        else:
-            path = self.folder / f"{role}.toml"
+        path = self.campaign_path or self.folder / f"{role}.toml"
         campaign = Campaign(path, self.machine, self.machine_path, session, protocol,
                             controller=self.controller, gauges=list(self.gauges),
                             simulator=self.simulator, operator=self.operator,

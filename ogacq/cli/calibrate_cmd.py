@@ -312,10 +312,8 @@ def _resumed_setup(folder: Path) -> Setup:
         described = log_.header.procedure or {}
     finally:
         log_.close()
-    step = described.get("scan_step_mm")
-    scan = float(step) if step else None
-    given = described.get("scan_minutes")
-    minutes = float(given) if given else None
+    scan = float(described["scan_step_mm"]) if described.get("scan_step_mm") else None
+    minutes = float(described["scan_minutes"]) if described.get("scan_minutes") else None
     separate = bool(described.get("separate", True))
     runs = int(described.get("scale_runs") or ISO_RUNS)
     if described.get("mode") == "station":
