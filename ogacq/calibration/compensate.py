@@ -27,7 +27,7 @@ leave the error of the last millimetres in place, where the papers' postures rea
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +43,7 @@ from ogacq.calibration.scale_map import ScaleFit
 from ogacq.campaign.run import recorded_maps
 from ogacq.compensation.combine import compensation, with_offsets
 from ogacq.compensation.effects import effect_maps
-from ogacq.compensation.export import export_tables, within_its_band
+from ogacq.compensation.export import within_its_band
 from ogacq.compensation.iso230 import map_figures
 from ogacq.diagnose.diagnosis import Diagnosis
 from ogacq.model.axis_map import AxisMap
@@ -78,16 +78,12 @@ class Compensation:
         return {a: map_figures(m).to_json() for a, m in self.maps.items()}
 
     def to_json(self) -> dict[str, Any]:
-        return {"evidence_session": str(self.evidence_session),
-                "maps": [m.to_json() for m in self.maps.values()],
-                "shift_mm": self.shift_mm, "compensated": list(self.compensated),
-                "uncompensated": list(self.uncompensated),
-                "diagnosis_maps": list(self.diagnosis_maps),
-                "in_force_checksum": self.in_force_checksum,
-                "offsets_mm": self.offsets_mm, "offsets_std_mm": self.offsets_std_mm,
-                "effects": self.effects, "tables": self.tables,
-                "not_applied": list(self.not_applied),
-                "figures_before": self.figures_before()}
+        """Every field in its order (a tuple as a list), then the figures before."""
+        out = {f.name: list(v) if isinstance(v := getattr(self, f.name), tuple) else v
+               for f in fields(self)}
+        out.update(evidence_session=str(self.evidence_session),
+                   maps=[m.to_json() for m in self.maps.values()])
+        return {**out, "figures_before": self.figures_before()}
 
     @classmethod
     def from_json(cls, d: dict[str, Any]) -> Compensation:
@@ -240,12 +236,3 @@ def evidence_for(diagnosis: Diagnosis, session: LoadedSession,
     model = ("diagnosis: joint offsets with " + ", ".join(effects)) if effects \
         else "joint offsets"
     return evidence_of(session, diagnosis.final_fit, diagnosis.final, model, stay, shift_mm)
-
-
-def export(folder: Path, comp: Compensation, title: str,
-           formats: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
-    """The table formats chosen (None: every one) of the new maps into ``folder/tables``."""
-    if not comp.maps:
-        return []
-    return [e.to_json() for e in export_tables(folder / TABLES_FOLDER, comp.maps, title=title,
-                                               formats=formats)]

@@ -37,7 +37,6 @@ from ogacq.calibration.compensate import (
     Compensation,
     compensation_of,
     evidence_for,
-    export,
 )
 from ogacq.calibration.drive_step import (
     drive_step_mm,
@@ -56,8 +55,6 @@ from ogacq.calibration.second_round import (
     VALIDATION_SCAN,
     RoundDone,
     second_validation,
-    shown_wrong,
-    together_band,
     together_protocol,
     why_not,
 )
@@ -77,6 +74,7 @@ from ogacq.campaign.campaign_file import ControllerSpec
 from ogacq.campaign.positioning import run_positioning, session_result
 from ogacq.campaign.run import run_campaign
 from ogacq.campaign.station import open_controller, simulator_endpoints, start_simulator
+from ogacq.compensation.export import export_tables
 from ogacq.diagnose.diagnosis import Diagnosis, DiagnosisError, diagnose
 from ogacq.errors import InputError, Refused
 from ogacq.identify.observations import Observations
@@ -244,7 +242,7 @@ class Procedure:
             done = self._round(first, diagnosis, evidence, comp, between)
         except Stopped as stop:
             return self._end(stop.outcome, stop.reason)
-        if shown_wrong(done.between) and done.comp.maps:
+        if done.between is not None and done.between.worse and done.comp.maps:
             try:
                 done = self._second_round(first, evidence, done) or done
             except Stopped as stop:  # the first round's end stands, restored
@@ -277,7 +275,7 @@ class Procedure:
         together = together_protocol(read, more, machine)
         obs = with_scale_maps(observations_together([scan, extra]), self.scales)
         return self._diagnosed(f"separating + {RESOLVING}", obs,
-                               together_band(together, machine),
+                               sampled_band(together, machine),
                                f"{scan.path} + {extra.path}")
 
     def _validation_plan(self, evidence: LoadedSession, comp: Compensation,
@@ -308,7 +306,7 @@ class Procedure:
         written = _operations(self.log.once(
             Step.WRITTEN, lambda: self._approved_write(first, diagnosis, evidence, comp),
             cut=lambda: self._undo_half_written(first), round=self._round_key))
-        before = {a: self.before[a] for a in self._scaled(comp)}
+        before = {a: b for a, b in self.before.items() if a in comp.maps}
         # the calibration campaign's plan again: its record compares as found and as left
         role, role_between = ("validation", "validation-scan") if self.round == 1 \
             else (VALIDATION, VALIDATION_SCAN)
@@ -363,7 +361,7 @@ class Procedure:
                    + ") and were restored; second round: the scan and that validation "
                    "diagnosed together")
         self.round = ROUND
-        diagnosis = self._diagnosed(TOGETHER, obs, together_band(together, machine),
+        diagnosis = self._diagnosed(TOGETHER, obs, sampled_band(together, machine),
                                     " + ".join(str(s.path) for s in sessions))
         unresolved = diagnosis.mapped.search.unresolved if diagnosis.mapped else []
         corrects = diagnosis.maps or compensable_effects(diagnosis)
@@ -465,10 +463,6 @@ class Procedure:
         """The session of the campaign ``role``, ``run`` once (it records its start)."""
         return Path(self.log.once(Step.CAMPAIGN, run, role=role, status=FINISHED)["session"])
 
-    def _scaled(self, comp: Compensation) -> list[str]:
-        """The axes whose map is written and along which a scale is mounted."""
-        return [a for a in AXES if a in comp.maps and a in self.setup.axis_scales]
-
     def _scale_fits(self) -> dict[str, ScaleFit]:
         """What each axis scale's test before found along its axis (said, logged once)."""
         fits = {a: fit_scale(r) for a, r in self.before.items()}
@@ -548,8 +542,10 @@ class Procedure:
             comp = tables_only(comp)
         title = (f"ogacq calibrate {self.log.procedure}: {self.setup.machine.name or 'machine'}"
                  f", from {evidence.path.name}")
-        comp = replace(comp, tables=export(self.setup.folder, comp, title,
-                                           self.controller.tables))
+        # the formats the controller names (None: every one)
+        tables = export_tables(self.setup.folder / TABLES_FOLDER, comp.maps, title=title,
+                               formats=self.controller.tables) if comp.maps else []
+        comp = replace(comp, tables=[e.to_json() for e in tables])
         if comp.maps and self.controller.maps_file is None:
             self.ui.say("the controller names no maps_file: the maps are exported as tables "
                         "only (add maps_file to [controller] for ogacq to apply them); what "

@@ -42,11 +42,6 @@ SEED = 2  # the jitter: fixed, so that a resumed procedure reads the same
 LOOSE = 0.5
 
 
-def unresolved(diagnosis: Diagnosis) -> bool:
-    """A cyclic error beyond the noise whose pitch another fits alike."""
-    return diagnosis.mapped is not None and bool(diagnosis.mapped.search.unresolved)
-
-
 def loose_references(diagnosis: Diagnosis, machine: MachineSpec) -> list[float]:
     """The references of the periodic maps whose pitch is loose for the travel."""
     lo, hi = machine.rho_min_mm, machine.rho_max_mm
@@ -69,7 +64,7 @@ def why_read_more(diagnosis: Diagnosis, machine: MachineSpec,
     combined p = 0.009, the scan's repeats 10 % quieter than in 14 other runs), and
     its maps were then not established, the run refused; an error the model lacks
     stays in the readings together, judged with more power."""
-    if unresolved(diagnosis):
+    if diagnosis.mapped is not None and diagnosis.mapped.search.unresolved:
         return "a pitch is left unresolved", []
     if not diagnosis.final.consistent:
         return "the scan's fit is NOT within the gauge noise", []

@@ -105,14 +105,6 @@ class ScaleMap:
                 "covariance": [[float(v) for v in row] for row in self.covariance],
                 "reference_mm": self.reference_mm, "p": self.p_value, "fit_p": self.fit_p}
 
-    @classmethod
-    def from_json(cls, d: dict[str, Any]) -> ScaleMap:
-        (c11, c12), (c21, c22) = d["covariance"]
-        a1, a2 = d["coefficients_mm"]
-        return cls(str(d["axis"]), float(d["pitch_mm"]), float(d["pitch_std_mm"]),
-                   (float(a1), float(a2)), ((float(c11), float(c12)), (float(c21), float(c22))),
-                   float(d["reference_mm"]), float(d["p"]), float(d["fit_p"]))
-
 
 @dataclass(frozen=True)
 class _Data:
@@ -121,15 +113,13 @@ class _Data:
     y: np.ndarray  # (N,) mean deviations
     u: float  # standard uncertainty of each
     noise_dof: int  # of the pooled scatter
-    reference: float
 
     def base(self) -> np.ndarray:
         return np.column_stack([np.ones_like(self.q), self.q, self.side / 2.0])
 
     def cyclic(self, pitch: float) -> np.ndarray:
         w = 2 * np.pi / pitch
-        delta = self.q - self.reference
-        return np.column_stack([np.sin(w * delta), np.cos(w * delta) - 1.0])
+        return np.column_stack([np.sin(w * self.q), np.cos(w * self.q) - 1.0])
 
 
 @dataclass(frozen=True)
@@ -159,32 +149,27 @@ class ScaleFit:
                 "found": self.found.to_json() if self.found is not None else None}
 
 
-def fit_scale(result: PositioningResult, reference_mm: float = 0.0,
-              band_mm: tuple[float, float] = UNSTATED_BAND_MM) -> ScaleFit:
-    """The 1-D fit of the test ``result`` (the module's docstring)."""
-    data = _data(result, reference_mm)
+def fit_scale(result: PositioningResult) -> ScaleFit:
+    """The 1-D fit of the test ``result`` (the module's docstring), its reference ``r``
+    the campaign's zero."""
+    data = _data(result)
     n = len(data.y)
     if data.u <= 0 or n <= NUISANCES + 3:
         return ScaleFit(result.axis, None, False, math.nan)
-    rss0 = _rss(data.base(), data.y)
+    base = data.base()
+    rss0 = float(np.sum((data.y - base @ np.linalg.lstsq(base, data.y, rcond=None)[0]) ** 2))
     flat_p = float(f_sf(n - NUISANCES, data.noise_dof, (rss0 / (n - NUISANCES)) / data.u**2))
-    found = fit_scale_map(result, reference_mm, band_mm)
+    found = _scale_map(result, data, rss0)
     return ScaleFit(result.axis, found, found is None and flat_p >= LEVEL, flat_p)
 
 
-def fit_scale_map(result: PositioningResult, reference_mm: float = 0.0,
-                  band_mm: tuple[float, float] = UNSTATED_BAND_MM) -> ScaleMap | None:
+def _scale_map(result: PositioningResult, data: _Data, rss0: float) -> ScaleMap | None:
     """The cyclic error the test ``result`` sees on its axis (None: none significant,
     its pitch unresolved, or the fit not within the scale's noise)."""
-    data = _data(result, reference_mm)
-    if data.u <= 0 or len(data.y) <= NUISANCES + 3:
-        return None
-    base = data.base()
-    rss0 = _rss(base, data.y)
     targets = np.asarray(result.targets_mm)
-    longest = min(band_mm[1], float(np.ptp(targets)))
-    freqs = frequency_grid(targets, (band_mm[0], longest), PHASE_GRID)
-    best = _periodogram(data, base, freqs)
+    longest = min(UNSTATED_BAND_MM[1], float(np.ptp(targets)))
+    freqs = frequency_grid(targets, (UNSTATED_BAND_MM[0], longest), PHASE_GRID)
+    best = _periodogram(data, freqs)
     if best in (0, len(freqs) - 1):
         return None  # at the band's edge: the pitch is not resolved
     pitch, cov, coef, rss1 = _refine(data, 1.0 / float(freqs[best]))
@@ -200,28 +185,22 @@ def fit_scale_map(result: PositioningResult, reference_mm: float = 0.0,
     covariance = ((float(block[0, 0]), float(block[0, 1])),
                   (float(block[1, 0]), float(block[1, 1])))
     pitch_std = math.sqrt(max(float(cov[-1, -1]), 0.0)) * pitch**2  # from the frequency's
-    return ScaleMap(result.axis, pitch, pitch_std, amplitudes, covariance, reference_mm,
-                    p_term, fit_p)
+    return ScaleMap(result.axis, pitch, pitch_std, amplitudes, covariance, 0.0, p_term,
+                    fit_p)
 
 
-def _data(result: PositioningResult, reference_mm: float) -> _Data:
+def _data(result: PositioningResult) -> _Data:
     t = np.asarray(result.targets_mm, float)
     return _Data(np.concatenate([t, t]), np.concatenate([np.ones_like(t), -np.ones_like(t)]),
                  np.concatenate([result.up_mm, result.down_mm]), result.u_mm,
-                 result.noise_dof, reference_mm)
+                 result.noise_dof)
 
 
-def _rss(design: np.ndarray, y: np.ndarray) -> float:
-    coef = np.linalg.lstsq(design, y, rcond=None)[0]
-    return float(np.sum((y - design @ coef) ** 2))
-
-
-def _periodogram(data: _Data, base: np.ndarray, freqs: np.ndarray) -> int:
+def _periodogram(data: _Data, freqs: np.ndarray) -> int:
     """The frequency whose sine and cosine, beside the nuisances, leave the least."""
-    q0, _ = np.linalg.qr(base)
+    q0, _ = np.linalg.qr(data.base())
     r = data.y - q0 @ (q0.T @ data.y)
-    delta = data.q - data.reference
-    phase = 2 * np.pi * np.outer(freqs, delta)  # (F, N)
+    phase = 2 * np.pi * np.outer(freqs, data.q)  # (F, N)
     drop = np.empty(len(freqs))
     for k in range(0, len(freqs), 4096):  # in blocks: a (F, N) pair at a time
         s = np.sin(phase[k:k + 4096])
@@ -240,27 +219,26 @@ def _refine(data: _Data, pitch: float) -> tuple[float, np.ndarray, np.ndarray, f
     covariance of (nuisances, amplitudes, frequency), the coefficients and the residual
     sum of squares."""
     f = 1.0 / pitch
-    delta = data.q - data.reference
     for _ in range(GAUSS_NEWTON_STEPS):
-        x = np.column_stack([data.base(), data.cyclic(1.0 / f)])
-        coef = np.linalg.lstsq(x, data.y, rcond=None)[0]
-        a, b = coef[NUISANCES], coef[NUISANCES + 1]
-        w = 2 * np.pi * delta
-        d_f = w * (a * np.cos(w * f) - b * np.sin(w * f))
-        j = np.column_stack([x, d_f])
-        r = data.y - x @ coef
-        step = np.linalg.lstsq(j, r, rcond=None)[0][-1]
+        x, coef, j = _linearised(data, f)
+        step = np.linalg.lstsq(j, data.y - x @ coef, rcond=None)[0][-1]
         f += float(step)
-        if abs(step) * float(np.max(np.abs(delta))) < 1e-6:  # the phase moved < 1e-6 turn
+        if abs(step) * float(np.max(np.abs(data.q))) < 1e-6:  # the phase moved < 1e-6 turn
             break
-    x = np.column_stack([data.base(), data.cyclic(1.0 / f)])
-    coef = np.linalg.lstsq(x, data.y, rcond=None)[0]
-    a, b = coef[NUISANCES], coef[NUISANCES + 1]
-    w = 2 * np.pi * delta
-    j = np.column_stack([x, w * (a * np.cos(w * f) - b * np.sin(w * f))])
+    x, coef, j = _linearised(data, f)
     rss = float(np.sum((data.y - x @ coef) ** 2))
     cov = np.linalg.pinv(j.T @ j) * data.u**2
     return 1.0 / f, cov, coef, rss
+
+
+def _linearised(data: _Data, f: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """At the frequency ``f``: the design (the nuisances, the cyclic pair), its least
+    squares coefficients, and the design with the derivative in ``f`` beside it."""
+    x = np.column_stack([data.base(), data.cyclic(1.0 / f)])
+    coef = np.linalg.lstsq(x, data.y, rcond=None)[0]
+    a, b = coef[NUISANCES], coef[NUISANCES + 1]
+    w = 2 * np.pi * data.q
+    return x, coef, np.column_stack([x, w * (a * np.cos(w * f) - b * np.sin(w * f))])
 
 
 def with_scale_maps(obs: Observations, fits: Mapping[str, ScaleFit]) -> Observations:

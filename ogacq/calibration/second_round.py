@@ -34,7 +34,7 @@ from ogacq.calibration.validate import Judgement
 from ogacq.campaign.run import recorded_maps
 from ogacq.model.machine import MachineSpec
 from ogacq.protocol.plan import ProtocolConfig, scan_targets
-from ogacq.protocol.scan_design import between_plan, sampled_band
+from ogacq.protocol.scan_design import between_plan
 from ogacq.session.store import LoadedSession
 from ogacq.writeback.maps_table import maps_checksum
 
@@ -59,11 +59,6 @@ class RoundDone:
     between_session: LoadedSession | None = None
 
 
-def shown_wrong(between: Judgement | None) -> bool:
-    """The validation between the scan's targets found the correction worse."""
-    return between is not None and between.worse
-
-
 def together_protocol(scan: ProtocolConfig, between: ProtocolConfig,
                       machine: MachineSpec) -> ProtocolConfig:
     """The scan whose targets are both the scan's and its validation's: what the second
@@ -71,12 +66,6 @@ def together_protocol(scan: ProtocolConfig, between: ProtocolConfig,
     targets = sorted({round(t, 6) for p in (scan, between) for t in scan_targets(p, machine)})
     return replace(scan, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
                    scan_targets_mm=tuple(targets))
-
-
-def together_band(together: ProtocolConfig, machine: MachineSpec,
-                  ) -> tuple[float, float] | None:
-    """The band of periods the readings together sample (their targets' design)."""
-    return sampled_band(together, machine)
 
 
 def second_validation(together: ProtocolConfig, machine: MachineSpec) -> ProtocolConfig:

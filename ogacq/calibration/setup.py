@@ -64,7 +64,6 @@ class Setup:
     # the scan then grows within it toward its detection target; None: SCAN_MINUTES,
     # and the scan the fewest targets that sample its band
     scan_minutes: float | None = None
-    extra: dict[str, Any] = field(default_factory=dict)
     # scales along the actuators: the maps written on their axes are validated by
     # ISO 230-2's positioning test (ogacq.calibration.scale_check), in this many runs
     axis_scales: dict[str, AxisScaleSpec] = field(default_factory=dict)
@@ -83,10 +82,7 @@ class Setup:
         ``validation``), its session ``ROLE.jsonl`` in the folder; on the simulator its
         file ``ROLE.toml`` is written there for the record."""
         session = self.folder / f"{role}.jsonl"
-        if self.campaign_path is not None:
-            path = self.campaign_path
-        else:
-            path = self.folder / f"{role}.toml"
+        path = self.campaign_path or self.folder / f"{role}.toml"
         campaign = Campaign(path, self.machine, self.machine_path, session, protocol,
                             controller=self.controller, gauges=list(self.gauges),
                             simulator=self.simulator, operator=self.operator,
@@ -101,10 +97,10 @@ class Setup:
                         "`ogacq calibrate --resume`, which applies them)").encode("utf-8"))
         return campaign
 
-    def scan_protocol(self, step_mm: float | None = None) -> ProtocolConfig:
+    def scan_protocol(self) -> ProtocolConfig:
         """A scan of every leg's travel, both directions (the separating measurement
         where a map is suspected)."""
-        return replace(self.protocol, scan_step_mm=step_mm or self.scan_step_mm or 1.0,
+        return replace(self.protocol, scan_step_mm=self.scan_step_mm or 1.0,
                        approach="both", cycles=SCAN_CYCLES, postures=(),
                        scan_targets_mm=())
 
@@ -123,7 +119,7 @@ class Setup:
                 "operator": self.operator,
                 "override_expired": self.override_expired,
                 **({"axis_scales": sorted(self.axis_scales), "scale_runs": self.scale_runs}
-                   if self.axis_scales else {}), **self.extra}
+                   if self.axis_scales else {})}
 
 
 def simulator_controller(folder: Path, profile: str) -> ControllerSpec:

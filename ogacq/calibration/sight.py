@@ -113,12 +113,7 @@ class AxisSight:
 
     def longest_seen_mm(self) -> float:
         """The longest run of stretches seen directly, in mm of travel."""
-        longest = run = 0.0
-        spans = zip(self.edges_mm[:-1], self.edges_mm[1:], strict=True)
-        for (lo, hi), seen in zip(spans, self.seen_directly, strict=True):
-            run = run + (hi - lo) if seen else 0.0
-            longest = max(longest, run)
-        return longest
+        return max((length for _, _, length in self._runs(self.seen_directly)), default=0.0)
 
     @property
     def unseen_limit_mm(self) -> float:
@@ -145,23 +140,27 @@ class AxisSight:
         period = (self.period.merged(other.period) if self.period and other.period
                   else self.period or other.period)
         return AxisSight(self.axis, self.correction_mm, self.edges_mm,
-                         tuple(min(a, b) for a, b in zip(self.limits_mm, other.limits_mm,
-                                                         strict=True)),
+                         _least(self.limits_mm, other.limits_mm),
                          min(self.noise_mm, other.noise_mm), period=period)
 
     def seen_where(self, directly: bool = False) -> str:
-        """The stretches seen, joined where they touch: "q from -20 to +0 mm"."""
+        """The stretches seen: "q from -20 to +0 mm"."""
+        runs = self._runs(self.seen_directly if directly else self.seen)
+        return ", ".join(f"q from {lo:+.0f} to {hi:+.0f} mm" for lo, hi, _ in runs)
+
+    def _runs(self, flags: tuple[bool, ...]) -> list[list[float]]:
+        """The stretches ``flags`` marks, joined where they touch: [from, to, length]."""
         runs: list[list[float]] = []
         spans = zip(self.edges_mm[:-1], self.edges_mm[1:], strict=True)
-        flags = self.seen_directly if directly else self.seen
         for (lo, hi), seen in zip(spans, flags, strict=True):
             if not seen:
                 continue
             if runs and math.isclose(runs[-1][1], lo):
                 runs[-1][1] = hi
+                runs[-1][2] += hi - lo
             else:
-                runs.append([lo, hi])
-        return ", ".join(f"q from {lo:+.0f} to {hi:+.0f} mm" for lo, hi in runs)
+                runs.append([lo, hi, hi - lo])
+        return runs
 
     def sentence(self) -> str:
         """What the validation shows of this correction, in words."""
@@ -213,8 +212,7 @@ class AxisSight:
     def to_json(self) -> dict[str, Any]:
         return {"axis": self.axis, "correction_mm": round(self.correction_mm, 7),
                 "edges_mm": [round(e, 4) for e in self.edges_mm],
-                "limits_mm": [round(v, 7) if math.isfinite(v) else None
-                              for v in self.limits_mm],
+                "limits_mm": _rounded(self.limits_mm),
                 "noise_mm": self.noise_mm, "shown": self.shown,
                 **({"by": "axis scale"} if self.by_scale else {}),
                 **({"period": self.period.to_json()} if self.period else {})}
@@ -274,10 +272,6 @@ def _least(one: tuple[float, ...], other: tuple[float, ...]) -> tuple[float, ...
 
 def _rounded(values: tuple[float, ...]) -> list[float | None]:
     return [round(v, 7) if math.isfinite(v) else None for v in values]
-
-
-def shown(sights: dict[str, AxisSight]) -> bool:
-    return all(s.shown for s in sights.values())
 
 
 def merged(one: dict[str, AxisSight], other: dict[str, AxisSight]) -> dict[str, AxisSight]:

@@ -25,7 +25,7 @@ but nothing got worse.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from enum import StrEnum
 from typing import Any
 
@@ -35,7 +35,7 @@ from ogacq.calibration.compensate import Compensation
 from ogacq.calibration.drive_step import with_drive_step
 from ogacq.calibration.maps import diagnosis_maps
 from ogacq.calibration.scale_check import ScaleCheck
-from ogacq.calibration.sight import AxisSight, largest_correction, merged, shown, sights
+from ogacq.calibration.sight import AxisSight, largest_correction, merged, sights
 from ogacq.compensation.combine import compensation
 from ogacq.compensation.effects import EffectValue, effect_maps
 from ogacq.compensation.iso230 import map_figures
@@ -69,9 +69,6 @@ class Outcome(StrEnum):
     VALIDATED = "validated"
 
 
-OUTCOMES = tuple(Outcome)
-
-
 @dataclass(frozen=True)
 class Judgement:
     outcome: Outcome
@@ -98,7 +95,7 @@ class Judgement:
         """Two validations of one write (the calibration plan, a scan): worse when either
         is, within the noise when both are, and then a correction shown where either
         sees it; the figures of the scan where it has them."""
-        outcome = min(self.outcome, other.outcome, key=OUTCOMES.index)
+        outcome = min(self.outcome, other.outcome, key=list(Outcome).index)
         sight = merged(self.sight, other.sight)
         outcome = outcome_of(outcome == Outcome.WORSE, outcome != Outcome.IMPROVED, sight)
         # the verdict said is the one that decides: a fit not within the noise is not
@@ -117,18 +114,14 @@ class Judgement:
         return [s.sentence() for s in self.sight.values()]
 
     def to_json(self) -> dict[str, Any]:
-        return {"outcome": str(self.outcome), "reasons": list(self.reasons),
-                "verdict": self.verdict,
-                "chi2_dof_before": _num(self.chi2_dof_before),
-                "chi2_dof_after": _num(self.chi2_dof_after),
-                "offsets_before_mm": self.offsets_before_mm,
-                "offsets_after_mm": self.offsets_after_mm,
-                "offsets_after_std_mm": self.offsets_after_std_mm,
-                "figures_before": self.figures_before, "figures_after": self.figures_after,
-                "residual_effects": self.residual_effects, "looked": self.looked,
-                "sight": {a: s.to_json() for a, s in self.sight.items()},
-                **({"scales": {a: c.to_json() for a, c in self.scales.items()}}
-                   if self.scales else {})}
+        """Every field in its order, the scales only where a scale checked an axis."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        out.update(outcome=str(self.outcome), reasons=list(self.reasons),
+                   chi2_dof_before=_num(self.chi2_dof_before),
+                   chi2_dof_after=_num(self.chi2_dof_after),
+                   sight={a: s.to_json() for a, s in self.sight.items()},
+                   scales={a: c.to_json() for a, c in self.scales.items()})
+        return out if self.scales else {k: v for k, v in out.items() if k != "scales"}
 
     def with_scales(self, checks: dict[str, ScaleCheck], maps: dict[str, AxisMap],
                     machine: MachineSpec) -> Judgement:
@@ -156,7 +149,7 @@ def outcome_of(worse: bool, within_noise: bool, sight: dict[str, AxisSight]) -> 
         return Outcome.WORSE
     if not within_noise:
         return Outcome.IMPROVED
-    return Outcome.VALIDATED if shown(sight) else Outcome.NOT_SHOWN
+    return Outcome.VALIDATED if all(s.shown for s in sight.values()) else Outcome.NOT_SHOWN
 
 
 def where_looked(sessions: list[LoadedSession], machine: MachineSpec) -> str:
@@ -182,7 +175,8 @@ def _num(x: float) -> float | None:
     return round(float(x), 6) if math.isfinite(x) else None
 
 
-def _fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]:
+def validation_fit(obs: Observations, names: tuple[str, ...]) -> tuple[FitResult, Verdict]:
+    """``names`` fitted to ``obs`` as a validation fits them (GLS), and its verdict."""
     result = fit(obs, names, method="exact", weighting="gls", noise=noise_for(obs))
     return result, fit_verdict(result)
 
@@ -196,9 +190,9 @@ def judge(comp: Compensation, before: LoadedSession, after: LoadedSession,
     (``ogacq.calibration.drive_step``)."""
     stay = tuple(comp.uncompensated)
     base = PARAM_SETS["offsets"] + stay
-    _, v_before = _fit(session_observations(before), base)
+    _, v_before = validation_fit(session_observations(before), base)
     obs_after = session_observations(after)
-    result, v_after = _fit(obs_after, base)
+    result, v_after = validation_fit(obs_after, base)
     drho = {a: result.value(f"joint_offset.{a}") for a in AXES}
     drho_std = {a: float(result.std[result.names.index(f"joint_offset.{a}")]) for a in AXES}
     reasons = []
@@ -260,7 +254,7 @@ def _after_maps(comp: Compensation, obs: Observations, base: tuple[str, ...],
     fitted again (what is left of them, with its band: a correction that worked leaves
     figures within that band, not none). An axis the validation cannot map has none."""
     names = base + tuple(comp.compensated)
-    result, _ = _fit(obs, names)
+    result, _ = validation_fit(obs, names)
     values = {n: EffectValue(n, result.value(n), float(result.std[result.names.index(n)]))
               for n in comp.compensated}
     found: tuple[AxisMap, ...] = ()

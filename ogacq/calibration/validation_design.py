@@ -25,9 +25,7 @@ from dataclasses import replace
 import numpy as np
 
 from ogacq.calibration.sight import PERIODS_SEEN, AxisSight, periodic_modes, sights
-from ogacq.identify.consistency import fit_verdict
-from ogacq.identify.fit import fit
-from ogacq.identify.noise import noise_for
+from ogacq.calibration.validate import validation_fit
 from ogacq.model.axis_map import AxisMap
 from ogacq.model.machine import MachineSpec
 from ogacq.model.parameters import PARAM_SETS
@@ -81,9 +79,7 @@ def predicted_sight(plan: ProtocolConfig, maps: dict[str, AxisMap], machine: Mac
     layout = planned_layout(plan, machine)
     obs = simulated_readings(machine, layout, {}, scatter_mm=noise_mm,
                              step_mm=machine.gauge_resolution_mm, seed=SEED)
-    result = fit(obs, PARAM_SETS["offsets"], method="exact", weighting="gls",
-                 noise=noise_for(obs))
-    return sights(maps, result, fit_verdict(result), machine)
+    return sights(maps, *validation_fit(obs, PARAM_SETS["offsets"]), machine)
 
 
 def unseen_stretches(plan: ProtocolConfig, maps: dict[str, AxisMap],

@@ -11,7 +11,6 @@ confirm on, ``--yes`` is required.
 from __future__ import annotations
 
 import dataclasses
-import datetime
 import json
 import sys
 import time
@@ -303,7 +302,7 @@ def _new_setup(folder: Path, campaign_path: Path | None, files: dict[str, bytes]
                            spec, operator=operator or login_name("calibrate"),
                            override_expired=reason, scan_step_mm=scan_step_mm,
                            separate=separate, scan_minutes=scan_minutes,
-                           today=datetime.date.today(), scale_runs=scale_runs)
+                           scale_runs=scale_runs)
 
 
 def _resumed_setup(folder: Path) -> Setup:
@@ -313,10 +312,8 @@ def _resumed_setup(folder: Path) -> Setup:
         described = log_.header.procedure or {}
     finally:
         log_.close()
-    step = described.get("scan_step_mm")
-    scan = float(step) if step else None
-    given = described.get("scan_minutes")
-    minutes = float(given) if given else None
+    scan = float(described["scan_step_mm"]) if described.get("scan_step_mm") else None
+    minutes = float(described["scan_minutes"]) if described.get("scan_minutes") else None
     separate = bool(described.get("separate", True))
     runs = int(described.get("scale_runs") or ISO_RUNS)
     if described.get("mode") == "station":
