@@ -323,10 +323,12 @@ def test_a_cyclic_screw_error_is_mapped_and_not_shown_beyond_where_it_is_seen(tm
     assert finished["outcome"] in ("not shown", "improved"), finished
     if finished["outcome"] == "not shown":
         # the stretch seen directly grows as the readings' noise falls: -11 to +7 mm at
-        # 1 um, -29 to +7 mm at 0.2 um
+        # 1 um, -29 to +7 mm at 0.2 um; a mode of the map found off beyond chance is said
+        # first (seen twice under load: "finds its phase found off beyond chance ... and")
         assert "the x correction (" in finished["reason"] and re.search(
-            r"is not shown: the validation sees an error of its size only over q from "
-            r"-\d+ to \+\d+ mm", finished["reason"]), finished["reason"]
+            r"is not shown: the validation (finds its .+ beyond chance .+ and )?sees an "
+            r"error of its size only over q from -\d+ to \+\d+ mm", finished["reason"]), \
+            finished["reason"]
     for role in ("validation", "validation-scan"):
         verdict = step(folder, "validation", role=role)["verdict"]
         assert within_noise(verdict), (role, verdict)
