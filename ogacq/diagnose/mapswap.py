@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from functools import cache, cached_property
 
 import numpy as np
 
@@ -278,30 +278,22 @@ class ScanSignatures:
                  names: tuple[str, ...], terms: list[MapTerm]) -> None:
         self.machine, self.noise, self.theta = machine, noise, theta
         self.names, self.terms = names, terms
-        self._plans: dict[tuple[float, int], tuple[Problem, JointHistory]] = {}
-        # each scan's joint sensitivities at theta, asked for by every pair's columns
-        self._sensitivity: dict[tuple[float, int],
-                                tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]] = {}
+        # each scan's problem, and its joint sensitivities at theta (asked for by every
+        # pair's columns): found once
+        self.plan = cache(self._plan)
+        self.sensitivity = cache(self._sensitivity)
 
-    def plan(self, step: float, cycles: int) -> tuple[Problem, JointHistory]:
-        key = (step, cycles)
-        if key not in self._plans:
-            layout = planned_layout(ProtocolConfig(scan_step_mm=step, cycles=cycles),
-                                    self.machine)
-            problem = Problem(readings_observations(self.machine, layout,
-                                                    np.zeros(len(layout))), self.noise)
-            self._plans[key] = (problem, JointHistory.of(layout))
-        return self._plans[key]
+    def _plan(self, step: float, cycles: int) -> tuple[Problem, JointHistory]:
+        layout = planned_layout(ProtocolConfig(scan_step_mm=step, cycles=cycles), self.machine)
+        problem = Problem(readings_observations(self.machine, layout, np.zeros(len(layout))),
+                          self.noise)
+        return problem, JointHistory.of(layout)
 
-    def sensitivity(self, step: float, cycles: int,
-                    ) -> tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]:
-        """The scan's ``joint_sensitivity`` at theta and its ``along()``, found once."""
-        key = (step, cycles)
-        if key not in self._sensitivity:
-            layout = self.plan(step, cycles)[0].obs.layout
-            sens = joint_sensitivity(self.theta, layout, self.machine)
-            self._sensitivity[key] = (sens, sens.along())
-        return self._sensitivity[key]
+    def _sensitivity(self, step: float, cycles: int,
+                     ) -> tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]:
+        """The scan's ``joint_sensitivity`` at theta and its ``along()``."""
+        sens = joint_sensitivity(self.theta, self.plan(step, cycles)[0].obs.layout, self.machine)
+        return sens, sens.along()
 
     def gap(self, step: float, cycles: int, first: tuple[np.ndarray, list[str], list[MapTerm]],
             second: tuple[np.ndarray, list[str], list[MapTerm]]) -> float:
