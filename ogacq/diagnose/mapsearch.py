@@ -32,7 +32,7 @@ import numpy as np
 
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
-from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
+from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm, phasors
 from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
@@ -454,16 +454,10 @@ def _shape_functions(term: MapTerm, _freqs: np.ndarray, q: np.ndarray) -> np.nda
 
 def _grid_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``_trial_functions`` at evenly spaced ``freqs`` (a chunk of the periodogram's
-    grid), each next frequency's phases the last one's times one step's: a complex
-    product where a sine and a cosine cost ten times more (exact at the chunk's
-    first frequency, within a few hundred roundings at its last: only the grid's
-    scan uses it, the candidate taken is weighed on the exact columns)."""
-    phase = 2j * np.pi * q
-    terms = np.empty((len(freqs), len(q)), dtype=complex)
-    terms[0] = np.exp(phase * freqs[0])
-    if len(freqs) > 1:
-        terms[1:] = np.exp(phase * (freqs[1] - freqs[0]))
-    z = np.cumprod(terms, axis=0)
+    grid) by ``mapbins.phasors``: only the grid's scan uses it, the candidate taken is
+    weighed on the exact columns."""
+    step = freqs[1] - freqs[0] if len(freqs) > 1 else 0.0
+    z = phasors(freqs[0], step, len(freqs), q)
     return np.stack([z.imag, z.real - 1.0], axis=1)
 
 
