@@ -197,14 +197,9 @@ def term_columns(term: MapTerm, history: JointHistory, sensitivity: JointSensiti
     """(k, len(rows)) a map term's effect on the readings at ``rows`` (all: None) per
     unit amplitude: its displacement at each reading's pose and at its gauge's
     setting pose, times the readings' sensitivities to them (mm)."""
-    h = history
-    rows = np.arange(len(h.q_mm)) if rows is None else rows
-    a = term.axis
-    shape_r = term.shape_of(h.q_mm[rows, a], h.side[rows, a], h.travel_mm[rows, a],
-                            h.t_s[rows])
+    rows = np.arange(len(history.q_mm)) if rows is None else rows
+    shape_r, shape_s = term.columns(history, rows)
     s_r, s_s = term.kind.sensitivities(term, sensitivity, along)
-    shape_s = term.shape_of(h.setting_q_mm[:, a], h.setting_side[:, a],
-                            h.setting_travel_mm[:, a], np.zeros(len(h.setting_q_mm)))
     return shape_r * s_r[rows] + shape_s[:, gauge[rows]] * s_s[rows]
 
 
