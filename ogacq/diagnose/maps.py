@@ -138,12 +138,10 @@ class Rival:
 
     def describe(self) -> str:
         library = self.chosen[1] or self.other[1]
-        verdict = (f"chosen: {', '.join(library)} not significant beside the maps alone "
-                   f"(p = {self.p_library:.2g})") if not self.chosen[1] else (
-            f"chosen: {', '.join(library)} significant beside the maps alone "
-            f"(p = {self.p_library:.2g})")
+        significant = "significant" if self.chosen[1] else "not significant"
         return (f"{self.label(self.other)} explains the readings as well "
-                f"(chi2 {self.delta_chi2:+.1f}); {verdict}")
+                f"(chi2 {self.delta_chi2:+.1f}); chosen: {', '.join(library)} {significant} "
+                f"beside the maps alone (p = {self.p_library:.2g})")
 
 
 @dataclass
