@@ -448,7 +448,8 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
         for term, alt in found[:2]:
             k = PARAM_INDEX[name]
             one: Explanation = (np.array([fitted.theta[k] - NOMINAL[k]]), [name], [])
-            other: Explanation = (_swap_coefficients(lin, name, term), [], [term])
+            other: Explanation = (_swap_coefficients(lin, lin.without_effect(name), term),
+                                  [], [term])
             proposals.append(propose(signatures, name, term.name, one, other,
                                      alt.delta_chi2))
     for effect in outcome.effects:
@@ -461,7 +462,7 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
                 other = (np.array([alt.value - NOMINAL[j]]), [alt.name], [])
             else:
                 term = next(t for t in candidates if t.name == alt.name)
-                other = (_swap_coefficients(lin, None, term, replace=k), [], [term])
+                other = (_swap_coefficients(lin, lin.without_term(k), term), [], [term])
             proposals.append(propose(signatures, effect.name, alt.name, one, other,
                                      alt.delta_chi2))
     rival = outcome.rival
@@ -472,15 +473,11 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
     outcome.proposals = proposals
 
 
-def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
-                       replace: int | None = None) -> np.ndarray:
-    """The amplitudes of ``term`` fitted in place of library effect ``name`` or of the
-    model's map term number ``replace``."""
-    if name is not None:
-        keep, target = lin.without_effect(name)
-    else:
-        assert replace is not None
-        keep, target = lin.without_term(replace)
+def _swap_coefficients(lin: _Linear, without: tuple[list[int], np.ndarray],
+                       term: MapTerm) -> np.ndarray:
+    """The amplitudes of ``term`` fitted in place of what ``without`` leaves out (its
+    columns kept and the target: ``_Linear.without_effect``, ``without_term``)."""
+    keep, target = without
     _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
     return coef[-term.size:]
 
