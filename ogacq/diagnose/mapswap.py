@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cache, cached_property
+from functools import cached_property
 
 import numpy as np
 
@@ -270,6 +270,10 @@ class Proposal:
                 "text": self.describe(machine_file)}
 
 
+# a scan's problem, history, and joint sensitivities with their along()
+_Scan = tuple[Problem, JointHistory, tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]]
+
+
 class ScanSignatures:
     """The final model's columns on each candidate scan, computed once and shared by
     every pair to separate."""
@@ -278,29 +282,27 @@ class ScanSignatures:
                  names: tuple[str, ...], terms: list[MapTerm]) -> None:
         self.machine, self.noise, self.theta = machine, noise, theta
         self.names, self.terms = names, terms
-        # each scan's problem, and its joint sensitivities at theta (asked for by every
-        # pair's columns): found once
-        self.plan = cache(self._plan)
-        self.sensitivity = cache(self._sensitivity)
+        # each scan's problem, history and joint sensitivities at theta with their
+        # along() (every pair's columns ask for them), made once
+        self._scans: dict[tuple[float, int], _Scan] = {}
 
-    def _plan(self, step: float, cycles: int) -> tuple[Problem, JointHistory]:
-        layout = planned_layout(ProtocolConfig(scan_step_mm=step, cycles=cycles), self.machine)
-        problem = Problem(readings_observations(self.machine, layout, np.zeros(len(layout))),
-                          self.noise)
-        return problem, JointHistory.of(layout)
-
-    def _sensitivity(self, step: float, cycles: int,
-                     ) -> tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]:
-        """The scan's ``joint_sensitivity`` at theta and its ``along()``."""
-        sens = joint_sensitivity(self.theta, self.plan(step, cycles)[0].obs.layout, self.machine)
-        return sens, sens.along()
+    def plan(self, step: float, cycles: int) -> _Scan:
+        key = (step, cycles)
+        if key not in self._scans:
+            config = ProtocolConfig(scan_step_mm=step, cycles=cycles)
+            layout = planned_layout(config, self.machine)
+            problem = Problem(readings_observations(self.machine, layout,
+                                                    np.zeros(len(layout))), self.noise)
+            sens = joint_sensitivity(self.theta, problem.obs.layout, self.machine)
+            self._scans[key] = (problem, JointHistory.of(layout), (sens, sens.along()))
+        return self._scans[key]
 
     def gap(self, step: float, cycles: int, first: tuple[np.ndarray, list[str], list[MapTerm]],
             second: tuple[np.ndarray, list[str], list[MapTerm]]) -> float:
         """Expected chi-square gap on the scan between two explanations, each given as
         (values, library names, map terms) of what it adds to the rest of the model;
         the smaller of the two ways."""
-        problem, history = self.plan(step, cycles)
+        problem, history, sensitivity = self.plan(step, cycles)
         rest_names = [n for n in self.names if n not in first[1] + second[1]]
         rest_terms = [t for t in self.terms if t.name not in
                       {u.name for u in first[2] + second[2]}]
@@ -309,7 +311,7 @@ class ScanSignatures:
             lib = problem.jacobian(self.theta, tuple(names)) if names else \
                 np.zeros((len(problem.obs), 0))
             maps = problem.weighted(map_columns(problem, self.theta, terms, history,
-                                                self.sensitivity(step, cycles)).T).T \
+                                                sensitivity).T).T \
                 if terms else np.zeros((len(problem.obs), 0))
             return np.column_stack([lib, maps])
 
