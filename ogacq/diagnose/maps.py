@@ -27,7 +27,6 @@ from ogacq.diagnose.mapsearch import RIVALS, AxisCoverage, MapSearch, search_map
 from ogacq.diagnose.mapswap import (
     Proposal,
     ScanSignatures,
-    _Linear,
     library_swaps,
     linearised,
     map_swaps,
@@ -448,8 +447,7 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
         for term, alt in found[:2]:
             k = PARAM_INDEX[name]
             one: Explanation = (np.array([fitted.theta[k] - NOMINAL[k]]), [name], [])
-            other: Explanation = (_swap_coefficients(lin, lin.without_effect(name), term),
-                                  [], [term])
+            other: Explanation = (lin.in_place(lin.without_effect(name), term), [], [term])
             proposals.append(propose(signatures, name, term.name, one, other,
                                      alt.delta_chi2))
     for effect in outcome.effects:
@@ -462,7 +460,7 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
                 other = (np.array([alt.value - NOMINAL[j]]), [alt.name], [])
             else:
                 term = next(t for t in candidates if t.name == alt.name)
-                other = (_swap_coefficients(lin, lin.without_term(k), term), [], [term])
+                other = (lin.in_place(lin.without_term(k), term), [], [term])
             proposals.append(propose(signatures, effect.name, alt.name, one, other,
                                      alt.delta_chi2))
     rival = outcome.rival
@@ -471,15 +469,6 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
                                  Rival.label(rival.other), rival.chosen, rival.other,
                                  rival.delta_chi2))
     outcome.proposals = proposals
-
-
-def _swap_coefficients(lin: _Linear, without: tuple[list[int], np.ndarray],
-                       term: MapTerm) -> np.ndarray:
-    """The amplitudes of ``term`` fitted in place of what ``without`` leaves out (its
-    columns kept and the target: ``_Linear.without_effect``, ``without_term``)."""
-    keep, target = without
-    _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
-    return coef[-term.size:]
 
 
 def maps_left(obs: Observations, names: tuple[str, ...], theta: np.ndarray,

@@ -102,10 +102,13 @@ class _Linear:
         keep = [j for j in range(self.columns.shape[1]) if not start <= j < stop]
         return keep, self.residual + self.columns[:, start:stop] @ self.coefficients[k]
 
-    def refit(self, target: np.ndarray, columns: np.ndarray) -> tuple[float, np.ndarray]:
-        """Residual sum of squares of ``target`` after fitting ``columns``, and the
-        coefficients (columns scaled to unit norm first)."""
-        return _Projector(columns[:, :0]).fit(target, columns)
+    def in_place(self, without: tuple[list[int], np.ndarray], term: MapTerm) -> np.ndarray:
+        """The amplitudes of ``term`` fitted in place of what ``without`` leaves out (the
+        columns kept and the target of :meth:`without_effect` or :meth:`without_term`),
+        the columns scaled to unit norm first."""
+        keep, target = without
+        columns = np.column_stack([self.columns[:, keep], self.term_columns(term)])
+        return _Projector(columns[:, :0]).fit(target, columns)[1][-term.size:]
 
 
 class _Projector:
