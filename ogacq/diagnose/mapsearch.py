@@ -393,18 +393,15 @@ class _Families:
         values = [t.shape[name] for t in grid.terms]
         term = grid.terms[best]
 
-        def at(value: float) -> MapTerm:
-            return replace(term, shape={**term.shape, name: value})
-
         std = math.nan
         if 0 < best < len(values) - 1 and values[best - 1] > 0:
             def of_log(x: float) -> float:
-                return float(self.space.gain_of(at(math.exp(x))).gain[0])
+                return float(self.space.gain_of(term.reshaped(**{name: math.exp(x)})).gain[0])
 
             x = _golden(of_log, math.log(values[best - 1]), math.log(values[best + 1]), 16)
-            refined = self.space.gain_of(at(math.exp(x)))
+            refined = self.space.gain_of(term.reshaped(**{name: math.exp(x)}))
             if refined.gain[0] >= gain.gain[0]:
-                term, gain = at(math.exp(x)), refined
+                term, gain = term.reshaped(**{name: math.exp(x)}), refined
             value = term.shape[name]
             var = _variance_left(self.space, self.noise, float(gain.gain[0]),
                                  int(gain.rank[0]) + term.shape_parameters)

@@ -19,7 +19,7 @@ import typing
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields, replace
 from functools import cache
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
@@ -228,6 +228,10 @@ class MapTerm:
         sides ``side``, travels since reversal ``travel`` and times ``t_s``; zero at
         the reference approached forward (along-the-line families)."""
         return self.kind.shape_of(self, np.asarray(q, dtype=float), side, travel, t_s)
+
+    def reshaped(self, **shape: float) -> MapTerm:
+        """This term with the shape parameters given changed."""
+        return replace(self, shape={**self.shape, **shape})
 
     def columns(self, history: JointHistory, rows: np.ndarray | slice = slice(None),
                 ) -> tuple[np.ndarray, np.ndarray]:

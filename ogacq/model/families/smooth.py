@@ -5,7 +5,7 @@ chosen by the Bayesian information criterion."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -107,7 +107,7 @@ class Smooth(MapFamily[SmoothShape]):
     def in_place_of(self, term: MapTerm, effect: str) -> MapTerm:
         # in place of its axis's encoder scale, the map takes the slope too
         if effect == f"encoder_scale.{AXES[term.axis]}":
-            return replace(term, shape={**term.shape, "detrended": 0.0})
+            return term.reshaped(detrended=0.0)
         return term
 
     def _term(self, axis: int, from_mm: float, to_mm: float, knots: int,
