@@ -14,7 +14,7 @@ import numpy as np
 
 from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.batchfit import Problem
-from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
+from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, label
 from ogacq.diagnose.mapaverage import MapAlternative, alternatives, widened
 from ogacq.diagnose.mapfit import (
     MapFit,
@@ -132,8 +132,7 @@ class Rival:
 
     @staticmethod
     def label(explanation: Explanation) -> str:
-        names = [*explanation[1], *(t.name for t in explanation[2])]
-        return " + ".join(names) if names else "joint offsets only"
+        return label((*explanation[1], *(t.name for t in explanation[2])))
 
     def describe(self) -> str:
         library = self.chosen[1] or self.other[1]
