@@ -314,10 +314,9 @@ def _route(problem: Problem, noise: GaugeNoise, start: Model, alpha: float,
     # without its slope beside the axis's encoder scale takes the slope): left to
     # neither, a bend's slope of 45 um/m was corrected by nothing, and the map's band,
     # certain of a slope it did not hold, left the error 11.7 times it at -80 mm
-    for name, _ in dropped:
-        terms = [t.kind.in_place_of(t, name) for t in terms]
     theta0 = start.theta.copy()
     for name, _ in dropped:
+        terms = [t.kind.in_place_of(t, name) for t in terms]
         theta0[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
     # the start's Jacobian is the start's when no effect was dropped
     fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha,
