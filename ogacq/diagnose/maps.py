@@ -166,10 +166,6 @@ class MapOutcome:
     spreads: dict[str, ShapeSpread] = field(default_factory=dict)
 
     @property
-    def found(self) -> bool:
-        return self.fit is not None
-
-    @property
     def established(self) -> bool:
         """Maps were found and the final fit with them is within the gauge noise: only
         then are they tabulated (``maps``, ``maps_over``, ``value_at``)."""
