@@ -26,8 +26,7 @@ def singles(exclude: Iterable[str] = ()) -> list[Candidate]:
 
 
 def pairs(exclude: Iterable[str] = ()) -> list[Candidate]:
-    skip = set(exclude)
-    return list(combinations([n for n in EFFECT_PARAMETERS if n not in skip], 2))
+    return list(combinations([n for (n,) in singles(exclude)], 2))
 
 
 def entry(name: str) -> dict[str, str]:

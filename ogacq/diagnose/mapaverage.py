@@ -101,7 +101,7 @@ def alternatives(problem: Problem, noise: GaugeNoise, fitted: MapFit, search: Ma
     for step in search.steps:
         trials += [_Trial(c, step.added, odds(c.delta_bic - step.added.delta_bic))
                    for c in step.considered if c.rank > 0 and c.term.name not in names]
-    trials = sorted((t for t in trials if _share(t.prior) >= WEIGHT_FLOOR),
+    trials = sorted((t for t in trials if t.prior / (1.0 + t.prior) >= WEIGHT_FLOOR),
                     key=lambda t: -t.prior)[:MOST]
     weighed: list[tuple[_Trial, float, MapFit]] = []
     for trial in trials:
@@ -113,10 +113,6 @@ def alternatives(problem: Problem, noise: GaugeNoise, fitted: MapFit, search: Ma
     return tuple(MapAlternative(t.candidate, o / total, alt,
                                 None if t.replaced is None else t.replaced.term.name)
                  for t, o, alt in weighed if o / total >= WEIGHT_FLOOR)
-
-
-def _share(odds_: float) -> float:
-    return odds_ / (1.0 + odds_)
 
 
 def widened(maps: Sequence[AxisMap], alternatives_: Sequence[MapAlternative],

@@ -24,6 +24,7 @@ from collections.abc import Callable
 import numpy as np
 
 from ogacq.diagnose.mapspace import Gain, MapSpace, _gains
+from ogacq.identify.search_rules import OVERSAMPLE
 
 # Bins per period of the shortest pitch searched: half a bin is 1/64 of a period,
 # a phase error of at most 5.6 degrees (no source: a choice, its effect above).
@@ -101,7 +102,19 @@ class PositionSums:
 ALIAS_WINDOW = 0.5
 
 
-def alias_pitch_mm(positions: np.ndarray, highest_mm: float, oversample: int = 5) -> float:
+def phasors(first: float, step: float, count: int, q: np.ndarray) -> np.ndarray:
+    """(count, len(q)) ``exp(2 pi i f q)`` at ``count`` frequencies ``f`` from ``first``
+    every ``step``, each next one's the last one's times one step's: a complex product
+    where a sine and a cosine cost ten times more (exact at ``first``, within a few
+    hundred roundings at the last)."""
+    phase = 2j * np.pi * q
+    terms = np.empty((count, len(q)), dtype=complex)
+    terms[0] = np.exp(phase * first)
+    terms[1:] = np.exp(phase * step)
+    return np.cumprod(terms, axis=0)
+
+
+def alias_pitch_mm(positions: np.ndarray, highest_mm: float) -> float:
     """The shortest period that distinct ``positions`` cannot tell from a constant:
     1 / the lowest frequency past the main lobe where their spectral window
     ``|sum exp(2 pi i f q)|^2 / K^2`` reaches ``ALIAS_WINDOW`` (the window function of
@@ -117,16 +130,11 @@ def alias_pitch_mm(positions: np.ndarray, highest_mm: float, oversample: int = 5
     if np.allclose(gaps, gaps[0], rtol=0.0, atol=2e-6):  # to the positions' rounding
         return float(gaps[0])
     span = float(q[-1] - q[0])
-    df = 1.0 / (oversample * span)
+    df = 1.0 / (OVERSAMPLE * span)
     freqs = np.arange(2.0 / span, 1.0 / highest_mm + df / 2, df)
-    phase = 2j * np.pi * (q - q[0])
-    turn = np.exp(phase * df)  # one step of the grid: each next frequency a product
     for lo in range(0, len(freqs), 64):
         f = freqs[lo:lo + 64]
-        terms = np.empty((len(f), len(q)), dtype=complex)
-        terms[0] = np.exp(phase * f[0])  # exact at each chunk's start
-        terms[1:] = turn
-        window = np.abs(np.cumprod(terms, axis=0).mean(axis=1)) ** 2
+        window = np.abs(phasors(f[0], df, len(f), q - q[0]).mean(axis=1)) ** 2
         hit = np.flatnonzero(window >= ALIAS_WINDOW)
         if len(hit):
             return 1.0 / float(f[hit[0]])

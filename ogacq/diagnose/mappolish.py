@@ -16,7 +16,6 @@ its std and profile path are that problem's.
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 
@@ -24,7 +23,7 @@ from ogacq.diagnose.batchfit import Problem
 from ogacq.diagnose.mapfit import MapFit, fit_with_maps, map_columns
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.identify.noise import GaugeNoise
-from ogacq.model.error_maps import JointHistory, MapTerm, ShapeSpread
+from ogacq.model.error_maps import JointHistory, ShapeSpread
 
 ROUNDS = 4  # Gauss-Newton steps at most: the search's pitch is already near
 MOVED = 0.05  # of its std: a step smaller than this leaves the pitch as it is
@@ -71,10 +70,6 @@ class _Basis:
         self.u, self.s, self.vt = u[:, keep], s[keep], vt[keep]
 
 
-def _with_pitch(term: MapTerm, pitch_mm: float) -> MapTerm:
-    return replace(term, shape={**term.shape, "pitch_mm": pitch_mm})
-
-
 def _pitch_step(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: JointHistory,
                 k: int, basis: _Basis) -> tuple[float, ShapeSpread]:
     """The Gauss-Newton step of term ``k``'s pitch in the full model, its std and the
@@ -82,7 +77,7 @@ def _pitch_step(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: Jo
     term, coef = fitted.terms[k], fitted.coefficients[k]
     pitch = float(term.shape["pitch_mm"])
     h = pitch * RELATIVE_H
-    up, down = (map_columns(problem, fitted.theta, [_with_pitch(term, pitch + s)], history)
+    up, down = (map_columns(problem, fitted.theta, [term.reshaped(pitch_mm=pitch + s)], history)
                 for s in (h, -h))
     derivative = (up - down) @ coef / (2 * h)
     dw = problem.weighted(derivative[None])[0]
@@ -107,7 +102,7 @@ def _refitted(problem: Problem, noise: GaugeNoise, fitted: MapFit, history: Join
     pitch = float(fitted.terms[k].shape["pitch_mm"])
     for _ in range(3):
         terms = list(fitted.terms)
-        terms[k] = _with_pitch(terms[k], pitch + step)
+        terms[k] = terms[k].reshaped(pitch_mm=pitch + step)
         again = fit_with_maps(problem, noise, fitted.names, fitted.theta, terms, history,
                               alpha=alpha)
         if again.rss < fitted.rss:

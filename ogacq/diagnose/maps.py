@@ -14,7 +14,7 @@ import numpy as np
 
 from ogacq.diagnose.alternatives import Alternative
 from ogacq.diagnose.batchfit import Problem
-from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry
+from ogacq.diagnose.library import BASE_MODEL, EFFECT_PARAMETERS, entry, label
 from ogacq.diagnose.mapaverage import MapAlternative, alternatives, widened
 from ogacq.diagnose.mapfit import (
     MapFit,
@@ -27,7 +27,6 @@ from ogacq.diagnose.mapsearch import RIVALS, AxisCoverage, MapSearch, search_map
 from ogacq.diagnose.mapswap import (
     Proposal,
     ScanSignatures,
-    _Linear,
     library_swaps,
     linearised,
     map_swaps,
@@ -133,17 +132,14 @@ class Rival:
 
     @staticmethod
     def label(explanation: Explanation) -> str:
-        names = [*explanation[1], *(t.name for t in explanation[2])]
-        return " + ".join(names) if names else "joint offsets only"
+        return label((*explanation[1], *(t.name for t in explanation[2])))
 
     def describe(self) -> str:
         library = self.chosen[1] or self.other[1]
-        verdict = (f"chosen: {', '.join(library)} not significant beside the maps alone "
-                   f"(p = {self.p_library:.2g})") if not self.chosen[1] else (
-            f"chosen: {', '.join(library)} significant beside the maps alone "
-            f"(p = {self.p_library:.2g})")
+        significant = "significant" if self.chosen[1] else "not significant"
         return (f"{self.label(self.other)} explains the readings as well "
-                f"(chi2 {self.delta_chi2:+.1f}); {verdict}")
+                f"(chi2 {self.delta_chi2:+.1f}); chosen: {', '.join(library)} {significant} "
+                f"beside the maps alone (p = {self.p_library:.2g})")
 
 
 @dataclass
@@ -168,10 +164,6 @@ class MapOutcome:
     band_alternatives: tuple[MapAlternative, ...] = ()
     # each term's shape parameter as known (a pitch's std and profile path), by name
     spreads: dict[str, ShapeSpread] = field(default_factory=dict)
-
-    @property
-    def found(self) -> bool:
-        return self.fit is not None
 
     @property
     def established(self) -> bool:
@@ -318,10 +310,9 @@ def _route(problem: Problem, noise: GaugeNoise, start: Model, alpha: float,
     # without its slope beside the axis's encoder scale takes the slope): left to
     # neither, a bend's slope of 45 um/m was corrected by nothing, and the map's band,
     # certain of a slope it did not hold, left the error 11.7 times it at -80 mm
-    for name, _ in dropped:
-        terms = [t.kind.in_place_of(t, name) for t in terms]
     theta0 = start.theta.copy()
     for name, _ in dropped:
+        terms = [t.kind.in_place_of(t, name) for t in terms]
         theta0[PARAM_INDEX[name]] = NOMINAL[PARAM_INDEX[name]]
     # the start's Jacobian is the start's when no effect was dropped
     fitted = fit_with_maps(problem, noise, names, theta0, terms, history, alpha=alpha,
@@ -450,7 +441,7 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
         for term, alt in found[:2]:
             k = PARAM_INDEX[name]
             one: Explanation = (np.array([fitted.theta[k] - NOMINAL[k]]), [name], [])
-            other: Explanation = (_swap_coefficients(lin, name, term), [], [term])
+            other: Explanation = (lin.in_place(lin.without_effect(name), term), [], [term])
             proposals.append(propose(signatures, name, term.name, one, other,
                                      alt.delta_chi2))
     for effect in outcome.effects:
@@ -463,7 +454,7 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
                 other = (np.array([alt.value - NOMINAL[j]]), [alt.name], [])
             else:
                 term = next(t for t in candidates if t.name == alt.name)
-                other = (_swap_coefficients(lin, None, term, replace=k), [], [term])
+                other = (lin.in_place(lin.without_term(k), term), [], [term])
             proposals.append(propose(signatures, effect.name, alt.name, one, other,
                                      alt.delta_chi2))
     rival = outcome.rival
@@ -472,19 +463,6 @@ def _honesty(problem: Problem, noise: GaugeNoise, claimed: Model, outcome: MapOu
                                  Rival.label(rival.other), rival.chosen, rival.other,
                                  rival.delta_chi2))
     outcome.proposals = proposals
-
-
-def _swap_coefficients(lin: _Linear, name: str | None, term: MapTerm,
-                       replace: int | None = None) -> np.ndarray:
-    """The amplitudes of ``term`` fitted in place of library effect ``name`` or of the
-    model's map term number ``replace``."""
-    if name is not None:
-        keep, target = lin.without_effect(name)
-    else:
-        assert replace is not None
-        keep, target = lin.without_term(replace)
-    _, coef = lin.refit(target, np.column_stack([lin.columns[:, keep], lin.term_columns(term)]))
-    return coef[-term.size:]
 
 
 def maps_left(obs: Observations, names: tuple[str, ...], theta: np.ndarray,

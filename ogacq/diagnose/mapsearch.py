@@ -32,7 +32,7 @@ import numpy as np
 
 from ogacq.diagnose.arrays import median, sorted_distinct
 from ogacq.diagnose.batchfit import Problem
-from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm
+from ogacq.diagnose.mapbins import BINS_PER_PITCH, PositionSums, alias_pitch_mm, phasors
 from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
@@ -393,18 +393,15 @@ class _Families:
         values = [t.shape[name] for t in grid.terms]
         term = grid.terms[best]
 
-        def at(value: float) -> MapTerm:
-            return replace(term, shape={**term.shape, name: value})
-
         std = math.nan
         if 0 < best < len(values) - 1 and values[best - 1] > 0:
             def of_log(x: float) -> float:
-                return float(self.space.gain_of(at(math.exp(x))).gain[0])
+                return float(self.space.gain_of(term.reshaped(**{name: math.exp(x)})).gain[0])
 
             x = _golden(of_log, math.log(values[best - 1]), math.log(values[best + 1]), 16)
-            refined = self.space.gain_of(at(math.exp(x)))
+            refined = self.space.gain_of(term.reshaped(**{name: math.exp(x)}))
             if refined.gain[0] >= gain.gain[0]:
-                term, gain = at(math.exp(x)), refined
+                term, gain = term.reshaped(**{name: math.exp(x)}), refined
             value = term.shape[name]
             var = _variance_left(self.space, self.noise, float(gain.gain[0]),
                                  int(gain.rank[0]) + term.shape_parameters)
@@ -454,16 +451,10 @@ def _shape_functions(term: MapTerm, _freqs: np.ndarray, q: np.ndarray) -> np.nda
 
 def _grid_functions(freqs: np.ndarray, q: np.ndarray) -> np.ndarray:
     """``_trial_functions`` at evenly spaced ``freqs`` (a chunk of the periodogram's
-    grid), each next frequency's phases the last one's times one step's: a complex
-    product where a sine and a cosine cost ten times more (exact at the chunk's
-    first frequency, within a few hundred roundings at its last: only the grid's
-    scan uses it, the candidate taken is weighed on the exact columns)."""
-    phase = 2j * np.pi * q
-    terms = np.empty((len(freqs), len(q)), dtype=complex)
-    terms[0] = np.exp(phase * freqs[0])
-    if len(freqs) > 1:
-        terms[1:] = np.exp(phase * (freqs[1] - freqs[0]))
-    z = np.cumprod(terms, axis=0)
+    grid) by ``mapbins.phasors``: only the grid's scan uses it, the candidate taken is
+    weighed on the exact columns."""
+    step = freqs[1] - freqs[0] if len(freqs) > 1 else 0.0
+    z = phasors(freqs[0], step, len(freqs), q)
     return np.stack([z.imag, z.real - 1.0], axis=1)
 
 

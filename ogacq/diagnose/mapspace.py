@@ -22,6 +22,7 @@ from functools import cached_property
 import numpy as np
 
 from ogacq.diagnose.batchfit import Problem
+from ogacq.diagnose.gaugesums import PerGauge
 from ogacq.identify.identifiability import RANK_TOLERANCE
 from ogacq.model.error_maps import JointHistory, MapTerm
 from ogacq.model.joint_sensitivity import JointSensitivity, joint_sensitivity
@@ -71,6 +72,7 @@ class MapSpace:
         self._mean_dir = groups.mean_scale * np.sqrt(groups.size)
         zero_norm2 = np.bincount(self._gauge_of_group, weights=self._mean_dir**2)
         self._zero_norm2 = np.maximum(zero_norm2, np.finfo(float).tiny)
+        self._per_gauge = PerGauge(self._gauge_of_group, len(self._zero_norm2))
         self.r_groups = groups.group_space(self.r)
         self.basis_groups = groups.group_space(self.basis.T)  # (p, G)
 
@@ -111,22 +113,8 @@ class MapSpace:
         mean is whitened, each gauge's zero projected out."""
         x = np.asarray(values, dtype=float) * self._mean_dir
         flat = x.reshape(-1, x.shape[-1])
-        order, starts, present = self._by_gauge
-        sums = np.zeros((len(flat), len(self._zero_norm2)))
-        sums[:, present] = np.add.reduceat((flat * self._mean_dir)[:, order], starts, axis=1)
-        along_zero = (sums / self._zero_norm2)[:, self._gauge_of_group] * self._mean_dir
-        return (flat - along_zero).reshape(x.shape)
-
-    @cached_property
-    def _by_gauge(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """The groups ordered gauge by gauge, where each gauge starts, the gauges
-        present: each gauge's sum as one ``np.add.reduceat``."""
-        g = self._gauge_of_group
-        order = np.argsort(g, kind="stable")
-        counts = np.bincount(g, minlength=len(self._zero_norm2))
-        present = np.flatnonzero(counts)
-        starts = np.concatenate([[0], np.cumsum(counts[present])[:-1]]).astype(int)
-        return order, starts, present
+        out = self._per_gauge.project_out(flat, self._mean_dir, self._zero_norm2)
+        return out.reshape(x.shape)
 
     def weighted(self, columns: np.ndarray) -> np.ndarray:
         """(k, n) reading-space weighting of unweighted columns (k, n)."""
@@ -197,14 +185,9 @@ def term_columns(term: MapTerm, history: JointHistory, sensitivity: JointSensiti
     """(k, len(rows)) a map term's effect on the readings at ``rows`` (all: None) per
     unit amplitude: its displacement at each reading's pose and at its gauge's
     setting pose, times the readings' sensitivities to them (mm)."""
-    h = history
-    rows = np.arange(len(h.q_mm)) if rows is None else rows
-    a = term.axis
-    shape_r = term.shape_of(h.q_mm[rows, a], h.side[rows, a], h.travel_mm[rows, a],
-                            h.t_s[rows])
+    rows = np.arange(len(history.q_mm)) if rows is None else rows
+    shape_r, shape_s = term.columns(history, rows)
     s_r, s_s = term.kind.sensitivities(term, sensitivity, along)
-    shape_s = term.shape_of(h.setting_q_mm[:, a], h.setting_side[:, a],
-                            h.setting_travel_mm[:, a], np.zeros(len(h.setting_q_mm)))
     return shape_r * s_r[rows] + shape_s[:, gauge[rows]] * s_s[rows]
 
 

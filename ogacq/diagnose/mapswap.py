@@ -102,10 +102,13 @@ class _Linear:
         keep = [j for j in range(self.columns.shape[1]) if not start <= j < stop]
         return keep, self.residual + self.columns[:, start:stop] @ self.coefficients[k]
 
-    def refit(self, target: np.ndarray, columns: np.ndarray) -> tuple[float, np.ndarray]:
-        """Residual sum of squares of ``target`` after fitting ``columns``, and the
-        coefficients (columns scaled to unit norm first)."""
-        return _Projector(columns[:, :0]).fit(target, columns)
+    def in_place(self, without: tuple[list[int], np.ndarray], term: MapTerm) -> np.ndarray:
+        """The amplitudes of ``term`` fitted in place of what ``without`` leaves out (the
+        columns kept and the target of :meth:`without_effect` or :meth:`without_term`),
+        the columns scaled to unit norm first."""
+        keep, target = without
+        columns = np.column_stack([self.columns[:, keep], self.term_columns(term)])
+        return _Projector(columns[:, :0]).fit(target, columns)[1][-term.size:]
 
 
 class _Projector:
@@ -270,6 +273,10 @@ class Proposal:
                 "text": self.describe(machine_file)}
 
 
+# a scan's problem, history, and joint sensitivities with their along()
+_Scan = tuple[Problem, JointHistory, tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]]
+
+
 class ScanSignatures:
     """The final model's columns on each candidate scan, computed once and shared by
     every pair to separate."""
@@ -278,37 +285,27 @@ class ScanSignatures:
                  names: tuple[str, ...], terms: list[MapTerm]) -> None:
         self.machine, self.noise, self.theta = machine, noise, theta
         self.names, self.terms = names, terms
-        self._plans: dict[tuple[float, int], tuple[Problem, JointHistory]] = {}
-        # each scan's joint sensitivities at theta, asked for by every pair's columns
-        self._sensitivity: dict[tuple[float, int],
-                                tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]] = {}
+        # each scan's problem, history and joint sensitivities at theta with their
+        # along() (every pair's columns ask for them), made once
+        self._scans: dict[tuple[float, int], _Scan] = {}
 
-    def plan(self, step: float, cycles: int) -> tuple[Problem, JointHistory]:
+    def plan(self, step: float, cycles: int) -> _Scan:
         key = (step, cycles)
-        if key not in self._plans:
-            layout = planned_layout(ProtocolConfig(scan_step_mm=step, cycles=cycles),
-                                    self.machine)
+        if key not in self._scans:
+            config = ProtocolConfig(scan_step_mm=step, cycles=cycles)
+            layout = planned_layout(config, self.machine)
             problem = Problem(readings_observations(self.machine, layout,
                                                     np.zeros(len(layout))), self.noise)
-            self._plans[key] = (problem, JointHistory.of(layout))
-        return self._plans[key]
-
-    def sensitivity(self, step: float, cycles: int,
-                    ) -> tuple[JointSensitivity, tuple[np.ndarray, np.ndarray]]:
-        """The scan's ``joint_sensitivity`` at theta and its ``along()``, found once."""
-        key = (step, cycles)
-        if key not in self._sensitivity:
-            layout = self.plan(step, cycles)[0].obs.layout
-            sens = joint_sensitivity(self.theta, layout, self.machine)
-            self._sensitivity[key] = (sens, sens.along())
-        return self._sensitivity[key]
+            sens = joint_sensitivity(self.theta, problem.obs.layout, self.machine)
+            self._scans[key] = (problem, JointHistory.of(layout), (sens, sens.along()))
+        return self._scans[key]
 
     def gap(self, step: float, cycles: int, first: tuple[np.ndarray, list[str], list[MapTerm]],
             second: tuple[np.ndarray, list[str], list[MapTerm]]) -> float:
         """Expected chi-square gap on the scan between two explanations, each given as
         (values, library names, map terms) of what it adds to the rest of the model;
         the smaller of the two ways."""
-        problem, history = self.plan(step, cycles)
+        problem, history, sensitivity = self.plan(step, cycles)
         rest_names = [n for n in self.names if n not in first[1] + second[1]]
         rest_terms = [t for t in self.terms if t.name not in
                       {u.name for u in first[2] + second[2]}]
@@ -317,7 +314,7 @@ class ScanSignatures:
             lib = problem.jacobian(self.theta, tuple(names)) if names else \
                 np.zeros((len(problem.obs), 0))
             maps = problem.weighted(map_columns(problem, self.theta, terms, history,
-                                                self.sensitivity(step, cycles)).T).T \
+                                                sensitivity).T).T \
                 if terms else np.zeros((len(problem.obs), 0))
             return np.column_stack([lib, maps])
 

@@ -179,13 +179,13 @@ def _choose(considered: list[Considered], full: Callable[[Considered], Model],
 
 
 def select(problem: Problem, noise: GaugeNoise, base: Model, *, alpha: float = LEVEL,
-           max_effects: int = MAX_EFFECTS, design: Design | None = None) -> Selection:
+           design: Design | None = None) -> Selection:
     """``design``: the weighted Jacobian of the offsets and every effect at the base
     model's solution, when the caller holds it."""
     selection = Selection(base, base)
     current = base
-    while current.verdict.state == "inconsistent" and len(current.effects) < max_effects:
-        room = max_effects - len(current.effects)
+    while current.verdict.state == "inconsistent" and len(current.effects) < MAX_EFFECTS:
+        room = MAX_EFFECTS - len(current.effects)
         extras = singles(current.effects) + (pairs(current.effects) if room >= 2 else [])
         if current is not base or design is None:
             union = current.names + tuple(n for n in EFFECT_PARAMETERS

@@ -23,10 +23,7 @@ import numpy as np
 
 from ogacq.model.kinematics import forward, forward_tangent, joint_centres
 from ogacq.model.machine import MachineSpec
-from ogacq.model.measurement import _GPOS_AT, _GSCALE, ReadingsLayout, _lines, _plan
-from ogacq.model.parameters import AXES, PARAM_INDEX
-
-_DRIFT_AT = np.array([PARAM_INDEX[f"thermal_drift.{a}"] for a in AXES])
+from ogacq.model.measurement import _DRIFT_AT, _GPOS_AT, _GSCALE, ReadingsLayout, _lines, _plan
 
 
 @dataclass(frozen=True)

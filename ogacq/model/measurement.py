@@ -35,14 +35,7 @@ from ogacq.model.kinematics import (
     leg_lengths,
 )
 from ogacq.model.machine import MachineSpec
-from ogacq.model.parameters import AXES, AXIS_PAIRS, NOMINAL, PARAM_INDEX
-
-_DRHO = [PARAM_INDEX[f"joint_offset.{a}"] for a in AXES]
-_SCALE = [PARAM_INDEX[f"encoder_scale.{a}"] for a in AXES]
-_BACKLASH = [PARAM_INDEX[f"backlash.{a}"] for a in AXES]
-_DRIFT = [PARAM_INDEX[f"thermal_drift.{a}"] for a in AXES]
-_GPOS = [PARAM_INDEX[f"gauge_position.{a}"] for a in AXES]
-
+from ogacq.model.parameters import AXES, AXIS_PAIRS, NOMINAL, PARAM_INDEX, indices
 
 # [gauge axis, leg] -> position of that gauge's scale in the parameter vector
 _GSCALE = np.zeros((3, 3), dtype=int)
@@ -253,11 +246,12 @@ _SIDE_FREE = ("repeat_group", "repeat_size", "repeat_order", "gauge_onehot", "ga
 
 # the parameters' positions as index arrays: numpy gathers with them without converting
 # a list
-_DRHO_AT, _SCALE_AT, _BACKLASH_AT, _DRIFT_AT, _GPOS_AT = (
-    np.array(k) for k in (_DRHO, _SCALE, _BACKLASH, _DRIFT, _GPOS))
-_SQUARENESS_AT = np.array([PARAM_INDEX[f"squareness.{w}"] for w in AXIS_PAIRS])
-_AXIS_OFFSET_AT = np.array([PARAM_INDEX[f"axis_offset.{w}"] for w in AXIS_PAIRS])
-_LEG_LENGTH_AT = np.array([PARAM_INDEX[f"leg_length.{a}"] for a in AXES])
+_DRHO_AT, _SCALE_AT, _BACKLASH_AT, _DRIFT_AT, _GPOS_AT, _LEG_LENGTH_AT = (
+    indices(f"{kind}.{a}" for a in AXES) for kind in (
+        "joint_offset", "encoder_scale", "backlash", "thermal_drift", "gauge_position",
+        "leg_length"))
+_SQUARENESS_AT, _AXIS_OFFSET_AT = (indices(f"{kind}.{w}" for w in AXIS_PAIRS)
+                                   for kind in ("squareness", "axis_offset"))
 # the entries of the joint positions but the offsets
 _JOINT_TERMS_AT = np.concatenate([_SCALE_AT, _DRIFT_AT, _BACKLASH_AT])
 
@@ -306,11 +300,11 @@ def _joint_position_tangents(q: np.ndarray, approach: np.ndarray, free: np.ndarr
     out = np.zeros((len(q), len(free), 3))
     for k, index in enumerate(free):
         for a in range(3):
-            if index in (_DRHO[a], _DRIFT[a]):
+            if index in (_DRHO_AT[a], _DRIFT_AT[a]):
                 out[:, k, a] = 1.0
-            elif index == _SCALE[a]:
+            elif index == _SCALE_AT[a]:
                 out[:, k, a] = q[:, a] * 1e-6
-            elif index == _BACKLASH[a]:
+            elif index == _BACKLASH_AT[a]:
                 out[:, k, a] = -0.5 * approach[:, a]
     return out
 

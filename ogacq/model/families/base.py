@@ -19,7 +19,7 @@ import typing
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
-from dataclasses import MISSING, dataclass, field, fields
+from dataclasses import MISSING, dataclass, field, fields, replace
 from functools import cache
 from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
 
@@ -229,11 +229,17 @@ class MapTerm:
         the reference approached forward (along-the-line families)."""
         return self.kind.shape_of(self, np.asarray(q, dtype=float), side, travel, t_s)
 
-    def columns(self, history: JointHistory) -> tuple[np.ndarray, np.ndarray]:
-        """(k, n) at each reading's pose and (k, G) at each gauge's setting pose."""
+    def reshaped(self, **shape: float) -> MapTerm:
+        """This term with the shape parameters given changed."""
+        return replace(self, shape={**self.shape, **shape})
+
+    def columns(self, history: JointHistory, rows: np.ndarray | slice = slice(None),
+                ) -> tuple[np.ndarray, np.ndarray]:
+        """(k, n) at the poses of the readings at ``rows`` (all by default) and (k, G) at
+        each gauge's setting pose."""
         a = self.axis
-        at_reading = self.shape_of(history.q_mm[:, a], history.side[:, a],
-                                   history.travel_mm[:, a], history.t_s)
+        at_reading = self.shape_of(history.q_mm[rows, a], history.side[rows, a],
+                                   history.travel_mm[rows, a], history.t_s[rows])
         at_setting = self.shape_of(history.setting_q_mm[:, a], history.setting_side[:, a],
                                    history.setting_travel_mm[:, a],
                                    np.zeros(len(history.setting_q_mm)))

@@ -5,7 +5,7 @@ chosen by the Bayesian information criterion."""
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -61,13 +61,12 @@ class Smooth(MapFamily[SmoothShape]):
                  t_s: np.ndarray) -> np.ndarray:
         ref = term.reference_mm
         knots = self._knots(term)
-        basis = cubic_bspline(q, knots) - cubic_bspline(np.array([ref]), knots)
+        at_ref = cubic_bspline(np.array([ref]), knots)
         # the basis sums to one: less one function it spans the rest once
-        basis = basis[1:]
+        basis = (cubic_bspline(q, knots) - at_ref)[1:]
         if self.params(term).detrended:  # the slope is the encoder scale's
             grid = np.linspace(knots[0], knots[-1], 401) - ref
-            on_grid = cubic_bspline(grid + ref, knots)[1:] - \
-                cubic_bspline(np.array([ref]), knots)[1:]
+            on_grid = (cubic_bspline(grid + ref, knots) - at_ref)[1:]
             slope = on_grid @ grid / (grid @ grid)
             basis = basis - slope[:, None] * (q - ref)[None, :]
         return basis
@@ -107,7 +106,7 @@ class Smooth(MapFamily[SmoothShape]):
     def in_place_of(self, term: MapTerm, effect: str) -> MapTerm:
         # in place of its axis's encoder scale, the map takes the slope too
         if effect == f"encoder_scale.{AXES[term.axis]}":
-            return replace(term, shape={**term.shape, "detrended": 0.0})
+            return term.reshaped(detrended=0.0)
         return term
 
     def _term(self, axis: int, from_mm: float, to_mm: float, knots: int,
