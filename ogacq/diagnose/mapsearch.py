@@ -37,7 +37,7 @@ from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
-from ogacq.identify.search_rules import OVERSAMPLE, SWAP_CHI2
+from ogacq.identify.search_rules import OVERSAMPLE, SHORTEST_LEAD_MM, SWAP_CHI2
 from ogacq.model.error_maps import MapTerm, ShapeSpread
 from ogacq.model.families import FAMILIES, SearchedAxis, ShapeGrid
 from ogacq.model.gauges import AXES
@@ -51,11 +51,6 @@ from ogacq.model.units import UM_PER_MM
 MIN_POSITIONS = 10
 MIN_PERIODS = 3.0  # over the span: a longer period is the smooth map's
 SAMPLES_PER_PERIOD = 2.5  # distinct positions per period: above Nyquist's 2
-# The shortest cyclic error searched for: the shortest lead of the ball screws that
-# drive machine axes (ISO 3408-2's nominal leads, as makers' catalogues list them,
-# start at 1 mm, e.g. THK's miniature BNK0401). A denser scan is not searched at
-# shorter pitches it could resolve: none is physics this model has.
-SHORTEST_LEAD_MM = 1.0
 # Shapes of q alone whose BIC on binned positions lies within this many knots' price
 # (log n each) of the best are weighed again exactly: ten times the binning's largest
 # error seen (no source: bench/bench_mapsearch_scale.py's dense scan).
