@@ -37,7 +37,12 @@ from ogacq.diagnose.mapspace import Gain, MapSpace
 from ogacq.diagnose.nested import bic_change, nested_tests
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.noise import GaugeNoise
-from ogacq.identify.search_rules import OVERSAMPLE, SHORTEST_LEAD_MM, SWAP_CHI2
+from ogacq.identify.search_rules import (
+    OVERSAMPLE,
+    SHORTEST_LEAD_MM,
+    SWAP_CHI2,
+    local_maxima,
+)
 from ogacq.model.error_maps import MapTerm, ShapeSpread
 from ogacq.model.families import FAMILIES, SearchedAxis, ShapeGrid
 from ogacq.model.gauges import AXES
@@ -416,9 +421,7 @@ def _rival_pitch(freqs: np.ndarray, gains: np.ndarray, best: int, space: MapSpac
     if len(gains) < 3:
         return ""
     var = _variance_left(space, noise, float(gains[best]), 2)
-    inner = (gains[1:-1] >= gains[:-2]) & (gains[1:-1] >= gains[2:])
-    peaks = np.flatnonzero(np.concatenate([[gains[0] > gains[1]], inner,
-                                           [gains[-1] > gains[-2]]]))
+    peaks = local_maxima(gains)
     apart = np.abs(peaks - best) >= OVERSAMPLE  # beyond the best's own main lobe
     close = peaks[apart & (gains[best] - gains[peaks] < SWAP_CHI2 * var)]
     if not len(close):

@@ -33,11 +33,13 @@ import math
 from collections.abc import Callable
 from statistics import NormalDist
 
+import numpy as np
+
 from ogacq.identify.consistency import LEVEL
 from ogacq.identify.distributions import chi2_sf
 
 __all__ = ["FOUND_SHARE", "LEVEL", "OVERSAMPLE", "SHORTEST_LEAD_MM", "SWAP_CHI2",
-           "chi2_threshold", "found_noncentrality", "resolved_noncentrality"]
+           "chi2_threshold", "found_noncentrality", "local_maxima", "resolved_noncentrality"]
 
 # The swap test's three-sigma rule: a model that fits within this chi-square of
 # another is not preferred to it (alternatives, rival pitches).
@@ -91,3 +93,12 @@ def resolved_noncentrality(sidelobe_share: float, share: float = FOUND_SHARE) ->
         return math.inf
     z = NormalDist().inv_cdf(share)
     return (z + math.sqrt(z * z + SWAP_CHI2)) ** 2 / (1.0 - sidelobe_share)
+
+
+def local_maxima(values: np.ndarray) -> np.ndarray:
+    """The indices of a periodogram's peaks: each value at least its neighbours, an end
+    above its one neighbour (at least three values: fewer hold no peak apart from
+    another's lobe, and the callers say so)."""
+    inner = (values[1:-1] >= values[:-2]) & (values[1:-1] >= values[2:])
+    return np.flatnonzero(np.concatenate([[values[0] > values[1]], inner,
+                                          [values[-1] > values[-2]]]))

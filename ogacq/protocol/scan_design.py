@@ -78,6 +78,7 @@ from ogacq.identify.search_rules import (
     SHORTEST_LEAD_MM,
     chi2_threshold,
     found_noncentrality,
+    local_maxima,
     resolved_noncentrality,
 )
 from ogacq.model.error_maps import JointHistory, MapTerm
@@ -628,9 +629,7 @@ def _rival_share(shares: np.ndarray, freqs: np.ndarray, lead: float, lobe: float
     rule takes its rivals (``diagnose.mapsearch._rival_pitch``)."""
     if len(shares) < 3:  # a band narrower than the lead's own lobe holds no rival
         return 0.0
-    inner = (shares[1:-1] >= shares[:-2]) & (shares[1:-1] >= shares[2:])
-    peaks = np.flatnonzero(np.concatenate([[shares[0] > shares[1]], inner,
-                                           [shares[-1] > shares[-2]]]))
+    peaks = local_maxima(shares)
     own = int(np.argmin(np.abs(freqs - lead)))
     while 0 < own < len(shares) - 1 and shares[own + 1] > shares[own]:
         own += 1
