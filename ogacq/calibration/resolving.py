@@ -19,8 +19,6 @@ elsewhere in each gap.
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from ogacq.calibration.maps import diagnosis_maps
@@ -84,5 +82,4 @@ def resolving_plan(scan: ProtocolConfig, machine: MachineSpec,
     targets = targets_in_gaps(scanned, SHARES[0], rng)
     for reference in references_mm or ():
         targets += targets_in_gaps(scanned, SHARES[1], rng, far_from(reference, scanned))
-    return replace(scan, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
-                   scan_targets_mm=tuple(sorted(set(targets))))
+    return scan.at_targets(tuple(sorted(set(targets))))

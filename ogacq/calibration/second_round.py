@@ -64,8 +64,7 @@ def together_protocol(scan: ProtocolConfig, between: ProtocolConfig,
     """The scan whose targets are both the scan's and its validation's: what the second
     diagnosis read (its pitch band), and whose between-targets scan validates it."""
     targets = sorted({round(t, 6) for p in (scan, between) for t in scan_targets(p, machine)})
-    return replace(scan, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
-                   scan_targets_mm=tuple(targets))
+    return scan.at_targets(tuple(targets))
 
 
 def second_validation(together: ProtocolConfig, machine: MachineSpec) -> ProtocolConfig:

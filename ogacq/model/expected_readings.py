@@ -39,16 +39,11 @@ class PlannedReading(Protocol):
     def q_mm(self) -> Sequence[float]: ...
 
 
-def gauge_axes(gauge: str) -> tuple[int, int]:
-    """``y_x`` -> (1, 0): index of the axis it measures along, index of its leg."""
-    return Gauge.parse(gauge).indices
-
-
 def deviation_model(machine: MachineSpec, gauge: str, q_set_mm: Sequence[float],
                     q_mm: Sequence[float]) -> tuple[float, np.ndarray]:
     """Nominal change of the reading from ``q_set_mm`` to ``q_mm``, and its
     sensitivity to the three joint offsets (mm per mm)."""
-    axis, leg = gauge_axes(gauge)
+    axis, leg = Gauge.parse(gauge).indices  # y_x: (1, 0), the axis read along, the leg
     layout = ReadingsLayout.build([list(q_set_mm), list(q_mm)], [leg, leg], [axis, axis])
     thetas = [vector()] + [vector({f"joint_offset.{a}": _STEP_MM}) for a in AXES]
     coords = predict_coordinates(np.array(thetas), layout, machine)

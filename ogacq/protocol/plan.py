@@ -36,7 +36,7 @@ nothing moved (a posture read again), there is nothing to settle.
 from __future__ import annotations
 
 from collections.abc import Iterator, Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from functools import lru_cache
 from typing import Any
 
@@ -122,6 +122,11 @@ class ProtocolConfig:
     @property
     def is_scan(self) -> bool:
         return self.scan_step_mm is not None or bool(self.scan_targets_mm)
+
+    def at_targets(self, targets_mm: tuple[float, ...]) -> ProtocolConfig:
+        """The same scan read at ``targets_mm`` instead of its step or targets."""
+        return replace(self, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
+                       scan_targets_mm=targets_mm)
 
     @property
     def settle_rule(self) -> SettleRule:

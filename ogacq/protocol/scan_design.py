@@ -940,5 +940,4 @@ def between_plan(protocol: ProtocolConfig, machine: MachineSpec) -> ProtocolConf
     targets = np.asarray(scan_targets(protocol, machine), dtype=float)
     u = np.random.default_rng(BETWEEN_SEED).random(len(targets) - 1)
     between = np.round(targets[:-1] + (0.3 + 0.4 * u) * np.diff(targets), 3)
-    return replace(protocol, scan_step_mm=None, scan_from_mm=None, scan_to_mm=None,
-                   scan_targets_mm=tuple(float(t) for t in between))
+    return protocol.at_targets(tuple(float(t) for t in between))
