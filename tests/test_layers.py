@@ -33,7 +33,7 @@ PACKAGES = {"ogacq_drivers": "drivers", "ogacq": "ogacq"}  # installed name -> f
 #   the campaigns and the history read in sessions and records.
 LAYERS: list[tuple[str, ...]] = [
     ("ogacq_drivers", "ogacq_drivers.errors", "ogacq_drivers.config_schema",
-     "ogacq_drivers.atomic"),
+     "ogacq_drivers.atomic", "ogacq_drivers.threads"),
     ("ogacq_drivers.link", "ogacq_drivers.usb_net", "ogacq_drivers.usb_link",
      "ogacq_drivers.input_link"),
     ("ogacq_drivers.axes", "ogacq_drivers.indicators"),

@@ -25,6 +25,7 @@ from typing import Any, TypeVar
 from ogacq_drivers.errors import DeviceBusy, DriverError, FrameError
 from ogacq_drivers.indicators.base import Indicator, StableReading, read_stable
 from ogacq_drivers.indicators.rest import RestJudge, RestReference
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
 
 T = TypeVar("T")
 Clock = Callable[[], float]
@@ -118,7 +119,8 @@ class ConcurrentReader:
         if len(groups) == 1:  # one line: no hand-over to a worker
             return [work(groups[0])]
         if self._pool is None:
-            self._pool = ThreadPoolExecutor(max_workers=6, thread_name_prefix="gauge-line")
+            self._pool = ThreadPoolExecutor(max_workers=6, thread_name_prefix="gauge-line",
+                                            initializer=leave_interrupts_to_the_main_thread)
         # The caller reads the first line itself while the workers read the others.
         futures = [self._pool.submit(work, group) for group in groups[1:]]
         try:

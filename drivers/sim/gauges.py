@@ -52,6 +52,7 @@ from ogacq_drivers.indicators.base import MM_PER_INCH as EXACT_MM_PER_INCH
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.link import LinkSettings
 from ogacq_drivers.sim.clock import sleep_until
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
 
 log = logging.getLogger(__name__)
 
@@ -764,6 +765,7 @@ class GaugeEndpoint(SimulatedGauge):
             log.warning("%s: serving thread did not run a command within 5 s", self.name)
 
     def _serve(self) -> None:
+        leave_interrupts_to_the_main_thread()
         transport = self._transport
         assert transport is not None
         next_tick = time.monotonic() + self.period_s if self.period_s else math.inf

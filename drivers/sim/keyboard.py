@@ -34,6 +34,7 @@ from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.indicators.usb_itn_keyboard import EV_KEY, key_events
 from ogacq_drivers.input_link import EVENT
 from ogacq_drivers.sim.gauges import Fault, UsbCableGauge
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
 
 log = logging.getLogger(__name__)
 
@@ -121,6 +122,7 @@ class KeyboardEndpoint(UsbCableGauge):
 
     # ----------------------------------------------------------------- typing
     def _press_periodically(self) -> None:
+        leave_interrupts_to_the_main_thread()
         assert self.period_s
         while not self._stop.wait(self.period_s):
             if self.unplugged:

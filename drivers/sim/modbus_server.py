@@ -58,6 +58,7 @@ from ogacq_drivers.errors import LinkError
 from ogacq_drivers.sim.identification import answer_identification
 from ogacq_drivers.sim.motion import MotionModel, Outcome
 from ogacq_drivers.sim.ptybridge import PtyBridge
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
 
 log = logging.getLogger(__name__)
 # pymodbus logs its own failures; unconfigured, Python's last-resort handler would print them.
@@ -540,6 +541,7 @@ class ModbusSimServer:
     # ---- the server thread
 
     def _run(self, listen_on: str) -> None:
+        leave_interrupts_to_the_main_thread()
         loop = asyncio.new_event_loop()
         self._loop = loop
         try:

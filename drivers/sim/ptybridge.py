@@ -29,6 +29,8 @@ import time
 import tty
 from dataclasses import dataclass, field
 
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
+
 log = logging.getLogger(__name__)
 
 _READ_SIZE = 4096
@@ -154,6 +156,7 @@ class PtyBridge:
         return {d.name: (d.relayed, d.dropped) for d in self._directions}
 
     def _relay(self) -> None:
+        leave_interrupts_to_the_main_thread()
         sources = {d.source_fd: d for d in self._directions}
         while not self._stop.is_set():
             dues = [t for d in self._directions if (t := d.next_due()) is not None]

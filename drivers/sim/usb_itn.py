@@ -31,6 +31,7 @@ from typing import Any
 from ogacq_drivers.indicators import mitutoyo_01a, usb_itn
 from ogacq_drivers.indicators.base import Unit
 from ogacq_drivers.sim.gauges import Fault, UsbCableGauge, _garble
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
 
 PACKET_BYTES = 8  # wMaxPacketSize of the interrupt endpoint: an assumption (no source)
 _INFO = b"1SIM-ITN USB-ITN simulated cable 1.0\r"
@@ -143,6 +144,7 @@ class UsbItnEndpoint(UsbCableGauge):
                     sock.close()
 
     def _accept(self) -> None:
+        leave_interrupts_to_the_main_thread()
         assert self._listener is not None
         while True:
             try:

@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, TypeVar
 
+from ogacq_drivers.threads import leave_interrupts_to_the_main_thread
 from ogacq import __version__
 from ogacq.errors import Refused
 from ogacq.io.atomic import write_atomically, write_new_file
@@ -124,6 +125,7 @@ class _Syncer(threading.Thread):
         self._pending.set()
 
     def run(self) -> None:
+        leave_interrupts_to_the_main_thread()
         while True:
             self._pending.wait()
             self._pending.clear()
