@@ -144,8 +144,7 @@ class ScanDesign:
     seconds_per_step: float  # this machine's, measured (0: not known)
     budget_s: float | None  # the time allowed (None: none)
     # the band asked for: 2-40 mm, or from the shortest stated period where all are stated
-    # (None: a design recorded before every design asked for one)
-    required_mm: tuple[float, float] | None
+    required_mm: tuple[float, float]
     stated_mm: tuple[float, ...]  # stated periods and their harmonics, to sample
     pitch_band_mm: tuple[float, float]  # every period in it sampled at >= MIN_PHASES
     unsampled_mm: tuple[float, ...]  # stated periods the design misses (budget short)
@@ -171,10 +170,13 @@ class ScanDesign:
 
     @property
     def complete(self) -> bool:
-        """Samples all it was asked to (the unstated band and every stated period)."""
-        return not self.unsampled_mm and (self.required_mm is None or (
-            self.pitch_band_mm[0] <= self.required_mm[0] + 1e-9
-            and self.pitch_band_mm[1] >= self.required_mm[1] - 1e-9))
+        """Samples all it was asked to (the band and every stated period)."""
+        return not self.unsampled_mm and self.band_covered
+
+    @property
+    def band_covered(self) -> bool:
+        return (self.pitch_band_mm[0] <= self.required_mm[0] + 1e-9
+                and self.pitch_band_mm[1] >= self.required_mm[1] - 1e-9)
 
     def may_remain(self) -> str:
         """What a scan that found no map leaves possible, in words ("" where the design
@@ -210,7 +212,7 @@ class ScanDesign:
             out.append("NOT sampled at 4 phases within the budget: "
                        + ", ".join(f"{p:g} mm" for p in self.unsampled_mm)
                        + " (a longer --scan-minutes would)")
-        if self.required_mm and not self.complete:
+        if not self.band_covered:
             out.append(f"the band asked for, {self.required_mm[0]:g} to "
                        f"{self.required_mm[1]:g} mm, is not covered within the budget "
                        "(a longer --scan-minutes would)")
@@ -261,7 +263,7 @@ class ScanDesign:
                 "reading_steps": self.steps, "duration_s": round(self.duration_s, 1),
                 "seconds_per_step": round(self.seconds_per_step, 3),
                 "budget_s": self.budget_s,
-                "required_band_mm": list(self.required_mm) if self.required_mm else None,
+                "required_band_mm": list(self.required_mm),
                 "stated_periods_mm": list(self.stated_mm),
                 "pitch_band_mm": list(self.pitch_band_mm),
                 "unsampled_mm": list(self.unsampled_mm),
@@ -369,17 +371,17 @@ def worst_gap(targets_mm: np.ndarray, band: tuple[float, float] | None,
         [freqs, 1.0 / np.asarray(stated, dtype=float)])).max(initial=0.0))
 
 
-def _score(targets_mm: np.ndarray, band: tuple[float, float] | None,
+def _score(targets_mm: np.ndarray, band: tuple[float, float],
            stated: tuple[float, ...]) -> float:
     """The targets' worst phase gap and their alias level, the larger of the two as a
     share of its bound: at most 1 meets both."""
-    shortest = min((*stated, *(band or ())), default=UNSTATED_BAND_MM[0])
+    shortest = min((*stated, *band))
     return max(worst_gap(targets_mm, band, stated) / LARGEST_PHASE_GAP,
                alias_level(targets_mm, shortest) / ALIAS_LIMIT)
 
 
 @lru_cache(maxsize=64)  # a design tries counts upward; designs of one machine share them
-def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float] | None,
+def _best_targets(lo: float, hi: float, n: int, band: tuple[float, float],
                   stated: tuple[float, ...]) -> np.ndarray:
     """The jitter of equal strata furthest within the bounds (read-only: shared)."""
     best = min(jitters(lo, hi, n), key=lambda t: _score(t, band, stated))
@@ -480,7 +482,7 @@ class _Scan:
     machine: MachineSpec
     ends: ProtocolConfig  # the scan's protocol, its targets its two ends
     noise_mm: float
-    required: tuple[float, float] | None
+    required: tuple[float, float]
     stated: tuple[float, ...]
     longest: float
     shortest: float
@@ -490,7 +492,7 @@ class _Scan:
         alias beyond its bound."""
         band, _ = resolved_band(targets, self.longest, self.shortest)
         return worst_gap(targets, None, self.stated) <= LARGEST_PHASE_GAP and \
-            (self.required is None or band[0] <= self.required[0] + 1e-9) and \
+            band[0] <= self.required[0] + 1e-9 and \
             alias_level(targets, self.shortest) <= ALIAS_LIMIT
 
     def placed(self, n: int, informed: bool) -> _Placed:
