@@ -84,7 +84,8 @@ def calibrate(
     scan_step_mm: Annotated[float | None, typer.Option(
         min=0.1, help="A scan every this many mm where a map is suspected, instead of the "
                       "designed one (targets at irregular intervals that sample every lead "
-                      "the machine file states, else every lead from 2 to 40 mm).")] = None,
+                      "from 2 to 40 mm, or from the shortest the machine file states, and "
+                      "each stated one).")] = None,
     scan_minutes: Annotated[float | None, typer.Option(
         min=1.0, help="The machine time the designed separating scan may take (with its "
                       "reading again of a pitch left loose), and the validation scan after "
