@@ -27,8 +27,11 @@ code = main(sys.argv[1:])
 print(json.dumps({"code": code, "modules": sorted(sys.modules)}))
 """
 
-# the page and its figures (matplotlib: most of a second) are the report's alone
-NEVER = ("numpy.ma", "numpy.typing", "hashlib", "tempfile", "matplotlib", "ogacq.report")
+# the page and its figures (matplotlib: most of a second) are the report's alone. Not
+# tempfile: typer 0.29 switches pydantic's plugins off at its first option, whose loader
+# imports importlib.metadata, and that tempfile (Python 3.11's importlib.resources); this
+# machine's site loads it before any command, a fresh venv does not (seen by .ci/run there)
+NEVER = ("numpy.ma", "numpy.typing", "hashlib", "matplotlib", "ogacq.report")
 
 
 @pytest.fixture(scope="module")
